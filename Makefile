@@ -1,0 +1,43 @@
+# The README's two commands: `make demo` and `make test`. Both work on a fresh clone:
+# they create .venv, install what they need from PyPI and crates.io, and build the wheel.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+
+.PHONY: demo test setup build test-rust test-python bench nostd clean
+
+setup: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet "maturin>=1.5,<2" "pytest>=7" "scipy>=1.9" "sympy>=1.11" "scikit-fuzzy>=0.4" "numpy>=1.22"
+	cargo fetch --locked 2>/dev/null || cargo fetch
+	touch $(STAMP)
+
+# Builds the extension in release mode into the venv (maturin develop = the wheel, installed).
+build: setup
+	$(VENV)/bin/maturin develop --release --quiet
+
+demo: build
+	$(PY) -m twip demo
+
+test-rust: setup
+	cargo test --workspace --exclude twip-py --quiet
+	cargo test -p twip-core --release --no-default-features --quiet
+	cargo build -p twip-core --no-default-features --quiet
+
+test-python: build
+	$(PY) -m pytest tests -q
+
+test: test-rust test-python
+
+nostd:
+	cargo tree -p twip-core --no-default-features -e features
+
+bench: build
+	cargo bench -p twip-core
+
+clean:
+	rm -rf $(VENV) target

@@ -1,0 +1,13 @@
+//! The one trait every plant model implements.
+use nalgebra::SVector;
+
+use crate::Real;
+
+/// A continuous-time plant `ẋ = f(x, u)` with `NX` states and `NU` inputs.
+pub trait Dynamics<T: Real, const NX: usize, const NU: usize> {
+    /// The state derivative. Pure: no allocation, no internal state.
+    fn deriv(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NX>;
+
+    /// Total mechanical energy (kinetic + potential) where the model defines one.
+    fn energy(&self, x: &SVector<T, NX>) -> T;
+}

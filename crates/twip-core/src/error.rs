@@ -1,0 +1,60 @@
+//! The one error type of the core: every fallible call returns `Result<_, TwipError>`.
+use core::fmt;
+
+/// Everything that can go wrong on user input, with what is needed to say why.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TwipError {
+    /// A named parameter has a value outside its domain (`reason` says which).
+    InvalidParameter { name: &'static str, value: f64, reason: &'static str },
+    /// An array or matrix argument has the wrong shape.
+    Shape { name: &'static str, expected: (usize, usize), got: (usize, usize) },
+    /// A state or input contains NaN or an infinity.
+    NonFinite { name: &'static str, index: usize, value: f64 },
+    /// The operating point asked for does not exist (e.g. slope too steep to stand on).
+    NoEquilibrium { reason: &'static str, value: f64 },
+    /// A mass matrix that should be positive definite is singular.
+    SingularMassMatrix { det: f64 },
+    /// The (A, B) pair cannot be stabilised by state feedback.
+    NotStabilizable,
+    /// The (A, Q) pair has an unobservable mode on or across the imaginary axis.
+    NotDetectable,
+    /// An iterative method stopped at its cap without converging.
+    NoConvergence { what: &'static str, iterations: usize },
+}
+
+impl fmt::Display for TwipError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TwipError::InvalidParameter { name, value, reason } => {
+                write!(f, "invalid {name} = {value}: {reason}")
+            }
+            TwipError::Shape { name, expected, got } => write!(
+                f,
+                "{name} has shape {}x{}, expected {}x{}",
+                got.0, got.1, expected.0, expected.1
+            ),
+            TwipError::NonFinite { name, index, value } => {
+                write!(f, "{name}[{index}] = {value} is not finite")
+            }
+            TwipError::NoEquilibrium { reason, value } => {
+                write!(f, "no equilibrium: {reason} (value {value})")
+            }
+            TwipError::SingularMassMatrix { det } => {
+                write!(f, "mass matrix is singular (determinant {det})")
+            }
+            TwipError::NotStabilizable => {
+                write!(f, "the pair (A, B) is not stabilizable: no gain can stabilise it")
+            }
+            TwipError::NotDetectable => write!(
+                f,
+                "the pair (A, Q) is not detectable: an unstable mode is invisible to the cost"
+            ),
+            TwipError::NoConvergence { what, iterations } => {
+                write!(f, "{what} did not converge within {iterations} iterations")
+            }
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for TwipError {}

@@ -1,0 +1,261 @@
+//! The 2-DOF model of a TWIP on a slope (thesis 3.1–3.28), re-derived.
+//!
+//! Coordinates: body pitch `phi` from the vertical and absolute wheel angle `theta`.
+//! With the slope `alpha` (forward travel climbs when positive):
+//!
+//! ```text
+//! T = ½ M11 φ̇² + M12(φ) φ̇ θ̇ + ½ M22 θ̇²
+//!     M11 = I_b + M_b l² + η² I_M,   M22 = (M_b + M_w) r² + I_w + η² I_M
+//!     M12 = M_b r l cos(φ + α) − η² I_M
+//! U = M_b g l cos φ + (M_b + M_w) g r θ sin α
+//! D = ½ μ_s (θ̇ − φ̇)² + ½ μ_g θ̇²,   the motor torque η τ_i u acts on θ − φ.
+//! ```
+//!
+//! Lagrange's equations give `M(φ) [φ̈, θ̈]ᵀ = f` with
+//!
+//! ```text
+//! f_φ = M_b g l sin φ + μ_s (θ̇ − φ̇) − η τ_i u
+//! f_θ = M_b r l sin(φ + α) φ̇² − (M_b + M_w) g r sin α − μ_s (θ̇ − φ̇) − μ_g θ̇ + η τ_i u
+//! ```
+//!
+//! The thesis's second equation (3.21) is the sum of these two rows; its (3.20) carries
+//! a Coriolis term that cancels in a correct derivation (docs/errata.md, E1–E3).
+use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3, Vector4};
+
+use crate::{c, Dynamics, Real, RobotParams, TwipError};
+
+/// State `[phi, phi_dot, theta, theta_dot]`.
+pub type SlopeState<T> = Vector4<T>;
+
+/// The 2-DOF slope model; `slope = 0` is the flat-ground model.
+#[derive(Clone, Copy, Debug)]
+pub struct SlopeModel<T> {
+    params: RobotParams<T>,
+    slope: T,
+    sin_slope: T,
+    cos_slope: T,
+    /// I_b + M_b l² + η² I_M
+    m11: T,
+    /// (M_b + M_w) r² + I_w + η² I_M
+    m22: T,
+    /// M_b r l
+    mrl: T,
+    /// η² I_M
+    rotor: T,
+    /// M_b g l
+    mgl: T,
+    /// (M_b + M_w) g r sin α: the slope's load on the wheels.
+    grade: T,
+    /// η τ_i
+    torque_per_amp: T,
+}
+
+/// The thesis's linear model (4.6–4.10) on the reduced state `[phi, phi_dot, theta_dot]`:
+/// `ẋ = A x + B u + D`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThesisLinearModel<T: Real> {
+    pub a: SMatrix<T, 3, 3>,
+    pub b: Vector3<T>,
+    pub d: Vector3<T>,
+}
+
+impl<T: Real> SlopeModel<T> {
+    /// Builds the model; validates the parameters and the slope (|α| < 90°).
+    pub fn new(params: RobotParams<T>, slope: T) -> Result<Self, TwipError> {
+        let p = params.validate()?;
+        if !slope.is_finite() || slope.abs() >= T::frac_pi_2() {
+            return Err(TwipError::InvalidParameter {
+                name: "slope",
+                value: crate::to_f64(slope),
+                reason: "must be finite and within (-pi/2, pi/2) rad",
+            });
+        }
+        let (sin_slope, cos_slope) = slope.sin_cos();
+        let rotor = p.gear_ratio * p.gear_ratio * p.i_motor;
+        let r = p.wheel_radius;
+        let l = p.com_height;
+        Ok(Self {
+            params: p,
+            slope,
+            sin_slope,
+            cos_slope,
+            m11: p.i_body + p.m_body * l * l + rotor,
+            m22: (p.m_body + p.m_wheels) * r * r + p.i_wheels + rotor,
+            mrl: p.m_body * r * l,
+            rotor,
+            mgl: p.m_body * p.g * l,
+            grade: (p.m_body + p.m_wheels) * p.g * r * sin_slope,
+            torque_per_amp: p.torque_per_amp(),
+        })
+    }
+
+    pub fn params(&self) -> &RobotParams<T> {
+        &self.params
+    }
+
+    pub fn slope(&self) -> T {
+        self.slope
+    }
+
+    /// The mass matrix M(φ) (symmetric positive definite).
+    #[inline]
+    pub fn mass_matrix(&self, phi: T) -> Matrix2<T> {
+        let m12 = self.mrl * (phi + self.slope).cos() - self.rotor;
+        Matrix2::new(self.m11, m12, m12, self.m22)
+    }
+
+    /// Generalised forces f(x, u) of `M(φ) q̈ = f`, and sin/cos(φ+α) for reuse.
+    #[inline(always)]
+    fn forces(&self, x: &SlopeState<T>, u: T) -> (Vector2<T>, T, T) {
+        let (sin_phi, cos_phi) = x[0].sin_cos();
+        let sin_pa = sin_phi * self.cos_slope + cos_phi * self.sin_slope;
+        let cos_pa = cos_phi * self.cos_slope - sin_phi * self.sin_slope;
+        let p = &self.params;
+        let bearing = p.mu_bearing * (x[3] - x[1]);
+        let motor = self.torque_per_amp * u;
+        let f_phi = self.mgl * sin_phi + bearing - motor;
+        let f_theta = self.mrl * sin_pa * x[1] * x[1] - self.grade - bearing
+            - p.mu_ground * x[3]
+            + motor;
+        (Vector2::new(f_phi, f_theta), sin_pa, cos_pa)
+    }
+
+    /// Accelerations [φ̈, θ̈] by Cramer's rule on the 2×2 mass matrix.
+    #[inline(always)]
+    fn accelerations(&self, f: &Vector2<T>, cos_pa: T) -> Vector2<T> {
+        let m12 = self.mrl * cos_pa - self.rotor;
+        let det = self.m11 * self.m22 - m12 * m12;
+        Vector2::new(
+            (self.m22 * f[0] - m12 * f[1]) / det,
+            (self.m11 * f[1] - m12 * f[0]) / det,
+        )
+    }
+
+    /// Exact Jacobians `(A, B)` of `ẋ = f(x, u)` at any operating point `(x0, u0)`.
+    pub fn linearize(&self, x0: &SlopeState<T>, u0: T) -> (SMatrix<T, 4, 4>, Vector4<T>) {
+        let p = &self.params;
+        let (f, sin_pa, cos_pa) = self.forces(x0, u0);
+        let qdd = self.accelerations(&f, cos_pa);
+        let m = self.mass_matrix(x0[0]);
+        // M is positive definite for valid parameters, so the inverse exists.
+        let minv = m.try_inverse().unwrap_or_else(Matrix2::zeros);
+        let phi_dot = x0[1];
+        // d f / d(phi, phi_dot, theta_dot, u); theta does not enter.
+        let df_dphi = Vector2::new(
+            self.mgl * x0[0].cos(),
+            self.mrl * cos_pa * phi_dot * phi_dot,
+        );
+        // dM/dphi only has the off-diagonal -M_b r l sin(phi + alpha).
+        let dm12 = -self.mrl * sin_pa;
+        let dm_qdd = Vector2::new(dm12 * qdd[1], dm12 * qdd[0]);
+        let col_phi = minv * (df_dphi - dm_qdd);
+        let two = c::<T>(2.0);
+        let col_phi_dot = minv * Vector2::new(-p.mu_bearing, two * self.mrl * sin_pa * phi_dot + p.mu_bearing);
+        let col_theta_dot = minv * Vector2::new(p.mu_bearing, -p.mu_bearing - p.mu_ground);
+        let col_u = minv * Vector2::new(-self.torque_per_amp, self.torque_per_amp);
+        let (z, o) = (T::zero(), T::one());
+        #[rustfmt::skip]
+        let a = SMatrix::<T, 4, 4>::new(
+            z,          o,              z, z,
+            col_phi[0], col_phi_dot[0], z, col_theta_dot[0],
+            z,          z,              z, o,
+            col_phi[1], col_phi_dot[1], z, col_theta_dot[1],
+        );
+        (a, Vector4::new(z, col_u[0], z, col_u[1]))
+    }
+
+    /// The thesis's linear model (4.2)–(4.10), linearised at φ = 0 with cos(φ+α) ≈ cos α,
+    /// with the slope term of (4.5) corrected to (M_w + M_b) g r sin α (errata E4).
+    pub fn linearize_thesis(&self) -> ThesisLinearModel<T> {
+        let p = &self.params;
+        let mrl_c = self.mrl * self.cos_slope;
+        let l = p.com_height;
+        // (4.2): row 1 is the pitch equation, row 2 the sum of both (3.24).
+        let a = Matrix2::new(
+            self.m11,
+            mrl_c - self.rotor,
+            mrl_c + p.m_body * l * l + p.i_body,
+            (p.m_body + p.m_wheels) * p.wheel_radius * p.wheel_radius + mrl_c + p.i_wheels,
+        );
+        let ainv = a.try_inverse().unwrap_or_else(Matrix2::zeros);
+        #[rustfmt::skip]
+        let cm = SMatrix::<T, 2, 3>::new(
+            -self.mgl, p.mu_bearing, -p.mu_bearing,
+            -self.mgl, T::zero(),    p.mu_ground,
+        );
+        let abar = -(ainv * cm);
+        let dbar = -(ainv * Vector2::new(T::zero(), self.grade));
+        let bbar = ainv * Vector2::new(-self.torque_per_amp, T::zero());
+        let (z, o) = (T::zero(), T::one());
+        #[rustfmt::skip]
+        let a3 = SMatrix::<T, 3, 3>::new(
+            z,          o,          z,
+            abar[(0, 0)], abar[(0, 1)], abar[(0, 2)],
+            abar[(1, 0)], abar[(1, 1)], abar[(1, 2)],
+        );
+        ThesisLinearModel {
+            a: a3,
+            b: Vector3::new(z, bbar[0], bbar[1]),
+            d: Vector3::new(z, dbar[0], dbar[1]),
+        }
+    }
+
+    /// Steady state of the nonlinear model at wheel speed `theta_dot_ref`:
+    /// `x_s = [φ_s, 0, 0, θ̇_ref]` (θ is free; 0 is returned) and the current `u_s`.
+    /// φ_s is the corrected (4.42): sin φ_s = ((M_b + M_w) g r sin α + μ_g θ̇_ref) / (M_b g l).
+    pub fn equilibrium(&self, theta_dot_ref: T) -> Result<(SlopeState<T>, T), TwipError> {
+        check_speed(theta_dot_ref)?;
+        let sin_phi = (self.grade + self.params.mu_ground * theta_dot_ref) / self.mgl;
+        if sin_phi.abs() >= T::one() {
+            return Err(TwipError::NoEquilibrium {
+                reason: "slope load and ground friction exceed what gravity on the body can balance (sin phi_s)",
+                value: crate::to_f64(sin_phi),
+            });
+        }
+        let phi_s = sin_phi.asin();
+        let u_s = (self.mgl * sin_phi + self.params.mu_bearing * theta_dot_ref) / self.torque_per_amp;
+        Ok((Vector4::new(phi_s, T::zero(), T::zero(), theta_dot_ref), u_s))
+    }
+
+    /// Steady state of the thesis's linear model, (4.12) and (4.13).
+    pub fn equilibrium_linear(&self, theta_dot_ref: T) -> Result<(SlopeState<T>, T), TwipError> {
+        check_speed(theta_dot_ref)?;
+        let m = self.linearize_thesis();
+        let (a11, a13, a21, a23) = (m.a[(1, 0)], m.a[(1, 2)], m.a[(2, 0)], m.a[(2, 2)]);
+        let (b1, b2, d1, d2) = (m.b[1], m.b[2], m.d[1], m.d[2]);
+        let phi_s = ((a23 * b1 - a13 * b2) * theta_dot_ref + b1 * d2 - b2 * d1) / (a11 * b2 - a21 * b1);
+        let u_s = ((a11 * a23 - a13 * a21) * theta_dot_ref + a11 * d2 - a21 * d1) / (a21 * b1 - a11 * b2);
+        Ok((Vector4::new(phi_s, T::zero(), T::zero(), theta_dot_ref), u_s))
+    }
+}
+
+fn check_speed<T: Real>(theta_dot_ref: T) -> Result<(), TwipError> {
+    if theta_dot_ref.is_finite() {
+        Ok(())
+    } else {
+        Err(TwipError::InvalidParameter {
+            name: "theta_dot_ref",
+            value: crate::to_f64(theta_dot_ref),
+            reason: "must be finite",
+        })
+    }
+}
+
+impl<T: Real> Dynamics<T, 4, 1> for SlopeModel<T> {
+    #[inline]
+    fn deriv(&self, x: &SlopeState<T>, u: &SVector<T, 1>) -> SlopeState<T> {
+        let (f, _, cos_pa) = self.forces(x, u[0]);
+        let qdd = self.accelerations(&f, cos_pa);
+        Vector4::new(x[1], qdd[0], x[3], qdd[1])
+    }
+
+    fn energy(&self, x: &SlopeState<T>) -> T {
+        let half = c::<T>(0.5);
+        let m = self.mass_matrix(x[0]);
+        let (phi_dot, theta_dot) = (x[1], x[3]);
+        let kinetic = half * m[(0, 0)] * phi_dot * phi_dot
+            + m[(0, 1)] * phi_dot * theta_dot
+            + half * m[(1, 1)] * theta_dot * theta_dot;
+        kinetic + self.mgl * x[0].cos() + self.grade * x[2]
+    }
+}

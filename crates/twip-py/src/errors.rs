@@ -1,0 +1,58 @@
+//! Maps the core's `TwipError` onto a Python exception hierarchy rooted at
+//! `twip.TwipError(ValueError)`. One exhaustive match: a new case cannot be forgotten.
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use twip_core::TwipError as CoreError;
+
+create_exception!(twip, TwipError, PyValueError, "Base of every twip error (a ValueError).");
+create_exception!(twip, InvalidParameterError, TwipError, "A named parameter has an invalid value.");
+create_exception!(twip, ShapeError, TwipError, "An array argument has the wrong shape.");
+create_exception!(twip, NonFiniteError, TwipError, "A state, input or matrix holds NaN or inf.");
+create_exception!(twip, NoEquilibriumError, TwipError, "The requested operating point does not exist.");
+create_exception!(twip, SingularMatrixError, TwipError, "A matrix that must be invertible is singular.");
+create_exception!(twip, NotStabilizableError, TwipError, "The pair (A, B) is not stabilizable.");
+create_exception!(twip, NotDetectableError, TwipError, "The pair (A, Q) is not detectable.");
+create_exception!(twip, ConvergenceError, TwipError, "An iterative method hit its iteration cap.");
+
+/// Local wrapper (orphan rule) so that `?` converts core errors into Python ones.
+pub struct PyTwipError(pub CoreError);
+
+impl From<CoreError> for PyTwipError {
+    fn from(e: CoreError) -> Self {
+        Self(e)
+    }
+}
+
+impl From<PyTwipError> for PyErr {
+    fn from(e: PyTwipError) -> PyErr {
+        let msg = e.0.to_string();
+        match e.0 {
+            CoreError::InvalidParameter { .. } => InvalidParameterError::new_err(msg),
+            CoreError::Shape { .. } => ShapeError::new_err(msg),
+            CoreError::NonFinite { .. } => NonFiniteError::new_err(msg),
+            CoreError::NoEquilibrium { .. } => NoEquilibriumError::new_err(msg),
+            CoreError::SingularMassMatrix { .. } => SingularMatrixError::new_err(msg),
+            CoreError::NotStabilizable => NotStabilizableError::new_err(msg),
+            CoreError::NotDetectable => NotDetectableError::new_err(msg),
+            CoreError::NoConvergence { .. } => ConvergenceError::new_err(msg),
+        }
+    }
+}
+
+/// `Result` of a binding that may fail with a core error.
+pub type CoreResult<T> = Result<T, PyTwipError>;
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("TwipError", py.get_type::<TwipError>())?;
+    m.add("InvalidParameterError", py.get_type::<InvalidParameterError>())?;
+    m.add("ShapeError", py.get_type::<ShapeError>())?;
+    m.add("NonFiniteError", py.get_type::<NonFiniteError>())?;
+    m.add("NoEquilibriumError", py.get_type::<NoEquilibriumError>())?;
+    m.add("SingularMatrixError", py.get_type::<SingularMatrixError>())?;
+    m.add("NotStabilizableError", py.get_type::<NotStabilizableError>())?;
+    m.add("NotDetectableError", py.get_type::<NotDetectableError>())?;
+    m.add("ConvergenceError", py.get_type::<ConvergenceError>())?;
+    Ok(())
+}

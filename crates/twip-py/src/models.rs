@@ -1,0 +1,152 @@
+//! `twip.SlopeModel`, `twip.PlanarModel` and `twip.rk4_step`.
+use numpy::{PyArray1, PyArray2};
+use pyo3::prelude::*;
+use twip_core::slope::SlopeModel;
+use twip_core::{rk4_step as core_rk4, Dynamics, PlanarModel};
+
+use crate::convert::{input, scalar, to_py_matrix, to_py_vector, vector};
+use crate::errors::{CoreResult, PyTwipError};
+use crate::params::PyRobotParams;
+use twip_core::TwipError;
+
+/// The 2-DOF model on a slope; state [phi, phi_dot, theta, theta_dot], input current u [A].
+#[pyclass(name = "SlopeModel", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PySlopeModel {
+    pub inner: SlopeModel<f64>,
+}
+
+type Arr1<'py> = Bound<'py, PyArray1<f64>>;
+type Arr2<'py> = Bound<'py, PyArray2<f64>>;
+
+#[pymethods]
+impl PySlopeModel {
+    #[new]
+    #[pyo3(signature = (params, slope = 0.0))]
+    fn new(params: &PyRobotParams, slope: f64) -> CoreResult<Self> {
+        Ok(Self { inner: SlopeModel::new(params.inner, slope)? })
+    }
+
+    #[getter]
+    fn params(&self) -> PyRobotParams {
+        PyRobotParams { inner: *self.inner.params() }
+    }
+
+    /// Slope angle alpha [rad], positive when forward travel climbs.
+    #[getter]
+    fn slope(&self) -> f64 {
+        self.inner.slope()
+    }
+
+    fn deriv<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, u: &Bound<'py, PyAny>) -> PyResult<Arr1<'py>> {
+        let d = self.inner.deriv(&vector::<4>("x", x)?, &input::<1>("u", u)?);
+        Ok(to_py_vector(py, &d))
+    }
+
+    fn energy(&self, x: &Bound<'_, PyAny>) -> PyResult<f64> {
+        Ok(self.inner.energy(&vector::<4>("x", x)?))
+    }
+
+    /// Exact Jacobians (A 4x4, B 4x1) at the operating point (x0, u0).
+    #[pyo3(signature = (x0, u0 = 0.0))]
+    fn linearize<'py>(&self, py: Python<'py>, x0: &Bound<'py, PyAny>, u0: f64) -> PyResult<(Arr2<'py>, Arr2<'py>)> {
+        let (a, b) = self.inner.linearize(&vector::<4>("x0", x0)?, scalar("u0", u0)?);
+        Ok((to_py_matrix(py, &a), to_py_matrix(py, &b)))
+    }
+
+    /// The thesis's linear model (4.6)-(4.10) on [phi, phi_dot, theta_dot]: (A 3x3, B 3x1, D 3x1).
+    fn linearize_thesis<'py>(&self, py: Python<'py>) -> (Arr2<'py>, Arr2<'py>, Arr2<'py>) {
+        let m = self.inner.linearize_thesis();
+        (to_py_matrix(py, &m.a), to_py_matrix(py, &m.b), to_py_matrix(py, &m.d))
+    }
+
+    /// Steady state at wheel speed theta_dot_ref: (x_s, u_s), x_s = [phi_s, 0, 0, theta_dot_ref].
+    /// `linear=True` uses the thesis's linear model, (4.12)-(4.13).
+    #[pyo3(signature = (theta_dot_ref, linear = false))]
+    fn equilibrium<'py>(&self, py: Python<'py>, theta_dot_ref: f64, linear: bool) -> CoreResult<(Arr1<'py>, f64)> {
+        let (x, u) = if linear {
+            self.inner.equilibrium_linear(theta_dot_ref)?
+        } else {
+            self.inner.equilibrium(theta_dot_ref)?
+        };
+        Ok((to_py_vector(py, &x), u))
+    }
+
+    fn mass_matrix<'py>(&self, py: Python<'py>, phi: f64) -> CoreResult<Arr2<'py>> {
+        Ok(to_py_matrix(py, &self.inner.mass_matrix(scalar("phi", phi)?)))
+    }
+
+    fn __repr__(&self) -> String {
+        format!("SlopeModel(RobotParams(...), slope={:?})", self.inner.slope())
+    }
+}
+
+/// The 3-DOF planar model; state [x, y, psi, phi, phi_dot, v, omega], input [u_r, u_l] [N m].
+#[pyclass(name = "PlanarModel", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyPlanarModel {
+    pub inner: PlanarModel<f64>,
+}
+
+#[pymethods]
+impl PyPlanarModel {
+    #[new]
+    fn new(params: &PyRobotParams) -> CoreResult<Self> {
+        Ok(Self { inner: PlanarModel::new(params.inner)? })
+    }
+
+    #[getter]
+    fn params(&self) -> PyRobotParams {
+        PyRobotParams { inner: *self.inner.params() }
+    }
+
+    fn deriv<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, u: &Bound<'py, PyAny>) -> PyResult<Arr1<'py>> {
+        let d = self.inner.deriv(&vector::<7>("x", x)?, &input::<2>("u", u)?);
+        Ok(to_py_vector(py, &d))
+    }
+
+    fn energy(&self, x: &Bound<'_, PyAny>) -> PyResult<f64> {
+        Ok(self.inner.energy(&vector::<7>("x", x)?))
+    }
+
+    /// The mass matrix M(phi) of M nu_dot + h = B u, with nu = (phi_dot, v, omega).
+    fn mass_matrix<'py>(&self, py: Python<'py>, phi: f64) -> CoreResult<Arr2<'py>> {
+        Ok(to_py_matrix(py, &self.inner.mass_matrix(scalar("phi", phi)?)))
+    }
+
+    fn __repr__(&self) -> String {
+        "PlanarModel(RobotParams(...))".to_string()
+    }
+}
+
+fn positive_dt(dt: f64) -> CoreResult<f64> {
+    if dt.is_finite() && dt > 0.0 {
+        Ok(dt)
+    } else {
+        Err(PyTwipError(TwipError::InvalidParameter { name: "dt", value: dt, reason: "must be finite and > 0" }))
+    }
+}
+
+/// One RK4 step of either model with the input held over the step.
+#[pyfunction]
+pub fn rk4_step<'py>(
+    py: Python<'py>,
+    model: &Bound<'py, PyAny>,
+    x: &Bound<'py, PyAny>,
+    u: &Bound<'py, PyAny>,
+    dt: f64,
+) -> PyResult<Arr1<'py>> {
+    let dt = positive_dt(dt)?;
+    if let Ok(m) = model.cast::<PySlopeModel>() {
+        let next = core_rk4(&m.get().inner, &vector::<4>("x", x)?, &input::<1>("u", u)?, dt);
+        return Ok(to_py_vector(py, &next));
+    }
+    if let Ok(m) = model.cast::<PyPlanarModel>() {
+        let next = core_rk4(&m.get().inner, &vector::<7>("x", x)?, &input::<2>("u", u)?, dt);
+        return Ok(to_py_vector(py, &next));
+    }
+    Err(pyo3::exceptions::PyTypeError::new_err(format!(
+        "model must be a twip.SlopeModel or twip.PlanarModel, got {}",
+        model.get_type().name()?
+    )))
+}

@@ -1,0 +1,117 @@
+//! `twip.RobotParams`: a frozen, validated view of `twip_core::RobotParams<f64>`.
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
+use twip_core::params::FIELD_NAMES;
+use twip_core::RobotParams;
+
+use crate::errors::{CoreResult, InvalidParameterError};
+
+/// Physical parameters of one robot, SI units (see docs/parameters.md).
+#[pyclass(name = "RobotParams", module = "twip", frozen, eq)]
+#[derive(Clone, PartialEq)]
+pub struct PyRobotParams {
+    pub inner: RobotParams<f64>,
+}
+
+fn field_index(name: &str) -> PyResult<usize> {
+    FIELD_NAMES.iter().position(|f| *f == name).ok_or_else(|| {
+        InvalidParameterError::new_err(format!(
+            "unknown RobotParams field '{name}'; the fields are: {}",
+            FIELD_NAMES.join(", ")
+        ))
+    })
+}
+
+/// Overrides `values` with the entries of `kw` (field name -> number).
+fn apply(values: &mut [f64; 16], kw: &Bound<'_, PyDict>) -> PyResult<()> {
+    for (k, v) in kw.iter() {
+        let name: String = k.extract()?;
+        let i = field_index(&name)?;
+        values[i] = v.extract::<f64>().map_err(|_| {
+            InvalidParameterError::new_err(format!("RobotParams field '{name}' must be a number, got {v}"))
+        })?;
+    }
+    Ok(())
+}
+
+fn build(values: [f64; 16]) -> CoreResult<PyRobotParams> {
+    Ok(PyRobotParams { inner: RobotParams::from_array(&values).validate()? })
+}
+
+#[pymethods]
+impl PyRobotParams {
+    /// All 16 fields by keyword; `RobotParams.balanbot().replace(...)` for a variant.
+    #[new]
+    #[pyo3(signature = (**fields))]
+    fn new(fields: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let mut values = [f64::NAN; 16];
+        if let Some(kw) = fields {
+            apply(&mut values, kw)?;
+        }
+        let missing: Vec<&str> =
+            FIELD_NAMES.iter().zip(values).filter(|(_, v)| v.is_nan()).map(|(n, _)| *n).collect();
+        if !missing.is_empty() {
+            return Err(InvalidParameterError::new_err(format!(
+                "RobotParams needs every field; missing: {} (start from RobotParams.balanbot().replace(...))",
+                missing.join(", ")
+            )));
+        }
+        Ok(build(values)?)
+    }
+
+    /// The thesis's robot (Balanbot with GB37Y3530-12V-251R motors).
+    #[staticmethod]
+    fn balanbot() -> Self {
+        Self { inner: RobotParams::balanbot() }
+    }
+
+    /// A copy with some fields changed, validated.
+    #[pyo3(signature = (**changes))]
+    fn replace(&self, changes: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let mut values = self.inner.to_array();
+        if let Some(kw) = changes {
+            apply(&mut values, kw)?;
+        }
+        Ok(build(values)?)
+    }
+
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (name, value) in FIELD_NAMES.iter().zip(self.inner.to_array()) {
+            d.set_item(name, value)?;
+        }
+        Ok(d)
+    }
+
+    #[staticmethod]
+    fn from_dict(d: &Bound<'_, PyDict>) -> PyResult<Self> {
+        Self::new(Some(d))
+    }
+
+    /// Field names in a fixed order.
+    #[classattr]
+    fn fields() -> Vec<&'static str> {
+        FIELD_NAMES.to_vec()
+    }
+
+    fn __getattr__(&self, name: &str) -> PyResult<f64> {
+        let i = FIELD_NAMES.iter().position(|f| *f == name).ok_or_else(|| {
+            pyo3::exceptions::PyAttributeError::new_err(format!("RobotParams has no field '{name}'"))
+        })?;
+        Ok(self.inner.to_array()[i])
+    }
+
+    fn __repr__(&self) -> String {
+        let body: Vec<String> =
+            FIELD_NAMES.iter().zip(self.inner.to_array()).map(|(n, v)| format!("{n}={v:?}")).collect();
+        format!("RobotParams({})", body.join(", "))
+    }
+
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        let py = slf.py();
+        let ctor = py.get_type::<Self>().getattr("from_dict")?;
+        let args = PyTuple::new(py, [slf.borrow().to_dict(py)?])?;
+        Ok((ctor, args))
+    }
+}
+
