@@ -7,6 +7,7 @@ used to cross-check the Rust core.
 from twip._core import (
     ConvergenceError,
     InvalidParameterError,
+    LqrController,
     NoEquilibriumError,
     NonFiniteError,
     NotDetectableError,
@@ -16,14 +17,19 @@ from twip._core import (
     ShapeError,
     SingularMatrixError,
     SlopeModel,
+    SpeedSchedule,
     TwipError,
     __version__,
+    care,
+    lqr,
     rk4_step,
 )
+from twip.sim import SimResult, simulate
 
 __all__ = [
     "ConvergenceError",
     "InvalidParameterError",
+    "LqrController",
     "NoEquilibriumError",
     "NonFiniteError",
     "NotDetectableError",
@@ -32,8 +38,13 @@ __all__ = [
     "RobotParams",
     "ShapeError",
     "SingularMatrixError",
+    "SimResult",
     "SlopeModel",
+    "SpeedSchedule",
     "TwipError",
     "__version__",
+    "care",
+    "lqr",
     "rk4_step",
+    "simulate",
 ]

@@ -5,6 +5,9 @@ use crate::Real;
 
 /// A continuous-time plant `ẋ = f(x, u)` with `NX` states and `NU` inputs.
 pub trait Dynamics<T: Real, const NX: usize, const NU: usize> {
+    /// Index of the body pitch in the state (the runner's fall detection reads it).
+    const PITCH: usize = 0;
+
     /// The state derivative. Pure: no allocation, no internal state.
     fn deriv(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NX>;
 

@@ -12,13 +12,24 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
+#[cfg(feature = "alloc")]
+pub mod care;
+pub mod control;
 pub mod dynamics;
 pub mod error;
 pub mod integrate;
+#[cfg(feature = "alloc")]
+pub mod log;
+pub mod lqr_control;
+pub mod metrics;
 pub mod params;
 pub mod planar;
+pub mod reference;
+pub mod runner;
 pub mod slope;
 
+#[cfg(feature = "alloc")]
+pub use care::{care, lqr, Lqr};
 pub use dynamics::Dynamics;
 pub use error::TwipError;
 pub use integrate::rk4_step;

@@ -171,22 +171,22 @@ impl<T: Real> RobotParams<T> {
 
 /// Default robot, in the order of [`FIELD_NAMES`]; reasoning in `docs/parameters.md`.
 const BALANBOT: [f64; 16] = [
-    0.90,            // m_body
-    0.080,           // m_wheels
-    3.0e-3,          // i_body
-    4.4e-5,          // i_wheels
-    4.0e-6,          // i_motor
-    43.7,            // gear_ratio
-    9.9e-3,          // torque_constant
-    1.0 / 30.0,      // wheel_radius
-    0.050,           // com_height
-    0.012,           // mu_bearing
-    0.002,           // mu_ground
-    0.085,           // half_track
-    3.5e-3,          // i_body_roll
-    2.5e-3,          // i_body_yaw
-    1.1e-5,          // i_wheel_diam
-    9.81,            // g
+    0.8301,     // m_body (fitted, scripts/fit_balanbot.py)
+    0.07963,    // m_wheels (fitted)
+    4.994e-3,   // i_body (fitted)
+    4.4e-5,     // i_wheels: ½ m r² of two 40 g wheels
+    5.303e-6,   // i_motor (fitted)
+    43.7,       // gear_ratio: data sheet
+    9.920e-3,   // torque_constant (fitted; data sheet estimate 9.9e-3)
+    1.0 / 30.0, // wheel_radius: pinned by the thesis's own numbers
+    0.04943,    // com_height (fitted)
+    0.01066,    // mu_bearing (fitted; no-load current estimate 0.0115)
+    2.483e-3,   // mu_ground (fitted)
+    0.085,      // half_track: Balanbot frame
+    3.5e-3,     // i_body_roll: box estimate
+    2.5e-3,     // i_body_yaw: box estimate
+    1.1e-5,     // i_wheel_diam: ¼ m r² of one wheel
+    9.81,       // g
 ];
 
 #[cfg(test)]

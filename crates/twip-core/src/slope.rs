@@ -259,3 +259,76 @@ impl<T: Real> Dynamics<T, 4, 1> for SlopeModel<T> {
         kinetic + self.mgl * x[0].cos() + self.grade * x[2]
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rk4_step;
+
+    fn frictionless<T: Real>() -> RobotParams<T> {
+        let mut p = RobotParams::<T>::balanbot();
+        p.mu_bearing = T::zero();
+        p.mu_ground = T::zero();
+        p
+    }
+
+    /// Relative energy drift over `n` RK4 steps from a falling start, no input.
+    fn drift<T: Real>(slope: f64, dt: f64, n: usize) -> f64 {
+        let model = SlopeModel::<T>::new(frictionless(), c(slope)).unwrap();
+        let mut x = Vector4::new(c(0.3), c(0.5), T::zero(), c(2.0));
+        let u = SVector::<T, 1>::zeros();
+        let e0 = model.energy(&x);
+        let mut worst = T::zero();
+        for _ in 0..n {
+            x = rk4_step(&model, &x, &u, c(dt));
+            worst = worst.max((model.energy(&x) - e0).abs());
+        }
+        crate::to_f64(worst / e0.abs())
+    }
+
+    #[test]
+    fn energy_is_conserved_in_f64_and_f32() {
+        for slope in [0.0, 0.1] {
+            assert!(drift::<f64>(slope, 1e-3, 20_000) < 1e-8, "f64 slope {slope}");
+            // f32 rounding dominates: a looser, precision-appropriate bound.
+            assert!(drift::<f32>(slope, 1e-3, 20_000) < 1e-3, "f32 slope {slope}");
+        }
+    }
+
+    #[test]
+    fn f32_and_f64_agree() {
+        let m64 = SlopeModel::<f64>::new(RobotParams::balanbot(), 0.2).unwrap();
+        let m32 = SlopeModel::<f32>::new(RobotParams::balanbot(), 0.2).unwrap();
+        for k in 0..50 {
+            let s = k as f64 / 50.0;
+            let x = Vector4::new(s - 0.5, 2.0 * s, 1.0, 3.0 - 5.0 * s);
+            let u = SVector::<f64, 1>::new(0.5 - s);
+            let d64 = m64.deriv(&x, &u);
+            let d32 = m32.deriv(&x.map(|v| v as f32), &u.map(|v| v as f32));
+            for i in 0..4 {
+                let scale = d64[i].abs().max(1.0);
+                assert!((d64[i] - d32[i] as f64).abs() / scale < 1e-4, "component {i}: {d64} vs {d32}");
+            }
+        }
+    }
+
+    #[test]
+    fn equilibrium_is_steady_and_rejects_impossible_slopes() {
+        let m = SlopeModel::<f64>::new(RobotParams::balanbot(), 0.26).unwrap();
+        let (x, u) = m.equilibrium(4.0).unwrap();
+        let d = m.deriv(&x, &SVector::<f64, 1>::new(u));
+        assert!(d[1].abs() < 1e-12 && d[3].abs() < 1e-12);
+        assert!(matches!(m.equilibrium(1e5), Err(TwipError::NoEquilibrium { .. })));
+        assert!(matches!(m.equilibrium(f64::NAN), Err(TwipError::InvalidParameter { .. })));
+        assert!(SlopeModel::<f64>::new(RobotParams::balanbot(), 1.6).is_err());
+    }
+
+    #[test]
+    fn mass_matrix_is_positive_definite() {
+        let m = SlopeModel::<f64>::new(RobotParams::balanbot(), 0.3).unwrap();
+        for k in 0..100 {
+            let mm = m.mass_matrix(k as f64 * 0.1);
+            assert!(mm[(0, 0)] > 0.0 && mm.determinant() > 0.0);
+        }
+    }
+}

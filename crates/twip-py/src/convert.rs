@@ -1,6 +1,6 @@
 //! numpy <-> nalgebra conversions with shape and finiteness checks that name the argument.
 use nalgebra::{DMatrix, SMatrix, SVector};
-use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2, PyUntypedArrayMethods};
+use numpy::{AllowTypeChange, Complex64, IntoPyArray, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use twip_core::TwipError;
 
@@ -83,4 +83,9 @@ pub fn to_py_dmatrix<'py>(py: Python<'py>, m: &DMatrix<f64>) -> Bound<'py, PyArr
     numpy::ndarray::Array2::from_shape_vec((rows, cols), data)
         .expect("shape matches data length")
         .into_pyarray(py)
+}
+
+/// A 1-D complex128 array (e.g. eigenvalues).
+pub fn to_py_complex_vector<'py>(py: Python<'py>, v: &[Complex64]) -> Bound<'py, PyArray1<Complex64>> {
+    v.to_vec().into_pyarray(py)
 }

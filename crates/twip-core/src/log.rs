@@ -1,0 +1,100 @@
+//! A decimated trajectory log for the runner, allocated once before the run.
+use alloc::vec::Vec;
+
+use nalgebra::SVector;
+
+use crate::reference::SpeedRef;
+use crate::runner::Observer;
+use crate::Real;
+
+/// A reference sample flattened into a row of the log.
+pub trait LogRow<T> {
+    /// Column names.
+    const NAMES: &'static [&'static str];
+    fn push_row(&self, out: &mut Vec<T>);
+}
+
+impl<T: Real> LogRow<T> for SpeedRef<T> {
+    const NAMES: &'static [&'static str] = &["theta", "theta_dot"];
+    fn push_row(&self, out: &mut Vec<T>) {
+        out.push(self.theta);
+        out.push(self.theta_dot);
+    }
+}
+
+/// Row-major buffers: one row per kept sample.
+#[derive(Clone, Debug, Default)]
+pub struct TrajectoryLog<T> {
+    pub every: usize,
+    pub t: Vec<T>,
+    pub x: Vec<T>,
+    pub u: Vec<T>,
+    pub reference: Vec<T>,
+    pub internals: Vec<T>,
+    seen: usize,
+}
+
+impl<T: Real> TrajectoryLog<T> {
+    /// Room for `samples` samples, keeping one in `every` (the last one always).
+    pub fn with_capacity(samples: usize, every: usize, widths: [usize; 4]) -> Self {
+        let every = every.max(1);
+        let rows = samples / every + 2;
+        Self {
+            every,
+            t: Vec::with_capacity(rows),
+            x: Vec::with_capacity(rows * widths[0]),
+            u: Vec::with_capacity(rows * widths[1]),
+            reference: Vec::with_capacity(rows * widths[2]),
+            internals: Vec::with_capacity(rows * widths[3]),
+            seen: 0,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    fn push<const NX: usize, const NU: usize, S: LogRow<T>>(
+        &mut self,
+        t: T,
+        x: &SVector<T, NX>,
+        u: &SVector<T, NU>,
+        r: &S,
+        internals: &[T],
+    ) {
+        self.t.push(t);
+        self.x.extend_from_slice(x.as_slice());
+        self.u.extend_from_slice(u.as_slice());
+        r.push_row(&mut self.reference);
+        self.internals.extend_from_slice(internals);
+    }
+}
+
+impl<T: Real, const NX: usize, const NU: usize, S: LogRow<T>> Observer<T, NX, NU, S> for TrajectoryLog<T> {
+    fn observe(&mut self, t: T, x: &SVector<T, NX>, u: &SVector<T, NU>, r: &S, internals: &[T]) {
+        if self.seen % self.every == 0 {
+            self.push(t, x, u, r, internals);
+        }
+        self.seen += 1;
+    }
+}
+
+impl<T: Real> TrajectoryLog<T> {
+    /// Makes sure the final sample is in the log even when decimation skipped it.
+    pub fn keep_last<const NX: usize, const NU: usize, S: LogRow<T>>(
+        &mut self,
+        t: T,
+        x: &SVector<T, NX>,
+        u: &SVector<T, NU>,
+        r: &S,
+        internals: &[T],
+    ) {
+        if self.t.last() != Some(&t) {
+            self.push(t, x, u, r, internals);
+        }
+    }
+}

@@ -1,0 +1,12 @@
+"""Pure-Python (numpy) reference of twip's models, integrator and controllers.
+
+Written independently of the Rust core (not generated from it, never calling it), so
+that agreement between the two is evidence that both are right. Slow by design: it is
+for parity tests and for reading, not for production runs.
+"""
+from twip.reference.params import RobotParams
+from twip.reference.integrate import rk4_step
+from twip.reference.slope import SlopeModel
+from twip.reference.planar import PlanarModel
+
+__all__ = ["RobotParams", "rk4_step", "SlopeModel", "PlanarModel"]
