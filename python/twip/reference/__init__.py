@@ -8,5 +8,15 @@ from twip.reference.params import RobotParams
 from twip.reference.integrate import rk4_step
 from twip.reference.slope import SlopeModel
 from twip.reference.planar import PlanarModel
+from twip.reference.control import LqrController, SpeedSchedule, lqr_design, simulate
 
-__all__ = ["RobotParams", "rk4_step", "SlopeModel", "PlanarModel"]
+__all__ = [
+    "LqrController",
+    "PlanarModel",
+    "RobotParams",
+    "SlopeModel",
+    "SpeedSchedule",
+    "lqr_design",
+    "rk4_step",
+    "simulate",
+]

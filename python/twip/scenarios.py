@@ -1,0 +1,154 @@
+"""The thesis's scenarios, by name: `twip.scenarios.get("flat-lqr").run()`.
+
+Each scenario is a plant, a controller designed for it, a reference schedule and a
+duration, plus the thesis's own claims about it (for reports). `get` takes the robot
+(`params=`), the controller's own robot when it differs from the plant
+(`controller_params=`, for model-mismatch studies) and scenario options.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Callable, Dict, Optional
+
+import numpy as np
+
+from twip import _core
+from twip.sim import SimResult, simulate
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    description: str
+    model: object
+    controller: object
+    x0: np.ndarray
+    reference: object
+    t_final: float
+    dt: float = 1e-3
+    control_period: Optional[float] = None
+    thesis: dict = field(default_factory=dict)
+
+    def run(self, **overrides) -> SimResult:
+        """Simulates the scenario; keyword overrides go to `twip.simulate`."""
+        kw = dict(
+            model=self.model,
+            controller=self.controller,
+            x0=self.x0,
+            t_final=self.t_final,
+            dt=self.dt,
+            reference=self.reference,
+            control_period=self.control_period,
+        )
+        kw.update(overrides)
+        return simulate(**kw)
+
+    def replace(self, **changes) -> "Scenario":
+        return replace(self, **changes)
+
+
+_REGISTRY: Dict[str, Callable[..., Scenario]] = {}
+
+
+def register(name: str):
+    def wrap(factory):
+        _REGISTRY[name] = factory
+        return factory
+
+    return wrap
+
+
+def names() -> list:
+    """All scenario names."""
+    return sorted(_REGISTRY)
+
+
+def get(name: str, params=None, controller_params=None, **options) -> Scenario:
+    """The scenario `name` for robot `params` (default: RobotParams.balanbot())."""
+    if name not in _REGISTRY:
+        raise _core.InvalidParameterError(f"unknown scenario '{name}'; known: {', '.join(names())}")
+    params = params if params is not None else _core.RobotParams.balanbot()
+    return _REGISTRY[name](params, controller_params or params, **options)
+
+
+def _lqr(plant_params, ctrl_params, slope, speed, Q, R, point, period):
+    design_model = _core.SlopeModel(ctrl_params, slope)
+    return _core.LqrController.design(design_model, speed, Q, R, point=point, period=period)
+
+
+def _trip_time(distance, speed, radius):
+    return distance / (speed * radius)
+
+
+@register("slope-lqr-sim")
+def _slope_lqr_sim(params, ctrl_params, point="operating", period=1e-3, t_final=15.0):
+    """Thesis Fig 4.2: 250 deg/s from rest at phi = 0 on a 15 deg slope."""
+    slope, speed = math.radians(15), math.radians(250)
+    return Scenario(
+        name="slope-lqr-sim",
+        description="LQR on a 15 deg slope, constant 250 deg/s from rest (thesis 4.1.1, Fig 4.2)",
+        model=_core.SlopeModel(params, slope),
+        controller=_lqr(params, ctrl_params, slope, speed, [10, 10, 1, 1], 1000.0, point, period),
+        x0=np.zeros(4),
+        reference=_core.SpeedSchedule.constant(speed),
+        t_final=t_final,
+        thesis={"figure": "4.2", "pitch_settling_time": 5.0, "speed_settling_time": 7.0, "phi_s_deg": 12.5,
+                "gains": [-15.2, -4.5, -0.35, -0.32]},
+    )
+
+
+@register("flat-lqr-sim")
+def _flat_lqr_sim(params, ctrl_params, point="operating", period=1e-3, t_final=15.0):
+    """Thesis Fig 4.9: 180 deg/s from rest on the flat."""
+    speed = math.radians(180)
+    return Scenario(
+        name="flat-lqr-sim",
+        description="LQR on the flat, constant 180 deg/s from rest (thesis 4.2.1, Fig 4.9)",
+        model=_core.SlopeModel(params, 0.0),
+        controller=_lqr(params, ctrl_params, 0.0, speed, [100, 1, 1, 1], 480.0, point, period),
+        x0=np.zeros(4),
+        reference=_core.SpeedSchedule.constant(speed),
+        t_final=t_final,
+        thesis={"figure": "4.9", "pitch_settling_time": 7.5, "speed_settling_time": 8.0, "phi_s_deg": 0.0,
+                "gains": [-11.0, -1.7, -0.05, -0.045]},
+    )
+
+
+@register("slope-lqr")
+def _slope_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, settle=5.0):
+    """Thesis 4.1.1 experiment (Fig 4.3): 0.6 m up at 250 deg/s, hold 5 s, come back."""
+    slope, speed, distance = math.radians(15), math.radians(250), 0.6
+    plant = _core.SlopeModel(params, slope)
+    x0, _ = plant.equilibrium(0.0)  # standing still, balanced on the slope
+    leg = _trip_time(distance, speed, params.wheel_radius)
+    return Scenario(
+        name="slope-lqr",
+        description="LQR on a 15 deg slope: 0.6 m at 250 deg/s, hold 5 s, back (thesis 4.1.1, Fig 4.3)",
+        model=plant,
+        controller=_lqr(params, ctrl_params, slope, speed, [10, 10, 1, 1], 1000.0, point, period),
+        x0=x0,
+        reference=_core.SpeedSchedule([(distance / params.wheel_radius, speed, hold), (0.0, speed, settle)]),
+        t_final=2 * leg + hold + settle,
+        thesis={"figure": "4.3", "distance": distance, "hold": hold, "goals": [(leg + hold, distance), (2 * leg + hold + settle, 0.0)]},
+    )
+
+
+@register("flat-lqr")
+def _flat_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, settle=5.0):
+    """Thesis 4.2.1 experiment (Fig 4.10): 1 m at 180 deg/s, back to the start.
+
+    The thesis reverses at once; we hold `hold` seconds at 1 m so that the stop can be
+    measured (hold=0 gives the thesis's run)."""
+    speed, distance = math.radians(180), 1.0
+    leg = _trip_time(distance, speed, params.wheel_radius)
+    return Scenario(
+        name="flat-lqr",
+        description="LQR on the flat: 1 m at 180 deg/s and back (thesis 4.2.1, Fig 4.10)",
+        model=_core.SlopeModel(params, 0.0),
+        controller=_lqr(params, ctrl_params, 0.0, speed, [100, 1, 1, 1], 480.0, point, period),
+        x0=np.zeros(4),
+        reference=_core.SpeedSchedule([(distance / params.wheel_radius, speed, hold), (0.0, speed, settle)]),
+        t_final=2 * leg + hold + settle,
+        thesis={"figure": "4.10", "distance": distance, "hold": hold, "goals": [(leg + hold, distance), (2 * leg + hold + settle, 0.0)]},
+    )
