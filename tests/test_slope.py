@@ -231,3 +231,49 @@ def test_bad_arrays_raise_named_errors(balanbot):
         twip.SlopeModel(balanbot, 2.0)
     with pytest.raises(TypeError, match="model must be"):
         twip.rk4_step("not a model", [0, 0, 0, 0], 0.0, 1e-3)
+
+
+class ThesisAsPrinted(ref.SlopeModel):
+    """(3.20) and (3.21) exactly as printed: the extra Coriolis term in (3.20) and the
+    body's slope potential M_b g l r sin(alpha) in (3.21). For errata E2/E3 only."""
+
+    def deriv(self, x, u):
+        p = self.params
+        phi, phi_dot, _theta, theta_dot = (float(v) for v in x)
+        Mb, Mw, l, r, g, a = p.m_body, p.m_wheels, p.com_height, p.wheel_radius, p.g, self.slope
+        rhs1 = (Mb * r * theta_dot * phi_dot * l * math.sin(phi + a) + Mb * g * l * math.sin(phi)
+                + p.mu_bearing * (theta_dot - phi_dot) - p.gear_ratio * p.torque_constant * float(u))
+        rhs2 = (Mb * r * phi_dot**2 * l * math.sin(phi + a) - Mw * g * r * math.sin(a)
+                - Mb * g * l * (r * math.sin(a) - math.sin(phi)) - p.mu_ground * theta_dot)
+        phi_dd, theta_dd = np.linalg.solve(self._rows(phi), [rhs1, rhs2])
+        return np.array([phi_dot, phi_dd, theta_dot, theta_dd])
+
+
+def test_thesis_as_printed_does_not_conserve_energy(balanbot):
+    """Errata E2: with the Coriolis term of (3.20) energy drifts even on the flat."""
+    p = frictionless(balanbot)
+    x0 = [0.3, 0.5, 0.0, 2.0]
+    drifts = {}
+    for name, model in (("corrected", ref.SlopeModel(p, 0.0)), ("as printed", ThesisAsPrinted(p, 0.0))):
+        traj = run(model, x0, 0.0, 1e-3, 3000, step=ref.rk4_step)
+        e = np.array([model.energy(x) for x in traj])
+        drifts[name] = np.max(np.abs(e - e[0])) / abs(e[0])
+    print(f"relative energy drift over 3 s: {drifts}")
+    assert drifts["corrected"] < 1e-8
+    assert drifts["as printed"] > 1e-2
+
+
+def test_thesis_potential_is_not_a_steady_state(balanbot):
+    """Errata E3: (4.42) as printed (M_b g l r sin(alpha)) is not where the robot can stand."""
+    slope, speed = math.radians(15), math.radians(250)
+    p = balanbot
+    printed = math.asin((p.m_wheels * p.g * p.wheel_radius * math.sin(slope)
+                         + p.m_body * p.g * p.com_height * p.wheel_radius * math.sin(slope)
+                         + p.mu_ground * speed) / (p.m_body * p.g * p.com_height))
+    model = twip.SlopeModel(p, slope)
+    x_s, u_s = model.equilibrium(speed)
+    print(f"phi_s corrected {math.degrees(x_s[0]):.2f} deg, as printed {math.degrees(printed):.2f} deg")
+    assert abs(model.deriv(x_s, u_s)[3]) < 1e-12
+    x_bad = x_s.copy()
+    x_bad[0] = printed
+    assert abs(model.deriv(x_bad, u_s)[3]) > 1.0

@@ -1,0 +1,5 @@
+import sys
+
+from twip.cli import main
+
+sys.exit(main())
