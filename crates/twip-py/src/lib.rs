@@ -1,12 +1,14 @@
 //! `twip._core`: the Python bindings of twip-core. Conversions and error mapping only.
 use pyo3::prelude::*;
 
-mod control;
 mod convert;
 mod errors;
 mod linalg;
 mod models;
+mod lqr;
 mod params;
+mod schedule;
+mod simulate;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -17,8 +19,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<models::PySlopeModel>()?;
     m.add_class::<models::PyPlanarModel>()?;
     m.add_function(wrap_pyfunction!(models::rk4_step, m)?)?;
-    m.add_class::<control::PySpeedSchedule>()?;
-    m.add_class::<control::PyLqrController>()?;
-    m.add_function(wrap_pyfunction!(control::simulate_raw, m)?)?;
+    m.add_class::<schedule::PySpeedSchedule>()?;
+    m.add_class::<lqr::PyLqrController>()?;
+    m.add_function(wrap_pyfunction!(simulate::simulate_raw, m)?)?;
     Ok(())
 }

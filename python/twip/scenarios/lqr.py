@@ -1,75 +1,12 @@
-"""The thesis's scenarios, by name: `twip.scenarios.get("flat-lqr").run()`.
-
-Each scenario is a plant, a controller designed for it, a reference schedule and a
-duration, plus the thesis's own claims about it (for reports). `get` takes the robot
-(`params=`), the controller's own robot when it differs from the plant
-(`controller_params=`, for model-mismatch studies) and scenario options.
-"""
+"""LQR scenarios: the thesis's slope and flat simulations and experiments (4.1.1, 4.2.1)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
-from typing import Callable, Dict, Optional
 
 import numpy as np
 
 from twip import _core
-from twip.sim import SimResult, simulate
-
-
-@dataclass(frozen=True)
-class Scenario:
-    name: str
-    description: str
-    model: object
-    controller: object
-    x0: np.ndarray
-    reference: object
-    t_final: float
-    dt: float = 1e-3
-    control_period: Optional[float] = None
-    thesis: dict = field(default_factory=dict)
-
-    def run(self, **overrides) -> SimResult:
-        """Simulates the scenario; keyword overrides go to `twip.simulate`."""
-        kw = dict(
-            model=self.model,
-            controller=self.controller,
-            x0=self.x0,
-            t_final=self.t_final,
-            dt=self.dt,
-            reference=self.reference,
-            control_period=self.control_period,
-        )
-        kw.update(overrides)
-        return simulate(**kw)
-
-    def replace(self, **changes) -> "Scenario":
-        return replace(self, **changes)
-
-
-_REGISTRY: Dict[str, Callable[..., Scenario]] = {}
-
-
-def register(name: str):
-    def wrap(factory):
-        _REGISTRY[name] = factory
-        return factory
-
-    return wrap
-
-
-def names() -> list:
-    """All scenario names."""
-    return sorted(_REGISTRY)
-
-
-def get(name: str, params=None, controller_params=None, **options) -> Scenario:
-    """The scenario `name` for robot `params` (default: RobotParams.balanbot())."""
-    if name not in _REGISTRY:
-        raise _core.InvalidParameterError(f"unknown scenario '{name}'; known: {', '.join(names())}")
-    params = params if params is not None else _core.RobotParams.balanbot()
-    return _REGISTRY[name](params, controller_params or params, **options)
+from twip.scenarios import Scenario, register
 
 
 def _lqr(plant_params, ctrl_params, slope, speed, Q, R, point, period):

@@ -1,0 +1,127 @@
+//! `twip.LqrController`: LQR with integral action (thesis 4.24) and its design.
+use nalgebra::Matrix4;
+use numpy::{IntoPyArray, PyArray1};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use twip_core::lqr_control::{design, DesignPoint, LqrController};
+use twip_core::TwipError;
+
+use crate::convert::{dmatrix, scalar, to_py_dmatrix, vector};
+use crate::errors::{CoreResult, PyTwipError};
+use crate::models::PySlopeModel;
+
+fn design_point(name: &str) -> PyResult<DesignPoint> {
+    match name {
+        "thesis" => Ok(DesignPoint::Thesis),
+        "operating" => Ok(DesignPoint::OperatingPoint),
+        other => Err(crate::errors::InvalidParameterError::new_err(format!(
+            "point = '{other}': must be 'thesis' (linearised at phi = 0, (4.6)-(4.13)) or 'operating' (at the true steady state)"
+        ))),
+    }
+}
+
+fn point_name(p: DesignPoint) -> &'static str {
+    match p {
+        DesignPoint::Thesis => "thesis",
+        DesignPoint::OperatingPoint => "operating",
+    }
+}
+
+/// LQR with integral action on the wheel speed (thesis 4.24).
+#[pyclass(name = "LqrController", module = "twip", frozen)]
+pub struct PyLqrController {
+    pub inner: LqrController<f64>,
+    /// Design details when built by `design` (Â, B̂, P̂, poles).
+    info: Option<Py<PyDict>>,
+}
+
+#[pymethods]
+impl PyLqrController {
+    /// A controller with given gains K̂ = [k_phi, k_phi_dot, k_theta_dot, k_z];
+    /// `model` is the controller's own model (for the steady state).
+    #[new]
+    #[pyo3(signature = (model, gains, point = "operating", period = 0.005))]
+    fn new(model: &PySlopeModel, gains: &Bound<'_, PyAny>, point: &str, period: f64) -> PyResult<Self> {
+        let g = vector::<4>("gains", gains)?;
+        let inner = LqrController::new([g[0], g[1], g[2], g[3]], model.inner, design_point(point)?, period)
+            .map_err(PyTwipError)?;
+        Ok(Self { inner, info: None })
+    }
+
+    /// Designs K̂ by LQR on the augmented system (4.17)-(4.23) at `theta_dot_ref`.
+    /// `Q` is 4x4 (or the 4 diagonal entries), `R` a positive scalar.
+    #[staticmethod]
+    #[pyo3(name = "design", signature = (model, theta_dot_ref, Q, R, point = "operating", period = 0.005))]
+    #[allow(non_snake_case)]
+    fn design_py(
+        py: Python<'_>,
+        model: &PySlopeModel,
+        theta_dot_ref: f64,
+        Q: &Bound<'_, PyAny>,
+        R: f64,
+        point: &str,
+        period: f64,
+    ) -> PyResult<Self> {
+        let q = match vector::<4>("Q", Q) {
+            Ok(diag) => Matrix4::from_diagonal(&diag),
+            Err(_) => {
+                let m = dmatrix("Q", Q)?;
+                if m.shape() != (4, 4) {
+                    return Err(PyTwipError(TwipError::Shape { name: "Q", expected: (4, 4), got: m.shape() }).into());
+                }
+                Matrix4::from_fn(|i, j| m[(i, j)])
+            }
+        };
+        let p = design_point(point)?;
+        let d = design(&model.inner, scalar("theta_dot_ref", theta_dot_ref)?, &q, scalar("R", R)?, p)
+            .map_err(PyTwipError)?;
+        let info = PyDict::new(py);
+        info.set_item("A", to_py_dmatrix(py, &nalgebra::DMatrix::from_fn(4, 4, |i, j| d.a[(i, j)])))?;
+        info.set_item("B", to_py_dmatrix(py, &nalgebra::DMatrix::from_fn(4, 1, |i, _| d.b[i])))?;
+        info.set_item("X", to_py_dmatrix(py, &d.x))?;
+        info.set_item("poles", crate::convert::to_py_complex_vector(py, &d.poles))?;
+        info.set_item("phi_s", d.phi_s)?;
+        info.set_item("u_s", d.u_s)?;
+        info.set_item("theta_dot_ref", theta_dot_ref)?;
+        let inner = LqrController::new(d.gains, model.inner, p, period).map_err(PyTwipError)?;
+        Ok(Self { inner, info: Some(info.unbind()) })
+    }
+
+    /// K̂ = [k_phi, k_phi_dot, k_theta_dot, k_z].
+    #[getter]
+    fn gains<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.inner.gains().to_vec().into_pyarray(py)
+    }
+
+    #[getter]
+    fn period(&self) -> f64 {
+        use twip_core::control::Controller;
+        self.inner.period()
+    }
+
+    #[getter]
+    fn point(&self) -> &'static str {
+        point_name(self.inner.point())
+    }
+
+    #[getter]
+    fn model(&self) -> PySlopeModel {
+        PySlopeModel { inner: *self.inner.model() }
+    }
+
+    /// The design's Â, B̂, X (P̂), poles, phi_s, u_s (None if the gains were given).
+    #[getter]
+    fn design_info(&self, py: Python<'_>) -> Option<Py<PyDict>> {
+        self.info.as_ref().map(|d| d.clone_ref(py))
+    }
+
+    /// The steady state (phi_s, u_s) the controller aims for at a reference speed.
+    fn steady_state(&self, theta_dot_ref: f64) -> CoreResult<(f64, f64)> {
+        Ok(self.inner.steady_state(theta_dot_ref)?)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("LqrController(gains={:?}, point='{}')", self.inner.gains(), point_name(self.inner.point()))
+    }
+}
+

@@ -1,0 +1,63 @@
+//! `twip.SpeedSchedule`: wheel speed / position schedules for the 2-DOF controllers.
+use pyo3::prelude::*;
+use twip_core::control::Reference;
+use twip_core::reference::{Leg, SpeedSchedule};
+use twip_core::TwipError;
+
+use crate::convert::scalar;
+use crate::errors::CoreResult;
+/// A wheel schedule from theta = 0: legs of (goal [rad], speed [rad/s] > 0, hold [s]).
+#[pyclass(name = "SpeedSchedule", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PySpeedSchedule {
+    pub inner: SpeedSchedule<f64>,
+}
+
+#[pymethods]
+impl PySpeedSchedule {
+    #[new]
+    fn new(legs: Vec<(f64, f64, f64)>) -> CoreResult<Self> {
+        let legs: Vec<Leg<f64>> = legs.into_iter().map(|(goal, speed, hold)| Leg { goal, speed, hold }).collect();
+        Ok(Self { inner: SpeedSchedule::new(&legs)? })
+    }
+
+    /// Constant wheel speed [rad/s] from rest, forever.
+    #[staticmethod]
+    fn constant(speed: f64) -> CoreResult<Self> {
+        Ok(Self { inner: SpeedSchedule::constant(speed)? })
+    }
+
+    /// The thesis's experiment: drive `distance` [m] at wheel speed `speed` [rad/s],
+    /// hold `hold` [s], drive back to the start and hold `hold_end` [s].
+    #[staticmethod]
+    #[pyo3(signature = (distance, speed, wheel_radius, hold = 0.0))]
+    fn go_and_return(distance: f64, speed: f64, wheel_radius: f64, hold: f64) -> CoreResult<Self> {
+        if !(wheel_radius.is_finite() && wheel_radius > 0.0) {
+            return Err(TwipError::InvalidParameter {
+                name: "wheel_radius",
+                value: wheel_radius,
+                reason: "must be finite and > 0",
+            }
+            .into());
+        }
+        let goal = scalar("distance", distance)? / wheel_radius;
+        Self::new(vec![(goal, speed, hold), (0.0, speed, 0.0)])
+    }
+
+    /// Legs as (goal, speed, hold) tuples.
+    #[getter]
+    fn legs(&self) -> Vec<(f64, f64, f64)> {
+        self.inner.legs().iter().map(|l| (l.goal, l.speed, l.hold)).collect()
+    }
+
+    /// (theta_ref, theta_dot_ref) at time t.
+    fn sample(&self, t: f64) -> (f64, f64) {
+        let s = self.inner.sample(t);
+        (s.theta, s.theta_dot)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("SpeedSchedule({:?})", self.legs())
+    }
+}
+

@@ -1,0 +1,162 @@
+//! The closed-loop runner for the 2-DOF model: any 2-DOF controller, one code path.
+use numpy::{IntoPyArray, PyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use twip_core::control::Controller;
+use twip_core::log::{LogRow, TrajectoryLog};
+use twip_core::lqr_control::LqrController;
+use twip_core::metrics::SlopeMetrics;
+use twip_core::reference::{SpeedRef, SpeedSchedule};
+use twip_core::runner::{simulate as run, Outcome, SimConfig};
+use twip_core::TwipError;
+use nalgebra::SVector;
+
+use crate::convert::vector;
+use crate::errors::{CoreResult, PyTwipError};
+use crate::lqr::PyLqrController;
+use crate::models::PySlopeModel;
+use crate::schedule::PySpeedSchedule;
+
+/// Every controller of the 2-DOF model. A new controller family adds a variant here
+/// and a line in `extract`; the runner stays one monomorphised loop.
+#[derive(Clone, Copy, Debug)]
+pub enum SlopeController {
+    Lqr(LqrController<f64>),
+}
+
+impl SlopeController {
+    fn extract(obj: &Bound<'_, PyAny>) -> PyResult<Self> {
+        if let Ok(c) = obj.cast::<PyLqrController>() {
+            return Ok(Self::Lqr(c.get().inner));
+        }
+        Err(pyo3::exceptions::PyTypeError::new_err(format!(
+            "controller must be a 2-DOF twip controller (LqrController), got {}",
+            obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+        )))
+    }
+
+    fn with_period(self, period: f64) -> CoreResult<Self> {
+        Ok(match self {
+            Self::Lqr(c) => Self::Lqr(c.with_period(period)?),
+        })
+    }
+
+    fn check_reference(&self, schedule: &SpeedSchedule<f64>) -> CoreResult<()> {
+        match self {
+            Self::Lqr(c) => c.check_reference(schedule)?,
+        }
+        Ok(())
+    }
+}
+
+impl Controller<f64, 4, 1> for SlopeController {
+    type Reference = SpeedRef<f64>;
+
+    fn period(&self) -> f64 {
+        match self {
+            Self::Lqr(c) => c.period(),
+        }
+    }
+
+    fn reset(&mut self) {
+        match self {
+            Self::Lqr(c) => c.reset(),
+        }
+    }
+
+    #[inline]
+    fn update(&mut self, t: f64, y: &SVector<f64, 4>, r: &SpeedRef<f64>) -> SVector<f64, 1> {
+        match self {
+            Self::Lqr(c) => c.update(t, y, r),
+        }
+    }
+
+    fn internals(&self) -> &[f64] {
+        match self {
+            Self::Lqr(c) => c.internals(),
+        }
+    }
+
+    fn internal_names(&self) -> &'static [&'static str] {
+        match self {
+            Self::Lqr(c) => c.internal_names(),
+        }
+    }
+}
+
+/// Runs the closed loop; returns a dict that `twip.simulate` wraps into a SimResult.
+#[pyfunction]
+#[pyo3(signature = (model, controller, x0, t_final, dt, reference, control_period = None, fall_limit = None, record_every = 1))]
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_raw<'py>(
+    py: Python<'py>,
+    model: &Bound<'py, PyAny>,
+    controller: &Bound<'py, PyAny>,
+    x0: &Bound<'py, PyAny>,
+    t_final: f64,
+    dt: f64,
+    reference: &PySpeedSchedule,
+    control_period: Option<f64>,
+    fall_limit: Option<f64>,
+    record_every: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let plant = model.cast::<PySlopeModel>().map_err(|_| {
+        pyo3::exceptions::PyTypeError::new_err("this controller drives a twip.SlopeModel")
+    })?;
+    let plant = plant.get().inner;
+    let mut ctrl = SlopeController::extract(controller)?;
+    if let Some(p) = control_period {
+        ctrl = ctrl.with_period(p)?;
+    }
+    ctrl.check_reference(&reference.inner)?;
+    let x0 = vector::<4>("x0", x0)?;
+    let config = SimConfig { dt, t_final, fall_limit: fall_limit.unwrap_or(60f64.to_radians()) };
+    let (n, _) = config.steps(ctrl.period()).map_err(PyTwipError)?;
+    if record_every == 0 {
+        return Err(PyTwipError(TwipError::InvalidParameter { name: "record_every", value: 0.0, reason: "must be >= 1" }).into());
+    }
+    let schedule = reference.inner;
+    let names = ctrl.internal_names();
+    let widths = [4, 1, <SpeedRef<f64> as LogRow<f64>>::NAMES.len(), names.len()];
+    let (outcome, steps, metrics, log) = py.detach(move || {
+        let mut observers = (SlopeMetrics::new(plant), TrajectoryLog::with_capacity(n + 1, record_every, widths));
+        let result = run(&plant, &mut ctrl, &schedule, &x0, &config, &mut observers);
+        result.map(|(outcome, steps)| {
+            let (metrics, log) = observers;
+            (outcome, steps, metrics, log)
+        })
+    })
+    .map_err(PyTwipError)?;
+    let summary = metrics.summary();
+    let out = PyDict::new(py);
+    let rows = log.len();
+    let reshape = |v: Vec<f64>, cols: usize| -> PyResult<Bound<'py, PyArray2<f64>>> {
+        Ok(numpy::ndarray::Array2::from_shape_vec((rows, cols), v)
+            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?
+            .into_pyarray(py))
+    };
+    out.set_item("t", log.t.into_pyarray(py))?;
+    out.set_item("states", reshape(log.x, 4)?)?;
+    out.set_item("inputs", reshape(log.u, 1)?)?;
+    out.set_item("references", reshape(log.reference, widths[2])?)?;
+    out.set_item("reference_names", <SpeedRef<f64> as LogRow<f64>>::NAMES.to_vec())?;
+    out.set_item("internals", reshape(log.internals, widths[3])?)?;
+    out.set_item("internal_names", names.to_vec())?;
+    let (name, t_end) = match outcome {
+        Outcome::Completed => ("completed", None),
+        Outcome::Fell { t } => ("fell", Some(t)),
+        Outcome::Diverged { t } => ("diverged", Some(t)),
+    };
+    out.set_item("outcome", name)?;
+    out.set_item("t_end", t_end)?;
+    out.set_item("steps", steps)?;
+    let m = PyDict::new(py);
+    m.set_item("mean_abs_pitch_error", summary.mean_abs_pitch_error)?;
+    m.set_item("mean_abs_speed_error", summary.mean_abs_speed_error)?;
+    m.set_item("pitch_settling_time", summary.pitch_settling_time)?;
+    m.set_item("speed_settling_time", summary.speed_settling_time)?;
+    m.set_item("final_position_error", summary.final_position_error)?;
+    m.set_item("peak_abs_input", summary.peak_abs_input)?;
+    out.set_item("metrics", m)?;
+    Ok(out)
+}
