@@ -23,10 +23,12 @@ build: setup
 demo: build
 	$(PY) -m twip demo
 
+# The core is tested with std (all of it) and without (the no_std subset), and the
+# no_std build is checked for dependencies that switch std on.
 test-rust: setup
 	cargo test --workspace --exclude twip-py --quiet
-	cargo test -p twip-core --release --no-default-features --quiet
-	cargo build -p twip-core --no-default-features --quiet
+	cargo test -p twip-core --no-default-features --lib --quiet
+	scripts/check_nostd.sh
 
 test-python: build
 	$(PY) -m pytest tests -q
@@ -34,7 +36,7 @@ test-python: build
 test: test-rust test-python
 
 nostd:
-	cargo tree -p twip-core --no-default-features -e features
+	cargo tree -p twip-core --no-default-features -e normal,features
 
 bench: build
 	cargo bench -p twip-core
