@@ -1,36 +1,336 @@
-//! The 3-DOF planar model (thesis 3.29–3.48), re-derived. Physics being written.
-use nalgebra::{Matrix3, SVector};
+//! The 3-DOF planar model (thesis 3.29–3.48), re-derived.
+//!
+//! Full coordinates `q = (x, y, ψ, φ, θ_r, θ_l)`; the wheels roll without slipping, so
+//! `q̇ = S(q) ν` with the quasi-velocities `ν = (φ̇, v, ω)`:
+//!
+//! ```text
+//! ẋ = v cos ψ,  ẏ = v sin ψ,  ψ̇ = ω,  θ̇_r = (v + b ω)/R,  θ̇_l = (v − b ω)/R.
+//! ```
+//!
+//! Per side: wheel mass m_w = M_w/2, spin inertia I_wa = I_w/2, diametral inertia I_wd,
+//! rotor η² (I_M/2) on θ_side − φ. With the body COM at c_z along the body axis, the
+//! Lagrange–d'Alembert equations `Sᵀ (d/dt ∂L/∂q̇ − ∂L/∂q + ∂D/∂q̇ − Q) = 0` give
+//! `M(φ) ν̇ + h(φ, ν) = B u` with (k = M_b c_z² + I_xx − I_zz, s = sin φ, c = cos φ)
+//!
+//! ```text
+//! M = [ m_φφ                 M_b c_z c − η² I_M/R   0     ]
+//!     [ M_b c_z c − η² I_M/R m_vv                   0     ]
+//!     [ 0                    0                      m_ωω(φ)]
+//!   m_φφ = M_b c_z² + I_yy + η² I_M
+//!   m_vv = M_b + M_w + (I_w + η² I_M)/R²
+//!   m_ωω = I_zz + k s² + 2 I_wd + b² (M_w + (I_w + η² I_M)/R²)
+//! h_φ = −M_b g c_z s − k s c ω² + μ_s φ̇ − μ_s v/R
+//! h_v = −M_b c_z s (φ̇² + ω²) + (μ_s + μ_g) v/R² − μ_s φ̇/R
+//! h_ω = 2 k s c φ̇ ω + M_b c_z s v ω + b² (μ_s + μ_g) ω/R²
+//! B   = [[−1, −1], [1/R, 1/R], [b/R, −b/R]]
+//! ```
+//!
+//! The yaw row decouples in `M`; the `−M_b c_z s ω²` of `h_v` and the `M_b c_z s v ω` of
+//! `h_ω` come from the rolling constraint (a vakonomic derivation would miss them). With
+//! ω = 0 the (φ, v) rows are the 2-DOF flat model with v = R θ̇. The thesis's printed
+//! (3.38)–(3.48) carry several typos; docs/errata.md lists them (P1–P8).
+use nalgebra::{Matrix3, SVector, Vector2};
 
-use crate::{Dynamics, Real, RobotParams, TwipError};
+use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
 /// State `[x, y, psi, phi, phi_dot, v, omega]`.
 pub type PlanarState<T> = SVector<T, 7>;
 
+/// The 3-DOF model on flat ground; input `[u_r, u_l]`, motor torques [N m] on the wheels.
 #[derive(Clone, Copy, Debug)]
 pub struct PlanarModel<T> {
     params: RobotParams<T>,
+    /// m_φφ = M_b c_z² + I_yy + η² I_M
+    m_pp: T,
+    /// m_vv = M_b + M_w + (I_w + η² I_M)/R²
+    m_vv: T,
+    /// The constant part of m_ωω: I_zz + 2 I_wd + b² m_vv|_{M_b = 0}
+    m_ww0: T,
+    /// k = M_b c_z² + I_xx − I_zz (m_ωω = m_ωω0 + k sin²φ)
+    k: T,
+    /// 2 k
+    two_k: T,
+    /// M_b c_z
+    mbc: T,
+    /// η² I_M / R: the rotor's share of m_φv.
+    rotor_r: T,
+    /// M_b g c_z
+    mgc: T,
+    /// μ_s
+    mu_s: T,
+    /// μ_s / R
+    mu_s_r: T,
+    /// (μ_s + μ_g) / R²
+    mu_v: T,
+    /// b² (μ_s + μ_g) / R²
+    mu_w: T,
+    /// 1 / R
+    inv_r: T,
+    /// b / R
+    b_r: T,
 }
 
 impl<T: Real> PlanarModel<T> {
+    /// Builds the model from validated parameters; all coefficients are computed here.
     pub fn new(params: RobotParams<T>) -> Result<Self, TwipError> {
-        Ok(Self { params: params.validate()? })
+        let p = params.validate()?;
+        let r = p.wheel_radius;
+        let cz = p.com_height;
+        let b = p.half_track;
+        let rotor = p.gear_ratio * p.gear_ratio * p.i_motor;
+        let r2 = r * r;
+        let wheel_line = p.m_wheels + (p.i_wheels + rotor) / r2;
+        let mbc = p.m_body * cz;
+        let k = mbc * cz + p.i_body_roll - p.i_body_yaw;
+        let two = c::<T>(2.0);
+        Ok(Self {
+            params: p,
+            m_pp: mbc * cz + p.i_body + rotor,
+            m_vv: p.m_body + wheel_line,
+            m_ww0: p.i_body_yaw + two * p.i_wheel_diam + b * b * wheel_line,
+            k,
+            two_k: two * k,
+            mbc,
+            rotor_r: rotor / r,
+            mgc: mbc * p.g,
+            mu_s: p.mu_bearing,
+            mu_s_r: p.mu_bearing / r,
+            mu_v: (p.mu_bearing + p.mu_ground) / r2,
+            mu_w: b * b * (p.mu_bearing + p.mu_ground) / r2,
+            inv_r: T::one() / r,
+            b_r: b / r,
+        })
     }
 
     pub fn params(&self) -> &RobotParams<T> {
         &self.params
     }
 
-    pub fn mass_matrix(&self, _phi: T) -> Matrix3<T> {
-        Matrix3::identity()
+    /// The mass matrix M(φ) of `M ν̇ + h = B u`, ν = (φ̇, v, ω): symmetric positive definite.
+    #[inline]
+    pub fn mass_matrix(&self, phi: T) -> Matrix3<T> {
+        let (s, cp) = phi.sin_cos();
+        let m_pv = self.mbc * cp - self.rotor_r;
+        let z = T::zero();
+        #[rustfmt::skip]
+        let m = Matrix3::new(
+            self.m_pp, m_pv,      z,
+            m_pv,      self.m_vv, z,
+            z,         z,         self.m_ww0 + self.k * s * s,
+        );
+        m
     }
 }
 
 impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
-    fn deriv(&self, _x: &PlanarState<T>, _u: &SVector<T, 2>) -> PlanarState<T> {
-        PlanarState::zeros()
+    const PITCH: usize = 3;
+
+    #[inline]
+    fn deriv(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> PlanarState<T> {
+        let (sin_psi, cos_psi) = x[2].sin_cos();
+        let (s, cp) = x[3].sin_cos();
+        let (phi_dot, v, omega) = (x[4], x[5], x[6]);
+        let (u_sum, u_diff) = (u[0] + u[1], u[0] - u[1]);
+        let w2 = omega * omega;
+        let sc = s * cp;
+        // f = B u − h
+        let f_p = self.mgc * s + self.k * sc * w2 - self.mu_s * phi_dot + self.mu_s_r * v - u_sum;
+        let f_v = self.mbc * s * (phi_dot * phi_dot + w2) - self.mu_v * v
+            + self.mu_s_r * phi_dot
+            + self.inv_r * u_sum;
+        let f_w =
+            self.b_r * u_diff - (self.two_k * sc * phi_dot + self.mbc * s * v + self.mu_w) * omega;
+        // (φ, v) block by Cramer's rule; the yaw row is diagonal.
+        let m_pv = self.mbc * cp - self.rotor_r;
+        let det = self.m_pp * self.m_vv - m_pv * m_pv;
+        let acc = Vector2::new(self.m_vv * f_p - m_pv * f_v, self.m_pp * f_v - m_pv * f_p) / det;
+        let omega_dot = f_w / (self.m_ww0 + self.k * s * s);
+        PlanarState::from([
+            v * cos_psi,
+            v * sin_psi,
+            omega,
+            phi_dot,
+            acc[0],
+            acc[1],
+            omega_dot,
+        ])
     }
 
-    fn energy(&self, _x: &PlanarState<T>) -> T {
-        T::zero()
+    /// ½ νᵀ M(φ) ν + M_b g c_z cos φ.
+    fn energy(&self, x: &PlanarState<T>) -> T {
+        let (s, cp) = x[3].sin_cos();
+        let (phi_dot, v, omega) = (x[4], x[5], x[6]);
+        let m_pv = self.mbc * cp - self.rotor_r;
+        let m_ww = self.m_ww0 + self.k * s * s;
+        let half = c::<T>(0.5);
+        half * (self.m_pp * phi_dot * phi_dot + self.m_vv * v * v + m_ww * omega * omega)
+            + m_pv * phi_dot * v
+            + self.mgc * cp
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+
+    use super::*;
+    use crate::rk4_step;
+
+    fn frictionless<T: Real>() -> RobotParams<T> {
+        let mut p = RobotParams::<T>::balanbot();
+        p.mu_bearing = T::zero();
+        p.mu_ground = T::zero();
+        p
+    }
+
+    /// A small deterministic generator (no dependencies): uniform in [lo, hi).
+    struct Lcg(u64);
+    impl Lcg {
+        fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
+        }
+    }
+
+    #[test]
+    fn f32_and_f64_derivatives_agree() {
+        let m64 = PlanarModel::<f64>::new(RobotParams::balanbot()).unwrap();
+        let m32 = PlanarModel::<f32>::new(RobotParams::balanbot()).unwrap();
+        let mut rng = Lcg(7);
+        for _ in 0..1000 {
+            let x: [f64; 7] = core::array::from_fn(|_| rng.uniform(-1.5, 1.5));
+            let u = [rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2)];
+            let d64 = m64.deriv(&PlanarState::from(x), &SVector::from(u));
+            let d32 = m32.deriv(
+                &PlanarState::from(x.map(|v| v as f32)),
+                &SVector::from(u.map(|v| v as f32)),
+            );
+            let scale = d64.amax().max(1.0);
+            for i in 0..7 {
+                let err = (d32[i] as f64 - d64[i]).abs() / scale;
+                assert!(
+                    err < 1e-4,
+                    "component {i}: f32 {} vs f64 {} (rel {err:e})",
+                    d32[i],
+                    d64[i]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn mass_matrix_is_symmetric_positive_definite() {
+        let mut p = RobotParams::<f64>::balanbot();
+        // Also a body whose yaw inertia exceeds roll + M_b c_z² (k < 0).
+        for yaw in [p.i_body_yaw, 10.0 * p.i_body_yaw] {
+            p.i_body_yaw = yaw;
+            let m = PlanarModel::new(p).unwrap();
+            for i in 0..=64 {
+                let phi = -core::f64::consts::PI + i as f64 * core::f64::consts::PI / 32.0;
+                let mm = m.mass_matrix(phi);
+                assert_eq!(mm, mm.transpose());
+                assert!(
+                    mm.cholesky().is_some(),
+                    "not positive definite at phi = {phi}"
+                );
+                assert_eq!(mm[(0, 2)], 0.0);
+                assert_eq!(mm[(1, 2)], 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn energy_matches_mass_matrix() {
+        let m = PlanarModel::<f64>::new(RobotParams::balanbot()).unwrap();
+        let x = PlanarState::from([0.1, -0.2, 0.3, 0.4, -0.5, 0.6, 0.7]);
+        let nu = nalgebra::Vector3::new(x[4], x[5], x[6]);
+        let p = m.params();
+        let expected = 0.5 * (nu.transpose() * m.mass_matrix(x[3]) * nu)[0]
+            + p.m_body * p.g * p.com_height * x[3].cos();
+        assert!((m.energy(&x) - expected).abs() < 1e-14);
+    }
+
+    fn energy_drift<T: Real>(dt: f64, steps: usize) -> f64 {
+        let m = PlanarModel::<T>::new(frictionless()).unwrap();
+        let mut x = PlanarState::<T>::from([0.0, 0.0, 0.0, 0.3, 0.5, 0.4, 2.0].map(c::<T>));
+        let u = SVector::<T, 2>::zeros();
+        let e0 = crate::to_f64(m.energy(&x));
+        let mut worst: f64 = 0.0;
+        let mut max_phi: f64 = 0.0;
+        for _ in 0..steps {
+            x = rk4_step(&m, &x, &u, c::<T>(dt));
+            worst = worst.max((crate::to_f64(m.energy(&x)) - e0).abs() / e0.abs());
+            max_phi = max_phi.max(crate::to_f64(x[3]).abs());
+        }
+        assert!(
+            max_phi > core::f64::consts::PI,
+            "the body should swing through the bottom"
+        );
+        worst
+    }
+
+    #[test]
+    fn energy_is_conserved_f64() {
+        let drift = energy_drift::<f64>(1e-3, 20_000);
+        let drift_half = energy_drift::<f64>(0.5e-3, 40_000);
+        std::println!(
+            "f64 energy drift over 20 s: {drift:.2e} at dt = 1 ms, {drift_half:.2e} at 0.5 ms"
+        );
+        assert!(drift < 1e-7, "drift {drift:e}");
+        assert!(
+            drift_half < drift / 10.0,
+            "drift {drift:e} -> {drift_half:e} when halving dt"
+        );
+    }
+
+    #[test]
+    fn energy_is_roughly_conserved_f32() {
+        let drift = energy_drift::<f32>(1e-3, 20_000);
+        std::println!("f32 energy drift over 20 s at dt = 1 ms: {drift:.2e}");
+        assert!(drift < 1e-3, "drift {drift:e}");
+    }
+
+    #[test]
+    fn friction_dissipates() {
+        let m = PlanarModel::<f64>::new(RobotParams::balanbot()).unwrap();
+        let mut x = PlanarState::from([0.0, 0.0, 0.0, 0.3, 0.5, 0.4, 2.0]);
+        let u = SVector::<f64, 2>::zeros();
+        let mut e = m.energy(&x);
+        for _ in 0..5000 {
+            x = rk4_step(&m, &x, &u, 1e-3);
+            let e_next = m.energy(&x);
+            assert!(e_next <= e + 1e-12);
+            e = e_next;
+        }
+    }
+
+    #[test]
+    fn no_yaw_reduces_to_the_flat_slope_model() {
+        let p = RobotParams::<f64>::balanbot();
+        let planar = PlanarModel::new(p).unwrap();
+        let slope = crate::SlopeModel::new(p, 0.0).unwrap();
+        let r = p.wheel_radius;
+        let x = PlanarState::from([0.0, 0.0, 0.0, 0.4, -0.7, 0.3, 0.0]);
+        let current = 0.8;
+        let torque = p.torque_per_amp() * current / 2.0;
+        let d = planar.deriv(&x, &SVector::from([torque, torque]));
+        let ds = slope.deriv(
+            &nalgebra::Vector4::new(x[3], x[4], 0.0, x[5] / r),
+            &SVector::from([current]),
+        );
+        assert!((d[4] - ds[1]).abs() < 1e-12 * ds[1].abs().max(1.0));
+        assert!((d[5] - r * ds[3]).abs() < 1e-12 * (r * ds[3]).abs().max(1.0));
+        assert_eq!(d[6], 0.0);
+    }
+
+    #[test]
+    fn right_torque_turns_left() {
+        let m = PlanarModel::<f64>::new(RobotParams::balanbot()).unwrap();
+        let d = m.deriv(&PlanarState::zeros(), &SVector::from([0.1, -0.1]));
+        assert!(d[6] > 0.0);
+        assert!(d[4].abs() < 1e-15 && d[5].abs() < 1e-15);
     }
 }

@@ -60,7 +60,7 @@ impl<T: Real> SpeedSchedule<T> {
         let mut s = Self { legs: [zero; MAX_LEGS], starts: [T::zero(); MAX_LEGS], origins: [T::zero(); MAX_LEGS], count: legs.len() };
         let (mut t, mut at) = (T::zero(), T::zero());
         for (i, leg) in legs.iter().enumerate() {
-            if leg.goal != leg.goal {
+            if is_nan(leg.goal) {
                 return Err(invalid("goal", leg.goal, "must not be NaN"));
             }
             if !(leg.speed.is_finite() && leg.speed > T::zero()) {
@@ -91,6 +91,11 @@ impl<T: Real> SpeedSchedule<T> {
             if l.goal >= self.origins[i] { l.speed } else { -l.speed }
         })
     }
+}
+
+#[allow(clippy::eq_op)] // NaN is the one value not equal to itself
+fn is_nan<T: Real>(v: T) -> bool {
+    v != v
 }
 
 fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
