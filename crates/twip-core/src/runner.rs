@@ -25,6 +25,8 @@ pub enum Outcome<T> {
     Fell { t: T },
     /// The state or the input stopped being finite at `t`.
     Diverged { t: T },
+    /// Stopped at `t` on request (Ctrl-C); everything up to `t` was observed.
+    Interrupted { t: T },
 }
 
 impl<T: Real> SimConfig<T> {
@@ -81,8 +83,66 @@ where
     }
 }
 
-/// Runs `controller` on `plant` from `x0`. Returns how the run ended and the number of
-/// plant steps taken. The observer sees samples 0..=steps (the last one after the end).
+/// What the controller measures. Called every plant step (`sample`) and at each
+/// controller update (`read`). [`Ideal`] hands over the true state.
+pub trait Sensor<T: Real, const NX: usize> {
+    /// Whether `sample` needs the state derivative (an accelerometer does); the runner
+    /// then evaluates the plant once more per step, otherwise it passes zeros.
+    const NEEDS_DERIV: bool = false;
+
+    /// The true state `x` and its derivative at time `t`, once per plant step.
+    fn sample(&mut self, t: T, x: &SVector<T, NX>, xdot: &SVector<T, NX>);
+
+    /// The measurement the controller gets at an update at time `t`.
+    fn read(&mut self, t: T, x: &SVector<T, NX>) -> SVector<T, NX>;
+}
+
+/// Turns the controller's command into the plant's input at each update (a motor
+/// driver, quantisation, saturation). [`Ideal`] passes the command through.
+pub trait Actuator<T: Real, const NX: usize, const NU: usize> {
+    fn drive(&mut self, t: T, command: &SVector<T, NU>, measurement: &SVector<T, NX>) -> SVector<T, NU>;
+}
+
+/// The ideal sensor and actuator: the controller sees the true state, the plant gets
+/// the command.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Ideal;
+
+impl<T: Real, const NX: usize> Sensor<T, NX> for Ideal {
+    #[inline(always)]
+    fn sample(&mut self, _: T, _: &SVector<T, NX>, _: &SVector<T, NX>) {}
+
+    #[inline(always)]
+    fn read(&mut self, _: T, x: &SVector<T, NX>) -> SVector<T, NX> {
+        *x
+    }
+}
+
+impl<T: Real, const NX: usize, const NU: usize> Actuator<T, NX, NU> for Ideal {
+    #[inline(always)]
+    fn drive(&mut self, _: T, command: &SVector<T, NU>, _: &SVector<T, NX>) -> SVector<T, NU> {
+        *command
+    }
+}
+
+/// How often (in plant steps) a run asks whether it should stop early.
+pub const STOP_CHECK_STEPS: usize = 1 << 12;
+
+/// The parts of a run besides the plant, controller and reference.
+pub struct Loop<'a, S, A, O, F> {
+    pub sensor: &'a mut S,
+    pub actuator: &'a mut A,
+    pub observer: &'a mut O,
+    /// Asked every [`STOP_CHECK_STEPS`] steps; `true` ends the run as `Interrupted`.
+    pub should_stop: F,
+    /// Apply each command one controller period late (the computation delay of a
+    /// microcontroller that computes during the period).
+    pub delay_one_period: bool,
+}
+
+/// Runs `controller` on `plant` from `x0` with ideal sensing and actuation. Returns how
+/// the run ended and the number of plant steps taken. The observer sees samples
+/// 0..=steps (the last one after the end).
 pub fn simulate<T, P, C, R, O, const NX: usize, const NU: usize>(
     plant: &P,
     controller: &mut C,
@@ -98,6 +158,35 @@ where
     C: Controller<T, NX, NU, Reference = R::Sample>,
     O: Observer<T, NX, NU, R::Sample>,
 {
+    let parts = Loop {
+        sensor: &mut Ideal,
+        actuator: &mut Ideal,
+        observer,
+        should_stop: || false,
+        delay_one_period: false,
+    };
+    simulate_with(plant, controller, reference, x0, config, parts)
+}
+
+/// The general runner: sensor, actuator, computation delay and early stop.
+pub fn simulate_with<T, P, C, R, S, A, O, F, const NX: usize, const NU: usize>(
+    plant: &P,
+    controller: &mut C,
+    reference: &R,
+    x0: &SVector<T, NX>,
+    config: &SimConfig<T>,
+    mut parts: Loop<'_, S, A, O, F>,
+) -> Result<(Outcome<T>, usize), TwipError>
+where
+    T: Real,
+    P: Dynamics<T, NX, NU>,
+    R: Reference<T>,
+    C: Controller<T, NX, NU, Reference = R::Sample>,
+    S: Sensor<T, NX>,
+    A: Actuator<T, NX, NU>,
+    O: Observer<T, NX, NU, R::Sample>,
+    F: FnMut() -> bool,
+{
     let (n, per_update) = config.steps(controller.period())?;
     for (index, value) in x0.iter().enumerate() {
         if !value.is_finite() {
@@ -107,13 +196,28 @@ where
     let dt = config.dt;
     let mut x = *x0;
     let mut u = SVector::<T, NU>::zeros();
+    let mut pending = u;
+    let observer = &mut *parts.observer;
     for k in 0..n {
         let t = dt * c::<T>(k as f64);
+        if k % STOP_CHECK_STEPS == 0 && k > 0 && (parts.should_stop)() {
+            return Ok((Outcome::Interrupted { t }, k));
+        }
         let r = reference.sample(t);
+        let xdot = if S::NEEDS_DERIV { plant.deriv(&x, &u) } else { SVector::zeros() };
+        parts.sensor.sample(t, &x, &xdot);
         if k % per_update == 0 {
-            u = controller.update(t, &x, &r);
-            if u.iter().any(|v| !v.is_finite()) {
+            let y = parts.sensor.read(t, &x);
+            let command = controller.update(t, &y, &r);
+            let drive = parts.actuator.drive(t, &command, &y);
+            if drive.iter().any(|v| !v.is_finite()) {
                 return Ok((Outcome::Diverged { t }, k));
+            }
+            if parts.delay_one_period {
+                u = pending;
+                pending = drive;
+            } else {
+                u = drive;
             }
         }
         observer.observe(t, &x, &u, &r, controller.internals());

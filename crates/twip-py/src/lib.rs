@@ -3,8 +3,10 @@ use pyo3::prelude::*;
 
 mod convert;
 mod errors;
+mod fuzzy;
 mod linalg;
 mod models;
+mod interrupt;
 mod lqr;
 mod params;
 mod schedule;
@@ -21,6 +23,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(models::rk4_step, m)?)?;
     m.add_class::<schedule::PySpeedSchedule>()?;
     m.add_class::<lqr::PyLqrController>()?;
+    m.add_class::<fuzzy::PyTrapezoid>()?;
+    m.add_class::<fuzzy::PyTriangle>()?;
+    m.add_class::<fuzzy::PyGaussian>()?;
+    m.add_class::<fuzzy::PyFuzzyBasis>()?;
+    m.add_class::<fuzzy::PyFuzzyController>()?;
     m.add_function(wrap_pyfunction!(simulate::simulate_raw, m)?)?;
     Ok(())
 }

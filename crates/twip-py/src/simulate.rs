@@ -4,15 +4,17 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::Controller;
 use twip_core::log::{LogRow, TrajectoryLog};
+use twip_core::fuzzy_control::FuzzyController;
 use twip_core::lqr_control::LqrController;
 use twip_core::metrics::SlopeMetrics;
 use twip_core::reference::{SpeedRef, SpeedSchedule};
-use twip_core::runner::{simulate as run, Outcome, SimConfig};
+use twip_core::runner::{simulate_with, Ideal, Loop, Outcome, SimConfig};
 use twip_core::TwipError;
 use nalgebra::SVector;
 
 use crate::convert::vector;
 use crate::errors::{CoreResult, PyTwipError};
+use crate::fuzzy::PyFuzzyController;
 use crate::lqr::PyLqrController;
 use crate::models::PySlopeModel;
 use crate::schedule::PySpeedSchedule;
@@ -22,6 +24,7 @@ use crate::schedule::PySpeedSchedule;
 #[derive(Clone, Copy, Debug)]
 pub enum SlopeController {
     Lqr(LqrController<f64>),
+    Fuzzy(FuzzyController<f64>),
 }
 
 impl SlopeController {
@@ -29,8 +32,11 @@ impl SlopeController {
         if let Ok(c) = obj.cast::<PyLqrController>() {
             return Ok(Self::Lqr(c.get().inner));
         }
+        if let Ok(c) = obj.cast::<PyFuzzyController>() {
+            return Ok(Self::Fuzzy(c.get().inner));
+        }
         Err(pyo3::exceptions::PyTypeError::new_err(format!(
-            "controller must be a 2-DOF twip controller (LqrController), got {}",
+            "controller must be a 2-DOF twip controller (LqrController, FuzzyController), got {}",
             obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
         )))
     }
@@ -38,12 +44,14 @@ impl SlopeController {
     fn with_period(self, period: f64) -> CoreResult<Self> {
         Ok(match self {
             Self::Lqr(c) => Self::Lqr(c.with_period(period)?),
+            Self::Fuzzy(c) => Self::Fuzzy(c.with_period(period)?),
         })
     }
 
     fn check_reference(&self, schedule: &SpeedSchedule<f64>) -> CoreResult<()> {
         match self {
             Self::Lqr(c) => c.check_reference(schedule)?,
+            Self::Fuzzy(c) => c.check_reference(schedule)?,
         }
         Ok(())
     }
@@ -55,12 +63,14 @@ impl Controller<f64, 4, 1> for SlopeController {
     fn period(&self) -> f64 {
         match self {
             Self::Lqr(c) => c.period(),
+            Self::Fuzzy(c) => c.period(),
         }
     }
 
     fn reset(&mut self) {
         match self {
             Self::Lqr(c) => c.reset(),
+            Self::Fuzzy(c) => c.reset(),
         }
     }
 
@@ -68,18 +78,21 @@ impl Controller<f64, 4, 1> for SlopeController {
     fn update(&mut self, t: f64, y: &SVector<f64, 4>, r: &SpeedRef<f64>) -> SVector<f64, 1> {
         match self {
             Self::Lqr(c) => c.update(t, y, r),
+            Self::Fuzzy(c) => c.update(t, y, r),
         }
     }
 
     fn internals(&self) -> &[f64] {
         match self {
             Self::Lqr(c) => c.internals(),
+            Self::Fuzzy(c) => c.internals(),
         }
     }
 
     fn internal_names(&self) -> &'static [&'static str] {
         match self {
             Self::Lqr(c) => c.internal_names(),
+            Self::Fuzzy(c) => c.internal_names(),
         }
     }
 }
@@ -118,15 +131,26 @@ pub fn simulate_raw<'py>(
     let schedule = reference.inner;
     let names = ctrl.internal_names();
     let widths = [4, 1, <SpeedRef<f64> as LogRow<f64>>::NAMES.len(), names.len()];
-    let (outcome, steps, metrics, log) = py.detach(move || {
+    let (outcome, steps, metrics, log, interrupt) = py.detach(move || {
         let mut observers = (SlopeMetrics::new(plant), TrajectoryLog::with_capacity(n + 1, record_every, widths));
-        let result = run(&plant, &mut ctrl, &schedule, &x0, &config, &mut observers);
+        let mut interrupt = None;
+        let parts = Loop {
+            sensor: &mut Ideal,
+            actuator: &mut Ideal,
+            observer: &mut observers,
+            should_stop: || crate::interrupt::requested(&mut interrupt),
+            delay_one_period: false,
+        };
+        let result = simulate_with(&plant, &mut ctrl, &schedule, &x0, &config, parts);
         result.map(|(outcome, steps)| {
             let (metrics, log) = observers;
-            (outcome, steps, metrics, log)
+            (outcome, steps, metrics, log, interrupt)
         })
     })
     .map_err(PyTwipError)?;
+    if let Some(err) = interrupt {
+        return Err(err);
+    }
     let summary = metrics.summary();
     let out = PyDict::new(py);
     let rows = log.len();
@@ -146,6 +170,7 @@ pub fn simulate_raw<'py>(
         Outcome::Completed => ("completed", None),
         Outcome::Fell { t } => ("fell", Some(t)),
         Outcome::Diverged { t } => ("diverged", Some(t)),
+        Outcome::Interrupted { t } => ("interrupted", Some(t)),
     };
     out.set_item("outcome", name)?;
     out.set_item("t_end", t_end)?;
