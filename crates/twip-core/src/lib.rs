@@ -17,6 +17,8 @@ pub mod care;
 pub mod control;
 pub mod dynamics;
 pub mod error;
+pub mod fuzzy;
+pub mod fuzzy_control;
 pub mod integrate;
 #[cfg(feature = "alloc")]
 pub mod log;
@@ -25,6 +27,7 @@ pub mod metrics;
 pub mod params;
 pub mod planar;
 pub mod reference;
+pub mod rng;
 pub mod runner;
 pub mod slope;
 
