@@ -15,21 +15,35 @@ extern crate alloc;
 #[cfg(feature = "alloc")]
 pub mod care;
 pub mod control;
+pub mod disturbance;
+pub mod drive;
 pub mod dynamics;
+pub mod encoder;
 pub mod error;
 pub mod fuzzy;
 pub mod fuzzy_control;
+pub mod imu;
 pub mod integrate;
 #[cfg(feature = "alloc")]
 pub mod log;
 pub mod lqr_control;
+pub mod math;
 pub mod metrics;
+pub mod motor;
 pub mod params;
+pub mod pid_tracking;
 pub mod planar;
 pub mod reference;
+pub mod realism;
 pub mod rng;
 pub mod runner;
 pub mod slope;
+pub mod smc_tracking;
+pub mod tilt;
+#[cfg(feature = "std")]
+pub mod sweep;
+pub mod tracking_metrics;
+pub mod trajectory;
 
 #[cfg(feature = "alloc")]
 pub use care::{care, lqr, Lqr};

@@ -50,6 +50,22 @@ pub struct SlopeModel<T> {
     torque_per_amp: T,
 }
 
+/// The constants of the equations of motion (see the module docs for the symbols).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlopeCoefficients<T> {
+    pub m11: T,
+    pub m22: T,
+    pub mrl: T,
+    pub rotor: T,
+    pub mgl: T,
+    pub grade: T,
+    pub torque_per_amp: T,
+    pub mu_bearing: T,
+    pub mu_ground: T,
+    pub sin_slope: T,
+    pub cos_slope: T,
+}
+
 /// The thesis's linear model (4.6–4.10) on the reduced state `[phi, phi_dot, theta_dot]`:
 /// `ẋ = A x + B u + D`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -97,6 +113,23 @@ impl<T: Real> SlopeModel<T> {
         self.slope
     }
 
+    /// The constant coefficients of `deriv`, for code that evaluates many robots at once.
+    pub fn coefficients(&self) -> SlopeCoefficients<T> {
+        SlopeCoefficients {
+            m11: self.m11,
+            m22: self.m22,
+            mrl: self.mrl,
+            rotor: self.rotor,
+            mgl: self.mgl,
+            grade: self.grade,
+            torque_per_amp: self.torque_per_amp,
+            mu_bearing: self.params.mu_bearing,
+            mu_ground: self.params.mu_ground,
+            sin_slope: self.sin_slope,
+            cos_slope: self.cos_slope,
+        }
+    }
+
     /// The mass matrix M(φ) (symmetric positive definite).
     #[inline]
     pub fn mass_matrix(&self, phi: T) -> Matrix2<T> {
@@ -107,7 +140,7 @@ impl<T: Real> SlopeModel<T> {
     /// Generalised forces f(x, u) of `M(φ) q̈ = f`, and sin/cos(φ+α) for reuse.
     #[inline(always)]
     fn forces(&self, x: &SlopeState<T>, u: T) -> (Vector2<T>, T, T) {
-        let (sin_phi, cos_phi) = x[0].sin_cos();
+        let (sin_phi, cos_phi) = crate::math::sin_cos(x[0]);
         let sin_pa = sin_phi * self.cos_slope + cos_phi * self.sin_slope;
         let cos_pa = cos_phi * self.cos_slope - sin_phi * self.sin_slope;
         let p = &self.params;

@@ -11,6 +11,8 @@ mod lqr;
 mod params;
 mod schedule;
 mod simulate;
+mod sweep;
+mod tracking;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -29,5 +31,15 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<fuzzy::PyFuzzyBasis>()?;
     m.add_class::<fuzzy::PyFuzzyController>()?;
     m.add_function(wrap_pyfunction!(simulate::simulate_raw, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::sweep_raw, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::sweep_draw, m)?)?;
+    m.add_class::<tracking::PyCircle>()?;
+    m.add_class::<tracking::PyLine>()?;
+    m.add_class::<tracking::PyFigureEight>()?;
+    m.add_class::<tracking::PyWaypoints>()?;
+    m.add_class::<tracking::PyDcMotor>()?;
+    m.add_class::<tracking::PyPidTracker>()?;
+    m.add_class::<tracking::PySmcTracker>()?;
+    m.add_function(wrap_pyfunction!(tracking::simulate_planar_raw, m)?)?;
     Ok(())
 }

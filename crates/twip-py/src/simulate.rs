@@ -28,7 +28,7 @@ pub enum SlopeController {
 }
 
 impl SlopeController {
-    fn extract(obj: &Bound<'_, PyAny>) -> PyResult<Self> {
+    pub(crate) fn extract(obj: &Bound<'_, PyAny>) -> PyResult<Self> {
         if let Ok(c) = obj.cast::<PyLqrController>() {
             return Ok(Self::Lqr(c.get().inner));
         }
@@ -41,14 +41,14 @@ impl SlopeController {
         )))
     }
 
-    fn with_period(self, period: f64) -> CoreResult<Self> {
+    pub(crate) fn with_period(self, period: f64) -> CoreResult<Self> {
         Ok(match self {
             Self::Lqr(c) => Self::Lqr(c.with_period(period)?),
             Self::Fuzzy(c) => Self::Fuzzy(c.with_period(period)?),
         })
     }
 
-    fn check_reference(&self, schedule: &SpeedSchedule<f64>) -> CoreResult<()> {
+    pub(crate) fn check_reference(&self, schedule: &SpeedSchedule<f64>) -> CoreResult<()> {
         match self {
             Self::Lqr(c) => c.check_reference(schedule)?,
             Self::Fuzzy(c) => c.check_reference(schedule)?,

@@ -1,0 +1,336 @@
+//! The fast path of a sweep: LQR on the 2-DOF model, [`LANES`] samples at once.
+//!
+//! Each lane is its own robot (plant coefficients per lane); the controller is the one
+//! prototype designed on the nominal robot, so its gains and steady state are shared.
+//! The arithmetic is that of `SlopeModel::deriv`, `rk4_step`, `LqrController::update`,
+//! the runner and `SlopeMetrics`, in the same order, so a lane gives bit for bit what
+//! `runner::simulate` gives for that robot. Only the data layout differs: one array
+//! per quantity, plain loops over lanes that the compiler vectorises.
+use super::lanes::{sin_cos, Lanes, LANES};
+use super::{Sample, SampleMetrics};
+use crate::control::{Controller, Reference};
+use crate::lqr_control::LqrController;
+use crate::reference::{SpeedRef, SpeedSchedule};
+use crate::runner::{SimConfig, STOP_CHECK_STEPS};
+use crate::slope::{SlopeCoefficients, SlopeModel};
+use crate::TwipError;
+
+/// Plant coefficients, one per lane.
+struct Plants {
+    m11: Lanes,
+    m22: Lanes,
+    mrl: Lanes,
+    rotor: Lanes,
+    mgl: Lanes,
+    grade: Lanes,
+    torque_per_amp: Lanes,
+    mu_bearing: Lanes,
+    mu_ground: Lanes,
+    sin_slope: Lanes,
+    cos_slope: Lanes,
+}
+
+impl Plants {
+    fn new(c: &[SlopeCoefficients<f64>; LANES]) -> Self {
+        let get = |f: fn(&SlopeCoefficients<f64>) -> f64| -> Lanes { core::array::from_fn(|l| f(&c[l])) };
+        Self {
+            m11: get(|c| c.m11),
+            m22: get(|c| c.m22),
+            mrl: get(|c| c.mrl),
+            rotor: get(|c| c.rotor),
+            mgl: get(|c| c.mgl),
+            grade: get(|c| c.grade),
+            torque_per_amp: get(|c| c.torque_per_amp),
+            mu_bearing: get(|c| c.mu_bearing),
+            mu_ground: get(|c| c.mu_ground),
+            sin_slope: get(|c| c.sin_slope),
+            cos_slope: get(|c| c.cos_slope),
+        }
+    }
+
+    /// `SlopeModel::deriv` on every lane.
+    #[inline(always)]
+    fn deriv(&self, x: &[Lanes; 4], u: &Lanes) -> [Lanes; 4] {
+        let mut d = [[0.0; LANES]; 4];
+        let (sin_phis, cos_phis) = sin_cos(&x[0]);
+        for l in 0..LANES {
+            let (sin_phi, cos_phi) = (sin_phis[l], cos_phis[l]);
+            let sin_pa = sin_phi * self.cos_slope[l] + cos_phi * self.sin_slope[l];
+            let cos_pa = cos_phi * self.cos_slope[l] - sin_phi * self.sin_slope[l];
+            let bearing = self.mu_bearing[l] * (x[3][l] - x[1][l]);
+            let motor = self.torque_per_amp[l] * u[l];
+            let f_phi = self.mgl[l] * sin_phi + bearing - motor;
+            let f_theta = self.mrl[l] * sin_pa * x[1][l] * x[1][l] - self.grade[l] - bearing
+                - self.mu_ground[l] * x[3][l]
+                + motor;
+            let m12 = self.mrl[l] * cos_pa - self.rotor[l];
+            let det = self.m11[l] * self.m22[l] - m12 * m12;
+            d[0][l] = x[1][l];
+            d[1][l] = (self.m22[l] * f_phi - m12 * f_theta) / det;
+            d[2][l] = x[3][l];
+            d[3][l] = (self.m11[l] * f_theta - m12 * f_phi) / det;
+        }
+        d
+    }
+
+    /// `rk4_step` on every lane. On x86-64 with AVX2 a second copy compiled for AVX2 is
+    /// chosen at run time (wheels are built for the baseline CPU). Both give the same
+    /// bits: only +, −, ×, ÷ and bit masks, no fused multiply-add.
+    #[inline(always)]
+    fn step(&self, x: &[Lanes; 4], u: &Lanes, dt: f64, avx2: bool) -> [Lanes; 4] {
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            // SAFETY: `avx2` is only true when the CPU has it (see `has_avx2`).
+            return unsafe { self.rk4_avx2(x, u, dt) };
+        }
+        let _ = avx2;
+        self.rk4_baseline(x, u, dt)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn rk4_avx2(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
+        self.rk4(x, u, dt)
+    }
+
+    #[inline(never)]
+    fn rk4_baseline(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
+        self.rk4(x, u, dt)
+    }
+
+    #[inline(always)]
+    fn rk4(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
+        let half = dt * 0.5;
+        // Plain loops: `array::from_fn` is not inlined into the AVX2 copy.
+        let axpy = |x: &[Lanes; 4], k: &[Lanes; 4], h: f64| -> [Lanes; 4] {
+            let mut out = [[0.0; LANES]; 4];
+            for i in 0..4 {
+                for l in 0..LANES {
+                    out[i][l] = x[i][l] + k[i][l] * h;
+                }
+            }
+            out
+        };
+        let k1 = self.deriv(x, u);
+        let k2 = self.deriv(&axpy(x, &k1, half), u);
+        let k3 = self.deriv(&axpy(x, &k2, half), u);
+        let k4 = self.deriv(&axpy(x, &k3, dt), u);
+        let sixth = dt / 6.0;
+        let mut out = [[0.0; LANES]; 4];
+        for i in 0..4 {
+            for l in 0..LANES {
+                out[i][l] = x[i][l] + (k1[i][l] + (k2[i][l] + k3[i][l]) * 2.0 + k4[i][l]) * sixth;
+            }
+        }
+        out
+    }
+}
+
+/// `SlopeMetrics` on every lane.
+struct Metrics {
+    sum_pitch: Lanes,
+    sum_speed: Lanes,
+    pitch_band: Lanes,
+    pitch_settle: Lanes,
+    speed_settle: Lanes,
+    final_position_error: Lanes,
+    peak_abs_input: Lanes,
+    samples: [u64; LANES],
+    radius: Lanes,
+}
+
+impl Metrics {
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn observe(&mut self, l: usize, t: f64, x: &[Lanes; 4], u: f64, r: &SpeedRef<f64>, phi_s: f64, speed_scale: f64) {
+        let pitch_error = (x[0][l] - phi_s).abs();
+        let speed_error = (x[3][l] - r.theta_dot).abs();
+        if self.samples[l] == 0 {
+            self.pitch_band[l] = (0.02 * (phi_s - x[0][l]).abs()).max(0.25f64.to_radians());
+        }
+        if pitch_error > self.pitch_band[l] {
+            self.pitch_settle[l] = t;
+        }
+        if speed_error > 0.02 * speed_scale {
+            self.speed_settle[l] = t;
+        }
+        self.sum_pitch[l] += pitch_error;
+        self.sum_speed[l] += speed_error;
+        self.final_position_error[l] = (r.theta - x[2][l]) * self.radius[l];
+        self.peak_abs_input[l] = self.peak_abs_input[l].max(u.abs());
+        self.samples[l] += 1;
+    }
+}
+
+/// The plants' own steady pitch at a reference speed, per lane (as `SlopeMetrics`).
+fn steady_pitch(models: &[SlopeModel<f64>; LANES], speed: f64) -> Lanes {
+    core::array::from_fn(|l| models[l].equilibrium(speed).map(|(x, _)| x[0]).unwrap_or(core::f64::consts::FRAC_PI_2))
+}
+
+/// Runs up to [`LANES`] samples (fewer fill the rest of the block with idle lanes).
+/// `should_stop` is asked every `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it
+/// said yes before the block was done.
+pub fn run_lqr_block(
+    controller: &LqrController<f64>,
+    reference: &SpeedSchedule<f64>,
+    config: &SimConfig<f64>,
+    samples: &[Sample],
+    should_stop: &dyn Fn() -> bool,
+) -> Result<Option<[SampleMetrics; LANES]>, TwipError> {
+    block(controller, reference, config, samples, should_stop)
+}
+
+fn block(
+    controller: &LqrController<f64>,
+    reference: &SpeedSchedule<f64>,
+    config: &SimConfig<f64>,
+    samples: &[Sample],
+    should_stop: &dyn Fn() -> bool,
+) -> Result<Option<[SampleMetrics; LANES]>, TwipError> {
+    assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
+    let (n, per_update) = config.steps(controller.period())?;
+    let mut out = [SampleMetrics::INVALID; LANES];
+    // Invalid or missing samples run an idle copy of a valid robot and are never kept.
+    let mut active = [false; LANES];
+    let mut models = [None; LANES];
+    for (l, s) in samples.iter().enumerate() {
+        if s.x0.iter().all(|v| v.is_finite()) {
+            models[l] = SlopeModel::new(s.params, s.slope).ok();
+            active[l] = models[l].is_some();
+        }
+    }
+    let Some(fallback) = models.iter().flatten().next().copied() else {
+        return Ok(Some(out));
+    };
+    let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| models[l].unwrap_or(fallback));
+    let plants = Plants::new(&core::array::from_fn(|l| models[l].coefficients()));
+    let mut x: [Lanes; 4] = core::array::from_fn(|i| {
+        core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { fallback_x0(i) })
+    });
+    let gains = controller.gains();
+    let period = controller.period();
+    let mut z = [0.0; LANES];
+    let mut u = [0.0; LANES];
+    let mut metrics = Metrics {
+        sum_pitch: [0.0; LANES],
+        sum_speed: [0.0; LANES],
+        pitch_band: [0.0; LANES],
+        pitch_settle: [0.0; LANES],
+        speed_settle: [0.0; LANES],
+        final_position_error: [0.0; LANES],
+        peak_abs_input: [0.0; LANES],
+        samples: [0; LANES],
+        radius: core::array::from_fn(|l| models[l].params().wheel_radius),
+    };
+    let mut alive = active;
+    let mut ended = [(false, 0.0f64, 0u64); LANES]; // (fell, t_end, steps)
+    let mut cached_speed = f64::NAN;
+    let (mut phi_s, mut u_s, mut plant_phi_s) = (0.0, 0.0, [0.0; LANES]);
+    let mut speed_scale: f64 = 0.0;
+    let dt = config.dt;
+    let avx2 = has_avx2();
+    for k in 0..n {
+        let t = dt * k as f64;
+        if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
+            return Ok(None);
+        }
+        let r = reference.sample(t);
+        if r.theta_dot != cached_speed {
+            cached_speed = r.theta_dot;
+            (phi_s, u_s) = controller.steady_state(r.theta_dot).unwrap_or((0.0, 0.0));
+            plant_phi_s = steady_pitch(&models, r.theta_dot);
+        }
+        speed_scale = speed_scale.max(r.theta_dot.abs());
+        if k % per_update == 0 {
+            for l in 0..LANES {
+                let speed_error = x[3][l] - r.theta_dot;
+                u[l] = u_s - (gains[0] * (x[0][l] - phi_s) + gains[1] * x[1][l] + gains[2] * speed_error) - gains[3] * z[l];
+                z[l] += speed_error * period;
+            }
+            for l in 0..LANES {
+                if alive[l] && !u[l].is_finite() {
+                    alive[l] = false;
+                    ended[l] = (true, t, k as u64);
+                }
+            }
+        }
+        for l in 0..LANES {
+            if alive[l] {
+                metrics.observe(l, t, &x, u[l], &r, plant_phi_s[l], speed_scale);
+            }
+        }
+        let next = plants.step(&x, &u, dt, avx2);
+        let t_next = dt * (k + 1) as f64;
+        let mut any_alive = false;
+        for l in 0..LANES {
+            if !alive[l] {
+                continue;
+            }
+            if (0..4).any(|i| !next[i][l].is_finite()) {
+                alive[l] = false;
+                ended[l] = (true, t_next, (k + 1) as u64);
+                continue;
+            }
+            for i in 0..4 {
+                x[i][l] = next[i][l];
+            }
+            if x[0][l].abs() > config.fall_limit {
+                let r_next = reference.sample(t_next);
+                let phi_s_next = models[l].equilibrium(r_next.theta_dot).map(|(x, _)| x[0]).unwrap_or(core::f64::consts::FRAC_PI_2);
+                let scale = speed_scale.max(0.0);
+                metrics.observe(l, t_next, &x, u[l], &r_next, phi_s_next, scale);
+                alive[l] = false;
+                ended[l] = (true, t_next, (k + 1) as u64);
+                continue;
+            }
+            any_alive = true;
+        }
+        if !any_alive {
+            break;
+        }
+    }
+    let t_end = dt * n as f64;
+    let r_end = reference.sample(t_end);
+    let end_phi_s = steady_pitch(&models, r_end.theta_dot);
+    for l in 0..LANES {
+        if alive[l] {
+            metrics.observe(l, t_end, &x, u[l], &r_end, end_phi_s[l], speed_scale.max(r_end.theta_dot.abs()));
+            ended[l] = (false, t_end, n as u64);
+        }
+    }
+    for l in 0..LANES {
+        if !active[l] {
+            continue;
+        }
+        let count = metrics.samples[l].max(1) as f64;
+        let (fell, t_end, steps) = ended[l];
+        out[l] = SampleMetrics {
+            valid: true,
+            fell,
+            t_end,
+            mean_abs_pitch_error: metrics.sum_pitch[l] / count,
+            mean_abs_speed_error: metrics.sum_speed[l] / count,
+            pitch_settling_time: metrics.pitch_settle[l],
+            speed_settling_time: metrics.speed_settle[l],
+            final_position_error: metrics.final_position_error[l],
+            peak_abs_input: metrics.peak_abs_input[l],
+            steps,
+        };
+    }
+    Ok(Some(out))
+}
+
+fn fallback_x0(_: usize) -> f64 {
+    0.0
+}
+
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}

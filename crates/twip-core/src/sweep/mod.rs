@@ -1,0 +1,291 @@
+//! Monte Carlo robustness sweeps: many closed-loop runs of one scenario, each with its
+//! own perturbed robot, slope and initial state.
+//!
+//! Sample `i` draws its perturbations from its own counter-based stream
+//! (`Philox::new(seed, i)`), so a sweep gives the same numbers on any number of threads
+//! and any sample can be replayed alone. A sample keeps its metrics, not its trajectory.
+extern crate alloc;
+
+use nalgebra::Vector4;
+
+use crate::control::Controller;
+use crate::metrics::SlopeMetrics;
+use crate::params::RobotParams;
+use crate::reference::{SpeedRef, SpeedSchedule};
+use crate::rng::Philox;
+use crate::runner::{simulate_with, Ideal, Loop, Outcome, SimConfig};
+use crate::slope::SlopeModel;
+use crate::TwipError;
+
+pub mod lanes;
+pub mod lqr_block;
+#[cfg(feature = "parallel")]
+pub mod parallel;
+
+/// What a perturbation changes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Target {
+    /// A `RobotParams` field, by its index in `params::FIELD_NAMES`.
+    Param(usize),
+    /// The slope angle [rad].
+    Slope,
+    /// An entry of the initial state.
+    Initial(usize),
+}
+
+/// How a perturbed value is drawn (absolute values; the Python layer resolves relative
+/// spreads against the nominal value). Draws are clamped into `[low, high]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Spread {
+    Uniform { low: f64, high: f64 },
+    Normal { mean: f64, std: f64, low: f64, high: f64 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Perturbation {
+    pub target: Target,
+    pub spread: Spread,
+}
+
+impl Perturbation {
+    /// Checks the spread: finite, ordered, non-negative width.
+    pub fn validate(&self) -> Result<(), TwipError> {
+        let bad = |name, value, reason| Err(TwipError::InvalidParameter { name, value, reason });
+        match self.spread {
+            Spread::Uniform { low, high } => {
+                if !(low.is_finite() && high.is_finite()) {
+                    return bad("low/high", if low.is_finite() { high } else { low }, "must be finite");
+                }
+                if high < low {
+                    return bad("high", high, "must be >= low (a negative width)");
+                }
+            }
+            Spread::Normal { mean, std, low, high } => {
+                if !mean.is_finite() {
+                    return bad("mean", mean, "must be finite");
+                }
+                if !(std.is_finite() && std >= 0.0) {
+                    return bad("std", std, "must be finite and >= 0");
+                }
+                if high < low || low.is_nan() || high.is_nan() {
+                    return bad("high", high, "bounds must satisfy low <= high");
+                }
+            }
+        }
+        match self.target {
+            Target::Param(i) if i >= crate::params::FIELD_NAMES.len() => {
+                bad("target", i as f64, "no RobotParams field with this index")
+            }
+            Target::Initial(i) if i >= 4 => bad("target", i as f64, "the state has 4 entries"),
+            _ => Ok(()),
+        }
+    }
+
+    fn draw(&self, rng: &mut Philox) -> f64 {
+        match self.spread {
+            Spread::Uniform { low, high } => low + (high - low) * rng.uniform::<f64>(),
+            Spread::Normal { mean, std, low, high } => (mean + std * rng.normal::<f64>()).clamp(low, high),
+        }
+    }
+}
+
+/// The unperturbed scenario a sweep starts from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Nominal {
+    pub params: RobotParams<f64>,
+    pub slope: f64,
+    pub x0: Vector4<f64>,
+}
+
+/// One sample's robot, slope and initial state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    pub index: u64,
+    pub params: RobotParams<f64>,
+    pub slope: f64,
+    pub x0: Vector4<f64>,
+}
+
+/// Draws sample `index`: the perturbations in their given order from stream `index`.
+pub fn draw(nominal: &Nominal, perturbations: &[Perturbation], seed: u64, index: u64) -> Sample {
+    let mut rng = Philox::new(seed, index);
+    let mut values = nominal.params.to_array();
+    let mut slope = nominal.slope;
+    let mut x0 = nominal.x0;
+    for p in perturbations {
+        let v = p.draw(&mut rng);
+        match p.target {
+            Target::Param(i) => values[i] = v,
+            Target::Slope => slope = v,
+            Target::Initial(i) => x0[i] = v,
+        }
+    }
+    Sample { index, params: RobotParams::from_array(&values), slope, x0 }
+}
+
+/// What a sweep keeps of one sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SampleMetrics {
+    /// False when the drawn robot was invalid (e.g. a negative mass); nothing was run.
+    pub valid: bool,
+    pub fell: bool,
+    /// When the run ended (t_final, or the fall).
+    pub t_end: f64,
+    pub mean_abs_pitch_error: f64,
+    pub mean_abs_speed_error: f64,
+    pub pitch_settling_time: f64,
+    pub speed_settling_time: f64,
+    pub final_position_error: f64,
+    pub peak_abs_input: f64,
+    pub steps: u64,
+}
+
+impl SampleMetrics {
+    pub const INVALID: Self = Self {
+        valid: false,
+        fell: false,
+        t_end: f64::NAN,
+        mean_abs_pitch_error: f64::NAN,
+        mean_abs_speed_error: f64::NAN,
+        pitch_settling_time: f64::NAN,
+        speed_settling_time: f64::NAN,
+        final_position_error: f64::NAN,
+        peak_abs_input: f64::NAN,
+        steps: 0,
+    };
+}
+
+/// Runs one sample with any 2-DOF controller (the general path; LQR has a faster one in
+/// [`lqr_block`]). The controller is a copy of the prototype, reset: designed once on
+/// the nominal robot, as a robustness study asks. `None` when `should_stop` said so.
+pub fn run_slope_sample<C>(
+    prototype: &C,
+    reference: &SpeedSchedule<f64>,
+    config: &SimConfig<f64>,
+    sample: &Sample,
+    should_stop: &dyn Fn() -> bool,
+) -> Option<SampleMetrics>
+where
+    C: Controller<f64, 4, 1, Reference = SpeedRef<f64>> + Clone,
+{
+    let Ok(plant) = SlopeModel::new(sample.params, sample.slope) else {
+        return Some(SampleMetrics::INVALID);
+    };
+    let mut controller = prototype.clone();
+    controller.reset();
+    let mut metrics = SlopeMetrics::new(plant);
+    let parts = Loop {
+        sensor: &mut Ideal,
+        actuator: &mut Ideal,
+        observer: &mut metrics,
+        should_stop,
+        delay_one_period: false,
+    };
+    let Ok((outcome, steps)) = simulate_with(&plant, &mut controller, reference, &sample.x0, config, parts) else {
+        return Some(SampleMetrics::INVALID);
+    };
+    let s = metrics.summary();
+    let (fell, t_end) = match outcome {
+        Outcome::Completed => (false, config.dt * steps as f64),
+        Outcome::Fell { t } | Outcome::Diverged { t } => (true, t),
+        Outcome::Interrupted { .. } => return None,
+    };
+    Some(SampleMetrics {
+        valid: true,
+        fell,
+        t_end,
+        mean_abs_pitch_error: s.mean_abs_pitch_error,
+        mean_abs_speed_error: s.mean_abs_speed_error,
+        pitch_settling_time: s.pitch_settling_time,
+        speed_settling_time: s.speed_settling_time,
+        final_position_error: s.final_position_error,
+        peak_abs_input: s.peak_abs_input,
+        steps: steps as u64,
+    })
+}
+
+
+/// Metrics of samples `indices` with LQR, via the lane kernel, blocks of [`lanes::LANES`].
+/// `None` when `should_stop` said so before all were done.
+#[allow(clippy::too_many_arguments)]
+pub fn run_lqr_samples(
+    controller: &crate::lqr_control::LqrController<f64>,
+    reference: &SpeedSchedule<f64>,
+    config: &SimConfig<f64>,
+    nominal: &Nominal,
+    perturbations: &[Perturbation],
+    seed: u64,
+    indices: core::ops::Range<u64>,
+    should_stop: &dyn Fn() -> bool,
+) -> Result<Option<alloc::vec::Vec<SampleMetrics>>, TwipError> {
+    let mut out = alloc::vec::Vec::with_capacity((indices.end - indices.start) as usize);
+    let mut start = indices.start;
+    while start < indices.end {
+        let end = (start + lanes::LANES as u64).min(indices.end);
+        let samples: alloc::vec::Vec<Sample> = (start..end).map(|i| draw(nominal, perturbations, seed, i)).collect();
+        let Some(block) = lqr_block::run_lqr_block(controller, reference, config, &samples, should_stop)? else {
+            return Ok(None);
+        };
+        out.extend_from_slice(&block[..samples.len()]);
+        start = end;
+    }
+    Ok(Some(out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lqr_control::{design, DesignPoint, LqrController};
+    use nalgebra::Matrix4;
+
+    fn setup(slope: f64) -> (LqrController<f64>, SpeedSchedule<f64>, SimConfig<f64>, Nominal) {
+        let params = RobotParams::balanbot();
+        let model = SlopeModel::new(params, slope).unwrap();
+        let q = Matrix4::from_diagonal(&Vector4::new(10.0, 10.0, 1.0, 1.0));
+        let d = design(&model, 4.0, &q, 1000.0, DesignPoint::OperatingPoint).unwrap();
+        let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 0.005).unwrap();
+        let schedule = SpeedSchedule::new(&[crate::reference::Leg { goal: 20.0, speed: 4.0, hold: 1.0 }]).unwrap();
+        let config = SimConfig { dt: 1e-3, t_final: 8.0, fall_limit: 0.6 };
+        (ctrl, schedule, config, Nominal { params, slope, x0: Vector4::zeros() })
+    }
+
+    fn spread() -> [Perturbation; 3] {
+        [
+            Perturbation { target: Target::Param(8), spread: Spread::Uniform { low: 0.02, high: 0.09 } },
+            Perturbation { target: Target::Param(0), spread: Spread::Normal { mean: 0.83, std: 0.8, low: -1.0, high: 2.0 } },
+            Perturbation { target: Target::Initial(0), spread: Spread::Uniform { low: -0.7, high: 0.7 } },
+        ]
+    }
+
+    /// The lane kernel and the general runner agree bit for bit, fallen and invalid
+    /// samples included, and a block does not depend on its neighbours.
+    #[test]
+    fn lane_kernel_equals_the_general_runner() {
+        let (ctrl, schedule, config, nominal) = setup(0.2);
+        let spread = spread();
+        let never = || false;
+        let block = run_lqr_samples(&ctrl, &schedule, &config, &nominal, &spread, 9, 0..20, &never).unwrap().unwrap();
+        let (mut fell, mut invalid) = (0, 0);
+        for (i, got) in block.iter().enumerate() {
+            let sample = draw(&nominal, &spread, 9, i as u64);
+            let expected = run_slope_sample(&ctrl, &schedule, &config, &sample, &never).unwrap();
+            assert_eq!(format!("{got:?}"), format!("{expected:?}"), "sample {i}");
+            fell += got.fell as usize;
+            invalid += !got.valid as usize;
+            let alone = run_lqr_samples(&ctrl, &schedule, &config, &nominal, &spread, 9, i as u64..i as u64 + 1, &never)
+                .unwrap()
+                .unwrap();
+            assert_eq!(format!("{:?}", alone[0]), format!("{got:?}"), "sample {i} replayed alone");
+        }
+        assert!(fell > 0 && fell < 20, "the spread should make some robots fall ({fell})");
+        assert!(invalid > 0, "a negative mass should be reported invalid");
+    }
+
+    #[test]
+    fn bad_spreads_are_named() {
+        let p = Perturbation { target: Target::Slope, spread: Spread::Uniform { low: 1.0, high: 0.0 } };
+        assert!(matches!(p.validate(), Err(TwipError::InvalidParameter { name: "high", .. })));
+        let p = Perturbation { target: Target::Slope, spread: Spread::Normal { mean: 0.0, std: -1.0, low: -1.0, high: 1.0 } };
+        assert!(matches!(p.validate(), Err(TwipError::InvalidParameter { name: "std", .. })));
+    }
+}

@@ -1,0 +1,66 @@
+//! Runs the samples of a sweep on a pool of threads, in blocks, in any order, and puts
+//! each result at its sample's place: the output does not depend on the thread count.
+//! A shared flag stops the work between blocks (Ctrl-C); a counter reports progress.
+use std::ops::Range;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+
+use super::SampleMetrics;
+use crate::TwipError;
+
+/// Shared between the workers and whoever watches them.
+#[derive(Debug, Default)]
+pub struct Progress {
+    /// Samples finished so far.
+    pub done: AtomicUsize,
+    /// Set to ask the workers to stop before their next block.
+    pub stop: AtomicBool,
+}
+
+/// Runs samples `range` in blocks of `block`, with `threads` threads (0 = all cores).
+/// `run_block` gets the sample indices of one block and a stop check, and returns their
+/// metrics in order, or `None` if it stopped early. Samples of blocks not finished when
+/// `progress.stop` was set are `None`.
+pub fn run<F>(
+    range: Range<u64>,
+    block: usize,
+    threads: usize,
+    progress: &Progress,
+    run_block: F,
+) -> Result<Vec<Option<SampleMetrics>>, TwipError>
+where
+    F: Fn(Range<u64>, &dyn Fn() -> bool) -> Option<Vec<SampleMetrics>> + Sync,
+{
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|_| TwipError::InvalidParameter { name: "threads", value: threads as f64, reason: "could not start a thread pool" })?;
+    let block = block.max(1) as u64;
+    let starts: Vec<u64> = (range.start..range.end).step_by(block as usize).collect();
+    let blocks: Vec<Option<Vec<SampleMetrics>>> = pool.install(|| {
+        starts
+            .par_iter()
+            .map(|&start| {
+                if progress.stop.load(Ordering::Relaxed) {
+                    return None;
+                }
+                let indices = start..(start + block).min(range.end);
+                let stop = || progress.stop.load(Ordering::Relaxed);
+                let out = run_block(indices.clone(), &stop)?;
+                debug_assert_eq!(out.len() as u64, indices.end - indices.start);
+                progress.done.fetch_add(out.len(), Ordering::Relaxed);
+                Some(out)
+            })
+            .collect()
+    });
+    let mut results = Vec::with_capacity((range.end - range.start) as usize);
+    for (b, start) in blocks.into_iter().zip(&starts) {
+        let len = ((start + block).min(range.end) - start) as usize;
+        match b {
+            Some(metrics) => results.extend(metrics.into_iter().map(Some)),
+            None => results.extend(core::iter::repeat_n(None, len)),
+        }
+    }
+    Ok(results)
+}

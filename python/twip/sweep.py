@@ -1,0 +1,453 @@
+"""Monte Carlo robustness sweeps: `twip.montecarlo("flat-lqr", 10_000, perturb={...})`.
+
+The controller of the scenario is designed once on the nominal robot; each sample runs
+it on a perturbed plant (RobotParams fields, slope, initial state). Sample i draws from
+its own counter-based random stream, so a sweep gives the same numbers, bit for bit, on
+any number of threads, in shards, resumed after a crash, on a Dask cluster, and when a
+sample is replayed alone (`SweepResult.replay(i)`).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Dict, Mapping, Optional, Sequence
+
+import numpy as np
+
+from twip import _core
+
+METRICS = (
+    "fell",
+    "t_end",
+    "mean_abs_pitch_error",
+    "mean_abs_speed_error",
+    "pitch_settling_time",
+    "speed_settling_time",
+    "final_position_error",
+    "peak_abs_input",
+)
+STATE_NAMES = ("phi0", "phi_dot0", "theta0", "theta_dot0")
+DEFAULT_SHARD = 1024
+
+
+def _bad(message: str) -> Exception:
+    return _core.InvalidParameterError(message)
+
+
+@dataclass(frozen=True)
+class Uniform:
+    """Uniform on [low, high]; or nominal·(1 ± rel); or nominal ± abs."""
+
+    low: Optional[float] = None
+    high: Optional[float] = None
+    rel: Optional[float] = None
+    abs: Optional[float] = None
+
+    def resolve(self, name: str, nominal: float):
+        given = [self.rel is not None, self.abs is not None, self.low is not None or self.high is not None]
+        if sum(given) != 1:
+            raise _bad(f"{name}: Uniform takes exactly one of rel=, abs= or low=/high=")
+        if self.rel is not None:
+            _width(name, "rel", self.rel)
+            if nominal == 0:
+                raise _bad(f"{name}: rel= needs a nonzero nominal value (it is 0); use abs= or low=/high=")
+            a, b = nominal * (1 - self.rel), nominal * (1 + self.rel)
+            low, high = min(a, b), max(a, b)
+        elif self.abs is not None:
+            _width(name, "abs", self.abs)
+            low, high = nominal - self.abs, nominal + self.abs
+        else:
+            if self.low is None or self.high is None:
+                raise _bad(f"{name}: Uniform needs both low= and high=")
+            low, high = float(self.low), float(self.high)
+            if high < low:
+                raise _bad(f"{name}: Uniform high = {high} < low = {low} (a negative width)")
+        return ("uniform", float(low), float(high), float(low), float(high))
+
+
+@dataclass(frozen=True)
+class Normal:
+    """Normal with mean (default: nominal) and std, or std = rel·|nominal|; draws are
+    clamped into [low, high]."""
+
+    std: Optional[float] = None
+    rel: Optional[float] = None
+    mean: Optional[float] = None
+    low: float = -math.inf
+    high: float = math.inf
+
+    def resolve(self, name: str, nominal: float):
+        if (self.std is None) == (self.rel is None):
+            raise _bad(f"{name}: Normal takes exactly one of std= or rel=")
+        mean = nominal if self.mean is None else float(self.mean)
+        if self.rel is not None:
+            _width(name, "rel", self.rel)
+            std = self.rel * abs(nominal)
+        else:
+            _width(name, "std", self.std)
+            std = float(self.std)
+        if self.high < self.low:
+            raise _bad(f"{name}: Normal high = {self.high} < low = {self.low}")
+        return ("normal", float(mean), float(std), float(self.low), float(self.high))
+
+
+def _width(name, what, value):
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+        raise _bad(f"{name}: {what} = {value} must be a finite number >= 0 (a negative width)")
+
+
+def _target(name: str):
+    fields = list(_core.RobotParams.fields)
+    if name in fields:
+        return ("param", fields.index(name))
+    if name == "slope":
+        return ("slope", 0)
+    if name in STATE_NAMES:
+        return ("x0", STATE_NAMES.index(name))
+    if name.startswith("x0[") and name.endswith("]") and name[3:-1].isdigit() and int(name[3:-1]) < 4:
+        return ("x0", int(name[3:-1]))
+    raise _bad(
+        f"unknown perturbation '{name}'; perturb RobotParams fields ({', '.join(fields)}), "
+        f"'slope', or initial-state entries ({', '.join(STATE_NAMES)} or x0[0]..x0[3])"
+    )
+
+
+def _resolve(perturb: Mapping, scenario) -> list:
+    """Perturbations as tuples for the core, in key order (the draw order)."""
+    out = []
+    for name, dist in (perturb or {}).items():
+        kind, index = _target(name)
+        if kind == "param":
+            nominal = getattr(scenario.model.params, name)
+        elif kind == "slope":
+            nominal = scenario.model.slope
+        else:
+            nominal = float(scenario.x0[index])
+        if not isinstance(dist, (Uniform, Normal)):
+            raise _bad(f"{name}: expected twip.Uniform or twip.Normal, got {dist!r}")
+        out.append((kind, index) + dist.resolve(name, nominal))
+    return out
+
+
+def wilson_interval(successes: int, n: int, confidence: float = 0.95):
+    """Wilson score interval for a binomial proportion."""
+    if n <= 0:
+        return (0.0, 1.0)
+    from statistics import NormalDist
+
+    z = NormalDist().inv_cdf(0.5 + confidence / 2)
+    p = successes / n
+    denom = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+@dataclass
+class SweepResult:
+    """Per-sample metrics (arrays of length n) and how they were made."""
+
+    metrics: Dict[str, np.ndarray]
+    steps: int
+    config: dict
+    elapsed: float = 0.0
+    kernel: str = ""
+    _scenario: object = field(default=None, repr=False)
+
+    @property
+    def n(self) -> int:
+        return len(self.metrics["valid"])
+
+    @property
+    def seed(self) -> int:
+        return self.config["seed"]
+
+    @property
+    def valid(self) -> np.ndarray:
+        return self.metrics["valid"]
+
+    @property
+    def fall_rate(self) -> float:
+        v = self.valid
+        return float(np.mean(self.metrics["fell"][v])) if v.any() else float("nan")
+
+    def fall_rate_interval(self, confidence: float = 0.95):
+        v = self.valid
+        return wilson_interval(int(np.sum(self.metrics["fell"][v])), int(np.sum(v)), confidence)
+
+    def quantiles(self, name: str, q=(0.05, 0.5, 0.95)) -> np.ndarray:
+        """Quantiles of a metric over valid samples that did not fall."""
+        keep = self.valid & ~self.metrics["fell"]
+        values = self.metrics[name][keep]
+        return np.quantile(values, q) if len(values) else np.full(len(q), np.nan)
+
+    def summary(self) -> dict:
+        lo, hi = self.fall_rate_interval()
+        out = {
+            "samples": self.n,
+            "invalid": int(np.sum(~self.valid)),
+            "fall_rate": self.fall_rate,
+            "fall_rate_95ci": (lo, hi),
+            "sample_steps_per_second": self.steps / self.elapsed if self.elapsed > 0 else float("nan"),
+        }
+        for name in METRICS[2:]:
+            out[name] = dict(zip(("q05", "median", "q95"), map(float, self.quantiles(name))))
+        return out
+
+    def to_pandas(self):
+        """A DataFrame, one row per sample (needs pandas)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.metrics)
+
+    def sample(self, index: int):
+        """The robot, slope and initial state of sample `index`."""
+        sc = self._scenario
+        params, slope, x0 = _core.sweep_draw(sc.model, sc.x0, [tuple(p) for p in self.config["perturbations"]], self.seed, int(index))
+        return _core.RobotParams.from_dict(params), slope, x0
+
+    def replay(self, index: int, **simulate_options):
+        """Runs sample `index` alone with the full runner (its trajectory included)."""
+        from twip.sim import simulate
+
+        sc = self._scenario
+        params, slope, x0 = self.sample(index)
+        model = _core.SlopeModel(params, slope)
+        return simulate(model, sc.controller, x0, sc.t_final, sc.dt, reference=sc.reference,
+                        control_period=sc.control_period, **simulate_options)
+
+    def __repr__(self) -> str:
+        s = self.summary()
+        lo, hi = s["fall_rate_95ci"]
+        lines = [
+            f"SweepResult: {self.config['scenario']}, {s['samples']} samples ({s['invalid']} invalid), seed {self.seed}",
+            f"  fall rate {s['fall_rate']:.4f}  (95 % CI {lo:.4f} - {hi:.4f})",
+            f"  {self.steps:,} RK4 steps in {self.elapsed:.2f} s: {s['sample_steps_per_second'] / 1e6:.1f} M sample-steps/s ({self.kernel})",
+            f"  {'metric':24s} {'q05':>11s} {'median':>11s} {'q95':>11s}",
+        ]
+        for name in METRICS[2:]:
+            q = s[name]
+            lines.append(f"  {name:24s} {q['q05']:11.4g} {q['median']:11.4g} {q['q95']:11.4g}")
+        return "\n".join(lines)
+
+
+def _scenario_of(scenario, params, options):
+    from twip import scenarios
+
+    if isinstance(scenario, str):
+        return scenarios.get(scenario, params=params, **(options or {}))
+    if params is not None or options:
+        raise _bad("params= and options= go with a scenario name, not a Scenario object")
+    return scenario
+
+
+def _config(sc, scenario, n, seed, perturbations, options, perturb_keys):
+    return {
+        "scenario": sc.name,
+        "by_name": isinstance(scenario, str),
+        "options": dict(options or {}),
+        "params": sc.model.params.to_dict(),
+        "slope": sc.model.slope,
+        "x0": [float(v) for v in sc.x0],
+        "t_final": sc.t_final,
+        "dt": sc.dt,
+        "controller": repr(sc.controller),
+        "perturb": list(perturb_keys),
+        "perturbations": [list(p) for p in perturbations],
+        "seed": int(seed),
+        "n": int(n),
+        "twip": _core.__version__,
+    }
+
+
+def _run(sc, config, start, count, threads, progress):
+    return _core.sweep_raw(
+        sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
+        [tuple(p) for p in config["perturbations"]], config["seed"], start, count,
+        control_period=sc.control_period, threads=threads, progress=progress,
+    )
+
+
+def _run_shard_by_name(config, start, count, threads):
+    """A Dask task: rebuilds the scenario by name on the worker and runs one shard."""
+    from twip import scenarios
+
+    params = _core.RobotParams.from_dict(config["params"])
+    sc = scenarios.get(config["scenario"], params=params, **config["options"])
+    raw = _run(sc, config, start, count, threads, None)
+    return {k: (np.asarray(v) if not isinstance(v, (str, bool)) else v) for k, v in raw.items()}
+
+
+class _Bar:
+    """tqdm when installed and wanted, else nothing."""
+
+    def __init__(self, total, enabled):
+        self.bar = None
+        if enabled:
+            try:
+                from tqdm.auto import tqdm
+
+                self.bar = tqdm(total=total, unit="samples", smoothing=0.1)
+            except ImportError:
+                pass
+        self.base = 0
+
+    def update_to(self, done):
+        if self.bar is not None:
+            self.bar.n = self.base + done
+            self.bar.refresh()
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def montecarlo(
+    scenario,
+    n: int,
+    perturb: Optional[Mapping] = None,
+    seed: int = 0,
+    threads: Optional[int] = None,
+    progress: bool = True,
+    checkpoint=None,
+    client=None,
+    shard_size: Optional[int] = None,
+    params=None,
+    options: Optional[Mapping] = None,
+) -> SweepResult:
+    """Runs `n` samples of `scenario` (a name from `twip.scenarios.names()`, or a Scenario).
+
+    perturb: {"m_body": twip.Uniform(rel=0.2), "slope": twip.Uniform(low=0, high=0.2),
+              "phi0": twip.Normal(std=0.02), ...}; drawn in key order, per sample.
+    threads: worker threads (default: all cores). checkpoint: a folder; the sweep is
+    written there in shards and a re-run with the same arguments resumes. client: a
+    dask.distributed.Client; shards run as Dask tasks (needs a scenario name).
+    Ctrl-C stops within a fraction of a second: finished shards stay in the checkpoint,
+    and the KeyboardInterrupt carries `.partial`, a SweepResult of what finished.
+    """
+    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n <= 0:
+        raise _bad(f"n = {n!r}: the number of samples must be a positive integer")
+    if not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
+        raise _bad(f"seed = {seed!r}: must be an integer in [0, 2**64)")
+    if threads is not None and (not isinstance(threads, int) or threads < 1):
+        raise _bad(f"threads = {threads!r}: must be a positive integer or None (all cores)")
+    if client is not None and not isinstance(scenario, str):
+        raise _bad("client= (Dask) needs a scenario name, so that workers can rebuild it")
+    sc = _scenario_of(scenario, params, options)
+    perturbations = _resolve(perturb or {}, sc)
+    config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys())
+    shard = int(shard_size or (DEFAULT_SHARD if (checkpoint or client) else n))
+    if shard <= 0:
+        raise _bad(f"shard_size = {shard_size!r}: must be a positive integer")
+    store = _Checkpoint(checkpoint, config, shard) if checkpoint is not None else None
+    shards = [(s, min(shard, n - s)) for s in range(0, n, shard)]
+    parts = {}
+    if store is not None:
+        parts.update(store.load())
+    todo = [(s, c) for s, c in shards if s not in parts]
+    bar = _Bar(n, progress)
+    bar.base = sum(c for s, c in shards if s in parts)
+    started = time.perf_counter()
+    kernel = ""
+    try:
+        if client is not None:
+            futures = {client.submit(_run_shard_by_name, config, s, c, threads or 1, pure=False): s for s, c in todo}
+            from dask.distributed import as_completed
+
+            for future in as_completed(futures):
+                raw = future.result()
+                s = futures[future]
+                parts[s] = raw
+                kernel = raw["kernel"]
+                if store is not None:
+                    store.save(s, raw)
+                bar.base += len(raw["index"])
+                bar.update_to(0)
+        else:
+            for s, c in todo:
+                raw = _run(sc, config, s, c, threads or 0, bar.update_to if progress else None)
+                kernel = raw["kernel"]
+                if raw["interrupted"]:
+                    parts[s] = raw
+                    raise KeyboardInterrupt
+                parts[s] = raw
+                if store is not None:
+                    store.save(s, raw)
+                bar.base += c
+    except KeyboardInterrupt as stop:
+        stop.partial = _assemble(parts, config, time.perf_counter() - started, kernel, sc, complete=False)
+        raise
+    finally:
+        bar.close()
+    return _assemble(parts, config, time.perf_counter() - started, kernel, sc, complete=True)
+
+
+def _assemble(parts, config, elapsed, kernel, sc, complete):
+    keys = sorted(parts)
+    cat = lambda name: np.concatenate([np.asarray(parts[k][name]) for k in keys]) if keys else np.array([])
+    done = cat("done").astype(bool) if keys else np.zeros(0, bool)
+    if complete and (len(done) != config["n"] or not done.all()):
+        raise RuntimeError("internal error: a sweep finished with missing samples")
+    metrics = {"index": cat("index").astype(np.uint64), "valid": cat("valid").astype(bool)}
+    for name in METRICS:
+        metrics[name] = cat(name).astype(bool) if name == "fell" else cat(name).astype(float)
+    if not complete:
+        metrics = {k: v[done] for k, v in metrics.items()}
+    steps = int(np.sum(cat("steps"))) if keys else 0
+    return SweepResult(metrics=metrics, steps=steps, config=config, elapsed=elapsed, kernel=kernel, _scenario=sc)
+
+
+class _Checkpoint:
+    """A folder: manifest.json (the configuration) and one .npz file per finished shard,
+    each written under a temporary name and renamed when complete."""
+
+    def __init__(self, path, config, shard):
+        self.dir = Path(path)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        manifest = {"config": config, "shard_size": shard}
+        self.fingerprint = hashlib.sha256(json.dumps(manifest, sort_keys=True).encode()).hexdigest()
+        path = self.dir / "manifest.json"
+        if path.exists():
+            old = json.loads(path.read_text())
+            if old.get("fingerprint") != self.fingerprint:
+                diff = [k for k in config if old.get("manifest", {}).get("config", {}).get(k) != config[k]]
+                if old.get("manifest", {}).get("shard_size") != shard:
+                    diff.append("shard_size")
+                raise _bad(
+                    f"checkpoint {self.dir} holds a sweep with a different configuration "
+                    f"(differs in: {', '.join(diff) or 'unknown'}); use a new folder or the same arguments"
+                )
+        else:
+            self._write(path, json.dumps({"fingerprint": self.fingerprint, "manifest": manifest}, indent=1).encode())
+
+    @staticmethod
+    def _write(path: Path, data: bytes):
+        tmp = path.with_name(path.name + f".tmp{os.getpid()}")
+        with open(tmp, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+
+    def _shard_path(self, start):
+        return self.dir / f"shard-{start:012d}.npz"
+
+    def save(self, start, raw):
+        import io
+
+        buf = io.BytesIO()
+        np.savez(buf, **{k: np.asarray(v) for k, v in raw.items() if k not in ("kernel", "interrupted")})
+        self._write(self._shard_path(start), buf.getvalue())
+
+    def load(self):
+        parts = {}
+        for p in sorted(self.dir.glob("shard-*.npz")):
+            start = int(p.stem.split("-")[1])
+            with np.load(p) as data:
+                parts[start] = {k: data[k] for k in data.files}
+        return parts

@@ -1,0 +1,180 @@
+"""Monte Carlo sweeps: determinism, replay, checkpoints, interrupts, Dask, statistics, errors."""
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import twip
+
+PERTURB = {
+    "m_body": twip.Uniform(rel=0.2),
+    "com_height": twip.Normal(rel=0.1),
+    "mu_ground": twip.Uniform(low=0.0, high=0.01),
+    "phi0": twip.Normal(std=0.05),
+}
+SHORT = {"t_final": 3.0}
+
+
+def same(a, b):
+    assert a.metrics.keys() == b.metrics.keys()
+    for k in a.metrics:
+        np.testing.assert_array_equal(a.metrics[k], b.metrics[k], err_msg=k)
+    assert a.steps == b.steps
+
+
+def sweep(n=64, **kw):
+    kw.setdefault("perturb", PERTURB)
+    kw.setdefault("options", SHORT)
+    kw.setdefault("seed", 7)
+    return twip.montecarlo("flat-lqr-sim", n, progress=False, **kw)
+
+
+def test_same_bits_on_one_and_two_threads_and_in_shards(tmp_path):
+    one, two = sweep(threads=1), sweep(threads=2)
+    same(one, two)
+    same(one, sweep(checkpoint=tmp_path / "c", shard_size=7))
+    assert one.kernel == "lanes"
+
+
+@pytest.mark.parametrize("index", [0, 17, 63])
+def test_a_sample_replayed_alone_is_bitwise_the_same(index):
+    r = sweep()
+    alone = r.replay(index)
+    for name in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error", "peak_abs_input",
+                 "pitch_settling_time", "speed_settling_time"):
+        assert alone.metrics[name] == r.metrics[name][index], name
+    assert alone.fell == bool(r.metrics["fell"][index])
+
+
+def test_general_path_for_other_controllers_is_deterministic_too():
+    scenarios = pytest.importorskip("twip.scenarios")
+    if "flat-fuzzy-sim" not in scenarios.names():
+        pytest.skip("the fuzzy scenarios are not there")
+    kw = dict(perturb={"m_body": twip.Uniform(rel=0.2)}, seed=1, progress=False, options={"t_final": 2.0})
+    a = twip.montecarlo("flat-fuzzy-sim", 16, threads=1, **kw)
+    b = twip.montecarlo("flat-fuzzy-sim", 16, threads=2, **kw)
+    same(a, b)
+    assert a.kernel == "general"
+    assert a.replay(5).metrics["mean_abs_pitch_error"] == a.metrics["mean_abs_pitch_error"][5]
+
+
+def test_a_robot_that_certainly_falls_has_fall_rate_one():
+    r = sweep(perturb={"phi0": twip.Uniform(low=1.2, high=1.4)})
+    assert r.fall_rate == 1.0
+    assert np.all(r.metrics["t_end"] < 0.1)
+    lo, hi = r.fall_rate_interval()
+    assert hi == 1.0 and lo > 0.9
+
+
+def test_wilson_interval_against_a_hand_computed_case():
+    # 8 of 10, 95 %: z = 1.959964; centre (0.8 + z^2/20)/(1 + z^2/10) = 0.7167, half-width 0.2139
+    lo, hi = twip.wilson_interval(8, 10)
+    assert lo == pytest.approx(0.4902, abs=1e-4)
+    assert hi == pytest.approx(0.9433, abs=1e-4)
+    assert twip.wilson_interval(0, 50)[0] == 0.0
+
+
+def test_summary_and_pandas():
+    r = sweep()
+    s = r.summary()
+    assert s["samples"] == 64 and s["invalid"] == 0 and 0 <= s["fall_rate"] <= 1
+    assert s["mean_abs_pitch_error"]["q05"] <= s["mean_abs_pitch_error"]["median"] <= s["mean_abs_pitch_error"]["q95"]
+    assert r.steps == int(np.sum(r.metrics["t_end"] / 1e-3 + 0.5).astype(int)) or r.steps > 0
+    assert r.config["seed"] == 7 and r.config["perturb"] == list(PERTURB)
+    assert "fall rate" in repr(r)
+    pd = pytest.importorskip("pandas")
+    assert len(r.to_pandas()) == 64
+
+
+def test_invalid_draws_are_reported_per_sample_not_raised():
+    r = sweep(perturb={"m_body": twip.Normal(mean=0.0, std=0.5)})
+    assert 0 < np.sum(~r.valid) < 64
+    assert np.all(np.isnan(r.metrics["mean_abs_pitch_error"][~r.valid]))
+    assert r.summary()["invalid"] == int(np.sum(~r.valid))
+
+
+@pytest.mark.parametrize(
+    "kwargs,message",
+    [
+        (dict(n=0), "positive integer"),
+        (dict(n=-5), "positive integer"),
+        (dict(perturb={"mass": twip.Uniform(rel=0.1)}), "unknown perturbation 'mass'"),
+        (dict(perturb={"m_body": twip.Uniform(rel=-0.1)}), "negative width"),
+        (dict(perturb={"m_body": twip.Uniform(low=1.0, high=0.5)}), "negative width"),
+        (dict(perturb={"m_body": twip.Normal(std=-1.0)}), "negative width"),
+        (dict(perturb={"slope": twip.Uniform(rel=0.1)}), "nonzero nominal"),
+        (dict(perturb={"m_body": 0.2}), "expected twip.Uniform"),
+        (dict(threads=0), "threads"),
+        (dict(seed=-1), "seed"),
+    ],
+)
+def test_bad_input(kwargs, message):
+    n = kwargs.pop("n", 8)
+    with pytest.raises(twip.InvalidParameterError, match=message):
+        sweep(n=n, **kwargs)
+
+
+def test_a_changed_configuration_is_refused_by_the_checkpoint(tmp_path):
+    sweep(n=16, checkpoint=tmp_path, shard_size=8)
+    with pytest.raises(twip.InvalidParameterError, match="different configuration.*perturb"):
+        sweep(n=16, checkpoint=tmp_path, shard_size=8, perturb={"m_body": twip.Uniform(rel=0.3)})
+
+
+SCRIPT = r"""
+import sys, twip
+perturb = {"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}
+try:
+    twip.montecarlo("flat-lqr-sim", int(sys.argv[2]), perturb=perturb, seed=11, progress=False,
+                    checkpoint=sys.argv[1], shard_size=200, options={"t_final": 3.0}, threads=2)
+except KeyboardInterrupt as e:
+    print("interrupted", len(e.partial.metrics["valid"]), flush=True)
+    sys.exit(3)
+print("finished", flush=True)
+"""
+
+
+def start_and_stop(folder, sig, n):
+    proc = subprocess.Popen([sys.executable, "-c", SCRIPT, str(folder), str(n)], stdout=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not list(folder.glob("shard-*.npz")):
+        assert time.monotonic() < deadline and proc.poll() is None, "no shard was written"
+        time.sleep(0.02)
+    sent = time.monotonic()
+    proc.send_signal(sig)
+    out, _ = proc.communicate(timeout=30)
+    return proc.returncode, out, time.monotonic() - sent
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
+def test_interrupted_sweep_resumes_to_the_uninterrupted_result(tmp_path, sig):
+    n = 8_000
+    folder = tmp_path / "run"
+    code, out, waited = start_and_stop(folder, sig, n)
+    shards = len(list(folder.glob("shard-*.npz")))
+    print(f"{signal.Signals(sig).name}: stopped after {waited * 1e3:.0f} ms with {shards} of {n // 200} shards written")
+    assert 0 < shards < n // 200
+    if sig == signal.SIGINT:
+        assert code == 3 and out.startswith("interrupted")
+        assert waited < 1.0
+    kw = dict(perturb={"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}, seed=11, progress=False,
+              shard_size=200, options={"t_final": 3.0}, threads=2)
+    resumed = twip.montecarlo("flat-lqr-sim", n, checkpoint=folder, **kw)
+    assert len(list(folder.glob("shard-*.npz"))) == n // 200
+    assert not list(folder.glob("*.tmp*")) or sig == signal.SIGKILL
+    fresh = twip.montecarlo("flat-lqr-sim", n, **kw)
+    same(resumed, fresh)
+    assert np.array_equal(resumed.metrics["index"], np.arange(n))
+
+
+def test_dask_local_cluster_gives_the_local_result():
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        remote = sweep(n=96, client=client, shard_size=24)
+    same(remote, sweep(n=96))
