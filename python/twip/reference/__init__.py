@@ -9,8 +9,28 @@ from twip.reference.integrate import rk4_step
 from twip.reference.slope import SlopeModel
 from twip.reference.planar import PlanarModel
 from twip.reference.control import LqrController, SpeedSchedule, lqr_design, simulate
+from twip.reference.fuzzy import FuzzyBasis, FuzzyController, Gaussian, GridBasis, Trapezoid, Triangle
+from twip.reference.tracking import (Circle, DcMotor, FigureEight, Line, PidTracker, SmcTracker, TrackSample,
+                                     Waypoints, simulate_planar, surface_zero_dynamics, tracking_errors)
 
 __all__ = [
+    "Circle",
+    "DcMotor",
+    "FigureEight",
+    "Line",
+    "PidTracker",
+    "SmcTracker",
+    "TrackSample",
+    "Waypoints",
+    "simulate_planar",
+    "surface_zero_dynamics",
+    "tracking_errors",
+    "FuzzyBasis",
+    "FuzzyController",
+    "Gaussian",
+    "GridBasis",
+    "Trapezoid",
+    "Triangle",
     "LqrController",
     "PlanarModel",
     "RobotParams",

@@ -91,14 +91,17 @@ class LqrController:
         return u
 
 
-def simulate(model, controller, x0, t_final, dt, reference, fall_limit=math.radians(60)):
-    """Plain loop: controller every period (zero-order hold), RK4 in between."""
+def simulate(model, controller, x0, t_final, dt, reference, fall_limit=math.radians(60), internals=False):
+    """Plain loop: controller every period (zero-order hold), RK4 in between.
+
+    Returns (t, states, inputs), and the controller's `internals` per sample as a fourth
+    array (one row per sample, as of the last update) when `internals=True`."""
     from twip.reference.integrate import rk4_step
 
     n = round(t_final / dt)
     per_update = round(controller.period / dt)
     x, u = np.array(x0, float), 0.0
-    ts, xs, us = [], [], []
+    ts, xs, us, ins = [], [], [], []
     for k in range(n):
         t = k * dt
         ref = reference.sample(t)
@@ -107,10 +110,13 @@ def simulate(model, controller, x0, t_final, dt, reference, fall_limit=math.radi
         ts.append(t)
         xs.append(x)
         us.append(u)
+        ins.append(controller.internals)
         x = rk4_step(model, x, u, dt)
         if abs(x[0]) > fall_limit:
             break
     ts.append(len(ts) * dt)
     xs.append(x)
     us.append(u)
-    return np.array(ts), np.array(xs), np.array(us)
+    ins.append(controller.internals)
+    out = np.array(ts), np.array(xs), np.array(us)
+    return out + (np.array(ins),) if internals else out

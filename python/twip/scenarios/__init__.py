@@ -74,3 +74,5 @@ def get(name: str, params=None, controller_params=None, **options) -> Scenario:
 
 # Each module registers its scenarios on import.
 from twip.scenarios import lqr  # noqa: E402,F401
+from twip.scenarios import fuzzy  # noqa: E402,F401
+from twip.scenarios import tracking  # noqa: E402,F401

@@ -1,0 +1,349 @@
+//! Fuzzy adaptive backstepping on the pitch with a PD on the wheel position
+//! (thesis 4.37–4.56, 4.62–4.63; errata F1–F8 applied):
+//!
+//! ```text
+//! e1 = φ − φ_s(θ̇_ref)          φ_s: corrected (4.42) on the controller's own model
+//! z2 = φ̇ + k1 e1               (α1 = −k1 e1)
+//! u  = −(1/G1) [e1 + Ŝᵀξ(φ, φ̇) + k1 φ̇ + (½ + k2) z2] + kp e + kd ė + ki ∫e dt
+//! Ŝ̇  = Γ⁻¹ z2 ξ − σ Ŝ          (σ-modification; Γ = γ I)
+//! e  = θ_ref − θ,  ė = θ̇_ref − θ̇
+//! ```
+//!
+//! G1 is the first entry of G = M(φ)⁻¹ η τ_i [−1, 1]ᵀ: the controller knows how the
+//! current moves the pitch (from its own model, at the measured φ) and learns the rest of
+//! φ̈, F1, with the fuzzy system Ŝᵀξ.
+//!
+//! `ki` is ours, not the thesis's (0 by default): σ slowly hands a steady load (the slope)
+//! from Ŝ to kp·e, so without it the robot creeps towards e = u_s/kp while it holds; an
+//! integral on e holds the stop (docs/scenarios.md, "Stops").
+//!
+//! Discrete time, as on the robot: every `period` the law is evaluated with the current
+//! Ŝ and ∫e, then both advance by forward Euler over the period (σ·period < 1 keeps the
+//! leakage step a contraction).
+use nalgebra::SVector;
+
+use crate::control::Controller;
+use crate::fuzzy::ThesisBasis;
+use crate::reference::{SpeedRef, SpeedSchedule};
+use crate::slope::SlopeModel;
+use crate::{c, Real, TwipError};
+
+/// k1, k2 of the backstepping, kp, kd of the PD on the wheel position (4.56), and our
+/// optional integral gain ki. kp, kd (and a useful ki) are negative in the thesis's
+/// sign convention: a positive current tips the body back.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FuzzyGains<T> {
+    pub k1: T,
+    pub k2: T,
+    pub kp: T,
+    pub kd: T,
+    pub ki: T,
+}
+
+impl<T: Real> FuzzyGains<T> {
+    /// The thesis's slope gains (4.1.2): k1 = 10, k2 = 13, kp = −0.01, kd = −0.09.
+    pub fn thesis_slope() -> Self {
+        Self { k1: c(10.0), k2: c(13.0), kp: c(-0.01), kd: c(-0.09), ki: T::zero() }
+    }
+
+    /// The thesis's flat gains (4.2.1): k1 = 30, k2 = 33, kp = −0.1, kd = −0.9.
+    pub fn thesis_flat() -> Self {
+        Self { k1: c(30.0), k2: c(33.0), kp: c(-0.1), kd: c(-0.9), ki: T::zero() }
+    }
+
+    fn validate(self) -> Result<Self, TwipError> {
+        for (name, v) in [("k1", self.k1), ("k2", self.k2)] {
+            if !(v.is_finite() && v > T::zero()) {
+                return Err(invalid(name, v, "must be finite and > 0"));
+            }
+        }
+        for (name, v) in [("kp", self.kp), ("kd", self.kd), ("ki", self.ki)] {
+            if !v.is_finite() {
+                return Err(invalid(name, v, "must be finite"));
+            }
+        }
+        Ok(self)
+    }
+}
+
+/// The adaptation law (4.49): Γ = `gamma`·I, leakage `sigma`. With `enabled = false` the
+/// weights stay at their initial value (plain backstepping + PD with a fixed Ŝ).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Adaptation<T> {
+    pub gamma: T,
+    pub sigma: T,
+    pub enabled: bool,
+}
+
+/// twip's Γ = γ I (not in the thesis; docs/scenarios.md says why).
+pub const DEFAULT_GAMMA: f64 = 0.02;
+/// twip's σ [1/s] (not in the thesis; docs/scenarios.md says why).
+pub const DEFAULT_SIGMA: f64 = 0.05;
+
+impl<T: Real> Default for Adaptation<T> {
+    fn default() -> Self {
+        Self { gamma: c(DEFAULT_GAMMA), sigma: c(DEFAULT_SIGMA), enabled: true }
+    }
+}
+
+/// Names of [`FuzzyController::internals`], in order.
+pub const FUZZY_INTERNALS: [&str; 24] = [
+    "xi1", "xi2", "xi3", "xi4", "xi5", "xi6", "xi7", "xi8", "xi9", //
+    "S1", "S2", "S3", "S4", "S5", "S6", "S7", "S8", "S9", //
+    "z2", "e1", "phi_s", "V2", "e", "e_int",
+];
+
+/// The discrete-time fuzzy adaptive backstepping + PD controller.
+#[derive(Clone, Copy, Debug)]
+pub struct FuzzyController<T: Real> {
+    model: SlopeModel<T>,
+    basis: ThesisBasis<T>,
+    gains: FuzzyGains<T>,
+    adaptation: Adaptation<T>,
+    period: T,
+    s0: [T; 9],
+    s_hat: [T; 9],
+    e_int: T,
+    /// (θ̇_ref, φ_s) of the last reference speed seen: speeds change rarely.
+    cache: Option<(T, T)>,
+    internals: [T; 24],
+}
+
+fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
+    TwipError::InvalidParameter { name, value: crate::to_f64(v), reason }
+}
+
+impl<T: Real> FuzzyController<T> {
+    /// `model` is the controller's own model (φ_s and G1 come from it; it may differ
+    /// from the plant). The weights start at zero.
+    pub fn new(
+        model: SlopeModel<T>,
+        gains: FuzzyGains<T>,
+        adaptation: Adaptation<T>,
+        basis: ThesisBasis<T>,
+        period: T,
+    ) -> Result<Self, TwipError> {
+        let gains = gains.validate()?;
+        if !(period.is_finite() && period > T::zero()) {
+            return Err(invalid("period", period, "must be finite and > 0"));
+        }
+        if !(adaptation.gamma.is_finite() && adaptation.gamma > T::zero()) {
+            return Err(invalid("gamma", adaptation.gamma, "must be finite and > 0 (use adapt=False to freeze the weights)"));
+        }
+        if !(adaptation.sigma.is_finite() && adaptation.sigma > T::zero()) {
+            return Err(invalid("sigma", adaptation.sigma, "must be finite and > 0"));
+        }
+        if adaptation.sigma * period >= T::one() {
+            return Err(invalid("sigma", adaptation.sigma, "sigma * period must be < 1 (forward-Euler leakage)"));
+        }
+        let basis = ThesisBasis::new(*basis.sets())?;
+        let zero = [T::zero(); 9];
+        Ok(Self {
+            model,
+            basis,
+            gains,
+            adaptation,
+            period,
+            s0: zero,
+            s_hat: zero,
+            e_int: T::zero(),
+            cache: None,
+            internals: [T::zero(); 24],
+        })
+    }
+
+    /// The thesis's slope gains, twip's sets, Γ and σ, at `period`.
+    pub fn thesis_slope(model: SlopeModel<T>, period: T) -> Result<Self, TwipError> {
+        Self::new(model, FuzzyGains::thesis_slope(), Adaptation::default(), ThesisBasis::default(), period)
+    }
+
+    /// The thesis's flat gains, twip's sets, Γ and σ, at `period`.
+    pub fn thesis_flat(model: SlopeModel<T>, period: T) -> Result<Self, TwipError> {
+        Self::new(model, FuzzyGains::thesis_flat(), Adaptation::default(), ThesisBasis::default(), period)
+    }
+
+    /// Starts (and resets) the weights at `s0` instead of zero.
+    pub fn with_initial_weights(mut self, s0: [T; 9]) -> Result<Self, TwipError> {
+        for (index, v) in s0.iter().enumerate() {
+            if !v.is_finite() {
+                return Err(TwipError::NonFinite { name: "s0", index, value: crate::to_f64(*v) });
+            }
+        }
+        self.s0 = s0;
+        self.s_hat = s0;
+        Ok(self)
+    }
+
+    pub fn with_period(self, period: T) -> Result<Self, TwipError> {
+        Self::new(self.model, self.gains, self.adaptation, self.basis, period)?.with_initial_weights(self.s0)
+    }
+
+    pub fn model(&self) -> &SlopeModel<T> {
+        &self.model
+    }
+
+    pub fn gains(&self) -> FuzzyGains<T> {
+        self.gains
+    }
+
+    pub fn adaptation(&self) -> Adaptation<T> {
+        self.adaptation
+    }
+
+    pub fn basis(&self) -> &ThesisBasis<T> {
+        &self.basis
+    }
+
+    pub fn initial_weights(&self) -> [T; 9] {
+        self.s0
+    }
+
+    /// The current weights Ŝ.
+    pub fn weights(&self) -> [T; 9] {
+        self.s_hat
+    }
+
+    /// φ_s the controller aims for at a reference speed (corrected (4.42), own model).
+    pub fn steady_pitch(&self, theta_dot_ref: T) -> Result<T, TwipError> {
+        Ok(self.model.equilibrium(theta_dot_ref)?.0[0])
+    }
+
+    /// Fails if some speed of `schedule` (or standing still) has no steady pitch.
+    pub fn check_reference(&self, schedule: &SpeedSchedule<T>) -> Result<(), TwipError> {
+        self.steady_pitch(T::zero())?;
+        for speed in schedule.speeds() {
+            self.steady_pitch(speed)?;
+        }
+        Ok(())
+    }
+
+    /// G1 = [M(φ)⁻¹ η τ_i [−1, 1]ᵀ]₀ = −η τ_i (M22 + M12) / det M: how one ampere
+    /// accelerates the pitch (negative: the reaction tips the body back). The same as
+    /// the thesis's A⁻¹ b̄ of (4.32)–(4.35), whose rows are M's first row and the sum.
+    pub fn g1(&self, phi: T) -> T {
+        let m = self.model.mass_matrix(phi);
+        let det = m[(0, 0)] * m[(1, 1)] - m[(0, 1)] * m[(1, 0)];
+        -self.model.params().torque_per_amp() * (m[(1, 1)] + m[(0, 1)]) / det
+    }
+}
+
+impl<T: Real> Controller<T, 4, 1> for FuzzyController<T> {
+    type Reference = SpeedRef<T>;
+
+    fn period(&self) -> T {
+        self.period
+    }
+
+    fn reset(&mut self) {
+        self.s_hat = self.s0;
+        self.e_int = T::zero();
+        self.cache = None;
+        self.internals = [T::zero(); 24];
+    }
+
+    fn update(&mut self, _t: T, y: &SVector<T, 4>, r: &SpeedRef<T>) -> SVector<T, 1> {
+        let phi_s = match self.cache {
+            Some((speed, phi_s)) if speed == r.theta_dot => phi_s,
+            _ => {
+                // Speeds were checked by `check_reference`; an unchecked impossible one
+                // aims at standing straight rather than failing mid-run.
+                let phi_s = self.steady_pitch(r.theta_dot).unwrap_or(T::zero());
+                self.cache = Some((r.theta_dot, phi_s));
+                phi_s
+            }
+        };
+        let g = &self.gains;
+        let half = c::<T>(0.5);
+        let (phi, phi_dot) = (y[0], y[1]);
+        let e1 = phi - phi_s;
+        let z2 = phi_dot + g.k1 * e1;
+        let xi = self.basis.eval(&[phi, phi_dot]);
+        let mut f1_hat = T::zero();
+        let mut s_norm2 = T::zero();
+        for (s, x) in self.s_hat.iter().zip(&xi) {
+            f1_hat += *s * *x;
+            s_norm2 += *s * *s;
+        }
+        let e = r.theta - y[2];
+        let e_dot = r.theta_dot - y[3];
+        let backstepping = -(e1 + f1_hat + g.k1 * phi_dot + (half + g.k2) * z2) / self.g1(phi);
+        let u = backstepping + g.kp * e + g.kd * e_dot + g.ki * self.e_int;
+
+        let v2 = half * e1 * e1 + half * z2 * z2 + half * self.adaptation.gamma * s_norm2;
+        self.internals[..9].copy_from_slice(&xi);
+        self.internals[9..18].copy_from_slice(&self.s_hat);
+        self.internals[18..].copy_from_slice(&[z2, e1, phi_s, v2, e, self.e_int]);
+
+        if self.adaptation.enabled {
+            let a = &self.adaptation;
+            let rate = z2 / a.gamma;
+            for (s, x) in self.s_hat.iter_mut().zip(&xi) {
+                *s += self.period * (rate * *x - a.sigma * *s);
+            }
+        }
+        self.e_int += self.period * e;
+        SVector::<T, 1>::new(u)
+    }
+
+    fn internals(&self) -> &[T] {
+        &self.internals
+    }
+
+    fn internal_names(&self) -> &'static [&'static str] {
+        &FUZZY_INTERNALS
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metrics::SlopeMetrics;
+    use crate::runner::{simulate, Outcome, SimConfig};
+    use crate::{Dynamics, RobotParams};
+    use nalgebra::Vector4;
+
+    #[test]
+    fn g1_is_the_input_column_of_the_model() {
+        let model = SlopeModel::<f64>::new(RobotParams::balanbot(), 0.26).unwrap();
+        let ctrl = FuzzyController::thesis_slope(model, 0.005).unwrap();
+        for phi in [-0.5, 0.0, 0.2, 0.9] {
+            let x = Vector4::new(phi, 0.3, 1.0, 2.0);
+            let du = model.deriv(&x, &SVector::<f64, 1>::new(1.0)) - model.deriv(&x, &SVector::<f64, 1>::new(0.0));
+            assert!((du[1] - ctrl.g1(phi)).abs() < 1e-12 * du[1].abs(), "phi = {phi}");
+            assert!(ctrl.g1(phi) < 0.0);
+        }
+    }
+
+    #[test]
+    fn slope_run_stays_up_in_f64_and_f32() {
+        fn run<T: Real>() -> Outcome<T> {
+            let model = SlopeModel::<T>::new(RobotParams::balanbot(), c(15f64.to_radians())).unwrap();
+            let mut ctrl = FuzzyController::thesis_slope(model, c(0.005)).unwrap();
+            let schedule = SpeedSchedule::constant(c(180f64.to_radians())).unwrap();
+            let config = SimConfig { dt: c(1e-3), t_final: c(10.0), fall_limit: c(1.0) };
+            let mut metrics = SlopeMetrics::new(model);
+            simulate(&model, &mut ctrl, &schedule, &Vector4::zeros(), &config, &mut metrics).unwrap().0
+        }
+        assert_eq!(run::<f64>(), Outcome::Completed);
+        assert_eq!(run::<f32>(), Outcome::Completed);
+    }
+
+    #[test]
+    fn bad_parameters_are_named() {
+        let model = SlopeModel::<f64>::new(RobotParams::balanbot(), 0.0).unwrap();
+        let basis = ThesisBasis::default();
+        let name = |gains: FuzzyGains<f64>, a: Adaptation<f64>, period: f64| match FuzzyController::new(model, gains, a, basis, period) {
+            Err(TwipError::InvalidParameter { name, .. }) => name,
+            other => panic!("expected an error, got {other:?}"),
+        };
+        let g = FuzzyGains::thesis_flat();
+        let a = Adaptation::default();
+        assert_eq!(name(FuzzyGains { k1: 0.0, ..g }, a, 0.005), "k1");
+        assert_eq!(name(FuzzyGains { k2: -1.0, ..g }, a, 0.005), "k2");
+        assert_eq!(name(FuzzyGains { ki: f64::NAN, ..g }, a, 0.005), "ki");
+        assert_eq!(name(g, Adaptation { gamma: 0.0, ..a }, 0.005), "gamma");
+        assert_eq!(name(g, Adaptation { sigma: 0.0, ..a }, 0.005), "sigma");
+        assert_eq!(name(g, Adaptation { sigma: 300.0, ..a }, 0.005), "sigma");
+        assert_eq!(name(g, a, 0.0), "period");
+    }
+}

@@ -1,0 +1,496 @@
+//! `twip.Trapezoid`, `twip.Triangle`, `twip.Gaussian`, `twip.FuzzyBasis` and
+//! `twip.FuzzyController` (fuzzy adaptive backstepping + PD, thesis 4.1.2).
+use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArrayLikeDyn};
+use pyo3::prelude::*;
+use twip_core::fuzzy::{grid_product, normalised_memberships, Membership, ThesisBasis};
+use twip_core::fuzzy_control::{Adaptation, FuzzyController, FuzzyGains, DEFAULT_GAMMA, DEFAULT_SIGMA, FUZZY_INTERNALS};
+use twip_core::TwipError;
+
+use crate::convert::vector;
+use crate::errors::{CoreResult, InvalidParameterError, PyTwipError};
+use crate::models::PySlopeModel;
+
+/// A core error with the object it came from in front of its message.
+fn in_context(e: TwipError, what: impl core::fmt::Display) -> PyErr {
+    match e {
+        TwipError::InvalidParameter { .. } => InvalidParameterError::new_err(format!("{what}: {e}")),
+        other => PyTwipError(other).into(),
+    }
+}
+
+/// μ(x) for a float (a float back) or any array (an array of the same shape).
+fn eval_any<'py>(m: &Membership<f64>, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    let py = x.py();
+    if let Ok(v) = x.extract::<f64>() {
+        return Ok(m.eval(v).into_pyobject(py)?.into_any());
+    }
+    let arr: PyArrayLikeDyn<'py, f64, AllowTypeChange> = x.extract()?;
+    Ok(arr.as_array().mapv(|v| m.eval(v)).into_pyarray(py).into_any())
+}
+
+fn fmt_set(m: &Membership<f64>) -> String {
+    match *m {
+        Membership::Trapezoid { a, b, c, d } => format!("Trapezoid({a:?}, {b:?}, {c:?}, {d:?})"),
+        Membership::Gaussian { mean, sigma } => format!("Gaussian({mean:?}, {sigma:?})"),
+    }
+}
+
+/// Trapezoidal membership (4.31): a <= b <= c <= d; a = b = -inf is a left shoulder,
+/// c = d = +inf a right one. Call it on a float or an array.
+#[pyclass(name = "Trapezoid", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyTrapezoid {
+    pub inner: Membership<f64>,
+}
+
+#[pymethods]
+impl PyTrapezoid {
+    #[new]
+    fn new(a: f64, b: f64, c: f64, d: f64) -> PyResult<Self> {
+        let inner = Membership::trapezoid(a, b, c, d)
+            .map_err(|e| in_context(e, format_args!("Trapezoid(a={a:?}, b={b:?}, c={c:?}, d={d:?})")))?;
+        Ok(Self { inner })
+    }
+
+    /// (a, b, c, d).
+    #[getter]
+    fn breakpoints(&self) -> (f64, f64, f64, f64) {
+        match self.inner {
+            Membership::Trapezoid { a, b, c, d } => (a, b, c, d),
+            Membership::Gaussian { .. } => unreachable!("a Trapezoid holds a trapezoid"),
+        }
+    }
+
+    fn __call__<'py>(&self, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        eval_any(&self.inner, x)
+    }
+
+    fn eval<'py>(&self, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        eval_any(&self.inner, x)
+    }
+
+    fn __repr__(&self) -> String {
+        fmt_set(&self.inner)
+    }
+}
+
+/// Triangular membership with feet a, c and peak b (the trapezoid (a, b, b, c)).
+#[pyclass(name = "Triangle", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyTriangle {
+    pub inner: Membership<f64>,
+}
+
+#[pymethods]
+impl PyTriangle {
+    #[new]
+    fn new(a: f64, b: f64, c: f64) -> PyResult<Self> {
+        let inner = Membership::triangle(a, b, c)
+            .map_err(|e| in_context(e, format_args!("Triangle(a={a:?}, b={b:?}, c={c:?})")))?;
+        Ok(Self { inner })
+    }
+
+    /// (a, b, c).
+    #[getter]
+    fn breakpoints(&self) -> (f64, f64, f64) {
+        match self.inner {
+            Membership::Trapezoid { a, b, d, .. } => (a, b, d),
+            Membership::Gaussian { .. } => unreachable!("a Triangle holds a trapezoid"),
+        }
+    }
+
+    fn __call__<'py>(&self, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        eval_any(&self.inner, x)
+    }
+
+    fn eval<'py>(&self, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        eval_any(&self.inner, x)
+    }
+
+    fn __repr__(&self) -> String {
+        let (a, b, c) = self.breakpoints();
+        format!("Triangle({a:?}, {b:?}, {c:?})")
+    }
+}
+
+/// Gaussian membership exp(-(x - mean)^2 / (2 sigma^2)), sigma > 0.
+#[pyclass(name = "Gaussian", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyGaussian {
+    pub inner: Membership<f64>,
+}
+
+#[pymethods]
+impl PyGaussian {
+    #[new]
+    fn new(mean: f64, sigma: f64) -> PyResult<Self> {
+        let inner = Membership::gaussian(mean, sigma)
+            .map_err(|e| in_context(e, format_args!("Gaussian(mean={mean:?}, sigma={sigma:?})")))?;
+        Ok(Self { inner })
+    }
+
+    #[getter]
+    fn mean(&self) -> f64 {
+        match self.inner {
+            Membership::Gaussian { mean, .. } => mean,
+            Membership::Trapezoid { .. } => unreachable!("a Gaussian holds a Gaussian"),
+        }
+    }
+
+    #[getter]
+    fn sigma(&self) -> f64 {
+        match self.inner {
+            Membership::Gaussian { sigma, .. } => sigma,
+            Membership::Trapezoid { .. } => unreachable!("a Gaussian holds a Gaussian"),
+        }
+    }
+
+    fn __call__<'py>(&self, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        eval_any(&self.inner, x)
+    }
+
+    fn eval<'py>(&self, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        eval_any(&self.inner, x)
+    }
+
+    fn __repr__(&self) -> String {
+        fmt_set(&self.inner)
+    }
+}
+
+fn membership_of(obj: &Bound<'_, PyAny>, where_: impl Fn() -> String) -> PyResult<Membership<f64>> {
+    if let Ok(m) = obj.cast::<PyTrapezoid>() {
+        return Ok(m.get().inner);
+    }
+    if let Ok(m) = obj.cast::<PyTriangle>() {
+        return Ok(m.get().inner);
+    }
+    if let Ok(m) = obj.cast::<PyGaussian>() {
+        return Ok(m.get().inner);
+    }
+    Err(pyo3::exceptions::PyTypeError::new_err(format!(
+        "{} must be a twip.Trapezoid, Triangle or Gaussian, got {}",
+        where_(),
+        obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+    )))
+}
+
+fn membership_to_py(py: Python<'_>, m: Membership<f64>) -> PyResult<Bound<'_, PyAny>> {
+    Ok(match m {
+        Membership::Trapezoid { .. } => Bound::new(py, PyTrapezoid { inner: m })?.into_any(),
+        Membership::Gaussian { .. } => Bound::new(py, PyGaussian { inner: m })?.into_any(),
+    })
+}
+
+/// Sets per input from a FuzzyBasis or a sequence of sequences of memberships.
+fn sets_of(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vec<Membership<f64>>>> {
+    if let Ok(b) = obj.cast::<PyFuzzyBasis>() {
+        return Ok(b.get().sets.clone());
+    }
+    let mut out = Vec::new();
+    for (i, row) in obj.try_iter()?.enumerate() {
+        let mut sets = Vec::new();
+        for (j, m) in row?.try_iter()?.enumerate() {
+            sets.push(membership_of(&m?, || format!("sets[{i}][{j}]"))?);
+        }
+        if sets.is_empty() {
+            return Err(InvalidParameterError::new_err(format!("sets[{i}] is empty: every input needs a set")));
+        }
+        out.push(sets);
+    }
+    if out.is_empty() {
+        return Err(InvalidParameterError::new_err("sets is empty: the basis needs at least one input"));
+    }
+    Ok(out)
+}
+
+/// The normalised fuzzy basis xi of (4.29) over a grid rule base: one rule per
+/// combination of one set per input, product inference, rules in row-major order (the
+/// last input varies fastest, as in (4.39)). xi is non-negative and sums to 1 everywhere;
+/// where no rule fires, each silent input's nearest set fires alone (docs/scenarios.md).
+#[pyclass(name = "FuzzyBasis", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyFuzzyBasis {
+    sets: Vec<Vec<Membership<f64>>>,
+}
+
+impl PyFuzzyBasis {
+    fn n_rules(&self) -> usize {
+        self.sets.iter().map(Vec::len).product()
+    }
+
+    /// ξ at one point into `out`; `w` is scratch, one Vec per input.
+    fn eval_into(&self, x: impl Iterator<Item = f64>, w: &mut [Vec<f64>], out: &mut [f64]) {
+        for ((sets, wi), xi) in self.sets.iter().zip(w.iter_mut()).zip(x) {
+            normalised_memberships(sets, xi, wi);
+        }
+        let views: Vec<&[f64]> = w.iter().map(Vec::as_slice).collect();
+        grid_product(&views, out).expect("sizes come from the same sets");
+    }
+}
+
+#[pymethods]
+impl PyFuzzyBasis {
+    /// `sets_per_input`: for each input, its sets (Trapezoid, Triangle, Gaussian).
+    #[new]
+    fn new(sets_per_input: &Bound<'_, PyAny>) -> PyResult<Self> {
+        Ok(Self { sets: sets_of(sets_per_input)? })
+    }
+
+    /// twip's default sets for (phi [rad], phi_dot [rad/s]), N, Z, P each, rules ordered as
+    /// the thesis's (4.39); FuzzyController uses them unless given `sets`.
+    #[staticmethod]
+    fn default() -> Self {
+        Self { sets: ThesisBasis::<f64>::default().sets().iter().map(|r| r.to_vec()).collect() }
+    }
+
+    #[getter]
+    fn n_inputs(&self) -> usize {
+        self.sets.len()
+    }
+
+    #[getter(n_rules)]
+    fn n_rules_py(&self) -> usize {
+        self.n_rules()
+    }
+
+    #[getter]
+    fn sets<'py>(&self, py: Python<'py>) -> PyResult<Vec<Vec<Bound<'py, PyAny>>>> {
+        self.sets.iter().map(|row| row.iter().map(|m| membership_to_py(py, *m)).collect()).collect()
+    }
+
+    /// xi at one point x (shape (n_inputs,)) -> (n_rules,), or at many points
+    /// (shape (N, n_inputs)) -> (N, n_rules).
+    fn eval<'py>(&self, py: Python<'py>, x: PyArrayLikeDyn<'py, f64, AllowTypeChange>) -> PyResult<Bound<'py, PyAny>> {
+        let view = x.as_array();
+        let n_in = self.sets.len();
+        let n_rules = self.n_rules();
+        let mut w: Vec<Vec<f64>> = self.sets.iter().map(|s| vec![0.0; s.len()]).collect();
+        match view.shape() {
+            [n] if *n == n_in => {
+                let mut out = vec![0.0; n_rules];
+                self.eval_into(view.iter().copied(), &mut w, &mut out);
+                Ok(out.into_pyarray(py).into_any())
+            }
+            [rows, n] if *n == n_in => {
+                let rows = *rows;
+                let data: Vec<f64> = view.iter().copied().collect();
+                let out = py.detach(|| {
+                    let mut out = vec![0.0; rows * n_rules];
+                    for (point, xi) in data.chunks_exact(n_in).zip(out.chunks_exact_mut(n_rules)) {
+                        self.eval_into(point.iter().copied(), &mut w, xi);
+                    }
+                    out
+                });
+                let arr = numpy::ndarray::Array2::from_shape_vec((rows, n_rules), out)
+                    .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+                Ok(arr.into_pyarray(py).into_any())
+            }
+            shape => Err(PyTwipError(TwipError::Shape {
+                name: "x",
+                expected: (n_in, 1),
+                got: (shape.first().copied().unwrap_or(0), shape.get(1).copied().unwrap_or(1)),
+            })
+            .into()),
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        let rows: Vec<String> =
+            self.sets.iter().map(|r| format!("[{}]", r.iter().map(fmt_set).collect::<Vec<_>>().join(", "))).collect();
+        format!("FuzzyBasis([{}])", rows.join(", "))
+    }
+}
+
+/// The fixed 2 x 3 basis the controller needs, from `sets` (None: twip's).
+fn thesis_basis(sets: Option<&Bound<'_, PyAny>>) -> PyResult<ThesisBasis<f64>> {
+    let Some(obj) = sets else { return Ok(ThesisBasis::default()) };
+    let rows = sets_of(obj)?;
+    if rows.len() != 2 || rows.iter().any(|r| r.len() != 3) {
+        return Err(PyTwipError(TwipError::Shape {
+            name: "sets",
+            expected: (2, 3),
+            got: (rows.len(), rows.first().map_or(0, Vec::len)),
+        })
+        .into());
+    }
+    Ok(ThesisBasis::new([[rows[0][0], rows[0][1], rows[0][2]], [rows[1][0], rows[1][1], rows[1][2]]]).map_err(PyTwipError)?)
+}
+
+/// Fuzzy adaptive backstepping on the pitch + PD on the wheel position (thesis 4.56,
+/// errata F1-F8): u = -(1/G1)[e1 + S^T xi + k1 phi_dot + (1/2 + k2) z2] + kp e + kd e_dot
+/// + ki int(e), S' = z2 xi / gamma - sigma S. `model` is the controller's own model (phi_s
+/// and G1); `sets` the (phi, phi_dot) x (N, Z, P) sets (a 2 x 3 FuzzyBasis or nested list);
+/// `adapt=False` freezes S at `s0` (default zeros).
+#[pyclass(name = "FuzzyController", module = "twip", frozen)]
+pub struct PyFuzzyController {
+    pub inner: FuzzyController<f64>,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn build(
+    model: &PySlopeModel,
+    gains: FuzzyGains<f64>,
+    gamma: f64,
+    sigma: f64,
+    adapt: bool,
+    sets: Option<&Bound<'_, PyAny>>,
+    period: f64,
+    s0: Option<&Bound<'_, PyAny>>,
+) -> PyResult<PyFuzzyController> {
+    let adaptation = Adaptation { gamma, sigma, enabled: adapt };
+    let mut inner = FuzzyController::new(model.inner, gains, adaptation, thesis_basis(sets)?, period).map_err(PyTwipError)?;
+    if let Some(s0) = s0 {
+        let v = vector::<9>("s0", s0)?;
+        inner = inner.with_initial_weights(core::array::from_fn(|i| v[i])).map_err(PyTwipError)?;
+    }
+    Ok(PyFuzzyController { inner })
+}
+
+/// Γ and σ when not given: the core's `Adaptation::default()`.
+const GAMMA: f64 = DEFAULT_GAMMA;
+const SIGMA: f64 = DEFAULT_SIGMA;
+
+#[pymethods]
+impl PyFuzzyController {
+    #[new]
+    #[pyo3(signature = (model, k1, k2, kp, kd, gamma = GAMMA, sigma = SIGMA, ki = 0.0, adapt = true, sets = None, period = 0.005, s0 = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        model: &PySlopeModel,
+        k1: f64,
+        k2: f64,
+        kp: f64,
+        kd: f64,
+        gamma: f64,
+        sigma: f64,
+        ki: f64,
+        adapt: bool,
+        sets: Option<&Bound<'_, PyAny>>,
+        period: f64,
+        s0: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        build(model, FuzzyGains { k1, k2, kp, kd, ki }, gamma, sigma, adapt, sets, period, s0)
+    }
+
+    /// The thesis's slope gains k1 = 10, k2 = 13, kp = -0.01, kd = -0.09.
+    #[staticmethod]
+    #[pyo3(signature = (model, gamma = GAMMA, sigma = SIGMA, ki = 0.0, adapt = true, sets = None, period = 0.005, s0 = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn thesis_slope(
+        model: &PySlopeModel,
+        gamma: f64,
+        sigma: f64,
+        ki: f64,
+        adapt: bool,
+        sets: Option<&Bound<'_, PyAny>>,
+        period: f64,
+        s0: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        build(model, FuzzyGains { ki, ..FuzzyGains::thesis_slope() }, gamma, sigma, adapt, sets, period, s0)
+    }
+
+    /// The thesis's flat gains k1 = 30, k2 = 33, kp = -0.1, kd = -0.9.
+    #[staticmethod]
+    #[pyo3(signature = (model, gamma = GAMMA, sigma = SIGMA, ki = 0.0, adapt = true, sets = None, period = 0.005, s0 = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn thesis_flat(
+        model: &PySlopeModel,
+        gamma: f64,
+        sigma: f64,
+        ki: f64,
+        adapt: bool,
+        sets: Option<&Bound<'_, PyAny>>,
+        period: f64,
+        s0: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        build(model, FuzzyGains { ki, ..FuzzyGains::thesis_flat() }, gamma, sigma, adapt, sets, period, s0)
+    }
+
+    #[getter]
+    fn k1(&self) -> f64 {
+        self.inner.gains().k1
+    }
+    #[getter]
+    fn k2(&self) -> f64 {
+        self.inner.gains().k2
+    }
+    #[getter]
+    fn kp(&self) -> f64 {
+        self.inner.gains().kp
+    }
+    #[getter]
+    fn kd(&self) -> f64 {
+        self.inner.gains().kd
+    }
+    #[getter]
+    fn ki(&self) -> f64 {
+        self.inner.gains().ki
+    }
+    #[getter]
+    fn gamma(&self) -> f64 {
+        self.inner.adaptation().gamma
+    }
+    #[getter]
+    fn sigma(&self) -> f64 {
+        self.inner.adaptation().sigma
+    }
+    #[getter]
+    fn adapt(&self) -> bool {
+        self.inner.adaptation().enabled
+    }
+
+    #[getter]
+    fn period(&self) -> f64 {
+        use twip_core::control::Controller;
+        self.inner.period()
+    }
+
+    #[getter]
+    fn model(&self) -> PySlopeModel {
+        PySlopeModel { inner: *self.inner.model() }
+    }
+
+    #[getter]
+    fn basis(&self) -> PyFuzzyBasis {
+        PyFuzzyBasis { sets: self.inner.basis().sets().iter().map(|r| r.to_vec()).collect() }
+    }
+
+    /// The weights S the controller starts from (and resets to).
+    #[getter]
+    fn s0<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.inner.initial_weights().to_vec().into_pyarray(py)
+    }
+
+    /// Names of the logged internals (SimResult.internals).
+    #[getter]
+    fn internal_names(&self) -> Vec<&'static str> {
+        FUZZY_INTERNALS.to_vec()
+    }
+
+    /// phi_s the controller aims for at a reference wheel speed (corrected 4.42, own model).
+    fn steady_pitch(&self, theta_dot_ref: f64) -> CoreResult<f64> {
+        Ok(self.inner.steady_pitch(theta_dot_ref)?)
+    }
+
+    /// G1 at pitch phi: the pitch acceleration per ampere (controller's model).
+    fn g1(&self, phi: f64) -> f64 {
+        self.inner.g1(phi)
+    }
+
+    fn __repr__(&self) -> String {
+        let g = self.inner.gains();
+        let a = self.inner.adaptation();
+        format!(
+            "FuzzyController(k1={:?}, k2={:?}, kp={:?}, kd={:?}, ki={:?}, gamma={:?}, sigma={:?}, adapt={})",
+            g.k1,
+            g.k2,
+            g.kp,
+            g.kd,
+            g.ki,
+            a.gamma,
+            a.sigma,
+            if a.enabled { "True" } else { "False" }
+        )
+    }
+}
