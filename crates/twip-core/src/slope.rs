@@ -153,15 +153,12 @@ impl<T: Real> SlopeModel<T> {
         (Vector2::new(f_phi, f_theta), sin_pa, cos_pa)
     }
 
-    /// Accelerations [φ̈, θ̈] by Cramer's rule on the 2×2 mass matrix.
+    /// Accelerations [φ̈, θ̈] by Cramer's rule on the 2×2 mass matrix (one division).
     #[inline(always)]
     fn accelerations(&self, f: &Vector2<T>, cos_pa: T) -> Vector2<T> {
         let m12 = self.mrl * cos_pa - self.rotor;
-        let det = self.m11 * self.m22 - m12 * m12;
-        Vector2::new(
-            (self.m22 * f[0] - m12 * f[1]) / det,
-            (self.m11 * f[1] - m12 * f[0]) / det,
-        )
+        let inv_det = T::one() / (self.m11 * self.m22 - m12 * m12);
+        Vector2::new((self.m22 * f[0] - m12 * f[1]) * inv_det, (self.m11 * f[1] - m12 * f[0]) * inv_det)
     }
 
     /// Exact Jacobians `(A, B)` of `ẋ = f(x, u)` at any operating point `(x0, u0)`.

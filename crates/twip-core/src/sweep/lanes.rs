@@ -4,7 +4,7 @@
 //! is a call per value and would stop the vectorisation.
 
 /// Samples advanced together. 8 f64 = two AVX2 registers, four SSE2 ones.
-pub const LANES: usize = 8;
+pub const LANES: usize = 16;
 
 /// One value per lane.
 pub type Lanes = [f64; LANES];

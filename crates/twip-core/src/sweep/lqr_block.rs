@@ -64,53 +64,19 @@ impl Plants {
                 - self.mu_ground[l] * x[3][l]
                 + motor;
             let m12 = self.mrl[l] * cos_pa - self.rotor[l];
-            let det = self.m11[l] * self.m22[l] - m12 * m12;
+            let inv_det = 1.0 / (self.m11[l] * self.m22[l] - m12 * m12);
             d[0][l] = x[1][l];
-            d[1][l] = (self.m22[l] * f_phi - m12 * f_theta) / det;
+            d[1][l] = (self.m22[l] * f_phi - m12 * f_theta) * inv_det;
             d[2][l] = x[3][l];
-            d[3][l] = (self.m11[l] * f_theta - m12 * f_phi) / det;
+            d[3][l] = (self.m11[l] * f_theta - m12 * f_phi) * inv_det;
         }
         d
     }
 
-    /// `rk4_step` on every lane. On x86-64 with AVX2 a second copy compiled for AVX2 is
-    /// chosen at run time (wheels are built for the baseline CPU). Both give the same
-    /// bits: only +, −, ×, ÷ and bit masks, no fused multiply-add.
-    #[inline(always)]
-    fn step(&self, x: &[Lanes; 4], u: &Lanes, dt: f64, avx2: bool) -> [Lanes; 4] {
-        #[cfg(target_arch = "x86_64")]
-        if avx2 {
-            // SAFETY: `avx2` is only true when the CPU has it (see `has_avx2`).
-            return unsafe { self.rk4_avx2(x, u, dt) };
-        }
-        let _ = avx2;
-        self.rk4_baseline(x, u, dt)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn rk4_avx2(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
-        self.rk4(x, u, dt)
-    }
-
-    #[inline(never)]
-    fn rk4_baseline(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
-        self.rk4(x, u, dt)
-    }
-
+    /// `rk4_step` on every lane.
     #[inline(always)]
     fn rk4(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
         let half = dt * 0.5;
-        // Plain loops: `array::from_fn` is not inlined into the AVX2 copy.
-        let axpy = |x: &[Lanes; 4], k: &[Lanes; 4], h: f64| -> [Lanes; 4] {
-            let mut out = [[0.0; LANES]; 4];
-            for i in 0..4 {
-                for l in 0..LANES {
-                    out[i][l] = x[i][l] + k[i][l] * h;
-                }
-            }
-            out
-        };
         let k1 = self.deriv(x, u);
         let k2 = self.deriv(&axpy(x, &k1, half), u);
         let k3 = self.deriv(&axpy(x, &k2, half), u);
@@ -126,7 +92,21 @@ impl Plants {
     }
 }
 
-/// `SlopeMetrics` on every lane.
+/// x + k h on every lane. Plain loops: `array::from_fn` and closures are not always
+/// inlined into the copies compiled for wider vectors.
+#[inline(always)]
+fn axpy(x: &[Lanes; 4], k: &[Lanes; 4], h: f64) -> [Lanes; 4] {
+    let mut out = [[0.0; LANES]; 4];
+    for i in 0..4 {
+        for l in 0..LANES {
+            out[i][l] = x[i][l] + k[i][l] * h;
+        }
+    }
+    out
+}
+
+/// `SlopeMetrics` on every lane. `observe` is branch-free over the lanes (a lane that
+/// has ended adds nothing), so it vectorises like the model.
 struct Metrics {
     sum_pitch: Lanes,
     sum_speed: Lanes,
@@ -140,25 +120,38 @@ struct Metrics {
 }
 
 impl Metrics {
+    fn new(radius: Lanes, x: &[Lanes; 4], phi_s: &Lanes) -> Self {
+        Self {
+            sum_pitch: [0.0; LANES],
+            sum_speed: [0.0; LANES],
+            // Set at the first observation, as `SlopeMetrics` does.
+            pitch_band: core::array::from_fn(|l| (0.02 * (phi_s[l] - x[0][l]).abs()).max(0.25f64.to_radians())),
+            pitch_settle: [0.0; LANES],
+            speed_settle: [0.0; LANES],
+            final_position_error: [0.0; LANES],
+            peak_abs_input: [0.0; LANES],
+            samples: [0; LANES],
+            radius,
+        }
+    }
+
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn observe(&mut self, l: usize, t: f64, x: &[Lanes; 4], u: f64, r: &SpeedRef<f64>, phi_s: f64, speed_scale: f64) {
-        let pitch_error = (x[0][l] - phi_s).abs();
-        let speed_error = (x[3][l] - r.theta_dot).abs();
-        if self.samples[l] == 0 {
-            self.pitch_band[l] = (0.02 * (phi_s - x[0][l]).abs()).max(0.25f64.to_radians());
+    fn observe(&mut self, live: &[bool; LANES], t: f64, x: &[Lanes; 4], u: &Lanes, r: &SpeedRef<f64>, phi_s: &Lanes, speed_scale: f64) {
+        for l in 0..LANES {
+            let pitch_error = (x[0][l] - phi_s[l]).abs();
+            let speed_error = (x[3][l] - r.theta_dot).abs();
+            let on = live[l];
+            self.pitch_settle[l] = if on && pitch_error > self.pitch_band[l] { t } else { self.pitch_settle[l] };
+            self.speed_settle[l] = if on && speed_error > 0.02 * speed_scale { t } else { self.speed_settle[l] };
+            self.sum_pitch[l] = if on { self.sum_pitch[l] + pitch_error } else { self.sum_pitch[l] };
+            self.sum_speed[l] = if on { self.sum_speed[l] + speed_error } else { self.sum_speed[l] };
+            let position = (r.theta - x[2][l]) * self.radius[l];
+            self.final_position_error[l] = if on { position } else { self.final_position_error[l] };
+            let peak = self.peak_abs_input[l].max(u[l].abs());
+            self.peak_abs_input[l] = if on { peak } else { self.peak_abs_input[l] };
+            self.samples[l] += on as u64;
         }
-        if pitch_error > self.pitch_band[l] {
-            self.pitch_settle[l] = t;
-        }
-        if speed_error > 0.02 * speed_scale {
-            self.speed_settle[l] = t;
-        }
-        self.sum_pitch[l] += pitch_error;
-        self.sum_speed[l] += speed_error;
-        self.final_position_error[l] = (r.theta - x[2][l]) * self.radius[l];
-        self.peak_abs_input[l] = self.peak_abs_input[l].max(u.abs());
-        self.samples[l] += 1;
     }
 }
 
@@ -167,9 +160,18 @@ fn steady_pitch(models: &[SlopeModel<f64>; LANES], speed: f64) -> Lanes {
     core::array::from_fn(|l| models[l].equilibrium(speed).map(|(x, _)| x[0]).unwrap_or(core::f64::consts::FRAC_PI_2))
 }
 
+fn only(l: usize) -> [bool; LANES] {
+    core::array::from_fn(|i| i == l)
+}
+
 /// Runs up to [`LANES`] samples (fewer fill the rest of the block with idle lanes).
 /// `should_stop` is asked every `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it
 /// said yes before the block was done.
+///
+/// On x86-64 the same code is compiled twice more, for AVX-512 and for AVX2, and the
+/// widest the CPU has is chosen at run time (wheels are built for the baseline CPU).
+/// All copies give the same bits: only +, −, ×, ÷, comparisons and bit masks, no
+/// fused multiply-add.
 pub fn run_lqr_block(
     controller: &LqrController<f64>,
     reference: &SpeedSchedule<f64>,
@@ -177,9 +179,57 @@ pub fn run_lqr_block(
     samples: &[Sample],
     should_stop: &dyn Fn() -> bool,
 ) -> Result<Option<[SampleMetrics; LANES]>, TwipError> {
-    block(controller, reference, config, samples, should_stop)
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: each copy runs only on a CPU that has its instructions.
+        if std::is_x86_feature_detected!("avx512f") {
+            return unsafe { block_avx512(controller, reference, config, samples, should_stop) };
+        }
+        if std::is_x86_feature_detected!("avx2") {
+            return unsafe { block_avx2(controller, reference, config, samples, should_stop) };
+        }
+    }
+    block_baseline(controller, reference, config, samples, should_stop)
 }
 
+type BlockResult = Result<Option<[SampleMetrics; LANES]>, TwipError>;
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn block_avx512(
+    c: &LqrController<f64>,
+    r: &SpeedSchedule<f64>,
+    k: &SimConfig<f64>,
+    s: &[Sample],
+    stop: &dyn Fn() -> bool,
+) -> BlockResult {
+    block(c, r, k, s, stop)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn block_avx2(
+    c: &LqrController<f64>,
+    r: &SpeedSchedule<f64>,
+    k: &SimConfig<f64>,
+    s: &[Sample],
+    stop: &dyn Fn() -> bool,
+) -> BlockResult {
+    block(c, r, k, s, stop)
+}
+
+#[inline(never)]
+fn block_baseline(
+    c: &LqrController<f64>,
+    r: &SpeedSchedule<f64>,
+    k: &SimConfig<f64>,
+    s: &[Sample],
+    stop: &dyn Fn() -> bool,
+) -> BlockResult {
+    block(c, r, k, s, stop)
+}
+
+#[inline(always)]
 fn block(
     controller: &LqrController<f64>,
     reference: &SpeedSchedule<f64>,
@@ -209,26 +259,18 @@ fn block(
     });
     let gains = controller.gains();
     let period = controller.period();
+    let dt = config.dt;
     let mut z = [0.0; LANES];
     let mut u = [0.0; LANES];
-    let mut metrics = Metrics {
-        sum_pitch: [0.0; LANES],
-        sum_speed: [0.0; LANES],
-        pitch_band: [0.0; LANES],
-        pitch_settle: [0.0; LANES],
-        speed_settle: [0.0; LANES],
-        final_position_error: [0.0; LANES],
-        peak_abs_input: [0.0; LANES],
-        samples: [0; LANES],
-        radius: core::array::from_fn(|l| models[l].params().wheel_radius),
-    };
     let mut alive = active;
-    let mut ended = [(false, 0.0f64, 0u64); LANES]; // (fell, t_end, steps)
-    let mut cached_speed = f64::NAN;
-    let (mut phi_s, mut u_s, mut plant_phi_s) = (0.0, 0.0, [0.0; LANES]);
+    // (fell, t_end, steps) of each lane that has ended.
+    let mut ended = [(false, 0.0f64, 0u64); LANES];
+    let r0 = reference.sample(0.0);
+    let (mut phi_s, mut u_s) = controller.steady_state(r0.theta_dot).unwrap_or((0.0, 0.0));
+    let mut cached_speed = r0.theta_dot;
+    let mut plant_phi_s = steady_pitch(&models, r0.theta_dot);
+    let mut metrics = Metrics::new(core::array::from_fn(|l| models[l].params().wheel_radius), &x, &plant_phi_s);
     let mut speed_scale: f64 = 0.0;
-    let dt = config.dt;
-    let avx2 = has_avx2();
     for k in 0..n {
         let t = dt * k as f64;
         if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
@@ -242,63 +284,69 @@ fn block(
         }
         speed_scale = speed_scale.max(r.theta_dot.abs());
         if k % per_update == 0 {
+            // `LqrController::update`, operation for operation.
+            let mut finite = true;
             for l in 0..LANES {
                 let speed_error = x[3][l] - r.theta_dot;
                 u[l] = u_s - (gains[0] * (x[0][l] - phi_s) + gains[1] * x[1][l] + gains[2] * speed_error) - gains[3] * z[l];
                 z[l] += speed_error * period;
+                finite &= u[l].is_finite() || !alive[l];
             }
-            for l in 0..LANES {
-                if alive[l] && !u[l].is_finite() {
-                    alive[l] = false;
-                    ended[l] = (true, t, k as u64);
+            if !finite {
+                for l in 0..LANES {
+                    if alive[l] && !u[l].is_finite() {
+                        alive[l] = false;
+                        ended[l] = (true, t, k as u64);
+                    }
                 }
             }
         }
+        metrics.observe(&alive, t, &x, &u, &r, &plant_phi_s, speed_scale);
+        let next = plants.rk4(&x, &u, dt);
+        // Lanes that go on take the new state; the few that end are handled below.
+        let mut goes_on = [false; LANES];
+        let mut any_ends = false;
         for l in 0..LANES {
-            if alive[l] {
-                metrics.observe(l, t, &x, u[l], &r, plant_phi_s[l], speed_scale);
+            let finite = next[0][l].is_finite() & next[1][l].is_finite() & next[2][l].is_finite() & next[3][l].is_finite();
+            goes_on[l] = alive[l] & finite & (next[0][l].abs() <= config.fall_limit);
+            any_ends |= alive[l] & !goes_on[l];
+        }
+        for i in 0..4 {
+            for l in 0..LANES {
+                x[i][l] = if goes_on[l] { next[i][l] } else { x[i][l] };
             }
         }
-        let next = plants.step(&x, &u, dt, avx2);
-        let t_next = dt * (k + 1) as f64;
-        let mut any_alive = false;
-        for l in 0..LANES {
-            if !alive[l] {
-                continue;
-            }
-            if (0..4).any(|i| !next[i][l].is_finite()) {
+        if any_ends {
+            let t_next = dt * (k + 1) as f64;
+            for l in 0..LANES {
+                if !(alive[l] && !goes_on[l]) {
+                    continue;
+                }
                 alive[l] = false;
                 ended[l] = (true, t_next, (k + 1) as u64);
-                continue;
+                if (0..4).all(|i| next[i][l].is_finite()) {
+                    // Fell: the runner observes the state past the limit, then stops.
+                    for i in 0..4 {
+                        x[i][l] = next[i][l];
+                    }
+                    let r_next = reference.sample(t_next);
+                    let phi_s_next = steady_pitch(&models, r_next.theta_dot);
+                    metrics.observe(&only(l), t_next, &x, &u, &r_next, &phi_s_next, speed_scale.max(r_next.theta_dot.abs()));
+                }
             }
-            for i in 0..4 {
-                x[i][l] = next[i][l];
+            if !alive.iter().any(|&a| a) {
+                break;
             }
-            if x[0][l].abs() > config.fall_limit {
-                let r_next = reference.sample(t_next);
-                let phi_s_next = models[l].equilibrium(r_next.theta_dot).map(|(x, _)| x[0]).unwrap_or(core::f64::consts::FRAC_PI_2);
-                let scale = speed_scale.max(0.0);
-                metrics.observe(l, t_next, &x, u[l], &r_next, phi_s_next, scale);
-                alive[l] = false;
-                ended[l] = (true, t_next, (k + 1) as u64);
-                continue;
-            }
-            any_alive = true;
-        }
-        if !any_alive {
-            break;
         }
     }
     let t_end = dt * n as f64;
     let r_end = reference.sample(t_end);
     let end_phi_s = steady_pitch(&models, r_end.theta_dot);
+    metrics.observe(&alive, t_end, &x, &u, &r_end, &end_phi_s, speed_scale.max(r_end.theta_dot.abs()));
     for l in 0..LANES {
         if alive[l] {
-            metrics.observe(l, t_end, &x, u[l], &r_end, end_phi_s[l], speed_scale.max(r_end.theta_dot.abs()));
             ended[l] = (false, t_end, n as u64);
         }
-    }
-    for l in 0..LANES {
         if !active[l] {
             continue;
         }
@@ -322,15 +370,4 @@ fn block(
 
 fn fallback_x0(_: usize) -> f64 {
     0.0
-}
-
-fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
 }

@@ -1,0 +1,40 @@
+//! Throughput of one sweep path, for timing with CPU time on a busy machine:
+//!   /usr/bin/time -f "%U s user" cargo run --release --features parallel \
+//!       --example sweep_throughput -- lanes 256
+use nalgebra::{Matrix4, Vector4};
+use twip_core::lqr_control::{design, DesignPoint, LqrController};
+use twip_core::reference::SpeedSchedule;
+use twip_core::runner::SimConfig;
+use twip_core::sweep::{draw, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Spread, Target};
+use twip_core::{RobotParams, SlopeModel};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let path = args.get(1).map(String::as_str).unwrap_or("lanes");
+    let n: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(256);
+    let params = RobotParams::balanbot();
+    let model = SlopeModel::new(params, 0.0).unwrap();
+    let speed = 180f64.to_radians();
+    let q = Matrix4::from_diagonal(&Vector4::new(100.0, 1.0, 1.0, 1.0));
+    let d = design(&model, speed, &q, 480.0, DesignPoint::OperatingPoint).unwrap();
+    let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 1e-3).unwrap();
+    let perturb = [Perturbation { target: Target::Param(0), spread: Spread::Uniform { low: 0.66, high: 1.0 } }];
+    let nominal = Nominal { params, slope: 0.0, x0: Vector4::zeros() };
+    let schedule = SpeedSchedule::constant(speed).unwrap();
+    let config = SimConfig { dt: 1e-3, t_final: 10.0, fall_limit: 1.0 };
+    let start = std::time::Instant::now();
+    let total: f64 = match path {
+        "lanes" => run_lqr_samples(&ctrl, &schedule, &config, &nominal, &perturb, 1, 0..n, &|| false)
+            .unwrap()
+            .unwrap()
+            .iter()
+            .map(|m| m.mean_abs_pitch_error)
+            .sum(),
+        _ => (0..n)
+            .map(|i| run_slope_sample(&ctrl, &schedule, &config, &draw(&nominal, &perturb, 1, i), &|| false).unwrap())
+            .map(|m| m.mean_abs_pitch_error)
+            .sum(),
+    };
+    let secs = start.elapsed().as_secs_f64();
+    println!("{path}: {n} samples x 10000 steps in {secs:.3} s wall = {:.2} M sample-steps/s (checksum {total:.6e})", n as f64 * 1e4 / secs / 1e6);
+}
