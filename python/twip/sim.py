@@ -24,6 +24,17 @@ class SimResult:
     t_end: Optional[float]
     steps: int
     metrics: dict = field(default_factory=dict)
+    # With `realism`: per sample, what the controller last read (phi_hat, phi_dot_hat,
+    # theta_hat, theta_dot_hat), the plant's input ("drive": PWM counts with a motor
+    # driver, else amperes) and the lumped motor current ("motor_current", A).
+    signals: dict = field(default_factory=dict)
+
+    @property
+    def measurements(self) -> Optional[np.ndarray]:
+        """(phi_hat, phi_dot_hat, theta_hat, theta_dot_hat) per sample, beside `states`."""
+        if not self.signals:
+            return None
+        return np.column_stack([self.signals[n] for n in ("phi_hat", "phi_dot_hat", "theta_hat", "theta_dot_hat")])
 
     @property
     def fell(self) -> bool:
@@ -48,6 +59,8 @@ def simulate(
     control_period: Optional[float] = None,
     fall_limit: float = math.radians(60.0),
     record_every: int = 1,
+    settle: Optional[float] = None,
+    realism=None,
 ) -> SimResult:
     """Runs `controller` on `model` from `x0` for `t_final` seconds.
 
@@ -56,13 +69,34 @@ def simulate(
     its input is held in between. The run ends early, cleanly, when |pitch| exceeds
     `fall_limit` (default 60 degrees). `record_every` keeps one sample in k in the log;
     metrics always use every step.
+
+    A `PlanarModel` needs a trajectory as `reference` (twip.Circle, Line, FigureEight or
+    Waypoints); its "_settled" metrics start at `settle` [s] (default: one lap of a
+    circle or figure-eight, else 0).
+
+    `realism` (a `twip.Realism`, 2-DOF controllers) puts the robot's real parts in the
+    loop: sensors and estimator, motor driver, loop period and delay, disturbances.
+    `inputs` stay the controller's current; `signals` and `measurements` hold the rest.
     """
-    if reference is None:
-        reference = _core.SpeedSchedule.constant(0.0)
-    raw = _core.simulate_raw(
-        model, controller, x0, float(t_final), float(dt), reference,
-        control_period=control_period, fall_limit=float(fall_limit), record_every=int(record_every),
-    )
+    if isinstance(model, _core.PlanarModel):
+        if realism is not None:
+            raise _core.InvalidParameterError("realism: only the 2-DOF (SlopeModel) controllers take realism")
+        if reference is None:
+            raise _core.InvalidParameterError(
+                "reference is required for a PlanarModel: a twip.Circle, Line, FigureEight or Waypoints")
+        raw = _core.simulate_planar_raw(
+            model, controller, x0, float(t_final), float(dt), reference,
+            control_period=control_period, fall_limit=float(fall_limit), record_every=int(record_every),
+            settle=None if settle is None else float(settle),
+        )
+    else:
+        if reference is None:
+            reference = _core.SpeedSchedule.constant(0.0)
+        raw = _core.simulate_raw(
+            model, controller, x0, float(t_final), float(dt), reference,
+            control_period=control_period, fall_limit=float(fall_limit), record_every=int(record_every),
+            realism=realism,
+        )
     names = raw["internal_names"]
     internals = {n: raw["internals"][:, i] for i, n in enumerate(names)}
     return SimResult(
@@ -76,4 +110,6 @@ def simulate(
         t_end=raw["t_end"],
         steps=raw["steps"],
         metrics=dict(raw["metrics"]),
+        signals={} if raw.get("signals") is None else {
+            n: raw["signals"][:, i] for i, n in enumerate(raw["signal_names"])},
     )

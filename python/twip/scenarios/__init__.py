@@ -30,9 +30,11 @@ class Scenario:
     control_period: Optional[float] = None
     thesis: dict = field(default_factory=dict)
 
-    def run(self, **overrides) -> SimResult:
-        """Simulates the scenario; keyword overrides go to `twip.simulate`."""
+    def run(self, realism=None, **overrides) -> SimResult:
+        """Simulates the scenario; `realism` (a `twip.Realism`) and keyword overrides go
+        to `twip.simulate`."""
         kw = dict(
+            realism=realism,
             model=self.model,
             controller=self.controller,
             x0=self.x0,

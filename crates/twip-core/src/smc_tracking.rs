@@ -1,0 +1,601 @@
+//! Sliding-mode backstepping trajectory tracker (thesis 4.71–4.98, 4.120–4.121) and its
+//! fuzzy adaptive form (4.99–4.119), on the 3-DOF model.
+//!
+//! ```text
+//! errors      e1, e2, e3 = rotation(ψ) (x_r − x, y_r − y), wrap(ψ_r − ψ)        (4.73), (4.75)
+//! virtual     λ1 = −k_φ (φ − φ_s)                                              (4.74)
+//!             λ2 = v_r cos e3 + k1 e1                                          (4.81)
+//!             λ3 = ρ(1 + k3 e1) [k2 ē3 + e2 v_r sin e3 ρ(ē3) + k3 v_r sin e3 + ω_r],  ē3 = e3 + k3 e2   (4.82)
+//! yaw         S_η = ω − λ3,   C_y = [λ̇3 − F̂1 − (g_y3 − k_η3) σ(S_η) + k_η4 S_η] / g23      (4.85), (4.106)
+//! pitch/speed S1 = r1 S_φ + r2 S_v,  S_φ = φ̇ − λ1,  S_v = v − λ2                (4.92), (4.94)
+//!             C_ψ = −F̂2 − (k_s3 − g_y4) σ(S1) − k_s4 S1                            (4.115)
+//! wheels      u_r = (C_ψ + C_y)/2,  u_l = (C_ψ − C_y)/2                             (4.120)–(4.121)
+//! ```
+//!
+//! F̂1 and F̂2 are what the equivalent control needs: f23 and
+//! (r1 f21 + r2 f22 − r1 λ̇1 − r2 λ̇2)/(r1 g21 + r2 g22). Without fuzzy adaptation they come from
+//! the controller's own model (4.89, 4.97); with it they are the fuzzy estimates Ĉ1ᵀξ1, Ĉ2ᵀξ2,
+//! adapted by Ĉ̇1 = ξ1 S_η/Γ1 (4.107), Ĉ̇2 = ξ2 S1 (r1 g21 + r2 g22)/Γ2 (4.116), and only
+//! g21, g22, g23 come from the model.
+//!
+//! twip's readings and guards (docs/errata.md T4–T12): r1 acts on the pitch measured positive
+//! leaning *backward* ([`PitchSign::Backward`]); the gains follow (4.115)'s sign convention
+//! (negative stabilises), including (4.106)'s; σ is sgn, or sat(S/w) in a boundary layer of
+//! width w; ρ(x) = 1/x for |x| ≥ δ and x/δ² inside (continuous, odd, bounded by 1/δ); φ_s is the
+//! controller model's steady pitch at (v_r, ω_r) (0 in the thesis).
+use nalgebra::SVector;
+
+use crate::control::Controller;
+use crate::fuzzy::{GridBasis, Membership, ThesisBasis};
+use crate::motor::DcMotor;
+use crate::pid_tracking::relative_wheel_speeds;
+use crate::planar::PlanarModel;
+use crate::trajectory::{wrap_angle, PlanarRef};
+use crate::{c, Dynamics, Real, TwipError};
+
+/// The gains, SI (torques in N m, rates in rad/s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SmcGains<T> {
+    /// Kinematic backstepping (4.81), (4.82), (4.77), all > 0. The thesis gives none of them.
+    pub k1: T,
+    pub k2: T,
+    pub k3: T,
+    /// Pitch virtual control (4.74), > 0; not given either.
+    pub k_phi: T,
+    /// Second-layer surface (4.94) on the controller's pitch.
+    pub r1: T,
+    pub r2: T,
+    /// (4.115): switching gain (the thesis's second "k3", ≤ 0) and linear gain (< 0) [N m],
+    /// and the bound g_ymax4 ≥ 0 on the estimate's error [N m].
+    pub k_s3: T,
+    pub k_s4: T,
+    pub g_y4: T,
+    /// (4.106): switching gain ≤ 0 [rad/s²], linear gain < 0 [1/s], g_ymax3 ≥ 0 [rad/s²].
+    pub k_eta3: T,
+    pub k_eta4: T,
+    pub g_y3: T,
+}
+
+impl<T: Real> SmcGains<T> {
+    /// The published gains (4.3.2), with k_s3, k_s4 and g_ymax4 read in units of
+    /// `torque_unit` N m (errata T7: one PWM count, [`DcMotor::torque_per_count`]), and
+    /// twip's k1 = k2 = 2, k3 = 4, k_φ = 2 (errata T4; the zero dynamics of S1 = 0 are fastest near k_φ = k1, T6).
+    pub fn thesis(torque_unit: T) -> Self {
+        Self {
+            k1: c(2.0),
+            k2: c(2.0),
+            k3: c(4.0),
+            k_phi: c(2.0),
+            r1: c(-25.0),
+            r2: c(3.0),
+            k_s3: c::<T>(-2.0) * torque_unit,
+            k_s4: -torque_unit,
+            g_y4: torque_unit,
+            k_eta3: c(-2.0),
+            k_eta4: c(-5.0),
+            g_y3: c(1.0),
+        }
+    }
+
+    fn validate(&self) -> Result<(), TwipError> {
+        let positive = [("k1", self.k1), ("k2", self.k2), ("k3", self.k3), ("k_phi", self.k_phi)];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > T::zero()) {
+                return Err(invalid(name, v, "must be finite and > 0"));
+            }
+        }
+        for (name, v) in [("r1", self.r1), ("r2", self.r2)] {
+            if !v.is_finite() {
+                return Err(invalid(name, v, "must be finite"));
+            }
+        }
+        const NEG: &str = "must be < 0 (the thesis's convention: negative gains stabilise)";
+        const NON_POS: &str = "must be <= 0 (the thesis's convention: negative gains stabilise)";
+        let signed = [
+            ("k_s3", self.k_s3, false),
+            ("k_s4", self.k_s4, true),
+            ("k_eta3", self.k_eta3, false),
+            ("k_eta4", self.k_eta4, true),
+        ];
+        for (name, v, strict) in signed {
+            if !v.is_finite() || v > T::zero() || (strict && v == T::zero()) {
+                return Err(invalid(name, v, if strict { NEG } else { NON_POS }));
+            }
+        }
+        for (name, v) in [("g_y3", self.g_y3), ("g_y4", self.g_y4)] {
+            if !(v.is_finite() && v >= T::zero()) {
+                return Err(invalid(name, v, "must be finite and >= 0"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Which way the controller's pitch is positive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PitchSign {
+    /// twip's: leaning towards forward travel.
+    Forward,
+    /// Leaning backward: the convention under which the published r1 = −25, r2 = 3 keep
+    /// r1 g21 + r2 g22 < 0 (4.113) and S1 = 0 stable (errata T6).
+    Backward,
+}
+
+/// Surfaces, guards and the steady pitch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SmcOptions<T> {
+    pub pitch: PitchSign,
+    /// Boundary-layer widths of S_η [rad/s] and S1; 0 gives sgn (chattering).
+    pub width_eta: T,
+    pub width_s1: T,
+    /// Guards δ of (4.82): 1/ē3 and 1/(1 + k3 e1) are exact where |·| ≥ δ, linear inside.
+    pub guard_e3: T,
+    pub guard_d: T,
+    /// λ1 aims at the controller model's steady pitch at (v_r, ω_r) instead of 0 (errata T8).
+    pub pitch_offset: bool,
+}
+
+impl<T: Real> Default for SmcOptions<T> {
+    fn default() -> Self {
+        Self {
+            pitch: PitchSign::Backward,
+            width_eta: c(0.02),
+            width_s1: c(0.5),
+            guard_e3: c(0.05),
+            guard_d: c(0.2),
+            pitch_offset: true,
+        }
+    }
+}
+
+/// Adaptation of the fuzzy estimates (4.107), (4.116), with optional leakage σ (Ĉ̇ −= σ Ĉ).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Adaptation<T> {
+    pub gamma1: T,
+    pub gamma2: T,
+    pub leakage: T,
+}
+
+impl<T: Real> Default for Adaptation<T> {
+    fn default() -> Self {
+        Self { gamma1: c(0.05), gamma2: c(1000.0), leakage: T::zero() }
+    }
+}
+
+/// Names of [`SmcTracker::internals`], in order.
+pub const SMC_INTERNALS: [&str; 33] = [
+    "s_eta", "s1", "lambda1", "lambda2", "lambda3", "lambda3_dot", "e1", "e2", "e3", "c_psi", "c_y", "f1_hat",
+    "f2_hat", "d", "phi_s", "c1_1", "c1_2", "c1_3", "c1_4", "c1_5", "c1_6", "c1_7", "c1_8", "c1_9", "c2_1", "c2_2",
+    "c2_3", "c2_4", "c2_5", "c2_6", "c2_7", "c2_8", "c2_9",
+];
+
+/// The basis of Ĉ1 (estimating f23): (φ [rad], ω [rad/s]) × (N, Z, P).
+pub type YawBasis<T> = GridBasis<T, 2, 3, 9>;
+
+/// N, Z, P over ±`inner` (Z's core) to ±`outer` (the shoulders'), summing to 1.
+fn shoulders<T: Real>(inner: f64, outer: f64) -> [Membership<T>; 3] {
+    let inf = T::one() / T::zero();
+    let (i, o) = (c::<T>(inner), c::<T>(outer));
+    [
+        Membership::Trapezoid { a: -inf, b: -inf, c: -o, d: -i },
+        Membership::Trapezoid { a: -o, b: -i, c: i, d: o },
+        Membership::Trapezoid { a: i, b: o, c: inf, d: inf },
+    ]
+}
+
+/// twip's choice of ξ1's sets (the thesis gives neither inputs nor sets): φ as the
+/// thesis's basis, ω with Z's core ±0.25 rad/s and shoulders from ±1 rad/s.
+pub fn yaw_basis<T: Real>() -> YawBasis<T> {
+    GridBasis::new([shoulders(0.1, 0.3), shoulders(0.25, 1.0)]).expect("valid sets")
+}
+
+/// ρ_δ(x) = 1/x for |x| ≥ δ, x/δ² inside, and its slope.
+#[inline]
+fn guarded_inverse<T: Real>(x: T, width: T) -> (T, T) {
+    if x.abs() >= width {
+        (T::one() / x, -T::one() / (x * x))
+    } else {
+        let w2 = width * width;
+        (x / w2, T::one() / w2)
+    }
+}
+
+/// sgn(s) when `width` is 0, else sat(s/width).
+#[inline]
+fn switch<T: Real>(s: T, width: T) -> T {
+    if width == T::zero() {
+        if s > T::zero() {
+            T::one()
+        } else if s < T::zero() {
+            -T::one()
+        } else {
+            T::zero()
+        }
+    } else {
+        (s / width).max(-T::one()).min(T::one())
+    }
+}
+
+fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
+    TwipError::InvalidParameter { name, value: crate::to_f64(v), reason }
+}
+
+/// The sliding-mode tracker, model-based or fuzzy adaptive.
+#[derive(Clone, Copy, Debug)]
+pub struct SmcTracker<T: Real> {
+    gains: SmcGains<T>,
+    options: SmcOptions<T>,
+    model: PlanarModel<T>,
+    motor: Option<DcMotor<T>>,
+    adaptation: Option<Adaptation<T>>,
+    basis1: YawBasis<T>,
+    basis2: ThesisBasis<T>,
+    c1: [T; 9],
+    c2: [T; 9],
+    period: T,
+    /// (v_r, ω_r, φ_s) of the last reference seen: on a circle it never changes.
+    steady: Option<(T, T, T)>,
+    internals: [T; 33],
+}
+
+impl<T: Real> SmcTracker<T> {
+    /// `model` is the controller's own; `motor`, if any, limits each wheel's torque to what
+    /// it can give at the battery voltage and the measured wheel speed; `adaptation` makes
+    /// it the fuzzy adaptive form.
+    pub fn new(
+        gains: SmcGains<T>,
+        options: SmcOptions<T>,
+        model: PlanarModel<T>,
+        motor: Option<DcMotor<T>>,
+        adaptation: Option<Adaptation<T>>,
+        period: T,
+    ) -> Result<Self, TwipError> {
+        gains.validate()?;
+        for (name, v) in [("width_eta", options.width_eta), ("width_s1", options.width_s1)] {
+            if !(v.is_finite() && v >= T::zero()) {
+                return Err(invalid(name, v, "must be finite and >= 0 (0 is sgn)"));
+            }
+        }
+        for (name, v) in [("guard_e3", options.guard_e3), ("guard_d", options.guard_d)] {
+            if !(v.is_finite() && v > T::zero()) {
+                return Err(invalid(name, v, "must be finite and > 0"));
+            }
+        }
+        if let Some(a) = adaptation {
+            for (name, v) in [("gamma1", a.gamma1), ("gamma2", a.gamma2)] {
+                if !(v.is_finite() && v > T::zero()) {
+                    return Err(invalid(name, v, "must be finite and > 0"));
+                }
+            }
+            if !(a.leakage.is_finite() && a.leakage >= T::zero()) {
+                return Err(invalid("leakage", a.leakage, "must be finite and >= 0"));
+            }
+        }
+        if !(period.is_finite() && period > T::zero()) {
+            return Err(invalid("period", period, "must be finite and > 0"));
+        }
+        let tracker = Self {
+            gains,
+            options,
+            model,
+            motor,
+            adaptation,
+            basis1: yaw_basis(),
+            basis2: ThesisBasis::thesis(),
+            c1: [T::zero(); 9],
+            c2: [T::zero(); 9],
+            period,
+            steady: None,
+            internals: [T::zero(); 33],
+        };
+        let d = tracker.surface_gain(T::zero());
+        if d >= T::zero() || !d.is_finite() {
+            return Err(invalid(
+                "r1 g21 + r2 g22",
+                d,
+                "must be < 0 at phi = 0 (thesis 4.113); flip the pitch sign or the signs of r1, r2",
+            ));
+        }
+        Ok(tracker)
+    }
+
+    pub fn with_period(self, period: T) -> Result<Self, TwipError> {
+        Self::new(self.gains, self.options, self.model, self.motor, self.adaptation, period)
+    }
+
+    pub fn gains(&self) -> SmcGains<T> {
+        self.gains
+    }
+
+    pub fn options(&self) -> SmcOptions<T> {
+        self.options
+    }
+
+    pub fn model(&self) -> &PlanarModel<T> {
+        &self.model
+    }
+
+    pub fn motor(&self) -> Option<&DcMotor<T>> {
+        self.motor.as_ref()
+    }
+
+    pub fn adaptation(&self) -> Option<Adaptation<T>> {
+        self.adaptation
+    }
+
+    /// The fuzzy weights (Ĉ1, Ĉ2) as of the last update.
+    pub fn weights(&self) -> ([T; 9], [T; 9]) {
+        (self.c1, self.c2)
+    }
+
+    /// r1 as it acts on twip's pitch.
+    fn r1(&self) -> T {
+        match self.options.pitch {
+            PitchSign::Forward => self.gains.r1,
+            PitchSign::Backward => -self.gains.r1,
+        }
+    }
+
+    /// (g21, g22, g23) of (4.72) for the controller's model at pitch `phi`: per N m of C_ψ on
+    /// (φ̈, v̇), per N m of C_y on ω̇.
+    pub fn input_gains(&self, phi: T) -> (T, T, T) {
+        let m = self.model.mass_matrix(phi);
+        let p = self.model.params();
+        let inv_r = T::one() / p.wheel_radius;
+        let det = m[(0, 0)] * m[(1, 1)] - m[(0, 1)] * m[(0, 1)];
+        let g21 = (-m[(1, 1)] - m[(0, 1)] * inv_r) / det;
+        let g22 = (m[(0, 1)] + m[(0, 0)] * inv_r) / det;
+        (g21, g22, p.half_track * inv_r / m[(2, 2)])
+    }
+
+    /// r1 g21 + r2 g22 at pitch `phi`, r1 on the controller's pitch: (4.113) needs it < 0.
+    pub fn surface_gain(&self, phi: T) -> T {
+        let (g21, g22, _) = self.input_gains(phi);
+        self.r1() * g21 + self.gains.r2 * g22
+    }
+
+    /// The controller model's pitch when driving steadily at speed `v` turning at `omega`:
+    /// both (φ, v) rows at rest need one and the same C_ψ (Newton from 0).
+    pub fn steady_pitch(&self, v: T, omega: T) -> T {
+        let radius = self.model.params().wheel_radius;
+        // With φ̇ = v̇ = φ̈ = 0 the rows read f_φ = C_ψ, f_v = −C_ψ/R, so f_φ + R f_v = 0.
+        let residual = |phi: T| {
+            let x = SVector::<T, 7>::from([T::zero(), T::zero(), T::zero(), phi, T::zero(), v, omega]);
+            let acc = self.model.deriv(&x, &SVector::zeros());
+            let m = self.model.mass_matrix(phi);
+            let f_phi = m[(0, 0)] * acc[4] + m[(0, 1)] * acc[5];
+            let f_v = m[(1, 0)] * acc[4] + m[(1, 1)] * acc[5];
+            f_phi + radius * f_v
+        };
+        let h = c::<T>(1e-4);
+        let mut phi = T::zero();
+        for _ in 0..8 {
+            let slope = (residual(phi + h) - residual(phi - h)) / (h + h);
+            let next = phi - residual(phi) / slope;
+            if !next.is_finite() {
+                return T::zero();
+            }
+            phi = next;
+        }
+        phi
+    }
+
+    fn cached_steady_pitch(&mut self, v: T, omega: T) -> T {
+        if !self.options.pitch_offset {
+            return T::zero();
+        }
+        match self.steady {
+            Some((sv, so, phi)) if sv == v && so == omega => phi,
+            _ => {
+                let phi = self.steady_pitch(v, omega);
+                self.steady = Some((v, omega, phi));
+                phi
+            }
+        }
+    }
+}
+
+impl<T: Real> Controller<T, 7, 2> for SmcTracker<T> {
+    type Reference = PlanarRef<T>;
+
+    fn period(&self) -> T {
+        self.period
+    }
+
+    fn reset(&mut self) {
+        self.c1 = [T::zero(); 9];
+        self.c2 = [T::zero(); 9];
+        self.steady = None;
+        self.internals = [T::zero(); 33];
+    }
+
+    fn update(&mut self, _t: T, y: &SVector<T, 7>, r: &PlanarRef<T>) -> SVector<T, 2> {
+        let SmcGains { k1, k2, k3, k_phi, r2, .. } = self.gains;
+        let (psi, phi, phi_dot, v, omega) = (y[2], y[3], y[4], y[5], y[6]);
+        // Kinematic errors in the robot's frame (4.75) and their rates (4.76).
+        let (sin_psi, cos_psi) = crate::math::sin_cos(psi);
+        let (dx, dy) = (r.x - y[0], r.y - y[1]);
+        let e1 = cos_psi * dx + sin_psi * dy;
+        let e2 = cos_psi * dy - sin_psi * dx;
+        let e3 = wrap_angle(r.psi - psi);
+        let (s3, c3) = crate::math::sin_cos(e3);
+        let e1_dot = omega * e2 - v + r.v * c3;
+        let e2_dot = r.v * s3 - omega * e1;
+        let e3_dot = r.omega - omega;
+        // Virtual controls (4.74), (4.81), (4.82) and their exact rates.
+        let phi_s = self.cached_steady_pitch(r.v, r.omega);
+        let lambda1 = -k_phi * (phi - phi_s);
+        let lambda1_dot = -k_phi * phi_dot;
+        let lambda2 = r.v * c3 + k1 * e1;
+        let lambda2_dot = r.v_dot * c3 - r.v * s3 * e3_dot + k1 * e1_dot;
+        let e3_bar = e3 + k3 * e2;
+        let e3_bar_dot = e3_dot + k3 * e2_dot;
+        let (q, q_slope) = guarded_inverse(e3_bar, self.options.guard_e3);
+        let cross = e2 * r.v * s3;
+        let cross_dot = e2_dot * r.v * s3 + e2 * r.v_dot * s3 + e2 * r.v * c3 * e3_dot;
+        let n = k2 * e3_bar + cross * q + k3 * r.v * s3 + r.omega;
+        let n_dot = k2 * e3_bar_dot
+            + cross_dot * q
+            + cross * q_slope * e3_bar_dot
+            + k3 * (r.v_dot * s3 + r.v * c3 * e3_dot)
+            + r.omega_dot;
+        let (inv_d, inv_d_slope) = guarded_inverse(T::one() + k3 * e1, self.options.guard_d);
+        let lambda3 = n * inv_d;
+        let lambda3_dot = n_dot * inv_d + n * inv_d_slope * k3 * e1_dot;
+        // Surfaces (4.85), (4.92), (4.94) and the model's input gains (4.72).
+        let r1 = self.r1();
+        let s_eta = omega - lambda3;
+        let s1 = r1 * (phi_dot - lambda1) + r2 * (v - lambda2);
+        let (g21, g22, g23) = self.input_gains(phi);
+        let d = r1 * g21 + r2 * g22;
+        // What the equivalent control needs: from the model, or the fuzzy estimates.
+        let (xi1, xi2) = match self.adaptation {
+            Some(_) => (self.basis1.eval(&[phi, omega]), self.basis2.eval(&[phi, phi_dot])),
+            None => ([T::zero(); 9], [T::zero(); 9]),
+        };
+        let (f1_hat, f2_hat) = match self.adaptation {
+            Some(_) => (dot9(&self.c1, &xi1), dot9(&self.c2, &xi2)),
+            None => {
+                let f = self.model.deriv(y, &SVector::zeros());
+                (f[6], (r1 * f[4] + r2 * f[5] - r1 * lambda1_dot - r2 * lambda2_dot) / d)
+            }
+        };
+        let g = &self.gains;
+        let c_y = (lambda3_dot - f1_hat - (g.g_y3 - g.k_eta3) * switch(s_eta, self.options.width_eta)
+            + g.k_eta4 * s_eta)
+            / g23;
+        let c_psi = -f2_hat - (g.k_s3 - g.g_y4) * switch(s1, self.options.width_s1) - g.k_s4 * s1;
+        let half = c::<T>(0.5);
+        let mut u = SVector::<T, 2>::new(half * c_psi + half * c_y, half * c_psi - half * c_y);
+        if let Some(m) = &self.motor {
+            let p = self.model.params();
+            let speeds = relative_wheel_speeds(y, p.wheel_radius, p.half_track);
+            for (ui, w) in u.iter_mut().zip(speeds) {
+                let (lo, hi) = m.torque_limits(w);
+                *ui = ui.max(lo).min(hi);
+            }
+        }
+        let head = [s_eta, s1, lambda1, lambda2, lambda3, lambda3_dot, e1, e2, e3, c_psi, c_y, f1_hat, f2_hat, d, phi_s];
+        self.internals[..15].copy_from_slice(&head);
+        self.internals[15..24].copy_from_slice(&self.c1);
+        self.internals[24..].copy_from_slice(&self.c2);
+        if let Some(a) = self.adaptation {
+            // (4.107), (4.116) by forward Euler over one period.
+            let (k_1, k_2) = (self.period * s_eta / a.gamma1, self.period * s1 * d / a.gamma2);
+            let decay = T::one() - self.period * a.leakage;
+            for j in 0..9 {
+                self.c1[j] = self.c1[j] * decay + k_1 * xi1[j];
+                self.c2[j] = self.c2[j] * decay + k_2 * xi2[j];
+            }
+        }
+        u
+    }
+
+    fn internals(&self) -> &[T] {
+        &self.internals
+    }
+
+    fn internal_names(&self) -> &'static [&'static str] {
+        &SMC_INTERNALS
+    }
+}
+
+#[inline]
+fn dot9<T: Real>(a: &[T; 9], b: &[T; 9]) -> T {
+    a.iter().zip(b).fold(T::zero(), |s, (x, y)| s + *x * *y)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motor::DcMotor;
+    use crate::RobotParams;
+
+    fn tracker(fuzzy: bool) -> SmcTracker<f64> {
+        let model = PlanarModel::new(RobotParams::balanbot()).unwrap();
+        let unit = DcMotor::<f64>::gb37y3530().torque_per_count();
+        let adaptation = if fuzzy { Some(Adaptation::default()) } else { None };
+        SmcTracker::new(SmcGains::thesis(unit), SmcOptions::default(), model, Some(DcMotor::gb37y3530()), adaptation, 0.005)
+            .unwrap()
+    }
+
+    #[test]
+    fn published_surface_needs_the_backward_pitch() {
+        let t = tracker(false);
+        assert!(t.surface_gain(0.0) < 0.0);
+        let options = SmcOptions { pitch: PitchSign::Forward, ..SmcOptions::default() };
+        let err = SmcTracker::new(t.gains(), options, *t.model(), None, None, 0.005).unwrap_err();
+        assert!(matches!(err, TwipError::InvalidParameter { name: "r1 g21 + r2 g22", .. }));
+    }
+
+    #[test]
+    fn singular_points_of_4_82_give_finite_torques() {
+        let mut t = tracker(false);
+        let r = PlanarRef { x: 0.0, y: 0.0, psi: 0.0, v: 0.1, omega: 0.2, v_dot: 0.0, omega_dot: 0.0 };
+        // e1 = −1/k3 (1 + k3 e1 = 0); and ē3 = e3 + k3 e2 = 0 with e2 = −0.05, e3 = 0.2.
+        let cases = [([0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 0.0), ([0.0, 0.05, 0.0, 0.0, 0.0, 0.1, 0.0], 0.2)];
+        for (y, psi_r) in cases {
+            let u = t.update(0.0, &SVector::from(y), &PlanarRef { psi: psi_r, ..r });
+            assert!(u.iter().all(|v| v.is_finite()), "{y:?} -> {u:?}");
+            assert!(t.internals()[6] == -0.25 || t.internals()[8] + 4.0 * t.internals()[7] == 0.0);
+        }
+    }
+
+    #[test]
+    fn steady_pitch_is_a_steady_state() {
+        let t = tracker(false);
+        let (v, w) = (0.1, 0.2);
+        let phi = t.steady_pitch(v, w);
+        // Some common C_ψ makes both accelerations vanish.
+        let m = t.model();
+        let x = SVector::<f64, 7>::from([0.0, 0.0, 0.0, phi, 0.0, v, w]);
+        let acc = m.deriv(&x, &SVector::zeros());
+        let (g21, g22, _) = t.input_gains(phi);
+        let torque = -acc[5] / g22;
+        assert!((acc[4] + g21 * torque).abs() < 1e-12, "phi_s = {phi}");
+        assert!(phi > 0.0 && phi < 0.05, "friction makes it lean forward a little: {phi}");
+    }
+
+    #[test]
+    fn f32_follows_f64() {
+        fn build<T: Real>() -> SmcTracker<T> {
+            let model = PlanarModel::new(RobotParams::<T>::balanbot()).unwrap();
+            let motor = DcMotor::<T>::gb37y3530();
+            let gains = SmcGains::thesis(motor.torque_per_count());
+            SmcTracker::new(gains, SmcOptions::default(), model, Some(motor), Some(Adaptation::default()), c(0.005))
+                .unwrap()
+        }
+        let (mut a, mut b) = (build::<f64>(), build::<f32>());
+        let y = [0.01, -0.02, 0.05, 0.03, -0.1, 0.08, 0.2];
+        let r = [0.0, 0.0, 0.0, 0.1, 0.2, 0.0, 0.0];
+        let r64 = PlanarRef { x: r[0], y: r[1], psi: r[2], v: r[3], omega: r[4], v_dot: r[5], omega_dot: r[6] };
+        let r32 = PlanarRef { x: 0.0f32, y: 0.0, psi: 0.0, v: 0.1, omega: 0.2, v_dot: 0.0, omega_dot: 0.0 };
+        for _ in 0..3 {
+            let u64 = a.update(0.0, &SVector::from(y), &r64);
+            let u32 = b.update(0.0, &SVector::from(y.map(|v| v as f32)), &r32);
+            for i in 0..2 {
+                assert!((u32[i] as f64 - u64[i]).abs() < 1e-4 * u64.amax().max(1e-3), "{u32} vs {u64}");
+            }
+        }
+    }
+
+    #[test]
+    fn bad_gains_are_named() {
+        let t = tracker(true);
+        let mut g = t.gains();
+        g.k_s4 = 1.0;
+        let err = SmcTracker::new(g, t.options(), *t.model(), None, None, 0.005).unwrap_err();
+        assert!(matches!(err, TwipError::InvalidParameter { name: "k_s4", .. }));
+        let mut g = t.gains();
+        g.k2 = 0.0;
+        assert!(matches!(
+            SmcTracker::new(g, t.options(), *t.model(), None, None, 0.005),
+            Err(TwipError::InvalidParameter { name: "k2", .. })
+        ));
+        let a = Adaptation { gamma1: 0.0, ..Adaptation::default() };
+        assert!(matches!(
+            SmcTracker::new(t.gains(), t.options(), *t.model(), None, Some(a), 0.005),
+            Err(TwipError::InvalidParameter { name: "gamma1", .. })
+        ));
+    }
+}

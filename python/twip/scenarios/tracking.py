@@ -1,0 +1,114 @@
+"""Trajectory tracking scenarios on the 3-DOF model (thesis 4.3) and the Table 5.2 comparison.
+
+Every run starts upright and at rest at the origin, heading along +x, on the circle's start
+point; the trackers update every 5 ms (an Arduino loop), RK4 at 1 ms.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from twip import _core
+from twip.scenarios import Scenario, get, register
+
+#: Table 5.2 (experiments): mean |x - x_r|, |y - y_r| [m].
+THESIS_TABLE_5_2 = {"pid": (0.072, 0.076), "smc": (0.027, 0.030)}
+
+#: The fields a model mismatch scales (the wheel, gearing and gravity are known exactly).
+MISMATCH_FIELDS = ("m_body", "m_wheels", "i_body", "i_wheels", "i_motor", "com_height", "mu_bearing", "mu_ground",
+                   "half_track", "i_body_roll", "i_body_yaw", "i_wheel_diam")
+
+
+def _circle(radius, speed, laps):
+    circle = _core.Circle(radius, speed)
+    return circle, laps * circle.period
+
+
+@register("circle-pid")
+def _circle_pid(params, ctrl_params, laps=3, period=0.005, supply=11.1):
+    """Fig 4.14: the circle of radius 0.6 m at a wheel speed of 180 deg/s (36 s a lap), Table 4.1."""
+    speed = math.radians(180.0) * params.wheel_radius
+    circle, t_final = _circle(0.6, speed, laps)
+    motor = _core.DcMotor.gb37y3530(supply)
+    return Scenario(
+        name="circle-pid",
+        description="PID tracker, Table 4.1's gains in the Arduino's units, r = 0.6 m at 180 deg/s (thesis 4.3.1, Fig 4.14)",
+        model=_core.PlanarModel(params),
+        controller=_core.PidTracker.table_4_1(ctrl_params, motor=motor, period=period),
+        x0=np.zeros(7),
+        reference=circle,
+        t_final=t_final,
+        thesis={"figure": "4.14", "lap_s": 36.0, "pitch_within_deg": 5.0, "table_5_2": THESIS_TABLE_5_2["pid"]},
+    )
+
+
+def _smc(params, ctrl_params, fuzzy, laps, period, boundary_layer, pitch_offset, **options):
+    circle, t_final = _circle(0.45, math.pi / 30, laps)
+    name = "circle-smc-fuzzy" if fuzzy else "circle-smc"
+    what = "fuzzy adaptive sliding mode" if fuzzy else "sliding-mode backstepping"
+    tracker = _core.SmcTracker(_core.PlanarModel(ctrl_params), fuzzy=fuzzy, boundary_layer=boundary_layer,
+                               pitch_offset=pitch_offset, period=period, **options)
+    return Scenario(
+        name=name,
+        description=f"{what} tracker, published gains, r = 0.45 m at pi/30 m/s, pi/13.5 rad/s (thesis 4.3.2, Fig 4.16)",
+        model=_core.PlanarModel(params),
+        controller=tracker,
+        x0=np.zeros(7),
+        reference=circle,
+        t_final=t_final,
+        thesis={"figure": "4.16", "omega_r": math.pi / 13.5, "table_5_2": THESIS_TABLE_5_2["smc"]},
+    )
+
+
+@register("circle-smc")
+def _circle_smc(params, ctrl_params, laps=3, period=0.005, boundary_layer=None, pitch_offset=True, **options):
+    """4.3.2 with the controller's own model for f2 (4.89, 4.97)."""
+    return _smc(params, ctrl_params, False, laps, period, boundary_layer, pitch_offset, **options)
+
+
+@register("circle-smc-fuzzy")
+def _circle_smc_fuzzy(params, ctrl_params, laps=3, period=0.005, boundary_layer=None, pitch_offset=True, **options):
+    """4.3.2 with fuzzy estimates of f23 and of the (phi, v) equivalent control (4.99-4.121)."""
+    return _smc(params, ctrl_params, True, laps, period, boundary_layer, pitch_offset, **options)
+
+
+def mismatched(params, factor: float):
+    """`params` with every mass, inertia, length and friction of MISMATCH_FIELDS times `factor`."""
+    return params.replace(**{k: getattr(params, k) * factor for k in MISMATCH_FIELDS})
+
+
+def compare(params=None, mismatch: float = 0.2, laps: int = 3, dt: float = 1e-3) -> list:
+    """Table 5.2's analogue: mean |x - x_r|, |y - y_r| of each tracker on its circle, with the
+    plant as the controllers assume it and with every MISMATCH_FIELDS entry of the plant
+    +mismatch and -mismatch off (the controllers keep the nominal robot). One dict per run;
+    the "_settled" errors leave out the first lap."""
+    nominal = params if params is not None else _core.RobotParams.balanbot()
+    rows = []
+    cases = [("nominal", 1.0), (f"+{mismatch:.0%}", 1.0 + mismatch), (f"-{mismatch:.0%}", 1.0 - mismatch)]
+    for label, factor in cases:
+        plant = mismatched(nominal, factor)
+        for name in ("circle-pid", "circle-smc", "circle-smc-fuzzy"):
+            sc = get(name, params=plant, controller_params=nominal, laps=laps)
+            r = sc.run(dt=dt, record_every=1000)
+            m = r.metrics
+            rows.append({
+                "controller": name, "plant": label, "outcome": r.outcome,
+                "x": m["mean_abs_x_error"], "y": m["mean_abs_y_error"],
+                "x_settled": m["mean_abs_x_error_settled"], "y_settled": m["mean_abs_y_error_settled"],
+                "path_settled": m["max_path_error_settled"], "pitch_deg": math.degrees(m["mean_abs_pitch"]),
+                "peak_torque": m["peak_abs_torque"],
+            })
+    return rows
+
+
+def format_table(rows) -> str:
+    """A markdown table of `compare`'s rows, in cm, with the thesis's Table 5.2 beside."""
+    thesis = {"circle-pid": "7.2 / 7.6", "circle-smc": "2.7 / 3.0", "circle-smc-fuzzy": "2.7 / 3.0"}
+    out = ["| tracker | plant | mean abs x / y [cm] | after lap 1 [cm] | max path error after lap 1 [cm] | thesis (exp.) [cm] |",
+           "|---|---|---|---|---|---|"]
+    for r in rows:
+        out.append(f"| `{r['controller']}` | {r['plant']} | {100 * r['x']:.2f} / {100 * r['y']:.2f} | "
+                   f"{100 * r['x_settled']:.2f} / {100 * r['y_settled']:.2f} | {100 * r['path_settled']:.2f} | "
+                   f"{thesis[r['controller']]} |")
+    return "\n".join(out)
