@@ -44,14 +44,17 @@ pub fn sin_cos(x: &Lanes) -> (Lanes, Lanes) {
 fn kernel(r: f64) -> (f64, f64) {
     use crate::math::{COS, SIN};
     let r2 = r * r;
-    let mut ps = SIN[6];
-    for coef in SIN[..6].iter().rev() {
-        ps = *coef + r2 * ps;
-    }
-    let mut pc = COS[7];
-    for coef in COS[..7].iter().rev() {
-        pc = *coef + r2 * pc;
-    }
+    let r4 = r2 * r2;
+    let r8 = r4 * r4;
+    let s01 = SIN[0] + r2 * SIN[1];
+    let s23 = SIN[2] + r2 * SIN[3];
+    let s45 = SIN[4] + r2 * SIN[5];
+    let ps = (s01 + r4 * s23) + r8 * (s45 + r4 * SIN[6]);
+    let c01 = COS[0] + r2 * COS[1];
+    let c23 = COS[2] + r2 * COS[3];
+    let c45 = COS[4] + r2 * COS[5];
+    let c67 = COS[6] + r2 * COS[7];
+    let pc = (c01 + r4 * c23) + r8 * (c45 + r4 * c67);
     (r + r * r2 * ps, 1.0 + r2 * pc)
 }
 
