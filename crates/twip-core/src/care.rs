@@ -18,23 +18,29 @@
 //!    of a QR decomposition, whose `‖R‖ ‖R⁻¹‖` brackets the condition number within a factor
 //!    n; a tight tolerance (10³ (n+m) ε) up front, a loose one (10 √ε) to name the cause
 //!    when the solver fails.
-//! 2. Exact rescalings by powers of two: a diagonal state scaling that balances the
-//!    Hamiltonian (`Ã = D⁻¹ A D`, `B̃ = D⁻¹ B`, `Q̃ = D Q D`) and `X = s X̃` with `s = 4^k`
-//!    so that `‖Q̃‖ ≈ ‖G̃‖`.
+//! 2. Exact rescalings by powers of two: the equation divided by `α ≈ max(‖A‖, √(‖Q‖ ‖G‖))`
+//!    (X unchanged), a diagonal state scaling that balances the Hamiltonian
+//!    (`Ã = D⁻¹ A D`, `B̃ = D⁻¹ B`, `Q̃ = D Q D`) and `X = s X̃` with `s = 4^k` so that
+//!    `‖Q̃‖ ≈ ‖G̃‖`. Schur forms and PBH matrices are likewise scaled to unit size first.
 //! 3. The matrix sign function of the Hamiltonian `H = [[A, −G], [−Q, −Aᵀ]]` by Newton's
 //!    iteration `Z ← (c Z + Z⁻¹ / c) / 2` with determinant scaling `c = |det Z|^(−1/2n)`
 //!    (dropped near convergence), run on the symmetric `W = J Z` (`J = [[0, I], [−I, 0]]`),
 //!    symmetrised at every step. It stops once the quadratic phase has made the change
-//!    small (≤ √ε / 10) or stagnate. `[I; X]` spans the stable invariant subspace,
+//!    small (≤ 10 √ε) or stagnates. `[I; X]` spans the stable invariant subspace,
 //!    `(sign H + I) [I; X] = 0`, which gives `X` from a 2n×n least-squares problem (QR).
 //! 4. Newton–Kleinman refinement in correction form, `(A − G X)ᵀ D + D (A − G X) = −Ric(X)`,
 //!    each Lyapunov equation solved by Bartels–Stewart on the real Schur form of the closed
-//!    loop, for as long as the residual decreases (down to n ε relative to its terms). The
-//!    residual's quadratic term is formed as `Fᵀ F`, `F = Bhᵀ X`, never as `(X G) X`. The
-//!    Schur forms tell whether the closed loop is stable; an `X` that is not stabilising, or
-//!    whose residual stayed above √ε, is an error, never a silent answer.
+//!    loop, for as long as the residual decreases (down to 4 n ε relative to its terms; from a
+//!    poor start it goes on through increases, keeping the best iterate). The residual's
+//!    quadratic term is formed as `Fᵀ F`, `F = Bhᵀ X`, never as `(X G) X`. The Schur forms
+//!    tell whether the closed loop is stable (`Re λ < −100 n ε ‖A − G X‖`); an `X` that is
+//!    not stabilising, or whose relative residual stayed above √ε, is an error, never a
+//!    silent answer.
 //!
 //! Every loop has a cap (`Schur` and `SymmetricEigen` are called through `try_new`).
+
+// `!(a <= b)` rather than `a > b` on purpose: a NaN must fail every acceptance test.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 use alloc::vec::Vec;
 use core::cmp::Ordering;
 
@@ -64,24 +70,14 @@ pub struct Lqr<T: Real> {
 /// positive definite. Errors: [`TwipError::Shape`], [`TwipError::NonFinite`],
 /// [`TwipError::InvalidParameter`] (Q or R not symmetric, Q not PSD, R not PD),
 /// [`TwipError::NotStabilizable`], [`TwipError::NotDetectable`], [`TwipError::NoConvergence`].
-pub fn care<T: Real>(
-    a: &DMatrix<T>,
-    b: &DMatrix<T>,
-    q: &DMatrix<T>,
-    r: &DMatrix<T>,
-) -> Result<DMatrix<T>, TwipError> {
+pub fn care<T: Real>(a: &DMatrix<T>, b: &DMatrix<T>, q: &DMatrix<T>, r: &DMatrix<T>) -> Result<DMatrix<T>, TwipError> {
     let problem = Problem::new(a, b, q, r)?;
     problem.solve()
 }
 
 /// Linear-quadratic regulator: `K = R⁻¹ Bᵀ X` with `X = care(A, B, Q, R)`, and the
 /// eigenvalues of the closed loop `A − B K` (python-control's convention, `u = −K x`).
-pub fn lqr<T: Real>(
-    a: &DMatrix<T>,
-    b: &DMatrix<T>,
-    q: &DMatrix<T>,
-    r: &DMatrix<T>,
-) -> Result<Lqr<T>, TwipError> {
+pub fn lqr<T: Real>(a: &DMatrix<T>, b: &DMatrix<T>, q: &DMatrix<T>, r: &DMatrix<T>) -> Result<Lqr<T>, TwipError> {
     let problem = Problem::new(a, b, q, r)?;
     let x = problem.solve()?;
     let k = problem.chol_r.solve(&(b.transpose() * &x));
@@ -92,7 +88,9 @@ pub fn lqr<T: Real>(
     })?;
     let mut poles = quasi_eigenvalues(&t);
     poles.sort_by(|u, v| {
-        u.re.partial_cmp(&v.re).unwrap_or(Ordering::Equal).then(u.im.partial_cmp(&v.im).unwrap_or(Ordering::Equal))
+        u.re.partial_cmp(&v.re)
+            .unwrap_or(Ordering::Equal)
+            .then(u.im.partial_cmp(&v.im).unwrap_or(Ordering::Equal))
     });
     Ok(Lqr { k, x, poles })
 }
@@ -104,30 +102,43 @@ struct Problem<'a, T: Real> {
     a: &'a DMatrix<T>,
     b: &'a DMatrix<T>,
     q: DMatrix<T>,
+    /// The smallest eigenvalue of Q.
+    q_min: T,
     bh: DMatrix<T>,
     chol_r: Cholesky<T, Dyn>,
 }
 
 impl<'a, T: Real> Problem<'a, T> {
-    fn new(
-        a: &'a DMatrix<T>,
-        b: &'a DMatrix<T>,
-        q: &DMatrix<T>,
-        r: &DMatrix<T>,
-    ) -> Result<Self, TwipError> {
+    fn new(a: &'a DMatrix<T>, b: &'a DMatrix<T>, q: &DMatrix<T>, r: &DMatrix<T>) -> Result<Self, TwipError> {
         let n = a.nrows();
         if n == 0 || a.ncols() != n {
-            return Err(TwipError::Shape { name: "A", expected: (n.max(1), n.max(1)), got: a.shape() });
+            return Err(TwipError::Shape {
+                name: "A",
+                expected: (n.max(1), n.max(1)),
+                got: a.shape(),
+            });
         }
         let m = b.ncols();
         if b.nrows() != n || m == 0 {
-            return Err(TwipError::Shape { name: "B", expected: (n, m.max(1)), got: b.shape() });
+            return Err(TwipError::Shape {
+                name: "B",
+                expected: (n, m.max(1)),
+                got: b.shape(),
+            });
         }
         if q.shape() != (n, n) {
-            return Err(TwipError::Shape { name: "Q", expected: (n, n), got: q.shape() });
+            return Err(TwipError::Shape {
+                name: "Q",
+                expected: (n, n),
+                got: q.shape(),
+            });
         }
         if r.shape() != (m, m) {
-            return Err(TwipError::Shape { name: "R", expected: (m, m), got: r.shape() });
+            return Err(TwipError::Shape {
+                name: "R",
+                expected: (m, m),
+                got: r.shape(),
+            });
         }
         finite("A", a)?;
         finite("B", b)?;
@@ -139,7 +150,7 @@ impl<'a, T: Real> Problem<'a, T> {
         let eps = T::default_epsilon();
         let q_eig = symmetric_eigenvalues("Q", &q)?;
         let q_top = q_eig.iter().fold(T::zero(), |acc, v| acc.max(v.abs()));
-        let q_min = q_eig.iter().fold(T::zero(), |acc, &v| acc.min(v));
+        let q_min = q_eig.iter().fold(q_top, |acc, &v| acc.min(v));
         if q_min < -(c::<T>(100.0) * c::<T>(n as f64) * eps * q_top) {
             return Err(TwipError::InvalidParameter {
                 name: "Q",
@@ -160,12 +171,22 @@ impl<'a, T: Real> Problem<'a, T> {
         }
         let chol_r = Cholesky::new(r).ok_or(not_pd)?;
         // Bhᵀ = L⁻¹ Bᵀ.
-        let bht = chol_r.l().solve_lower_triangular(&b.transpose()).ok_or(TwipError::InvalidParameter {
-            name: "R",
-            value: to_f64(r_min),
-            reason: "must be positive definite (the value is its smallest eigenvalue)",
-        })?;
-        let problem = Problem { a, b, q, bh: bht.transpose(), chol_r };
+        let bht = chol_r
+            .l()
+            .solve_lower_triangular(&b.transpose())
+            .ok_or(TwipError::InvalidParameter {
+                name: "R",
+                value: to_f64(r_min),
+                reason: "must be positive definite (the value is its smallest eigenvalue)",
+            })?;
+        let problem = Problem {
+            a,
+            b,
+            q,
+            q_min,
+            bh: bht.transpose(),
+            chol_r,
+        };
         problem.check_pbh(c::<T>(1e3) * c::<T>((n + m) as f64) * eps)?;
         Ok(problem)
     }
@@ -178,21 +199,38 @@ impl<'a, T: Real> Problem<'a, T> {
             what: "Schur decomposition of A (PBH test)",
             iterations: schur_cap(n),
         })?;
-        let margin = T::default_epsilon().sqrt() * self.a.norm();
-        let suspects: Vec<Complex<T>> =
-            quasi_eigenvalues(&t).into_iter().filter(|l| l.re >= -margin && l.im >= T::zero()).collect();
+        let a_max = self.a.amax();
+        let margin = T::default_epsilon().sqrt() * a_max * c::<T>(n as f64);
+        let suspects: Vec<Complex<T>> = quasi_eigenvalues(&t)
+            .into_iter()
+            .filter(|l| l.re >= -margin && l.im >= T::zero())
+            .collect();
         if suspects.is_empty() {
             return Ok(());
         }
-        for lambda in &suspects {
-            if rank_deficient(self.a, self.b, *lambda, tol) {
-                return Err(TwipError::NotStabilizable);
-            }
-        }
-        let at = self.a.transpose();
-        for lambda in &suspects {
-            if rank_deficient(&at, &self.q, *lambda, tol) {
-                return Err(TwipError::NotDetectable);
+        // Each PBH matrix is scaled as a whole by a power of two (its singular value ratio
+        // does not change) so that no norm overflows or underflows.
+        // (A, B) stabilizable: rank [A − λI, B] = n; (A, Q) detectable: rank [Aᵀ − λI, Q] = n.
+        let tests = [
+            (self.b, false, TwipError::NotStabilizable),
+            (&self.q, true, TwipError::NotDetectable),
+        ];
+        for (other, transpose, error) in tests {
+            let k = -pow2_exponent::<T>(a_max.max(other.amax()));
+            let a = scaled_pow2(self.a, k);
+            let a = if transpose { a.transpose() } else { a };
+            let other = scaled_pow2(other, k);
+            let f = c::<T>(2.0).powi(k);
+            for lambda in &suspects {
+                // A positive definite Q (σ_min ≥ its smallest eigenvalue) needs no test.
+                let bound = c::<T>(n as f64) * (a_max + self.q.amax())
+                    + c::<T>(n as f64).sqrt() * (lambda.re.abs() + lambda.im.abs());
+                if transpose && self.q_min > tol * bound {
+                    continue;
+                }
+                if rank_deficient(&a, &other, lambda.scale(f), tol) {
+                    return Err(error);
+                }
             }
         }
         Ok(())
@@ -211,18 +249,29 @@ impl<'a, T: Real> Problem<'a, T> {
 
     /// The balanced and scaled problem (step 2 of the module docs), all scalings exact.
     fn scaled(&self) -> Scaled<T> {
+        // Dividing the equation by α = 4^j (A, G, Q → A/α, G/α, Q/α) leaves X alone; α ≈ the
+        // larger of ‖A‖ and √(‖Q‖ ‖G‖) brings the data near unit size.
+        let size = self.a.amax().max(self.q.amax().sqrt() * self.bh.amax());
+        let j = if size > T::zero() {
+            pow2_exponent::<T>(size) / 2
+        } else {
+            0
+        };
+        let a = scaled_pow2(self.a, -2 * j);
+        let bh = scaled_pow2(&self.bh, -j);
+        let q = scaled_pow2(&self.q, -2 * j);
         // A symplectic diagonal similarity x = D x̃ (powers of two): Ã = D⁻¹ A D,
         // B̃h = D⁻¹ Bh, Q̃ = D Q D, X = D⁻¹ X̃ D⁻¹. It evens out badly scaled states.
-        let d = balance(self.a, &self.bh, &self.q);
-        let a = DMatrix::from_fn(self.a.nrows(), self.a.ncols(), |i, j| self.a[(i, j)] * d[j] / d[i]);
-        let bh = DMatrix::from_fn(self.bh.nrows(), self.bh.ncols(), |i, j| self.bh[(i, j)] / d[i]);
-        let q = DMatrix::from_fn(self.q.nrows(), self.q.ncols(), |i, j| self.q[(i, j)] * d[i] * d[j]);
+        let d = balance(&a, &bh, &q);
+        let a = DMatrix::from_fn(a.nrows(), a.ncols(), |i, j| a[(i, j)] * d[j] / d[i]);
+        let bh = DMatrix::from_fn(bh.nrows(), bh.ncols(), |i, j| bh[(i, j)] / d[i]);
+        let q = DMatrix::from_fn(q.nrows(), q.ncols(), |i, j| q[(i, j)] * d[i] * d[j]);
         // X = s X̃ turns the equation into one with s G and Q / s: balance their norms, with
         // s = 4^k so that Bh scales by 2^k.
         let g = &bh * bh.transpose();
         let (qn, gn) = (q.norm(), g.norm());
         let k = if qn > T::zero() && gn > T::zero() {
-            to_f64((c::<T>(0.25) * (qn / gn).ln() / T::ln_2()).round()) as i32
+            pow2_exponent::<T>(qn / gn) / 2
         } else {
             0
         };
@@ -253,7 +302,26 @@ impl<'a, T: Real> Problem<'a, T> {
     }
 }
 
-/// The problem after balancing and scaling: `X = s D⁻¹ X̃ D⁻¹`.
+/// The exponent k with 2^k nearest to `v` (> 0) in the log, clamped so that 2^±k and
+/// 2^±2k stay finite and normal in `T`.
+fn pow2_exponent<T: Real>(v: T) -> i32 {
+    if !(v > T::zero()) || !v.is_finite() {
+        return 0;
+    }
+    let limit = (to_f64(T::max_value().unwrap_or(c::<T>(1e300)).ln() / T::ln_2()) as i32) / 2 - 2;
+    let k = to_f64((v.ln() / T::ln_2()).round()) as i32;
+    k.clamp(-limit, limit)
+}
+
+/// `m · 2^k`, exact barring overflow and underflow.
+fn scaled_pow2<T: Real>(m: &DMatrix<T>, k: i32) -> DMatrix<T> {
+    if k == 0 {
+        return m.clone();
+    }
+    m * c::<T>(2.0).powi(k)
+}
+
+/// The problem after rescaling and balancing: `X = s D⁻¹ X̃ D⁻¹`.
 struct Scaled<T: Real> {
     a: DMatrix<T>,
     bh: DMatrix<T>,
@@ -270,10 +338,10 @@ fn balance<T: Real>(a: &DMatrix<T>, bh: &DMatrix<T>, q: &DMatrix<T>) -> Vec<T> {
     let n = a.nrows();
     let mut d = alloc::vec![T::one(); n];
     let mut exps = alloc::vec![0i32; n];
-    // Work on the scaled absolute values, updated in place with each accepted factor.
-    let mut aa = a.map(|v| v.abs());
-    let mut qa = q.map(|v| v.abs());
-    let mut ga = (bh * bh.transpose()).map(|v| v.abs());
+    // The scaled absolute values (column-major), updated in place with each accepted factor.
+    let mut aa: Vec<T> = a.iter().map(|v| v.abs()).collect();
+    let mut qa: Vec<T> = q.iter().map(|v| v.abs()).collect();
+    let mut ga: Vec<T> = (bh * bh.transpose()).iter().map(|v| v.abs()).collect();
     let two = c::<T>(2.0);
     for _ in 0..50 {
         let mut changed = false;
@@ -281,9 +349,17 @@ fn balance<T: Real>(a: &DMatrix<T>, bh: &DMatrix<T>, q: &DMatrix<T>) -> Vec<T> {
             // The i-th row and column sums as a function of the factor f on d_i: the
             // off-diagonal A and Q terms scale with f, A's row and G with 1/f, Q_ii with f²,
             // G_ii with 1/f²; the sum is convex in log f, so walk in powers of two.
-            let (qd, gd) = (qa[(i, i)], ga[(i, i)]);
-            let grow = aa.column(i).sum() - aa[(i, i)] + qa.column(i).sum() - qd;
-            let shrink = aa.row(i).sum() - aa[(i, i)] + ga.column(i).sum() - gd;
+            let col = i * n..(i + 1) * n;
+            let (qd, gd, ad) = (qa[i * n + i], ga[i * n + i], aa[i * n + i]);
+            let mut a_row = T::zero();
+            for j in 0..n {
+                a_row += aa[j * n + i];
+            }
+            let a_col = aa[col.clone()].iter().fold(T::zero(), |acc, &v| acc + v);
+            let q_col = qa[col.clone()].iter().fold(T::zero(), |acc, &v| acc + v);
+            let g_col = ga[col.clone()].iter().fold(T::zero(), |acc, &v| acc + v);
+            let grow = a_col - ad + q_col - qd;
+            let shrink = a_row - ad + g_col - gd;
             let total = |f: T| grow * f + qd * f * f + shrink / f + gd / (f * f);
             let before = total(T::one());
             // Only terms on both sides give the sum a finite minimum.
@@ -292,33 +368,36 @@ fn balance<T: Real>(a: &DMatrix<T>, bh: &DMatrix<T>, q: &DMatrix<T>) -> Vec<T> {
             }
             // Walk up, else down, while the sum decreases; |log2 d_i| stays ≤ 50.
             let mut k = 0i32;
-            for dir in [1i32, -1] {
+            let mut f = T::one();
+            for (dir, step) in [(1i32, two), (-1, T::one() / two)] {
                 let mut best = before;
                 while (exps[i] + k + dir).abs() <= 50 {
-                    let next = total(two.powi(k + dir));
-                    if next < best {
-                        best = next;
-                        k += dir;
-                    } else {
+                    let next = total(f * step);
+                    if !(next < best) {
                         break;
                     }
+                    best = next;
+                    k += dir;
+                    f *= step;
                 }
                 if k != 0 {
                     break;
                 }
             }
-            let f = two.powi(k);
             if k != 0 && total(f) < c::<T>(0.95) * before {
                 exps[i] += k;
                 d[i] *= f;
                 changed = true;
                 let inv_f = T::one() / f;
-                aa.column_mut(i).scale_mut(f);
-                aa.row_mut(i).scale_mut(inv_f);
-                qa.column_mut(i).scale_mut(f);
-                qa.row_mut(i).scale_mut(f);
-                ga.column_mut(i).scale_mut(inv_f);
-                ga.row_mut(i).scale_mut(inv_f);
+                // Column i by f (A, Q) or 1/f (G), then row i by 1/f (A, G) or f (Q).
+                aa[col.clone()].iter_mut().for_each(|v| *v *= f);
+                qa[col.clone()].iter_mut().for_each(|v| *v *= f);
+                ga[col].iter_mut().for_each(|v| *v *= inv_f);
+                for j in 0..n {
+                    aa[j * n + i] *= inv_f;
+                    qa[j * n + i] *= f;
+                    ga[j * n + i] *= inv_f;
+                }
             }
         }
         if !changed {
@@ -334,7 +413,11 @@ fn finite<T: Real>(name: &'static str, m: &DMatrix<T>) -> Result<(), TwipError> 
         for j in 0..m.ncols() {
             let v = m[(i, j)];
             if !v.is_finite() {
-                return Err(TwipError::NonFinite { name, index: i * m.ncols() + j, value: to_f64(v) });
+                return Err(TwipError::NonFinite {
+                    name,
+                    index: i * m.ncols() + j,
+                    value: to_f64(v),
+                });
             }
         }
     }
@@ -384,7 +467,11 @@ fn symmetric_eigenvalues<T: Real>(name: &'static str, m: &DMatrix<T>) -> Result<
     SymmetricEigen::try_new(m.clone(), T::default_epsilon(), cap)
         .map(|e| e.eigenvalues.iter().copied().collect())
         .ok_or(TwipError::NoConvergence {
-            what: if name == "Q" { "eigenvalues of Q" } else { "eigenvalues of R" },
+            what: if name == "Q" {
+                "eigenvalues of Q"
+            } else {
+                "eigenvalues of R"
+            },
             iterations: cap,
         })
 }
@@ -401,7 +488,13 @@ fn schur<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
 
 fn schur_direct<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
     let cap = schur_cap(m.nrows());
-    Schur::try_new(m, T::default_epsilon(), cap).map(|s| s.unpack())
+    // nalgebra rescales only from 3×3 up; a power of two keeps 2×2 blocks from overflowing.
+    let k = pow2_exponent::<T>(m.amax());
+    let m = scaled_pow2(&m, -k);
+    Schur::try_new(m, T::default_epsilon(), cap).map(|s| {
+        let (u, t) = s.unpack();
+        (u, scaled_pow2(&t, k))
+    })
 }
 
 /// Schur form of `P M P` with the reflector `P = I − 2 v vᵀ / (vᵀ v)` (symmetric,
@@ -440,17 +533,21 @@ fn quasi_eigenvalues<T: Real>(t: &DMatrix<T>) -> Vec<Complex<T>> {
             continue;
         }
         let (a, b, cc, d) = (t[(i, i)], t[(i, i + 1)], t[(i + 1, i)], t[(i + 1, i + 1)]);
+        // On the block scaled to unit size, so that the discriminant cannot overflow.
+        let size = a.abs().max(b.abs()).max(cc.abs()).max(d.abs());
+        let size = if size > T::zero() { size } else { T::one() };
+        let (a, b, cc, d) = (a / size, b / size, cc / size, d / size);
         let half_tr = (a + d) * c::<T>(0.5);
         let half_diff = (a - d) * c::<T>(0.5);
         let disc = half_diff * half_diff + b * cc;
         if disc >= T::zero() {
             let s = disc.sqrt();
-            out.push(Complex::new(half_tr - s, T::zero()));
-            out.push(Complex::new(half_tr + s, T::zero()));
+            out.push(Complex::new((half_tr - s) * size, T::zero()));
+            out.push(Complex::new((half_tr + s) * size, T::zero()));
         } else {
             let s = (-disc).sqrt();
-            out.push(Complex::new(half_tr, s));
-            out.push(Complex::new(half_tr, -s));
+            out.push(Complex::new(half_tr * size, s * size));
+            out.push(Complex::new(half_tr * size, -s * size));
         }
     }
     out
@@ -496,7 +593,10 @@ fn rank_deficient_in<T: Real, F: ComplexField<RealField = T> + Copy>(
     let mut diag = alloc::vec![F::zero(); n];
     for k in 0..n {
         let col = &mut h[k * rows..(k + 1) * rows];
-        let norm = col[k..].iter().fold(T::zero(), |acc, &z| acc + z.modulus_squared()).sqrt();
+        let norm = col[k..]
+            .iter()
+            .fold(T::zero(), |acc, &z| acc + z.modulus_squared())
+            .sqrt();
         if norm.is_zero() {
             return true;
         }
@@ -511,7 +611,10 @@ fn rank_deficient_in<T: Real, F: ComplexField<RealField = T> + Copy>(
         let v = &head[k * rows + k..k * rows + rows];
         for target in tail.chunks_exact_mut(rows) {
             let target = &mut target[k..];
-            let dot = v.iter().zip(target.iter()).fold(F::zero(), |acc, (&vi, &ti)| acc + vi.conjugate() * ti);
+            let dot = v
+                .iter()
+                .zip(target.iter())
+                .fold(F::zero(), |acc, (&vi, &ti)| acc + vi.conjugate() * ti);
             let f = dot.scale(c::<T>(2.0) / vnorm2);
             for (ti, &vi) in target.iter_mut().zip(v.iter()) {
                 *ti -= vi * f;
@@ -532,8 +635,8 @@ fn rank_deficient_in<T: Real, F: ComplexField<RealField = T> + Copy>(
     for col in 0..n {
         for i in (0..=col).rev() {
             let mut s = if i == col { F::one() } else { F::zero() };
-            for j in (i + 1)..=col {
-                s -= r(i, j) * y[j];
+            for (j, &yj) in y.iter().enumerate().take(col + 1).skip(i + 1) {
+                s -= r(i, j) * yj;
             }
             let d = r(i, i);
             if d.modulus_squared().is_zero() {
@@ -559,12 +662,10 @@ fn invert_in_place<T: Real>(a: &mut [T], n: usize, perm: &mut [usize], factors: 
     let (big, small) = (c::<T>(4294967296.0), c::<T>(2.3283064365386963e-10));
     let mut product = T::one();
     for k in 0..n {
-        let mut p = k;
-        let mut best = a[k * n + k].abs();
-        for i in (k + 1)..n {
-            let v = a[k * n + i].abs();
-            if v > best {
-                best = v;
+        let (mut p, mut best) = (k, T::zero());
+        for (i, v) in a[k * n..(k + 1) * n].iter().enumerate().skip(k) {
+            if v.abs() > best {
+                best = v.abs();
                 p = i;
             }
         }
@@ -573,8 +674,8 @@ fn invert_in_place<T: Real>(a: &mut [T], n: usize, perm: &mut [usize], factors: 
         }
         perm[k] = p;
         if p != k {
-            for j in 0..n {
-                a.swap(j * n + k, j * n + p);
+            for col in a.chunks_exact_mut(n) {
+                col.swap(k, p);
             }
         }
         let inv_pivot = T::one() / a[k * n + k];
@@ -602,12 +703,12 @@ fn invert_in_place<T: Real>(a: &mut [T], n: usize, perm: &mut [usize], factors: 
             }
         }
     }
+    // Undo the row interchanges on the columns of the inverse, last first.
     for k in (0..n).rev() {
         let p = perm[k];
         if p != k {
-            for i in 0..n {
-                a.swap(k * n + i, p * n + i);
-            }
+            let (lo, hi) = a.split_at_mut(k.max(p) * n);
+            lo[k.min(p) * n..(k.min(p) + 1) * n].swap_with_slice(&mut hi[..n]);
         }
     }
     Some(logdet + product.ln())
@@ -628,13 +729,14 @@ fn sign_solution<T: Real>(a: &DMatrix<T>, g: &DMatrix<T>, q: &DMatrix<T>) -> Opt
         }
     }
     let mut inv = w.clone();
+    let mut next = w.clone();
     let mut perm = alloc::vec![0usize; nn];
     let mut factors = alloc::vec![T::zero(); nn];
 
     let eps = T::default_epsilon();
     let tol = c::<T>(10.0) * c::<T>(nn as f64) * eps;
     let stagnation = eps.sqrt().sqrt();
-    let quadratic = eps.sqrt() * c::<T>(0.1);
+    let quadratic = eps.sqrt() * c::<T>(10.0);
     let half = c::<T>(0.5);
     let mut scaling = true;
     let mut previous = T::max_value()?;
@@ -642,30 +744,43 @@ fn sign_solution<T: Real>(a: &DMatrix<T>, g: &DMatrix<T>, q: &DMatrix<T>) -> Opt
     for _ in 0..SIGN_MAX_ITER {
         inv.copy_from_slice(&w);
         let logdet = invert_in_place(&mut inv, nn, &mut perm, &mut factors)?;
-        let cf = if scaling { (-logdet / c::<T>(nn as f64)).exp() } else { T::one() };
+        let cf = if scaling {
+            (-logdet / c::<T>(nn as f64)).exp()
+        } else {
+            T::one()
+        };
         if !cf.is_finite() || cf.is_zero() {
             return None;
         }
         let inv_cf = T::one() / cf;
-        // W ← (c W + J W⁻¹ J / c) / 2 with J W⁻¹ J = [[−M22, M21], [M12, −M11]], symmetrised:
-        // entry (i, j) of J W⁻¹ J is ±M(i ± n, j ± n), minus on the diagonal blocks.
+        // W ← (c W + J W⁻¹ J / c) / 2, symmetrised. Column j of J W⁻¹ J is column j ± n of
+        // W⁻¹ with its halves swapped, negated in the diagonal blocks ([[−M22, M21], [M12, −M11]]).
+        for j in 0..nn {
+            let (sj, flip) = if j < n { (j + n, -inv_cf) } else { (j - n, inv_cf) };
+            let src = &inv[sj * nn..(sj + 1) * nn];
+            let (w_col, next_col) = (&w[j * nn..(j + 1) * nn], &mut next[j * nn..(j + 1) * nn]);
+            for i in 0..n {
+                next_col[i] = (cf * w_col[i] + flip * src[i + n]) * half;
+                next_col[i + n] = (cf * w_col[i + n] - flip * src[i]) * half;
+            }
+        }
         let (mut diff2, mut norm2) = (T::zero(), T::zero());
         for j in 0..nn {
-            let (sj, j_off) = if j < n { (j + n, true) } else { (j - n, false) };
             for i in 0..=j {
-                let (si, i_off) = if i < n { (i + n, true) } else { (i - n, false) };
-                let same = i_off == j_off;
-                let (m_ij, m_ji) = (inv[sj * nn + si], inv[si * nn + sj]);
-                let jwj = if same { -(m_ij + m_ji) } else { m_ij + m_ji };
-                let v = (cf * (w[j * nn + i] + w[i * nn + j]) + jwj * inv_cf) * half * half;
+                let v = if i == j {
+                    next[j * nn + i]
+                } else {
+                    (next[j * nn + i] + next[i * nn + j]) * half
+                };
                 let d = v - w[j * nn + i];
                 let weight = if i == j { T::one() } else { c::<T>(2.0) };
                 diff2 += weight * d * d;
                 norm2 += weight * v * v;
-                w[j * nn + i] = v;
-                w[i * nn + j] = v;
+                next[j * nn + i] = v;
+                next[i * nn + j] = v;
             }
         }
+        core::mem::swap(&mut w, &mut next);
         let delta = (diff2 / norm2).sqrt();
         if !delta.is_finite() {
             return None;
@@ -685,18 +800,25 @@ fn sign_solution<T: Real>(a: &DMatrix<T>, g: &DMatrix<T>, q: &DMatrix<T>) -> Opt
     if !converged {
         return None;
     }
-    let w = DMatrix::from_vec(nn, nn, w);
-    // sign H = −J W = [[−W21, −W22], [W11, W12]]; (sign H + I) [I; X] = 0 gives
-    // [W22; W12 + I] X = [I − W21; −W11].
-    let mut lhs = DMatrix::<T>::zeros(nn, n);
-    lhs.view_mut((0, 0), (n, n)).copy_from(&w.view((n, n), (n, n)));
-    lhs.view_mut((n, 0), (n, n)).copy_from(&w.view((0, n), (n, n)));
-    let mut rhs = DMatrix::<T>::zeros(nn, n);
-    rhs.view_mut((0, 0), (n, n)).copy_from(&(-w.view((n, 0), (n, n))));
-    rhs.view_mut((n, 0), (n, n)).copy_from(&(-w.view((0, 0), (n, n))));
-    for i in 0..n {
-        lhs[(n + i, i)] += T::one();
-        rhs[(i, i)] += T::one();
+    graph_from_sign(&DMatrix::from_vec(nn, nn, w))
+}
+
+/// `X` from `W = J sign(H)`: sign H = −J W = [[−W21, −W22], [W11, W12]], and
+/// (sign H + I) [I; X] = 0 reads [W22; W12 + I] X = [I − W21; −W11], solved in the
+/// least-squares sense (Householder QR).
+fn graph_from_sign<T: Real>(w: &DMatrix<T>) -> Option<DMatrix<T>> {
+    let n = w.nrows() / 2;
+    let mut lhs = DMatrix::<T>::zeros(2 * n, n);
+    let mut rhs = DMatrix::<T>::zeros(2 * n, n);
+    for j in 0..n {
+        for i in 0..n {
+            lhs[(i, j)] = w[(n + i, n + j)];
+            lhs[(n + i, j)] = w[(i, n + j)];
+            rhs[(i, j)] = -w[(n + i, j)];
+            rhs[(n + i, j)] = -w[(i, j)];
+        }
+        lhs[(n + j, j)] += T::one();
+        rhs[(j, j)] += T::one();
     }
     let qr = QR::new(lhs);
     qr.q_tr_mul(&mut rhs);
@@ -727,8 +849,11 @@ fn residual<T: Real>(a: &DMatrix<T>, bh: &DMatrix<T>, q: &DMatrix<T>, x: &DMatri
     (res, norm, rel)
 }
 
+/// All eigenvalues of the quasi-triangular `t` in `Re λ < −100 n ε ‖t‖`: a real part
+/// within rounding of zero is not taken for stability.
 fn is_stable<T: Real>(t: &DMatrix<T>) -> bool {
-    quasi_eigenvalues(t).iter().all(|l| l.re < T::zero())
+    let margin = c::<T>(100.0) * c::<T>(t.nrows() as f64) * T::default_epsilon() * t.norm();
+    quasi_eigenvalues(t).iter().all(|l| l.re < -margin)
 }
 
 /// Newton–Kleinman refinement (step 4): `(X, relative residual, closed loop stable)`.
@@ -736,7 +861,9 @@ fn is_stable<T: Real>(t: &DMatrix<T>) -> bool {
 /// Stability is read from the Schur form of `A − G X` that each Newton step computes. After a
 /// small accepted step (‖D‖ ≤ √ε ‖X‖) from a stable closed loop no new Schur form is needed:
 /// by Kleinman's theorem a Newton step from a stabilising `X` is stabilising again when
-/// `Q ⪰ 0` and (A, Q) is detectable, both checked up front.
+/// `Q ⪰ 0` and (A, Q) is detectable, both checked up front. The same theorem lets the
+/// iteration go on from a poor start (relative residual above √ε) even when the residual
+/// grows for a step; the best stabilising iterate is kept.
 fn refine<T: Real>(
     a: &DMatrix<T>,
     bh: &DMatrix<T>,
@@ -745,15 +872,21 @@ fn refine<T: Real>(
 ) -> Result<(DMatrix<T>, T, bool), TwipError> {
     let n = a.nrows();
     let eps = T::default_epsilon();
-    let floor = c::<T>(n as f64) * eps;
+    // Rounding alone leaves a relative residual of a few n ε: no step can do better.
+    let floor = c::<T>(4.0 * n as f64) * eps;
+    let far = eps.sqrt();
     let closed_loop_schur = |x: &DMatrix<T>| {
-        schur(a - bh * bh.tr_mul(x))
-            .ok_or(TwipError::NoConvergence { what: "Schur decomposition of the closed loop", iterations: schur_cap(n) })
+        schur(a - bh * bh.tr_mul(x)).ok_or(TwipError::NoConvergence {
+            what: "Schur decomposition of the closed loop",
+            iterations: schur_cap(n),
+        })
     };
     let mut x = x0;
     let (mut res, mut norm, mut rel) = residual(a, bh, q, &x);
     // Whether A − G X is stable, once known for the current X.
     let mut stable: Option<bool> = None;
+    // A stabilising iterate with a smaller residual than the current one, if any.
+    let mut best: Option<(DMatrix<T>, T)> = None;
     for _ in 0..NEWTON_MAX_ITER {
         if !(rel > floor) && stable.is_some() {
             break;
@@ -761,7 +894,7 @@ fn refine<T: Real>(
         let (u, t) = closed_loop_schur(&x)?;
         let stable_here = is_stable(&t);
         stable = Some(stable_here);
-        if !(rel > floor) {
+        if !stable_here || !(rel > floor) {
             break;
         }
         let d = lyapunov_schur(&u, &t, &(-&res));
@@ -769,7 +902,12 @@ fn refine<T: Real>(
         let candidate = symmetrise(&x + d);
         let (res_c, norm_c, rel_c) = residual(a, bh, q, &candidate);
         if !(norm_c < norm) {
-            break;
+            if !(rel > far) {
+                break;
+            }
+            if best.as_ref().is_none_or(|(_, r)| rel < *r) {
+                best = Some((x.clone(), rel));
+            }
         }
         x = candidate;
         res = res_c;
@@ -781,7 +919,10 @@ fn refine<T: Real>(
         Some(s) => s,
         None => is_stable(&closed_loop_schur(&x)?.1),
     };
-    Ok((x, rel, stable))
+    match best {
+        Some((xb, rb)) if !stable || !(rel <= rb) => Ok((xb, rb, true)),
+        _ => Ok((x, rel, stable)),
+    }
 }
 
 /// Solves `Mᵀ D + D M = F` (F symmetric) with `M = U T Uᵀ` in real Schur form
@@ -862,12 +1003,12 @@ fn solve_small<T: Real>(k: usize, mut mat: [[T; 4]; 4], mut rhs: [T; 4], smin: T
         if mat[p][p].abs() < smin {
             mat[p][p] = smin;
         }
+        let pivot_row = mat[p];
         for i in (p + 1)..k {
-            let f = mat[i][p] / mat[p][p];
+            let f = mat[i][p] / pivot_row[p];
             if !f.is_zero() {
-                for j in p..k {
-                    let v = mat[p][j];
-                    mat[i][j] -= f * v;
+                for (x, &v) in mat[i].iter_mut().zip(pivot_row.iter()).take(k).skip(p) {
+                    *x -= f * v;
                 }
                 let v = rhs[p];
                 rhs[i] -= f * v;
@@ -877,8 +1018,8 @@ fn solve_small<T: Real>(k: usize, mut mat: [[T; 4]; 4], mut rhs: [T; 4], smin: T
     let mut y = [T::zero(); 4];
     for p in (0..k).rev() {
         let mut s = rhs[p];
-        for j in (p + 1)..k {
-            s -= mat[p][j] * y[j];
+        for (&mpj, &yj) in mat[p].iter().zip(y.iter()).take(k).skip(p + 1) {
+            s -= mpj * yj;
         }
         y[p] = s / mat[p][p];
     }
@@ -917,7 +1058,10 @@ mod tests {
         // Closed loop s² + √3 s + 1: poles −√3/2 ± i/2.
         assert_eq!(sol.poles.len(), 2);
         for p in &sol.poles {
-            assert!((p.re + s3 / 2.0).abs() < 1e-12 && (p.im.abs() - 0.5).abs() < 1e-12, "{p}");
+            assert!(
+                (p.re + s3 / 2.0).abs() < 1e-12 && (p.im.abs() - 0.5).abs() < 1e-12,
+                "{p}"
+            );
         }
         assert!(sol.poles[0].im < sol.poles[1].im);
     }
@@ -936,8 +1080,15 @@ mod tests {
             let x = care(&m(1, 1, &[a]), &m(1, 1, &[b]), &m(1, 1, &[q]), &m(1, 1, &[r])).unwrap()[(0, 0)];
             let disc: f64 = a * a + b * b * q / r;
             // Cancellation-free form when a < 0: x = q / (√disc − a).
-            let exact = if a > 0.0 { r * (a + disc.sqrt()) / (b * b) } else { q / (disc.sqrt() - a) };
-            assert!((x - exact).abs() <= 1e-13 * exact.abs().max(f64::MIN_POSITIVE), "{a} {b} {q} {r}: {x} vs {exact}");
+            let exact = if a > 0.0 {
+                r * (a + disc.sqrt()) / (b * b)
+            } else {
+                q / (disc.sqrt() - a)
+            };
+            assert!(
+                (x - exact).abs() <= 1e-13 * exact.abs().max(f64::MIN_POSITIVE),
+                "{a} {b} {q} {r}: {x} vs {exact}"
+            );
         }
         // q = 0 with a stable a: x = 0 and the pole stays; the minimum-energy limit
         // (q → 0 with an unstable a) mirrors the pole.
@@ -958,13 +1109,17 @@ mod tests {
     #[test]
     fn larger_problem_with_oscillators() {
         // Two undamped oscillators and an integrator, cross-coupled inputs.
-        let a = m(5, 5, &[
-            0.0, 1.0, 0.0, 0.0, 0.0, //
-            -4.0, 0.0, 0.0, 0.0, 0.0, //
-            0.0, 0.0, 0.0, 1.0, 0.0, //
-            0.0, 0.0, -9.0, 0.0, 0.0, //
-            1.0, 0.0, 0.0, 0.0, 0.0,
-        ]);
+        let a = m(
+            5,
+            5,
+            &[
+                0.0, 1.0, 0.0, 0.0, 0.0, //
+                -4.0, 0.0, 0.0, 0.0, 0.0, //
+                0.0, 0.0, 0.0, 1.0, 0.0, //
+                0.0, 0.0, -9.0, 0.0, 0.0, //
+                1.0, 0.0, 0.0, 0.0, 0.0,
+            ],
+        );
         let b = m(5, 2, &[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.5, 1.0, 0.0, 0.0]);
         let q = DMatrix::identity(5, 5);
         let r = m(2, 2, &[1.0, 0.2, 0.2, 2.0]);
@@ -991,27 +1146,61 @@ mod tests {
         let q = DMatrix::identity(2, 2);
         let r = m(1, 1, &[1.0]);
         let name = |e: TwipError| match e {
-            TwipError::Shape { name, .. } | TwipError::InvalidParameter { name, .. } | TwipError::NonFinite { name, .. } => name,
+            TwipError::Shape { name, .. }
+            | TwipError::InvalidParameter { name, .. }
+            | TwipError::NonFinite { name, .. } => name,
             other => panic!("unexpected {other:?}"),
         };
         assert_eq!(name(care(&m(2, 3, &[0.0; 6]), &b, &q, &r).unwrap_err()), "A");
         assert_eq!(name(care(&a, &m(3, 1, &[0.0; 3]), &q, &r).unwrap_err()), "B");
         assert_eq!(name(care(&a, &b, &DMatrix::identity(3, 3), &r).unwrap_err()), "Q");
         assert_eq!(name(care(&a, &b, &q, &DMatrix::identity(2, 2)).unwrap_err()), "R");
-        assert_eq!(name(care(&a, &b, &m(2, 2, &[1.0, 0.5, 0.0, 1.0]), &r).unwrap_err()), "Q");
-        assert_eq!(name(care(&a, &m(2, 2, &[1.0, 0.0, 0.0, 1.0]), &q, &m(2, 2, &[1.0, 0.1, 0.0, 1.0])).unwrap_err()), "R");
-        assert_eq!(name(care(&a, &b, &m(2, 2, &[1.0, 0.0, 0.0, -1.0]), &r).unwrap_err()), "Q");
+        assert_eq!(
+            name(care(&a, &b, &m(2, 2, &[1.0, 0.5, 0.0, 1.0]), &r).unwrap_err()),
+            "Q"
+        );
+        assert_eq!(
+            name(care(&a, &m(2, 2, &[1.0, 0.0, 0.0, 1.0]), &q, &m(2, 2, &[1.0, 0.1, 0.0, 1.0])).unwrap_err()),
+            "R"
+        );
+        assert_eq!(
+            name(care(&a, &b, &m(2, 2, &[1.0, 0.0, 0.0, -1.0]), &r).unwrap_err()),
+            "Q"
+        );
         assert_eq!(name(care(&a, &b, &q, &m(1, 1, &[0.0])).unwrap_err()), "R");
         assert_eq!(name(care(&a, &b, &q, &m(1, 1, &[-1.0])).unwrap_err()), "R");
         let e = care(&a, &b, &q, &m(1, 1, &[f64::NAN])).unwrap_err();
-        assert!(matches!(e, TwipError::NonFinite { name: "R", index: 0, .. }), "{e:?}");
+        assert!(
+            matches!(
+                e,
+                TwipError::NonFinite {
+                    name: "R",
+                    index: 0,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
         let e = care(&m(2, 2, &[0.0, 1.0, f64::INFINITY, 0.0]), &b, &q, &r).unwrap_err();
-        assert!(matches!(e, TwipError::NonFinite { name: "A", index: 2, .. }), "{e:?}");
+        assert!(
+            matches!(
+                e,
+                TwipError::NonFinite {
+                    name: "A",
+                    index: 2,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
         // Unstabilizable: the unstable mode 1 is not driven.
         let a2 = m(2, 2, &[1.0, 0.0, 0.0, -1.0]);
         assert_eq!(care(&a2, &b, &q, &r).unwrap_err(), TwipError::NotStabilizable);
         // Marginal and undriven: the integrator of the double integrator with B = e1.
-        assert_eq!(care(&a, &m(2, 1, &[1.0, 0.0]), &q, &r).unwrap_err(), TwipError::NotStabilizable);
+        assert_eq!(
+            care(&a, &m(2, 1, &[1.0, 0.0]), &q, &r).unwrap_err(),
+            TwipError::NotStabilizable
+        );
         // Undetectable: the unstable mode is invisible to Q.
         let a3 = m(2, 2, &[1.0, 0.0, 0.0, -1.0]);
         let b3 = m(2, 1, &[1.0, 1.0]);
@@ -1019,12 +1208,21 @@ mod tests {
         assert_eq!(care(&a3, &b3, &q3, &r).unwrap_err(), TwipError::NotDetectable);
         // An undamped oscillator invisible to Q: a Hamiltonian eigenvalue on the axis.
         let a4 = m(2, 2, &[0.0, 1.0, -1.0, 0.0]);
-        assert_eq!(care(&a4, &b, &DMatrix::zeros(2, 2), &r).unwrap_err(), TwipError::NotDetectable);
+        assert_eq!(
+            care(&a4, &b, &DMatrix::zeros(2, 2), &r).unwrap_err(),
+            TwipError::NotDetectable
+        );
     }
 
     #[test]
     fn schur_fallback_is_a_schur_form() {
-        let mm = m(4, 4, &[1.0, 2.0, 0.0, -1.0, 0.5, -3.0, 1.0, 0.0, 0.0, 1.0, 0.0, 2.0, -2.0, 0.0, 1.0, 1.0]);
+        let mm = m(
+            4,
+            4,
+            &[
+                1.0, 2.0, 0.0, -1.0, 0.5, -3.0, 1.0, 0.0, 0.0, 1.0, 0.0, 2.0, -2.0, 0.0, 1.0, 1.0,
+            ],
+        );
         let (u, t) = schur_reflected(mm.clone()).unwrap();
         assert!((&u * &t * u.transpose() - &mm).amax() < 1e-13);
         assert!((u.transpose() * &u - DMatrix::identity(4, 4)).amax() < 1e-14);
@@ -1062,7 +1260,11 @@ mod tests {
         for i in 0..3 {
             for j in 0..3 {
                 let want = x[(i, j)] * t[i] * t[j];
-                assert!((x2[(i, j)] - want).abs() <= 1e-12 * want.abs().max(1e-300), "{i} {j}: {} vs {want}", x2[(i, j)]);
+                assert!(
+                    (x2[(i, j)] - want).abs() <= 1e-12 * want.abs().max(1e-300),
+                    "{i} {j}: {} vs {want}",
+                    x2[(i, j)]
+                );
             }
         }
     }

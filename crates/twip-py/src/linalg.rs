@@ -36,7 +36,12 @@ fn matrix(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<DMatrix<f64>> 
 
 type Problem = (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>);
 
-fn problem(a: &Bound<'_, PyAny>, b: &Bound<'_, PyAny>, q: &Bound<'_, PyAny>, r: &Bound<'_, PyAny>) -> PyResult<Problem> {
+fn problem(
+    a: &Bound<'_, PyAny>,
+    b: &Bound<'_, PyAny>,
+    q: &Bound<'_, PyAny>,
+    r: &Bound<'_, PyAny>,
+) -> PyResult<Problem> {
     Ok((matrix("A", a)?, matrix("B", b)?, matrix("Q", q)?, matrix("R", r)?))
 }
 
@@ -71,7 +76,11 @@ pub fn lqr_py<'py>(
 ) -> PyResult<(Arr2<'py>, Arr2<'py>, Bound<'py, PyArray1<Complex64>>)> {
     let (a, b, q, r) = problem(A, B, Q, R)?;
     let sol = twip_core::lqr(&a, &b, &q, &r).map_err(PyTwipError)?;
-    Ok((to_py_dmatrix(py, &sol.k), to_py_dmatrix(py, &sol.x), to_py_complex_vector(py, &sol.poles)))
+    Ok((
+        to_py_dmatrix(py, &sol.k),
+        to_py_dmatrix(py, &sol.x),
+        to_py_complex_vector(py, &sol.poles),
+    ))
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
