@@ -22,8 +22,9 @@ $(STAMP): pyproject.toml
 build: setup
 	$(VENV)/bin/maturin develop --release --quiet
 
+# Regenerates the thesis's simulations, figures and tables into twip-report/.
 demo: build
-	$(PY) -m twip demo
+	$(VENV)/bin/twip reproduce
 
 # The core is tested with std (all of it) and without (the no_std subset), and the
 # no_std build is checked for dependencies that switch std on.

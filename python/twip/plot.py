@@ -1,0 +1,742 @@
+"""Figures for simulation results and sweeps (matplotlib, imported only when called).
+
+    import twip, twip.plot
+    sc = twip.scenarios.get("slope-lqr")
+    twip.plot.result(sc.run(), scenario=sc, path="slope-lqr.png")   # the layout fits the model
+
+Everything is in degrees, metres and seconds on the axes; the inputs are in SI (radians).
+Each function returns a `matplotlib.figure.Figure`. With `path=` it also writes the file
+(a bare Agg figure: no display needed, not registered with pyplot, so scripts that make
+hundreds of figures do not leak them; PNGs get a 128-colour palette, a third of the size);
+without, the figure is pyplot's, for notebooks and `plt.show()`.
+
+`pip install twip[plot]` installs matplotlib and Pillow.
+"""
+from __future__ import annotations
+
+import math
+from typing import Mapping, Optional, Sequence
+
+import numpy as np
+
+#: Colours: ours, the reference, the target pitch, measured signals, extra series.
+OURS, REF, TARGET, MEASURED = "#1f5fa8", "#222222", "#c0392b", "#9aa5b1"
+PALETTE = ("#1f5fa8", "#e67e22", "#27ae60", "#8e44ad", "#c0392b", "#16a085", "#7f8c8d", "#d35400", "#2c3e50")
+
+_STYLE = {
+    "font.size": 8.5,
+    "axes.titlesize": 9,
+    "axes.labelsize": 8.5,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "grid.linewidth": 0.6,
+    "legend.fontsize": 7.5,
+    "legend.framealpha": 0.85,
+    "lines.linewidth": 1.3,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "figure.dpi": 100,
+    "savefig.dpi": 100,
+}
+
+
+def _mpl():
+    try:
+        import matplotlib
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise ImportError("twip.plot needs matplotlib: pip install 'twip[plot]'") from e
+    return matplotlib
+
+
+def use_agg() -> None:
+    """Selects the Agg backend unless pyplot is already running with another one."""
+    import sys
+
+    matplotlib = _mpl()
+    if "matplotlib.pyplot" not in sys.modules:
+        matplotlib.use("Agg")
+
+
+def _styled(function):
+    """Runs a figure-making function inside twip's matplotlib style."""
+    import functools
+
+    @functools.wraps(function)
+    def wrapper(*args, **kw):
+        with _mpl().rc_context(_STYLE):
+            return function(*args, **kw)
+
+    return wrapper
+
+
+def _figure(figsize, path):
+    """A Figure: a bare one (Agg canvas) when it is only written to a file, else pyplot's."""
+    _mpl()
+    if path is not None:
+        from matplotlib.figure import Figure
+
+        return Figure(figsize=figsize)
+    import matplotlib.pyplot as plt
+
+    return plt.figure(figsize=figsize)
+
+
+def _wrap(title: str, width_in: float, size: float = 10.0) -> str:
+    """Wraps each line of a bold title to the figure's width."""
+    import textwrap
+
+    chars = max(30, int(width_in * 72 / (0.66 * size)))
+    return "\n".join(textwrap.fill(line, chars) for line in title.split("\n"))
+
+
+def _finish(fig, path, title=None):
+    if title:
+        fig.suptitle(_wrap(title, fig.get_size_inches()[0]), fontsize=10, fontweight="bold", x=0.01, y=0.995,
+                     ha="left", va="top")
+    if path is not None:
+        save(fig, path)
+    return fig
+
+
+@_styled
+def warm_up() -> None:
+    """Draws a throw-away figure with text in every style used, so that matplotlib's font
+    cache and glyphs are loaded (before forking workers that then share them)."""
+    import io
+
+    fig = _figure((2, 1), path="-")
+    ax = _axes(fig, 1, 1, 1)
+    ax.plot([0, 1], [0, 1], label="φ θ̇ ψ̇ Ŝ − ±°")
+    ax.set_title("warm up", fontweight="bold")
+    ax.legend()
+    fig.suptitle("warm up", fontweight="bold")
+    fig.savefig(io.BytesIO(), format="png")
+
+
+#: PNGs are written with a 128-colour palette (Pillow): a third of the size, same look.
+COMPACT_PNG = True
+
+
+def save(fig, path) -> None:
+    """fig.savefig(path); a .png is re-encoded with a palette when Pillow is there."""
+    if not (COMPACT_PNG and str(path).lower().endswith(".png")):
+        fig.savefig(path)
+        return
+    try:
+        from PIL import Image
+    except ImportError:
+        fig.savefig(path)
+        return
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    buf.seek(0)
+    with Image.open(buf) as im:
+        im.convert("RGB").quantize(colors=128, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(
+            path, optimize=True)
+
+
+def _axes(fig, *args, **kw):
+    return fig.add_subplot(*args, **kw)
+
+
+def _grid(fig, rows, cols, left=0.75, right=0.25, top=0.7, bottom=0.5, **kw):
+    """A GridSpec with margins in inches (the figures are laid out once, no tight bbox)."""
+    w, h = fig.get_size_inches()
+    return fig.add_gridspec(rows, cols, left=left / w, right=1 - right / w, top=1 - top / h, bottom=bottom / h, **kw)
+
+
+def _legend(ax, outside=False, **kw):
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        if outside:
+            kw = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "borderaxespad": 0.0, **kw}
+        ax.legend(**{"loc": "best", **kw})
+
+
+def _thin(t, y, buckets: int = 1500):
+    """About 2·buckets points keeping each bucket's minimum and maximum in time order (a
+    line drawn from them looks like the full one, spikes included, and draws much faster)."""
+    t, y = np.asarray(t), np.asarray(y)
+    n = len(t)
+    if n <= 2 * buckets:
+        return t, y
+    m = n // buckets
+    head = y[: m * buckets].reshape(buckets, m)
+    lo, hi = np.argmin(head, axis=1), np.argmax(head, axis=1)
+    idx = np.sort(np.stack([lo, hi], axis=1), axis=1) + (np.arange(buckets) * m)[:, None]
+    tail = y[m * buckets:]
+    rest = np.unique([np.argmin(tail), np.argmax(tail), len(tail) - 1]) + m * buckets if len(tail) else np.zeros(0, int)
+    idx = np.concatenate([idx.ravel(), rest.astype(idx.dtype)])
+    return t[idx], y[idx]
+
+
+def _line(ax, t, y, *args, **kw):
+    return ax.plot(*_thin(t, y), *args, **kw)
+
+
+def _robust_ylim(ax, *series, factor=4.0):
+    """Keeps a brief start-up spike from flattening the rest of a panel: when the extreme
+    values lie far outside the 1-99 % range, the axis shows that range (with a margin) and
+    notes the clipped peak."""
+    data = np.concatenate([np.asarray(s, float).ravel() for s in series])
+    data = data[np.isfinite(data)]
+    if len(data) < 20:
+        return
+    lo, hi = np.quantile(data, (0.01, 0.99))
+    span = max(hi - lo, 1e-12)
+    if data.min() < lo - factor * span or data.max() > hi + factor * span:
+        ax.set_ylim(lo - 0.6 * span, hi + 0.6 * span)
+        peak = data[np.argmax(np.abs(data))]
+        ax.text(0.99, 0.03, f"peak {peak:.3g} off scale", transform=ax.transAxes, ha="right", va="bottom",
+                fontsize=7, color="#666666")
+
+
+def _is_planar(result) -> bool:
+    return result.states.shape[1] == 7
+
+
+def _title(scenario, result, default):
+    if scenario is not None:
+        return f"{scenario.name}: {scenario.description}"
+    return default
+
+
+# ----------------------------------------------------------------------------- one run
+
+
+@_styled
+def result(result, scenario=None, path=None, title=None, internals: bool = True):
+    """The usual figure for one run: `timeseries` (2-DOF) or `tracking` (3-DOF)."""
+    if _is_planar(result):
+        return tracking(result, scenario=scenario, path=path, title=title, internals=internals)
+    return timeseries(result, scenario=scenario, path=path, title=title, internals=internals)
+
+
+def _phi_s(result, scenario):
+    """The pitch the controller aims at per sample [rad], or the plant's steady pitch."""
+    if "phi_s" in result.internals:
+        return result.internals["phi_s"], "φ_s (controller's target)"
+    if scenario is not None and hasattr(scenario.model, "equilibrium"):
+        ref = result.reference("theta_dot")
+        values = {}
+        out = np.empty_like(ref)
+        for i, w in enumerate(ref):
+            if w not in values:
+                values[w] = scenario.model.equilibrium(float(w))[0][0]
+            out[i] = values[w]
+        return out, "φ_s (steady pitch)"
+    return None, None
+
+
+@_styled
+def timeseries(result, scenario=None, path=None, title=None, internals: bool = True):
+    """A 2-DOF run (SlopeModel): pitch with its target φ_s, pitch rate, wheel speed with its
+    reference, distance with the reference position, the input current and the
+    controller's internals (the fuzzy weights Ŝ, or the LQR integrator)."""
+    t = result.t
+    deg = np.degrees
+    phi, phi_dot, theta, theta_dot = result.states.T
+    radius = scenario.model.params.wheel_radius if scenario is not None else None
+    rows = 3 if internals else 2
+    fig = _figure((11, 2.45 * rows + 0.4), path)
+    gs = _grid(fig, rows, 2, right=0.7, hspace=0.5, wspace=0.2)
+
+    ax = _axes(fig, gs[0, 0])
+    sig = getattr(result, "signals", None) or {}
+    if "phi_hat" in sig:  # with twip.Realism: what the controller read
+        _line(ax, t, deg(sig["phi_hat"]), color=MEASURED, lw=0.8, label="measured φ̂")
+    _line(ax, t, deg(phi), color=OURS, label="pitch φ")
+    target, label = _phi_s(result, scenario)
+    if target is not None:
+        _line(ax, t, deg(target), color=TARGET, ls="--", lw=1.1, label=label)
+    ax.set(ylabel="pitch [deg]", title="Body pitch")
+    _legend(ax)
+
+    ax = _axes(fig, gs[0, 1])
+    _line(ax, t, deg(phi_dot), color=OURS, label="pitch rate φ̇")
+    ax.axhline(0.0, color=REF, ls="--", lw=1.0, label="reference 0")
+    ax.set(ylabel="pitch rate [deg/s]", title="Body pitch rate")
+    _legend(ax)
+
+    ax = _axes(fig, gs[1, 0])
+    if "theta_dot_hat" in sig:
+        _line(ax, t, deg(sig["theta_dot_hat"]), color=MEASURED, lw=0.8, label="measured θ̇̂")
+    _line(ax, t, deg(theta_dot), color=OURS, label="wheel speed θ̇")
+    if "theta_dot" in result.reference_names:
+        _line(ax, t, deg(result.reference("theta_dot")), color=REF, ls="--", lw=1.1, label="reference θ̇_ref")
+    ax.set(ylabel="wheel speed [deg/s]", title="Wheel speed")
+    _legend(ax)
+
+    ax = _axes(fig, gs[1, 1])
+    scale, unit = (radius, "m") if radius else (1.0, "rad")
+    _line(ax, t, theta * scale, color=OURS, label="travelled " + ("θ·r" if radius else "θ"))
+    if "theta" in result.reference_names:
+        _line(ax, t, result.reference("theta") * scale, color=REF, ls="--", lw=1.1, label="reference")
+    ax.set(ylabel=f"position [{unit}]", title="Position along the ground")
+    _legend(ax, loc="best")
+
+    if internals:
+        ax = _axes(fig, gs[2, 0])
+        if "motor_current" in sig:
+            _line(ax, t, sig["motor_current"], color=PALETTE[1], lw=0.6, alpha=0.6, label="motor current (driver)")
+        _line(ax, t, result.inputs[:, 0], color=OURS, lw=1.0, label="commanded u")
+        if "motor_current" in sig:
+            _legend(ax)
+        _robust_ylim(ax, result.inputs[:, 0])
+        ax.set(ylabel="motor current [A]", xlabel="time [s]", title="Input (lumped motor current)")
+        ax = _axes(fig, gs[2, 1])
+        controller_internals(result, ax=ax)
+        ax.set_xlabel("time [s]")
+    else:
+        for a in fig.axes[-2:]:
+            a.set_xlabel("time [s]")
+    for a in fig.axes:
+        a.set_xlim(t[0], t[-1])
+    if result.fell:
+        for a in fig.axes:
+            a.axvline(result.t_end, color=TARGET, lw=0.8)
+        fig.axes[0].text(result.t_end, 0.02, " fell", color=TARGET, transform=fig.axes[0].get_xaxis_transform())
+    return _finish(fig, path, title or _title(scenario, result, "2-DOF run"))
+
+
+@_styled
+def controller_internals(result, ax=None, names: Optional[Sequence[str]] = None, path=None):
+    """The controller's logged internals on one axis: fuzzy weights Ŝ1…Ŝ9 (2-DOF fuzzy),
+    sliding surfaces S1, S_η (sliding mode), the PID terms, or the LQR integrator z."""
+    own = ax is None
+    if own:
+        fig = _figure((6, 3), path)
+        ax = _axes(fig, 1, 1, 1)
+    t = result.t
+    inner = result.internals
+    if names is None:
+        if "S1" in inner:  # fuzzy backstepping: the adaptive weights
+            names = [n for n in (f"S{i}" for i in range(1, 10)) if n in inner]
+            title, ylabel = "Fuzzy weights Ŝ (adaptive estimate of F1)", "Ŝ_k [rad/s²]"
+        elif "s1" in inner:  # sliding mode
+            names = ["s1", "s_eta"]
+            title, ylabel = "Sliding surfaces", "S"
+        elif "u_phi" in inner:  # PID tracker
+            names = ["u_phi", "u_v", "u_psi"]
+            title, ylabel = "PID terms (PWM counts)", "counts"
+        elif "z" in inner:
+            names = ["z"]
+            title, ylabel = "LQR integrator ∫(θ̇ − θ̇_ref) dt", "z [rad]"
+        else:
+            names = list(inner)[:6]
+            title, ylabel = "Controller internals", ""
+    else:
+        title, ylabel = "Controller internals", ""
+    pretty = {"s1": "S1", "s_eta": "S_η", "u_phi": "u_φ", "u_v": "u_v", "u_psi": "u_ψ", "z": "z"}
+    for i, n in enumerate(names):
+        label = "Ŝ" + n[1:] if n.startswith("S") and n[1:].isdigit() else pretty.get(n, n)
+        _line(ax, t, inner[n], color=PALETTE[i % len(PALETTE)], lw=1.0, label=label)
+    if names:
+        _robust_ylim(ax, *[inner[n] for n in names])
+    ax.set(title=title, ylabel=ylabel)
+    if names:
+        _legend(ax, outside=len(names) > 4)
+    if own:
+        ax.set_xlabel("time [s]")
+        return _finish(ax.figure, path)
+    return ax
+
+
+def _ref_xy(result):
+    return result.reference("x"), result.reference("y")
+
+
+def _path_error(result, trajectory=None):
+    """Distance to the moving reference point and, when the trajectory is known, to the path [m]."""
+    x, y = result.states[:, 0], result.states[:, 1]
+    xr, yr = _ref_xy(result)
+    to_point = np.hypot(x - xr, y - yr)
+    to_path = None
+    if trajectory is not None and hasattr(trajectory, "distance"):
+        to_path = np.array([trajectory.distance(float(a), float(b)) for a, b in zip(x, y)])
+    return to_point, to_path
+
+
+@_styled
+def xy_path(results, ax=None, path=None, title=None):
+    """x–y paths of one or more 3-DOF runs against the reference. `results` is a SimResult
+    or {label: SimResult}; the first one's reference is drawn."""
+    if not isinstance(results, Mapping):
+        results = {"robot": results}
+    own = ax is None
+    if own:
+        fig = _figure((5.5, 5.2), path)
+        ax = _axes(fig, 1, 1, 1)
+    first = next(iter(results.values()))
+    xr, yr = _ref_xy(first)
+    step = max(1, len(xr) // 4000)
+    ax.plot(xr[::step], yr[::step], color=REF, ls="--", lw=1.0, label="reference", zorder=5)
+    styles = ("-", "--", ":", "-.")
+    for i, (label, r) in enumerate(results.items()):
+        step = max(1, len(r.t) // 4000)
+        ax.plot(r.states[::step, 0], r.states[::step, 1], color=PALETTE[i % len(PALETTE)],
+                ls=styles[(i // len(PALETTE)) % 4], lw=1.4, label=label)
+    ax.plot([first.states[0, 0]], [first.states[0, 1]], "o", color=REF, ms=5, label="start")
+    ax.set(xlabel="x [m]", ylabel="y [m]", title="Path (top view)")
+    ax.set_aspect("equal", adjustable="datalim")
+    _legend(ax, loc="center")
+    if own:
+        return _finish(ax.figure, path, title)
+    return ax
+
+
+@_styled
+def paths(results: Mapping, trajectory=None, path=None, title=None):
+    """Figure: x–y paths of several runs against the reference (left) and their distance to
+    the reference point and to the path itself over time (right)."""
+    fig = _figure((11, 4.6), path)
+    gs = _grid(fig, 2, 2, width_ratios=(1.0, 1.3), hspace=0.45, wspace=0.2)
+    xy_path(results, ax=_axes(fig, gs[:, 0]))
+    ax1, ax2 = _axes(fig, gs[0, 1]), _axes(fig, gs[1, 1])
+    for i, (label, r) in enumerate(results.items()):
+        to_point, to_path = _path_error(r, trajectory)
+        _line(ax1, r.t, 100 * to_point, color=PALETTE[i % len(PALETTE)], label=label)
+        if to_path is not None:
+            _line(ax2, r.t, 100 * to_path, color=PALETTE[i % len(PALETTE)], label=label)
+    ax1.set(ylabel="[cm]", title="Distance to the moving reference point")
+    ax2.set(ylabel="[cm]", xlabel="time [s]", title="Distance to the path (the circle itself)")
+    if trajectory is None:
+        ax2.set_visible(False)
+    from matplotlib.ticker import FuncFormatter
+
+    for a in (ax1, ax2):
+        a.set_yscale("symlog", linthresh=0.1, linscale=0.5)
+        a.set_ylim(bottom=0)
+        a.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        _legend(a, loc="upper right")
+    return _finish(fig, path, title)
+
+
+@_styled
+def tracking(result, scenario=None, path=None, title=None, internals: bool = True, show_path: bool = True):
+    """A 3-DOF run (PlanarModel): the x–y path against the reference, pitch (with φ_s when
+    the controller has one), forward speed and yaw rate against their references, the
+    distance to the reference, the wheel torques and the controller's internals (sliding
+    surfaces S1, S_η and fuzzy weights, or the PID terms)."""
+    t = result.t
+    deg = np.degrees
+    x, y, psi, phi, phi_dot, v, omega = result.states.T
+    inner = result.internals
+    fig = _figure((12, 7.6 if internals else 5.2), path)
+    rows = 3 if internals else 2
+    gs = _grid(fig, rows, 3, right=0.7, hspace=0.5, wspace=0.3)
+    panels = []
+    if show_path:
+        xy_path({"robot": result}, ax=_axes(fig, gs[:2, 0]))
+        slots = [gs[0, 1], gs[0, 2], gs[1, 1], gs[1, 2]] + ([gs[2, 0], gs[2, 1], gs[2, 2]] if internals else [])
+    else:
+        slots = [gs[i, j] for i in range(rows) for j in range(3)]
+
+    ax = _axes(fig, slots[0])
+    _line(ax, t, deg(phi), color=OURS, label="pitch φ")
+    if "phi_s" in inner:
+        _line(ax, t, deg(inner["phi_s"]), color=TARGET, ls="--", lw=1.1, label="φ_s (controller's target)")
+    else:
+        ax.axhline(0.0, color=REF, ls="--", lw=1.0, label="upright")
+    ax.set(ylabel="pitch [deg]", title="Body pitch")
+    _legend(ax)
+    panels.append(ax)
+
+    ax = _axes(fig, slots[1])
+    _line(ax, t, v, color=OURS, label="v")
+    _line(ax, t, result.reference("v"), color=REF, ls="--", lw=1.1, label="v_ref")
+    ax.set(ylabel="speed [m/s]", title="Forward speed")
+    _legend(ax)
+    panels.append(ax)
+
+    ax = _axes(fig, slots[2])
+    _line(ax, t, deg(omega), color=OURS, label="ω = ψ̇")
+    _line(ax, t, deg(result.reference("omega")), color=REF, ls="--", lw=1.1, label="ω_ref")
+    ax.set(ylabel="yaw rate [deg/s]", title="Yaw rate")
+    _legend(ax)
+    panels.append(ax)
+
+    ax = _axes(fig, slots[3])
+    xr, yr = _ref_xy(result)
+    _line(ax, t, 100 * (x - xr), color=PALETTE[0], label="x − x_r")
+    _line(ax, t, 100 * (y - yr), color=PALETTE[1], label="y − y_r")
+    ax.set(ylabel="[cm]", title="Position error")
+    _legend(ax)
+    panels.append(ax)
+
+    if internals:
+        ax = _axes(fig, slots[4])
+        _line(ax, t, result.inputs[:, 0], color=PALETTE[0], lw=1.0, label="u_r")
+        _line(ax, t, result.inputs[:, 1], color=PALETTE[1], lw=1.0, label="u_l")
+        _robust_ylim(ax, result.inputs[:, 0], result.inputs[:, 1])
+        ax.set(ylabel="torque [N m]", title="Wheel torques")
+        _legend(ax)
+        panels.append(ax)
+        ax = _axes(fig, slots[5])
+        controller_internals(result, ax=ax)
+        panels.append(ax)
+        ax = _axes(fig, slots[6])
+        weights = [n for n in inner if n.startswith("c1_")] + [n for n in inner if n.startswith("c2_")]
+        if weights and np.any([np.any(inner[n] != 0) for n in weights]):
+            c1 = [n for n in weights if n.startswith("c1_")]
+            c2 = [n for n in weights if n.startswith("c2_")]
+            for i, n in enumerate(c1):
+                _line(ax, t, inner[n], color=PALETTE[i % len(PALETTE)], lw=0.9, label="Ĉ1" if i == 0 else None)
+            for i, n in enumerate(c2):
+                _line(ax, t, inner[n], color=PALETTE[i % len(PALETTE)], lw=0.9, ls="--", label="Ĉ2" if i == 0 else None)
+            ax.set(title="Fuzzy weights Ĉ1 (solid), Ĉ2 (dashed)", ylabel="weight")
+            _legend(ax)
+        elif "e1" in inner:
+            for i, (n, label) in enumerate((("e1", "e1 (along)"), ("e2", "e2 (across)"))):
+                _line(ax, t, 100 * inner[n], color=PALETTE[i], label=label)
+            ax.set(title="Tracking errors in the robot's frame", ylabel="[cm]")
+            _legend(ax)
+        elif "e_v" in inner:
+            _line(ax, t, 100 * inner["e_v"], color=PALETTE[0], label="e_v [cm/s]")
+            _line(ax, t, np.degrees(inner["e_psi"]), color=PALETTE[1], label="e_ψ [deg]")
+            _robust_ylim(ax, 100 * inner["e_v"], np.degrees(inner["e_psi"]))
+            ax.set(title="PID errors: speed and heading", ylabel="[cm/s], [deg]")
+            _legend(ax)
+        else:
+            ax.set_visible(False)
+        panels.append(ax)
+    for a in panels:
+        a.set_xlim(t[0], t[-1])
+    for a in panels[-3:]:
+        a.set_xlabel("time [s]")
+    return _finish(fig, path, title or _title(scenario, result, "3-DOF run"))
+
+
+# ----------------------------------------------------------------------------- sweeps
+
+_SWEEP_METRICS = {
+    "mean_abs_pitch_error": ("mean |φ − φ_s| [deg]", math.degrees(1.0)),
+    "mean_abs_speed_error": ("mean |θ̇ − θ̇_ref| [deg/s]", math.degrees(1.0)),
+    "final_position_error": ("final position error [cm]", 100.0),
+    "pitch_settling_time": ("pitch settling time [s]", 1.0),
+    "speed_settling_time": ("speed settling time [s]", 1.0),
+    "peak_abs_input": ("peak |u| [A]", 1.0),
+    "mean_abs_x_error": ("mean |x − x_r| [cm]", 100.0),
+    "mean_abs_y_error": ("mean |y − y_r| [cm]", 100.0),
+    "mean_abs_x_error_settled": ("mean |x − x_r| after lap 1 [cm]", 100.0),
+    "mean_abs_y_error_settled": ("mean |y − y_r| after lap 1 [cm]", 100.0),
+    "max_path_error_settled": ("max path error after lap 1 [cm]", 100.0),
+    "mean_abs_pitch": ("mean |φ| [deg]", math.degrees(1.0)),
+    "peak_abs_torque": ("peak |u| [N m]", 1.0),
+}
+
+
+@_styled
+def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None, bins: int = 30):
+    """Histograms of a sweep's metrics over the samples that did not fall (fall rate and its
+    95 % interval in the title). `result` is a SweepResult (or anything with `.metrics`,
+    `.fall_rate`, `.fall_rate_interval()` and `.config["scenario"]`)."""
+    m = result.metrics
+    if metrics is None:
+        metrics = [k for k in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error",
+                               "mean_abs_x_error_settled", "mean_abs_y_error_settled", "max_path_error_settled")
+                   if k in m][:3]
+    keep = np.asarray(m["valid"], bool) & ~np.asarray(m["fell"], bool)
+    fig = _figure((3.6 * len(metrics), 2.9), path)
+    gs = _grid(fig, 1, len(metrics), top=1.0, wspace=0.3)
+    for i, name in enumerate(metrics):
+        ax = _axes(fig, gs[0, i])
+        label, scale = _SWEEP_METRICS.get(name, (name, 1.0))
+        values = np.asarray(m[name], float)[keep] * scale
+        values = values[np.isfinite(values)]
+        if len(values):
+            ax.hist(values, bins=bins, color=PALETTE[i % len(PALETTE)], alpha=0.85, edgecolor="white", linewidth=0.4)
+            for q, ls in zip(np.quantile(values, (0.05, 0.5, 0.95)), (":", "-", ":")):
+                ax.axvline(q, color=REF, ls=ls, lw=0.9)
+        else:
+            ax.text(0.5, 0.5, "every sample fell", ha="center", va="center", transform=ax.transAxes)
+        ax.set(xlabel=label, ylabel="samples" if i == 0 else None)
+    lo, hi = result.fall_rate_interval()
+    head = title or f"{result.config['scenario']}: {result.n} samples"
+    sub = f"fall rate {result.fall_rate:.1%} (95 % CI {lo:.1%}–{hi:.1%}); lines: median and 5 / 95 % quantiles"
+    return _finish(fig, path, f"{head}\n{sub}")
+
+
+def perturbed_values(result, name: str) -> np.ndarray:
+    """The per-sample values of a perturbed quantity of a SweepResult (a RobotParams field,
+    'slope', or an initial state 'phi0', 'phi_dot0', 'theta0', 'theta_dot0')."""
+    states = ("phi0", "phi_dot0", "theta0", "theta_dot0")
+    out = np.empty(result.n)
+    index = np.asarray(result.metrics["index"], dtype=np.int64)
+    for k, i in enumerate(index):
+        params, slope, x0 = result.sample(int(i))
+        if name == "slope":
+            out[k] = slope
+        elif name in states:
+            out[k] = x0[states.index(name)]
+        else:
+            out[k] = getattr(params, name)
+    return out
+
+
+_ANGLES = {"slope", "phi0", "phi_dot0", "theta0", "theta_dot0"}
+
+
+def _axis_label(name):
+    return {"slope": "slope [deg]", "phi0": "initial pitch φ(0) [deg]", "phi_dot0": "initial pitch rate φ̇(0) [deg/s]",
+            "theta0": "θ(0) [deg]", "theta_dot0": "θ̇(0) [deg/s]"}.get(name, name)
+
+
+@_styled
+def fall_map(result, x: str, y: str, bins=(12, 12), ax=None, path=None, title=None, colorbar: bool = True):
+    """Fall rate of a sweep binned over two perturbed quantities (angles in degrees): which
+    combinations the controller does not survive. Empty bins are left white."""
+    xs, ys = perturbed_values(result, x), perturbed_values(result, y)
+    if x in _ANGLES:
+        xs = np.degrees(xs)
+    if y in _ANGLES:
+        ys = np.degrees(ys)
+    fell = np.asarray(result.metrics["fell"], float)
+    count, xe, ye = np.histogram2d(xs, ys, bins=bins)
+    falls, _, _ = np.histogram2d(xs, ys, bins=(xe, ye), weights=fell)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rate = np.where(count > 0, falls / np.maximum(count, 1), np.nan)
+    own = ax is None
+    if own:
+        fig = _figure((5, 4), path)
+        ax = _axes(fig, 1, 1, 1)
+    mesh = ax.pcolormesh(xe, ye, rate.T, cmap="Reds", vmin=0, vmax=1, shading="flat")
+    ax.grid(False)
+    ax.set(xlabel=_axis_label(x), ylabel=_axis_label(y))
+    ax.set_title(title or f"{result.config['scenario']}: fall rate {result.fall_rate:.1%} of {result.n}")
+    if colorbar:
+        ax.figure.colorbar(mesh, ax=ax, label="fall rate", fraction=0.05, pad=0.02)
+    if own:
+        return _finish(ax.figure, path)
+    return ax
+
+
+@_styled
+def fall_maps(results: Sequence, x: str, y: str, bins=(12, 12), path=None, title=None):
+    """Side-by-side fall-rate maps of several sweeps over the same two quantities, one colour bar."""
+    k = len(results)
+    fig = _figure((4.4 * k + 0.9, 4.0), path)
+    gs = _grid(fig, 1, k, right=0.2, wspace=0.2)
+    axes = []
+    for i, r in enumerate(results):
+        ax = _axes(fig, gs[0, i])
+        fall_map(r, x, y, bins=bins, ax=ax, colorbar=False)
+        if i:
+            ax.set_ylabel("")
+        axes.append(ax)
+    fig.colorbar(axes[0].collections[0], ax=axes, label="fall rate", fraction=0.03, pad=0.02)
+    return _finish(fig, path, title)
+
+
+# ----------------------------------------------------------------------------- comparisons
+
+
+def _plain_log_axis(ax):
+    """Log y axis with plain numbers (0.1, 1, 10, 20, 50) instead of powers of ten."""
+    from matplotlib.ticker import FuncFormatter, LogLocator
+
+    ax.set_yscale("log")
+    ax.yaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    ax.yaxis.set_minor_locator(LogLocator(base=10, subs=(3.0, 4.0, 6.0, 7.0, 8.0, 9.0)))
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.yaxis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
+
+
+def bars(groups: Sequence[str], series: Mapping[str, Sequence[float]], ax, ylabel="", thesis: Optional[Mapping] = None,
+         log: bool = False, marks: Optional[Mapping[str, Sequence[str]]] = None):
+    """Grouped bars: one group per label in `groups`, one bar per entry of `series`.
+    `thesis` maps a series name to per-group values drawn as black diamonds on that bar;
+    `marks` to per-group text written above the bars (e.g. 'fell'). With `log`, the bars
+    start a decade below the smallest value and the axis shows plain numbers."""
+    n = len(series)
+    width = 0.8 / max(n, 1)
+    xs = np.arange(len(groups))
+    values_all = np.concatenate([np.asarray(v, float) for v in series.values()] +
+                                [np.asarray(v, float) for v in (thesis or {}).values()])
+    values_all = values_all[np.isfinite(values_all) & (values_all > 0)]
+    bottom = 10 ** math.floor(math.log10(values_all.min())) if (log and len(values_all)) else 0.0
+    labelled = False
+    for i, (name, given) in enumerate(series.items()):
+        pos = xs - 0.4 + width * (i + 0.5)
+        values = np.asarray(given, float)
+        ax.bar(pos, values - bottom, width * 0.92, bottom=bottom, color=PALETTE[i % len(PALETTE)], label=name)
+        if thesis and name in thesis:
+            tv = np.asarray(thesis[name], float)
+            ok = np.isfinite(tv)
+            if ok.any():
+                ax.plot(pos[ok], tv[ok], "D", color=REF, ms=6, mec="white", mew=0.8, label=None if labelled else "thesis")
+                labelled = True
+        if marks and name in marks:
+            for p, v, txt in zip(pos, values, marks[name]):
+                if txt:
+                    ax.text(p, v, txt, ha="center", va="bottom", fontsize=6.5, rotation=90)
+    ax.set_xticks(xs)
+    ax.set_xticklabels(groups, rotation=0)
+    ax.set_ylabel(ylabel)
+    if log:
+        _plain_log_axis(ax)
+        ax.set_ylim(bottom=bottom)
+    ax.grid(axis="x", visible=False)
+    return ax
+
+
+_CONTROLLER_NAMES = {"lqr": "LQR", "fuzzy": "fuzzy adaptive", "fuzzy-fixed": "fuzzy, adaptation off",
+                     "fuzzy+ki": "fuzzy + ki"}
+
+
+@_styled
+def table_5_1(rows, thesis: Optional[Mapping] = None, path=None, title=None):
+    """Table 5.1 analogue from `twip.scenarios.fuzzy.compare_table()` rows: mean |pitch error|
+    and |wheel-speed error| per controller (bars) and plant (groups), flat and slope. `thesis`
+    maps (surface, controller) to the thesis's (pitch, speed), drawn on the nominal group."""
+    fig = _figure((11, 6.4), path)
+    gs = _grid(fig, 2, 2, top=0.75, bottom=0.95, hspace=0.5, wspace=0.2)
+    controllers = list(dict.fromkeys(r["controller"] for r in rows))
+    for i, surface in enumerate(dict.fromkeys(r["surface"] for r in rows)):
+        sel = [r for r in rows if r["surface"] == surface]
+        plants = list(dict.fromkeys(r["case"] for r in sel))
+        cell = {(r["case"], r["controller"]): r for r in sel}
+        for j, (key, ylabel, what) in enumerate((("pitch_error_deg", "mean |φ − φ_s| [deg]", "pitch"),
+                                                 ("speed_error_deg_s", "mean |θ̇ − θ̇_ref| [deg/s]", "wheel-speed"))):
+            ax = _axes(fig, gs[i, j])
+            series = {_CONTROLLER_NAMES.get(c, c): [cell[(p, c)][key] for p in plants] for c in controllers}
+            marks = {_CONTROLLER_NAMES.get(c, c): ["" if cell[(p, c)]["outcome"] == "completed" else cell[(p, c)]["outcome"]
+                                                   for p in plants] for c in controllers}
+            th = None
+            if thesis:
+                th = {_CONTROLLER_NAMES.get(c, c): [thesis[(surface, c)][j] if p == "nominal" and (surface, c) in thesis
+                                                    else np.nan for p in plants] for c in controllers}
+            bars(plants, series, ax, ylabel=ylabel, thesis=th, log=True, marks=marks)
+            ax.set_title(f"{surface}: mean {what} error")
+    handles, labels = fig.axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), frameon=False)
+    return _finish(fig, path, title or "Table 5.1 analogue: the same go-and-back run for each controller; the controller's "
+                   "model is the nominal robot,\nthe plant changes (thesis: black diamonds, nominal only; log scale)")
+
+
+@_styled
+def table_5_2(rows, thesis: Optional[Mapping] = None, path=None, title=None):
+    """Table 5.2 analogue from `twip.scenarios.tracking.compare()` rows: mean |x − x_r| and
+    |y − y_r| per tracker (bars) and plant (groups); `thesis` {"pid": (x, y), "smc": (x, y)}
+    [m] drawn as horizontal lines (the thesis's experiments)."""
+    fig = _figure((11, 4.3), path)
+    gs = _grid(fig, 1, 2, top=0.75, bottom=1.0, wspace=0.2)
+    plants = list(dict.fromkeys(r["plant"] for r in rows))
+    trackers = list(dict.fromkeys(r["controller"] for r in rows))
+    cell = {(r["plant"], r["controller"]): r for r in rows}
+    for j, axis in enumerate(("x", "y")):
+        ax = _axes(fig, gs[0, j])
+        series = {t: [100 * cell[(p, t)][axis] for p in plants] for t in trackers}
+        marks = {t: ["" if cell[(p, t)]["outcome"] == "completed" else cell[(p, t)]["outcome"] for p in plants]
+                 for t in trackers}
+        bars(plants, series, ax, ylabel=f"mean |{axis} − {axis}_r| [cm]", log=True, marks=marks)
+        for k, (key, label) in enumerate((("pid", "thesis: PID (experiment)"), ("smc", "thesis: sliding mode (experiment)"))):
+            if thesis and key in thesis:
+                ax.axhline(100 * thesis[key][j], color=PALETTE[0 if key == "pid" else 2], ls="--", lw=1.3, label=label)
+        ax.set_title(f"mean {axis} error over the whole run")
+    handles, labels = fig.axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), frameon=False)
+    return _finish(fig, path, title or "Table 5.2 analogue: each tracker on its circle; the controllers keep the nominal "
+                   "model, the plant's masses, inertias,\nlengths and frictions change by ±20 % (log scale)")

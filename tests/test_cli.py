@@ -1,0 +1,233 @@
+"""The `twip` command line: reproduce, simulate, sweep, list, and its errors.
+
+`twip reproduce --quick` runs once per session (about 20-30 s on 2 cores); the other tests
+call `twip.cli.main` in-process.
+"""
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("matplotlib")
+pytest.importorskip("PIL")
+
+import twip  # noqa: E402
+from twip import cli, scenarios  # noqa: E402
+
+SKIPPED_KEYS = {"figure", "hold", "distance"}  # settings, not claims
+
+
+def twip_command():
+    """The installed console script, else `python -m twip`."""
+    script = Path(sys.executable).with_name("twip")
+    return [str(script)] if script.exists() else [sys.executable, "-m", "twip"]
+
+
+def run(args, capsys):
+    """cli.main in-process: (exit code, stdout, stderr); argparse's exits included."""
+    try:
+        code = cli.main([str(a) for a in args])
+    except SystemExit as e:
+        code = e.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.fixture(scope="module")
+def report_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report")
+    proc = subprocess.run(twip_command() + ["reproduce", "--quick", "--out", str(out)], capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "Traceback" not in proc.stderr
+    return out, proc.stdout
+
+
+@pytest.fixture(scope="module")
+def report(report_dir):
+    return json.loads((report_dir[0] / "report.json").read_text())
+
+
+def test_reproduce_writes_every_figure_and_both_reports(report_dir, report):
+    out, stdout = report_dir
+    assert (out / "report.md").stat().st_size > 1000
+    for filename in report["figures"]:
+        path = out / filename
+        assert path.exists() and path.stat().st_size > 1000, filename
+        head = path.read_bytes()[:8]
+        assert head.startswith(b"\x89PNG") or head.startswith(b"GIF89a"), filename
+    # one figure per thesis figure the scenarios name, and the comparisons
+    names = set(report["figures"])
+    for name, s in report["scenarios"].items():
+        assert "error" not in s, (name, s)
+        assert f"fig{s['figure']}_{name}.png" in names
+    for fig in ("4.2", "4.7", "4.9", "4.11", "4.14", "4.16", "4.18"):
+        assert any(n.startswith(f"fig{fig}_") for n in names), fig
+    assert {"table5.1.png", "table5.2.png"} <= names
+    assert any(n.startswith("sweep_") for n in names)
+    # progress: one line per step with its time
+    assert len(re.findall(r"\d+\.\d\d s\s+\(total", stdout)) >= len(report["steps"]) - 1
+
+
+def test_report_json_has_a_row_per_thesis_claim(report):
+    ids = [c["id"] for c in report["claims"]]
+    assert len(ids) == len(set(ids))
+    expected = []
+    for name in scenarios.names():
+        expected += [f"{name}/{k}" for k in scenarios.get(name).thesis if k not in SKIPPED_KEYS]
+    expected += [f"table-5.1/{c}-{s}/{what}" for c in ("lqr", "fuzzy") for s in ("flat", "slope")
+                 for what in ("pitch", "speed")]
+    expected += ["table-5.1/fuzzy-beats-lqr-flat", "table-5.1/fuzzy-beats-lqr-slope", "table-5.2/smc-beats-pid"]
+    assert sorted(expected) == sorted(ids)
+    for c in report["claims"]:
+        assert c["status"] in ("reproduced", "differs"), c
+        assert c["reason"] and "\n" not in c["reason"], c
+        assert c["ours"] is not None, c
+
+
+def _numbers(cell):
+    return [float(x) for x in re.findall(r"-?\d+(?:\.\d+)?(?:e[+-]?\d+)?", cell)]
+
+
+def _flat(value):
+    if isinstance(value, bool):
+        return []
+    if isinstance(value, (list, tuple)):
+        return [v for x in value for v in _flat(x)]
+    return [] if value is None else [float(value)]
+
+
+def test_report_md_numbers_equal_report_json(report_dir, report):
+    md = (report_dir[0] / "report.md").read_text()
+    rows = {line.split(" | ")[0][2:]: line for line in md.splitlines() if line.startswith("| ")}
+    for c in report["claims"]:
+        cells = [x.strip() for x in rows[c["id"]].strip("|").split(" | ")]
+        assert cells[0] == c["id"]
+        assert _numbers(cells[2]) == _flat(c["thesis"]), (c["id"], cells[2])
+        assert _numbers(cells[3]) == _flat(c["ours"]), (c["id"], cells[3])
+        if isinstance(c["ours"], bool):
+            assert cells[3] == ("yes" if c["ours"] else "no")
+        assert cells[5] == c["status"]
+    # Table 5.2: every row's numbers
+    for r in report["table_5_2"]:
+        line = next(l for l in md.splitlines() if l.startswith(f"| `{r['controller']}` | {r['plant']} |"))
+        nums = _numbers(" ".join(line.split(" | ")[3:7]))
+        assert nums == [r["x_cm"], r["y_cm"], r["x_settled_cm"], r["y_settled_cm"], r["path_settled_cm"], r["pitch_deg"]]
+    # Table 5.1: the pitch and speed of every cell
+    for r in report["table_5_1"]:
+        assert f"{r['pitch_error_deg']:.3f}, {r['speed_error_deg_s']:.1f}; {r['stop_far_cm']:.1f} / " in md
+
+
+def test_simulate_prints_metrics_and_writes_a_plot_and_an_animation(tmp_path, capsys):
+    png, gif = tmp_path / "run.png", tmp_path / "run.gif"
+    code, out, err = run(["simulate", "flat-lqr-sim", "--t-final", "3", "--plot", png, "--animate", gif], capsys)
+    assert code == 0, err
+    assert "outcome: completed" in out and "mean |φ − φ_s|" in out
+    assert png.read_bytes()[:4] == b"\x89PNG" and gif.read_bytes()[:6] == b"GIF89a"
+
+
+def test_simulate_shows_the_thesis_claims_and_json(capsys):
+    code, out, _ = run(["simulate", "slope-lqr-sim"], capsys)
+    assert code == 0 and "the thesis's claims" in out and "errata E8" in out
+    code, out, _ = run(["simulate", "circle-smc", "--option", "laps=1", "--json"], capsys)
+    data = json.loads(out)
+    assert code == 0 and data["outcome"] == "completed" and "mean_abs_x_error" in data["metrics"]
+
+
+def test_simulate_with_params_and_a_mismatched_controller(capsys):
+    code, out, err = run(["simulate", "flat-lqr", "--param", "m_body=1.0", "--nominal-controller", "--option", "hold=1"],
+                         capsys)
+    assert code == 0, err
+    assert "m_body=1.0" in out and "controller designed for balanbot()" in out
+
+
+def test_sweep_summary_plot_and_csv(tmp_path, capsys):
+    png, csv = tmp_path / "sweep.png", tmp_path / "sweep.csv"
+    code, out, err = run(["sweep", "flat-lqr-sim", "-n", "40", "--perturb", "m_body=±20%", "--perturb", "phi0=-0.3:0.3",
+                          "--option", "t_final=2", "--seed", "3", "--threads", "2", "--quiet", "--plot", png,
+                          "--csv", csv], capsys)
+    assert code == 0, err
+    assert "fall rate" in out and "40 samples" in out and "median" in out
+    assert png.exists() and (tmp_path / "sweep-fall-map.png").exists()
+    assert len(csv.read_text().splitlines()) == 41
+
+
+def test_sweep_of_a_tracking_scenario(capsys):
+    code, out, err = run(["sweep", "circle-smc-fuzzy", "-n", "2", "--perturb", "m_body=±10%", "--option", "laps=2",
+                          "--quiet"], capsys)
+    assert code == 0, err
+    assert "2 samples" in out and "after the first lap" in out
+
+
+def test_sweep_checkpoint_resumes(tmp_path, capsys):
+    args = ["sweep", "flat-lqr-sim", "-n", "16", "--perturb", "m_body=~10%", "--option", "t_final=1",
+            "--checkpoint", tmp_path / "ck", "--quiet", "--json"]
+    code1, out1, _ = run(args, capsys)
+    code2, out2, _ = run(args, capsys)
+    assert code1 == code2 == 0
+    assert json.loads(out1) == json.loads(out2)
+    assert list((tmp_path / "ck").glob("shard-*.npz"))
+
+
+def test_list_names_every_scenario(capsys):
+    code, out, _ = run(["list"], capsys)
+    assert code == 0
+    assert all(name in out for name in scenarios.names())
+
+
+@pytest.mark.parametrize("command", ["reproduce", "simulate", "sweep", "demo", "list"])
+def test_help_has_examples(command, capsys):
+    code, out, _ = run([command, "--help"], capsys)
+    assert code == 0 and f"usage: twip {command}" in out
+    if command in ("reproduce", "simulate", "sweep", "demo"):
+        assert "example" in out
+
+
+BAD = {
+    "unknown scenario": ["simulate", "no-such-scenario"],
+    "unknown scenario (sweep)": ["sweep", "no-such-scenario", "-n", "4"],
+    "param without =": ["simulate", "flat-lqr", "--param", "m_body"],
+    "param not a number": ["simulate", "flat-lqr", "--param", "m_body=heavy"],
+    "unknown param": ["simulate", "flat-lqr", "--param", "mass=1"],
+    "core rejects the value": ["simulate", "flat-lqr", "--param", "m_body=-1"],
+    "unknown option": ["simulate", "flat-lqr", "--option", "speed=3"],
+    "negative n": ["sweep", "flat-lqr", "-n", "-5"],
+    "zero n": ["sweep", "flat-lqr", "-n", "0"],
+    "n not a number": ["sweep", "flat-lqr", "-n", "many"],
+    "unknown perturb name": ["sweep", "flat-lqr", "-n", "4", "--perturb", "mass=±20%"],
+    "malformed perturb": ["sweep", "flat-lqr", "-n", "4", "--perturb", "m_body=20"],
+    "negative perturb width": ["sweep", "flat-lqr", "-n", "4", "--perturb", "m_body=±-20%"],
+    "3-DOF perturb of slope": ["sweep", "circle-pid", "-n", "2", "--perturb", "slope=0:0.1"],
+    "no command": [],
+    "unknown command": ["frobnicate"],
+    "negative jobs": ["reproduce", "--jobs", "0"],
+}
+
+
+@pytest.mark.parametrize("args", BAD.values(), ids=BAD.keys())
+def test_bad_arguments_give_one_line_and_exit_code_2(args, capsys):
+    code, out, err = run(args, capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("twip") and "error:" in lines[0]
+    assert "Traceback" not in err
+
+
+def test_the_console_script_reports_bad_input_without_a_traceback():
+    proc = subprocess.run(twip_command() + ["simulate", "flat-lqr", "--param", "m_body=oops"], capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().count("\n") == 0 and "Traceback" not in proc.stderr
+
+
+def test_perturb_forms():
+    assert cli._perturbation("m_body=±20%") == ("m_body", twip.Uniform(rel=0.2))
+    assert cli._perturbation("m_body=+-0.1") == ("m_body", twip.Uniform(abs=0.1))
+    assert cli._perturbation("slope=0:10deg")[1].high == pytest.approx(0.17453292519943295)
+    assert cli._perturbation("slope=0:10deg")[1].low == 0.0
+    assert cli._perturbation("phi0=~2deg")[1].std == pytest.approx(0.03490658503988659)
+    assert cli._perturbation("i_body=~5%") == ("i_body", twip.Normal(rel=0.05))
