@@ -120,6 +120,11 @@ def test_bad_input(kwargs, message):
         sweep(n=n, **kwargs)
 
 
+def test_tracking_scenarios_are_refused_with_a_clear_error():
+    with pytest.raises(twip.InvalidParameterError, match="3-DOF tracking scenario"):
+        twip.montecarlo("circle-pid", 4, progress=False)
+
+
 def test_a_changed_configuration_is_refused_by_the_checkpoint(tmp_path):
     sweep(n=16, checkpoint=tmp_path, shard_size=8)
     with pytest.raises(twip.InvalidParameterError, match="different configuration.*perturb"):

@@ -339,6 +339,11 @@ def montecarlo(
     if client is not None and not isinstance(scenario, str):
         raise _bad("client= (Dask) needs a scenario name, so that workers can rebuild it")
     sc = _scenario_of(scenario, params, options)
+    if not isinstance(sc.model, _core.SlopeModel):
+        raise _bad(
+            f"montecarlo runs the 2-DOF scenarios (LQR, fuzzy); '{sc.name}' is a 3-DOF tracking scenario, "
+            "which the sweep engine does not run yet (twip sweep runs it sample by sample)"
+        )
     perturbations = _resolve(perturb or {}, sc)
     config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys())
     shard = int(shard_size or (DEFAULT_SHARD if (checkpoint or client) else n))
