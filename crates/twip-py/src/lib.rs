@@ -9,6 +9,7 @@ mod models;
 mod interrupt;
 mod lqr;
 mod params;
+mod realism;
 mod schedule;
 mod simulate;
 mod sweep;
@@ -31,6 +32,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<fuzzy::PyFuzzyBasis>()?;
     m.add_class::<fuzzy::PyFuzzyController>()?;
     m.add_function(wrap_pyfunction!(simulate::simulate_raw, m)?)?;
+    realism::register(m)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_raw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_draw, m)?)?;
     m.add_class::<tracking::PyCircle>()?;

@@ -7,6 +7,7 @@ use twip_core::log::{LogRow, TrajectoryLog};
 use twip_core::fuzzy_control::FuzzyController;
 use twip_core::lqr_control::LqrController;
 use twip_core::metrics::SlopeMetrics;
+use twip_core::realism::{simulate_rig, RIG_SIGNALS};
 use twip_core::reference::{SpeedRef, SpeedSchedule};
 use twip_core::runner::{simulate_with, Ideal, Loop, Outcome, SimConfig};
 use twip_core::TwipError;
@@ -17,6 +18,7 @@ use crate::errors::{CoreResult, PyTwipError};
 use crate::fuzzy::PyFuzzyController;
 use crate::lqr::PyLqrController;
 use crate::models::PySlopeModel;
+use crate::realism::PyRealism;
 use crate::schedule::PySpeedSchedule;
 
 /// Every controller of the 2-DOF model. A new controller family adds a variant here
@@ -98,8 +100,10 @@ impl Controller<f64, 4, 1> for SlopeController {
 }
 
 /// Runs the closed loop; returns a dict that `twip.simulate` wraps into a SimResult.
+/// With `realism` (a `twip.Realism`) the loop runs through `simulate_rig` and the log
+/// gains the `signals` (what the controller read, the plant's input, the motor current).
 #[pyfunction]
-#[pyo3(signature = (model, controller, x0, t_final, dt, reference, control_period = None, fall_limit = None, record_every = 1))]
+#[pyo3(signature = (model, controller, x0, t_final, dt, reference, control_period = None, fall_limit = None, record_every = 1, realism = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate_raw<'py>(
     py: Python<'py>,
@@ -112,13 +116,16 @@ pub fn simulate_raw<'py>(
     control_period: Option<f64>,
     fall_limit: Option<f64>,
     record_every: usize,
+    realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let plant = model.cast::<PySlopeModel>().map_err(|_| {
         pyo3::exceptions::PyTypeError::new_err("this controller drives a twip.SlopeModel")
     })?;
     let plant = plant.get().inner;
     let mut ctrl = SlopeController::extract(controller)?;
-    if let Some(p) = control_period {
+    let realism = realism.map(|r| r.to_core(plant.params())).transpose().map_err(PyTwipError)?;
+    // An explicit control_period wins over the realism's loop period.
+    if let Some(p) = control_period.or(realism.and_then(|r| r.control_period)) {
         ctrl = ctrl.with_period(p)?;
     }
     ctrl.check_reference(&reference.inner)?;
@@ -130,18 +137,30 @@ pub fn simulate_raw<'py>(
     }
     let schedule = reference.inner;
     let names = ctrl.internal_names();
-    let widths = [4, 1, <SpeedRef<f64> as LogRow<f64>>::NAMES.len(), names.len()];
+    let extra = if realism.is_some() { RIG_SIGNALS.len() } else { 0 };
+    let widths = [4, 1, <SpeedRef<f64> as LogRow<f64>>::NAMES.len(), names.len() + extra];
     let (outcome, steps, metrics, log, interrupt) = py.detach(move || {
         let mut observers = (SlopeMetrics::new(plant), TrajectoryLog::with_capacity(n + 1, record_every, widths));
         let mut interrupt = None;
-        let parts = Loop {
-            sensor: &mut Ideal,
-            actuator: &mut Ideal,
-            observer: &mut observers,
-            should_stop: || crate::interrupt::requested(&mut interrupt),
-            delay_one_period: false,
+        let should_stop = || crate::interrupt::requested(&mut interrupt);
+        // The ideal loop stays the plain runner; realism builds its own plant, sensor
+        // and actuator kinds (core enums) and runs them through simulate_rig.
+        let result = match realism {
+            None => {
+                let parts = Loop { sensor: &mut Ideal, actuator: &mut Ideal, observer: &mut observers, should_stop, delay_one_period: false };
+                simulate_with(&plant, &mut ctrl, &schedule, &x0, &config, parts)
+            }
+            Some(r) => r.build(&plant, config.dt).and_then(|mut rig| {
+                let parts = Loop {
+                    sensor: &mut rig.sensors,
+                    actuator: &mut rig.actuator,
+                    observer: &mut observers,
+                    should_stop,
+                    delay_one_period: rig.delay,
+                };
+                simulate_rig(&mut rig.plant, &mut ctrl, &schedule, &x0, &config, parts)
+            }),
         };
-        let result = simulate_with(&plant, &mut ctrl, &schedule, &x0, &config, parts);
         result.map(|(outcome, steps)| {
             let (metrics, log) = observers;
             (outcome, steps, metrics, log, interrupt)
@@ -164,8 +183,16 @@ pub fn simulate_raw<'py>(
     out.set_item("inputs", reshape(log.u, 1)?)?;
     out.set_item("references", reshape(log.reference, widths[2])?)?;
     out.set_item("reference_names", <SpeedRef<f64> as LogRow<f64>>::NAMES.to_vec())?;
-    out.set_item("internals", reshape(log.internals, widths[3])?)?;
+    // The controller's internals, then (with realism) the rig's signals.
+    let table = numpy::ndarray::Array2::from_shape_vec((rows, widths[3]), log.internals)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    let cut = names.len();
+    let signals = (extra > 0).then(|| table.slice(numpy::ndarray::s![.., cut..]).to_owned().into_pyarray(py));
+    let internals = if extra > 0 { table.slice(numpy::ndarray::s![.., ..cut]).to_owned() } else { table };
+    out.set_item("internals", internals.into_pyarray(py))?;
     out.set_item("internal_names", names.to_vec())?;
+    out.set_item("signals", signals)?;
+    out.set_item("signal_names", RIG_SIGNALS.to_vec())?;
     let (name, t_end) = match outcome {
         Outcome::Completed => ("completed", None),
         Outcome::Fell { t } => ("fell", Some(t)),

@@ -1,0 +1,662 @@
+//! The Balance Shield's MPU-6050 (thesis 2.2.2): the accelerometer and gyroscope of the
+//! pitch plane with their noise, bias, full scale, LSB and digital low-pass filter.
+//!
+//! The sensor sits on the body's axis at `height` above the axle, x forward and z up the
+//! body. Its specific force (acceleration minus gravity) in its own axes follows from the
+//! state and its derivative, with `p = r θ (cos α, sin α) + h (sin φ, cos φ)`:
+//!
+//! ```text
+//! f_x = r θ̈ cos(φ + α) + h φ̈ − g sin φ
+//! f_z = r θ̈ sin(φ + α) − h φ̇² + g cos φ
+//! ```
+//!
+//! and the gyroscope measures φ̇ (φ is from the true vertical). Each 1 kHz sample adds
+//! the bias and white noise of the data sheet's densities (σ = density · √(fs/2)), clips to
+//! the full scale, runs the DLPF and rounds to the LSB of the 16-bit output registers.
+//!
+//! The DLPF of Table 2.2 is given by a bandwidth and a delay. A second-order low-pass
+//! has a DC group delay 2ζ/ω_n and a −3 dB bandwidth ω_n g(ζ); solving both for (ζ, ω_n)
+//! works when delay · ω_b ≤ √2 (the 44 Hz rows and below: ζ from 0.58 down to 0.19, so
+//! the slow rows ring). The fast rows need more delay than any second-order section:
+//! there the section is a Butterworth (ζ = 1/√2) at the bandwidth followed by the rest
+//! as a pure delay (whole samples and a first-order Thiran all-pass for the fraction).
+//! The section is discretised by the bilinear transform prewarped at the bandwidth, which
+//! scales the DC delay by κ = (ω_b T/2)/tan(ω_b T/2); the design targets delay/κ so that
+//! both numbers hold for the discrete filter. The 260 Hz accelerometer row (delay 0)
+//! passes samples through.
+use crate::rng::Philox;
+use crate::{c, Real, TwipError};
+
+/// Standard gravity: the unit of the accelerometer's LSB [m/s²].
+pub const STANDARD_GRAVITY: f64 = 9.80665;
+
+/// One row of Table 2.2 (DLPF_CFG = index): bandwidths [Hz] and delays [s].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DlpfRow {
+    pub accel_hz: f64,
+    pub accel_delay: f64,
+    pub gyro_hz: f64,
+    pub gyro_delay: f64,
+}
+
+/// Table 2.2 (the MPU-6050's register map, CONFIG.DLPF_CFG 0–6).
+pub const DLPF_TABLE: [DlpfRow; 7] = [
+    DlpfRow { accel_hz: 260.0, accel_delay: 0.0, gyro_hz: 256.0, gyro_delay: 0.98e-3 },
+    DlpfRow { accel_hz: 184.0, accel_delay: 2.0e-3, gyro_hz: 188.0, gyro_delay: 1.9e-3 },
+    DlpfRow { accel_hz: 94.0, accel_delay: 3.0e-3, gyro_hz: 98.0, gyro_delay: 2.8e-3 },
+    DlpfRow { accel_hz: 44.0, accel_delay: 4.9e-3, gyro_hz: 42.0, gyro_delay: 4.8e-3 },
+    DlpfRow { accel_hz: 21.0, accel_delay: 8.5e-3, gyro_hz: 20.0, gyro_delay: 8.3e-3 },
+    DlpfRow { accel_hz: 10.0, accel_delay: 13.8e-3, gyro_hz: 10.0, gyro_delay: 13.4e-3 },
+    DlpfRow { accel_hz: 5.0, accel_delay: 19.0e-3, gyro_hz: 5.0, gyro_delay: 18.6e-3 },
+];
+
+/// The DLPF_CFG whose accelerometer or gyroscope bandwidth is `hz` (either column).
+pub fn dlpf_config(hz: f64) -> Result<usize, TwipError> {
+    DLPF_TABLE
+        .iter()
+        .position(|r| (r.accel_hz - hz).abs() < 0.5 || (r.gyro_hz - hz).abs() < 0.5)
+        .ok_or(TwipError::InvalidParameter {
+            name: "dlpf_hz",
+            value: hz,
+            reason: "must be a bandwidth of Table 2.2: 260/256, 184/188, 94/98, 44/42, 21/20, 10 or 5 Hz",
+        })
+}
+
+/// Which of the two sensors a filter belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Channel {
+    Accel,
+    Gyro,
+}
+
+/// Longest whole-sample pure delay a [`Dlpf`] holds.
+pub const MAX_DELAY_SAMPLES: usize = 8;
+
+/// −3 dB bandwidth of a unit second-order low-pass, over ω_n.
+fn bandwidth_ratio<T: Real>(zeta: T) -> T {
+    let a = T::one() - c::<T>(2.0) * zeta * zeta;
+    (a + (a * a + T::one()).sqrt()).sqrt()
+}
+
+/// A Table 2.2 filter: a second-order section, then a pure delay (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dlpf<T> {
+    bypass: bool,
+    /// b0 (= b2, b1 = 2 b0), a1, a2 of the section; direct form II transposed.
+    b0: T,
+    a1: T,
+    a2: T,
+    s1: T,
+    s2: T,
+    /// Thiran all-pass coefficient for the fractional sample (None when whole).
+    allpass: Option<T>,
+    ap_x: T,
+    ap_y: T,
+    ring: [T; MAX_DELAY_SAMPLES],
+    whole: usize,
+    head: usize,
+    zeta: T,
+    natural: T,
+    pure: T,
+}
+
+impl<T: Real> Dlpf<T> {
+    /// The filter with −3 dB `bandwidth` [Hz] and DC delay `delay` [s] at sample period
+    /// `period` [s]. A zero delay passes samples through.
+    pub fn new(bandwidth: T, delay: T, period: T) -> Result<Self, TwipError> {
+        let bad = |name, v: T, reason| Err(TwipError::InvalidParameter { name, value: crate::to_f64(v), reason });
+        if !(period.is_finite() && period > T::zero()) {
+            return bad("sample_period", period, "must be finite and > 0");
+        }
+        if !(delay.is_finite() && delay >= T::zero()) {
+            return bad("delay", delay, "must be finite and >= 0");
+        }
+        let z = T::zero();
+        let mut f = Self {
+            bypass: delay == z,
+            b0: z, a1: z, a2: z, s1: z, s2: z,
+            allpass: None, ap_x: z, ap_y: z,
+            ring: [z; MAX_DELAY_SAMPLES], whole: 0, head: 0,
+            zeta: z, natural: z, pure: z,
+        };
+        if f.bypass {
+            return Ok(f);
+        }
+        let wb = T::two_pi() * bandwidth;
+        let half = wb * period * c::<T>(0.5);
+        if !(bandwidth.is_finite() && bandwidth > z && half < T::frac_pi_2()) {
+            return bad("bandwidth", bandwidth, "must be > 0 and below half the sample rate");
+        }
+        let kappa = half / half.tan();
+        let target = delay * wb / kappa;
+        let root2 = c::<T>(2.0).sqrt();
+        let (zeta, natural, pure) = if target >= root2 {
+            let zeta = T::one() / root2;
+            (zeta, wb, delay - kappa * root2 / wb)
+        } else {
+            // 2ζ g(ζ) rises from 0 to √2 on (0, 1/√2]: bisection.
+            let (mut lo, mut hi) = (z, T::one() / root2);
+            for _ in 0..80 {
+                let mid = (lo + hi) * c::<T>(0.5);
+                if c::<T>(2.0) * mid * bandwidth_ratio(mid) < target { lo = mid } else { hi = mid }
+            }
+            let zeta = (lo + hi) * c::<T>(0.5);
+            (zeta, wb / bandwidth_ratio(zeta), z)
+        };
+        // Bilinear transform prewarped at the bandwidth.
+        let k = wb / half.tan();
+        let (k2, wn2, cross) = (k * k, natural * natural, c::<T>(2.0) * zeta * natural * k);
+        let a0 = k2 + cross + wn2;
+        f.b0 = wn2 / a0;
+        f.a1 = c::<T>(2.0) * (wn2 - k2) / a0;
+        f.a2 = (k2 - cross + wn2) / a0;
+        let samples = pure / period;
+        let whole = samples.floor();
+        let frac = samples - whole;
+        if crate::to_f64(whole) > MAX_DELAY_SAMPLES as f64 {
+            return bad("delay", delay, "needs a pure delay longer than 8 samples");
+        }
+        f.whole = crate::to_f64(whole) as usize;
+        if frac > c::<T>(1e-12) {
+            f.allpass = Some((T::one() - frac) / (T::one() + frac));
+        }
+        f.zeta = zeta;
+        f.natural = natural;
+        f.pure = pure;
+        Ok(f)
+    }
+
+    /// Row `cfg` of Table 2.2 for one sensor.
+    pub fn mpu6050(cfg: usize, channel: Channel, period: T) -> Result<Self, TwipError> {
+        let row = DLPF_TABLE.get(cfg).ok_or(TwipError::InvalidParameter {
+            name: "dlpf",
+            value: cfg as f64,
+            reason: "must be a DLPF_CFG of Table 2.2 (0 to 6)",
+        })?;
+        let (hz, delay) = match channel {
+            Channel::Accel => (row.accel_hz, row.accel_delay),
+            Channel::Gyro => (row.gyro_hz, row.gyro_delay),
+        };
+        Self::new(c(hz), c(delay), period)
+    }
+
+    /// Damping of the second-order section (0 when passing through).
+    pub fn zeta(&self) -> T {
+        self.zeta
+    }
+
+    /// Natural frequency of the analogue section [rad/s].
+    pub fn natural_frequency(&self) -> T {
+        self.natural
+    }
+
+    /// The pure delay after the section [s].
+    pub fn pure_delay(&self) -> T {
+        self.pure
+    }
+
+    /// Sets every state to the steady state of a constant input `v` (a filter that has
+    /// been running since power-up).
+    pub fn prime(&mut self, v: T) {
+        let two = c::<T>(2.0);
+        self.s2 = (self.b0 - self.a2) * v;
+        self.s1 = (two * self.b0 - self.a1) * v + self.s2;
+        self.ap_x = v;
+        self.ap_y = v;
+        self.ring = [v; MAX_DELAY_SAMPLES];
+    }
+
+    /// One sample in, one out.
+    #[inline]
+    pub fn filter(&mut self, x: T) -> T {
+        if self.bypass {
+            return x;
+        }
+        let y = self.b0 * x + self.s1;
+        self.s1 = c::<T>(2.0) * self.b0 * x - self.a1 * y + self.s2;
+        self.s2 = self.b0 * x - self.a2 * y;
+        let mut out = y;
+        if let Some(eta) = self.allpass {
+            out = eta * y + self.ap_x - eta * self.ap_y;
+            self.ap_x = y;
+            self.ap_y = out;
+        }
+        if self.whole > 0 {
+            let delayed = self.ring[self.head];
+            self.ring[self.head] = out;
+            self.head = (self.head + 1) % self.whole;
+            out = delayed;
+        }
+        out
+    }
+}
+
+/// How the MPU-6050 is set up and how it errs. SI units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuSettings<T> {
+    /// DLPF_CFG: the row of Table 2.2.
+    pub dlpf: usize,
+    /// Sample period of the filters and output registers [s].
+    pub sample_period: T,
+    /// Height of the sensor on the body's axis above the axle [m].
+    pub height: T,
+    /// Gyroscope rate noise density [rad/s/√Hz].
+    pub gyro_noise: T,
+    /// Accelerometer noise density [m/s²/√Hz].
+    pub accel_noise: T,
+    /// Gyroscope bias at the start [rad/s].
+    pub gyro_bias: T,
+    /// Gyroscope bias random walk [rad/s/√s].
+    pub gyro_bias_walk: T,
+    /// Accelerometer biases along the sensor's x and z [m/s²].
+    pub accel_bias: [T; 2],
+    /// Full scale of the gyroscope [rad/s] (FS_SEL: 250, 500, 1000 or 2000 °/s).
+    pub gyro_range: T,
+    /// Full scale of the accelerometer [m/s²] (AFS_SEL: 2, 4, 8 or 16 g).
+    pub accel_range: T,
+    /// Round the outputs to the 16-bit registers' LSB.
+    pub quantise: bool,
+}
+
+const GYRO_RANGES_DPS: [f64; 4] = [250.0, 500.0, 1000.0, 2000.0];
+const ACCEL_RANGES_G: [f64; 4] = [2.0, 4.0, 8.0, 16.0];
+
+impl<T: Real> ImuSettings<T> {
+    /// The data sheet's sensor (PS-MPU-6000A-00 rev 3.4) at DLPF_CFG = 3 (44/42 Hz),
+    /// ±250 °/s and ±2 g, 1 kHz, no bias; mounted 0.12 m up the body (the top plate).
+    pub fn data_sheet() -> Self {
+        let dps = core::f64::consts::PI / 180.0;
+        Self {
+            dlpf: 3,
+            sample_period: c(1e-3),
+            height: c(0.12),
+            gyro_noise: c(0.005 * dps),
+            accel_noise: c(400e-6 * STANDARD_GRAVITY),
+            gyro_bias: T::zero(),
+            gyro_bias_walk: T::zero(),
+            accel_bias: [T::zero(); 2],
+            gyro_range: c(250.0 * dps),
+            accel_range: c(2.0 * STANDARD_GRAVITY),
+            quantise: true,
+        }
+    }
+
+    /// [`Self::data_sheet`] with the residual errors of a start-up calibration: gyro bias
+    /// 0.1 °/s drifting 0.005 °/s/√s, accelerometer x bias 5 mg (0.3° of tilt left by
+    /// trimming the balance point by hand; docs/parameters.md).
+    pub fn thesis_like() -> Self {
+        let dps = core::f64::consts::PI / 180.0;
+        Self {
+            gyro_bias: c(0.1 * dps),
+            gyro_bias_walk: c(0.005 * dps),
+            accel_bias: [c(0.005 * STANDARD_GRAVITY), T::zero()],
+            ..Self::data_sheet()
+        }
+    }
+
+    /// Checks every field and names the first bad one.
+    pub fn validate(&self) -> Result<Self, TwipError> {
+        let bad = |name, v: T, reason| Err(TwipError::InvalidParameter { name, value: crate::to_f64(v), reason });
+        if self.dlpf >= DLPF_TABLE.len() {
+            return bad("dlpf", c(self.dlpf as f64), "must be a DLPF_CFG of Table 2.2 (0 to 6)");
+        }
+        if !(self.sample_period.is_finite() && self.sample_period > T::zero()) {
+            return bad("sample_period", self.sample_period, "must be finite and > 0");
+        }
+        if !self.height.is_finite() {
+            return bad("height", self.height, "must be finite");
+        }
+        for (name, v) in [
+            ("gyro_noise", self.gyro_noise),
+            ("accel_noise", self.accel_noise),
+            ("gyro_bias_walk", self.gyro_bias_walk),
+        ] {
+            if !(v.is_finite() && v >= T::zero()) {
+                return bad(name, v, "must be finite and >= 0");
+            }
+        }
+        for (name, v) in [("gyro_bias", self.gyro_bias), ("accel_bias", self.accel_bias[0]), ("accel_bias", self.accel_bias[1])] {
+            if !v.is_finite() {
+                return bad(name, v, "must be finite");
+            }
+        }
+        let dps = core::f64::consts::PI / 180.0;
+        let near = |v: T, options: &[f64], unit: f64| options.iter().any(|o| (crate::to_f64(v) - o * unit).abs() < 1e-9 * o * unit);
+        if !near(self.gyro_range, &GYRO_RANGES_DPS, dps) {
+            return bad("gyro_range", self.gyro_range, "must be 250, 500, 1000 or 2000 deg/s (FS_SEL)");
+        }
+        if !near(self.accel_range, &ACCEL_RANGES_G, STANDARD_GRAVITY) {
+            return bad("accel_range", self.accel_range, "must be 2, 4, 8 or 16 g (AFS_SEL)");
+        }
+        Ok(*self)
+    }
+}
+
+/// The specific force at the sensor in its axes (module docs) from the state `x`, its
+/// derivative `xdot`, sin and cos of the ground's slope, the wheel radius and gravity.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn specific_force<T: Real>(
+    x: &nalgebra::Vector4<T>,
+    xdot: &nalgebra::Vector4<T>,
+    sin_slope: T,
+    cos_slope: T,
+    radius: T,
+    height: T,
+    g: T,
+) -> (T, T) {
+    let (sin_phi, cos_phi) = crate::math::sin_cos(x[0]);
+    let sin_pa = sin_phi * cos_slope + cos_phi * sin_slope;
+    let cos_pa = cos_phi * cos_slope - sin_phi * sin_slope;
+    let wheel = radius * xdot[3];
+    (
+        wheel * cos_pa + height * xdot[1] - g * sin_phi,
+        wheel * sin_pa - height * x[1] * x[1] + g * cos_phi,
+    )
+}
+
+/// Standard normals by the ziggurat method (Marsaglia & Tsang 2000) with 256 layers.
+/// 32 random bits give the layer (8), the sign (1) and a 23-bit uniform, so one 64-bit
+/// word gives two normals; 98.8 % of draws are a multiply and a compare. The rare rest (a
+/// layer's wedge, the tail beyond r) takes more words from the same stream. The IMU needs
+/// four normals per 1 kHz sample: this costs two Philox words instead of Box–Muller's four
+/// words, two logarithms, roots and sin/cos.
+#[derive(Clone, Copy, Debug)]
+pub struct Ziggurat {
+    /// Layer edges x_0 (the base's equivalent width) … x_256 = 0, and f(x_i) = e^(−x_i²/2).
+    x: [f64; 257],
+    f: [f64; 257],
+}
+
+/// Where the tail starts and each layer's area, for 256 layers of e^(−x²/2).
+const ZIGGURAT_R: f64 = 3.654_152_885_361_009;
+const ZIGGURAT_V: f64 = 4.928_673_233_974_658e-3;
+
+fn gauss(x: f64) -> f64 {
+    nalgebra::ComplexField::exp(-0.5 * x * x)
+}
+
+impl Default for Ziggurat {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Ziggurat {
+    pub fn new() -> Self {
+        let mut x = [0.0; 257];
+        x[0] = ZIGGURAT_V / gauss(ZIGGURAT_R);
+        x[1] = ZIGGURAT_R;
+        for i in 1..255 {
+            x[i + 1] = nalgebra::ComplexField::sqrt(-2.0 * nalgebra::ComplexField::ln(ZIGGURAT_V / x[i] + gauss(x[i])));
+        }
+        let mut f = [0.0; 257];
+        for (fi, xi) in f.iter_mut().zip(x) {
+            *fi = gauss(xi);
+        }
+        Self { x, f }
+    }
+
+    /// Fills `out` with standard normals from `rng`, two per word (low half first; the
+    /// rare retries and tails draw their words as they come).
+    pub fn fill(&self, rng: &mut Philox, out: &mut [f64]) {
+        for pair in out.chunks_mut(2) {
+            let word = rng.next_u64();
+            pair[0] = self.normal((word & 0xFFFF_FFFF) as u32, rng);
+            if let Some(second) = pair.get_mut(1) {
+                *second = self.normal((word >> 32) as u32, rng);
+            }
+        }
+    }
+
+    /// One normal from 32 bits, drawing more from `rng` when they fall outside the
+    /// rectangles (a fresh word's low half per retry).
+    #[inline]
+    fn normal(&self, mut bits: u32, rng: &mut Philox) -> f64 {
+        loop {
+            let i = (bits & 0xFF) as usize;
+            // Bit 8 is the sign, set without a branch (it is a coin toss).
+            let sign = f64::from_bits(1f64.to_bits() | (u64::from(bits & 0x100) << 55));
+            let z = (bits >> 9) as f64 * (1.0 / 8_388_608.0) * self.x[i];
+            if z < self.x[i + 1] {
+                return sign * z;
+            }
+            if i == 0 {
+                return sign * self.tail(rng);
+            }
+            let y = self.f[i + 1] + rng.uniform::<f64>() * (self.f[i] - self.f[i + 1]);
+            if y < gauss(z) {
+                return sign * z;
+            }
+            bits = (rng.next_u64() & 0xFFFF_FFFF) as u32;
+        }
+    }
+
+    /// Marsaglia's tail beyond r: r + a with a ~ Exp(r), accepted with e^(−a²/2).
+    #[cold]
+    fn tail(&self, rng: &mut Philox) -> f64 {
+        loop {
+            let a = -nalgebra::ComplexField::ln(1.0 - rng.uniform::<f64>()) / ZIGGURAT_R;
+            let b = -nalgebra::ComplexField::ln(1.0 - rng.uniform::<f64>());
+            if 2.0 * b > a * a {
+                return ZIGGURAT_R + a;
+            }
+        }
+    }
+}
+
+/// The output registers in SI units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuReading<T> {
+    pub accel_x: T,
+    pub accel_z: T,
+    pub gyro: T,
+}
+
+/// The MPU-6050 in the pitch plane.
+#[derive(Clone, Copy, Debug)]
+pub struct Mpu6050<T> {
+    settings: ImuSettings<T>,
+    gyro_filter: Dlpf<T>,
+    accel_x_filter: Dlpf<T>,
+    accel_z_filter: Dlpf<T>,
+    bias: T,
+    sigma_gyro: T,
+    sigma_accel: T,
+    sigma_walk: T,
+    gyro_lsb: T,
+    accel_lsb: T,
+    /// 1 / LSB (a product is cheaper than a quotient per sample).
+    gyro_per_lsb: T,
+    accel_per_lsb: T,
+    primed: bool,
+    reading: ImuReading<T>,
+    /// Normals drawn ahead in batches (the same sequence, drawn faster in a tight loop).
+    gauss: Ziggurat,
+    noise: [f64; NOISE_BATCH],
+    noise_used: usize,
+}
+
+/// Normals drawn at a time: eight samples' worth.
+const NOISE_BATCH: usize = 32;
+
+impl<T: Real> Mpu6050<T> {
+    pub fn new(settings: &ImuSettings<T>) -> Result<Self, TwipError> {
+        let s = settings.validate()?;
+        let period = s.sample_period;
+        let accel = Dlpf::mpu6050(s.dlpf, Channel::Accel, period)?;
+        // White noise of density ρ sampled at fs has σ = ρ √(fs / 2).
+        let band = (c::<T>(0.5) / period).sqrt();
+        let full = c::<T>(32768.0);
+        Ok(Self {
+            gyro_filter: Dlpf::mpu6050(s.dlpf, Channel::Gyro, period)?,
+            accel_x_filter: accel,
+            accel_z_filter: accel,
+            bias: s.gyro_bias,
+            sigma_gyro: s.gyro_noise * band,
+            sigma_accel: s.accel_noise * band,
+            sigma_walk: s.gyro_bias_walk * period.sqrt(),
+            gyro_lsb: s.gyro_range / full,
+            accel_lsb: s.accel_range / full,
+            gyro_per_lsb: full / s.gyro_range,
+            accel_per_lsb: full / s.accel_range,
+            primed: false,
+            reading: ImuReading { accel_x: T::zero(), accel_z: T::zero(), gyro: T::zero() },
+            gauss: Ziggurat::new(),
+            noise: [0.0; NOISE_BATCH],
+            noise_used: NOISE_BATCH,
+            settings: s,
+        })
+    }
+
+    pub fn settings(&self) -> &ImuSettings<T> {
+        &self.settings
+    }
+
+    /// The latest output registers.
+    pub fn reading(&self) -> ImuReading<T> {
+        self.reading
+    }
+
+    /// The gyroscope's bias now [rad/s].
+    pub fn bias(&self) -> T {
+        self.bias
+    }
+
+    /// One sample of the true specific force (f_x, f_z) and pitch rate. Takes four normals
+    /// of the stream (drawn 32 at a time by [`Ziggurat::fill`]) in the order gyro, accel
+    /// x, accel z, bias walk, whatever is switched off, so that one source's numbers do
+    /// not depend on the others'.
+    #[inline]
+    pub fn sample(&mut self, fx: T, fz: T, rate: T, rng: &mut Philox) {
+        if self.noise_used == NOISE_BATCH {
+            self.gauss.fill(rng, &mut self.noise);
+            self.noise_used = 0;
+        }
+        let k = self.noise_used;
+        self.noise_used += 4;
+        let n: [T; 4] = [c(self.noise[k]), c(self.noise[k + 1]), c(self.noise[k + 2]), c(self.noise[k + 3])];
+        let s = &self.settings;
+        let clean = [rate + self.bias, fx + s.accel_bias[0], fz + s.accel_bias[1]];
+        if !self.primed {
+            self.gyro_filter.prime(clean[0]);
+            self.accel_x_filter.prime(clean[1]);
+            self.accel_z_filter.prime(clean[2]);
+            self.primed = true;
+        }
+        let (gr, ar) = (s.gyro_range, s.accel_range);
+        let gyro = self.gyro_filter.filter((clean[0] + self.sigma_gyro * n[0]).max(-gr).min(gr));
+        let ax = self.accel_x_filter.filter((clean[1] + self.sigma_accel * n[1]).max(-ar).min(ar));
+        let az = self.accel_z_filter.filter((clean[2] + self.sigma_accel * n[2]).max(-ar).min(ar));
+        self.bias += self.sigma_walk * n[3];
+        self.reading = if s.quantise {
+            let (a, a_inv, g, g_inv) = (self.accel_lsb, self.accel_per_lsb, self.gyro_lsb, self.gyro_per_lsb);
+            ImuReading { accel_x: register(ax, a, a_inv), accel_z: register(az, a, a_inv), gyro: register(gyro, g, g_inv) }
+        } else {
+            ImuReading { accel_x: ax, accel_z: az, gyro }
+        };
+    }
+}
+
+/// `v` as a 16-bit two's-complement register of resolution `lsb` (`per_lsb` = 1/lsb),
+/// back in units. Rounds to nearest, ties to even, by adding and removing 1.5/ε
+/// (1.5 · 2^52 in f64; no libm call, and 32768 is far below 1/ε).
+#[inline]
+fn register<T: Real>(v: T, lsb: T, per_lsb: T) -> T {
+    let magic = c::<T>(1.5) / T::default_epsilon();
+    let counts = (v * per_lsb).max(c(-32768.0)).min(c(32767.0));
+    ((counts + magic) - magic) * lsb
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Steady lag of a ramp through the filter [s]: its DC group delay.
+    fn ramp_lag(f: &mut Dlpf<f64>, period: f64) -> f64 {
+        f.prime(0.0);
+        let mut y = 0.0;
+        let n = 20_000;
+        for k in 0..n {
+            y = f.filter(k as f64 * period);
+        }
+        (n - 1) as f64 * period - y
+    }
+
+    #[test]
+    fn every_row_keeps_its_delay_and_bandwidth() {
+        let period = 1e-3;
+        for (cfg, row) in DLPF_TABLE.iter().enumerate() {
+            for (channel, hz, delay) in [(Channel::Accel, row.accel_hz, row.accel_delay), (Channel::Gyro, row.gyro_hz, row.gyro_delay)] {
+                let mut f = Dlpf::<f64>::mpu6050(cfg, channel, period).unwrap();
+                let lag = ramp_lag(&mut f, period);
+                assert!((lag - delay).abs() <= 1e-9, "cfg {cfg} {channel:?}: lag {lag} vs {delay}");
+                if delay > 0.0 {
+                    // |H| at the bandwidth is -3 dB (the all-pass and delay keep the gain).
+                    let (b0, a1, a2) = (f.b0, f.a1, f.a2);
+                    let w = core::f64::consts::TAU * hz * period;
+                    let (cw, sw, c2, s2) = (w.cos(), w.sin(), (2.0 * w).cos(), (2.0 * w).sin());
+                    let num = b0 * ((1.0 + 2.0 * cw + c2).powi(2) + (2.0 * sw + s2).powi(2)).sqrt();
+                    let den = ((1.0 + a1 * cw + a2 * c2).powi(2) + (a1 * sw + a2 * s2).powi(2)).sqrt();
+                    assert!((num / den - 0.5f64.sqrt()).abs() < 1e-9, "cfg {cfg} {channel:?}: gain {}", num / den);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn primed_filter_holds_a_constant() {
+        let mut f = Dlpf::<f64>::mpu6050(1, Channel::Gyro, 1e-3).unwrap();
+        f.prime(2.5);
+        for _ in 0..10 {
+            assert!((f.filter(2.5) - 2.5).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn static_tilt_reads_gravity_in_body_axes() {
+        let x = nalgebra::Vector4::new(0.2, 0.0, 0.0, 0.0);
+        let (fx, fz) = specific_force(&x, &nalgebra::Vector4::zeros(), 0.3f64.sin(), 0.3f64.cos(), 0.033, 0.12, 9.81);
+        assert!((fx + 9.81 * 0.2f64.sin()).abs() < 1e-12 && (fz - 9.81 * 0.2f64.cos()).abs() < 1e-12);
+    }
+
+    #[cfg(feature = "std")]
+    #[test]
+    fn ziggurat_normals_look_normal() {
+        let z = Ziggurat::new();
+        assert!(z.x[255] > 0.2 && z.x[255] < 0.22, "the top layer closes the table");
+        let mut g = Philox::new(42, 17);
+        let n = 400_000;
+        let mut draws = std::vec![0.0; n];
+        z.fill(&mut g, &mut draws);
+        let (mut sum, mut sq, mut quad, mut beyond) = (0.0, 0.0, 0.0, 0);
+        for v in draws {
+            sum += v;
+            sq += v * v;
+            quad += v * v * v * v;
+            beyond += (v.abs() > 3.0) as usize;
+        }
+        let (mean, var, kurt, tail) = (sum / n as f64, sq / n as f64, quad / n as f64, beyond as f64 / n as f64);
+        // P(|z| > 3) = 0.0027.
+        assert!(mean.abs() < 0.01 && (var - 1.0).abs() < 0.01 && (kurt - 3.0).abs() < 0.05 && (tail - 0.0027).abs() < 0.0005,
+            "{mean} {var} {kurt} {tail}");
+    }
+
+    #[test]
+    fn registers_quantise_and_saturate() {
+        let mut s = ImuSettings::<f64>::data_sheet();
+        s.gyro_noise = 0.0;
+        s.accel_noise = 0.0;
+        let mut imu = Mpu6050::new(&s).unwrap();
+        let mut rng = Philox::new(0, 0);
+        imu.sample(0.0, 9.81, 10.0, &mut rng);
+        let r = imu.reading();
+        assert_eq!(r.gyro, 32767.0 * s.gyro_range / 32768.0, "saturated");
+        let lsb = s.accel_range / 32768.0;
+        assert_eq!(r.accel_z, (9.81 / lsb).round() * lsb);
+        assert_eq!(register(2.5, 1.0, 1.0), 2.0, "ties to even");
+        assert_eq!(register(-7.6, 1.0, 1.0), -8.0);
+        assert!(ImuSettings { gyro_range: 1.0, ..s }.validate().is_err());
+        assert!(dlpf_config(42.0) == Ok(3) && dlpf_config(44.0) == Ok(3) && dlpf_config(7.0).is_err());
+    }
+}

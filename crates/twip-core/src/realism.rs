@@ -1,0 +1,512 @@
+//! "Does this controller still work on my robot?": the 2-DOF loop with the robot's real
+//! parts, each optional. [`Realism`] says which; [`Realism::build`] turns it into
+//! - a plant, [`RealPlant`]: the slope model with disturbances ([`Disturbed`]), driven
+//!   through the motor driver ([`Driven`]) when there is one;
+//! - a [`Sensor`], [`BalanceSensors`]: MPU-6050 + tilt estimator + encoder, or the truth
+//!   for each part left out;
+//! - an [`Actuator`], [`RealActuator`]: the firmware's current → PWM mapping, or none;
+//!
+//! and [`simulate_rig`] runs them: `runner::simulate_with` plus what happens to the plant
+//! between steps (pushes, the winding current), and the measurement, duty and motor
+//! current logged beside the controller's internals. Nothing allocates; noise comes from
+//! one [`Philox`] stream (seed, stream), so a run is bitwise repeatable.
+use nalgebra::{SVector, Vector4};
+
+use crate::control::{Controller, Reference};
+use crate::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_SLOPE_CHANGES};
+use crate::drive::{Driven, MotorDriver, PwmActuator};
+use crate::encoder::Encoder;
+use crate::imu::{specific_force, ImuSettings, Mpu6050};
+use crate::rng::Philox;
+use crate::runner::{Actuator, Loop, Observer, Outcome, Sensor, SimConfig, STOP_CHECK_STEPS};
+use crate::tilt::{accel_tilt, TiltEstimator, TiltFilter};
+use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
+
+/// Which real parts are in the loop. `Default` is the ideal loop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Realism<T: Real> {
+    /// The MPU-6050 and the tilt estimator that reads it (None: the true φ, φ̇).
+    pub imu: Option<ImuSettings<T>>,
+    pub estimator: TiltEstimator<T>,
+    /// Encoder counts per wheel revolution (None: the true θ, θ̇).
+    pub encoder_cpr: Option<T>,
+    /// Battery, bridge and motors (None: the plant gets the commanded current).
+    pub motor: Option<MotorDriver<T>>,
+    /// Apply each command one control period late.
+    pub delay: bool,
+    /// The firmware's loop period [s] (None: the controller's own).
+    pub control_period: Option<T>,
+    pub pushes: Pushes<T>,
+    pub force: Force<T>,
+    /// Slope changes along the path; the base is the plant's own slope.
+    pub slope_profile: SlopeProfile<T>,
+    pub seed: u64,
+    pub stream: u64,
+}
+
+impl<T: Real> Default for Realism<T> {
+    fn default() -> Self {
+        Self::ideal()
+    }
+}
+
+impl<T: Real> Realism<T> {
+    /// Every part ideal: the same run as without realism.
+    pub fn ideal() -> Self {
+        Self {
+            imu: None,
+            estimator: TiltEstimator::complementary(),
+            encoder_cpr: None,
+            motor: None,
+            delay: false,
+            control_period: None,
+            pushes: Pushes::none(),
+            force: Force::none(),
+            slope_profile: SlopeProfile::constant(T::zero()),
+            seed: 0,
+            stream: 0,
+        }
+    }
+
+    /// The thesis's robot as built (chapter 2, docs/parameters.md): a 5 ms Arduino loop
+    /// that applies its command one period late, the MPU-6050 at DLPF 44/42 Hz with its
+    /// data-sheet noise and calibrated residual biases, a complementary filter, 700 CPR
+    /// encoders, and the L298P on 11.1 V. No disturbances.
+    pub fn thesis_like() -> Self {
+        Self {
+            imu: Some(ImuSettings::thesis_like()),
+            encoder_cpr: Some(c(700.0)),
+            motor: Some(MotorDriver::thesis_like()),
+            delay: true,
+            control_period: Some(c(5e-3)),
+            ..Self::ideal()
+        }
+    }
+
+    pub fn with_stream(self, stream: u64) -> Self {
+        Self { stream, ..self }
+    }
+
+    pub fn validate(&self) -> Result<Self, TwipError> {
+        if let Some(imu) = &self.imu {
+            imu.validate()?;
+        }
+        self.estimator.validate()?;
+        if let Some(cpr) = self.encoder_cpr {
+            Encoder::new(cpr)?;
+        }
+        if let Some(m) = &self.motor {
+            m.validate()?;
+        }
+        if let Some(p) = self.control_period {
+            if !(p.is_finite() && p > T::zero()) {
+                let value = crate::to_f64(p);
+                return Err(TwipError::InvalidParameter { name: "control_period", value, reason: "must be finite and > 0" });
+            }
+        }
+        self.force.validate()?;
+        Ok(*self)
+    }
+
+    /// The plant, sensor and actuator for a run of `model` at plant step `dt`.
+    pub fn build(&self, model: &SlopeModel<T>, dt: T) -> Result<Rig<T>, TwipError> {
+        let s = self.validate()?;
+        let params = *model.params();
+        let profile = s.slope_profile.with_base(model.slope());
+        let mut pushes = s.pushes;
+        pushes.rewind();
+        let ground = Disturbed::new(params, profile, s.force, pushes)?;
+        let (plant, actuator) = match &s.motor {
+            None => (RealPlant::Current(ground), RealActuator::Ideal),
+            Some(m) => (RealPlant::Driven(Driven::new(ground, m, &params)?), RealActuator::Pwm(PwmActuator::new(m, &params)?)),
+        };
+        let sensors = BalanceSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, profile, &params, dt, s.seed, s.stream)?;
+        Ok(Rig { plant, sensors, actuator, delay: s.delay })
+    }
+}
+
+/// Everything [`simulate_rig`] needs besides the controller and reference.
+#[derive(Clone, Copy, Debug)]
+pub struct Rig<T: Real> {
+    pub plant: RealPlant<T>,
+    pub sensors: BalanceSensors<T>,
+    pub actuator: RealActuator<T>,
+    pub delay: bool,
+}
+
+/// The IMU + tilt estimator + encoder of the 2-DOF robot, as one sensor.
+#[derive(Clone, Copy, Debug)]
+pub struct BalanceSensors<T: Real> {
+    imu: Option<Mpu6050<T>>,
+    tilt: TiltFilter<T>,
+    encoder: Option<Encoder<T>>,
+    /// The ground under the robot (the accelerometer feels its slope), and sin, cos of
+    /// each of its slopes.
+    ground: SlopeProfile<T>,
+    ground_trig: [(T, T); MAX_SLOPE_CHANGES + 1],
+    radius: T,
+    g: T,
+    /// When the IMU samples next [s], and half a plant step to compare times with.
+    next_sample: T,
+    half_step: T,
+    rng: Philox,
+    last_read: Option<T>,
+}
+
+impl<T: Real> BalanceSensors<T> {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        imu: Option<&ImuSettings<T>>,
+        estimator: TiltEstimator<T>,
+        encoder_cpr: Option<T>,
+        ground: SlopeProfile<T>,
+        params: &RobotParams<T>,
+        dt: T,
+        seed: u64,
+        stream: u64,
+    ) -> Result<Self, TwipError> {
+        let imu = imu.map(Mpu6050::new).transpose()?;
+        if let Some(m) = &imu {
+            // The IMU samples on the plant's grid: its period must be whole steps.
+            let ratio = m.settings().sample_period / dt;
+            let whole = ratio.round();
+            if !(dt.is_finite() && dt > T::zero()) || whole < T::one() || (ratio - whole).abs() > c::<T>(1e-6) * ratio {
+                return Err(TwipError::InvalidParameter {
+                    name: "dt",
+                    value: crate::to_f64(dt),
+                    reason: "must divide the IMU's sample period (1 ms)",
+                });
+            }
+        }
+        let mut ground_trig = [ground.base().sin_cos(); MAX_SLOPE_CHANGES + 1];
+        for (i, (_, slope)) in ground.changes().enumerate() {
+            ground_trig[i + 1] = slope.sin_cos();
+        }
+        Ok(Self {
+            imu,
+            tilt: TiltFilter::new(estimator)?,
+            encoder: encoder_cpr.map(Encoder::new).transpose()?,
+            ground,
+            ground_trig,
+            radius: params.wheel_radius,
+            g: params.g,
+            next_sample: T::zero(),
+            half_step: dt * c::<T>(0.5),
+            rng: Philox::new(seed, stream),
+            last_read: None,
+        })
+    }
+
+    /// The IMU's latest registers, if there is an IMU.
+    pub fn imu(&self) -> Option<&Mpu6050<T>> {
+        self.imu.as_ref()
+    }
+
+    pub fn tilt(&self) -> &TiltFilter<T> {
+        &self.tilt
+    }
+}
+
+impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
+    const NEEDS_DERIV: bool = true;
+
+    /// Samples the IMU when its period has come round (from t = 0 on).
+    #[inline]
+    fn sample(&mut self, t: T, x: &Vector4<T>, xdot: &Vector4<T>) {
+        if let Some(imu) = self.imu.as_mut() {
+            if t + self.half_step >= self.next_sample {
+                let (sin_slope, cos_slope) = self.ground_trig[self.ground.segment(x[2] * self.radius)];
+                let height = imu.settings().height;
+                let (fx, fz) = specific_force(x, xdot, sin_slope, cos_slope, self.radius, height, self.g);
+                imu.sample(fx, fz, x[1], &mut self.rng);
+                self.next_sample += imu.settings().sample_period;
+            }
+        }
+    }
+
+    fn read(&mut self, t: T, x: &Vector4<T>) -> Vector4<T> {
+        let dt = self.last_read.map_or(T::zero(), |last| t - last);
+        self.last_read = Some(t);
+        let (phi, phi_dot) = match &self.imu {
+            Some(imu) => {
+                let r = imu.reading();
+                self.tilt.update(accel_tilt(r.accel_x, r.accel_z), r.gyro, dt)
+            }
+            None => (x[0], x[1]),
+        };
+        let (theta, theta_dot) = match self.encoder.as_mut() {
+            Some(e) => {
+                let (beta, beta_dot) = e.read(x[2] - x[0], dt);
+                (beta + phi, beta_dot + phi_dot)
+            }
+            None => (x[2], x[3]),
+        };
+        Vector4::new(phi, phi_dot, theta, theta_dot)
+    }
+}
+
+/// A 2-DOF plant that may change between integration steps.
+pub trait RigPlant<T: Real>: Dynamics<T, 4, 1> {
+    /// Called after the sample at `t` and before the step to `t + dt` with the input `u`
+    /// held over it: pushes jump the velocities, the winding current advances.
+    fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>);
+
+    /// The lumped motor current now [A].
+    fn current(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> T;
+}
+
+impl<T: Real> RigPlant<T> for SlopeModel<T> {
+    #[inline(always)]
+    fn between_steps(&mut self, _: T, _: T, _: &mut Vector4<T>, _: &SVector<T, 1>) {}
+
+    #[inline(always)]
+    fn current(&self, _: &Vector4<T>, u: &SVector<T, 1>) -> T {
+        u[0]
+    }
+}
+
+impl<T: Real> RigPlant<T> for Disturbed<T> {
+    #[inline]
+    fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, _: &SVector<T, 1>) {
+        self.kick(t, dt, x);
+    }
+
+    #[inline(always)]
+    fn current(&self, _: &Vector4<T>, u: &SVector<T, 1>) -> T {
+        u[0]
+    }
+}
+
+/// The plant of a realism run: current-driven, or PWM-driven through the motor driver.
+#[derive(Clone, Copy, Debug)]
+pub enum RealPlant<T: Real> {
+    Current(Disturbed<T>),
+    Driven(Driven<T, Disturbed<T>>),
+}
+
+impl<T: Real> Dynamics<T, 4, 1> for RealPlant<T> {
+    // Always inlined: out of line, RK4 reloads the model's constants every stage.
+    #[inline(always)]
+    fn deriv(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> Vector4<T> {
+        match self {
+            Self::Current(p) => p.deriv(x, u),
+            Self::Driven(p) => p.deriv(x, u),
+        }
+    }
+
+    fn energy(&self, x: &Vector4<T>) -> T {
+        match self {
+            Self::Current(p) => p.energy(x),
+            Self::Driven(p) => p.energy(x),
+        }
+    }
+}
+
+impl<T: Real> RigPlant<T> for RealPlant<T> {
+    #[inline]
+    fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) {
+        match self {
+            Self::Current(p) => p.kick(t, dt, x),
+            Self::Driven(p) => {
+                p.plant_mut().kick(t, dt, x);
+                p.advance(x, u[0], dt);
+            }
+        }
+    }
+
+    #[inline]
+    fn current(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> T {
+        match self {
+            Self::Current(_) => u[0],
+            Self::Driven(p) => p.lumped_current(x, u[0]),
+        }
+    }
+}
+
+/// The actuator of a realism run.
+#[derive(Clone, Copy, Debug)]
+pub enum RealActuator<T> {
+    Ideal,
+    Pwm(PwmActuator<T>),
+}
+
+impl<T: Real> Actuator<T, 4, 1> for RealActuator<T> {
+    #[inline]
+    fn drive(&mut self, t: T, command: &SVector<T, 1>, y: &Vector4<T>) -> SVector<T, 1> {
+        match self {
+            Self::Ideal => *command,
+            Self::Pwm(a) => a.drive(t, command, y),
+        }
+    }
+}
+
+/// What [`simulate_rig`] logs after the controller's internals.
+pub const RIG_SIGNALS: [&str; 6] = ["phi_hat", "phi_dot_hat", "theta_hat", "theta_dot_hat", "drive", "motor_current"];
+
+/// Most controller internals [`simulate_rig`] passes on.
+pub const MAX_INTERNALS: usize = 64 - RIG_SIGNALS.len();
+
+/// Runs `controller` on `plant` like `runner::simulate_with`, with two differences.
+/// The plant's [`RigPlant::between_steps`] runs before each step. The sensor samples
+/// after the controller's update, with the state derivative over the coming step (RK4's
+/// first stage, so an accelerometer costs no extra evaluation), once before the run
+/// (its registers hold a sample of the initial state) and then each step: a read sees
+/// the samples up to one step before it, as firmware reads the sensor's last output.
+///
+/// The observer sees the command being applied (the controller's lumped current) and,
+/// after the controller's internals, [`RIG_SIGNALS`]: the measurement the controller last
+/// read, the plant's input (duty or current) and the lumped motor current.
+pub fn simulate_rig<T, P, C, R, S, A, O, F>(
+    plant: &mut P,
+    controller: &mut C,
+    reference: &R,
+    x0: &Vector4<T>,
+    config: &SimConfig<T>,
+    mut parts: Loop<'_, S, A, O, F>,
+) -> Result<(Outcome<T>, usize), TwipError>
+where
+    T: Real,
+    P: RigPlant<T>,
+    R: Reference<T>,
+    C: Controller<T, 4, 1, Reference = R::Sample>,
+    S: Sensor<T, 4>,
+    A: Actuator<T, 4, 1>,
+    O: Observer<T, 4, 1, R::Sample>,
+    F: FnMut() -> bool,
+{
+    let (n, per_update) = config.steps(controller.period())?;
+    for (index, value) in x0.iter().enumerate() {
+        if !value.is_finite() {
+            return Err(TwipError::NonFinite { name: "x0", index, value: crate::to_f64(*value) });
+        }
+    }
+    let width = controller.internals().len();
+    if width > MAX_INTERNALS {
+        let reason = "more than 58 controller internals";
+        return Err(TwipError::InvalidParameter { name: "internals", value: width as f64, reason });
+    }
+    let mut signals = [T::zero(); MAX_INTERNALS + RIG_SIGNALS.len()];
+    let logged = width + RIG_SIGNALS.len();
+    let dt = config.dt;
+    let half = dt * c::<T>(0.5);
+    let mut x = *x0;
+    let (mut u, mut pending) = (SVector::<T, 1>::zeros(), SVector::<T, 1>::zeros());
+    let (mut command, mut pending_command) = (u, u);
+    let observer = &mut *parts.observer;
+    parts.sensor.sample(T::zero(), &x, &plant.deriv(&x, &u));
+    for k in 0..n {
+        let t = dt * c::<T>(k as f64);
+        if k % STOP_CHECK_STEPS == 0 && k > 0 && (parts.should_stop)() {
+            return Ok((Outcome::Interrupted { t }, k));
+        }
+        let r = reference.sample(t);
+        if k % per_update == 0 {
+            let y = parts.sensor.read(t, &x);
+            let cmd = controller.update(t, &y, &r);
+            let drive = parts.actuator.drive(t, &cmd, &y);
+            if drive.iter().any(|v| !v.is_finite()) {
+                return Ok((Outcome::Diverged { t }, k));
+            }
+            if parts.delay_one_period {
+                u = pending;
+                pending = drive;
+                command = pending_command;
+                pending_command = cmd;
+            } else {
+                u = drive;
+                command = cmd;
+            }
+            signals[..width].copy_from_slice(controller.internals());
+            signals[width..width + 4].copy_from_slice(y.as_slice());
+            signals[width + 4] = u[0];
+        }
+        signals[width + 5] = plant.current(&x, &u);
+        observer.observe(t, &x, &command, &r, &signals[..logged]);
+        plant.between_steps(t, dt, &mut x, &u);
+        // RK4 as `integrate::rk4_step`, its first stage shared with the sensor.
+        let k1 = plant.deriv(&x, &u);
+        parts.sensor.sample(t, &x, &k1);
+        let k2 = plant.deriv(&(x + k1 * half), &u);
+        let k3 = plant.deriv(&(x + k2 * half), &u);
+        let k4 = plant.deriv(&(x + k3 * dt), &u);
+        x += (k1 + (k2 + k3) * c::<T>(2.0) + k4) * (dt / c::<T>(6.0));
+        let t_next = dt * c::<T>((k + 1) as f64);
+        if x.iter().any(|v| !v.is_finite()) {
+            return Ok((Outcome::Diverged { t: t_next }, k + 1));
+        }
+        if x[P::PITCH].abs() > config.fall_limit {
+            signals[width + 5] = plant.current(&x, &u);
+            observer.observe(t_next, &x, &command, &reference.sample(t_next), &signals[..logged]);
+            return Ok((Outcome::Fell { t: t_next }, k + 1));
+        }
+    }
+    let t_end = dt * c::<T>(n as f64);
+    signals[width + 5] = plant.current(&x, &u);
+    observer.observe(t_end, &x, &command, &reference.sample(t_end), &signals[..logged]);
+    Ok((Outcome::Completed, n))
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+    use crate::lqr_control::{design, DesignPoint, LqrController};
+    use crate::reference::SpeedSchedule;
+    use crate::runner::{simulate_with, Ideal};
+
+    /// Records states and inputs.
+    #[derive(Default)]
+    struct Trace(std::vec::Vec<(f64, Vector4<f64>, f64)>);
+
+    impl<S> Observer<f64, 4, 1, S> for Trace {
+        fn observe(&mut self, t: f64, x: &Vector4<f64>, u: &SVector<f64, 1>, _: &S, _: &[f64]) {
+            self.0.push((t, *x, u[0]));
+        }
+    }
+
+    fn setup() -> (SlopeModel<f64>, LqrController<f64>, SpeedSchedule<f64>) {
+        let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
+        let speed = 180f64.to_radians();
+        let q = nalgebra::Matrix4::from_diagonal(&Vector4::new(100.0, 1.0, 1.0, 1.0));
+        let d = design(&model, speed, &q, 480.0, DesignPoint::OperatingPoint).unwrap();
+        let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 5e-3).unwrap();
+        (model, ctrl, SpeedSchedule::constant(speed).unwrap())
+    }
+
+    fn run(realism: &Realism<f64>, t_final: f64) -> (Outcome<f64>, Trace) {
+        let (model, mut ctrl, schedule) = setup();
+        let config = SimConfig { dt: 1e-3, t_final, fall_limit: 1.0 };
+        let mut rig = realism.build(&model, config.dt).unwrap();
+        let mut trace = Trace::default();
+        let parts = Loop {
+            sensor: &mut rig.sensors,
+            actuator: &mut rig.actuator,
+            observer: &mut trace,
+            should_stop: || false,
+            delay_one_period: rig.delay,
+        };
+        let (outcome, _) = simulate_rig(&mut rig.plant, &mut ctrl, &schedule, &Vector4::zeros(), &config, parts).unwrap();
+        (outcome, trace)
+    }
+
+    #[test]
+    fn ideal_realism_is_the_plain_runner_bit_for_bit() {
+        let (model, mut ctrl, schedule) = setup();
+        let config = SimConfig { dt: 1e-3, t_final: 3.0, fall_limit: 1.0 };
+        let mut plain = Trace::default();
+        let parts =
+            Loop { sensor: &mut Ideal, actuator: &mut Ideal, observer: &mut plain, should_stop: || false, delay_one_period: false };
+        simulate_with(&model, &mut ctrl, &schedule, &Vector4::zeros(), &config, parts).unwrap();
+        let (_, rig) = run(&Realism::ideal(), 3.0);
+        assert_eq!(plain.0, rig.0);
+    }
+
+    #[test]
+    fn thesis_like_keeps_the_flat_robot_up_and_repeats_bit_for_bit() {
+        let (outcome, a) = run(&Realism::thesis_like(), 10.0);
+        assert_eq!(outcome, Outcome::Completed);
+        let (_, b) = run(&Realism::thesis_like(), 10.0);
+        assert_eq!(a.0, b.0);
+        let (_, other) = run(&Realism::thesis_like().with_stream(1), 10.0);
+        assert_ne!(a.0, other.0);
+    }
+}

@@ -1,0 +1,813 @@
+//! `twip.Realism` and its parts: `Imu`, `Dlpf`, `TiltEstimator`, `MotorDriver`, `Push`,
+//! `Force`. Each is a frozen, validated settings object; `Realism.to_core` turns them into
+//! the core's `Realism` for one robot (heights left out default to its centre of mass).
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use twip_core::disturbance::{Force, Push, Pushes, SlopeProfile};
+use twip_core::drive::{MotorDriver, PwmActuator};
+use twip_core::imu::{dlpf_config, Channel, Dlpf, ImuSettings, DLPF_TABLE, STANDARD_GRAVITY};
+use twip_core::realism::Realism;
+use twip_core::tilt::{accel_tilt, TiltEstimator, TiltFilter};
+use twip_core::{RobotParams, TwipError};
+
+use crate::errors::{CoreResult, InvalidParameterError, PyTwipError};
+use crate::params::PyRobotParams;
+
+const DEG: f64 = std::f64::consts::PI / 180.0;
+
+fn invalid(name: &'static str, value: f64, reason: &'static str) -> PyTwipError {
+    PyTwipError(TwipError::InvalidParameter { name, value, reason })
+}
+
+fn positive_rate(name: &'static str, rate: f64) -> CoreResult<f64> {
+    if rate.is_finite() && rate > 0.0 {
+        Ok(1.0 / rate)
+    } else {
+        Err(invalid(name, rate, "must be finite and > 0"))
+    }
+}
+
+/// `cls(**kw)` with the current fields overridden by `changes`.
+fn replaced<'py, T: pyo3::PyClass>(
+    slf: &Bound<'py, T>,
+    current: Bound<'py, PyDict>,
+    changes: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    if let Some(c) = changes {
+        current.update(c.as_mapping())?;
+    }
+    slf.as_any().get_type().call((), Some(&current))
+}
+
+// --- IMU ------------------------------------------------------------------------------
+
+/// The MPU-6050 of the Balance Shield: DLPF (Table 2.2), noise, bias, ranges, LSB.
+/// SI units; the ranges as the data sheet's settings (deg/s, g). Defaults: the data
+/// sheet's noise densities, no bias, DLPF 44/42 Hz, +-250 deg/s, +-2 g, 1 kHz.
+#[pyclass(name = "Imu", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyImu {
+    pub inner: ImuSettings<f64>,
+    /// As given (the settings hold the row, rad/s and m/s²).
+    dlpf_hz: f64,
+    gyro_range_dps: f64,
+    accel_range_g: f64,
+}
+
+#[pymethods]
+impl PyImu {
+    #[new]
+    #[pyo3(signature = (*, dlpf_hz = 42.0, height = 0.12, gyro_noise = 0.005 * DEG, accel_noise = 400e-6 * STANDARD_GRAVITY,
+                        gyro_bias = 0.0, gyro_bias_walk = 0.0, accel_bias = (0.0, 0.0), gyro_range_dps = 250.0,
+                        accel_range_g = 2.0, quantise = true, sample_rate = 1000.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        dlpf_hz: f64,
+        height: f64,
+        gyro_noise: f64,
+        accel_noise: f64,
+        gyro_bias: f64,
+        gyro_bias_walk: f64,
+        accel_bias: (f64, f64),
+        gyro_range_dps: f64,
+        accel_range_g: f64,
+        quantise: bool,
+        sample_rate: f64,
+    ) -> CoreResult<Self> {
+        let inner = ImuSettings {
+            dlpf: dlpf_config(dlpf_hz)?,
+            sample_period: positive_rate("sample_rate", sample_rate)?,
+            height,
+            gyro_noise,
+            accel_noise,
+            gyro_bias,
+            gyro_bias_walk,
+            accel_bias: [accel_bias.0, accel_bias.1],
+            gyro_range: gyro_range_dps * DEG,
+            accel_range: accel_range_g * STANDARD_GRAVITY,
+            quantise,
+        }
+        .validate()?;
+        Ok(Self { inner, dlpf_hz, gyro_range_dps, accel_range_g })
+    }
+
+    /// The data sheet's sensor (the defaults).
+    #[staticmethod]
+    fn data_sheet() -> Self {
+        Self { inner: ImuSettings::data_sheet(), dlpf_hz: 42.0, gyro_range_dps: 250.0, accel_range_g: 2.0 }
+    }
+
+    /// The data sheet's sensor with the residual errors of a start-up calibration:
+    /// gyro bias 0.1 deg/s drifting 0.005 deg/s/sqrt(s), accelerometer x bias 5 mg.
+    #[staticmethod]
+    fn thesis_like() -> Self {
+        Self { inner: ImuSettings::thesis_like(), dlpf_hz: 42.0, gyro_range_dps: 250.0, accel_range_g: 2.0 }
+    }
+
+    #[getter]
+    fn dlpf_hz(&self) -> f64 {
+        self.dlpf_hz
+    }
+    /// DLPF_CFG, the row of Table 2.2.
+    #[getter]
+    fn dlpf_cfg(&self) -> usize {
+        self.inner.dlpf
+    }
+    #[getter]
+    fn height(&self) -> f64 {
+        self.inner.height
+    }
+    #[getter]
+    fn gyro_noise(&self) -> f64 {
+        self.inner.gyro_noise
+    }
+    #[getter]
+    fn accel_noise(&self) -> f64 {
+        self.inner.accel_noise
+    }
+    #[getter]
+    fn gyro_bias(&self) -> f64 {
+        self.inner.gyro_bias
+    }
+    #[getter]
+    fn gyro_bias_walk(&self) -> f64 {
+        self.inner.gyro_bias_walk
+    }
+    #[getter]
+    fn accel_bias(&self) -> (f64, f64) {
+        (self.inner.accel_bias[0], self.inner.accel_bias[1])
+    }
+    #[getter]
+    fn gyro_range_dps(&self) -> f64 {
+        self.gyro_range_dps
+    }
+    #[getter]
+    fn accel_range_g(&self) -> f64 {
+        self.accel_range_g
+    }
+    #[getter]
+    fn quantise(&self) -> bool {
+        self.inner.quantise
+    }
+    #[getter]
+    fn sample_rate(&self) -> f64 {
+        1.0 / self.inner.sample_period
+    }
+
+    /// The filter of one sensor ("accel" or "gyro") as set up here.
+    #[pyo3(signature = (sensor = "gyro"))]
+    fn dlpf(&self, sensor: &str) -> PyResult<PyDlpf> {
+        PyDlpf::mpu6050(self.dlpf_hz, sensor, 1.0 / self.inner.sample_period)
+    }
+
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        d.set_item("dlpf_hz", self.dlpf_hz)?;
+        d.set_item("height", self.inner.height)?;
+        d.set_item("gyro_noise", self.inner.gyro_noise)?;
+        d.set_item("accel_noise", self.inner.accel_noise)?;
+        d.set_item("gyro_bias", self.inner.gyro_bias)?;
+        d.set_item("gyro_bias_walk", self.inner.gyro_bias_walk)?;
+        d.set_item("accel_bias", self.accel_bias())?;
+        d.set_item("gyro_range_dps", self.gyro_range_dps())?;
+        d.set_item("accel_range_g", self.accel_range_g())?;
+        d.set_item("quantise", self.inner.quantise)?;
+        d.set_item("sample_rate", self.sample_rate())?;
+        Ok(d)
+    }
+
+    #[pyo3(signature = (**changes))]
+    fn replace<'py>(slf: &Bound<'py, Self>, changes: Option<&Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
+        replaced(slf, slf.get().to_dict(slf.py())?, changes)
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(format!("Imu({})", kwargs_repr(&self.to_dict(py)?)?))
+    }
+}
+
+fn kwargs_repr(d: &Bound<'_, PyDict>) -> PyResult<String> {
+    let mut parts = Vec::new();
+    for (k, v) in d.iter() {
+        parts.push(format!("{}={}", k.str()?, v.repr()?));
+    }
+    Ok(parts.join(", "))
+}
+
+// --- DLPF ------------------------------------------------------------------------------
+
+/// A Table 2.2 low-pass: a second-order section solved from (bandwidth, delay), plus a
+/// pure delay where the section cannot reach the delay (see docs/parameters.md).
+#[pyclass(name = "Dlpf", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyDlpf {
+    inner: Dlpf<f64>,
+    bandwidth: f64,
+    delay: f64,
+    sample_rate: f64,
+}
+
+#[pymethods]
+impl PyDlpf {
+    /// The filter with -3 dB `bandwidth_hz` and DC delay `delay` [s] at `sample_rate` [Hz].
+    #[new]
+    #[pyo3(signature = (bandwidth_hz, delay, sample_rate = 1000.0))]
+    fn new(bandwidth_hz: f64, delay: f64, sample_rate: f64) -> CoreResult<Self> {
+        let inner = Dlpf::new(bandwidth_hz, delay, positive_rate("sample_rate", sample_rate)?)?;
+        Ok(Self { inner, bandwidth: bandwidth_hz, delay, sample_rate })
+    }
+
+    /// The MPU-6050's filter for the row whose bandwidth is `dlpf_hz`, for the "accel"
+    /// or "gyro" column.
+    #[staticmethod]
+    #[pyo3(signature = (dlpf_hz, sensor = "gyro", sample_rate = 1000.0))]
+    fn mpu6050(dlpf_hz: f64, sensor: &str, sample_rate: f64) -> PyResult<Self> {
+        let cfg = dlpf_config(dlpf_hz).map_err(PyTwipError)?;
+        let row = DLPF_TABLE[cfg];
+        let (channel, bandwidth, delay) = match sensor {
+            "accel" => (Channel::Accel, row.accel_hz, row.accel_delay),
+            "gyro" => (Channel::Gyro, row.gyro_hz, row.gyro_delay),
+            other => {
+                return Err(InvalidParameterError::new_err(format!("sensor = '{other}': must be 'accel' or 'gyro'")));
+            }
+        };
+        let inner = Dlpf::mpu6050(cfg, channel, positive_rate("sample_rate", sample_rate)?).map_err(PyTwipError)?;
+        Ok(Self { inner, bandwidth, delay, sample_rate })
+    }
+
+    /// Table 2.2 as (accel_hz, accel_delay [s], gyro_hz, gyro_delay [s]) per DLPF_CFG.
+    #[staticmethod]
+    fn table() -> Vec<(f64, f64, f64, f64)> {
+        DLPF_TABLE.iter().map(|r| (r.accel_hz, r.accel_delay, r.gyro_hz, r.gyro_delay)).collect()
+    }
+
+    /// Filters `x` (samples at the sample rate), starting in the steady state of x[0].
+    fn filter<'py>(&self, py: Python<'py>, x: PyReadonlyArray1<'py, f64>) -> Bound<'py, PyArray1<f64>> {
+        let x = x.as_array();
+        let mut f = self.inner;
+        f.prime(x.first().copied().unwrap_or(0.0));
+        x.iter().map(|v| f.filter(*v)).collect::<Vec<f64>>().into_pyarray(py)
+    }
+
+    #[getter]
+    fn bandwidth_hz(&self) -> f64 {
+        self.bandwidth
+    }
+    #[getter]
+    fn delay(&self) -> f64 {
+        self.delay
+    }
+    #[getter]
+    fn sample_rate(&self) -> f64 {
+        self.sample_rate
+    }
+    /// Damping of the second-order section.
+    #[getter]
+    fn zeta(&self) -> f64 {
+        self.inner.zeta()
+    }
+    /// Natural frequency of the (analogue) section [rad/s].
+    #[getter]
+    fn natural_frequency(&self) -> f64 {
+        self.inner.natural_frequency()
+    }
+    /// The pure delay after the section [s].
+    #[getter]
+    fn pure_delay(&self) -> f64 {
+        self.inner.pure_delay()
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Dlpf(bandwidth_hz={}, delay={}, sample_rate={})", self.bandwidth, self.delay, self.sample_rate)
+    }
+}
+
+// --- tilt estimator ---------------------------------------------------------------------
+
+/// How the firmware estimates the pitch from the IMU: `complementary(time_constant)` or
+/// `kalman(q_angle, q_bias, r_angle)` (angle and gyro bias).
+#[pyclass(name = "TiltEstimator", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyTiltEstimator {
+    pub inner: TiltEstimator<f64>,
+}
+
+#[pymethods]
+impl PyTiltEstimator {
+    /// phi <- a (phi + T omega) + (1 - a) phi_acc, a = tau / (tau + T); tau [s].
+    #[staticmethod]
+    #[pyo3(signature = (time_constant = 1.0))]
+    fn complementary(time_constant: f64) -> CoreResult<Self> {
+        Ok(Self { inner: TiltEstimator::Complementary { time_constant }.validate()? })
+    }
+
+    /// Kalman filter on (angle, gyro bias): q_angle [rad^2/s], q_bias [rad^2/s^3],
+    /// r_angle [rad^2] (the accelerometer tilt's variance while driving).
+    #[staticmethod]
+    #[pyo3(signature = (q_angle = 1e-3, q_bias = 1e-6, r_angle = 0.2))]
+    fn kalman(q_angle: f64, q_bias: f64, r_angle: f64) -> CoreResult<Self> {
+        Ok(Self { inner: TiltEstimator::Kalman { q_angle, q_bias, r_angle }.validate()? })
+    }
+
+    /// "complementary" or "kalman".
+    #[getter]
+    fn kind(&self) -> &'static str {
+        match self.inner {
+            TiltEstimator::Complementary { .. } => "complementary",
+            TiltEstimator::Kalman { .. } => "kalman",
+        }
+    }
+
+    /// The tuning as a dict.
+    #[getter]
+    fn parameters<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        match self.inner {
+            TiltEstimator::Complementary { time_constant } => d.set_item("time_constant", time_constant)?,
+            TiltEstimator::Kalman { q_angle, q_bias, r_angle } => {
+                d.set_item("q_angle", q_angle)?;
+                d.set_item("q_bias", q_bias)?;
+                d.set_item("r_angle", r_angle)?;
+            }
+        }
+        Ok(d)
+    }
+
+    /// Runs the estimator over IMU readings taken every `dt` [s]: specific force along
+    /// the sensor's x and z [m/s^2] and pitch rate [rad/s]. Returns (phi_hat, phi_dot_hat).
+    #[allow(clippy::type_complexity)]
+    fn filter<'py>(
+        &self,
+        py: Python<'py>,
+        accel_x: PyReadonlyArray1<'py, f64>,
+        accel_z: PyReadonlyArray1<'py, f64>,
+        gyro: PyReadonlyArray1<'py, f64>,
+        dt: f64,
+    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+        let (ax, az, g) = (accel_x.as_array(), accel_z.as_array(), gyro.as_array());
+        if ax.len() != az.len() || ax.len() != g.len() {
+            let got = (az.len().min(g.len()), 1);
+            return Err(PyTwipError(TwipError::Shape { name: "accel_z, gyro", expected: (ax.len(), 1), got }).into());
+        }
+        positive_rate("dt", 1.0 / dt)?;
+        let mut f = TiltFilter::new(self.inner).map_err(PyTwipError)?;
+        let (mut phi, mut rate) = (Vec::with_capacity(ax.len()), Vec::with_capacity(ax.len()));
+        for k in 0..ax.len() {
+            let (p, r) = f.update(accel_tilt(ax[k], az[k]), g[k], if k == 0 { 0.0 } else { dt });
+            phi.push(p);
+            rate.push(r);
+        }
+        Ok((phi.into_pyarray(py), rate.into_pyarray(py)))
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(format!("TiltEstimator.{}({})", self.kind(), kwargs_repr(&self.parameters(py)?)?))
+    }
+}
+
+fn estimator_from(obj: &Bound<'_, PyAny>) -> PyResult<TiltEstimator<f64>> {
+    if let Ok(e) = obj.cast::<PyTiltEstimator>() {
+        return Ok(e.get().inner);
+    }
+    match obj.extract::<String>().as_deref() {
+        Ok("complementary") => Ok(TiltEstimator::complementary()),
+        Ok("kalman") => Ok(TiltEstimator::kalman()),
+        _ => Err(InvalidParameterError::new_err(format!(
+            "estimator = {}: must be 'complementary', 'kalman' or a twip.TiltEstimator",
+            obj.repr()?
+        ))),
+    }
+}
+
+// --- motor driver -----------------------------------------------------------------------
+
+/// Battery, L298P bridge and the two GB37Y3530 motors (per motor). Defaults: the data
+/// sheet's motor (R = 12 V / 7 A) on 3 x 3.7 V, no bridge drop, no inductance, a lossless
+/// gearbox and no current limit; `assumed_battery` (default: `battery`) is what the
+/// firmware's feed-forward believes.
+#[pyclass(name = "MotorDriver", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyMotorDriver {
+    pub inner: MotorDriver<f64>,
+}
+
+fn params_or_default(params: Option<&PyRobotParams>) -> RobotParams<f64> {
+    params.map_or_else(RobotParams::balanbot, |p| p.inner)
+}
+
+#[pymethods]
+impl PyMotorDriver {
+    #[new]
+    #[pyo3(signature = (*, battery = 11.1, bridge_drop = 0.0, resistance = 12.0 / 7.0, inductance = 0.0, efficiency = 1.0,
+                        current_limit = None, assumed_battery = None))]
+    fn new(
+        battery: f64,
+        bridge_drop: f64,
+        resistance: f64,
+        inductance: f64,
+        efficiency: f64,
+        current_limit: Option<f64>,
+        assumed_battery: Option<f64>,
+    ) -> CoreResult<Self> {
+        let inner = MotorDriver {
+            battery,
+            bridge_drop,
+            resistance,
+            inductance,
+            efficiency,
+            current_limit: current_limit.unwrap_or(f64::INFINITY),
+            assumed_battery: assumed_battery.unwrap_or(battery),
+        };
+        Ok(Self { inner: inner.validate()? })
+    }
+
+    /// The defaults: the data sheet's motor on the 11.1 V battery, nothing else.
+    #[staticmethod]
+    fn data_sheet() -> Self {
+        Self { inner: MotorDriver::gb37y3530() }
+    }
+
+    /// The L298P's 2 V drop and 2 A DC rating, an assumed 1 mH winding.
+    #[staticmethod]
+    fn thesis_like() -> Self {
+        Self { inner: MotorDriver::thesis_like() }
+    }
+
+    #[getter]
+    fn battery(&self) -> f64 {
+        self.inner.battery
+    }
+    #[getter]
+    fn bridge_drop(&self) -> f64 {
+        self.inner.bridge_drop
+    }
+    #[getter]
+    fn resistance(&self) -> f64 {
+        self.inner.resistance
+    }
+    #[getter]
+    fn inductance(&self) -> f64 {
+        self.inner.inductance
+    }
+    #[getter]
+    fn efficiency(&self) -> f64 {
+        self.inner.efficiency
+    }
+    #[getter]
+    fn current_limit(&self) -> Option<f64> {
+        self.inner.current_limit.is_finite().then_some(self.inner.current_limit)
+    }
+    #[getter]
+    fn assumed_battery(&self) -> f64 {
+        self.inner.assumed_battery
+    }
+
+    /// Steady winding current of one motor [A] at terminal `voltage` and relative wheel
+    /// speed theta_dot - phi_dot [rad/s] (the robot's torque constant and gear ratio).
+    #[pyo3(signature = (voltage, wheel_speed, params = None))]
+    fn current(&self, voltage: f64, wheel_speed: f64, params: Option<&PyRobotParams>) -> CoreResult<f64> {
+        Ok(self.inner.current(&params_or_default(params), voltage, wheel_speed)?)
+    }
+
+    /// Torque of one motor on its wheel [N m] at `voltage` and relative wheel speed.
+    #[pyo3(signature = (voltage, wheel_speed, params = None))]
+    fn wheel_torque(&self, voltage: f64, wheel_speed: f64, params: Option<&PyRobotParams>) -> CoreResult<f64> {
+        Ok(self.inner.wheel_torque(&params_or_default(params), voltage, wheel_speed)?)
+    }
+
+    /// The firmware's duty [counts] for a lumped (both motors) current at a measured
+    /// relative wheel speed: R i + back-EMF, rounded and saturated at +-255.
+    #[pyo3(signature = (lumped_current, wheel_speed, params = None))]
+    fn duty(&self, lumped_current: f64, wheel_speed: f64, params: Option<&PyRobotParams>) -> CoreResult<f64> {
+        Ok(PwmActuator::new(&self.inner, &params_or_default(params))?.duty(lumped_current, wheel_speed))
+    }
+
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        d.set_item("battery", self.inner.battery)?;
+        d.set_item("bridge_drop", self.inner.bridge_drop)?;
+        d.set_item("resistance", self.inner.resistance)?;
+        d.set_item("inductance", self.inner.inductance)?;
+        d.set_item("efficiency", self.inner.efficiency)?;
+        d.set_item("current_limit", self.current_limit())?;
+        d.set_item("assumed_battery", self.inner.assumed_battery)?;
+        Ok(d)
+    }
+
+    #[pyo3(signature = (**changes))]
+    fn replace<'py>(slf: &Bound<'py, Self>, changes: Option<&Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
+        replaced(slf, slf.get().to_dict(slf.py())?, changes)
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(format!("MotorDriver({})", kwargs_repr(&self.to_dict(py)?)?))
+    }
+}
+
+// --- disturbances -----------------------------------------------------------------------
+
+/// A horizontal push on the body: `impulse` [N s] (positive forward) at time `t` [s],
+/// `height` [m] up the body's axis from the axle (default: the centre of mass).
+#[pyclass(name = "Push", module = "twip", frozen)]
+#[derive(Clone, Copy)]
+pub struct PyPush {
+    #[pyo3(get)]
+    t: f64,
+    #[pyo3(get)]
+    impulse: f64,
+    #[pyo3(get)]
+    height: Option<f64>,
+}
+
+#[pymethods]
+impl PyPush {
+    #[new]
+    #[pyo3(signature = (t, impulse, height = None))]
+    fn new(t: f64, impulse: f64, height: Option<f64>) -> CoreResult<Self> {
+        Pushes::new(&[Push { t, impulse, height: height.unwrap_or(0.0) }])?;
+        Ok(Self { t, impulse, height })
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Push(t={}, impulse={}, height={:?})", self.t, self.impulse, self.height)
+    }
+}
+
+/// A constant force on the body [N]: `horizontal` (positive forward), `vertical`
+/// (positive up), at `height` [m] up the body's axis (default: the centre of mass).
+#[pyclass(name = "Force", module = "twip", frozen)]
+#[derive(Clone, Copy)]
+pub struct PyForce {
+    #[pyo3(get)]
+    horizontal: f64,
+    #[pyo3(get)]
+    vertical: f64,
+    #[pyo3(get)]
+    height: Option<f64>,
+}
+
+#[pymethods]
+impl PyForce {
+    #[new]
+    #[pyo3(signature = (horizontal = 0.0, vertical = 0.0, height = None))]
+    fn new(horizontal: f64, vertical: f64, height: Option<f64>) -> CoreResult<Self> {
+        Force { horizontal, vertical, height: height.unwrap_or(0.0) }.validate()?;
+        Ok(Self { horizontal, vertical, height })
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Force(horizontal={}, vertical={}, height={:?})", self.horizontal, self.vertical, self.height)
+    }
+}
+
+fn push(obj: &Bound<'_, PyAny>) -> PyResult<PyPush> {
+    if let Ok(p) = obj.cast::<PyPush>() {
+        return Ok(*p.get());
+    }
+    if let Ok((t, impulse)) = obj.extract::<(f64, f64)>() {
+        return Ok(PyPush::new(t, impulse, None)?);
+    }
+    if let Ok((t, impulse, height)) = obj.extract::<(f64, f64, f64)>() {
+        return Ok(PyPush::new(t, impulse, Some(height))?);
+    }
+    Err(InvalidParameterError::new_err(format!(
+        "pushes: each must be a twip.Push or a (t, impulse[, height]) tuple, got {}",
+        obj.repr()?
+    )))
+}
+
+// --- realism ----------------------------------------------------------------------------
+
+/// Which real parts of the robot are in the loop, for `twip.simulate(..., realism=...)`.
+/// Every part is optional; `Realism()` is the ideal loop.
+///
+/// - `imu`: a `twip.Imu` (the MPU-6050) read through `estimator` ("complementary",
+///   "kalman" or a `twip.TiltEstimator`) for phi and phi_dot; None: the true ones.
+/// - `encoder_cpr`: encoder counts per wheel turn (700; 2797 with 4x decoding) for theta
+///   and theta_dot; None: the true ones.
+/// - `motor`: a `twip.MotorDriver`; the controller's current becomes a PWM duty. None:
+///   the plant gets the current.
+/// - `delay`: apply each command one control period late.
+/// - `control_period`: the firmware's loop period [s] (None: the controller's own;
+///   `simulate(control_period=...)` wins over it).
+/// - `pushes`: `twip.Push` or (t, impulse[, height]) tuples; `force`: a `twip.Force`;
+///   `slope_profile`: (distance [m], slope [rad]) changes along the path.
+/// - `seed`, `stream`: the noise (Philox key); a run is bitwise repeatable.
+#[pyclass(name = "Realism", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyRealism {
+    imu: Option<PyImu>,
+    estimator: TiltEstimator<f64>,
+    encoder_cpr: Option<f64>,
+    motor: Option<MotorDriver<f64>>,
+    delay: bool,
+    control_period: Option<f64>,
+    pushes: Vec<PyPush>,
+    force: Option<PyForce>,
+    slope_profile: Vec<(f64, f64)>,
+    seed: u64,
+    stream: u64,
+}
+
+fn key(name: &'static str, v: &Bound<'_, PyAny>) -> PyResult<u64> {
+    v.extract::<u64>().map_err(|_| {
+        let value = v.extract::<f64>().unwrap_or(f64::NAN);
+        PyTwipError(TwipError::InvalidParameter { name, value, reason: "must be an integer in [0, 2**64)" }).into()
+    })
+}
+
+#[pymethods]
+impl PyRealism {
+    #[new]
+    #[pyo3(signature = (*, imu = None, estimator = None, encoder_cpr = None, motor = None, delay = false, control_period = None,
+                        pushes = None, force = None, slope_profile = None, seed = None, stream = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        imu: Option<&PyImu>,
+        estimator: Option<&Bound<'_, PyAny>>,
+        encoder_cpr: Option<f64>,
+        motor: Option<&PyMotorDriver>,
+        delay: bool,
+        control_period: Option<f64>,
+        pushes: Option<&Bound<'_, PyAny>>,
+        force: Option<&PyForce>,
+        slope_profile: Option<Vec<(f64, f64)>>,
+        seed: Option<&Bound<'_, PyAny>>,
+        stream: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let mut list = Vec::new();
+        if let Some(ps) = pushes {
+            for p in ps.try_iter()? {
+                list.push(push(&p?)?);
+            }
+        }
+        let r = Self {
+            imu: imu.cloned(),
+            estimator: estimator.map(estimator_from).transpose()?.unwrap_or_else(TiltEstimator::complementary),
+            encoder_cpr,
+            motor: motor.map(|m| m.inner),
+            delay,
+            control_period,
+            pushes: list,
+            force: force.copied(),
+            slope_profile: slope_profile.unwrap_or_default(),
+            seed: seed.map(|s| key("seed", s)).transpose()?.unwrap_or(0),
+            stream: stream.map(|s| key("stream", s)).transpose()?.unwrap_or(0),
+        };
+        // Everything but the robot-dependent heights is checked now.
+        r.to_core(&RobotParams::balanbot()).map_err(PyTwipError)?;
+        Ok(r)
+    }
+
+    /// Every part ideal (the same run as without realism, through the realism runner).
+    #[staticmethod]
+    fn ideal() -> PyResult<Self> {
+        Self::new(None, None, None, None, false, None, None, None, None, None, None)
+    }
+
+    /// The thesis's robot as built: a 5 ms loop applying its command one period late,
+    /// the MPU-6050 at DLPF 42 Hz with data-sheet noise and calibrated residual biases, a
+    /// complementary filter, 700 CPR encoders, the L298P on 11.1 V (docs/parameters.md).
+    #[staticmethod]
+    #[pyo3(signature = (*, seed = 0, stream = 0))]
+    fn thesis_like(seed: u64, stream: u64) -> Self {
+        let core = Realism::<f64>::thesis_like();
+        Self {
+            imu: Some(PyImu::thesis_like()),
+            estimator: core.estimator,
+            encoder_cpr: core.encoder_cpr,
+            motor: core.motor,
+            delay: core.delay,
+            control_period: core.control_period,
+            pushes: Vec::new(),
+            force: None,
+            slope_profile: Vec::new(),
+            seed,
+            stream,
+        }
+    }
+
+    #[getter]
+    fn imu(&self) -> Option<PyImu> {
+        self.imu.clone()
+    }
+    #[getter]
+    fn estimator(&self) -> PyTiltEstimator {
+        PyTiltEstimator { inner: self.estimator }
+    }
+    #[getter]
+    fn encoder_cpr(&self) -> Option<f64> {
+        self.encoder_cpr
+    }
+    #[getter]
+    fn motor(&self) -> Option<PyMotorDriver> {
+        self.motor.map(|inner| PyMotorDriver { inner })
+    }
+    #[getter]
+    fn delay(&self) -> bool {
+        self.delay
+    }
+    #[getter]
+    fn control_period(&self) -> Option<f64> {
+        self.control_period
+    }
+    #[getter]
+    fn pushes(&self) -> Vec<PyPush> {
+        self.pushes.clone()
+    }
+    #[getter]
+    fn force(&self) -> Option<PyForce> {
+        self.force
+    }
+    #[getter]
+    fn slope_profile(&self) -> Vec<(f64, f64)> {
+        self.slope_profile.clone()
+    }
+    #[getter]
+    fn seed(&self) -> u64 {
+        self.seed
+    }
+    #[getter]
+    fn stream(&self) -> u64 {
+        self.stream
+    }
+
+    /// True when every part is ideal and nothing disturbs the robot.
+    #[getter]
+    fn is_ideal(&self) -> bool {
+        self.imu.is_none()
+            && self.encoder_cpr.is_none()
+            && self.motor.is_none()
+            && !self.delay
+            && self.control_period.is_none()
+            && self.pushes.is_empty()
+            && self.force.is_none()
+            && self.slope_profile.is_empty()
+    }
+
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        d.set_item("imu", self.imu())?;
+        d.set_item("estimator", self.estimator())?;
+        d.set_item("encoder_cpr", self.encoder_cpr)?;
+        d.set_item("motor", self.motor())?;
+        d.set_item("delay", self.delay)?;
+        d.set_item("control_period", self.control_period)?;
+        d.set_item("pushes", self.pushes())?;
+        d.set_item("force", self.force)?;
+        d.set_item("slope_profile", self.slope_profile())?;
+        d.set_item("seed", self.seed)?;
+        d.set_item("stream", self.stream)?;
+        Ok(d)
+    }
+
+    /// A copy with some settings changed, e.g. `Realism.thesis_like().replace(delay=False)`.
+    #[pyo3(signature = (**changes))]
+    fn replace<'py>(slf: &Bound<'py, Self>, changes: Option<&Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
+        replaced(slf, slf.get().to_dict(slf.py())?, changes)
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(format!("Realism({})", kwargs_repr(&self.to_dict(py)?)?))
+    }
+}
+
+impl PyRealism {
+    /// The core's settings for a robot with `params` (heights default to its COM).
+    pub fn to_core(&self, params: &RobotParams<f64>) -> Result<Realism<f64>, TwipError> {
+        let com = params.com_height;
+        let pushes: Vec<Push<f64>> =
+            self.pushes.iter().map(|p| Push { t: p.t, impulse: p.impulse, height: p.height.unwrap_or(com) }).collect();
+        let force = self.force.map_or(Force::none(), |f| Force {
+            horizontal: f.horizontal,
+            vertical: f.vertical,
+            height: f.height.unwrap_or(com),
+        });
+        Realism {
+            imu: self.imu.as_ref().map(|i| i.inner),
+            estimator: self.estimator,
+            encoder_cpr: self.encoder_cpr,
+            motor: self.motor,
+            delay: self.delay,
+            control_period: self.control_period,
+            pushes: Pushes::new(&pushes)?,
+            force,
+            slope_profile: SlopeProfile::new(0.0, &self.slope_profile)?,
+            seed: self.seed,
+            stream: self.stream,
+        }
+        .validate()
+    }
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyImu>()?;
+    m.add_class::<PyDlpf>()?;
+    m.add_class::<PyTiltEstimator>()?;
+    m.add_class::<PyMotorDriver>()?;
+    m.add_class::<PyPush>()?;
+    m.add_class::<PyForce>()?;
+    m.add_class::<PyRealism>()?;
+    Ok(())
+}

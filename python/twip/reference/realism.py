@@ -1,0 +1,615 @@
+"""Reference of the real robot in the loop: MPU-6050 (noise, bias, DLPF, LSB), tilt
+estimators, encoder, PWM motor drive, pushes, a constant force, slope changes, and the
+runner that puts them round a 2-DOF controller. Plain Python floats and numpy, written
+from the equations in twip-core's module docs (imu.rs, tilt.rs, encoder.rs, drive.rs,
+disturbance.rs, realism.rs), never calling the Rust core. The noise comes from
+`twip.reference.rng.Philox`, so a run draws the very numbers the core draws.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from twip.reference.rng import Philox
+from twip.reference.slope import SlopeModel
+
+STANDARD_GRAVITY = 9.80665
+DEG = math.pi / 180.0
+
+# Table 2.2: (accel Hz, accel delay s, gyro Hz, gyro delay s) per DLPF_CFG.
+DLPF_TABLE = [
+    (260.0, 0.0, 256.0, 0.98e-3),
+    (184.0, 2.0e-3, 188.0, 1.9e-3),
+    (94.0, 3.0e-3, 98.0, 2.8e-3),
+    (44.0, 4.9e-3, 42.0, 4.8e-3),
+    (21.0, 8.5e-3, 20.0, 8.3e-3),
+    (10.0, 13.8e-3, 10.0, 13.4e-3),
+    (5.0, 19.0e-3, 5.0, 18.6e-3),
+]
+
+
+def dlpf_config(hz: float) -> int:
+    for i, (a, _, g, _) in enumerate(DLPF_TABLE):
+        if abs(a - hz) < 0.5 or abs(g - hz) < 0.5:
+            return i
+    raise ValueError(f"invalid dlpf_hz = {hz}")
+
+
+# --- DLPF ----------------------------------------------------------------------------------
+
+
+def _bandwidth_ratio(zeta: float) -> float:
+    """-3 dB bandwidth over the natural frequency of a unit second-order low-pass."""
+    a = 1.0 - 2.0 * zeta * zeta
+    return math.sqrt(a + math.sqrt(a * a + 1.0))
+
+
+class Dlpf:
+    """Second-order section (bilinear, prewarped at the bandwidth) with its DC delay set
+    to `delay`, then a pure delay (whole samples + first-order Thiran all-pass) for what
+    the section cannot reach. `delay == 0` passes samples through."""
+
+    def __init__(self, bandwidth: float, delay: float, period: float):
+        self.bypass = delay == 0.0
+        self.b0 = self.a1 = self.a2 = 0.0
+        self.allpass = None
+        self.whole = 0
+        self.zeta = self.natural = self.pure = 0.0
+        self.prime(0.0)
+        if self.bypass:
+            return
+        wb = 2.0 * math.pi * bandwidth
+        half = wb * period * 0.5
+        kappa = half / math.tan(half)  # the bilinear map scales the DC delay by this
+        target = delay * wb / kappa
+        root2 = math.sqrt(2.0)
+        if target >= root2:
+            zeta, natural, pure = 1.0 / root2, wb, delay - kappa * root2 / wb
+        else:
+            lo, hi = 0.0, 1.0 / root2
+            for _ in range(80):
+                mid = (lo + hi) * 0.5
+                if 2.0 * mid * _bandwidth_ratio(mid) < target:
+                    lo = mid
+                else:
+                    hi = mid
+            zeta = (lo + hi) * 0.5
+            natural, pure = wb / _bandwidth_ratio(zeta), 0.0
+        k = wb / math.tan(half)
+        k2, wn2, cross = k * k, natural * natural, 2.0 * zeta * natural * k
+        a0 = k2 + cross + wn2
+        self.b0 = wn2 / a0
+        self.a1 = 2.0 * (wn2 - k2) / a0
+        self.a2 = (k2 - cross + wn2) / a0
+        samples = pure / period
+        whole = math.floor(samples)
+        frac = samples - whole
+        self.whole = int(whole)
+        if frac > 1e-12:
+            self.allpass = (1.0 - frac) / (1.0 + frac)
+        self.zeta, self.natural, self.pure = zeta, natural, pure
+        self.prime(0.0)
+
+    @classmethod
+    def mpu6050(cls, cfg: int, sensor: str, period: float) -> "Dlpf":
+        a, ad, g, gd = DLPF_TABLE[cfg]
+        return cls(a, ad, period) if sensor == "accel" else cls(g, gd, period)
+
+    def prime(self, v: float):
+        self.s2 = (self.b0 - self.a2) * v
+        self.s1 = (2.0 * self.b0 - self.a1) * v + self.s2
+        self.ap_x = self.ap_y = v
+        self.ring = [v] * max(self.whole, 1)
+        self.head = 0
+
+    def filter(self, x: float) -> float:
+        if self.bypass:
+            return x
+        y = self.b0 * x + self.s1
+        self.s1 = 2.0 * self.b0 * x - self.a1 * y + self.s2
+        self.s2 = self.b0 * x - self.a2 * y
+        out = y
+        if self.allpass is not None:
+            eta = self.allpass
+            out = eta * y + self.ap_x - eta * self.ap_y
+            self.ap_x, self.ap_y = y, out
+        if self.whole > 0:
+            delayed = self.ring[self.head]
+            self.ring[self.head] = out
+            self.head = (self.head + 1) % self.whole
+            out = delayed
+        return out
+
+
+# --- IMU ----------------------------------------------------------------------------------
+
+
+@dataclass
+class ImuSettings:
+    """SI units, as twip.Imu."""
+
+    dlpf_hz: float = 42.0
+    height: float = 0.12
+    gyro_noise: float = 0.005 * DEG
+    accel_noise: float = 400e-6 * STANDARD_GRAVITY
+    gyro_bias: float = 0.0
+    gyro_bias_walk: float = 0.0
+    accel_bias: Tuple[float, float] = (0.0, 0.0)
+    gyro_range_dps: float = 250.0
+    accel_range_g: float = 2.0
+    quantise: bool = True
+    sample_rate: float = 1000.0
+
+
+def specific_force(x, xdot, sin_slope, cos_slope, radius, height, g):
+    """(f_x, f_z) at the sensor in its axes: acceleration of p = r theta (cos a, sin a) +
+    h (sin phi, cos phi) minus gravity, projected on the body's (forward, up) axes."""
+    phi, phi_dot = x[0], x[1]
+    s, c = math.sin(phi), math.cos(phi)
+    sin_pa = s * cos_slope + c * sin_slope
+    cos_pa = c * cos_slope - s * sin_slope
+    wheel = radius * xdot[3]
+    return wheel * cos_pa + height * xdot[1] - g * s, wheel * sin_pa - height * phi_dot * phi_dot + g * c
+
+
+class Ziggurat:
+    """Standard normals by Marsaglia & Tsang's ziggurat (256 layers), two per 64-bit word:
+    32 bits give the layer (8), the sign (1) and a 23-bit uniform; wedges and the tail
+    draw more from the stream (a fresh word's low half per retry)."""
+
+    R = 3.654152885361009
+    V = 4.928673233974658e-3
+
+    def __init__(self):
+        f = self._gauss
+        x = [0.0] * 257
+        x[0] = self.V / f(self.R)
+        x[1] = self.R
+        for i in range(1, 255):
+            x[i + 1] = math.sqrt(-2.0 * math.log(self.V / x[i] + f(x[i])))
+        self.x, self.f = x, [f(v) for v in x]
+
+    @staticmethod
+    def _gauss(x):
+        return math.exp(-0.5 * x * x)
+
+    def fill(self, rng: Philox, n: int):
+        out = []
+        while len(out) < n:
+            word = rng.next_u64()
+            out.append(self._normal(word & 0xFFFFFFFF, rng))
+            if len(out) < n:
+                out.append(self._normal(word >> 32, rng))
+        return out
+
+    def _normal(self, bits, rng):
+        x, f = self.x, self.f
+        while True:
+            i = bits & 0xFF
+            sign = 1.0 if bits & 0x100 == 0 else -1.0
+            z = (bits >> 9) * (1.0 / 8388608.0) * x[i]
+            if z < x[i + 1]:
+                return sign * z
+            if i == 0:
+                while True:
+                    a = -math.log(1.0 - rng.uniform()) / self.R
+                    b = -math.log(1.0 - rng.uniform())
+                    if 2.0 * b > a * a:
+                        return sign * (self.R + a)
+            if f[i + 1] + rng.uniform() * (f[i] - f[i + 1]) < self._gauss(z):
+                return sign * z
+            bits = rng.next_u64() & 0xFFFFFFFF
+
+
+NOISE_BATCH = 32  # the core draws its normals 32 at a time; the sequence is the same
+
+
+_MAGIC = 1.5 / np.finfo(float).eps  # adding and removing it rounds to nearest even
+
+
+def _register(v, lsb, per_lsb):
+    counts = min(max(v * per_lsb, -32768.0), 32767.0)
+    return ((counts + _MAGIC) - _MAGIC) * lsb
+
+
+class Mpu6050:
+    def __init__(self, s: ImuSettings):
+        self.s = s
+        period = 1.0 / s.sample_rate
+        self.period = period
+        cfg = dlpf_config(s.dlpf_hz)
+        self.gyro_filter = Dlpf.mpu6050(cfg, "gyro", period)
+        self.ax_filter = Dlpf.mpu6050(cfg, "accel", period)
+        self.az_filter = Dlpf.mpu6050(cfg, "accel", period)
+        band = math.sqrt(0.5 / period)
+        self.sigma_gyro, self.sigma_accel = s.gyro_noise * band, s.accel_noise * band
+        self.sigma_walk = s.gyro_bias_walk * math.sqrt(period)
+        self.gyro_range, self.accel_range = s.gyro_range_dps * DEG, s.accel_range_g * STANDARD_GRAVITY
+        self.gyro_lsb, self.accel_lsb = self.gyro_range / 32768.0, self.accel_range / 32768.0
+        self.gyro_per_lsb, self.accel_per_lsb = 32768.0 / self.gyro_range, 32768.0 / self.accel_range
+        self.bias = s.gyro_bias
+        self.primed = False
+        self.reading = (0.0, 0.0, 0.0)  # accel x, accel z, gyro
+        self.gauss, self.noise = Ziggurat(), []
+
+    def sample(self, fx, fz, rate, rng):
+        if not self.noise:
+            self.noise = self.gauss.fill(rng, NOISE_BATCH)
+        n0, n1, n2, n3 = self.noise[:4]
+        del self.noise[:4]
+        s = self.s
+        clean = (rate + self.bias, fx + s.accel_bias[0], fz + s.accel_bias[1])
+        if not self.primed:
+            self.gyro_filter.prime(clean[0])
+            self.ax_filter.prime(clean[1])
+            self.az_filter.prime(clean[2])
+            self.primed = True
+        gr, ar = self.gyro_range, self.accel_range
+        gyro = self.gyro_filter.filter(min(max(clean[0] + self.sigma_gyro * n0, -gr), gr))
+        ax = self.ax_filter.filter(min(max(clean[1] + self.sigma_accel * n1, -ar), ar))
+        az = self.az_filter.filter(min(max(clean[2] + self.sigma_accel * n2, -ar), ar))
+        self.bias += self.sigma_walk * n3
+        if s.quantise:
+            a, ai, g, gi = self.accel_lsb, self.accel_per_lsb, self.gyro_lsb, self.gyro_per_lsb
+            self.reading = (_register(ax, a, ai), _register(az, a, ai), _register(gyro, g, gi))
+        else:
+            self.reading = (ax, az, gyro)
+
+
+# --- tilt estimators -----------------------------------------------------------------------
+
+
+class TiltFilter:
+    """("complementary", {"time_constant"}) or ("kalman", {"q_angle", "q_bias", "r_angle"})."""
+
+    def __init__(self, kind: str, **params):
+        self.kind, self.params = kind, params
+        self.angle = self.bias = 0.0
+        self.p = [[0.0, 0.0], [0.0, 0.0]]
+        self.started = False
+
+    def update(self, tilt, rate, dt):
+        if not self.started:
+            self.started = True
+            self.angle = tilt
+            if self.kind == "kalman":
+                one_dps = math.pi / 180.0
+                self.p = [[self.params["r_angle"], 0.0], [0.0, one_dps * one_dps]]
+            return self.angle, rate - self.bias
+        if self.kind == "complementary":
+            tau = self.params["time_constant"]
+            a = tau / (tau + dt)
+            self.angle = a * (self.angle + dt * rate) + (1.0 - a) * tilt
+        else:
+            q_angle, q_bias, r_angle = self.params["q_angle"], self.params["q_bias"], self.params["r_angle"]
+            self.angle += dt * (rate - self.bias)
+            (p00, p01), (p10, p11) = self.p
+            p00 = p00 - dt * (p01 + p10) + dt * dt * p11 + q_angle * dt
+            p01 = p01 - dt * p11
+            p10 = p10 - dt * p11
+            p11 = p11 + q_bias * dt
+            s = p00 + r_angle
+            k0, k1 = p00 / s, p10 / s
+            innovation = tilt - self.angle
+            self.angle += k0 * innovation
+            self.bias += k1 * innovation
+            self.p = [[p00 - k0 * p00, p01 - k0 * p01], [p10 - k1 * p00, p11 - k1 * p01]]
+        return self.angle, rate - self.bias
+
+
+# --- encoder --------------------------------------------------------------------------------
+
+
+class Encoder:
+    """Counts floor(beta * cpr / 2 pi) of the wheel's angle relative to the body."""
+
+    def __init__(self, cpr: float):
+        self.counts_per_rad = cpr / (2.0 * math.pi)
+        self.rad_per_count = 2.0 * math.pi / cpr
+        self.last = None
+
+    def read(self, beta, dt):
+        count = math.floor(beta * self.counts_per_rad)
+        speed = (count - self.last) * self.rad_per_count / dt if self.last is not None and dt > 0 else 0.0
+        self.last = count
+        return count * self.rad_per_count, speed
+
+
+# --- motor drive ----------------------------------------------------------------------------
+
+
+@dataclass
+class MotorDriver:
+    battery: float = 11.1
+    bridge_drop: float = 0.0
+    resistance: float = 12.0 / 7.0
+    inductance: float = 0.0
+    efficiency: float = 1.0
+    current_limit: float = math.inf
+    assumed_battery: Optional[float] = None
+
+
+def _clamp(v, limit):
+    return min(max(v, -limit), limit)
+
+
+def _round_half_away(v):
+    return math.copysign(math.floor(abs(v) + 0.5), v)
+
+
+class Driven:
+    """Per motor: V = pwm/255 (V_bat - V_drop); L di/dt = V - R i - k eta (theta' - phi');
+    |i| <= limit; the plant gets the lumped current 2 eff i. With L > 0 the current is
+    advanced once per step exactly for the voltage and speed held over it."""
+
+    PWM_MAX = 255.0
+
+    def __init__(self, plant, driver: MotorDriver, params):
+        self.plant = plant
+        k, eta = params.torque_constant, params.gear_ratio
+        self.volts_per_count = (driver.battery - driver.bridge_drop) / self.PWM_MAX
+        self.back_emf = k * eta
+        self.conductance = 1.0 / driver.resistance
+        self.lumped_per_amp = 2.0 * driver.efficiency
+        self.limit = driver.current_limit
+        self.tau = driver.inductance / driver.resistance
+        self.factors = None
+        self.current = self.held = 0.0
+
+    def free_current(self, pwm, w):
+        volts = _clamp(pwm, self.PWM_MAX) * self.volts_per_count
+        return (volts - self.back_emf * w) * self.conductance
+
+    def advance(self, x, pwm, dt):
+        if self.tau <= 0:
+            return
+        if self.factors is None or self.factors[0] != dt:
+            decay = math.exp(-dt / self.tau)
+            self.factors = (dt, decay, self.tau / dt * (1.0 - decay))
+        _, decay, average = self.factors
+        target = self.free_current(pwm, x[3] - x[1])
+        gap = self.current - target
+        self.held = _clamp(target + gap * average, self.limit)
+        self.current = _clamp(target + gap * decay, self.limit)
+
+    def motor_current(self, x, pwm):
+        """Per motor, now."""
+        if self.tau > 0:
+            return self.current
+        return _clamp(self.free_current(pwm, x[3] - x[1]), self.limit)
+
+    def deriv(self, x, pwm):
+        i = self.held if self.tau > 0 else _clamp(self.free_current(pwm, x[3] - x[1]), self.limit)
+        return self.plant.deriv(x, self.lumped_per_amp * i)
+
+
+class PwmActuator:
+    """The firmware's duty: V = R i + k eta w_measured, rounded, saturated."""
+
+    def __init__(self, driver: MotorDriver, params):
+        assumed = driver.battery if driver.assumed_battery is None else driver.assumed_battery
+        self.supply = assumed - driver.bridge_drop
+        self.resistance = driver.resistance
+        self.back_emf = params.torque_constant * params.gear_ratio
+        self.lumped_per_amp = 2.0 * driver.efficiency
+
+    def drive(self, u, y):
+        i = u / self.lumped_per_amp
+        volts = self.resistance * i + self.back_emf * (y[3] - y[1])
+        return min(max(_round_half_away(volts / self.supply * 255.0), -255.0), 255.0)
+
+
+# --- disturbances ---------------------------------------------------------------------------
+
+
+def mass_matrix(params, slope, phi):
+    """The symmetric M(phi) of M q'' = f on (phi, theta)."""
+    p = params
+    rotor = p.gear_ratio * p.gear_ratio * p.i_motor
+    m11 = p.i_body + p.m_body * p.com_height * p.com_height + rotor
+    m22 = (p.m_body + p.m_wheels) * p.wheel_radius**2 + p.i_wheels + rotor
+    m12 = p.m_body * p.wheel_radius * p.com_height * math.cos(phi + slope) - rotor
+    return np.array([[m11, m12], [m12, m22]])
+
+
+class Disturbed:
+    """The slope model on a piecewise-constant slope, with a constant force (fx, fz) at
+    `height` on the body and horizontal pushes (t, J, h) applied between steps."""
+
+    def __init__(self, params, base_slope, profile=(), force=(0.0, 0.0, 0.0), pushes=()):
+        self.params, self.radius = params, params.wheel_radius
+        self.starts = [d for d, _ in profile]
+        self.slopes = [base_slope] + [a for _, a in profile]
+        self.models = [SlopeModel(params, a) for a in self.slopes]
+        self.force = force
+        self.has_force = force[0] != 0.0 or force[1] != 0.0
+        self.pushes = sorted(pushes, key=lambda p: p[0])
+        self.next = 0
+
+    def segment(self, distance):
+        i = len(self.starts)
+        while i > 0 and distance < self.starts[i - 1]:
+            i -= 1
+        return i
+
+    def deriv(self, x, u):
+        i = self.segment(x[2] * self.radius)
+        d = self.models[i].deriv(x, u)
+        if self.has_force:
+            fx, fz, h = self.force
+            slope = self.slopes[i]
+            q = np.array([h * (fx * math.cos(x[0]) - fz * math.sin(x[0])),
+                          self.radius * (fx * math.cos(slope) + fz * math.sin(slope))])
+            a = np.linalg.solve(mass_matrix(self.params, slope, x[0]), q)
+            d[1] += a[0]
+            d[3] += a[1]
+        return d
+
+    def kick(self, t, dt, x):
+        while self.next < len(self.pushes) and self.pushes[self.next][0] < t + dt * 0.5:
+            _, j, h = self.pushes[self.next]
+            slope = self.slopes[self.segment(x[2] * self.radius)]
+            q = np.array([h * j * math.cos(x[0]), self.radius * j * math.cos(slope)])
+            dv = np.linalg.solve(mass_matrix(self.params, slope, x[0]), q)
+            x[1] += dv[0]
+            x[3] += dv[1]
+            self.next += 1
+
+
+# --- the loop -------------------------------------------------------------------------------
+
+
+@dataclass
+class Realism:
+    """As twip.Realism; heights of pushes and force are explicit here."""
+
+    imu: Optional[ImuSettings] = None
+    estimator: Tuple[str, dict] = ("complementary", {"time_constant": 1.0})
+    encoder_cpr: Optional[float] = None
+    motor: Optional[MotorDriver] = None
+    delay: bool = False
+    control_period: Optional[float] = None
+    pushes: Sequence[Tuple[float, float, float]] = ()
+    force: Tuple[float, float, float] = (0.0, 0.0, 0.0)
+    slope_profile: Sequence[Tuple[float, float]] = ()
+    seed: int = 0
+    stream: int = 0
+
+    @classmethod
+    def from_twip(cls, r, params) -> "Realism":
+        """The same settings as a `twip.Realism` (reads its attributes only)."""
+        com = params.com_height
+        imu = None
+        if r.imu is not None:
+            i = r.imu
+            imu = ImuSettings(i.dlpf_hz, i.height, i.gyro_noise, i.accel_noise, i.gyro_bias, i.gyro_bias_walk,
+                              tuple(i.accel_bias), i.gyro_range_dps, i.accel_range_g, i.quantise, i.sample_rate)
+        motor = None
+        if r.motor is not None:
+            m = r.motor
+            motor = MotorDriver(m.battery, m.bridge_drop, m.resistance, m.inductance, m.efficiency,
+                                math.inf if m.current_limit is None else m.current_limit, m.assumed_battery)
+        f = r.force
+        force = (0.0, 0.0, 0.0) if f is None else (f.horizontal, f.vertical, com if f.height is None else f.height)
+        pushes = [(p.t, p.impulse, com if p.height is None else p.height) for p in r.pushes]
+        return cls(imu, (r.estimator.kind, dict(r.estimator.parameters)), r.encoder_cpr, motor, r.delay,
+                   r.control_period, pushes, force, list(r.slope_profile), r.seed, r.stream)
+
+
+class BalanceSensors:
+    """IMU + tilt estimator + encoder; the truth for each part left out."""
+
+    def __init__(self, realism: Realism, params, base_slope, dt):
+        self.imu = Mpu6050(realism.imu) if realism.imu is not None else None
+        kind, tuning = realism.estimator
+        self.tilt = TiltFilter(kind, **tuning)
+        self.encoder = Encoder(realism.encoder_cpr) if realism.encoder_cpr is not None else None
+        self.starts = [d for d, _ in realism.slope_profile]
+        self.trig = [(math.sin(a), math.cos(a)) for a in [base_slope] + [a for _, a in realism.slope_profile]]
+        self.radius, self.g = params.wheel_radius, params.g
+        self.next_sample, self.half_step = 0.0, dt * 0.5
+        self.rng = Philox(realism.seed, realism.stream)
+        self.last_read = None
+
+    def sample(self, t, x, xdot):
+        if self.imu is not None and t + self.half_step >= self.next_sample:
+            i = len(self.starts)
+            while i > 0 and x[2] * self.radius < self.starts[i - 1]:
+                i -= 1
+            sin_a, cos_a = self.trig[i]
+            fx, fz = specific_force(x, xdot, sin_a, cos_a, self.radius, self.imu.s.height, self.g)
+            self.imu.sample(fx, fz, x[1], self.rng)
+            self.next_sample += self.imu.period
+
+    def read(self, t, x):
+        dt = 0.0 if self.last_read is None else t - self.last_read
+        self.last_read = t
+        if self.imu is not None:
+            ax, az, gyro = self.imu.reading
+            phi, phi_dot = self.tilt.update(math.atan2(-ax, az), gyro, dt)
+        else:
+            phi, phi_dot = x[0], x[1]
+        if self.encoder is not None:
+            beta, beta_dot = self.encoder.read(x[2] - x[0], dt)
+            theta, theta_dot = beta + phi, beta_dot + phi_dot
+        else:
+            theta, theta_dot = x[2], x[3]
+        return np.array([phi, phi_dot, theta, theta_dot])
+
+
+@dataclass
+class RigRun:
+    t: np.ndarray
+    states: np.ndarray
+    inputs: np.ndarray  # the command being applied (lumped current, A)
+    signals: np.ndarray  # phi_hat, phi_dot_hat, theta_hat, theta_dot_hat, drive, motor_current
+    outcome: str = "completed"
+    internals: List = field(default_factory=list)
+
+
+def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fall_limit=math.radians(60)) -> RigRun:
+    """The loop of twip-core's `simulate_rig`: per step, read/update/drive every control
+    period (the command optionally one period late), log, kick and advance the plant,
+    then RK4 with its first stage shared with the sensor's sample."""
+    params = model.params
+    period = realism.control_period if realism.control_period is not None else controller.period
+    controller.period = period
+    ground = Disturbed(params, model.slope, realism.slope_profile, realism.force, realism.pushes)
+    if realism.motor is not None:
+        plant, actuator = Driven(ground, realism.motor, params), PwmActuator(realism.motor, params)
+    else:
+        plant, actuator = ground, None
+    sensors = BalanceSensors(realism, params, model.slope, dt)
+
+    def motor_current(x, u):
+        return plant.lumped_per_amp * plant.motor_current(x, u) if actuator is not None else u
+
+    n = round(t_final / dt)
+    per_update = round(period / dt)
+    x = np.array(x0, float)
+    u = pending = command = pending_command = 0.0
+    signals = [0.0] * 6
+    ts, xs, us, ss, ins = [], [], [], [], []
+    sensors.sample(0.0, x, plant.deriv(x, u))
+    outcome = "completed"
+    for k in range(n):
+        t = k * dt
+        ref = reference.sample(t)
+        if k % per_update == 0:
+            y = sensors.read(t, x)
+            cmd = controller.update(t, y, ref)
+            drive = actuator.drive(cmd, y) if actuator is not None else cmd
+            if realism.delay:
+                u, pending, command, pending_command = pending, drive, pending_command, cmd
+            else:
+                u, command = drive, cmd
+            signals[:5] = [*y, u]
+        signals[5] = motor_current(x, u)
+        ts.append(t)
+        xs.append(x.copy())
+        us.append(command)
+        ss.append(list(signals))
+        ins.append(controller.internals)
+        ground.kick(t, dt, x)
+        if actuator is not None:
+            plant.advance(x, u, dt)
+        half = dt * 0.5
+        k1 = plant.deriv(x, u)
+        sensors.sample(t, x, k1)
+        k2 = plant.deriv(x + k1 * half, u)
+        k3 = plant.deriv(x + k2 * half, u)
+        k4 = plant.deriv(x + k3 * dt, u)
+        x = x + (k1 + (k2 + k3) * 2.0 + k4) * (dt / 6.0)
+        if abs(x[0]) > fall_limit:
+            outcome = "fell"
+            break
+    signals[5] = motor_current(x, u)
+    ts.append(len(ts) * dt)
+    xs.append(x.copy())
+    us.append(command)
+    ss.append(list(signals))
+    ins.append(controller.internals)
+    return RigRun(np.array(ts), np.array(xs), np.array(us), np.array(ss), outcome, ins)

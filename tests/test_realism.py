@@ -1,0 +1,218 @@
+"""The real robot in the loop: the thesis's scenarios on thesis-like hardware, settings
+under which they fall, determinism of the noise, parity with twip.reference, and errors."""
+import math
+
+import numpy as np
+import pytest
+
+import twip
+import twip.reference as ref
+import twip.reference.realism as rr
+import twip.scenarios as scenarios
+
+LQR = ["slope-lqr", "flat-lqr", "slope-lqr-sim", "flat-lqr-sim"]
+FUZZY = [n for n in ("slope-fuzzy", "flat-fuzzy", "slope-fuzzy-sim", "flat-fuzzy-sim") if n in scenarios.names()]
+
+
+def stop_errors_cm(sc, r):
+    if "goals" not in sc.thesis:
+        return None
+    radius = sc.model.params.wheel_radius
+    idx = [min(np.searchsorted(r.t, t - 1e-9), len(r.t) - 1) for t, _ in sc.thesis["goals"]]
+    return np.round([100 * (goal - r.states[i, 2] * radius) for i, (_, goal) in zip(idx, sc.thesis["goals"])], 2)
+
+
+def summary(sc, r):
+    m = r.metrics
+    return (f"{r.outcome}, pitch error {math.degrees(m['mean_abs_pitch_error']):.3f} deg, speed error "
+            f"{m['mean_abs_speed_error']:.3f} rad/s, peak {m['peak_abs_input']:.2f} A, stops {stop_errors_cm(sc, r)} cm")
+
+
+@pytest.mark.parametrize("name", LQR + FUZZY[:1])
+def test_ideal_realism_is_the_plain_run_bit_for_bit(name):
+    sc = scenarios.get(name)
+    plain, ideal = sc.run(), sc.run(realism=twip.Realism.ideal())
+    assert np.array_equal(plain.states, ideal.states)
+    assert np.array_equal(plain.inputs, ideal.inputs)
+    assert plain.metrics == ideal.metrics
+    for k, v in plain.internals.items():
+        assert np.array_equal(v, ideal.internals[k])
+    assert plain.signals == {} and plain.measurements is None
+    # What the controller read is the truth at its updates, held in between.
+    every = round(sc.controller.period / sc.dt)
+    np.testing.assert_array_equal(ideal.measurements[:-1:every], plain.states[:-1:every])
+
+
+@pytest.mark.parametrize("estimator", ["complementary", "kalman"])
+@pytest.mark.parametrize("name", LQR + FUZZY)
+def test_thesis_like_hardware_keeps_the_robot_up(name, estimator):
+    """5 ms loop applying its command a period late, DLPF 42 Hz, data-sheet noise, biases,
+    700 CPR encoders, PWM through the L298P: every scenario still balances."""
+    sc = scenarios.get(name)
+    realism = twip.Realism.thesis_like().replace(estimator=estimator)
+    r = sc.run(realism=realism)
+    ideal = sc.run()
+    print(f"{name} ideal: {summary(sc, ideal)}\n{name} thesis-like ({estimator}): {summary(sc, r)}")
+    assert r.outcome == "completed"
+    assert np.all(np.abs(r.states[:, 0]) < math.radians(30))
+
+
+@pytest.mark.parametrize("name", LQR + FUZZY)
+def test_a_5_hz_dlpf_makes_them_fall(name):
+    sc = scenarios.get(name)
+    thesis = twip.Realism.thesis_like()
+    r = sc.run(realism=thesis.replace(imu=thesis.imu.replace(dlpf_hz=5)))
+    print(f"{name}, DLPF 5 Hz (19 ms): {r.outcome} at {r.t_fall} s")
+    assert r.fell
+
+
+def test_a_20_ms_loop_drops_the_robot_off_the_slope():
+    sc = scenarios.get("slope-lqr-sim")
+    ok = sc.run(realism=twip.Realism.thesis_like())
+    slow = sc.run(realism=twip.Realism.thesis_like().replace(control_period=0.02))
+    print(f"slope-lqr-sim: 5 ms {ok.outcome}, 20 ms {slow.outcome} at {slow.t_fall} s")
+    assert ok.outcome == "completed" and slow.fell
+
+
+@pytest.mark.parametrize("option", [
+    dict(imu=twip.Imu()), dict(encoder_cpr=700), dict(motor=twip.MotorDriver()), dict(delay=True),
+    dict(control_period=0.01), dict(pushes=[(1.0, 0.02)]), dict(force=twip.Force(0.05)),
+    dict(slope_profile=[(0.05, 0.02)]),
+])
+def test_every_option_changes_the_run(option):
+    sc = scenarios.get("flat-lqr-sim")
+    plain = sc.run(t_final=3.0)
+    r = sc.run(realism=twip.Realism(**option), t_final=3.0)
+    assert r.outcome == "completed"
+    assert not np.array_equal(plain.states, r.states)
+
+
+def test_noise_is_bitwise_repeatable_and_streams_differ():
+    sc = scenarios.get("flat-lqr")
+    base = twip.Realism.thesis_like(seed=7, stream=0)
+    a, b = sc.run(realism=base), sc.run(realism=base)
+    assert np.array_equal(a.states, b.states) and np.array_equal(a.measurements, b.measurements)
+    assert a.metrics == b.metrics
+    for other in (base.replace(stream=1), base.replace(seed=8)):
+        c = sc.run(realism=other)
+        assert not np.array_equal(a.measurements[:, 1], c.measurements[:, 1]), "different noise"
+        assert c.outcome == "completed"
+    # Without noise, biases or quantisation the stream does not matter.
+    quiet = twip.Realism(imu=twip.Imu(gyro_noise=0.0, accel_noise=0.0, quantise=False))
+    assert np.array_equal(sc.run(realism=quiet).states, sc.run(realism=quiet.replace(stream=3)).states)
+
+
+def test_measurements_are_logged_beside_the_truth():
+    sc = scenarios.get("flat-lqr")
+    r = sc.run(realism=twip.Realism.thesis_like(), record_every=5)
+    assert set(r.signals) == {"phi_hat", "phi_dot_hat", "theta_hat", "theta_dot_hat", "drive", "motor_current"}
+    assert r.measurements.shape == r.states.shape
+    # The estimate follows the truth to a fraction of a degree; the duty is whole counts.
+    assert np.max(np.abs(r.measurements[:, 0] - r.states[:, 0])) < math.radians(1.0)
+    assert np.all(r.signals["drive"] == np.round(r.signals["drive"])) and np.max(np.abs(r.signals["drive"])) <= 255
+    # inputs stay the controller's current. The motors' current follows it on average, with
+    # the error of the back-EMF feed-forward from the encoder's speed (a count per period).
+    jitter = {}
+    for cpr in (None, 2797, 700):
+        run = sc.run(realism=twip.Realism.thesis_like().replace(encoder_cpr=cpr))
+        jitter[cpr] = np.mean(np.abs(run.signals["motor_current"] - run.inputs[:, 0]))
+    print("mean |motor current - command| [A] by encoder CPR:", {k: round(v, 3) for k, v in jitter.items()})
+    assert jitter[None] < 0.02 < jitter[2797] < jitter[700]
+
+
+def everything_on(estimator):
+    return twip.Realism.thesis_like(seed=3, stream=5).replace(
+        estimator=estimator,
+        pushes=[twip.Push(0.4, 0.03, 0.1), (1.2, -0.02)],
+        force=twip.Force(horizontal=0.05, vertical=-0.2, height=0.1),
+        slope_profile=[(0.01, math.radians(13)), (0.05, math.radians(16))],
+    )
+
+
+@pytest.mark.parametrize("estimator", ["complementary", "kalman"])
+def test_parity_with_the_reference_every_option_on(balanbot, estimator):
+    """The same run in twip.reference (numpy, the same Philox noise) to 1e-9 relative.
+
+    Kept to 2 s: the quantised sensors and PWM hide differences of an ulp from the
+    controller, so two implementations drift apart at the open-loop rate of the pendulum
+    (about e^(6.7 t)) until a reading rounds differently; by 2 s an ulp has grown to ~1e-10."""
+    sc = scenarios.get("slope-lqr-sim")
+    realism = everything_on(estimator)
+    t_final = 2.0
+    r = sc.run(realism=realism, t_final=t_final)
+    model = ref.SlopeModel(balanbot, sc.model.slope)
+    ctrl = ref.LqrController(model, sc.controller.gains, point=sc.controller.point, period=sc.controller.period)
+    run = rr.simulate(model, ctrl, sc.x0, t_final, sc.dt, ref.SpeedSchedule(sc.reference.legs),
+                      rr.Realism.from_twip(realism, balanbot))
+    assert r.outcome == run.outcome == "completed"
+    assert r.states.shape == run.states.shape
+    scale = np.maximum(np.abs(run.states), 1.0)
+    err = np.max(np.abs(r.states - run.states) / scale)
+    print(f"every option on ({estimator}), {t_final} s: worst relative state difference {err:.2e}")
+    assert err < 1e-9
+    np.testing.assert_allclose(r.inputs[:, 0], run.inputs, rtol=1e-9, atol=1e-12)
+    for i, name in enumerate(["phi_hat", "phi_dot_hat", "theta_hat", "theta_dot_hat", "drive", "motor_current"]):
+        np.testing.assert_allclose(r.signals[name], run.signals[:, i], rtol=1e-9, atol=1e-12, err_msg=name)
+
+
+@pytest.mark.parametrize("make,name", [
+    (lambda: twip.Imu(dlpf_hz=7), "dlpf_hz"),
+    (lambda: twip.Imu(gyro_range_dps=300), "gyro_range"),
+    (lambda: twip.Imu(accel_range_g=3), "accel_range"),
+    (lambda: twip.Imu(gyro_noise=-1.0), "gyro_noise"),
+    (lambda: twip.Imu(accel_noise=math.nan), "accel_noise"),
+    (lambda: twip.Imu(gyro_bias_walk=-1.0), "gyro_bias_walk"),
+    (lambda: twip.Imu(gyro_bias=math.inf), "gyro_bias"),
+    (lambda: twip.Imu(sample_rate=0.0), "sample_rate"),
+    (lambda: twip.Imu(height=math.nan), "height"),
+    (lambda: twip.Dlpf(600.0, 1e-3), "bandwidth"),
+    (lambda: twip.Dlpf(40.0, -1e-3), "delay"),
+    (lambda: twip.TiltEstimator.complementary(0.0), "time_constant"),
+    (lambda: twip.TiltEstimator.kalman(r_angle=-1.0), "r_angle"),
+    (lambda: twip.TiltEstimator.kalman(q_bias=0.0), "q_bias"),
+    (lambda: twip.MotorDriver(battery=0.0), "battery"),
+    (lambda: twip.MotorDriver(bridge_drop=12.0), "bridge_drop"),
+    (lambda: twip.MotorDriver(resistance=-1.0), "resistance"),
+    (lambda: twip.MotorDriver(inductance=-1e-3), "inductance"),
+    (lambda: twip.MotorDriver(efficiency=1.2), "efficiency"),
+    (lambda: twip.MotorDriver(current_limit=0.0), "current_limit"),
+    (lambda: twip.MotorDriver(assumed_battery=-1.0), "assumed_battery"),
+    (lambda: twip.Push(-1.0, 0.1), "push.t"),
+    (lambda: twip.Push(1.0, math.nan), "push.impulse"),
+    (lambda: twip.Force(horizontal=math.inf), "force.horizontal"),
+    (lambda: twip.Realism(encoder_cpr=0.0), "encoder_cpr"),
+    (lambda: twip.Realism(estimator="bogus"), "estimator"),
+    (lambda: twip.Realism(control_period=0.0), "control_period"),
+    (lambda: twip.Realism(pushes=[(1.0, 0.1)] * 9), "pushes"),
+    (lambda: twip.Realism(pushes=["push"]), "pushes"),
+    (lambda: twip.Realism(slope_profile=[(1.0, 0.1), (0.5, 0.1)]), "slope_profile.distance"),
+    (lambda: twip.Realism(slope_profile=[(1.0, 2.0)]), "slope_profile.slope"),
+    (lambda: twip.Realism(seed=-1), "seed"),
+    (lambda: twip.Realism(stream=1.5), "stream"),
+])
+def test_invalid_settings_name_the_parameter(make, name):
+    with pytest.raises(twip.InvalidParameterError, match=name.replace(".", r"\.")):
+        make()
+
+
+def test_invalid_runs_name_the_parameter(balanbot):
+    sc = scenarios.get("flat-lqr")
+    with pytest.raises(twip.InvalidParameterError, match="dt"):
+        sc.run(realism=twip.Realism(imu=twip.Imu()), dt=0.003, control_period=0.006)
+    with pytest.raises(twip.InvalidParameterError, match="control_period"):
+        sc.run(realism=twip.Realism(control_period=0.0025))
+    with pytest.raises(twip.InvalidParameterError, match="realism"):
+        twip.simulate(twip.PlanarModel(balanbot), None, np.zeros(7), 1.0, reference=None, realism=twip.Realism())
+    with pytest.raises(TypeError):
+        sc.run(realism="thesis")
+
+
+def test_settings_round_trip():
+    r = twip.Realism.thesis_like(seed=2, stream=9)
+    assert r.replace().to_dict().keys() == r.to_dict().keys()
+    assert r.replace(delay=False).delay is False and r.replace(delay=False).seed == 2
+    assert r.imu.dlpf_hz == 42 and r.imu.dlpf_cfg == 3 and r.imu.gyro_range_dps == 250
+    assert r.motor.current_limit == 2.0 and twip.MotorDriver().current_limit is None
+    assert twip.Realism().is_ideal and not r.is_ideal
+    assert "Realism(" in repr(r) and "TiltEstimator.complementary" in repr(r.estimator)
+    assert len(twip.Dlpf.table()) == 7
