@@ -255,7 +255,7 @@ fn block(
     let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| models[l].unwrap_or(fallback));
     let plants = Plants::new(&core::array::from_fn(|l| models[l].coefficients()));
     let mut x: [Lanes; 4] = core::array::from_fn(|i| {
-        core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { fallback_x0(i) })
+        core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 })
     });
     let gains = controller.gains();
     let period = controller.period();
@@ -368,6 +368,3 @@ fn block(
     Ok(Some(out))
 }
 
-fn fallback_x0(_: usize) -> f64 {
-    0.0
-}
