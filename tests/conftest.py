@@ -17,3 +17,17 @@ def random_params(rng: np.random.Generator, frictionless: bool = False) -> "twip
     if frictionless:
         changes.update(mu_bearing=0.0, mu_ground=0.0)
     return twip.RobotParams.balanbot().replace(**changes)
+
+
+def frictionless(p):
+    return p.replace(mu_bearing=0.0, mu_ground=0.0)
+
+
+def run(model, x0, u, dt, n, step=twip.rk4_step):
+    """The trajectory of n steps of `step` from x0 with the input held (n + 1 rows)."""
+    x = np.array(x0, dtype=float)
+    traj = [x]
+    for _ in range(n):
+        x = step(model, x, u, dt)
+        traj.append(x)
+    return np.array(traj)

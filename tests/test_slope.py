@@ -6,20 +6,7 @@ import pytest
 
 import twip
 import twip.reference as ref
-from conftest import random_params
-
-
-def frictionless(p):
-    return p.replace(mu_bearing=0.0, mu_ground=0.0)
-
-
-def run(model, x0, u, dt, n, step=twip.rk4_step):
-    x = np.array(x0, dtype=float)
-    traj = [x]
-    for _ in range(n):
-        x = step(model, x, u, dt)
-        traj.append(x)
-    return np.array(traj)
+from conftest import frictionless, random_params, run
 
 
 def max_energy_drift(model, x0, dt, t_final):
