@@ -2,6 +2,7 @@
 use pyo3::prelude::*;
 
 mod convert;
+mod dispatch;
 mod errors;
 mod fuzzy;
 mod linalg;

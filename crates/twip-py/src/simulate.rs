@@ -11,7 +11,6 @@ use twip_core::realism::{simulate_rig, RIG_SIGNALS};
 use twip_core::reference::{SpeedRef, SpeedSchedule};
 use twip_core::runner::{simulate_with, Ideal, Loop, Outcome, SimConfig};
 use twip_core::TwipError;
-use nalgebra::SVector;
 
 use crate::convert::vector;
 use crate::errors::{CoreResult, PyTwipError};
@@ -59,45 +58,7 @@ impl SlopeController {
     }
 }
 
-impl Controller<f64, 4, 1> for SlopeController {
-    type Reference = SpeedRef<f64>;
-
-    fn period(&self) -> f64 {
-        match self {
-            Self::Lqr(c) => c.period(),
-            Self::Fuzzy(c) => c.period(),
-        }
-    }
-
-    fn reset(&mut self) {
-        match self {
-            Self::Lqr(c) => c.reset(),
-            Self::Fuzzy(c) => c.reset(),
-        }
-    }
-
-    #[inline]
-    fn update(&mut self, t: f64, y: &SVector<f64, 4>, r: &SpeedRef<f64>) -> SVector<f64, 1> {
-        match self {
-            Self::Lqr(c) => c.update(t, y, r),
-            Self::Fuzzy(c) => c.update(t, y, r),
-        }
-    }
-
-    fn internals(&self) -> &[f64] {
-        match self {
-            Self::Lqr(c) => c.internals(),
-            Self::Fuzzy(c) => c.internals(),
-        }
-    }
-
-    fn internal_names(&self) -> &'static [&'static str] {
-        match self {
-            Self::Lqr(c) => c.internal_names(),
-            Self::Fuzzy(c) => c.internal_names(),
-        }
-    }
-}
+crate::dispatch::controller_enum!(SlopeController, 4, 1, SpeedRef<f64>; Lqr, Fuzzy);
 
 /// Runs the closed loop; returns a dict that `twip.simulate` wraps into a SimResult.
 /// With `realism` (a `twip.Realism`) the loop runs through `simulate_rig` and the log

@@ -1,6 +1,5 @@
 //! Trajectory tracking on the 3-DOF model: `twip.Circle`, `Line`, `FigureEight`,
 //! `Waypoints`, `DcMotor`, `PidTracker`, `SmcTracker` and the planar runner.
-use nalgebra::SVector;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -799,45 +798,7 @@ impl PlanarController {
     }
 }
 
-impl Controller<f64, 7, 2> for PlanarController {
-    type Reference = PlanarRef<f64>;
-
-    fn period(&self) -> f64 {
-        match self {
-            Self::Pid(c) => c.period(),
-            Self::Smc(c) => c.period(),
-        }
-    }
-
-    fn reset(&mut self) {
-        match self {
-            Self::Pid(c) => c.reset(),
-            Self::Smc(c) => c.reset(),
-        }
-    }
-
-    #[inline]
-    fn update(&mut self, t: f64, y: &SVector<f64, 7>, r: &PlanarRef<f64>) -> SVector<f64, 2> {
-        match self {
-            Self::Pid(c) => c.update(t, y, r),
-            Self::Smc(c) => c.update(t, y, r),
-        }
-    }
-
-    fn internals(&self) -> &[f64] {
-        match self {
-            Self::Pid(c) => c.internals(),
-            Self::Smc(c) => c.internals(),
-        }
-    }
-
-    fn internal_names(&self) -> &'static [&'static str] {
-        match self {
-            Self::Pid(c) => c.internal_names(),
-            Self::Smc(c) => c.internal_names(),
-        }
-    }
-}
+crate::dispatch::controller_enum!(PlanarController, 7, 2, PlanarRef<f64>; Pid, Smc);
 
 /// Runs a tracker on the 3-DOF model; returns a dict that `twip.simulate` wraps into a
 /// SimResult. `settle` [s] starts the "_settled" metrics (default: one lap of a circle or
