@@ -1,13 +1,17 @@
-//! sin/cos as a polynomial: faster than libm's call and identical, bit for bit, to the
-//! lane version that sweeps vectorise (`sweep::lanes::sin_cos`), so that a sweep sample
-//! and a single `simulate` of the same robot give the same numbers.
+//! sin/cos as a polynomial: faster than libm's call, and the same polynomial as the
+//! lane version that sweeps vectorise (`sweep::lanes::sin_cos`, which fuses its
+//! multiply-adds; this one does not, so that it needs no FMA unit or libm call).
 //!
 //! Cody–Waite reduction by π/2 (rounding to nearest even, as the lane version does),
 //! then Taylor polynomials on |r| ≤ π/4. Accurate to a few ulp in f64 for |x| < 1e5.
 use crate::{c, Real};
 
+// π/2 split in three parts (Cody–Waite), written to more digits than f64 holds.
+#[allow(clippy::excessive_precision)]
 pub(crate) const PIO2_1: f64 = 1.570_796_326_734_125_614_17;
+#[allow(clippy::excessive_precision)]
 pub(crate) const PIO2_2: f64 = 6.077_100_506_303_965_976_6e-11;
+#[allow(clippy::excessive_precision)]
 pub(crate) const PIO2_3: f64 = 2.022_266_248_795_950_732_4e-21;
 
 /// sin coefficients r^3 … r^15, cos coefficients r^2 … r^16 (Taylor).

@@ -42,7 +42,7 @@ impl<T: Real> SimConfig<T> {
         if !(self.t_final.is_finite() && self.t_final > T::zero()) {
             return bad("t_final", self.t_final, "must be finite and > 0");
         }
-        if !(self.fall_limit > T::zero()) {
+        if self.fall_limit.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
             return bad("fall_limit", self.fall_limit, "must be > 0");
         }
         if !(control_period.is_finite() && control_period > T::zero()) {

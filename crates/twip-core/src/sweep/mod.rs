@@ -257,10 +257,11 @@ mod tests {
         ]
     }
 
-    /// The lane kernel and the general runner agree bit for bit, fallen and invalid
-    /// samples included, and a block does not depend on its neighbours.
+    /// The lane kernel agrees with the general runner to rounding (it fuses
+    /// multiply-adds), fallen and invalid samples included, and a block does not depend
+    /// on its neighbours: a sample replayed alone gives the same bits.
     #[test]
-    fn lane_kernel_equals_the_general_runner() {
+    fn lane_kernel_agrees_with_the_general_runner() {
         let (ctrl, schedule, config, nominal) = setup(0.2);
         let spread = spread();
         let never = || false;
@@ -269,7 +270,18 @@ mod tests {
         for (i, got) in block.iter().enumerate() {
             let sample = draw(&nominal, &spread, 9, i as u64);
             let expected = run_slope_sample(&ctrl, &schedule, &config, &sample, &never).unwrap();
-            assert_eq!(format!("{got:?}"), format!("{expected:?}"), "sample {i}");
+            assert_eq!((got.valid, got.fell, got.steps), (expected.valid, expected.fell, expected.steps), "sample {i}");
+            let pairs = [
+                (got.t_end, expected.t_end),
+                (got.mean_abs_pitch_error, expected.mean_abs_pitch_error),
+                (got.mean_abs_speed_error, expected.mean_abs_speed_error),
+                (got.final_position_error, expected.final_position_error),
+                (got.peak_abs_input, expected.peak_abs_input),
+            ];
+            for (a, b) in pairs {
+                let close = (a - b).abs() <= 1e-9 * b.abs().max(1e-6) || (a.is_nan() && b.is_nan());
+                assert!(close, "sample {i}: lanes {a:e} vs runner {b:e}");
+            }
             fell += got.fell as usize;
             invalid += !got.valid as usize;
             let alone = run_lqr_samples(&ctrl, &schedule, &config, &nominal, &spread, 9, i as u64..i as u64 + 1, &never)
