@@ -185,3 +185,124 @@ def test_dask_local_cluster_gives_the_local_result():
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         remote = sweep(n=96, client=client, shard_size=24)
     same(remote, sweep(n=96))
+
+
+# --- realism in sweeps ------------------------------------------------------------------
+# Sweeps with `realism=`: the real robot's sensors, motor driver and delay in every run.
+
+RIG_PERTURB = {"m_body": twip.Uniform(rel=0.2), "slope": twip.Uniform(low=0.0, high=0.3), "phi0": twip.Normal(std=0.02)}
+
+
+def rig_sweep(n=48, realism=None, **kw):
+    kw.setdefault("perturb", RIG_PERTURB)
+    kw.setdefault("options", SHORT)
+    kw.setdefault("seed", 3)
+    realism = twip.Realism.thesis_like() if realism is None else realism
+    return twip.montecarlo("flat-lqr-sim", n, progress=False, realism=realism, **kw)
+
+
+def test_realism_sweep_is_the_same_on_one_and_two_threads():
+    one, two = rig_sweep(threads=1), rig_sweep(threads=2)
+    same(one, two)
+    assert one.kernel == "realism"
+    # The rig matters: some of these robots fall with it, none in the ideal loop.
+    ideal = sweep(n=48, perturb=RIG_PERTURB, seed=3)
+    assert 0 < one.metrics["fell"].sum() < 48 and not ideal.metrics["fell"].any()
+
+
+def test_realism_sample_17_replayed_alone_is_bitwise_the_same():
+    r = rig_sweep()
+    alone = r.replay(17)
+    assert alone.signals, "the replay ran with the realism"
+    for name in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error", "peak_abs_input",
+                 "pitch_settling_time", "speed_settling_time"):
+        assert alone.metrics[name] == r.metrics[name][17], name
+    assert alone.fell == bool(r.metrics["fell"][17])
+    # The noise is the sample's own stream: another stream gives another run.
+    other = r.replay(17, realism=r.realism.replace(seed=twip._core.sweep_noise_seed(r.seed), stream=18))
+    assert other.metrics["mean_abs_pitch_error"] != r.metrics["mean_abs_pitch_error"][17]
+
+
+def test_realism_noise_follows_the_sweep_seed_not_the_realism_seed():
+    a = rig_sweep(n=8, perturb={}, seed=3)
+    same(a, rig_sweep(n=8, perturb={}, seed=3, realism=twip.Realism.thesis_like(seed=99, stream=5)))
+    b = rig_sweep(n=8, perturb={}, seed=4)
+    # The same nominal robot in every sample: only the noise differs.
+    assert len(set(a.metrics["mean_abs_pitch_error"])) == 8
+    assert not np.any(a.metrics["mean_abs_pitch_error"] == b.metrics["mean_abs_pitch_error"])
+
+
+def test_realism_checkpoint_resume_equals_the_uninterrupted_sweep(tmp_path, monkeypatch):
+    import twip.sweep as tsweep
+
+    run, calls = tsweep._run, []
+
+    def stop_at_shard_16(*args, **kw):
+        calls.append(args[2])
+        if calls == [0, 16]:
+            raise KeyboardInterrupt  # as Ctrl-C during the second shard
+        return run(*args, **kw)
+
+    monkeypatch.setattr(tsweep, "_run", stop_at_shard_16)
+    with pytest.raises(KeyboardInterrupt):
+        rig_sweep(checkpoint=tmp_path, shard_size=16)
+    assert len(list(tmp_path.glob("shard-*.npz"))) == 1
+    calls.clear()
+    resumed = rig_sweep(checkpoint=tmp_path, shard_size=16)
+    assert calls == [16, 32], "the finished shard is loaded, not run again"
+    monkeypatch.setattr(tsweep, "_run", run)
+    same(resumed, rig_sweep())
+    resumed.replay(40)  # the resumed result keeps its realism
+
+
+def test_a_dask_worker_rebuilds_the_realism_from_the_config():
+    import twip.sweep as tsweep
+
+    realism = twip.Realism.thesis_like().replace(
+        estimator=twip.TiltEstimator.kalman(), pushes=[(1.0, 0.3)], force=twip.Force(horizontal=0.5),
+        slope_profile=[(0.2, 0.05)], motor=twip.MotorDriver.thesis_like().replace(current_limit=1.5))
+    r = rig_sweep(n=16, realism=realism)
+    raw = tsweep._run_shard_by_name(json.loads(json.dumps(r.config)), 4, 8, 1)
+    assert raw["kernel"] == "realism"
+    for name in ("fell", "mean_abs_pitch_error", "peak_abs_input", "t_end"):
+        np.testing.assert_array_equal(raw[name], r.metrics[name][4:12], err_msg=name)
+
+
+def test_realism_is_part_of_the_checkpoint_fingerprint(tmp_path):
+    rig_sweep(n=16, checkpoint=tmp_path, shard_size=8)
+    for changed in (twip.Realism.thesis_like().replace(delay=False),
+                    twip.Realism.thesis_like().replace(motor=twip.MotorDriver.thesis_like().replace(battery=9.0))):
+        with pytest.raises(twip.InvalidParameterError, match="different configuration.*realism"):
+            rig_sweep(n=16, checkpoint=tmp_path, shard_size=8, realism=changed)
+    with pytest.raises(twip.InvalidParameterError, match="different configuration.*realism"):
+        sweep(n=16, checkpoint=tmp_path, shard_size=8, perturb=RIG_PERTURB, seed=3)
+    # The realism's seed is not the sweep's noise key, so it does not change the sweep.
+    rig_sweep(n=16, checkpoint=tmp_path, shard_size=8, realism=twip.Realism.thesis_like(seed=42))
+
+
+@pytest.mark.parametrize("motor", [twip.MotorDriver(battery=2.0), twip.MotorDriver(current_limit=0.3)],
+                         ids=["low-battery", "current-limit"])
+def test_a_motor_driver_too_weak_for_the_slope_makes_every_robot_fall(motor):
+    kw = dict(progress=False, seed=1, options={"t_final": 3.0}, perturb={"m_body": twip.Uniform(rel=0.1)})
+    weak = twip.montecarlo("slope-lqr-sim", 16, realism=twip.Realism(motor=motor), **kw)
+    assert weak.fall_rate == 1.0 and weak.valid.all() and np.all(weak.metrics["t_end"] < 1.5)
+    assert twip.montecarlo("slope-lqr-sim", 16, realism=twip.Realism.thesis_like(), **kw).fall_rate == 0.0
+
+
+@pytest.mark.parametrize(
+    "realism,message",
+    [
+        ("thesis", "realism = 'thesis': must be a twip.Realism"),
+        (twip.Imu(), "realism = Imu.*must be a twip.Realism"),
+        (twip.Realism(imu=twip.Imu(sample_rate=300.0)), "dt = 0.001: must divide the IMU's sample period"),
+        (twip.Realism(control_period=0.0025), "control_period = 0.0025: must be a whole multiple of dt"),
+    ],
+)
+def test_bad_realism_is_refused_with_a_clear_error(realism, message):
+    with pytest.raises(twip.InvalidParameterError, match=message):
+        rig_sweep(n=4, realism=realism)
+
+
+def test_realism_is_refused_for_tracking_scenarios():
+    with pytest.raises(twip.InvalidParameterError, match="realism: 'circle-pid' is a 3-DOF"):
+        twip.montecarlo("circle-pid", 4, progress=False, realism=twip.Realism.thesis_like())

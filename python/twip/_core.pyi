@@ -49,6 +49,7 @@ __all__ = [
     "simulate_planar_raw",
     "simulate_raw",
     "sweep_draw",
+    "sweep_noise_seed",
     "sweep_raw",
 ]
 
@@ -431,6 +432,7 @@ def simulate_planar_raw(model: PlanarModel, controller: Any, x0: _ArrayLike, t_f
 def sweep_raw(model: SlopeModel, controller: Any, x0: _ArrayLike, t_final: float, dt: float, reference: SpeedSchedule,
               perturbations: Sequence[Tuple[str, int, str, float, float, float, float]], seed: int, start: int,
               count: int, control_period: Optional[float] = None, fall_limit: Optional[float] = None, threads: int = 0,
-              progress: Optional[Callable[[int], Any]] = None) -> dict[str, Any]: ...
+              progress: Optional[Callable[[int], Any]] = None, realism: Optional[Realism] = None) -> dict[str, Any]: ...
+def sweep_noise_seed(seed: int) -> int: ...
 def sweep_draw(model: SlopeModel, x0: _ArrayLike, perturbations: Sequence[Tuple[str, int, str, float, float, float, float]],
                seed: int, index: int) -> Tuple[dict[str, float], float, _F64]: ...

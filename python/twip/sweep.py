@@ -5,6 +5,11 @@ it on a perturbed plant (RobotParams fields, slope, initial state). Sample i dra
 its own counter-based random stream, so a sweep gives the same numbers, bit for bit, on
 any number of threads, in shards, resumed after a crash, on a Dask cluster, and when a
 sample is replayed alone (`SweepResult.replay(i)`).
+
+With `realism=` (a `twip.Realism`) every sample runs with the robot's real parts in the
+loop. Sample i's sensor noise is the Philox stream (sweep_noise_seed(seed), i): the
+realism's own seed and stream are ignored, so a sample depends on (seed, i) alone and
+another sweep seed gives other noise as well as other robots.
 """
 from __future__ import annotations
 
@@ -158,6 +163,7 @@ class SweepResult:
     elapsed: float = 0.0
     kernel: str = ""
     _scenario: object = field(default=None, repr=False)
+    _realism: object = field(default=None, repr=False)
 
     @property
     def n(self) -> int:
@@ -166,6 +172,11 @@ class SweepResult:
     @property
     def seed(self) -> int:
         return self.config["seed"]
+
+    @property
+    def realism(self):
+        """The `twip.Realism` the samples ran with (None: the ideal loop)."""
+        return self._realism
 
     @property
     def valid(self) -> np.ndarray:
@@ -212,12 +223,16 @@ class SweepResult:
         return _core.RobotParams.from_dict(params), slope, x0
 
     def replay(self, index: int, **simulate_options):
-        """Runs sample `index` alone with the full runner (its trajectory included)."""
+        """Runs sample `index` alone with the full runner (its trajectory included), with
+        the sweep's realism and the sample's own noise stream."""
         from twip.sim import simulate
 
         sc = self._scenario
         params, slope, x0 = self.sample(index)
         model = _core.SlopeModel(params, slope)
+        if self._realism is not None:
+            noise = self._realism.replace(seed=_core.sweep_noise_seed(self.seed), stream=int(index))
+            simulate_options = {"realism": noise, **simulate_options}
         return simulate(model, sc.controller, x0, sc.t_final, sc.dt, reference=sc.reference,
                         control_period=sc.control_period, **simulate_options)
 
@@ -246,7 +261,45 @@ def _scenario_of(scenario, params, options):
     return scenario
 
 
-def _config(sc, scenario, n, seed, perturbations, options, perturb_keys):
+def _realism_config(r) -> dict:
+    """A Realism as plain JSON values (for the checkpoint fingerprint and Dask workers),
+    without seed and stream, which a sweep replaces."""
+    d = r.to_dict()
+    est = d["estimator"]
+    return {
+        "imu": None if d["imu"] is None else {k: list(v) if isinstance(v, tuple) else v
+                                              for k, v in d["imu"].to_dict().items()},
+        "estimator": {"kind": est.kind, **est.parameters},
+        "encoder_cpr": d["encoder_cpr"],
+        "motor": None if d["motor"] is None else d["motor"].to_dict(),
+        "delay": d["delay"],
+        "control_period": d["control_period"],
+        "pushes": [[p.t, p.impulse, p.height] for p in d["pushes"]],
+        "force": None if d["force"] is None else [d["force"].horizontal, d["force"].vertical, d["force"].height],
+        "slope_profile": [list(c) for c in d["slope_profile"]],
+    }
+
+
+def _realism_from_config(c: dict):
+    """The Realism `_realism_config` describes (seed and stream 0)."""
+    est = dict(c["estimator"])
+    kind = est.pop("kind")
+    return _core.Realism(
+        imu=None if c["imu"] is None else _core.Imu(**{k: tuple(v) if isinstance(v, list) else v
+                                                       for k, v in c["imu"].items()}),
+        estimator=getattr(_core.TiltEstimator, kind)(**est),
+        encoder_cpr=c["encoder_cpr"],
+        motor=None if c["motor"] is None else _core.MotorDriver(**c["motor"]),
+        delay=c["delay"],
+        control_period=c["control_period"],
+        pushes=[_core.Push(*p) for p in c["pushes"]],
+        force=None if c["force"] is None else _core.Force(*c["force"]),
+        slope_profile=[tuple(p) for p in c["slope_profile"]],
+    )
+
+
+def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism=None):
+    extra = {} if realism is None else {"realism": _realism_config(realism)}
     return {
         "scenario": sc.name,
         "by_name": isinstance(scenario, str),
@@ -262,24 +315,26 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys):
         "seed": int(seed),
         "n": int(n),
         "twip": _core.__version__,
+        **extra,
     }
 
 
-def _run(sc, config, start, count, threads, progress):
+def _run(sc, config, start, count, threads, progress, realism=None):
     return _core.sweep_raw(
         sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
         [tuple(p) for p in config["perturbations"]], config["seed"], start, count,
-        control_period=sc.control_period, threads=threads, progress=progress,
+        control_period=sc.control_period, threads=threads, progress=progress, realism=realism,
     )
 
 
 def _run_shard_by_name(config, start, count, threads):
-    """A Dask task: rebuilds the scenario by name on the worker and runs one shard."""
+    """A Dask task: rebuilds the scenario (and realism) on the worker and runs one shard."""
     from twip import scenarios
 
     params = _core.RobotParams.from_dict(config["params"])
     sc = scenarios.get(config["scenario"], params=params, **config["options"])
-    raw = _run(sc, config, start, count, threads, None)
+    realism = _realism_from_config(config["realism"]) if "realism" in config else None
+    raw = _run(sc, config, start, count, threads, None, realism)
     return {k: (np.asarray(v) if not isinstance(v, (str, bool)) else v) for k, v in raw.items()}
 
 
@@ -319,6 +374,7 @@ def montecarlo(
     shard_size: Optional[int] = None,
     params=None,
     options: Optional[Mapping] = None,
+    realism=None,
 ) -> SweepResult:
     """Runs `n` samples of `scenario` (a name from `twip.scenarios.names()`, or a Scenario).
 
@@ -327,6 +383,9 @@ def montecarlo(
     threads: worker threads (default: all cores). checkpoint: a folder; the sweep is
     written there in shards and a re-run with the same arguments resumes. client: a
     dask.distributed.Client; shards run as Dask tasks (needs a scenario name).
+    realism: a `twip.Realism` (2-DOF scenarios): sensors, estimator, motor driver, loop
+    period and delay, disturbances in every run. Sample i's noise is stream i of a key
+    made from `seed`; the realism's own seed and stream are ignored.
     Ctrl-C stops within a fraction of a second: finished shards stay in the checkpoint,
     and the KeyboardInterrupt carries `.partial`, a SweepResult of what finished.
     """
@@ -338,14 +397,19 @@ def montecarlo(
         raise _bad(f"threads = {threads!r}: must be a positive integer or None (all cores)")
     if client is not None and not isinstance(scenario, str):
         raise _bad("client= (Dask) needs a scenario name, so that workers can rebuild it")
+    if realism is not None and not isinstance(realism, _core.Realism):
+        raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
     sc = _scenario_of(scenario, params, options)
+    if realism is not None and not isinstance(sc.model, _core.SlopeModel):
+        raise _bad(f"realism: '{sc.name}' is a 3-DOF tracking scenario, which has no realism "
+                   "(only the 2-DOF SlopeModel scenarios take realism=)")
     if not isinstance(sc.model, _core.SlopeModel):
         raise _bad(
             f"montecarlo runs the 2-DOF scenarios (LQR, fuzzy); '{sc.name}' is a 3-DOF tracking scenario, "
             "which the sweep engine does not run yet (twip sweep runs it sample by sample)"
         )
     perturbations = _resolve(perturb or {}, sc)
-    config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys())
+    config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism)
     shard = int(shard_size or (DEFAULT_SHARD if (checkpoint or client) else n))
     if shard <= 0:
         raise _bad(f"shard_size = {shard_size!r}: must be a positive integer")
@@ -375,7 +439,7 @@ def montecarlo(
                 bar.update_to(0)
         else:
             for s, c in todo:
-                raw = _run(sc, config, s, c, threads or 0, bar.update_to if progress else None)
+                raw = _run(sc, config, s, c, threads or 0, bar.update_to if progress else None, realism)
                 kernel = raw["kernel"]
                 if raw["interrupted"]:
                     parts[s] = raw
@@ -385,14 +449,14 @@ def montecarlo(
                     store.save(s, raw)
                 bar.base += c
     except KeyboardInterrupt as stop:
-        stop.partial = _assemble(parts, config, time.perf_counter() - started, kernel, sc, complete=False)
+        stop.partial = _assemble(parts, config, time.perf_counter() - started, kernel, sc, complete=False, realism=realism)
         raise
     finally:
         bar.close()
-    return _assemble(parts, config, time.perf_counter() - started, kernel, sc, complete=True)
+    return _assemble(parts, config, time.perf_counter() - started, kernel, sc, complete=True, realism=realism)
 
 
-def _assemble(parts, config, elapsed, kernel, sc, complete):
+def _assemble(parts, config, elapsed, kernel, sc, complete, realism=None):
     keys = sorted(parts)
     cat = lambda name: np.concatenate([np.asarray(parts[k][name]) for k in keys]) if keys else np.array([])
     done = cat("done").astype(bool) if keys else np.zeros(0, bool)
@@ -404,7 +468,8 @@ def _assemble(parts, config, elapsed, kernel, sc, complete):
     if not complete:
         metrics = {k: v[done] for k, v in metrics.items()}
     steps = int(np.sum(cat("steps"))) if keys else 0
-    return SweepResult(metrics=metrics, steps=steps, config=config, elapsed=elapsed, kernel=kernel, _scenario=sc)
+    return SweepResult(metrics=metrics, steps=steps, config=config, elapsed=elapsed, kernel=kernel, _scenario=sc,
+                       _realism=realism)
 
 
 class _Checkpoint:
@@ -420,7 +485,8 @@ class _Checkpoint:
         if path.exists():
             old = json.loads(path.read_text())
             if old.get("fingerprint") != self.fingerprint:
-                diff = [k for k in config if old.get("manifest", {}).get("config", {}).get(k) != config[k]]
+                before = old.get("manifest", {}).get("config", {})
+                diff = [k for k in {**before, **config} if before.get(k) != config.get(k)]
                 if old.get("manifest", {}).get("shard_size") != shard:
                     diff.append("shard_size")
                 raise _bad(

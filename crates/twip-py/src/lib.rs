@@ -36,6 +36,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     realism::register(m)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_raw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_draw, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::sweep_noise_seed, m)?)?;
     m.add_class::<tracking::PyCircle>()?;
     m.add_class::<tracking::PyLine>()?;
     m.add_class::<tracking::PyFigureEight>()?;

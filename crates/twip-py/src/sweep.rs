@@ -1,7 +1,8 @@
 //! `twip._core.sweep_raw`: samples [start, start + count) of a Monte Carlo sweep on all
 //! cores with the GIL released. The calling thread watches: every 25 ms it takes the
 //! GIL back for a moment to report progress and to notice Ctrl-C, which stops the
-//! workers before their next block (or within 4096 steps of a sample).
+//! workers before their next block (or within 4096 steps of a sample). With a realism
+//! every sample runs through the rig (`sweep::rig`), noise stream = sample index.
 use std::thread;
 use std::time::Duration;
 
@@ -13,6 +14,7 @@ use twip_core::params::FIELD_NAMES;
 use twip_core::runner::SimConfig;
 use twip_core::sweep::lanes::LANES;
 use twip_core::sweep::parallel::{self, Progress};
+use twip_core::sweep::rig::{for_sweep, noise_seed, run_rig_sample};
 use twip_core::sweep::{
     draw, run_lqr_samples, run_slope_sample, Nominal, Perturbation, SampleMetrics, Sample, Spread, Target,
 };
@@ -21,6 +23,7 @@ use twip_core::TwipError;
 use crate::convert::vector;
 use crate::errors::PyTwipError;
 use crate::models::PySlopeModel;
+use crate::realism::PyRealism;
 use crate::schedule::PySpeedSchedule;
 use crate::simulate::SlopeController;
 
@@ -75,10 +78,19 @@ pub fn sweep_draw<'py>(
     Ok((params, s.slope, crate::convert::to_py_vector(py, &s.x0)))
 }
 
-/// Runs samples `start..start + count`; returns their metrics as arrays.
+/// The sensor-noise key of a sweep with `seed` (sample i replays with
+/// `realism.replace(seed=sweep_noise_seed(seed), stream=i)`).
+#[pyfunction]
+pub fn sweep_noise_seed(seed: u64) -> u64 {
+    noise_seed(seed)
+}
+
+/// Runs samples `start..start + count`; returns their metrics as arrays. With `realism`
+/// (a `twip.Realism`) each runs through the rig; its seed and stream are replaced by the
+/// sweep's (see `sweep_noise_seed`).
 #[pyfunction]
 #[pyo3(signature = (model, controller, x0, t_final, dt, reference, perturbations, seed, start, count,
-                    control_period = None, fall_limit = None, threads = 0, progress = None))]
+                    control_period = None, fall_limit = None, threads = 0, progress = None, realism = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn sweep_raw<'py>(
     py: Python<'py>,
@@ -96,29 +108,52 @@ pub fn sweep_raw<'py>(
     fall_limit: Option<f64>,
     threads: usize,
     progress: Option<Py<PyAny>>,
+    realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let nominal = Nominal { params: *model.inner.params(), slope: model.inner.slope(), x0: vector::<4>("x0", x0)? };
     let mut ctrl = SlopeController::extract(controller)?;
-    if let Some(p) = control_period {
+    let realism = realism.cloned();
+    let nominal_realism = realism.as_ref().map(|r| r.to_core(&nominal.params)).transpose().map_err(PyTwipError)?;
+    // As in simulate: an explicit control_period wins over the realism's loop period.
+    if let Some(p) = control_period.or(nominal_realism.and_then(|r| r.control_period)) {
         ctrl = ctrl.with_period(p)?;
     }
     ctrl.check_reference(&reference.inner)?;
     let perts = perturbations.iter().map(perturbation).collect::<PyResult<Vec<_>>>()?;
     let config = SimConfig { dt, t_final, fall_limit: fall_limit.unwrap_or(60f64.to_radians()) };
     config.steps(ctrl.period()).map_err(PyTwipError)?;
+    // A rig no robot could have (e.g. dt against the IMU's period) is an error now, not
+    // n invalid samples.
+    if let Some(r) = &nominal_realism {
+        r.build(&model.inner, config.dt).map_err(PyTwipError)?;
+    }
     let schedule = reference.inner;
     let watch = Progress::default();
     let mut interrupt: Option<PyErr> = None;
-    let kernel = if matches!(ctrl, SlopeController::Lqr(_)) { "lanes" } else { "general" };
+    let kernel = match (&realism, ctrl) {
+        (Some(_), _) => "realism",
+        (None, SlopeController::Lqr(_)) => "lanes",
+        (None, _) => "general",
+    };
 
     let results: Result<Vec<Option<SampleMetrics>>, TwipError> = py.detach(|| {
         thread::scope(|scope| {
             let worker = scope.spawn(|| {
-                parallel::run(start..start + count, LANES, threads, &watch, |range, stop| match ctrl {
-                    SlopeController::Lqr(c) => {
+                parallel::run(start..start + count, LANES, threads, &watch, |range, stop| match (&realism, ctrl) {
+                    // Push and force heights default to each sample's own centre of mass.
+                    (Some(r), c) => range
+                        .map(|i| {
+                            let sample = draw(&nominal, &perts, seed, i);
+                            match r.to_core(&sample.params) {
+                                Ok(core) => run_rig_sample(&c, &schedule, &config, &sample, &for_sweep(&core, seed), stop),
+                                Err(_) => Some(SampleMetrics::INVALID),
+                            }
+                        })
+                        .collect(),
+                    (None, SlopeController::Lqr(c)) => {
                         run_lqr_samples(&c, &schedule, &config, &nominal, &perts, seed, range, stop).ok().flatten()
                     }
-                    other => range
+                    (None, other) => range
                         .map(|i| run_slope_sample(&other, &schedule, &config, &draw(&nominal, &perts, seed, i), stop))
                         .collect(),
                 })

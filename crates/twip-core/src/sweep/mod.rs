@@ -9,7 +9,7 @@ extern crate alloc;
 use nalgebra::Vector4;
 
 use crate::control::Controller;
-use crate::metrics::SlopeMetrics;
+use crate::metrics::{SlopeMetrics, SlopeSummary};
 use crate::params::RobotParams;
 use crate::reference::{SpeedRef, SpeedSchedule};
 use crate::rng::Philox;
@@ -21,6 +21,7 @@ pub mod lanes;
 pub mod lqr_block;
 #[cfg(feature = "parallel")]
 pub mod parallel;
+pub mod rig;
 
 /// What a perturbation changes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -153,6 +154,22 @@ impl SampleMetrics {
         peak_abs_input: f64::NAN,
         steps: 0,
     };
+
+    /// A valid sample's metrics from its run's summary and how the run ended.
+    pub fn from_summary(s: &SlopeSummary<f64>, fell: bool, t_end: f64, steps: u64) -> Self {
+        Self {
+            valid: true,
+            fell,
+            t_end,
+            mean_abs_pitch_error: s.mean_abs_pitch_error,
+            mean_abs_speed_error: s.mean_abs_speed_error,
+            pitch_settling_time: s.pitch_settling_time,
+            speed_settling_time: s.speed_settling_time,
+            final_position_error: s.final_position_error,
+            peak_abs_input: s.peak_abs_input,
+            steps,
+        }
+    }
 }
 
 /// Runs one sample with any 2-DOF controller (the general path; LQR has a faster one in
@@ -184,26 +201,13 @@ where
     let Ok((outcome, steps)) = simulate_with(&plant, &mut controller, reference, &sample.x0, config, parts) else {
         return Some(SampleMetrics::INVALID);
     };
-    let s = metrics.summary();
     let (fell, t_end) = match outcome {
         Outcome::Completed => (false, config.dt * steps as f64),
         Outcome::Fell { t } | Outcome::Diverged { t } => (true, t),
         Outcome::Interrupted { .. } => return None,
     };
-    Some(SampleMetrics {
-        valid: true,
-        fell,
-        t_end,
-        mean_abs_pitch_error: s.mean_abs_pitch_error,
-        mean_abs_speed_error: s.mean_abs_speed_error,
-        pitch_settling_time: s.pitch_settling_time,
-        speed_settling_time: s.speed_settling_time,
-        final_position_error: s.final_position_error,
-        peak_abs_input: s.peak_abs_input,
-        steps: steps as u64,
-    })
+    Some(SampleMetrics::from_summary(&metrics.summary(), fell, t_end, steps as u64))
 }
-
 
 /// Metrics of samples `indices` with LQR, via the lane kernel, blocks of [`lanes::LANES`].
 /// `None` when `should_stop` said so before all were done.
