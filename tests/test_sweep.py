@@ -43,12 +43,22 @@ def test_same_bits_on_one_and_two_threads_and_in_shards(tmp_path):
 
 
 @pytest.mark.parametrize("index", [0, 17, 63])
-def test_a_sample_replayed_alone_is_bitwise_the_same(index):
+def test_a_sample_rerun_alone_is_bitwise_the_same(index):
+    r = sweep()
+    alone = r.rerun(index)
+    for name in ("valid",) + twip.sweep.METRICS:
+        assert np.array_equal(alone[name], r.metrics[name][index], equal_nan=True), name
+
+
+@pytest.mark.parametrize("index", [0, 17, 63])
+def test_a_sample_replayed_with_its_trajectory_agrees_to_rounding(index):
+    """The lane kernel fuses multiply-adds; the full runner does not."""
     r = sweep()
     alone = r.replay(index)
-    for name in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error", "peak_abs_input",
-                 "pitch_settling_time", "speed_settling_time"):
-        assert alone.metrics[name] == r.metrics[name][index], name
+    for name in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error", "peak_abs_input"):
+        assert alone.metrics[name] == pytest.approx(r.metrics[name][index], rel=1e-9, abs=1e-12), name
+    for name in ("pitch_settling_time", "speed_settling_time"):
+        assert abs(alone.metrics[name] - r.metrics[name][index]) <= 1e-3 + 1e-12, name  # one step at most
     assert alone.fell == bool(r.metrics["fell"][index])
 
 

@@ -222,9 +222,19 @@ class SweepResult:
         params, slope, x0 = _core.sweep_draw(sc.model, sc.x0, [tuple(p) for p in self.config["perturbations"]], self.seed, int(index))
         return _core.RobotParams.from_dict(params), slope, x0
 
+    def rerun(self, index: int) -> dict:
+        """Runs sample `index` alone through the sweep engine again: its metrics, bit
+        for bit those of the sweep (a sample does not depend on the others)."""
+        if not 0 <= int(index) < self.config["n"]:
+            raise _bad(f"index = {index}: this sweep has samples 0..{self.config['n'] - 1}")
+        raw = _run(self._scenario, self.config, int(index), 1, 1, None, self._realism)
+        return {name: raw[name][0] for name in ("valid",) + METRICS}
+
     def replay(self, index: int, **simulate_options):
         """Runs sample `index` alone with the full runner (its trajectory included), with
-        the sweep's realism and the sample's own noise stream."""
+        the sweep's realism and the sample's own noise stream. Its metrics are the
+        sweep's bit for bit, except for LQR sweeps without realism (kernel "lanes"),
+        whose lane kernel fuses multiply-adds: there they agree to ~1e-13 relative."""
         from twip.sim import simulate
 
         sc = self._scenario
