@@ -132,11 +132,6 @@ def test_bad_input(kwargs, message):
         sweep(n=n, **kwargs)
 
 
-def test_tracking_scenarios_are_refused_with_a_clear_error():
-    with pytest.raises(twip.InvalidParameterError, match="3-DOF tracking scenario"):
-        twip.montecarlo("circle-pid", 4, progress=False)
-
-
 def test_a_changed_configuration_is_refused_by_the_checkpoint(tmp_path):
     sweep(n=16, checkpoint=tmp_path, shard_size=8)
     with pytest.raises(twip.InvalidParameterError, match="different configuration.*perturb"):
@@ -189,12 +184,14 @@ def test_interrupted_sweep_resumes_to_the_uninterrupted_result(tmp_path, sig):
     assert np.array_equal(resumed.metrics["index"], np.arange(n))
 
 
-def test_dask_local_cluster_gives_the_local_result():
+@pytest.mark.parametrize("family", ["2-DOF", "tracking"])
+def test_dask_local_cluster_gives_the_local_result(family):
     distributed = pytest.importorskip("dask.distributed")
+    run, n = (sweep, 96) if family == "2-DOF" else (tracking_sweep, 32)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
-        remote = sweep(n=96, client=client, shard_size=24)
-    same(remote, sweep(n=96))
+        remote = run(n=n, client=client, shard_size=n // 4)
+    same(remote, run(n=n))
 
 
 # --- realism in sweeps ------------------------------------------------------------------
@@ -316,3 +313,107 @@ def test_bad_realism_is_refused_with_a_clear_error(realism, message):
 def test_realism_is_refused_for_tracking_scenarios():
     with pytest.raises(twip.InvalidParameterError, match="realism: 'circle-pid' is a 3-DOF"):
         twip.montecarlo("circle-pid", 4, progress=False, realism=twip.Realism.thesis_like())
+
+
+# ============================================================================ 3-DOF tracking sweeps
+# PlanarModel scenarios run in Rust too (_core.sweep_planar_raw); a fifth of a lap keeps
+# each run to a few thousand steps.
+
+TRACK_PERTURB = {
+    "m_body": twip.Uniform(rel=0.2),
+    "com_height": twip.Normal(rel=0.1),
+    "mu_ground": twip.Uniform(low=0.0, high=0.01),
+    "phi0": twip.Normal(std=0.03),
+    "y0": twip.Uniform(abs=0.05),
+}
+TRACK_METRICS = ("mean_abs_x_error", "mean_abs_y_error", "mean_abs_x_error_settled", "mean_abs_y_error_settled",
+                 "max_path_error_settled", "mean_abs_pitch", "peak_abs_torque")
+
+
+def tracking_sweep(n=32, name="circle-smc-fuzzy", **kw):
+    kw.setdefault("perturb", TRACK_PERTURB)
+    kw.setdefault("options", {"laps": 0.2})
+    kw.setdefault("seed", 7)
+    kw.setdefault("progress", False)
+    return twip.montecarlo(name, n, **kw)
+
+
+def test_tracking_sweep_same_bits_on_one_and_two_threads():
+    one, two = tracking_sweep(threads=1), tracking_sweep(threads=2)
+    same(one, two)
+    assert one.kernel == "planar"
+    assert one.metric_names == ("fell", "t_end") + TRACK_METRICS
+    # Every sample is its own robot: the metrics differ from sample to sample.
+    assert len(np.unique(one.metrics["mean_abs_y_error"])) == 32
+
+
+@pytest.mark.parametrize("name", ["circle-pid", "circle-smc-fuzzy"])
+def test_tracking_sample_17_replayed_alone_is_bitwise_the_same(name):
+    r = tracking_sweep(name=name)
+    alone = r.replay(17)
+    # The names of twip.simulate's metrics on a PlanarModel, the same values bit for bit.
+    for k in TRACK_METRICS:
+        assert alone.metrics[k] == r.metrics[k][17], k
+    assert alone.fell == bool(r.metrics["fell"][17])
+    assert alone.steps == int(round(r.metrics["t_end"][17] / 1e-3))
+    params, slope, x0 = r.sample(17)
+    assert slope is None and len(x0) == 7 and x0[1] != 0.0
+    assert params.m_body != twip.RobotParams.balanbot().m_body
+
+
+def test_tracking_checkpoint_resumed_after_an_interrupt_equals_the_uninterrupted(tmp_path, monkeypatch):
+    # A lap of circle-pid is 36 000 steps: a shard of 8 outlasts the watcher's 25 ms poll,
+    # so the progress callback runs during the second shard and stops it as Ctrl-C would.
+    kw = dict(name="circle-pid", options={"laps": 1}, checkpoint=tmp_path / "ck", shard_size=8)
+
+    def interrupt_in_the_second_shard(bar, done):
+        if bar.base > 0:
+            raise KeyboardInterrupt
+
+    with monkeypatch.context() as m:
+        m.setattr(twip.sweep._Bar, "update_to", interrupt_in_the_second_shard)
+        with pytest.raises(KeyboardInterrupt) as stopped:
+            tracking_sweep(progress=True, **kw)
+    assert 8 <= stopped.value.partial.n < 32
+    assert len(list((tmp_path / "ck").glob("shard-*.npz"))) == 1
+    resumed = tracking_sweep(**kw)
+    assert len(list((tmp_path / "ck").glob("shard-*.npz"))) == 4
+    same(resumed, tracking_sweep(name="circle-pid", options={"laps": 1}))
+
+
+def test_tracking_robots_that_certainly_fall_have_fall_rate_one():
+    r = tracking_sweep(perturb={"phi0": twip.Uniform(low=1.1, high=1.3)})
+    assert r.fall_rate == 1.0
+    assert np.all(r.metrics["t_end"] < 0.1)
+
+
+def test_tracking_summary_pandas_and_invalid_draws():
+    r = tracking_sweep(perturb={"m_body": twip.Normal(mean=0.0, std=0.5), "x0": twip.Uniform(abs=0.02)})
+    assert 0 < np.sum(~r.valid) < 32
+    assert np.all(np.isnan(r.metrics["mean_abs_x_error"][~r.valid]))
+    s = r.summary()
+    assert s["invalid"] == int(np.sum(~r.valid)) and set(TRACK_METRICS) <= set(s)
+    assert "mean_abs_pitch_error" not in s and "max_path_error_settled" in repr(r)
+    assert r.steps == int(np.sum(np.rint(r.metrics["t_end"][r.valid] / 1e-3)))
+    pytest.importorskip("pandas")
+    assert list(r.to_pandas().columns) == ["index", "valid", "fell", "t_end", *TRACK_METRICS]
+
+
+@pytest.mark.parametrize(
+    "perturb,message",
+    [
+        ({"slope": twip.Uniform(low=0.0, high=0.1)}, "perturbation 'slope'.*3-DOF.*flat ground"),
+        ({"theta0": twip.Uniform(abs=0.1)}, "unknown perturbation 'theta0'.*omega0"),
+        ({"x0[7]": twip.Uniform(abs=0.1)}, r"unknown perturbation 'x0\[7\]'"),
+    ],
+)
+def test_tracking_perturbations_the_planar_model_does_not_have_are_refused(perturb, message):
+    with pytest.raises(twip.InvalidParameterError, match=message):
+        tracking_sweep(n=4, perturb=perturb)
+
+
+def test_the_core_refuses_a_slope_perturbation_of_a_planar_sweep_by_name():
+    sc = twip.scenarios.get("circle-pid", laps=0.1)
+    with pytest.raises(twip.InvalidParameterError, match="slope = 0.1: .*3-DOF"):
+        twip._core.sweep_planar_raw(sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
+                                    [("slope", 0, "uniform", 0.0, 0.1, 0.0, 0.1)], 0, 0, 2)

@@ -487,99 +487,7 @@ def _table_5_2_claims(rows) -> List[dict]:
                    ratio >= 2.0, None, f"mean of |x|, |y| errors over the plants {plants}", "less than 2× better")]
 
 
-# ============================================================================ 3-DOF sweeps
-
-
-class TrackingSweep:
-    """A Monte Carlo sweep of a 3-DOF (tracking) scenario, run sample by sample in Python
-    (twip.montecarlo runs 2-DOF scenarios). Sample i draws its robot from
-    numpy.random.default_rng([seed, i]), so any sample can be replayed alone."""
-
-    def __init__(self, name, n, perturb, seed, options, params, progress):
-        self.name, self.seed, self.options = name, int(seed), dict(options or {})
-        nominal = params if params is not None else twip.RobotParams.balanbot()
-        fields = list(twip.RobotParams.fields)
-        resolved = []
-        for key, dist in (perturb or {}).items():
-            if key not in fields:
-                raise twip.InvalidParameterError(
-                    f"unknown perturbation '{key}' for a 3-DOF scenario; perturb RobotParams fields ({', '.join(fields)})")
-            resolved.append((key,) + dist.resolve(key, getattr(nominal, key)))
-        self.perturbations = resolved
-        self.nominal = nominal
-        self.config = {"scenario": name, "n": int(n), "seed": self.seed, "perturb": list((perturb or {}).keys()),
-                       "options": self.options}
-        keys = ("mean_abs_x_error", "mean_abs_y_error", "mean_abs_x_error_settled", "mean_abs_y_error_settled",
-                "max_path_error_settled", "mean_abs_pitch", "peak_abs_torque")
-        self.metrics = {"index": np.arange(n, dtype=np.uint64), "valid": np.ones(n, bool), "fell": np.zeros(n, bool),
-                        "t_end": np.full(n, np.nan)}
-        self.metrics.update({k: np.full(n, np.nan) for k in keys})
-        started = time.perf_counter()
-        bar = _bar(n, progress)
-        try:
-            for i in range(n):
-                try:
-                    r = self.replay(i, record_every=1000)
-                except twip.TwipError:
-                    self.metrics["valid"][i] = False
-                    continue
-                self.metrics["fell"][i] = r.fell
-                self.metrics["t_end"][i] = r.t_end if r.t_end is not None else r.t[-1]
-                for k in keys:
-                    self.metrics[k][i] = r.metrics.get(k, np.nan)
-                if bar is not None:
-                    bar.update(1)
-        finally:
-            if bar is not None:
-                bar.close()
-        self.elapsed = time.perf_counter() - started
-
-    def sample(self, index: int):
-        """The robot of sample `index`."""
-        rng = np.random.default_rng([self.seed, int(index)])
-        draws = {}
-        for key, kind, a, b, low, high in self.perturbations:
-            if kind == "uniform":
-                draws[key] = float(rng.uniform(a, b))
-            else:
-                draws[key] = float(np.clip(rng.normal(a, b), low, high))
-        return self.nominal.replace(**draws) if draws else self.nominal
-
-    def replay(self, index: int, **simulate_options):
-        sc = scenarios.get(self.name, params=self.sample(index), controller_params=self.nominal, **self.options)
-        return sc.run(**simulate_options)
-
-    @property
-    def n(self):
-        return len(self.metrics["valid"])
-
-    @property
-    def fall_rate(self):
-        v = self.metrics["valid"]
-        return float(np.mean(self.metrics["fell"][v])) if v.any() else float("nan")
-
-    def fall_rate_interval(self, confidence=0.95):
-        v = self.metrics["valid"]
-        return twip.wilson_interval(int(np.sum(self.metrics["fell"][v])), int(np.sum(v)), confidence)
-
-    def quantiles(self, name, q=(0.05, 0.5, 0.95)):
-        keep = self.metrics["valid"] & ~self.metrics["fell"]
-        values = self.metrics[name][keep]
-        values = values[np.isfinite(values)]
-        return np.quantile(values, q) if len(values) else np.full(len(q), np.nan)
-
-    def __repr__(self):
-        return _sweep_summary(self, [k for k in self.metrics if k not in ("index", "valid", "fell", "t_end")])
-
-
-def _bar(n, enabled):
-    if not enabled:
-        return None
-    try:
-        from tqdm.auto import tqdm
-    except ImportError:
-        return None
-    return tqdm(total=n, unit="samples")
+# ============================================================================ sweeps
 
 
 def _sweep_summary(result, metrics) -> str:
@@ -675,20 +583,11 @@ def _sweep(args) -> int:
     sc = _get_scenario(name, params=params, options=options)
     if not perturb:
         print("note: no --perturb given, every sample is the same robot", file=sys.stderr)
-    result: Any
-    if _is_planar(sc):
-        if args.checkpoint:
-            raise UsageError("--checkpoint: 3-DOF sweeps run in Python without checkpoints (2-DOF sweeps have them)")
-        result = TrackingSweep(name, args.n, perturb, args.seed, options, params, progress=not args.quiet)
-        metrics = ["mean_abs_x_error", "mean_abs_y_error", "mean_abs_x_error_settled", "mean_abs_y_error_settled",
-                   "max_path_error_settled", "mean_abs_pitch", "peak_abs_torque"]
-        speed = f"{result.n} runs in {result.elapsed:.2f} s (3-DOF, one thread)"
-    else:
-        result = twip.montecarlo(name, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
-                                 progress=not args.quiet, checkpoint=args.checkpoint, params=params, options=options)
-        metrics = list(twip.sweep.METRICS[2:])
-        speed = (f"{result.steps:,} RK4 steps in {result.elapsed:.2f} s: "
-                 f"{result.steps / max(result.elapsed, 1e-9) / 1e6:.1f} M sample-steps/s ({result.kernel})")
+    result = twip.montecarlo(name, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
+                             progress=not args.quiet, checkpoint=args.checkpoint, params=params, options=options)
+    metrics = list(result.metric_names[2:])
+    speed = (f"{result.steps:,} RK4 steps in {result.elapsed:.2f} s: "
+             f"{result.steps / max(result.elapsed, 1e-9) / 1e6:.1f} M sample-steps/s ({result.kernel})")
     if args.json:
         lo, hi = result.fall_rate_interval()
         print(json.dumps(_jsonable({"scenario": name, "n": result.n, "seed": args.seed, "perturb": args.perturb or [],
@@ -709,7 +608,7 @@ def _sweep(args) -> int:
         plot.use_agg()
         pngs = [args.plot]
         plot.sweep(result, path=args.plot)
-        if len(perturb) >= 2 and not _is_planar(sc):
+        if len(perturb) >= 2:
             x, y = args.map.split(",") if args.map else list(perturb)[:2]
             stem, ext = os.path.splitext(args.plot)
             plot.fall_map(result, x.strip(), y.strip(), path=f"{stem}-fall-map{ext or '.png'}")
@@ -924,11 +823,10 @@ def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, 
         t0 = time.perf_counter()
         options = {**_quick_options(name, quick), **({"laps": 2} if planar else {})}
         try:
+            res = twip.montecarlo(name, n, perturb=_sweep_perturb(planar), seed=1, progress=False, options=options)
             if planar:
-                res: Any = TrackingSweep(name, n, _sweep_perturb(True), 1, options, None, progress=False)
                 keys = ("mean_abs_x_error_settled", "mean_abs_y_error_settled", "max_path_error_settled")
             else:
-                res = twip.montecarlo(name, n, perturb=_sweep_perturb(False), seed=1, progress=False, options=options)
                 keys = ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error")
         except Exception as e:
             steps.done(f"sweep {name}: FAILED ({e})", time.perf_counter() - t0)
@@ -1205,7 +1103,8 @@ SWEEP_EPILOG = """examples:
 
 --perturb forms: name=±20% (relative), name=±0.01 (absolute), name=low:high (uniform),
 name=~5% or name=~0.02 (normal, relative or absolute std). Names: RobotParams fields,
-'slope', and the initial state phi0, phi_dot0, theta0, theta_dot0 (2-DOF scenarios).
+'slope', and the initial state phi0, phi_dot0, theta0, theta_dot0 (2-DOF scenarios), or
+x0, y0, psi0, phi0, phi_dot0, v0, omega0 (3-DOF tracking scenarios: flat, no slope).
 A sweep is the same bit for bit on any number of threads and resumes from --checkpoint."""
 
 
@@ -1257,7 +1156,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-n", type=_positive_int, required=True, metavar="N", help="number of samples")
     p.add_argument("--perturb", action="append", metavar="NAME=SPEC", help="a perturbed quantity (repeatable)")
     p.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
-    p.add_argument("--checkpoint", metavar="DIR", help="write shards here and resume from them (2-DOF)")
+    p.add_argument("--checkpoint", metavar="DIR", help="write shards here and resume from them")
     p.add_argument("--threads", type=_positive_int, metavar="K", help="worker threads (default: all cores)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="nominal robot change (repeatable)")
     p.add_argument("--option", action="append", metavar="NAME=VALUE", help="a scenario option (repeatable)")

@@ -561,8 +561,8 @@ def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None
 
 def perturbed_values(result, name: str) -> np.ndarray:
     """The per-sample values of a perturbed quantity of a SweepResult (a RobotParams field,
-    'slope', or an initial state 'phi0', 'phi_dot0', 'theta0', 'theta_dot0')."""
-    states = ("phi0", "phi_dot0", "theta0", "theta_dot0")
+    'slope', or an initial state of `result.state_names`: 'phi0', 'phi_dot0', ...)."""
+    states = result.state_names
     out = np.empty(result.n)
     index = np.asarray(result.metrics["index"], dtype=np.int64)
     for k, i in enumerate(index):
@@ -576,7 +576,7 @@ def perturbed_values(result, name: str) -> np.ndarray:
     return out
 
 
-_ANGLES = {"slope", "phi0", "phi_dot0", "theta0", "theta_dot0"}
+_ANGLES = {"slope", "phi0", "phi_dot0", "theta0", "theta_dot0", "psi0", "omega0"}
 
 
 def _axis_label(name):

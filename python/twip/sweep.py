@@ -1,7 +1,9 @@
 """Monte Carlo robustness sweeps: `twip.montecarlo("flat-lqr", 10_000, perturb={...})`.
 
 The controller of the scenario is designed once on the nominal robot; each sample runs
-it on a perturbed plant (RobotParams fields, slope, initial state). Sample i draws from
+it on a perturbed plant (RobotParams fields, slope, initial state). The 2-DOF scenarios
+(LQR, fuzzy) and the 3-DOF tracking ones (PID, sliding mode on a PlanarModel: flat, no
+slope) run alike; each family has its own metrics (`SweepResult.metric_names`). Sample i draws from
 its own counter-based random stream, so a sweep gives the same numbers, bit for bit, on
 any number of threads, in shards, resumed after a crash, on a Dask cluster, and when a
 sample is replayed alone (`SweepResult.replay(i)`).
@@ -20,12 +22,13 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Dict, Mapping, Optional, Sequence
+from typing import Dict, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
 from twip import _core
 
+#: The metrics of a 2-DOF sweep; a tracking sweep's come from the core with its result.
 METRICS = (
     "fell",
     "t_end",
@@ -37,6 +40,8 @@ METRICS = (
     "peak_abs_input",
 )
 STATE_NAMES = ("phi0", "phi_dot0", "theta0", "theta_dot0")
+#: The initial state of a PlanarModel: [x, y, psi, phi, phi_dot, v, omega].
+PLANAR_STATE_NAMES = ("x0", "y0", "psi0", "phi0", "phi_dot0", "v0", "omega0")
 DEFAULT_SHARD = 1024
 
 
@@ -106,19 +111,31 @@ def _width(name, what, value):
         raise _bad(f"{name}: {what} = {value} must be a finite number >= 0 (a negative width)")
 
 
-def _target(name: str):
+def _is_planar(sc) -> bool:
+    return isinstance(getattr(sc, "model", None), _core.PlanarModel)
+
+
+def _target(name: str, sc):
     fields = list(_core.RobotParams.fields)
+    planar = _is_planar(sc)
+    states = PLANAR_STATE_NAMES if planar else STATE_NAMES
     if name in fields:
         return ("param", fields.index(name))
     if name == "slope":
+        if planar:
+            raise _bad(
+                f"perturbation 'slope': '{sc.name}' is a 3-DOF tracking scenario on flat ground (PlanarModel), "
+                "it has no slope to perturb"
+            )
         return ("slope", 0)
-    if name in STATE_NAMES:
-        return ("x0", STATE_NAMES.index(name))
-    if name.startswith("x0[") and name.endswith("]") and name[3:-1].isdigit() and int(name[3:-1]) < 4:
+    if name in states:
+        return ("x0", states.index(name))
+    if name.startswith("x0[") and name.endswith("]") and name[3:-1].isdigit() and int(name[3:-1]) < len(states):
         return ("x0", int(name[3:-1]))
+    slope = "" if planar else "'slope', "
     raise _bad(
         f"unknown perturbation '{name}'; perturb RobotParams fields ({', '.join(fields)}), "
-        f"'slope', or initial-state entries ({', '.join(STATE_NAMES)} or x0[0]..x0[3])"
+        f"{slope}or initial-state entries ({', '.join(states)} or x0[0]..x0[{len(states) - 1}])"
     )
 
 
@@ -126,7 +143,7 @@ def _resolve(perturb: Mapping, scenario) -> list:
     """Perturbations as tuples for the core, in key order (the draw order)."""
     out = []
     for name, dist in (perturb or {}).items():
-        kind, index = _target(name)
+        kind, index = _target(name, scenario)
         if kind == "param":
             nominal = getattr(scenario.model.params, name)
         elif kind == "slope":
@@ -155,13 +172,16 @@ def wilson_interval(successes: int, n: int, confidence: float = 0.95):
 
 @dataclass
 class SweepResult:
-    """Per-sample metrics (arrays of length n) and how they were made."""
+    """Per-sample metrics (arrays of length n) and how they were made. `metric_names`:
+    "fell", "t_end", then the family's metrics (2-DOF: METRICS; 3-DOF tracking: those of
+    `twip.simulate` on a PlanarModel)."""
 
     metrics: Dict[str, np.ndarray]
     steps: int
     config: dict
     elapsed: float = 0.0
     kernel: str = ""
+    metric_names: Tuple[str, ...] = METRICS
     _scenario: object = field(default=None, repr=False)
     _realism: object = field(default=None, repr=False)
 
@@ -177,6 +197,11 @@ class SweepResult:
     def realism(self):
         """The `twip.Realism` the samples ran with (None: the ideal loop)."""
         return self._realism
+
+    @property
+    def state_names(self) -> Tuple[str, ...]:
+        """The names of the initial-state entries (STATE_NAMES, or PLANAR_STATE_NAMES)."""
+        return PLANAR_STATE_NAMES if _is_planar(self._scenario) else STATE_NAMES
 
     @property
     def valid(self) -> np.ndarray:
@@ -206,7 +231,7 @@ class SweepResult:
             "fall_rate_95ci": (lo, hi),
             "sample_steps_per_second": self.steps / self.elapsed if self.elapsed > 0 else float("nan"),
         }
-        for name in METRICS[2:]:
+        for name in self.metric_names[2:]:
             out[name] = dict(zip(("q05", "median", "q95"), map(float, self.quantiles(name))))
         return out
 
@@ -217,9 +242,14 @@ class SweepResult:
         return pd.DataFrame(self.metrics)
 
     def sample(self, index: int):
-        """The robot, slope and initial state of sample `index`."""
+        """The robot, slope and initial state of sample `index` (slope None for a 3-DOF
+        tracking scenario: its ground is flat)."""
         sc = self._scenario
-        params, slope, x0 = _core.sweep_draw(sc.model, sc.x0, [tuple(p) for p in self.config["perturbations"]], self.seed, int(index))
+        perturbations = [tuple(p) for p in self.config["perturbations"]]
+        if _is_planar(sc):
+            params, x0 = _core.sweep_planar_draw(sc.model, sc.x0, perturbations, self.seed, int(index))
+            return _core.RobotParams.from_dict(params), None, x0
+        params, slope, x0 = _core.sweep_draw(sc.model, sc.x0, perturbations, self.seed, int(index))
         return _core.RobotParams.from_dict(params), slope, x0
 
     def rerun(self, index: int) -> dict:
@@ -228,7 +258,7 @@ class SweepResult:
         if not 0 <= int(index) < self.config["n"]:
             raise _bad(f"index = {index}: this sweep has samples 0..{self.config['n'] - 1}")
         raw = _run(self._scenario, self.config, int(index), 1, 1, None, self._realism)
-        return {name: raw[name][0] for name in ("valid",) + METRICS}
+        return {name: raw[name][0] for name in ("valid",) + tuple(self.metric_names)}
 
     def replay(self, index: int, **simulate_options):
         """Runs sample `index` alone with the full runner (its trajectory included), with
@@ -239,7 +269,7 @@ class SweepResult:
 
         sc = self._scenario
         params, slope, x0 = self.sample(index)
-        model = _core.SlopeModel(params, slope)
+        model = _core.PlanarModel(params) if _is_planar(sc) else _core.SlopeModel(params, slope)
         if self._realism is not None:
             noise = self._realism.replace(seed=_core.sweep_noise_seed(self.seed), stream=int(index))
             simulate_options = {"realism": noise, **simulate_options}
@@ -255,7 +285,7 @@ class SweepResult:
             f"  {self.steps:,} RK4 steps in {self.elapsed:.2f} s: {s['sample_steps_per_second'] / 1e6:.1f} M sample-steps/s ({self.kernel})",
             f"  {'metric':24s} {'q05':>11s} {'median':>11s} {'q95':>11s}",
         ]
-        for name in METRICS[2:]:
+        for name in self.metric_names[2:]:
             q = s[name]
             lines.append(f"  {name:24s} {q['q05']:11.4g} {q['median']:11.4g} {q['q95']:11.4g}")
         return "\n".join(lines)
@@ -315,7 +345,7 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
         "by_name": isinstance(scenario, str),
         "options": dict(options or {}),
         "params": sc.model.params.to_dict(),
-        "slope": sc.model.slope,
+        "slope": None if _is_planar(sc) else sc.model.slope,
         "x0": [float(v) for v in sc.x0],
         "t_final": sc.t_final,
         "dt": sc.dt,
@@ -330,11 +360,12 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
 
 
 def _run(sc, config, start, count, threads, progress, realism=None):
-    return _core.sweep_raw(
-        sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
-        [tuple(p) for p in config["perturbations"]], config["seed"], start, count,
-        control_period=sc.control_period, threads=threads, progress=progress, realism=realism,
-    )
+    args = (sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
+            [tuple(p) for p in config["perturbations"]], config["seed"], start, count)
+    if _is_planar(sc):
+        return _core.sweep_planar_raw(*args, control_period=sc.control_period, threads=threads, progress=progress)
+    return _core.sweep_raw(*args, control_period=sc.control_period, threads=threads, progress=progress,
+                           realism=realism)
 
 
 def _run_shard_by_name(config, start, count, threads):
@@ -389,7 +420,8 @@ def montecarlo(
     """Runs `n` samples of `scenario` (a name from `twip.scenarios.names()`, or a Scenario).
 
     perturb: {"m_body": twip.Uniform(rel=0.2), "slope": twip.Uniform(low=0, high=0.2),
-              "phi0": twip.Normal(std=0.02), ...}; drawn in key order, per sample.
+              "phi0": twip.Normal(std=0.02), ...}; drawn in key order, per sample. The
+              initial state of a 3-DOF tracking scenario is PLANAR_STATE_NAMES (no slope).
     threads: worker threads (default: all cores). checkpoint: a folder; the sweep is
     written there in shards and a re-run with the same arguments resumes. client: a
     dask.distributed.Client; shards run as Dask tasks (needs a scenario name).
@@ -410,14 +442,9 @@ def montecarlo(
     if realism is not None and not isinstance(realism, _core.Realism):
         raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
     sc = _scenario_of(scenario, params, options)
-    if realism is not None and not isinstance(sc.model, _core.SlopeModel):
+    if realism is not None and _is_planar(sc):
         raise _bad(f"realism: '{sc.name}' is a 3-DOF tracking scenario, which has no realism "
                    "(only the 2-DOF SlopeModel scenarios take realism=)")
-    if not isinstance(sc.model, _core.SlopeModel):
-        raise _bad(
-            f"montecarlo runs the 2-DOF scenarios (LQR, fuzzy); '{sc.name}' is a 3-DOF tracking scenario, "
-            "which the sweep engine does not run yet (twip sweep runs it sample by sample)"
-        )
     perturbations = _resolve(perturb or {}, sc)
     config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism)
     shard = int(shard_size or (DEFAULT_SHARD if (checkpoint or client) else n))
@@ -472,14 +499,24 @@ def _assemble(parts, config, elapsed, kernel, sc, complete, realism=None):
     done = cat("done").astype(bool) if keys else np.zeros(0, bool)
     if complete and (len(done) != config["n"] or not done.all()):
         raise RuntimeError("internal error: a sweep finished with missing samples")
+    names = _metric_names(parts)
     metrics = {"index": cat("index").astype(np.uint64), "valid": cat("valid").astype(bool)}
-    for name in METRICS:
+    for name in names:
         metrics[name] = cat(name).astype(bool) if name == "fell" else cat(name).astype(float)
     if not complete:
         metrics = {k: v[done] for k, v in metrics.items()}
     steps = int(np.sum(cat("steps"))) if keys else 0
-    return SweepResult(metrics=metrics, steps=steps, config=config, elapsed=elapsed, kernel=kernel, _scenario=sc,
-                       _realism=realism)
+    return SweepResult(metrics=metrics, steps=steps, config=config, elapsed=elapsed, kernel=kernel,
+                       metric_names=names, _scenario=sc, _realism=realism)
+
+
+def _metric_names(parts) -> Tuple[str, ...]:
+    """The metrics the core reported with its shards (a shard saved before they were
+    reported is a 2-DOF one); with no shard at all, only those every family has."""
+    for part in parts.values():
+        if "metric_names" in part:
+            return tuple(str(n) for n in np.asarray(part["metric_names"]).tolist())
+    return METRICS if parts else METRICS[:2]
 
 
 class _Checkpoint:

@@ -14,6 +14,7 @@ mod realism;
 mod schedule;
 mod simulate;
 mod sweep;
+mod sweep_planar;
 mod tracking;
 
 #[pymodule]
@@ -37,6 +38,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::sweep_raw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_draw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_noise_seed, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep_planar::sweep_planar_raw, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep_planar::sweep_planar_draw, m)?)?;
     m.add_class::<tracking::PyCircle>()?;
     m.add_class::<tracking::PyLine>()?;
     m.add_class::<tracking::PyFigureEight>()?;

@@ -2,7 +2,9 @@
 //! cores with the GIL released. The calling thread watches: every 25 ms it takes the
 //! GIL back for a moment to report progress and to notice Ctrl-C, which stops the
 //! workers before their next block (or within 4096 steps of a sample). With a realism
-//! every sample runs through the rig (`sweep::rig`), noise stream = sample index.
+//! every sample runs through the rig (`sweep::rig`), noise stream = sample index. The
+//! watcher, the perturbation tuples and the result's layout are shared with `sweep_planar`.
+use std::sync::atomic::Ordering;
 use std::thread;
 use std::time::Duration;
 
@@ -16,7 +18,8 @@ use twip_core::sweep::lanes::LANES;
 use twip_core::sweep::parallel::{self, Progress};
 use twip_core::sweep::rig::{for_sweep, noise_seed, run_rig_sample};
 use twip_core::sweep::{
-    draw, run_lqr_samples, run_slope_sample, Nominal, Perturbation, SampleMetrics, Sample, Spread, Target,
+    draw, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Sample, SampleMetrics, Spread, SweepMetrics,
+    Target,
 };
 use twip_core::TwipError;
 
@@ -29,7 +32,22 @@ use crate::simulate::SlopeController;
 
 /// (target, index, kind, a, b, low, high): target "param" | "slope" | "x0";
 /// kind "uniform" (a = low, b = high) | "normal" (a = mean, b = std, clamped to [low, high]).
-type PerturbTuple = (String, usize, String, f64, f64, f64, f64);
+pub(crate) type PerturbTuple = (String, usize, String, f64, f64, f64, f64);
+
+/// The perturbations, each checked by `validate` (the sweep family's own rules).
+pub(crate) fn parse_perturbations(
+    tuples: &[PerturbTuple],
+    validate: fn(&Perturbation) -> Result<(), TwipError>,
+) -> PyResult<Vec<Perturbation>> {
+    tuples
+        .iter()
+        .map(|t| {
+            let p = perturbation(t)?;
+            validate(&p).map_err(PyTwipError)?;
+            Ok(p)
+        })
+        .collect()
+}
 
 fn perturbation(t: &PerturbTuple) -> Result<Perturbation, PyErr> {
     let (target, index, kind, a, b, low, high) = t;
@@ -52,9 +70,79 @@ fn perturbation(t: &PerturbTuple) -> Result<Perturbation, PyErr> {
             )))
         }
     };
-    let p = Perturbation { target, spread };
-    p.validate().map_err(PyTwipError)?;
-    Ok(p)
+    Ok(Perturbation { target, spread })
+}
+
+/// Runs `work` on a thread of its own with the GIL released while the calling thread
+/// watches: every 25 ms it takes the GIL back for a moment to pass `watch.done` to
+/// `progress` and to notice Ctrl-C; either one failing sets `watch.stop`. Returns what
+/// `work` returned (`None` if it panicked) and the error to raise, if any.
+pub(crate) fn watched<R: Send>(
+    py: Python<'_>,
+    watch: &Progress,
+    progress: Option<&Py<PyAny>>,
+    work: impl FnOnce() -> R + Send,
+) -> (Option<R>, Option<PyErr>) {
+    let mut interrupt: Option<PyErr> = None;
+    let out = py.detach(|| {
+        thread::scope(|scope| {
+            let worker = scope.spawn(work);
+            while !worker.is_finished() {
+                thread::sleep(Duration::from_millis(25));
+                Python::attach(|py| {
+                    if interrupt.is_none() {
+                        if let Err(e) = py.check_signals() {
+                            interrupt = Some(e);
+                            watch.stop.store(true, Ordering::Relaxed);
+                        }
+                    }
+                    if let Some(callback) = progress {
+                        let done = watch.done.load(Ordering::Relaxed);
+                        if let Err(e) = callback.call1(py, (done,)) {
+                            interrupt.get_or_insert(e);
+                            watch.stop.store(true, Ordering::Relaxed);
+                        }
+                    }
+                });
+            }
+            worker.join().ok()
+        })
+    });
+    (out, interrupt)
+}
+
+/// The result of samples `start..` as a dict of arrays: index, done, valid, fell, steps and
+/// the float metrics `M::NAMES` (NaN where not done); "metric_names" lists "fell" and
+/// those; "kernel", "interrupted". A KeyboardInterrupt is left for the Python layer to
+/// raise once what finished is kept; any other error (the progress callback's) is raised.
+pub(crate) fn result_dict<'py, M: SweepMetrics>(
+    py: Python<'py>,
+    start: u64,
+    results: Option<Vec<Option<M>>>,
+    kernel: &str,
+    interrupt: Option<PyErr>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let interrupted = match interrupt {
+        Some(e) if !e.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py) => return Err(e),
+        other => other.is_some(),
+    };
+    let results = results.ok_or_else(|| pyo3::exceptions::PyRuntimeError::new_err("a sweep worker thread panicked"))?;
+    let out = PyDict::new(py);
+    let n = results.len() as u64;
+    out.set_item("index", (start..start + n).collect::<Vec<u64>>().into_pyarray(py))?;
+    out.set_item("done", results.iter().map(|r| r.is_some()).collect::<Vec<bool>>().into_pyarray(py))?;
+    out.set_item("valid", results.iter().map(|r| r.is_some_and(|m| m.valid())).collect::<Vec<bool>>().into_pyarray(py))?;
+    out.set_item("fell", results.iter().map(|r| r.is_some_and(|m| m.fell())).collect::<Vec<bool>>().into_pyarray(py))?;
+    out.set_item("steps", results.iter().map(|r| r.map_or(0, |m| m.steps())).collect::<Vec<u64>>().into_pyarray(py))?;
+    for (i, name) in M::NAMES.iter().enumerate() {
+        let column: Vec<f64> = results.iter().map(|r| r.map_or(f64::NAN, |m| m.value(i))).collect();
+        out.set_item(name, column.into_pyarray(py))?;
+    }
+    let names: Vec<&str> = core::iter::once("fell").chain(M::NAMES.iter().copied()).collect();
+    out.set_item("metric_names", names)?;
+    out.set_item("kernel", kernel)?;
+    out.set_item("interrupted", interrupted)?;
+    Ok(out)
 }
 
 /// The robot, slope and initial state of sample `index` (to replay it alone).
@@ -69,7 +157,7 @@ pub fn sweep_draw<'py>(
     index: u64,
 ) -> PyResult<(Bound<'py, PyDict>, f64, Bound<'py, numpy::PyArray1<f64>>)> {
     let nominal = Nominal { params: *model.inner.params(), slope: model.inner.slope(), x0: vector::<4>("x0", x0)? };
-    let perts = perturbations.iter().map(perturbation).collect::<PyResult<Vec<_>>>()?;
+    let perts = parse_perturbations(&perturbations, Perturbation::validate)?;
     let s: Sample = draw(&nominal, &perts, seed, index);
     let params = PyDict::new(py);
     for (name, value) in FIELD_NAMES.iter().zip(s.params.to_array()) {
@@ -119,7 +207,7 @@ pub fn sweep_raw<'py>(
         ctrl = ctrl.with_period(p)?;
     }
     ctrl.check_reference(&reference.inner)?;
-    let perts = perturbations.iter().map(perturbation).collect::<PyResult<Vec<_>>>()?;
+    let perts = parse_perturbations(&perturbations, Perturbation::validate)?;
     let config = SimConfig { dt, t_final, fall_limit: fall_limit.unwrap_or(60f64.to_radians()) };
     config.steps(ctrl.period()).map_err(PyTwipError)?;
     // A rig no robot could have (e.g. dt against the IMU's period) is an error now, not
@@ -129,83 +217,31 @@ pub fn sweep_raw<'py>(
     }
     let schedule = reference.inner;
     let watch = Progress::default();
-    let mut interrupt: Option<PyErr> = None;
     let kernel = match (&realism, ctrl) {
         (Some(_), _) => "realism",
         (None, SlopeController::Lqr(_)) => "lanes",
         (None, _) => "general",
     };
-
-    let results: Result<Vec<Option<SampleMetrics>>, TwipError> = py.detach(|| {
-        thread::scope(|scope| {
-            let worker = scope.spawn(|| {
-                parallel::run(start..start + count, LANES, threads, &watch, |range, stop| match (&realism, ctrl) {
-                    // Push and force heights default to each sample's own centre of mass.
-                    (Some(r), c) => range
-                        .map(|i| {
-                            let sample = draw(&nominal, &perts, seed, i);
-                            match r.to_core(&sample.params) {
-                                Ok(core) => run_rig_sample(&c, &schedule, &config, &sample, &for_sweep(&core, seed), stop),
-                                Err(_) => Some(SampleMetrics::INVALID),
-                            }
-                        })
-                        .collect(),
-                    (None, SlopeController::Lqr(c)) => {
-                        run_lqr_samples(&c, &schedule, &config, &nominal, &perts, seed, range, stop).ok().flatten()
+    let (results, interrupt) = watched(py, &watch, progress.as_ref(), || {
+        parallel::run(start..start + count, LANES, threads, &watch, |range, stop| match (&realism, ctrl) {
+            // Push and force heights default to each sample's own centre of mass.
+            (Some(r), c) => range
+                .map(|i| {
+                    let sample = draw(&nominal, &perts, seed, i);
+                    match r.to_core(&sample.params) {
+                        Ok(core) => run_rig_sample(&c, &schedule, &config, &sample, &for_sweep(&core, seed), stop),
+                        Err(_) => Some(SampleMetrics::INVALID),
                     }
-                    (None, other) => range
-                        .map(|i| run_slope_sample(&other, &schedule, &config, &draw(&nominal, &perts, seed, i), stop))
-                        .collect(),
                 })
-            });
-            while !worker.is_finished() {
-                thread::sleep(Duration::from_millis(25));
-                Python::attach(|py| {
-                    if interrupt.is_none() {
-                        if let Err(e) = py.check_signals() {
-                            interrupt = Some(e);
-                            watch.stop.store(true, std::sync::atomic::Ordering::Relaxed);
-                        }
-                    }
-                    if let Some(callback) = &progress {
-                        let done = watch.done.load(std::sync::atomic::Ordering::Relaxed);
-                        if let Err(e) = callback.call1(py, (done,)) {
-                            interrupt.get_or_insert(e);
-                            watch.stop.store(true, std::sync::atomic::Ordering::Relaxed);
-                        }
-                    }
-                });
+                .collect(),
+            (None, SlopeController::Lqr(c)) => {
+                run_lqr_samples(&c, &schedule, &config, &nominal, &perts, seed, range, stop).ok().flatten()
             }
-            worker.join().unwrap_or(Ok(Vec::new()))
+            (None, other) => range
+                .map(|i| run_slope_sample(&other, &schedule, &config, &draw(&nominal, &perts, seed, i), stop))
+                .collect(),
         })
     });
-    let results = results.map_err(PyTwipError)?;
-
-    let n = results.len();
-    let pick = |f: fn(&SampleMetrics) -> f64| -> Vec<f64> {
-        results.iter().map(|r| r.as_ref().map_or(f64::NAN, f)).collect()
-    };
-    let out = PyDict::new(py);
-    out.set_item("index", (start..start + n as u64).collect::<Vec<u64>>().into_pyarray(py))?;
-    out.set_item("done", results.iter().map(|r| r.is_some()).collect::<Vec<bool>>().into_pyarray(py))?;
-    out.set_item("valid", results.iter().map(|r| r.is_some_and(|m| m.valid)).collect::<Vec<bool>>().into_pyarray(py))?;
-    out.set_item("fell", results.iter().map(|r| r.is_some_and(|m| m.fell)).collect::<Vec<bool>>().into_pyarray(py))?;
-    out.set_item("steps", results.iter().map(|r| r.map_or(0, |m| m.steps)).collect::<Vec<u64>>().into_pyarray(py))?;
-    out.set_item("t_end", pick(|m| m.t_end).into_pyarray(py))?;
-    out.set_item("mean_abs_pitch_error", pick(|m| m.mean_abs_pitch_error).into_pyarray(py))?;
-    out.set_item("mean_abs_speed_error", pick(|m| m.mean_abs_speed_error).into_pyarray(py))?;
-    out.set_item("pitch_settling_time", pick(|m| m.pitch_settling_time).into_pyarray(py))?;
-    out.set_item("speed_settling_time", pick(|m| m.speed_settling_time).into_pyarray(py))?;
-    out.set_item("final_position_error", pick(|m| m.final_position_error).into_pyarray(py))?;
-    out.set_item("peak_abs_input", pick(|m| m.peak_abs_input).into_pyarray(py))?;
-    out.set_item("kernel", kernel)?;
-    out.set_item("interrupted", interrupt.is_some())?;
-    if let Some(e) = interrupt {
-        // KeyboardInterrupt is re-raised by the Python layer once what finished is kept;
-        // any other error (from the progress callback) is raised now.
-        if !e.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py) {
-            return Err(e);
-        }
-    }
-    Ok(out)
+    let results = results.transpose().map_err(PyTwipError)?;
+    result_dict(py, start, results, kernel, interrupt)
 }

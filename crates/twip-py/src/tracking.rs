@@ -287,7 +287,7 @@ impl PyWaypoints {
     }
 }
 
-fn trajectory(obj: &Bound<'_, PyAny>) -> PyResult<Trajectory<f64>> {
+pub(crate) fn trajectory(obj: &Bound<'_, PyAny>) -> PyResult<Trajectory<f64>> {
     if let Ok(c) = obj.cast::<PyCircle>() {
         return Ok(Trajectory::Circle(c.get().inner));
     }
@@ -777,7 +777,7 @@ pub enum PlanarController {
 }
 
 impl PlanarController {
-    fn extract(obj: &Bound<'_, PyAny>) -> PyResult<Self> {
+    pub(crate) fn extract(obj: &Bound<'_, PyAny>) -> PyResult<Self> {
         if let Ok(c) = obj.cast::<PyPidTracker>() {
             return Ok(Self::Pid(c.get().inner));
         }
@@ -790,7 +790,7 @@ impl PlanarController {
         )))
     }
 
-    fn with_period(self, period: f64) -> CoreResult<Self> {
+    pub(crate) fn with_period(self, period: f64) -> CoreResult<Self> {
         Ok(match self {
             Self::Pid(c) => Self::Pid(c.with_period(period)?),
             Self::Smc(c) => Self::Smc(c.with_period(period)?),
@@ -799,6 +799,15 @@ impl PlanarController {
 }
 
 crate::dispatch::controller_enum!(PlanarController, 7, 2, PlanarRef<f64>; Pid, Smc);
+
+/// When the "_settled" metrics start: `settle` [s], by default one lap of a closed path, else 0.
+pub(crate) fn settle_time(settle: Option<f64>, path: &Trajectory<f64>) -> PyResult<f64> {
+    let settle = settle.or_else(|| path.period()).unwrap_or(0.0);
+    if !settle.is_finite() {
+        return Err(invalid("settle", settle, "must be finite").into());
+    }
+    Ok(settle)
+}
 
 /// Runs a tracker on the 3-DOF model; returns a dict that `twip.simulate` wraps into a
 /// SimResult. `settle` [s] starts the "_settled" metrics (default: one lap of a circle or
@@ -829,10 +838,7 @@ pub fn simulate_planar_raw<'py>(
         ctrl = ctrl.with_period(p)?;
     }
     let path = trajectory(reference)?;
-    let settle = settle.or_else(|| path.period()).unwrap_or(0.0);
-    if !settle.is_finite() {
-        return Err(invalid("settle", settle, "must be finite").into());
-    }
+    let settle = settle_time(settle, &path)?;
     let x0 = vector::<7>("x0", x0)?;
     let config = SimConfig { dt, t_final, fall_limit: fall_limit.unwrap_or(60f64.to_radians()) };
     let (n, _) = config.steps(ctrl.period()).map_err(PyTwipError)?;

@@ -1,12 +1,12 @@
 //! Monte Carlo robustness sweeps: many closed-loop runs of one scenario, each with its
-//! own perturbed robot, slope and initial state.
+//! own perturbed robot, slope and initial state (3-DOF tracking: [`planar`]).
 //!
 //! Sample `i` draws its perturbations from its own counter-based stream
 //! (`Philox::new(seed, i)`), so a sweep gives the same numbers on any number of threads
 //! and any sample can be replayed alone. A sample keeps its metrics, not its trajectory.
 extern crate alloc;
 
-use nalgebra::Vector4;
+use nalgebra::{SVector, Vector4};
 
 use crate::control::Controller;
 use crate::metrics::{SlopeMetrics, SlopeSummary};
@@ -21,6 +21,7 @@ pub mod lanes;
 pub mod lqr_block;
 #[cfg(feature = "parallel")]
 pub mod parallel;
+pub mod planar;
 pub mod rig;
 
 /// What a perturbation changes.
@@ -49,8 +50,14 @@ pub struct Perturbation {
 }
 
 impl Perturbation {
-    /// Checks the spread: finite, ordered, non-negative width.
+    /// Checks the spread (finite, ordered, non-negative width) and the target, for the
+    /// 2-DOF sweeps (a 4-entry initial state).
     pub fn validate(&self) -> Result<(), TwipError> {
+        self.validate_spread()?;
+        self.validate_target(4)
+    }
+
+    pub(crate) fn validate_spread(&self) -> Result<(), TwipError> {
         let bad = |name, value, reason| Err(TwipError::InvalidParameter { name, value, reason });
         match self.spread {
             Spread::Uniform { low, high } => {
@@ -73,11 +80,15 @@ impl Perturbation {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// `states`: the entries of the model's initial state.
+    pub(crate) fn validate_target(&self, states: usize) -> Result<(), TwipError> {
+        let bad = |value: usize, reason| Err(TwipError::InvalidParameter { name: "target", value: value as f64, reason });
         match self.target {
-            Target::Param(i) if i >= crate::params::FIELD_NAMES.len() => {
-                bad("target", i as f64, "no RobotParams field with this index")
-            }
-            Target::Initial(i) if i >= 4 => bad("target", i as f64, "the state has 4 entries"),
+            Target::Param(i) if i >= crate::params::FIELD_NAMES.len() => bad(i, "no RobotParams field with this index"),
+            Target::Initial(i) if i >= states => bad(i, "no initial-state entry with this index"),
             _ => Ok(()),
         }
     }
@@ -109,19 +120,49 @@ pub struct Sample {
 
 /// Draws sample `index`: the perturbations in their given order from stream `index`.
 pub fn draw(nominal: &Nominal, perturbations: &[Perturbation], seed: u64, index: u64) -> Sample {
+    let (params, slope, x0) = draw_values(&nominal.params, nominal.slope, &nominal.x0, perturbations, seed, index);
+    Sample { index, params, slope, x0 }
+}
+
+/// The draw of both sweep families (any state size): the perturbations in their given
+/// order from `Philox::new(seed, index)` over the nominal values. A target past the end
+/// of the fields or the state draws its number but changes nothing (`validate` refuses it).
+pub(crate) fn draw_values<const NX: usize>(
+    params: &RobotParams<f64>,
+    slope: f64,
+    x0: &SVector<f64, NX>,
+    perturbations: &[Perturbation],
+    seed: u64,
+    index: u64,
+) -> (RobotParams<f64>, f64, SVector<f64, NX>) {
     let mut rng = Philox::new(seed, index);
-    let mut values = nominal.params.to_array();
-    let mut slope = nominal.slope;
-    let mut x0 = nominal.x0;
+    let mut values = params.to_array();
+    let mut slope = slope;
+    let mut x0 = *x0;
     for p in perturbations {
         let v = p.draw(&mut rng);
-        match p.target {
-            Target::Param(i) => values[i] = v,
-            Target::Slope => slope = v,
-            Target::Initial(i) => x0[i] = v,
+        let slot = match p.target {
+            Target::Param(i) => values.get_mut(i),
+            Target::Slope => Some(&mut slope),
+            Target::Initial(i) => x0.as_mut_slice().get_mut(i),
+        };
+        if let Some(slot) = slot {
+            *slot = v;
         }
     }
-    Sample { index, params: RobotParams::from_array(&values), slope, x0 }
+    (RobotParams::from_array(&values), slope, x0)
+}
+
+/// What the bindings lay out as columns of a sweep's result: flags, step count and the
+/// float metrics by name (`NAMES[i]` is `value(i)`), so each family names its own.
+pub trait SweepMetrics: Copy + Send {
+    /// The float columns, "t_end" first.
+    const NAMES: &'static [&'static str];
+    fn valid(&self) -> bool;
+    fn fell(&self) -> bool;
+    fn steps(&self) -> u64;
+    /// Column `i` of [`Self::NAMES`] (NaN past the end).
+    fn value(&self, i: usize) -> f64;
 }
 
 /// What a sweep keeps of one sample.
@@ -168,6 +209,43 @@ impl SampleMetrics {
             final_position_error: s.final_position_error,
             peak_abs_input: s.peak_abs_input,
             steps,
+        }
+    }
+}
+
+impl SweepMetrics for SampleMetrics {
+    const NAMES: &'static [&'static str] = &[
+        "t_end",
+        "mean_abs_pitch_error",
+        "mean_abs_speed_error",
+        "pitch_settling_time",
+        "speed_settling_time",
+        "final_position_error",
+        "peak_abs_input",
+    ];
+
+    fn valid(&self) -> bool {
+        self.valid
+    }
+
+    fn fell(&self) -> bool {
+        self.fell
+    }
+
+    fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    fn value(&self, i: usize) -> f64 {
+        match i {
+            0 => self.t_end,
+            1 => self.mean_abs_pitch_error,
+            2 => self.mean_abs_speed_error,
+            3 => self.pitch_settling_time,
+            4 => self.speed_settling_time,
+            5 => self.final_position_error,
+            6 => self.peak_abs_input,
+            _ => f64::NAN,
         }
     }
 }

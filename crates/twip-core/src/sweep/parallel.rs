@@ -6,7 +6,6 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
-use super::SampleMetrics;
 use crate::TwipError;
 
 /// Shared between the workers and whoever watches them.
@@ -20,17 +19,18 @@ pub struct Progress {
 
 /// Runs samples `range` in blocks of `block`, with `threads` threads (0 = all cores).
 /// `run_block` gets the sample indices of one block and a stop check, and returns their
-/// metrics in order, or `None` if it stopped early. Samples of blocks not finished when
-/// `progress.stop` was set are `None`.
-pub fn run<F>(
+/// metrics (of either sweep family) in order, or `None` if it stopped early. Samples of
+/// blocks not finished when `progress.stop` was set are `None`.
+pub fn run<M, F>(
     range: Range<u64>,
     block: usize,
     threads: usize,
     progress: &Progress,
     run_block: F,
-) -> Result<Vec<Option<SampleMetrics>>, TwipError>
+) -> Result<Vec<Option<M>>, TwipError>
 where
-    F: Fn(Range<u64>, &dyn Fn() -> bool) -> Option<Vec<SampleMetrics>> + Sync,
+    M: Clone + Send,
+    F: Fn(Range<u64>, &dyn Fn() -> bool) -> Option<Vec<M>> + Sync,
 {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -38,7 +38,7 @@ where
         .map_err(|_| TwipError::InvalidParameter { name: "threads", value: threads as f64, reason: "could not start a thread pool" })?;
     let block = block.max(1) as u64;
     let starts: Vec<u64> = (range.start..range.end).step_by(block as usize).collect();
-    let blocks: Vec<Option<Vec<SampleMetrics>>> = pool.install(|| {
+    let blocks: Vec<Option<Vec<M>>> = pool.install(|| {
         starts
             .par_iter()
             .map(|&start| {

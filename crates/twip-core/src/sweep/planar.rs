@@ -1,0 +1,278 @@
+//! Sweeps of the 3-DOF tracking scenarios: each sample a perturbed robot and initial
+//! state on the flat [`PlanarModel`], the tracker designed once for the nominal robot,
+//! [`TrackingMetrics`] kept. Draws are the 2-DOF sweeps' ([`super::draw_values`]), so
+//! sample `i` comes from `Philox::new(seed, i)` here too.
+use crate::control::{Controller, Reference};
+use crate::planar::{PlanarModel, PlanarState};
+use crate::runner::{simulate_with, Ideal, Loop, Outcome, SimConfig};
+use crate::trajectory::{Path, PlanarRef};
+use crate::tracking_metrics::TrackingMetrics;
+use crate::{RobotParams, TwipError};
+
+use super::{draw_values, Perturbation, Spread, SweepMetrics, Target};
+
+/// Samples per parallel block: one. A tracking run is 10⁴–10⁵ steps, so a task per
+/// sample costs nothing, balances the threads and reports progress per sample.
+pub const BLOCK: usize = 1;
+
+/// The unperturbed robot and initial state `[x, y, psi, phi, phi_dot, v, omega]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlanarNominal {
+    pub params: RobotParams<f64>,
+    pub x0: PlanarState<f64>,
+}
+
+/// One sample's robot and initial state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlanarSample {
+    pub index: u64,
+    pub params: RobotParams<f64>,
+    pub x0: PlanarState<f64>,
+}
+
+/// Checks a perturbation for the planar model: the spread, a RobotParams field or one of
+/// the 7 state entries; the slope is refused, the planar model being flat.
+pub fn validate(p: &Perturbation) -> Result<(), TwipError> {
+    p.validate_spread()?;
+    if p.target == Target::Slope {
+        let value = match p.spread {
+            Spread::Uniform { high, .. } => high,
+            Spread::Normal { mean, .. } => mean,
+        };
+        return Err(TwipError::InvalidParameter {
+            name: "slope",
+            value,
+            reason: "cannot be perturbed in a 3-DOF (tracking) sweep: the planar model is flat ground",
+        });
+    }
+    p.validate_target(7)
+}
+
+/// Draws sample `index` (perturbations validated by [`validate`]).
+pub fn draw(nominal: &PlanarNominal, perturbations: &[Perturbation], seed: u64, index: u64) -> PlanarSample {
+    let (params, _, x0) = draw_values(&nominal.params, 0.0, &nominal.x0, perturbations, seed, index);
+    PlanarSample { index, params, x0 }
+}
+
+/// What a tracking sweep keeps of one sample; the names of `simulate_planar_raw`'s metrics.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PlanarSampleMetrics {
+    /// False when the drawn robot or initial state was invalid; nothing was run.
+    pub valid: bool,
+    pub fell: bool,
+    /// When the run ended (t_final, or the fall).
+    pub t_end: f64,
+    pub mean_abs_x_error: f64,
+    pub mean_abs_y_error: f64,
+    pub mean_abs_x_error_settled: f64,
+    pub mean_abs_y_error_settled: f64,
+    pub max_path_error_settled: f64,
+    pub mean_abs_pitch: f64,
+    pub peak_abs_torque: f64,
+    pub steps: u64,
+}
+
+impl PlanarSampleMetrics {
+    pub const INVALID: Self = Self {
+        valid: false,
+        fell: false,
+        t_end: f64::NAN,
+        mean_abs_x_error: f64::NAN,
+        mean_abs_y_error: f64::NAN,
+        mean_abs_x_error_settled: f64::NAN,
+        mean_abs_y_error_settled: f64::NAN,
+        max_path_error_settled: f64::NAN,
+        mean_abs_pitch: f64::NAN,
+        peak_abs_torque: f64::NAN,
+        steps: 0,
+    };
+}
+
+impl SweepMetrics for PlanarSampleMetrics {
+    const NAMES: &'static [&'static str] = &[
+        "t_end",
+        "mean_abs_x_error",
+        "mean_abs_y_error",
+        "mean_abs_x_error_settled",
+        "mean_abs_y_error_settled",
+        "max_path_error_settled",
+        "mean_abs_pitch",
+        "peak_abs_torque",
+    ];
+
+    fn valid(&self) -> bool {
+        self.valid
+    }
+
+    fn fell(&self) -> bool {
+        self.fell
+    }
+
+    fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    fn value(&self, i: usize) -> f64 {
+        match i {
+            0 => self.t_end,
+            1 => self.mean_abs_x_error,
+            2 => self.mean_abs_y_error,
+            3 => self.mean_abs_x_error_settled,
+            4 => self.mean_abs_y_error_settled,
+            5 => self.max_path_error_settled,
+            6 => self.mean_abs_pitch,
+            7 => self.peak_abs_torque,
+            _ => f64::NAN,
+        }
+    }
+}
+
+/// Runs one sample: a reset copy of the prototype tracker (designed for the nominal
+/// robot) on the sample's robot along `path`; "_settled" metrics from `settle` [s].
+/// `None` when `should_stop` said so.
+pub fn run_planar_sample<C, P>(
+    prototype: &C,
+    path: &P,
+    config: &SimConfig<f64>,
+    sample: &PlanarSample,
+    settle: f64,
+    should_stop: &dyn Fn() -> bool,
+) -> Option<PlanarSampleMetrics>
+where
+    C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Clone,
+    P: Reference<f64, Sample = PlanarRef<f64>> + Path<f64> + Copy,
+{
+    let Ok(plant) = PlanarModel::new(sample.params) else {
+        return Some(PlanarSampleMetrics::INVALID);
+    };
+    let mut controller = prototype.clone();
+    controller.reset();
+    let mut metrics = TrackingMetrics::new(*path, settle);
+    let parts = Loop {
+        sensor: &mut Ideal,
+        actuator: &mut Ideal,
+        observer: &mut metrics,
+        should_stop,
+        delay_one_period: false,
+    };
+    let Ok((outcome, steps)) = simulate_with(&plant, &mut controller, path, &sample.x0, config, parts) else {
+        return Some(PlanarSampleMetrics::INVALID);
+    };
+    let (fell, t_end) = match outcome {
+        Outcome::Completed => (false, config.dt * steps as f64),
+        Outcome::Fell { t } | Outcome::Diverged { t } => (true, t),
+        Outcome::Interrupted { .. } => return None,
+    };
+    let s = metrics.summary();
+    Some(PlanarSampleMetrics {
+        valid: true,
+        fell,
+        t_end,
+        mean_abs_x_error: s.mean_abs_x_error,
+        mean_abs_y_error: s.mean_abs_y_error,
+        mean_abs_x_error_settled: s.mean_abs_x_error_settled,
+        mean_abs_y_error_settled: s.mean_abs_y_error_settled,
+        max_path_error_settled: s.max_path_error_settled,
+        mean_abs_pitch: s.mean_abs_pitch,
+        peak_abs_torque: s.peak_abs_torque,
+        steps: steps as u64,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motor::DcMotor;
+    use crate::pid_tracking::PidTracker;
+    use crate::runner::simulate;
+    use crate::trajectory::{Circle, Direction};
+
+    fn setup() -> (PidTracker<f64>, Circle<f64>, SimConfig<f64>, PlanarNominal) {
+        let params = RobotParams::balanbot();
+        let ctrl = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), 0.005).unwrap();
+        let circle = Circle::from_origin(0.6, core::f64::consts::PI * params.wheel_radius, Direction::CounterClockwise).unwrap();
+        let config = SimConfig { dt: 1e-3, t_final: 4.0, fall_limit: 60f64.to_radians() };
+        (ctrl, circle, config, PlanarNominal { params, x0: PlanarState::zeros() })
+    }
+
+    /// m_body (field 0) may go negative (an invalid robot); com_height (8) up to 5x;
+    /// the initial pitch (state 3) up to ±0.6 rad, which some survive.
+    fn spread() -> [Perturbation; 3] {
+        [
+            Perturbation { target: Target::Param(0), spread: Spread::Normal { mean: 0.83, std: 0.6, low: -1.0, high: 2.0 } },
+            Perturbation { target: Target::Param(8), spread: Spread::Uniform { low: 0.02, high: 0.4 } },
+            Perturbation { target: Target::Initial(3), spread: Spread::Uniform { low: -0.6, high: 0.6 } },
+        ]
+    }
+
+    /// The sweep's sample equals a direct run of the same robot, bit for bit.
+    #[test]
+    fn a_sample_equals_a_direct_run_of_its_robot() {
+        let (ctrl, circle, config, nominal) = setup();
+        let spread = spread();
+        let never = || false;
+        let (mut fell, mut invalid, mut ran) = (0, 0, 0);
+        for i in 0..12 {
+            let sample = draw(&nominal, &spread, 5, i);
+            let got = run_planar_sample(&ctrl, &circle, &config, &sample, 2.0, &never).unwrap();
+            fell += got.fell as usize;
+            let Ok(plant) = PlanarModel::new(sample.params) else {
+                assert_eq!(format!("{got:?}"), format!("{:?}", PlanarSampleMetrics::INVALID), "sample {i}");
+                invalid += 1;
+                continue;
+            };
+            let mut direct = TrackingMetrics::new(circle, 2.0);
+            let (outcome, steps) = simulate(&plant, &mut ctrl.clone(), &circle, &sample.x0, &config, &mut direct).unwrap();
+            let s = direct.summary();
+            assert_eq!(got.steps, steps as u64, "sample {i}");
+            assert_eq!(got.fell, outcome != Outcome::Completed, "sample {i}");
+            let expected = [
+                s.mean_abs_x_error,
+                s.mean_abs_y_error,
+                s.mean_abs_x_error_settled,
+                s.mean_abs_y_error_settled,
+                s.max_path_error_settled,
+                s.mean_abs_pitch,
+                s.peak_abs_torque,
+            ];
+            for (k, e) in expected.iter().enumerate() {
+                assert_eq!(got.value(k + 1).to_bits(), e.to_bits(), "sample {i}, {}", PlanarSampleMetrics::NAMES[k + 1]);
+            }
+            ran += 1;
+        }
+        assert!(ran > 0 && invalid > 0, "{ran} ran, {invalid} invalid");
+        assert!(fell > 0 && fell < ran, "the spread should make some robots fall ({fell} of {ran})");
+    }
+
+    /// Same draws as the 2-DOF sweep for the shared targets; the slope is refused by name.
+    #[test]
+    fn draws_are_the_2dof_draws_and_slope_is_refused() {
+        let (_, _, _, nominal) = setup();
+        let spread = spread();
+        let flat = super::super::Nominal { params: nominal.params, slope: 0.0, x0: nalgebra::Vector4::zeros() };
+        let shared = &spread[..2];
+        for i in 0..8 {
+            assert_eq!(draw(&nominal, shared, 3, i).params, super::super::draw(&flat, shared, 3, i).params);
+        }
+        let slope = Perturbation { target: Target::Slope, spread: Spread::Uniform { low: 0.0, high: 0.1 } };
+        assert!(matches!(validate(&slope), Err(TwipError::InvalidParameter { name: "slope", .. })));
+        let past = Perturbation { target: Target::Initial(7), spread: Spread::Uniform { low: 0.0, high: 0.1 } };
+        assert!(matches!(validate(&past), Err(TwipError::InvalidParameter { name: "target", .. })));
+        assert!(validate(&spread[2]).is_ok());
+    }
+
+    #[cfg(feature = "parallel")]
+    #[test]
+    fn one_and_two_threads_give_the_same_bits() {
+        use crate::sweep::parallel::{run, Progress};
+        let (ctrl, circle, config, nominal) = setup();
+        let spread = spread();
+        let sweep = |threads| {
+            run(0..6, BLOCK, threads, &Progress::default(), |range, stop| {
+                range.map(|i| run_planar_sample(&ctrl, &circle, &config, &draw(&nominal, &spread, 5, i), 2.0, stop)).collect()
+            })
+            .unwrap()
+        };
+        assert_eq!(format!("{:?}", sweep(1)), format!("{:?}", sweep(2)));
+    }
+}

@@ -1,0 +1,92 @@
+//! `twip._core.sweep_planar_raw`: samples [start, start + count) of a 3-DOF tracking
+//! sweep on all cores, the GIL released and watched as `sweep_raw` does (progress,
+//! Ctrl-C); `sweep_planar_draw` gives one sample's robot and initial state to replay it.
+use numpy::PyArray1;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use twip_core::control::Controller;
+use twip_core::params::FIELD_NAMES;
+use twip_core::runner::SimConfig;
+use twip_core::sweep::parallel::{self, Progress};
+use twip_core::sweep::planar::{self as core_planar, run_planar_sample, PlanarNominal, BLOCK};
+
+use crate::convert::vector;
+use crate::errors::PyTwipError;
+use crate::models::PyPlanarModel;
+use crate::sweep::{parse_perturbations, result_dict, watched, PerturbTuple};
+use crate::tracking::{settle_time, trajectory, PlanarController};
+
+fn nominal(model: &PyPlanarModel, x0: &Bound<'_, PyAny>) -> PyResult<PlanarNominal> {
+    Ok(PlanarNominal { params: *model.inner.params(), x0: vector::<7>("x0", x0)? })
+}
+
+/// The robot and initial state of sample `index` (to replay it alone).
+#[pyfunction]
+#[pyo3(signature = (model, x0, perturbations, seed, index))]
+pub fn sweep_planar_draw<'py>(
+    py: Python<'py>,
+    model: &PyPlanarModel,
+    x0: &Bound<'py, PyAny>,
+    perturbations: Vec<PerturbTuple>,
+    seed: u64,
+    index: u64,
+) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyArray1<f64>>)> {
+    let nominal = nominal(model, x0)?;
+    let perts = parse_perturbations(&perturbations, core_planar::validate)?;
+    let s = core_planar::draw(&nominal, &perts, seed, index);
+    let params = PyDict::new(py);
+    for (name, value) in FIELD_NAMES.iter().zip(s.params.to_array()) {
+        params.set_item(name, value)?;
+    }
+    Ok((params, crate::convert::to_py_vector(py, &s.x0)))
+}
+
+/// Runs samples `start..start + count` of a tracker on perturbed planar robots along
+/// `reference`; returns their metrics as arrays ("_settled" ones from `settle` [s],
+/// by default one lap of a closed path, as `simulate_planar_raw`).
+#[pyfunction]
+#[pyo3(signature = (model, controller, x0, t_final, dt, reference, perturbations, seed, start, count,
+                    control_period = None, fall_limit = None, settle = None, threads = 0, progress = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn sweep_planar_raw<'py>(
+    py: Python<'py>,
+    model: &PyPlanarModel,
+    controller: &Bound<'py, PyAny>,
+    x0: &Bound<'py, PyAny>,
+    t_final: f64,
+    dt: f64,
+    reference: &Bound<'py, PyAny>,
+    perturbations: Vec<PerturbTuple>,
+    seed: u64,
+    start: u64,
+    count: u64,
+    control_period: Option<f64>,
+    fall_limit: Option<f64>,
+    settle: Option<f64>,
+    threads: usize,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let nominal = nominal(model, x0)?;
+    let mut ctrl = PlanarController::extract(controller)?;
+    if let Some(p) = control_period {
+        ctrl = ctrl.with_period(p)?;
+    }
+    let path = trajectory(reference)?;
+    let settle = settle_time(settle, &path)?;
+    let perts = parse_perturbations(&perturbations, core_planar::validate)?;
+    let config = SimConfig { dt, t_final, fall_limit: fall_limit.unwrap_or(60f64.to_radians()) };
+    config.steps(ctrl.period()).map_err(PyTwipError)?;
+    let watch = Progress::default();
+    let (results, interrupt) = watched(py, &watch, progress.as_ref(), || {
+        parallel::run(start..start + count, BLOCK, threads, &watch, |range, stop| {
+            range
+                .map(|i| {
+                    let sample = core_planar::draw(&nominal, &perts, seed, i);
+                    run_planar_sample(&ctrl, &path, &config, &sample, settle, stop)
+                })
+                .collect()
+        })
+    });
+    let results = results.transpose().map_err(PyTwipError)?;
+    result_dict(py, start, results, "planar", interrupt)
+}
