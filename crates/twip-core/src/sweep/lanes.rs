@@ -14,15 +14,20 @@ pub type Lanes = [f64; LANES];
 /// and leaves that integer in the low bits of the sum.
 const ROUND_MAGIC: f64 = 6_755_399_441_055_744.0;
 
+/// π/2 = PIO2_HI + PIO2_LO + O(1e-33): the nearest f64, and the nearest to the rest.
+const PIO2_HI: f64 = core::f64::consts::FRAC_PI_2;
+const PIO2_LO: f64 = 6.123_233_995_736_766e-17;
+
 /// sin and cos of one lane's value, written to vectorise inside a loop over lanes:
 /// branch-free, the quadrant's swap and signs applied with bit masks.
 #[inline(always)]
 pub fn sin_cos(x: f64) -> (f64, f64) {
-    use crate::math::{PIO2_1, PIO2_2, PIO2_3};
     let shifted = x.mul_add(core::f64::consts::FRAC_2_PI, ROUND_MAGIC);
     let quadrant = shifted.to_bits();
     let k = shifted - ROUND_MAGIC;
-    let r = (-k).mul_add(PIO2_3, (-k).mul_add(PIO2_2, (-k).mul_add(PIO2_1, x)));
+    // x − k π/2 in two parts: a fused multiply-add rounds x − k·PIO2_HI once, so the
+    // third part that plain arithmetic needs (math::PIO2_3) is not.
+    let r = (-k).mul_add(PIO2_LO, (-k).mul_add(PIO2_HI, x));
     let (s, c) = kernel(r);
     let (s, c) = (s.to_bits(), c.to_bits());
     // Odd quadrants swap sin and cos; quadrants 2, 3 negate sin; 1, 2 negate cos.

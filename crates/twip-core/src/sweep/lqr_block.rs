@@ -54,36 +54,47 @@ impl Plants {
         }
     }
 
+    /// One lane's plant, with input `u`.
+    #[inline(always)]
+    fn lane(&self, l: usize, u: f64) -> Lane {
+        Lane {
+            m11: self.m11[l],
+            m22: self.m22[l],
+            m11_m22: self.m11_m22[l],
+            mrl_cos: self.mrl_cos[l],
+            mrl_sin: self.mrl_sin[l],
+            rotor: self.rotor[l],
+            mgl: self.mgl[l],
+            mu_bearing: self.mu_bearing[l],
+            mu_ground: self.mu_ground[l],
+            motor: self.torque_per_amp[l] * u,
+            drive: self.torque_per_amp[l].mul_add(u, -self.grade[l]),
+        }
+    }
+
     /// One RK4 step (`rk4_step` of `SlopeModel::deriv`, the input held) on every lane.
     /// The whole step of a lane is one loop body, so that the compiler vectorises it
-    /// across lanes with every intermediate kept in registers.
+    /// across lanes with every intermediate kept in registers; each body advances two
+    /// lanes (l and l + LANES/2) stage by stage, two independent chains of dependent
+    /// operations that the CPU overlaps.
     #[inline(always)]
     fn rk4(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
+        const HALF: usize = LANES / 2;
         let mut out = [[0.0; LANES]; 4];
         let half = dt * 0.5;
         let sixth = dt / 6.0;
-        for l in 0..LANES {
-            let lane = Lane {
-                m11: self.m11[l],
-                m22: self.m22[l],
-                m11_m22: self.m11_m22[l],
-                mrl_cos: self.mrl_cos[l],
-                mrl_sin: self.mrl_sin[l],
-                rotor: self.rotor[l],
-                mgl: self.mgl[l],
-                mu_bearing: self.mu_bearing[l],
-                mu_ground: self.mu_ground[l],
-                motor: self.torque_per_amp[l] * u[l],
-                drive: self.torque_per_amp[l].mul_add(u[l], -self.grade[l]),
-            };
-            let x0 = [x[0][l], x[1][l], x[2][l], x[3][l]];
-            let k1 = lane.deriv(&x0);
-            let k2 = lane.deriv(&axpy(&x0, &k1, half));
-            let k3 = lane.deriv(&axpy(&x0, &k2, half));
-            let k4 = lane.deriv(&axpy(&x0, &k3, dt));
+        for l in 0..HALF {
+            let m = l + HALF;
+            let (a, b) = (self.lane(l, u[l]), self.lane(m, u[m]));
+            let xa = [x[0][l], x[1][l], x[2][l], x[3][l]];
+            let xb = [x[0][m], x[1][m], x[2][m], x[3][m]];
+            let (k1a, k1b) = (a.deriv(&xa), b.deriv(&xb));
+            let (k2a, k2b) = (a.deriv(&axpy(&xa, &k1a, half)), b.deriv(&axpy(&xb, &k1b, half)));
+            let (k3a, k3b) = (a.deriv(&axpy(&xa, &k2a, half)), b.deriv(&axpy(&xb, &k2b, half)));
+            let (k4a, k4b) = (a.deriv(&axpy(&xa, &k3a, dt)), b.deriv(&axpy(&xb, &k3b, dt)));
             for i in 0..4 {
-                let sum = (k2[i] + k3[i]).mul_add(2.0, k1[i] + k4[i]);
-                out[i][l] = sum.mul_add(sixth, x0[i]);
+                out[i][l] = (k2a[i] + k3a[i]).mul_add(2.0, k1a[i] + k4a[i]).mul_add(sixth, xa[i]);
+                out[i][m] = (k2b[i] + k3b[i]).mul_add(2.0, k1b[i] + k4b[i]).mul_add(sixth, xb[i]);
             }
         }
         out
