@@ -15,9 +15,13 @@ motor driver and the noisy, delayed feedback are what draw the boundary.
 - com-friction: the 15 deg slope designs (slope-*-sim), centre-of-mass height +-50 %,
   ground friction 0-2x nominal: with less damping than designed for, the delayed,
   quantised loop on the slope stops settling.
+- tracking: the 3-DOF trackers (PID, sliding mode + fuzzy) on two laps of the circle,
+  centre-of-mass height and body mass +-90 %. The planar model has no realism and
+  neither tracker falls anywhere on this map (fall rate 0), so the cells show the
+  mean of the largest distance from the path during the second lap instead.
 
 Run:  .venv/bin/python examples/robustness_heatmaps.py [--n 6000] [--bins 15] [--out robustness]
-(about a minute on 2 cores with the defaults: 4 sweeps of 6000 runs of 10 s)
+(about a minute on 2 cores with the defaults: 4 sweeps of 6000 runs of 10 s, 2 of 1500 of two laps)
 """
 import argparse
 import math
@@ -46,7 +50,15 @@ MAPS = {
         ("mu_ground", twip.Uniform(rel=1.0), "ground friction error [%]", None),
         {"LQR": "slope-lqr-sim", "fuzzy": "slope-fuzzy-sim"},
     ),
+    "tracking": (
+        ("com_height", twip.Uniform(rel=0.9), "centre-of-mass height error [%]", None),
+        ("m_body", twip.Uniform(rel=0.9), "body mass error [%]", None),
+        {"PID": "circle-pid", "SMC + fuzzy": "circle-smc-fuzzy"},
+    ),
 }
+# What a cell shows: the fraction that fell, or (tracking) a metric's mean over the cell.
+CELL = {"tracking": ("max_path_error_settled", "largest path error in the second lap [m]", 1000.0)}
+TRACKING_SAMPLES, TRACKING_BINS = 1500, 12  # 3-DOF runs are slower: fewer, larger cells
 REALISM = twip.Realism.thesis_like()
 
 
@@ -54,10 +66,13 @@ def relative(values, nominal):
     return 100.0 * (values / nominal - 1.0)
 
 
-def fall_map(scenario, xp, yp, n, seed, bins):
+def cell_map(scenario, xp, yp, n, seed, bins, metric=None):
+    """Per cell: the fraction of runs that fell, or the mean of `metric`."""
     (xname, xdist, _, xscale), (yname, ydist, _, yscale) = xp, yp
+    planar = metric is not None
+    options = {"laps": 2.0} if planar else {"t_final": 10.0}
     result = twip.montecarlo(scenario, n, perturb={xname: xdist, yname: ydist}, seed=seed,
-                             options={"t_final": 10.0}, realism=REALISM, progress=False)
+                             options=options, realism=None if planar else REALISM, progress=False)
     nominal = twip.RobotParams.balanbot().to_dict()
     xs, ys = [], []
     for i in range(result.n):
@@ -68,8 +83,14 @@ def fall_map(scenario, xp, yp, n, seed, bins):
     xs, ys = np.array(xs), np.array(ys)
     xs = xs * xscale if xscale else relative(xs, nominal[xname])
     ys = ys * yscale if yscale else relative(ys, nominal[yname])
-    fell = result.metrics["fell"] | ~result.valid
     total, xe, ye = np.histogram2d(xs, ys, bins=bins)
+    if planar:
+        ok = result.valid & ~result.metrics["fell"]
+        summed, _, _ = np.histogram2d(xs[ok], ys[ok], bins=[xe, ye], weights=result.metrics[metric][ok])
+        count, _, _ = np.histogram2d(xs[ok], ys[ok], bins=[xe, ye])
+        with np.errstate(invalid="ignore"):
+            return summed / count, xe, ye, result
+    fell = result.metrics["fell"] | ~result.valid
     falls, _, _ = np.histogram2d(xs[fell], ys[fell], bins=[xe, ye])
     with np.errstate(invalid="ignore"):
         return falls / total, xe, ye, result
@@ -86,16 +107,23 @@ def main():
     started = time.perf_counter()
     for map_name, (xp, yp, controllers) in MAPS.items():
         fig, axes = plt.subplots(1, len(controllers), figsize=(5.2 * len(controllers), 4.4), constrained_layout=True)
+        metric, label_of_cell, unit = CELL.get(map_name, (None, "fraction of runs that fell", 1.0))
+        n = min(args.n, TRACKING_SAMPLES) if metric else args.n
+        bins = min(args.bins, TRACKING_BINS) if metric else args.bins
+        cells = {label: cell_map(scenario, xp, yp, n, seed=1, bins=bins, metric=metric)
+                 for label, scenario in controllers.items()}
+        top = 1.0 if metric is None else unit * max(np.nanmax(c[0]) for c in cells.values())
         for ax, (label, scenario) in zip(np.atleast_1d(axes), controllers.items()):
-            rate, xe, ye, result = fall_map(scenario, xp, yp, args.n, seed=1, bins=args.bins)
-            mesh = ax.pcolormesh(xe, ye, rate.T, vmin=0, vmax=1, cmap="magma_r")
+            value, xe, ye, result = cells[label]
+            mesh = ax.pcolormesh(xe, ye, unit * value.T, vmin=0, vmax=top, cmap="magma_r")
             ax.set(xlabel=xp[2], ylabel=yp[2], title=f"{label} ({scenario}): fall rate {result.fall_rate:.1%}")
             print(f"{map_name} {label}: {result.n} samples, fall rate {result.fall_rate:.3f} "
-                  f"(cells {np.nanmin(rate):.2f}-{np.nanmax(rate):.2f}), {result.elapsed:.1f} s, "
+                  f"(cells {unit * np.nanmin(value):.3g}-{unit * np.nanmax(value):.3g}), {result.elapsed:.1f} s, "
                   f"{result.steps / result.elapsed / 1e6:.1f} M sample-steps/s")
-        fig.colorbar(mesh, ax=axes, label="fraction of runs that fell")
-        fig.suptitle("thesis-like robot: 5 ms loop + delay, MPU-6050 noise, encoders, L298P 2 A / 11.1 V")
-        path = out / f"fall_rate_{map_name}.png"
+        fig.colorbar(mesh, ax=axes, label=label_of_cell.replace("[m]", "[mm]") if metric else label_of_cell)
+        fig.suptitle("ideal 3-DOF robot, second lap of the circle" if metric else
+                     "thesis-like robot: 5 ms loop + delay, MPU-6050 noise, encoders, L298P 2 A / 11.1 V")
+        path = out / f"{'tracking_error' if metric else 'fall_rate'}_{map_name}.png"
         fig.savefig(path, dpi=110)
         print(f"wrote {path}")
     print(f"total {time.perf_counter() - started:.0f} s")
