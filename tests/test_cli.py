@@ -162,6 +162,31 @@ def test_sweep_of_a_tracking_scenario(capsys):
     assert "2 samples" in out and "after the first lap" in out
 
 
+def test_sweep_realism_changes_the_result(capsys):
+    """--realism thesis-like puts sensor noise, the motor driver and the delay in every
+    sample's loop: the same robots give other metrics (and the realism kernel)."""
+    args = ["sweep", "flat-lqr-sim", "-n", "8", "--perturb", "m_body=±10%", "--option", "t_final=1", "--seed", "2",
+            "--quiet", "--json"]
+    code, ideal_out, err = run(args, capsys)
+    assert code == 0, err
+    code, real_out, err = run(args + ["--realism", "thesis-like"], capsys)
+    assert code == 0, err
+    ideal, real = json.loads(ideal_out), json.loads(real_out)
+    assert (ideal["realism"], real["realism"]) == (None, "thesis-like")
+    assert real["quantiles"]["mean_abs_pitch_error"] != ideal["quantiles"]["mean_abs_pitch_error"]
+    code, out, err = run(args[:-1] + ["--realism", "thesis-like"], capsys)
+    assert code == 0, err
+    assert "realism: thesis-like" in out and "(realism)" in out
+
+
+def test_sweep_realism_of_a_tracking_scenario_is_refused(capsys):
+    code, out, err = run(["sweep", "circle-pid", "-n", "2", "--perturb", "m_body=±10%", "--realism", "thesis-like",
+                          "--quiet"], capsys)
+    assert code == 2 and out == ""
+    assert err.strip().splitlines() == [err.strip()] and "Traceback" not in err
+    assert err.startswith("twip sweep: error: realism: 'circle-pid' is a 3-DOF tracking scenario")
+
+
 def test_sweep_checkpoint_resumes(tmp_path, capsys):
     args = ["sweep", "flat-lqr-sim", "-n", "16", "--perturb", "m_body=~10%", "--option", "t_final=1",
             "--checkpoint", tmp_path / "ck", "--quiet", "--json"]
@@ -201,6 +226,7 @@ BAD = {
     "malformed perturb": ["sweep", "flat-lqr", "-n", "4", "--perturb", "m_body=20"],
     "negative perturb width": ["sweep", "flat-lqr", "-n", "4", "--perturb", "m_body=±-20%"],
     "3-DOF perturb of slope": ["sweep", "circle-pid", "-n", "2", "--perturb", "slope=0:0.1"],
+    "unknown realism": ["sweep", "flat-lqr", "-n", "4", "--realism", "noisy"],
     "no command": [],
     "unknown command": ["frobnicate"],
     "negative jobs": ["reproduce", "--jobs", "0"],

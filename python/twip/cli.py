@@ -487,6 +487,26 @@ def _table_5_2_claims(rows) -> List[dict]:
                    ratio >= 2.0, None, f"mean of |x|, |y| errors over the plants {plants}", "less than 2× better")]
 
 
+# ============================================================================ --realism
+
+#: --realism's values, for `twip simulate` and `twip sweep` alike.
+REALISM_CHOICES = ("ideal", "thesis-like")
+
+
+def _add_realism_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--realism", choices=REALISM_CHOICES,
+                   help="sensors, driver and delay in the loop (2-DOF scenarios only)")
+
+
+def _realism(choice: Optional[str]):
+    """The twip.Realism that --realism CHOICE names (None when not given)."""
+    if choice is None:
+        return None
+    if not hasattr(twip, "Realism"):
+        raise UsageError("--realism: this twip has no twip.Realism")
+    return twip.Realism() if choice == "ideal" else twip.Realism.thesis_like()
+
+
 # ============================================================================ sweeps
 
 
@@ -534,9 +554,7 @@ def _simulate(args) -> int:
     if args.realism is not None:
         if _is_planar(sc):
             raise UsageError("--realism: only the 2-DOF scenarios take realism")
-        if not hasattr(twip, "Realism"):
-            raise UsageError("--realism: this twip has no twip.Realism")
-        overrides["realism"] = twip.Realism() if args.realism == "ideal" else twip.Realism.thesis_like()
+        overrides["realism"] = _realism(args.realism)
     started = time.perf_counter()
     r = sc.run(**overrides)
     elapsed = time.perf_counter() - started
@@ -583,19 +601,24 @@ def _sweep(args) -> int:
     sc = _get_scenario(name, params=params, options=options)
     if not perturb:
         print("note: no --perturb given, every sample is the same robot", file=sys.stderr)
+    # A 3-DOF scenario with --realism is montecarlo's to refuse (an InvalidParameterError).
     result = twip.montecarlo(name, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
-                             progress=not args.quiet, checkpoint=args.checkpoint, params=params, options=options)
+                             progress=not args.quiet, checkpoint=args.checkpoint, params=params, options=options,
+                             realism=_realism(args.realism))
     metrics = list(result.metric_names[2:])
     speed = (f"{result.steps:,} RK4 steps in {result.elapsed:.2f} s: "
              f"{result.steps / max(result.elapsed, 1e-9) / 1e6:.1f} M sample-steps/s ({result.kernel})")
     if args.json:
         lo, hi = result.fall_rate_interval()
         print(json.dumps(_jsonable({"scenario": name, "n": result.n, "seed": args.seed, "perturb": args.perturb or [],
+                                    "realism": args.realism,
                                     "fall_rate": result.fall_rate, "fall_rate_95ci": [lo, hi],
                                     "quantiles": {m: dict(zip(("q05", "median", "q95"), map(float, result.quantiles(m))))
                                                   for m in metrics}}), indent=1))
     else:
         print(_sweep_summary(result, metrics))
+        if args.realism is not None:
+            print(f"  realism: {args.realism} (sensors, driver and delay in the loop)")
         print(f"  {speed}")
     if args.csv:
         keys = [k for k in result.metrics]
@@ -1100,11 +1123,14 @@ SWEEP_EPILOG = """examples:
   twip sweep slope-lqr-sim -n 5000 --perturb phi0=-1:1 --perturb phi_dot0=-20:20 \\
              --option t_final=4 --plot basin.png            (also writes basin-fall-map.png)
   twip sweep circle-smc -n 20 --perturb m_body=±20% --option laps=2
+  twip sweep slope-lqr -n 1000 --perturb m_body=±20% --realism thesis-like
 
 --perturb forms: name=±20% (relative), name=±0.01 (absolute), name=low:high (uniform),
 name=~5% or name=~0.02 (normal, relative or absolute std). Names: RobotParams fields,
 'slope', and the initial state phi0, phi_dot0, theta0, theta_dot0 (2-DOF scenarios), or
 x0, y0, psi0, phi0, phi_dot0, v0, omega0 (3-DOF tracking scenarios: flat, no slope).
+--realism runs every sample with sensors, motor driver and delay in the loop, each sample
+with its own sensor noise (2-DOF scenarios only; a tracking scenario is refused).
 A sweep is the same bit for bit on any number of threads and resumes from --checkpoint."""
 
 
@@ -1141,7 +1167,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="design the controller for balanbot() even when --param changes the plant (model mismatch)")
     p.add_argument("--t-final", type=_positive_float, metavar="SECONDS", help="override the run's duration")
     p.add_argument("--dt", type=_positive_float, metavar="SECONDS", help="override the RK4 step (default 1 ms)")
-    p.add_argument("--realism", choices=("ideal", "thesis-like"), help="sensors, driver and delay in the loop (2-DOF)")
+    _add_realism_option(p)
     p.add_argument("--plot", metavar="OUT.png", help="write a figure of the run")
     p.add_argument("--animate", metavar="OUT.gif", help="write an animated GIF of the run")
     p.add_argument("--fps", type=_positive_float, default=20.0, help="GIF frames per second (default 20)")
@@ -1162,6 +1188,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--option", action="append", metavar="NAME=VALUE", help="a scenario option (repeatable)")
     p.add_argument("--plot", metavar="OUT.png", help="histograms (and a fall-rate map over the first two perturbations)")
     p.add_argument("--map", metavar="X,Y", help="the two perturbed quantities of the fall-rate map")
+    _add_realism_option(p)
     p.add_argument("--csv", metavar="OUT.csv", help="write the per-sample metrics")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

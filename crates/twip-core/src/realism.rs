@@ -134,6 +134,35 @@ pub struct Rig<T: Real> {
     pub delay: bool,
 }
 
+impl<T: Real> Rig<T> {
+    /// Runs `controller` through this rig's plant, sensors, actuator and delay
+    /// ([`simulate_rig`]); `should_stop` is asked every [`STOP_CHECK_STEPS`] steps.
+    pub fn simulate<C, R, O, F>(
+        &mut self,
+        controller: &mut C,
+        reference: &R,
+        x0: &Vector4<T>,
+        config: &SimConfig<T>,
+        observer: &mut O,
+        should_stop: F,
+    ) -> Result<(Outcome<T>, usize), TwipError>
+    where
+        R: Reference<T>,
+        C: Controller<T, 4, 1, Reference = R::Sample>,
+        O: Observer<T, 4, 1, R::Sample>,
+        F: FnMut() -> bool,
+    {
+        let parts = Loop {
+            sensor: &mut self.sensors,
+            actuator: &mut self.actuator,
+            observer,
+            should_stop,
+            delay_one_period: self.delay,
+        };
+        simulate_rig(&mut self.plant, controller, reference, x0, config, parts)
+    }
+}
+
 /// The IMU + tilt estimator + encoder of the 2-DOF robot, as one sensor.
 #[derive(Clone, Copy, Debug)]
 pub struct BalanceSensors<T: Real> {
@@ -477,14 +506,7 @@ mod tests {
         let config = SimConfig { dt: 1e-3, t_final, fall_limit: 1.0 };
         let mut rig = realism.build(&model, config.dt).unwrap();
         let mut trace = Trace::default();
-        let parts = Loop {
-            sensor: &mut rig.sensors,
-            actuator: &mut rig.actuator,
-            observer: &mut trace,
-            should_stop: || false,
-            delay_one_period: rig.delay,
-        };
-        let (outcome, _) = simulate_rig(&mut rig.plant, &mut ctrl, &schedule, &Vector4::zeros(), &config, parts).unwrap();
+        let (outcome, _) = rig.simulate(&mut ctrl, &schedule, &Vector4::zeros(), &config, &mut trace, || false).unwrap();
         (outcome, trace)
     }
 

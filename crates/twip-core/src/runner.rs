@@ -158,13 +158,29 @@ where
     C: Controller<T, NX, NU, Reference = R::Sample>,
     O: Observer<T, NX, NU, R::Sample>,
 {
-    let parts = Loop {
-        sensor: &mut Ideal,
-        actuator: &mut Ideal,
-        observer,
-        should_stop: || false,
-        delay_one_period: false,
-    };
+    simulate_until(plant, controller, reference, x0, config, observer, || false)
+}
+
+/// [`simulate`] that asks `should_stop` every [`STOP_CHECK_STEPS`] steps (a sweep's
+/// samples, a run Ctrl-C may end).
+pub fn simulate_until<T, P, C, R, O, F, const NX: usize, const NU: usize>(
+    plant: &P,
+    controller: &mut C,
+    reference: &R,
+    x0: &SVector<T, NX>,
+    config: &SimConfig<T>,
+    observer: &mut O,
+    should_stop: F,
+) -> Result<(Outcome<T>, usize), TwipError>
+where
+    T: Real,
+    P: Dynamics<T, NX, NU>,
+    R: Reference<T>,
+    C: Controller<T, NX, NU, Reference = R::Sample>,
+    O: Observer<T, NX, NU, R::Sample>,
+    F: FnMut() -> bool,
+{
+    let parts = Loop { sensor: &mut Ideal, actuator: &mut Ideal, observer, should_stop, delay_one_period: false };
     simulate_with(plant, controller, reference, x0, config, parts)
 }
 

@@ -6,6 +6,15 @@ use twip_core::RobotParams;
 
 use crate::errors::{CoreResult, InvalidParameterError};
 
+/// `params` as a dict, field name to value (`RobotParams.to_dict`, a sweep sample's robot).
+pub(crate) fn params_dict<'py>(py: Python<'py>, params: &RobotParams<f64>) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for (name, value) in FIELD_NAMES.iter().zip(params.to_array()) {
+        d.set_item(name, value)?;
+    }
+    Ok(d)
+}
+
 /// Physical parameters of one robot, SI units (see docs/parameters.md).
 #[pyclass(name = "RobotParams", module = "twip", frozen, eq)]
 #[derive(Clone, PartialEq)]
@@ -76,11 +85,7 @@ impl PyRobotParams {
     }
 
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        for (name, value) in FIELD_NAMES.iter().zip(self.inner.to_array()) {
-            d.set_item(name, value)?;
-        }
-        Ok(d)
+        params_dict(py, &self.inner)
     }
 
     #[staticmethod]

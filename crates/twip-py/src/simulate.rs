@@ -7,9 +7,9 @@ use twip_core::log::{LogRow, TrajectoryLog};
 use twip_core::fuzzy_control::FuzzyController;
 use twip_core::lqr_control::LqrController;
 use twip_core::metrics::SlopeMetrics;
-use twip_core::realism::{simulate_rig, RIG_SIGNALS};
+use twip_core::realism::RIG_SIGNALS;
 use twip_core::reference::{SpeedRef, SpeedSchedule};
-use twip_core::runner::{simulate_with, Ideal, Loop, Outcome, SimConfig};
+use twip_core::runner::{simulate_until, Outcome, SimConfig};
 use twip_core::TwipError;
 
 use crate::convert::vector;
@@ -107,20 +107,10 @@ pub fn simulate_raw<'py>(
         // The ideal loop stays the plain runner; realism builds its own plant, sensor
         // and actuator kinds (core enums) and runs them through simulate_rig.
         let result = match realism {
-            None => {
-                let parts = Loop { sensor: &mut Ideal, actuator: &mut Ideal, observer: &mut observers, should_stop, delay_one_period: false };
-                simulate_with(&plant, &mut ctrl, &schedule, &x0, &config, parts)
-            }
-            Some(r) => r.build(&plant, config.dt).and_then(|mut rig| {
-                let parts = Loop {
-                    sensor: &mut rig.sensors,
-                    actuator: &mut rig.actuator,
-                    observer: &mut observers,
-                    should_stop,
-                    delay_one_period: rig.delay,
-                };
-                simulate_rig(&mut rig.plant, &mut ctrl, &schedule, &x0, &config, parts)
-            }),
+            None => simulate_until(&plant, &mut ctrl, &schedule, &x0, &config, &mut observers, should_stop),
+            Some(r) => r
+                .build(&plant, config.dt)
+                .and_then(|mut rig| rig.simulate(&mut ctrl, &schedule, &x0, &config, &mut observers, should_stop)),
         };
         result.map(|(outcome, steps)| {
             let (metrics, log) = observers;

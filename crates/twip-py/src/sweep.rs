@@ -4,6 +4,7 @@
 //! workers before their next block (or within 4096 steps of a sample). With a realism
 //! every sample runs through the rig (`sweep::rig`), noise stream = sample index. The
 //! watcher, the perturbation tuples and the result's layout are shared with `sweep_planar`.
+use std::ops::Range;
 use std::sync::atomic::Ordering;
 use std::thread;
 use std::time::Duration;
@@ -12,7 +13,6 @@ use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::Controller;
-use twip_core::params::FIELD_NAMES;
 use twip_core::runner::SimConfig;
 use twip_core::sweep::lanes::LANES;
 use twip_core::sweep::parallel::{self, Progress};
@@ -25,6 +25,7 @@ use twip_core::TwipError;
 
 use crate::convert::vector;
 use crate::errors::PyTwipError;
+use crate::params::params_dict;
 use crate::models::PySlopeModel;
 use crate::realism::PyRealism;
 use crate::schedule::PySpeedSchedule;
@@ -77,7 +78,7 @@ fn perturbation(t: &PerturbTuple) -> Result<Perturbation, PyErr> {
 /// watches: every 25 ms it takes the GIL back for a moment to pass `watch.done` to
 /// `progress` and to notice Ctrl-C; either one failing sets `watch.stop`. Returns what
 /// `work` returned (`None` if it panicked) and the error to raise, if any.
-pub(crate) fn watched<R: Send>(
+fn watched<R: Send>(
     py: Python<'_>,
     watch: &Progress,
     progress: Option<&Py<PyAny>>,
@@ -111,11 +112,34 @@ pub(crate) fn watched<R: Send>(
     (out, interrupt)
 }
 
+/// Runs samples `samples` of a sweep in blocks of `block` on `threads` threads (0 = all
+/// cores) with the GIL released, watched as [`watched`] says, and returns the result as
+/// [`result_dict`] lays it out. `run_block` is [`parallel::run`]'s.
+pub(crate) fn run_sweep<'py, M, F>(
+    py: Python<'py>,
+    samples: Range<u64>,
+    block: usize,
+    threads: usize,
+    progress: Option<&Py<PyAny>>,
+    kernel: &str,
+    run_block: F,
+) -> PyResult<Bound<'py, PyDict>>
+where
+    M: SweepMetrics,
+    F: Fn(Range<u64>, &dyn Fn() -> bool) -> Option<Vec<M>> + Send + Sync,
+{
+    let start = samples.start;
+    let watch = Progress::default();
+    let (results, interrupt) = watched(py, &watch, progress, || parallel::run(samples, block, threads, &watch, run_block));
+    let results = results.transpose().map_err(PyTwipError)?;
+    result_dict(py, start, results, kernel, interrupt)
+}
+
 /// The result of samples `start..` as a dict of arrays: index, done, valid, fell, steps and
 /// the float metrics `M::NAMES` (NaN where not done); "metric_names" lists "fell" and
 /// those; "kernel", "interrupted". A KeyboardInterrupt is left for the Python layer to
 /// raise once what finished is kept; any other error (the progress callback's) is raised.
-pub(crate) fn result_dict<'py, M: SweepMetrics>(
+fn result_dict<'py, M: SweepMetrics>(
     py: Python<'py>,
     start: u64,
     results: Option<Vec<Option<M>>>,
@@ -159,10 +183,7 @@ pub fn sweep_draw<'py>(
     let nominal = Nominal { params: *model.inner.params(), slope: model.inner.slope(), x0: vector::<4>("x0", x0)? };
     let perts = parse_perturbations(&perturbations, Perturbation::validate)?;
     let s: Sample = draw(&nominal, &perts, seed, index);
-    let params = PyDict::new(py);
-    for (name, value) in FIELD_NAMES.iter().zip(s.params.to_array()) {
-        params.set_item(name, value)?;
-    }
+    let params = params_dict(py, &s.params)?;
     Ok((params, s.slope, crate::convert::to_py_vector(py, &s.x0)))
 }
 
@@ -216,14 +237,13 @@ pub fn sweep_raw<'py>(
         r.build(&model.inner, config.dt).map_err(PyTwipError)?;
     }
     let schedule = reference.inner;
-    let watch = Progress::default();
     let kernel = match (&realism, ctrl) {
         (Some(_), _) => "realism",
         (None, SlopeController::Lqr(_)) => "lanes",
         (None, _) => "general",
     };
-    let (results, interrupt) = watched(py, &watch, progress.as_ref(), || {
-        parallel::run(start..start + count, LANES, threads, &watch, |range, stop| match (&realism, ctrl) {
+    run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
+        match (&realism, ctrl) {
             // Push and force heights default to each sample's own centre of mass.
             (Some(r), c) => range
                 .map(|i| {
@@ -240,8 +260,6 @@ pub fn sweep_raw<'py>(
             (None, other) => range
                 .map(|i| run_slope_sample(&other, &schedule, &config, &draw(&nominal, &perts, seed, i), stop))
                 .collect(),
-        })
-    });
-    let results = results.transpose().map_err(PyTwipError)?;
-    result_dict(py, start, results, kernel, interrupt)
+        }
+    })
 }

@@ -5,15 +5,14 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::Controller;
-use twip_core::params::FIELD_NAMES;
 use twip_core::runner::SimConfig;
-use twip_core::sweep::parallel::{self, Progress};
 use twip_core::sweep::planar::{self as core_planar, run_planar_sample, PlanarNominal, BLOCK};
 
 use crate::convert::vector;
 use crate::errors::PyTwipError;
+use crate::params::params_dict;
 use crate::models::PyPlanarModel;
-use crate::sweep::{parse_perturbations, result_dict, watched, PerturbTuple};
+use crate::sweep::{parse_perturbations, run_sweep, PerturbTuple};
 use crate::tracking::{settle_time, trajectory, PlanarController};
 
 fn nominal(model: &PyPlanarModel, x0: &Bound<'_, PyAny>) -> PyResult<PlanarNominal> {
@@ -34,10 +33,7 @@ pub fn sweep_planar_draw<'py>(
     let nominal = nominal(model, x0)?;
     let perts = parse_perturbations(&perturbations, core_planar::validate)?;
     let s = core_planar::draw(&nominal, &perts, seed, index);
-    let params = PyDict::new(py);
-    for (name, value) in FIELD_NAMES.iter().zip(s.params.to_array()) {
-        params.set_item(name, value)?;
-    }
+    let params = params_dict(py, &s.params)?;
     Ok((params, crate::convert::to_py_vector(py, &s.x0)))
 }
 
@@ -76,17 +72,12 @@ pub fn sweep_planar_raw<'py>(
     let perts = parse_perturbations(&perturbations, core_planar::validate)?;
     let config = SimConfig { dt, t_final, fall_limit: fall_limit.unwrap_or(60f64.to_radians()) };
     config.steps(ctrl.period()).map_err(PyTwipError)?;
-    let watch = Progress::default();
-    let (results, interrupt) = watched(py, &watch, progress.as_ref(), || {
-        parallel::run(start..start + count, BLOCK, threads, &watch, |range, stop| {
-            range
-                .map(|i| {
-                    let sample = core_planar::draw(&nominal, &perts, seed, i);
-                    run_planar_sample(&ctrl, &path, &config, &sample, settle, stop)
-                })
-                .collect()
-        })
-    });
-    let results = results.transpose().map_err(PyTwipError)?;
-    result_dict(py, start, results, "planar", interrupt)
+    run_sweep(py, start..start + count, BLOCK, threads, progress.as_ref(), "planar", |range, stop| {
+        range
+            .map(|i| {
+                let sample = core_planar::draw(&nominal, &perts, seed, i);
+                run_planar_sample(&ctrl, &path, &config, &sample, settle, stop)
+            })
+            .collect()
+    })
 }

@@ -11,7 +11,7 @@
 //! exactly rounded wherever it runs. The data layout: one array per quantity, loops
 //! over lanes that the compiler vectorises.
 use super::lanes::{sin_cos, Lanes, LANES};
-use super::{Sample, SampleMetrics};
+use super::{Sample, SampleMetrics, SweepMetrics};
 use crate::control::{Controller, Reference};
 use crate::lqr_control::LqrController;
 use crate::reference::{SpeedRef, SpeedSchedule};

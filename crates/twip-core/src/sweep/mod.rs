@@ -13,7 +13,7 @@ use crate::metrics::{SlopeMetrics, SlopeSummary};
 use crate::params::RobotParams;
 use crate::reference::{SpeedRef, SpeedSchedule};
 use crate::rng::Philox;
-use crate::runner::{simulate_with, Ideal, Loop, Outcome, SimConfig};
+use crate::runner::{simulate_until, Outcome, SimConfig};
 use crate::slope::SlopeModel;
 use crate::TwipError;
 
@@ -155,15 +155,47 @@ pub(crate) fn draw_values<const NX: usize>(
 
 /// What the bindings lay out as columns of a sweep's result: flags, step count and the
 /// float metrics by name (`NAMES[i]` is `value(i)`), so each family names its own.
+/// Implemented by this module's `sweep_metrics!`.
 pub trait SweepMetrics: Copy + Send {
     /// The float columns, "t_end" first.
     const NAMES: &'static [&'static str];
+    /// A sample whose robot was invalid: nothing run, every float NaN.
+    const INVALID: Self;
     fn valid(&self) -> bool;
     fn fell(&self) -> bool;
     fn steps(&self) -> u64;
     /// Column `i` of [`Self::NAMES`] (NaN past the end).
     fn value(&self, i: usize) -> f64;
 }
+
+/// Implements [`SweepMetrics`] for a struct of `valid`, `fell`, `steps` and the float
+/// fields listed, in column order. The column names are the field names, and a float
+/// field left out of the list fails to compile (in `INVALID`), so the two cannot drift.
+macro_rules! sweep_metrics {
+    ($ty:ty { $($field:ident),+ $(,)? }) => {
+        impl $crate::sweep::SweepMetrics for $ty {
+            const NAMES: &'static [&'static str] = &[$(stringify!($field)),+];
+            const INVALID: Self = Self { valid: false, fell: false, steps: 0, $($field: f64::NAN),+ };
+
+            fn valid(&self) -> bool {
+                self.valid
+            }
+
+            fn fell(&self) -> bool {
+                self.fell
+            }
+
+            fn steps(&self) -> u64 {
+                self.steps
+            }
+
+            fn value(&self, i: usize) -> f64 {
+                [$(self.$field),+].get(i).copied().unwrap_or(f64::NAN)
+            }
+        }
+    };
+}
+pub(crate) use sweep_metrics;
 
 /// What a sweep keeps of one sample.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -183,19 +215,6 @@ pub struct SampleMetrics {
 }
 
 impl SampleMetrics {
-    pub const INVALID: Self = Self {
-        valid: false,
-        fell: false,
-        t_end: f64::NAN,
-        mean_abs_pitch_error: f64::NAN,
-        mean_abs_speed_error: f64::NAN,
-        pitch_settling_time: f64::NAN,
-        speed_settling_time: f64::NAN,
-        final_position_error: f64::NAN,
-        peak_abs_input: f64::NAN,
-        steps: 0,
-    };
-
     /// A valid sample's metrics from its run's summary and how the run ended.
     pub fn from_summary(s: &SlopeSummary<f64>, fell: bool, t_end: f64, steps: u64) -> Self {
         Self {
@@ -213,41 +232,40 @@ impl SampleMetrics {
     }
 }
 
-impl SweepMetrics for SampleMetrics {
-    const NAMES: &'static [&'static str] = &[
-        "t_end",
-        "mean_abs_pitch_error",
-        "mean_abs_speed_error",
-        "pitch_settling_time",
-        "speed_settling_time",
-        "final_position_error",
-        "peak_abs_input",
-    ];
+sweep_metrics!(SampleMetrics {
+    t_end,
+    mean_abs_pitch_error,
+    mean_abs_speed_error,
+    pitch_settling_time,
+    speed_settling_time,
+    final_position_error,
+    peak_abs_input,
+});
 
-    fn valid(&self) -> bool {
-        self.valid
-    }
+/// A reset copy of a sweep's controller, designed once on the nominal robot.
+pub(crate) fn fresh<C: Controller<f64, NX, NU> + Clone, const NX: usize, const NU: usize>(prototype: &C) -> C {
+    let mut controller = prototype.clone();
+    controller.reset();
+    controller
+}
 
-    fn fell(&self) -> bool {
-        self.fell
-    }
-
-    fn steps(&self) -> u64 {
-        self.steps
-    }
-
-    fn value(&self, i: usize) -> f64 {
-        match i {
-            0 => self.t_end,
-            1 => self.mean_abs_pitch_error,
-            2 => self.mean_abs_speed_error,
-            3 => self.pitch_settling_time,
-            4 => self.speed_settling_time,
-            5 => self.final_position_error,
-            6 => self.peak_abs_input,
-            _ => f64::NAN,
-        }
-    }
+/// A sample's metrics from its run: `M::INVALID` when the run refused the drawn robot or
+/// state, `None` when `should_stop` ended it, else `make(fell, t_end, steps)` (a
+/// diverged run counts as fallen; a completed one ends at `dt * steps`).
+pub(crate) fn finish<M: SweepMetrics>(
+    run: Result<(Outcome<f64>, usize), TwipError>,
+    dt: f64,
+    make: impl FnOnce(bool, f64, u64) -> M,
+) -> Option<M> {
+    let Ok((outcome, steps)) = run else {
+        return Some(M::INVALID);
+    };
+    let (fell, t_end) = match outcome {
+        Outcome::Completed => (false, dt * steps as f64),
+        Outcome::Fell { t } | Outcome::Diverged { t } => (true, t),
+        Outcome::Interrupted { .. } => return None,
+    };
+    Some(make(fell, t_end, steps as u64))
 }
 
 /// Runs one sample with any 2-DOF controller (the general path; LQR has a faster one in
@@ -266,25 +284,9 @@ where
     let Ok(plant) = SlopeModel::new(sample.params, sample.slope) else {
         return Some(SampleMetrics::INVALID);
     };
-    let mut controller = prototype.clone();
-    controller.reset();
     let mut metrics = SlopeMetrics::new(plant);
-    let parts = Loop {
-        sensor: &mut Ideal,
-        actuator: &mut Ideal,
-        observer: &mut metrics,
-        should_stop,
-        delay_one_period: false,
-    };
-    let Ok((outcome, steps)) = simulate_with(&plant, &mut controller, reference, &sample.x0, config, parts) else {
-        return Some(SampleMetrics::INVALID);
-    };
-    let (fell, t_end) = match outcome {
-        Outcome::Completed => (false, config.dt * steps as f64),
-        Outcome::Fell { t } | Outcome::Diverged { t } => (true, t),
-        Outcome::Interrupted { .. } => return None,
-    };
-    Some(SampleMetrics::from_summary(&metrics.summary(), fell, t_end, steps as u64))
+    let run = simulate_until(&plant, &mut fresh(prototype), reference, &sample.x0, config, &mut metrics, should_stop);
+    finish(run, config.dt, |fell, t_end, steps| SampleMetrics::from_summary(&metrics.summary(), fell, t_end, steps))
 }
 
 /// Metrics of samples `indices` with LQR, via the lane kernel, blocks of [`lanes::LANES`].

@@ -4,12 +4,12 @@
 //! sample `i` comes from `Philox::new(seed, i)` here too.
 use crate::control::{Controller, Reference};
 use crate::planar::{PlanarModel, PlanarState};
-use crate::runner::{simulate_with, Ideal, Loop, Outcome, SimConfig};
+use crate::runner::{simulate_until, SimConfig};
 use crate::trajectory::{Path, PlanarRef};
-use crate::tracking_metrics::TrackingMetrics;
+use crate::tracking_metrics::{TrackingMetrics, TrackingSummary};
 use crate::{RobotParams, TwipError};
 
-use super::{draw_values, Perturbation, Spread, SweepMetrics, Target};
+use super::{draw_values, finish, fresh, sweep_metrics, Perturbation, Spread, SweepMetrics, Target};
 
 /// Samples per parallel block: one. A tracking run is 10⁴–10⁵ steps, so a task per
 /// sample costs nothing, balances the threads and reports progress per sample.
@@ -73,59 +73,34 @@ pub struct PlanarSampleMetrics {
 }
 
 impl PlanarSampleMetrics {
-    pub const INVALID: Self = Self {
-        valid: false,
-        fell: false,
-        t_end: f64::NAN,
-        mean_abs_x_error: f64::NAN,
-        mean_abs_y_error: f64::NAN,
-        mean_abs_x_error_settled: f64::NAN,
-        mean_abs_y_error_settled: f64::NAN,
-        max_path_error_settled: f64::NAN,
-        mean_abs_pitch: f64::NAN,
-        peak_abs_torque: f64::NAN,
-        steps: 0,
-    };
-}
-
-impl SweepMetrics for PlanarSampleMetrics {
-    const NAMES: &'static [&'static str] = &[
-        "t_end",
-        "mean_abs_x_error",
-        "mean_abs_y_error",
-        "mean_abs_x_error_settled",
-        "mean_abs_y_error_settled",
-        "max_path_error_settled",
-        "mean_abs_pitch",
-        "peak_abs_torque",
-    ];
-
-    fn valid(&self) -> bool {
-        self.valid
-    }
-
-    fn fell(&self) -> bool {
-        self.fell
-    }
-
-    fn steps(&self) -> u64 {
-        self.steps
-    }
-
-    fn value(&self, i: usize) -> f64 {
-        match i {
-            0 => self.t_end,
-            1 => self.mean_abs_x_error,
-            2 => self.mean_abs_y_error,
-            3 => self.mean_abs_x_error_settled,
-            4 => self.mean_abs_y_error_settled,
-            5 => self.max_path_error_settled,
-            6 => self.mean_abs_pitch,
-            7 => self.peak_abs_torque,
-            _ => f64::NAN,
+    /// A valid sample's metrics from its run's summary and how the run ended.
+    pub fn from_summary(s: &TrackingSummary<f64>, fell: bool, t_end: f64, steps: u64) -> Self {
+        Self {
+            valid: true,
+            fell,
+            t_end,
+            mean_abs_x_error: s.mean_abs_x_error,
+            mean_abs_y_error: s.mean_abs_y_error,
+            mean_abs_x_error_settled: s.mean_abs_x_error_settled,
+            mean_abs_y_error_settled: s.mean_abs_y_error_settled,
+            max_path_error_settled: s.max_path_error_settled,
+            mean_abs_pitch: s.mean_abs_pitch,
+            peak_abs_torque: s.peak_abs_torque,
+            steps,
         }
     }
 }
+
+sweep_metrics!(PlanarSampleMetrics {
+    t_end,
+    mean_abs_x_error,
+    mean_abs_y_error,
+    mean_abs_x_error_settled,
+    mean_abs_y_error_settled,
+    max_path_error_settled,
+    mean_abs_pitch,
+    peak_abs_torque,
+});
 
 /// Runs one sample: a reset copy of the prototype tracker (designed for the nominal
 /// robot) on the sample's robot along `path`; "_settled" metrics from `settle` [s].
@@ -145,44 +120,16 @@ where
     let Ok(plant) = PlanarModel::new(sample.params) else {
         return Some(PlanarSampleMetrics::INVALID);
     };
-    let mut controller = prototype.clone();
-    controller.reset();
     let mut metrics = TrackingMetrics::new(*path, settle);
-    let parts = Loop {
-        sensor: &mut Ideal,
-        actuator: &mut Ideal,
-        observer: &mut metrics,
-        should_stop,
-        delay_one_period: false,
-    };
-    let Ok((outcome, steps)) = simulate_with(&plant, &mut controller, path, &sample.x0, config, parts) else {
-        return Some(PlanarSampleMetrics::INVALID);
-    };
-    let (fell, t_end) = match outcome {
-        Outcome::Completed => (false, config.dt * steps as f64),
-        Outcome::Fell { t } | Outcome::Diverged { t } => (true, t),
-        Outcome::Interrupted { .. } => return None,
-    };
-    let s = metrics.summary();
-    Some(PlanarSampleMetrics {
-        valid: true,
-        fell,
-        t_end,
-        mean_abs_x_error: s.mean_abs_x_error,
-        mean_abs_y_error: s.mean_abs_y_error,
-        mean_abs_x_error_settled: s.mean_abs_x_error_settled,
-        mean_abs_y_error_settled: s.mean_abs_y_error_settled,
-        max_path_error_settled: s.max_path_error_settled,
-        mean_abs_pitch: s.mean_abs_pitch,
-        peak_abs_torque: s.peak_abs_torque,
-        steps: steps as u64,
-    })
+    let run = simulate_until(&plant, &mut fresh(prototype), path, &sample.x0, config, &mut metrics, should_stop);
+    finish(run, config.dt, |fell, t_end, steps| PlanarSampleMetrics::from_summary(&metrics.summary(), fell, t_end, steps))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::motor::DcMotor;
+    use crate::runner::Outcome;
     use crate::pid_tracking::PidTracker;
     use crate::runner::simulate;
     use crate::trajectory::{Circle, Direction};

@@ -6,12 +6,12 @@
 //! replaced, so a sample is reproducible from (sweep seed, index) alone and two sweep
 //! seeds give different noise. `noise_seed` is a bijection that moves the key away from
 //! `s` itself, so the noise is not the very stream the perturbations were drawn from.
-use super::{Sample, SampleMetrics};
+use super::{finish, fresh, Sample, SampleMetrics, SweepMetrics};
 use crate::control::Controller;
 use crate::metrics::SlopeMetrics;
-use crate::realism::{simulate_rig, Realism};
+use crate::realism::Realism;
 use crate::reference::{SpeedRef, SpeedSchedule};
-use crate::runner::{Loop, Outcome, SimConfig};
+use crate::runner::SimConfig;
 use crate::slope::SlopeModel;
 
 /// The sensor-noise key of a sweep with seed `sweep_seed` (splitmix64's finaliser of
@@ -51,25 +51,9 @@ where
     let Ok(mut rig) = realism.with_stream(sample.index).build(&model, config.dt) else {
         return Some(SampleMetrics::INVALID);
     };
-    let mut controller = prototype.clone();
-    controller.reset();
     let mut metrics = SlopeMetrics::new(model);
-    let parts = Loop {
-        sensor: &mut rig.sensors,
-        actuator: &mut rig.actuator,
-        observer: &mut metrics,
-        should_stop,
-        delay_one_period: rig.delay,
-    };
-    let Ok((outcome, steps)) = simulate_rig(&mut rig.plant, &mut controller, reference, &sample.x0, config, parts) else {
-        return Some(SampleMetrics::INVALID);
-    };
-    let (fell, t_end) = match outcome {
-        Outcome::Completed => (false, config.dt * steps as f64),
-        Outcome::Fell { t } | Outcome::Diverged { t } => (true, t),
-        Outcome::Interrupted { .. } => return None,
-    };
-    Some(SampleMetrics::from_summary(&metrics.summary(), fell, t_end, steps as u64))
+    let run = rig.simulate(&mut fresh(prototype), reference, &sample.x0, config, &mut metrics, should_stop);
+    finish(run, config.dt, |fell, t_end, steps| SampleMetrics::from_summary(&metrics.summary(), fell, t_end, steps))
 }
 
 #[cfg(test)]
