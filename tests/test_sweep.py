@@ -417,3 +417,32 @@ def test_the_core_refuses_a_slope_perturbation_of_a_planar_sweep_by_name():
     with pytest.raises(twip.InvalidParameterError, match="slope = 0.1: .*3-DOF"):
         twip._core.sweep_planar_raw(sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
                                     [("slope", 0, "uniform", 0.0, 0.1, 0.0, 0.1)], 0, 0, 2)
+
+
+# ============================================================================ traces of a few samples
+
+
+def test_traces_keep_decimated_trajectories_of_the_samples_asked_for():
+    r = sweep(n=32, traces=[3, 17], trace_every=50)
+    assert sorted(r.traces) == [3, 17]
+    for i, trace in r.traces.items():
+        assert not r.metrics["fell"][i]
+        assert len(trace.t) == 3000 // 50 + 1 and trace.t[1] == pytest.approx(0.05)  # 3 s, every 50 ms
+        assert trace.metrics["mean_abs_pitch_error"] == pytest.approx(r.metrics["mean_abs_pitch_error"][i], rel=1e-9)
+    assert sweep(n=32).traces == {}
+
+
+@pytest.mark.parametrize("traces, trace_every, message", [
+    ([32], 10, "sample index 32 is not in 0..31"),
+    ([-1], 10, "sample index -1"),
+    (["a"], 10, "sample index 'a'"),
+    ([0], 0, "trace_every = 0"),
+])
+def test_bad_traces_are_named(traces, trace_every, message):
+    with pytest.raises(twip.InvalidParameterError, match=message):
+        sweep(n=32, traces=traces, trace_every=trace_every)
+
+
+def test_a_sweep_keeps_a_few_trajectories_not_all():
+    with pytest.raises(twip.InvalidParameterError, match="101 samples; a sweep keeps at most 100"):
+        sweep(n=200, traces=range(101))

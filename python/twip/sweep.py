@@ -184,6 +184,8 @@ class SweepResult:
     metric_names: Tuple[str, ...] = METRICS
     _scenario: object = field(default=None, repr=False)
     _realism: object = field(default=None, repr=False)
+    #: {sample index: twip.SimResult}: the decimated trajectories asked for with `traces=`.
+    traces: Dict[int, object] = field(default_factory=dict, repr=False)
 
     @property
     def n(self) -> int:
@@ -416,6 +418,8 @@ def montecarlo(
     params=None,
     options: Optional[Mapping] = None,
     realism=None,
+    traces: Optional[Sequence[int]] = None,
+    trace_every: int = 10,
 ) -> SweepResult:
     """Runs `n` samples of `scenario` (a name from `twip.scenarios.names()`, or a Scenario).
 
@@ -428,6 +432,8 @@ def montecarlo(
     realism: a `twip.Realism` (2-DOF scenarios): sensors, estimator, motor driver, loop
     period and delay, disturbances in every run. Sample i's noise is stream i of a key
     made from `seed`; the realism's own seed and stream are ignored.
+    traces: a few sample indices whose trajectories to keep, logged every `trace_every`
+    steps, in `SweepResult.traces` (each replayed alone with the full runner, see replay).
     Ctrl-C stops within a fraction of a second: finished shards stay in the checkpoint,
     and the KeyboardInterrupt carries `.partial`, a SweepResult of what finished.
     """
@@ -439,6 +445,7 @@ def montecarlo(
         raise _bad(f"threads = {threads!r}: must be a positive integer or None (all cores)")
     if client is not None and not isinstance(scenario, str):
         raise _bad("client= (Dask) needs a scenario name, so that workers can rebuild it")
+    traces = _trace_indices(traces, n, trace_every)
     if realism is not None and not isinstance(realism, _core.Realism):
         raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
     sc = _scenario_of(scenario, params, options)
@@ -490,7 +497,31 @@ def montecarlo(
         raise
     finally:
         bar.close()
-    return _assemble(parts, config, time.perf_counter() - started, kernel, sc, complete=True, realism=realism)
+    result = _assemble(parts, config, time.perf_counter() - started, kernel, sc, complete=True, realism=realism)
+    result.traces = {i: result.replay(i, record_every=trace_every) for i in traces}
+    return result
+
+
+MAX_TRACES = 100
+
+
+def _trace_indices(traces, n, every) -> list:
+    """The sample indices of `traces=`, checked: distinct, in range, a few."""
+    if traces is None:
+        return []
+    if isinstance(traces, (int, np.integer)):
+        traces = [traces]
+    out = []
+    for i in traces:
+        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 0 <= i < n:
+            raise _bad(f"traces: sample index {i!r} is not in 0..{n - 1}")
+        out.append(int(i))
+    if len(set(out)) > MAX_TRACES:
+        raise _bad(f"traces: {len(set(out))} samples; a sweep keeps at most {MAX_TRACES} trajectories "
+                   "(metrics are kept for every sample)")
+    if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
+        raise _bad(f"trace_every = {every!r}: must be an integer >= 1 (log every that many steps)")
+    return sorted(set(out))
 
 
 def _assemble(parts, config, elapsed, kernel, sc, complete, realism=None):
