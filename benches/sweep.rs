@@ -1,5 +1,7 @@
-//! Sweep throughput: the LQR lane kernel against the general per-sample runner, in
-//! sample-steps per second (closed-loop 2-DOF + LQR, RK4 at 1 ms, 10 s per sample).
+//! Sweep throughput of each path, one thread, in sample-steps per second (RK4 at 1 ms):
+//! the LQR lane kernel against the general per-sample runner (closed-loop 2-DOF + LQR,
+//! 10 s per sample), the same samples through the thesis-like rig (realism), and the
+//! 3-DOF PID tracker on its circle (4 s per sample).
 //! Run: cargo bench -p twip-core --features parallel --bench sweep
 use std::hint::black_box;
 
@@ -8,7 +10,13 @@ use nalgebra::{Matrix4, Vector4};
 use twip_core::lqr_control::{design, DesignPoint, LqrController};
 use twip_core::reference::SpeedSchedule;
 use twip_core::runner::SimConfig;
+use twip_core::motor::DcMotor;
+use twip_core::pid_tracking::PidTracker;
+use twip_core::realism::Realism;
+use twip_core::sweep::planar::{self, PlanarNominal};
+use twip_core::sweep::rig::{for_sweep, run_rig_sample};
 use twip_core::sweep::{draw, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Spread, Target};
+use twip_core::trajectory::{Circle, Direction};
 use twip_core::{RobotParams, SlopeModel};
 
 fn setup() -> (LqrController<f64>, SpeedSchedule<f64>, SimConfig<f64>, Nominal, Vec<Perturbation>) {
@@ -42,8 +50,39 @@ fn sweep(c: &mut Criterion) {
                 .collect::<Vec<_>>()
         })
     });
+    // The thesis-like robot runs its controller every 5 ms, one period late.
+    let rig = for_sweep(&Realism::thesis_like(), 1);
+    let ctrl_5ms = ctrl.with_period(5e-3).unwrap();
+    group.bench_function("realism_1_thread", |b| {
+        b.iter(|| {
+            (0..black_box(samples))
+                .map(|i| run_rig_sample(&ctrl_5ms, &schedule, &config, &draw(&nominal, &perturb, 1, i), &rig, &|| false))
+                .collect::<Vec<_>>()
+        })
+    });
     group.finish();
 }
 
-criterion_group!(benches, sweep);
+fn sweep_planar(c: &mut Criterion) {
+    let params = RobotParams::balanbot();
+    let ctrl = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), 0.005).unwrap();
+    let circle = Circle::from_origin(0.6, core::f64::consts::PI * params.wheel_radius, Direction::CounterClockwise).unwrap();
+    let config = SimConfig { dt: 1e-3, t_final: 4.0, fall_limit: 60f64.to_radians() };
+    let nominal = PlanarNominal { params, x0: nalgebra::SVector::zeros() };
+    let perturb = [Perturbation { target: Target::Param(0), spread: Spread::Uniform { low: 0.66, high: 1.0 } }];
+    let samples = 16u64;
+    let mut group = c.benchmark_group("sweep_circle_pid_4s");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(samples * 4_000));
+    group.bench_function("planar_1_thread", |b| {
+        b.iter(|| {
+            (0..black_box(samples))
+                .map(|i| planar::run_planar_sample(&ctrl, &circle, &config, &planar::draw(&nominal, &perturb, 1, i), 0.0, &|| false))
+                .collect::<Vec<_>>()
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, sweep, sweep_planar);
 criterion_main!(benches);
