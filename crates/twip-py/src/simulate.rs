@@ -21,7 +21,7 @@ use crate::realism::PyRealism;
 use crate::schedule::PySpeedSchedule;
 
 /// Every controller of the 2-DOF model. A new controller family adds a variant here
-/// and a line in `extract`; the runner stays one monomorphised loop.
+/// and in the `controller_enum!` line below; the runner stays one monomorphised loop.
 #[derive(Clone, Copy, Debug)]
 pub enum SlopeController {
     Lqr(LqrController<f64>),
@@ -29,26 +29,6 @@ pub enum SlopeController {
 }
 
 impl SlopeController {
-    pub(crate) fn extract(obj: &Bound<'_, PyAny>) -> PyResult<Self> {
-        if let Ok(c) = obj.cast::<PyLqrController>() {
-            return Ok(Self::Lqr(c.get().inner));
-        }
-        if let Ok(c) = obj.cast::<PyFuzzyController>() {
-            return Ok(Self::Fuzzy(c.get().inner));
-        }
-        Err(pyo3::exceptions::PyTypeError::new_err(format!(
-            "controller must be a 2-DOF twip controller (LqrController, FuzzyController), got {}",
-            obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
-        )))
-    }
-
-    pub(crate) fn with_period(self, period: f64) -> CoreResult<Self> {
-        Ok(match self {
-            Self::Lqr(c) => Self::Lqr(c.with_period(period)?),
-            Self::Fuzzy(c) => Self::Fuzzy(c.with_period(period)?),
-        })
-    }
-
     pub(crate) fn check_reference(&self, schedule: &SpeedSchedule<f64>) -> CoreResult<()> {
         match self {
             Self::Lqr(c) => c.check_reference(schedule)?,
@@ -58,7 +38,7 @@ impl SlopeController {
     }
 }
 
-crate::dispatch::controller_enum!(SlopeController, 4, 1, SpeedRef<f64>; Lqr, Fuzzy);
+crate::dispatch::controller_enum!(SlopeController, 4, 1, SpeedRef<f64>, "2-DOF"; Lqr(PyLqrController), Fuzzy(PyFuzzyController));
 
 /// Runs the closed loop; returns a dict that `twip.simulate` wraps into a SimResult.
 /// With `realism` (a `twip.Realism`) the loop runs through `simulate_rig` and the log

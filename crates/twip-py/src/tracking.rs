@@ -776,29 +776,7 @@ pub enum PlanarController {
     Smc(SmcTracker<f64>),
 }
 
-impl PlanarController {
-    pub(crate) fn extract(obj: &Bound<'_, PyAny>) -> PyResult<Self> {
-        if let Ok(c) = obj.cast::<PyPidTracker>() {
-            return Ok(Self::Pid(c.get().inner));
-        }
-        if let Ok(c) = obj.cast::<PySmcTracker>() {
-            return Ok(Self::Smc(c.get().inner));
-        }
-        Err(pyo3::exceptions::PyTypeError::new_err(format!(
-            "controller must be a 3-DOF twip controller (PidTracker, SmcTracker), got {}",
-            obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
-        )))
-    }
-
-    pub(crate) fn with_period(self, period: f64) -> CoreResult<Self> {
-        Ok(match self {
-            Self::Pid(c) => Self::Pid(c.with_period(period)?),
-            Self::Smc(c) => Self::Smc(c.with_period(period)?),
-        })
-    }
-}
-
-crate::dispatch::controller_enum!(PlanarController, 7, 2, PlanarRef<f64>; Pid, Smc);
+crate::dispatch::controller_enum!(PlanarController, 7, 2, PlanarRef<f64>, "3-DOF"; Pid(PyPidTracker), Smc(PySmcTracker));
 
 /// When the "_settled" metrics start: `settle` [s], by default one lap of a closed path, else 0.
 pub(crate) fn settle_time(settle: Option<f64>, path: &Trajectory<f64>) -> PyResult<f64> {
