@@ -50,6 +50,7 @@ __all__ = [
     "simulate_raw",
     "sweep_draw",
     "sweep_noise_seed",
+    "controller_fingerprint",
     "sweep_planar_draw",
     "sweep_planar_raw",
     "sweep_raw",
@@ -436,6 +437,7 @@ def sweep_raw(model: SlopeModel, controller: Any, x0: _ArrayLike, t_final: float
               count: int, control_period: Optional[float] = None, fall_limit: Optional[float] = None, threads: int = 0,
               progress: Optional[Callable[[int], Any]] = None, realism: Optional[Realism] = None) -> dict[str, Any]: ...
 def sweep_noise_seed(seed: int) -> int: ...
+def controller_fingerprint(controller: Any) -> str: ...
 def sweep_draw(model: SlopeModel, x0: _ArrayLike, perturbations: Sequence[Tuple[str, int, str, float, float, float, float]],
                seed: int, index: int) -> Tuple[dict[str, float], float, _F64]: ...
 def sweep_planar_raw(model: PlanarModel, controller: Any, x0: _ArrayLike, t_final: float, dt: float, reference: Any,

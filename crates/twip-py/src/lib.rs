@@ -38,6 +38,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::sweep_raw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_draw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_noise_seed, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::controller_fingerprint, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_planar::sweep_planar_raw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_planar::sweep_planar_draw, m)?)?;
     m.add_class::<tracking::PyCircle>()?;

@@ -187,6 +187,16 @@ pub fn sweep_draw<'py>(
     Ok((params, s.slope, crate::convert::to_py_vector(py, &s.x0)))
 }
 
+/// Everything a controller is (gains, model, period, fuzzy sets, initial weights, ...),
+/// as text: what a sweep's checkpoint fingerprints, so that any change is noticed.
+#[pyfunction]
+pub fn controller_fingerprint(controller: &Bound<'_, PyAny>) -> PyResult<String> {
+    match SlopeController::extract(controller) {
+        Ok(c) => Ok(format!("{c:?}")),
+        Err(_) => Ok(format!("{:?}", crate::tracking::PlanarController::extract(controller)?)),
+    }
+}
+
 /// The sensor-noise key of a sweep with `seed` (sample i replays with
 /// `realism.replace(seed=sweep_noise_seed(seed), stream=i)`).
 #[pyfunction]
