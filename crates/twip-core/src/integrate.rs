@@ -15,8 +15,25 @@ where
     T: Real,
     M: Dynamics<T, NX, NU> + ?Sized,
 {
+    rk4_step_from_k1(model, x, u, dt, &model.deriv(x, u))
+}
+
+/// [`rk4_step`] given its first stage `k1` = `model.deriv(x, u)`, which a caller may
+/// also need (an accelerometer reads it): the same arithmetic, one evaluation fewer.
+#[inline]
+pub fn rk4_step_from_k1<T, M, const NX: usize, const NU: usize>(
+    model: &M,
+    x: &SVector<T, NX>,
+    u: &SVector<T, NU>,
+    dt: T,
+    k1: &SVector<T, NX>,
+) -> SVector<T, NX>
+where
+    T: Real,
+    M: Dynamics<T, NX, NU> + ?Sized,
+{
     let half = dt * c::<T>(0.5);
-    let k1 = model.deriv(x, u);
+    let k1 = *k1;
     let k2 = model.deriv(&(x + k1 * half), u);
     let k3 = model.deriv(&(x + k2 * half), u);
     let k4 = model.deriv(&(x + k3 * dt), u);

@@ -81,20 +81,38 @@ impl<T: Real, const NX: usize, const NU: usize, S: LogRow<T>> Observer<T, NX, NU
         }
         self.seen += 1;
     }
+
+    fn observe_last(&mut self, t: T, x: &SVector<T, NX>, u: &SVector<T, NU>, r: &S, internals: &[T]) {
+        self.push(t, x, u, r, internals);
+        self.seen += 1;
+    }
 }
 
-impl<T: Real> TrajectoryLog<T> {
-    /// Makes sure the final sample is in the log even when decimation skipped it.
-    pub fn keep_last<const NX: usize, const NU: usize, S: LogRow<T>>(
-        &mut self,
-        t: T,
-        x: &SVector<T, NX>,
-        u: &SVector<T, NU>,
-        r: &S,
-        internals: &[T],
-    ) {
-        if self.t.last() != Some(&t) {
-            self.push(t, x, u, r, internals);
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::runner::{simulate, SimConfig};
+    use crate::lqr_control::{DesignPoint, LqrController};
+    use crate::control::Controller;
+    use crate::{RobotParams, SlopeModel};
+    use crate::reference::SpeedSchedule;
+    use nalgebra::Vector4;
+
+    /// With any stride the log ends with the run's final sample: the end, or the fall.
+    #[test]
+    fn the_last_sample_is_kept_whatever_the_stride() {
+        let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
+        let schedule = SpeedSchedule::constant(0.0).unwrap();
+        let config = SimConfig { dt: 1e-3, t_final: 0.1, fall_limit: 0.5 };
+        let upright = LqrController::new([-11.0, -1.7, -0.05, -0.045], model, DesignPoint::OperatingPoint, 1e-3).unwrap();
+        let limp = LqrController::new([0.0; 4], model, DesignPoint::OperatingPoint, 1e-3).unwrap();
+        for (mut ctrl, x0) in [(upright, Vector4::zeros()), (limp, Vector4::new(0.45, 2.0, 0.0, 0.0))] {
+            for every in [1, 7, 50, 1000] {
+                let mut log = TrajectoryLog::with_capacity(101, every, [4, 1, 2, ctrl.internal_names().len()]);
+                let (_, steps) = simulate(&model, &mut ctrl, &schedule, &x0, &config, &mut log).unwrap();
+                assert_eq!(*log.t.last().unwrap(), config.dt * steps as f64, "every {every}");
+                assert_eq!(log.len(), steps / every + 1 + usize::from(steps % every != 0), "every {every}");
+            }
         }
     }
 }

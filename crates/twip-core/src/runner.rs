@@ -4,7 +4,8 @@
 use nalgebra::SVector;
 
 use crate::control::{Controller, Reference};
-use crate::{c, rk4_step, Dynamics, Real, TwipError};
+use crate::integrate::rk4_step_from_k1;
+use crate::{c, Dynamics, Real, TwipError};
 
 /// Step size, duration and fall limit of one run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -65,6 +66,12 @@ impl<T: Real> SimConfig<T> {
 /// the reference and the controller's internals.
 pub trait Observer<T: Real, const NX: usize, const NU: usize, S> {
     fn observe(&mut self, t: T, x: &SVector<T, NX>, u: &SVector<T, NU>, r: &S, internals: &[T]);
+
+    /// The run's final sample (at the end, or past the fall limit). A decimating
+    /// observer keeps it whatever its stride.
+    fn observe_last(&mut self, t: T, x: &SVector<T, NX>, u: &SVector<T, NU>, r: &S, internals: &[T]) {
+        self.observe(t, x, u, r, internals);
+    }
 }
 
 impl<T: Real, const NX: usize, const NU: usize, S> Observer<T, NX, NU, S> for () {
@@ -81,16 +88,19 @@ where
         self.0.observe(t, x, u, r, internals);
         self.1.observe(t, x, u, r, internals);
     }
+
+    fn observe_last(&mut self, t: T, x: &SVector<T, NX>, u: &SVector<T, NU>, r: &S, internals: &[T]) {
+        self.0.observe_last(t, x, u, r, internals);
+        self.1.observe_last(t, x, u, r, internals);
+    }
 }
 
 /// What the controller measures. Called every plant step (`sample`) and at each
 /// controller update (`read`). [`Ideal`] hands over the true state.
 pub trait Sensor<T: Real, const NX: usize> {
-    /// Whether `sample` needs the state derivative (an accelerometer does); the runner
-    /// then evaluates the plant once more per step, otherwise it passes zeros.
-    const NEEDS_DERIV: bool = false;
-
-    /// The true state `x` and its derivative at time `t`, once per plant step.
+    /// The true state `x` and its derivative at time `t`: once before the run, then
+    /// each plant step after the controller's update, with the derivative over the
+    /// coming step (RK4's first stage, so an accelerometer costs no extra evaluation).
     fn sample(&mut self, t: T, x: &SVector<T, NX>, xdot: &SVector<T, NX>);
 
     /// The measurement the controller gets at an update at time `t`.
@@ -214,14 +224,13 @@ where
     let mut u = SVector::<T, NU>::zeros();
     let mut pending = u;
     let observer = &mut *parts.observer;
+    parts.sensor.sample(T::zero(), &x, &plant.deriv(&x, &u));
     for k in 0..n {
         let t = dt * c::<T>(k as f64);
         if k % STOP_CHECK_STEPS == 0 && k > 0 && (parts.should_stop)() {
             return Ok((Outcome::Interrupted { t }, k));
         }
         let r = reference.sample(t);
-        let xdot = if S::NEEDS_DERIV { plant.deriv(&x, &u) } else { SVector::zeros() };
-        parts.sensor.sample(t, &x, &xdot);
         if k % per_update == 0 {
             let y = parts.sensor.read(t, &x);
             let command = controller.update(t, &y, &r);
@@ -237,17 +246,19 @@ where
             }
         }
         observer.observe(t, &x, &u, &r, controller.internals());
-        x = rk4_step(plant, &x, &u, dt);
+        let k1 = plant.deriv(&x, &u);
+        parts.sensor.sample(t, &x, &k1);
+        x = rk4_step_from_k1(plant, &x, &u, dt, &k1);
         let t_next = dt * c::<T>((k + 1) as f64);
         if x.iter().any(|v| !v.is_finite()) {
             return Ok((Outcome::Diverged { t: t_next }, k + 1));
         }
         if x[P::PITCH].abs() > config.fall_limit {
-            observer.observe(t_next, &x, &u, &reference.sample(t_next), controller.internals());
+            observer.observe_last(t_next, &x, &u, &reference.sample(t_next), controller.internals());
             return Ok((Outcome::Fell { t: t_next }, k + 1));
         }
     }
     let t_end = dt * c::<T>(n as f64);
-    observer.observe(t_end, &x, &u, &reference.sample(t_end), controller.internals());
+    observer.observe_last(t_end, &x, &u, &reference.sample(t_end), controller.internals());
     Ok((Outcome::Completed, n))
 }
