@@ -13,6 +13,7 @@
 use nalgebra::{SVector, Vector4};
 
 use crate::control::{Controller, Reference};
+use crate::integrate::rk4_step_from_k1;
 use crate::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_SLOPE_CHANGES};
 use crate::drive::{Driven, MotorDriver, PwmActuator};
 use crate::encoder::Encoder;
@@ -75,7 +76,7 @@ impl<T: Real> Realism<T> {
     pub fn thesis_like() -> Self {
         Self {
             imu: Some(ImuSettings::thesis_like()),
-            encoder_cpr: Some(c(700.0)),
+            encoder_cpr: Some(c(crate::pid_tracking::ENCODER_CPR)),
             motor: Some(MotorDriver::thesis_like()),
             delay: true,
             control_period: Some(c(5e-3)),
@@ -237,8 +238,6 @@ impl<T: Real> BalanceSensors<T> {
 }
 
 impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
-    const NEEDS_DERIV: bool = true;
-
     /// Samples the IMU when its period has come round (from t = 0 on).
     #[inline]
     fn sample(&mut self, t: T, x: &Vector4<T>, xdot: &Vector4<T>) {
@@ -411,13 +410,14 @@ where
     }
     let width = controller.internals().len();
     if width > MAX_INTERNALS {
+        // The reason is a static str; the assertion keeps its number right.
+        const _: () = assert!(MAX_INTERNALS == 58);
         let reason = "more than 58 controller internals";
         return Err(TwipError::InvalidParameter { name: "internals", value: width as f64, reason });
     }
     let mut signals = [T::zero(); MAX_INTERNALS + RIG_SIGNALS.len()];
     let logged = width + RIG_SIGNALS.len();
     let dt = config.dt;
-    let half = dt * c::<T>(0.5);
     let mut x = *x0;
     let (mut u, mut pending) = (SVector::<T, 1>::zeros(), SVector::<T, 1>::zeros());
     let (mut command, mut pending_command) = (u, u);
@@ -452,26 +452,23 @@ where
         signals[width + 5] = plant.current(&x, &u);
         observer.observe(t, &x, &command, &r, &signals[..logged]);
         plant.between_steps(t, dt, &mut x, &u);
-        // RK4 as `integrate::rk4_step`, its first stage shared with the sensor.
+        // RK4, its first stage shared with the sensor.
         let k1 = plant.deriv(&x, &u);
         parts.sensor.sample(t, &x, &k1);
-        let k2 = plant.deriv(&(x + k1 * half), &u);
-        let k3 = plant.deriv(&(x + k2 * half), &u);
-        let k4 = plant.deriv(&(x + k3 * dt), &u);
-        x += (k1 + (k2 + k3) * c::<T>(2.0) + k4) * (dt / c::<T>(6.0));
+        x = rk4_step_from_k1(&*plant, &x, &u, dt, &k1);
         let t_next = dt * c::<T>((k + 1) as f64);
         if x.iter().any(|v| !v.is_finite()) {
             return Ok((Outcome::Diverged { t: t_next }, k + 1));
         }
         if x[P::PITCH].abs() > config.fall_limit {
             signals[width + 5] = plant.current(&x, &u);
-            observer.observe(t_next, &x, &command, &reference.sample(t_next), &signals[..logged]);
+            observer.observe_last(t_next, &x, &command, &reference.sample(t_next), &signals[..logged]);
             return Ok((Outcome::Fell { t: t_next }, k + 1));
         }
     }
     let t_end = dt * c::<T>(n as f64);
     signals[width + 5] = plant.current(&x, &u);
-    observer.observe(t_end, &x, &command, &reference.sample(t_end), &signals[..logged]);
+    observer.observe_last(t_end, &x, &command, &reference.sample(t_end), &signals[..logged]);
     Ok((Outcome::Completed, n))
 }
 

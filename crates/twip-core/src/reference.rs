@@ -85,7 +85,8 @@ impl<T: Real> SpeedSchedule<T> {
         &self.legs[..self.count]
     }
 
-    /// The distinct reference speeds the schedule uses (0 included), for pre-computing.
+    /// The signed cruise speed of each leg, in order (repeats kept; the 0 of the holds
+    /// is not among them), for pre-computing.
     pub fn speeds(&self) -> impl Iterator<Item = T> + '_ {
         self.legs().iter().enumerate().map(move |(i, l)| {
             if l.goal >= self.origins[i] { l.speed } else { -l.speed }

@@ -200,7 +200,11 @@ impl Metrics {
 
 /// The plants' own steady pitch at a reference speed, per lane (as `SlopeMetrics`).
 fn steady_pitch(models: &[SlopeModel<f64>; LANES], speed: f64) -> Lanes {
-    core::array::from_fn(|l| models[l].equilibrium(speed).map(|(x, _)| x[0]).unwrap_or(core::f64::consts::FRAC_PI_2))
+    core::array::from_fn(|l| steady_pitch_of(&models[l], speed))
+}
+
+fn steady_pitch_of(model: &SlopeModel<f64>, speed: f64) -> f64 {
+    model.equilibrium(speed).map(|(x, _)| x[0]).unwrap_or(core::f64::consts::FRAC_PI_2)
 }
 
 fn only(l: usize) -> [bool; LANES] {
@@ -373,7 +377,9 @@ fn block(
                         x[i][l] = next[i][l];
                     }
                     let r_next = reference.sample(t_next);
-                    let phi_s_next = steady_pitch(&models, r_next.theta_dot);
+                    // Only this lane is observed: only its steady pitch is needed.
+                    let mut phi_s_next = plant_phi_s;
+                    phi_s_next[l] = steady_pitch_of(&models[l], r_next.theta_dot);
                     metrics.observe(&only(l), t_next, &x, &u, &r_next, &phi_s_next, speed_scale.max(r_next.theta_dot.abs()));
                 }
             }
