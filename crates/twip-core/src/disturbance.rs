@@ -15,7 +15,6 @@
 //! crossing a change keeps (φ̇, θ̇) (the crease's own impact is neglected).
 use nalgebra::{SVector, Vector2, Vector4};
 
-use crate::slope::SlopeCoefficients;
 use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
 
 /// Most pushes one run holds (fixed size: no allocation, no_std).
@@ -74,17 +73,11 @@ pub fn generalised_force<T: Real>(phi: T, slope: T, radius: T, fx: T, fz: T, hei
 
 /// `M(φ)⁻¹ q` for the 2×2 mass matrix of `model`.
 #[inline]
-fn solve_mass<T: Real>(model: &SlopeModel<T>, phi: T, q: &Vector2<T>) -> Vector2<T> {
-    let m = model.mass_matrix(phi);
-    let det = m[(0, 0)] * m[(1, 1)] - m[(0, 1)] * m[(1, 0)];
-    Vector2::new((m[(1, 1)] * q[0] - m[(0, 1)] * q[1]) / det, (m[(0, 0)] * q[1] - m[(1, 0)] * q[0]) / det)
-}
-
 /// The jump of (φ̇, θ̇) an impulse gives (module docs).
 pub fn impulse_response<T: Real>(model: &SlopeModel<T>, x: &Vector4<T>, impulse: T, height: T) -> Vector2<T> {
     let radius = model.params().wheel_radius;
     let q = generalised_force(x[0], model.slope(), radius, impulse, T::zero(), height);
-    solve_mass(model, x[0], &q)
+    model.solve_mass(x[0], &q)
 }
 
 /// The ground's slope by distance along the path: `base` from the start, then each
@@ -220,40 +213,30 @@ impl<T: Real> Pushes<T> {
     }
 }
 
-/// One piece of the ground: its model, and its constants for the force term.
+/// One piece of the ground: its model, and the force's constant part on it.
 #[derive(Clone, Copy, Debug)]
 struct Piece<T: Real> {
     model: SlopeModel<T>,
-    k: SlopeCoefficients<T>,
     /// The force's generalised force on θ (constant on a piece).
     q_theta: T,
 }
 
 impl<T: Real> Piece<T> {
     fn new(model: SlopeModel<T>, force: &Force<T>) -> Self {
-        let k = model.coefficients();
-        let q_theta = model.params().wheel_radius * (force.horizontal * k.cos_slope + force.vertical * k.sin_slope);
-        Self { model, k, q_theta }
+        let (sin_slope, cos_slope) = model.slope().sin_cos();
+        let q_theta = model.params().wheel_radius * (force.horizontal * cos_slope + force.vertical * sin_slope);
+        Self { model, q_theta }
     }
 
-    /// `SlopeModel::deriv` with the force's generalised forces added to f before solving
-    /// `M q̈ = f`: the same operations as slope.rs (`forces`, `accelerations`), so that
-    /// φ's sin/cos and the solve are shared. A zero force gives the model's numbers bit
-    /// for bit (`force_path_matches_the_model`).
+    /// `SlopeModel::deriv` with the force's generalised forces added to f before
+    /// solving `M q̈ = f`. A zero force gives the model's numbers bit for bit
+    /// (`force_path_matches_the_model`).
     #[inline(always)]
     fn deriv_with_force(&self, x: &Vector4<T>, u: T, force: &Force<T>) -> Vector4<T> {
-        let k = &self.k;
-        let (sin_phi, cos_phi) = crate::math::sin_cos(x[0]);
-        let sin_pa = sin_phi * k.cos_slope + cos_phi * k.sin_slope;
-        let cos_pa = cos_phi * k.cos_slope - sin_phi * k.sin_slope;
-        let bearing = k.mu_bearing * (x[3] - x[1]);
-        let motor = k.torque_per_amp * u;
-        let q_phi = force.height * (force.horizontal * cos_phi - force.vertical * sin_phi);
-        let f_phi = k.mgl * sin_phi + bearing - motor + q_phi;
-        let f_theta = k.mrl * sin_pa * x[1] * x[1] - k.grade - bearing - k.mu_ground * x[3] + motor + self.q_theta;
-        let m12 = k.mrl * cos_pa - k.rotor;
-        let inv_det = T::one() / (k.m11 * k.m22 - m12 * m12);
-        Vector4::new(x[1], (k.m22 * f_phi - m12 * f_theta) * inv_det, x[3], (k.m11 * f_theta - m12 * f_phi) * inv_det)
+        self.model.deriv_plus(x, u, |sin_phi, cos_phi| {
+            let q_phi = force.height * (force.horizontal * cos_phi - force.vertical * sin_phi);
+            Some(Vector2::new(q_phi, self.q_theta))
+        })
     }
 }
 

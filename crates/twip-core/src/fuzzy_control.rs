@@ -20,7 +20,7 @@
 //! Discrete time, as on the robot: every `period` the law is evaluated with the current
 //! Ŝ and ∫e, then both advance by forward Euler over the period (σ·period < 1 keeps the
 //! leakage step a contraction).
-use nalgebra::SVector;
+use nalgebra::{SVector, Vector2};
 
 use crate::control::Controller;
 use crate::fuzzy::ThesisBasis;
@@ -221,9 +221,8 @@ impl<T: Real> FuzzyController<T> {
     /// accelerates the pitch (negative: the reaction tips the body back). The same as
     /// the thesis's A⁻¹ b̄ of (4.32)–(4.35), whose rows are M's first row and the sum.
     pub fn g1(&self, phi: T) -> T {
-        let m = self.model.mass_matrix(phi);
-        let det = m[(0, 0)] * m[(1, 1)] - m[(0, 1)] * m[(1, 0)];
-        -self.model.params().torque_per_amp() * (m[(1, 1)] + m[(0, 1)]) / det
+        let tau = self.model.params().torque_per_amp();
+        self.model.solve_mass(phi, &Vector2::new(-tau, tau))[0]
     }
 }
 

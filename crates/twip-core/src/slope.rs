@@ -140,6 +140,13 @@ impl<T: Real> SlopeModel<T> {
     /// Generalised forces f(x, u) of `M(φ) q̈ = f`, and sin/cos(φ+α) for reuse.
     #[inline(always)]
     fn forces(&self, x: &SlopeState<T>, u: T) -> (Vector2<T>, T, T) {
+        self.forces_plus(x, u, |_, _| None)
+    }
+
+    /// `forces` with `extra(sin φ, cos φ)` added to f when it gives some (an external
+    /// force on the body): φ's sin/cos are shared, and `None` costs nothing.
+    #[inline(always)]
+    fn forces_plus(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (Vector2<T>, T, T) {
         let (sin_phi, cos_phi) = crate::math::sin_cos(x[0]);
         let sin_pa = sin_phi * self.cos_slope + cos_phi * self.sin_slope;
         let cos_pa = cos_phi * self.cos_slope - sin_phi * self.sin_slope;
@@ -150,7 +157,25 @@ impl<T: Real> SlopeModel<T> {
         let f_theta = self.mrl * sin_pa * x[1] * x[1] - self.grade - bearing
             - p.mu_ground * x[3]
             + motor;
-        (Vector2::new(f_phi, f_theta), sin_pa, cos_pa)
+        let f = match extra(sin_phi, cos_phi) {
+            Some(q) => Vector2::new(f_phi + q[0], f_theta + q[1]),
+            None => Vector2::new(f_phi, f_theta),
+        };
+        (f, sin_pa, cos_pa)
+    }
+
+    /// `deriv` with extra generalised forces `extra(sin φ, cos φ)` on (φ, θ): the
+    /// disturbed plant's constant force. `|_, _| None` is `deriv`, bit for bit.
+    #[inline(always)]
+    pub(crate) fn deriv_plus(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> SlopeState<T> {
+        let (f, _, cos_pa) = self.forces_plus(x, u, extra);
+        let qdd = self.accelerations(&f, cos_pa);
+        Vector4::new(x[1], qdd[0], x[3], qdd[1])
+    }
+
+    /// q̈ = M(φ)⁻¹ q: the accelerations generalised forces `q` give at pitch `φ`.
+    pub fn solve_mass(&self, phi: T, q: &Vector2<T>) -> Vector2<T> {
+        self.accelerations(q, (phi + self.slope).cos())
     }
 
     /// Accelerations [φ̈, θ̈] by Cramer's rule on the 2×2 mass matrix (one division).
@@ -274,9 +299,7 @@ fn check_speed<T: Real>(theta_dot_ref: T) -> Result<(), TwipError> {
 impl<T: Real> Dynamics<T, 4, 1> for SlopeModel<T> {
     #[inline]
     fn deriv(&self, x: &SlopeState<T>, u: &SVector<T, 1>) -> SlopeState<T> {
-        let (f, _, cos_pa) = self.forces(x, u[0]);
-        let qdd = self.accelerations(&f, cos_pa);
-        Vector4::new(x[1], qdd[0], x[3], qdd[1])
+        self.deriv_plus(x, u[0], |_, _| None)
     }
 
     fn energy(&self, x: &SlopeState<T>) -> T {
