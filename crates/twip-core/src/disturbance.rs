@@ -276,10 +276,6 @@ impl<T: Real> Disturbed<T> {
         }
     }
 
-    pub fn profile(&self) -> &SlopeProfile<T> {
-        &self.profile
-    }
-
     #[inline(always)]
     fn piece(&self, x: &Vector4<T>) -> &Piece<T> {
         &self.pieces[self.profile.segment(x[2] * self.radius)]

@@ -165,10 +165,6 @@ impl<T: Real, P> Driven<T, P> {
         })
     }
 
-    pub fn plant(&self) -> &P {
-        &self.plant
-    }
-
     pub fn plant_mut(&mut self) -> &mut P {
         &mut self.plant
     }

@@ -231,10 +231,6 @@ impl<T: Real> BalanceSensors<T> {
     pub fn imu(&self) -> Option<&Mpu6050<T>> {
         self.imu.as_ref()
     }
-
-    pub fn tilt(&self) -> &TiltFilter<T> {
-        &self.tilt
-    }
 }
 
 impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
@@ -283,16 +279,6 @@ pub trait RigPlant<T: Real>: Dynamics<T, 4, 1> {
     fn current(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> T;
 }
 
-impl<T: Real> RigPlant<T> for SlopeModel<T> {
-    #[inline(always)]
-    fn between_steps(&mut self, _: T, _: T, _: &mut Vector4<T>, _: &SVector<T, 1>) {}
-
-    #[inline(always)]
-    fn current(&self, _: &Vector4<T>, u: &SVector<T, 1>) -> T {
-        u[0]
-    }
-}
-
 impl<T: Real> RigPlant<T> for Disturbed<T> {
     #[inline]
     fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, _: &SVector<T, 1>) {
@@ -334,9 +320,9 @@ impl<T: Real> RigPlant<T> for RealPlant<T> {
     #[inline]
     fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) {
         match self {
-            Self::Current(p) => p.kick(t, dt, x),
+            Self::Current(p) => p.between_steps(t, dt, x, u),
             Self::Driven(p) => {
-                p.plant_mut().kick(t, dt, x);
+                p.plant_mut().between_steps(t, dt, x, u);
                 p.advance(x, u[0], dt);
             }
         }
