@@ -155,6 +155,16 @@ def test_sweep_summary_plot_and_csv(tmp_path, capsys):
     assert len(csv.read_text().splitlines()) == 41
 
 
+def test_sweep_fall_map_of_states_named_by_index(tmp_path, capsys):
+    """--perturb x0[0]=... names the initial pitch by its index; --map picks the map's axes."""
+    png = tmp_path / "s.png"
+    code, _, err = run(["sweep", "slope-lqr-sim", "-n", "8", "--perturb", "x0[0]=-0.3:0.3", "--perturb", "m_body=±10%",
+                        "--perturb", "phi_dot0=-1:1", "--map", "x0[0], phi_dot0", "--option", "t_final=1", "--quiet",
+                        "--plot", png], capsys)
+    assert code == 0, err
+    assert (tmp_path / "s-fall-map.png").read_bytes()[:4] == b"\x89PNG"
+
+
 def test_sweep_of_a_tracking_scenario(capsys):
     code, out, err = run(["sweep", "circle-smc-fuzzy", "-n", "2", "--perturb", "m_body=±10%", "--option", "laps=2",
                           "--quiet"], capsys)
@@ -227,6 +237,11 @@ BAD = {
     "negative perturb width": ["sweep", "flat-lqr", "-n", "4", "--perturb", "m_body=±-20%"],
     "3-DOF perturb of slope": ["sweep", "circle-pid", "-n", "2", "--perturb", "slope=0:0.1"],
     "unknown realism": ["sweep", "flat-lqr", "-n", "4", "--realism", "noisy"],
+    "map of one name": ["sweep", "flat-lqr", "-n", "4", "--map", "phi0"],
+    "map of three names": ["sweep", "flat-lqr", "-n", "4", "--map", "phi0,phi_dot0,m_body"],
+    "map of an empty name": ["sweep", "flat-lqr", "-n", "4", "--map", "phi0,"],
+    "map of an unperturbed name": ["sweep", "flat-lqr", "-n", "4", "--perturb", "phi0=-1:1", "--perturb",
+                                   "m_body=±10%", "--map", "phi0,phi_dot0"],
     "no command": [],
     "unknown command": ["frobnicate"],
     "negative jobs": ["reproduce", "--jobs", "0"],

@@ -68,6 +68,10 @@ def test_sweep_histograms_and_fall_maps(tmp_path):
     assert is_png(tmp_path / "hist.png")
     phi0 = plot.perturbed_values(res, "phi0")
     assert phi0.min() >= -1.0 and phi0.max() <= 1.0 and len(phi0) == 200
+    # A state named by its index, as --perturb x0[0]=... does: the same values and axis.
+    np.testing.assert_array_equal(plot.perturbed_values(res, "x0[0]"), phi0)
+    ax = plot.fall_map(res, "x0[0]", "phi_dot0", bins=(6, 6), path=tmp_path / "map.png").axes[0]
+    assert "initial pitch" in ax.get_xlabel() and is_png(tmp_path / "map.png")
     fig = plot.fall_maps([res, res], "phi0", "phi_dot0", bins=(6, 6), path=tmp_path / "maps.png")
     assert is_png(tmp_path / "maps.png")
     assert "initial pitch" in fig.axes[0].get_xlabel() and "[deg]" in fig.axes[0].get_xlabel()
@@ -108,4 +112,4 @@ def test_gif_rejects_a_bad_speed(tmp_path, slope_run):
     sc, r = slope_run
     with pytest.raises(ValueError, match="speed"):
         animate.gif(r, tmp_path / "x.gif", scenario=sc, speed=-1.0)
-    assert math.isfinite(animate._speed(100.0, 20, None, 15.0))
+    assert math.isfinite(animate._speed(100.0, None, 15.0))

@@ -53,7 +53,7 @@ def _font(size):
         return ImageFont.load_default()
 
 
-def _speed(duration, fps, speed, max_seconds):
+def _speed(duration, speed, max_seconds):
     if speed is not None:
         if not (speed > 0 and math.isfinite(speed)):
             raise ValueError(f"speed = {speed}: must be a positive number")
@@ -122,7 +122,7 @@ def _robot_side(cv, axle, phi, wheel_angle, r, l, body_colour=BODY):
     cv.circle(axle, 0.12 * r, fill=RIM)
 
 
-def _finish_frame(image, size):
+def _finish_frame(image):
     return image.reduce(SUPERSAMPLE) if SUPERSAMPLE > 1 else image
 
 
@@ -168,7 +168,7 @@ def gif(result, path, scenario=None, params=None, slope: Optional[float] = None,
         raise ValueError(f"fps = {fps}: must be positive")
     t = np.asarray(result.t)
     duration = float(t[-1] - t[0])
-    speed = _speed(duration, fps, speed, max_seconds)
+    speed = _speed(duration, speed, max_seconds)
     times, idx = _frame_indices(t, fps, speed)
     if result.states.shape[1] == 7:
         frames = _planar_frames(result, params, times, idx, speed, size or (640, 400), title)
@@ -263,7 +263,7 @@ def _slope_frames(result, params, alpha, times, idx, speed, size, title):
         xs = to_x(s)
         rr = 4.5 * SUPERSAMPLE
         draw.ellipse([xs - rr, y0 - rr, xs + rr, y0 + rr], fill=BODY)
-        frames.append(_finish_frame(img, (W, H)))
+        frames.append(_finish_frame(img))
     return frames
 
 
@@ -341,5 +341,5 @@ def _planar_frames(result, params, times, idx, speed, size, title):
         _text(draw, (10, 26), "top view: reference (grey), path (blue), reference point (red)", small, fill=MUTED)
         if result.fell and tf >= result.t_end:
             _text(draw, (main / 2, H / 2), "FELL", _font(28 * SUPERSAMPLE), fill=REFERENCE, anchor="mm")
-        frames.append(_finish_frame(img, (W, H)))
+        frames.append(_finish_frame(img))
     return frames

@@ -24,6 +24,10 @@ import numpy as np
 
 import twip
 from twip import scenarios
+from twip.plot import METRIC_UNITS, metric_unit
+from twip.scenarios.fuzzy import stop_errors
+from twip.scenarios.tracking import THESIS_TABLE_5_2, thesis_cm
+from twip.sweep import kernel_for
 
 DEFAULT_OUT = "twip-report"
 
@@ -183,6 +187,14 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _map_names(text: str):
+    """--map X,Y: two perturbed quantities."""
+    names = [n.strip() for n in text.split(",")]
+    if len(names) != 2 or not all(names):
+        raise argparse.ArgumentTypeError(f"'{text}' is not two names X,Y (e.g. phi0,phi_dot0)")
+    return names
+
+
 def _seed(text: str) -> int:
     try:
         value = int(text)
@@ -194,25 +206,6 @@ def _seed(text: str) -> int:
 
 
 # ============================================================================ metrics, in units
-
-#: name: (label, scale from SI, unit)
-METRIC_UNITS = {
-    "mean_abs_pitch_error": ("mean |φ − φ_s|", math.degrees(1), "deg"),
-    "mean_abs_speed_error": ("mean |θ̇ − θ̇_ref|", math.degrees(1), "deg/s"),
-    "pitch_settling_time": ("pitch settling time (2 %)", 1.0, "s"),
-    "speed_settling_time": ("speed settling time (2 %)", 1.0, "s"),
-    "final_position_error": ("final position error (short of the reference)", 100.0, "cm"),
-    "peak_abs_input": ("peak |u|", 1.0, "A"),
-    "mean_abs_x_error": ("mean |x − x_r|", 100.0, "cm"),
-    "mean_abs_y_error": ("mean |y − y_r|", 100.0, "cm"),
-    "mean_abs_x_error_settled": ("mean |x − x_r| after the first lap", 100.0, "cm"),
-    "mean_abs_y_error_settled": ("mean |y − y_r| after the first lap", 100.0, "cm"),
-    "max_path_error_settled": ("max distance to the path after the first lap", 100.0, "cm"),
-    "mean_abs_pitch": ("mean |φ|", math.degrees(1), "deg"),
-    "peak_abs_torque": ("peak |wheel torque|", 1.0, "N m"),
-    "settle": ("settled metrics from", 1.0, "s"),
-    "t_end": ("end time", 1.0, "s"),
-}
 
 
 def _jsonable(x):
@@ -233,7 +226,7 @@ def _jsonable(x):
 def _metric_lines(metrics: dict) -> List[str]:
     lines = []
     for name, value in metrics.items():
-        label, scale, unit = METRIC_UNITS.get(name, (name, 1.0, ""))
+        label, scale, unit = metric_unit(name)
         lines.append(f"  {label:48s} {value * scale:12.4g} {unit}")
     return lines
 
@@ -329,16 +322,6 @@ def _within(ours, thesis, rel, abs_=0.0):
     return abs(ours - thesis) <= max(abs_, rel * abs(thesis))
 
 
-def _stop_positions(sc, r):
-    """Position [m] at the end of each hold of a go-and-back scenario."""
-    radius = sc.model.params.wheel_radius
-    out = []
-    for t_goal, _ in sc.thesis["goals"]:
-        i = min(int(np.searchsorted(r.t, t_goal - 1e-9)), len(r.t) - 1)
-        out.append(float(r.states[i, 2] * radius))
-    return out
-
-
 def _first_lap_time(r):
     psi = r.states[:, 2]
     turned = np.abs(psi - psi[0])
@@ -398,8 +381,8 @@ def claims_for(sc, r) -> List[dict]:
                 rows.append(_claim(cid, src, f"{what} in about (≈)", value, ours, "s", ok, why,
                                    "within max(0.5 s, 25 %)", _SETTLE_FASTER if ours < value else slower))
         elif key == "goals":
-            ours = _stop_positions(sc, r)
             goals = [g for _, g in value]
+            ours = [float(g - e) for g, e in zip(goals, stop_errors(sc, r))]  # where it stopped [m]
             ok = all(abs(o - g) <= 0.02 for o, g in zip(ours, goals))
             label = " m, then ".join(f"{g:g}" for g in goals)
             rows.append(_claim(cid, src, f"stops at {label} m (end of each hold)", goals, ours, "m", ok, why,
@@ -477,7 +460,7 @@ def _table_5_2_claims(rows) -> List[dict]:
         sel = [r for r in rows if r["controller"] == name and r["outcome"] == "completed"]
         return float(np.mean([(r["x"] + r["y"]) / 2 for r in sel])) if sel else float("nan")
 
-    thesis = getattr(scenarios.tracking, "THESIS_TABLE_5_2", {"pid": (0.072, 0.076), "smc": (0.027, 0.030)})
+    thesis = THESIS_TABLE_5_2
     thesis_ratio = (sum(thesis["pid"]) / 2) / (sum(thesis["smc"]) / 2)
     pid, smc = mean_error("circle-pid"), mean_error("circle-smc-fuzzy")
     ratio = pid / smc if smc > 0 else float("inf")
@@ -502,8 +485,6 @@ def _realism(choice: Optional[str]):
     """The twip.Realism that --realism CHOICE names (None when not given)."""
     if choice is None:
         return None
-    if not hasattr(twip, "Realism"):
-        raise UsageError("--realism: this twip has no twip.Realism")
     return twip.Realism() if choice == "ideal" else twip.Realism.thesis_like()
 
 
@@ -517,7 +498,7 @@ def _sweep_summary(result, metrics) -> str:
              f"  fall rate {result.fall_rate:.2%}  (95 % CI {lo:.2%} – {hi:.2%})",
              f"  {'metric (samples that did not fall)':48s} {'unit':>6s} {'q05':>10s} {'median':>10s} {'q95':>10s}"]
     for name in metrics:
-        label, scale, unit = METRIC_UNITS.get(name, (name, 1.0, ""))
+        label, scale, unit = metric_unit(name)
         q = np.asarray(result.quantiles(name), float) * scale
         lines.append(f"  {label:48s} {unit:>6s} {q[0]:10.4g} {q[1]:10.4g} {q[2]:10.4g}")
     return "\n".join(lines)
@@ -598,13 +579,14 @@ def _sweep(args) -> int:
     params = _robot(args.param)
     options = _scenario_options(name, args.option)
     perturb = dict(_perturbation(p) for p in args.perturb or [])
-    sc = _get_scenario(name, params=params, options=options)
+    if args.map and not set(args.map) <= set(perturb):
+        raise UsageError(f"--map {','.join(args.map)}: both must be --perturb names ({', '.join(perturb) or 'none given'})")
+    sc = _get_scenario(name, params=params, options=options)  # designed once, here; bad options are named
     if not perturb:
         print("note: no --perturb given, every sample is the same robot", file=sys.stderr)
     # A 3-DOF scenario with --realism is montecarlo's to refuse (an InvalidParameterError).
-    result = twip.montecarlo(name, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
-                             progress=not args.quiet, checkpoint=args.checkpoint, params=params, options=options,
-                             realism=_realism(args.realism))
+    result = twip.montecarlo(sc, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
+                             progress=not args.quiet, checkpoint=args.checkpoint, realism=_realism(args.realism))
     metrics = list(result.metric_names[2:])
     speed = (f"{result.steps:,} RK4 steps in {result.elapsed:.2f} s: "
              f"{result.steps / max(result.elapsed, 1e-9) / 1e6:.1f} M sample-steps/s ({result.kernel})")
@@ -631,10 +613,10 @@ def _sweep(args) -> int:
         plot.use_agg()
         pngs = [args.plot]
         plot.sweep(result, path=args.plot)
-        if len(perturb) >= 2:
-            x, y = args.map.split(",") if args.map else list(perturb)[:2]
+        if args.map or len(perturb) >= 2:
+            x, y = args.map or list(perturb)[:2]
             stem, ext = os.path.splitext(args.plot)
-            plot.fall_map(result, x.strip(), y.strip(), path=f"{stem}-fall-map{ext or '.png'}")
+            plot.fall_map(result, x, y, path=f"{stem}-fall-map{ext or '.png'}")
             pngs.append(f"{stem}-fall-map{ext or '.png'}")
         print("wrote " + ", ".join(pngs), file=sys.stderr)
     return 0
@@ -771,8 +753,8 @@ def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, 
         summary[name] = {
             "description": sc.description, "controller": _controller_family(sc), "figure": sc.thesis.get("figure"),
             "outcome": r.outcome, "t_end": _sig(r.t_end if r.t_end is not None else r.t[-1]),
-            "metrics": {k: _sig(v * METRIC_UNITS.get(k, (k, 1.0, ""))[1]) for k, v in r.metrics.items()},
-            "units": {k: METRIC_UNITS.get(k, (k, 1.0, ""))[2] for k in r.metrics},
+            "metrics": {k: _sig(v * metric_unit(k)[1]) for k, v in r.metrics.items()},
+            "units": {k: metric_unit(k)[2] for k in r.metrics},
         }
         steps.done(f"scenario {name} ({r.outcome}, {r.steps:,} steps)", time.perf_counter() - t0)
 
@@ -828,8 +810,7 @@ def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, 
                   "path_settled_cm": _dec(100 * r["path_settled"], 2), "pitch_deg": _dec(r["pitch_deg"], 2)} for r in t52]
     if t52:
         figure("table5.2.png", "Table 5.2 analogue: mean |x − x_r|, |y − y_r| per tracker and plant, thesis "
-               "experiments as lines", lambda p: plot.table_5_2(t52, thesis=getattr(tracking_sc, "THESIS_TABLE_5_2", None),
-                                                                path=p))
+               "experiments as lines", lambda p: plot.table_5_2(t52, thesis=THESIS_TABLE_5_2, path=p))
 
     # ---- robustness sweeps: every experiment scenario (one or two per controller)
     sweeps = []
@@ -838,11 +819,11 @@ def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, 
             continue
         sc = runs[name][0]
         planar = _is_planar(sc)
-        kind = "general" if not planar and not isinstance(sc.controller, twip.LqrController) else "lanes"
+        lanes = kernel_for(sc) == "lanes"  # the fast LQR kernel affords more samples
         if planar:
             n = 6 if quick else 40
         else:
-            n = (64 if kind == "lanes" else 24) if quick else (2000 if kind == "lanes" else 300)
+            n = (64 if lanes else 24) if quick else (2000 if lanes else 300)
         t0 = time.perf_counter()
         options = {**_quick_options(name, quick), **({"laps": 2} if planar else {})}
         try:
@@ -882,7 +863,7 @@ def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, 
         sc = runs[name][0]
         if _is_planar(sc) or not name.endswith("-sim") or not getattr(sc.model, "slope", 0.0):
             continue
-        lanes = isinstance(sc.controller, twip.LqrController)
+        lanes = kernel_for(sc) == "lanes"
         n = (300 if lanes else 150) if quick else (4000 if lanes else 2000)
         t0 = time.perf_counter()
         perturb = {"phi0": twip.Uniform(low=-1.0, high=1.0), "phi_dot0": twip.Uniform(low=-20.0, high=20.0)}
@@ -1039,10 +1020,9 @@ def render_markdown(report: dict) -> str:
                 "", "![Table 5.1 analogue](table5.1.png)"]
     t52 = report["table_5_2"]
     if t52:
-        published = {"circle-pid": "7.2 / 7.6"}
         rows = [[f"`{r['controller']}`", r["plant"], r["outcome"], f"{_fix(r['x_cm'], 2)} / {_fix(r['y_cm'], 2)}",
                  f"{_fix(r['x_settled_cm'], 2)} / {_fix(r['y_settled_cm'], 2)}", _fix(r["path_settled_cm"], 2),
-                 _fix(r["pitch_deg"], 2), published.get(r["controller"], "2.7 / 3.0")] for r in t52]
+                 _fix(r["pitch_deg"], 2), thesis_cm(r["controller"])] for r in t52]
         out += ["", "## Table 5.2 analogue: PID against sliding mode", "",
                 "Each tracker on its thesis circle; the controllers keep the nominal robot, every mass, inertia, length "
                 "and friction of the plant is 20 % above or below (`twip.scenarios.tracking.compare`).", "",
@@ -1187,7 +1167,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="nominal robot change (repeatable)")
     p.add_argument("--option", action="append", metavar="NAME=VALUE", help="a scenario option (repeatable)")
     p.add_argument("--plot", metavar="OUT.png", help="histograms (and a fall-rate map over the first two perturbations)")
-    p.add_argument("--map", metavar="X,Y", help="the two perturbed quantities of the fall-rate map")
+    p.add_argument("--map", type=_map_names, metavar="X,Y", help="the two perturbed quantities of the fall-rate map")
     _add_realism_option(p)
     p.add_argument("--csv", metavar="OUT.csv", help="write the per-sample metrics")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")

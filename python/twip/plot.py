@@ -19,6 +19,8 @@ from typing import Mapping, Optional, Sequence
 
 import numpy as np
 
+from twip.sweep import _target
+
 #: Colours: ours, the reference, the target pitch, measured signals, extra series.
 OURS, REF, TARGET, MEASURED = "#1f5fa8", "#222222", "#c0392b", "#9aa5b1"
 PALETTE = ("#1f5fa8", "#e67e22", "#27ae60", "#8e44ad", "#c0392b", "#16a085", "#7f8c8d", "#d35400", "#2c3e50")
@@ -197,7 +199,7 @@ def _is_planar(result) -> bool:
     return result.states.shape[1] == 7
 
 
-def _title(scenario, result, default):
+def _title(scenario, default):
     if scenario is not None:
         return f"{scenario.name}: {scenario.description}"
     return default
@@ -298,7 +300,7 @@ def timeseries(result, scenario=None, path=None, title=None, internals: bool = T
         for a in fig.axes:
             a.axvline(result.t_end, color=TARGET, lw=0.8)
         fig.axes[0].text(result.t_end, 0.02, " fell", color=TARGET, transform=fig.axes[0].get_xaxis_transform())
-    return _finish(fig, path, title or _title(scenario, result, "2-DOF run"))
+    return _finish(fig, path, title or _title(scenario, "2-DOF run"))
 
 
 @_styled
@@ -506,26 +508,35 @@ def tracking(result, scenario=None, path=None, title=None, internals: bool = Tru
         a.set_xlim(t[0], t[-1])
     for a in panels[-3:]:
         a.set_xlabel("time [s]")
-    return _finish(fig, path, title or _title(scenario, result, "3-DOF run"))
+    return _finish(fig, path, title or _title(scenario, "3-DOF run"))
 
 
 # ----------------------------------------------------------------------------- sweeps
 
-_SWEEP_METRICS = {
-    "mean_abs_pitch_error": ("mean |φ − φ_s| [deg]", math.degrees(1.0)),
-    "mean_abs_speed_error": ("mean |θ̇ − θ̇_ref| [deg/s]", math.degrees(1.0)),
-    "final_position_error": ("final position error [cm]", 100.0),
-    "pitch_settling_time": ("pitch settling time [s]", 1.0),
-    "speed_settling_time": ("speed settling time [s]", 1.0),
-    "peak_abs_input": ("peak |u| [A]", 1.0),
-    "mean_abs_x_error": ("mean |x − x_r| [cm]", 100.0),
-    "mean_abs_y_error": ("mean |y − y_r| [cm]", 100.0),
-    "mean_abs_x_error_settled": ("mean |x − x_r| after lap 1 [cm]", 100.0),
-    "mean_abs_y_error_settled": ("mean |y − y_r| after lap 1 [cm]", 100.0),
-    "max_path_error_settled": ("max path error after lap 1 [cm]", 100.0),
-    "mean_abs_pitch": ("mean |φ| [deg]", math.degrees(1.0)),
-    "peak_abs_torque": ("peak |u| [N m]", 1.0),
+#: The metrics of `twip.simulate` and of sweeps, as shown (here and by the CLI):
+#: name: (label, scale from SI, unit).
+METRIC_UNITS = {
+    "mean_abs_pitch_error": ("mean |φ − φ_s|", math.degrees(1), "deg"),
+    "mean_abs_speed_error": ("mean |θ̇ − θ̇_ref|", math.degrees(1), "deg/s"),
+    "pitch_settling_time": ("pitch settling time (2 %)", 1.0, "s"),
+    "speed_settling_time": ("speed settling time (2 %)", 1.0, "s"),
+    "final_position_error": ("final position error (short of the reference)", 100.0, "cm"),
+    "peak_abs_input": ("peak |u|", 1.0, "A"),
+    "mean_abs_x_error": ("mean |x − x_r|", 100.0, "cm"),
+    "mean_abs_y_error": ("mean |y − y_r|", 100.0, "cm"),
+    "mean_abs_x_error_settled": ("mean |x − x_r| after the first lap", 100.0, "cm"),
+    "mean_abs_y_error_settled": ("mean |y − y_r| after the first lap", 100.0, "cm"),
+    "max_path_error_settled": ("max distance to the path after the first lap", 100.0, "cm"),
+    "mean_abs_pitch": ("mean |φ|", math.degrees(1), "deg"),
+    "peak_abs_torque": ("peak |wheel torque|", 1.0, "N m"),
+    "settle": ("settled metrics from", 1.0, "s"),
+    "t_end": ("end time", 1.0, "s"),
 }
+
+
+def metric_unit(name: str):
+    """(label, scale from SI, unit) of a metric; an unknown one is shown as it is."""
+    return METRIC_UNITS.get(name, (name, 1.0, ""))
 
 
 @_styled
@@ -543,7 +554,7 @@ def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None
     gs = _grid(fig, 1, len(metrics), top=1.0, wspace=0.3)
     for i, name in enumerate(metrics):
         ax = _axes(fig, gs[0, i])
-        label, scale = _SWEEP_METRICS.get(name, (name, 1.0))
+        label, scale, unit = metric_unit(name)
         values = np.asarray(m[name], float)[keep] * scale
         values = values[np.isfinite(values)]
         if len(values):
@@ -552,7 +563,7 @@ def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None
                 ax.axvline(q, color=REF, ls=ls, lw=0.9)
         else:
             ax.text(0.5, 0.5, "every sample fell", ha="center", va="center", transform=ax.transAxes)
-        ax.set(xlabel=label, ylabel="samples" if i == 0 else None)
+        ax.set(xlabel=f"{label} [{unit}]" if unit else label, ylabel="samples" if i == 0 else None)
     lo, hi = result.fall_rate_interval()
     head = title or f"{result.config['scenario']}: {result.n} samples"
     sub = f"fall rate {result.fall_rate:.1%} (95 % CI {lo:.1%}–{hi:.1%}); lines: median and 5 / 95 % quantiles"
@@ -560,20 +571,21 @@ def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None
 
 
 def perturbed_values(result, name: str) -> np.ndarray:
-    """The per-sample values of a perturbed quantity of a SweepResult (a RobotParams field,
-    'slope', or an initial state of `result.state_names`: 'phi0', 'phi_dot0', ...)."""
-    states = result.state_names
+    """The per-sample values of a perturbed quantity of a SweepResult, named as in
+    `perturb=` (a RobotParams field, 'slope', 'phi0', 'x0[0]', ...)."""
+    kind, at = _target(name, result._scenario)
     out = np.empty(result.n)
     index = np.asarray(result.metrics["index"], dtype=np.int64)
     for k, i in enumerate(index):
         params, slope, x0 = result.sample(int(i))
-        if name == "slope":
-            out[k] = slope
-        elif name in states:
-            out[k] = x0[states.index(name)]
-        else:
-            out[k] = getattr(params, name)
+        out[k] = slope if kind == "slope" else x0[at] if kind == "x0" else getattr(params, name)
     return out
+
+
+def _state_name(result, name: str) -> str:
+    """'x0[0]' as its entry's name ('phi0'), for the axis label and unit; others unchanged."""
+    kind, at = _target(name, result._scenario)
+    return result.state_names[at] if kind == "x0" else name
 
 
 _ANGLES = {"slope", "phi0", "phi_dot0", "theta0", "theta_dot0", "psi0", "omega0"}
@@ -589,6 +601,7 @@ def fall_map(result, x: str, y: str, bins=(12, 12), ax=None, path=None, title=No
     """Fall rate of a sweep binned over two perturbed quantities (angles in degrees): which
     combinations the controller does not survive. Empty bins are left white."""
     xs, ys = perturbed_values(result, x), perturbed_values(result, y)
+    x, y = _state_name(result, x), _state_name(result, y)
     if x in _ANGLES:
         xs = np.degrees(xs)
     if y in _ANGLES:

@@ -90,6 +90,8 @@ def simulate(
             settle=None if settle is None else float(settle),
         )
     else:
+        if settle is not None:  # the settled metrics are the tracking ones
+            raise _core.InvalidParameterError("settle: only a PlanarModel (3-DOF tracking) takes settle")
         if reference is None:
             reference = _core.SpeedSchedule.constant(0.0)
         raw = _core.simulate_raw(

@@ -6,7 +6,10 @@ it on a perturbed plant (RobotParams fields, slope, initial state). The 2-DOF sc
 slope) run alike; each family has its own metrics (`SweepResult.metric_names`). Sample i draws from
 its own counter-based random stream, so a sweep gives the same numbers, bit for bit, on
 any number of threads, in shards, resumed after a crash, on a Dask cluster, and when a
-sample is replayed alone (`SweepResult.replay(i)`).
+sample is run alone again (`SweepResult.rerun(i)`). Replayed with the full runner and its
+trajectory (`SweepResult.replay(i)`), a sample is also the sweep's bit for bit, except in
+LQR sweeps without realism (kernel "lanes"), whose lane kernel fuses multiply-adds: there
+the metrics agree to ~1e-13 relative.
 
 With `realism=` (a `twip.Realism`) every sample runs with the robot's real parts in the
 loop. Sample i's sensor noise is the Philox stream (sweep_noise_seed(seed), i): the
@@ -22,23 +25,12 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Dict, Mapping, Optional, Sequence, Tuple
+from typing import Callable, Dict, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
 from twip import _core
 
-#: The metrics of a 2-DOF sweep; a tracking sweep's come from the core with its result.
-METRICS = (
-    "fell",
-    "t_end",
-    "mean_abs_pitch_error",
-    "mean_abs_speed_error",
-    "pitch_settling_time",
-    "speed_settling_time",
-    "final_position_error",
-    "peak_abs_input",
-)
 STATE_NAMES = ("phi0", "phi_dot0", "theta0", "theta_dot0")
 #: The initial state of a PlanarModel: [x, y, psi, phi, phi_dot, v, omega].
 PLANAR_STATE_NAMES = ("x0", "y0", "psi0", "phi0", "phi_dot0", "v0", "omega0")
@@ -74,7 +66,7 @@ class Uniform:
         else:
             if self.low is None or self.high is None:
                 raise _bad(f"{name}: Uniform needs both low= and high=")
-            low, high = float(self.low), float(self.high)
+            low, high = _finite(name, "low", self.low), _finite(name, "high", self.high)
             if high < low:
                 raise _bad(f"{name}: Uniform high = {high} < low = {low} (a negative width)")
         return ("uniform", float(low), float(high), float(low), float(high))
@@ -94,13 +86,18 @@ class Normal:
     def resolve(self, name: str, nominal: float):
         if (self.std is None) == (self.rel is None):
             raise _bad(f"{name}: Normal takes exactly one of std= or rel=")
-        mean = nominal if self.mean is None else float(self.mean)
+        mean = nominal if self.mean is None else _finite(name, "mean", self.mean)
         if self.rel is not None:
             _width(name, "rel", self.rel)
+            if nominal == 0:  # std would be 0: every draw the nominal value
+                raise _bad(f"{name}: rel= needs a nonzero nominal value (it is 0); use std=")
             std = self.rel * abs(nominal)
         else:
             _width(name, "std", self.std)
             std = float(self.std)
+        # The bounds may be infinite (no clamp), not NaN (which would compare false).
+        if math.isnan(self.low) or math.isnan(self.high):
+            raise _bad(f"{name}: Normal low = {self.low}, high = {self.high}: a bound is NaN")
         if self.high < self.low:
             raise _bad(f"{name}: Normal high = {self.high} < low = {self.low}")
         return ("normal", float(mean), float(std), float(self.low), float(self.high))
@@ -111,18 +108,58 @@ def _width(name, what, value):
         raise _bad(f"{name}: {what} = {value} must be a finite number >= 0 (a negative width)")
 
 
-def _is_planar(sc) -> bool:
-    return isinstance(getattr(sc, "model", None), _core.PlanarModel)
+def _finite(name, what, value) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise _bad(f"{name}: {what} = {value!r} must be a number") from None
+    if not math.isfinite(value):
+        raise _bad(f"{name}: {what} = {value} must be a finite number")
+    return value
+
+
+def _planar_draw(model, x0, perturbations, seed, index):
+    params, x0 = _core.sweep_planar_draw(model, x0, perturbations, seed, index)
+    return params, None, x0  # flat ground: no slope
+
+
+@dataclass(frozen=True)
+class _Family:
+    """What differs between 2-DOF (SlopeModel) and 3-DOF tracking (PlanarModel) sweeps."""
+
+    planar: bool  # flat ground (no slope to perturb) and no realism
+    states: Tuple[str, ...]
+    draw: Callable  # (model, x0, perturbations, seed, i) -> (params dict, slope or None, x0)
+    raw: Callable  # the core's sweep of samples start..start + count
+
+
+_SLOPE = _Family(False, STATE_NAMES, _core.sweep_draw, _core.sweep_raw)
+_PLANAR = _Family(True, PLANAR_STATE_NAMES, _planar_draw, _core.sweep_planar_raw)
+
+
+def _family(sc) -> _Family:
+    return _PLANAR if isinstance(sc.model, _core.PlanarModel) else _SLOPE
+
+
+def kernel_for(sc, realism=None) -> str:
+    """The core's kernel for a sweep of Scenario `sc`: "realism", "planar", "lanes" (LQR,
+    vectorised) or "general"."""
+    if realism is not None:
+        return "realism"
+    if _family(sc).planar:
+        return "planar"
+    return "lanes" if isinstance(sc.controller, _core.LqrController) else "general"
 
 
 def _target(name: str, sc):
+    """(kind, index) of a perturbation name: ("param", field), ("slope", 0) or ("x0", entry)."""
     fields = list(_core.RobotParams.fields)
-    planar = _is_planar(sc)
-    states = PLANAR_STATE_NAMES if planar else STATE_NAMES
+    family = _family(sc)
+    states = family.states
     if name in fields:
         return ("param", fields.index(name))
     if name == "slope":
-        if planar:
+        if family.planar:
             raise _bad(
                 f"perturbation 'slope': '{sc.name}' is a 3-DOF tracking scenario on flat ground (PlanarModel), "
                 "it has no slope to perturb"
@@ -132,7 +169,7 @@ def _target(name: str, sc):
         return ("x0", states.index(name))
     if name.startswith("x0[") and name.endswith("]") and name[3:-1].isdigit() and int(name[3:-1]) < len(states):
         return ("x0", int(name[3:-1]))
-    slope = "" if planar else "'slope', "
+    slope = "" if family.planar else "'slope', "
     raise _bad(
         f"unknown perturbation '{name}'; perturb RobotParams fields ({', '.join(fields)}), "
         f"{slope}or initial-state entries ({', '.join(states)} or x0[0]..x0[{len(states) - 1}])"
@@ -173,15 +210,15 @@ def wilson_interval(successes: int, n: int, confidence: float = 0.95):
 @dataclass
 class SweepResult:
     """Per-sample metrics (arrays of length n) and how they were made. `metric_names`:
-    "fell", "t_end", then the family's metrics (2-DOF: METRICS; 3-DOF tracking: those of
-    `twip.simulate` on a PlanarModel)."""
+    "fell", "t_end", then the family's metrics (those of `twip.simulate` on the model), as
+    the core reports them."""
 
     metrics: Dict[str, np.ndarray]
     steps: int
     config: dict
     elapsed: float = 0.0
     kernel: str = ""
-    metric_names: Tuple[str, ...] = METRICS
+    metric_names: Tuple[str, ...] = ("fell", "t_end")
     _scenario: object = field(default=None, repr=False)
     _realism: object = field(default=None, repr=False)
     #: {sample index: twip.SimResult}: the decimated trajectories asked for with `traces=`.
@@ -203,7 +240,7 @@ class SweepResult:
     @property
     def state_names(self) -> Tuple[str, ...]:
         """The names of the initial-state entries (STATE_NAMES, or PLANAR_STATE_NAMES)."""
-        return PLANAR_STATE_NAMES if _is_planar(self._scenario) else STATE_NAMES
+        return _family(self._scenario).states
 
     @property
     def valid(self) -> np.ndarray:
@@ -248,10 +285,7 @@ class SweepResult:
         tracking scenario: its ground is flat)."""
         sc = self._scenario
         perturbations = [tuple(p) for p in self.config["perturbations"]]
-        if _is_planar(sc):
-            params, x0 = _core.sweep_planar_draw(sc.model, sc.x0, perturbations, self.seed, int(index))
-            return _core.RobotParams.from_dict(params), None, x0
-        params, slope, x0 = _core.sweep_draw(sc.model, sc.x0, perturbations, self.seed, int(index))
+        params, slope, x0 = _family(sc).draw(sc.model, sc.x0, perturbations, self.seed, int(index))
         return _core.RobotParams.from_dict(params), slope, x0
 
     def rerun(self, index: int) -> dict:
@@ -271,7 +305,7 @@ class SweepResult:
 
         sc = self._scenario
         params, slope, x0 = self.sample(index)
-        model = _core.PlanarModel(params) if _is_planar(sc) else _core.SlopeModel(params, slope)
+        model = _core.PlanarModel(params) if slope is None else _core.SlopeModel(params, slope)
         if self._realism is not None:
             noise = self._realism.replace(seed=_core.sweep_noise_seed(self.seed), stream=int(index))
             simulate_options = {"realism": noise, **simulate_options}
@@ -347,11 +381,14 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
         "by_name": isinstance(scenario, str),
         "options": dict(options or {}),
         "params": sc.model.params.to_dict(),
-        "slope": None if _is_planar(sc) else sc.model.slope,
+        "slope": None if _family(sc).planar else sc.model.slope,
         "x0": [float(v) for v in sc.x0],
         "t_final": sc.t_final,
         "dt": sc.dt,
-        "controller": repr(sc.controller),
+        "control_period": sc.control_period,
+        "reference": repr(sc.reference),
+        # The whole controller (gains, period, fuzzy sets, its model...), not its short repr.
+        "controller": _core.controller_fingerprint(sc.controller),
         "perturb": list(perturb_keys),
         "perturbations": [list(p) for p in perturbations],
         "seed": int(seed),
@@ -362,12 +399,11 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
 
 
 def _run(sc, config, start, count, threads, progress, realism=None):
-    args = (sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
-            [tuple(p) for p in config["perturbations"]], config["seed"], start, count)
-    if _is_planar(sc):
-        return _core.sweep_planar_raw(*args, control_period=sc.control_period, threads=threads, progress=progress)
-    return _core.sweep_raw(*args, control_period=sc.control_period, threads=threads, progress=progress,
-                           realism=realism)
+    family = _family(sc)
+    extra = {} if family.planar else {"realism": realism}
+    return family.raw(sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
+                      [tuple(p) for p in config["perturbations"]], config["seed"], start, count,
+                      control_period=sc.control_period, threads=threads, progress=progress, **extra)
 
 
 def _run_shard_by_name(config, start, count, threads):
@@ -449,14 +485,17 @@ def montecarlo(
     if realism is not None and not isinstance(realism, _core.Realism):
         raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
     sc = _scenario_of(scenario, params, options)
-    if realism is not None and _is_planar(sc):
+    if realism is not None and _family(sc).planar:
         raise _bad(f"realism: '{sc.name}' is a 3-DOF tracking scenario, which has no realism "
                    "(only the 2-DOF SlopeModel scenarios take realism=)")
     perturbations = _resolve(perturb or {}, sc)
     config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism)
-    shard = int(shard_size or (DEFAULT_SHARD if (checkpoint or client) else n))
-    if shard <= 0:
+    if shard_size is None:
+        shard = DEFAULT_SHARD if (checkpoint or client) else n
+    elif isinstance(shard_size, bool) or not isinstance(shard_size, (int, np.integer)) or shard_size <= 0:
         raise _bad(f"shard_size = {shard_size!r}: must be a positive integer")
+    else:
+        shard = int(shard_size)
     store = _Checkpoint(checkpoint, config, shard) if checkpoint is not None else None
     shards = [(s, min(shard, n - s)) for s in range(0, n, shard)]
     parts = {}
@@ -466,7 +505,7 @@ def montecarlo(
     bar = _Bar(n, progress)
     bar.base = sum(c for s, c in shards if s in parts)
     started = time.perf_counter()
-    kernel = ""
+    kernel = kernel_for(sc, realism)
     try:
         if client is not None:
             futures = {client.submit(_run_shard_by_name, config, s, c, threads or 1, pure=False): s for s, c in todo}
@@ -476,7 +515,6 @@ def montecarlo(
                 raw = future.result()
                 s = futures[future]
                 parts[s] = raw
-                kernel = raw["kernel"]
                 if store is not None:
                     store.save(s, raw)
                 bar.base += len(raw["index"])
@@ -484,7 +522,6 @@ def montecarlo(
         else:
             for s, c in todo:
                 raw = _run(sc, config, s, c, threads or 0, bar.update_to if progress else None, realism)
-                kernel = raw["kernel"]
                 if raw["interrupted"]:
                     parts[s] = raw
                     raise KeyboardInterrupt
@@ -530,7 +567,8 @@ def _assemble(parts, config, elapsed, kernel, sc, complete, realism=None):
     done = cat("done").astype(bool) if keys else np.zeros(0, bool)
     if complete and (len(done) != config["n"] or not done.all()):
         raise RuntimeError("internal error: a sweep finished with missing samples")
-    names = _metric_names(parts)
+    # The core names its metrics in every shard; before any shard, only the common ones.
+    names = tuple(str(n) for n in np.asarray(parts[keys[0]]["metric_names"]).tolist()) if keys else ("fell", "t_end")
     metrics = {"index": cat("index").astype(np.uint64), "valid": cat("valid").astype(bool)}
     for name in names:
         metrics[name] = cat(name).astype(bool) if name == "fell" else cat(name).astype(float)
@@ -539,15 +577,6 @@ def _assemble(parts, config, elapsed, kernel, sc, complete, realism=None):
     steps = int(np.sum(cat("steps"))) if keys else 0
     return SweepResult(metrics=metrics, steps=steps, config=config, elapsed=elapsed, kernel=kernel,
                        metric_names=names, _scenario=sc, _realism=realism)
-
-
-def _metric_names(parts) -> Tuple[str, ...]:
-    """The metrics the core reported with its shards (a shard saved before they were
-    reported is a 2-DOF one); with no shard at all, only those every family has."""
-    for part in parts.values():
-        if "metric_names" in part:
-            return tuple(str(n) for n in np.asarray(part["metric_names"]).tolist())
-    return METRICS if parts else METRICS[:2]
 
 
 class _Checkpoint:

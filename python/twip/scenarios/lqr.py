@@ -9,7 +9,7 @@ from twip import _core
 from twip.scenarios import Scenario, register
 
 
-def _lqr(plant_params, ctrl_params, slope, speed, Q, R, point, period):
+def _lqr(ctrl_params, slope, speed, Q, R, point, period):
     design_model = _core.SlopeModel(ctrl_params, slope)
     return _core.LqrController.design(design_model, speed, Q, R, point=point, period=period)
 
@@ -26,7 +26,7 @@ def _slope_lqr_sim(params, ctrl_params, point="operating", period=1e-3, t_final=
         name="slope-lqr-sim",
         description="LQR on a 15 deg slope, constant 250 deg/s from rest (thesis 4.1.1, Fig 4.2)",
         model=_core.SlopeModel(params, slope),
-        controller=_lqr(params, ctrl_params, slope, speed, [10, 10, 1, 1], 1000.0, point, period),
+        controller=_lqr(ctrl_params, slope, speed, [10, 10, 1, 1], 1000.0, point, period),
         x0=np.zeros(4),
         reference=_core.SpeedSchedule.constant(speed),
         t_final=t_final,
@@ -43,7 +43,7 @@ def _flat_lqr_sim(params, ctrl_params, point="operating", period=1e-3, t_final=1
         name="flat-lqr-sim",
         description="LQR on the flat, constant 180 deg/s from rest (thesis 4.2.1, Fig 4.9)",
         model=_core.SlopeModel(params, 0.0),
-        controller=_lqr(params, ctrl_params, 0.0, speed, [100, 1, 1, 1], 480.0, point, period),
+        controller=_lqr(ctrl_params, 0.0, speed, [100, 1, 1, 1], 480.0, point, period),
         x0=np.zeros(4),
         reference=_core.SpeedSchedule.constant(speed),
         t_final=t_final,
@@ -63,7 +63,7 @@ def _slope_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, se
         name="slope-lqr",
         description="LQR on a 15 deg slope: 0.6 m at 250 deg/s, hold 5 s, back (thesis 4.1.1, Fig 4.3)",
         model=plant,
-        controller=_lqr(params, ctrl_params, slope, speed, [10, 10, 1, 1], 1000.0, point, period),
+        controller=_lqr(ctrl_params, slope, speed, [10, 10, 1, 1], 1000.0, point, period),
         x0=x0,
         reference=_core.SpeedSchedule([(distance / params.wheel_radius, speed, hold), (0.0, speed, settle)]),
         t_final=2 * leg + hold + settle,
@@ -83,7 +83,7 @@ def _flat_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, set
         name="flat-lqr",
         description="LQR on the flat: 1 m at 180 deg/s and back (thesis 4.2.1, Fig 4.10)",
         model=_core.SlopeModel(params, 0.0),
-        controller=_lqr(params, ctrl_params, 0.0, speed, [100, 1, 1, 1], 480.0, point, period),
+        controller=_lqr(ctrl_params, 0.0, speed, [100, 1, 1, 1], 480.0, point, period),
         x0=np.zeros(4),
         reference=_core.SpeedSchedule([(distance / params.wheel_radius, speed, hold), (0.0, speed, settle)]),
         t_final=2 * leg + hold + settle,

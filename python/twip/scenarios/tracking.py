@@ -102,13 +102,18 @@ def compare(params=None, mismatch: float = 0.2, laps: int = 3, dt: float = 1e-3)
     return rows
 
 
+def thesis_cm(controller: str) -> str:
+    """THESIS_TABLE_5_2's "x / y" [cm] for a tracker scenario (both sliding-mode ones: "smc")."""
+    x, y = THESIS_TABLE_5_2["pid" if controller == "circle-pid" else "smc"]
+    return f"{100 * x:.1f} / {100 * y:.1f}"
+
+
 def format_table(rows) -> str:
     """A markdown table of `compare`'s rows, in cm, with the thesis's Table 5.2 beside."""
-    thesis = {"circle-pid": "7.2 / 7.6", "circle-smc": "2.7 / 3.0", "circle-smc-fuzzy": "2.7 / 3.0"}
     out = ["| tracker | plant | mean abs x / y [cm] | after lap 1 [cm] | max path error after lap 1 [cm] | thesis (exp.) [cm] |",
            "|---|---|---|---|---|---|"]
     for r in rows:
         out.append(f"| `{r['controller']}` | {r['plant']} | {100 * r['x']:.2f} / {100 * r['y']:.2f} | "
                    f"{100 * r['x_settled']:.2f} / {100 * r['y_settled']:.2f} | {100 * r['path_settled']:.2f} | "
-                   f"{thesis[r['controller']]} |")
+                   f"{thesis_cm(r['controller'])} |")
     return "\n".join(out)
