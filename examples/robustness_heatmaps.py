@@ -7,8 +7,9 @@ the loop (twip.Realism.thesis_like(): 5 ms loop with one period of delay, MPU-60
 noise and biases through a complementary filter, 700 CPR encoders, the L298P's 2 V drop
 and 2 A limit on 11.1 V), and the samples are binned on a grid; a cell's colour is the
 fraction that fell. The controllers are designed on the nominal robot and never see
-the error. The ideal robot (no realism) never falls on these maps: the limits of the
-motor driver and the noisy, delayed feedback are what draw the boundary.
+the error. With --ideal the 2-DOF maps are run on the ideal robot (no realism) instead,
+and every cell is 0: the limits of the motor driver and the noisy, delayed feedback are
+what draw the boundary.
 
 - slope-mass: the flat-ground designs (flat-*-sim) on slopes of 0-30 deg, body mass
   +-50 %: the motor driver runs out of current and voltage to hold the slope.
@@ -20,8 +21,9 @@ motor driver and the noisy, delayed feedback are what draw the boundary.
   neither tracker falls anywhere on this map (fall rate 0), so the cells show the
   mean of the largest distance from the path during the second lap instead.
 
-Run:  .venv/bin/python examples/robustness_heatmaps.py [--n 6000] [--bins 15] [--out robustness]
-(about a minute on 2 cores with the defaults: 4 sweeps of 6000 runs of 10 s, 2 of 1500 of two laps)
+Run:  .venv/bin/python examples/robustness_heatmaps.py [--n 6000] [--bins 15] [--out robustness] [--ideal]
+(44 s on 2 cores with the defaults: 4 sweeps of 6000 runs of 10 s, 2 of 1500 of two laps;
+--ideal runs the 4 sweeps of the 2-DOF maps only, without realism, and names the files *_ideal.png)
 """
 import argparse
 import math
@@ -66,13 +68,13 @@ def relative(values, nominal):
     return 100.0 * (values / nominal - 1.0)
 
 
-def cell_map(scenario, xp, yp, n, seed, bins, metric=None):
+def cell_map(scenario, xp, yp, n, seed, bins, metric=None, realism=REALISM):
     """Per cell: the fraction of runs that fell, or the mean of `metric`."""
     (xname, xdist, _, xscale), (yname, ydist, _, yscale) = xp, yp
     planar = metric is not None
     options = {"laps": 2.0} if planar else {"t_final": 10.0}
     result = twip.montecarlo(scenario, n, perturb={xname: xdist, yname: ydist}, seed=seed,
-                             options=options, realism=None if planar else REALISM, progress=False)
+                             options=options, realism=None if planar else realism, progress=False)
     nominal = twip.RobotParams.balanbot().to_dict()
     xs, ys = [], []
     for i in range(result.n):
@@ -101,16 +103,21 @@ def main():
     ap.add_argument("--n", type=int, default=6_000, help="samples per map and controller")
     ap.add_argument("--bins", type=int, default=15)
     ap.add_argument("--out", default="robustness", help="folder for the PNG files")
+    ap.add_argument("--ideal", action="store_true",
+                    help="the 2-DOF maps on the ideal robot (no realism); the tracking map is skipped")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     for map_name, (xp, yp, controllers) in MAPS.items():
+        if args.ideal and map_name in CELL:
+            continue  # the tracking map is ideal already
         fig, axes = plt.subplots(1, len(controllers), figsize=(5.2 * len(controllers), 4.4), constrained_layout=True)
         metric, label_of_cell, unit = CELL.get(map_name, (None, "fraction of runs that fell", 1.0))
         n = min(args.n, TRACKING_SAMPLES) if metric else args.n
         bins = min(args.bins, TRACKING_BINS) if metric else args.bins
-        cells = {label: cell_map(scenario, xp, yp, n, seed=1, bins=bins, metric=metric)
+        realism = None if args.ideal else REALISM
+        cells = {label: cell_map(scenario, xp, yp, n, seed=1, bins=bins, metric=metric, realism=realism)
                  for label, scenario in controllers.items()}
         top = 1.0 if metric is None else unit * max(np.nanmax(c[0]) for c in cells.values())
         for ax, (label, scenario) in zip(np.atleast_1d(axes), controllers.items()):
@@ -122,8 +129,9 @@ def main():
                   f"{result.steps / result.elapsed / 1e6:.1f} M sample-steps/s")
         fig.colorbar(mesh, ax=axes, label=label_of_cell.replace("[m]", "[mm]") if metric else label_of_cell)
         fig.suptitle("ideal 3-DOF robot, second lap of the circle" if metric else
+                     "ideal robot (no realism)" if args.ideal else
                      "thesis-like robot: 5 ms loop + delay, MPU-6050 noise, encoders, L298P 2 A / 11.1 V")
-        path = out / f"{'tracking_error' if metric else 'fall_rate'}_{map_name}.png"
+        path = out / f"{'tracking_error' if metric else 'fall_rate'}_{map_name}{'_ideal' if args.ideal else ''}.png"
         fig.savefig(path, dpi=110)
         print(f"wrote {path}")
     print(f"total {time.perf_counter() - started:.0f} s")

@@ -23,6 +23,19 @@ def frictionless(p):
     return p.replace(mu_bearing=0.0, mu_ground=0.0)
 
 
+def rel_diff(a, b):
+    """Largest |a - b|, each entry relative to max(|b|, 1): relative for large entries, absolute near 0."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return np.max(np.abs(a - b) / np.maximum(np.abs(b), 1.0))
+
+
+def max_energy_drift(model, x0, u, dt, t_final, step=twip.rk4_step):
+    """Worst |E - E0| / |E0| sampled every 10 ms over [0, t_final] with the input u held, and the trajectory."""
+    traj = run(model, x0, u, dt, round(t_final / dt), step)
+    e = np.array([model.energy(x) for x in traj[:: max(1, round(0.01 / dt))]])
+    return np.max(np.abs(e - e[0])) / abs(e[0]), traj
+
+
 def run(model, x0, u, dt, n, step=twip.rk4_step):
     """The trajectory of n steps of `step` from x0 with the input held (n + 1 rows)."""
     x = np.array(x0, dtype=float)

@@ -12,6 +12,7 @@ import twip.scenarios as scenarios
 from twip.reference.control import SpeedSchedule as RefSchedule
 from twip.reference.control import simulate as ref_simulate
 from twip.scenarios.fuzzy import KI_FLAT, KI_SLOPE, compare_table, mismatched, stop_errors
+from conftest import rel_diff
 
 SPEED = math.radians(180)
 
@@ -95,6 +96,83 @@ def test_integral_term_stops_within_a_centimetre(name, ki):
         print(f"{name} ({label}): short of the goal by {np.round(100 * errs[label], 2)} cm at the end of each hold, "
               f"final position error {100 * r.metrics['final_position_error']:.2f} cm")
     assert np.all(np.abs(errs[f"ki = {ki}"]) < 0.01)
+
+
+@pytest.mark.parametrize("name", ["slope-fuzzy"])
+def test_ki_is_tuned_for_the_five_second_holds(name):
+    """docs/scenarios.md: a smaller |ki| leaves the robot short of the far goal, a larger one overshoots."""
+    first = {}
+    for ki in (-0.003, KI_SLOPE, -0.005, -0.01):
+        sc = scenarios.get(name, ki=ki)
+        r = sc.run()
+        assert r.outcome == "completed"
+        stops = 100 * stop_errors(sc, r)
+        first[ki] = stops[0]
+        print(f"{name}, ki = {ki}: stops {stops[0]:.1f} / {stops[1]:.1f} cm")
+        assert np.all(np.abs(stops) < 3.0)
+    assert first[-0.003] > first[KI_SLOPE] > first[-0.005] > 0 > first[-0.01]
+
+
+def _shoulders(inner, outer):
+    """N, Z, P: two shoulders and a trapezoid (a triangle when inner = 0)."""
+    inf = math.inf
+    return [twip.Trapezoid(-inf, -inf, -outer, -inner), twip.Trapezoid(-outer, -inner, inner, outer),
+            twip.Trapezoid(inner, outer, inf, inf)]
+
+
+# (phi core, phi foot, phi_dot core, phi_dot foot) [rad, rad/s]: docs/scenarios.md's table of sets.
+SET_CHOICES = {
+    "**0.1/0.3, 0.5/2 (default)**": (0.1, 0.3, 0.5, 2.0),
+    "triangles 0/0.3, 0/2": (0.0, 0.3, 0.0, 2.0),
+    "narrow 0.05/0.15, 0.25/1": (0.05, 0.15, 0.25, 1.0),
+    "wide 0.2/0.6, 1/4": (0.2, 0.6, 1.0, 4.0),
+    "triangles 0/0.5, 0/5": (0.0, 0.5, 0.0, 5.0),
+}
+
+
+def _errors(name, **options):
+    """(mean |pitch error| [deg], mean |speed error| [deg/s], stops [cm]) of a completed run."""
+    sc = scenarios.get(name, **options)
+    r = sc.run()
+    assert r.outcome == "completed", (name, options)
+    m = r.metrics
+    return math.degrees(m["mean_abs_pitch_error"]), math.degrees(m["mean_abs_speed_error"]), 100 * stop_errors(sc, r)
+
+
+def test_the_results_do_not_hinge_on_the_fuzzy_sets():
+    """Prints docs/scenarios.md's table of sets (`-s`): every choice completes both experiments with
+    errors near the default's."""
+    default = {n: _errors(n) for n in ("slope-fuzzy", "flat-fuzzy")}
+    print("\n| sets (φ core/foot, φ̇ core/foot) | slope: pitch [°], speed [°/s], stops [cm] | flat: same |")
+    for label, (pi, po, di, do) in SET_CHOICES.items():
+        sets = [_shoulders(pi, po), _shoulders(di, do)]
+        cells = []
+        for name in ("slope-fuzzy", "flat-fuzzy"):
+            pitch, speed, stops = _errors(name, sets=sets)
+            cells.append(f"{pitch:.3f}, {speed:.1f}, {stops[0]:.1f} / {stops[1]:.1f}")
+            if "default" in label:
+                assert (pitch, speed) == default[name][:2] and np.array_equal(stops, default[name][2])
+            assert abs(pitch / default[name][0] - 1) < 0.25 and abs(speed / default[name][1] - 1) < 0.25, label
+            assert np.all(np.abs(stops) < 12.0), label
+        print(f"| {label} | {cells[0]} | {cells[1]} |")
+
+
+def test_gamma_sigma_scan():
+    """Prints docs/scenarios.md's γ/σ scan (`-s`): slope-fuzzy pitch, speed, stops · flat-fuzzy pitch,
+    speed. Faster adaptation (smaller γ) holds the slope's pitch tighter and slows the flat's speed loop."""
+    sigmas, gammas = (0.01, 0.05, 0.2), (0.005, 0.02, 0.05, 0.2, 1.0)
+    slope_pitch, flat_speed = np.zeros((len(gammas), len(sigmas))), np.zeros((len(gammas), len(sigmas)))
+    print("\n| γ \\ σ | " + " | ".join(str(x) for x in sigmas) + " |")
+    for i, gamma in enumerate(gammas):
+        cells = []
+        for j, sigma in enumerate(sigmas):
+            p, v, stops = _errors("slope-fuzzy", gamma=gamma, sigma=sigma)
+            fp, fv, _ = _errors("flat-fuzzy", gamma=gamma, sigma=sigma)
+            slope_pitch[i, j], flat_speed[i, j] = p, fv
+            cells.append(f"{p:.2f}, {v:.0f}, {stops[0]:.1f}/{stops[1]:.1f} · {fp:.2f}, {fv:.0f}")
+        print(f"| {gamma} | " + " | ".join(cells) + " |")
+    assert np.all(np.diff(slope_pitch, axis=0) > 0)
+    assert np.all(flat_speed[0] > flat_speed[3])
 
 
 def test_without_integral_the_slope_load_creeps_the_robot_uphill(balanbot):
@@ -185,8 +263,7 @@ def run_both(balanbot, slope, legs, t_final, rust_ctrl, ref_ctrl):
     t, xs, us, ins = ref_simulate(ref.SlopeModel(balanbot, slope), ref_ctrl, np.zeros(4), t_final, 1e-3,
                                   RefSchedule(legs), internals=True)
     assert xs.shape == r.states.shape
-    rel = lambda a, b: np.max(np.abs(a - b) / np.maximum(np.abs(b), 1.0))  # noqa: E731
-    return rel(r.states, xs), rel(weights(r), ins[:, 9:18]), rel(r.inputs[:, 0], us), r, ins
+    return rel_diff(r.states, xs), rel_diff(weights(r), ins[:, 9:18]), rel_diff(r.inputs[:, 0], us), r, ins
 
 
 def test_closed_loop_run_matches_reference(balanbot):

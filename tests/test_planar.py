@@ -7,16 +7,9 @@ import pytest
 
 import twip
 import twip.reference as ref
-from conftest import frictionless, random_params, run
+from conftest import frictionless, max_energy_drift, random_params, rel_diff, run
 
 X0_FALL = [0.0, 0.0, 0.0, 0.3, 0.5, 0.4, 2.0]  # tilted 0.3 rad, moving, pitching and turning
-
-
-def max_energy_drift(model, x0, dt, t_final, step=twip.rk4_step):
-    """Worst |E - E0| / |E0| sampled every 10 ms over [0, t_final], and the trajectory."""
-    traj = run(model, x0, [0.0, 0.0], dt, round(t_final / dt), step)
-    e = np.array([model.energy(x) for x in traj[:: max(1, round(0.01 / dt))]])
-    return np.max(np.abs(e - e[0])) / abs(e[0]), traj
 
 
 def rel_err(a, b):
@@ -32,10 +25,10 @@ def test_energy_is_conserved_and_converges_with_dt(balanbot):
     """No friction, no input: falls from 0.3 rad and swings through; 1e5 RK4 steps at 1 ms,
     then 2e5 at 0.5 ms to the same final time."""
     model = twip.PlanarModel(frictionless(balanbot))
-    drift, traj = max_energy_drift(model, X0_FALL, 1e-3, 100.0)
+    drift, traj = max_energy_drift(model, X0_FALL, [0.0, 0.0], 1e-3, 100.0)
     assert np.max(np.abs(traj[:, 3])) > math.pi, "the body should swing through the bottom"
     assert np.max(np.abs(traj[:, 6])) > 1.0, "the robot should keep turning"
-    drift_half, _ = max_energy_drift(model, X0_FALL, 0.5e-3, 100.0)
+    drift_half, _ = max_energy_drift(model, X0_FALL, [0.0, 0.0], 0.5e-3, 100.0)
     print(f"planar: relative energy drift {drift:.2e} at dt=1ms, {drift_half:.2e} at dt=0.5ms")
     assert drift < 1e-7
     assert drift_half < drift / 10
@@ -43,9 +36,9 @@ def test_energy_is_conserved_and_converges_with_dt(balanbot):
 
 def test_reference_energy_is_conserved_and_converges_with_dt(balanbot):
     model = ref.PlanarModel(frictionless(balanbot))
-    drift, traj = max_energy_drift(model, X0_FALL, 1e-3, 2.0, step=ref.rk4_step)
+    drift, traj = max_energy_drift(model, X0_FALL, [0.0, 0.0], 1e-3, 2.0, step=ref.rk4_step)
     assert np.max(np.abs(traj[:, 3])) > math.pi / 2, "the body should fall"
-    drift_half, _ = max_energy_drift(model, X0_FALL, 0.5e-3, 2.0, step=ref.rk4_step)
+    drift_half, _ = max_energy_drift(model, X0_FALL, [0.0, 0.0], 0.5e-3, 2.0, step=ref.rk4_step)
     print(f"reference: relative energy drift {drift:.2e} at dt=1ms, {drift_half:.2e} at dt=0.5ms")
     assert drift < 1e-7
     assert drift_half < drift / 10
@@ -218,7 +211,7 @@ def test_parity_open_loop_run(balanbot):
     a = run(twip.PlanarModel(balanbot), x0, u, dt, n)
     b = run(ref.PlanarModel(balanbot), x0, u, dt, n, step=ref.rk4_step)
     assert np.max(np.abs(a[:, 3])) > 1.0 and np.max(np.abs(a[:, 2])) > 0.1, "it should fall and turn"
-    err = np.max(np.abs(a - b) / np.maximum(np.abs(b), 1.0))
+    err = rel_diff(a, b)
     print(f"worst relative state difference over 10 s: {err:.2e}")
     assert err < 1e-9
 

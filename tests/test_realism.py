@@ -9,17 +9,16 @@ import twip
 import twip.reference as ref
 import twip.reference.realism as rr
 import twip.scenarios as scenarios
+from twip.scenarios.fuzzy import stop_errors
+from conftest import rel_diff
 
 LQR = ["slope-lqr", "flat-lqr", "slope-lqr-sim", "flat-lqr-sim"]
-FUZZY = [n for n in ("slope-fuzzy", "flat-fuzzy", "slope-fuzzy-sim", "flat-fuzzy-sim") if n in scenarios.names()]
+FUZZY = ["slope-fuzzy", "flat-fuzzy", "slope-fuzzy-sim", "flat-fuzzy-sim"]
 
 
 def stop_errors_cm(sc, r):
-    if "goals" not in sc.thesis:
-        return None
-    radius = sc.model.params.wheel_radius
-    idx = [min(np.searchsorted(r.t, t - 1e-9), len(r.t) - 1) for t, _ in sc.thesis["goals"]]
-    return np.round([100 * (goal - r.states[i, 2] * radius) for i, (_, goal) in zip(idx, sc.thesis["goals"])], 2)
+    """twip.scenarios.fuzzy.stop_errors in cm, rounded for printing; None for a scenario without goals."""
+    return np.round(100 * stop_errors(sc, r), 2) if "goals" in sc.thesis else None
 
 
 def summary(sc, r):
@@ -146,8 +145,7 @@ def test_parity_with_the_reference_every_option_on(balanbot, estimator):
                       rr.Realism.from_twip(realism, balanbot))
     assert r.outcome == run.outcome == "completed"
     assert r.states.shape == run.states.shape
-    scale = np.maximum(np.abs(run.states), 1.0)
-    err = np.max(np.abs(r.states - run.states) / scale)
+    err = rel_diff(r.states, run.states)
     print(f"every option on ({estimator}), {t_final} s: worst relative state difference {err:.2e}")
     assert err < 1e-9
     np.testing.assert_allclose(r.inputs[:, 0], run.inputs, rtol=1e-9, atol=1e-12)
@@ -207,9 +205,31 @@ def test_invalid_runs_name_the_parameter(balanbot):
         sc.run(realism="thesis")
 
 
+def plain(value):
+    """A Realism setting as comparable plain data: the pyclasses have no __eq__, so compare their fields."""
+    if isinstance(value, dict):
+        return {k: plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [plain(v) for v in value]
+    if isinstance(value, twip.TiltEstimator):
+        return ("TiltEstimator", value.kind, plain(value.parameters))
+    if hasattr(value, "to_dict"):
+        return (type(value).__name__, plain(value.to_dict()))
+    if isinstance(value, (twip.Push, twip.Force)):
+        return (type(value).__name__, {k: plain(getattr(value, k)) for k in dir(value) if not k.startswith("_")})
+    return value
+
+
 def test_settings_round_trip():
     r = twip.Realism.thesis_like(seed=2, stream=9)
-    assert r.replace().to_dict().keys() == r.to_dict().keys()
+    full = r.to_dict()
+    assert plain(r.replace().to_dict()) == plain(full)
+    assert plain(twip.Realism(**full).to_dict()) == plain(full)
+    busy = r.replace(pushes=[twip.Push(1.0, 0.1, 0.2), twip.Push(2.5, -0.05)], force=twip.Force(0.3, -0.1, 0.15),
+                     estimator=twip.TiltEstimator.kalman())
+    assert plain(twip.Realism(**busy.to_dict()).to_dict()) == plain(busy.to_dict())
+    assert plain(busy.to_dict()) != plain(full)
+    assert plain(r.replace(imu=r.imu.replace(dlpf_hz=20)).to_dict()) != plain(full)
     assert r.replace(delay=False).delay is False and r.replace(delay=False).seed == 2
     assert r.imu.dlpf_hz == 42 and r.imu.dlpf_cfg == 3 and r.imu.gyro_range_dps == 250
     assert r.motor.current_limit == 2.0 and twip.MotorDriver().current_limit is None

@@ -10,6 +10,7 @@ import twip.reference as ref
 import twip.scenarios as scenarios
 from twip.reference import tracking as rtr
 from twip.scenarios import tracking as st
+from conftest import rel_diff
 
 CIRCLES = ["circle-pid", "circle-smc", "circle-smc-fuzzy"]
 
@@ -69,6 +70,8 @@ def test_sliding_mode_tracks_better_than_pid():
           f"({pid / smc:.1f}x smaller), fuzzy SMC {100 * fuzzy:.2f} cm ({pid / fuzzy:.1f}x smaller); "
           f"thesis (experiments): PID 7.4 cm, sliding mode 2.85 cm (2.6x smaller)")
     assert smc < pid / 2 and fuzzy < pid / 2
+    peak = {n: max(r["peak_torque"] for r in rows if r["controller"] == n) for n in CIRCLES}
+    print("peak |torque| over the three plants: " + ", ".join(f"{n} {peak[n]:.3f} N m" for n in CIRCLES))
     for plant in ("nominal", "+20%", "-20%"):
         assert mean_error("circle-smc-fuzzy", plant) < mean_error("circle-pid", plant)
         assert mean_error("circle-smc", plant) < mean_error("circle-pid", plant)
@@ -100,7 +103,7 @@ def test_whole_run_matches_reference(balanbot, name):
     t, xs, us, ins = rtr.simulate_planar(ref.PlanarModel(balanbot), _reference_tracker(name, balanbot), sc.x0,
                                          t_final, sc.dt, reference)
     assert xs.shape == r.states.shape
-    err = np.max(np.abs(r.states - xs) / np.maximum(np.abs(xs), 1.0))
+    err = rel_diff(r.states, xs)
     u_err = np.max(np.abs(r.inputs - us)) / np.max(np.abs(us))
     names = list(r.internals)
     assert tuple(names) == tuple(type(_reference_tracker(name, balanbot)).internal_names)
@@ -173,6 +176,9 @@ def test_table_4_1_readings(balanbot):
         "speed in wheel deg/s": ({"speed": deg / balanbot.wheel_radius}, "fell"),
         "speed in m/s": ({"speed": 1.0}, "fell"),
         "speed in wheel rad/s": ({"speed": 1 / balanbot.wheel_radius}, "completed"),
+        "speed in counts per 5 ms at 2797 counts per turn": ({"speed": base["speed"] * 2797 / 700}, "completed"),
+        "integrals in time (x 5 ms)": ({"integral_step": 0.005}, "completed"),
+        "heading in rad (clockwise)": ({"heading": -1.0}, "completed"),
     }
     for name, (change, outcome) in readings.items():
         units = dict(base, **change)
@@ -181,6 +187,13 @@ def test_table_4_1_readings(balanbot):
         print(f"Table 4.1 with {name}: {r.outcome} (t_end {r.t_end}), mean |x|, |y| errors "
               f"{100 * r.metrics['mean_abs_x_error']:.1f}, {100 * r.metrics['mean_abs_y_error']:.1f} cm")
         assert r.outcome == outcome, name
+    # Other update periods, the speed unit following them (counts per update): no retuning needed.
+    for period in (0.002, 0.01, 0.02):
+        r = twip.simulate(model, twip.PidTracker(balanbot, units="arduino", period=period), np.zeros(7),
+                          3 * circle.period, 1e-3, reference=circle)
+        print(f"Table 4.1 at {1e3 * period:g} ms: {r.outcome}, mean |x|, |y| errors "
+              f"{100 * r.metrics['mean_abs_x_error']:.1f}, {100 * r.metrics['mean_abs_y_error']:.1f} cm")
+        assert r.outcome == "completed", period
 
 
 # --- sliding mode: signs, zero dynamics, guards, boundary layer ----------------------------------------
@@ -224,14 +237,39 @@ def test_surface_gain_sign_and_input_gains(balanbot):
         twip.SmcTracker(model, pitch="forward")
 
 
-def test_yaw_law_as_printed_drives_s_eta_away():
-    """(4.106) as printed with k_eta3 = -2, k_eta4 = -5: dS_eta/dt = -(g + k_eta3) sgn(S) - k_eta4 S
-    (exact model, no estimate error) has the sign of S; twip's law has the opposite sign."""
-    g, k3, k4 = 1.0, -2.0, -5.0
-    for s in (-0.1, -0.01, 0.01, 0.1):
-        printed = -(g + k3) * np.sign(s) - k4 * s
-        twips = -(g - k3) * np.sign(s) + k4 * s
-        assert np.sign(printed) == np.sign(s) and np.sign(twips) == -np.sign(s)
+@pytest.mark.parametrize("omega0", [0.0, 0.5])
+def test_yaw_law_as_printed_drives_s_eta_away(omega0):
+    """Errata T5. (4.106) as printed, C_y = (lambda3_dot - F1 - (g_y3 + k_eta3) sgn S - k_eta4 S)/g23 with the
+    published k_eta3 = -2, k_eta4 = -5, gives dS_eta/dt = -(g_y3 + k_eta3) sgn S - k_eta4 S = +sgn S + 5 S
+    (exact model): S_eta runs away. twip writes C_y = (lambda3_dot - F1 - (g_y3 - k_eta3) sat(S/w)
+    + k_eta4 S)/g23, so dS_eta/dt = -3 sat - 5 S. Checked on twip itself: the gains it ships, the C_y it
+    computes at the first tick (against both formulas), and S_eta closing in the loop from either sign."""
+    gains = twip.SmcTracker.thesis_gains()
+    assert (gains["k_eta3"], gains["k_eta4"], gains["g_y3"]) == (-2.0, -5.0, 1.0)
+    sc = scenarios.get("circle-smc")
+    x0 = np.array(sc.x0, dtype=float)
+    x0[6] = omega0  # yaw rate; S_eta = omega - lambda3 starts at omega0 - omega_r
+    r = sc.replace(x0=x0, t_final=1.0).run()
+    tracker = sc.controller
+    g = tracker.gains
+    assert (g["k_eta3"], g["k_eta4"]) == (-2.0, -5.0)
+    internals = {k: v[0] for k, v in r.internals.items()}
+    s = internals["s_eta"]
+    assert abs(s) > 0.2 and np.sign(s) == np.sign(omega0 - sc.thesis["omega_r"])
+    g23 = tracker.input_gains(x0[3])[2]
+    sat = np.clip(s / tracker.boundary_layer[0], -1.0, 1.0)
+    base = internals["lambda3_dot"] - internals["f1_hat"]
+    twips = (base - (g["g_y3"] - g["k_eta3"]) * sat + g["k_eta4"] * s) / g23
+    printed = (base - (g["g_y3"] + g["k_eta3"]) * sat - g["k_eta4"] * s) / g23
+    assert internals["c_y"] == pytest.approx(twips, rel=1e-12, abs=1e-15)
+    assert abs(internals["c_y"] - printed) > 0.1 * abs(twips)
+    # The reaching terms of each law, in dS_eta/dt: twip's opposes S, the printed one follows it.
+    assert np.sign(-(g["g_y3"] - g["k_eta3"]) * sat + g["k_eta4"] * s) == -np.sign(s)
+    assert np.sign(-(g["g_y3"] + g["k_eta3"]) * sat - g["k_eta4"] * s) == np.sign(s)
+    late = np.abs(r.internals["s_eta"][r.t >= 0.2])
+    print(f"S_eta(0) = {s:+.3f} rad/s: C_y = {internals['c_y']:+.4f} N m (printed law {printed:+.4f}); "
+          f"max |S_eta| after 0.2 s {late.max():.1e} rad/s")
+    assert r.outcome == "completed" and late.max() < 1e-3 * abs(s)
 
 
 @pytest.mark.parametrize("fuzzy", [False, True])
@@ -305,9 +343,12 @@ def test_other_trajectories(balanbot):
     model = twip.PlanarModel(balanbot)
     eight = twip.FigureEight(1.0, 60.0)
     square = twip.Waypoints([(0, 0), (1, 0), (1, 1), (0, 1), (0, 0)], 0.1, corner_radius=0.2)
-    for reference, t_final, bound in ((eight, 120.0, 0.03), (square, square.duration + 5, 0.10)):
+    for label, reference, t_final, bound in (("figure-eight, half-width 1 m in 60 s", eight, 120.0, 0.03),
+                                             ("1 m square, 0.2 m corners, 0.1 m/s", square, square.duration + 5, 0.10)):
         for tracker in (twip.SmcTracker(model), twip.SmcTracker(model, fuzzy=True)):
             r = twip.simulate(model, tracker, np.zeros(7), t_final, 1e-3, reference=reference, settle=10.0)
+            print(f"{label}, SmcTracker(fuzzy={tracker.fuzzy}): {r.outcome}, largest distance to the path "
+                  f"after 10 s {100 * r.metrics['max_path_error_settled']:.1f} cm")
             assert r.outcome == "completed"
             assert r.metrics["max_path_error_settled"] < bound, (reference, tracker)
 
@@ -335,6 +376,8 @@ def test_errors(balanbot):
         (lambda: twip.Waypoints([(0, 0), (1, 0)], 0.1, corner_radius=-1), "corner_radius"),
         (lambda: twip.SmcTracker(model, gains={"k_s4": 1.0}), "k_s4"),
         (lambda: twip.SmcTracker(model, gains={"k_eta4": 5.0}), "k_eta4"),
+        (lambda: twip.SmcTracker(model, gains={"k_eta4": 0.0}), "k_eta4"),
+        (lambda: twip.SmcTracker(model, gains={"k_eta3": 1.0}), "k_eta3"),
         (lambda: twip.SmcTracker(model, gains={"k1": 0.0}), "k1"),
         (lambda: twip.SmcTracker(model, gains={"k_phi": math.nan}), "k_phi"),
         (lambda: twip.SmcTracker(model, gains={"bogus": 1.0}), "bogus"),
