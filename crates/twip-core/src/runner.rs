@@ -31,6 +31,11 @@ pub enum Outcome<T> {
 }
 
 impl<T: Real> SimConfig<T> {
+    /// `dt`, `t_final` and the fall limit, by default [`DEFAULT_FALL_LIMIT`].
+    pub fn new(dt: T, t_final: T, fall_limit: Option<T>) -> Self {
+        Self { dt, t_final, fall_limit: fall_limit.unwrap_or_else(|| c(DEFAULT_FALL_LIMIT)) }
+    }
+
     /// Number of plant steps and plant steps per controller update; checks that the
     /// control period is a whole number of steps.
     pub fn steps(&self, control_period: T) -> Result<(usize, usize), TwipError> {
@@ -137,6 +142,9 @@ impl<T: Real, const NX: usize, const NU: usize> Actuator<T, NX, NU> for Ideal {
 
 /// How often (in plant steps) a run asks whether it should stop early.
 pub const STOP_CHECK_STEPS: usize = 1 << 12;
+
+/// The pitch [rad] beyond which a run counts as fallen, unless told otherwise: 60°.
+pub const DEFAULT_FALL_LIMIT: f64 = core::f64::consts::FRAC_PI_3;
 
 /// The parts of a run besides the plant, controller and reference.
 pub struct Loop<'a, S, A, O, F> {

@@ -56,3 +56,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ConvergenceError", py.get_type::<ConvergenceError>())?;
     Ok(())
 }
+
+/// The error for a bad argument, naming it and its value.
+pub(crate) fn invalid(name: &'static str, value: f64, reason: &'static str) -> PyTwipError {
+    PyTwipError(twip_core::TwipError::InvalidParameter { name, value, reason })
+}

@@ -5,9 +5,8 @@ use twip_core::slope::SlopeModel;
 use twip_core::{rk4_step as core_rk4, Dynamics, PlanarModel};
 
 use crate::convert::{input, scalar, to_py_matrix, to_py_vector, vector};
-use crate::errors::{CoreResult, PyTwipError};
+use crate::errors::CoreResult;
 use crate::params::PyRobotParams;
-use twip_core::TwipError;
 
 /// The 2-DOF model on a slope; state [phi, phi_dot, theta, theta_dot], input current u [A].
 #[pyclass(name = "SlopeModel", module = "twip", frozen)]
@@ -123,7 +122,7 @@ fn positive_dt(dt: f64) -> CoreResult<f64> {
     if dt.is_finite() && dt > 0.0 {
         Ok(dt)
     } else {
-        Err(PyTwipError(TwipError::InvalidParameter { name: "dt", value: dt, reason: "must be finite and > 0" }))
+        Err(crate::errors::invalid("dt", dt, "must be finite and > 0"))
     }
 }
 

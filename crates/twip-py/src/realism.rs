@@ -11,14 +11,10 @@ use twip_core::realism::Realism;
 use twip_core::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use twip_core::{RobotParams, TwipError};
 
-use crate::errors::{CoreResult, InvalidParameterError, PyTwipError};
+use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
 use crate::params::PyRobotParams;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
-
-fn invalid(name: &'static str, value: f64, reason: &'static str) -> PyTwipError {
-    PyTwipError(TwipError::InvalidParameter { name, value, reason })
-}
 
 fn positive_rate(name: &'static str, rate: f64) -> CoreResult<f64> {
     if rate.is_finite() && rate > 0.0 {

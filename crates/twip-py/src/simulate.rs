@@ -10,7 +10,6 @@ use twip_core::metrics::SlopeMetrics;
 use twip_core::realism::RIG_SIGNALS;
 use twip_core::reference::{SpeedRef, SpeedSchedule};
 use twip_core::runner::{simulate_until, Outcome, SimConfig};
-use twip_core::TwipError;
 
 use crate::convert::vector;
 use crate::errors::{CoreResult, PyTwipError};
@@ -22,6 +21,8 @@ use crate::schedule::PySpeedSchedule;
 
 /// Every controller of the 2-DOF model. A new controller family adds a variant here
 /// and in the `controller_enum!` line below; the runner stays one monomorphised loop.
+/// Unboxed on purpose, as `PlanarController`: copied once per run, then updated in place.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 pub enum SlopeController {
     Lqr(LqrController<f64>),
@@ -71,10 +72,10 @@ pub fn simulate_raw<'py>(
     }
     ctrl.check_reference(&reference.inner)?;
     let x0 = vector::<4>("x0", x0)?;
-    let config = SimConfig { dt, t_final, fall_limit: fall_limit.unwrap_or(60f64.to_radians()) };
+    let config = SimConfig::new(dt, t_final, fall_limit);
     let (n, _) = config.steps(ctrl.period()).map_err(PyTwipError)?;
     if record_every == 0 {
-        return Err(PyTwipError(TwipError::InvalidParameter { name: "record_every", value: 0.0, reason: "must be >= 1" }).into());
+        return Err(crate::errors::invalid("record_every", 0.0, "must be >= 1").into());
     }
     let schedule = reference.inner;
     let names = ctrl.internal_names();

@@ -209,7 +209,7 @@ pub fn sweep_noise_seed(seed: u64) -> u64 {
 /// sweep's (see `sweep_noise_seed`).
 #[pyfunction]
 #[pyo3(signature = (model, controller, x0, t_final, dt, reference, perturbations, seed, start, count,
-                    control_period = None, fall_limit = None, threads = 0, progress = None, realism = None))]
+                    control_period = None, threads = 0, progress = None, realism = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn sweep_raw<'py>(
     py: Python<'py>,
@@ -224,7 +224,6 @@ pub fn sweep_raw<'py>(
     start: u64,
     count: u64,
     control_period: Option<f64>,
-    fall_limit: Option<f64>,
     threads: usize,
     progress: Option<Py<PyAny>>,
     realism: Option<&PyRealism>,
@@ -239,7 +238,8 @@ pub fn sweep_raw<'py>(
     }
     ctrl.check_reference(&reference.inner)?;
     let perts = parse_perturbations(&perturbations, Perturbation::validate)?;
-    let config = SimConfig { dt, t_final, fall_limit: fall_limit.unwrap_or(60f64.to_radians()) };
+    // The default fall limit, as `twip.simulate`'s: `SweepResult.replay` must agree.
+    let config = SimConfig::new(dt, t_final, None);
     config.steps(ctrl.period()).map_err(PyTwipError)?;
     // A rig no robot could have (e.g. dt against the IMU's period) is an error now, not
     // n invalid samples.

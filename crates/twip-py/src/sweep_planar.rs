@@ -38,11 +38,11 @@ pub fn sweep_planar_draw<'py>(
 }
 
 /// Runs samples `start..start + count` of a tracker on perturbed planar robots along
-/// `reference`; returns their metrics as arrays ("_settled" ones from `settle` [s],
-/// by default one lap of a closed path, as `simulate_planar_raw`).
+/// `reference`; returns their metrics as arrays ("_settled" ones after one lap of a
+/// closed path, else from the start: `simulate_planar_raw`'s default).
 #[pyfunction]
 #[pyo3(signature = (model, controller, x0, t_final, dt, reference, perturbations, seed, start, count,
-                    control_period = None, fall_limit = None, settle = None, threads = 0, progress = None))]
+                    control_period = None, threads = 0, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn sweep_planar_raw<'py>(
     py: Python<'py>,
@@ -57,8 +57,6 @@ pub fn sweep_planar_raw<'py>(
     start: u64,
     count: u64,
     control_period: Option<f64>,
-    fall_limit: Option<f64>,
-    settle: Option<f64>,
     threads: usize,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -68,9 +66,10 @@ pub fn sweep_planar_raw<'py>(
         ctrl = ctrl.with_period(p)?;
     }
     let path = trajectory(reference)?;
-    let settle = settle_time(settle, &path)?;
+    let settle = settle_time(None, &path)?;
     let perts = parse_perturbations(&perturbations, core_planar::validate)?;
-    let config = SimConfig { dt, t_final, fall_limit: fall_limit.unwrap_or(60f64.to_radians()) };
+    // The defaults of `twip.simulate`, so that `SweepResult.replay` agrees.
+    let config = SimConfig::new(dt, t_final, None);
     config.steps(ctrl.period()).map_err(PyTwipError)?;
     run_sweep(py, start..start + count, BLOCK, threads, progress.as_ref(), "planar", |range, stop| {
         range

@@ -11,10 +11,9 @@ use twip_core::runner::{simulate_with, Ideal, Loop, Outcome, SimConfig};
 use twip_core::smc_tracking::{Adaptation, PitchSign, SmcGains, SmcOptions, SmcTracker};
 use twip_core::tracking_metrics::TrackingMetrics;
 use twip_core::trajectory::{Circle, Direction, FigureEight, Line, Path, PlanarRef, Trajectory, Waypoints};
-use twip_core::TwipError;
 
 use crate::convert::vector;
-use crate::errors::{CoreResult, InvalidParameterError, PyTwipError};
+use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
 use crate::models::PyPlanarModel;
 use crate::params::PyRobotParams;
 
@@ -25,10 +24,6 @@ fn sample_dict<'py>(py: Python<'py>, s: &PlanarRef<f64>) -> PyResult<Bound<'py, 
         d.set_item(name, v)?;
     }
     Ok(d)
-}
-
-fn invalid(name: &'static str, value: f64, reason: &'static str) -> PyTwipError {
-    PyTwipError(TwipError::InvalidParameter { name, value, reason })
 }
 
 // --- trajectories ------------------------------------------------------------------------
@@ -818,7 +813,7 @@ pub fn simulate_planar_raw<'py>(
     let path = trajectory(reference)?;
     let settle = settle_time(settle, &path)?;
     let x0 = vector::<7>("x0", x0)?;
-    let config = SimConfig { dt, t_final, fall_limit: fall_limit.unwrap_or(60f64.to_radians()) };
+    let config = SimConfig::new(dt, t_final, fall_limit);
     let (n, _) = config.steps(ctrl.period()).map_err(PyTwipError)?;
     if record_every == 0 {
         return Err(invalid("record_every", 0.0, "must be >= 1").into());
