@@ -538,13 +538,14 @@ impl<T: Real> Mpu6050<T> {
         let n: [T; 4] = [c(self.noise[k]), c(self.noise[k + 1]), c(self.noise[k + 2]), c(self.noise[k + 3])];
         let s = &self.settings;
         let clean = [rate + self.bias, fx + s.accel_bias[0], fz + s.accel_bias[1]];
+        let (gr, ar) = (s.gyro_range, s.accel_range);
         if !self.primed {
-            self.gyro_filter.prime(clean[0]);
-            self.accel_x_filter.prime(clean[1]);
-            self.accel_z_filter.prime(clean[2]);
+            // The filters act on the converter's output, which never leaves the range.
+            self.gyro_filter.prime(clean[0].max(-gr).min(gr));
+            self.accel_x_filter.prime(clean[1].max(-ar).min(ar));
+            self.accel_z_filter.prime(clean[2].max(-ar).min(ar));
             self.primed = true;
         }
-        let (gr, ar) = (s.gyro_range, s.accel_range);
         let gyro = self.gyro_filter.filter((clean[0] + self.sigma_gyro * n[0]).max(-gr).min(gr));
         let ax = self.accel_x_filter.filter((clean[1] + self.sigma_accel * n[1]).max(-ar).min(ar));
         let az = self.accel_z_filter.filter((clean[2] + self.sigma_accel * n[2]).max(-ar).min(ar));
@@ -658,5 +659,20 @@ mod tests {
         assert_eq!(register(-7.6, 1.0, 1.0), -8.0);
         assert!(ImuSettings { gyro_range: 1.0, ..s }.validate().is_err());
         assert!(dlpf_config(42.0) == Ok(3) && dlpf_config(44.0) == Ok(3) && dlpf_config(7.0).is_err());
+    }
+
+    /// Unquantised, a rate beyond the full scale from the very first sample still reads
+    /// at most the full scale: the filters start from the clamped value.
+    #[test]
+    fn the_first_readings_stay_in_range() {
+        let mut s = ImuSettings::<f64>::data_sheet();
+        s.gyro_noise = 0.0;
+        s.quantise = false;
+        let mut imu = Mpu6050::new(&s).unwrap();
+        let mut rng = Philox::new(0, 0);
+        for _ in 0..5 {
+            imu.sample(0.0, 9.81, 10.0 * s.gyro_range, &mut rng);
+            assert!(imu.reading().gyro <= s.gyro_range, "{} > {}", imu.reading().gyro, s.gyro_range);
+        }
     }
 }

@@ -28,7 +28,7 @@ impl PySpeedSchedule {
     }
 
     /// The thesis's experiment: drive `distance` [m] at wheel speed `speed` [rad/s],
-    /// hold `hold` [s], drive back to the start and hold `hold_end` [s].
+    /// hold `hold` [s], then drive back to the start and stay there.
     #[staticmethod]
     #[pyo3(signature = (distance, speed, wheel_radius, hold = 0.0))]
     fn go_and_return(distance: f64, speed: f64, wheel_radius: f64, hold: f64) -> CoreResult<Self> {

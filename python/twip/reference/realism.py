@@ -242,12 +242,13 @@ class Mpu6050:
         del self.noise[:4]
         s = self.s
         clean = (rate + self.bias, fx + s.accel_bias[0], fz + s.accel_bias[1])
-        if not self.primed:
-            self.gyro_filter.prime(clean[0])
-            self.ax_filter.prime(clean[1])
-            self.az_filter.prime(clean[2])
-            self.primed = True
         gr, ar = self.gyro_range, self.accel_range
+        if not self.primed:
+            # The filters act on the converter's output, which never leaves the range.
+            self.gyro_filter.prime(min(max(clean[0], -gr), gr))
+            self.ax_filter.prime(min(max(clean[1], -ar), ar))
+            self.az_filter.prime(min(max(clean[2], -ar), ar))
+            self.primed = True
         gyro = self.gyro_filter.filter(min(max(clean[0] + self.sigma_gyro * n0, -gr), gr))
         ax = self.ax_filter.filter(min(max(clean[1] + self.sigma_accel * n1, -ar), ar))
         az = self.az_filter.filter(min(max(clean[2] + self.sigma_accel * n2, -ar), ar))
