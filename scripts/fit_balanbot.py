@@ -69,7 +69,7 @@ def main():
     print(f"| phi_s (4.12), 15 deg, 250 deg/s | {PHI_S_PUBLISHED} deg | {phi_s:.3f} deg | {phi_s - PHI_S_PUBLISHED:+.3f} deg |")
     x_s, _ = twip.SlopeModel(p, math.radians(15)).equilibrium(math.radians(250))
     print(f"| phi_s nonlinear (4.42 corrected) | 12.5 deg | {math.degrees(x_s[0]):.3f} deg | {math.degrees(x_s[0]) - 12.5:+.3f} deg |")
-    print("\nRust constant (paste into crates/twip-core/src/params.rs BALANBOT):")
+    print("\nRust constant (paste into crates/twip-core/src/model/params.rs BALANBOT):")
     for n in twip.RobotParams.fields:
         print(f"    {getattr(p, n)!r:<24}// {n}")
 

@@ -2,9 +2,9 @@
 //!   /usr/bin/time -f "%U s user" cargo run --release --features parallel \
 //!       --example sweep_throughput -- lanes 256
 use nalgebra::{Matrix4, Vector4};
-use twip_core::lqr_control::{design, DesignPoint, LqrController};
-use twip_core::reference::SpeedSchedule;
-use twip_core::runner::SimConfig;
+use twip_core::control::lqr::{design, DesignPoint, LqrController};
+use twip_core::control::reference::SpeedSchedule;
+use twip_core::sim::runner::SimConfig;
 use twip_core::sweep::{draw, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Spread, Target};
 use twip_core::{RobotParams, SlopeModel};
 

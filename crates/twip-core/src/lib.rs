@@ -12,48 +12,23 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
-#[cfg(feature = "alloc")]
-pub mod care;
 pub mod control;
-pub mod disturbance;
-pub mod drive;
-pub mod dynamics;
-pub mod encoder;
 pub mod error;
-pub mod fuzzy;
-pub mod fuzzy_control;
-pub mod imu;
-pub mod integrate;
-#[cfg(feature = "alloc")]
-pub mod log;
-pub mod lqr_control;
-pub mod math;
-pub mod metrics;
-pub mod motor;
-pub mod params;
-pub mod pid_tracking;
-pub mod planar;
-pub mod reference;
-pub mod realism;
+pub mod hardware;
+pub mod model;
 pub mod rng;
-pub mod runner;
-pub mod slope;
-pub mod smc_tracking;
-pub mod tilt;
+pub mod sim;
 #[cfg(feature = "std")]
 pub mod sweep;
-pub mod tracking_metrics;
-pub mod trajectory;
 
 #[cfg(feature = "alloc")]
-pub use care::{care, lqr, Lqr};
-pub use dynamics::Dynamics;
+pub use control::care::{care, lqr, Lqr};
+pub use model::dynamics::Dynamics;
 pub use error::TwipError;
-pub use integrate::rk4_step;
-pub use params::RobotParams;
-pub use planar::PlanarModel;
-
-pub use slope::SlopeModel;
+pub use model::integrate::rk4_step;
+pub use model::params::RobotParams;
+pub use model::planar::PlanarModel;
+pub use model::slope::SlopeModel;
 
 /// The scalar every model is generic over: `f32` or `f64`.
 pub trait Real: nalgebra::RealField + Copy {}

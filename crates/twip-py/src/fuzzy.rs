@@ -2,8 +2,8 @@
 //! `twip.FuzzyController` (fuzzy adaptive backstepping + PD, thesis 4.1.2).
 use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArrayLikeDyn};
 use pyo3::prelude::*;
-use twip_core::fuzzy::{grid_product, normalised_memberships, Membership, ThesisBasis};
-use twip_core::fuzzy_control::{Adaptation, FuzzyController, FuzzyGains, DEFAULT_GAMMA, DEFAULT_SIGMA, FUZZY_INTERNALS};
+use twip_core::control::fuzzy_basis::{grid_product, normalised_memberships, Membership, ThesisBasis};
+use twip_core::control::fuzzy::{Adaptation, FuzzyController, FuzzyGains, DEFAULT_GAMMA, DEFAULT_SIGMA, FUZZY_INTERNALS};
 use twip_core::TwipError;
 
 use crate::convert::vector;

@@ -3,7 +3,7 @@ use nalgebra::Matrix4;
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use twip_core::lqr_control::{design, DesignPoint, LqrController};
+use twip_core::control::lqr::{design, DesignPoint, LqrController};
 use twip_core::TwipError;
 
 use crate::convert::{dmatrix, scalar, to_py_dmatrix, vector};

@@ -1,7 +1,7 @@
 //! `twip.SlopeModel`, `twip.PlanarModel` and `twip.rk4_step`.
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
-use twip_core::slope::SlopeModel;
+use twip_core::model::slope::SlopeModel;
 use twip_core::{rk4_step as core_rk4, Dynamics, PlanarModel};
 
 use crate::convert::{input, scalar, to_py_matrix, to_py_vector, vector};

@@ -1,7 +1,7 @@
 //! `twip.RobotParams`: a frozen, validated view of `twip_core::RobotParams<f64>`.
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use twip_core::params::FIELD_NAMES;
+use twip_core::model::params::FIELD_NAMES;
 use twip_core::RobotParams;
 
 use crate::errors::{CoreResult, InvalidParameterError};

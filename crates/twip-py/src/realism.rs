@@ -4,11 +4,11 @@
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use twip_core::disturbance::{Force, Push, Pushes, SlopeProfile};
-use twip_core::drive::{MotorDriver, PwmActuator};
-use twip_core::imu::{dlpf_config, Channel, Dlpf, ImuSettings, DLPF_TABLE, STANDARD_GRAVITY};
-use twip_core::realism::Realism;
-use twip_core::tilt::{accel_tilt, TiltEstimator, TiltFilter};
+use twip_core::hardware::disturbance::{Force, Push, Pushes, SlopeProfile};
+use twip_core::hardware::driver::{MotorDriver, PwmActuator};
+use twip_core::hardware::imu::{dlpf_config, Channel, Dlpf, ImuSettings, DLPF_TABLE, STANDARD_GRAVITY};
+use twip_core::hardware::realism::Realism;
+use twip_core::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use twip_core::{RobotParams, TwipError};
 
 use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};

@@ -1,7 +1,7 @@
 //! `twip.SpeedSchedule`: wheel speed / position schedules for the 2-DOF controllers.
 use pyo3::prelude::*;
 use twip_core::control::Reference;
-use twip_core::reference::{Leg, SpeedSchedule};
+use twip_core::control::reference::{Leg, SpeedSchedule};
 use twip_core::TwipError;
 
 use crate::convert::scalar;

@@ -13,7 +13,7 @@ use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::Controller;
-use twip_core::runner::SimConfig;
+use twip_core::sim::runner::SimConfig;
 use twip_core::sweep::lanes::LANES;
 use twip_core::sweep::parallel::{self, Progress};
 use twip_core::sweep::rig::{for_sweep, noise_seed, run_rig_sample};

@@ -5,7 +5,7 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::Controller;
-use twip_core::runner::SimConfig;
+use twip_core::sim::runner::SimConfig;
 use twip_core::sweep::planar::{self as core_planar, run_planar_sample, PlanarNominal, BLOCK};
 
 use crate::convert::vector;

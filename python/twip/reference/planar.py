@@ -1,7 +1,7 @@
 """Reference 3-DOF planar model, built body by body with Kane's method.
 
 The Rust core hand-writes the closed form of the Lagrange–d'Alembert equations
-(crates/twip-core/src/planar.rs). This reference gets the same equations by another
+(crates/twip-core/src/model/planar.rs). This reference gets the same equations by another
 route, so that agreement between the two is evidence for both: every rigid body's velocity
 and angular velocity are written as linear maps ("partial velocities") of the
 quasi-velocities nu = (phi_dot, v, omega), and Kane's equations

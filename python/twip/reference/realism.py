@@ -1,7 +1,7 @@
 """Reference of the real robot in the loop: MPU-6050 (noise, bias, DLPF, LSB), tilt
 estimators, encoder, PWM motor drive, pushes, a constant force, slope changes, and the
 runner that puts them round a 2-DOF controller. Plain Python floats and numpy, written
-from the equations in twip-core's module docs (imu.rs, tilt.rs, encoder.rs, drive.rs,
+from the equations in twip-core's module docs (hardware/: imu.rs, tilt.rs, encoder.rs, driver.rs,
 disturbance.rs, realism.rs), never calling the Rust core. The noise comes from
 `twip.reference.rng.Philox`, so a run draws the very numbers the core draws.
 """

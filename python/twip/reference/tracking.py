@@ -1,7 +1,7 @@
 """Reference trajectory tracking (thesis 4.64-4.121, errata T1-T12), in plain Python/numpy.
 
-Written apart from the Rust core (crates/twip-core/src/{trajectory,motor,pid_tracking,
-smc_tracking,tracking_metrics}.rs) and never calling it: the trajectories by their own
+Written apart from the Rust core (crates/twip-core/src/: control/{trajectory,pid,smc}.rs, hardware/motor.rs,
+sim/tracking_metrics.rs) and never calling it: the trajectories by their own
 formulas, the motor from the data sheet, the PID in the Arduino's units, the sliding-mode
 trackers by the thesis's equations with the documented readings and guards, and a planar
 closed-loop runner. Slow by design: for parity tests and for reading.

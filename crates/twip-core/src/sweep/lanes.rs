@@ -37,11 +37,11 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     (f64::from_bits(sin_r ^ ((quadrant & 2) << 62)), f64::from_bits(cos_r ^ ((quadrant.wrapping_add(1) & 2) << 62)))
 }
 
-/// `crate::math::kernel` for f64 with plain constants and fused multiply-adds (the generic one's conversions
+/// `crate::model::math::kernel` for f64 with plain constants and fused multiply-adds (the generic one's conversions
 /// keep the compiler from vectorising): the same polynomial, multiply-adds fused.
 #[inline(always)]
 fn kernel(r: f64) -> (f64, f64) {
-    use crate::math::{COS, SIN};
+    use crate::model::math::{COS, SIN};
     let r2 = r * r;
     let r4 = r2 * r2;
     let r8 = r4 * r4;

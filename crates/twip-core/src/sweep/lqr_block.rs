@@ -13,10 +13,10 @@
 use super::lanes::{sin_cos, Lanes, LANES};
 use super::{Sample, SampleMetrics, SweepMetrics};
 use crate::control::{Controller, Reference};
-use crate::lqr_control::LqrController;
-use crate::reference::{SpeedRef, SpeedSchedule};
-use crate::runner::{SimConfig, STOP_CHECK_STEPS};
-use crate::slope::{SlopeCoefficients, SlopeModel};
+use crate::control::lqr::LqrController;
+use crate::control::reference::{SpeedRef, SpeedSchedule};
+use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
+use crate::model::slope::{SlopeCoefficients, SlopeModel};
 use crate::TwipError;
 
 /// Plant coefficients, one per lane, folded for the derivative below.
@@ -421,8 +421,8 @@ fn block(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lqr_control::{design, DesignPoint};
-    use crate::params::RobotParams;
+    use crate::control::lqr::{design, DesignPoint};
+    use crate::model::params::RobotParams;
     use nalgebra::{Matrix4, Vector4};
 
     /// Every compiled copy of the kernel gives the same bits (the baseline one through
@@ -433,7 +433,7 @@ mod tests {
         let q = Matrix4::from_diagonal(&Vector4::new(10.0, 10.0, 1.0, 1.0));
         let d = design(&model, 4.0, &q, 1000.0, DesignPoint::OperatingPoint).unwrap();
         let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 0.005).unwrap();
-        let schedule = SpeedSchedule::new(&[crate::reference::Leg { goal: 10.0, speed: 4.0, hold: 0.5 }]).unwrap();
+        let schedule = SpeedSchedule::new(&[crate::control::reference::Leg { goal: 10.0, speed: 4.0, hold: 0.5 }]).unwrap();
         let config = SimConfig { dt: 1e-3, t_final: 3.0, fall_limit: 0.45 };
         let samples: Vec<Sample> = (0..LANES as u64)
             .map(|i| {

@@ -9,12 +9,12 @@ extern crate alloc;
 use nalgebra::{SVector, Vector4};
 
 use crate::control::Controller;
-use crate::metrics::{SlopeMetrics, SlopeSummary};
-use crate::params::RobotParams;
-use crate::reference::{SpeedRef, SpeedSchedule};
+use crate::sim::metrics::{SlopeMetrics, SlopeSummary};
+use crate::model::params::RobotParams;
+use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::rng::Philox;
-use crate::runner::{simulate_until, Outcome, SimConfig};
-use crate::slope::SlopeModel;
+use crate::sim::runner::{simulate_until, Outcome, SimConfig};
+use crate::model::slope::SlopeModel;
 use crate::TwipError;
 
 pub mod lanes;
@@ -87,7 +87,7 @@ impl Perturbation {
     pub(crate) fn validate_target(&self, states: usize) -> Result<(), TwipError> {
         let bad = |value: usize, reason| Err(TwipError::InvalidParameter { name: "target", value: value as f64, reason });
         match self.target {
-            Target::Param(i) if i >= crate::params::FIELD_NAMES.len() => bad(i, "no RobotParams field with this index"),
+            Target::Param(i) if i >= crate::model::params::FIELD_NAMES.len() => bad(i, "no RobotParams field with this index"),
             Target::Initial(i) if i >= states => bad(i, "no initial-state entry with this index"),
             _ => Ok(()),
         }
@@ -293,7 +293,7 @@ where
 /// `None` when `should_stop` said so before all were done.
 #[allow(clippy::too_many_arguments)]
 pub fn run_lqr_samples(
-    controller: &crate::lqr_control::LqrController<f64>,
+    controller: &crate::control::lqr::LqrController<f64>,
     reference: &SpeedSchedule<f64>,
     config: &SimConfig<f64>,
     nominal: &Nominal,
@@ -319,7 +319,7 @@ pub fn run_lqr_samples(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lqr_control::{design, DesignPoint, LqrController};
+    use crate::control::lqr::{design, DesignPoint, LqrController};
     use nalgebra::Matrix4;
 
     fn setup(slope: f64) -> (LqrController<f64>, SpeedSchedule<f64>, SimConfig<f64>, Nominal) {
@@ -328,7 +328,7 @@ mod tests {
         let q = Matrix4::from_diagonal(&Vector4::new(10.0, 10.0, 1.0, 1.0));
         let d = design(&model, 4.0, &q, 1000.0, DesignPoint::OperatingPoint).unwrap();
         let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 0.005).unwrap();
-        let schedule = SpeedSchedule::new(&[crate::reference::Leg { goal: 20.0, speed: 4.0, hold: 1.0 }]).unwrap();
+        let schedule = SpeedSchedule::new(&[crate::control::reference::Leg { goal: 20.0, speed: 4.0, hold: 1.0 }]).unwrap();
         let config = SimConfig { dt: 1e-3, t_final: 8.0, fall_limit: 0.6 };
         (ctrl, schedule, config, Nominal { params, slope, x0: Vector4::zeros() })
     }

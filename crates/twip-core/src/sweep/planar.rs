@@ -3,10 +3,10 @@
 //! [`TrackingMetrics`] kept. Draws are the 2-DOF sweeps' ([`super::draw_values`]), so
 //! sample `i` comes from `Philox::new(seed, i)` here too.
 use crate::control::{Controller, Reference};
-use crate::planar::{PlanarModel, PlanarState};
-use crate::runner::{simulate_until, SimConfig};
-use crate::trajectory::{Path, PlanarRef};
-use crate::tracking_metrics::{TrackingMetrics, TrackingSummary};
+use crate::model::planar::{PlanarModel, PlanarState};
+use crate::sim::runner::{simulate_until, SimConfig};
+use crate::control::trajectory::{Path, PlanarRef};
+use crate::sim::tracking_metrics::{TrackingMetrics, TrackingSummary};
 use crate::{RobotParams, TwipError};
 
 use super::{draw_values, finish, fresh, sweep_metrics, Perturbation, Spread, SweepMetrics, Target};
@@ -128,11 +128,11 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motor::DcMotor;
-    use crate::runner::Outcome;
-    use crate::pid_tracking::PidTracker;
-    use crate::runner::simulate;
-    use crate::trajectory::{Circle, Direction};
+    use crate::hardware::motor::DcMotor;
+    use crate::sim::runner::Outcome;
+    use crate::control::pid::PidTracker;
+    use crate::sim::runner::simulate;
+    use crate::control::trajectory::{Circle, Direction};
 
     fn setup() -> (PidTracker<f64>, Circle<f64>, SimConfig<f64>, PlanarNominal) {
         let params = RobotParams::balanbot();

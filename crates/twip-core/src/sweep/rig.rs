@@ -8,11 +8,11 @@
 //! `s` itself, so the noise is not the very stream the perturbations were drawn from.
 use super::{finish, fresh, Sample, SampleMetrics, SweepMetrics};
 use crate::control::Controller;
-use crate::metrics::SlopeMetrics;
-use crate::realism::Realism;
-use crate::reference::{SpeedRef, SpeedSchedule};
-use crate::runner::SimConfig;
-use crate::slope::SlopeModel;
+use crate::sim::metrics::SlopeMetrics;
+use crate::hardware::realism::Realism;
+use crate::control::reference::{SpeedRef, SpeedSchedule};
+use crate::sim::runner::SimConfig;
+use crate::model::slope::SlopeModel;
 
 /// The sensor-noise key of a sweep with seed `sweep_seed` (splitmix64's finaliser of
 /// the seed xor a constant: one-to-one, and never the perturbation key in practice).
@@ -59,8 +59,8 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lqr_control::{design, DesignPoint, LqrController};
-    use crate::params::RobotParams;
+    use crate::control::lqr::{design, DesignPoint, LqrController};
+    use crate::model::params::RobotParams;
     use crate::sweep::{draw, run_slope_sample, Nominal, Perturbation, Spread, Target};
     use nalgebra::{Matrix4, Vector4};
 

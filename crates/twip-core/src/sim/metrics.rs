@@ -1,9 +1,9 @@
 //! Metrics of a 2-DOF run, accumulated sample by sample (Table 5.1's and settling).
 use nalgebra::SVector;
 
-use crate::reference::SpeedRef;
-use crate::runner::Observer;
-use crate::slope::SlopeModel;
+use crate::control::reference::SpeedRef;
+use crate::sim::runner::Observer;
+use crate::model::slope::SlopeModel;
 use crate::{c, Real};
 
 /// What [`SlopeMetrics`] reports.

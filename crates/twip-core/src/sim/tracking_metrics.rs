@@ -1,8 +1,8 @@
 //! Metrics of a planar tracking run, accumulated sample by sample (Table 5.2's and more).
 use nalgebra::SVector;
 
-use crate::runner::Observer;
-use crate::trajectory::{Path, PlanarRef};
+use crate::sim::runner::Observer;
+use crate::control::trajectory::{Path, PlanarRef};
 use crate::{c, Real};
 
 /// What [`TrackingMetrics`] reports. "Settled" means from the settle time on (one lap of
@@ -98,7 +98,7 @@ impl<T: Real, P: Path<T>> Observer<T, 7, 2, PlanarRef<T>> for TrackingMetrics<T,
 mod tests {
     use super::*;
     use crate::control::Reference;
-    use crate::trajectory::{Circle, Direction};
+    use crate::control::trajectory::{Circle, Direction};
 
     #[test]
     fn a_robot_one_centimetre_outside_the_circle() {

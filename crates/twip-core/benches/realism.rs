@@ -7,12 +7,12 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::Vector4;
-use twip_core::disturbance::{Force, Push, Pushes, SlopeProfile};
-use twip_core::lqr_control::{design, DesignPoint, LqrController};
-use twip_core::metrics::SlopeMetrics;
-use twip_core::realism::{simulate_rig, Realism};
-use twip_core::reference::SpeedSchedule;
-use twip_core::runner::{simulate, Loop, SimConfig};
+use twip_core::hardware::disturbance::{Force, Push, Pushes, SlopeProfile};
+use twip_core::control::lqr::{design, DesignPoint, LqrController};
+use twip_core::sim::metrics::SlopeMetrics;
+use twip_core::hardware::realism::{simulate_rig, Realism};
+use twip_core::control::reference::SpeedSchedule;
+use twip_core::sim::runner::{simulate, Loop, SimConfig};
 use twip_core::{RobotParams, SlopeModel};
 
 fn closed_loop(c: &mut Criterion) {

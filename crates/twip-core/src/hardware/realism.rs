@@ -13,14 +13,14 @@
 use nalgebra::{SVector, Vector4};
 
 use crate::control::{Controller, Reference};
-use crate::integrate::rk4_step_from_k1;
-use crate::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_SLOPE_CHANGES};
-use crate::drive::{Driven, MotorDriver, PwmActuator};
-use crate::encoder::Encoder;
-use crate::imu::{specific_force, ImuSettings, Mpu6050};
+use crate::model::integrate::rk4_step_from_k1;
+use crate::hardware::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_SLOPE_CHANGES};
+use crate::hardware::driver::{Driven, MotorDriver, PwmActuator};
+use crate::hardware::encoder::Encoder;
+use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
 use crate::rng::Philox;
-use crate::runner::{Actuator, Loop, Observer, Outcome, Sensor, SimConfig, STOP_CHECK_STEPS};
-use crate::tilt::{accel_tilt, TiltEstimator, TiltFilter};
+use crate::sim::runner::{Actuator, Loop, Observer, Outcome, Sensor, SimConfig, STOP_CHECK_STEPS};
+use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
 
 /// Which real parts are in the loop. `Default` is the ideal loop.
@@ -76,7 +76,7 @@ impl<T: Real> Realism<T> {
     pub fn thesis_like() -> Self {
         Self {
             imu: Some(ImuSettings::thesis_like()),
-            encoder_cpr: Some(c(crate::pid_tracking::ENCODER_CPR)),
+            encoder_cpr: Some(c(crate::control::pid::ENCODER_CPR)),
             motor: Some(MotorDriver::thesis_like()),
             delay: true,
             control_period: Some(c(5e-3)),
@@ -461,9 +461,9 @@ where
 #[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
-    use crate::lqr_control::{design, DesignPoint, LqrController};
-    use crate::reference::SpeedSchedule;
-    use crate::runner::{simulate_with, Ideal};
+    use crate::control::lqr::{design, DesignPoint, LqrController};
+    use crate::control::reference::SpeedSchedule;
+    use crate::sim::runner::{simulate_with, Ideal};
 
     /// Records states and inputs.
     #[derive(Default)]

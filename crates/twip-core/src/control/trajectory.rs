@@ -138,7 +138,7 @@ impl<T: Real> Reference<T> for Circle<T> {
         let s = self.direction.sign::<T>();
         let rate = s * self.speed / self.radius;
         let angle = self.phase + rate * t;
-        let (sin, cos) = crate::math::sin_cos(angle);
+        let (sin, cos) = crate::model::math::sin_cos(angle);
         PlanarRef {
             x: self.centre[0] + self.radius * cos,
             y: self.centre[1] + self.radius * sin,
@@ -256,8 +256,8 @@ impl<T: Real> FigureEight<T> {
     fn jet(&self, t: T) -> Jet<T> {
         let w = T::two_pi() / self.period;
         let a = self.half_width;
-        let (s1, c1) = crate::math::sin_cos(w * t);
-        let (s2, c2) = crate::math::sin_cos(c::<T>(2.0) * w * t);
+        let (s1, c1) = crate::model::math::sin_cos(w * t);
+        let (s2, c2) = crate::model::math::sin_cos(c::<T>(2.0) * w * t);
         let (w2, w3) = (w * w, w * w * w);
         Jet {
             p: [self.centre[0] + a * s1, self.centre[1] + c::<T>(0.5) * a * s2],
@@ -582,7 +582,7 @@ impl<T: Real> Path<T> for Trajectory<T> {
 }
 
 #[cfg(feature = "alloc")]
-impl<T: Real> crate::log::LogRow<T> for PlanarRef<T> {
+impl<T: Real> crate::sim::log::LogRow<T> for PlanarRef<T> {
     const NAMES: &'static [&'static str] = &["x", "y", "psi", "v", "omega", "v_dot", "omega_dot"];
     fn push_row(&self, out: &mut alloc::vec::Vec<T>) {
         out.extend_from_slice(&[self.x, self.y, self.psi, self.v, self.omega, self.v_dot, self.omega_dot]);

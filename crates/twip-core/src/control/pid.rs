@@ -18,8 +18,8 @@
 use nalgebra::SVector;
 
 use crate::control::Controller;
-use crate::motor::DcMotor;
-use crate::trajectory::{wrap_angle, PlanarRef};
+use crate::hardware::motor::DcMotor;
+use crate::control::trajectory::{wrap_angle, PlanarRef};
 use crate::{c, Real, RobotParams, TwipError};
 
 /// The gains of (4.67)–(4.69): outputs in PWM counts per unit of [`PidUnits`].

@@ -1,6 +1,20 @@
 //! The roles around a plant: references the robot should follow and the controllers
 //! that make it. Controllers are discrete-time: the runner calls `update` once per
 //! `period` and holds the input in between (zero-order hold).
+//!
+//! Submodules: the CARE solver and LQR design, the controller families (LQR with integral
+//! action, fuzzy adaptive backstepping + PD on the fuzzy basis, PID and sliding-mode
+//! trackers), the speed references and the planar trajectories.
+#[cfg(feature = "alloc")]
+pub mod care;
+pub mod fuzzy;
+pub mod fuzzy_basis;
+pub mod lqr;
+pub mod pid;
+pub mod reference;
+pub mod smc;
+pub mod trajectory;
+
 use nalgebra::SVector;
 
 use crate::Real;

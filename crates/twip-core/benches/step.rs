@@ -4,10 +4,10 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{SVector, Vector4};
-use twip_core::lqr_control::{design, DesignPoint, LqrController};
-use twip_core::metrics::SlopeMetrics;
-use twip_core::reference::SpeedSchedule;
-use twip_core::runner::{simulate, SimConfig};
+use twip_core::control::lqr::{design, DesignPoint, LqrController};
+use twip_core::sim::metrics::SlopeMetrics;
+use twip_core::control::reference::SpeedSchedule;
+use twip_core::sim::runner::{simulate, SimConfig};
 use twip_core::{rk4_step, PlanarModel, Real, RobotParams, SlopeModel};
 
 fn slope_step<T: Real>(c: &mut Criterion, name: &str) {

@@ -26,11 +26,11 @@
 use nalgebra::SVector;
 
 use crate::control::Controller;
-use crate::fuzzy::{GridBasis, Membership, ThesisBasis};
-use crate::motor::DcMotor;
-use crate::pid_tracking::relative_wheel_speeds;
-use crate::planar::PlanarModel;
-use crate::trajectory::{wrap_angle, PlanarRef};
+use crate::control::fuzzy_basis::{GridBasis, Membership, ThesisBasis};
+use crate::hardware::motor::DcMotor;
+use crate::control::pid::relative_wheel_speeds;
+use crate::model::planar::PlanarModel;
+use crate::control::trajectory::{wrap_angle, PlanarRef};
 use crate::{c, Dynamics, Real, TwipError};
 
 /// The gains, SI (torques in N m, rates in rad/s).
@@ -413,12 +413,12 @@ impl<T: Real> Controller<T, 7, 2> for SmcTracker<T> {
         let SmcGains { k1, k2, k3, k_phi, r2, .. } = self.gains;
         let (psi, phi, phi_dot, v, omega) = (y[2], y[3], y[4], y[5], y[6]);
         // Kinematic errors in the robot's frame (4.75) and their rates (4.76).
-        let (sin_psi, cos_psi) = crate::math::sin_cos(psi);
+        let (sin_psi, cos_psi) = crate::model::math::sin_cos(psi);
         let (dx, dy) = (r.x - y[0], r.y - y[1]);
         let e1 = cos_psi * dx + sin_psi * dy;
         let e2 = cos_psi * dy - sin_psi * dx;
         let e3 = wrap_angle(r.psi - psi);
-        let (s3, c3) = crate::math::sin_cos(e3);
+        let (s3, c3) = crate::model::math::sin_cos(e3);
         let e1_dot = omega * e2 - v + r.v * c3;
         let e2_dot = r.v * s3 - omega * e1;
         let e3_dot = r.omega - omega;
@@ -508,7 +508,7 @@ fn dot9<T: Real>(a: &[T; 9], b: &[T; 9]) -> T {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motor::DcMotor;
+    use crate::hardware::motor::DcMotor;
     use crate::RobotParams;
 
     fn tracker(fuzzy: bool) -> SmcTracker<f64> {

@@ -5,11 +5,11 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::Vector4;
-use twip_core::fuzzy::ThesisBasis;
-use twip_core::fuzzy_control::FuzzyController;
-use twip_core::metrics::SlopeMetrics;
-use twip_core::reference::{Leg, SpeedSchedule};
-use twip_core::runner::{simulate, SimConfig};
+use twip_core::control::fuzzy_basis::ThesisBasis;
+use twip_core::control::fuzzy::FuzzyController;
+use twip_core::sim::metrics::SlopeMetrics;
+use twip_core::control::reference::{Leg, SpeedSchedule};
+use twip_core::sim::runner::{simulate, SimConfig};
 use twip_core::{Real, RobotParams, SlopeModel};
 
 fn xi<T: Real>(c: &mut Criterion, name: &str) {

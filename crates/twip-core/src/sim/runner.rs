@@ -4,7 +4,7 @@
 use nalgebra::SVector;
 
 use crate::control::{Controller, Reference};
-use crate::integrate::rk4_step_from_k1;
+use crate::model::integrate::rk4_step_from_k1;
 use crate::{c, Dynamics, Real, TwipError};
 
 /// Step size, duration and fall limit of one run.

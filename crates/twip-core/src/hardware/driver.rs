@@ -20,14 +20,14 @@
 //! turns it into a duty by feed-forward, `V = R i + τ_i η ω̂` with the *measured* relative
 //! wheel speed ω̂ = θ̂̇ − φ̂̇ (the encoder's), rounded to an integer count and saturated.
 //!
-//! The motor constants come from [`crate::motor::DcMotor`] (R = 12 V / 7 A from the data
+//! The motor constants come from [`crate::hardware::motor::DcMotor`] (R = 12 V / 7 A from the data
 //! sheet) with the torque constant and gear ratio of the plant's `RobotParams`, so that
 //! the back-EMF and the torque use the same τ_i. The no-load current of the data sheet is
 //! the plant's `mu_bearing` (docs/parameters.md); it is not added here.
 use nalgebra::{SVector, Vector4};
 
-use crate::motor::{DcMotor, BALANBOT_SUPPLY, PWM_MAX};
-use crate::runner::Actuator;
+use crate::hardware::motor::{DcMotor, BALANBOT_SUPPLY, PWM_MAX};
+use crate::sim::runner::Actuator;
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
 /// Motors driven by one 2-DOF command (left and right, lumped).

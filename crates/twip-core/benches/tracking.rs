@@ -6,12 +6,12 @@ use std::hint::black_box;
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::SVector;
 use twip_core::control::{Controller, Reference};
-use twip_core::motor::DcMotor;
-use twip_core::pid_tracking::PidTracker;
-use twip_core::runner::{simulate, SimConfig};
-use twip_core::smc_tracking::{Adaptation, SmcGains, SmcOptions, SmcTracker};
-use twip_core::tracking_metrics::TrackingMetrics;
-use twip_core::trajectory::{Circle, Direction};
+use twip_core::hardware::motor::DcMotor;
+use twip_core::control::pid::PidTracker;
+use twip_core::sim::runner::{simulate, SimConfig};
+use twip_core::control::smc::{Adaptation, SmcGains, SmcOptions, SmcTracker};
+use twip_core::sim::tracking_metrics::TrackingMetrics;
+use twip_core::control::trajectory::{Circle, Direction};
 use twip_core::{PlanarModel, RobotParams};
 
 fn smc(fuzzy: bool) -> SmcTracker<f64> {

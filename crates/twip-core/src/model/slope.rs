@@ -147,7 +147,7 @@ impl<T: Real> SlopeModel<T> {
     /// force on the body): φ's sin/cos are shared, and `None` costs nothing.
     #[inline(always)]
     fn forces_plus(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (Vector2<T>, T, T) {
-        let (sin_phi, cos_phi) = crate::math::sin_cos(x[0]);
+        let (sin_phi, cos_phi) = crate::model::math::sin_cos(x[0]);
         let sin_pa = sin_phi * self.cos_slope + cos_phi * self.sin_slope;
         let cos_pa = cos_phi * self.cos_slope - sin_phi * self.sin_slope;
         let p = &self.params;

@@ -3,8 +3,8 @@ use alloc::vec::Vec;
 
 use nalgebra::SVector;
 
-use crate::reference::SpeedRef;
-use crate::runner::Observer;
+use crate::control::reference::SpeedRef;
+use crate::sim::runner::Observer;
 use crate::Real;
 
 /// A reference sample flattened into a row of the log.
@@ -91,11 +91,11 @@ impl<T: Real, const NX: usize, const NU: usize, S: LogRow<T>> Observer<T, NX, NU
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::runner::{simulate, SimConfig};
-    use crate::lqr_control::{DesignPoint, LqrController};
+    use crate::sim::runner::{simulate, SimConfig};
+    use crate::control::lqr::{DesignPoint, LqrController};
     use crate::control::Controller;
     use crate::{RobotParams, SlopeModel};
-    use crate::reference::SpeedSchedule;
+    use crate::control::reference::SpeedSchedule;
     use nalgebra::Vector4;
 
     /// With any stride the log ends with the run's final sample: the end, or the fall.

@@ -127,8 +127,8 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
 
     #[inline]
     fn deriv(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> PlanarState<T> {
-        let (sin_psi, cos_psi) = crate::math::sin_cos(x[2]);
-        let (s, cp) = crate::math::sin_cos(x[3]);
+        let (sin_psi, cos_psi) = crate::model::math::sin_cos(x[2]);
+        let (s, cp) = crate::model::math::sin_cos(x[3]);
         let (phi_dot, v, omega) = (x[4], x[5], x[6]);
         let (u_sum, u_diff) = (u[0] + u[1], u[0] - u[1]);
         let w2 = omega * omega;

@@ -23,9 +23,9 @@
 use nalgebra::{SVector, Vector2};
 
 use crate::control::Controller;
-use crate::fuzzy::ThesisBasis;
-use crate::reference::{SpeedRef, SpeedSchedule};
-use crate::slope::SlopeModel;
+use crate::control::fuzzy_basis::ThesisBasis;
+use crate::control::reference::{SpeedRef, SpeedSchedule};
+use crate::model::slope::SlopeModel;
 use crate::{c, Real, TwipError};
 
 /// k1, k2 of the backstepping, kp, kd of the PD on the wheel position (4.56), and our
@@ -296,8 +296,8 @@ impl<T: Real> Controller<T, 4, 1> for FuzzyController<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metrics::SlopeMetrics;
-    use crate::runner::{simulate, Outcome, SimConfig};
+    use crate::sim::metrics::SlopeMetrics;
+    use crate::sim::runner::{simulate, Outcome, SimConfig};
     use crate::{Dynamics, RobotParams};
     use nalgebra::Vector4;
 

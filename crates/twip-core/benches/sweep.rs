@@ -7,16 +7,16 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nalgebra::{Matrix4, Vector4};
-use twip_core::lqr_control::{design, DesignPoint, LqrController};
-use twip_core::reference::SpeedSchedule;
-use twip_core::runner::SimConfig;
-use twip_core::motor::DcMotor;
-use twip_core::pid_tracking::PidTracker;
-use twip_core::realism::Realism;
+use twip_core::control::lqr::{design, DesignPoint, LqrController};
+use twip_core::control::reference::SpeedSchedule;
+use twip_core::sim::runner::SimConfig;
+use twip_core::hardware::motor::DcMotor;
+use twip_core::control::pid::PidTracker;
+use twip_core::hardware::realism::Realism;
 use twip_core::sweep::planar::{self, PlanarNominal};
 use twip_core::sweep::rig::{for_sweep, run_rig_sample};
 use twip_core::sweep::{draw, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Spread, Target};
-use twip_core::trajectory::{Circle, Direction};
+use twip_core::control::trajectory::{Circle, Direction};
 use twip_core::{RobotParams, SlopeModel};
 
 fn setup() -> (LqrController<f64>, SpeedSchedule<f64>, SimConfig<f64>, Nominal, Vec<Perturbation>) {

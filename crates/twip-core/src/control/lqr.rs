@@ -6,8 +6,8 @@
 use nalgebra::SVector;
 
 use crate::control::Controller;
-use crate::reference::{SpeedRef, SpeedSchedule};
-use crate::slope::SlopeModel;
+use crate::control::reference::{SpeedRef, SpeedSchedule};
+use crate::model::slope::SlopeModel;
 use crate::{Real, TwipError};
 
 /// Where the design linearises and which steady state it aims for.
@@ -179,7 +179,7 @@ pub fn design<T: Real>(
     a.fixed_view_mut::<3, 3>(0, 0).copy_from(&a3);
     a[(3, 2)] = T::one();
     let b = Vector4::new(b3[0], b3[1], b3[2], T::zero());
-    let solved = crate::care::lqr(
+    let solved = crate::control::care::lqr(
         &DMatrix::from_fn(4, 4, |i, j| a[(i, j)]),
         &DMatrix::from_fn(4, 1, |i, _| b[i]),
         &DMatrix::from_fn(4, 4, |i, j| q[(i, j)]),

@@ -1,0 +1,323 @@
+//! The continuous-time algebraic Riccati equation (CARE) and the LQR gain, on dense
+//! heap matrices of any size (feature `alloc`). No LAPACK: nalgebra's decompositions only.
+//!
+//! [`care`] returns the stabilising solution `X` of
+//!
+//! ```text
+//! X A + Aᵀ X − X B R⁻¹ Bᵀ X + Q = 0,        A − B R⁻¹ Bᵀ X Hurwitz,
+//! ```
+//!
+//! and [`lqr`] the gain `K = R⁻¹ Bᵀ X` of the control law `u = −K x` with the eigenvalues
+//! of `A − B K` (python-control's `lqr(A, B, Q, R) -> K, S, E`).
+//!
+//! Method, with `G = B R⁻¹ Bᵀ = Bh Bhᵀ` (`Bh = B L⁻ᵀ`, `R = L Lᵀ`):
+//!
+//! 1. Checks: shapes, finiteness, `Q = Qᵀ ⪰ 0`, `R = Rᵀ ≻ 0`, then the PBH rank test on
+//!    every eigenvalue λ of `A` with `Re λ ≥ −√ε ‖A‖`: `rank [A − λI, B] = n` (stabilizable)
+//!    and `rank [A − λI; Q] = n` (detectable). The rank is judged from the triangular factor
+//!    of a QR decomposition, whose `‖R‖ ‖R⁻¹‖` brackets the condition number within a factor
+//!    n; a tight tolerance (10³ (n+m) ε) up front, a loose one (10 √ε) to name the cause
+//!    when the solver fails.
+//! 2. Exact rescalings by powers of two: the equation divided by `α ≈ max(‖A‖, √(‖Q‖ ‖G‖))`
+//!    (X unchanged), a diagonal state scaling that balances the Hamiltonian
+//!    (`Ã = D⁻¹ A D`, `B̃ = D⁻¹ B`, `Q̃ = D Q D`) and `X = s X̃` with `s = 4^k` so that
+//!    `‖Q̃‖ ≈ ‖G̃‖`. Schur forms and PBH matrices are likewise scaled to unit size first.
+//! 3. The matrix sign function of the Hamiltonian `H = [[A, −G], [−Q, −Aᵀ]]` by Newton's
+//!    iteration `Z ← (c Z + Z⁻¹ / c) / 2` with determinant scaling `c = |det Z|^(−1/2n)`
+//!    (dropped near convergence), run on the symmetric `W = J Z` (`J = [[0, I], [−I, 0]]`),
+//!    symmetrised at every step. It stops once the quadratic phase has made the change
+//!    small (≤ 10 √ε) or stagnates. `[I; X]` spans the stable invariant subspace,
+//!    `(sign H + I) [I; X] = 0`, which gives `X` from a 2n×n least-squares problem (QR).
+//! 4. Newton–Kleinman refinement in correction form, `(A − G X)ᵀ D + D (A − G X) = −Ric(X)`,
+//!    each Lyapunov equation solved by Bartels–Stewart on the real Schur form of the closed
+//!    loop, for as long as the residual decreases (down to 4 n ε relative to its terms; from a
+//!    poor start it goes on through increases, keeping the best iterate). The residual's
+//!    quadratic term is formed as `Fᵀ F`, `F = Bhᵀ X`, never as `(X G) X`. The Schur forms
+//!    tell whether the closed loop is stable (`Re λ < −100 n ε ‖A − G X‖`); an `X` that is
+//!    not stabilising, or whose relative residual stayed above √ε, is an error, never a
+//!    silent answer.
+//!
+//! Every loop has a cap (`Schur` and `SymmetricEigen` are called through `try_new`).
+
+// `!(a <= b)` rather than `a > b` on purpose: a NaN must fail every acceptance test.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+use alloc::vec::Vec;
+use core::cmp::Ordering;
+
+use nalgebra::{Cholesky, Complex, ComplexField, DMatrix, Dyn, Schur, SymmetricEigen, QR};
+
+use crate::{c, to_f64, Real, TwipError};
+
+mod checks;
+mod lyapunov;
+mod newton;
+mod pbh;
+mod scaling;
+mod schur;
+mod sign;
+#[cfg(test)]
+mod tests;
+
+use checks::*;
+use lyapunov::*;
+use newton::*;
+use pbh::*;
+use scaling::*;
+use schur::*;
+use sign::*;
+
+
+/// Cap on the Newton iterations of the matrix sign function (it takes ~5–15).
+const SIGN_MAX_ITER: usize = 100;
+/// Cap on the Newton–Kleinman refinement steps (it takes 0–3).
+const NEWTON_MAX_ITER: usize = 30;
+
+/// The result of [`lqr`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lqr<T: Real> {
+    /// The gain `K = R⁻¹ Bᵀ X` (m×n) of the control law `u = −K x`.
+    pub k: DMatrix<T>,
+    /// The stabilising solution `X` of the CARE (n×n, symmetric, positive semi-definite).
+    pub x: DMatrix<T>,
+    /// The eigenvalues of `A − B K`, sorted by real part then imaginary part.
+    pub poles: Vec<Complex<T>>,
+}
+
+/// Solves `X A + Aᵀ X − X B R⁻¹ Bᵀ X + Q = 0` for the stabilising `X` (see the module docs).
+///
+/// `A` is n×n, `B` n×m, `Q` n×n symmetric positive semi-definite, `R` m×m symmetric
+/// positive definite. Errors: [`TwipError::Shape`], [`TwipError::NonFinite`],
+/// [`TwipError::InvalidParameter`] (Q or R not symmetric, Q not PSD, R not PD),
+/// [`TwipError::NotStabilizable`], [`TwipError::NotDetectable`], [`TwipError::NoConvergence`].
+pub fn care<T: Real>(a: &DMatrix<T>, b: &DMatrix<T>, q: &DMatrix<T>, r: &DMatrix<T>) -> Result<DMatrix<T>, TwipError> {
+    let problem = Problem::new(a, b, q, r)?;
+    problem.solve()
+}
+
+/// Linear-quadratic regulator: `K = R⁻¹ Bᵀ X` with `X = care(A, B, Q, R)`, and the
+/// eigenvalues of the closed loop `A − B K` (python-control's convention, `u = −K x`).
+pub fn lqr<T: Real>(a: &DMatrix<T>, b: &DMatrix<T>, q: &DMatrix<T>, r: &DMatrix<T>) -> Result<Lqr<T>, TwipError> {
+    let problem = Problem::new(a, b, q, r)?;
+    let x = problem.solve()?;
+    let k = problem.chol_r.solve(&(b.transpose() * &x));
+    let closed = a - b * &k;
+    let (_, t) = schur(closed).ok_or(TwipError::NoConvergence {
+        what: "Schur decomposition of the closed loop A - B K",
+        iterations: schur_cap(a.nrows()),
+    })?;
+    let mut poles = quasi_eigenvalues(&t);
+    poles.sort_by(|u, v| {
+        u.re.partial_cmp(&v.re)
+            .unwrap_or(Ordering::Equal)
+            .then(u.im.partial_cmp(&v.im).unwrap_or(Ordering::Equal))
+    });
+    Ok(Lqr { k, x, poles })
+}
+
+/// A checked problem: symmetrised `Q`, the Cholesky factor `L` of `R` and `Bh = B L⁻ᵀ`,
+/// so that `G = B R⁻¹ Bᵀ = Bh Bhᵀ` and `X G X = Fᵀ F` with `F = Bhᵀ X`: never the product
+/// `(X G) X`, whose rounding swamps the residual when `R` is small or `X` large.
+struct Problem<'a, T: Real> {
+    a: &'a DMatrix<T>,
+    b: &'a DMatrix<T>,
+    q: DMatrix<T>,
+    /// The smallest eigenvalue of Q.
+    q_min: T,
+    bh: DMatrix<T>,
+    chol_r: Cholesky<T, Dyn>,
+}
+
+impl<'a, T: Real> Problem<'a, T> {
+    fn new(a: &'a DMatrix<T>, b: &'a DMatrix<T>, q: &DMatrix<T>, r: &DMatrix<T>) -> Result<Self, TwipError> {
+        let n = a.nrows();
+        if n == 0 || a.ncols() != n {
+            return Err(TwipError::Shape {
+                name: "A",
+                expected: (n.max(1), n.max(1)),
+                got: a.shape(),
+            });
+        }
+        let m = b.ncols();
+        if b.nrows() != n || m == 0 {
+            return Err(TwipError::Shape {
+                name: "B",
+                expected: (n, m.max(1)),
+                got: b.shape(),
+            });
+        }
+        if q.shape() != (n, n) {
+            return Err(TwipError::Shape {
+                name: "Q",
+                expected: (n, n),
+                got: q.shape(),
+            });
+        }
+        if r.shape() != (m, m) {
+            return Err(TwipError::Shape {
+                name: "R",
+                expected: (m, m),
+                got: r.shape(),
+            });
+        }
+        finite("A", a)?;
+        finite("B", b)?;
+        finite("Q", q)?;
+        finite("R", r)?;
+        let q = symmetric("Q", q)?;
+        let r = symmetric("R", r)?;
+
+        let eps = T::default_epsilon();
+        let q_eig = symmetric_eigenvalues("Q", &q)?;
+        let q_top = q_eig.iter().fold(T::zero(), |acc, v| acc.max(v.abs()));
+        let q_min = q_eig.iter().fold(q_top, |acc, &v| acc.min(v));
+        if q_min < -(c::<T>(100.0) * c::<T>(n as f64) * eps * q_top) {
+            return Err(TwipError::InvalidParameter {
+                name: "Q",
+                value: to_f64(q_min),
+                reason: "must be positive semi-definite (the value is its smallest eigenvalue)",
+            });
+        }
+        let r_eig = symmetric_eigenvalues("R", &r)?;
+        let r_top = r_eig.iter().fold(T::zero(), |acc, v| acc.max(v.abs()));
+        let r_min = r_eig.iter().fold(r_top, |acc, &v| acc.min(v));
+        let not_pd = TwipError::InvalidParameter {
+            name: "R",
+            value: to_f64(r_min),
+            reason: "must be positive definite (the value is its smallest eigenvalue)",
+        };
+        if r_min <= c::<T>(10.0) * c::<T>(m as f64) * eps * r_top {
+            return Err(not_pd);
+        }
+        let chol_r = Cholesky::new(r).ok_or(not_pd)?;
+        // Bhᵀ = L⁻¹ Bᵀ.
+        let bht = chol_r
+            .l()
+            .solve_lower_triangular(&b.transpose())
+            .ok_or(TwipError::InvalidParameter {
+                name: "R",
+                value: to_f64(r_min),
+                reason: "must be positive definite (the value is its smallest eigenvalue)",
+            })?;
+        let problem = Problem {
+            a,
+            b,
+            q,
+            q_min,
+            bh: bht.transpose(),
+            chol_r,
+        };
+        problem.check_pbh(c::<T>(1e3) * c::<T>((n + m) as f64) * eps)?;
+        Ok(problem)
+    }
+
+    /// The PBH tests with relative rank tolerance `tol`: stabilizability of (A, B), then
+    /// detectability of (A, Q), on the eigenvalues of A with real part ≥ −√ε ‖A‖.
+    fn check_pbh(&self, tol: T) -> Result<(), TwipError> {
+        let n = self.a.nrows();
+        let (_, t) = schur(self.a.clone()).ok_or(TwipError::NoConvergence {
+            what: "Schur decomposition of A (PBH test)",
+            iterations: schur_cap(n),
+        })?;
+        let a_max = self.a.amax();
+        let margin = T::default_epsilon().sqrt() * a_max * c::<T>(n as f64);
+        let suspects: Vec<Complex<T>> = quasi_eigenvalues(&t)
+            .into_iter()
+            .filter(|l| l.re >= -margin && l.im >= T::zero())
+            .collect();
+        if suspects.is_empty() {
+            return Ok(());
+        }
+        // Each PBH matrix is scaled as a whole by a power of two (its singular value ratio
+        // does not change) so that no norm overflows or underflows.
+        // (A, B) stabilizable: rank [A − λI, B] = n; (A, Q) detectable: rank [Aᵀ − λI, Q] = n.
+        let tests = [
+            (self.b, false, TwipError::NotStabilizable),
+            (&self.q, true, TwipError::NotDetectable),
+        ];
+        for (other, transpose, error) in tests {
+            let k = -pow2_exponent::<T>(a_max.max(other.amax()));
+            let a = scaled_pow2(self.a, k);
+            let a = if transpose { a.transpose() } else { a };
+            let other = scaled_pow2(other, k);
+            let f = c::<T>(2.0).powi(k);
+            for lambda in &suspects {
+                // A positive definite Q (σ_min ≥ its smallest eigenvalue) needs no test.
+                let bound = c::<T>(n as f64) * (a_max + self.q.amax())
+                    + c::<T>(n as f64).sqrt() * (lambda.re.abs() + lambda.im.abs());
+                if transpose && self.q_min > tol * bound {
+                    continue;
+                }
+                if rank_deficient(&a, &other, lambda.scale(f), tol) {
+                    return Err(error);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn solve(&self) -> Result<DMatrix<T>, TwipError> {
+        match self.solve_scaled() {
+            Ok(x) => Ok(x),
+            // A failure close to the rank tolerance is reported as what it most likely is.
+            Err(e) => {
+                self.check_pbh(T::default_epsilon().sqrt() * c::<T>(10.0))?;
+                Err(e)
+            }
+        }
+    }
+
+    /// The balanced and scaled problem (step 2 of the module docs), all scalings exact.
+    fn scaled(&self) -> Scaled<T> {
+        // Dividing the equation by α = 4^j (A, G, Q → A/α, G/α, Q/α) leaves X alone; α ≈ the
+        // larger of ‖A‖ and √(‖Q‖ ‖G‖) brings the data near unit size.
+        let size = self.a.amax().max(self.q.amax().sqrt() * self.bh.amax());
+        let j = if size > T::zero() {
+            pow2_exponent::<T>(size) / 2
+        } else {
+            0
+        };
+        let a = scaled_pow2(self.a, -2 * j);
+        let bh = scaled_pow2(&self.bh, -j);
+        let q = scaled_pow2(&self.q, -2 * j);
+        // A symplectic diagonal similarity x = D x̃ (powers of two): Ã = D⁻¹ A D,
+        // B̃h = D⁻¹ Bh, Q̃ = D Q D, X = D⁻¹ X̃ D⁻¹. It evens out badly scaled states.
+        let d = balance(&a, &bh, &q);
+        let a = DMatrix::from_fn(a.nrows(), a.ncols(), |i, j| a[(i, j)] * d[j] / d[i]);
+        let bh = DMatrix::from_fn(bh.nrows(), bh.ncols(), |i, j| bh[(i, j)] / d[i]);
+        let q = DMatrix::from_fn(q.nrows(), q.ncols(), |i, j| q[(i, j)] * d[i] * d[j]);
+        // X = s X̃ turns the equation into one with s G and Q / s: balance their norms, with
+        // s = 4^k so that Bh scales by 2^k.
+        let g = &bh * bh.transpose();
+        let (qn, gn) = (q.norm(), g.norm());
+        let k = if qn > T::zero() && gn > T::zero() {
+            pow2_exponent::<T>(qn / gn) / 2
+        } else {
+            0
+        };
+        let half = c::<T>(2.0).powi(k);
+        let s = half * half;
+        let q = q / s;
+        let bh = bh * half;
+        let g = symmetrise(g * s);
+        Scaled { a, bh, q, g, d, s }
+    }
+
+    fn solve_scaled(&self) -> Result<DMatrix<T>, TwipError> {
+        let sc = self.scaled();
+        let x0 = sign_solution(&sc.a, &sc.g, &sc.q).ok_or(TwipError::NoConvergence {
+            what: "CARE matrix sign function (Hamiltonian eigenvalues on the imaginary axis?)",
+            iterations: SIGN_MAX_ITER,
+        })?;
+        let (x, rel_res, stable) = refine(&sc.a, &sc.bh, &sc.q, x0)?;
+        if !stable || !(rel_res <= T::default_epsilon().sqrt()) {
+            return Err(TwipError::NoConvergence {
+                what: "CARE solver (no stabilising solution with a small residual)",
+                iterations: SIGN_MAX_ITER + NEWTON_MAX_ITER,
+            });
+        }
+        let (d, s) = (&sc.d, sc.s);
+        let x = DMatrix::from_fn(x.nrows(), x.ncols(), |i, j| x[(i, j)] * s / (d[i] * d[j]));
+        Ok(symmetrise(x))
+    }
+}
+

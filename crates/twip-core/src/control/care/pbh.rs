@@ -1,0 +1,106 @@
+//! The PBH rank test behind the stabilizability and detectability checks.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+use nalgebra::DMatrix;
+
+use super::*;
+
+/// Is `[M − λI, N]` (n×(n+k)) rank deficient: σ_min ≤ tol · σ_max? In real arithmetic
+/// when λ is real, complex otherwise.
+pub(super) fn rank_deficient<T: Real>(m: &DMatrix<T>, other: &DMatrix<T>, lambda: Complex<T>, tol: T) -> bool {
+    if lambda.im.is_zero() {
+        rank_deficient_in(m, other, lambda.re, tol)
+    } else {
+        rank_deficient_in(m, other, lambda, tol)
+    }
+}
+
+/// [`rank_deficient`] in the field `F` (`T` or `Complex<T>`).
+///
+/// Householder QR of the (n+k)×n conjugate transpose gives a triangular `R` with the same
+/// singular values; `1/‖R⁻¹‖_F ≤ σ_min ≤ √n/‖R⁻¹‖_F` and `‖R‖_F/√n ≤ σ_max ≤ ‖R‖_F`, so the
+/// ratio is known within a factor n, which is nothing next to `tol`. No iteration.
+pub(super) fn rank_deficient_in<T: Real, F: ComplexField<RealField = T> + Copy>(
+    m: &DMatrix<T>,
+    other: &DMatrix<T>,
+    lambda: F,
+    tol: T,
+) -> bool {
+    let n = m.nrows();
+    let rows = n + other.ncols();
+    // H = [M − λI, N]ᴴ, column-major rows×n.
+    let mut h = alloc::vec![F::zero(); rows * n];
+    for j in 0..n {
+        for i in 0..n {
+            let mut v = F::from_real(m[(j, i)]);
+            if i == j {
+                v -= lambda;
+            }
+            h[j * rows + i] = v.conjugate();
+        }
+        for i in 0..other.ncols() {
+            h[j * rows + n + i] = F::from_real(other[(j, i)]);
+        }
+    }
+    let mut diag = alloc::vec![F::zero(); n];
+    for k in 0..n {
+        let col = &mut h[k * rows..(k + 1) * rows];
+        let norm = col[k..]
+            .iter()
+            .fold(T::zero(), |acc, &z| acc + z.modulus_squared())
+            .sqrt();
+        if norm.is_zero() {
+            return true;
+        }
+        // Reflector v = x + e^{iθ}‖x‖ e₁ (θ = arg x₁), R_kk = −e^{iθ}‖x‖.
+        let x0 = col[k];
+        let a0 = x0.modulus();
+        let phase = if a0.is_zero() { F::one() } else { x0.unscale(a0) };
+        diag[k] = -phase.scale(norm);
+        col[k] = x0 + phase.scale(norm);
+        let vnorm2 = col[k..].iter().fold(T::zero(), |acc, &z| acc + z.modulus_squared());
+        let (head, tail) = h.split_at_mut((k + 1) * rows);
+        let v = &head[k * rows + k..k * rows + rows];
+        for target in tail.chunks_exact_mut(rows) {
+            let target = &mut target[k..];
+            let dot = v
+                .iter()
+                .zip(target.iter())
+                .fold(F::zero(), |acc, (&vi, &ti)| acc + vi.conjugate() * ti);
+            let f = dot.scale(c::<T>(2.0) / vnorm2);
+            for (ti, &vi) in target.iter_mut().zip(v.iter()) {
+                *ti -= vi * f;
+            }
+        }
+    }
+    // R: strictly upper part in h (row i < j of column j), diagonal in `diag`.
+    let r = |i: usize, j: usize| if i == j { diag[j] } else { h[j * rows + i] };
+    let mut r_norm2 = T::zero();
+    for j in 0..n {
+        for i in 0..=j {
+            r_norm2 += r(i, j).modulus_squared();
+        }
+    }
+    // ‖R⁻¹‖_F by back substitution, column by column of the inverse.
+    let mut inv_norm2 = T::zero();
+    let mut y = alloc::vec![F::zero(); n];
+    for col in 0..n {
+        for i in (0..=col).rev() {
+            let mut s = if i == col { F::one() } else { F::zero() };
+            for (j, &yj) in y.iter().enumerate().take(col + 1).skip(i + 1) {
+                s -= r(i, j) * yj;
+            }
+            let d = r(i, i);
+            if d.modulus_squared().is_zero() {
+                return true;
+            }
+            y[i] = s / d;
+            inv_norm2 += y[i].modulus_squared();
+        }
+    }
+    if !inv_norm2.is_finite() {
+        return true;
+    }
+    // σ_min / σ_max ≥ (1/‖R⁻¹‖) / ‖R‖.
+    T::one() / (inv_norm2 * r_norm2).sqrt() <= tol
+}
+

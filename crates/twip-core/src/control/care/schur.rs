@@ -1,0 +1,85 @@
+//! The real Schur form with an iteration cap, and the eigenvalues of its blocks.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+use alloc::vec::Vec;
+
+use nalgebra::DMatrix;
+
+use super::*;
+
+pub(super) fn schur_cap(n: usize) -> usize {
+    100 + 40 * n
+}
+
+/// Real Schur form `M = U T Uᵀ` with an iteration cap. nalgebra's QR sweeps have no
+/// exceptional shifts; if they stall, a second try runs on an orthogonally similar matrix.
+pub(super) fn schur<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
+    schur_direct(m.clone()).or_else(|| schur_reflected(m))
+}
+
+pub(super) fn schur_direct<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
+    let cap = schur_cap(m.nrows());
+    // nalgebra rescales only from 3×3 up; a power of two keeps 2×2 blocks from overflowing.
+    let k = pow2_exponent::<T>(m.amax());
+    let m = scaled_pow2(&m, -k);
+    Schur::try_new(m, T::default_epsilon(), cap).map(|s| {
+        let (u, t) = s.unpack();
+        (u, scaled_pow2(&t, k))
+    })
+}
+
+/// Schur form of `P M P` with the reflector `P = I − 2 v vᵀ / (vᵀ v)` (symmetric,
+/// orthogonal), mapped back: `M = (P U) T (P U)ᵀ`.
+pub(super) fn schur_reflected<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
+    let n = m.nrows();
+    let v = DMatrix::<T>::from_fn(n, 1, |i, _| T::one() / c::<T>((i + 2) as f64));
+    let p = DMatrix::<T>::identity(n, n) - (&v * v.transpose()) * (c::<T>(2.0) / v.norm_squared());
+    let (u, t) = schur_direct(&p * m * &p)?;
+    Some((p * u, t))
+}
+
+/// The diagonal blocks (start, size) of a real quasi-triangular Schur factor.
+pub(super) fn quasi_blocks<T: Real>(t: &DMatrix<T>) -> Vec<(usize, usize)> {
+    let n = t.nrows();
+    let mut blocks = Vec::with_capacity(n);
+    let mut i = 0;
+    while i < n {
+        if i + 1 < n && !t[(i + 1, i)].is_zero() {
+            blocks.push((i, 2));
+            i += 2;
+        } else {
+            blocks.push((i, 1));
+            i += 1;
+        }
+    }
+    blocks
+}
+
+/// Eigenvalues of a real quasi-triangular matrix, from its 1×1 and 2×2 diagonal blocks.
+pub(super) fn quasi_eigenvalues<T: Real>(t: &DMatrix<T>) -> Vec<Complex<T>> {
+    let mut out = Vec::with_capacity(t.nrows());
+    for (i, size) in quasi_blocks(t) {
+        if size == 1 {
+            out.push(Complex::new(t[(i, i)], T::zero()));
+            continue;
+        }
+        let (a, b, cc, d) = (t[(i, i)], t[(i, i + 1)], t[(i + 1, i)], t[(i + 1, i + 1)]);
+        // On the block scaled to unit size, so that the discriminant cannot overflow.
+        let size = a.abs().max(b.abs()).max(cc.abs()).max(d.abs());
+        let size = if size > T::zero() { size } else { T::one() };
+        let (a, b, cc, d) = (a / size, b / size, cc / size, d / size);
+        let half_tr = (a + d) * c::<T>(0.5);
+        let half_diff = (a - d) * c::<T>(0.5);
+        let disc = half_diff * half_diff + b * cc;
+        if disc >= T::zero() {
+            let s = disc.sqrt();
+            out.push(Complex::new((half_tr - s) * size, T::zero()));
+            out.push(Complex::new((half_tr + s) * size, T::zero()));
+        } else {
+            let s = (-disc).sqrt();
+            out.push(Complex::new(half_tr * size, s * size));
+            out.push(Complex::new(half_tr * size, -s * size));
+        }
+    }
+    out
+}
+

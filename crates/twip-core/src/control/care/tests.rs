@@ -1,0 +1,249 @@
+//! CARE and LQR tests: closed forms, hard cases, error paths.
+use super::*;
+use nalgebra::DMatrix;
+
+fn m(rows: usize, cols: usize, data: &[f64]) -> DMatrix<f64> {
+    DMatrix::from_row_slice(rows, cols, data)
+}
+
+fn rel_residual(a: &DMatrix<f64>, b: &DMatrix<f64>, q: &DMatrix<f64>, r: &DMatrix<f64>, x: &DMatrix<f64>) -> f64 {
+    let bh = b * r.clone().cholesky().unwrap().l().try_inverse().unwrap().transpose();
+    residual(a, &bh, q, x).2
+}
+
+#[test]
+fn double_integrator() {
+    let a = m(2, 2, &[0.0, 1.0, 0.0, 0.0]);
+    let b = m(2, 1, &[0.0, 1.0]);
+    let q = DMatrix::identity(2, 2);
+    let r = m(1, 1, &[1.0]);
+    let sol = lqr(&a, &b, &q, &r).unwrap();
+    let s3 = 3f64.sqrt();
+    assert!((sol.k[(0, 0)] - 1.0).abs() < 1e-12, "{}", sol.k);
+    assert!((sol.k[(0, 1)] - s3).abs() < 1e-12, "{}", sol.k);
+    let x_exact = m(2, 2, &[s3, 1.0, 1.0, s3]);
+    assert!((&sol.x - x_exact).amax() < 1e-12, "{}", sol.x);
+    // Closed loop s² + √3 s + 1: poles −√3/2 ± i/2.
+    assert_eq!(sol.poles.len(), 2);
+    for p in &sol.poles {
+        assert!(
+            (p.re + s3 / 2.0).abs() < 1e-12 && (p.im.abs() - 0.5).abs() < 1e-12,
+            "{p}"
+        );
+    }
+    assert!(sol.poles[0].im < sol.poles[1].im);
+}
+
+#[test]
+fn scalar_closed_forms() {
+    // 2 a x − b² x² / r + q = 0  →  x = r (a + √(a² + b² q / r)) / b².
+    for &(a, b, q, r) in &[
+        (1.0, 1.0, 1.0, 1.0),
+        (-2.0, 0.5, 3.0, 0.1),
+        (0.0, 1.0, 1.0, 1.0),
+        (5.0, 2.0, 1e-9, 1.0),
+        (1e3, 1e-2, 1e-4, 1e6),
+        (-1e-3, 1e2, 1e4, 1e-6),
+    ] {
+        let x = care(&m(1, 1, &[a]), &m(1, 1, &[b]), &m(1, 1, &[q]), &m(1, 1, &[r])).unwrap()[(0, 0)];
+        let disc: f64 = a * a + b * b * q / r;
+        // Cancellation-free form when a < 0: x = q / (√disc − a).
+        let exact = if a > 0.0 {
+            r * (a + disc.sqrt()) / (b * b)
+        } else {
+            q / (disc.sqrt() - a)
+        };
+        assert!(
+            (x - exact).abs() <= 1e-13 * exact.abs().max(f64::MIN_POSITIVE),
+            "{a} {b} {q} {r}: {x} vs {exact}"
+        );
+    }
+    // q = 0 with a stable a: x = 0 and the pole stays; the minimum-energy limit
+    // (q → 0 with an unstable a) mirrors the pole.
+    let x = care(&m(1, 1, &[-3.0]), &m(1, 1, &[1.0]), &m(1, 1, &[0.0]), &m(1, 1, &[1.0])).unwrap();
+    assert_eq!(x[(0, 0)], 0.0);
+    let sol = lqr(&m(1, 1, &[3.0]), &m(1, 1, &[1.0]), &m(1, 1, &[1e-12]), &m(1, 1, &[1.0])).unwrap();
+    assert!((sol.poles[0].re + 3.0).abs() < 1e-12);
+}
+
+#[test]
+fn f32_matches_f64() {
+    let a = DMatrix::<f32>::from_row_slice(2, 2, &[0.0, 1.0, 0.0, 0.0]);
+    let b = DMatrix::<f32>::from_row_slice(2, 1, &[0.0, 1.0]);
+    let sol = lqr(&a, &b, &DMatrix::identity(2, 2), &DMatrix::identity(1, 1)).unwrap();
+    assert!((sol.k[(0, 1)] - 3f32.sqrt()).abs() < 1e-5);
+}
+
+#[test]
+fn larger_problem_with_oscillators() {
+    // Two undamped oscillators and an integrator, cross-coupled inputs.
+    let a = m(
+        5,
+        5,
+        &[
+            0.0, 1.0, 0.0, 0.0, 0.0, //
+            -4.0, 0.0, 0.0, 0.0, 0.0, //
+            0.0, 0.0, 0.0, 1.0, 0.0, //
+            0.0, 0.0, -9.0, 0.0, 0.0, //
+            1.0, 0.0, 0.0, 0.0, 0.0,
+        ],
+    );
+    let b = m(5, 2, &[0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.5, 1.0, 0.0, 0.0]);
+    let q = DMatrix::identity(5, 5);
+    let r = m(2, 2, &[1.0, 0.2, 0.2, 2.0]);
+    let sol = lqr(&a, &b, &q, &r).unwrap();
+    assert!(rel_residual(&a, &b, &q, &r, &sol.x) < 1e-13);
+    assert!(sol.poles.iter().all(|p| p.re < 0.0));
+    assert!((&sol.x - sol.x.transpose()).amax() == 0.0);
+}
+
+#[test]
+fn cyclic_matrix_does_not_stall() {
+    // A cyclic permutation: eigenvalues on the unit circle, a classic hard case for QR.
+    let a = m(3, 3, &[0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    let b = DMatrix::identity(3, 3);
+    let q = DMatrix::identity(3, 3);
+    let sol = lqr(&a, &b, &q, &DMatrix::identity(3, 3)).unwrap();
+    assert!(rel_residual(&a, &b, &q, &DMatrix::identity(3, 3), &sol.x) < 1e-13);
+}
+
+#[test]
+fn errors() {
+    let a = m(2, 2, &[0.0, 1.0, 0.0, 0.0]);
+    let b = m(2, 1, &[0.0, 1.0]);
+    let q = DMatrix::identity(2, 2);
+    let r = m(1, 1, &[1.0]);
+    let name = |e: TwipError| match e {
+        TwipError::Shape { name, .. }
+        | TwipError::InvalidParameter { name, .. }
+        | TwipError::NonFinite { name, .. } => name,
+        other => panic!("unexpected {other:?}"),
+    };
+    assert_eq!(name(care(&m(2, 3, &[0.0; 6]), &b, &q, &r).unwrap_err()), "A");
+    assert_eq!(name(care(&a, &m(3, 1, &[0.0; 3]), &q, &r).unwrap_err()), "B");
+    assert_eq!(name(care(&a, &b, &DMatrix::identity(3, 3), &r).unwrap_err()), "Q");
+    assert_eq!(name(care(&a, &b, &q, &DMatrix::identity(2, 2)).unwrap_err()), "R");
+    assert_eq!(
+        name(care(&a, &b, &m(2, 2, &[1.0, 0.5, 0.0, 1.0]), &r).unwrap_err()),
+        "Q"
+    );
+    assert_eq!(
+        name(care(&a, &m(2, 2, &[1.0, 0.0, 0.0, 1.0]), &q, &m(2, 2, &[1.0, 0.1, 0.0, 1.0])).unwrap_err()),
+        "R"
+    );
+    assert_eq!(
+        name(care(&a, &b, &m(2, 2, &[1.0, 0.0, 0.0, -1.0]), &r).unwrap_err()),
+        "Q"
+    );
+    assert_eq!(name(care(&a, &b, &q, &m(1, 1, &[0.0])).unwrap_err()), "R");
+    assert_eq!(name(care(&a, &b, &q, &m(1, 1, &[-1.0])).unwrap_err()), "R");
+    let e = care(&a, &b, &q, &m(1, 1, &[f64::NAN])).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            TwipError::NonFinite {
+                name: "R",
+                index: 0,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    let e = care(&m(2, 2, &[0.0, 1.0, f64::INFINITY, 0.0]), &b, &q, &r).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            TwipError::NonFinite {
+                name: "A",
+                index: 2,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    // Unstabilizable: the unstable mode 1 is not driven.
+    let a2 = m(2, 2, &[1.0, 0.0, 0.0, -1.0]);
+    assert_eq!(care(&a2, &b, &q, &r).unwrap_err(), TwipError::NotStabilizable);
+    // Marginal and undriven: the integrator of the double integrator with B = e1.
+    assert_eq!(
+        care(&a, &m(2, 1, &[1.0, 0.0]), &q, &r).unwrap_err(),
+        TwipError::NotStabilizable
+    );
+    // Undetectable: the unstable mode is invisible to Q.
+    let a3 = m(2, 2, &[1.0, 0.0, 0.0, -1.0]);
+    let b3 = m(2, 1, &[1.0, 1.0]);
+    let q3 = m(2, 2, &[0.0, 0.0, 0.0, 1.0]);
+    assert_eq!(care(&a3, &b3, &q3, &r).unwrap_err(), TwipError::NotDetectable);
+    // An undamped oscillator invisible to Q: a Hamiltonian eigenvalue on the axis.
+    let a4 = m(2, 2, &[0.0, 1.0, -1.0, 0.0]);
+    assert_eq!(
+        care(&a4, &b, &DMatrix::zeros(2, 2), &r).unwrap_err(),
+        TwipError::NotDetectable
+    );
+}
+
+#[test]
+fn schur_fallback_is_a_schur_form() {
+    let mm = m(
+        4,
+        4,
+        &[
+            1.0, 2.0, 0.0, -1.0, 0.5, -3.0, 1.0, 0.0, 0.0, 1.0, 0.0, 2.0, -2.0, 0.0, 1.0, 1.0,
+        ],
+    );
+    let (u, t) = schur_reflected(mm.clone()).unwrap();
+    assert!((&u * &t * u.transpose() - &mm).amax() < 1e-13);
+    assert!((u.transpose() * &u - DMatrix::identity(4, 4)).amax() < 1e-14);
+    for (i, size) in quasi_blocks(&t) {
+        for r in (i + size)..4 {
+            for cc in i..(i + size) {
+                assert_eq!(t[(r, cc)], 0.0);
+            }
+        }
+    }
+}
+
+#[test]
+fn no_input_is_a_lyapunov_equation() {
+    // B = 0 with a stable A: Aᵀ X + X A + Q = 0.
+    let a = m(2, 2, &[-1.0, 2.0, 0.0, -3.0]);
+    let q = m(2, 2, &[2.0, 1.0, 1.0, 4.0]);
+    let x = care(&a, &DMatrix::zeros(2, 1), &q, &m(1, 1, &[1.0])).unwrap();
+    assert!((a.transpose() * &x + &x * &a + &q).amax() < 1e-14);
+}
+
+#[test]
+fn badly_scaled_states_are_exactly_rescaled() {
+    // x' = T⁻¹ x with T = diag(2⁻¹⁰, 1, 2¹²): X' = T X T, entry by entry.
+    let a = m(3, 3, &[0.5, 1.0, -0.3, -2.0, 0.1, 1.0, 0.2, -1.0, -0.4]);
+    let b = m(3, 2, &[1.0, 0.0, 0.3, 1.0, -0.5, 2.0]);
+    let q = m(3, 3, &[2.0, 0.5, 0.0, 0.5, 1.0, 0.2, 0.0, 0.2, 3.0]);
+    let r = m(2, 2, &[1.0, 0.1, 0.1, 0.5]);
+    let t = [2f64.powi(-10), 1.0, 2f64.powi(12)];
+    let a2 = DMatrix::from_fn(3, 3, |i, j| a[(i, j)] * t[j] / t[i]);
+    let b2 = DMatrix::from_fn(3, 2, |i, j| b[(i, j)] / t[i]);
+    let q2 = DMatrix::from_fn(3, 3, |i, j| q[(i, j)] * t[i] * t[j]);
+    let x = care(&a, &b, &q, &r).unwrap();
+    let x2 = care(&a2, &b2, &q2, &r).unwrap();
+    for i in 0..3 {
+        for j in 0..3 {
+            let want = x[(i, j)] * t[i] * t[j];
+            assert!(
+                (x2[(i, j)] - want).abs() <= 1e-12 * want.abs().max(1e-300),
+                "{i} {j}: {} vs {want}",
+                x2[(i, j)]
+            );
+        }
+    }
+}
+
+#[test]
+fn solve_small_and_lyapunov() {
+    // A 3×3 with a complex pair: check Mᵀ D + D M = F directly.
+    let mm = m(3, 3, &[-1.0, 2.0, 0.5, -3.0, -1.0, 0.0, 0.2, 0.1, -0.5]);
+    let f = m(3, 3, &[1.0, 0.2, 0.3, 0.2, 2.0, 0.1, 0.3, 0.1, 3.0]);
+    let (u, t) = schur(mm.clone()).unwrap();
+    let d = lyapunov_schur(&u, &t, &f);
+    let err = (mm.transpose() * &d + &d * &mm - &f).amax();
+    assert!(err < 1e-13, "{err}");
+}

@@ -1,0 +1,9 @@
+//! The robot's hardware around the plant: DC motor and motor driver, the IMU and tilt
+//! estimators, encoders, disturbances, and the realism rig that puts them in the loop.
+pub mod disturbance;
+pub mod driver;
+pub mod encoder;
+pub mod imu;
+pub mod motor;
+pub mod realism;
+pub mod tilt;
