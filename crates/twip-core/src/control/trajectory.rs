@@ -581,14 +581,6 @@ impl<T: Real> Path<T> for Trajectory<T> {
     }
 }
 
-#[cfg(feature = "alloc")]
-impl<T: Real> crate::sim::log::LogRow<T> for PlanarRef<T> {
-    const NAMES: &'static [&'static str] = &["x", "y", "psi", "v", "omega", "v_dot", "omega_dot"];
-    fn push_row(&self, out: &mut alloc::vec::Vec<T>) {
-        out.extend_from_slice(&[self.x, self.y, self.psi, self.v, self.omega, self.v_dot, self.omega_dot]);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,6 +4,7 @@ use alloc::vec::Vec;
 use nalgebra::SVector;
 
 use crate::control::reference::SpeedRef;
+use crate::control::trajectory::PlanarRef;
 use crate::sim::runner::Observer;
 use crate::Real;
 
@@ -19,6 +20,13 @@ impl<T: Real> LogRow<T> for SpeedRef<T> {
     fn push_row(&self, out: &mut Vec<T>) {
         out.push(self.theta);
         out.push(self.theta_dot);
+    }
+}
+
+impl<T: Real> LogRow<T> for PlanarRef<T> {
+    const NAMES: &'static [&'static str] = &["x", "y", "psi", "v", "omega", "v_dot", "omega_dot"];
+    fn push_row(&self, out: &mut Vec<T>) {
+        out.extend_from_slice(&[self.x, self.y, self.psi, self.v, self.omega, self.v_dot, self.omega_dot]);
     }
 }
 
