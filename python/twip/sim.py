@@ -7,7 +7,14 @@ from typing import Optional
 
 import numpy as np
 
-from twip import _core
+from twip import _core, budget
+
+#: Log columns of a run besides the controller's internals: t, state, input, reference.
+_LOG_COLUMNS = {"slope": 1 + 4 + 1 + 2, "planar": 1 + 7 + 2 + 7}
+#: Columns a realism adds (what the controller read, the plant's input, the motor current).
+_SIGNAL_COLUMNS = 6
+#: When a controller does not say how many internals it logs, assume this many.
+_DEFAULT_INTERNALS = 16
 
 
 @dataclass(frozen=True)
@@ -78,6 +85,7 @@ def simulate(
     loop: sensors and estimator, motor driver, loop period and delay, disturbances.
     `inputs` stay the controller's current; `signals` and `measurements` hold the rest.
     """
+    _check_log(model, controller, t_final, dt, record_every, realism)
     if isinstance(model, _core.PlanarModel):
         if realism is not None:
             raise _core.InvalidParameterError("realism: only the 2-DOF (SlopeModel) controllers take realism")
@@ -115,3 +123,29 @@ def simulate(
         signals={} if raw.get("signals") is None else {
             n: raw["signals"][:, i] for i, n in enumerate(raw["signal_names"])},
     )
+
+
+def _positive_real(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise _core.InvalidParameterError(f"{name} = {value!r}: must be a real number, got {type(value).__name__}")
+    return float(value)
+
+
+def _check_log(model, controller, t_final, dt, record_every, realism) -> None:
+    """Refuses, before the run, a record_every that is not a count and a log larger
+    than the memory budget (naming the rows, columns and the record_every that fits)."""
+    if isinstance(record_every, bool) or not isinstance(record_every, (int, np.integer)) or record_every < 1:
+        raise _core.InvalidParameterError(
+            f"record_every = {record_every!r}: must be an integer >= 1 (keep one logged sample in that many)")
+    t_final, dt = _positive_real("t_final", t_final), _positive_real("dt", dt)
+    if not (math.isfinite(t_final) and math.isfinite(dt) and t_final > 0 and dt > 0):
+        return  # the core names the bad value
+    rows = t_final / dt / int(record_every) + 2
+    kind = "planar" if isinstance(model, _core.PlanarModel) else "slope"
+    internals = getattr(controller, "internal_names", None)
+    columns = _LOG_COLUMNS[kind] + (len(internals) if isinstance(internals, (list, tuple)) else _DEFAULT_INTERNALS)
+    columns += _SIGNAL_COLUMNS if realism is not None else 0
+    need = rows * columns * 8
+    fits = max(1, math.ceil(int(record_every) * need / budget.memory_budget()))
+    budget.check(f"simulate: the log of t_final = {t_final:g} s at dt = {dt:g} s ({rows:,.0f} rows x {columns} columns)",
+                 need, f"keep fewer rows with record_every = {fits} or more, or a shorter t_final")

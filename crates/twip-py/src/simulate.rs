@@ -82,7 +82,7 @@ pub fn simulate_raw<'py>(
     let extra = if realism.is_some() { RIG_SIGNALS.len() } else { 0 };
     let widths = [4, 1, <SpeedRef<f64> as LogRow<f64>>::NAMES.len(), names.len() + extra];
     let (outcome, steps, metrics, log, interrupt) = py.detach(move || {
-        let mut observers = (SlopeMetrics::new(plant), TrajectoryLog::with_capacity(n + 1, record_every, widths));
+        let mut observers = (SlopeMetrics::new(plant), TrajectoryLog::with_capacity(n + 1, record_every, widths)?);
         let mut interrupt = None;
         let should_stop = || crate::interrupt::requested(&mut interrupt);
         // The ideal loop stays the plain runner; realism builds its own plant, sensor

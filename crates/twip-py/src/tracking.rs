@@ -823,7 +823,7 @@ pub fn simulate_planar_raw<'py>(
     let widths = [7, 2, ref_names.len(), names.len()];
     let (outcome, steps, metrics, log, interrupt) = py.detach(move || {
         let mut observers =
-            (TrackingMetrics::new(path, settle), TrajectoryLog::with_capacity(n + 1, record_every, widths));
+            (TrackingMetrics::new(path, settle), TrajectoryLog::with_capacity(n + 1, record_every, widths)?);
         let mut interrupt = None;
         let parts = Loop {
             sensor: &mut Ideal,
