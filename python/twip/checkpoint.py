@@ -74,12 +74,12 @@ class Checkpoint:
         self.dir = Path(path)
         self.fingerprint = fingerprint(config, shard)
         self._fd: Optional[int] = None
+        if self.dir.exists() and not self.dir.is_dir():
+            raise _bad(f"checkpoint = {str(path)!r} is not a folder")
         try:
             self.dir.mkdir(parents=True, exist_ok=True)
         except OSError as e:
             raise _bad(f"checkpoint = {str(path)!r}: cannot create the folder ({e.strerror or e})") from None
-        if not self.dir.is_dir():
-            raise _bad(f"checkpoint = {str(path)!r} is not a folder")
         self._lock()
         try:
             self._manifest(config, shard)

@@ -22,6 +22,7 @@ import json
 import math
 import os
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Dict, Mapping, Optional, Sequence, Tuple
@@ -54,6 +55,9 @@ class Uniform:
     high: Optional[float] = None
     rel: Optional[float] = None
     abs: Optional[float] = None
+
+    def __post_init__(self):
+        _numbers(self, ("low", "high", "rel", "abs"))
 
     def resolve(self, name: str, nominal: float):
         given = [self.rel is not None, self.abs is not None, self.low is not None or self.high is not None]
@@ -88,6 +92,10 @@ class Normal:
     low: float = -math.inf
     high: float = math.inf
 
+    def __post_init__(self):
+        _numbers(self, ("std", "rel", "mean"))
+        _numbers(self, ("low", "high"), optional=False)
+
     def resolve(self, name: str, nominal: float):
         if (self.std is None) == (self.rel is None):
             raise _bad(f"{name}: Normal takes exactly one of std= or rel=")
@@ -108,8 +116,17 @@ class Normal:
         return ("normal", float(mean), float(std), float(self.low), float(self.high))
 
 
+def _numbers(dist, fields, optional=True) -> None:
+    """Refuses, when the distribution is made, a field that is not a real number (or
+    None, where `optional`)."""
+    for f in fields:
+        value = getattr(dist, f)
+        if not (optional and value is None) and (isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating))):
+            raise _bad(f"{type(dist).__name__}({f}={value!r}): {f} must be a number, got {type(value).__name__}")
+
+
 def _width(name, what, value):
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+    if not (math.isfinite(value) and value >= 0):
         raise _bad(f"{name}: {what} = {value} must be a finite number >= 0 (a negative width)")
 
 
@@ -194,6 +211,9 @@ def _resolve(perturb: Mapping, scenario) -> list:
             nominal = float(scenario.x0[index])
         if not isinstance(dist, (Uniform, Normal)):
             raise _bad(f"{name}: expected twip.Uniform or twip.Normal, got {dist!r}")
+        if kind == "param" and isinstance(dist, Uniform) and dist.abs is not None and dist.abs > 0.5 * abs(nominal):
+            warnings.warn(f"{name}: ± {dist.abs:g} is more than half the nominal {nominal:g} (absolute, in SI units); "
+                          f"for a relative spread use rel= (or ±{dist.abs:g}% on the command line)", stacklevel=3)
         out.append((kind, index) + dist.resolve(name, nominal))
     return out
 
@@ -386,7 +406,6 @@ class StreamedSweepResult(SweepResult):
     def __init__(self, store, layout, finished, config, elapsed, kernel, sc, realism, names, steps):
         super().__init__(metrics={}, steps=steps, config=config, elapsed=elapsed, kernel=kernel,
                          metric_names=names, _scenario=sc, _realism=realism)
-        del self.metrics  # the property below explains where they are
         self._store = store
         self._layout = [(s, c) for s, c in layout if s in finished]
         self._tally = None
@@ -398,7 +417,7 @@ class StreamedSweepResult(SweepResult):
             f"the checkpoint {self._store.dir}; use summary(), quantiles(), fall_rate or shards()")
 
     @metrics.setter
-    def metrics(self, value):
+    def metrics(self, value):  # SweepResult.__init__ sets {}: nothing is kept
         pass
 
     @classmethod
