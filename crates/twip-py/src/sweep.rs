@@ -88,8 +88,11 @@ fn watched<R: Send>(
     let out = py.detach(|| {
         thread::scope(|scope| {
             let worker = scope.spawn(work);
+            // Short work (a small shard) is not held up by the poll: the first waits are short.
+            let mut wait = Duration::from_micros(250);
             while !worker.is_finished() {
-                thread::sleep(Duration::from_millis(25));
+                thread::sleep(wait);
+                wait = (wait * 2).min(Duration::from_millis(25));
                 Python::attach(|py| {
                     if interrupt.is_none() {
                         if let Err(e) = py.check_signals() {
