@@ -375,3 +375,42 @@ def test_invalid_samples_are_counted_per_reason_and_absolute_spreads_warned():
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a relative spread, or a small absolute one: no warning
         twip.montecarlo("flat-lqr-sim", 8, perturb={"m_body": twip.Uniform(abs=0.1)}, progress=False, options=SHORT)
+
+
+# ---------------------------------------------------------------- 5. plot and animation arguments
+
+def test_figure_paths_are_checked_before_a_run(tmp_path):
+    from twip import plot
+
+    with pytest.raises(twip.InvalidParameterError, match=r"'.txt' is not a figure format; use one of .*\.png"):
+        plot.check_path(tmp_path / "x.txt")
+    with pytest.raises(twip.InvalidParameterError, match="does not exist"):
+        plot.check_path(tmp_path / "missing" / "x.png")
+    plot.check_path(tmp_path / "x.svg")  # a format matplotlib writes
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(path="a.png"), "must end in .gif"), (dict(fps=1e9), "fps = 1000000000.0"), (dict(fps=0), "fps = 0"),
+    (dict(fps="20"), "fps = '20'"), (dict(speed=-1.0), "speed = -1.0"), (dict(size=(10**6, 10)), "size = "),
+    (dict(path="missing/a.gif"), "does not exist"),
+])
+def test_animation_arguments_are_checked_before_a_run(tmp_path, kw, message):
+    from twip import animate
+
+    kw = {"path": "a.gif", **kw}
+    kw["path"] = tmp_path / kw["path"]
+    with pytest.raises(twip.InvalidParameterError, match=message):
+        animate.check_options(**kw)
+
+
+def test_an_animation_too_large_for_the_budget_is_refused_before_drawing(tmp_path):
+    from twip import animate
+
+    r = scenarios.get("flat-lqr-sim").run(t_final=2.0)
+    twip.set_memory_budget(10**6)
+    try:
+        with pytest.raises(twip.MemoryBudgetError, match=r"animation: [0-9,]+ frames of 560x340 pixels.*lower fps"):
+            animate.gif(r, tmp_path / "a.gif", fps=100, speed=0.01)
+    finally:
+        twip.set_memory_budget(None)
+    assert not (tmp_path / "a.gif").exists()
