@@ -694,6 +694,9 @@ def montecarlo(
     steps, in `SweepResult.traces` (each replayed alone with the full runner, see replay).
     Ctrl-C stops within a fraction of a second: finished shards stay in the checkpoint,
     and the KeyboardInterrupt carries `.partial`, a SweepResult of what finished.
+    Memory: when n samples' metrics do not fit the memory budget (`twip.set_memory_budget`),
+    a sweep needs `checkpoint=`; it then keeps them on disk and returns a
+    StreamedSweepResult, whose summaries are read back shard by shard.
     """
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n <= 0:
         raise _bad(f"n = {n!r}: the number of samples must be a positive integer")
