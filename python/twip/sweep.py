@@ -316,9 +316,12 @@ class SweepResult:
             "fall_rate_95ci": (lo, hi),
             "sample_steps_per_second": self.steps / self.elapsed if self.elapsed > 0 else float("nan"),
         }
-        for name in self.metric_names[2:]:
+        for name in self._summary_metrics():
             out[name] = dict(zip(("q05", "median", "q95"), map(float, self.quantiles(name))))
         return out
+
+    def _summary_metrics(self):
+        return self.metric_names[2:]
 
     def to_pandas(self):
         """A DataFrame, one row per sample (needs pandas)."""
@@ -410,6 +413,7 @@ class StreamedSweepResult(SweepResult):
         self._store = store
         self._layout = [(s, c) for s, c in layout if s in finished]
         self._tally = None
+        self._summary = None
 
     @property
     def metrics(self):
@@ -474,15 +478,31 @@ class StreamedSweepResult(SweepResult):
 
     def quantiles(self, name: str, q=(0.05, 0.5, 0.95)) -> np.ndarray:
         """As SweepResult.quantiles (numpy's linear interpolation), exact, read from the shards."""
-        if name not in self.metric_names[1:]:
-            raise _bad(f"quantiles: unknown metric '{name}'; this sweep has {', '.join(self.metric_names[1:])}")
+        return self.quantiles_of([name], q)[name]
+
+    def quantiles_of(self, names, q=(0.05, 0.5, 0.95)) -> Dict[str, np.ndarray]:
+        """{name: quantiles(name, q)} for several metrics, in the same passes over the shards."""
+        for name in names:
+            if name not in self.metric_names[1:]:
+                raise _bad(f"quantiles: unknown metric '{name}'; this sweep has {', '.join(self.metric_names[1:])}")
 
         def values():
             for part in self.shards():
                 keep = part["valid"].astype(bool) & ~part["fell"].astype(bool)
-                yield part[name][keep].astype(float)
+                yield {name: part[name][keep].astype(float) for name in names}
 
-        return streamed_quantiles(values, q)
+        return streamed_quantiles_of(values, list(names), q)
+
+    def _summary_metrics(self):
+        return ()  # summary() takes them all in the same passes
+
+    def summary(self) -> dict:
+        if self._summary is None:  # a few passes over the shards: once
+            out = super().summary()
+            for name, q in self.quantiles_of(self.metric_names[2:]).items():
+                out[name] = dict(zip(("q05", "median", "q95"), map(float, q)))
+            self._summary = out
+        return dict(self._summary)
 
     def to_pandas(self):
         return self.metrics  # refused: the metrics do not fit in memory
@@ -494,59 +514,77 @@ _BINS = 1024
 
 
 def streamed_quantiles(chunks: Callable, q) -> np.ndarray:
-    """np.quantile(all values, q) (linear interpolation) over the arrays that `chunks()`
-    yields again on every call: exact, with memory bounded by a chunk. Each order
-    statistic is found by narrowing a value range with histograms, pass by pass, until
-    few enough values remain to sort."""
+    """np.quantile(all values, q) over the arrays that `chunks()` yields again on every
+    call (see `streamed_quantiles_of`)."""
+    return streamed_quantiles_of(lambda: ({"v": v} for v in chunks()), ["v"], q)["v"]
+
+
+def streamed_quantiles_of(chunks: Callable, names, q) -> Dict[str, np.ndarray]:
+    """{name: np.quantile(all values of column name, q)} (linear interpolation) over the
+    dicts of arrays that `chunks()` yields again on every call: exact, with memory bounded
+    by a chunk. Each order statistic is found by narrowing a value range with histograms,
+    all columns in the same passes, until few enough values remain to sort."""
     q = np.atleast_1d(np.asarray(q, dtype=float))
-    count, lo, hi = 0, math.inf, -math.inf
-    for v in chunks():
-        if len(v):
-            if np.isnan(v).any():
-                return np.full(len(q), np.nan)  # as np.quantile
-            count += len(v)
-            lo, hi = min(lo, float(v.min())), max(hi, float(v.max()))
-    if count == 0:
-        return np.full(len(q), np.nan)
-    positions = q * (count - 1)
-    ranks = sorted({math.floor(p) for p in positions} | {math.ceil(p) for p in positions})
-    # Per rank: the range [lo, hi] that holds it, values below lo, values inside.
-    state = {r: dict(lo=lo, hi=hi, below=0, inside=count) for r in ranks}
-    value: Dict[int, float] = {}
-    while len(value) < len(ranks):
-        for r, s in state.items():
-            if r not in value and s["lo"] == s["hi"]:
-                value[r] = s["lo"]
-        open_ = [r for r in ranks if r not in value]
+    count = dict.fromkeys(names, 0)
+    lo, hi = dict.fromkeys(names, math.inf), dict.fromkeys(names, -math.inf)
+    nan = set()
+    for chunk in chunks():
+        for name in names:
+            v = chunk[name]
+            if len(v) and name not in nan:
+                if np.isnan(v).any():
+                    nan.add(name)  # as np.quantile: NaN
+                    continue
+                count[name] += len(v)
+                lo[name], hi[name] = min(lo[name], float(v.min())), max(hi[name], float(v.max()))
+    out = {name: np.full(len(q), np.nan) for name in names}
+    # Per (column, rank): the range [lo, hi] that holds it, values below lo, values inside.
+    state, value = {}, {}
+    for name in names:
+        if name not in nan and count[name]:
+            for p in q * (count[name] - 1):
+                for r in (math.floor(p), math.ceil(p)):
+                    state[name, r] = dict(lo=lo[name], hi=hi[name], below=0, inside=count[name])
+    while len(value) < len(state):
+        for key, s in state.items():
+            if key not in value and s["lo"] == s["hi"]:
+                value[key] = s["lo"]
+        open_ = [key for key in state if key not in value]
         if not open_:
             break
-        gather = {r: [] for r in open_ if state[r]["inside"] <= _EXACT}
-        hist = {r: (np.zeros(_BINS, np.int64), np.full(_BINS, np.inf), np.full(_BINS, -np.inf))
-                for r in open_ if r not in gather}
-        for v in chunks():
-            for r in open_:
-                a, b = state[r]["lo"], state[r]["hi"]
+        gather = {key: [] for key in open_ if state[key]["inside"] <= _EXACT}
+        hist = {key: (np.zeros(_BINS, np.int64), np.full(_BINS, np.inf), np.full(_BINS, -np.inf))
+                for key in open_ if key not in gather}
+        for chunk in chunks():
+            for key in open_:
+                v = chunk[key[0]]
+                a, b = state[key]["lo"], state[key]["hi"]
                 inside = v[(v >= a) & (v <= b)]
-                if r in gather:
-                    gather[r].append(inside)
+                if key in gather:
+                    gather[key].append(inside)
                     continue
-                counts, mins, maxs = hist[r]
+                counts, mins, maxs = hist[key]
                 if math.isfinite(b - a):
                     k = np.clip(((inside - a) / (b - a) * _BINS).astype(np.int64), 0, _BINS - 1)
                 else:  # infinities at an end: -inf, the finite values, +inf (monotone too)
                     k = np.where(inside == -math.inf, 0, np.where(inside == math.inf, 2, 1))
-                np.add.at(counts, k, 1)
+                counts += np.bincount(k, minlength=_BINS)
                 np.minimum.at(mins, k, inside)
                 np.maximum.at(maxs, k, inside)
-        for r, parts in gather.items():
-            value[r] = float(np.sort(np.concatenate(parts))[r - state[r]["below"]])
-        for r, (counts, mins, maxs) in hist.items():
+        for key, parts in gather.items():
+            value[key] = float(np.sort(np.concatenate(parts))[key[1] - state[key]["below"]])
+        for key, (counts, mins, maxs) in hist.items():
             cum = np.cumsum(counts)
-            k = int(np.searchsorted(cum, r - state[r]["below"], side="right"))
-            state[r] = dict(lo=float(mins[k]), hi=float(maxs[k]), below=state[r]["below"] + (int(cum[k - 1]) if k else 0),
-                            inside=int(counts[k]))
-    out = [value[math.floor(p)] + (p - math.floor(p)) * (value[math.ceil(p)] - value[math.floor(p)]) for p in positions]
-    return np.array(out)
+            below = state[key]["below"]
+            k = int(np.searchsorted(cum, key[1] - below, side="right"))
+            state[key] = dict(lo=float(mins[k]), hi=float(maxs[k]), below=below + (int(cum[k - 1]) if k else 0),
+                              inside=int(counts[k]))
+    for name in names:
+        if name not in nan and count[name]:
+            v = lambda r: value[name, r]  # noqa: E731
+            out[name] = np.array([v(math.floor(p)) + (p - math.floor(p)) * (v(math.ceil(p)) - v(math.floor(p)))
+                                  for p in q * (count[name] - 1)])
+    return out
 
 
 def _scenario_of(scenario, params, options):
