@@ -2,6 +2,7 @@
 aborts; checkpoints that cannot lie; streamed sweeps; errors that name what was given;
 numbers that do not mislead. Each input the issue lists has a test here."""
 import json
+import re
 import os
 import shutil
 import socket
@@ -414,3 +415,88 @@ def test_an_animation_too_large_for_the_budget_is_refused_before_drawing(tmp_pat
     finally:
         twip.set_memory_budget(None)
     assert not (tmp_path / "a.gif").exists()
+
+
+# ---------------------------------------------------------------- the command line
+
+def cli(args, capsys):
+    from twip import cli as twip_cli
+
+    try:
+        code = twip_cli.main([str(a) for a in args])
+    except SystemExit as e:
+        code = e.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--plot", "{tmp}/x.txt"], "--plot: figure path .*'.txt' is not a figure format"),
+    (["--plot", "{tmp}/missing/x.png"], "--plot: .*does not exist"),
+    (["--animate", "{tmp}/a.gif", "--fps", "1e9"], "--animate: fps = 1000000000.0"),
+    (["--animate", "{tmp}/a.png"], "--animate: .*must end in .gif"),
+    (["--param", "wheel_radius=1e-9"], "wheel_radius = 1e-09 m: a 1 m leg"),
+])
+def test_cli_simulate_refuses_bad_outputs_before_the_run(tmp_path, capsys, args, message):
+    code, out, err = cli(["simulate", "flat-lqr"] + [a.replace("{tmp}", str(tmp_path)) for a in args], capsys)
+    assert code == 2 and "Traceback" not in err
+    assert "outcome:" not in out  # nothing ran
+    assert len(err.strip().splitlines()) == 1 and re.search(message, err), err
+
+
+def test_cli_sweep_refuses_bad_outputs_before_the_run(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(tsweep, "_run", lambda *a, **k: pytest.fail("a sample ran"))
+    for args, message in ((["--plot", tmp_path / "x.txt"], "'.txt' is not a figure format"),
+                          (["--csv", tmp_path / "no" / "x.csv"], "--csv: .*does not exist"),
+                          (["--checkpoint", tmp_path / "f" / "g"], None)):
+        (tmp_path / "f").write_text("a file where a folder should be") if message is None else None
+        code, out, err = cli(["sweep", "flat-lqr-sim", "-n", "8"] + args, capsys)
+        assert code == 2 and "Traceback" not in err, err
+        assert re.search(message or "cannot create the folder", err), err
+
+
+def test_cli_sweep_warns_of_absolute_spreads_and_counts_invalid_samples(capsys):
+    code, out, err = cli(["sweep", "flat-lqr-sim", "-n", "200", "--perturb", "m_body=±20", "--option", "t_final=0.5",
+                          "--quiet"], capsys)
+    assert code == 0, err
+    assert "twip sweep: warning: m_body: ± 20 is more than half the nominal" in err
+    invalid = int(re.search(r"200 samples \((\d+) invalid\)", out).group(1))
+    assert invalid > 0
+    assert f"invalid: {invalid} samples, m_body: must be > 0" in out
+    assert f"over the {200 - invalid} valid samples" in out
+
+
+def test_cli_and_api_read_each_others_checkpoints(tmp_path, capsys, monkeypatch):
+    args = ["sweep", "flat-lqr-sim", "-n", "64", "--perturb", "m_body=±20%", "--perturb", "phi0=~0.05", "--seed", "3",
+            "--option", "t_final=0.5", "--quiet", "--json"]
+    code, out, err = cli(args + ["--checkpoint", tmp_path / "cli"], capsys)
+    assert code == 0, err
+    cli_summary = json.loads(out)
+    api = sweep(n=64, checkpoint=tmp_path / "api")
+    with monkeypatch.context() as m:
+        m.setattr(tsweep, "_run", lambda *a, **k: pytest.fail("a finished shard was run again"))
+        from_cli = sweep(n=64, checkpoint=tmp_path / "cli")  # the API resumes the CLI's folder
+        code, out, err = cli(args + ["--checkpoint", tmp_path / "api"], capsys)  # and the CLI the API's
+    assert code == 0, err
+    assert json.loads(out)["fall_rate_95ci"] == cli_summary["fall_rate_95ci"]
+    np.testing.assert_array_equal(from_cli.metrics["t_end"], api.metrics["t_end"])
+
+
+def test_cli_ctrl_c_prints_the_partial_summary_and_the_resume_command(tmp_path):
+    folder = tmp_path / "ck"
+    cmd = [sys.executable, "-m", "twip", "sweep", "flat-lqr-sim", "-n", "60000", "--option", "t_final=3",
+           "--perturb", "m_body=±10%", "--checkpoint", str(folder), "--quiet", "--threads", "2"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    import time
+
+    deadline = time.monotonic() + 60
+    while not list(folder.glob("shard-*.npz")):
+        assert time.monotonic() < deadline and proc.poll() is None, "no shard was written"
+        time.sleep(0.02)
+    proc.send_signal(__import__("signal").SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert re.search(r"interrupted: the [\d,]+ samples that finished:", err), err
+    assert "fall rate" in err and "resume with:" in err
+    resume = err.split("resume with:")[1].strip().splitlines()[0]
+    assert resume.startswith("twip sweep flat-lqr-sim -n 60000") and str(folder) in resume

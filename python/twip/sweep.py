@@ -767,7 +767,7 @@ def montecarlo(
         shard = int(shard_size)
     # Memory: all the metrics when they fit the budget, else (with a checkpoint) a
     # shard at a time, the summaries read back from the shards.
-    in_memory = n * BYTES_PER_SAMPLE <= budget.memory_budget()
+    in_memory = fits_in_memory(n)
     if checkpoint is None:
         budget.check(f"montecarlo: n = {n:,} samples", n * BYTES_PER_SAMPLE,
                      "pass checkpoint=FOLDER to stream the sweep to disk in shards")
@@ -780,6 +780,12 @@ def montecarlo(
     finally:
         if store is not None:
             store.close()
+
+
+def fits_in_memory(n: int) -> bool:
+    """Whether the metrics of an n-sample sweep fit the memory budget (else a sweep
+    needs checkpoint= and returns a StreamedSweepResult)."""
+    return n * BYTES_PER_SAMPLE <= budget.memory_budget()
 
 
 def _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, realism, traces, trace_every):
