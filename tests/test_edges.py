@@ -16,7 +16,7 @@ import pytest
 
 import twip
 import twip.sweep as tsweep
-from twip import budget, scenarios
+from twip import budget, quantiles, scenarios
 from twip.checkpoint import LOCK, Checkpoint
 
 SHORT = {"t_final": 0.5}
@@ -145,12 +145,12 @@ def test_streamed_quantiles_are_numpys_exactly():
                  np.concatenate([rng.exponential(size=5000), [np.inf] * 7, [-1e300]])):
         chunks = np.array_split(data, 13)
         q = (0.0, 0.05, 0.5, 0.95, 0.999, 1.0)
-        old = tsweep._EXACT
-        tsweep._EXACT = 100  # force several narrowing passes
+        old = quantiles._EXACT
+        quantiles._EXACT = 100  # force several narrowing passes
         try:
-            got = tsweep.streamed_quantiles(lambda: iter(chunks), q)
+            got = quantiles.streamed_quantiles(lambda: iter(chunks), q)
         finally:
-            tsweep._EXACT = old
+            quantiles._EXACT = old
         with np.errstate(invalid="ignore"):  # numpy's inf - inf, as ours
             np.testing.assert_array_equal(got, np.quantile(data, q))
 
