@@ -103,6 +103,16 @@ def test_the_budget_is_settable_and_named_in_the_error(monkeypatch):
             twip.set_memory_budget(bad)
 
 
+def test_traces_together_are_checked_against_the_budget():
+    twip.set_memory_budget(2_000_000)  # one trace of 500 rows fits, 60 do not
+    try:
+        with pytest.raises(twip.MemoryBudgetError, match=r"traces of 60 samples .*trace_every="):
+            sweep(n=64, traces=range(60), trace_every=1)
+        assert len(sweep(n=8, traces=[3], trace_every=1).traces[3].t) == 501
+    finally:
+        twip.set_memory_budget(None)
+
+
 # ---------------------------------------------------------------- 2. sweeps of any size
 
 def test_without_a_checkpoint_a_sweep_too_large_says_to_pass_one():

@@ -168,11 +168,15 @@ class Checkpoint:
     @staticmethod
     def _write(path: Path, data: bytes):
         tmp = path.with_name(path.name + f".tmp{os.getpid()}")
-        with open(tmp, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
+        try:
+            with open(tmp, "wb") as f:
+                f.write(data)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except BaseException:  # Ctrl-C or a full disk mid-write: no half-written file left
+            tmp.unlink(missing_ok=True)
+            raise
 
     # ------------------------------------------------------------------ shards
     def shard_path(self, start: int) -> Path:

@@ -142,6 +142,13 @@ def _positive_real(name: str, value) -> float:
     return float(value)
 
 
+def log_shape_guess(model, t_final: float, dt: float, record_every: int, realism=None):
+    """(rows, columns) of a run's log, the columns generously guessed (16 internals)."""
+    columns = _LOG_COLUMNS["planar" if isinstance(model, _core.PlanarModel) else "slope"]
+    columns += _DEFAULT_INTERNALS + (_SIGNAL_COLUMNS if realism is not None else 0)
+    return t_final / dt / int(record_every) + 2, columns
+
+
 def _check_log(model, t_final, dt, record_every, realism, internals) -> None:
     """Refuses, before the run, a record_every that is not a count and a log larger
     than the memory budget (naming the rows, columns and the record_every that fits).
@@ -153,9 +160,7 @@ def _check_log(model, t_final, dt, record_every, realism, internals) -> None:
     t_final, dt = _positive_real("t_final", t_final), _positive_real("dt", dt)
     if not (math.isfinite(t_final) and math.isfinite(dt) and t_final > 0 and dt > 0):
         return  # the core names the bad value
-    rows = t_final / dt / int(record_every) + 2
-    columns = _LOG_COLUMNS["planar" if isinstance(model, _core.PlanarModel) else "slope"]
-    columns += _DEFAULT_INTERNALS + (_SIGNAL_COLUMNS if realism is not None else 0)
+    rows, columns = log_shape_guess(model, t_final, dt, record_every, realism)
     if rows * columns * 8 > budget.memory_budget():
         columns = _LOG_COLUMNS["planar" if isinstance(model, _core.PlanarModel) else "slope"] + internals()
     need = rows * columns * 8

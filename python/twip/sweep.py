@@ -678,6 +678,12 @@ def montecarlo(
     if realism is not None and _family(sc).planar:
         raise _bad(f"realism: '{sc.name}' is a 3-DOF tracking scenario, which has no realism "
                    "(only the 2-DOF SlopeModel scenarios take realism=)")
+    if traces:  # each replay checks its own log; together they must fit too
+        from twip.sim import log_shape_guess
+
+        rows, columns = log_shape_guess(sc.model, sc.t_final, sc.dt, trace_every, realism)
+        budget.check(f"montecarlo: traces of {len(traces)} samples ({rows:,.0f} rows x {columns} columns each)",
+                     len(traces) * rows * columns * 8, "keep fewer traces= or log them sparser with trace_every=")
     perturbations = _resolve(perturb or {}, sc)
     config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism)
     if shard_size is None:
