@@ -29,7 +29,7 @@ from typing import Callable, Dict, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from twip import _core, budget
+from twip import _core, budget, user_sweep
 from twip.checkpoint import Checkpoint
 from twip.quantiles import streamed_quantiles_of
 
@@ -167,6 +167,8 @@ def _family(sc) -> _Family:
 def kernel_for(sc, realism=None) -> str:
     """The core's kernel for a sweep of Scenario `sc`: "realism", "planar", "lanes" (LQR,
     vectorised) or "general"."""
+    if user_sweep.is_user_controller(sc.controller):
+        return "python"
     if realism is not None:
         return "realism"
     if _family(sc).planar:
@@ -575,7 +577,8 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
         "control_period": sc.control_period,
         "reference": repr(sc.reference),
         # The whole controller (gains, period, fuzzy sets, its model...), not its short repr.
-        "controller": _core.controller_fingerprint(sc.controller),
+        "controller": (user_sweep.fingerprint(sc.controller) if user_sweep.is_user_controller(sc.controller)
+                       else _core.controller_fingerprint(sc.controller)),
         "perturb": list(perturb_keys),
         "perturbations": [list(p) for p in perturbations],
         "seed": int(seed),
@@ -587,6 +590,8 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
 
 def _run(sc, config, start, count, threads, progress, realism=None):
     family = _family(sc)
+    if user_sweep.is_user_controller(sc.controller):  # worker processes, not threads
+        return user_sweep.run(sc, family, config, start, count, threads, progress, realism)
     extra = {} if family.planar else {"realism": realism}
     return family.raw(sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
                       [tuple(p) for p in config["perturbations"]], config["seed"], start, count,
