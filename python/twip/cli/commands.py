@@ -7,6 +7,7 @@ import os
 import shlex
 import sys
 import time
+from pathlib import Path
 from typing import Any, Dict, List
 
 import numpy as np
@@ -94,7 +95,7 @@ def list_scenarios(args) -> int:
 def simulate(args) -> int:
     check_outputs(args)
     name = scenario_name(args.scenario)
-    params = robot(args.param)
+    params = robot(args.param, args.robot)
     options = scenario_options(name, args.option)
     ctrl_params = twip.RobotParams.balanbot() if args.nominal_controller else None
     sc = get_scenario(name, params=params, controller_params=ctrl_params, options=options)
@@ -106,7 +107,7 @@ def simulate(args) -> int:
     if args.realism is not None:
         if is_planar(sc):
             raise UsageError("--realism: only the 2-DOF scenarios take realism")
-        overrides["realism"] = realism(args.realism)
+        overrides["realism"] = realism(args.realism, args.robot)
     started = time.perf_counter()
     r = sc.run(**overrides)
     elapsed = time.perf_counter() - started
@@ -115,7 +116,7 @@ def simulate(args) -> int:
         print(json.dumps(jsonable({"scenario": name, "outcome": r.outcome, "t_end": r.t_end, "steps": r.steps,
                                     "seconds": elapsed, "metrics": r.metrics, "claims": claims}), indent=1))
     else:
-        changed = ", ".join(args.param or []) or "RobotParams.balanbot()"
+        changed = ", ".join(([args.robot] if args.robot else []) + (args.param or [])) or "RobotParams.balanbot()"
         print(f"{name}: {sc.description}")
         print(f"robot: {changed}" + ("; controller designed for balanbot()" if args.nominal_controller else ""))
         if options:
@@ -149,7 +150,7 @@ def sweep(args) -> int:
                          "streams them to --checkpoint and draws no histograms; leave out --plot (the summary "
                          "and --csv are written shard by shard)")
     name = scenario_name(args.scenario)
-    params = robot(args.param)
+    params = robot(args.param, args.robot)
     options = scenario_options(name, args.option)
     perturb = dict(perturbation(p) for p in args.perturb or [])
     if args.map and not set(args.map) <= set(perturb):
@@ -160,7 +161,7 @@ def sweep(args) -> int:
     # A 3-DOF scenario with --realism is montecarlo's to refuse (an InvalidParameterError).
     try:
         result = twip.montecarlo(sc, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
-                                 progress=not args.quiet, checkpoint=args.checkpoint, realism=realism(args.realism))
+                                 progress=not args.quiet, checkpoint=args.checkpoint, realism=realism(args.realism, args.robot))
     except KeyboardInterrupt as stop:
         partial = getattr(stop, "partial", None)
         if partial is not None and partial.n:
@@ -208,4 +209,16 @@ def reproduce(args) -> int:
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs {args.jobs}: must be at least 1")
     report.reproduce(args.out, quick=args.quick, jobs=args.jobs, animations=not args.no_animations)
+    return 0
+
+
+def robot_init(args) -> int:
+    """twip robot init FILE: the default robot, its motor and driver, commented."""
+    from twip import robot_file
+
+    path = Path(args.file)
+    if path.exists() and not args.force:
+        raise UsageError(f"{path} exists; pass --force to overwrite it")
+    robot_file.init(path)
+    print(f"wrote {path}: the Balanbot (RobotParams.balanbot()), its GB37Y3530 motor and L298 driver", file=sys.stderr)
     return 0
