@@ -98,4 +98,4 @@ __all__ = [
     "wilson_interval",
 ]
 
-from twip import scenarios  # noqa: E402  (twip.scenarios.get(...) after `import twip`)
+from twip import interop, scenarios  # noqa: E402  (twip.scenarios.get(...) after `import twip`)
