@@ -200,3 +200,13 @@ def realism(choice: Optional[str], robot_file=None):
     if choice == "ideal":
         return twip.Realism()
     return twip.Robot.from_file(robot_file).realism() if robot_file else twip.Realism.thesis_like()
+
+
+def stall_current(robot_file=None) -> Optional[float]:
+    """One motor's stall current [A]: the [motor] table of --robot FILE, else the Balanbot's
+    GB37Y3530 when no file is given (None: a file without a motor)."""
+    from twip import robot_file as files
+
+    if robot_file:
+        return twip.Robot.from_file(robot_file).stall_current
+    return files.BALANBOT_MOTOR["stall_current"]
