@@ -187,3 +187,40 @@ def test_an_unpicklable_controller_is_refused_before_any_sample_runs():
     with pytest.raises(twip.InvalidParameterError, match="cannot be pickled"):
         twip.montecarlo(sc.replace(controller=lambda t, y, r: calls.append(t) or 0.0), 4, progress=False)
     assert calls == []
+
+
+SCRIPT = """
+import sys, twip
+sys.path.insert(0, {tests!r})
+from test_user_controller import PythonLqr
+sc = twip.scenarios.get("flat-lqr-sim")
+mine = sc.replace(controller=PythonLqr(sc.model, sc.controller.gains, sc.controller.period))
+print("started", flush=True)
+try:
+    r = twip.montecarlo(mine, {n}, perturb={{"m_body": twip.Uniform(rel=0.2)}}, seed=5, progress=False,
+                        checkpoint={folder!r}, shard_size=50)
+    print("done", r.n, float(r.metrics["mean_abs_pitch_error"].sum()))
+except KeyboardInterrupt as stop:
+    print("interrupted", stop.partial.n)
+"""
+
+
+def test_ctrl_c_stops_a_python_controller_sweep_and_it_resumes(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    tests = os.path.dirname(os.path.abspath(__file__))
+    script = tmp_path / "sweep.py"
+    script.write_text(SCRIPT.format(tests=tests, n=4000, folder=str(tmp_path / "ck")))
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "started"
+    time.sleep(2.0)
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=60)
+    assert out.startswith("interrupted"), out
+    kept = int(out.split()[1])
+    assert 0 < kept < 4000
+    assert len(list((tmp_path / "ck").glob("shard-*.npz"))) >= kept // 50

@@ -85,6 +85,7 @@ def run(sc, family, config, start, count, workers, progress, realism=None) -> di
     done, valid, fell, steps, the metrics, metric_names, kernel, interrupted)."""
     _JOB.update(scenario=sc, family=family, perturbations=[tuple(p) for p in config["perturbations"]],
                 seed=config["seed"], controller=controller_bytes(sc.controller), realism=realism)
+    names = _metric_names(sc)
     workers = max(1, min(workers or os.cpu_count() or 1, count))
     size = max(1, min(64, math.ceil(count / (4 * workers))))
     chunks = [(s, min(s + size, start + count)) for s in range(start, start + count, size)]
@@ -114,15 +115,23 @@ def run(sc, family, config, start, count, workers, progress, realism=None) -> di
         interrupted = True
     finally:
         _JOB.clear()
-    return _layout(start, count, chunks, results, interrupted, family)
+    return _layout(start, count, results, interrupted, names)
 
 
-def _layout(start, count, chunks, results, interrupted, family) -> dict:
+def _metric_names(sc) -> list:
+    """The family's metrics, as `simulate` reports them, from a one-step run of the
+    nominal robot (so that a shard whose samples all failed or were interrupted has them)."""
+    from twip.sim import simulate
+
+    one = simulate(sc.model, pickle.loads(_JOB["controller"]), sc.x0, sc.dt, sc.dt, reference=sc.reference,
+                   control_period=sc.control_period)
+    return ["t_end"] + list(one.metrics)
+
+
+def _layout(start, count, results, interrupted, names) -> dict:
     rows = [None] * count
     for c0, samples in results.items():
         rows[c0 - start:c0 - start + len(samples)] = samples
-    names = [n for r in rows if r and r["valid"] for n in r if n not in ("valid", "fell", "steps")]
-    names = list(dict.fromkeys(names)) or ["t_end"]
     done = np.array([r is not None for r in rows])
     out = {
         "index": np.arange(start, start + count, dtype=np.uint64),
