@@ -31,6 +31,7 @@
 //! (3.38)–(3.48) carry several typos; docs/errata.md lists them (P1–P8).
 use nalgebra::{Matrix3, SVector, Vector2};
 
+use crate::model::friction::Friction;
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
 /// State `[x, y, psi, phi, phi_dot, v, omega]`.
@@ -68,6 +69,8 @@ pub struct PlanarModel<T> {
     inv_r: T,
     /// b / R
     b_r: T,
+    /// Gearhead friction per wheel beyond `mu_bearing` (None: the thesis's model).
+    friction: Option<Friction<T>>,
 }
 
 impl<T: Real> PlanarModel<T> {
@@ -99,7 +102,28 @@ impl<T: Real> PlanarModel<T> {
             mu_w: b * b * (p.mu_bearing + p.mu_ground) / r2,
             inv_r: T::one() / r,
             b_r: b / r,
+            friction: None,
         })
+    }
+
+    /// This model with gearhead friction on each wheel (validated); `None` turns it off.
+    pub fn with_friction(self, friction: Option<Friction<T>>) -> Result<Self, TwipError> {
+        let friction = friction.map(|f| f.validate()).transpose()?;
+        Ok(Self { friction, ..self })
+    }
+
+    /// The gearhead friction per wheel, if any.
+    pub fn friction(&self) -> Option<&Friction<T>> {
+        self.friction.as_ref()
+    }
+
+    /// Each wheel's speed relative to the body, θ̇_side − φ̇ = (v ± b ω)/R − φ̇ [rad/s].
+    #[inline(always)]
+    pub fn wheel_speeds(&self, x: &PlanarState<T>) -> (T, T) {
+        let (phi_dot, v, omega) = (x[4], x[5], x[6]);
+        let turn = self.b_r * omega;
+        let roll = self.inv_r * v - phi_dot;
+        (roll + turn, roll - turn)
     }
 
     pub fn params(&self) -> &RobotParams<T> {
@@ -130,7 +154,15 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
         let (sin_psi, cos_psi) = crate::model::math::sin_cos(x[2]);
         let (s, cp) = crate::model::math::sin_cos(x[3]);
         let (phi_dot, v, omega) = (x[4], x[5], x[6]);
-        let (u_sum, u_diff) = (u[0] + u[1], u[0] - u[1]);
+        // The gearhead friction takes its torque off each motor's.
+        let (u_r, u_l) = match &self.friction {
+            Some(f) => {
+                let (w_r, w_l) = self.wheel_speeds(x);
+                (u[0] - f.torque(w_r), u[1] - f.torque(w_l))
+            }
+            None => (u[0], u[1]),
+        };
+        let (u_sum, u_diff) = (u_r + u_l, u_r - u_l);
         let w2 = omega * omega;
         let sc = s * cp;
         // f = B u − h
