@@ -169,6 +169,17 @@ fn result_dict<'py, M: SweepMetrics>(
     Ok(out)
 }
 
+/// Sweeps draw robots from parameters alone: refuse a model with gearhead friction
+/// rather than drop it in silence.
+pub(crate) fn no_friction_in_sweeps(has_friction: bool) -> PyResult<()> {
+    if has_friction {
+        return Err(pyo3::exceptions::PyValueError::new_err(
+            "model.friction: sweeps do not carry gearhead friction yet; use a model without friction",
+        ));
+    }
+    Ok(())
+}
+
 /// The robot, slope and initial state of sample `index` (to replay it alone).
 #[pyfunction]
 #[pyo3(signature = (model, x0, perturbations, seed, index))]
@@ -180,6 +191,7 @@ pub fn sweep_draw<'py>(
     seed: u64,
     index: u64,
 ) -> PyResult<(Bound<'py, PyDict>, f64, Bound<'py, numpy::PyArray1<f64>>)> {
+    no_friction_in_sweeps(model.inner.friction().is_some())?;
     let nominal = Nominal { params: *model.inner.params(), slope: model.inner.slope(), x0: vector::<4>("x0", x0)? };
     let perts = parse_perturbations(&perturbations, Perturbation::validate)?;
     let s: Sample = draw(&nominal, &perts, seed, index);
@@ -228,6 +240,7 @@ pub fn sweep_raw<'py>(
     progress: Option<Py<PyAny>>,
     realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    no_friction_in_sweeps(model.inner.friction().is_some())?;
     let nominal = Nominal { params: *model.inner.params(), slope: model.inner.slope(), x0: vector::<4>("x0", x0)? };
     let mut ctrl = SlopeController::extract(controller)?;
     let realism = realism.cloned();

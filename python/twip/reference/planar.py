@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from twip.reference.friction import Friction
 from twip.reference.params import RobotParams
 
 
@@ -33,8 +34,9 @@ def _cross(a, b) -> np.ndarray:
 class PlanarModel:
     """The 3-DOF planar model on flat ground (pure numpy, slow, for cross-checks)."""
 
-    def __init__(self, params):
+    def __init__(self, params, friction=None):
         self.params = RobotParams.of(params)
+        self.friction = Friction.of(friction)  # per wheel, on theta_side_dot - phi_dot
         p = self.params
         R, b = p.wheel_radius, p.half_track
         self._inertia_body = np.diag([p.i_body_roll, p.i_body, p.i_body_yaw])
@@ -97,6 +99,8 @@ class PlanarModel:
         # Motor torques (power u_side (theta_side_dot - phi_dot)) and Rayleigh friction.
         for u_side, rel, spin in zip(u, self._rel, self._spin):
             f += (u_side - (p.mu_bearing / 2) * (rel @ nu)) * rel - (p.mu_ground / 2) * (spin @ nu) * spin
+            if self.friction is not None:
+                f -= self.friction.torque(rel @ nu) * rel
         return M, f
 
     def mass_matrix(self, phi: float) -> np.ndarray:

@@ -264,6 +264,15 @@ impl<T: Real> Disturbed<T> {
         Ok(Self { pieces, profile, radius: params.wheel_radius, has_force: !force.is_zero(), force, pushes })
     }
 
+    /// The same plant with `model`'s gearhead friction on every piece of the ground.
+    pub fn with_friction_of(mut self, model: &SlopeModel<T>) -> Self {
+        for piece in self.pieces.iter_mut() {
+            // Already validated on `model`.
+            piece.model = piece.model.with_friction(model.friction().copied()).unwrap_or(piece.model);
+        }
+        self
+    }
+
     /// Nothing but `model`: the same numbers as `model` itself.
     pub fn plain(model: &SlopeModel<T>) -> Self {
         Self {

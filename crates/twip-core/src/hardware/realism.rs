@@ -116,7 +116,7 @@ impl<T: Real> Realism<T> {
         let profile = s.slope_profile.with_base(model.slope());
         let mut pushes = s.pushes;
         pushes.rewind();
-        let ground = Disturbed::new(params, profile, s.force, pushes)?;
+        let ground = Disturbed::new(params, profile, s.force, pushes)?.with_friction_of(model);
         let (plant, actuator) = match &s.motor {
             None => (RealPlant::Current(ground), RealActuator::Ideal),
             Some(m) => (RealPlant::Driven(Driven::new(ground, m, &params)?), RealActuator::Pwm(PwmActuator::new(m, &params)?)),
@@ -503,6 +503,17 @@ mod tests {
         simulate_with(&model, &mut ctrl, &schedule, &Vector4::zeros(), &config, parts).unwrap();
         let (_, rig) = run(&Realism::ideal(), 3.0);
         assert_eq!(plain.0, rig.0);
+    }
+
+    #[test]
+    fn the_rig_keeps_the_models_gearhead_friction() {
+        let f = crate::model::friction::Friction::gb37();
+        let model = SlopeModel::new(RobotParams::balanbot(), 0.1).unwrap().with_friction(Some(f)).unwrap();
+        let rig = Realism::ideal().build(&model, 1e-3).unwrap();
+        let (x, u) = (Vector4::new(0.1, 0.3, 1.0, 0.5), SVector::<f64, 1>::new(0.2));
+        assert_eq!(rig.plant.deriv(&x, &u), model.deriv(&x, &u));
+        let plain = SlopeModel::new(RobotParams::balanbot(), 0.1).unwrap();
+        assert_ne!(rig.plant.deriv(&x, &u), plain.deriv(&x, &u));
     }
 
     #[test]
