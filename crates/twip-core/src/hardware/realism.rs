@@ -6,20 +6,19 @@
 //!   for each part left out;
 //! - an [`Actuator`], [`RealActuator`]: the firmware's current → PWM mapping, or none;
 //!
-//! and [`simulate_rig`] runs them: `runner::simulate_with` plus what happens to the plant
-//! between steps (pushes, the winding current), and the measurement, duty and motor
-//! current logged beside the controller's internals. Nothing allocates; noise comes from
+//! and [`simulate_rig`] runs them through the one loop, `runner::run_loop`, with what
+//! happens to the plant between steps (pushes, the winding current) and the
+//! measurement, duty and motor current logged beside the controller's internals. Nothing allocates; noise comes from
 //! one [`Philox`] stream (seed, stream), so a run is bitwise repeatable.
 use nalgebra::{SVector, Vector4};
 
 use crate::control::{Controller, Reference};
-use crate::model::integrate::rk4_step_from_k1;
 use crate::hardware::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{Driven, MotorDriver, PwmActuator};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
 use crate::rng::Philox;
-use crate::sim::runner::{Actuator, Loop, Observer, Outcome, Sensor, SimConfig, STOP_CHECK_STEPS};
+use crate::sim::runner::{run_loop, Actuator, Loop, Observer, Outcome, Plant, Sensor, Signals, SimConfig};
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
 
@@ -137,7 +136,7 @@ pub struct Rig<T: Real> {
 
 impl<T: Real> Rig<T> {
     /// Runs `controller` through this rig's plant, sensors, actuator and delay
-    /// ([`simulate_rig`]); `should_stop` is asked every [`STOP_CHECK_STEPS`] steps.
+    /// ([`simulate_rig`]); `should_stop` is asked every [`STOP_CHECK_STEPS`](crate::sim::runner::STOP_CHECK_STEPS) steps.
     pub fn simulate<C, R, O, F>(
         &mut self,
         controller: &mut C,
@@ -269,22 +268,21 @@ impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
     }
 }
 
-/// A 2-DOF plant that may change between integration steps.
-pub trait RigPlant<T: Real>: Dynamics<T, 4, 1> {
-    /// Called after the sample at `t` and before the step to `t + dt` with the input `u`
-    /// held over it: pushes jump the velocities, the winding current advances.
-    fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>);
-
+/// A 2-DOF realism plant: it may change between steps, and it knows its motor current.
+pub trait RigPlant<T: Real>: Plant<T, 4, 1> {
     /// The lumped motor current now [A].
     fn current(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> T;
 }
 
-impl<T: Real> RigPlant<T> for Disturbed<T> {
+impl<T: Real> Plant<T, 4, 1> for Disturbed<T> {
+    /// Pushes jump the velocities.
     #[inline]
     fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, _: &SVector<T, 1>) {
         self.kick(t, dt, x);
     }
+}
 
+impl<T: Real> RigPlant<T> for Disturbed<T> {
     #[inline(always)]
     fn current(&self, _: &Vector4<T>, u: &SVector<T, 1>) -> T {
         u[0]
@@ -316,7 +314,8 @@ impl<T: Real> Dynamics<T, 4, 1> for RealPlant<T> {
     }
 }
 
-impl<T: Real> RigPlant<T> for RealPlant<T> {
+impl<T: Real> Plant<T, 4, 1> for RealPlant<T> {
+    /// Pushes, then the winding current advances.
     #[inline]
     fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) {
         match self {
@@ -327,7 +326,9 @@ impl<T: Real> RigPlant<T> for RealPlant<T> {
             }
         }
     }
+}
 
+impl<T: Real> RigPlant<T> for RealPlant<T> {
     #[inline]
     fn current(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> T {
         match self {
@@ -360,23 +361,66 @@ pub const RIG_SIGNALS: [&str; 6] = ["phi_hat", "phi_dot_hat", "theta_hat", "thet
 /// Most controller internals [`simulate_rig`] passes on.
 pub const MAX_INTERNALS: usize = 64 - RIG_SIGNALS.len();
 
-/// Runs `controller` on `plant` like `runner::simulate_with`, with two differences.
-/// The plant's [`RigPlant::between_steps`] runs before each step. The sensor samples
-/// after the controller's update, with the state derivative over the coming step (RK4's
-/// first stage, so an accelerometer costs no extra evaluation), once before the run
-/// (its registers hold a sample of the initial state) and then each step: a read sees
-/// the samples up to one step before it, as firmware reads the sensor's last output.
-///
-/// The observer sees the command being applied (the controller's lumped current) and,
-/// after the controller's internals, [`RIG_SIGNALS`]: the measurement the controller last
-/// read, the plant's input (duty or current) and the lumped motor current.
+/// The rig's log: the controller's internals at its last update, then [`RIG_SIGNALS`]:
+/// the measurement it read, the plant's input (duty or current) and the motor current.
+pub struct RigSignals<T> {
+    buffer: [T; MAX_INTERNALS + RIG_SIGNALS.len()],
+    width: usize,
+}
+
+impl<T: Real> RigSignals<T> {
+    pub fn new() -> Self {
+        Self { buffer: [T::zero(); MAX_INTERNALS + RIG_SIGNALS.len()], width: 0 }
+    }
+}
+
+impl<T: Real> Default for RigSignals<T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T: Real, P: RigPlant<T>> Signals<T, P, 4, 1> for RigSignals<T> {
+    const OBSERVE_COMMAND: bool = true;
+
+    fn check(&mut self, internals: usize) -> Result<(), TwipError> {
+        if internals > MAX_INTERNALS {
+            // The reason is a static str; the assertion keeps its number right.
+            const _: () = assert!(MAX_INTERNALS == 58);
+            let reason = "more than 58 controller internals";
+            return Err(TwipError::InvalidParameter { name: "internals", value: internals as f64, reason });
+        }
+        self.width = internals;
+        Ok(())
+    }
+
+    #[inline]
+    fn updated(&mut self, internals: &[T], y: &Vector4<T>, drive: &SVector<T, 1>) {
+        let w = self.width;
+        self.buffer[..w].copy_from_slice(internals);
+        self.buffer[w..w + 4].copy_from_slice(y.as_slice());
+        self.buffer[w + 4] = drive[0];
+    }
+
+    #[inline]
+    fn at<'a>(&'a mut self, _: &'a [T], plant: &P, x: &Vector4<T>, u: &SVector<T, 1>) -> &'a [T] {
+        let w = self.width;
+        self.buffer[w + 5] = plant.current(x, u);
+        &self.buffer[..w + RIG_SIGNALS.len()]
+    }
+}
+
+/// Runs `controller` on the rig's `plant` through the one loop, `runner::run_loop`: the
+/// plant's pushes and winding current between steps, and the observer sees the command
+/// being applied (the controller's lumped current) and, after the controller's
+/// internals, [`RIG_SIGNALS`].
 pub fn simulate_rig<T, P, C, R, S, A, O, F>(
     plant: &mut P,
     controller: &mut C,
     reference: &R,
     x0: &Vector4<T>,
     config: &SimConfig<T>,
-    mut parts: Loop<'_, S, A, O, F>,
+    parts: Loop<'_, S, A, O, F>,
 ) -> Result<(Outcome<T>, usize), TwipError>
 where
     T: Real,
@@ -388,74 +432,7 @@ where
     O: Observer<T, 4, 1, R::Sample>,
     F: FnMut() -> bool,
 {
-    let (n, per_update) = config.steps(controller.period())?;
-    for (index, value) in x0.iter().enumerate() {
-        if !value.is_finite() {
-            return Err(TwipError::NonFinite { name: "x0", index, value: crate::to_f64(*value) });
-        }
-    }
-    let width = controller.internals().len();
-    if width > MAX_INTERNALS {
-        // The reason is a static str; the assertion keeps its number right.
-        const _: () = assert!(MAX_INTERNALS == 58);
-        let reason = "more than 58 controller internals";
-        return Err(TwipError::InvalidParameter { name: "internals", value: width as f64, reason });
-    }
-    let mut signals = [T::zero(); MAX_INTERNALS + RIG_SIGNALS.len()];
-    let logged = width + RIG_SIGNALS.len();
-    let dt = config.dt;
-    let mut x = *x0;
-    let (mut u, mut pending) = (SVector::<T, 1>::zeros(), SVector::<T, 1>::zeros());
-    let (mut command, mut pending_command) = (u, u);
-    let observer = &mut *parts.observer;
-    parts.sensor.sample(T::zero(), &x, &plant.deriv(&x, &u));
-    for k in 0..n {
-        let t = dt * c::<T>(k as f64);
-        if k % STOP_CHECK_STEPS == 0 && k > 0 && (parts.should_stop)() {
-            return Ok((Outcome::Interrupted { t }, k));
-        }
-        let r = reference.sample(t);
-        if k % per_update == 0 {
-            let y = parts.sensor.read(t, &x);
-            let cmd = controller.update(t, &y, &r);
-            let drive = parts.actuator.drive(t, &cmd, &y);
-            if drive.iter().any(|v| !v.is_finite()) {
-                return Ok((Outcome::Diverged { t }, k));
-            }
-            if parts.delay_one_period {
-                u = pending;
-                pending = drive;
-                command = pending_command;
-                pending_command = cmd;
-            } else {
-                u = drive;
-                command = cmd;
-            }
-            signals[..width].copy_from_slice(controller.internals());
-            signals[width..width + 4].copy_from_slice(y.as_slice());
-            signals[width + 4] = u[0];
-        }
-        signals[width + 5] = plant.current(&x, &u);
-        observer.observe(t, &x, &command, &r, &signals[..logged]);
-        plant.between_steps(t, dt, &mut x, &u);
-        // RK4, its first stage shared with the sensor.
-        let k1 = plant.deriv(&x, &u);
-        parts.sensor.sample(t, &x, &k1);
-        x = rk4_step_from_k1(&*plant, &x, &u, dt, &k1);
-        let t_next = dt * c::<T>((k + 1) as f64);
-        if x.iter().any(|v| !v.is_finite()) {
-            return Ok((Outcome::Diverged { t: t_next }, k + 1));
-        }
-        if x[P::PITCH].abs() > config.fall_limit {
-            signals[width + 5] = plant.current(&x, &u);
-            observer.observe_last(t_next, &x, &command, &reference.sample(t_next), &signals[..logged]);
-            return Ok((Outcome::Fell { t: t_next }, k + 1));
-        }
-    }
-    let t_end = dt * c::<T>(n as f64);
-    signals[width + 5] = plant.current(&x, &u);
-    observer.observe_last(t_end, &x, &command, &reference.sample(t_end), &signals[..logged]);
-    Ok((Outcome::Completed, n))
+    run_loop(plant, controller, reference, x0, config, parts, &mut RigSignals::new())
 }
 
 #[cfg(all(test, feature = "std"))]
