@@ -58,7 +58,7 @@ impl<T: Real> Force<T> {
         Ok(*self)
     }
 
-    fn is_zero(&self) -> bool {
+    pub(crate) fn is_zero(&self) -> bool {
         self.horizontal == T::zero() && self.vertical == T::zero()
     }
 }
@@ -203,7 +203,7 @@ impl<T: Real> Pushes<T> {
 
     /// The pushes not yet applied whose time is nearest the sample at `t` (step `dt`).
     #[inline]
-    fn due(&mut self, t: T, dt: T) -> Option<Push<T>> {
+    pub(crate) fn due(&mut self, t: T, dt: T) -> Option<Push<T>> {
         let p = *self.list[..self.count].get(self.next)?;
         if p.t >= t + dt * c::<T>(0.5) {
             return None;

@@ -109,7 +109,7 @@ impl<T: Real> Realism<T> {
     }
 
     /// The plant, sensor and actuator for a run of `model` at plant step `dt`.
-    pub fn build(&self, model: &SlopeModel<T>, dt: T) -> Result<Rig<T>, TwipError> {
+    pub fn build(&self, model: &SlopeModel<T>, dt: T) -> Result<SlopeRig<T>, TwipError> {
         let s = self.validate()?;
         let params = *model.params();
         let profile = s.slope_profile.with_base(model.slope());
@@ -125,31 +125,41 @@ impl<T: Real> Realism<T> {
     }
 }
 
-/// Everything [`simulate_rig`] needs besides the controller and reference.
+/// A realism rig: everything a run needs besides the controller and reference.
 #[derive(Clone, Copy, Debug)]
-pub struct Rig<T: Real> {
-    pub plant: RealPlant<T>,
-    pub sensors: BalanceSensors<T>,
-    pub actuator: RealActuator<T>,
+pub struct Rig<P, S, A> {
+    pub plant: P,
+    pub sensors: S,
+    pub actuator: A,
     pub delay: bool,
 }
 
-impl<T: Real> Rig<T> {
-    /// Runs `controller` through this rig's plant, sensors, actuator and delay
-    /// ([`simulate_rig`]); `should_stop` is asked every [`STOP_CHECK_STEPS`](crate::sim::runner::STOP_CHECK_STEPS) steps.
-    pub fn simulate<C, R, O, F>(
+/// The 2-DOF rig ([`Realism::build`]).
+pub type SlopeRig<T> = Rig<RealPlant<T>, BalanceSensors<T>, RealActuator<T>>;
+
+impl<P, S, A> Rig<P, S, A> {
+    /// Runs `controller` through this rig's plant, sensors, actuator and delay with the
+    /// one loop (`runner::run_loop`): the observer sees the command being applied and,
+    /// after the controller's internals, the rig's signals ([`RigSignals`]);
+    /// `should_stop` is asked every [`STOP_CHECK_STEPS`](crate::sim::runner::STOP_CHECK_STEPS) steps.
+    #[allow(clippy::too_many_arguments)]
+    pub fn simulate<T, C, R, O, F, const NX: usize, const NU: usize>(
         &mut self,
         controller: &mut C,
         reference: &R,
-        x0: &Vector4<T>,
+        x0: &SVector<T, NX>,
         config: &SimConfig<T>,
         observer: &mut O,
         should_stop: F,
     ) -> Result<(Outcome<T>, usize), TwipError>
     where
+        T: Real,
+        P: RigPlant<T, NX, NU>,
+        S: Sensor<T, NX>,
+        A: Actuator<T, NX, NU>,
         R: Reference<T>,
-        C: Controller<T, 4, 1, Reference = R::Sample>,
-        O: Observer<T, 4, 1, R::Sample>,
+        C: Controller<T, NX, NU, Reference = R::Sample>,
+        O: Observer<T, NX, NU, R::Sample>,
         F: FnMut() -> bool,
     {
         let parts = Loop {
@@ -159,8 +169,22 @@ impl<T: Real> Rig<T> {
             should_stop,
             delay_one_period: self.delay,
         };
-        simulate_rig(&mut self.plant, controller, reference, x0, config, parts)
+        run_loop(&mut self.plant, controller, reference, x0, config, parts, &mut RigSignals::<T, NX, NU>::new())
     }
+}
+
+/// The IMU samples on the plant's grid: its period must be whole steps of `dt`.
+pub(crate) fn check_imu_grid<T: Real>(settings: &ImuSettings<T>, dt: T) -> Result<(), TwipError> {
+    let ratio = settings.sample_period / dt;
+    let whole = ratio.round();
+    if !(dt.is_finite() && dt > T::zero()) || whole < T::one() || (ratio - whole).abs() > c::<T>(1e-6) * ratio {
+        return Err(TwipError::InvalidParameter {
+            name: "dt",
+            value: crate::to_f64(dt),
+            reason: "must divide the IMU's sample period (1 ms)",
+        });
+    }
+    Ok(())
 }
 
 /// The IMU + tilt estimator + encoder of the 2-DOF robot, as one sensor.
@@ -196,16 +220,7 @@ impl<T: Real> BalanceSensors<T> {
     ) -> Result<Self, TwipError> {
         let imu = imu.map(Mpu6050::new).transpose()?;
         if let Some(m) = &imu {
-            // The IMU samples on the plant's grid: its period must be whole steps.
-            let ratio = m.settings().sample_period / dt;
-            let whole = ratio.round();
-            if !(dt.is_finite() && dt > T::zero()) || whole < T::one() || (ratio - whole).abs() > c::<T>(1e-6) * ratio {
-                return Err(TwipError::InvalidParameter {
-                    name: "dt",
-                    value: crate::to_f64(dt),
-                    reason: "must divide the IMU's sample period (1 ms)",
-                });
-            }
+            check_imu_grid(m.settings(), dt)?;
         }
         let mut ground_trig = [ground.base().sin_cos(); MAX_SLOPE_CHANGES + 1];
         for (i, (_, slope)) in ground.changes().enumerate() {
@@ -268,10 +283,10 @@ impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
     }
 }
 
-/// A 2-DOF realism plant: it may change between steps, and it knows its motor current.
-pub trait RigPlant<T: Real>: Plant<T, 4, 1> {
-    /// The lumped motor current now [A].
-    fn current(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> T;
+/// A realism plant: it may change between steps, and it knows its motor currents.
+pub trait RigPlant<T: Real, const NX: usize, const NU: usize>: Plant<T, NX, NU> {
+    /// The motor current behind each input now [A] (2-DOF: the lumped current).
+    fn currents(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NU>;
 }
 
 impl<T: Real> Plant<T, 4, 1> for Disturbed<T> {
@@ -282,10 +297,10 @@ impl<T: Real> Plant<T, 4, 1> for Disturbed<T> {
     }
 }
 
-impl<T: Real> RigPlant<T> for Disturbed<T> {
+impl<T: Real> RigPlant<T, 4, 1> for Disturbed<T> {
     #[inline(always)]
-    fn current(&self, _: &Vector4<T>, u: &SVector<T, 1>) -> T {
-        u[0]
+    fn currents(&self, _: &Vector4<T>, u: &SVector<T, 1>) -> SVector<T, 1> {
+        *u
     }
 }
 
@@ -328,12 +343,12 @@ impl<T: Real> Plant<T, 4, 1> for RealPlant<T> {
     }
 }
 
-impl<T: Real> RigPlant<T> for RealPlant<T> {
+impl<T: Real> RigPlant<T, 4, 1> for RealPlant<T> {
     #[inline]
-    fn current(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> T {
+    fn currents(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> SVector<T, 1> {
         match self {
-            Self::Current(_) => u[0],
-            Self::Driven(p) => p.lumped_current(x, u[0]),
+            Self::Current(_) => *u,
+            Self::Driven(p) => SVector::<T, 1>::new(p.lumped_current(x, u[0])),
         }
     }
 }
@@ -361,33 +376,40 @@ pub const RIG_SIGNALS: [&str; 6] = ["phi_hat", "phi_dot_hat", "theta_hat", "thet
 /// Most controller internals [`simulate_rig`] passes on.
 pub const MAX_INTERNALS: usize = 64 - RIG_SIGNALS.len();
 
-/// The rig's log: the controller's internals at its last update, then [`RIG_SIGNALS`]:
-/// the measurement it read, the plant's input (duty or current) and the motor current.
-pub struct RigSignals<T> {
-    buffer: [T; MAX_INTERNALS + RIG_SIGNALS.len()],
+/// The width of a rig's log row after the time and state.
+const RIG_ROW: usize = 64;
+
+/// The rig's log: the controller's internals at its last update, then the measurement
+/// it read (NX), the plant's inputs (duty or current, NU) and the motor currents (NU):
+/// [`RIG_SIGNALS`] for the 2-DOF rig, `PLANAR_RIG_SIGNALS` for the 3-DOF one.
+pub struct RigSignals<T, const NX: usize, const NU: usize> {
+    buffer: [T; RIG_ROW],
     width: usize,
 }
 
-impl<T: Real> RigSignals<T> {
+impl<T: Real, const NX: usize, const NU: usize> RigSignals<T, NX, NU> {
+    /// Most controller internals the rig passes on.
+    pub const MAX_INTERNALS: usize = RIG_ROW - NX - 2 * NU;
+
     pub fn new() -> Self {
-        Self { buffer: [T::zero(); MAX_INTERNALS + RIG_SIGNALS.len()], width: 0 }
+        Self { buffer: [T::zero(); RIG_ROW], width: 0 }
     }
 }
 
-impl<T: Real> Default for RigSignals<T> {
+impl<T: Real, const NX: usize, const NU: usize> Default for RigSignals<T, NX, NU> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<T: Real, P: RigPlant<T>> Signals<T, P, 4, 1> for RigSignals<T> {
+impl<T: Real, P: RigPlant<T, NX, NU>, const NX: usize, const NU: usize> Signals<T, P, NX, NU> for RigSignals<T, NX, NU> {
     const OBSERVE_COMMAND: bool = true;
 
     fn check(&mut self, internals: usize) -> Result<(), TwipError> {
-        if internals > MAX_INTERNALS {
-            // The reason is a static str; the assertion keeps its number right.
-            const _: () = assert!(MAX_INTERNALS == 58);
-            let reason = "more than 58 controller internals";
+        if internals > Self::MAX_INTERNALS {
+            // The reason is a static str; the assertions keep its numbers right.
+            const _: () = assert!(MAX_INTERNALS == 58 && RIG_ROW - 7 - 4 == 53);
+            let reason = if NX == 4 { "more than 58 controller internals" } else { "more than 53 controller internals" };
             return Err(TwipError::InvalidParameter { name: "internals", value: internals as f64, reason });
         }
         self.width = internals;
@@ -395,18 +417,18 @@ impl<T: Real, P: RigPlant<T>> Signals<T, P, 4, 1> for RigSignals<T> {
     }
 
     #[inline]
-    fn updated(&mut self, internals: &[T], y: &Vector4<T>, drive: &SVector<T, 1>) {
+    fn updated(&mut self, internals: &[T], y: &SVector<T, NX>, drive: &SVector<T, NU>) {
         let w = self.width;
         self.buffer[..w].copy_from_slice(internals);
-        self.buffer[w..w + 4].copy_from_slice(y.as_slice());
-        self.buffer[w + 4] = drive[0];
+        self.buffer[w..w + NX].copy_from_slice(y.as_slice());
+        self.buffer[w + NX..w + NX + NU].copy_from_slice(drive.as_slice());
     }
 
     #[inline]
-    fn at<'a>(&'a mut self, _: &'a [T], plant: &P, x: &Vector4<T>, u: &SVector<T, 1>) -> &'a [T] {
-        let w = self.width;
-        self.buffer[w + 5] = plant.current(x, u);
-        &self.buffer[..w + RIG_SIGNALS.len()]
+    fn at<'a>(&'a mut self, _: &'a [T], plant: &P, x: &SVector<T, NX>, u: &SVector<T, NU>) -> &'a [T] {
+        let w = self.width + NX + NU;
+        self.buffer[w..w + NU].copy_from_slice(plant.currents(x, u).as_slice());
+        &self.buffer[..w + NU]
     }
 }
 
@@ -424,7 +446,7 @@ pub fn simulate_rig<T, P, C, R, S, A, O, F>(
 ) -> Result<(Outcome<T>, usize), TwipError>
 where
     T: Real,
-    P: RigPlant<T>,
+    P: RigPlant<T, 4, 1>,
     R: Reference<T>,
     C: Controller<T, 4, 1, Reference = R::Sample>,
     S: Sensor<T, 4>,
@@ -432,7 +454,7 @@ where
     O: Observer<T, 4, 1, R::Sample>,
     F: FnMut() -> bool,
 {
-    run_loop(plant, controller, reference, x0, config, parts, &mut RigSignals::new())
+    run_loop(plant, controller, reference, x0, config, parts, &mut RigSignals::<T, 4, 1>::new())
 }
 
 #[cfg(all(test, feature = "std"))]

@@ -151,6 +151,44 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
 
     #[inline]
     fn deriv(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> PlanarState<T> {
+        self.deriv_plus(x, u, |_, _| None)
+    }
+
+    /// ½ νᵀ M(φ) ν + M_b g c_z cos φ.
+    fn energy(&self, x: &PlanarState<T>) -> T {
+        let (s, cp) = x[3].sin_cos();
+        let (phi_dot, v, omega) = (x[4], x[5], x[6]);
+        let m_pv = self.mbc * cp - self.rotor_r;
+        let m_ww = self.m_ww0 + self.k * s * s;
+        let half = c::<T>(0.5);
+        half * (self.m_pp * phi_dot * phi_dot + self.m_vv * v * v + m_ww * omega * omega)
+            + m_pv * phi_dot * v
+            + self.mgc * cp
+    }
+}
+
+impl<T: Real> PlanarModel<T> {
+    /// ν̇ = M(φ)⁻¹ q: the accelerations generalised forces `q` on (φ, v, ω) give at `phi`.
+    pub fn solve_mass(&self, phi: T, q: &nalgebra::Vector3<T>) -> nalgebra::Vector3<T> {
+        let (s, cp) = phi.sin_cos();
+        let m_pv = self.mbc * cp - self.rotor_r;
+        let det = self.m_pp * self.m_vv - m_pv * m_pv;
+        nalgebra::Vector3::new(
+            (self.m_vv * q[0] - m_pv * q[1]) / det,
+            (self.m_pp * q[1] - m_pv * q[0]) / det,
+            q[2] / (self.m_ww0 + self.k * s * s),
+        )
+    }
+
+    /// `deriv` with extra generalised forces `extra(sin φ, cos φ)` on (φ, v) (a force on
+    /// the body). `|_, _| None` is `deriv`, bit for bit.
+    #[inline(always)]
+    pub(crate) fn deriv_plus(
+        &self,
+        x: &PlanarState<T>,
+        u: &SVector<T, 2>,
+        extra: impl Fn(T, T) -> Option<Vector2<T>>,
+    ) -> PlanarState<T> {
         let (sin_psi, cos_psi) = crate::model::math::sin_cos(x[2]);
         let (s, cp) = crate::model::math::sin_cos(x[3]);
         let (phi_dot, v, omega) = (x[4], x[5], x[6]);
@@ -172,6 +210,10 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
             + self.inv_r * u_sum;
         let f_w =
             self.b_r * u_diff - (self.two_k * sc * phi_dot + self.mbc * s * v + self.mu_w) * omega;
+        let (f_p, f_v) = match extra(s, cp) {
+            Some(q) => (f_p + q[0], f_v + q[1]),
+            None => (f_p, f_v),
+        };
         // (φ, v) block by Cramer's rule; the yaw row is diagonal.
         let m_pv = self.mbc * cp - self.rotor_r;
         let det = self.m_pp * self.m_vv - m_pv * m_pv;
@@ -186,18 +228,6 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
             acc[1],
             omega_dot,
         ])
-    }
-
-    /// ½ νᵀ M(φ) ν + M_b g c_z cos φ.
-    fn energy(&self, x: &PlanarState<T>) -> T {
-        let (s, cp) = x[3].sin_cos();
-        let (phi_dot, v, omega) = (x[4], x[5], x[6]);
-        let m_pv = self.mbc * cp - self.rotor_r;
-        let m_ww = self.m_ww0 + self.k * s * s;
-        let half = c::<T>(0.5);
-        half * (self.m_pp * phi_dot * phi_dot + self.m_vv * v * v + m_ww * omega * omega)
-            + m_pv * phi_dot * v
-            + self.mgc * cp
     }
 }
 
