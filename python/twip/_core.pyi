@@ -453,7 +453,8 @@ def simulate_raw(model: SlopeModel, controller: Any, x0: _ArrayLike, t_final: fl
                  realism: Optional[Realism] = None) -> dict[str, Any]: ...
 def simulate_planar_raw(model: PlanarModel, controller: Any, x0: _ArrayLike, t_final: float, dt: float, reference: Any,
                         control_period: Optional[float] = None, fall_limit: Optional[float] = None,
-                        record_every: int = 1, settle: Optional[float] = None) -> dict[str, Any]: ...
+                        record_every: int = 1, settle: Optional[float] = None,
+                        realism: Optional[Realism] = None) -> dict[str, Any]: ...
 def sweep_raw(model: SlopeModel, controller: Any, x0: _ArrayLike, t_final: float, dt: float, reference: SpeedSchedule,
               perturbations: Sequence[Tuple[str, int, str, float, float, float, float]], seed: int, start: int,
               count: int, control_period: Optional[float] = None, threads: int = 0,

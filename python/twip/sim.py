@@ -24,17 +24,19 @@ class SimResult:
     t_end: Optional[float]
     steps: int
     metrics: dict = field(default_factory=dict)
-    # With `realism`: per sample, what the controller last read (phi_hat, phi_dot_hat,
-    # theta_hat, theta_dot_hat), the plant's input ("drive": PWM counts with a motor
-    # driver, else amperes) and the lumped motor current ("motor_current", A).
+    # With `realism`: per sample, what the controller last read (2-DOF: phi_hat,
+    # phi_dot_hat, theta_hat, theta_dot_hat; 3-DOF: x_hat ... omega_hat), the plant's input
+    # ("drive", "drive_r"/"drive_l": PWM counts with a motor driver, else the command) and
+    # the motor current ("motor_current" lumped, or "current_r"/"current_l", A).
     signals: dict = field(default_factory=dict)
 
     @property
     def measurements(self) -> Optional[np.ndarray]:
-        """(phi_hat, phi_dot_hat, theta_hat, theta_dot_hat) per sample, beside `states`."""
+        """What the controller read per sample, beside `states` (same columns)."""
         if not self.signals:
             return None
-        return np.column_stack([self.signals[n] for n in ("phi_hat", "phi_dot_hat", "theta_hat", "theta_dot_hat")])
+        names = [n for n in self.signals if n.endswith("_hat")]
+        return np.column_stack([self.signals[n] for n in names])
 
     @property
     def fell(self) -> bool:
@@ -74,20 +76,20 @@ def simulate(
     Waypoints); its "_settled" metrics start at `settle` [s] (default: one lap of a
     circle or figure-eight, else 0).
 
-    `realism` (a `twip.Realism`, 2-DOF controllers) puts the robot's real parts in the
-    loop: sensors and estimator, motor driver, loop period and delay, disturbances.
-    `inputs` stay the controller's current; `signals` and `measurements` hold the rest.
+    `realism` (a `twip.Realism`) puts the robot's real parts in the loop: sensors and
+    estimator, motor driver, loop period and delay, disturbances; on a PlanarModel each
+    wheel has its motor and encoder and the gyro's z axis gives the yaw rate.
+    `inputs` stay the controller's command (current or wheel torques); `signals` and
+    `measurements` hold the rest.
     """
     if isinstance(model, _core.PlanarModel):
-        if realism is not None:
-            raise _core.InvalidParameterError("realism: only the 2-DOF (SlopeModel) controllers take realism")
         if reference is None:
             raise _core.InvalidParameterError(
                 "reference is required for a PlanarModel: a twip.Circle, Line, FigureEight or Waypoints")
         raw = _core.simulate_planar_raw(
             model, controller, x0, float(t_final), float(dt), reference,
             control_period=control_period, fall_limit=float(fall_limit), record_every=int(record_every),
-            settle=None if settle is None else float(settle),
+            settle=None if settle is None else float(settle), realism=realism,
         )
     else:
         if settle is not None:  # the settled metrics are the tracking ones

@@ -7,7 +7,8 @@ use twip_core::control::{Controller, Reference};
 use twip_core::sim::log::{LogRow, TrajectoryLog};
 use twip_core::hardware::motor::{DataSheet, DcMotor};
 use twip_core::control::pid::{PidGains, PidTracker, PidUnits};
-use twip_core::sim::runner::{simulate_with, Ideal, Loop, Outcome, SimConfig};
+use twip_core::hardware::planar_rig::PLANAR_RIG_SIGNALS;
+use twip_core::sim::runner::{simulate_until, Outcome, SimConfig};
 use twip_core::control::smc::{Adaptation, PitchSign, SmcGains, SmcOptions, SmcTracker};
 use twip_core::sim::tracking_metrics::TrackingMetrics;
 use twip_core::control::trajectory::{Circle, Direction, FigureEight, Line, Path, PlanarRef, Trajectory, Waypoints};
@@ -786,7 +787,7 @@ pub(crate) fn settle_time(settle: Option<f64>, path: &Trajectory<f64>) -> PyResu
 /// SimResult. `settle` [s] starts the "_settled" metrics (default: one lap of a circle or
 /// figure-eight, else 0).
 #[pyfunction]
-#[pyo3(signature = (model, controller, x0, t_final, dt, reference, control_period = None, fall_limit = None, record_every = 1, settle = None))]
+#[pyo3(signature = (model, controller, x0, t_final, dt, reference, control_period = None, fall_limit = None, record_every = 1, settle = None, realism = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate_planar_raw<'py>(
     py: Python<'py>,
@@ -800,6 +801,7 @@ pub fn simulate_planar_raw<'py>(
     fall_limit: Option<f64>,
     record_every: usize,
     settle: Option<f64>,
+    realism: Option<&crate::realism::PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let plant = model
         .cast::<PyPlanarModel>()
@@ -807,7 +809,9 @@ pub fn simulate_planar_raw<'py>(
         .get()
         .inner;
     let mut ctrl = PlanarController::extract(controller)?;
-    if let Some(p) = control_period {
+    let realism = realism.map(|r| r.to_core(plant.params())).transpose().map_err(PyTwipError)?;
+    // As in simulate_raw: an explicit control_period wins over the realism's loop period.
+    if let Some(p) = control_period.or(realism.and_then(|r| r.control_period)) {
         ctrl = ctrl.with_period(p)?;
     }
     let path = trajectory(reference)?;
@@ -820,19 +824,19 @@ pub fn simulate_planar_raw<'py>(
     }
     let names = ctrl.internal_names();
     let ref_names = <PlanarRef<f64> as LogRow<f64>>::NAMES;
-    let widths = [7, 2, ref_names.len(), names.len()];
+    let extra = if realism.is_some() { PLANAR_RIG_SIGNALS.len() } else { 0 };
+    let widths = [7, 2, ref_names.len(), names.len() + extra];
     let (outcome, steps, metrics, log, interrupt) = py.detach(move || {
         let mut observers =
             (TrackingMetrics::new(path, settle), TrajectoryLog::with_capacity(n + 1, record_every, widths));
         let mut interrupt = None;
-        let parts = Loop {
-            sensor: &mut Ideal,
-            actuator: &mut Ideal,
-            observer: &mut observers,
-            should_stop: || crate::interrupt::requested(&mut interrupt),
-            delay_one_period: false,
+        let should_stop = || crate::interrupt::requested(&mut interrupt);
+        let result = match realism {
+            None => simulate_until(&plant, &mut ctrl, &path, &x0, &config, &mut observers, should_stop),
+            Some(r) => r
+                .build_planar(&plant, config.dt)
+                .and_then(|mut rig| rig.simulate(&mut ctrl, &path, &x0, &config, &mut observers, should_stop)),
         };
-        let result = simulate_with(&plant, &mut ctrl, &path, &x0, &config, parts);
         result.map(|(outcome, steps)| {
             let (metrics, log) = observers;
             (outcome, steps, metrics, log, interrupt)
@@ -855,8 +859,7 @@ pub fn simulate_planar_raw<'py>(
     out.set_item("inputs", reshape(log.u, 2)?)?;
     out.set_item("references", reshape(log.reference, widths[2])?)?;
     out.set_item("reference_names", ref_names.to_vec())?;
-    out.set_item("internals", reshape(log.internals, widths[3])?)?;
-    out.set_item("internal_names", names.to_vec())?;
+    crate::simulate::set_internals_and_signals(&out, log.internals, rows, names, extra > 0, &PLANAR_RIG_SIGNALS)?;
     let (name, t_end) = match outcome {
         Outcome::Completed => ("completed", None),
         Outcome::Fell { t } => ("fell", Some(t)),

@@ -1,0 +1,59 @@
+"""The 3-DOF realism rig: the trackers run on the robot's real parts (each wheel's bridge and
+motor, the MPU-6050 with its z gyro, the tilt estimator, an encoder per wheel, loop period and
+delay, pushes and forces); bitwise repeatable per (seed, stream); ideal parts change nothing."""
+import math
+
+import numpy as np
+import pytest
+
+import twip
+from twip.scenarios import get
+
+TRACKERS = ("circle-pid", "circle-smc", "circle-smc-fuzzy")
+
+
+@pytest.mark.parametrize("name", TRACKERS)
+def test_thesis_like_hardware_keeps_each_tracker_on_its_circle(name):
+    sc = get(name, laps=2)
+    ideal = sc.run(record_every=100)
+    real = sc.run(realism=twip.Realism.thesis_like(), record_every=100)
+    assert real.outcome == "completed"
+    path = real.metrics["max_path_error_settled"]
+    print(f"{name}: max path error in lap 2 {1e3 * path:.1f} mm with thesis-like hardware, "
+          f"{1e3 * ideal.metrics['max_path_error_settled']:.1f} mm ideal")
+    assert path < 0.3
+    assert real.metrics != ideal.metrics
+    # What the firmware read, beside the truth: close, not equal.
+    y, x = real.measurements, real.states
+    assert y.shape == x.shape
+    assert 0 < np.max(np.abs(y[:, 3] - x[:, 3])) < math.radians(3)
+    assert set(real.signals) >= {"drive_r", "drive_l", "current_r", "current_l", "omega_hat"}
+    assert np.all(np.abs(real.signals["drive_r"]) <= 255) and np.all(real.signals["drive_r"] == np.round(real.signals["drive_r"]))
+
+
+def test_ideal_realism_is_no_realism_bit_for_bit():
+    sc = get("circle-pid", laps=1)
+    a = sc.run(record_every=10)
+    b = sc.run(realism=twip.Realism(), record_every=10)
+    np.testing.assert_array_equal(a.states, b.states)
+    np.testing.assert_array_equal(a.inputs, b.inputs)
+    assert a.metrics == b.metrics
+
+
+def test_noise_repeats_per_stream_and_differs_between_streams():
+    sc = get("circle-smc", laps=1)
+    runs = [sc.run(realism=twip.Realism.thesis_like(stream=s), t_final=2.0) for s in (0, 0, 1)]
+    np.testing.assert_array_equal(runs[0].states, runs[1].states)
+    np.testing.assert_array_equal(runs[0].measurements, runs[1].measurements)
+    assert not np.array_equal(runs[0].measurements, runs[2].measurements)
+
+
+def test_a_push_moves_the_robot_and_a_slope_is_refused():
+    sc = get("circle-pid", laps=1)
+    calm = sc.run(realism=twip.Realism(), t_final=2.0)
+    pushed = sc.run(realism=twip.Realism(pushes=[twip.Push(1.0, 0.05, 0.1)]), t_final=2.0)
+    before = calm.t < 1.0
+    np.testing.assert_array_equal(calm.states[before], pushed.states[before])
+    assert np.max(np.abs(calm.states[:, 4] - pushed.states[:, 4])) > 0.1
+    with pytest.raises(twip.InvalidParameterError, match="slope_profile"):
+        sc.run(realism=twip.Realism(slope_profile=[(0.05, 0.02)]), t_final=1.0)
