@@ -16,6 +16,7 @@ pytest.importorskip("PIL")
 
 import twip  # noqa: E402
 from twip import cli, scenarios  # noqa: E402
+from twip.cli import args as cli_args  # noqa: E402
 
 SKIPPED_KEYS = {"figure", "hold", "distance"}  # settings, not claims
 
@@ -266,9 +267,9 @@ def test_the_console_script_reports_bad_input_without_a_traceback():
 
 
 def test_perturb_forms():
-    assert cli._perturbation("m_body=±20%") == ("m_body", twip.Uniform(rel=0.2))
-    assert cli._perturbation("m_body=+-0.1") == ("m_body", twip.Uniform(abs=0.1))
-    assert cli._perturbation("slope=0:10deg")[1].high == pytest.approx(0.17453292519943295)
-    assert cli._perturbation("slope=0:10deg")[1].low == 0.0
-    assert cli._perturbation("phi0=~2deg")[1].std == pytest.approx(0.03490658503988659)
-    assert cli._perturbation("i_body=~5%") == ("i_body", twip.Normal(rel=0.05))
+    assert cli_args.perturbation("m_body=±20%") == ("m_body", twip.Uniform(rel=0.2))
+    assert cli_args.perturbation("m_body=+-0.1") == ("m_body", twip.Uniform(abs=0.1))
+    assert cli_args.perturbation("slope=0:10deg")[1].high == pytest.approx(0.17453292519943295)
+    assert cli_args.perturbation("slope=0:10deg")[1].low == 0.0
+    assert cli_args.perturbation("phi0=~2deg")[1].std == pytest.approx(0.03490658503988659)
+    assert cli_args.perturbation("i_body=~5%") == ("i_body", twip.Normal(rel=0.05))

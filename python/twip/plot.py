@@ -19,8 +19,6 @@ from typing import Mapping, Optional, Sequence
 
 import numpy as np
 
-from twip.sweep import _target
-
 #: Colours: ours, the reference, the target pitch, measured signals, extra series.
 OURS, REF, TARGET, MEASURED = "#1f5fa8", "#222222", "#c0392b", "#9aa5b1"
 PALETTE = ("#1f5fa8", "#e67e22", "#27ae60", "#8e44ad", "#c0392b", "#16a085", "#7f8c8d", "#d35400", "#2c3e50")
@@ -40,6 +38,17 @@ _STYLE = {
     "figure.dpi": 100,
     "savefig.dpi": 100,
 }
+
+
+def style(dpi=None) -> dict:
+    """twip's matplotlib style (rc parameters); `style(dpi=60)` sets the resolution of the
+    figures written from now on and returns the style as it was before."""
+    before = dict(_STYLE)
+    if dpi is not None:
+        if not (isinstance(dpi, (int, float)) and 1 <= dpi <= 2400):
+            raise ValueError(f"dpi must be a number from 1 to 2400, got {dpi!r}")
+        _STYLE["savefig.dpi"] = dpi
+    return before
 
 
 def _mpl():
@@ -573,7 +582,7 @@ def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None
 def perturbed_values(result, name: str) -> np.ndarray:
     """The per-sample values of a perturbed quantity of a SweepResult, named as in
     `perturb=` (a RobotParams field, 'slope', 'phi0', 'x0[0]', ...)."""
-    kind, at = _target(name, result._scenario)
+    kind, at = result.perturbation_target(name)
     out = np.empty(result.n)
     index = np.asarray(result.metrics["index"], dtype=np.int64)
     for k, i in enumerate(index):
@@ -584,7 +593,7 @@ def perturbed_values(result, name: str) -> np.ndarray:
 
 def _state_name(result, name: str) -> str:
     """'x0[0]' as its entry's name ('phi0'), for the axis label and unit; others unchanged."""
-    kind, at = _target(name, result._scenario)
+    kind, at = result.perturbation_target(name)
     return result.state_names[at] if kind == "x0" else name
 
 

@@ -228,6 +228,11 @@ class SweepResult:
     def n(self) -> int:
         return len(self.metrics["valid"])
 
+    def perturbation_target(self, name: str):
+        """(kind, index) of a perturbation name of this sweep: ("param", field index),
+        ("slope", 0) or ("x0", state index)."""
+        return _target(name, self._scenario)
+
     @property
     def seed(self) -> int:
         return self.config["seed"]

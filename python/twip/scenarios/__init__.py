@@ -66,6 +66,27 @@ def names() -> list:
     return sorted(_REGISTRY)
 
 
+def options(name: str) -> Dict[str, object]:
+    """The keyword options of scenario `name` with their defaults (a factory that takes
+    further keywords has the key "**" mapped to None)."""
+    import inspect
+
+    if name not in _REGISTRY:
+        raise KeyError(f"unknown scenario {name!r}; known: {', '.join(names())}")
+    params = list(inspect.signature(_REGISTRY[name]).parameters.values())[2:]
+    out: Dict[str, object] = {p.name: p.default for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+    if any(p.kind == p.VAR_KEYWORD for p in params):
+        out["**"] = None
+    return out
+
+
+def is_planar(sc) -> bool:
+    """Whether scenario `sc` runs the 3-DOF planar model (a tracking scenario)."""
+    from twip import _core
+
+    return isinstance(sc.model, _core.PlanarModel)
+
+
 def get(name: str, params=None, controller_params=None, **options) -> Scenario:
     """The scenario `name` for robot `params` (default: RobotParams.balanbot())."""
     if name not in _REGISTRY:

@@ -1,0 +1,157 @@
+"""The `twip` command line.
+
+    twip reproduce [--out DIR] [--quick]      the thesis's simulations, figures and tables
+    twip simulate SCENARIO [...]              one scenario: metrics, a plot, an animation
+    twip sweep SCENARIO -n N [...]            a Monte Carlo robustness sweep
+    twip list                                 the scenarios and what they are
+
+Run `twip COMMAND --help` for the options and examples.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import twip
+from twip.cli import commands
+from twip.cli.args import (Parser, UsageError, add_realism_option, formatter, map_names, positive_float,
+                           positive_int, seed)
+from twip.report import DEFAULT_OUT
+
+__all__ = ["build_parser", "main", "UsageError"]
+
+
+REPRODUCE_EPILOG = """examples:
+  twip reproduce                        everything into twip-report/ (about a minute on 2 cores)
+  twip reproduce --out /tmp/r --quick   shorter runs, fewer samples: a smoke test
+  twip reproduce --jobs 1               render the figures in this process only
+
+writes: one PNG per thesis figure analogue (fig4.2_slope-lqr-sim.png, ...), table5.1.png,
+table5.2.png, sweep_*.png, fall_maps.png, two GIFs, report.md and report.json (the same
+numbers: report.md is written from report.json's content)."""
+
+
+SIMULATE_EPILOG = """examples:
+  twip simulate slope-lqr
+  twip simulate flat-fuzzy --option ki=-0.004 --plot flat-fuzzy.png
+  twip simulate slope-lqr --param m_body=1.0 --nominal-controller   a heavier robot, same controller
+  twip simulate slope-lqr-sim --option point=thesis --option t_final=20
+  twip simulate circle-smc-fuzzy --option laps=1 --animate circle.gif
+  twip simulate slope-lqr --realism thesis-like --plot real.png
+
+--param sets a RobotParams field of the plant (SI units; `twip list` for scenarios);
+--option a scenario keyword (a value ending in 'deg' is converted to radians)."""
+
+
+SWEEP_EPILOG = """examples:
+  twip sweep slope-lqr -n 2000 --perturb m_body=±20% --perturb com_height=±20%
+  twip sweep flat-fuzzy -n 500 --perturb slope=0:5deg --perturb phi0=~2deg --plot sweep.png
+  twip sweep slope-lqr-sim -n 5000 --perturb phi0=-1:1 --perturb phi_dot0=-20:20 \\
+             --option t_final=4 --plot basin.png            (also writes basin-fall-map.png)
+  twip sweep circle-smc -n 20 --perturb m_body=±20% --option laps=2
+  twip sweep slope-lqr -n 1000 --perturb m_body=±20% --realism thesis-like
+
+--perturb forms: name=±20% (relative), name=±0.01 (absolute), name=low:high (uniform),
+name=~5% or name=~0.02 (normal, relative or absolute std). Names: RobotParams fields,
+'slope', and the initial state phi0, phi_dot0, theta0, theta_dot0 (2-DOF scenarios), or
+x0, y0, psi0, phi0, phi_dot0, v0, omega0 (3-DOF tracking scenarios: flat, no slope).
+--realism runs every sample with sensors, motor driver and delay in the loop, each sample
+with its own sensor noise (2-DOF scenarios only; a tracking scenario is refused).
+A sweep is the same bit for bit on any number of threads and resumes from --checkpoint."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(prog="twip", description=__doc__, formatter_class=formatter)
+    parser.add_argument("--version", action="version", version=f"twip {twip.__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+    sub.required = True
+
+    p = sub.add_parser("reproduce", help="regenerate the thesis's simulations, figures and tables",
+                       description="Run every thesis scenario, the Table 5.1/5.2 comparisons and robustness sweeps; "
+                                   "write figures, report.md and report.json.",
+                       epilog=REPRODUCE_EPILOG, formatter_class=formatter)
+    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR", help=f"output folder (default: {DEFAULT_OUT}/)")
+    p.add_argument("--quick", action="store_true", help="shorter runs, fewer laps and samples (for tests)")
+    p.add_argument("--jobs", type=int, default=None, metavar="K",
+                   help="processes rendering the figures (default: up to 2)")
+    p.add_argument("--no-animations", action="store_true", help="skip the GIFs")
+    p.set_defaults(func=commands.reproduce)
+
+    p = sub.add_parser("demo", help="the same as `reproduce --quick`",
+                       description="An alias of `twip reproduce --quick`.", formatter_class=formatter,
+                       epilog="example:\n  twip demo --out /tmp/demo")
+    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR", help=f"output folder (default: {DEFAULT_OUT}/)")
+    p.set_defaults(func=lambda a: commands.reproduce(argparse.Namespace(out=a.out, quick=True, jobs=None, no_animations=False)))
+
+    p = sub.add_parser("simulate", help="run one scenario, print its metrics, plot or animate it",
+                       description="Run one named scenario and print its metrics (and the thesis's claims about it).",
+                       epilog=SIMULATE_EPILOG, formatter_class=formatter)
+    p.add_argument("scenario", metavar="SCENARIO", help="a scenario name (twip list)")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="a RobotParams field of the plant (repeatable)")
+    p.add_argument("--option", action="append", metavar="NAME=VALUE", help="a scenario option (repeatable)")
+    p.add_argument("--nominal-controller", action="store_true",
+                   help="design the controller for balanbot() even when --param changes the plant (model mismatch)")
+    p.add_argument("--t-final", type=positive_float, metavar="SECONDS", help="override the run's duration")
+    p.add_argument("--dt", type=positive_float, metavar="SECONDS", help="override the RK4 step (default 1 ms)")
+    add_realism_option(p)
+    p.add_argument("--plot", metavar="OUT.png", help="write a figure of the run")
+    p.add_argument("--animate", metavar="OUT.gif", help="write an animated GIF of the run")
+    p.add_argument("--fps", type=positive_float, default=20.0, help="GIF frames per second (default 20)")
+    p.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    p.set_defaults(func=commands.simulate)
+
+    p = sub.add_parser("sweep", help="Monte Carlo robustness sweep of one scenario",
+                       description="Run N perturbed copies of a scenario (controller designed once for the nominal "
+                                   "robot) and summarise the fall rate and the metrics.",
+                       epilog=SWEEP_EPILOG, formatter_class=formatter)
+    p.add_argument("scenario", metavar="SCENARIO", help="a scenario name (twip list)")
+    p.add_argument("-n", type=positive_int, required=True, metavar="N", help="number of samples")
+    p.add_argument("--perturb", action="append", metavar="NAME=SPEC", help="a perturbed quantity (repeatable)")
+    p.add_argument("--seed", type=seed, default=0, help="random seed (default 0)")
+    p.add_argument("--checkpoint", metavar="DIR", help="write shards here and resume from them")
+    p.add_argument("--threads", type=positive_int, metavar="K", help="worker threads (default: all cores)")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="nominal robot change (repeatable)")
+    p.add_argument("--option", action="append", metavar="NAME=VALUE", help="a scenario option (repeatable)")
+    p.add_argument("--plot", metavar="OUT.png", help="histograms (and a fall-rate map over the first two perturbations)")
+    p.add_argument("--map", type=map_names, metavar="X,Y", help="the two perturbed quantities of the fall-rate map")
+    add_realism_option(p)
+    p.add_argument("--csv", metavar="OUT.csv", help="write the per-sample metrics")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=commands.sweep)
+
+    p = sub.add_parser("list", help="list the scenarios", description="List the named scenarios.",
+                       formatter_class=formatter)
+    p.set_defaults(func=commands.list_scenarios)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    prog = f"twip {args.command}"
+    try:
+        return args.func(args)
+    except UsageError as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 2
+    except twip.TwipError as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 2
+    except ImportError as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 1
+    except BrokenPipeError:  # `twip ... | head`: the reader left, nothing to report
+        sys.stdout = open(os.devnull, "w")
+        return 0
+    except OSError as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,194 @@
+"""The command line's value parsers: numbers, name=value pairs, perturbations, robots,
+scenario options. Each raises UsageError (one line, exit code 2) on bad input."""
+from __future__ import annotations
+
+import argparse
+import math
+import re
+
+import twip
+from twip import scenarios
+
+class UsageError(Exception):
+    """A bad command-line argument: reported on one line, exit code 2."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage dump) and exit code 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def formatter(prog):
+    return argparse.RawDescriptionHelpFormatter(prog, max_help_position=32)
+
+
+def parse_value(text: str):
+    """An option value: true/false, none, an int, a float (a trailing 'deg' converts degrees
+    to radians), or else the string itself."""
+    low = text.strip().lower()
+    if low in ("true", "yes", "on"):
+        return True
+    if low in ("false", "no", "off"):
+        return False
+    if low in ("none", "null"):
+        return None
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return parse_number(text)
+    except UsageError:
+        return text
+
+
+def parse_number(text: str) -> float:
+    t = text.strip().replace("−", "-")
+    scale = 1.0
+    if t.lower().endswith("deg"):
+        t, scale = t[:-3], math.pi / 180
+    try:
+        value = float(t) * scale
+    except ValueError:
+        raise UsageError(f"'{text}' is not a number") from None
+    if not math.isfinite(value):
+        raise UsageError(f"'{text}' is not a finite number")
+    return value
+
+
+def key_value(text: str, what: str):
+    if "=" not in text:
+        raise UsageError(f"malformed {what} '{text}': expected name=value")
+    name, value = text.split("=", 1)
+    name = name.strip()
+    if not name or not value.strip():
+        raise UsageError(f"malformed {what} '{text}': expected name=value")
+    return name, value.strip()
+
+
+def robot(param_args) -> "twip.RobotParams":
+    """RobotParams.balanbot() with the --param changes."""
+    base = twip.RobotParams.balanbot()
+    fields = list(twip.RobotParams.fields)
+    changes = {}
+    for text in param_args or []:
+        name, value = key_value(text, "--param")
+        if name not in fields:
+            raise UsageError(f"unknown --param '{name}'; RobotParams fields: {', '.join(fields)}")
+        try:
+            changes[name] = float(parse_number(value))
+        except UsageError:
+            raise UsageError(f"malformed --param '{text}': '{value}' is not a number") from None
+    return base.replace(**changes) if changes else base
+
+
+def scenario_name(name: str) -> str:
+    if name not in scenarios.names():
+        raise UsageError(f"unknown scenario '{name}'; known: {', '.join(scenarios.names())}")
+    return name
+
+
+def scenario_options(name: str, option_args) -> dict:
+    """--option name=value pairs, checked against the scenario's own keyword arguments."""
+    known = scenarios.options(name)
+    open_ended = "**" in known
+    known.pop("**", None)
+    options = {}
+    for text in option_args or []:
+        key, value = key_value(text, "--option")
+        if key not in known and not open_ended:
+            raise UsageError(f"unknown --option '{key}' for {name}; its options: {', '.join(known) or 'none'}")
+        options[key] = parse_value(value)
+    return options
+
+
+def get_scenario(name, params=None, controller_params=None, options=None):
+    try:
+        return scenarios.get(name, params=params, controller_params=controller_params, **(options or {}))
+    except TypeError as e:  # a wrong option type or name that reached the factory
+        given = ", ".join(f"{k}={v!r}" for k, v in (options or {}).items())
+        raise UsageError(f"{name}: an --option does not fit ({given}): {e}") from None
+
+
+_PERCENT = re.compile(r"^(?:±|\+-|\+/-)\s*([0-9.eE+-]+)\s*(%?)\s*(deg)?$")
+
+
+def perturbation(text: str):
+    """--perturb name=±20% | name=±0.01 | name=low:high | name=~5% | name=~0.02 (normal);
+    a trailing 'deg' gives degrees."""
+    name, spec = key_value(text, "--perturb")
+    spec = spec.replace(" ", "").replace("−", "-")
+    normal = spec.startswith("~")
+    body = spec[1:] if normal else spec
+    try:
+        if ":" in body and not normal:
+            low, high = body.split(":", 1)
+            unit = "deg" if high.lower().endswith("deg") and not low.lower().endswith("deg") else ""
+            return name, twip.Uniform(low=parse_number(low + unit), high=parse_number(high))
+        if normal:
+            if body.endswith("%"):
+                return name, twip.Normal(rel=parse_number(body[:-1]) / 100)
+            return name, twip.Normal(std=parse_number(body))
+        m = _PERCENT.match(body)
+        if m:
+            value = parse_number(m.group(1) + (m.group(3) or ""))
+            return name, (twip.Uniform(rel=value / 100) if m.group(2) else twip.Uniform(abs=value))
+    except UsageError:
+        pass
+    raise UsageError(f"malformed --perturb '{text}': use name=±20%, name=±0.01, name=low:high, name=~5% or name=~0.02")
+
+
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not an integer") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"{value} must be a positive integer")
+    return value
+
+
+def positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{text} must be a positive number")
+    return value
+
+
+def map_names(text: str):
+    """--map X,Y: two perturbed quantities."""
+    names = [n.strip() for n in text.split(",")]
+    if len(names) != 2 or not all(names):
+        raise argparse.ArgumentTypeError(f"'{text}' is not two names X,Y (e.g. phi0,phi_dot0)")
+    return names
+
+
+def seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not an integer") from None
+    if not 0 <= value < 2**64:
+        raise argparse.ArgumentTypeError(f"{value} must be in [0, 2**64)")
+    return value
+
+
+#: --realism's values, for `twip simulate` and `twip sweep` alike.
+REALISM_CHOICES = ("ideal", "thesis-like")
+
+
+def add_realism_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--realism", choices=REALISM_CHOICES,
+                   help="sensors, driver and delay in the loop (2-DOF scenarios only)")
+
+
+def realism(choice: Optional[str]):
+    """The twip.Realism that --realism CHOICE names (None when not given)."""
+    if choice is None:
+        return None
+    return twip.Realism() if choice == "ideal" else twip.Realism.thesis_like()

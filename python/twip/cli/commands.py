@@ -1,0 +1,153 @@
+"""The `twip` commands: one small function each, taking the parsed arguments and
+returning the exit code. Bad arguments raise UsageError (cli.args)."""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from typing import Any, Dict, List
+
+import numpy as np
+
+import twip
+from twip import report, scenarios
+from twip.cli.args import (UsageError, get_scenario, perturbation, realism, robot, scenario_name,
+                           scenario_options)
+from twip.plot import metric_unit
+from twip.report.claims import claims_for
+from twip.report.numbers import fmt, jsonable
+from twip.scenarios import is_planar
+
+
+def metric_lines(metrics: dict) -> List[str]:
+    lines = []
+    for name, value in metrics.items():
+        label, scale, unit = metric_unit(name)
+        lines.append(f"  {label:48s} {value * scale:12.4g} {unit}")
+    return lines
+
+
+def sweep_summary(result, metrics) -> str:
+    lo, hi = result.fall_rate_interval()
+    valid = int(np.sum(result.metrics["valid"]))
+    lines = [f"{result.config['scenario']}: {result.n} samples ({result.n - valid} invalid), seed {result.config['seed']}",
+             f"  fall rate {result.fall_rate:.2%}  (95 % CI {lo:.2%} – {hi:.2%})",
+             f"  {'metric (samples that did not fall)':48s} {'unit':>6s} {'q05':>10s} {'median':>10s} {'q95':>10s}"]
+    for name in metrics:
+        label, scale, unit = metric_unit(name)
+        q = np.asarray(result.quantiles(name), float) * scale
+        lines.append(f"  {label:48s} {unit:>6s} {q[0]:10.4g} {q[1]:10.4g} {q[2]:10.4g}")
+    return "\n".join(lines)
+
+
+def list_scenarios(args) -> int:
+    for name in scenarios.names():
+        sc = scenarios.get(name)
+        print(f"{name:18s} {sc.description}")
+    return 0
+
+
+def simulate(args) -> int:
+    name = scenario_name(args.scenario)
+    params = robot(args.param)
+    options = scenario_options(name, args.option)
+    ctrl_params = twip.RobotParams.balanbot() if args.nominal_controller else None
+    sc = get_scenario(name, params=params, controller_params=ctrl_params, options=options)
+    overrides: Dict[str, Any] = {}
+    if args.t_final is not None:
+        overrides["t_final"] = args.t_final
+    if args.dt is not None:
+        overrides["dt"] = args.dt
+    if args.realism is not None:
+        if is_planar(sc):
+            raise UsageError("--realism: only the 2-DOF scenarios take realism")
+        overrides["realism"] = realism(args.realism)
+    started = time.perf_counter()
+    r = sc.run(**overrides)
+    elapsed = time.perf_counter() - started
+    claims = claims_for(sc, r) if not overrides and not args.param and not options else []
+    if args.json:
+        print(json.dumps(jsonable({"scenario": name, "outcome": r.outcome, "t_end": r.t_end, "steps": r.steps,
+                                    "seconds": elapsed, "metrics": r.metrics, "claims": claims}), indent=1))
+    else:
+        changed = ", ".join(args.param or []) or "RobotParams.balanbot()"
+        print(f"{name}: {sc.description}")
+        print(f"robot: {changed}" + ("; controller designed for balanbot()" if args.nominal_controller else ""))
+        if options:
+            print("options: " + ", ".join(f"{k}={v}" for k, v in options.items()))
+        end = f" at t = {r.t_end:.3f} s" if r.fell else f" after {r.t[-1]:.2f} s"
+        print(f"outcome: {r.outcome}{end} ({r.steps:,} RK4 steps in {elapsed * 1e3:.1f} ms)")
+        print("\n".join(metric_lines(r.metrics)))
+        if claims:
+            print("\nthe thesis's claims (twip reproduce puts them all in report.md):")
+            for c in claims:
+                print(f"  {c['claim']}: thesis {fmt(c['thesis'])}, ours {fmt(c['ours'])} {c['unit']}  "
+                      f"[{c['status']}: {c['reason']}]")
+    if args.plot:
+        from twip import plot
+
+        plot.use_agg()
+        plot.result(r, scenario=sc, path=args.plot)
+        print(f"wrote {args.plot}", file=sys.stderr)
+    if args.animate:
+        from twip import animate
+
+        info = animate.gif(r, args.animate, scenario=sc, fps=args.fps)
+        print(f"wrote {args.animate} ({info['frames']} frames, {info['seconds']:.1f} s at x{info['speed']:g})", file=sys.stderr)
+    return 0
+
+
+def sweep(args) -> int:
+    name = scenario_name(args.scenario)
+    params = robot(args.param)
+    options = scenario_options(name, args.option)
+    perturb = dict(perturbation(p) for p in args.perturb or [])
+    if args.map and not set(args.map) <= set(perturb):
+        raise UsageError(f"--map {','.join(args.map)}: both must be --perturb names ({', '.join(perturb) or 'none given'})")
+    sc = get_scenario(name, params=params, options=options)  # designed once, here; bad options are named
+    if not perturb:
+        print("note: no --perturb given, every sample is the same robot", file=sys.stderr)
+    # A 3-DOF scenario with --realism is montecarlo's to refuse (an InvalidParameterError).
+    result = twip.montecarlo(sc, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
+                             progress=not args.quiet, checkpoint=args.checkpoint, realism=realism(args.realism))
+    metrics = list(result.metric_names[2:])
+    speed = (f"{result.steps:,} RK4 steps in {result.elapsed:.2f} s: "
+             f"{result.steps / max(result.elapsed, 1e-9) / 1e6:.1f} M sample-steps/s ({result.kernel})")
+    if args.json:
+        lo, hi = result.fall_rate_interval()
+        print(json.dumps(jsonable({"scenario": name, "n": result.n, "seed": args.seed, "perturb": args.perturb or [],
+                                    "realism": args.realism,
+                                    "fall_rate": result.fall_rate, "fall_rate_95ci": [lo, hi],
+                                    "quantiles": {m: dict(zip(("q05", "median", "q95"), map(float, result.quantiles(m))))
+                                                  for m in metrics}}), indent=1))
+    else:
+        print(sweep_summary(result, metrics))
+        if args.realism is not None:
+            print(f"  realism: {args.realism} (sensors, driver and delay in the loop)")
+        print(f"  {speed}")
+    if args.csv:
+        keys = [k for k in result.metrics]
+        table = np.column_stack([np.asarray(result.metrics[k], float) for k in keys])
+        np.savetxt(args.csv, table, delimiter=",", header=",".join(keys), comments="", fmt="%.10g")
+        print(f"wrote {args.csv}", file=sys.stderr)
+    if args.plot:
+        from twip import plot
+
+        plot.use_agg()
+        pngs = [args.plot]
+        plot.sweep(result, path=args.plot)
+        if args.map or len(perturb) >= 2:
+            x, y = args.map or list(perturb)[:2]
+            stem, ext = os.path.splitext(args.plot)
+            plot.fall_map(result, x, y, path=f"{stem}-fall-map{ext or '.png'}")
+            pngs.append(f"{stem}-fall-map{ext or '.png'}")
+        print("wrote " + ", ".join(pngs), file=sys.stderr)
+    return 0
+
+
+def reproduce(args) -> int:
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError(f"--jobs {args.jobs}: must be at least 1")
+    report.reproduce(args.out, quick=args.quick, jobs=args.jobs, animations=not args.no_animations)
+    return 0

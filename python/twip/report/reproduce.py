@@ -1,0 +1,293 @@
+"""`twip reproduce`: every thesis scenario, the Table 5.1/5.2 comparisons, robustness
+sweeps and fall maps; figures, report.json and report.md (written from report.json's
+content) in one folder."""
+from __future__ import annotations
+
+import json
+import os
+import re
+import time
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Optional
+
+import twip
+from twip import scenarios
+from twip.plot import metric_unit
+from twip.report.claims import THESIS_TABLE_5_1, claims_for, table_5_1_claims, table_5_2_claims
+from twip.report.markdown import render_markdown
+from twip.report.numbers import dec, jsonable, sig
+from twip.report.sweeps import fall_maps, robustness_sweeps
+from twip.scenarios import is_planar
+from twip.scenarios.tracking import THESIS_TABLE_5_2
+
+DEFAULT_OUT = "twip-report"
+
+#: Where the thesis pairs two figures of one run ("Fig 4.14 and Fig 4.15", "Fig 4.16 and
+#: Fig 4.18"): the path goes in the first, the time series in the second.
+_COMPANION = {"4.14": "4.15", "4.16": "4.18"}
+
+
+class Steps:
+    """One line per step with its time, as the steps finish."""
+
+    def __init__(self, quiet=False):
+        self.started = time.perf_counter()
+        self.log: List[dict] = []
+        self.quiet = quiet
+
+    def attempt(self, label: str, fn: Callable, *args, **kw):
+        """fn(*args, **kw) as one step; a failure is reported on its line and gives None."""
+        t = time.perf_counter()
+        try:
+            out = fn(*args, **kw)
+        except Exception as e:  # the rest of the report is still worth writing
+            self.done(f"{label}: FAILED ({type(e).__name__}: {e})", time.perf_counter() - t)
+            return None
+        self.done(label, time.perf_counter() - t)
+        return out
+
+    def done(self, label, seconds):
+        self.log.append({"step": label, "seconds": round(seconds, 3)})
+        if not self.quiet:
+            total = time.perf_counter() - self.started
+            print(f"  {label:64s} {seconds:7.2f} s   (total {total:5.1f} s)", flush=True)
+
+
+class Figures:
+    """The figures to render: file name -> caption, and the jobs that draw them."""
+
+    def __init__(self, out: Path):
+        self.out = str(out)
+        self.captions: Dict[str, str] = {}
+        self.jobs: List[tuple] = []
+
+    def add(self, filename: str, caption: str, make: Callable[[str], Any]) -> None:
+        self.captions[filename] = caption
+        self.jobs.append((filename, make, self.out))
+
+
+def quick_options(name: str, quick: bool) -> dict:
+    """Shorter runs for --quick, from the options the scenario has."""
+    if not quick:
+        return {}
+    have = scenarios.options(name)
+    wanted = {"t_final": 6.0, "laps": 2, "hold": 2.0, "settle": 2.0}
+    return {k: v for k, v in wanted.items() if k in have}
+
+
+def controller_family(sc) -> str:
+    kind = type(sc.controller).__name__.replace("Controller", "").replace("Tracker", "")
+    if getattr(sc.controller, "fuzzy", False) and kind == "Smc":
+        kind = "Smc-fuzzy"
+    return {"Lqr": "LQR", "Fuzzy": "fuzzy adaptive backstepping + PD", "Pid": "PID", "Smc": "sliding mode",
+            "Smc-fuzzy": "sliding mode, fuzzy adaptive"}.get(kind, kind)
+
+
+def figure_key(sc):
+    """Scenarios in the thesis's order: by their figure number, then by name."""
+    m = re.match(r"(\d+)\.(\d+)", str(sc.thesis.get("figure", "")))
+    return (int(m.group(1)), int(m.group(2)), sc.name) if m else (99, 99, sc.name)
+
+
+def jobs_default() -> int:
+    return max(1, min(2, os.cpu_count() or 1))
+
+
+def _run_scenarios(quick: bool, steps: Steps):
+    """Every scenario, in the thesis's order: (runs, claims, summary)."""
+    summary: Dict[str, Any] = {}
+    built = []
+    for name in scenarios.names():
+        try:
+            built.append(scenarios.get(name, **quick_options(name, quick)))
+        except Exception as e:  # one broken scenario must not stop the report
+            summary[name] = {"error": str(e)}
+            steps.done(f"scenario {name}: FAILED to build ({e})", 0.0)
+    runs: Dict[str, Any] = {}
+    claims: List[dict] = []
+    for sc in sorted(built, key=figure_key):
+        t0 = time.perf_counter()
+        try:
+            r = sc.run(record_every=10 if is_planar(sc) else 1)
+        except Exception as e:
+            summary[sc.name] = {"error": str(e)}
+            steps.done(f"scenario {sc.name}: FAILED ({e})", time.perf_counter() - t0)
+            continue
+        runs[sc.name] = (sc, r)
+        claims.extend(claims_for(sc, r))
+        summary[sc.name] = {
+            "description": sc.description, "controller": controller_family(sc), "figure": sc.thesis.get("figure"),
+            "outcome": r.outcome, "t_end": sig(r.t_end if r.t_end is not None else r.t[-1]),
+            "metrics": {k: sig(v * metric_unit(k)[1]) for k, v in r.metrics.items()},
+            "units": {k: metric_unit(k)[2] for k in r.metrics},
+        }
+        steps.done(f"scenario {sc.name} ({r.outcome}, {r.steps:,} steps)", time.perf_counter() - t0)
+    return runs, claims, summary
+
+
+def _scenario_figures(runs: dict, quick: bool, steps: Steps, figures: Figures) -> None:
+    """One figure per thesis figure; a tracker also gets its path on the ±20 % plants."""
+    from twip import plot
+    from twip.scenarios import tracking as tracking_sc
+
+    for name, (sc, r) in runs.items():
+        fig_no = str(sc.thesis.get("figure", "")) or "x"
+        if not is_planar(sc):
+            figures.add(f"fig{fig_no}_{name}.png", f"Fig {fig_no} analogue: {sc.description}",
+                        lambda p, sc=sc, r=r, fig_no=fig_no: plot.timeseries(
+                            r, scenario=sc, path=p, title=f"Fig {fig_no} analogue: {sc.name}\n{sc.description}"))
+            continue
+        paths = {"plant = controller's model": r}
+        t0 = time.perf_counter()
+        nominal = sc.model.params
+        for label, factor in (("plant +20 %", 1.2), ("plant −20 %", 0.8)):
+            other = scenarios.get(name, params=tracking_sc.mismatched(nominal, factor), controller_params=nominal,
+                                  **quick_options(name, quick))
+            paths[label] = other.run(record_every=10)
+        steps.done(f"scenario {name}: ±20 % plants for the path figure", time.perf_counter() - t0)
+        companion = _COMPANION.get(fig_no)
+        figures.add(f"fig{fig_no}_{name}.png", f"Fig {fig_no} analogue: the path of {name} (nominal and ±20 % plants)",
+                    lambda p, sc=sc, paths=paths, fig_no=fig_no: plot.paths(
+                        paths, trajectory=sc.reference, path=p,
+                        title=f"Fig {fig_no} analogue: {sc.name}, nominal and ±20 % plants\n{sc.description}"))
+        ts_name = f"fig{companion}_{name}.png" if companion else f"fig{fig_no}_{name}_signals.png"
+        figures.add(ts_name, f"Fig {companion or fig_no} analogue: {name}'s pitch, speed, yaw rate, torques and internals",
+                    lambda p, sc=sc, r=r, c=companion or fig_no: plot.tracking(
+                        r, scenario=sc, path=p, show_path=True, title=f"Fig {c} analogue: {sc.name}\n{sc.description}"))
+
+
+def _table_5_1(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) -> List[dict]:
+    from twip import plot
+    from twip.scenarios import fuzzy as fuzzy_sc
+
+    cases = ("nominal", "all +20 %") if quick else None
+    rows = steps.attempt("Table 5.1: LQR vs fuzzy, nominal and wrong plants", fuzzy_sc.compare_table, cases=cases,
+                         controllers=("lqr", "fuzzy", "fuzzy-fixed")) or []
+    claims.extend(table_5_1_claims(rows))
+    if rows:
+        figures.add("table5.1.png", "Table 5.1 analogue: mean |pitch error| and |speed error| per controller and plant",
+                    lambda p: plot.table_5_1(rows, thesis=THESIS_TABLE_5_1, path=p))
+    return [{"surface": r["surface"], "plant": r["case"], "controller": r["controller"], "outcome": r["outcome"],
+             "pitch_error_deg": dec(r["pitch_error_deg"], 3), "speed_error_deg_s": dec(r["speed_error_deg_s"], 1),
+             "stop_far_cm": dec(r["stop_far_cm"], 1), "stop_home_cm": dec(r["stop_home_cm"], 1)} for r in rows]
+
+
+def _table_5_2(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) -> List[dict]:
+    from twip import plot
+    from twip.scenarios import tracking as tracking_sc
+
+    rows = steps.attempt("Table 5.2: PID vs sliding mode, nominal and ±20 % plants", tracking_sc.compare,
+                         laps=2 if quick else 3) or []
+    if rows:
+        claims.extend(table_5_2_claims(rows))
+        figures.add("table5.2.png", "Table 5.2 analogue: mean |x − x_r|, |y − y_r| per tracker and plant, thesis "
+                    "experiments as lines", lambda p: plot.table_5_2(rows, thesis=THESIS_TABLE_5_2, path=p))
+    return [{"controller": r["controller"], "plant": r["plant"], "outcome": r["outcome"],
+             "x_cm": dec(100 * r["x"], 2), "y_cm": dec(100 * r["y"], 2),
+             "x_settled_cm": dec(100 * r["x_settled"], 2), "y_settled_cm": dec(100 * r["y_settled"], 2),
+             "path_settled_cm": dec(100 * r["path_settled"], 2), "pitch_deg": dec(r["pitch_deg"], 2)} for r in rows]
+
+
+def _animations(runs: dict, quick: bool, figures: Figures) -> None:
+    """Two GIFs: the first 2-DOF experiment on a slope and the first tracker."""
+    from twip import animate
+
+    two = [n for n in runs if not is_planar(runs[n][0]) and not n.endswith("-sim") and runs[n][0].model.slope]
+    three = [n for n in runs if is_planar(runs[n][0])]
+    for name in two[:1] + three[:1]:
+        sc, r = runs[name]
+        view = "top view of the path, side view of the pitch" if is_planar(sc) else "side view on the slope"
+        gif_kw = {"fps": 10.0, "max_seconds": 4.0} if quick else {}
+        figures.add(f"anim_{name}.gif", f"animation of {name}: {view}",
+                    lambda p, sc=sc, r=r, kw=gif_kw: animate.gif(r, p, scenario=sc, **kw))
+
+
+def _write_reports(out: Path, report: dict, steps: Steps) -> dict:
+    t0 = time.perf_counter()
+    report["steps"] = list(steps.log)
+    report["seconds"] = round(time.perf_counter() - steps.started, 2)
+    report = jsonable(report)
+    (out / "report.json").write_text(json.dumps(report, indent=1, ensure_ascii=False, allow_nan=False) + "\n")
+    (out / "report.md").write_text(render_markdown(report))
+    steps.done("report.md, report.json", time.perf_counter() - t0)
+    return report
+
+
+def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, animations: bool = True,
+              quiet: bool = False) -> dict:
+    """Runs every thesis scenario, the Table 5.1/5.2 comparisons and the robustness sweeps;
+    writes the figures, report.md and report.json to `out`. Returns the report (a dict)."""
+    from twip import plot
+
+    plot.use_agg()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    steps = Steps(quiet)
+    jobs = jobs_default() if jobs is None else jobs
+    mode = "quick" if quick else "full"
+    if not quiet:
+        print(f"twip {twip.__version__}: reproducing the thesis into {out}/ ({mode}; RobotParams.balanbot())", flush=True)
+    figures = Figures(out)
+    runs, claims, summary = _run_scenarios(quick, steps)
+    _scenario_figures(runs, quick, steps, figures)
+    table_5_1 = _table_5_1(quick, steps, figures, claims)
+    table_5_2 = _table_5_2(quick, steps, figures, claims)
+    sweeps = robustness_sweeps(runs, quick, steps, figures, controller_family, quick_options)
+    basins = fall_maps(runs, quick, steps, figures, controller_family)
+    if animations:
+        _animations(runs, quick, figures)
+    render(figures.jobs, jobs, steps, dpi=60 if quick else None)  # quick: smaller, faster PNGs
+    report = {
+        "twip": twip.__version__, "mode": mode, "robot": twip.RobotParams.balanbot().to_dict(),
+        "claims": claims, "scenarios": summary, "table_5_1": table_5_1, "table_5_2": table_5_2,
+        "sweeps": sweeps, "fall_maps": basins, "figures": figures.captions,
+    }
+    report = _write_reports(out, report, steps)
+    if not quiet:
+        total = time.perf_counter() - steps.started
+        counts = {s: sum(c["status"] == s for c in claims) for s in ("reproduced", "differs", "not checked")}
+        print(f"done in {total:.1f} s: {len(claims)} claims ({counts['reproduced']} reproduced, {counts['differs']} differ"
+              + (f", {counts['not checked']} not checked" if counts["not checked"] else "") + f"); see {out}/report.md")
+    return report
+
+
+_FIGURE_JOBS: List[tuple] = []  # (filename, callable(path), folder); read by forked workers
+
+
+def _render_job(index: int):
+    filename, make, out = _FIGURE_JOBS[index]
+    t = time.perf_counter()
+    make(str(Path(out) / filename))
+    return filename, time.perf_counter() - t
+
+
+def render(fig_jobs: List[tuple], jobs: int, steps: Steps, dpi: Optional[float] = None) -> None:
+    """Draws every figure job, in forked worker processes where fork is available."""
+    global _FIGURE_JOBS
+    import multiprocessing
+
+    from twip import plot
+
+    t0 = time.perf_counter()
+    before = plot.style(dpi=dpi)
+    _FIGURE_JOBS = fig_jobs
+    use_fork = jobs > 1 and len(fig_jobs) > 1 and "fork" in multiprocessing.get_all_start_methods()
+    try:
+        if use_fork:  # load the fonts and the text engine once, before the workers inherit them
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+
+            plot.warm_up()
+            ctx = multiprocessing.get_context("fork")
+            with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
+                futures = [pool.submit(_render_job, i) for i in range(len(fig_jobs))]
+                for future in as_completed(futures):
+                    filename, seconds = future.result()
+                    steps.done(f"  {filename}", seconds)
+        else:
+            for i in range(len(fig_jobs)):
+                filename, seconds = _render_job(i)
+                steps.done(f"  {filename}", seconds)
+    finally:
+        _FIGURE_JOBS = []
+        plot.style(dpi=before["savefig.dpi"])
+    steps.done(f"figures and animations: {len(fig_jobs)} files with {jobs} process(es)", time.perf_counter() - t0)
