@@ -57,3 +57,28 @@ def test_a_push_moves_the_robot_and_a_slope_is_refused():
     assert np.max(np.abs(calm.states[:, 4] - pushed.states[:, 4])) > 0.1
     with pytest.raises(twip.InvalidParameterError, match="slope_profile"):
         sc.run(realism=twip.Realism(slope_profile=[(0.05, 0.02)]), t_final=1.0)
+
+
+@pytest.mark.parametrize("name", TRACKERS)
+def test_cli_simulate_tracker_with_realism(name, capsys):
+    import json
+
+    from twip import cli
+
+    assert cli.main(["simulate", name, "--realism", "thesis-like", "--t-final", "4", "--json"]) == 0
+    real = json.loads(capsys.readouterr().out)
+    assert cli.main(["simulate", name, "--t-final", "4", "--json"]) == 0
+    ideal = json.loads(capsys.readouterr().out)
+    assert real["outcome"] == "completed"
+    assert real["metrics"]["mean_abs_x_error"] != ideal["metrics"]["mean_abs_x_error"]
+
+
+def test_table_5_2_gains_a_realism_column():
+    from twip.scenarios import tracking
+
+    rows = tracking.compare(laps=1, realism=twip.Realism.thesis_like())
+    assert len(rows) == 9
+    for r in rows:
+        assert r["realism_outcome"] in ("completed", "fell", "diverged")
+        assert r["x_realism"] != r["x"]
+    assert "x_realism" not in tracking.compare(laps=1)[0]

@@ -15,6 +15,7 @@ __all__ = [
     "Dlpf",
     "FigureEight",
     "Force",
+    "Friction",
     "FuzzyBasis",
     "FuzzyController",
     "Gaussian",
@@ -114,6 +115,7 @@ class Friction:
     def smoothing_speed(self) -> float: ...
     def torque(self, w: float) -> float: ...
 
+@final
 class SlopeModel:
     def __new__(cls, params: RobotParams, slope: float = 0.0, friction: Optional[Friction] = None) -> SlopeModel: ...
     @property

@@ -60,8 +60,6 @@ def simulate(args) -> int:
     if args.dt is not None:
         overrides["dt"] = args.dt
     if args.realism is not None:
-        if is_planar(sc):
-            raise UsageError("--realism: only the 2-DOF scenarios take realism")
         overrides["realism"] = realism(args.realism)
     started = time.perf_counter()
     r = sc.run(**overrides)
