@@ -468,7 +468,8 @@ def sweep_draw(model: SlopeModel, x0: _ArrayLike, perturbations: Sequence[Tuple[
 def sweep_planar_raw(model: PlanarModel, controller: Any, x0: _ArrayLike, t_final: float, dt: float, reference: Any,
                      perturbations: Sequence[Tuple[str, int, str, float, float, float, float]], seed: int, start: int,
                      count: int, control_period: Optional[float] = None, threads: int = 0,
-                     progress: Optional[Callable[[int], Any]] = None) -> dict[str, Any]: ...
+                     progress: Optional[Callable[[int], Any]] = None,
+                     realism: Optional[Realism] = None) -> dict[str, Any]: ...
 def sweep_planar_draw(model: PlanarModel, x0: _ArrayLike,
                       perturbations: Sequence[Tuple[str, int, str, float, float, float, float]], seed: int,
                       index: int) -> Tuple[dict[str, float], _F64]: ...

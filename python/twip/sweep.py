@@ -127,7 +127,7 @@ def _planar_draw(model, x0, perturbations, seed, index):
 class _Family:
     """What differs between 2-DOF (SlopeModel) and 3-DOF tracking (PlanarModel) sweeps."""
 
-    planar: bool  # flat ground (no slope to perturb) and no realism
+    planar: bool  # flat ground (no slope to perturb)
     states: Tuple[str, ...]
     draw: Callable  # (model, x0, perturbations, seed, i) -> (params dict, slope or None, x0)
     raw: Callable  # the core's sweep of samples start..start + count
@@ -142,12 +142,12 @@ def _family(sc) -> _Family:
 
 
 def kernel_for(sc, realism=None) -> str:
-    """The core's kernel for a sweep of Scenario `sc`: "realism", "planar", "lanes" (LQR,
-    vectorised) or "general"."""
+    """The core's kernel for a sweep of Scenario `sc`: "realism", "planar", "planar-realism",
+    "lanes" (LQR, vectorised) or "general"."""
+    if _family(sc).planar:
+        return "planar" if realism is None else "planar-realism"
     if realism is not None:
         return "realism"
-    if _family(sc).planar:
-        return "planar"
     return "lanes" if isinstance(sc.controller, _core.LqrController) else "general"
 
 
@@ -404,11 +404,9 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
 
 
 def _run(sc, config, start, count, threads, progress, realism=None):
-    family = _family(sc)
-    extra = {} if family.planar else {"realism": realism}
-    return family.raw(sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
-                      [tuple(p) for p in config["perturbations"]], config["seed"], start, count,
-                      control_period=sc.control_period, threads=threads, progress=progress, **extra)
+    return _family(sc).raw(sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
+                           [tuple(p) for p in config["perturbations"]], config["seed"], start, count,
+                           control_period=sc.control_period, threads=threads, progress=progress, realism=realism)
 
 
 def _run_shard_by_name(config, start, count, threads):
@@ -470,8 +468,8 @@ def montecarlo(
     threads: worker threads (default: all cores). checkpoint: a folder; the sweep is
     written there in shards and a re-run with the same arguments resumes. client: a
     dask.distributed.Client; shards run as Dask tasks (needs a scenario name).
-    realism: a `twip.Realism` (2-DOF scenarios): sensors, estimator, motor driver, loop
-    period and delay, disturbances in every run. Sample i's noise is stream i of a key
+    realism: a `twip.Realism`: sensors, estimator, motor drivers, loop period and
+    delay, disturbances in every run (2-DOF and 3-DOF tracking scenarios). Sample i's noise is stream i of a key
     made from `seed`; the realism's own seed and stream are ignored.
     traces: a few sample indices whose trajectories to keep, logged every `trace_every`
     steps, in `SweepResult.traces` (each replayed alone with the full runner, see replay).
@@ -490,9 +488,6 @@ def montecarlo(
     if realism is not None and not isinstance(realism, _core.Realism):
         raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
     sc = _scenario_of(scenario, params, options)
-    if realism is not None and _family(sc).planar:
-        raise _bad(f"realism: '{sc.name}' is a 3-DOF tracking scenario, which has no realism "
-                   "(only the 2-DOF SlopeModel scenarios take realism=)")
     perturbations = _resolve(perturb or {}, sc)
     config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism)
     if shard_size is None:

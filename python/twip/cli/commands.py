@@ -106,7 +106,6 @@ def sweep(args) -> int:
     sc = get_scenario(name, params=params, options=options)  # designed once, here; bad options are named
     if not perturb:
         print("note: no --perturb given, every sample is the same robot", file=sys.stderr)
-    # A 3-DOF scenario with --realism is montecarlo's to refuse (an InvalidParameterError).
     result = twip.montecarlo(sc, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
                              progress=not args.quiet, checkpoint=args.checkpoint, realism=realism(args.realism))
     metrics = list(result.metric_names[2:])
