@@ -108,11 +108,15 @@ class PlanarModel:
         M, _ = self._kane(np.array([0.0, 0.0, 0.0, phi, 0.0, 0.0, 0.0]), np.zeros(2))
         return M
 
-    def deriv(self, x, u) -> np.ndarray:
+    def deriv(self, x, u, extra=None) -> np.ndarray:
+        """`extra`: generalised forces (q_phi, q_v) of a force on the body, added to f."""
         x = np.asarray(x, dtype=float)
         if x.shape != (7,) or np.asarray(u).size != 2:
             raise ValueError("x must have 7 entries and u 2")
         M, f = self._kane(x, u)
+        if extra is not None:
+            f[0] += extra[0]
+            f[1] += extra[1]
         nu_dot = np.linalg.solve(M, f)
         psi, v = x[2], x[5]
         return np.array([v * math.cos(psi), v * math.sin(psi), x[6], x[4], *nu_dot])
