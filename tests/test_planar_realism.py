@@ -124,3 +124,39 @@ def test_parity_with_the_reference_every_option_on(balanbot, name, estimator):
                 for i, n in enumerate(names))
     print(f"{name} ({estimator}), {t_final} s: states {err:.1e}, torques {u_err:.1e}, signals {s_err:.1e}")
     assert err < 1e-9 and u_err < 1e-9 and s_err < 1e-9
+
+
+@pytest.mark.parametrize("name", ["circle-pid", "slope-lqr-sim"])
+def test_realism_friction_parity_with_the_reference(balanbot, name):
+    """Realism(friction=) puts gearhead friction on the rig's plant, in either model; the reference
+    rigs do the same: 2 s with thesis-like hardware and the full no-load torque as Coulomb friction."""
+    import twip.reference as ref
+    import twip.reference.planar_realism as rpr
+    import twip.reference.realism as rr
+    import twip.reference.tracking as rtr
+    from conftest import rel_diff
+
+    realism = twip.Realism.thesis_like(seed=2, stream=1).replace(friction=twip.Friction.gb37())
+    sc = get(name)
+    r = sc.run(realism=realism, t_final=2.0)
+    without = sc.run(realism=realism.replace(friction=None), t_final=2.0)
+    assert not np.array_equal(r.states, without.states)
+    rrealism = rr.Realism.from_twip(realism, balanbot)
+    if name == "circle-pid":
+        run = rpr.simulate(ref.PlanarModel(balanbot), _reference_tracker(name, balanbot), sc.x0, 2.0, sc.dt,
+                           rtr.Circle(sc.reference.radius, sc.reference.speed), rrealism)
+    else:
+        model = ref.SlopeModel(balanbot, sc.model.slope)
+        ctrl = ref.LqrController(model, sc.controller.gains, point=sc.controller.point, period=sc.controller.period)
+        run = rr.simulate(model, ctrl, sc.x0, 2.0, sc.dt, ref.SpeedSchedule(sc.reference.legs), rrealism)
+    err = rel_diff(r.states, run.states)
+    print(f"{name} with gearhead friction on the rig, 2 s: worst relative state difference {err:.1e}")
+    assert err < 1e-9
+
+
+def test_gb37_beside_splits_the_no_load_torque(balanbot):
+    viscous = balanbot.mu_bearing / 2
+    f = twip.Friction.gb37_beside(viscous)
+    no_load_speed = 251 * math.pi / 30
+    assert f.torque(no_load_speed) + viscous * no_load_speed == pytest.approx(twip.Friction.gb37().coulomb, rel=1e-9)
+    assert f.coulomb == pytest.approx(0.0117, abs=1e-4)

@@ -103,6 +103,8 @@ class Friction:
                 viscous: float = 0.0, smoothing_speed: float = 0.1) -> Friction: ...
     @staticmethod
     def gb37() -> Friction: ...
+    @staticmethod
+    def gb37_beside(viscous_per_wheel: float) -> Friction: ...
     @property
     def coulomb(self) -> float: ...
     @property
@@ -430,7 +432,8 @@ class Realism:
     def __new__(cls, *, imu: Optional[Imu] = None, estimator: Any = None, encoder_cpr: Optional[float] = None,
                 motor: Optional[MotorDriver] = None, delay: bool = False, control_period: Optional[float] = None,
                 pushes: Optional[Sequence[Push]] = None, force: Optional[Force] = None, slope_profile: Any = None,
-                seed: Optional[int] = None, stream: Optional[int] = None) -> Realism: ...
+                friction: Optional[Friction] = None, seed: Optional[int] = None,
+                stream: Optional[int] = None) -> Realism: ...
     @staticmethod
     def ideal() -> Realism: ...
     @staticmethod
@@ -440,6 +443,7 @@ class Realism:
     encoder_cpr: Optional[float]
     estimator: Any
     force: Optional[Force]
+    friction: Optional[Friction]
     imu: Optional[Imu]
     is_ideal: bool
     motor: Optional[MotorDriver]

@@ -358,7 +358,11 @@ def _realism_config(r) -> dict:
         "pushes": [[p.t, p.impulse, p.height] for p in d["pushes"]],
         "force": None if d["force"] is None else [d["force"].horizontal, d["force"].vertical, d["force"].height],
         "slope_profile": [list(c) for c in d["slope_profile"]],
+        "friction": None if d["friction"] is None else [getattr(d["friction"], k) for k in _FRICTION_FIELDS],
     }
+
+
+_FRICTION_FIELDS = ("coulomb", "breakaway", "stribeck_speed", "viscous", "smoothing_speed")
 
 
 def _realism_from_config(c: dict):
@@ -376,6 +380,7 @@ def _realism_from_config(c: dict):
         pushes=[_core.Push(*p) for p in c["pushes"]],
         force=None if c["force"] is None else _core.Force(*c["force"]),
         slope_profile=[tuple(p) for p in c["slope_profile"]],
+        friction=None if c.get("friction") is None else _core.Friction(**dict(zip(_FRICTION_FIELDS, c["friction"]))),
     )
 
 

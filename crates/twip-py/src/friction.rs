@@ -7,8 +7,8 @@ use crate::errors::CoreResult;
 
 /// One wheel's gearhead friction (N m, rad/s): Coulomb + viscous + Stribeck, the sign
 /// regularised by tanh(w / smoothing_speed); `breakaway` is the static (peak) torque.
-#[pyclass(name = "Friction", module = "twip", frozen)]
-#[derive(Clone, Copy)]
+#[pyclass(name = "Friction", module = "twip", frozen, eq)]
+#[derive(Clone, Copy, PartialEq)]
 pub struct PyFriction {
     pub inner: Friction<f64>,
 }
@@ -28,6 +28,14 @@ impl PyFriction {
     #[staticmethod]
     fn gb37() -> Self {
         Self { inner: Friction::gb37() }
+    }
+
+    /// `gb37()` beside a viscous bearing of `viscous_per_wheel` [N m s/rad]: the Coulomb
+    /// part is what the viscous one leaves of the no-load torque at the no-load speed
+    /// (0.0117 N m beside `RobotParams.balanbot()`'s mu_bearing / 2).
+    #[staticmethod]
+    fn gb37_beside(viscous_per_wheel: f64) -> CoreResult<Self> {
+        Ok(Self { inner: Friction::gb37_beside(viscous_per_wheel).validate()? })
     }
 
     #[getter]

@@ -141,6 +141,8 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
     p = model.params
     period = realism.control_period if realism.control_period is not None else controller.period
     controller.period = period
+    if realism.friction is not None:
+        model = type(model)(p, friction=realism.friction)
     plant = PlanarPlant(model, realism)
     sensors = PlanarSensors(realism, p, dt)
     actuator = None

@@ -13,6 +13,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from twip.reference.friction import Friction
 from twip.reference.rng import Philox
 from twip.reference.slope import SlopeModel
 
@@ -434,11 +435,11 @@ class Disturbed:
     """The slope model on a piecewise-constant slope, with a constant force (fx, fz) at
     `height` on the body and horizontal pushes (t, J, h) applied between steps."""
 
-    def __init__(self, params, base_slope, profile=(), force=(0.0, 0.0, 0.0), pushes=()):
+    def __init__(self, params, base_slope, profile=(), force=(0.0, 0.0, 0.0), pushes=(), friction=None):
         self.params, self.radius = params, params.wheel_radius
         self.starts = [d for d, _ in profile]
         self.slopes = [base_slope] + [a for _, a in profile]
-        self.models = [SlopeModel(params, a) for a in self.slopes]
+        self.models = [SlopeModel(params, a, friction=friction) for a in self.slopes]
         self.force = force
         self.has_force = force[0] != 0.0 or force[1] != 0.0
         self.pushes = sorted(pushes, key=lambda p: p[0])
@@ -490,6 +491,7 @@ class Realism:
     pushes: Sequence[Tuple[float, float, float]] = ()
     force: Tuple[float, float, float] = (0.0, 0.0, 0.0)
     slope_profile: Sequence[Tuple[float, float]] = ()
+    friction: Optional[Friction] = None  # per wheel, on the rig's plant (None: the model's)
     seed: int = 0
     stream: int = 0
 
@@ -511,7 +513,7 @@ class Realism:
         force = (0.0, 0.0, 0.0) if f is None else (f.horizontal, f.vertical, com if f.height is None else f.height)
         pushes = [(p.t, p.impulse, com if p.height is None else p.height) for p in r.pushes]
         return cls(imu, (r.estimator.kind, dict(r.estimator.parameters)), r.encoder_cpr, motor, r.delay,
-                   r.control_period, pushes, force, list(r.slope_profile), r.seed, r.stream)
+                   r.control_period, pushes, force, list(r.slope_profile), Friction.of(r.friction), r.seed, r.stream)
 
 
 class BalanceSensors:
@@ -583,7 +585,8 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
     params = model.params
     period = realism.control_period if realism.control_period is not None else controller.period
     controller.period = period
-    ground = Disturbed(params, model.slope, realism.slope_profile, realism.force, realism.pushes)
+    friction = realism.friction if realism.friction is not None else model.friction
+    ground = Disturbed(params, model.slope, realism.slope_profile, realism.force, realism.pushes, friction)
     if realism.motor is not None:
         plant, actuator = Driven(ground, realism.motor, params), PwmActuator(realism.motor, params)
     else:

@@ -15,6 +15,7 @@
 //! crossing a change keeps (φ̇, θ̇) (the crease's own impact is neglected).
 use nalgebra::{SVector, Vector2, Vector4};
 
+use crate::model::friction::Friction;
 use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
 
 /// Most pushes one run holds (fixed size: no allocation, no_std).
@@ -264,13 +265,12 @@ impl<T: Real> Disturbed<T> {
         Ok(Self { pieces, profile, radius: params.wheel_radius, has_force: !force.is_zero(), force, pushes })
     }
 
-    /// The same plant with `model`'s gearhead friction on every piece of the ground.
-    pub fn with_friction_of(mut self, model: &SlopeModel<T>) -> Self {
+    /// The same plant with gearhead friction on every piece of the ground (validated).
+    pub fn with_friction(mut self, friction: Option<Friction<T>>) -> Result<Self, TwipError> {
         for piece in self.pieces.iter_mut() {
-            // Already validated on `model`.
-            piece.model = piece.model.with_friction(model.friction().copied()).unwrap_or(piece.model);
+            piece.model = piece.model.with_friction(friction)?;
         }
-        self
+        Ok(self)
     }
 
     /// Nothing but `model`: the same numbers as `model` itself.

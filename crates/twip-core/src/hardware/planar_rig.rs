@@ -26,6 +26,8 @@ use crate::hardware::driver::{PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
 use crate::hardware::realism::{Realism, Rig, RigPlant};
+#[cfg(test)]
+use crate::model::friction::Friction;
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::model::planar::PlanarState;
 use crate::rng::Philox;
@@ -315,7 +317,8 @@ impl<T: Real> Realism<T> {
                 (Some(drives), PlanarActuator::Pwm { pwm, inv_r, b_r: params.half_track * inv_r })
             }
         };
-        let plant = PlanarPlant { model: *model, drives, force: s.force, has_force: !s.force.is_zero(), pushes };
+        let model = model.with_friction(s.friction_on(model.friction()))?;
+        let plant = PlanarPlant { model, drives, force: s.force, has_force: !s.force.is_zero(), pushes };
         let sensors = PlanarSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, &params, dt, s.seed, s.stream)?;
         Ok(Rig { plant, sensors, actuator, delay: s.delay })
     }
@@ -372,18 +375,28 @@ mod tests {
     #[test]
     fn thesis_like_tracks_the_circle_and_repeats_bit_for_bit() {
         let (_, _, circle) = setup();
-        let mut metrics = TrackingMetrics::new(circle, 10.0);
-        let mut ideal = TrackingMetrics::new(circle, 10.0);
-        assert_eq!(run(&Realism::thesis_like(), 36.0, &mut metrics), Outcome::Completed);
-        assert_eq!(run(&Realism::ideal(), 36.0, &mut ideal), Outcome::Completed);
-        let (s, i) = (metrics.summary(), ideal.summary());
+        let path_error = |realism: &Realism<f64>| {
+            let mut metrics = TrackingMetrics::new(circle, 10.0);
+            assert_eq!(run(realism, 36.0, &mut metrics), Outcome::Completed);
+            metrics.summary().max_path_error_settled
+        };
+        let viscous = RobotParams::<f64>::balanbot().mu_bearing / 2.0;
+        let geared = path_error(&Realism { friction: Some(Friction::gb37_beside(viscous)), ..Realism::thesis_like() });
+        let coulomb = path_error(&Realism { friction: Some(Friction::gb37()), ..Realism::thesis_like() });
+        let real = path_error(&Realism::thesis_like());
+        let ideal = path_error(&Realism::ideal());
         std::println!(
-            "circle-pid, one lap: max path error after 10 s {:.1} mm with thesis-like hardware, {:.1} mm ideal",
-            1e3 * s.max_path_error_settled,
-            1e3 * i.max_path_error_settled
+            "circle-pid, one lap: max path error after 10 s {:.1} mm ideal, {:.1} mm with thesis-like hardware, \
+             {:.1} mm with the gearheads' friction beside the viscous bearing, {:.1} mm with all of the no-load torque \
+             as Coulomb friction",
+            1e3 * ideal,
+            1e3 * real,
+            1e3 * geared,
+            1e3 * coulomb
         );
-        assert!(s.max_path_error_settled < 0.3, "{}", s.max_path_error_settled);
-        assert_ne!(s.max_path_error_settled, i.max_path_error_settled);
+        // The sensors and drive cost some accuracy; Coulomb friction (more than the tracker's
+        // steady torques) costs more, yet the robot stays near the circle.
+        assert!(ideal < real && real < geared && geared < coulomb && coulomb < 0.6, "{ideal} {real} {geared} {coulomb}");
         let (mut a, mut b, mut other) = (Trace::default(), Trace::default(), Trace::default());
         run(&Realism::thesis_like(), 2.0, &mut a);
         run(&Realism::thesis_like(), 2.0, &mut b);

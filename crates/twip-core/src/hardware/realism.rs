@@ -17,6 +17,7 @@ use crate::hardware::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_S
 use crate::hardware::driver::{Driven, MotorDriver, PwmActuator};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
+use crate::model::friction::Friction;
 use crate::rng::Philox;
 use crate::sim::runner::{run_loop, Actuator, Loop, Observer, Outcome, Plant, Sensor, Signals, SimConfig};
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
@@ -40,6 +41,8 @@ pub struct Realism<T: Real> {
     pub force: Force<T>,
     /// Slope changes along the path; the base is the plant's own slope.
     pub slope_profile: SlopeProfile<T>,
+    /// Gearhead friction per wheel (None: the model's own, if any).
+    pub friction: Option<Friction<T>>,
     pub seed: u64,
     pub stream: u64,
 }
@@ -63,6 +66,7 @@ impl<T: Real> Realism<T> {
             pushes: Pushes::none(),
             force: Force::none(),
             slope_profile: SlopeProfile::constant(T::zero()),
+            friction: None,
             seed: 0,
             stream: 0,
         }
@@ -71,7 +75,9 @@ impl<T: Real> Realism<T> {
     /// The thesis's robot as built (chapter 2, docs/parameters.md): a 5 ms Arduino loop
     /// that applies its command one period late, the MPU-6050 at DLPF 44/42 Hz with its
     /// data-sheet noise and calibrated residual biases, a complementary filter, 700 CPR
-    /// encoders, and the L298P on 11.1 V. No disturbances.
+    /// encoders, and the L298P on 11.1 V. No disturbances, and no gearhead friction
+    /// beyond the model's: with it (`friction: Some(Friction::gb37_beside(..))`) the
+    /// sliding-mode trackers fall (docs/parameters.md, "Gearhead friction").
     pub fn thesis_like() -> Self {
         Self {
             imu: Some(ImuSettings::thesis_like()),
@@ -83,6 +89,11 @@ impl<T: Real> Realism<T> {
         }
     }
 
+    /// The gearhead friction a rig's plant gets: this realism's, else the model's.
+    pub fn friction_on(&self, model: Option<&Friction<T>>) -> Option<Friction<T>> {
+        self.friction.or(model.copied())
+    }
+
     pub fn with_stream(self, stream: u64) -> Self {
         Self { stream, ..self }
     }
@@ -92,6 +103,9 @@ impl<T: Real> Realism<T> {
             imu.validate()?;
         }
         self.estimator.validate()?;
+        if let Some(f) = &self.friction {
+            f.validate()?;
+        }
         if let Some(cpr) = self.encoder_cpr {
             Encoder::new(cpr)?;
         }
@@ -115,7 +129,7 @@ impl<T: Real> Realism<T> {
         let profile = s.slope_profile.with_base(model.slope());
         let mut pushes = s.pushes;
         pushes.rewind();
-        let ground = Disturbed::new(params, profile, s.force, pushes)?.with_friction_of(model);
+        let ground = Disturbed::new(params, profile, s.force, pushes)?.with_friction(s.friction_on(model.friction()))?;
         let (plant, actuator) = match &s.motor {
             None => (RealPlant::Current(ground), RealActuator::Ideal),
             Some(m) => (RealPlant::Driven(Driven::new(ground, m, &params)?), RealActuator::Pwm(PwmActuator::new(m, &params)?)),

@@ -58,6 +58,17 @@ impl<T: Real> Friction<T> {
         }
     }
 
+    /// [`Self::gb37`] beside a viscous bearing of `viscous_per_wheel` [N m s/rad]: the
+    /// no-load torque η k_t I₀ split so that the two together give it at the no-load
+    /// speed, the Coulomb part being the rest, max(0, η k_t I₀ − b ω₀). For
+    /// `RobotParams::balanbot()` (μ_s/2 = 5.33e-3) that is 0.0117 N m.
+    pub fn gb37_beside(viscous_per_wheel: T) -> Self {
+        let full = Self::gb37();
+        let rest = full.coulomb - viscous_per_wheel * c::<T>(GB37_NO_LOAD_SPEED);
+        let coulomb = rest.max(T::zero());
+        Self { coulomb, breakaway: c::<T>(1.25) * coulomb, ..full }
+    }
+
     /// Checks every field: finite; τ_c, b_v ≥ 0; τ_s ≥ τ_c; ω_s, ω_ε > 0.
     pub fn validate(&self) -> Result<Self, TwipError> {
         let fields = [
