@@ -222,11 +222,11 @@ def test_parity_open_loop_run(balanbot):
 def test_bad_arrays_raise_named_errors(balanbot):
     model = twip.PlanarModel(balanbot)
     x_ok, u_ok = np.zeros(7), np.zeros(2)
-    with pytest.raises(twip.ShapeError, match=r"^x has shape 6x1, expected 7x1"):
+    with pytest.raises(twip.ShapeError, match=r"^x has shape \(6,\), expected \(7,\)"):
         model.deriv(np.zeros(6), u_ok)
     with pytest.raises(twip.ShapeError, match="^x "):
         model.deriv(np.zeros((7, 2)), u_ok)
-    with pytest.raises(twip.ShapeError, match=r"^u has shape 3x1, expected 2x1"):
+    with pytest.raises(twip.ShapeError, match=r"^u has shape \(3,\), expected \(2,\)"):
         model.deriv(x_ok, np.zeros(3))
     with pytest.raises(twip.ShapeError, match="^u "):
         model.deriv(x_ok, 0.1)

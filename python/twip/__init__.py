@@ -44,6 +44,7 @@ from twip._core import (
     lqr,
     rk4_step,
 )
+from twip.budget import MemoryBudgetError, set_memory_budget
 from twip.sim import SimResult, simulate
 from twip.sweep import Normal, SweepResult, Uniform, montecarlo, wilson_interval
 
@@ -62,6 +63,7 @@ __all__ = [
     "InvalidParameterError",
     "Line",
     "LqrController",
+    "MemoryBudgetError",
     "MotorDriver",
     "NoEquilibriumError",
     "NonFiniteError",
@@ -91,6 +93,7 @@ __all__ = [
     "lqr",
     "montecarlo",
     "rk4_step",
+    "set_memory_budget",
     "simulate",
     "wilson_interval",
 ]

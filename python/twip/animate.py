@@ -18,6 +18,8 @@ from typing import Optional
 
 import numpy as np
 
+from twip import _core, budget
+
 BACKGROUND = (250, 250, 247)
 GROUND = (222, 205, 170)
 GROUND_LINE = (120, 100, 70)
@@ -150,6 +152,36 @@ def _save(frames, path, fps):
                       optimize=False, disposal=1)
 
 
+#: Frames per second a GIF can show (its frame delay is in hundredths of a second).
+MAX_FPS = 100.0
+
+
+def check_options(path, fps: float = 20.0, speed: Optional[float] = None, size=None) -> None:
+    """Refuses, before any run or drawing, a GIF path whose folder is missing or whose
+    name does not end in .gif, and an fps, speed or size that is not a positive number
+    (fps at most MAX_FPS)."""
+    from twip.plot import check_folder
+
+    if not str(path).lower().endswith(".gif"):
+        raise _core.InvalidParameterError(f"animation path {str(path)!r}: must end in .gif (an animated GIF is written)")
+    check_folder(path)
+    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not (0 < fps <= MAX_FPS):
+        raise _core.InvalidParameterError(f"fps = {fps!r}: must be a number in (0, {MAX_FPS:g}] (frames per second)")
+    if speed is not None and (isinstance(speed, bool) or not isinstance(speed, (int, float))
+                              or not (speed > 0 and math.isfinite(speed))):
+        raise _core.InvalidParameterError(f"speed = {speed!r}: must be a positive number")
+    if size is not None and not (isinstance(size, (tuple, list)) and len(size) == 2
+                                 and all(isinstance(v, int) and not isinstance(v, bool) and 16 <= v <= 4096 for v in size)):
+        raise _core.InvalidParameterError(f"size = {size!r}: must be (width, height) in pixels, each 16..4096")
+
+
+def _check_frames(count: int, size) -> None:
+    """The frames (drawn supersampled, kept at size) against the memory budget."""
+    w, h = size
+    need = count * w * h * 3 * 2 + w * h * 3 * SUPERSAMPLE**2
+    budget.check(f"animation: {count:,} frames of {w}x{h} pixels", need, "lower fps or raise speed=")
+
+
 def gif(result, path, scenario=None, params=None, slope: Optional[float] = None, fps: float = 20.0,
         speed: Optional[float] = None, max_seconds: float = 15.0, size=None, title: Optional[str] = None) -> dict:
     """Writes an animated GIF of `result` to `path`; returns {"frames", "seconds", "speed"}.
@@ -164,16 +196,18 @@ def gif(result, path, scenario=None, params=None, slope: Optional[float] = None,
         from twip import RobotParams
 
         params = RobotParams.balanbot()
-    if not fps > 0:
-        raise ValueError(f"fps = {fps}: must be positive")
+    check_options(path, fps, speed, size)
     t = np.asarray(result.t)
     duration = float(t[-1] - t[0])
     speed = _speed(duration, speed, max_seconds)
+    planar = result.states.shape[1] == 7
+    size = size or ((640, 400) if planar else (560, 340))
+    _check_frames(int(duration / speed * fps) + 1, size)
     times, idx = _frame_indices(t, fps, speed)
-    if result.states.shape[1] == 7:
-        frames = _planar_frames(result, params, times, idx, speed, size or (640, 400), title)
+    if planar:
+        frames = _planar_frames(result, params, times, idx, speed, size, title)
     else:
-        frames = _slope_frames(result, params, slope or 0.0, times, idx, speed, size or (560, 340), title)
+        frames = _slope_frames(result, params, slope or 0.0, times, idx, speed, size, title)
     _save(frames, path, fps)
     return {"frames": len(frames), "seconds": len(frames) / fps, "speed": speed}
 

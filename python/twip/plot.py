@@ -15,9 +15,12 @@ without, the figure is pyplot's, for notebooks and `plt.show()`.
 from __future__ import annotations
 
 import math
+import os
 from typing import Mapping, Optional, Sequence
 
 import numpy as np
+
+from twip import _core
 
 #: Colours: ours, the reference, the target pitch, measured signals, extra series.
 OURS, REF, TARGET, MEASURED = "#1f5fa8", "#222222", "#c0392b", "#9aa5b1"
@@ -128,8 +131,33 @@ def warm_up() -> None:
 COMPACT_PNG = True
 
 
+def check_folder(path) -> None:
+    """Refuses an output path whose folder does not exist or cannot be written, before
+    the work whose result it would hold."""
+    folder = os.path.dirname(os.path.abspath(os.fspath(path)))
+    if not os.path.isdir(folder):
+        raise _core.InvalidParameterError(f"output {str(path)!r}: the folder {folder} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise _core.InvalidParameterError(f"output {str(path)!r}: the folder {folder} is not writable")
+
+
+def check_path(path) -> None:
+    """Refuses, before a run, a figure path matplotlib cannot write: a missing or
+    unwritable folder, or a file type it does not know (e.g. .txt)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    check_folder(path)
+    known = FigureCanvasBase.get_supported_filetypes()
+    ext = os.path.splitext(os.fspath(path))[1].lower().lstrip(".")
+    if ext not in known:
+        raise _core.InvalidParameterError(
+            f"figure path {str(path)!r}: '.{ext}' is not a figure format; use one of "
+            f"{', '.join('.' + k for k in sorted(known))}")
+
+
 def save(fig, path) -> None:
     """fig.savefig(path); a .png is re-encoded with a palette when Pillow is there."""
+    check_path(path)
     if not (COMPACT_PNG and str(path).lower().endswith(".png")):
         fig.savefig(path)
         return

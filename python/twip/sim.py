@@ -7,7 +7,14 @@ from typing import Optional
 
 import numpy as np
 
-from twip import _core
+from twip import _core, budget
+
+#: Log columns of a run besides the controller's internals: t, state, input, reference.
+_LOG_COLUMNS = {"slope": 1 + 4 + 1 + 2, "planar": 1 + 7 + 2 + 7}
+#: Columns a realism adds (what the controller read, the plant's inputs, the motor currents).
+_SIGNAL_COLUMNS = {"slope": 4 + 1 + 1, "planar": 7 + 2 + 2}
+#: A generous guess of the internals a controller logs (checked exactly when it matters).
+_DEFAULT_INTERNALS = 16
 
 
 @dataclass(frozen=True)
@@ -86,21 +93,33 @@ def simulate(
         if reference is None:
             raise _core.InvalidParameterError(
                 "reference is required for a PlanarModel: a twip.Circle, Line, FigureEight or Waypoints")
-        raw = _core.simulate_planar_raw(
-            model, controller, x0, float(t_final), float(dt), reference,
-            control_period=control_period, fall_limit=float(fall_limit), record_every=int(record_every),
-            settle=None if settle is None else float(settle), realism=realism,
-        )
+
+        def run(t_final, record_every):
+            return _core.simulate_planar_raw(
+                model, controller, x0, float(t_final), float(dt), reference,
+                control_period=control_period, fall_limit=float(fall_limit), record_every=int(record_every),
+                settle=None if settle is None else float(settle), realism=realism,
+            )
     else:
         if settle is not None:  # the settled metrics are the tracking ones
             raise _core.InvalidParameterError("settle: only a PlanarModel (3-DOF tracking) takes settle")
         if reference is None:
             reference = _core.SpeedSchedule.constant(0.0)
-        raw = _core.simulate_raw(
-            model, controller, x0, float(t_final), float(dt), reference,
-            control_period=control_period, fall_limit=float(fall_limit), record_every=int(record_every),
-            realism=realism,
-        )
+
+        def run(t_final, record_every):
+            return _core.simulate_raw(
+                model, controller, x0, float(t_final), float(dt), reference,
+                control_period=control_period, fall_limit=float(fall_limit), record_every=int(record_every),
+                realism=realism,
+            )
+
+    # The log's width, when a guess would not fit: from a one-step run (the internals it logs).
+    def logged_extras():
+        probe = run(dt, 1)
+        return probe["internals"].shape[1] + (0 if probe.get("signals") is None else probe["signals"].shape[1])
+
+    _check_log(model, t_final, dt, record_every, realism, logged_extras)
+    raw = run(t_final, record_every)
     names = raw["internal_names"]
     internals = {n: raw["internals"][:, i] for i, n in enumerate(names)}
     return SimResult(
@@ -117,3 +136,36 @@ def simulate(
         signals={} if raw.get("signals") is None else {
             n: raw["signals"][:, i] for i, n in enumerate(raw["signal_names"])},
     )
+
+
+def _positive_real(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise _core.InvalidParameterError(f"{name} = {value!r}: must be a real number, got {type(value).__name__}")
+    return float(value)
+
+
+def log_shape_guess(model, t_final: float, dt: float, record_every: int, realism=None):
+    """(rows, columns) of a run's log, the columns generously guessed (16 internals)."""
+    kind = "planar" if isinstance(model, _core.PlanarModel) else "slope"
+    columns = _LOG_COLUMNS[kind] + _DEFAULT_INTERNALS + (_SIGNAL_COLUMNS[kind] if realism is not None else 0)
+    return t_final / dt / int(record_every) + 2, columns
+
+
+def _check_log(model, t_final, dt, record_every, realism, internals) -> None:
+    """Refuses, before the run, a record_every that is not a count and a log larger
+    than the memory budget (naming the rows, columns and the record_every that fits).
+    `internals()` says how many internal columns (and signals) the controller logs; it is
+    asked only when a generous guess does not fit."""
+    if isinstance(record_every, bool) or not isinstance(record_every, (int, np.integer)) or record_every < 1:
+        raise _core.InvalidParameterError(
+            f"record_every = {record_every!r}: must be an integer >= 1 (keep one logged sample in that many)")
+    t_final, dt = _positive_real("t_final", t_final), _positive_real("dt", dt)
+    if not (math.isfinite(t_final) and math.isfinite(dt) and t_final > 0 and dt > 0):
+        return  # the core names the bad value
+    rows, columns = log_shape_guess(model, t_final, dt, record_every, realism)
+    if rows * columns * 8 > budget.memory_budget():
+        columns = _LOG_COLUMNS["planar" if isinstance(model, _core.PlanarModel) else "slope"] + internals()
+    need = rows * columns * 8
+    fits = max(1, math.ceil(int(record_every) * need / budget.memory_budget()))
+    budget.check(f"simulate: the log of t_final = {t_final:g} s at dt = {dt:g} s ({rows:,.0f} rows x {columns} columns)",
+                 need, f"keep fewer rows with record_every = {fits} or more, or a shorter t_final")

@@ -18,23 +18,30 @@ another sweep seed gives other noise as well as other robots.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import os
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Dict, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from twip import _core
+from twip import _core, budget, user_sweep
+from twip.checkpoint import Checkpoint
+from twip.quantiles import streamed_quantiles_of
 
 STATE_NAMES = ("phi0", "phi_dot0", "theta0", "theta_dot0")
 #: The initial state of a PlanarModel: [x, y, psi, phi, phi_dot, v, omega].
 PLANAR_STATE_NAMES = ("x0", "y0", "psi0", "phi0", "phi_dot0", "v0", "omega0")
 DEFAULT_SHARD = 1024
+#: A checkpointed sweep is cut into at most this many shards by default.
+MAX_SHARDS = 10_000
+#: Memory one sample of a sweep takes while it runs and when assembled: its metric
+#: columns (~100 bytes), the worker's result and the concatenated copy.
+BYTES_PER_SAMPLE = 320
 
 
 def _bad(message: str) -> Exception:
@@ -49,6 +56,9 @@ class Uniform:
     high: Optional[float] = None
     rel: Optional[float] = None
     abs: Optional[float] = None
+
+    def __post_init__(self):
+        _numbers(self, ("low", "high", "rel", "abs"))
 
     def resolve(self, name: str, nominal: float):
         given = [self.rel is not None, self.abs is not None, self.low is not None or self.high is not None]
@@ -83,6 +93,10 @@ class Normal:
     low: float = -math.inf
     high: float = math.inf
 
+    def __post_init__(self):
+        _numbers(self, ("std", "rel", "mean"))
+        _numbers(self, ("low", "high"), optional=False)
+
     def resolve(self, name: str, nominal: float):
         if (self.std is None) == (self.rel is None):
             raise _bad(f"{name}: Normal takes exactly one of std= or rel=")
@@ -103,8 +117,17 @@ class Normal:
         return ("normal", float(mean), float(std), float(self.low), float(self.high))
 
 
+def _numbers(dist, fields, optional=True) -> None:
+    """Refuses, when the distribution is made, a field that is not a real number (or
+    None, where `optional`)."""
+    for f in fields:
+        value = getattr(dist, f)
+        if not (optional and value is None) and (isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating))):
+            raise _bad(f"{type(dist).__name__}({f}={value!r}): {f} must be a number, got {type(value).__name__}")
+
+
 def _width(name, what, value):
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+    if not (math.isfinite(value) and value >= 0):
         raise _bad(f"{name}: {what} = {value} must be a finite number >= 0 (a negative width)")
 
 
@@ -142,8 +165,10 @@ def _family(sc) -> _Family:
 
 
 def kernel_for(sc, realism=None) -> str:
-    """The core's kernel for a sweep of Scenario `sc`: "realism", "planar", "planar-realism",
-    "lanes" (LQR, vectorised) or "general"."""
+    """The core's kernel for a sweep of Scenario `sc`: "python" (a user's controller),
+    "realism", "planar", "planar-realism", "lanes" (LQR, vectorised) or "general"."""
+    if user_sweep.is_user_controller(sc.controller):
+        return "python"
     if _family(sc).planar:
         return "planar" if realism is None else "planar-realism"
     if realism is not None:
@@ -189,6 +214,9 @@ def _resolve(perturb: Mapping, scenario) -> list:
             nominal = float(scenario.x0[index])
         if not isinstance(dist, (Uniform, Normal)):
             raise _bad(f"{name}: expected twip.Uniform or twip.Normal, got {dist!r}")
+        if kind == "param" and isinstance(dist, Uniform) and dist.abs is not None and dist.abs > 0.5 * abs(nominal):
+            warnings.warn(f"{name}: ± {dist.abs:g} is more than half the nominal {nominal:g} (absolute, in SI units); "
+                          f"for a relative spread use rel= (or ±{dist.abs:g}% on the command line)", stacklevel=3)
         out.append((kind, index) + dist.resolve(name, nominal))
     return out
 
@@ -204,7 +232,8 @@ def wilson_interval(successes: int, n: int, confidence: float = 0.95):
     denom = 1 + z * z / n
     centre = (p + z * z / (2 * n)) / denom
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    # Clamped to hold p itself (rounding put the bound 1e-17 past p = 0 or 1).
+    return (max(0.0, min(p, centre - half)), min(1.0, max(p, centre + half)))
 
 
 @dataclass
@@ -266,18 +295,41 @@ class SweepResult:
         values = self.metrics[name][keep]
         return np.quantile(values, q) if len(values) else np.full(len(q), np.nan)
 
+    def _invalid_indices(self, limit: int) -> np.ndarray:
+        return self.metrics["index"][~self.valid][:limit]
+
+    def invalid_reasons(self) -> Dict[str, int]:
+        """{reason: count} of the samples that drew a robot no model takes (each drawn
+        again and checked); at most MAX_CLASSIFIED are classified, the rest counted as
+        "not classified"."""
+        counts: Dict[str, int] = {}
+        total = self._invalid_count()
+        for i in self._invalid_indices(MAX_CLASSIFIED):
+            reason = _invalid_reason(self, int(i))
+            counts[reason] = counts.get(reason, 0) + 1
+        if total > sum(counts.values()):
+            counts["not classified"] = total - sum(counts.values())
+        return counts
+
+    def _invalid_count(self) -> int:
+        return int(np.sum(~self.valid))
+
     def summary(self) -> dict:
         lo, hi = self.fall_rate_interval()
         out = {
             "samples": self.n,
-            "invalid": int(np.sum(~self.valid)),
+            "invalid": self._invalid_count(),
+            "invalid_reasons": self.invalid_reasons(),
             "fall_rate": self.fall_rate,
             "fall_rate_95ci": (lo, hi),
             "sample_steps_per_second": self.steps / self.elapsed if self.elapsed > 0 else float("nan"),
         }
-        for name in self.metric_names[2:]:
+        for name in self._summary_metrics():
             out[name] = dict(zip(("q05", "median", "q95"), map(float, self.quantiles(name))))
         return out
+
+    def _summary_metrics(self):
+        return self.metric_names[2:]
 
     def to_pandas(self):
         """A DataFrame, one row per sample (needs pandas)."""
@@ -322,6 +374,7 @@ class SweepResult:
         lo, hi = s["fall_rate_95ci"]
         lines = [
             f"SweepResult: {self.config['scenario']}, {s['samples']} samples ({s['invalid']} invalid), seed {self.seed}",
+            *(f"  invalid: {count} {reason}" for reason, count in s["invalid_reasons"].items()),
             f"  fall rate {s['fall_rate']:.4f}  (95 % CI {lo:.4f} - {hi:.4f})",
             f"  {self.steps:,} RK4 steps in {self.elapsed:.2f} s: {s['sample_steps_per_second'] / 1e6:.1f} M sample-steps/s ({self.kernel})",
             f"  {'metric':24s} {'q05':>11s} {'median':>11s} {'q95':>11s}",
@@ -330,6 +383,137 @@ class SweepResult:
             q = s[name]
             lines.append(f"  {name:24s} {q['q05']:11.4g} {q['median']:11.4g} {q['q95']:11.4g}")
         return "\n".join(lines)
+
+
+#: At most this many invalid samples are drawn again to classify their reason.
+MAX_CLASSIFIED = 10_000
+
+
+def _invalid_reason(result, index: int) -> str:
+    """Why sample `index` is invalid: the model's complaint about its robot, without the
+    value (so that samples group), e.g. "m_body: must be > 0"."""
+    sc = result._scenario
+    perturbations = [tuple(p) for p in result.config["perturbations"]]
+    try:
+        params, slope, x0 = _family(sc).draw(sc.model, sc.x0, perturbations, result.seed, index)
+        robot = _core.RobotParams.from_dict(params)
+        _core.PlanarModel(robot) if slope is None else _core.SlopeModel(robot, slope)
+        if result._realism is not None:
+            _core.simulate_raw(_core.SlopeModel(robot, slope), sc.controller, x0, sc.dt, sc.dt,
+                               sc.reference, realism=result._realism)
+    except _core.TwipError as e:
+        text = str(e)
+        if text.startswith("invalid ") and " = " in text and ": " in text:
+            name, rest = text[len("invalid "):].split(" = ", 1)
+            return f"{name}: {rest.split(': ', 1)[1]}"
+        return text
+    return "the model refused the robot for a reason it did not name"
+
+
+class StreamedSweepResult(SweepResult):
+    """A checkpointed sweep too large for memory: its metrics stay in the shards on disk
+    and every summary (fall rate, Wilson interval, quantiles, invalid samples) is read
+    back from them one shard at a time. `shards()` yields the per-shard metric arrays."""
+
+    def __init__(self, store, layout, finished, config, elapsed, kernel, sc, realism, names, steps):
+        super().__init__(metrics={}, steps=steps, config=config, elapsed=elapsed, kernel=kernel,
+                         metric_names=names, _scenario=sc, _realism=realism)
+        self._store = store
+        self._layout = [(s, c) for s, c in layout if s in finished]
+        self._tally = None
+        self._summary = None
+
+    @property
+    def metrics(self):
+        raise budget.MemoryBudgetError(
+            f"this sweep's {self.config['n']:,} samples do not fit the memory budget: their metrics stay in "
+            f"the checkpoint {self._store.dir}; use summary(), quantiles(), fall_rate or shards()")
+
+    @metrics.setter
+    def metrics(self, value):  # SweepResult.__init__ sets {}: nothing is kept
+        pass
+
+    @classmethod
+    def of(cls, store, layout, finished, config, elapsed, kernel, sc, realism):
+        first = next(store.shards([(s, c) for s, c in layout if s in finished][:1]), None)
+        names = (tuple(str(v) for v in np.asarray(first["metric_names"]).tolist()) if first is not None
+                 else ("fell", "t_end"))
+        out = cls(store, layout, finished, config, elapsed, kernel, sc, realism, names, 0)
+        out.steps = out._counts()["steps"]
+        return out
+
+    def shards(self):
+        """Per-shard metric arrays (index, valid, fell, the metrics...), in sample order."""
+        return self._store.shards(self._layout)
+
+    def _counts(self) -> dict:
+        if self._tally is None:
+            t = dict(samples=0, valid=0, fell=0, steps=0, invalid=[])
+            for part in self.shards():
+                valid = part["valid"].astype(bool)
+                t["samples"] += len(valid)
+                t["valid"] += int(valid.sum())
+                t["fell"] += int(part["fell"].astype(bool)[valid].sum())
+                t["steps"] += int(part["steps"].sum())
+                if len(t["invalid"]) < MAX_CLASSIFIED:
+                    t["invalid"].extend(part["index"][~valid][: MAX_CLASSIFIED - len(t["invalid"])].tolist())
+            self._tally = t
+        return self._tally
+
+    @property
+    def n(self) -> int:
+        return self._counts()["samples"]
+
+    @property
+    def valid(self):
+        return self.metrics["valid"]  # refused, with the way to the summaries
+
+    @property
+    def fall_rate(self) -> float:
+        t = self._counts()
+        return t["fell"] / t["valid"] if t["valid"] else float("nan")
+
+    def fall_rate_interval(self, confidence: float = 0.95):
+        t = self._counts()
+        return wilson_interval(t["fell"], t["valid"], confidence)
+
+    def _invalid_count(self) -> int:
+        t = self._counts()
+        return t["samples"] - t["valid"]
+
+    def _invalid_indices(self, limit: int) -> np.ndarray:
+        return np.asarray(self._counts()["invalid"][:limit], dtype=np.uint64)
+
+    def quantiles(self, name: str, q=(0.05, 0.5, 0.95)) -> np.ndarray:
+        """As SweepResult.quantiles (numpy's linear interpolation), exact, read from the shards."""
+        return self.quantiles_of([name], q)[name]
+
+    def quantiles_of(self, names, q=(0.05, 0.5, 0.95)) -> Dict[str, np.ndarray]:
+        """{name: quantiles(name, q)} for several metrics, in the same passes over the shards."""
+        for name in names:
+            if name not in self.metric_names[1:]:
+                raise _bad(f"quantiles: unknown metric '{name}'; this sweep has {', '.join(self.metric_names[1:])}")
+
+        def values():
+            for part in self.shards():
+                keep = part["valid"].astype(bool) & ~part["fell"].astype(bool)
+                yield {name: part[name][keep].astype(float) for name in names}
+
+        return streamed_quantiles_of(values, list(names), q)
+
+    def _summary_metrics(self):
+        return ()  # summary() takes them all in the same passes
+
+    def summary(self) -> dict:
+        if self._summary is None:  # a few passes over the shards: once
+            out = super().summary()
+            for name, q in self.quantiles_of(self.metric_names[2:]).items():
+                out[name] = dict(zip(("q05", "median", "q95"), map(float, q)))
+            self._summary = out
+        return dict(self._summary)
+
+    def to_pandas(self):
+        return self.metrics  # refused: the metrics do not fit in memory
 
 
 def _scenario_of(scenario, params, options):
@@ -398,7 +582,8 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
         "control_period": sc.control_period,
         "reference": repr(sc.reference),
         # The whole controller (gains, period, fuzzy sets, its model...), not its short repr.
-        "controller": _core.controller_fingerprint(sc.controller),
+        "controller": (user_sweep.fingerprint(sc.controller) if user_sweep.is_user_controller(sc.controller)
+                       else _core.controller_fingerprint(sc.controller)),
         "perturb": list(perturb_keys),
         "perturbations": [list(p) for p in perturbations],
         "seed": int(seed),
@@ -409,9 +594,12 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
 
 
 def _run(sc, config, start, count, threads, progress, realism=None):
-    return _family(sc).raw(sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
-                           [tuple(p) for p in config["perturbations"]], config["seed"], start, count,
-                           control_period=sc.control_period, threads=threads, progress=progress, realism=realism)
+    family = _family(sc)
+    if user_sweep.is_user_controller(sc.controller):  # worker processes, not threads
+        return user_sweep.run(sc, family, config, start, count, threads, progress, realism)
+    return family.raw(sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
+                      [tuple(p) for p in config["perturbations"]], config["seed"], start, count,
+                      control_period=sc.control_period, threads=threads, progress=progress, realism=realism)
 
 
 def _run_shard_by_name(config, start, count, threads):
@@ -480,6 +668,9 @@ def montecarlo(
     steps, in `SweepResult.traces` (each replayed alone with the full runner, see replay).
     Ctrl-C stops within a fraction of a second: finished shards stay in the checkpoint,
     and the KeyboardInterrupt carries `.partial`, a SweepResult of what finished.
+    Memory: when n samples' metrics do not fit the memory budget (`twip.set_memory_budget`),
+    a sweep needs `checkpoint=`; it then keeps them on disk and returns a
+    StreamedSweepResult, whose summaries are read back shard by shard.
     """
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n <= 0:
         raise _bad(f"n = {n!r}: the number of samples must be a positive integer")
@@ -493,24 +684,68 @@ def montecarlo(
     if realism is not None and not isinstance(realism, _core.Realism):
         raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
     sc = _scenario_of(scenario, params, options)
+    if traces:  # each replay checks its own log; together they must fit too
+        from twip.sim import log_shape_guess
+
+        rows, columns = log_shape_guess(sc.model, sc.t_final, sc.dt, trace_every, realism)
+        budget.check(f"montecarlo: traces of {len(traces)} samples ({rows:,.0f} rows x {columns} columns each)",
+                     len(traces) * rows * columns * 8, "keep fewer traces= or log them sparser with trace_every=")
     perturbations = _resolve(perturb or {}, sc)
     config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism)
     if shard_size is None:
-        shard = DEFAULT_SHARD if (checkpoint or client) else n
+        # Checkpointed sweeps keep at most MAX_SHARDS files (n = 10**9: shards of 10**5).
+        shard = max(DEFAULT_SHARD, -(-n // MAX_SHARDS)) if (checkpoint or client) else n
     elif isinstance(shard_size, bool) or not isinstance(shard_size, (int, np.integer)) or shard_size <= 0:
         raise _bad(f"shard_size = {shard_size!r}: must be a positive integer")
     else:
         shard = int(shard_size)
-    store = _Checkpoint(checkpoint, config, shard) if checkpoint is not None else None
-    shards = [(s, min(shard, n - s)) for s in range(0, n, shard)]
+    # Memory: all the metrics when they fit the budget, else (with a checkpoint) a
+    # shard at a time, the summaries read back from the shards.
+    in_memory = fits_in_memory(n)
+    if checkpoint is None:
+        budget.check(f"montecarlo: n = {n:,} samples", n * BYTES_PER_SAMPLE,
+                     "pass checkpoint=FOLDER to stream the sweep to disk in shards")
+    else:
+        budget.check(f"montecarlo: a shard of shard_size = {shard:,} samples", shard * BYTES_PER_SAMPLE,
+                     "pass a smaller shard_size")
+    store = Checkpoint(checkpoint, config, shard) if checkpoint is not None else None
+    try:
+        return _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, realism, traces, trace_every)
+    finally:
+        if store is not None:
+            store.close()
+
+
+def fits_in_memory(n: int) -> bool:
+    """Whether the metrics of an n-sample sweep fit the memory budget (else a sweep
+    needs checkpoint= and returns a StreamedSweepResult)."""
+    return n * BYTES_PER_SAMPLE <= budget.memory_budget()
+
+
+def _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, realism, traces, trace_every):
+    layout = [(s, min(shard, n - s)) for s in range(0, n, shard)]
     parts = {}
-    if store is not None:
-        parts.update(store.load())
-    todo = [(s, c) for s, c in shards if s not in parts]
+    finished = set()
+    if store is not None:  # verified one shard at a time; kept only when in memory
+        for s, c in layout:
+            raw = store.read(s, c)
+            if raw is not None:
+                finished.add(s)
+                if in_memory:
+                    parts[s] = raw
+    todo = [(s, c) for s, c in layout if s not in finished]
     bar = _Bar(n, progress)
-    bar.base = sum(c for s, c in shards if s in parts)
+    bar.base = sum(c for s, c in layout if s in finished)
     started = time.perf_counter()
     kernel = kernel_for(sc, realism)
+
+    def keep(s, raw):
+        if store is not None:
+            store.save(s, raw)
+        finished.add(s)
+        if in_memory or store is None:
+            parts[s] = raw
+
     try:
         if client is not None:
             futures = {client.submit(_run_shard_by_name, config, s, c, threads or 1, pure=False): s for s, c in todo}
@@ -518,10 +753,7 @@ def montecarlo(
 
             for future in as_completed(futures):
                 raw = future.result()
-                s = futures[future]
-                parts[s] = raw
-                if store is not None:
-                    store.save(s, raw)
+                keep(futures[future], raw)
                 bar.base += len(raw["index"])
                 bar.update_to(0)
         else:
@@ -530,16 +762,20 @@ def montecarlo(
                 if raw["interrupted"]:
                     parts[s] = raw
                     raise KeyboardInterrupt
-                parts[s] = raw
-                if store is not None:
-                    store.save(s, raw)
+                keep(s, raw)
                 bar.base += c
     except KeyboardInterrupt as stop:
-        stop.partial = _assemble(parts, config, time.perf_counter() - started, kernel, sc, complete=False, realism=realism)
+        elapsed = time.perf_counter() - started
+        stop.partial = (_assemble(parts, config, elapsed, kernel, sc, complete=False, realism=realism)
+                        if in_memory or store is None else
+                        StreamedSweepResult.of(store, layout, finished, config, elapsed, kernel, sc, realism))
         raise
     finally:
         bar.close()
-    result = _assemble(parts, config, time.perf_counter() - started, kernel, sc, complete=True, realism=realism)
+    elapsed = time.perf_counter() - started
+    if not (in_memory or store is None):
+        return StreamedSweepResult.of(store, layout, finished, config, elapsed, kernel, sc, realism)
+    result = _assemble(parts, config, elapsed, kernel, sc, complete=True, realism=realism)
     result.traces = {i: result.replay(i, record_every=trace_every) for i in traces}
     return result
 
@@ -582,55 +818,3 @@ def _assemble(parts, config, elapsed, kernel, sc, complete, realism=None):
     steps = int(np.sum(cat("steps"))) if keys else 0
     return SweepResult(metrics=metrics, steps=steps, config=config, elapsed=elapsed, kernel=kernel,
                        metric_names=names, _scenario=sc, _realism=realism)
-
-
-class _Checkpoint:
-    """A folder: manifest.json (the configuration) and one .npz file per finished shard,
-    each written under a temporary name and renamed when complete."""
-
-    def __init__(self, path, config, shard):
-        self.dir = Path(path)
-        self.dir.mkdir(parents=True, exist_ok=True)
-        manifest = {"config": config, "shard_size": shard}
-        self.fingerprint = hashlib.sha256(json.dumps(manifest, sort_keys=True).encode()).hexdigest()
-        path = self.dir / "manifest.json"
-        if path.exists():
-            old = json.loads(path.read_text())
-            if old.get("fingerprint") != self.fingerprint:
-                before = old.get("manifest", {}).get("config", {})
-                diff = [k for k in {**before, **config} if before.get(k) != config.get(k)]
-                if old.get("manifest", {}).get("shard_size") != shard:
-                    diff.append("shard_size")
-                raise _bad(
-                    f"checkpoint {self.dir} holds a sweep with a different configuration "
-                    f"(differs in: {', '.join(diff) or 'unknown'}); use a new folder or the same arguments"
-                )
-        else:
-            self._write(path, json.dumps({"fingerprint": self.fingerprint, "manifest": manifest}, indent=1).encode())
-
-    @staticmethod
-    def _write(path: Path, data: bytes):
-        tmp = path.with_name(path.name + f".tmp{os.getpid()}")
-        with open(tmp, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-
-    def _shard_path(self, start):
-        return self.dir / f"shard-{start:012d}.npz"
-
-    def save(self, start, raw):
-        import io
-
-        buf = io.BytesIO()
-        np.savez(buf, **{k: np.asarray(v) for k, v in raw.items() if k not in ("kernel", "interrupted")})
-        self._write(self._shard_path(start), buf.getvalue())
-
-    def load(self):
-        parts = {}
-        for p in sorted(self.dir.glob("shard-*.npz")):
-            start = int(p.stem.split("-")[1])
-            with np.load(p) as data:
-                parts[start] = {k: data[k] for k in data.files}
-        return parts

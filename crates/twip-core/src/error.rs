@@ -20,6 +20,8 @@ pub enum TwipError {
     NotDetectable,
     /// An iterative method stopped at its cap without converging.
     NoConvergence { what: &'static str, iterations: usize },
+    /// A buffer sized by `name` could not be reserved (the allocator refused `bytes`).
+    OutOfMemory { name: &'static str, bytes: u64 },
 }
 
 impl fmt::Display for TwipError {
@@ -51,6 +53,9 @@ impl fmt::Display for TwipError {
             ),
             TwipError::NoConvergence { what, iterations } => {
                 write!(f, "{what} did not converge within {iterations} iterations")
+            }
+            TwipError::OutOfMemory { name, bytes } => {
+                write!(f, "{name}: could not reserve {bytes} bytes of memory")
             }
         }
     }

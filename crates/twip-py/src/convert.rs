@@ -1,10 +1,13 @@
 //! numpy <-> nalgebra conversions with shape and finiteness checks that name the argument.
 use nalgebra::{DMatrix, SMatrix, SVector};
-use numpy::{AllowTypeChange, Complex64, IntoPyArray, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2, PyUntypedArrayMethods};
+use numpy::{
+    AllowTypeChange, Complex64, IntoPyArray, PyArray1, PyArray2, PyArrayDescrMethods, PyArrayLike1, PyArrayLike2, PyUntypedArray,
+    PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 use twip_core::TwipError;
 
-use crate::errors::{CoreResult, PyTwipError};
+use crate::errors::{CoreResult, InvalidParameterError, ShapeError};
 
 fn finite(name: &'static str, values: impl IntoIterator<Item = f64>) -> CoreResult<()> {
     for (index, value) in values.into_iter().enumerate() {
@@ -15,14 +18,60 @@ fn finite(name: &'static str, values: impl IntoIterator<Item = f64>) -> CoreResu
     Ok(())
 }
 
-/// Reads a length-`N` float vector (any array-like), checking shape and finiteness.
+/// `obj` as a numpy array of real numbers (bool, int or float): anything else (a string,
+/// a complex number, None...) is refused naming the first such entry and its index.
+fn real_array<'py>(name: &'static str, obj: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    if let Ok(a) = obj.cast::<PyUntypedArray>() {
+        if b"biuf".contains(&a.dtype().kind()) {
+            return Ok(obj.clone());
+        }
+    }
+    let np = obj.py().import("numpy")?;
+    let arr = np.call_method1("asarray", (obj,)).map_err(|e| {
+        ShapeError::new_err(format!("{name}: cannot be read as an array of numbers ({e})"))
+    })?;
+    let kind = arr.cast::<PyUntypedArray>().map(|a| a.dtype().kind()).unwrap_or(b'O');
+    if b"biuf".contains(&kind) {
+        return Ok(arr);
+    }
+    // The entries as given (numpy would have turned [1, "a"] into strings throughout).
+    let as_given = np.call_method1("asarray", (obj, "object")).unwrap_or(arr.clone());
+    let real = obj.py().import("numbers")?.getattr("Real")?;
+    let flat = as_given.call_method0("ravel")?.call_method0("tolist")?;
+    for (index, entry) in flat.try_iter()?.enumerate() {
+        let entry = entry?;
+        if !entry.is_instance(&real)? {
+            return Err(InvalidParameterError::new_err(format!(
+                "{name}[{index}] = {}: not a real number (got {})",
+                entry.repr()?,
+                entry.get_type().name()?
+            )));
+        }
+    }
+    Ok(arr)
+}
+
+/// The shape of an array-like, as numpy reads it (for error messages).
+fn shape_of(obj: &Bound<'_, PyAny>) -> String {
+    obj.getattr("shape")
+        .and_then(|s| s.extract::<Vec<usize>>())
+        .map(|s| match s.as_slice() {
+            [one] => format!("({one},)"),
+            _ => format!("{s:?}").replace('[', "(").replace(']', ")"),
+        })
+        .unwrap_or_else(|_| "unknown".into())
+}
+
+/// Reads a length-`N` float vector (any array-like of real numbers), checking shape
+/// and finiteness; a wrong shape is reported as received.
 pub fn vector<const N: usize>(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<SVector<f64, N>> {
+    let obj = real_array(name, obj)?;
     let arr: PyArrayLike1<'_, f64, AllowTypeChange> = obj.extract().map_err(|_| {
-        PyTwipError(TwipError::Shape { name, expected: (N, 1), got: dims_of(obj) })
+        ShapeError::new_err(format!("{name} has shape {}, expected ({N},)", shape_of(&obj)))
     })?;
     let view = arr.as_array();
     if view.len() != N {
-        return Err(PyTwipError(TwipError::Shape { name, expected: (N, 1), got: (view.len(), 1) }).into());
+        return Err(ShapeError::new_err(format!("{name} has shape ({},), expected ({N},)", view.len())));
     }
     let v = SVector::<f64, N>::from_iterator(view.iter().copied());
     finite(name, v.iter().copied())?;
@@ -48,21 +97,15 @@ pub fn scalar(name: &'static str, obj: f64) -> CoreResult<f64> {
 
 /// Reads a 2-D float matrix of any shape, checking finiteness.
 pub fn dmatrix(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<DMatrix<f64>> {
+    let obj = real_array(name, obj)?;
     let arr: PyArrayLike2<'_, f64, AllowTypeChange> = obj.extract().map_err(|_| {
-        PyTwipError(TwipError::Shape { name, expected: (0, 0), got: dims_of(obj) })
+        ShapeError::new_err(format!("{name} has shape {}, expected a 2-D matrix", shape_of(&obj)))
     })?;
     let view = arr.as_array();
     let (r, c) = view.dim();
     let m = DMatrix::from_fn(r, c, |i, j| view[(i, j)]);
     finite(name, m.iter().copied())?;
     Ok(m)
-}
-
-fn dims_of(obj: &Bound<'_, PyAny>) -> (usize, usize) {
-    match obj.extract::<PyArrayLike1<'_, f64, AllowTypeChange>>() {
-        Ok(a) => (a.len(), 1),
-        Err(_) => (0, 0),
-    }
 }
 
 pub fn to_py_vector<'py, const N: usize>(py: Python<'py>, v: &SVector<f64, N>) -> Bound<'py, PyArray1<f64>> {

@@ -17,7 +17,7 @@ macro_rules! controller_enum {
                 )+
                 let accepted = [$(<$py as pyo3::PyClass>::NAME),+].join(", ");
                 Err(pyo3::exceptions::PyTypeError::new_err(format!(
-                    "controller must be a {} twip controller ({accepted}), got {}",
+                    "controller must be a {} twip controller ({accepted}), an object with update(t, y, ref) -> u and period [s], or a callable f(t, y, ref) -> u; got {}",
                     $family,
                     obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
                 )))

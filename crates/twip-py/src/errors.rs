@@ -36,6 +36,7 @@ impl From<PyTwipError> for PyErr {
             CoreError::NotStabilizable => NotStabilizableError::new_err(msg),
             CoreError::NotDetectable => NotDetectableError::new_err(msg),
             CoreError::NoConvergence { .. } => ConvergenceError::new_err(msg),
+            CoreError::OutOfMemory { .. } => pyo3::exceptions::PyMemoryError::new_err(msg),
         }
     }
 }

@@ -17,6 +17,7 @@ mod simulate;
 mod sweep;
 mod sweep_planar;
 mod tracking;
+mod user_controller;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -4,7 +4,6 @@ use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
-use twip_core::TwipError;
 
 use crate::convert::{dmatrix, scalar, to_py_dmatrix, vector};
 use crate::errors::{CoreResult, PyTwipError};
@@ -64,10 +63,21 @@ impl PyLqrController {
     ) -> PyResult<Self> {
         let q = match vector::<4>("Q", Q) {
             Ok(diag) => Matrix4::from_diagonal(&diag),
-            Err(_) => {
-                let m = dmatrix("Q", Q)?;
+            // A diagonal with a bad entry is reported as such; only a shape sends us on to a matrix.
+            Err(e) if !e.is_instance_of::<crate::errors::ShapeError>(py) => return Err(e),
+            Err(as_vector) => {
+                let m = dmatrix("Q", Q).map_err(|e| {
+                    if e.is_instance_of::<crate::errors::ShapeError>(py) {
+                        crate::errors::ShapeError::new_err(format!("{} (its diagonal) or (4, 4)", as_vector.value(py)))
+                    } else {
+                        e
+                    }
+                })?;
                 if m.shape() != (4, 4) {
-                    return Err(PyTwipError(TwipError::Shape { name: "Q", expected: (4, 4), got: m.shape() }).into());
+                    return Err(crate::errors::ShapeError::new_err(format!(
+                        "Q has shape {:?}, expected (4,) (its diagonal) or (4, 4)",
+                        m.shape()
+                    )));
                 }
                 Matrix4::from_fn(|i, j| m[(i, j)])
             }

@@ -44,6 +44,12 @@ impl PySlopeModel {
         self.inner.slope()
     }
 
+    /// Pickled as SlopeModel(params, slope) (sweeps copy Python controllers holding one).
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (PyRobotParams, f64))> {
+        let me = slf.borrow();
+        Ok((slf.get_type().into_any(), (me.params(), me.slope())))
+    }
+
     fn deriv<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, u: &Bound<'py, PyAny>) -> PyResult<Arr1<'py>> {
         let d = self.inner.deriv(&vector::<4>("x", x)?, &input::<1>("u", u)?);
         Ok(to_py_vector(py, &d))
@@ -111,6 +117,11 @@ impl PyPlanarModel {
     #[getter]
     fn params(&self) -> PyRobotParams {
         PyRobotParams { inner: *self.inner.params() }
+    }
+
+    /// Pickled as PlanarModel(params).
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (PyRobotParams,))> {
+        Ok((slf.get_type().into_any(), (slf.borrow().params(),)))
     }
 
     fn deriv<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, u: &Bound<'py, PyAny>) -> PyResult<Arr1<'py>> {

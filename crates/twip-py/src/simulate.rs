@@ -18,6 +18,7 @@ use crate::lqr::PyLqrController;
 use crate::models::PySlopeModel;
 use crate::realism::PyRealism;
 use crate::schedule::PySpeedSchedule;
+use crate::user_controller::{is_user_controller, UserController};
 
 /// Every controller of the 2-DOF model. A new controller family adds a variant here
 /// and in the `controller_enum!` line below; the runner stays one monomorphised loop.
@@ -40,6 +41,47 @@ impl SlopeController {
 }
 
 crate::dispatch::controller_enum!(SlopeController, 4, 1, SpeedRef<f64>, "2-DOF"; Lqr(PyLqrController), Fuzzy(PyFuzzyController));
+
+/// One 2-DOF run's settings, for any controller.
+#[derive(Clone, Copy)]
+struct SlopeRun {
+    plant: twip_core::SlopeModel<f64>,
+    schedule: SpeedSchedule<f64>,
+    x0: nalgebra::Vector4<f64>,
+    config: SimConfig<f64>,
+    realism: Option<twip_core::hardware::realism::Realism<f64>>,
+    record_every: usize,
+    extra: usize,
+}
+
+type SlopeOutput = (Outcome<f64>, usize, SlopeMetrics<f64>, TrajectoryLog<f64>);
+
+impl SlopeRun {
+    /// The log's widths: state, input, reference, internals (+ the rig's signals).
+    fn widths(&self, internals: usize) -> [usize; 4] {
+        [4, 1, <SpeedRef<f64> as LogRow<f64>>::NAMES.len(), internals + self.extra]
+    }
+
+    /// The ideal loop is the plain runner; realism builds its own plant, sensor and
+    /// actuator kinds (core enums) and runs them through simulate_rig.
+    fn run<C>(&self, ctrl: &mut C, should_stop: impl FnMut() -> bool) -> Result<SlopeOutput, twip_core::TwipError>
+    where
+        C: Controller<f64, 4, 1, Reference = SpeedRef<f64>>,
+    {
+        let (n, _) = self.config.steps(ctrl.period())?;
+        let widths = self.widths(ctrl.internal_names().len());
+        let mut observers =
+            (SlopeMetrics::new(self.plant), TrajectoryLog::with_capacity(n + 1, self.record_every, widths)?);
+        let (outcome, steps) = match self.realism {
+            None => simulate_until(&self.plant, ctrl, &self.schedule, &self.x0, &self.config, &mut observers, should_stop)?,
+            Some(r) => r
+                .build(&self.plant, self.config.dt)?
+                .simulate(ctrl, &self.schedule, &self.x0, &self.config, &mut observers, should_stop)?,
+        };
+        let (metrics, log) = observers;
+        Ok((outcome, steps, metrics, log))
+    }
+}
 
 /// Runs the closed loop; returns a dict that `twip.simulate` wraps into a SimResult.
 /// With `realism` (a `twip.Realism`) the loop runs through `simulate_rig` and the log
@@ -64,44 +106,44 @@ pub fn simulate_raw<'py>(
         pyo3::exceptions::PyTypeError::new_err("this controller drives a twip.SlopeModel")
     })?;
     let plant = plant.get().inner;
-    let mut ctrl = SlopeController::extract(controller)?;
     let realism = realism.map(|r| r.to_core(plant.params())).transpose().map_err(PyTwipError)?;
     // An explicit control_period wins over the realism's loop period.
-    if let Some(p) = control_period.or(realism.and_then(|r| r.control_period)) {
-        ctrl = ctrl.with_period(p)?;
-    }
-    ctrl.check_reference(&reference.inner)?;
+    let period = control_period.or(realism.and_then(|r| r.control_period));
     let x0 = vector::<4>("x0", x0)?;
     let config = SimConfig::new(dt, t_final, fall_limit);
-    let (n, _) = config.steps(ctrl.period()).map_err(PyTwipError)?;
     if record_every == 0 {
         return Err(crate::errors::invalid("record_every", 0.0, "must be >= 1").into());
     }
     let schedule = reference.inner;
-    let names = ctrl.internal_names();
     let extra = if realism.is_some() { RIG_SIGNALS.len() } else { 0 };
-    let widths = [4, 1, <SpeedRef<f64> as LogRow<f64>>::NAMES.len(), names.len() + extra];
-    let (outcome, steps, metrics, log, interrupt) = py.detach(move || {
-        let mut observers = (SlopeMetrics::new(plant), TrajectoryLog::with_capacity(n + 1, record_every, widths));
+    let run = SlopeRun { plant, schedule, x0, config, realism, record_every, extra };
+    let (names, (outcome, steps, metrics, log)) = if is_user_controller(controller) && SlopeController::extract(controller).is_err() {
+        // A Python controller keeps the GIL: it is called back at every update.
+        let mut ctrl = UserController::<SpeedRef<f64>, 4, 1>::new(controller, period, dt, "SlopeModel")?;
+        let failed = ctrl.failed.clone();
         let mut interrupt = None;
-        let should_stop = || crate::interrupt::requested(&mut interrupt);
-        // The ideal loop stays the plain runner; realism builds its own plant, sensor
-        // and actuator kinds (core enums) and runs them through simulate_rig.
-        let result = match realism {
-            None => simulate_until(&plant, &mut ctrl, &schedule, &x0, &config, &mut observers, should_stop),
-            Some(r) => r
-                .build(&plant, config.dt)
-                .and_then(|mut rig| rig.simulate(&mut ctrl, &schedule, &x0, &config, &mut observers, should_stop)),
-        };
-        result.map(|(outcome, steps)| {
-            let (metrics, log) = observers;
-            (outcome, steps, metrics, log, interrupt)
-        })
-    })
-    .map_err(PyTwipError)?;
-    if let Some(err) = interrupt {
-        return Err(err);
-    }
+        let out = run.run(&mut ctrl, || failed.get() || crate::interrupt::requested(&mut interrupt));
+        if let Some(err) = ctrl.take_error().or(interrupt) {
+            return Err(err);
+        }
+        (ctrl.internal_names(), out.map_err(PyTwipError)?)
+    } else {
+        let mut ctrl = SlopeController::extract(controller)?;
+        if let Some(p) = period {
+            ctrl = ctrl.with_period(p)?;
+        }
+        ctrl.check_reference(&schedule)?;
+        let (out, interrupt) = py.detach(move || {
+            let mut interrupt = None;
+            let out = run.run(&mut ctrl, || crate::interrupt::requested(&mut interrupt));
+            (out, interrupt)
+        });
+        if let Some(err) = interrupt {
+            return Err(err);
+        }
+        (ctrl.internal_names(), out.map_err(PyTwipError)?)
+    };
+    let widths = run.widths(names.len());
     let summary = metrics.summary();
     let out = PyDict::new(py);
     let rows = log.len();

@@ -88,8 +88,11 @@ fn watched<R: Send>(
     let out = py.detach(|| {
         thread::scope(|scope| {
             let worker = scope.spawn(work);
+            // Short work (a small shard) is not held up by the poll: the first waits are short.
+            let mut wait = Duration::from_micros(250);
             while !worker.is_finished() {
-                thread::sleep(Duration::from_millis(25));
+                thread::sleep(wait);
+                wait = (wait * 2).min(Duration::from_millis(25));
                 Python::attach(|py| {
                     if interrupt.is_none() {
                         if let Err(e) = py.check_signals() {
@@ -153,14 +156,13 @@ fn result_dict<'py, M: SweepMetrics>(
     let results = results.ok_or_else(|| pyo3::exceptions::PyRuntimeError::new_err("a sweep worker thread panicked"))?;
     let out = PyDict::new(py);
     let n = results.len() as u64;
-    out.set_item("index", (start..start + n).collect::<Vec<u64>>().into_pyarray(py))?;
-    out.set_item("done", results.iter().map(|r| r.is_some()).collect::<Vec<bool>>().into_pyarray(py))?;
-    out.set_item("valid", results.iter().map(|r| r.is_some_and(|m| m.valid())).collect::<Vec<bool>>().into_pyarray(py))?;
-    out.set_item("fell", results.iter().map(|r| r.is_some_and(|m| m.fell())).collect::<Vec<bool>>().into_pyarray(py))?;
-    out.set_item("steps", results.iter().map(|r| r.map_or(0, |m| m.steps())).collect::<Vec<u64>>().into_pyarray(py))?;
+    out.set_item("index", column(n, start..start + n)?.into_pyarray(py))?;
+    out.set_item("done", column(n, results.iter().map(|r| r.is_some()))?.into_pyarray(py))?;
+    out.set_item("valid", column(n, results.iter().map(|r| r.is_some_and(|m| m.valid())))?.into_pyarray(py))?;
+    out.set_item("fell", column(n, results.iter().map(|r| r.is_some_and(|m| m.fell())))?.into_pyarray(py))?;
+    out.set_item("steps", column(n, results.iter().map(|r| r.map_or(0, |m| m.steps())))?.into_pyarray(py))?;
     for (i, name) in M::NAMES.iter().enumerate() {
-        let column: Vec<f64> = results.iter().map(|r| r.map_or(f64::NAN, |m| m.value(i))).collect();
-        out.set_item(name, column.into_pyarray(py))?;
+        out.set_item(name, column(n, results.iter().map(|r| r.map_or(f64::NAN, |m| m.value(i))))?.into_pyarray(py))?;
     }
     let names: Vec<&str> = core::iter::once("fell").chain(M::NAMES.iter().copied()).collect();
     out.set_item("metric_names", names)?;
@@ -178,6 +180,16 @@ pub(crate) fn no_friction_in_sweeps(has_friction: bool) -> PyResult<()> {
         ));
     }
     Ok(())
+}
+
+/// One metric column of `n` samples, reserved fallibly: a MemoryError naming `n`, not an abort.
+fn column<T>(n: u64, values: impl Iterator<Item = T>) -> PyResult<Vec<T>> {
+    let mut out = Vec::new();
+    out.try_reserve_exact(n as usize).map_err(|_| {
+        PyTwipError(TwipError::OutOfMemory { name: "n", bytes: n.saturating_mul(core::mem::size_of::<T>() as u64) })
+    })?;
+    out.extend(values);
+    Ok(out)
 }
 
 /// The robot, slope and initial state of sample `index` (to replay it alone).

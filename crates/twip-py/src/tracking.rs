@@ -17,6 +17,7 @@ use crate::convert::vector;
 use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
 use crate::models::PyPlanarModel;
 use crate::params::PyRobotParams;
+use crate::user_controller::{is_user_controller, UserController};
 
 fn sample_dict<'py>(py: Python<'py>, s: &PlanarRef<f64>) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
@@ -783,6 +784,47 @@ pub(crate) fn settle_time(settle: Option<f64>, path: &Trajectory<f64>) -> PyResu
     Ok(settle)
 }
 
+/// One 3-DOF run's settings, for any controller.
+#[derive(Clone, Copy)]
+struct PlanarRun {
+    plant: twip_core::PlanarModel<f64>,
+    path: Trajectory<f64>,
+    settle: f64,
+    x0: nalgebra::SVector<f64, 7>,
+    config: SimConfig<f64>,
+    record_every: usize,
+    /// The robot's real parts (the 3-DOF rig), or the ideal loop.
+    realism: Option<twip_core::hardware::realism::Realism<f64>>,
+}
+
+type PlanarOutput = (Outcome<f64>, usize, TrackingMetrics<f64, Trajectory<f64>>, TrajectoryLog<f64>);
+
+impl PlanarRun {
+    fn run<C>(&self, ctrl: &mut C, should_stop: impl FnMut() -> bool) -> Result<PlanarOutput, twip_core::TwipError>
+    where
+        C: Controller<f64, 7, 2, Reference = PlanarRef<f64>>,
+    {
+        let (n, _) = self.config.steps(ctrl.period())?;
+        let extra = if self.realism.is_some() { PLANAR_RIG_SIGNALS.len() } else { 0 };
+        let widths = [7, 2, <PlanarRef<f64> as LogRow<f64>>::NAMES.len(), ctrl.internal_names().len() + extra];
+        let mut observers =
+            (TrackingMetrics::new(self.path, self.settle), TrajectoryLog::with_capacity(n + 1, self.record_every, widths)?);
+        let (outcome, steps) = match &self.realism {
+            None => simulate_until(&self.plant, ctrl, &self.path, &self.x0, &self.config, &mut observers, should_stop)?,
+            Some(r) => r.build_planar(&self.plant, self.config.dt)?.simulate(
+                ctrl,
+                &self.path,
+                &self.x0,
+                &self.config,
+                &mut observers,
+                should_stop,
+            )?,
+        };
+        let (metrics, log) = observers;
+        Ok((outcome, steps, metrics, log))
+    }
+}
+
 /// Runs a tracker on the 3-DOF model; returns a dict that `twip.simulate` wraps into a
 /// SimResult. `settle` [s] starts the "_settled" metrics (default: one lap of a circle or
 /// figure-eight, else 0).
@@ -808,44 +850,46 @@ pub fn simulate_planar_raw<'py>(
         .map_err(|_| pyo3::exceptions::PyTypeError::new_err("this controller drives a twip.PlanarModel"))?
         .get()
         .inner;
-    let mut ctrl = PlanarController::extract(controller)?;
     let realism = realism.map(|r| r.to_core(plant.params())).transpose().map_err(PyTwipError)?;
     // As in simulate_raw: an explicit control_period wins over the realism's loop period.
-    if let Some(p) = control_period.or(realism.and_then(|r| r.control_period)) {
-        ctrl = ctrl.with_period(p)?;
-    }
+    let control_period = control_period.or(realism.and_then(|r| r.control_period));
     let path = trajectory(reference)?;
     let settle = settle_time(settle, &path)?;
     let x0 = vector::<7>("x0", x0)?;
     let config = SimConfig::new(dt, t_final, fall_limit);
-    let (n, _) = config.steps(ctrl.period()).map_err(PyTwipError)?;
     if record_every == 0 {
         return Err(invalid("record_every", 0.0, "must be >= 1").into());
     }
-    let names = ctrl.internal_names();
+    let run = PlanarRun { plant, path, settle, x0, config, record_every, realism };
+    let (names, (outcome, steps, metrics, log)) =
+        if is_user_controller(controller) && PlanarController::extract(controller).is_err() {
+            // A Python controller keeps the GIL: it is called back at every update.
+            let mut ctrl = UserController::<PlanarRef<f64>, 7, 2>::new(controller, control_period, dt, "PlanarModel")?;
+            let failed = ctrl.failed.clone();
+            let mut interrupt = None;
+            let out = run.run(&mut ctrl, || failed.get() || crate::interrupt::requested(&mut interrupt));
+            if let Some(err) = ctrl.take_error().or(interrupt) {
+                return Err(err);
+            }
+            (ctrl.internal_names(), out.map_err(PyTwipError)?)
+        } else {
+            let mut ctrl = PlanarController::extract(controller)?;
+            if let Some(p) = control_period {
+                ctrl = ctrl.with_period(p)?;
+            }
+            let (out, interrupt) = py.detach(move || {
+                let mut interrupt = None;
+                let out = run.run(&mut ctrl, || crate::interrupt::requested(&mut interrupt));
+                (out, interrupt)
+            });
+            if let Some(err) = interrupt {
+                return Err(err);
+            }
+            (ctrl.internal_names(), out.map_err(PyTwipError)?)
+        };
     let ref_names = <PlanarRef<f64> as LogRow<f64>>::NAMES;
     let extra = if realism.is_some() { PLANAR_RIG_SIGNALS.len() } else { 0 };
     let widths = [7, 2, ref_names.len(), names.len() + extra];
-    let (outcome, steps, metrics, log, interrupt) = py.detach(move || {
-        let mut observers =
-            (TrackingMetrics::new(path, settle), TrajectoryLog::with_capacity(n + 1, record_every, widths));
-        let mut interrupt = None;
-        let should_stop = || crate::interrupt::requested(&mut interrupt);
-        let result = match realism {
-            None => simulate_until(&plant, &mut ctrl, &path, &x0, &config, &mut observers, should_stop),
-            Some(r) => r
-                .build_planar(&plant, config.dt)
-                .and_then(|mut rig| rig.simulate(&mut ctrl, &path, &x0, &config, &mut observers, should_stop)),
-        };
-        result.map(|(outcome, steps)| {
-            let (metrics, log) = observers;
-            (outcome, steps, metrics, log, interrupt)
-        })
-    })
-    .map_err(PyTwipError)?;
-    if let Some(err) = interrupt {
-        return Err(err);
-    }
     let summary = metrics.summary();
     let out = PyDict::new(py);
     let rows = log.len();

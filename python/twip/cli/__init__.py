@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 
 import twip
 from twip.cli import commands
@@ -131,6 +132,9 @@ def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     prog = f"twip {args.command}"
+    # Warnings (e.g. an absolute ± over half the nominal) as one line each, named by the command.
+    show = warnings.showwarning
+    warnings.showwarning = lambda message, *rest: print(f"{prog}: warning: {message}", file=sys.stderr)
     try:
         return args.func(args)
     except UsageError as e:
@@ -151,6 +155,8 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return 130
+    finally:
+        warnings.showwarning = show
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 import sys
 import time
 from typing import Any, Dict, List
@@ -18,6 +19,7 @@ from twip.plot import metric_unit
 from twip.report.claims import claims_for
 from twip.report.numbers import fmt, jsonable
 from twip.scenarios import is_planar
+from twip.sweep import StreamedSweepResult, fits_in_memory
 
 
 def metric_lines(metrics: dict) -> List[str]:
@@ -30,15 +32,56 @@ def metric_lines(metrics: dict) -> List[str]:
 
 def sweep_summary(result, metrics) -> str:
     lo, hi = result.fall_rate_interval()
-    valid = int(np.sum(result.metrics["valid"]))
-    lines = [f"{result.config['scenario']}: {result.n} samples ({result.n - valid} invalid), seed {result.config['seed']}",
-             f"  fall rate {result.fall_rate:.2%}  (95 % CI {lo:.2%} – {hi:.2%})",
-             f"  {'metric (samples that did not fall)':48s} {'unit':>6s} {'q05':>10s} {'median':>10s} {'q95':>10s}"]
+    s = result.summary()
+    lines = [f"{result.config['scenario']}: {s['samples']} samples ({s['invalid']} invalid), seed {result.config['seed']}"]
+    lines += [f"  invalid: {count} samples, {reason}" for reason, count in s["invalid_reasons"].items()]
+    lines += [f"  fall rate {result.fall_rate:.2%}  (95 % CI {lo:.2%} – {hi:.2%})" + (
+                  f" over the {s['samples'] - s['invalid']} valid samples" if s["invalid"] else ""),
+              f"  {'metric (samples that did not fall)':48s} {'unit':>6s} {'q05':>10s} {'median':>10s} {'q95':>10s}"]
     for name in metrics:
         label, scale, unit = metric_unit(name)
-        q = np.asarray(result.quantiles(name), float) * scale
+        q = np.array([s[name][k] for k in ("q05", "median", "q95")], float) * scale
         lines.append(f"  {label:48s} {unit:>6s} {q[0]:10.4g} {q[1]:10.4g} {q[2]:10.4g}")
     return "\n".join(lines)
+
+
+def check_outputs(args) -> None:
+    """Refuses, before a run, output paths that cannot be written (--plot, --animate,
+    --csv) and animation settings out of range."""
+    from twip import animate, plot
+
+    if getattr(args, "plot", None):
+        try:
+            plot.check_path(args.plot)
+        except twip.TwipError as e:
+            raise UsageError(f"--plot: {e}") from None
+    if getattr(args, "animate", None):
+        try:
+            animate.check_options(args.animate, args.fps)
+        except twip.TwipError as e:
+            raise UsageError(f"--animate: {e}") from None
+    if getattr(args, "csv", None):
+        try:
+            plot.check_folder(args.csv)
+        except twip.TwipError as e:
+            raise UsageError(f"--csv: {e}") from None
+
+
+def write_csv(result, path) -> None:
+    """The per-sample metrics as CSV; a streamed sweep's shard by shard (bounded memory)."""
+    parts = result.shards() if isinstance(result, StreamedSweepResult) else [result.metrics]
+    with open(path, "w") as f:
+        keys = None
+        for part in parts:
+            if keys is None:
+                keys = ["index", "valid"] + list(result.metric_names)
+                f.write(",".join(keys) + "\n")
+            table = np.column_stack([np.asarray(part[k], float) for k in keys])
+            np.savetxt(f, table, delimiter=",", fmt="%.10g")
+
+
+def resume_command() -> str:
+    return "twip " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if len(sys.argv) > 1 else "the same command"
 
 
 def list_scenarios(args) -> int:
@@ -49,6 +92,7 @@ def list_scenarios(args) -> int:
 
 
 def simulate(args) -> int:
+    check_outputs(args)
     name = scenario_name(args.scenario)
     params = robot(args.param)
     options = scenario_options(name, args.option)
@@ -97,6 +141,11 @@ def simulate(args) -> int:
 
 
 def sweep(args) -> int:
+    check_outputs(args)
+    if args.plot and not fits_in_memory(args.n):
+        raise UsageError(f"--plot: the metrics of -n {args.n:,} samples do not fit the memory budget, so the sweep "
+                         "streams them to --checkpoint and draws no histograms; leave out --plot (the summary "
+                         "and --csv are written shard by shard)")
     name = scenario_name(args.scenario)
     params = robot(args.param)
     options = scenario_options(name, args.option)
@@ -106,27 +155,36 @@ def sweep(args) -> int:
     sc = get_scenario(name, params=params, options=options)  # designed once, here; bad options are named
     if not perturb:
         print("note: no --perturb given, every sample is the same robot", file=sys.stderr)
-    result = twip.montecarlo(sc, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
-                             progress=not args.quiet, checkpoint=args.checkpoint, realism=realism(args.realism))
+    try:
+        result = twip.montecarlo(sc, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
+                                 progress=not args.quiet, checkpoint=args.checkpoint, realism=realism(args.realism))
+    except KeyboardInterrupt as stop:
+        partial = getattr(stop, "partial", None)
+        if partial is not None and partial.n:
+            print(f"interrupted: the {partial.n:,} samples that finished:", file=sys.stderr)
+            print(sweep_summary(partial, list(partial.metric_names[2:])), file=sys.stderr)
+        if args.checkpoint:
+            print(f"finished shards are in {args.checkpoint}; resume with:\n  {resume_command()}", file=sys.stderr)
+        else:
+            print("nothing was kept: pass --checkpoint DIR to keep finished shards and resume", file=sys.stderr)
+        raise
     metrics = list(result.metric_names[2:])
     speed = (f"{result.steps:,} RK4 steps in {result.elapsed:.2f} s: "
              f"{result.steps / max(result.elapsed, 1e-9) / 1e6:.1f} M sample-steps/s ({result.kernel})")
     if args.json:
-        lo, hi = result.fall_rate_interval()
+        s = result.summary()
         print(json.dumps(jsonable({"scenario": name, "n": result.n, "seed": args.seed, "perturb": args.perturb or [],
-                                    "realism": args.realism,
-                                    "fall_rate": result.fall_rate, "fall_rate_95ci": [lo, hi],
-                                    "quantiles": {m: dict(zip(("q05", "median", "q95"), map(float, result.quantiles(m))))
-                                                  for m in metrics}}), indent=1))
+                                    "realism": args.realism, "invalid": s["invalid"],
+                                    "invalid_reasons": s["invalid_reasons"],
+                                    "fall_rate": result.fall_rate, "fall_rate_95ci": list(s["fall_rate_95ci"]),
+                                    "quantiles": {m: s[m] for m in metrics}}), indent=1))
     else:
         print(sweep_summary(result, metrics))
         if args.realism is not None:
             print(f"  realism: {args.realism} (sensors, driver and delay in the loop)")
         print(f"  {speed}")
     if args.csv:
-        keys = [k for k in result.metrics]
-        table = np.column_stack([np.asarray(result.metrics[k], float) for k in keys])
-        np.savetxt(args.csv, table, delimiter=",", header=",".join(keys), comments="", fmt="%.10g")
+        write_csv(result, args.csv)
         print(f"wrote {args.csv}", file=sys.stderr)
     if args.plot:
         from twip import plot

@@ -17,6 +17,23 @@ from twip import _core
 from twip.sim import SimResult, simulate
 
 
+#: A scenario whose reference would take longer than this [s] is refused before it runs
+#: (a wheel radius off by orders of magnitude makes a 1 m trip last years).
+MAX_TRIP_SECONDS = 3600.0
+
+
+def trip_time(distance: float, speed: float, wheel_radius: float) -> float:
+    """The time [s] to drive `distance` [m] at wheel speed `speed` [rad/s] on wheels of
+    `wheel_radius` [m]; refused when longer than MAX_TRIP_SECONDS."""
+    leg = distance / (speed * wheel_radius)
+    if not leg <= MAX_TRIP_SECONDS:
+        raise _core.InvalidParameterError(
+            f"wheel_radius = {wheel_radius:g} m: a {distance:g} m leg at {math.degrees(speed):g} deg/s would take "
+            f"{leg:.3g} s (more than {MAX_TRIP_SECONDS:g} s); check wheel_radius (metres) or the trip's distance"
+        )
+    return leg
+
+
 @dataclass(frozen=True)
 class Scenario:
     name: str

@@ -8,7 +8,7 @@ from typing import Dict, Iterable, Optional
 import numpy as np
 
 from twip import _core
-from twip.scenarios import Scenario, register
+from twip.scenarios import Scenario, register, trip_time
 
 SPEED = math.radians(180)
 
@@ -34,7 +34,7 @@ def _fuzzy(ctrl_params, slope, period, ki, adapt, gamma, sigma, sets):
 
 
 def _go_and_back(distance, radius, hold, settle):
-    leg = distance / (SPEED * radius)
+    leg = trip_time(distance, SPEED, radius)
     reference = _core.SpeedSchedule([(distance / radius, SPEED, hold), (0.0, SPEED, settle)])
     goals = [(leg + hold, distance), (2 * leg + hold + settle, 0.0)]
     return reference, 2 * leg + hold + settle, goals

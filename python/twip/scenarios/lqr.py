@@ -6,16 +6,12 @@ import math
 import numpy as np
 
 from twip import _core
-from twip.scenarios import Scenario, register
+from twip.scenarios import Scenario, register, trip_time
 
 
 def _lqr(ctrl_params, slope, speed, Q, R, point, period):
     design_model = _core.SlopeModel(ctrl_params, slope)
     return _core.LqrController.design(design_model, speed, Q, R, point=point, period=period)
-
-
-def _trip_time(distance, speed, radius):
-    return distance / (speed * radius)
 
 
 @register("slope-lqr-sim")
@@ -58,7 +54,7 @@ def _slope_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, se
     slope, speed, distance = math.radians(15), math.radians(250), 0.6
     plant = _core.SlopeModel(params, slope)
     x0, _ = plant.equilibrium(0.0)  # standing still, balanced on the slope
-    leg = _trip_time(distance, speed, params.wheel_radius)
+    leg = trip_time(distance, speed, params.wheel_radius)
     return Scenario(
         name="slope-lqr",
         description="LQR on a 15 deg slope: 0.6 m at 250 deg/s, hold 5 s, back (thesis 4.1.1, Fig 4.3)",
@@ -78,7 +74,7 @@ def _flat_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, set
     The thesis reverses at once; we hold `hold` seconds at 1 m so that the stop can be
     measured (hold=0 gives the thesis's run)."""
     speed, distance = math.radians(180), 1.0
-    leg = _trip_time(distance, speed, params.wheel_radius)
+    leg = trip_time(distance, speed, params.wheel_radius)
     return Scenario(
         name="flat-lqr",
         description="LQR on the flat: 1 m at 180 deg/s and back (thesis 4.2.1, Fig 4.10)",

@@ -432,3 +432,41 @@ mod tests {
         ));
     }
 }
+
+#[cfg(all(test, feature = "std"))]
+mod f32_tests {
+    use super::*;
+    use crate::control::pid::PidTracker;
+    use crate::control::trajectory::{Circle, Direction};
+    use crate::hardware::motor::DcMotor;
+    use crate::sim::runner::{Outcome, SimConfig};
+
+    /// The rig in f32 (a microcontroller's precision) tracks like the f64 one.
+    #[test]
+    fn f32_rig_runs_like_f64() {
+        fn end<T: Real>() -> (Outcome<T>, [f64; 2]) {
+            let params = RobotParams::<T>::balanbot();
+            let mut ctrl = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), c(0.005)).unwrap();
+            let speed = c::<T>(core::f64::consts::PI) * params.wheel_radius;
+            let circle = Circle::from_origin(c(0.6), speed, Direction::CounterClockwise).unwrap();
+            let config = SimConfig { dt: c(1e-3), t_final: c(10.0), fall_limit: T::one() };
+            let model = PlanarModel::new(params).unwrap();
+            let mut rig = Realism::<T>::thesis_like().build_planar(&model, config.dt).unwrap();
+            let mut last = PlanarState::<T>::zeros();
+            struct Last<'a, T: Real>(&'a mut PlanarState<T>);
+            impl<T: Real, S> crate::sim::runner::Observer<T, 7, 2, S> for Last<'_, T> {
+                fn observe(&mut self, _: T, x: &PlanarState<T>, _: &SVector<T, 2>, _: &S, _: &[T]) {
+                    *self.0 = *x;
+                }
+            }
+            let (outcome, _) = rig.simulate(&mut ctrl, &circle, &PlanarState::zeros(), &config, &mut Last(&mut last), || false).unwrap();
+            (outcome, [crate::to_f64(last[0]), crate::to_f64(last[1])])
+        }
+        let (o64, p64) = end::<f64>();
+        let (o32, p32) = end::<f32>();
+        assert_eq!((o64, o32), (Outcome::Completed, Outcome::Completed));
+        let gap = ((p64[0] - p32[0]).powi(2) + (p64[1] - p32[1]).powi(2)).sqrt();
+        std::println!("after 10 s on the circle: f32 and f64 rigs {gap:.1e} m apart");
+        assert!(gap < 0.05, "{gap}");
+    }
+}

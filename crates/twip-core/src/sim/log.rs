@@ -6,7 +6,7 @@ use nalgebra::SVector;
 use crate::control::reference::SpeedRef;
 use crate::control::trajectory::PlanarRef;
 use crate::sim::runner::Observer;
-use crate::Real;
+use crate::{Real, TwipError};
 
 /// A reference sample flattened into a row of the log.
 pub trait LogRow<T> {
@@ -43,19 +43,23 @@ pub struct TrajectoryLog<T> {
 }
 
 impl<T: Real> TrajectoryLog<T> {
-    /// Room for `samples` samples, keeping one in `every` (the last one always).
-    pub fn with_capacity(samples: usize, every: usize, widths: [usize; 4]) -> Self {
+    /// Room for `samples` samples, keeping one in `every` (the last one always). The
+    /// buffers are reserved fallibly: a log too large for memory is an error naming
+    /// `record_every` (what shrinks it), never an abort.
+    pub fn with_capacity(samples: usize, every: usize, widths: [usize; 4]) -> Result<Self, TwipError> {
         let every = every.max(1);
         let rows = samples / every + 2;
-        Self {
-            every,
-            t: Vec::with_capacity(rows),
-            x: Vec::with_capacity(rows * widths[0]),
-            u: Vec::with_capacity(rows * widths[1]),
-            reference: Vec::with_capacity(rows * widths[2]),
-            internals: Vec::with_capacity(rows * widths[3]),
-            seen: 0,
-        }
+        let mut log = Self { every, t: Vec::new(), x: Vec::new(), u: Vec::new(), reference: Vec::new(), internals: Vec::new(), seen: 0 };
+        let bytes = |width: usize| (rows as u64).saturating_mul(width as u64).saturating_mul(core::mem::size_of::<T>() as u64);
+        let total = bytes(1 + widths.iter().sum::<usize>());
+        let oom = |_| TwipError::OutOfMemory { name: "record_every", bytes: total };
+        let size = |width: usize| rows.checked_mul(width).ok_or(TwipError::OutOfMemory { name: "record_every", bytes: total });
+        log.t.try_reserve_exact(rows).map_err(oom)?;
+        log.x.try_reserve_exact(size(widths[0])?).map_err(oom)?;
+        log.u.try_reserve_exact(size(widths[1])?).map_err(oom)?;
+        log.reference.try_reserve_exact(size(widths[2])?).map_err(oom)?;
+        log.internals.try_reserve_exact(size(widths[3])?).map_err(oom)?;
+        Ok(log)
     }
 
     pub fn len(&self) -> usize {
@@ -116,7 +120,7 @@ mod tests {
         let limp = LqrController::new([0.0; 4], model, DesignPoint::OperatingPoint, 1e-3).unwrap();
         for (mut ctrl, x0) in [(upright, Vector4::zeros()), (limp, Vector4::new(0.45, 2.0, 0.0, 0.0))] {
             for every in [1, 7, 50, 1000] {
-                let mut log = TrajectoryLog::with_capacity(101, every, [4, 1, 2, ctrl.internal_names().len()]);
+                let mut log = TrajectoryLog::with_capacity(101, every, [4, 1, 2, ctrl.internal_names().len()]).unwrap();
                 let (_, steps) = simulate(&model, &mut ctrl, &schedule, &x0, &config, &mut log).unwrap();
                 assert_eq!(*log.t.last().unwrap(), config.dt * steps as f64, "every {every}");
                 assert_eq!(log.len(), steps / every + 1 + usize::from(steps % every != 0), "every {every}");

@@ -72,6 +72,12 @@ impl<T: Real, P: Path<T>> TrackingMetrics<T, P> {
         s.mean_abs_pitch = self.sum_pitch / n;
         s.mean_abs_x_error_settled = self.sum_x_settled / m;
         s.mean_abs_y_error_settled = self.sum_y_settled / m;
+        // A run that ended before the settle time has no settled part: NaN, not 0.
+        if s.settled_samples == 0 {
+            s.mean_abs_x_error_settled = c::<T>(f64::NAN);
+            s.mean_abs_y_error_settled = c::<T>(f64::NAN);
+            s.max_path_error_settled = c::<T>(f64::NAN);
+        }
         s
     }
 }
@@ -118,5 +124,20 @@ mod tests {
         assert!((s.mean_abs_pitch - 0.1).abs() < 1e-12);
         assert_eq!(s.peak_abs_torque, 0.5);
         assert!(s.mean_abs_x_error_settled > 0.0 && s.mean_abs_x_error_settled < 0.01);
+    }
+
+    #[test]
+    fn a_run_shorter_than_the_settle_time_has_no_settled_metrics() {
+        let circle = Circle::from_origin(0.5, 0.1, Direction::CounterClockwise).unwrap();
+        let mut m = TrackingMetrics::new(circle, 5.0);
+        for k in 0..=100 {
+            let t = k as f64 * 0.01;
+            m.observe(t, &SVector::<f64, 7>::zeros(), &SVector::zeros(), &circle.sample(t), &[]);
+        }
+        let s = m.summary();
+        assert_eq!(s.settled_samples, 0);
+        assert!(s.mean_abs_x_error_settled.is_nan() && s.mean_abs_y_error_settled.is_nan());
+        assert!(s.max_path_error_settled.is_nan());
+        assert!(s.mean_abs_x_error.is_finite());
     }
 }

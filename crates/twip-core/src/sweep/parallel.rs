@@ -37,7 +37,11 @@ where
         .build()
         .map_err(|_| TwipError::InvalidParameter { name: "threads", value: threads as f64, reason: "could not start a thread pool" })?;
     let block = block.max(1) as u64;
-    let starts: Vec<u64> = (range.start..range.end).step_by(block as usize).collect();
+    let mut starts: Vec<u64> = Vec::new();
+    starts
+        .try_reserve_exact(((range.end - range.start) / block + 1) as usize)
+        .map_err(|_| TwipError::OutOfMemory { name: "n", bytes: (range.end - range.start) / block * 8 })?;
+    starts.extend((range.start..range.end).step_by(block as usize));
     let blocks: Vec<Option<Vec<M>>> = pool.install(|| {
         starts
             .par_iter()
@@ -54,7 +58,12 @@ where
             })
             .collect()
     });
-    let mut results = Vec::with_capacity((range.end - range.start) as usize);
+    // Sized by the caller's sample count: reserved fallibly (an error, not an abort).
+    let count = (range.end - range.start) as usize;
+    let mut results = Vec::new();
+    results
+        .try_reserve_exact(count)
+        .map_err(|_| TwipError::OutOfMemory { name: "n", bytes: (count as u64).saturating_mul(core::mem::size_of::<Option<M>>() as u64) })?;
     for (b, start) in blocks.into_iter().zip(&starts) {
         let len = ((start + block).min(range.end) - start) as usize;
         match b {

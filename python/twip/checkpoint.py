@@ -1,0 +1,236 @@
+"""A sweep's checkpoint folder, which cannot lie about what it holds.
+
+- `lock`: one writer at a time. The lock is an OS file lock (released by the kernel when
+  its process dies); the file names the holder's pid and host, so a second writer is told
+  who holds it, and a lock left by a process that is gone is noticed and taken over.
+- `manifest.json`: the sweep's configuration and its fingerprint (`fingerprint`, the one
+  function the API and the CLI share); another configuration in the folder is refused.
+- `shard-<start>.npz`: one per finished shard, written under a temporary name and renamed
+  when complete. Each carries the fingerprint and a SHA-256 of its arrays: a shard from
+  another sweep, or a corrupt or truncated one, is named in a warning and recomputed.
+
+The folder's writability is checked (by taking the lock) before any sample runs.
+"""
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import socket
+import warnings
+from pathlib import Path
+from typing import Dict, Iterator, Optional
+
+import numpy as np
+
+from twip import _core
+
+LOCK = "lock"
+MANIFEST = "manifest.json"
+#: Config keys that say how the sweep was asked for, not what it computes: left out of
+#: the fingerprint, so that a sweep by name (API) and by Scenario object (CLI) agree.
+HOW_GIVEN = ("by_name", "options")
+#: Arrays of a shard that are bookkeeping, not metrics.
+_STAMP = ("fingerprint", "checksum")
+
+
+def _bad(message: str) -> Exception:
+    return _core.InvalidParameterError(message)
+
+
+def fingerprint(config: dict, shard_size: int) -> str:
+    """The SHA-256 of what a sweep computes (its configuration and shard size)."""
+    significant = {k: v for k, v in config.items() if k not in HOW_GIVEN}
+    text = json.dumps({"config": significant, "shard_size": int(shard_size)}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def checksum(arrays: Dict[str, np.ndarray]) -> str:
+    """SHA-256 over the arrays' names, dtypes, shapes and bytes, in name order."""
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}|{a.dtype.str}|{a.shape}|".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True
+    return True
+
+
+class Checkpoint:
+    """A locked checkpoint folder for the sweep `config` in shards of `shard` samples.
+    Call `close()` (or use it as a context manager) to release the lock."""
+
+    def __init__(self, path, config: dict, shard: int):
+        self.dir = Path(path)
+        self.fingerprint = fingerprint(config, shard)
+        self._fd: Optional[int] = None
+        if self.dir.exists() and not self.dir.is_dir():
+            raise _bad(f"checkpoint = {str(path)!r} is not a folder")
+        try:
+            self.dir.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise _bad(f"checkpoint = {str(path)!r}: cannot create the folder ({e.strerror or e})") from None
+        self._lock()
+        try:
+            self._manifest(config, shard)
+        except BaseException:
+            self.close()
+            raise
+
+    # ------------------------------------------------------------------ the lock
+    def _lock(self):
+        path = self.dir / LOCK
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as e:
+            raise _bad(f"checkpoint folder {self.dir} is not writable ({e.strerror or e}); "
+                       "pass a folder you can write to") from None
+        try:
+            locked = _flock(fd)
+        except OSError:
+            holder = self._holder(fd)
+            os.close(fd)
+            raise self._in_use(holder) from None
+        previous = self._holder(fd)
+        host = socket.gethostname()
+        if previous.get("pid") is not None:
+            # A pid left in the file: its holder ended without releasing (killed, crashed).
+            # Without OS locks, a live holder on this host is still in charge.
+            pid = int(previous["pid"])
+            if not locked and previous.get("host") == host and pid != os.getpid() and _alive(pid):
+                os.close(fd)
+                raise self._in_use(previous)
+            warnings.warn(f"checkpoint {self.dir}: took over the lock left by pid {pid} on host "
+                          f"{previous.get('host', '?')}, which ended without releasing it", stacklevel=3)
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, json.dumps({"pid": os.getpid(), "host": host}).encode(), 0)
+        self._fd = fd
+
+    def _in_use(self, holder: dict) -> Exception:
+        return _bad(f"checkpoint {self.dir} is in use by another sweep: pid {holder.get('pid', '?')} on host "
+                    f"{holder.get('host', '?')}; wait for it to finish or use another folder")
+
+    @staticmethod
+    def _holder(fd: int) -> dict:
+        try:
+            text = os.pread(fd, 4096, 0).decode()
+            return json.loads(text) if text.strip() else {}
+        except (OSError, ValueError):
+            return {}
+
+    def close(self):
+        """Releases the lock (the file stays, empty: a clean release)."""
+        if self._fd is not None:
+            try:
+                os.ftruncate(self._fd, 0)
+            finally:
+                os.close(self._fd)  # closing drops the OS lock
+                self._fd = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # ------------------------------------------------------------------ the manifest
+    def _manifest(self, config, shard):
+        path = self.dir / MANIFEST
+        if path.exists():
+            try:
+                old = json.loads(path.read_text())
+            except (OSError, ValueError) as e:
+                raise _bad(f"checkpoint {path} cannot be read ({e}); use a new folder") from None
+            before = old.get("manifest", {}).get("config", {})
+            old_shard = old.get("manifest", {}).get("shard_size")
+            if before and fingerprint(before, old_shard or 0) != self.fingerprint:
+                diff = [k for k in {**before, **config} if k not in HOW_GIVEN and before.get(k) != config.get(k)]
+                if old_shard != shard:
+                    diff.append("shard_size")
+                raise _bad(
+                    f"checkpoint {self.dir} holds a sweep with a different configuration "
+                    f"(differs in: {', '.join(diff) or 'unknown'}); use a new folder or the same arguments"
+                )
+        else:
+            manifest = {"config": config, "shard_size": shard}
+            self._write(path, json.dumps({"fingerprint": self.fingerprint, "manifest": manifest}, indent=1).encode())
+
+    @staticmethod
+    def _write(path: Path, data: bytes):
+        tmp = path.with_name(path.name + f".tmp{os.getpid()}")
+        try:
+            with open(tmp, "wb") as f:
+                f.write(data)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except BaseException:  # Ctrl-C or a full disk mid-write: no half-written file left
+            tmp.unlink(missing_ok=True)
+            raise
+
+    # ------------------------------------------------------------------ shards
+    def shard_path(self, start: int) -> Path:
+        return self.dir / f"shard-{start:012d}.npz"
+
+    def save(self, start: int, raw: dict):
+        arrays = {k: np.asarray(v) for k, v in raw.items() if k not in ("kernel", "interrupted")}
+        stamp = {"fingerprint": np.array(self.fingerprint), "checksum": np.array(checksum(arrays))}
+        buf = io.BytesIO()
+        np.savez(buf, **arrays, **stamp)
+        self._write(self.shard_path(start), buf.getvalue())
+
+    def read(self, start: int, count: int, verify: bool = True) -> Optional[dict]:
+        """Shard `start` (of `count` samples) as arrays, or None when it is missing; a
+        foreign, corrupt or truncated shard is named in a warning and None returned (so
+        that it is recomputed)."""
+        path = self.shard_path(start)
+        if not path.exists():
+            return None
+        try:
+            with np.load(path) as data:
+                arrays = {k: data[k] for k in data.files}
+        except Exception as e:  # zip, pickle or I/O errors of a damaged file
+            return self._reject(path, f"is unreadable (truncated or corrupt: {type(e).__name__}: {e})")
+        if str(arrays.get("fingerprint", "")) != self.fingerprint:
+            return self._reject(path, "belongs to another sweep (its configuration fingerprint differs)")
+        stamp = str(arrays.pop("checksum", ""))
+        arrays.pop("fingerprint")
+        if verify and checksum(arrays) != stamp:
+            return self._reject(path, "is corrupt (its checksum does not match its contents)")
+        index = arrays.get("index")
+        if index is None or len(index) != count or (count and int(index[0]) != start):
+            return self._reject(path, f"does not hold samples {start}..{start + count - 1}")
+        return arrays
+
+    @staticmethod
+    def _reject(path: Path, why: str) -> None:
+        warnings.warn(f"checkpoint shard {path} {why}; recomputing it", stacklevel=3)
+        return None
+
+    def shards(self, layout, verify: bool = False) -> Iterator[dict]:
+        """The stored shards of `layout` [(start, count)], one at a time (bounded memory)."""
+        for start, count in layout:
+            arrays = self.read(start, count, verify=verify)
+            if arrays is not None:
+                yield arrays
+
+
+def _flock(fd: int) -> bool:
+    """Takes the OS lock of `fd` without waiting: True if taken, False where the OS has
+    no file locks; OSError if another process holds it."""
+    try:
+        import fcntl
+    except ImportError:
+        return False
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    return True

@@ -1,0 +1,512 @@
+"""Edges that fail safely (issue 14): requests too large for memory are errors, not
+aborts; checkpoints that cannot lie; streamed sweeps; errors that name what was given;
+numbers that do not mislead. Each input the issue lists has a test here."""
+import json
+import re
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import textwrap
+import warnings
+
+import numpy as np
+import pytest
+
+import twip
+import twip.sweep as tsweep
+from twip import budget, quantiles, scenarios
+from twip.checkpoint import LOCK, Checkpoint
+
+SHORT = {"t_final": 0.5}
+PERTURB = {"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}
+
+
+def sweep(n=48, **kw):
+    kw.setdefault("perturb", PERTURB)
+    kw.setdefault("options", SHORT)
+    kw.setdefault("seed", 3)
+    return twip.montecarlo("flat-lqr-sim", n, progress=False, **kw)
+
+
+def run_python(code: str, env=None, limit_gb=None):
+    """Runs `code` in a fresh interpreter (optionally under an address-space limit, as a
+    small machine would be); returns (exit code, stdout, stderr)."""
+    prelude = "import resource; resource.setrlimit(resource.RLIMIT_AS, ({0}, {0}))\n".format(limit_gb << 30) if limit_gb else ""
+    proc = subprocess.run([sys.executable, "-c", prelude + textwrap.dedent(code)], capture_output=True, text=True,
+                          timeout=120, env={**os.environ, **(env or {})})
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+# ---------------------------------------------------------------- 1. no abort, ever
+
+@pytest.mark.parametrize("code, expect", [
+    # Each of these aborted the interpreter (exit 134 / OOM killer) before.
+    ("twip.montecarlo('flat-lqr', 10**12, progress=False)", ["MemoryBudgetError", "n = 1,000,000,000,000", "checkpoint="]),
+    ("scenarios.get('flat-lqr').run(t_final=1e5)", ["MemoryBudgetError", "t_final = 100000", "record_every ="]),
+    ("scenarios.get('flat-lqr', params=twip.RobotParams.balanbot().replace(wheel_radius=1e-9)).run()",
+     ["InvalidParameterError", "wheel_radius = 1e-09", "would take 3.18e+08 s"]),
+    ("scenarios.get('flat-fuzzy', params=twip.RobotParams.balanbot().replace(wheel_radius=1e-6)).run()",
+     ["InvalidParameterError", "wheel_radius = 1e-06"]),
+])
+def test_the_requests_that_aborted_are_clear_errors(code, expect):
+    rc, out, err = run_python(f"""
+        import twip
+        from twip import scenarios
+        try:
+            {code}
+        except twip.TwipError as e:
+            print(type(e).__name__, e)
+        """, env={budget.ENV: "1G"}, limit_gb=6)
+    assert rc == 0, err[-2000:]
+    for text in expect:
+        assert text in out, out
+
+
+def test_the_core_refuses_a_log_it_cannot_reserve_with_an_error_not_an_abort():
+    # Past the budget (raised sky-high), the core's fallible reservation is what is left.
+    rc, out, err = run_python("""
+        import twip
+        from twip import scenarios
+        twip.set_memory_budget(2**62)
+        sc = scenarios.get('flat-lqr-sim')
+        for call in (lambda: sc.run(t_final=1e9), lambda: twip.montecarlo('flat-lqr-sim', 10**12, progress=False)):
+            try:
+                call()
+            except MemoryError as e:
+                print(type(e).__name__, e)
+        """, limit_gb=6)
+    assert rc == 0, err[-2000:]
+    assert "MemoryError record_every: could not reserve" in out, out
+    assert "MemoryError n: could not reserve" in out, out
+
+
+def test_the_budget_is_settable_and_named_in_the_error(monkeypatch):
+    sc = scenarios.get("flat-lqr-sim")
+    twip.set_memory_budget(10_000)
+    try:
+        with pytest.raises(twip.MemoryBudgetError, match=r"record_every = \d+ or more") as e:
+            sc.run()
+        assert isinstance(e.value, MemoryError) and isinstance(e.value, twip.TwipError)
+        assert "10,000 bytes" in str(e.value)
+        assert len(sc.run(record_every=10**6).t) <= 3  # what the error suggested fits
+    finally:
+        twip.set_memory_budget(None)
+    monkeypatch.setenv(budget.ENV, "2K")
+    assert budget.memory_budget() == 2048
+    monkeypatch.setenv(budget.ENV, "lots")
+    with pytest.raises(twip.InvalidParameterError, match=budget.ENV):
+        budget.memory_budget()
+    for bad in (0, -5, 1.5, "1G", True):
+        with pytest.raises(twip.InvalidParameterError, match="memory budget"):
+            twip.set_memory_budget(bad)
+
+
+def test_traces_together_are_checked_against_the_budget():
+    twip.set_memory_budget(2_000_000)  # one trace of 500 rows fits, 60 do not
+    try:
+        with pytest.raises(twip.MemoryBudgetError, match=r"traces of 60 samples .*trace_every="):
+            sweep(n=64, traces=range(60), trace_every=1)
+        assert len(sweep(n=8, traces=[3], trace_every=1).traces[3].t) == 501
+    finally:
+        twip.set_memory_budget(None)
+
+
+# ---------------------------------------------------------------- 2. sweeps of any size
+
+def test_without_a_checkpoint_a_sweep_too_large_says_to_pass_one():
+    twip.set_memory_budget(4096)
+    try:
+        with pytest.raises(twip.MemoryBudgetError, match="pass checkpoint=FOLDER"):
+            sweep(n=1000)
+    finally:
+        twip.set_memory_budget(None)
+
+
+def test_a_streamed_sweep_summarises_from_the_shards_as_the_in_memory_one(tmp_path):
+    perturb = {**PERTURB, "com_height": twip.Uniform(abs=0.3)}  # some robots invalid
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = sweep(n=300, perturb=perturb, checkpoint=tmp_path / "a", shard_size=32)
+        twip.set_memory_budget(300 * tsweep.BYTES_PER_SAMPLE - 1)  # the metrics no longer fit
+        try:
+            streamed = sweep(n=300, perturb=perturb, checkpoint=tmp_path / "b", shard_size=32)
+            resumed = sweep(n=300, perturb=perturb, checkpoint=tmp_path / "b", shard_size=32)
+        finally:
+            twip.set_memory_budget(None)
+    assert isinstance(streamed, tsweep.StreamedSweepResult) and not isinstance(whole, tsweep.StreamedSweepResult)
+    for s in (streamed, resumed):
+        assert s.n == whole.n == 300 and s.steps == whole.steps
+        assert s.fall_rate == whole.fall_rate and s.fall_rate_interval() == whole.fall_rate_interval()
+        for name in whole.metric_names[2:]:
+            np.testing.assert_array_equal(s.quantiles(name), whole.quantiles(name), err_msg=name)
+        a, b = s.summary(), whole.summary()
+        assert a["invalid"] == b["invalid"] > 0 and a["invalid_reasons"] == b["invalid_reasons"]
+    with pytest.raises(twip.MemoryBudgetError, match="summary"):
+        streamed.metrics
+    assert sum(len(p["index"]) for p in streamed.shards()) == 300
+    assert "300 samples" in repr(streamed)
+
+
+def test_streamed_quantiles_are_numpys_exactly():
+    rng = np.random.default_rng(5)
+    for data in (rng.normal(size=20_000), rng.integers(0, 3, 9_000).astype(float), np.array([2.5]),
+                 np.concatenate([rng.exponential(size=5000), [np.inf] * 7, [-1e300]])):
+        chunks = np.array_split(data, 13)
+        q = (0.0, 0.05, 0.5, 0.95, 0.999, 1.0)
+        old = quantiles._EXACT
+        quantiles._EXACT = 100  # force several narrowing passes
+        try:
+            got = quantiles.streamed_quantiles(lambda: iter(chunks), q)
+        finally:
+            quantiles._EXACT = old
+        with np.errstate(invalid="ignore"):  # numpy's inf - inf, as ours
+            np.testing.assert_array_equal(got, np.quantile(data, q))
+
+
+# ---------------------------------------------------------------- 3. checkpoints that cannot lie
+
+HOLD_LOCK = """
+import sys, time
+from twip.checkpoint import Checkpoint
+from twip import sweep
+c = Checkpoint(sys.argv[1], {"held": True}, 8)
+print("locked", flush=True)
+time.sleep(60)
+"""
+
+
+def test_a_second_writer_is_refused_naming_the_holder(tmp_path):
+    holder = subprocess.Popen([sys.executable, "-c", HOLD_LOCK, str(tmp_path)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        with pytest.raises(twip.InvalidParameterError,
+                           match=f"in use by another sweep: pid {holder.pid} on host {socket.gethostname()}"):
+            sweep(checkpoint=tmp_path)
+    finally:
+        holder.kill()
+        holder.wait()
+    assert not list(tmp_path.glob("shard-*"))
+    # Killed without releasing: its lock is stale, taken over with a warning naming it.
+    with pytest.warns(UserWarning, match=f"took over the lock left by pid {holder.pid}"):
+        with pytest.raises(twip.InvalidParameterError, match="different configuration"):
+            sweep(checkpoint=tmp_path)  # the holder's (made-up) sweep is in the folder
+    assert json.loads((tmp_path / LOCK).read_text() or "{}") == {}  # released cleanly
+
+
+def test_two_sweeps_started_together_on_one_folder_never_both_run(tmp_path):
+    code = """
+import sys, twip
+try:
+    twip.montecarlo("flat-lqr-sim", 4000, seed=int(sys.argv[2]), progress=False, checkpoint=sys.argv[1],
+                    shard_size=100, options={"t_final": 0.5}, threads=1)
+    print("ran")
+except twip.InvalidParameterError as e:
+    print("refused:", e)
+"""
+    procs = [subprocess.Popen([sys.executable, "-c", code, str(tmp_path), str(seed)], stdout=subprocess.PIPE, text=True)
+             for seed in (1, 2)]
+    outs = [p.communicate(timeout=120)[0] for p in procs]
+    assert sum(o.startswith("ran") for o in outs) == 1, outs
+    for o in outs:  # a loser is told why: in use, or (after the winner) another configuration
+        assert o.startswith("ran") or "in use by another sweep" in o or "different configuration" in o, outs
+    seed = json.loads((tmp_path / "manifest.json").read_text())["manifest"]["config"]["seed"]
+    again = twip.montecarlo("flat-lqr-sim", 4000, seed=seed, progress=False, checkpoint=tmp_path, shard_size=100,
+                            options={"t_final": 0.5})
+    fresh = twip.montecarlo("flat-lqr-sim", 4000, seed=seed, progress=False, options={"t_final": 0.5})
+    np.testing.assert_array_equal(again.metrics["t_end"], fresh.metrics["t_end"])
+
+
+def test_a_foreign_shard_is_named_and_recomputed(tmp_path):
+    sweep(n=32, seed=1, checkpoint=tmp_path / "other", shard_size=16)
+    sweep(n=32, seed=2, checkpoint=tmp_path / "mine", shard_size=16)
+    shutil.copy(tmp_path / "other" / "shard-000000000016.npz", tmp_path / "mine" / "shard-000000000016.npz")
+    with pytest.warns(UserWarning, match=r"shard-000000000016.npz belongs to another sweep.*recomputing"):
+        resumed = sweep(n=32, seed=2, checkpoint=tmp_path / "mine", shard_size=16)
+    fresh = sweep(n=32, seed=2)
+    for k in fresh.metrics:
+        np.testing.assert_array_equal(resumed.metrics[k], fresh.metrics[k], err_msg=k)
+
+
+@pytest.mark.parametrize("damage", ["truncate", "flip", "empty"])
+def test_a_corrupt_or_truncated_shard_is_named_and_recomputed(tmp_path, damage):
+    sweep(n=32, checkpoint=tmp_path, shard_size=16)
+    path = tmp_path / "shard-000000000000.npz"
+    data = path.read_bytes()
+    if damage == "truncate":
+        path.write_bytes(data[: len(data) // 2])
+    elif damage == "flip":  # same size, one byte of a stored array changed
+        path.write_bytes(_flip_a_value(data))
+    else:
+        path.write_bytes(b"")
+    with pytest.warns(UserWarning, match=r"shard-000000000000.npz is (unreadable|corrupt).*recomputing"):
+        resumed = sweep(n=32, checkpoint=tmp_path, shard_size=16)
+    fresh = sweep(n=32)
+    np.testing.assert_array_equal(resumed.metrics["t_end"], fresh.metrics["t_end"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the recomputed shard is sound again
+        sweep(n=32, checkpoint=tmp_path, shard_size=16)
+
+
+def _flip_a_value(npz: bytes) -> bytes:
+    """The npz with one stored float of t_end changed (stored uncompressed, so findable)."""
+    import io
+    import zipfile
+
+    src = zipfile.ZipFile(io.BytesIO(npz))
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w") as dst:
+        for item in src.infolist():
+            raw = src.read(item)
+            if item.filename == "t_end.npy":
+                raw = raw[:-8] + np.float64(123.0).tobytes()
+            dst.writestr(item, raw)
+    return out.getvalue()
+
+
+def test_an_unwritable_folder_is_refused_before_any_work(tmp_path, monkeypatch):
+    ran = []
+    monkeypatch.setattr(tsweep, "_run", lambda *a, **k: ran.append(a))
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    with pytest.raises(twip.InvalidParameterError, match="cannot create the folder"):
+        sweep(checkpoint=blocker / "sub")
+    with pytest.raises(twip.InvalidParameterError, match="is not a folder"):
+        sweep(checkpoint=blocker)
+    real_open = os.open
+
+    def read_only(path, flags, *args):  # as a read-only folder answers (root ignores chmod)
+        if str(path).startswith(str(tmp_path / "ro")) and flags & os.O_CREAT:
+            raise PermissionError(13, "Permission denied")
+        return real_open(path, flags, *args)
+
+    monkeypatch.setattr(os, "open", read_only)
+    (tmp_path / "ro").mkdir()
+    with pytest.raises(twip.InvalidParameterError, match="is not writable .*Permission denied"):
+        sweep(checkpoint=tmp_path / "ro")
+    assert ran == []
+
+
+@pytest.mark.skipif(hasattr(os, "geteuid") and os.geteuid() == 0, reason="root writes into read-only folders")
+def test_a_read_only_folder_is_refused_before_any_work(tmp_path, monkeypatch):
+    ran = []
+    monkeypatch.setattr(tsweep, "_run", lambda *a, **k: ran.append(a))
+    tmp_path.chmod(0o500)
+    try:
+        with pytest.raises(twip.InvalidParameterError, match="not writable"):
+            sweep(checkpoint=tmp_path)
+    finally:
+        tmp_path.chmod(0o700)
+    assert ran == []
+
+
+def test_by_name_and_by_scenario_object_share_one_checkpoint(tmp_path, monkeypatch):
+    sweep(n=32, checkpoint=tmp_path, shard_size=16)  # by name, as the API is called
+    sc = scenarios.get("flat-lqr-sim", **SHORT)  # a Scenario object, as the CLI passes it
+    monkeypatch.setattr(tsweep, "_run", lambda *a, **k: pytest.fail("a finished shard was run again"))
+    r = twip.montecarlo(sc, 32, perturb=PERTURB, seed=3, progress=False, checkpoint=tmp_path, shard_size=16)
+    assert r.n == 32
+
+
+# ---------------------------------------------------------------- 5. errors name what was given
+
+def test_shape_errors_print_the_shape_received():
+    model = twip.SlopeModel(twip.RobotParams.balanbot())
+    for shape in ((1, 4), (4, 1)):
+        with pytest.raises(twip.ShapeError, match=rf"gains has shape \({shape[0]}, {shape[1]}\), expected \(4,\)"):
+            twip.LqrController(model, np.ones(shape))
+    with pytest.raises(twip.NonFiniteError, match=r"Q\[0\] = NaN"):
+        twip.LqrController.design(model, 0.0, [np.nan, 1, 1, 1], 1.0)
+    with pytest.raises(twip.ShapeError, match=r"Q has shape \(3,\), expected \(4,\) \(its diagonal\) or \(4, 4\)"):
+        twip.LqrController.design(model, 0.0, [1, 1, 1], 1.0)
+
+
+@pytest.mark.parametrize("x0, index, kind", [
+    (["0", "0", "0", "0"], 0, "str"), ([0, 0, 1j, 0], 2, "complex"), ([0, 0, 0, "1.0"], 3, "str"),
+    ([0, None, 0, 0], 1, "NoneType"),
+])
+def test_non_real_entries_are_refused_with_their_index(x0, index, kind):
+    sc = scenarios.get("flat-lqr-sim")
+    with pytest.raises(twip.InvalidParameterError, match=rf"x0\[{index}\] = .*not a real number \(got {kind}\)"):
+        twip.simulate(sc.model, sc.controller, x0, 0.1)
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(record_every=-1), "record_every = -1"), (dict(record_every=0), "record_every = 0"),
+    (dict(record_every=1.5), "record_every = 1.5"), (dict(t_final="1"), "t_final = '1'"),
+])
+def test_simulate_counts_and_times_are_checked(kw, message):
+    sc = scenarios.get("flat-lqr-sim")
+    args = dict(t_final=0.1, **kw) if "t_final" not in kw else kw
+    with pytest.raises(ValueError, match=message):
+        twip.simulate(sc.model, sc.controller, np.zeros(4), **args)
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(n=-1), "n = -1"), (dict(n=0), "n = 0"), (dict(traces=[-1]), "sample index -1"),
+    (dict(trace_every=-2, traces=[0]), "trace_every = -2"), (dict(shard_size=-3), "shard_size = -3"),
+    (dict(threads=-1), "threads = -1"), (dict(seed=-1), "seed = -1"),
+])
+def test_negative_counts_are_value_errors_naming_the_argument(kw, message):
+    with pytest.raises(ValueError, match=message):
+        sweep(**{"n": 8, **kw})
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: twip.Uniform(rel="0.2"), r"Uniform\(rel='0.2'\): rel must be a number, got str"),
+    (lambda: twip.Uniform(low=[0], high=1), "low must be a number, got list"),
+    (lambda: twip.Normal(std="1"), "std must be a number, got str"),
+    (lambda: twip.Normal(std=1, low=None), "low must be a number, got NoneType"),
+])
+def test_distributions_check_their_types(make, message):
+    with pytest.raises(twip.InvalidParameterError, match=message):
+        make()
+
+
+# ---------------------------------------------------------------- 6. honest numbers
+
+def test_settled_metrics_are_nan_when_the_run_ends_before_the_settle_time():
+    sc = scenarios.get("circle-pid", laps=1)
+    r = sc.run(t_final=2.0)  # the settled part starts after one lap
+    for name in ("mean_abs_x_error_settled", "mean_abs_y_error_settled", "max_path_error_settled"):
+        assert np.isnan(r.metrics[name]), name
+    assert np.isfinite(r.metrics["mean_abs_x_error"])
+
+
+def test_invalid_samples_are_counted_per_reason_and_absolute_spreads_warned():
+    # ±20 kg on a 1.4 kg body: the percent sign forgotten.
+    with pytest.warns(UserWarning, match=r"m_body: ± 20 is more than half the nominal"):
+        r = twip.montecarlo("flat-lqr-sim", 200, perturb={"m_body": twip.Uniform(abs=20)}, progress=False,
+                            options=SHORT)
+    s = r.summary()
+    assert s["invalid"] == int(np.sum(~r.valid)) > 0
+    assert s["invalid_reasons"] == {"m_body: must be > 0": s["invalid"]}
+    assert f"invalid: {s['invalid']} m_body: must be > 0" in repr(r)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a relative spread, or a small absolute one: no warning
+        twip.montecarlo("flat-lqr-sim", 8, perturb={"m_body": twip.Uniform(abs=0.1)}, progress=False, options=SHORT)
+
+
+# ---------------------------------------------------------------- 5. plot and animation arguments
+
+def test_figure_paths_are_checked_before_a_run(tmp_path):
+    from twip import plot
+
+    with pytest.raises(twip.InvalidParameterError, match=r"'.txt' is not a figure format; use one of .*\.png"):
+        plot.check_path(tmp_path / "x.txt")
+    with pytest.raises(twip.InvalidParameterError, match="does not exist"):
+        plot.check_path(tmp_path / "missing" / "x.png")
+    plot.check_path(tmp_path / "x.svg")  # a format matplotlib writes
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(path="a.png"), "must end in .gif"), (dict(fps=1e9), "fps = 1000000000.0"), (dict(fps=0), "fps = 0"),
+    (dict(fps="20"), "fps = '20'"), (dict(speed=-1.0), "speed = -1.0"), (dict(size=(10**6, 10)), "size = "),
+    (dict(path="missing/a.gif"), "does not exist"),
+])
+def test_animation_arguments_are_checked_before_a_run(tmp_path, kw, message):
+    from twip import animate
+
+    kw = {"path": "a.gif", **kw}
+    kw["path"] = tmp_path / kw["path"]
+    with pytest.raises(twip.InvalidParameterError, match=message):
+        animate.check_options(**kw)
+
+
+def test_an_animation_too_large_for_the_budget_is_refused_before_drawing(tmp_path):
+    from twip import animate
+
+    r = scenarios.get("flat-lqr-sim").run(t_final=2.0)
+    twip.set_memory_budget(10**6)
+    try:
+        with pytest.raises(twip.MemoryBudgetError, match=r"animation: [0-9,]+ frames of 560x340 pixels.*lower fps"):
+            animate.gif(r, tmp_path / "a.gif", fps=100, speed=0.01)
+    finally:
+        twip.set_memory_budget(None)
+    assert not (tmp_path / "a.gif").exists()
+
+
+# ---------------------------------------------------------------- the command line
+
+def cli(args, capsys):
+    from twip import cli as twip_cli
+
+    try:
+        code = twip_cli.main([str(a) for a in args])
+    except SystemExit as e:
+        code = e.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--plot", "{tmp}/x.txt"], "--plot: figure path .*'.txt' is not a figure format"),
+    (["--plot", "{tmp}/missing/x.png"], "--plot: .*does not exist"),
+    (["--animate", "{tmp}/a.gif", "--fps", "1e9"], "--animate: fps = 1000000000.0"),
+    (["--animate", "{tmp}/a.png"], "--animate: .*must end in .gif"),
+    (["--param", "wheel_radius=1e-9"], "wheel_radius = 1e-09 m: a 1 m leg"),
+])
+def test_cli_simulate_refuses_bad_outputs_before_the_run(tmp_path, capsys, args, message):
+    code, out, err = cli(["simulate", "flat-lqr"] + [a.replace("{tmp}", str(tmp_path)) for a in args], capsys)
+    assert code == 2 and "Traceback" not in err
+    assert "outcome:" not in out  # nothing ran
+    assert len(err.strip().splitlines()) == 1 and re.search(message, err), err
+
+
+def test_cli_sweep_refuses_bad_outputs_before_the_run(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(tsweep, "_run", lambda *a, **k: pytest.fail("a sample ran"))
+    for args, message in ((["--plot", tmp_path / "x.txt"], "'.txt' is not a figure format"),
+                          (["--csv", tmp_path / "no" / "x.csv"], "--csv: .*does not exist"),
+                          (["--checkpoint", tmp_path / "f" / "g"], None)):
+        (tmp_path / "f").write_text("a file where a folder should be") if message is None else None
+        code, out, err = cli(["sweep", "flat-lqr-sim", "-n", "8"] + args, capsys)
+        assert code == 2 and "Traceback" not in err, err
+        assert re.search(message or "cannot create the folder", err), err
+
+
+def test_cli_sweep_warns_of_absolute_spreads_and_counts_invalid_samples(capsys):
+    code, out, err = cli(["sweep", "flat-lqr-sim", "-n", "200", "--perturb", "m_body=±20", "--option", "t_final=0.5",
+                          "--quiet"], capsys)
+    assert code == 0, err
+    assert "twip sweep: warning: m_body: ± 20 is more than half the nominal" in err
+    invalid = int(re.search(r"200 samples \((\d+) invalid\)", out).group(1))
+    assert invalid > 0
+    assert f"invalid: {invalid} samples, m_body: must be > 0" in out
+    assert f"over the {200 - invalid} valid samples" in out
+
+
+def test_cli_and_api_read_each_others_checkpoints(tmp_path, capsys, monkeypatch):
+    args = ["sweep", "flat-lqr-sim", "-n", "64", "--perturb", "m_body=±20%", "--perturb", "phi0=~0.05", "--seed", "3",
+            "--option", "t_final=0.5", "--quiet", "--json"]
+    code, out, err = cli(args + ["--checkpoint", tmp_path / "cli"], capsys)
+    assert code == 0, err
+    cli_summary = json.loads(out)
+    api = sweep(n=64, checkpoint=tmp_path / "api")
+    with monkeypatch.context() as m:
+        m.setattr(tsweep, "_run", lambda *a, **k: pytest.fail("a finished shard was run again"))
+        from_cli = sweep(n=64, checkpoint=tmp_path / "cli")  # the API resumes the CLI's folder
+        code, out, err = cli(args + ["--checkpoint", tmp_path / "api"], capsys)  # and the CLI the API's
+    assert code == 0, err
+    assert json.loads(out)["fall_rate_95ci"] == cli_summary["fall_rate_95ci"]
+    np.testing.assert_array_equal(from_cli.metrics["t_end"], api.metrics["t_end"])
+
+
+def test_cli_ctrl_c_prints_the_partial_summary_and_the_resume_command(tmp_path):
+    folder = tmp_path / "ck"
+    cmd = [sys.executable, "-m", "twip", "sweep", "flat-lqr-sim", "-n", "60000", "--option", "t_final=3",
+           "--perturb", "m_body=±10%", "--checkpoint", str(folder), "--quiet", "--threads", "2"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    import time
+
+    deadline = time.monotonic() + 60
+    while not list(folder.glob("shard-*.npz")):
+        assert time.monotonic() < deadline and proc.poll() is None, "no shard was written"
+        time.sleep(0.02)
+    proc.send_signal(__import__("signal").SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert re.search(r"interrupted: the [\d,]+ samples that finished:", err), err
+    assert "fall rate" in err and "resume with:" in err
+    resume = err.split("resume with:")[1].strip().splitlines()[0]
+    assert resume.startswith("twip sweep flat-lqr-sim -n 60000") and str(folder) in resume

@@ -1,0 +1,189 @@
+"""Controllers written in Python run through the same Rust runner as the built-in ones:
+the same run bit for bit when they compute the same law, realism included; clear errors
+for a bad `u`; the exception of a failing controller with its traceback."""
+from __future__ import annotations
+
+import traceback
+
+import numpy as np
+import pytest
+
+import twip
+from twip import scenarios
+
+
+class PythonLqr:
+    """LqrController's law ((4.13) with integral action, gain order [phi, phi_dot,
+    theta_dot, z]), written in Python."""
+
+    def __init__(self, model, gains, period):
+        self.model, self.k, self.period = model, np.asarray(gains, float).ravel(), period
+        self.reset()
+
+    def reset(self):
+        self.z, self.cache, self.last_z = 0.0, None, 0.0
+
+    def update(self, t, y, ref):
+        speed = ref[1]
+        if self.cache is None or self.cache[0] != speed:
+            xs, us = self.model.equilibrium(speed)
+            self.cache = (speed, xs[0], us)
+        _, phi_s, u_s = self.cache
+        error = y[3] - speed
+        k = self.k
+        u = u_s - (k[0] * (y[0] - phi_s) + k[1] * y[1] + k[2] * error) - k[3] * self.z
+        self.last_z = self.z
+        self.z += error * self.period
+        return u
+
+    def internals(self):
+        return {"z": self.last_z}
+
+
+@pytest.mark.parametrize("realism", [None, "thesis-like"])
+def test_python_lqr_reproduces_the_builtin_run(realism):
+    sc = scenarios.get("flat-lqr")
+    options = {} if realism is None else {"realism": twip.Realism.thesis_like()}
+    builtin = sc.run(**options)
+    mine = PythonLqr(sc.model, sc.controller.gains, sc.controller.period)
+    ours = twip.simulate(sc.model, mine, sc.x0, sc.t_final, sc.dt, reference=sc.reference, **options)
+    assert ours.outcome == builtin.outcome == "completed"
+    scale = np.max(np.abs(builtin.states))
+    assert np.max(np.abs(ours.states - builtin.states)) <= 1e-12 * scale
+    assert np.max(np.abs(ours.inputs - builtin.inputs)) <= 1e-12 * np.max(np.abs(builtin.inputs))
+    for name, value in builtin.metrics.items():
+        assert ours.metrics[name] == pytest.approx(value, rel=1e-12, abs=1e-15), name
+    np.testing.assert_allclose(ours.internals["z"], builtin.internals["z"], rtol=0, atol=1e-15)
+    if realism:  # the controller read the estimator's output, as the built-in one did
+        np.testing.assert_array_equal(ours.measurements, builtin.measurements)
+
+
+def test_reset_is_called_before_each_run_and_period_is_used():
+    sc = scenarios.get("flat-lqr-sim")
+    mine = PythonLqr(sc.model, sc.controller.gains, sc.controller.period)
+    a = twip.simulate(sc.model, mine, sc.x0, 2.0, sc.dt, reference=sc.reference)
+    b = twip.simulate(sc.model, mine, sc.x0, 2.0, sc.dt, reference=sc.reference)  # z starts at 0 again
+    np.testing.assert_array_equal(a.states, b.states)
+    calls = []
+    twip.simulate(sc.model, lambda t, y, r: calls.append(t) or 0.0, [0.0] * 4, 0.1, 1e-3, control_period=5e-3)
+    assert len(calls) == 20 and calls[1] == pytest.approx(5e-3)
+
+
+def _planar_balance_gains(model, v):
+    """LQR on the planar model's [phi, phi_dot, v, omega] subsystem, linearised by central
+    differences of `deriv` about upright travel at speed v."""
+    x0, h = np.array([0, 0, 0, 0, 0, v, 0.0]), 1e-6
+    rows = [3, 4, 5, 6]
+    a = np.zeros((4, 4))
+    b = np.zeros((4, 2))
+    for j, i in enumerate(rows):
+        dx = np.zeros(7)
+        dx[i] = h
+        a[:, j] = (model.deriv(x0 + dx, [0, 0])[rows] - model.deriv(x0 - dx, [0, 0])[rows]) / (2 * h)
+    for j in range(2):
+        du = np.zeros(2)
+        du[j] = h
+        b[:, j] = (model.deriv(x0, du)[rows] - model.deriv(x0, -du)[rows]) / (2 * h)
+    # Integral action on the speed error: the fifth state z' = v - v_ref.
+    a5 = np.zeros((5, 5))
+    a5[:4, :4], a5[4, 2] = a, 1.0
+    b5 = np.vstack([b, np.zeros((1, 2))])
+    k, _, _ = twip.lqr(a5, b5, np.diag([10.0, 1.0, 1.0, 0.2, 1.0]), np.diag([1.0, 1.0]))
+    return k
+
+
+def test_python_tracker_runs_on_the_planar_model():
+    model = twip.PlanarModel(twip.RobotParams.balanbot())
+    circle = twip.Circle(radius=0.6, speed=0.2)
+    k = _planar_balance_gains(model, 0.2)
+
+    class SpeedAndYaw:
+        period = 5e-3
+
+        def __init__(self):
+            self.z = 0.0
+
+        def reset(self):
+            self.z = 0.0
+
+        def update(self, t, y, ref):  # ref: x, y, psi, v, omega, v_dot, omega_dot
+            error = np.array([y[3], y[4], y[5] - ref[3], y[6] - ref[4], self.z])
+            self.z += (y[5] - ref[3]) * self.period
+            return -k @ error
+
+        def internals(self):
+            return {"z_speed": self.z}
+
+    x0 = [0.6, 0.0, np.pi / 2, 0.0, 0.0, 0.2, 0.2 / 0.6]
+    r = twip.simulate(model, SpeedAndYaw(), x0, 10.0, 1e-3, reference=circle)
+    assert r.outcome == "completed" and r.inputs.shape[1] == 2
+    late = r.t > 5.0
+    assert np.mean(np.abs(r.states[late, 5] - 0.2)) < 0.02  # it drives at the circle's speed
+    assert np.mean(np.abs(r.states[late, 6] - 0.2 / 0.6)) < 0.02  # and turns at its rate
+    assert set(r.internals) == {"z_speed"}
+
+
+def test_bad_inputs_name_the_time_and_value():
+    model = twip.SlopeModel(twip.RobotParams.balanbot())
+    run = lambda c: twip.simulate(model, c, [0.05, 0, 0, 0], 1.0, 1e-3, control_period=1e-3)  # noqa: E731
+    with pytest.raises(twip.NonFiniteError, match=r"u = \[NaN\] at t = 0 s"):
+        run(lambda t, y, r: float("nan"))
+    with pytest.raises(twip.ShapeError, match=r"u = \[1.0, 2.0\] \(2 numbers\) at t = 0 s"):
+        run(lambda t, y, r: [1.0, 2.0])
+    with pytest.raises(TypeError, match="u = hello"):
+        run(lambda t, y, r: "hello")
+    with pytest.raises(twip.ShapeError, match=r"shape \[3\]"):
+        run(lambda t, y, r: np.zeros(3))
+    run(lambda t, y, r: np.zeros((1, 1)))  # one value in any shape is fine
+    with pytest.raises(TypeError, match="no `period`"):
+        run_obj = type("NoPeriod", (), {"update": lambda self, t, y, r: 0.0})()
+        twip.simulate(model, run_obj, [0.0] * 4, 1.0, 1e-3)
+    with pytest.raises(TypeError, match="a callable f"):
+        run(object())
+
+
+def test_an_exception_propagates_with_its_traceback():
+    model = twip.SlopeModel(twip.RobotParams.balanbot())
+    seen = []
+
+    def controller(t, y, ref):
+        seen.append(t)
+        if t >= 0.5:
+            raise KeyError("my bug")
+        return 0.0
+
+    with pytest.raises(KeyError, match="my bug") as info:
+        twip.simulate(model, controller, [0.0] * 4, 10.0, 1e-3, control_period=1e-2)
+    assert "controller" in "".join(traceback.format_tb(info.value.__traceback__))
+    assert max(seen) == pytest.approx(0.5)  # no call after the failing one
+
+
+def _python_lqr_scenario():
+    sc = scenarios.get("flat-lqr-sim")
+    return sc, sc.replace(controller=PythonLqr(sc.model, sc.controller.gains, sc.controller.period))
+
+
+def test_a_python_controller_sweep_is_the_same_on_any_number_of_workers_and_resumed(tmp_path):
+    sc, mine = _python_lqr_scenario()
+    perturb = {"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}
+    one = twip.montecarlo(mine, 12, perturb=perturb, seed=3, threads=1, progress=False)
+    two = twip.montecarlo(mine, 12, perturb=perturb, seed=3, threads=2, progress=False)
+    assert one.kernel == "python" and one.metric_names == twip.montecarlo(sc, 2, progress=False).metric_names
+    for name in one.metric_names:
+        np.testing.assert_array_equal(one.metrics[name], two.metrics[name])
+    twip.montecarlo(mine, 12, perturb=perturb, seed=3, threads=2, progress=False, checkpoint=tmp_path, shard_size=5)
+    resumed = twip.montecarlo(mine, 12, perturb=perturb, seed=3, threads=2, progress=False, checkpoint=tmp_path,
+                              shard_size=5)
+    for name in one.metric_names:
+        np.testing.assert_array_equal(one.metrics[name], resumed.metrics[name])
+    # The same law as the built-in LQR (whose lane kernel fuses multiply-adds): the same metrics to rounding.
+    builtin = twip.montecarlo(sc, 12, perturb=perturb, seed=3, progress=False)
+    np.testing.assert_allclose(one.metrics["mean_abs_pitch_error"], builtin.metrics["mean_abs_pitch_error"], rtol=1e-9)
+
+
+def test_an_unpicklable_controller_is_refused_before_any_sample_runs():
+    sc = scenarios.get("flat-lqr-sim")
+    calls = []
+    with pytest.raises(twip.InvalidParameterError, match="cannot be pickled"):
+        twip.montecarlo(sc.replace(controller=lambda t, y, r: calls.append(t) or 0.0), 4, progress=False)
+    assert calls == []
