@@ -26,7 +26,7 @@ use crate::hardware::driver::{PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
 use crate::hardware::realism::{Realism, Rig, RigPlant};
-#[cfg(test)]
+#[cfg(all(test, feature = "std"))]
 use crate::model::friction::Friction;
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::model::planar::PlanarState;

@@ -123,6 +123,8 @@ impl<T: Real> Friction<T> {
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
+
     use super::*;
 
     #[test]
