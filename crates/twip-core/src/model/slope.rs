@@ -325,7 +325,7 @@ fn check_speed<T: Real>(theta_dot_ref: T) -> Result<(), TwipError> {
 }
 
 impl<T: Real> Dynamics<T, 4, 1> for SlopeModel<T> {
-    #[inline]
+    #[inline(always)]
     fn deriv(&self, x: &SlopeState<T>, u: &SVector<T, 1>) -> SlopeState<T> {
         self.deriv_plus(x, u[0], |_, _| None)
     }

@@ -171,7 +171,7 @@ pub fn simulate<T, P, C, R, O, const NX: usize, const NU: usize>(
 ) -> Result<(Outcome<T>, usize), TwipError>
 where
     T: Real,
-    P: Dynamics<T, NX, NU>,
+    P: Dynamics<T, NX, NU> + Clone,
     R: Reference<T>,
     C: Controller<T, NX, NU, Reference = R::Sample>,
     O: Observer<T, NX, NU, R::Sample>,
@@ -192,7 +192,7 @@ pub fn simulate_until<T, P, C, R, O, F, const NX: usize, const NU: usize>(
 ) -> Result<(Outcome<T>, usize), TwipError>
 where
     T: Real,
-    P: Dynamics<T, NX, NU>,
+    P: Dynamics<T, NX, NU> + Clone,
     R: Reference<T>,
     C: Controller<T, NX, NU, Reference = R::Sample>,
     O: Observer<T, NX, NU, R::Sample>,
@@ -215,7 +215,7 @@ pub fn simulate_with<T, P, C, R, S, A, O, F, const NX: usize, const NU: usize>(
 ) -> Result<(Outcome<T>, usize), TwipError>
 where
     T: Real,
-    P: Dynamics<T, NX, NU>,
+    P: Dynamics<T, NX, NU> + Clone,
     R: Reference<T>,
     C: Controller<T, NX, NU, Reference = R::Sample>,
     S: Sensor<T, NX>,
@@ -223,7 +223,9 @@ where
     O: Observer<T, NX, NU, R::Sample>,
     F: FnMut() -> bool,
 {
-    run_loop(&mut Fixed(plant), controller, reference, x0, config, parts, &mut ControllerSignals)
+    // The loop gets its own copy: behind a reference inside a struct, the model's
+    // constants would be reloaded after every observer call.
+    run_loop(&mut Fixed(plant.clone()), controller, reference, x0, config, parts, &mut ControllerSignals)
 }
 
 /// A plant as the one loop drives it: its dynamics, and what happens to it between
@@ -235,9 +237,9 @@ pub trait Plant<T: Real, const NX: usize, const NU: usize>: Dynamics<T, NX, NU> 
 }
 
 /// A model that nothing changes between steps.
-pub struct Fixed<'a, P>(pub &'a P);
+pub struct Fixed<P>(pub P);
 
-impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Dynamics<T, NX, NU> for Fixed<'_, P> {
+impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Dynamics<T, NX, NU> for Fixed<P> {
     const PITCH: usize = P::PITCH;
 
     #[inline(always)]
@@ -250,7 +252,7 @@ impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Dynamics
     }
 }
 
-impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Plant<T, NX, NU> for Fixed<'_, P> {
+impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Plant<T, NX, NU> for Fixed<P> {
     #[inline(always)]
     fn between_steps(&mut self, _: T, _: T, _: &mut SVector<T, NX>, _: &SVector<T, NU>) {}
 }
