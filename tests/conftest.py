@@ -1,8 +1,20 @@
 """Shared fixtures: the default robot and random valid robots."""
+import os
+
 import numpy as np
 import pytest
 
 import twip
+
+try:  # CI runs the property tests on fixed examples, so that a run can be repeated; a
+    # developer's runs keep exploring new ones (and print the seed of a failure).
+    from hypothesis import settings
+
+    settings.register_profile("ci", derandomize=True)
+    if os.environ.get("CI"):
+        settings.load_profile("ci")
+except ImportError:  # pragma: no cover - hypothesis is a test dependency
+    pass
 
 
 @pytest.fixture

@@ -313,9 +313,13 @@ def test_by_name_and_by_scenario_object_share_one_checkpoint(tmp_path, monkeypat
 
 def test_shape_errors_print_the_shape_received():
     model = twip.SlopeModel(twip.RobotParams.balanbot())
-    for shape in ((1, 4), (4, 1)):
-        with pytest.raises(twip.ShapeError, match=rf"gains has shape \({shape[0]}, {shape[1]}\), expected \(4,\)"):
+    for shape in ((4, 1), (2, 2)):
+        with pytest.raises(twip.ShapeError, match=rf"gains has shape \({shape[0]}, {shape[1]}\), expected \(4,\) or \(1, 4\)"):
             twip.LqrController(model, np.ones(shape))
+    with pytest.raises(twip.ShapeError, match=r"gains has shape \(3,\), expected \(4,\) or \(1, 4\)"):
+        twip.LqrController(model, np.ones(3))
+    # python-control's K is a (1, n) row: taken as it is.
+    np.testing.assert_array_equal(twip.LqrController(model, np.arange(1.0, 5.0)[None, :]).gains, [1, 2, 3, 4])
     with pytest.raises(twip.NonFiniteError, match=r"Q\[0\] = NaN"):
         twip.LqrController.design(model, 0.0, [np.nan, 1, 1, 1], 1.0)
     with pytest.raises(twip.ShapeError, match=r"Q has shape \(3,\), expected \(4,\) \(its diagonal\) or \(4, 4\)"):

@@ -45,6 +45,7 @@ from twip._core import (
     rk4_step,
 )
 from twip.budget import MemoryBudgetError, set_memory_budget
+from twip.robot_file import Robot
 from twip.sim import SimResult, simulate
 from twip.sweep import Normal, SweepResult, Uniform, montecarlo, wilson_interval
 
@@ -73,6 +74,7 @@ __all__ = [
     "PlanarModel",
     "Push",
     "Realism",
+    "Robot",
     "RobotParams",
     "ShapeError",
     "SingularMatrixError",
@@ -97,3 +99,5 @@ __all__ = [
     "simulate",
     "wilson_interval",
 ]
+
+from twip import interop, scenarios  # noqa: E402  (twip.scenarios.get(...) after `import twip`)

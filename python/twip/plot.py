@@ -559,6 +559,8 @@ METRIC_UNITS = {
     "speed_settling_time": ("speed settling time (2 %)", 1.0, "s"),
     "final_position_error": ("final position error (short of the reference)", 100.0, "cm"),
     "peak_abs_input": ("peak |u|", 1.0, "A"),
+    "peak_current": ("peak current in one motor", 1.0, "A"),
+    "peak_torque": ("peak torque at one wheel", 1.0, "N m"),
     "mean_abs_x_error": ("mean |x − x_r|", 100.0, "cm"),
     "mean_abs_y_error": ("mean |y − y_r|", 100.0, "cm"),
     "mean_abs_x_error_settled": ("mean |x − x_r| after the first lap", 100.0, "cm"),
@@ -574,6 +576,16 @@ METRIC_UNITS = {
 def metric_unit(name: str):
     """(label, scale from SI, unit) of a metric; an unknown one is shown as it is."""
     return METRIC_UNITS.get(name, (name, 1.0, ""))
+
+
+#: The SI unit behind each display unit of METRIC_UNITS.
+_SI = {"deg": "rad", "deg/s": "rad/s", "cm": "m"}
+
+
+def si_unit(name: str) -> str:
+    """The SI unit of a metric as `twip.simulate` and sweeps hold it ("" if none)."""
+    unit = metric_unit(name)[2]
+    return _SI.get(unit, unit)
 
 
 @_styled
@@ -610,13 +622,7 @@ def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None
 def perturbed_values(result, name: str) -> np.ndarray:
     """The per-sample values of a perturbed quantity of a SweepResult, named as in
     `perturb=` (a RobotParams field, 'slope', 'phi0', 'x0[0]', ...)."""
-    kind, at = result.perturbation_target(name)
-    out = np.empty(result.n)
-    index = np.asarray(result.metrics["index"], dtype=np.int64)
-    for k, i in enumerate(index):
-        params, slope, x0 = result.sample(int(i))
-        out[k] = slope if kind == "slope" else x0[at] if kind == "x0" else getattr(params, name)
-    return out
+    return result.drawn(name)
 
 
 def _state_name(result, name: str) -> str:

@@ -36,6 +36,8 @@ class SimResult:
     # ("drive", "drive_r"/"drive_l": PWM counts with a motor driver, else the command) and
     # the motor current ("motor_current" lumped, or "current_r"/"current_l", A).
     signals: dict = field(default_factory=dict)
+    #: What the run asked that the robot could not give (e.g. more than the stall current).
+    warnings: tuple = ()
 
     @property
     def measurements(self) -> Optional[np.ndarray]:
@@ -70,6 +72,7 @@ def simulate(
     record_every: int = 1,
     settle: Optional[float] = None,
     realism=None,
+    stall_current: Optional[float] = None,
 ) -> SimResult:
     """Runs `controller` on `model` from `x0` for `t_final` seconds.
 
@@ -88,6 +91,17 @@ def simulate(
     wheel has its motor and encoder and the gyro's z axis gives the yaw rate.
     `inputs` stay the controller's command (current or wheel torques); `signals` and
     `measurements` hold the rest.
+
+    `controller`: a twip controller, an object with `update(t, y, ref) -> u` and `period`
+    [s] (optionally `reset()`, called before the run, and `internals() -> dict`, logged),
+    or a callable `f(t, y, ref) -> u` run every `control_period` (default `dt`). `y` is what
+    a built-in controller measures (the state, or the estimator's output with realism),
+    `ref` the reference sample in the order of `SimResult.reference_names`, `u` a float
+    or an array of the model's inputs.
+
+    Metrics include `peak_current` [A, one motor] and `peak_torque` [N m, one wheel]; with
+    `stall_current` [A] (the motor's data sheet) a run that asked more carries a warning
+    in `SimResult.warnings`.
     """
     if isinstance(model, _core.PlanarModel):
         if reference is None:
@@ -97,7 +111,7 @@ def simulate(
         def run(t_final, record_every):
             return _core.simulate_planar_raw(
                 model, controller, x0, float(t_final), float(dt), reference,
-                control_period=control_period, fall_limit=float(fall_limit), record_every=int(record_every),
+                control_period=control_period, fall_limit=float(fall_limit), record_every=min(int(record_every), _MAX_RECORD_EVERY),
                 settle=None if settle is None else float(settle), realism=realism,
             )
     else:
@@ -109,7 +123,7 @@ def simulate(
         def run(t_final, record_every):
             return _core.simulate_raw(
                 model, controller, x0, float(t_final), float(dt), reference,
-                control_period=control_period, fall_limit=float(fall_limit), record_every=int(record_every),
+                control_period=control_period, fall_limit=float(fall_limit), record_every=min(int(record_every), _MAX_RECORD_EVERY),
                 realism=realism,
             )
 
@@ -119,8 +133,13 @@ def simulate(
         return probe["internals"].shape[1] + (0 if probe.get("signals") is None else probe["signals"].shape[1])
 
     _check_log(model, t_final, dt, record_every, realism, logged_extras)
+    if stall_current is not None:
+        stall_current = _positive_real("stall_current", stall_current)
+        if not (math.isfinite(stall_current) and stall_current > 0):
+            raise _core.InvalidParameterError(f"stall_current = {stall_current}: must be a finite number > 0 [A]")
     raw = run(t_final, record_every)
     names = raw["internal_names"]
+    metrics = dict(raw["metrics"])
     internals = {n: raw["internals"][:, i] for i, n in enumerate(names)}
     return SimResult(
         t=raw["t"],
@@ -132,10 +151,20 @@ def simulate(
         outcome=raw["outcome"],
         t_end=raw["t_end"],
         steps=raw["steps"],
-        metrics=dict(raw["metrics"]),
+        metrics=metrics,
         signals={} if raw.get("signals") is None else {
             n: raw["signals"][:, i] for i, n in enumerate(raw["signal_names"])},
+        warnings=stall_warnings(metrics, stall_current),
     )
+
+
+def stall_warnings(metrics: dict, stall_current: Optional[float]) -> tuple:
+    """A warning when the run asked one motor for more than its stall current [A]."""
+    peak = metrics.get("peak_current", math.nan)
+    if stall_current is None or not peak > stall_current:
+        return ()
+    return (f"the loop asked up to {peak:.3g} A of one motor, above its stall current {stall_current:.3g} A: "
+            "the real robot cannot give this (run it with realism= to see what it does)",)
 
 
 def _positive_real(name: str, value) -> float:
@@ -149,6 +178,11 @@ def log_shape_guess(model, t_final: float, dt: float, record_every: int, realism
     kind = "planar" if isinstance(model, _core.PlanarModel) else "slope"
     columns = _LOG_COLUMNS[kind] + _DEFAULT_INTERNALS + (_SIGNAL_COLUMNS[kind] if realism is not None else 0)
     return t_final / dt / int(record_every) + 2, columns
+
+
+#: A record_every beyond any run's step count keeps the first and last samples only; the
+#: core takes it as a machine word.
+_MAX_RECORD_EVERY = 2**62
 
 
 def _check_log(model, t_final, dt, record_every, realism, internals) -> None:

@@ -34,6 +34,9 @@ from twip.checkpoint import Checkpoint
 from twip.quantiles import streamed_quantiles_of
 
 STATE_NAMES = ("phi0", "phi_dot0", "theta0", "theta_dot0")
+#: SI units of the initial-state entries a sweep can perturb.
+_STATE_UNITS = {"phi0": "rad", "phi_dot0": "rad/s", "theta0": "rad", "theta_dot0": "rad/s", "x0": "m", "y0": "m",
+                "psi0": "rad", "v0": "m/s", "omega0": "rad/s"}
 #: The initial state of a PlanarModel: [x, y, psi, phi, phi_dot, v, omega].
 PLANAR_STATE_NAMES = ("x0", "y0", "psi0", "phi0", "phi_dot0", "v0", "omega0")
 DEFAULT_SHARD = 1024
@@ -252,6 +255,8 @@ class SweepResult:
     _realism: object = field(default=None, repr=False)
     #: {sample index: twip.SimResult}: the decimated trajectories asked for with `traces=`.
     traces: Dict[int, object] = field(default_factory=dict, repr=False)
+    #: One motor's stall current [A] given to montecarlo: summary() counts the samples above it.
+    stall_current: Optional[float] = field(default=None, repr=False)
 
     @property
     def n(self) -> int:
@@ -324,6 +329,8 @@ class SweepResult:
             "fall_rate_95ci": (lo, hi),
             "sample_steps_per_second": self.steps / self.elapsed if self.elapsed > 0 else float("nan"),
         }
+        if self.stall_current is not None and "peak_current" in self.metric_names:
+            out["over_stall_current"] = self.over_stall_current(self.stall_current)
         for name in self._summary_metrics():
             out[name] = dict(zip(("q05", "median", "q95"), map(float, self.quantiles(name))))
         return out
@@ -331,11 +338,48 @@ class SweepResult:
     def _summary_metrics(self):
         return self.metric_names[2:]
 
+    def drawn(self, name: str, index=None) -> np.ndarray:
+        """The value drawn for perturbed quantity `name` (as in `perturb=`: a RobotParams
+        field, 'slope', 'phi0', 'x0[0]'...) in each sample of `index` (default: all)."""
+        kind, at = self.perturbation_target(name)
+        index = np.asarray(self.metrics["index"] if index is None else index, dtype=np.int64)
+        sc, perturbations = self._scenario, [tuple(p) for p in self.config["perturbations"]]
+        out = np.empty(len(index))
+        for k, i in enumerate(index):  # the raw draw: an invalid robot has its values too
+            params, slope, x0 = _family(sc).draw(sc.model, sc.x0, perturbations, self.seed, int(i))
+            out[k] = slope if kind == "slope" else x0[at] if kind == "x0" else params[name]
+        return out
+
+    def table(self, part: Optional[Mapping] = None) -> Dict[str, np.ndarray]:
+        """Columns for analysis, each named with its SI unit: the sample index, validity,
+        the value drawn for every perturbed quantity (`m_body[kg]`), then every metric
+        (`pitch_error_mean[rad]` style: `mean_abs_pitch_error[rad]`). `part`: a subset of
+        `metrics` (one shard of a streamed sweep); default all."""
+        from twip.plot import si_unit
+        from twip.robot_file import FIELDS
+
+        part = self.metrics if part is None else part
+        out: Dict[str, np.ndarray] = {"index": np.asarray(part["index"]), "valid": np.asarray(part["valid"])}
+        for name in self.config["perturb"]:
+            kind, at = self.perturbation_target(name)
+            unit = (FIELDS[name][0] if kind == "param" else "rad" if kind == "slope"
+                    else _STATE_UNITS[self.state_names[at]])
+            out[f"{name}[{unit}]"] = self.drawn(name, part["index"])
+        for name in self.metric_names:
+            unit = "s" if name == "t_end" else si_unit(name)
+            out[f"{name}[{unit}]" if unit else name] = np.asarray(part[name])
+        return out
+
     def to_pandas(self):
-        """A DataFrame, one row per sample (needs pandas)."""
+        """A DataFrame, one row per sample, columns as `table()` names them (needs pandas)."""
         import pandas as pd
 
-        return pd.DataFrame(self.metrics)
+        return pd.DataFrame(self.table())
+
+    def over_stall_current(self, stall_current: float) -> int:
+        """How many samples asked one motor for more than `stall_current` [A]."""
+        peak = np.asarray(self.metrics.get("peak_current", []), float)
+        return int(np.sum(peak > stall_current))
 
     def sample(self, index: int):
         """The robot, slope and initial state of sample `index` (slope None for a 3-DOF
@@ -445,6 +489,9 @@ class StreamedSweepResult(SweepResult):
     def shards(self):
         """Per-shard metric arrays (index, valid, fell, the metrics...), in sample order."""
         return self._store.shards(self._layout)
+
+    def over_stall_current(self, stall_current: float) -> int:
+        return sum(int(np.sum(np.asarray(part["peak_current"], float) > stall_current)) for part in self.shards())
 
     def _counts(self) -> dict:
         if self._tally is None:
@@ -652,6 +699,7 @@ def montecarlo(
     realism=None,
     traces: Optional[Sequence[int]] = None,
     trace_every: int = 10,
+    stall_current: Optional[float] = None,
 ) -> SweepResult:
     """Runs `n` samples of `scenario` (a name from `twip.scenarios.names()`, or a Scenario).
 
@@ -692,6 +740,10 @@ def montecarlo(
                      len(traces) * rows * columns * 8, "keep fewer traces= or log them sparser with trace_every=")
     perturbations = _resolve(perturb or {}, sc)
     config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism)
+    if stall_current is not None:  # summary() counts the samples that asked more of a motor
+        stall_current = _finite("stall_current", "the stall current [A]", stall_current)
+        if stall_current <= 0:
+            raise _bad(f"stall_current = {stall_current}: must be > 0 [A]")
     if shard_size is None:
         # Checkpointed sweeps keep at most MAX_SHARDS files (n = 10**9: shards of 10**5).
         shard = max(DEFAULT_SHARD, -(-n // MAX_SHARDS)) if (checkpoint or client) else n
@@ -710,7 +762,13 @@ def montecarlo(
                      "pass a smaller shard_size")
     store = Checkpoint(checkpoint, config, shard) if checkpoint is not None else None
     try:
-        return _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, realism, traces, trace_every)
+        result = _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, realism, traces, trace_every)
+        result.stall_current = stall_current
+        return result
+    except KeyboardInterrupt as stop:
+        if getattr(stop, "partial", None) is not None:
+            stop.partial.stall_current = stall_current
+        raise
     finally:
         if store is not None:
             store.close()

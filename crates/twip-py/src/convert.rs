@@ -78,6 +78,23 @@ pub fn vector<const N: usize>(name: &'static str, obj: &Bound<'_, PyAny>) -> PyR
     Ok(v)
 }
 
+/// Reads a gain row as python-control's `lqr` returns it: shape (N,) or (1, N).
+pub fn gain_row<const N: usize>(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<SVector<f64, N>> {
+    let obj = real_array(name, obj)?;
+    let shape = obj.getattr("shape").and_then(|s| s.extract::<Vec<usize>>()).unwrap_or_default();
+    let flat = match shape.as_slice() {
+        [n] if *n == N => obj.clone(),
+        [1, n] if *n == N => obj.call_method0("ravel")?,
+        _ => {
+            return Err(ShapeError::new_err(format!(
+                "{name} has shape {}, expected ({N},) or (1, {N}) (a row, as python-control's lqr returns K)",
+                shape_of(&obj)
+            )))
+        }
+    };
+    vector::<N>(name, &flat)
+}
+
 /// Reads an input that may be a scalar or a length-`N` vector.
 pub fn input<const N: usize>(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<SVector<f64, N>> {
     if N == 1 {

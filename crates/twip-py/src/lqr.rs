@@ -5,7 +5,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
 
-use crate::convert::{dmatrix, scalar, to_py_dmatrix, vector};
+use crate::convert::{dmatrix, gain_row, scalar, to_py_dmatrix, vector};
 use crate::errors::{CoreResult, PyTwipError};
 use crate::models::PySlopeModel;
 
@@ -36,12 +36,15 @@ pub struct PyLqrController {
 
 #[pymethods]
 impl PyLqrController {
-    /// A controller with given gains K̂ = [k_phi, k_phi_dot, k_theta_dot, k_z];
+    /// A controller with given gains K̂ = [k_phi, k_phi_dot, k_theta_dot, k_z] (this order,
+    /// not the plant's state order: pitch, pitch rate, wheel-speed error, the integral z of
+    /// the wheel-speed error), shape (4,) or python-control's (1, 4);
+    /// u = u_s − (k_phi (φ − φ_s) + k_phi_dot φ̇ + k_theta_dot (θ̇ − θ̇_ref)) − k_z z.
     /// `model` is the controller's own model (for the steady state).
     #[new]
     #[pyo3(signature = (model, gains, point = "operating", period = 0.005))]
     fn new(model: &PySlopeModel, gains: &Bound<'_, PyAny>, point: &str, period: f64) -> PyResult<Self> {
-        let g = vector::<4>("gains", gains)?;
+        let g = gain_row::<4>("gains", gains)?;
         let inner = LqrController::new([g[0], g[1], g[2], g[3]], model.inner, design_point(point)?, period)
             .map_err(PyTwipError)?;
         Ok(Self { inner, info: None })

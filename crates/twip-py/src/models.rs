@@ -51,7 +51,9 @@ impl PySlopeModel {
     }
 
     fn deriv<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, u: &Bound<'py, PyAny>) -> PyResult<Arr1<'py>> {
-        let d = self.inner.deriv(&vector::<4>("x", x)?, &input::<1>("u", u)?);
+        let x = vector::<4>("x", x)?;
+        let d = self.inner.deriv(&x, &input::<1>("u", u)?);
+        finite_derivative(x.as_slice(), d.as_slice())?;
         Ok(to_py_vector(py, &d))
     }
 
@@ -125,7 +127,9 @@ impl PyPlanarModel {
     }
 
     fn deriv<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, u: &Bound<'py, PyAny>) -> PyResult<Arr1<'py>> {
-        let d = self.inner.deriv(&vector::<7>("x", x)?, &input::<2>("u", u)?);
+        let x = vector::<7>("x", x)?;
+        let d = self.inner.deriv(&x, &input::<2>("u", u)?);
+        finite_derivative(x.as_slice(), d.as_slice())?;
         Ok(to_py_vector(py, &d))
     }
 
@@ -162,15 +166,31 @@ pub fn rk4_step<'py>(
 ) -> PyResult<Arr1<'py>> {
     let dt = positive_dt(dt)?;
     if let Ok(m) = model.cast::<PySlopeModel>() {
-        let next = core_rk4(&m.get().inner, &vector::<4>("x", x)?, &input::<1>("u", u)?, dt);
+        let x = vector::<4>("x", x)?;
+        let next = core_rk4(&m.get().inner, &x, &input::<1>("u", u)?, dt);
+        finite_derivative(x.as_slice(), next.as_slice())?;
         return Ok(to_py_vector(py, &next));
     }
     if let Ok(m) = model.cast::<PyPlanarModel>() {
-        let next = core_rk4(&m.get().inner, &vector::<7>("x", x)?, &input::<2>("u", u)?, dt);
+        let x = vector::<7>("x", x)?;
+        let next = core_rk4(&m.get().inner, &x, &input::<2>("u", u)?, dt);
+        finite_derivative(x.as_slice(), next.as_slice())?;
         return Ok(to_py_vector(py, &next));
     }
     Err(pyo3::exceptions::PyTypeError::new_err(format!(
         "model must be a twip.SlopeModel or twip.PlanarModel, got {}",
         model.get_type().name()?
     )))
+}
+
+/// A derivative or step that overflowed (a state of absurd size, e.g. a pitch rate of
+/// 1e15 rad/s, squared) is an error naming the state, never a silent inf.
+fn finite_derivative(x: &[f64], d: &[f64]) -> PyResult<()> {
+    match d.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(crate::errors::NonFiniteError::new_err(format!(
+            "from x = {x:?}: entry {i} of the result is {} (the state is too large for f64)",
+            d[i]
+        ))),
+    }
 }

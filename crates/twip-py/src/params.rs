@@ -112,6 +112,18 @@ impl PyRobotParams {
         format!("RobotParams({})", body.join(", "))
     }
 
+    /// The [robot] table of a robot file (TOML; see `twip.robot_file`).
+    #[classmethod]
+    fn from_file<'py>(cls: &Bound<'py, pyo3::types::PyType>, path: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        cls.py().import("twip.robot_file")?.call_method1("load", (path,))?.getattr("params")
+    }
+
+    /// Writes a robot file: every field with its unit and thesis symbol in a comment.
+    fn to_file(slf: &Bound<'_, Self>, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        slf.py().import("twip.robot_file")?.call_method1("save", (slf, path))?;
+        Ok(())
+    }
+
     fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
         let py = slf.py();
         let ctor = py.get_type::<Self>().getattr("from_dict")?;

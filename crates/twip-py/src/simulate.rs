@@ -174,6 +174,8 @@ pub fn simulate_raw<'py>(
     m.set_item("speed_settling_time", summary.speed_settling_time)?;
     m.set_item("final_position_error", summary.final_position_error)?;
     m.set_item("peak_abs_input", summary.peak_abs_input)?;
+    m.set_item("peak_current", summary.peak_current)?;
+    m.set_item("peak_torque", summary.peak_torque)?;
     out.set_item("metrics", m)?;
     Ok(out)
 }

@@ -10,6 +10,7 @@ use twip_core::control::pid::{PidGains, PidTracker, PidUnits};
 use twip_core::hardware::planar_rig::PLANAR_RIG_SIGNALS;
 use twip_core::sim::runner::{simulate_until, Outcome, SimConfig};
 use twip_core::control::smc::{Adaptation, PitchSign, SmcGains, SmcOptions, SmcTracker};
+use twip_core::sim::metrics::DrivePeaks;
 use twip_core::sim::tracking_metrics::TrackingMetrics;
 use twip_core::control::trajectory::{Circle, Direction, FigureEight, Line, Path, PlanarRef, Trajectory, Waypoints};
 
@@ -921,6 +922,9 @@ pub fn simulate_planar_raw<'py>(
     m.set_item("max_path_error_settled", summary.max_path_error_settled)?;
     m.set_item("mean_abs_pitch", summary.mean_abs_pitch)?;
     m.set_item("peak_abs_torque", summary.peak_abs_torque)?;
+    let peaks = DrivePeaks::from_wheel_torque(plant.params(), summary.peak_abs_torque);
+    m.set_item("peak_current", peaks.current)?;
+    m.set_item("peak_torque", peaks.torque)?;
     m.set_item("settle", settle)?;
     out.set_item("metrics", m)?;
     Ok(out)

@@ -16,7 +16,7 @@ import warnings
 
 import twip
 from twip.cli import commands
-from twip.cli.args import (Parser, UsageError, add_realism_option, formatter, map_names, positive_float,
+from twip.cli.args import (Parser, UsageError, add_realism_option, add_robot_option, formatter, map_names, positive_float,
                            positive_int, seed)
 from twip.report import DEFAULT_OUT
 
@@ -100,6 +100,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--animate", metavar="OUT.gif", help="write an animated GIF of the run")
     p.add_argument("--fps", type=positive_float, default=20.0, help="GIF frames per second (default 20)")
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    add_robot_option(p)
     p.set_defaults(func=commands.simulate)
 
     p = sub.add_parser("sweep", help="Monte Carlo robustness sweep of one scenario",
@@ -120,7 +121,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--csv", metavar="OUT.csv", help="write the per-sample metrics")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_robot_option(p)
     p.set_defaults(func=commands.sweep)
+
+    p = sub.add_parser("robot", help="robot files: `twip robot init FILE` writes the default robot",
+                       description="Write a robot file (TOML) to describe your own robot; pass it to other "
+                                   "commands with --robot FILE.", formatter_class=formatter,
+                       epilog="example:\n  twip robot init my.toml && twip simulate flat-lqr --robot my.toml")
+    p.add_argument("action", choices=("init",), help="init: write the default robot (the Balanbot), commented")
+    p.add_argument("file", metavar="FILE", help="the robot file to write")
+    p.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
+    p.set_defaults(func=commands.robot_init)
 
     p = sub.add_parser("list", help="list the scenarios", description="List the named scenarios.",
                        formatter_class=formatter)

@@ -68,9 +68,14 @@ def key_value(text: str, what: str):
     return name, value.strip()
 
 
-def robot(param_args) -> "twip.RobotParams":
-    """RobotParams.balanbot() with the --param changes."""
-    base = twip.RobotParams.balanbot()
+def add_robot_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--robot", metavar="FILE", help="the robot file (TOML; `twip robot init FILE` writes one) instead "
+                   "of the Balanbot; its [motor] and [driver] go into --realism thesis-like")
+
+
+def robot(param_args, robot_file=None) -> "twip.RobotParams":
+    """The robot of --robot FILE (default RobotParams.balanbot()) with the --param changes."""
+    base = twip.Robot.from_file(robot_file).params if robot_file else twip.RobotParams.balanbot()
     fields = list(twip.RobotParams.fields)
     changes = {}
     for text in param_args or []:
@@ -187,8 +192,21 @@ def add_realism_option(p: argparse.ArgumentParser) -> None:
                    help="sensors, driver and delay in the loop (2-DOF scenarios only)")
 
 
-def realism(choice: Optional[str]):
-    """The twip.Realism that --realism CHOICE names (None when not given)."""
+def realism(choice: Optional[str], robot_file=None):
+    """The twip.Realism that --realism CHOICE names (None when not given); thesis-like
+    takes the motor and driver of --robot FILE when the file has them."""
     if choice is None:
         return None
-    return twip.Realism() if choice == "ideal" else twip.Realism.thesis_like()
+    if choice == "ideal":
+        return twip.Realism()
+    return twip.Robot.from_file(robot_file).realism() if robot_file else twip.Realism.thesis_like()
+
+
+def stall_current(robot_file=None) -> Optional[float]:
+    """One motor's stall current [A]: the [motor] table of --robot FILE, else the Balanbot's
+    GB37Y3530 when no file is given (None: a file without a motor)."""
+    from twip import robot_file as files
+
+    if robot_file:
+        return twip.Robot.from_file(robot_file).stall_current
+    return files.BALANBOT_MOTOR["stall_current"]

@@ -7,18 +7,18 @@ import os
 import shlex
 import sys
 import time
+from pathlib import Path
 from typing import Any, Dict, List
 
 import numpy as np
 
 import twip
 from twip import report, scenarios
-from twip.cli.args import (UsageError, get_scenario, perturbation, realism, robot, scenario_name,
+from twip.cli.args import (UsageError, stall_current, get_scenario, perturbation, realism, robot, scenario_name,
                            scenario_options)
 from twip.plot import metric_unit
 from twip.report.claims import claims_for
 from twip.report.numbers import fmt, jsonable
-from twip.scenarios import is_planar
 from twip.sweep import StreamedSweepResult, fits_in_memory
 
 
@@ -35,6 +35,9 @@ def sweep_summary(result, metrics) -> str:
     s = result.summary()
     lines = [f"{result.config['scenario']}: {s['samples']} samples ({s['invalid']} invalid), seed {result.config['seed']}"]
     lines += [f"  invalid: {count} samples, {reason}" for reason, count in s["invalid_reasons"].items()]
+    if s.get("over_stall_current"):
+        lines.append(f"  warning: {s['over_stall_current']} samples asked one motor for more than its stall current "
+                     f"({result.stall_current:g} A): the real robot cannot do those runs as simulated")
     lines += [f"  fall rate {result.fall_rate:.2%}  (95 % CI {lo:.2%} – {hi:.2%})" + (
                   f" over the {s['samples'] - s['invalid']} valid samples" if s["invalid"] else ""),
               f"  {'metric (samples that did not fall)':48s} {'unit':>6s} {'q05':>10s} {'median':>10s} {'q95':>10s}"]
@@ -68,16 +71,17 @@ def check_outputs(args) -> None:
 
 
 def write_csv(result, path) -> None:
-    """The per-sample metrics as CSV; a streamed sweep's shard by shard (bounded memory)."""
+    """The per-sample table (drawn values and metrics, units in the column names) as CSV;
+    a streamed sweep's shard by shard (bounded memory)."""
     parts = result.shards() if isinstance(result, StreamedSweepResult) else [result.metrics]
     with open(path, "w") as f:
-        keys = None
+        header = False
         for part in parts:
-            if keys is None:
-                keys = ["index", "valid"] + list(result.metric_names)
-                f.write(",".join(keys) + "\n")
-            table = np.column_stack([np.asarray(part[k], float) for k in keys])
-            np.savetxt(f, table, delimiter=",", fmt="%.10g")
+            table = result.table(part)
+            if not header:
+                f.write(",".join(table) + "\n")
+                header = True
+            np.savetxt(f, np.column_stack([np.asarray(v, float) for v in table.values()]), delimiter=",", fmt="%.10g")
 
 
 def resume_command() -> str:
@@ -94,7 +98,7 @@ def list_scenarios(args) -> int:
 def simulate(args) -> int:
     check_outputs(args)
     name = scenario_name(args.scenario)
-    params = robot(args.param)
+    params = robot(args.param, args.robot)
     options = scenario_options(name, args.option)
     ctrl_params = twip.RobotParams.balanbot() if args.nominal_controller else None
     sc = get_scenario(name, params=params, controller_params=ctrl_params, options=options)
@@ -104,16 +108,17 @@ def simulate(args) -> int:
     if args.dt is not None:
         overrides["dt"] = args.dt
     if args.realism is not None:
-        overrides["realism"] = realism(args.realism)
+        overrides["realism"] = realism(args.realism, args.robot)
     started = time.perf_counter()
-    r = sc.run(**overrides)
+    r = sc.run(stall_current=stall_current(args.robot), **overrides)
     elapsed = time.perf_counter() - started
     claims = claims_for(sc, r) if not overrides and not args.param and not options else []
     if args.json:
         print(json.dumps(jsonable({"scenario": name, "outcome": r.outcome, "t_end": r.t_end, "steps": r.steps,
-                                    "seconds": elapsed, "metrics": r.metrics, "claims": claims}), indent=1))
+                                    "seconds": elapsed, "metrics": r.metrics, "claims": claims,
+                                   "warnings": list(r.warnings)}), indent=1))
     else:
-        changed = ", ".join(args.param or []) or "RobotParams.balanbot()"
+        changed = ", ".join(([args.robot] if args.robot else []) + (args.param or [])) or "RobotParams.balanbot()"
         print(f"{name}: {sc.description}")
         print(f"robot: {changed}" + ("; controller designed for balanbot()" if args.nominal_controller else ""))
         if options:
@@ -126,6 +131,8 @@ def simulate(args) -> int:
             for c in claims:
                 print(f"  {c['claim']}: thesis {fmt(c['thesis'])}, ours {fmt(c['ours'])} {c['unit']}  "
                       f"[{c['status']}: {c['reason']}]")
+    for warning in r.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     if args.plot:
         from twip import plot
 
@@ -147,7 +154,7 @@ def sweep(args) -> int:
                          "streams them to --checkpoint and draws no histograms; leave out --plot (the summary "
                          "and --csv are written shard by shard)")
     name = scenario_name(args.scenario)
-    params = robot(args.param)
+    params = robot(args.param, args.robot)
     options = scenario_options(name, args.option)
     perturb = dict(perturbation(p) for p in args.perturb or [])
     if args.map and not set(args.map) <= set(perturb):
@@ -157,7 +164,8 @@ def sweep(args) -> int:
         print("note: no --perturb given, every sample is the same robot", file=sys.stderr)
     try:
         result = twip.montecarlo(sc, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
-                                 progress=not args.quiet, checkpoint=args.checkpoint, realism=realism(args.realism))
+                                 progress=not args.quiet, checkpoint=args.checkpoint, realism=realism(args.realism, args.robot),
+                                 stall_current=stall_current(args.robot))
     except KeyboardInterrupt as stop:
         partial = getattr(stop, "partial", None)
         if partial is not None and partial.n:
@@ -205,4 +213,16 @@ def reproduce(args) -> int:
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs {args.jobs}: must be at least 1")
     report.reproduce(args.out, quick=args.quick, jobs=args.jobs, animations=not args.no_animations)
+    return 0
+
+
+def robot_init(args) -> int:
+    """twip robot init FILE: the default robot, its motor and driver, commented."""
+    from twip import robot_file
+
+    path = Path(args.file)
+    if path.exists() and not args.force:
+        raise UsageError(f"{path} exists; pass --force to overwrite it")
+    robot_file.init(path)
+    print(f"wrote {path}: the Balanbot (RobotParams.balanbot()), its GB37Y3530 motor and L298 driver", file=sys.stderr)
     return 0

@@ -4,7 +4,7 @@ use nalgebra::SVector;
 use crate::control::reference::SpeedRef;
 use crate::sim::runner::Observer;
 use crate::model::slope::SlopeModel;
-use crate::{c, Real};
+use crate::{c, Real, RobotParams};
 
 /// What [`SlopeMetrics`] reports.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -19,9 +19,33 @@ pub struct SlopeSummary<T> {
     pub speed_settling_time: T,
     /// (θ_ref − θ) r at the last sample [m]: how far short of the reference it stopped.
     pub final_position_error: T,
-    /// Largest |u| [A].
+    /// Largest |u| [A] (the lumped current of both motors).
     pub peak_abs_input: T,
+    /// Largest current in one motor [A] and torque at one wheel [N m]: see [`DrivePeaks`].
+    pub peak_current: T,
+    pub peak_torque: T,
     pub samples: usize,
+}
+
+/// The largest current one motor carried [A] and torque one wheel got [N m], to hold
+/// against a motor's data sheet (stall current). The 2-DOF model's input is the lumped
+/// current of both motors (each carries u/2, the wheels share η τ_i u); the 3-DOF model's
+/// inputs are the wheel torques (a motor carries τ / (η τ_i)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DrivePeaks<T> {
+    pub current: T,
+    pub torque: T,
+}
+
+impl<T: Real> DrivePeaks<T> {
+    pub fn from_lumped_current(params: &RobotParams<T>, peak_abs_u: T) -> Self {
+        let current = peak_abs_u / c::<T>(2.0);
+        Self { current, torque: params.gear_ratio * params.torque_constant * current }
+    }
+
+    pub fn from_wheel_torque(params: &RobotParams<T>, peak_abs_torque: T) -> Self {
+        Self { current: peak_abs_torque / (params.gear_ratio * params.torque_constant), torque: peak_abs_torque }
+    }
 }
 
 /// Accumulates [`SlopeSummary`] against the plant's own steady state.
@@ -56,6 +80,8 @@ impl<T: Real> SlopeMetrics<T> {
                 speed_settling_time: T::zero(),
                 final_position_error: T::zero(),
                 peak_abs_input: T::zero(),
+                peak_current: T::zero(),
+                peak_torque: T::zero(),
                 samples: 0,
             },
         }
@@ -80,6 +106,9 @@ impl<T: Real> SlopeMetrics<T> {
         s.mean_abs_speed_error = self.sum_speed / n;
         s.pitch_settling_time = self.pitch_settle;
         s.speed_settling_time = self.speed_settle;
+        let peaks = DrivePeaks::from_lumped_current(self.plant.params(), s.peak_abs_input);
+        s.peak_current = peaks.current;
+        s.peak_torque = peaks.torque;
         s
     }
 }

@@ -17,6 +17,7 @@ use crate::control::lqr::LqrController;
 use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
 use crate::model::slope::{SlopeCoefficients, SlopeModel};
+use crate::sim::metrics::DrivePeaks;
 use crate::TwipError;
 
 /// Plant coefficients, one per lane, folded for the derivative below.
@@ -401,6 +402,7 @@ fn block(
         }
         let count = metrics.samples[l].max(1) as f64;
         let (fell, t_end, steps) = ended[l];
+        let peaks = DrivePeaks::from_lumped_current(models[l].params(), metrics.peak_abs_input[l]);
         out[l] = SampleMetrics {
             valid: true,
             fell,
@@ -411,6 +413,8 @@ fn block(
             speed_settling_time: metrics.speed_settle[l],
             final_position_error: metrics.final_position_error[l],
             peak_abs_input: metrics.peak_abs_input[l],
+            peak_current: peaks.current,
+            peak_torque: peaks.torque,
             steps,
         };
     }

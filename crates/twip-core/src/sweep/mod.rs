@@ -211,6 +211,8 @@ pub struct SampleMetrics {
     pub speed_settling_time: f64,
     pub final_position_error: f64,
     pub peak_abs_input: f64,
+    pub peak_current: f64,
+    pub peak_torque: f64,
     pub steps: u64,
 }
 
@@ -227,6 +229,8 @@ impl SampleMetrics {
             speed_settling_time: s.speed_settling_time,
             final_position_error: s.final_position_error,
             peak_abs_input: s.peak_abs_input,
+            peak_current: s.peak_current,
+            peak_torque: s.peak_torque,
             steps,
         }
     }
@@ -240,6 +244,8 @@ sweep_metrics!(SampleMetrics {
     speed_settling_time,
     final_position_error,
     peak_abs_input,
+    peak_current,
+    peak_torque,
 });
 
 /// A reset copy of a sweep's controller, designed once on the nominal robot.

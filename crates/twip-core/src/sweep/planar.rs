@@ -7,6 +7,7 @@ use crate::hardware::realism::Realism;
 use crate::model::planar::{PlanarModel, PlanarState};
 use crate::sim::runner::{simulate_until, SimConfig};
 use crate::control::trajectory::{Path, PlanarRef};
+use crate::sim::metrics::DrivePeaks;
 use crate::sim::tracking_metrics::{TrackingMetrics, TrackingSummary};
 use crate::{RobotParams, TwipError};
 
@@ -70,12 +71,14 @@ pub struct PlanarSampleMetrics {
     pub max_path_error_settled: f64,
     pub mean_abs_pitch: f64,
     pub peak_abs_torque: f64,
+    pub peak_current: f64,
+    pub peak_torque: f64,
     pub steps: u64,
 }
 
 impl PlanarSampleMetrics {
     /// A valid sample's metrics from its run's summary and how the run ended.
-    pub fn from_summary(s: &TrackingSummary<f64>, fell: bool, t_end: f64, steps: u64) -> Self {
+    pub fn from_summary(s: &TrackingSummary<f64>, peaks: DrivePeaks<f64>, fell: bool, t_end: f64, steps: u64) -> Self {
         Self {
             valid: true,
             fell,
@@ -87,6 +90,8 @@ impl PlanarSampleMetrics {
             max_path_error_settled: s.max_path_error_settled,
             mean_abs_pitch: s.mean_abs_pitch,
             peak_abs_torque: s.peak_abs_torque,
+            peak_current: peaks.current,
+            peak_torque: peaks.torque,
             steps,
         }
     }
@@ -101,6 +106,8 @@ sweep_metrics!(PlanarSampleMetrics {
     max_path_error_settled,
     mean_abs_pitch,
     peak_abs_torque,
+    peak_current,
+    peak_torque,
 });
 
 /// Runs one sample: a reset copy of the prototype tracker (designed for the nominal
@@ -135,7 +142,11 @@ where
             rig.simulate(&mut fresh(prototype), path, &sample.x0, config, &mut metrics, should_stop)
         }
     };
-    finish(run, config.dt, |fell, t_end, steps| PlanarSampleMetrics::from_summary(&metrics.summary(), fell, t_end, steps))
+    finish(run, config.dt, |fell, t_end, steps| {
+        let summary = metrics.summary();
+        let peaks = DrivePeaks::from_wheel_torque(&sample.params, summary.peak_abs_torque);
+        PlanarSampleMetrics::from_summary(&summary, peaks, fell, t_end, steps)
+    })
 }
 
 #[cfg(test)]

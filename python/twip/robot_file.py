@@ -1,0 +1,217 @@
+"""Robot files: a robot described in TOML, with its units and thesis symbols beside each value.
+
+    [robot]                 every RobotParams field, SI units (see FIELDS)
+    [motor]                 optional: the motor's data sheet, as DcMotor.from_data_sheet takes it
+    [driver]                optional: battery, bridge drop, current limit (the motor driver)
+
+`RobotParams.from_file(path)` reads the [robot] table; `twip.Robot.from_file(path)` reads
+all three, and `Robot.realism()` is `Realism.thesis_like()` with the file's motor and driver
+in place of the Balanbot's. `twip robot init FILE` writes the default robot, commented.
+Errors name the file, the key and its line.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Dict, Optional, Tuple
+
+from twip import _core
+
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - Python < 3.11
+    import tomli as tomllib  # type: ignore[no-redef]
+
+#: Every RobotParams field: (unit, thesis symbol, what it is).
+FIELDS: Dict[str, Tuple[str, str, str]] = {
+    "m_body": ("kg", "M_b", "body mass"),
+    "m_wheels": ("kg", "M_w", "both wheels' mass"),
+    "i_body": ("kg m^2", "I_b", "body pitch inertia about its centre of mass"),
+    "i_wheels": ("kg m^2", "I_w", "both wheels' inertia about the axle"),
+    "i_motor": ("kg m^2", "I_M", "both rotors' inertia (reflected as gear_ratio^2 i_motor)"),
+    "gear_ratio": ("1", "eta", "gearbox ratio"),
+    "torque_constant": ("N m/A", "tau_i", "torque per ampere at the motor shaft"),
+    "wheel_radius": ("m", "r, R", "wheel radius"),
+    "com_height": ("m", "l, c_z", "axle to the body's centre of mass"),
+    "mu_bearing": ("N m s/rad", "mu_s", "viscous friction between body and wheels (both)"),
+    "mu_ground": ("N m s/rad", "mu_g", "viscous rolling friction (both wheels)"),
+    "half_track": ("m", "b", "half the distance between the wheels"),
+    "i_body_roll": ("kg m^2", "I_xx", "body roll inertia"),
+    "i_body_yaw": ("kg m^2", "I_zz", "body yaw inertia"),
+    "i_wheel_diam": ("kg m^2", "I_wd", "one wheel's inertia about a diameter"),
+    "g": ("m/s^2", "g", "gravity"),
+}
+
+#: The [motor] table: DcMotor.from_data_sheet's arguments (one motor).
+MOTOR: Dict[str, Tuple[str, str]] = {
+    "rated_voltage": ("V", "the data sheet's test voltage"),
+    "no_load_rpm": ("rpm", "no-load speed at the gearbox output"),
+    "no_load_current": ("A", "no-load current"),
+    "stall_current": ("A", "stall current at the rated voltage"),
+}
+
+#: The [driver] table: MotorDriver's settings (per motor).
+DRIVER: Dict[str, Tuple[str, str]] = {
+    "battery": ("V", "battery voltage"),
+    "bridge_drop": ("V", "H-bridge drop, source + sink"),
+    "current_limit": ("A", "current limit per motor (0 or absent: none)"),
+    "inductance": ("H", "winding inductance"),
+}
+
+_TABLES = {"robot": FIELDS, "motor": MOTOR, "driver": DRIVER}
+
+
+class RobotFileError(_core.InvalidParameterError):
+    """A robot file that cannot be read: names the file, the key and the line."""
+
+
+def _line_of(text: str, table: str, key: Optional[str]) -> int:
+    """The 1-based line of `key` in `[table]` (of the table's header when key is None)."""
+    current = None
+    for number, line in enumerate(text.splitlines(), 1):
+        header = re.match(r"\s*\[\s*([A-Za-z0-9_.-]+)\s*\]", line)
+        if header:
+            current = header.group(1)
+            if key is None and current == table:
+                return number
+            continue
+        if current == table and key is not None and re.match(rf"\s*{re.escape(key)}\s*=", line):
+            return number
+    return 0
+
+
+def _fail(path, text, table, key, message) -> RobotFileError:
+    line = _line_of(text, table, key)
+    where = f"[{table}]" + (f" {key}" if key else "")
+    return RobotFileError(f"{path}:{line}: {where}: {message}")
+
+
+def _numbers(path, text, data: dict, table: str, allowed: Dict[str, tuple]) -> Dict[str, float]:
+    values = data.get(table, {})
+    if not isinstance(values, dict):
+        raise _fail(path, text, table, None, "must be a table")
+    out = {}
+    for key, value in values.items():
+        if key not in allowed:
+            raise _fail(path, text, table, key, f"unknown key; [{table}] takes {', '.join(allowed)}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise _fail(path, text, table, key, f"{value!r} is not a finite number")
+        out[key] = float(value)
+    return out
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A robot file's content: the parameters, and the motor and driver when it has them."""
+
+    params: object
+    motor: Optional[object] = None  # twip.DcMotor, from the [motor] data sheet
+    driver: Optional[object] = None  # twip.MotorDriver
+    stall_current: Optional[float] = None  # per motor [A], from the [motor] table
+
+    @classmethod
+    def from_file(cls, path) -> "Robot":
+        return load(path)
+
+    def realism(self, **changes):
+        """`Realism.thesis_like()` with this robot's motor driver (when the file has one)."""
+        base = _core.Realism.thesis_like()
+        if self.driver is not None:
+            base = base.replace(motor=self.driver)
+        return base.replace(**changes) if changes else base
+
+
+def load(path) -> Robot:
+    """Reads a robot file (see the module docs)."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise RobotFileError(f"{path}: cannot read the robot file ({e.strerror})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise RobotFileError(f"{path}: not valid TOML: {e}") from None
+    for table in data:
+        if table not in _TABLES:
+            raise _fail(path, text, table, None, f"unknown table; a robot file has {', '.join(_TABLES)}")
+    if "robot" not in data:
+        raise RobotFileError(f"{path}:0: the [robot] table is missing")
+    given = _numbers(path, text, data, "robot", FIELDS)
+    missing = [k for k in FIELDS if k not in given]
+    if missing:
+        raise _fail(path, text, "robot", None, f"missing {', '.join(missing)} (every field carries a unit: "
+                    "`twip robot init FILE` writes them all)")
+    try:
+        params = _core.RobotParams.from_dict(given)
+    except _core.InvalidParameterError as e:
+        key = next((k for k in FIELDS if re.search(rf"\b{k}\b", str(e))), None)
+        raise _fail(path, text, "robot", key, str(e)) from None
+    motor = stall = None
+    if "motor" in data:
+        sheet = _numbers(path, text, data, "motor", MOTOR)
+        absent = [k for k in MOTOR if k not in sheet]
+        if absent:
+            raise _fail(path, text, "motor", None, f"missing {', '.join(absent)}")
+        supply = _numbers(path, text, data, "driver", DRIVER).get("battery", 11.1)
+        try:
+            motor = _core.DcMotor.from_data_sheet(gear_ratio=params.gear_ratio, supply=supply, **sheet)
+        except _core.InvalidParameterError as e:
+            key = next((k for k in MOTOR if k in str(e)), None)
+            raise _fail(path, text, "motor", key, str(e)) from None
+        stall = sheet["stall_current"]
+    driver = None
+    if "driver" in data:
+        settings = _numbers(path, text, data, "driver", DRIVER)
+        if settings.get("current_limit") == 0.0:
+            settings["current_limit"] = None
+        if motor is not None:
+            settings["resistance"] = motor.resistance
+        try:
+            driver = _core.MotorDriver(**settings)
+        except _core.InvalidParameterError as e:
+            key = next((k for k in DRIVER if k in str(e)), None)
+            raise _fail(path, text, "driver", key, str(e)) from None
+    elif motor is not None:
+        driver = _core.MotorDriver.thesis_like().replace(resistance=motor.resistance)
+    return Robot(params=params, motor=motor, driver=driver, stall_current=stall)
+
+
+def _format(value: float) -> str:
+    return repr(float(value))
+
+
+def dumps(params, sheet: Optional[dict] = None, driver: Optional[dict] = None) -> str:
+    """A robot file's text: every field with its unit, symbol and meaning in a comment."""
+    lines = ["# A twip robot file (TOML). SI units; the thesis's symbol in brackets.", "", "[robot]"]
+    values = params.to_dict()
+    for key, (unit, symbol, what) in FIELDS.items():
+        lines.append(f"{key} = {_format(values[key])}".ljust(36) + f"# [{unit}] ({symbol}) {what}")
+    for name, table, content in (("motor", MOTOR, sheet), ("driver", DRIVER, driver)):
+        if content:
+            lines += ["", f"[{name}]"]
+            for key, (unit, what) in table.items():
+                if content.get(key) is not None:
+                    lines.append(f"{key} = {_format(content[key])}".ljust(36) + f"# [{unit}] {what}")
+    return "\n".join(lines) + "\n"
+
+
+def save(params, path, sheet: Optional[dict] = None, driver: Optional[dict] = None) -> None:
+    Path(path).write_text(dumps(params, sheet, driver))
+
+
+#: The Balanbot's motor (GB37Y3530-12V-251R, Table 2.3) and its L298 driver (thesis-like).
+BALANBOT_MOTOR = {"rated_voltage": 12.0, "no_load_rpm": 251.0, "no_load_current": 0.35, "stall_current": 7.0}
+
+
+def balanbot_driver() -> dict:
+    d = _core.MotorDriver.thesis_like()
+    return {"battery": d.battery, "bridge_drop": d.bridge_drop, "current_limit": d.current_limit or 0.0,
+            "inductance": d.inductance}
+
+
+def init(path) -> None:
+    """Writes the default robot (the Balanbot), its motor and driver, commented."""
+    save(_core.RobotParams.balanbot(), path, BALANBOT_MOTOR, balanbot_driver())

@@ -1,0 +1,74 @@
+"""Robot files (TOML): round trip, units in comments, errors that name file, key and line,
+and the CLI's --robot and `twip robot init`."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import twip
+from twip import robot_file
+from twip.cli import main
+
+
+def test_round_trip_keeps_every_field_to_the_bit(tmp_path):
+    path = tmp_path / "r.toml"
+    robot = twip.RobotParams.balanbot().replace(m_body=1.234567890123, wheel_radius=0.0412, g=9.80665)
+    robot.to_file(path)
+    back = twip.RobotParams.from_file(path)
+    assert back.to_dict() == robot.to_dict()
+    text = path.read_text()
+    for name, (unit, symbol, _) in robot_file.FIELDS.items():
+        line = next(l for l in text.splitlines() if l.startswith(f"{name} ="))
+        assert f"[{unit}]" in line and f"({symbol})" in line
+
+
+def test_init_writes_the_balanbot_with_its_motor_and_driver(tmp_path):
+    path = tmp_path / "robot.toml"
+    assert main(["robot", "init", str(path)]) == 0
+    robot = twip.Robot.from_file(path)
+    assert robot.params.to_dict() == twip.RobotParams.balanbot().to_dict()
+    assert robot.stall_current == 7.0
+    assert robot.driver.to_dict() == twip.MotorDriver.thesis_like().to_dict()
+    assert robot.realism().to_dict()["motor"].to_dict() == twip.Realism.thesis_like().to_dict()["motor"].to_dict()
+    assert main(["robot", "init", str(path)]) == 2  # no silent overwrite
+
+
+def _write(tmp_path, edit):
+    path = tmp_path / "r.toml"
+    robot_file.init(path)
+    path.write_text(edit(path.read_text()))
+    return path
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda t: t.replace("m_body =", "m_bdy ="), r"r.toml:4: \[robot\] m_bdy: unknown key"),
+    (lambda t: t.replace("com_height = 0.04943", "com_height = \"tall\""), r"r.toml:\d+: \[robot\] com_height: 'tall' is not a finite number"),
+    (lambda t: t.replace("g = 9.81", ""), r"\[robot\]: missing g"),
+    (lambda t: t.replace("m_body = 0.8301", "m_body = -1.0"), r"r.toml:4: \[robot\] m_body: .*m_body"),
+    (lambda t: t.replace("stall_current = 7.0", "stall_current = 7.0\nstal = 1"), r"\[motor\] stal: unknown key"),
+    (lambda t: t.replace("[driver]", "[drivr]"), r"\[drivr\]: unknown table"),
+    (lambda t: t.replace("m_body = 0.8301", "m_body = = 1"), r"not valid TOML"),
+])
+def test_errors_name_the_file_the_key_and_the_line(tmp_path, edit, message):
+    with pytest.raises(twip.InvalidParameterError, match=message):
+        twip.Robot.from_file(_write(tmp_path, edit))
+
+
+def test_the_cli_runs_your_robot_and_its_driver(tmp_path, capsys):
+    path = tmp_path / "heavy.toml"
+    twip.RobotParams.balanbot().replace(m_body=1.2).to_file(path)
+    assert main(["simulate", "flat-lqr-sim", "--robot", str(path), "--json"]) == 0
+    import json
+
+    mine = json.loads(capsys.readouterr().out)
+    ours = twip.scenarios.get("flat-lqr-sim", params=twip.RobotParams.balanbot().replace(m_body=1.2)).run()
+    assert mine["metrics"]["mean_abs_pitch_error"] == pytest.approx(ours.metrics["mean_abs_pitch_error"], rel=1e-12)
+    # A driver with a lower current limit in the file changes the thesis-like run.
+    weak = _write(tmp_path, lambda t: t.replace("current_limit = 2.0", "current_limit = 0.3"))
+    assert main(["simulate", "flat-lqr", "--robot", str(weak), "--realism", "thesis-like", "--json"]) == 0
+    limited = json.loads(capsys.readouterr().out)
+    assert main(["simulate", "flat-lqr", "--realism", "thesis-like", "--json"]) == 0
+    default = json.loads(capsys.readouterr().out)
+    assert limited["metrics"]["mean_abs_pitch_error"] != default["metrics"]["mean_abs_pitch_error"]
+    assert main(["sweep", "flat-lqr-sim", "-n", "4", "--robot", str(path), "--quiet", "--json"]) == 0
+    assert main(["simulate", "flat-lqr", "--robot", str(tmp_path / "missing.toml")]) == 2
