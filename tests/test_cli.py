@@ -190,12 +190,11 @@ def test_sweep_realism_changes_the_result(capsys):
     assert "realism: thesis-like" in out and "(realism)" in out
 
 
-def test_sweep_realism_of_a_tracking_scenario_is_refused(capsys):
+def test_sweep_realism_of_a_tracking_scenario_runs_the_3dof_rig(capsys):
     code, out, err = run(["sweep", "circle-pid", "-n", "2", "--perturb", "m_body=±10%", "--realism", "thesis-like",
-                          "--quiet"], capsys)
-    assert code == 2 and out == ""
-    assert err.strip().splitlines() == [err.strip()] and "Traceback" not in err
-    assert err.startswith("twip sweep: error: realism: 'circle-pid' is a 3-DOF tracking scenario")
+                          "--option", "laps=1", "--quiet"], capsys)
+    assert code == 0, err
+    assert "realism: thesis-like" in out and "(planar-realism)" in out
 
 
 def test_sweep_checkpoint_resumes(tmp_path, capsys):

@@ -349,9 +349,20 @@ def test_bad_realism_is_refused_with_a_clear_error(realism, message):
         rig_sweep(n=4, realism=realism)
 
 
-def test_realism_is_refused_for_tracking_scenarios():
-    with pytest.raises(twip.InvalidParameterError, match="realism: 'circle-pid' is a 3-DOF"):
-        twip.montecarlo("circle-pid", 4, progress=False, realism=twip.Realism.thesis_like())
+def test_tracking_realism_sweep_is_bitwise_on_1_and_2_threads_and_replays():
+    """Each sample runs the 3-DOF rig with its own noise stream; thread count changes nothing,
+    and replaying sample i alone (realism with the sweep's noise key, stream i) gives its metrics."""
+    sc = scenarios.get("circle-smc", laps=1).replace(t_final=3.0)
+    kw = dict(perturb={"m_body": twip.Uniform(rel=0.1)}, seed=9, progress=False, realism=twip.Realism.thesis_like())
+    one = twip.montecarlo(sc, 4, threads=1, **kw)
+    two = twip.montecarlo(sc, 4, threads=2, **kw)
+    assert one.kernel == "planar-realism"
+    for k in one.metrics:
+        assert np.array_equal(np.asarray(one.metrics[k]), np.asarray(two.metrics[k]), equal_nan=True), k
+    ideal = twip.montecarlo(sc, 4, threads=2, **{**kw, "realism": None})
+    assert not np.array_equal(one.metrics["mean_abs_x_error"], ideal.metrics["mean_abs_x_error"])
+    r = one.replay(2)
+    assert r.metrics["mean_abs_x_error"] == one.metrics["mean_abs_x_error"][2]
 
 
 # ============================================================================ 3-DOF tracking sweeps

@@ -11,8 +11,8 @@ from twip import _core, budget
 
 #: Log columns of a run besides the controller's internals: t, state, input, reference.
 _LOG_COLUMNS = {"slope": 1 + 4 + 1 + 2, "planar": 1 + 7 + 2 + 7}
-#: Columns a realism adds (what the controller read, the plant's input, the motor current).
-_SIGNAL_COLUMNS = 6
+#: Columns a realism adds (what the controller read, the plant's inputs, the motor currents).
+_SIGNAL_COLUMNS = {"slope": 4 + 1 + 1, "planar": 7 + 2 + 2}
 #: A generous guess of the internals a controller logs (checked exactly when it matters).
 _DEFAULT_INTERNALS = 16
 
@@ -31,19 +31,21 @@ class SimResult:
     t_end: Optional[float]
     steps: int
     metrics: dict = field(default_factory=dict)
-    # With `realism`: per sample, what the controller last read (phi_hat, phi_dot_hat,
-    # theta_hat, theta_dot_hat), the plant's input ("drive": PWM counts with a motor
-    # driver, else amperes) and the lumped motor current ("motor_current", A).
+    # With `realism`: per sample, what the controller last read (2-DOF: phi_hat,
+    # phi_dot_hat, theta_hat, theta_dot_hat; 3-DOF: x_hat ... omega_hat), the plant's input
+    # ("drive", "drive_r"/"drive_l": PWM counts with a motor driver, else the command) and
+    # the motor current ("motor_current" lumped, or "current_r"/"current_l", A).
     signals: dict = field(default_factory=dict)
     #: What the run asked that the robot could not give (e.g. more than the stall current).
     warnings: tuple = ()
 
     @property
     def measurements(self) -> Optional[np.ndarray]:
-        """(phi_hat, phi_dot_hat, theta_hat, theta_dot_hat) per sample, beside `states`."""
+        """What the controller read per sample, beside `states` (same columns)."""
         if not self.signals:
             return None
-        return np.column_stack([self.signals[n] for n in ("phi_hat", "phi_dot_hat", "theta_hat", "theta_dot_hat")])
+        names = [n for n in self.signals if n.endswith("_hat")]
+        return np.column_stack([self.signals[n] for n in names])
 
     @property
     def fell(self) -> bool:
@@ -84,9 +86,11 @@ def simulate(
     Waypoints); its "_settled" metrics start at `settle` [s] (default: one lap of a
     circle or figure-eight, else 0).
 
-    `realism` (a `twip.Realism`, 2-DOF controllers) puts the robot's real parts in the
-    loop: sensors and estimator, motor driver, loop period and delay, disturbances.
-    `inputs` stay the controller's current; `signals` and `measurements` hold the rest.
+    `realism` (a `twip.Realism`) puts the robot's real parts in the loop: sensors and
+    estimator, motor driver, loop period and delay, disturbances; on a PlanarModel each
+    wheel has its motor and encoder and the gyro's z axis gives the yaw rate.
+    `inputs` stay the controller's command (current or wheel torques); `signals` and
+    `measurements` hold the rest.
 
     `controller`: a twip controller, an object with `update(t, y, ref) -> u` and `period`
     [s] (optionally `reset()`, called before the run, and `internals() -> dict`, logged),
@@ -100,8 +104,6 @@ def simulate(
     in `SimResult.warnings`.
     """
     if isinstance(model, _core.PlanarModel):
-        if realism is not None:
-            raise _core.InvalidParameterError("realism: only the 2-DOF (SlopeModel) controllers take realism")
         if reference is None:
             raise _core.InvalidParameterError(
                 "reference is required for a PlanarModel: a twip.Circle, Line, FigureEight or Waypoints")
@@ -110,7 +112,7 @@ def simulate(
             return _core.simulate_planar_raw(
                 model, controller, x0, float(t_final), float(dt), reference,
                 control_period=control_period, fall_limit=float(fall_limit), record_every=min(int(record_every), _MAX_RECORD_EVERY),
-                settle=None if settle is None else float(settle),
+                settle=None if settle is None else float(settle), realism=realism,
             )
     else:
         if settle is not None:  # the settled metrics are the tracking ones
@@ -173,8 +175,8 @@ def _positive_real(name: str, value) -> float:
 
 def log_shape_guess(model, t_final: float, dt: float, record_every: int, realism=None):
     """(rows, columns) of a run's log, the columns generously guessed (16 internals)."""
-    columns = _LOG_COLUMNS["planar" if isinstance(model, _core.PlanarModel) else "slope"]
-    columns += _DEFAULT_INTERNALS + (_SIGNAL_COLUMNS if realism is not None else 0)
+    kind = "planar" if isinstance(model, _core.PlanarModel) else "slope"
+    columns = _LOG_COLUMNS[kind] + _DEFAULT_INTERNALS + (_SIGNAL_COLUMNS[kind] if realism is not None else 0)
     return t_final / dt / int(record_every) + 2, columns
 
 

@@ -153,7 +153,7 @@ def _planar_draw(model, x0, perturbations, seed, index):
 class _Family:
     """What differs between 2-DOF (SlopeModel) and 3-DOF tracking (PlanarModel) sweeps."""
 
-    planar: bool  # flat ground (no slope to perturb) and no realism
+    planar: bool  # flat ground (no slope to perturb)
     states: Tuple[str, ...]
     draw: Callable  # (model, x0, perturbations, seed, i) -> (params dict, slope or None, x0)
     raw: Callable  # the core's sweep of samples start..start + count
@@ -168,14 +168,14 @@ def _family(sc) -> _Family:
 
 
 def kernel_for(sc, realism=None) -> str:
-    """The core's kernel for a sweep of Scenario `sc`: "realism", "planar", "lanes" (LQR,
-    vectorised) or "general"."""
+    """The core's kernel for a sweep of Scenario `sc`: "python" (a user's controller),
+    "realism", "planar", "planar-realism", "lanes" (LQR, vectorised) or "general"."""
     if user_sweep.is_user_controller(sc.controller):
         return "python"
+    if _family(sc).planar:
+        return "planar" if realism is None else "planar-realism"
     if realism is not None:
         return "realism"
-    if _family(sc).planar:
-        return "planar"
     return "lanes" if isinstance(sc.controller, _core.LqrController) else "general"
 
 
@@ -589,7 +589,11 @@ def _realism_config(r) -> dict:
         "pushes": [[p.t, p.impulse, p.height] for p in d["pushes"]],
         "force": None if d["force"] is None else [d["force"].horizontal, d["force"].vertical, d["force"].height],
         "slope_profile": [list(c) for c in d["slope_profile"]],
+        "friction": None if d["friction"] is None else [getattr(d["friction"], k) for k in _FRICTION_FIELDS],
     }
+
+
+_FRICTION_FIELDS = ("coulomb", "breakaway", "stribeck_speed", "viscous", "smoothing_speed")
 
 
 def _realism_from_config(c: dict):
@@ -607,6 +611,7 @@ def _realism_from_config(c: dict):
         pushes=[_core.Push(*p) for p in c["pushes"]],
         force=None if c["force"] is None else _core.Force(*c["force"]),
         slope_profile=[tuple(p) for p in c["slope_profile"]],
+        friction=None if c.get("friction") is None else _core.Friction(**dict(zip(_FRICTION_FIELDS, c["friction"]))),
     )
 
 
@@ -639,10 +644,9 @@ def _run(sc, config, start, count, threads, progress, realism=None):
     family = _family(sc)
     if user_sweep.is_user_controller(sc.controller):  # worker processes, not threads
         return user_sweep.run(sc, family, config, start, count, threads, progress, realism)
-    extra = {} if family.planar else {"realism": realism}
     return family.raw(sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
                       [tuple(p) for p in config["perturbations"]], config["seed"], start, count,
-                      control_period=sc.control_period, threads=threads, progress=progress, **extra)
+                      control_period=sc.control_period, threads=threads, progress=progress, realism=realism)
 
 
 def _run_shard_by_name(config, start, count, threads):
@@ -705,8 +709,8 @@ def montecarlo(
     threads: worker threads (default: all cores). checkpoint: a folder; the sweep is
     written there in shards and a re-run with the same arguments resumes. client: a
     dask.distributed.Client; shards run as Dask tasks (needs a scenario name).
-    realism: a `twip.Realism` (2-DOF scenarios): sensors, estimator, motor driver, loop
-    period and delay, disturbances in every run. Sample i's noise is stream i of a key
+    realism: a `twip.Realism`: sensors, estimator, motor drivers, loop period and
+    delay, disturbances in every run (2-DOF and 3-DOF tracking scenarios). Sample i's noise is stream i of a key
     made from `seed`; the realism's own seed and stream are ignored.
     traces: a few sample indices whose trajectories to keep, logged every `trace_every`
     steps, in `SweepResult.traces` (each replayed alone with the full runner, see replay).
@@ -728,9 +732,6 @@ def montecarlo(
     if realism is not None and not isinstance(realism, _core.Realism):
         raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
     sc = _scenario_of(scenario, params, options)
-    if realism is not None and _family(sc).planar:
-        raise _bad(f"realism: '{sc.name}' is a 3-DOF tracking scenario, which has no realism "
-                   "(only the 2-DOF SlopeModel scenarios take realism=)")
     if traces:  # each replay checks its own log; together they must fit too
         from twip.sim import log_shape_guess
 

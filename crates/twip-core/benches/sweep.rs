@@ -77,7 +77,7 @@ fn sweep_planar(c: &mut Criterion) {
     group.bench_function("planar_1_thread", |b| {
         b.iter(|| {
             (0..black_box(samples))
-                .map(|i| planar::run_planar_sample(&ctrl, &circle, &config, &planar::draw(&nominal, &perturb, 1, i), 0.0, &|| false))
+                .map(|i| planar::run_planar_sample(&ctrl, &circle, &config, &planar::draw(&nominal, &perturb, 1, i), 0.0, None, &|| false))
                 .collect::<Vec<_>>()
         })
     });

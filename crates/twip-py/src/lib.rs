@@ -4,6 +4,7 @@ use pyo3::prelude::*;
 mod convert;
 mod dispatch;
 mod errors;
+mod friction;
 mod fuzzy;
 mod linalg;
 mod models;
@@ -26,6 +27,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<params::PyRobotParams>()?;
     m.add_class::<models::PySlopeModel>()?;
     m.add_class::<models::PyPlanarModel>()?;
+    m.add_class::<friction::PyFriction>()?;
     m.add_function(wrap_pyfunction!(models::rk4_step, m)?)?;
     m.add_class::<schedule::PySpeedSchedule>()?;
     m.add_class::<lqr::PyLqrController>()?;

@@ -6,6 +6,7 @@ use twip_core::{rk4_step as core_rk4, Dynamics, PlanarModel};
 
 use crate::convert::{input, scalar, to_py_matrix, to_py_vector, vector};
 use crate::errors::CoreResult;
+use crate::friction::PyFriction;
 use crate::params::PyRobotParams;
 
 /// The 2-DOF model on a slope; state [phi, phi_dot, theta, theta_dot], input current u [A].
@@ -21,9 +22,15 @@ type Arr2<'py> = Bound<'py, PyArray2<f64>>;
 #[pymethods]
 impl PySlopeModel {
     #[new]
-    #[pyo3(signature = (params, slope = 0.0))]
-    fn new(params: &PyRobotParams, slope: f64) -> CoreResult<Self> {
-        Ok(Self { inner: SlopeModel::new(params.inner, slope)? })
+    #[pyo3(signature = (params, slope = 0.0, friction = None))]
+    fn new(params: &PyRobotParams, slope: f64, friction: Option<&PyFriction>) -> CoreResult<Self> {
+        Ok(Self { inner: SlopeModel::new(params.inner, slope)?.with_friction(friction.map(|f| f.inner))? })
+    }
+
+    /// The gearhead friction per wheel, or None (the thesis's model).
+    #[getter]
+    fn friction(&self) -> Option<PyFriction> {
+        self.inner.friction().map(|&inner| PyFriction { inner })
     }
 
     #[getter]
@@ -98,8 +105,15 @@ pub struct PyPlanarModel {
 #[pymethods]
 impl PyPlanarModel {
     #[new]
-    fn new(params: &PyRobotParams) -> CoreResult<Self> {
-        Ok(Self { inner: PlanarModel::new(params.inner)? })
+    #[pyo3(signature = (params, friction = None))]
+    fn new(params: &PyRobotParams, friction: Option<&PyFriction>) -> CoreResult<Self> {
+        Ok(Self { inner: PlanarModel::new(params.inner)?.with_friction(friction.map(|f| f.inner))? })
+    }
+
+    /// The gearhead friction per wheel, or None (the thesis's model).
+    #[getter]
+    fn friction(&self) -> Option<PyFriction> {
+        self.inner.friction().map(|&inner| PyFriction { inner })
     }
 
     #[getter]

@@ -1,6 +1,7 @@
 //! `twip.Realism` and its parts: `Imu`, `Dlpf`, `TiltEstimator`, `MotorDriver`, `Push`,
 //! `Force`. Each is a frozen, validated settings object; `Realism.to_core` turns them into
 //! the core's `Realism` for one robot (heights left out default to its centre of mass).
+use crate::friction::PyFriction;
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -602,6 +603,7 @@ pub struct PyRealism {
     pushes: Vec<PyPush>,
     force: Option<PyForce>,
     slope_profile: Vec<(f64, f64)>,
+    friction: Option<PyFriction>,
     seed: u64,
     stream: u64,
 }
@@ -617,7 +619,7 @@ fn key(name: &'static str, v: &Bound<'_, PyAny>) -> PyResult<u64> {
 impl PyRealism {
     #[new]
     #[pyo3(signature = (*, imu = None, estimator = None, encoder_cpr = None, motor = None, delay = false, control_period = None,
-                        pushes = None, force = None, slope_profile = None, seed = None, stream = None))]
+                        pushes = None, force = None, slope_profile = None, friction = None, seed = None, stream = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         imu: Option<&PyImu>,
@@ -629,6 +631,7 @@ impl PyRealism {
         pushes: Option<&Bound<'_, PyAny>>,
         force: Option<&PyForce>,
         slope_profile: Option<Vec<(f64, f64)>>,
+        friction: Option<&PyFriction>,
         seed: Option<&Bound<'_, PyAny>>,
         stream: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
@@ -648,6 +651,7 @@ impl PyRealism {
             pushes: list,
             force: force.copied(),
             slope_profile: slope_profile.unwrap_or_default(),
+            friction: friction.copied(),
             seed: seed.map(|s| key("seed", s)).transpose()?.unwrap_or(0),
             stream: stream.map(|s| key("stream", s)).transpose()?.unwrap_or(0),
         };
@@ -659,12 +663,13 @@ impl PyRealism {
     /// Every part ideal (the same run as without realism, through the realism runner).
     #[staticmethod]
     fn ideal() -> PyResult<Self> {
-        Self::new(None, None, None, None, false, None, None, None, None, None, None)
+        Self::new(None, None, None, None, false, None, None, None, None, None, None, None)
     }
 
     /// The thesis's robot as built: a 5 ms loop applying its command one period late,
     /// the MPU-6050 at DLPF 42 Hz with data-sheet noise and calibrated residual biases, a
     /// complementary filter, 700 CPR encoders, the L298P on 11.1 V (docs/parameters.md).
+    /// No gearhead friction beyond the model's (`replace(friction=...)` adds it).
     #[staticmethod]
     #[pyo3(signature = (*, seed = 0, stream = 0))]
     fn thesis_like(seed: u64, stream: u64) -> Self {
@@ -679,6 +684,7 @@ impl PyRealism {
             pushes: Vec::new(),
             force: None,
             slope_profile: Vec::new(),
+            friction: core.friction.map(|inner| PyFriction { inner }),
             seed,
             stream,
         }
@@ -720,6 +726,11 @@ impl PyRealism {
     fn slope_profile(&self) -> Vec<(f64, f64)> {
         self.slope_profile.clone()
     }
+    /// Gearhead friction per wheel on the rig's plant (None: the model's own).
+    #[getter]
+    fn friction(&self) -> Option<PyFriction> {
+        self.friction
+    }
     #[getter]
     fn seed(&self) -> u64 {
         self.seed
@@ -740,6 +751,7 @@ impl PyRealism {
             && self.pushes.is_empty()
             && self.force.is_none()
             && self.slope_profile.is_empty()
+            && self.friction.is_none()
     }
 
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
@@ -753,6 +765,7 @@ impl PyRealism {
         d.set_item("pushes", self.pushes())?;
         d.set_item("force", self.force)?;
         d.set_item("slope_profile", self.slope_profile())?;
+        d.set_item("friction", self.friction)?;
         d.set_item("seed", self.seed)?;
         d.set_item("stream", self.stream)?;
         Ok(d)
@@ -790,6 +803,7 @@ impl PyRealism {
             pushes: Pushes::new(&pushes)?,
             force,
             slope_profile: SlopeProfile::new(0.0, &self.slope_profile)?,
+            friction: self.friction.map(|f| f.inner),
             seed: self.seed,
             stream: self.stream,
         }

@@ -157,16 +157,7 @@ pub fn simulate_raw<'py>(
     out.set_item("inputs", reshape(log.u, 1)?)?;
     out.set_item("references", reshape(log.reference, widths[2])?)?;
     out.set_item("reference_names", <SpeedRef<f64> as LogRow<f64>>::NAMES.to_vec())?;
-    // The controller's internals, then (with realism) the rig's signals.
-    let table = numpy::ndarray::Array2::from_shape_vec((rows, widths[3]), log.internals)
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
-    let cut = names.len();
-    let signals = (extra > 0).then(|| table.slice(numpy::ndarray::s![.., cut..]).to_owned().into_pyarray(py));
-    let internals = if extra > 0 { table.slice(numpy::ndarray::s![.., ..cut]).to_owned() } else { table };
-    out.set_item("internals", internals.into_pyarray(py))?;
-    out.set_item("internal_names", names.to_vec())?;
-    out.set_item("signals", signals)?;
-    out.set_item("signal_names", RIG_SIGNALS.to_vec())?;
+    set_internals_and_signals(&out, log.internals, rows, &names, extra > 0, &RIG_SIGNALS)?;
     let (name, t_end) = match outcome {
         Outcome::Completed => ("completed", None),
         Outcome::Fell { t } => ("fell", Some(t)),
@@ -187,4 +178,29 @@ pub fn simulate_raw<'py>(
     m.set_item("peak_torque", summary.peak_torque)?;
     out.set_item("metrics", m)?;
     Ok(out)
+}
+
+/// Sets `internals`, `internal_names`, `signals` and `signal_names` of a run's dict from
+/// its log's internals columns: the controller's internals, then (with realism) the
+/// rig's signals.
+pub(crate) fn set_internals_and_signals(
+    out: &Bound<'_, PyDict>,
+    columns: Vec<f64>,
+    rows: usize,
+    names: &[&str],
+    with_signals: bool,
+    signal_names: &[&str],
+) -> PyResult<()> {
+    let py = out.py();
+    let cut = names.len();
+    let width = cut + if with_signals { signal_names.len() } else { 0 };
+    let table = numpy::ndarray::Array2::from_shape_vec((rows, width), columns)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    let signals = with_signals.then(|| table.slice(numpy::ndarray::s![.., cut..]).to_owned().into_pyarray(py));
+    let internals = if with_signals { table.slice(numpy::ndarray::s![.., ..cut]).to_owned() } else { table };
+    out.set_item("internals", internals.into_pyarray(py))?;
+    out.set_item("internal_names", names.to_vec())?;
+    out.set_item("signals", signals)?;
+    out.set_item("signal_names", signal_names.to_vec())?;
+    Ok(())
 }

@@ -171,6 +171,17 @@ fn result_dict<'py, M: SweepMetrics>(
     Ok(out)
 }
 
+/// Sweeps draw robots from parameters alone: refuse a model with gearhead friction
+/// rather than drop it in silence.
+pub(crate) fn no_friction_in_sweeps(has_friction: bool) -> PyResult<()> {
+    if has_friction {
+        return Err(pyo3::exceptions::PyValueError::new_err(
+            "model.friction: sweeps do not carry gearhead friction yet; use a model without friction",
+        ));
+    }
+    Ok(())
+}
+
 /// One metric column of `n` samples, reserved fallibly: a MemoryError naming `n`, not an abort.
 fn column<T>(n: u64, values: impl Iterator<Item = T>) -> PyResult<Vec<T>> {
     let mut out = Vec::new();
@@ -192,6 +203,7 @@ pub fn sweep_draw<'py>(
     seed: u64,
     index: u64,
 ) -> PyResult<(Bound<'py, PyDict>, f64, Bound<'py, numpy::PyArray1<f64>>)> {
+    no_friction_in_sweeps(model.inner.friction().is_some())?;
     let nominal = Nominal { params: *model.inner.params(), slope: model.inner.slope(), x0: vector::<4>("x0", x0)? };
     let perts = parse_perturbations(&perturbations, Perturbation::validate)?;
     let s: Sample = draw(&nominal, &perts, seed, index);
@@ -240,6 +252,7 @@ pub fn sweep_raw<'py>(
     progress: Option<Py<PyAny>>,
     realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    no_friction_in_sweeps(model.inner.friction().is_some())?;
     let nominal = Nominal { params: *model.inner.params(), slope: model.inner.slope(), x0: vector::<4>("x0", x0)? };
     let mut ctrl = SlopeController::extract(controller)?;
     let realism = realism.cloned();

@@ -6,7 +6,11 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::Controller;
 use twip_core::sim::runner::SimConfig;
-use twip_core::sweep::planar::{self as core_planar, run_planar_sample, PlanarNominal, BLOCK};
+use twip_core::sweep::planar::{self as core_planar, run_planar_sample, PlanarNominal, PlanarSampleMetrics, BLOCK};
+use twip_core::sweep::SweepMetrics;
+use twip_core::sweep::rig::for_sweep;
+
+use crate::realism::PyRealism;
 
 use crate::convert::vector;
 use crate::errors::PyTwipError;
@@ -16,6 +20,7 @@ use crate::sweep::{parse_perturbations, run_sweep, PerturbTuple};
 use crate::tracking::{settle_time, trajectory, PlanarController};
 
 fn nominal(model: &PyPlanarModel, x0: &Bound<'_, PyAny>) -> PyResult<PlanarNominal> {
+    crate::sweep::no_friction_in_sweeps(model.inner.friction().is_some())?;
     Ok(PlanarNominal { params: *model.inner.params(), x0: vector::<7>("x0", x0)? })
 }
 
@@ -42,7 +47,7 @@ pub fn sweep_planar_draw<'py>(
 /// closed path, else from the start: `simulate_planar_raw`'s default).
 #[pyfunction]
 #[pyo3(signature = (model, controller, x0, t_final, dt, reference, perturbations, seed, start, count,
-                    control_period = None, threads = 0, progress = None))]
+                    control_period = None, threads = 0, progress = None, realism = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn sweep_planar_raw<'py>(
     py: Python<'py>,
@@ -59,10 +64,14 @@ pub fn sweep_planar_raw<'py>(
     control_period: Option<f64>,
     threads: usize,
     progress: Option<Py<PyAny>>,
+    realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let nominal = nominal(model, x0)?;
     let mut ctrl = PlanarController::extract(controller)?;
-    if let Some(p) = control_period {
+    let realism = realism.cloned();
+    let nominal_realism = realism.as_ref().map(|r| r.to_core(&nominal.params)).transpose().map_err(PyTwipError)?;
+    // As in simulate: an explicit control_period wins over the realism's loop period.
+    if let Some(p) = control_period.or(nominal_realism.and_then(|r| r.control_period)) {
         ctrl = ctrl.with_period(p)?;
     }
     let path = trajectory(reference)?;
@@ -71,11 +80,23 @@ pub fn sweep_planar_raw<'py>(
     // The defaults of `twip.simulate`, so that `SweepResult.replay` agrees.
     let config = SimConfig::new(dt, t_final, None);
     config.steps(ctrl.period()).map_err(PyTwipError)?;
-    run_sweep(py, start..start + count, BLOCK, threads, progress.as_ref(), "planar", |range, stop| {
+    // A rig no robot could have is an error now, not n invalid samples.
+    if let Some(r) = &nominal_realism {
+        r.build_planar(&model.inner, config.dt).map_err(PyTwipError)?;
+    }
+    let kernel = if realism.is_some() { "planar-realism" } else { "planar" };
+    run_sweep(py, start..start + count, BLOCK, threads, progress.as_ref(), kernel, |range, stop| {
         range
             .map(|i| {
                 let sample = core_planar::draw(&nominal, &perts, seed, i);
-                run_planar_sample(&ctrl, &path, &config, &sample, settle, stop)
+                // Push and force heights default to each sample's own centre of mass.
+                let Some(r) = &realism else {
+                    return run_planar_sample(&ctrl, &path, &config, &sample, settle, None, stop);
+                };
+                match r.to_core(&sample.params) {
+                    Ok(core) => run_planar_sample(&ctrl, &path, &config, &sample, settle, Some(&for_sweep(&core, seed)), stop),
+                    Err(_) => Some(PlanarSampleMetrics::INVALID),
+                }
             })
             .collect()
     })

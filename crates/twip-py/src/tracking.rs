@@ -7,7 +7,8 @@ use twip_core::control::{Controller, Reference};
 use twip_core::sim::log::{LogRow, TrajectoryLog};
 use twip_core::hardware::motor::{DataSheet, DcMotor};
 use twip_core::control::pid::{PidGains, PidTracker, PidUnits};
-use twip_core::sim::runner::{simulate_with, Ideal, Loop, Outcome, SimConfig};
+use twip_core::hardware::planar_rig::PLANAR_RIG_SIGNALS;
+use twip_core::sim::runner::{simulate_until, Outcome, SimConfig};
 use twip_core::control::smc::{Adaptation, PitchSign, SmcGains, SmcOptions, SmcTracker};
 use twip_core::sim::metrics::DrivePeaks;
 use twip_core::sim::tracking_metrics::TrackingMetrics;
@@ -793,6 +794,8 @@ struct PlanarRun {
     x0: nalgebra::SVector<f64, 7>,
     config: SimConfig<f64>,
     record_every: usize,
+    /// The robot's real parts (the 3-DOF rig), or the ideal loop.
+    realism: Option<twip_core::hardware::realism::Realism<f64>>,
 }
 
 type PlanarOutput = (Outcome<f64>, usize, TrackingMetrics<f64, Trajectory<f64>>, TrajectoryLog<f64>);
@@ -803,11 +806,21 @@ impl PlanarRun {
         C: Controller<f64, 7, 2, Reference = PlanarRef<f64>>,
     {
         let (n, _) = self.config.steps(ctrl.period())?;
-        let widths = [7, 2, <PlanarRef<f64> as LogRow<f64>>::NAMES.len(), ctrl.internal_names().len()];
+        let extra = if self.realism.is_some() { PLANAR_RIG_SIGNALS.len() } else { 0 };
+        let widths = [7, 2, <PlanarRef<f64> as LogRow<f64>>::NAMES.len(), ctrl.internal_names().len() + extra];
         let mut observers =
             (TrackingMetrics::new(self.path, self.settle), TrajectoryLog::with_capacity(n + 1, self.record_every, widths)?);
-        let parts = Loop { sensor: &mut Ideal, actuator: &mut Ideal, observer: &mut observers, should_stop, delay_one_period: false };
-        let (outcome, steps) = simulate_with(&self.plant, ctrl, &self.path, &self.x0, &self.config, parts)?;
+        let (outcome, steps) = match &self.realism {
+            None => simulate_until(&self.plant, ctrl, &self.path, &self.x0, &self.config, &mut observers, should_stop)?,
+            Some(r) => r.build_planar(&self.plant, self.config.dt)?.simulate(
+                ctrl,
+                &self.path,
+                &self.x0,
+                &self.config,
+                &mut observers,
+                should_stop,
+            )?,
+        };
         let (metrics, log) = observers;
         Ok((outcome, steps, metrics, log))
     }
@@ -817,7 +830,7 @@ impl PlanarRun {
 /// SimResult. `settle` [s] starts the "_settled" metrics (default: one lap of a circle or
 /// figure-eight, else 0).
 #[pyfunction]
-#[pyo3(signature = (model, controller, x0, t_final, dt, reference, control_period = None, fall_limit = None, record_every = 1, settle = None))]
+#[pyo3(signature = (model, controller, x0, t_final, dt, reference, control_period = None, fall_limit = None, record_every = 1, settle = None, realism = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate_planar_raw<'py>(
     py: Python<'py>,
@@ -831,12 +844,16 @@ pub fn simulate_planar_raw<'py>(
     fall_limit: Option<f64>,
     record_every: usize,
     settle: Option<f64>,
+    realism: Option<&crate::realism::PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let plant = model
         .cast::<PyPlanarModel>()
         .map_err(|_| pyo3::exceptions::PyTypeError::new_err("this controller drives a twip.PlanarModel"))?
         .get()
         .inner;
+    let realism = realism.map(|r| r.to_core(plant.params())).transpose().map_err(PyTwipError)?;
+    // As in simulate_raw: an explicit control_period wins over the realism's loop period.
+    let control_period = control_period.or(realism.and_then(|r| r.control_period));
     let path = trajectory(reference)?;
     let settle = settle_time(settle, &path)?;
     let x0 = vector::<7>("x0", x0)?;
@@ -844,7 +861,7 @@ pub fn simulate_planar_raw<'py>(
     if record_every == 0 {
         return Err(invalid("record_every", 0.0, "must be >= 1").into());
     }
-    let run = PlanarRun { plant, path, settle, x0, config, record_every };
+    let run = PlanarRun { plant, path, settle, x0, config, record_every, realism };
     let (names, (outcome, steps, metrics, log)) =
         if is_user_controller(controller) && PlanarController::extract(controller).is_err() {
             // A Python controller keeps the GIL: it is called back at every update.
@@ -872,7 +889,8 @@ pub fn simulate_planar_raw<'py>(
             (ctrl.internal_names(), out.map_err(PyTwipError)?)
         };
     let ref_names = <PlanarRef<f64> as LogRow<f64>>::NAMES;
-    let widths = [7, 2, ref_names.len(), names.len()];
+    let extra = if realism.is_some() { PLANAR_RIG_SIGNALS.len() } else { 0 };
+    let widths = [7, 2, ref_names.len(), names.len() + extra];
     let summary = metrics.summary();
     let out = PyDict::new(py);
     let rows = log.len();
@@ -886,8 +904,7 @@ pub fn simulate_planar_raw<'py>(
     out.set_item("inputs", reshape(log.u, 2)?)?;
     out.set_item("references", reshape(log.reference, widths[2])?)?;
     out.set_item("reference_names", ref_names.to_vec())?;
-    out.set_item("internals", reshape(log.internals, widths[3])?)?;
-    out.set_item("internal_names", names.to_vec())?;
+    crate::simulate::set_internals_and_signals(&out, log.internals, rows, names, extra > 0, &PLANAR_RIG_SIGNALS)?;
     let (name, t_end) = match outcome {
         Outcome::Completed => ("completed", None),
         Outcome::Fell { t } => ("fell", Some(t)),

@@ -19,7 +19,6 @@ from twip.cli.args import (UsageError, stall_current, get_scenario, perturbation
 from twip.plot import metric_unit
 from twip.report.claims import claims_for
 from twip.report.numbers import fmt, jsonable
-from twip.scenarios import is_planar
 from twip.sweep import StreamedSweepResult, fits_in_memory
 
 
@@ -109,8 +108,6 @@ def simulate(args) -> int:
     if args.dt is not None:
         overrides["dt"] = args.dt
     if args.realism is not None:
-        if is_planar(sc):
-            raise UsageError("--realism: only the 2-DOF scenarios take realism")
         overrides["realism"] = realism(args.realism, args.robot)
     started = time.perf_counter()
     r = sc.run(stall_current=stall_current(args.robot), **overrides)
@@ -165,7 +162,6 @@ def sweep(args) -> int:
     sc = get_scenario(name, params=params, options=options)  # designed once, here; bad options are named
     if not perturb:
         print("note: no --perturb given, every sample is the same robot", file=sys.stderr)
-    # A 3-DOF scenario with --realism is montecarlo's to refuse (an InvalidParameterError).
     try:
         result = twip.montecarlo(sc, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
                                  progress=not args.quiet, checkpoint=args.checkpoint, realism=realism(args.realism, args.robot),

@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from twip.reference.friction import Friction
 from twip.reference.params import RobotParams
 
 
@@ -33,8 +34,9 @@ def _cross(a, b) -> np.ndarray:
 class PlanarModel:
     """The 3-DOF planar model on flat ground (pure numpy, slow, for cross-checks)."""
 
-    def __init__(self, params):
+    def __init__(self, params, friction=None):
         self.params = RobotParams.of(params)
+        self.friction = Friction.of(friction)  # per wheel, on theta_side_dot - phi_dot
         p = self.params
         R, b = p.wheel_radius, p.half_track
         self._inertia_body = np.diag([p.i_body_roll, p.i_body, p.i_body_yaw])
@@ -97,6 +99,8 @@ class PlanarModel:
         # Motor torques (power u_side (theta_side_dot - phi_dot)) and Rayleigh friction.
         for u_side, rel, spin in zip(u, self._rel, self._spin):
             f += (u_side - (p.mu_bearing / 2) * (rel @ nu)) * rel - (p.mu_ground / 2) * (spin @ nu) * spin
+            if self.friction is not None:
+                f -= self.friction.torque(rel @ nu) * rel
         return M, f
 
     def mass_matrix(self, phi: float) -> np.ndarray:
@@ -104,11 +108,15 @@ class PlanarModel:
         M, _ = self._kane(np.array([0.0, 0.0, 0.0, phi, 0.0, 0.0, 0.0]), np.zeros(2))
         return M
 
-    def deriv(self, x, u) -> np.ndarray:
+    def deriv(self, x, u, extra=None) -> np.ndarray:
+        """`extra`: generalised forces (q_phi, q_v) of a force on the body, added to f."""
         x = np.asarray(x, dtype=float)
         if x.shape != (7,) or np.asarray(u).size != 2:
             raise ValueError("x must have 7 entries and u 2")
         M, f = self._kane(x, u)
+        if extra is not None:
+            f[0] += extra[0]
+            f[1] += extra[1]
         nu_dot = np.linalg.solve(M, f)
         psi, v = x[2], x[5]
         return np.array([v * math.cos(psi), v * math.sin(psi), x[6], x[4], *nu_dot])

@@ -13,6 +13,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from twip.reference.friction import Friction
 from twip.reference.rng import Philox
 from twip.reference.slope import SlopeModel
 
@@ -364,43 +365,57 @@ class Driven:
         volts = _clamp(pwm, self.PWM_MAX) * self.volts_per_count
         return (volts - self.back_emf * w) * self.conductance
 
-    def advance(self, x, pwm, dt):
+    def advance_at(self, w, pwm, dt):
+        """Advances the current over a step at the relative wheel speed w (inductive only)."""
         if self.tau <= 0:
             return
         if self.factors is None or self.factors[0] != dt:
             decay = math.exp(-dt / self.tau)
             self.factors = (dt, decay, self.tau / dt * (1.0 - decay))
         _, decay, average = self.factors
-        target = self.free_current(pwm, x[3] - x[1])
+        target = self.free_current(pwm, w)
         gap = self.current - target
         self.held = _clamp(target + gap * average, self.limit)
         self.current = _clamp(target + gap * decay, self.limit)
 
-    def motor_current(self, x, pwm):
-        """Per motor, now."""
+    def current_at(self, w, pwm):
+        """Per motor, now, at the relative wheel speed w."""
         if self.tau > 0:
             return self.current
-        return _clamp(self.free_current(pwm, x[3] - x[1]), self.limit)
+        return _clamp(self.free_current(pwm, w), self.limit)
+
+    def held_at(self, w, pwm):
+        """Per motor, what the mechanics feel over the step."""
+        return self.held if self.tau > 0 else _clamp(self.free_current(pwm, w), self.limit)
+
+    def advance(self, x, pwm, dt):
+        self.advance_at(x[3] - x[1], pwm, dt)
+
+    def motor_current(self, x, pwm):
+        """Per motor, now."""
+        return self.current_at(x[3] - x[1], pwm)
 
     def deriv(self, x, pwm):
-        i = self.held if self.tau > 0 else _clamp(self.free_current(pwm, x[3] - x[1]), self.limit)
-        return self.plant.deriv(x, self.lumped_per_amp * i)
+        return self.plant.deriv(x, self.lumped_per_amp * self.held_at(x[3] - x[1], pwm))
 
 
 class PwmActuator:
     """The firmware's duty: V = R i + k eta w_measured, rounded, saturated."""
 
-    def __init__(self, driver: MotorDriver, params):
+    def __init__(self, driver: MotorDriver, params, command_per_amp=None):
+        """`command_per_amp`: 2 eff for the lumped current (default), eff eta k_t for a wheel torque."""
         assumed = driver.battery if driver.assumed_battery is None else driver.assumed_battery
         self.supply = assumed - driver.bridge_drop
         self.resistance = driver.resistance
         self.back_emf = params.torque_constant * params.gear_ratio
-        self.lumped_per_amp = 2.0 * driver.efficiency
+        self.command_per_amp = 2.0 * driver.efficiency if command_per_amp is None else command_per_amp
+
+    def duty(self, command, w):
+        volts = self.resistance * (command / self.command_per_amp) + self.back_emf * w
+        return min(max(_round_half_away(volts / self.supply * 255.0), -255.0), 255.0)
 
     def drive(self, u, y):
-        i = u / self.lumped_per_amp
-        volts = self.resistance * i + self.back_emf * (y[3] - y[1])
-        return min(max(_round_half_away(volts / self.supply * 255.0), -255.0), 255.0)
+        return self.duty(u, y[3] - y[1])
 
 
 # --- disturbances ---------------------------------------------------------------------------
@@ -420,11 +435,11 @@ class Disturbed:
     """The slope model on a piecewise-constant slope, with a constant force (fx, fz) at
     `height` on the body and horizontal pushes (t, J, h) applied between steps."""
 
-    def __init__(self, params, base_slope, profile=(), force=(0.0, 0.0, 0.0), pushes=()):
+    def __init__(self, params, base_slope, profile=(), force=(0.0, 0.0, 0.0), pushes=(), friction=None):
         self.params, self.radius = params, params.wheel_radius
         self.starts = [d for d, _ in profile]
         self.slopes = [base_slope] + [a for _, a in profile]
-        self.models = [SlopeModel(params, a) for a in self.slopes]
+        self.models = [SlopeModel(params, a, friction=friction) for a in self.slopes]
         self.force = force
         self.has_force = force[0] != 0.0 or force[1] != 0.0
         self.pushes = sorted(pushes, key=lambda p: p[0])
@@ -476,6 +491,7 @@ class Realism:
     pushes: Sequence[Tuple[float, float, float]] = ()
     force: Tuple[float, float, float] = (0.0, 0.0, 0.0)
     slope_profile: Sequence[Tuple[float, float]] = ()
+    friction: Optional[Friction] = None  # per wheel, on the rig's plant (None: the model's)
     seed: int = 0
     stream: int = 0
 
@@ -497,7 +513,7 @@ class Realism:
         force = (0.0, 0.0, 0.0) if f is None else (f.horizontal, f.vertical, com if f.height is None else f.height)
         pushes = [(p.t, p.impulse, com if p.height is None else p.height) for p in r.pushes]
         return cls(imu, (r.estimator.kind, dict(r.estimator.parameters)), r.encoder_cpr, motor, r.delay,
-                   r.control_period, pushes, force, list(r.slope_profile), r.seed, r.stream)
+                   r.control_period, pushes, force, list(r.slope_profile), Friction.of(r.friction), r.seed, r.stream)
 
 
 class BalanceSensors:
@@ -551,6 +567,17 @@ class RigRun:
     internals: List = field(default_factory=list)
 
 
+def rk4_sampled(plant, sensors, t, x, u, dt):
+    """One RK4 step of `plant`, its first stage shared with the sensors' sample (as the core's run_loop)."""
+    half = dt * 0.5
+    k1 = plant.deriv(x, u)
+    sensors.sample(t, x, k1)
+    k2 = plant.deriv(x + k1 * half, u)
+    k3 = plant.deriv(x + k2 * half, u)
+    k4 = plant.deriv(x + k3 * dt, u)
+    return x + (k1 + (k2 + k3) * 2.0 + k4) * (dt / 6.0)
+
+
 def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fall_limit=math.radians(60)) -> RigRun:
     """The loop of twip-core's `simulate_rig`: per step, read/update/drive every control
     period (the command optionally one period late), log, kick and advance the plant,
@@ -558,7 +585,8 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
     params = model.params
     period = realism.control_period if realism.control_period is not None else controller.period
     controller.period = period
-    ground = Disturbed(params, model.slope, realism.slope_profile, realism.force, realism.pushes)
+    friction = realism.friction if realism.friction is not None else model.friction
+    ground = Disturbed(params, model.slope, realism.slope_profile, realism.force, realism.pushes, friction)
     if realism.motor is not None:
         plant, actuator = Driven(ground, realism.motor, params), PwmActuator(realism.motor, params)
     else:
@@ -597,13 +625,7 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
         ground.kick(t, dt, x)
         if actuator is not None:
             plant.advance(x, u, dt)
-        half = dt * 0.5
-        k1 = plant.deriv(x, u)
-        sensors.sample(t, x, k1)
-        k2 = plant.deriv(x + k1 * half, u)
-        k3 = plant.deriv(x + k2 * half, u)
-        k4 = plant.deriv(x + k3 * dt, u)
-        x = x + (k1 + (k2 + k3) * 2.0 + k4) * (dt / 6.0)
+        x = rk4_sampled(plant, sensors, t, x, u, dt)
         if abs(x[0]) > fall_limit:
             outcome = "fell"
             break

@@ -11,14 +11,17 @@ import math
 
 import numpy as np
 
+from twip.reference.friction import Friction
 from twip.reference.params import RobotParams
 
 
 class SlopeModel:
     """State [phi, phi_dot, theta, theta_dot]; input: lumped motor current u [A]."""
 
-    def __init__(self, params, slope: float = 0.0):
+    def __init__(self, params, slope: float = 0.0, friction=None):
         self.params = RobotParams.of(params)
+        # Gearhead friction per wheel (None: the thesis's model); both wheels turn at beta_dot.
+        self.friction = Friction.of(friction)
         if not math.isfinite(slope) or abs(slope) >= math.pi / 2:
             raise ValueError(f"invalid slope = {slope}: must be within (-pi/2, pi/2) rad")
         self.slope = float(slope)
@@ -43,6 +46,8 @@ class SlopeModel:
         Mb, Mw, l, r, g, a = p.m_body, p.m_wheels, p.com_height, p.wheel_radius, p.g, self.slope
         # (3.20) corrected: a11 phi'' + a12 theta'' - Mb g l sin(phi) - mu_s (theta' - phi') = -eta tau u
         rhs1 = Mb * g * l * math.sin(phi) + p.mu_bearing * (theta_dot - phi_dot) - p.gear_ratio * p.torque_constant * u
+        if self.friction is not None:
+            rhs1 += 2 * self.friction.torque(theta_dot - phi_dot)
         # (3.21) corrected: ... - Mb r l sin(phi+a) phi'^2 + (Mw + Mb) g r sin(a) - Mb g l sin(phi) + mu_g theta' = 0
         rhs2 = (
             Mb * r * l * math.sin(phi + a) * phi_dot**2

@@ -177,7 +177,7 @@ def _table_5_2(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) 
     from twip.scenarios import tracking as tracking_sc
 
     rows = steps.attempt("Table 5.2: PID vs sliding mode, nominal and ±20 % plants", tracking_sc.compare,
-                         laps=2 if quick else 3) or []
+                         laps=2 if quick else 3, realism=twip.Realism.thesis_like()) or []
     if rows:
         claims.extend(table_5_2_claims(rows))
         figures.add("table5.2.png", "Table 5.2 analogue: mean |x − x_r|, |y − y_r| per tracker and plant, thesis "
@@ -185,7 +185,9 @@ def _table_5_2(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) 
     return [{"controller": r["controller"], "plant": r["plant"], "outcome": r["outcome"],
              "x_cm": dec(100 * r["x"], 2), "y_cm": dec(100 * r["y"], 2),
              "x_settled_cm": dec(100 * r["x_settled"], 2), "y_settled_cm": dec(100 * r["y_settled"], 2),
-             "path_settled_cm": dec(100 * r["path_settled"], 2), "pitch_deg": dec(r["pitch_deg"], 2)} for r in rows]
+             "path_settled_cm": dec(100 * r["path_settled"], 2), "pitch_deg": dec(r["pitch_deg"], 2),
+             "realism_outcome": r["realism_outcome"], "x_realism_cm": dec(100 * r["x_realism"], 2),
+             "y_realism_cm": dec(100 * r["y_realism"], 2)} for r in rows]
 
 
 def _animations(runs: dict, quick: bool, figures: Figures) -> None:

@@ -78,11 +78,13 @@ def mismatched(params, factor: float):
     return params.replace(**{k: getattr(params, k) * factor for k in MISMATCH_FIELDS})
 
 
-def compare(params=None, mismatch: float = 0.2, laps: int = 3, dt: float = 1e-3) -> list:
+def compare(params=None, mismatch: float = 0.2, laps: int = 3, dt: float = 1e-3, realism=None) -> list:
     """Table 5.2's analogue: mean |x - x_r|, |y - y_r| of each tracker on its circle, with the
     plant as the controllers assume it and with every MISMATCH_FIELDS entry of the plant
     +mismatch and -mismatch off (the controllers keep the nominal robot). One dict per run;
-    the "_settled" errors leave out the first lap."""
+    the "_settled" errors leave out the first lap. With `realism` (a `twip.Realism`, e.g.
+    `Realism.thesis_like()`) each case also runs on those parts: "realism_outcome",
+    "x_realism" and "y_realism"."""
     nominal = params if params is not None else _core.RobotParams.balanbot()
     rows = []
     cases = [("nominal", 1.0), (f"+{mismatch:.0%}", 1.0 + mismatch), (f"-{mismatch:.0%}", 1.0 - mismatch)]
@@ -99,6 +101,10 @@ def compare(params=None, mismatch: float = 0.2, laps: int = 3, dt: float = 1e-3)
                 "path_settled": m["max_path_error_settled"], "pitch_deg": math.degrees(m["mean_abs_pitch"]),
                 "peak_torque": m["peak_abs_torque"],
             })
+            if realism is not None:
+                real = sc.run(dt=dt, record_every=1000, realism=realism)
+                rows[-1].update({"realism_outcome": real.outcome, "x_realism": real.metrics["mean_abs_x_error"],
+                                 "y_realism": real.metrics["mean_abs_y_error"]})
     return rows
 
 

@@ -15,6 +15,7 @@
 //! crossing a change keeps (φ̇, θ̇) (the crease's own impact is neglected).
 use nalgebra::{SVector, Vector2, Vector4};
 
+use crate::model::friction::Friction;
 use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
 
 /// Most pushes one run holds (fixed size: no allocation, no_std).
@@ -58,7 +59,7 @@ impl<T: Real> Force<T> {
         Ok(*self)
     }
 
-    fn is_zero(&self) -> bool {
+    pub(crate) fn is_zero(&self) -> bool {
         self.horizontal == T::zero() && self.vertical == T::zero()
     }
 }
@@ -203,7 +204,7 @@ impl<T: Real> Pushes<T> {
 
     /// The pushes not yet applied whose time is nearest the sample at `t` (step `dt`).
     #[inline]
-    fn due(&mut self, t: T, dt: T) -> Option<Push<T>> {
+    pub(crate) fn due(&mut self, t: T, dt: T) -> Option<Push<T>> {
         let p = *self.list[..self.count].get(self.next)?;
         if p.t >= t + dt * c::<T>(0.5) {
             return None;
@@ -262,6 +263,14 @@ impl<T: Real> Disturbed<T> {
             pieces[i + 1] = Piece::new(SlopeModel::new(params, slope)?, &force);
         }
         Ok(Self { pieces, profile, radius: params.wheel_radius, has_force: !force.is_zero(), force, pushes })
+    }
+
+    /// The same plant with gearhead friction on every piece of the ground (validated).
+    pub fn with_friction(mut self, friction: Option<Friction<T>>) -> Result<Self, TwipError> {
+        for piece in self.pieces.iter_mut() {
+            piece.model = piece.model.with_friction(friction)?;
+        }
+        Ok(self)
     }
 
     /// Nothing but `model`: the same numbers as `model` itself.

@@ -124,49 +124,40 @@ fn clamp<T: Real>(v: T, limit: T) -> T {
     v.max(-limit).min(limit)
 }
 
-/// A 2-DOF plant driven through the bridge: its input is the PWM duty [counts].
+/// One motor's winding behind the bridge: the current a duty gives at a relative wheel
+/// speed, algebraic or (with inductance) advanced once per plant step.
 #[derive(Clone, Copy, Debug)]
-pub struct Driven<T, P> {
-    plant: P,
+pub struct Winding<T> {
     motor: DcMotor<T>,
     /// The motor's constants for the hot path: volts per count, back-EMF per rad/s, 1/R.
     volts_per_count: T,
     back_emf: T,
     conductance: T,
-    /// 2 ε: lumped current per motor ampere.
-    lumped_per_amp: T,
     limit: T,
     /// L / R [s]; 0 when the current is algebraic.
     tau: T,
     /// (dt, e^(−dt/τ), τ/dt (1 − e^(−dt/τ))) of the last step size.
     factors: (T, T, T),
-    /// Current per motor at the start of the step [A] (inductive only).
+    /// Current at the start of the step [A] (inductive only).
     current: T,
-    /// Average current per motor over the step [A] (inductive only).
+    /// Average current over the step [A] (inductive only).
     held: T,
 }
 
-impl<T: Real, P> Driven<T, P> {
-    /// `plant` driven by `driver`; `params` gives the torque constant and gear ratio.
-    pub fn new(plant: P, driver: &MotorDriver<T>, params: &RobotParams<T>) -> Result<Self, TwipError> {
+impl<T: Real> Winding<T> {
+    pub fn new(driver: &MotorDriver<T>, params: &RobotParams<T>) -> Result<Self, TwipError> {
         let motor = driver.motor(params)?;
         Ok(Self {
-            plant,
             volts_per_count: motor.supply() / motor.pwm_max(),
             back_emf: motor.k_t() * motor.gear_ratio(),
             conductance: T::one() / motor.resistance(),
             motor,
-            lumped_per_amp: c::<T>(MOTORS) * driver.efficiency,
             limit: driver.current_limit,
             tau: driver.inductance / driver.resistance,
             factors: (T::zero(), T::zero(), T::zero()),
             current: T::zero(),
             held: T::zero(),
         })
-    }
-
-    pub fn plant_mut(&mut self) -> &mut P {
-        &mut self.plant
     }
 
     pub fn motor(&self) -> &DcMotor<T> {
@@ -178,7 +169,7 @@ impl<T: Real, P> Driven<T, P> {
         self.tau > T::zero()
     }
 
-    /// The current one motor draws at once for a duty and relative speed (no inductance):
+    /// The current at once for a duty and relative speed (no inductance):
     /// `DcMotor::current` at `DcMotor::pwm_voltage`, unclamped.
     #[inline(always)]
     fn free_current(&self, pwm: T, relative_speed: T) -> T {
@@ -192,14 +183,78 @@ impl<T: Real, P> Driven<T, P> {
         clamp(self.free_current(pwm, relative_speed), self.limit)
     }
 
-    /// Current per motor now [A]: the state when inductive, else algebraic.
+    /// Current now [A]: the state when inductive, else algebraic.
     #[inline]
-    pub fn current(&self, x: &Vector4<T>, pwm: T) -> T {
+    pub fn current(&self, pwm: T, relative_speed: T) -> T {
         if self.inductive() {
             self.current
         } else {
-            self.steady_current(pwm, x[3] - x[1])
+            self.steady_current(pwm, relative_speed)
         }
+    }
+
+    /// The current the mechanics feel over the step [A].
+    #[inline(always)]
+    pub fn mechanical_current(&self, pwm: T, relative_speed: T) -> T {
+        if self.inductive() {
+            self.held
+        } else {
+            self.steady_current(pwm, relative_speed)
+        }
+    }
+
+    /// Inductive only: advances the current over a step of `dt` at the relative speed at
+    /// its start with the duty held. Exact for the voltage and speed held constant:
+    /// i(s) = i_ss + (i₀ − i_ss) e^(−s/τ); the step's average drives the mechanics.
+    pub fn advance(&mut self, pwm: T, relative_speed: T, dt: T) {
+        if !self.inductive() {
+            return;
+        }
+        if self.factors.0 != dt {
+            let decay = (-dt / self.tau).exp();
+            self.factors = (dt, decay, self.tau / dt * (T::one() - decay));
+        }
+        let (_, decay, average) = self.factors;
+        let target = self.free_current(pwm, relative_speed);
+        let gap = self.current - target;
+        self.held = clamp(target + gap * average, self.limit);
+        self.current = clamp(target + gap * decay, self.limit);
+    }
+}
+
+/// A 2-DOF plant driven through the bridge: its input is the PWM duty [counts].
+#[derive(Clone, Copy, Debug)]
+pub struct Driven<T, P> {
+    plant: P,
+    /// Both motors: they get the same duty and turn at the same relative speed.
+    winding: Winding<T>,
+    /// 2 ε: lumped current per motor ampere.
+    lumped_per_amp: T,
+}
+
+impl<T: Real, P> Driven<T, P> {
+    /// `plant` driven by `driver`; `params` gives the torque constant and gear ratio.
+    pub fn new(plant: P, driver: &MotorDriver<T>, params: &RobotParams<T>) -> Result<Self, TwipError> {
+        Ok(Self { plant, winding: Winding::new(driver, params)?, lumped_per_amp: c::<T>(MOTORS) * driver.efficiency })
+    }
+
+    pub fn plant_mut(&mut self) -> &mut P {
+        &mut self.plant
+    }
+
+    pub fn motor(&self) -> &DcMotor<T> {
+        self.winding.motor()
+    }
+
+    /// Whether the winding's inductance is modelled.
+    pub fn inductive(&self) -> bool {
+        self.winding.inductive()
+    }
+
+    /// Current per motor now [A]: the state when inductive, else algebraic.
+    #[inline]
+    pub fn current(&self, x: &Vector4<T>, pwm: T) -> T {
+        self.winding.current(pwm, x[3] - x[1])
     }
 
     /// The lumped current of `SlopeModel` now [A] (both motors, efficiency included).
@@ -211,26 +266,13 @@ impl<T: Real, P> Driven<T, P> {
     /// The lumped current the mechanics feel over the step [A].
     #[inline(always)]
     fn mechanical_current(&self, x: &Vector4<T>, pwm: T) -> T {
-        let i = if self.inductive() { self.held } else { self.steady_current(pwm, x[3] - x[1]) };
-        self.lumped_per_amp * i
+        self.lumped_per_amp * self.winding.mechanical_current(pwm, x[3] - x[1])
     }
 
     /// Inductive only: advances the current over a step of `dt` from the state `x` with
-    /// the duty held. Exact for the voltage and speed at the start of the step held
-    /// constant: i(s) = i_ss + (i₀ − i_ss) e^(−s/τ); the step's average drives the mechanics.
+    /// the duty held ([`Winding::advance`]).
     pub fn advance(&mut self, x: &Vector4<T>, pwm: T, dt: T) {
-        if !self.inductive() {
-            return;
-        }
-        if self.factors.0 != dt {
-            let decay = (-dt / self.tau).exp();
-            self.factors = (dt, decay, self.tau / dt * (T::one() - decay));
-        }
-        let (_, decay, average) = self.factors;
-        let target = self.free_current(pwm, x[3] - x[1]);
-        let gap = self.current - target;
-        self.held = clamp(target + gap * average, self.limit);
-        self.current = clamp(target + gap * decay, self.limit);
+        self.winding.advance(pwm, x[3] - x[1], dt);
     }
 }
 
@@ -248,25 +290,34 @@ impl<T: Real, P: Dynamics<T, 4, 1>> Dynamics<T, 4, 1> for Driven<T, P> {
     }
 }
 
-/// The firmware's current → PWM mapping (feed-forward on the measured wheel speed).
+/// The firmware's command → PWM mapping (feed-forward on the measured wheel speed).
 #[derive(Clone, Copy, Debug)]
 pub struct PwmActuator<T> {
     /// The motor as the firmware believes it is (assumed battery).
     motor: DcMotor<T>,
-    lumped_per_amp: T,
+    /// The command per motor ampere: 2 ε for the lumped current, ε η τ_i for a wheel torque.
+    command_per_amp: T,
 }
 
 impl<T: Real> PwmActuator<T> {
+    /// For the 2-DOF model's lumped current.
     pub fn new(driver: &MotorDriver<T>, params: &RobotParams<T>) -> Result<Self, TwipError> {
         let assumed = MotorDriver { battery: driver.assumed_battery, ..*driver };
-        Ok(Self { motor: assumed.motor(params)?, lumped_per_amp: c::<T>(MOTORS) * driver.efficiency })
+        Ok(Self { motor: assumed.motor(params)?, command_per_amp: c::<T>(MOTORS) * driver.efficiency })
     }
 
-    /// The duty [counts, integer in ±255] for a lumped current at a relative wheel speed.
+    /// For one wheel's torque [N m] (the 3-DOF model's input).
+    pub fn per_wheel_torque(driver: &MotorDriver<T>, params: &RobotParams<T>) -> Result<Self, TwipError> {
+        let lumped = Self::new(driver, params)?;
+        Ok(Self { command_per_amp: driver.efficiency * params.torque_per_amp(), ..lumped })
+    }
+
+    /// The duty [counts, integer in ±255] for a command (lumped current or wheel torque)
+    /// at a relative wheel speed.
     #[inline]
-    pub fn duty(&self, lumped_current: T, relative_speed: T) -> T {
+    pub fn duty(&self, command: T, relative_speed: T) -> T {
         let m = &self.motor;
-        let i = lumped_current / self.lumped_per_amp;
+        let i = command / self.command_per_amp;
         let volts = m.resistance() * i + m.k_t() * m.gear_ratio() * relative_speed;
         let pwm_max = m.pwm_max();
         (volts / m.supply() * pwm_max).round().max(-pwm_max).min(pwm_max)
@@ -323,7 +374,7 @@ mod tests {
             assert!((d.current(&x, 255.0) - full * (1.0 - (-t / tau).exp())).abs() < 1e-12);
         }
         // The held average lies between the step's start and end values.
-        assert!(d.held < d.current);
+        assert!(d.winding.held < d.winding.current);
     }
 
     #[test]

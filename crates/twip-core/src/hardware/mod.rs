@@ -5,5 +5,6 @@ pub mod driver;
 pub mod encoder;
 pub mod imu;
 pub mod motor;
+pub mod planar_rig;
 pub mod realism;
 pub mod tilt;

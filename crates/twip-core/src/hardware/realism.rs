@@ -6,20 +6,20 @@
 //!   for each part left out;
 //! - an [`Actuator`], [`RealActuator`]: the firmware's current → PWM mapping, or none;
 //!
-//! and [`simulate_rig`] runs them: `runner::simulate_with` plus what happens to the plant
-//! between steps (pushes, the winding current), and the measurement, duty and motor
-//! current logged beside the controller's internals. Nothing allocates; noise comes from
+//! and [`simulate_rig`] runs them through the one loop, `runner::run_loop`, with what
+//! happens to the plant between steps (pushes, the winding current) and the
+//! measurement, duty and motor current logged beside the controller's internals. Nothing allocates; noise comes from
 //! one [`Philox`] stream (seed, stream), so a run is bitwise repeatable.
 use nalgebra::{SVector, Vector4};
 
 use crate::control::{Controller, Reference};
-use crate::model::integrate::rk4_step_from_k1;
 use crate::hardware::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{Driven, MotorDriver, PwmActuator};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
+use crate::model::friction::Friction;
 use crate::rng::Philox;
-use crate::sim::runner::{Actuator, Loop, Observer, Outcome, Sensor, SimConfig, STOP_CHECK_STEPS};
+use crate::sim::runner::{run_loop, Actuator, Loop, Observer, Outcome, Plant, Sensor, Signals, SimConfig};
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
 
@@ -41,6 +41,8 @@ pub struct Realism<T: Real> {
     pub force: Force<T>,
     /// Slope changes along the path; the base is the plant's own slope.
     pub slope_profile: SlopeProfile<T>,
+    /// Gearhead friction per wheel (None: the model's own, if any).
+    pub friction: Option<Friction<T>>,
     pub seed: u64,
     pub stream: u64,
 }
@@ -64,6 +66,7 @@ impl<T: Real> Realism<T> {
             pushes: Pushes::none(),
             force: Force::none(),
             slope_profile: SlopeProfile::constant(T::zero()),
+            friction: None,
             seed: 0,
             stream: 0,
         }
@@ -72,7 +75,9 @@ impl<T: Real> Realism<T> {
     /// The thesis's robot as built (chapter 2, docs/parameters.md): a 5 ms Arduino loop
     /// that applies its command one period late, the MPU-6050 at DLPF 44/42 Hz with its
     /// data-sheet noise and calibrated residual biases, a complementary filter, 700 CPR
-    /// encoders, and the L298P on 11.1 V. No disturbances.
+    /// encoders, and the L298P on 11.1 V. No disturbances, and no gearhead friction
+    /// beyond the model's: with it (`friction: Some(Friction::gb37_beside(..))`) the
+    /// sliding-mode trackers fall (docs/parameters.md, "Gearhead friction").
     pub fn thesis_like() -> Self {
         Self {
             imu: Some(ImuSettings::thesis_like()),
@@ -84,6 +89,11 @@ impl<T: Real> Realism<T> {
         }
     }
 
+    /// The gearhead friction a rig's plant gets: this realism's, else the model's.
+    pub fn friction_on(&self, model: Option<&Friction<T>>) -> Option<Friction<T>> {
+        self.friction.or(model.copied())
+    }
+
     pub fn with_stream(self, stream: u64) -> Self {
         Self { stream, ..self }
     }
@@ -93,6 +103,9 @@ impl<T: Real> Realism<T> {
             imu.validate()?;
         }
         self.estimator.validate()?;
+        if let Some(f) = &self.friction {
+            f.validate()?;
+        }
         if let Some(cpr) = self.encoder_cpr {
             Encoder::new(cpr)?;
         }
@@ -110,13 +123,13 @@ impl<T: Real> Realism<T> {
     }
 
     /// The plant, sensor and actuator for a run of `model` at plant step `dt`.
-    pub fn build(&self, model: &SlopeModel<T>, dt: T) -> Result<Rig<T>, TwipError> {
+    pub fn build(&self, model: &SlopeModel<T>, dt: T) -> Result<SlopeRig<T>, TwipError> {
         let s = self.validate()?;
         let params = *model.params();
         let profile = s.slope_profile.with_base(model.slope());
         let mut pushes = s.pushes;
         pushes.rewind();
-        let ground = Disturbed::new(params, profile, s.force, pushes)?;
+        let ground = Disturbed::new(params, profile, s.force, pushes)?.with_friction(s.friction_on(model.friction()))?;
         let (plant, actuator) = match &s.motor {
             None => (RealPlant::Current(ground), RealActuator::Ideal),
             Some(m) => (RealPlant::Driven(Driven::new(ground, m, &params)?), RealActuator::Pwm(PwmActuator::new(m, &params)?)),
@@ -126,31 +139,41 @@ impl<T: Real> Realism<T> {
     }
 }
 
-/// Everything [`simulate_rig`] needs besides the controller and reference.
+/// A realism rig: everything a run needs besides the controller and reference.
 #[derive(Clone, Copy, Debug)]
-pub struct Rig<T: Real> {
-    pub plant: RealPlant<T>,
-    pub sensors: BalanceSensors<T>,
-    pub actuator: RealActuator<T>,
+pub struct Rig<P, S, A> {
+    pub plant: P,
+    pub sensors: S,
+    pub actuator: A,
     pub delay: bool,
 }
 
-impl<T: Real> Rig<T> {
-    /// Runs `controller` through this rig's plant, sensors, actuator and delay
-    /// ([`simulate_rig`]); `should_stop` is asked every [`STOP_CHECK_STEPS`] steps.
-    pub fn simulate<C, R, O, F>(
+/// The 2-DOF rig ([`Realism::build`]).
+pub type SlopeRig<T> = Rig<RealPlant<T>, BalanceSensors<T>, RealActuator<T>>;
+
+impl<P, S, A> Rig<P, S, A> {
+    /// Runs `controller` through this rig's plant, sensors, actuator and delay with the
+    /// one loop (`runner::run_loop`): the observer sees the command being applied and,
+    /// after the controller's internals, the rig's signals ([`RigSignals`]);
+    /// `should_stop` is asked every [`STOP_CHECK_STEPS`](crate::sim::runner::STOP_CHECK_STEPS) steps.
+    #[allow(clippy::too_many_arguments)]
+    pub fn simulate<T, C, R, O, F, const NX: usize, const NU: usize>(
         &mut self,
         controller: &mut C,
         reference: &R,
-        x0: &Vector4<T>,
+        x0: &SVector<T, NX>,
         config: &SimConfig<T>,
         observer: &mut O,
         should_stop: F,
     ) -> Result<(Outcome<T>, usize), TwipError>
     where
+        T: Real,
+        P: RigPlant<T, NX, NU>,
+        S: Sensor<T, NX>,
+        A: Actuator<T, NX, NU>,
         R: Reference<T>,
-        C: Controller<T, 4, 1, Reference = R::Sample>,
-        O: Observer<T, 4, 1, R::Sample>,
+        C: Controller<T, NX, NU, Reference = R::Sample>,
+        O: Observer<T, NX, NU, R::Sample>,
         F: FnMut() -> bool,
     {
         let parts = Loop {
@@ -160,8 +183,22 @@ impl<T: Real> Rig<T> {
             should_stop,
             delay_one_period: self.delay,
         };
-        simulate_rig(&mut self.plant, controller, reference, x0, config, parts)
+        run_loop(&mut self.plant, controller, reference, x0, config, parts, &mut RigSignals::<T, NX, NU>::new())
     }
+}
+
+/// The IMU samples on the plant's grid: its period must be whole steps of `dt`.
+pub(crate) fn check_imu_grid<T: Real>(settings: &ImuSettings<T>, dt: T) -> Result<(), TwipError> {
+    let ratio = settings.sample_period / dt;
+    let whole = ratio.round();
+    if !(dt.is_finite() && dt > T::zero()) || whole < T::one() || (ratio - whole).abs() > c::<T>(1e-6) * ratio {
+        return Err(TwipError::InvalidParameter {
+            name: "dt",
+            value: crate::to_f64(dt),
+            reason: "must divide the IMU's sample period (1 ms)",
+        });
+    }
+    Ok(())
 }
 
 /// The IMU + tilt estimator + encoder of the 2-DOF robot, as one sensor.
@@ -197,16 +234,7 @@ impl<T: Real> BalanceSensors<T> {
     ) -> Result<Self, TwipError> {
         let imu = imu.map(Mpu6050::new).transpose()?;
         if let Some(m) = &imu {
-            // The IMU samples on the plant's grid: its period must be whole steps.
-            let ratio = m.settings().sample_period / dt;
-            let whole = ratio.round();
-            if !(dt.is_finite() && dt > T::zero()) || whole < T::one() || (ratio - whole).abs() > c::<T>(1e-6) * ratio {
-                return Err(TwipError::InvalidParameter {
-                    name: "dt",
-                    value: crate::to_f64(dt),
-                    reason: "must divide the IMU's sample period (1 ms)",
-                });
-            }
+            check_imu_grid(m.settings(), dt)?;
         }
         let mut ground_trig = [ground.base().sin_cos(); MAX_SLOPE_CHANGES + 1];
         for (i, (_, slope)) in ground.changes().enumerate() {
@@ -269,25 +297,24 @@ impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
     }
 }
 
-/// A 2-DOF plant that may change between integration steps.
-pub trait RigPlant<T: Real>: Dynamics<T, 4, 1> {
-    /// Called after the sample at `t` and before the step to `t + dt` with the input `u`
-    /// held over it: pushes jump the velocities, the winding current advances.
-    fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>);
-
-    /// The lumped motor current now [A].
-    fn current(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> T;
+/// A realism plant: it may change between steps, and it knows its motor currents.
+pub trait RigPlant<T: Real, const NX: usize, const NU: usize>: Plant<T, NX, NU> {
+    /// The motor current behind each input now [A] (2-DOF: the lumped current).
+    fn currents(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NU>;
 }
 
-impl<T: Real> RigPlant<T> for Disturbed<T> {
+impl<T: Real> Plant<T, 4, 1> for Disturbed<T> {
+    /// Pushes jump the velocities.
     #[inline]
     fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, _: &SVector<T, 1>) {
         self.kick(t, dt, x);
     }
+}
 
+impl<T: Real> RigPlant<T, 4, 1> for Disturbed<T> {
     #[inline(always)]
-    fn current(&self, _: &Vector4<T>, u: &SVector<T, 1>) -> T {
-        u[0]
+    fn currents(&self, _: &Vector4<T>, u: &SVector<T, 1>) -> SVector<T, 1> {
+        *u
     }
 }
 
@@ -316,7 +343,8 @@ impl<T: Real> Dynamics<T, 4, 1> for RealPlant<T> {
     }
 }
 
-impl<T: Real> RigPlant<T> for RealPlant<T> {
+impl<T: Real> Plant<T, 4, 1> for RealPlant<T> {
+    /// Pushes, then the winding current advances.
     #[inline]
     fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) {
         match self {
@@ -327,12 +355,14 @@ impl<T: Real> RigPlant<T> for RealPlant<T> {
             }
         }
     }
+}
 
+impl<T: Real> RigPlant<T, 4, 1> for RealPlant<T> {
     #[inline]
-    fn current(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> T {
+    fn currents(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> SVector<T, 1> {
         match self {
-            Self::Current(_) => u[0],
-            Self::Driven(p) => p.lumped_current(x, u[0]),
+            Self::Current(_) => *u,
+            Self::Driven(p) => SVector::<T, 1>::new(p.lumped_current(x, u[0])),
         }
     }
 }
@@ -360,27 +390,77 @@ pub const RIG_SIGNALS: [&str; 6] = ["phi_hat", "phi_dot_hat", "theta_hat", "thet
 /// Most controller internals [`simulate_rig`] passes on.
 pub const MAX_INTERNALS: usize = 64 - RIG_SIGNALS.len();
 
-/// Runs `controller` on `plant` like `runner::simulate_with`, with two differences.
-/// The plant's [`RigPlant::between_steps`] runs before each step. The sensor samples
-/// after the controller's update, with the state derivative over the coming step (RK4's
-/// first stage, so an accelerometer costs no extra evaluation), once before the run
-/// (its registers hold a sample of the initial state) and then each step: a read sees
-/// the samples up to one step before it, as firmware reads the sensor's last output.
-///
-/// The observer sees the command being applied (the controller's lumped current) and,
-/// after the controller's internals, [`RIG_SIGNALS`]: the measurement the controller last
-/// read, the plant's input (duty or current) and the lumped motor current.
+/// The width of a rig's log row after the time and state.
+const RIG_ROW: usize = 64;
+
+/// The rig's log: the controller's internals at its last update, then the measurement
+/// it read (NX), the plant's inputs (duty or current, NU) and the motor currents (NU):
+/// [`RIG_SIGNALS`] for the 2-DOF rig, `PLANAR_RIG_SIGNALS` for the 3-DOF one.
+pub struct RigSignals<T, const NX: usize, const NU: usize> {
+    buffer: [T; RIG_ROW],
+    width: usize,
+}
+
+impl<T: Real, const NX: usize, const NU: usize> RigSignals<T, NX, NU> {
+    /// Most controller internals the rig passes on.
+    pub const MAX_INTERNALS: usize = RIG_ROW - NX - 2 * NU;
+
+    pub fn new() -> Self {
+        Self { buffer: [T::zero(); RIG_ROW], width: 0 }
+    }
+}
+
+impl<T: Real, const NX: usize, const NU: usize> Default for RigSignals<T, NX, NU> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T: Real, P: RigPlant<T, NX, NU>, const NX: usize, const NU: usize> Signals<T, P, NX, NU> for RigSignals<T, NX, NU> {
+    const OBSERVE_COMMAND: bool = true;
+
+    fn check(&mut self, internals: usize) -> Result<(), TwipError> {
+        if internals > Self::MAX_INTERNALS {
+            // The reason is a static str; the assertions keep its numbers right.
+            const _: () = assert!(MAX_INTERNALS == 58 && RIG_ROW - 7 - 4 == 53);
+            let reason = if NX == 4 { "more than 58 controller internals" } else { "more than 53 controller internals" };
+            return Err(TwipError::InvalidParameter { name: "internals", value: internals as f64, reason });
+        }
+        self.width = internals;
+        Ok(())
+    }
+
+    #[inline]
+    fn updated(&mut self, internals: &[T], y: &SVector<T, NX>, drive: &SVector<T, NU>) {
+        let w = self.width;
+        self.buffer[..w].copy_from_slice(internals);
+        self.buffer[w..w + NX].copy_from_slice(y.as_slice());
+        self.buffer[w + NX..w + NX + NU].copy_from_slice(drive.as_slice());
+    }
+
+    #[inline]
+    fn at<'a>(&'a mut self, _: &'a [T], plant: &P, x: &SVector<T, NX>, u: &SVector<T, NU>) -> &'a [T] {
+        let w = self.width + NX + NU;
+        self.buffer[w..w + NU].copy_from_slice(plant.currents(x, u).as_slice());
+        &self.buffer[..w + NU]
+    }
+}
+
+/// Runs `controller` on the rig's `plant` through the one loop, `runner::run_loop`: the
+/// plant's pushes and winding current between steps, and the observer sees the command
+/// being applied (the controller's lumped current) and, after the controller's
+/// internals, [`RIG_SIGNALS`].
 pub fn simulate_rig<T, P, C, R, S, A, O, F>(
     plant: &mut P,
     controller: &mut C,
     reference: &R,
     x0: &Vector4<T>,
     config: &SimConfig<T>,
-    mut parts: Loop<'_, S, A, O, F>,
+    parts: Loop<'_, S, A, O, F>,
 ) -> Result<(Outcome<T>, usize), TwipError>
 where
     T: Real,
-    P: RigPlant<T>,
+    P: RigPlant<T, 4, 1>,
     R: Reference<T>,
     C: Controller<T, 4, 1, Reference = R::Sample>,
     S: Sensor<T, 4>,
@@ -388,74 +468,7 @@ where
     O: Observer<T, 4, 1, R::Sample>,
     F: FnMut() -> bool,
 {
-    let (n, per_update) = config.steps(controller.period())?;
-    for (index, value) in x0.iter().enumerate() {
-        if !value.is_finite() {
-            return Err(TwipError::NonFinite { name: "x0", index, value: crate::to_f64(*value) });
-        }
-    }
-    let width = controller.internals().len();
-    if width > MAX_INTERNALS {
-        // The reason is a static str; the assertion keeps its number right.
-        const _: () = assert!(MAX_INTERNALS == 58);
-        let reason = "more than 58 controller internals";
-        return Err(TwipError::InvalidParameter { name: "internals", value: width as f64, reason });
-    }
-    let mut signals = [T::zero(); MAX_INTERNALS + RIG_SIGNALS.len()];
-    let logged = width + RIG_SIGNALS.len();
-    let dt = config.dt;
-    let mut x = *x0;
-    let (mut u, mut pending) = (SVector::<T, 1>::zeros(), SVector::<T, 1>::zeros());
-    let (mut command, mut pending_command) = (u, u);
-    let observer = &mut *parts.observer;
-    parts.sensor.sample(T::zero(), &x, &plant.deriv(&x, &u));
-    for k in 0..n {
-        let t = dt * c::<T>(k as f64);
-        if k % STOP_CHECK_STEPS == 0 && k > 0 && (parts.should_stop)() {
-            return Ok((Outcome::Interrupted { t }, k));
-        }
-        let r = reference.sample(t);
-        if k % per_update == 0 {
-            let y = parts.sensor.read(t, &x);
-            let cmd = controller.update(t, &y, &r);
-            let drive = parts.actuator.drive(t, &cmd, &y);
-            if drive.iter().any(|v| !v.is_finite()) {
-                return Ok((Outcome::Diverged { t }, k));
-            }
-            if parts.delay_one_period {
-                u = pending;
-                pending = drive;
-                command = pending_command;
-                pending_command = cmd;
-            } else {
-                u = drive;
-                command = cmd;
-            }
-            signals[..width].copy_from_slice(controller.internals());
-            signals[width..width + 4].copy_from_slice(y.as_slice());
-            signals[width + 4] = u[0];
-        }
-        signals[width + 5] = plant.current(&x, &u);
-        observer.observe(t, &x, &command, &r, &signals[..logged]);
-        plant.between_steps(t, dt, &mut x, &u);
-        // RK4, its first stage shared with the sensor.
-        let k1 = plant.deriv(&x, &u);
-        parts.sensor.sample(t, &x, &k1);
-        x = rk4_step_from_k1(&*plant, &x, &u, dt, &k1);
-        let t_next = dt * c::<T>((k + 1) as f64);
-        if x.iter().any(|v| !v.is_finite()) {
-            return Ok((Outcome::Diverged { t: t_next }, k + 1));
-        }
-        if x[P::PITCH].abs() > config.fall_limit {
-            signals[width + 5] = plant.current(&x, &u);
-            observer.observe_last(t_next, &x, &command, &reference.sample(t_next), &signals[..logged]);
-            return Ok((Outcome::Fell { t: t_next }, k + 1));
-        }
-    }
-    let t_end = dt * c::<T>(n as f64);
-    signals[width + 5] = plant.current(&x, &u);
-    observer.observe_last(t_end, &x, &command, &reference.sample(t_end), &signals[..logged]);
-    Ok((Outcome::Completed, n))
+    run_loop(plant, controller, reference, x0, config, parts, &mut RigSignals::<T, 4, 1>::new())
 }
 
 #[cfg(all(test, feature = "std"))]
@@ -503,6 +516,17 @@ mod tests {
         simulate_with(&model, &mut ctrl, &schedule, &Vector4::zeros(), &config, parts).unwrap();
         let (_, rig) = run(&Realism::ideal(), 3.0);
         assert_eq!(plain.0, rig.0);
+    }
+
+    #[test]
+    fn the_rig_keeps_the_models_gearhead_friction() {
+        let f = crate::model::friction::Friction::gb37();
+        let model = SlopeModel::new(RobotParams::balanbot(), 0.1).unwrap().with_friction(Some(f)).unwrap();
+        let rig = Realism::ideal().build(&model, 1e-3).unwrap();
+        let (x, u) = (Vector4::new(0.1, 0.3, 1.0, 0.5), SVector::<f64, 1>::new(0.2));
+        assert_eq!(rig.plant.deriv(&x, &u), model.deriv(&x, &u));
+        let plain = SlopeModel::new(RobotParams::balanbot(), 0.1).unwrap();
+        assert_ne!(rig.plant.deriv(&x, &u), plain.deriv(&x, &u));
     }
 
     #[test]

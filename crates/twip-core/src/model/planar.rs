@@ -31,6 +31,7 @@
 //! (3.38)–(3.48) carry several typos; docs/errata.md lists them (P1–P8).
 use nalgebra::{Matrix3, SVector, Vector2};
 
+use crate::model::friction::Friction;
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
 /// State `[x, y, psi, phi, phi_dot, v, omega]`.
@@ -68,6 +69,8 @@ pub struct PlanarModel<T> {
     inv_r: T,
     /// b / R
     b_r: T,
+    /// Gearhead friction per wheel beyond `mu_bearing` (None: the thesis's model).
+    friction: Option<Friction<T>>,
 }
 
 impl<T: Real> PlanarModel<T> {
@@ -99,7 +102,28 @@ impl<T: Real> PlanarModel<T> {
             mu_w: b * b * (p.mu_bearing + p.mu_ground) / r2,
             inv_r: T::one() / r,
             b_r: b / r,
+            friction: None,
         })
+    }
+
+    /// This model with gearhead friction on each wheel (validated); `None` turns it off.
+    pub fn with_friction(self, friction: Option<Friction<T>>) -> Result<Self, TwipError> {
+        let friction = friction.map(|f| f.validate()).transpose()?;
+        Ok(Self { friction, ..self })
+    }
+
+    /// The gearhead friction per wheel, if any.
+    pub fn friction(&self) -> Option<&Friction<T>> {
+        self.friction.as_ref()
+    }
+
+    /// Each wheel's speed relative to the body, θ̇_side − φ̇ = (v ± b ω)/R − φ̇ [rad/s].
+    #[inline(always)]
+    pub fn wheel_speeds(&self, x: &PlanarState<T>) -> (T, T) {
+        let (phi_dot, v, omega) = (x[4], x[5], x[6]);
+        let turn = self.b_r * omega;
+        let roll = self.inv_r * v - phi_dot;
+        (roll + turn, roll - turn)
     }
 
     pub fn params(&self) -> &RobotParams<T> {
@@ -127,10 +151,56 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
 
     #[inline]
     fn deriv(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> PlanarState<T> {
+        self.deriv_plus(x, u, |_, _| None)
+    }
+
+    /// ½ νᵀ M(φ) ν + M_b g c_z cos φ.
+    fn energy(&self, x: &PlanarState<T>) -> T {
+        let (s, cp) = x[3].sin_cos();
+        let (phi_dot, v, omega) = (x[4], x[5], x[6]);
+        let m_pv = self.mbc * cp - self.rotor_r;
+        let m_ww = self.m_ww0 + self.k * s * s;
+        let half = c::<T>(0.5);
+        half * (self.m_pp * phi_dot * phi_dot + self.m_vv * v * v + m_ww * omega * omega)
+            + m_pv * phi_dot * v
+            + self.mgc * cp
+    }
+}
+
+impl<T: Real> PlanarModel<T> {
+    /// ν̇ = M(φ)⁻¹ q: the accelerations generalised forces `q` on (φ, v, ω) give at `phi`.
+    pub fn solve_mass(&self, phi: T, q: &nalgebra::Vector3<T>) -> nalgebra::Vector3<T> {
+        let (s, cp) = phi.sin_cos();
+        let m_pv = self.mbc * cp - self.rotor_r;
+        let det = self.m_pp * self.m_vv - m_pv * m_pv;
+        nalgebra::Vector3::new(
+            (self.m_vv * q[0] - m_pv * q[1]) / det,
+            (self.m_pp * q[1] - m_pv * q[0]) / det,
+            q[2] / (self.m_ww0 + self.k * s * s),
+        )
+    }
+
+    /// `deriv` with extra generalised forces `extra(sin φ, cos φ)` on (φ, v) (a force on
+    /// the body). `|_, _| None` is `deriv`, bit for bit.
+    #[inline(always)]
+    pub(crate) fn deriv_plus(
+        &self,
+        x: &PlanarState<T>,
+        u: &SVector<T, 2>,
+        extra: impl Fn(T, T) -> Option<Vector2<T>>,
+    ) -> PlanarState<T> {
         let (sin_psi, cos_psi) = crate::model::math::sin_cos(x[2]);
         let (s, cp) = crate::model::math::sin_cos(x[3]);
         let (phi_dot, v, omega) = (x[4], x[5], x[6]);
-        let (u_sum, u_diff) = (u[0] + u[1], u[0] - u[1]);
+        // The gearhead friction takes its torque off each motor's.
+        let (u_r, u_l) = match &self.friction {
+            Some(f) => {
+                let (w_r, w_l) = self.wheel_speeds(x);
+                (u[0] - f.torque(w_r), u[1] - f.torque(w_l))
+            }
+            None => (u[0], u[1]),
+        };
+        let (u_sum, u_diff) = (u_r + u_l, u_r - u_l);
         let w2 = omega * omega;
         let sc = s * cp;
         // f = B u − h
@@ -140,6 +210,10 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
             + self.inv_r * u_sum;
         let f_w =
             self.b_r * u_diff - (self.two_k * sc * phi_dot + self.mbc * s * v + self.mu_w) * omega;
+        let (f_p, f_v) = match extra(s, cp) {
+            Some(q) => (f_p + q[0], f_v + q[1]),
+            None => (f_p, f_v),
+        };
         // (φ, v) block by Cramer's rule; the yaw row is diagonal.
         let m_pv = self.mbc * cp - self.rotor_r;
         let det = self.m_pp * self.m_vv - m_pv * m_pv;
@@ -154,18 +228,6 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
             acc[1],
             omega_dot,
         ])
-    }
-
-    /// ½ νᵀ M(φ) ν + M_b g c_z cos φ.
-    fn energy(&self, x: &PlanarState<T>) -> T {
-        let (s, cp) = x[3].sin_cos();
-        let (phi_dot, v, omega) = (x[4], x[5], x[6]);
-        let m_pv = self.mbc * cp - self.rotor_r;
-        let m_ww = self.m_ww0 + self.k * s * s;
-        let half = c::<T>(0.5);
-        half * (self.m_pp * phi_dot * phi_dot + self.m_vv * v * v + m_ww * omega * omega)
-            + m_pv * phi_dot * v
-            + self.mgc * cp
     }
 }
 

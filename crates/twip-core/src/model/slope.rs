@@ -22,6 +22,7 @@
 //! a Coriolis term that cancels in a correct derivation (docs/errata.md, E1–E3).
 use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3, Vector4};
 
+use crate::model::friction::Friction;
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
 /// State `[phi, phi_dot, theta, theta_dot]`.
@@ -48,6 +49,8 @@ pub struct SlopeModel<T> {
     grade: T,
     /// η τ_i
     torque_per_amp: T,
+    /// Gearhead friction per wheel beyond `mu_bearing` (None: the thesis's model).
+    friction: Option<Friction<T>>,
 }
 
 /// The constants of the equations of motion (see the module docs for the symbols).
@@ -102,7 +105,28 @@ impl<T: Real> SlopeModel<T> {
             mgl: p.m_body * p.g * l,
             grade: (p.m_body + p.m_wheels) * p.g * r * sin_slope,
             torque_per_amp: p.torque_per_amp(),
+            friction: None,
         })
+    }
+
+    /// This model with gearhead friction on both wheels (validated); `None` turns it off.
+    pub fn with_friction(self, friction: Option<Friction<T>>) -> Result<Self, TwipError> {
+        let friction = friction.map(|f| f.validate()).transpose()?;
+        Ok(Self { friction, ..self })
+    }
+
+    /// The gearhead friction per wheel, if any.
+    pub fn friction(&self) -> Option<&Friction<T>> {
+        self.friction.as_ref()
+    }
+
+    /// Both wheels' gearhead friction torque at the relative speed β̇ = θ̇ − φ̇ (0 without).
+    #[inline(always)]
+    fn gearhead(&self, beta_dot: T) -> T {
+        match &self.friction {
+            Some(f) => c::<T>(2.0) * f.torque(beta_dot),
+            None => T::zero(),
+        }
     }
 
     pub fn params(&self) -> &RobotParams<T> {
@@ -151,7 +175,7 @@ impl<T: Real> SlopeModel<T> {
         let sin_pa = sin_phi * self.cos_slope + cos_phi * self.sin_slope;
         let cos_pa = cos_phi * self.cos_slope - sin_phi * self.sin_slope;
         let p = &self.params;
-        let bearing = p.mu_bearing * (x[3] - x[1]);
+        let bearing = p.mu_bearing * (x[3] - x[1]) + self.gearhead(x[3] - x[1]);
         let motor = self.torque_per_amp * u;
         let f_phi = self.mgl * sin_phi + bearing - motor;
         let f_theta = self.mrl * sin_pa * x[1] * x[1] - self.grade - bearing
@@ -205,8 +229,10 @@ impl<T: Real> SlopeModel<T> {
         let dm_qdd = Vector2::new(dm12 * qdd[1], dm12 * qdd[0]);
         let col_phi = minv * (df_dphi - dm_qdd);
         let two = c::<T>(2.0);
-        let col_phi_dot = minv * Vector2::new(-p.mu_bearing, two * self.mrl * sin_pa * phi_dot + p.mu_bearing);
-        let col_theta_dot = minv * Vector2::new(p.mu_bearing, -p.mu_bearing - p.mu_ground);
+        // The bearing's slope d(torque)/dβ̇: viscous plus the gearhead friction's.
+        let mu = p.mu_bearing + self.friction.map_or(T::zero(), |f| two * f.slope(x0[3] - phi_dot));
+        let col_phi_dot = minv * Vector2::new(-mu, two * self.mrl * sin_pa * phi_dot + mu);
+        let col_theta_dot = minv * Vector2::new(mu, -mu - p.mu_ground);
         let col_u = minv * Vector2::new(-self.torque_per_amp, self.torque_per_amp);
         let (z, o) = (T::zero(), T::one());
         #[rustfmt::skip]
@@ -268,7 +294,9 @@ impl<T: Real> SlopeModel<T> {
             });
         }
         let phi_s = sin_phi.asin();
-        let u_s = (self.mgl * sin_phi + self.params.mu_bearing * theta_dot_ref) / self.torque_per_amp;
+        // Gearhead friction needs more current but, internal to the robot, leaves φ_s alone.
+        let bearing = self.params.mu_bearing * theta_dot_ref + self.gearhead(theta_dot_ref);
+        let u_s = (self.mgl * sin_phi + bearing) / self.torque_per_amp;
         Ok((Vector4::new(phi_s, T::zero(), T::zero(), theta_dot_ref), u_s))
     }
 
@@ -297,7 +325,7 @@ fn check_speed<T: Real>(theta_dot_ref: T) -> Result<(), TwipError> {
 }
 
 impl<T: Real> Dynamics<T, 4, 1> for SlopeModel<T> {
-    #[inline]
+    #[inline(always)]
     fn deriv(&self, x: &SlopeState<T>, u: &SVector<T, 1>) -> SlopeState<T> {
         self.deriv_plus(x, u[0], |_, _| None)
     }

@@ -171,7 +171,7 @@ pub fn simulate<T, P, C, R, O, const NX: usize, const NU: usize>(
 ) -> Result<(Outcome<T>, usize), TwipError>
 where
     T: Real,
-    P: Dynamics<T, NX, NU>,
+    P: Dynamics<T, NX, NU> + Clone,
     R: Reference<T>,
     C: Controller<T, NX, NU, Reference = R::Sample>,
     O: Observer<T, NX, NU, R::Sample>,
@@ -192,7 +192,7 @@ pub fn simulate_until<T, P, C, R, O, F, const NX: usize, const NU: usize>(
 ) -> Result<(Outcome<T>, usize), TwipError>
 where
     T: Real,
-    P: Dynamics<T, NX, NU>,
+    P: Dynamics<T, NX, NU> + Clone,
     R: Reference<T>,
     C: Controller<T, NX, NU, Reference = R::Sample>,
     O: Observer<T, NX, NU, R::Sample>,
@@ -202,18 +202,20 @@ where
     simulate_with(plant, controller, reference, x0, config, parts)
 }
 
-/// The general runner: sensor, actuator, computation delay and early stop.
+/// The general runner with ideal logging: sensor, actuator, computation delay and
+/// early stop on a plant that does not change between steps. The observer sees the
+/// input applied and the controller's internals.
 pub fn simulate_with<T, P, C, R, S, A, O, F, const NX: usize, const NU: usize>(
     plant: &P,
     controller: &mut C,
     reference: &R,
     x0: &SVector<T, NX>,
     config: &SimConfig<T>,
-    mut parts: Loop<'_, S, A, O, F>,
+    parts: Loop<'_, S, A, O, F>,
 ) -> Result<(Outcome<T>, usize), TwipError>
 where
     T: Real,
-    P: Dynamics<T, NX, NU>,
+    P: Dynamics<T, NX, NU> + Clone,
     R: Reference<T>,
     C: Controller<T, NX, NU, Reference = R::Sample>,
     S: Sensor<T, NX>,
@@ -221,17 +223,118 @@ where
     O: Observer<T, NX, NU, R::Sample>,
     F: FnMut() -> bool,
 {
+    // The loop gets its own copy: behind a reference inside a struct, the model's
+    // constants would be reloaded after every observer call.
+    run_loop(&mut Fixed(plant.clone()), controller, reference, x0, config, parts, &mut ControllerSignals)
+}
+
+/// A plant as the one loop drives it: its dynamics, and what happens to it between
+/// integration steps.
+pub trait Plant<T: Real, const NX: usize, const NU: usize>: Dynamics<T, NX, NU> {
+    /// Called after the sample at `t` and before the step to `t + dt` with the input `u`
+    /// held over it (pushes jump the velocities, a winding current advances).
+    fn between_steps(&mut self, t: T, dt: T, x: &mut SVector<T, NX>, u: &SVector<T, NU>);
+}
+
+/// A model that nothing changes between steps.
+pub struct Fixed<P>(pub P);
+
+impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Dynamics<T, NX, NU> for Fixed<P> {
+    const PITCH: usize = P::PITCH;
+
+    #[inline(always)]
+    fn deriv(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NX> {
+        self.0.deriv(x, u)
+    }
+
+    fn energy(&self, x: &SVector<T, NX>) -> T {
+        self.0.energy(x)
+    }
+}
+
+impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Plant<T, NX, NU> for Fixed<P> {
+    #[inline(always)]
+    fn between_steps(&mut self, _: T, _: T, _: &mut SVector<T, NX>, _: &SVector<T, NU>) {}
+}
+
+/// What the observer sees besides the state and the reference: which input, and which
+/// signals after the time and state.
+pub trait Signals<T: Real, P, const NX: usize, const NU: usize> {
+    /// Checked once before the run, with the controller's number of internals.
+    fn check(&mut self, internals: usize) -> Result<(), TwipError>;
+
+    /// After each controller update: its internals, the measurement it read and the
+    /// plant input the actuator made of its command (before any delay).
+    fn updated(&mut self, internals: &[T], measurement: &SVector<T, NX>, drive: &SVector<T, NU>);
+
+    /// The signals at a sample, given the controller's internals now, the plant, the
+    /// state and the input applied.
+    fn at<'a>(&'a mut self, internals: &'a [T], plant: &P, x: &SVector<T, NX>, u: &SVector<T, NU>) -> &'a [T];
+
+    /// Observe the controller's command (`true`) or the plant input applied (`false`).
+    const OBSERVE_COMMAND: bool;
+}
+
+/// The controller's internals as they are, and the input applied.
+pub struct ControllerSignals;
+
+impl<T: Real, P, const NX: usize, const NU: usize> Signals<T, P, NX, NU> for ControllerSignals {
+    const OBSERVE_COMMAND: bool = false;
+
+    #[inline(always)]
+    fn check(&mut self, _: usize) -> Result<(), TwipError> {
+        Ok(())
+    }
+
+    #[inline(always)]
+    fn updated(&mut self, _: &[T], _: &SVector<T, NX>, _: &SVector<T, NU>) {}
+
+    #[inline(always)]
+    fn at<'a>(&'a mut self, internals: &'a [T], _: &P, _: &SVector<T, NX>, _: &SVector<T, NU>) -> &'a [T] {
+        internals
+    }
+}
+
+/// The one closed-loop runner, for ideal and realism runs of either model. Each plant
+/// step: the controller's update when due (the sensor's read, the actuator's drive, the
+/// optional one-period delay), the observation, the plant's `between_steps`, then RK4
+/// with its first stage shared with the sensor's `sample`. The sensor samples once
+/// before the run (its registers hold a sample of the initial state) and then each step
+/// after the update, so a read sees the samples up to one step before it, as firmware
+/// reads a sensor's last output.
+pub fn run_loop<T, P, C, R, S, A, O, F, L, const NX: usize, const NU: usize>(
+    plant: &mut P,
+    controller: &mut C,
+    reference: &R,
+    x0: &SVector<T, NX>,
+    config: &SimConfig<T>,
+    mut parts: Loop<'_, S, A, O, F>,
+    signals: &mut L,
+) -> Result<(Outcome<T>, usize), TwipError>
+where
+    T: Real,
+    P: Plant<T, NX, NU>,
+    R: Reference<T>,
+    C: Controller<T, NX, NU, Reference = R::Sample>,
+    S: Sensor<T, NX>,
+    A: Actuator<T, NX, NU>,
+    O: Observer<T, NX, NU, R::Sample>,
+    F: FnMut() -> bool,
+    L: Signals<T, P, NX, NU>,
+{
     let (n, per_update) = config.steps(controller.period())?;
     for (index, value) in x0.iter().enumerate() {
         if !value.is_finite() {
             return Err(TwipError::NonFinite { name: "x0", index, value: crate::to_f64(*value) });
         }
     }
+    signals.check(controller.internals().len())?;
     let dt = config.dt;
     let mut x = *x0;
-    let mut u = SVector::<T, NU>::zeros();
-    let mut pending = u;
+    let (mut u, mut pending) = (SVector::<T, NU>::zeros(), SVector::<T, NU>::zeros());
+    let (mut command, mut pending_command) = (u, u);
     let observer = &mut *parts.observer;
+    let seen = |command: &SVector<T, NU>, u: &SVector<T, NU>| if L::OBSERVE_COMMAND { *command } else { *u };
     parts.sensor.sample(T::zero(), &x, &plant.deriv(&x, &u));
     for k in 0..n {
         let t = dt * c::<T>(k as f64);
@@ -241,32 +344,39 @@ where
         let r = reference.sample(t);
         if k % per_update == 0 {
             let y = parts.sensor.read(t, &x);
-            let command = controller.update(t, &y, &r);
-            let drive = parts.actuator.drive(t, &command, &y);
+            let cmd = controller.update(t, &y, &r);
+            let drive = parts.actuator.drive(t, &cmd, &y);
             if drive.iter().any(|v| !v.is_finite()) {
                 return Ok((Outcome::Diverged { t }, k));
             }
             if parts.delay_one_period {
                 u = pending;
                 pending = drive;
+                command = pending_command;
+                pending_command = cmd;
             } else {
                 u = drive;
+                command = cmd;
             }
+            signals.updated(controller.internals(), &y, &u);
         }
-        observer.observe(t, &x, &u, &r, controller.internals());
+        observer.observe(t, &x, &seen(&command, &u), &r, signals.at(controller.internals(), plant, &x, &u));
+        plant.between_steps(t, dt, &mut x, &u);
         let k1 = plant.deriv(&x, &u);
         parts.sensor.sample(t, &x, &k1);
-        x = rk4_step_from_k1(plant, &x, &u, dt, &k1);
+        x = rk4_step_from_k1(&*plant, &x, &u, dt, &k1);
         let t_next = dt * c::<T>((k + 1) as f64);
         if x.iter().any(|v| !v.is_finite()) {
             return Ok((Outcome::Diverged { t: t_next }, k + 1));
         }
         if x[P::PITCH].abs() > config.fall_limit {
-            observer.observe_last(t_next, &x, &u, &reference.sample(t_next), controller.internals());
+            let last = signals.at(controller.internals(), plant, &x, &u);
+            observer.observe_last(t_next, &x, &seen(&command, &u), &reference.sample(t_next), last);
             return Ok((Outcome::Fell { t: t_next }, k + 1));
         }
     }
     let t_end = dt * c::<T>(n as f64);
-    observer.observe_last(t_end, &x, &u, &reference.sample(t_end), controller.internals());
+    let last = signals.at(controller.internals(), plant, &x, &u);
+    observer.observe_last(t_end, &x, &seen(&command, &u), &reference.sample(t_end), last);
     Ok((Outcome::Completed, n))
 }

@@ -3,6 +3,7 @@
 //! [`TrackingMetrics`] kept. Draws are the 2-DOF sweeps' ([`super::draw_values`]), so
 //! sample `i` comes from `Philox::new(seed, i)` here too.
 use crate::control::{Controller, Reference};
+use crate::hardware::realism::Realism;
 use crate::model::planar::{PlanarModel, PlanarState};
 use crate::sim::runner::{simulate_until, SimConfig};
 use crate::control::trajectory::{Path, PlanarRef};
@@ -111,13 +112,17 @@ sweep_metrics!(PlanarSampleMetrics {
 
 /// Runs one sample: a reset copy of the prototype tracker (designed for the nominal
 /// robot) on the sample's robot along `path`; "_settled" metrics from `settle` [s].
-/// `None` when `should_stop` said so.
+/// With `realism` (set up by `rig::for_sweep`) it runs through the 3-DOF rig with the
+/// noise stream `sample.index`, as the 2-DOF sweeps do. An invalid robot (or a rig it
+/// cannot have) gives [`PlanarSampleMetrics::INVALID`]; `None` when `should_stop` said so.
+#[allow(clippy::too_many_arguments)]
 pub fn run_planar_sample<C, P>(
     prototype: &C,
     path: &P,
     config: &SimConfig<f64>,
     sample: &PlanarSample,
     settle: f64,
+    realism: Option<&Realism<f64>>,
     should_stop: &dyn Fn() -> bool,
 ) -> Option<PlanarSampleMetrics>
 where
@@ -128,7 +133,15 @@ where
         return Some(PlanarSampleMetrics::INVALID);
     };
     let mut metrics = TrackingMetrics::new(*path, settle);
-    let run = simulate_until(&plant, &mut fresh(prototype), path, &sample.x0, config, &mut metrics, should_stop);
+    let run = match realism {
+        None => simulate_until(&plant, &mut fresh(prototype), path, &sample.x0, config, &mut metrics, should_stop),
+        Some(r) => {
+            let Ok(mut rig) = r.with_stream(sample.index).build_planar(&plant, config.dt) else {
+                return Some(PlanarSampleMetrics::INVALID);
+            };
+            rig.simulate(&mut fresh(prototype), path, &sample.x0, config, &mut metrics, should_stop)
+        }
+    };
     finish(run, config.dt, |fell, t_end, steps| {
         let summary = metrics.summary();
         let peaks = DrivePeaks::from_wheel_torque(&sample.params, summary.peak_abs_torque);
@@ -172,7 +185,7 @@ mod tests {
         let (mut fell, mut invalid, mut ran) = (0, 0, 0);
         for i in 0..12 {
             let sample = draw(&nominal, &spread, 5, i);
-            let got = run_planar_sample(&ctrl, &circle, &config, &sample, 2.0, &never).unwrap();
+            let got = run_planar_sample(&ctrl, &circle, &config, &sample, 2.0, None, &never).unwrap();
             fell += got.fell as usize;
             let Ok(plant) = PlanarModel::new(sample.params) else {
                 assert_eq!(format!("{got:?}"), format!("{:?}", PlanarSampleMetrics::INVALID), "sample {i}");
@@ -223,14 +236,40 @@ mod tests {
     #[test]
     fn one_and_two_threads_give_the_same_bits() {
         use crate::sweep::parallel::{run, Progress};
+        use crate::sweep::rig::for_sweep;
         let (ctrl, circle, config, nominal) = setup();
         let spread = spread();
-        let sweep = |threads| {
-            run(0..6, BLOCK, threads, &Progress::default(), |range, stop| {
-                range.map(|i| run_planar_sample(&ctrl, &circle, &config, &draw(&nominal, &spread, 5, i), 2.0, stop)).collect()
-            })
-            .unwrap()
-        };
-        assert_eq!(format!("{:?}", sweep(1)), format!("{:?}", sweep(2)));
+        let real = for_sweep(&Realism::thesis_like(), 5);
+        for realism in [None, Some(&real)] {
+            let sweep = |threads| {
+                run(0..6, BLOCK, threads, &Progress::default(), |range, stop| {
+                    range
+                        .map(|i| run_planar_sample(&ctrl, &circle, &config, &draw(&nominal, &spread, 5, i), 2.0, realism, stop))
+                        .collect()
+                })
+                .unwrap()
+            };
+            assert_eq!(format!("{:?}", sweep(1)), format!("{:?}", sweep(2)));
+        }
+    }
+
+    /// A realism sample is a direct rig run with the sample's own noise stream, bit for
+    /// bit; another sample's stream gives other numbers.
+    #[test]
+    fn a_realism_sample_is_a_rig_run_with_its_own_stream() {
+        use crate::sweep::rig::for_sweep;
+        let (ctrl, circle, config, nominal) = setup();
+        let real = for_sweep(&Realism::thesis_like(), 5);
+        let sample = draw(&nominal, &[], 5, 3);
+        let got = run_planar_sample(&ctrl, &circle, &config, &sample, 2.0, Some(&real), &|| false).unwrap();
+        let plant = PlanarModel::new(sample.params).unwrap();
+        let mut direct = TrackingMetrics::new(circle, 2.0);
+        let mut rig = real.with_stream(3).build_planar(&plant, config.dt).unwrap();
+        rig.simulate(&mut ctrl.clone(), &circle, &sample.x0, &config, &mut direct, || false).unwrap();
+        assert_eq!(got.max_path_error_settled.to_bits(), direct.summary().max_path_error_settled.to_bits());
+        let other = run_planar_sample(&ctrl, &circle, &config, &draw(&nominal, &[], 5, 4), 2.0, Some(&real), &|| false).unwrap();
+        assert_ne!(got.max_path_error_settled, other.max_path_error_settled, "same robot, other noise stream");
+        let ideal = run_planar_sample(&ctrl, &circle, &config, &sample, 2.0, None, &|| false).unwrap();
+        assert_ne!(got.max_path_error_settled, ideal.max_path_error_settled);
     }
 }

@@ -1,0 +1,474 @@
+//! The 3-DOF robot's real parts, for the trackers: [`Realism::build_planar`] turns a
+//! [`Realism`] into
+//! - a plant, [`PlanarPlant`]: the planar model with pushes and a constant force, each
+//!   wheel driven through its own L298 bridge and motor when there is a driver (input:
+//!   the two duties), else by the commanded torques;
+//! - a sensor, [`PlanarSensors`]: the MPU-6050 (pitch-plane accelerometer and pitch
+//!   gyro, and the gyro's z axis for the yaw rate, each through the DLPF), the tilt
+//!   estimator, and an encoder per wheel from which the firmware gets the speed, the
+//!   heading ψ̂ = R (β̂_r − β̂_l)/(2b) and the position by dead reckoning; the truth for
+//!   each part left out;
+//! - an actuator, [`PlanarActuator`]: each wheel's torque → duty by the firmware's
+//!   feed-forward on the measured wheel speed, or none;
+//!
+//! run by the one loop (`runner::run_loop`) through [`Rig::simulate`]. Nothing
+//! allocates; the noise comes from the one (seed, stream) Philox stream: each IMU sample
+//! takes the pitch channel's four normals, then the yaw gyro's four.
+//!
+//! Approximations, each far below what the firmware can see: the accelerometer feels
+//! the pitch-plane motion (the centripetal v ω is lateral, along the axis it does not
+//! read); the sensor follows each wheel's angle relative to the body by the trapezoid
+//! rule on the plant's steps (error ~dt³, against 9 mrad per encoder count).
+use nalgebra::{SVector, Vector2, Vector3, Vector4};
+
+use crate::hardware::disturbance::{Force, Pushes};
+use crate::hardware::driver::{PwmActuator, Winding};
+use crate::hardware::encoder::Encoder;
+use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
+use crate::hardware::realism::{Realism, Rig, RigPlant};
+#[cfg(all(test, feature = "std"))]
+use crate::model::friction::Friction;
+use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
+use crate::model::planar::PlanarState;
+use crate::rng::Philox;
+use crate::sim::runner::{Actuator, Plant, Sensor};
+use crate::{c, Dynamics, PlanarModel, Real, RobotParams, TwipError};
+
+/// What the 3-DOF rig logs after the controller's internals.
+pub const PLANAR_RIG_SIGNALS: [&str; 11] = [
+    "x_hat", "y_hat", "psi_hat", "phi_hat", "phi_dot_hat", "v_hat", "omega_hat", "drive_r", "drive_l", "current_r",
+    "current_l",
+];
+
+/// Each wheel's bridge and motor (input: the duties).
+#[derive(Clone, Copy, Debug)]
+pub struct WheelDrives<T> {
+    windings: [Winding<T>; 2],
+    /// ε η τ_i: wheel torque per motor ampere.
+    torque_per_amp: T,
+}
+
+/// The planar plant of a realism run.
+#[derive(Clone, Copy, Debug)]
+pub struct PlanarPlant<T: Real> {
+    model: PlanarModel<T>,
+    drives: Option<WheelDrives<T>>,
+    force: Force<T>,
+    has_force: bool,
+    pushes: Pushes<T>,
+}
+
+impl<T: Real> PlanarPlant<T> {
+    /// The wheel torques [N m] the mechanics feel over the step for the input `u`.
+    #[inline(always)]
+    fn torques(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> SVector<T, 2> {
+        match &self.drives {
+            None => *u,
+            Some(d) => {
+                let (w_r, w_l) = self.model.wheel_speeds(x);
+                SVector::<T, 2>::new(
+                    d.torque_per_amp * d.windings[0].mechanical_current(u[0], w_r),
+                    d.torque_per_amp * d.windings[1].mechanical_current(u[1], w_l),
+                )
+            }
+        }
+    }
+
+    /// The generalised forces of `(F_x, F_z)` at `height` on (φ, v) (flat ground).
+    #[inline(always)]
+    fn body_force(fx: T, fz: T, height: T, sin_phi: T, cos_phi: T) -> Vector2<T> {
+        Vector2::new(height * (fx * cos_phi - fz * sin_phi), fx)
+    }
+}
+
+impl<T: Real> Dynamics<T, 7, 2> for PlanarPlant<T> {
+    const PITCH: usize = 3;
+
+    #[inline(always)]
+    fn deriv(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> PlanarState<T> {
+        let torques = self.torques(x, u);
+        if self.has_force {
+            let f = &self.force;
+            self.model.deriv_plus(x, &torques, |s, cp| Some(Self::body_force(f.horizontal, f.vertical, f.height, s, cp)))
+        } else {
+            self.model.deriv(x, &torques)
+        }
+    }
+
+    fn energy(&self, x: &PlanarState<T>) -> T {
+        self.model.energy(x)
+    }
+}
+
+impl<T: Real> Plant<T, 7, 2> for PlanarPlant<T> {
+    /// Pushes jump the velocities; the windings' currents advance.
+    #[inline]
+    fn between_steps(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) {
+        while let Some(p) = self.pushes.due(t, dt) {
+            let (s, cp) = x[3].sin_cos();
+            let q = Self::body_force(p.impulse, T::zero(), p.height, s, cp);
+            let jump = self.model.solve_mass(x[3], &Vector3::new(q[0], q[1], T::zero()));
+            x[4] += jump[0];
+            x[5] += jump[1];
+        }
+        if let Some(d) = self.drives.as_mut() {
+            let (w_r, w_l) = self.model.wheel_speeds(x);
+            d.windings[0].advance(u[0], w_r, dt);
+            d.windings[1].advance(u[1], w_l, dt);
+        }
+    }
+}
+
+impl<T: Real> RigPlant<T, 7, 2> for PlanarPlant<T> {
+    #[inline]
+    fn currents(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> SVector<T, 2> {
+        match &self.drives {
+            // The torques the controller commands, as motor currents of an ideal drive.
+            None => *u / self.model.params().torque_per_amp(),
+            Some(d) => {
+                let (w_r, w_l) = self.model.wheel_speeds(x);
+                SVector::<T, 2>::new(d.windings[0].current(u[0], w_r), d.windings[1].current(u[1], w_l))
+            }
+        }
+    }
+}
+
+/// The IMU, tilt estimator and encoders of the 3-DOF robot, as one sensor.
+#[derive(Clone, Copy, Debug)]
+pub struct PlanarSensors<T: Real> {
+    /// The pitch-plane channels, and the gyro's z axis (its accelerometer unused).
+    imu: Option<(Mpu6050<T>, Mpu6050<T>)>,
+    tilt: TiltFilter<T>,
+    encoders: Option<[Encoder<T>; 2]>,
+    /// Each wheel's angle relative to the body [rad] and its speed at the last sample.
+    beta: [T; 2],
+    beta_dot: [T; 2],
+    /// The firmware's dead-reckoned pose and last counted angles.
+    pose: [T; 3],
+    last_beta_hat: Option<[T; 2]>,
+    radius: T,
+    half_track: T,
+    inv_r: T,
+    g: T,
+    next_sample: T,
+    dt: T,
+    rng: Philox,
+    last_read: Option<T>,
+}
+
+impl<T: Real> PlanarSensors<T> {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        imu: Option<&ImuSettings<T>>,
+        estimator: TiltEstimator<T>,
+        encoder_cpr: Option<T>,
+        params: &RobotParams<T>,
+        dt: T,
+        seed: u64,
+        stream: u64,
+    ) -> Result<Self, TwipError> {
+        let imu = match imu {
+            Some(s) => {
+                let pitch = Mpu6050::new(s)?;
+                crate::hardware::realism::check_imu_grid(pitch.settings(), dt)?;
+                Some((pitch, Mpu6050::new(s)?))
+            }
+            None => None,
+        };
+        let encoders = match encoder_cpr {
+            Some(cpr) => Some([Encoder::new(cpr)?, Encoder::new(cpr)?]),
+            None => None,
+        };
+        Ok(Self {
+            imu,
+            tilt: TiltFilter::new(estimator)?,
+            encoders,
+            beta: [T::zero(); 2],
+            beta_dot: [T::zero(); 2],
+            pose: [T::zero(); 3],
+            last_beta_hat: None,
+            radius: params.wheel_radius,
+            half_track: params.half_track,
+            inv_r: T::one() / params.wheel_radius,
+            g: params.g,
+            next_sample: T::zero(),
+            dt,
+            rng: Philox::new(seed, stream),
+            last_read: None,
+        })
+    }
+
+    /// Each wheel's speed relative to the body, (v ± b ω)/R − φ̇.
+    #[inline(always)]
+    fn wheel_speeds(&self, x: &PlanarState<T>) -> [T; 2] {
+        let turn = self.half_track * x[6] * self.inv_r;
+        let roll = x[5] * self.inv_r - x[4];
+        [roll + turn, roll - turn]
+    }
+}
+
+impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
+    /// Follows the wheels' angles; samples the IMU when its period has come round.
+    #[inline]
+    fn sample(&mut self, t: T, x: &PlanarState<T>, xdot: &PlanarState<T>) {
+        let speeds = self.wheel_speeds(x);
+        if t > T::zero() {
+            let half = self.dt * c::<T>(0.5);
+            for side in 0..2 {
+                self.beta[side] += half * (self.beta_dot[side] + speeds[side]);
+            }
+        }
+        self.beta_dot = speeds;
+        if let Some((pitch, yaw)) = self.imu.as_mut() {
+            if t + self.dt * c::<T>(0.5) >= self.next_sample {
+                // The pitch plane as the 2-DOF model has it: θ̇ = v/R.
+                let x4 = Vector4::new(x[3], x[4], T::zero(), x[5] * self.inv_r);
+                let xdot4 = Vector4::new(x[4], xdot[4], x[5] * self.inv_r, xdot[5] * self.inv_r);
+                let height = pitch.settings().height;
+                let (fx, fz) = specific_force(&x4, &xdot4, T::zero(), T::one(), self.radius, height, self.g);
+                pitch.sample(fx, fz, x[4], &mut self.rng);
+                // The z axis turns with the body's pitch: it reads ω cos φ.
+                yaw.sample(T::zero(), self.g, x[6] * x[3].cos(), &mut self.rng);
+                self.next_sample += pitch.settings().sample_period;
+            }
+        }
+    }
+
+    fn read(&mut self, t: T, x: &PlanarState<T>) -> PlanarState<T> {
+        let dt = self.last_read.map_or(T::zero(), |last| t - last);
+        self.last_read = Some(t);
+        let (phi, phi_dot, omega_gyro) = match &self.imu {
+            Some((pitch, yaw)) => {
+                let r = pitch.reading();
+                let (phi, phi_dot) = self.tilt.update(accel_tilt(r.accel_x, r.accel_z), r.gyro, dt);
+                (phi, phi_dot, yaw.reading().gyro / phi.cos())
+            }
+            None => (x[3], x[4], x[6]),
+        };
+        let Some(encoders) = self.encoders.as_mut() else {
+            return PlanarState::from([x[0], x[1], x[2], phi, phi_dot, x[5], omega_gyro]);
+        };
+        let (b_r, w_r) = encoders[0].read(self.beta[0], dt);
+        let (b_l, w_l) = encoders[1].read(self.beta[1], dt);
+        let (r, b) = (self.radius, self.half_track);
+        let two = c::<T>(2.0);
+        let psi = r * (b_r - b_l) / (two * b);
+        let v = r * ((w_r + w_l) / two + phi_dot);
+        // Dead reckoning: the path the wheels counted since the last read, along the
+        // mean heading (the body's pitch change moves the axle by R Δφ̂ too).
+        let last = self.last_beta_hat.unwrap_or([b_r, b_l]);
+        let ds = r * ((b_r - last[0]) + (b_l - last[1])) / two;
+        let mid = (self.pose[2] + psi) / two;
+        self.pose = [self.pose[0] + ds * mid.cos(), self.pose[1] + ds * mid.sin(), psi];
+        self.last_beta_hat = Some([b_r, b_l]);
+        let omega = if self.imu.is_some() { omega_gyro } else { r * (w_r - w_l) / (two * b) };
+        PlanarState::from([self.pose[0], self.pose[1], psi, phi, phi_dot, v, omega])
+    }
+}
+
+/// The actuator of a 3-DOF realism run.
+#[derive(Clone, Copy, Debug)]
+pub enum PlanarActuator<T> {
+    Ideal,
+    /// Each wheel's torque → duty at its measured relative speed.
+    Pwm { pwm: PwmActuator<T>, inv_r: T, b_r: T },
+}
+
+impl<T: Real> Actuator<T, 7, 2> for PlanarActuator<T> {
+    #[inline]
+    fn drive(&mut self, _t: T, command: &SVector<T, 2>, y: &PlanarState<T>) -> SVector<T, 2> {
+        match self {
+            Self::Ideal => *command,
+            Self::Pwm { pwm, inv_r, b_r } => {
+                let roll = y[5] * *inv_r - y[4];
+                let turn = *b_r * y[6];
+                SVector::<T, 2>::new(pwm.duty(command[0], roll + turn), pwm.duty(command[1], roll - turn))
+            }
+        }
+    }
+}
+
+/// The 3-DOF rig ([`Realism::build_planar`]); [`Rig::simulate`] runs it.
+pub type PlanarRig<T> = Rig<PlanarPlant<T>, PlanarSensors<T>, PlanarActuator<T>>;
+
+impl<T: Real> Realism<T> {
+    /// The plant, sensor and actuator for a run of the 3-DOF `model` at plant step `dt`.
+    /// The planar model is flat: a slope profile is refused.
+    pub fn build_planar(&self, model: &PlanarModel<T>, dt: T) -> Result<PlanarRig<T>, TwipError> {
+        let s = self.validate()?;
+        let profile = s.slope_profile;
+        if profile.base() != T::zero() || profile.changes().next().is_some() {
+            return Err(TwipError::InvalidParameter {
+                name: "slope_profile",
+                value: crate::to_f64(profile.base()),
+                reason: "the 3-DOF model is on flat ground: no slope profile",
+            });
+        }
+        let params = *model.params();
+        let mut pushes = s.pushes;
+        pushes.rewind();
+        let (drives, actuator) = match &s.motor {
+            None => (None, PlanarActuator::Ideal),
+            Some(m) => {
+                let winding = Winding::new(m, &params)?;
+                let drives = WheelDrives { windings: [winding; 2], torque_per_amp: m.efficiency * params.torque_per_amp() };
+                let pwm = PwmActuator::per_wheel_torque(m, &params)?;
+                let inv_r = T::one() / params.wheel_radius;
+                (Some(drives), PlanarActuator::Pwm { pwm, inv_r, b_r: params.half_track * inv_r })
+            }
+        };
+        let model = model.with_friction(s.friction_on(model.friction()))?;
+        let plant = PlanarPlant { model, drives, force: s.force, has_force: !s.force.is_zero(), pushes };
+        let sensors = PlanarSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, &params, dt, s.seed, s.stream)?;
+        Ok(Rig { plant, sensors, actuator, delay: s.delay })
+    }
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+    use crate::control::pid::PidTracker;
+    use crate::control::trajectory::{Circle, Direction};
+    use crate::hardware::motor::DcMotor;
+    use crate::sim::runner::{simulate, Observer, Outcome, SimConfig};
+    use crate::sim::tracking_metrics::TrackingMetrics;
+
+    /// Records states and inputs.
+    #[derive(Default)]
+    struct Trace(std::vec::Vec<(f64, PlanarState<f64>, SVector<f64, 2>)>);
+
+    impl<S> Observer<f64, 7, 2, S> for Trace {
+        fn observe(&mut self, t: f64, x: &PlanarState<f64>, u: &SVector<f64, 2>, _: &S, _: &[f64]) {
+            self.0.push((t, *x, *u));
+        }
+    }
+
+    fn setup() -> (PlanarModel<f64>, PidTracker<f64>, Circle<f64>) {
+        let params = RobotParams::balanbot();
+        let ctrl = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), 0.005).unwrap();
+        let circle = Circle::from_origin(0.6, core::f64::consts::PI * params.wheel_radius, Direction::CounterClockwise).unwrap();
+        (PlanarModel::new(params).unwrap(), ctrl, circle)
+    }
+
+    fn run<O: Observer<f64, 7, 2, crate::control::trajectory::PlanarRef<f64>>>(
+        realism: &Realism<f64>,
+        t_final: f64,
+        observer: &mut O,
+    ) -> Outcome<f64> {
+        let (model, mut ctrl, circle) = setup();
+        let config = SimConfig { dt: 1e-3, t_final, fall_limit: 1.0 };
+        let mut rig = realism.build_planar(&model, config.dt).unwrap();
+        rig.simulate(&mut ctrl, &circle, &PlanarState::zeros(), &config, observer, || false).unwrap().0
+    }
+
+    #[test]
+    fn ideal_realism_is_the_plain_runner_bit_for_bit() {
+        let (model, mut ctrl, circle) = setup();
+        let config = SimConfig { dt: 1e-3, t_final: 3.0, fall_limit: 1.0 };
+        let mut plain = Trace::default();
+        simulate(&model, &mut ctrl, &circle, &PlanarState::zeros(), &config, &mut plain).unwrap();
+        let mut rig = Trace::default();
+        run(&Realism::ideal(), 3.0, &mut rig);
+        assert_eq!(plain.0, rig.0);
+    }
+
+    #[test]
+    fn thesis_like_tracks_the_circle_and_repeats_bit_for_bit() {
+        let (_, _, circle) = setup();
+        let path_error = |realism: &Realism<f64>| {
+            let mut metrics = TrackingMetrics::new(circle, 10.0);
+            assert_eq!(run(realism, 36.0, &mut metrics), Outcome::Completed);
+            metrics.summary().max_path_error_settled
+        };
+        let viscous = RobotParams::<f64>::balanbot().mu_bearing / 2.0;
+        let geared = path_error(&Realism { friction: Some(Friction::gb37_beside(viscous)), ..Realism::thesis_like() });
+        let coulomb = path_error(&Realism { friction: Some(Friction::gb37()), ..Realism::thesis_like() });
+        let real = path_error(&Realism::thesis_like());
+        let ideal = path_error(&Realism::ideal());
+        std::println!(
+            "circle-pid, one lap: max path error after 10 s {:.1} mm ideal, {:.1} mm with thesis-like hardware, \
+             {:.1} mm with the gearheads' friction beside the viscous bearing, {:.1} mm with all of the no-load torque \
+             as Coulomb friction",
+            1e3 * ideal,
+            1e3 * real,
+            1e3 * geared,
+            1e3 * coulomb
+        );
+        // The sensors and drive cost some accuracy; Coulomb friction (more than the tracker's
+        // steady torques) costs more, yet the robot stays near the circle.
+        assert!(ideal < real && real < geared && geared < coulomb && coulomb < 0.6, "{ideal} {real} {geared} {coulomb}");
+        let (mut a, mut b, mut other) = (Trace::default(), Trace::default(), Trace::default());
+        run(&Realism::thesis_like(), 2.0, &mut a);
+        run(&Realism::thesis_like(), 2.0, &mut b);
+        run(&Realism::thesis_like().with_stream(1), 2.0, &mut other);
+        assert_eq!(a.0, b.0);
+        assert_ne!(a.0, other.0);
+    }
+
+    #[test]
+    fn odometry_follows_the_truth_within_counts() {
+        // Encoders only: no noise, so the dead-reckoned pose drifts by quantisation alone.
+        let realism = Realism { encoder_cpr: Some(700.0), ..Realism::ideal() };
+        let (model, mut ctrl, circle) = setup();
+        let config = SimConfig { dt: 1e-3, t_final: 10.0, fall_limit: 1.0 };
+        let mut rig = realism.build_planar(&model, config.dt).unwrap();
+        let mut trace = Trace::default();
+        rig.simulate(&mut ctrl, &circle, &PlanarState::zeros(), &config, &mut trace, || false).unwrap();
+        let x = trace.0.last().unwrap().1;
+        let y = rig.sensors.read(10.0, &x);
+        let count = core::f64::consts::TAU / 700.0 * model.params().wheel_radius;
+        std::println!("after 10 s: position error {:.2e} m, heading error {:.2e} rad", ((y[0] - x[0]).powi(2) + (y[1] - x[1]).powi(2)).sqrt(), y[2] - x[2]);
+        assert!(((y[0] - x[0]).powi(2) + (y[1] - x[1]).powi(2)).sqrt() < 20.0 * count);
+        assert!((y[2] - x[2]).abs() < 2.0 * count / model.params().half_track);
+    }
+
+    #[test]
+    fn a_slope_profile_is_refused_by_name() {
+        let (model, _, _) = setup();
+        let realism = Realism { slope_profile: crate::hardware::disturbance::SlopeProfile::constant(0.1), ..Realism::ideal() };
+        assert!(matches!(
+            realism.build_planar(&model, 1e-3),
+            Err(TwipError::InvalidParameter { name: "slope_profile", .. })
+        ));
+    }
+}
+
+#[cfg(all(test, feature = "std"))]
+mod f32_tests {
+    use super::*;
+    use crate::control::pid::PidTracker;
+    use crate::control::trajectory::{Circle, Direction};
+    use crate::hardware::motor::DcMotor;
+    use crate::sim::runner::{Outcome, SimConfig};
+
+    /// The rig in f32 (a microcontroller's precision) tracks like the f64 one. Without
+    /// the IMU: `ImuSettings::validate` refuses the f32 rounding of its ranges.
+    #[test]
+    fn f32_rig_runs_like_f64() {
+        fn end<T: Real>() -> (Outcome<T>, [f64; 2]) {
+            let params = RobotParams::<T>::balanbot();
+            let mut ctrl = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), c(0.005)).unwrap();
+            let speed = c::<T>(core::f64::consts::PI) * params.wheel_radius;
+            let circle = Circle::from_origin(c(0.6), speed, Direction::CounterClockwise).unwrap();
+            let config = SimConfig { dt: c(1e-3), t_final: c(10.0), fall_limit: T::one() };
+            let model = PlanarModel::new(params).unwrap();
+            let realism = Realism::<T> { imu: None, ..Realism::thesis_like() };
+            let mut rig = realism.build_planar(&model, config.dt).unwrap();
+            let mut last = PlanarState::<T>::zeros();
+            struct Last<'a, T: Real>(&'a mut PlanarState<T>);
+            impl<T: Real, S> crate::sim::runner::Observer<T, 7, 2, S> for Last<'_, T> {
+                fn observe(&mut self, _: T, x: &PlanarState<T>, _: &SVector<T, 2>, _: &S, _: &[T]) {
+                    *self.0 = *x;
+                }
+            }
+            let (outcome, _) = rig.simulate(&mut ctrl, &circle, &PlanarState::zeros(), &config, &mut Last(&mut last), || false).unwrap();
+            (outcome, [crate::to_f64(last[0]), crate::to_f64(last[1])])
+        }
+        let (o64, p64) = end::<f64>();
+        let (o32, p32) = end::<f32>();
+        assert_eq!((o64, o32), (Outcome::Completed, Outcome::Completed));
+        let gap = ((p64[0] - p32[0]).powi(2) + (p64[1] - p32[1]).powi(2)).sqrt();
+        std::println!("after 10 s on the circle: f32 and f64 rigs {gap:.1e} m apart");
+        assert!(gap < 0.05, "{gap}");
+    }
+}

@@ -1,0 +1,74 @@
+//! `twip.Friction`: gearhead friction per wheel, for `SlopeModel(..., friction=)` and
+//! `PlanarModel(..., friction=)`.
+use pyo3::prelude::*;
+use twip_core::model::friction::Friction;
+
+use crate::errors::CoreResult;
+
+/// One wheel's gearhead friction (N m, rad/s): Coulomb + viscous + Stribeck, the sign
+/// regularised by tanh(w / smoothing_speed); `breakaway` is the static (peak) torque.
+#[pyclass(name = "Friction", module = "twip", frozen, eq)]
+#[derive(Clone, Copy, PartialEq)]
+pub struct PyFriction {
+    pub inner: Friction<f64>,
+}
+
+#[pymethods]
+impl PyFriction {
+    #[new]
+    #[pyo3(signature = (coulomb, breakaway = None, stribeck_speed = 1.0, viscous = 0.0, smoothing_speed = 0.1))]
+    fn new(coulomb: f64, breakaway: Option<f64>, stribeck_speed: f64, viscous: f64, smoothing_speed: f64) -> CoreResult<Self> {
+        let breakaway = breakaway.unwrap_or(coulomb);
+        let inner = Friction { coulomb, breakaway, stribeck_speed, viscous, smoothing_speed }.validate()?;
+        Ok(Self { inner })
+    }
+
+    /// The GB37 data sheet's no-load torque eta k_t I0 = 0.152 N m read as Coulomb
+    /// friction; breakaway 1.25x; Stribeck speed 1 rad/s; smoothing 0.1 rad/s.
+    #[staticmethod]
+    fn gb37() -> Self {
+        Self { inner: Friction::gb37() }
+    }
+
+    /// `gb37()` beside a viscous bearing of `viscous_per_wheel` [N m s/rad]: the Coulomb
+    /// part is what the viscous one leaves of the no-load torque at the no-load speed
+    /// (0.0117 N m beside `RobotParams.balanbot()`'s mu_bearing / 2).
+    #[staticmethod]
+    fn gb37_beside(viscous_per_wheel: f64) -> CoreResult<Self> {
+        Ok(Self { inner: Friction::gb37_beside(viscous_per_wheel).validate()? })
+    }
+
+    #[getter]
+    fn coulomb(&self) -> f64 {
+        self.inner.coulomb
+    }
+    #[getter]
+    fn breakaway(&self) -> f64 {
+        self.inner.breakaway
+    }
+    #[getter]
+    fn stribeck_speed(&self) -> f64 {
+        self.inner.stribeck_speed
+    }
+    #[getter]
+    fn viscous(&self) -> f64 {
+        self.inner.viscous
+    }
+    #[getter]
+    fn smoothing_speed(&self) -> f64 {
+        self.inner.smoothing_speed
+    }
+
+    /// The friction torque [N m] at the wheel's speed relative to the body `w` [rad/s].
+    fn torque(&self, w: f64) -> f64 {
+        self.inner.torque(w)
+    }
+
+    fn __repr__(&self) -> String {
+        let f = &self.inner;
+        format!(
+            "Friction(coulomb={:?}, breakaway={:?}, stribeck_speed={:?}, viscous={:?}, smoothing_speed={:?})",
+            f.coulomb, f.breakaway, f.stribeck_speed, f.viscous, f.smoothing_speed
+        )
+    }
+}
