@@ -8,6 +8,7 @@ from typing import Dict, Iterable, Optional
 import numpy as np
 
 from twip import _core
+from twip.scenarios.lqr import thesis_weights
 from twip.scenarios import Scenario, register, trip_time
 
 SPEED = math.radians(180)
@@ -130,7 +131,7 @@ def mismatched(params, case: str):
 def _lqr_like(scenario: Scenario, ctrl_params, period):
     """The thesis's LQR (Q, R of 4.25 on the slope, 4.2.1 on the flat) for the same run."""
     slope = scenario.model.slope
-    q, r = ([10, 10, 1, 1], 1000.0) if slope else ([100, 1, 1, 1], 480.0)
+    q, r = thesis_weights(slope)
     return _core.LqrController.design(_core.SlopeModel(ctrl_params, slope), SPEED, q, r, period=period)
 
 

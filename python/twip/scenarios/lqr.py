@@ -9,9 +9,21 @@ from twip import _core
 from twip.scenarios import Scenario, register, trip_time
 
 
-def _lqr(ctrl_params, slope, speed, Q, R, point, period):
+#: The thesis's LQR weights (diag Q, R): (4.25) on the slope; on the flat, the weights the
+#: flat experiment's published gains come from (4.2.1).
+THESIS_WEIGHTS = ([10.0, 10.0, 1.0, 1.0], 1000.0)  # (4.25)
+THESIS_FLAT_WEIGHTS = ([100.0, 1.0, 1.0, 1.0], 480.0)
+
+
+def thesis_weights(slope: float):
+    """(Q, R) of the thesis's LQR for a run on `slope` [rad] (flat: 0)."""
+    return THESIS_WEIGHTS if slope else THESIS_FLAT_WEIGHTS
+
+
+def _lqr(ctrl_params, slope, speed, point, period):
     design_model = _core.SlopeModel(ctrl_params, slope)
-    return _core.LqrController.design(design_model, speed, Q, R, point=point, period=period)
+    q, r = thesis_weights(slope)
+    return _core.LqrController.design(design_model, speed, q, r, point=point, period=period)
 
 
 @register("slope-lqr-sim")
@@ -22,7 +34,7 @@ def _slope_lqr_sim(params, ctrl_params, point="operating", period=1e-3, t_final=
         name="slope-lqr-sim",
         description="LQR on a 15 deg slope, constant 250 deg/s from rest (thesis 4.1.1, Fig 4.2)",
         model=_core.SlopeModel(params, slope),
-        controller=_lqr(ctrl_params, slope, speed, [10, 10, 1, 1], 1000.0, point, period),
+        controller=_lqr(ctrl_params, slope, speed, point, period),
         x0=np.zeros(4),
         reference=_core.SpeedSchedule.constant(speed),
         t_final=t_final,
@@ -39,7 +51,7 @@ def _flat_lqr_sim(params, ctrl_params, point="operating", period=1e-3, t_final=1
         name="flat-lqr-sim",
         description="LQR on the flat, constant 180 deg/s from rest (thesis 4.2.1, Fig 4.9)",
         model=_core.SlopeModel(params, 0.0),
-        controller=_lqr(ctrl_params, 0.0, speed, [100, 1, 1, 1], 480.0, point, period),
+        controller=_lqr(ctrl_params, 0.0, speed, point, period),
         x0=np.zeros(4),
         reference=_core.SpeedSchedule.constant(speed),
         t_final=t_final,
@@ -59,7 +71,7 @@ def _slope_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, se
         name="slope-lqr",
         description="LQR on a 15 deg slope: 0.6 m at 250 deg/s, hold 5 s, back (thesis 4.1.1, Fig 4.3)",
         model=plant,
-        controller=_lqr(ctrl_params, slope, speed, [10, 10, 1, 1], 1000.0, point, period),
+        controller=_lqr(ctrl_params, slope, speed, point, period),
         x0=x0,
         reference=_core.SpeedSchedule([(distance / params.wheel_radius, speed, hold), (0.0, speed, settle)]),
         t_final=2 * leg + hold + settle,
@@ -79,7 +91,7 @@ def _flat_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, set
         name="flat-lqr",
         description="LQR on the flat: 1 m at 180 deg/s and back (thesis 4.2.1, Fig 4.10)",
         model=_core.SlopeModel(params, 0.0),
-        controller=_lqr(ctrl_params, 0.0, speed, [100, 1, 1, 1], 480.0, point, period),
+        controller=_lqr(ctrl_params, 0.0, speed, point, period),
         x0=np.zeros(4),
         reference=_core.SpeedSchedule([(distance / params.wheel_radius, speed, hold), (0.0, speed, settle)]),
         t_final=2 * leg + hold + settle,
