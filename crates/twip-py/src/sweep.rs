@@ -217,7 +217,7 @@ pub fn sweep_draw<'py>(
 pub fn controller_fingerprint(controller: &Bound<'_, PyAny>) -> PyResult<String> {
     match SlopeController::extract(controller) {
         Ok(c) => Ok(format!("{c:?}")),
-        Err(_) => Ok(format!("{:?}", crate::tracking::PlanarController::extract(controller)?)),
+        Err(_) => Ok(format!("{:?}", crate::simulate_planar::PlanarController::extract(controller)?)),
     }
 }
 

@@ -17,7 +17,8 @@ use crate::errors::PyTwipError;
 use crate::params::params_dict;
 use crate::models::PyPlanarModel;
 use crate::sweep::{parse_perturbations, run_sweep, PerturbTuple};
-use crate::tracking::{settle_time, trajectory, PlanarController};
+use crate::simulate_planar::{settle_time, PlanarController};
+use crate::trajectory::trajectory;
 
 fn nominal(model: &PyPlanarModel, x0: &Bound<'_, PyAny>) -> PyResult<PlanarNominal> {
     crate::sweep::no_friction_in_sweeps(model.inner.friction().is_some())?;
