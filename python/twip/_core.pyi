@@ -51,6 +51,8 @@ __all__ = [
     "simulate_raw",
     "sweep_draw",
     "sweep_noise_seed",
+    "sweep_kernel",
+    "DEFAULT_FALL_LIMIT",
     "controller_fingerprint",
     "sweep_planar_draw",
     "sweep_planar_raw",
@@ -538,6 +540,9 @@ def sweep_raw(model: SlopeModel, controller: Any, x0: _ArrayLike, t_final: float
               count: int, control_period: Optional[float] = None, threads: int = 0,
               progress: Optional[Callable[[int], Any]] = None, realism: Optional[Realism] = None) -> dict[str, Any]: ...
 def sweep_noise_seed(seed: int) -> int: ...
+def sweep_kernel(controller: Any, realism: bool = False) -> str: ...
+
+DEFAULT_FALL_LIMIT: float
 def controller_fingerprint(controller: Any) -> str: ...
 def sweep_draw(model: SlopeModel, x0: _ArrayLike, perturbations: Sequence[Tuple[str, int, str, float, float, float, float]],
                seed: int, index: int) -> Tuple[dict[str, float], float, _F64]: ...

@@ -172,11 +172,7 @@ def kernel_for(sc, realism=None) -> str:
     "realism", "planar", "planar-realism", "lanes" (LQR, vectorised) or "general"."""
     if user_sweep.is_user_controller(sc.controller):
         return "python"
-    if _family(sc).planar:
-        return "planar" if realism is None else "planar-realism"
-    if realism is not None:
-        return "realism"
-    return "lanes" if isinstance(sc.controller, _core.LqrController) else "general"
+    return _core.sweep_kernel(sc.controller, realism is not None)
 
 
 def _target(name: str, sc):

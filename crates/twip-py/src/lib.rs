@@ -12,6 +12,7 @@ mod interrupt;
 mod lqr;
 mod params;
 mod realism;
+mod run_result;
 mod schedule;
 mod settings;
 mod simulate;
@@ -45,6 +46,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::sweep_raw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_draw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_noise_seed, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::sweep_kernel, m)?)?;
+    m.add("DEFAULT_FALL_LIMIT", twip_core::sim::runner::DEFAULT_FALL_LIMIT)?;
     m.add_function(wrap_pyfunction!(sweep::controller_fingerprint, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_planar::sweep_planar_raw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_planar::sweep_planar_draw, m)?)?;

@@ -1,5 +1,4 @@
 //! The closed-loop runner for the 3-DOF model: any 3-DOF controller, one code path.
-use numpy::{IntoPyArray, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::Controller;
@@ -13,6 +12,7 @@ use twip_core::sim::tracking_metrics::TrackingMetrics;
 use twip_core::control::trajectory::{PlanarRef, Trajectory};
 
 use crate::convert::vector;
+use crate::run_result::{run_dict, LogLayout};
 use crate::errors::{invalid, PyTwipError};
 use crate::models::PyPlanarModel;
 use crate::user_controller::{is_user_controller, UserController};
@@ -145,44 +145,15 @@ pub fn simulate_planar_raw<'py>(
             }
             (ctrl.internal_names(), out.map_err(PyTwipError)?)
         };
-    let ref_names = <PlanarRef<f64> as LogRow<f64>>::NAMES;
-    let extra = if realism.is_some() { PLANAR_RIG_SIGNALS.len() } else { 0 };
-    let widths = [7, 2, ref_names.len(), names.len() + extra];
+    let layout = LogLayout {
+        states: 7,
+        inputs: 2,
+        reference_names: <PlanarRef<f64> as LogRow<f64>>::NAMES,
+        internal_names: names,
+        signal_names: realism.is_some().then_some(&PLANAR_RIG_SIGNALS[..]),
+    };
     let summary = metrics.summary();
-    let out = PyDict::new(py);
-    let rows = log.len();
-    let reshape = |v: Vec<f64>, cols: usize| -> PyResult<Bound<'py, PyArray2<f64>>> {
-        Ok(numpy::ndarray::Array2::from_shape_vec((rows, cols), v)
-            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?
-            .into_pyarray(py))
-    };
-    out.set_item("t", log.t.into_pyarray(py))?;
-    out.set_item("states", reshape(log.x, 7)?)?;
-    out.set_item("inputs", reshape(log.u, 2)?)?;
-    out.set_item("references", reshape(log.reference, widths[2])?)?;
-    out.set_item("reference_names", ref_names.to_vec())?;
-    crate::simulate::set_internals_and_signals(&out, log.internals, rows, names, extra > 0, &PLANAR_RIG_SIGNALS)?;
-    let (name, t_end) = match outcome {
-        Outcome::Completed => ("completed", None),
-        Outcome::Fell { t } => ("fell", Some(t)),
-        Outcome::Diverged { t } => ("diverged", Some(t)),
-        Outcome::Interrupted { t } => ("interrupted", Some(t)),
-    };
-    out.set_item("outcome", name)?;
-    out.set_item("t_end", t_end)?;
-    out.set_item("steps", steps)?;
-    let m = PyDict::new(py);
-    m.set_item("mean_abs_x_error", summary.mean_abs_x_error)?;
-    m.set_item("mean_abs_y_error", summary.mean_abs_y_error)?;
-    m.set_item("mean_abs_x_error_settled", summary.mean_abs_x_error_settled)?;
-    m.set_item("mean_abs_y_error_settled", summary.mean_abs_y_error_settled)?;
-    m.set_item("max_path_error_settled", summary.max_path_error_settled)?;
-    m.set_item("mean_abs_pitch", summary.mean_abs_pitch)?;
-    m.set_item("peak_abs_torque", summary.peak_abs_torque)?;
     let peaks = DrivePeaks::from_wheel_torque(plant.params(), summary.peak_abs_torque);
-    m.set_item("peak_current", peaks.current)?;
-    m.set_item("peak_torque", peaks.torque)?;
-    m.set_item("settle", settle)?;
-    out.set_item("metrics", m)?;
-    Ok(out)
+    let named = summary.named().into_iter().chain(peaks.named()).chain([("settle", settle)]);
+    run_dict(py, log, &layout, outcome, steps, named)
 }

@@ -85,7 +85,7 @@ pub fn sweep_planar_raw<'py>(
     if let Some(r) = &nominal_realism {
         r.build_planar(&model.inner, config.dt).map_err(PyTwipError)?;
     }
-    let kernel = if realism.is_some() { "planar-realism" } else { "planar" };
+    let kernel = kernel_of(realism.is_some());
     run_sweep(py, start..start + count, BLOCK, threads, progress.as_ref(), kernel, |range, stop| {
         range
             .map(|i| {
@@ -101,4 +101,9 @@ pub fn sweep_planar_raw<'py>(
             })
             .collect()
     })
+}
+
+/// The kernel a 3-DOF sweep runs on.
+pub(crate) fn kernel_of(realism: bool) -> &'static str {
+    if realism { "planar-realism" } else { "planar" }
 }
