@@ -68,7 +68,7 @@ def simulate(
     dt: float = 1e-3,
     reference=None,
     control_period: Optional[float] = None,
-    fall_limit: float = math.radians(60.0),
+    fall_limit: float = _core.DEFAULT_FALL_LIMIT,
     record_every: int = 1,
     settle: Optional[float] = None,
     realism=None,

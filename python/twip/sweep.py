@@ -172,11 +172,7 @@ def kernel_for(sc, realism=None) -> str:
     "realism", "planar", "planar-realism", "lanes" (LQR, vectorised) or "general"."""
     if user_sweep.is_user_controller(sc.controller):
         return "python"
-    if _family(sc).planar:
-        return "planar" if realism is None else "planar-realism"
-    if realism is not None:
-        return "realism"
-    return "lanes" if isinstance(sc.controller, _core.LqrController) else "general"
+    return _core.sweep_kernel(sc.controller, realism is not None)
 
 
 def _target(name: str, sc):
@@ -576,43 +572,14 @@ def _scenario_of(scenario, params, options):
 def _realism_config(r) -> dict:
     """A Realism as plain JSON values (for the checkpoint fingerprint and Dask workers),
     without seed and stream, which a sweep replaces."""
-    d = r.to_dict()
-    est = d["estimator"]
-    return {
-        "imu": None if d["imu"] is None else {k: list(v) if isinstance(v, tuple) else v
-                                              for k, v in d["imu"].to_dict().items()},
-        "estimator": {"kind": est.kind, **est.parameters},
-        "encoder_cpr": d["encoder_cpr"],
-        "motor": None if d["motor"] is None else d["motor"].to_dict(),
-        "delay": d["delay"],
-        "control_period": d["control_period"],
-        "pushes": [[p.t, p.impulse, p.height] for p in d["pushes"]],
-        "force": None if d["force"] is None else [d["force"].horizontal, d["force"].vertical, d["force"].height],
-        "slope_profile": [list(c) for c in d["slope_profile"]],
-        "friction": None if d["friction"] is None else [getattr(d["friction"], k) for k in _FRICTION_FIELDS],
-    }
-
-
-_FRICTION_FIELDS = ("coulomb", "breakaway", "stribeck_speed", "viscous", "smoothing_speed")
+    c = json.loads(r.to_json())
+    del c["seed"], c["stream"]
+    return c
 
 
 def _realism_from_config(c: dict):
     """The Realism `_realism_config` describes (seed and stream 0)."""
-    est = dict(c["estimator"])
-    kind = est.pop("kind")
-    return _core.Realism(
-        imu=None if c["imu"] is None else _core.Imu(**{k: tuple(v) if isinstance(v, list) else v
-                                                       for k, v in c["imu"].items()}),
-        estimator=getattr(_core.TiltEstimator, kind)(**est),
-        encoder_cpr=c["encoder_cpr"],
-        motor=None if c["motor"] is None else _core.MotorDriver(**c["motor"]),
-        delay=c["delay"],
-        control_period=c["control_period"],
-        pushes=[_core.Push(*p) for p in c["pushes"]],
-        force=None if c["force"] is None else _core.Force(*c["force"]),
-        slope_profile=[tuple(p) for p in c["slope_profile"]],
-        friction=None if c.get("friction") is None else _core.Friction(**dict(zip(_FRICTION_FIELDS, c["friction"]))),
-    )
+    return _core.Realism.from_json(json.dumps(c))
 
 
 def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism=None):

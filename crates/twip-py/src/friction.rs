@@ -38,37 +38,18 @@ impl PyFriction {
         Ok(Self { inner: Friction::gb37_beside(viscous_per_wheel).validate()? })
     }
 
-    #[getter]
-    fn coulomb(&self) -> f64 {
-        self.inner.coulomb
-    }
-    #[getter]
-    fn breakaway(&self) -> f64 {
-        self.inner.breakaway
-    }
-    #[getter]
-    fn stribeck_speed(&self) -> f64 {
-        self.inner.stribeck_speed
-    }
-    #[getter]
-    fn viscous(&self) -> f64 {
-        self.inner.viscous
-    }
-    #[getter]
-    fn smoothing_speed(&self) -> f64 {
-        self.inner.smoothing_speed
-    }
-
     /// The friction torque [N m] at the wheel's speed relative to the body `w` [rad/s].
     fn torque(&self, w: f64) -> f64 {
         self.inner.torque(w)
     }
-
-    fn __repr__(&self) -> String {
-        let f = &self.inner;
-        format!(
-            "Friction(coulomb={:?}, breakaway={:?}, stribeck_speed={:?}, viscous={:?}, smoothing_speed={:?})",
-            f.coulomb, f.breakaway, f.stribeck_speed, f.viscous, f.smoothing_speed
-        )
-    }
 }
+
+crate::settings::settings_class!(PyFriction, "Friction",
+    settings {
+        coulomb: f64 = |s| s.inner.coulomb;
+        breakaway: f64 = |s| s.inner.breakaway;
+        stribeck_speed: f64 = |s| s.inner.stribeck_speed;
+        viscous: f64 = |s| s.inner.viscous;
+        smoothing_speed: f64 = |s| s.inner.smoothing_speed;
+    }
+);

@@ -1,6 +1,6 @@
 //! `twip.Trapezoid`, `twip.Triangle`, `twip.Gaussian`, `twip.FuzzyBasis` and
 //! `twip.FuzzyController` (fuzzy adaptive backstepping + PD, thesis 4.1.2).
-use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArrayLikeDyn};
+use numpy::{AllowTypeChange, IntoPyArray, PyArrayLikeDyn};
 use pyo3::prelude::*;
 use twip_core::control::fuzzy_basis::{grid_product, normalised_memberships, Membership, ThesisBasis};
 use twip_core::control::fuzzy::{Adaptation, FuzzyController, FuzzyGains, DEFAULT_GAMMA, DEFAULT_SIGMA, FUZZY_INTERNALS};
@@ -407,61 +407,6 @@ impl PyFuzzyController {
         build(model, FuzzyGains { ki, ..FuzzyGains::thesis_flat() }, gamma, sigma, adapt, sets, period, s0)
     }
 
-    #[getter]
-    fn k1(&self) -> f64 {
-        self.inner.gains().k1
-    }
-    #[getter]
-    fn k2(&self) -> f64 {
-        self.inner.gains().k2
-    }
-    #[getter]
-    fn kp(&self) -> f64 {
-        self.inner.gains().kp
-    }
-    #[getter]
-    fn kd(&self) -> f64 {
-        self.inner.gains().kd
-    }
-    #[getter]
-    fn ki(&self) -> f64 {
-        self.inner.gains().ki
-    }
-    #[getter]
-    fn gamma(&self) -> f64 {
-        self.inner.adaptation().gamma
-    }
-    #[getter]
-    fn sigma(&self) -> f64 {
-        self.inner.adaptation().sigma
-    }
-    #[getter]
-    fn adapt(&self) -> bool {
-        self.inner.adaptation().enabled
-    }
-
-    #[getter]
-    fn period(&self) -> f64 {
-        use twip_core::control::Controller;
-        self.inner.period()
-    }
-
-    #[getter]
-    fn model(&self) -> PySlopeModel {
-        PySlopeModel { inner: *self.inner.model() }
-    }
-
-    #[getter]
-    fn basis(&self) -> PyFuzzyBasis {
-        PyFuzzyBasis { sets: self.inner.basis().sets().iter().map(|r| r.to_vec()).collect() }
-    }
-
-    /// The weights S the controller starts from (and resets to).
-    #[getter]
-    fn s0<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        self.inner.initial_weights().to_vec().into_pyarray(py)
-    }
-
     /// Names of the logged internals (SimResult.internals).
     #[getter]
     fn internal_names(&self) -> Vec<&'static str> {
@@ -478,19 +423,34 @@ impl PyFuzzyController {
         self.inner.g1(phi)
     }
 
-    fn __repr__(&self) -> String {
-        let g = self.inner.gains();
-        let a = self.inner.adaptation();
-        format!(
-            "FuzzyController(k1={:?}, k2={:?}, kp={:?}, kd={:?}, ki={:?}, gamma={:?}, sigma={:?}, adapt={})",
-            g.k1,
-            g.k2,
-            g.kp,
-            g.kd,
-            g.ki,
-            a.gamma,
-            a.sigma,
-            if a.enabled { "True" } else { "False" }
-        )
+}
+
+crate::settings::settings_class!(PyFuzzyController, "FuzzyController",
+    settings {
+        /// The controller's own model (phi_s and G1).
+        model: PySlopeModel = |s| PySlopeModel { inner: *s.inner.model() };
+        k1: f64 = |s| s.inner.gains().k1;
+        k2: f64 = |s| s.inner.gains().k2;
+        kp: f64 = |s| s.inner.gains().kp;
+        kd: f64 = |s| s.inner.gains().kd;
+        gamma: f64 = |s| s.inner.adaptation().gamma;
+        sigma: f64 = |s| s.inner.adaptation().sigma;
+        ki: f64 = |s| s.inner.gains().ki;
+        adapt: bool = |s| s.inner.adaptation().enabled;
+        /// The (phi, phi_dot) x (N, Z, P) sets.
+        sets: PyFuzzyBasis = |s| s.basis_of();
+        period: f64 = |s| twip_core::control::Controller::period(&s.inner);
+        /// The weights S the controller starts from (and resets to).
+        s0: Vec<f64> = |s| s.inner.initial_weights().to_vec();
+    }
+    derived {
+        /// The (phi, phi_dot) x (N, Z, P) sets (the same as `sets`).
+        basis: PyFuzzyBasis = |s| s.basis_of();
+    }
+);
+
+impl PyFuzzyController {
+    fn basis_of(&self) -> PyFuzzyBasis {
+        PyFuzzyBasis { sets: self.inner.basis().sets().iter().map(|r| r.to_vec()).collect() }
     }
 }

@@ -12,11 +12,16 @@ mod interrupt;
 mod lqr;
 mod params;
 mod realism;
+mod run_result;
 mod schedule;
+mod settings;
 mod simulate;
 mod sweep;
 mod sweep_planar;
+mod motor;
+mod simulate_planar;
 mod tracking;
+mod trajectory;
 mod user_controller;
 
 #[pymodule]
@@ -41,16 +46,18 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::sweep_raw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_draw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_noise_seed, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::sweep_kernel, m)?)?;
+    m.add("DEFAULT_FALL_LIMIT", twip_core::sim::runner::DEFAULT_FALL_LIMIT)?;
     m.add_function(wrap_pyfunction!(sweep::controller_fingerprint, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_planar::sweep_planar_raw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_planar::sweep_planar_draw, m)?)?;
-    m.add_class::<tracking::PyCircle>()?;
-    m.add_class::<tracking::PyLine>()?;
-    m.add_class::<tracking::PyFigureEight>()?;
-    m.add_class::<tracking::PyWaypoints>()?;
-    m.add_class::<tracking::PyDcMotor>()?;
+    m.add_class::<trajectory::PyCircle>()?;
+    m.add_class::<trajectory::PyLine>()?;
+    m.add_class::<trajectory::PyFigureEight>()?;
+    m.add_class::<trajectory::PyWaypoints>()?;
+    m.add_class::<motor::PyDcMotor>()?;
     m.add_class::<tracking::PyPidTracker>()?;
     m.add_class::<tracking::PySmcTracker>()?;
-    m.add_function(wrap_pyfunction!(tracking::simulate_planar_raw, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate_planar::simulate_planar_raw, m)?)?;
     Ok(())
 }

@@ -4,7 +4,7 @@
 use crate::friction::PyFriction;
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyList, PyTuple};
 use twip_core::hardware::disturbance::{Force, Push, Pushes, SlopeProfile};
 use twip_core::hardware::driver::{MotorDriver, PwmActuator};
 use twip_core::hardware::imu::{dlpf_config, Channel, Dlpf, ImuSettings, DLPF_TABLE, STANDARD_GRAVITY};
@@ -23,18 +23,6 @@ fn positive_rate(name: &'static str, rate: f64) -> CoreResult<f64> {
     } else {
         Err(invalid(name, rate, "must be finite and > 0"))
     }
-}
-
-/// `cls(**kw)` with the current fields overridden by `changes`.
-fn replaced<'py, T: pyo3::PyClass>(
-    slf: &Bound<'py, T>,
-    current: Bound<'py, PyDict>,
-    changes: Option<&Bound<'py, PyDict>>,
-) -> PyResult<Bound<'py, PyAny>> {
-    if let Some(c) = changes {
-        current.update(c.as_mapping())?;
-    }
-    slf.as_any().get_type().call((), Some(&current))
 }
 
 // --- IMU ------------------------------------------------------------------------------
@@ -102,95 +90,33 @@ impl PyImu {
         Self { inner: ImuSettings::thesis_like(), dlpf_hz: 42.0, gyro_range_dps: 250.0, accel_range_g: 2.0 }
     }
 
-    #[getter]
-    fn dlpf_hz(&self) -> f64 {
-        self.dlpf_hz
-    }
-    /// DLPF_CFG, the row of Table 2.2.
-    #[getter]
-    fn dlpf_cfg(&self) -> usize {
-        self.inner.dlpf
-    }
-    #[getter]
-    fn height(&self) -> f64 {
-        self.inner.height
-    }
-    #[getter]
-    fn gyro_noise(&self) -> f64 {
-        self.inner.gyro_noise
-    }
-    #[getter]
-    fn accel_noise(&self) -> f64 {
-        self.inner.accel_noise
-    }
-    #[getter]
-    fn gyro_bias(&self) -> f64 {
-        self.inner.gyro_bias
-    }
-    #[getter]
-    fn gyro_bias_walk(&self) -> f64 {
-        self.inner.gyro_bias_walk
-    }
-    #[getter]
-    fn accel_bias(&self) -> (f64, f64) {
-        (self.inner.accel_bias[0], self.inner.accel_bias[1])
-    }
-    #[getter]
-    fn gyro_range_dps(&self) -> f64 {
-        self.gyro_range_dps
-    }
-    #[getter]
-    fn accel_range_g(&self) -> f64 {
-        self.accel_range_g
-    }
-    #[getter]
-    fn quantise(&self) -> bool {
-        self.inner.quantise
-    }
-    #[getter]
-    fn sample_rate(&self) -> f64 {
-        1.0 / self.inner.sample_period
-    }
-
     /// The filter of one sensor ("accel" or "gyro") as set up here.
     #[pyo3(signature = (sensor = "gyro"))]
     fn dlpf(&self, sensor: &str) -> PyResult<PyDlpf> {
         PyDlpf::mpu6050(self.dlpf_hz, sensor, 1.0 / self.inner.sample_period)
     }
 
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        d.set_item("dlpf_hz", self.dlpf_hz)?;
-        d.set_item("height", self.inner.height)?;
-        d.set_item("gyro_noise", self.inner.gyro_noise)?;
-        d.set_item("accel_noise", self.inner.accel_noise)?;
-        d.set_item("gyro_bias", self.inner.gyro_bias)?;
-        d.set_item("gyro_bias_walk", self.inner.gyro_bias_walk)?;
-        d.set_item("accel_bias", self.accel_bias())?;
-        d.set_item("gyro_range_dps", self.gyro_range_dps())?;
-        d.set_item("accel_range_g", self.accel_range_g())?;
-        d.set_item("quantise", self.inner.quantise)?;
-        d.set_item("sample_rate", self.sample_rate())?;
-        Ok(d)
-    }
-
-    #[pyo3(signature = (**changes))]
-    fn replace<'py>(slf: &Bound<'py, Self>, changes: Option<&Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
-        replaced(slf, slf.get().to_dict(slf.py())?, changes)
-    }
-
-    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
-        Ok(format!("Imu({})", kwargs_repr(&self.to_dict(py)?)?))
-    }
 }
 
-fn kwargs_repr(d: &Bound<'_, PyDict>) -> PyResult<String> {
-    let mut parts = Vec::new();
-    for (k, v) in d.iter() {
-        parts.push(format!("{}={}", k.str()?, v.repr()?));
+crate::settings::settings_class!(PyImu, "Imu",
+    settings {
+        dlpf_hz: f64 = |s| s.dlpf_hz;
+        height: f64 = |s| s.inner.height;
+        gyro_noise: f64 = |s| s.inner.gyro_noise;
+        accel_noise: f64 = |s| s.inner.accel_noise;
+        gyro_bias: f64 = |s| s.inner.gyro_bias;
+        gyro_bias_walk: f64 = |s| s.inner.gyro_bias_walk;
+        accel_bias: (f64, f64) = |s| (s.inner.accel_bias[0], s.inner.accel_bias[1]);
+        gyro_range_dps: f64 = |s| s.gyro_range_dps;
+        accel_range_g: f64 = |s| s.accel_range_g;
+        quantise: bool = |s| s.inner.quantise;
+        sample_rate: f64 = |s| 1.0 / s.inner.sample_period;
     }
-    Ok(parts.join(", "))
-}
+    derived {
+        /// DLPF_CFG, the row of Table 2.2.
+        dlpf_cfg: usize = |s| s.inner.dlpf;
+    }
+);
 
 // --- DLPF ------------------------------------------------------------------------------
 
@@ -247,38 +173,23 @@ impl PyDlpf {
         x.iter().map(|v| f.filter(*v)).collect::<Vec<f64>>().into_pyarray(py)
     }
 
-    #[getter]
-    fn bandwidth_hz(&self) -> f64 {
-        self.bandwidth
-    }
-    #[getter]
-    fn delay(&self) -> f64 {
-        self.delay
-    }
-    #[getter]
-    fn sample_rate(&self) -> f64 {
-        self.sample_rate
-    }
-    /// Damping of the second-order section.
-    #[getter]
-    fn zeta(&self) -> f64 {
-        self.inner.zeta()
-    }
-    /// Natural frequency of the (analogue) section [rad/s].
-    #[getter]
-    fn natural_frequency(&self) -> f64 {
-        self.inner.natural_frequency()
-    }
-    /// The pure delay after the section [s].
-    #[getter]
-    fn pure_delay(&self) -> f64 {
-        self.inner.pure_delay()
-    }
-
-    fn __repr__(&self) -> String {
-        format!("Dlpf(bandwidth_hz={}, delay={}, sample_rate={})", self.bandwidth, self.delay, self.sample_rate)
-    }
 }
+
+crate::settings::settings_class!(PyDlpf, "Dlpf",
+    settings {
+        bandwidth_hz: f64 = |s| s.bandwidth;
+        delay: f64 = |s| s.delay;
+        sample_rate: f64 = |s| s.sample_rate;
+    }
+    derived {
+        /// Damping of the second-order section.
+        zeta: f64 = |s| s.inner.zeta();
+        /// Natural frequency of the (analogue) section [rad/s].
+        natural_frequency: f64 = |s| s.inner.natural_frequency();
+        /// The pure delay after the section [s].
+        pure_delay: f64 = |s| s.inner.pure_delay();
+    }
+);
 
 // --- tilt estimator ---------------------------------------------------------------------
 
@@ -359,7 +270,7 @@ impl PyTiltEstimator {
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
-        Ok(format!("TiltEstimator.{}({})", self.kind(), kwargs_repr(&self.parameters(py)?)?))
+        Ok(format!("TiltEstimator.{}({})", self.kind(), crate::settings::kwargs_repr(&self.parameters(py)?)?))
     }
 }
 
@@ -431,35 +342,6 @@ impl PyMotorDriver {
         Self { inner: MotorDriver::thesis_like() }
     }
 
-    #[getter]
-    fn battery(&self) -> f64 {
-        self.inner.battery
-    }
-    #[getter]
-    fn bridge_drop(&self) -> f64 {
-        self.inner.bridge_drop
-    }
-    #[getter]
-    fn resistance(&self) -> f64 {
-        self.inner.resistance
-    }
-    #[getter]
-    fn inductance(&self) -> f64 {
-        self.inner.inductance
-    }
-    #[getter]
-    fn efficiency(&self) -> f64 {
-        self.inner.efficiency
-    }
-    #[getter]
-    fn current_limit(&self) -> Option<f64> {
-        self.inner.current_limit.is_finite().then_some(self.inner.current_limit)
-    }
-    #[getter]
-    fn assumed_battery(&self) -> f64 {
-        self.inner.assumed_battery
-    }
-
     /// Steady winding current of one motor [A] at terminal `voltage` and relative wheel
     /// speed theta_dot - phi_dot [rad/s] (the robot's torque constant and gear ratio).
     #[pyo3(signature = (voltage, wheel_speed, params = None))]
@@ -480,27 +362,19 @@ impl PyMotorDriver {
         Ok(PwmActuator::new(&self.inner, &params_or_default(params))?.duty(lumped_current, wheel_speed))
     }
 
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        d.set_item("battery", self.inner.battery)?;
-        d.set_item("bridge_drop", self.inner.bridge_drop)?;
-        d.set_item("resistance", self.inner.resistance)?;
-        d.set_item("inductance", self.inner.inductance)?;
-        d.set_item("efficiency", self.inner.efficiency)?;
-        d.set_item("current_limit", self.current_limit())?;
-        d.set_item("assumed_battery", self.inner.assumed_battery)?;
-        Ok(d)
-    }
-
-    #[pyo3(signature = (**changes))]
-    fn replace<'py>(slf: &Bound<'py, Self>, changes: Option<&Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
-        replaced(slf, slf.get().to_dict(slf.py())?, changes)
-    }
-
-    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
-        Ok(format!("MotorDriver({})", kwargs_repr(&self.to_dict(py)?)?))
-    }
 }
+
+crate::settings::settings_class!(PyMotorDriver, "MotorDriver",
+    settings {
+        battery: f64 = |s| s.inner.battery;
+        bridge_drop: f64 = |s| s.inner.bridge_drop;
+        resistance: f64 = |s| s.inner.resistance;
+        inductance: f64 = |s| s.inner.inductance;
+        efficiency: f64 = |s| s.inner.efficiency;
+        current_limit: Option<f64> = |s| s.inner.current_limit.is_finite().then_some(s.inner.current_limit);
+        assumed_battery: f64 = |s| s.inner.assumed_battery;
+    }
+);
 
 // --- disturbances -----------------------------------------------------------------------
 
@@ -509,11 +383,8 @@ impl PyMotorDriver {
 #[pyclass(name = "Push", module = "twip", frozen)]
 #[derive(Clone, Copy)]
 pub struct PyPush {
-    #[pyo3(get)]
     t: f64,
-    #[pyo3(get)]
     impulse: f64,
-    #[pyo3(get)]
     height: Option<f64>,
 }
 
@@ -526,21 +397,23 @@ impl PyPush {
         Ok(Self { t, impulse, height })
     }
 
-    fn __repr__(&self) -> String {
-        format!("Push(t={}, impulse={}, height={:?})", self.t, self.impulse, self.height)
-    }
 }
+
+crate::settings::settings_class!(PyPush, "Push",
+    settings {
+        t: f64 = |s| s.t;
+        impulse: f64 = |s| s.impulse;
+        height: Option<f64> = |s| s.height;
+    }
+);
 
 /// A constant force on the body [N]: `horizontal` (positive forward), `vertical`
 /// (positive up), at `height` [m] up the body's axis (default: the centre of mass).
 #[pyclass(name = "Force", module = "twip", frozen)]
 #[derive(Clone, Copy)]
 pub struct PyForce {
-    #[pyo3(get)]
     horizontal: f64,
-    #[pyo3(get)]
     vertical: f64,
-    #[pyo3(get)]
     height: Option<f64>,
 }
 
@@ -553,10 +426,15 @@ impl PyForce {
         Ok(Self { horizontal, vertical, height })
     }
 
-    fn __repr__(&self) -> String {
-        format!("Force(horizontal={}, vertical={}, height={:?})", self.horizontal, self.vertical, self.height)
-    }
 }
+
+crate::settings::settings_class!(PyForce, "Force",
+    settings {
+        horizontal: f64 = |s| s.horizontal;
+        vertical: f64 = |s| s.vertical;
+        height: Option<f64> = |s| s.height;
+    }
+);
 
 fn push(obj: &Bound<'_, PyAny>) -> PyResult<PyPush> {
     if let Ok(p) = obj.cast::<PyPush>() {
@@ -690,96 +568,131 @@ impl PyRealism {
         }
     }
 
-    #[getter]
-    fn imu(&self) -> Option<PyImu> {
-        self.imu.clone()
+}
+
+crate::settings::settings_class!(PyRealism, "Realism",
+    settings {
+        imu: Option<PyImu> = |s| s.imu.clone();
+        estimator: PyTiltEstimator = |s| PyTiltEstimator { inner: s.estimator };
+        encoder_cpr: Option<f64> = |s| s.encoder_cpr;
+        motor: Option<PyMotorDriver> = |s| s.motor.map(|inner| PyMotorDriver { inner });
+        delay: bool = |s| s.delay;
+        control_period: Option<f64> = |s| s.control_period;
+        pushes: Vec<PyPush> = |s| s.pushes.clone();
+        force: Option<PyForce> = |s| s.force;
+        slope_profile: Vec<(f64, f64)> = |s| s.slope_profile.clone();
+        /// Gearhead friction per wheel on the rig's plant (None: the model's own).
+        friction: Option<PyFriction> = |s| s.friction;
+        seed: u64 = |s| s.seed;
+        stream: u64 = |s| s.stream;
     }
-    #[getter]
-    fn estimator(&self) -> PyTiltEstimator {
-        PyTiltEstimator { inner: self.estimator }
+    derived {
+        /// True when every part is ideal and nothing disturbs the robot.
+        is_ideal: bool = |s| {
+            s.imu.is_none()
+                && s.encoder_cpr.is_none()
+                && s.motor.is_none()
+                && !s.delay
+                && s.control_period.is_none()
+                && s.pushes.is_empty()
+                && s.force.is_none()
+                && s.slope_profile.is_empty()
+                && s.friction.is_none()
+        };
     }
-    #[getter]
-    fn encoder_cpr(&self) -> Option<f64> {
-        self.encoder_cpr
-    }
-    #[getter]
-    fn motor(&self) -> Option<PyMotorDriver> {
-        self.motor.map(|inner| PyMotorDriver { inner })
-    }
-    #[getter]
-    fn delay(&self) -> bool {
-        self.delay
-    }
-    #[getter]
-    fn control_period(&self) -> Option<f64> {
-        self.control_period
-    }
-    #[getter]
-    fn pushes(&self) -> Vec<PyPush> {
-        self.pushes.clone()
-    }
-    #[getter]
-    fn force(&self) -> Option<PyForce> {
-        self.force
-    }
-    #[getter]
-    fn slope_profile(&self) -> Vec<(f64, f64)> {
-        self.slope_profile.clone()
-    }
-    /// Gearhead friction per wheel on the rig's plant (None: the model's own).
-    #[getter]
-    fn friction(&self) -> Option<PyFriction> {
-        self.friction
-    }
-    #[getter]
-    fn seed(&self) -> u64 {
-        self.seed
-    }
-    #[getter]
-    fn stream(&self) -> u64 {
-        self.stream
+);
+
+#[pymethods]
+impl PyRealism {
+    /// The settings as JSON text: every part as its `to_dict()`, the estimator as
+    /// {"kind", ...its parameters}. `Realism.from_json` reads it back.
+    fn to_json(&self, py: Python<'_>) -> PyResult<String> {
+        let plain = plain(self.to_dict(py)?.as_any())?;
+        py.import("json")?.call_method1("dumps", (plain,))?.extract()
     }
 
-    /// True when every part is ideal and nothing disturbs the robot.
-    #[getter]
-    fn is_ideal(&self) -> bool {
-        self.imu.is_none()
-            && self.encoder_cpr.is_none()
-            && self.motor.is_none()
-            && !self.delay
-            && self.control_period.is_none()
-            && self.pushes.is_empty()
-            && self.force.is_none()
-            && self.slope_profile.is_empty()
-            && self.friction.is_none()
+    /// The Realism that `to_json` wrote.
+    #[staticmethod]
+    fn from_json<'py>(py: Python<'py>, text: &str) -> PyResult<Self> {
+        let d = py.import("json")?.call_method1("loads", (text,))?;
+        let d = d.cast::<PyDict>().map_err(|_| InvalidParameterError::new_err("Realism JSON must be an object"))?;
+        let kw = PyDict::new(py);
+        for (k, v) in d.iter() {
+            let key: String = k.extract()?;
+            let part = |cls: &Bound<'py, PyAny>| -> PyResult<Bound<'py, PyAny>> {
+                if v.is_none() { Ok(v.clone()) } else { cls.call((), Some(&tuples(v.cast::<PyDict>()?)?)) }
+            };
+            let value = match key.as_str() {
+                "imu" => part(py.get_type::<PyImu>().as_any())?,
+                "motor" => part(py.get_type::<PyMotorDriver>().as_any())?,
+                "force" => part(py.get_type::<PyForce>().as_any())?,
+                "friction" => part(py.get_type::<PyFriction>().as_any())?,
+                "estimator" => {
+                    let e = tuples(v.cast::<PyDict>()?)?;
+                    let kind = e.get_item("kind")?.ok_or_else(|| InvalidParameterError::new_err("estimator: no 'kind'"))?;
+                    e.del_item("kind")?;
+                    py.get_type::<PyTiltEstimator>().getattr(kind.extract::<String>()?)?.call((), Some(&e))?
+                }
+                "pushes" => {
+                    let list = PyList::empty(py);
+                    for p in v.try_iter()? {
+                        list.append(py.get_type::<PyPush>().call((), Some(&tuples(p?.cast::<PyDict>()?)?))?)?;
+                    }
+                    list.into_any()
+                }
+                "slope_profile" => {
+                    let list = PyList::empty(py);
+                    for c in v.try_iter()? {
+                        list.append(PyTuple::new(py, c?.try_iter()?.collect::<PyResult<Vec<_>>>()?)?)?;
+                    }
+                    list.into_any()
+                }
+                _ => v.clone(),
+            };
+            kw.set_item(key, value)?;
+        }
+        Ok(py.get_type::<Self>().call((), Some(&kw))?.cast_into::<Self>()?.get().clone())
     }
+}
 
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        d.set_item("imu", self.imu())?;
-        d.set_item("estimator", self.estimator())?;
-        d.set_item("encoder_cpr", self.encoder_cpr)?;
-        d.set_item("motor", self.motor())?;
-        d.set_item("delay", self.delay)?;
-        d.set_item("control_period", self.control_period)?;
-        d.set_item("pushes", self.pushes())?;
-        d.set_item("force", self.force)?;
-        d.set_item("slope_profile", self.slope_profile())?;
-        d.set_item("friction", self.friction)?;
-        d.set_item("seed", self.seed)?;
-        d.set_item("stream", self.stream)?;
-        Ok(d)
+/// JSON-ready values: settings objects as their `to_dict()`, a tilt estimator as
+/// {"kind", ...its parameters}, tuples as lists.
+fn plain<'py>(v: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    let py = v.py();
+    if let Ok(e) = v.cast::<PyTiltEstimator>() {
+        let d = e.get().parameters(py)?;
+        d.set_item("kind", e.get().kind())?;
+        return Ok(d.into_any());
     }
+    if let Ok(d) = v.cast::<PyDict>() {
+        let out = PyDict::new(py);
+        for (k, x) in d.iter() {
+            out.set_item(k, plain(&x)?)?;
+        }
+        return Ok(out.into_any());
+    }
+    if v.is_instance_of::<PyTuple>() || v.is_instance_of::<PyList>() {
+        let items = v.try_iter()?.map(|x| plain(&x?)).collect::<PyResult<Vec<_>>>()?;
+        return Ok(PyList::new(py, items)?.into_any());
+    }
+    if v.hasattr("to_dict")? {
+        return plain(&v.call_method0("to_dict")?);
+    }
+    Ok(v.clone())
+}
 
-    /// A copy with some settings changed, e.g. `Realism.thesis_like().replace(delay=False)`.
-    #[pyo3(signature = (**changes))]
-    fn replace<'py>(slf: &Bound<'py, Self>, changes: Option<&Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
-        replaced(slf, slf.get().to_dict(slf.py())?, changes)
+/// A copy of keyword arguments read from JSON with its lists as tuples (pairs such as
+/// `accel_bias`).
+fn tuples<'py>(d: &Bound<'py, PyDict>) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(d.py());
+    for (k, v) in d.iter() {
+        if let Ok(l) = v.cast::<PyList>() {
+            out.set_item(k, l.to_tuple())?;
+        } else {
+            out.set_item(k, v)?;
+        }
     }
-
-    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
-        Ok(format!("Realism({})", kwargs_repr(&self.to_dict(py)?)?))
-    }
+    Ok(out)
 }
 
 impl PyRealism {

@@ -1,5 +1,4 @@
 //! The closed-loop runner for the 2-DOF model: any 2-DOF controller, one code path.
-use numpy::{IntoPyArray, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::Controller;
@@ -12,6 +11,7 @@ use twip_core::control::reference::{SpeedRef, SpeedSchedule};
 use twip_core::sim::runner::{simulate_until, Outcome, SimConfig};
 
 use crate::convert::vector;
+use crate::run_result::{run_dict, LogLayout};
 use crate::errors::{CoreResult, PyTwipError};
 use crate::fuzzy::PyFuzzyController;
 use crate::lqr::PyLqrController;
@@ -143,64 +143,12 @@ pub fn simulate_raw<'py>(
         }
         (ctrl.internal_names(), out.map_err(PyTwipError)?)
     };
-    let widths = run.widths(names.len());
-    let summary = metrics.summary();
-    let out = PyDict::new(py);
-    let rows = log.len();
-    let reshape = |v: Vec<f64>, cols: usize| -> PyResult<Bound<'py, PyArray2<f64>>> {
-        Ok(numpy::ndarray::Array2::from_shape_vec((rows, cols), v)
-            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?
-            .into_pyarray(py))
+    let layout = LogLayout {
+        states: 4,
+        inputs: 1,
+        reference_names: <SpeedRef<f64> as LogRow<f64>>::NAMES,
+        internal_names: &names,
+        signal_names: (extra > 0).then_some(&RIG_SIGNALS[..]),
     };
-    out.set_item("t", log.t.into_pyarray(py))?;
-    out.set_item("states", reshape(log.x, 4)?)?;
-    out.set_item("inputs", reshape(log.u, 1)?)?;
-    out.set_item("references", reshape(log.reference, widths[2])?)?;
-    out.set_item("reference_names", <SpeedRef<f64> as LogRow<f64>>::NAMES.to_vec())?;
-    set_internals_and_signals(&out, log.internals, rows, &names, extra > 0, &RIG_SIGNALS)?;
-    let (name, t_end) = match outcome {
-        Outcome::Completed => ("completed", None),
-        Outcome::Fell { t } => ("fell", Some(t)),
-        Outcome::Diverged { t } => ("diverged", Some(t)),
-        Outcome::Interrupted { t } => ("interrupted", Some(t)),
-    };
-    out.set_item("outcome", name)?;
-    out.set_item("t_end", t_end)?;
-    out.set_item("steps", steps)?;
-    let m = PyDict::new(py);
-    m.set_item("mean_abs_pitch_error", summary.mean_abs_pitch_error)?;
-    m.set_item("mean_abs_speed_error", summary.mean_abs_speed_error)?;
-    m.set_item("pitch_settling_time", summary.pitch_settling_time)?;
-    m.set_item("speed_settling_time", summary.speed_settling_time)?;
-    m.set_item("final_position_error", summary.final_position_error)?;
-    m.set_item("peak_abs_input", summary.peak_abs_input)?;
-    m.set_item("peak_current", summary.peak_current)?;
-    m.set_item("peak_torque", summary.peak_torque)?;
-    out.set_item("metrics", m)?;
-    Ok(out)
-}
-
-/// Sets `internals`, `internal_names`, `signals` and `signal_names` of a run's dict from
-/// its log's internals columns: the controller's internals, then (with realism) the
-/// rig's signals.
-pub(crate) fn set_internals_and_signals(
-    out: &Bound<'_, PyDict>,
-    columns: Vec<f64>,
-    rows: usize,
-    names: &[&str],
-    with_signals: bool,
-    signal_names: &[&str],
-) -> PyResult<()> {
-    let py = out.py();
-    let cut = names.len();
-    let width = cut + if with_signals { signal_names.len() } else { 0 };
-    let table = numpy::ndarray::Array2::from_shape_vec((rows, width), columns)
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
-    let signals = with_signals.then(|| table.slice(numpy::ndarray::s![.., cut..]).to_owned().into_pyarray(py));
-    let internals = if with_signals { table.slice(numpy::ndarray::s![.., ..cut]).to_owned() } else { table };
-    out.set_item("internals", internals.into_pyarray(py))?;
-    out.set_item("internal_names", names.to_vec())?;
-    out.set_item("signals", signals)?;
-    out.set_item("signal_names", signal_names.to_vec())?;
-    Ok(())
+    run_dict(py, log, &layout, outcome, steps, metrics.summary().named())
 }

@@ -217,7 +217,7 @@ pub fn sweep_draw<'py>(
 pub fn controller_fingerprint(controller: &Bound<'_, PyAny>) -> PyResult<String> {
     match SlopeController::extract(controller) {
         Ok(c) => Ok(format!("{c:?}")),
-        Err(_) => Ok(format!("{:?}", crate::tracking::PlanarController::extract(controller)?)),
+        Err(_) => Ok(format!("{:?}", crate::simulate_planar::PlanarController::extract(controller)?)),
     }
 }
 
@@ -272,11 +272,7 @@ pub fn sweep_raw<'py>(
         r.build(&model.inner, config.dt).map_err(PyTwipError)?;
     }
     let schedule = reference.inner;
-    let kernel = match (&realism, ctrl) {
-        (Some(_), _) => "realism",
-        (None, SlopeController::Lqr(_)) => "lanes",
-        (None, _) => "general",
-    };
+    let kernel = kernel_of(&ctrl, realism.is_some());
     run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
         match (&realism, ctrl) {
             // Push and force heights default to each sample's own centre of mass.
@@ -297,4 +293,26 @@ pub fn sweep_raw<'py>(
                 .collect(),
         }
     })
+}
+
+/// The kernel a sweep of this 2-DOF controller runs on: "realism", "lanes" (LQR,
+/// vectorised) or "general".
+fn kernel_of(ctrl: &SlopeController, realism: bool) -> &'static str {
+    match (realism, ctrl) {
+        (true, _) => "realism",
+        (false, SlopeController::Lqr(_)) => "lanes",
+        (false, _) => "general",
+    }
+}
+
+/// The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),
+/// with or without realism: "lanes", "general", "realism", "planar" or "planar-realism".
+#[pyfunction]
+#[pyo3(signature = (controller, realism = false))]
+pub fn sweep_kernel(controller: &Bound<'_, PyAny>, realism: bool) -> PyResult<&'static str> {
+    if let Ok(ctrl) = SlopeController::extract(controller) {
+        return Ok(kernel_of(&ctrl, realism));
+    }
+    crate::simulate_planar::PlanarController::extract(controller)?;
+    Ok(crate::sweep_planar::kernel_of(realism))
 }

@@ -17,7 +17,8 @@ use crate::errors::PyTwipError;
 use crate::params::params_dict;
 use crate::models::PyPlanarModel;
 use crate::sweep::{parse_perturbations, run_sweep, PerturbTuple};
-use crate::tracking::{settle_time, trajectory, PlanarController};
+use crate::simulate_planar::{settle_time, PlanarController};
+use crate::trajectory::trajectory;
 
 fn nominal(model: &PyPlanarModel, x0: &Bound<'_, PyAny>) -> PyResult<PlanarNominal> {
     crate::sweep::no_friction_in_sweeps(model.inner.friction().is_some())?;
@@ -84,7 +85,7 @@ pub fn sweep_planar_raw<'py>(
     if let Some(r) = &nominal_realism {
         r.build_planar(&model.inner, config.dt).map_err(PyTwipError)?;
     }
-    let kernel = if realism.is_some() { "planar-realism" } else { "planar" };
+    let kernel = kernel_of(realism.is_some());
     run_sweep(py, start..start + count, BLOCK, threads, progress.as_ref(), kernel, |range, stop| {
         range
             .map(|i| {
@@ -100,4 +101,9 @@ pub fn sweep_planar_raw<'py>(
             })
             .collect()
     })
+}
+
+/// The kernel a 3-DOF sweep runs on.
+pub(crate) fn kernel_of(realism: bool) -> &'static str {
+    if realism { "planar-realism" } else { "planar" }
 }

@@ -1,438 +1,18 @@
-//! Trajectory tracking on the 3-DOF model: `twip.Circle`, `Line`, `FigureEight`,
-//! `Waypoints`, `DcMotor`, `PidTracker`, `SmcTracker` and the planar runner.
-use numpy::{IntoPyArray, PyArray1, PyArray2};
+//! The 3-DOF trackers: `twip.PidTracker` and `twip.SmcTracker`.
+use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use twip_core::control::{Controller, Reference};
-use twip_core::sim::log::{LogRow, TrajectoryLog};
-use twip_core::hardware::motor::{DataSheet, DcMotor};
+use twip_core::control::Controller;
+use twip_core::hardware::motor::DcMotor;
 use twip_core::control::pid::{PidGains, PidTracker, PidUnits};
-use twip_core::hardware::planar_rig::PLANAR_RIG_SIGNALS;
-use twip_core::sim::runner::{simulate_until, Outcome, SimConfig};
 use twip_core::control::smc::{Adaptation, PitchSign, SmcGains, SmcOptions, SmcTracker};
-use twip_core::sim::metrics::DrivePeaks;
-use twip_core::sim::tracking_metrics::TrackingMetrics;
-use twip_core::control::trajectory::{Circle, Direction, FigureEight, Line, Path, PlanarRef, Trajectory, Waypoints};
 
-use crate::convert::vector;
 use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
 use crate::models::PyPlanarModel;
 use crate::params::PyRobotParams;
-use crate::user_controller::{is_user_controller, UserController};
+use crate::motor::{motor_or_default, PyDcMotor};
+use crate::settings::NamedFloats;
 
-fn sample_dict<'py>(py: Python<'py>, s: &PlanarRef<f64>) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    let values = [s.x, s.y, s.psi, s.v, s.omega, s.v_dot, s.omega_dot];
-    for (name, v) in <PlanarRef<f64> as LogRow<f64>>::NAMES.iter().zip(values) {
-        d.set_item(name, v)?;
-    }
-    Ok(d)
-}
-
-// --- trajectories ------------------------------------------------------------------------
-
-/// Constant speed round a circle. `direction` +1 (or "ccw") turns left, -1 ("cw") right.
-/// By default it starts at the origin heading along +x, centre (0, direction * radius).
-#[pyclass(name = "Circle", module = "twip", frozen)]
-#[derive(Clone)]
-pub struct PyCircle {
-    pub inner: Circle<f64>,
-}
-
-fn direction(obj: &Bound<'_, PyAny>) -> PyResult<Direction> {
-    if let Ok(s) = obj.extract::<String>() {
-        return match s.as_str() {
-            "ccw" | "left" => Ok(Direction::CounterClockwise),
-            "cw" | "right" => Ok(Direction::Clockwise),
-            other => Err(InvalidParameterError::new_err(format!(
-                "direction = '{other}': must be +1 / 'ccw' (left turns) or -1 / 'cw'"
-            ))),
-        };
-    }
-    match obj.extract::<f64>() {
-        Ok(1.0) => Ok(Direction::CounterClockwise),
-        Ok(-1.0) => Ok(Direction::Clockwise),
-        _ => Err(InvalidParameterError::new_err(format!(
-            "direction = {obj}: must be +1 / 'ccw' (left turns) or -1 / 'cw'"
-        ))),
-    }
-}
-
-#[pymethods]
-impl PyCircle {
-    #[new]
-    #[pyo3(signature = (radius, speed, centre = None, direction = None, phase = None))]
-    fn new(
-        radius: f64,
-        speed: f64,
-        centre: Option<(f64, f64)>,
-        direction: Option<&Bound<'_, PyAny>>,
-        phase: Option<f64>,
-    ) -> PyResult<Self> {
-        let dir = match direction {
-            Some(d) => self::direction(d)?,
-            None => Direction::CounterClockwise,
-        };
-        // By default the circle starts at the origin heading along +x.
-        let s = if dir == Direction::CounterClockwise { 1.0 } else { -1.0 };
-        let centre = centre.unwrap_or((0.0, s * radius));
-        let phase = phase.unwrap_or(-s * std::f64::consts::FRAC_PI_2);
-        let inner = Circle::new([centre.0, centre.1], radius, speed, dir, phase).map_err(PyTwipError)?;
-        Ok(Self { inner })
-    }
-
-    #[getter]
-    fn radius(&self) -> f64 {
-        self.inner.radius()
-    }
-
-    #[getter]
-    fn speed(&self) -> f64 {
-        self.inner.speed()
-    }
-
-    #[getter]
-    fn centre(&self) -> (f64, f64) {
-        let c = self.inner.centre();
-        (c[0], c[1])
-    }
-
-    /// +1 counter-clockwise, -1 clockwise.
-    #[getter]
-    fn direction(&self) -> i32 {
-        match self.inner.direction() {
-            Direction::CounterClockwise => 1,
-            Direction::Clockwise => -1,
-        }
-    }
-
-    #[getter]
-    fn phase(&self) -> f64 {
-        self.inner.phase()
-    }
-
-    /// One lap [s].
-    #[getter]
-    fn period(&self) -> f64 {
-        self.inner.period()
-    }
-
-    /// The reference at time t: dict of x, y, psi, v, omega, v_dot, omega_dot (SI).
-    fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
-        sample_dict(py, &self.inner.sample(t))
-    }
-
-    /// Distance from (x, y) to the circle [m].
-    fn distance(&self, x: f64, y: f64) -> f64 {
-        self.inner.distance(x, y)
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "Circle(radius={:?}, speed={:?}, centre={:?}, direction={}, phase={:?})",
-            self.radius(),
-            self.speed(),
-            self.centre(),
-            self.direction(),
-            self.phase()
-        )
-    }
-}
-
-/// A straight line from `start` along `heading` [rad] at constant `speed`.
-#[pyclass(name = "Line", module = "twip", frozen)]
-#[derive(Clone)]
-pub struct PyLine {
-    pub inner: Line<f64>,
-}
-
-#[pymethods]
-impl PyLine {
-    #[new]
-    #[pyo3(signature = (speed, heading = 0.0, start = (0.0, 0.0)))]
-    fn new(speed: f64, heading: f64, start: (f64, f64)) -> CoreResult<Self> {
-        Ok(Self { inner: Line::new([start.0, start.1], heading, speed)? })
-    }
-
-    #[getter]
-    fn speed(&self) -> f64 {
-        self.inner.speed()
-    }
-
-    #[getter]
-    fn heading(&self) -> f64 {
-        self.inner.heading()
-    }
-
-    #[getter]
-    fn start(&self) -> (f64, f64) {
-        let s = self.inner.start();
-        (s[0], s[1])
-    }
-
-    fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
-        sample_dict(py, &self.inner.sample(t))
-    }
-
-    fn distance(&self, x: f64, y: f64) -> f64 {
-        self.inner.distance(x, y)
-    }
-
-    fn __repr__(&self) -> String {
-        format!("Line(speed={:?}, heading={:?}, start={:?})", self.speed(), self.heading(), self.start())
-    }
-}
-
-/// The lemniscate of Gerono x = a sin(Wt), y = (a/2) sin(2Wt), W = 2 pi/period, about
-/// `centre` (right lobe clockwise, left lobe counter-clockwise).
-#[pyclass(name = "FigureEight", module = "twip", frozen)]
-#[derive(Clone)]
-pub struct PyFigureEight {
-    pub inner: FigureEight<f64>,
-}
-
-#[pymethods]
-impl PyFigureEight {
-    #[new]
-    #[pyo3(signature = (half_width, period, centre = (0.0, 0.0)))]
-    fn new(half_width: f64, period: f64, centre: (f64, f64)) -> CoreResult<Self> {
-        Ok(Self { inner: FigureEight::new([centre.0, centre.1], half_width, period)? })
-    }
-
-    #[getter]
-    fn half_width(&self) -> f64 {
-        self.inner.half_width()
-    }
-
-    #[getter]
-    fn period(&self) -> f64 {
-        self.inner.period()
-    }
-
-    #[getter]
-    fn centre(&self) -> (f64, f64) {
-        let c = self.inner.centre();
-        (c[0], c[1])
-    }
-
-    fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
-        sample_dict(py, &self.inner.sample(t))
-    }
-
-    fn distance(&self, x: f64, y: f64) -> f64 {
-        self.inner.distance(x, y)
-    }
-
-    fn __repr__(&self) -> String {
-        format!("FigureEight(half_width={:?}, period={:?}, centre={:?})", self.half_width(), self.period(), self.centre())
-    }
-}
-
-/// Straight legs through `points` (2 to 16 (x, y) pairs) at constant `speed`, inner corners
-/// rounded by arcs of `corner_radius` (0: sharp). The reference stops at the last point.
-#[pyclass(name = "Waypoints", module = "twip", frozen)]
-#[derive(Clone)]
-pub struct PyWaypoints {
-    pub inner: Waypoints<f64>,
-}
-
-#[pymethods]
-impl PyWaypoints {
-    #[new]
-    #[pyo3(signature = (points, speed, corner_radius = 0.0))]
-    fn new(points: Vec<(f64, f64)>, speed: f64, corner_radius: f64) -> CoreResult<Self> {
-        let pts: Vec<[f64; 2]> = points.into_iter().map(|(x, y)| [x, y]).collect();
-        Ok(Self { inner: Waypoints::new(&pts, speed, corner_radius)? })
-    }
-
-    #[getter]
-    fn points(&self) -> Vec<(f64, f64)> {
-        self.inner.points().iter().map(|p| (p[0], p[1])).collect()
-    }
-
-    #[getter]
-    fn speed(&self) -> f64 {
-        self.inner.speed()
-    }
-
-    #[getter]
-    fn corner_radius(&self) -> f64 {
-        self.inner.corner_radius()
-    }
-
-    /// Length of the rounded path [m].
-    #[getter]
-    fn length(&self) -> f64 {
-        self.inner.length()
-    }
-
-    /// Time to reach the last point [s].
-    #[getter]
-    fn duration(&self) -> f64 {
-        self.inner.duration()
-    }
-
-    fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
-        sample_dict(py, &self.inner.sample(t))
-    }
-
-    fn distance(&self, x: f64, y: f64) -> f64 {
-        self.inner.distance(x, y)
-    }
-
-    fn __repr__(&self) -> String {
-        format!("Waypoints({:?}, speed={:?}, corner_radius={:?})", self.points(), self.speed(), self.corner_radius())
-    }
-}
-
-pub(crate) fn trajectory(obj: &Bound<'_, PyAny>) -> PyResult<Trajectory<f64>> {
-    if let Ok(c) = obj.cast::<PyCircle>() {
-        return Ok(Trajectory::Circle(c.get().inner));
-    }
-    if let Ok(l) = obj.cast::<PyLine>() {
-        return Ok(Trajectory::Line(l.get().inner));
-    }
-    if let Ok(f) = obj.cast::<PyFigureEight>() {
-        return Ok(Trajectory::FigureEight(f.get().inner));
-    }
-    if let Ok(w) = obj.cast::<PyWaypoints>() {
-        return Ok(Trajectory::Waypoints(w.get().inner));
-    }
-    Err(pyo3::exceptions::PyTypeError::new_err(format!(
-        "reference must be a twip.Circle, Line, FigureEight or Waypoints, got {}",
-        obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
-    )))
-}
-
-// --- motor -------------------------------------------------------------------------------------
-
-/// A brushed DC gear motor on PWM, quasi-static: i = (V - k_e eta w)/R, wheel torque
-/// eta k_t i, w the wheel's speed relative to the body [rad/s]. SI units.
-#[pyclass(name = "DcMotor", module = "twip", frozen)]
-#[derive(Clone)]
-pub struct PyDcMotor {
-    pub inner: DcMotor<f64>,
-}
-
-#[pymethods]
-impl PyDcMotor {
-    #[new]
-    #[pyo3(signature = (resistance, k_t, gear_ratio, friction = 0.0, supply = 11.1, pwm_max = 255.0))]
-    fn new(resistance: f64, k_t: f64, gear_ratio: f64, friction: f64, supply: f64, pwm_max: f64) -> CoreResult<Self> {
-        Ok(Self { inner: DcMotor::new(resistance, k_t, gear_ratio, friction, supply, pwm_max)? })
-    }
-
-    /// The thesis's GB37Y3530-12V-251R (Table 2.3) on a `supply` V battery (3 x 3.7 V).
-    #[staticmethod]
-    #[pyo3(signature = (supply = 11.1))]
-    fn gb37y3530(supply: f64) -> CoreResult<Self> {
-        Ok(Self { inner: DcMotor::gb37y3530().with_supply(supply)? })
-    }
-
-    /// R = V/I_stall, k_t = k_e = (V - I_0 R)/w_0, friction = k_t I_0/w_0 (at the motor shaft).
-    #[staticmethod]
-    #[pyo3(signature = (rated_voltage, no_load_rpm, no_load_current, stall_current, gear_ratio, supply = 11.1))]
-    fn from_data_sheet(
-        rated_voltage: f64,
-        no_load_rpm: f64,
-        no_load_current: f64,
-        stall_current: f64,
-        gear_ratio: f64,
-        supply: f64,
-    ) -> CoreResult<Self> {
-        let sheet = DataSheet { rated_voltage, no_load_rpm, no_load_current, stall_current, gear_ratio };
-        Ok(Self { inner: DcMotor::from_data_sheet(&sheet, supply)? })
-    }
-
-    #[getter]
-    fn resistance(&self) -> f64 {
-        self.inner.resistance()
-    }
-
-    #[getter]
-    fn k_t(&self) -> f64 {
-        self.inner.k_t()
-    }
-
-    #[getter]
-    fn gear_ratio(&self) -> f64 {
-        self.inner.gear_ratio()
-    }
-
-    /// Viscous friction at the motor shaft [N m s/rad].
-    #[getter]
-    fn friction(&self) -> f64 {
-        self.inner.friction()
-    }
-
-    #[getter]
-    fn supply(&self) -> f64 {
-        self.inner.supply()
-    }
-
-    #[getter]
-    fn pwm_max(&self) -> f64 {
-        self.inner.pwm_max()
-    }
-
-    fn current(&self, voltage: f64, relative_speed: f64) -> f64 {
-        self.inner.current(voltage, relative_speed)
-    }
-
-    /// Wheel torque [N m] at terminal `voltage` and relative wheel speed [rad/s].
-    fn torque(&self, voltage: f64, relative_speed: f64) -> f64 {
-        self.inner.torque(voltage, relative_speed)
-    }
-
-    fn voltage_for_torque(&self, torque: f64, relative_speed: f64) -> f64 {
-        self.inner.voltage_for_torque(torque, relative_speed)
-    }
-
-    fn pwm_voltage(&self, pwm: f64) -> f64 {
-        self.inner.pwm_voltage(pwm)
-    }
-
-    fn torque_from_pwm(&self, pwm: f64, relative_speed: f64) -> f64 {
-        self.inner.torque_from_pwm(pwm, relative_speed)
-    }
-
-    /// (full reverse, full forward) torque at `relative_speed`.
-    fn torque_limits(&self, relative_speed: f64) -> (f64, f64) {
-        self.inner.torque_limits(relative_speed)
-    }
-
-    /// Stall torque of one PWM count [N m].
-    fn torque_per_count(&self) -> f64 {
-        self.inner.torque_per_count()
-    }
-
-    /// Wheel speed with no load at full supply [rad/s].
-    fn no_load_speed(&self) -> f64 {
-        self.inner.no_load_speed()
-    }
-
-    /// eta^2 x friction [N m s/rad].
-    fn friction_at_wheel(&self) -> f64 {
-        self.inner.friction_at_wheel()
-    }
-
-    fn __repr__(&self) -> String {
-        let m = &self.inner;
-        format!(
-            "DcMotor(resistance={:?}, k_t={:?}, gear_ratio={:?}, friction={:?}, supply={:?}, pwm_max={:?})",
-            m.resistance(),
-            m.k_t(),
-            m.gear_ratio(),
-            m.friction(),
-            m.supply(),
-            m.pwm_max()
-        )
-    }
-}
-
-fn motor_or_default(motor: Option<&PyDcMotor>) -> DcMotor<f64> {
-    motor.map(|m| m.inner).unwrap_or_else(DcMotor::gb37y3530)
-}
 
 // --- PID ---------------------------------------------------------------------------------------
 
@@ -519,23 +99,17 @@ impl PyPidTracker {
         Ok(Self { inner: PidTracker::table_4_1(&p, motor_or_default(motor), period)? })
     }
 
+    /// The gains (Table 4.1's names), in the tracker's units.
     #[getter]
-    fn gains<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        for (k, v) in PID_GAINS.iter().zip(pid_gains_array(&self.inner.gains())) {
-            d.set_item(k, v)?;
-        }
-        Ok(d)
+    fn gains(&self) -> NamedFloats {
+        NamedFloats(&PID_GAINS, pid_gains_array(&self.inner.gains()).to_vec())
     }
 
+    /// What one unit of each gain's input is in SI.
     #[getter]
-    fn units<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    fn units(&self) -> NamedFloats {
         let u = self.inner.units();
-        let d = PyDict::new(py);
-        for (k, v) in PID_UNITS.iter().zip([u.pitch, u.speed, u.heading, u.integral_step]) {
-            d.set_item(k, v)?;
-        }
-        Ok(d)
+        NamedFloats(&PID_UNITS, vec![u.pitch, u.speed, u.heading, u.integral_step])
     }
 
     #[getter]
@@ -678,48 +252,13 @@ impl PySmcTracker {
     /// torque gains read in `torque_unit` ("pwm": one PWM count of the GB37Y3530 at 11.1 V).
     #[staticmethod]
     #[pyo3(signature = (torque_unit = None))]
-    fn thesis_gains<'py>(py: Python<'py>, torque_unit: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+    fn thesis_gains(torque_unit: Option<&Bound<'_, PyAny>>) -> PyResult<NamedFloats> {
         let motor = DcMotor::gb37y3530();
         let unit = match torque_unit {
             Some(u) => self::torque_unit(u, &motor)?,
             None => motor.torque_per_count(),
         };
-        gains_dict(py, &SmcGains::thesis(unit))
-    }
-
-    #[getter]
-    fn gains<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        gains_dict(py, &self.inner.gains())
-    }
-
-    #[getter]
-    fn fuzzy(&self) -> bool {
-        self.inner.adaptation().is_some()
-    }
-
-    /// (width of S_eta's layer, width of S1's); 0 is sgn.
-    #[getter]
-    fn boundary_layer(&self) -> (f64, f64) {
-        let o = self.inner.options();
-        (o.width_eta, o.width_s1)
-    }
-
-    #[getter]
-    fn pitch(&self) -> &'static str {
-        match self.inner.options().pitch {
-            PitchSign::Backward => "backward",
-            PitchSign::Forward => "forward",
-        }
-    }
-
-    #[getter]
-    fn period(&self) -> f64 {
-        self.inner.period()
-    }
-
-    #[getter]
-    fn model(&self) -> PyPlanarModel {
-        PyPlanarModel { inner: *self.inner.model() }
+        Ok(NamedFloats(&SMC_GAINS, smc_gains_array(&SmcGains::thesis(unit)).to_vec()))
     }
 
     /// The fuzzy weights (C1_hat, C2_hat) of a fresh tracker (zeros: they adapt during a run).
@@ -744,188 +283,31 @@ impl PySmcTracker {
         self.inner.steady_pitch(v, omega)
     }
 
-    fn __repr__(&self) -> String {
-        let (we, ws) = self.boundary_layer();
-        format!(
-            "SmcTracker(fuzzy={}, boundary_layer=({we:?}, {ws:?}), pitch='{}', period={:?})",
-            if self.fuzzy() { "True" } else { "False" },
-            self.pitch(),
-            self.period()
-        )
-    }
 }
 
-fn gains_dict<'py>(py: Python<'py>, g: &SmcGains<f64>) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    for (k, v) in SMC_GAINS.iter().zip(smc_gains_array(g)) {
-        d.set_item(k, v)?;
-    }
-    Ok(d)
-}
-
-// --- the planar runner -----------------------------------------------------------------------------
-
-/// Every controller of the 3-DOF model, as `SlopeController` is for the 2-DOF one.
-/// Unboxed on purpose: it is copied once per run and then updated in place.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Copy, Debug)]
-pub enum PlanarController {
-    Pid(PidTracker<f64>),
-    Smc(SmcTracker<f64>),
-}
-
-crate::dispatch::controller_enum!(PlanarController, 7, 2, PlanarRef<f64>, "3-DOF"; Pid(PyPidTracker), Smc(PySmcTracker));
-
-/// When the "_settled" metrics start: `settle` [s], by default one lap of a closed path, else 0.
-pub(crate) fn settle_time(settle: Option<f64>, path: &Trajectory<f64>) -> PyResult<f64> {
-    let settle = settle.or_else(|| path.period()).unwrap_or(0.0);
-    if !settle.is_finite() {
-        return Err(invalid("settle", settle, "must be finite").into());
-    }
-    Ok(settle)
-}
-
-/// One 3-DOF run's settings, for any controller.
-#[derive(Clone, Copy)]
-struct PlanarRun {
-    plant: twip_core::PlanarModel<f64>,
-    path: Trajectory<f64>,
-    settle: f64,
-    x0: nalgebra::SVector<f64, 7>,
-    config: SimConfig<f64>,
-    record_every: usize,
-    /// The robot's real parts (the 3-DOF rig), or the ideal loop.
-    realism: Option<twip_core::hardware::realism::Realism<f64>>,
-}
-
-type PlanarOutput = (Outcome<f64>, usize, TrackingMetrics<f64, Trajectory<f64>>, TrajectoryLog<f64>);
-
-impl PlanarRun {
-    fn run<C>(&self, ctrl: &mut C, should_stop: impl FnMut() -> bool) -> Result<PlanarOutput, twip_core::TwipError>
-    where
-        C: Controller<f64, 7, 2, Reference = PlanarRef<f64>>,
-    {
-        let (n, _) = self.config.steps(ctrl.period())?;
-        let extra = if self.realism.is_some() { PLANAR_RIG_SIGNALS.len() } else { 0 };
-        let widths = [7, 2, <PlanarRef<f64> as LogRow<f64>>::NAMES.len(), ctrl.internal_names().len() + extra];
-        let mut observers =
-            (TrackingMetrics::new(self.path, self.settle), TrajectoryLog::with_capacity(n + 1, self.record_every, widths)?);
-        let (outcome, steps) = match &self.realism {
-            None => simulate_until(&self.plant, ctrl, &self.path, &self.x0, &self.config, &mut observers, should_stop)?,
-            Some(r) => r.build_planar(&self.plant, self.config.dt)?.simulate(
-                ctrl,
-                &self.path,
-                &self.x0,
-                &self.config,
-                &mut observers,
-                should_stop,
-            )?,
+crate::settings::settings_class!(PySmcTracker, "SmcTracker",
+    settings {
+        /// The controller's own 3-DOF model.
+        model: PyPlanarModel = |s| PyPlanarModel { inner: *s.inner.model() };
+        fuzzy: bool = |s| s.inner.adaptation().is_some();
+        /// (width of S_eta's layer, width of S1's); 0 is sgn.
+        boundary_layer: (f64, f64) = |s| (s.inner.options().width_eta, s.inner.options().width_s1);
+        /// The gains in SI (so `torque_unit` is "si").
+        gains: NamedFloats = |s| NamedFloats(&SMC_GAINS, smc_gains_array(&s.inner.gains()).to_vec());
+        torque_unit: &'static str = |_| "si";
+        pitch: &'static str = |s| match s.inner.options().pitch {
+            PitchSign::Backward => "backward",
+            PitchSign::Forward => "forward",
         };
-        let (metrics, log) = observers;
-        Ok((outcome, steps, metrics, log))
+        /// Guards delta of (4.82) for (e3, d).
+        guards: (f64, f64) = |s| (s.inner.options().guard_e3, s.inner.options().guard_d);
+        /// Adaptation gains (gamma1, gamma2) of the fuzzy form.
+        gamma: (f64, f64) = |s| s.inner.adaptation().map_or((Adaptation::<f64>::default().gamma1, Adaptation::<f64>::default().gamma2), |a| (a.gamma1, a.gamma2));
+        leakage: f64 = |s| s.inner.adaptation().map_or(0.0, |a| a.leakage);
+        pitch_offset: bool = |s| s.inner.options().pitch_offset;
+        motor: Option<PyDcMotor> = |s| s.inner.motor().map(|m| PyDcMotor { inner: *m });
+        motor_limits: bool = |s| s.inner.motor().is_some();
+        period: f64 = |s| s.inner.period();
     }
-}
+);
 
-/// Runs a tracker on the 3-DOF model; returns a dict that `twip.simulate` wraps into a
-/// SimResult. `settle` [s] starts the "_settled" metrics (default: one lap of a circle or
-/// figure-eight, else 0).
-#[pyfunction]
-#[pyo3(signature = (model, controller, x0, t_final, dt, reference, control_period = None, fall_limit = None, record_every = 1, settle = None, realism = None))]
-#[allow(clippy::too_many_arguments)]
-pub fn simulate_planar_raw<'py>(
-    py: Python<'py>,
-    model: &Bound<'py, PyAny>,
-    controller: &Bound<'py, PyAny>,
-    x0: &Bound<'py, PyAny>,
-    t_final: f64,
-    dt: f64,
-    reference: &Bound<'py, PyAny>,
-    control_period: Option<f64>,
-    fall_limit: Option<f64>,
-    record_every: usize,
-    settle: Option<f64>,
-    realism: Option<&crate::realism::PyRealism>,
-) -> PyResult<Bound<'py, PyDict>> {
-    let plant = model
-        .cast::<PyPlanarModel>()
-        .map_err(|_| pyo3::exceptions::PyTypeError::new_err("this controller drives a twip.PlanarModel"))?
-        .get()
-        .inner;
-    let realism = realism.map(|r| r.to_core(plant.params())).transpose().map_err(PyTwipError)?;
-    // As in simulate_raw: an explicit control_period wins over the realism's loop period.
-    let control_period = control_period.or(realism.and_then(|r| r.control_period));
-    let path = trajectory(reference)?;
-    let settle = settle_time(settle, &path)?;
-    let x0 = vector::<7>("x0", x0)?;
-    let config = SimConfig::new(dt, t_final, fall_limit);
-    if record_every == 0 {
-        return Err(invalid("record_every", 0.0, "must be >= 1").into());
-    }
-    let run = PlanarRun { plant, path, settle, x0, config, record_every, realism };
-    let (names, (outcome, steps, metrics, log)) =
-        if is_user_controller(controller) && PlanarController::extract(controller).is_err() {
-            // A Python controller keeps the GIL: it is called back at every update.
-            let mut ctrl = UserController::<PlanarRef<f64>, 7, 2>::new(controller, control_period, dt, "PlanarModel")?;
-            let failed = ctrl.failed.clone();
-            let mut interrupt = None;
-            let out = run.run(&mut ctrl, || failed.get() || crate::interrupt::requested(&mut interrupt));
-            if let Some(err) = ctrl.take_error().or(interrupt) {
-                return Err(err);
-            }
-            (ctrl.internal_names(), out.map_err(PyTwipError)?)
-        } else {
-            let mut ctrl = PlanarController::extract(controller)?;
-            if let Some(p) = control_period {
-                ctrl = ctrl.with_period(p)?;
-            }
-            let (out, interrupt) = py.detach(move || {
-                let mut interrupt = None;
-                let out = run.run(&mut ctrl, || crate::interrupt::requested(&mut interrupt));
-                (out, interrupt)
-            });
-            if let Some(err) = interrupt {
-                return Err(err);
-            }
-            (ctrl.internal_names(), out.map_err(PyTwipError)?)
-        };
-    let ref_names = <PlanarRef<f64> as LogRow<f64>>::NAMES;
-    let extra = if realism.is_some() { PLANAR_RIG_SIGNALS.len() } else { 0 };
-    let widths = [7, 2, ref_names.len(), names.len() + extra];
-    let summary = metrics.summary();
-    let out = PyDict::new(py);
-    let rows = log.len();
-    let reshape = |v: Vec<f64>, cols: usize| -> PyResult<Bound<'py, PyArray2<f64>>> {
-        Ok(numpy::ndarray::Array2::from_shape_vec((rows, cols), v)
-            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?
-            .into_pyarray(py))
-    };
-    out.set_item("t", log.t.into_pyarray(py))?;
-    out.set_item("states", reshape(log.x, 7)?)?;
-    out.set_item("inputs", reshape(log.u, 2)?)?;
-    out.set_item("references", reshape(log.reference, widths[2])?)?;
-    out.set_item("reference_names", ref_names.to_vec())?;
-    crate::simulate::set_internals_and_signals(&out, log.internals, rows, names, extra > 0, &PLANAR_RIG_SIGNALS)?;
-    let (name, t_end) = match outcome {
-        Outcome::Completed => ("completed", None),
-        Outcome::Fell { t } => ("fell", Some(t)),
-        Outcome::Diverged { t } => ("diverged", Some(t)),
-        Outcome::Interrupted { t } => ("interrupted", Some(t)),
-    };
-    out.set_item("outcome", name)?;
-    out.set_item("t_end", t_end)?;
-    out.set_item("steps", steps)?;
-    let m = PyDict::new(py);
-    m.set_item("mean_abs_x_error", summary.mean_abs_x_error)?;
-    m.set_item("mean_abs_y_error", summary.mean_abs_y_error)?;
-    m.set_item("mean_abs_x_error_settled", summary.mean_abs_x_error_settled)?;
-    m.set_item("mean_abs_y_error_settled", summary.mean_abs_y_error_settled)?;
-    m.set_item("max_path_error_settled", summary.max_path_error_settled)?;
-    m.set_item("mean_abs_pitch", summary.mean_abs_pitch)?;
-    m.set_item("peak_abs_torque", summary.peak_abs_torque)?;
-    let peaks = DrivePeaks::from_wheel_torque(plant.params(), summary.peak_abs_torque);
-    m.set_item("peak_current", peaks.current)?;
-    m.set_item("peak_torque", peaks.torque)?;
-    m.set_item("settle", settle)?;
-    out.set_item("metrics", m)?;
-    Ok(out)
-}

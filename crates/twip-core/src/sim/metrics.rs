@@ -27,6 +27,17 @@ pub struct SlopeSummary<T> {
     pub samples: usize,
 }
 
+crate::sim::named_metrics!(SlopeSummary {
+    mean_abs_pitch_error,
+    mean_abs_speed_error,
+    pitch_settling_time,
+    speed_settling_time,
+    final_position_error,
+    peak_abs_input,
+    peak_current,
+    peak_torque,
+});
+
 /// The largest current one motor carried [A] and torque one wheel got [N m], to hold
 /// against a motor's data sheet (stall current). The 2-DOF model's input is the lumped
 /// current of both motors (each carries u/2, the wheels share η τ_i u); the 3-DOF model's
@@ -35,6 +46,13 @@ pub struct SlopeSummary<T> {
 pub struct DrivePeaks<T> {
     pub current: T,
     pub torque: T,
+}
+
+impl<T: Copy> DrivePeaks<T> {
+    /// ("peak_current", current), ("peak_torque", torque): the metrics' names.
+    pub fn named(&self) -> [(&'static str, T); 2] {
+        [("peak_current", self.current), ("peak_torque", self.torque)]
+    }
 }
 
 impl<T: Real> DrivePeaks<T> {

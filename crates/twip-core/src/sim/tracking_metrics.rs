@@ -25,6 +25,16 @@ pub struct TrackingSummary<T> {
     pub settled_samples: usize,
 }
 
+crate::sim::named_metrics!(TrackingSummary {
+    mean_abs_x_error,
+    mean_abs_y_error,
+    mean_abs_x_error_settled,
+    mean_abs_y_error_settled,
+    max_path_error_settled,
+    mean_abs_pitch,
+    peak_abs_torque,
+});
+
 /// Accumulates [`TrackingSummary`]; `path` gives the distance to the curve.
 #[derive(Clone, Copy, Debug)]
 pub struct TrackingMetrics<T: Real, P> {

@@ -1,0 +1,104 @@
+//! `twip.DcMotor`: the brushed gear motor the 3-DOF trackers drive.
+use pyo3::prelude::*;
+use twip_core::hardware::motor::{DataSheet, DcMotor};
+
+use crate::errors::CoreResult;
+
+// --- motor -------------------------------------------------------------------------------------
+
+/// A brushed DC gear motor on PWM, quasi-static: i = (V - k_e eta w)/R, wheel torque
+/// eta k_t i, w the wheel's speed relative to the body [rad/s]. SI units.
+#[pyclass(name = "DcMotor", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyDcMotor {
+    pub inner: DcMotor<f64>,
+}
+
+#[pymethods]
+impl PyDcMotor {
+    #[new]
+    #[pyo3(signature = (resistance, k_t, gear_ratio, friction = 0.0, supply = 11.1, pwm_max = 255.0))]
+    fn new(resistance: f64, k_t: f64, gear_ratio: f64, friction: f64, supply: f64, pwm_max: f64) -> CoreResult<Self> {
+        Ok(Self { inner: DcMotor::new(resistance, k_t, gear_ratio, friction, supply, pwm_max)? })
+    }
+
+    /// The thesis's GB37Y3530-12V-251R (Table 2.3) on a `supply` V battery (3 x 3.7 V).
+    #[staticmethod]
+    #[pyo3(signature = (supply = 11.1))]
+    fn gb37y3530(supply: f64) -> CoreResult<Self> {
+        Ok(Self { inner: DcMotor::gb37y3530().with_supply(supply)? })
+    }
+
+    /// R = V/I_stall, k_t = k_e = (V - I_0 R)/w_0, friction = k_t I_0/w_0 (at the motor shaft).
+    #[staticmethod]
+    #[pyo3(signature = (rated_voltage, no_load_rpm, no_load_current, stall_current, gear_ratio, supply = 11.1))]
+    fn from_data_sheet(
+        rated_voltage: f64,
+        no_load_rpm: f64,
+        no_load_current: f64,
+        stall_current: f64,
+        gear_ratio: f64,
+        supply: f64,
+    ) -> CoreResult<Self> {
+        let sheet = DataSheet { rated_voltage, no_load_rpm, no_load_current, stall_current, gear_ratio };
+        Ok(Self { inner: DcMotor::from_data_sheet(&sheet, supply)? })
+    }
+
+    fn current(&self, voltage: f64, relative_speed: f64) -> f64 {
+        self.inner.current(voltage, relative_speed)
+    }
+
+    /// Wheel torque [N m] at terminal `voltage` and relative wheel speed [rad/s].
+    fn torque(&self, voltage: f64, relative_speed: f64) -> f64 {
+        self.inner.torque(voltage, relative_speed)
+    }
+
+    fn voltage_for_torque(&self, torque: f64, relative_speed: f64) -> f64 {
+        self.inner.voltage_for_torque(torque, relative_speed)
+    }
+
+    fn pwm_voltage(&self, pwm: f64) -> f64 {
+        self.inner.pwm_voltage(pwm)
+    }
+
+    fn torque_from_pwm(&self, pwm: f64, relative_speed: f64) -> f64 {
+        self.inner.torque_from_pwm(pwm, relative_speed)
+    }
+
+    /// (full reverse, full forward) torque at `relative_speed`.
+    fn torque_limits(&self, relative_speed: f64) -> (f64, f64) {
+        self.inner.torque_limits(relative_speed)
+    }
+
+    /// Stall torque of one PWM count [N m].
+    fn torque_per_count(&self) -> f64 {
+        self.inner.torque_per_count()
+    }
+
+    /// Wheel speed with no load at full supply [rad/s].
+    fn no_load_speed(&self) -> f64 {
+        self.inner.no_load_speed()
+    }
+
+    /// eta^2 x friction [N m s/rad].
+    fn friction_at_wheel(&self) -> f64 {
+        self.inner.friction_at_wheel()
+    }
+
+}
+
+crate::settings::settings_class!(PyDcMotor, "DcMotor",
+    settings {
+        resistance: f64 = |s| s.inner.resistance();
+        k_t: f64 = |s| s.inner.k_t();
+        gear_ratio: f64 = |s| s.inner.gear_ratio();
+        /// Viscous friction at the motor shaft [N m s/rad].
+        friction: f64 = |s| s.inner.friction();
+        supply: f64 = |s| s.inner.supply();
+        pwm_max: f64 = |s| s.inner.pwm_max();
+    }
+);
+
+pub(crate) fn motor_or_default(motor: Option<&PyDcMotor>) -> DcMotor<f64> {
+    motor.map(|m| m.inner).unwrap_or_else(DcMotor::gb37y3530)
+}

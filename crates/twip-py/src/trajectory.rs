@@ -1,0 +1,227 @@
+//! The 3-DOF references: `twip.Circle`, `Line`, `FigureEight`, `Waypoints`.
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use twip_core::control::Reference;
+use twip_core::sim::log::LogRow;
+use twip_core::control::trajectory::{Circle, Direction, FigureEight, Line, Path, PlanarRef, Trajectory, Waypoints};
+
+use crate::errors::{CoreResult, InvalidParameterError, PyTwipError};
+
+
+fn sample_dict<'py>(py: Python<'py>, s: &PlanarRef<f64>) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let values = [s.x, s.y, s.psi, s.v, s.omega, s.v_dot, s.omega_dot];
+    for (name, v) in <PlanarRef<f64> as LogRow<f64>>::NAMES.iter().zip(values) {
+        d.set_item(name, v)?;
+    }
+    Ok(d)
+}
+
+// --- trajectories ------------------------------------------------------------------------
+
+/// Constant speed round a circle. `direction` +1 (or "ccw") turns left, -1 ("cw") right.
+/// By default it starts at the origin heading along +x, centre (0, direction * radius).
+#[pyclass(name = "Circle", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyCircle {
+    pub inner: Circle<f64>,
+}
+
+fn direction(obj: &Bound<'_, PyAny>) -> PyResult<Direction> {
+    if let Ok(s) = obj.extract::<String>() {
+        return match s.as_str() {
+            "ccw" | "left" => Ok(Direction::CounterClockwise),
+            "cw" | "right" => Ok(Direction::Clockwise),
+            other => Err(InvalidParameterError::new_err(format!(
+                "direction = '{other}': must be +1 / 'ccw' (left turns) or -1 / 'cw'"
+            ))),
+        };
+    }
+    match obj.extract::<f64>() {
+        Ok(1.0) => Ok(Direction::CounterClockwise),
+        Ok(-1.0) => Ok(Direction::Clockwise),
+        _ => Err(InvalidParameterError::new_err(format!(
+            "direction = {obj}: must be +1 / 'ccw' (left turns) or -1 / 'cw'"
+        ))),
+    }
+}
+
+#[pymethods]
+impl PyCircle {
+    #[new]
+    #[pyo3(signature = (radius, speed, centre = None, direction = None, phase = None))]
+    fn new(
+        radius: f64,
+        speed: f64,
+        centre: Option<(f64, f64)>,
+        direction: Option<&Bound<'_, PyAny>>,
+        phase: Option<f64>,
+    ) -> PyResult<Self> {
+        let dir = match direction {
+            Some(d) => self::direction(d)?,
+            None => Direction::CounterClockwise,
+        };
+        // By default the circle starts at the origin heading along +x.
+        let s = if dir == Direction::CounterClockwise { 1.0 } else { -1.0 };
+        let centre = centre.unwrap_or((0.0, s * radius));
+        let phase = phase.unwrap_or(-s * std::f64::consts::FRAC_PI_2);
+        let inner = Circle::new([centre.0, centre.1], radius, speed, dir, phase).map_err(PyTwipError)?;
+        Ok(Self { inner })
+    }
+
+    /// The reference at time t: dict of x, y, psi, v, omega, v_dot, omega_dot (SI).
+    fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
+        sample_dict(py, &self.inner.sample(t))
+    }
+
+    /// Distance from (x, y) to the circle [m].
+    fn distance(&self, x: f64, y: f64) -> f64 {
+        self.inner.distance(x, y)
+    }
+
+}
+
+/// A straight line from `start` along `heading` [rad] at constant `speed`.
+#[pyclass(name = "Line", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyLine {
+    pub inner: Line<f64>,
+}
+
+#[pymethods]
+impl PyLine {
+    #[new]
+    #[pyo3(signature = (speed, heading = 0.0, start = (0.0, 0.0)))]
+    fn new(speed: f64, heading: f64, start: (f64, f64)) -> CoreResult<Self> {
+        Ok(Self { inner: Line::new([start.0, start.1], heading, speed)? })
+    }
+
+    fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
+        sample_dict(py, &self.inner.sample(t))
+    }
+
+    fn distance(&self, x: f64, y: f64) -> f64 {
+        self.inner.distance(x, y)
+    }
+
+}
+
+/// The lemniscate of Gerono x = a sin(Wt), y = (a/2) sin(2Wt), W = 2 pi/period, about
+/// `centre` (right lobe clockwise, left lobe counter-clockwise).
+#[pyclass(name = "FigureEight", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyFigureEight {
+    pub inner: FigureEight<f64>,
+}
+
+#[pymethods]
+impl PyFigureEight {
+    #[new]
+    #[pyo3(signature = (half_width, period, centre = (0.0, 0.0)))]
+    fn new(half_width: f64, period: f64, centre: (f64, f64)) -> CoreResult<Self> {
+        Ok(Self { inner: FigureEight::new([centre.0, centre.1], half_width, period)? })
+    }
+
+    fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
+        sample_dict(py, &self.inner.sample(t))
+    }
+
+    fn distance(&self, x: f64, y: f64) -> f64 {
+        self.inner.distance(x, y)
+    }
+
+}
+
+/// Straight legs through `points` (2 to 16 (x, y) pairs) at constant `speed`, inner corners
+/// rounded by arcs of `corner_radius` (0: sharp). The reference stops at the last point.
+#[pyclass(name = "Waypoints", module = "twip", frozen)]
+#[derive(Clone)]
+pub struct PyWaypoints {
+    pub inner: Waypoints<f64>,
+}
+
+#[pymethods]
+impl PyWaypoints {
+    #[new]
+    #[pyo3(signature = (points, speed, corner_radius = 0.0))]
+    fn new(points: Vec<(f64, f64)>, speed: f64, corner_radius: f64) -> CoreResult<Self> {
+        let pts: Vec<[f64; 2]> = points.into_iter().map(|(x, y)| [x, y]).collect();
+        Ok(Self { inner: Waypoints::new(&pts, speed, corner_radius)? })
+    }
+
+    fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
+        sample_dict(py, &self.inner.sample(t))
+    }
+
+    fn distance(&self, x: f64, y: f64) -> f64 {
+        self.inner.distance(x, y)
+    }
+
+}
+
+crate::settings::settings_class!(PyCircle, "Circle",
+    settings {
+        radius: f64 = |s| s.inner.radius();
+        speed: f64 = |s| s.inner.speed();
+        centre: (f64, f64) = |s| (s.inner.centre()[0], s.inner.centre()[1]);
+        /// +1 counter-clockwise, -1 clockwise.
+        direction: i32 = |s| match s.inner.direction() {
+            Direction::CounterClockwise => 1,
+            Direction::Clockwise => -1,
+        };
+        phase: f64 = |s| s.inner.phase();
+    }
+    derived {
+        /// One lap [s].
+        period: f64 = |s| s.inner.period();
+    }
+);
+
+crate::settings::settings_class!(PyLine, "Line",
+    settings {
+        speed: f64 = |s| s.inner.speed();
+        heading: f64 = |s| s.inner.heading();
+        start: (f64, f64) = |s| (s.inner.start()[0], s.inner.start()[1]);
+    }
+);
+
+crate::settings::settings_class!(PyFigureEight, "FigureEight",
+    settings {
+        half_width: f64 = |s| s.inner.half_width();
+        period: f64 = |s| s.inner.period();
+        centre: (f64, f64) = |s| (s.inner.centre()[0], s.inner.centre()[1]);
+    }
+);
+
+crate::settings::settings_class!(PyWaypoints, "Waypoints",
+    settings {
+        points: Vec<(f64, f64)> = |s| s.inner.points().iter().map(|p| (p[0], p[1])).collect();
+        speed: f64 = |s| s.inner.speed();
+        corner_radius: f64 = |s| s.inner.corner_radius();
+    }
+    derived {
+        /// Length of the rounded path [m].
+        length: f64 = |s| s.inner.length();
+        /// Time to reach the last point [s].
+        duration: f64 = |s| s.inner.duration();
+    }
+);
+
+pub(crate) fn trajectory(obj: &Bound<'_, PyAny>) -> PyResult<Trajectory<f64>> {
+    if let Ok(c) = obj.cast::<PyCircle>() {
+        return Ok(Trajectory::Circle(c.get().inner));
+    }
+    if let Ok(l) = obj.cast::<PyLine>() {
+        return Ok(Trajectory::Line(l.get().inner));
+    }
+    if let Ok(f) = obj.cast::<PyFigureEight>() {
+        return Ok(Trajectory::FigureEight(f.get().inner));
+    }
+    if let Ok(w) = obj.cast::<PyWaypoints>() {
+        return Ok(Trajectory::Waypoints(w.get().inner));
+    }
+    Err(pyo3::exceptions::PyTypeError::new_err(format!(
+        "reference must be a twip.Circle, Line, FigureEight or Waypoints, got {}",
+        obj.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+    )))
+}

@@ -1,0 +1,124 @@
+"""Settings classes declared once in the bindings: every field round-trips through
+to_dict/from_dict and replace, Realism through JSON, and decisions come from the core."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+import twip
+from twip import _core
+
+
+def _planar():
+    return twip.PlanarModel(twip.RobotParams.balanbot())
+
+
+SETTINGS = {
+    "Imu": lambda: twip.Imu(dlpf_hz=98.0, gyro_bias=0.01, accel_bias=(0.1, -0.2), quantise=False),
+    "Dlpf": lambda: twip.Dlpf(30.0, 0.004, sample_rate=500.0),
+    "MotorDriver": lambda: twip.MotorDriver(battery=12.0, current_limit=3.0),
+    "Push": lambda: twip.Push(1.5, 0.3, height=0.2),
+    "Force": lambda: twip.Force(horizontal=0.5, vertical=-1.0),
+    "Friction": lambda: twip.Friction(0.01, breakaway=0.02, viscous=1e-3),
+    "Circle": lambda: twip.Circle(0.5, 0.2, direction="cw"),
+    "Line": lambda: twip.Line(0.3, heading=0.4, start=(1.0, 2.0)),
+    "FigureEight": lambda: twip.FigureEight(1.0, 30.0, centre=(0.5, 0.0)),
+    "Waypoints": lambda: twip.Waypoints([(0, 0), (1, 0), (1, 1)], 0.2, corner_radius=0.1),
+    "DcMotor": lambda: twip.DcMotor.gb37y3530(supply=12.0),
+    "FuzzyController": lambda: twip.FuzzyController.thesis_flat(
+        twip.SlopeModel(twip.RobotParams.balanbot(), 0.0), gamma=0.5, s0=np.arange(9.0)),
+    "SmcTracker": lambda: twip.SmcTracker(_planar(), fuzzy=True, boundary_layer=(0.03, 0.04), leakage=0.1),
+    "Realism": lambda: twip.Realism.thesis_like(seed=3).replace(
+        pushes=[(1.0, 0.4)], force=twip.Force(1.0), slope_profile=[(2.0, 0.1)], friction=twip.Friction.gb37()),
+}
+
+
+#: A positive float field of each class that may be doubled (and must refuse NaN).
+CHANGE = {"Imu": "height", "Dlpf": "delay", "MotorDriver": "battery", "Push": "impulse",
+          "Force": "horizontal", "Friction": "coulomb", "Circle": "radius", "Line": "speed",
+          "FigureEight": "half_width", "Waypoints": "speed", "DcMotor": "resistance",
+          "FuzzyController": "k1", "SmcTracker": "period", "Realism": "control_period"}
+
+
+def _plain(v):
+    """Comparable values: settings objects as their dicts, arrays as lists."""
+    if hasattr(v, "to_dict"):
+        return {k: _plain(x) for k, x in v.to_dict().items()}
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return [_plain(x) for x in v]
+    if hasattr(v, "kind") and hasattr(v, "parameters"):
+        return (v.kind, v.parameters)
+    if isinstance(v, (twip.SlopeModel, twip.PlanarModel)):
+        return (v.params.to_dict(), getattr(v, "slope", None), _plain(v.friction))
+    if isinstance(v, twip.FuzzyBasis):
+        return repr(v)
+    return v
+
+
+@pytest.mark.parametrize("name", sorted(SETTINGS))
+def test_every_field_round_trips_through_to_dict(name):
+    x = SETTINGS[name]()
+    d = x.to_dict()
+    y = type(x).from_dict(d)
+    assert _plain(y) == _plain(x)
+    for k, v in d.items():  # each field has its getter, equal to the dict's value
+        assert _plain(getattr(x, k)) == _plain(v)
+    assert repr(x).startswith(f"{name}(")
+
+
+@pytest.mark.parametrize("name", sorted(SETTINGS))
+def test_replace_changes_one_field_and_validates(name):
+    x = SETTINGS[name]()
+    d = x.to_dict()
+    key = CHANGE[name]
+    y = x.replace(**{key: d[key] * 2})
+    assert getattr(y, key) == pytest.approx(d[key] * 2)
+    assert {k: _plain(v) for k, v in y.to_dict().items() if k != key} == \
+        {k: _plain(v) for k, v in d.items() if k != key}
+    with pytest.raises((ValueError, TypeError)):
+        x.replace(**{key: float("nan")})
+    with pytest.raises(TypeError):
+        x.replace(no_such_field=1.0)
+
+
+def test_realism_json_round_trip_keeps_every_part():
+    r = SETTINGS["Realism"]().replace(estimator=twip.TiltEstimator.kalman(2e-3, 3e-6, 0.1), stream=7)
+    text = r.to_json()
+    back = twip.Realism.from_json(text)
+    assert back.to_json() == text
+    assert json.loads(text)["estimator"] == {"kind": "kalman", "q_angle": 2e-3, "q_bias": 3e-6, "r_angle": 0.1}
+    assert back.pushes[0].impulse == 0.4 and back.friction == twip.Friction.gb37() and back.stream == 7
+    assert twip.Realism.from_json(twip.Realism().to_json()).is_ideal
+    with pytest.raises(ValueError, match="JSON"):
+        twip.Realism.from_json("[1, 2]")
+
+
+def test_realism_json_runs_the_same_robot():
+    sc = twip.scenarios.get("flat-lqr-sim", t_final=1.0)
+    r = twip.Realism.thesis_like(seed=5)
+    a = sc.run(realism=r)
+    b = sc.run(realism=twip.Realism.from_json(r.to_json()))
+    assert np.array_equal(a.states, b.states)
+
+
+def test_kernel_and_fall_limit_come_from_the_core():
+    assert _core.DEFAULT_FALL_LIMIT == pytest.approx(math.radians(60))
+    lqr = twip.scenarios.get("flat-lqr-sim")
+    assert twip.sweep.kernel_for(lqr) == "lanes"
+    assert twip.sweep.kernel_for(lqr, twip.Realism.thesis_like()) == "realism"
+    assert twip.sweep.kernel_for(twip.scenarios.get("flat-fuzzy-sim")) == "general"
+    assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid")) == "planar"
+    with pytest.raises(TypeError):
+        _core.sweep_kernel(object())
+    # The sweep reports the kernel it ran, the one kernel_for names.
+    res = twip.montecarlo("flat-fuzzy-sim", n=2, seed=1, options={"t_final": 0.2})
+    assert res.kernel == "general"
+
+
+def test_metric_names_are_the_same_in_runs_and_sweeps():
+    run = twip.scenarios.get("flat-lqr-sim", t_final=0.5).run()
+    sweep = twip.montecarlo("flat-lqr-sim", n=2, seed=1, options={"t_final": 0.5})
+    assert set(run.metrics) <= set(sweep.metric_names) | {"peak_abs_input"}
+    planar = twip.scenarios.get("circle-pid").run(t_final=0.5)
+    assert {"mean_abs_x_error", "max_path_error_settled", "peak_current", "peak_torque", "settle"} <= set(planar.metrics)
