@@ -61,18 +61,28 @@ __all__ = [
 
 __version__: str
 
-class TwipError(ValueError): ...
-class InvalidParameterError(TwipError): ...
-class ShapeError(TwipError): ...
-class NonFiniteError(TwipError): ...
-class NoEquilibriumError(TwipError): ...
-class SingularMatrixError(TwipError): ...
-class NotStabilizableError(TwipError): ...
-class NotDetectableError(TwipError): ...
-class ConvergenceError(TwipError): ...
+class TwipError(ValueError):
+    """Base of every twip error (a ValueError)."""
+class InvalidParameterError(TwipError):
+    """A named parameter has an invalid value."""
+class ShapeError(TwipError):
+    """An array argument has the wrong shape."""
+class NonFiniteError(TwipError):
+    """A state, input or matrix holds NaN or inf."""
+class NoEquilibriumError(TwipError):
+    """The requested operating point does not exist."""
+class SingularMatrixError(TwipError):
+    """A matrix that must be invertible is singular."""
+class NotStabilizableError(TwipError):
+    """The pair (A, B) is not stabilizable."""
+class NotDetectableError(TwipError):
+    """The pair (A, Q) is not detectable."""
+class ConvergenceError(TwipError):
+    """An iterative method hit its iteration cap."""
 
 @final
 class RobotParams:
+    """Physical parameters of one robot, SI units (see docs/parameters.md)."""
     fields: list[str]
     m_body: float
     m_wheels: float
@@ -92,24 +102,37 @@ class RobotParams:
     g: float
     def __new__(cls, **fields: float) -> RobotParams: ...
     @staticmethod
-    def balanbot() -> RobotParams: ...
-    def replace(self, **changes: float) -> RobotParams: ...
+    def balanbot() -> RobotParams:
+        """The thesis's robot (Balanbot with GB37Y3530-12V-251R motors)."""
+    def replace(self, **changes: float) -> RobotParams:
+        """A copy with some fields changed, validated."""
     @classmethod
-    def from_file(cls, path: Any) -> RobotParams: ...
-    def to_file(self, path: Any) -> None: ...
+    def from_file(cls, path: Any) -> RobotParams:
+        """The [robot] table of a robot file (TOML; see `twip.robot_file`)."""
+    def to_file(self, path: Any) -> None:
+        """Writes a robot file: every field with its unit and thesis symbol in a comment."""
     def to_dict(self) -> dict[str, float]: ...
     @staticmethod
     def from_dict(d: Mapping[str, float]) -> RobotParams: ...
 
 @final
 class Friction:
-    """One wheel's gearhead friction: Coulomb + viscous + Stribeck, tanh-regularised."""
+    """One wheel's gearhead friction (N m, rad/s): Coulomb + viscous + Stribeck, the sign
+    regularised by tanh(w / smoothing_speed); `breakaway` is the static (peak) torque.
+    """
     def __new__(cls, coulomb: float, breakaway: Optional[float] = None, stribeck_speed: float = 1.0,
                 viscous: float = 0.0, smoothing_speed: float = 0.1) -> Friction: ...
     @staticmethod
-    def gb37() -> Friction: ...
+    def gb37() -> Friction:
+        """The GB37 data sheet's no-load torque eta k_t I0 = 0.152 N m read as Coulomb
+        friction; breakaway 1.25x; Stribeck speed 1 rad/s; smoothing 0.1 rad/s.
+        """
     @staticmethod
-    def gb37_beside(viscous_per_wheel: float) -> Friction: ...
+    def gb37_beside(viscous_per_wheel: float) -> Friction:
+        """`gb37()` beside a viscous bearing of `viscous_per_wheel` [N m s/rad]: the Coulomb
+        part is what the viscous one leaves of the no-load torque at the no-load speed
+        (0.0117 N m beside `RobotParams.balanbot()`'s mu_bearing / 2).
+        """
     @property
     def coulomb(self) -> float: ...
     @property
@@ -120,62 +143,98 @@ class Friction:
     def viscous(self) -> float: ...
     @property
     def smoothing_speed(self) -> float: ...
-    def torque(self, w: float) -> float: ...
-    def to_dict(self) -> dict[str, Any]: ...
+    def torque(self, w: float) -> float:
+        """The friction torque [N m] at the wheel's speed relative to the body `w` [rad/s]."""
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> Friction: ...
-    def replace(self, **changes: Any) -> Friction: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> Friction:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
+    def replace(self, **changes: Any) -> Friction:
+        """A copy with some settings changed (validated as the constructor does)."""
 
 @final
 class SlopeModel:
+    """The 2-DOF model on a slope; state [phi, phi_dot, theta, theta_dot], input current u [A]."""
     def __new__(cls, params: RobotParams, slope: float = 0.0, friction: Optional[Friction] = None) -> SlopeModel: ...
     @property
-    def friction(self) -> Optional[Friction]: ...
+    def friction(self) -> Optional[Friction]:
+        """The gearhead friction per wheel, or None (the thesis's model)."""
     @property
     def params(self) -> RobotParams: ...
     @property
-    def slope(self) -> float: ...
+    def slope(self) -> float:
+        """Slope angle alpha [rad], positive when forward travel climbs."""
     def deriv(self, x: _ArrayLike, u: Union[float, _ArrayLike]) -> _F64: ...
     def energy(self, x: _ArrayLike) -> float: ...
-    def linearize(self, x0: _ArrayLike, u0: float = 0.0) -> Tuple[_F64, _F64]: ...
-    def linearize_thesis(self) -> Tuple[_F64, _F64, _F64]: ...
-    def equilibrium(self, theta_dot_ref: float, linear: bool = False) -> Tuple[_F64, float]: ...
+    def linearize(self, x0: _ArrayLike, u0: float = 0.0) -> Tuple[_F64, _F64]:
+        """Exact Jacobians (A 4x4, B 4x1) at the operating point (x0, u0)."""
+    def linearize_thesis(self) -> Tuple[_F64, _F64, _F64]:
+        """The thesis's linear model (4.6)-(4.10) on [phi, phi_dot, theta_dot]: (A 3x3, B 3x1, D 3x1)."""
+    def equilibrium(self, theta_dot_ref: float, linear: bool = False) -> Tuple[_F64, float]:
+        """Steady state at wheel speed theta_dot_ref: (x_s, u_s), x_s = [phi_s, 0, 0, theta_dot_ref].
+        `linear=True` uses the thesis's linear model, (4.12)-(4.13).
+        """
     def mass_matrix(self, phi: float) -> _F64: ...
 
 @final
 class PlanarModel:
+    """The 3-DOF planar model; state [x, y, psi, phi, phi_dot, v, omega], input [u_r, u_l] [N m]."""
     def __new__(cls, params: RobotParams, friction: Optional[Friction] = None) -> PlanarModel: ...
     @property
-    def friction(self) -> Optional[Friction]: ...
+    def friction(self) -> Optional[Friction]:
+        """The gearhead friction per wheel, or None (the thesis's model)."""
     @property
     def params(self) -> RobotParams: ...
     def deriv(self, x: _ArrayLike, u: _ArrayLike) -> _F64: ...
     def energy(self, x: _ArrayLike) -> float: ...
-    def mass_matrix(self, phi: float) -> _F64: ...
+    def mass_matrix(self, phi: float) -> _F64:
+        """The mass matrix M(phi) of M nu_dot + h = B u, with nu = (phi_dot, v, omega)."""
 
-def rk4_step(model: Union[SlopeModel, PlanarModel], x: _ArrayLike, u: Union[float, _ArrayLike], dt: float) -> _F64: ...
-def care(A: _ArrayLike, B: _ArrayLike, Q: _ArrayLike, R: Union[float, _ArrayLike]) -> _F64: ...
-def lqr(A: _ArrayLike, B: _ArrayLike, Q: _ArrayLike, R: Union[float, _ArrayLike]) -> Tuple[_F64, _F64, npt.NDArray[np.complex128]]: ...
+def rk4_step(model: Union[SlopeModel, PlanarModel], x: _ArrayLike, u: Union[float, _ArrayLike], dt: float) -> _F64:
+    """One RK4 step of either model with the input held over the step."""
+def care(A: _ArrayLike, B: _ArrayLike, Q: _ArrayLike, R: Union[float, _ArrayLike]) -> _F64:
+    """Stabilising solution X of X A + Aᵀ X − X B R⁻¹ Bᵀ X + Q = 0 (like scipy's
+    `solve_continuous_are` and python-control's `care`). B may be 1-D for one input, R a scalar.
+    """
+def lqr(A: _ArrayLike, B: _ArrayLike, Q: _ArrayLike, R: Union[float, _ArrayLike]) -> Tuple[_F64, _F64, npt.NDArray[np.complex128]]:
+    """Linear-quadratic regulator, python-control's `lqr(A, B, Q, R) -> (K, X, E)`:
+    K = R⁻¹ Bᵀ X for u = −K x, X the CARE solution, E the eigenvalues of A − B K (complex).
+    """
 
 @final
 class SpeedSchedule:
+    """A wheel schedule from theta = 0: legs of (goal [rad], speed [rad/s] > 0, hold [s])."""
     def __new__(cls, legs: Sequence[Tuple[float, float, float]]) -> SpeedSchedule: ...
     @staticmethod
-    def constant(speed: float) -> SpeedSchedule: ...
+    def constant(speed: float) -> SpeedSchedule:
+        """Constant wheel speed [rad/s] from rest, forever."""
     @staticmethod
-    def go_and_return(distance: float, speed: float, wheel_radius: float, hold: float = 0.0) -> SpeedSchedule: ...
+    def go_and_return(distance: float, speed: float, wheel_radius: float, hold: float = 0.0) -> SpeedSchedule:
+        """The thesis's experiment: drive `distance` [m] at wheel speed `speed` [rad/s],
+        hold `hold` [s], then drive back to the start and stay there.
+        """
     @property
-    def legs(self) -> list[Tuple[float, float, float]]: ...
-    def sample(self, t: float) -> Tuple[float, float]: ...
+    def legs(self) -> list[Tuple[float, float, float]]:
+        """Legs as (goal, speed, hold) tuples."""
+    def sample(self, t: float) -> Tuple[float, float]:
+        """(theta_ref, theta_dot_ref) at time t."""
 
 @final
 class LqrController:
+    """LQR with integral action on the wheel speed (thesis 4.24)."""
     def __new__(cls, model: SlopeModel, gains: _ArrayLike, point: str = "operating", period: float = 0.005) -> LqrController: ...
     @staticmethod
     def design(model: SlopeModel, theta_dot_ref: float, Q: _ArrayLike, R: float, point: str = "operating",
-               period: float = 0.005) -> LqrController: ...
+               period: float = 0.005) -> LqrController:
+        """Designs K̂ by LQR on the augmented system (4.17)-(4.23) at `theta_dot_ref`.
+        `Q` is 4x4 (or the 4 diagonal entries), `R` a positive scalar.
+        """
     @property
-    def gains(self) -> _F64: ...
+    def gains(self) -> _F64:
+        """K̂ = [k_phi, k_phi_dot, k_theta_dot, k_z]."""
     @property
     def period(self) -> float: ...
     @property
@@ -183,27 +242,36 @@ class LqrController:
     @property
     def model(self) -> SlopeModel: ...
     @property
-    def design_info(self) -> Optional[dict[str, Any]]: ...
-    def steady_state(self, theta_dot_ref: float) -> Tuple[float, float]: ...
+    def design_info(self) -> Optional[dict[str, Any]]:
+        """The design's Â, B̂, X (P̂), poles, phi_s, u_s (None if the gains were given)."""
+    def steady_state(self, theta_dot_ref: float) -> Tuple[float, float]:
+        """The steady state (phi_s, u_s) the controller aims for at a reference speed."""
 
 @final
 class Trapezoid:
+    """Trapezoidal membership (4.31): a <= b <= c <= d; a = b = -inf is a left shoulder,
+    c = d = +inf a right one. Call it on a float or an array.
+    """
     def __new__(cls, a: float, b: float, c: float, d: float) -> Trapezoid: ...
     @property
-    def breakpoints(self) -> Tuple[float, float, float, float]: ...
+    def breakpoints(self) -> Tuple[float, float, float, float]:
+        """(a, b, c, d)."""
     def eval(self, x: Any) -> Any: ...
     def __call__(self, x: Any) -> Any: ...
 
 @final
 class Triangle:
+    """Triangular membership with feet a, c and peak b (the trapezoid (a, b, b, c))."""
     def __new__(cls, a: float, b: float, c: float) -> Triangle: ...
     @property
-    def breakpoints(self) -> Tuple[float, float, float]: ...
+    def breakpoints(self) -> Tuple[float, float, float]:
+        """(a, b, c)."""
     def eval(self, x: Any) -> Any: ...
     def __call__(self, x: Any) -> Any: ...
 
 @final
 class Gaussian:
+    """Gaussian membership exp(-(x - mean)^2 / (2 sigma^2)), sigma > 0."""
     def __new__(cls, mean: float, sigma: float) -> Gaussian: ...
     @property
     def mean(self) -> float: ...
@@ -214,28 +282,47 @@ class Gaussian:
 
 @final
 class FuzzyBasis:
+    """The normalised fuzzy basis xi of (4.29) over a grid rule base: one rule per
+    combination of one set per input, product inference, rules in row-major order (the
+    last input varies fastest, as in (4.39)). xi is non-negative and sums to 1 everywhere;
+    where no rule fires, each silent input's nearest set fires alone (docs/scenarios.md).
+    """
     def __new__(cls, sets_per_input: Sequence[Sequence[Any]]) -> FuzzyBasis: ...
     @staticmethod
-    def default() -> FuzzyBasis: ...
+    def default() -> FuzzyBasis:
+        """twip's default sets for (phi [rad], phi_dot [rad/s]), N, Z, P each, rules ordered as
+        the thesis's (4.39); FuzzyController uses them unless given `sets`.
+        """
     @property
     def n_inputs(self) -> int: ...
     @property
     def n_rules(self) -> int: ...
     @property
     def sets(self) -> Any: ...
-    def eval(self, x: _ArrayLike) -> _F64: ...
+    def eval(self, x: _ArrayLike) -> _F64:
+        """xi at one point x (shape (n_inputs,)) -> (n_rules,), or at many points
+        (shape (N, n_inputs)) -> (N, n_rules).
+        """
 
 @final
 class FuzzyController:
+    """Fuzzy adaptive backstepping on the pitch + PD on the wheel position (thesis 4.56,
+    errata F1-F8): u = -(1/G1)[e1 + S^T xi + k1 phi_dot + (1/2 + k2) z2] + kp e + kd e_dot
+    + ki int(e), S' = z2 xi / gamma - sigma S. `model` is the controller's own model (phi_s
+    and G1); `sets` the (phi, phi_dot) x (N, Z, P) sets (a 2 x 3 FuzzyBasis or nested list);
+    `adapt=False` freezes S at `s0` (default zeros).
+    """
     def __new__(cls, model: SlopeModel, k1: float, k2: float, kp: float, kd: float, gamma: float = ...,
                 sigma: float = ..., ki: float = 0.0, adapt: bool = True, sets: Any = None, period: float = 0.005,
                 s0: Optional[_ArrayLike] = None) -> FuzzyController: ...
     @staticmethod
     def thesis_slope(model: SlopeModel, gamma: float = ..., sigma: float = ..., ki: float = 0.0, adapt: bool = True,
-                     sets: Any = None, period: float = 0.005, s0: Optional[_ArrayLike] = None) -> FuzzyController: ...
+                     sets: Any = None, period: float = 0.005, s0: Optional[_ArrayLike] = None) -> FuzzyController:
+        """The thesis's slope gains k1 = 10, k2 = 13, kp = -0.01, kd = -0.09."""
     @staticmethod
     def thesis_flat(model: SlopeModel, gamma: float = ..., sigma: float = ..., ki: float = 0.0, adapt: bool = True,
-                    sets: Any = None, period: float = 0.005, s0: Optional[_ArrayLike] = None) -> FuzzyController: ...
+                    sets: Any = None, period: float = 0.005, s0: Optional[_ArrayLike] = None) -> FuzzyController:
+        """The thesis's flat gains k1 = 30, k2 = 33, kp = -0.1, kd = -0.9."""
     adapt: bool
     basis: FuzzyBasis
     gamma: float
@@ -249,17 +336,28 @@ class FuzzyController:
     period: float
     s0: list[float]
     sigma: float
-    def g1(self, phi: float) -> float: ...
-    def steady_pitch(self, theta_dot_ref: float) -> float: ...
-    def to_dict(self) -> dict[str, Any]: ...
+    def g1(self, phi: float) -> float:
+        """G1 at pitch phi: the pitch acceleration per ampere (controller's model)."""
+    def steady_pitch(self, theta_dot_ref: float) -> float:
+        """phi_s the controller aims for at a reference wheel speed (corrected 4.42, own model)."""
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> FuzzyController: ...
-    def replace(self, **changes: Any) -> FuzzyController: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> FuzzyController:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
+    def replace(self, **changes: Any) -> FuzzyController:
+        """A copy with some settings changed (validated as the constructor does)."""
     @property
-    def sets(self) -> FuzzyBasis: ...
+    def sets(self) -> FuzzyBasis:
+        """The (phi, phi_dot) x (N, Z, P) sets."""
 
 @final
 class Circle:
+    """Constant speed round a circle. `direction` +1 (or "ccw") turns left, -1 ("cw") right.
+    By default it starts at the origin heading along +x, centre (0, direction * radius).
+    """
     def __new__(cls, radius: float, speed: float, centre: Optional[Tuple[float, float]] = None,
                 direction: Any = None, phase: Optional[float] = None) -> Circle: ...
     centre: Tuple[float, float]
@@ -268,41 +366,65 @@ class Circle:
     phase: float
     radius: float
     speed: float
-    def sample(self, t: float) -> dict[str, float]: ...
-    def distance(self, x: float, y: float) -> float: ...
-    def to_dict(self) -> dict[str, Any]: ...
+    def sample(self, t: float) -> dict[str, float]:
+        """The reference at time t: dict of x, y, psi, v, omega, v_dot, omega_dot (SI)."""
+    def distance(self, x: float, y: float) -> float:
+        """Distance from (x, y) to the circle [m]."""
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> Circle: ...
-    def replace(self, **changes: Any) -> Circle: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> Circle:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
+    def replace(self, **changes: Any) -> Circle:
+        """A copy with some settings changed (validated as the constructor does)."""
 
 @final
 class Line:
+    """A straight line from `start` along `heading` [rad] at constant `speed`."""
     def __new__(cls, speed: float, heading: float = 0.0, start: Tuple[float, float] = ...) -> Line: ...
     heading: float
     speed: float
     start: Tuple[float, float]
     def sample(self, t: float) -> dict[str, float]: ...
     def distance(self, x: float, y: float) -> float: ...
-    def to_dict(self) -> dict[str, Any]: ...
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> Line: ...
-    def replace(self, **changes: Any) -> Line: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> Line:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
+    def replace(self, **changes: Any) -> Line:
+        """A copy with some settings changed (validated as the constructor does)."""
 
 @final
 class FigureEight:
+    """The lemniscate of Gerono x = a sin(Wt), y = (a/2) sin(2Wt), W = 2 pi/period, about
+    `centre` (right lobe clockwise, left lobe counter-clockwise).
+    """
     def __new__(cls, half_width: float, period: float, centre: Tuple[float, float] = ...) -> FigureEight: ...
     centre: Tuple[float, float]
     half_width: float
     period: float
     def sample(self, t: float) -> dict[str, float]: ...
     def distance(self, x: float, y: float) -> float: ...
-    def to_dict(self) -> dict[str, Any]: ...
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> FigureEight: ...
-    def replace(self, **changes: Any) -> FigureEight: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> FigureEight:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
+    def replace(self, **changes: Any) -> FigureEight:
+        """A copy with some settings changed (validated as the constructor does)."""
 
 @final
 class Waypoints:
+    """Straight legs through `points` (2 to 16 (x, y) pairs) at constant `speed`, inner corners
+    rounded by arcs of `corner_radius` (0: sharp). The reference stops at the last point.
+    """
     def __new__(cls, points: Sequence[Tuple[float, float]], speed: float, corner_radius: float = 0.0) -> Waypoints: ...
     corner_radius: float
     duration: float
@@ -311,20 +433,30 @@ class Waypoints:
     speed: float
     def sample(self, t: float) -> dict[str, float]: ...
     def distance(self, x: float, y: float) -> float: ...
-    def to_dict(self) -> dict[str, Any]: ...
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> Waypoints: ...
-    def replace(self, **changes: Any) -> Waypoints: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> Waypoints:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
+    def replace(self, **changes: Any) -> Waypoints:
+        """A copy with some settings changed (validated as the constructor does)."""
 
 @final
 class DcMotor:
+    """A brushed DC gear motor on PWM, quasi-static: i = (V - k_e eta w)/R, wheel torque
+    eta k_t i, w the wheel's speed relative to the body [rad/s]. SI units.
+    """
     def __new__(cls, resistance: float, k_t: float, gear_ratio: float, friction: float = 0.0, supply: float = 11.1,
                 pwm_max: float = 255.0) -> DcMotor: ...
     @staticmethod
-    def gb37y3530(supply: float = 11.1) -> DcMotor: ...
+    def gb37y3530(supply: float = 11.1) -> DcMotor:
+        """The thesis's GB37Y3530-12V-251R (Table 2.3) on a `supply` V battery (3 x 3.7 V)."""
     @staticmethod
     def from_data_sheet(rated_voltage: float, no_load_rpm: float, no_load_current: float, stall_current: float,
-                        gear_ratio: float, supply: float = 11.1) -> DcMotor: ...
+                        gear_ratio: float, supply: float = 11.1) -> DcMotor:
+        """R = V/I_stall, k_t = k_e = (V - I_0 R)/w_0, friction = k_t I_0/w_0 (at the motor shaft)."""
     friction: float
     gear_ratio: float
     k_t: float
@@ -332,26 +464,41 @@ class DcMotor:
     resistance: float
     supply: float
     def current(self, voltage: float, relative_speed: float) -> float: ...
-    def friction_at_wheel(self) -> float: ...
-    def no_load_speed(self) -> float: ...
+    def friction_at_wheel(self) -> float:
+        """eta^2 x friction [N m s/rad]."""
+    def no_load_speed(self) -> float:
+        """Wheel speed with no load at full supply [rad/s]."""
     def pwm_voltage(self, pwm: float) -> float: ...
-    def torque(self, voltage: float, relative_speed: float) -> float: ...
+    def torque(self, voltage: float, relative_speed: float) -> float:
+        """Wheel torque [N m] at terminal `voltage` and relative wheel speed [rad/s]."""
     def torque_from_pwm(self, pwm: float, relative_speed: float) -> float: ...
-    def torque_limits(self, relative_speed: float) -> Tuple[float, float]: ...
-    def torque_per_count(self) -> float: ...
+    def torque_limits(self, relative_speed: float) -> Tuple[float, float]:
+        """(full reverse, full forward) torque at `relative_speed`."""
+    def torque_per_count(self) -> float:
+        """Stall torque of one PWM count [N m]."""
     def voltage_for_torque(self, torque: float, relative_speed: float) -> float: ...
-    def to_dict(self) -> dict[str, Any]: ...
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> DcMotor: ...
-    def replace(self, **changes: Any) -> DcMotor: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> DcMotor:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
+    def replace(self, **changes: Any) -> DcMotor:
+        """A copy with some settings changed (validated as the constructor does)."""
 
 @final
 class PidTracker:
+    """The PID tracker (4.64-4.70) in the Arduino's units: outputs PWM counts, turned into
+    wheel torques by `motor` at the measured wheel speeds. `gains` (dict, over Table 4.1's)
+    and `units` ("arduino", "si" or a dict of pitch, speed, heading, integral_step).
+    """
     def __new__(cls, params: RobotParams, gains: Any = None, units: Any = None, motor: Optional[DcMotor] = None,
                 period: float = 0.005) -> PidTracker: ...
     @staticmethod
     def table_4_1(params: Optional[RobotParams] = None, motor: Optional[DcMotor] = None,
-                  period: float = 0.005) -> PidTracker: ...
+                  period: float = 0.005) -> PidTracker:
+        """Table 4.1's gains as published, in twip's reading of the Arduino's units."""
     gains: Any
     motor: DcMotor
     period: float
@@ -359,12 +506,21 @@ class PidTracker:
 
 @final
 class SmcTracker:
+    """The sliding-mode backstepping tracker (4.71-4.98) or, with `fuzzy=True`, its fuzzy
+    adaptive form (4.99-4.121). `gains` (dict, SI) override the published ones, whose
+    torque gains (k_s3, k_s4, g_y4) are read in `torque_unit`; `boundary_layer` is the
+    width of sat(S/w) for (S_eta, S1), one number for both, 0 for sgn; `pitch` is
+    "backward" (the reading under which the published r1, r2 work) or "forward".
+    """
     def __new__(cls, model: PlanarModel, fuzzy: bool = False, boundary_layer: Any = None, gains: Any = None,
                 torque_unit: Any = None, pitch: str = "backward", guards: Any = ..., gamma: Any = ...,
                 leakage: float = 0.0, pitch_offset: bool = True, motor: Optional[DcMotor] = None,
                 motor_limits: bool = True, period: float = 0.005) -> SmcTracker: ...
     @staticmethod
-    def thesis_gains(torque_unit: Any = None) -> Any: ...
+    def thesis_gains(torque_unit: Any = None) -> Any:
+        """The published gains (4.3.2) and twip's k1, k2, k3, k_phi, as a dict in SI with the
+        torque gains read in `torque_unit` ("pwm": one PWM count of the GB37Y3530 at 11.1 V).
+        """
     boundary_layer: Any
     fuzzy: bool
     gains: Any
@@ -372,19 +528,29 @@ class SmcTracker:
     period: float
     pitch: str
     weights: Any
-    def input_gains(self, phi: float) -> Any: ...
-    def steady_pitch(self, v: float, omega: float) -> float: ...
-    def surface_gain(self, phi: float) -> float: ...
-    def to_dict(self) -> dict[str, Any]: ...
+    def input_gains(self, phi: float) -> Any:
+        """(g21, g22, g23) of (4.72) for the controller's model at pitch phi."""
+    def steady_pitch(self, v: float, omega: float) -> float:
+        """The controller model's steady pitch driving at speed v [m/s] turning at omega [rad/s]."""
+    def surface_gain(self, phi: float) -> float:
+        """r1 g21 + r2 g22 at pitch phi, r1 on the controller's pitch: (4.113) needs it < 0."""
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> SmcTracker: ...
-    def replace(self, **changes: Any) -> SmcTracker: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> SmcTracker:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
+    def replace(self, **changes: Any) -> SmcTracker:
+        """A copy with some settings changed (validated as the constructor does)."""
     @property
     def torque_unit(self) -> str: ...
     @property
-    def guards(self) -> Tuple[float, float]: ...
+    def guards(self) -> Tuple[float, float]:
+        """Guards delta of (4.82) for (e3, d)."""
     @property
-    def gamma(self) -> Tuple[float, float]: ...
+    def gamma(self) -> Tuple[float, float]:
+        """Adaptation gains (gamma1, gamma2) of the fuzzy form."""
     @property
     def leakage(self) -> float: ...
     @property
@@ -396,32 +562,53 @@ class SmcTracker:
 
 @final
 class Dlpf:
+    """A Table 2.2 low-pass: a second-order section solved from (bandwidth, delay), plus a
+    pure delay where the section cannot reach the delay (see docs/parameters.md).
+    """
     def __new__(cls, bandwidth_hz: float, delay: float, sample_rate: float = 1000.0) -> Dlpf: ...
     @staticmethod
-    def mpu6050(dlpf_hz: float, sensor: str = "gyro", sample_rate: float = 1000.0) -> Dlpf: ...
+    def mpu6050(dlpf_hz: float, sensor: str = "gyro", sample_rate: float = 1000.0) -> Dlpf:
+        """The MPU-6050's filter for the row whose bandwidth is `dlpf_hz`, for the "accel"
+        or "gyro" column.
+        """
     @staticmethod
-    def table() -> Any: ...
+    def table() -> Any:
+        """Table 2.2 as (accel_hz, accel_delay [s], gyro_hz, gyro_delay [s]) per DLPF_CFG."""
     bandwidth_hz: float
     delay: float
     natural_frequency: float
     pure_delay: float
     sample_rate: float
     zeta: float
-    def filter(self, x: _ArrayLike) -> _F64: ...
-    def to_dict(self) -> dict[str, Any]: ...
+    def filter(self, x: _ArrayLike) -> _F64:
+        """Filters `x` (samples at the sample rate), starting in the steady state of x[0]."""
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> Dlpf: ...
-    def replace(self, **changes: Any) -> Dlpf: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> Dlpf:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
+    def replace(self, **changes: Any) -> Dlpf:
+        """A copy with some settings changed (validated as the constructor does)."""
 
 @final
 class Imu:
+    """The MPU-6050 of the Balance Shield: DLPF (Table 2.2), noise, bias, ranges, LSB.
+    SI units; the ranges as the data sheet's settings (deg/s, g). Defaults: the data
+    sheet's noise densities, no bias, DLPF 44/42 Hz, +-250 deg/s, +-2 g, 1 kHz.
+    """
     def __new__(cls, *, dlpf_hz: float = 42.0, height: float = 0.12, gyro_noise: float = ..., accel_noise: float = ...,
                 gyro_bias: float = 0.0, gyro_bias_walk: float = 0.0, accel_bias: Any = ..., gyro_range_dps: float = 250.0,
                 accel_range_g: float = 2.0, quantise: bool = True, sample_rate: float = 1000.0) -> Imu: ...
     @staticmethod
-    def data_sheet() -> Imu: ...
+    def data_sheet() -> Imu:
+        """The data sheet's sensor (the defaults)."""
     @staticmethod
-    def thesis_like() -> Imu: ...
+    def thesis_like() -> Imu:
+        """The data sheet's sensor with the residual errors of a start-up calibration:
+        gyro bias 0.1 deg/s drifting 0.005 deg/s/sqrt(s), accelerometer x bias 5 mg.
+        """
     accel_bias: Any
     accel_noise: float
     accel_range_g: float
@@ -434,31 +621,54 @@ class Imu:
     height: float
     quantise: bool
     sample_rate: float
-    def dlpf(self, sensor: str = "gyro") -> Dlpf: ...
-    def replace(self, **changes: Any) -> Imu: ...
-    def to_dict(self) -> dict[str, Any]: ...
+    def dlpf(self, sensor: str = "gyro") -> Dlpf:
+        """The filter of one sensor ("accel" or "gyro") as set up here."""
+    def replace(self, **changes: Any) -> Imu:
+        """A copy with some settings changed (validated as the constructor does)."""
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> Imu: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> Imu:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
 
 @final
 class TiltEstimator:
+    """How the firmware estimates the pitch from the IMU: `complementary(time_constant)` or
+    `kalman(q_angle, q_bias, r_angle)` (angle and gyro bias).
+    """
     @staticmethod
-    def complementary(time_constant: float = 1.0) -> TiltEstimator: ...
+    def complementary(time_constant: float = 1.0) -> TiltEstimator:
+        """phi <- a (phi + T omega) + (1 - a) phi_acc, a = tau / (tau + T); tau [s]."""
     @staticmethod
-    def kalman(q_angle: float = 1e-3, q_bias: float = 1e-6, r_angle: float = 0.2) -> TiltEstimator: ...
+    def kalman(q_angle: float = 1e-3, q_bias: float = 1e-6, r_angle: float = 0.2) -> TiltEstimator:
+        """Kalman filter on (angle, gyro bias): q_angle [rad^2/s], q_bias [rad^2/s^3],
+        r_angle [rad^2] (the accelerometer tilt's variance while driving).
+        """
     kind: str
     parameters: Any
-    def filter(self, accel_x: _ArrayLike, accel_z: _ArrayLike, gyro: _ArrayLike, dt: float) -> Any: ...
+    def filter(self, accel_x: _ArrayLike, accel_z: _ArrayLike, gyro: _ArrayLike, dt: float) -> Any:
+        """Runs the estimator over IMU readings taken every `dt` [s]: specific force along
+        the sensor's x and z [m/s^2] and pitch rate [rad/s]. Returns (phi_hat, phi_dot_hat).
+        """
 
 @final
 class MotorDriver:
+    """Battery, L298P bridge and the two GB37Y3530 motors (per motor). Defaults: the data
+    sheet's motor (R = 12 V / 7 A) on 3 x 3.7 V, no bridge drop, no inductance, a lossless
+    gearbox and no current limit; `assumed_battery` (default: `battery`) is what the
+    firmware's feed-forward believes.
+    """
     def __new__(cls, *, battery: float = 11.1, bridge_drop: float = 0.0, resistance: float = ..., inductance: float = 0.0,
                 efficiency: float = 1.0, current_limit: Optional[float] = None,
                 assumed_battery: Optional[float] = None) -> MotorDriver: ...
     @staticmethod
-    def data_sheet() -> MotorDriver: ...
+    def data_sheet() -> MotorDriver:
+        """The defaults: the data sheet's motor on the 11.1 V battery, nothing else."""
     @staticmethod
-    def thesis_like() -> MotorDriver: ...
+    def thesis_like() -> MotorDriver:
+        """The L298P's 2 V drop and 2 A DC rating, an assumed 1 mH winding."""
     assumed_battery: Optional[float]
     battery: float
     bridge_drop: float
@@ -466,47 +676,97 @@ class MotorDriver:
     efficiency: float
     inductance: float
     resistance: float
-    def current(self, voltage: float, wheel_speed: float, params: Optional[RobotParams] = None) -> float: ...
-    def duty(self, lumped_current: float, wheel_speed: float, params: Optional[RobotParams] = None) -> float: ...
-    def replace(self, **changes: Any) -> MotorDriver: ...
-    def to_dict(self) -> dict[str, Any]: ...
-    def wheel_torque(self, voltage: float, wheel_speed: float, params: Optional[RobotParams] = None) -> float: ...
+    def current(self, voltage: float, wheel_speed: float, params: Optional[RobotParams] = None) -> float:
+        """Steady winding current of one motor [A] at terminal `voltage` and relative wheel
+        speed theta_dot - phi_dot [rad/s] (the robot's torque constant and gear ratio).
+        """
+    def duty(self, lumped_current: float, wheel_speed: float, params: Optional[RobotParams] = None) -> float:
+        """The firmware's duty [counts] for a lumped (both motors) current at a measured
+        relative wheel speed: R i + back-EMF, rounded and saturated at +-255.
+        """
+    def replace(self, **changes: Any) -> MotorDriver:
+        """A copy with some settings changed (validated as the constructor does)."""
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
+    def wheel_torque(self, voltage: float, wheel_speed: float, params: Optional[RobotParams] = None) -> float:
+        """Torque of one motor on its wheel [N m] at `voltage` and relative wheel speed."""
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> MotorDriver: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> MotorDriver:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
 
 @final
 class Push:
+    """A horizontal push on the body: `impulse` [N s] (positive forward) at time `t` [s],
+    `height` [m] up the body's axis from the axle (default: the centre of mass).
+    """
     def __new__(cls, t: float, impulse: float, height: Optional[float] = None) -> Push: ...
     height: Optional[float]
     impulse: float
     t: float
-    def to_dict(self) -> dict[str, Any]: ...
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> Push: ...
-    def replace(self, **changes: Any) -> Push: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> Push:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
+    def replace(self, **changes: Any) -> Push:
+        """A copy with some settings changed (validated as the constructor does)."""
 
 @final
 class Force:
+    """A constant force on the body [N]: `horizontal` (positive forward), `vertical`
+    (positive up), at `height` [m] up the body's axis (default: the centre of mass).
+    """
     def __new__(cls, horizontal: float = 0.0, vertical: float = 0.0, height: Optional[float] = None) -> Force: ...
     height: Optional[float]
     horizontal: float
     vertical: float
-    def to_dict(self) -> dict[str, Any]: ...
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> Force: ...
-    def replace(self, **changes: Any) -> Force: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> Force:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
+    def replace(self, **changes: Any) -> Force:
+        """A copy with some settings changed (validated as the constructor does)."""
 
 @final
 class Realism:
+    """Which real parts of the robot are in the loop, for `twip.simulate(..., realism=...)`.
+    Every part is optional; `Realism()` is the ideal loop.
+
+    - `imu`: a `twip.Imu` (the MPU-6050) read through `estimator` ("complementary",
+      "kalman" or a `twip.TiltEstimator`) for phi and phi_dot; None: the true ones.
+    - `encoder_cpr`: encoder counts per wheel turn (700; 2797 with 4x decoding) for theta
+      and theta_dot; None: the true ones.
+    - `motor`: a `twip.MotorDriver`; the controller's current becomes a PWM duty. None:
+      the plant gets the current.
+    - `delay`: apply each command one control period late.
+    - `control_period`: the firmware's loop period [s] (None: the controller's own;
+      `simulate(control_period=...)` wins over it).
+    - `pushes`: `twip.Push` or (t, impulse[, height]) tuples; `force`: a `twip.Force`;
+      `slope_profile`: (distance [m], slope [rad]) changes along the path.
+    - `seed`, `stream`: the noise (Philox key); a run is bitwise repeatable.
+    """
     def __new__(cls, *, imu: Optional[Imu] = None, estimator: Any = None, encoder_cpr: Optional[float] = None,
                 motor: Optional[MotorDriver] = None, delay: bool = False, control_period: Optional[float] = None,
                 pushes: Optional[Sequence[Push]] = None, force: Optional[Force] = None, slope_profile: Any = None,
                 friction: Optional[Friction] = None, seed: Optional[int] = None,
                 stream: Optional[int] = None) -> Realism: ...
     @staticmethod
-    def ideal() -> Realism: ...
+    def ideal() -> Realism:
+        """Every part ideal (the same run as without realism, through the realism runner)."""
     @staticmethod
-    def thesis_like(*, seed: int = 0, stream: int = 0) -> Realism: ...
+    def thesis_like(*, seed: int = 0, stream: int = 0) -> Realism:
+        """The thesis's robot as built: a 5 ms loop applying its command one period late,
+        the MPU-6050 at DLPF 42 Hz with data-sheet noise and calibrated residual biases, a
+        complementary filter, 700 CPR encoders, the L298P on 11.1 V (docs/parameters.md).
+        No gearhead friction beyond the model's (`replace(friction=...)` adds it).
+        """
     control_period: Optional[float]
     delay: bool
     encoder_cpr: Optional[float]
@@ -520,37 +780,73 @@ class Realism:
     seed: int
     slope_profile: Any
     stream: int
-    def replace(self, **changes: Any) -> Realism: ...
-    def to_dict(self) -> dict[str, Any]: ...
+    def replace(self, **changes: Any) -> Realism:
+        """A copy with some settings changed (validated as the constructor does)."""
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as the constructor's keyword arguments:
+        `type(x).from_dict(x.to_dict()) == x`.
+        """
     @classmethod
-    def from_dict(cls, settings: Mapping[str, Any]) -> Realism: ...
-    def to_json(self) -> str: ...
+    def from_dict(cls, settings: Mapping[str, Any]) -> Realism:
+        """The settings `to_dict()` gave (missing keys take the constructor's defaults)."""
+    def to_json(self) -> str:
+        """The settings as JSON text: every part as its `to_dict()`, the estimator as
+        {"kind", ...its parameters}. `Realism.from_json` reads it back.
+        """
     @staticmethod
-    def from_json(text: str) -> Realism: ...
+    def from_json(text: str) -> Realism:
+        """The Realism that `to_json` wrote."""
 
 def simulate_raw(model: SlopeModel, controller: Any, x0: _ArrayLike, t_final: float, dt: float, reference: SpeedSchedule,
                  control_period: Optional[float] = None, fall_limit: Optional[float] = None, record_every: int = 1,
-                 realism: Optional[Realism] = None) -> dict[str, Any]: ...
+                 realism: Optional[Realism] = None) -> dict[str, Any]:
+    """Runs the closed loop; returns a dict that `twip.simulate` wraps into a SimResult.
+    With `realism` (a `twip.Realism`) the loop runs through `simulate_rig` and the log
+    gains the `signals` (what the controller read, the plant's input, the motor current).
+    """
 def simulate_planar_raw(model: PlanarModel, controller: Any, x0: _ArrayLike, t_final: float, dt: float, reference: Any,
                         control_period: Optional[float] = None, fall_limit: Optional[float] = None,
                         record_every: int = 1, settle: Optional[float] = None,
-                        realism: Optional[Realism] = None) -> dict[str, Any]: ...
+                        realism: Optional[Realism] = None) -> dict[str, Any]:
+    """Runs a tracker on the 3-DOF model; returns a dict that `twip.simulate` wraps into a
+    SimResult. `settle` [s] starts the "_settled" metrics (default: one lap of a circle or
+    figure-eight, else 0).
+    """
 def sweep_raw(model: SlopeModel, controller: Any, x0: _ArrayLike, t_final: float, dt: float, reference: SpeedSchedule,
               perturbations: Sequence[Tuple[str, int, str, float, float, float, float]], seed: int, start: int,
               count: int, control_period: Optional[float] = None, threads: int = 0,
-              progress: Optional[Callable[[int], Any]] = None, realism: Optional[Realism] = None) -> dict[str, Any]: ...
-def sweep_noise_seed(seed: int) -> int: ...
-def sweep_kernel(controller: Any, realism: bool = False) -> str: ...
+              progress: Optional[Callable[[int], Any]] = None, realism: Optional[Realism] = None) -> dict[str, Any]:
+    """Runs samples `start..start + count`; returns their metrics as arrays. With `realism`
+    (a `twip.Realism`) each runs through the rig; its seed and stream are replaced by the
+    sweep's (see `sweep_noise_seed`).
+    """
+def sweep_noise_seed(seed: int) -> int:
+    """The sensor-noise key of a sweep with `seed` (sample i replays with
+    `realism.replace(seed=sweep_noise_seed(seed), stream=i)`).
+    """
+def sweep_kernel(controller: Any, realism: bool = False) -> str:
+    """The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),
+    with or without realism: "lanes", "general", "realism", "planar" or "planar-realism".
+    """
 
 DEFAULT_FALL_LIMIT: float
-def controller_fingerprint(controller: Any) -> str: ...
+def controller_fingerprint(controller: Any) -> str:
+    """Everything a controller is (gains, model, period, fuzzy sets, initial weights, ...),
+    as text: what a sweep's checkpoint fingerprints, so that any change is noticed.
+    """
 def sweep_draw(model: SlopeModel, x0: _ArrayLike, perturbations: Sequence[Tuple[str, int, str, float, float, float, float]],
-               seed: int, index: int) -> Tuple[dict[str, float], float, _F64]: ...
+               seed: int, index: int) -> Tuple[dict[str, float], float, _F64]:
+    """The robot, slope and initial state of sample `index` (to replay it alone)."""
 def sweep_planar_raw(model: PlanarModel, controller: Any, x0: _ArrayLike, t_final: float, dt: float, reference: Any,
                      perturbations: Sequence[Tuple[str, int, str, float, float, float, float]], seed: int, start: int,
                      count: int, control_period: Optional[float] = None, threads: int = 0,
                      progress: Optional[Callable[[int], Any]] = None,
-                     realism: Optional[Realism] = None) -> dict[str, Any]: ...
+                     realism: Optional[Realism] = None) -> dict[str, Any]:
+    """Runs samples `start..start + count` of a tracker on perturbed planar robots along
+    `reference`; returns their metrics as arrays ("_settled" ones after one lap of a
+    closed path, else from the start: `simulate_planar_raw`'s default).
+    """
 def sweep_planar_draw(model: PlanarModel, x0: _ArrayLike,
                       perturbations: Sequence[Tuple[str, int, str, float, float, float, float]], seed: int,
-                      index: int) -> Tuple[dict[str, float], _F64]: ...
+                      index: int) -> Tuple[dict[str, float], _F64]:
+    """The robot and initial state of sample `index` (to replay it alone)."""

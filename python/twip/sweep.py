@@ -438,9 +438,9 @@ def _invalid_reason(result, index: int) -> str:
         params, slope, x0 = _family(sc).draw(sc.model, sc.x0, perturbations, result.seed, index)
         robot = _core.RobotParams.from_dict(params)
         _core.PlanarModel(robot) if slope is None else _core.SlopeModel(robot, slope)
-        if result._realism is not None:
+        if result.realism is not None:
             _core.simulate_raw(_core.SlopeModel(robot, slope), sc.controller, x0, sc.dt, sc.dt,
-                               sc.reference, realism=result._realism)
+                               sc.reference, realism=result.realism)
     except _core.TwipError as e:
         text = str(e)
         if text.startswith("invalid ") and " = " in text and ": " in text:

@@ -160,7 +160,7 @@ class FuzzyController:
         """First entry of G = A^-1 b-bar, (4.32)-(4.35)."""
         p = self.model.params
         b = np.array([-p.gear_ratio * p.torque_constant, 0.0])
-        return float(np.linalg.solve(self.model._rows(phi), b)[0])
+        return float(np.linalg.solve(self.model.mass_matrix(phi), b)[0])
 
     def update(self, t, y, ref):
         theta_ref, speed = ref

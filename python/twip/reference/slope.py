@@ -26,7 +26,7 @@ class SlopeModel:
             raise ValueError(f"invalid slope = {slope}: must be within (-pi/2, pi/2) rad")
         self.slope = float(slope)
 
-    def _rows(self, phi: float):
+    def mass_matrix(self, phi: float):
         """The 2x2 matrix of (3.20)/(3.21) (called a_ij in (4.34))."""
         p = self.params
         Mb, Mw, l, r = p.m_body, p.m_wheels, p.com_height, p.wheel_radius
@@ -55,7 +55,7 @@ class SlopeModel:
             + Mb * g * l * math.sin(phi)
             - p.mu_ground * theta_dot
         )
-        phi_dd, theta_dd = np.linalg.solve(self._rows(phi), np.array([rhs1, rhs2]))
+        phi_dd, theta_dd = np.linalg.solve(self.mass_matrix(phi), np.array([rhs1, rhs2]))
         return np.array([phi_dot, phi_dd, theta_dot, theta_dd])
 
     def energy(self, x) -> float:
@@ -89,7 +89,7 @@ class SlopeModel:
         """(4.2)-(4.10) with d2 corrected: returns (A, B, D) on [phi, phi_dot, theta_dot]."""
         p = self.params
         Mb, g, l, r = p.m_body, p.g, p.com_height, p.wheel_radius
-        a = self._rows(0.0)  # (4.2): cos(phi + alpha) -> cos(alpha) at phi = 0
+        a = self.mass_matrix(0.0)  # (4.2): cos(phi + alpha) -> cos(alpha) at phi = 0
         c = np.array([[-Mb * g * l, p.mu_bearing, -p.mu_bearing], [-Mb * g * l, 0.0, p.mu_ground]])
         d = np.array([0.0, (p.m_wheels + Mb) * g * r * math.sin(self.slope)])
         b = np.array([-p.gear_ratio * p.torque_constant, 0.0])
