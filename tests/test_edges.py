@@ -267,7 +267,7 @@ def _flip_a_value(npz: bytes) -> bytes:
 
 def test_an_unwritable_folder_is_refused_before_any_work(tmp_path, monkeypatch):
     ran = []
-    monkeypatch.setattr(tsweep, "_run", lambda *a, **k: ran.append(a))
+    monkeypatch.setattr(tsweep, "run_samples", lambda *a, **k: ran.append(a))
     blocker = tmp_path / "a-file"
     blocker.write_text("not a folder")
     with pytest.raises(twip.InvalidParameterError, match="cannot create the folder"):
@@ -291,7 +291,7 @@ def test_an_unwritable_folder_is_refused_before_any_work(tmp_path, monkeypatch):
 @pytest.mark.skipif(hasattr(os, "geteuid") and os.geteuid() == 0, reason="root writes into read-only folders")
 def test_a_read_only_folder_is_refused_before_any_work(tmp_path, monkeypatch):
     ran = []
-    monkeypatch.setattr(tsweep, "_run", lambda *a, **k: ran.append(a))
+    monkeypatch.setattr(tsweep, "run_samples", lambda *a, **k: ran.append(a))
     tmp_path.chmod(0o500)
     try:
         with pytest.raises(twip.InvalidParameterError, match="not writable"):
@@ -304,7 +304,7 @@ def test_a_read_only_folder_is_refused_before_any_work(tmp_path, monkeypatch):
 def test_by_name_and_by_scenario_object_share_one_checkpoint(tmp_path, monkeypatch):
     sweep(n=32, checkpoint=tmp_path, shard_size=16)  # by name, as the API is called
     sc = scenarios.get("flat-lqr-sim", **SHORT)  # a Scenario object, as the CLI passes it
-    monkeypatch.setattr(tsweep, "_run", lambda *a, **k: pytest.fail("a finished shard was run again"))
+    monkeypatch.setattr(tsweep, "run_samples", lambda *a, **k: pytest.fail("a finished shard was run again"))
     r = twip.montecarlo(sc, 32, perturb=PERTURB, seed=3, progress=False, checkpoint=tmp_path, shard_size=16)
     assert r.n == 32
 
@@ -459,7 +459,7 @@ def test_cli_simulate_refuses_bad_outputs_before_the_run(tmp_path, capsys, args,
 
 
 def test_cli_sweep_refuses_bad_outputs_before_the_run(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(tsweep, "_run", lambda *a, **k: pytest.fail("a sample ran"))
+    monkeypatch.setattr(tsweep, "run_samples", lambda *a, **k: pytest.fail("a sample ran"))
     for args, message in ((["--plot", tmp_path / "x.txt"], "'.txt' is not a figure format"),
                           (["--csv", tmp_path / "no" / "x.csv"], "--csv: .*does not exist"),
                           (["--checkpoint", tmp_path / "f" / "g"], None)):
@@ -488,7 +488,7 @@ def test_cli_and_api_read_each_others_checkpoints(tmp_path, capsys, monkeypatch)
     cli_summary = json.loads(out)
     api = sweep(n=64, checkpoint=tmp_path / "api")
     with monkeypatch.context() as m:
-        m.setattr(tsweep, "_run", lambda *a, **k: pytest.fail("a finished shard was run again"))
+        m.setattr(tsweep, "run_samples", lambda *a, **k: pytest.fail("a finished shard was run again"))
         from_cli = sweep(n=64, checkpoint=tmp_path / "cli")  # the API resumes the CLI's folder
         code, out, err = cli(args + ["--checkpoint", tmp_path / "api"], capsys)  # and the CLI the API's
     assert code == 0, err

@@ -227,7 +227,7 @@ class ThesisAsPrinted(ref.SlopeModel):
                 + p.mu_bearing * (theta_dot - phi_dot) - p.gear_ratio * p.torque_constant * float(u))
         rhs2 = (Mb * r * phi_dot**2 * l * math.sin(phi + a) - Mw * g * r * math.sin(a)
                 - Mb * g * l * (r * math.sin(a) - math.sin(phi)) - p.mu_ground * theta_dot)
-        phi_dd, theta_dd = np.linalg.solve(self._rows(phi), [rhs1, rhs2])
+        phi_dd, theta_dd = np.linalg.solve(self.mass_matrix(phi), [rhs1, rhs2])
         return np.array([phi_dot, phi_dd, theta_dot, theta_dd])
 
 

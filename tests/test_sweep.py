@@ -281,7 +281,7 @@ def test_realism_noise_follows_the_sweep_seed_not_the_realism_seed():
 def test_realism_checkpoint_resume_equals_the_uninterrupted_sweep(tmp_path, monkeypatch):
     import twip.sweep as tsweep
 
-    run, calls = tsweep._run, []
+    run, calls = tsweep.run_samples, []
 
     def stop_at_shard_16(*args, **kw):
         calls.append(args[2])
@@ -289,14 +289,14 @@ def test_realism_checkpoint_resume_equals_the_uninterrupted_sweep(tmp_path, monk
             raise KeyboardInterrupt  # as Ctrl-C during the second shard
         return run(*args, **kw)
 
-    monkeypatch.setattr(tsweep, "_run", stop_at_shard_16)
+    monkeypatch.setattr(tsweep, "run_samples", stop_at_shard_16)
     with pytest.raises(KeyboardInterrupt):
         rig_sweep(checkpoint=tmp_path, shard_size=16)
     assert len(list(tmp_path.glob("shard-*.npz"))) == 1
     calls.clear()
     resumed = rig_sweep(checkpoint=tmp_path, shard_size=16)
     assert calls == [16, 32], "the finished shard is loaded, not run again"
-    monkeypatch.setattr(tsweep, "_run", run)
+    monkeypatch.setattr(tsweep, "run_samples", run)
     same(resumed, rig_sweep())
     resumed.replay(40)  # the resumed result keeps its realism
 
@@ -308,7 +308,7 @@ def test_a_dask_worker_rebuilds_the_realism_from_the_config():
         estimator=twip.TiltEstimator.kalman(), pushes=[(1.0, 0.3)], force=twip.Force(horizontal=0.5),
         slope_profile=[(0.2, 0.05)], motor=twip.MotorDriver.thesis_like().replace(current_limit=1.5))
     r = rig_sweep(n=16, realism=realism)
-    raw = tsweep._run_shard_by_name(json.loads(json.dumps(r.config)), 4, 8, 1)
+    raw = tsweep.run_shard_by_name(json.loads(json.dumps(r.config)), 4, 8, 1)
     assert raw["kernel"] == r.kernel == "realism"
     for name in ("fell", "mean_abs_pitch_error", "peak_abs_input", "t_end"):
         np.testing.assert_array_equal(raw[name], r.metrics[name][4:12], err_msg=name)
@@ -422,7 +422,7 @@ def test_tracking_checkpoint_resumed_after_an_interrupt_equals_the_uninterrupted
             raise KeyboardInterrupt
 
     with monkeypatch.context() as m:
-        m.setattr(twip.sweep._Bar, "update_to", interrupt_in_the_second_shard)
+        m.setattr(twip.sweep.ProgressBar, "update_to", interrupt_in_the_second_shard)
         with pytest.raises(KeyboardInterrupt) as stopped:
             tracking_sweep(progress=True, **kw)
     assert 8 <= stopped.value.partial.n < 32

@@ -11,6 +11,10 @@ hundreds of figures do not leak them; PNGs get a 128-colour palette, a third of 
 without, the figure is pyplot's, for notebooks and `plt.show()`.
 
 `pip install twip[plot]` installs matplotlib and Pillow.
+
+One file because every figure shares the same private layout helpers (`_styled`, `_figure`,
+`_grid`, `_legend`, `_line`, `_finish`): split, they would have to become public API that no
+user needs. The figures are grouped run, tracking, sweep, tables, in that order.
 """
 from __future__ import annotations
 

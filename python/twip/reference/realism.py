@@ -4,6 +4,11 @@ runner that puts them round a 2-DOF controller. Plain Python floats and numpy, w
 from the equations in twip-core's module docs (hardware/: imu.rs, tilt.rs, encoder.rs, driver.rs,
 disturbance.rs, realism.rs), never calling the Rust core. The noise comes from
 `twip.reference.rng.Philox`, so a run draws the very numbers the core draws.
+
+One file because it is one independent reading of the hardware chain, to be checked against
+the core's modules side by side in the order the signal flows (sensor, estimator, encoder,
+driver, disturbances, runner); its parts share the Philox draw order, which a split would
+hide across files.
 """
 from __future__ import annotations
 

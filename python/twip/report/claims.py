@@ -7,7 +7,6 @@ from typing import Any, List
 
 import numpy as np
 
-import twip
 from twip.report.numbers import sig
 from twip.scenarios.fuzzy import stop_errors
 from twip.scenarios.tracking import THESIS_TABLE_5_2

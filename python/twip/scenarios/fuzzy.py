@@ -9,7 +9,7 @@ import numpy as np
 
 from twip import _core
 from twip.scenarios.lqr import thesis_weights
-from twip.scenarios import Scenario, register, trip_time
+from twip.scenarios.registry import Scenario, register, trip_time
 
 SPEED = math.radians(180)
 
@@ -148,7 +148,7 @@ def compare_table(params=None, cases: Optional[Iterable[str]] = None,
     "fuzzy" (thesis gains, adaptation on), "fuzzy-fixed" (adaptation off: S stays 0),
     "fuzzy+ki" (with KI_SLOPE / KI_FLAT). Errors are against the plant's own steady pitch.
     Returns one dict per (surface, case, controller)."""
-    from twip.scenarios import get
+    from twip.scenarios.registry import get
 
     params = params if params is not None else _core.RobotParams.balanbot()
     rows = []

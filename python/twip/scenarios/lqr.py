@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from twip import _core
-from twip.scenarios import Scenario, register, trip_time
+from twip.scenarios.registry import Scenario, register, trip_time
 
 
 #: The thesis's LQR weights (diag Q, R): (4.25) on the slope; on the flat, the weights the

@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from twip import _core
-from twip.scenarios import Scenario, get, register
+from twip.scenarios.registry import Scenario, get, register
 
 #: Table 5.2 (experiments): mean |x - x_r|, |y - y_r| [m].
 THESIS_TABLE_5_2 = {"pid": (0.072, 0.076), "smc": (0.027, 0.030)}

@@ -1,0 +1,96 @@
+"""What a sweep may perturb: the two sweep families (2-DOF `SlopeModel`, 3-DOF tracking
+`PlanarModel`), their initial-state names, the core kernel a sweep runs on, and the
+resolution of `perturb={name: distribution}` into the core's draw order."""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Callable, Mapping, Tuple
+
+from twip import _core, user_sweep
+from twip.distributions import Normal, Uniform
+
+_bad = _core.InvalidParameterError
+
+STATE_NAMES = ("phi0", "phi_dot0", "theta0", "theta_dot0")
+#: SI units of the initial-state entries a sweep can perturb.
+STATE_UNITS = {"phi0": "rad", "phi_dot0": "rad/s", "theta0": "rad", "theta_dot0": "rad/s", "x0": "m", "y0": "m",
+                "psi0": "rad", "v0": "m/s", "omega0": "rad/s"}
+#: The initial state of a PlanarModel: [x, y, psi, phi, phi_dot, v, omega].
+PLANAR_STATE_NAMES = ("x0", "y0", "psi0", "phi0", "phi_dot0", "v0", "omega0")
+
+
+def _planar_draw(model, x0, perturbations, seed, index):
+    params, x0 = _core.sweep_planar_draw(model, x0, perturbations, seed, index)
+    return params, None, x0  # flat ground: no slope
+
+
+@dataclass(frozen=True)
+class Family:
+    """What differs between 2-DOF (SlopeModel) and 3-DOF tracking (PlanarModel) sweeps."""
+
+    planar: bool  # flat ground (no slope to perturb)
+    states: Tuple[str, ...]
+    draw: Callable  # (model, x0, perturbations, seed, i) -> (params dict, slope or None, x0)
+    raw: Callable  # the core's sweep of samples start..start + count
+
+
+SLOPE = Family(False, STATE_NAMES, _core.sweep_draw, _core.sweep_raw)
+PLANAR = Family(True, PLANAR_STATE_NAMES, _planar_draw, _core.sweep_planar_raw)
+
+
+def family_of(sc) -> Family:
+    return PLANAR if isinstance(sc.model, _core.PlanarModel) else SLOPE
+
+
+def kernel_for(sc, realism=None) -> str:
+    """The core's kernel for a sweep of Scenario `sc`: "python" (a user's controller),
+    "realism", "planar", "planar-realism", "lanes" (LQR, vectorised) or "general"."""
+    if user_sweep.is_user_controller(sc.controller):
+        return "python"
+    return _core.sweep_kernel(sc.controller, realism is not None)
+
+
+def target(name: str, sc):
+    """(kind, index) of a perturbation name: ("param", field), ("slope", 0) or ("x0", entry)."""
+    fields = list(_core.RobotParams.fields)
+    family = family_of(sc)
+    states = family.states
+    if name in fields:
+        return ("param", fields.index(name))
+    if name == "slope":
+        if family.planar:
+            raise _bad(
+                f"perturbation 'slope': '{sc.name}' is a 3-DOF tracking scenario on flat ground (PlanarModel), "
+                "it has no slope to perturb"
+            )
+        return ("slope", 0)
+    if name in states:
+        return ("x0", states.index(name))
+    if name.startswith("x0[") and name.endswith("]") and name[3:-1].isdigit() and int(name[3:-1]) < len(states):
+        return ("x0", int(name[3:-1]))
+    slope = "" if family.planar else "'slope', "
+    raise _bad(
+        f"unknown perturbation '{name}'; perturb RobotParams fields ({', '.join(fields)}), "
+        f"{slope}or initial-state entries ({', '.join(states)} or x0[0]..x0[{len(states) - 1}])"
+    )
+
+
+def resolve(perturb: Mapping, scenario) -> list:
+    """Perturbations as tuples for the core, in key order (the draw order)."""
+    out = []
+    for name, dist in (perturb or {}).items():
+        kind, index = target(name, scenario)
+        if kind == "param":
+            nominal = getattr(scenario.model.params, name)
+        elif kind == "slope":
+            nominal = scenario.model.slope
+        else:
+            nominal = float(scenario.x0[index])
+        if not isinstance(dist, (Uniform, Normal)):
+            raise _bad(f"{name}: expected twip.Uniform or twip.Normal, got {dist!r}")
+        if kind == "param" and isinstance(dist, Uniform) and dist.abs is not None and dist.abs > 0.5 * abs(nominal):
+            warnings.warn(f"{name}: ± {dist.abs:g} is more than half the nominal {nominal:g} (absolute, in SI units); "
+                          f"for a relative spread use rel= (or ±{dist.abs:g}% on the command line)", stacklevel=3)
+        out.append((kind, index) + dist.resolve(name, nominal))
+    return out
