@@ -262,11 +262,16 @@ def test_not_stabilizable():
         twip.care(np.zeros((2, 2)), np.zeros((2, 1)), Q2, R1)
 
 
-def test_not_detectable():
-    # The unstable mode is invisible to Q; an undamped oscillator invisible to Q (Q = 0).
-    with pytest.raises(twip.NotDetectableError):
-        twip.care(np.diag([1.0, -1.0]), [[1.0], [1.0]], np.diag([0.0, 1.0]), R1)
-    with pytest.raises(twip.NotDetectableError):
+def test_an_unstable_mode_invisible_to_q_is_mirrored():
+    # As in SciPy: the stabilising solution exists (the mode at +1 moves to -1), X = diag(2, 0.5).
+    x = twip.care(np.diag([1.0, -1.0]), [[1.0], [0.0]], np.diag([0.0, 1.0]), R1)
+    np.testing.assert_allclose(x, np.diag([2.0, 0.5]), atol=1e-14)
+    ref = sl.solve_continuous_are(np.diag([1.0, -1.0]), [[1.0], [0.0]], np.diag([0.0, 1.0]), R1)
+    np.testing.assert_allclose(x, ref, atol=1e-12)
+
+
+def test_an_undamped_mode_invisible_to_q_has_no_stabilising_solution():
+    with pytest.raises(twip.NotDetectableError, match="undamped mode"):
         twip.lqr([[0.0, 1.0], [-1.0, 0.0]], B2, np.zeros((2, 2)), R1)
 
 
@@ -306,9 +311,16 @@ def test_r_not_positive_definite(r):
     assert "positive definite" in message
 
 
-def test_q_not_positive_semidefinite():
-    message = _raises_naming(twip.InvalidParameterError, "Q", A2, B2, np.diag([1.0, -1.0]), R1)
-    assert "positive semi-definite" in message
+def test_indefinite_q_as_scipy():
+    # Scalar closed form: X = a + sqrt(a^2 + q) while a^2 + q > 0 (python-control and SciPy agree).
+    np.testing.assert_allclose(twip.care([[2.0]], [[1.0]], [[-3.0]], [[1.0]]), [[3.0]], rtol=1e-14)
+    q = np.array([[1.0, 0.0], [0.0, -0.5]])
+    np.testing.assert_allclose(twip.care(A2, B2, q, R1), sl.solve_continuous_are(A2, B2, q, R1), rtol=1e-12)
+
+
+def test_indefinite_q_without_a_stabilising_solution_is_refused_by_name():
+    with pytest.raises(twip.NoStabilizingSolutionError, match="imaginary axis"):
+        twip.care([[1.0]], [[1.0]], [[-2.0]], [[1.0]])
 
 
 @pytest.mark.parametrize("which", range(4))

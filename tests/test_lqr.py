@@ -159,8 +159,11 @@ def test_errors(balanbot):
         twip.LqrController.design(model, 0.0, np.eye(3), 1.0)
     with pytest.raises(twip.TwipError, match="R"):
         twip.LqrController.design(model, 0.0, [1, 1, 1, 1], -1.0)
-    with pytest.raises(twip.TwipError, match="Q"):
-        twip.LqrController.design(model, 0.0, [1, -1, 1, 1], 1.0)
+    # An indefinite Q is taken when a stabilising solution exists (as in SciPy), refused by
+    # name when none does.
+    assert np.all(twip.LqrController.design(model, 0.0, [1, -1, 1, 1], 1.0).design_info["poles"].real < 0)
+    with pytest.raises(twip.NoStabilizingSolutionError, match="imaginary axis"):
+        twip.LqrController.design(model, 0.0, [1, -1e6, 1, 1], 1.0)
     with pytest.raises(twip.InvalidParameterError, match="point"):
         twip.LqrController.design(model, 0.0, [1, 1, 1, 1], 1.0, point="bogus")
     ctrl = twip.LqrController.design(model, 0.0, [1, 1, 1, 1], 1.0)

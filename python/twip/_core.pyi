@@ -27,6 +27,7 @@ __all__ = [
     "NoEquilibriumError",
     "NonFiniteError",
     "NotDetectableError",
+    "NoStabilizingSolutionError",
     "NotStabilizableError",
     "PidTracker",
     "PlanarModel",
@@ -77,6 +78,8 @@ class NotStabilizableError(TwipError):
     """The pair (A, B) is not stabilizable."""
 class NotDetectableError(TwipError):
     """The pair (A, Q) is not detectable."""
+class NoStabilizingSolutionError(TwipError):
+    """The Riccati equation has no stabilising solution (Hamiltonian eigenvalues on the imaginary axis)."""
 class ConvergenceError(TwipError):
     """An iterative method hit its iteration cap."""
 

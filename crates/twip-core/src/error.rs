@@ -16,8 +16,10 @@ pub enum TwipError {
     SingularMassMatrix { det: f64 },
     /// The (A, B) pair cannot be stabilised by state feedback.
     NotStabilizable,
-    /// The (A, Q) pair has an unobservable mode on or across the imaginary axis.
+    /// The (A, Q) pair (Q ⪰ 0) has an unobservable mode on the imaginary axis.
     NotDetectable,
+    /// The CARE has no stabilising solution (its Hamiltonian has imaginary-axis eigenvalues).
+    NoStabilizingSolution,
     /// An iterative method stopped at its cap without converging.
     NoConvergence { what: &'static str, iterations: usize },
     /// A buffer sized by `name` could not be reserved (the allocator refused `bytes`).
@@ -49,7 +51,13 @@ impl fmt::Display for TwipError {
             }
             TwipError::NotDetectable => write!(
                 f,
-                "the pair (A, Q) is not detectable: an unstable mode is invisible to the cost"
+                "the pair (A, Q) is not detectable: an undamped mode of A is invisible to the cost, \
+                 so no stabilising solution exists"
+            ),
+            TwipError::NoStabilizingSolution => write!(
+                f,
+                "the Riccati equation has no stabilising solution: its Hamiltonian has eigenvalues \
+                 on the imaginary axis (check Q, or that the undamped modes of A are visible in Q)"
             ),
             TwipError::NoConvergence { what, iterations } => {
                 write!(f, "{what} did not converge within {iterations} iterations")

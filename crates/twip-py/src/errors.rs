@@ -13,6 +13,12 @@ create_exception!(twip, NoEquilibriumError, TwipError, "The requested operating 
 create_exception!(twip, SingularMatrixError, TwipError, "A matrix that must be invertible is singular.");
 create_exception!(twip, NotStabilizableError, TwipError, "The pair (A, B) is not stabilizable.");
 create_exception!(twip, NotDetectableError, TwipError, "The pair (A, Q) is not detectable.");
+create_exception!(
+    twip,
+    NoStabilizingSolutionError,
+    TwipError,
+    "The Riccati equation has no stabilising solution (Hamiltonian eigenvalues on the imaginary axis)."
+);
 create_exception!(twip, ConvergenceError, TwipError, "An iterative method hit its iteration cap.");
 
 /// Local wrapper (orphan rule) so that `?` converts core errors into Python ones.
@@ -35,6 +41,7 @@ impl From<PyTwipError> for PyErr {
             CoreError::SingularMassMatrix { .. } => SingularMatrixError::new_err(msg),
             CoreError::NotStabilizable => NotStabilizableError::new_err(msg),
             CoreError::NotDetectable => NotDetectableError::new_err(msg),
+            CoreError::NoStabilizingSolution => NoStabilizingSolutionError::new_err(msg),
             CoreError::NoConvergence { .. } => ConvergenceError::new_err(msg),
             CoreError::OutOfMemory { .. } => pyo3::exceptions::PyMemoryError::new_err(msg),
         }
@@ -54,6 +61,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SingularMatrixError", py.get_type::<SingularMatrixError>())?;
     m.add("NotStabilizableError", py.get_type::<NotStabilizableError>())?;
     m.add("NotDetectableError", py.get_type::<NotDetectableError>())?;
+    m.add("NoStabilizingSolutionError", py.get_type::<NoStabilizingSolutionError>())?;
     m.add("ConvergenceError", py.get_type::<ConvergenceError>())?;
     Ok(())
 }

@@ -142,12 +142,18 @@ impl<T: Real> RobotParams<T> {
         }
     }
 
-    /// Checks every field: finite; frictions and rotor inertia ≥ 0; all else > 0.
+    /// Checks every field: finite; frictions and rotor inertia ≥ 0; all else > 0; and
+    /// within the range the models can compute with (magnitudes between `max^-¼` and `max^⅛`
+    /// of `T`: 9e-78..1e38 in f64, 2e-10..6e4 in f32), since their coefficients
+    /// multiply up to four fields and divide by such products.
     /// The error names the first offending field and its value.
     pub fn validate(&self) -> Result<Self, TwipError> {
+        let (tiny, huge) = magnitude_range::<T>();
         for ((name, value), domain) in FIELD_NAMES.iter().zip(self.to_array()).zip(DOMAINS) {
             let reason = if !value.is_finite() {
                 Some("must be finite")
+            } else if value.abs() > huge || (!value.is_zero() && value.abs() < tiny) {
+                Some("is out of the range the models can compute with (check its SI unit)")
             } else {
                 match domain {
                     Domain::Positive if value <= T::zero() => Some("must be > 0"),
@@ -167,6 +173,13 @@ impl<T: Real> RobotParams<T> {
     pub fn torque_per_amp(&self) -> T {
         self.gear_ratio * self.torque_constant
     }
+}
+
+/// The magnitudes a field may have: products of four fields, and their quotients, stay
+/// finite and nonzero in `T`.
+fn magnitude_range<T: Real>() -> (T, T) {
+    let max = T::max_value().unwrap_or_else(|| c::<T>(f32::MAX as f64));
+    ((T::one() / max).sqrt().sqrt(), max.sqrt().sqrt().sqrt())
 }
 
 /// Default robot, in the order of [`FIELD_NAMES`]; reasoning in `docs/parameters.md`.

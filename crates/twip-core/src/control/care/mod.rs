@@ -12,9 +12,10 @@
 //!
 //! Method, with `G = B R⁻¹ Bᵀ = Bh Bhᵀ` (`Bh = B L⁻ᵀ`, `R = L Lᵀ`):
 //!
-//! 1. Checks: shapes, finiteness, `Q = Qᵀ ⪰ 0`, `R = Rᵀ ≻ 0`, then the PBH rank test on
-//!    every eigenvalue λ of `A` with `Re λ ≥ −√ε ‖A‖`: `rank [A − λI, B] = n` (stabilizable)
-//!    and `rank [A − λI; Q] = n` (detectable). The rank is judged from the triangular factor
+//! 1. Checks: shapes, finiteness, `Q = Qᵀ` (indefinite allowed, as in SciPy), `R = Rᵀ ≻ 0`,
+//!    then the PBH rank test on every eigenvalue λ of `A` with `Re λ ≥ −√ε ‖A‖`:
+//!    `rank [A − λI, B] = n` (stabilizable) and, for `Q ⪰ 0` and `Re λ ≈ 0`,
+//!    `rank [A − λI; Q] = n` (no undamped mode invisible to the cost). The rank is judged from the triangular factor
 //!    of a QR decomposition, whose `‖R‖ ‖R⁻¹‖` brackets the condition number within a factor
 //!    n; a tight tolerance (10³ (n+m) ε) up front, a loose one (10 √ε) to name the cause
 //!    when the solver fails.
@@ -30,7 +31,7 @@
 //!    `(sign H + I) [I; X] = 0`, which gives `X` from a 2n×n least-squares problem (QR).
 //! 4. Newton–Kleinman refinement in correction form, `(A − G X)ᵀ D + D (A − G X) = −Ric(X)`,
 //!    each Lyapunov equation solved by Bartels–Stewart on the real Schur form of the closed
-//!    loop, for as long as the residual decreases (down to 4 n ε relative to its terms; from a
+//!    loop, for as long as the residual decreases (down to n ε relative to its terms; from a
 //!    poor start it goes on through increases, keeping the best iterate). The residual's
 //!    quadratic term is formed as `Fᵀ F`, `F = Bhᵀ X`, never as `(X G) X`. The Schur forms
 //!    tell whether the closed loop is stable (`Re λ < −100 n ε ‖A − G X‖`); an `X` that is
@@ -69,15 +70,18 @@ use sign::*;
 
 /// Cap on the Newton iterations of the matrix sign function (it takes ~5–15).
 const SIGN_MAX_ITER: usize = 100;
-/// Cap on the Newton–Kleinman refinement steps (it takes 0–3).
-const NEWTON_MAX_ITER: usize = 30;
+/// Determinant scaling stops after this many sign iterations at the latest.
+const SIGN_SCALED_MAX_ITER: usize = 20;
+/// Cap on the Newton–Kleinman refinement steps (it takes 0–3 after the sign function; from
+/// the fallback start near a double Hamiltonian eigenvalue at 0 it converges linearly).
+const NEWTON_MAX_ITER: usize = 80;
 
 /// The result of [`lqr`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lqr<T: Real> {
     /// The gain `K = R⁻¹ Bᵀ X` (m×n) of the control law `u = −K x`.
     pub k: DMatrix<T>,
-    /// The stabilising solution `X` of the CARE (n×n, symmetric, positive semi-definite).
+    /// The stabilising solution `X` of the CARE (n×n, symmetric; positive semi-definite when Q is).
     pub x: DMatrix<T>,
     /// The eigenvalues of `A − B K`, sorted by real part then imaginary part.
     pub poles: Vec<Complex<T>>,
@@ -85,10 +89,12 @@ pub struct Lqr<T: Real> {
 
 /// Solves `X A + Aᵀ X − X B R⁻¹ Bᵀ X + Q = 0` for the stabilising `X` (see the module docs).
 ///
-/// `A` is n×n, `B` n×m, `Q` n×n symmetric positive semi-definite, `R` m×m symmetric
+/// `A` is n×n, `B` n×m, `Q` n×n symmetric (indefinite allowed), `R` m×m symmetric
 /// positive definite. Errors: [`TwipError::Shape`], [`TwipError::NonFinite`],
-/// [`TwipError::InvalidParameter`] (Q or R not symmetric, Q not PSD, R not PD),
-/// [`TwipError::NotStabilizable`], [`TwipError::NotDetectable`], [`TwipError::NoConvergence`].
+/// [`TwipError::InvalidParameter`] (Q or R not symmetric, R not PD),
+/// [`TwipError::NotStabilizable`], [`TwipError::NotDetectable`] (an undamped mode invisible
+/// to a semi-definite Q), [`TwipError::NoStabilizingSolution`] (the Hamiltonian has
+/// eigenvalues on the imaginary axis), [`TwipError::NoConvergence`].
 pub fn care<T: Real>(a: &DMatrix<T>, b: &DMatrix<T>, q: &DMatrix<T>, r: &DMatrix<T>) -> Result<DMatrix<T>, TwipError> {
     let problem = Problem::new(a, b, q, r)?;
     problem.solve()
@@ -123,6 +129,8 @@ struct Problem<'a, T: Real> {
     q: DMatrix<T>,
     /// The smallest eigenvalue of Q.
     q_min: T,
+    /// Q is positive semi-definite (up to rounding).
+    q_psd: bool,
     bh: DMatrix<T>,
     chol_r: Cholesky<T, Dyn>,
 }
@@ -167,16 +175,13 @@ impl<'a, T: Real> Problem<'a, T> {
         let r = symmetric("R", r)?;
 
         let eps = T::default_epsilon();
+        // Q may be indefinite (as in SciPy and python-control): a stabilising solution exists
+        // whenever the Hamiltonian has no eigenvalue on the imaginary axis, which the solver
+        // finds out itself. Its smallest eigenvalue decides whether a detectability test applies.
         let q_eig = symmetric_eigenvalues("Q", &q)?;
         let q_top = q_eig.iter().fold(T::zero(), |acc, v| acc.max(v.abs()));
         let q_min = q_eig.iter().fold(q_top, |acc, &v| acc.min(v));
-        if q_min < -(c::<T>(100.0) * c::<T>(n as f64) * eps * q_top) {
-            return Err(TwipError::InvalidParameter {
-                name: "Q",
-                value: to_f64(q_min),
-                reason: "must be positive semi-definite (the value is its smallest eigenvalue)",
-            });
-        }
+        let q_psd = !(q_min < -(c::<T>(100.0) * c::<T>(n as f64) * eps * q_top));
         let r_eig = symmetric_eigenvalues("R", &r)?;
         let r_top = r_eig.iter().fold(T::zero(), |acc, v| acc.max(v.abs()));
         let r_min = r_eig.iter().fold(r_top, |acc, &v| acc.min(v));
@@ -203,6 +208,7 @@ impl<'a, T: Real> Problem<'a, T> {
             b,
             q,
             q_min,
+            q_psd,
             bh: bht.transpose(),
             chol_r,
         };
@@ -210,14 +216,17 @@ impl<'a, T: Real> Problem<'a, T> {
         Ok(problem)
     }
 
-    /// The PBH tests with relative rank tolerance `tol`: stabilizability of (A, B), then
-    /// detectability of (A, Q), on the eigenvalues of A with real part ≥ −√ε ‖A‖.
+    /// The PBH tests with relative rank tolerance `tol`, on the eigenvalues of A with real
+    /// part ≥ −√ε ‖A‖: (A, B) stabilizable; and, for a positive semi-definite Q, no mode on
+    /// the imaginary axis invisible to Q (else the Hamiltonian has that eigenvalue too and no
+    /// stabilising solution exists). An unstable mode invisible to Q is no obstacle: the
+    /// stabilising solution exists and mirrors it. A Schur form that does not converge skips
+    /// the tests: the solver's own checks (residual, closed-loop stability) still stand.
     fn check_pbh(&self, tol: T) -> Result<(), TwipError> {
         let n = self.a.nrows();
-        let (_, t) = schur(self.a.clone()).ok_or(TwipError::NoConvergence {
-            what: "Schur decomposition of A (PBH test)",
-            iterations: schur_cap(n),
-        })?;
+        let Some((_, t)) = schur(self.a.clone()) else {
+            return Ok(());
+        };
         let a_max = self.a.amax();
         let margin = T::default_epsilon().sqrt() * a_max * c::<T>(n as f64);
         let suspects: Vec<Complex<T>> = quasi_eigenvalues(&t)
@@ -229,18 +238,25 @@ impl<'a, T: Real> Problem<'a, T> {
         }
         // Each PBH matrix is scaled as a whole by a power of two (its singular value ratio
         // does not change) so that no norm overflows or underflows.
-        // (A, B) stabilizable: rank [A − λI, B] = n; (A, Q) detectable: rank [Aᵀ − λI, Q] = n.
+        // (A, B) stabilizable: rank [A − λI, B] = n; no undamped mode invisible to Q:
+        // rank [Aᵀ − λI, Q] = n for Re λ ≈ 0.
         let tests = [
             (self.b, false, TwipError::NotStabilizable),
             (&self.q, true, TwipError::NotDetectable),
         ];
         for (other, transpose, error) in tests {
+            if transpose && !self.q_psd {
+                continue;
+            }
             let k = -pow2_exponent::<T>(a_max.max(other.amax()));
             let a = scaled_pow2(self.a, k);
             let a = if transpose { a.transpose() } else { a };
             let other = scaled_pow2(other, k);
             let f = c::<T>(2.0).powi(k);
             for lambda in &suspects {
+                if transpose && lambda.re.abs() > margin {
+                    continue;
+                }
                 // A positive definite Q (σ_min ≥ its smallest eigenvalue) needs no test.
                 let bound = c::<T>(n as f64) * (a_max + self.q.amax())
                     + c::<T>(n as f64).sqrt() * (lambda.re.abs() + lambda.im.abs());
@@ -304,12 +320,19 @@ impl<'a, T: Real> Problem<'a, T> {
 
     fn solve_scaled(&self) -> Result<DMatrix<T>, TwipError> {
         let sc = self.scaled();
-        let x0 = sign_solution(&sc.a, &sc.g, &sc.q).ok_or(TwipError::NoConvergence {
-            what: "CARE matrix sign function (Hamiltonian eigenvalues on the imaginary axis?)",
-            iterations: SIGN_MAX_ITER,
-        })?;
+        // The sign iteration fails when the Hamiltonian has eigenvalues on, or within rounding
+        // of, the imaginary axis; Newton–Kleinman from a stabilising start still finds the
+        // stabilising solution of the latter, and fails on the former.
+        let (x0, fallback) = match sign_solution(&sc.a, &sc.g, &sc.q) {
+            Some(x0) => (x0, false),
+            None => (stabilising_start(&sc).ok_or(TwipError::NoStabilizingSolution)?, true),
+        };
         let (x, rel_res, stable) = refine(&sc.a, &sc.bh, &sc.q, x0)?;
-        if !stable || !(rel_res <= T::default_epsilon().sqrt()) {
+        let small = rel_res <= T::default_epsilon().sqrt();
+        if !stable || (fallback && !small) {
+            return Err(TwipError::NoStabilizingSolution);
+        }
+        if !small {
             return Err(TwipError::NoConvergence {
                 what: "CARE solver (no stabilising solution with a small residual)",
                 iterations: SIGN_MAX_ITER + NEWTON_MAX_ITER,

@@ -11,9 +11,13 @@ pub(super) fn schur_cap(n: usize) -> usize {
 }
 
 /// Real Schur form `M = U T Uᵀ` with an iteration cap. nalgebra's QR sweeps have no
-/// exceptional shifts; if they stall, a second try runs on an orthogonally similar matrix.
+/// exceptional shifts; if they stall, a second try runs on an orthogonally similar matrix,
+/// a third on `Mᵀ` (CAREX #6, n = 30, stalls on every orthogonal similarity tried, not on
+/// its transpose).
 pub(super) fn schur<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
-    schur_direct(m.clone()).or_else(|| schur_reflected(m))
+    schur_direct(m.clone())
+        .or_else(|| schur_reflected(m.clone()))
+        .or_else(|| schur_transposed(m))
 }
 
 pub(super) fn schur_direct<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
@@ -35,6 +39,17 @@ pub(super) fn schur_reflected<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMa
     let p = DMatrix::<T>::identity(n, n) - (&v * v.transpose()) * (c::<T>(2.0) / v.norm_squared());
     let (u, t) = schur_direct(&p * m * &p)?;
     Some((p * u, t))
+}
+
+/// Schur form of `M` from that of `Mᵀ = V S Vᵀ`: with the index reversal `P`,
+/// `M = (V P) (P Sᵀ P) (V P)ᵀ`, and `P Sᵀ P` is upper quasi-triangular again (the 2×2 blocks
+/// stay on the diagonal, each transposed and reversed).
+pub(super) fn schur_transposed<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
+    let n = m.nrows();
+    let (v, s) = schur_direct(m.transpose())?;
+    let u = DMatrix::from_fn(n, n, |i, j| v[(i, n - 1 - j)]);
+    let t = DMatrix::from_fn(n, n, |i, j| s[(n - 1 - j, n - 1 - i)]);
+    Some((u, t))
 }
 
 /// The diagonal blocks (start, size) of a real quasi-triangular Schur factor.

@@ -131,10 +131,6 @@ fn errors() {
         name(care(&a, &m(2, 2, &[1.0, 0.0, 0.0, 1.0]), &q, &m(2, 2, &[1.0, 0.1, 0.0, 1.0])).unwrap_err()),
         "R"
     );
-    assert_eq!(
-        name(care(&a, &b, &m(2, 2, &[1.0, 0.0, 0.0, -1.0]), &r).unwrap_err()),
-        "Q"
-    );
     assert_eq!(name(care(&a, &b, &q, &m(1, 1, &[0.0])).unwrap_err()), "R");
     assert_eq!(name(care(&a, &b, &q, &m(1, 1, &[-1.0])).unwrap_err()), "R");
     let e = care(&a, &b, &q, &m(1, 1, &[f64::NAN])).unwrap_err();
@@ -169,11 +165,14 @@ fn errors() {
         care(&a, &m(2, 1, &[1.0, 0.0]), &q, &r).unwrap_err(),
         TwipError::NotStabilizable
     );
-    // Undetectable: the unstable mode is invisible to Q.
+    // Undetectable: the unstable mode 1 is invisible to Q. The stabilising solution still
+    // exists (as in SciPy): it mirrors the mode to −1, with X = diag(2, 0) by hand
+    // (X11 solves 2 X11 − X11² = 0; the other entries stay 0).
     let a3 = m(2, 2, &[1.0, 0.0, 0.0, -1.0]);
-    let b3 = m(2, 1, &[1.0, 1.0]);
+    let b3 = m(2, 1, &[1.0, 0.0]);
     let q3 = m(2, 2, &[0.0, 0.0, 0.0, 1.0]);
-    assert_eq!(care(&a3, &b3, &q3, &r).unwrap_err(), TwipError::NotDetectable);
+    let x3 = care(&a3, &b3, &q3, &r).unwrap();
+    assert!((x3 - m(2, 2, &[2.0, 0.0, 0.0, 0.5])).amax() < 1e-14);
     // An undamped oscillator invisible to Q: a Hamiltonian eigenvalue on the axis.
     let a4 = m(2, 2, &[0.0, 1.0, -1.0, 0.0]);
     assert_eq!(
@@ -182,8 +181,9 @@ fn errors() {
     );
 }
 
+/// Both fallbacks of `schur` give `M = U T Uᵀ` with `U` orthogonal and `T` quasi-triangular.
 #[test]
-fn schur_fallback_is_a_schur_form() {
+fn schur_fallbacks_are_schur_forms() {
     let mm = m(
         4,
         4,
@@ -191,13 +191,14 @@ fn schur_fallback_is_a_schur_form() {
             1.0, 2.0, 0.0, -1.0, 0.5, -3.0, 1.0, 0.0, 0.0, 1.0, 0.0, 2.0, -2.0, 0.0, 1.0, 1.0,
         ],
     );
-    let (u, t) = schur_reflected(mm.clone()).unwrap();
-    assert!((&u * &t * u.transpose() - &mm).amax() < 1e-13);
-    assert!((u.transpose() * &u - DMatrix::identity(4, 4)).amax() < 1e-14);
-    for (i, size) in quasi_blocks(&t) {
-        for r in (i + size)..4 {
-            for cc in i..(i + size) {
-                assert_eq!(t[(r, cc)], 0.0);
+    for (u, t) in [schur_reflected(mm.clone()).unwrap(), schur_transposed(mm.clone()).unwrap()] {
+        assert!((&u * &t * u.transpose() - &mm).amax() < 1e-13);
+        assert!((u.transpose() * &u - DMatrix::identity(4, 4)).amax() < 1e-14);
+        for (i, size) in quasi_blocks(&t) {
+            for r in (i + size)..4 {
+                for cc in i..(i + size) {
+                    assert_eq!(t[(r, cc)], 0.0);
+                }
             }
         }
     }
@@ -246,4 +247,25 @@ fn solve_small_and_lyapunov() {
     let d = lyapunov_schur(&u, &t, &f);
     let err = (mm.transpose() * &d + &d * &mm - &f).amax();
     assert!(err < 1e-13, "{err}");
+}
+
+#[test]
+fn indefinite_q_has_a_stabilising_solution_when_the_hamiltonian_allows() {
+    // Scalar: 2 a X − X² + q = 0, stabilising X = a + √(a² + q), which exists iff a² + q > 0.
+    let one = m(1, 1, &[1.0]);
+    let x = care(&m(1, 1, &[2.0]), &one, &m(1, 1, &[-3.0]), &one).unwrap();
+    assert!((x[(0, 0)] - 3.0).abs() < 1e-14, "{x}");
+    assert_eq!(
+        care(&m(1, 1, &[1.0]), &one, &m(1, 1, &[-2.0]), &one).unwrap_err(),
+        TwipError::NoStabilizingSolution
+    );
+    // The double integrator with a negative weight on the speed: still stabilisable by a
+    // cost that rewards speed a little (the Hamiltonian stays off the axis).
+    let a = m(2, 2, &[0.0, 1.0, 0.0, 0.0]);
+    let b = m(2, 1, &[0.0, 1.0]);
+    let q = m(2, 2, &[1.0, 0.0, 0.0, -0.5]);
+    let l = lqr(&a, &b, &q, &one).unwrap();
+    assert!(l.poles.iter().all(|p| p.re < 0.0), "{:?}", l.poles);
+    let res = &l.x * &a + a.transpose() * &l.x - &l.x * &b * b.transpose() * &l.x + &q;
+    assert!(res.amax() < 1e-13, "{res}");
 }
