@@ -34,6 +34,7 @@ test-rust: setup
 	cargo test -p twip-core --no-default-features --lib --quiet
 	scripts/check_nostd.sh
 	cargo check -p twip-core --benches --examples --all-features --quiet
+	cargo check -p twip-ffi --benches --quiet
 
 test-python: build
 	$(PY) -m pytest tests -q

@@ -54,6 +54,10 @@ __all__ = [
     "sweep_noise_seed",
     "sweep_kernel",
     "DEFAULT_FALL_LIMIT",
+    "ffi_record",
+    "ffi_firmware",
+    "FFI_HEADER",
+    "FFI_SOURCE_DIR",
     "controller_fingerprint",
     "sweep_planar_draw",
     "sweep_planar_raw",
@@ -833,6 +837,21 @@ def sweep_kernel(controller: Any, realism: bool = False) -> str:
     """
 
 DEFAULT_FALL_LIMIT: float
+def ffi_record(
+    model: Any, controller: Any, x0: Sequence[float], t_final: float, dt: float, reference: Any
+) -> dict[str, Any]:
+    """`ffi_record(model, controller, x0, t_final, dt, reference)`: the controller's C
+    configuration and a closed-loop run of its `f32` build (as `twip_X_init` makes it) on
+    the `f32` plant, every update recorded: {"family", "config" (bytes of the C struct),
+    "t", "y", "reference", "u", "outcome"}.
+    """
+def ffi_firmware(realism: Realism, params: RobotParams) -> dict[str, Any]:
+    """`ffi_firmware(realism, params)`: the C configurations of the firmware pieces the
+    realism describes: {"tilt": bytes of TwipTiltConfig, "pwm_lumped" and "pwm_wheel": bytes
+    of TwipPwmConfig (for a lumped current and for one wheel's torque), "encoder_cpr"}.
+    """
+FFI_HEADER: str
+FFI_SOURCE_DIR: str
 def controller_fingerprint(controller: Any) -> str:
     """Everything a controller is (gains, model, period, fuzzy sets, initial weights, ...),
     as text: what a sweep's checkpoint fingerprints, so that any change is noticed.

@@ -4,6 +4,7 @@ use pyo3::prelude::*;
 mod convert;
 mod dispatch;
 mod errors;
+mod ffi;
 mod friction;
 mod fuzzy;
 mod linalg;
@@ -59,5 +60,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<tracking::PyPidTracker>()?;
     m.add_class::<tracking::PySmcTracker>()?;
     m.add_function(wrap_pyfunction!(simulate_planar::simulate_planar_raw, m)?)?;
+    m.add_function(wrap_pyfunction!(ffi::ffi_record, m)?)?;
+    m.add_function(wrap_pyfunction!(ffi::ffi_firmware, m)?)?;
+    m.add("FFI_HEADER", ffi::HEADER)?;
+    m.add("FFI_SOURCE_DIR", ffi::SOURCE_DIR)?;
     Ok(())
 }

@@ -133,6 +133,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
     p.set_defaults(func=commands.robot_init)
 
+    p = sub.add_parser("export", help="write a scenario's tuned controller for a firmware (C, twip-ffi)",
+                       description="Write DIR with twip-ffi's header, the scenario's controller as a C initialiser "
+                                   "(firmware units with each conversion beside its value, or SI), an Arduino-style "
+                                   "example and a Makefile whose `make check` replays a recorded closed-loop run "
+                                   "through the C ABI.", formatter_class=formatter,
+                       epilog="example:\n  twip export flat-lqr --out fw && make -C fw check")
+    p.add_argument("scenario", metavar="SCENARIO", help="a scenario name (twip list)")
+    p.add_argument("--out", required=True, metavar="DIR", help="the folder to write (made if missing)")
+    p.add_argument("--units", choices=("firmware", "si"), default="firmware",
+                   help="firmware: degrees, encoder counts per loop, PWM counts, ms (default); si: SI throughout")
+    p.add_argument("--replay-seconds", type=positive_float, default=20.0, metavar="S",
+                   help="length of the recorded run that `make check` replays (default 20 s)")
+    add_robot_option(p)
+    p.set_defaults(func=commands.export)
+
     p = sub.add_parser("list", help="list the scenarios", description="List the named scenarios.",
                        formatter_class=formatter)
     p.set_defaults(func=commands.list_scenarios)

@@ -226,3 +226,19 @@ def robot_init(args) -> int:
     robot_file.init(path)
     print(f"wrote {path}: the Balanbot (RobotParams.balanbot()), its GB37Y3530 motor and L298 driver", file=sys.stderr)
     return 0
+
+
+def export(args) -> int:
+    """twip export SCENARIO --out DIR: the tuned controller for a firmware (twip.firmware)."""
+    from twip import firmware
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out}: exists and is not a folder")
+    robot_file = twip.Robot.from_file(args.robot) if args.robot else None
+    summary = firmware.export(scenario_name(args.scenario), out, robot=robot_file, units_=args.units,
+                              replay_seconds=args.replay_seconds)
+    print(f"wrote {out}/: {summary['family']} controller of {args.scenario} in {args.units} units, "
+          f"{summary['updates']} recorded updates ({summary['outcome']}); build and check with "
+          f"`make -C {shlex.quote(str(out))} check` (twip-ffi sources: {summary['source']})", file=sys.stderr)
+    return 0

@@ -134,6 +134,24 @@ impl<T: Real> PidTracker<T> {
         Self::build(gains, units, motor, p.wheel_radius, p.half_track, period)
     }
 
+    /// As [`Self::new`] from the two lengths it needs of the robot (a firmware has no
+    /// `RobotParams`): the wheel radius and half track [m], both finite and > 0.
+    pub fn with_geometry(
+        gains: PidGains<T>,
+        units: PidUnits<T>,
+        motor: DcMotor<T>,
+        wheel_radius: T,
+        half_track: T,
+        period: T,
+    ) -> Result<Self, TwipError> {
+        for (name, v) in [("wheel_radius", wheel_radius), ("half_track", half_track)] {
+            if !(v.is_finite() && v > T::zero()) {
+                return Err(invalid(name, v, "must be finite and > 0"));
+            }
+        }
+        Self::build(gains, units, motor, wheel_radius, half_track, period)
+    }
+
     fn build(gains: PidGains<T>, units: PidUnits<T>, motor: DcMotor<T>, radius: T, half_track: T, period: T) -> Result<Self, TwipError> {
         // First: a bad period also spoils the Arduino's speed unit (counts per update).
         if !(period.is_finite() && period > T::zero()) {
@@ -186,6 +204,11 @@ impl<T: Real> PidTracker<T> {
 
     pub fn motor(&self) -> &DcMotor<T> {
         &self.motor
+    }
+
+    /// The wheel radius and half track [m] the tracker turns speeds with.
+    pub fn geometry(&self) -> (T, T) {
+        (self.radius, self.half_track)
     }
 }
 

@@ -312,6 +312,24 @@ impl<T: Real> PwmActuator<T> {
         Ok(Self { command_per_amp: driver.efficiency * params.torque_per_amp(), ..lumped })
     }
 
+    /// The actuator from its two parts: the motor as the firmware believes it is, and
+    /// the command per motor ampere (> 0).
+    pub fn from_parts(motor: DcMotor<T>, command_per_amp: T) -> Result<Self, TwipError> {
+        if !(command_per_amp.is_finite() && command_per_amp > T::zero()) {
+            return Err(TwipError::InvalidParameter {
+                name: "command_per_amp",
+                value: crate::to_f64(command_per_amp),
+                reason: "must be finite and > 0",
+            });
+        }
+        Ok(Self { motor, command_per_amp })
+    }
+
+    /// (motor, command per motor ampere): what [`Self::from_parts`] takes.
+    pub fn parts(&self) -> (DcMotor<T>, T) {
+        (self.motor, self.command_per_amp)
+    }
+
     /// The duty [counts, integer in ±255] for a command (lumped current or wheel torque)
     /// at a relative wheel speed.
     #[inline]

@@ -35,7 +35,12 @@ impl<T: Real> Encoder<T> {
     /// (angle, speed) the firmware reads at relative angle `beta`, `dt` after its last
     /// read: the counted angle and the counts' difference over `dt` (0 at the first read).
     pub fn read(&mut self, beta: T, dt: T) -> (T, T) {
-        let count = self.count(beta);
+        self.read_count(self.count(beta), dt)
+    }
+
+    /// (angle, speed) from the counter's value `count` (what a firmware reads from its
+    /// hardware counter), `dt` after the last read; the speed is 0 at the first read.
+    pub fn read_count(&mut self, count: T, dt: T) -> (T, T) {
         let speed = match self.last {
             Some(last) if dt > T::zero() => (count - last) * self.rad_per_count / dt,
             _ => T::zero(),

@@ -1,0 +1,433 @@
+//! The configurations a firmware fills in, as plain C structs of `float`s in SI units, and
+//! their two conversions: into the core's `f32` controllers (what `twip_X_init` runs), and
+//! from the core's `f64` ones (what `twip export` writes after tuning in simulation).
+use twip_core::control::fuzzy::{Adaptation as FuzzyAdaptation, FuzzyController, FuzzyGains};
+use twip_core::control::fuzzy_basis::{Membership, ThesisBasis};
+use twip_core::control::lqr::{DesignPoint, LqrController};
+use twip_core::control::pid::{PidGains, PidTracker, PidUnits};
+use twip_core::control::smc::{Adaptation as SmcAdaptation, PitchSign, SmcGains, SmcOptions, SmcTracker};
+use twip_core::control::Controller;
+use twip_core::hardware::motor::DcMotor;
+use twip_core::model::friction::Friction;
+use twip_core::{PlanarModel, RobotParams, SlopeModel, TwipError};
+
+/// The robot's physical parameters [SI], in the order of twip-core's `FIELD_NAMES`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TwipRobot {
+    pub m_body: f32,
+    pub m_wheels: f32,
+    pub i_body: f32,
+    pub i_wheels: f32,
+    pub i_motor: f32,
+    pub gear_ratio: f32,
+    pub torque_constant: f32,
+    pub wheel_radius: f32,
+    pub com_height: f32,
+    pub mu_bearing: f32,
+    pub mu_ground: f32,
+    pub half_track: f32,
+    pub i_body_roll: f32,
+    pub i_body_yaw: f32,
+    pub i_wheel_diam: f32,
+    pub g: f32,
+}
+
+// Sixteen f32 fields under repr(C) lie exactly as [f32; 16] (no padding between fields of
+// one type); tests/header.rs checks that their order is the core's FIELD_NAMES.
+const _: () = assert!(core::mem::size_of::<TwipRobot>() == 16 * 4);
+
+impl TwipRobot {
+    fn to_array(self) -> [f32; 16] {
+        // SAFETY: same size (checked above) and layout; every bit pattern is an f32.
+        unsafe { core::mem::transmute::<Self, [f32; 16]>(self) }
+    }
+
+    fn from_array(v: [f32; 16]) -> Self {
+        // SAFETY: as in to_array.
+        unsafe { core::mem::transmute::<[f32; 16], Self>(v) }
+    }
+
+    pub fn to_core(self) -> RobotParams<f32> {
+        RobotParams::from_array(&self.to_array())
+    }
+
+    pub fn from_core(p: &RobotParams<f64>) -> Self {
+        Self::from_array(p.to_array().map(|v| v as f32))
+    }
+}
+
+/// Gearhead friction per wheel (twip-core's `Friction`), used when `enabled` is nonzero.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TwipFriction {
+    pub enabled: i32,
+    pub coulomb: f32,
+    pub breakaway: f32,
+    pub stribeck_speed: f32,
+    pub viscous: f32,
+    pub smoothing_speed: f32,
+}
+
+impl TwipFriction {
+    pub fn to_core(self) -> Option<Friction<f32>> {
+        (self.enabled != 0).then_some(Friction {
+            coulomb: self.coulomb,
+            breakaway: self.breakaway,
+            stribeck_speed: self.stribeck_speed,
+            viscous: self.viscous,
+            smoothing_speed: self.smoothing_speed,
+        })
+    }
+
+    pub fn from_core(f: Option<&Friction<f64>>) -> Self {
+        f.map_or(Self::default(), |f| Self {
+            enabled: 1,
+            coulomb: f.coulomb as f32,
+            breakaway: f.breakaway as f32,
+            stribeck_speed: f.stribeck_speed as f32,
+            viscous: f.viscous as f32,
+            smoothing_speed: f.smoothing_speed as f32,
+        })
+    }
+}
+
+/// A DC gearmotor behind an H-bridge (twip-core's `DcMotor`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TwipMotor {
+    /// Winding resistance [Ω].
+    pub resistance: f32,
+    /// Torque constant at the motor shaft [N m/A].
+    pub k_t: f32,
+    pub gear_ratio: f32,
+    /// Viscous friction at the motor shaft [N m s/rad].
+    pub friction: f32,
+    /// Battery voltage [V].
+    pub supply: f32,
+    /// PWM full scale [counts] (255 for 8 bits).
+    pub pwm_max: f32,
+}
+
+impl TwipMotor {
+    pub fn to_core(self) -> Result<DcMotor<f32>, TwipError> {
+        DcMotor::new(self.resistance, self.k_t, self.gear_ratio, self.friction, self.supply, self.pwm_max)
+    }
+
+    pub fn from_core(m: &DcMotor<f64>) -> Self {
+        Self {
+            resistance: m.resistance() as f32,
+            k_t: m.k_t() as f32,
+            gear_ratio: m.gear_ratio() as f32,
+            friction: m.friction() as f32,
+            supply: m.supply() as f32,
+            pwm_max: m.pwm_max() as f32,
+        }
+    }
+}
+
+/// LQR with integral action on the wheel speed. `u` is the lumped motor current [A].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TwipLqrConfig {
+    /// The controller's own model of the robot (steady state and feed-forward).
+    pub robot: TwipRobot,
+    /// Ground slope [rad].
+    pub slope: f32,
+    pub friction: TwipFriction,
+    /// [k_phi [A/rad], k_phi_dot [A s/rad], k_theta_dot [A s/rad], k_z [A/rad]].
+    pub gains: [f32; 4],
+    /// 0: the thesis's design point (φ = 0); 1: the true operating point.
+    pub operating_point: i32,
+    /// Update period [s].
+    pub period: f32,
+}
+
+fn slope_model(robot: TwipRobot, slope: f32, friction: TwipFriction) -> Result<SlopeModel<f32>, TwipError> {
+    SlopeModel::new(robot.to_core(), slope)?.with_friction(friction.to_core())
+}
+
+impl TwipLqrConfig {
+    pub fn build(&self) -> Result<LqrController<f32>, TwipError> {
+        let point = if self.operating_point != 0 { DesignPoint::OperatingPoint } else { DesignPoint::Thesis };
+        LqrController::new(self.gains, slope_model(self.robot, self.slope, self.friction)?, point, self.period)
+    }
+
+    pub fn from_core(c: &LqrController<f64>) -> Self {
+        let model = c.model();
+        Self {
+            robot: TwipRobot::from_core(model.params()),
+            slope: model.slope() as f32,
+            friction: TwipFriction::from_core(model.friction()),
+            gains: c.gains().map(|g| g as f32),
+            operating_point: i32::from(c.point() == DesignPoint::OperatingPoint),
+            period: c.period() as f32,
+        }
+    }
+}
+
+/// A membership function: `kind` 0 is a trapezoid (a, b, c, d) = `p` (±INFINITY for
+/// shoulders), 1 a Gaussian (mean, sigma) = `p[0], p[1]`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TwipMembership {
+    pub kind: i32,
+    pub p: [f32; 4],
+}
+
+impl TwipMembership {
+    fn to_core(self) -> Result<Membership<f32>, TwipError> {
+        let [a, b, c, d] = self.p;
+        match self.kind {
+            0 => Membership::trapezoid(a, b, c, d),
+            1 => Membership::gaussian(a, b),
+            k => Err(TwipError::InvalidParameter {
+                name: "kind",
+                value: k as f64,
+                reason: "must be 0 (trapezoid) or 1 (gaussian)",
+            }),
+        }
+    }
+
+    fn from_core(m: &Membership<f64>) -> Self {
+        match *m {
+            Membership::Trapezoid { a, b, c, d } => Self { kind: 0, p: [a, b, c, d].map(|v| v as f32) },
+            Membership::Gaussian { mean, sigma } => Self { kind: 1, p: [mean as f32, sigma as f32, 0.0, 0.0] },
+        }
+    }
+}
+
+/// Fuzzy adaptive backstepping + PD on the wheel (thesis 4.3.1). `u` is the lumped
+/// motor current [A].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TwipFuzzyConfig {
+    pub robot: TwipRobot,
+    pub slope: f32,
+    pub friction: TwipFriction,
+    /// Backstepping gains k1 [1/s], k2 [1/s]; wheel PD(+I) gains kp, kd, ki.
+    pub k1: f32,
+    pub k2: f32,
+    pub kp: f32,
+    pub kd: f32,
+    pub ki: f32,
+    /// Adaptation rate γ and leakage σ of the weights; `adapt` 0 freezes them at `s0`.
+    pub gamma: f32,
+    pub sigma: f32,
+    pub adapt: i32,
+    /// Sets (N, Z, P) of the inputs φ [rad] and φ̇ [rad/s].
+    pub sets: [[TwipMembership; 3]; 2],
+    /// Initial weights of the 9 rules.
+    pub s0: [f32; 9],
+    pub period: f32,
+}
+
+impl TwipFuzzyConfig {
+    pub fn build(&self) -> Result<FuzzyController<f32>, TwipError> {
+        let mut sets = [[Membership::Gaussian { mean: 0.0, sigma: 1.0 }; 3]; 2];
+        for (row, given) in sets.iter_mut().zip(&self.sets) {
+            for (set, m) in row.iter_mut().zip(given) {
+                *set = m.to_core()?;
+            }
+        }
+        let gains = FuzzyGains { k1: self.k1, k2: self.k2, kp: self.kp, kd: self.kd, ki: self.ki };
+        let adaptation = FuzzyAdaptation { gamma: self.gamma, sigma: self.sigma, enabled: self.adapt != 0 };
+        let model = slope_model(self.robot, self.slope, self.friction)?;
+        FuzzyController::new(model, gains, adaptation, ThesisBasis::new(sets)?, self.period)?.with_initial_weights(self.s0)
+    }
+
+    pub fn from_core(c: &FuzzyController<f64>) -> Self {
+        let (model, g, a) = (c.model(), c.gains(), c.adaptation());
+        Self {
+            robot: TwipRobot::from_core(model.params()),
+            slope: model.slope() as f32,
+            friction: TwipFriction::from_core(model.friction()),
+            k1: g.k1 as f32,
+            k2: g.k2 as f32,
+            kp: g.kp as f32,
+            kd: g.kd as f32,
+            ki: g.ki as f32,
+            gamma: a.gamma as f32,
+            sigma: a.sigma as f32,
+            adapt: i32::from(a.enabled),
+            sets: c.basis().sets().map(|row| row.map(|m| TwipMembership::from_core(&m))),
+            s0: c.initial_weights().map(|v| v as f32),
+            period: c.period() as f32,
+        }
+    }
+}
+
+/// The thesis's discrete PID tracker (Table 4.1). Its gains are in the units of
+/// `units`: counts of PWM per unit of pitch, speed and heading as the Arduino measured
+/// them. `u` is the two wheels' torques [N m] (right, left).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TwipPidConfig {
+    pub kp_pitch: f32,
+    pub kd_pitch: f32,
+    pub kp_speed: f32,
+    pub ki_speed: f32,
+    pub kp_yaw: f32,
+    pub ki_yaw: f32,
+    pub kd_yaw: f32,
+    /// SI per firmware unit: pitch [rad per unit], speed [rad/s of wheel per unit],
+    /// heading [rad per unit]; and the integrators' step [s].
+    pub unit_pitch: f32,
+    pub unit_speed: f32,
+    pub unit_heading: f32,
+    pub integral_step: f32,
+    pub motor: TwipMotor,
+    /// [m]
+    pub wheel_radius: f32,
+    pub half_track: f32,
+    pub period: f32,
+}
+
+impl TwipPidConfig {
+    pub fn build(&self) -> Result<PidTracker<f32>, TwipError> {
+        let gains = PidGains {
+            kp_pitch: self.kp_pitch,
+            kd_pitch: self.kd_pitch,
+            kp_speed: self.kp_speed,
+            ki_speed: self.ki_speed,
+            kp_yaw: self.kp_yaw,
+            ki_yaw: self.ki_yaw,
+            kd_yaw: self.kd_yaw,
+        };
+        let units = PidUnits {
+            pitch: self.unit_pitch,
+            speed: self.unit_speed,
+            heading: self.unit_heading,
+            integral_step: self.integral_step,
+        };
+        PidTracker::with_geometry(gains, units, self.motor.to_core()?, self.wheel_radius, self.half_track, self.period)
+    }
+
+    pub fn from_core(c: &PidTracker<f64>) -> Self {
+        let (g, u) = (c.gains(), c.units());
+        let (wheel_radius, half_track) = c.geometry();
+        Self {
+            kp_pitch: g.kp_pitch as f32,
+            kd_pitch: g.kd_pitch as f32,
+            kp_speed: g.kp_speed as f32,
+            ki_speed: g.ki_speed as f32,
+            kp_yaw: g.kp_yaw as f32,
+            ki_yaw: g.ki_yaw as f32,
+            kd_yaw: g.kd_yaw as f32,
+            unit_pitch: u.pitch as f32,
+            unit_speed: u.speed as f32,
+            unit_heading: u.heading as f32,
+            integral_step: u.integral_step as f32,
+            motor: TwipMotor::from_core(c.motor()),
+            wheel_radius: wheel_radius as f32,
+            half_track: half_track as f32,
+            period: c.period() as f32,
+        }
+    }
+}
+
+/// Sliding mode with fuzzy adaptive backstepping (thesis 4.3.2), SI gains. `u` is the
+/// two wheels' torques [N m] (right, left).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TwipSmcConfig {
+    pub robot: TwipRobot,
+    pub friction: TwipFriction,
+    pub k1: f32,
+    pub k2: f32,
+    pub k3: f32,
+    pub k_phi: f32,
+    pub r1: f32,
+    pub r2: f32,
+    pub k_s3: f32,
+    pub k_s4: f32,
+    pub g_y4: f32,
+    pub k_eta3: f32,
+    pub k_eta4: f32,
+    pub g_y3: f32,
+    /// 1: the controller's pitch is positive leaning forward; 0: backward (the thesis's).
+    pub pitch_forward: i32,
+    pub width_eta: f32,
+    pub width_s1: f32,
+    pub guard_e3: f32,
+    pub guard_d: f32,
+    pub pitch_offset: i32,
+    /// Nonzero: limit each torque to what `motor` gives at the measured wheel speed.
+    pub has_motor: i32,
+    pub motor: TwipMotor,
+    /// Nonzero: adapt the fuzzy estimates with rates gamma1, gamma2 and `leakage`.
+    pub adapt: i32,
+    pub gamma1: f32,
+    pub gamma2: f32,
+    pub leakage: f32,
+    pub period: f32,
+}
+
+impl TwipSmcConfig {
+    pub fn build(&self) -> Result<SmcTracker<f32>, TwipError> {
+        let gains = SmcGains {
+            k1: self.k1,
+            k2: self.k2,
+            k3: self.k3,
+            k_phi: self.k_phi,
+            r1: self.r1,
+            r2: self.r2,
+            k_s3: self.k_s3,
+            k_s4: self.k_s4,
+            g_y4: self.g_y4,
+            k_eta3: self.k_eta3,
+            k_eta4: self.k_eta4,
+            g_y3: self.g_y3,
+        };
+        let options = SmcOptions {
+            pitch: if self.pitch_forward != 0 { PitchSign::Forward } else { PitchSign::Backward },
+            width_eta: self.width_eta,
+            width_s1: self.width_s1,
+            guard_e3: self.guard_e3,
+            guard_d: self.guard_d,
+            pitch_offset: self.pitch_offset != 0,
+        };
+        let model = PlanarModel::new(self.robot.to_core())?.with_friction(self.friction.to_core())?;
+        let motor = if self.has_motor != 0 { Some(self.motor.to_core()?) } else { None };
+        let adaptation = (self.adapt != 0).then_some(SmcAdaptation {
+            gamma1: self.gamma1,
+            gamma2: self.gamma2,
+            leakage: self.leakage,
+        });
+        SmcTracker::new(gains, options, model, motor, adaptation, self.period)
+    }
+
+    pub fn from_core(c: &SmcTracker<f64>) -> Self {
+        let (g, o, model) = (c.gains(), c.options(), c.model());
+        let adaptation = c.adaptation();
+        Self {
+            robot: TwipRobot::from_core(model.params()),
+            friction: TwipFriction::from_core(model.friction()),
+            k1: g.k1 as f32,
+            k2: g.k2 as f32,
+            k3: g.k3 as f32,
+            k_phi: g.k_phi as f32,
+            r1: g.r1 as f32,
+            r2: g.r2 as f32,
+            k_s3: g.k_s3 as f32,
+            k_s4: g.k_s4 as f32,
+            g_y4: g.g_y4 as f32,
+            k_eta3: g.k_eta3 as f32,
+            k_eta4: g.k_eta4 as f32,
+            g_y3: g.g_y3 as f32,
+            pitch_forward: i32::from(o.pitch == PitchSign::Forward),
+            width_eta: o.width_eta as f32,
+            width_s1: o.width_s1 as f32,
+            guard_e3: o.guard_e3 as f32,
+            guard_d: o.guard_d as f32,
+            pitch_offset: i32::from(o.pitch_offset),
+            has_motor: i32::from(c.motor().is_some()),
+            motor: c.motor().map_or(TwipMotor::default(), TwipMotor::from_core),
+            adapt: i32::from(adaptation.is_some()),
+            gamma1: adaptation.map_or(0.0, |a| a.gamma1 as f32),
+            gamma2: adaptation.map_or(0.0, |a| a.gamma2 as f32),
+            leakage: adaptation.map_or(0.0, |a| a.leakage as f32),
+            period: c.period() as f32,
+        }
+    }
+}

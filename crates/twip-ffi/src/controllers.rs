@@ -1,0 +1,309 @@
+//! The four controller families: `twip_X_init`, `twip_X_update`, `twip_X_reset` on a
+//! caller-owned `TwipX` state. The 2-DOF controllers (LQR, fuzzy) measure
+//! y = [φ, φ̇, θ, θ̇] [rad, rad/s] and follow a [`TwipSpeedRef`]; the 3-DOF trackers (PID,
+//! sliding mode) measure y = [x, y, ψ, φ, φ̇, v, ω] [m, m, rad, rad, rad/s, m/s, rad/s] and
+//! follow a [`TwipPlanarRef`]. Call `update` once per `period` with the time `t` [s].
+use core::slice;
+
+use nalgebra::SVector;
+use twip_core::control::fuzzy::FuzzyController;
+use twip_core::control::lqr::LqrController;
+use twip_core::control::pid::PidTracker;
+use twip_core::control::reference::SpeedRef;
+use twip_core::control::smc::SmcTracker;
+use twip_core::control::trajectory::PlanarRef;
+use twip_core::control::Controller;
+use twip_core::TwipError;
+
+use crate::config::{TwipFuzzyConfig, TwipLqrConfig, TwipPidConfig, TwipSmcConfig};
+use crate::slot::{self, fits};
+use crate::{TwipStatus, TWIP_ERR_INVALID, TWIP_ERR_NOT_FINITE, TWIP_ERR_NULL, TWIP_OK};
+
+/// The wheel reference of the 2-DOF controllers: angle θ_ref [rad] and speed θ̇_ref [rad/s].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TwipSpeedRef {
+    pub theta: f32,
+    pub theta_dot: f32,
+}
+
+/// The planar reference of the 3-DOF trackers: pose, speeds and accelerations.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TwipPlanarRef {
+    pub x: f32,
+    pub y: f32,
+    pub psi: f32,
+    pub v: f32,
+    pub omega: f32,
+    pub v_dot: f32,
+    pub omega_dot: f32,
+}
+
+/// A C reference that converts to the core's, refusing NaN and infinities.
+pub trait CReference: Copy {
+    type Core;
+    fn to_core(self) -> Option<Self::Core>;
+}
+
+fn all_finite(values: &[f32]) -> bool {
+    values.iter().all(|v| v.is_finite())
+}
+
+impl CReference for TwipSpeedRef {
+    type Core = SpeedRef<f32>;
+    fn to_core(self) -> Option<SpeedRef<f32>> {
+        all_finite(&[self.theta, self.theta_dot]).then_some(SpeedRef { theta: self.theta, theta_dot: self.theta_dot })
+    }
+}
+
+impl CReference for TwipPlanarRef {
+    type Core = PlanarRef<f32>;
+    fn to_core(self) -> Option<PlanarRef<f32>> {
+        let Self { x, y, psi, v, omega, v_dot, omega_dot } = self;
+        all_finite(&[x, y, psi, v, omega, v_dot, omega_dot]).then_some(PlanarRef { x, y, psi, v, omega, v_dot, omega_dot })
+    }
+}
+
+/// Builds `V` from the configuration at `config` into the words at `words`.
+///
+/// # Safety
+/// `words` is NULL or caller-owned storage that fits a `V`; `config` is NULL or valid.
+pub(crate) unsafe fn init<C, V>(
+    words: *mut u64,
+    tag: u64,
+    config: *const C,
+    build: impl FnOnce(&C) -> Result<V, TwipError>,
+) -> TwipStatus {
+    if words.is_null() || config.is_null() {
+        return TWIP_ERR_NULL;
+    }
+    match build(&*config) {
+        Ok(value) => slot::put(words, tag, value),
+        Err(_) => {
+            slot::clear(words);
+            TWIP_ERR_INVALID
+        }
+    }
+}
+
+/// One update of the controller in the words at `words`: `u` gets `NU` commands.
+///
+/// # Safety
+/// Pointers are NULL or valid: `y` for `NX` floats, `u` for `NU`, `words` as in [`init`].
+pub(crate) unsafe fn update<V, R, const NX: usize, const NU: usize>(
+    words: *mut u64,
+    tag: u64,
+    t: f32,
+    y: *const f32,
+    reference: *const R,
+    u: *mut f32,
+) -> TwipStatus
+where
+    V: Controller<f32, NX, NU>,
+    R: CReference<Core = V::Reference>,
+{
+    if y.is_null() || reference.is_null() || u.is_null() {
+        return TWIP_ERR_NULL;
+    }
+    let controller = match slot::get::<V>(words, tag) {
+        Ok(c) => c,
+        Err(status) => return status,
+    };
+    let y = slice::from_raw_parts(y, NX);
+    let Some(r) = (*reference).to_core() else {
+        return TWIP_ERR_NOT_FINITE;
+    };
+    if !t.is_finite() || !all_finite(y) {
+        return TWIP_ERR_NOT_FINITE;
+    }
+    let out = controller.update(t, &SVector::<f32, NX>::from_column_slice(y), &r);
+    if !all_finite(out.as_slice()) {
+        return TWIP_ERR_NOT_FINITE;
+    }
+    slice::from_raw_parts_mut(u, NU).copy_from_slice(out.as_slice());
+    TWIP_OK
+}
+
+/// Back to the controller's initial internal state (integrators, adaptive weights).
+///
+/// # Safety
+/// As [`init`].
+pub(crate) unsafe fn reset<V: Controller<f32, NX, NU>, const NX: usize, const NU: usize>(
+    words: *mut u64,
+    tag: u64,
+) -> TwipStatus {
+    match slot::get::<V>(words, tag) {
+        Ok(c) => {
+            c.reset();
+            TWIP_OK
+        }
+        Err(status) => status,
+    }
+}
+
+// Each state's size in 8-byte words (the value, its tag and room to grow), checked
+// against the Rust value at compile time.
+pub const TWIP_LQR_WORDS: usize = 32;
+pub const TWIP_FUZZY_WORDS: usize = 96;
+pub const TWIP_PID_WORDS: usize = 24;
+pub const TWIP_SMC_WORDS: usize = 160;
+const _: () = assert!(fits::<LqrController<f32>>(TWIP_LQR_WORDS));
+const _: () = assert!(fits::<FuzzyController<f32>>(TWIP_FUZZY_WORDS));
+const _: () = assert!(fits::<PidTracker<f32>>(TWIP_PID_WORDS));
+const _: () = assert!(fits::<SmcTracker<f32>>(TWIP_SMC_WORDS));
+
+// Tags: "twipLQR\0" and kin as little-endian words.
+const LQR_TAG: u64 = u64::from_le_bytes(*b"twipLQR\0");
+const FUZZY_TAG: u64 = u64::from_le_bytes(*b"twipFUZ\0");
+const PID_TAG: u64 = u64::from_le_bytes(*b"twipPID\0");
+const SMC_TAG: u64 = u64::from_le_bytes(*b"twipSMC\0");
+
+/// State of an LQR + integral controller (opaque; `TWIP_LQR_WORDS` words).
+#[repr(C)]
+pub struct TwipLqr {
+    pub words: [u64; TWIP_LQR_WORDS],
+}
+
+/// State of a fuzzy adaptive backstepping + PD controller (opaque).
+#[repr(C)]
+pub struct TwipFuzzy {
+    pub words: [u64; TWIP_FUZZY_WORDS],
+}
+
+/// State of a PID tracker (opaque).
+#[repr(C)]
+pub struct TwipPid {
+    pub words: [u64; TWIP_PID_WORDS],
+}
+
+/// State of a sliding-mode tracker (opaque).
+#[repr(C)]
+pub struct TwipSmc {
+    pub words: [u64; TWIP_SMC_WORDS],
+}
+
+/// Initialises `state` from `config`: TWIP_OK, TWIP_ERR_NULL, or TWIP_ERR_INVALID (a value
+/// out of its domain; `state` is then marked not initialised).
+///
+/// # Safety
+/// `state` and `config` are NULL or valid pointers.
+#[no_mangle]
+pub unsafe extern "C" fn twip_lqr_init(state: *mut TwipLqr, config: *const TwipLqrConfig) -> TwipStatus {
+    init(state.cast(), LQR_TAG, config, TwipLqrConfig::build)
+}
+
+/// One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]).
+///
+/// # Safety
+/// Pointers are NULL or valid for the sizes above.
+#[no_mangle]
+pub unsafe extern "C" fn twip_lqr_update(
+    state: *mut TwipLqr,
+    t: f32,
+    y: *const f32,
+    reference: *const TwipSpeedRef,
+    u: *mut f32,
+) -> TwipStatus {
+    update::<LqrController<f32>, TwipSpeedRef, 4, 1>(state.cast(), LQR_TAG, t, y, reference, u)
+}
+
+/// # Safety
+/// `state` is NULL or valid.
+#[no_mangle]
+pub unsafe extern "C" fn twip_lqr_reset(state: *mut TwipLqr) -> TwipStatus {
+    reset::<LqrController<f32>, 4, 1>(state.cast(), LQR_TAG)
+}
+
+/// As [`twip_lqr_init`], for the fuzzy adaptive backstepping + PD controller.
+///
+/// # Safety
+/// `state` and `config` are NULL or valid pointers.
+#[no_mangle]
+pub unsafe extern "C" fn twip_fuzzy_init(state: *mut TwipFuzzy, config: *const TwipFuzzyConfig) -> TwipStatus {
+    init(state.cast(), FUZZY_TAG, config, TwipFuzzyConfig::build)
+}
+
+/// One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]).
+///
+/// # Safety
+/// Pointers are NULL or valid for the sizes above.
+#[no_mangle]
+pub unsafe extern "C" fn twip_fuzzy_update(
+    state: *mut TwipFuzzy,
+    t: f32,
+    y: *const f32,
+    reference: *const TwipSpeedRef,
+    u: *mut f32,
+) -> TwipStatus {
+    update::<FuzzyController<f32>, TwipSpeedRef, 4, 1>(state.cast(), FUZZY_TAG, t, y, reference, u)
+}
+
+/// # Safety
+/// `state` is NULL or valid.
+#[no_mangle]
+pub unsafe extern "C" fn twip_fuzzy_reset(state: *mut TwipFuzzy) -> TwipStatus {
+    reset::<FuzzyController<f32>, 4, 1>(state.cast(), FUZZY_TAG)
+}
+
+/// As [`twip_lqr_init`], for the PID tracker.
+///
+/// # Safety
+/// `state` and `config` are NULL or valid pointers.
+#[no_mangle]
+pub unsafe extern "C" fn twip_pid_init(state: *mut TwipPid, config: *const TwipPidConfig) -> TwipStatus {
+    init(state.cast(), PID_TAG, config, TwipPidConfig::build)
+}
+
+/// One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
+///
+/// # Safety
+/// Pointers are NULL or valid for the sizes above.
+#[no_mangle]
+pub unsafe extern "C" fn twip_pid_update(
+    state: *mut TwipPid,
+    t: f32,
+    y: *const f32,
+    reference: *const TwipPlanarRef,
+    u: *mut f32,
+) -> TwipStatus {
+    update::<PidTracker<f32>, TwipPlanarRef, 7, 2>(state.cast(), PID_TAG, t, y, reference, u)
+}
+
+/// # Safety
+/// `state` is NULL or valid.
+#[no_mangle]
+pub unsafe extern "C" fn twip_pid_reset(state: *mut TwipPid) -> TwipStatus {
+    reset::<PidTracker<f32>, 7, 2>(state.cast(), PID_TAG)
+}
+
+/// As [`twip_lqr_init`], for the sliding-mode tracker with fuzzy adaptive backstepping.
+///
+/// # Safety
+/// `state` and `config` are NULL or valid pointers.
+#[no_mangle]
+pub unsafe extern "C" fn twip_smc_init(state: *mut TwipSmc, config: *const TwipSmcConfig) -> TwipStatus {
+    init(state.cast(), SMC_TAG, config, TwipSmcConfig::build)
+}
+
+/// One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
+///
+/// # Safety
+/// Pointers are NULL or valid for the sizes above.
+#[no_mangle]
+pub unsafe extern "C" fn twip_smc_update(
+    state: *mut TwipSmc,
+    t: f32,
+    y: *const f32,
+    reference: *const TwipPlanarRef,
+    u: *mut f32,
+) -> TwipStatus {
+    update::<SmcTracker<f32>, TwipPlanarRef, 7, 2>(state.cast(), SMC_TAG, t, y, reference, u)
+}
+
+/// # Safety
+/// `state` is NULL or valid.
+#[no_mangle]
+pub unsafe extern "C" fn twip_smc_reset(state: *mut TwipSmc) -> TwipStatus {
+    reset::<SmcTracker<f32>, 7, 2>(state.cast(), SMC_TAG)
+}

@@ -1,0 +1,203 @@
+"""`twip export SCENARIO --out DIR`: the tuned controller of a scenario, for the firmware.
+
+The folder holds
+- `twip.h`: twip-ffi's C header;
+- `twip_config.h` / `twip_config.c`: the controller's, tilt filter's and PWM feed-forward's
+  configurations as C initialisers, in firmware units (or SI) with each conversion beside
+  its value, and the macros of the family (`TWIP_INIT`, `TWIP_UPDATE`, ...);
+- `example.c`: an Arduino-style `setup()` / `loop()` around the library;
+- `replay_data.c` and `replay_check.c`: a closed-loop run of the `f32` controller on the
+  `f32` plant, every update recorded, and a harness that replays its measurements and
+  references through the C ABI and prints the largest difference from the recorded
+  commands (`make check`, within 1e-5 relative);
+- `Makefile`: builds twip-ffi's static library for the host with cargo (from `TWIP_SRC`),
+  then `example` and `check`.
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from twip import _core, scenarios
+from twip.firmware import header, units
+
+#: Largest relative difference `make check` accepts (of the largest recorded command).
+REPLAY_TOLERANCE = 1e-5
+#: Default length of the recorded run [s] (the scenario's own if shorter).
+REPLAY_SECONDS = 20.0
+
+
+@dataclass(frozen=True)
+class Family:
+    """A controller family of the C ABI: its names there and its sizes."""
+
+    name: str
+    config: str
+    state: str
+    reference: str
+    nx: int
+    nu: int
+    pwm: str  # which PWM feed-forward its command needs: "pwm_lumped" or "pwm_wheel"
+
+
+FAMILIES = {f.name: f for f in (
+    Family("lqr", "TwipLqrConfig", "TwipLqr", "TwipSpeedRef", 4, 1, "pwm_lumped"),
+    Family("fuzzy", "TwipFuzzyConfig", "TwipFuzzy", "TwipSpeedRef", 4, 1, "pwm_lumped"),
+    Family("pid", "TwipPidConfig", "TwipPid", "TwipPlanarRef", 7, 2, "pwm_wheel"),
+    Family("smc", "TwipSmcConfig", "TwipSmc", "TwipPlanarRef", 7, 2, "pwm_wheel"),
+)}
+
+UNITS = ("firmware", "si")
+
+
+def _initialiser(layout, family, ctype, value, path, table, firmware, depth=1) -> str:
+    """The C initialiser of `value` (a decoded struct, array or scalar) with comments."""
+    pad = "    " * depth
+    if isinstance(value, dict):
+        items = []
+        for f in layout[ctype]:
+            sub = f"{path}.{f.name}" if path else f.name
+            items.append(_item(layout, family, f.ctype, value[f.name], sub, table, firmware, depth, f".{f.name} = "))
+        return "{\n" + "\n".join(items) + "\n" + "    " * (depth - 1) + "}"
+    if isinstance(value, list):
+        items = [_item(layout, family, ctype, v, f"{path}[{i}]", table, firmware, depth, "")
+                 for i, v in enumerate(value)]
+        return "{\n" + "\n".join(items) + "\n" + "    " * (depth - 1) + "}"
+    raise TypeError(value)
+
+
+def _item(layout, family, ctype, value, path, table, firmware, depth, label) -> str:
+    pad = "    " * depth
+    if isinstance(value, (dict, list)):
+        return f"{pad}{label}{_initialiser(layout, family, ctype, value, path, table, firmware, depth + 1)},"
+    if ctype == "int32_t":
+        return f"{pad}{label}{int(value)},"
+    expr, comment = units.scalar(family, path, value, table, firmware)
+    return f"{pad}{label}{expr}," + (f"  /* {comment} */" if comment else "")
+
+
+def _rows(name: str, ctype: str, data: np.ndarray) -> str:
+    rows = ",\n".join("    {" + ", ".join(units.c_float(v) for v in row) + "}" for row in np.atleast_2d(data))
+    return f"const {ctype} {name}[{len(data)}][{data.shape[1]}] = {{\n{rows}\n}};\n"
+
+
+def _config_files(fam, config, tilt, pwm, table, firmware, layout, geometry, period) -> tuple:
+    macros = "\n".join(f"#define {f.name} {units.c_float(f.value)}  /* {f.how} */" for f in table.values())
+    h = f"""/* The exported configuration of a twip controller ({fam.name}). Written by `twip export`. */
+#ifndef TWIP_CONFIG_H
+#define TWIP_CONFIG_H
+
+#include "twip.h"
+
+/* Conversions: SI units per firmware unit. A value written `X * TWIP_FACTOR` is X in the
+   firmware unit named beside it. */
+{macros}
+
+#define TWIP_FAMILY "{fam.name}"
+#define TWIP_STATE {fam.state}
+#define TWIP_CONFIG {fam.config}
+#define TWIP_REFERENCE {fam.reference}
+#define TWIP_INIT twip_{fam.name}_init
+#define TWIP_UPDATE twip_{fam.name}_update
+#define TWIP_RESET twip_{fam.name}_reset
+#define TWIP_NX {fam.nx}
+#define TWIP_NU {fam.nu}
+#define TWIP_LOOP_PERIOD_S {units.c_float(period)}
+#define TWIP_WHEEL_RADIUS {units.c_float(geometry[0])}  /* m */
+#define TWIP_HALF_TRACK {units.c_float(geometry[1])}  /* m */
+
+extern const {fam.config} twip_controller_config;
+extern const TwipTiltConfig twip_tilt_config;
+extern const TwipPwmConfig twip_pwm_config;
+extern const float twip_encoder_cpr;
+
+#endif
+"""
+    c = f"""/* The tuned configuration, as C initialisers. Written by `twip export`. */
+#include <math.h>
+#include "twip_config.h"
+
+const {fam.config} twip_controller_config = {_initialiser(layout, fam.name, fam.config, config, "", table, firmware)};
+
+const TwipTiltConfig twip_tilt_config = {_initialiser(layout, "tilt", "TwipTiltConfig", tilt, "", table, firmware)};
+
+/* The command-to-PWM feed-forward of the motor driver. */
+const TwipPwmConfig twip_pwm_config = {_initialiser(layout, "pwm", "TwipPwmConfig", pwm, "", table, firmware)};
+
+const float twip_encoder_cpr = {units.c_float(table["TWIP_COUNTS_PER_RAD"].value * 2 * math.pi)};  /* counts per wheel turn */
+"""
+    return h, c
+
+
+def _replay_files(fam, rec) -> tuple:
+    n = len(rec["t"])
+    data = f"""/* A closed-loop run of the f32 controller, every update: recorded by `twip export`. */
+#include "replay_data.h"
+
+const int replay_n = {n};
+const float replay_t[{n}] = {{{", ".join(units.c_float(v) for v in rec["t"])}}};
+{_rows("replay_y", "float", rec["y"])}{_rows("replay_ref", "float", rec["reference"])}{_rows("replay_u", "float", rec["u"])}"""
+    h = f"""#ifndef REPLAY_DATA_H
+#define REPLAY_DATA_H
+extern const int replay_n;
+extern const float replay_t[{n}];
+extern const float replay_y[{n}][{fam.nx}];
+extern const float replay_ref[{n}][{rec["reference"].shape[1]}];
+extern const float replay_u[{n}][{fam.nu}];
+#endif
+"""
+    return data, h
+
+
+def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: float = REPLAY_SECONDS,
+           source_dir: Optional[str] = None) -> dict:
+    """Writes the folder `out` for scenario `scenario` (a name or a Scenario) on `robot`
+    (a `twip.Robot` from a robot file; default the Balanbot). Returns a summary: the family,
+    the number of recorded updates and the paths written."""
+    if units_ not in UNITS:
+        raise _core.InvalidParameterError(f"units = {units_!r}: must be one of {', '.join(UNITS)}")
+    if not (isinstance(replay_seconds, (int, float)) and math.isfinite(replay_seconds) and replay_seconds > 0):
+        raise _core.InvalidParameterError(f"replay_seconds = {replay_seconds!r}: must be a finite number > 0")
+    params = robot.params if robot is not None else None
+    sc = scenarios.get(scenario, params=params) if isinstance(scenario, str) else scenario
+    realism = robot.realism() if robot is not None else _core.Realism.thesis_like()
+    seconds = min(sc.t_final, replay_seconds)
+    rec = _core.ffi_record(sc.model, sc.controller, [float(v) for v in sc.x0], seconds, sc.dt, sc.reference)
+    fam = FAMILIES[rec["family"]]
+    parts = _core.ffi_firmware(realism, sc.model.params)
+    if fam.pwm not in parts:
+        raise _core.InvalidParameterError("the realism has no motor driver: the PWM feed-forward needs one")
+    layout = header.structs()
+    config = header.decode(layout, fam.config, rec["config"])
+    tilt = header.decode(layout, "TwipTiltConfig", parts["tilt"])
+    pwm = header.decode(layout, "TwipPwmConfig", parts[fam.pwm])
+    period = config["period"]
+    motor = _core.DcMotor.from_dict(pwm["motor"])
+    table = units.factors(parts["encoder_cpr"] or 700.0, period, motor.torque_per_count())
+    p = sc.model.params
+    h, c = _config_files(fam, config, tilt, pwm, table, units_ == "firmware", layout, (p.wheel_radius, p.half_track),
+                         period)
+    data, data_h = _replay_files(fam, rec)
+    here = Path(__file__).parent / "templates"
+    src = Path(source_dir or os.environ.get("TWIP_SRC") or _core.FFI_SOURCE_DIR).resolve()
+    files = {
+        "twip.h": _core.FFI_HEADER,
+        "twip_config.h": h,
+        "twip_config.c": c,
+        "replay_data.c": data,
+        "replay_data.h": data_h,
+        "replay_check.c": (here / "replay_check.c").read_text().replace("@TOLERANCE@", repr(REPLAY_TOLERANCE)),
+        "example.c": (here / "example.c").read_text(),
+        "Makefile": (here / "Makefile").read_text().replace("@TWIP_SRC@", str(src)),
+    }
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in files.items():
+        (out / name).write_text(text)
+    return {"family": fam.name, "updates": len(rec["t"]), "outcome": rec["outcome"], "files": sorted(files),
+            "out": str(out), "source": str(src)}

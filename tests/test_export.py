@@ -1,0 +1,122 @@
+"""twip export and twip-ffi: the tuned controller of each family, exported, built with the
+host's cc against the static library, and its recorded closed-loop run replayed through
+the C ABI within 1e-5 relative (`make check`); the f32 run against the f64 one; the
+configuration in firmware units and in SI."""
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import twip
+from twip import _core, scenarios
+from twip.cli import main
+from twip.firmware import export, header
+from twip.firmware.export import FAMILIES, REPLAY_TOLERANCE
+
+needs_tools = pytest.mark.skipif(not (shutil.which("cargo") and shutil.which("cc") and shutil.which("make")),
+                                 reason="needs cargo, cc and make")
+#: One scenario per family: LQR, fuzzy, PID, sliding mode with its fuzzy estimates.
+ONE_PER_FAMILY = {"lqr": "flat-lqr", "fuzzy": "slope-fuzzy", "pid": "circle-pid", "smc": "circle-smc-fuzzy"}
+
+
+def _check(folder) -> str:
+    done = subprocess.run(["make", "-s", "-C", str(folder), "check"], capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stdout + done.stderr
+    return done.stdout
+
+
+def _relative(output: str) -> float:
+    return float(re.search(r", ([0-9.e+-]+) of the largest command", output).group(1))
+
+
+@needs_tools
+@pytest.mark.parametrize("family", sorted(ONE_PER_FAMILY))
+def test_export_builds_and_replays_within_tolerance(family, tmp_path):
+    summary = export(ONE_PER_FAMILY[family], tmp_path, replay_seconds=10.0)
+    assert summary["family"] == family and summary["updates"] == 2000
+    out = _check(tmp_path)
+    assert out.startswith(f"{family}: 2000 updates replayed")
+    assert _relative(out) <= REPLAY_TOLERANCE
+    assert (tmp_path / "example").exists()
+
+
+@needs_tools
+def test_cli_export_then_make_check(tmp_path, capsys):
+    assert main(["export", "flat-lqr", "--out", str(tmp_path / "fw")]) == 0
+    assert "make -C" in capsys.readouterr().err
+    assert _relative(_check(tmp_path / "fw")) <= REPLAY_TOLERANCE
+
+
+@needs_tools
+def test_the_check_fails_on_a_wrong_gain(tmp_path):
+    export("flat-lqr", tmp_path, replay_seconds=2.0)
+    config = tmp_path / "twip_config.c"
+    text = config.read_text()
+    gain = re.search(r"\.gains = \{\n\s+(-?[0-9.e-]+)f", text).group(1)
+    config.write_text(text.replace(gain + "f", f"{float(gain) * 1.001!r}f", 1))
+    done = subprocess.run(["make", "-s", "-C", str(tmp_path), "check"], capture_output=True, text=True, timeout=900)
+    assert done.returncode != 0 and "updates replayed" in done.stdout
+
+
+def test_firmware_units_write_each_conversion_beside_its_value(tmp_path):
+    export("flat-lqr", tmp_path, replay_seconds=1.0)
+    c = (tmp_path / "twip_config.c").read_text()
+    h = (tmp_path / "twip_config.h").read_text()
+    assert ".period = 5.0f * TWIP_S_PER_MS,  /* 5 ms */" in c
+    assert "* TWIP_DEG_PER_RAD,  /*" in c and "A per deg of pitch" in c
+    assert "A per encoder count per loop" in c
+    cpr = float(re.search(r"#define TWIP_COUNTS_PER_RAD ([0-9.e+-]+)f", h).group(1)) * 2 * np.pi
+    assert cpr == pytest.approx(twip.Realism.thesis_like().encoder_cpr, rel=1e-6)
+    # The firmware value times its factor is the SI gain.
+    sc = scenarios.get("flat-lqr")
+    shown = float(re.search(r"\.gains = \{\n\s+(-?[0-9.e-]+)f \* TWIP_DEG_PER_RAD", c).group(1))
+    assert shown * 180 / np.pi == pytest.approx(sc.controller.gains[0], rel=1e-6)
+
+
+def test_si_units_write_plain_si(tmp_path):
+    export("flat-lqr", tmp_path, units_="si", replay_seconds=1.0)
+    c = (tmp_path / "twip_config.c").read_text()
+    assert "* TWIP_" not in c and "/* SI: A/rad */" in c
+
+
+@pytest.mark.parametrize("name", ["flat-lqr", "slope-fuzzy", "circle-pid", "circle-smc-fuzzy"])
+def test_f32_run_follows_the_f64_run(name):
+    """The f32 controller on the f32 plant (what the robot runs) against twip.simulate's
+    f64 run, over 20 s at every controller update. Measured (notes): commands within
+    1.2e-4 of their largest value, states within 1e-3 of their range, in every family."""
+    sc = scenarios.get(name)
+    seconds = min(sc.t_final, 20.0)
+    rec = _core.ffi_record(sc.model, sc.controller, [float(v) for v in sc.x0], seconds, sc.dt, sc.reference)
+    run = sc.run(t_final=seconds)
+    at = np.rint(rec["t"].astype(float) / sc.dt).astype(int)
+    states, inputs = run.states[at], run.inputs[at]
+    span = np.maximum(np.abs(states).max(axis=0), 1e-9)
+    assert np.max(np.abs(states - rec["y"]) / span) < 2e-3
+    assert np.max(np.abs(inputs - rec["u"])) / np.abs(inputs).max() < 5e-4
+
+
+def test_header_layout_matches_the_decoded_structs():
+    layout = header.structs()
+    for fam in FAMILIES.values():
+        assert fam.config in layout and fam.state in layout and fam.reference in layout
+    assert [f.name for f in layout["TwipRobot"]] == list(twip.RobotParams.fields)
+    assert header.macros()["TWIP_OK"] == 0
+    rec = _core.ffi_record(scenarios.get("flat-lqr").model, scenarios.get("flat-lqr").controller, [0.0] * 4,
+                           0.01, 1e-3, twip.SpeedSchedule.constant(0.0))
+    assert header.decode(layout, "TwipLqrConfig", rec["config"])["period"] == pytest.approx(0.005)
+    with pytest.raises(ValueError, match="bytes"):
+        header.decode(layout, "TwipLqrConfig", rec["config"][:-4])
+
+
+def test_bad_arguments_are_named(tmp_path):
+    with pytest.raises(twip.InvalidParameterError, match="units"):
+        export("flat-lqr", tmp_path, units_="imperial")
+    with pytest.raises(twip.InvalidParameterError, match="replay_seconds"):
+        export("flat-lqr", tmp_path, replay_seconds=-1.0)
+    with pytest.raises(TypeError, match="twip export takes"):
+        _core.ffi_record(twip.SlopeModel(twip.RobotParams.balanbot(), 0.0), lambda t, y, r: 0.0, [0.0] * 4, 1.0,
+                         1e-3, twip.SpeedSchedule.constant(0.0))
+    (tmp_path / "file").write_text("")
+    assert main(["export", "flat-lqr", "--out", str(tmp_path / "file")]) == 2
