@@ -81,6 +81,14 @@ def test_si_units_write_plain_si(tmp_path):
     assert "* TWIP_" not in c and "/* SI: A/rad */" in c
 
 
+@needs_tools
+def test_in_si_units_the_c_abi_answers_the_recorded_commands_bit_for_bit(tmp_path):
+    # The C ABI runs the same f32 code as the recording; the firmware-unit exports differ
+    # only by the one f32 rounding of each `X * TWIP_FACTOR`.
+    export("circle-smc-fuzzy", tmp_path, units_="si", replay_seconds=5.0)
+    assert _relative(_check(tmp_path)) == 0.0
+
+
 @pytest.mark.parametrize("name", ["flat-lqr", "slope-fuzzy", "circle-pid", "circle-smc-fuzzy"])
 def test_f32_run_follows_the_f64_run(name):
     """The f32 controller on the f32 plant (what the robot runs) against twip.simulate's
@@ -120,3 +128,17 @@ def test_bad_arguments_are_named(tmp_path):
                          1e-3, twip.SpeedSchedule.constant(0.0))
     (tmp_path / "file").write_text("")
     assert main(["export", "flat-lqr", "--out", str(tmp_path / "file")]) == 2
+
+
+def test_an_install_without_sources_says_how_to_point_at_them(tmp_path, capsys, monkeypatch):
+    # A wheel from PyPI carries no Rust sources: the export still writes everything and says
+    # how to give a checkout, and the Makefile takes it as TWIP_SRC.
+    monkeypatch.setenv("TWIP_SRC", str(tmp_path / "nowhere"))
+    assert main(["export", "flat-lqr", "--out", str(tmp_path / "fw"), "--replay-seconds", "0.1"]) == 0
+    err = capsys.readouterr().err
+    assert "has no twip-ffi Cargo.toml" in err and "TWIP_SRC=" in err
+    makefile = (tmp_path / "fw" / "Makefile").read_text()
+    assert f"TWIP_SRC ?= {tmp_path / 'nowhere'}" in makefile
+    monkeypatch.delenv("TWIP_SRC")
+    summary = export("flat-lqr", tmp_path / "fw2", replay_seconds=0.1)
+    assert summary["source_found"], summary["source"]

@@ -241,4 +241,9 @@ def export(args) -> int:
     print(f"wrote {out}/: {summary['family']} controller of {args.scenario} in {args.units} units, "
           f"{summary['updates']} recorded updates ({summary['outcome']}); build and check with "
           f"`make -C {shlex.quote(str(out))} check` (twip-ffi sources: {summary['source']})", file=sys.stderr)
+    if not summary["source_found"]:
+        # An installed wheel carries no Rust sources: the Makefile needs a twip checkout.
+        print(f"note: {summary['source']} has no twip-ffi Cargo.toml; give a twip checkout's with "
+              f"`make -C {shlex.quote(str(out))} TWIP_SRC=<twip>/crates/twip-ffi check` or TWIP_SRC=... "
+              "when exporting", file=sys.stderr)
     return 0

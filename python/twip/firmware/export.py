@@ -200,4 +200,4 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
     for name, text in files.items():
         (out / name).write_text(text)
     return {"family": fam.name, "updates": len(rec["t"]), "outcome": rec["outcome"], "files": sorted(files),
-            "out": str(out), "source": str(src)}
+            "out": str(out), "source": str(src), "source_found": (src / "Cargo.toml").is_file()}

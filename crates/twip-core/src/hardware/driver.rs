@@ -10,6 +10,9 @@
 //! u = 2 ε i                                the lumped current of `SlopeModel` (torque η τ_i u)
 //! ```
 //!
+//! ε is [`MotorDriver::efficiency`] (the share of the winding's torque that reaches the
+//! wheel; 1 by default) and 2 the number of motors.
+//!
 //! With L = 0 the current is algebraic and computed inside `deriv` (the back-EMF damping
 //! is then implicit in RK4). With L > 0 the current is updated once per plant step by the
 //! exact solution for a voltage and speed held over the step; the step's average current

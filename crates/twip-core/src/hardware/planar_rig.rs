@@ -44,7 +44,7 @@ pub const PLANAR_RIG_SIGNALS: [&str; 11] = [
 #[derive(Clone, Copy, Debug)]
 pub struct WheelDrives<T> {
     windings: [Winding<T>; 2],
-    /// ε η τ_i: wheel torque per motor ampere.
+    /// ε η τ_i: wheel torque per motor ampere (ε the driver's `efficiency`).
     torque_per_amp: T,
 }
 
