@@ -104,8 +104,17 @@ def test_noise_is_bitwise_repeatable_and_streams_differ():
 def test_measurements_are_logged_beside_the_truth():
     sc = scenarios.get("flat-lqr")
     r = sc.run(realism=twip.Realism.thesis_like(), record_every=5)
-    assert set(r.signals) == {"phi_hat", "phi_dot_hat", "theta_hat", "theta_dot_hat", "drive", "motor_current"}
+    assert set(r.signals) == {"phi_hat", "phi_dot_hat", "theta_hat", "theta_dot_hat", "drive", "motor_current",
+                              "gyro", "accel_x", "accel_z", "enc"}
     assert r.measurements.shape == r.states.shape
+    # The raw readings: the encoder's counter of the wheels relative to the body, the gyro's
+    # register (noise, bias and the DLPF's lag of a few ms) and gravity on the accelerometer.
+    phi, phi_dot, theta = r.states[:, 0], r.states[:, 1], r.states[:, 2]
+    assert np.array_equal(r.signals["enc"], np.floor((theta - phi) * 700 / (2 * math.pi)))
+    assert np.median(np.abs(r.signals["gyro"] - phi_dot)) < math.radians(2.0)
+    assert np.all(np.abs(r.signals["accel_z"] - 9.81) < 0.5)
+    ideal = sc.run(realism=twip.Realism(), record_every=5)
+    assert np.all(np.isnan(ideal.signals["gyro"])) and np.all(np.isnan(ideal.signals["enc"]))
     # The estimate follows the truth to a fraction of a degree; the duty is whole counts.
     assert np.max(np.abs(r.measurements[:, 0] - r.states[:, 0])) < math.radians(1.0)
     assert np.all(r.signals["drive"] == np.round(r.signals["drive"])) and np.max(np.abs(r.signals["drive"])) <= 255

@@ -48,9 +48,13 @@ from twip._core import (
 from twip.budget import MemoryBudgetError, set_memory_budget
 from twip.robot_file import Robot
 from twip.sim import SimResult, simulate
+from twip.sysid import Fit, RunLog, identify
 from twip.sweep import Normal, SweepResult, Uniform, montecarlo, wilson_interval
 
 __all__ = [
+    "Fit",
+    "RunLog",
+    "identify",
     "Circle",
     "ConvergenceError",
     "DcMotor",

@@ -55,6 +55,7 @@ __all__ = [
     "sweep_kernel",
     "DEFAULT_FALL_LIMIT",
     "ffi_record",
+    "sysid_shoot",
     "ffi_firmware",
     "FFI_HEADER",
     "FFI_SOURCE_DIR",
@@ -844,6 +845,17 @@ def ffi_record(
     configuration and a closed-loop run of its `f32` build (as `twip_X_init` makes it) on
     the `f32` plant, every update recorded: {"family", "config" (bytes of the C struct),
     "t", "y", "reference", "u", "outcome"}.
+    """
+def sysid_shoot(
+    models: Sequence[SlopeModel], starts: _ArrayLike, t: _ArrayLike, u: _ArrayLike, segments: _ArrayLike,
+    max_step: float = 1e-3, drivers: Optional[Sequence[MotorDriver]] = None,
+) -> Tuple[_F64, _F64, _F64]:
+    """Predicts the log for each of `models` (K SlopeModels) from its own start states
+    `starts` [K, segments, 4]: returns (states, rates), each [K, n, 4], and each segment's
+    state carried on to the next segment's first sample, [K, segments, 4] (NaN for the
+    last). `u[i]` is held over
+    [t_i, t_i+1): the lumped current [A], or with `drivers` (one MotorDriver per model,
+    inductance ignored) the PWM duty [counts].
     """
 def ffi_firmware(realism: Realism, params: RobotParams) -> dict[str, Any]:
     """`ffi_firmware(realism, params)`: the C configurations of the firmware pieces the

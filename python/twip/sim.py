@@ -11,8 +11,8 @@ from twip import _core, budget
 
 #: Log columns of a run besides the controller's internals: t, state, input, reference.
 _LOG_COLUMNS = {"slope": 1 + 4 + 1 + 2, "planar": 1 + 7 + 2 + 7}
-#: Columns a realism adds (what the controller read, the plant's inputs, the motor currents).
-_SIGNAL_COLUMNS = {"slope": 4 + 1 + 1, "planar": 7 + 2 + 2}
+#: Columns a realism adds (what the controller read, the plant's inputs, the motor currents; 2-DOF: raw readings).
+_SIGNAL_COLUMNS = {"slope": 4 + 1 + 1 + 4, "planar": 7 + 2 + 2}
 #: A generous guess of the internals a controller logs (checked exactly when it matters).
 _DEFAULT_INTERNALS = 16
 
@@ -38,6 +38,9 @@ class SimResult:
     signals: dict = field(default_factory=dict)
     #: What the run asked that the robot could not give (e.g. more than the stall current).
     warnings: tuple = ()
+    #: The 2-DOF model's slope [rad] (None for a PlanarModel), and the realism run, if any.
+    slope: Optional[float] = None
+    realism: Optional[object] = None
 
     @property
     def measurements(self) -> Optional[np.ndarray]:
@@ -58,6 +61,29 @@ class SimResult:
 
     def reference(self, name: str) -> np.ndarray:
         return self.references[:, self.reference_names.index(name)]
+
+    def to_log(self):
+        """A `twip.RunLog` of this 2-DOF run, as the robot would log it. Without realism:
+        the input current u and the true states. With realism: the plant's input (pwm with a
+        motor driver, else the current u) and the raw readings of the parts the rig has
+        (gyro and accelerometer registers, the encoder's count)."""
+        from twip.sysid.log import RunLog
+
+        if self.slope is None:
+            raise _core.InvalidParameterError("to_log: only a 2-DOF (SlopeModel) run makes a RunLog")
+        if self.realism is None:
+            phi, phi_dot, theta, theta_dot = self.states.T
+            return RunLog(self.t, u=self.inputs[:, 0], phi=phi, phi_dot=phi_dot, theta=theta, theta_dot=theta_dot,
+                          slope=self.slope)
+        columns = {}
+        if self.realism.motor is not None:
+            columns["pwm"] = self.signals["drive"]
+        else:
+            columns["u"] = self.signals["motor_current"]
+        for name in ("gyro", "accel_x", "accel_z", "enc"):
+            if not np.all(np.isnan(self.signals[name])):
+                columns[name] = self.signals[name]
+        return RunLog(self.t, slope=self.slope, **columns)
 
 
 def simulate(
@@ -155,6 +181,8 @@ def simulate(
         signals={} if raw.get("signals") is None else {
             n: raw["signals"][:, i] for i, n in enumerate(raw["signal_names"])},
         warnings=stall_warnings(metrics, stall_current),
+        slope=None if isinstance(model, _core.PlanarModel) else model.slope,
+        realism=realism,
     )
 
 

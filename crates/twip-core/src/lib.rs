@@ -18,6 +18,7 @@ pub mod hardware;
 pub mod model;
 pub mod rng;
 pub mod sim;
+pub mod sysid;
 #[cfg(feature = "std")]
 pub mod sweep;
 

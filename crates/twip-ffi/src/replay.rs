@@ -115,7 +115,7 @@ where
     fn update(&mut self, t: f32, y: &SVector<f32, NX>, reference: &(RF, RC)) -> SVector<f32, NU> {
         let u = self.inner.update(t, y, &reference.0);
         self.record.t.push(t);
-        self.record.y.push(y.clone().into());
+        self.record.y.push((*y).into());
         self.record.reference.push(reference.1);
         self.record.u.push(u.into());
         u
@@ -132,6 +132,9 @@ where
 
 /// Runs `controller` (reset first) on `plant` from `x0` for `t_final` [s] at steps of `dt`,
 /// ideal sensing, recording every update. The run stops early if the robot falls.
+/// A recorded run of a controller whose reference samples have C form `Cr`, and how it ended.
+pub type Recorded<const NX: usize, const NU: usize, Cr> = (Record<NX, NU, Cr>, Outcome<f32>);
+
 #[allow(clippy::too_many_arguments)]
 pub fn record<P, C, R, const NX: usize, const NU: usize>(
     plant: &P,
@@ -140,7 +143,7 @@ pub fn record<P, C, R, const NX: usize, const NU: usize>(
     x0: [f32; NX],
     dt: f32,
     t_final: f32,
-) -> Result<(Record<NX, NU, <R::Sample as ToC>::C>, Outcome<f32>), TwipError>
+) -> Result<Recorded<NX, NU, <R::Sample as ToC>::C>, TwipError>
 where
     P: Dynamics<f32, NX, NU> + Clone,
     C: Controller<f32, NX, NU, Reference = <R::Sample as ToC>::F32>,

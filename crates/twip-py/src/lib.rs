@@ -18,6 +18,7 @@ mod schedule;
 mod settings;
 mod simulate;
 mod sweep;
+mod sysid;
 mod sweep_planar;
 mod motor;
 mod simulate_planar;
@@ -45,6 +46,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate::simulate_raw, m)?)?;
     realism::register(m)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_raw, m)?)?;
+    m.add_function(wrap_pyfunction!(sysid::sysid_shoot, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_draw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_noise_seed, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_kernel, m)?)?;

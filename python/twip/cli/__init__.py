@@ -148,6 +148,34 @@ def build_parser() -> argparse.ArgumentParser:
     add_robot_option(p)
     p.set_defaults(func=commands.export)
 
+    p = sub.add_parser("identify", help="fit a robot's parameters to a logged run (CSV)",
+                       description="Fit the --free parameters of the robot (--robot FILE, default the Balanbot) to "
+                                   "a logged run by multiple shooting, and print the estimates with their 95 % "
+                                   "intervals and what the log could not determine (docs/sysid.md).",
+                       formatter_class=formatter,
+                       epilog="example:\n  twip identify run.csv --robot start.toml --free m_body,com_height,i_body,"
+                              "mu_bearing --out fitted.toml --plot fit.png")
+    p.add_argument("log", metavar="CSV", help="the log: a header row with t and any of "
+                   "u, pwm, phi, phi_dot, theta, theta_dot, gyro, accel_x, accel_z, enc (SI units)")
+    p.add_argument("--free", required=True, metavar="A,B,...", help="the parameters to fit (RobotParams fields, "
+                   "'slope', and with a pwm log the driver's battery, bridge_drop, resistance, efficiency)")
+    add_robot_option(p)
+    p.add_argument("--slope", type=float, default=0.0, metavar="DEG", help="the ground's slope in the log [deg]")
+    p.add_argument("--column", action="append", metavar="HEADER=SIGNAL", help="read column HEADER as SIGNAL "
+                   "(repeatable), e.g. --column angle=phi")
+    p.add_argument("--scale", action="append", metavar="SIGNAL=FACTOR", help="multiply SIGNAL into SI by a number "
+                   "or a unit name (deg, deg/s, ms, mA, g), e.g. --scale phi=deg (repeatable)")
+    p.add_argument("--signals", metavar="A,B,...", help="the logged outputs to compare (default: all present)")
+    p.add_argument("--segment", type=positive_float, default=0.25, metavar="S",
+                   help="multiple-shooting segment length [s] (default 0.25)")
+    p.add_argument("--encoder-cpr", type=positive_float, default=700.0, metavar="N",
+                   help="encoder counts per wheel turn, for an enc column (default 700)")
+    p.add_argument("--imu-height", type=float, default=0.12, metavar="M",
+                   help="the IMU's height above the axle [m], for accel columns (default 0.12)")
+    p.add_argument("--out", metavar="FILE", help="write the fitted robot as a robot file (TOML)")
+    p.add_argument("--plot", metavar="FILE", help="draw measured against predicted signals and residuals")
+    p.set_defaults(func=commands.identify)
+
     p = sub.add_parser("list", help="list the scenarios", description="List the named scenarios.",
                        formatter_class=formatter)
     p.set_defaults(func=commands.list_scenarios)

@@ -3,6 +3,7 @@ returning the exit code. Bad arguments raise UsageError (cli.args)."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import shlex
 import sys
@@ -14,7 +15,7 @@ import numpy as np
 
 import twip
 from twip import report, scenarios
-from twip.cli.args import (UsageError, stall_current, get_scenario, perturbation, realism, robot, scenario_name,
+from twip.cli.args import (UsageError, key_value, stall_current, get_scenario, perturbation, realism, robot, scenario_name,
                            scenario_options)
 from twip.plot import metric_unit
 from twip.report.claims import claims_for
@@ -247,3 +248,41 @@ def export(args) -> int:
               f"`make -C {shlex.quote(str(out))} TWIP_SRC=<twip>/crates/twip-ffi check` or TWIP_SRC=... "
               "when exporting", file=sys.stderr)
     return 0
+
+
+def identify(args) -> int:
+    """twip identify CSV --free ...: the fitted robot, its intervals and the diagnosis."""
+    import tomllib
+
+    from twip import robot_file, sysid
+
+    columns = dict(key_value(text, "--column") for text in args.column or [])
+    scale = {}
+    for text in args.scale or []:
+        name, value = key_value(text, "--scale")
+        try:
+            scale[name] = float(value)
+        except ValueError:
+            scale[name] = value
+    log = sysid.RunLog.from_csv(args.log, slope=math.radians(args.slope), columns=columns, scale=scale)
+    start = twip.Robot.from_file(args.robot) if args.robot else None
+    robot = start.params if start else twip.RobotParams.balanbot()
+    free = [f.strip() for f in args.free.split(",") if f.strip()]
+    signals = [s.strip() for s in args.signals.split(",")] if args.signals else None
+    sensors = sysid.Sensors(encoder_cpr=args.encoder_cpr, imu_height=args.imu_height)
+    fit = sysid.identify(log, robot, free, segment=args.segment, driver=start.driver if start else None,
+                         sensors=sensors, signals=signals)
+    print(f"twip identify {args.log}: {len(log)} samples over {log.t[-1] - log.t[0]:.3g} s; "
+          f"signals {', '.join(fit.rms)}")
+    print(fit.summary())
+    if args.out:
+        tables = tomllib.loads(Path(args.robot).read_text()) if args.robot else {}
+        driver = dict(tables.get("driver", {}))
+        if fit.driver is not None and start is not None and start.driver is not None:
+            driver.update({k: v for k, v in fit.driver.to_dict().items() if k in fit.names})
+        robot_file.save(fit.robot, args.out, tables.get("motor"), driver or None)
+        print(f"wrote {args.out}")
+    if args.plot:
+        fit.plot(args.plot)
+        print(f"wrote {args.plot}")
+    return 0 if fit.converged else 1

@@ -19,7 +19,7 @@ use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
 use crate::model::friction::Friction;
 use crate::rng::Philox;
-use crate::sim::runner::{run_loop, Actuator, Loop, Observer, Outcome, Plant, Sensor, Signals, SimConfig};
+use crate::sim::runner::{run_loop, Actuator, Loop, Observer, Outcome, Plant, Sensor, Signals, SimConfig, MAX_RAW};
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
 
@@ -276,6 +276,17 @@ impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
         }
     }
 
+    /// The IMU's registers and the encoder's count (NaN for a part the rig lacks).
+    fn raw(&self, x: &Vector4<T>, out: &mut [T]) -> usize {
+        let nan = c::<T>(f64::NAN);
+        let r = self.imu.as_ref().map(|imu| imu.reading());
+        out[0] = r.map_or(nan, |r| r.gyro);
+        out[1] = r.map_or(nan, |r| r.accel_x);
+        out[2] = r.map_or(nan, |r| r.accel_z);
+        out[3] = self.encoder.as_ref().map_or(nan, |e| e.count(x[2] - x[0]));
+        4
+    }
+
     fn read(&mut self, t: T, x: &Vector4<T>) -> Vector4<T> {
         let dt = self.last_read.map_or(T::zero(), |last| t - last);
         self.last_read = Some(t);
@@ -384,8 +395,12 @@ impl<T: Real> Actuator<T, 4, 1> for RealActuator<T> {
     }
 }
 
-/// What [`simulate_rig`] logs after the controller's internals.
-pub const RIG_SIGNALS: [&str; 6] = ["phi_hat", "phi_dot_hat", "theta_hat", "theta_dot_hat", "drive", "motor_current"];
+/// What [`simulate_rig`] logs after the controller's internals: the measurement, the
+/// plant's input and current, then the raw readings (gyro [rad/s], specific force
+/// [m/s^2], the wheels' encoder count relative to the body; NaN for a part the rig lacks).
+pub const RIG_SIGNALS: [&str; 10] = [
+    "phi_hat", "phi_dot_hat", "theta_hat", "theta_dot_hat", "drive", "motor_current", "gyro", "accel_x", "accel_z", "enc",
+];
 
 /// Most controller internals [`simulate_rig`] passes on.
 pub const MAX_INTERNALS: usize = 64 - RIG_SIGNALS.len();
@@ -403,7 +418,7 @@ pub struct RigSignals<T, const NX: usize, const NU: usize> {
 
 impl<T: Real, const NX: usize, const NU: usize> RigSignals<T, NX, NU> {
     /// Most controller internals the rig passes on.
-    pub const MAX_INTERNALS: usize = RIG_ROW - NX - 2 * NU;
+    pub const MAX_INTERNALS: usize = RIG_ROW - NX - 2 * NU - MAX_RAW;
 
     pub fn new() -> Self {
         Self { buffer: [T::zero(); RIG_ROW], width: 0 }
@@ -422,8 +437,8 @@ impl<T: Real, P: RigPlant<T, NX, NU>, const NX: usize, const NU: usize> Signals<
     fn check(&mut self, internals: usize) -> Result<(), TwipError> {
         if internals > Self::MAX_INTERNALS {
             // The reason is a static str; the assertions keep its numbers right.
-            const _: () = assert!(MAX_INTERNALS == 58 && RIG_ROW - 7 - 4 == 53);
-            let reason = if NX == 4 { "more than 58 controller internals" } else { "more than 53 controller internals" };
+            const _: () = assert!(MAX_INTERNALS == 54 && RIG_ROW - 7 - 4 - MAX_RAW == 49);
+            let reason = if NX == 4 { "more than 54 controller internals" } else { "more than 49 controller internals" };
             return Err(TwipError::InvalidParameter { name: "internals", value: internals as f64, reason });
         }
         self.width = internals;
@@ -439,10 +454,11 @@ impl<T: Real, P: RigPlant<T, NX, NU>, const NX: usize, const NU: usize> Signals<
     }
 
     #[inline]
-    fn at<'a>(&'a mut self, _: &'a [T], plant: &P, x: &SVector<T, NX>, u: &SVector<T, NU>) -> &'a [T] {
+    fn at<'a>(&'a mut self, _: &'a [T], plant: &P, x: &SVector<T, NX>, u: &SVector<T, NU>, raw: &[T]) -> &'a [T] {
         let w = self.width + NX + NU;
         self.buffer[w..w + NU].copy_from_slice(plant.currents(x, u).as_slice());
-        &self.buffer[..w + NU]
+        self.buffer[w + NU..w + NU + raw.len()].copy_from_slice(raw);
+        &self.buffer[..w + NU + raw.len()]
     }
 }
 

@@ -146,6 +146,8 @@ impl<T: Real> RobotParams<T> {
     /// within the range the models can compute with (magnitudes between `max^-¼` and `max^⅛`
     /// of `T`: 9e-78..1e38 in f64, 2e-10..6e4 in f32), since their coefficients
     /// multiply up to four fields and divide by such products.
+    /// The rotor's reflected inertia η² I_M must stay below 1/sqrt(ε) of `T` times the
+    /// rest of the robot's inertia (6.7e7 in f64, 2.9e3 in f32; the Balanbot's is 1.3).
     /// The error names the first offending field and its value.
     pub fn validate(&self) -> Result<Self, TwipError> {
         let (tiny, huge) = magnitude_range::<T>();
@@ -164,6 +166,24 @@ impl<T: Real> RobotParams<T> {
             if let Some(reason) = reason {
                 return Err(TwipError::InvalidParameter { name, value: to_f64(value), reason });
             }
+        }
+        // The mass matrices hold the rotor's reflected inertia η² I_M on and off the
+        // diagonal: their determinant is the difference of two products of it, and the
+        // rest of the robot's inertia survives that subtraction only while η² I_M stays
+        // below 1/sqrt(ε) times it (found by tests/constructors.rs: i_motor = 1.8e38
+        // passed the ranges and the first RK4 step divided by a zero determinant).
+        let rotor = self.gear_ratio * self.gear_ratio * self.i_motor;
+        let rest = self.i_body
+            + self.m_body * self.com_height * self.com_height
+            + self.i_wheels
+            + (self.m_body + self.m_wheels) * self.wheel_radius * self.wheel_radius;
+        if rotor * T::default_epsilon().sqrt() > rest {
+            return Err(TwipError::InvalidParameter {
+                name: "i_motor",
+                value: to_f64(self.i_motor),
+                reason: "gives a reflected rotor inertia gear_ratio^2 * i_motor so far above the body's and wheels' \
+                         inertia that the mass matrix cannot be inverted in this precision",
+            });
         }
         Ok(*self)
     }
@@ -230,6 +250,21 @@ mod tests {
         let mut p = RobotParams::<f64>::balanbot();
         p.i_motor = 0.0;
         assert!(p.validate().is_ok(), "a direct drive (no rotor) is allowed");
+    }
+
+    #[test]
+    fn a_rotor_that_swamps_the_mass_matrix_is_refused() {
+        // Within each field's range, yet the determinant would cancel to zero.
+        let mut p = RobotParams::<f64>::balanbot();
+        p.i_motor = 1.8e38;
+        assert!(matches!(p.validate(), Err(TwipError::InvalidParameter { name: "i_motor", .. })));
+        // The bound is 1/sqrt(eps) of the rest: f32 refuses what f64 still computes.
+        let mut p = RobotParams::<f64>::balanbot();
+        p.i_motor = 5.303e-6 * 1e4;
+        assert!(p.validate().is_ok());
+        let mut q = RobotParams::<f32>::balanbot();
+        q.i_motor = 5.303e-6 * 1e4;
+        assert!(q.validate().is_err());
     }
 
     #[test]

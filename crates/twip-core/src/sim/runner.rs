@@ -110,7 +110,17 @@ pub trait Sensor<T: Real, const NX: usize> {
 
     /// The measurement the controller gets at an update at time `t`.
     fn read(&mut self, t: T, x: &SVector<T, NX>) -> SVector<T, NX>;
+
+    /// The raw readings a log of the robot would hold at state `x` (IMU registers, encoder
+    /// counts), written into `out` (at most [`MAX_RAW`]); returns how many. None by default.
+    #[inline(always)]
+    fn raw(&self, _x: &SVector<T, NX>, _out: &mut [T]) -> usize {
+        0
+    }
 }
+
+/// Most raw readings a sensor logs per sample.
+pub const MAX_RAW: usize = 4;
 
 /// Turns the controller's command into the plant's input at each update (a motor
 /// driver, quantisation, saturation). [`Ideal`] passes the command through.
@@ -268,8 +278,8 @@ pub trait Signals<T: Real, P, const NX: usize, const NU: usize> {
     fn updated(&mut self, internals: &[T], measurement: &SVector<T, NX>, drive: &SVector<T, NU>);
 
     /// The signals at a sample, given the controller's internals now, the plant, the
-    /// state and the input applied.
-    fn at<'a>(&'a mut self, internals: &'a [T], plant: &P, x: &SVector<T, NX>, u: &SVector<T, NU>) -> &'a [T];
+    /// state, the input applied and the sensor's raw readings.
+    fn at<'a>(&'a mut self, internals: &'a [T], plant: &P, x: &SVector<T, NX>, u: &SVector<T, NU>, raw: &[T]) -> &'a [T];
 
     /// Observe the controller's command (`true`) or the plant input applied (`false`).
     const OBSERVE_COMMAND: bool;
@@ -290,7 +300,7 @@ impl<T: Real, P, const NX: usize, const NU: usize> Signals<T, P, NX, NU> for Con
     fn updated(&mut self, _: &[T], _: &SVector<T, NX>, _: &SVector<T, NU>) {}
 
     #[inline(always)]
-    fn at<'a>(&'a mut self, internals: &'a [T], _: &P, _: &SVector<T, NX>, _: &SVector<T, NU>) -> &'a [T] {
+    fn at<'a>(&'a mut self, internals: &'a [T], _: &P, _: &SVector<T, NX>, _: &SVector<T, NU>, _: &[T]) -> &'a [T] {
         internals
     }
 }
@@ -335,6 +345,7 @@ where
     let (mut command, mut pending_command) = (u, u);
     let observer = &mut *parts.observer;
     let seen = |command: &SVector<T, NU>, u: &SVector<T, NU>| if L::OBSERVE_COMMAND { *command } else { *u };
+    let mut raw = [T::zero(); MAX_RAW];
     parts.sensor.sample(T::zero(), &x, &plant.deriv(&x, &u));
     for k in 0..n {
         let t = dt * c::<T>(k as f64);
@@ -360,7 +371,8 @@ where
             }
             signals.updated(controller.internals(), &y, &u);
         }
-        observer.observe(t, &x, &seen(&command, &u), &r, signals.at(controller.internals(), plant, &x, &u));
+        let raw_len = parts.sensor.raw(&x, &mut raw);
+        observer.observe(t, &x, &seen(&command, &u), &r, signals.at(controller.internals(), plant, &x, &u, &raw[..raw_len]));
         plant.between_steps(t, dt, &mut x, &u);
         let k1 = plant.deriv(&x, &u);
         parts.sensor.sample(t, &x, &k1);
@@ -370,13 +382,15 @@ where
             return Ok((Outcome::Diverged { t: t_next }, k + 1));
         }
         if x[P::PITCH].abs() > config.fall_limit {
-            let last = signals.at(controller.internals(), plant, &x, &u);
+            let raw_len = parts.sensor.raw(&x, &mut raw);
+            let last = signals.at(controller.internals(), plant, &x, &u, &raw[..raw_len]);
             observer.observe_last(t_next, &x, &seen(&command, &u), &reference.sample(t_next), last);
             return Ok((Outcome::Fell { t: t_next }, k + 1));
         }
     }
     let t_end = dt * c::<T>(n as f64);
-    let last = signals.at(controller.internals(), plant, &x, &u);
+    let raw_len = parts.sensor.raw(&x, &mut raw);
+    let last = signals.at(controller.internals(), plant, &x, &u, &raw[..raw_len]);
     observer.observe_last(t_end, &x, &seen(&command, &u), &reference.sample(t_end), last);
     Ok((Outcome::Completed, n))
 }

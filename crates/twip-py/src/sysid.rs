@@ -1,0 +1,113 @@
+//! `_core.sysid_shoot`: the multiple-shooting predictions of a logged run for many robots
+//! at once (the finite-difference columns of the estimator's Jacobian), on all cores.
+use nalgebra::Vector4;
+use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray3, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use twip_core::hardware::driver::{Driven, MotorDriver};
+use twip_core::sysid::parallel::{run_all, Prediction};
+use twip_core::sysid::Shooting;
+use twip_core::{SlopeModel, TwipError};
+
+use crate::errors::PyTwipError;
+use crate::models::PySlopeModel;
+use crate::realism::PyMotorDriver;
+
+type Out<'py> = (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>);
+
+/// Predicts the log for each of `models` (K SlopeModels) from its own start states
+/// `starts` [K, segments, 4]: returns (states, rates), each [K, n, 4], and each segment's
+/// state carried on to the next segment's first sample, [K, segments, 4] (NaN for the
+/// last). `u[i]` is held over
+/// [t_i, t_i+1): the lumped current [A], or with `drivers` (one MotorDriver per model,
+/// inductance ignored) the PWM duty [counts].
+#[pyfunction]
+#[pyo3(signature = (models, starts, t, u, segments, max_step = 1e-3, drivers = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn sysid_shoot<'py>(
+    py: Python<'py>,
+    models: Vec<PyRef<'py, PySlopeModel>>,
+    starts: PyReadonlyArray3<'py, f64>,
+    t: PyReadonlyArray1<'py, f64>,
+    u: PyReadonlyArray1<'py, f64>,
+    segments: PyReadonlyArray1<'py, i64>,
+    max_step: f64,
+    drivers: Option<Vec<PyRef<'py, PyMotorDriver>>>,
+) -> PyResult<Out<'py>> {
+    let (t, u) = (t.as_slice()?, u.as_slice()?);
+    let segments: Vec<usize> = segments
+        .as_array()
+        .iter()
+        .map(|&s| usize::try_from(s).map_err(|_| PyTwipError(invalid("segments", s as f64, "must be >= 0"))))
+        .collect::<Result<_, _>>()?;
+    let shooting = Shooting::new(t, u, &segments, max_step).map_err(PyTwipError)?;
+    let k = models.len();
+    let shape = starts.shape();
+    if shape != [k, segments.len(), 4] {
+        let got = (shape[0], shape[1]);
+        return Err(PyTwipError(TwipError::Shape { name: "starts", expected: (k, segments.len()), got }).into());
+    }
+    let starts: Vec<Vec<Vector4<f64>>> = starts
+        .as_array()
+        .outer_iter()
+        .map(|run| run.outer_iter().map(|s| Vector4::new(s[0], s[1], s[2], s[3])).collect())
+        .collect();
+    let n = shooting.samples();
+    let mut out = buffer(k, n, segments.len())?;
+    let plants: Vec<SlopeModel<f64>> = models.iter().map(|m| m.inner).collect();
+    match drivers {
+        None => py.detach(|| run_all(&shooting, &plants, &starts, &mut out)),
+        Some(drivers) => {
+            if drivers.len() != k {
+                let got = (drivers.len(), 1);
+                return Err(PyTwipError(TwipError::Shape { name: "drivers", expected: (k, 1), got }).into());
+            }
+            let driven = plants
+                .iter()
+                .zip(&drivers)
+                .map(|(p, d)| Driven::new(*p, &MotorDriver { inductance: 0.0, ..d.inner }, p.params()))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(PyTwipError)?;
+            py.detach(|| run_all(&shooting, &driven, &starts, &mut out))
+        }
+    }
+    .map_err(PyTwipError)?;
+    let segments = segments.len();
+    let states = to_array(py, out.iter().map(|p| &p.states), n)?;
+    let rates = to_array(py, out.iter().map(|p| &p.rates), n)?;
+    let ends = to_array(py, out.iter().map(|p| &p.ends), segments)?;
+    Ok((states, rates, ends))
+}
+
+fn invalid(name: &'static str, value: f64, reason: &'static str) -> TwipError {
+    TwipError::InvalidParameter { name, value, reason }
+}
+
+/// k runs of n states (and as many rates, and one end per segment), reserved fallibly:
+/// a MemoryError naming the size, not an abort.
+fn buffer(k: usize, n: usize, segments: usize) -> PyResult<Vec<Prediction>> {
+    let rows = (n as u64).saturating_mul(2).saturating_add(segments as u64);
+    let bytes = (k as u64).saturating_mul(rows).saturating_mul(32);
+    let oom = || PyTwipError(TwipError::OutOfMemory { name: "models x samples", bytes });
+    let column = |len: usize| -> PyResult<Vec<Vector4<f64>>> {
+        let mut v = Vec::new();
+        v.try_reserve_exact(len).map_err(|_| oom())?;
+        v.resize(len, Vector4::zeros());
+        Ok(v)
+    };
+    let mut out = Vec::new();
+    out.try_reserve_exact(k).map_err(|_| oom())?;
+    for _ in 0..k {
+        out.push(Prediction { states: column(n)?, rates: column(n)?, ends: column(segments)? });
+    }
+    Ok(out)
+}
+
+fn to_array<'a, 'py>(
+    py: Python<'py>,
+    runs: impl ExactSizeIterator<Item = &'a Vec<Vector4<f64>>>,
+    rows: usize,
+) -> PyResult<Bound<'py, PyArray3<f64>>> {
+    let k = runs.len();
+    let flat: Vec<f64> = runs.flat_map(|r| r.iter().flat_map(|v| [v[0], v[1], v[2], v[3]])).collect();
+    Ok(flat.into_pyarray(py).reshape([k, rows, 4])?)
+}

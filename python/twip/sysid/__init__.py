@@ -1,0 +1,65 @@
+"""System identification: fit a robot's parameters from a logged run (`twip.identify`).
+
+`RunLog` holds the logged signals; `identify` fits the free parameters by multiple
+shooting (`twip.sysid.estimator`) and returns a `Fit` with the fitted robot, its
+uncertainty and a diagnosis of what the log could not determine. docs/sysid.md explains
+what to log and how the estimator works.
+"""
+from __future__ import annotations
+
+from typing import Optional, Sequence
+
+from twip import _core
+from twip.sysid import closed_loop
+from twip.sysid.estimator import Estimator, Problem
+from twip.sysid.fit import Fit, Undetermined
+from twip.sysid.log import SIGNALS, LogError, RunLog
+from twip.sysid.measure import Sensors
+
+__all__ = ["Fit", "LogError", "RunLog", "SIGNALS", "Sensors", "Undetermined", "identify"]
+
+
+def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method: str = "shooting",
+             reference=None, segment: float = 0.25, driver=None, friction=None, sensors: Optional[Sensors] = None,
+             signals: Optional[Sequence[str]] = None, weights: Optional[dict] = None, max_iter: int = 50,
+             max_step: float = 1e-3) -> Fit:
+    """Fits the `free` parameters of `robot` (a RobotParams or a `twip.Robot` from a robot
+    file) to `log` by minimising the weighted prediction error of its signals.
+
+    - `free`: RobotParams field names, "slope", and with a pwm log (no u column) the
+      driver's battery, bridge_drop, resistance, efficiency.
+    - `segment` [s]: the multiple-shooting segment length; each segment's start state is
+      an unknown. Shorter segments suit a plant that diverges fast open-loop.
+    - `driver`: the MotorDriver behind a pwm log (default: the robot file's, else the
+      Balanbot's); `friction`: a twip.Friction on the model.
+    - `sensors`: encoder counts per turn and IMU height, for enc and accel columns.
+    - `signals`: which logged outputs to compare (default all present); `weights`: their
+      noise standard deviations (default estimated from the data, then from the fit).
+    - `method`: "shooting" (the prediction error by multiple shooting, the default) or
+      "closed-loop": the simulation error of `controller` (the robot's own) driving the
+      candidate robot from the log's first state, with `reference` (a SpeedSchedule,
+      default standing still); `controller` alone also adds `Fit.closed_loop_rms`, the
+      fitted robot's closed-loop simulation error.
+    """
+    params = getattr(robot, "params", robot)
+    if not isinstance(params, _core.RobotParams):
+        raise LogError(f"robot: {type(robot).__name__} is not a RobotParams or a twip.Robot")
+    if driver is None:
+        driver = getattr(robot, "driver", None) or _core.MotorDriver()
+    if isinstance(free, str):
+        free = [f.strip() for f in free.split(",") if f.strip()]
+    if not (isinstance(max_iter, int) and max_iter > 0):
+        raise LogError(f"max_iter = {max_iter!r}: must be a positive integer")
+    if method not in ("shooting", "closed-loop"):
+        raise LogError(f"method = {method!r}: must be 'shooting' or 'closed-loop'")
+    if method == "closed-loop" and controller is None:
+        raise LogError("method = 'closed-loop' needs controller= (the robot's own controller)")
+    if method == "closed-loop":
+        segment = log.t[-1] - log.t[0] + 1.0  # one segment: the closed loop is not restarted
+    problem = Problem(log, params, list(free), driver, friction, segment, sensors or Sensors(), signals, max_step)
+    if method == "closed-loop":
+        return Fit(problem, closed_loop.run(problem, controller, reference, max_iter))
+    fit = Fit(problem, Estimator(problem, weights, max_iter).run())
+    if controller is not None:
+        fit.closed_loop_rms = closed_loop.error(problem, fit, controller, reference)
+    return fit

@@ -1,0 +1,444 @@
+"""The prediction-error estimator by multiple shooting.
+
+The log is cut into segments. Each segment is predicted from its own start state, which
+is an unknown beside the free parameters, so the unstable open-loop plant is only
+followed for one segment and a noisy measurement never serves as an initial condition
+(that would bias the estimate: errors in variables). The cost is the sum over the
+logged signals of (measured - predicted)^2 / sigma^2, sigma each signal's noise level.
+Levenberg-Marquardt on the Gauss-Newton normal equations; the start states are
+eliminated segment by segment (a Schur complement), which gives the free parameters'
+covariance with the start states' uncertainty accounted for. Central finite
+differences: one `_core.sysid_shoot` call predicts the base and every perturbed run on
+all cores (all segments' start states are perturbed at once: a segment only sees its own).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Sequence
+
+import numpy as np
+
+from twip import _core
+from twip.sysid.log import LogError, RunLog
+from twip.sysid.measure import BIASED, OUTPUTS, Sensors, noise_floor, noise_level, predict, settling_samples
+
+#: Relative step of a parameter's central difference, and absolute step of a start state.
+PARAM_STEP = 1e-5
+STATE_STEP = 1e-6
+#: A decrease of the cost (half a chi-square) below which the fit has converged.
+CHI2_TOLERANCE = 1e-6
+#: Fields of `twip.MotorDriver` that can be free when the log's input is `pwm`.
+DRIVER_FIELDS = ("battery", "bridge_drop", "resistance", "efficiency")
+
+
+@dataclass(frozen=True)
+class Unknown:
+    """A free parameter: where it lives (`robot`, `driver` or `slope`) and its start value.
+    A positive one is estimated as start * exp(d), so no step leaves its domain and d is
+    its relative change; the slope (any sign) as start + d."""
+
+    name: str
+    where: str
+    start: float
+
+    @property
+    def positive(self) -> bool:
+        return self.where != "slope" and self.start > 0
+
+    def value(self, d: float) -> float:
+        # Clipped: a wild trial step gives a huge value the model refuses, not an overflow.
+        return self.start * math.exp(min(max(d, -30.0), 30.0)) if self.positive else self.start + d
+
+    def slope_at(self, d: float) -> float:
+        """d(value)/dd at d: turns the offsets' covariance into the parameter's."""
+        return self.value(d) if self.positive else 1.0
+
+
+class Problem:
+    """A log, a starting robot and the free parameters, as the estimator sees them."""
+
+    def __init__(self, log: RunLog, params, free: Sequence[str], driver, friction, segment: float,
+                 sensors: Sensors, signals: Optional[Sequence[str]], max_step: float):
+        self.log, self.params, self.driver, self.friction = log, params, driver, friction
+        self.sensors, self.max_step = sensors, max_step
+        if log.u is not None:
+            self.input = log.u
+            self.driven = False
+        elif log.pwm is not None:
+            self.input = log.pwm
+            self.driven = True
+        else:
+            raise LogError("the log has neither u (motor current) nor pwm: the estimator needs the input")
+        available = [s for s in OUTPUTS if getattr(log, s) is not None]
+        self.outputs = list(signals) if signals is not None else available
+        for s in self.outputs:
+            if s not in OUTPUTS:
+                raise LogError(f"signals: {s!r} is not an output signal ({', '.join(OUTPUTS)})")
+            if getattr(log, s) is None:
+                raise LogError(f"signals: {s!r} was asked for but the log has no {s!r} column")
+        if not self.outputs:
+            raise LogError("the log has no measured output (phi, phi_dot, theta, theta_dot, gyro, enc, accel_x, "
+                           "accel_z): nothing to compare predictions with")
+        self.unknowns = [self._unknown(name) for name in free]
+        if len(set(free)) != len(free):
+            raise LogError(f"free: {list(free)} names a parameter twice")
+        self.biased = [s for s in BIASED if s in self.outputs]
+        self.segments = _segments(log.t, segment)
+        if sensors.imu is not None and any(s in self.outputs for s in ("gyro", "accel_x", "accel_z")):
+            rate = 1 / float(np.median(np.diff(log.t)))
+            if abs(rate / sensors.imu.sample_rate - 1) > 0.01:
+                raise LogError(f"sensors.imu: the log is sampled at {rate:.6g} Hz, the IMU at "
+                               f"{sensors.imu.sample_rate:.6g} Hz; its filter can only be replayed at its own rate")
+        n_unknowns = len(self.unknowns) + 4 + len(self.biased)
+        n_data = len(log) * len(self.outputs)
+        if n_data <= n_unknowns:
+            raise LogError(f"the log is too short: {n_data} measurements for {n_unknowns} unknowns "
+                           f"({len(self.unknowns)} parameters, 4 start states for each of {len(self.segments)} "
+                           "segments); log longer or use longer segments")
+        self.y = {s: getattr(log, s) for s in self.outputs}
+        ends = [*self.segments[1:], len(log)]
+        self.ranges = [range(a, b) for a, b in zip(self.segments, ends)]
+        # Rows compared per signal: all but the filtered signals' settling at segment starts.
+        self.used = {}
+        for s in self.outputs:
+            used = np.ones(len(log), dtype=bool)
+            for r in self.ranges:
+                used[r.start:r.start + settling_samples(sensors, s)] = False
+            self.used[s] = used
+
+    def _unknown(self, name: str) -> Unknown:
+        fields = self.params.to_dict()
+        if name in fields:
+            return Unknown(name, "robot", float(fields[name]))
+        if name == "slope":
+            return Unknown(name, "slope", float(self.log.slope))
+        if name in DRIVER_FIELDS:
+            if self.log.pwm is None or self.log.u is not None:
+                raise LogError(f"free: {name!r} is a motor driver field; it can be fitted only from a log whose "
+                               "input is pwm (and that has no u column)")
+            return Unknown(name, "driver", float(self.driver.to_dict()[name]))
+        raise LogError(f"free: {name!r} is not a parameter (RobotParams fields: {', '.join(fields)}; 'slope'; "
+                       f"with a pwm log, the driver's {', '.join(DRIVER_FIELDS)})")
+
+    # --- the model at a parameter vector ------------------------------------------------
+
+    def values(self, delta: np.ndarray) -> Dict[str, float]:
+        """The free parameters' values at relative offsets `delta`."""
+        return {u.name: u.value(d) for u, d in zip(self.unknowns, delta)}
+
+    def model_parts(self, delta: np.ndarray):
+        values = self.values(delta)
+        robot = {k: v for k, v in values.items() if self._where(k) == "robot"}
+        params = self.params.replace(**robot) if robot else self.params
+        slope = values.get("slope", self.log.slope)
+        model = _core.SlopeModel(params, slope, self.friction)
+        driver_changes = {k: v for k, v in values.items() if self._where(k) == "driver"}
+        driver = self.driver.replace(**driver_changes) if (self.driven and driver_changes) else self.driver
+        return model, (driver if self.driven else None), params, slope
+
+    def _where(self, name: str) -> str:
+        return next(u.where for u in self.unknowns if u.name == name)
+
+    def shoot(self, deltas: List[np.ndarray], starts: np.ndarray):
+        """States and rates [K, n, 4] for parameter offsets `deltas` and start states [K, S, 4],
+        each segment's end carried to the next one's start [K, S, 4], and each run's
+        (radius, g, slope)."""
+        parts = [self.model_parts(d) for d in deltas]
+        drivers = [p[1] for p in parts] if self.driven else None
+        states, rates, ends = _core.sysid_shoot([p[0] for p in parts], starts, self.log.t, self.input,
+                                                np.asarray(self.segments, dtype=np.int64), self.max_step, drivers)
+        geometry = [(p[2].wheel_radius, p[2].g, p[3]) for p in parts]
+        return states, rates, ends, geometry
+
+    def outputs_of(self, states, rates, geometry, biases: np.ndarray) -> Dict[str, np.ndarray]:
+        radius, g, slope = geometry
+        out = {s: predict(s, states, rates, radius, g, slope, self.sensors, self.ranges) for s in self.outputs}
+        for s, b in zip(self.biased, biases):
+            out[s] = out[s] + b
+        return out
+
+    # --- starting guesses ---------------------------------------------------------------
+
+    def initial_states(self) -> np.ndarray:
+        """Each segment's start state from the measurements at its first samples."""
+        log, n = self.log, len(self.log)
+        phi = log.phi if log.phi is not None else (
+            np.arctan2(log.accel_x, log.accel_z) if log.accel_x is not None and log.accel_z is not None
+            else np.zeros(n))
+        rate = log.phi_dot if log.phi_dot is not None else (log.gyro if log.gyro is not None else np.gradient(phi, log.t))
+        if log.theta is not None:
+            theta = log.theta
+        elif log.enc is not None:
+            theta = log.enc * (2 * math.pi / self.sensors.encoder_cpr) + phi
+        else:
+            theta = np.zeros(n)
+        wheel = log.theta_dot if log.theta_dot is not None else _smooth_rate(theta, log.t)
+        columns = np.column_stack([phi, rate, theta, wheel])
+        return np.array([columns[s] for s in self.segments])
+
+
+def _smooth_rate(x: np.ndarray, t: np.ndarray, window: float = 0.02) -> np.ndarray:
+    """A derivative of a noisy or quantised signal: differences over about `window` seconds."""
+    dt = float(np.median(np.diff(t)))
+    k = max(1, int(round(window / dt / 2)))
+    out = np.empty_like(x)
+    for i in range(len(x)):
+        a, b = max(0, i - k), min(len(x) - 1, i + k)
+        out[i] = (x[b] - x[a]) / (t[b] - t[a])
+    return out
+
+
+def _segments(t: np.ndarray, segment: float) -> List[int]:
+    if not (isinstance(segment, (int, float)) and math.isfinite(segment) and segment > 0):
+        raise LogError(f"segment = {segment!r}: must be a finite duration > 0 [s]")
+    starts, next_start = [0], t[0] + segment
+    for i in range(1, len(t) - 1):
+        if t[i] >= next_start:
+            starts.append(i)
+            next_start = t[i] + segment
+    # A last segment shorter than half a segment joins the one before.
+    if len(starts) > 1 and t[-1] - t[starts[-1]] < segment / 2:
+        starts.pop()
+    return starts
+
+
+@dataclass
+class Solution:
+    """The estimator's answer: offsets, start states, bias, weights and the linearisation."""
+
+    delta: np.ndarray
+    starts: np.ndarray
+    biases: np.ndarray  # of Problem.biased
+    sigma: Dict[str, float]
+    cost: float
+    iterations: int
+    converged: bool
+    message: str
+    information: np.ndarray  # of (delta, biases), start states eliminated
+    residuals: Dict[str, np.ndarray]  # measured - predicted, in the signals' units
+    predicted: Dict[str, np.ndarray]
+
+
+class Estimator:
+    """Constrained Gauss-Newton (Levenberg-Marquardt damped) over the global unknowns (the
+    parameters' offsets, then the sensor offsets) and the segments' start states, with
+    continuity between segments as constraints: each segment's end must meet the next
+    one's start. Without continuity every segment would bring four unknowns of its own
+    and the estimate of a nonlinear model would be biased by them (the incidental
+    parameters problem: measured 1.5-4 % on a rig's raw sensors with 0.5-0.25 s segments);
+    with it the answer is the whole run's least squares, while each prediction still only
+    spans one segment of the unstable plant. The normal equations are dense (globals and
+    4 per segment) and solved with the constraints' multipliers (a KKT system)."""
+
+    def __init__(self, problem: Problem, sigma: Optional[Dict[str, float]], max_iter: int):
+        self.p = problem
+        self.max_iter = max_iter
+        self.fixed_sigma = sigma is not None
+        self.sigma = dict(sigma) if sigma is not None else {s: noise_level(s, y) for s, y in problem.y.items()}
+        for s in problem.outputs:
+            if not (s in self.sigma and math.isfinite(self.sigma[s]) and self.sigma[s] > 0):
+                raise LogError(f"weights: the noise level of {s!r} must be a finite number > 0, "
+                               f"got {self.sigma.get(s)!r}")
+        self.ranges = problem.ranges
+        self.n_g = len(problem.unknowns) + len(problem.biased)
+
+    # r = (y - h) / sigma, stacked signal by signal; J = dr/d(unknowns)
+    def residual(self, outputs: Dict[str, np.ndarray]) -> np.ndarray:
+        return np.concatenate([np.where(self.p.used[s], self.p.y[s] - outputs[s], 0.0) / self.sigma[s]
+                               for s in self.p.outputs])
+
+    def split(self, x: np.ndarray):
+        n_p = len(self.p.unknowns)
+        return x[:n_p], x[n_p:]
+
+    def evaluate(self, x, starts):
+        """(half the sum of squares, r, outputs, continuity gaps [S-1, 4]) at global unknowns
+        `x`; an infinite cost where the model cannot be built (a step that left a
+        parameter's domain) or its prediction blew up."""
+        delta, biases = self.split(x)
+        try:
+            states, rates, ends, geometry = self.p.shoot([delta], starts[None])
+        except _core.InvalidParameterError:
+            return math.inf, None, None, None
+        out = self.p.outputs_of(states[0], rates[0], geometry[0], biases)
+        r = self.residual(out)
+        gaps = starts[1:] - ends[0, :-1]
+        finite = np.all(np.isfinite(r)) and np.all(np.isfinite(gaps))
+        return (0.5 * float(r @ r) if finite else math.inf), r, out, gaps
+
+    def linearise(self, x, starts):
+        """r, the normal equations H = J^T J and g = J^T r (dense over the globals and
+        4 start states per segment, assembled from each segment's blocks: J itself is
+        sparse), the gaps and their Jacobian C [4 (S-1), n]."""
+        n_p, n_seg = len(self.p.unknowns), len(self.ranges)
+        delta, biases = self.split(x)
+        deltas, runs = [delta], [starts]
+        for j in range(n_p):
+            for sign in (1, -1):
+                d = delta.copy()
+                d[j] += sign * PARAM_STEP
+                deltas.append(d)
+                runs.append(starts)
+        state_steps = STATE_STEP * np.maximum(1.0, np.abs(starts).max(axis=0))
+        for c in range(4):
+            for sign in (1, -1):
+                s = starts.copy()
+                s[:, c] += sign * state_steps[c]
+                deltas.append(delta)
+                runs.append(s)
+        states, rates, ends, geometry = self.p.shoot(deltas, np.stack(runs))
+        h = [self.residual(self.p.outputs_of(states[k], rates[k], geometry[k], biases)) for k in range(len(deltas))]
+        r, n = h[0], self.n_g + 4 * n_seg
+        jg = np.zeros((len(r), self.n_g))
+        d_ends = np.zeros((n_seg, 4, n))  # d(end_k)/d(unknowns)
+        for j in range(n_p):
+            jg[:, j] = (h[1 + 2 * j] - h[2 + 2 * j]) / (2 * PARAM_STEP)
+            d_ends[:, :, j] = (ends[1 + 2 * j] - ends[2 + 2 * j]) / (2 * PARAM_STEP)
+        for i, name in enumerate(self.p.biased):
+            # An offset moves its own signal's rows only, by -1/sigma.
+            at = self.p.outputs.index(name) * len(self.p.log)
+            jg[at:at + len(self.p.log), n_p + i] = np.where(self.p.used[name], -1.0 / self.sigma[name], 0.0)
+        base = 1 + 2 * n_p
+        # All segments' starts were moved at once: each row answers to its own segment's.
+        js = np.column_stack([(h[base + 2 * c] - h[base + 2 * c + 1]) / (2 * state_steps[c]) for c in range(4)])
+        for c in range(4):
+            d_end = (ends[base + 2 * c] - ends[base + 2 * c + 1]) / (2 * state_steps[c])
+            d_ends[np.arange(n_seg), :, self.n_g + 4 * np.arange(n_seg) + c] = d_end
+        hess, grad = self.normal_equations(r, jg, js)
+        gaps = (starts[1:] - ends[0, :-1]).reshape(-1)
+        con = np.zeros((4 * (n_seg - 1), n))
+        for k in range(n_seg - 1):
+            con[4 * k:4 * k + 4] = -d_ends[k]
+            con[4 * k:4 * k + 4, self.n_g + 4 * (k + 1):self.n_g + 4 * (k + 2)] += np.eye(4)
+        return hess, grad, gaps, con
+
+    def normal_equations(self, r, jg, js):
+        """J^T J and J^T r from the global columns and each row's own-segment columns."""
+        n, m, n_seg = len(self.p.log), len(self.p.outputs), len(self.ranges)
+
+        def per_segment(rows: np.ndarray) -> np.ndarray:
+            # Rows run signal by signal, each over the samples in time order: sum each
+            # signal's rows over every segment's samples, then over the signals.
+            stacked = rows.reshape(m, n, *rows.shape[1:])
+            return sum(np.add.reduceat(stacked[i], self.p.segments, axis=0) for i in range(m))
+
+        size = self.n_g + 4 * n_seg
+        hess, grad = np.zeros((size, size)), np.zeros(size)
+        hess[:self.n_g, :self.n_g] = jg.T @ jg
+        grad[:self.n_g] = jg.T @ r
+        d = per_segment(js[:, :, None] * js[:, None, :])
+        b = per_segment(jg[:, :, None] * js[:, None, :])
+        gk = per_segment(js * r[:, None])
+        for k in range(n_seg):
+            at = slice(self.n_g + 4 * k, self.n_g + 4 * k + 4)
+            hess[at, at] = d[k]
+            hess[:self.n_g, at] = b[k]
+            hess[at, :self.n_g] = b[k].T
+            grad[at] = gk[k]
+        return hess, grad
+
+    @staticmethod
+    def step(hess, grad, gaps, con, lam, free):
+        """The damped Gauss-Newton step of the `free` unknowns, with the linearised gaps
+        closed (if `con` is given), and the multipliers."""
+        h = hess[np.ix_(free, free)]
+        # A tiny ridge keeps an unknown the log says nothing about where it is.
+        h = h + lam * np.diag(np.diag(h)) + 1e-12 * max(float(np.max(np.diag(h))), 1e-300) * np.eye(len(free))
+        g = grad[free]
+        if con is None:
+            return np.linalg.lstsq(h, -g, rcond=None)[0], np.zeros(0)
+        # The constraints are scaled to the normal equations' size, so that the KKT matrix
+        # is balanced (1/sigma^2 weights make H's entries huge against C's).
+        scale = math.sqrt(max(float(np.max(np.abs(np.diag(h)))), 1e-300))
+        c = con[:, free] * scale
+        kkt = np.block([[h, c.T], [c, np.zeros((c.shape[0], c.shape[0]))]])
+        rhs = np.concatenate([-g, -gaps * scale])
+        try:
+            sol = np.linalg.solve(kkt, rhs)
+        except np.linalg.LinAlgError:
+            sol = np.linalg.lstsq(kkt, rhs, rcond=None)[0]
+        return sol[:len(free)], sol[len(free):] * scale
+
+    def covariance(self, hess, con) -> np.ndarray:
+        """Covariance of the global unknowns, the start states and continuity accounted for."""
+        scale = math.sqrt(max(float(np.max(np.abs(np.diag(hess)))), 1e-300))
+        c = con * scale
+        kkt = np.block([[hess, c.T], [c, np.zeros((c.shape[0], c.shape[0]))]])
+        return np.linalg.pinv(kkt, rcond=1e-15, hermitian=True)[:self.n_g, :self.n_g]
+
+    def run(self) -> Solution:
+        p = self.p
+        x = np.zeros(self.n_g)
+        starts = p.initial_states()
+        # First the start states (and offsets) alone, the robot held and the segments
+        # apart: a start state from a noisy or indirect measurement diverges fast on the
+        # unstable plant, and a robot fitted to such predictions would be dragged anywhere
+        # (a huge inertia that slows the fall). Then everything, joined up.
+        x, starts, _, _, iterations = self._minimise(x, starts, params=False, joined=False, tolerance=1e-6)
+        message, converged = "", False
+        for _ in range(3):
+            x, starts, converged, message, used = self._minimise(x, starts, params=True, joined=True)
+            iterations += used
+            if self.fixed_sigma or not converged:
+                break
+            # The noise levels the fit's residuals show; refit if a weight moved by > 5 %.
+            _, _, out, _ = self.evaluate(x, starts)
+            dof = 1 - (self.n_g + 4) / (len(p.log) * len(p.outputs))
+            new = {s: max(float(np.sqrt(np.mean((p.y[s] - out[s])[p.used[s]] ** 2) / dof)), noise_floor(s, p.y[s]))
+                   for s in p.outputs}
+            moved = max(abs(new[s] / self.sigma[s] - 1) for s in p.outputs)
+            self.sigma = new
+            if moved < 0.05:
+                break
+        cost, r, out, _ = self.evaluate(x, starts)
+        hess, _, _, con = self.linearise(x, starts)
+        cov = self.covariance(hess, con)
+        delta, biases = self.split(x)
+        information = np.linalg.pinv(cov, rcond=1e-13) if cov.size else cov
+        return Solution(delta, starts, biases, dict(self.sigma), cost, iterations, converged,
+                        f"{message} ({iterations} in all)", information,
+                        {s: np.where(p.used[s], p.y[s] - out[s], np.nan) for s in p.outputs}, out)
+
+    def _merit(self, cost, gaps, rho):
+        return cost + rho * float(np.sum(np.abs(gaps))) if gaps is not None else math.inf
+
+    def _minimise(self, x, starts, params: bool, joined: bool, tolerance: float = 1e-12):
+        n_p, n_seg = len(self.p.unknowns), len(self.ranges)
+        free = np.arange(0 if params else n_p, self.n_g + 4 * n_seg)
+        lam, rho = 1e-3, 0.0
+        cost, _, _, gaps = self.evaluate(x, starts)
+        if not math.isfinite(cost):
+            return x, starts, False, "the prediction from the starting robot is not finite", 0
+        for it in range(1, self.max_iter + 1):
+            hess, grad, gap_vec, con = self.linearise(x, starts)
+            con_used = con if joined else None
+            step, mu = self.step(hess, grad, gap_vec, con_used, 0.0, free)
+            if joined:
+                rho = max(rho, 2 * float(np.max(np.abs(mu), initial=0.0)))
+            merit = self._merit(cost, gaps if joined else None, rho) if joined else cost
+            closed = not joined or np.max(np.abs(gap_vec), initial=0.0) < 1e-9
+            if params and closed and np.all(np.abs(step[:n_p]) < 1e-10) and it > 1:
+                # The undamped step moves no parameter and the gaps are closed: converged.
+                return x, starts, True, f"converged in {it} iterations", it
+            for _ in range(16):
+                step, _ = self.step(hess, grad, gap_vec, con_used, lam, free)
+                z = np.zeros(self.n_g + 4 * n_seg)
+                z[free] = step
+                new_x, new_starts = x + z[:self.n_g], starts + z[self.n_g:].reshape(n_seg, 4)
+                new_cost, _, _, new_gaps = self.evaluate(new_x, new_starts)
+                new_merit = self._merit(new_cost, new_gaps, rho) if joined else new_cost
+                if new_merit <= merit:
+                    break
+                lam *= 4
+            else:
+                return x, starts, False, f"no step lowered the cost after {it} iterations", it
+            decrease = merit - new_merit
+            x, starts, cost, gaps = new_x, new_starts, new_cost, new_gaps
+            lam = max(lam / 3, 1e-12)
+            closed = not joined or np.max(np.abs(gaps), initial=0.0) < 1e-9
+            # The cost is half a chi-square (residuals over their noise): a decrease far
+            # below 1 moves nothing a confidence interval could show.
+            if closed and (decrease < max(tolerance * merit, CHI2_TOLERANCE) or cost == 0):
+                return x, starts, True, f"converged in {it} iterations", it
+        return x, starts, False, f"not converged after {self.max_iter} iterations", self.max_iter

@@ -1,0 +1,204 @@
+"""The answer of `twip.identify`: the fitted robot, its uncertainty, and what the log could
+not determine."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Tuple
+
+import numpy as np
+from scipy import stats
+
+from twip.sysid.estimator import Estimator, Problem, Solution
+from twip.sysid.log import RunLog
+
+#: Smallest eigenvalue of the normalised information matrix below which a combination of
+#: parameters counts as undetermined (the log does not tell its members apart).
+UNDETERMINED = 1e-8
+#: Which run would pin each parameter down.
+EXCITATION = {
+    "m_body": "tilt the body: a push, or a speed trip that pitches it",
+    "com_height": "tilt the body: a push, or a speed trip that pitches it",
+    "i_body": "tilt the body quickly: a push (pitch accelerations)",
+    "m_wheels": "a speed trip: accelerate and brake the wheels",
+    "i_wheels": "a speed trip: accelerate and brake the wheels",
+    "i_motor": "a speed trip: accelerate and brake the wheels",
+    "gear_ratio": "a speed trip: accelerate and brake the wheels",
+    "torque_constant": "a speed trip with large currents, at several speeds",
+    "wheel_radius": "a speed trip (and an accelerometer or a known distance)",
+    "mu_bearing": "runs at several steady wheel speeds",
+    "mu_ground": "runs at several steady wheel speeds",
+    "g": "nothing: g is known; do not free it",
+    "slope": "a run on the slope that climbs and descends",
+    "battery": "PWM duties over their range at several wheel speeds",
+    "bridge_drop": "PWM duties over their range at several wheel speeds",
+    "resistance": "PWM duties over their range at several wheel speeds",
+    "efficiency": "PWM duties over their range at several wheel speeds",
+}
+
+
+@dataclass(frozen=True)
+class Undetermined:
+    """A combination of free parameters the log cannot determine: `weights` by name (a unit
+    eigenvector of the normalised information), and the runs that would fix it."""
+
+    weights: Dict[str, float]
+    eigenvalue: float
+    advice: Tuple[str, ...]
+
+    def __str__(self) -> str:
+        combo = " ".join(f"{w:+.2f}*{n}" for n, w in self.weights.items())
+        return f"undetermined: {combo} (relative changes); would fix it: " + "; ".join(self.advice)
+
+
+class Fit:
+    """Fitted values of the free parameters with their covariance, per-signal RMS residuals
+    and a diagnosis of what the log could not determine."""
+
+    def __init__(self, problem: Problem, solution: Solution):
+        #: The estimator's raw answer (offsets, start states, weights, linearisation).
+        self._problem, self.solution = problem, solution
+        self.names: Tuple[str, ...] = tuple(u.name for u in problem.unknowns)
+        n_p = len(self.names)
+        info = solution.information[:n_p, :n_p] if n_p else np.zeros((0, 0))
+        self.undetermined: List[Undetermined] = _undetermined(self.names, info)
+        # A parameter the log says nothing about stays at its start value.
+        dead = {n for u in self.undetermined if u.eigenvalue == 0.0 for n in u.weights}
+        delta = np.array([0.0 if n in dead else d for n, d in zip(self.names, solution.delta)])
+        self.values: Dict[str, float] = problem.values(delta)
+        model, driver, params, slope = problem.model_parts(delta)
+        #: The fitted robot (a RobotParams), the slope and (for a pwm log) the driver.
+        self.robot = params
+        self.slope = slope
+        self.driver = driver
+        self.converged = solution.converged
+        self.message = solution.message
+        self.iterations = solution.iterations
+        #: The sensor offsets estimated beside the parameters (gyro [rad/s], accel_x [m/s^2]).
+        self.offsets: Dict[str, float] = dict(zip(problem.biased, map(float, solution.biases)))
+        self.sigma = dict(solution.sigma)
+        scale = np.array([u.slope_at(d) for u, d in zip(problem.unknowns, delta)])
+        cov_all = _inverse(solution.information)
+        cov_delta = cov_all[:n_p, :n_p]
+        #: Covariance of the free parameters (in their units), start states accounted for.
+        self.covariance = cov_delta * np.outer(scale, scale)
+        std = np.sqrt(np.clip(np.diag(self.covariance), 0, None))
+        self.std: Dict[str, float] = dict(zip(self.names, std))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            self.correlation = self.covariance / np.outer(std, std)
+        #: RMS of measured - predicted, per signal, in the signal's units.
+        self.rms: Dict[str, float] = {s: float(np.sqrt(np.nanmean(r**2))) for s, r in solution.residuals.items()}
+        for name in dead:  # no information at all: no finite standard deviation
+            self.std[name] = math.inf
+        #: With `controller=`: the fitted robot's closed-loop simulation error per signal.
+        self.closed_loop_rms: Optional[Dict[str, float]] = None
+
+    def interval(self, name: str, level: float = 0.95) -> Tuple[float, float]:
+        """The two-sided `level` confidence interval of parameter `name` (normal approximation)."""
+        if name not in self.values:
+            raise KeyError(f"{name!r} was not free (free: {', '.join(self.names)})")
+        if not (0 < level < 1):
+            raise ValueError(f"level = {level!r}: must be in (0, 1)")
+        z = stats.norm.ppf(0.5 + level / 2)
+        return self.values[name] - z * self.std[name], self.values[name] + z * self.std[name]
+
+    def summary(self) -> str:
+        """A table of the estimates with their 95 % intervals, the residuals and the diagnosis."""
+        lines = [f"{'parameter':<16} {'start':>12} {'fitted':>12} {'std':>10} {'95 % interval':>27}"]
+        for u in self._problem.unknowns:
+            lo, hi = self.interval(u.name)
+            lines.append(f"{u.name:<16} {u.start:>12.6g} {self.values[u.name]:>12.6g} {self.std[u.name]:>10.3g} "
+                         f"  [{lo:>11.6g}, {hi:>11.6g}]")
+        for name, value in self.offsets.items():
+            lines.append(f"{'(' + name + ' offset)':<16} {'':>12} {value:>12.4g}")
+        lines.append("residual RMS: " + ", ".join(f"{s} {v:.3g}" for s, v in self.rms.items()))
+        lines.append(("converged: " if self.converged else "NOT CONVERGED: ") + self.message)
+        lines.extend(str(u) for u in self.undetermined)
+        return "\n".join(lines)
+
+    def predicted(self) -> Dict[str, np.ndarray]:
+        """The fitted model's prediction of each compared signal on the fitted log."""
+        return dict(self.solution.predicted)
+
+    def validate(self, other: RunLog, segment: Optional[float] = None) -> Dict[str, float]:
+        """Predicts `other` with the fitted robot (its own start states fitted, parameters held)
+        and returns the RMS error of each signal there."""
+        p = self._problem
+        params = self.robot
+        check = Problem(other, params, [], self.driver or p.driver, p.friction, segment or _segment_of(p),
+                        p.sensors, [s for s in p.outputs if getattr(other, s) is not None], p.max_step)
+        sigma = {s: self.sigma[s] for s in check.outputs}
+        solution = Estimator(check, sigma, max_iter=50).run()
+        return {s: float(np.sqrt(np.nanmean(r**2))) for s, r in solution.residuals.items()}
+
+    def plot(self, path) -> None:
+        """Measured against predicted for each compared signal, with the residuals below."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        t = self._problem.log.t
+        outputs = self._problem.outputs
+        fig, axes = plt.subplots(2, len(outputs), figsize=(4.2 * len(outputs), 5.5), sharex=True, squeeze=False)
+        for j, s in enumerate(outputs):
+            measured = self._problem.y[s]
+            axes[0, j].plot(t, measured, lw=0.8, color="0.55", label="measured")
+            axes[0, j].plot(t, self.solution.predicted[s], lw=1.0, color="C0", label="predicted")
+            axes[0, j].set_title(f"{s} [{_UNITS[s]}]")
+            axes[1, j].plot(t, self.solution.residuals[s], lw=0.6, color="C3")
+            axes[1, j].set_title(f"measured − predicted, RMS {self.rms[s]:.3g} {_UNITS[s]}")
+            axes[1, j].set_xlabel("t [s]")
+        axes[0, 0].legend(loc="best", fontsize=8)
+        items = [f"{n} = {self.values[n]:.4g} ± {self.std[n]:.2g}" for n in self.names]
+        per_line = max(1, len(outputs))
+        lines = [", ".join(items[i:i + per_line]) for i in range(0, len(items), per_line)]
+        fig.suptitle("\n".join(["twip.identify (± one standard deviation)", *lines]), fontsize=9)
+        fig.tight_layout()
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+
+    def __repr__(self) -> str:
+        inner = ", ".join(f"{n}={self.values[n]:.6g}±{self.std[n]:.2g}" for n in self.names)
+        return f"Fit({inner}, converged={self.converged})"
+
+
+_UNITS = {"phi": "rad", "phi_dot": "rad/s", "theta": "rad", "theta_dot": "rad/s", "gyro": "rad/s",
+          "enc": "counts", "accel_x": "m/s²", "accel_z": "m/s²"}
+
+
+def _segment_of(problem: Problem) -> float:
+    t, s = problem.log.t, problem.segments
+    return float(t[s[1]] - t[s[0]]) if len(s) > 1 else float(t[-1] - t[0]) * 2
+
+
+def _inverse(info: np.ndarray) -> np.ndarray:
+    if info.size == 0:
+        return info
+    try:
+        return np.linalg.inv(info)
+    except np.linalg.LinAlgError:
+        return np.linalg.pinv(info)
+
+
+def _undetermined(names, info: np.ndarray) -> List[Undetermined]:
+    """The eigenvectors of the normalised information with negligible eigenvalues, and the
+    parameters with no information at all."""
+    if not len(names):
+        return []
+    diag = np.diag(info).copy()
+    out = []
+    dead = diag <= 1e-14 * max(float(diag.max()), 1e-300)
+    for i in np.flatnonzero(dead):
+        out.append(Undetermined({names[i]: 1.0}, 0.0, (EXCITATION.get(names[i], "a run that moves it"),)))
+    alive = np.flatnonzero(~dead)
+    if len(alive) > 1:
+        d = np.sqrt(diag[alive])
+        normal = info[np.ix_(alive, alive)] / np.outer(d, d)
+        values, vectors = np.linalg.eigh(normal)
+        for k in np.flatnonzero(values < UNDETERMINED * values.max()):
+            v = vectors[:, k] / np.linalg.norm(vectors[:, k])
+            weights = {names[alive[i]]: float(v[i]) for i in np.argsort(-np.abs(v)) if abs(v[i]) > 0.2}
+            advice = tuple(dict.fromkeys(EXCITATION.get(n, "a run that moves it") for n in weights))
+            out.append(Undetermined(weights, float(values[k]), advice))
+    return out

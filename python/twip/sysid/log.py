@@ -1,0 +1,165 @@
+"""A logged run of a 2-DOF robot: any subset of its signals on one time base, in SI units."""
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Dict, Mapping, Optional, Union
+
+import numpy as np
+
+from twip import _core
+
+#: The signals a log may hold, with their units (the constructor's keywords).
+SIGNALS: Dict[str, str] = {
+    "u": "A (the lumped motor current of SlopeModel)",
+    "pwm": "driver counts (the duty both motors get)",
+    "phi": "rad (body pitch)",
+    "phi_dot": "rad/s",
+    "theta": "rad (wheel angle, absolute)",
+    "theta_dot": "rad/s",
+    "gyro": "rad/s (pitch rate as the gyro reads it)",
+    "accel_x": "m/s^2 (specific force along the body's forward axis)",
+    "accel_z": "m/s^2 (specific force along the body's axis, up)",
+    "enc": "counts (the wheels' mean angle relative to the body)",
+}
+#: Unit names `scale=` understands, as SI units per logged unit.
+UNIT_NAMES = {"deg": math.pi / 180, "degrees": math.pi / 180, "deg/s": math.pi / 180, "rad": 1.0, "ms": 1e-3,
+              "mA": 1e-3, "g": 9.80665}
+
+
+class LogError(_core.InvalidParameterError):
+    """A log that cannot be used as given: the message names the column, row or name."""
+
+
+@dataclass(frozen=True)
+class RunLog:
+    """Signals on the time base `t` [s]; each given signal has one value per sample."""
+
+    t: np.ndarray
+    u: Optional[np.ndarray] = None
+    pwm: Optional[np.ndarray] = None
+    phi: Optional[np.ndarray] = None
+    phi_dot: Optional[np.ndarray] = None
+    theta: Optional[np.ndarray] = None
+    theta_dot: Optional[np.ndarray] = None
+    gyro: Optional[np.ndarray] = None
+    accel_x: Optional[np.ndarray] = None
+    accel_z: Optional[np.ndarray] = None
+    enc: Optional[np.ndarray] = None
+    slope: float = 0.0
+    #: Columns of a CSV that were not signals (kept out of the fit).
+    ignored: tuple = field(default=(), compare=False)
+
+    def __post_init__(self):
+        t = _column("t", self.t)
+        if len(t) < 2:
+            raise LogError(f"t: {len(t)} samples; a log needs at least 2")
+        steps = np.diff(t)
+        bad = np.flatnonzero(~(steps > 0))
+        if len(bad):
+            row = int(bad[0]) + 1
+            raise LogError(f"t: not increasing at row {row} (t = {float(t[row - 1])!r} then {float(t[row])!r})")
+        object.__setattr__(self, "t", t)
+        for name in SIGNALS:
+            value = getattr(self, name)
+            if value is None:
+                continue
+            column = _column(name, value)
+            if len(column) != len(t):
+                raise LogError(f"{name}: {len(column)} values for {len(t)} samples of t")
+            object.__setattr__(self, name, column)
+        if not (isinstance(self.slope, (int, float)) and math.isfinite(self.slope)):
+            raise LogError(f"slope = {self.slope!r}: must be a finite angle [rad]")
+        if not self.signals():
+            raise LogError("the log has no signal besides t: give at least one of " + ", ".join(SIGNALS))
+
+    def signals(self) -> Dict[str, np.ndarray]:
+        """The signals present, by name."""
+        return {n: getattr(self, n) for n in SIGNALS if getattr(self, n) is not None}
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def slice(self, start: float, stop: float) -> "RunLog":
+        """The samples with start <= t < stop."""
+        keep = (self.t >= start) & (self.t < stop)
+        return RunLog(self.t[keep], slope=self.slope, **{n: v[keep] for n, v in self.signals().items()})
+
+    def with_signals(self, **changes) -> "RunLog":
+        """A copy with signals replaced (None removes one)."""
+        values = {**self.signals(), **changes}
+        return RunLog(self.t, slope=self.slope, **{n: v for n, v in values.items() if v is not None})
+
+    @classmethod
+    def from_csv(cls, path: Union[str, Path], slope: float = 0.0, columns: Optional[Mapping[str, str]] = None,
+                 scale: Optional[Mapping[str, Union[float, str]]] = None) -> "RunLog":
+        """Reads a CSV with a header row. `columns` maps header names to signal names
+        ({"angle": "phi"}); `scale` multiplies a signal into SI, by a number or a unit name
+        ({"phi": "deg"}, {"u": 1e-3}). Columns that are neither t nor a signal are ignored."""
+        columns = dict(columns or {})
+        path = Path(path)
+        try:
+            with path.open(newline="") as f:
+                rows = list(csv.reader(f))
+        except OSError as e:
+            raise LogError(f"path = {str(path)!r}: {e.strerror}") from None
+        if not rows:
+            raise LogError(f"{path}: empty file")
+        header = [h.strip() for h in rows[0]]
+        for h in columns:
+            if h not in header:
+                raise LogError(f"columns: {h!r} is not a column of {path} (columns: {', '.join(header)})")
+        names = [columns.get(h, h) for h in header]
+        for target in columns.values():
+            if target != "t" and target not in SIGNALS:
+                raise LogError(f"columns: {target!r} is not a signal (signals: t, {', '.join(SIGNALS)})")
+        if "t" not in names:
+            raise LogError(f"{path}: no 't' column (columns: {', '.join(header)}); map one with columns={{...: 't'}}")
+        data = {}
+        for j, (h, name) in enumerate(zip(header, names)):
+            if name != "t" and name not in SIGNALS:
+                continue
+            values = np.empty(len(rows) - 1)
+            for i, row in enumerate(rows[1:]):
+                try:
+                    values[i] = float(row[j])
+                except (ValueError, IndexError):
+                    cell = row[j] if j < len(row) else "(missing)"
+                    raise LogError(f"{path}: column {h!r}, row {i + 2}: {cell!r} is not a number") from None
+            data[name] = values * _factor(name, (scale or {}).get(name, 1.0))
+        for name in (scale or {}):
+            if name not in data:
+                raise LogError(f"scale: {name!r} is not a column of the log")
+        ignored = tuple(h for h, n in zip(header, names) if n != "t" and n not in SIGNALS)
+        return cls(data.pop("t"), slope=slope, ignored=ignored, **data)
+
+    def to_csv(self, path: Union[str, Path]) -> None:
+        """Writes t and the signals present, in SI, with a header."""
+        names = ["t", *self.signals()]
+        table = np.column_stack([self.t, *self.signals().values()])
+        np.savetxt(path, table, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+
+
+def _factor(name: str, scale) -> float:
+    if isinstance(scale, str):
+        if scale not in UNIT_NAMES:
+            raise LogError(f"scale[{name!r}] = {scale!r}: not a unit name ({', '.join(UNIT_NAMES)}) or a number")
+        return UNIT_NAMES[scale]
+    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale != 0):
+        raise LogError(f"scale[{name!r}] = {scale!r}: must be a finite nonzero number or a unit name")
+    return float(scale)
+
+
+def _column(name: str, value) -> np.ndarray:
+    try:
+        column = np.ascontiguousarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise LogError(f"{name}: not an array of numbers") from None
+    if column.ndim != 1:
+        raise LogError(f"{name}: shape {column.shape}; a signal is one value per sample")
+    bad = np.flatnonzero(~np.isfinite(column))
+    if len(bad):
+        raise LogError(f"{name}: row {int(bad[0])} is {float(column[bad[0]])!r}; every value must be finite")
+    return column
