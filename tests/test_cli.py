@@ -132,7 +132,7 @@ def test_simulate_prints_metrics_and_writes_a_plot_and_an_animation(tmp_path, ca
 
 def test_simulate_shows_the_thesis_claims_and_json(capsys):
     code, out, _ = run(["simulate", "slope-lqr-sim"], capsys)
-    assert code == 0 and "the thesis's claims" in out and "errata E8" in out
+    assert code == 0 and "the thesis's claims" in out and "errata E6" in out
     code, out, _ = run(["simulate", "circle-smc", "--option", "laps=1", "--json"], capsys)
     data = json.loads(out)
     assert code == 0 and data["outcome"] == "completed" and "mean_abs_x_error" in data["metrics"]

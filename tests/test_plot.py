@@ -113,3 +113,23 @@ def test_gif_rejects_a_bad_speed(tmp_path, slope_run):
     with pytest.raises(ValueError, match="speed"):
         animate.gif(r, tmp_path / "x.gif", scenario=sc, speed=-1.0)
     assert math.isfinite(animate._speed(100.0, None, 15.0))
+
+
+def test_pid_error_panel_shows_the_errors_in_cm_per_s_and_degrees():
+    """The PID's own e_v (counts per 5 ms) and e_psi (degrees) must not be read as SI: the
+    panel draws v_r - v in cm/s and psi_r - psi in degrees from the states."""
+    sc = scenarios.get("circle-pid", laps=1)
+    r = sc.run(record_every=5)
+    fig = plot.tracking(r, scenario=sc)
+    panel = next(ax for ax in fig.axes if ax.get_title() == "PID errors: speed and heading")
+    lines = {line.get_label(): line.get_ydata() for line in panel.get_lines()}
+    speed = next(v for k, v in lines.items() if "v_r" in k)
+    heading = next(v for k, v in lines.items() if "psi" in k)
+    # Drawn thinned (extremes kept): the peaks are the raw data's.
+    expected_speed = 100 * (r.reference("v") - r.states[:, 5])
+    expected_heading = np.degrees(r.reference("psi") - r.states[:, 2])
+    assert np.max(np.abs(speed)) == pytest.approx(np.max(np.abs(expected_speed)))
+    assert np.max(np.abs(heading)) == pytest.approx(np.max(np.abs(expected_heading)))
+    # The thesis-scale numbers: a peak of about 13 cm/s when it sets off, under a degree of heading.
+    assert 5 < np.max(np.abs(speed)) < 30
+    assert np.max(np.abs(heading)) < 2.0

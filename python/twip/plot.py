@@ -537,9 +537,13 @@ def tracking(result, scenario=None, path=None, title=None, internals: bool = Tru
             ax.set(title="Tracking errors in the robot's frame", ylabel="[cm]")
             _legend(ax)
         elif "e_v" in inner:
-            _line(ax, t, 100 * inner["e_v"], color=PALETTE[0], label="e_v [cm/s]")
-            _line(ax, t, np.degrees(inner["e_psi"]), color=PALETTE[1], label="e_ψ [deg]")
-            _robust_ylim(ax, 100 * inner["e_v"], np.degrees(inner["e_psi"]))
+            # The PID's own e_v and e_psi are in the Arduino's units (counts per 5 ms,
+            # degrees): the same errors from the states, in SI-derived units.
+            e_v = 100 * (result.reference("v") - result.states[:, 5])
+            e_psi = np.degrees(np.angle(np.exp(1j * (result.reference("psi") - result.states[:, 2]))))
+            _line(ax, t, e_v, color=PALETTE[0], label="$v_r - v$ [cm/s]")
+            _line(ax, t, e_psi, color=PALETTE[1], label=r"$\psi_r - \psi$ [deg]")
+            _robust_ylim(ax, e_v, e_psi)
             ax.set(title="PID errors: speed and heading", ylabel="[cm/s], [deg]")
             _legend(ax)
         else:

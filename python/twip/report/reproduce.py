@@ -152,8 +152,9 @@ def _scenario_figures(runs: dict, quick: bool, steps: Steps, figures: Figures) -
                         title=f"Fig {fig_no} analogue: {sc.name}, nominal and ±20 % plants\n{sc.description}"))
         ts_name = f"fig{companion}_{name}.png" if companion else f"fig{fig_no}_{name}_signals.png"
         figures.add(ts_name, f"Fig {companion or fig_no} analogue: {name}'s pitch, speed, yaw rate, torques and internals",
-                    lambda p, sc=sc, r=r, c=companion or fig_no: plot.tracking(
-                        r, scenario=sc, path=p, show_path=True, title=f"Fig {c} analogue: {sc.name}\n{sc.description}"))
+                    lambda p, sc=sc, r=r, c=companion or fig_no, f=fig_no: plot.tracking(
+                        r, scenario=sc, path=p, show_path=True,
+                        title=f"Fig {c} analogue: {sc.name}, the signals of Fig {f}'s run\n{sc.description}"))
 
 
 def _table_5_1(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) -> List[dict]:

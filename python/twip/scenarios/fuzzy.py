@@ -112,13 +112,21 @@ def _flat_fuzzy(params, ctrl_params, ki=0.0, adapt=True, gamma=None, sigma=None,
     )
 
 
-def stop_errors(scenario: Scenario, result) -> np.ndarray:
-    """(goal - position) [m] at the end of each hold; positive when short of the goal."""
+def stop_positions(scenario: Scenario, result) -> np.ndarray:
+    """Where the robot is [m] at the end of each hold."""
     radius = scenario.model.params.wheel_radius
-    out = []
-    for t_goal, goal in scenario.thesis["goals"]:
-        i = min(np.searchsorted(result.t, t_goal - 1e-9), len(result.t) - 1)
-        out.append(goal - result.states[i, 2] * radius)
+    at = [min(np.searchsorted(result.t, t_goal - 1e-9), len(result.t) - 1) for t_goal, _ in scenario.thesis["goals"]]
+    return result.states[at, 2] * radius
+
+
+def stop_errors(scenario: Scenario, result) -> np.ndarray:
+    """How far short of each goal the robot stops [m], along the leg that leads there: positive
+    short of it, negative past it, on the way out and on the way back alike."""
+    out, previous = [], 0.0  # every run starts at 0
+    for (_, goal), position in zip(scenario.thesis["goals"], stop_positions(scenario, result)):
+        direction = 1.0 if goal >= previous else -1.0
+        out.append(direction * (goal - position))
+        previous = goal
     return np.array(out)
 
 

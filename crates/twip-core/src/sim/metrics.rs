@@ -17,7 +17,8 @@ pub struct SlopeSummary<T> {
     pub pitch_settling_time: T,
     /// Last time |θ̇ − θ̇_ref| was outside 2 % of the largest reference speed [s].
     pub speed_settling_time: T,
-    /// (θ_ref − θ) r at the last sample [m]: how far short of the reference it stopped.
+    /// (θ_ref − θ) r at the last sample [m], signed along the last leg travelled (the last
+    /// nonzero reference speed): positive short of the goal, negative past it, both ways.
     pub final_position_error: T,
     /// Largest |u| [A] (the lumped current of both motors).
     pub peak_abs_input: T,
@@ -77,6 +78,8 @@ pub struct SlopeMetrics<T: Real> {
     pitch_settle: T,
     speed_settle: T,
     steady: Option<(T, T)>,
+    /// The sign of the last nonzero reference speed: which way "short of the goal" is.
+    direction: T,
     summary: SlopeSummary<T>,
 }
 
@@ -91,6 +94,7 @@ impl<T: Real> SlopeMetrics<T> {
             pitch_settle: T::zero(),
             speed_settle: T::zero(),
             steady: None,
+            direction: T::one(),
             summary: SlopeSummary {
                 mean_abs_pitch_error: T::zero(),
                 mean_abs_speed_error: T::zero(),
@@ -148,8 +152,11 @@ impl<T: Real> Observer<T, 4, 1, SpeedRef<T>> for SlopeMetrics<T> {
         }
         self.sum_pitch += pitch_error;
         self.sum_speed += speed_error;
+        if r.theta_dot != T::zero() {
+            self.direction = r.theta_dot.signum();
+        }
         let s = &mut self.summary;
-        s.final_position_error = (r.theta - x[2]) * self.plant.params().wheel_radius;
+        s.final_position_error = self.direction * (r.theta - x[2]) * self.plant.params().wheel_radius;
         s.peak_abs_input = s.peak_abs_input.max(u[0].abs());
         s.samples += 1;
     }

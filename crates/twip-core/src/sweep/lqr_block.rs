@@ -181,7 +181,19 @@ impl Metrics {
 
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn observe(&mut self, live: &[bool; LANES], t: f64, x: &[Lanes; 4], u: &Lanes, r: &SpeedRef<f64>, phi_s: &Lanes, speed_scale: f64) {
+    /// `direction`: the sign of the last nonzero reference speed (see `SlopeMetrics`).
+    #[allow(clippy::too_many_arguments)]
+    fn observe(
+        &mut self,
+        live: &[bool; LANES],
+        t: f64,
+        x: &[Lanes; 4],
+        u: &Lanes,
+        r: &SpeedRef<f64>,
+        phi_s: &Lanes,
+        speed_scale: f64,
+        direction: f64,
+    ) {
         for l in 0..LANES {
             let pitch_error = (x[0][l] - phi_s[l]).abs();
             let speed_error = (x[3][l] - r.theta_dot).abs();
@@ -190,7 +202,7 @@ impl Metrics {
             self.speed_settle[l] = if on && speed_error > 0.02 * speed_scale { t } else { self.speed_settle[l] };
             self.sum_pitch[l] = if on { self.sum_pitch[l] + pitch_error } else { self.sum_pitch[l] };
             self.sum_speed[l] = if on { self.sum_speed[l] + speed_error } else { self.sum_speed[l] };
-            let position = (r.theta - x[2][l]) * self.radius[l];
+            let position = direction * (r.theta - x[2][l]) * self.radius[l];
             self.final_position_error[l] = if on { position } else { self.final_position_error[l] };
             let peak = self.peak_abs_input[l].max(u[l].abs());
             self.peak_abs_input[l] = if on { peak } else { self.peak_abs_input[l] };
@@ -319,6 +331,7 @@ fn block(
     let mut plant_phi_s = steady_pitch(&models, r0.theta_dot);
     let mut metrics = Metrics::new(core::array::from_fn(|l| models[l].params().wheel_radius), &x, &plant_phi_s);
     let mut speed_scale: f64 = 0.0;
+    let mut direction: f64 = 1.0;
     for k in 0..n {
         let t = dt * k as f64;
         if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
@@ -331,6 +344,7 @@ fn block(
             plant_phi_s = steady_pitch(&models, r.theta_dot);
         }
         speed_scale = speed_scale.max(r.theta_dot.abs());
+        direction = if r.theta_dot != 0.0 { r.theta_dot.signum() } else { direction };
         if k % per_update == 0 {
             // `LqrController::update`, operation for operation.
             let mut finite = true;
@@ -349,7 +363,7 @@ fn block(
                 }
             }
         }
-        metrics.observe(&alive, t, &x, &u, &r, &plant_phi_s, speed_scale);
+        metrics.observe(&alive, t, &x, &u, &r, &plant_phi_s, speed_scale, direction);
         let next = plants.rk4(&x, &u, dt);
         // Lanes that go on take the new state; the few that end are handled below.
         let mut goes_on = [false; LANES];
@@ -381,7 +395,9 @@ fn block(
                     // Only this lane is observed: only its steady pitch is needed.
                     let mut phi_s_next = plant_phi_s;
                     phi_s_next[l] = steady_pitch_of(&models[l], r_next.theta_dot);
-                    metrics.observe(&only(l), t_next, &x, &u, &r_next, &phi_s_next, speed_scale.max(r_next.theta_dot.abs()));
+                    let towards = if r_next.theta_dot != 0.0 { r_next.theta_dot.signum() } else { direction };
+                    let scale = speed_scale.max(r_next.theta_dot.abs());
+                    metrics.observe(&only(l), t_next, &x, &u, &r_next, &phi_s_next, scale, towards);
                 }
             }
             if !alive.iter().any(|&a| a) {
@@ -392,7 +408,8 @@ fn block(
     let t_end = dt * n as f64;
     let r_end = reference.sample(t_end);
     let end_phi_s = steady_pitch(&models, r_end.theta_dot);
-    metrics.observe(&alive, t_end, &x, &u, &r_end, &end_phi_s, speed_scale.max(r_end.theta_dot.abs()));
+    let towards = if r_end.theta_dot != 0.0 { r_end.theta_dot.signum() } else { direction };
+    metrics.observe(&alive, t_end, &x, &u, &r_end, &end_phi_s, speed_scale.max(r_end.theta_dot.abs()), towards);
     for l in 0..LANES {
         if alive[l] {
             ended[l] = (false, t_end, n as u64);
