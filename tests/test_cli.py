@@ -84,9 +84,33 @@ def test_report_json_has_a_row_per_thesis_claim(report):
     expected += ["table-5.1/fuzzy-beats-lqr-flat", "table-5.1/fuzzy-beats-lqr-slope", "table-5.2/smc-beats-pid"]
     assert sorted(expected) == sorted(ids)
     for c in report["claims"]:
-        assert c["status"] in ("reproduced", "differs"), c
+        assert c["status"] in ("reproduced", "differs", "calibrated"), c
+        assert c["basis"] in ("prediction", "calibrated"), c
+        assert (c["status"] == "calibrated") == (c["basis"] == "calibrated"), c
         assert c["reason"] and "\n" not in c["reason"], c
         assert c["ours"] is not None, c
+
+
+def test_table_5_1_rows_carry_the_thesis_like_robot(report):
+    rows = [c for c in report["claims"] if c["id"].startswith("table-5.1/") and c["id"].count("/") == 2]
+    assert len(rows) == 8
+    for c in rows:
+        assert c["realism"]["outcome"] == "completed" and c["realism"]["ours"] > 0, c
+
+
+def test_inputs_and_fits_are_calibrated_not_reproduced(report, report_dir):
+    """The audit's seven: the fuzzy gains (inputs), the flat LQR gains and the slope phi_s (the
+    robot is fitted to them), the 36 s lap (the wheel radius came from it), omega_r (the
+    reference's own value)."""
+    calibrated = {c["id"] for c in report["claims"] if c["basis"] == "calibrated"}
+    assert calibrated == {"flat-lqr-sim/gains", "slope-fuzzy-sim/gains", "flat-fuzzy-sim/gains",
+                          "slope-lqr-sim/phi_s_deg", "circle-pid/lap_s", "circle-smc/omega_r",
+                          "circle-smc-fuzzy/omega_r"}
+    n = {s: sum(c["status"] == s for c in report["claims"]) for s in ("reproduced", "differs", "calibrated")}
+    predictions = sum(c["basis"] == "prediction" for c in report["claims"])
+    md = (report_dir[0] / "report.md").read_text()
+    opening = f"**{predictions} predictions: {n['reproduced']} reproduced, {n['differs']} differ; {n['calibrated']} calibrated"
+    assert opening in md.split("## ")[0]
 
 
 def _numbers(cell):
@@ -111,7 +135,8 @@ def test_report_md_numbers_equal_report_json(report_dir, report):
         assert _numbers(cells[3]) == _flat(c["ours"]), (c["id"], cells[3])
         if isinstance(c["ours"], bool):
             assert cells[3] == ("yes" if c["ours"] else "no")
-        assert cells[5] == c["status"]
+        assert _numbers(cells[4]) == (_flat(c["realism"]["ours"]) if "realism" in c else [])
+        assert cells[6] == c["basis"] and cells[7] == c["status"]
     # Table 5.2: every row's numbers
     for r in report["table_5_2"]:
         line = next(l for l in md.splitlines() if l.startswith(f"| `{r['controller']}` | {r['plant']} |"))

@@ -147,7 +147,8 @@ CONTROLLERS = ("lqr", "fuzzy", "fuzzy-fixed", "fuzzy+ki")
 
 
 def compare_table(params=None, cases: Optional[Iterable[str]] = None,
-                  controllers: Iterable[str] = ("lqr", "fuzzy", "fuzzy-fixed"), period: float = 5e-3) -> list:
+                  controllers: Iterable[str] = ("lqr", "fuzzy", "fuzzy-fixed"), period: float = 5e-3,
+                  realism=None) -> list:
     """Table 5.1 analogue: mean |pitch error| and |wheel-speed error| of each controller on the
     slope-fuzzy and flat-fuzzy runs (same schedule, start and plant for every controller).
 
@@ -155,6 +156,8 @@ def compare_table(params=None, cases: Optional[Iterable[str]] = None,
     case of MISMATCH_CASES. Controllers: "lqr" (thesis weights, operating-point design),
     "fuzzy" (thesis gains, adaptation on), "fuzzy-fixed" (adaptation off: S stays 0),
     "fuzzy+ki" (with KI_SLOPE / KI_FLAT). Errors are against the plant's own steady pitch.
+    With `realism` (a twip.Realism) each nominal row also carries the same run with that
+    robot in the loop: `outcome_realism`, `pitch_error_deg_realism`, `speed_error_deg_s_realism`.
     Returns one dict per (surface, case, controller)."""
     from twip.scenarios.registry import get
 
@@ -183,6 +186,13 @@ def compare_table(params=None, cases: Optional[Iterable[str]] = None,
                     "stop_far_cm": 100 * stops[0],
                     "stop_home_cm": 100 * stops[1],
                 })
+                if realism is not None and case == "nominal":
+                    real = sc.run(realism=realism)
+                    rows[-1].update({
+                        "outcome_realism": real.outcome,
+                        "pitch_error_deg_realism": math.degrees(real.metrics["mean_abs_pitch_error"]),
+                        "speed_error_deg_s_realism": math.degrees(real.metrics["mean_abs_speed_error"]),
+                    })
     return rows
 
 
