@@ -98,6 +98,16 @@ def test_table_5_1_rows_carry_the_thesis_like_robot(report):
         assert c["realism"]["outcome"] == "completed" and c["realism"]["ours"] > 0, c
 
 
+def test_experiment_rows_carry_the_thesis_like_robot(report):
+    experiments = [c for c in report["claims"] if "/" in c["id"] and not c["id"].split("/")[0].endswith("-sim")
+                   and not c["id"].startswith("table-")]
+    assert {c["id"].split("/")[0] for c in experiments} == {"slope-lqr", "slope-fuzzy", "flat-lqr", "flat-fuzzy",
+                                                           "circle-pid", "circle-smc", "circle-smc-fuzzy"}
+    for c in experiments:
+        assert "realism" in c and c["realism"]["ours"] is not None, c["id"]
+    assert not any("realism" in c for c in report["claims"] if c["id"].split("/")[0].endswith("-sim"))
+
+
 def test_inputs_and_fits_are_calibrated_not_reproduced(report, report_dir):
     """The audit's seven: the fuzzy gains (inputs), the flat LQR gains and the slope phi_s (the
     robot is fitted to them), the 36 s lap (the wheel radius came from it), omega_r (the

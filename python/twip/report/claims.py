@@ -110,8 +110,51 @@ def _first_lap_time(r):
     return float(r.t[hit[0]]) if len(hit) else float("nan")
 
 
-def claims_for(sc, r) -> List[dict]:
-    """The thesis's claims about scenario `sc` (its `thesis` dict) beside run `r`'s numbers."""
+def _measured(key, sc, r):
+    """Our number for an experiment claim `key` in run `r` of scenario `sc`."""
+    if key == "goals":
+        return [float(p) for p in stop_positions(sc, r)]
+    if key == "pitch_band_deg":
+        target = r.internals.get("phi_s")
+        dev = np.abs(r.states[:, 0] - (target if target is not None else 0.0))[r.t >= 1.0]
+        return math.degrees(float(dev.max())) if dev.size else float("nan")
+    if key == "pitch_within_deg":
+        return math.degrees(float(np.max(np.abs(r.states[:, 3]))))
+    if key == "lap_s":
+        return _first_lap_time(r)
+    if key == "omega_r":
+        keep = r.t >= r.metrics.get("settle", 0.0)
+        return float(np.mean(r.states[keep, 6])) if keep.any() else float("nan")
+    if key == "table_5_2":
+        return [float(r.metrics["mean_abs_x_error"]), float(r.metrics["mean_abs_y_error"])]
+    raise KeyError(key)
+
+
+#: Claims about the thesis's experiments: (claim text of the thesis value, unit, judge(ours,
+#: thesis), why when reproduced, why when not). Each also carries our number with the
+#: thesis-like robot in the loop (`realism`) when the report runs one.
+_EXPERIMENT = {
+    "goals": (lambda v: "stops at " + " m, then ".join(f"{g:g}" for _, g in v) + " m (end of each hold)", "m",
+              lambda o, t: all(abs(a - b) <= 0.02 for a, b in zip(o, t)), "both stops within 2 cm",
+              "a stop more than 2 cm off"),
+    "pitch_band_deg": (lambda v: "pitch within ± of φ_s (after the first second)", "deg", lambda o, t: o <= t,
+                       "inside the band", "outside the band"),
+    "pitch_within_deg": (lambda v: "pitch within ± of upright", "deg", lambda o, t: o <= t, "inside the band",
+                         "outside the band"),
+    "lap_s": (lambda v: "time for one lap", "s", lambda o, t: _within(o, t, 0.05),
+              "within 5 % (180°/s on a 0.6 m circle)", "more than 5 % off"),
+    "omega_r": (lambda v: "yaw rate after the first lap", "rad/s", lambda o, t: _within(o, t, 0.01), "within 1 %",
+                "more than 1 % off"),
+    "table_5_2": (lambda v: "Table 5.2: mean |x − x_r| / |y − y_r| (thesis: experiment)", "m",
+                  lambda o, t: all(_within(a, b, 0.3) for a, b in zip(o, t)), "within 30 % of the experiment",
+                  "more than 30 % from the experiment"),
+}
+
+
+def claims_for(sc, r, realism_run=None) -> List[dict]:
+    """The thesis's claims about scenario `sc` (its `thesis` dict) beside run `r`'s numbers;
+    the experiment claims also beside `realism_run` (the same scenario with the thesis-like
+    robot in the loop), when given."""
     th = sc.thesis or {}
     name = sc.name
     fig = th.get("figure", "?")
@@ -161,44 +204,14 @@ def claims_for(sc, r) -> List[dict]:
                               "slow, kd/kp = 9 s)")
                 rows.append(_claim(cid, src, f"{what} in about (≈)", value, ours, "s", ok, why,
                                    "within max(0.5 s, 25 %)", _SETTLE_FASTER if ours < value else slower))
-        elif key == "goals":
-            goals = [g for _, g in value]
-            ours = [float(p) for p in stop_positions(sc, r)]
-            ok = all(abs(o - g) <= 0.02 for o, g in zip(ours, goals))
-            label = " m, then ".join(f"{g:g}" for g in goals)
-            rows.append(_claim(cid, src, f"stops at {label} m (end of each hold)", goals, ours, "m", ok, why,
-                               "both stops within 2 cm", "a stop more than 2 cm off"))
-        elif key == "pitch_band_deg":
-            target = r.internals.get("phi_s")
-            phi = r.states[:, 0]
-            after = r.t >= 1.0
-            dev = np.abs(phi - (target if target is not None else 0.0))[after]
-            ours = math.degrees(float(dev.max())) if dev.size else float("nan")
-            ok = ours <= value
-            rows.append(_claim(cid, src, "pitch within ± of φ_s (after the first second)", value, ours, "deg", ok, why,
-                               "inside the band", "outside the band"))
-        elif key == "pitch_within_deg":
-            ours = math.degrees(float(np.max(np.abs(r.states[:, 3]))))
-            ok = ours <= value
-            rows.append(_claim(cid, src, "pitch within ± of upright", value, ours, "deg", ok, why,
-                               "inside the band", "outside the band"))
-        elif key == "lap_s":
-            ours = _first_lap_time(r)
-            ok = _within(ours, value, 0.05)
-            rows.append(_claim(cid, src, "time for one lap", value, ours, "s", ok, why,
-                               "within 5 % (180°/s on a 0.6 m circle)", "more than 5 % off"))
-        elif key == "omega_r":
-            settle = r.metrics.get("settle", 0.0)
-            keep = r.t >= settle
-            ours = float(np.mean(r.states[keep, 6])) if keep.any() else float("nan")
-            ok = _within(ours, value, 0.01)
-            rows.append(_claim(cid, src, "yaw rate after the first lap", value, ours, "rad/s", ok, why,
-                               "within 1 %", "more than 1 % off"))
-        elif key == "table_5_2":
-            ours = [float(r.metrics["mean_abs_x_error"]), float(r.metrics["mean_abs_y_error"])]
-            ok = all(_within(o, v, 0.3) for o, v in zip(ours, value))
-            rows.append(_claim(cid, src, "Table 5.2: mean |x − x_r| / |y − y_r| (thesis: experiment)", list(value), ours,
-                               "m", ok, why, "within 30 % of the experiment", "more than 30 % from the experiment"))
+        elif key in _EXPERIMENT:
+            label, unit, judge, why_ok, why_not = _EXPERIMENT[key]
+            ours = _measured(key, sc, r)
+            thesis = [g for _, g in value] if key == "goals" else value
+            row = _claim(cid, src, label(value), thesis, ours, unit, judge(ours, thesis), why, why_ok, why_not)
+            if realism_run is not None:
+                row = _realism(row, _measured(key, sc, realism_run), realism_run.outcome)
+            rows.append(row)
         else:  # a claim this report has no rule for yet: shown, not judged
             ours = r.metrics.get(key)
             rows.append({"id": cid, "source": src, "claim": key, "thesis": sig(value) if not isinstance(value, dict) else str(value),

@@ -114,7 +114,10 @@ def _run_scenarios(quick: bool, steps: Steps):
             steps.done(f"scenario {sc.name}: FAILED ({e})", time.perf_counter() - t0)
             continue
         runs[sc.name] = (sc, r)
-        claims.extend(claims_for(sc, r))
+        # The thesis's experiments (not its "-sim" runs) also with the thesis-like robot in the loop.
+        real = None if sc.name.endswith("-sim") else sc.run(realism=twip.Realism.thesis_like(),
+                                                            record_every=10 if is_planar(sc) else 1)
+        claims.extend(claims_for(sc, r, real))
         summary[sc.name] = {
             "description": sc.description, "controller": controller_family(sc), "figure": sc.thesis.get("figure"),
             "outcome": r.outcome, "t_end": sig(r.t_end if r.t_end is not None else r.t[-1]),
