@@ -133,3 +133,23 @@ def test_pid_error_panel_shows_the_errors_in_cm_per_s_and_degrees():
     # The thesis-scale numbers: a peak of about 13 cm/s when it sets off, under a degree of heading.
     assert 5 < np.max(np.abs(speed)) < 30
     assert np.max(np.abs(heading)) < 2.0
+
+
+def test_report_figures_in_vector_formats_and_a_chosen_resolution(tmp_path):
+    from twip.report.reproduce import Figures, reproduce
+
+    figures = Figures(tmp_path, "svg")
+    figures.add("fig4.2_slope-lqr-sim.png", "caption", lambda p: None)
+    figures.add("anim_slope-lqr.gif", "an animation stays a GIF", lambda p: None)
+    assert list(figures.captions) == ["fig4.2_slope-lqr-sim.svg", "anim_slope-lqr.gif"]
+    with pytest.raises(twip.InvalidParameterError, match="fmt = 'bmp'"):
+        reproduce(tmp_path, quick=True, fmt="bmp", quiet=True)
+    with pytest.raises(twip.InvalidParameterError, match="dpi = 5"):
+        reproduce(tmp_path, quick=True, dpi=5, quiet=True)
+    sc = scenarios.get("slope-lqr-sim", t_final=2.0)
+    fig = plot.timeseries(sc.run(), scenario=sc, path=tmp_path / "f.svg")
+    assert (tmp_path / "f.svg").read_text().lstrip().startswith("<?xml")
+    # The thesis's own values are drawn to read ours against.
+    labels = [line.get_label() for ax in fig.axes for line in ax.get_lines()]
+    assert any("thesis" in label and "12.5" in label for label in labels)
+    assert any("settled by 5" in label for label in labels)

@@ -7,7 +7,8 @@
 Everything is in degrees, metres and seconds on the axes; the inputs are in SI (radians).
 Each function returns a `matplotlib.figure.Figure`. With `path=` it also writes the file
 (a bare Agg figure: no display needed, not registered with pyplot, so scripts that make
-hundreds of figures do not leak them; PNGs get a 128-colour palette, a third of the size);
+hundreds of figures do not leak them; PNGs are full colour at 150 dpi, and
+`COMPACT_PNG = True` re-encodes them with a 128-colour palette, a third of the size);
 without, the figure is pyplot's, for notebooks and `plt.show()`.
 
 `pip install twip[plot]` installs matplotlib and Pillow.
@@ -43,7 +44,8 @@ _STYLE = {
     "axes.spines.top": False,
     "axes.spines.right": False,
     "figure.dpi": 100,
-    "savefig.dpi": 100,
+    # 150: the dots of φ̇, θ̇ and the subscripts stay legible (at 100 they vanish).
+    "savefig.dpi": 150,
 }
 
 
@@ -131,8 +133,9 @@ def warm_up() -> None:
     fig.savefig(io.BytesIO(), format="png")
 
 
-#: PNGs are written with a 128-colour palette (Pillow): a third of the size, same look.
-COMPACT_PNG = True
+#: Set True to write PNGs with a 128-colour palette (Pillow): a third of the size, but
+#: blended colours (lines over fills, antialiased text) lose their shades.
+COMPACT_PNG = False
 
 
 def check_folder(path) -> None:
@@ -160,7 +163,7 @@ def check_path(path) -> None:
 
 
 def save(fig, path) -> None:
-    """fig.savefig(path); a .png is re-encoded with a palette when Pillow is there."""
+    """fig.savefig(path); with `COMPACT_PNG` a .png is re-encoded with a palette when Pillow is there."""
     check_path(path)
     if not (COMPACT_PNG and str(path).lower().endswith(".png")):
         fig.savefig(path)
@@ -260,7 +263,7 @@ def result(result, scenario=None, path=None, title=None, internals: bool = True)
 def _phi_s(result, scenario):
     """The pitch the controller aims at per sample [rad], or the plant's steady pitch."""
     if "phi_s" in result.internals:
-        return result.internals["phi_s"], "φ_s (controller's target)"
+        return result.internals["phi_s"], r"$\varphi_s$ (controller's target)"
     if scenario is not None and hasattr(scenario.model, "equilibrium"):
         ref = result.reference("theta_dot")
         values = {}
@@ -269,7 +272,7 @@ def _phi_s(result, scenario):
             if w not in values:
                 values[w] = scenario.model.equilibrium(float(w))[0][0]
             out[i] = values[w]
-        return out, "φ_s (steady pitch)"
+        return out, r"$\varphi_s$ (steady pitch)"
     return None, None
 
 
@@ -294,27 +297,36 @@ def timeseries(result, scenario=None, path=None, title=None, internals: bool = T
     target, label = _phi_s(result, scenario)
     if target is not None:
         _line(ax, t, deg(target), color=TARGET, ls="--", lw=1.1, label=label)
+    thesis = getattr(scenario, "thesis", None) or {}
+    if "phi_s_deg" in thesis:  # the thesis's own values, to read ours against
+        ax.axhline(thesis["phi_s_deg"], color=REF, ls=":", lw=1.0, label=rf"thesis $\varphi_s$ = {thesis['phi_s_deg']:g}°")
+    if "pitch_settling_time" in thesis:
+        ax.axvline(thesis["pitch_settling_time"], color=REF, ls=":", lw=1.0,
+                   label=f"thesis: settled by {thesis['pitch_settling_time']:g} s")
     ax.set(ylabel="pitch [deg]", title="Body pitch")
     _legend(ax)
 
     ax = _axes(fig, gs[0, 1])
-    _line(ax, t, deg(phi_dot), color=OURS, label="pitch rate φ̇")
+    _line(ax, t, deg(phi_dot), color=OURS, label=r"pitch rate $\dot\varphi$")
     ax.axhline(0.0, color=REF, ls="--", lw=1.0, label="reference 0")
     ax.set(ylabel="pitch rate [deg/s]", title="Body pitch rate")
     _legend(ax)
 
     ax = _axes(fig, gs[1, 0])
     if "theta_dot_hat" in sig:
-        _line(ax, t, deg(sig["theta_dot_hat"]), color=MEASURED, lw=0.8, label="measured θ̇̂")
-    _line(ax, t, deg(theta_dot), color=OURS, label="wheel speed θ̇")
+        _line(ax, t, deg(sig["theta_dot_hat"]), color=MEASURED, lw=0.8, label=r"measured $\hat{\dot\theta}$")
+    _line(ax, t, deg(theta_dot), color=OURS, label=r"wheel speed $\dot\theta$")
     if "theta_dot" in result.reference_names:
-        _line(ax, t, deg(result.reference("theta_dot")), color=REF, ls="--", lw=1.1, label="reference θ̇_ref")
+        _line(ax, t, deg(result.reference("theta_dot")), color=REF, ls="--", lw=1.1, label=r"reference $\dot\theta_\mathrm{ref}$")
+    if "speed_settling_time" in thesis:
+        ax.axvline(thesis["speed_settling_time"], color=REF, ls=":", lw=1.0,
+                   label=f"thesis: settled by {thesis['speed_settling_time']:g} s")
     ax.set(ylabel="wheel speed [deg/s]", title="Wheel speed")
     _legend(ax)
 
     ax = _axes(fig, gs[1, 1])
     scale, unit = (radius, "m") if radius else (1.0, "rad")
-    _line(ax, t, theta * scale, color=OURS, label="travelled " + ("θ·r" if radius else "θ"))
+    _line(ax, t, theta * scale, color=OURS, label="travelled " + (r"$\theta r$" if radius else r"$\theta$"))
     if "theta" in result.reference_names:
         _line(ax, t, result.reference("theta") * scale, color=REF, ls="--", lw=1.1, label="reference")
     ax.set(ylabel=f"position [{unit}]", title="Position along the ground")
@@ -344,6 +356,14 @@ def timeseries(result, scenario=None, path=None, title=None, internals: bool = T
     return _finish(fig, path, title or _title(scenario, "2-DOF run"))
 
 
+def _shades(n: int) -> list:
+    """n colours that a reader tells apart, in order (viridis, without its palest end)."""
+    from matplotlib import colormaps
+
+    cmap = colormaps["viridis"]
+    return [cmap(0.85 * i / max(n - 1, 1)) for i in range(n)]
+
+
 @_styled
 def controller_internals(result, ax=None, names: Optional[Sequence[str]] = None, path=None):
     """The controller's logged internals on one axis: fuzzy weights Ŝ1…Ŝ9 (2-DOF fuzzy),
@@ -357,7 +377,7 @@ def controller_internals(result, ax=None, names: Optional[Sequence[str]] = None,
     if names is None:
         if "S1" in inner:  # fuzzy backstepping: the adaptive weights
             names = [n for n in (f"S{i}" for i in range(1, 10)) if n in inner]
-            title, ylabel = "Fuzzy weights Ŝ (adaptive estimate of F1)", "Ŝ_k [rad/s²]"
+            title, ylabel = r"Fuzzy weights $\hat S$ (adaptive estimate of $F_1$)", r"$\hat S_k$ [rad/s²]"
         elif "s1" in inner:  # sliding mode
             names = ["s1", "s_eta"]
             title, ylabel = "Sliding surfaces", "S"
@@ -366,16 +386,23 @@ def controller_internals(result, ax=None, names: Optional[Sequence[str]] = None,
             title, ylabel = "PID terms (PWM counts)", "counts"
         elif "z" in inner:
             names = ["z"]
-            title, ylabel = "LQR integrator ∫(θ̇ − θ̇_ref) dt", "z [rad]"
+            title, ylabel = r"LQR integrator $\int(\dot\theta - \dot\theta_\mathrm{ref})\,dt$", "z [rad]"
         else:
             names = list(inner)[:6]
             title, ylabel = "Controller internals", ""
     else:
         title, ylabel = "Controller internals", ""
-    pretty = {"s1": "S1", "s_eta": "S_η", "u_phi": "u_φ", "u_v": "u_v", "u_psi": "u_ψ", "z": "z"}
+    pretty = {"s1": "$S_1$", "s_eta": r"$S_\eta$", "u_phi": r"$u_\varphi$", "u_v": "$u_v$", "u_psi": r"$u_\psi$",
+              "z": "$z$"}
+    weights = [n for n in names if n.startswith("S") and n[1:].isdigit()]
+    # Nine weights: nine distinct colours along a sequential map, each in the legend.
+    shades = _shades(len(weights))
     for i, n in enumerate(names):
-        label = "Ŝ" + n[1:] if n.startswith("S") and n[1:].isdigit() else pretty.get(n, n)
-        _line(ax, t, inner[n], color=PALETTE[i % len(PALETTE)], lw=1.0, label=label)
+        if n in weights:
+            label, colour = rf"$\hat S_{{{n[1:]}}}$", shades[weights.index(n)]
+        else:
+            label, colour = pretty.get(n, n), PALETTE[i % len(PALETTE)]
+        _line(ax, t, inner[n], color=colour, lw=1.0, label=label)
     if names:
         _robust_ylim(ax, *[inner[n] for n in names])
     ax.set(title=title, ylabel=ylabel)
@@ -480,7 +507,7 @@ def tracking(result, scenario=None, path=None, title=None, internals: bool = Tru
     ax = _axes(fig, slots[0])
     _line(ax, t, deg(phi), color=OURS, label="pitch φ")
     if "phi_s" in inner:
-        _line(ax, t, deg(inner["phi_s"]), color=TARGET, ls="--", lw=1.1, label="φ_s (controller's target)")
+        _line(ax, t, deg(inner["phi_s"]), color=TARGET, ls="--", lw=1.1, label=r"$\varphi_s$ (controller's target)")
     else:
         ax.axhline(0.0, color=REF, ls="--", lw=1.0, label="upright")
     ax.set(ylabel="pitch [deg]", title="Body pitch")
@@ -489,30 +516,30 @@ def tracking(result, scenario=None, path=None, title=None, internals: bool = Tru
 
     ax = _axes(fig, slots[1])
     _line(ax, t, v, color=OURS, label="v")
-    _line(ax, t, result.reference("v"), color=REF, ls="--", lw=1.1, label="v_ref")
+    _line(ax, t, result.reference("v"), color=REF, ls="--", lw=1.1, label=r"$v_\mathrm{ref}$")
     ax.set(ylabel="speed [m/s]", title="Forward speed")
     _legend(ax)
     panels.append(ax)
 
     ax = _axes(fig, slots[2])
-    _line(ax, t, deg(omega), color=OURS, label="ω = ψ̇")
-    _line(ax, t, deg(result.reference("omega")), color=REF, ls="--", lw=1.1, label="ω_ref")
+    _line(ax, t, deg(omega), color=OURS, label=r"$\omega = \dot\psi$")
+    _line(ax, t, deg(result.reference("omega")), color=REF, ls="--", lw=1.1, label=r"$\omega_\mathrm{ref}$")
     ax.set(ylabel="yaw rate [deg/s]", title="Yaw rate")
     _legend(ax)
     panels.append(ax)
 
     ax = _axes(fig, slots[3])
     xr, yr = _ref_xy(result)
-    _line(ax, t, 100 * (x - xr), color=PALETTE[0], label="x − x_r")
-    _line(ax, t, 100 * (y - yr), color=PALETTE[1], label="y − y_r")
+    _line(ax, t, 100 * (x - xr), color=PALETTE[0], label=r"$x - x_r$")
+    _line(ax, t, 100 * (y - yr), color=PALETTE[1], label=r"$y - y_r$")
     ax.set(ylabel="[cm]", title="Position error")
     _legend(ax)
     panels.append(ax)
 
     if internals:
         ax = _axes(fig, slots[4])
-        _line(ax, t, result.inputs[:, 0], color=PALETTE[0], lw=1.0, label="u_r")
-        _line(ax, t, result.inputs[:, 1], color=PALETTE[1], lw=1.0, label="u_l")
+        _line(ax, t, result.inputs[:, 0], color=PALETTE[0], lw=1.0, label=r"$u_r$")
+        _line(ax, t, result.inputs[:, 1], color=PALETTE[1], lw=1.0, label=r"$u_l$")
         _robust_ylim(ax, result.inputs[:, 0], result.inputs[:, 1])
         ax.set(ylabel="torque [N m]", title="Wheel torques")
         _legend(ax)
@@ -523,14 +550,16 @@ def tracking(result, scenario=None, path=None, title=None, internals: bool = Tru
         ax = _axes(fig, slots[6])
         weights = [n for n in inner if n.startswith("c1_")] + [n for n in inner if n.startswith("c2_")]
         if weights and np.any([np.any(inner[n] != 0) for n in weights]):
-            c1 = [n for n in weights if n.startswith("c1_")]
-            c2 = [n for n in weights if n.startswith("c2_")]
-            for i, n in enumerate(c1):
-                _line(ax, t, inner[n], color=PALETTE[i % len(PALETTE)], lw=0.9, label="Ĉ1" if i == 0 else None)
-            for i, n in enumerate(c2):
-                _line(ax, t, inner[n], color=PALETTE[i % len(PALETTE)], lw=0.9, ls="--", label="Ĉ2" if i == 0 else None)
-            ax.set(title="Fuzzy weights Ĉ1 (solid), Ĉ2 (dashed)", ylabel="weight")
-            _legend(ax)
+            # Eighteen weights read as a heat map over time: one row each, Ĉ1's above Ĉ2's.
+            table = np.array([inner[n] for n in weights])
+            reach = float(np.max(np.abs(table))) or 1.0
+            image = ax.imshow(table, aspect="auto", cmap="RdBu_r", vmin=-reach, vmax=reach, interpolation="nearest",
+                              extent=(t[0], t[-1], len(weights) - 0.5, -0.5))
+            ax.set_yticks(range(len(weights)))
+            ax.set_yticklabels([rf"$\hat C_{{{n[1]},{n.split('_')[1]}}}$" for n in weights], fontsize=5.5)
+            ax.figure.colorbar(image, ax=ax, fraction=0.05, pad=0.02, label="weight")
+            ax.set(title=r"Fuzzy weights $\hat C_1$ (top), $\hat C_2$ (bottom)")
+            ax.grid(False)
         elif "e1" in inner:
             for i, (n, label) in enumerate((("e1", "e1 (along)"), ("e2", "e2 (across)"))):
                 _line(ax, t, 100 * inner[n], color=PALETTE[i], label=label)
@@ -586,6 +615,20 @@ def metric_unit(name: str):
     return METRIC_UNITS.get(name, (name, 1.0, ""))
 
 
+#: Figure labels (matplotlib mathtext) of the metrics whose plain label has dots and
+#: subscripts; the plain label is the terminal's.
+_METRIC_TEX = {
+    "mean_abs_pitch_error": r"mean $|\varphi - \varphi_s|$",
+    "mean_abs_speed_error": r"mean $|\dot\theta - \dot\theta_\mathrm{ref}|$",
+    "mean_abs_x_error": r"mean $|x - x_r|$",
+    "mean_abs_y_error": r"mean $|y - y_r|$",
+}
+
+
+def _metric_label(name: str) -> str:
+    return _METRIC_TEX.get(name, metric_unit(name)[0])
+
+
 #: The SI unit behind each display unit of METRIC_UNITS.
 _SI = {"deg": "rad", "deg/s": "rad/s", "cm": "m"}
 
@@ -611,7 +654,8 @@ def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None
     gs = _grid(fig, 1, len(metrics), top=1.0, wspace=0.3)
     for i, name in enumerate(metrics):
         ax = _axes(fig, gs[0, i])
-        label, scale, unit = metric_unit(name)
+        _, scale, unit = metric_unit(name)
+        label = _metric_label(name)
         values = np.asarray(m[name], float)[keep] * scale
         values = values[np.isfinite(values)]
         if len(values):
@@ -643,8 +687,8 @@ _ANGLES = {"slope", "phi0", "phi_dot0", "theta0", "theta_dot0", "psi0", "omega0"
 
 
 def _axis_label(name):
-    return {"slope": "slope [deg]", "phi0": "initial pitch φ(0) [deg]", "phi_dot0": "initial pitch rate φ̇(0) [deg/s]",
-            "theta0": "θ(0) [deg]", "theta_dot0": "θ̇(0) [deg/s]"}.get(name, name)
+    return {"slope": "slope [deg]", "phi0": "initial pitch φ(0) [deg]", "phi_dot0": r"initial pitch rate $\dot\varphi(0)$ [deg/s]",
+            "theta0": "θ(0) [deg]", "theta_dot0": r"$\dot\theta(0)$ [deg/s]"}.get(name, name)
 
 
 @_styled
@@ -712,20 +756,26 @@ def bars(groups: Sequence[str], series: Mapping[str, Sequence[float]], ax, ylabe
          log: bool = False, marks: Optional[Mapping[str, Sequence[str]]] = None):
     """Grouped bars: one group per label in `groups`, one bar per entry of `series`.
     `thesis` maps a series name to per-group values drawn as black diamonds on that bar;
-    `marks` to per-group text written above the bars (e.g. 'fell'). With `log`, the bars
-    start a decade below the smallest value and the axis shows plain numbers."""
+    `marks` to per-group text written above the bars (e.g. 'fell'). With `log` the values
+    are dots on a stem from the axis, not bars (a bar's length means nothing on a log axis),
+    and the axis shows plain numbers."""
     n = len(series)
     width = 0.8 / max(n, 1)
     xs = np.arange(len(groups))
     values_all = np.concatenate([np.asarray(v, float) for v in series.values()] +
                                 [np.asarray(v, float) for v in (thesis or {}).values()])
     values_all = values_all[np.isfinite(values_all) & (values_all > 0)]
-    bottom = 10 ** math.floor(math.log10(values_all.min())) if (log and len(values_all)) else 0.0
+    bottom = 10 ** math.floor(math.log10(values_all.min())) if (log and len(values_all)) else 0.0  # a log axis's floor
     labelled = False
     for i, (name, given) in enumerate(series.items()):
         pos = xs - 0.4 + width * (i + 0.5)
         values = np.asarray(given, float)
-        ax.bar(pos, values - bottom, width * 0.92, bottom=bottom, color=PALETTE[i % len(PALETTE)], label=name)
+        colour = PALETTE[i % len(PALETTE)]
+        if log:
+            ax.vlines(pos, bottom, values, color=colour, lw=1.0, alpha=0.6)
+            ax.plot(pos, values, "o", color=colour, ms=5, label=name)
+        else:
+            ax.bar(pos, values, width * 0.92, color=colour, label=name)
         if thesis and name in thesis:
             tv = np.asarray(thesis[name], float)
             ok = np.isfinite(tv)
@@ -762,8 +812,8 @@ def table_5_1(rows, thesis: Optional[Mapping] = None, path=None, title=None):
         sel = [r for r in rows if r["surface"] == surface]
         plants = list(dict.fromkeys(r["case"] for r in sel))
         cell = {(r["case"], r["controller"]): r for r in sel}
-        for j, (key, ylabel, what) in enumerate((("pitch_error_deg", "mean |φ − φ_s| [deg]", "pitch"),
-                                                 ("speed_error_deg_s", "mean |θ̇ − θ̇_ref| [deg/s]", "wheel-speed"))):
+        for j, (key, ylabel, what) in enumerate((("pitch_error_deg", r"mean $|\varphi - \varphi_s|$ [deg]", "pitch"),
+                                                 ("speed_error_deg_s", r"mean $|\dot\theta - \dot\theta_\mathrm{ref}|$ [deg/s]", "wheel-speed"))):
             ax = _axes(fig, gs[i, j])
             series = {_CONTROLLER_NAMES.get(c, c): [cell[(p, c)][key] for p in plants] for c in controllers}
             marks = {_CONTROLLER_NAMES.get(c, c): ["" if cell[(p, c)]["outcome"] == "completed" else cell[(p, c)]["outcome"]

@@ -27,6 +27,7 @@ REPRODUCE_EPILOG = """examples:
   twip reproduce                        everything into twip-report/ (about a minute on 2 cores)
   twip reproduce --out /tmp/r --quick   shorter runs, fewer samples: a smoke test
   twip reproduce --jobs 1               render the figures in this process only
+  twip reproduce --format pdf           vector figures (svg or pdf); --dpi N for the PNGs
 
 writes: one PNG per thesis figure analogue (fig4.2_slope-lqr-sim.png, ...), table5.1.png,
 table5.2.png, sweep_*.png, fall_maps.png, two GIFs, report.md and report.json (the same
@@ -77,6 +78,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--jobs", type=int, default=None, metavar="K",
                    help="processes rendering the figures (default: up to 2)")
     p.add_argument("--no-animations", action="store_true", help="skip the GIFs")
+    p.add_argument("--format", choices=("png", "svg", "pdf"), default="png",
+                   help="figure format: png (default), or svg / pdf for vector output")
+    p.add_argument("--dpi", type=positive_float, default=None, metavar="N",
+                   help="resolution of the PNGs (default 150; 60 with --quick)")
     p.set_defaults(func=commands.reproduce)
 
     p = sub.add_parser("demo", help="the same as `reproduce --quick`",

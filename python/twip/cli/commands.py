@@ -213,7 +213,8 @@ def sweep(args) -> int:
 def reproduce(args) -> int:
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs {args.jobs}: must be at least 1")
-    report.reproduce(args.out, quick=args.quick, jobs=args.jobs, animations=not args.no_animations)
+    report.reproduce(args.out, quick=args.quick, jobs=args.jobs, animations=not args.no_animations,
+                     fmt=args.format, dpi=args.dpi)
     return 0
 
 

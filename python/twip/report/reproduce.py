@@ -53,15 +53,23 @@ class Steps:
             print(f"  {label:64s} {seconds:7.2f} s   (total {total:5.1f} s)", flush=True)
 
 
-class Figures:
-    """The figures to render: file name -> caption, and the jobs that draw them."""
+#: The figure formats `reproduce` writes (animations stay GIFs).
+FORMATS = ("png", "svg", "pdf")
 
-    def __init__(self, out: Path):
+
+class Figures:
+    """The figures to render: file name -> caption, and the jobs that draw them. A figure
+    named `x.png` is written as `x.<fmt>` (vector output with svg or pdf)."""
+
+    def __init__(self, out: Path, fmt: str = "png"):
         self.out = str(out)
+        self.fmt = fmt
         self.captions: Dict[str, str] = {}
         self.jobs: List[tuple] = []
 
     def add(self, filename: str, caption: str, make: Callable[[str], Any]) -> None:
+        if filename.endswith(".png"):
+            filename = filename[:-len("png")] + self.fmt
         self.captions[filename] = caption
         self.jobs.append((filename, make, self.out))
 
@@ -224,10 +232,16 @@ def _write_reports(out: Path, report: dict, steps: Steps) -> dict:
 
 
 def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, animations: bool = True,
-              quiet: bool = False) -> dict:
+              quiet: bool = False, fmt: str = "png", dpi: Optional[float] = None) -> dict:
     """Runs every thesis scenario, the Table 5.1/5.2 comparisons and the robustness sweeps;
-    writes the figures, report.md and report.json to `out`. Returns the report (a dict)."""
+    writes the figures (`fmt`: png, svg or pdf; `dpi` for the PNGs, default 150, 60 with
+    `quick`), report.md and report.json to `out`. Returns the report (a dict)."""
     from twip import plot
+
+    if fmt not in FORMATS:
+        raise twip.InvalidParameterError(f"fmt = {fmt!r}: must be one of {', '.join(FORMATS)}")
+    if dpi is not None and not (isinstance(dpi, (int, float)) and 10 <= dpi <= 1200):
+        raise twip.InvalidParameterError(f"dpi = {dpi!r}: must be a number in 10..1200")
 
     plot.use_agg()
     out = Path(out)
@@ -237,7 +251,7 @@ def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, 
     mode = "quick" if quick else "full"
     if not quiet:
         print(f"twip {twip.__version__}: reproducing the thesis into {out}/ ({mode}; RobotParams.balanbot())", flush=True)
-    figures = Figures(out)
+    figures = Figures(out, fmt)
     runs, claims, summary = _run_scenarios(quick, steps)
     _scenario_figures(runs, quick, steps, figures)
     table_5_1 = _table_5_1(quick, steps, figures, claims)
@@ -246,7 +260,7 @@ def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, 
     basins = fall_maps(runs, quick, steps, figures, controller_family)
     if animations:
         _animations(runs, quick, figures)
-    render(figures.jobs, jobs, steps, dpi=60 if quick else None)  # quick: smaller, faster PNGs
+    render(figures.jobs, jobs, steps, dpi=dpi if dpi is not None else (60 if quick else None))  # quick: smaller, faster
     report = {
         "twip": twip.__version__, "mode": mode, "robot": twip.RobotParams.balanbot().to_dict(),
         "claims": claims, "scenarios": summary, "table_5_1": table_5_1, "table_5_2": table_5_2,
