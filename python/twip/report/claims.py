@@ -259,15 +259,47 @@ def table_5_1_claims(rows) -> List[dict]:
     return out
 
 
-def table_5_2_claims(rows) -> List[dict]:
+def pid_over_smc(rows) -> float:
+    """Table 5.2's conclusion as a number: PID's mean |x|, |y| error over the fuzzy sliding-mode
+    tracker's, over the plants of `rows` (tracking.compare's)."""
     def mean_error(name):
         sel = [r for r in rows if r["controller"] == name and r["outcome"] == "completed"]
         return float(np.mean([(r["x"] + r["y"]) / 2 for r in sel])) if sel else float("nan")
 
+    pid, smc = mean_error("circle-pid"), mean_error("circle-smc-fuzzy")
+    return pid / smc if smc > 0 else float("inf")
+
+
+def table_5_1_holds(controller: str, surface: str, metric: str, ours: float) -> bool:
+    """Whether a Table 5.1 row is reproduced (within 25 % of the thesis)."""
+    pitch, speed = THESIS_TABLE_5_1[(surface, controller)]
+    return _within(ours, pitch if metric == "pitch" else speed, 0.25)
+
+
+def settles_about(thesis: float, ours: float) -> bool:
+    """The "settles in about" rule: within max(0.5 s, 25 %)."""
+    return _within(ours, thesis, 0.25, 0.5)
+
+
+def with_sensitivity(claims: List[dict], table: dict) -> None:
+    """Puts each claim's sensitivity (report.sensitivity) on its row; a conclusion that does
+    not hold over the whole range says so in its reason."""
+    for c in claims:
+        entry = table.get(c["id"])
+        if entry is None:
+            continue
+        c["sensitivity"] = entry
+        if c["status"] == "reproduced" and entry["holds"] is not None and entry["holds"] < 1:
+            detail = (", ".join(f"{k}: {v}" for k, v in entry["by_choice"].items()) if "by_choice" in entry
+                      else f"ours {entry['low']}–{entry['high']}")
+            c["reason"] += (f"; holds in {entry['holds']:.0%} of the runs over choices the thesis does not give "
+                            f"({detail})")
+
+
+def table_5_2_claims(rows) -> List[dict]:
     thesis = THESIS_TABLE_5_2
     thesis_ratio = (sum(thesis["pid"]) / 2) / (sum(thesis["smc"]) / 2)
-    pid, smc = mean_error("circle-pid"), mean_error("circle-smc-fuzzy")
-    ratio = pid / smc if smc > 0 else float("inf")
+    ratio = pid_over_smc(rows)
     plants = ", ".join(dict.fromkeys(r["plant"] for r in rows))
     return [_claim("table-5.2/smc-beats-pid", "Table 5.2",
                    "sliding mode (fuzzy) much better than PID: PID error / sliding-mode error", thesis_ratio, ratio, "×",

@@ -42,6 +42,18 @@ def render_markdown(report: dict) -> str:
                          [[c["id"], c["claim"], fmt(c["thesis"]), fmt(c["ours"]),
                            fmt(c["realism"]["ours"]) if "realism" in c else "", c["unit"], c["basis"], c["status"],
                            c["reason"]] for c in claims]))
+    sensitive = [c for c in claims if "sensitivity" in c]
+    if sensitive:
+        out += ["", "## How much our numbers depend on what the thesis does not give", "",
+                "Each claim below rests on a choice the thesis does not publish; it was rerun over a plausible range of "
+                "that choice (twip/report/sensitivity.py says which and why). *holds*: the share of those runs in which "
+                "the thesis's claim holds.", ""]
+        out.append(_md_table(["id", "choices (range)", "ours: low", "ours: high", "holds", "runs"],
+                             [[c["id"], "; ".join(f"{k} {' – '.join(str(x) for x in v)}"
+                                                  for k, v in c["sensitivity"]["choices"].items()),
+                               fmt(c["sensitivity"]["low"]), fmt(c["sensitivity"]["high"]),
+                               f"{100 * c['sensitivity']['holds']:.0f} %", str(c["sensitivity"]["runs"])]
+                              for c in sensitive]))
     names = {"lqr": "LQR", "fuzzy": "fuzzy", "fuzzy-fixed": "fuzzy, adapt off", "fuzzy+ki": "fuzzy + ki"}
     t51 = report["table_5_1"]
     if t51:

@@ -13,7 +13,9 @@ from typing import Any, Callable, Dict, List, Optional
 import twip
 from twip import scenarios
 from twip.plot import metric_unit
-from twip.report.claims import THESIS_TABLE_5_1, claims_for, summary_line, table_5_1_claims, table_5_2_claims
+from twip.report import sensitivity
+from twip.report.claims import (THESIS_TABLE_5_1, claims_for, pid_over_smc, settles_about, summary_line, table_5_1_claims,
+                                 table_5_1_holds, table_5_2_claims, with_sensitivity)
 from twip.report.markdown import render_markdown
 from twip.report.numbers import dec, jsonable, sig
 from twip.report.sweeps import fall_maps, robustness_sweeps
@@ -206,6 +208,19 @@ def _table_5_2(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) 
              "y_realism_cm": dec(100 * r["y_realism"], 2)} for r in rows]
 
 
+def _sensitivity(quick: bool, steps: Steps, claims: List[dict]) -> None:
+    """Reruns the claims that rest on unpublished choices over those choices (report.sensitivity)."""
+    thesis = {c["id"]: c["thesis"] for c in claims}
+    table: dict = {}
+    table.update(steps.attempt("sensitivity: Table 5.1 over the hold and settle windows", sensitivity.table_5_1,
+                               table_5_1_holds, quick) or {})
+    table.update(steps.attempt("sensitivity: slope-fuzzy-sim's settling over the adaptation gain", sensitivity.fuzzy_settling,
+                               lambda key, ours: settles_about(thesis[f"slope-fuzzy-sim/{key}"], ours), quick) or {})
+    table.update(steps.attempt("sensitivity: Table 5.2's conclusion with the thesis's λ1 (4.74)", sensitivity.smc_versus_pid,
+                               pid_over_smc, 2 if quick else 3) or {})
+    with_sensitivity(claims, table)
+
+
 def _animations(runs: dict, quick: bool, figures: Figures) -> None:
     """Two GIFs: the first 2-DOF experiment on a slope and the first tracker."""
     from twip import animate
@@ -256,6 +271,7 @@ def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, 
     _scenario_figures(runs, quick, steps, figures)
     table_5_1 = _table_5_1(quick, steps, figures, claims)
     table_5_2 = _table_5_2(quick, steps, figures, claims)
+    _sensitivity(quick, steps, claims)
     sweeps = robustness_sweeps(runs, quick, steps, figures, controller_family, quick_options)
     basins = fall_maps(runs, quick, steps, figures, controller_family)
     if animations:

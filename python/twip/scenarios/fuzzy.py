@@ -148,7 +148,7 @@ CONTROLLERS = ("lqr", "fuzzy", "fuzzy-fixed", "fuzzy+ki")
 
 def compare_table(params=None, cases: Optional[Iterable[str]] = None,
                   controllers: Iterable[str] = ("lqr", "fuzzy", "fuzzy-fixed"), period: float = 5e-3,
-                  realism=None) -> list:
+                  realism=None, hold: float = 5.0, settle: float = 5.0) -> list:
     """Table 5.1 analogue: mean |pitch error| and |wheel-speed error| of each controller on the
     slope-fuzzy and flat-fuzzy runs (same schedule, start and plant for every controller).
 
@@ -158,7 +158,8 @@ def compare_table(params=None, cases: Optional[Iterable[str]] = None,
     "fuzzy+ki" (with KI_SLOPE / KI_FLAT). Errors are against the plant's own steady pitch.
     With `realism` (a twip.Realism) each nominal row also carries the same run with that
     robot in the loop: `outcome_realism`, `pitch_error_deg_realism`, `speed_error_deg_s_realism`.
-    Returns one dict per (surface, case, controller)."""
+    `hold` and `settle` [s] are the go-and-back run's waits at the far goal and at home (the
+    thesis does not give them; twip's 5 s each). Returns one dict per (surface, case, controller)."""
     from twip.scenarios.registry import get
 
     params = params if params is not None else _core.RobotParams.balanbot()
@@ -170,7 +171,8 @@ def compare_table(params=None, cases: Optional[Iterable[str]] = None,
                 if which not in CONTROLLERS:
                     raise _core.InvalidParameterError(f"unknown controller '{which}'; known: {', '.join(CONTROLLERS)}")
                 options = {"fuzzy-fixed": dict(adapt=False), "fuzzy+ki": dict(ki=ki)}.get(which, {})
-                sc = get(name, params=plant, controller_params=params, period=period, **options)
+                sc = get(name, params=plant, controller_params=params, period=period, hold=hold, settle=settle,
+                         **options)
                 if which == "lqr":
                     sc = sc.replace(controller=_lqr_like(sc, params, period))
                 r = sc.run()
