@@ -212,7 +212,7 @@ def _sensitivity(quick: bool, steps: Steps, claims: List[dict]) -> None:
     """Reruns the claims that rest on unpublished choices over those choices (report.sensitivity)."""
     thesis = {c["id"]: c["thesis"] for c in claims}
     table: dict = {}
-    table.update(steps.attempt("sensitivity: Table 5.1 over the hold and settle windows", sensitivity.table_5_1,
+    table.update(steps.attempt("sensitivity: Table 5.1 over the hold and settle windows and the loop period", sensitivity.table_5_1,
                                table_5_1_holds, quick) or {})
     table.update(steps.attempt("sensitivity: slope-fuzzy-sim's settling over the adaptation gain", sensitivity.fuzzy_settling,
                                lambda key, ours: settles_about(thesis[f"slope-fuzzy-sim/{key}"], ours), quick) or {})

@@ -15,6 +15,9 @@ from twip.report.numbers import sig
 #: The go-and-back run's waits [s] at the far goal and at home (the thesis shows a hold
 #: but gives no length; twip's 5 s each). 3-7 s spans what its figures could show.
 WINDOWS = {"hold [s]": (3.0, 5.0, 7.0), "settle [s]": (3.0, 5.0, 7.0)}
+#: The control loop's period [s]: the thesis's Arduino loop is not stated for these runs;
+#: 2-10 ms spans what an Uno's loop with an MPU-6050 read takes.
+PERIODS = (0.002, 0.005, 0.01)
 #: The fuzzy adaptation gain Γ (unpublished): 0.005-1 spans the rates at which the weights
 #: move from barely to about as fast as the PD.
 GAMMAS = (0.005, 0.02, 0.1, 0.3, 1.0)
@@ -31,18 +34,19 @@ def _entry(choices: Dict[str, Sequence], values: Sequence[float], holds: Sequenc
 
 
 def table_5_1(judge: Callable[[str, str, str, float], bool], quick: bool) -> Dict[str, dict]:
-    """Table 5.1's rows over the hold and settle windows: {claim id: sensitivity}.
-    `judge(controller, surface, metric, ours)` says whether a row's claim holds."""
+    """Table 5.1's rows over the hold and settle windows and the loop period: {claim id:
+    sensitivity}. `judge(controller, surface, metric, ours)` says whether a row's claim holds."""
     from twip.scenarios.fuzzy import compare_table
 
-    grid = list(itertools.product(*WINDOWS.values()))
+    choices = {**WINDOWS, "loop period [s]": PERIODS}
+    grid = list(itertools.product(*choices.values()))
     if quick:
         grid = [grid[0], grid[-1]]
     per_row: Dict[str, List[float]] = {}
     held: Dict[str, List[bool]] = {}
     better = {"flat": [], "slope": []}
-    for hold, settle in grid:
-        rows = compare_table(cases=["nominal"], controllers=("lqr", "fuzzy"), hold=hold, settle=settle)
+    for hold, settle, period in grid:
+        rows = compare_table(cases=["nominal"], controllers=("lqr", "fuzzy"), hold=hold, settle=settle, period=period)
         by = {(r["surface"], r["controller"]): r for r in rows}
         for (surface, controller), r in by.items():
             for metric, key in (("pitch", "pitch_error_deg"), ("speed", "speed_error_deg_s")):
@@ -53,9 +57,9 @@ def table_5_1(judge: Callable[[str, str, str, float], bool], quick: bool) -> Dic
             lqr, fuzzy = by[(surface, "lqr")], by[(surface, "fuzzy")]
             better[surface].append(fuzzy["pitch_error_deg"] < lqr["pitch_error_deg"]
                                    and fuzzy["speed_error_deg_s"] < lqr["speed_error_deg_s"])
-    out = {cid: _entry(WINDOWS, values, held[cid]) for cid, values in per_row.items()}
+    out = {cid: _entry(choices, values, held[cid]) for cid, values in per_row.items()}
     for surface, wins in better.items():
-        out[f"table-5.1/fuzzy-beats-lqr-{surface}"] = _entry(WINDOWS, [float(w) for w in wins], wins)
+        out[f"table-5.1/fuzzy-beats-lqr-{surface}"] = _entry(choices, [float(w) for w in wins], wins)
     return out
 
 
