@@ -11,7 +11,7 @@ import twip.reference.fuzzy as rf
 import twip.scenarios as scenarios
 from twip.reference.control import SpeedSchedule as RefSchedule
 from twip.reference.control import simulate as ref_simulate
-from twip.scenarios.fuzzy import KI_FLAT, KI_SLOPE, compare_table, mismatched, stop_errors
+from twip.scenarios.fuzzy import SET_CHOICES, KI_FLAT, KI_SLOPE, compare_table, mismatched, sets_of, stop_errors
 from conftest import rel_diff
 
 SPEED = math.radians(180)
@@ -113,23 +113,6 @@ def test_ki_is_tuned_for_the_five_second_holds(name):
     assert first[-0.003] > first[KI_SLOPE] > first[-0.005] > 0 > first[-0.01]
 
 
-def _shoulders(inner, outer):
-    """N, Z, P: two shoulders and a trapezoid (a triangle when inner = 0)."""
-    inf = math.inf
-    return [twip.Trapezoid(-inf, -inf, -outer, -inner), twip.Trapezoid(-outer, -inner, inner, outer),
-            twip.Trapezoid(inner, outer, inf, inf)]
-
-
-# (phi core, phi foot, phi_dot core, phi_dot foot) [rad, rad/s]: docs/scenarios.md's table of sets.
-SET_CHOICES = {
-    "**0.1/0.3, 0.5/2 (default)**": (0.1, 0.3, 0.5, 2.0),
-    "triangles 0/0.3, 0/2": (0.0, 0.3, 0.0, 2.0),
-    "narrow 0.05/0.15, 0.25/1": (0.05, 0.15, 0.25, 1.0),
-    "wide 0.2/0.6, 1/4": (0.2, 0.6, 1.0, 4.0),
-    "triangles 0/0.5, 0/5": (0.0, 0.5, 0.0, 5.0),
-}
-
-
 def _errors(name, **options):
     """(mean |pitch error| [deg], mean |speed error| [deg/s], stops [cm]) of a completed run."""
     sc = scenarios.get(name, **options)
@@ -144,8 +127,8 @@ def test_the_results_do_not_hinge_on_the_fuzzy_sets():
     errors near the default's."""
     default = {n: _errors(n) for n in ("slope-fuzzy", "flat-fuzzy")}
     print("\n| sets (φ core/foot, φ̇ core/foot) | slope: pitch [°], speed [°/s], stops [cm] | flat: same |")
-    for label, (pi, po, di, do) in SET_CHOICES.items():
-        sets = [_shoulders(pi, po), _shoulders(di, do)]
+    for label in SET_CHOICES:
+        sets = sets_of(label)
         cells = []
         for name in ("slope-fuzzy", "flat-fuzzy"):
             pitch, speed, stops = _errors(name, sets=sets)

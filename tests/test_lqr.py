@@ -183,3 +183,15 @@ def test_errors(balanbot):
         scenarios.get("no-such-scenario")
     with pytest.raises(twip.InvalidParameterError, match="speed"):
         twip.SpeedSchedule([(1.0, -1.0, 0.0)])
+
+
+def test_on_the_flat_the_steady_pitch_is_the_ground_frictions_lean(balanbot):
+    """The report's reason for the flat phi_s rows: the thesis's 0 holds only without ground
+    friction; with it the robot leans forward by arcsin(mu_g theta_dot / (M_b g l)) (4.62)."""
+    speed = math.radians(180)
+    lean = math.degrees(twip.SlopeModel(balanbot, 0.0).equilibrium(speed)[0][0])
+    expected = math.degrees(math.asin(balanbot.mu_ground * speed / (balanbot.m_body * balanbot.g * balanbot.com_height)))
+    print(f"flat phi_s at 180 deg/s: {lean:.4f} deg (arcsin formula {expected:.4f} deg)")
+    assert lean == pytest.approx(expected, rel=1e-9) and lean > 0.05
+    frictionless = twip.SlopeModel(balanbot.replace(mu_ground=0.0), 0.0)
+    assert frictionless.equilibrium(speed)[0][0] == 0.0

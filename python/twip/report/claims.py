@@ -40,6 +40,22 @@ _WHY = {
 }
 
 
+#: The run that tests each row's reason (a reason without one is an observation of ours).
+CHECKS = {
+    "flat-lqr-sim/gains": "pytest tests/test_lqr.py -k published_flat_gains",
+    "slope-lqr-sim/phi_s_deg": "pytest tests/test_lqr.py -k published_flat_gains",
+    "slope-lqr-sim/gains": "pytest tests/test_lqr.py -k 'no_diagonal_weights or integral_gain_is_fixed'",
+    "slope-fuzzy-sim/phi_s_deg": "pytest tests/test_fuzzy_control.py -k phi_s_follows",
+    "flat-lqr-sim/phi_s_deg": "pytest tests/test_lqr.py -k ground_frictions_lean",
+    "flat-fuzzy-sim/phi_s_deg": "pytest tests/test_lqr.py -k ground_frictions_lean",
+    "slope-lqr/goals": "pytest tests/test_lqr.py -k operating_design_stops",
+    "slope-fuzzy/goals": "pytest tests/test_fuzzy_control.py -k 'integral_term_stops or ki_is_tuned'",
+    "circle-smc/table_5_2": "this report's Table 5.2 (the ±20 % plants)",
+    "circle-smc-fuzzy/table_5_2": "this report's Table 5.2 (the ±20 % plants)",
+    "table-5.1/fuzzy-slope/speed": "this report's Table 5.1, the fuzzy + ki column of docs/scenarios.md",
+    "table-5.2/smc-beats-pid": "this report's sensitivity section (λ1 of (4.74))",
+}
+
 #: Claims that are inputs, or values the robot or a choice was fitted to: shown beside ours
 #: but not evidence, so not counted as reproduced (basis "calibrated"; every other row is a
 #: "prediction").
@@ -88,8 +104,11 @@ def _claim(cid, source, claim, thesis, ours, unit, ok, why=None, why_ok="", why_
     basis = "calibrated" if cid in CALIBRATED else "prediction"
     if basis == "calibrated":
         status, reason = "calibrated", CALIBRATED[cid] + ("" if ok else f"; ours still differs ({reason})")
-    return {"id": cid, "source": source, "claim": claim, "thesis": sig(thesis), "ours": sig(ours), "unit": unit,
-            "status": status, "basis": basis, "reason": reason}
+    row = {"id": cid, "source": source, "claim": claim, "thesis": sig(thesis), "ours": sig(ours), "unit": unit,
+           "status": status, "basis": basis, "reason": reason}
+    if cid in CHECKS:
+        row["check"] = CHECKS[cid]
+    return row
 
 
 def _realism(row, value, outcome):

@@ -41,7 +41,7 @@ def render_markdown(report: dict) -> str:
     out.append(_md_table(["id", "claim", "thesis", "ours", "ours, thesis-like robot", "unit", "basis", "status", "reason"],
                          [[c["id"], c["claim"], fmt(c["thesis"]), fmt(c["ours"]),
                            fmt(c["realism"]["ours"]) if "realism" in c else "", c["unit"], c["basis"], c["status"],
-                           c["reason"]] for c in claims]))
+                           c["reason"] + (f" (checked by `{c['check']}`)" if "check" in c else "")] for c in claims]))
     sensitive = [c for c in claims if "sensitivity" in c]
     if sensitive:
         out += ["", "## How much our numbers depend on what the thesis does not give", "",

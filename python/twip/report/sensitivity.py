@@ -21,13 +21,15 @@ PERIODS = (0.002, 0.005, 0.01)
 #: The fuzzy adaptation gain Γ (unpublished): 0.005-1 spans the rates at which the weights
 #: move from barely to about as fast as the PD.
 GAMMAS = (0.005, 0.02, 0.1, 0.3, 1.0)
+#: The weights' leakage σ (unpublished), over the range docs/scenarios.md scans.
+SIGMAS = (0.01, 0.05, 0.2)
 #: The sliding-mode trackers' λ1: twip's pitch offset (errata T8) or the thesis's (4.74).
 PITCH_FORMS = {"twip's pitch offset": True, "thesis (4.74)": False}
 
 
 def _entry(choices: Dict[str, Sequence], values: Sequence[float], holds: Sequence[bool]) -> dict:
     finite = [v for v in values if v is not None and math.isfinite(v)]
-    return {"choices": {k: [v[0], v[-1]] if all(isinstance(x, (int, float)) for x in v) else list(v)
+    return {"choices": {k: [min(v), max(v)] if all(isinstance(x, (int, float)) for x in v) else list(v)
                         for k, v in choices.items()},
             "low": sig(min(finite)) if finite else None, "high": sig(max(finite)) if finite else None,
             "holds": sig(sum(holds) / len(holds)) if holds else None, "runs": len(values)}
@@ -64,16 +66,21 @@ def table_5_1(judge: Callable[[str, str, str, float], bool], quick: bool) -> Dic
 
 
 def fuzzy_settling(judge: Callable[[str, float], bool], quick: bool) -> Dict[str, dict]:
-    """slope-fuzzy-sim's settling claims over the adaptation gain Γ."""
-    gammas = (GAMMAS[0], GAMMAS[-1]) if quick else GAMMAS
+    """slope-fuzzy-sim's settling claims over the adaptation gain Γ and leakage σ, and over
+    the fuzzy sets of Figs 4.4/4.5 (scenarios.fuzzy.SET_CHOICES, at the default Γ, σ)."""
+    from twip.scenarios.fuzzy import SET_CHOICES, sets_of
+
+    gammas, sigmas = ((GAMMAS[0], GAMMAS[-1]), (SIGMAS[1],)) if quick else (GAMMAS, SIGMAS)
+    options = {"t_final": 6.0} if quick else {}
+    runs = [dict(gamma=g, sigma=s) for g, s in itertools.product(gammas, sigmas)]
+    runs += [dict(sets=sets_of(label)) for label in (list(SET_CHOICES)[:2] if quick else SET_CHOICES)]
     values = {"pitch_settling_time": [], "speed_settling_time": []}
-    for gamma in gammas:
-        options = {"t_final": 6.0} if quick else {}
-        r = scenarios.get("slope-fuzzy-sim", gamma=gamma, **options).run()
+    for run in runs:
+        r = scenarios.get("slope-fuzzy-sim", **run, **options).run()
         for key in values:
             values[key].append(float(r.metrics[key]))
-    return {f"slope-fuzzy-sim/{key}": _entry({"gamma": gammas}, v, [judge(key, x) for x in v])
-            for key, v in values.items()}
+    choices = {"gamma": gammas, "sigma": sigmas, "sets": tuple(SET_CHOICES)}
+    return {f"slope-fuzzy-sim/{key}": _entry(choices, v, [judge(key, x) for x in v]) for key, v in values.items()}
 
 
 def smc_versus_pid(ratio_of: Callable[[list], float], laps: int) -> Dict[str, dict]:

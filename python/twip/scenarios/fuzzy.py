@@ -112,6 +112,30 @@ def _flat_fuzzy(params, ctrl_params, ki=0.0, adapt=True, gamma=None, sigma=None,
     )
 
 
+def shoulders(inner: float, outer: float) -> list:
+    """N, Z, P over one input: two shoulders and a trapezoid (a triangle when inner = 0)."""
+    inf = math.inf
+    return [_core.Trapezoid(-inf, -inf, -outer, -inner), _core.Trapezoid(-outer, -inner, inner, outer),
+            _core.Trapezoid(inner, outer, inf, inf)]
+
+
+#: Plausible fuzzy sets for Figs 4.4/4.5, which the thesis draws without numbers:
+#: (φ core, φ foot, φ̇ core, φ̇ foot) [rad, rad/s] of `shoulders` (docs/scenarios.md).
+SET_CHOICES = {
+    "0.1/0.3, 0.5/2 (default)": (0.1, 0.3, 0.5, 2.0),
+    "triangles 0/0.3, 0/2": (0.0, 0.3, 0.0, 2.0),
+    "narrow 0.05/0.15, 0.25/1": (0.05, 0.15, 0.25, 1.0),
+    "wide 0.2/0.6, 1/4": (0.2, 0.6, 1.0, 4.0),
+    "triangles 0/0.5, 0/5": (0.0, 0.5, 0.0, 5.0),
+}
+
+
+def sets_of(choice: str) -> list:
+    """The sets of SET_CHOICES[choice], as `scenarios.get(..., sets=)` takes them."""
+    phi_in, phi_out, rate_in, rate_out = SET_CHOICES[choice]
+    return [shoulders(phi_in, phi_out), shoulders(rate_in, rate_out)]
+
+
 def stop_positions(scenario: Scenario, result) -> np.ndarray:
     """Where the robot is [m] at the end of each hold."""
     radius = scenario.model.params.wheel_radius
