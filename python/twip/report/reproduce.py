@@ -216,7 +216,7 @@ def _sensitivity(quick: bool, steps: Steps, claims: List[dict]) -> None:
                                table_5_1_holds, quick) or {})
     table.update(steps.attempt("sensitivity: slope-fuzzy-sim's settling over Γ, σ and the fuzzy sets", sensitivity.fuzzy_settling,
                                lambda key, ours: settles_about(thesis[f"slope-fuzzy-sim/{key}"], ours), quick) or {})
-    table.update(steps.attempt("sensitivity: Table 5.2's conclusion with the thesis's λ1 (4.74)", sensitivity.smc_versus_pid,
+    table.update(steps.attempt("sensitivity: Table 5.2's conclusion over λ1 and k1-k3", sensitivity.smc_versus_pid,
                                pid_over_smc, 2 if quick else 3) or {})
     with_sensitivity(claims, table)
 

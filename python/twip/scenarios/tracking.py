@@ -6,6 +6,7 @@ point; the trackers update every 5 ms (an Arduino loop), RK4 at 1 ms.
 from __future__ import annotations
 
 import math
+from typing import Optional
 
 import numpy as np
 
@@ -79,21 +80,22 @@ def mismatched(params, factor: float):
 
 
 def compare(params=None, mismatch: float = 0.2, laps: int = 3, dt: float = 1e-3, realism=None,
-            pitch_offset: bool = True) -> list:
+            pitch_offset: bool = True, smc_gains: Optional[dict] = None) -> list:
     """Table 5.2's analogue: mean |x - x_r|, |y - y_r| of each tracker on its circle, with the
     plant as the controllers assume it and with every MISMATCH_FIELDS entry of the plant
     +mismatch and -mismatch off (the controllers keep the nominal robot). One dict per run;
     the "_settled" errors leave out the first lap. With `realism` (a `twip.Realism`, e.g.
     `Realism.thesis_like()`) each case also runs on those parts: "realism_outcome",
     "x_realism" and "y_realism". `pitch_offset=False` gives the sliding-mode trackers the
-    thesis's λ1 of (4.74) instead of twip's pitch offset (errata T8)."""
+    thesis's λ1 of (4.74) instead of twip's pitch offset (errata T8); `smc_gains` overrides
+    some of their gains (SmcTracker's `gains`)."""
     nominal = params if params is not None else _core.RobotParams.balanbot()
     rows = []
     cases = [("nominal", 1.0), (f"+{mismatch:.0%}", 1.0 + mismatch), (f"-{mismatch:.0%}", 1.0 - mismatch)]
     for label, factor in cases:
         plant = mismatched(nominal, factor)
         for name in ("circle-pid", "circle-smc", "circle-smc-fuzzy"):
-            options = {} if name == "circle-pid" else {"pitch_offset": pitch_offset}
+            options = {} if name == "circle-pid" else {"pitch_offset": pitch_offset, "gains": smc_gains}
             sc = get(name, params=plant, controller_params=nominal, laps=laps, **options)
             r = sc.run(dt=dt, record_every=1000)
             m = r.metrics
