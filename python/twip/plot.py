@@ -753,20 +753,22 @@ def _plain_log_axis(ax):
 
 
 def bars(groups: Sequence[str], series: Mapping[str, Sequence[float]], ax, ylabel="", thesis: Optional[Mapping] = None,
-         log: bool = False, marks: Optional[Mapping[str, Sequence[str]]] = None):
+         log: bool = False, marks: Optional[Mapping[str, Sequence[str]]] = None, robot: Optional[Mapping] = None):
     """Grouped bars: one group per label in `groups`, one bar per entry of `series`.
     `thesis` maps a series name to per-group values drawn as black diamonds on that bar;
-    `marks` to per-group text written above the bars (e.g. 'fell'). With `log` the values
+    `marks` to per-group text written above the bars (e.g. 'fell'); `robot` to per-group
+    values with the thesis-like robot in the loop, drawn as rings (NaN: not run). With `log` the values
     are dots on a stem from the axis, not bars (a bar's length means nothing on a log axis),
     and the axis shows plain numbers."""
     n = len(series)
     width = 0.8 / max(n, 1)
     xs = np.arange(len(groups))
     values_all = np.concatenate([np.asarray(v, float) for v in series.values()] +
-                                [np.asarray(v, float) for v in (thesis or {}).values()])
+                                [np.asarray(v, float) for v in (thesis or {}).values()] +
+                                [np.asarray(v, float) for v in (robot or {}).values()])
     values_all = values_all[np.isfinite(values_all) & (values_all > 0)]
     bottom = 10 ** math.floor(math.log10(values_all.min())) if (log and len(values_all)) else 0.0  # a log axis's floor
-    labelled = False
+    labelled = robot_labelled = False
     for i, (name, given) in enumerate(series.items()):
         pos = xs - 0.4 + width * (i + 0.5)
         values = np.asarray(given, float)
@@ -776,6 +778,13 @@ def bars(groups: Sequence[str], series: Mapping[str, Sequence[float]], ax, ylabe
             ax.plot(pos, values, "o", color=colour, ms=5, label=name)
         else:
             ax.bar(pos, values, width * 0.92, color=colour, label=name)
+        if robot and name in robot:
+            rv = np.asarray(robot[name], float)
+            ok = np.isfinite(rv)
+            if ok.any():
+                ax.plot(pos[ok], rv[ok], "o", mfc="white", mec=colour, mew=1.4, ms=7,
+                        label=None if robot_labelled else "thesis-like robot (rings)")
+                robot_labelled = True
         if thesis and name in thesis:
             tv = np.asarray(thesis[name], float)
             ok = np.isfinite(tv)
@@ -822,12 +831,15 @@ def table_5_1(rows, thesis: Optional[Mapping] = None, path=None, title=None):
             if thesis:
                 th = {_CONTROLLER_NAMES.get(c, c): [thesis[(surface, c)][j] if p == "nominal" and (surface, c) in thesis
                                                     else np.nan for p in plants] for c in controllers}
-            bars(plants, series, ax, ylabel=ylabel, thesis=th, log=True, marks=marks)
+            robot = {_CONTROLLER_NAMES.get(c, c): [cell[(p, c)].get(key + "_realism", np.nan) for p in plants]
+                     for c in controllers}
+            bars(plants, series, ax, ylabel=ylabel, thesis=th, log=True, marks=marks, robot=robot)
             ax.set_title(f"{surface}: mean {what} error")
     handles, labels = fig.axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(labels), frameon=False)
     return _finish(fig, path, title or "Table 5.1 analogue: the same go-and-back run for each controller; the controller's "
-                   "model is the nominal robot,\nthe plant changes (thesis: black diamonds, nominal only; log scale)")
+                   "model is the nominal robot,\nthe plant changes (thesis: black diamonds; rings: the thesis-like robot in the loop; "
+                   "log scale)")
 
 
 @_styled
@@ -845,7 +857,8 @@ def table_5_2(rows, thesis: Optional[Mapping] = None, path=None, title=None):
         series = {t: [100 * cell[(p, t)][axis] for p in plants] for t in trackers}
         marks = {t: ["" if cell[(p, t)]["outcome"] == "completed" else cell[(p, t)]["outcome"] for p in plants]
                  for t in trackers}
-        bars(plants, series, ax, ylabel=f"mean |{axis} − {axis}_r| [cm]", log=True, marks=marks)
+        robot = {t: [100 * cell[(p, t)].get(f"{axis}_realism", np.nan) for p in plants] for t in trackers}
+        bars(plants, series, ax, ylabel=rf"mean $|{axis} - {axis}_r|$ [cm]", log=True, marks=marks, robot=robot)
         for k, (key, label) in enumerate((("pid", "thesis: PID (experiment)"), ("smc", "thesis: sliding mode (experiment)"))):
             if thesis and key in thesis:
                 ax.axhline(100 * thesis[key][j], color=PALETTE[0 if key == "pid" else 2], ls="--", lw=1.3, label=label)
@@ -853,4 +866,5 @@ def table_5_2(rows, thesis: Optional[Mapping] = None, path=None, title=None):
     handles, labels = fig.axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(labels), frameon=False)
     return _finish(fig, path, title or "Table 5.2 analogue: each tracker on its circle; the controllers keep the nominal "
-                   "model, the plant's masses, inertias,\nlengths and frictions change by ±20 % (log scale)")
+                   "model, the plant's masses, inertias,\nlengths and frictions change by ±20 % (rings: the thesis-like robot in "
+                   "the loop; log scale)")
