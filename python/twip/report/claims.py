@@ -308,10 +308,13 @@ def with_sensitivity(claims: List[dict], table: dict) -> None:
         if entry is None:
             continue
         c["sensitivity"] = entry
-        if c["status"] == "reproduced" and entry["holds"] is not None and entry["holds"] < 1:
+        share = entry["holds"]
+        if share is None or c["status"] not in ("reproduced", "differs"):
+            continue
+        if (c["status"] == "reproduced" and share < 1) or (c["status"] == "differs" and share > 0):
             detail = (", ".join(f"{k}: {v}" for k, v in entry["by_choice"].items()) if "by_choice" in entry
                       else f"ours {entry['low']}–{entry['high']}")
-            c["reason"] += (f"; holds in {entry['holds']:.0%} of the runs over choices the thesis does not give "
+            c["reason"] += (f"; holds in {share:.0%} of the runs over choices the thesis does not give "
                             f"({detail})")
 
 

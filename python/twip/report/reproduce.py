@@ -212,11 +212,12 @@ def _sensitivity(quick: bool, steps: Steps, claims: List[dict]) -> None:
     """Reruns the claims that rest on unpublished choices over those choices (report.sensitivity)."""
     thesis = {c["id"]: c["thesis"] for c in claims}
     table: dict = {}
-    table.update(steps.attempt("sensitivity: Table 5.1 over the hold and settle windows and the loop period", sensitivity.table_5_1,
+    table.update(steps.attempt("sensitivity: Table 5.1 over the windows, loop period and friction", sensitivity.table_5_1,
                                table_5_1_holds, quick) or {})
+    table.update(steps.attempt("sensitivity: the experiments' stops over the windows", sensitivity.goals, quick) or {})
     table.update(steps.attempt("sensitivity: slope-fuzzy-sim's settling over Γ, σ and the fuzzy sets", sensitivity.fuzzy_settling,
                                lambda key, ours: settles_about(thesis[f"slope-fuzzy-sim/{key}"], ours), quick) or {})
-    table.update(steps.attempt("sensitivity: Table 5.2's conclusion over λ1 and k1-k3", sensitivity.smc_versus_pid,
+    table.update(steps.attempt("sensitivity: Table 5.2's conclusion over λ1, k1-k3 and friction", sensitivity.smc_versus_pid,
                                pid_over_smc, 2 if quick else 3) or {})
     with_sensitivity(claims, table)
 

@@ -23,6 +23,15 @@ PERIODS = (0.002, 0.005, 0.01)
 GAMMAS = (0.005, 0.02, 0.1, 0.3, 1.0)
 #: The weights' leakage σ (unpublished), over the range docs/scenarios.md scans.
 SIGMAS = (0.01, 0.05, 0.2)
+#: Gearhead friction on the plant (the thesis models only viscous friction): none, the GB37's
+#: no-load torque split with the fitted viscous bearing, and all of it as Coulomb friction.
+def frictions(params) -> Dict[str, object]:
+    from twip import _core
+
+    return {"none (thesis)": None, "no-load torque split": _core.Friction.gb37_beside(params.mu_bearing / 2),
+            "no-load torque as Coulomb": _core.Friction.gb37()}
+
+
 #: The sliding-mode trackers' λ1: twip's pitch offset (errata T8) or the thesis's (4.74).
 PITCH_FORMS = {"twip's pitch offset": True, "thesis (4.74)": False}
 #: The sliding-mode trackers' kinematic gains (unpublished, errata T4): each halved and
@@ -62,9 +71,50 @@ def table_5_1(judge: Callable[[str, str, str, float], bool], quick: bool) -> Dic
             lqr, fuzzy = by[(surface, "lqr")], by[(surface, "fuzzy")]
             better[surface].append(fuzzy["pitch_error_deg"] < lqr["pitch_error_deg"]
                                    and fuzzy["speed_error_deg_s"] < lqr["speed_error_deg_s"])
+    # Gearhead friction, at the default windows and period.
+    from twip import _core
+
+    kinds = frictions(_core.RobotParams.balanbot())
+    for friction in list(kinds.values())[1:]:
+        rows = compare_table(cases=["nominal"], controllers=("lqr", "fuzzy"), friction=friction)
+        by = {(r["surface"], r["controller"]): r for r in rows}
+        for (surface, controller), r in by.items():
+            for metric, key in (("pitch", "pitch_error_deg"), ("speed", "speed_error_deg_s")):
+                cid = f"table-5.1/{controller}-{surface}/{metric}"
+                ok = r["outcome"] == "completed"
+                per_row[cid].append(r[key] if ok else float("nan"))
+                held[cid].append(ok and judge(controller, surface, metric, r[key]))
+        for surface in better:
+            lqr, fuzzy = by[(surface, "lqr")], by[(surface, "fuzzy")]
+            better[surface].append(fuzzy["pitch_error_deg"] < lqr["pitch_error_deg"]
+                                   and fuzzy["speed_error_deg_s"] < lqr["speed_error_deg_s"])
+    choices["gearhead friction"] = tuple(kinds)
     out = {cid: _entry(choices, values, held[cid]) for cid, values in per_row.items()}
     for surface, wins in better.items():
         out[f"table-5.1/fuzzy-beats-lqr-{surface}"] = _entry(choices, [float(w) for w in wins], wins)
+    return out
+
+
+def goals(quick: bool) -> Dict[str, dict]:
+    """The go-and-back experiments' stops over the hold and settle windows: each row's number is
+    the largest distance of a stop from its goal [m]; the claim holds when both are within 2 cm."""
+    from twip.scenarios.fuzzy import stop_positions
+
+    grid = list(itertools.product(*WINDOWS.values()))
+    if quick:
+        grid = [grid[0], grid[-1]]
+    out = {}
+    for name in ("slope-lqr", "slope-fuzzy", "flat-lqr", "flat-fuzzy"):
+        values, held = [], []
+        for hold, settle in grid:
+            sc = scenarios.get(name, hold=hold, settle=settle)
+            r = sc.run()
+            off = max(abs(p - g) for p, (_, g) in zip(stop_positions(sc, r), sc.thesis["goals"]))
+            values.append(off)
+            held.append(r.outcome == "completed" and off <= 0.02)
+        entry = _entry(WINDOWS, values, held)
+        entry["measure"] = "largest |stop − goal| [m]"
+        out[f"{name}/goals"] = entry
     return out
 
 
@@ -87,14 +137,19 @@ def fuzzy_settling(judge: Callable[[str, float], bool], quick: bool) -> Dict[str
 
 
 def smc_versus_pid(ratio_of: Callable[[list], float], laps: int) -> Dict[str, dict]:
-    """Table 5.2's conclusion under both forms of the sliding-mode trackers' λ1, and over
-    their unpublished gains k1, k2, k3 (one at a time)."""
+    """Table 5.2's conclusion under both forms of the sliding-mode trackers' λ1, over their
+    unpublished gains k1, k2, k3 (one at a time), and with gearhead friction on the plants."""
     from twip.scenarios import tracking
 
     by_form = {label: ratio_of(tracking.compare(laps=laps, pitch_offset=form)) for label, form in PITCH_FORMS.items()}
     by_gain = [ratio_of(tracking.compare(laps=laps, smc_gains={name: value}))
                for name, values in SMC_GAINS.items() for value in values]
-    ratios = [*by_form.values(), *by_gain]
-    entry = _entry({"λ1": tuple(PITCH_FORMS), **SMC_GAINS}, ratios, [r >= 2.0 for r in ratios])
+    from twip import _core
+
+    kinds = frictions(_core.RobotParams.balanbot())
+    by_friction = [ratio_of(tracking.compare(laps=laps, friction=f)) for f in list(kinds.values())[1:]]
+    ratios = [*by_form.values(), *by_gain, *by_friction]
+    entry = _entry({"λ1": tuple(PITCH_FORMS), **SMC_GAINS, "gearhead friction": tuple(kinds)}, ratios,
+                   [r >= 2.0 for r in ratios])
     entry["by_choice"] = {label: sig(r) for label, r in by_form.items()}
     return {"table-5.2/smc-beats-pid": entry}

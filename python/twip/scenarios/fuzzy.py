@@ -172,7 +172,7 @@ CONTROLLERS = ("lqr", "fuzzy", "fuzzy-fixed", "fuzzy+ki")
 
 def compare_table(params=None, cases: Optional[Iterable[str]] = None,
                   controllers: Iterable[str] = ("lqr", "fuzzy", "fuzzy-fixed"), period: float = 5e-3,
-                  realism=None, hold: float = 5.0, settle: float = 5.0) -> list:
+                  realism=None, hold: float = 5.0, settle: float = 5.0, friction=None) -> list:
     """Table 5.1 analogue: mean |pitch error| and |wheel-speed error| of each controller on the
     slope-fuzzy and flat-fuzzy runs (same schedule, start and plant for every controller).
 
@@ -183,7 +183,9 @@ def compare_table(params=None, cases: Optional[Iterable[str]] = None,
     With `realism` (a twip.Realism) each nominal row also carries the same run with that
     robot in the loop: `outcome_realism`, `pitch_error_deg_realism`, `speed_error_deg_s_realism`.
     `hold` and `settle` [s] are the go-and-back run's waits at the far goal and at home (the
-    thesis does not give them; twip's 5 s each). Returns one dict per (surface, case, controller)."""
+    thesis does not give them; twip's 5 s each). `friction` (a twip.Friction) puts gearhead
+    friction on the plant (the controllers' models keep none). Returns one dict per (surface, case,
+    controller)."""
     from twip.scenarios.registry import get
 
     params = params if params is not None else _core.RobotParams.balanbot()
@@ -199,6 +201,8 @@ def compare_table(params=None, cases: Optional[Iterable[str]] = None,
                          **options)
                 if which == "lqr":
                     sc = sc.replace(controller=_lqr_like(sc, params, period))
+                if friction is not None:
+                    sc = sc.replace(model=_core.SlopeModel(plant, sc.model.slope, friction))
                 r = sc.run()
                 m = r.metrics
                 stops = stop_errors(sc, r)

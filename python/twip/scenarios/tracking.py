@@ -80,7 +80,7 @@ def mismatched(params, factor: float):
 
 
 def compare(params=None, mismatch: float = 0.2, laps: int = 3, dt: float = 1e-3, realism=None,
-            pitch_offset: bool = True, smc_gains: Optional[dict] = None) -> list:
+            pitch_offset: bool = True, smc_gains: Optional[dict] = None, friction=None) -> list:
     """Table 5.2's analogue: mean |x - x_r|, |y - y_r| of each tracker on its circle, with the
     plant as the controllers assume it and with every MISMATCH_FIELDS entry of the plant
     +mismatch and -mismatch off (the controllers keep the nominal robot). One dict per run;
@@ -88,7 +88,8 @@ def compare(params=None, mismatch: float = 0.2, laps: int = 3, dt: float = 1e-3,
     `Realism.thesis_like()`) each case also runs on those parts: "realism_outcome",
     "x_realism" and "y_realism". `pitch_offset=False` gives the sliding-mode trackers the
     thesis's λ1 of (4.74) instead of twip's pitch offset (errata T8); `smc_gains` overrides
-    some of their gains (SmcTracker's `gains`)."""
+    some of their gains (SmcTracker's `gains`); `friction` (a twip.Friction) puts gearhead
+    friction on the plants."""
     nominal = params if params is not None else _core.RobotParams.balanbot()
     rows = []
     cases = [("nominal", 1.0), (f"+{mismatch:.0%}", 1.0 + mismatch), (f"-{mismatch:.0%}", 1.0 - mismatch)]
@@ -97,6 +98,8 @@ def compare(params=None, mismatch: float = 0.2, laps: int = 3, dt: float = 1e-3,
         for name in ("circle-pid", "circle-smc", "circle-smc-fuzzy"):
             options = {} if name == "circle-pid" else {"pitch_offset": pitch_offset, "gains": smc_gains}
             sc = get(name, params=plant, controller_params=nominal, laps=laps, **options)
+            if friction is not None:
+                sc = sc.replace(model=_core.PlanarModel(plant, friction))
             r = sc.run(dt=dt, record_every=1000)
             m = r.metrics
             rows.append({
