@@ -48,46 +48,36 @@ def _entry(choices: Dict[str, Sequence], values: Sequence[float], holds: Sequenc
 
 
 def table_5_1(judge: Callable[[str, str, str, float], bool], quick: bool) -> Dict[str, dict]:
-    """Table 5.1's rows over the hold and settle windows and the loop period: {claim id:
-    sensitivity}. `judge(controller, surface, metric, ours)` says whether a row's claim holds."""
+    """Table 5.1's rows over the hold and settle windows and the loop period, and with
+    gearhead friction (at the default windows and period): {claim id: sensitivity}.
+    `judge(controller, surface, metric, ours)` says whether a row's claim holds."""
+    from twip import _core
     from twip.scenarios.fuzzy import compare_table
+
+    per_row: Dict[str, List[float]] = {}
+    held: Dict[str, List[bool]] = {}
+    better: Dict[str, List[bool]] = {"flat": [], "slope": []}
+
+    def record(rows) -> None:
+        by = {(r["surface"], r["controller"]): r for r in rows}
+        for (surface, controller), r in by.items():
+            ok = r["outcome"] == "completed"
+            for metric, key in (("pitch", "pitch_error_deg"), ("speed", "speed_error_deg_s")):
+                cid = f"table-5.1/{controller}-{surface}/{metric}"
+                per_row.setdefault(cid, []).append(r[key] if ok else float("nan"))
+                held.setdefault(cid, []).append(ok and judge(controller, surface, metric, r[key]))
+        for surface in better:
+            lqr, fuzzy = by[(surface, "lqr")], by[(surface, "fuzzy")]
+            better[surface].append(fuzzy["pitch_error_deg"] < lqr["pitch_error_deg"]
+                                   and fuzzy["speed_error_deg_s"] < lqr["speed_error_deg_s"])
 
     choices = {**WINDOWS, "loop period [s]": PERIODS}
     grid = list(itertools.product(*choices.values()))
-    if quick:
-        grid = [grid[0], grid[-1]]
-    per_row: Dict[str, List[float]] = {}
-    held: Dict[str, List[bool]] = {}
-    better = {"flat": [], "slope": []}
-    for hold, settle, period in grid:
-        rows = compare_table(cases=["nominal"], controllers=("lqr", "fuzzy"), hold=hold, settle=settle, period=period)
-        by = {(r["surface"], r["controller"]): r for r in rows}
-        for (surface, controller), r in by.items():
-            for metric, key in (("pitch", "pitch_error_deg"), ("speed", "speed_error_deg_s")):
-                cid = f"table-5.1/{controller}-{surface}/{metric}"
-                per_row.setdefault(cid, []).append(r[key])
-                held.setdefault(cid, []).append(judge(controller, surface, metric, r[key]))
-        for surface in better:
-            lqr, fuzzy = by[(surface, "lqr")], by[(surface, "fuzzy")]
-            better[surface].append(fuzzy["pitch_error_deg"] < lqr["pitch_error_deg"]
-                                   and fuzzy["speed_error_deg_s"] < lqr["speed_error_deg_s"])
-    # Gearhead friction, at the default windows and period.
-    from twip import _core
-
+    for hold, settle, period in ([grid[0], grid[-1]] if quick else grid):
+        record(compare_table(cases=["nominal"], controllers=("lqr", "fuzzy"), hold=hold, settle=settle, period=period))
     kinds = frictions(_core.RobotParams.balanbot())
     for friction in list(kinds.values())[1:]:
-        rows = compare_table(cases=["nominal"], controllers=("lqr", "fuzzy"), friction=friction)
-        by = {(r["surface"], r["controller"]): r for r in rows}
-        for (surface, controller), r in by.items():
-            for metric, key in (("pitch", "pitch_error_deg"), ("speed", "speed_error_deg_s")):
-                cid = f"table-5.1/{controller}-{surface}/{metric}"
-                ok = r["outcome"] == "completed"
-                per_row[cid].append(r[key] if ok else float("nan"))
-                held[cid].append(ok and judge(controller, surface, metric, r[key]))
-        for surface in better:
-            lqr, fuzzy = by[(surface, "lqr")], by[(surface, "fuzzy")]
-            better[surface].append(fuzzy["pitch_error_deg"] < lqr["pitch_error_deg"]
-                                   and fuzzy["speed_error_deg_s"] < lqr["speed_error_deg_s"])
+        record(compare_table(cases=["nominal"], controllers=("lqr", "fuzzy"), friction=friction))
     choices["gearhead friction"] = tuple(kinds)
     out = {cid: _entry(choices, values, held[cid]) for cid, values in per_row.items()}
     for surface, wins in better.items():
