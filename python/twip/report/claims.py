@@ -170,6 +170,30 @@ _EXPERIMENT = {
 }
 
 
+def judge(sc, key: str, ours) -> bool:
+    """Whether scenario `sc`'s claim `key` holds for our number `ours` (the rule of its row)."""
+    value = sc.thesis[key]
+    if key in _EXPERIMENT:
+        thesis = [g for _, g in value] if key == "goals" else value
+        return bool(_EXPERIMENT[key][2](ours, thesis))
+    if key in ("pitch_settling_time", "speed_settling_time"):
+        return ours <= value if (sc.name, key) in _BOUNDS else settles_about(value, ours)
+    raise KeyError(key)
+
+
+def measure(sc, key: str, r):
+    """Our number for scenario `sc`'s claim `key` in run `r` (the one its row shows)."""
+    if key in _EXPERIMENT:
+        return _measured(key, sc, r)
+    if key in ("pitch_settling_time", "speed_settling_time"):
+        return float(r.metrics[key])
+    raise KeyError(key)
+
+
+#: The claim keys a scenario's rerun can be judged on (inputs like gains and φ_s are not runs).
+RUN_KEYS = (*_EXPERIMENT, "pitch_settling_time", "speed_settling_time")
+
+
 def claims_for(sc, r, realism_run=None) -> List[dict]:
     """The thesis's claims about scenario `sc` (its `thesis` dict) beside run `r`'s numbers;
     the experiment claims also beside `realism_run` (the same scenario with the thesis-like

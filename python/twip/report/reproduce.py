@@ -14,8 +14,8 @@ import twip
 from twip import scenarios
 from twip.plot import metric_unit
 from twip.report import sensitivity
-from twip.report.claims import (THESIS_TABLE_5_1, claims_for, pid_over_smc, settles_about, summary_line, table_5_1_claims,
-                                 table_5_1_holds, table_5_2_claims, with_sensitivity)
+from twip.report.claims import (RUN_KEYS, THESIS_TABLE_5_1, claims_for, judge, measure, pid_over_smc, summary_line,
+                                 table_5_1_claims, table_5_1_holds, table_5_2_claims, with_sensitivity)
 from twip.report.markdown import render_markdown
 from twip.report.numbers import dec, jsonable, sig
 from twip.report.sweeps import fall_maps, robustness_sweeps
@@ -210,13 +210,11 @@ def _table_5_2(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) 
 
 def _sensitivity(quick: bool, steps: Steps, claims: List[dict]) -> None:
     """Reruns the claims that rest on unpublished choices over those choices (report.sensitivity)."""
-    thesis = {c["id"]: c["thesis"] for c in claims}
     table: dict = {}
     table.update(steps.attempt("sensitivity: Table 5.1 over the windows, loop period and friction", sensitivity.table_5_1,
                                table_5_1_holds, quick) or {})
-    table.update(steps.attempt("sensitivity: the experiments' stops over the windows", sensitivity.goals, quick) or {})
-    table.update(steps.attempt("sensitivity: slope-fuzzy-sim's settling over Γ, σ and the fuzzy sets", sensitivity.fuzzy_settling,
-                               lambda key, ours: settles_about(thesis[f"slope-fuzzy-sim/{key}"], ours), quick) or {})
+    table.update(steps.attempt("sensitivity: every scenario's runs over the choices they depend on",
+                               sensitivity.scenario_claims, judge, measure, RUN_KEYS, quick) or {})
     table.update(steps.attempt("sensitivity: Table 5.2's conclusion over λ1, k1-k3 and friction", sensitivity.smc_versus_pid,
                                pid_over_smc, 2 if quick else 3) or {})
     with_sensitivity(claims, table)

@@ -9,6 +9,8 @@ import itertools
 import math
 from typing import Callable, Dict, List, Sequence
 
+import numpy as np
+
 from twip import scenarios
 from twip.report.numbers import sig
 
@@ -85,45 +87,74 @@ def table_5_1(judge: Callable[[str, str, str, float], bool], quick: bool) -> Dic
     return out
 
 
-def goals(quick: bool) -> Dict[str, dict]:
-    """The go-and-back experiments' stops over the hold and settle windows: each row's number is
-    the largest distance of a stop from its goal [m]; the claim holds when both are within 2 cm."""
-    from twip.scenarios.fuzzy import stop_positions
-
-    grid = list(itertools.product(*WINDOWS.values()))
-    if quick:
-        grid = [grid[0], grid[-1]]
-    out = {}
-    for name in ("slope-lqr", "slope-fuzzy", "flat-lqr", "flat-fuzzy"):
-        values, held = [], []
-        for hold, settle in grid:
-            sc = scenarios.get(name, hold=hold, settle=settle)
-            r = sc.run()
-            off = max(abs(p - g) for p, (_, g) in zip(stop_positions(sc, r), sc.thesis["goals"]))
-            values.append(off)
-            held.append(r.outcome == "completed" and off <= 0.02)
-        entry = _entry(WINDOWS, values, held)
-        entry["measure"] = "largest |stop − goal| [m]"
-        out[f"{name}/goals"] = entry
-    return out
-
-
-def fuzzy_settling(judge: Callable[[str, float], bool], quick: bool) -> Dict[str, dict]:
-    """slope-fuzzy-sim's settling claims over the adaptation gain Γ and leakage σ, and over
-    the fuzzy sets of Figs 4.4/4.5 (scenarios.fuzzy.SET_CHOICES, at the default Γ, σ)."""
+def _variations(name: str, quick: bool) -> List[tuple]:
+    """(choice, value label, options for scenarios.get, friction or None) for scenario `name`:
+    each unpublished choice its runs depend on, varied one at a time around twip's default."""
+    from twip import _core
     from twip.scenarios.fuzzy import SET_CHOICES, sets_of
 
-    gammas, sigmas = ((GAMMAS[0], GAMMAS[-1]), (SIGMAS[1],)) if quick else (GAMMAS, SIGMAS)
-    options = {"t_final": 6.0} if quick else {}
-    runs = [dict(gamma=g, sigma=s) for g, s in itertools.product(gammas, sigmas)]
-    runs += [dict(sets=sets_of(label)) for label in (list(SET_CHOICES)[:2] if quick else SET_CHOICES)]
-    values = {"pitch_settling_time": [], "speed_settling_time": []}
-    for run in runs:
-        r = scenarios.get("slope-fuzzy-sim", **run, **options).run()
-        for key in values:
-            values[key].append(float(r.metrics[key]))
-    choices = {"gamma": gammas, "sigma": sigmas, "sets": tuple(SET_CHOICES)}
-    return {f"slope-fuzzy-sim/{key}": _entry(choices, v, [judge(key, x) for x in v]) for key, v in values.items()}
+    have = scenarios.options(name)
+    out = []
+    if "hold" in have:
+        out += [("hold [s]", h, {"hold": h}, None) for h in (3.0, 7.0)]
+        out += [("settle [s]", v, {"settle": v}, None) for v in (3.0, 7.0)]
+    if "period" in have and not name.endswith("-sim"):  # the "-sim" runs are the thesis's simulations
+        out += [("loop period [s]", p, {"period": p}, None) for p in (0.002, 0.01)]
+    if "gamma" in have:
+        out += [("gamma", g, {"gamma": g}, None) for g in (GAMMAS[0], GAMMAS[-1])]
+        out += [("sigma", v, {"sigma": v}, None) for v in (SIGMAS[0], SIGMAS[-1])]
+        out += [("sets", label, {"sets": sets_of(label)}, None) for label in list(SET_CHOICES)[1:]]
+    if "pitch_offset" in have:
+        out.append(("λ1", "thesis (4.74)", {"pitch_offset": False}, None))
+        out += [(gain, v, {"gains": {gain: v}}, None) for gain, values in SMC_GAINS.items() for v in values]
+    if name.startswith("circle-") or not name.endswith("-sim"):
+        kinds = frictions(_core.RobotParams.balanbot())
+        out += [("gearhead friction", label, {}, f) for label, f in list(kinds.items())[1:]]
+    return out[:2] if quick else out
+
+
+def scenario_claims(judge: Callable, measure: Callable, keys: Sequence[str], quick: bool) -> Dict[str, dict]:
+    """Every scenario's run-based claims (`keys`) over the unpublished choices its runs depend
+    on (`_variations`), one at a time, with twip's default run among them:
+    `judge(sc, key, ours)`, `measure(sc, key, run)` as in report.claims."""
+    from twip import _core
+
+    out = {}
+    for name in scenarios.names():
+        base = scenarios.get(name)
+        claimed = [k for k in base.thesis if k in keys]
+        variations = _variations(name, quick)
+        if not claimed or not variations:
+            continue
+        runs = [("default", "twip", base)]
+        for choice, label, options, friction in variations:
+            sc = scenarios.get(name, **options)
+            if friction is not None:
+                model = (_core.PlanarModel(sc.model.params, friction) if isinstance(sc.model, _core.PlanarModel)
+                         else _core.SlopeModel(sc.model.params, sc.model.slope, friction))
+                sc = sc.replace(model=model)
+            runs.append((choice, label, sc))
+        values = {k: [] for k in claimed}
+        held = {k: [] for k in claimed}
+        for _, _, sc in runs:
+            r = sc.run(record_every=10 if isinstance(sc.model, _core.PlanarModel) else 1)
+            for k in claimed:
+                ours = measure(sc, k, r)
+                number = max(abs(p - g) for p, (_, g) in zip(ours, sc.thesis["goals"])) if k == "goals" else (
+                    float(np.mean(ours)) if isinstance(ours, list) else ours)
+                values[k].append(number if r.outcome == "completed" else float("nan"))
+                held[k].append(r.outcome == "completed" and judge(sc, k, ours))
+        choices: Dict[str, list] = {}
+        for choice, label, _ in runs[1:]:
+            choices.setdefault(choice, []).append(label)
+        for k in claimed:
+            entry = _entry({c: tuple(v) for c, v in choices.items()}, values[k], held[k])
+            if k == "goals":
+                entry["measure"] = "largest |stop − goal| [m]"
+            elif k == "table_5_2":
+                entry["measure"] = "mean of |x − x_r| and |y − y_r| [m]"
+            out[f"{name}/{k}"] = entry
+    return out
 
 
 def smc_versus_pid(ratio_of: Callable[[list], float], laps: int) -> Dict[str, dict]:
