@@ -1,5 +1,6 @@
-"""Gearhead friction (Coulomb + viscous + Stribeck, tanh-regularised): off by default, parity of
-the law and of both models with the pure-Python reference, closed-form checks, errors."""
+"""Gearhead friction (Coulomb + viscous + Stribeck, tanh-regularised or with a stick band): off by
+default, parity of the law and of both models with the pure-Python reference, closed-form checks,
+errors."""
 import math
 
 import numpy as np
@@ -15,6 +16,7 @@ FRICTIONS = {
     "stribeck": twip.Friction(0.15, breakaway=0.2, stribeck_speed=0.8),
     "viscous": twip.Friction(0.0, viscous=4e-3),
     "gb37": twip.Friction.gb37(),
+    "stick": twip.Friction.gb37().with_stick(0.1),
 }
 
 
@@ -33,8 +35,8 @@ def test_gb37_is_the_no_load_torque_as_coulomb():
     assert f.coulomb == pytest.approx(43.7 * 9.925e-3 * 0.35, rel=1e-12)
     assert f.breakaway == pytest.approx(1.25 * f.coulomb)
     r = RefFriction.gb37()
-    assert (r.coulomb, r.breakaway, r.stribeck_speed, r.viscous, r.smoothing_speed) == pytest.approx(
-        (f.coulomb, f.breakaway, f.stribeck_speed, f.viscous, f.smoothing_speed), rel=1e-15
+    assert (r.coulomb, r.breakaway, r.stribeck_speed, r.viscous, r.smoothing_speed, r.stick_speed) == pytest.approx(
+        (f.coulomb, f.breakaway, f.stribeck_speed, f.viscous, f.smoothing_speed, f.stick_speed), rel=1e-15
     )
 
 
@@ -89,6 +91,44 @@ def test_planar_model_parity(balanbot, name):
     assert err < 1e-9
 
 
+def test_stick_band_parity_inside_the_band(balanbot):
+    """States whose wheels turn inside the stick band, held or breaking away: the core and the
+    reference find the same holding torques (each solves its own mass matrix)."""
+    f = FRICTIONS["stick"]
+    rng = np.random.default_rng(23)
+    worst = 0.0
+    for _ in range(200):
+        slope = rng.uniform(-0.3, 0.3)
+        x = rng.uniform([-0.5, -2, -5, 0], [0.5, 2, 5, 0])
+        x[3] = x[1] + rng.uniform(-0.1, 0.1)
+        u = rng.uniform(-0.3, 0.3)  # held below about 0.2 A, breaking away above
+        a = twip.SlopeModel(balanbot, slope, friction=f).deriv(x, u)
+        b = ref.SlopeModel(balanbot, slope, friction=f).deriv(x, u)
+        worst = max(worst, rel_err(a, b))
+    m, r = twip.PlanarModel(balanbot, friction=f), ref.PlanarModel(balanbot, friction=f)
+    R, b_ = balanbot.wheel_radius, balanbot.half_track
+    for _ in range(200):
+        x = rng.uniform([-1, -1, -3, -0.5, -2, 0, -2], [1, 1, 3, 0.5, 2, 0, 2])
+        x[5] = R * (x[4] - b_ / R * x[6] + rng.uniform(-0.1, 0.1))  # right wheel in the band
+        if rng.uniform() < 0.5:
+            x[6] = 0.0
+            x[5] = R * (x[4] + rng.uniform(-0.1, 0.1))  # both wheels in it
+        u = rng.uniform(-0.3, 0.3, 2)
+        worst = max(worst, rel_err(m.deriv(x, u), r.deriv(x, u)))
+    print(f"stick band: worst deriv {worst:.1e}")
+    assert worst < 1e-11, worst
+
+
+def test_a_held_robot_stays_at_rest_and_the_regularised_one_creeps(balanbot):
+    """Upright at rest with each motor at 60 % of the breakaway torque for 1 s."""
+    f = twip.Friction.gb37()
+    u = [0.6 * f.breakaway] * 2
+    held = run(twip.PlanarModel(balanbot, friction=f.with_stick(0.1)), [0.0] * 7, u, 1e-3, 1000)
+    creeping = run(twip.PlanarModel(balanbot, friction=f), [0.0] * 7, u, 1e-3, 1000)
+    assert np.max(np.abs(held)) < 1e-12
+    assert np.max(np.abs(creeping[-1])) > 1e-3
+
+
 def test_friction_changes_the_motion(balanbot):
     """Coulomb friction at the gearhead: the unpowered wheel, spun relative to the body, stops in
     finite time instead of decaying exponentially."""
@@ -116,6 +156,7 @@ def test_equilibrium_current_pays_the_friction(balanbot):
         (dict(coulomb=0.1, stribeck_speed=0.0), "stribeck_speed"),
         (dict(coulomb=0.1, viscous=math.nan), "viscous"),
         (dict(coulomb=0.1, smoothing_speed=-1.0), "smoothing_speed"),
+        (dict(coulomb=0.1, stick_speed=-0.1), "stick_speed"),
     ],
 )
 def test_bad_friction_is_named(kwargs, name):

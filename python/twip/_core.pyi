@@ -127,9 +127,11 @@ class RobotParams:
 class Friction:
     """One wheel's gearhead friction (N m, rad/s): Coulomb + viscous + Stribeck, the sign
     regularised by tanh(w / smoothing_speed); `breakaway` is the static (peak) torque.
+    `stick_speed` > 0 adds a stick state: a wheel slower than it relative to the body is
+    held while the torque that would move it stays below `breakaway`.
     """
     def __new__(cls, coulomb: float, breakaway: Optional[float] = None, stribeck_speed: float = 1.0,
-                viscous: float = 0.0, smoothing_speed: float = 0.1) -> Friction: ...
+                viscous: float = 0.0, smoothing_speed: float = 0.1, stick_speed: float = 0.0) -> Friction: ...
     @staticmethod
     def gb37() -> Friction:
         """The GB37 data sheet's no-load torque eta k_t I0 = 0.152 N m read as Coulomb
@@ -151,8 +153,16 @@ class Friction:
     def viscous(self) -> float: ...
     @property
     def smoothing_speed(self) -> float: ...
+    @property
+    def stick_speed(self) -> float: ...
+    def with_stick(self, stick_speed: float) -> Friction:
+        """This friction with a stick band of half-width `stick_speed` [rad/s]
+        (0.1 rad/s suits 1 ms steps, see docs/parameters.md; 0: none).
+        """
     def torque(self, w: float) -> float:
-        """The friction torque [N m] at the wheel's speed relative to the body `w` [rad/s]."""
+        """The slip law's torque [N m] at the wheel's speed relative to the body `w` [rad/s]
+        (with a stick band, a wheel inside it is held by whatever torque that needs).
+        """
     def to_dict(self) -> dict[str, Any]:
         """The settings as the constructor's keyword arguments:
         `type(x).from_dict(x.to_dict()) == x`.

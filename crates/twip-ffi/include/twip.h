@@ -55,6 +55,8 @@ typedef struct {
   float stribeck_speed;
   float viscous;
   float smoothing_speed;
+  // Half-width of the stick band [rad/s]; 0: no stick state.
+  float stick_speed;
 } TwipFriction;
 
 // LQR with integral action on the wheel speed. `u` is the lumped motor current [A].

@@ -67,6 +67,8 @@ pub struct TwipFriction {
     pub stribeck_speed: f32,
     pub viscous: f32,
     pub smoothing_speed: f32,
+    /// Half-width of the stick band [rad/s]; 0: no stick state.
+    pub stick_speed: f32,
 }
 
 impl TwipFriction {
@@ -77,6 +79,7 @@ impl TwipFriction {
             stribeck_speed: self.stribeck_speed,
             viscous: self.viscous,
             smoothing_speed: self.smoothing_speed,
+            stick_speed: self.stick_speed,
         })
     }
 
@@ -88,6 +91,7 @@ impl TwipFriction {
             stribeck_speed: f.stribeck_speed as f32,
             viscous: f.viscous as f32,
             smoothing_speed: f.smoothing_speed as f32,
+            stick_speed: f.stick_speed as f32,
         })
     }
 }

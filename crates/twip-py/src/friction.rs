@@ -7,6 +7,8 @@ use crate::errors::CoreResult;
 
 /// One wheel's gearhead friction (N m, rad/s): Coulomb + viscous + Stribeck, the sign
 /// regularised by tanh(w / smoothing_speed); `breakaway` is the static (peak) torque.
+/// `stick_speed` > 0 adds a stick state: a wheel slower than it relative to the body is
+/// held while the torque that would move it stays below `breakaway`.
 #[pyclass(name = "Friction", module = "twip", frozen, eq)]
 #[derive(Clone, Copy, PartialEq)]
 pub struct PyFriction {
@@ -16,10 +18,17 @@ pub struct PyFriction {
 #[pymethods]
 impl PyFriction {
     #[new]
-    #[pyo3(signature = (coulomb, breakaway = None, stribeck_speed = 1.0, viscous = 0.0, smoothing_speed = 0.1))]
-    fn new(coulomb: f64, breakaway: Option<f64>, stribeck_speed: f64, viscous: f64, smoothing_speed: f64) -> CoreResult<Self> {
+    #[pyo3(signature = (coulomb, breakaway = None, stribeck_speed = 1.0, viscous = 0.0, smoothing_speed = 0.1, stick_speed = 0.0))]
+    fn new(
+        coulomb: f64,
+        breakaway: Option<f64>,
+        stribeck_speed: f64,
+        viscous: f64,
+        smoothing_speed: f64,
+        stick_speed: f64,
+    ) -> CoreResult<Self> {
         let breakaway = breakaway.unwrap_or(coulomb);
-        let inner = Friction { coulomb, breakaway, stribeck_speed, viscous, smoothing_speed }.validate()?;
+        let inner = Friction { coulomb, breakaway, stribeck_speed, viscous, smoothing_speed, stick_speed }.validate()?;
         Ok(Self { inner })
     }
 
@@ -38,7 +47,14 @@ impl PyFriction {
         Ok(Self { inner: Friction::gb37_beside(viscous_per_wheel).validate()? })
     }
 
-    /// The friction torque [N m] at the wheel's speed relative to the body `w` [rad/s].
+    /// This friction with a stick band of half-width `stick_speed` [rad/s]
+    /// (0.1 rad/s suits 1 ms steps, see docs/parameters.md; 0: none).
+    fn with_stick(&self, stick_speed: f64) -> CoreResult<Self> {
+        Ok(Self { inner: self.inner.with_stick(stick_speed).validate()? })
+    }
+
+    /// The slip law's torque [N m] at the wheel's speed relative to the body `w` [rad/s]
+    /// (with a stick band, a wheel inside it is held by whatever torque that needs).
     fn torque(&self, w: f64) -> f64 {
         self.inner.torque(w)
     }
@@ -51,5 +67,6 @@ crate::settings::settings_class!(PyFriction, "Friction",
         stribeck_speed: f64 = |s| s.inner.stribeck_speed;
         viscous: f64 = |s| s.inner.viscous;
         smoothing_speed: f64 = |s| s.inner.smoothing_speed;
+        stick_speed: f64 = |s| s.inner.stick_speed;
     }
 );

@@ -64,7 +64,7 @@ SI_UNITS = {
     "mu_ground": "N m s/rad", "half_track": "m", "i_body_roll": "kg m^2", "i_body_yaw": "kg m^2",
     "i_wheel_diam": "kg m^2", "g": "m/s^2", "resistance": "ohm", "k_t": "N m/A", "friction": "N m s/rad",
     "supply": "V", "pwm_max": "counts", "coulomb": "N m", "breakaway": "N m", "stribeck_speed": "rad/s",
-    "viscous": "N m s/rad", "smoothing_speed": "rad/s", "k1": "1/s", "k2": "1/s", "k3": "1/s",
+    "viscous": "N m s/rad", "smoothing_speed": "rad/s", "stick_speed": "rad/s", "k1": "1/s", "k2": "1/s", "k3": "1/s",
     "width_eta": "rad/s", "wheel_radius_pid": "m", "time_constant": "s", "command_per_amp": "command/A",
 }
 

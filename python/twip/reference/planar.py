@@ -99,9 +99,13 @@ class PlanarModel:
         # Motor torques (power u_side (theta_side_dot - phi_dot)) and Rayleigh friction.
         for u_side, rel, spin in zip(u, self._rel, self._spin):
             f += (u_side - (p.mu_bearing / 2) * (rel @ nu)) * rel - (p.mu_ground / 2) * (spin @ nu) * spin
-            if self.friction is not None:
-                f -= self.friction.torque(rel @ nu) * rel
         return M, f
+
+    def _gearhead(self, M, f, nu) -> np.ndarray:
+        """f with each wheel's gearhead friction torque tau_i along -rel_i: w_dot = a0 - S tau."""
+        R = np.array(self._rel)
+        tau = self.friction.torques(R @ nu, R @ np.linalg.solve(M, f), R @ np.linalg.solve(M, R.T))
+        return f - R.T @ tau
 
     def mass_matrix(self, phi: float) -> np.ndarray:
         """M(phi) of M nu_dot + h = B u, nu = (phi_dot, v, omega)."""
@@ -117,6 +121,8 @@ class PlanarModel:
         if extra is not None:
             f[0] += extra[0]
             f[1] += extra[1]
+        if self.friction is not None:
+            f = self._gearhead(M, f, x[4:])
         nu_dot = np.linalg.solve(M, f)
         psi, v = x[2], x[5]
         return np.array([v * math.cos(psi), v * math.sin(psi), x[6], x[4], *nu_dot])

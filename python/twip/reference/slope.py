@@ -46,8 +46,6 @@ class SlopeModel:
         Mb, Mw, l, r, g, a = p.m_body, p.m_wheels, p.com_height, p.wheel_radius, p.g, self.slope
         # (3.20) corrected: a11 phi'' + a12 theta'' - Mb g l sin(phi) - mu_s (theta' - phi') = -eta tau u
         rhs1 = Mb * g * l * math.sin(phi) + p.mu_bearing * (theta_dot - phi_dot) - p.gear_ratio * p.torque_constant * u
-        if self.friction is not None:
-            rhs1 += 2 * self.friction.torque(theta_dot - phi_dot)
         # (3.21) corrected: ... - Mb r l sin(phi+a) phi'^2 + (Mw + Mb) g r sin(a) - Mb g l sin(phi) + mu_g theta' = 0
         rhs2 = (
             Mb * r * l * math.sin(phi + a) * phi_dot**2
@@ -55,7 +53,15 @@ class SlopeModel:
             + Mb * g * l * math.sin(phi)
             - p.mu_ground * theta_dot
         )
-        phi_dd, theta_dd = np.linalg.solve(self.mass_matrix(phi), np.array([rhs1, rhs2]))
+        M = self.mass_matrix(phi)
+        qdd = np.linalg.solve(M, np.array([rhs1, rhs2]))
+        if self.friction is not None:
+            # Both wheels' torque 2 tau adds to rhs1 (the summed row (3.21) cancels it).
+            r = 2 * np.linalg.solve(M, np.array([1.0, 0.0]))
+            beta_dot = theta_dot - phi_dot
+            (tau,) = self.friction.torques([beta_dot], [qdd[1] - qdd[0]], [[r[0] - r[1]]])
+            qdd = qdd + tau * r
+        phi_dd, theta_dd = qdd
         return np.array([phi_dot, phi_dd, theta_dot, theta_dd])
 
     def energy(self, x) -> float:

@@ -14,7 +14,21 @@
 //! ever dissipates. Stiction is the Stribeck peak τ_s: an applied torque below it is
 //! held with the wheel creeping at |w| < ω_ε atanh(τ/τ_s), not stuck exactly (a
 //! regularised model has no stick state; ω_ε sets how slowly it creeps).
+//!
+//! **Stick state** (`stick_speed` ω_k > 0, Karnopp's model): a wheel slower than ω_k
+//! relative to the body is held. Friction then supplies whatever torque, up to the
+//! breakaway τ_s, makes ẇ = −w/T_k ([`STICK_TIME`]): the wheel comes to rest and stays
+//! there exactly while the torque that would move it is below τ_s. Beyond that torque
+//! it breaks away at ±τ_s; outside the band the slip law above holds with sign(w)
+//! exact. The holding torque depends on everything else acting on the wheel, so the
+//! models compute it ([`Friction::torques`] takes the wheels' accelerations without
+//! friction and their response to it). The law is smooth inside and outside the band,
+//! so RK4 keeps its order away from the band's edge and from breakaway.
 use crate::{c, to_f64, Real, TwipError};
+
+/// T_k: how fast a held wheel comes to rest [s]. 5 ms brings it to rest within a few
+/// 1 ms steps, and RK4 stays stable on −1/T_k for steps up to 2.78 T_k = 13.9 ms.
+pub const STICK_TIME: f64 = 5e-3;
 
 /// One wheel's gearhead friction, at the wheel (N m, rad/s).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -27,14 +41,20 @@ pub struct Friction<T> {
     pub stribeck_speed: T,
     /// Viscous coefficient b_v, on top of the model's `mu_bearing` [N m s/rad].
     pub viscous: T,
-    /// Regularisation speed ω_ε of the sign function [rad/s].
+    /// Regularisation speed ω_ε of the sign function [rad/s] (the law without a stick band).
     pub smoothing_speed: T,
+    /// Half-width ω_k of the stick band [rad/s]; 0 is no stick state (the regularised law).
+    pub stick_speed: T,
 }
 
 /// The GB37Y3530-12V-251R data sheet's no-load point (Table 2.3, docs/parameters.md).
 pub const GB37_NO_LOAD_CURRENT: f64 = 0.35;
 /// No-load speed at the gearbox output [rad/s] (251 rpm).
 pub const GB37_NO_LOAD_SPEED: f64 = 251.0 * core::f64::consts::PI / 30.0;
+/// The stick band for the GB37 laws, ω_k = 0.1 rad/s at the wheel (0.32 encoder counts
+/// per 5 ms loop): braked at τ_s = 0.19 N m through the reflected rotor (5.1e-3 kg m²), a
+/// wheel loses 0.037 rad/s per 1 ms step, well under the band's width.
+pub const GB37_STICK_SPEED: f64 = 0.1;
 /// k_t = k_e from the no-load point [N m/A] (docs/parameters.md).
 pub const GB37_TORQUE_CONSTANT: f64 = 9.925e-3;
 /// The gear ratio η.
@@ -55,7 +75,21 @@ impl<T: Real> Friction<T> {
             stribeck_speed: c(1.0),
             viscous: T::zero(),
             smoothing_speed: c(0.1),
+            stick_speed: T::zero(),
         }
+    }
+
+    /// This friction with a stick state of half-width `stick_speed` [rad/s] (0: none).
+    /// [`GB37_STICK_SPEED`] suits 1 ms steps: a wheel braked at τ_s loses less than the
+    /// band's width in one step, so it cannot jump across the band.
+    pub fn with_stick(self, stick_speed: T) -> Self {
+        Self { stick_speed, ..self }
+    }
+
+    /// Whether this friction has a stick state.
+    #[inline(always)]
+    pub fn sticks(&self) -> bool {
+        self.stick_speed > T::zero()
     }
 
     /// [`Self::gb37`] beside a viscous bearing of `viscous_per_wheel` [N m s/rad]: the
@@ -77,6 +111,7 @@ impl<T: Real> Friction<T> {
             ("stribeck_speed", self.stribeck_speed, self.stribeck_speed > T::zero(), "must be > 0"),
             ("viscous", self.viscous, self.viscous >= T::zero(), "must be >= 0"),
             ("smoothing_speed", self.smoothing_speed, self.smoothing_speed > T::zero(), "must be > 0"),
+            ("stick_speed", self.stick_speed, self.stick_speed >= T::zero(), "must be >= 0"),
         ];
         for (name, value, ok, reason) in fields {
             if !value.is_finite() {
@@ -89,7 +124,8 @@ impl<T: Real> Friction<T> {
         Ok(*self)
     }
 
-    /// The friction torque τ_f(w) opposing the relative speed `w` [N m].
+    /// The slip law's torque τ_f(w) opposing the relative speed `w` [N m]: the whole law
+    /// without a stick band; with one, what acts outside it (see [`Self::torques`]).
     #[inline(always)]
     pub fn torque(&self, w: T) -> T {
         let (level, sign, _, _) = self.parts(w);
@@ -107,7 +143,8 @@ impl<T: Real> Friction<T> {
         w * self.torque(w)
     }
 
-    /// The Stribeck level, the regularised sign, and their derivatives in w.
+    /// The Stribeck level, the sign (regularised without a stick band, exact with one),
+    /// and their derivatives in w.
     #[inline(always)]
     fn parts(&self, w: T) -> (T, T, T, T) {
         let z = w / self.stribeck_speed;
@@ -115,10 +152,89 @@ impl<T: Real> Friction<T> {
         let peak = self.breakaway - self.coulomb;
         let level = self.coulomb + peak * hump;
         let d_level = -c::<T>(2.0) * z / self.stribeck_speed * peak * hump;
+        if self.sticks() {
+            let sign = if w > T::zero() { T::one() } else if w < T::zero() { -T::one() } else { T::zero() };
+            return (level, sign, d_level, T::zero());
+        }
         let sign = (w / self.smoothing_speed).tanh();
         let d_sign = (T::one() - sign * sign) / self.smoothing_speed;
         (level, sign, d_level, d_sign)
     }
+
+    /// The friction torques on `N` wheels (N = 1 or 2) at relative speeds `w`, given their
+    /// accelerations without this friction `a0` and their response `s` to it: the wheels
+    /// accelerate at ẇ = a0 − s τ (s symmetric positive definite, from the model's mass
+    /// matrix). Without a stick band this is the slip law. With one, each wheel inside
+    /// the band is held (ẇ = −w/T_k) by the torque that needs, while that is within
+    /// ±τ_s; a wheel that would need more breaks away at ±τ_s, and the others are held
+    /// against it.
+    pub fn torques<const N: usize>(&self, w: [T; N], a0: [T; N], s: [[T; N]; N]) -> [T; N] {
+        const { assert!(N == 1 || N == 2, "one or two wheels") };
+        let mut tau: [T; N] = core::array::from_fn(|i| self.torque(w[i]));
+        if !self.sticks() {
+            return tau;
+        }
+        let mut held: [bool; N] = core::array::from_fn(|i| w[i].abs() < self.stick_speed);
+        let rate = T::one() / c::<T>(STICK_TIME);
+        // Each pass either holds every wheel in the band or releases one: at most N + 1.
+        for _ in 0..=N {
+            let need = hold(&held, &tau, &w, &a0, &s, rate);
+            let mut released = false;
+            for i in 0..N {
+                if held[i] && need[i].abs() > self.breakaway {
+                    held[i] = false;
+                    tau[i] = if need[i] > T::zero() { self.breakaway } else { -self.breakaway };
+                    released = true;
+                    break;
+                }
+            }
+            if !released {
+                for i in 0..N {
+                    if held[i] {
+                        tau[i] = need[i];
+                    }
+                }
+                return tau;
+            }
+        }
+        tau
+    }
+}
+
+/// The torques on the `held` wheels that give them ẇ = −rate·w with the others' torques
+/// `tau` fixed: S_hh τ_h = a0_h + rate w_h − S_h,other τ_other (N ≤ 2: one division or
+/// Cramer's rule). Entries of wheels not held are left as they are.
+fn hold<T: Real, const N: usize>(held: &[bool; N], tau: &[T; N], w: &[T; N], a0: &[T; N], s: &[[T; N]; N], rate: T) -> [T; N] {
+    let mut rhs = [T::zero(); N];
+    for i in 0..N {
+        if held[i] {
+            rhs[i] = a0[i] + rate * w[i];
+            for j in 0..N {
+                if !held[j] {
+                    rhs[i] -= s[i][j] * tau[j];
+                }
+            }
+        }
+    }
+    let mut out = *tau;
+    let mut idx = [0usize; N];
+    let mut n = 0;
+    for (i, &h) in held.iter().enumerate() {
+        if h {
+            idx[n] = i;
+            n += 1;
+        }
+    }
+    match idx[..n] {
+        [i] => out[i] = rhs[i] / s[i][i],
+        [i, j] => {
+            let det = s[i][i] * s[j][j] - s[i][j] * s[j][i];
+            out[i] = (s[j][j] * rhs[i] - s[i][j] * rhs[j]) / det;
+            out[j] = (s[i][i] * rhs[j] - s[j][i] * rhs[i]) / det;
+        }
+        _ => {}
+    }
+    out
 }
 
 #[cfg(test)]
@@ -209,53 +325,130 @@ mod tests {
         #[test]
         fn slope_model_energy_rate_is_input_power_minus_dissipation() {
             let p = RobotParams::<f64>::balanbot();
-            let f = rough();
-            let mut rng = Lcg(3);
-            let mut worst: f64 = 0.0;
-            for i in 0..500 {
-                let slope = rng.uniform(-0.3, 0.3);
-                let m = SlopeModel::new(p, slope).unwrap().with_friction(Some(f)).unwrap();
-                let x = Vector4::new(rng.uniform(-1.0, 1.0), rng.uniform(-3.0, 3.0), rng.uniform(-5.0, 5.0), rng.uniform(-8.0, 8.0));
-                // Near zero speed too, where the regularisation acts.
-                let x = if i % 5 == 0 { Vector4::new(x[0], x[1], x[2], x[1] + rng.uniform(-0.2, 0.2)) } else { x };
-                let u = rng.uniform(-1.0, 1.0);
-                let beta_dot = x[3] - x[1];
-                let power = p.torque_per_amp() * u * beta_dot;
-                let dissipation = p.mu_bearing * beta_dot * beta_dot
-                    + p.mu_ground * x[3] * x[3]
-                    + 2.0 * f.dissipation(beta_dot);
-                let rate = energy_rate(&m, &x, &SVector::from([u]));
-                let scale = power.abs() + dissipation;
-                let err = (rate - (power - dissipation)).abs() / scale.max(1e-3);
-                worst = worst.max(err);
+            for (label, f) in [("slip law", rough()), ("stick band", sticky())] {
+                let mut rng = Lcg(3);
+                let mut worst: f64 = 0.0;
+                for i in 0..500 {
+                    let slope = rng.uniform(-0.3, 0.3);
+                    let m = SlopeModel::new(p, slope).unwrap().with_friction(Some(f)).unwrap();
+                    let x = Vector4::new(rng.uniform(-1.0, 1.0), rng.uniform(-3.0, 3.0), rng.uniform(-5.0, 5.0), rng.uniform(-8.0, 8.0));
+                    // Near zero speed too, where the regularisation or the stick band acts.
+                    let x = if i % 5 == 0 { Vector4::new(x[0], x[1], x[2], x[1] + rng.uniform(-0.2, 0.2)) } else { x };
+                    let u = rng.uniform(-1.0, 1.0);
+                    let beta_dot = x[3] - x[1];
+                    let power = p.torque_per_amp() * u * beta_dot;
+                    // The gearhead's power is w τ for whatever τ acts (held or slipping).
+                    let gearhead = 2.0 * beta_dot * m.gearhead_torque_at(&x, u);
+                    let dissipation = p.mu_bearing * beta_dot * beta_dot + p.mu_ground * x[3] * x[3] + gearhead;
+                    let rate = energy_rate(&m, &x, &SVector::from([u]));
+                    let scale = power.abs() + dissipation.abs();
+                    let err = (rate - (power - dissipation)).abs() / scale.max(1e-3);
+                    worst = worst.max(err);
+                }
+                std::println!("2-DOF, friction on ({label}): worst relative energy-balance residual {worst:.1e}");
+                assert!(worst < 1e-7, "{label}: {worst:e}");
             }
-            std::println!("2-DOF, friction on: worst relative energy-balance residual {worst:.1e}");
-            assert!(worst < 1e-7, "{worst:e}");
         }
 
         #[test]
         fn planar_model_energy_rate_is_input_power_minus_dissipation() {
             let p = RobotParams::<f64>::balanbot();
-            let f = rough();
-            let m = PlanarModel::new(p).unwrap().with_friction(Some(f)).unwrap();
-            let mut rng = Lcg(5);
-            let mut worst: f64 = 0.0;
-            let r = p.wheel_radius;
-            for _ in 0..500 {
-                let x = PlanarState::from(core::array::from_fn(|_| rng.uniform(-1.2, 1.2)));
-                let u = SVector::from([rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3)]);
-                let (w_r, w_l) = m.wheel_speeds(&x);
-                let b = p.half_track;
-                let (spin_r, spin_l) = ((x[5] + b * x[6]) / r, (x[5] - b * x[6]) / r);
-                let power = u[0] * w_r + u[1] * w_l;
-                let side = |w: f64, spin: f64| 0.5 * p.mu_bearing * w * w + 0.5 * p.mu_ground * spin * spin + f.dissipation(w);
-                let dissipation = side(w_r, spin_r) + side(w_l, spin_l);
-                let rate = energy_rate(&m, &x, &u);
-                let err = (rate - (power - dissipation)).abs() / (power.abs() + dissipation).max(1e-3);
-                worst = worst.max(err);
+            for (label, f) in [("slip law", rough()), ("stick band", sticky())] {
+                let m = PlanarModel::new(p).unwrap().with_friction(Some(f)).unwrap();
+                let mut rng = Lcg(5);
+                let mut worst: f64 = 0.0;
+                let (r, b) = (p.wheel_radius, p.half_track);
+                for i in 0..500 {
+                    let mut x = PlanarState::from(core::array::from_fn(|_| rng.uniform(-1.2, 1.2)));
+                    if i % 5 == 0 {
+                        // The right wheel inside or near the band.
+                        x[5] = r * (x[4] - b / r * x[6] + rng.uniform(-0.2, 0.2));
+                    }
+                    let u = SVector::from([rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3)]);
+                    let (w_r, w_l) = m.wheel_speeds(&x);
+                    let (spin_r, spin_l) = ((x[5] + b * x[6]) / r, (x[5] - b * x[6]) / r);
+                    let power = u[0] * w_r + u[1] * w_l;
+                    let [tau_r, tau_l] = m.gearhead_torques_at(&x, &u);
+                    let side = |w: f64, spin: f64, tau: f64| 0.5 * p.mu_bearing * w * w + 0.5 * p.mu_ground * spin * spin + w * tau;
+                    let dissipation = side(w_r, spin_r, tau_r) + side(w_l, spin_l, tau_l);
+                    let rate = energy_rate(&m, &x, &u);
+                    let err = (rate - (power - dissipation)).abs() / (power.abs() + dissipation.abs()).max(1e-3);
+                    worst = worst.max(err);
+                }
+                std::println!("3-DOF, friction on ({label}): worst relative energy-balance residual {worst:.1e}");
+                assert!(worst < 1e-7, "{label}: {worst:e}");
             }
-            std::println!("3-DOF, friction on: worst relative energy-balance residual {worst:.1e}");
-            assert!(worst < 1e-7, "{worst:e}");
+        }
+
+        fn sticky() -> Friction<f64> {
+            rough().with_stick(GB37_STICK_SPEED)
+        }
+
+        #[test]
+        fn at_rest_a_held_wheel_takes_the_motor_torque_up_to_breakaway() {
+            // Upright and at rest, a wheel held to the body makes the motor torque internal:
+            // friction must take all of it, and nothing moves.
+            let p = RobotParams::<f64>::balanbot();
+            let f = sticky();
+            let m = SlopeModel::new(p, 0.0).unwrap().with_friction(Some(f)).unwrap();
+            let rest = Vector4::zeros();
+            let current = |per_wheel: f64| 2.0 * per_wheel / p.torque_per_amp();
+            let held = current(0.9 * f.breakaway);
+            assert!(m.deriv(&rest, &SVector::from([held])).norm() < 1e-12, "{}", m.deriv(&rest, &SVector::from([held])));
+            assert!((m.gearhead_torque_at(&rest, held) - 0.9 * f.breakaway).abs() < 1e-12);
+            // Above breakaway the wheels turn forward against τ_s.
+            let slips = current(1.1 * f.breakaway);
+            let d = m.deriv(&rest, &SVector::from([slips]));
+            assert!(d[3] - d[1] > 1.0, "β̈ = {}", d[3] - d[1]);
+            assert_eq!(m.gearhead_torque_at(&rest, slips), f.breakaway);
+            // 3-DOF: each wheel on its own; the right one held, the left one breaking away.
+            let planar = PlanarModel::new(p).unwrap().with_friction(Some(f)).unwrap();
+            let still = PlanarState::zeros();
+            let u = SVector::from([0.9 * f.breakaway, -0.5 * f.breakaway]);
+            assert!(planar.deriv(&still, &u).norm() < 1e-12);
+            let u = SVector::from([0.5 * f.breakaway, -1.2 * f.breakaway]);
+            let [tau_r, tau_l] = planar.gearhead_torques_at(&still, &u);
+            assert_eq!(tau_l, -f.breakaway);
+            assert!(tau_r.abs() < f.breakaway, "the right wheel is held against the left: {tau_r}");
+            // The wheels' relative accelerations, from the derivative's ν̇ = (φ̈, v̇, ω̇).
+            let d = planar.deriv(&still, &u);
+            let (acc_r, acc_l) = planar.wheel_speeds(&PlanarState::from([0.0, 0.0, 0.0, 0.0, d[4], d[5], d[6]]));
+            assert!(acc_r.abs() < 1e-9 && acc_l < -1.0, "right {acc_r} held, left {acc_l} turning back");
+        }
+
+        #[test]
+        fn the_stick_state_holds_where_the_regularised_law_creeps() {
+            // Upright at rest with a steady torque below breakaway on each wheel: held, the
+            // robot stays exactly at rest; the regularised law lets the wheels creep.
+            let p = RobotParams::<f64>::balanbot();
+            let u = SVector::from([0.6 * sticky().breakaway, 0.6 * sticky().breakaway]);
+            let drift = |f: Friction<f64>| {
+                let m = PlanarModel::new(p).unwrap().with_friction(Some(f)).unwrap();
+                let mut x = PlanarState::zeros();
+                for _ in 0..1000 {
+                    x = rk4_step(&m, &x, &u, 1e-3);
+                }
+                x
+            };
+            let held = drift(sticky());
+            let creeping = drift(rough());
+            std::println!("after 1 s at 0.6 τ_s: held {:.1e}, regularised {:.1e}", held.norm(), creeping.norm());
+            assert!(held.norm() < 1e-12, "{held}");
+            assert!(creeping.norm() > 1e-4, "{creeping}");
+        }
+
+        #[test]
+        fn a_wheel_in_the_band_comes_to_rest() {
+            let p = RobotParams::<f64>::balanbot();
+            let m = PlanarModel::new(p).unwrap().with_friction(Some(sticky())).unwrap();
+            // Rolling slowly forward, unpowered: w = v/R inside the band on both wheels.
+            let mut x = PlanarState::from([0.0, 0.0, 0.0, 0.0, 0.0, 0.5 * GB37_STICK_SPEED * p.wheel_radius, 0.0]);
+            for _ in 0..60 {
+                x = rk4_step(&m, &x, &SVector::zeros(), 1e-3);
+            }
+            let (w_r, w_l) = m.wheel_speeds(&x);
+            // 60 ms = 12 T_k: e^-12 of 0.05 rad/s, give or take the ground's pull.
+            assert!(w_r.abs() < 1e-5 && w_l.abs() < 1e-5, "{w_r} {w_l}");
         }
 
         #[test]
@@ -299,20 +492,46 @@ mod tests {
         #[test]
         fn rk4_stays_fourth_order_with_friction_on() {
             let p = RobotParams::<f64>::balanbot();
-            let f = rough();
-            let slope = SlopeModel::new(p, 0.05).unwrap().with_friction(Some(f)).unwrap();
-            let (a, b) = order_ratios(&slope, &Vector4::new(0.2, 1.0, 0.0, 12.0), &SVector::from([0.5]), |x| (x[3] - x[1]).abs());
-            std::println!("2-DOF with friction: RK4 error ratio per halving {a:.4}, {b:.4}");
-            let planar = PlanarModel::new(p).unwrap().with_friction(Some(f)).unwrap();
-            let x0 = PlanarState::from([0.0, 0.0, 0.0, 0.2, 1.0, 0.4, 2.0]);
-            let (c, d) = order_ratios(&planar, &x0, &SVector::from([0.2, 0.15]), |x| {
-                let (w_r, w_l) = planar.wheel_speeds(x);
-                w_r.abs().min(w_l.abs())
-            });
-            std::println!("3-DOF with friction: RK4 error ratio per halving {c:.4}, {d:.4}");
-            for r in [a, b, c, d] {
-                assert!((12.0..20.0).contains(&r), "ratio {r} (4th order gives 16)");
+            for (label, f) in [("slip law", rough()), ("stick band", sticky())] {
+                let slope = SlopeModel::new(p, 0.05).unwrap().with_friction(Some(f)).unwrap();
+                let (a, b) = order_ratios(&slope, &Vector4::new(0.2, 1.0, 0.0, 12.0), &SVector::from([0.5]), |x| (x[3] - x[1]).abs());
+                std::println!("2-DOF with friction ({label}): RK4 error ratio per halving {a:.4}, {b:.4}");
+                let planar = PlanarModel::new(p).unwrap().with_friction(Some(f)).unwrap();
+                let x0 = PlanarState::from([0.0, 0.0, 0.0, 0.2, 1.0, 0.4, 2.0]);
+                let (c, d) = order_ratios(&planar, &x0, &SVector::from([0.2, 0.15]), |x| {
+                    let (w_r, w_l) = planar.wheel_speeds(x);
+                    w_r.abs().min(w_l.abs())
+                });
+                std::println!("3-DOF with friction ({label}): RK4 error ratio per halving {c:.4}, {d:.4}");
+                for r in [a, b, c, d] {
+                    assert!((12.0..20.0).contains(&r), "{label}: ratio {r} (4th order gives 16)");
+                }
             }
+        }
+
+        #[test]
+        fn rk4_stays_fourth_order_while_the_wheels_are_held() {
+            // The body tips over with the wheels held to it: the holding torque is smooth in
+            // the state, and stays below breakaway for the whole run.
+            let p = RobotParams::<f64>::balanbot();
+            let f = sticky();
+            let m = SlopeModel::new(p, 0.0).unwrap().with_friction(Some(f)).unwrap();
+            let u = SVector::from([0.0]);
+            let run = |h: f64| {
+                let mut x = Vector4::new(0.05, 0.0, 0.0, 0.0);
+                for _ in 0..(0.256 / h).round() as usize {
+                    x = rk4_step(&m, &x, &u, h);
+                    assert!(m.gearhead_torque_at(&x, 0.0).abs() < f.breakaway, "broke away");
+                }
+                x
+            };
+            let xs: [_; 4] = core::array::from_fn(|i| run(8e-3 / (1 << i) as f64));
+            assert!((xs[3][3] - xs[3][1]).abs() < 1e-12, "held: β̇ = {}", xs[3][3] - xs[3][1]);
+            assert!(xs[3][0] > 0.06, "the body tips: φ = {}", xs[3][0]);
+            let d: [f64; 3] = core::array::from_fn(|i| (xs[i] - xs[i + 1]).norm());
+            let (a, b) = (d[0] / d[1], d[1] / d[2]);
+            std::println!("2-DOF, wheels held: RK4 error ratio per halving {a:.4}, {b:.4}");
+            assert!((12.0..20.0).contains(&a) && (12.0..20.0).contains(&b), "{a} {b}");
         }
 
         #[test]

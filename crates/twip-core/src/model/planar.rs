@@ -189,17 +189,50 @@ impl<T: Real> PlanarModel<T> {
         u: &SVector<T, 2>,
         extra: impl Fn(T, T) -> Option<Vector2<T>>,
     ) -> PlanarState<T> {
+        match &self.friction {
+            None => self.driven(x, u[0], u[1], extra),
+            Some(f) => {
+                let [tau_r, tau_l] = self.gearhead_torques(f, x, u, &extra);
+                self.driven(x, u[0] - tau_r, u[1] - tau_l, extra)
+            }
+        }
+    }
+
+    /// Each wheel's gearhead friction torque [N m] at state `x` under motor torques `u`
+    /// (0 without friction): the slip law, or with a stick band whatever holds a wheel.
+    pub fn gearhead_torques_at(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> [T; 2] {
+        match &self.friction {
+            None => [T::zero(); 2],
+            Some(f) => self.gearhead_torques(f, x, u, &|_, _| None),
+        }
+    }
+
+    #[inline(always)]
+    fn gearhead_torques(&self, f: &Friction<T>, x: &PlanarState<T>, u: &SVector<T, 2>, extra: &impl Fn(T, T) -> Option<Vector2<T>>) -> [T; 2] {
+        let (w_r, w_l) = self.wheel_speeds(x);
+        if !f.sticks() {
+            return [f.torque(w_r), f.torque(w_l)];
+        }
+        // Held wheels need the accelerations without friction and the response to it:
+        // a torque on one wheel acts on (φ, v) as (−1, 1/R) and on the yaw as ±b/R.
+        let free = self.driven(x, u[0], u[1], extra);
+        let roll = |d: &PlanarState<T>| self.inv_r * d[5] - d[4];
+        let (a_r, a_l) = (roll(&free) + self.b_r * free[6], roll(&free) - self.b_r * free[6]);
+        let phi = x[3];
+        let shared = self.solve_mass(phi, &nalgebra::Vector3::new(-T::one(), self.inv_r, T::zero()));
+        let common = self.inv_r * shared[1] - shared[0];
+        let yaw = self.b_r * self.b_r / (self.m_ww0 + self.k * phi.sin() * phi.sin());
+        // ẇ = a0 − S τ: friction takes its torque off the motor's.
+        let s = [[common + yaw, common - yaw], [common - yaw, common + yaw]];
+        f.torques([w_r, w_l], [a_r, a_l], s)
+    }
+
+    /// The state derivative under the wheels' net torques `u_r`, `u_l` (motor minus gearhead).
+    #[inline(always)]
+    fn driven(&self, x: &PlanarState<T>, u_r: T, u_l: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> PlanarState<T> {
         let (sin_psi, cos_psi) = crate::model::math::sin_cos(x[2]);
         let (s, cp) = crate::model::math::sin_cos(x[3]);
         let (phi_dot, v, omega) = (x[4], x[5], x[6]);
-        // The gearhead friction takes its torque off each motor's.
-        let (u_r, u_l) = match &self.friction {
-            Some(f) => {
-                let (w_r, w_l) = self.wheel_speeds(x);
-                (u[0] - f.torque(w_r), u[1] - f.torque(w_l))
-            }
-            None => (u[0], u[1]),
-        };
         let (u_sum, u_diff) = (u_r + u_l, u_r - u_l);
         let w2 = omega * omega;
         let sc = s * cp;

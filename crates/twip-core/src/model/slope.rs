@@ -120,12 +120,37 @@ impl<T: Real> SlopeModel<T> {
         self.friction.as_ref()
     }
 
-    /// Both wheels' gearhead friction torque at the relative speed β̇ = θ̇ − φ̇ (0 without).
+    /// Both wheels' gearhead friction torque at the relative speed β̇ = θ̇ − φ̇ when it is
+    /// the slip law's (0 without friction, and with a stick band, which [`Self::held`] adds).
     #[inline(always)]
     fn gearhead(&self, beta_dot: T) -> T {
         match &self.friction {
-            Some(f) => c::<T>(2.0) * f.torque(beta_dot),
+            Some(f) if !f.sticks() => c::<T>(2.0) * f.torque(beta_dot),
+            _ => T::zero(),
+        }
+    }
+
+    /// With a stick band: the accelerations `qdd` (found without gearhead friction) with
+    /// the friction's added, and its torque per wheel. A total torque F on β̇ adds
+    /// (F, −F) to f, so β̈ = a0 − s τ per wheel with s = −2 (r_θ − r_φ), r = M⁻¹ (1, −1).
+    #[inline(always)]
+    fn held(&self, f: &Friction<T>, beta_dot: T, qdd: Vector2<T>, cos_pa: T) -> (Vector2<T>, T) {
+        let two = c::<T>(2.0);
+        let r = self.accelerations(&Vector2::new(T::one(), -T::one()), cos_pa);
+        let [tau] = f.torques([beta_dot], [qdd[1] - qdd[0]], [[-two * (r[1] - r[0])]]);
+        (qdd + r * (two * tau), tau)
+    }
+
+    /// Each wheel's gearhead friction torque [N m] at state `x` under current `u` (0
+    /// without friction): the slip law, or with a stick band whatever holds the wheels.
+    pub fn gearhead_torque_at(&self, x: &SlopeState<T>, u: T) -> T {
+        match &self.friction {
             None => T::zero(),
+            Some(f) if !f.sticks() => f.torque(x[3] - x[1]),
+            Some(f) => {
+                let (force, _, cos_pa) = self.forces(x, u);
+                self.held(f, x[3] - x[1], self.accelerations(&force, cos_pa), cos_pa).1
+            }
         }
     }
 
@@ -194,6 +219,10 @@ impl<T: Real> SlopeModel<T> {
     pub(crate) fn deriv_plus(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> SlopeState<T> {
         let (f, _, cos_pa) = self.forces_plus(x, u, extra);
         let qdd = self.accelerations(&f, cos_pa);
+        let qdd = match &self.friction {
+            Some(fr) if fr.sticks() => self.held(fr, x[3] - x[1], qdd, cos_pa).0,
+            _ => qdd,
+        };
         Vector4::new(x[1], qdd[0], x[3], qdd[1])
     }
 
@@ -295,7 +324,8 @@ impl<T: Real> SlopeModel<T> {
         }
         let phi_s = sin_phi.asin();
         // Gearhead friction needs more current but, internal to the robot, leaves φ_s alone.
-        let bearing = self.params.mu_bearing * theta_dot_ref + self.gearhead(theta_dot_ref);
+        let bearing = self.params.mu_bearing * theta_dot_ref
+            + self.friction.map_or(T::zero(), |f| c::<T>(2.0) * f.torque(theta_dot_ref));
         let u_s = (self.mgl * sin_phi + bearing) / self.torque_per_amp;
         Ok((Vector4::new(phi_s, T::zero(), T::zero(), theta_dot_ref), u_s))
     }
