@@ -782,8 +782,9 @@ class Realism:
     def thesis_like(*, seed: int = 0, stream: int = 0) -> Realism:
         """The thesis's robot as built: a 5 ms loop applying its command one period late,
         the MPU-6050 at DLPF 42 Hz with data-sheet noise and calibrated residual biases, a
-        complementary filter, 700 CPR encoders, the L298P on 11.1 V (docs/parameters.md).
-        No gearhead friction beyond the model's (`replace(friction=...)` adds it).
+        complementary filter, 700 CPR encoders, the L298P on 11.1 V, and the GB37 gearheads'
+        friction: the no-load torque split beside the Balanbot's viscous bearing, with a
+        stick band (docs/parameters.md; `replace(friction=None)` leaves the model's own).
         """
     control_period: Optional[float]
     delay: bool

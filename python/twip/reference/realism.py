@@ -458,16 +458,12 @@ class Disturbed:
 
     def deriv(self, x, u):
         i = self.segment(x[2] * self.radius)
-        d = self.models[i].deriv(x, u)
-        if self.has_force:
-            fx, fz, h = self.force
-            slope = self.slopes[i]
-            q = np.array([h * (fx * math.cos(x[0]) - fz * math.sin(x[0])),
-                          self.radius * (fx * math.cos(slope) + fz * math.sin(slope))])
-            a = np.linalg.solve(mass_matrix(self.params, slope, x[0]), q)
-            d[1] += a[0]
-            d[3] += a[1]
-        return d
+        if not self.has_force:
+            return self.models[i].deriv(x, u)
+        fx, fz, h = self.force
+        slope = self.slopes[i]
+        q = (h * (fx * math.cos(x[0]) - fz * math.sin(x[0])), self.radius * (fx * math.cos(slope) + fz * math.sin(slope)))
+        return self.models[i].deriv(x, u, extra=q)
 
     def kick(self, t, dt, x):
         while self.next < len(self.pushes) and self.pushes[self.next][0] < t + dt * 0.5:

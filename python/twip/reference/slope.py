@@ -39,7 +39,9 @@ class SlopeModel:
             ]
         )
 
-    def deriv(self, x, u) -> np.ndarray:
+    def deriv(self, x, u, extra=None) -> np.ndarray:
+        """`extra`: generalised forces (q_phi, q_theta) on the body and wheels (a force on the
+        body), added before the gearhead friction is found (a held wheel holds against them)."""
         p = self.params
         phi, phi_dot, _theta, theta_dot = (float(v) for v in x)
         u = float(np.asarray(u, dtype=float).reshape(-1)[0])
@@ -53,6 +55,9 @@ class SlopeModel:
             + Mb * g * l * math.sin(phi)
             - p.mu_ground * theta_dot
         )
+        if extra is not None:  # row 2 is the sum of Lagrange's two rows
+            rhs1 += extra[0]
+            rhs2 += extra[0] + extra[1]
         M = self.mass_matrix(phi)
         qdd = np.linalg.solve(M, np.array([rhs1, rhs2]))
         if self.friction is not None:

@@ -7,7 +7,7 @@ from typing import Any, List
 
 import numpy as np
 
-from twip.report.numbers import sig
+from twip.report.numbers import dec, sig
 from twip.scenarios.fuzzy import stop_positions
 from twip.scenarios.tracking import THESIS_TABLE_5_2
 
@@ -111,10 +111,15 @@ def _claim(cid, source, claim, thesis, ours, unit, ok, why=None, why_ok="", why_
     return row
 
 
-def _realism(row, value, outcome):
-    """`row` with `realism`: our number with the thesis-like robot in the loop (None if not run)."""
-    if value is not None:
+def _realism(row, value, outcome, t_end=None):
+    """`row` with `realism`: our number with the thesis-like robot in the loop, or, when that
+    run fell, None and when (`t_end` [s]); no `realism` when the report did not run it."""
+    if outcome is None:
+        return row
+    if outcome == "completed":
         row["realism"] = {"ours": sig(value), "outcome": outcome}
+    else:
+        row["realism"] = {"ours": None, "outcome": outcome, "t_end": dec(t_end, 2) if t_end is not None else None}
     return row
 
 
@@ -253,7 +258,7 @@ def claims_for(sc, r, realism_run=None) -> List[dict]:
             thesis = [g for _, g in value] if key == "goals" else value
             row = _claim(cid, src, label(value), thesis, ours, unit, judge(ours, thesis), why, why_ok, why_not)
             if realism_run is not None:
-                row = _realism(row, _measured(key, sc, realism_run), realism_run.outcome)
+                row = _realism(row, _measured(key, sc, realism_run), realism_run.outcome, float(realism_run.t[-1]))
             rows.append(row)
         else:  # a claim this report has no rule for yet: shown, not judged
             ours = r.metrics.get(key)

@@ -40,7 +40,7 @@ def render_markdown(report: dict) -> str:
     ]
     out.append(_md_table(["id", "claim", "thesis", "ours", "ours, thesis-like robot", "unit", "basis", "status", "reason"],
                          [[c["id"], c["claim"], fmt(c["thesis"]), fmt(c["ours"]),
-                           fmt(c["realism"]["ours"]) if "realism" in c else "", c["unit"], c["basis"], c["status"],
+                           _realism_claim_cell(c), c["unit"], c["basis"], c["status"],
                            c["reason"] + (f" (checked by `{c['check']}`)" if "check" in c else "")] for c in claims]))
     sensitive = [c for c in claims if "sensitivity" in c]
     if sensitive:
@@ -128,6 +128,16 @@ def render_markdown(report: dict) -> str:
     out.append(_md_table(["scenario", "controller", "outcome", "metrics", "thesis"], rows))
     out += ["", "## Steps", "", _md_table(["step", "seconds"], [[s["step"].strip(), f"{s['seconds']:.2f}"] for s in report["steps"]]), ""]
     return "\n".join(out)
+
+
+def _realism_claim_cell(claim) -> str:
+    """A claim's thesis-like robot cell: its number, or when that run fell (empty if not run)."""
+    real = claim.get("realism")
+    if real is None:
+        return ""
+    if real["outcome"] != "completed":
+        return f"{real['outcome']} at {real['t_end']} s" if real.get("t_end") is not None else real["outcome"]
+    return fmt(real["ours"])
 
 
 def _realism_cell(row) -> str:

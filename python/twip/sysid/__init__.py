@@ -26,8 +26,9 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
     """Fits the `free` parameters of `robot` (a RobotParams or a `twip.Robot` from a robot
     file) to `log` by minimising the weighted prediction error of its signals.
 
-    - `free`: RobotParams field names, "slope", and with a pwm log (no u column) the
-      driver's battery, bridge_drop, resistance, efficiency.
+    - `free`: RobotParams field names, "slope", with a pwm log (no u column) the
+      driver's battery, bridge_drop, resistance, efficiency, and with `friction=` its
+      "coulomb" level (the breakaway torque keeps its ratio to it).
     - `segment` [s]: the multiple-shooting segment length; each segment's start state is
       an unknown. Shorter segments suit a plant that diverges fast open-loop.
     - `driver`: the MotorDriver behind a pwm log (default: the robot file's, else the

@@ -30,11 +30,14 @@ STATE_STEP = 1e-6
 CHI2_TOLERANCE = 1e-6
 #: Fields of `twip.MotorDriver` that can be free when the log's input is `pwm`.
 DRIVER_FIELDS = ("battery", "bridge_drop", "resistance", "efficiency")
+#: The gearhead friction's level that can be free when `friction=` gives the law to start from;
+#: the breakaway torque moves with it (their ratio is kept, so breakaway >= coulomb holds).
+FRICTION_FIELDS = ("coulomb",)
 
 
 @dataclass(frozen=True)
 class Unknown:
-    """A free parameter: where it lives (`robot`, `driver` or `slope`) and its start value.
+    """A free parameter: where it lives (`robot`, `driver`, `friction` or `slope`) and its start value.
     A positive one is estimated as start * exp(d), so no step leaves its domain and d is
     its relative change; the slope (any sign) as start + d."""
 
@@ -118,8 +121,14 @@ class Problem:
                 raise LogError(f"free: {name!r} is a motor driver field; it can be fitted only from a log whose "
                                "input is pwm (and that has no u column)")
             return Unknown(name, "driver", float(self.driver.to_dict()[name]))
+        if name in FRICTION_FIELDS:
+            if self.friction is None or not self.friction.coulomb > 0:
+                raise LogError(f"free: {name!r} is the gearhead friction's level; give friction= (a twip.Friction "
+                               "with coulomb > 0) to start from")
+            return Unknown(name, "friction", float(self.friction.coulomb))
         raise LogError(f"free: {name!r} is not a parameter (RobotParams fields: {', '.join(fields)}; 'slope'; "
-                       f"with a pwm log, the driver's {', '.join(DRIVER_FIELDS)})")
+                       f"with a pwm log, the driver's {', '.join(DRIVER_FIELDS)}; with friction=, "
+                       f"{', '.join(FRICTION_FIELDS)})")
 
     # --- the model at a parameter vector ------------------------------------------------
 
@@ -132,7 +141,11 @@ class Problem:
         robot = {k: v for k, v in values.items() if self._where(k) == "robot"}
         params = self.params.replace(**robot) if robot else self.params
         slope = values.get("slope", self.log.slope)
-        model = _core.SlopeModel(params, slope, self.friction)
+        friction = self.friction
+        if "coulomb" in values:
+            scale = values["coulomb"] / friction.coulomb
+            friction = friction.replace(coulomb=values["coulomb"], breakaway=friction.breakaway * scale)
+        model = _core.SlopeModel(params, slope, friction)
         driver_changes = {k: v for k, v in values.items() if self._where(k) == "driver"}
         driver = self.driver.replace(**driver_changes) if (self.driven and driver_changes) else self.driver
         return model, (driver if self.driven else None), params, slope

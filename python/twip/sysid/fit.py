@@ -71,6 +71,8 @@ class Fit:
         self.robot = params
         self.slope = slope
         self.driver = driver
+        #: The gearhead friction of the fitted model (`friction=`, with a free coulomb fitted), or None.
+        self.friction = model.friction
         self.converged = solution.converged
         self.message = solution.message
         self.iterations = solution.iterations

@@ -17,7 +17,7 @@ use crate::hardware::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_S
 use crate::hardware::driver::{Driven, MotorDriver, PwmActuator};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
-use crate::model::friction::Friction;
+use crate::model::friction::{Friction, GB37_STICK_SPEED};
 use crate::rng::Philox;
 use crate::sim::runner::{run_loop, Actuator, Loop, Observer, Outcome, Plant, Sensor, Signals, SimConfig, MAX_RAW};
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
@@ -75,9 +75,9 @@ impl<T: Real> Realism<T> {
     /// The thesis's robot as built (chapter 2, docs/parameters.md): a 5 ms Arduino loop
     /// that applies its command one period late, the MPU-6050 at DLPF 44/42 Hz with its
     /// data-sheet noise and calibrated residual biases, a complementary filter, 700 CPR
-    /// encoders, and the L298P on 11.1 V. No disturbances, and no gearhead friction
-    /// beyond the model's: with it (`friction: Some(Friction::gb37_beside(..))`) the
-    /// sliding-mode trackers fall (docs/parameters.md, "Gearhead friction").
+    /// encoders, the L298P on 11.1 V, and the GB37 gearheads' friction: the data sheet's
+    /// no-load torque split beside the Balanbot's viscous bearing (0.0117 N m Coulomb per
+    /// wheel) with a stick band ([`Self::thesis_like_friction`]). No disturbances.
     pub fn thesis_like() -> Self {
         Self {
             imu: Some(ImuSettings::thesis_like()),
@@ -85,8 +85,16 @@ impl<T: Real> Realism<T> {
             motor: Some(MotorDriver::thesis_like()),
             delay: true,
             control_period: Some(c(5e-3)),
+            friction: Some(Self::thesis_like_friction()),
             ..Self::ideal()
         }
+    }
+
+    /// The Balanbot's GB37 gearhead friction per wheel: `Friction::gb37_beside` its
+    /// fitted viscous bearing, with the stick band [`GB37_STICK_SPEED`].
+    pub fn thesis_like_friction() -> Friction<T> {
+        let bearing_per_wheel = RobotParams::<T>::balanbot().mu_bearing / c(2.0);
+        Friction::gb37_beside(bearing_per_wheel).with_stick(c(GB37_STICK_SPEED))
     }
 
     /// The gearhead friction a rig's plant gets: this realism's, else the model's.

@@ -417,6 +417,28 @@ mod tests {
         }
 
         #[test]
+        fn held_wheels_hold_against_a_force_on_the_body() {
+            // A force on the body (the rigs' `Force`) enters before the holding torques are
+            // found: the held wheels still relax at ẇ = −w/T_k.
+            let p = RobotParams::<f64>::balanbot();
+            let m = PlanarModel::new(p).unwrap().with_friction(Some(sticky())).unwrap();
+            let x = PlanarState::from([0.0, 0.0, 0.0, -4.2e-5, -1e-10, 4.8e-6, 3.8e-4]);
+            let u = SVector::from([0.01, 0.012]);
+            let d = m.deriv_plus(&x, &u, |_, _| Some(nalgebra::Vector2::new(0.01, 0.02)));
+            let (acc_r, acc_l) = m.wheel_speeds(&PlanarState::from([0.0, 0.0, 0.0, 0.0, d[4], d[5], d[6]]));
+            let (w_r, w_l) = m.wheel_speeds(&x);
+            let rate = 1.0 / STICK_TIME;
+            std::println!("{:?}", d.as_slice());
+            assert!((acc_r + rate * w_r).abs() < 1e-9 && (acc_l + rate * w_l).abs() < 1e-9, "{acc_r} {acc_l}");
+            let free = PlanarModel::new(p).unwrap();
+            assert!((d[4] - free.deriv_plus(&x, &u, |_, _| Some(nalgebra::Vector2::new(0.01, 0.02)))[4]).abs() > 0.1);
+            let slope = SlopeModel::new(p, 0.1).unwrap().with_friction(Some(sticky())).unwrap();
+            let x = Vector4::new(0.01, 0.2, 0.0, 0.25);
+            let d = slope.deriv_plus(&x, 0.05, |_, _| Some(nalgebra::Vector2::new(0.02, -0.03)));
+            assert!((d[3] - d[1] + rate * (x[3] - x[1])).abs() < 1e-9, "{}", d[3] - d[1]);
+        }
+
+        #[test]
         fn the_stick_state_holds_where_the_regularised_law_creeps() {
             // Upright at rest with a steady torque below breakaway on each wheel: held, the
             // robot stays exactly at rest; the regularised law lets the wheels creep.
