@@ -56,3 +56,40 @@ def run(model, x0, u, dt, n, step=twip.rk4_step):
         x = step(model, x, u, dt)
         traj.append(x)
     return np.array(traj)
+
+
+def reference_rig_run(name, sc, realism, params, t_final):
+    """Scenario `sc` (named `name`: a circle tracker or an LQR scenario) with `realism` in
+    twip.reference's rigs, its controller rebuilt from the reference's parts."""
+    import twip.reference as ref
+    import twip.reference.planar_realism as rpr
+    import twip.reference.realism as rr
+    import twip.reference.tracking as rtr
+
+    rrealism = rr.Realism.from_twip(realism, params)
+    if name.startswith("circle-"):
+        if name == "circle-pid":
+            tracker = rtr.PidTracker.table_4_1(params, motor=rtr.DcMotor.gb37y3530())
+        else:
+            motor = rtr.DcMotor.gb37y3530()
+            tracker = rtr.SmcTracker(ref.PlanarModel(params), rtr.thesis_gains(motor.torque_per_count()),
+                                     fuzzy=name.endswith("fuzzy"), motor=motor, period=0.005, gamma=(0.05, 1000.0))
+        return rpr.simulate(ref.PlanarModel(params), tracker, sc.x0, t_final, sc.dt,
+                            rtr.Circle(sc.reference.radius, sc.reference.speed), rrealism)
+    model = ref.SlopeModel(params, sc.model.slope)
+    ctrl = ref.LqrController(model, sc.controller.gains, point=sc.controller.point, period=sc.controller.period)
+    return rr.simulate(model, ctrl, sc.x0, t_final, sc.dt, ref.SpeedSchedule(sc.reference.legs), rrealism)
+
+
+def part_parity(name, realism, params, **part_off):
+    """2 s of scenario `name` with `realism` in the core's rig and the reference's, and with the
+    part `part_off` turns off (it must change the run): (core run, reference run, worst relative
+    state difference)."""
+    from twip.scenarios import get
+
+    sc = get(name)
+    r = sc.run(realism=realism, t_final=2.0)
+    without = sc.run(realism=realism.replace(**part_off), t_final=2.0)
+    assert not np.array_equal(r.states, without.states), f"{part_off} changes nothing"
+    run = reference_rig_run(name, sc, realism, params, 2.0)
+    return r, run, rel_diff(r.states, run.states)

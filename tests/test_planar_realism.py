@@ -100,17 +100,6 @@ def test_table_5_2_gains_a_realism_column():
     assert "x_realism" not in tracking.compare(laps=1)[0]
 
 
-def _reference_tracker(name, params):
-    import twip.reference as ref
-    import twip.reference.tracking as rtr
-
-    if name == "circle-pid":
-        return rtr.PidTracker.table_4_1(params, motor=rtr.DcMotor.gb37y3530())
-    motor = rtr.DcMotor.gb37y3530()
-    return rtr.SmcTracker(ref.PlanarModel(params), rtr.thesis_gains(motor.torque_per_count()), fuzzy=name.endswith("fuzzy"),
-                          motor=motor, period=0.005, gamma=(0.05, 1000.0))
-
-
 @pytest.mark.parametrize("name", ["circle-pid", "circle-smc"])
 @pytest.mark.parametrize("estimator", ["complementary", "kalman"])
 def test_parity_with_the_reference_every_option_on(balanbot, name, estimator):
@@ -118,11 +107,7 @@ def test_parity_with_the_reference_every_option_on(balanbot, name, estimator):
     force), against twip.reference.planar_realism with the reference tracker on the reference (Kane)
     model and the same Philox noise: 2 s, as for the 2-DOF rig (an ulp grows at the pendulum's
     open-loop rate until a quantised reading rounds differently)."""
-    import twip.reference as ref
-    import twip.reference.planar_realism as rpr
-    import twip.reference.realism as rr
-    import twip.reference.tracking as rtr
-    from conftest import rel_diff
+    from conftest import reference_rig_run, rel_diff
 
     # The gearheads' slip law without the stick band: under the force a held wheel's angle
     # relative to the body stays within an ulp of 0, which is an encoder edge (the count is
@@ -135,8 +120,7 @@ def test_parity_with_the_reference_every_option_on(balanbot, name, estimator):
     sc = get(name)
     t_final = 2.0
     r = sc.run(realism=realism, t_final=t_final)
-    run = rpr.simulate(ref.PlanarModel(balanbot), _reference_tracker(name, balanbot), sc.x0, t_final, sc.dt,
-                       rtr.Circle(sc.reference.radius, sc.reference.speed), rr.Realism.from_twip(realism, balanbot))
+    run = reference_rig_run(name, sc, realism, balanbot, t_final)
     # The model-based sliding-mode tracker with the Kalman filter falls under this much (see
     # docs/parameters.md); both implementations must agree on that too.
     assert r.outcome == run.outcome and r.states.shape == run.states.shape, (r.outcome, run.outcome)
@@ -156,28 +140,12 @@ def test_realism_friction_parity_with_the_reference(balanbot, name, friction):
     """Realism(friction=) puts gearhead friction on the rig's plant, in either model; the reference
     rigs do the same: 2 s with thesis-like hardware and the full no-load torque as Coulomb friction,
     or the thesis-like robot's own (the no-load torque split beside the bearing, with the stick band)."""
-    import twip.reference as ref
-    import twip.reference.planar_realism as rpr
-    import twip.reference.realism as rr
-    import twip.reference.tracking as rtr
-    from conftest import rel_diff
+    from conftest import part_parity
 
     realism = twip.Realism.thesis_like(seed=2, stream=1)
     if friction == "gb37":
         realism = realism.replace(friction=twip.Friction.gb37())
-    sc = get(name)
-    r = sc.run(realism=realism, t_final=2.0)
-    without = sc.run(realism=realism.replace(friction=None), t_final=2.0)
-    assert not np.array_equal(r.states, without.states)
-    rrealism = rr.Realism.from_twip(realism, balanbot)
-    if name.startswith("circle-"):
-        run = rpr.simulate(ref.PlanarModel(balanbot), _reference_tracker(name, balanbot), sc.x0, 2.0, sc.dt,
-                           rtr.Circle(sc.reference.radius, sc.reference.speed), rrealism)
-    else:
-        model = ref.SlopeModel(balanbot, sc.model.slope)
-        ctrl = ref.LqrController(model, sc.controller.gains, point=sc.controller.point, period=sc.controller.period)
-        run = rr.simulate(model, ctrl, sc.x0, 2.0, sc.dt, ref.SpeedSchedule(sc.reference.legs), rrealism)
-    err = rel_diff(r.states, run.states)
+    _, _, err = part_parity(name, realism, balanbot, friction=None)
     print(f"{name} with {friction} gearhead friction on the rig, 2 s: worst relative state difference {err:.1e}")
     assert err < 1e-9
 

@@ -246,3 +246,16 @@ def test_settings_round_trip():
     assert twip.Realism().is_ideal and not r.is_ideal
     assert "Realism(" in repr(r) and "TiltEstimator.complementary" in repr(r.estimator)
     assert len(twip.Dlpf.table()) == 7
+
+
+@pytest.mark.parametrize("name", ["slope-lqr-sim", "circle-pid", "circle-smc-fuzzy"])
+def test_backlash_parity_with_the_reference(balanbot, name):
+    """3 degrees of play in each gear train on the thesis-like robot: the rotors cross it on
+    their own and engage in plastic impacts. The core's rigs and the reference's agree over 2 s,
+    and the play changes the run."""
+    from conftest import part_parity
+
+    realism = twip.Realism.thesis_like(seed=4, stream=2).replace(backlash=math.radians(3))
+    r, run, err = part_parity(name, realism, balanbot, backlash=None)
+    print(f"{name} with 3 degrees of backlash, 2 s: worst relative state difference {err:.1e}")
+    assert r.outcome == run.outcome and err < 1e-9

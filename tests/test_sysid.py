@@ -75,8 +75,9 @@ def test_the_rigs_raw_sensors_identify_the_robot():
     (DLPF, noise, bias, quantisation) and the encoder's counts out. Measured: within 0.3 %
     with a driver without inductance and current limit (all four), within 2.1 % with the
     thesis-like one's 1 mH and 2 A (which the estimator does not model). Without the gearheads'
-    friction: the fit's model has none here (test_gearhead_friction_is_fitted_too has it)."""
-    base = twip.Realism.thesis_like().replace(friction=None)
+    friction and backlash: the fit's model has neither here (test_gearhead_friction_is_fitted_too
+    has the friction)."""
+    base = twip.Realism.thesis_like().replace(friction=None, backlash=None)
     ideal_driver = base.replace(motor=base.motor.replace(inductance=0.0, current_limit=None))
     for realism, tolerance in ((ideal_driver, 0.005), (base, 0.03)):
         log = run_of("flat-lqr", 12.0, realism).to_log()
@@ -93,8 +94,9 @@ def test_gearhead_friction_is_fitted_too():
     """The thesis-like rig with its gearheads' friction (Coulomb beside the viscous bearing, with
     the stick band). A fit without friction puts it into mu_bearing (+61 %) and misses m_body and
     com_height by 4-5 % without converging; with `friction=` and "coulomb" free it recovers every
-    parameter within 0.5 % and the Coulomb level within 0.1 %, from half or twice the truth."""
-    base = twip.Realism.thesis_like()
+    parameter within 0.5 % and the Coulomb level within 0.1 %, from half or twice the truth. No
+    backlash: the estimator's model has none."""
+    base = twip.Realism.thesis_like().replace(backlash=None)
     truth = base.friction
     realism = base.replace(motor=base.motor.replace(inductance=0.0, current_limit=None))
     log = run_of("flat-lqr", 12.0, realism).to_log()
@@ -116,8 +118,8 @@ def test_gearhead_friction_is_fitted_too():
 
 
 def test_a_pwm_log_gives_the_motor_drivers_numbers_too():
-    # A heavier body and a 2.4 V bridge (the start file says 2.0 V); no gearhead friction.
-    base = twip.Realism.thesis_like().replace(friction=None)
+    # A heavier body and a 2.4 V bridge (the start file says 2.0 V); no gearhead friction or backlash.
+    base = twip.Realism.thesis_like().replace(friction=None, backlash=None)
     truth = base.motor.replace(inductance=0.0, current_limit=None, bridge_drop=2.4)
     realism = base.replace(motor=truth)
     robot = twip.RobotParams.balanbot().replace(m_body=0.8301 * 1.2)

@@ -768,12 +768,14 @@ class Realism:
       `simulate(control_period=...)` wins over it).
     - `pushes`: `twip.Push` or (t, impulse[, height]) tuples; `force`: a `twip.Force`;
       `slope_profile`: (distance [m], slope [rad]) changes along the path.
+    - `friction`: a `twip.Friction` per wheel on the plant (None: the model's own);
+      `backlash`: each gear train's free play at the wheel [rad] (None: none).
     - `seed`, `stream`: the noise (Philox key); a run is bitwise repeatable.
     """
     def __new__(cls, *, imu: Optional[Imu] = None, estimator: Any = None, encoder_cpr: Optional[float] = None,
                 motor: Optional[MotorDriver] = None, delay: bool = False, control_period: Optional[float] = None,
                 pushes: Optional[Sequence[Push]] = None, force: Optional[Force] = None, slope_profile: Any = None,
-                friction: Optional[Friction] = None, seed: Optional[int] = None,
+                friction: Optional[Friction] = None, backlash: Optional[float] = None, seed: Optional[int] = None,
                 stream: Optional[int] = None) -> Realism: ...
     @staticmethod
     def ideal() -> Realism:
@@ -782,10 +784,12 @@ class Realism:
     def thesis_like(*, seed: int = 0, stream: int = 0) -> Realism:
         """The thesis's robot as built: a 5 ms loop applying its command one period late,
         the MPU-6050 at DLPF 42 Hz with data-sheet noise and calibrated residual biases, a
-        complementary filter, 700 CPR encoders, the L298P on 11.1 V, and the GB37 gearheads'
-        friction: the no-load torque split beside the Balanbot's viscous bearing, with a
-        stick band (docs/parameters.md; `replace(friction=None)` leaves the model's own).
+        complementary filter, 700 CPR encoders, the L298P on 11.1 V, and the GB37 gearheads:
+        their friction (the no-load torque split beside the Balanbot's viscous bearing, with
+        a stick band; `replace(friction=None)` leaves the model's own) and 1 degree of
+        backlash (`replace(backlash=None)`: none). docs/parameters.md.
         """
+    backlash: Optional[float]
     control_period: Optional[float]
     delay: bool
     encoder_cpr: Optional[float]

@@ -5,6 +5,7 @@ use crate::friction::PyFriction;
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
+use twip_core::hardware::backlash::Backlash;
 use twip_core::hardware::disturbance::{Force, Push, Pushes, SlopeProfile};
 use twip_core::hardware::driver::{MotorDriver, PwmActuator};
 use twip_core::hardware::imu::{dlpf_config, Channel, Dlpf, ImuSettings, DLPF_TABLE, STANDARD_GRAVITY};
@@ -468,6 +469,8 @@ fn push(obj: &Bound<'_, PyAny>) -> PyResult<PyPush> {
 ///   `simulate(control_period=...)` wins over it).
 /// - `pushes`: `twip.Push` or (t, impulse[, height]) tuples; `force`: a `twip.Force`;
 ///   `slope_profile`: (distance [m], slope [rad]) changes along the path.
+/// - `friction`: a `twip.Friction` per wheel on the plant (None: the model's own);
+///   `backlash`: each gear train's free play at the wheel [rad] (None: none).
 /// - `seed`, `stream`: the noise (Philox key); a run is bitwise repeatable.
 #[pyclass(name = "Realism", module = "twip", frozen)]
 #[derive(Clone)]
@@ -482,6 +485,7 @@ pub struct PyRealism {
     force: Option<PyForce>,
     slope_profile: Vec<(f64, f64)>,
     friction: Option<PyFriction>,
+    backlash: Option<f64>,
     seed: u64,
     stream: u64,
 }
@@ -497,7 +501,8 @@ fn key(name: &'static str, v: &Bound<'_, PyAny>) -> PyResult<u64> {
 impl PyRealism {
     #[new]
     #[pyo3(signature = (*, imu = None, estimator = None, encoder_cpr = None, motor = None, delay = false, control_period = None,
-                        pushes = None, force = None, slope_profile = None, friction = None, seed = None, stream = None))]
+                        pushes = None, force = None, slope_profile = None, friction = None, backlash = None, seed = None,
+                        stream = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         imu: Option<&PyImu>,
@@ -510,6 +515,7 @@ impl PyRealism {
         force: Option<&PyForce>,
         slope_profile: Option<Vec<(f64, f64)>>,
         friction: Option<&PyFriction>,
+        backlash: Option<f64>,
         seed: Option<&Bound<'_, PyAny>>,
         stream: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
@@ -530,6 +536,7 @@ impl PyRealism {
             force: force.copied(),
             slope_profile: slope_profile.unwrap_or_default(),
             friction: friction.copied(),
+            backlash,
             seed: seed.map(|s| key("seed", s)).transpose()?.unwrap_or(0),
             stream: stream.map(|s| key("stream", s)).transpose()?.unwrap_or(0),
         };
@@ -541,14 +548,15 @@ impl PyRealism {
     /// Every part ideal (the same run as without realism, through the realism runner).
     #[staticmethod]
     fn ideal() -> PyResult<Self> {
-        Self::new(None, None, None, None, false, None, None, None, None, None, None, None)
+        Self::new(None, None, None, None, false, None, None, None, None, None, None, None, None)
     }
 
     /// The thesis's robot as built: a 5 ms loop applying its command one period late,
     /// the MPU-6050 at DLPF 42 Hz with data-sheet noise and calibrated residual biases, a
-    /// complementary filter, 700 CPR encoders, the L298P on 11.1 V, and the GB37 gearheads'
-    /// friction: the no-load torque split beside the Balanbot's viscous bearing, with a
-    /// stick band (docs/parameters.md; `replace(friction=None)` leaves the model's own).
+    /// complementary filter, 700 CPR encoders, the L298P on 11.1 V, and the GB37 gearheads:
+    /// their friction (the no-load torque split beside the Balanbot's viscous bearing, with
+    /// a stick band; `replace(friction=None)` leaves the model's own) and 1 degree of
+    /// backlash (`replace(backlash=None)`: none). docs/parameters.md.
     #[staticmethod]
     #[pyo3(signature = (*, seed = 0, stream = 0))]
     fn thesis_like(seed: u64, stream: u64) -> Self {
@@ -564,6 +572,7 @@ impl PyRealism {
             force: None,
             slope_profile: Vec::new(),
             friction: core.friction.map(|inner| PyFriction { inner }),
+            backlash: core.backlash.map(|b| b.gap),
             seed,
             stream,
         }
@@ -584,6 +593,8 @@ crate::settings::settings_class!(PyRealism, "Realism",
         slope_profile: Vec<(f64, f64)> = |s| s.slope_profile.clone();
         /// Gearhead friction per wheel on the rig's plant (None: the model's own).
         friction: Option<PyFriction> = |s| s.friction;
+        /// Each gear train's free play at the wheel [rad] (None: none).
+        backlash: Option<f64> = |s| s.backlash;
         seed: u64 = |s| s.seed;
         stream: u64 = |s| s.stream;
     }
@@ -599,6 +610,7 @@ crate::settings::settings_class!(PyRealism, "Realism",
                 && s.force.is_none()
                 && s.slope_profile.is_empty()
                 && s.friction.is_none()
+                && s.backlash.is_none()
         };
     }
 );
@@ -718,6 +730,7 @@ impl PyRealism {
             force,
             slope_profile: SlopeProfile::new(0.0, &self.slope_profile)?,
             friction: self.friction.map(|f| f.inner),
+            backlash: self.backlash.map(|gap| Backlash { gap }),
             seed: self.seed,
             stream: self.stream,
         }

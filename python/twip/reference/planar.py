@@ -73,8 +73,9 @@ class PlanarModel:
         return J, a0, W, al0
 
     # --- equations of motion ----------------------------------------------------------
-    def _kane(self, x, u):
-        """Returns (M, f) with M nu_dot = f."""
+    def _kane(self, x, u, engaged=(True, True)):
+        """Returns (M, f) with M nu_dot = f; a wheel not `engaged` (its gear train open, backlash)
+        has neither its rotor nor its motor's torque."""
         p = self.params
         phi = float(x[3])
         nu = np.array([float(x[4]), float(x[5]), float(x[6])])
@@ -93,19 +94,28 @@ class PlanarModel:
             M += m_w * Jw.T @ Jw + Ww.T @ Iw @ Ww
             f -= m_w * Jw.T @ _cross(Omega, Jw @ nu) + Ww.T @ _cross(Omega, Iw @ (Ww @ nu))
         # Rotors: kinetic energy 1/2 eta^2 (I_M/2) (theta_side_dot - phi_dot)^2.
-        rotor = p.gear_ratio**2 * p.i_motor / 2
-        for rel in self._rel:
-            M += rotor * np.outer(rel, rel)
+        rotor = self.rotor_per_wheel()
+        for rel, on in zip(self._rel, engaged):
+            if on:
+                M += rotor * np.outer(rel, rel)
         # Motor torques (power u_side (theta_side_dot - phi_dot)) and Rayleigh friction.
-        for u_side, rel, spin in zip(u, self._rel, self._spin):
-            f += (u_side - (p.mu_bearing / 2) * (rel @ nu)) * rel - (p.mu_ground / 2) * (spin @ nu) * spin
+        for u_side, rel, spin, on in zip(u, self._rel, self._spin, engaged):
+            f += ((u_side if on else 0.0) - (p.mu_bearing / 2) * (rel @ nu)) * rel - (p.mu_ground / 2) * (spin @ nu) * spin
         return M, f
 
-    def _gearhead(self, M, f, nu) -> np.ndarray:
-        """f with each wheel's gearhead friction torque tau_i along -rel_i: w_dot = a0 - S tau."""
-        R = np.array(self._rel)
-        tau = self.friction.torques(R @ nu, R @ np.linalg.solve(M, f), R @ np.linalg.solve(M, R.T))
-        return f - R.T @ tau
+    def rotor_per_wheel(self) -> float:
+        return self.params.gear_ratio**2 * self.params.i_motor / 2
+
+    def _gearhead(self, M, f, nu, engaged=(True, True)):
+        """f with each engaged wheel's gearhead friction torque tau_i along -rel_i (w_dot = a0 -
+        S tau over those wheels), and the torques (0 on an open wheel)."""
+        on = [i for i, e in enumerate(engaged) if e]
+        tau = np.zeros(2)
+        if not on:
+            return f, tau
+        R = np.array(self._rel)[on]
+        tau[on] = self.friction.torques(R @ nu, R @ np.linalg.solve(M, f), R @ np.linalg.solve(M, R.T))
+        return f - R.T @ tau[on], tau
 
     def mass_matrix(self, phi: float) -> np.ndarray:
         """M(phi) of M nu_dot + h = B u, nu = (phi_dot, v, omega)."""
@@ -114,18 +124,36 @@ class PlanarModel:
 
     def deriv(self, x, u, extra=None) -> np.ndarray:
         """`extra`: generalised forces (q_phi, q_v) of a force on the body, added to f."""
+        return self.deriv_geared(x, u, (True, True), extra)[0]
+
+    def deriv_geared(self, x, u, engaged, extra=None):
+        """(derivative, each wheel's gearhead friction torque); a wheel not `engaged` has its
+        gear train open (backlash): no motor torque, no friction, no rotor."""
         x = np.asarray(x, dtype=float)
         if x.shape != (7,) or np.asarray(u).size != 2:
             raise ValueError("x must have 7 entries and u 2")
-        M, f = self._kane(x, u)
+        M, f = self._kane(x, u, engaged)
         if extra is not None:
             f[0] += extra[0]
             f[1] += extra[1]
+        tau = np.zeros(2)
         if self.friction is not None:
-            f = self._gearhead(M, f, x[4:])
+            f, tau = self._gearhead(M, f, x[4:], engaged)
         nu_dot = np.linalg.solve(M, f)
         psi, v = x[2], x[5]
-        return np.array([v * math.cos(psi), v * math.sin(psi), x[6], x[4], *nu_dot])
+        return np.array([v * math.cos(psi), v * math.sin(psi), x[6], x[4], *nu_dot]), tau
+
+    def engage(self, x, wheel: int, rotor_speed: float, engaged) -> float:
+        """The plastic impact of wheel `wheel`'s rotor on its flank (the trains `engaged` as
+        before it): one impulse along its row against the masses without the open rotors.
+        Updates x's rates in place; returns the common speed."""
+        M, _ = self._kane(np.asarray(x, float), np.zeros(2), engaged)
+        rel = np.asarray(self._rel[wheel])
+        resp = np.linalg.solve(M, rel)
+        j = self.rotor_per_wheel()
+        impulse = (rotor_speed - rel @ x[4:]) / (rel @ resp + 1.0 / j)
+        x[4:] += resp * impulse
+        return rotor_speed - impulse / j
 
     def energy(self, x) -> float:
         """Kinetic energy of every body plus the body's potential M_b g c_z cos(phi)."""

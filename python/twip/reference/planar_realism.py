@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twip.reference.backlash import GearPlay
 from twip.reference.realism import (Driven, Encoder, Mpu6050, PwmActuator, Realism, TiltFilter, rk4_sampled,
                                     specific_force)
 from twip.reference.rng import Philox
@@ -43,6 +44,21 @@ class PlanarPlant:
         m = realism.motor
         self.windings = None if m is None else [Driven(None, m, p), Driven(None, m, p)]
         self.torque_per_amp = None if m is None else m.efficiency * (p.gear_ratio * p.torque_constant)
+        self.play = None  # each gear train (backlash)
+        if realism.backlash:
+            self.play = GearPlay(realism.backlash, model.rotor_per_wheel(), 1.0, model.friction, 2)
+
+    def motor_speeds(self, x):
+        w = self.wheel_speeds(x)
+        return list(w) if self.play is None else self.play.motor_speeds(w)
+
+    def torques(self, x, u):
+        if self.windings is None:
+            return list(u)
+        return [self.torque_per_amp * d.held_at(wi, ui) for d, wi, ui in zip(self.windings, self.motor_speeds(x), u)]
+
+    def engaged(self):
+        return (True, True) if self.play is None else tuple(self.play.engaged())
 
     def wheel_speeds(self, x):
         roll = self.inv_r * x[5] - x[4]
@@ -53,13 +69,14 @@ class PlanarPlant:
         return height * (fx * math.cos(phi) - fz * math.sin(phi)), fx
 
     def deriv(self, x, u):
-        if self.windings is not None:
-            w = self.wheel_speeds(x)
-            u = [self.torque_per_amp * d.held_at(wi, ui) for d, wi, ui in zip(self.windings, w, u)]
         extra = self.body_force(*self.force, x[3]) if self.has_force else None
-        return self.model.deriv(x, u, extra)
+        return self.model.deriv_geared(x, self.torques(x, u), self.engaged(), extra)[0]
 
     def between_steps(self, t, dt, x, u):
+        if self.play is not None:
+            for i, hit in enumerate(self.play.elapsed(dt, list(self.wheel_speeds(x)))):
+                if hit is not None:
+                    self.play.engage(i, self.model.engage(x, i, hit, self.engaged()))
         while self.next_push < len(self.pushes) and self.pushes[self.next_push][0] < t + dt * 0.5:
             _, impulse, height = self.pushes[self.next_push]
             self.next_push += 1
@@ -68,13 +85,21 @@ class PlanarPlant:
             x[4] += jump[0]
             x[5] += jump[1]
         if self.windings is not None:
-            for d, wi, ui in zip(self.windings, self.wheel_speeds(x), u):
+            for d, wi, ui in zip(self.windings, self.motor_speeds(x), u):
                 d.advance_at(wi, ui, dt)
+        if self.play is not None:
+            motor = self.torques(x, u)
+            extra = self.body_force(*self.force, x[3]) if self.has_force else None
+            d, tau = self.model.deriv_geared(x, motor, self.engaged(), extra)
+            w = self.wheel_speeds(x)
+            acc = self.wheel_speeds([0, 0, 0, 0, d[4], d[5], d[6]])
+            j = self.play.inertia
+            self.play.next_step(list(w), [m - f - j * a for m, f, a in zip(motor, tau, acc)], motor)
 
     def currents(self, x, u):
         if self.windings is None:
             return [ui / (self.params.gear_ratio * self.params.torque_constant) for ui in u]
-        return [d.current_at(wi, ui) for d, wi, ui in zip(self.windings, self.wheel_speeds(x), u)]
+        return [d.current_at(wi, ui) for d, wi, ui in zip(self.windings, self.motor_speeds(x), u)]
 
 
 class PlanarSensors:

@@ -18,6 +18,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from twip.reference.backlash import GearPlay
 from twip.reference.friction import Friction
 from twip.reference.rng import Philox
 from twip.reference.slope import SlopeModel
@@ -365,6 +366,10 @@ class Driven:
         self.tau = driver.inductance / driver.resistance
         self.factors = None
         self.current = self.held = 0.0
+        self.open_rotor = None  # the motors' speed while their gear trains are open (backlash)
+
+    def motor_speed(self, x):
+        return x[3] - x[1] if self.open_rotor is None else self.open_rotor
 
     def free_current(self, pwm, w):
         volts = _clamp(pwm, self.PWM_MAX) * self.volts_per_count
@@ -394,14 +399,18 @@ class Driven:
         return self.held if self.tau > 0 else _clamp(self.free_current(pwm, w), self.limit)
 
     def advance(self, x, pwm, dt):
-        self.advance_at(x[3] - x[1], pwm, dt)
+        self.advance_at(self.motor_speed(x), pwm, dt)
 
     def motor_current(self, x, pwm):
         """Per motor, now."""
-        return self.current_at(x[3] - x[1], pwm)
+        return self.current_at(self.motor_speed(x), pwm)
+
+    def mechanical_current(self, x, pwm):
+        """The lumped current the mechanics feel over the step."""
+        return self.lumped_per_amp * self.held_at(self.motor_speed(x), pwm)
 
     def deriv(self, x, pwm):
-        return self.plant.deriv(x, self.lumped_per_amp * self.held_at(x[3] - x[1], pwm))
+        return self.plant.deriv(x, self.mechanical_current(x, pwm))
 
 
 class PwmActuator:
@@ -440,7 +449,7 @@ class Disturbed:
     """The slope model on a piecewise-constant slope, with a constant force (fx, fz) at
     `height` on the body and horizontal pushes (t, J, h) applied between steps."""
 
-    def __init__(self, params, base_slope, profile=(), force=(0.0, 0.0, 0.0), pushes=(), friction=None):
+    def __init__(self, params, base_slope, profile=(), force=(0.0, 0.0, 0.0), pushes=(), friction=None, backlash=None):
         self.params, self.radius = params, params.wheel_radius
         self.starts = [d for d, _ in profile]
         self.slopes = [base_slope] + [a for _, a in profile]
@@ -449,6 +458,40 @@ class Disturbed:
         self.has_force = force[0] != 0.0 or force[1] != 0.0
         self.pushes = sorted(pushes, key=lambda p: p[0])
         self.next = 0
+        self.play = None  # both gear trains, lumped (backlash)
+        if backlash:
+            m = self.models[0]
+            self.play = GearPlay(backlash, m.rotor_inertia(), 2.0, m.friction, 1)
+
+    def open_rotor_speed(self, x):
+        if self.play is None or self.play.engaged()[0]:
+            return None
+        return self.play.motor_speeds([x[3] - x[1]])[0]
+
+    def gear_elapsed(self, dt, x):
+        if self.play is None:
+            return
+        (hit,) = self.play.elapsed(dt, [x[3] - x[1]])
+        if hit is not None:
+            model = self.models[self.segment(x[2] * self.radius)]
+            self.play.engage(0, model.engage(x, hit))
+
+    def gear_next(self, x, current):
+        if self.play is None:
+            return
+        i = self.segment(x[2] * self.radius)
+        model = self.models[i]
+        motor = self.params.gear_ratio * self.params.torque_constant * current
+        d, tau = model.deriv_geared(x, current, self.play.engaged()[0], self._extra(i, x))
+        contact = motor - 2.0 * tau - self.play.inertia * (d[3] - d[1])
+        self.play.next_step([x[3] - x[1]], [contact], [motor])
+
+    def _extra(self, i, x):
+        if not self.has_force:
+            return None
+        fx, fz, h = self.force
+        slope = self.slopes[i]
+        return (h * (fx * math.cos(x[0]) - fz * math.sin(x[0])), self.radius * (fx * math.cos(slope) + fz * math.sin(slope)))
 
     def segment(self, distance):
         i = len(self.starts)
@@ -458,12 +501,8 @@ class Disturbed:
 
     def deriv(self, x, u):
         i = self.segment(x[2] * self.radius)
-        if not self.has_force:
-            return self.models[i].deriv(x, u)
-        fx, fz, h = self.force
-        slope = self.slopes[i]
-        q = (h * (fx * math.cos(x[0]) - fz * math.sin(x[0])), self.radius * (fx * math.cos(slope) + fz * math.sin(slope)))
-        return self.models[i].deriv(x, u, extra=q)
+        engaged = True if self.play is None else self.play.engaged()[0]
+        return self.models[i].deriv_geared(x, u, engaged, self._extra(i, x))[0]
 
     def kick(self, t, dt, x):
         while self.next < len(self.pushes) and self.pushes[self.next][0] < t + dt * 0.5:
@@ -493,6 +532,7 @@ class Realism:
     force: Tuple[float, float, float] = (0.0, 0.0, 0.0)
     slope_profile: Sequence[Tuple[float, float]] = ()
     friction: Optional[Friction] = None  # per wheel, on the rig's plant (None: the model's)
+    backlash: Optional[float] = None  # each gear train's play at the wheel [rad]
     seed: int = 0
     stream: int = 0
 
@@ -514,7 +554,8 @@ class Realism:
         force = (0.0, 0.0, 0.0) if f is None else (f.horizontal, f.vertical, com if f.height is None else f.height)
         pushes = [(p.t, p.impulse, com if p.height is None else p.height) for p in r.pushes]
         return cls(imu, (r.estimator.kind, dict(r.estimator.parameters)), r.encoder_cpr, motor, r.delay,
-                   r.control_period, pushes, force, list(r.slope_profile), Friction.of(r.friction), r.seed, r.stream)
+                   r.control_period, pushes, force, list(r.slope_profile), Friction.of(r.friction),
+                   getattr(r, "backlash", None), r.seed, r.stream)
 
 
 class BalanceSensors:
@@ -587,7 +628,8 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
     period = realism.control_period if realism.control_period is not None else controller.period
     controller.period = period
     friction = realism.friction if realism.friction is not None else model.friction
-    ground = Disturbed(params, model.slope, realism.slope_profile, realism.force, realism.pushes, friction)
+    ground = Disturbed(params, model.slope, realism.slope_profile, realism.force, realism.pushes, friction,
+                       realism.backlash)
     if realism.motor is not None:
         plant, actuator = Driven(ground, realism.motor, params), PwmActuator(realism.motor, params)
     else:
@@ -623,9 +665,15 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
         us.append(command)
         ss.append(list(signals))
         ins.append(controller.internals)
+        ground.gear_elapsed(dt, x)
         ground.kick(t, dt, x)
         if actuator is not None:
+            plant.open_rotor = ground.open_rotor_speed(x)
             plant.advance(x, u, dt)
+            ground.gear_next(x, plant.mechanical_current(x, u))
+            plant.open_rotor = ground.open_rotor_speed(x)
+        else:
+            ground.gear_next(x, u)
         x = rk4_sampled(plant, sensors, t, x, u, dt)
         if abs(x[0]) > fall_limit:
             outcome = "fell"

@@ -42,9 +42,15 @@ class SlopeModel:
     def deriv(self, x, u, extra=None) -> np.ndarray:
         """`extra`: generalised forces (q_phi, q_theta) on the body and wheels (a force on the
         body), added before the gearhead friction is found (a held wheel holds against them)."""
+        return self.deriv_geared(x, u, True, extra)[0]
+
+    def deriv_geared(self, x, u, engaged: bool, extra=None):
+        """(derivative, gearhead friction torque per wheel). With the gear trains open
+        (backlash, not `engaged`) the wheels get neither the motors' torque nor the friction
+        and the rotors' inertia eta^2 I_M leaves them."""
         p = self.params
         phi, phi_dot, _theta, theta_dot = (float(v) for v in x)
-        u = float(np.asarray(u, dtype=float).reshape(-1)[0])
+        u = float(np.asarray(u, dtype=float).reshape(-1)[0]) if engaged else 0.0
         Mb, Mw, l, r, g, a = p.m_body, p.m_wheels, p.com_height, p.wheel_radius, p.g, self.slope
         # (3.20) corrected: a11 phi'' + a12 theta'' - Mb g l sin(phi) - mu_s (theta' - phi') = -eta tau u
         rhs1 = Mb * g * l * math.sin(phi) + p.mu_bearing * (theta_dot - phi_dot) - p.gear_ratio * p.torque_constant * u
@@ -58,16 +64,40 @@ class SlopeModel:
         if extra is not None:  # row 2 is the sum of Lagrange's two rows
             rhs1 += extra[0]
             rhs2 += extra[0] + extra[1]
-        M = self.mass_matrix(phi)
+        M = self.mass_matrix(phi) if engaged else self._rotorless(phi)
         qdd = np.linalg.solve(M, np.array([rhs1, rhs2]))
-        if self.friction is not None:
+        tau = 0.0
+        if self.friction is not None and engaged:
             # Both wheels' torque 2 tau adds to rhs1 (the summed row (3.21) cancels it).
             r = 2 * np.linalg.solve(M, np.array([1.0, 0.0]))
             beta_dot = theta_dot - phi_dot
             (tau,) = self.friction.torques([beta_dot], [qdd[1] - qdd[0]], [[r[0] - r[1]]])
             qdd = qdd + tau * r
         phi_dd, theta_dd = qdd
-        return np.array([phi_dot, phi_dd, theta_dot, theta_dd])
+        return np.array([phi_dot, phi_dd, theta_dot, theta_dd]), float(tau)
+
+    def rotor_inertia(self) -> float:
+        return self.params.gear_ratio**2 * self.params.i_motor
+
+    def _rotorless(self, phi):
+        """The mass matrix without the rotors (their terms sit in row 1; row 2 sums them away)."""
+        M = self.mass_matrix(phi)
+        rotor = self.rotor_inertia()
+        M[0, 0] -= rotor
+        M[0, 1] += rotor
+        return M
+
+    def engage(self, x, rotor_speed: float) -> float:
+        """The plastic impact of the open trains' rotors on the wheels' flanks: one impulse P
+        on beta against the rotorless masses (-P on row 1; the summed row 2 gets none). Updates
+        x's rates in place; returns the common speed."""
+        M = self._rotorless(float(x[0]))
+        resp = np.linalg.solve(M, np.array([-1.0, 0.0]))
+        j = self.rotor_inertia()
+        impulse = (rotor_speed - (x[3] - x[1])) / ((resp[1] - resp[0]) + 1.0 / j)
+        x[1] += resp[0] * impulse
+        x[3] += resp[1] * impulse
+        return rotor_speed - impulse / j
 
     def energy(self, x) -> float:
         """T of (3.1) (with beta = theta - phi) plus the corrected potential (3.2)+(3.3)."""

@@ -15,6 +15,7 @@
 //! crossing a change keeps (φ̇, θ̇) (the crease's own impact is neglected).
 use nalgebra::{SVector, Vector2, Vector4};
 
+use crate::hardware::backlash::{Backlash, GearPlay};
 use crate::model::friction::Friction;
 use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
 
@@ -234,10 +235,20 @@ impl<T: Real> Piece<T> {
     /// (`force_path_matches_the_model`).
     #[inline(always)]
     fn deriv_with_force(&self, x: &Vector4<T>, u: T, force: &Force<T>) -> Vector4<T> {
-        self.model.deriv_plus(x, u, |sin_phi, cos_phi| {
-            let q_phi = force.height * (force.horizontal * cos_phi - force.vertical * sin_phi);
-            Some(Vector2::new(q_phi, self.q_theta))
-        })
+        self.model.deriv_plus(x, u, |sin_phi, cos_phi| self.force_at(force, sin_phi, cos_phi))
+    }
+
+    /// The force's generalised forces on (φ, θ) at (sin φ, cos φ).
+    #[inline(always)]
+    fn force_at(&self, force: &Force<T>, sin_phi: T, cos_phi: T) -> Option<Vector2<T>> {
+        let q_phi = force.height * (force.horizontal * cos_phi - force.vertical * sin_phi);
+        Some(Vector2::new(q_phi, self.q_theta))
+    }
+
+    /// `SlopeModel::deriv_geared` with the force (if `has_force`).
+    #[inline(always)]
+    fn deriv_geared(&self, x: &Vector4<T>, u: T, engaged: bool, force: &Force<T>, has_force: bool) -> (Vector4<T>, T) {
+        self.model.deriv_geared(x, u, engaged, |s, cp| if has_force { self.force_at(force, s, cp) } else { None })
     }
 }
 
@@ -252,6 +263,8 @@ pub struct Disturbed<T: Real> {
     force: Force<T>,
     has_force: bool,
     pushes: Pushes<T>,
+    /// Both gear trains' play and rotors, lumped (backlash).
+    play: Option<GearPlay<T, 1>>,
 }
 
 impl<T: Real> Disturbed<T> {
@@ -262,7 +275,50 @@ impl<T: Real> Disturbed<T> {
         for (i, (_, slope)) in profile.changes().enumerate() {
             pieces[i + 1] = Piece::new(SlopeModel::new(params, slope)?, &force);
         }
-        Ok(Self { pieces, profile, radius: params.wheel_radius, has_force: !force.is_zero(), force, pushes })
+        Ok(Self { pieces, profile, radius: params.wheel_radius, has_force: !force.is_zero(), force, pushes, play: None })
+    }
+
+    /// The same plant with `backlash` in both gear trains (None or no gap: none). Call
+    /// after `with_friction`: the open rotors take the gearhead friction.
+    pub fn with_backlash(mut self, backlash: Option<Backlash<T>>) -> Result<Self, TwipError> {
+        self.play = match backlash {
+            Some(b) if b.validate()?.gap > T::zero() => {
+                let model = &self.pieces[0].model;
+                Some(GearPlay::new(&b, model.rotor_inertia(), c(2.0), model.friction().copied())?)
+            }
+            _ => None,
+        };
+        Ok(self)
+    }
+
+    /// The motors' speed relative to the body when their gear trains are open (None:
+    /// engaged, or no backlash): the rotors'.
+    pub fn open_rotor_speed(&self, x: &Vector4<T>) -> Option<T> {
+        let play = self.play.as_ref()?;
+        (!play.engaged()[0]).then(|| play.motor_speeds([x[3] - x[1]])[0])
+    }
+
+    /// The step under way has ended at `x`: the open rotors advance; reaching a flank
+    /// they engage in a plastic impact (φ̇ and θ̇ in `x` jump).
+    pub fn gear_elapsed(&mut self, dt: T, x: &mut Vector4<T>) {
+        let Some(mut play) = self.play else { return };
+        if let Some(rotor_speed) = play.elapsed(dt, [x[3] - x[1]])[0] {
+            let speed = self.piece(x).model.engage(x, rotor_speed);
+            play.engage(0, speed);
+        }
+        self.play = Some(play);
+    }
+
+    /// A step starts at `x` under the lumped `current`: engaged trains whose contact
+    /// torque would pull the flanks apart open, and the motors' torque is noted.
+    pub fn gear_next(&mut self, x: &Vector4<T>, current: T) {
+        let Some(mut play) = self.play else { return };
+        let piece = self.piece(x);
+        let motor = piece.model.params().torque_per_amp() * current;
+        let (d, friction) = piece.deriv_geared(x, current, play.engaged()[0], &self.force, self.has_force);
+        let contact = motor - c::<T>(2.0) * friction - play.inertia() * (d[3] - d[1]);
+        play.next_step([x[3] - x[1]], [contact], [motor]);
+        self.play = Some(play);
     }
 
     /// The same plant with gearhead friction on every piece of the ground (validated).
@@ -282,6 +338,7 @@ impl<T: Real> Disturbed<T> {
             force: Force::none(),
             has_force: false,
             pushes: Pushes::none(),
+            play: None,
         }
     }
 
@@ -319,6 +376,9 @@ impl<T: Real> Dynamics<T, 4, 1> for Disturbed<T> {
     #[inline(always)]
     fn deriv(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> Vector4<T> {
         let piece = self.piece(x);
+        if let Some(play) = &self.play {
+            return piece.deriv_geared(x, u[0], play.engaged()[0], &self.force, self.has_force).0;
+        }
         if self.has_force {
             piece.deriv_with_force(x, u[0], &self.force)
         } else {

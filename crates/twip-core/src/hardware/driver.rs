@@ -233,12 +233,20 @@ pub struct Driven<T, P> {
     winding: Winding<T>,
     /// 2 ε: lumped current per motor ampere.
     lumped_per_amp: T,
+    /// The motors' speed relative to the body while their gear trains are open (backlash;
+    /// None: the wheels' β̇).
+    open_rotor: Option<T>,
 }
 
 impl<T: Real, P> Driven<T, P> {
     /// `plant` driven by `driver`; `params` gives the torque constant and gear ratio.
     pub fn new(plant: P, driver: &MotorDriver<T>, params: &RobotParams<T>) -> Result<Self, TwipError> {
-        Ok(Self { plant, winding: Winding::new(driver, params)?, lumped_per_amp: c::<T>(MOTORS) * driver.efficiency })
+        Ok(Self {
+            plant,
+            winding: Winding::new(driver, params)?,
+            lumped_per_amp: c::<T>(MOTORS) * driver.efficiency,
+            open_rotor: None,
+        })
     }
 
     pub fn plant_mut(&mut self) -> &mut P {
@@ -254,10 +262,22 @@ impl<T: Real, P> Driven<T, P> {
         self.winding.inductive()
     }
 
+    /// The motors now turn at `speed` relative to the body (an open gear train's rotor),
+    /// or with the wheels (None).
+    pub fn turn_motors_at(&mut self, speed: Option<T>) {
+        self.open_rotor = speed;
+    }
+
+    /// The motors' speed relative to the body at state `x`.
+    #[inline(always)]
+    fn motor_speed(&self, x: &Vector4<T>) -> T {
+        self.open_rotor.unwrap_or(x[3] - x[1])
+    }
+
     /// Current per motor now [A]: the state when inductive, else algebraic.
     #[inline]
     pub fn current(&self, x: &Vector4<T>, pwm: T) -> T {
-        self.winding.current(pwm, x[3] - x[1])
+        self.winding.current(pwm, self.motor_speed(x))
     }
 
     /// The lumped current of `SlopeModel` now [A] (both motors, efficiency included).
@@ -268,14 +288,14 @@ impl<T: Real, P> Driven<T, P> {
 
     /// The lumped current the mechanics feel over the step [A].
     #[inline(always)]
-    fn mechanical_current(&self, x: &Vector4<T>, pwm: T) -> T {
-        self.lumped_per_amp * self.winding.mechanical_current(pwm, x[3] - x[1])
+    pub fn mechanical_current(&self, x: &Vector4<T>, pwm: T) -> T {
+        self.lumped_per_amp * self.winding.mechanical_current(pwm, self.motor_speed(x))
     }
 
     /// Inductive only: advances the current over a step of `dt` from the state `x` with
     /// the duty held ([`Winding::advance`]).
     pub fn advance(&mut self, x: &Vector4<T>, pwm: T, dt: T) {
-        self.winding.advance(pwm, x[3] - x[1], dt);
+        self.winding.advance(pwm, self.motor_speed(x), dt);
     }
 }
 

@@ -1,5 +1,6 @@
-//! The robot's hardware around the plant: DC motor and motor driver, the IMU and tilt
+//! The robot's hardware around the plant: DC motor and motor driver, gearbox backlash, the IMU and tilt
 //! estimators, encoders, disturbances, and the realism rig that puts them in the loop.
+pub mod backlash;
 pub mod disturbance;
 pub mod driver;
 pub mod encoder;

@@ -21,6 +21,7 @@
 //! rule on the plant's steps (error ~dt³, against 9 mrad per encoder count).
 use nalgebra::{SVector, Vector2, Vector3, Vector4};
 
+use crate::hardware::backlash::GearPlay;
 use crate::hardware::disturbance::{Force, Pushes};
 use crate::hardware::driver::{PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
@@ -56,22 +57,70 @@ pub struct PlanarPlant<T: Real> {
     force: Force<T>,
     has_force: bool,
     pushes: Pushes<T>,
+    /// Each gear train's play and rotor (backlash).
+    play: Option<GearPlay<T, 2>>,
 }
 
 impl<T: Real> PlanarPlant<T> {
-    /// The wheel torques [N m] the mechanics feel over the step for the input `u`.
+    /// The wheel torques [N m] the mechanics feel over the step for the input `u`; a
+    /// motor whose gear train is open turns at its rotor's speed.
     #[inline(always)]
     fn torques(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> SVector<T, 2> {
         match &self.drives {
             None => *u,
             Some(d) => {
-                let (w_r, w_l) = self.model.wheel_speeds(x);
+                let [w_r, w_l] = self.motor_speeds(x);
                 SVector::<T, 2>::new(
                     d.torque_per_amp * d.windings[0].mechanical_current(u[0], w_r),
                     d.torque_per_amp * d.windings[1].mechanical_current(u[1], w_l),
                 )
             }
         }
+    }
+
+    #[inline(always)]
+    fn motor_speeds(&self, x: &PlanarState<T>) -> [T; 2] {
+        let (w_r, w_l) = self.model.wheel_speeds(x);
+        match &self.play {
+            None => [w_r, w_l],
+            Some(play) => play.motor_speeds([w_r, w_l]),
+        }
+    }
+
+    /// The body force's generalised forces on (φ, v) at (sin φ, cos φ), if any.
+    #[inline(always)]
+    fn extra(&self, s: T, cp: T) -> Option<Vector2<T>> {
+        let f = &self.force;
+        self.has_force.then(|| Self::body_force(f.horizontal, f.vertical, f.height, s, cp))
+    }
+
+    /// The step under way has ended at `x`: the open trains' rotors advance; those that
+    /// reach a flank engage in a plastic impact (the velocities in `x` jump).
+    fn gear_elapsed(&mut self, dt: T, x: &mut PlanarState<T>) {
+        let Some(mut play) = self.play else { return };
+        let (w_r, w_l) = self.model.wheel_speeds(x);
+        for (i, hit) in play.elapsed(dt, [w_r, w_l]).iter().enumerate() {
+            if let Some(rotor_speed) = hit {
+                let speed = self.model.engage(x, i, *rotor_speed, play.engaged());
+                play.engage(i, speed);
+            }
+        }
+        self.play = Some(play);
+    }
+
+    /// A step starts at `x` under `u`: engaged trains whose contact torque would pull the
+    /// flanks apart open, and the motors' torques over the step are noted.
+    fn gear_next(&mut self, x: &PlanarState<T>, u: &SVector<T, 2>) {
+        let Some(mut play) = self.play else { return };
+        let motor = self.torques(x, u);
+        let (d, friction) = self.model.deriv_geared(x, &motor, play.engaged(), |s, cp| self.extra(s, cp));
+        let zero = T::zero();
+        let (acc_r, acc_l) = self.model.wheel_speeds(&PlanarState::from([zero, zero, zero, zero, d[4], d[5], d[6]]));
+        let j = play.inertia();
+        let (w_r, w_l) = self.model.wheel_speeds(x);
+        let contact = [motor[0] - friction[0] - j * acc_r, motor[1] - friction[1] - j * acc_l];
+        play.next_step([w_r, w_l], contact, [motor[0], motor[1]]);
+        self.play = Some(play);
     }
 
     /// The generalised forces of `(F_x, F_z)` at `height` on (φ, v) (flat ground).
@@ -81,12 +130,22 @@ impl<T: Real> PlanarPlant<T> {
     }
 }
 
+impl<T: Real> PlanarRig<T> {
+    /// The gear trains' play and rotors, when the rig has backlash.
+    pub fn plant_play(&self) -> Option<&GearPlay<T, 2>> {
+        self.plant.play.as_ref()
+    }
+}
+
 impl<T: Real> Dynamics<T, 7, 2> for PlanarPlant<T> {
     const PITCH: usize = 3;
 
     #[inline(always)]
     fn deriv(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> PlanarState<T> {
         let torques = self.torques(x, u);
+        if let Some(play) = &self.play {
+            return self.model.deriv_geared(x, &torques, play.engaged(), |s, cp| self.extra(s, cp)).0;
+        }
         if self.has_force {
             let f = &self.force;
             self.model.deriv_plus(x, &torques, |s, cp| Some(Self::body_force(f.horizontal, f.vertical, f.height, s, cp)))
@@ -104,6 +163,7 @@ impl<T: Real> Plant<T, 7, 2> for PlanarPlant<T> {
     /// Pushes jump the velocities; the windings' currents advance.
     #[inline]
     fn between_steps(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) {
+        self.gear_elapsed(dt, x);
         while let Some(p) = self.pushes.due(t, dt) {
             let (s, cp) = x[3].sin_cos();
             let q = Self::body_force(p.impulse, T::zero(), p.height, s, cp);
@@ -111,11 +171,12 @@ impl<T: Real> Plant<T, 7, 2> for PlanarPlant<T> {
             x[4] += jump[0];
             x[5] += jump[1];
         }
+        let [w_r, w_l] = self.motor_speeds(x);
         if let Some(d) = self.drives.as_mut() {
-            let (w_r, w_l) = self.model.wheel_speeds(x);
             d.windings[0].advance(u[0], w_r, dt);
             d.windings[1].advance(u[1], w_l, dt);
         }
+        self.gear_next(x, u);
     }
 }
 
@@ -126,7 +187,7 @@ impl<T: Real> RigPlant<T, 7, 2> for PlanarPlant<T> {
             // The torques the controller commands, as motor currents of an ideal drive.
             None => *u / self.model.params().torque_per_amp(),
             Some(d) => {
-                let (w_r, w_l) = self.model.wheel_speeds(x);
+                let [w_r, w_l] = self.motor_speeds(x);
                 SVector::<T, 2>::new(d.windings[0].current(u[0], w_r), d.windings[1].current(u[1], w_l))
             }
         }
@@ -318,7 +379,11 @@ impl<T: Real> Realism<T> {
             }
         };
         let model = model.with_friction(s.friction_on(model.friction()))?;
-        let plant = PlanarPlant { model, drives, force: s.force, has_force: !s.force.is_zero(), pushes };
+        let play = match s.backlash {
+            Some(b) if b.gap > T::zero() => Some(GearPlay::new(&b, model.rotor_per_wheel(), T::one(), model.friction().copied())?),
+            _ => None,
+        };
+        let plant = PlanarPlant { model, drives, force: s.force, has_force: !s.force.is_zero(), pushes, play };
         let sensors = PlanarSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, &params, dt, s.seed, s.stream)?;
         Ok(Rig { plant, sensors, actuator, delay: s.delay })
     }

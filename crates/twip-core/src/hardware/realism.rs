@@ -17,6 +17,7 @@ use crate::hardware::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_S
 use crate::hardware::driver::{Driven, MotorDriver, PwmActuator};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
+use crate::hardware::backlash::Backlash;
 use crate::model::friction::{Friction, GB37_STICK_SPEED};
 use crate::rng::Philox;
 use crate::sim::runner::{run_loop, Actuator, Loop, Observer, Outcome, Plant, Sensor, Signals, SimConfig, MAX_RAW};
@@ -43,6 +44,8 @@ pub struct Realism<T: Real> {
     pub slope_profile: SlopeProfile<T>,
     /// Gearhead friction per wheel (None: the model's own, if any).
     pub friction: Option<Friction<T>>,
+    /// Free play in each wheel's gear train (None: none).
+    pub backlash: Option<Backlash<T>>,
     pub seed: u64,
     pub stream: u64,
 }
@@ -67,6 +70,7 @@ impl<T: Real> Realism<T> {
             force: Force::none(),
             slope_profile: SlopeProfile::constant(T::zero()),
             friction: None,
+            backlash: None,
             seed: 0,
             stream: 0,
         }
@@ -75,9 +79,10 @@ impl<T: Real> Realism<T> {
     /// The thesis's robot as built (chapter 2, docs/parameters.md): a 5 ms Arduino loop
     /// that applies its command one period late, the MPU-6050 at DLPF 44/42 Hz with its
     /// data-sheet noise and calibrated residual biases, a complementary filter, 700 CPR
-    /// encoders, the L298P on 11.1 V, and the GB37 gearheads' friction: the data sheet's
-    /// no-load torque split beside the Balanbot's viscous bearing (0.0117 N m Coulomb per
-    /// wheel) with a stick band ([`Self::thesis_like_friction`]). No disturbances.
+    /// encoders, the L298P on 11.1 V, and the GB37 gearheads: their friction, the data
+    /// sheet's no-load torque split beside the Balanbot's viscous bearing (0.0117 N m
+    /// Coulomb per wheel) with a stick band ([`Self::thesis_like_friction`]), and 1° of
+    /// backlash ([`Backlash::gb37`]). No disturbances.
     pub fn thesis_like() -> Self {
         Self {
             imu: Some(ImuSettings::thesis_like()),
@@ -86,6 +91,7 @@ impl<T: Real> Realism<T> {
             delay: true,
             control_period: Some(c(5e-3)),
             friction: Some(Self::thesis_like_friction()),
+            backlash: Some(Backlash::gb37()),
             ..Self::ideal()
         }
     }
@@ -114,6 +120,9 @@ impl<T: Real> Realism<T> {
         if let Some(f) = &self.friction {
             f.validate()?;
         }
+        if let Some(b) = &self.backlash {
+            b.validate()?;
+        }
         if let Some(cpr) = self.encoder_cpr {
             Encoder::new(cpr)?;
         }
@@ -137,7 +146,9 @@ impl<T: Real> Realism<T> {
         let profile = s.slope_profile.with_base(model.slope());
         let mut pushes = s.pushes;
         pushes.rewind();
-        let ground = Disturbed::new(params, profile, s.force, pushes)?.with_friction(s.friction_on(model.friction()))?;
+        let ground = Disturbed::new(params, profile, s.force, pushes)?
+            .with_friction(s.friction_on(model.friction()))?
+            .with_backlash(s.backlash)?;
         let (plant, actuator) = match &s.motor {
             None => (RealPlant::Current(ground), RealActuator::Ideal),
             Some(m) => (RealPlant::Driven(Driven::new(ground, m, &params)?), RealActuator::Pwm(PwmActuator::new(m, &params)?)),
@@ -367,10 +378,21 @@ impl<T: Real> Plant<T, 4, 1> for RealPlant<T> {
     #[inline]
     fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) {
         match self {
-            Self::Current(p) => p.between_steps(t, dt, x, u),
+            Self::Current(p) => {
+                p.gear_elapsed(dt, x);
+                p.between_steps(t, dt, x, u);
+                p.gear_next(x, u[0]);
+            }
             Self::Driven(p) => {
+                p.plant_mut().gear_elapsed(dt, x);
                 p.plant_mut().between_steps(t, dt, x, u);
+                let open = p.plant_mut().open_rotor_speed(x);
+                p.turn_motors_at(open);
                 p.advance(x, u[0], dt);
+                let current = p.mechanical_current(x, u[0]);
+                p.plant_mut().gear_next(x, current);
+                let open = p.plant_mut().open_rotor_speed(x);
+                p.turn_motors_at(open);
             }
         }
     }

@@ -29,7 +29,7 @@
 //! `h_ω` come from the rolling constraint (a vakonomic derivation would miss them). With
 //! ω = 0 the (φ, v) rows are the 2-DOF flat model with v = R θ̇. The thesis's printed
 //! (3.38)–(3.48) carry several typos; docs/errata.md lists them (P1–P8).
-use nalgebra::{Matrix3, SVector, Vector2};
+use nalgebra::{Matrix3, SVector, Vector2, Vector3};
 
 use crate::model::friction::Friction;
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
@@ -169,11 +169,11 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
 
 impl<T: Real> PlanarModel<T> {
     /// ν̇ = M(φ)⁻¹ q: the accelerations generalised forces `q` on (φ, v, ω) give at `phi`.
-    pub fn solve_mass(&self, phi: T, q: &nalgebra::Vector3<T>) -> nalgebra::Vector3<T> {
+    pub fn solve_mass(&self, phi: T, q: &Vector3<T>) -> Vector3<T> {
         let (s, cp) = phi.sin_cos();
         let m_pv = self.mbc * cp - self.rotor_r;
         let det = self.m_pp * self.m_vv - m_pv * m_pv;
-        nalgebra::Vector3::new(
+        Vector3::new(
             (self.m_vv * q[0] - m_pv * q[1]) / det,
             (self.m_pp * q[1] - m_pv * q[0]) / det,
             q[2] / (self.m_ww0 + self.k * s * s),
@@ -219,7 +219,7 @@ impl<T: Real> PlanarModel<T> {
         let roll = |d: &PlanarState<T>| self.inv_r * d[5] - d[4];
         let (a_r, a_l) = (roll(&free) + self.b_r * free[6], roll(&free) - self.b_r * free[6]);
         let phi = x[3];
-        let shared = self.solve_mass(phi, &nalgebra::Vector3::new(-T::one(), self.inv_r, T::zero()));
+        let shared = self.solve_mass(phi, &Vector3::new(-T::one(), self.inv_r, T::zero()));
         let common = self.inv_r * shared[1] - shared[0];
         let yaw = self.b_r * self.b_r / (self.m_ww0 + self.k * phi.sin() * phi.sin());
         // ẇ = a0 − S τ: friction takes its torque off the motor's.
@@ -230,13 +230,32 @@ impl<T: Real> PlanarModel<T> {
     /// The state derivative under the wheels' net torques `u_r`, `u_l` (motor minus gearhead).
     #[inline(always)]
     fn driven(&self, x: &PlanarState<T>, u_r: T, u_l: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> PlanarState<T> {
+        let (f, s, cp) = self.forces(x, u_r, u_l, extra);
+        // (φ, v) block by Cramer's rule; the yaw row is diagonal.
+        let m_pv = self.mbc * cp - self.rotor_r;
+        let det = self.m_pp * self.m_vv - m_pv * m_pv;
+        let acc = Vector2::new(self.m_vv * f[0] - m_pv * f[1], self.m_pp * f[1] - m_pv * f[0]) / det;
+        let omega_dot = f[2] / (self.m_ww0 + self.k * s * s);
+        self.kinematics(x, acc[0], acc[1], omega_dot)
+    }
+
+    /// The state derivative from the accelerations ν̇ = (φ̈, v̇, ω̇).
+    #[inline(always)]
+    fn kinematics(&self, x: &PlanarState<T>, phi_dd: T, v_dot: T, omega_dot: T) -> PlanarState<T> {
         let (sin_psi, cos_psi) = crate::model::math::sin_cos(x[2]);
+        let v = x[5];
+        PlanarState::from([v * cos_psi, v * sin_psi, x[6], x[4], phi_dd, v_dot, omega_dot])
+    }
+
+    /// The generalised forces f = B u − h on ν = (φ̇, v, ω) under the wheels' net torques,
+    /// with `extra` on (φ, v); and sin φ, cos φ.
+    #[inline(always)]
+    fn forces(&self, x: &PlanarState<T>, u_r: T, u_l: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (Vector3<T>, T, T) {
         let (s, cp) = crate::model::math::sin_cos(x[3]);
         let (phi_dot, v, omega) = (x[4], x[5], x[6]);
         let (u_sum, u_diff) = (u_r + u_l, u_r - u_l);
         let w2 = omega * omega;
         let sc = s * cp;
-        // f = B u − h
         let f_p = self.mgc * s + self.k * sc * w2 - self.mu_s * phi_dot + self.mu_s_r * v - u_sum;
         let f_v = self.mbc * s * (phi_dot * phi_dot + w2) - self.mu_v * v
             + self.mu_s_r * phi_dot
@@ -247,20 +266,87 @@ impl<T: Real> PlanarModel<T> {
             Some(q) => (f_p + q[0], f_v + q[1]),
             None => (f_p, f_v),
         };
-        // (φ, v) block by Cramer's rule; the yaw row is diagonal.
-        let m_pv = self.mbc * cp - self.rotor_r;
-        let det = self.m_pp * self.m_vv - m_pv * m_pv;
-        let acc = Vector2::new(self.m_vv * f_p - m_pv * f_v, self.m_pp * f_v - m_pv * f_p) / det;
-        let omega_dot = f_w / (self.m_ww0 + self.k * s * s);
-        PlanarState::from([
-            v * cos_psi,
-            v * sin_psi,
-            omega,
-            phi_dot,
-            acc[0],
-            acc[1],
-            omega_dot,
-        ])
+        (Vector3::new(f_p, f_v, f_w), s, cp)
+    }
+
+    /// One wheel's rotor inertia at the wheel, η² I_M / 2 [kg m²].
+    pub fn rotor_per_wheel(&self) -> T {
+        self.rotor_r * self.params.wheel_radius / c::<T>(2.0)
+    }
+
+    /// Each wheel's relative-speed row r (w = r · ν, ν = (φ̇, v, ω)).
+    fn wheel_rows(&self) -> [Vector3<T>; 2] {
+        [Vector3::new(-T::one(), self.inv_r, self.b_r), Vector3::new(-T::one(), self.inv_r, -self.b_r)]
+    }
+
+    /// The mass matrix with the rotors of the wheels not `engaged` taken off (their gear
+    /// trains open): M − Σ J r rᵀ over those wheels.
+    pub fn geared_mass_matrix(&self, phi: T, engaged: [bool; 2]) -> Matrix3<T> {
+        let mut m = self.mass_matrix(phi);
+        let j = self.rotor_per_wheel();
+        for (r, on) in self.wheel_rows().iter().zip(engaged) {
+            if !on {
+                m -= r * r.transpose() * j;
+            }
+        }
+        m
+    }
+
+    /// The plastic impact of an open train's rotor, turning at `rotor_speed`, on its
+    /// wheel's flank (gearbox backlash): one impulse P along the wheel's row r, with the
+    /// trains `engaged` as before it (this wheel's open), leaves rotor and wheel at one
+    /// speed. Updates the velocities in `x`; returns that speed.
+    pub fn engage(&self, x: &mut PlanarState<T>, wheel: usize, rotor_speed: T, engaged: [bool; 2]) -> T {
+        let r = self.wheel_rows()[wheel];
+        let Some(chol) = self.geared_mass_matrix(x[3], engaged).cholesky() else {
+            return rotor_speed;
+        };
+        let response = chol.solve(&r);
+        let nu = Vector3::new(x[4], x[5], x[6]);
+        let inertia = self.rotor_per_wheel();
+        let impulse = (rotor_speed - r.dot(&nu)) / (r.dot(&response) + T::one() / inertia);
+        for k in 0..3 {
+            x[4 + k] += response[k] * impulse;
+        }
+        rotor_speed - impulse / inertia
+    }
+
+    /// The derivative with the gear trains of the wheels not `engaged` open (gearbox
+    /// backlash, `hardware::backlash`): such a wheel gets neither its motor's torque nor
+    /// its gearhead friction, and its rotor's inertia leaves it (the rotor turns on its
+    /// own). Also each wheel's gearhead friction torque. All engaged is `deriv_plus`.
+    pub fn deriv_geared(
+        &self,
+        x: &PlanarState<T>,
+        u: &SVector<T, 2>,
+        engaged: [bool; 2],
+        extra: impl Fn(T, T) -> Option<Vector2<T>>,
+    ) -> (PlanarState<T>, [T; 2]) {
+        if engaged == [true, true] {
+            let tau = match &self.friction {
+                None => [T::zero(); 2],
+                Some(f) => self.gearhead_torques(f, x, u, &extra),
+            };
+            return (self.driven(x, u[0] - tau[0], u[1] - tau[1], extra), tau);
+        }
+        let pick = |i: usize| if engaged[i] { u[i] } else { T::zero() };
+        let (f0, _, _) = self.forces(x, pick(0), pick(1), &extra);
+        // M' is the mass matrix of a physical system, so positive definite: Cholesky holds.
+        let Some(chol) = self.geared_mass_matrix(x[3], engaged).cholesky() else {
+            return (PlanarState::from([c::<T>(f64::NAN); 7]), [T::zero(); 2]);
+        };
+        let rows = self.wheel_rows();
+        let mut tau = [T::zero(); 2];
+        if let (Some(fr), Some(i)) = (&self.friction, engaged.iter().position(|&e| e)) {
+            // One wheel engaged (the other's train is open): its friction against M'.
+            let a0 = rows[i].dot(&chol.solve(&f0));
+            let s = rows[i].dot(&chol.solve(&rows[i]));
+            let (w_r, w_l) = self.wheel_speeds(x);
+            tau[i] = fr.torques([[w_r, w_l][i]], [a0], [[s]])[0];
+        }
+        let f = f0 - rows[0] * tau[0] - rows[1] * tau[1];
+        let nu_dot = chol.solve(&f);
+        (self.kinematics(x, nu_dot[0], nu_dot[1], nu_dot[2]), tau)
     }
 }
 

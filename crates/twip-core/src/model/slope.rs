@@ -226,6 +226,59 @@ impl<T: Real> SlopeModel<T> {
         Vector4::new(x[1], qdd[0], x[3], qdd[1])
     }
 
+    /// The derivative with both wheels' gear trains open when not `engaged` (gearbox
+    /// backlash, `hardware::backlash`): the wheels get neither the motors' torque nor the
+    /// gearhead friction, and the rotors' inertia η² I_M leaves them (the rotors turn on
+    /// their own). Also the gearhead friction torque per wheel. Engaged is `deriv_plus`.
+    pub fn deriv_geared(
+        &self,
+        x: &SlopeState<T>,
+        u: T,
+        engaged: bool,
+        extra: impl Fn(T, T) -> Option<Vector2<T>>,
+    ) -> (SlopeState<T>, T) {
+        if engaged {
+            let (f, _, cos_pa) = self.forces_plus(x, u, extra);
+            let qdd = self.accelerations(&f, cos_pa);
+            let (qdd, tau) = match &self.friction {
+                Some(fr) if fr.sticks() => self.held(fr, x[3] - x[1], qdd, cos_pa),
+                Some(fr) => (qdd, fr.torque(x[3] - x[1])),
+                None => (qdd, T::zero()),
+            };
+            return (Vector4::new(x[1], qdd[0], x[3], qdd[1]), tau);
+        }
+        let bare = Self { friction: None, ..*self };
+        let (f, _, cos_pa) = bare.forces_plus(x, T::zero(), extra);
+        // M without the rotors: they add J to M11 and M22 and −J to M12.
+        let j = self.rotor;
+        let m12 = self.mrl * cos_pa;
+        let (m11, m22) = (self.m11 - j, self.m22 - j);
+        let inv_det = T::one() / (m11 * m22 - m12 * m12);
+        let qdd = Vector2::new((m22 * f[0] - m12 * f[1]) * inv_det, (m11 * f[1] - m12 * f[0]) * inv_det);
+        (Vector4::new(x[1], qdd[0], x[3], qdd[1]), T::zero())
+    }
+
+    /// The plastic impact of the open trains' rotors, turning at `rotor_speed` relative
+    /// to the body, on the wheels' flanks (gearbox backlash): one impulse P on β = θ − φ
+    /// against the rotorless mass matrix leaves rotors and wheels at one relative speed.
+    /// Updates φ̇ and θ̇ in `x`; returns that speed.
+    pub fn engage(&self, x: &mut SlopeState<T>, rotor_speed: T) -> T {
+        let j = self.rotor;
+        let (m11, m22, m12) = (self.m11 - j, self.m22 - j, self.mrl * (x[0] + self.slope).cos());
+        let inv_det = T::one() / (m11 * m22 - m12 * m12);
+        // M'⁻¹ (−1, 1): the response to a torque on β.
+        let r = Vector2::new((-m22 - m12) * inv_det, (m11 + m12) * inv_det);
+        let impulse = (rotor_speed - (x[3] - x[1])) / ((r[1] - r[0]) + T::one() / j);
+        x[1] += r[0] * impulse;
+        x[3] += r[1] * impulse;
+        rotor_speed - impulse / j
+    }
+
+    /// The reflected rotor inertia η² I_M of both motors, at the wheels [kg m²].
+    pub fn rotor_inertia(&self) -> T {
+        self.rotor
+    }
+
     /// q̈ = M(φ)⁻¹ q: the accelerations generalised forces `q` give at pitch `φ`.
     pub fn solve_mass(&self, phi: T, q: &Vector2<T>) -> Vector2<T> {
         self.accelerations(q, (phi + self.slope).cos())

@@ -1,0 +1,379 @@
+//! Gearbox backlash: free play between each motor's rotor and its wheel.
+//!
+//! Each gear train has `gap` of play, measured at the wheel. While the rotor is against
+//! one flank the train is engaged and the robot is the model as it is (the rotor's
+//! inertia on the wheel, the motor's torque and the gearhead friction through it). When
+//! the contact torque would pull the flanks apart the train opens: the wheel then gets
+//! neither torque nor friction and loses the rotor's inertia (`deriv_geared` of either
+//! model), while the rotor turns on its own under its motor and the gearhead friction,
+//! J γ̈ = τ_m − τ_f(γ̇). It crosses the play at the relative speed γ̇ − w and meets the
+//! other (or the same) flank in a plastic impact: one impulse between rotor and wheel
+//! that leaves both at one speed, conserving momentum and losing the energy of the
+//! relative speed.
+//!
+//! The rotor's state lives here, not in the model's state vector: the rig advances it
+//! between plant steps (one RK4 step of the rotor alone, the motor torque held), and the
+//! flanks are checked at the step's end, so an impact is late by less than one plant
+//! step. The motor's back-EMF follows the rotor while the train is open.
+use crate::model::friction::Friction;
+use crate::{c, to_f64, Real, TwipError};
+
+/// The free play of each wheel's gear train.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Backlash<T> {
+    /// Total play of one gear train, at the wheel [rad] (0: none).
+    pub gap: T,
+}
+
+impl<T: Real> Backlash<T> {
+    /// 1° at the output: the data sheet gives none; small spur gearheads (37 mm, 1:43.7)
+    /// are commonly sold with 1–3° of output backlash, and 1° is the tighter end.
+    pub fn gb37() -> Self {
+        Self { gap: c(core::f64::consts::PI / 180.0) }
+    }
+
+    pub fn validate(&self) -> Result<Self, TwipError> {
+        if !(self.gap.is_finite() && self.gap >= T::zero()) {
+            return Err(TwipError::InvalidParameter { name: "gap", value: to_f64(self.gap), reason: "must be finite and >= 0" });
+        }
+        Ok(*self)
+    }
+}
+
+/// The rotors of `N` gear trains with play (N = 1: the 2-DOF model's lumped pair).
+#[derive(Clone, Copy, Debug)]
+pub struct GearPlay<T, const N: usize> {
+    half: T,
+    /// Rotor inertia at the wheel [kg m²].
+    inertia: T,
+    /// How many gear trains each entry stands for (2: the lumped pair), for the friction.
+    trains: T,
+    friction: Option<Friction<T>>,
+    /// Rotor angle minus wheel angle, both relative to the body [rad], within ±half.
+    offset: [T; N],
+    /// Rotor speed relative to the body, at the wheel [rad/s].
+    rotor: [T; N],
+    /// +1 or −1: engaged on that flank (the rotor ahead or behind); 0: open.
+    flank: [i8; N],
+    /// The motors' torques over the step under way [N m at the wheel], and the wheel
+    /// speeds at its start (None before the first step).
+    motor: [T; N],
+    before: Option<[T; N]>,
+}
+
+impl<T: Real, const N: usize> GearPlay<T, N> {
+    /// Trains with `backlash`'s play, each entry's rotor of `inertia` [kg m² at the wheel]
+    /// standing for `trains` gear trains with the gearhead `friction` each; they start
+    /// open, centred in their play, at rest.
+    pub fn new(backlash: &Backlash<T>, inertia: T, trains: T, friction: Option<Friction<T>>) -> Result<Self, TwipError> {
+        let b = backlash.validate()?;
+        if !(inertia.is_finite() && inertia > T::zero()) {
+            return Err(TwipError::InvalidParameter {
+                name: "i_motor",
+                value: to_f64(inertia),
+                reason: "backlash needs a rotor inertia > 0 (the rotor turns on its own in the play)",
+            });
+        }
+        let zero = [T::zero(); N];
+        Ok(Self { half: b.gap / c(2.0), inertia, trains, friction, offset: zero, rotor: zero, flank: [0; N], motor: zero, before: None })
+    }
+
+    /// Which trains are engaged.
+    #[inline(always)]
+    pub fn engaged(&self) -> [bool; N] {
+        core::array::from_fn(|i| self.flank[i] != 0)
+    }
+
+    /// Each rotor's offset from its wheel [rad].
+    pub fn offsets(&self) -> [T; N] {
+        self.offset
+    }
+
+    /// The speed each motor turns at: its rotor's when open, else its wheel's `wheel[i]`.
+    #[inline(always)]
+    pub fn motor_speeds(&self, wheel: [T; N]) -> [T; N] {
+        core::array::from_fn(|i| if self.flank[i] == 0 { self.rotor[i] } else { wheel[i] })
+    }
+
+    /// The step of `dt` under way has ended at wheel speeds `after`: the open rotors
+    /// advance under the motors' torques over it. Returns, for each train whose rotor
+    /// reached a flank moving into it, its rotor speed: the plant applies the impact
+    /// ([`Self::engage`]). A rotor at a flank moving back out stays open.
+    pub fn elapsed(&mut self, dt: T, after: [T; N]) -> [Option<T>; N] {
+        let mut hits = [None; N];
+        let Some(before) = self.before else { return hits };
+        let half_step = c::<T>(0.5);
+        for i in 0..N {
+            if self.flank[i] != 0 {
+                continue;
+            }
+            let start = self.rotor[i];
+            let end = self.rotor_step(start, self.motor[i], dt);
+            self.rotor[i] = end;
+            self.offset[i] += dt * half_step * ((start + end) - (before[i] + after[i]));
+            let closing = end - after[i];
+            if self.offset[i] >= self.half {
+                self.offset[i] = self.half;
+                if closing > T::zero() {
+                    hits[i] = Some(end);
+                }
+            } else if self.offset[i] <= -self.half {
+                self.offset[i] = -self.half;
+                if closing < T::zero() {
+                    hits[i] = Some(end);
+                }
+            }
+        }
+        hits
+    }
+
+    /// Train `i` engaged on the flank its offset is at, rotor and wheel at `speed` after the impact.
+    pub fn engage(&mut self, i: usize, speed: T) {
+        self.flank[i] = if self.offset[i] > T::zero() { 1 } else { -1 };
+        self.rotor[i] = speed;
+    }
+
+    /// A step starts at wheel speeds `wheel`, the engaged trains' flank contact torque
+    /// being `contact` (τ_m − τ_f − J ẇ: what the rotor pushes its wheel with): those
+    /// it would pull apart open, their rotor leaving at the wheel's speed. `motor`: the
+    /// motors' torques over the step (read with [`Self::motor_speeds`] after this call
+    /// for the trains that stay engaged; an opening train's rotor has its wheel's speed).
+    pub fn next_step(&mut self, wheel: [T; N], contact: [T; N], motor: [T; N]) {
+        for i in 0..N {
+            let pushes = match self.flank[i] {
+                1 => contact[i] >= T::zero(),
+                -1 => contact[i] <= T::zero(),
+                _ => continue,
+            };
+            self.rotor[i] = wheel[i];
+            if !pushes {
+                self.flank[i] = 0;
+            }
+        }
+        self.motor = motor;
+        self.before = Some(wheel);
+    }
+
+    /// The rotor inertia [kg m² at the wheel].
+    pub fn inertia(&self) -> T {
+        self.inertia
+    }
+
+    /// One RK4 step of an open rotor, J γ̈ = τ_m − n τ_f(γ̇) over its n trains, the motor
+    /// torque held.
+    fn rotor_step(&self, speed: T, motor: T, dt: T) -> T {
+        let (j, n) = (self.inertia, self.trains);
+        let accel = |w: T| match &self.friction {
+            Some(f) => (motor - n * f.torques([w], [motor / j], [[n / j]])[0]) / j,
+            None => motor / j,
+        };
+        let two = c::<T>(2.0);
+        let k1 = accel(speed);
+        let k2 = accel(speed + k1 * dt / two);
+        let k3 = accel(speed + k2 * dt / two);
+        let k4 = accel(speed + k3 * dt);
+        speed + dt / c::<T>(6.0) * (k1 + two * k2 + two * k3 + k4)
+    }
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    extern crate std;
+
+    use super::*;
+    use crate::hardware::realism::Realism;
+    use crate::model::planar::PlanarState;
+    use crate::sim::runner::Plant;
+    use crate::{rk4_step, Dynamics, PlanarModel, RobotParams, SlopeModel};
+    use nalgebra::{SVector, Vector4};
+
+    fn lossless() -> RobotParams<f64> {
+        RobotParams { mu_bearing: 0.0, mu_ground: 0.0, ..RobotParams::balanbot() }
+    }
+
+    /// Uniform in [lo, hi) from a fixed sequence.
+    struct Lcg(u64);
+    impl Lcg {
+        fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
+        }
+    }
+
+    #[test]
+    fn an_open_train_takes_the_rotor_off_its_wheel() {
+        // Energy without the open rotors' kinetic energy: along deriv_geared its rate is the
+        // engaged motors' power minus what friction dissipates (none here) — the open wheel
+        // neither gets torque nor carries its rotor.
+        let p = lossless();
+        let planar = PlanarModel::new(p).unwrap();
+        let j = planar.rotor_per_wheel();
+        let mut rng = Lcg(9);
+        let mut worst: f64 = 0.0;
+        for i in 0..300 {
+            let x = PlanarState::from(core::array::from_fn(|_| rng.uniform(-1.0, 1.0)));
+            let u = SVector::from([rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2)]);
+            let engaged = [i % 3 == 0, i % 2 == 0];
+            let energy = |x: &PlanarState<f64>| {
+                let (w_r, w_l) = planar.wheel_speeds(x);
+                let open: f64 = [w_r, w_l].iter().zip(engaged).filter(|(_, e)| !e).map(|(w, _)| 0.5 * j * w * w).sum();
+                planar.energy(x) - open
+            };
+            let f = planar.deriv_geared(&x, &u, engaged, |_, _| None).0;
+            let h = 1e-6;
+            let rate = (energy(&(x + f * h)) - energy(&(x - f * h))) / (2.0 * h);
+            let (w_r, w_l) = planar.wheel_speeds(&x);
+            let power: f64 = [u[0] * w_r, u[1] * w_l].iter().zip(engaged).filter(|(_, e)| *e).map(|(p, _)| p).sum();
+            // Relative to the power, or to 0.05 W when it is smaller: the central difference
+            // of an energy of about 1 J rounds to ~1e-10 W.
+            worst = worst.max((rate - power).abs() / power.abs().max(0.05));
+        }
+        std::println!("3-DOF with open trains: worst relative energy-rate residual {worst:.1e}");
+        assert!(worst < 1e-7, "{worst:e}");
+        // The 2-DOF model, both trains open: no input power at all.
+        let slope = SlopeModel::new(p, 0.0).unwrap();
+        let j = slope.rotor_inertia();
+        for _ in 0..100 {
+            let x = Vector4::new(rng.uniform(-1.0, 1.0), rng.uniform(-3.0, 3.0), 0.0, rng.uniform(-5.0, 5.0));
+            let energy = |x: &Vector4<f64>| slope.energy(x) - 0.5 * j * (x[3] - x[1]) * (x[3] - x[1]);
+            let f = slope.deriv_geared(&x, 0.7, false, |_, _| None).0;
+            let h = 1e-6;
+            let rate = (energy(&(x + f * h)) - energy(&(x - f * h))) / (2.0 * h);
+            assert!(rate.abs() < 1e-7, "{rate}");
+        }
+        // Engaged is the model itself, bit for bit.
+        let x = PlanarState::from([0.1, 0.2, 0.3, 0.1, -0.4, 0.5, 1.0]);
+        let u = SVector::from([0.05, -0.02]);
+        assert_eq!(planar.deriv_geared(&x, &u, [true, true], |_, _| None).0, planar.deriv(&x, &u));
+    }
+
+    #[test]
+    fn the_impact_leaves_rotor_and_wheel_at_one_speed_and_loses_energy() {
+        let p = RobotParams::<f64>::balanbot();
+        let planar = PlanarModel::new(p).unwrap();
+        let j = planar.rotor_per_wheel();
+        let mut x = PlanarState::from([0.0, 0.0, 0.0, 0.05, 0.3, 0.1, 0.4]);
+        let rotor = 6.0;
+        let open = |x: &PlanarState<f64>| {
+            let (w_r, _) = planar.wheel_speeds(x);
+            planar.energy(x) - 0.5 * j * w_r * w_r + 0.5 * j * rotor * rotor
+        };
+        let before = open(&x);
+        let (closing, _) = planar.wheel_speeds(&x);
+        let closing = rotor - closing;
+        let speed = planar.engage(&mut x, 0, rotor, [false, true]);
+        let (w_r, _) = planar.wheel_speeds(&x);
+        assert!((w_r - speed).abs() < 1e-12, "{w_r} {speed}");
+        // A plastic impact loses part of the closing speed's energy, less than the rotor's
+        // own (the wheel side is not infinitely heavy).
+        let loss = before - planar.energy(&x);
+        assert!(loss > 0.0 && loss < 0.5 * j * closing * closing, "{loss}");
+        // No closing speed, no impulse.
+        let mut y = x;
+        assert!((planar.engage(&mut y, 0, w_r, [false, true]) - w_r).abs() < 1e-12);
+        assert!((y - x).norm() < 1e-12);
+        // 2-DOF: the same.
+        let slope = SlopeModel::new(p, 0.1).unwrap();
+        let mut x = Vector4::new(0.05, 0.3, 0.0, 1.0);
+        let j = slope.rotor_inertia();
+        let before = slope.energy(&x) - 0.5 * j * (x[3] - x[1]).powi(2) + 0.5 * j * 25.0;
+        let speed = slope.engage(&mut x, 5.0);
+        assert!((x[3] - x[1] - speed).abs() < 1e-12);
+        assert!(slope.energy(&x) < before);
+    }
+
+    /// Steps a rig plant as the runner does: between steps, then RK4.
+    fn step<P: Plant<f64, N, U>, const N: usize, const U: usize>(plant: &mut P, x: &mut SVector<f64, N>, u: &SVector<f64, U>, t: f64, dt: f64) {
+        plant.between_steps(t, dt, x, u);
+        *x = rk4_step(plant, x, u, dt);
+    }
+
+    #[test]
+    fn the_wheels_feel_the_motors_only_once_the_rotors_have_crossed_half_the_play() {
+        // Upright at rest, no friction, a constant torque: each rotor crosses half the play
+        // in √(2 (gap/2) J / τ) before its wheel feels anything.
+        let p = lossless();
+        let backlash = Backlash::<f64>::gb37();
+        let realism = Realism { backlash: Some(backlash), ..Realism::ideal() };
+        let dt = 1e-4;
+        let model = PlanarModel::new(p).unwrap();
+        let tau: f64 = 0.02;
+        let expected = (2.0 * backlash.gap / 2.0 * model.rotor_per_wheel() / tau).sqrt();
+        let mut rig = realism.build_planar(&model, dt).unwrap();
+        let mut x = PlanarState::zeros();
+        let u = SVector::from([tau, tau]);
+        let mut t = 0.0;
+        while x.norm() == 0.0 && t < 1.0 {
+            step(&mut rig.plant, &mut x, &u, t, dt);
+            t += dt;
+        }
+        std::println!("3-DOF: wheels first move at {t:.4} s; the rotor crosses half the play in {expected:.4} s");
+        assert!((t - expected).abs() <= 2.0 * dt, "{t} vs {expected}");
+        // 2-DOF: both trains at once.
+        let slope = SlopeModel::new(p, 0.0).unwrap();
+        let mut rig = realism.build(&slope, dt).unwrap();
+        let current = 2.0 * tau / p.torque_per_amp();
+        let expected = (2.0 * backlash.gap / 2.0 * slope.rotor_inertia() / (2.0 * tau)).sqrt();
+        let mut x = Vector4::zeros();
+        let mut t = 0.0;
+        while x.norm() == 0.0 && t < 1.0 {
+            step(&mut rig.plant, &mut x, &SVector::from([current]), t, dt);
+            t += dt;
+        }
+        std::println!("2-DOF: wheels first move at {t:.4} s; expected {expected:.4} s");
+        assert!((t - expected).abs() <= 2.0 * dt, "{t} vs {expected}");
+    }
+
+    #[test]
+    fn a_reversing_torque_opens_the_train_and_crosses_the_whole_play() {
+        // Engaged forward, the torque reverses: the train opens and the rotor crosses the
+        // whole play back; meanwhile the wheels coast (no torque on them).
+        let p = lossless();
+        let realism = Realism { backlash: Some(Backlash::gb37()), ..Realism::ideal() };
+        let dt = 1e-4;
+        let model = PlanarModel::new(p).unwrap();
+        let mut rig = realism.build_planar(&model, dt).unwrap();
+        let mut x = PlanarState::zeros();
+        let mut t = 0.0;
+        for _ in 0..2000 {
+            step(&mut rig.plant, &mut x, &SVector::from([0.02, 0.02]), t, dt);
+            t += dt;
+        }
+        let play = rig.plant_play().unwrap();
+        assert_eq!(play.engaged(), [true, true]);
+        let mut open_steps = 0;
+        let mut opened = false;
+        for _ in 0..20000 {
+            step(&mut rig.plant, &mut x, &SVector::from([-0.02, -0.02]), t, dt);
+            t += dt;
+            let engaged = rig.plant_play().unwrap().engaged();
+            if engaged == [false, false] {
+                opened = true;
+                open_steps += 1;
+            } else if opened {
+                break;
+            }
+        }
+        let crossing = open_steps as f64 * dt;
+        std::println!("the rotors cross the whole play back in {crossing:.4} s");
+        assert!(opened && crossing > 0.05 && crossing < 1.0, "{crossing}");
+        assert_eq!(rig.plant_play().unwrap().offsets()[0], -Backlash::<f64>::gb37().gap / 2.0);
+    }
+
+    #[test]
+    fn no_play_is_no_backlash_bit_for_bit() {
+        let p = RobotParams::<f64>::balanbot();
+        let model = PlanarModel::new(p).unwrap();
+        let none = Realism { backlash: None, ..Realism::<f64>::thesis_like() };
+        let zero = Realism { backlash: Some(Backlash { gap: 0.0 }), ..none };
+        let (mut a, mut b) = (none.build_planar(&model, 1e-3).unwrap(), zero.build_planar(&model, 1e-3).unwrap());
+        let (mut xa, mut xb) = (PlanarState::from([0.0, 0.0, 0.0, 0.05, 0.0, 0.0, 0.0]), PlanarState::from([0.0, 0.0, 0.0, 0.05, 0.0, 0.0, 0.0]));
+        for i in 0..500 {
+            let u = SVector::from([100.0, -80.0]);
+            step(&mut a.plant, &mut xa, &u, i as f64 * 1e-3, 1e-3);
+            step(&mut b.plant, &mut xb, &u, i as f64 * 1e-3, 1e-3);
+        }
+        assert_eq!(xa, xb);
+        assert!(matches!(Backlash { gap: -1.0 }.validate(), Err(TwipError::InvalidParameter { name: "gap", .. })));
+    }
+}
