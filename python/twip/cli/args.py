@@ -190,7 +190,7 @@ REALISM_CHOICES = ("ideal", "thesis-like")
 
 def add_realism_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--realism", choices=REALISM_CHOICES,
-                   help="sensors, driver and delay in the loop (2-DOF scenarios only)")
+                   help="the thesis-like robot in the loop: sensors, driver, delay, gearhead friction and backlash")
 
 
 def realism(choice: Optional[str], robot_file=None):

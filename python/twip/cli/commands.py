@@ -190,7 +190,7 @@ def sweep(args) -> int:
     else:
         print(sweep_summary(result, metrics))
         if args.realism is not None:
-            print(f"  realism: {args.realism} (sensors, driver and delay in the loop)")
+            print(f"  realism: {args.realism} (sensors, driver, delay, gearhead friction and backlash in the loop)")
         print(f"  {speed}")
     if args.csv:
         write_csv(result, args.csv)

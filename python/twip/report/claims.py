@@ -281,11 +281,11 @@ def table_5_1_claims(rows) -> List[dict]:
         ok = _within(r["pitch_error_deg"], pitch, 0.25)
         not_ok = "more than 25 % apart"
         if real_pitch is not None and not _within(real_pitch, pitch, 0.25):
-            not_ok = (f"more than 25 % apart, and the thesis-like robot (sensors, driver, delay) does not close the "
+            not_ok = (f"more than 25 % apart, and the thesis-like robot (sensors, driver, delay, gearhead friction, backlash) does not close the "
                       f"gap ({real_pitch:.2f}°): the thesis's robot or measurement differs in a way it does not report")
         elif real_pitch is not None:
             not_ok = (f"the ideal run is more than 25 % apart; with the thesis-like robot in the loop ours is within "
-                      f"25 % ({real_pitch:.2f}°): sensors, driver and delay account for the gap")
+                      f"25 % ({real_pitch:.2f}°): its sensors, driver, delay, friction and backlash account for the gap")
         out.append(_realism(_claim(f"table-5.1/{controller}-{surface}/pitch", src,
                                    f"{name} on the {surface}: mean |pitch error|", pitch, r["pitch_error_deg"], "deg",
                                    ok, None, "within 25 %", not_ok), real_pitch, r.get("outcome_realism")))
