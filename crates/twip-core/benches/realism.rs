@@ -1,8 +1,9 @@
 //! Closed-loop cost of the real robot in the loop against the ideal loop, side by side:
 //! 10 s of flat-lqr at dt = 1 ms (10,000 steps, 5 ms controller) with metrics, no log.
 //! "all on": MPU-6050 with noise and DLPF, complementary filter, 700 CPR encoder, PWM
-//! motor driver with inductance, one-period delay, a push, a constant force and a slope
-//! change. Run: cargo bench -p twip-core --bench realism
+//! motor driver with inductance, one-period delay, the gearheads' friction (stick band)
+//! and backlash, a push, a constant force and a slope change; then the same with only the
+//! friction, only the backlash, and neither. Run: cargo bench -p twip-core --bench realism
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -12,7 +13,7 @@ use twip_core::control::lqr::{design, DesignPoint, LqrController};
 use twip_core::sim::metrics::SlopeMetrics;
 use twip_core::hardware::realism::{simulate_rig, Realism};
 use twip_core::control::reference::SpeedSchedule;
-use twip_core::sim::runner::{simulate, Loop, SimConfig};
+use twip_core::sim::runner::{simulate, Loop, Outcome, SimConfig};
 use twip_core::{RobotParams, SlopeModel};
 
 fn closed_loop(c: &mut Criterion) {
@@ -37,21 +38,30 @@ fn closed_loop(c: &mut Criterion) {
             simulate(black_box(&model), &mut ctrl, &schedule, &Vector4::zeros(), &config, &mut metrics).unwrap()
         })
     });
-    group.bench_function("all_on", |b| {
-        b.iter(|| {
-            let mut ctrl = ctrl;
-            let mut metrics = SlopeMetrics::new(model);
-            let mut rig = black_box(&realism).build(&model, config.dt).unwrap();
-            let parts = Loop {
-                sensor: &mut rig.sensors,
-                actuator: &mut rig.actuator,
-                observer: &mut metrics,
-                should_stop: || false,
-                delay_one_period: rig.delay,
-            };
-            simulate_rig(&mut rig.plant, &mut ctrl, &schedule, &Vector4::zeros(), &config, parts).unwrap()
-        })
-    });
+    let variants = [
+        ("all_on", realism),
+        ("friction_only", Realism { backlash: None, ..realism }),
+        ("backlash_only", Realism { friction: None, ..realism }),
+        ("no_gearheads", Realism { friction: None, backlash: None, ..realism }),
+    ];
+    let run = |realism: &Realism<f64>| {
+        let mut ctrl = ctrl;
+        let mut metrics = SlopeMetrics::new(model);
+        let mut rig = realism.build(&model, config.dt).unwrap();
+        let parts = Loop {
+            sensor: &mut rig.sensors,
+            actuator: &mut rig.actuator,
+            observer: &mut metrics,
+            should_stop: || false,
+            delay_one_period: rig.delay,
+        };
+        simulate_rig(&mut rig.plant, &mut ctrl, &schedule, &Vector4::zeros(), &config, parts).unwrap()
+    };
+    for (name, realism) in variants {
+        // The same work on both sides: each run goes the whole 10 s.
+        assert_eq!(run(&realism), (Outcome::Completed, 10_000), "{name}");
+        group.bench_function(name, |b| b.iter(|| run(black_box(&realism))));
+    }
     group.finish();
 }
 

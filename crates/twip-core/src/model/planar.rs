@@ -315,6 +315,8 @@ impl<T: Real> PlanarModel<T> {
     /// backlash, `hardware::backlash`): such a wheel gets neither its motor's torque nor
     /// its gearhead friction, and its rotor's inertia leaves it (the rotor turns on its
     /// own). Also each wheel's gearhead friction torque. All engaged is `deriv_plus`.
+    // Always inlined: it is the 3-DOF rig's derivative under backlash, at every RK4 stage.
+    #[inline(always)]
     pub fn deriv_geared(
         &self,
         x: &PlanarState<T>,

@@ -230,6 +230,8 @@ impl<T: Real> SlopeModel<T> {
     /// backlash, `hardware::backlash`): the wheels get neither the motors' torque nor the
     /// gearhead friction, and the rotors' inertia η² I_M leaves them (the rotors turn on
     /// their own). Also the gearhead friction torque per wheel. Engaged is `deriv_plus`.
+    // Always inlined: it is the rigs' derivative under backlash, called at every RK4 stage.
+    #[inline(always)]
     pub fn deriv_geared(
         &self,
         x: &SlopeState<T>,
