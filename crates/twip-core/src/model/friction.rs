@@ -291,6 +291,43 @@ mod tests {
         ));
     }
 
+    #[test]
+    fn the_stick_solver_holds_within_breakaway_and_breaks_away_at_it() {
+        // Random coupled pairs: S symmetric positive definite, wheels in or out of the band.
+        let f = Friction::<f64>::gb37().with_stick(GB37_STICK_SPEED);
+        let mut seed: u64 = 11;
+        let mut uniform = |lo: f64, hi: f64| {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
+        };
+        let rate = 1.0 / STICK_TIME;
+        let (mut held, mut broke) = (0, 0);
+        for _ in 0..20_000 {
+            let (d0, d1, off) = (uniform(50.0, 400.0), uniform(50.0, 400.0), uniform(-0.9, 0.9));
+            let s = [[d0, off * (d0 * d1).sqrt()], [off * (d0 * d1).sqrt(), d1]];
+            let w = [uniform(-0.2, 0.2), uniform(-0.2, 0.2)];
+            let a0 = [uniform(-80.0, 80.0), uniform(-80.0, 80.0)];
+            let tau = f.torques(w, a0, s);
+            for i in 0..2 {
+                let accel = a0[i] - s[i][0] * tau[0] - s[i][1] * tau[1];
+                if w[i].abs() >= f.stick_speed {
+                    assert_eq!(tau[i], f.torque(w[i]), "outside the band: the slip law");
+                } else if tau[i].abs() < f.breakaway {
+                    held += 1;
+                    assert!((accel + rate * w[i]).abs() < 1e-9 * (1.0 + a0[i].abs()), "held: ẇ = −w/T_k ({accel})");
+                } else {
+                    broke += 1;
+                    assert_eq!(tau[i].abs(), f.breakaway, "breaking away at τ_s");
+                    // It breaks away because holding would take more, in the same direction.
+                    let alone = (a0[i] + rate * w[i] - s[i][1 - i] * tau[1 - i]) / s[i][i];
+                    assert!(alone.abs() >= f.breakaway * (1.0 - 1e-12) || tau[1 - i].abs() == f.breakaway, "{alone}");
+                }
+            }
+        }
+        std::println!("held {held}, broke away {broke} of the in-band wheels");
+        assert!(held > 1000 && broke > 1000);
+    }
+
     /// Both models with friction on, and their per-wheel relative speeds.
     mod in_the_models {
         use super::*;
