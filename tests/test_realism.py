@@ -107,10 +107,16 @@ def test_measurements_are_logged_beside_the_truth():
     assert set(r.signals) == {"phi_hat", "phi_dot_hat", "theta_hat", "theta_dot_hat", "drive", "motor_current",
                               "gyro", "accel_x", "accel_z", "enc"}
     assert r.measurements.shape == r.states.shape
-    # The raw readings: the encoder's counter of the wheels relative to the body, the gyro's
-    # register (noise, bias and the DLPF's lag of a few ms) and gravity on the accelerometer.
+    # The raw readings: the encoder's counter of the motor shaft relative to the body, the
+    # gyro's register (noise, bias and the DLPF's lag of a few ms) and gravity on the
+    # accelerometer. Without backlash the shaft is the wheels (times the gear ratio); with the
+    # thesis-like 1 degree of play it is up to half of it (0.97 counts) off them, either way.
     phi, phi_dot, theta = r.states[:, 0], r.states[:, 1], r.states[:, 2]
-    assert np.array_equal(r.signals["enc"], np.floor((theta - phi) * 700 / (2 * math.pi)))
+    wheels = np.floor((theta - phi) * 700 / (2 * math.pi))
+    assert np.max(np.abs(r.signals["enc"] - wheels)) <= 1 and np.any(r.signals["enc"] != wheels)
+    tight = sc.run(realism=twip.Realism.thesis_like().replace(backlash=None), record_every=5)
+    phi, theta = tight.states[:, 0], tight.states[:, 2]
+    assert np.array_equal(tight.signals["enc"], np.floor((theta - phi) * 700 / (2 * math.pi)))
     assert np.median(np.abs(r.signals["gyro"] - phi_dot)) < math.radians(2.0)
     assert np.all(np.abs(r.signals["accel_z"] - 9.81) < 0.5)
     ideal = sc.run(realism=twip.Realism(), record_every=5)

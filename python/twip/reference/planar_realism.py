@@ -57,6 +57,9 @@ class PlanarPlant:
             return list(u)
         return [self.torque_per_amp * d.held_at(wi, ui) for d, wi, ui in zip(self.windings, self.motor_speeds(x), u)]
 
+    def shaft_offsets(self):
+        return [0.0, 0.0] if self.play is None else list(self.play.offset)
+
     def engaged(self):
         return (True, True) if self.play is None else tuple(self.play.engaged())
 
@@ -118,6 +121,7 @@ class PlanarSensors:
         self.next_sample, self.dt = 0.0, dt
         self.rng = Philox(realism.seed, realism.stream)
         self.last_read = None
+        self.shaft = [0.0, 0.0]  # each motor shaft's angle minus its wheel's (backlash)
 
     def sample(self, t, x, xdot):
         turn = self.b * x[6] * self.inv_r
@@ -147,8 +151,8 @@ class PlanarSensors:
             phi, phi_dot, omega_gyro = x[3], x[4], x[6]
         if self.encoders is None:
             return np.array([x[0], x[1], x[2], phi, phi_dot, x[5], omega_gyro])
-        b_r, w_r = self.encoders[0].read(self.beta[0], dt)
-        b_l, w_l = self.encoders[1].read(self.beta[1], dt)
+        b_r, w_r = self.encoders[0].read(self.beta[0] + self.shaft[0], dt)
+        b_l, w_l = self.encoders[1].read(self.beta[1] + self.shaft[1], dt)
         r, b = self.r, self.b
         psi = r * (b_r - b_l) / (2.0 * b)
         v = r * ((w_r + w_l) / 2.0 + phi_dot)
@@ -193,6 +197,7 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
         t = k * dt
         ref = reference.sample(t)
         if k % per_update == 0:
+            sensors.shaft = plant.shaft_offsets()
             y = sensors.read(t, x)
             cmd = list(controller.update(t, y, ref))
             d = drive(cmd, y)

@@ -463,6 +463,9 @@ class Disturbed:
             m = self.models[0]
             self.play = GearPlay(backlash, m.rotor_inertia(), 2.0, m.friction, 1)
 
+    def shaft_offset(self):
+        return 0.0 if self.play is None else self.play.offset[0]
+
     def open_rotor_speed(self, x):
         if self.play is None or self.play.engaged()[0]:
             return None
@@ -572,6 +575,7 @@ class BalanceSensors:
         self.next_sample, self.half_step = 0.0, dt * 0.5
         self.rng = Philox(realism.seed, realism.stream)
         self.last_read = None
+        self.shaft = 0.0  # the motor shaft's angle minus the wheels' (backlash): the encoder counts the shaft
 
     def sample(self, t, x, xdot):
         if self.imu is not None and t + self.half_step >= self.next_sample:
@@ -592,7 +596,7 @@ class BalanceSensors:
         else:
             phi, phi_dot = x[0], x[1]
         if self.encoder is not None:
-            beta, beta_dot = self.encoder.read(x[2] - x[0], dt)
+            beta, beta_dot = self.encoder.read(x[2] - x[0] + self.shaft, dt)
             theta, theta_dot = beta + phi, beta_dot + phi_dot
         else:
             theta, theta_dot = x[2], x[3]
@@ -651,6 +655,7 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
         t = k * dt
         ref = reference.sample(t)
         if k % per_update == 0:
+            sensors.shaft = ground.shaft_offset()
             y = sensors.read(t, x)
             cmd = controller.update(t, y, ref)
             drive = actuator.drive(cmd, y) if actuator is not None else cmd

@@ -361,6 +361,30 @@ mod tests {
     }
 
     #[test]
+    fn the_encoder_counts_the_motor_shaft_inside_the_play() {
+        // 10° of play, a constant torque from rest: the rotors turn while the wheels have not
+        // moved, and the encoder on the motor shaft counts them.
+        use crate::sim::runner::Sensor;
+        let p = lossless();
+        let backlash = Backlash { gap: 10f64.to_radians() };
+        let realism = Realism { backlash: Some(backlash), encoder_cpr: Some(700.0), ..Realism::ideal() };
+        let dt = 1e-3;
+        let slope = SlopeModel::new(p, 0.0).unwrap();
+        let mut rig = realism.build(&slope, dt).unwrap();
+        let current = 0.04 / p.torque_per_amp();
+        let mut x = Vector4::zeros();
+        for k in 0..150 {
+            step(&mut rig.plant, &mut x, &SVector::from([current]), k as f64 * dt, dt);
+        }
+        assert_eq!(x, Vector4::zeros(), "the wheels have not moved yet");
+        rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
+        let y = rig.sensors.read(0.15, &x);
+        let counts = y[2] / (core::f64::consts::TAU / 700.0);
+        std::println!("after 0.15 s the encoder reads {counts} counts of the rotor, the wheels still");
+        assert!(counts >= 3.0, "{counts}");
+    }
+
+    #[test]
     fn no_play_is_no_backlash_bit_for_bit() {
         let p = RobotParams::<f64>::balanbot();
         let model = PlanarModel::new(p).unwrap();

@@ -291,6 +291,12 @@ impl<T: Real> Disturbed<T> {
         Ok(self)
     }
 
+    /// The motor shafts' angle minus the wheels' [rad at the wheel] (0 without backlash).
+    #[inline(always)]
+    pub fn shaft_offset(&self) -> T {
+        self.play.as_ref().map_or(T::zero(), |p| p.offsets()[0])
+    }
+
     /// The motors' speed relative to the body when their gear trains are open (None:
     /// engaged, or no backlash): the rotors'.
     pub fn open_rotor_speed(&self, x: &Vector4<T>) -> Option<T> {

@@ -253,6 +253,10 @@ impl<T: Real, P> Driven<T, P> {
         &mut self.plant
     }
 
+    pub fn plant(&self) -> &P {
+        &self.plant
+    }
+
     pub fn motor(&self) -> &DcMotor<T> {
         self.winding.motor()
     }

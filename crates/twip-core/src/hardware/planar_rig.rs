@@ -178,6 +178,11 @@ impl<T: Real> Plant<T, 7, 2> for PlanarPlant<T> {
         }
         self.gear_next(x, u);
     }
+
+    #[inline(always)]
+    fn shaft_offsets(&self) -> [T; 2] {
+        self.play.as_ref().map_or([T::zero(); 2], |p| p.offsets())
+    }
 }
 
 impl<T: Real> RigPlant<T, 7, 2> for PlanarPlant<T> {
@@ -215,6 +220,8 @@ pub struct PlanarSensors<T: Real> {
     dt: T,
     rng: Philox,
     last_read: Option<T>,
+    /// Each motor shaft's angle minus its wheel's (backlash): the encoders count the shafts.
+    shaft: [T; 2],
 }
 
 impl<T: Real> PlanarSensors<T> {
@@ -256,6 +263,7 @@ impl<T: Real> PlanarSensors<T> {
             dt,
             rng: Philox::new(seed, stream),
             last_read: None,
+            shaft: [T::zero(); 2],
         })
     }
 
@@ -309,8 +317,8 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
         let Some(encoders) = self.encoders.as_mut() else {
             return PlanarState::from([x[0], x[1], x[2], phi, phi_dot, x[5], omega_gyro]);
         };
-        let (b_r, w_r) = encoders[0].read(self.beta[0], dt);
-        let (b_l, w_l) = encoders[1].read(self.beta[1], dt);
+        let (b_r, w_r) = encoders[0].read(self.beta[0] + self.shaft[0], dt);
+        let (b_l, w_l) = encoders[1].read(self.beta[1] + self.shaft[1], dt);
         let (r, b) = (self.radius, self.half_track);
         let two = c::<T>(2.0);
         let psi = r * (b_r - b_l) / (two * b);
@@ -324,6 +332,11 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
         self.last_beta_hat = Some([b_r, b_l]);
         let omega = if self.imu.is_some() { omega_gyro } else { r * (w_r - w_l) / (two * b) };
         PlanarState::from([self.pose[0], self.pose[1], psi, phi, phi_dot, v, omega])
+    }
+
+    #[inline(always)]
+    fn shaft_offsets(&mut self, offsets: [T; 2]) {
+        self.shaft = offsets;
     }
 }
 
@@ -445,23 +458,22 @@ mod tests {
             assert_eq!(run(realism, 36.0, &mut metrics), Outcome::Completed);
             metrics.summary().max_path_error_settled
         };
-        let viscous = RobotParams::<f64>::balanbot().mu_bearing / 2.0;
-        let geared = path_error(&Realism { friction: Some(Friction::gb37_beside(viscous)), ..Realism::thesis_like() });
-        let coulomb = path_error(&Realism { friction: Some(Friction::gb37()), ..Realism::thesis_like() });
+        let hardware = path_error(&Realism { friction: None, backlash: None, ..Realism::thesis_like() });
         let real = path_error(&Realism::thesis_like());
+        let coulomb = path_error(&Realism { friction: Some(Friction::gb37().with_stick(0.1)), ..Realism::thesis_like() });
         let ideal = path_error(&Realism::ideal());
         std::println!(
-            "circle-pid, one lap: max path error after 10 s {:.1} mm ideal, {:.1} mm with thesis-like hardware, \
-             {:.1} mm with the gearheads' friction beside the viscous bearing, {:.1} mm with all of the no-load torque \
+            "circle-pid, one lap: max path error after 10 s {:.1} mm ideal, {:.1} mm with thesis-like sensors and \
+             drive, {:.1} mm with its gearheads' friction and backlash too, {:.1} mm with all of the no-load torque \
              as Coulomb friction",
             1e3 * ideal,
+            1e3 * hardware,
             1e3 * real,
-            1e3 * geared,
             1e3 * coulomb
         );
-        // The sensors and drive cost some accuracy; Coulomb friction (more than the tracker's
-        // steady torques) costs more, yet the robot stays near the circle.
-        assert!(ideal < real && real < geared && geared < coulomb && coulomb < 0.6, "{ideal} {real} {geared} {coulomb}");
+        // The sensors and drive cost some accuracy, the gearheads more; Coulomb friction (more
+        // than the tracker's steady torques) costs most, yet the robot stays near the circle.
+        assert!(ideal < hardware && hardware < real && real < coulomb && coulomb < 0.6, "{ideal} {hardware} {real} {coulomb}");
         let (mut a, mut b, mut other) = (Trace::default(), Trace::default(), Trace::default());
         run(&Realism::thesis_like(), 2.0, &mut a);
         run(&Realism::thesis_like(), 2.0, &mut b);

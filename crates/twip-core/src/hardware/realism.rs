@@ -237,6 +237,8 @@ pub struct BalanceSensors<T: Real> {
     half_step: T,
     rng: Philox,
     last_read: Option<T>,
+    /// The motor shaft's angle minus the wheels' (backlash): the encoder counts the shaft.
+    shaft: T,
 }
 
 impl<T: Real> BalanceSensors<T> {
@@ -271,6 +273,7 @@ impl<T: Real> BalanceSensors<T> {
             half_step: dt * c::<T>(0.5),
             rng: Philox::new(seed, stream),
             last_read: None,
+            shaft: T::zero(),
         })
     }
 
@@ -302,8 +305,13 @@ impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
         out[0] = r.map_or(nan, |r| r.gyro);
         out[1] = r.map_or(nan, |r| r.accel_x);
         out[2] = r.map_or(nan, |r| r.accel_z);
-        out[3] = self.encoder.as_ref().map_or(nan, |e| e.count(x[2] - x[0]));
+        out[3] = self.encoder.as_ref().map_or(nan, |e| e.count(x[2] - x[0] + self.shaft));
         4
+    }
+
+    #[inline(always)]
+    fn shaft_offsets(&mut self, offsets: [T; 2]) {
+        self.shaft = offsets[0];
     }
 
     fn read(&mut self, t: T, x: &Vector4<T>) -> Vector4<T> {
@@ -318,7 +326,7 @@ impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
         };
         let (theta, theta_dot) = match self.encoder.as_mut() {
             Some(e) => {
-                let (beta, beta_dot) = e.read(x[2] - x[0], dt);
+                let (beta, beta_dot) = e.read(x[2] - x[0] + self.shaft, dt);
                 (beta + phi, beta_dot + phi_dot)
             }
             None => (x[2], x[3]),
@@ -395,6 +403,16 @@ impl<T: Real> Plant<T, 4, 1> for RealPlant<T> {
                 p.turn_motors_at(open);
             }
         }
+    }
+
+    #[inline(always)]
+    fn shaft_offsets(&self) -> [T; 2] {
+        let ground = match self {
+            Self::Current(p) => p,
+            Self::Driven(p) => p.plant(),
+        };
+        let offset = ground.shaft_offset();
+        [offset, offset]
     }
 }
 

@@ -117,6 +117,12 @@ pub trait Sensor<T: Real, const NX: usize> {
     fn raw(&self, _x: &SVector<T, NX>, _out: &mut [T]) -> usize {
         0
     }
+
+    /// Each wheel's motor shaft angle minus its wheel's [rad at the wheel] now (gearbox
+    /// backlash, [`Plant::shaft_offsets`]): what an encoder on the motor shaft adds to the
+    /// wheel's angle. Ignored by default.
+    #[inline(always)]
+    fn shaft_offsets(&mut self, _offsets: [T; 2]) {}
 }
 
 /// Most raw readings a sensor logs per sample.
@@ -244,6 +250,13 @@ pub trait Plant<T: Real, const NX: usize, const NU: usize>: Dynamics<T, NX, NU> 
     /// Called after the sample at `t` and before the step to `t + dt` with the input `u`
     /// held over it (pushes jump the velocities, a winding current advances).
     fn between_steps(&mut self, t: T, dt: T, x: &mut SVector<T, NX>, u: &SVector<T, NU>);
+
+    /// Each wheel's motor shaft angle minus its wheel's [rad at the wheel] (right, left; the
+    /// 2-DOF rig's lumped pair twice): nonzero inside a gearbox's backlash.
+    #[inline(always)]
+    fn shaft_offsets(&self) -> [T; 2] {
+        [T::zero(); 2]
+    }
 }
 
 /// A model that nothing changes between steps.
@@ -353,6 +366,7 @@ where
             return Ok((Outcome::Interrupted { t }, k));
         }
         let r = reference.sample(t);
+        parts.sensor.shaft_offsets(plant.shaft_offsets());
         if k % per_update == 0 {
             let y = parts.sensor.read(t, &x);
             let cmd = controller.update(t, &y, &r);
@@ -382,6 +396,7 @@ where
             return Ok((Outcome::Diverged { t: t_next }, k + 1));
         }
         if x[P::PITCH].abs() > config.fall_limit {
+            parts.sensor.shaft_offsets(plant.shaft_offsets());
             let raw_len = parts.sensor.raw(&x, &mut raw);
             let last = signals.at(controller.internals(), plant, &x, &u, &raw[..raw_len]);
             observer.observe_last(t_next, &x, &seen(&command, &u), &reference.sample(t_next), last);
@@ -389,6 +404,7 @@ where
         }
     }
     let t_end = dt * c::<T>(n as f64);
+    parts.sensor.shaft_offsets(plant.shaft_offsets());
     let raw_len = parts.sensor.raw(&x, &mut raw);
     let last = signals.at(controller.internals(), plant, &x, &u, &raw[..raw_len]);
     observer.observe_last(t_end, &x, &seen(&command, &u), &reference.sample(t_end), last);
