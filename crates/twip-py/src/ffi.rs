@@ -12,14 +12,14 @@ use twip_ffi::replay::{planar_f32, record, slope_f32, Record};
 use twip_ffi::{TwipFuzzyConfig, TwipLqrConfig, TwipPidConfig, TwipPwmConfig, TwipSmcConfig, TwipTiltConfig};
 
 use crate::errors::PyTwipError;
-use crate::fuzzy::PyFuzzyController;
-use crate::lqr::PyLqrController;
-use crate::models::{PyPlanarModel, PySlopeModel};
-use crate::params::PyRobotParams;
-use crate::realism::PyRealism;
-use crate::schedule::PySpeedSchedule;
-use crate::tracking::{PyPidTracker, PySmcTracker};
-use crate::trajectory::trajectory;
+use crate::control::fuzzy::PyFuzzyController;
+use crate::control::lqr::PyLqrController;
+use crate::model::models::{PyPlanarModel, PySlopeModel};
+use crate::model::params::PyRobotParams;
+use crate::hardware::realism::PyRealism;
+use crate::control::schedule::PySpeedSchedule;
+use crate::control::tracking::{PyPidTracker, PySmcTracker};
+use crate::control::trajectory::trajectory;
 
 /// The C header of twip-ffi, as built into this module.
 pub const HEADER: &str = include_str!("../../twip-ffi/include/twip.h");

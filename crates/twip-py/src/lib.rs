@@ -1,30 +1,26 @@
 //! `twip._core`: the Python bindings of twip-core. Conversions and error mapping only.
+//! Grouped as the core is: `model/`, `control/`, `hardware/`, `sim/`, `sweep/`, `sysid`,
+//! with the shared conversions, errors and settings beside them.
 use pyo3::prelude::*;
 
+mod control;
 mod convert;
-mod dispatch;
 mod errors;
 mod ffi;
-mod friction;
-mod fuzzy;
-mod linalg;
-mod models;
+mod hardware;
 mod interrupt;
-mod lqr;
-mod params;
-mod realism;
-mod run_result;
-mod schedule;
+mod linalg;
+mod model;
 mod settings;
-mod simulate;
+mod sim;
 mod sweep;
 mod sysid;
-mod sweep_planar;
-mod motor;
-mod simulate_planar;
-mod tracking;
-mod trajectory;
-mod user_controller;
+
+use control::{fuzzy, lqr, schedule, tracking, trajectory};
+use hardware::{motor, realism};
+use model::{friction, models, params};
+use sim::{simulate, simulate_planar};
+use sweep::planar as sweep_planar;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {

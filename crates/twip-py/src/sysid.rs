@@ -9,8 +9,8 @@ use twip_core::sysid::Shooting;
 use twip_core::{SlopeModel, TwipError};
 
 use crate::errors::PyTwipError;
-use crate::models::PySlopeModel;
-use crate::realism::PyMotorDriver;
+use crate::model::models::PySlopeModel;
+use crate::hardware::realism::PyMotorDriver;
 
 type Out<'py> = (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>);
 

@@ -8,9 +8,9 @@ use twip_core::control::pid::{PidGains, PidTracker, PidUnits};
 use twip_core::control::smc::{Adaptation, PitchSign, SmcGains, SmcOptions, SmcTracker};
 
 use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
-use crate::models::PyPlanarModel;
-use crate::params::PyRobotParams;
-use crate::motor::{motor_or_default, PyDcMotor};
+use crate::model::models::PyPlanarModel;
+use crate::model::params::PyRobotParams;
+use crate::hardware::motor::{motor_or_default, PyDcMotor};
 use crate::settings::NamedFloats;
 
 

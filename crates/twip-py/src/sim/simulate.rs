@@ -11,14 +11,14 @@ use twip_core::control::reference::{SpeedRef, SpeedSchedule};
 use twip_core::sim::runner::{simulate_until, Outcome, SimConfig};
 
 use crate::convert::vector;
-use crate::run_result::{run_dict, LogLayout};
+use crate::sim::run_result::{run_dict, LogLayout};
 use crate::errors::{CoreResult, PyTwipError};
-use crate::fuzzy::PyFuzzyController;
-use crate::lqr::PyLqrController;
-use crate::models::PySlopeModel;
-use crate::realism::PyRealism;
-use crate::schedule::PySpeedSchedule;
-use crate::user_controller::{is_user_controller, UserController};
+use crate::control::fuzzy::PyFuzzyController;
+use crate::control::lqr::PyLqrController;
+use crate::model::models::PySlopeModel;
+use crate::hardware::realism::PyRealism;
+use crate::control::schedule::PySpeedSchedule;
+use crate::control::user_controller::{is_user_controller, UserController};
 
 /// Every controller of the 2-DOF model. A new controller family adds a variant here
 /// and in the `controller_enum!` line below; the runner stays one monomorphised loop.
@@ -40,7 +40,7 @@ impl SlopeController {
     }
 }
 
-crate::dispatch::controller_enum!(SlopeController, 4, 1, SpeedRef<f64>, "2-DOF"; Lqr(PyLqrController), Fuzzy(PyFuzzyController));
+crate::sim::dispatch::controller_enum!(SlopeController, 4, 1, SpeedRef<f64>, "2-DOF"; Lqr(PyLqrController), Fuzzy(PyFuzzyController));
 
 /// One 2-DOF run's settings, for any controller.
 #[derive(Clone, Copy)]

@@ -6,8 +6,8 @@ use twip_core::{rk4_step as core_rk4, Dynamics, PlanarModel};
 
 use crate::convert::{input, scalar, to_py_matrix, to_py_vector, vector};
 use crate::errors::CoreResult;
-use crate::friction::PyFriction;
-use crate::params::PyRobotParams;
+use crate::model::friction::PyFriction;
+use crate::model::params::PyRobotParams;
 
 /// The 2-DOF model on a slope; state [phi, phi_dot, theta, theta_dot], input current u [A].
 #[pyclass(name = "SlopeModel", module = "twip", frozen)]

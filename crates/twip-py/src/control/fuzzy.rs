@@ -8,7 +8,7 @@ use twip_core::TwipError;
 
 use crate::convert::vector;
 use crate::errors::{CoreResult, InvalidParameterError, PyTwipError};
-use crate::models::PySlopeModel;
+use crate::model::models::PySlopeModel;
 
 /// A core error with the object it came from in front of its message.
 fn in_context(e: TwipError, what: impl core::fmt::Display) -> PyErr {

@@ -12,12 +12,12 @@ use twip_core::sim::tracking_metrics::TrackingMetrics;
 use twip_core::control::trajectory::{PlanarRef, Trajectory};
 
 use crate::convert::vector;
-use crate::run_result::{run_dict, LogLayout};
+use crate::sim::run_result::{run_dict, LogLayout};
 use crate::errors::{invalid, PyTwipError};
-use crate::models::PyPlanarModel;
-use crate::user_controller::{is_user_controller, UserController};
-use crate::tracking::{PyPidTracker, PySmcTracker};
-use crate::trajectory::trajectory;
+use crate::model::models::PyPlanarModel;
+use crate::control::user_controller::{is_user_controller, UserController};
+use crate::control::tracking::{PyPidTracker, PySmcTracker};
+use crate::control::trajectory::trajectory;
 
 
 // --- the planar runner -----------------------------------------------------------------------------
@@ -31,7 +31,7 @@ pub enum PlanarController {
     Smc(SmcTracker<f64>),
 }
 
-crate::dispatch::controller_enum!(PlanarController, 7, 2, PlanarRef<f64>, "3-DOF"; Pid(PyPidTracker), Smc(PySmcTracker));
+crate::sim::dispatch::controller_enum!(PlanarController, 7, 2, PlanarRef<f64>, "3-DOF"; Pid(PyPidTracker), Smc(PySmcTracker));
 
 /// When the "_settled" metrics start: `settle` [s], by default one lap of a closed path, else 0.
 pub(crate) fn settle_time(settle: Option<f64>, path: &Trajectory<f64>) -> PyResult<f64> {
@@ -101,7 +101,7 @@ pub fn simulate_planar_raw<'py>(
     fall_limit: Option<f64>,
     record_every: usize,
     settle: Option<f64>,
-    realism: Option<&crate::realism::PyRealism>,
+    realism: Option<&crate::hardware::realism::PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let plant = model
         .cast::<PyPlanarModel>()

@@ -7,7 +7,7 @@ use twip_core::control::lqr::{design, DesignPoint, LqrController};
 
 use crate::convert::{dmatrix, gain_row, scalar, to_py_dmatrix, vector};
 use crate::errors::{CoreResult, PyTwipError};
-use crate::models::PySlopeModel;
+use crate::model::models::PySlopeModel;
 
 fn design_point(name: &str) -> PyResult<DesignPoint> {
     match name {

@@ -4,6 +4,8 @@
 //! workers before their next block (or within 4096 steps of a sample). With a realism
 //! every sample runs through the rig (`sweep::rig`), noise stream = sample index. The
 //! watcher, the perturbation tuples and the result's layout are shared with `sweep_planar`.
+pub mod planar;
+
 use std::ops::Range;
 use std::sync::atomic::Ordering;
 use std::thread;
@@ -25,11 +27,11 @@ use twip_core::TwipError;
 
 use crate::convert::vector;
 use crate::errors::PyTwipError;
-use crate::params::params_dict;
-use crate::models::PySlopeModel;
-use crate::realism::PyRealism;
-use crate::schedule::PySpeedSchedule;
-use crate::simulate::SlopeController;
+use crate::model::params::params_dict;
+use crate::model::models::PySlopeModel;
+use crate::hardware::realism::PyRealism;
+use crate::control::schedule::PySpeedSchedule;
+use crate::sim::simulate::SlopeController;
 
 /// (target, index, kind, a, b, low, high): target "param" | "slope" | "x0";
 /// kind "uniform" (a = low, b = high) | "normal" (a = mean, b = std, clamped to [low, high]).
@@ -217,7 +219,7 @@ pub fn sweep_draw<'py>(
 pub fn controller_fingerprint(controller: &Bound<'_, PyAny>) -> PyResult<String> {
     match SlopeController::extract(controller) {
         Ok(c) => Ok(format!("{c:?}")),
-        Err(_) => Ok(format!("{:?}", crate::simulate_planar::PlanarController::extract(controller)?)),
+        Err(_) => Ok(format!("{:?}", crate::sim::simulate_planar::PlanarController::extract(controller)?)),
     }
 }
 
@@ -313,6 +315,6 @@ pub fn sweep_kernel(controller: &Bound<'_, PyAny>, realism: bool) -> PyResult<&'
     if let Ok(ctrl) = SlopeController::extract(controller) {
         return Ok(kernel_of(&ctrl, realism));
     }
-    crate::simulate_planar::PlanarController::extract(controller)?;
-    Ok(crate::sweep_planar::kernel_of(realism))
+    crate::sim::simulate_planar::PlanarController::extract(controller)?;
+    Ok(crate::sweep::planar::kernel_of(realism))
 }

@@ -10,15 +10,15 @@ use twip_core::sweep::planar::{self as core_planar, run_planar_sample, PlanarNom
 use twip_core::sweep::SweepMetrics;
 use twip_core::sweep::rig::for_sweep;
 
-use crate::realism::PyRealism;
+use crate::hardware::realism::PyRealism;
 
 use crate::convert::vector;
 use crate::errors::PyTwipError;
-use crate::params::params_dict;
-use crate::models::PyPlanarModel;
+use crate::model::params::params_dict;
+use crate::model::models::PyPlanarModel;
 use crate::sweep::{parse_perturbations, run_sweep, PerturbTuple};
-use crate::simulate_planar::{settle_time, PlanarController};
-use crate::trajectory::trajectory;
+use crate::sim::simulate_planar::{settle_time, PlanarController};
+use crate::control::trajectory::trajectory;
 
 fn nominal(model: &PyPlanarModel, x0: &Bound<'_, PyAny>) -> PyResult<PlanarNominal> {
     crate::sweep::no_friction_in_sweeps(model.inner.friction().is_some())?;

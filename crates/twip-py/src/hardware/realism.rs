@@ -1,7 +1,7 @@
 //! `twip.Realism` and its parts: `Imu`, `Dlpf`, `TiltEstimator`, `MotorDriver`, `Push`,
 //! `Force`. Each is a frozen, validated settings object; `Realism.to_core` turns them into
 //! the core's `Realism` for one robot (heights left out default to its centre of mass).
-use crate::friction::PyFriction;
+use crate::model::friction::PyFriction;
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
@@ -14,7 +14,7 @@ use twip_core::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use twip_core::{RobotParams, TwipError};
 
 use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
-use crate::params::PyRobotParams;
+use crate::model::params::PyRobotParams;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 
