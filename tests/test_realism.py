@@ -196,6 +196,8 @@ def test_parity_with_the_reference_every_option_on(balanbot, estimator):
     (lambda: twip.Realism(encoder_cpr=0.0), "encoder_cpr"),
     (lambda: twip.Realism(estimator="bogus"), "estimator"),
     (lambda: twip.Realism(control_period=0.0), "control_period"),
+    (lambda: twip.Realism(backlash=-0.01), "backlash"),
+    (lambda: twip.Realism(backlash=math.nan), "backlash"),
     (lambda: twip.Realism(pushes=[(1.0, 0.1)] * 9), "pushes"),
     (lambda: twip.Realism(pushes=["push"]), "pushes"),
     (lambda: twip.Realism(slope_profile=[(1.0, 0.1), (0.5, 0.1)]), "slope_profile.distance"),

@@ -34,7 +34,12 @@ impl<T: Real> Backlash<T> {
 
     pub fn validate(&self) -> Result<Self, TwipError> {
         if !(self.gap.is_finite() && self.gap >= T::zero()) {
-            return Err(TwipError::InvalidParameter { name: "gap", value: to_f64(self.gap), reason: "must be finite and >= 0" });
+            // Named as the user sets it: `Realism(backlash=...)`, the play in rad.
+            return Err(TwipError::InvalidParameter {
+                name: "backlash",
+                value: to_f64(self.gap),
+                reason: "the gear play [rad] must be finite and >= 0",
+            });
         }
         Ok(*self)
     }
@@ -398,6 +403,6 @@ mod tests {
             step(&mut b.plant, &mut xb, &u, i as f64 * 1e-3, 1e-3);
         }
         assert_eq!(xa, xb);
-        assert!(matches!(Backlash { gap: -1.0 }.validate(), Err(TwipError::InvalidParameter { name: "gap", .. })));
+        assert!(matches!(Backlash { gap: -1.0 }.validate(), Err(TwipError::InvalidParameter { name: "backlash", .. })));
     }
 }

@@ -189,22 +189,13 @@ impl<T: Real> PlanarModel<T> {
         u: &SVector<T, 2>,
         extra: impl Fn(T, T) -> Option<Vector2<T>>,
     ) -> PlanarState<T> {
-        match &self.friction {
-            None => self.driven(x, u[0], u[1], extra),
-            Some(f) => {
-                let [tau_r, tau_l] = self.gearhead_torques(f, x, u, &extra);
-                self.driven(x, u[0] - tau_r, u[1] - tau_l, extra)
-            }
-        }
+        self.deriv_geared(x, u, [true, true], extra).0
     }
 
     /// Each wheel's gearhead friction torque [N m] at state `x` under motor torques `u`
     /// (0 without friction): the slip law, or with a stick band whatever holds a wheel.
     pub fn gearhead_torques_at(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> [T; 2] {
-        match &self.friction {
-            None => [T::zero(); 2],
-            Some(f) => self.gearhead_torques(f, x, u, &|_, _| None),
-        }
+        self.deriv_geared(x, u, [true, true], |_, _| None).1
     }
 
     #[inline(always)]

@@ -144,14 +144,7 @@ impl<T: Real> SlopeModel<T> {
     /// Each wheel's gearhead friction torque [N m] at state `x` under current `u` (0
     /// without friction): the slip law, or with a stick band whatever holds the wheels.
     pub fn gearhead_torque_at(&self, x: &SlopeState<T>, u: T) -> T {
-        match &self.friction {
-            None => T::zero(),
-            Some(f) if !f.sticks() => f.torque(x[3] - x[1]),
-            Some(f) => {
-                let (force, _, cos_pa) = self.forces(x, u);
-                self.held(f, x[3] - x[1], self.accelerations(&force, cos_pa), cos_pa).1
-            }
-        }
+        self.motion(x, u, |_, _| None).1
     }
 
     pub fn params(&self) -> &RobotParams<T> {
@@ -189,18 +182,21 @@ impl<T: Real> SlopeModel<T> {
     /// Generalised forces f(x, u) of `M(φ) q̈ = f`, and sin/cos(φ+α) for reuse.
     #[inline(always)]
     fn forces(&self, x: &SlopeState<T>, u: T) -> (Vector2<T>, T, T) {
-        self.forces_plus(x, u, |_, _| None)
+        let (f, sin_pa, cos_pa, _) = self.forces_plus(x, u, |_, _| None);
+        (f, sin_pa, cos_pa)
     }
 
     /// `forces` with `extra(sin φ, cos φ)` added to f when it gives some (an external
-    /// force on the body): φ's sin/cos are shared, and `None` costs nothing.
+    /// force on the body): φ's sin/cos are shared, and `None` costs nothing. Also both
+    /// wheels' slip-law gearhead torque that f holds ([`Self::gearhead`]).
     #[inline(always)]
-    fn forces_plus(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (Vector2<T>, T, T) {
+    fn forces_plus(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (Vector2<T>, T, T, T) {
         let (sin_phi, cos_phi) = crate::model::math::sin_cos(x[0]);
         let sin_pa = sin_phi * self.cos_slope + cos_phi * self.sin_slope;
         let cos_pa = cos_phi * self.cos_slope - sin_phi * self.sin_slope;
         let p = &self.params;
-        let bearing = p.mu_bearing * (x[3] - x[1]) + self.gearhead(x[3] - x[1]);
+        let gearhead = self.gearhead(x[3] - x[1]);
+        let bearing = p.mu_bearing * (x[3] - x[1]) + gearhead;
         let motor = self.torque_per_amp * u;
         let f_phi = self.mgl * sin_phi + bearing - motor;
         let f_theta = self.mrl * sin_pa * x[1] * x[1] - self.grade - bearing
@@ -210,20 +206,27 @@ impl<T: Real> SlopeModel<T> {
             Some(q) => Vector2::new(f_phi + q[0], f_theta + q[1]),
             None => Vector2::new(f_phi, f_theta),
         };
-        (f, sin_pa, cos_pa)
+        (f, sin_pa, cos_pa, gearhead)
     }
 
     /// `deriv` with extra generalised forces `extra(sin φ, cos φ)` on (φ, θ): the
     /// disturbed plant's constant force. `|_, _| None` is `deriv`, bit for bit.
     #[inline(always)]
     pub(crate) fn deriv_plus(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> SlopeState<T> {
-        let (f, _, cos_pa) = self.forces_plus(x, u, extra);
+        self.motion(x, u, extra).0
+    }
+
+    /// The derivative under `extra`, and each wheel's gearhead friction torque: the slip
+    /// law's (in f already), or with a stick band what holds the wheels ([`Self::held`]).
+    #[inline(always)]
+    fn motion(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (SlopeState<T>, T) {
+        let (f, _, cos_pa, gearhead) = self.forces_plus(x, u, extra);
         let qdd = self.accelerations(&f, cos_pa);
-        let qdd = match &self.friction {
-            Some(fr) if fr.sticks() => self.held(fr, x[3] - x[1], qdd, cos_pa).0,
-            _ => qdd,
+        let (qdd, tau) = match &self.friction {
+            Some(fr) if fr.sticks() => self.held(fr, x[3] - x[1], qdd, cos_pa),
+            _ => (qdd, gearhead * c::<T>(0.5)),
         };
-        Vector4::new(x[1], qdd[0], x[3], qdd[1])
+        (Vector4::new(x[1], qdd[0], x[3], qdd[1]), tau)
     }
 
     /// The derivative with both wheels' gear trains open when not `engaged` (gearbox
@@ -240,23 +243,11 @@ impl<T: Real> SlopeModel<T> {
         extra: impl Fn(T, T) -> Option<Vector2<T>>,
     ) -> (SlopeState<T>, T) {
         if engaged {
-            let (f, _, cos_pa) = self.forces_plus(x, u, extra);
-            let qdd = self.accelerations(&f, cos_pa);
-            let (qdd, tau) = match &self.friction {
-                Some(fr) if fr.sticks() => self.held(fr, x[3] - x[1], qdd, cos_pa),
-                Some(fr) => (qdd, fr.torque(x[3] - x[1])),
-                None => (qdd, T::zero()),
-            };
-            return (Vector4::new(x[1], qdd[0], x[3], qdd[1]), tau);
+            return self.motion(x, u, extra);
         }
         let bare = Self { friction: None, ..*self };
-        let (f, _, cos_pa) = bare.forces_plus(x, T::zero(), extra);
-        // M without the rotors: they add J to M11 and M22 and −J to M12.
-        let j = self.rotor;
-        let m12 = self.mrl * cos_pa;
-        let (m11, m22) = (self.m11 - j, self.m22 - j);
-        let inv_det = T::one() / (m11 * m22 - m12 * m12);
-        let qdd = Vector2::new((m22 * f[0] - m12 * f[1]) * inv_det, (m11 * f[1] - m12 * f[0]) * inv_det);
+        let (f, _, cos_pa, _) = bare.forces_plus(x, T::zero(), extra);
+        let qdd = self.rotorless_accelerations(&f, cos_pa);
         (Vector4::new(x[1], qdd[0], x[3], qdd[1]), T::zero())
     }
 
@@ -266,10 +257,8 @@ impl<T: Real> SlopeModel<T> {
     /// Updates φ̇ and θ̇ in `x`; returns that speed.
     pub fn engage(&self, x: &mut SlopeState<T>, rotor_speed: T) -> T {
         let j = self.rotor;
-        let (m11, m22, m12) = (self.m11 - j, self.m22 - j, self.mrl * (x[0] + self.slope).cos());
-        let inv_det = T::one() / (m11 * m22 - m12 * m12);
-        // M'⁻¹ (−1, 1): the response to a torque on β.
-        let r = Vector2::new((-m22 - m12) * inv_det, (m11 + m12) * inv_det);
+        // The response to a torque on β: it enters f as (−1, 1).
+        let r = self.rotorless_accelerations(&Vector2::new(-T::one(), T::one()), (x[0] + self.slope).cos());
         let impulse = (rotor_speed - (x[3] - x[1])) / ((r[1] - r[0]) + T::one() / j);
         x[1] += r[0] * impulse;
         x[3] += r[1] * impulse;
@@ -289,9 +278,14 @@ impl<T: Real> SlopeModel<T> {
     /// Accelerations [φ̈, θ̈] by Cramer's rule on the 2×2 mass matrix (one division).
     #[inline(always)]
     fn accelerations(&self, f: &Vector2<T>, cos_pa: T) -> Vector2<T> {
-        let m12 = self.mrl * cos_pa - self.rotor;
-        let inv_det = T::one() / (self.m11 * self.m22 - m12 * m12);
-        Vector2::new((self.m22 * f[0] - m12 * f[1]) * inv_det, (self.m11 * f[1] - m12 * f[0]) * inv_det)
+        cramer(self.m11, self.m22, self.mrl * cos_pa - self.rotor, f)
+    }
+
+    /// The same without the rotors (both gear trains open): they add η² I_M to M11 and
+    /// M22 and take it from M12.
+    #[inline(always)]
+    fn rotorless_accelerations(&self, f: &Vector2<T>, cos_pa: T) -> Vector2<T> {
+        cramer(self.m11 - self.rotor, self.m22 - self.rotor, self.mrl * cos_pa, f)
     }
 
     /// Exact Jacobians `(A, B)` of `ẋ = f(x, u)` at any operating point `(x0, u0)`.
@@ -424,6 +418,13 @@ impl<T: Real> Dynamics<T, 4, 1> for SlopeModel<T> {
             + half * m[(1, 1)] * theta_dot * theta_dot;
         kinetic + self.mgl * x[0].cos() + self.grade * x[2]
     }
+}
+
+/// [M11 M12; M12 M22]⁻¹ f by Cramer's rule (one division).
+#[inline(always)]
+fn cramer<T: Real>(m11: T, m22: T, m12: T, f: &Vector2<T>) -> Vector2<T> {
+    let inv_det = T::one() / (m11 * m22 - m12 * m12);
+    Vector2::new((m22 * f[0] - m12 * f[1]) * inv_det, (m11 * f[1] - m12 * f[0]) * inv_det)
 }
 
 #[cfg(test)]
