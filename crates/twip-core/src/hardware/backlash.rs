@@ -53,7 +53,6 @@ pub struct GearPlay<T, const N: usize> {
     inertia: T,
     /// How many gear trains each entry stands for (2: the lumped pair), for the friction.
     trains: T,
-    friction: Option<Friction<T>>,
     /// Rotor angle minus wheel angle, both relative to the body [rad], within ±half.
     offset: [T; N],
     /// Rotor speed relative to the body, at the wheel [rad/s].
@@ -68,9 +67,8 @@ pub struct GearPlay<T, const N: usize> {
 
 impl<T: Real, const N: usize> GearPlay<T, N> {
     /// Trains with `backlash`'s play, each entry's rotor of `inertia` [kg m² at the wheel]
-    /// standing for `trains` gear trains with the gearhead `friction` each; they start
-    /// open, centred in their play, at rest.
-    pub fn new(backlash: &Backlash<T>, inertia: T, trains: T, friction: Option<Friction<T>>) -> Result<Self, TwipError> {
+    /// standing for `trains` gear trains; they start open, centred in their play, at rest.
+    pub fn new(backlash: &Backlash<T>, inertia: T, trains: T) -> Result<Self, TwipError> {
         let b = backlash.validate()?;
         if !(inertia.is_finite() && inertia > T::zero()) {
             return Err(TwipError::InvalidParameter {
@@ -80,7 +78,7 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
             });
         }
         let zero = [T::zero(); N];
-        Ok(Self { half: b.gap / c(2.0), inertia, trains, friction, offset: zero, rotor: zero, flank: [0; N], motor: zero, before: None })
+        Ok(Self { half: b.gap / c(2.0), inertia, trains, offset: zero, rotor: zero, flank: [0; N], motor: zero, before: None })
     }
 
     /// Which trains are engaged.
@@ -101,10 +99,11 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
     }
 
     /// The step of `dt` under way has ended at wheel speeds `after`: the open rotors
-    /// advance under the motors' torques over it. Returns, for each train whose rotor
+    /// advance under the motors' torques over it and the gearhead `friction` (the
+    /// model's, per train). Returns, for each train whose rotor
     /// reached a flank moving into it, its rotor speed: the plant applies the impact
     /// ([`Self::engage`]). A rotor at a flank moving back out stays open.
-    pub fn elapsed(&mut self, dt: T, after: [T; N]) -> [Option<T>; N] {
+    pub fn elapsed(&mut self, dt: T, after: [T; N], friction: Option<&Friction<T>>) -> [Option<T>; N] {
         let mut hits = [None; N];
         let Some(before) = self.before else { return hits };
         let half_step = c::<T>(0.5);
@@ -113,7 +112,7 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
                 continue;
             }
             let start = self.rotor[i];
-            let end = self.rotor_step(start, self.motor[i], dt);
+            let end = self.rotor_step(start, self.motor[i], dt, friction);
             self.rotor[i] = end;
             self.offset[i] += dt * half_step * ((start + end) - (before[i] + after[i]));
             let closing = end - after[i];
@@ -166,9 +165,9 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
 
     /// One RK4 step of an open rotor, J γ̈ = τ_m − n τ_f(γ̇) over its n trains, the motor
     /// torque held.
-    fn rotor_step(&self, speed: T, motor: T, dt: T) -> T {
+    fn rotor_step(&self, speed: T, motor: T, dt: T, friction: Option<&Friction<T>>) -> T {
         let (j, n) = (self.inertia, self.trains);
-        let accel = |w: T| match &self.friction {
+        let accel = |w: T| match friction {
             Some(f) => (motor - n * f.torques([w], [motor / j], [[n / j]])[0]) / j,
             None => motor / j,
         };

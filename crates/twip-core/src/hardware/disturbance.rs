@@ -278,13 +278,13 @@ impl<T: Real> Disturbed<T> {
         Ok(Self { pieces, profile, radius: params.wheel_radius, has_force: !force.is_zero(), force, pushes, play: None })
     }
 
-    /// The same plant with `backlash` in both gear trains (None or no gap: none). Call
-    /// after `with_friction`: the open rotors take the gearhead friction.
+    /// The same plant with `backlash` in both gear trains (None or no gap: none); the open
+    /// rotors take the model's gearhead friction.
     pub fn with_backlash(mut self, backlash: Option<Backlash<T>>) -> Result<Self, TwipError> {
         self.play = match backlash {
             Some(b) if b.validate()?.gap > T::zero() => {
                 let model = &self.pieces[0].model;
-                Some(GearPlay::new(&b, model.rotor_inertia(), c(2.0), model.friction().copied())?)
+                Some(GearPlay::new(&b, model.rotor_inertia(), c(2.0))?)
             }
             _ => None,
         };
@@ -308,8 +308,9 @@ impl<T: Real> Disturbed<T> {
     /// they engage in a plastic impact (φ̇ and θ̇ in `x` jump).
     pub fn gear_elapsed(&mut self, dt: T, x: &mut Vector4<T>) {
         let Some(mut play) = self.play else { return };
-        if let Some(rotor_speed) = play.elapsed(dt, [x[3] - x[1]])[0] {
-            let speed = self.piece(x).model.engage(x, rotor_speed);
+        let model = self.piece(x).model;
+        if let Some(rotor_speed) = play.elapsed(dt, [x[3] - x[1]], model.friction())[0] {
+            let speed = model.engage(x, rotor_speed);
             play.engage(0, speed);
         }
         self.play = Some(play);

@@ -99,7 +99,7 @@ impl<T: Real> PlanarPlant<T> {
     fn gear_elapsed(&mut self, dt: T, x: &mut PlanarState<T>) {
         let Some(mut play) = self.play else { return };
         let (w_r, w_l) = self.model.wheel_speeds(x);
-        for (i, hit) in play.elapsed(dt, [w_r, w_l]).iter().enumerate() {
+        for (i, hit) in play.elapsed(dt, [w_r, w_l], self.model.friction()).iter().enumerate() {
             if let Some(rotor_speed) = hit {
                 let speed = self.model.engage(x, i, *rotor_speed, play.engaged());
                 play.engage(i, speed);
@@ -393,7 +393,7 @@ impl<T: Real> Realism<T> {
         };
         let model = model.with_friction(s.friction_on(model.friction()))?;
         let play = match s.backlash {
-            Some(b) if b.gap > T::zero() => Some(GearPlay::new(&b, model.rotor_per_wheel(), T::one(), model.friction().copied())?),
+            Some(b) if b.gap > T::zero() => Some(GearPlay::new(&b, model.rotor_per_wheel(), T::one())?),
             _ => None,
         };
         let plant = PlanarPlant { model, drives, force: s.force, has_force: !s.force.is_zero(), pushes, play };
