@@ -1,5 +1,6 @@
 """Shared fixtures: the default robot and random valid robots."""
 import os
+import signal
 
 import numpy as np
 import pytest
@@ -15,6 +16,11 @@ try:  # CI runs the property tests on fixed examples, so that a run can be repea
         settings.load_profile("ci")
 except ImportError:  # pragma: no cover - hypothesis is a test dependency
     pass
+
+# A run started in the background by a shell (`make test &`) inherits SIGINT ignored, and
+# so would the processes the Ctrl-C tests start and interrupt: give it Python's handler.
+if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture

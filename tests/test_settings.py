@@ -107,12 +107,15 @@ def test_kernel_and_fall_limit_come_from_the_core():
     lqr = twip.scenarios.get("flat-lqr-sim")
     assert twip.sweep.kernel_for(lqr) == "lanes"
     assert twip.sweep.kernel_for(lqr, twip.Realism.thesis_like()) == "realism"
-    assert twip.sweep.kernel_for(twip.scenarios.get("flat-fuzzy-sim")) == "general"
+    assert twip.sweep.kernel_for(twip.scenarios.get("flat-fuzzy-sim")) == "lanes"
+    gaussian = [[twip.Gaussian(-0.3, 0.15), twip.Triangle(-0.3, 0.0, 0.3), twip.Gaussian(0.3, 0.15)]] * 2
+    general = twip.scenarios.get("flat-fuzzy-sim", sets=gaussian, t_final=0.2)
+    assert twip.sweep.kernel_for(general) == "general"
     assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid")) == "planar"
     with pytest.raises(TypeError):
         _core.sweep_kernel(object())
     # The sweep reports the kernel it ran, the one kernel_for names.
-    res = twip.montecarlo("flat-fuzzy-sim", n=2, seed=1, options={"t_final": 0.2})
+    res = twip.montecarlo(general, n=2, seed=1)
     assert res.kernel == "general"
 
 

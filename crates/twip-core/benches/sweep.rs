@@ -1,12 +1,14 @@
 //! Sweep throughput of each path, one thread, in sample-steps per second (RK4 at 1 ms):
 //! the LQR lane kernel against the general per-sample runner (closed-loop 2-DOF + LQR,
-//! 10 s per sample), the same samples through the thesis-like rig (realism), and the
+//! 10 s per sample), the fuzzy family on lanes and on the general runner (the thesis's
+//! flat gains, controller every 1 ms as the LQR's), the same samples through the thesis-like rig (realism), and the
 //! 3-DOF PID tracker on its circle (4 s per sample).
 //! Run: cargo bench -p twip-core --features parallel --bench sweep
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nalgebra::{Matrix4, Vector4};
+use twip_core::control::fuzzy::FuzzyController;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
 use twip_core::control::reference::SpeedSchedule;
 use twip_core::sim::runner::SimConfig;
@@ -15,7 +17,8 @@ use twip_core::control::pid::PidTracker;
 use twip_core::hardware::realism::Realism;
 use twip_core::sweep::planar::{self, PlanarNominal};
 use twip_core::sweep::rig::{for_sweep, run_rig_sample};
-use twip_core::sweep::{draw, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Spread, Target};
+use twip_core::sweep::block::FuzzyLanes;
+use twip_core::sweep::{draw, run_lane_samples, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Spread, Target};
 use twip_core::control::trajectory::{Circle, Direction};
 use twip_core::{RobotParams, SlopeModel};
 
@@ -47,6 +50,18 @@ fn sweep(c: &mut Criterion) {
         b.iter(|| {
             (0..black_box(samples))
                 .map(|i| run_slope_sample(&ctrl, &schedule, &config, &draw(&nominal, &perturb, 1, i), &|| false))
+                .collect::<Vec<_>>()
+        })
+    });
+    let fuzzy = FuzzyController::thesis_flat(*ctrl.model(), 1e-3).unwrap();
+    let fuzzy_lanes = FuzzyLanes::new(&fuzzy).unwrap();
+    group.bench_function("fuzzy_lanes_1_thread", |b| {
+        b.iter(|| run_lane_samples(&fuzzy_lanes, &schedule, &config, &nominal, &perturb, 1, 0..black_box(samples), &|| false).unwrap())
+    });
+    group.bench_function("fuzzy_general_1_thread", |b| {
+        b.iter(|| {
+            (0..black_box(samples))
+                .map(|i| run_slope_sample(&fuzzy, &schedule, &config, &draw(&nominal, &perturb, 1, i), &|| false))
                 .collect::<Vec<_>>()
         })
     });

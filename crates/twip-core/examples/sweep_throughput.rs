@@ -1,11 +1,14 @@
 //! Throughput of one sweep path, for timing with CPU time on a busy machine:
 //!   /usr/bin/time -f "%U s user" cargo run --release --features parallel \
-//!       --example sweep_throughput -- lanes 256
+//!       --example sweep_throughput -- PATH 256
+//! PATH: lanes (LQR on lanes), fuzzy-lanes, scalar (LQR, general runner), fuzzy-scalar.
 use nalgebra::{Matrix4, Vector4};
+use twip_core::control::fuzzy::FuzzyController;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
 use twip_core::control::reference::SpeedSchedule;
 use twip_core::sim::runner::SimConfig;
-use twip_core::sweep::{draw, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Spread, Target};
+use twip_core::sweep::block::FuzzyLanes;
+use twip_core::sweep::{draw, run_lane_samples, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Spread, Target};
 use twip_core::{RobotParams, SlopeModel};
 
 fn main() {
@@ -22,12 +25,23 @@ fn main() {
     let nominal = Nominal { params, slope: 0.0, x0: Vector4::zeros() };
     let schedule = SpeedSchedule::constant(speed).unwrap();
     let config = SimConfig { dt: 1e-3, t_final: 10.0, fall_limit: 1.0 };
+    let fuzzy = FuzzyController::thesis_flat(model, 1e-3).unwrap();
     let start = std::time::Instant::now();
     let total: f64 = match path {
         "lanes" => run_lqr_samples(&ctrl, &schedule, &config, &nominal, &perturb, 1, 0..n, &|| false)
             .unwrap()
             .unwrap()
             .iter()
+            .map(|m| m.mean_abs_pitch_error)
+            .sum(),
+        "fuzzy-lanes" => run_lane_samples(&FuzzyLanes::new(&fuzzy).unwrap(), &schedule, &config, &nominal, &perturb, 1, 0..n, &|| false)
+            .unwrap()
+            .unwrap()
+            .iter()
+            .map(|m| m.mean_abs_pitch_error)
+            .sum(),
+        "fuzzy-scalar" => (0..n)
+            .map(|i| run_slope_sample(&fuzzy, &schedule, &config, &draw(&nominal, &perturb, 1, i), &|| false).unwrap())
             .map(|m| m.mean_abs_pitch_error)
             .sum(),
         _ => (0..n)

@@ -20,12 +20,13 @@
 //! Discrete time, as on the robot: every `period` the law is evaluated with the current
 //! Ŝ and ∫e, then both advance by forward Euler over the period (σ·period < 1 keeps the
 //! leakage step a contraction).
-use nalgebra::{SVector, Vector2};
+use nalgebra::SVector;
 
 use crate::control::Controller;
-use crate::control::fuzzy_basis::ThesisBasis;
+use crate::control::fuzzy_basis::{grid, Member, ThesisBasis};
 use crate::control::reference::{SpeedRef, SpeedSchedule};
-use crate::model::slope::SlopeModel;
+use crate::model::lane::Lane;
+use crate::model::slope::{pitch_input_gain, SlopeCoefficients, SlopeModel};
 use crate::{c, Real, TwipError};
 
 /// k1, k2 of the backstepping, kp, kd of the PD on the wheel position (4.56), and our
@@ -221,8 +222,64 @@ impl<T: Real> FuzzyController<T> {
     /// accelerates the pitch (negative: the reaction tips the body back). The same as
     /// the thesis's A⁻¹ b̄ of (4.32)–(4.35), whose rows are M's first row and the sum.
     pub fn g1(&self, phi: T) -> T {
-        let tau = self.model.params().torque_per_amp();
-        self.model.solve_mass(phi, &Vector2::new(-tau, tau))[0]
+        pitch_input_gain(&self.model.coefficients(), phi)
+    }
+}
+
+/// The controller's constants as its law reads them, in `S` (a run's `T`, a sweep
+/// lane's `Fused`), with sets `M` (prepared sets, or a sweep's trapezoids).
+pub(crate) struct Law<'a, S, M> {
+    pub gains: FuzzyGains<S>,
+    pub gamma: S,
+    pub sigma: S,
+    /// Adapt the weights Ŝ (else they stay as they are).
+    pub adapt: bool,
+    pub period: S,
+    pub sets: &'a [[M; 3]; 2],
+    /// The controller's own model, for g1.
+    pub model: &'a SlopeCoefficients<S>,
+}
+
+/// An update's input and the values the controller's internals show.
+pub(crate) struct Step<S> {
+    pub u: S,
+    pub xi: [S; 9],
+    pub z2: S,
+    pub e1: S,
+    pub v2: S,
+    pub e: S,
+}
+
+impl<S: Lane, M: Member<S>> Law<'_, S, M> {
+    /// The backstepping law (4.36)–(4.56) with the PD on the wheel angle, written once
+    /// over [`Lane`]: the input for measurement `y`, steady pitch `phi_s` and the
+    /// reference's wheel angle and speed. Adapts `s_hat` (forward Euler with σ-leakage)
+    /// and integrates the wheel-angle error into `e_int`.
+    #[inline(always)]
+    pub(crate) fn update(&self, s_hat: &mut [S; 9], e_int: &mut S, phi_s: S, y: &[S; 4], theta: S, theta_dot: S) -> Step<S> {
+        let g = &self.gains;
+        let half = S::splat(0.5);
+        let (phi, phi_dot) = (y[0], y[1]);
+        let e1 = phi - phi_s;
+        let z2 = phi_dot + g.k1 * e1;
+        let xi: [S; 9] = grid(self.sets, &[phi, phi_dot]);
+        let (mut f1_hat, mut s_norm2) = (S::splat(0.0), S::splat(0.0));
+        for (s, x) in s_hat.iter().zip(&xi) {
+            f1_hat = f1_hat + *s * *x;
+            s_norm2 = s_norm2 + *s * *s;
+        }
+        let e = theta - y[2];
+        let e_dot = theta_dot - y[3];
+        let backstepping = -(e1 + f1_hat + g.k1 * phi_dot + (half + g.k2) * z2) / pitch_input_gain(self.model, phi);
+        let u = backstepping + g.kp * e + g.kd * e_dot + g.ki * *e_int;
+        let v2 = half * e1 * e1 + half * z2 * z2 + half * self.gamma * s_norm2;
+        let rate = z2 / self.gamma;
+        for (s, x) in s_hat.iter_mut().zip(&xi) {
+            let adapted = *s + self.period * (rate * *x - self.sigma * *s);
+            *s = if self.adapt { adapted } else { *s };
+        }
+        *e_int = *e_int + self.period * e;
+        Step { u, xi, z2, e1, v2, e }
     }
 }
 
@@ -251,37 +308,22 @@ impl<T: Real> Controller<T, 4, 1> for FuzzyController<T> {
                 phi_s
             }
         };
-        let g = &self.gains;
-        let half = c::<T>(0.5);
-        let (phi, phi_dot) = (y[0], y[1]);
-        let e1 = phi - phi_s;
-        let z2 = phi_dot + g.k1 * e1;
-        let xi = self.basis.eval(&[phi, phi_dot]);
-        let mut f1_hat = T::zero();
-        let mut s_norm2 = T::zero();
-        for (s, x) in self.s_hat.iter().zip(&xi) {
-            f1_hat += *s * *x;
-            s_norm2 += *s * *s;
-        }
-        let e = r.theta - y[2];
-        let e_dot = r.theta_dot - y[3];
-        let backstepping = -(e1 + f1_hat + g.k1 * phi_dot + (half + g.k2) * z2) / self.g1(phi);
-        let u = backstepping + g.kp * e + g.kd * e_dot + g.ki * self.e_int;
-
-        let v2 = half * e1 * e1 + half * z2 * z2 + half * self.adaptation.gamma * s_norm2;
-        self.internals[..9].copy_from_slice(&xi);
-        self.internals[9..18].copy_from_slice(&self.s_hat);
-        self.internals[18..].copy_from_slice(&[z2, e1, phi_s, v2, e, self.e_int]);
-
-        if self.adaptation.enabled {
-            let a = &self.adaptation;
-            let rate = z2 / a.gamma;
-            for (s, x) in self.s_hat.iter_mut().zip(&xi) {
-                *s += self.period * (rate * *x - a.sigma * *s);
-            }
-        }
-        self.e_int += self.period * e;
-        SVector::<T, 1>::new(u)
+        let a = &self.adaptation;
+        let law = Law {
+            gains: self.gains,
+            gamma: a.gamma,
+            sigma: a.sigma,
+            adapt: a.enabled,
+            period: self.period,
+            sets: self.basis.prepared(),
+            model: &self.model.coefficients(),
+        };
+        let (s_hat, e_int) = (self.s_hat, self.e_int);
+        let step = law.update(&mut self.s_hat, &mut self.e_int, phi_s, &[y[0], y[1], y[2], y[3]], r.theta, r.theta_dot);
+        self.internals[..9].copy_from_slice(&step.xi);
+        self.internals[9..18].copy_from_slice(&s_hat);
+        self.internals[18..].copy_from_slice(&[step.z2, step.e1, phi_s, step.v2, step.e, e_int]);
+        SVector::<T, 1>::new(step.u)
     }
 
     fn internals(&self) -> &[T] {

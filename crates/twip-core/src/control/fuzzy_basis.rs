@@ -17,6 +17,7 @@
 //! never need the fallback.
 //!
 //! Everything is fixed-size: no allocation, no_std.
+use crate::model::lane::{fill, Lane};
 use crate::{c, Real, TwipError};
 
 /// A membership function μ(x) ∈ [0, 1]. Build through the checked constructors.
@@ -106,36 +107,16 @@ impl<T: Real> Membership<T> {
         }
     }
 
-    /// μ(x). No division by zero: each ramp is only evaluated where it has width.
+    /// μ(x) (the ramps multiplied by their reciprocal widths, within an ulp of dividing).
     #[inline(always)]
     pub fn eval(&self, x: T) -> T {
-        match *self {
-            Self::Trapezoid { a, b, c, d } => {
-                if x < a || x > d {
-                    T::zero()
-                } else if x < b {
-                    (x - a) / (b - a)
-                } else if x <= c {
-                    T::one()
-                } else {
-                    // c < x <= d, or x is NaN (which stays NaN).
-                    (d - x) / (d - c)
-                }
-            }
-            Self::Gaussian { mean, sigma } => {
-                let z = (x - mean) / sigma;
-                (-c::<T>(0.5) * z * z).exp()
-            }
-        }
+        Prepared::new(*self).value(x)
     }
 
     /// How far `x` is from where the set is non-zero (for the no-rule-fires fallback).
     #[inline]
     pub fn distance(&self, x: T) -> T {
-        match *self {
-            Self::Trapezoid { a, d, .. } => (a - x).max(x - d).max(T::zero()),
-            Self::Gaussian { mean, sigma } => (x - mean).abs() / sigma,
-        }
+        Prepared::new(*self).distance(x)
     }
 }
 
@@ -143,75 +124,145 @@ impl<T: Real> Membership<T> {
 /// (`out.len() == sets.len()`); if none is non-zero, the nearest set gets 1 (module docs).
 #[inline(always)]
 pub fn normalised_memberships<T: Real>(sets: &[Membership<T>], x: T, out: &mut [T]) {
+    // `normalise` for a number of sets known only at run time, from the same pieces.
     let mut sum = T::zero();
     for (o, s) in out.iter_mut().zip(sets) {
-        *o = s.eval(x);
+        *o = s.value(x);
         sum += *o;
     }
-    if sum == T::zero() {
-        let nearest = nearest_set(sets, x);
-        for (j, o) in out.iter_mut().enumerate() {
-            *o = if j == nearest { T::one() } else { T::zero() };
-        }
-    } else {
-        // A NaN sum (NaN input) propagates.
-        let inv = T::one() / sum;
-        for o in out.iter_mut() {
-            *o *= inv;
-        }
+    let (mut nearest, mut best) = (T::zero(), T::one() / T::zero());
+    for (j, set) in sets.iter().enumerate() {
+        (nearest, best) = nearer(x, (nearest, best), (j, Member::distance(set, x)));
+    }
+    let (none, inv) = (sum == T::zero(), T::one() / sum);
+    for (j, o) in out.iter_mut().enumerate() {
+        *o = weight(*o, inv, none, nearest == c::<T>(j as f64));
     }
 }
 
-/// Index of the set nearest to `x`; ties to the last set when x > 0, else the first.
-fn nearest_set<T: Real>(sets: &[Membership<T>], x: T) -> usize {
-    let later_wins = x > T::zero();
-    let mut best = 0;
-    let mut best_d = T::one() / T::zero();
-    for (j, s) in sets.iter().enumerate() {
-        let d = s.distance(x);
-        if d < best_d || (later_wins && d == best_d) || j == 0 {
-            best = j;
-            best_d = d;
-        }
-    }
-    best
+/// A membership function as the basis evaluates it, for a run (`T`) or a sweep's lanes.
+pub(crate) trait Member<S> {
+    /// μ(x).
+    fn value(&self, x: S) -> S;
+    /// How far x is from where μ is non-zero.
+    fn distance(&self, x: S) -> S;
 }
 
-/// A set ready for repeated evaluation: the ramps' reciprocal widths computed once.
+impl<T: Real> Member<T> for Membership<T> {
+    #[inline(always)]
+    fn value(&self, x: T) -> T {
+        self.eval(x)
+    }
+
+    #[inline(always)]
+    fn distance(&self, x: T) -> T {
+        Membership::distance(self, x)
+    }
+}
+
+/// [`normalised_memberships`] of one input of a grid basis, over any [`Member`], written
+/// once over [`Lane`] without branches: every membership and the nearest set are
+/// computed, and the case that holds is selected. A NaN input gives NaN. Fixed-size and
+/// by value, so that a sweep's loop over lanes keeps it in registers and vectorises it.
+#[inline(always)]
+pub(crate) fn normalise<S: Lane, M: Member<S>, const N: usize>(sets: &[M; N], x: S) -> [S; N] {
+    let mu: [S; N] = fill(|j| sets[j].value(x));
+    let sum = mu.iter().fold(S::splat(0.0), |sum, m| sum + *m);
+    let none = sum.eq(S::splat(0.0));
+    let inv = S::splat(1.0) / sum;
+    let (mut nearest, mut best) = (S::splat(0.0), S::splat(f64::INFINITY));
+    for (j, set) in sets.iter().enumerate() {
+        (nearest, best) = nearer(x, (nearest, best), (j, set.distance(x)));
+    }
+    fill(|j| weight(mu[j], inv, none, nearest.eq(S::splat(j as f64))))
+}
+
+/// The nearer of the best set so far (its index, as a number, and distance) and set `j`
+/// at distance `d` from `x`: ties go to the later set when x > 0, else to the first
+/// (module docs).
+#[inline(always)]
+fn nearer<S: Lane>(x: S, (best, best_d): (S, S), (j, d): (usize, S)) -> (S, S) {
+    let take = d.lt(best_d) | (x.gt(S::splat(0.0)) & d.eq(best_d)) | S::mask(j == 0);
+    (S::select(take, S::splat(j as f64), best), S::select(take, d, best_d))
+}
+
+/// A set's normalised weight: its share μ · (1/Σμ), or when no set holds x (`none`),
+/// 1 for the nearest set and 0 for the others.
+#[inline(always)]
+fn weight<S: Lane>(mu: S, inv: S, none: S::Mask, nearest: S::Mask) -> S {
+    S::select(none, S::select(nearest, S::splat(1.0), S::splat(0.0)), mu * inv)
+}
+
+/// A trapezoid ready for repeated evaluation: its breakpoints and the ramps' reciprocal
+/// widths 1/(b − a) and 1/(d − c), which are only used where the ramp has width (else ∞
+/// or NaN, computed and not selected).
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Prepared<T> {
-    /// 1/(b − a) and 1/(d − c) are only used where the ramp has width (else ∞ or NaN, unused).
-    Trapezoid { a: T, b: T, c: T, d: T, inv_rise: T, inv_fall: T },
+pub(crate) struct Trapezoid<S> {
+    pub a: S,
+    pub b: S,
+    pub c: S,
+    pub d: S,
+    pub inv_rise: S,
+    pub inv_fall: S,
+}
+
+impl<S: Lane> Trapezoid<S> {
+    #[inline(always)]
+    pub(crate) fn new(a: S, b: S, c: S, d: S) -> Self {
+        let one = S::splat(1.0);
+        Self { a, b, c, d, inv_rise: one / (b - a), inv_fall: one / (d - c) }
+    }
+}
+
+impl<S: Lane> Member<S> for Trapezoid<S> {
+    /// Every piece computed, the one that holds selected; NaN stays NaN.
+    #[inline(always)]
+    fn value(&self, x: S) -> S {
+        let top = S::select(x.le(self.c), S::splat(1.0), (self.d - x) * self.inv_fall);
+        let inside = S::select(x.lt(self.b), (x - self.a) * self.inv_rise, top);
+        S::select(x.lt(self.a) | x.gt(self.d), S::splat(0.0), inside)
+    }
+
+    #[inline(always)]
+    fn distance(&self, x: S) -> S {
+        (self.a - x).larger(x - self.d).larger(S::splat(0.0))
+    }
+}
+
+/// A set ready for repeated evaluation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Prepared<T> {
+    Trapezoid(Trapezoid<T>),
     /// Gaussians keep their division: exp(−z²/2) magnifies an ulp of z by z².
-    Gaussian(Membership<T>),
+    Gaussian { mean: T, sigma: T },
 }
 
 impl<T: Real> Prepared<T> {
     fn new(m: Membership<T>) -> Self {
         match m {
-            Membership::Trapezoid { a, b, c, d } => {
-                Self::Trapezoid { a, b, c, d, inv_rise: T::one() / (b - a), inv_fall: T::one() / (d - c) }
+            Membership::Trapezoid { a, b, c, d } => Self::Trapezoid(Trapezoid::new(a, b, c, d)),
+            Membership::Gaussian { mean, sigma } => Self::Gaussian { mean, sigma },
+        }
+    }
+}
+
+impl<T: Real> Member<T> for Prepared<T> {
+    #[inline(always)]
+    fn value(&self, x: T) -> T {
+        match *self {
+            Self::Trapezoid(t) => t.value(x),
+            Self::Gaussian { mean, sigma } => {
+                let z = (x - mean) / sigma;
+                (-c::<T>(0.5) * z * z).exp()
             }
-            Membership::Gaussian { .. } => Self::Gaussian(m),
         }
     }
 
-    /// [`Membership::eval`], the ramps multiplied by their reciprocal widths (within an ulp).
     #[inline(always)]
-    fn eval(&self, x: T) -> T {
+    fn distance(&self, x: T) -> T {
         match *self {
-            Self::Trapezoid { a, b, c, d, inv_rise, inv_fall } => {
-                if x < a || x > d {
-                    T::zero()
-                } else if x < b {
-                    (x - a) * inv_rise
-                } else if x <= c {
-                    T::one()
-                } else {
-                    (d - x) * inv_fall
-                }
-            }
-            Self::Gaussian(m) => m.eval(x),
+            Self::Trapezoid(t) => t.distance(x),
+            Self::Gaussian { mean, sigma } => (x - mean).abs() / sigma,
         }
     }
 }
@@ -219,12 +270,19 @@ impl<T: Real> Prepared<T> {
 /// The row-major tensor product of per-input weights: `out[k] = Π_i w_i[j_i]` with the
 /// last input varying fastest (the rule order of (4.39)). `out.len()` must be the
 /// product of the lengths; for bases whose sizes are only known at run time.
-pub fn grid_product<T: Real>(weights: &[&[T]], out: &mut [T]) -> Result<(), TwipError> {
+pub fn grid_product<S: Lane>(weights: &[&[S]], out: &mut [S]) -> Result<(), TwipError> {
     let rules = weights.iter().map(|w| w.len()).product::<usize>();
     if rules != out.len() || weights.is_empty() {
         return Err(TwipError::Shape { name: "xi", expected: (rules, 1), got: (out.len(), 1) });
     }
-    out[0] = T::one();
+    product_into(weights, out);
+    Ok(())
+}
+
+/// [`grid_product`] once the sizes are known to agree.
+#[inline(always)]
+fn product_into<S: Lane>(weights: &[&[S]], out: &mut [S]) {
+    out[0] = S::splat(1.0);
     let mut filled = 1;
     // Expand one input at a time, in place, from the back so nothing is overwritten early.
     for w in weights {
@@ -237,7 +295,6 @@ pub fn grid_product<T: Real>(weights: &[&[T]], out: &mut [T]) -> Result<(), Twip
         }
         filled *= n;
     }
-    Ok(())
 }
 
 /// A grid fuzzy basis: `N_IN` inputs, `N_SETS` sets per input, `N_RULES = N_SETS^N_IN`
@@ -276,33 +333,55 @@ impl<T: Real, const N_IN: usize, const N_SETS: usize, const N_RULES: usize> Grid
     /// ξ(x) of (4.29): non-negative, sums to 1 (module docs for when no rule fires).
     #[inline]
     pub fn eval(&self, x: &[T; N_IN]) -> [T; N_RULES] {
-        let mut w = [[T::zero(); N_SETS]; N_IN];
-        for i in 0..N_IN {
-            let mut sum = T::zero();
-            for (o, s) in w[i].iter_mut().zip(&self.prepared[i]) {
-                *o = s.eval(x[i]);
-                sum += *o;
-            }
-            if sum == T::zero() {
-                w[i][nearest_set(&self.sets[i], x[i])] = T::one();
-            } else {
-                let inv = T::one() / sum;
-                for o in w[i].iter_mut() {
-                    *o *= inv;
-                }
-            }
-        }
-        let mut xi = [T::one(); N_RULES];
-        // Rule k's set for input i is digit i of k in base N_SETS (most significant first).
-        let mut stride = N_RULES;
-        for wi in &w {
-            stride /= N_SETS;
-            for (k, v) in xi.iter_mut().enumerate() {
-                *v *= wi[(k / stride) % N_SETS];
-            }
-        }
-        xi
+        grid(&self.prepared, x)
     }
+
+    /// The sets ready for evaluation.
+    pub(crate) fn prepared(&self) -> &[[Prepared<T>; N_SETS]; N_IN] {
+        &self.prepared
+    }
+
+    /// The sets as trapezoids, if every one is (a sweep's lanes evaluate those), in `S`.
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps need std
+    pub(crate) fn trapezoids<S>(&self, to: impl Fn(T) -> S) -> Option<[[Trapezoid<S>; N_SETS]; N_IN]> {
+        let mut out: [[Option<Trapezoid<S>>; N_SETS]; N_IN] = core::array::from_fn(|_| core::array::from_fn(|_| None));
+        for (row, sets) in out.iter_mut().zip(&self.prepared) {
+            for (o, p) in row.iter_mut().zip(sets) {
+                let Prepared::Trapezoid(t) = p else { return None };
+                *o = Some(Trapezoid {
+                    a: to(t.a),
+                    b: to(t.b),
+                    c: to(t.c),
+                    d: to(t.d),
+                    inv_rise: to(t.inv_rise),
+                    inv_fall: to(t.inv_fall),
+                });
+            }
+        }
+        Some(out.map(|row| row.map(|t| t.expect("every set was filled"))))
+    }
+}
+
+/// ξ(x) of a grid basis of prepared sets, written once over [`Lane`] (a run's and a
+/// sweep lane's): each input's memberships normalised on their own, then their product.
+#[inline(always)]
+pub(crate) fn grid<S: Lane, M: Member<S>, const N_IN: usize, const N_SETS: usize, const N_RULES: usize>(
+    sets: &[[M; N_SETS]; N_IN],
+    x: &[S; N_IN],
+) -> [S; N_RULES] {
+    let mut w = [[S::splat(0.0); N_SETS]; N_IN];
+    for (i, wi) in w.iter_mut().enumerate() {
+        *wi = normalise(&sets[i], x[i]);
+    }
+    // Rule k's set for input i is digit i of k in base N_SETS (most significant first).
+    let xi = fill(|k| {
+        let mut stride = N_RULES;
+        w.iter().fold(S::splat(1.0), |product, wi| {
+            stride /= N_SETS;
+            product * wi[(k / stride) % N_SETS]
+        })
+    });
+    xi
 }
 
 impl<T: Real> ThesisBasis<T> {

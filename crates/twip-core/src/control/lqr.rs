@@ -7,6 +7,7 @@ use nalgebra::SVector;
 
 use crate::control::Controller;
 use crate::control::reference::{SpeedRef, SpeedSchedule};
+use crate::model::lane::Lane;
 use crate::model::slope::SlopeModel;
 use crate::{Real, TwipError};
 
@@ -113,12 +114,9 @@ impl<T: Real> Controller<T, 4, 1> for LqrController<T> {
                 (phi_s, u_s)
             }
         };
-        let speed_error = y[3] - r.theta_dot;
-        let k = &self.gains;
-        let u = u_s - (k[0] * (y[0] - phi_s) + k[1] * y[1] + k[2] * speed_error) - k[3] * self.z;
+        let (u, z) = law(&self.gains, phi_s, u_s, &[y[0], y[1], y[2], y[3]], r.theta_dot, self.z, self.period);
         self.internals = [self.z, phi_s, u_s, r.theta_dot];
-        // Forward Euler, as a microcontroller would: z holds the error up to this update.
-        self.z += speed_error * self.period;
+        self.z = z;
         SVector::<T, 1>::new(u)
     }
 
@@ -129,6 +127,16 @@ impl<T: Real> Controller<T, 4, 1> for LqrController<T> {
     fn internal_names(&self) -> &'static [&'static str] {
         &LQR_INTERNALS
     }
+}
+
+/// The control law, written once over [`Lane`] (a run's and a sweep lane's): the input
+/// for measurement `y` with steady state (φ_s, u_s), and the integrator's next value.
+/// Forward Euler, as a microcontroller would: z holds the error up to this update.
+#[inline(always)]
+pub(crate) fn law<S: Lane>(k: &[S; 4], phi_s: S, u_s: S, y: &[S; 4], theta_dot_ref: S, z: S, period: S) -> (S, S) {
+    let speed_error = y[3] - theta_dot_ref;
+    let u = u_s - (k[0] * (y[0] - phi_s) + k[1] * y[1] + k[2] * speed_error) - k[3] * z;
+    (u, z + speed_error * period)
 }
 
 /// The augmented design problem (4.17)–(4.23) and its solution.

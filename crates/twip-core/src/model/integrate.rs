@@ -1,7 +1,8 @@
 //! The one integrator: classical fixed-step Runge–Kutta of order 4.
 use nalgebra::SVector;
 
-use crate::{c, Dynamics, Real};
+use crate::model::lane::{fill, Lane};
+use crate::{Dynamics, Real};
 
 /// One RK4 step of `dt` with the input held constant over the step (zero-order hold).
 #[inline]
@@ -32,10 +33,42 @@ where
     T: Real,
     M: Dynamics<T, NX, NU> + ?Sized,
 {
-    let half = dt * c::<T>(0.5);
-    let k1 = *k1;
-    let k2 = model.deriv(&(x + k1 * half), u);
-    let k3 = model.deriv(&(x + k2 * half), u);
-    let k4 = model.deriv(&(x + k3 * dt), u);
-    x + (k1 + (k2 + k3) * c::<T>(2.0) + k4) * (dt / c::<T>(6.0))
+    SVector::from(rk4(&Held { model, u }, &(*x).into(), &(*k1).into(), dt))
+}
+
+/// A vector field ẋ = f(x), as [`rk4`] steps it (a model with its input held).
+pub trait Field<S, const N: usize> {
+    fn at(&self, x: &[S; N]) -> [S; N];
+}
+
+/// A model with its input held over a step.
+struct Held<'a, M: ?Sized, U> {
+    model: &'a M,
+    u: &'a U,
+}
+
+impl<T, M, const NX: usize, const NU: usize> Field<T, NX> for Held<'_, M, SVector<T, NU>>
+where
+    T: Real,
+    M: Dynamics<T, NX, NU> + ?Sized,
+{
+    // Always inlined, as is `rk4`: a call per stage would cost more than the model.
+    #[inline(always)]
+    fn at(&self, x: &[T; NX]) -> [T; NX] {
+        self.model.deriv(&SVector::from(*x), self.u).into()
+    }
+}
+
+/// One RK4 step of the field `f` (a model with its input held) from `x` given `k1` = f(x),
+/// written once over [`Lane`] for a run and for a sweep's lanes.
+#[inline(always)]
+pub fn rk4<S: Lane, const N: usize>(f: &impl Field<S, N>, x: &[S; N], k1: &[S; N], dt: S) -> [S; N] {
+    let half = dt * S::splat(0.5);
+    // x + k h.
+    let stage = |k: &[S; N], h: S| -> [S; N] { fill(|i| S::madd(k[i], h, x[i])) };
+    let k2 = f.at(&stage(k1, half));
+    let k3 = f.at(&stage(&k2, half));
+    let k4 = f.at(&stage(&k3, dt));
+    let sixth = dt / S::splat(6.0);
+    fill(|i| S::madd(S::madd(k2[i] + k3[i], S::splat(2.0), k1[i] + k4[i]), sixth, x[i]))
 }

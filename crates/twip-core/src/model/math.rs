@@ -1,9 +1,12 @@
-//! sin/cos as a polynomial: faster than libm's call, and the same polynomial as the
-//! lane version that sweeps vectorise (`sweep::lanes::sin_cos`, which fuses its
-//! multiply-adds; this one does not, so that it needs no FMA unit or libm call).
+//! sin/cos as a polynomial: faster than libm's call, and one polynomial for a run and
+//! for a sweep's lanes (`Lane::sincos`: plain multiply-adds in a run, so that it needs no
+//! FMA unit or libm call; fused in lanes).
 //!
-//! Cody–Waite reduction by π/2 (rounding to nearest even, as the lane version does),
-//! then Taylor polynomials on |r| ≤ π/4. Accurate to a few ulp in f64 for |x| < 1e5.
+//! Reduction by π/2 (rounding to nearest even): Cody–Waite's three parts in a run, two
+//! parts and one fused multiply-add in lanes, whose quadrant logic is bit masks (no
+//! branch stops the vectorisation). Then Taylor polynomials on |r| ≤ π/4. Accurate to
+//! a few ulp in f64 for |x| < 1e5.
+use crate::model::lane::Lane;
 use crate::{c, Real};
 
 // π/2 split in three parts (Cody–Waite), written to more digits than f64 holds.
@@ -47,25 +50,89 @@ pub fn sin_cos<T: Real>(x: T) -> (T, T) {
     rotate(s, co, quadrant)
 }
 
+/// The lanes' sin/cos (`Wide::sincos`): the reduction by π/2 in two parts and one fused
+/// multiply-add, the polynomial fused, the quadrant's swap and signs applied with bit
+/// masks: no branch, so every step is a vector instruction. Sweeps only (std: `mul_add`).
+#[cfg(feature = "std")]
+mod wide {
+    use super::kernel;
+    use crate::model::lane::{Fused, Wide, WIDTH};
+
+    // The reduction, the polynomial and the rotation, per lane: one source for both.
+
+    /// 1.5 · 2^52: adding and subtracting it rounds to the nearest integer (|y| < 2^51),
+    /// and leaves that integer in the low bits of the sum.
+    const ROUND_MAGIC: f64 = 6_755_399_441_055_744.0;
+
+    /// π/2 = PIO2_HI + PIO2_LO + O(1e-33): the nearest f64, and the nearest to the rest.
+    const PIO2_HI: f64 = core::f64::consts::FRAC_PI_2;
+    const PIO2_LO: f64 = 6.123_233_995_736_766e-17;
+
+    #[inline(always)]
+    pub(crate) fn sin_cos_wide(x: Wide) -> (Wide, Wide) {
+        let (mut r, mut quadrant) = ([0.0; WIDTH], [0u64; WIDTH]);
+        for i in 0..WIDTH {
+            (r[i], quadrant[i]) = reduce(x.0[i]);
+        }
+        let (s, c) = kernel(Wide(r));
+        let (mut sin, mut cos) = ([0.0; WIDTH], [0.0; WIDTH]);
+        for i in 0..WIDTH {
+            (sin[i], cos[i]) = rotate(s.0[i], c.0[i], quadrant[i]);
+        }
+        (Wide(sin), Wide(cos))
+    }
+
+    /// The same for one lane's value inside a loop over lanes (`Fused::sincos`).
+    #[inline(always)]
+    pub(crate) fn sin_cos_fused(x: f64) -> (f64, f64) {
+        let (r, quadrant) = reduce(x);
+        let (s, c) = kernel(Fused(r));
+        rotate(s.0, c.0, quadrant)
+    }
+
+    /// x − k π/2 for the nearest integer k, and k's low bits. In two parts: a fused
+    /// multiply-add rounds x − k·PIO2_HI once, so the third part that plain arithmetic
+    /// needs (math::PIO2_3) is not.
+    #[inline(always)]
+    fn reduce(x: f64) -> (f64, u64) {
+        let shifted = x.mul_add(core::f64::consts::FRAC_2_PI, ROUND_MAGIC);
+        let k = shifted - ROUND_MAGIC;
+        ((-k).mul_add(PIO2_LO, (-k).mul_add(PIO2_HI, x)), shifted.to_bits())
+    }
+
+    /// (sin, cos) of r + quadrant · π/2: odd quadrants swap sin and cos; quadrants 2, 3
+    /// negate sin; 1, 2 negate cos. Bit masks, no branch.
+    #[inline(always)]
+    fn rotate(s: f64, c: f64, quadrant: u64) -> (f64, f64) {
+        let (s, c) = (s.to_bits(), c.to_bits());
+        let swap = (quadrant & 1).wrapping_neg();
+        let sin_r = (s & !swap) | (c & swap);
+        let cos_r = (c & !swap) | (s & swap);
+        (f64::from_bits(sin_r ^ ((quadrant & 2) << 62)), f64::from_bits(cos_r ^ ((quadrant.wrapping_add(1) & 2) << 62)))
+    }
+}
+#[cfg(feature = "std")]
+pub(crate) use wide::{sin_cos_fused, sin_cos_wide};
+
 /// sin and cos of |r| ≤ π/4. The polynomials in r² are evaluated by Estrin's scheme
 /// (pairs, then pairs of pairs): a shorter chain of dependent operations than Horner's,
 /// which is what bounds the speed of a single evaluation.
 #[inline(always)]
-pub(crate) fn kernel<T: Real>(r: T) -> (T, T) {
-    let k = |i: usize, table: &[f64]| c::<T>(table[i]);
+pub(crate) fn kernel<S: Lane>(r: S) -> (S, S) {
+    let k = |table: &[f64], i: usize| S::splat(table[i]);
     let r2 = r * r;
     let r4 = r2 * r2;
     let r8 = r4 * r4;
-    let s01 = k(0, &SIN) + r2 * k(1, &SIN);
-    let s23 = k(2, &SIN) + r2 * k(3, &SIN);
-    let s45 = k(4, &SIN) + r2 * k(5, &SIN);
-    let ps = (s01 + r4 * s23) + r8 * (s45 + r4 * k(6, &SIN));
-    let c01 = k(0, &COS) + r2 * k(1, &COS);
-    let c23 = k(2, &COS) + r2 * k(3, &COS);
-    let c45 = k(4, &COS) + r2 * k(5, &COS);
-    let c67 = k(6, &COS) + r2 * k(7, &COS);
-    let pc = (c01 + r4 * c23) + r8 * (c45 + r4 * c67);
-    (r + r * r2 * ps, T::one() + r2 * pc)
+    let s01 = S::madd(r2, k(&SIN, 1), k(&SIN, 0));
+    let s23 = S::madd(r2, k(&SIN, 3), k(&SIN, 2));
+    let s45 = S::madd(r2, k(&SIN, 5), k(&SIN, 4));
+    let ps = S::madd(r8, S::madd(r4, k(&SIN, 6), s45), S::madd(r4, s23, s01));
+    let c01 = S::madd(r2, k(&COS, 1), k(&COS, 0));
+    let c23 = S::madd(r2, k(&COS, 3), k(&COS, 2));
+    let c45 = S::madd(r2, k(&COS, 5), k(&COS, 4));
+    let c67 = S::madd(r2, k(&COS, 7), k(&COS, 6));
+    let pc = S::madd(r8, S::madd(r4, c67, c45), S::madd(r4, c23, c01));
+    (S::madd(r * r2, ps, r), S::madd(r2, pc, S::splat(1.0)))
 }
 
 /// (sin, cos) of r + quadrant · π/2.
@@ -96,5 +163,35 @@ mod tests {
         }
         assert!(worst64 < 5e-16, "f64 worst {worst64:e}");
         assert!(worst32 < 5e-7, "f32 worst {worst32:e} on |x| <= 10");
+    }
+
+    #[cfg(feature = "std")]
+    #[test]
+    fn wide_sin_cos_matches_libm() {
+        use crate::model::lane::{Lane, Wide};
+        let sin_cos_fused = |x: f64| {
+            let (s, c) = Wide::sincos(Wide::splat(x));
+            (s.0[3], c.0[3])
+        };
+        let mut worst: f64 = 0.0;
+        let n = 200_000;
+        for i in 0..=n {
+            let x = -100.0 + 200.0 * i as f64 / n as f64;
+            let (s, c) = sin_cos_fused(x);
+            worst = worst.max((s - x.sin()).abs()).max((c - x.cos()).abs());
+        }
+        assert!(worst < 5e-16, "worst absolute error {worst:e}");
+        // Far out, the two-part reduction by π/2 (one fused multiply-add) still holds a few ulp.
+        let mut far: f64 = 0.0;
+        for i in 0..=n {
+            let x = -1e4 + 2e4 * i as f64 / n as f64;
+            let (s, c) = sin_cos_fused(x);
+            far = far.max((s - x.sin()).abs()).max((c - x.cos()).abs());
+        }
+        assert!(far < 2e-15, "worst absolute error on |x| <= 1e4: {far:e}");
+        for x in [0.0, -0.0, 1e-300, core::f64::consts::FRAC_PI_2, core::f64::consts::PI, 3.0e4] {
+            let (s, c) = sin_cos_fused(x);
+            assert!((s - x.sin()).abs() < 1e-15 && (c - x.cos()).abs() < 1e-15, "x = {x}");
+        }
     }
 }

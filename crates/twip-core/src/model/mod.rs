@@ -3,6 +3,7 @@
 pub mod dynamics;
 pub mod friction;
 pub mod integrate;
+pub mod lane;
 pub mod math;
 pub mod params;
 pub mod planar;

@@ -23,6 +23,7 @@
 use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3, Vector4};
 
 use crate::model::friction::Friction;
+use crate::model::lane::Lane;
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
 /// State `[phi, phi_dot, theta, theta_dot]`.
@@ -33,35 +34,33 @@ pub type SlopeState<T> = Vector4<T>;
 pub struct SlopeModel<T> {
     params: RobotParams<T>,
     slope: T,
-    sin_slope: T,
-    cos_slope: T,
-    /// I_b + M_b l² + η² I_M
-    m11: T,
-    /// (M_b + M_w) r² + I_w + η² I_M
-    m22: T,
-    /// M_b r l
-    mrl: T,
-    /// η² I_M
-    rotor: T,
-    /// M_b g l
-    mgl: T,
-    /// (M_b + M_w) g r sin α: the slope's load on the wheels.
-    grade: T,
-    /// η τ_i
-    torque_per_amp: T,
+    k: SlopeCoefficients<T>,
     /// Gearhead friction per wheel beyond `mu_bearing` (None: the thesis's model).
     friction: Option<Friction<T>>,
 }
 
-/// The constants of the equations of motion (see the module docs for the symbols).
+/// The constants of the equations of motion (see the module docs for the symbols), with
+/// the products the derivative needs folded once.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SlopeCoefficients<T> {
+    /// I_b + M_b l² + η² I_M
     pub m11: T,
+    /// (M_b + M_w) r² + I_w + η² I_M
     pub m22: T,
+    /// m11 · m22, the constant part of det M(φ).
+    pub m11_m22: T,
+    /// M_b r l
     pub mrl: T,
+    /// M_b r l cos α and M_b r l sin α: with them, sin and cos of φ + α need only φ's.
+    pub mrl_cos: T,
+    pub mrl_sin: T,
+    /// η² I_M, the rotors' inertia at the wheels.
     pub rotor: T,
+    /// M_b g l
     pub mgl: T,
+    /// (M_b + M_w) g r sin α: the slope's load on the wheels.
     pub grade: T,
+    /// η τ_i
     pub torque_per_amp: T,
     pub mu_bearing: T,
     pub mu_ground: T,
@@ -93,20 +92,26 @@ impl<T: Real> SlopeModel<T> {
         let rotor = p.gear_ratio * p.gear_ratio * p.i_motor;
         let r = p.wheel_radius;
         let l = p.com_height;
-        Ok(Self {
-            params: p,
-            slope,
-            sin_slope,
-            cos_slope,
-            m11: p.i_body + p.m_body * l * l + rotor,
-            m22: (p.m_body + p.m_wheels) * r * r + p.i_wheels + rotor,
-            mrl: p.m_body * r * l,
+        let m11 = p.i_body + p.m_body * l * l + rotor;
+        let m22 = (p.m_body + p.m_wheels) * r * r + p.i_wheels + rotor;
+        let mrl = p.m_body * r * l;
+        let k = SlopeCoefficients {
+            m11,
+            m22,
+            m11_m22: m11 * m22,
+            mrl,
+            mrl_cos: mrl * cos_slope,
+            mrl_sin: mrl * sin_slope,
             rotor,
             mgl: p.m_body * p.g * l,
             grade: (p.m_body + p.m_wheels) * p.g * r * sin_slope,
             torque_per_amp: p.torque_per_amp(),
-            friction: None,
-        })
+            mu_bearing: p.mu_bearing,
+            mu_ground: p.mu_ground,
+            sin_slope,
+            cos_slope,
+        };
+        Ok(Self { params: p, slope, k, friction: None })
     }
 
     /// This model with gearhead friction on both wheels (validated); `None` turns it off.
@@ -134,9 +139,9 @@ impl<T: Real> SlopeModel<T> {
     /// the friction's added, and its torque per wheel. A total torque F on β̇ adds
     /// (F, −F) to f, so β̈ = a0 − s τ per wheel with s = −2 (r_θ − r_φ), r = M⁻¹ (1, −1).
     #[inline(always)]
-    fn held(&self, f: &Friction<T>, beta_dot: T, qdd: Vector2<T>, cos_pa: T) -> (Vector2<T>, T) {
+    fn held(&self, f: &Friction<T>, beta_dot: T, qdd: Vector2<T>, m12: T) -> (Vector2<T>, T) {
         let two = c::<T>(2.0);
-        let r = self.accelerations(&Vector2::new(T::one(), -T::one()), cos_pa);
+        let r = self.accelerations(&[T::one(), -T::one()], m12);
         let [tau] = f.torques([beta_dot], [qdd[1] - qdd[0]], [[-two * (r[1] - r[0])]]);
         (qdd + r * (two * tau), tau)
     }
@@ -157,56 +162,32 @@ impl<T: Real> SlopeModel<T> {
 
     /// The constant coefficients of `deriv`, for code that evaluates many robots at once.
     pub fn coefficients(&self) -> SlopeCoefficients<T> {
-        SlopeCoefficients {
-            m11: self.m11,
-            m22: self.m22,
-            mrl: self.mrl,
-            rotor: self.rotor,
-            mgl: self.mgl,
-            grade: self.grade,
-            torque_per_amp: self.torque_per_amp,
-            mu_bearing: self.params.mu_bearing,
-            mu_ground: self.params.mu_ground,
-            sin_slope: self.sin_slope,
-            cos_slope: self.cos_slope,
-        }
+        self.k
     }
 
     /// The mass matrix M(φ) (symmetric positive definite).
     #[inline]
     pub fn mass_matrix(&self, phi: T) -> Matrix2<T> {
-        let m12 = self.mrl * (phi + self.slope).cos() - self.rotor;
-        Matrix2::new(self.m11, m12, m12, self.m22)
-    }
-
-    /// Generalised forces f(x, u) of `M(φ) q̈ = f`, and sin/cos(φ+α) for reuse.
-    #[inline(always)]
-    fn forces(&self, x: &SlopeState<T>, u: T) -> (Vector2<T>, T, T) {
-        let (f, sin_pa, cos_pa, _) = self.forces_plus(x, u, |_, _| None);
-        (f, sin_pa, cos_pa)
+        let (s, co) = crate::model::math::sin_cos(phi);
+        let m12 = m12(&self.k, s, co, self.k.rotor);
+        Matrix2::new(self.k.m11, m12, m12, self.k.m22)
     }
 
     /// `forces` with `extra(sin φ, cos φ)` added to f when it gives some (an external
     /// force on the body): φ's sin/cos are shared, and `None` costs nothing. Also both
     /// wheels' slip-law gearhead torque that f holds ([`Self::gearhead`]).
     #[inline(always)]
-    fn forces_plus(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (Vector2<T>, T, T, T) {
-        let (sin_phi, cos_phi) = crate::model::math::sin_cos(x[0]);
-        let sin_pa = sin_phi * self.cos_slope + cos_phi * self.sin_slope;
-        let cos_pa = cos_phi * self.cos_slope - sin_phi * self.sin_slope;
-        let p = &self.params;
+    fn forces_plus(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (Forces<T>, T) {
         let gearhead = self.gearhead(x[3] - x[1]);
-        let bearing = p.mu_bearing * (x[3] - x[1]) + gearhead;
-        let motor = self.torque_per_amp * u;
-        let f_phi = self.mgl * sin_phi + bearing - motor;
-        let f_theta = self.mrl * sin_pa * x[1] * x[1] - self.grade - bearing
-            - p.mu_ground * x[3]
-            + motor;
-        let f = match extra(sin_phi, cos_phi) {
-            Some(q) => Vector2::new(f_phi + q[0], f_theta + q[1]),
-            None => Vector2::new(f_phi, f_theta),
-        };
-        (f, sin_pa, cos_pa, gearhead)
+        let mut out = forces(&self.k, &[x[0], x[1], x[2], x[3]], u);
+        if self.friction.is_some() {
+            // A torque on β̇ = θ̇ − φ̇, as the bearing's: (+, −) on (φ, θ).
+            out.f = [out.f[0] + gearhead, out.f[1] - gearhead];
+        }
+        if let Some(q) = extra(out.sin_phi, out.cos_phi) {
+            out.f = [out.f[0] + q[0], out.f[1] + q[1]];
+        }
+        (out, gearhead)
     }
 
     /// `deriv` with extra generalised forces `extra(sin φ, cos φ)` on (φ, θ): the
@@ -220,10 +201,11 @@ impl<T: Real> SlopeModel<T> {
     /// law's (in f already), or with a stick band what holds the wheels ([`Self::held`]).
     #[inline(always)]
     fn motion(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (SlopeState<T>, T) {
-        let (f, _, cos_pa, gearhead) = self.forces_plus(x, u, extra);
-        let qdd = self.accelerations(&f, cos_pa);
+        let (out, gearhead) = self.forces_plus(x, u, extra);
+        let m12 = m12(&self.k, out.sin_phi, out.cos_phi, self.k.rotor);
+        let qdd = self.accelerations(&out.f, m12);
         let (qdd, tau) = match &self.friction {
-            Some(fr) if fr.sticks() => self.held(fr, x[3] - x[1], qdd, cos_pa),
+            Some(fr) if fr.sticks() => self.held(fr, x[3] - x[1], qdd, m12),
             _ => (qdd, gearhead * c::<T>(0.5)),
         };
         (Vector4::new(x[1], qdd[0], x[3], qdd[1]), tau)
@@ -246,8 +228,8 @@ impl<T: Real> SlopeModel<T> {
             return self.motion(x, u, extra);
         }
         let bare = Self { friction: None, ..*self };
-        let (f, _, cos_pa, _) = bare.forces_plus(x, T::zero(), extra);
-        let qdd = self.rotorless_accelerations(&f, cos_pa);
+        let (out, _) = bare.forces_plus(x, T::zero(), extra);
+        let qdd = self.rotorless_accelerations(&out.f, out.sin_phi, out.cos_phi);
         (Vector4::new(x[1], qdd[0], x[3], qdd[1]), T::zero())
     }
 
@@ -256,9 +238,10 @@ impl<T: Real> SlopeModel<T> {
     /// against the rotorless mass matrix leaves rotors and wheels at one relative speed.
     /// Updates φ̇ and θ̇ in `x`; returns that speed.
     pub fn engage(&self, x: &mut SlopeState<T>, rotor_speed: T) -> T {
-        let j = self.rotor;
+        let j = self.k.rotor;
         // The response to a torque on β: it enters f as (−1, 1).
-        let r = self.rotorless_accelerations(&Vector2::new(-T::one(), T::one()), (x[0] + self.slope).cos());
+        let (s, co) = crate::model::math::sin_cos(x[0]);
+        let r = self.rotorless_accelerations(&[-T::one(), T::one()], s, co);
         let impulse = (rotor_speed - (x[3] - x[1])) / ((r[1] - r[0]) + T::one() / j);
         x[1] += r[0] * impulse;
         x[3] += r[1] * impulse;
@@ -267,51 +250,56 @@ impl<T: Real> SlopeModel<T> {
 
     /// The reflected rotor inertia η² I_M of both motors, at the wheels [kg m²].
     pub fn rotor_inertia(&self) -> T {
-        self.rotor
+        self.k.rotor
     }
 
     /// q̈ = M(φ)⁻¹ q: the accelerations generalised forces `q` give at pitch `φ`.
     pub fn solve_mass(&self, phi: T, q: &Vector2<T>) -> Vector2<T> {
-        self.accelerations(q, (phi + self.slope).cos())
+        let (s, co) = crate::model::math::sin_cos(phi);
+        self.accelerations(&[q[0], q[1]], m12(&self.k, s, co, self.k.rotor))
     }
 
-    /// Accelerations [φ̈, θ̈] by Cramer's rule on the 2×2 mass matrix (one division).
+    /// Accelerations [φ̈, θ̈] under forces `f` given M12 (one division).
     #[inline(always)]
-    fn accelerations(&self, f: &Vector2<T>, cos_pa: T) -> Vector2<T> {
-        cramer(self.m11, self.m22, self.mrl * cos_pa - self.rotor, f)
+    fn accelerations(&self, f: &[T; 2], m12: T) -> Vector2<T> {
+        Vector2::from(cramer(self.k.m11, self.k.m22, self.k.m11_m22, m12, f))
     }
 
     /// The same without the rotors (both gear trains open): they add η² I_M to M11 and
     /// M22 and take it from M12.
     #[inline(always)]
-    fn rotorless_accelerations(&self, f: &Vector2<T>, cos_pa: T) -> Vector2<T> {
-        cramer(self.m11 - self.rotor, self.m22 - self.rotor, self.mrl * cos_pa, f)
+    fn rotorless_accelerations(&self, f: &[T; 2], sin_phi: T, cos_phi: T) -> Vector2<T> {
+        let (m11, m22) = (self.k.m11 - self.k.rotor, self.k.m22 - self.k.rotor);
+        Vector2::from(cramer(m11, m22, m11 * m22, m12(&self.k, sin_phi, cos_phi, T::zero()), f))
     }
 
     /// Exact Jacobians `(A, B)` of `ẋ = f(x, u)` at any operating point `(x0, u0)`.
     pub fn linearize(&self, x0: &SlopeState<T>, u0: T) -> (SMatrix<T, 4, 4>, Vector4<T>) {
         let p = &self.params;
-        let (f, sin_pa, cos_pa) = self.forces(x0, u0);
-        let qdd = self.accelerations(&f, cos_pa);
+        let (out, _) = self.forces_plus(x0, u0, |_, _| None);
+        let (sin_phi, cos_phi) = (out.sin_phi, out.cos_phi);
+        let qdd = self.accelerations(&out.f, m12(&self.k, sin_phi, cos_phi, self.k.rotor));
+        // M_b r l sin(φ + α) and M_b r l cos(φ + α).
+        let (mrl_sin_pa, mrl_cos_pa) = (mrl_sin_pa(&self.k, sin_phi, cos_phi), m12(&self.k, sin_phi, cos_phi, T::zero()));
         let m = self.mass_matrix(x0[0]);
         // M is positive definite for valid parameters, so the inverse exists.
         let minv = m.try_inverse().unwrap_or_else(Matrix2::zeros);
         let phi_dot = x0[1];
         // d f / d(phi, phi_dot, theta_dot, u); theta does not enter.
         let df_dphi = Vector2::new(
-            self.mgl * x0[0].cos(),
-            self.mrl * cos_pa * phi_dot * phi_dot,
+            self.k.mgl * x0[0].cos(),
+            mrl_cos_pa * phi_dot * phi_dot,
         );
         // dM/dphi only has the off-diagonal -M_b r l sin(phi + alpha).
-        let dm12 = -self.mrl * sin_pa;
+        let dm12 = -mrl_sin_pa;
         let dm_qdd = Vector2::new(dm12 * qdd[1], dm12 * qdd[0]);
         let col_phi = minv * (df_dphi - dm_qdd);
         let two = c::<T>(2.0);
         // The bearing's slope d(torque)/dβ̇: viscous plus the gearhead friction's.
         let mu = p.mu_bearing + self.friction.map_or(T::zero(), |f| two * f.slope(x0[3] - phi_dot));
-        let col_phi_dot = minv * Vector2::new(-mu, two * self.mrl * sin_pa * phi_dot + mu);
+        let col_phi_dot = minv * Vector2::new(-mu, two * mrl_sin_pa * phi_dot + mu);
         let col_theta_dot = minv * Vector2::new(mu, -mu - p.mu_ground);
-        let col_u = minv * Vector2::new(-self.torque_per_amp, self.torque_per_amp);
+        let col_u = minv * Vector2::new(-self.k.torque_per_amp, self.k.torque_per_amp);
         let (z, o) = (T::zero(), T::one());
         #[rustfmt::skip]
         let a = SMatrix::<T, 4, 4>::new(
@@ -327,24 +315,24 @@ impl<T: Real> SlopeModel<T> {
     /// with the slope term of (4.5) corrected to (M_w + M_b) g r sin α (errata E4).
     pub fn linearize_thesis(&self) -> ThesisLinearModel<T> {
         let p = &self.params;
-        let mrl_c = self.mrl * self.cos_slope;
+        let mrl_c = self.k.mrl * self.k.cos_slope;
         let l = p.com_height;
         // (4.2): row 1 is the pitch equation, row 2 the sum of both (3.24).
         let a = Matrix2::new(
-            self.m11,
-            mrl_c - self.rotor,
+            self.k.m11,
+            mrl_c - self.k.rotor,
             mrl_c + p.m_body * l * l + p.i_body,
             (p.m_body + p.m_wheels) * p.wheel_radius * p.wheel_radius + mrl_c + p.i_wheels,
         );
         let ainv = a.try_inverse().unwrap_or_else(Matrix2::zeros);
         #[rustfmt::skip]
         let cm = SMatrix::<T, 2, 3>::new(
-            -self.mgl, p.mu_bearing, -p.mu_bearing,
-            -self.mgl, T::zero(),    p.mu_ground,
+            -self.k.mgl, p.mu_bearing, -p.mu_bearing,
+            -self.k.mgl, T::zero(),    p.mu_ground,
         );
         let abar = -(ainv * cm);
-        let dbar = -(ainv * Vector2::new(T::zero(), self.grade));
-        let bbar = ainv * Vector2::new(-self.torque_per_amp, T::zero());
+        let dbar = -(ainv * Vector2::new(T::zero(), self.k.grade));
+        let bbar = ainv * Vector2::new(-self.k.torque_per_amp, T::zero());
         let (z, o) = (T::zero(), T::one());
         #[rustfmt::skip]
         let a3 = SMatrix::<T, 3, 3>::new(
@@ -364,7 +352,7 @@ impl<T: Real> SlopeModel<T> {
     /// φ_s is the corrected (4.42): sin φ_s = ((M_b + M_w) g r sin α + μ_g θ̇_ref) / (M_b g l).
     pub fn equilibrium(&self, theta_dot_ref: T) -> Result<(SlopeState<T>, T), TwipError> {
         check_speed(theta_dot_ref)?;
-        let sin_phi = (self.grade + self.params.mu_ground * theta_dot_ref) / self.mgl;
+        let sin_phi = (self.k.grade + self.params.mu_ground * theta_dot_ref) / self.k.mgl;
         if sin_phi.abs() >= T::one() {
             return Err(TwipError::NoEquilibrium {
                 reason: "slope load and ground friction exceed what gravity on the body can balance (sin phi_s)",
@@ -375,7 +363,7 @@ impl<T: Real> SlopeModel<T> {
         // Gearhead friction needs more current but, internal to the robot, leaves φ_s alone.
         let bearing = self.params.mu_bearing * theta_dot_ref
             + self.friction.map_or(T::zero(), |f| c::<T>(2.0) * f.torque(theta_dot_ref));
-        let u_s = (self.mgl * sin_phi + bearing) / self.torque_per_amp;
+        let u_s = (self.k.mgl * sin_phi + bearing) / self.k.torque_per_amp;
         Ok((Vector4::new(phi_s, T::zero(), T::zero(), theta_dot_ref), u_s))
     }
 
@@ -416,15 +404,72 @@ impl<T: Real> Dynamics<T, 4, 1> for SlopeModel<T> {
         let kinetic = half * m[(0, 0)] * phi_dot * phi_dot
             + m[(0, 1)] * phi_dot * theta_dot
             + half * m[(1, 1)] * theta_dot * theta_dot;
-        kinetic + self.mgl * x[0].cos() + self.grade * x[2]
+        kinetic + self.k.mgl * x[0].cos() + self.k.grade * x[2]
     }
 }
 
-/// [M11 M12; M12 M22]⁻¹ f by Cramer's rule (one division).
+// The equations of motion, written once over `Lane`: a run evaluates them in `T`, a
+// sweep's lanes in `Fused` (multiply-adds fused).
+
+/// The generalised forces f of `M(φ) q̈ = f`, with sin φ and cos φ for reuse.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Forces<S> {
+    pub f: [S; 2],
+    pub sin_phi: S,
+    pub cos_phi: S,
+}
+
+/// f at state `x` under current `u`.
 #[inline(always)]
-fn cramer<T: Real>(m11: T, m22: T, m12: T, f: &Vector2<T>) -> Vector2<T> {
-    let inv_det = T::one() / (m11 * m22 - m12 * m12);
-    Vector2::new((m22 * f[0] - m12 * f[1]) * inv_det, (m11 * f[1] - m12 * f[0]) * inv_det)
+pub(crate) fn forces<S: Lane>(k: &SlopeCoefficients<S>, x: &[S; 4], u: S) -> Forces<S> {
+    let (s, c) = S::sincos(x[0]);
+    let (phi_dot, theta_dot) = (x[1], x[3]);
+    let bearing = k.mu_bearing * (theta_dot - phi_dot);
+    let motor = k.torque_per_amp * u;
+    let f_phi = S::madd(k.mgl, s, bearing) - motor;
+    // k_t u − the grade's pull, less the bearing and the ground's friction.
+    let drive = S::madd(k.torque_per_amp, u, -k.grade);
+    let friction = S::madd(-k.mu_ground, theta_dot, drive - bearing);
+    // M_b r l sin(φ + α) φ̇², the centripetal term.
+    let f_theta = S::madd(mrl_sin_pa(k, s, c) * phi_dot, phi_dot, friction);
+    Forces { f: [f_phi, f_theta], sin_phi: s, cos_phi: c }
+}
+
+/// M_b r l sin(φ + α) from sin φ and cos φ.
+#[inline(always)]
+pub(crate) fn mrl_sin_pa<S: Lane>(k: &SlopeCoefficients<S>, sin_phi: S, cos_phi: S) -> S {
+    S::madd(k.mrl_cos, sin_phi, k.mrl_sin * cos_phi)
+}
+
+/// M12 = M_b r l cos(φ + α) − `rotor` (η² I_M engaged, 0 with the gear trains open).
+#[inline(always)]
+pub(crate) fn m12<S: Lane>(k: &SlopeCoefficients<S>, sin_phi: S, cos_phi: S, rotor: S) -> S {
+    S::madd(k.mrl_cos, cos_phi, S::madd(-k.mrl_sin, sin_phi, -rotor))
+}
+
+/// [M11 M12; M12 M22]⁻¹ f by Cramer's rule (one division); `m11_m22` = M11 M22.
+#[inline(always)]
+pub(crate) fn cramer<S: Lane>(m11: S, m22: S, m11_m22: S, m12: S, f: &[S; 2]) -> [S; 2] {
+    let inv_det = S::splat(1.0) / S::madd(-m12, m12, m11_m22);
+    [S::madd(m22, f[0], -(m12 * f[1])) * inv_det, S::madd(m11, f[1], -(m12 * f[0])) * inv_det]
+}
+
+/// g1(φ) of the thesis's (4.36): φ̈ per ampere of u at pitch φ, the first entry of
+/// M(φ)⁻¹ (−η τ_i, η τ_i).
+#[inline(always)]
+pub(crate) fn pitch_input_gain<S: Lane>(k: &SlopeCoefficients<S>, phi: S) -> S {
+    let (s, c) = S::sincos(phi);
+    let tau = k.torque_per_amp;
+    cramer(k.m11, k.m22, k.m11_m22, m12(k, s, c, k.rotor), &[-tau, tau])[0]
+}
+
+/// The derivative of the thesis's plant (no gearhead friction, no external force).
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+#[inline(always)]
+pub(crate) fn deriv<S: Lane>(k: &SlopeCoefficients<S>, x: &[S; 4], u: S) -> [S; 4] {
+    let out = forces(k, x, u);
+    let qdd = cramer(k.m11, k.m22, k.m11_m22, m12(k, out.sin_phi, out.cos_phi, k.rotor), &out.f);
+    [x[1], qdd[0], x[3], qdd[1]]
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@ use nalgebra::SVector;
 
 use crate::control::reference::SpeedRef;
 use crate::sim::runner::Observer;
+use crate::model::lane::Lane;
 use crate::model::slope::SlopeModel;
 use crate::{c, Real, RobotParams};
 
@@ -67,45 +68,88 @@ impl<T: Real> DrivePeaks<T> {
     }
 }
 
+/// The running sums and records behind [`SlopeSummary`], written once over [`Lane`] (a
+/// run's and a sweep lane's) without branches, so that a sweep's lanes vectorise it.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Tally<S> {
+    pub sum_pitch: S,
+    pub sum_speed: S,
+    pub pitch_settle: S,
+    pub speed_settle: S,
+    pub final_position_error: S,
+    pub peak_abs_input: S,
+}
+
+/// What an observation is measured against.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Aim<S> {
+    pub t: S,
+    /// The plant's own steady pitch at the reference speed.
+    pub phi_s: S,
+    /// The pitch's settling band ([`pitch_band`]).
+    pub band: S,
+    /// The reference's wheel speed and angle.
+    pub theta_dot: S,
+    pub theta: S,
+    /// 2 % of the largest reference speed so far: the speed's settling band.
+    pub speed_band: S,
+    /// The sign of the last nonzero reference speed: which way "short of the goal" is.
+    pub direction: S,
+    pub wheel_radius: S,
+}
+
+/// The pitch's settling band, set at the first sample: 2 % of the step from the initial
+/// pitch to the steady one, at least 0.25°.
+#[inline(always)]
+pub(crate) fn pitch_band<S: Lane>(phi_s: S, pitch: S) -> S {
+    (S::splat(0.02) * (phi_s - pitch).magnitude()).larger(S::splat(0.25f64.to_radians()))
+}
+
+impl<S: Lane> Tally<S> {
+    pub(crate) fn new() -> Self {
+        let z = S::splat(0.0);
+        Self { sum_pitch: z, sum_speed: z, pitch_settle: z, speed_settle: z, final_position_error: z, peak_abs_input: z }
+    }
+
+    /// Adds the sample of state `x` and input `u` where `on` (a sweep lane that has ended
+    /// adds nothing).
+    #[inline(always)]
+    pub(crate) fn observe(&mut self, on: S::Mask, x: &[S; 4], u: S, aim: &Aim<S>) {
+        let pitch_error = (x[0] - aim.phi_s).magnitude();
+        let speed_error = (x[3] - aim.theta_dot).magnitude();
+        let keep = |old: S, new: S| S::select(on, new, old);
+        self.pitch_settle = keep(self.pitch_settle, S::select(pitch_error.gt(aim.band), aim.t, self.pitch_settle));
+        self.speed_settle = keep(self.speed_settle, S::select(speed_error.gt(aim.speed_band), aim.t, self.speed_settle));
+        self.sum_pitch = keep(self.sum_pitch, self.sum_pitch + pitch_error);
+        self.sum_speed = keep(self.sum_speed, self.sum_speed + speed_error);
+        let position = aim.direction * (aim.theta - x[2]) * aim.wheel_radius;
+        self.final_position_error = keep(self.final_position_error, position);
+        self.peak_abs_input = keep(self.peak_abs_input, self.peak_abs_input.larger(u.magnitude()));
+    }
+}
+
 /// Accumulates [`SlopeSummary`] against the plant's own steady state.
 #[derive(Clone, Copy, Debug)]
 pub struct SlopeMetrics<T: Real> {
     plant: SlopeModel<T>,
-    sum_pitch: T,
-    sum_speed: T,
+    tally: Tally<T>,
+    samples: usize,
     pitch_band: Option<T>,
     speed_scale: T,
-    pitch_settle: T,
-    speed_settle: T,
     steady: Option<(T, T)>,
-    /// The sign of the last nonzero reference speed: which way "short of the goal" is.
     direction: T,
-    summary: SlopeSummary<T>,
 }
 
 impl<T: Real> SlopeMetrics<T> {
     pub fn new(plant: SlopeModel<T>) -> Self {
         Self {
             plant,
-            sum_pitch: T::zero(),
-            sum_speed: T::zero(),
+            tally: Tally::new(),
+            samples: 0,
             pitch_band: None,
             speed_scale: T::zero(),
-            pitch_settle: T::zero(),
-            speed_settle: T::zero(),
             steady: None,
             direction: T::one(),
-            summary: SlopeSummary {
-                mean_abs_pitch_error: T::zero(),
-                mean_abs_speed_error: T::zero(),
-                pitch_settling_time: T::zero(),
-                speed_settling_time: T::zero(),
-                final_position_error: T::zero(),
-                peak_abs_input: T::zero(),
-                peak_current: T::zero(),
-                peak_torque: T::zero(),
-                samples: 0,
-            },
         }
     }
 
@@ -114,7 +158,7 @@ impl<T: Real> SlopeMetrics<T> {
         match self.steady {
             Some((s, phi)) if s == speed => phi,
             _ => {
-                let phi = self.plant.equilibrium(speed).map(|(x, _)| x[0]).unwrap_or(T::frac_pi_2());
+                let phi = steady_pitch(&self.plant, speed);
                 self.steady = Some((speed, phi));
                 phi
             }
@@ -122,42 +166,48 @@ impl<T: Real> SlopeMetrics<T> {
     }
 
     pub fn summary(&self) -> SlopeSummary<T> {
-        let mut s = self.summary;
-        let n = c::<T>(s.samples.max(1) as f64);
-        s.mean_abs_pitch_error = self.sum_pitch / n;
-        s.mean_abs_speed_error = self.sum_speed / n;
-        s.pitch_settling_time = self.pitch_settle;
-        s.speed_settling_time = self.speed_settle;
-        let peaks = DrivePeaks::from_lumped_current(self.plant.params(), s.peak_abs_input);
-        s.peak_current = peaks.current;
-        s.peak_torque = peaks.torque;
-        s
+        let n = c::<T>(self.samples.max(1) as f64);
+        let t = &self.tally;
+        let peaks = DrivePeaks::from_lumped_current(self.plant.params(), t.peak_abs_input);
+        SlopeSummary {
+            mean_abs_pitch_error: t.sum_pitch / n,
+            mean_abs_speed_error: t.sum_speed / n,
+            pitch_settling_time: t.pitch_settle,
+            speed_settling_time: t.speed_settle,
+            final_position_error: t.final_position_error,
+            peak_abs_input: t.peak_abs_input,
+            peak_current: peaks.current,
+            peak_torque: peaks.torque,
+            samples: self.samples,
+        }
     }
+}
+
+/// The plant's own steady pitch at reference speed `speed` (90° when it has none: every
+/// sample is then far from it).
+pub(crate) fn steady_pitch<T: Real>(plant: &SlopeModel<T>, speed: T) -> T {
+    plant.equilibrium(speed).map(|(x, _)| x[0]).unwrap_or(T::frac_pi_2())
 }
 
 impl<T: Real> Observer<T, 4, 1, SpeedRef<T>> for SlopeMetrics<T> {
     fn observe(&mut self, t: T, x: &SVector<T, 4>, u: &SVector<T, 1>, r: &SpeedRef<T>, _: &[T]) {
         let phi_s = self.steady_pitch(r.theta_dot);
-        let pitch_error = (x[0] - phi_s).abs();
-        let speed_error = (x[3] - r.theta_dot).abs();
-        let band = *self
-            .pitch_band
-            .get_or_insert_with(|| (c::<T>(0.02) * (phi_s - x[0]).abs()).max(c::<T>(0.25f64.to_radians())));
+        let band = *self.pitch_band.get_or_insert_with(|| pitch_band(phi_s, x[0]));
         self.speed_scale = self.speed_scale.max(r.theta_dot.abs());
-        if pitch_error > band {
-            self.pitch_settle = t;
-        }
-        if speed_error > c::<T>(0.02) * self.speed_scale {
-            self.speed_settle = t;
-        }
-        self.sum_pitch += pitch_error;
-        self.sum_speed += speed_error;
         if r.theta_dot != T::zero() {
             self.direction = r.theta_dot.signum();
         }
-        let s = &mut self.summary;
-        s.final_position_error = self.direction * (r.theta - x[2]) * self.plant.params().wheel_radius;
-        s.peak_abs_input = s.peak_abs_input.max(u[0].abs());
-        s.samples += 1;
+        let aim = Aim {
+            t,
+            phi_s,
+            band,
+            theta_dot: r.theta_dot,
+            theta: r.theta,
+            speed_band: c::<T>(0.02) * self.speed_scale,
+            direction: self.direction,
+            wheel_radius: self.plant.params().wheel_radius,
+        };
+        self.tally.observe(true, &[x[0], x[1], x[2], x[3]], u[0], &aim);
+        self.samples += 1;
     }
 }

@@ -18,7 +18,7 @@ use crate::model::slope::SlopeModel;
 use crate::TwipError;
 
 pub mod lanes;
-pub mod lqr_block;
+pub mod block;
 #[cfg(feature = "parallel")]
 pub mod parallel;
 pub mod planar;
@@ -275,7 +275,7 @@ pub(crate) fn finish<M: SweepMetrics>(
 }
 
 /// Runs one sample with any 2-DOF controller (the general path; LQR has a faster one in
-/// [`lqr_block`]). The controller is a copy of the prototype, reset: designed once on
+/// [`block`]). The controller is a copy of the prototype, reset: designed once on
 /// the nominal robot, as a robustness study asks. `None` when `should_stop` said so.
 pub fn run_slope_sample<C>(
     prototype: &C,
@@ -308,12 +308,30 @@ pub fn run_lqr_samples(
     indices: core::ops::Range<u64>,
     should_stop: &dyn Fn() -> bool,
 ) -> Result<Option<alloc::vec::Vec<SampleMetrics>>, TwipError> {
+    let law = block::LqrLanes::new(controller);
+    run_lane_samples(&law, reference, config, nominal, perturbations, seed, indices, should_stop)
+}
+
+/// Metrics of samples `indices` with any law on lanes ([`block::LaneLaw`]: LQR,
+/// [`block::FuzzyLanes`]), blocks of [`lanes::LANES`]. `None` when `should_stop` said
+/// so before all were done.
+#[allow(clippy::too_many_arguments)]
+pub fn run_lane_samples<C: block::LaneLaw + Clone>(
+    law: &C,
+    reference: &SpeedSchedule<f64>,
+    config: &SimConfig<f64>,
+    nominal: &Nominal,
+    perturbations: &[Perturbation],
+    seed: u64,
+    indices: core::ops::Range<u64>,
+    should_stop: &dyn Fn() -> bool,
+) -> Result<Option<alloc::vec::Vec<SampleMetrics>>, TwipError> {
     let mut out = alloc::vec::Vec::with_capacity((indices.end - indices.start) as usize);
     let mut start = indices.start;
     while start < indices.end {
         let end = (start + lanes::LANES as u64).min(indices.end);
         let samples: alloc::vec::Vec<Sample> = (start..end).map(|i| draw(nominal, perturbations, seed, i)).collect();
-        let Some(block) = lqr_block::run_lqr_block(controller, reference, config, &samples, should_stop)? else {
+        let Some(block) = block::run_block(law.clone(), reference, config, &samples, should_stop)? else {
             return Ok(None);
         };
         out.extend_from_slice(&block[..samples.len()]);
@@ -325,6 +343,7 @@ pub fn run_lqr_samples(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::control::fuzzy::FuzzyController;
     use crate::control::lqr::{design, DesignPoint, LqrController};
     use nalgebra::Matrix4;
 
@@ -347,19 +366,30 @@ mod tests {
         ]
     }
 
-    /// The lane kernel agrees with the general runner to rounding (it fuses
-    /// multiply-adds), fallen and invalid samples included, and a block does not depend
-    /// on its neighbours: a sample replayed alone gives the same bits.
-    #[test]
-    fn lane_kernel_agrees_with_the_general_runner() {
-        let (ctrl, schedule, config, nominal) = setup(0.2);
+    /// Both families' laws on lanes, and their prototypes for the general runner.
+    fn families(slope: f64) -> (block::LqrLanes, LqrController<f64>, block::FuzzyLanes, FuzzyController<f64>) {
+        let (lqr, _, _, nominal) = setup(slope);
+        let model = SlopeModel::new(nominal.params, slope).unwrap();
+        let fuzzy = FuzzyController::thesis_slope(model, 0.005).unwrap();
+        (block::LqrLanes::new(&lqr), lqr, block::FuzzyLanes::new(&fuzzy).unwrap(), fuzzy)
+    }
+
+    /// A law's lanes agree with the general runner to rounding (they fuse multiply-adds),
+    /// fallen and invalid samples included, and a block does not depend on its
+    /// neighbours: a sample replayed alone gives the same bits.
+    fn lanes_agree_with_the_runner<L, C>(law: &L, prototype: &C)
+    where
+        L: block::LaneLaw + Clone,
+        C: Controller<f64, 4, 1, Reference = SpeedRef<f64>> + Clone,
+    {
+        let (_, schedule, config, nominal) = setup(0.2);
         let spread = spread();
         let never = || false;
-        let block = run_lqr_samples(&ctrl, &schedule, &config, &nominal, &spread, 9, 0..20, &never).unwrap().unwrap();
+        let block = run_lane_samples(law, &schedule, &config, &nominal, &spread, 9, 0..20, &never).unwrap().unwrap();
         let (mut fell, mut invalid) = (0, 0);
         for (i, got) in block.iter().enumerate() {
             let sample = draw(&nominal, &spread, 9, i as u64);
-            let expected = run_slope_sample(&ctrl, &schedule, &config, &sample, &never).unwrap();
+            let expected = run_slope_sample(prototype, &schedule, &config, &sample, &never).unwrap();
             assert_eq!((got.valid, got.fell, got.steps), (expected.valid, expected.fell, expected.steps), "sample {i}");
             let pairs = [
                 (got.t_end, expected.t_end),
@@ -381,13 +411,63 @@ mod tests {
             }
             fell += got.fell as usize;
             invalid += !got.valid as usize;
-            let alone = run_lqr_samples(&ctrl, &schedule, &config, &nominal, &spread, 9, i as u64..i as u64 + 1, &never)
+            let alone = run_lane_samples(law, &schedule, &config, &nominal, &spread, 9, i as u64..i as u64 + 1, &never)
                 .unwrap()
                 .unwrap();
             assert_eq!(format!("{:?}", alone[0]), format!("{got:?}"), "sample {i} replayed alone");
         }
         assert!(fell > 0 && fell < 20, "the spread should make some robots fall ({fell})");
         assert!(invalid > 0, "a negative mass should be reported invalid");
+    }
+
+    #[test]
+    fn lane_kernel_agrees_with_the_general_runner() {
+        let (lqr_lanes, lqr, fuzzy_lanes, fuzzy) = families(0.2);
+        lanes_agree_with_the_runner(&lqr_lanes, &lqr);
+        lanes_agree_with_the_runner(&fuzzy_lanes, &fuzzy);
+    }
+
+    /// Over 10 s a lane stays within 1e-12 of the run of its robot (relative; the worst
+    /// is printed): the same source, rounded once instead of twice per multiply-add.
+    fn within_rounding_over_ten_seconds<L, C>(law: &L, prototype: &C) -> f64
+    where
+        L: block::LaneLaw + Clone,
+        C: Controller<f64, 4, 1, Reference = SpeedRef<f64>> + Clone,
+    {
+        let (_, schedule, mut config, nominal) = setup(0.2);
+        config.t_final = 10.0;
+        let spread = [
+            Perturbation { target: Target::Param(0), spread: Spread::Uniform { low: 0.6, high: 1.0 } },
+            Perturbation { target: Target::Initial(0), spread: Spread::Uniform { low: -0.2, high: 0.2 } },
+        ];
+        let never = || false;
+        let lanes = run_lane_samples(law, &schedule, &config, &nominal, &spread, 3, 0..16, &never).unwrap().unwrap();
+        let mut worst: f64 = 0.0;
+        for (i, got) in lanes.iter().enumerate() {
+            let expected = run_slope_sample(prototype, &schedule, &config, &draw(&nominal, &spread, 3, i as u64), &never).unwrap();
+            assert!(got.valid && !got.fell && !expected.fell, "sample {i} should stay up");
+            for (a, b) in [
+                (got.mean_abs_pitch_error, expected.mean_abs_pitch_error),
+                (got.mean_abs_speed_error, expected.mean_abs_speed_error),
+                (got.final_position_error, expected.final_position_error),
+                (got.peak_abs_input, expected.peak_abs_input),
+            ] {
+                worst = worst.max((a - b).abs() / b.abs());
+            }
+        }
+        worst
+    }
+
+    #[test]
+    fn a_lane_agrees_with_the_runner_to_rounding_over_ten_seconds() {
+        let (lqr_lanes, lqr, fuzzy_lanes, fuzzy) = families(0.2);
+        for (family, worst) in [
+            ("lqr", within_rounding_over_ten_seconds(&lqr_lanes, &lqr)),
+            ("fuzzy", within_rounding_over_ten_seconds(&fuzzy_lanes, &fuzzy)),
+        ] {
+            println!("{family}: worst relative difference over 10 s: {worst:e}");
+            assert!(worst <= 1e-12, "{family}: worst relative difference {worst:e}");
+        }
     }
 
     #[test]

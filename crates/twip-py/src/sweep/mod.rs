@@ -18,9 +18,10 @@ use twip_core::control::Controller;
 use twip_core::sim::runner::SimConfig;
 use twip_core::sweep::lanes::LANES;
 use twip_core::sweep::parallel::{self, Progress};
+use twip_core::sweep::block::FuzzyLanes;
 use twip_core::sweep::rig::{for_sweep, noise_seed, run_rig_sample};
 use twip_core::sweep::{
-    draw, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Sample, SampleMetrics, Spread, SweepMetrics,
+    draw, run_lane_samples, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Sample, SampleMetrics, Spread, SweepMetrics,
     Target,
 };
 use twip_core::TwipError;
@@ -290,6 +291,10 @@ pub fn sweep_raw<'py>(
             (None, SlopeController::Lqr(c)) => {
                 run_lqr_samples(&c, &schedule, &config, &nominal, &perts, seed, range, stop).ok().flatten()
             }
+            (None, SlopeController::Fuzzy(c)) if FuzzyLanes::new(&c).is_some() => {
+                let law = FuzzyLanes::new(&c).expect("checked just above");
+                run_lane_samples(&law, &schedule, &config, &nominal, &perts, seed, range, stop).ok().flatten()
+            }
             (None, other) => range
                 .map(|i| run_slope_sample(&other, &schedule, &config, &draw(&nominal, &perts, seed, i), stop))
                 .collect(),
@@ -297,12 +302,13 @@ pub fn sweep_raw<'py>(
     })
 }
 
-/// The kernel a sweep of this 2-DOF controller runs on: "realism", "lanes" (LQR,
-/// vectorised) or "general".
+/// The kernel a sweep of this 2-DOF controller runs on: "realism", "lanes" (LQR, and
+/// fuzzy with trapezoid sets: vectorised) or "general".
 fn kernel_of(ctrl: &SlopeController, realism: bool) -> &'static str {
     match (realism, ctrl) {
         (true, _) => "realism",
         (false, SlopeController::Lqr(_)) => "lanes",
+        (false, SlopeController::Fuzzy(c)) if FuzzyLanes::new(c).is_some() => "lanes",
         (false, _) => "general",
     }
 }

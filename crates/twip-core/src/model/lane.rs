@@ -1,0 +1,391 @@
+//! The scalar the physics is written over, once, for a run and for a sweep's lanes.
+//!
+//! A run computes in `f32` or `f64` with plain rounding: a multiply-add is `a * b + c`,
+//! two roundings, which needs neither an FMA unit nor a libm call (a microcontroller's
+//! firmware gets the same bits). A sweep advances many robots at once, their multiply-adds
+//! fused: one rounding, faster, and exactly rounded on every CPU, so a lane agrees with
+//! the run of its robot to rounding, and with itself bit for bit on any CPU. Two lane
+//! types carry it, with the same bits lane by lane:
+//! - [`Fused`], one lane's `f64` in a loop over lanes that the compiler vectorises itself
+//!   (the plant's RK4, the LQR law, the metrics: measured the fastest there);
+//! - [`Wide`], [`WIDTH`] lanes in one value, every operation a vector instruction, for the
+//!   laws whose loop the compiler will not vectorise (the fuzzy basis's selects).
+//!
+//! Code over [`Lane`] has no branches on values: a comparison gives a mask
+//! ([`Lane::Mask`]: a `bool` for one number, one per lane for [`Wide`]) and
+//! [`Lane::select`] picks lane by lane.
+use core::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
+
+use crate::Real;
+
+/// A number as the physics kernels see it (see the module docs).
+pub trait Lane:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
+{
+    /// The outcome of a comparison: `bool`, or one per lane.
+    type Mask: Copy + BitAnd<Output = Self::Mask> + BitOr<Output = Self::Mask> + Not<Output = Self::Mask>;
+    /// The constant `v`.
+    fn splat(v: f64) -> Self;
+    /// A mask that is `m` in every lane.
+    fn mask(m: bool) -> Self::Mask;
+    /// a · b + c, rounded as this type rounds (twice plain, once fused).
+    fn madd(a: Self, b: Self, c: Self) -> Self;
+    /// (sin x, cos x) by the shared polynomial (`math`).
+    fn sincos(x: Self) -> (Self, Self);
+    /// |x|.
+    fn magnitude(self) -> Self;
+    /// The larger of two (NaN-ignoring, as `f64::max`).
+    fn larger(self, other: Self) -> Self;
+    /// Comparisons, false where either side is NaN (as `<`, `<=`, `>`, `==`).
+    fn lt(self, other: Self) -> Self::Mask;
+    fn le(self, other: Self) -> Self::Mask;
+    fn gt(self, other: Self) -> Self::Mask;
+    fn eq(self, other: Self) -> Self::Mask;
+    /// Neither NaN nor infinite.
+    fn finite(self) -> Self::Mask;
+    /// `a` where `m` holds, else `b`.
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+}
+
+/// `[f(0), f(1), …]`: `core::array::from_fn` for the hot loops, as a plain loop that the
+/// compiler unrolls into registers (`from_fn`'s drop guard can keep it from inlining).
+#[inline(always)]
+pub fn fill<S: Lane, const N: usize>(f: impl Fn(usize) -> S) -> [S; N] {
+    let mut out = [S::splat(0.0); N];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = f(i);
+    }
+    out
+}
+
+impl<T: Real> Lane for T {
+    type Mask = bool;
+
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        crate::c(v)
+    }
+
+    #[inline(always)]
+    fn mask(m: bool) -> bool {
+        m
+    }
+
+    #[inline(always)]
+    fn madd(a: Self, b: Self, c: Self) -> Self {
+        a * b + c
+    }
+
+    #[inline(always)]
+    fn sincos(x: Self) -> (Self, Self) {
+        crate::model::math::sin_cos(x)
+    }
+
+    #[inline(always)]
+    fn magnitude(self) -> Self {
+        nalgebra::ComplexField::abs(self)
+    }
+
+    #[inline(always)]
+    fn larger(self, other: Self) -> Self {
+        nalgebra::RealField::max(self, other)
+    }
+
+    #[inline(always)]
+    fn lt(self, other: Self) -> bool {
+        self < other
+    }
+
+    #[inline(always)]
+    fn le(self, other: Self) -> bool {
+        self <= other
+    }
+
+    #[inline(always)]
+    fn gt(self, other: Self) -> bool {
+        self > other
+    }
+
+    #[inline(always)]
+    fn eq(self, other: Self) -> bool {
+        self == other
+    }
+
+    #[inline(always)]
+    fn finite(self) -> bool {
+        nalgebra::ComplexField::is_finite(&self)
+    }
+
+    #[inline(always)]
+    fn select(m: bool, a: Self, b: Self) -> Self {
+        if m {
+            a
+        } else {
+            b
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+pub use wide::{Fused, Wide, WideMask, WIDTH};
+
+/// The sweep's vector of lanes (std: `mul_add` needs it).
+#[cfg(feature = "std")]
+mod wide {
+    use super::*;
+
+    /// Lanes in one [`Wide`]: 8 f64 = one AVX-512 register, two AVX2 ones.
+    pub const WIDTH: usize = 8;
+
+    /// [`WIDTH`] robots' values of one quantity. Every operation is a loop over the lanes
+    /// that the compiler turns into vector instructions.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    #[repr(C, align(64))]
+    pub struct Wide(pub [f64; WIDTH]);
+
+    /// One comparison's outcome per lane: all ones where it holds (as a vector compare's).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    #[repr(C, align(64))]
+    pub struct WideMask(pub [u64; WIDTH]);
+
+    #[inline(always)]
+    fn each<T: Copy + Default, R: Copy + Default>(a: [T; WIDTH], f: impl Fn(T) -> R) -> [R; WIDTH] {
+        let mut out = [R::default(); WIDTH];
+        for i in 0..WIDTH {
+            out[i] = f(a[i]);
+        }
+        out
+    }
+
+    #[inline(always)]
+    fn pair<T: Copy + Default, R: Copy + Default>(a: [T; WIDTH], b: [T; WIDTH], f: impl Fn(T, T) -> R) -> [R; WIDTH] {
+        let mut out = [R::default(); WIDTH];
+        for i in 0..WIDTH {
+            out[i] = f(a[i], b[i]);
+        }
+        out
+    }
+
+    #[inline(always)]
+    fn bits(m: bool) -> u64 {
+        (m as u64).wrapping_neg()
+    }
+
+    macro_rules! wide_op {
+        ($trait:ident, $method:ident, $op:tt) => {
+            impl $trait for Wide {
+                type Output = Wide;
+                #[inline(always)]
+                fn $method(self, other: Wide) -> Wide {
+                    Wide(pair(self.0, other.0, |a, b| a $op b))
+                }
+            }
+        };
+    }
+    wide_op!(Add, add, +);
+    wide_op!(Sub, sub, -);
+    wide_op!(Mul, mul, *);
+    wide_op!(Div, div, /);
+
+    impl Neg for Wide {
+        type Output = Wide;
+        #[inline(always)]
+        fn neg(self) -> Wide {
+            Wide(each(self.0, |a| -a))
+        }
+    }
+
+    macro_rules! mask_op {
+        ($trait:ident, $method:ident, $op:tt) => {
+            impl $trait for WideMask {
+                type Output = WideMask;
+                #[inline(always)]
+                fn $method(self, other: WideMask) -> WideMask {
+                    WideMask(pair(self.0, other.0, |a, b| a $op b))
+                }
+            }
+        };
+    }
+    mask_op!(BitAnd, bitand, &);
+    mask_op!(BitOr, bitor, |);
+
+    impl Not for WideMask {
+        type Output = WideMask;
+        #[inline(always)]
+        fn not(self) -> WideMask {
+            WideMask(each(self.0, |a| !a))
+        }
+    }
+
+    /// One lane as a plain `f64` whose multiply-adds are fused: [`Wide`]'s arithmetic
+    /// lane by lane, bit for bit, for loops over lanes that the compiler vectorises
+    /// itself (the plant's RK4, whose every step is one loop body).
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    #[repr(transparent)]
+    pub struct Fused(pub f64);
+
+    macro_rules! fused_op {
+        ($trait:ident, $method:ident, $op:tt) => {
+            impl $trait for Fused {
+                type Output = Fused;
+                #[inline(always)]
+                fn $method(self, other: Fused) -> Fused {
+                    Fused(self.0 $op other.0)
+                }
+            }
+        };
+    }
+    fused_op!(Add, add, +);
+    fused_op!(Sub, sub, -);
+    fused_op!(Mul, mul, *);
+    fused_op!(Div, div, /);
+
+    impl Neg for Fused {
+        type Output = Fused;
+        #[inline(always)]
+        fn neg(self) -> Fused {
+            Fused(-self.0)
+        }
+    }
+
+    impl Lane for Fused {
+        type Mask = bool;
+
+        #[inline(always)]
+        fn splat(v: f64) -> Self {
+            Fused(v)
+        }
+
+        #[inline(always)]
+        fn mask(m: bool) -> bool {
+            m
+        }
+
+        #[inline(always)]
+        fn madd(a: Self, b: Self, c: Self) -> Self {
+            Fused(a.0.mul_add(b.0, c.0))
+        }
+
+        #[inline(always)]
+        fn sincos(x: Self) -> (Self, Self) {
+            let (s, c) = crate::model::math::sin_cos_fused(x.0);
+            (Fused(s), Fused(c))
+        }
+
+        #[inline(always)]
+        fn magnitude(self) -> Self {
+            Fused(self.0.abs())
+        }
+
+        #[inline(always)]
+        fn larger(self, other: Self) -> Self {
+            Fused(self.0.max(other.0))
+        }
+
+        #[inline(always)]
+        fn lt(self, other: Self) -> bool {
+            self.0 < other.0
+        }
+
+        #[inline(always)]
+        fn le(self, other: Self) -> bool {
+            self.0 <= other.0
+        }
+
+        #[inline(always)]
+        fn gt(self, other: Self) -> bool {
+            self.0 > other.0
+        }
+
+        #[inline(always)]
+        fn eq(self, other: Self) -> bool {
+            self.0 == other.0
+        }
+
+        #[inline(always)]
+        fn finite(self) -> bool {
+            self.0.is_finite()
+        }
+
+        #[inline(always)]
+        fn select(m: bool, a: Self, b: Self) -> Self {
+            if m {
+                a
+            } else {
+                b
+            }
+        }
+    }
+
+    impl Lane for Wide {
+        type Mask = WideMask;
+
+        #[inline(always)]
+        fn splat(v: f64) -> Self {
+            Wide([v; WIDTH])
+        }
+
+        #[inline(always)]
+        fn mask(m: bool) -> WideMask {
+            WideMask([bits(m); WIDTH])
+        }
+
+        #[inline(always)]
+        fn madd(a: Self, b: Self, c: Self) -> Self {
+            let mut out = [0.0; WIDTH];
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = a.0[i].mul_add(b.0[i], c.0[i]);
+            }
+            Wide(out)
+        }
+
+        #[inline(always)]
+        fn sincos(x: Self) -> (Self, Self) {
+            crate::model::math::sin_cos_wide(x)
+        }
+
+        #[inline(always)]
+        fn magnitude(self) -> Self {
+            Wide(each(self.0, f64::abs))
+        }
+
+        #[inline(always)]
+        fn larger(self, other: Self) -> Self {
+            Wide(pair(self.0, other.0, f64::max))
+        }
+
+        #[inline(always)]
+        fn lt(self, other: Self) -> WideMask {
+            WideMask(pair(self.0, other.0, |a, b| bits(a < b)))
+        }
+
+        #[inline(always)]
+        fn le(self, other: Self) -> WideMask {
+            WideMask(pair(self.0, other.0, |a, b| bits(a <= b)))
+        }
+
+        #[inline(always)]
+        fn gt(self, other: Self) -> WideMask {
+            WideMask(pair(self.0, other.0, |a, b| bits(a > b)))
+        }
+
+        #[inline(always)]
+        fn eq(self, other: Self) -> WideMask {
+            WideMask(pair(self.0, other.0, |a, b| bits(a == b)))
+        }
+
+        #[inline(always)]
+        fn finite(self) -> WideMask {
+            WideMask(each(self.0, |a| bits(a.is_finite())))
+        }
+
+        #[inline(always)]
+        fn select(m: WideMask, a: Self, b: Self) -> Self {
+            let mut out = [0.0; WIDTH];
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = if m.0[i] != 0 { a.0[i] } else { b.0[i] };
+            }
+            Wide(out)
+        }
+    }
+}

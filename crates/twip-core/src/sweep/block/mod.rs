@@ -1,0 +1,481 @@
+//! The fast path of a sweep: [`LANES`] samples at once on the 2-DOF model, for every
+//! controller family with a law on lanes ([`LaneLaw`]: LQR, fuzzy backstepping + PD).
+//!
+//! Each lane is its own robot (plant coefficients per lane); the controller is the one
+//! prototype designed on the nominal robot, each lane with its own controller state.
+//! The physics is the run's own source: `model::slope::deriv`, `model::integrate::rk4`,
+//! the controllers' laws and `sim::metrics::Tally`, instantiated on [`Fused`] lanes, whose
+//! multiply-adds are fused (one rounding instead of two). A lane therefore agrees with
+//! `runner::simulate` for that robot to rounding (~1e-14 relative over 10 s), not bit
+//! for bit; it is bit for bit the same on every CPU, thread count and block neighbour,
+//! because a fused multiply-add is exactly rounded wherever it runs. What is here is the
+//! data layout (one array per quantity, loops over lanes that the compiler vectorises)
+//! and the runner's loop over a block.
+use crate::control::reference::{SpeedRef, SpeedSchedule};
+use crate::control::Reference;
+use crate::model::integrate::{rk4, Field};
+use crate::model::lane::{Fused, Wide, WIDTH};
+use crate::model::slope::{deriv, SlopeCoefficients, SlopeModel};
+use crate::sim::metrics::{pitch_band, steady_pitch, Aim, DrivePeaks, Tally};
+use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
+use crate::sweep::lanes::{Lanes, LANES};
+use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
+use crate::TwipError;
+
+mod fuzzy;
+mod lqr;
+pub use fuzzy::FuzzyLanes;
+pub use lqr::LqrLanes;
+
+/// [`Wide`] vectors in a block.
+pub(crate) const CHUNKS: usize = LANES / WIDTH;
+
+/// Lanes `c·WIDTH ..` of a quantity, as one vector.
+#[inline(always)]
+pub(crate) fn chunk(v: &Lanes, c: usize) -> Wide {
+    let mut out = [0.0; WIDTH];
+    out.copy_from_slice(&v[c * WIDTH..(c + 1) * WIDTH]);
+    Wide(out)
+}
+
+/// Writes a vector back to lanes `c·WIDTH ..`.
+#[inline(always)]
+pub(crate) fn put(v: &mut Lanes, c: usize, w: Wide) {
+    v[c * WIDTH..(c + 1) * WIDTH].copy_from_slice(&w.0);
+}
+
+/// The state's chunk `c`.
+#[inline(always)]
+pub(crate) fn state_chunk(x: &[Lanes; 4], c: usize) -> [Wide; 4] {
+    [chunk(&x[0], c), chunk(&x[1], c), chunk(&x[2], c), chunk(&x[3], c)]
+}
+
+/// A controller's law on lanes: the sweep's prototype, with each lane's own state.
+pub trait LaneLaw {
+    /// Every lane's controller state, one array per quantity.
+    type State;
+    /// The control period [s].
+    fn period(&self) -> f64;
+    /// The state every lane starts from (the prototype's, reset).
+    fn start(&self) -> Self::State;
+    /// Every lane's input `u` for its true state `x` (sweeps sense ideally) and the
+    /// reference `r`. Lanes that have ended compute on and are never kept.
+    fn update(&mut self, state: &mut Self::State, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes);
+}
+
+/// Plant coefficients, one array per coefficient, one entry per lane.
+struct Plants([Lanes; 14]);
+
+impl Plants {
+    fn new(c: &[SlopeCoefficients<f64>; LANES]) -> Self {
+        let fields = |k: &SlopeCoefficients<f64>| {
+            [
+                k.m11, k.m22, k.m11_m22, k.mrl, k.mrl_cos, k.mrl_sin, k.rotor, k.mgl, k.grade, k.torque_per_amp,
+                k.mu_bearing, k.mu_ground, k.sin_slope, k.cos_slope,
+            ]
+        };
+        let per_lane = c.map(|k| fields(&k));
+        Self(core::array::from_fn(|f| core::array::from_fn(|l| per_lane[l][f])))
+    }
+
+    /// Lane `l`'s coefficients.
+    #[inline(always)]
+    fn lane(&self, l: usize) -> SlopeCoefficients<Fused> {
+        let f = |i: usize| Fused(self.0[i][l]);
+        SlopeCoefficients {
+            m11: f(0),
+            m22: f(1),
+            m11_m22: f(2),
+            mrl: f(3),
+            mrl_cos: f(4),
+            mrl_sin: f(5),
+            rotor: f(6),
+            mgl: f(7),
+            grade: f(8),
+            torque_per_amp: f(9),
+            mu_bearing: f(10),
+            mu_ground: f(11),
+            sin_slope: f(12),
+            cos_slope: f(13),
+        }
+    }
+
+    /// One RK4 step, the input held, on every lane. The whole step of a lane is one loop
+    /// body in [`Fused`] numbers (bit for bit [`Wide`]'s), which the compiler vectorises
+    /// across lanes with every intermediate kept in registers; each body advances two
+    /// lanes (l and l + LANES/2) stage by stage, two independent chains of dependent
+    /// operations that the CPU overlaps. (Measured faster than RK4 on `Wide` chunks.)
+    #[inline(always)]
+    fn rk4(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
+        const HALF: usize = LANES / 2;
+        let mut out = [[0.0; LANES]; 4];
+        let state = |l: usize| [Fused(x[0][l]), Fused(x[1][l]), Fused(x[2][l]), Fused(x[3][l])];
+        for l in 0..HALF {
+            let m = l + HALF;
+            let (pa, pb) = (Plant { k: self.lane(l), u: Fused(u[l]) }, Plant { k: self.lane(m), u: Fused(u[m]) });
+            let (xa, xb) = (state(l), state(m));
+            let next_a = rk4(&pa, &xa, &pa.at(&xa), Fused(dt));
+            let next_b = rk4(&pb, &xb, &pb.at(&xb), Fused(dt));
+            for i in 0..4 {
+                out[i][l] = next_a[i].0;
+                out[i][m] = next_b[i].0;
+            }
+        }
+        out
+    }
+}
+
+/// One lane's plant with its input held.
+struct Plant {
+    k: SlopeCoefficients<Fused>,
+    u: Fused,
+}
+
+impl Field<Fused, 4> for Plant {
+    #[inline(always)]
+    fn at(&self, x: &[Fused; 4]) -> [Fused; 4] {
+        deriv(&self.k, x, self.u)
+    }
+}
+
+/// [`Tally`] on every lane, one array per field, and what each lane's observations are
+/// measured against.
+struct Metrics {
+    tally: [Lanes; 6],
+    samples: [u64; LANES],
+    band: Lanes,
+    radius: Lanes,
+}
+
+/// What the lanes share of an observation's aim: the time and the reference.
+struct Shared {
+    t: f64,
+    r: SpeedRef<f64>,
+    speed_scale: f64,
+    direction: f64,
+}
+
+impl Metrics {
+    fn new(radius: Lanes, x: &[Lanes; 4], phi_s: &Lanes) -> Self {
+        Self {
+            tally: [[0.0; LANES]; 6],
+            samples: [0; LANES],
+            band: core::array::from_fn(|l| pitch_band(phi_s[l], x[0][l])),
+            radius,
+        }
+    }
+
+    /// Lane `l`'s tally.
+    #[inline(always)]
+    fn get(&self, l: usize) -> Tally<Fused> {
+        let f = |i: usize| Fused(self.tally[i][l]);
+        Tally {
+            sum_pitch: f(0),
+            sum_speed: f(1),
+            pitch_settle: f(2),
+            speed_settle: f(3),
+            final_position_error: f(4),
+            peak_abs_input: f(5),
+        }
+    }
+
+    #[inline(always)]
+    fn set(&mut self, l: usize, t: &Tally<Fused>) {
+        let values = [t.sum_pitch, t.sum_speed, t.pitch_settle, t.speed_settle, t.final_position_error, t.peak_abs_input];
+        for (i, v) in values.iter().enumerate() {
+            self.tally[i][l] = v.0;
+        }
+    }
+
+    /// Observes the lanes that are `live`: a loop over lanes without branches, which the
+    /// compiler vectorises.
+    #[inline(always)]
+    fn observe(&mut self, live: &[bool; LANES], x: &[Lanes; 4], u: &Lanes, phi_s: &Lanes, shared: &Shared) {
+        for l in 0..LANES {
+            let aim = Aim {
+                t: Fused(shared.t),
+                phi_s: Fused(phi_s[l]),
+                band: Fused(self.band[l]),
+                theta_dot: Fused(shared.r.theta_dot),
+                theta: Fused(shared.r.theta),
+                speed_band: Fused(0.02 * shared.speed_scale),
+                direction: Fused(shared.direction),
+                wheel_radius: Fused(self.radius[l]),
+            };
+            let state = [Fused(x[0][l]), Fused(x[1][l]), Fused(x[2][l]), Fused(x[3][l])];
+            let mut tally = self.get(l);
+            tally.observe(live[l], &state, Fused(u[l]), &aim);
+            self.set(l, &tally);
+            self.samples[l] += live[l] as u64;
+        }
+    }
+}
+
+/// The plants' own steady pitch at a reference speed, per lane (as `SlopeMetrics`).
+fn steady_pitches(models: &[SlopeModel<f64>; LANES], speed: f64) -> Lanes {
+    core::array::from_fn(|l| steady_pitch(&models[l], speed))
+}
+
+fn only(l: usize) -> [bool; LANES] {
+    core::array::from_fn(|i| i == l)
+}
+
+/// Runs up to [`LANES`] samples with `controller`'s law (fewer fill the rest of the block with idle lanes).
+/// `should_stop` is asked every `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it
+/// said yes before the block was done.
+///
+/// On x86-64 the same code is compiled twice more, for AVX-512 and for AVX2 with FMA,
+/// and the widest the CPU has is chosen at run time (wheels are built for the baseline
+/// CPU). All copies give the same bits: the baseline copy computes each `mul_add` with
+/// libm's exactly rounded `fma`, a call per value (~15× slower, on CPUs older than 2013).
+pub fn run_block<C: LaneLaw>(
+    controller: C,
+    reference: &SpeedSchedule<f64>,
+    config: &SimConfig<f64>,
+    samples: &[Sample],
+    should_stop: &dyn Fn() -> bool,
+) -> Result<Option<[SampleMetrics; LANES]>, TwipError> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: each copy runs only on a CPU that has its instructions.
+        if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma") {
+            return unsafe { block_avx512(controller, reference, config, samples, should_stop) };
+        }
+        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+            return unsafe { block_avx2(controller, reference, config, samples, should_stop) };
+        }
+    }
+    block_baseline(controller, reference, config, samples, should_stop)
+}
+
+type BlockResult = Result<Option<[SampleMetrics; LANES]>, TwipError>;
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,fma")]
+unsafe fn block_avx512<C: LaneLaw>(
+    c: C,
+    r: &SpeedSchedule<f64>,
+    k: &SimConfig<f64>,
+    s: &[Sample],
+    stop: &dyn Fn() -> bool,
+) -> BlockResult {
+    block(c, r, k, s, stop)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn block_avx2<C: LaneLaw>(
+    c: C,
+    r: &SpeedSchedule<f64>,
+    k: &SimConfig<f64>,
+    s: &[Sample],
+    stop: &dyn Fn() -> bool,
+) -> BlockResult {
+    block(c, r, k, s, stop)
+}
+
+#[inline(never)]
+fn block_baseline<C: LaneLaw>(
+    c: C,
+    r: &SpeedSchedule<f64>,
+    k: &SimConfig<f64>,
+    s: &[Sample],
+    stop: &dyn Fn() -> bool,
+) -> BlockResult {
+    block(c, r, k, s, stop)
+}
+
+#[inline(always)]
+fn block<C: LaneLaw>(
+    mut controller: C,
+    reference: &SpeedSchedule<f64>,
+    config: &SimConfig<f64>,
+    samples: &[Sample],
+    should_stop: &dyn Fn() -> bool,
+) -> Result<Option<[SampleMetrics; LANES]>, TwipError> {
+    assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
+    let (n, per_update) = config.steps(controller.period())?;
+    let mut out = [SampleMetrics::INVALID; LANES];
+    // Invalid or missing samples run an idle copy of a valid robot and are never kept.
+    let mut active = [false; LANES];
+    let mut models = [None; LANES];
+    for (l, s) in samples.iter().enumerate() {
+        if s.x0.iter().all(|v| v.is_finite()) {
+            models[l] = SlopeModel::new(s.params, s.slope).ok();
+            active[l] = models[l].is_some();
+        }
+    }
+    let Some(fallback) = models.iter().flatten().next().copied() else {
+        return Ok(Some(out));
+    };
+    let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| models[l].unwrap_or(fallback));
+    let plants = Plants::new(&core::array::from_fn(|l| models[l].coefficients()));
+    let mut x: [Lanes; 4] = core::array::from_fn(|i| {
+        core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 })
+    });
+    let dt = config.dt;
+    let mut state = controller.start();
+    let mut u = [0.0; LANES];
+    let mut alive = active;
+    // (fell, t_end, steps) of each lane that has ended.
+    let mut ended = [(false, 0.0f64, 0u64); LANES];
+    let r0 = reference.sample(0.0);
+    let mut cached_speed = r0.theta_dot;
+    let mut plant_phi_s = steady_pitches(&models, r0.theta_dot);
+    let mut metrics = Metrics::new(core::array::from_fn(|l| models[l].params().wheel_radius), &x, &plant_phi_s);
+    let mut speed_scale: f64 = 0.0;
+    let mut direction: f64 = 1.0;
+    for k in 0..n {
+        let t = dt * k as f64;
+        if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
+            return Ok(None);
+        }
+        let r = reference.sample(t);
+        if r.theta_dot != cached_speed {
+            cached_speed = r.theta_dot;
+            plant_phi_s = steady_pitches(&models, r.theta_dot);
+        }
+        speed_scale = speed_scale.max(r.theta_dot.abs());
+        direction = if r.theta_dot != 0.0 { r.theta_dot.signum() } else { direction };
+        if k % per_update == 0 {
+            controller.update(&mut state, &x, &r, &mut u);
+            // A lane whose input is not finite has diverged: it ends as fallen.
+            let mut finite = true;
+            for l in 0..LANES {
+                finite &= u[l].is_finite() | !alive[l];
+            }
+            if !finite {
+                for l in 0..LANES {
+                    if alive[l] && !u[l].is_finite() {
+                        alive[l] = false;
+                        ended[l] = (true, t, k as u64);
+                    }
+                }
+            }
+        }
+        metrics.observe(&alive, &x, &u, &plant_phi_s, &Shared { t, r, speed_scale, direction });
+        let next = plants.rk4(&x, &u, dt);
+        // Lanes that go on take the new state; the few that end are handled below.
+        let mut goes_on = [false; LANES];
+        let mut any_ends = false;
+        for l in 0..LANES {
+            let finite = next[0][l].is_finite() & next[1][l].is_finite() & next[2][l].is_finite() & next[3][l].is_finite();
+            goes_on[l] = alive[l] & finite & (next[0][l].abs() <= config.fall_limit);
+            any_ends |= alive[l] & !goes_on[l];
+        }
+        for i in 0..4 {
+            for l in 0..LANES {
+                x[i][l] = if goes_on[l] { next[i][l] } else { x[i][l] };
+            }
+        }
+        if any_ends {
+            let t_next = dt * (k + 1) as f64;
+            for l in 0..LANES {
+                if !alive[l] || goes_on[l] {
+                    continue;
+                }
+                alive[l] = false;
+                ended[l] = (true, t_next, (k + 1) as u64);
+                if (0..4).all(|i| next[i][l].is_finite()) {
+                    // Fell: the runner observes the state past the limit, then stops.
+                    for i in 0..4 {
+                        x[i][l] = next[i][l];
+                    }
+                    let r_next = reference.sample(t_next);
+                    // Only this lane is observed: only its steady pitch is needed.
+                    let mut phi_s_next = plant_phi_s;
+                    phi_s_next[l] = steady_pitch(&models[l], r_next.theta_dot);
+                    let towards = if r_next.theta_dot != 0.0 { r_next.theta_dot.signum() } else { direction };
+                    let scale = speed_scale.max(r_next.theta_dot.abs());
+                    let shared = Shared { t: t_next, r: r_next, speed_scale: scale, direction: towards };
+                    metrics.observe(&only(l), &x, &u, &phi_s_next, &shared);
+                }
+            }
+            if !alive.iter().any(|&a| a) {
+                break;
+            }
+        }
+    }
+    let t_end = dt * n as f64;
+    let r_end = reference.sample(t_end);
+    let end_phi_s = steady_pitches(&models, r_end.theta_dot);
+    let towards = if r_end.theta_dot != 0.0 { r_end.theta_dot.signum() } else { direction };
+    let shared = Shared { t: t_end, r: r_end, speed_scale: speed_scale.max(r_end.theta_dot.abs()), direction: towards };
+    metrics.observe(&alive, &x, &u, &end_phi_s, &shared);
+    for l in 0..LANES {
+        if alive[l] {
+            ended[l] = (false, t_end, n as u64);
+        }
+        if !active[l] {
+            continue;
+        }
+        let count = metrics.samples[l].max(1) as f64;
+        let (fell, t_end, steps) = ended[l];
+        let tally = metrics.get(l);
+        let peaks = DrivePeaks::from_lumped_current(models[l].params(), tally.peak_abs_input.0);
+        out[l] = SampleMetrics {
+            valid: true,
+            fell,
+            t_end,
+            mean_abs_pitch_error: tally.sum_pitch.0 / count,
+            mean_abs_speed_error: tally.sum_speed.0 / count,
+            pitch_settling_time: tally.pitch_settle.0,
+            speed_settling_time: tally.speed_settle.0,
+            final_position_error: tally.final_position_error.0,
+            peak_abs_input: tally.peak_abs_input.0,
+            peak_current: peaks.current,
+            peak_torque: peaks.torque,
+            steps,
+        };
+    }
+    Ok(Some(out))
+}
+
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::fuzzy::FuzzyController;
+    use crate::control::lqr::{design, DesignPoint, LqrController};
+    use crate::model::params::RobotParams;
+    use nalgebra::{Matrix4, Vector4};
+
+    /// Every compiled copy of the kernel gives the same bits (the baseline one through
+    /// libm's fma), so a sweep is the same on any x86-64 CPU.
+    fn same_bits_on_every_copy<C: LaneLaw + Clone>(law: C) {
+        let schedule = SpeedSchedule::new(&[crate::control::reference::Leg { goal: 10.0, speed: 4.0, hold: 0.5 }]).unwrap();
+        let config = SimConfig { dt: 1e-3, t_final: 3.0, fall_limit: 0.45 };
+        let samples: Vec<Sample> = (0..LANES as u64)
+            .map(|i| {
+                let mut params = RobotParams::balanbot();
+                params.com_height *= 0.6 + 0.05 * i as f64;
+                Sample { index: i, params, slope: 0.1, x0: Vector4::new(0.04 * i as f64, 0.0, 0.0, 0.0) }
+            })
+            .collect();
+        let never = || false;
+        let base = format!("{:?}", block_baseline(law.clone(), &schedule, &config, &samples, &never).unwrap());
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+                let got = unsafe { block_avx2(law.clone(), &schedule, &config, &samples, &never) }.unwrap();
+                assert_eq!(format!("{got:?}"), base, "AVX2 copy");
+            }
+            if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma") {
+                let got = unsafe { block_avx512(law.clone(), &schedule, &config, &samples, &never) }.unwrap();
+                assert_eq!(format!("{got:?}"), base, "AVX-512 copy");
+            }
+        }
+        assert!(base.contains("fell: true") && base.contains("fell: false"), "want both outcomes: {base}");
+    }
+
+    #[test]
+    fn every_copy_gives_the_same_bits() {
+        let model = SlopeModel::new(RobotParams::balanbot(), 0.1).unwrap();
+        let q = Matrix4::from_diagonal(&Vector4::new(10.0, 10.0, 1.0, 1.0));
+        let d = design(&model, 4.0, &q, 1000.0, DesignPoint::OperatingPoint).unwrap();
+        let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 0.005).unwrap();
+        same_bits_on_every_copy(LqrLanes::new(&ctrl));
+        let fuzzy = FuzzyController::thesis_slope(model, 0.005).unwrap();
+        same_bits_on_every_copy(FuzzyLanes::new(&fuzzy).expect("the thesis's sets are trapezoids"));
+    }
+}
