@@ -117,14 +117,13 @@ impl<S: Lane> Tally<S> {
     pub(crate) fn observe(&mut self, on: S::Mask, x: &[S; 4], u: S, aim: &Aim<S>) {
         let pitch_error = (x[0] - aim.phi_s).magnitude();
         let speed_error = (x[3] - aim.theta_dot).magnitude();
-        let keep = |old: S, new: S| S::select(on, new, old);
-        self.pitch_settle = keep(self.pitch_settle, S::select(pitch_error.gt(aim.band), aim.t, self.pitch_settle));
-        self.speed_settle = keep(self.speed_settle, S::select(speed_error.gt(aim.speed_band), aim.t, self.speed_settle));
-        self.sum_pitch = keep(self.sum_pitch, self.sum_pitch + pitch_error);
-        self.sum_speed = keep(self.sum_speed, self.sum_speed + speed_error);
+        self.pitch_settle = S::select(on & pitch_error.gt(aim.band), aim.t, self.pitch_settle);
+        self.speed_settle = S::select(on & speed_error.gt(aim.speed_band), aim.t, self.speed_settle);
+        self.sum_pitch = S::select(on, self.sum_pitch + pitch_error, self.sum_pitch);
+        self.sum_speed = S::select(on, self.sum_speed + speed_error, self.sum_speed);
         let position = aim.direction * (aim.theta - x[2]) * aim.wheel_radius;
-        self.final_position_error = keep(self.final_position_error, position);
-        self.peak_abs_input = keep(self.peak_abs_input, self.peak_abs_input.larger(u.magnitude()));
+        self.final_position_error = S::select(on, position, self.final_position_error);
+        self.peak_abs_input = S::select(on, self.peak_abs_input.larger(u.magnitude()), self.peak_abs_input);
     }
 }
 
