@@ -170,6 +170,10 @@ pub(crate) fn normalise<S: Lane, M: Member<S>, const N: usize>(sets: &[M; N], x:
     let sum = mu.iter().fold(S::splat(0.0), |sum, m| sum + *m);
     let none = sum.eq(S::splat(0.0));
     let inv = S::splat(1.0) / sum;
+    if !S::any(none) {
+        // Some rule fires for every lane (always with sets that cover the line).
+        return fill(|j| mu[j] * inv);
+    }
     let (mut nearest, mut best) = (S::splat(0.0), S::splat(f64::INFINITY));
     for (j, set) in sets.iter().enumerate() {
         (nearest, best) = nearer(x, (nearest, best), (j, set.distance(x)));

@@ -45,6 +45,9 @@ pub trait Lane:
     fn finite(self) -> Self::Mask;
     /// `a` where `m` holds, else `b`.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// Whether `m` holds in some lane: a branch taken by all lanes together, for work that
+    /// only rare lanes need.
+    fn any(m: Self::Mask) -> bool;
 }
 
 /// `[f(0), f(1), …]`: `core::array::from_fn` for the hot loops, as a plain loop that the
@@ -123,6 +126,11 @@ impl<T: Real> Lane for T {
         } else {
             b
         }
+    }
+
+    #[inline(always)]
+    fn any(m: bool) -> bool {
+        m
     }
 }
 
@@ -315,6 +323,11 @@ mod wide {
                 b
             }
         }
+
+        #[inline(always)]
+        fn any(m: bool) -> bool {
+            m
+        }
     }
 
     impl Lane for Wide {
@@ -386,6 +399,11 @@ mod wide {
                 *o = if m.0[i] != 0 { a.0[i] } else { b.0[i] };
             }
             Wide(out)
+        }
+
+        #[inline(always)]
+        fn any(m: WideMask) -> bool {
+            m.0.iter().fold(0, |acc, b| acc | b) != 0
         }
     }
 }
