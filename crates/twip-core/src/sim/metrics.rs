@@ -153,15 +153,20 @@ impl<T: Real> SlopeMetrics<T> {
     }
 
     /// The plant's steady pitch at a reference speed (cached: speeds change rarely).
+    #[inline(always)]
     fn steady_pitch(&mut self, speed: T) -> T {
         match self.steady {
             Some((s, phi)) if s == speed => phi,
-            _ => {
-                let phi = steady_pitch(&self.plant, speed);
-                self.steady = Some((speed, phi));
-                phi
-            }
+            _ => self.solve_steady_pitch(speed),
         }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn solve_steady_pitch(&mut self, speed: T) -> T {
+        let phi = steady_pitch(&self.plant, speed);
+        self.steady = Some((speed, phi));
+        phi
     }
 
     pub fn summary(&self) -> SlopeSummary<T> {
@@ -189,6 +194,7 @@ pub(crate) fn steady_pitch<T: Real>(plant: &SlopeModel<T>, speed: T) -> T {
 }
 
 impl<T: Real> Observer<T, 4, 1, SpeedRef<T>> for SlopeMetrics<T> {
+    #[inline(always)]
     fn observe(&mut self, t: T, x: &SVector<T, 4>, u: &SVector<T, 1>, r: &SpeedRef<T>, _: &[T]) {
         let phi_s = self.steady_pitch(r.theta_dot);
         let band = *self.pitch_band.get_or_insert_with(|| pitch_band(phi_s, x[0]));
