@@ -20,6 +20,7 @@ use nalgebra::SVector;
 use crate::control::Controller;
 use crate::hardware::motor::DcMotor;
 use crate::control::trajectory::{wrap_angle, PlanarRef};
+use crate::model::lane::Lane;
 use crate::{c, Real, RobotParams, TwipError};
 
 /// The gains of (4.67)–(4.69): outputs in PWM counts per unit of [`PidUnits`].
@@ -213,10 +214,77 @@ impl<T: Real> PidTracker<T> {
 }
 
 /// The right and left wheels' speeds relative to the body [rad/s]: what drives the back-EMF.
-#[inline]
-pub(crate) fn relative_wheel_speeds<T: Real>(y: &SVector<T, 7>, radius: T, half_track: T) -> [T; 2] {
+#[inline(always)]
+pub(crate) fn relative_wheel_speeds<S: Lane>(y: &[S; 7], radius: S, half_track: S) -> [S; 2] {
     let (phi_dot, v, omega) = (y[4], y[5], y[6]);
-    [(v + half_track * omega) / radius - phi_dot, (v - half_track * omega) / radius - phi_dot]
+    [S::madd(half_track, omega, v) / radius - phi_dot, S::madd(-half_track, omega, v) / radius - phi_dot]
+}
+
+/// What one update of the tracker gives: the wheels' torques, the internals
+/// ([`PID_INTERNALS`]) and the two integrals after it.
+pub(crate) struct PidStep<S> {
+    pub torque: [S; 2],
+    pub internals: [S; 9],
+    pub integrals: [S; 2],
+}
+
+/// The tracker's parameters in the number type of a run or of a sweep's lanes.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PidLaw<S> {
+    pub gains: PidGains<S>,
+    pub units: PidUnits<S>,
+    pub motor: DcMotor<S>,
+    pub radius: S,
+    pub half_track: S,
+}
+
+impl<S: Lane> PidLaw<S> {
+    /// (4.67)–(4.70) at measurement `y` and reference `r` with the integrals `[Σ e_v, Σ e_ψ]`
+    /// before this update, written once: a run's update and a sweep's lanes.
+    #[inline(always)]
+    pub(crate) fn step(&self, y: &[S; 7], r: &PlanarRef<S>, integrals: [S; 2]) -> PidStep<S> {
+        let (g, u) = (&self.gains, &self.units);
+        let [int_v, int_psi] = integrals;
+        let u_phi = S::madd(g.kp_pitch * u.pitch, y[3], g.kd_pitch * u.pitch * y[4]);
+        let e_v = u.speed * (r.v - y[5]);
+        let u_v = S::madd(g.kp_speed, e_v, g.ki_speed * int_v);
+        let e_psi = u.heading * wrap_angle(r.psi - y[2]);
+        // The heading error's rate from the gyro: ψ̇_r − ω.
+        let u_psi = S::madd(g.kd_yaw * u.heading, r.omega - y[6], S::madd(g.kp_yaw, e_psi, g.ki_yaw * int_psi));
+        let limit = self.motor.pwm_max();
+        let saturate = |v: S| v.larger(-limit).smaller(limit);
+        let pwm = [saturate(u_phi + u_v + u_psi), saturate(u_phi + u_v - u_psi)];
+        let speeds = relative_wheel_speeds(y, self.radius, self.half_track);
+        PidStep {
+            torque: [self.motor.torque_from_pwm(pwm[0], speeds[0]), self.motor.torque_from_pwm(pwm[1], speeds[1])],
+            internals: [u_phi, u_v, u_psi, e_v, e_psi, int_v, int_psi, pwm[0], pwm[1]],
+            // Forward Euler, as the Arduino does: the sums hold the errors up to this update.
+            integrals: [S::madd(u.integral_step, e_v, int_v), S::madd(u.integral_step, e_psi, int_psi)],
+        }
+    }
+}
+
+impl<T: Real> PidTracker<T> {
+    /// The law's parameters, in the number type `f` maps to (a sweep's lanes).
+    pub(crate) fn law<S>(&self, f: impl Fn(T) -> S + Copy) -> PidLaw<S> {
+        let g = self.gains;
+        let u = self.units;
+        PidLaw {
+            gains: PidGains {
+                kp_pitch: f(g.kp_pitch),
+                kd_pitch: f(g.kd_pitch),
+                kp_speed: f(g.kp_speed),
+                ki_speed: f(g.ki_speed),
+                kp_yaw: f(g.kp_yaw),
+                ki_yaw: f(g.ki_yaw),
+                kd_yaw: f(g.kd_yaw),
+            },
+            units: PidUnits { pitch: f(u.pitch), speed: f(u.speed), heading: f(u.heading), integral_step: f(u.integral_step) },
+            motor: self.motor.map(f),
+            radius: f(self.radius),
+            half_track: f(self.half_track),
+        }
+    }
 }
 
 impl<T: Real> Controller<T, 7, 2> for PidTracker<T> {
@@ -233,24 +301,10 @@ impl<T: Real> Controller<T, 7, 2> for PidTracker<T> {
     }
 
     fn update(&mut self, _t: T, y: &SVector<T, 7>, r: &PlanarRef<T>) -> SVector<T, 2> {
-        let (g, u) = (&self.gains, &self.units);
-        let u_phi = g.kp_pitch * u.pitch * y[3] + g.kd_pitch * u.pitch * y[4];
-        let e_v = u.speed * (r.v - y[5]);
-        let u_v = g.kp_speed * e_v + g.ki_speed * self.int_v;
-        let e_psi = u.heading * wrap_angle(r.psi - y[2]);
-        // The heading error's rate from the gyro: ψ̇_r − ω.
-        let u_psi = g.kp_yaw * e_psi + g.ki_yaw * self.int_psi + g.kd_yaw * u.heading * (r.omega - y[6]);
-        let limit = self.motor.pwm_max();
-        let pwm = [(u_phi + u_v + u_psi).max(-limit).min(limit), (u_phi + u_v - u_psi).max(-limit).min(limit)];
-        let speeds = relative_wheel_speeds(y, self.radius, self.half_track);
-        self.internals = [u_phi, u_v, u_psi, e_v, e_psi, self.int_v, self.int_psi, pwm[0], pwm[1]];
-        // Forward Euler, as the Arduino does: the sums hold the errors up to this update.
-        self.int_v += u.integral_step * e_v;
-        self.int_psi += u.integral_step * e_psi;
-        SVector::<T, 2>::new(
-            self.motor.torque_from_pwm(pwm[0], speeds[0]),
-            self.motor.torque_from_pwm(pwm[1], speeds[1]),
-        )
+        let step = self.law(|v| v).step(&(*y).into(), r, [self.int_v, self.int_psi]);
+        self.internals = step.internals;
+        [self.int_v, self.int_psi] = step.integrals;
+        SVector::<T, 2>::from(step.torque)
     }
 
     fn internals(&self) -> &[T] {

@@ -469,7 +469,7 @@ impl<T: Real> Controller<T, 7, 2> for SmcTracker<T> {
         let mut u = SVector::<T, 2>::new(half * c_psi + half * c_y, half * c_psi - half * c_y);
         if let Some(m) = &self.motor {
             let p = self.model.params();
-            let speeds = relative_wheel_speeds(y, p.wheel_radius, p.half_track);
+            let speeds = relative_wheel_speeds(&(*y).into(), p.wheel_radius, p.half_track);
             for (ui, w) in u.iter_mut().zip(speeds) {
                 let (lo, hi) = m.torque_limits(w);
                 *ui = ui.max(lo).min(hi);

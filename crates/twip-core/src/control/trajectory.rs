@@ -4,6 +4,7 @@
 //! and the derivatives of those the sliding-mode tracker needs (v̇_r, ω̇_r); each is also a
 //! [`Path`] (distance to the curve, for the metrics). Fixed-size, no allocation.
 use crate::control::Reference;
+use crate::model::lane::Lane;
 use crate::{c, Real, TwipError};
 
 /// Where the robot should be at time t and how the reference moves there.
@@ -45,10 +46,10 @@ impl Direction {
 }
 
 /// `angle` mod 2π in [−π, π): the heading error the trackers act on.
-#[inline]
-pub fn wrap_angle<T: Real>(angle: T) -> T {
-    let two_pi = T::two_pi();
-    angle - two_pi * ((angle + T::pi()) / two_pi).floor()
+#[inline(always)]
+pub fn wrap_angle<S: Lane>(angle: S) -> S {
+    let two_pi = S::splat(core::f64::consts::TAU);
+    angle - two_pi * ((angle + S::splat(core::f64::consts::PI)) / two_pi).floor()
 }
 
 fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {

@@ -13,6 +13,7 @@
 //! is all friction, k_t I_0 at ω_0, read as viscous. [`DcMotor::torque`] is the
 //! electromagnetic torque: that friction is already the plant's `mu_bearing` (docs/parameters.md),
 //! so it is reported ([`DcMotor::friction_at_wheel`]) but not subtracted again.
+use crate::model::lane::Lane;
 use crate::{c, Real, TwipError};
 
 /// The numbers a gear motor's data sheet gives.
@@ -135,38 +136,11 @@ impl<T: Real> DcMotor<T> {
         self.supply
     }
 
-    pub fn pwm_max(&self) -> T {
-        self.pwm_max
-    }
-
-    /// Winding current [A] at terminal voltage `voltage` and relative wheel speed [rad/s].
-    #[inline]
-    pub fn current(&self, voltage: T, relative_speed: T) -> T {
-        (voltage - self.k_t * self.gear_ratio * relative_speed) / self.resistance
-    }
-
-    /// Torque on the wheel [N m] (electromagnetic; see the module docs on friction).
-    #[inline]
-    pub fn torque(&self, voltage: T, relative_speed: T) -> T {
-        self.gear_ratio * self.k_t * self.current(voltage, relative_speed)
-    }
 
     /// The voltage that gives `torque` at `relative_speed` (unbounded: see [`Self::torque_limits`]).
     #[inline]
     pub fn voltage_for_torque(&self, torque: T, relative_speed: T) -> T {
         torque * self.resistance / (self.gear_ratio * self.k_t) + self.k_t * self.gear_ratio * relative_speed
-    }
-
-    /// Terminal voltage for a PWM command, saturated at ±`pwm_max`.
-    #[inline]
-    pub fn pwm_voltage(&self, pwm: T) -> T {
-        pwm.max(-self.pwm_max).min(self.pwm_max) * self.supply / self.pwm_max
-    }
-
-    /// Torque on the wheel for a PWM command at `relative_speed`.
-    #[inline]
-    pub fn torque_from_pwm(&self, pwm: T, relative_speed: T) -> T {
-        self.torque(self.pwm_voltage(pwm), relative_speed)
     }
 
     /// The torques full reverse and full forward give at `relative_speed`.
@@ -189,6 +163,52 @@ impl<T: Real> DcMotor<T> {
     /// The viscous friction seen at the wheel, η² b [N m s/rad].
     pub fn friction_at_wheel(&self) -> T {
         self.gear_ratio * self.gear_ratio * self.friction
+    }
+}
+
+// What the motor does to a command, written once over `Lane`: a run's scalar and a sweep's lanes.
+impl<S: Lane> DcMotor<S> {
+    /// Winding current [A] at terminal voltage `voltage` and relative wheel speed [rad/s].
+    #[inline(always)]
+    pub fn current(&self, voltage: S, relative_speed: S) -> S {
+        S::madd(-(self.k_t * self.gear_ratio), relative_speed, voltage) / self.resistance
+    }
+
+    /// Torque on the wheel [N m] (electromagnetic; see the module docs on friction).
+    #[inline(always)]
+    pub fn torque(&self, voltage: S, relative_speed: S) -> S {
+        self.gear_ratio * self.k_t * self.current(voltage, relative_speed)
+    }
+
+    /// Terminal voltage for a PWM command, saturated at ±`pwm_max`.
+    #[inline(always)]
+    pub fn pwm_voltage(&self, pwm: S) -> S {
+        pwm.larger(-self.pwm_max).smaller(self.pwm_max) * self.supply / self.pwm_max
+    }
+
+    /// Torque on the wheel for a PWM command at `relative_speed`.
+    #[inline(always)]
+    pub fn torque_from_pwm(&self, pwm: S, relative_speed: S) -> S {
+        self.torque(self.pwm_voltage(pwm), relative_speed)
+    }
+}
+
+impl<T: Copy> DcMotor<T> {
+    /// PWM full scale (255 for 8 bits).
+    pub fn pwm_max(&self) -> T {
+        self.pwm_max
+    }
+
+    /// The same motor in another number type (onto a sweep's lanes).
+    pub(crate) fn map<S>(&self, f: impl Fn(T) -> S) -> DcMotor<S> {
+        DcMotor {
+            resistance: f(self.resistance),
+            k_t: f(self.k_t),
+            gear_ratio: f(self.gear_ratio),
+            friction: f(self.friction),
+            supply: f(self.supply),
+            pwm_max: f(self.pwm_max),
+        }
     }
 }
 

@@ -36,6 +36,10 @@ pub trait Lane:
     fn magnitude(self) -> Self;
     /// The larger of two (NaN-ignoring, as `f64::max`).
     fn larger(self, other: Self) -> Self;
+    /// The smaller of two (NaN-ignoring, as `f64::min`).
+    fn smaller(self, other: Self) -> Self;
+    /// The largest whole number ≤ x.
+    fn floor(self) -> Self;
     /// Comparisons, false where either side is NaN (as `<`, `<=`, `>`, `==`).
     fn lt(self, other: Self) -> Self::Mask;
     fn le(self, other: Self) -> Self::Mask;
@@ -92,6 +96,16 @@ impl<T: Real> Lane for T {
     #[inline(always)]
     fn larger(self, other: Self) -> Self {
         nalgebra::RealField::max(self, other)
+    }
+
+    #[inline(always)]
+    fn smaller(self, other: Self) -> Self {
+        nalgebra::RealField::min(self, other)
+    }
+
+    #[inline(always)]
+    fn floor(self) -> Self {
+        nalgebra::ComplexField::floor(self)
     }
 
     #[inline(always)]
@@ -291,6 +305,16 @@ mod wide {
         }
 
         #[inline(always)]
+        fn smaller(self, other: Self) -> Self {
+            Fused(self.0.min(other.0))
+        }
+
+        #[inline(always)]
+        fn floor(self) -> Self {
+            Fused(self.0.floor())
+        }
+
+        #[inline(always)]
         fn lt(self, other: Self) -> bool {
             self.0 < other.0
         }
@@ -365,6 +389,16 @@ mod wide {
         #[inline(always)]
         fn larger(self, other: Self) -> Self {
             Wide(pair(self.0, other.0, f64::max))
+        }
+
+        #[inline(always)]
+        fn smaller(self, other: Self) -> Self {
+            Wide(pair(self.0, other.0, f64::min))
+        }
+
+        #[inline(always)]
+        fn floor(self) -> Self {
+            Wide(each(self.0, f64::floor))
         }
 
         #[inline(always)]

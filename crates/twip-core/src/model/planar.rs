@@ -32,6 +32,7 @@
 use nalgebra::{Matrix3, SVector, Vector2, Vector3};
 
 use crate::model::friction::Friction;
+use crate::model::lane::Lane;
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
 /// State `[x, y, psi, phi, phi_dot, v, omega]`.
@@ -41,36 +42,65 @@ pub type PlanarState<T> = SVector<T, 7>;
 #[derive(Clone, Copy, Debug)]
 pub struct PlanarModel<T> {
     params: RobotParams<T>,
-    /// m_φφ = M_b c_z² + I_yy + η² I_M
-    m_pp: T,
-    /// m_vv = M_b + M_w + (I_w + η² I_M)/R²
-    m_vv: T,
-    /// The constant part of m_ωω: I_zz + 2 I_wd + b² m_vv|_{M_b = 0}
-    m_ww0: T,
-    /// k = M_b c_z² + I_xx − I_zz (m_ωω = m_ωω0 + k sin²φ)
-    k: T,
-    /// 2 k
-    two_k: T,
-    /// M_b c_z
-    mbc: T,
-    /// η² I_M / R: the rotor's share of m_φv.
-    rotor_r: T,
-    /// M_b g c_z
-    mgc: T,
-    /// μ_s
-    mu_s: T,
-    /// μ_s / R
-    mu_s_r: T,
-    /// (μ_s + μ_g) / R²
-    mu_v: T,
-    /// b² (μ_s + μ_g) / R²
-    mu_w: T,
-    /// 1 / R
-    inv_r: T,
-    /// b / R
-    b_r: T,
+    coef: PlanarCoefficients<T>,
     /// Gearhead friction per wheel beyond `mu_bearing` (None: the thesis's model).
     friction: Option<Friction<T>>,
+}
+
+/// The coefficients of `M ν̇ + h = B u` that do not depend on the state: what a run and a
+/// sweep's lanes evaluate the equations of motion with.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PlanarCoefficients<S> {
+    /// m_φφ = M_b c_z² + I_yy + η² I_M
+    pub m_pp: S,
+    /// m_vv = M_b + M_w + (I_w + η² I_M)/R²
+    pub m_vv: S,
+    /// m_φφ m_vv
+    pub m_pp_vv: S,
+    /// The constant part of m_ωω: I_zz + 2 I_wd + b² m_vv|_{M_b = 0}
+    pub m_ww0: S,
+    /// k = M_b c_z² + I_xx − I_zz (m_ωω = m_ωω0 + k sin²φ)
+    pub k: S,
+    /// 2 k
+    pub two_k: S,
+    /// M_b c_z
+    pub mbc: S,
+    /// η² I_M / R: the rotor's share of m_φv.
+    pub rotor_r: S,
+    /// M_b g c_z
+    pub mgc: S,
+    /// μ_s
+    pub mu_s: S,
+    /// μ_s / R
+    pub mu_s_r: S,
+    /// (μ_s + μ_g) / R²
+    pub mu_v: S,
+    /// b² (μ_s + μ_g) / R²
+    pub mu_w: S,
+    /// 1 / R
+    pub inv_r: S,
+    /// b / R
+    pub b_r: S,
+}
+
+/// How many coefficients [`PlanarCoefficients`] holds.
+pub(crate) const PLANAR_COEFFICIENTS: usize = 15;
+
+impl<T: Copy> PlanarCoefficients<T> {
+    /// The coefficients in declaration order (a sweep keeps one array per coefficient).
+    pub(crate) fn to_array(self) -> [T; PLANAR_COEFFICIENTS] {
+        [
+            self.m_pp, self.m_vv, self.m_pp_vv, self.m_ww0, self.k, self.two_k, self.mbc, self.rotor_r, self.mgc,
+            self.mu_s, self.mu_s_r, self.mu_v, self.mu_w, self.inv_r, self.b_r,
+        ]
+    }
+
+    /// The coefficients from [`Self::to_array`]'s order.
+    #[inline(always)]
+    pub(crate) fn from_array(a: [T; PLANAR_COEFFICIENTS]) -> Self {
+        let [m_pp, m_vv, m_pp_vv, m_ww0, k, two_k, mbc, rotor_r, mgc, mu_s, mu_s_r, mu_v, mu_w, inv_r, b_r] = a;
+        Self { m_pp, m_vv, m_pp_vv, m_ww0, k, two_k, mbc, rotor_r, mgc, mu_s, mu_s_r, mu_v, mu_w, inv_r, b_r }
+    }
 }
 
 impl<T: Real> PlanarModel<T> {
@@ -86,10 +116,11 @@ impl<T: Real> PlanarModel<T> {
         let mbc = p.m_body * cz;
         let k = mbc * cz + p.i_body_roll - p.i_body_yaw;
         let two = c::<T>(2.0);
-        Ok(Self {
-            params: p,
-            m_pp: mbc * cz + p.i_body + rotor,
-            m_vv: p.m_body + wheel_line,
+        let (m_pp, m_vv) = (mbc * cz + p.i_body + rotor, p.m_body + wheel_line);
+        let coef = PlanarCoefficients {
+            m_pp,
+            m_vv,
+            m_pp_vv: m_pp * m_vv,
             m_ww0: p.i_body_yaw + two * p.i_wheel_diam + b * b * wheel_line,
             k,
             two_k: two * k,
@@ -102,6 +133,10 @@ impl<T: Real> PlanarModel<T> {
             mu_w: b * b * (p.mu_bearing + p.mu_ground) / r2,
             inv_r: T::one() / r,
             b_r: b / r,
+        };
+        Ok(Self {
+            params: p,
+            coef,
             friction: None,
         })
     }
@@ -121,8 +156,8 @@ impl<T: Real> PlanarModel<T> {
     #[inline(always)]
     pub fn wheel_speeds(&self, x: &PlanarState<T>) -> (T, T) {
         let (phi_dot, v, omega) = (x[4], x[5], x[6]);
-        let turn = self.b_r * omega;
-        let roll = self.inv_r * v - phi_dot;
+        let turn = self.coef.b_r * omega;
+        let roll = self.coef.inv_r * v - phi_dot;
         (roll + turn, roll - turn)
     }
 
@@ -130,17 +165,22 @@ impl<T: Real> PlanarModel<T> {
         &self.params
     }
 
+    /// The coefficients of the equations of motion (a sweep's lanes evaluate them).
+    pub(crate) fn coefficients(&self) -> PlanarCoefficients<T> {
+        self.coef
+    }
+
     /// The mass matrix M(φ) of `M ν̇ + h = B u`, ν = (φ̇, v, ω): symmetric positive definite.
     #[inline]
     pub fn mass_matrix(&self, phi: T) -> Matrix3<T> {
         let (s, cp) = phi.sin_cos();
-        let m_pv = self.mbc * cp - self.rotor_r;
+        let m_pv = self.coef.mbc * cp - self.coef.rotor_r;
         let z = T::zero();
         #[rustfmt::skip]
         let m = Matrix3::new(
-            self.m_pp, m_pv,      z,
-            m_pv,      self.m_vv, z,
-            z,         z,         self.m_ww0 + self.k * s * s,
+            self.coef.m_pp, m_pv,      z,
+            m_pv,      self.coef.m_vv, z,
+            z,         z,         self.coef.m_ww0 + self.coef.k * s * s,
         );
         m
     }
@@ -158,12 +198,12 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
     fn energy(&self, x: &PlanarState<T>) -> T {
         let (s, cp) = x[3].sin_cos();
         let (phi_dot, v, omega) = (x[4], x[5], x[6]);
-        let m_pv = self.mbc * cp - self.rotor_r;
-        let m_ww = self.m_ww0 + self.k * s * s;
+        let m_pv = self.coef.mbc * cp - self.coef.rotor_r;
+        let m_ww = self.coef.m_ww0 + self.coef.k * s * s;
         let half = c::<T>(0.5);
-        half * (self.m_pp * phi_dot * phi_dot + self.m_vv * v * v + m_ww * omega * omega)
+        half * (self.coef.m_pp * phi_dot * phi_dot + self.coef.m_vv * v * v + m_ww * omega * omega)
             + m_pv * phi_dot * v
-            + self.mgc * cp
+            + self.coef.mgc * cp
     }
 }
 
@@ -171,13 +211,7 @@ impl<T: Real> PlanarModel<T> {
     /// ν̇ = M(φ)⁻¹ q: the accelerations generalised forces `q` on (φ, v, ω) give at `phi`.
     pub fn solve_mass(&self, phi: T, q: &Vector3<T>) -> Vector3<T> {
         let (s, cp) = phi.sin_cos();
-        let m_pv = self.mbc * cp - self.rotor_r;
-        let det = self.m_pp * self.m_vv - m_pv * m_pv;
-        Vector3::new(
-            (self.m_vv * q[0] - m_pv * q[1]) / det,
-            (self.m_pp * q[1] - m_pv * q[0]) / det,
-            q[2] / (self.m_ww0 + self.k * s * s),
-        )
+        Vector3::from(accelerations(&self.coef, &[q[0], q[1], q[2]], s, cp))
     }
 
     /// `deriv` with extra generalised forces `extra(sin φ, cos φ)` on (φ, v) (a force on
@@ -207,12 +241,12 @@ impl<T: Real> PlanarModel<T> {
         // Held wheels need the accelerations without friction and the response to it:
         // a torque on one wheel acts on (φ, v) as (−1, 1/R) and on the yaw as ±b/R.
         let free = self.driven(x, u[0], u[1], extra);
-        let roll = |d: &PlanarState<T>| self.inv_r * d[5] - d[4];
-        let (a_r, a_l) = (roll(&free) + self.b_r * free[6], roll(&free) - self.b_r * free[6]);
+        let roll = |d: &PlanarState<T>| self.coef.inv_r * d[5] - d[4];
+        let (a_r, a_l) = (roll(&free) + self.coef.b_r * free[6], roll(&free) - self.coef.b_r * free[6]);
         let phi = x[3];
-        let shared = self.solve_mass(phi, &Vector3::new(-T::one(), self.inv_r, T::zero()));
-        let common = self.inv_r * shared[1] - shared[0];
-        let yaw = self.b_r * self.b_r / (self.m_ww0 + self.k * phi.sin() * phi.sin());
+        let shared = self.solve_mass(phi, &Vector3::new(-T::one(), self.coef.inv_r, T::zero()));
+        let common = self.coef.inv_r * shared[1] - shared[0];
+        let yaw = self.coef.b_r * self.coef.b_r / (self.coef.m_ww0 + self.coef.k * phi.sin() * phi.sin());
         // ẇ = a0 − S τ: friction takes its torque off the motor's.
         let s = [[common + yaw, common - yaw], [common - yaw, common + yaw]];
         f.torques([w_r, w_l], [a_r, a_l], s)
@@ -222,37 +256,21 @@ impl<T: Real> PlanarModel<T> {
     #[inline(always)]
     fn driven(&self, x: &PlanarState<T>, u_r: T, u_l: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> PlanarState<T> {
         let (f, s, cp) = self.forces(x, u_r, u_l, extra);
-        // (φ, v) block by Cramer's rule; the yaw row is diagonal.
-        let m_pv = self.mbc * cp - self.rotor_r;
-        let det = self.m_pp * self.m_vv - m_pv * m_pv;
-        let acc = Vector2::new(self.m_vv * f[0] - m_pv * f[1], self.m_pp * f[1] - m_pv * f[0]) / det;
-        let omega_dot = f[2] / (self.m_ww0 + self.k * s * s);
-        self.kinematics(x, acc[0], acc[1], omega_dot)
+        let nu_dot = accelerations(&self.coef, &[f[0], f[1], f[2]], s, cp);
+        self.kinematics(x, nu_dot[0], nu_dot[1], nu_dot[2])
     }
 
     /// The state derivative from the accelerations ν̇ = (φ̈, v̇, ω̇).
     #[inline(always)]
     fn kinematics(&self, x: &PlanarState<T>, phi_dd: T, v_dot: T, omega_dot: T) -> PlanarState<T> {
-        let (sin_psi, cos_psi) = crate::model::math::sin_cos(x[2]);
-        let v = x[5];
-        PlanarState::from([v * cos_psi, v * sin_psi, x[6], x[4], phi_dd, v_dot, omega_dot])
+        PlanarState::from(kinematics(&(*x).into(), [phi_dd, v_dot, omega_dot]))
     }
 
     /// The generalised forces f = B u − h on ν = (φ̇, v, ω) under the wheels' net torques,
     /// with `extra` on (φ, v); and sin φ, cos φ.
     #[inline(always)]
     fn forces(&self, x: &PlanarState<T>, u_r: T, u_l: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (Vector3<T>, T, T) {
-        let (s, cp) = crate::model::math::sin_cos(x[3]);
-        let (phi_dot, v, omega) = (x[4], x[5], x[6]);
-        let (u_sum, u_diff) = (u_r + u_l, u_r - u_l);
-        let w2 = omega * omega;
-        let sc = s * cp;
-        let f_p = self.mgc * s + self.k * sc * w2 - self.mu_s * phi_dot + self.mu_s_r * v - u_sum;
-        let f_v = self.mbc * s * (phi_dot * phi_dot + w2) - self.mu_v * v
-            + self.mu_s_r * phi_dot
-            + self.inv_r * u_sum;
-        let f_w =
-            self.b_r * u_diff - (self.two_k * sc * phi_dot + self.mbc * s * v + self.mu_w) * omega;
+        let ([f_p, f_v, f_w], s, cp) = forces(&self.coef, &(*x).into(), u_r, u_l);
         let (f_p, f_v) = match extra(s, cp) {
             Some(q) => (f_p + q[0], f_v + q[1]),
             None => (f_p, f_v),
@@ -262,12 +280,12 @@ impl<T: Real> PlanarModel<T> {
 
     /// One wheel's rotor inertia at the wheel, η² I_M / 2 [kg m²].
     pub fn rotor_per_wheel(&self) -> T {
-        self.rotor_r * self.params.wheel_radius / c::<T>(2.0)
+        self.coef.rotor_r * self.params.wheel_radius / c::<T>(2.0)
     }
 
     /// Each wheel's relative-speed row r (w = r · ν, ν = (φ̇, v, ω)).
     fn wheel_rows(&self) -> [Vector3<T>; 2] {
-        [Vector3::new(-T::one(), self.inv_r, self.b_r), Vector3::new(-T::one(), self.inv_r, -self.b_r)]
+        [Vector3::new(-T::one(), self.coef.inv_r, self.coef.b_r), Vector3::new(-T::one(), self.coef.inv_r, -self.coef.b_r)]
     }
 
     /// The mass matrix with the rotors of the wheels not `engaged` taken off (their gear
@@ -341,6 +359,58 @@ impl<T: Real> PlanarModel<T> {
         let nu_dot = chol.solve(&f);
         (self.kinematics(x, nu_dot[0], nu_dot[1], nu_dot[2]), tau)
     }
+}
+
+// The equations of motion, written once over `Lane`: a run evaluates them in `T`, a
+// sweep's lanes in `Fused` (multiply-adds fused). Each `madd` is the `a * b + c` the
+// scalar code had, so a run's bits did not change when they were written this way.
+
+/// The generalised forces f = B u − h on ν = (φ̇, v, ω) under the wheels' net torques
+/// `u_r`, `u_l`; and sin φ, cos φ.
+#[inline(always)]
+pub(crate) fn forces<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u_r: S, u_l: S) -> ([S; 3], S, S) {
+    let (s, cp) = S::sincos(x[3]);
+    let (phi_dot, v, omega) = (x[4], x[5], x[6]);
+    let (u_sum, u_diff) = (u_r + u_l, u_r - u_l);
+    let w2 = omega * omega;
+    let sc = s * cp;
+    // M_b g c_z s + k s c ω² − μ_s φ̇ + μ_s v/R − (u_r + u_l)
+    let f_p = S::madd(k.mu_s_r, v, S::madd(-k.mu_s, phi_dot, S::madd(k.mgc, s, k.k * sc * w2))) - u_sum;
+    // M_b c_z s (φ̇² + ω²) − (μ_s + μ_g) v/R² + μ_s φ̇/R + (u_r + u_l)/R
+    let centripetal = k.mbc * s * S::madd(phi_dot, phi_dot, w2);
+    let f_v = S::madd(k.inv_r, u_sum, S::madd(k.mu_s_r, phi_dot, S::madd(-k.mu_v, v, centripetal)));
+    // b (u_r − u_l)/R − (2 k s c φ̇ + M_b c_z s v + b² (μ_s + μ_g)/R²) ω
+    let damping = S::madd(k.two_k * sc, phi_dot, k.mbc * s * v) + k.mu_w;
+    let f_w = S::madd(-damping, omega, k.b_r * u_diff);
+    ([f_p, f_v, f_w], s, cp)
+}
+
+/// ν̇ = M(φ)⁻¹ f at sin φ, cos φ: the (φ, v) block by Cramer's rule, the yaw row diagonal.
+#[inline(always)]
+pub(crate) fn accelerations<S: Lane>(k: &PlanarCoefficients<S>, f: &[S; 3], s: S, cp: S) -> [S; 3] {
+    let m_pv = S::madd(k.mbc, cp, -k.rotor_r);
+    let det = S::madd(-m_pv, m_pv, k.m_pp_vv);
+    [
+        S::madd(k.m_vv, f[0], -(m_pv * f[1])) / det,
+        S::madd(k.m_pp, f[1], -(m_pv * f[0])) / det,
+        f[2] / S::madd(k.k * s, s, k.m_ww0),
+    ]
+}
+
+/// The state derivative from the accelerations ν̇ = (φ̈, v̇, ω̇).
+#[inline(always)]
+pub(crate) fn kinematics<S: Lane>(x: &[S; 7], nu_dot: [S; 3]) -> [S; 7] {
+    let (sin_psi, cos_psi) = S::sincos(x[2]);
+    let v = x[5];
+    [v * cos_psi, v * sin_psi, x[6], x[4], nu_dot[0], nu_dot[1], nu_dot[2]]
+}
+
+/// The derivative of the thesis's plant (no gearhead friction, no external force).
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+#[inline(always)]
+pub(crate) fn deriv<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u: [S; 2]) -> [S; 7] {
+    let (f, s, cp) = forces(k, x, u[0], u[1]);
+    kinematics(x, accelerations(k, &f, s, cp))
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@ use nalgebra::SVector;
 
 use crate::sim::runner::Observer;
 use crate::control::trajectory::{Path, PlanarRef};
+use crate::model::lane::Lane;
 use crate::{c, Real};
 
 /// What [`TrackingMetrics`] reports. "Settled" means from the settle time on (one lap of
@@ -35,78 +36,94 @@ crate::sim::named_metrics!(TrackingSummary {
     peak_abs_torque,
 });
 
+/// The running sums and peaks of [`TrackingMetrics`], written once over `Lane`: a run's
+/// observer and a sweep's lanes.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TrackingTally<S> {
+    pub sum_x: S,
+    pub sum_y: S,
+    pub sum_x_settled: S,
+    pub sum_y_settled: S,
+    pub sum_pitch: S,
+    pub max_path_error_settled: S,
+    pub peak_abs_torque: S,
+}
+
+impl<S: Lane> TrackingTally<S> {
+    pub(crate) fn new() -> Self {
+        let z = S::splat(0.0);
+        Self { sum_x: z, sum_y: z, sum_x_settled: z, sum_y_settled: z, sum_pitch: z, max_path_error_settled: z, peak_abs_torque: z }
+    }
+
+    /// Adds the sample (x, u) against r where `on` holds; the settled sums and the path
+    /// error too when `settled` (the time is past the settle time, the same for every
+    /// lane). `distance` is the distance to the path, asked only then.
+    #[inline(always)]
+    pub(crate) fn observe(&mut self, on: S::Mask, settled: bool, x: &[S; 7], u: [S; 2], r: &PlanarRef<S>, distance: impl FnOnce() -> S) {
+        let add = |sum: S, v: S| S::select(on, sum + v, sum);
+        let (ex, ey) = ((x[0] - r.x).magnitude(), (x[1] - r.y).magnitude());
+        self.sum_x = add(self.sum_x, ex);
+        self.sum_y = add(self.sum_y, ey);
+        self.sum_pitch = add(self.sum_pitch, x[3].magnitude());
+        if settled {
+            self.sum_x_settled = add(self.sum_x_settled, ex);
+            self.sum_y_settled = add(self.sum_y_settled, ey);
+            let worst = self.max_path_error_settled.larger(distance());
+            self.max_path_error_settled = S::select(on, worst, self.max_path_error_settled);
+        }
+        let peak = self.peak_abs_torque.larger(u[0].magnitude()).larger(u[1].magnitude());
+        self.peak_abs_torque = S::select(on, peak, self.peak_abs_torque);
+    }
+}
+
+impl<T: Real> TrackingTally<T> {
+    /// The summary of `samples` observations, `settled` of them past the settle time.
+    pub(crate) fn summary(&self, samples: usize, settled: usize) -> TrackingSummary<T> {
+        let n = c::<T>(samples.max(1) as f64);
+        let m = c::<T>(settled.max(1) as f64);
+        // A run that ended before the settle time has no settled part: NaN, not 0.
+        let none = |v: T| if settled == 0 { c::<T>(f64::NAN) } else { v };
+        TrackingSummary {
+            mean_abs_x_error: self.sum_x / n,
+            mean_abs_y_error: self.sum_y / n,
+            mean_abs_x_error_settled: none(self.sum_x_settled / m),
+            mean_abs_y_error_settled: none(self.sum_y_settled / m),
+            max_path_error_settled: none(self.max_path_error_settled),
+            mean_abs_pitch: self.sum_pitch / n,
+            peak_abs_torque: self.peak_abs_torque,
+            samples,
+            settled_samples: settled,
+        }
+    }
+}
+
 /// Accumulates [`TrackingSummary`]; `path` gives the distance to the curve.
 #[derive(Clone, Copy, Debug)]
 pub struct TrackingMetrics<T: Real, P> {
     path: P,
     settle: T,
-    sum_x: T,
-    sum_y: T,
-    sum_x_settled: T,
-    sum_y_settled: T,
-    sum_pitch: T,
-    summary: TrackingSummary<T>,
+    tally: TrackingTally<T>,
+    samples: usize,
+    settled_samples: usize,
 }
 
 impl<T: Real, P: Path<T>> TrackingMetrics<T, P> {
     pub fn new(path: P, settle: T) -> Self {
-        let z = T::zero();
-        Self {
-            path,
-            settle,
-            sum_x: z,
-            sum_y: z,
-            sum_x_settled: z,
-            sum_y_settled: z,
-            sum_pitch: z,
-            summary: TrackingSummary {
-                mean_abs_x_error: z,
-                mean_abs_y_error: z,
-                mean_abs_x_error_settled: z,
-                mean_abs_y_error_settled: z,
-                max_path_error_settled: z,
-                mean_abs_pitch: z,
-                peak_abs_torque: z,
-                samples: 0,
-                settled_samples: 0,
-            },
-        }
+        Self { path, settle, tally: TrackingTally::new(), samples: 0, settled_samples: 0 }
     }
 
     pub fn summary(&self) -> TrackingSummary<T> {
-        let mut s = self.summary;
-        let n = c::<T>(s.samples.max(1) as f64);
-        let m = c::<T>(s.settled_samples.max(1) as f64);
-        s.mean_abs_x_error = self.sum_x / n;
-        s.mean_abs_y_error = self.sum_y / n;
-        s.mean_abs_pitch = self.sum_pitch / n;
-        s.mean_abs_x_error_settled = self.sum_x_settled / m;
-        s.mean_abs_y_error_settled = self.sum_y_settled / m;
-        // A run that ended before the settle time has no settled part: NaN, not 0.
-        if s.settled_samples == 0 {
-            s.mean_abs_x_error_settled = c::<T>(f64::NAN);
-            s.mean_abs_y_error_settled = c::<T>(f64::NAN);
-            s.max_path_error_settled = c::<T>(f64::NAN);
-        }
-        s
+        self.tally.summary(self.samples, self.settled_samples)
     }
 }
 
 impl<T: Real, P: Path<T>> Observer<T, 7, 2, PlanarRef<T>> for TrackingMetrics<T, P> {
     fn observe(&mut self, t: T, x: &SVector<T, 7>, u: &SVector<T, 2>, r: &PlanarRef<T>, _: &[T]) {
-        let (ex, ey) = ((x[0] - r.x).abs(), (x[1] - r.y).abs());
-        self.sum_x += ex;
-        self.sum_y += ey;
-        self.sum_pitch += x[3].abs();
-        let s = &mut self.summary;
-        if t >= self.settle {
-            self.sum_x_settled += ex;
-            self.sum_y_settled += ey;
-            s.max_path_error_settled = s.max_path_error_settled.max(self.path.distance(x[0], x[1]));
-            s.settled_samples += 1;
-        }
-        s.peak_abs_torque = s.peak_abs_torque.max(u[0].abs()).max(u[1].abs());
-        s.samples += 1;
+        let settled = t >= self.settle;
+        let path = &self.path;
+        self.tally.observe(true, settled, &(*x).into(), [u[0], u[1]], r, || path.distance(x[0], x[1]));
+        self.samples += 1;
+        self.settled_samples += settled as usize;
     }
 }
 
