@@ -111,7 +111,9 @@ def test_kernel_and_fall_limit_come_from_the_core():
     gaussian = [[twip.Gaussian(-0.3, 0.15), twip.Triangle(-0.3, 0.0, 0.3), twip.Gaussian(0.3, 0.15)]] * 2
     general = twip.scenarios.get("flat-fuzzy-sim", sets=gaussian, t_final=0.2)
     assert twip.sweep.kernel_for(general) == "general"
-    assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid")) == "planar"
+    assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid")) == "planar-lanes"
+    assert twip.sweep.kernel_for(twip.scenarios.get("circle-smc-fuzzy")) == "planar"
+    assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid"), twip.Realism.thesis_like()) == "planar-realism"
     with pytest.raises(TypeError):
         _core.sweep_kernel(object())
     # The sweep reports the kernel it ran, the one kernel_for names.

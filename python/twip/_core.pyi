@@ -849,7 +849,8 @@ def sweep_noise_seed(seed: int) -> int:
     """
 def sweep_kernel(controller: Any, realism: bool = False) -> str:
     """The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),
-    with or without realism: "lanes", "general", "realism", "planar" or "planar-realism".
+    with or without realism: "lanes", "general", "realism", "planar-lanes", "planar" or
+    "planar-realism".
     """
 
 DEFAULT_FALL_LIMIT: float

@@ -179,8 +179,8 @@ class SweepResult:
     def replay(self, index: int, **simulate_options):
         """Runs sample `index` alone with the full runner (its trajectory included), with
         the sweep's realism and the sample's own noise stream. Its metrics are the
-        sweep's bit for bit, except for LQR sweeps without realism (kernel "lanes"),
-        whose lane kernel fuses multiply-adds: there they agree to ~1e-13 relative."""
+        sweep's bit for bit, except on the lane kernels (kernels "lanes" and
+        "planar-lanes"), which fuse multiply-adds: there they agree to ~1e-13 relative."""
         from twip.sim import simulate
 
         sc = self._scenario

@@ -2,7 +2,7 @@
 //! the LQR lane kernel against the general per-sample runner (closed-loop 2-DOF + LQR,
 //! 10 s per sample), the fuzzy family on lanes and on the general runner (the thesis's
 //! flat gains, controller every 1 ms as the LQR's), the same samples through the thesis-like rig (realism), and the
-//! 3-DOF PID tracker on its circle (4 s per sample).
+//! 3-DOF PID tracker on its circle (4 s per sample) on the general runner and on lanes.
 //! Run: cargo bench -p twip-core --features parallel --bench sweep
 use std::hint::black_box;
 
@@ -17,7 +17,7 @@ use twip_core::control::pid::PidTracker;
 use twip_core::hardware::realism::Realism;
 use twip_core::sweep::planar::{self, PlanarNominal};
 use twip_core::sweep::rig::{for_sweep, run_rig_sample};
-use twip_core::sweep::block::FuzzyLanes;
+use twip_core::sweep::block::{FuzzyLanes, PidLanes};
 use twip_core::sweep::{draw, run_lane_samples, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Spread, Target};
 use twip_core::control::trajectory::{Circle, Direction};
 use twip_core::{RobotParams, SlopeModel};
@@ -95,6 +95,10 @@ fn sweep_planar(c: &mut Criterion) {
                 .map(|i| planar::run_planar_sample(&ctrl, &circle, &config, &planar::draw(&nominal, &perturb, 1, i), 0.0, None, &|| false))
                 .collect::<Vec<_>>()
         })
+    });
+    let lanes = PidLanes::new(&ctrl);
+    group.bench_function("planar_lanes_1_thread", |b| {
+        b.iter(|| planar::run_planar_lane_samples(&lanes, &circle, &config, &nominal, &perturb, 1, 0..black_box(samples), 0.0, &|| false).unwrap())
     });
     group.finish();
 }

@@ -2,7 +2,8 @@
 //!   /usr/bin/time -f "%U s user" cargo run --release --features parallel \
 //!       --example sweep_throughput -- PATH 256
 //! PATH: lanes (LQR on lanes), fuzzy-lanes, scalar (LQR, general runner), fuzzy-scalar,
-//! pid (circle-pid on the 3-DOF runner; the checksum sums its path error instead).
+//! pid (circle-pid on the 3-DOF runner; the checksum sums the runs' ends instead), pid-lanes
+//! (the same on the planar lane kernel).
 use nalgebra::{Matrix4, Vector4};
 use twip_core::control::fuzzy::FuzzyController;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
@@ -41,18 +42,23 @@ fn main() {
             .iter()
             .map(|m| m.mean_abs_pitch_error)
             .sum(),
-        "pid" => {
+        "pid" | "pid-lanes" => {
             use twip_core::control::pid::PidTracker;
             use twip_core::control::trajectory::{Circle, Direction};
             use twip_core::hardware::motor::DcMotor;
+            use twip_core::sweep::block::PidLanes;
             use twip_core::sweep::planar::{self, PlanarNominal};
             let pid = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), 0.005).unwrap();
             let circle = Circle::from_origin(0.6, core::f64::consts::PI * params.wheel_radius, Direction::CounterClockwise).unwrap();
             let nominal = PlanarNominal { params, x0: nalgebra::SVector::zeros() };
-            (0..n)
-                .map(|i| planar::run_planar_sample(&pid, &circle, &config, &planar::draw(&nominal, &perturb, 1, i), 0.0, None, &|| false).unwrap())
-                .map(|m| m.t_end)
-                .sum()
+            let runs = if path == "pid" {
+                (0..n)
+                    .map(|i| planar::run_planar_sample(&pid, &circle, &config, &planar::draw(&nominal, &perturb, 1, i), 0.0, None, &|| false).unwrap())
+                    .collect()
+            } else {
+                planar::run_planar_lane_samples(&PidLanes::new(&pid), &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|| false).unwrap().unwrap()
+            };
+            runs.iter().map(|m| m.mean_abs_x_error).sum()
         }
         "fuzzy-scalar" => (0..n)
             .map(|i| run_slope_sample(&fuzzy, &schedule, &config, &draw(&nominal, &perturb, 1, i), &|| false).unwrap())

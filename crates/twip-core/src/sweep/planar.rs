@@ -11,6 +11,10 @@ use crate::sim::metrics::DrivePeaks;
 use crate::sim::tracking_metrics::{TrackingMetrics, TrackingSummary};
 use crate::{RobotParams, TwipError};
 
+use alloc::vec::Vec;
+
+use super::block::{self, LanePath, PlanarLaneLaw};
+use super::lanes::LANES;
 use super::{draw_values, finish, fresh, sweep_metrics, Perturbation, Spread, SweepMetrics, Target};
 
 /// Samples per parallel block: one. A tracking run is 10⁴–10⁵ steps, so a task per
@@ -149,6 +153,35 @@ where
     })
 }
 
+/// Runs samples `indices` of a tracking sweep on lanes ([`block::run_planar_block`], for
+/// trackers with a [`PlanarLaneLaw`]): [`LANES`] at a time, each lane agreeing with
+/// [`run_planar_sample`] to rounding. `Ok(None)` when `should_stop` said so.
+#[allow(clippy::too_many_arguments)]
+pub fn run_planar_lane_samples<C: PlanarLaneLaw + Clone, P: LanePath>(
+    law: &C,
+    path: &P,
+    config: &SimConfig<f64>,
+    nominal: &PlanarNominal,
+    perturbations: &[Perturbation],
+    seed: u64,
+    indices: core::ops::Range<u64>,
+    settle: f64,
+    should_stop: &dyn Fn() -> bool,
+) -> Result<Option<Vec<PlanarSampleMetrics>>, TwipError> {
+    let mut out = Vec::with_capacity((indices.end - indices.start) as usize);
+    let mut start = indices.start;
+    while start < indices.end {
+        let end = (start + LANES as u64).min(indices.end);
+        let samples: Vec<PlanarSample> = (start..end).map(|i| draw(nominal, perturbations, seed, i)).collect();
+        let Some(block) = block::run_planar_block(law.clone(), path, config, &samples, settle, should_stop)? else {
+            return Ok(None);
+        };
+        out.extend_from_slice(&block[..samples.len()]);
+        start = end;
+    }
+    Ok(Some(out))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -157,6 +190,7 @@ mod tests {
     use crate::control::pid::PidTracker;
     use crate::sim::runner::simulate;
     use crate::control::trajectory::{Circle, Direction};
+    use crate::sweep::block::PidLanes;
 
     fn setup() -> (PidTracker<f64>, Circle<f64>, SimConfig<f64>, PlanarNominal) {
         let params = RobotParams::balanbot();
@@ -271,5 +305,40 @@ mod tests {
         assert_ne!(got.max_path_error_settled, other.max_path_error_settled, "same robot, other noise stream");
         let ideal = run_planar_sample(&ctrl, &circle, &config, &sample, 2.0, None, &|| false).unwrap();
         assert_ne!(got.max_path_error_settled, ideal.max_path_error_settled);
+    }
+
+    /// A lane agrees with the scalar runner of its robot to rounding over 10 s (the lanes'
+    /// multiply-adds are fused), and the sweep's lane path keeps every outcome and count.
+    #[test]
+    fn a_lane_agrees_with_the_runner_to_rounding_over_ten_seconds() {
+        let (ctrl, circle, _, nominal) = setup();
+        let config = SimConfig { dt: 1e-3, t_final: 10.0, fall_limit: 60f64.to_radians() };
+        let spread = spread();
+        let never = || false;
+        let law = PidLanes::new(&ctrl);
+        let n = 2 * LANES as u64 + 3;
+        let lanes = run_planar_lane_samples(&law, &circle, &config, &nominal, &spread, 5, 0..n, 2.0, &never).unwrap().unwrap();
+        let (mut worst, mut ran, mut fell) = (0.0f64, 0, 0);
+        for i in 0..n {
+            let one = run_planar_sample(&ctrl, &circle, &config, &draw(&nominal, &spread, 5, i), 2.0, None, &never).unwrap();
+            let got = lanes[i as usize];
+            assert_eq!((got.valid, got.fell, got.steps), (one.valid, one.fell, one.steps), "sample {i}");
+            if !one.valid {
+                continue;
+            }
+            (ran, fell) = (ran + 1, fell + one.fell as usize);
+            assert_eq!(got.t_end, one.t_end, "sample {i}");
+            for k in 0..PlanarSampleMetrics::NAMES.len() {
+                let (a, b) = (got.value(k), one.value(k));
+                if a.is_nan() || b.is_nan() {
+                    assert!(a.is_nan() && b.is_nan(), "sample {i} {}: {a} vs {b}", PlanarSampleMetrics::NAMES[k]);
+                    continue;
+                }
+                worst = worst.max((a - b).abs() / b.abs().max(1e-300));
+            }
+        }
+        assert!(ran > 10 && fell > 0 && fell < ran, "{ran} ran, {fell} fell");
+        assert!(worst <= 1e-12, "worst relative difference {worst:e}");
+        assert!(worst > 0.0, "fused lanes should differ from the plain runner by rounding");
     }
 }

@@ -314,13 +314,14 @@ fn kernel_of(ctrl: &SlopeController, realism: bool) -> &'static str {
 }
 
 /// The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),
-/// with or without realism: "lanes", "general", "realism", "planar" or "planar-realism".
+/// with or without realism: "lanes", "general", "realism", "planar-lanes", "planar" or
+/// "planar-realism".
 #[pyfunction]
 #[pyo3(signature = (controller, realism = false))]
 pub fn sweep_kernel(controller: &Bound<'_, PyAny>, realism: bool) -> PyResult<&'static str> {
     if let Ok(ctrl) = SlopeController::extract(controller) {
         return Ok(kernel_of(&ctrl, realism));
     }
-    crate::sim::simulate_planar::PlanarController::extract(controller)?;
-    Ok(crate::sweep::planar::kernel_of(realism))
+    let ctrl = crate::sim::simulate_planar::PlanarController::extract(controller)?;
+    Ok(crate::sweep::planar::kernel_of(&ctrl, realism))
 }

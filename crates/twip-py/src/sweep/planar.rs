@@ -6,7 +6,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::Controller;
 use twip_core::sim::runner::SimConfig;
-use twip_core::sweep::planar::{self as core_planar, run_planar_sample, PlanarNominal, PlanarSampleMetrics, BLOCK};
+use twip_core::sweep::block::PidLanes;
+use twip_core::sweep::lanes::LANES;
+use twip_core::sweep::planar::{self as core_planar, run_planar_lane_samples, run_planar_sample, PlanarNominal, PlanarSampleMetrics, BLOCK};
 use twip_core::sweep::SweepMetrics;
 use twip_core::sweep::rig::for_sweep;
 
@@ -85,7 +87,13 @@ pub fn sweep_planar_raw<'py>(
     if let Some(r) = &nominal_realism {
         r.build_planar(&model.inner, config.dt).map_err(PyTwipError)?;
     }
-    let kernel = kernel_of(realism.is_some());
+    let kernel = kernel_of(&ctrl, realism.is_some());
+    if let (None, PlanarController::Pid(pid)) = (&realism, &ctrl) {
+        let law = PidLanes::new(pid);
+        return run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
+            run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop).ok().flatten()
+        });
+    }
     run_sweep(py, start..start + count, BLOCK, threads, progress.as_ref(), kernel, |range, stop| {
         range
             .map(|i| {
@@ -103,7 +111,12 @@ pub fn sweep_planar_raw<'py>(
     })
 }
 
-/// The kernel a 3-DOF sweep runs on.
-pub(crate) fn kernel_of(realism: bool) -> &'static str {
-    if realism { "planar-realism" } else { "planar" }
+/// The kernel a 3-DOF sweep of this tracker runs on: "planar-realism", "planar-lanes"
+/// (PID: vectorised) or "planar" (the general runner).
+pub(crate) fn kernel_of(ctrl: &PlanarController, realism: bool) -> &'static str {
+    match (realism, ctrl) {
+        (true, _) => "planar-realism",
+        (false, PlanarController::Pid(_)) => "planar-lanes",
+        (false, _) => "planar",
+    }
 }

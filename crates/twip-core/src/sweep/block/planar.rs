@@ -1,0 +1,351 @@
+//! The fast path of a 3-DOF tracking sweep: [`LANES`] samples at once on the planar model,
+//! for the trackers with a law on lanes ([`PlanarLaneLaw`]: PID).
+//!
+//! As the 2-DOF block: each lane its own robot, the tracker the one prototype designed on
+//! the nominal robot with each lane's own state; the physics is the run's own source
+//! (`model::planar::deriv`, `model::integrate::rk4`, `PidLaw::step`, `TrackingTally`)
+//! on [`Fused`] lanes, so a lane agrees with `runner::simulate` to rounding and is bit for
+//! bit the same on every CPU, thread count and block neighbour. The reference is the
+//! same for every lane: sampled once per step. What is here is the data layout and the
+//! runner's loop over a block.
+use super::{advance, finite_at, multiversioned};
+use crate::control::pid::{PidLaw, PidTracker};
+use crate::control::trajectory::{Path, PlanarRef};
+use crate::control::{Controller, Reference};
+use crate::model::integrate::{rk4, Field};
+use crate::model::lane::{fill, Fused};
+use crate::model::planar::{deriv, PlanarCoefficients, PlanarModel, PLANAR_COEFFICIENTS};
+use crate::sim::metrics::DrivePeaks;
+use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
+use crate::sim::tracking_metrics::TrackingTally;
+use crate::sweep::lanes::{Lanes, LANES};
+use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
+use crate::sweep::SweepMetrics;
+use crate::TwipError;
+
+/// A tracker's law on lanes: the sweep's prototype, with each lane's own state.
+pub trait PlanarLaneLaw {
+    /// Every lane's controller state, one array per quantity.
+    type State;
+    /// The control period [s].
+    fn period(&self) -> f64;
+    /// The state every lane starts from (the prototype's, reset).
+    fn start(&self) -> Self::State;
+    /// Every lane's wheel torques `u` for its true state `x` (sweeps sense ideally) and the
+    /// reference `r`. Lanes that have ended compute on and are never kept.
+    fn update(&mut self, state: &mut Self::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]);
+}
+
+/// The PID tracker on lanes: `PidLaw::step` on each lane, each lane's two integrals.
+#[derive(Clone, Debug)]
+pub struct PidLanes {
+    law: PidLaw<Fused>,
+    period: f64,
+}
+
+impl PidLanes {
+    pub fn new(prototype: &PidTracker<f64>) -> Self {
+        Self { law: prototype.law(Fused), period: prototype.period() }
+    }
+}
+
+impl PlanarLaneLaw for PidLanes {
+    /// Σ e_v and Σ e_ψ of each lane.
+    type State = [Lanes; 2];
+
+    fn period(&self) -> f64 {
+        self.period
+    }
+
+    fn start(&self) -> [Lanes; 2] {
+        [[0.0; LANES]; 2]
+    }
+
+    #[inline(always)]
+    fn update(&mut self, integrals: &mut [Lanes; 2], x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
+        let r = lane_ref(r);
+        // A loop over lanes that the compiler vectorises.
+        for l in 0..LANES {
+            let y = fill(|i| Fused(x[i][l]));
+            let step = self.law.step(&y, &r, [Fused(integrals[0][l]), Fused(integrals[1][l])]);
+            for w in 0..2 {
+                u[w][l] = step.torque[w].0;
+                integrals[w][l] = step.integrals[w].0;
+            }
+        }
+    }
+}
+
+/// The reference as every lane sees it.
+#[inline(always)]
+fn lane_ref(r: &PlanarRef<f64>) -> PlanarRef<Fused> {
+    PlanarRef {
+        x: Fused(r.x),
+        y: Fused(r.y),
+        psi: Fused(r.psi),
+        v: Fused(r.v),
+        omega: Fused(r.omega),
+        v_dot: Fused(r.v_dot),
+        omega_dot: Fused(r.omega_dot),
+    }
+}
+
+/// Plant coefficients, one array per coefficient, one entry per lane.
+struct Plants([Lanes; PLANAR_COEFFICIENTS]);
+
+impl Plants {
+    fn new(models: &[PlanarModel<f64>; LANES]) -> Self {
+        let per_lane = models.map(|m| m.coefficients().to_array());
+        Self(core::array::from_fn(|f| core::array::from_fn(|l| per_lane[l][f])))
+    }
+
+    /// One RK4 step, the inputs held, on every lane: a lane's whole step is one loop body
+    /// in [`Fused`] numbers, which the compiler vectorises across lanes. (Two lanes per
+    /// body, as the 2-DOF block does, measured no faster here: the 7-state step already
+    /// spills registers.)
+    #[inline(always)]
+    fn rk4(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
+        let mut out = [[0.0; LANES]; 7];
+        for l in 0..LANES {
+            let plant = Plant { k: PlanarCoefficients::from_array(fill(|f| Fused(self.0[f][l]))), u: [Fused(u[0][l]), Fused(u[1][l])] };
+            let xl = fill(|i| Fused(x[i][l]));
+            let next = rk4(&plant, &xl, &plant.at(&xl), Fused(dt));
+            for i in 0..7 {
+                out[i][l] = next[i].0;
+            }
+        }
+        out
+    }
+}
+
+/// One lane's plant with its inputs held.
+struct Plant {
+    k: PlanarCoefficients<Fused>,
+    u: [Fused; 2],
+}
+
+impl Field<Fused, 7> for Plant {
+    #[inline(always)]
+    fn at(&self, x: &[Fused; 7]) -> [Fused; 7] {
+        deriv(&self.k, x, self.u)
+    }
+}
+
+/// [`TrackingTally`] on every lane, one array per field, with each lane's sample counts.
+struct Metrics {
+    tally: [Lanes; 7],
+    samples: [u64; LANES],
+    settled: [u64; LANES],
+}
+
+impl Metrics {
+    #[inline(always)]
+    fn get(&self, l: usize) -> TrackingTally<Fused> {
+        let f = |i: usize| Fused(self.tally[i][l]);
+        TrackingTally {
+            sum_x: f(0),
+            sum_y: f(1),
+            sum_x_settled: f(2),
+            sum_y_settled: f(3),
+            sum_pitch: f(4),
+            max_path_error_settled: f(5),
+            peak_abs_torque: f(6),
+        }
+    }
+
+    #[inline(always)]
+    fn set(&mut self, l: usize, t: &TrackingTally<Fused>) {
+        let values = [t.sum_x, t.sum_y, t.sum_x_settled, t.sum_y_settled, t.sum_pitch, t.max_path_error_settled, t.peak_abs_torque];
+        for (i, v) in values.iter().enumerate() {
+            self.tally[i][l] = v.0;
+        }
+    }
+
+    /// Observes the lanes that are `live` at time `t` (settled when `settled`).
+    #[inline(always)]
+    fn observe(&mut self, live: &[bool; LANES], settled: bool, x: &[Lanes; 7], u: &[Lanes; 2], r: &PlanarRef<f64>, path: &impl Path<f64>) {
+        let r = lane_ref(r);
+        // The distances first, in f64 as a run's (the path's own code, with branches), so
+        // that the loop below vectorises.
+        let mut distances = [0.0; LANES];
+        if settled {
+            for l in 0..LANES {
+                distances[l] = path.distance(x[0][l], x[1][l]);
+            }
+        }
+        for l in 0..LANES {
+            let state = fill(|i| Fused(x[i][l]));
+            let mut tally = self.get(l);
+            let distance = || Fused(distances[l]);
+            tally.observe(live[l], settled, &state, [Fused(u[0][l]), Fused(u[1][l])], &r, distance);
+            self.set(l, &tally);
+            self.samples[l] += live[l] as u64;
+            self.settled[l] += (live[l] & settled) as u64;
+        }
+    }
+}
+
+fn only(l: usize) -> [bool; LANES] {
+    core::array::from_fn(|i| i == l)
+}
+
+type BlockResult = Result<Option<[PlanarSampleMetrics; LANES]>, TwipError>;
+
+/// The path a block follows: its reference and its distance to the curve.
+pub trait LanePath: Reference<f64, Sample = PlanarRef<f64>> + Path<f64> {}
+impl<P: Reference<f64, Sample = PlanarRef<f64>> + Path<f64>> LanePath for P {}
+
+multiversioned! {
+    /// Runs up to [`LANES`] samples with `controller`'s law along `path` ("_settled"
+    /// metrics from `settle` [s]; fewer samples fill the block with idle lanes).
+    /// `should_stop` is asked every `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it
+    /// said yes before the block was done.
+    pub fn run_planar_block, planar_avx512, planar_avx2, planar_baseline = planar_block<C: PlanarLaneLaw, P: LanePath>(
+        controller: C,
+        path: &P,
+        config: &SimConfig<f64>,
+        samples: &[PlanarSample],
+        settle: f64,
+        should_stop: &dyn Fn() -> bool,
+    ) -> BlockResult
+}
+
+#[inline(always)]
+fn planar_block<C: PlanarLaneLaw, P: LanePath>(
+    mut controller: C,
+    path: &P,
+    config: &SimConfig<f64>,
+    samples: &[PlanarSample],
+    settle: f64,
+    should_stop: &dyn Fn() -> bool,
+) -> BlockResult {
+    assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
+    let (n, per_update) = config.steps(controller.period())?;
+    let mut out = [PlanarSampleMetrics::INVALID; LANES];
+    // Invalid or missing samples run an idle copy of a valid robot and are never kept.
+    let mut active = [false; LANES];
+    let mut models = [None; LANES];
+    for (l, s) in samples.iter().enumerate() {
+        if s.x0.iter().all(|v| v.is_finite()) {
+            models[l] = PlanarModel::new(s.params).ok();
+            active[l] = models[l].is_some();
+        }
+    }
+    let Some(fallback) = models.iter().flatten().next().copied() else {
+        return Ok(Some(out));
+    };
+    let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| models[l].unwrap_or(fallback));
+    let plants = Plants::new(&models);
+    let mut x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 }));
+    let dt = config.dt;
+    let mut state = controller.start();
+    let mut u = [[0.0; LANES]; 2];
+    let mut alive = active;
+    // (fell, t_end, steps) of each lane that has ended.
+    let mut ended = [(false, 0.0f64, 0u64); LANES];
+    let mut metrics = Metrics { tally: [[0.0; LANES]; 7], samples: [0; LANES], settled: [0; LANES] };
+    for k in 0..n {
+        let t = dt * k as f64;
+        if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
+            return Ok(None);
+        }
+        let r = path.sample(t);
+        if k % per_update == 0 {
+            controller.update(&mut state, &x, &r, &mut u);
+            // A lane whose input is not finite has diverged: it ends as fallen, unobserved.
+            for l in 0..LANES {
+                if alive[l] && !(u[0][l].is_finite() && u[1][l].is_finite()) {
+                    alive[l] = false;
+                    ended[l] = (true, t, k as u64);
+                }
+            }
+        }
+        metrics.observe(&alive, t >= settle, &x, &u, &r, path);
+        let next = plants.rk4(&x, &u, dt);
+        // Lanes that go on take the new state; the few that end are handled below.
+        if let Some(ends) = advance(&mut x, &next, &alive, 3, config.fall_limit) {
+            let t_next = dt * (k + 1) as f64;
+            for l in (0..LANES).filter(|&l| ends[l]) {
+                alive[l] = false;
+                ended[l] = (true, t_next, (k + 1) as u64);
+                if finite_at(&next, l) {
+                    // Fell: the runner observes the state past the limit, then stops.
+                    for i in 0..7 {
+                        x[i][l] = next[i][l];
+                    }
+                    metrics.observe(&only(l), t_next >= settle, &x, &u, &path.sample(t_next), path);
+                }
+            }
+            if !alive.iter().any(|&a| a) {
+                break;
+            }
+        }
+    }
+    let t_end = dt * n as f64;
+    metrics.observe(&alive, t_end >= settle, &x, &u, &path.sample(t_end), path);
+    for l in 0..LANES {
+        if alive[l] {
+            ended[l] = (false, t_end, n as u64);
+        }
+        if !active[l] {
+            continue;
+        }
+        let tally = metrics.get(l);
+        let sums = TrackingTally {
+            sum_x: tally.sum_x.0,
+            sum_y: tally.sum_y.0,
+            sum_x_settled: tally.sum_x_settled.0,
+            sum_y_settled: tally.sum_y_settled.0,
+            sum_pitch: tally.sum_pitch.0,
+            max_path_error_settled: tally.max_path_error_settled.0,
+            peak_abs_torque: tally.peak_abs_torque.0,
+        };
+        let summary = sums.summary(metrics.samples[l] as usize, metrics.settled[l] as usize);
+        let peaks = DrivePeaks::from_wheel_torque(models[l].params(), summary.peak_abs_torque);
+        let (fell, t_end, steps) = ended[l];
+        out[l] = PlanarSampleMetrics::from_summary(&summary, peaks, fell, t_end, steps);
+    }
+    Ok(Some(out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::trajectory::{Circle, Direction};
+    use crate::hardware::motor::DcMotor;
+    use crate::model::params::RobotParams;
+    use crate::model::planar::PlanarState;
+
+    /// Every compiled copy of the kernel gives the same bits (the baseline one through
+    /// libm's fma), so a tracking sweep is the same on any x86-64 CPU.
+    #[test]
+    fn every_copy_gives_the_same_bits() {
+        let nominal = RobotParams::balanbot();
+        let law = PidLanes::new(&PidTracker::table_4_1(&nominal, DcMotor::gb37y3530(), 0.005).unwrap());
+        let circle = Circle::from_origin(0.6, 0.2, Direction::CounterClockwise).unwrap();
+        let config = SimConfig { dt: 1e-3, t_final: 3.0, fall_limit: 0.5 };
+        let samples: Vec<PlanarSample> = (0..LANES as u64)
+            .map(|i| {
+                let mut params = nominal;
+                params.com_height *= 0.6 + 0.05 * i as f64;
+                let mut x0 = PlanarState::zeros();
+                x0[3] = 0.04 * i as f64;
+                PlanarSample { index: i, params, x0 }
+            })
+            .collect();
+        let never = || false;
+        let base = format!("{:?}", planar_baseline(law.clone(), &circle, &config, &samples, 1.0, &never).unwrap());
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+                let got = unsafe { planar_avx2(law.clone(), &circle, &config, &samples, 1.0, &never) }.unwrap();
+                assert_eq!(format!("{got:?}"), base, "AVX2 copy");
+            }
+            if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma") {
+                let got = unsafe { planar_avx512(law.clone(), &circle, &config, &samples, 1.0, &never) }.unwrap();
+                assert_eq!(format!("{got:?}"), base, "AVX-512 copy");
+            }
+        }
+        assert!(base.contains("fell: true") && base.contains("fell: false"), "want both outcomes: {base}");
+    }
+}
