@@ -8,10 +8,21 @@ jit(vmap(lax.scan)) on the CPU (float64). Each peer gets the very same robots an
 gains and must reproduce twip's metrics (mean |pitch error|, mean |speed error|) to
 rel 1e-9. Printed: sample-steps per second and the ratios.
 
-Workload `fuzzy` (`--workload fuzzy|lqr|all`): the same robots under scenario flat-fuzzy-sim
-(fuzzy adaptive backstepping + PD, the thesis's flat gains and N/Z/P sets, controller every
+Workload `fuzzy` (`--workload fuzzy|lqr|circle-pid|all`): the same robots under scenario
+flat-fuzzy-sim (fuzzy adaptive backstepping + PD, the thesis's flat gains and N/Z/P sets, controller every
 1 ms, 180 deg/s), against a Numba-parallel peer written from the thesis's equations; the peer
 must reproduce twip's mean |pitch error| and mean |speed error| to rel 1e-9.
+
+Workload `circle-pid` (`--workload circle-pid`, default 256 samples): the same perturbations on
+the 3-DOF model (state x, y, psi, phi, phi_dot, v, omega; no friction) under scenario
+circle-pid (Table 4.1's PID tracker in the Arduino's units, its PWM through the DC motor model,
+controller every 5 ms, RK4 at 1 ms; three laps of the r = 0.6 m circle, 108 s = 108000 steps),
+against a Numba-parallel peer written from the equations. The peer must reproduce all seven of
+twip's tracking metrics (mean |x|, |y| errors, the same after the first lap, max path error
+after it, mean |pitch|, peak |torque|) to rel 1e-9. Against twip's general runner it agreed to
+4e-13 (worst of 2000 samples), all of it libm's sin and cos against twip's own polynomial
+(model/math.rs): with that polynomial the peer agreed bit for bit. twip now sweeps circle-pid on
+its planar lane kernel (fused multiply-adds), which agrees with the general runner to rounding.
 
 Run:  .venv/bin/pip install numba jax && .venv/bin/python benches/peers.py [--n 20000]
 (numba and jax are benchmark-only dependencies, not twip's.)
@@ -316,12 +327,187 @@ def fuzzy_workload(n, repeats):
     table(f"workload: flat-fuzzy-sim, RK4 dt={DT}, {T_FINAL} s = {STEPS} steps per sample", rows, repeats)
 
 
-def table(title, rows, repeats):
+# ---- Numba, 3-DOF model + PID tracker on a circle: one sample per iteration of a parallel loop ----
+CIRCLE_METRICS = ("mean_abs_x_error", "mean_abs_y_error", "mean_abs_x_error_settled", "mean_abs_y_error_settled",
+                  "max_path_error_settled", "mean_abs_pitch", "peak_abs_torque")
+
+
+def planar_coefficients(p):
+    """The 3-DOF model's constants per sample: M(phi) nu_dot + h(phi, nu) = B u, nu = (phi_dot, v, omega)."""
+    r, cz, b = p["wheel_radius"], p["com_height"], p["half_track"]
+    rotor = p["gear_ratio"] * p["gear_ratio"] * p["i_motor"]
+    wheel_line = p["m_wheels"] + (p["i_wheels"] + rotor) / (r * r)
+    mbc = p["m_body"] * cz
+    k = mbc * cz + p["i_body_roll"] - p["i_body_yaw"]
+    mu = p["mu_bearing"] + p["mu_ground"]
+    return np.stack([
+        mbc * cz + p["i_body"] + rotor,                                  # m_phiphi
+        p["m_body"] + wheel_line,                                        # m_vv
+        p["i_body_yaw"] + 2.0 * p["i_wheel_diam"] + b * b * wheel_line,  # m_omegaomega at phi = 0
+        k,                                                               # m_omegaomega's sin^2 phi term
+        mbc,
+        rotor / r,                                                       # rotor's share of m_phiv
+        mbc * p["g"],
+        p["mu_bearing"],
+        p["mu_bearing"] / r,
+        mu / (r * r),                                                    # on v
+        b * b * mu / (r * r),                                            # on omega
+        1.0 / r,
+        b / r,
+    ])
+
+
+def numba_circle_pid_factory():
+    import numba
+
+    @numba.njit(inline="always")
+    def deriv(cf, x, u_r, u_l):
+        """d/dt [x, y, psi, phi, phi_dot, v, omega] under the wheel torques u_r, u_l."""
+        m_pp, m_vv, m_ww0, k, mbc, rotor_r, mgc, mu_s, mu_s_r, mu_v, mu_w, inv_r, b_r = cf
+        _x, _y, psi, phi, phid, v, omega = x
+        s, cp = math.sin(phi), math.cos(phi)
+        sc, w2, u_sum = s * cp, omega * omega, u_r + u_l
+        # f = B u - h on (phi_dot, v, omega)
+        f_p = mgc * s + k * sc * w2 - mu_s * phid + mu_s_r * v - u_sum
+        f_v = mbc * s * (phid * phid + w2) - mu_v * v + mu_s_r * phid + inv_r * u_sum
+        f_w = b_r * (u_r - u_l) - (2.0 * k * sc * phid + mbc * s * v + mu_w) * omega
+        # M's (phi, v) block by Cramer's rule; its yaw row is diagonal
+        m_pv = mbc * cp - rotor_r
+        det = m_pp * m_vv - m_pv * m_pv
+        phi_dd = (m_vv * f_p - m_pv * f_v) / det
+        v_dot = (m_pp * f_v - m_pv * f_p) / det
+        omega_dot = f_w / (m_ww0 + k * s * s)
+        return v * math.cos(psi), v * math.sin(psi), omega, phid, phi_dd, v_dot, omega_dot
+
+    @numba.njit(inline="always")
+    def plus(x, d, h):
+        """x + d h for 7-tuples."""
+        return (x[0] + d[0] * h, x[1] + d[1] * h, x[2] + d[2] * h, x[3] + d[3] * h, x[4] + d[4] * h,
+                x[5] + d[5] * h, x[6] + d[6] * h)
+
+    @numba.njit(inline="always")
+    def rk4(cf, x, u_r, u_l, dt):
+        k1 = deriv(cf, x, u_r, u_l)
+        k2 = deriv(cf, plus(x, k1, dt * 0.5), u_r, u_l)
+        k3 = deriv(cf, plus(x, k2, dt * 0.5), u_r, u_l)
+        k4 = deriv(cf, plus(x, k3, dt), u_r, u_l)
+        slope = plus(plus(k1, k4, 1.0), plus(k2, k3, 1.0), 2.0)  # k1 + k4 + 2 (k2 + k3)
+        return plus(x, slope, dt / 6.0)
+
+    @numba.njit(inline="always")
+    def circle_at(circle, t):
+        """The counter-clockwise circle's point, heading and turn rate at t."""
+        cx, cy, radius, speed, phase = circle
+        rate = speed / radius
+        angle = phase + rate * t
+        return cx + radius * math.cos(angle), cy + radius * math.sin(angle), angle + math.pi / 2, rate
+
+    @numba.njit(inline="always")
+    def wrap(angle):
+        """angle mod 2 pi in [-pi, pi)."""
+        return angle - 2.0 * math.pi * math.floor((angle + math.pi) / (2.0 * math.pi))
+
+    @numba.njit(inline="always")
+    def wheel_torque(motor, pwm, speed):
+        """The DC motor's torque at the wheel for a (saturated) PWM count at relative wheel speed `speed`."""
+        resistance, k_t, gear, supply, pwm_max = motor
+        volts = pwm * supply / pwm_max
+        return gear * k_t * ((volts - k_t * gear * speed) / resistance)
+
+    @numba.njit(parallel=True, fastmath=False)
+    def run(c, gains, units, geometry, motor, circle, steps, per_update, dt, settle):
+        kp_phi, kd_phi, kp_v, ki_v, kp_psi, ki_psi, kd_psi = gains
+        u_pitch, u_speed, u_heading = units
+        radius_c, half_track_c = geometry
+        cx, cy, radius, speed, _phase = circle
+        pwm_max = motor[4]
+        n = c.shape[1]
+        out = np.empty((7, n))
+        for i in numba.prange(n):
+            cf = (c[0, i], c[1, i], c[2, i], c[3, i], c[4, i], c[5, i], c[6, i], c[7, i], c[8, i], c[9, i],
+                  c[10, i], c[11, i], c[12, i])
+            x = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+            int_v = int_psi = tau_r = tau_l = 0.0
+            sum_x = sum_y = sum_xs = sum_ys = sum_pitch = path_max = peak = 0.0
+            settled = 0
+            for step in range(steps + 1):  # the metrics also count the state after the last step
+                t = dt * step
+                xr, yr, psi_r, omega_r = circle_at(circle, t)
+                if step < steps and step % per_update == 0:
+                    # the tracker (4.67-4.70) on the true state, its torques held for per_update steps
+                    _x, _y, psi, phi, phid, v, omega = x
+                    u_phi = kp_phi * u_pitch * phi + kd_phi * u_pitch * phid
+                    e_v = u_speed * (speed - v)
+                    u_v = kp_v * e_v + ki_v * int_v
+                    e_psi = u_heading * wrap(psi_r - psi)
+                    u_psi = kp_psi * e_psi + ki_psi * int_psi + kd_psi * u_heading * (omega_r - omega)
+                    pwm_r = min(max(u_phi + u_v + u_psi, -pwm_max), pwm_max)
+                    pwm_l = min(max(u_phi + u_v - u_psi, -pwm_max), pwm_max)
+                    int_v += e_v  # the Arduino's running sums
+                    int_psi += e_psi
+                    # the motors see each wheel's speed relative to the body
+                    tau_r = wheel_torque(motor, pwm_r, (v + half_track_c * omega) / radius_c - phid)
+                    tau_l = wheel_torque(motor, pwm_l, (v - half_track_c * omega) / radius_c - phid)
+                ex, ey = abs(x[0] - xr), abs(x[1] - yr)
+                sum_x += ex
+                sum_y += ey
+                sum_pitch += abs(x[3])
+                if t >= settle:
+                    sum_xs += ex
+                    sum_ys += ey
+                    path_max = max(path_max, abs(math.sqrt((x[0] - cx) ** 2 + (x[1] - cy) ** 2) - radius))
+                    settled += 1
+                peak = max(peak, abs(tau_r), abs(tau_l))
+                if step < steps:
+                    x = rk4(cf, x, tau_r, tau_l, dt)
+            out[0, i], out[1, i] = sum_x / (steps + 1), sum_y / (steps + 1)
+            out[2, i], out[3, i] = sum_xs / settled, sum_ys / settled
+            out[4, i], out[5, i], out[6, i] = path_max, sum_pitch / (steps + 1), peak
+        return out
+
+    return run
+
+
+def circle_pid_workload(n, repeats):
+    """twip's circle-pid sweep (3-DOF model, PID tracker, 3 laps) against the Numba peer; prints the table."""
+    sc = twip.scenarios.get("circle-pid")
+    ctrl, circle, motor = sc.controller, sc.reference.to_dict(), sc.controller.motor.to_dict()
+    assert not np.any(sc.x0) and sc.model.friction is None and circle["direction"] == 1
+    assert ctrl.units["integral_step"] == 1.0
+    steps, per_update = round(sc.t_final / sc.dt), round(ctrl.period / sc.dt)
+    kw = dict(perturb=PERTURB, seed=1, progress=False)
+    result = twip.montecarlo("circle-pid", n, **kw)
+    assert not result.metrics["fell"].any() and result.steps == n * steps
+    t_twip, _ = median_time(lambda: twip.montecarlo("circle-pid", n, **kw), repeats)
+    robots = [result.sample(i) for i in range(n)]
+    p = {f: np.array([r[0].to_dict()[f] for r in robots]) for f in twip.RobotParams.fields}
+    c = np.ascontiguousarray(planar_coefficients(p))
+    g, u = ctrl.gains, ctrl.units
+    gains = tuple(g[k] for k in ("kp_pitch", "kd_pitch", "kp_speed", "ki_speed", "kp_yaw", "ki_yaw", "kd_yaw"))
+    units = (u["pitch"], u["speed"], u["heading"])
+    nominal = sc.model.params.to_dict()  # the tracker's robot: it turns wheel speeds with the nominal geometry
+    geometry = (nominal["wheel_radius"], nominal["half_track"])
+    motor = tuple(motor[k] for k in ("resistance", "k_t", "gear_ratio", "supply", "pwm_max"))
+    circle = (*circle["centre"], circle["radius"], circle["speed"], circle["phase"])
+    rest = (gains, units, geometry, motor, circle)
+    rows = [(f"twip (Rust, {result.kernel}, all cores)", n, t_twip, "reference")]
+    try:
+        run = numba_circle_pid_factory()
+        run(c[:, :2].copy(), *rest, 10, per_update, sc.dt, sc.reference.period)  # compile
+        t, got = median_time(lambda: run(c, *rest, steps, per_update, sc.dt, sc.reference.period), repeats)
+        note = check("numba circle-pid", got, result, slice(None), CIRCLE_METRICS)
+        rows.append(("Numba @njit(parallel=True)", n, t, note))
+    except ImportError:
+        rows.append(("Numba", 0, float("nan"), "not installed"))
+    table(f"workload: circle-pid, RK4 dt={sc.dt}, {sc.t_final:g} s = {steps} steps per sample", rows, repeats, steps)
+
+
+def table(title, rows, repeats, steps=STEPS):
     print(f"{title}, {os.cpu_count()} cores, median of {repeats} runs each\n")
     print(f"{'implementation':34s} {'samples':>8s} {'seconds':>9s} {'M sample-steps/s':>17s} {'twip is':>9s}  metrics")
-    twip_rate = rows[0][1] * STEPS / rows[0][2]
+    twip_rate = rows[0][1] * steps / rows[0][2]
     for name, n, t, note in rows:
-        rate = n * STEPS / t if n else float("nan")
+        rate = n * steps / t if n else float("nan")
         ratio = twip_rate / rate if n else float("nan")
         print(f"{name:34s} {n:8d} {t:9.2f} {rate / 1e6:17.2f} {ratio:8.1f}x  {note}")
     print()
@@ -337,8 +523,8 @@ def median_time(run, repeats):
     return sorted(times)[len(times) // 2], value
 
 
-def check(name, got, result, sel):
-    for value, metric in zip(got, ("mean_abs_pitch_error", "mean_abs_speed_error")):
+def check(name, got, result, sel, metrics=("mean_abs_pitch_error", "mean_abs_speed_error")):
+    for value, metric in zip(got, metrics, strict=True):
         ref = result.metrics[metric][sel]
         err = np.max(np.abs(value - ref) / np.abs(ref))
         assert err < 1e-9, f"{name} disagrees with twip on {metric}: rel {err:.2e}"
@@ -347,15 +533,19 @@ def check(name, got, result, sel):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--n", type=int, default=20_000, help="samples for twip and Numba")
+    ap.add_argument("--n", type=int, default=None,
+                    help="samples for twip and Numba (default 20000; circle-pid 256, a sample being 108000 steps)")
     ap.add_argument("--n-slow", type=int, default=1_000, help="samples for NumPy and JAX")
     ap.add_argument("--repeats", type=int, default=3, help="runs of each; the median time counts")
-    ap.add_argument("--workload", choices=["lqr", "fuzzy", "all"], default="all")
+    ap.add_argument("--workload", choices=["lqr", "fuzzy", "circle-pid", "all"], default="all")
     args = ap.parse_args()
     if args.workload in ("fuzzy", "all"):
-        fuzzy_workload(args.n, args.repeats)
-    if args.workload == "fuzzy":
+        fuzzy_workload(args.n or 20_000, args.repeats)
+    if args.workload in ("circle-pid", "all"):
+        circle_pid_workload(args.n or 256, args.repeats)
+    if args.workload not in ("lqr", "all"):
         return
+    args.n = args.n or 20_000
     print(f"workload: flat-lqr-sim, RK4 dt={DT}, {T_FINAL} s = {STEPS} steps per sample, {os.cpu_count()} cores\n")
     result, _, p, plant_phi_s, shared = problem(args.n)
     t_twip, _ = median_time(lambda: twip.montecarlo("flat-lqr-sim", args.n, perturb=PERTURB, seed=1, progress=False,
