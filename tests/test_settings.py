@@ -112,7 +112,7 @@ def test_kernel_and_fall_limit_come_from_the_core():
     general = twip.scenarios.get("flat-fuzzy-sim", sets=gaussian, t_final=0.2)
     assert twip.sweep.kernel_for(general) == "general"
     assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid")) == "planar-lanes"
-    assert twip.sweep.kernel_for(twip.scenarios.get("circle-smc-fuzzy")) == "planar"
+    assert twip.sweep.kernel_for(twip.scenarios.get("circle-smc-fuzzy")) == "planar-lanes"
     assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid"), twip.Realism.thesis_like()) == "planar-realism"
     with pytest.raises(TypeError):
         _core.sweep_kernel(object())

@@ -26,10 +26,11 @@
 use nalgebra::SVector;
 
 use crate::control::Controller;
-use crate::control::fuzzy_basis::{GridBasis, Membership, ThesisBasis};
+use crate::control::fuzzy_basis::{grid, GridBasis, Member, Membership, ThesisBasis};
 use crate::hardware::motor::DcMotor;
 use crate::control::pid::relative_wheel_speeds;
-use crate::model::planar::PlanarModel;
+use crate::model::lane::Lane;
+use crate::model::planar::{PlanarCoefficients, PlanarModel};
 use crate::control::trajectory::{wrap_angle, PlanarRef};
 use crate::{c, Dynamics, Real, TwipError};
 
@@ -190,30 +191,20 @@ pub fn yaw_basis<T: Real>() -> YawBasis<T> {
 }
 
 /// ρ_δ(x) = 1/x for |x| ≥ δ, x/δ² inside, and its slope.
-#[inline]
-fn guarded_inverse<T: Real>(x: T, width: T) -> (T, T) {
-    if x.abs() >= width {
-        (T::one() / x, -T::one() / (x * x))
-    } else {
-        let w2 = width * width;
-        (x / w2, T::one() / w2)
-    }
+#[inline(always)]
+fn guarded_inverse<S: Lane>(x: S, width: S) -> (S, S) {
+    let one = S::splat(1.0);
+    let w2 = width * width;
+    let outside = width.le(x.magnitude());
+    (S::select(outside, one / x, x / w2), S::select(outside, -one / (x * x), one / w2))
 }
 
-/// sgn(s) when `width` is 0, else sat(s/width).
-#[inline]
-fn switch<T: Real>(s: T, width: T) -> T {
-    if width == T::zero() {
-        if s > T::zero() {
-            T::one()
-        } else if s < T::zero() {
-            -T::one()
-        } else {
-            T::zero()
-        }
-    } else {
-        (s / width).max(-T::one()).min(T::one())
-    }
+/// σ(s): sgn s when `width` is 0, else sat(s / width).
+#[inline(always)]
+fn switch<S: Lane>(s: S, width: S) -> S {
+    let (one, zero) = (S::splat(1.0), S::splat(0.0));
+    let sign = S::select(s.gt(zero), one, S::select(s.lt(zero), -one, zero));
+    S::select(width.eq(zero), sign, (s / width).larger(-one).smaller(one))
 }
 
 fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
@@ -323,6 +314,12 @@ impl<T: Real> SmcTracker<T> {
         self.adaptation
     }
 
+    /// The yaw basis (φ, ω) and the pitch basis (φ, φ̇) of the fuzzy estimates.
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn bases(&self) -> (&YawBasis<T>, &ThesisBasis<T>) {
+        (&self.basis1, &self.basis2)
+    }
+
     /// The fuzzy weights (Ĉ1, Ĉ2) as of the last update.
     pub fn weights(&self) -> ([T; 9], [T; 9]) {
         (self.c1, self.c2)
@@ -339,13 +336,40 @@ impl<T: Real> SmcTracker<T> {
     /// (g21, g22, g23) of (4.72) for the controller's model at pitch `phi`: per N m of C_ψ on
     /// (φ̈, v̇), per N m of C_y on ω̇.
     pub fn input_gains(&self, phi: T) -> (T, T, T) {
-        let m = self.model.mass_matrix(phi);
+        input_gains(&self.model.coefficients(), phi)
+    }
+
+    /// The law's parameters in the number type `f` maps to, with the fuzzy sets `sets` (the
+    /// yaw basis's and the pitch basis's) in the form that type evaluates.
+    pub(crate) fn law<'a, S: Copy, M>(&self, f: impl Fn(T) -> S + Copy, sets: [&'a [[M; 3]; 2]; 2]) -> SmcLaw<'a, S, M> {
+        let g = self.gains;
         let p = self.model.params();
-        let inv_r = T::one() / p.wheel_radius;
-        let det = m[(0, 0)] * m[(1, 1)] - m[(0, 1)] * m[(0, 1)];
-        let g21 = (-m[(1, 1)] - m[(0, 1)] * inv_r) / det;
-        let g22 = (m[(0, 1)] + m[(0, 0)] * inv_r) / det;
-        (g21, g22, p.half_track * inv_r / m[(2, 2)])
+        SmcLaw {
+            gains: SmcGains {
+                k1: f(g.k1),
+                k2: f(g.k2),
+                k3: f(g.k3),
+                k_phi: f(g.k_phi),
+                r1: f(g.r1),
+                r2: f(g.r2),
+                k_s3: f(g.k_s3),
+                k_s4: f(g.k_s4),
+                g_y4: f(g.g_y4),
+                k_eta3: f(g.k_eta3),
+                k_eta4: f(g.k_eta4),
+                g_y3: f(g.g_y3),
+            },
+            r1: f(self.r1()),
+            widths: [f(self.options.width_eta), f(self.options.width_s1)],
+            guards: [f(self.options.guard_e3), f(self.options.guard_d)],
+            model: self.model.coefficients().map(f),
+            radius: f(p.wheel_radius),
+            half_track: f(p.half_track),
+            motor: self.motor.map(|m| m.map(f)),
+            adaptation: self.adaptation.map(|a| Adaptation { gamma1: f(a.gamma1), gamma2: f(a.gamma2), leakage: f(a.leakage) }),
+            sets,
+            period: f(self.period),
+        }
     }
 
     /// r1 g21 + r2 g22 at pitch `phi`, r1 on the controller's pitch: (4.113) needs it < 0.
@@ -380,7 +404,8 @@ impl<T: Real> SmcTracker<T> {
         phi
     }
 
-    fn cached_steady_pitch(&mut self, v: T, omega: T) -> T {
+    /// φ_s at (v, ω) as the update uses it: 0 without the pitch offset, else cached.
+    pub(crate) fn cached_steady_pitch(&mut self, v: T, omega: T) -> T {
         if !self.options.pitch_offset {
             return T::zero();
         }
@@ -410,85 +435,17 @@ impl<T: Real> Controller<T, 7, 2> for SmcTracker<T> {
     }
 
     fn update(&mut self, _t: T, y: &SVector<T, 7>, r: &PlanarRef<T>) -> SVector<T, 2> {
-        let SmcGains { k1, k2, k3, k_phi, r2, .. } = self.gains;
-        let (psi, phi, phi_dot, v, omega) = (y[2], y[3], y[4], y[5], y[6]);
-        // Kinematic errors in the robot's frame (4.75) and their rates (4.76).
-        let (sin_psi, cos_psi) = crate::model::math::sin_cos(psi);
-        let (dx, dy) = (r.x - y[0], r.y - y[1]);
-        let e1 = cos_psi * dx + sin_psi * dy;
-        let e2 = cos_psi * dy - sin_psi * dx;
-        let e3 = wrap_angle(r.psi - psi);
-        let (s3, c3) = crate::model::math::sin_cos(e3);
-        let e1_dot = omega * e2 - v + r.v * c3;
-        let e2_dot = r.v * s3 - omega * e1;
-        let e3_dot = r.omega - omega;
-        // Virtual controls (4.74), (4.81), (4.82) and their exact rates.
         let phi_s = self.cached_steady_pitch(r.v, r.omega);
-        let lambda1 = -k_phi * (phi - phi_s);
-        let lambda1_dot = -k_phi * phi_dot;
-        let lambda2 = r.v * c3 + k1 * e1;
-        let lambda2_dot = r.v_dot * c3 - r.v * s3 * e3_dot + k1 * e1_dot;
-        let e3_bar = e3 + k3 * e2;
-        let e3_bar_dot = e3_dot + k3 * e2_dot;
-        let (q, q_slope) = guarded_inverse(e3_bar, self.options.guard_e3);
-        let cross = e2 * r.v * s3;
-        let cross_dot = e2_dot * r.v * s3 + e2 * r.v_dot * s3 + e2 * r.v * c3 * e3_dot;
-        let n = k2 * e3_bar + cross * q + k3 * r.v * s3 + r.omega;
-        let n_dot = k2 * e3_bar_dot
-            + cross_dot * q
-            + cross * q_slope * e3_bar_dot
-            + k3 * (r.v_dot * s3 + r.v * c3 * e3_dot)
-            + r.omega_dot;
-        let (inv_d, inv_d_slope) = guarded_inverse(T::one() + k3 * e1, self.options.guard_d);
-        let lambda3 = n * inv_d;
-        let lambda3_dot = n_dot * inv_d + n * inv_d_slope * k3 * e1_dot;
-        // Surfaces (4.85), (4.92), (4.94) and the model's input gains (4.72).
-        let r1 = self.r1();
-        let s_eta = omega - lambda3;
-        let s1 = r1 * (phi_dot - lambda1) + r2 * (v - lambda2);
-        let (g21, g22, g23) = self.input_gains(phi);
-        let d = r1 * g21 + r2 * g22;
-        // What the equivalent control needs: from the model, or the fuzzy estimates.
-        let (xi1, xi2) = match self.adaptation {
-            Some(_) => (self.basis1.eval(&[phi, omega]), self.basis2.eval(&[phi, phi_dot])),
-            None => ([T::zero(); 9], [T::zero(); 9]),
-        };
-        let (f1_hat, f2_hat) = match self.adaptation {
-            Some(_) => (dot9(&self.c1, &xi1), dot9(&self.c2, &xi2)),
-            None => {
-                let f = self.model.deriv(y, &SVector::zeros());
-                (f[6], (r1 * f[4] + r2 * f[5] - r1 * lambda1_dot - r2 * lambda2_dot) / d)
-            }
-        };
-        let g = &self.gains;
-        let c_y = (lambda3_dot - f1_hat - (g.g_y3 - g.k_eta3) * switch(s_eta, self.options.width_eta)
-            + g.k_eta4 * s_eta)
-            / g23;
-        let c_psi = -f2_hat - (g.k_s3 - g.g_y4) * switch(s1, self.options.width_s1) - g.k_s4 * s1;
-        let half = c::<T>(0.5);
-        let mut u = SVector::<T, 2>::new(half * c_psi + half * c_y, half * c_psi - half * c_y);
-        if let Some(m) = &self.motor {
-            let p = self.model.params();
-            let speeds = relative_wheel_speeds(&(*y).into(), p.wheel_radius, p.half_track);
-            for (ui, w) in u.iter_mut().zip(speeds) {
-                let (lo, hi) = m.torque_limits(w);
-                *ui = ui.max(lo).min(hi);
-            }
-        }
-        let head = [s_eta, s1, lambda1, lambda2, lambda3, lambda3_dot, e1, e2, e3, c_psi, c_y, f1_hat, f2_hat, d, phi_s];
-        self.internals[..15].copy_from_slice(&head);
+        let law = self.law(|v| v, [self.basis1.prepared(), self.basis2.prepared()]);
+        // Without adaptation the equivalent control takes the model's own derivative
+        // (with its gearhead friction, if it has some).
+        let model = &self.model;
+        let step = law.step(&(*y).into(), r, phi_s, &self.c1, &self.c2, || model.deriv(y, &SVector::zeros()).into());
+        self.internals[..15].copy_from_slice(&step.head);
         self.internals[15..24].copy_from_slice(&self.c1);
         self.internals[24..].copy_from_slice(&self.c2);
-        if let Some(a) = self.adaptation {
-            // (4.107), (4.116) by forward Euler over one period.
-            let (k_1, k_2) = (self.period * s_eta / a.gamma1, self.period * s1 * d / a.gamma2);
-            let decay = T::one() - self.period * a.leakage;
-            for j in 0..9 {
-                self.c1[j] = self.c1[j] * decay + k_1 * xi1[j];
-                self.c2[j] = self.c2[j] * decay + k_2 * xi2[j];
-            }
-        }
-        u
+        (self.c1, self.c2) = (step.c1, step.c2);
+        SVector::<T, 2>::from(step.u)
     }
 
     fn internals(&self) -> &[T] {
@@ -500,9 +457,138 @@ impl<T: Real> Controller<T, 7, 2> for SmcTracker<T> {
     }
 }
 
-#[inline]
-fn dot9<T: Real>(a: &[T; 9], b: &[T; 9]) -> T {
-    a.iter().zip(b).fold(T::zero(), |s, (x, y)| s + *x * *y)
+#[inline(always)]
+fn dot9<S: Lane>(a: &[S; 9], b: &[S; 9]) -> S {
+    a.iter().zip(b).fold(S::splat(0.0), |s, (x, y)| s + *x * *y)
+}
+
+/// (g21, g22, g23) of (4.72) for a model's coefficients at pitch `phi`.
+#[inline(always)]
+pub(crate) fn input_gains<S: Lane>(k: &PlanarCoefficients<S>, phi: S) -> (S, S, S) {
+    let (s, cp) = S::sincos(phi);
+    let m_pv = S::madd(k.mbc, cp, -k.rotor_r);
+    let det = S::madd(-m_pv, m_pv, k.m_pp_vv);
+    let g21 = (-k.m_vv - m_pv * k.inv_r) / det;
+    let g22 = S::madd(k.m_pp, k.inv_r, m_pv) / det;
+    (g21, g22, k.b_r / S::madd(k.k * s, s, k.m_ww0))
+}
+
+/// The tracker's parameters in the number type of a run or of a sweep's lanes, its fuzzy
+/// sets as `M` (a run's prepared sets, a sweep's trapezoids).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SmcLaw<'a, S, M> {
+    pub gains: SmcGains<S>,
+    /// r1 as it acts on twip's pitch.
+    pub r1: S,
+    /// The boundary layers of σ(S_η) and σ(S1).
+    pub widths: [S; 2],
+    /// δ of ρ for ē3 and for 1 + k3 e1.
+    pub guards: [S; 2],
+    pub model: PlanarCoefficients<S>,
+    pub radius: S,
+    pub half_track: S,
+    pub motor: Option<DcMotor<S>>,
+    pub adaptation: Option<Adaptation<S>>,
+    /// The yaw basis's sets (φ, ω) and the pitch basis's (φ, φ̇).
+    pub sets: [&'a [[M; 3]; 2]; 2],
+    pub period: S,
+}
+
+/// What one update gives: the wheels' torques, the first 15 internals
+/// ([`SMC_INTERNALS`]) and the fuzzy weights after it.
+pub(crate) struct SmcStep<S> {
+    pub u: [S; 2],
+    pub head: [S; 15],
+    pub c1: [S; 9],
+    pub c2: [S; 9],
+}
+
+impl<S: Lane, M: Member<S>> SmcLaw<'_, S, M> {
+    /// (4.73)–(4.121) at measurement `y`, reference `r` and steady pitch `phi_s`, with the
+    /// weights (Ĉ1, Ĉ2) before the update; `free` is the model's derivative at `y` without
+    /// input (asked only without adaptation). Written once: a run's update and a sweep's lanes.
+    #[inline(always)]
+    pub(crate) fn step(&self, y: &[S; 7], r: &PlanarRef<S>, phi_s: S, c1: &[S; 9], c2: &[S; 9], free: impl FnOnce() -> [S; 7]) -> SmcStep<S> {
+        let SmcGains { k1, k2, k3, k_phi, r2, .. } = self.gains;
+        let (psi, phi, phi_dot, v, omega) = (y[2], y[3], y[4], y[5], y[6]);
+        let one = S::splat(1.0);
+        // Kinematic errors in the robot's frame (4.75) and their rates (4.76).
+        let (sin_psi, cos_psi) = S::sincos(psi);
+        let (dx, dy) = (r.x - y[0], r.y - y[1]);
+        let e1 = cos_psi * dx + sin_psi * dy;
+        let e2 = cos_psi * dy - sin_psi * dx;
+        let e3 = wrap_angle(r.psi - psi);
+        let (s3, c3) = S::sincos(e3);
+        let e1_dot = omega * e2 - v + r.v * c3;
+        let e2_dot = r.v * s3 - omega * e1;
+        let e3_dot = r.omega - omega;
+        // Virtual controls (4.74), (4.81), (4.82) and their exact rates.
+        let lambda1 = -k_phi * (phi - phi_s);
+        let lambda1_dot = -k_phi * phi_dot;
+        let lambda2 = r.v * c3 + k1 * e1;
+        let lambda2_dot = r.v_dot * c3 - r.v * s3 * e3_dot + k1 * e1_dot;
+        let e3_bar = e3 + k3 * e2;
+        let e3_bar_dot = e3_dot + k3 * e2_dot;
+        let (q, q_slope) = guarded_inverse(e3_bar, self.guards[0]);
+        let cross = e2 * r.v * s3;
+        let cross_dot = e2_dot * r.v * s3 + e2 * r.v_dot * s3 + e2 * r.v * c3 * e3_dot;
+        let n = k2 * e3_bar + cross * q + k3 * r.v * s3 + r.omega;
+        let n_dot = k2 * e3_bar_dot
+            + cross_dot * q
+            + cross * q_slope * e3_bar_dot
+            + k3 * (r.v_dot * s3 + r.v * c3 * e3_dot)
+            + r.omega_dot;
+        let (inv_d, inv_d_slope) = guarded_inverse(one + k3 * e1, self.guards[1]);
+        let lambda3 = n * inv_d;
+        let lambda3_dot = n_dot * inv_d + n * inv_d_slope * k3 * e1_dot;
+        // Surfaces (4.85), (4.92), (4.94) and the model's input gains (4.72).
+        let r1 = self.r1;
+        let s_eta = omega - lambda3;
+        let s1 = r1 * (phi_dot - lambda1) + r2 * (v - lambda2);
+        let (g21, g22, g23) = input_gains(&self.model, phi);
+        let d = r1 * g21 + r2 * g22;
+        // What the equivalent control needs: the fuzzy estimates, or from the model.
+        let zero = [S::splat(0.0); 9];
+        let (xi1, xi2, f1_hat, f2_hat) = match self.adaptation {
+            Some(_) => {
+                let xi1: [S; 9] = grid(self.sets[0], &[phi, omega]);
+                let xi2: [S; 9] = grid(self.sets[1], &[phi, phi_dot]);
+                (xi1, xi2, dot9(c1, &xi1), dot9(c2, &xi2))
+            }
+            None => {
+                let f = free();
+                (zero, zero, f[6], (r1 * f[4] + r2 * f[5] - r1 * lambda1_dot - r2 * lambda2_dot) / d)
+            }
+        };
+        let g = &self.gains;
+        let c_y = (lambda3_dot - f1_hat - (g.g_y3 - g.k_eta3) * switch(s_eta, self.widths[0]) + g.k_eta4 * s_eta) / g23;
+        let c_psi = -f2_hat - (g.k_s3 - g.g_y4) * switch(s1, self.widths[1]) - g.k_s4 * s1;
+        let half = S::splat(0.5);
+        let mut u = [half * c_psi + half * c_y, half * c_psi - half * c_y];
+        if let Some(m) = &self.motor {
+            let speeds = relative_wheel_speeds(y, self.radius, self.half_track);
+            for (ui, w) in u.iter_mut().zip(speeds) {
+                let (lo, hi) = m.torque_limits(w);
+                *ui = ui.larger(lo).smaller(hi);
+            }
+        }
+        let (mut c1_next, mut c2_next) = (*c1, *c2);
+        if let Some(a) = self.adaptation {
+            // (4.107), (4.116) by forward Euler over one period.
+            let (k_1, k_2) = (self.period * s_eta / a.gamma1, self.period * s1 * d / a.gamma2);
+            let decay = one - self.period * a.leakage;
+            for j in 0..9 {
+                c1_next[j] = c1[j] * decay + k_1 * xi1[j];
+                c2_next[j] = c2[j] * decay + k_2 * xi2[j];
+            }
+        }
+        SmcStep {
+            u,
+            head: [s_eta, s1, lambda1, lambda2, lambda3, lambda3_dot, e1, e2, e3, c_psi, c_y, f1_hat, f2_hat, d, phi_s],
+            c1: c1_next,
+            c2: c2_next,
+        }
+    }
 }
 
 #[cfg(test)]

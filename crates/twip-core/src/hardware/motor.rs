@@ -143,11 +143,6 @@ impl<T: Real> DcMotor<T> {
         torque * self.resistance / (self.gear_ratio * self.k_t) + self.k_t * self.gear_ratio * relative_speed
     }
 
-    /// The torques full reverse and full forward give at `relative_speed`.
-    #[inline]
-    pub fn torque_limits(&self, relative_speed: T) -> (T, T) {
-        (self.torque(-self.supply, relative_speed), self.torque(self.supply, relative_speed))
-    }
 
     /// Stall torque per PWM count [N m]: the unit of the Arduino's controller outputs.
     pub fn torque_per_count(&self) -> T {
@@ -190,6 +185,12 @@ impl<S: Lane> DcMotor<S> {
     #[inline(always)]
     pub fn torque_from_pwm(&self, pwm: S, relative_speed: S) -> S {
         self.torque(self.pwm_voltage(pwm), relative_speed)
+    }
+
+    /// The torques full reverse and full forward give at `relative_speed`.
+    #[inline(always)]
+    pub fn torque_limits(&self, relative_speed: S) -> (S, S) {
+        (self.torque(-self.supply, relative_speed), self.torque(self.supply, relative_speed))
     }
 }
 

@@ -95,6 +95,11 @@ impl<T: Copy> PlanarCoefficients<T> {
         ]
     }
 
+    /// Every coefficient through `f` (onto a sweep's lanes, say).
+    pub(crate) fn map<S: Copy>(self, f: impl Fn(T) -> S) -> PlanarCoefficients<S> {
+        PlanarCoefficients::from_array(self.to_array().map(f))
+    }
+
     /// The coefficients from [`Self::to_array`]'s order.
     #[inline(always)]
     pub(crate) fn from_array(a: [T; PLANAR_COEFFICIENTS]) -> Self {

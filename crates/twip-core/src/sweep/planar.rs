@@ -190,7 +190,7 @@ mod tests {
     use crate::control::pid::PidTracker;
     use crate::sim::runner::simulate;
     use crate::control::trajectory::{Circle, Direction};
-    use crate::sweep::block::PidLanes;
+    use crate::sweep::block::{PidLanes, SmcLanes};
 
     fn setup() -> (PidTracker<f64>, Circle<f64>, SimConfig<f64>, PlanarNominal) {
         let params = RobotParams::balanbot();
@@ -307,20 +307,33 @@ mod tests {
         assert_ne!(got.max_path_error_settled, ideal.max_path_error_settled);
     }
 
+    /// The thesis's sliding-mode tracker, with or without its fuzzy adaptation.
+    fn smc(fuzzy: bool) -> crate::control::smc::SmcTracker<f64> {
+        use crate::control::smc::{Adaptation, SmcGains, SmcOptions, SmcTracker};
+        let model = PlanarModel::new(RobotParams::balanbot()).unwrap();
+        let unit = DcMotor::<f64>::gb37y3530().torque_per_count();
+        let adaptation = if fuzzy { Some(Adaptation::default()) } else { None };
+        SmcTracker::new(SmcGains::thesis(unit), SmcOptions::default(), model, Some(DcMotor::gb37y3530()), adaptation, 0.005)
+            .unwrap()
+    }
+
     /// A lane agrees with the scalar runner of its robot to rounding over 10 s (the lanes'
-    /// multiply-adds are fused), and the sweep's lane path keeps every outcome and count.
-    #[test]
-    fn a_lane_agrees_with_the_runner_to_rounding_over_ten_seconds() {
-        let (ctrl, circle, _, nominal) = setup();
+    /// multiply-adds are fused), keeping every outcome and count: the worst relative
+    /// difference of any metric over the samples.
+    fn lanes_against_the_runner<C, L>(ctrl: &C, law: &L) -> f64
+    where
+        C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Clone,
+        L: PlanarLaneLaw + Clone,
+    {
+        let (_, circle, _, nominal) = setup();
         let config = SimConfig { dt: 1e-3, t_final: 10.0, fall_limit: 60f64.to_radians() };
         let spread = spread();
         let never = || false;
-        let law = PidLanes::new(&ctrl);
         let n = 2 * LANES as u64 + 3;
-        let lanes = run_planar_lane_samples(&law, &circle, &config, &nominal, &spread, 5, 0..n, 2.0, &never).unwrap().unwrap();
+        let lanes = run_planar_lane_samples(law, &circle, &config, &nominal, &spread, 5, 0..n, 2.0, &never).unwrap().unwrap();
         let (mut worst, mut ran, mut fell) = (0.0f64, 0, 0);
         for i in 0..n {
-            let one = run_planar_sample(&ctrl, &circle, &config, &draw(&nominal, &spread, 5, i), 2.0, None, &never).unwrap();
+            let one = run_planar_sample(ctrl, &circle, &config, &draw(&nominal, &spread, 5, i), 2.0, None, &never).unwrap();
             let got = lanes[i as usize];
             assert_eq!((got.valid, got.fell, got.steps), (one.valid, one.fell, one.steps), "sample {i}");
             if !one.valid {
@@ -338,7 +351,21 @@ mod tests {
             }
         }
         assert!(ran > 10 && fell > 0 && fell < ran, "{ran} ran, {fell} fell");
-        assert!(worst <= 1e-12, "worst relative difference {worst:e}");
-        assert!(worst > 0.0, "fused lanes should differ from the plain runner by rounding");
+        worst
+    }
+
+    #[test]
+    fn a_lane_agrees_with_the_runner_to_rounding_over_ten_seconds() {
+        let (pid, _, _, _) = setup();
+        let laws = [
+            ("pid", lanes_against_the_runner(&pid, &PidLanes::new(&pid))),
+            ("smc", lanes_against_the_runner(&smc(false), &SmcLanes::new(&smc(false)).unwrap())),
+            ("smc-fuzzy", lanes_against_the_runner(&smc(true), &SmcLanes::new(&smc(true)).unwrap())),
+        ];
+        for (name, worst) in laws {
+            std::println!("{name}: worst relative difference {worst:e}");
+            assert!(worst <= 1e-12, "{name}: worst relative difference {worst:e}");
+            assert!(worst > 0.0, "{name}: fused lanes should differ from the plain runner by rounding");
+        }
     }
 }

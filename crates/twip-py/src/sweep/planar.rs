@@ -6,7 +6,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::Controller;
 use twip_core::sim::runner::SimConfig;
-use twip_core::sweep::block::PidLanes;
+use twip_core::sweep::block::{PidLanes, SmcLanes};
 use twip_core::sweep::lanes::LANES;
 use twip_core::sweep::planar::{self as core_planar, run_planar_lane_samples, run_planar_sample, PlanarNominal, PlanarSampleMetrics, BLOCK};
 use twip_core::sweep::SweepMetrics;
@@ -88,11 +88,21 @@ pub fn sweep_planar_raw<'py>(
         r.build_planar(&model.inner, config.dt).map_err(PyTwipError)?;
     }
     let kernel = kernel_of(&ctrl, realism.is_some());
-    if let (None, PlanarController::Pid(pid)) = (&realism, &ctrl) {
-        let law = PidLanes::new(pid);
-        return run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
-            run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop).ok().flatten()
-        });
+    match (&realism, &ctrl) {
+        (None, PlanarController::Pid(pid)) => {
+            let law = PidLanes::new(pid);
+            return run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
+                run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop).ok().flatten()
+            });
+        }
+        (None, PlanarController::Smc(smc)) => {
+            if let Some(law) = SmcLanes::new(smc) {
+                return run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
+                    run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop).ok().flatten()
+                });
+            }
+        }
+        _ => {}
     }
     run_sweep(py, start..start + count, BLOCK, threads, progress.as_ref(), kernel, |range, stop| {
         range
@@ -112,11 +122,13 @@ pub fn sweep_planar_raw<'py>(
 }
 
 /// The kernel a 3-DOF sweep of this tracker runs on: "planar-realism", "planar-lanes"
-/// (PID: vectorised) or "planar" (the general runner).
+/// (PID, and sliding mode unless its own model has friction without adaptation:
+/// vectorised) or "planar" (the general runner).
 pub(crate) fn kernel_of(ctrl: &PlanarController, realism: bool) -> &'static str {
     match (realism, ctrl) {
         (true, _) => "planar-realism",
         (false, PlanarController::Pid(_)) => "planar-lanes",
+        (false, PlanarController::Smc(c)) if SmcLanes::new(c).is_some() => "planar-lanes",
         (false, _) => "planar",
     }
 }

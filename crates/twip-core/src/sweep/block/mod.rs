@@ -25,9 +25,11 @@ use crate::TwipError;
 mod fuzzy;
 mod lqr;
 mod planar;
+mod smc;
 pub use fuzzy::FuzzyLanes;
 pub use lqr::LqrLanes;
 pub use planar::{run_planar_block, LanePath, PidLanes, PlanarLaneLaw};
+pub use smc::SmcLanes;
 
 /// [`Wide`] vectors in a block.
 pub(crate) const CHUNKS: usize = LANES / WIDTH;

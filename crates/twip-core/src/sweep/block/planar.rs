@@ -13,7 +13,7 @@ use crate::control::pid::{PidLaw, PidTracker};
 use crate::control::trajectory::{Path, PlanarRef};
 use crate::control::{Controller, Reference};
 use crate::model::integrate::{rk4, Field};
-use crate::model::lane::{fill, Fused};
+use crate::model::lane::{fill, Fused, Lane};
 use crate::model::planar::{deriv, PlanarCoefficients, PlanarModel, PLANAR_COEFFICIENTS};
 use crate::sim::metrics::DrivePeaks;
 use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
@@ -63,7 +63,7 @@ impl PlanarLaneLaw for PidLanes {
 
     #[inline(always)]
     fn update(&mut self, integrals: &mut [Lanes; 2], x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
-        let r = lane_ref(r);
+        let r: PlanarRef<Fused> = lane_ref(r);
         // A loop over lanes that the compiler vectorises.
         for l in 0..LANES {
             let y = fill(|i| Fused(x[i][l]));
@@ -78,15 +78,15 @@ impl PlanarLaneLaw for PidLanes {
 
 /// The reference as every lane sees it.
 #[inline(always)]
-fn lane_ref(r: &PlanarRef<f64>) -> PlanarRef<Fused> {
+pub(crate) fn lane_ref<S: Lane>(r: &PlanarRef<f64>) -> PlanarRef<S> {
     PlanarRef {
-        x: Fused(r.x),
-        y: Fused(r.y),
-        psi: Fused(r.psi),
-        v: Fused(r.v),
-        omega: Fused(r.omega),
-        v_dot: Fused(r.v_dot),
-        omega_dot: Fused(r.omega_dot),
+        x: S::splat(r.x),
+        y: S::splat(r.y),
+        psi: S::splat(r.psi),
+        v: S::splat(r.v),
+        omega: S::splat(r.omega),
+        v_dot: S::splat(r.v_dot),
+        omega_dot: S::splat(r.omega_dot),
     }
 }
 
@@ -164,7 +164,7 @@ impl Metrics {
     /// Observes the lanes that are `live` at time `t` (settled when `settled`).
     #[inline(always)]
     fn observe(&mut self, live: &[bool; LANES], settled: bool, x: &[Lanes; 7], u: &[Lanes; 2], r: &PlanarRef<f64>, path: &impl Path<f64>) {
-        let r = lane_ref(r);
+        let r: PlanarRef<Fused> = lane_ref(r);
         // The distances first, in f64 as a run's (the path's own code, with branches), so
         // that the loop below vectorises.
         let mut distances = [0.0; LANES];
@@ -314,14 +314,14 @@ mod tests {
     use crate::control::trajectory::{Circle, Direction};
     use crate::hardware::motor::DcMotor;
     use crate::model::params::RobotParams;
+    use crate::control::smc::{Adaptation, SmcGains, SmcOptions, SmcTracker};
     use crate::model::planar::PlanarState;
+    use crate::sweep::block::SmcLanes;
 
     /// Every compiled copy of the kernel gives the same bits (the baseline one through
     /// libm's fma), so a tracking sweep is the same on any x86-64 CPU.
-    #[test]
-    fn every_copy_gives_the_same_bits() {
+    fn same_bits_on_every_copy<C: PlanarLaneLaw + Clone>(law: C) {
         let nominal = RobotParams::balanbot();
-        let law = PidLanes::new(&PidTracker::table_4_1(&nominal, DcMotor::gb37y3530(), 0.005).unwrap());
         let circle = Circle::from_origin(0.6, 0.2, Direction::CounterClockwise).unwrap();
         let config = SimConfig { dt: 1e-3, t_final: 3.0, fall_limit: 0.5 };
         let samples: Vec<PlanarSample> = (0..LANES as u64)
@@ -347,5 +347,15 @@ mod tests {
             }
         }
         assert!(base.contains("fell: true") && base.contains("fell: false"), "want both outcomes: {base}");
+    }
+
+    #[test]
+    fn every_copy_gives_the_same_bits() {
+        let nominal = RobotParams::balanbot();
+        same_bits_on_every_copy(PidLanes::new(&PidTracker::table_4_1(&nominal, DcMotor::gb37y3530(), 0.005).unwrap()));
+        let model = PlanarModel::new(nominal).unwrap();
+        let unit = DcMotor::<f64>::gb37y3530().torque_per_count();
+        let fuzzy = SmcTracker::new(SmcGains::thesis(unit), SmcOptions::default(), model, Some(DcMotor::gb37y3530()), Some(Adaptation::default()), 0.005).unwrap();
+        same_bits_on_every_copy(SmcLanes::new(&fuzzy).expect("the thesis's sets are trapezoids"));
     }
 }
