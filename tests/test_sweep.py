@@ -169,6 +169,20 @@ def test_a_changed_configuration_is_refused_by_the_checkpoint(tmp_path):
         sweep(n=16, checkpoint=tmp_path, shard_size=8, perturb={"m_body": twip.Uniform(rel=0.3)})
 
 
+def test_a_checkpoint_begun_on_another_kernel_is_refused(tmp_path):
+    """Kernels agree to rounding, not bit for bit: a sweep begun on the general 3-DOF runner
+    (as circle-pid was before it moved to the planar lane kernel) does not resume on lanes."""
+    kw = dict(name="circle-pid", n=16, checkpoint=tmp_path, shard_size=8)
+    tracking_sweep(**kw)
+    manifest = tmp_path / "manifest.json"
+    stored = json.loads(manifest.read_text())
+    assert stored["manifest"]["config"]["kernel"] == "planar-lanes"
+    stored["manifest"]["config"]["kernel"] = "planar"
+    manifest.write_text(json.dumps(stored))
+    with pytest.raises(twip.InvalidParameterError, match=r"different configuration.*differs in: kernel\)"):
+        tracking_sweep(**kw)
+
+
 def test_a_changed_scenario_object_is_refused_by_the_checkpoint(tmp_path):
     sc = scenarios.get("flat-lqr-sim", **SHORT)
     run = lambda s: twip.montecarlo(s, 16, perturb=PERTURB, seed=7, progress=False, checkpoint=tmp_path, shard_size=8)

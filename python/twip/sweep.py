@@ -85,6 +85,9 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
         "seed": int(seed),
         "n": int(n),
         "twip": _core.__version__,
+        # The engine that computes the samples: kernels agree to rounding, not bit for bit,
+        # so a checkpoint resumes only on the kernel that began it.
+        "kernel": kernel_for(sc, realism),
         **extra,
     }
 
