@@ -37,9 +37,9 @@ def sweep(n=64, scenario="flat-lqr-sim", **kw):
 
 
 # Both 2-DOF families run on the lane kernel (the fuzzy one with its trapezoid sets), and
-# the PID tracker on the planar one.
+# both trackers on the planar one.
 LANE_FAMILIES = ["flat-lqr-sim", "flat-fuzzy-sim"]
-ALL_LANE_FAMILIES = LANE_FAMILIES + ["circle-pid"]
+ALL_LANE_FAMILIES = LANE_FAMILIES + ["circle-pid", "circle-smc-fuzzy"]
 
 
 @pytest.mark.parametrize("scenario", LANE_FAMILIES)
@@ -206,7 +206,7 @@ def test_simulate_refuses_settle_for_a_slope_model():
 
 
 # ~3 s of each scenario: a tracking scenario is as long as its laps (one is 36 s).
-RESUME_OPTIONS = {"circle-pid": {"laps": 0.1}}
+RESUME_OPTIONS = {"circle-pid": {"laps": 0.1}, "circle-smc-fuzzy": {"laps": 0.1}}
 SCRIPT = r"""
 import json, sys, twip
 perturb = {"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}
