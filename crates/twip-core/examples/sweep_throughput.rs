@@ -2,8 +2,8 @@
 //!   /usr/bin/time -f "%U s user" cargo run --release --features parallel \
 //!       --example sweep_throughput -- PATH 256
 //! PATH: lanes (LQR on lanes), fuzzy-lanes, scalar (LQR, general runner), fuzzy-scalar,
-//! pid (circle-pid on the 3-DOF runner; the checksum sums the runs' ends instead), pid-lanes
-//! (the same on the planar lane kernel).
+//! pid (circle-pid on the 3-DOF runner; the checksum sums its mean |x error| instead),
+//! pid-lanes (the same on the planar lane kernel).
 use nalgebra::{Matrix4, Vector4};
 use twip_core::control::fuzzy::FuzzyController;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};

@@ -106,11 +106,8 @@ pub const PID_INTERNALS: [&str; 9] = ["u_phi", "u_v", "u_psi", "e_v", "e_psi", "
 /// The discrete PID tracker with its motor.
 #[derive(Clone, Copy, Debug)]
 pub struct PidTracker<T: Real> {
-    gains: PidGains<T>,
-    units: PidUnits<T>,
-    motor: DcMotor<T>,
-    radius: T,
-    half_track: T,
+    /// Gains, units, motor and the geometry the wheel speeds are turned with.
+    law: PidLaw<T>,
     period: T,
     int_v: T,
     int_psi: T,
@@ -173,11 +170,7 @@ impl<T: Real> PidTracker<T> {
             return Err(invalid("integral_step", units.integral_step, "must be finite and > 0"));
         }
         Ok(Self {
-            gains,
-            units,
-            motor,
-            radius,
-            half_track,
+            law: PidLaw { gains, units, motor, radius, half_track },
             period,
             int_v: T::zero(),
             int_psi: T::zero(),
@@ -192,24 +185,25 @@ impl<T: Real> PidTracker<T> {
 
     /// The same controller at another period; the units are kept as they are.
     pub fn with_period(self, period: T) -> Result<Self, TwipError> {
-        Self::build(self.gains, self.units, self.motor, self.radius, self.half_track, period)
+        let l = self.law;
+        Self::build(l.gains, l.units, l.motor, l.radius, l.half_track, period)
     }
 
     pub fn gains(&self) -> PidGains<T> {
-        self.gains
+        self.law.gains
     }
 
     pub fn units(&self) -> PidUnits<T> {
-        self.units
+        self.law.units
     }
 
     pub fn motor(&self) -> &DcMotor<T> {
-        &self.motor
+        &self.law.motor
     }
 
     /// The wheel radius and half track [m] the tracker turns speeds with.
     pub fn geometry(&self) -> (T, T) {
-        (self.radius, self.half_track)
+        (self.law.radius, self.law.half_track)
     }
 }
 
@@ -264,11 +258,11 @@ impl<S: Lane> PidLaw<S> {
     }
 }
 
-impl<T: Real> PidTracker<T> {
-    /// The law's parameters, in the number type `f` maps to (a sweep's lanes).
-    pub(crate) fn law<S>(&self, f: impl Fn(T) -> S + Copy) -> PidLaw<S> {
-        let g = self.gains;
-        let u = self.units;
+impl<T: Copy> PidLaw<T> {
+    /// The same law in the number type `f` maps to (a sweep's lanes).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn map<S>(&self, f: impl Fn(T) -> S + Copy) -> PidLaw<S> {
+        let (g, u) = (self.gains, self.units);
         PidLaw {
             gains: PidGains {
                 kp_pitch: f(g.kp_pitch),
@@ -287,6 +281,14 @@ impl<T: Real> PidTracker<T> {
     }
 }
 
+impl<T: Real> PidTracker<T> {
+    /// The tracker's law (gains, units, motor, geometry).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn law(&self) -> &PidLaw<T> {
+        &self.law
+    }
+}
+
 impl<T: Real> Controller<T, 7, 2> for PidTracker<T> {
     type Reference = PlanarRef<T>;
 
@@ -301,7 +303,7 @@ impl<T: Real> Controller<T, 7, 2> for PidTracker<T> {
     }
 
     fn update(&mut self, _t: T, y: &SVector<T, 7>, r: &PlanarRef<T>) -> SVector<T, 2> {
-        let step = self.law(|v| v).step(&(*y).into(), r, [self.int_v, self.int_psi]);
+        let step = self.law.step(&(*y).into(), r, [self.int_v, self.int_psi]);
         self.internals = step.internals;
         [self.int_v, self.int_psi] = step.integrals;
         SVector::<T, 2>::from(step.torque)

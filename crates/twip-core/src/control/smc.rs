@@ -30,7 +30,7 @@ use crate::control::fuzzy_basis::{grid, GridBasis, Member, Membership, ThesisBas
 use crate::hardware::motor::DcMotor;
 use crate::control::pid::relative_wheel_speeds;
 use crate::model::lane::Lane;
-use crate::model::planar::{PlanarCoefficients, PlanarModel};
+use crate::model::planar::{accelerations, PlanarCoefficients, PlanarModel};
 use crate::control::trajectory::{wrap_angle, PlanarRef};
 use crate::{c, Dynamics, Real, TwipError};
 
@@ -462,15 +462,14 @@ fn dot9<S: Lane>(a: &[S; 9], b: &[S; 9]) -> S {
     a.iter().zip(b).fold(S::splat(0.0), |s, (x, y)| s + *x * *y)
 }
 
-/// (g21, g22, g23) of (4.72) for a model's coefficients at pitch `phi`.
+/// (g21, g22, g23) of (4.72) for a model's coefficients at pitch `phi`: the model's
+/// accelerations under a unit C_ψ, which B puts on (φ, v) as (−1, 1/R), and a unit C_y,
+/// which it puts on ω as b/R.
 #[inline(always)]
 pub(crate) fn input_gains<S: Lane>(k: &PlanarCoefficients<S>, phi: S) -> (S, S, S) {
     let (s, cp) = S::sincos(phi);
-    let m_pv = S::madd(k.mbc, cp, -k.rotor_r);
-    let det = S::madd(-m_pv, m_pv, k.m_pp_vv);
-    let g21 = (-k.m_vv - m_pv * k.inv_r) / det;
-    let g22 = S::madd(k.m_pp, k.inv_r, m_pv) / det;
-    (g21, g22, k.b_r / S::madd(k.k * s, s, k.m_ww0))
+    let [g21, g22, g23] = accelerations(k, &[-S::splat(1.0), k.inv_r, k.b_r], s, cp);
+    (g21, g22, g23)
 }
 
 /// The tracker's parameters in the number type of a run or of a sweep's lanes, its fuzzy

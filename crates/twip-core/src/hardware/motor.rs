@@ -136,13 +136,11 @@ impl<T: Real> DcMotor<T> {
         self.supply
     }
 
-
     /// The voltage that gives `torque` at `relative_speed` (unbounded: see [`Self::torque_limits`]).
     #[inline]
     pub fn voltage_for_torque(&self, torque: T, relative_speed: T) -> T {
         torque * self.resistance / (self.gear_ratio * self.k_t) + self.k_t * self.gear_ratio * relative_speed
     }
-
 
     /// Stall torque per PWM count [N m]: the unit of the Arduino's controller outputs.
     pub fn torque_per_count(&self) -> T {

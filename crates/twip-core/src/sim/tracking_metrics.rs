@@ -49,6 +49,26 @@ pub(crate) struct TrackingTally<S> {
     pub peak_abs_torque: S,
 }
 
+/// How many sums and peaks [`TrackingTally`] holds.
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+pub(crate) const TRACKING_TALLIES: usize = 7;
+
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+impl<S: Copy> TrackingTally<S> {
+    /// The fields in declaration order (a sweep keeps one array per field).
+    #[inline(always)]
+    pub(crate) fn to_array(self) -> [S; TRACKING_TALLIES] {
+        [self.sum_x, self.sum_y, self.sum_x_settled, self.sum_y_settled, self.sum_pitch, self.max_path_error_settled, self.peak_abs_torque]
+    }
+
+    /// The tally from [`Self::to_array`]'s order.
+    #[inline(always)]
+    pub(crate) fn from_array(a: [S; TRACKING_TALLIES]) -> Self {
+        let [sum_x, sum_y, sum_x_settled, sum_y_settled, sum_pitch, max_path_error_settled, peak_abs_torque] = a;
+        Self { sum_x, sum_y, sum_x_settled, sum_y_settled, sum_pitch, max_path_error_settled, peak_abs_torque }
+    }
+}
+
 impl<S: Lane> TrackingTally<S> {
     pub(crate) fn new() -> Self {
         let z = S::splat(0.0);

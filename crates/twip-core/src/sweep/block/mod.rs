@@ -220,7 +220,8 @@ fn steady_pitches(models: &[SlopeModel<f64>; LANES], speed: f64) -> Lanes {
     core::array::from_fn(|l| steady_pitch(&models[l], speed))
 }
 
-fn only(l: usize) -> [bool; LANES] {
+/// Only lane `l`.
+pub(crate) fn only(l: usize) -> [bool; LANES] {
     core::array::from_fn(|i| i == l)
 }
 

@@ -1,14 +1,15 @@
 //! The fast path of a 3-DOF tracking sweep: [`LANES`] samples at once on the planar model,
-//! for the trackers with a law on lanes ([`PlanarLaneLaw`]: PID).
+//! for the trackers with a law on lanes ([`PlanarLaneLaw`]: PID, sliding mode).
 //!
 //! As the 2-DOF block: each lane its own robot, the tracker the one prototype designed on
 //! the nominal robot with each lane's own state; the physics is the run's own source
-//! (`model::planar::deriv`, `model::integrate::rk4`, `PidLaw::step`, `TrackingTally`)
+//! (`model::planar::deriv`, `model::integrate::rk4`, `PidLaw::step`, `SmcLaw::step`,
+//! `TrackingTally`)
 //! on [`Fused`] lanes, so a lane agrees with `runner::simulate` to rounding and is bit for
 //! bit the same on every CPU, thread count and block neighbour. The reference is the
 //! same for every lane: sampled once per step. What is here is the data layout and the
 //! runner's loop over a block.
-use super::{advance, finite_at, multiversioned};
+use super::{advance, finite_at, multiversioned, only};
 use crate::control::pid::{PidLaw, PidTracker};
 use crate::control::trajectory::{Path, PlanarRef};
 use crate::control::{Controller, Reference};
@@ -17,7 +18,7 @@ use crate::model::lane::{fill, Fused, Lane};
 use crate::model::planar::{deriv, PlanarCoefficients, PlanarModel, PLANAR_COEFFICIENTS};
 use crate::sim::metrics::DrivePeaks;
 use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
-use crate::sim::tracking_metrics::TrackingTally;
+use crate::sim::tracking_metrics::{TrackingTally, TRACKING_TALLIES};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
 use crate::sweep::SweepMetrics;
@@ -45,7 +46,7 @@ pub struct PidLanes {
 
 impl PidLanes {
     pub fn new(prototype: &PidTracker<f64>) -> Self {
-        Self { law: prototype.law(Fused), period: prototype.period() }
+        Self { law: prototype.law().map(Fused), period: prototype.period() }
     }
 }
 
@@ -133,31 +134,22 @@ impl Field<Fused, 7> for Plant {
 
 /// [`TrackingTally`] on every lane, one array per field, with each lane's sample counts.
 struct Metrics {
-    tally: [Lanes; 7],
+    tally: [Lanes; TRACKING_TALLIES],
     samples: [u64; LANES],
     settled: [u64; LANES],
 }
 
 impl Metrics {
+    /// Lane `l`'s tally.
     #[inline(always)]
-    fn get(&self, l: usize) -> TrackingTally<Fused> {
-        let f = |i: usize| Fused(self.tally[i][l]);
-        TrackingTally {
-            sum_x: f(0),
-            sum_y: f(1),
-            sum_x_settled: f(2),
-            sum_y_settled: f(3),
-            sum_pitch: f(4),
-            max_path_error_settled: f(5),
-            peak_abs_torque: f(6),
-        }
+    fn get(&self, l: usize) -> TrackingTally<f64> {
+        TrackingTally::from_array(fill(|i| self.tally[i][l]))
     }
 
     #[inline(always)]
-    fn set(&mut self, l: usize, t: &TrackingTally<Fused>) {
-        let values = [t.sum_x, t.sum_y, t.sum_x_settled, t.sum_y_settled, t.sum_pitch, t.max_path_error_settled, t.peak_abs_torque];
-        for (i, v) in values.iter().enumerate() {
-            self.tally[i][l] = v.0;
+    fn set(&mut self, l: usize, t: TrackingTally<f64>) {
+        for (i, v) in t.to_array().into_iter().enumerate() {
+            self.tally[i][l] = v;
         }
     }
 
@@ -175,18 +167,14 @@ impl Metrics {
         }
         for l in 0..LANES {
             let state = fill(|i| Fused(x[i][l]));
-            let mut tally = self.get(l);
+            let mut tally = TrackingTally::from_array(self.get(l).to_array().map(Fused));
             let distance = || Fused(distances[l]);
             tally.observe(live[l], settled, &state, [Fused(u[0][l]), Fused(u[1][l])], &r, distance);
-            self.set(l, &tally);
+            self.set(l, TrackingTally::from_array(tally.to_array().map(|v| v.0)));
             self.samples[l] += live[l] as u64;
             self.settled[l] += (live[l] & settled) as u64;
         }
     }
-}
-
-fn only(l: usize) -> [bool; LANES] {
-    core::array::from_fn(|i| i == l)
 }
 
 type BlockResult = Result<Option<[PlanarSampleMetrics; LANES]>, TwipError>;
@@ -243,7 +231,7 @@ fn planar_block<C: PlanarLaneLaw, P: LanePath>(
     let mut alive = active;
     // (fell, t_end, steps) of each lane that has ended.
     let mut ended = [(false, 0.0f64, 0u64); LANES];
-    let mut metrics = Metrics { tally: [[0.0; LANES]; 7], samples: [0; LANES], settled: [0; LANES] };
+    let mut metrics = Metrics { tally: [[0.0; LANES]; TRACKING_TALLIES], samples: [0; LANES], settled: [0; LANES] };
     for k in 0..n {
         let t = dt * k as f64;
         if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
@@ -290,17 +278,7 @@ fn planar_block<C: PlanarLaneLaw, P: LanePath>(
         if !active[l] {
             continue;
         }
-        let tally = metrics.get(l);
-        let sums = TrackingTally {
-            sum_x: tally.sum_x.0,
-            sum_y: tally.sum_y.0,
-            sum_x_settled: tally.sum_x_settled.0,
-            sum_y_settled: tally.sum_y_settled.0,
-            sum_pitch: tally.sum_pitch.0,
-            max_path_error_settled: tally.max_path_error_settled.0,
-            peak_abs_torque: tally.peak_abs_torque.0,
-        };
-        let summary = sums.summary(metrics.samples[l] as usize, metrics.settled[l] as usize);
+        let summary = metrics.get(l).summary(metrics.samples[l] as usize, metrics.settled[l] as usize);
         let peaks = DrivePeaks::from_wheel_torque(models[l].params(), summary.peak_abs_torque);
         let (fell, t_end, steps) = ended[l];
         out[l] = PlanarSampleMetrics::from_summary(&summary, peaks, fell, t_end, steps);
