@@ -30,6 +30,8 @@ def families():
         ("fuzzy, lanes", get("flat-fuzzy-sim", t_final=10.0), None, 8192),
         ("fuzzy, Gaussian sets (general runner)", get("flat-fuzzy-sim", t_final=10.0, sets=GAUSSIAN_SETS), None, 2048),
         ("LQR with realism (thesis-like rig)", get("flat-lqr-sim", t_final=10.0), thesis_like, 2048),
+        ("LQR with realism, no backlash", get("flat-lqr-sim", t_final=10.0), thesis_like.replace(backlash=None), 4096),
+        ("fuzzy with realism, no backlash", get("flat-fuzzy-sim", t_final=10.0), thesis_like.replace(backlash=None), 4096),
         ("circle-pid (3-DOF, three laps)", get("circle-pid"), None, 1024),
         ("circle-smc-fuzzy (3-DOF, three laps)", get("circle-smc-fuzzy"), None, 512),
         ("circle-pid with realism", get("circle-pid"), thesis_like, 256),

@@ -107,6 +107,8 @@ def test_kernel_and_fall_limit_come_from_the_core():
     lqr = twip.scenarios.get("flat-lqr-sim")
     assert twip.sweep.kernel_for(lqr) == "lanes"
     assert twip.sweep.kernel_for(lqr, twip.Realism.thesis_like()) == "realism"
+    assert twip.sweep.kernel_for(lqr, twip.Realism.thesis_like().replace(backlash=None)) == "realism-lanes"
+    assert twip.sweep.kernel_for(lqr, twip.Realism(pushes=[(1.0, 0.3)])) == "realism"
     assert twip.sweep.kernel_for(twip.scenarios.get("flat-fuzzy-sim")) == "lanes"
     gaussian = [[twip.Gaussian(-0.3, 0.15), twip.Triangle(-0.3, 0.0, 0.3), twip.Gaussian(0.3, 0.15)]] * 2
     general = twip.scenarios.get("flat-fuzzy-sim", sets=gaussian, t_final=0.2)

@@ -288,10 +288,16 @@ def rig_sweep(n=48, realism=None, **kw):
     return twip.montecarlo("flat-lqr-sim", n, progress=False, realism=realism, **kw)
 
 
-def test_realism_sweep_is_the_same_on_one_and_two_threads():
-    one, two = rig_sweep(threads=1), rig_sweep(threads=2)
+# The thesis-like rig runs on the general runner (its backlash); without backlash the same
+# rig runs on lanes.
+RIGS = [("realism", twip.Realism.thesis_like()), ("realism-lanes", twip.Realism.thesis_like().replace(backlash=None))]
+
+
+@pytest.mark.parametrize("kernel, realism", RIGS, ids=[k for k, _ in RIGS])
+def test_realism_sweep_is_the_same_on_one_and_two_threads(kernel, realism):
+    one, two = rig_sweep(threads=1, realism=realism), rig_sweep(threads=2, realism=realism)
     same(one, two)
-    assert one.kernel == "realism"
+    assert one.kernel == kernel
     # The rig matters: some of these robots fall with it, none in the ideal loop.
     ideal = sweep(n=48, perturb=RIG_PERTURB, seed=3)
     assert 0 < one.metrics["fell"].sum() < 48 and not ideal.metrics["fell"].any()
@@ -310,6 +316,29 @@ def test_realism_sample_17_replayed_alone_is_bitwise_the_same():
     assert other.metrics["mean_abs_pitch_error"] != r.metrics["mean_abs_pitch_error"][17]
 
 
+def test_a_rig_lane_replays_to_rounding_and_agrees_in_shards():
+    """A lane through the rig against the rig's run of its robot (`replay`): the same
+    source with fused multiply-adds. Quantised outputs (IMU registers, encoder counts, whole
+    duty counts) let two roundings drift apart at the open-loop pendulum's rate (the core's
+    test: ~1e-8 after 3 s, like the run against itself nudged by 1e-16), so 1e-6 here."""
+    realism = RIGS[1][1]
+    r = rig_sweep(realism=realism)
+    assert r.kernel == "realism-lanes"
+    for i in (0, 17, 40):
+        alone = r.replay(i)
+        assert alone.fell == bool(r.metrics["fell"][i])
+        for name in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error", "peak_abs_input"):
+            assert alone.metrics[name] == pytest.approx(r.metrics[name][i], rel=1e-6), (i, name)
+    # Shards of any size, and one sample alone, give the same bits.
+    same(r, twip.montecarlo("flat-lqr-sim", 48, progress=False, realism=realism, perturb=RIG_PERTURB, options=SHORT, seed=3, threads=2))
+    fuzzy = twip.montecarlo("flat-fuzzy-sim", 20, progress=False, realism=realism, perturb=RIG_PERTURB, options=SHORT, seed=3)
+    assert fuzzy.kernel == "realism-lanes"
+    for i in (3, 17):
+        alone = fuzzy.rerun(i)
+        for name in ("valid",) + fuzzy.metric_names:
+            assert np.array_equal(alone[name], fuzzy.metrics[name][i], equal_nan=True), name
+
+
 def test_realism_noise_follows_the_sweep_seed_not_the_realism_seed():
     a = rig_sweep(n=8, perturb={}, seed=3)
     same(a, rig_sweep(n=8, perturb={}, seed=3, realism=twip.Realism.thesis_like(seed=99, stream=5)))
@@ -319,7 +348,8 @@ def test_realism_noise_follows_the_sweep_seed_not_the_realism_seed():
     assert not np.any(a.metrics["mean_abs_pitch_error"] == b.metrics["mean_abs_pitch_error"])
 
 
-def test_realism_checkpoint_resume_equals_the_uninterrupted_sweep(tmp_path, monkeypatch):
+@pytest.mark.parametrize("realism", [r for _, r in RIGS], ids=[k for k, _ in RIGS])
+def test_realism_checkpoint_resume_equals_the_uninterrupted_sweep(tmp_path, monkeypatch, realism):
     import twip.sweep as tsweep
 
     run, calls = tsweep.run_samples, []
@@ -332,13 +362,13 @@ def test_realism_checkpoint_resume_equals_the_uninterrupted_sweep(tmp_path, monk
 
     monkeypatch.setattr(tsweep, "run_samples", stop_at_shard_16)
     with pytest.raises(KeyboardInterrupt):
-        rig_sweep(checkpoint=tmp_path, shard_size=16)
+        rig_sweep(checkpoint=tmp_path, shard_size=16, realism=realism)
     assert len(list(tmp_path.glob("shard-*.npz"))) == 1
     calls.clear()
-    resumed = rig_sweep(checkpoint=tmp_path, shard_size=16)
+    resumed = rig_sweep(checkpoint=tmp_path, shard_size=16, realism=realism)
     assert calls == [16, 32], "the finished shard is loaded, not run again"
     monkeypatch.setattr(tsweep, "run_samples", run)
-    same(resumed, rig_sweep())
+    same(resumed, rig_sweep(realism=realism))
     resumed.replay(40)  # the resumed result keeps its realism
 
 

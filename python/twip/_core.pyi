@@ -847,7 +847,7 @@ def sweep_noise_seed(seed: int) -> int:
     """The sensor-noise key of a sweep with `seed` (sample i replays with
     `realism.replace(seed=sweep_noise_seed(seed), stream=i)`).
     """
-def sweep_kernel(controller: Any, realism: bool = False) -> str:
+def sweep_kernel(controller: Any, realism: Realism | None = None) -> str:
     """The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),
     with or without realism: "lanes", "general", "realism", "planar-lanes", "planar" or
     "planar-realism".

@@ -30,6 +30,7 @@
 use nalgebra::{SVector, Vector4};
 
 use crate::hardware::motor::{DcMotor, BALANBOT_SUPPLY, PWM_MAX};
+use crate::model::lane::Lane;
 use crate::sim::runner::Actuator;
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
@@ -123,8 +124,8 @@ impl<T: Real> MotorDriver<T> {
 }
 
 #[inline(always)]
-fn clamp<T: Real>(v: T, limit: T) -> T {
-    v.max(-limit).min(limit)
+fn clamp<S: Lane>(v: S, limit: S) -> S {
+    v.larger(-limit).smaller(limit)
 }
 
 /// One motor's winding behind the bridge: the current a duty gives at a relative wheel
@@ -172,20 +173,6 @@ impl<T: Real> Winding<T> {
         self.tau > T::zero()
     }
 
-    /// The current at once for a duty and relative speed (no inductance):
-    /// `DcMotor::current` at `DcMotor::pwm_voltage`, unclamped.
-    #[inline(always)]
-    fn free_current(&self, pwm: T, relative_speed: T) -> T {
-        let pwm_max = self.motor.pwm_max();
-        let volts = pwm.max(-pwm_max).min(pwm_max) * self.volts_per_count;
-        (volts - self.back_emf * relative_speed) * self.conductance
-    }
-
-    #[inline(always)]
-    fn steady_current(&self, pwm: T, relative_speed: T) -> T {
-        clamp(self.free_current(pwm, relative_speed), self.limit)
-    }
-
     /// Current now [A]: the state when inductive, else algebraic.
     #[inline]
     pub fn current(&self, pwm: T, relative_speed: T) -> T {
@@ -222,6 +209,43 @@ impl<T: Real> Winding<T> {
         let gap = self.current - target;
         self.held = clamp(target + gap * average, self.limit);
         self.current = clamp(target + gap * decay, self.limit);
+    }
+}
+
+// The winding's algebraic current, written once over `Lane`: a run's and a sweep's lanes.
+impl<S: Lane> Winding<S> {
+    /// The current at once for a duty and relative speed (no inductance):
+    /// `DcMotor::current` at `DcMotor::pwm_voltage`, unclamped.
+    #[inline(always)]
+    fn free_current(&self, pwm: S, relative_speed: S) -> S {
+        let pwm_max = self.motor.pwm_max();
+        let volts = pwm.larger(-pwm_max).smaller(pwm_max) * self.volts_per_count;
+        (volts - self.back_emf * relative_speed) * self.conductance
+    }
+
+    /// The steady current (no inductance), clamped to the driver's rating.
+    #[inline(always)]
+    pub(crate) fn steady_current(&self, pwm: S, relative_speed: S) -> S {
+        clamp(self.free_current(pwm, relative_speed), self.limit)
+    }
+}
+
+impl<T: Copy> Winding<T> {
+    /// The same winding in another number type (a sweep's lanes).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn map<S>(&self, f: impl Fn(T) -> S + Copy) -> Winding<S> {
+        let (dt, decay, average) = self.factors;
+        Winding {
+            motor: self.motor.map(f),
+            volts_per_count: f(self.volts_per_count),
+            back_emf: f(self.back_emf),
+            conductance: f(self.conductance),
+            limit: f(self.limit),
+            tau: f(self.tau),
+            factors: (f(dt), f(decay), f(average)),
+            current: f(self.current),
+            held: f(self.held),
+        }
     }
 }
 
@@ -264,6 +288,12 @@ impl<T: Real, P> Driven<T, P> {
     /// Whether the winding's inductance is modelled.
     pub fn inductive(&self) -> bool {
         self.winding.inductive()
+    }
+
+    /// The winding, and the lumped current per motor ampere (2 ε).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn winding(&self) -> (&Winding<T>, T) {
+        (&self.winding, self.lumped_per_amp)
     }
 
     /// The motors now turn at `speed` relative to the body (an open gear train's rotor),

@@ -14,7 +14,7 @@ use nalgebra::{SVector, Vector4};
 
 use crate::control::{Controller, Reference};
 use crate::hardware::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_SLOPE_CHANGES};
-use crate::hardware::driver::{Driven, MotorDriver, PwmActuator};
+use crate::hardware::driver::{Driven, MotorDriver, PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
 use crate::hardware::backlash::Backlash;
@@ -106,6 +106,15 @@ impl<T: Real> Realism<T> {
     /// The gearhead friction a rig's plant gets: this realism's, else the model's.
     pub fn friction_on(&self, model: Option<&Friction<T>>) -> Option<Friction<T>> {
         self.friction.or(model.copied())
+    }
+
+    /// Whether this realism's rig runs on a sweep's lanes (`sweep::block::run_rig_block`):
+    /// every part but backlash, pushes, a constant force and slope changes along the path.
+    pub fn on_lanes(&self) -> bool {
+        !self.backlash.is_some_and(|b| b.gap > T::zero())
+            && self.pushes.as_slice().is_empty()
+            && self.force.is_zero()
+            && self.slope_profile.changes().next().is_none()
     }
 
     pub fn with_stream(self, stream: u64) -> Self {
@@ -413,6 +422,42 @@ impl<T: Real> Plant<T, 4, 1> for RealPlant<T> {
         };
         let offset = ground.shaft_offset();
         [offset, offset]
+    }
+}
+
+// What a sweep's rig lanes ask of each lane's plant (`sweep::block::run_rig_block`).
+#[cfg_attr(not(feature = "std"), allow(dead_code))]
+impl<T: Real> RealPlant<T> {
+    /// The ground plant, driven or not.
+    pub(crate) fn ground(&self) -> &Disturbed<T> {
+        match self {
+            Self::Current(p) => p,
+            Self::Driven(p) => p.plant(),
+        }
+    }
+
+    /// The lumped current that drives the mechanics over the coming step for the input
+    /// `u` (a current, or a duty through a winding with inductance: its current held over
+    /// the step); None for a driver without inductance, whose current follows the state
+    /// within the step ([`Self::steady_winding`]).
+    #[inline]
+    pub(crate) fn held_current(&self, x: &Vector4<T>, u: T) -> Option<T> {
+        match self {
+            Self::Current(_) => Some(u),
+            Self::Driven(p) if p.inductive() => Some(p.mechanical_current(x, u)),
+            Self::Driven(_) => None,
+        }
+    }
+
+    /// A driver without inductance: its winding and the lumped current per ampere.
+    pub(crate) fn steady_winding(&self) -> Option<(Winding<T>, T)> {
+        match self {
+            Self::Driven(p) if !p.inductive() => {
+                let (w, per_amp) = p.winding();
+                Some((*w, per_amp))
+            }
+            _ => None,
+        }
     }
 }
 

@@ -24,6 +24,7 @@
 //! models compute it ([`Friction::torques`] takes the wheels' accelerations without
 //! friction and their response to it). The law is smooth inside and outside the band,
 //! so RK4 keeps its order away from the band's edge and from breakaway.
+use crate::model::lane::Lane;
 use crate::{c, to_f64, Real, TwipError};
 
 /// T_k: how fast a held wheel comes to rest [s]. 5 ms brings it to rest within a few
@@ -86,12 +87,6 @@ impl<T: Real> Friction<T> {
         Self { stick_speed, ..self }
     }
 
-    /// Whether this friction has a stick state.
-    #[inline(always)]
-    pub fn sticks(&self) -> bool {
-        self.stick_speed > T::zero()
-    }
-
     /// [`Self::gb37`] beside a viscous bearing of `viscous_per_wheel` [N m s/rad]: the
     /// no-load torque η k_t I₀ split so that the two together give it at the no-load
     /// speed, the Coulomb part being the rest, max(0, η k_t I₀ − b ω₀). For
@@ -123,41 +118,68 @@ impl<T: Real> Friction<T> {
         }
         Ok(*self)
     }
+}
+
+impl<T: Copy> Friction<T> {
+    /// The same friction in another number type (a sweep's lanes).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn map<S>(&self, f: impl Fn(T) -> S) -> Friction<S> {
+        Friction {
+            coulomb: f(self.coulomb),
+            breakaway: f(self.breakaway),
+            stribeck_speed: f(self.stribeck_speed),
+            viscous: f(self.viscous),
+            smoothing_speed: f(self.smoothing_speed),
+            stick_speed: f(self.stick_speed),
+        }
+    }
+}
+
+// The law, written once over `Lane`: a run evaluates it in `T`, a sweep's lanes in
+// `Fused`. Its branches on the friction's own constants (`sticks`) are taken by all lanes
+// together (a sweep's friction is the same for every lane); those on the speeds are masks.
+impl<S: Lane> Friction<S> {
+    /// Whether this friction has a stick state.
+    #[inline(always)]
+    pub fn sticks(&self) -> bool {
+        S::any(self.stick_speed.gt(S::splat(0.0)))
+    }
 
     /// The slip law's torque τ_f(w) opposing the relative speed `w` [N m]: the whole law
     /// without a stick band; with one, what acts outside it (see [`Self::torques`]).
     #[inline(always)]
-    pub fn torque(&self, w: T) -> T {
+    pub fn torque(&self, w: S) -> S {
         let (level, sign, _, _) = self.parts(w);
         level * sign + self.viscous * w
     }
 
     /// dτ_f/dw (for linearisation).
-    pub fn slope(&self, w: T) -> T {
+    pub fn slope(&self, w: S) -> S {
         let (level, sign, d_level, d_sign) = self.parts(w);
         d_level * sign + level * d_sign + self.viscous
     }
 
     /// The power the friction dissipates at `w`, w τ_f(w) ≥ 0 [W].
-    pub fn dissipation(&self, w: T) -> T {
+    pub fn dissipation(&self, w: S) -> S {
         w * self.torque(w)
     }
 
     /// The Stribeck level, the sign (regularised without a stick band, exact with one),
     /// and their derivatives in w.
     #[inline(always)]
-    fn parts(&self, w: T) -> (T, T, T, T) {
+    fn parts(&self, w: S) -> (S, S, S, S) {
+        let (zero, one) = (S::splat(0.0), S::splat(1.0));
         let z = w / self.stribeck_speed;
-        let hump = (-z * z).exp();
+        let hump = (-z * z).exponential();
         let peak = self.breakaway - self.coulomb;
         let level = self.coulomb + peak * hump;
-        let d_level = -c::<T>(2.0) * z / self.stribeck_speed * peak * hump;
+        let d_level = -S::splat(2.0) * z / self.stribeck_speed * peak * hump;
         if self.sticks() {
-            let sign = if w > T::zero() { T::one() } else if w < T::zero() { -T::one() } else { T::zero() };
-            return (level, sign, d_level, T::zero());
+            let sign = S::select(w.gt(zero), one, S::select(w.lt(zero), -one, zero));
+            return (level, sign, d_level, zero);
         }
-        let sign = (w / self.smoothing_speed).tanh();
-        let d_sign = (T::one() - sign * sign) / self.smoothing_speed;
+        let sign = (w / self.smoothing_speed).hyperbolic_tangent();
+        let d_sign = (one - sign * sign) / self.smoothing_speed;
         (level, sign, d_level, d_sign)
     }
 
@@ -168,33 +190,34 @@ impl<T: Real> Friction<T> {
     /// the band is held (ẇ = −w/T_k) by the torque that needs, while that is within
     /// ±τ_s; a wheel that would need more breaks away at ±τ_s, and the others are held
     /// against it.
-    pub fn torques<const N: usize>(&self, w: [T; N], a0: [T; N], s: [[T; N]; N]) -> [T; N] {
+    pub fn torques<const N: usize>(&self, w: [S; N], a0: [S; N], s: [[S; N]; N]) -> [S; N] {
         const { assert!(N == 1 || N == 2, "one or two wheels") };
-        let mut tau: [T; N] = core::array::from_fn(|i| self.torque(w[i]));
+        let mut tau: [S; N] = core::array::from_fn(|i| self.torque(w[i]));
         if !self.sticks() {
             return tau;
         }
-        let mut held: [bool; N] = core::array::from_fn(|i| w[i].abs() < self.stick_speed);
-        let rate = T::one() / c::<T>(STICK_TIME);
+        let mut held: [S::Mask; N] = core::array::from_fn(|i| w[i].magnitude().lt(self.stick_speed));
+        let rate = S::splat(1.0) / S::splat(STICK_TIME);
+        let (breakaway, zero) = (self.breakaway, S::splat(0.0));
         // Each pass either holds every wheel in the band or releases one: at most N + 1.
+        // A lane is done at its first pass that releases none.
+        let mut done = S::mask(false);
         for _ in 0..=N {
             let need = hold(&held, &tau, &w, &a0, &s, rate);
-            let mut released = false;
+            let mut released = S::mask(false);
             for i in 0..N {
-                if held[i] && need[i].abs() > self.breakaway {
-                    held[i] = false;
-                    tau[i] = if need[i] > T::zero() { self.breakaway } else { -self.breakaway };
-                    released = true;
-                    break;
-                }
+                let release = !done & !released & held[i] & need[i].magnitude().gt(breakaway);
+                held[i] = held[i] & !release;
+                tau[i] = S::select(release, S::select(need[i].gt(zero), breakaway, -breakaway), tau[i]);
+                released = released | release;
             }
-            if !released {
-                for i in 0..N {
-                    if held[i] {
-                        tau[i] = need[i];
-                    }
-                }
-                return tau;
+            let finish = !done & !released;
+            for i in 0..N {
+                tau[i] = S::select(finish & held[i], need[i], tau[i]);
+            }
+            done = done | finish;
+            if !S::any(!done) {
+                break;
             }
         }
         tau
@@ -204,35 +227,27 @@ impl<T: Real> Friction<T> {
 /// The torques on the `held` wheels that give them ẇ = −rate·w with the others' torques
 /// `tau` fixed: S_hh τ_h = a0_h + rate w_h − S_h,other τ_other (N ≤ 2: one division or
 /// Cramer's rule). Entries of wheels not held are left as they are.
-fn hold<T: Real, const N: usize>(held: &[bool; N], tau: &[T; N], w: &[T; N], a0: &[T; N], s: &[[T; N]; N], rate: T) -> [T; N] {
-    let mut rhs = [T::zero(); N];
-    for i in 0..N {
-        if held[i] {
-            rhs[i] = a0[i] + rate * w[i];
-            for j in 0..N {
-                if !held[j] {
-                    rhs[i] -= s[i][j] * tau[j];
-                }
-            }
+#[inline(always)]
+fn hold<S: Lane, const N: usize>(held: &[S::Mask; N], tau: &[S; N], w: &[S; N], a0: &[S; N], s: &[[S; N]; N], rate: S) -> [S; N] {
+    let rhs: [S; N] = core::array::from_fn(|i| {
+        let mut v = a0[i] + rate * w[i];
+        for j in 0..N {
+            // Only the wheels not held (j = i is held wherever rhs[i] is used).
+            v = S::select(held[j], v, v - s[i][j] * tau[j]);
         }
-    }
+        v
+    });
     let mut out = *tau;
-    let mut idx = [0usize; N];
-    let mut n = 0;
-    for (i, &h) in held.iter().enumerate() {
-        if h {
-            idx[n] = i;
-            n += 1;
-        }
-    }
-    match idx[..n] {
-        [i] => out[i] = rhs[i] / s[i][i],
-        [i, j] => {
-            let det = s[i][i] * s[j][j] - s[i][j] * s[j][i];
-            out[i] = (s[j][j] * rhs[i] - s[i][j] * rhs[j]) / det;
-            out[j] = (s[i][i] * rhs[j] - s[j][i] * rhs[i]) / det;
-        }
-        _ => {}
+    if N == 1 {
+        out[0] = S::select(held[0], rhs[0] / s[0][0], tau[0]);
+    } else {
+        let (i, j) = (0, N - 1);
+        let det = s[i][i] * s[j][j] - s[i][j] * s[j][i];
+        let both = held[i] & held[j];
+        let pair_i = (s[j][j] * rhs[i] - s[i][j] * rhs[j]) / det;
+        let pair_j = (s[i][i] * rhs[j] - s[j][i] * rhs[i]) / det;
+        out[i] = S::select(both, pair_i, S::select(held[i], rhs[i] / s[i][i], tau[i]));
+        out[j] = S::select(both, pair_j, S::select(held[j], rhs[j] / s[j][j], tau[j]));
     }
     out
 }

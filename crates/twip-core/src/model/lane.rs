@@ -40,6 +40,11 @@ pub trait Lane:
     fn smaller(self, other: Self) -> Self;
     /// The largest whole number ≤ x.
     fn floor(self) -> Self;
+    /// e^x: libm's in a run; in lanes a polynomial that vectorises (`math::exp_fused`,
+    /// within 2 ulp of libm's). Named apart from `ComplexField::exp`, which a `Real` has too.
+    fn exponential(self) -> Self;
+    /// tanh x, libm's (a call per lane: no lane law needs it fast).
+    fn hyperbolic_tangent(self) -> Self;
     /// Comparisons, false where either side is NaN (as `<`, `<=`, `>`, `==`).
     fn lt(self, other: Self) -> Self::Mask;
     fn le(self, other: Self) -> Self::Mask;
@@ -106,6 +111,16 @@ impl<T: Real> Lane for T {
     #[inline(always)]
     fn floor(self) -> Self {
         nalgebra::ComplexField::floor(self)
+    }
+
+    #[inline(always)]
+    fn exponential(self) -> Self {
+        nalgebra::ComplexField::exp(self)
+    }
+
+    #[inline(always)]
+    fn hyperbolic_tangent(self) -> Self {
+        nalgebra::ComplexField::tanh(self)
     }
 
     #[inline(always)]
@@ -315,6 +330,16 @@ mod wide {
         }
 
         #[inline(always)]
+        fn exponential(self) -> Self {
+            Fused(crate::model::math::exp_fused(self.0))
+        }
+
+        #[inline(always)]
+        fn hyperbolic_tangent(self) -> Self {
+            Fused(self.0.tanh())
+        }
+
+        #[inline(always)]
         fn lt(self, other: Self) -> bool {
             self.0 < other.0
         }
@@ -399,6 +424,16 @@ mod wide {
         #[inline(always)]
         fn floor(self) -> Self {
             Wide(each(self.0, f64::floor))
+        }
+
+        #[inline(always)]
+        fn exponential(self) -> Self {
+            Wide(each(self.0, crate::model::math::exp_fused))
+        }
+
+        #[inline(always)]
+        fn hyperbolic_tangent(self) -> Self {
+            Wide(each(self.0, f64::tanh))
         }
 
         #[inline(always)]

@@ -125,27 +125,6 @@ impl<T: Real> SlopeModel<T> {
         self.friction.as_ref()
     }
 
-    /// Both wheels' gearhead friction torque at the relative speed β̇ = θ̇ − φ̇ when it is
-    /// the slip law's (0 without friction, and with a stick band, which [`Self::held`] adds).
-    #[inline(always)]
-    fn gearhead(&self, beta_dot: T) -> T {
-        match &self.friction {
-            Some(f) if !f.sticks() => c::<T>(2.0) * f.torque(beta_dot),
-            _ => T::zero(),
-        }
-    }
-
-    /// With a stick band: the accelerations `qdd` (found without gearhead friction) with
-    /// the friction's added, and its torque per wheel. A total torque F on β̇ adds
-    /// (F, −F) to f, so β̈ = a0 − s τ per wheel with s = −2 (r_θ − r_φ), r = M⁻¹ (1, −1).
-    #[inline(always)]
-    fn held(&self, f: &Friction<T>, beta_dot: T, qdd: Vector2<T>, m12: T) -> (Vector2<T>, T) {
-        let two = c::<T>(2.0);
-        let r = self.accelerations(&[T::one(), -T::one()], m12);
-        let [tau] = f.torques([beta_dot], [qdd[1] - qdd[0]], [[-two * (r[1] - r[0])]]);
-        (qdd + r * (two * tau), tau)
-    }
-
     /// Each wheel's gearhead friction torque [N m] at state `x` under current `u` (0
     /// without friction): the slip law, or with a stick band whatever holds the wheels.
     pub fn gearhead_torque_at(&self, x: &SlopeState<T>, u: T) -> T {
@@ -173,23 +152,6 @@ impl<T: Real> SlopeModel<T> {
         Matrix2::new(self.k.m11, m12, m12, self.k.m22)
     }
 
-    /// `forces` with `extra(sin φ, cos φ)` added to f when it gives some (an external
-    /// force on the body): φ's sin/cos are shared, and `None` costs nothing. Also both
-    /// wheels' slip-law gearhead torque that f holds ([`Self::gearhead`]).
-    #[inline(always)]
-    fn forces_plus(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (Forces<T>, T) {
-        let gearhead = self.gearhead(x[3] - x[1]);
-        let mut out = forces(&self.k, &[x[0], x[1], x[2], x[3]], u);
-        if self.friction.is_some() {
-            // A torque on β̇ = θ̇ − φ̇, as the bearing's: (+, −) on (φ, θ).
-            out.f = [out.f[0] + gearhead, out.f[1] - gearhead];
-        }
-        if let Some(q) = extra(out.sin_phi, out.cos_phi) {
-            out.f = [out.f[0] + q[0], out.f[1] + q[1]];
-        }
-        (out, gearhead)
-    }
-
     /// `deriv` with extra generalised forces `extra(sin φ, cos φ)` on (φ, θ): the
     /// disturbed plant's constant force. `|_, _| None` is `deriv`, bit for bit.
     #[inline(always)]
@@ -197,18 +159,12 @@ impl<T: Real> SlopeModel<T> {
         self.motion(x, u, extra).0
     }
 
-    /// The derivative under `extra`, and each wheel's gearhead friction torque: the slip
-    /// law's (in f already), or with a stick band what holds the wheels ([`Self::held`]).
+    /// The derivative under `extra`, and each wheel's gearhead friction torque
+    /// ([`motion`], the one source).
     #[inline(always)]
     fn motion(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (SlopeState<T>, T) {
-        let (out, gearhead) = self.forces_plus(x, u, extra);
-        let m12 = m12(&self.k, out.sin_phi, out.cos_phi, self.k.rotor);
-        let qdd = self.accelerations(&out.f, m12);
-        let (qdd, tau) = match &self.friction {
-            Some(fr) if fr.sticks() => self.held(fr, x[3] - x[1], qdd, m12),
-            _ => (qdd, gearhead * c::<T>(0.5)),
-        };
-        (Vector4::new(x[1], qdd[0], x[3], qdd[1]), tau)
+        let (d, tau) = motion(&self.k, self.friction.as_ref(), &[x[0], x[1], x[2], x[3]], u, |s, co| extra(s, co).map(|q| [q[0], q[1]]));
+        (Vector4::from(d), tau)
     }
 
     /// The derivative with both wheels' gear trains open when not `engaged` (gearbox
@@ -227,8 +183,7 @@ impl<T: Real> SlopeModel<T> {
         if engaged {
             return self.motion(x, u, extra);
         }
-        let bare = Self { friction: None, ..*self };
-        let (out, _) = bare.forces_plus(x, T::zero(), extra);
+        let (out, _) = forces_plus(&self.k, None, &[x[0], x[1], x[2], x[3]], T::zero(), |s, co| extra(s, co).map(|q| [q[0], q[1]]));
         let qdd = self.rotorless_accelerations(&out.f, out.sin_phi, out.cos_phi);
         (Vector4::new(x[1], qdd[0], x[3], qdd[1]), T::zero())
     }
@@ -276,7 +231,7 @@ impl<T: Real> SlopeModel<T> {
     /// Exact Jacobians `(A, B)` of `ẋ = f(x, u)` at any operating point `(x0, u0)`.
     pub fn linearize(&self, x0: &SlopeState<T>, u0: T) -> (SMatrix<T, 4, 4>, Vector4<T>) {
         let p = &self.params;
-        let (out, _) = self.forces_plus(x0, u0, |_, _| None);
+        let (out, _) = forces_plus(&self.k, self.friction.as_ref(), &[x0[0], x0[1], x0[2], x0[3]], u0, |_, _| None);
         let (sin_phi, cos_phi) = (out.sin_phi, out.cos_phi);
         let qdd = self.accelerations(&out.f, m12(&self.k, sin_phi, cos_phi, self.k.rotor));
         // M_b r l sin(φ + α) and M_b r l cos(φ + α).
@@ -461,6 +416,59 @@ pub(crate) fn pitch_input_gain<S: Lane>(k: &SlopeCoefficients<S>, phi: S) -> S {
     let (s, c) = S::sincos(phi);
     let tau = k.torque_per_amp;
     cramer(k.m11, k.m22, k.m11_m22, m12(k, s, c, k.rotor), &[-tau, tau])[0]
+}
+
+/// `forces` with both wheels' slip-law gearhead friction `fr` (a torque on β̇ = θ̇ − φ̇,
+/// as the bearing's: (+, −) on (φ, θ); none with a stick band, which [`motion`] adds) and
+/// `extra(sin φ, cos φ)` added to f when it gives some (an external force on the body):
+/// φ's sin/cos are shared, and `None` costs nothing. Also that gearhead torque.
+#[inline(always)]
+pub(crate) fn forces_plus<S: Lane>(
+    k: &SlopeCoefficients<S>,
+    fr: Option<&Friction<S>>,
+    x: &[S; 4],
+    u: S,
+    extra: impl Fn(S, S) -> Option<[S; 2]>,
+) -> (Forces<S>, S) {
+    let gearhead = match fr {
+        Some(f) if !f.sticks() => S::splat(2.0) * f.torque(x[3] - x[1]),
+        _ => S::splat(0.0),
+    };
+    let mut out = forces(k, x, u);
+    if fr.is_some() {
+        out.f = [out.f[0] + gearhead, out.f[1] - gearhead];
+    }
+    if let Some(q) = extra(out.sin_phi, out.cos_phi) {
+        out.f = [out.f[0] + q[0], out.f[1] + q[1]];
+    }
+    (out, gearhead)
+}
+
+/// The derivative with gearhead friction `fr` on both wheels (None: the thesis's plant)
+/// and the extra forces `extra`, and each wheel's gearhead friction torque: the slip
+/// law's (in f already), or with a stick band what holds the wheels. A total torque F on
+/// β̇ adds (F, −F) to f, so β̈ = a0 − s τ per wheel with s = −2 (r_θ − r_φ), r = M⁻¹ (1, −1).
+#[inline(always)]
+pub(crate) fn motion<S: Lane>(
+    k: &SlopeCoefficients<S>,
+    fr: Option<&Friction<S>>,
+    x: &[S; 4],
+    u: S,
+    extra: impl Fn(S, S) -> Option<[S; 2]>,
+) -> ([S; 4], S) {
+    let (out, gearhead) = forces_plus(k, fr, x, u, extra);
+    let m12 = m12(k, out.sin_phi, out.cos_phi, k.rotor);
+    let qdd = cramer(k.m11, k.m22, k.m11_m22, m12, &out.f);
+    match fr {
+        Some(f) if f.sticks() => {
+            let two = S::splat(2.0);
+            let r = cramer(k.m11, k.m22, k.m11_m22, m12, &[S::splat(1.0), -S::splat(1.0)]);
+            let [tau] = f.torques([x[3] - x[1]], [qdd[1] - qdd[0]], [[-two * (r[1] - r[0])]]);
+            let total = two * tau;
+            ([x[1], qdd[0] + r[0] * total, x[3], qdd[1] + r[1] * total], tau)
+        }
+        _ => ([x[1], qdd[0], x[3], qdd[1]], gearhead * S::splat(0.5)),
+    }
 }
 
 /// The derivative of the thesis's plant (no gearhead friction, no external force).

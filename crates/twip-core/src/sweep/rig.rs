@@ -6,7 +6,10 @@
 //! replaced, so a sample is reproducible from (sweep seed, index) alone and two sweep
 //! seeds give different noise. `noise_seed` is a bijection that moves the key away from
 //! `s` itself, so the noise is not the very stream the perturbations were drawn from.
-use super::{finish, fresh, Sample, SampleMetrics, SweepMetrics};
+use super::block::{run_rig_block, LaneLaw};
+use super::lanes::LANES;
+use super::{draw, finish, fresh, Nominal, Perturbation, Sample, SampleMetrics, SweepMetrics};
+use crate::TwipError;
 use crate::control::Controller;
 use crate::sim::metrics::SlopeMetrics;
 use crate::hardware::realism::Realism;
@@ -56,12 +59,45 @@ where
     finish(run, config.dt, |fell, t_end, steps| SampleMetrics::from_summary(&metrics.summary(), fell, t_end, steps))
 }
 
+/// Runs the samples `indices` of a sweep through `realism`'s rig (set up by [`for_sweep`])
+/// on lanes, [`LANES`](crate::sweep::lanes::LANES) at a time (`block::run_rig_block`):
+/// each sample agrees with [`run_rig_sample`] to rounding. `realism` must run on lanes
+/// (`Realism::on_lanes`). `Ok(None)` when `should_stop` said so.
+#[allow(clippy::too_many_arguments)]
+pub fn run_rig_lane_samples<C: LaneLaw + Clone>(
+    law: &C,
+    reference: &SpeedSchedule<f64>,
+    config: &SimConfig<f64>,
+    nominal: &Nominal,
+    perturbations: &[Perturbation],
+    seed: u64,
+    indices: core::ops::Range<u64>,
+    realism: &Realism<f64>,
+    should_stop: &dyn Fn() -> bool,
+) -> Result<Option<alloc::vec::Vec<SampleMetrics>>, TwipError> {
+    let mut out = alloc::vec::Vec::with_capacity((indices.end - indices.start) as usize);
+    let mut start = indices.start;
+    while start < indices.end {
+        let end = (start + LANES as u64).min(indices.end);
+        let samples: alloc::vec::Vec<Sample> = (start..end).map(|i| draw(nominal, perturbations, seed, i)).collect();
+        let Some(block) = run_rig_block(law.clone(), reference, config, &samples, realism, should_stop)? else {
+            return Ok(None);
+        };
+        out.extend_from_slice(&block[..samples.len()]);
+        start = end;
+    }
+    Ok(Some(out))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::control::lqr::{design, DesignPoint, LqrController};
     use crate::model::params::RobotParams;
     use crate::sweep::{draw, run_slope_sample, Nominal, Perturbation, Spread, Target};
+    use crate::control::reference::SpeedRef;
+    use crate::control::Controller;
+    use alloc::vec::Vec;
     use nalgebra::{Matrix4, Vector4};
 
     fn setup(period: f64) -> (LqrController<f64>, SpeedSchedule<f64>, SimConfig<f64>, Nominal) {
@@ -121,6 +157,146 @@ mod tests {
         assert_ne!(run(&sample(18), &realism), alone, "another index, other noise");
         assert_ne!(run(&sample(17), &for_sweep(&Realism::thesis_like(), 6)), alone, "another sweep seed, other noise");
         assert_ne!(noise_seed(5), 5);
+    }
+
+    /// The worst relative difference between a lane through the rig and the rig's run of
+    /// its robot over `t_final`, among 35 robots that stay up; every robot (some invalid,
+    /// some falling) ends the same way at the same step.
+    fn rig_lanes_agree<L, C>(law: &L, prototype: &C, realism: &Realism<f64>, t_final: f64) -> f64
+    where
+        L: LaneLaw + Clone,
+        C: Controller<f64, 4, 1, Reference = SpeedRef<f64>> + Clone,
+    {
+        let (_, schedule, mut config, nominal) = setup(5e-3);
+        config.t_final = t_final;
+        let realism = for_sweep(realism, 7);
+        let never = || false;
+        let n = 35;
+        let lanes = run_rig_lane_samples(law, &schedule, &config, &nominal, &spread(), 3, 0..n, &realism, &never).unwrap().unwrap();
+        let (mut worst, mut fell, mut invalid) = (0.0f64, 0, 0);
+        for (i, got) in lanes.iter().enumerate() {
+            let sample = draw(&nominal, &spread(), 3, i as u64);
+            let expected = run_rig_sample(prototype, &schedule, &config, &sample, &realism, &never).unwrap();
+            assert_eq!((got.valid, got.fell, got.steps), (expected.valid, expected.fell, expected.steps), "sample {i}");
+            assert!(got.t_end == expected.t_end || !got.valid, "sample {i}");
+            for (a, b) in [
+                (got.mean_abs_pitch_error, expected.mean_abs_pitch_error),
+                (got.mean_abs_speed_error, expected.mean_abs_speed_error),
+                (got.final_position_error, expected.final_position_error),
+                (got.peak_abs_input, expected.peak_abs_input),
+                (got.peak_current, expected.peak_current),
+            ] {
+                // A falling robot's last moments diverge at the open-loop rate (as the
+                // ideal lanes' test, the bound is for the robots that stay up).
+                if (a.is_nan() && b.is_nan()) || got.fell {
+                    continue;
+                }
+                worst = worst.max((a - b).abs() / b.abs().max(1e-9));
+            }
+            // A settling time is a step's time: rounding may move it by one step at most.
+            for (a, b) in [
+                (got.pitch_settling_time, expected.pitch_settling_time),
+                (got.speed_settling_time, expected.speed_settling_time),
+            ] {
+                assert!((a - b).abs() <= config.dt * 1.000001 || (a.is_nan() && b.is_nan()), "sample {i}: {a} vs {b}");
+            }
+            fell += got.fell as usize;
+            invalid += !got.valid as usize;
+        }
+        assert!(invalid > 0 && fell + invalid < n as usize, "fell {fell}, invalid {invalid}");
+        worst
+    }
+
+    fn lanes() -> (crate::sweep::block::LqrLanes, LqrController<f64>, crate::sweep::block::FuzzyLanes, crate::control::fuzzy::FuzzyController<f64>) {
+        use crate::control::fuzzy::FuzzyController;
+        use crate::sweep::block::{FuzzyLanes, LqrLanes};
+        let (lqr, ..) = setup(5e-3);
+        let fuzzy = FuzzyController::thesis_flat(SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap(), 5e-3).unwrap();
+        (LqrLanes::new(&lqr), lqr, FuzzyLanes::new(&fuzzy).unwrap(), fuzzy)
+    }
+
+    /// Every part a lane runs whose output is not quantised: over 10 s a lane stays
+    /// within 1e-12 of the rig's run (relative; the worst is printed).
+    #[test]
+    fn a_rig_lane_agrees_with_the_rig_run_to_rounding_over_ten_seconds() {
+        use crate::hardware::imu::ImuSettings;
+        use crate::hardware::tilt::TiltEstimator;
+        use crate::model::friction::Friction;
+        let (lqr_lanes, lqr, fuzzy_lanes, fuzzy) = lanes();
+        let unquantised = ImuSettings { quantise: false, ..ImuSettings::thesis_like() };
+        let first = Realism {
+            imu: Some(unquantised),
+            delay: true,
+            control_period: Some(5e-3),
+            friction: Some(Realism::thesis_like_friction()),
+            ..Realism::ideal()
+        };
+        let second = Realism { estimator: TiltEstimator::kalman(), delay: false, friction: Some(Friction::gb37()), ..first };
+        for (name, realism) in [("noisy IMU, delay, stick band", first), ("Kalman, slip friction", second)] {
+            let lqr_worst = rig_lanes_agree(&lqr_lanes, &lqr, &realism, 10.0);
+            let fuzzy_worst = rig_lanes_agree(&fuzzy_lanes, &fuzzy, &realism, 10.0);
+            println!("{name}: worst relative difference over 10 s: LQR {lqr_worst:e}, fuzzy {fuzzy_worst:e}");
+            for worst in [lqr_worst, fuzzy_worst] {
+                assert!(worst <= 1e-12 && worst > 0.0, "{name}: {worst:e}");
+            }
+        }
+    }
+
+    /// With quantised outputs (the IMU's registers, the encoders' counts, the duty's whole
+    /// counts) the feedback
+    /// does not see a difference below one count, so two roundings drift apart at the
+    /// open-loop pendulum's rate until a count flips (~2-4 s here): the rig's own run does
+    /// the same against itself with its initial state nudged by 1e-16 (measured: 1.2e-11
+    /// after 2 s, 2.4e-8 after 3 s, 2.7e-2 after 6 s). So a lane agrees with the run to
+    /// rounding over 1 s, and over 10 s the two are equally likely outcomes: the same
+    /// falls, and sample means within a percent.
+    #[test]
+    fn a_quantised_rig_lane_agrees_over_one_second_and_in_distribution_over_ten() {
+        use crate::hardware::driver::MotorDriver;
+        let (lqr_lanes, lqr, fuzzy_lanes, fuzzy) = lanes();
+        let thesis_like = Realism { backlash: None, ..Realism::thesis_like() };
+        let steady = Realism { motor: Some(MotorDriver::gb37y3530()), ..thesis_like };
+        for (name, realism) in [("thesis-like, no backlash", thesis_like), ("steady winding", steady)] {
+            let lqr_worst = rig_lanes_agree(&lqr_lanes, &lqr, &realism, 1.0);
+            let fuzzy_worst = rig_lanes_agree(&fuzzy_lanes, &fuzzy, &realism, 1.0);
+            println!("{name}: worst relative difference over 1 s: LQR {lqr_worst:e}, fuzzy {fuzzy_worst:e}");
+            for worst in [lqr_worst, fuzzy_worst] {
+                assert!(worst <= 1e-12 && worst > 0.0, "{name}: {worst:e}");
+            }
+        }
+        let (_, schedule, mut config, nominal) = setup(5e-3);
+        config.t_final = 10.0;
+        let realism = for_sweep(&thesis_like, 7);
+        let n = 48;
+        let lanes = run_rig_lane_samples(&lqr_lanes, &schedule, &config, &nominal, &spread(), 3, 0..n, &realism, &|| false).unwrap().unwrap();
+        let runs: Vec<_> = (0..n).map(|i| run_rig_sample(&lqr, &schedule, &config, &draw(&nominal, &spread(), 3, i), &realism, &|| false).unwrap()).collect();
+        let falls = |m: &[SampleMetrics]| m.iter().filter(|s| s.fell).count();
+        assert_eq!(falls(&lanes), falls(&runs));
+        let mean = |m: &[SampleMetrics], f: fn(&SampleMetrics) -> f64| {
+            let kept: Vec<f64> = m.iter().filter(|s| s.valid && !s.fell).map(f).collect();
+            kept.iter().sum::<f64>() / kept.len() as f64
+        };
+        let metrics: [(&str, fn(&SampleMetrics) -> f64); 3] = [
+            ("mean_abs_pitch_error", |s| s.mean_abs_pitch_error),
+            ("mean_abs_speed_error", |s| s.mean_abs_speed_error),
+            ("final_position_error", |s| s.final_position_error),
+        ];
+        for (metric, f) in metrics {
+            let (a, b) = (mean(&lanes, f), mean(&runs, f));
+            println!("{metric}: lanes {a:e}, runs {b:e}");
+            assert!((a - b).abs() <= 0.01 * b.abs(), "{metric}: lanes {a:e} vs runs {b:e}");
+        }
+    }
+
+    /// A realism with a part the lanes lack is refused by name, not run wrongly.
+    #[test]
+    fn the_rig_lanes_refuse_backlash() {
+        use crate::sweep::block::LqrLanes;
+        let (lqr, schedule, config, nominal) = setup(5e-3);
+        let realism = Realism::thesis_like();
+        assert!(!realism.on_lanes());
+        let run = run_rig_lane_samples(&LqrLanes::new(&lqr), &schedule, &config, &nominal, &spread(), 3, 0..4, &realism, &|| false);
+        assert!(matches!(run, Err(TwipError::InvalidParameter { name: "realism", .. })));
     }
 
     /// The rig's own errors about the robot are the sample's, not the sweep's.

@@ -19,7 +19,9 @@ use twip_core::sim::runner::SimConfig;
 use twip_core::sweep::lanes::LANES;
 use twip_core::sweep::parallel::{self, Progress};
 use twip_core::sweep::block::FuzzyLanes;
-use twip_core::sweep::rig::{for_sweep, noise_seed, run_rig_sample};
+use twip_core::hardware::realism::Realism;
+use twip_core::sweep::block::LqrLanes;
+use twip_core::sweep::rig::{for_sweep, noise_seed, run_rig_lane_samples, run_rig_sample};
 use twip_core::sweep::{
     draw, run_lane_samples, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Sample, SampleMetrics, Spread, SweepMetrics,
     Target,
@@ -275,9 +277,19 @@ pub fn sweep_raw<'py>(
         r.build(&model.inner, config.dt).map_err(PyTwipError)?;
     }
     let schedule = reference.inner;
-    let kernel = kernel_of(&ctrl, realism.is_some());
+    let kernel = kernel_of(&ctrl, nominal_realism.as_ref());
     run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
         match (&realism, ctrl) {
+            // A rig without pushes or force is every sample's: the nominal one.
+            (Some(_), SlopeController::Lqr(c)) if kernel == "realism-lanes" => {
+                let rig = for_sweep(nominal_realism.as_ref().expect("realism given"), seed);
+                run_rig_lane_samples(&LqrLanes::new(&c), &schedule, &config, &nominal, &perts, seed, range, &rig, stop).ok().flatten()
+            }
+            (Some(_), SlopeController::Fuzzy(c)) if kernel == "realism-lanes" => {
+                let rig = for_sweep(nominal_realism.as_ref().expect("realism given"), seed);
+                let law = FuzzyLanes::new(&c).expect("kernel_of checked it");
+                run_rig_lane_samples(&law, &schedule, &config, &nominal, &perts, seed, range, &rig, stop).ok().flatten()
+            }
             // Push and force heights default to each sample's own centre of mass.
             (Some(r), c) => range
                 .map(|i| {
@@ -302,26 +314,33 @@ pub fn sweep_raw<'py>(
     })
 }
 
-/// The kernel a sweep of this 2-DOF controller runs on: "realism", "lanes" (LQR, and
-/// fuzzy with trapezoid sets: vectorised) or "general".
-fn kernel_of(ctrl: &SlopeController, realism: bool) -> &'static str {
-    match (realism, ctrl) {
-        (true, _) => "realism",
-        (false, SlopeController::Lqr(_)) => "lanes",
-        (false, SlopeController::Fuzzy(c)) if FuzzyLanes::new(c).is_some() => "lanes",
-        (false, _) => "general",
+/// The kernel a sweep of this 2-DOF controller runs on: "lanes" (LQR, and fuzzy with
+/// trapezoid sets: vectorised), "realism-lanes" (the same laws through a rig that runs on
+/// lanes: `Realism::on_lanes`), "realism" or "general".
+fn kernel_of(ctrl: &SlopeController, realism: Option<&Realism<f64>>) -> &'static str {
+    let on_lanes = match ctrl {
+        SlopeController::Lqr(_) => true,
+        SlopeController::Fuzzy(c) => FuzzyLanes::new(c).is_some(),
+    };
+    match realism {
+        Some(r) if on_lanes && r.on_lanes() => "realism-lanes",
+        Some(_) => "realism",
+        None if on_lanes => "lanes",
+        None => "general",
     }
 }
 
 /// The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),
-/// with or without realism: "lanes", "general", "realism", "planar-lanes", "planar" or
-/// "planar-realism".
+/// with `realism` (a `twip.Realism`) or without (None): "lanes", "general",
+/// "realism-lanes", "realism", "planar-lanes", "planar" or "planar-realism".
 #[pyfunction]
-#[pyo3(signature = (controller, realism = false))]
-pub fn sweep_kernel(controller: &Bound<'_, PyAny>, realism: bool) -> PyResult<&'static str> {
+#[pyo3(signature = (controller, realism = None))]
+pub fn sweep_kernel(controller: &Bound<'_, PyAny>, realism: Option<&PyRealism>) -> PyResult<&'static str> {
     if let Ok(ctrl) = SlopeController::extract(controller) {
-        return Ok(kernel_of(&ctrl, realism));
+        // Pushes and force heights aside (rigs with them are not on lanes), any robot's.
+        let core = realism.map(|r| r.to_core(&twip_core::RobotParams::balanbot())).transpose().map_err(PyTwipError)?;
+        return Ok(kernel_of(&ctrl, core.as_ref()));
     }
     let ctrl = crate::sim::simulate_planar::PlanarController::extract(controller)?;
-    Ok(crate::sweep::planar::kernel_of(&ctrl, realism))
+    Ok(crate::sweep::planar::kernel_of(&ctrl, realism.is_some()))
 }

@@ -25,10 +25,12 @@ use crate::TwipError;
 mod fuzzy;
 mod lqr;
 mod planar;
+mod rig;
 mod smc;
 pub use fuzzy::FuzzyLanes;
 pub use lqr::LqrLanes;
 pub use planar::{run_planar_block, LanePath, PidLanes, PlanarLaneLaw};
+pub use rig::run_rig_block;
 pub use smc::SmcLanes;
 
 /// [`Wide`] vectors in a block.
@@ -159,6 +161,16 @@ struct Shared {
     direction: f64,
 }
 
+impl Shared {
+    /// The aim at time `t`: the reference then, and the speed scale and direction as they
+    /// stand with it.
+    fn at(t: f64, reference: &SpeedSchedule<f64>, speed_scale: f64, direction: f64) -> Self {
+        let r = reference.sample(t);
+        let towards = if r.theta_dot != 0.0 { r.theta_dot.signum() } else { direction };
+        Shared { t, r, speed_scale: speed_scale.max(r.theta_dot.abs()), direction: towards }
+    }
+}
+
 impl Metrics {
     fn new(radius: Lanes, x: &[Lanes; 4], phi_s: &Lanes) -> Self {
         Self {
@@ -188,6 +200,59 @@ impl Metrics {
         let values = [t.sum_pitch, t.sum_speed, t.pitch_settle, t.speed_settle, t.final_position_error, t.peak_abs_input];
         for (i, v) in values.iter().enumerate() {
             self.tally[i][l] = v.0;
+        }
+    }
+
+    /// Lane `l` has fallen into `x` at `at.t`: the runner observes that state, then stops.
+    /// Only this lane is observed: only its steady pitch (robot `model`) is needed.
+    fn observe_fall(&mut self, l: usize, x: &[Lanes; 4], u: &Lanes, model: &SlopeModel<f64>, phi_s: &Lanes, at: &Shared) {
+        let mut phi_s_next = *phi_s;
+        phi_s_next[l] = steady_pitch(model, at.r.theta_dot);
+        self.observe(&only(l), x, u, &phi_s_next, at);
+    }
+
+    /// The runner's last observation at the end (`at`, after `n` steps) of the lanes still
+    /// `alive`, then the metrics of every `active` lane into `out`, with how each `ended`.
+    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
+    fn finish(
+        &mut self,
+        out: &mut [SampleMetrics; LANES],
+        (alive, active, ended): (&[bool; LANES], &[bool; LANES], &mut [(bool, f64, u64); LANES]),
+        x: &[Lanes; 4],
+        u: &Lanes,
+        models: &[SlopeModel<f64>; LANES],
+        at: &Shared,
+        n: usize,
+    ) {
+        self.observe(alive, x, u, &steady_pitches(models, at.r.theta_dot), at);
+        for l in 0..LANES {
+            if alive[l] {
+                ended[l] = (false, at.t, n as u64);
+            }
+            if active[l] {
+                out[l] = self.summary(l, &models[l], ended[l]);
+            }
+        }
+    }
+
+    /// Lane `l`'s metrics, for its robot `model` and how it ended: (fell, t_end, steps).
+    fn summary(&self, l: usize, model: &SlopeModel<f64>, (fell, t_end, steps): (bool, f64, u64)) -> SampleMetrics {
+        let count = self.samples[l].max(1) as f64;
+        let tally = self.get(l);
+        let peaks = DrivePeaks::from_lumped_current(model.params(), tally.peak_abs_input.0);
+        SampleMetrics {
+            valid: true,
+            fell,
+            t_end,
+            mean_abs_pitch_error: tally.sum_pitch.0 / count,
+            mean_abs_speed_error: tally.sum_speed.0 / count,
+            pitch_settling_time: tally.pitch_settle.0,
+            speed_settling_time: tally.speed_settle.0,
+            final_position_error: tally.final_position_error.0,
+            peak_abs_input: tally.peak_abs_input.0,
+            peak_current: peaks.current,
+            peak_torque: peaks.torque,
+            steps,
         }
     }
 
@@ -417,14 +482,7 @@ fn block<C: LaneLaw>(
                     for i in 0..4 {
                         x[i][l] = next[i][l];
                     }
-                    let r_next = reference.sample(t_next);
-                    // Only this lane is observed: only its steady pitch is needed.
-                    let mut phi_s_next = plant_phi_s;
-                    phi_s_next[l] = steady_pitch(&models[l], r_next.theta_dot);
-                    let towards = if r_next.theta_dot != 0.0 { r_next.theta_dot.signum() } else { direction };
-                    let scale = speed_scale.max(r_next.theta_dot.abs());
-                    let shared = Shared { t: t_next, r: r_next, speed_scale: scale, direction: towards };
-                    metrics.observe(&only(l), &x, &u, &phi_s_next, &shared);
+                    metrics.observe_fall(l, &x, &u, &models[l], &plant_phi_s, &Shared::at(t_next, reference, speed_scale, direction));
                 }
             }
             if !alive.iter().any(|&a| a) {
@@ -432,38 +490,7 @@ fn block<C: LaneLaw>(
             }
         }
     }
-    let t_end = dt * n as f64;
-    let r_end = reference.sample(t_end);
-    let end_phi_s = steady_pitches(&models, r_end.theta_dot);
-    let towards = if r_end.theta_dot != 0.0 { r_end.theta_dot.signum() } else { direction };
-    let shared = Shared { t: t_end, r: r_end, speed_scale: speed_scale.max(r_end.theta_dot.abs()), direction: towards };
-    metrics.observe(&alive, &x, &u, &end_phi_s, &shared);
-    for l in 0..LANES {
-        if alive[l] {
-            ended[l] = (false, t_end, n as u64);
-        }
-        if !active[l] {
-            continue;
-        }
-        let count = metrics.samples[l].max(1) as f64;
-        let (fell, t_end, steps) = ended[l];
-        let tally = metrics.get(l);
-        let peaks = DrivePeaks::from_lumped_current(models[l].params(), tally.peak_abs_input.0);
-        out[l] = SampleMetrics {
-            valid: true,
-            fell,
-            t_end,
-            mean_abs_pitch_error: tally.sum_pitch.0 / count,
-            mean_abs_speed_error: tally.sum_speed.0 / count,
-            pitch_settling_time: tally.pitch_settle.0,
-            speed_settling_time: tally.speed_settle.0,
-            final_position_error: tally.final_position_error.0,
-            peak_abs_input: tally.peak_abs_input.0,
-            peak_current: peaks.current,
-            peak_torque: peaks.torque,
-            steps,
-        };
-    }
+    metrics.finish(&mut out, (&alive, &active, &mut ended), &x, &u, &models, &Shared::at(dt * n as f64, reference, speed_scale, direction), n);
     Ok(Some(out))
 }
 

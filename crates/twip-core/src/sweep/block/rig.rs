@@ -1,0 +1,249 @@
+//! The fast path of a realism sweep: [`LANES`] samples at once through the 2-DOF rig, for
+//! every law on lanes ([`LaneLaw`]) and every realism whose plant is the slope model with
+//! its gearhead friction (`Realism::on_lanes`: no backlash, pushes, force or slope changes).
+//!
+//! The loop is `runner::run_loop`'s, step for step. The plant's RK4 is the run's own
+//! source (`model::slope::motion` with `Friction`'s law and, for a driver without
+//! inductance, `Winding::steady_current`) on [`Fused`] lanes, which the compiler vectorises.
+//! Each lane's sensors, actuator and winding are its own rig's parts, the very objects a
+//! run uses (`Realism::build`, noise stream = sample index): they act once per step or per
+//! control period on a lane's numbers, and their noise draws are a lane's own. So a lane
+//! agrees with `sweep::rig::run_rig_sample` to rounding, and is bit for bit the same on
+//! every CPU, thread count and block neighbour.
+use nalgebra::{SVector, Vector4};
+
+use super::{multiversioned, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared};
+use crate::control::reference::SpeedSchedule;
+use crate::control::Reference;
+use crate::hardware::driver::Winding;
+use crate::hardware::realism::{Realism, SlopeRig};
+use crate::model::friction::Friction;
+use crate::model::integrate::{rk4, Field};
+use crate::model::lane::Fused;
+use crate::model::slope::{motion, SlopeCoefficients, SlopeModel};
+use crate::sim::runner::{Actuator, Plant as _, Sensor, SimConfig, STOP_CHECK_STEPS};
+use crate::sweep::lanes::{Lanes, LANES};
+use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
+use crate::{Dynamics, TwipError};
+
+/// One lane's plant over a step: the input held (a lumped current, or a duty that a
+/// winding without inductance turns into current at each stage).
+struct RigField {
+    k: SlopeCoefficients<Fused>,
+    friction: Option<Friction<Fused>>,
+    u: Fused,
+    steady: Option<(Winding<Fused>, Fused)>,
+}
+
+impl Field<Fused, 4> for RigField {
+    #[inline(always)]
+    fn at(&self, x: &[Fused; 4]) -> [Fused; 4] {
+        // As `Driven::mechanical_current`: 2 ε times the winding's current.
+        let u = match &self.steady {
+            Some((winding, per_amp)) => *per_amp * winding.steady_current(self.u, x[3] - x[1]),
+            None => self.u,
+        };
+        motion(&self.k, self.friction.as_ref(), x, u, |_, _| None).0
+    }
+}
+
+/// The lanes' plants: coefficients per lane, the friction all share, and each lane's
+/// winding when the driver has no inductance.
+struct RigPlants {
+    plants: Plants,
+    friction: Option<Friction<f64>>,
+    steady: Option<[(Winding<f64>, f64); LANES]>,
+}
+
+impl RigPlants {
+    #[inline(always)]
+    fn field(&self, l: usize, u: f64) -> RigField {
+        RigField {
+            k: self.plants.lane(l),
+            friction: self.friction.map(|f| f.map(Fused)),
+            u: Fused(u),
+            steady: self.steady.as_ref().map(|s| (s[l].0.map(Fused), Fused(s[l].1))),
+        }
+    }
+
+    /// The derivative at the step's start on every lane (RK4's first stage, which the
+    /// sensors sample too).
+    #[inline(always)]
+    fn k1(&self, x: &[Lanes; 4], u: &Lanes) -> [Lanes; 4] {
+        let mut out = [[0.0; LANES]; 4];
+        for l in 0..LANES {
+            let d = self.field(l, u[l]).at(&lane(x, l).map(Fused));
+            for i in 0..4 {
+                out[i][l] = d[i].0;
+            }
+        }
+        out
+    }
+
+    /// One RK4 step from `k1` on every lane, the input held.
+    #[inline(always)]
+    fn rk4(&self, x: &[Lanes; 4], u: &Lanes, k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
+        let mut out = [[0.0; LANES]; 4];
+        for l in 0..LANES {
+            let next = rk4(&self.field(l, u[l]), &lane(x, l).map(Fused), &lane(k1, l).map(Fused), Fused(dt));
+            for i in 0..4 {
+                out[i][l] = next[i].0;
+            }
+        }
+        out
+    }
+}
+
+/// Lane `l` of a state.
+#[inline(always)]
+fn lane(x: &[Lanes; 4], l: usize) -> [f64; 4] {
+    [x[0][l], x[1][l], x[2][l], x[3][l]]
+}
+
+multiversioned! {
+    /// Runs up to [`LANES`] samples through the rig `realism` builds for each (noise
+    /// stream = the sample's index; see `sweep::rig::for_sweep` for the key), with
+    /// `controller`'s law. `realism` must run on lanes (`Realism::on_lanes`; an error
+    /// names it otherwise). `should_stop` is asked every `runner::STOP_CHECK_STEPS` steps;
+    /// `Ok(None)` means it said yes before the block was done.
+    pub fn run_rig_block, rig_block_avx512, rig_block_avx2, rig_block_baseline = rig_block<C: LaneLaw>(
+        controller: C,
+        reference: &SpeedSchedule<f64>,
+        config: &SimConfig<f64>,
+        samples: &[Sample],
+        realism: &Realism<f64>,
+        should_stop: &dyn Fn() -> bool,
+    ) -> BlockResult
+}
+
+#[inline(always)]
+fn rig_block<C: LaneLaw>(
+    mut controller: C,
+    reference: &SpeedSchedule<f64>,
+    config: &SimConfig<f64>,
+    samples: &[Sample],
+    realism: &Realism<f64>,
+    should_stop: &dyn Fn() -> bool,
+) -> BlockResult {
+    assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
+    if !realism.on_lanes() {
+        let reason = "has backlash, pushes, a force or slope changes: the general runner's";
+        return Err(TwipError::InvalidParameter { name: "realism", value: f64::NAN, reason });
+    }
+    let (n, per_update) = config.steps(controller.period())?;
+    let dt = config.dt;
+    let mut out = [SampleMetrics::INVALID; LANES];
+    // Invalid or missing samples run an idle copy of a valid robot's rig, never kept.
+    let mut active = [false; LANES];
+    let mut built: [Option<(SlopeModel<f64>, SlopeRig<f64>)>; LANES] = [None; LANES];
+    for (l, s) in samples.iter().enumerate() {
+        if !s.x0.iter().all(|v| v.is_finite()) {
+            continue;
+        }
+        let Ok(model) = SlopeModel::new(s.params, s.slope) else { continue };
+        if let Ok(rig) = realism.with_stream(s.index).build(&model, dt) {
+            built[l] = Some((model, rig));
+            active[l] = true;
+        }
+    }
+    let Some(fallback) = built.iter().flatten().next().copied() else {
+        return Ok(Some(out));
+    };
+    let built: [(SlopeModel<f64>, SlopeRig<f64>); LANES] = core::array::from_fn(|l| built[l].unwrap_or(fallback));
+    let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| built[l].0);
+    let mut rigs: [SlopeRig<f64>; LANES] = core::array::from_fn(|l| built[l].1);
+    let ground = |l: usize| *rigs[l].plant.ground().model_at(&Vector4::zeros());
+    let plants = RigPlants {
+        plants: Plants::new(&core::array::from_fn(|l| ground(l).coefficients())),
+        friction: ground(0).friction().copied(),
+        steady: rigs[0].plant.steady_winding().map(|_| core::array::from_fn(|l| rigs[l].plant.steady_winding().unwrap())),
+    };
+    let delay = rigs[0].delay;
+
+    let mut x: [Lanes; 4] = core::array::from_fn(|i| core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 }));
+    let mut state = controller.start();
+    // The controller's command and the plant's input (duty or current), each with the
+    // one period late copy a delayed rig applies.
+    let (mut cmd, mut u, mut pending, mut command, mut pending_command) = ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+    let mut y = [[0.0; LANES]; 4];
+    let mut alive = active;
+    let mut ended = [(false, 0.0f64, 0u64); LANES];
+    // The sensors' registers hold a sample of the initial state.
+    for (l, rig) in rigs.iter_mut().enumerate() {
+        let xl = Vector4::from(lane(&x, l));
+        let xdot = rig.plant.deriv(&xl, &SVector::<f64, 1>::zeros());
+        rig.sensors.sample(0.0, &xl, &xdot);
+    }
+    let r0 = reference.sample(0.0);
+    let mut cached_speed = r0.theta_dot;
+    let mut plant_phi_s = steady_pitches(&models, r0.theta_dot);
+    let mut metrics = Metrics::new(core::array::from_fn(|l| models[l].params().wheel_radius), &x, &plant_phi_s);
+    let mut speed_scale: f64 = 0.0;
+    let mut direction: f64 = 1.0;
+    let mut input = [0.0; LANES];
+    for k in 0..n {
+        let t = dt * k as f64;
+        if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
+            return Ok(None);
+        }
+        let r = reference.sample(t);
+        if r.theta_dot != cached_speed {
+            cached_speed = r.theta_dot;
+            plant_phi_s = steady_pitches(&models, r.theta_dot);
+        }
+        speed_scale = speed_scale.max(r.theta_dot.abs());
+        direction = if r.theta_dot != 0.0 { r.theta_dot.signum() } else { direction };
+        if k % per_update == 0 {
+            for (l, rig) in rigs.iter_mut().enumerate() {
+                let yl = rig.sensors.read(t, &Vector4::from(lane(&x, l)));
+                for i in 0..4 {
+                    y[i][l] = yl[i];
+                }
+            }
+            controller.update(&mut state, &y, &r, &mut cmd);
+            let mut drive = [0.0; LANES];
+            for (l, rig) in rigs.iter_mut().enumerate() {
+                drive[l] = rig.actuator.drive(t, &SVector::<f64, 1>::new(cmd[l]), &Vector4::from(lane(&y, l)))[0];
+                // A lane whose drive is not finite has diverged: it ends as fallen.
+                if alive[l] && !drive[l].is_finite() {
+                    alive[l] = false;
+                    ended[l] = (true, t, k as u64);
+                }
+            }
+            if delay {
+                (u, pending, command, pending_command) = (pending, drive, pending_command, cmd);
+            } else {
+                (u, command) = (drive, cmd);
+            }
+        }
+        metrics.observe(&alive, &x, &command, &plant_phi_s, &Shared { t, r, speed_scale, direction });
+        for (l, rig) in rigs.iter_mut().enumerate() {
+            let mut xl = Vector4::from(lane(&x, l));
+            rig.plant.between_steps(t, dt, &mut xl, &SVector::<f64, 1>::new(u[l]));
+            input[l] = rig.plant.held_current(&xl, u[l]).unwrap_or(u[l]);
+        }
+        let k1 = plants.k1(&x, &input);
+        for (l, rig) in rigs.iter_mut().enumerate() {
+            rig.sensors.sample(t, &Vector4::from(lane(&x, l)), &Vector4::from(lane(&k1, l)));
+        }
+        let next = plants.rk4(&x, &input, &k1, dt);
+        let Some(ends) = super::advance(&mut x, &next, &alive, 0, config.fall_limit) else { continue };
+        let t_next = dt * (k + 1) as f64;
+        for l in (0..LANES).filter(|&l| ends[l]) {
+            alive[l] = false;
+            ended[l] = (true, t_next, (k + 1) as u64);
+            if super::finite_at(&next, l) {
+                // Fell: the runner observes the state past the limit, then stops.
+                for i in 0..4 {
+                    x[i][l] = next[i][l];
+                }
+                metrics.observe_fall(l, &x, &command, &models[l], &plant_phi_s, &Shared::at(t_next, reference, speed_scale, direction));
+            }
+        }
+        if !alive.iter().any(|&a| a) {
+            break;
+        }
+    }
+    metrics.finish(&mut out, (&alive, &active, &mut ended), &x, &command, &models, &Shared::at(dt * n as f64, reference, speed_scale, direction), n);
+    Ok(Some(out))
+}
