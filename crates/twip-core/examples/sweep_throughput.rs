@@ -3,7 +3,8 @@
 //!       --example sweep_throughput -- PATH 256
 //! PATH: lanes (LQR on lanes), fuzzy-lanes, scalar (LQR, general runner), fuzzy-scalar,
 //! pid (circle-pid on the 3-DOF runner; the checksum sums its mean |x error| instead),
-//! pid-lanes (the same on the planar lane kernel), realism (LQR through the thesis-like rig, 5 ms loop).
+//! pid-lanes (the same on the planar lane kernel), realism (LQR through the thesis-like rig without backlash,
+//! 5 ms loop), realism-lanes (the same on the rig's lane kernel).
 use nalgebra::{Matrix4, Vector4};
 use twip_core::control::fuzzy::FuzzyController;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
@@ -60,15 +61,18 @@ fn main() {
             };
             runs.iter().map(|m| m.mean_abs_x_error).sum()
         }
-        "realism" => {
+        "realism" | "realism-lanes" => {
             use twip_core::hardware::realism::Realism;
-            use twip_core::sweep::rig::{for_sweep, run_rig_sample};
+            use twip_core::sweep::block::LqrLanes;
+            use twip_core::sweep::rig::{for_sweep, run_rig_lane_samples, run_rig_sample};
             let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 5e-3).unwrap();
-            let realism = for_sweep(&Realism::thesis_like(), 1);
-            (0..n)
-                .map(|i| run_rig_sample(&ctrl, &schedule, &config, &draw(&nominal, &perturb, 1, i), &realism, &|| false).unwrap())
-                .map(|m| m.mean_abs_pitch_error)
-                .sum()
+            let realism = for_sweep(&Realism { backlash: None, ..Realism::thesis_like() }, 1);
+            let runs: Vec<_> = if path == "realism" {
+                (0..n).map(|i| run_rig_sample(&ctrl, &schedule, &config, &draw(&nominal, &perturb, 1, i), &realism, &|| false).unwrap()).collect()
+            } else {
+                run_rig_lane_samples(&LqrLanes::new(&ctrl), &schedule, &config, &nominal, &perturb, 1, 0..n, &realism, &|| false).unwrap().unwrap()
+            };
+            runs.iter().map(|m| m.mean_abs_pitch_error).sum()
         }
         "fuzzy-scalar" => (0..n)
             .map(|i| run_slope_sample(&fuzzy, &schedule, &config, &draw(&nominal, &perturb, 1, i), &|| false).unwrap())

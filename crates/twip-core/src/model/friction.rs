@@ -190,6 +190,9 @@ impl<S: Lane> Friction<S> {
     /// the band is held (ẇ = −w/T_k) by the torque that needs, while that is within
     /// ±τ_s; a wheel that would need more breaks away at ±τ_s, and the others are held
     /// against it.
+    // Always inlined: out of line, the lanes' copies for AVX would call it compiled for the
+    // baseline CPU, each fused multiply-add a libm call.
+    #[inline(always)]
     pub fn torques<const N: usize>(&self, w: [S; N], a0: [S; N], s: [[S; N]; N]) -> [S; N] {
         const { assert!(N == 1 || N == 2, "one or two wheels") };
         let mut tau: [S; N] = core::array::from_fn(|i| self.torque(w[i]));

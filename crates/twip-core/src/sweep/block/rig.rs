@@ -247,3 +247,48 @@ fn rig_block<C: LaneLaw>(
     metrics.finish(&mut out, (&alive, &active, &mut ended), &x, &command, &models, &Shared::at(dt * n as f64, reference, speed_scale, direction), n);
     Ok(Some(out))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::lqr::{design, DesignPoint, LqrController};
+    use crate::model::params::RobotParams;
+    use crate::sweep::block::LqrLanes;
+    use alloc::format;
+    use alloc::vec::Vec;
+    use nalgebra::Matrix4;
+
+    /// Every compiled copy of the rig's kernel gives the same bits (the baseline one
+    /// through libm's fma), for the thesis-like rig without backlash, both outcomes.
+    #[test]
+    fn every_copy_gives_the_same_bits() {
+        let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
+        let q = Matrix4::from_diagonal(&Vector4::new(100.0, 1.0, 1.0, 1.0));
+        let d = design(&model, 3.0, &q, 480.0, DesignPoint::OperatingPoint).unwrap();
+        let law = LqrLanes::new(&LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 5e-3).unwrap());
+        let schedule = SpeedSchedule::constant(3.0).unwrap();
+        let config = SimConfig { dt: 1e-3, t_final: 2.0, fall_limit: 0.6 };
+        let realism = crate::sweep::rig::for_sweep(&Realism { backlash: None, ..Realism::thesis_like() }, 5);
+        let samples: Vec<Sample> = (0..LANES as u64)
+            .map(|i| {
+                let mut params = RobotParams::balanbot();
+                params.com_height *= 0.6 + 0.05 * i as f64;
+                Sample { index: i, params, slope: 0.05, x0: Vector4::new(0.03 * i as f64, 0.0, 0.0, 0.0) }
+            })
+            .collect();
+        let never = || false;
+        let base = format!("{:?}", rig_block_baseline(law.clone(), &schedule, &config, &samples, &realism, &never).unwrap());
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+                let got = unsafe { rig_block_avx2(law.clone(), &schedule, &config, &samples, &realism, &never) }.unwrap();
+                assert_eq!(format!("{got:?}"), base, "AVX2 copy");
+            }
+            if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma") {
+                let got = unsafe { rig_block_avx512(law.clone(), &schedule, &config, &samples, &realism, &never) }.unwrap();
+                assert_eq!(format!("{got:?}"), base, "AVX-512 copy");
+            }
+        }
+        assert!(base.contains("fell: true") && base.contains("fell: false"), "want both outcomes: {base}");
+    }
+}
