@@ -135,6 +135,36 @@ impl<T: Copy> Friction<T> {
     }
 }
 
+/// A gearhead friction with its kind decided once: none, the slip law, or with a stick
+/// band (a sweep's friction is every lane's, so its lanes branch on it together).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Gearhead<'a, S> {
+    Free,
+    Slip(&'a Friction<S>),
+    Stick(&'a Friction<S>),
+}
+
+impl<'a, S: Lane> Gearhead<'a, S> {
+    #[inline(always)]
+    pub(crate) fn of(friction: Option<&'a Friction<S>>) -> Self {
+        match friction {
+            Some(f) if f.sticks() => Self::Stick(f),
+            Some(f) => Self::Slip(f),
+            None => Self::Free,
+        }
+    }
+
+    /// Both wheels' slip-law torque at the relative speed `w` (0 without friction and with
+    /// a stick band, whose torque the model adds once it knows what holds the wheels).
+    #[inline(always)]
+    pub(crate) fn slip_pair(&self, w: S) -> S {
+        match self {
+            Self::Slip(f) => S::splat(2.0) * f.torque_as(w, false),
+            _ => S::splat(0.0),
+        }
+    }
+}
+
 // The law, written once over `Lane`: a run evaluates it in `T`, a sweep's lanes in
 // `Fused`. Its branches on the friction's own constants (`sticks`) are taken by all lanes
 // together (a sweep's friction is the same for every lane); those on the speeds are masks.
@@ -149,7 +179,14 @@ impl<S: Lane> Friction<S> {
     /// without a stick band; with one, what acts outside it (see [`Self::torques`]).
     #[inline(always)]
     pub fn torque(&self, w: S) -> S {
-        let (level, sign, _, _) = self.parts(w);
+        self.torque_as(w, self.sticks())
+    }
+
+    /// [`Self::torque`] with the kind of law decided by the caller (`sticks`: the exact
+    /// sign), as a sweep's lanes do once for all of them.
+    #[inline(always)]
+    fn torque_as(&self, w: S, sticks: bool) -> S {
+        let (level, sign, _, _) = self.parts_as(w, sticks);
         level * sign + self.viscous * w
     }
 
@@ -168,13 +205,18 @@ impl<S: Lane> Friction<S> {
     /// and their derivatives in w.
     #[inline(always)]
     fn parts(&self, w: S) -> (S, S, S, S) {
+        self.parts_as(w, self.sticks())
+    }
+
+    #[inline(always)]
+    fn parts_as(&self, w: S, sticks: bool) -> (S, S, S, S) {
         let (zero, one) = (S::splat(0.0), S::splat(1.0));
         let z = w / self.stribeck_speed;
         let hump = (-z * z).exponential();
         let peak = self.breakaway - self.coulomb;
         let level = self.coulomb + peak * hump;
         let d_level = -S::splat(2.0) * z / self.stribeck_speed * peak * hump;
-        if self.sticks() {
+        if sticks {
             let sign = S::select(w.gt(zero), one, S::select(w.lt(zero), -one, zero));
             return (level, sign, d_level, zero);
         }
@@ -194,16 +236,23 @@ impl<S: Lane> Friction<S> {
     // baseline CPU, each fused multiply-add a libm call.
     #[inline(always)]
     pub fn torques<const N: usize>(&self, w: [S; N], a0: [S; N], s: [[S; N]; N]) -> [S; N] {
-        const { assert!(N == 1 || N == 2, "one or two wheels") };
-        let mut tau: [S; N] = core::array::from_fn(|i| self.torque(w[i]));
         if !self.sticks() {
-            return tau;
+            return core::array::from_fn(|i| self.torque_as(w[i], false));
         }
+        self.held_torques(w, a0, s)
+    }
+
+    /// [`Self::torques`] of a friction with a stick band.
+    #[inline(always)]
+    pub(crate) fn held_torques<const N: usize>(&self, w: [S; N], a0: [S; N], s: [[S; N]; N]) -> [S; N] {
+        const { assert!(N == 1 || N == 2, "one or two wheels") };
+        let mut tau: [S; N] = core::array::from_fn(|i| self.torque_as(w[i], true));
         let mut held: [S::Mask; N] = core::array::from_fn(|i| w[i].magnitude().lt(self.stick_speed));
         let rate = S::splat(1.0) / S::splat(STICK_TIME);
         let (breakaway, zero) = (self.breakaway, S::splat(0.0));
         // Each pass either holds every wheel in the band or releases one: at most N + 1.
-        // A lane is done at its first pass that releases none.
+        // A lane is done at its first pass that releases none. All passes run (no exit
+        // when every lane is done), so that a loop over lanes vectorises.
         let mut done = S::mask(false);
         for _ in 0..=N {
             let need = hold(&held, &tau, &w, &a0, &s, rate);
@@ -219,9 +268,6 @@ impl<S: Lane> Friction<S> {
                 tau[i] = S::select(finish & held[i], need[i], tau[i]);
             }
             done = done | finish;
-            if !S::any(!done) {
-                break;
-            }
         }
         tau
     }

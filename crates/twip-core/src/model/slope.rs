@@ -22,7 +22,7 @@
 //! a Coriolis term that cancels in a correct derivation (docs/errata.md, E1–E3).
 use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3, Vector4};
 
-use crate::model::friction::Friction;
+use crate::model::friction::{Friction, Gearhead};
 use crate::model::lane::Lane;
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
@@ -163,7 +163,7 @@ impl<T: Real> SlopeModel<T> {
     /// ([`motion`], the one source).
     #[inline(always)]
     fn motion(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (SlopeState<T>, T) {
-        let (d, tau) = motion(&self.k, self.friction.as_ref(), &[x[0], x[1], x[2], x[3]], u, |s, co| extra(s, co).map(|q| [q[0], q[1]]));
+        let (d, tau) = motion(&self.k, Gearhead::of(self.friction.as_ref()), &[x[0], x[1], x[2], x[3]], u, |s, co| extra(s, co).map(|q| [q[0], q[1]]));
         (Vector4::from(d), tau)
     }
 
@@ -183,7 +183,7 @@ impl<T: Real> SlopeModel<T> {
         if engaged {
             return self.motion(x, u, extra);
         }
-        let (out, _) = forces_plus(&self.k, None, &[x[0], x[1], x[2], x[3]], T::zero(), |s, co| extra(s, co).map(|q| [q[0], q[1]]));
+        let (out, _) = forces_plus(&self.k, Gearhead::Free, &[x[0], x[1], x[2], x[3]], T::zero(), |s, co| extra(s, co).map(|q| [q[0], q[1]]));
         let qdd = self.rotorless_accelerations(&out.f, out.sin_phi, out.cos_phi);
         (Vector4::new(x[1], qdd[0], x[3], qdd[1]), T::zero())
     }
@@ -231,7 +231,7 @@ impl<T: Real> SlopeModel<T> {
     /// Exact Jacobians `(A, B)` of `ẋ = f(x, u)` at any operating point `(x0, u0)`.
     pub fn linearize(&self, x0: &SlopeState<T>, u0: T) -> (SMatrix<T, 4, 4>, Vector4<T>) {
         let p = &self.params;
-        let (out, _) = forces_plus(&self.k, self.friction.as_ref(), &[x0[0], x0[1], x0[2], x0[3]], u0, |_, _| None);
+        let (out, _) = forces_plus(&self.k, Gearhead::of(self.friction.as_ref()), &[x0[0], x0[1], x0[2], x0[3]], u0, |_, _| None);
         let (sin_phi, cos_phi) = (out.sin_phi, out.cos_phi);
         let qdd = self.accelerations(&out.f, m12(&self.k, sin_phi, cos_phi, self.k.rotor));
         // M_b r l sin(φ + α) and M_b r l cos(φ + α).
@@ -418,24 +418,21 @@ pub(crate) fn pitch_input_gain<S: Lane>(k: &SlopeCoefficients<S>, phi: S) -> S {
     cramer(k.m11, k.m22, k.m11_m22, m12(k, s, c, k.rotor), &[-tau, tau])[0]
 }
 
-/// `forces` with both wheels' slip-law gearhead friction `fr` (a torque on β̇ = θ̇ − φ̇,
+/// `forces` with both wheels' slip-law gearhead friction `gear` (a torque on β̇ = θ̇ − φ̇,
 /// as the bearing's: (+, −) on (φ, θ); none with a stick band, which [`motion`] adds) and
 /// `extra(sin φ, cos φ)` added to f when it gives some (an external force on the body):
 /// φ's sin/cos are shared, and `None` costs nothing. Also that gearhead torque.
 #[inline(always)]
 pub(crate) fn forces_plus<S: Lane>(
     k: &SlopeCoefficients<S>,
-    fr: Option<&Friction<S>>,
+    gear: Gearhead<'_, S>,
     x: &[S; 4],
     u: S,
     extra: impl Fn(S, S) -> Option<[S; 2]>,
 ) -> (Forces<S>, S) {
-    let gearhead = match fr {
-        Some(f) if !f.sticks() => S::splat(2.0) * f.torque(x[3] - x[1]),
-        _ => S::splat(0.0),
-    };
+    let gearhead = gear.slip_pair(x[3] - x[1]);
     let mut out = forces(k, x, u);
-    if fr.is_some() {
+    if !matches!(gear, Gearhead::Free) {
         out.f = [out.f[0] + gearhead, out.f[1] - gearhead];
     }
     if let Some(q) = extra(out.sin_phi, out.cos_phi) {
@@ -444,26 +441,26 @@ pub(crate) fn forces_plus<S: Lane>(
     (out, gearhead)
 }
 
-/// The derivative with gearhead friction `fr` on both wheels (None: the thesis's plant)
+/// The derivative with gearhead friction `gear` on both wheels (`Free`: the thesis's plant)
 /// and the extra forces `extra`, and each wheel's gearhead friction torque: the slip
 /// law's (in f already), or with a stick band what holds the wheels. A total torque F on
 /// β̇ adds (F, −F) to f, so β̈ = a0 − s τ per wheel with s = −2 (r_θ − r_φ), r = M⁻¹ (1, −1).
 #[inline(always)]
 pub(crate) fn motion<S: Lane>(
     k: &SlopeCoefficients<S>,
-    fr: Option<&Friction<S>>,
+    gear: Gearhead<'_, S>,
     x: &[S; 4],
     u: S,
     extra: impl Fn(S, S) -> Option<[S; 2]>,
 ) -> ([S; 4], S) {
-    let (out, gearhead) = forces_plus(k, fr, x, u, extra);
+    let (out, gearhead) = forces_plus(k, gear, x, u, extra);
     let m12 = m12(k, out.sin_phi, out.cos_phi, k.rotor);
     let qdd = cramer(k.m11, k.m22, k.m11_m22, m12, &out.f);
-    match fr {
-        Some(f) if f.sticks() => {
+    match gear {
+        Gearhead::Stick(f) => {
             let two = S::splat(2.0);
             let r = cramer(k.m11, k.m22, k.m11_m22, m12, &[S::splat(1.0), -S::splat(1.0)]);
-            let [tau] = f.torques([x[3] - x[1]], [qdd[1] - qdd[0]], [[-two * (r[1] - r[0])]]);
+            let [tau] = f.held_torques([x[3] - x[1]], [qdd[1] - qdd[0]], [[-two * (r[1] - r[0])]]);
             let total = two * tau;
             ([x[1], qdd[0] + r[0] * total, x[3], qdd[1] + r[1] * total], tau)
         }

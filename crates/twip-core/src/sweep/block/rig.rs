@@ -15,64 +15,92 @@ use nalgebra::{SVector, Vector4};
 use super::{multiversioned, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared};
 use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
-use crate::hardware::driver::Winding;
+use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::realism::{Realism, SlopeRig};
-use crate::model::friction::Friction;
+use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field};
 use crate::model::lane::Fused;
 use crate::model::slope::{motion, SlopeCoefficients, SlopeModel};
 use crate::sim::runner::{Actuator, Plant as _, Sensor, SimConfig, STOP_CHECK_STEPS};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
-use crate::{Dynamics, TwipError};
+use crate::{Dynamics, RobotParams, TwipError};
+
+/// The plant's kinds, decided once per block: its gearhead friction (`GEAR`: 0 none, 1 the
+/// slip law, 2 with a stick band) and whether a winding without inductance turns the duty
+/// into current at each stage (`STEADY`). Each pair is its own loop over lanes, so that no
+/// branch inside one keeps the compiler from vectorising it.
+const FREE: u8 = 0;
+const SLIP: u8 = 1;
+const STICK: u8 = 2;
 
 /// One lane's plant over a step: the input held (a lumped current, or a duty that a
 /// winding without inductance turns into current at each stage).
-struct RigField {
+struct RigField<'a, const GEAR: u8, const STEADY: bool> {
     k: SlopeCoefficients<Fused>,
-    friction: Option<Friction<Fused>>,
+    friction: &'a Friction<Fused>,
     u: Fused,
-    steady: Option<(Winding<Fused>, Fused)>,
+    winding: Winding<Fused>,
+    per_amp: Fused,
 }
 
-impl Field<Fused, 4> for RigField {
+impl<const GEAR: u8, const STEADY: bool> Field<Fused, 4> for RigField<'_, GEAR, STEADY> {
     #[inline(always)]
     fn at(&self, x: &[Fused; 4]) -> [Fused; 4] {
         // As `Driven::mechanical_current`: 2 ε times the winding's current.
-        let u = match &self.steady {
-            Some((winding, per_amp)) => *per_amp * winding.steady_current(self.u, x[3] - x[1]),
-            None => self.u,
+        let u = if STEADY { self.per_amp * self.winding.steady_current(self.u, x[3] - x[1]) } else { self.u };
+        let gear = match GEAR {
+            FREE => Gearhead::Free,
+            SLIP => Gearhead::Slip(self.friction),
+            _ => Gearhead::Stick(self.friction),
         };
-        motion(&self.k, self.friction.as_ref(), x, u, |_, _| None).0
+        motion(&self.k, gear, x, u, |_, _| None).0
     }
 }
 
 /// The lanes' plants: coefficients per lane, the friction all share, and each lane's
-/// winding when the driver has no inductance.
+/// winding (used when the driver has no inductance).
 struct RigPlants {
     plants: Plants,
-    friction: Option<Friction<f64>>,
-    steady: Option<[(Winding<f64>, f64); LANES]>,
+    gear: u8,
+    friction: Friction<Fused>,
+    steady: bool,
+    windings: [(Winding<f64>, f64); LANES],
+}
+
+/// `$run::<GEAR, STEADY>(args)` for the plants' kinds.
+macro_rules! by_kind {
+    ($self:ident, $run:ident($($arg:expr),*)) => {
+        match ($self.gear, $self.steady) {
+            (FREE, false) => $self.$run::<FREE, false>($($arg),*),
+            (FREE, true) => $self.$run::<FREE, true>($($arg),*),
+            (SLIP, false) => $self.$run::<SLIP, false>($($arg),*),
+            (SLIP, true) => $self.$run::<SLIP, true>($($arg),*),
+            (_, false) => $self.$run::<STICK, false>($($arg),*),
+            (_, true) => $self.$run::<STICK, true>($($arg),*),
+        }
+    };
 }
 
 impl RigPlants {
     #[inline(always)]
-    fn field(&self, l: usize, u: f64) -> RigField {
-        RigField {
-            k: self.plants.lane(l),
-            friction: self.friction.map(|f| f.map(Fused)),
-            u: Fused(u),
-            steady: self.steady.as_ref().map(|s| (s[l].0.map(Fused), Fused(s[l].1))),
-        }
+    fn field<const GEAR: u8, const STEADY: bool>(&self, l: usize, u: f64) -> RigField<'_, GEAR, STEADY> {
+        let (winding, per_amp) = &self.windings[l];
+        RigField { k: self.plants.lane(l), friction: &self.friction, u: Fused(u), winding: winding.map(Fused), per_amp: Fused(*per_amp) }
     }
 
     /// The derivative at the step's start on every lane (RK4's first stage, which the
     /// sensors sample too).
     #[inline(always)]
     fn k1(&self, x: &[Lanes; 4], u: &Lanes) -> [Lanes; 4] {
+        by_kind!(self, k1_of(x, u))
+    }
+
+    #[inline(always)]
+    fn k1_of<const GEAR: u8, const STEADY: bool>(&self, x: &[Lanes; 4], u: &Lanes) -> [Lanes; 4] {
         let mut out = [[0.0; LANES]; 4];
         for l in 0..LANES {
-            let d = self.field(l, u[l]).at(&lane(x, l).map(Fused));
+            let d = self.field::<GEAR, STEADY>(l, u[l]).at(&lane(x, l).map(Fused));
             for i in 0..4 {
                 out[i][l] = d[i].0;
             }
@@ -83,9 +111,15 @@ impl RigPlants {
     /// One RK4 step from `k1` on every lane, the input held.
     #[inline(always)]
     fn rk4(&self, x: &[Lanes; 4], u: &Lanes, k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
+        by_kind!(self, rk4_of(x, u, k1, dt))
+    }
+
+    #[inline(always)]
+    fn rk4_of<const GEAR: u8, const STEADY: bool>(&self, x: &[Lanes; 4], u: &Lanes, k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
         let mut out = [[0.0; LANES]; 4];
         for l in 0..LANES {
-            let next = rk4(&self.field(l, u[l]), &lane(x, l).map(Fused), &lane(k1, l).map(Fused), Fused(dt));
+            let field = self.field::<GEAR, STEADY>(l, u[l]);
+            let next = rk4(&field, &lane(x, l).map(Fused), &lane(k1, l).map(Fused), Fused(dt));
             for i in 0..4 {
                 out[i][l] = next[i].0;
             }
@@ -153,10 +187,22 @@ fn rig_block<C: LaneLaw>(
     let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| built[l].0);
     let mut rigs: [SlopeRig<f64>; LANES] = core::array::from_fn(|l| built[l].1);
     let ground = |l: usize| *rigs[l].plant.ground().model_at(&Vector4::zeros());
+    let friction = ground(0).friction().copied();
+    let winding = |l: usize| rigs[l].plant.steady_winding();
+    // Any valid winding, for lanes that never evaluate one (the driver has inductance).
+    let stand_in = (Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?, 2.0);
     let plants = RigPlants {
         plants: Plants::new(&core::array::from_fn(|l| ground(l).coefficients())),
-        friction: ground(0).friction().copied(),
-        steady: rigs[0].plant.steady_winding().map(|_| core::array::from_fn(|l| rigs[l].plant.steady_winding().unwrap())),
+        gear: match &friction {
+            None => FREE,
+            Some(f) if f.sticks() => STICK,
+            Some(_) => SLIP,
+        },
+        // Unused without a friction: any friction's numbers.
+        friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
+        steady: winding(0).is_some(),
+        // Unused with inductance or without a driver (the held current is the input).
+        windings: core::array::from_fn(|l| winding(l).unwrap_or(stand_in)),
     };
     let delay = rigs[0].delay;
 
