@@ -207,11 +207,15 @@ def test_simulate_refuses_settle_for_a_slope_model():
 
 # ~3 s of each scenario: a tracking scenario is as long as its laps (one is 36 s).
 RESUME_OPTIONS = {"circle-pid": {"laps": 0.1}, "circle-smc-fuzzy": {"laps": 0.1}}
+# "+rig": the scenario through the thesis-like rig without backlash (kernel "realism-lanes").
+RIG_SUFFIX = "+rig"
 SCRIPT = r"""
 import json, sys, twip
 perturb = {"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}
+name, rig = sys.argv[3].removesuffix("+rig"), sys.argv[3].endswith("+rig")
+realism = twip.Realism.thesis_like().replace(backlash=None) if rig else None
 try:
-    twip.montecarlo(sys.argv[3], int(sys.argv[2]), perturb=perturb, seed=11, progress=False,
+    twip.montecarlo(name, int(sys.argv[2]), perturb=perturb, seed=11, progress=False, realism=realism,
                     checkpoint=sys.argv[1], shard_size=200, options=json.loads(sys.argv[4]), threads=2)
 except KeyboardInterrupt as e:
     print("interrupted", len(e.partial.metrics["valid"]), flush=True)
@@ -221,7 +225,7 @@ print("finished", flush=True)
 
 
 def start_and_stop(folder, sig, n, scenario):
-    options = json.dumps(RESUME_OPTIONS.get(scenario, {"t_final": 3.0}))
+    options = json.dumps(RESUME_OPTIONS.get(scenario.removesuffix(RIG_SUFFIX), {"t_final": 3.0}))
     proc = subprocess.Popen([sys.executable, "-c", SCRIPT, str(folder), str(n), scenario, options],
                             stdout=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
@@ -234,7 +238,7 @@ def start_and_stop(folder, sig, n, scenario):
     return proc.returncode, out, time.monotonic() - sent
 
 
-@pytest.mark.parametrize("scenario", ALL_LANE_FAMILIES)
+@pytest.mark.parametrize("scenario", ALL_LANE_FAMILIES + ["flat-lqr-sim" + RIG_SUFFIX])
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
 def test_interrupted_sweep_resumes_to_the_uninterrupted_result(tmp_path, sig, scenario):
     n = 8_000
@@ -246,8 +250,11 @@ def test_interrupted_sweep_resumes_to_the_uninterrupted_result(tmp_path, sig, sc
     if sig == signal.SIGINT:
         assert code == 3 and out.startswith("interrupted")
         assert waited < 1.0
+    rig = scenario.endswith(RIG_SUFFIX)
+    scenario = scenario.removesuffix(RIG_SUFFIX)
     kw = dict(perturb={"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}, seed=11, progress=False,
-              shard_size=200, options=RESUME_OPTIONS.get(scenario, {"t_final": 3.0}), threads=2)
+              shard_size=200, options=RESUME_OPTIONS.get(scenario, {"t_final": 3.0}), threads=2,
+              realism=twip.Realism.thesis_like().replace(backlash=None) if rig else None)
     if sig == signal.SIGKILL:  # killed holding the lock: taken over, and said so
         with pytest.warns(UserWarning, match="took over the lock left by pid"):
             resumed = twip.montecarlo(scenario, n, checkpoint=folder, **kw)
@@ -257,17 +264,19 @@ def test_interrupted_sweep_resumes_to_the_uninterrupted_result(tmp_path, sig, sc
     if sig == signal.SIGINT:  # a clean stop leaves no half-written file (SIGKILL may)
         assert not list(folder.glob("*.tmp*"))
     fresh = twip.montecarlo(scenario, n, **kw)
+    assert fresh.kernel == ("realism-lanes" if rig else fresh.kernel)
     same(resumed, fresh)
     assert np.array_equal(resumed.metrics["index"], np.arange(n))
 
 
-@pytest.mark.parametrize("family", ["2-DOF", "2-DOF fuzzy", "tracking", "tracking pid"])
+@pytest.mark.parametrize("family", ["2-DOF", "2-DOF fuzzy", "2-DOF rig lanes", "tracking", "tracking pid"])
 def test_dask_local_cluster_gives_the_local_result(family):
     distributed = pytest.importorskip("dask.distributed")
     fuzzy = lambda **kw: sweep(scenario="flat-fuzzy-sim", **kw)  # noqa: E731
+    rig = lambda **kw: rig_sweep(realism=RIGS[1][1], **kw)  # noqa: E731
     pid = lambda **kw: tracking_sweep(name="circle-pid", **kw)  # noqa: E731
-    run, n = {"2-DOF": (sweep, 96), "2-DOF fuzzy": (fuzzy, 96), "tracking": (tracking_sweep, 32),
-              "tracking pid": (pid, 32)}[family]
+    run, n = {"2-DOF": (sweep, 96), "2-DOF fuzzy": (fuzzy, 96), "2-DOF rig lanes": (rig, 64),
+              "tracking": (tracking_sweep, 32), "tracking pid": (pid, 32)}[family]
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         remote = run(n=n, client=client, shard_size=n // 4)
