@@ -106,9 +106,11 @@ def test_kernel_and_fall_limit_come_from_the_core():
     assert _core.DEFAULT_FALL_LIMIT == pytest.approx(math.radians(60))
     lqr = twip.scenarios.get("flat-lqr-sim")
     assert twip.sweep.kernel_for(lqr) == "lanes"
-    assert twip.sweep.kernel_for(lqr, twip.Realism.thesis_like()) == "realism"
-    assert twip.sweep.kernel_for(lqr, twip.Realism.thesis_like().replace(backlash=None)) == "realism-lanes"
+    assert twip.sweep.kernel_for(lqr, twip.Realism.thesis_like()) == "realism-lanes"
+    # Pushes, a force and slope changes keep a rig on the general runner.
     assert twip.sweep.kernel_for(lqr, twip.Realism(pushes=[(1.0, 0.3)])) == "realism"
+    assert twip.sweep.kernel_for(lqr, twip.Realism(force=twip.Force(horizontal=0.5))) == "realism"
+    assert twip.sweep.kernel_for(lqr, twip.Realism(slope_profile=[(0.2, 0.05)])) == "realism"
     assert twip.sweep.kernel_for(twip.scenarios.get("flat-fuzzy-sim")) == "lanes"
     gaussian = [[twip.Gaussian(-0.3, 0.15), twip.Triangle(-0.3, 0.0, 0.3), twip.Gaussian(0.3, 0.15)]] * 2
     general = twip.scenarios.get("flat-fuzzy-sim", sets=gaussian, t_final=0.2)

@@ -207,13 +207,13 @@ def test_simulate_refuses_settle_for_a_slope_model():
 
 # ~3 s of each scenario: a tracking scenario is as long as its laps (one is 36 s).
 RESUME_OPTIONS = {"circle-pid": {"laps": 0.1}, "circle-smc-fuzzy": {"laps": 0.1}}
-# "+rig": the scenario through the thesis-like rig without backlash (kernel "realism-lanes").
+# "+rig": the scenario through the thesis-like rig (kernel "realism-lanes").
 RIG_SUFFIX = "+rig"
 SCRIPT = r"""
 import json, sys, twip
 perturb = {"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}
 name, rig = sys.argv[3].removesuffix("+rig"), sys.argv[3].endswith("+rig")
-realism = twip.Realism.thesis_like().replace(backlash=None) if rig else None
+realism = twip.Realism.thesis_like() if rig else None
 try:
     twip.montecarlo(name, int(sys.argv[2]), perturb=perturb, seed=11, progress=False, realism=realism,
                     checkpoint=sys.argv[1], shard_size=200, options=json.loads(sys.argv[4]), threads=2)
@@ -254,7 +254,7 @@ def test_interrupted_sweep_resumes_to_the_uninterrupted_result(tmp_path, sig, sc
     scenario = scenario.removesuffix(RIG_SUFFIX)
     kw = dict(perturb={"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}, seed=11, progress=False,
               shard_size=200, options=RESUME_OPTIONS.get(scenario, {"t_final": 3.0}), threads=2,
-              realism=twip.Realism.thesis_like().replace(backlash=None) if rig else None)
+              realism=twip.Realism.thesis_like() if rig else None)
     if sig == signal.SIGKILL:  # killed holding the lock: taken over, and said so
         with pytest.warns(UserWarning, match="took over the lock left by pid"):
             resumed = twip.montecarlo(scenario, n, checkpoint=folder, **kw)
@@ -297,9 +297,8 @@ def rig_sweep(n=48, realism=None, **kw):
     return twip.montecarlo("flat-lqr-sim", n, progress=False, realism=realism, **kw)
 
 
-# The thesis-like rig runs on the general runner (its backlash); without backlash the same
-# rig runs on lanes.
-RIGS = [("realism", twip.Realism.thesis_like()), ("realism-lanes", twip.Realism.thesis_like().replace(backlash=None))]
+# The thesis-like rig runs on lanes; with a push it runs on the general runner.
+RIGS = [("realism", twip.Realism.thesis_like().replace(pushes=[(2.0, 0.2)])), ("realism-lanes", twip.Realism.thesis_like())]
 
 
 @pytest.mark.parametrize("kernel, realism", RIGS, ids=[k for k, _ in RIGS])
@@ -313,7 +312,7 @@ def test_realism_sweep_is_the_same_on_one_and_two_threads(kernel, realism):
 
 
 def test_realism_sample_17_replayed_alone_is_bitwise_the_same():
-    r = rig_sweep()
+    r = rig_sweep(realism=RIGS[0][1])  # the general runner: a replay is the same run
     alone = r.replay(17)
     assert alone.signals, "the replay ran with the realism"
     for name in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error", "peak_abs_input",

@@ -849,8 +849,8 @@ def sweep_noise_seed(seed: int) -> int:
     """
 def sweep_kernel(controller: Any, realism: Realism | None = None) -> str:
     """The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),
-    with or without realism: "lanes", "general", "realism", "planar-lanes", "planar" or
-    "planar-realism".
+    with `realism` (a `twip.Realism`) or without (None): "lanes", "general",
+    "realism-lanes", "realism", "planar-lanes", "planar" or "planar-realism".
     """
 
 DEFAULT_FALL_LIMIT: float

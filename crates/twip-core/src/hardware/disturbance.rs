@@ -297,6 +297,12 @@ impl<T: Real> Disturbed<T> {
         self.play.as_ref().map_or(T::zero(), |p| p.offsets()[0])
     }
 
+    /// Whether the gear trains are engaged (always, without backlash).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn engaged(&self) -> bool {
+        self.play.as_ref().is_none_or(|p| p.engaged()[0])
+    }
+
     /// The motors' speed relative to the body when their gear trains are open (None:
     /// engaged, or no backlash): the rotors'.
     pub fn open_rotor_speed(&self, x: &Vector4<T>) -> Option<T> {

@@ -109,10 +109,9 @@ impl<T: Real> Realism<T> {
     }
 
     /// Whether this realism's rig runs on a sweep's lanes (`sweep::block::run_rig_block`):
-    /// every part but backlash, pushes, a constant force and slope changes along the path.
+    /// every part but pushes, a constant force and slope changes along the path.
     pub fn on_lanes(&self) -> bool {
-        !self.backlash.is_some_and(|b| b.gap > T::zero())
-            && self.pushes.as_slice().is_empty()
+        self.pushes.as_slice().is_empty()
             && self.force.is_zero()
             && self.slope_profile.changes().next().is_none()
     }

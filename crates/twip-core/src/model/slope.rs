@@ -183,9 +183,8 @@ impl<T: Real> SlopeModel<T> {
         if engaged {
             return self.motion(x, u, extra);
         }
-        let (out, _) = forces_plus(&self.k, Gearhead::Free, &[x[0], x[1], x[2], x[3]], T::zero(), |s, co| extra(s, co).map(|q| [q[0], q[1]]));
-        let qdd = self.rotorless_accelerations(&out.f, out.sin_phi, out.cos_phi);
-        (Vector4::new(x[1], qdd[0], x[3], qdd[1]), T::zero())
+        let open = open_motion(&self.k, &[x[0], x[1], x[2], x[3]], |s, co| extra(s, co).map(|q| [q[0], q[1]]));
+        (Vector4::from(open), T::zero())
     }
 
     /// The plastic impact of the open trains' rotors, turning at `rotor_speed` relative
@@ -224,8 +223,7 @@ impl<T: Real> SlopeModel<T> {
     /// M22 and take it from M12.
     #[inline(always)]
     fn rotorless_accelerations(&self, f: &[T; 2], sin_phi: T, cos_phi: T) -> Vector2<T> {
-        let (m11, m22) = (self.k.m11 - self.k.rotor, self.k.m22 - self.k.rotor);
-        Vector2::from(cramer(m11, m22, m11 * m22, m12(&self.k, sin_phi, cos_phi, T::zero()), f))
+        Vector2::from(rotorless_accelerations(&self.k, f, sin_phi, cos_phi))
     }
 
     /// Exact Jacobians `(A, B)` of `ẋ = f(x, u)` at any operating point `(x0, u0)`.
@@ -466,6 +464,23 @@ pub(crate) fn motion<S: Lane>(
         }
         _ => ([x[1], qdd[0], x[3], qdd[1]], gearhead * S::splat(0.5)),
     }
+}
+
+/// The accelerations without the rotors (both gear trains open): they add η² I_M to M11
+/// and M22 and take it from M12.
+#[inline(always)]
+pub(crate) fn rotorless_accelerations<S: Lane>(k: &SlopeCoefficients<S>, f: &[S; 2], sin_phi: S, cos_phi: S) -> [S; 2] {
+    let (m11, m22) = (k.m11 - k.rotor, k.m22 - k.rotor);
+    cramer(m11, m22, m11 * m22, m12(k, sin_phi, cos_phi, S::splat(0.0)), f)
+}
+
+/// The derivative with both wheels' gear trains open (gearbox backlash): the wheels get
+/// neither the motors' torque nor the gearhead friction, and lose the rotors' inertia.
+#[inline(always)]
+pub(crate) fn open_motion<S: Lane>(k: &SlopeCoefficients<S>, x: &[S; 4], extra: impl Fn(S, S) -> Option<[S; 2]>) -> [S; 4] {
+    let (out, _) = forces_plus(k, Gearhead::Free, x, S::splat(0.0), extra);
+    let qdd = rotorless_accelerations(k, &out.f, out.sin_phi, out.cos_phi);
+    [x[1], qdd[0], x[3], qdd[1]]
 }
 
 /// The derivative of the thesis's plant (no gearhead friction, no external force).

@@ -1,13 +1,15 @@
 //! The fast path of a realism sweep: [`LANES`] samples at once through the 2-DOF rig, for
 //! every law on lanes ([`LaneLaw`]) and every realism whose plant is the slope model with
-//! its gearhead friction (`Realism::on_lanes`: no backlash, pushes, force or slope changes).
+//! its gearhead friction and backlash (`Realism::on_lanes`: no pushes, force or slope
+//! changes).
 //!
 //! The loop is `runner::run_loop`'s, step for step. The plant's RK4 is the run's own
-//! source (`model::slope::motion` with `Friction`'s law and, for a driver without
-//! inductance, `Winding::steady_current`) on [`Fused`] lanes, which the compiler vectorises.
-//! Each lane's sensors, actuator and winding are its own rig's parts, the very objects a
-//! run uses (`Realism::build`, noise stream = sample index): they act once per step or per
-//! control period on a lane's numbers, and their noise draws are a lane's own. So a lane
+//! source (`model::slope::motion` with `Friction`'s law, `open_motion` for a lane whose gear
+//! trains are open, and, for a driver without inductance, `Winding::steady_current`) on
+//! [`Fused`] lanes, which the compiler vectorises. Each lane's sensors, actuator, winding and
+//! gear play are its own rig's parts, the very objects a run uses (`Realism::build`, noise
+//! stream = sample index): they act between steps or once per control period on a lane's
+//! numbers (the play's impacts and openings too), and their noise draws are a lane's own. So a lane
 //! agrees with `sweep::rig::run_rig_sample` to rounding, and is bit for bit the same on
 //! every CPU, thread count and block neighbour.
 use nalgebra::{SVector, Vector4};
@@ -19,32 +21,35 @@ use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::realism::{Realism, SlopeRig};
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field};
-use crate::model::lane::Fused;
-use crate::model::slope::{motion, SlopeCoefficients, SlopeModel};
+use crate::model::lane::{Fused, Lane};
+use crate::model::slope::{motion, open_motion, SlopeCoefficients, SlopeModel};
 use crate::sim::runner::{Actuator, Plant as _, Sensor, SimConfig, STOP_CHECK_STEPS};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
 use crate::{Dynamics, RobotParams, TwipError};
 
 /// The plant's kinds, decided once per block: its gearhead friction (`GEAR`: 0 none, 1 the
-/// slip law, 2 with a stick band) and whether a winding without inductance turns the duty
-/// into current at each stage (`STEADY`). Each pair is its own loop over lanes, so that no
-/// branch inside one keeps the compiler from vectorising it.
+/// slip law, 2 with a stick band), whether a winding without inductance turns the duty
+/// into current at each stage (`STEADY`) and whether the gear trains have play (`GEARED`).
+/// Each is its own loop over lanes, so that no branch inside one keeps the compiler from
+/// vectorising it.
 const FREE: u8 = 0;
 const SLIP: u8 = 1;
 const STICK: u8 = 2;
 
 /// One lane's plant over a step: the input held (a lumped current, or a duty that a
 /// winding without inductance turns into current at each stage).
-struct RigField<'a, const GEAR: u8, const STEADY: bool> {
+struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool> {
     k: SlopeCoefficients<Fused>,
     friction: &'a Friction<Fused>,
     u: Fused,
     winding: Winding<Fused>,
     per_amp: Fused,
+    /// The gear trains are engaged over this step (backlash: set between steps).
+    engaged: bool,
 }
 
-impl<const GEAR: u8, const STEADY: bool> Field<Fused, 4> for RigField<'_, GEAR, STEADY> {
+impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> Field<Fused, 4> for RigField<'_, GEAR, STEADY, GEARED> {
     #[inline(always)]
     fn at(&self, x: &[Fused; 4]) -> [Fused; 4] {
         // As `Driven::mechanical_current`: 2 ε times the winding's current.
@@ -54,7 +59,13 @@ impl<const GEAR: u8, const STEADY: bool> Field<Fused, 4> for RigField<'_, GEAR, 
             SLIP => Gearhead::Slip(self.friction),
             _ => Gearhead::Stick(self.friction),
         };
-        motion(&self.k, gear, x, u, |_, _| None).0
+        let engaged = motion(&self.k, gear, x, u, |_, _| None).0;
+        if !GEARED {
+            return engaged;
+        }
+        // As `SlopeModel::deriv_geared`, both computed and one kept: no branch per lane.
+        let open = open_motion(&self.k, x, |_, _| None);
+        core::array::from_fn(|i| Fused::select(self.engaged, engaged[i], open[i]))
     }
 }
 
@@ -66,41 +77,49 @@ struct RigPlants {
     friction: Friction<Fused>,
     steady: bool,
     windings: [(Winding<f64>, f64); LANES],
+    geared: bool,
 }
 
-/// `$run::<GEAR, STEADY>(args)` for the plants' kinds.
+/// `$run::<GEAR, STEADY, GEARED>(args)` for the plants' kinds.
 macro_rules! by_kind {
     ($self:ident, $run:ident($($arg:expr),*)) => {
+        match $self.geared {
+            true => by_kind!(@gear $self, $run, true, $($arg),*),
+            false => by_kind!(@gear $self, $run, false, $($arg),*),
+        }
+    };
+    (@gear $self:ident, $run:ident, $geared:literal, $($arg:expr),*) => {
         match ($self.gear, $self.steady) {
-            (FREE, false) => $self.$run::<FREE, false>($($arg),*),
-            (FREE, true) => $self.$run::<FREE, true>($($arg),*),
-            (SLIP, false) => $self.$run::<SLIP, false>($($arg),*),
-            (SLIP, true) => $self.$run::<SLIP, true>($($arg),*),
-            (_, false) => $self.$run::<STICK, false>($($arg),*),
-            (_, true) => $self.$run::<STICK, true>($($arg),*),
+            (FREE, false) => $self.$run::<FREE, false, $geared>($($arg),*),
+            (FREE, true) => $self.$run::<FREE, true, $geared>($($arg),*),
+            (SLIP, false) => $self.$run::<SLIP, false, $geared>($($arg),*),
+            (SLIP, true) => $self.$run::<SLIP, true, $geared>($($arg),*),
+            (_, false) => $self.$run::<STICK, false, $geared>($($arg),*),
+            (_, true) => $self.$run::<STICK, true, $geared>($($arg),*),
         }
     };
 }
 
 impl RigPlants {
     #[inline(always)]
-    fn field<const GEAR: u8, const STEADY: bool>(&self, l: usize, u: f64) -> RigField<'_, GEAR, STEADY> {
+    fn field<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, STEADY, GEARED> {
         let (winding, per_amp) = &self.windings[l];
-        RigField { k: self.plants.lane(l), friction: &self.friction, u: Fused(u), winding: winding.map(Fused), per_amp: Fused(*per_amp) }
+        let (k, friction, u, winding, per_amp) = (self.plants.lane(l), &self.friction, Fused(u), winding.map(Fused), Fused(*per_amp));
+        RigField { k, friction, u, winding, per_amp, engaged }
     }
 
     /// The derivative at the step's start on every lane (RK4's first stage, which the
     /// sensors sample too).
     #[inline(always)]
-    fn k1(&self, x: &[Lanes; 4], u: &Lanes) -> [Lanes; 4] {
-        by_kind!(self, k1_of(x, u))
+    fn k1(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
+        by_kind!(self, k1_of(x, u, engaged))
     }
 
     #[inline(always)]
-    fn k1_of<const GEAR: u8, const STEADY: bool>(&self, x: &[Lanes; 4], u: &Lanes) -> [Lanes; 4] {
+    fn k1_of<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
         let mut out = [[0.0; LANES]; 4];
         for l in 0..LANES {
-            let d = self.field::<GEAR, STEADY>(l, u[l]).at(&lane(x, l).map(Fused));
+            let d = self.field::<GEAR, STEADY, GEARED>(l, u[l], engaged[l]).at(&lane(x, l).map(Fused));
             for i in 0..4 {
                 out[i][l] = d[i].0;
             }
@@ -110,15 +129,23 @@ impl RigPlants {
 
     /// One RK4 step from `k1` on every lane, the input held.
     #[inline(always)]
-    fn rk4(&self, x: &[Lanes; 4], u: &Lanes, k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
-        by_kind!(self, rk4_of(x, u, k1, dt))
+    #[allow(clippy::too_many_arguments)]
+    fn rk4(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
+        by_kind!(self, rk4_of(x, u, engaged, k1, dt))
     }
 
     #[inline(always)]
-    fn rk4_of<const GEAR: u8, const STEADY: bool>(&self, x: &[Lanes; 4], u: &Lanes, k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
+    fn rk4_of<const GEAR: u8, const STEADY: bool, const GEARED: bool>(
+        &self,
+        x: &[Lanes; 4],
+        u: &Lanes,
+        engaged: &[bool; LANES],
+        k1: &[Lanes; 4],
+        dt: f64,
+    ) -> [Lanes; 4] {
         let mut out = [[0.0; LANES]; 4];
         for l in 0..LANES {
-            let field = self.field::<GEAR, STEADY>(l, u[l]);
+            let field = self.field::<GEAR, STEADY, GEARED>(l, u[l], engaged[l]);
             let next = rk4(&field, &lane(x, l).map(Fused), &lane(k1, l).map(Fused), Fused(dt));
             for i in 0..4 {
                 out[i][l] = next[i].0;
@@ -161,7 +188,7 @@ fn rig_block<C: LaneLaw>(
 ) -> BlockResult {
     assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
     if !realism.on_lanes() {
-        let reason = "has backlash, pushes, a force or slope changes: the general runner's";
+        let reason = "has pushes, a force or slope changes: the general runner's";
         return Err(TwipError::InvalidParameter { name: "realism", value: f64::NAN, reason });
     }
     let (n, per_update) = config.steps(controller.period())?;
@@ -203,6 +230,7 @@ fn rig_block<C: LaneLaw>(
         steady: winding(0).is_some(),
         // Unused with inductance or without a driver (the held current is the input).
         windings: core::array::from_fn(|l| winding(l).unwrap_or(stand_in)),
+        geared: realism.backlash.is_some_and(|b| b.gap > 0.0),
     };
     let delay = rigs[0].delay;
 
@@ -227,6 +255,7 @@ fn rig_block<C: LaneLaw>(
     let mut speed_scale: f64 = 0.0;
     let mut direction: f64 = 1.0;
     let mut input = [0.0; LANES];
+    let mut engaged = [true; LANES];
     for k in 0..n {
         let t = dt * k as f64;
         if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
@@ -239,6 +268,12 @@ fn rig_block<C: LaneLaw>(
         }
         speed_scale = speed_scale.max(r.theta_dot.abs());
         direction = if r.theta_dot != 0.0 { r.theta_dot.signum() } else { direction };
+        if plants.geared {
+            // The encoders count the motor shafts, which the play sets apart from the wheels.
+            for rig in rigs.iter_mut() {
+                rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
+            }
+        }
         if k % per_update == 0 {
             for (l, rig) in rigs.iter_mut().enumerate() {
                 let yl = rig.sensors.read(t, &Vector4::from(lane(&x, l)));
@@ -265,14 +300,20 @@ fn rig_block<C: LaneLaw>(
         metrics.observe(&alive, &x, &command, &plant_phi_s, &Shared { t, r, speed_scale, direction });
         for (l, rig) in rigs.iter_mut().enumerate() {
             let mut xl = Vector4::from(lane(&x, l));
+            // The winding's current advances; with backlash, open rotors that reach a flank
+            // engage in an impact that sets the velocities, and trains may open.
             rig.plant.between_steps(t, dt, &mut xl, &SVector::<f64, 1>::new(u[l]));
+            for i in 0..4 {
+                x[i][l] = xl[i];
+            }
             input[l] = rig.plant.held_current(&xl, u[l]).unwrap_or(u[l]);
+            engaged[l] = rig.plant.ground().engaged();
         }
-        let k1 = plants.k1(&x, &input);
+        let k1 = plants.k1(&x, &input, &engaged);
         for (l, rig) in rigs.iter_mut().enumerate() {
             rig.sensors.sample(t, &Vector4::from(lane(&x, l)), &Vector4::from(lane(&k1, l)));
         }
-        let next = plants.rk4(&x, &input, &k1, dt);
+        let next = plants.rk4(&x, &input, &engaged, &k1, dt);
         let Some(ends) = super::advance(&mut x, &next, &alive, 0, config.fall_limit) else { continue };
         let t_next = dt * (k + 1) as f64;
         for l in (0..LANES).filter(|&l| ends[l]) {
@@ -305,16 +346,22 @@ mod tests {
     use nalgebra::Matrix4;
 
     /// Every compiled copy of the rig's kernel gives the same bits (the baseline one
-    /// through libm's fma), for the thesis-like rig without backlash, both outcomes.
+    /// through libm's fma), for the thesis-like rig with and without backlash, both outcomes.
     #[test]
     fn every_copy_gives_the_same_bits() {
         let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
         let q = Matrix4::from_diagonal(&Vector4::new(100.0, 1.0, 1.0, 1.0));
         let d = design(&model, 3.0, &q, 480.0, DesignPoint::OperatingPoint).unwrap();
         let law = LqrLanes::new(&LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 5e-3).unwrap());
+        for realism in [Realism::thesis_like(), Realism { backlash: None, ..Realism::thesis_like() }] {
+            same_bits_on_every_copy(&law, &realism);
+        }
+    }
+
+    fn same_bits_on_every_copy(law: &LqrLanes, realism: &Realism<f64>) {
         let schedule = SpeedSchedule::constant(3.0).unwrap();
         let config = SimConfig { dt: 1e-3, t_final: 2.0, fall_limit: 0.6 };
-        let realism = crate::sweep::rig::for_sweep(&Realism { backlash: None, ..Realism::thesis_like() }, 5);
+        let realism = crate::sweep::rig::for_sweep(realism, 5);
         let samples: Vec<Sample> = (0..LANES as u64)
             .map(|i| {
                 let mut params = RobotParams::balanbot();
