@@ -238,7 +238,7 @@ def test_sweep_of_a_tracking_scenario(capsys):
 
 def test_sweep_realism_changes_the_result(capsys):
     """--realism thesis-like puts sensor noise, the motor driver and the delay in every
-    sample's loop: the same robots give other metrics (and the realism kernel)."""
+    sample's loop: the same robots give other metrics (and the rig's lane kernel)."""
     args = ["sweep", "flat-lqr-sim", "-n", "8", "--perturb", "m_body=±10%", "--option", "t_final=1", "--seed", "2",
             "--quiet", "--json"]
     code, ideal_out, err = run(args, capsys)
@@ -250,7 +250,7 @@ def test_sweep_realism_changes_the_result(capsys):
     assert real["quantiles"]["mean_abs_pitch_error"] != ideal["quantiles"]["mean_abs_pitch_error"]
     code, out, err = run(args[:-1] + ["--realism", "thesis-like"], capsys)
     assert code == 0, err
-    assert "realism: thesis-like" in out and "(realism)" in out
+    assert "realism: thesis-like" in out and "(realism-lanes)" in out
 
 
 def test_sweep_realism_of_a_tracking_scenario_runs_the_3dof_rig(capsys):

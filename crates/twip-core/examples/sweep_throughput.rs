@@ -3,7 +3,7 @@
 //!       --example sweep_throughput -- PATH 256
 //! PATH: lanes (LQR on lanes), fuzzy-lanes, scalar (LQR, general runner), fuzzy-scalar,
 //! pid (circle-pid on the 3-DOF runner; the checksum sums its mean |x error| instead),
-//! pid-lanes (the same on the planar lane kernel), realism (LQR through the thesis-like rig without backlash,
+//! pid-lanes (the same on the planar lane kernel), realism (LQR through the thesis-like rig,
 //! 5 ms loop), realism-lanes (the same on the rig's lane kernel).
 use nalgebra::{Matrix4, Vector4};
 use twip_core::control::fuzzy::FuzzyController;
@@ -66,7 +66,7 @@ fn main() {
             use twip_core::sweep::block::LqrLanes;
             use twip_core::sweep::rig::{for_sweep, run_rig_lane_samples, run_rig_sample};
             let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 5e-3).unwrap();
-            let realism = for_sweep(&Realism { backlash: None, ..Realism::thesis_like() }, 1);
+            let realism = for_sweep(&Realism::thesis_like(), 1);
             let runs: Vec<_> = if path == "realism" {
                 (0..n).map(|i| run_rig_sample(&ctrl, &schedule, &config, &draw(&nominal, &perturb, 1, i), &realism, &|| false).unwrap()).collect()
             } else {

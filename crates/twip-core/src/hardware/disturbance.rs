@@ -325,10 +325,17 @@ impl<T: Real> Disturbed<T> {
     /// A step starts at `x` under the lumped `current`: engaged trains whose contact
     /// torque would pull the flanks apart open, and the motors' torque is noted.
     pub fn gear_next(&mut self, x: &Vector4<T>, current: T) {
+        let Some(play) = self.play else { return };
+        let (d, friction) = self.piece(x).deriv_geared(x, current, play.engaged()[0], &self.force, self.has_force);
+        self.gear_next_with(x, current, &d, friction);
+    }
+
+    /// [`Self::gear_next`] given the derivative `d` and the gearhead torque per wheel
+    /// `friction` at `x` under `current` with the trains as they are (`deriv_geared`'s): a
+    /// sweep's lanes compute those for all of them at once.
+    pub(crate) fn gear_next_with(&mut self, x: &Vector4<T>, current: T, d: &Vector4<T>, friction: T) {
         let Some(mut play) = self.play else { return };
-        let piece = self.piece(x);
-        let motor = piece.model.params().torque_per_amp() * current;
-        let (d, friction) = piece.deriv_geared(x, current, play.engaged()[0], &self.force, self.has_force);
+        let motor = self.piece(x).model.params().torque_per_amp() * current;
         let contact = motor - c::<T>(2.0) * friction - play.inertia() * (d[3] - d[1]);
         play.next_step([x[3] - x[1]], [contact], [motor]);
         self.play = Some(play);

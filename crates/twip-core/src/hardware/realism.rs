@@ -390,27 +390,13 @@ impl<T: Real> Dynamics<T, 4, 1> for RealPlant<T> {
 }
 
 impl<T: Real> Plant<T, 4, 1> for RealPlant<T> {
-    /// Pushes, then the winding current advances.
+    /// The gear trains' elapsed step, pushes, the winding current; then the trains at the
+    /// new step's start.
     #[inline]
     fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) {
-        match self {
-            Self::Current(p) => {
-                p.gear_elapsed(dt, x);
-                p.between_steps(t, dt, x, u);
-                p.gear_next(x, u[0]);
-            }
-            Self::Driven(p) => {
-                p.plant_mut().gear_elapsed(dt, x);
-                p.plant_mut().between_steps(t, dt, x, u);
-                let open = p.plant_mut().open_rotor_speed(x);
-                p.turn_motors_at(open);
-                p.advance(x, u[0], dt);
-                let current = p.mechanical_current(x, u[0]);
-                p.plant_mut().gear_next(x, current);
-                let open = p.plant_mut().open_rotor_speed(x);
-                p.turn_motors_at(open);
-            }
-        }
+        let current = self.step_start(t, dt, x, u[0]);
+        self.ground_mut().gear_next(x, current);
+        self.step_end(x);
     }
 
     #[inline(always)]
@@ -432,6 +418,45 @@ impl<T: Real> RealPlant<T> {
         match self {
             Self::Current(p) => p,
             Self::Driven(p) => p.plant(),
+        }
+    }
+
+    pub(crate) fn ground_mut(&mut self) -> &mut Disturbed<T> {
+        match self {
+            Self::Current(p) => p,
+            Self::Driven(p) => p.plant_mut(),
+        }
+    }
+
+    /// `between_steps` up to the trains' next step (`Disturbed::gear_next`): the open
+    /// rotors' elapsed step and impacts, pushes, the winding's current (turning with the
+    /// open rotors). Returns the lumped current that drives the mechanics now.
+    #[inline]
+    pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) -> T {
+        match self {
+            Self::Current(p) => {
+                p.gear_elapsed(dt, x);
+                p.between_steps(t, dt, x, &SVector::<T, 1>::new(u));
+                u
+            }
+            Self::Driven(p) => {
+                p.plant_mut().gear_elapsed(dt, x);
+                p.plant_mut().between_steps(t, dt, x, &SVector::<T, 1>::new(u));
+                let open = p.plant_mut().open_rotor_speed(x);
+                p.turn_motors_at(open);
+                p.advance(x, u, dt);
+                p.mechanical_current(x, u)
+            }
+        }
+    }
+
+    /// `between_steps` after the trains' next step: the motors turn with the rotors of
+    /// trains that just opened.
+    #[inline]
+    pub(crate) fn step_end(&mut self, x: &Vector4<T>) {
+        if let Self::Driven(p) = self {
+            let open = p.plant_mut().open_rotor_speed(x);
+            p.turn_motors_at(open);
         }
     }
 

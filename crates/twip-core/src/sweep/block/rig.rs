@@ -49,9 +49,10 @@ struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool> {
     engaged: bool,
 }
 
-impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> Field<Fused, 4> for RigField<'_, GEAR, STEADY, GEARED> {
+impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> RigField<'_, GEAR, STEADY, GEARED> {
+    /// The derivative and the gearhead torque per wheel (`SlopeModel::deriv_geared`'s).
     #[inline(always)]
-    fn at(&self, x: &[Fused; 4]) -> [Fused; 4] {
+    fn motion(&self, x: &[Fused; 4]) -> ([Fused; 4], Fused) {
         // As `Driven::mechanical_current`: 2 ε times the winding's current.
         let u = if STEADY { self.per_amp * self.winding.steady_current(self.u, x[3] - x[1]) } else { self.u };
         let gear = match GEAR {
@@ -59,13 +60,21 @@ impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> Field<Fused, 4> for
             SLIP => Gearhead::Slip(self.friction),
             _ => Gearhead::Stick(self.friction),
         };
-        let engaged = motion(&self.k, gear, x, u, |_, _| None).0;
+        let (engaged, tau) = motion(&self.k, gear, x, u, |_, _| None);
         if !GEARED {
-            return engaged;
+            return (engaged, tau);
         }
         // As `SlopeModel::deriv_geared`, both computed and one kept: no branch per lane.
         let open = open_motion(&self.k, x, |_, _| None);
-        core::array::from_fn(|i| Fused::select(self.engaged, engaged[i], open[i]))
+        let zero = Fused(0.0);
+        (core::array::from_fn(|i| Fused::select(self.engaged, engaged[i], open[i])), Fused::select(self.engaged, tau, zero))
+    }
+}
+
+impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> Field<Fused, 4> for RigField<'_, GEAR, STEADY, GEARED> {
+    #[inline(always)]
+    fn at(&self, x: &[Fused; 4]) -> [Fused; 4] {
+        self.motion(x).0
     }
 }
 
@@ -80,10 +89,11 @@ struct RigPlants {
     geared: bool,
 }
 
-/// `$run::<GEAR, STEADY, GEARED>(args)` for the plants' kinds.
+/// `$run::<GEAR, STEADY, GEARED>(args)` for the plants' kinds; GEARED only while some
+/// lane's trains are open (`$engaged`: all engaged is the plain plant, bit for bit).
 macro_rules! by_kind {
-    ($self:ident, $run:ident($($arg:expr),*)) => {
-        match $self.geared {
+    ($self:ident, $engaged:ident, $run:ident($($arg:expr),*)) => {
+        match $self.geared && $engaged.iter().any(|&e| !e) {
             true => by_kind!(@gear $self, $run, true, $($arg),*),
             false => by_kind!(@gear $self, $run, false, $($arg),*),
         }
@@ -112,7 +122,7 @@ impl RigPlants {
     /// sensors sample too).
     #[inline(always)]
     fn k1(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
-        by_kind!(self, k1_of(x, u, engaged))
+        by_kind!(self, engaged, k1_of(x, u, engaged))
     }
 
     #[inline(always)]
@@ -127,11 +137,35 @@ impl RigPlants {
         out
     }
 
+    /// The derivative and gearhead torque per wheel on every lane with the trains as they
+    /// are, under the lumped `current` held (what `Disturbed::gear_next` weighs).
+    #[inline(always)]
+    fn geared_motion(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
+        match self.gear {
+            FREE => self.geared_motion_of::<FREE>(x, current, engaged),
+            SLIP => self.geared_motion_of::<SLIP>(x, current, engaged),
+            _ => self.geared_motion_of::<STICK>(x, current, engaged),
+        }
+    }
+
+    #[inline(always)]
+    fn geared_motion_of<const GEAR: u8>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
+        let (mut d, mut tau) = ([[0.0; LANES]; 4], [0.0; LANES]);
+        for l in 0..LANES {
+            let (dl, tl) = self.field::<GEAR, false, true>(l, current[l], engaged[l]).motion(&lane(x, l).map(Fused));
+            for i in 0..4 {
+                d[i][l] = dl[i].0;
+            }
+            tau[l] = tl.0;
+        }
+        (d, tau)
+    }
+
     /// One RK4 step from `k1` on every lane, the input held.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn rk4(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
-        by_kind!(self, rk4_of(x, u, engaged, k1, dt))
+        by_kind!(self, engaged, rk4_of(x, u, engaged, k1, dt))
     }
 
     #[inline(always)]
@@ -298,18 +332,35 @@ fn rig_block<C: LaneLaw>(
             }
         }
         metrics.observe(&alive, &x, &command, &plant_phi_s, &Shared { t, r, speed_scale, direction });
+        // `between_steps` per lane: the winding's current advances; with backlash, open rotors
+        // that reach a flank engage in an impact that sets the velocities, then the trains
+        // weigh the derivative at the step's start (on lanes) and may open.
+        let mut current = [0.0; LANES];
         for (l, rig) in rigs.iter_mut().enumerate() {
             let mut xl = Vector4::from(lane(&x, l));
-            // The winding's current advances; with backlash, open rotors that reach a flank
-            // engage in an impact that sets the velocities, and trains may open.
-            rig.plant.between_steps(t, dt, &mut xl, &SVector::<f64, 1>::new(u[l]));
+            current[l] = rig.plant.step_start(t, dt, &mut xl, u[l]);
             for i in 0..4 {
                 x[i][l] = xl[i];
             }
+            engaged[l] = rig.plant.ground().engaged();
+        }
+        let before = engaged;
+        // (An `if`, not `bool::then`: a closure not inlined is compiled for the baseline CPU.)
+        let weighed = if plants.geared { Some(plants.geared_motion(&x, &current, &engaged)) } else { None };
+        for (l, rig) in rigs.iter_mut().enumerate() {
+            let xl = Vector4::from(lane(&x, l));
+            if let Some((d, tau)) = &weighed {
+                rig.plant.ground_mut().gear_next_with(&xl, current[l], &Vector4::from(lane(d, l)), tau[l]);
+            }
+            rig.plant.step_end(&xl);
             input[l] = rig.plant.held_current(&xl, u[l]).unwrap_or(u[l]);
             engaged[l] = rig.plant.ground().engaged();
         }
-        let k1 = plants.k1(&x, &input, &engaged);
+        // With the trains as they were, the weighed derivative is RK4's first stage.
+        let k1 = match weighed {
+            Some((d, _)) if engaged == before => d,
+            _ => plants.k1(&x, &input, &engaged),
+        };
         for (l, rig) in rigs.iter_mut().enumerate() {
             rig.sensors.sample(t, &Vector4::from(lane(&x, l)), &Vector4::from(lane(&k1, l)));
         }
