@@ -278,7 +278,8 @@ mod tests {
             let kept: Vec<f64> = m.iter().filter(|s| s.valid && !s.fell).map(f).collect();
             kept.iter().sum::<f64>() / kept.len() as f64
         };
-        let metrics: [(&str, fn(&SampleMetrics) -> f64); 3] = [
+        type Metric = (&'static str, fn(&SampleMetrics) -> f64);
+        let metrics: [Metric; 3] = [
             ("mean_abs_pitch_error", |s| s.mean_abs_pitch_error),
             ("mean_abs_speed_error", |s| s.mean_abs_speed_error),
             ("final_position_error", |s| s.final_position_error),

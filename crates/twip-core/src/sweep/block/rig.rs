@@ -26,6 +26,8 @@ use crate::model::slope::{motion, open_motion, SlopeCoefficients, SlopeModel};
 use crate::sim::runner::{Actuator, Plant as _, Sensor, SimConfig, STOP_CHECK_STEPS};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
+use alloc::vec;
+use alloc::vec::Vec;
 use crate::{Dynamics, RobotParams, TwipError};
 
 /// The plant's kinds, decided once per block: its gearhead friction (`GEAR`: 0 none, 1 the
@@ -230,7 +232,8 @@ fn rig_block<C: LaneLaw>(
     let mut out = [SampleMetrics::INVALID; LANES];
     // Invalid or missing samples run an idle copy of a valid robot's rig, never kept.
     let mut active = [false; LANES];
-    let mut built: [Option<(SlopeModel<f64>, SlopeRig<f64>)>; LANES] = [None; LANES];
+    // On the heap: 16 rigs are ~100 KB, which a worker thread's stack need not hold.
+    let mut built: Vec<Option<(SlopeModel<f64>, SlopeRig<f64>)>> = vec![None; LANES];
     for (l, s) in samples.iter().enumerate() {
         if !s.x0.iter().all(|v| v.is_finite()) {
             continue;
@@ -244,9 +247,8 @@ fn rig_block<C: LaneLaw>(
     let Some(fallback) = built.iter().flatten().next().copied() else {
         return Ok(Some(out));
     };
-    let built: [(SlopeModel<f64>, SlopeRig<f64>); LANES] = core::array::from_fn(|l| built[l].unwrap_or(fallback));
-    let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| built[l].0);
-    let mut rigs: [SlopeRig<f64>; LANES] = core::array::from_fn(|l| built[l].1);
+    let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| built[l].map_or(fallback.0, |b| b.0));
+    let mut rigs: Vec<SlopeRig<f64>> = built.iter().map(|b| b.map_or(fallback.1, |b| b.1)).collect();
     let ground = |l: usize| *rigs[l].plant.ground().model_at(&Vector4::zeros());
     let friction = ground(0).friction().copied();
     let winding = |l: usize| rigs[l].plant.steady_winding();
