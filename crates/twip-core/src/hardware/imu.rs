@@ -24,6 +24,7 @@
 //! scales the DC delay by κ = (ω_b T/2)/tan(ω_b T/2); the design targets delay/κ so that
 //! both numbers hold for the discrete filter. The 260 Hz accelerometer row (delay 0)
 //! passes samples through.
+use crate::model::lane::Lane;
 use crate::rng::{Philox, Ziggurat};
 use crate::{c, Real, TwipError};
 
@@ -194,11 +195,15 @@ impl<T: Real> Dlpf<T> {
     pub fn pure_delay(&self) -> T {
         self.pure
     }
+}
 
+// The filter's step, written once over `Lane` (plain arithmetic: a sweep's lanes give the
+// run's bits); its configuration (bypass, all-pass, whole delay) is the same for every lane.
+impl<S: Lane> Dlpf<S> {
     /// Sets every state to the steady state of a constant input `v` (a filter that has
     /// been running since power-up).
-    pub fn prime(&mut self, v: T) {
-        let two = c::<T>(2.0);
+    pub fn prime(&mut self, v: S) {
+        let two = S::splat(2.0);
         self.s2 = (self.b0 - self.a2) * v;
         self.s1 = (two * self.b0 - self.a1) * v + self.s2;
         self.ap_x = v;
@@ -207,13 +212,13 @@ impl<T: Real> Dlpf<T> {
     }
 
     /// One sample in, one out.
-    #[inline]
-    pub fn filter(&mut self, x: T) -> T {
+    #[inline(always)]
+    pub fn filter(&mut self, x: S) -> S {
         if self.bypass {
             return x;
         }
         let y = self.b0 * x + self.s1;
-        self.s1 = c::<T>(2.0) * self.b0 * x - self.a1 * y + self.s2;
+        self.s1 = S::splat(2.0) * self.b0 * x - self.a1 * y + self.s2;
         self.s2 = self.b0 * x - self.a2 * y;
         let mut out = y;
         if let Some(eta) = self.allpass {
@@ -228,6 +233,30 @@ impl<T: Real> Dlpf<T> {
             out = delayed;
         }
         out
+    }
+}
+
+impl<T: Copy> Dlpf<T> {
+    /// The same filter in another number type (a sweep's lanes).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))]
+    fn map<S>(&self, f: impl Fn(T) -> S + Copy) -> Dlpf<S> {
+        Dlpf {
+            bypass: self.bypass,
+            b0: f(self.b0),
+            a1: f(self.a1),
+            a2: f(self.a2),
+            s1: f(self.s1),
+            s2: f(self.s2),
+            allpass: self.allpass.map(f),
+            ap_x: f(self.ap_x),
+            ap_y: f(self.ap_y),
+            ring: self.ring.map(f),
+            whole: self.whole,
+            head: self.head,
+            zeta: f(self.zeta),
+            natural: f(self.natural),
+            pure: f(self.pure),
+        }
     }
 }
 
@@ -345,7 +374,15 @@ pub fn specific_force<T: Real>(
     height: T,
     g: T,
 ) -> (T, T) {
-    let (sin_phi, cos_phi) = crate::model::math::sin_cos(x[0]);
+    let (x, xdot) = ([x[0], x[1], x[2], x[3]], [xdot[0], xdot[1], xdot[2], xdot[3]]);
+    specific_force_of(&x, &xdot, sin_slope, cos_slope, radius, height, g)
+}
+
+/// [`specific_force`], written once over `Lane` (a sweep's lanes).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn specific_force_of<S: Lane>(x: &[S; 4], xdot: &[S; 4], sin_slope: S, cos_slope: S, radius: S, height: S, g: S) -> (S, S) {
+    let (sin_phi, cos_phi) = S::sincos(x[0]);
     let sin_pa = sin_phi * cos_slope + cos_phi * sin_slope;
     let cos_pa = cos_phi * cos_slope - sin_phi * sin_slope;
     let wheel = radius * xdot[3];
@@ -419,14 +456,7 @@ impl<T: Real> Mpu6050<T> {
         })
     }
 
-    pub fn settings(&self) -> &ImuSettings<T> {
-        &self.settings
-    }
 
-    /// The latest output registers.
-    pub fn reading(&self) -> ImuReading<T> {
-        self.reading
-    }
 
     /// The gyroscope's bias now [rad/s].
     pub fn bias(&self) -> T {
@@ -439,27 +469,102 @@ impl<T: Real> Mpu6050<T> {
     /// not depend on the others'.
     #[inline]
     pub fn sample(&mut self, fx: T, fz: T, rate: T, rng: &mut Philox) {
+        let n = self.draw(rng);
+        self.sample_with(fx, fz, rate, n);
+    }
+
+    /// The next sample's four standard normals (gyro, accel x, accel z, bias walk), drawn
+    /// in batches from `rng`.
+    #[inline]
+    pub(crate) fn draw(&mut self, rng: &mut Philox) -> [T; 4] {
         if self.noise_used == NOISE_BATCH {
             self.gauss.fill(rng, &mut self.noise);
             self.noise_used = 0;
         }
         let k = self.noise_used;
         self.noise_used += 4;
-        let n: [T; 4] = [c(self.noise[k]), c(self.noise[k + 1]), c(self.noise[k + 2]), c(self.noise[k + 3])];
+        [c(self.noise[k]), c(self.noise[k + 1]), c(self.noise[k + 2]), c(self.noise[k + 3])]
+    }
+
+    /// The latest registers set from elsewhere (a sweep's lanes sample for this IMU).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))]
+    pub(crate) fn set_reading(&mut self, reading: ImuReading<T>) {
+        self.reading = reading;
+    }
+}
+
+impl<T: Copy> Mpu6050<T> {
+    /// The latest output registers.
+    pub fn reading(&self) -> ImuReading<T> {
+        self.reading
+    }
+
+    pub fn settings(&self) -> &ImuSettings<T> {
+        &self.settings
+    }
+
+    /// This IMU in another number type (a sweep's lanes: one per lane's value), its noise
+    /// left behind (each lane draws its own).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn map<S>(&self, f: impl Fn(T) -> S + Copy) -> Mpu6050<S> {
+        let s = &self.settings;
+        Mpu6050 {
+            settings: ImuSettings {
+                dlpf: s.dlpf,
+                sample_period: f(s.sample_period),
+                height: f(s.height),
+                gyro_noise: f(s.gyro_noise),
+                accel_noise: f(s.accel_noise),
+                gyro_bias: f(s.gyro_bias),
+                gyro_bias_walk: f(s.gyro_bias_walk),
+                accel_bias: s.accel_bias.map(f),
+                gyro_range: f(s.gyro_range),
+                accel_range: f(s.accel_range),
+                quantise: s.quantise,
+            },
+            gyro_filter: self.gyro_filter.map(f),
+            accel_x_filter: self.accel_x_filter.map(f),
+            accel_z_filter: self.accel_z_filter.map(f),
+            bias: f(self.bias),
+            sigma_gyro: f(self.sigma_gyro),
+            sigma_accel: f(self.sigma_accel),
+            sigma_walk: f(self.sigma_walk),
+            gyro_lsb: f(self.gyro_lsb),
+            accel_lsb: f(self.accel_lsb),
+            gyro_per_lsb: f(self.gyro_per_lsb),
+            accel_per_lsb: f(self.accel_per_lsb),
+            primed: self.primed,
+            reading: ImuReading { accel_x: f(self.reading.accel_x), accel_z: f(self.reading.accel_z), gyro: f(self.reading.gyro) },
+            gauss: self.gauss,
+            noise: self.noise,
+            noise_used: self.noise_used,
+        }
+    }
+}
+
+// The converter, the filters and the registers, written once over `Lane` (plain arithmetic:
+// a sweep's lanes give the run's bits); priming and quantising are every lane's alike.
+impl<S: Lane> Mpu6050<S> {
+    /// One sample of the specific force (`fx`, `fz`) and the rate, with the noise `n`
+    /// ([`Mpu6050::draw`]). Always inlined: a sweep's lanes run it inside their block, whose
+    /// copies for AVX would otherwise call a baseline build.
+    #[inline(always)]
+    pub(crate) fn sample_with(&mut self, fx: S, fz: S, rate: S, n: [S; 4]) {
         let s = &self.settings;
         let clean = [rate + self.bias, fx + s.accel_bias[0], fz + s.accel_bias[1]];
         let (gr, ar) = (s.gyro_range, s.accel_range);
+        let within = |v: S, range: S| v.larger(-range).smaller(range);
         if !self.primed {
             // The filters act on the converter's output, which never leaves the range.
-            self.gyro_filter.prime(clean[0].max(-gr).min(gr));
-            self.accel_x_filter.prime(clean[1].max(-ar).min(ar));
-            self.accel_z_filter.prime(clean[2].max(-ar).min(ar));
+            self.gyro_filter.prime(within(clean[0], gr));
+            self.accel_x_filter.prime(within(clean[1], ar));
+            self.accel_z_filter.prime(within(clean[2], ar));
             self.primed = true;
         }
-        let gyro = self.gyro_filter.filter((clean[0] + self.sigma_gyro * n[0]).max(-gr).min(gr));
-        let ax = self.accel_x_filter.filter((clean[1] + self.sigma_accel * n[1]).max(-ar).min(ar));
-        let az = self.accel_z_filter.filter((clean[2] + self.sigma_accel * n[2]).max(-ar).min(ar));
-        self.bias += self.sigma_walk * n[3];
+        let gyro = self.gyro_filter.filter(within(clean[0] + self.sigma_gyro * n[0], gr));
+        let ax = self.accel_x_filter.filter(within(clean[1] + self.sigma_accel * n[1], ar));
+        let az = self.accel_z_filter.filter(within(clean[2] + self.sigma_accel * n[2], ar));
+        self.bias = self.bias + self.sigma_walk * n[3];
         self.reading = if s.quantise {
             let (a, a_inv, g, g_inv) = (self.accel_lsb, self.accel_per_lsb, self.gyro_lsb, self.gyro_per_lsb);
             ImuReading { accel_x: register(ax, a, a_inv), accel_z: register(az, a, a_inv), gyro: register(gyro, g, g_inv) }
@@ -472,10 +577,10 @@ impl<T: Real> Mpu6050<T> {
 /// `v` as a 16-bit two's-complement register of resolution `lsb` (`per_lsb` = 1/lsb),
 /// back in units. Rounds to nearest, ties to even, by adding and removing 1.5/ε
 /// (1.5 · 2^52 in f64; no libm call, and 32768 is far below 1/ε).
-#[inline]
-fn register<T: Real>(v: T, lsb: T, per_lsb: T) -> T {
-    let magic = c::<T>(1.5) / T::default_epsilon();
-    let counts = (v * per_lsb).max(c(-32768.0)).min(c(32767.0));
+#[inline(always)]
+fn register<S: Lane>(v: S, lsb: S, per_lsb: S) -> S {
+    let magic = S::splat(1.5) / S::epsilon();
+    let counts = (v * per_lsb).larger(S::splat(-32768.0)).smaller(S::splat(32767.0));
     ((counts + magic) - magic) * lsb
 }
 

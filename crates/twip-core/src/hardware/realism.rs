@@ -16,7 +16,7 @@ use crate::control::{Controller, Reference};
 use crate::hardware::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{Driven, MotorDriver, PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
-use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
+use crate::hardware::imu::{specific_force, ImuReading, ImuSettings, Mpu6050};
 use crate::hardware::backlash::Backlash;
 use crate::model::friction::{Friction, GB37_STICK_SPEED};
 use crate::rng::Philox;
@@ -289,20 +289,45 @@ impl<T: Real> BalanceSensors<T> {
     pub fn imu(&self) -> Option<&Mpu6050<T>> {
         self.imu.as_ref()
     }
+
+    /// Whether the IMU samples at `t` (its period come round: the clock advances), and
+    /// then the (sin, cos) of the ground's slope under `x`. None without an IMU.
+    #[inline]
+    pub(crate) fn imu_due(&mut self, t: T, x: &Vector4<T>) -> Option<(T, T)> {
+        let period = self.imu.as_ref()?.settings().sample_period;
+        if t + self.half_step < self.next_sample {
+            return None;
+        }
+        self.next_sample += period;
+        Some(self.ground_trig[self.ground.segment(x[2] * self.radius)])
+    }
+
+    /// The IMU's next noise, from this rig's stream (a sweep's lanes sample for it).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))]
+    #[inline]
+    pub(crate) fn imu_noise(&mut self) -> Option<[T; 4]> {
+        let rng = &mut self.rng;
+        self.imu.as_mut().map(|imu| imu.draw(rng))
+    }
+
+    /// Sets the IMU's registers (a sweep's lanes sample for it).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))]
+    pub(crate) fn set_imu_reading(&mut self, reading: ImuReading<T>) {
+        if let Some(imu) = self.imu.as_mut() {
+            imu.set_reading(reading);
+        }
+    }
 }
 
 impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
     /// Samples the IMU when its period has come round (from t = 0 on).
     #[inline]
     fn sample(&mut self, t: T, x: &Vector4<T>, xdot: &Vector4<T>) {
+        let Some((sin_slope, cos_slope)) = self.imu_due(t, x) else { return };
         if let Some(imu) = self.imu.as_mut() {
-            if t + self.half_step >= self.next_sample {
-                let (sin_slope, cos_slope) = self.ground_trig[self.ground.segment(x[2] * self.radius)];
-                let height = imu.settings().height;
-                let (fx, fz) = specific_force(x, xdot, sin_slope, cos_slope, self.radius, height, self.g);
-                imu.sample(fx, fz, x[1], &mut self.rng);
-                self.next_sample += imu.settings().sample_period;
-            }
+            let height = imu.settings().height;
+            let (fx, fz) = specific_force(x, xdot, sin_slope, cos_slope, self.radius, height, self.g);
+            imu.sample(fx, fz, x[1], &mut self.rng);
         }
     }
 

@@ -45,6 +45,8 @@ pub trait Lane:
     fn exponential(self) -> Self;
     /// tanh x, libm's (a call per lane: no lane law needs it fast).
     fn hyperbolic_tangent(self) -> Self;
+    /// The type's machine epsilon (f64's for the lanes).
+    fn epsilon() -> Self;
     /// Comparisons, false where either side is NaN (as `<`, `<=`, `>`, `==`).
     fn lt(self, other: Self) -> Self::Mask;
     fn le(self, other: Self) -> Self::Mask;
@@ -121,6 +123,11 @@ impl<T: Real> Lane for T {
     #[inline(always)]
     fn hyperbolic_tangent(self) -> Self {
         nalgebra::ComplexField::tanh(self)
+    }
+
+    #[inline(always)]
+    fn epsilon() -> Self {
+        T::default_epsilon()
     }
 
     #[inline(always)]
@@ -340,6 +347,11 @@ mod wide {
         }
 
         #[inline(always)]
+        fn epsilon() -> Self {
+            Fused(f64::EPSILON)
+        }
+
+        #[inline(always)]
         fn lt(self, other: Self) -> bool {
             self.0 < other.0
         }
@@ -434,6 +446,11 @@ mod wide {
         #[inline(always)]
         fn hyperbolic_tangent(self) -> Self {
             Wide(each(self.0, f64::tanh))
+        }
+
+        #[inline(always)]
+        fn epsilon() -> Self {
+            Wide::splat(f64::EPSILON)
         }
 
         #[inline(always)]

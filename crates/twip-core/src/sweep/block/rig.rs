@@ -14,14 +14,15 @@
 //! every CPU, thread count and block neighbour.
 use nalgebra::{SVector, Vector4};
 
-use super::{multiversioned, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared};
+use super::{chunk, multiversioned, state_chunk, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared, CHUNKS};
 use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
 use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::realism::{Realism, SlopeRig};
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field};
-use crate::model::lane::{Fused, Lane};
+use crate::hardware::imu::{specific_force_of, ImuReading, Mpu6050};
+use crate::model::lane::{Fused, Lane, Wide, WIDTH};
 use crate::model::slope::{motion, open_motion, SlopeCoefficients, SlopeModel};
 use crate::sim::runner::{Actuator, Plant as _, Sensor, SimConfig, STOP_CHECK_STEPS};
 use crate::sweep::lanes::{Lanes, LANES};
@@ -191,6 +192,55 @@ impl RigPlants {
     }
 }
 
+/// The IMU on lanes: one `Mpu6050` per [`WIDTH`] lanes (the converter, filters and
+/// registers every lane's alike, the state each lane's own), sampled with each lane's own
+/// noise (its rig's stream); the registers go back to each lane's sensors, which the
+/// firmware's read takes.
+struct ImuLanes {
+    imus: [Mpu6050<Wide>; CHUNKS],
+    radius: Lanes,
+    g: Lanes,
+}
+
+impl ImuLanes {
+    fn new(rig: &SlopeRig<f64>, models: &[SlopeModel<f64>; LANES]) -> Option<Self> {
+        let imu = rig.sensors.imu()?.map(Wide::splat);
+        let radius = core::array::from_fn(|l| models[l].params().wheel_radius);
+        Some(Self { imus: [imu; CHUNKS], radius, g: core::array::from_fn(|l| models[l].params().g) })
+    }
+
+    /// `BalanceSensors::sample` on every lane: at `t`, state `x` and derivative `xdot`.
+    #[inline(always)]
+    fn sample(&mut self, rigs: &mut [SlopeRig<f64>], t: f64, x: &[Lanes; 4], xdot: &[Lanes; 4]) {
+        let (mut sin, mut cos, mut noise) = ([0.0; LANES], [0.0; LANES], [[0.0; LANES]; 4]);
+        let mut due = false;
+        for (l, rig) in rigs.iter_mut().enumerate() {
+            let Some((s, c)) = rig.sensors.imu_due(t, &Vector4::from(lane(x, l))) else { continue };
+            due = true;
+            (sin[l], cos[l]) = (s, c);
+            let n = rig.sensors.imu_noise().unwrap_or([0.0; 4]); // due: there is an IMU
+            for i in 0..4 {
+                noise[i][l] = n[i];
+            }
+        }
+        if !due {
+            return;
+        }
+        for (c, imu) in self.imus.iter_mut().enumerate() {
+            let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
+            let height = imu.settings().height;
+            let (radius, g) = (chunk(&self.radius, c), chunk(&self.g, c));
+            let (fx, fz) = specific_force_of(&xs, &ds, chunk(&sin, c), chunk(&cos, c), radius, height, g);
+            imu.sample_with(fx, fz, xs[1], core::array::from_fn(|i| chunk(&noise[i], c)));
+            let r = imu.reading();
+            for j in 0..WIDTH {
+                let reading = ImuReading { accel_x: r.accel_x.0[j], accel_z: r.accel_z.0[j], gyro: r.gyro.0[j] };
+                rigs[c * WIDTH + j].sensors.set_imu_reading(reading);
+            }
+        }
+    }
+}
+
 /// Lane `l` of a state.
 #[inline(always)]
 fn lane(x: &[Lanes; 4], l: usize) -> [f64; 4] {
@@ -279,10 +329,16 @@ fn rig_block<C: LaneLaw>(
     let mut alive = active;
     let mut ended = [(false, 0.0f64, 0u64); LANES];
     // The sensors' registers hold a sample of the initial state.
-    for (l, rig) in rigs.iter_mut().enumerate() {
-        let xl = Vector4::from(lane(&x, l));
-        let xdot = rig.plant.deriv(&xl, &SVector::<f64, 1>::zeros());
-        rig.sensors.sample(0.0, &xl, &xdot);
+    let mut imus = ImuLanes::new(&rigs[0], &models);
+    if let Some(imus) = imus.as_mut() {
+        let mut xdot = [[0.0; LANES]; 4];
+        for (l, rig) in rigs.iter().enumerate() {
+            let d = rig.plant.deriv(&Vector4::from(lane(&x, l)), &SVector::<f64, 1>::zeros());
+            for i in 0..4 {
+                xdot[i][l] = d[i];
+            }
+        }
+        imus.sample(&mut rigs, 0.0, &x, &xdot);
     }
     let r0 = reference.sample(0.0);
     let mut cached_speed = r0.theta_dot;
@@ -363,8 +419,8 @@ fn rig_block<C: LaneLaw>(
             Some((d, _)) if engaged == before => d,
             _ => plants.k1(&x, &input, &engaged),
         };
-        for (l, rig) in rigs.iter_mut().enumerate() {
-            rig.sensors.sample(t, &Vector4::from(lane(&x, l)), &Vector4::from(lane(&k1, l)));
+        if let Some(imus) = imus.as_mut() {
+            imus.sample(&mut rigs, t, &x, &k1);
         }
         let next = plants.rk4(&x, &input, &engaged, &k1, dt);
         let Some(ends) = super::advance(&mut x, &next, &alive, 0, config.fall_limit) else { continue };
