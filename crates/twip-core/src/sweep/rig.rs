@@ -291,7 +291,8 @@ mod tests {
         }
     }
 
-    /// A realism with a part the lanes lack is refused by name, not run wrongly.
+    /// A realism with a part the lanes lack is refused naming the part and its value, not
+    /// run wrongly.
     #[test]
     fn the_rig_lanes_refuse_pushes() {
         use crate::hardware::disturbance::{Push, Pushes};
@@ -301,7 +302,10 @@ mod tests {
         let realism = Realism { pushes, ..Realism::thesis_like() };
         assert!(!realism.on_lanes());
         let run = run_rig_lane_samples(&LqrLanes::new(&lqr), &schedule, &config, &nominal, &spread(), 3, 0..4, &realism, &|| false);
-        assert!(matches!(run, Err(TwipError::InvalidParameter { name: "realism", .. })));
+        assert!(matches!(run, Err(TwipError::InvalidParameter { name: "realism.pushes", value: 1.0, .. })), "{run:?}");
+        let force = Realism { force: crate::hardware::disturbance::Force { horizontal: 0.5, vertical: 0.0, height: 0.1 }, ..Realism::ideal() };
+        let e = force.off_lanes().map(|e| format!("{e}"));
+        assert_eq!(e.as_deref(), Some("invalid realism.force.horizontal = 0.5: the rig's lane kernel has no pushes, force or slope changes (the general runner has)"));
     }
 
     /// The rig's own errors about the robot are the sample's, not the sweep's.

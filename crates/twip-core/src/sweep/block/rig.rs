@@ -29,7 +29,7 @@ use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
 use alloc::vec;
 use alloc::vec::Vec;
-use crate::{Dynamics, RobotParams, TwipError};
+use crate::{Dynamics, RobotParams};
 
 /// The plant's kinds, decided once per block: its gearhead friction (`GEAR`: 0 none, 1 the
 /// slip law, 2 with a stick band), whether a winding without inductance turns the duty
@@ -273,9 +273,8 @@ fn rig_block<C: LaneLaw>(
     should_stop: &dyn Fn() -> bool,
 ) -> BlockResult {
     assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
-    if !realism.on_lanes() {
-        let reason = "has pushes, a force or slope changes: the general runner's";
-        return Err(TwipError::InvalidParameter { name: "realism", value: f64::NAN, reason });
+    if let Some(e) = realism.off_lanes() {
+        return Err(e);
     }
     let (n, per_update) = config.steps(controller.period())?;
     let dt = config.dt;
