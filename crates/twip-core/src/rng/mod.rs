@@ -5,7 +5,10 @@
 //! same on 1 or 16 threads, and any sample can be replayed alone. The output sequence
 //! is the one of numpy's `np.random.Philox(key=[seed, stream]).random_raw()`, which lets
 //! the pure-Python reference draw the very same noise.
+mod ziggurat_tables;
+
 use crate::{c, Real};
+use ziggurat_tables::{EDGES, HEIGHTS};
 
 const M0: u64 = 0xD2E7_470E_E14C_6C93;
 const M1: u64 = 0xCA5A_8263_9512_1157;
@@ -18,26 +21,33 @@ fn mulhilo(a: u64, b: u64) -> (u64, u64) {
     ((p >> 64) as u64, p as u64)
 }
 
-/// The Philox4x64 bijection with 10 rounds.
-fn philox4x64_10(mut x: [u64; 4], mut k: [u64; 2]) -> [u64; 4] {
+/// The Philox4x64 bijection with 10 rounds, on [`BLOCKS`] counters at once: their rounds
+/// are independent, so the multiplies of one overlap the latency of the other's.
+#[inline(always)]
+fn philox4x64_10(mut xs: [[u64; 4]; BLOCKS], mut k: [u64; 2]) -> [[u64; 4]; BLOCKS] {
     for round in 0..10 {
         if round > 0 {
             k[0] = k[0].wrapping_add(W0);
             k[1] = k[1].wrapping_add(W1);
         }
-        let (hi0, lo0) = mulhilo(M0, x[0]);
-        let (hi1, lo1) = mulhilo(M1, x[2]);
-        x = [hi1 ^ x[1] ^ k[0], lo1, hi0 ^ x[3] ^ k[1], lo0];
+        for x in xs.iter_mut() {
+            let (hi0, lo0) = mulhilo(M0, x[0]);
+            let (hi1, lo1) = mulhilo(M1, x[2]);
+            *x = [hi1 ^ x[1] ^ k[0], lo1, hi0 ^ x[3] ^ k[1], lo0];
+        }
     }
-    x
+    xs
 }
+
+/// Blocks of four words made at once (see [`philox4x64_10`]).
+const BLOCKS: usize = 2;
 
 /// A stream of 64-bit words: key = [seed, stream], counter from 0.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Philox {
     key: [u64; 2],
     counter: [u64; 4],
-    buffer: [u64; 4],
+    buffer: [u64; 4 * BLOCKS],
     used: usize,
     /// A second normal deviate left over from Box–Muller.
     spare: Option<u64>,
@@ -45,24 +55,37 @@ pub struct Philox {
 
 impl Philox {
     pub fn new(seed: u64, stream: u64) -> Self {
-        Self { key: [seed, stream], counter: [0; 4], buffer: [0; 4], used: 4, spare: None }
+        Self { key: [seed, stream], counter: [0; 4], buffer: [0; 4 * BLOCKS], used: 4 * BLOCKS, spare: None }
     }
 
     /// The next 64-bit word (numpy's `random_raw` order: the counter is incremented
     /// before each block).
+    #[inline]
     pub fn next_u64(&mut self) -> u64 {
-        if self.used == 4 {
+        if self.used == self.buffer.len() {
+            self.refill();
+        }
+        self.used += 1;
+        self.buffer[self.used - 1]
+    }
+
+    /// The next [`BLOCKS`] blocks into the buffer. Out of line: its registers would
+    /// otherwise be saved and restored on every word.
+    #[inline(never)]
+    fn refill(&mut self) {
+        let counters = core::array::from_fn(|_| {
             for word in self.counter.iter_mut() {
                 *word = word.wrapping_add(1);
                 if *word != 0 {
                     break;
                 }
             }
-            self.buffer = philox4x64_10(self.counter, self.key);
-            self.used = 0;
+            self.counter
+        });
+        for (words, block) in self.buffer.chunks_exact_mut(4).zip(philox4x64_10(counters, self.key)) {
+            words.copy_from_slice(&block);
         }
-        self.used += 1;
-        self.buffer[self.used - 1]
+        self.used = 0;
     }
 
     /// Uniform on [0, 1) with 53 random bits.
@@ -113,30 +136,28 @@ fn ln(x: f64) -> f64 {
 /// word gives two normals; 98.8 % of draws are a multiply and a compare. The rare rest (a
 /// layer's wedge, the tail beyond r) takes more words from the same stream. The IMU needs
 /// four normals per 1 kHz sample: this costs two Philox words instead of Box–Muller's four
-/// words, two logarithms, roots and sin/cos.
-#[derive(Clone, Copy, Debug)]
-pub struct Ziggurat {
-    /// Layer edges x_0 (the base's equivalent width) … x_256 = 0, and f(x_i) = e^(−x_i²/2).
-    x: [f64; 257],
-    f: [f64; 257],
-}
+/// words, two logarithms, roots and sin/cos. The layers are one table all share
+/// (`ziggurat_tables`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Ziggurat;
 
-/// Where the tail starts and each layer's area, for 256 layers of e^(−x²/2).
+/// Where the tail starts, for 256 layers of e^(−x²/2).
 const ZIGGURAT_R: f64 = 3.654_152_885_361_009;
-const ZIGGURAT_V: f64 = 4.928_673_233_974_658e-3;
 
 fn gauss(x: f64) -> f64 {
     nalgebra::ComplexField::exp(-0.5 * x * x)
 }
 
-impl Default for Ziggurat {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
 impl Ziggurat {
     pub fn new() -> Self {
+        Self
+    }
+
+    /// The layers' edges and heights from r and v (what `ziggurat_tables` holds).
+    #[cfg(test)]
+    fn derive() -> ([f64; 257], [f64; 257]) {
+        // Each layer's area.
+        const ZIGGURAT_V: f64 = 4.928_673_233_974_658e-3;
         let mut x = [0.0; 257];
         x[0] = ZIGGURAT_V / gauss(ZIGGURAT_R);
         x[1] = ZIGGURAT_R;
@@ -147,7 +168,7 @@ impl Ziggurat {
         for (fi, xi) in f.iter_mut().zip(x) {
             *fi = gauss(xi);
         }
-        Self { x, f }
+        (x, f)
     }
 
     /// Fills `out` with standard normals from `rng`, two per word (low half first; the
@@ -162,22 +183,40 @@ impl Ziggurat {
         }
     }
 
-    /// One normal from 32 bits, drawing more from `rng` when they fall outside the
-    /// rectangles (a fresh word's low half per retry).
-    #[inline]
-    fn normal(&self, mut bits: u32, rng: &mut Philox) -> f64 {
+    /// One normal from 32 bits: inside its layer's rectangle (98.8 %), at once.
+    #[inline(always)]
+    fn normal(&self, bits: u32, rng: &mut Philox) -> f64 {
+        let (sign, z, i) = Self::candidate(bits);
+        if z < EDGES[i + 1] {
+            return sign * z;
+        }
+        self.outside(bits, rng)
+    }
+
+    /// The sign, the candidate |z| and its layer that 32 bits give.
+    #[inline(always)]
+    fn candidate(bits: u32) -> (f64, f64, usize) {
+        let i = (bits & 0xFF) as usize;
+        // Bit 8 is the sign, set without a branch (it is a coin toss).
+        let sign = f64::from_bits(1f64.to_bits() | (u64::from(bits & 0x100) << 55));
+        (sign, (bits >> 9) as f64 * (1.0 / 8_388_608.0) * EDGES[i], i)
+    }
+
+    /// [`Self::normal`] for bits whose candidate may lie outside its rectangle: a layer's
+    /// wedge is accepted under the curve, the base layer goes to the tail, and a rejected
+    /// draw takes a fresh word's low half. Out of line: rare, and large.
+    #[cold]
+    #[inline(never)]
+    fn outside(&self, mut bits: u32, rng: &mut Philox) -> f64 {
         loop {
-            let i = (bits & 0xFF) as usize;
-            // Bit 8 is the sign, set without a branch (it is a coin toss).
-            let sign = f64::from_bits(1f64.to_bits() | (u64::from(bits & 0x100) << 55));
-            let z = (bits >> 9) as f64 * (1.0 / 8_388_608.0) * self.x[i];
-            if z < self.x[i + 1] {
+            let (sign, z, i) = Self::candidate(bits);
+            if z < EDGES[i + 1] {
                 return sign * z;
             }
             if i == 0 {
                 return sign * self.tail(rng);
             }
-            let y = self.f[i + 1] + rng.uniform::<f64>() * (self.f[i] - self.f[i + 1]);
+            let y = HEIGHTS[i + 1] + rng.uniform::<f64>() * (HEIGHTS[i] - HEIGHTS[i + 1]);
             if y < gauss(z) {
                 return sign * z;
             }
@@ -243,7 +282,7 @@ mod tests {
     #[test]
     fn ziggurat_normals_look_normal() {
         let z = Ziggurat::new();
-        assert!(z.x[255] > 0.2 && z.x[255] < 0.22, "the top layer closes the table");
+        assert!(EDGES[255] > 0.2 && EDGES[255] < 0.22, "the top layer closes the table");
         let mut g = Philox::new(42, 17);
         let n = 400_000;
         let mut draws = std::vec![0.0; n];
@@ -259,5 +298,20 @@ mod tests {
         // P(|z| > 3) = 0.0027.
         assert!(mean.abs() < 0.01 && (var - 1.0).abs() < 0.01 && (kurt - 3.0).abs() < 0.05 && (tail - 0.0027).abs() < 0.0005,
             "{mean} {var} {kurt} {tail}");
+    }
+
+    /// The written-out layers are the derivation's, to an ulp (bit for bit with glibc's
+    /// libm, which wrote them): any other libm draws the same normals from them.
+    #[test]
+    fn ziggurat_tables_are_the_derivation() {
+        let (x, f) = Ziggurat::derive();
+        for (name, table, derived) in [("edges", &EDGES, x), ("heights", &HEIGHTS, f)] {
+            for i in 0..257 {
+                let (a, b) = (table[i], derived[i]);
+                assert!((a - b).abs() <= f64::EPSILON * a.abs(), "{name}[{i}]: {a:e} vs {b:e}");
+            }
+        }
+        #[cfg(all(target_os = "linux", target_env = "gnu", feature = "std"))]
+        assert_eq!((EDGES, HEIGHTS), (x, f), "glibc derives the very tables");
     }
 }
