@@ -313,13 +313,13 @@ impl<T: Real> Disturbed<T> {
     /// The step under way has ended at `x`: the open rotors advance; reaching a flank
     /// they engage in a plastic impact (φ̇ and θ̇ in `x` jump).
     pub fn gear_elapsed(&mut self, dt: T, x: &mut Vector4<T>) {
-        let Some(mut play) = self.play else { return };
-        let model = self.piece(x).model;
+        // In place, fields apart: a copy of the model or the play costs a sweep's lanes.
+        let Some(play) = self.play.as_mut() else { return };
+        let model = &self.pieces[self.profile.segment(x[2] * self.radius)].model;
         if let Some(rotor_speed) = play.elapsed(dt, [x[3] - x[1]], model.friction())[0] {
             let speed = model.engage(x, rotor_speed);
             play.engage(0, speed);
         }
-        self.play = Some(play);
     }
 
     /// A step starts at `x` under the lumped `current`: engaged trains whose contact
@@ -334,11 +334,10 @@ impl<T: Real> Disturbed<T> {
     /// `friction` at `x` under `current` with the trains as they are (`deriv_geared`'s): a
     /// sweep's lanes compute those for all of them at once.
     pub(crate) fn gear_next_with(&mut self, x: &Vector4<T>, current: T, d: &Vector4<T>, friction: T) {
-        let Some(mut play) = self.play else { return };
         let motor = self.piece(x).model.params().torque_per_amp() * current;
+        let Some(play) = self.play.as_mut() else { return };
         let contact = motor - c::<T>(2.0) * friction - play.inertia() * (d[3] - d[1]);
         play.next_step([x[3] - x[1]], [contact], [motor]);
-        self.play = Some(play);
     }
 
     /// The same plant with gearhead friction on every piece of the ground (validated).

@@ -92,17 +92,18 @@ struct RigPlants {
     geared: bool,
 }
 
-/// `$run::<GEAR, STEADY, GEARED>(args)` for the plants' kinds; GEARED only while some
-/// lane's trains are open (`$engaged`: all engaged is the plain plant, bit for bit).
+/// `$run::<GEAR, STEADY, GEARED>(args)` for the plants' kinds (`$steady`: whether the input
+/// is a duty through a winding without inductance); GEARED only while some lane's trains
+/// are open (`$engaged`: all engaged is the plain plant, bit for bit).
 macro_rules! by_kind {
-    ($self:ident, $engaged:ident, $run:ident($($arg:expr),*)) => {
+    ($self:ident, $steady:expr, $engaged:ident, $run:ident($($arg:expr),*)) => {
         match $self.geared && $engaged.iter().any(|&e| !e) {
-            true => by_kind!(@gear $self, $run, true, $($arg),*),
-            false => by_kind!(@gear $self, $run, false, $($arg),*),
+            true => by_kind!(@gear $self, $steady, $run, true, $($arg),*),
+            false => by_kind!(@gear $self, $steady, $run, false, $($arg),*),
         }
     };
-    (@gear $self:ident, $run:ident, $geared:literal, $($arg:expr),*) => {
-        match ($self.gear, $self.steady) {
+    (@gear $self:ident, $steady:expr, $run:ident, $geared:literal, $($arg:expr),*) => {
+        match ($self.gear, $steady) {
             (FREE, false) => $self.$run::<FREE, false, $geared>($($arg),*),
             (FREE, true) => $self.$run::<FREE, true, $geared>($($arg),*),
             (SLIP, false) => $self.$run::<SLIP, false, $geared>($($arg),*),
@@ -125,7 +126,7 @@ impl RigPlants {
     /// sensors sample too).
     #[inline(always)]
     fn k1(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
-        by_kind!(self, engaged, k1_of(x, u, engaged))
+        by_kind!(self, self.steady, engaged, k1_of(x, u, engaged))
     }
 
     #[inline(always)]
@@ -144,18 +145,15 @@ impl RigPlants {
     /// are, under the lumped `current` held (what `Disturbed::gear_next` weighs).
     #[inline(always)]
     fn geared_motion(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
-        match self.gear {
-            FREE => self.geared_motion_of::<FREE>(x, current, engaged),
-            SLIP => self.geared_motion_of::<SLIP>(x, current, engaged),
-            _ => self.geared_motion_of::<STICK>(x, current, engaged),
-        }
+        // The lumped current is the input, whatever the winding.
+        by_kind!(self, false, engaged, geared_motion_of(x, current, engaged))
     }
 
     #[inline(always)]
-    fn geared_motion_of<const GEAR: u8>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
+    fn geared_motion_of<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
         let (mut d, mut tau) = ([[0.0; LANES]; 4], [0.0; LANES]);
         for l in 0..LANES {
-            let (dl, tl) = self.field::<GEAR, false, true>(l, current[l], engaged[l]).motion(&lane(x, l).map(Fused));
+            let (dl, tl) = self.field::<GEAR, STEADY, GEARED>(l, current[l], engaged[l]).motion(&lane(x, l).map(Fused));
             for i in 0..4 {
                 d[i][l] = dl[i].0;
             }
@@ -168,7 +166,7 @@ impl RigPlants {
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn rk4(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
-        by_kind!(self, engaged, rk4_of(x, u, engaged, k1, dt))
+        by_kind!(self, self.steady, engaged, rk4_of(x, u, engaged, k1, dt))
     }
 
     #[inline(always)]
