@@ -297,8 +297,9 @@ def rig_sweep(n=48, realism=None, **kw):
     return twip.montecarlo("flat-lqr-sim", n, progress=False, realism=realism, **kw)
 
 
-# The thesis-like rig runs on lanes; with a push it runs on the general runner.
-RIGS = [("realism", twip.Realism.thesis_like().replace(pushes=[(2.0, 0.2)])), ("realism-lanes", twip.Realism.thesis_like())]
+# The thesis-like rig runs on lanes; with a slope change (here 100 m on, past the path: the same
+# physics) it runs on the general runner.
+RIGS = [("realism", twip.Realism.thesis_like().replace(slope_profile=[(100.0, 0.0)])), ("realism-lanes", twip.Realism.thesis_like())]
 
 
 @pytest.mark.parametrize("kernel, realism", RIGS, ids=[k for k, _ in RIGS])
@@ -345,6 +346,20 @@ def test_a_rig_lane_replays_to_rounding_and_agrees_in_shards():
         alone = fuzzy.rerun(i)
         for name in ("valid",) + fuzzy.metric_names:
             assert np.array_equal(alone[name], fuzzy.metrics[name][i], equal_nan=True), name
+
+
+def test_a_pushed_rig_runs_on_lanes_and_replays_to_rounding():
+    """Pushes jump each lane's velocities between steps, as in the rig's own run: over a
+    second (before the quantisers' drift, see above) a pushed lane replays to rounding."""
+    second = {"t_final": 1.0}
+    r = rig_sweep(realism=RIGS[1][1].replace(pushes=[(0.4, 0.3)]), options=second)
+    assert r.kernel == "realism-lanes"
+    plain = rig_sweep(options=second)
+    assert not np.array_equal(r.metrics["mean_abs_speed_error"], plain.metrics["mean_abs_speed_error"]), "the push acted"
+    for i in (2, 17, 40):
+        alone = r.replay(i)
+        for name in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error", "peak_abs_input"):
+            assert alone.metrics[name] == pytest.approx(r.metrics[name][i], rel=1e-9), (i, name)
 
 
 def test_realism_noise_follows_the_sweep_seed_not_the_realism_seed():

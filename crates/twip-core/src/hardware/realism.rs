@@ -109,18 +109,16 @@ impl<T: Real> Realism<T> {
     }
 
     /// Whether this realism's rig runs on a sweep's lanes (`sweep::block::run_rig_block`):
-    /// every part but pushes, a constant force and slope changes along the path.
+    /// every part but a constant force and slope changes along the path (both change the
+    /// plant's equations; pushes only jump its state between steps, which each lane's rig does).
     pub fn on_lanes(&self) -> bool {
         self.off_lanes().is_none()
     }
 
     /// The part that keeps this rig off the lanes, as an error naming it (None: none does).
     pub fn off_lanes(&self) -> Option<TwipError> {
-        let reason = "the rig's lane kernel has no pushes, force or slope changes (the general runner has)";
+        let reason = "the rig's lane kernel has no constant force or slope changes (the general runner has)";
         let part = |name, value: f64| Some(TwipError::InvalidParameter { name, value, reason });
-        if !self.pushes.as_slice().is_empty() {
-            return part("realism.pushes", self.pushes.as_slice().len() as f64);
-        }
         if self.force.horizontal != T::zero() {
             return part("realism.force.horizontal", crate::to_f64(self.force.horizontal));
         }

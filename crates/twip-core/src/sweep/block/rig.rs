@@ -1,7 +1,7 @@
 //! The fast path of a realism sweep: [`LANES`] samples at once through the 2-DOF rig, for
 //! every law on lanes ([`LaneLaw`]) and every realism whose plant is the slope model with
-//! its gearhead friction and backlash (`Realism::on_lanes`: no pushes, force or slope
-//! changes).
+//! its gearhead friction and backlash (`Realism::on_lanes`: no constant force or slope
+//! changes; pushes are each lane's rig's, between steps).
 //!
 //! The loop is `runner::run_loop`'s, step for step. The plant's RK4 is the run's own
 //! source (`model::slope::motion` with `Friction`'s law, `open_motion` for a lane whose gear
@@ -9,7 +9,7 @@
 //! [`Fused`] lanes, which the compiler vectorises. Each lane's sensors, actuator, winding and
 //! gear play are its own rig's parts, the very objects a run uses (`Realism::build`, noise
 //! stream = sample index): they act between steps or once per control period on a lane's
-//! numbers (the play's impacts and openings too), and their noise draws are a lane's own. So a lane
+//! numbers (the play's impacts and openings, and pushes, too), and their noise draws are a lane's own. So a lane
 //! agrees with `sweep::rig::run_rig_sample` to rounding, and is bit for bit the same on
 //! every CPU, thread count and block neighbour.
 use nalgebra::{SVector, Vector4};
