@@ -107,9 +107,9 @@ def test_kernel_and_fall_limit_come_from_the_core():
     lqr = twip.scenarios.get("flat-lqr-sim")
     assert twip.sweep.kernel_for(lqr) == "lanes"
     assert twip.sweep.kernel_for(lqr, twip.Realism.thesis_like()) == "realism-lanes"
-    # Pushes run on the rig's lanes; a force and slope changes keep a rig on the general runner.
+    # Pushes and a force run on the rig's lanes; slope changes keep a rig on the general runner.
     assert twip.sweep.kernel_for(lqr, twip.Realism(pushes=[(1.0, 0.3)])) == "realism-lanes"
-    assert twip.sweep.kernel_for(lqr, twip.Realism(force=twip.Force(horizontal=0.5))) == "realism"
+    assert twip.sweep.kernel_for(lqr, twip.Realism(force=twip.Force(horizontal=0.5))) == "realism-lanes"
     assert twip.sweep.kernel_for(lqr, twip.Realism(slope_profile=[(0.2, 0.05)])) == "realism"
     assert twip.sweep.kernel_for(twip.scenarios.get("flat-fuzzy-sim")) == "lanes"
     gaussian = [[twip.Gaussian(-0.3, 0.15), twip.Triangle(-0.3, 0.0, 0.3), twip.Gaussian(0.3, 0.15)]] * 2

@@ -348,14 +348,17 @@ def test_a_rig_lane_replays_to_rounding_and_agrees_in_shards():
             assert np.array_equal(alone[name], fuzzy.metrics[name][i], equal_nan=True), name
 
 
-def test_a_pushed_rig_runs_on_lanes_and_replays_to_rounding():
-    """Pushes jump each lane's velocities between steps, as in the rig's own run: over a
-    second (before the quantisers' drift, see above) a pushed lane replays to rounding."""
+def test_a_pushed_and_pulled_rig_runs_on_lanes_and_replays_to_rounding():
+    """Pushes jump each lane's velocities between steps and a constant force adds to its
+    equations, as in the rig's own run: over a second (before the quantisers' drift, see
+    above) such a lane replays to rounding."""
     second = {"t_final": 1.0}
-    r = rig_sweep(realism=RIGS[1][1].replace(pushes=[(0.4, 0.3)]), options=second)
-    assert r.kernel == "realism-lanes"
+    pushed = rig_sweep(realism=RIGS[1][1].replace(pushes=[(0.4, 0.3)]), options=second)
+    r = rig_sweep(realism=RIGS[1][1].replace(pushes=[(0.4, 0.3)], force=twip.Force(horizontal=0.4, height=0.08)), options=second)
+    assert pushed.kernel == r.kernel == "realism-lanes"
     plain = rig_sweep(options=second)
-    assert not np.array_equal(r.metrics["mean_abs_speed_error"], plain.metrics["mean_abs_speed_error"]), "the push acted"
+    assert not np.array_equal(pushed.metrics["mean_abs_speed_error"], plain.metrics["mean_abs_speed_error"]), "the push acted"
+    assert not np.array_equal(r.metrics["mean_abs_speed_error"], pushed.metrics["mean_abs_speed_error"]), "the force acted"
     for i in (2, 17, 40):
         alone = r.replay(i)
         for name in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error", "peak_abs_input"):

@@ -17,6 +17,7 @@ use nalgebra::{SVector, Vector2, Vector4};
 
 use crate::hardware::backlash::{Backlash, GearPlay};
 use crate::model::friction::Friction;
+use crate::model::lane::Lane;
 use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
 
 /// Most pushes one run holds (fixed size: no allocation, no_std).
@@ -62,6 +63,22 @@ impl<T: Real> Force<T> {
 
     pub(crate) fn is_zero(&self) -> bool {
         self.horizontal == T::zero() && self.vertical == T::zero()
+    }
+}
+
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+impl<T: Copy> Force<T> {
+    pub(crate) fn map<S>(&self, f: impl Fn(T) -> S) -> Force<S> {
+        Force { horizontal: f(self.horizontal), vertical: f(self.vertical), height: f(self.height) }
+    }
+}
+
+// The force's law, written once over `Lane`: a run's and a sweep's lanes.
+impl<S: Lane> Force<S> {
+    /// The generalised force on φ at (sin φ, cos φ) (on θ it is constant on a piece).
+    #[inline(always)]
+    pub(crate) fn on_pitch(&self, sin_phi: S, cos_phi: S) -> S {
+        self.height * (self.horizontal * cos_phi - self.vertical * sin_phi)
     }
 }
 
@@ -241,8 +258,7 @@ impl<T: Real> Piece<T> {
     /// The force's generalised forces on (φ, θ) at (sin φ, cos φ).
     #[inline(always)]
     fn force_at(&self, force: &Force<T>, sin_phi: T, cos_phi: T) -> Option<Vector2<T>> {
-        let q_phi = force.height * (force.horizontal * cos_phi - force.vertical * sin_phi);
-        Some(Vector2::new(q_phi, self.q_theta))
+        Some(Vector2::new(force.on_pitch(sin_phi, cos_phi), self.q_theta))
     }
 
     /// `SlopeModel::deriv_geared` with the force (if `has_force`).
@@ -295,6 +311,16 @@ impl<T: Real> Disturbed<T> {
     #[inline(always)]
     pub fn shaft_offset(&self) -> T {
         self.play.as_ref().map_or(T::zero(), |p| p.offsets()[0])
+    }
+
+    /// The force and its generalised force on θ on a ground of one slope (None: no force).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn steady_force(&self) -> Option<(Force<T>, T)> {
+        if self.has_force {
+            Some((self.force, self.pieces[0].q_theta))
+        } else {
+            None
+        }
     }
 
     /// Whether the gear trains are engaged (always, without backlash).

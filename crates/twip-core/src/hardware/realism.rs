@@ -109,25 +109,18 @@ impl<T: Real> Realism<T> {
     }
 
     /// Whether this realism's rig runs on a sweep's lanes (`sweep::block::run_rig_block`):
-    /// every part but a constant force and slope changes along the path (both change the
-    /// plant's equations; pushes only jump its state between steps, which each lane's rig does).
+    /// every part but slope changes along the path (they change the plant's equations with
+    /// the distance travelled).
     pub fn on_lanes(&self) -> bool {
         self.off_lanes().is_none()
     }
 
     /// The part that keeps this rig off the lanes, as an error naming it (None: none does).
     pub fn off_lanes(&self) -> Option<TwipError> {
-        let reason = "the rig's lane kernel has no constant force or slope changes (the general runner has)";
-        let part = |name, value: f64| Some(TwipError::InvalidParameter { name, value, reason });
-        if self.force.horizontal != T::zero() {
-            return part("realism.force.horizontal", crate::to_f64(self.force.horizontal));
-        }
-        if self.force.vertical != T::zero() {
-            return part("realism.force.vertical", crate::to_f64(self.force.vertical));
-        }
+        let reason = "the rig's lane kernel has no slope changes (the general runner has)";
         match self.slope_profile.changes().count() {
             0 => None,
-            n => part("realism.slope_profile", n as f64),
+            n => Some(TwipError::InvalidParameter { name: "realism.slope_profile", value: n as f64, reason }),
         }
     }
 

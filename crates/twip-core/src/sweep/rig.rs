@@ -242,15 +242,16 @@ mod tests {
         }
     }
 
-    /// Pushes are each lane's rig's, applied between steps as in the run: pushed at 1 s and
-    /// 2 s, a lane agrees with the run to rounding over 3 s. (Longer, a robot the pushes
-    /// leave at the stick band's edge is as sensitive as a quantised rig: fuzzy, pushes at
-    /// 2 s and 6 s, one robot's mean |pitch error| after 10 s differs by 3.0e-2 from the
-    /// lane and by 1.6e-3 from the run with its initial pitch nudged by 1e-16, both 1e-12
-    /// after 5 s.)
+    /// Pushes are each lane's rig's, applied between steps as in the run, and a constant
+    /// force adds its generalised forces in the lanes' RK4 as in the run's: pushed at 1 s and
+    /// 2 s, pulled, or both, a lane agrees with the run to rounding over 3 s. (Longer, a
+    /// robot the pushes leave at the stick band's edge is as sensitive as a quantised rig:
+    /// fuzzy, pushes at 2 s and 6 s, one robot's mean |pitch error| after 10 s differs by
+    /// 3.0e-2 from the lane and by 1.6e-3 from the run with its initial pitch nudged by
+    /// 1e-16, both 1e-12 after 5 s.)
     #[test]
-    fn a_pushed_rig_lane_agrees_with_the_rig_run() {
-        use crate::hardware::disturbance::{Push, Pushes};
+    fn a_pushed_or_pulled_rig_lane_agrees_with_the_rig_run() {
+        use crate::hardware::disturbance::{Force, Push, Pushes};
         use crate::hardware::imu::ImuSettings;
         let (lqr_lanes, lqr, fuzzy_lanes, fuzzy) = lanes();
         let pushes = Pushes::new(&[Push { t: 1.0, impulse: 0.3, height: 0.1 }, Push { t: 2.0, impulse: -0.25, height: 0.05 }]).unwrap();
@@ -262,13 +263,22 @@ mod tests {
             pushes,
             ..Realism::ideal()
         };
-        assert!(pushed.on_lanes());
-        let lqr_worst = rig_lanes_agree(&lqr_lanes, &lqr, &pushed, 3.0);
-        let fuzzy_worst = rig_lanes_agree(&fuzzy_lanes, &fuzzy, &pushed, 3.0);
-        println!("pushed: worst relative difference over 3 s: LQR {lqr_worst:e}, fuzzy {fuzzy_worst:e}");
-        for worst in [lqr_worst, fuzzy_worst] {
-            assert!(worst <= 1e-12 && worst > 0.0, "{worst:e}");
+        let force = Force { horizontal: 0.4, vertical: -1.5, height: 0.08 };
+        let pulled = Realism { pushes: Pushes::none(), force, ..pushed };
+        let both = Realism { force, ..pushed };
+        for (name, realism) in [("pushed", pushed), ("pulled", pulled), ("pushed and pulled", both)] {
+            assert!(realism.on_lanes());
+            let lqr_worst = rig_lanes_agree(&lqr_lanes, &lqr, &realism, 3.0);
+            let fuzzy_worst = rig_lanes_agree(&fuzzy_lanes, &fuzzy, &realism, 3.0);
+            println!("{name}: worst relative difference over 3 s: LQR {lqr_worst:e}, fuzzy {fuzzy_worst:e}");
+            for worst in [lqr_worst, fuzzy_worst] {
+                assert!(worst <= 1e-12 && worst > 0.0, "{name}: {worst:e}");
+            }
         }
+        // The force acts: the pulled robots settle elsewhere.
+        let (_, schedule, config, nominal) = setup(5e-3);
+        let run = |r: &Realism<f64>| run_rig_lane_samples(&lqr_lanes, &schedule, &config, &nominal, &spread(), 3, 0..4, &for_sweep(r, 7), &|| false).unwrap().unwrap();
+        assert_ne!(run(&pushed)[1].mean_abs_pitch_error, run(&both)[1].mean_abs_pitch_error);
     }
 
     /// With quantised outputs (the IMU's registers, the encoders' counts, the duty's whole
@@ -282,15 +292,16 @@ mod tests {
     /// equally likely outcomes: the same falls, and sample means within a percent.
     #[test]
     fn a_quantised_rig_lane_agrees_over_one_second_and_in_distribution_over_ten() {
-        use crate::hardware::disturbance::{Push, Pushes};
+        use crate::hardware::disturbance::{Force, Push, Pushes};
         use crate::hardware::driver::MotorDriver;
         let (lqr_lanes, lqr, fuzzy_lanes, fuzzy) = lanes();
         let thesis_like = Realism::thesis_like();
         let no_backlash = Realism { backlash: None, ..thesis_like };
         let steady = Realism { motor: Some(MotorDriver::gb37y3530()), ..no_backlash };
         let pushes = Pushes::new(&[Push { t: 0.5, impulse: 0.3, height: 0.1 }]).unwrap();
-        let pushed = Realism { pushes, ..thesis_like };
-        for (name, realism) in [("thesis-like", thesis_like), ("thesis-like, no backlash", no_backlash), ("steady winding", steady), ("thesis-like, pushed", pushed)] {
+        let force = Force { horizontal: 0.4, vertical: -1.5, height: 0.08 };
+        let pushed = Realism { pushes, force, ..thesis_like };
+        for (name, realism) in [("thesis-like", thesis_like), ("thesis-like, no backlash", no_backlash), ("steady winding", steady), ("thesis-like, pushed and pulled", pushed)] {
             let lqr_worst = rig_lanes_agree(&lqr_lanes, &lqr, &realism, 1.0);
             let fuzzy_worst = rig_lanes_agree(&fuzzy_lanes, &fuzzy, &realism, 1.0);
             println!("{name}: worst relative difference over 1 s: LQR {lqr_worst:e}, fuzzy {fuzzy_worst:e}");
@@ -326,20 +337,16 @@ mod tests {
     /// A realism with a part the lanes lack is refused naming the part and its value, not
     /// run wrongly.
     #[test]
-    fn the_rig_lanes_refuse_a_force_or_slope_changes() {
-        use crate::hardware::disturbance::{Force, SlopeProfile};
+    fn the_rig_lanes_refuse_slope_changes() {
+        use crate::hardware::disturbance::SlopeProfile;
         use crate::sweep::block::LqrLanes;
         let (lqr, schedule, config, nominal) = setup(5e-3);
-        let force = Realism { force: Force { horizontal: 0.5, vertical: 0.0, height: 0.1 }, ..Realism::thesis_like() };
-        assert!(!force.on_lanes());
-        let run = run_rig_lane_samples(&LqrLanes::new(&lqr), &schedule, &config, &nominal, &spread(), 3, 0..4, &force, &|| false);
-        assert!(matches!(run, Err(TwipError::InvalidParameter { name: "realism.force.horizontal", value: 0.5, .. })), "{run:?}");
-        let e = force.off_lanes().map(|e| format!("{e}"));
-        assert_eq!(e.as_deref(), Some("invalid realism.force.horizontal = 0.5: the rig's lane kernel has no constant force or slope changes (the general runner has)"));
-        let vertical = Realism { force: Force { horizontal: 0.0, vertical: -2.0, height: 0.1 }, ..Realism::ideal() };
-        assert!(matches!(vertical.off_lanes(), Some(TwipError::InvalidParameter { name: "realism.force.vertical", value: -2.0, .. })));
-        let hills = Realism { slope_profile: SlopeProfile::new(0.0, &[(1.0, 0.05), (2.0, 0.0)]).unwrap(), ..Realism::ideal() };
-        assert!(matches!(hills.off_lanes(), Some(TwipError::InvalidParameter { name: "realism.slope_profile", value: 2.0, .. })));
+        let hills = Realism { slope_profile: SlopeProfile::new(0.0, &[(1.0, 0.05), (2.0, 0.0)]).unwrap(), ..Realism::thesis_like() };
+        assert!(!hills.on_lanes());
+        let run = run_rig_lane_samples(&LqrLanes::new(&lqr), &schedule, &config, &nominal, &spread(), 3, 0..4, &hills, &|| false);
+        assert!(matches!(run, Err(TwipError::InvalidParameter { name: "realism.slope_profile", value: 2.0, .. })), "{run:?}");
+        let e = hills.off_lanes().map(|e| format!("{e}"));
+        assert_eq!(e.as_deref(), Some("invalid realism.slope_profile = 2: the rig's lane kernel has no slope changes (the general runner has)"));
     }
 
     /// The rig's own errors about the robot are the sample's, not the sweep's.

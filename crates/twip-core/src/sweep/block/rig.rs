@@ -1,6 +1,6 @@
 //! The fast path of a realism sweep: [`LANES`] samples at once through the 2-DOF rig, for
 //! every law on lanes ([`LaneLaw`]) and every realism whose plant is the slope model with
-//! its gearhead friction and backlash (`Realism::on_lanes`: no constant force or slope
+//! its gearhead friction, backlash and a constant force (`Realism::on_lanes`: no slope
 //! changes; pushes are each lane's rig's, between steps).
 //!
 //! The loop is `runner::run_loop`'s, step for step. The plant's RK4 is the run's own
@@ -17,6 +17,7 @@ use nalgebra::{SVector, Vector4};
 use super::{chunk, multiversioned, state_chunk, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared, CHUNKS};
 use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
+use crate::hardware::disturbance::Force;
 use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::realism::{Realism, SlopeRig};
 use crate::model::friction::{Friction, Gearhead};
@@ -50,6 +51,8 @@ struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool> {
     per_amp: Fused,
     /// The gear trains are engaged over this step (backlash: set between steps).
     engaged: bool,
+    /// A constant force on the body and its generalised force on θ (zero: none).
+    force: (Force<Fused>, Fused),
 }
 
 impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> RigField<'_, GEAR, STEADY, GEARED> {
@@ -63,12 +66,17 @@ impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> RigField<'_, GEAR, 
             SLIP => Gearhead::Slip(self.friction),
             _ => Gearhead::Stick(self.friction),
         };
-        let (engaged, tau) = motion(&self.k, gear, x, u, |_, _| None);
+        // As `Piece::force_at`, always added: a branch on it kept the compiler from
+        // vectorising the lanes' loop (measured: 1.56x the kernel's instructions). Without a
+        // force it adds zeros, which change nothing but the sign of a zero sum.
+        let (force, q_theta) = self.force;
+        let extra = |sin_phi: Fused, cos_phi: Fused| Some([force.on_pitch(sin_phi, cos_phi), q_theta]);
+        let (engaged, tau) = motion(&self.k, gear, x, u, extra);
         if !GEARED {
             return (engaged, tau);
         }
         // As `SlopeModel::deriv_geared`, both computed and one kept: no branch per lane.
-        let open = open_motion(&self.k, x, |_, _| None);
+        let open = open_motion(&self.k, x, extra);
         let zero = Fused(0.0);
         (core::array::from_fn(|i| Fused::select(self.engaged, engaged[i], open[i])), Fused::select(self.engaged, tau, zero))
     }
@@ -81,8 +89,8 @@ impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> Field<Fused, 4> for
     }
 }
 
-/// The lanes' plants: coefficients per lane, the friction all share, and each lane's
-/// winding (used when the driver has no inductance).
+/// The lanes' plants: coefficients per lane, the friction and force all share, and each
+/// lane's winding (used when the driver has no inductance) and the force's part on θ.
 struct RigPlants {
     plants: Plants,
     gear: u8,
@@ -90,6 +98,7 @@ struct RigPlants {
     steady: bool,
     windings: [(Winding<f64>, f64); LANES],
     geared: bool,
+    force: (Force<Fused>, Lanes),
 }
 
 /// `$run::<GEAR, STEADY, GEARED>(args)` for the plants' kinds (`$steady`: whether the input
@@ -119,7 +128,8 @@ impl RigPlants {
     fn field<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, STEADY, GEARED> {
         let (winding, per_amp) = &self.windings[l];
         let (k, friction, u, winding, per_amp) = (self.plants.lane(l), &self.friction, Fused(u), winding.map(Fused), Fused(*per_amp));
-        RigField { k, friction, u, winding, per_amp, engaged }
+        let force = (self.force.0, Fused(self.force.1[l]));
+        RigField { k, friction, u, winding, per_amp, engaged, force }
     }
 
     /// The derivative at the step's start on every lane (RK4's first stage, which the
@@ -299,6 +309,7 @@ fn rig_block<C: LaneLaw>(
     let ground = |l: usize| *rigs[l].plant.ground().model_at(&Vector4::zeros());
     let friction = ground(0).friction().copied();
     let winding = |l: usize| rigs[l].plant.steady_winding();
+    let steady_force = |l: usize| rigs[l].plant.ground().steady_force();
     // Any valid winding, for lanes that never evaluate one (the driver has inductance).
     let stand_in = (Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?, 2.0);
     let plants = RigPlants {
@@ -314,6 +325,8 @@ fn rig_block<C: LaneLaw>(
         // Unused with inductance or without a driver (the held current is the input).
         windings: core::array::from_fn(|l| winding(l).unwrap_or(stand_in)),
         geared: realism.backlash.is_some_and(|b| b.gap > 0.0),
+        // The same force on every lane; its part on θ depends on the robot.
+        force: (steady_force(0).map_or(Force::none(), |(f, _)| f).map(Fused), core::array::from_fn(|l| steady_force(l).map_or(0.0, |(_, q)| q))),
     };
     let delay = rigs[0].delay;
 
@@ -452,14 +465,16 @@ mod tests {
     use nalgebra::Matrix4;
 
     /// Every compiled copy of the rig's kernel gives the same bits (the baseline one
-    /// through libm's fma), for the thesis-like rig with and without backlash, both outcomes.
+    /// through libm's fma), for the thesis-like rig with and without backlash and with a
+    /// constant force, both outcomes.
     #[test]
     fn every_copy_gives_the_same_bits() {
         let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
         let q = Matrix4::from_diagonal(&Vector4::new(100.0, 1.0, 1.0, 1.0));
         let d = design(&model, 3.0, &q, 480.0, DesignPoint::OperatingPoint).unwrap();
         let law = LqrLanes::new(&LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 5e-3).unwrap());
-        for realism in [Realism::thesis_like(), Realism { backlash: None, ..Realism::thesis_like() }] {
+        let force = crate::hardware::disturbance::Force { horizontal: 0.1, vertical: -0.5, height: 0.05 };
+        for realism in [Realism::thesis_like(), Realism { backlash: None, ..Realism::thesis_like() }, Realism { force, ..Realism::thesis_like() }] {
             same_bits_on_every_copy(&law, &realism);
         }
     }
