@@ -107,14 +107,15 @@ def test_kernel_and_fall_limit_come_from_the_core():
     lqr = twip.scenarios.get("flat-lqr-sim")
     assert twip.sweep.kernel_for(lqr) == "lanes"
     assert twip.sweep.kernel_for(lqr, twip.Realism.thesis_like()) == "realism-lanes"
-    # Pushes and a force run on the rig's lanes; slope changes keep a rig on the general runner.
+    # Every rig runs on lanes for a law the lanes have: pushes, a force, slope changes.
     assert twip.sweep.kernel_for(lqr, twip.Realism(pushes=[(1.0, 0.3)])) == "realism-lanes"
     assert twip.sweep.kernel_for(lqr, twip.Realism(force=twip.Force(horizontal=0.5))) == "realism-lanes"
-    assert twip.sweep.kernel_for(lqr, twip.Realism(slope_profile=[(0.2, 0.05)])) == "realism"
+    assert twip.sweep.kernel_for(lqr, twip.Realism(slope_profile=[(0.2, 0.05)])) == "realism-lanes"
     assert twip.sweep.kernel_for(twip.scenarios.get("flat-fuzzy-sim")) == "lanes"
     gaussian = [[twip.Gaussian(-0.3, 0.15), twip.Triangle(-0.3, 0.0, 0.3), twip.Gaussian(0.3, 0.15)]] * 2
     general = twip.scenarios.get("flat-fuzzy-sim", sets=gaussian, t_final=0.2)
     assert twip.sweep.kernel_for(general) == "general"
+    assert twip.sweep.kernel_for(general, twip.Realism.thesis_like()) == "realism"
     assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid")) == "planar-lanes"
     assert twip.sweep.kernel_for(twip.scenarios.get("circle-smc-fuzzy")) == "planar-lanes"
     assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid"), twip.Realism.thesis_like()) == "planar-realism"

@@ -273,7 +273,7 @@ def test_interrupted_sweep_resumes_to_the_uninterrupted_result(tmp_path, sig, sc
 def test_dask_local_cluster_gives_the_local_result(family):
     distributed = pytest.importorskip("dask.distributed")
     fuzzy = lambda **kw: sweep(scenario="flat-fuzzy-sim", **kw)  # noqa: E731
-    rig = lambda **kw: rig_sweep(realism=RIGS[1][1], **kw)  # noqa: E731
+    rig = lambda **kw: rig_sweep(**kw)  # noqa: E731
     pid = lambda **kw: tracking_sweep(name="circle-pid", **kw)  # noqa: E731
     run, n = {"2-DOF": (sweep, 96), "2-DOF fuzzy": (fuzzy, 96), "2-DOF rig lanes": (rig, 64),
               "tracking": (tracking_sweep, 32), "tracking pid": (pid, 32)}[family]
@@ -289,31 +289,34 @@ def test_dask_local_cluster_gives_the_local_result(family):
 RIG_PERTURB = {"m_body": twip.Uniform(rel=0.2), "slope": twip.Uniform(low=0.0, high=0.3), "phi0": twip.Normal(std=0.02)}
 
 
-def rig_sweep(n=48, realism=None, **kw):
+def rig_sweep(n=48, realism=None, scenario="flat-lqr-sim", **kw):
     kw.setdefault("perturb", RIG_PERTURB)
-    kw.setdefault("options", SHORT)
+    if isinstance(scenario, str):  # (a Scenario object carries its own options)
+        kw.setdefault("options", SHORT)
     kw.setdefault("seed", 3)
     realism = twip.Realism.thesis_like() if realism is None else realism
-    return twip.montecarlo("flat-lqr-sim", n, progress=False, realism=realism, **kw)
+    return twip.montecarlo(scenario, n, progress=False, realism=realism, **kw)
 
 
-# The thesis-like rig runs on lanes; with a slope change (here 100 m on, past the path: the same
-# physics) it runs on the general runner.
-RIGS = [("realism", twip.Realism.thesis_like().replace(slope_profile=[(100.0, 0.0)])), ("realism-lanes", twip.Realism.thesis_like())]
+# LQR (and trapezoid-set fuzzy) run any rig on lanes; a law the lanes lack, such as fuzzy with
+# Gaussian sets, runs the general rig.
+GAUSSIAN_FUZZY = scenarios.get("flat-fuzzy-sim", sets=GAUSSIAN_SETS, **SHORT)
+RIGS = [("realism", GAUSSIAN_FUZZY), ("realism-lanes", "flat-lqr-sim")]
 
 
-@pytest.mark.parametrize("kernel, realism", RIGS, ids=[k for k, _ in RIGS])
-def test_realism_sweep_is_the_same_on_one_and_two_threads(kernel, realism):
-    one, two = rig_sweep(threads=1, realism=realism), rig_sweep(threads=2, realism=realism)
+@pytest.mark.parametrize("kernel, scenario", RIGS, ids=[k for k, _ in RIGS])
+def test_realism_sweep_is_the_same_on_one_and_two_threads(kernel, scenario):
+    one, two = rig_sweep(threads=1, scenario=scenario), rig_sweep(threads=2, scenario=scenario)
     same(one, two)
     assert one.kernel == kernel
     # The rig matters: some of these robots fall with it, none in the ideal loop.
-    ideal = sweep(n=48, perturb=RIG_PERTURB, seed=3)
+    options = {"options": SHORT} if isinstance(scenario, str) else {}
+    ideal = twip.montecarlo(scenario, 48, progress=False, perturb=RIG_PERTURB, seed=3, **options)
     assert 0 < one.metrics["fell"].sum() < 48 and not ideal.metrics["fell"].any()
 
 
 def test_realism_sample_17_replayed_alone_is_bitwise_the_same():
-    r = rig_sweep(realism=RIGS[0][1])  # the general runner: a replay is the same run
+    r = rig_sweep(scenario=GAUSSIAN_FUZZY)  # the general runner: a replay is the same run
     alone = r.replay(17)
     assert alone.signals, "the replay ran with the realism"
     for name in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error", "peak_abs_input",
@@ -330,7 +333,7 @@ def test_a_rig_lane_replays_to_rounding_and_agrees_in_shards():
     source with fused multiply-adds. Quantised outputs (IMU registers, encoder counts, whole
     duty counts) let two roundings drift apart at the open-loop pendulum's rate (the core's
     test: ~1e-8 after 3 s, like the run against itself nudged by 1e-16), so 1e-6 here."""
-    realism = RIGS[1][1]
+    realism = twip.Realism.thesis_like()
     r = rig_sweep(realism=realism)
     assert r.kernel == "realism-lanes"
     for i in (0, 17, 40):
@@ -353,8 +356,10 @@ def test_a_pushed_and_pulled_rig_runs_on_lanes_and_replays_to_rounding():
     equations, as in the rig's own run: over a second (before the quantisers' drift, see
     above) such a lane replays to rounding."""
     second = {"t_final": 1.0}
-    pushed = rig_sweep(realism=RIGS[1][1].replace(pushes=[(0.4, 0.3)]), options=second)
-    r = rig_sweep(realism=RIGS[1][1].replace(pushes=[(0.4, 0.3)], force=twip.Force(horizontal=0.4, height=0.08)), options=second)
+    thesis_like = twip.Realism.thesis_like()
+    pushed = rig_sweep(realism=thesis_like.replace(pushes=[(0.4, 0.3)]), options=second)
+    r = rig_sweep(realism=thesis_like.replace(pushes=[(0.4, 0.3)], force=twip.Force(horizontal=0.4, height=0.08),
+                                              slope_profile=[(0.02, 0.04), (0.06, 0.0)]), options=second)
     assert pushed.kernel == r.kernel == "realism-lanes"
     plain = rig_sweep(options=second)
     assert not np.array_equal(pushed.metrics["mean_abs_speed_error"], plain.metrics["mean_abs_speed_error"]), "the push acted"
@@ -374,8 +379,8 @@ def test_realism_noise_follows_the_sweep_seed_not_the_realism_seed():
     assert not np.any(a.metrics["mean_abs_pitch_error"] == b.metrics["mean_abs_pitch_error"])
 
 
-@pytest.mark.parametrize("realism", [r for _, r in RIGS], ids=[k for k, _ in RIGS])
-def test_realism_checkpoint_resume_equals_the_uninterrupted_sweep(tmp_path, monkeypatch, realism):
+@pytest.mark.parametrize("scenario", [s for _, s in RIGS], ids=[k for k, _ in RIGS])
+def test_realism_checkpoint_resume_equals_the_uninterrupted_sweep(tmp_path, monkeypatch, scenario):
     import twip.sweep as tsweep
 
     run, calls = tsweep.run_samples, []
@@ -388,13 +393,13 @@ def test_realism_checkpoint_resume_equals_the_uninterrupted_sweep(tmp_path, monk
 
     monkeypatch.setattr(tsweep, "run_samples", stop_at_shard_16)
     with pytest.raises(KeyboardInterrupt):
-        rig_sweep(checkpoint=tmp_path, shard_size=16, realism=realism)
+        rig_sweep(checkpoint=tmp_path, shard_size=16, scenario=scenario)
     assert len(list(tmp_path.glob("shard-*.npz"))) == 1
     calls.clear()
-    resumed = rig_sweep(checkpoint=tmp_path, shard_size=16, realism=realism)
+    resumed = rig_sweep(checkpoint=tmp_path, shard_size=16, scenario=scenario)
     assert calls == [16, 32], "the finished shard is loaded, not run again"
     monkeypatch.setattr(tsweep, "run_samples", run)
-    same(resumed, rig_sweep(realism=realism))
+    same(resumed, rig_sweep(scenario=scenario))
     resumed.replay(40)  # the resumed result keeps its realism
 
 
@@ -406,7 +411,7 @@ def test_a_dask_worker_rebuilds_the_realism_from_the_config():
         slope_profile=[(0.2, 0.05)], motor=twip.MotorDriver.thesis_like().replace(current_limit=1.5))
     r = rig_sweep(n=16, realism=realism)
     raw = tsweep.run_shard_by_name(json.loads(json.dumps(r.config)), 4, 8, 1)
-    assert raw["kernel"] == r.kernel == "realism"
+    assert raw["kernel"] == r.kernel == "realism-lanes"
     for name in ("fell", "mean_abs_pitch_error", "peak_abs_input", "t_end"):
         np.testing.assert_array_equal(raw[name], r.metrics[name][4:12], err_msg=name)
 

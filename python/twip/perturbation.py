@@ -45,8 +45,8 @@ def family_of(sc) -> Family:
 
 def kernel_for(sc, realism=None) -> str:
     """The core's kernel for a sweep of Scenario `sc`: "python" (a user's controller),
-    "realism-lanes" (vectorised: LQR and trapezoid-set fuzzy through a rig without slope
-    changes), "realism", "planar-lanes" (vectorised: PID
+    "realism-lanes" (vectorised: LQR and trapezoid-set fuzzy through any rig), "realism"
+    (another law through a rig), "planar-lanes" (vectorised: PID
     and sliding-mode tracking), "planar", "planar-realism", "lanes" (vectorised: LQR, and
     fuzzy with trapezoid sets) or "general"."""
     if user_sweep.is_user_controller(sc.controller):

@@ -18,6 +18,7 @@ use nalgebra::{SVector, Vector2, Vector4};
 use crate::hardware::backlash::{Backlash, GearPlay};
 use crate::model::friction::Friction;
 use crate::model::lane::Lane;
+use crate::model::slope::SlopeCoefficients;
 use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
 
 /// Most pushes one run holds (fixed size: no allocation, no_std).
@@ -321,6 +322,19 @@ impl<T: Real> Disturbed<T> {
         } else {
             None
         }
+    }
+
+    /// Where the ground's slope changes along the path [m] (`SlopeProfile::changes`).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn slope_changes(&self) -> impl Iterator<Item = T> + '_ {
+        self.profile.changes().map(|(at, _)| at)
+    }
+
+    /// Piece `i`'s coefficients (0: the base slope; then one per change) and the force's
+    /// generalised force on θ on it.
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn piece_terms(&self, i: usize) -> (SlopeCoefficients<T>, T) {
+        (self.pieces[i].model.coefficients(), self.pieces[i].q_theta)
     }
 
     /// Whether the gear trains are engaged (always, without backlash).

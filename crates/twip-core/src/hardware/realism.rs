@@ -108,22 +108,6 @@ impl<T: Real> Realism<T> {
         self.friction.or(model.copied())
     }
 
-    /// Whether this realism's rig runs on a sweep's lanes (`sweep::block::run_rig_block`):
-    /// every part but slope changes along the path (they change the plant's equations with
-    /// the distance travelled).
-    pub fn on_lanes(&self) -> bool {
-        self.off_lanes().is_none()
-    }
-
-    /// The part that keeps this rig off the lanes, as an error naming it (None: none does).
-    pub fn off_lanes(&self) -> Option<TwipError> {
-        let reason = "the rig's lane kernel has no slope changes (the general runner has)";
-        match self.slope_profile.changes().count() {
-            0 => None,
-            n => Some(TwipError::InvalidParameter { name: "realism.slope_profile", value: n as f64, reason }),
-        }
-    }
-
     pub fn with_stream(self, stream: u64) -> Self {
         Self { stream, ..self }
     }

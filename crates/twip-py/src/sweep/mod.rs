@@ -315,15 +315,15 @@ pub fn sweep_raw<'py>(
 }
 
 /// The kernel a sweep of this 2-DOF controller runs on: "lanes" (LQR, and fuzzy with
-/// trapezoid sets: vectorised), "realism-lanes" (the same laws through a rig that runs on
-/// lanes: `Realism::on_lanes`), "realism" or "general".
+/// trapezoid sets: vectorised), "realism-lanes" (the same laws through any rig), "realism"
+/// (another law through a rig) or "general".
 fn kernel_of(ctrl: &SlopeController, realism: Option<&Realism<f64>>) -> &'static str {
     let on_lanes = match ctrl {
         SlopeController::Lqr(_) => true,
         SlopeController::Fuzzy(c) => FuzzyLanes::new(c).is_some(),
     };
     match realism {
-        Some(r) if on_lanes && r.on_lanes() => "realism-lanes",
+        Some(_) if on_lanes => "realism-lanes",
         Some(_) => "realism",
         None if on_lanes => "lanes",
         None => "general",

@@ -1,7 +1,7 @@
 //! The fast path of a realism sweep: [`LANES`] samples at once through the 2-DOF rig, for
-//! every law on lanes ([`LaneLaw`]) and every realism whose plant is the slope model with
-//! its gearhead friction, backlash and a constant force (`Realism::on_lanes`: no slope
-//! changes; pushes are each lane's rig's, between steps).
+//! every law on lanes ([`LaneLaw`]) and every realism: the slope model with its gearhead
+//! friction, backlash, a constant force and slope changes along the path (each lane picks
+//! its piece of the ground at every stage), pushes (each lane's rig's, between steps).
 //!
 //! The loop is `runner::run_loop`'s, step for step. The plant's RK4 is the run's own
 //! source (`model::slope::motion` with `Friction`'s law, `open_motion` for a lane whose gear
@@ -17,7 +17,7 @@ use nalgebra::{SVector, Vector4};
 use super::{chunk, multiversioned, state_chunk, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared, CHUNKS};
 use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
-use crate::hardware::disturbance::Force;
+use crate::hardware::disturbance::{Disturbed, Force, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::realism::{Realism, SlopeRig};
 use crate::model::friction::{Friction, Gearhead};
@@ -43,7 +43,7 @@ const STICK: u8 = 2;
 
 /// One lane's plant over a step: the input held (a lumped current, or a duty that a
 /// winding without inductance turns into current at each stage).
-struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool> {
+struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool> {
     k: SlopeCoefficients<Fused>,
     friction: &'a Friction<Fused>,
     u: Fused,
@@ -53,9 +53,12 @@ struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool> {
     engaged: bool,
     /// A constant force on the body and its generalised force on θ (zero: none).
     force: (Force<Fused>, Fused),
+    /// HILLY: the ground's pieces, of which this lane's is picked at each stage.
+    hills: &'a Hills,
+    lane: usize,
 }
 
-impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> RigField<'_, GEAR, STEADY, GEARED> {
+impl<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool> RigField<'_, GEAR, STEADY, GEARED, HILLY> {
     /// The derivative and the gearhead torque per wheel (`SlopeModel::deriv_geared`'s).
     #[inline(always)]
     fn motion(&self, x: &[Fused; 4]) -> ([Fused; 4], Fused) {
@@ -69,23 +72,62 @@ impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> RigField<'_, GEAR, 
         // As `Piece::force_at`, always added: a branch on it kept the compiler from
         // vectorising the lanes' loop (measured: 1.56x the kernel's instructions). Without a
         // force it adds zeros, which change nothing but the sign of a zero sum.
-        let (force, q_theta) = self.force;
+        let (k, q_theta) = if HILLY { self.hills.piece(self.lane, &self.k, x[2]) } else { (self.k, self.force.1) };
+        let force = self.force.0;
         let extra = |sin_phi: Fused, cos_phi: Fused| Some([force.on_pitch(sin_phi, cos_phi), q_theta]);
-        let (engaged, tau) = motion(&self.k, gear, x, u, extra);
+        let (engaged, tau) = motion(&k, gear, x, u, extra);
         if !GEARED {
             return (engaged, tau);
         }
         // As `SlopeModel::deriv_geared`, both computed and one kept: no branch per lane.
-        let open = open_motion(&self.k, x, extra);
+        let open = open_motion(&k, x, extra);
         let zero = Fused(0.0);
         (core::array::from_fn(|i| Fused::select(self.engaged, engaged[i], open[i])), Fused::select(self.engaged, tau, zero))
     }
 }
 
-impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> Field<Fused, 4> for RigField<'_, GEAR, STEADY, GEARED> {
+impl<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool> Field<Fused, 4> for RigField<'_, GEAR, STEADY, GEARED, HILLY> {
     #[inline(always)]
     fn at(&self, x: &[Fused; 4]) -> [Fused; 4] {
         self.motion(x).0
+    }
+}
+
+/// The ground's pieces when the slope changes along the path: each piece's coefficients that
+/// depend on the slope, and the force's part on θ on it, per lane, and the distances where
+/// the pieces after the first start (every lane's alike).
+struct Hills {
+    /// +∞ past the last change, whose piece the ones past it copy: a lane picks as
+    /// `SlopeProfile::segment` does, a NaN distance included (the last piece).
+    starts: [f64; MAX_SLOPE_CHANGES],
+    /// `mrl_cos`, `mrl_sin`, `grade`, `sin_slope`, `cos_slope`, q_θ.
+    pieces: [[Lanes; 6]; MAX_SLOPE_CHANGES + 1],
+    radius: Lanes,
+}
+
+impl Hills {
+    fn new(grounds: [&Disturbed<f64>; LANES], radius: Lanes) -> Self {
+        let starts = core::array::from_fn(|j| grounds[0].slope_changes().nth(j).unwrap_or(f64::INFINITY));
+        let last = grounds[0].slope_changes().count();
+        let pieces = core::array::from_fn(|j| {
+            let terms = grounds.map(|g| g.piece_terms(j.min(last)));
+            let field = |f: fn(&(SlopeCoefficients<f64>, f64)) -> f64| core::array::from_fn(|l| f(&terms[l]));
+            [field(|t| t.0.mrl_cos), field(|t| t.0.mrl_sin), field(|t| t.0.grade), field(|t| t.0.sin_slope), field(|t| t.0.cos_slope), field(|t| t.1)]
+        });
+        Self { starts, pieces, radius }
+    }
+
+    /// Lane `l`'s coefficients `k` with the slope of the piece under it at wheel angle
+    /// `theta`, and the force's part on θ there (`Disturbed::piece`'s, as masks).
+    #[inline(always)]
+    fn piece(&self, l: usize, k: &SlopeCoefficients<Fused>, theta: Fused) -> (SlopeCoefficients<Fused>, Fused) {
+        let distance = theta * Fused(self.radius[l]);
+        let mut v: [Fused; 6] = core::array::from_fn(|i| Fused(self.pieces[0][i][l]));
+        for j in 0..MAX_SLOPE_CHANGES {
+            let past = !distance.lt(Fused(self.starts[j]));
+            v = core::array::from_fn(|i| Fused::select(past, Fused(self.pieces[j + 1][i][l]), v[i]));
+        }
+        (SlopeCoefficients { mrl_cos: v[0], mrl_sin: v[1], grade: v[2], sin_slope: v[3], cos_slope: v[4], ..*k }, v[5])
     }
 }
 
@@ -99,37 +141,43 @@ struct RigPlants {
     windings: [(Winding<f64>, f64); LANES],
     geared: bool,
     force: (Force<Fused>, Lanes),
+    /// Whether the slope changes along the path (then `hills` holds the pieces).
+    hilly: bool,
+    hills: Hills,
 }
 
-/// `$run::<GEAR, STEADY, GEARED>(args)` for the plants' kinds (`$steady`: whether the input
-/// is a duty through a winding without inductance); GEARED only while some lane's trains
-/// are open (`$engaged`: all engaged is the plain plant, bit for bit).
+/// `$run::<GEAR, STEADY, GEARED, HILLY>(args)` for the plants' kinds (`$steady`: whether the
+/// input is a duty through a winding without inductance); GEARED only while some lane's
+/// trains are open (`$engaged`: all engaged is the plain plant, bit for bit); HILLY when the
+/// slope changes along the path.
 macro_rules! by_kind {
     ($self:ident, $steady:expr, $engaged:ident, $run:ident($($arg:expr),*)) => {
-        match $self.geared && $engaged.iter().any(|&e| !e) {
-            true => by_kind!(@gear $self, $steady, $run, true, $($arg),*),
-            false => by_kind!(@gear $self, $steady, $run, false, $($arg),*),
+        match ($self.hilly, $self.geared && $engaged.iter().any(|&e| !e)) {
+            (false, false) => by_kind!(@gear $self, $steady, $run, false, false, $($arg),*),
+            (false, true) => by_kind!(@gear $self, $steady, $run, true, false, $($arg),*),
+            (true, false) => by_kind!(@gear $self, $steady, $run, false, true, $($arg),*),
+            (true, true) => by_kind!(@gear $self, $steady, $run, true, true, $($arg),*),
         }
     };
-    (@gear $self:ident, $steady:expr, $run:ident, $geared:literal, $($arg:expr),*) => {
+    (@gear $self:ident, $steady:expr, $run:ident, $geared:literal, $hilly:literal, $($arg:expr),*) => {
         match ($self.gear, $steady) {
-            (FREE, false) => $self.$run::<FREE, false, $geared>($($arg),*),
-            (FREE, true) => $self.$run::<FREE, true, $geared>($($arg),*),
-            (SLIP, false) => $self.$run::<SLIP, false, $geared>($($arg),*),
-            (SLIP, true) => $self.$run::<SLIP, true, $geared>($($arg),*),
-            (_, false) => $self.$run::<STICK, false, $geared>($($arg),*),
-            (_, true) => $self.$run::<STICK, true, $geared>($($arg),*),
+            (FREE, false) => $self.$run::<FREE, false, $geared, $hilly>($($arg),*),
+            (FREE, true) => $self.$run::<FREE, true, $geared, $hilly>($($arg),*),
+            (SLIP, false) => $self.$run::<SLIP, false, $geared, $hilly>($($arg),*),
+            (SLIP, true) => $self.$run::<SLIP, true, $geared, $hilly>($($arg),*),
+            (_, false) => $self.$run::<STICK, false, $geared, $hilly>($($arg),*),
+            (_, true) => $self.$run::<STICK, true, $geared, $hilly>($($arg),*),
         }
     };
 }
 
 impl RigPlants {
     #[inline(always)]
-    fn field<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, STEADY, GEARED> {
+    fn field<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, STEADY, GEARED, HILLY> {
         let (winding, per_amp) = &self.windings[l];
         let (k, friction, u, winding, per_amp) = (self.plants.lane(l), &self.friction, Fused(u), winding.map(Fused), Fused(*per_amp));
         let force = (self.force.0, Fused(self.force.1[l]));
-        RigField { k, friction, u, winding, per_amp, engaged, force }
+        RigField { k, friction, u, winding, per_amp, engaged, force, hills: &self.hills, lane: l }
     }
 
     /// The derivative at the step's start on every lane (RK4's first stage, which the
@@ -140,10 +188,10 @@ impl RigPlants {
     }
 
     #[inline(always)]
-    fn k1_of<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
+    fn k1_of<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
         let mut out = [[0.0; LANES]; 4];
         for l in 0..LANES {
-            let d = self.field::<GEAR, STEADY, GEARED>(l, u[l], engaged[l]).at(&lane(x, l).map(Fused));
+            let d = self.field::<GEAR, STEADY, GEARED, HILLY>(l, u[l], engaged[l]).at(&lane(x, l).map(Fused));
             for i in 0..4 {
                 out[i][l] = d[i].0;
             }
@@ -160,10 +208,10 @@ impl RigPlants {
     }
 
     #[inline(always)]
-    fn geared_motion_of<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
+    fn geared_motion_of<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
         let (mut d, mut tau) = ([[0.0; LANES]; 4], [0.0; LANES]);
         for l in 0..LANES {
-            let (dl, tl) = self.field::<GEAR, STEADY, GEARED>(l, current[l], engaged[l]).motion(&lane(x, l).map(Fused));
+            let (dl, tl) = self.field::<GEAR, STEADY, GEARED, HILLY>(l, current[l], engaged[l]).motion(&lane(x, l).map(Fused));
             for i in 0..4 {
                 d[i][l] = dl[i].0;
             }
@@ -180,7 +228,7 @@ impl RigPlants {
     }
 
     #[inline(always)]
-    fn rk4_of<const GEAR: u8, const STEADY: bool, const GEARED: bool>(
+    fn rk4_of<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool>(
         &self,
         x: &[Lanes; 4],
         u: &Lanes,
@@ -190,7 +238,7 @@ impl RigPlants {
     ) -> [Lanes; 4] {
         let mut out = [[0.0; LANES]; 4];
         for l in 0..LANES {
-            let field = self.field::<GEAR, STEADY, GEARED>(l, u[l], engaged[l]);
+            let field = self.field::<GEAR, STEADY, GEARED, HILLY>(l, u[l], engaged[l]);
             let next = rk4(&field, &lane(x, l).map(Fused), &lane(k1, l).map(Fused), Fused(dt));
             for i in 0..4 {
                 out[i][l] = next[i].0;
@@ -258,8 +306,7 @@ fn lane(x: &[Lanes; 4], l: usize) -> [f64; 4] {
 multiversioned! {
     /// Runs up to [`LANES`] samples through the rig `realism` builds for each (noise
     /// stream = the sample's index; see `sweep::rig::for_sweep` for the key), with
-    /// `controller`'s law. `realism` must run on lanes (`Realism::on_lanes`; an error
-    /// names it otherwise). `should_stop` is asked every `runner::STOP_CHECK_STEPS` steps;
+    /// `controller`'s law. `should_stop` is asked every `runner::STOP_CHECK_STEPS` steps;
     /// `Ok(None)` means it said yes before the block was done.
     pub fn run_rig_block, rig_block_avx512, rig_block_avx2, rig_block_baseline = rig_block<C: LaneLaw>(
         controller: C,
@@ -281,9 +328,6 @@ fn rig_block<C: LaneLaw>(
     should_stop: &dyn Fn() -> bool,
 ) -> BlockResult {
     assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
-    if let Some(e) = realism.off_lanes() {
-        return Err(e);
-    }
     let (n, per_update) = config.steps(controller.period())?;
     let dt = config.dt;
     let mut out = [SampleMetrics::INVALID; LANES];
@@ -327,6 +371,8 @@ fn rig_block<C: LaneLaw>(
         geared: realism.backlash.is_some_and(|b| b.gap > 0.0),
         // The same force on every lane; its part on θ depends on the robot.
         force: (steady_force(0).map_or(Force::none(), |(f, _)| f).map(Fused), core::array::from_fn(|l| steady_force(l).map_or(0.0, |(_, q)| q))),
+        hilly: rigs[0].plant.ground().slope_changes().next().is_some(),
+        hills: Hills::new(core::array::from_fn(|l| rigs[l].plant.ground()), core::array::from_fn(|l| models[l].params().wheel_radius)),
     };
     let delay = rigs[0].delay;
 
@@ -465,8 +511,8 @@ mod tests {
     use nalgebra::Matrix4;
 
     /// Every compiled copy of the rig's kernel gives the same bits (the baseline one
-    /// through libm's fma), for the thesis-like rig with and without backlash and with a
-    /// constant force, both outcomes.
+    /// through libm's fma), for the thesis-like rig with and without backlash, with a
+    /// constant force and with slope changes, both outcomes.
     #[test]
     fn every_copy_gives_the_same_bits() {
         let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
@@ -474,7 +520,14 @@ mod tests {
         let d = design(&model, 3.0, &q, 480.0, DesignPoint::OperatingPoint).unwrap();
         let law = LqrLanes::new(&LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 5e-3).unwrap());
         let force = crate::hardware::disturbance::Force { horizontal: 0.1, vertical: -0.5, height: 0.05 };
-        for realism in [Realism::thesis_like(), Realism { backlash: None, ..Realism::thesis_like() }, Realism { force, ..Realism::thesis_like() }] {
+        let hills = crate::hardware::disturbance::SlopeProfile::new(0.05, &[(0.02, 0.08), (0.08, 0.0)]).unwrap();
+        let kinds = [
+            Realism::thesis_like(),
+            Realism { backlash: None, ..Realism::thesis_like() },
+            Realism { force, ..Realism::thesis_like() },
+            Realism { slope_profile: hills, ..Realism::thesis_like() },
+        ];
+        for realism in kinds {
             same_bits_on_every_copy(&law, &realism);
         }
     }
