@@ -150,6 +150,17 @@ def test_basis_sets_round_trip():
     assert "Trapezoid(-inf, -inf, -0.3, -0.1)" in repr(basis)
 
 
+def test_sets_pickle_as_themselves():
+    """Dask ships a sweep's options (sets included) to its workers pickled."""
+    import pickle
+
+    x = np.linspace(-3, 3, 61)
+    for s in [twip.Trapezoid(-math.inf, -math.inf, -2, -0.5), twip.Triangle(-2, 0, 2), twip.Gaussian(0.3, 0.15)]:
+        again = pickle.loads(pickle.dumps(s))
+        assert type(again) is type(s) and repr(again) == repr(s)
+        np.testing.assert_array_equal(again(x), s(x))
+
+
 def test_errors_name_the_set_and_the_breakpoint():
     with pytest.raises(twip.InvalidParameterError, match=r"Trapezoid\(a=0.0, b=2.0, c=1.0, d=3.0\).*trapezoid.c = 1"):
         twip.Trapezoid(0, 2, 1, 3)

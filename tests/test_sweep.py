@@ -269,14 +269,16 @@ def test_interrupted_sweep_resumes_to_the_uninterrupted_result(tmp_path, sig, sc
     assert np.array_equal(resumed.metrics["index"], np.arange(n))
 
 
-@pytest.mark.parametrize("family", ["2-DOF", "2-DOF fuzzy", "2-DOF rig lanes", "tracking", "tracking pid"])
+@pytest.mark.parametrize("family", ["2-DOF", "2-DOF fuzzy", "2-DOF rig lanes", "2-DOF general rig", "tracking", "tracking pid"])
 def test_dask_local_cluster_gives_the_local_result(family):
     distributed = pytest.importorskip("dask.distributed")
     fuzzy = lambda **kw: sweep(scenario="flat-fuzzy-sim", **kw)  # noqa: E731
     rig = lambda **kw: rig_sweep(**kw)  # noqa: E731
+    # Fuzzy with Gaussian sets: the workers get the sets pickled.
+    general_rig = lambda **kw: rig_sweep(scenario="flat-fuzzy-sim", options={**SHORT, "sets": GAUSSIAN_SETS}, **kw)  # noqa: E731
     pid = lambda **kw: tracking_sweep(name="circle-pid", **kw)  # noqa: E731
     run, n = {"2-DOF": (sweep, 96), "2-DOF fuzzy": (fuzzy, 96), "2-DOF rig lanes": (rig, 64),
-              "tracking": (tracking_sweep, 32), "tracking pid": (pid, 32)}[family]
+              "2-DOF general rig": (general_rig, 16), "tracking": (tracking_sweep, 32), "tracking pid": (pid, 32)}[family]
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         remote = run(n=n, client=client, shard_size=n // 4)

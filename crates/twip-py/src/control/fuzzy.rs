@@ -52,6 +52,11 @@ impl PyTrapezoid {
         Ok(Self { inner })
     }
 
+    /// Pickled as Trapezoid(a, b, c, d) (a Dask worker gets a sweep's sets so).
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyAny>, (f64, f64, f64, f64)) {
+        (slf.get_type().into_any(), slf.get().breakpoints())
+    }
+
     /// (a, b, c, d).
     #[getter]
     fn breakpoints(&self) -> (f64, f64, f64, f64) {
@@ -88,6 +93,11 @@ impl PyTriangle {
         let inner = Membership::triangle(a, b, c)
             .map_err(|e| in_context(e, format_args!("Triangle(a={a:?}, b={b:?}, c={c:?})")))?;
         Ok(Self { inner })
+    }
+
+    /// Pickled as Triangle(a, b, c).
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyAny>, (f64, f64, f64)) {
+        (slf.get_type().into_any(), slf.get().breakpoints())
     }
 
     /// (a, b, c).
@@ -127,6 +137,12 @@ impl PyGaussian {
         let inner = Membership::gaussian(mean, sigma)
             .map_err(|e| in_context(e, format_args!("Gaussian(mean={mean:?}, sigma={sigma:?})")))?;
         Ok(Self { inner })
+    }
+
+    /// Pickled as Gaussian(mean, sigma).
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyAny>, (f64, f64)) {
+        let me = slf.get();
+        (slf.get_type().into_any(), (me.mean(), me.sigma()))
     }
 
     #[getter]
