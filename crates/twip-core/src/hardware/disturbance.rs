@@ -314,14 +314,10 @@ impl<T: Real> Disturbed<T> {
         self.play.as_ref().map_or(T::zero(), |p| p.offsets()[0])
     }
 
-    /// The force and its generalised force on θ on a ground of one slope (None: no force).
+    /// The constant force on the body (zero components: none).
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn steady_force(&self) -> Option<(Force<T>, T)> {
-        if self.has_force {
-            Some((self.force, self.pieces[0].q_theta))
-        } else {
-            None
-        }
+    pub(crate) fn force(&self) -> Force<T> {
+        self.force
     }
 
     /// Where the ground's slope changes along the path [m] (`SlopeProfile::changes`).
@@ -354,8 +350,9 @@ impl<T: Real> Disturbed<T> {
     /// they engage in a plastic impact (φ̇ and θ̇ in `x` jump).
     pub fn gear_elapsed(&mut self, dt: T, x: &mut Vector4<T>) {
         // In place, fields apart: a copy of the model or the play costs a sweep's lanes.
+        let i = self.piece_index(x);
         let Some(play) = self.play.as_mut() else { return };
-        let model = &self.pieces[self.profile.segment(x[2] * self.radius)].model;
+        let model = &self.pieces[i].model;
         if let Some(rotor_speed) = play.elapsed(dt, [x[3] - x[1]], model.friction())[0] {
             let speed = model.engage(x, rotor_speed);
             play.engage(0, speed);
@@ -403,7 +400,13 @@ impl<T: Real> Disturbed<T> {
 
     #[inline(always)]
     fn piece(&self, x: &Vector4<T>) -> &Piece<T> {
-        &self.pieces[self.profile.segment(x[2] * self.radius)]
+        &self.pieces[self.piece_index(x)]
+    }
+
+    /// Which piece of the ground is under the robot at state `x`.
+    #[inline(always)]
+    fn piece_index(&self, x: &Vector4<T>) -> usize {
+        self.profile.segment(x[2] * self.radius)
     }
 
     /// The model of the ground under the robot at state `x`.

@@ -51,9 +51,10 @@ struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool, cons
     per_amp: Fused,
     /// The gear trains are engaged over this step (backlash: set between steps).
     engaged: bool,
-    /// A constant force on the body and its generalised force on θ (zero: none).
-    force: (Force<Fused>, Fused),
-    /// HILLY: the ground's pieces, of which this lane's is picked at each stage.
+    /// A constant force on the body (zero: none).
+    force: Force<Fused>,
+    /// The ground's pieces (HILLY: this lane's is picked at each stage) and the force's
+    /// part on θ on each.
     hills: &'a Hills,
     lane: usize,
 }
@@ -69,11 +70,11 @@ impl<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool> 
             SLIP => Gearhead::Slip(self.friction),
             _ => Gearhead::Stick(self.friction),
         };
+        let (k, q_theta) = if HILLY { self.hills.piece(self.lane, &self.k, x[2]) } else { (self.k, self.hills.flat_q_theta(self.lane)) };
         // As `Piece::force_at`, always added: a branch on it kept the compiler from
         // vectorising the lanes' loop (measured: 1.56x the kernel's instructions). Without a
         // force it adds zeros, which change nothing but the sign of a zero sum.
-        let (k, q_theta) = if HILLY { self.hills.piece(self.lane, &self.k, x[2]) } else { (self.k, self.force.1) };
-        let force = self.force.0;
+        let force = self.force;
         let extra = |sin_phi: Fused, cos_phi: Fused| Some([force.on_pitch(sin_phi, cos_phi), q_theta]);
         let (engaged, tau) = motion(&k, gear, x, u, extra);
         if !GEARED {
@@ -93,9 +94,9 @@ impl<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool> 
     }
 }
 
-/// The ground's pieces when the slope changes along the path: each piece's coefficients that
-/// depend on the slope, and the force's part on θ on it, per lane, and the distances where
-/// the pieces after the first start (every lane's alike).
+/// The ground's pieces: each piece's coefficients that depend on the slope, and the force's
+/// part on θ on it, per lane, and the distances where the pieces after the first start
+/// (every lane's alike; none on a ground of one slope).
 struct Hills {
     /// +∞ past the last change, whose piece the ones past it copy: a lane picks as
     /// `SlopeProfile::segment` does, a NaN distance included (the last piece).
@@ -115,6 +116,17 @@ impl Hills {
             [field(|t| t.0.mrl_cos), field(|t| t.0.mrl_sin), field(|t| t.0.grade), field(|t| t.0.sin_slope), field(|t| t.0.cos_slope), field(|t| t.1)]
         });
         Self { starts, pieces, radius }
+    }
+
+    /// Whether the slope changes along the path.
+    fn hilly(&self) -> bool {
+        self.starts[0].is_finite()
+    }
+
+    /// Lane `l`'s force part on θ on a ground of one slope.
+    #[inline(always)]
+    fn flat_q_theta(&self, l: usize) -> Fused {
+        Fused(self.pieces[0][5][l])
     }
 
     /// Lane `l`'s coefficients `k` with the slope of the piece under it at wheel angle
@@ -140,9 +152,7 @@ struct RigPlants {
     steady: bool,
     windings: [(Winding<f64>, f64); LANES],
     geared: bool,
-    force: (Force<Fused>, Lanes),
-    /// Whether the slope changes along the path (then `hills` holds the pieces).
-    hilly: bool,
+    force: Force<Fused>,
     hills: Hills,
 }
 
@@ -152,7 +162,7 @@ struct RigPlants {
 /// slope changes along the path.
 macro_rules! by_kind {
     ($self:ident, $steady:expr, $engaged:ident, $run:ident($($arg:expr),*)) => {
-        match ($self.hilly, $self.geared && $engaged.iter().any(|&e| !e)) {
+        match ($self.hills.hilly(), $self.geared && $engaged.iter().any(|&e| !e)) {
             (false, false) => by_kind!(@gear $self, $steady, $run, false, false, $($arg),*),
             (false, true) => by_kind!(@gear $self, $steady, $run, true, false, $($arg),*),
             (true, false) => by_kind!(@gear $self, $steady, $run, false, true, $($arg),*),
@@ -176,8 +186,7 @@ impl RigPlants {
     fn field<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, STEADY, GEARED, HILLY> {
         let (winding, per_amp) = &self.windings[l];
         let (k, friction, u, winding, per_amp) = (self.plants.lane(l), &self.friction, Fused(u), winding.map(Fused), Fused(*per_amp));
-        let force = (self.force.0, Fused(self.force.1[l]));
-        RigField { k, friction, u, winding, per_amp, engaged, force, hills: &self.hills, lane: l }
+        RigField { k, friction, u, winding, per_amp, engaged, force: self.force, hills: &self.hills, lane: l }
     }
 
     /// The derivative at the step's start on every lane (RK4's first stage, which the
@@ -353,7 +362,6 @@ fn rig_block<C: LaneLaw>(
     let ground = |l: usize| *rigs[l].plant.ground().model_at(&Vector4::zeros());
     let friction = ground(0).friction().copied();
     let winding = |l: usize| rigs[l].plant.steady_winding();
-    let steady_force = |l: usize| rigs[l].plant.ground().steady_force();
     // Any valid winding, for lanes that never evaluate one (the driver has inductance).
     let stand_in = (Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?, 2.0);
     let plants = RigPlants {
@@ -369,9 +377,8 @@ fn rig_block<C: LaneLaw>(
         // Unused with inductance or without a driver (the held current is the input).
         windings: core::array::from_fn(|l| winding(l).unwrap_or(stand_in)),
         geared: realism.backlash.is_some_and(|b| b.gap > 0.0),
-        // The same force on every lane; its part on θ depends on the robot.
-        force: (steady_force(0).map_or(Force::none(), |(f, _)| f).map(Fused), core::array::from_fn(|l| steady_force(l).map_or(0.0, |(_, q)| q))),
-        hilly: rigs[0].plant.ground().slope_changes().next().is_some(),
+        // The same force on every lane (its part on θ depends on the robot: `hills`).
+        force: rigs[0].plant.ground().force().map(Fused),
         hills: Hills::new(core::array::from_fn(|l| rigs[l].plant.ground()), core::array::from_fn(|l| models[l].params().wheel_radius)),
     };
     let delay = rigs[0].delay;
