@@ -103,6 +103,7 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
     /// model's, per train). Returns, for each train whose rotor
     /// reached a flank moving into it, its rotor speed: the plant applies the impact
     /// ([`Self::engage`]). A rotor at a flank moving back out stays open.
+    #[inline(always)]
     pub fn elapsed(&mut self, dt: T, after: [T; N], friction: Option<&Friction<T>>) -> [Option<T>; N] {
         let mut hits = [None; N];
         let Some(before) = self.before else { return hits };

@@ -348,6 +348,7 @@ impl<T: Real> Disturbed<T> {
 
     /// The step under way has ended at `x`: the open rotors advance; reaching a flank
     /// they engage in a plastic impact (φ̇ and θ̇ in `x` jump).
+    #[inline(always)]
     pub fn gear_elapsed(&mut self, dt: T, x: &mut Vector4<T>) {
         // In place, fields apart: a copy of the model or the play costs a sweep's lanes.
         let i = self.piece_index(x);
@@ -370,6 +371,7 @@ impl<T: Real> Disturbed<T> {
     /// [`Self::gear_next`] given the derivative `d` and the gearhead torque per wheel
     /// `friction` at `x` under `current` with the trains as they are (`deriv_geared`'s): a
     /// sweep's lanes compute those for all of them at once.
+    #[inline(always)]
     pub(crate) fn gear_next_with(&mut self, x: &Vector4<T>, current: T, d: &Vector4<T>, friction: T) {
         let motor = self.piece(x).model.params().torque_per_amp() * current;
         let Some(play) = self.play.as_mut() else { return };

@@ -448,7 +448,7 @@ impl<T: Real> RealPlant<T> {
     /// `between_steps` up to the trains' next step (`Disturbed::gear_next`): the open
     /// rotors' elapsed step and impacts, pushes, the winding's current (turning with the
     /// open rotors). Returns the lumped current that drives the mechanics now.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) -> T {
         match self {
             Self::Current(p) => {

@@ -466,22 +466,25 @@ fn rig_block<C: LaneLaw>(
             engaged[l] = rig.plant.ground().engaged();
         }
         let before = engaged;
-        // (An `if`, not `bool::then`: a closure not inlined is compiled for the baseline CPU.)
-        let weighed = if plants.geared { Some(plants.geared_motion(&x, &current, &engaged)) } else { None };
+        // The trains weigh the derivative at the step's start; with the trains as they
+        // were, it is RK4's first stage. (Written in place, not as an `Option`: moving the
+        // Option cost two copies of it per step.)
+        let (mut k1, mut tau) = ([[0.0; LANES]; 4], [0.0; LANES]);
+        if plants.geared {
+            (k1, tau) = plants.geared_motion(&x, &current, &engaged);
+        }
         for (l, rig) in rigs.iter_mut().enumerate() {
             let xl = Vector4::from(lane(&x, l));
-            if let Some((d, tau)) = &weighed {
-                rig.plant.ground_mut().gear_next_with(&xl, current[l], &Vector4::from(lane(d, l)), tau[l]);
+            if plants.geared {
+                rig.plant.ground_mut().gear_next_with(&xl, current[l], &Vector4::from(lane(&k1, l)), tau[l]);
             }
             rig.plant.step_end(&xl);
             input[l] = rig.plant.held_current(&xl, u[l]).unwrap_or(u[l]);
             engaged[l] = rig.plant.ground().engaged();
         }
-        // With the trains as they were, the weighed derivative is RK4's first stage.
-        let k1 = match weighed {
-            Some((d, _)) if engaged == before => d,
-            _ => plants.k1(&x, &input, &engaged),
-        };
+        if !(plants.geared && engaged == before) {
+            k1 = plants.k1(&x, &input, &engaged);
+        }
         if let Some(imus) = imus.as_mut() {
             imus.sample(&mut rigs, t, &x, &k1);
         }
