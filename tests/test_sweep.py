@@ -88,6 +88,24 @@ GAUSSIAN_SETS = [[twip.Gaussian(-0.3, 0.15), twip.Triangle(-0.3, 0.0, 0.3), twip
                   twip.Trapezoid(0.5, 2, math.inf, math.inf)]]
 
 
+def case(name):
+    """A case of every kernel: (scenario, montecarlo keywords) of `name`, a scenario's name
+    with "+gauss" (fuzzy with Gaussian sets: the general runner), "+own-friction" (a
+    sliding-mode tracker whose own model has friction: the general planar runner) and
+    "+rig" (the thesis-like rig). The scenario stays a name where it can (Dask needs one).
+    A child process stopped by a signal (below) builds it too."""
+    base = name.split("+")[0]
+    options = {"laps": 0.05 if "+rig" in name else 0.1} if base.startswith("circle") else {"t_final": 3.0}
+    if "+gauss" in name:
+        options["sets"] = GAUSSIAN_SETS
+    kw = dict(perturb={"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}, seed=11, progress=False,
+              realism=twip.Realism.thesis_like() if "+rig" in name else None, shard_size=200, threads=2)
+    if "+own-friction" in name:  # a controller object: the scenario goes whole
+        sc = scenarios.get(base, **options)
+        return sc.replace(controller=twip.SmcTracker(twip.PlanarModel(sc.model.params, twip.Friction.gb37()))), kw
+    return base, {**kw, "options": options}
+
+
 def test_general_path_for_other_controllers_is_deterministic_too():
     sc = scenarios.get("flat-fuzzy-sim", sets=GAUSSIAN_SETS, t_final=2.0)
     kw = dict(perturb={"m_body": twip.Uniform(rel=0.2)}, seed=1, progress=False)
@@ -169,6 +187,19 @@ def test_a_changed_configuration_is_refused_by_the_checkpoint(tmp_path):
         sweep(n=16, checkpoint=tmp_path, shard_size=8, perturb={"m_body": twip.Uniform(rel=0.3)})
 
 
+def test_a_checkpoint_of_a_sweep_with_fuzzy_sets_in_its_options_resumes_and_refuses_other_sets(tmp_path):
+    """Options may hold objects (fuzzy sets, by name on the API): the manifest names them by
+    their repr (JSON cannot hold them: this sweep once failed with json's TypeError), and the
+    controller's fingerprint tells other sets apart."""
+    kw = dict(n=16, scenario="flat-fuzzy-sim", checkpoint=tmp_path, shard_size=8)
+    first = sweep(options={**SHORT, "sets": GAUSSIAN_SETS}, **kw)
+    assert first.kernel == "general" and "Gaussian(-0.3, 0.15)" in (tmp_path / "manifest.json").read_text()
+    same(first, sweep(options={**SHORT, "sets": GAUSSIAN_SETS}, **kw))
+    wider = [[twip.Gaussian(-0.3, 0.2)] + GAUSSIAN_SETS[0][1:], GAUSSIAN_SETS[1]]
+    with pytest.raises(twip.InvalidParameterError, match="different configuration.*differs in: controller"):
+        sweep(options={**SHORT, "sets": wider}, **kw)
+
+
 def test_a_checkpoint_begun_on_another_kernel_is_refused(tmp_path):
     """Kernels agree to rounding, not bit for bit: a sweep begun on the general 3-DOF runner
     (as circle-pid was before it moved to the planar lane kernel) does not resume on lanes."""
@@ -205,18 +236,22 @@ def test_simulate_refuses_settle_for_a_slope_model():
         twip.simulate(sc.model, sc.controller, sc.x0, 0.1, settle=0.05)
 
 
-# ~3 s of each scenario: a tracking scenario is as long as its laps (one is 36 s).
-RESUME_OPTIONS = {"circle-pid": {"laps": 0.1}, "circle-smc-fuzzy": {"laps": 0.1}}
-# "+rig": the scenario through the thesis-like rig (kernel "realism-lanes").
-RIG_SUFFIX = "+rig"
+# Each case's kernel, and its samples: 8 000, fewer where a kernel is slow (each a few
+# seconds on two cores).
+SIGNAL_CASES = {
+    "flat-lqr-sim": ("lanes", 8_000), "flat-fuzzy-sim": ("lanes", 8_000),
+    "circle-pid": ("planar-lanes", 8_000), "circle-smc-fuzzy": ("planar-lanes", 8_000),
+    "flat-fuzzy-sim+gauss": ("general", 2_000), "circle-smc+own-friction": ("planar", 2_000),
+    "flat-lqr-sim+rig": ("realism-lanes", 8_000), "flat-fuzzy-sim+gauss+rig": ("realism", 2_000),
+    "circle-pid+rig": ("planar-realism", 1_000),
+}
 SCRIPT = r"""
-import json, sys, twip
-perturb = {"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}
-name, rig = sys.argv[3].removesuffix("+rig"), sys.argv[3].endswith("+rig")
-realism = twip.Realism.thesis_like() if rig else None
+import sys, twip
+sys.path.insert(0, sys.argv[4])
+from test_sweep import case
+sc, kw = case(sys.argv[3])
 try:
-    twip.montecarlo(name, int(sys.argv[2]), perturb=perturb, seed=11, progress=False, realism=realism,
-                    checkpoint=sys.argv[1], shard_size=200, options=json.loads(sys.argv[4]), threads=2)
+    twip.montecarlo(sc, int(sys.argv[2]), checkpoint=sys.argv[1], **kw)
 except KeyboardInterrupt as e:
     print("interrupted", len(e.partial.metrics["valid"]), flush=True)
     sys.exit(3)
@@ -224,10 +259,9 @@ print("finished", flush=True)
 """
 
 
-def start_and_stop(folder, sig, n, scenario):
-    options = json.dumps(RESUME_OPTIONS.get(scenario.removesuffix(RIG_SUFFIX), {"t_final": 3.0}))
-    proc = subprocess.Popen([sys.executable, "-c", SCRIPT, str(folder), str(n), scenario, options],
-                            stdout=subprocess.PIPE, text=True)
+def start_and_stop(folder, sig, n, name):
+    tests = os.path.dirname(os.path.abspath(__file__))
+    proc = subprocess.Popen([sys.executable, "-c", SCRIPT, str(folder), str(n), name, tests], stdout=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
     while not list(folder.glob("shard-*.npz")):
         assert time.monotonic() < deadline and proc.poll() is None, "no shard was written"
@@ -238,38 +272,56 @@ def start_and_stop(folder, sig, n, scenario):
     return proc.returncode, out, time.monotonic() - sent
 
 
-@pytest.mark.parametrize("scenario", ALL_LANE_FAMILIES + ["flat-lqr-sim" + RIG_SUFFIX])
+@pytest.mark.parametrize("name", SIGNAL_CASES)
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
-def test_interrupted_sweep_resumes_to_the_uninterrupted_result(tmp_path, sig, scenario):
-    n = 8_000
+def test_interrupted_sweep_resumes_to_the_uninterrupted_result(tmp_path, sig, name):
+    kernel, n = SIGNAL_CASES[name]
     folder = tmp_path / "run"
-    code, out, waited = start_and_stop(folder, sig, n, scenario)
+    code, out, waited = start_and_stop(folder, sig, n, name)
     shards = len(list(folder.glob("shard-*.npz")))
     print(f"{signal.Signals(sig).name}: stopped after {waited * 1e3:.0f} ms with {shards} of {n // 200} shards written")
     assert 0 < shards < n // 200
     if sig == signal.SIGINT:
         assert code == 3 and out.startswith("interrupted")
         assert waited < 1.0
-    rig = scenario.endswith(RIG_SUFFIX)
-    scenario = scenario.removesuffix(RIG_SUFFIX)
-    kw = dict(perturb={"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}, seed=11, progress=False,
-              shard_size=200, options=RESUME_OPTIONS.get(scenario, {"t_final": 3.0}), threads=2,
-              realism=twip.Realism.thesis_like() if rig else None)
+    sc, kw = case(name)
     if sig == signal.SIGKILL:  # killed holding the lock: taken over, and said so
         with pytest.warns(UserWarning, match="took over the lock left by pid"):
-            resumed = twip.montecarlo(scenario, n, checkpoint=folder, **kw)
+            resumed = twip.montecarlo(sc, n, checkpoint=folder, **kw)
     else:
-        resumed = twip.montecarlo(scenario, n, checkpoint=folder, **kw)
+        resumed = twip.montecarlo(sc, n, checkpoint=folder, **kw)
     assert len(list(folder.glob("shard-*.npz"))) == n // 200
     if sig == signal.SIGINT:  # a clean stop leaves no half-written file (SIGKILL may)
         assert not list(folder.glob("*.tmp*"))
-    fresh = twip.montecarlo(scenario, n, **kw)
-    assert fresh.kernel == ("realism-lanes" if rig else fresh.kernel)
+    fresh = twip.montecarlo(sc, n, **kw)
+    assert fresh.kernel == resumed.kernel == kernel
     same(resumed, fresh)
     assert np.array_equal(resumed.metrics["index"], np.arange(n))
 
 
-@pytest.mark.parametrize("family", ["2-DOF", "2-DOF fuzzy", "2-DOF rig lanes", "2-DOF general rig", "tracking", "tracking pid"])
+@pytest.mark.parametrize("name", SIGNAL_CASES)
+def test_every_kernel_reruns_a_sample_bitwise_and_is_the_same_on_one_thread(name):
+    """`rerun(i)` runs sample i alone through the sweep's engine: its metrics bit for bit;
+    one thread and small shards change nothing."""
+    sc, kw = case(name)
+    r = twip.montecarlo(sc, 12, **{**kw, "shard_size": 5})
+    assert r.kernel == SIGNAL_CASES[name][0]
+    same(r, twip.montecarlo(sc, 12, **{**kw, "threads": 1}))
+    for i in (0, 7, 11):
+        alone = r.rerun(i)
+        for k in ("valid",) + r.metric_names:
+            assert np.array_equal(alone[k], r.metrics[k][i], equal_nan=True), (i, k)
+
+
+def case_sweep(name):
+    """A sweep of `case(name)` taking `n` and montecarlo's keywords."""
+    sc, defaults = case(name)
+    return lambda n, **kw: twip.montecarlo(sc, n, **{**defaults, **kw})
+
+
+# (The general planar runner serves a tracker object, which Dask refuses: it needs a name.)
+@pytest.mark.parametrize("family", ["2-DOF", "2-DOF fuzzy", "2-DOF rig lanes", "2-DOF general rig", "tracking", "tracking pid",
+                                    "2-DOF general", "tracking rig"])
 def test_dask_local_cluster_gives_the_local_result(family):
     distributed = pytest.importorskip("dask.distributed")
     fuzzy = lambda **kw: sweep(scenario="flat-fuzzy-sim", **kw)  # noqa: E731
@@ -278,7 +330,8 @@ def test_dask_local_cluster_gives_the_local_result(family):
     general_rig = lambda **kw: rig_sweep(scenario="flat-fuzzy-sim", options={**SHORT, "sets": GAUSSIAN_SETS}, **kw)  # noqa: E731
     pid = lambda **kw: tracking_sweep(name="circle-pid", **kw)  # noqa: E731
     run, n = {"2-DOF": (sweep, 96), "2-DOF fuzzy": (fuzzy, 96), "2-DOF rig lanes": (rig, 64),
-              "2-DOF general rig": (general_rig, 16), "tracking": (tracking_sweep, 32), "tracking pid": (pid, 32)}[family]
+              "2-DOF general rig": (general_rig, 16), "tracking": (tracking_sweep, 32), "tracking pid": (pid, 32),
+              "2-DOF general": (case_sweep("flat-fuzzy-sim+gauss"), 16), "tracking rig": (case_sweep("circle-pid+rig"), 8)}[family]
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         remote = run(n=n, client=client, shard_size=n // 4)

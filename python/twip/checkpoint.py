@@ -163,7 +163,11 @@ class Checkpoint:
                 )
         else:
             manifest = {"config": config, "shard_size": shard}
-            self._write(path, json.dumps({"fingerprint": self.fingerprint, "manifest": manifest}, indent=1).encode())
+            # Options may hold objects (fuzzy sets): the manifest names them by their repr.
+            # They are how the sweep was asked for, outside the fingerprint (HOW_GIVEN); the
+            # controller's own fingerprint holds what they set.
+            text = json.dumps({"fingerprint": self.fingerprint, "manifest": manifest}, indent=1, default=repr)
+            self._write(path, text.encode())
 
     @staticmethod
     def _write(path: Path, data: bytes):
