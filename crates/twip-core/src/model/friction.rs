@@ -250,11 +250,13 @@ impl<S: Lane> Friction<S> {
         let mut held: [S::Mask; N] = core::array::from_fn(|i| w[i].magnitude().lt(self.stick_speed));
         let rate = S::splat(1.0) / S::splat(STICK_TIME);
         let (breakaway, zero) = (self.breakaway, S::splat(0.0));
-        // Each pass either holds every wheel in the band or releases one: at most N + 1.
-        // A lane is done at its first pass that releases none. All passes run (no exit
-        // when every lane is done), so that a loop over lanes vectorises.
+        // Each pass either holds every wheel in the band or releases one. A lane is done at
+        // its first pass that releases none; a lane that releases its last held wheel has
+        // its torques too (the released one at ±τ_s, the others already released), so N
+        // passes are enough (an N + 1st would release none and change nothing). All passes
+        // run (no exit when every lane is done), so that a loop over lanes vectorises.
         let mut done = S::mask(false);
-        for _ in 0..=N {
+        for _ in 0..N {
             let need = hold(&held, &tau, &w, &a0, &s, rate);
             let mut released = S::mask(false);
             for i in 0..N {
