@@ -200,6 +200,17 @@ def test_a_checkpoint_of_a_sweep_with_fuzzy_sets_in_its_options_resumes_and_refu
         sweep(options={**SHORT, "sets": wider}, **kw)
 
 
+def test_a_model_with_friction_is_refused_before_the_checkpoint_is_touched_and_realism_carries_it(tmp_path):
+    sc = scenarios.get("flat-lqr-sim", **SHORT)
+    rough = sc.replace(model=twip.SlopeModel(sc.model.params, sc.model.slope, twip.Friction.gb37()))
+    with pytest.raises(twip.InvalidParameterError, match=r"model.friction: .*realism=twip.Realism\(friction=...\)"):
+        twip.montecarlo(rough, 8, progress=False, checkpoint=tmp_path / "ck")
+    assert not (tmp_path / "ck").exists()
+    carried = twip.montecarlo(sc, 8, progress=False, realism=twip.Realism(friction=twip.Friction.gb37()))
+    assert carried.kernel == "realism-lanes"
+    assert not np.array_equal(carried.metrics["mean_abs_speed_error"], twip.montecarlo(sc, 8, progress=False).metrics["mean_abs_speed_error"])
+
+
 def test_a_checkpoint_begun_on_another_kernel_is_refused(tmp_path):
     """Kernels agree to rounding, not bit for bit: a sweep begun on the general 3-DOF runner
     (as circle-pid was before it moved to the planar lane kernel) does not resume on lanes."""
