@@ -206,6 +206,11 @@ def test_a_model_with_friction_is_refused_before_the_checkpoint_is_touched_and_r
     with pytest.raises(twip.InvalidParameterError, match=r"model.friction: .*realism=twip.Realism\(friction=...\)"):
         twip.montecarlo(rough, 8, progress=False, checkpoint=tmp_path / "ck")
     assert not (tmp_path / "ck").exists()
+    circle = scenarios.get("circle-pid", laps=0.05)
+    rough_circle = circle.replace(model=twip.PlanarModel(circle.model.params, twip.Friction.gb37()))
+    with pytest.raises(twip.InvalidParameterError, match="model.friction"):
+        twip.montecarlo(rough_circle, 8, progress=False, checkpoint=tmp_path / "ck")
+    assert not (tmp_path / "ck").exists()
     carried = twip.montecarlo(sc, 8, progress=False, realism=twip.Realism(friction=twip.Friction.gb37()))
     assert carried.kernel == "realism-lanes"
     assert not np.array_equal(carried.metrics["mean_abs_speed_error"], twip.montecarlo(sc, 8, progress=False).metrics["mean_abs_speed_error"])

@@ -52,6 +52,7 @@ __all__ = [
     "simulate_raw",
     "sweep_draw",
     "sweep_noise_seed",
+    "check_sweep_model",
     "sweep_kernel",
     "DEFAULT_FALL_LIMIT",
     "ffi_record",
@@ -842,6 +843,10 @@ def sweep_raw(model: SlopeModel, controller: Any, x0: _ArrayLike, t_final: float
     """Runs samples `start..start + count`; returns their metrics as arrays. With `realism`
     (a `twip.Realism`) each runs through the rig; its seed and stream are replaced by the
     sweep's (see `sweep_noise_seed`).
+    """
+def check_sweep_model(model: SlopeModel | PlanarModel) -> None:
+    """Refuses a model a sweep cannot carry (one with gearhead friction), before the sweep
+    touches anything (`montecarlo` asks before its checkpoint folder).
     """
 def sweep_noise_seed(seed: int) -> int:
     """The sensor-noise key of a sweep with `seed` (sample i replays with

@@ -184,9 +184,7 @@ def montecarlo(
     if realism is not None and not isinstance(realism, _core.Realism):
         raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
     sc = _scenario_of(scenario, params, options)
-    if sc.model.friction is not None:  # refused before a checkpoint folder is touched
-        raise _bad("model.friction: sweeps draw robots from parameters alone and do not carry a model's gearhead "
-                   "friction; give it as realism=twip.Realism(friction=...) or use a model without friction")
+    _core.check_sweep_model(sc.model)  # before a checkpoint folder is touched
     if traces:  # each replay checks its own log; together they must fit too
         from twip.sim import log_shape_guess
 

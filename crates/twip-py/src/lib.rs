@@ -45,6 +45,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sysid::sysid_shoot, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_draw, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_noise_seed, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::check_sweep_model, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_kernel, m)?)?;
     m.add("DEFAULT_FALL_LIMIT", twip_core::sim::runner::DEFAULT_FALL_LIMIT)?;
     m.add_function(wrap_pyfunction!(sweep::controller_fingerprint, m)?)?;

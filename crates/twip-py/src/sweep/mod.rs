@@ -177,14 +177,26 @@ fn result_dict<'py, M: SweepMetrics>(
 }
 
 /// Sweeps draw robots from parameters alone: refuse a model with gearhead friction
-/// rather than drop it in silence.
+/// rather than drop it in silence (the rig carries friction: `Realism(friction=...)`).
 pub(crate) fn no_friction_in_sweeps(has_friction: bool) -> PyResult<()> {
     if has_friction {
-        return Err(pyo3::exceptions::PyValueError::new_err(
-            "model.friction: sweeps do not carry gearhead friction yet; use a model without friction",
+        return Err(crate::errors::InvalidParameterError::new_err(
+            "model.friction: sweeps draw robots from parameters alone and do not carry a model's gearhead \
+             friction; give it as realism=twip.Realism(friction=...) or use a model without friction",
         ));
     }
     Ok(())
+}
+
+/// Refuses a model a sweep cannot carry (one with gearhead friction), before the sweep
+/// touches anything (`montecarlo` asks before its checkpoint folder).
+#[pyfunction]
+pub fn check_sweep_model(model: &Bound<'_, PyAny>) -> PyResult<()> {
+    let has_friction = match model.extract::<PyRef<'_, PySlopeModel>>() {
+        Ok(m) => m.inner.friction().is_some(),
+        Err(_) => model.extract::<PyRef<'_, crate::model::models::PyPlanarModel>>()?.inner.friction().is_some(),
+    };
+    no_friction_in_sweeps(has_friction)
 }
 
 /// One metric column of `n` samples, reserved fallibly: a MemoryError naming `n`, not an abort.
