@@ -162,7 +162,7 @@ impl Ziggurat {
         x[0] = ZIGGURAT_V / gauss(ZIGGURAT_R);
         x[1] = ZIGGURAT_R;
         for i in 1..255 {
-            x[i + 1] = nalgebra::ComplexField::sqrt(-2.0 * nalgebra::ComplexField::ln(ZIGGURAT_V / x[i] + gauss(x[i])));
+            x[i + 1] = (-2.0 * ln(ZIGGURAT_V / x[i] + gauss(x[i]))).sqrt_f64();
         }
         let mut f = [0.0; 257];
         for (fi, xi) in f.iter_mut().zip(x) {
@@ -228,8 +228,8 @@ impl Ziggurat {
     #[cold]
     fn tail(&self, rng: &mut Philox) -> f64 {
         loop {
-            let a = -nalgebra::ComplexField::ln(1.0 - rng.uniform::<f64>()) / ZIGGURAT_R;
-            let b = -nalgebra::ComplexField::ln(1.0 - rng.uniform::<f64>());
+            let a = -ln(1.0 - rng.uniform::<f64>()) / ZIGGURAT_R;
+            let b = -ln(1.0 - rng.uniform::<f64>());
             if 2.0 * b > a * a {
                 return ZIGGURAT_R + a;
             }
