@@ -72,7 +72,7 @@ fn main() {
             let runs: Vec<_> = if path == "realism" {
                 (0..n).map(|i| run_rig_sample(&ctrl, &schedule, &config, &draw(&nominal, &perturb, 1, i), &realism, &|| false).unwrap()).collect()
             } else {
-                run_rig_lane_samples(&LqrLanes::new(&ctrl), &schedule, &config, &nominal, &perturb, 1, 0..n, &realism, &|| false).unwrap().unwrap()
+                run_rig_lane_samples(&LqrLanes::new(&ctrl), &schedule, &config, &nominal, &perturb, 1, 0..n, &|_| Ok(realism), &|| false).unwrap().unwrap()
             };
             runs.iter().map(|m| m.mean_abs_pitch_error).sum()
         }

@@ -333,6 +333,12 @@ impl<T: Real> Disturbed<T> {
         (self.pieces[i].model.coefficients(), self.pieces[i].q_theta)
     }
 
+    /// Whether the gear trains have play (backlash).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn has_play(&self) -> bool {
+        self.play.is_some()
+    }
+
     /// Whether the gear trains are engaged (always, without backlash).
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
     pub(crate) fn engaged(&self) -> bool {

@@ -16,6 +16,7 @@ use crate::hardware::realism::Realism;
 use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::sim::runner::SimConfig;
 use crate::model::slope::SlopeModel;
+use crate::model::params::RobotParams;
 
 /// The sensor-noise key of a sweep with seed `sweep_seed` (splitmix64's finaliser of
 /// the seed xor a constant: one-to-one, and never the perturbation key in practice).
@@ -25,6 +26,11 @@ pub fn noise_seed(sweep_seed: u64) -> u64 {
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
     z ^ (z >> 31)
 }
+
+/// The realism a sample's robot gets, set up for the sweep ([`for_sweep`]). The rig's parts
+/// are every sample's alike, but pushes and a force may act at each robot's own centre of
+/// mass. An error makes the sample invalid.
+pub type RealismOf<'a> = &'a dyn Fn(&RobotParams<f64>) -> Result<Realism<f64>, TwipError>;
 
 /// `realism` set up for a sweep with seed `sweep_seed`: the noise key is
 /// [`noise_seed`]`(sweep_seed)`; [`run_rig_sample`] sets the stream to the sample index.
@@ -59,8 +65,8 @@ where
     finish(run, config.dt, |fell, t_end, steps| SampleMetrics::from_summary(&metrics.summary(), fell, t_end, steps))
 }
 
-/// Runs the samples `indices` of a sweep through `realism`'s rig (set up by [`for_sweep`])
-/// on lanes, [`LANES`](crate::sweep::lanes::LANES) at a time (`block::run_rig_block`):
+/// Runs the samples `indices` of a sweep, each through the rig of its robot's realism
+/// (`realism_of`, set up by [`for_sweep`]) on lanes, [`LANES`](crate::sweep::lanes::LANES) at a time (`block::run_rig_block`):
 /// each sample agrees with [`run_rig_sample`] to rounding. `Ok(None)` when `should_stop`
 /// said so.
 #[allow(clippy::too_many_arguments)]
@@ -72,7 +78,7 @@ pub fn run_rig_lane_samples<C: LaneLaw + Clone>(
     perturbations: &[Perturbation],
     seed: u64,
     indices: core::ops::Range<u64>,
-    realism: &Realism<f64>,
+    realism_of: RealismOf<'_>,
     should_stop: &dyn Fn() -> bool,
 ) -> Result<Option<alloc::vec::Vec<SampleMetrics>>, TwipError> {
     let mut out = alloc::vec::Vec::with_capacity((indices.end - indices.start) as usize);
@@ -80,7 +86,7 @@ pub fn run_rig_lane_samples<C: LaneLaw + Clone>(
     while start < indices.end {
         let end = (start + LANES as u64).min(indices.end);
         let samples: alloc::vec::Vec<Sample> = (start..end).map(|i| draw(nominal, perturbations, seed, i)).collect();
-        let Some(block) = run_rig_block(law.clone(), reference, config, &samples, realism, should_stop)? else {
+        let Some(block) = run_rig_block(law.clone(), reference, config, &samples, realism_of, should_stop)? else {
             return Ok(None);
         };
         out.extend_from_slice(&block[..samples.len()]);
@@ -167,16 +173,26 @@ mod tests {
         L: LaneLaw + Clone,
         C: Controller<f64, 4, 1, Reference = SpeedRef<f64>> + Clone,
     {
+        rig_lanes_agree_per_robot(law, prototype, &|_| *realism, &spread(), t_final)
+    }
+
+    /// [`rig_lanes_agree`] with each robot's own realism (`realism_of` its parameters), the
+    /// robots drawn from `spread`.
+    fn rig_lanes_agree_per_robot<L, C>(law: &L, prototype: &C, realism_of: &dyn Fn(&RobotParams<f64>) -> Realism<f64>, spread: &[Perturbation], t_final: f64) -> f64
+    where
+        L: LaneLaw + Clone,
+        C: Controller<f64, 4, 1, Reference = SpeedRef<f64>> + Clone,
+    {
         let (_, schedule, mut config, nominal) = setup(5e-3);
         config.t_final = t_final;
-        let realism = for_sweep(realism, 7);
+        let swept = |p: &RobotParams<f64>| for_sweep(&realism_of(p), 7);
         let never = || false;
         let n = 35;
-        let lanes = run_rig_lane_samples(law, &schedule, &config, &nominal, &spread(), 3, 0..n, &realism, &never).unwrap().unwrap();
+        let lanes = run_rig_lane_samples(law, &schedule, &config, &nominal, spread, 3, 0..n, &|p| Ok(swept(p)), &never).unwrap().unwrap();
         let (mut worst, mut fell, mut invalid) = (0.0f64, 0, 0);
         for (i, got) in lanes.iter().enumerate() {
-            let sample = draw(&nominal, &spread(), 3, i as u64);
-            let expected = run_rig_sample(prototype, &schedule, &config, &sample, &realism, &never).unwrap();
+            let sample = draw(&nominal, spread, 3, i as u64);
+            let expected = run_rig_sample(prototype, &schedule, &config, &sample, &swept(&sample.params), &never).unwrap();
             assert_eq!((got.valid, got.fell, got.steps), (expected.valid, expected.fell, expected.steps), "sample {i}");
             assert!(got.t_end == expected.t_end || !got.valid, "sample {i}");
             for (a, b) in [
@@ -276,8 +292,35 @@ mod tests {
         }
         // The force acts: the pulled robots settle elsewhere.
         let (_, schedule, config, nominal) = setup(5e-3);
-        let run = |r: &Realism<f64>| run_rig_lane_samples(&lqr_lanes, &schedule, &config, &nominal, &spread(), 3, 0..4, &for_sweep(r, 7), &|| false).unwrap().unwrap();
+        let run = |r: &Realism<f64>| run_rig_lane_samples(&lqr_lanes, &schedule, &config, &nominal, &spread(), 3, 0..4, &|_| Ok(for_sweep(r, 7)), &|| false).unwrap().unwrap();
         assert_ne!(run(&pushed)[1].mean_abs_pitch_error, run(&both)[1].mean_abs_pitch_error);
+    }
+
+    /// Pushes and a force at each robot's own centre of mass (what `twip.Push` without a
+    /// height means): each lane's rig pushes and pulls its robot where its robot's is, as
+    /// the run of that robot does, with centres of mass ±30 % apart.
+    #[test]
+    fn pushes_and_forces_at_each_robots_own_height_agree_with_its_run() {
+        use crate::hardware::disturbance::{Force, Push, Pushes};
+        use crate::hardware::imu::ImuSettings;
+        let (lqr_lanes, lqr, fuzzy_lanes, fuzzy) = lanes();
+        let com = crate::model::params::FIELD_NAMES.iter().position(|&f| f == "com_height").unwrap();
+        let mut spread = spread().to_vec();
+        let nominal_com = RobotParams::<f64>::balanbot().com_height;
+        spread.push(Perturbation { target: Target::Param(com), spread: Spread::Uniform { low: 0.7 * nominal_com, high: 1.3 * nominal_com } });
+        let at_com = |p: &RobotParams<f64>| Realism {
+            imu: Some(ImuSettings { quantise: false, ..ImuSettings::thesis_like() }),
+            control_period: Some(5e-3),
+            pushes: Pushes::new(&[Push { t: 0.5, impulse: 0.3, height: p.com_height }]).unwrap(),
+            force: Force { horizontal: 0.4, vertical: -1.5, height: p.com_height },
+            ..Realism::ideal()
+        };
+        let lqr_worst = rig_lanes_agree_per_robot(&lqr_lanes, &lqr, &at_com, &spread, 2.0);
+        let fuzzy_worst = rig_lanes_agree_per_robot(&fuzzy_lanes, &fuzzy, &at_com, &spread, 2.0);
+        println!("at each robot's height: worst relative difference over 2 s: LQR {lqr_worst:e}, fuzzy {fuzzy_worst:e}");
+        for worst in [lqr_worst, fuzzy_worst] {
+            assert!(worst <= 1e-12 && worst > 0.0, "{worst:e}");
+        }
     }
 
     /// With quantised outputs (the IMU's registers, the encoders' counts, the duty's whole
@@ -312,7 +355,7 @@ mod tests {
         config.t_final = 10.0;
         let realism = for_sweep(&thesis_like, 7);
         let n = 48;
-        let lanes = run_rig_lane_samples(&lqr_lanes, &schedule, &config, &nominal, &spread(), 3, 0..n, &realism, &|| false).unwrap().unwrap();
+        let lanes = run_rig_lane_samples(&lqr_lanes, &schedule, &config, &nominal, &spread(), 3, 0..n, &|_| Ok(realism), &|| false).unwrap().unwrap();
         let runs: Vec<_> = (0..n).map(|i| run_rig_sample(&lqr, &schedule, &config, &draw(&nominal, &spread(), 3, i), &realism, &|| false).unwrap()).collect();
         let falls = |m: &[SampleMetrics]| m.iter().filter(|s| s.fell).count();
         assert_eq!(falls(&lanes), falls(&runs));
@@ -362,7 +405,7 @@ mod tests {
         // The robots reach the changes, and the slopes act.
         let (_, schedule, mut config, nominal) = setup(5e-3);
         config.t_final = 3.0;
-        let run = |r: &Realism<f64>| run_rig_lane_samples(&lqr_lanes, &schedule, &config, &nominal, &spread(), 3, 0..4, &for_sweep(r, 7), &|| false).unwrap().unwrap();
+        let run = |r: &Realism<f64>| run_rig_lane_samples(&lqr_lanes, &schedule, &config, &nominal, &spread(), 3, 0..4, &|_| Ok(for_sweep(r, 7)), &|| false).unwrap().unwrap();
         let (hilly, flat) = (run(&unquantised), run(&Realism { slope_profile: SlopeProfile::constant(0.0), ..unquantised }));
         // (Sample 0 climbs past them: 0.148 against 0.103 flat, mean |pitch error|.)
         assert!((0..4).any(|i| hilly[i].valid && hilly[i].mean_abs_pitch_error != flat[i].mean_abs_pitch_error));

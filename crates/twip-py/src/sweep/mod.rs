@@ -26,7 +26,7 @@ use twip_core::sweep::{
     draw, run_lane_samples, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Sample, SampleMetrics, Spread, SweepMetrics,
     Target,
 };
-use twip_core::TwipError;
+use twip_core::{RobotParams, TwipError};
 
 use crate::convert::vector;
 use crate::errors::PyTwipError;
@@ -291,23 +291,21 @@ pub fn sweep_raw<'py>(
     let schedule = reference.inner;
     let kernel = kernel_of(&ctrl, nominal_realism.as_ref());
     run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
+        // Push and force heights default to each sample's own centre of mass.
+        let realism_of = |p: &RobotParams<f64>| realism.as_ref().expect("realism given").to_core(p).map(|r| for_sweep(&r, seed));
         match (&realism, ctrl) {
-            // A rig without pushes or force is every sample's: the nominal one.
             (Some(_), SlopeController::Lqr(c)) if kernel == "realism-lanes" => {
-                let rig = for_sweep(nominal_realism.as_ref().expect("realism given"), seed);
-                run_rig_lane_samples(&LqrLanes::new(&c), &schedule, &config, &nominal, &perts, seed, range, &rig, stop).ok().flatten()
+                run_rig_lane_samples(&LqrLanes::new(&c), &schedule, &config, &nominal, &perts, seed, range, &realism_of, stop).ok().flatten()
             }
             (Some(_), SlopeController::Fuzzy(c)) if kernel == "realism-lanes" => {
-                let rig = for_sweep(nominal_realism.as_ref().expect("realism given"), seed);
                 let law = FuzzyLanes::new(&c).expect("kernel_of checked it");
-                run_rig_lane_samples(&law, &schedule, &config, &nominal, &perts, seed, range, &rig, stop).ok().flatten()
+                run_rig_lane_samples(&law, &schedule, &config, &nominal, &perts, seed, range, &realism_of, stop).ok().flatten()
             }
-            // Push and force heights default to each sample's own centre of mass.
-            (Some(r), c) => range
+            (Some(_), c) => range
                 .map(|i| {
                     let sample = draw(&nominal, &perts, seed, i);
-                    match r.to_core(&sample.params) {
-                        Ok(core) => run_rig_sample(&c, &schedule, &config, &sample, &for_sweep(&core, seed), stop),
+                    match realism_of(&sample.params) {
+                        Ok(rig) => run_rig_sample(&c, &schedule, &config, &sample, &rig, stop),
                         Err(_) => Some(SampleMetrics::INVALID),
                     }
                 })

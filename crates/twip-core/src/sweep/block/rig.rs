@@ -19,7 +19,8 @@ use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
 use crate::hardware::disturbance::{Disturbed, Force, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{MotorDriver, Winding};
-use crate::hardware::realism::{Realism, SlopeRig};
+use crate::hardware::realism::SlopeRig;
+use crate::sweep::rig::RealismOf;
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field};
 use crate::hardware::imu::{specific_force_of, ImuReading, Mpu6050};
@@ -51,7 +52,7 @@ struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool, cons
     per_amp: Fused,
     /// The gear trains are engaged over this step (backlash: set between steps).
     engaged: bool,
-    /// A constant force on the body (zero: none).
+    /// A constant force on the body (zero: none), at this lane's robot's height.
     force: Force<Fused>,
     /// The ground's pieces (HILLY: this lane's is picked at each stage) and the force's
     /// part on θ on each.
@@ -143,8 +144,9 @@ impl Hills {
     }
 }
 
-/// The lanes' plants: coefficients per lane, the friction and force all share, and each
-/// lane's winding (used when the driver has no inductance) and the force's part on θ.
+/// The lanes' plants: coefficients per lane, the friction all share, and each lane's
+/// winding (used when the driver has no inductance) and force (its height may be the
+/// robot's own centre of mass; its part on θ: `hills`).
 struct RigPlants {
     plants: Plants,
     gear: u8,
@@ -152,7 +154,7 @@ struct RigPlants {
     steady: bool,
     windings: [(Winding<f64>, f64); LANES],
     geared: bool,
-    force: Force<Fused>,
+    forces: [Force<f64>; LANES],
     hills: Hills,
 }
 
@@ -186,7 +188,8 @@ impl RigPlants {
     fn field<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, STEADY, GEARED, HILLY> {
         let (winding, per_amp) = &self.windings[l];
         let (k, friction, u, winding, per_amp) = (self.plants.lane(l), &self.friction, Fused(u), winding.map(Fused), Fused(*per_amp));
-        RigField { k, friction, u, winding, per_amp, engaged, force: self.force, hills: &self.hills, lane: l }
+        let force = self.forces[l].map(Fused);
+        RigField { k, friction, u, winding, per_amp, engaged, force, hills: &self.hills, lane: l }
     }
 
     /// The derivative at the step's start on every lane (RK4's first stage, which the
@@ -313,16 +316,16 @@ fn lane(x: &[Lanes; 4], l: usize) -> [f64; 4] {
 }
 
 multiversioned! {
-    /// Runs up to [`LANES`] samples through the rig `realism` builds for each (noise
-    /// stream = the sample's index; see `sweep::rig::for_sweep` for the key), with
-    /// `controller`'s law. `should_stop` is asked every `runner::STOP_CHECK_STEPS` steps;
-    /// `Ok(None)` means it said yes before the block was done.
+    /// Runs up to [`LANES`] samples through the rig each one's realism builds for its
+    /// robot (`realism_of`; noise stream = the sample's index; see `sweep::rig::for_sweep`
+    /// for the key), with `controller`'s law. `should_stop` is asked every
+    /// `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it said yes before the block was done.
     pub fn run_rig_block, rig_block_avx512, rig_block_avx2, rig_block_baseline = rig_block<C: LaneLaw>(
         controller: C,
         reference: &SpeedSchedule<f64>,
         config: &SimConfig<f64>,
         samples: &[Sample],
-        realism: &Realism<f64>,
+        realism_of: RealismOf<'_>,
         should_stop: &dyn Fn() -> bool,
     ) -> BlockResult
 }
@@ -333,7 +336,7 @@ fn rig_block<C: LaneLaw>(
     reference: &SpeedSchedule<f64>,
     config: &SimConfig<f64>,
     samples: &[Sample],
-    realism: &Realism<f64>,
+    realism_of: RealismOf<'_>,
     should_stop: &dyn Fn() -> bool,
 ) -> BlockResult {
     assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
@@ -349,7 +352,7 @@ fn rig_block<C: LaneLaw>(
             continue;
         }
         let Ok(model) = SlopeModel::new(s.params, s.slope) else { continue };
-        if let Ok(rig) = realism.with_stream(s.index).build(&model, dt) {
+        if let Ok(rig) = realism_of(&s.params).and_then(|r| r.with_stream(s.index).build(&model, dt)) {
             built[l] = Some((model, rig));
             active[l] = true;
         }
@@ -376,9 +379,9 @@ fn rig_block<C: LaneLaw>(
         steady: winding(0).is_some(),
         // Unused with inductance or without a driver (the held current is the input).
         windings: core::array::from_fn(|l| winding(l).unwrap_or(stand_in)),
-        geared: realism.backlash.is_some_and(|b| b.gap > 0.0),
-        // The same force on every lane (its part on θ depends on the robot: `hills`).
-        force: rigs[0].plant.ground().force().map(Fused),
+        // Every lane's realism has the same parts (but for where pushes and forces act).
+        geared: rigs[0].plant.ground().has_play(),
+        forces: core::array::from_fn(|l| rigs[l].plant.ground().force()),
         hills: Hills::new(core::array::from_fn(|l| rigs[l].plant.ground()), core::array::from_fn(|l| models[l].params().wheel_radius)),
     };
     let delay = rigs[0].delay;
@@ -513,6 +516,7 @@ fn rig_block<C: LaneLaw>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::hardware::realism::Realism;
     use crate::control::lqr::{design, DesignPoint, LqrController};
     use crate::model::params::RobotParams;
     use crate::sweep::block::LqrLanes;
@@ -554,15 +558,16 @@ mod tests {
             })
             .collect();
         let never = || false;
-        let base = format!("{:?}", rig_block_baseline(law.clone(), &schedule, &config, &samples, &realism, &never).unwrap());
+        let realism_of = |_: &RobotParams<f64>| Ok(realism);
+        let base = format!("{:?}", rig_block_baseline(law.clone(), &schedule, &config, &samples, &realism_of, &never).unwrap());
         #[cfg(target_arch = "x86_64")]
         {
             if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-                let got = unsafe { rig_block_avx2(law.clone(), &schedule, &config, &samples, &realism, &never) }.unwrap();
+                let got = unsafe { rig_block_avx2(law.clone(), &schedule, &config, &samples, &realism_of, &never) }.unwrap();
                 assert_eq!(format!("{got:?}"), base, "AVX2 copy");
             }
             if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma") {
-                let got = unsafe { rig_block_avx512(law.clone(), &schedule, &config, &samples, &realism, &never) }.unwrap();
+                let got = unsafe { rig_block_avx512(law.clone(), &schedule, &config, &samples, &realism_of, &never) }.unwrap();
                 assert_eq!(format!("{got:?}"), base, "AVX-512 copy");
             }
         }
