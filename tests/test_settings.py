@@ -112,18 +112,19 @@ def test_kernel_and_fall_limit_come_from_the_core():
     assert twip.sweep.kernel_for(lqr, twip.Realism(force=twip.Force(horizontal=0.5))) == "realism-lanes"
     assert twip.sweep.kernel_for(lqr, twip.Realism(slope_profile=[(0.2, 0.05)])) == "realism-lanes"
     assert twip.sweep.kernel_for(twip.scenarios.get("flat-fuzzy-sim")) == "lanes"
+    # Fuzzy sets of any kind: Gaussians too.
     gaussian = [[twip.Gaussian(-0.3, 0.15), twip.Triangle(-0.3, 0.0, 0.3), twip.Gaussian(0.3, 0.15)]] * 2
-    general = twip.scenarios.get("flat-fuzzy-sim", sets=gaussian, t_final=0.2)
-    assert twip.sweep.kernel_for(general) == "general"
-    assert twip.sweep.kernel_for(general, twip.Realism.thesis_like()) == "realism"
+    gaussian = twip.scenarios.get("flat-fuzzy-sim", sets=gaussian, t_final=0.2)
+    assert twip.sweep.kernel_for(gaussian) == "lanes"
+    assert twip.sweep.kernel_for(gaussian, twip.Realism.thesis_like()) == "realism-lanes"
     assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid")) == "planar-lanes"
     assert twip.sweep.kernel_for(twip.scenarios.get("circle-smc-fuzzy")) == "planar-lanes"
     assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid"), twip.Realism.thesis_like()) == "planar-realism"
     with pytest.raises(TypeError):
         _core.sweep_kernel(object())
     # The sweep reports the kernel it ran, the one kernel_for names.
-    res = twip.montecarlo(general, n=2, seed=1)
-    assert res.kernel == "general"
+    res = twip.montecarlo(gaussian, n=2, seed=1)
+    assert res.kernel == "lanes"
 
 
 def test_metric_names_are_the_same_in_runs_and_sweeps():

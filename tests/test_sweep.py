@@ -90,7 +90,7 @@ GAUSSIAN_SETS = [[twip.Gaussian(-0.3, 0.15), twip.Triangle(-0.3, 0.0, 0.3), twip
 
 def case(name):
     """A case of every kernel: (scenario, montecarlo keywords) of `name`, a scenario's name
-    with "+gauss" (fuzzy with Gaussian sets: the general runner), "+own-friction" (a
+    with "+gauss" (fuzzy with Gaussian sets), "+own-friction" (a
     sliding-mode tracker whose own model has friction: the general planar runner) and
     "+rig" (the thesis-like rig). The scenario stays a name where it can (Dask needs one).
     A child process stopped by a signal (below) builds it too."""
@@ -106,14 +106,19 @@ def case(name):
     return base, {**kw, "options": options}
 
 
-def test_general_path_for_other_controllers_is_deterministic_too():
+def test_fuzzy_sets_of_any_kind_run_on_lanes_deterministically_and_replay_to_rounding():
+    """Gaussians beside a triangle and shoulders: on lanes too (their e^x the lanes'
+    polynomial, within 2 ulp of libm's), the same on one and two threads."""
     sc = scenarios.get("flat-fuzzy-sim", sets=GAUSSIAN_SETS, t_final=2.0)
     kw = dict(perturb={"m_body": twip.Uniform(rel=0.2)}, seed=1, progress=False)
     a = twip.montecarlo(sc, 16, threads=1, **kw)
     b = twip.montecarlo(sc, 16, threads=2, **kw)
     same(a, b)
-    assert a.kernel == "general"
-    assert a.replay(5).metrics["mean_abs_pitch_error"] == a.metrics["mean_abs_pitch_error"][5]
+    assert a.kernel == "lanes"
+    trapezoids = twip.montecarlo(scenarios.get("flat-fuzzy-sim", t_final=2.0), 16, **kw)
+    assert not np.array_equal(a.metrics["mean_abs_pitch_error"], trapezoids.metrics["mean_abs_pitch_error"]), "the sets act"
+    for i in (0, 5, 15):
+        assert a.replay(i).metrics["mean_abs_pitch_error"] == pytest.approx(a.metrics["mean_abs_pitch_error"][i], rel=1e-11)
 
 
 def test_a_robot_that_certainly_falls_has_fall_rate_one():
@@ -193,7 +198,7 @@ def test_a_checkpoint_of_a_sweep_with_fuzzy_sets_in_its_options_resumes_and_refu
     controller's fingerprint tells other sets apart."""
     kw = dict(n=16, scenario="flat-fuzzy-sim", checkpoint=tmp_path, shard_size=8)
     first = sweep(options={**SHORT, "sets": GAUSSIAN_SETS}, **kw)
-    assert first.kernel == "general" and "Gaussian(-0.3, 0.15)" in (tmp_path / "manifest.json").read_text()
+    assert first.kernel == "lanes" and "Gaussian(-0.3, 0.15)" in (tmp_path / "manifest.json").read_text()
     same(first, sweep(options={**SHORT, "sets": GAUSSIAN_SETS}, **kw))
     wider = [[twip.Gaussian(-0.3, 0.2)] + GAUSSIAN_SETS[0][1:], GAUSSIAN_SETS[1]]
     with pytest.raises(twip.InvalidParameterError, match="different configuration.*differs in: controller"):
@@ -257,8 +262,7 @@ def test_simulate_refuses_settle_for_a_slope_model():
 SIGNAL_CASES = {
     "flat-lqr-sim": ("lanes", 8_000), "flat-fuzzy-sim": ("lanes", 8_000),
     "circle-pid": ("planar-lanes", 8_000), "circle-smc-fuzzy": ("planar-lanes", 8_000),
-    "flat-fuzzy-sim+gauss": ("general", 2_000), "circle-smc+own-friction": ("planar", 2_000),
-    "flat-lqr-sim+rig": ("realism-lanes", 8_000), "flat-fuzzy-sim+gauss+rig": ("realism", 2_000),
+    "circle-smc+own-friction": ("planar", 2_000), "flat-lqr-sim+rig": ("realism-lanes", 8_000),
     "circle-pid+rig": ("planar-realism", 1_000),
 }
 SCRIPT = r"""
@@ -336,18 +340,18 @@ def case_sweep(name):
 
 
 # (The general planar runner serves a tracker object, which Dask refuses: it needs a name.)
-@pytest.mark.parametrize("family", ["2-DOF", "2-DOF fuzzy", "2-DOF rig lanes", "2-DOF general rig", "tracking", "tracking pid",
-                                    "2-DOF general", "tracking rig"])
+@pytest.mark.parametrize("family", ["2-DOF", "2-DOF fuzzy", "2-DOF rig lanes", "2-DOF Gaussian fuzzy rig", "tracking",
+                                    "tracking pid", "2-DOF Gaussian fuzzy", "tracking rig"])
 def test_dask_local_cluster_gives_the_local_result(family):
     distributed = pytest.importorskip("dask.distributed")
     fuzzy = lambda **kw: sweep(scenario="flat-fuzzy-sim", **kw)  # noqa: E731
     rig = lambda **kw: rig_sweep(**kw)  # noqa: E731
     # Fuzzy with Gaussian sets: the workers get the sets pickled.
-    general_rig = lambda **kw: rig_sweep(scenario="flat-fuzzy-sim", options={**SHORT, "sets": GAUSSIAN_SETS}, **kw)  # noqa: E731
+    gaussian_rig = lambda **kw: rig_sweep(scenario="flat-fuzzy-sim", options={**SHORT, "sets": GAUSSIAN_SETS}, **kw)  # noqa: E731
     pid = lambda **kw: tracking_sweep(name="circle-pid", **kw)  # noqa: E731
     run, n = {"2-DOF": (sweep, 96), "2-DOF fuzzy": (fuzzy, 96), "2-DOF rig lanes": (rig, 64),
-              "2-DOF general rig": (general_rig, 16), "tracking": (tracking_sweep, 32), "tracking pid": (pid, 32),
-              "2-DOF general": (case_sweep("flat-fuzzy-sim+gauss"), 16), "tracking rig": (case_sweep("circle-pid+rig"), 8)}[family]
+              "2-DOF Gaussian fuzzy rig": (gaussian_rig, 16), "tracking": (tracking_sweep, 32), "tracking pid": (pid, 32),
+              "2-DOF Gaussian fuzzy": (case_sweep("flat-fuzzy-sim+gauss"), 16), "tracking rig": (case_sweep("circle-pid+rig"), 8)}[family]
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         remote = run(n=n, client=client, shard_size=n // 4)
@@ -369,30 +373,30 @@ def rig_sweep(n=48, realism=None, scenario="flat-lqr-sim", **kw):
     return twip.montecarlo(scenario, n, progress=False, realism=realism, **kw)
 
 
-# LQR (and trapezoid-set fuzzy) run any rig on lanes; a law the lanes lack, such as fuzzy with
-# Gaussian sets, runs the general rig.
+# LQR and fuzzy with any sets run any rig on lanes.
 GAUSSIAN_FUZZY = scenarios.get("flat-fuzzy-sim", sets=GAUSSIAN_SETS, **SHORT)
-RIGS = [("realism", GAUSSIAN_FUZZY), ("realism-lanes", "flat-lqr-sim")]
+RIGS = [("Gaussian fuzzy", GAUSSIAN_FUZZY), ("LQR", "flat-lqr-sim")]
 
 
-@pytest.mark.parametrize("kernel, scenario", RIGS, ids=[k for k, _ in RIGS])
-def test_realism_sweep_is_the_same_on_one_and_two_threads(kernel, scenario):
+@pytest.mark.parametrize("scenario", [s for _, s in RIGS], ids=[k for k, _ in RIGS])
+def test_realism_sweep_is_the_same_on_one_and_two_threads(scenario):
     one, two = rig_sweep(threads=1, scenario=scenario), rig_sweep(threads=2, scenario=scenario)
     same(one, two)
-    assert one.kernel == kernel
+    assert one.kernel == "realism-lanes"
     # The rig matters: some of these robots fall with it, none in the ideal loop.
     options = {"options": SHORT} if isinstance(scenario, str) else {}
     ideal = twip.montecarlo(scenario, 48, progress=False, perturb=RIG_PERTURB, seed=3, **options)
     assert 0 < one.metrics["fell"].sum() < 48 and not ideal.metrics["fell"].any()
 
 
-def test_realism_sample_17_replayed_alone_is_bitwise_the_same():
-    r = rig_sweep(scenario=GAUSSIAN_FUZZY)  # the general runner: a replay is the same run
+def test_realism_sample_17_replayed_alone_agrees_to_rounding():
+    """Over a second, before the quantisers' drift (see below), the replay of a rig lane
+    (fuzzy, Gaussian sets) is its run to rounding; rerun(i) gives its bits."""
+    r = rig_sweep(scenario="flat-fuzzy-sim", options={"t_final": 1.0, "sets": GAUSSIAN_SETS})
     alone = r.replay(17)
     assert alone.signals, "the replay ran with the realism"
-    for name in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error", "peak_abs_input",
-                 "pitch_settling_time", "speed_settling_time"):
-        assert alone.metrics[name] == r.metrics[name][17], name
+    for name in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error", "peak_abs_input"):
+        assert alone.metrics[name] == pytest.approx(r.metrics[name][17], rel=1e-9), name
     assert alone.fell == bool(r.metrics["fell"][17])
     # The noise is the sample's own stream: another stream gives another run.
     other = r.replay(17, realism=r.realism.replace(seed=twip._core.sweep_noise_seed(r.seed), stream=18))

@@ -854,8 +854,8 @@ def sweep_noise_seed(seed: int) -> int:
     """
 def sweep_kernel(controller: Any, realism: Realism | None = None) -> str:
     """The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),
-    with `realism` (a `twip.Realism`) or without (None): "lanes", "general",
-    "realism-lanes", "realism", "planar-lanes", "planar" or "planar-realism".
+    with `realism` (a `twip.Realism`) or without (None): "lanes", "realism-lanes",
+    "planar-lanes", "planar" or "planar-realism".
     """
 
 DEFAULT_FALL_LIMIT: float

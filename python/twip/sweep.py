@@ -8,9 +8,10 @@ its own counter-based random stream, so a sweep gives the same numbers, bit for 
 any number of threads, in shards, resumed after a crash, on a Dask cluster, and when a
 sample is run alone again (`SweepResult.rerun(i)`). Replayed with the full runner and its
 trajectory (`SweepResult.replay(i)`), a sample is also the sweep's bit for bit, except in
-sweeps on the lane kernels (kernel "lanes": LQR, and fuzzy with trapezoid sets; kernel
-"planar-lanes": PID and sliding-mode tracking; all without realism), which fuse
-multiply-adds: there the metrics agree to ~1e-13 relative.
+sweeps on the lane kernels (kernel "lanes": LQR, and fuzzy with any sets; kernel
+"realism-lanes": the same through a rig; kernel "planar-lanes": PID and sliding-mode
+tracking), which fuse multiply-adds: there the metrics agree to ~1e-13 relative (through a
+rig's quantisers, over its first seconds: see `SweepResult.replay`).
 
 With `realism=` (a `twip.Realism`) every sample runs with the robot's real parts in the
 loop. Sample i's sensor noise is the Philox stream (sweep_noise_seed(seed), i): the

@@ -54,7 +54,7 @@ fn sweep(c: &mut Criterion) {
         })
     });
     let fuzzy = FuzzyController::thesis_flat(*ctrl.model(), 1e-3).unwrap();
-    let fuzzy_lanes = FuzzyLanes::new(&fuzzy).unwrap();
+    let fuzzy_lanes = FuzzyLanes::new(&fuzzy);
     group.bench_function("fuzzy_lanes_1_thread", |b| {
         b.iter(|| run_lane_samples(&fuzzy_lanes, &schedule, &config, &nominal, &perturb, 1, 0..black_box(samples), &|| false).unwrap())
     });

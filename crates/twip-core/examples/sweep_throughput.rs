@@ -38,7 +38,7 @@ fn main() {
             .iter()
             .map(|m| m.mean_abs_pitch_error)
             .sum(),
-        "fuzzy-lanes" => run_lane_samples(&FuzzyLanes::new(&fuzzy).unwrap(), &schedule, &config, &nominal, &perturb, 1, 0..n, &|| false)
+        "fuzzy-lanes" => run_lane_samples(&FuzzyLanes::new(&fuzzy), &schedule, &config, &nominal, &perturb, 1, 0..n, &|| false)
             .unwrap()
             .unwrap()
             .iter()

@@ -166,7 +166,12 @@ impl<T: Real> Member<T> for Membership<T> {
 /// by value, so that a sweep's loop over lanes keeps it in registers and vectorises it.
 #[inline(always)]
 pub(crate) fn normalise<S: Lane, M: Member<S>, const N: usize>(sets: &[M; N], x: S) -> [S; N] {
-    let mu: [S; N] = fill(|j| sets[j].value(x));
+    // A loop, not `fill`'s closure: a Gaussian's e^x made that closure too large to inline
+    // into a sweep's CPU-specific copy, which then ran baseline code calling libm's fma.
+    let mut mu = [S::splat(0.0); N];
+    for (m, set) in mu.iter_mut().zip(sets) {
+        *m = set.value(x);
+    }
     let sum = mu.iter().fold(S::splat(0.0), |sum, m| sum + *m);
     let none = sum.eq(S::splat(0.0));
     let inv = S::splat(1.0) / sum;
@@ -233,7 +238,7 @@ impl<S: Lane> Member<S> for Trapezoid<S> {
     }
 }
 
-/// A set ready for repeated evaluation.
+/// A set ready for repeated evaluation, in a run's numbers or a sweep's lanes'.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Prepared<T> {
     Trapezoid(Trapezoid<T>),
@@ -250,23 +255,46 @@ impl<T: Real> Prepared<T> {
     }
 }
 
-impl<T: Real> Member<T> for Prepared<T> {
+impl<T: Copy> Prepared<T> {
+    /// The same set in another number type (a sweep's lanes).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps need std
+    fn map<S>(&self, to: impl Fn(T) -> S) -> Prepared<S> {
+        match *self {
+            Self::Trapezoid(t) => Prepared::Trapezoid(Trapezoid {
+                a: to(t.a),
+                b: to(t.b),
+                c: to(t.c),
+                d: to(t.d),
+                inv_rise: to(t.inv_rise),
+                inv_fall: to(t.inv_fall),
+            }),
+            Self::Gaussian { mean, sigma } => Prepared::Gaussian { mean: to(mean), sigma: to(sigma) },
+        }
+    }
+}
+
+/// Written once over [`Lane`]: the set's kind is every lane's alike (the prototype's), so
+/// the match is one branch for all lanes. A lane's e^x is the vectorising polynomial
+/// (within 2 ulp of a run's libm), which gives 0 where libm gives a subnormal (z² > 1416):
+/// an input that far from every Gaussian then takes the nearest-set fallback on lanes and
+/// subnormal shares in a run — the same set, up to shares of 1e-308.
+impl<S: Lane> Member<S> for Prepared<S> {
     #[inline(always)]
-    fn value(&self, x: T) -> T {
+    fn value(&self, x: S) -> S {
         match *self {
             Self::Trapezoid(t) => t.value(x),
             Self::Gaussian { mean, sigma } => {
                 let z = (x - mean) / sigma;
-                (-c::<T>(0.5) * z * z).exp()
+                (S::splat(-0.5) * z * z).exponential()
             }
         }
     }
 
     #[inline(always)]
-    fn distance(&self, x: T) -> T {
+    fn distance(&self, x: S) -> S {
         match *self {
             Self::Trapezoid(t) => t.distance(x),
-            Self::Gaussian { mean, sigma } => (x - mean).abs() / sigma,
+            Self::Gaussian { mean, sigma } => (x - mean).magnitude() / sigma,
         }
     }
 }
@@ -345,24 +373,24 @@ impl<T: Real, const N_IN: usize, const N_SETS: usize, const N_RULES: usize> Grid
         &self.prepared
     }
 
-    /// The sets as trapezoids, if every one is (a sweep's lanes evaluate those), in `S`.
+    /// The sets as trapezoids, if every one is, in `S` (a sweep's lanes take those apart:
+    /// no match per set).
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps need std
-    pub(crate) fn trapezoids<S>(&self, to: impl Fn(T) -> S) -> Option<[[Trapezoid<S>; N_SETS]; N_IN]> {
-        let mut out: [[Option<Trapezoid<S>>; N_SETS]; N_IN] = core::array::from_fn(|_| core::array::from_fn(|_| None));
-        for (row, sets) in out.iter_mut().zip(&self.prepared) {
+    pub(crate) fn trapezoids<S: Copy>(&self, to: impl Fn(T) -> S + Copy) -> Option<[[Trapezoid<S>; N_SETS]; N_IN]> {
+        let mut out = [[None; N_SETS]; N_IN];
+        for (row, sets) in out.iter_mut().zip(self.prepared_in(to)) {
             for (o, p) in row.iter_mut().zip(sets) {
                 let Prepared::Trapezoid(t) = p else { return None };
-                *o = Some(Trapezoid {
-                    a: to(t.a),
-                    b: to(t.b),
-                    c: to(t.c),
-                    d: to(t.d),
-                    inv_rise: to(t.inv_rise),
-                    inv_fall: to(t.inv_fall),
-                });
+                *o = Some(t);
             }
         }
         Some(out.map(|row| row.map(|t| t.expect("every set was filled"))))
+    }
+
+    /// The prepared sets in another number type (a sweep's lanes evaluate those).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps need std
+    pub(crate) fn prepared_in<S>(&self, to: impl Fn(T) -> S + Copy) -> [[Prepared<S>; N_SETS]; N_IN] {
+        self.prepared.map(|row| row.map(|p| p.map(to)))
     }
 }
 

@@ -341,7 +341,7 @@ pub fn run_lane_samples<C: block::LaneLaw + Clone>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::control::fuzzy::FuzzyController;
     use crate::control::lqr::{design, DesignPoint, LqrController};
@@ -371,7 +371,17 @@ mod tests {
         let (lqr, _, _, nominal) = setup(slope);
         let model = SlopeModel::new(nominal.params, slope).unwrap();
         let fuzzy = FuzzyController::thesis_slope(model, 0.005).unwrap();
-        (block::LqrLanes::new(&lqr), lqr, block::FuzzyLanes::new(&fuzzy).unwrap(), fuzzy)
+        (block::LqrLanes::new(&lqr), lqr, block::FuzzyLanes::new(&fuzzy), fuzzy)
+    }
+
+    /// `fuzzy` with sets that are not all trapezoids: Gaussians beside a triangle for the
+    /// pitch, Gaussians alone for its rate (their e^x is the lanes' polynomial on lanes).
+    pub(crate) fn with_gaussians(fuzzy: &FuzzyController<f64>) -> FuzzyController<f64> {
+        use crate::control::fuzzy_basis::{Membership, ThesisBasis};
+        let g = |mean, sigma| Membership::gaussian(mean, sigma).unwrap();
+        let sets = [[g(-0.3, 0.15), Membership::triangle(-0.3, 0.0, 0.3).unwrap(), g(0.3, 0.15)], [g(-1.5, 1.0), g(0.0, 1.0), g(1.5, 1.0)]];
+        let basis = ThesisBasis::new(sets).unwrap();
+        FuzzyController::new(*fuzzy.model(), fuzzy.gains(), fuzzy.adaptation(), basis, fuzzy.period()).unwrap()
     }
 
     /// A law's lanes agree with the general runner to rounding (they fuse multiply-adds),
@@ -425,6 +435,8 @@ mod tests {
         let (lqr_lanes, lqr, fuzzy_lanes, fuzzy) = families(0.2);
         lanes_agree_with_the_runner(&lqr_lanes, &lqr);
         lanes_agree_with_the_runner(&fuzzy_lanes, &fuzzy);
+        let gaussian = with_gaussians(&fuzzy);
+        lanes_agree_with_the_runner(&block::FuzzyLanes::new(&gaussian), &gaussian);
     }
 
     /// Over 10 s a lane stays within 1e-12 of the run of its robot (relative; the worst
@@ -461,9 +473,11 @@ mod tests {
     #[test]
     fn a_lane_agrees_with_the_runner_to_rounding_over_ten_seconds() {
         let (lqr_lanes, lqr, fuzzy_lanes, fuzzy) = families(0.2);
+        let gaussian = with_gaussians(&fuzzy);
         for (family, worst) in [
             ("lqr", within_rounding_over_ten_seconds(&lqr_lanes, &lqr)),
             ("fuzzy", within_rounding_over_ten_seconds(&fuzzy_lanes, &fuzzy)),
+            ("fuzzy, Gaussian sets", within_rounding_over_ten_seconds(&block::FuzzyLanes::new(&gaussian), &gaussian)),
         ] {
             println!("{family}: worst relative difference over 10 s: {worst:e}");
             assert!(worst <= 1e-12, "{family}: worst relative difference {worst:e}");

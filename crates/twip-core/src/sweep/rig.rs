@@ -228,7 +228,7 @@ mod tests {
         use crate::sweep::block::{FuzzyLanes, LqrLanes};
         let (lqr, ..) = setup(5e-3);
         let fuzzy = FuzzyController::thesis_flat(SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap(), 5e-3).unwrap();
-        (LqrLanes::new(&lqr), lqr, FuzzyLanes::new(&fuzzy).unwrap(), fuzzy)
+        (LqrLanes::new(&lqr), lqr, FuzzyLanes::new(&fuzzy), fuzzy)
     }
 
     /// Every part a lane runs whose output is not quantised: over 10 s a lane stays
@@ -248,11 +248,14 @@ mod tests {
             ..Realism::ideal()
         };
         let second = Realism { estimator: TiltEstimator::kalman(), delay: false, friction: Some(Friction::gb37()), ..first };
+        let gaussian = crate::sweep::tests::with_gaussians(&fuzzy);
+        let gaussian_lanes = crate::sweep::block::FuzzyLanes::new(&gaussian);
         for (name, realism) in [("noisy IMU, delay, stick band", first), ("Kalman, slip friction", second)] {
             let lqr_worst = rig_lanes_agree(&lqr_lanes, &lqr, &realism, 10.0);
             let fuzzy_worst = rig_lanes_agree(&fuzzy_lanes, &fuzzy, &realism, 10.0);
-            println!("{name}: worst relative difference over 10 s: LQR {lqr_worst:e}, fuzzy {fuzzy_worst:e}");
-            for worst in [lqr_worst, fuzzy_worst] {
+            let gaussian_worst = rig_lanes_agree(&gaussian_lanes, &gaussian, &realism, 10.0);
+            println!("{name}: worst relative difference over 10 s: LQR {lqr_worst:e}, fuzzy {fuzzy_worst:e}, Gaussian sets {gaussian_worst:e}");
+            for worst in [lqr_worst, fuzzy_worst, gaussian_worst] {
                 assert!(worst <= 1e-12 && worst > 0.0, "{name}: {worst:e}");
             }
         }

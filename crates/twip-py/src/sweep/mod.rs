@@ -19,11 +19,10 @@ use twip_core::sim::runner::SimConfig;
 use twip_core::sweep::lanes::LANES;
 use twip_core::sweep::parallel::{self, Progress};
 use twip_core::sweep::block::FuzzyLanes;
-use twip_core::hardware::realism::Realism;
 use twip_core::sweep::block::LqrLanes;
-use twip_core::sweep::rig::{for_sweep, noise_seed, run_rig_lane_samples, run_rig_sample};
+use twip_core::sweep::rig::{for_sweep, noise_seed, run_rig_lane_samples};
 use twip_core::sweep::{
-    draw, run_lane_samples, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Sample, SampleMetrics, Spread, SweepMetrics,
+    draw, run_lane_samples, run_lqr_samples, Nominal, Perturbation, Sample, Spread, SweepMetrics,
     Target,
 };
 use twip_core::{RobotParams, TwipError};
@@ -289,67 +288,38 @@ pub fn sweep_raw<'py>(
         r.build(&model.inner, config.dt).map_err(PyTwipError)?;
     }
     let schedule = reference.inner;
-    let kernel = kernel_of(&ctrl, nominal_realism.as_ref());
+    let kernel = kernel_of(realism.is_some());
     run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
         // Push and force heights default to each sample's own centre of mass.
         let realism_of = |p: &RobotParams<f64>| realism.as_ref().expect("realism given").to_core(p).map(|r| for_sweep(&r, seed));
-        match (&realism, ctrl) {
-            (Some(_), SlopeController::Lqr(c)) if kernel == "realism-lanes" => {
-                run_rig_lane_samples(&LqrLanes::new(&c), &schedule, &config, &nominal, &perts, seed, range, &realism_of, stop).ok().flatten()
-            }
-            (Some(_), SlopeController::Fuzzy(c)) if kernel == "realism-lanes" => {
-                let law = FuzzyLanes::new(&c).expect("kernel_of checked it");
-                run_rig_lane_samples(&law, &schedule, &config, &nominal, &perts, seed, range, &realism_of, stop).ok().flatten()
-            }
-            (Some(_), c) => range
-                .map(|i| {
-                    let sample = draw(&nominal, &perts, seed, i);
-                    match realism_of(&sample.params) {
-                        Ok(rig) => run_rig_sample(&c, &schedule, &config, &sample, &rig, stop),
-                        Err(_) => Some(SampleMetrics::INVALID),
-                    }
-                })
-                .collect(),
-            (None, SlopeController::Lqr(c)) => {
-                run_lqr_samples(&c, &schedule, &config, &nominal, &perts, seed, range, stop).ok().flatten()
-            }
-            (None, SlopeController::Fuzzy(c)) if FuzzyLanes::new(&c).is_some() => {
-                let law = FuzzyLanes::new(&c).expect("checked just above");
-                run_lane_samples(&law, &schedule, &config, &nominal, &perts, seed, range, stop).ok().flatten()
-            }
-            (None, other) => range
-                .map(|i| run_slope_sample(&other, &schedule, &config, &draw(&nominal, &perts, seed, i), stop))
-                .collect(),
-        }
+        let run = match (&realism, ctrl) {
+            (Some(_), SlopeController::Lqr(c)) => run_rig_lane_samples(&LqrLanes::new(&c), &schedule, &config, &nominal, &perts, seed, range, &realism_of, stop),
+            (Some(_), SlopeController::Fuzzy(c)) => run_rig_lane_samples(&FuzzyLanes::new(&c), &schedule, &config, &nominal, &perts, seed, range, &realism_of, stop),
+            (None, SlopeController::Lqr(c)) => run_lqr_samples(&c, &schedule, &config, &nominal, &perts, seed, range, stop),
+            (None, SlopeController::Fuzzy(c)) => run_lane_samples(&FuzzyLanes::new(&c), &schedule, &config, &nominal, &perts, seed, range, stop),
+        };
+        run.ok().flatten()
     })
 }
 
-/// The kernel a sweep of this 2-DOF controller runs on: "lanes" (LQR, and fuzzy with
-/// trapezoid sets: vectorised), "realism-lanes" (the same laws through any rig), "realism"
-/// (another law through a rig) or "general".
-fn kernel_of(ctrl: &SlopeController, realism: Option<&Realism<f64>>) -> &'static str {
-    let on_lanes = match ctrl {
-        SlopeController::Lqr(_) => true,
-        SlopeController::Fuzzy(c) => FuzzyLanes::new(c).is_some(),
-    };
-    match realism {
-        Some(_) if on_lanes => "realism-lanes",
-        Some(_) => "realism",
-        None if on_lanes => "lanes",
-        None => "general",
+/// The kernel a 2-DOF sweep runs on: every built-in law (LQR, fuzzy with any sets) is on
+/// lanes, "lanes" without a rig and "realism-lanes" through one.
+fn kernel_of(through_rig: bool) -> &'static str {
+    if through_rig {
+        "realism-lanes"
+    } else {
+        "lanes"
     }
 }
 
 /// The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),
-/// with `realism` (a `twip.Realism`) or without (None): "lanes", "general",
-/// "realism-lanes", "realism", "planar-lanes", "planar" or "planar-realism".
+/// with `realism` (a `twip.Realism`) or without (None): "lanes", "realism-lanes",
+/// "planar-lanes", "planar" or "planar-realism".
 #[pyfunction]
 #[pyo3(signature = (controller, realism = None))]
 pub fn sweep_kernel(controller: &Bound<'_, PyAny>, realism: Option<&PyRealism>) -> PyResult<&'static str> {
-    if let Ok(ctrl) = SlopeController::extract(controller) {
-        // Pushes and force heights aside (rigs with them are not on lanes), any robot's.
-        let core = realism.map(|r| r.to_core(&twip_core::RobotParams::balanbot())).transpose().map_err(PyTwipError)?;
-        return Ok(kernel_of(&ctrl, core.as_ref()));
+    if SlopeController::extract(controller).is_ok() {
+        return Ok(kernel_of(realism.is_some()));
     }
     let ctrl = crate::sim::simulate_planar::PlanarController::extract(controller)?;
     Ok(crate::sweep::planar::kernel_of(&ctrl, realism.is_some()))

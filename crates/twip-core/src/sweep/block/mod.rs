@@ -539,6 +539,7 @@ mod tests {
         let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 0.005).unwrap();
         same_bits_on_every_copy(LqrLanes::new(&ctrl));
         let fuzzy = FuzzyController::thesis_slope(model, 0.005).unwrap();
-        same_bits_on_every_copy(FuzzyLanes::new(&fuzzy).expect("the thesis's sets are trapezoids"));
+        same_bits_on_every_copy(FuzzyLanes::new(&fuzzy));
+        same_bits_on_every_copy(FuzzyLanes::new(&crate::sweep::tests::with_gaussians(&fuzzy)));
     }
 }
