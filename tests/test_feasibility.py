@@ -46,7 +46,7 @@ def test_a_run_above_the_stall_current_carries_a_warning(capsys):
 
 def test_sweeps_keep_the_peaks_and_count_samples_above_stall():
     perturb = {"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05)}
-    for name in ("flat-lqr-sim", "flat-fuzzy-sim"):  # the lane kernel and the general runner
+    for name in ("flat-lqr-sim", "flat-fuzzy-sim"):  # the LQR and fuzzy laws on lanes
         s = twip.montecarlo(name, 16, perturb=perturb, seed=2, progress=False, stall_current=0.2)
         rerun = s.replay(3)
         assert s.metrics["peak_current"][3] == pytest.approx(rerun.metrics["peak_current"], rel=1e-9)
