@@ -25,6 +25,15 @@ pub fn replaced<'py, T: pyo3::PyClass>(
     slf.as_any().get_type().call((), Some(&current))
 }
 
+/// `(type(x).from_dict, (settings,))`: how a settings class pickles, so that unpickling
+/// goes through the constructor's validation like any other `from_dict`.
+pub fn reduced<'py, T: pyo3::PyClass>(
+    slf: &Bound<'py, T>,
+    settings: Bound<'py, PyDict>,
+) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+    Ok((slf.as_any().get_type().getattr("from_dict")?, (settings,)))
+}
+
 /// Named numbers, given to Python as a dict in their order (gain tables and the like).
 pub struct NamedFloats(pub &'static [&'static str], pub Vec<f64>);
 
@@ -51,7 +60,9 @@ pub fn to_py<'py, V: IntoPyObject<'py>>(py: Python<'py>, v: V) -> PyResult<Bound
 ///
 /// `settings { name: Type = |s| expr; ... }` are the constructor's keyword arguments: each
 /// gets a getter and goes into `to_dict()`, so `from_dict(x.to_dict())`, `replace(**changes)`
-/// (which calls the constructor, so every change is validated) and `__repr__` follow.
+/// (which calls the constructor, so every change is validated), `__repr__` and pickling
+/// (`__reduce__`: `from_dict(to_dict())`) follow. A getter must give back exactly what the
+/// constructor was given (floats bit for bit), so that the copy behaves as the original.
 /// `derived { ... }` are read-only getters computed from them (not in `to_dict`).
 /// Needs pyo3's `multiple-pymethods`: the class keeps its own `#[pymethods]` block.
 macro_rules! settings_class {
@@ -104,6 +115,13 @@ macro_rules! settings_class {
                 changes: Option<&pyo3::Bound<'py, pyo3::types::PyDict>>,
             ) -> pyo3::PyResult<pyo3::Bound<'py, pyo3::PyAny>> {
                 $crate::settings::replaced(slf, slf.get().to_dict(slf.py())?, changes)
+            }
+
+            /// Pickled (and copied) as `from_dict(to_dict())`.
+            fn __reduce__<'py>(
+                slf: &pyo3::Bound<'py, Self>,
+            ) -> pyo3::PyResult<(pyo3::Bound<'py, pyo3::PyAny>, (pyo3::Bound<'py, pyo3::types::PyDict>,))> {
+                $crate::settings::reduced(slf, slf.get().to_dict(slf.py())?)
             }
 
             fn __repr__(&self, py: pyo3::Python<'_>) -> pyo3::PyResult<String> {

@@ -1,6 +1,6 @@
 //! `twip.RobotParams`: a frozen, validated view of `twip_core::RobotParams<f64>`.
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::PyDict;
 use twip_core::model::params::FIELD_NAMES;
 use twip_core::RobotParams;
 
@@ -124,11 +124,8 @@ impl PyRobotParams {
         Ok(())
     }
 
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
-        let py = slf.py();
-        let ctor = py.get_type::<Self>().getattr("from_dict")?;
-        let args = PyTuple::new(py, [slf.borrow().to_dict(py)?])?;
-        Ok((ctor, args))
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+        crate::settings::reduced(slf, slf.get().to_dict(slf.py())?)
     }
 }
 
