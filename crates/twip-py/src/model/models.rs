@@ -44,10 +44,11 @@ impl PySlopeModel {
         self.inner.slope()
     }
 
-    /// Pickled as SlopeModel(params, slope) (sweeps copy Python controllers holding one).
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (PyRobotParams, f64))> {
-        let me = slf.borrow();
-        Ok((slf.get_type().into_any(), (me.params(), me.slope())))
+    /// Pickled as SlopeModel(params, slope, friction) (sweeps copy Python controllers holding one).
+    #[allow(clippy::type_complexity)]
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyAny>, (PyRobotParams, f64, Option<PyFriction>)) {
+        let me = slf.get();
+        (slf.get_type().into_any(), (me.params(), me.slope(), me.friction()))
     }
 
     fn deriv<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, u: &Bound<'py, PyAny>) -> PyResult<Arr1<'py>> {
@@ -121,9 +122,10 @@ impl PyPlanarModel {
         PyRobotParams { inner: *self.inner.params() }
     }
 
-    /// Pickled as PlanarModel(params).
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (PyRobotParams,))> {
-        Ok((slf.get_type().into_any(), (slf.borrow().params(),)))
+    /// Pickled as PlanarModel(params, friction).
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyAny>, (PyRobotParams, Option<PyFriction>)) {
+        let me = slf.get();
+        (slf.get_type().into_any(), (me.params(), me.friction()))
     }
 
     fn deriv<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, u: &Bound<'py, PyAny>) -> PyResult<Arr1<'py>> {
