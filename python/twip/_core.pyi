@@ -243,7 +243,10 @@ class SpeedSchedule:
 
 @final
 class LqrController:
-    """LQR with integral action on the wheel speed (thesis 4.24)."""
+    """LQR with integral action on the wheel speed (thesis 4.24). A controller holds no run
+    state (each run starts its integral z at zero): a pickled copy has the same gains, model,
+    point and period, and `design_info` too.
+    """
     def __new__(cls, model: SlopeModel, gains: _ArrayLike, point: str = "operating", period: float = 0.005) -> LqrController: ...
     @staticmethod
     def design(model: SlopeModel, theta_dot_ref: float, Q: _ArrayLike, R: float, point: str = "operating",
@@ -329,7 +332,8 @@ class FuzzyController:
     errata F1-F8): u = -(1/G1)[e1 + S^T xi + k1 phi_dot + (1/2 + k2) z2] + kp e + kd e_dot
     + ki int(e), S' = z2 xi / gamma - sigma S. `model` is the controller's own model (phi_s
     and G1); `sets` the (phi, phi_dot) x (N, Z, P) sets (a 2 x 3 FuzzyBasis or nested list);
-    `adapt=False` freezes S at `s0` (default zeros).
+    `adapt=False` freezes S at `s0` (default zeros). A pickle or copy keeps these settings,
+    `s0` included; the weights S adapt inside each run (from `s0`), not in the controller.
     """
     def __new__(cls, model: SlopeModel, k1: float, k2: float, kp: float, kd: float, gamma: float = ...,
                 sigma: float = ..., ki: float = 0.0, adapt: bool = True, sets: Any = None, period: float = 0.005,
@@ -511,6 +515,8 @@ class PidTracker:
     """The PID tracker (4.64-4.70) in the Arduino's units: outputs PWM counts, turned into
     wheel torques by `motor` at the measured wheel speeds. `gains` (dict, over Table 4.1's)
     and `units` ("arduino", "si" or a dict of pitch, speed, heading, integral_step).
+    A tracker holds no run state (each run starts its integrators at zero), so a pickled
+    copy is the same tracker.
     """
     def __new__(cls, params: RobotParams, gains: Any = None, units: Any = None, motor: Optional[DcMotor] = None,
                 period: float = 0.005) -> PidTracker: ...
@@ -529,7 +535,9 @@ class SmcTracker:
     adaptive form (4.99-4.121). `gains` (dict, SI) override the published ones, whose
     torque gains (k_s3, k_s4, g_y4) are read in `torque_unit`; `boundary_layer` is the
     width of sat(S/w) for (S_eta, S1), one number for both, 0 for sgn; `pitch` is
-    "backward" (the reading under which the published r1, r2 work) or "forward".
+    "backward" (the reading under which the published r1, r2 work) or "forward". A pickle
+    or copy keeps these settings; the fuzzy weights adapt inside each run (from zeros), not
+    in the tracker.
     """
     def __new__(cls, model: PlanarModel, fuzzy: bool = False, boundary_layer: Any = None, gains: Any = None,
                 torque_unit: Any = None, pitch: str = "backward", guards: Any = ..., gamma: Any = ...,

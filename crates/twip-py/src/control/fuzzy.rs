@@ -260,6 +260,12 @@ impl PyFuzzyBasis {
         Self { sets: ThesisBasis::<f64>::default().sets().iter().map(|r| r.to_vec()).collect() }
     }
 
+    /// Pickled as FuzzyBasis(sets).
+    #[allow(clippy::type_complexity)]
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (Vec<Vec<Bound<'py, PyAny>>>,))> {
+        Ok((slf.get_type().into_any(), (slf.get().sets(slf.py())?,)))
+    }
+
     #[getter]
     fn n_inputs(&self) -> usize {
         self.sets.len()
@@ -337,7 +343,8 @@ fn thesis_basis(sets: Option<&Bound<'_, PyAny>>) -> PyResult<ThesisBasis<f64>> {
 /// errata F1-F8): u = -(1/G1)[e1 + S^T xi + k1 phi_dot + (1/2 + k2) z2] + kp e + kd e_dot
 /// + ki int(e), S' = z2 xi / gamma - sigma S. `model` is the controller's own model (phi_s
 /// and G1); `sets` the (phi, phi_dot) x (N, Z, P) sets (a 2 x 3 FuzzyBasis or nested list);
-/// `adapt=False` freezes S at `s0` (default zeros).
+/// `adapt=False` freezes S at `s0` (default zeros). A pickle or copy keeps these settings,
+/// `s0` included; the weights S adapt inside each run (from `s0`), not in the controller.
 #[pyclass(name = "FuzzyController", module = "twip", frozen)]
 pub struct PyFuzzyController {
     pub inner: FuzzyController<f64>,

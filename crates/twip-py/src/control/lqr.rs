@@ -1,4 +1,6 @@
 //! `twip.LqrController`: LQR with integral action (thesis 4.24) and its design.
+use std::sync::OnceLock;
+
 use nalgebra::Matrix4;
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
@@ -26,12 +28,14 @@ fn point_name(p: DesignPoint) -> &'static str {
     }
 }
 
-/// LQR with integral action on the wheel speed (thesis 4.24).
+/// LQR with integral action on the wheel speed (thesis 4.24). A controller holds no run
+/// state (each run starts its integral z at zero): a pickled copy has the same gains, model,
+/// point and period, and `design_info` too.
 #[pyclass(name = "LqrController", module = "twip", frozen)]
 pub struct PyLqrController {
     pub inner: LqrController<f64>,
-    /// Design details when built by `design` (Â, B̂, P̂, poles).
-    info: Option<Py<PyDict>>,
+    /// Design details when built by `design` (Â, B̂, P̂, poles), or set once by unpickling.
+    info: OnceLock<Py<PyDict>>,
 }
 
 #[pymethods]
@@ -47,7 +51,7 @@ impl PyLqrController {
         let g = gain_row::<4>("gains", gains)?;
         let inner = LqrController::new([g[0], g[1], g[2], g[3]], model.inner, design_point(point)?, period)
             .map_err(PyTwipError)?;
-        Ok(Self { inner, info: None })
+        Ok(Self { inner, info: OnceLock::new() })
     }
 
     /// Designs K̂ by LQR on the augmented system (4.17)-(4.23) at `theta_dot_ref`.
@@ -97,7 +101,7 @@ impl PyLqrController {
         info.set_item("u_s", d.u_s)?;
         info.set_item("theta_dot_ref", theta_dot_ref)?;
         let inner = LqrController::new(d.gains, model.inner, p, period).map_err(PyTwipError)?;
-        Ok(Self { inner, info: Some(info.unbind()) })
+        Ok(Self { inner, info: OnceLock::from(info.unbind()) })
     }
 
     /// K̂ = [k_phi, k_phi_dot, k_theta_dot, k_z].
@@ -125,12 +129,30 @@ impl PyLqrController {
     /// The design's Â, B̂, X (P̂), poles, phi_s, u_s (None if the gains were given).
     #[getter]
     fn design_info(&self, py: Python<'_>) -> Option<Py<PyDict>> {
-        self.info.as_ref().map(|d| d.clone_ref(py))
+        self.info.get().map(|d| d.clone_ref(py))
     }
 
     /// The steady state (phi_s, u_s) the controller aims for at a reference speed.
     fn steady_state(&self, theta_dot_ref: f64) -> CoreResult<(f64, f64)> {
         Ok(self.inner.steady_state(theta_dot_ref)?)
+    }
+
+    /// Pickled as LqrController(model, gains, point, period), then `design_info` as its state.
+    #[allow(clippy::type_complexity)]
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+    ) -> (Bound<'py, PyAny>, (PySlopeModel, Bound<'py, PyArray1<f64>>, &'static str, f64), Option<Py<PyDict>>) {
+        let (me, py) = (slf.get(), slf.py());
+        let args = (me.model(), me.gains(py), me.point(), me.period());
+        (slf.get_type().into_any(), args, me.design_info(py))
+    }
+
+    /// Restores `design_info` when unpickling; refused on a controller that has one.
+    fn __setstate__(&self, info: Option<Py<PyDict>>) -> PyResult<()> {
+        let Some(info) = info else { return Ok(()) };
+        self.info.set(info).map_err(|_| {
+            crate::errors::InvalidParameterError::new_err("__setstate__: this LqrController already has its design_info")
+        })
     }
 
     fn __repr__(&self) -> String {

@@ -50,6 +50,11 @@ impl PySpeedSchedule {
         self.inner.legs().iter().map(|l| (l.goal, l.speed, l.hold)).collect()
     }
 
+    /// Pickled as SpeedSchedule(legs).
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyAny>, (Vec<(f64, f64, f64)>,)) {
+        (slf.get_type().into_any(), (slf.get().legs(),))
+    }
+
     /// (theta_ref, theta_dot_ref) at time t.
     fn sample(&self, t: f64) -> (f64, f64) {
         let s = self.inner.sample(t);

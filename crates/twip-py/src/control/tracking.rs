@@ -6,6 +6,7 @@ use twip_core::control::Controller;
 use twip_core::hardware::motor::DcMotor;
 use twip_core::control::pid::{PidGains, PidTracker, PidUnits};
 use twip_core::control::smc::{Adaptation, PitchSign, SmcGains, SmcOptions, SmcTracker};
+use twip_core::RobotParams;
 
 use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::models::PyPlanarModel;
@@ -43,10 +44,14 @@ fn pid_gains_array(g: &PidGains<f64>) -> [f64; 7] {
 /// The PID tracker (4.64-4.70) in the Arduino's units: outputs PWM counts, turned into
 /// wheel torques by `motor` at the measured wheel speeds. `gains` (dict, over Table 4.1's)
 /// and `units` ("arduino", "si" or a dict of pitch, speed, heading, integral_step).
+/// A tracker holds no run state (each run starts its integrators at zero), so a pickled
+/// copy is the same tracker.
 #[pyclass(name = "PidTracker", module = "twip", frozen)]
 #[derive(Clone)]
 pub struct PyPidTracker {
     pub inner: PidTracker<f64>,
+    /// The robot it was built for (it keeps the wheel radius and half track), for pickling.
+    params: RobotParams<f64>,
 }
 
 #[pymethods]
@@ -88,15 +93,15 @@ impl PyPidTracker {
             }
         };
         let inner = PidTracker::new(gains, units, motor_or_default(motor), &params.inner, period).map_err(PyTwipError)?;
-        Ok(Self { inner })
+        Ok(Self { inner, params: params.inner })
     }
 
     /// Table 4.1's gains as published, in twip's reading of the Arduino's units.
     #[staticmethod]
     #[pyo3(signature = (params = None, motor = None, period = 0.005))]
     fn table_4_1(params: Option<&PyRobotParams>, motor: Option<&PyDcMotor>, period: f64) -> CoreResult<Self> {
-        let p = params.map(|p| p.inner).unwrap_or_else(twip_core::RobotParams::balanbot);
-        Ok(Self { inner: PidTracker::table_4_1(&p, motor_or_default(motor), period)? })
+        let p = params.map(|p| p.inner).unwrap_or_else(RobotParams::balanbot);
+        Ok(Self { inner: PidTracker::table_4_1(&p, motor_or_default(motor), period)?, params: p })
     }
 
     /// The gains (Table 4.1's names), in the tracker's units.
@@ -120,6 +125,14 @@ impl PyPidTracker {
     #[getter]
     fn period(&self) -> f64 {
         self.inner.period()
+    }
+
+    /// Pickled as PidTracker(params, gains, units, motor, period), the units as a dict.
+    #[allow(clippy::type_complexity)]
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyAny>, (PyRobotParams, NamedFloats, NamedFloats, PyDcMotor, f64)) {
+        let me = slf.get();
+        let args = (PyRobotParams { inner: me.params }, me.gains(), me.units(), me.motor(), me.period());
+        (slf.get_type().into_any(), args)
     }
 
     fn __repr__(&self) -> String {
@@ -183,7 +196,9 @@ fn pair(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
 /// adaptive form (4.99-4.121). `gains` (dict, SI) override the published ones, whose
 /// torque gains (k_s3, k_s4, g_y4) are read in `torque_unit`; `boundary_layer` is the
 /// width of sat(S/w) for (S_eta, S1), one number for both, 0 for sgn; `pitch` is
-/// "backward" (the reading under which the published r1, r2 work) or "forward".
+/// "backward" (the reading under which the published r1, r2 work) or "forward". A pickle
+/// or copy keeps these settings; the fuzzy weights adapt inside each run (from zeros), not
+/// in the tracker.
 #[pyclass(name = "SmcTracker", module = "twip", frozen)]
 #[derive(Clone)]
 pub struct PySmcTracker {

@@ -243,6 +243,13 @@ impl PyTiltEstimator {
         Ok(d)
     }
 
+    /// Pickled as TiltEstimator.complementary(...) or .kalman(...) with its parameters.
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        let me = slf.get();
+        let ctor = slf.get_type().getattr(me.kind())?;
+        Ok((ctor, me.parameters(slf.py())?.values().to_tuple()))
+    }
+
     /// Runs the estimator over IMU readings taken every `dt` [s]: specific force along
     /// the sensor's x and z [m/s^2] and pitch rate [rad/s]. Returns (phi_hat, phi_dot_hat).
     #[allow(clippy::type_complexity)]
