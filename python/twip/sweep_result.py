@@ -20,7 +20,8 @@ _bad = _core.InvalidParameterError
 class SweepResult:
     """Per-sample metrics (arrays of length n) and how they were made. `metric_names`:
     "fell", "t_end", then the family's metrics (those of `twip.simulate` on the model), as
-    the core reports them."""
+    the core reports them. It pickles (a process pool may return it, joblib may cache it)
+    with its scenario and realism, so `replay` and `rerun` work on the copy."""
 
     metrics: Dict[str, np.ndarray]
     steps: int
