@@ -25,12 +25,15 @@ pub fn replaced<'py, T: pyo3::PyClass>(
     slf.as_any().get_type().call((), Some(&current))
 }
 
+/// What `__reduce__` returns: the callable that rebuilds the object, and its arguments.
+pub type Reduced<'py, Args> = (Bound<'py, PyAny>, Args);
+
 /// `(type(x).from_dict, (settings,))`: how a settings class pickles, so that unpickling
 /// goes through the constructor's validation like any other `from_dict`.
 pub fn reduced<'py, T: pyo3::PyClass>(
     slf: &Bound<'py, T>,
     settings: Bound<'py, PyDict>,
-) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+) -> PyResult<Reduced<'py, (Bound<'py, PyDict>,)>> {
     Ok((slf.as_any().get_type().getattr("from_dict")?, (settings,)))
 }
 
@@ -120,7 +123,7 @@ macro_rules! settings_class {
             /// Pickled (and copied) as `from_dict(to_dict())`.
             fn __reduce__<'py>(
                 slf: &pyo3::Bound<'py, Self>,
-            ) -> pyo3::PyResult<(pyo3::Bound<'py, pyo3::PyAny>, (pyo3::Bound<'py, pyo3::types::PyDict>,))> {
+            ) -> pyo3::PyResult<$crate::settings::Reduced<'py, (pyo3::Bound<'py, pyo3::types::PyDict>,)>> {
                 $crate::settings::reduced(slf, slf.get().to_dict(slf.py())?)
             }
 

@@ -9,6 +9,7 @@ use twip_core::TwipError;
 use crate::convert::vector;
 use crate::errors::{CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::models::PySlopeModel;
+use crate::settings::Reduced;
 
 /// A core error with the object it came from in front of its message.
 fn in_context(e: TwipError, what: impl core::fmt::Display) -> PyErr {
@@ -220,6 +221,9 @@ fn sets_of(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vec<Membership<f64>>>> {
     Ok(out)
 }
 
+/// A basis's sets as Python objects, per input.
+type SetObjects<'py> = Vec<Vec<Bound<'py, PyAny>>>;
+
 /// The normalised fuzzy basis xi of (4.29) over a grid rule base: one rule per
 /// combination of one set per input, product inference, rules in row-major order (the
 /// last input varies fastest, as in (4.39)). xi is non-negative and sums to 1 everywhere;
@@ -261,8 +265,7 @@ impl PyFuzzyBasis {
     }
 
     /// Pickled as FuzzyBasis(sets).
-    #[allow(clippy::type_complexity)]
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (Vec<Vec<Bound<'py, PyAny>>>,))> {
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<Reduced<'py, (SetObjects<'py>,)>> {
         Ok((slf.get_type().into_any(), (slf.get().sets(slf.py())?,)))
     }
 
@@ -277,7 +280,7 @@ impl PyFuzzyBasis {
     }
 
     #[getter]
-    fn sets<'py>(&self, py: Python<'py>) -> PyResult<Vec<Vec<Bound<'py, PyAny>>>> {
+    fn sets<'py>(&self, py: Python<'py>) -> PyResult<SetObjects<'py>> {
         self.sets.iter().map(|row| row.iter().map(|m| membership_to_py(py, *m)).collect()).collect()
     }
 

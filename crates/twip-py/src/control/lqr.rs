@@ -28,6 +28,9 @@ fn point_name(p: DesignPoint) -> &'static str {
     }
 }
 
+/// The constructor's arguments (model, gains, point, period), as pickled.
+type LqrArgs<'py> = (PySlopeModel, Bound<'py, PyArray1<f64>>, &'static str, f64);
+
 /// LQR with integral action on the wheel speed (thesis 4.24). A controller holds no run
 /// state (each run starts its integral z at zero): a pickled copy has the same gains, model,
 /// point and period, and `design_info` too.
@@ -138,10 +141,7 @@ impl PyLqrController {
     }
 
     /// Pickled as LqrController(model, gains, point, period), then `design_info` as its state.
-    #[allow(clippy::type_complexity)]
-    fn __reduce__<'py>(
-        slf: &Bound<'py, Self>,
-    ) -> (Bound<'py, PyAny>, (PySlopeModel, Bound<'py, PyArray1<f64>>, &'static str, f64), Option<Py<PyDict>>) {
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyAny>, LqrArgs<'py>, Option<Py<PyDict>>) {
         let (me, py) = (slf.get(), slf.py());
         let args = (me.model(), me.gains(py), me.point(), me.period());
         (slf.get_type().into_any(), args, me.design_info(py))

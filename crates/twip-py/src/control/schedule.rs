@@ -6,6 +6,7 @@ use twip_core::TwipError;
 
 use crate::convert::scalar;
 use crate::errors::CoreResult;
+use crate::settings::Reduced;
 /// A wheel schedule from theta = 0: legs of (goal [rad], speed [rad/s] > 0, hold [s]).
 #[pyclass(name = "SpeedSchedule", module = "twip", frozen)]
 #[derive(Clone)]
@@ -51,7 +52,7 @@ impl PySpeedSchedule {
     }
 
     /// Pickled as SpeedSchedule(legs).
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyAny>, (Vec<(f64, f64, f64)>,)) {
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> Reduced<'py, (Vec<(f64, f64, f64)>,)> {
         (slf.get_type().into_any(), (slf.get().legs(),))
     }
 

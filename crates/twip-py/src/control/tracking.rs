@@ -12,7 +12,7 @@ use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::models::PyPlanarModel;
 use crate::model::params::PyRobotParams;
 use crate::hardware::motor::{motor_or_default, PyDcMotor};
-use crate::settings::NamedFloats;
+use crate::settings::{NamedFloats, Reduced};
 
 
 // --- PID ---------------------------------------------------------------------------------------
@@ -128,8 +128,7 @@ impl PyPidTracker {
     }
 
     /// Pickled as PidTracker(params, gains, units, motor, period), the units as a dict.
-    #[allow(clippy::type_complexity)]
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyAny>, (PyRobotParams, NamedFloats, NamedFloats, PyDcMotor, f64)) {
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> Reduced<'py, (PyRobotParams, NamedFloats, NamedFloats, PyDcMotor, f64)> {
         let me = slf.get();
         let args = (PyRobotParams { inner: me.params }, me.gains(), me.units(), me.motor(), me.period());
         (slf.get_type().into_any(), args)

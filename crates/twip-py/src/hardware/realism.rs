@@ -15,6 +15,7 @@ use twip_core::{RobotParams, TwipError};
 
 use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::params::PyRobotParams;
+use crate::settings::Reduced;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 
@@ -244,7 +245,7 @@ impl PyTiltEstimator {
     }
 
     /// Pickled as TiltEstimator.complementary(...) or .kalman(...) with its parameters.
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<Reduced<'py, Bound<'py, PyTuple>>> {
         let me = slf.get();
         let ctor = slf.get_type().getattr(me.kind())?;
         Ok((ctor, me.parameters(slf.py())?.values().to_tuple()))

@@ -8,6 +8,7 @@ use crate::convert::{input, scalar, to_py_matrix, to_py_vector, vector};
 use crate::errors::CoreResult;
 use crate::model::friction::PyFriction;
 use crate::model::params::PyRobotParams;
+use crate::settings::Reduced;
 
 /// The 2-DOF model on a slope; state [phi, phi_dot, theta, theta_dot], input current u [A].
 #[pyclass(name = "SlopeModel", module = "twip", frozen)]
@@ -45,8 +46,7 @@ impl PySlopeModel {
     }
 
     /// Pickled as SlopeModel(params, slope, friction) (sweeps copy Python controllers holding one).
-    #[allow(clippy::type_complexity)]
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyAny>, (PyRobotParams, f64, Option<PyFriction>)) {
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> Reduced<'py, (PyRobotParams, f64, Option<PyFriction>)> {
         let me = slf.get();
         (slf.get_type().into_any(), (me.params(), me.slope(), me.friction()))
     }
@@ -123,7 +123,7 @@ impl PyPlanarModel {
     }
 
     /// Pickled as PlanarModel(params, friction).
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyAny>, (PyRobotParams, Option<PyFriction>)) {
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> Reduced<'py, (PyRobotParams, Option<PyFriction>)> {
         let me = slf.get();
         (slf.get_type().into_any(), (me.params(), me.friction()))
     }

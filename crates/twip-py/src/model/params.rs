@@ -5,6 +5,7 @@ use twip_core::model::params::FIELD_NAMES;
 use twip_core::RobotParams;
 
 use crate::errors::{CoreResult, InvalidParameterError};
+use crate::settings::Reduced;
 
 /// `params` as a dict, field name to value (`RobotParams.to_dict`, a sweep sample's robot).
 pub(crate) fn params_dict<'py>(py: Python<'py>, params: &RobotParams<f64>) -> PyResult<Bound<'py, PyDict>> {
@@ -124,7 +125,7 @@ impl PyRobotParams {
         Ok(())
     }
 
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyDict>,))> {
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<Reduced<'py, (Bound<'py, PyDict>,)>> {
         crate::settings::reduced(slf, slf.get().to_dict(slf.py())?)
     }
 }
