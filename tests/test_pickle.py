@@ -326,3 +326,21 @@ def test_sweep_result_comes_back_from_a_process_pool():
     assert bits(remote.rerun(3)) == bits(local.rerun(3))
     assert bits(remote.replay(3).states) == bits(local.replay(3).states)
     assert bits(run.states) == bits(sc.run(realism=twip.Realism.thesis_like()).states)
+
+
+def test_streamed_sweep_result_pickles_as_a_reader_of_its_checkpoint(tmp_path):
+    """A sweep too large for memory pickles as its checkpoint folder's reader: the copy
+    reads the same shards while the folder is there."""
+    from twip import sweep as tsweep
+
+    twip.set_memory_budget(40 * tsweep.BYTES_PER_SAMPLE - 1)  # the metrics no longer fit
+    try:
+        streamed = twip.montecarlo("flat-lqr-sim", 40, perturb={"m_body": twip.Uniform(rel=0.2)},
+                                   options={"t_final": 0.5}, progress=False, checkpoint=tmp_path, shard_size=16)
+    finally:
+        twip.set_memory_budget(None)
+    twin = pickle.loads(pickle.dumps(streamed))
+    assert isinstance(twin, tsweep.StreamedSweepResult)
+    assert repr(twin) == repr(streamed)
+    assert bits([dict(p) for p in twin.shards()]) == bits([dict(p) for p in streamed.shards()])
+    assert bits(twin.rerun(5)) == bits(streamed.rerun(5))
