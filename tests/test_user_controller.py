@@ -224,3 +224,17 @@ def test_ctrl_c_stops_a_python_controller_sweep_and_it_resumes(tmp_path):
     kept = int(out.split()[1])
     assert 0 < kept < 4000
     assert len(list((tmp_path / "ck").glob("shard-*.npz"))) >= kept // 50
+
+
+def test_a_sweep_runs_a_python_controller_whose_own_model_has_friction_as_given():
+    """Each sample runs a copy of the controller unpickled in a worker: the copy's own model
+    keeps its gearhead friction (pickling a SlopeModel once dropped it, so every sample's
+    controller aimed at the frictionless steady state and no sample matched its replay)."""
+    sc = scenarios.get("flat-lqr-sim", t_final=1.0)
+    rough = twip.SlopeModel(sc.model.params, sc.model.slope, twip.Friction.gb37())
+    assert rough.equilibrium(3.0)[1] != sc.model.equilibrium(3.0)[1], "friction moves the steady input"
+    mine = sc.replace(controller=PythonLqr(rough, sc.controller.gains, sc.controller.period))
+    r = twip.montecarlo(mine, 4, perturb={"m_body": twip.Uniform(rel=0.2)}, seed=2, progress=False, threads=2)
+    assert r.kernel == "python"
+    for i in range(4):
+        assert r.replay(i).metrics["mean_abs_speed_error"] == r.metrics["mean_abs_speed_error"][i], i
