@@ -121,6 +121,19 @@ def test_fuzzy_sets_of_any_kind_run_on_lanes_deterministically_and_replay_to_rou
         assert a.replay(i).metrics["mean_abs_pitch_error"] == pytest.approx(a.metrics["mean_abs_pitch_error"][i], rel=1e-11)
 
 
+def test_narrow_gaussians_far_out_fall_back_to_the_nearest_set_in_a_run_as_on_lanes():
+    """With narrow Gaussians the memberships far out are subnormal: a run's 1/sum overflowed
+    and made xi NaN, so the replay of sample 1 diverged where its lane (whose e^x flushes
+    those to 0) stayed up. Both now take the nearest set alone."""
+    narrow = [[twip.Gaussian(-0.3, 0.01), twip.Gaussian(0.0, 0.01), twip.Gaussian(0.3, 0.01)],
+              [twip.Gaussian(-2.0, 0.1), twip.Gaussian(0.0, 0.1), twip.Gaussian(2.0, 0.1)]]
+    sc = scenarios.get("flat-fuzzy-sim", t_final=3.0, sets=narrow)
+    r = twip.montecarlo(sc, 2, perturb={"phi0": twip.Uniform(low=-0.6, high=0.6)}, seed=4, progress=False)
+    alone = r.replay(1)
+    assert alone.outcome == "completed" and not r.metrics["fell"][1]
+    assert alone.metrics["mean_abs_pitch_error"] == pytest.approx(r.metrics["mean_abs_pitch_error"][1], rel=1e-9)
+
+
 def test_a_robot_that_certainly_falls_has_fall_rate_one():
     r = sweep(perturb={"phi0": twip.Uniform(low=1.2, high=1.4)})
     assert r.fall_rate == 1.0

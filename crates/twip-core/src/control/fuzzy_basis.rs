@@ -7,8 +7,9 @@
 //! memberships normalised on their own: that is how it is computed here (fewer
 //! operations, and no underflow of D when many small memberships multiply).
 //!
-//! **When no rule fires** (D = 0: some input lies where none of its sets is non-zero),
-//! that input's nearest set fires alone with weight 1: nearest by distance to the support
+//! **When no rule fires** (D = 0: some input lies where none of its sets is non-zero, or
+//! where their memberships sum to less than 1/f64::MAX, a subnormal whose inverse
+//! overflows), that input's nearest set fires alone with weight 1: nearest by distance to the support
 //! [a, d] for trapezoids and triangles, by |x − mean|/σ for Gaussians (a Gaussian far
 //! out underflows to 0). Ties go to the last set listed when x > 0 and to the first one
 //! otherwise, so with sets listed left to right an input at ±∞ belongs to the outermost
@@ -173,8 +174,10 @@ pub(crate) fn normalise<S: Lane, M: Member<S>, const N: usize>(sets: &[M; N], x:
         *m = set.value(x);
     }
     let sum = mu.iter().fold(S::splat(0.0), |sum, m| sum + *m);
-    let none = sum.eq(S::splat(0.0));
     let inv = S::splat(1.0) / sum;
+    // No set holds x, or they hold it so faintly (Gaussians far out: a subnormal Σμ) that
+    // 1/Σμ overflows: μ · ∞ would make ξ infinite or NaN. A NaN input keeps its NaN.
+    let none = sum.eq(S::splat(0.0)) | inv.eq(S::splat(f64::INFINITY));
     if !S::any(none) {
         // Some rule fires for every lane (always with sets that cover the line).
         return fill(|j| mu[j] * inv);
@@ -511,6 +514,16 @@ mod tests {
         let basis = GridBasis::<f64, 2, 2, 4>::new(g).unwrap();
         assert_eq!(basis.eval(&[1e6, -1e6]), [0.0, 0.0, 1.0, 0.0]);
         assert!(basis.eval(&[f64::NAN, 0.0]).iter().all(|v| v.is_nan()));
+        // Far enough out that the memberships are subnormal (e^(−z²/2) ≈ 1e-310 at z ≈ 37.8):
+        // 1/Σμ overflows, so the nearest set takes over (this gave ∞ · μ and NaN · 0: a run
+        // with narrow Gaussians diverged where its sweep's lanes, whose e^x flushes those to
+        // 0, did not).
+        let x = 1.0 + 0.1 * 37.8;
+        let mu = (-0.5f64 * 37.8 * 37.8).exp();
+        assert!(mu > 0.0 && (1.0 / mu).is_infinite(), "{mu:e} should be subnormal");
+        assert_eq!(basis.eval(&[x, -x]), [0.0, 0.0, 1.0, 0.0]);
+        let xi = basis.eval(&[1.0 + 0.1 * 37.0, 0.0]); // normal but tiny: shares as usual
+        assert!(xi.iter().all(|v| v.is_finite()) && (xi.iter().sum::<f64>() - 1.0).abs() < 1e-15, "{xi:?}");
     }
 
     #[test]
