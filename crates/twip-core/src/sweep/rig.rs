@@ -326,6 +326,30 @@ mod tests {
         }
     }
 
+    /// A realism per robot may move pushes and forces, not the rig's parts, which the lanes
+    /// share: a robot given another IMU is refused with its sample's index, not run on the
+    /// block's first.
+    #[test]
+    fn robots_given_other_rig_parts_are_refused() {
+        let (lqr_lanes, ..) = lanes();
+        let (_, schedule, config, nominal) = setup(5e-3);
+        let heavy = |p: &RobotParams<f64>| p.m_body > 0.83;
+        let realism_of = |p: &RobotParams<f64>| {
+            let r = if heavy(p) { Realism::thesis_like() } else { Realism { imu: None, ..Realism::thesis_like() } };
+            Ok(for_sweep(&r, 7))
+        };
+        // The first valid robot (a negative mass is invalid, its sample skipped) and the
+        // first valid one of the other kind after it.
+        let robot = |i| SlopeModel::new(draw(&nominal, &spread(), 3, i).params, 0.0).ok().map(|m| heavy(m.params()));
+        let first = (0..16).find_map(robot).unwrap();
+        let first_other = (0..16).find(|&i| robot(i) == Some(!first));
+        let got = run_rig_lane_samples(&lqr_lanes, &schedule, &config, &nominal, &spread(), 3, 0..16, &realism_of, &|| false);
+        match got {
+            Err(crate::TwipError::InvalidParameter { name: "realism_of", value, .. }) => assert_eq!(Some(value as u64), first_other),
+            other => panic!("should be refused: {other:?}"),
+        }
+    }
+
     /// With quantised outputs (the IMU's registers, the encoders' counts, the duty's whole
     /// counts) the feedback does not see a difference below one count, so two roundings drift
     /// apart at the open-loop pendulum's rate until a count flips (~2-4 s here): the rig's

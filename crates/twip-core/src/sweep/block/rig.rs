@@ -17,9 +17,9 @@ use nalgebra::{SVector, Vector4};
 use super::{chunk, multiversioned, state_chunk, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared, CHUNKS};
 use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
-use crate::hardware::disturbance::{Disturbed, Force, MAX_SLOPE_CHANGES};
+use crate::hardware::disturbance::{Disturbed, Force, Pushes, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{MotorDriver, Winding};
-use crate::hardware::realism::SlopeRig;
+use crate::hardware::realism::{Realism, SlopeRig};
 use crate::sweep::rig::RealismOf;
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field};
@@ -31,7 +31,7 @@ use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
 use alloc::vec;
 use alloc::vec::Vec;
-use crate::{Dynamics, RobotParams};
+use crate::{Dynamics, RobotParams, TwipError};
 
 /// The plant's kinds, decided once per block: its gearhead friction (`GEAR`: 0 none, 1 the
 /// slip law, 2 with a stick band), whether a winding without inductance turns the duty
@@ -347,12 +347,21 @@ fn rig_block<C: LaneLaw>(
     let mut active = [false; LANES];
     // On the heap: 16 rigs are ~100 KB, which a worker thread's stack need not hold.
     let mut built: Vec<Option<(SlopeModel<f64>, SlopeRig<f64>)>> = vec![None; LANES];
+    // The lanes share the first rig's kinds (friction, winding, play, delay): only where
+    // pushes and a force act may differ between robots.
+    let parts = |r: &Realism<f64>| Realism { pushes: Pushes::none(), force: Force::none(), ..*r };
+    let mut shared: Option<Realism<f64>> = None;
     for (l, s) in samples.iter().enumerate() {
         if !s.x0.iter().all(|v| v.is_finite()) {
             continue;
         }
         let Ok(model) = SlopeModel::new(s.params, s.slope) else { continue };
-        if let Ok(rig) = realism_of(&s.params).and_then(|r| r.with_stream(s.index).build(&model, dt)) {
+        let Ok(realism) = realism_of(&s.params) else { continue };
+        if *shared.get_or_insert(parts(&realism)) != parts(&realism) {
+            let reason = "gave the robot of the sample with this index other rig parts than its block's: only pushes and a force may differ";
+            return Err(TwipError::InvalidParameter { name: "realism_of", value: s.index as f64, reason });
+        }
+        if let Ok(rig) = realism.with_stream(s.index).build(&model, dt) {
             built[l] = Some((model, rig));
             active[l] = true;
         }
@@ -516,7 +525,6 @@ fn rig_block<C: LaneLaw>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hardware::realism::Realism;
     use crate::control::lqr::{design, DesignPoint, LqrController};
     use crate::model::params::RobotParams;
     use crate::sweep::block::LqrLanes;
