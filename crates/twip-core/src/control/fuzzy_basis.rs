@@ -278,9 +278,10 @@ impl<T: Copy> Prepared<T> {
 
 /// Written once over [`Lane`]: the set's kind is every lane's alike (the prototype's), so
 /// the match is one branch for all lanes. A lane's e^x is the vectorising polynomial
-/// (within 2 ulp of a run's libm), which gives 0 where libm gives a subnormal (z² > 1416):
-/// an input that far from every Gaussian then takes the nearest-set fallback on lanes and
-/// subnormal shares in a run — the same set, up to shares of 1e-308.
+/// (within 2 ulp of a run's libm), which gives 0 below e^−708 where libm still gives a tiny
+/// number: an input that far from every Gaussian takes the nearest-set fallback on lanes,
+/// and in a run too once Σμ is too small to invert (see [`normalise`]); in between, a run's
+/// shares pick the same set up to shares of 1e-308.
 impl<S: Lane> Member<S> for Prepared<S> {
     #[inline(always)]
     fn value(&self, x: S) -> S {

@@ -81,6 +81,32 @@ impl FuzzyLanes {
         }
     }
 
+    /// The law with `sets` on every chunk of lanes.
+    #[inline(always)]
+    fn update_with<M: Member<Wide>>(&self, sets: &[[M; 3]; 2], phi_s: Wide, state: &mut FuzzyState, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
+        let a = self.controller.adaptation();
+        let law = Law {
+            gains: self.gains,
+            gamma: Wide::splat(a.gamma),
+            sigma: Wide::splat(a.sigma),
+            adapt: a.enabled,
+            period: Wide::splat(self.period()),
+            sets,
+            model: &self.model,
+        };
+        let (theta, theta_dot) = (Wide::splat(r.theta), Wide::splat(r.theta_dot));
+        for c in 0..CHUNKS {
+            let mut s_hat: [Wide; 9] = fill(|j| chunk(&state.s_hat[j], c));
+            let mut e_int = chunk(&state.e_int, c);
+            let step = law.update(&mut s_hat, &mut e_int, phi_s, &state_chunk(x, c), theta, theta_dot);
+            for (j, s) in s_hat.iter().enumerate() {
+                put(&mut state.s_hat[j], c, *s);
+            }
+            put(&mut state.e_int, c, e_int);
+            put(u, c, step.u);
+        }
+    }
+
     #[cold]
     #[inline(never)]
     fn solve_steady_pitch(&mut self, speed: f64) -> f64 {
@@ -112,30 +138,3 @@ impl LaneLaw for FuzzyLanes {
     }
 }
 
-impl FuzzyLanes {
-    /// The law with `sets` on every chunk of lanes.
-    #[inline(always)]
-    fn update_with<M: Member<Wide>>(&self, sets: &[[M; 3]; 2], phi_s: Wide, state: &mut FuzzyState, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
-        let a = self.controller.adaptation();
-        let law = Law {
-            gains: self.gains,
-            gamma: Wide::splat(a.gamma),
-            sigma: Wide::splat(a.sigma),
-            adapt: a.enabled,
-            period: Wide::splat(self.period()),
-            sets,
-            model: &self.model,
-        };
-        let (theta, theta_dot) = (Wide::splat(r.theta), Wide::splat(r.theta_dot));
-        for c in 0..CHUNKS {
-            let mut s_hat: [Wide; 9] = fill(|j| chunk(&state.s_hat[j], c));
-            let mut e_int = chunk(&state.e_int, c);
-            let step = law.update(&mut s_hat, &mut e_int, phi_s, &state_chunk(x, c), theta, theta_dot);
-            for (j, s) in s_hat.iter().enumerate() {
-                put(&mut state.s_hat[j], c, *s);
-            }
-            put(&mut state.e_int, c, e_int);
-            put(u, c, step.u);
-        }
-    }
-}
