@@ -418,14 +418,63 @@ pub struct Mpu6050<T> {
     accel_per_lsb: T,
     primed: bool,
     reading: ImuReading<T>,
-    /// Normals drawn ahead in batches (the same sequence, drawn faster in a tight loop).
-    gauss: Ziggurat,
-    noise: [f64; NOISE_BATCH],
-    noise_used: usize,
+    noise: NoiseBatch,
 }
 
 /// Normals drawn at a time: eight samples' worth.
 const NOISE_BATCH: usize = 32;
+
+/// An IMU's normals, drawn ahead in batches from its stream (the same sequence, drawn
+/// faster in a tight loop): four per sample.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct NoiseBatch {
+    gauss: Ziggurat,
+    noise: [f64; NOISE_BATCH],
+    used: usize,
+}
+
+impl NoiseBatch {
+    fn new() -> Self {
+        Self { gauss: Ziggurat::new(), noise: [0.0; NOISE_BATCH], used: NOISE_BATCH }
+    }
+
+    /// The next sample's four standard normals (gyro, accel x, accel z, bias walk).
+    #[inline]
+    pub(crate) fn draw<T: Real>(&mut self, rng: &mut Philox) -> [T; 4] {
+        if self.used == NOISE_BATCH {
+            self.gauss.fill(rng, &mut self.noise);
+            self.used = 0;
+        }
+        let k = self.used;
+        self.used += 4;
+        [c(self.noise[k]), c(self.noise[k + 1]), c(self.noise[k + 2]), c(self.noise[k + 3])]
+    }
+}
+
+/// When an IMU samples: every sample period from t = 0, on a plant's grid of steps (a
+/// sample is due at the step nearest its time).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ImuClock<T> {
+    next: T,
+    period: T,
+    half_step: T,
+}
+
+impl<T: Real> ImuClock<T> {
+    pub(crate) fn new(period: T, dt: T) -> Self {
+        Self { next: T::zero(), period, half_step: dt * c::<T>(0.5) }
+    }
+
+    /// Whether a sample is due at `t` (then the clock moves on to the next).
+    #[inline(always)]
+    pub(crate) fn due(&mut self, t: T) -> bool {
+        if t + self.half_step < self.next {
+            return false;
+        }
+        self.next += self.period;
+        true
+    }
+}
 
 impl<T: Real> Mpu6050<T> {
     pub fn new(settings: &ImuSettings<T>) -> Result<Self, TwipError> {
@@ -449,9 +498,7 @@ impl<T: Real> Mpu6050<T> {
             accel_per_lsb: full / s.accel_range,
             primed: false,
             reading: ImuReading { accel_x: T::zero(), accel_z: T::zero(), gyro: T::zero() },
-            gauss: Ziggurat::new(),
-            noise: [0.0; NOISE_BATCH],
-            noise_used: NOISE_BATCH,
+            noise: NoiseBatch::new(),
             settings: s,
         })
     }
@@ -477,13 +524,13 @@ impl<T: Real> Mpu6050<T> {
     /// in batches from `rng`.
     #[inline]
     pub(crate) fn draw(&mut self, rng: &mut Philox) -> [T; 4] {
-        if self.noise_used == NOISE_BATCH {
-            self.gauss.fill(rng, &mut self.noise);
-            self.noise_used = 0;
-        }
-        let k = self.noise_used;
-        self.noise_used += 4;
-        [c(self.noise[k]), c(self.noise[k + 1]), c(self.noise[k + 2]), c(self.noise[k + 3])]
+        self.noise.draw(rng)
+    }
+
+    /// Where this IMU's normals stand (a sweep's lanes draw them for it).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))]
+    pub(crate) fn noise(&self) -> NoiseBatch {
+        self.noise
     }
 
     /// The latest registers set from elsewhere (a sweep's lanes sample for this IMU).
@@ -535,9 +582,7 @@ impl<T: Copy> Mpu6050<T> {
             accel_per_lsb: f(self.accel_per_lsb),
             primed: self.primed,
             reading: ImuReading { accel_x: f(self.reading.accel_x), accel_z: f(self.reading.accel_z), gyro: f(self.reading.gyro) },
-            gauss: self.gauss,
             noise: self.noise,
-            noise_used: self.noise_used,
         }
     }
 }

@@ -25,7 +25,7 @@ use crate::hardware::backlash::GearPlay;
 use crate::hardware::disturbance::{Force, Pushes};
 use crate::hardware::driver::{PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
-use crate::hardware::imu::{specific_force, ImuSettings, Mpu6050};
+use crate::hardware::imu::{specific_force, ImuClock, ImuSettings, Mpu6050};
 use crate::hardware::realism::{Realism, Rig, RigPlant};
 #[cfg(all(test, feature = "std"))]
 use crate::model::friction::Friction;
@@ -216,7 +216,8 @@ pub struct PlanarSensors<T: Real> {
     half_track: T,
     inv_r: T,
     g: T,
-    next_sample: T,
+    /// When the IMUs sample.
+    clock: ImuClock<T>,
     dt: T,
     rng: Philox,
     last_read: Option<T>,
@@ -243,6 +244,8 @@ impl<T: Real> PlanarSensors<T> {
             }
             None => None,
         };
+        // Without an IMU the clock is never asked: any period.
+        let clock = ImuClock::new(imu.as_ref().map_or(T::one(), |(p, _)| p.settings().sample_period), dt);
         let encoders = match encoder_cpr {
             Some(cpr) => Some([Encoder::new(cpr)?, Encoder::new(cpr)?]),
             None => None,
@@ -259,7 +262,7 @@ impl<T: Real> PlanarSensors<T> {
             half_track: params.half_track,
             inv_r: T::one() / params.wheel_radius,
             g: params.g,
-            next_sample: T::zero(),
+            clock,
             dt,
             rng: Philox::new(seed, stream),
             last_read: None,
@@ -289,7 +292,7 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
         }
         self.beta_dot = speeds;
         if let Some((pitch, yaw)) = self.imu.as_mut() {
-            if t + self.dt * c::<T>(0.5) >= self.next_sample {
+            if self.clock.due(t) {
                 // The pitch plane as the 2-DOF model has it: θ̇ = v/R.
                 let x4 = Vector4::new(x[3], x[4], T::zero(), x[5] * self.inv_r);
                 let xdot4 = Vector4::new(x[4], xdot[4], x[5] * self.inv_r, xdot[5] * self.inv_r);
@@ -298,7 +301,6 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
                 pitch.sample(fx, fz, x[4], &mut self.rng);
                 // The z axis turns with the body's pitch: it reads ω cos φ.
                 yaw.sample(T::zero(), self.g, x[6] * x[3].cos(), &mut self.rng);
-                self.next_sample += pitch.settings().sample_period;
             }
         }
     }

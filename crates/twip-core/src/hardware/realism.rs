@@ -16,7 +16,7 @@ use crate::control::{Controller, Reference};
 use crate::hardware::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{Driven, MotorDriver, PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
-use crate::hardware::imu::{specific_force, ImuReading, ImuSettings, Mpu6050};
+use crate::hardware::imu::{specific_force, ImuClock, ImuReading, ImuSettings, Mpu6050, NoiseBatch};
 use crate::hardware::backlash::Backlash;
 use crate::model::friction::{Friction, GB37_STICK_SPEED};
 use crate::rng::Philox;
@@ -232,9 +232,8 @@ pub struct BalanceSensors<T: Real> {
     ground_trig: [(T, T); MAX_SLOPE_CHANGES + 1],
     radius: T,
     g: T,
-    /// When the IMU samples next [s], and half a plant step to compare times with.
-    next_sample: T,
-    half_step: T,
+    /// When the IMU samples.
+    clock: ImuClock<T>,
     rng: Philox,
     last_read: Option<T>,
     /// The motor shaft's angle minus the wheels' (backlash): the encoder counts the shaft.
@@ -257,6 +256,8 @@ impl<T: Real> BalanceSensors<T> {
         if let Some(m) = &imu {
             check_imu_grid(m.settings(), dt)?;
         }
+        // Without an IMU the clock is never asked: any period.
+        let clock = ImuClock::new(imu.as_ref().map_or(T::one(), |m| m.settings().sample_period), dt);
         let mut ground_trig = [ground.base().sin_cos(); MAX_SLOPE_CHANGES + 1];
         for (i, (_, slope)) in ground.changes().enumerate() {
             ground_trig[i + 1] = slope.sin_cos();
@@ -269,8 +270,7 @@ impl<T: Real> BalanceSensors<T> {
             ground_trig,
             radius: params.wheel_radius,
             g: params.g,
-            next_sample: T::zero(),
-            half_step: dt * c::<T>(0.5),
+            clock,
             rng: Philox::new(seed, stream),
             last_read: None,
             shaft: T::zero(),
@@ -286,20 +286,28 @@ impl<T: Real> BalanceSensors<T> {
     /// then the (sin, cos) of the ground's slope under `x`. None without an IMU.
     #[inline]
     pub(crate) fn imu_due(&mut self, t: T, x: &Vector4<T>) -> Option<(T, T)> {
-        let period = self.imu.as_ref()?.settings().sample_period;
-        if t + self.half_step < self.next_sample {
-            return None;
-        }
-        self.next_sample += period;
-        Some(self.ground_trig[self.ground.segment(x[2] * self.radius)])
+        self.imu.as_ref()?;
+        self.clock.due(t).then(|| self.ground_trig_at(x))
     }
 
-    /// The IMU's next noise, from this rig's stream (a sweep's lanes sample for it).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))]
+    /// (sin, cos) of the ground's slope under `x` (what the accelerometer feels).
     #[inline]
-    pub(crate) fn imu_noise(&mut self) -> Option<[T; 4]> {
-        let rng = &mut self.rng;
-        self.imu.as_mut().map(|imu| imu.draw(rng))
+    pub(crate) fn ground_trig_at(&self, x: &Vector4<T>) -> (T, T) {
+        self.ground_trig[self.ground.segment(x[2] * self.radius)]
+    }
+
+    /// (sin, cos) of the ground's slope if it is one slope everywhere.
+    #[cfg_attr(not(feature = "std"), allow(dead_code))]
+    pub(crate) fn flat_ground_trig(&self) -> Option<(T, T)> {
+        self.ground.changes().next().is_none().then_some(self.ground_trig[0])
+    }
+
+    /// The IMU's clock, this rig's stream and the IMU's normals drawn ahead, as they stand
+    /// (None without an IMU): a sweep's lanes sample for the IMU from copies of them, and
+    /// draw the same numbers.
+    #[cfg_attr(not(feature = "std"), allow(dead_code))]
+    pub(crate) fn imu_noise_parts(&self) -> Option<(ImuClock<T>, Philox, NoiseBatch)> {
+        self.imu.as_ref().map(|imu| (self.clock, self.rng, imu.noise()))
     }
 
     /// Sets the IMU's registers (a sweep's lanes sample for it).

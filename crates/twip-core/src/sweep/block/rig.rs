@@ -23,7 +23,8 @@ use crate::hardware::realism::{Realism, SlopeRig};
 use crate::sweep::rig::RealismOf;
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field};
-use crate::hardware::imu::{specific_force_of, ImuReading, Mpu6050};
+use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseBatch};
+use crate::rng::Philox;
 use crate::model::lane::{Fused, Lane, Wide, WIDTH};
 use crate::model::slope::{motion, open_motion, SlopeCoefficients, SlopeModel};
 use crate::sim::runner::{Actuator, Plant as _, Sensor, SimConfig, STOP_CHECK_STEPS};
@@ -183,6 +184,9 @@ macro_rules! by_kind {
     };
 }
 
+// The kinds' loops are inlined into the kernel's SIMD copies (out of line they would run
+// baseline code), but not in debug builds: there, every inlined copy keeps its own stack
+// slots, and the 24 kinds' made the kernel's frame ~2 MB, a thread's whole stack.
 impl RigPlants {
     #[inline(always)]
     fn field<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, STEADY, GEARED, HILLY> {
@@ -199,7 +203,7 @@ impl RigPlants {
         by_kind!(self, self.steady, engaged, k1_of(x, u, engaged))
     }
 
-    #[inline(always)]
+    #[cfg_attr(not(debug_assertions), inline(always))]
     fn k1_of<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
         let mut out = [[0.0; LANES]; 4];
         for l in 0..LANES {
@@ -219,7 +223,7 @@ impl RigPlants {
         by_kind!(self, false, engaged, geared_motion_of(x, current, engaged))
     }
 
-    #[inline(always)]
+    #[cfg_attr(not(debug_assertions), inline(always))]
     fn geared_motion_of<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
         let (mut d, mut tau) = ([[0.0; LANES]; 4], [0.0; LANES]);
         for l in 0..LANES {
@@ -239,7 +243,7 @@ impl RigPlants {
         by_kind!(self, self.steady, engaged, rk4_of(x, u, engaged, k1, dt))
     }
 
-    #[inline(always)]
+    #[cfg_attr(not(debug_assertions), inline(always))]
     fn rk4_of<const GEAR: u8, const STEADY: bool, const GEARED: bool, const HILLY: bool>(
         &self,
         x: &[Lanes; 4],
@@ -248,12 +252,17 @@ impl RigPlants {
         k1: &[Lanes; 4],
         dt: f64,
     ) -> [Lanes; 4] {
+        // Two lanes per body, as `Plants::rk4`: two independent chains the CPU overlaps.
+        const HALF: usize = LANES / 2;
         let mut out = [[0.0; LANES]; 4];
-        for l in 0..LANES {
-            let field = self.field::<GEAR, STEADY, GEARED, HILLY>(l, u[l], engaged[l]);
-            let next = rk4(&field, &lane(x, l).map(Fused), &lane(k1, l).map(Fused), Fused(dt));
+        for l in 0..HALF {
+            let m = l + HALF;
+            let (fa, fb) = (self.field::<GEAR, STEADY, GEARED, HILLY>(l, u[l], engaged[l]), self.field::<GEAR, STEADY, GEARED, HILLY>(m, u[m], engaged[m]));
+            let next_a = rk4(&fa, &lane(x, l).map(Fused), &lane(k1, l).map(Fused), Fused(dt));
+            let next_b = rk4(&fb, &lane(x, m).map(Fused), &lane(k1, m).map(Fused), Fused(dt));
             for i in 0..4 {
-                out[i][l] = next[i].0;
+                out[i][l] = next_a[i].0;
+                out[i][m] = next_b[i].0;
             }
         }
         out
@@ -261,38 +270,60 @@ impl RigPlants {
 }
 
 /// The IMU on lanes: one `Mpu6050` per [`WIDTH`] lanes (the converter, filters and
-/// registers every lane's alike, the state each lane's own), sampled with each lane's own
-/// noise (its rig's stream); the registers go back to each lane's sensors, which the
-/// firmware's read takes.
+/// registers every lane's alike, the state each lane's own), sampled on the rigs' clock
+/// (every lane's alike) with each lane's own noise: copies of its rig's stream and of its
+/// IMU's normals drawn ahead, which give the very numbers its run draws. Kept here, the
+/// lanes' per-step work touches no rig; the registers go to each lane's sensors before the
+/// firmware reads them.
 struct ImuLanes {
     imus: [Mpu6050<Wide>; CHUNKS],
+    clock: ImuClock<f64>,
+    streams: [(Philox, NoiseBatch); LANES],
+    /// (sin, cos) of each lane's slope when its ground is one slope everywhere (else each
+    /// sample asks the lane's sensors for the slope under it).
+    flat: Option<[Lanes; 2]>,
     radius: Lanes,
     g: Lanes,
 }
 
 impl ImuLanes {
-    fn new(rig: &SlopeRig<f64>, models: &[SlopeModel<f64>; LANES]) -> Option<Self> {
-        let imu = rig.sensors.imu()?.map(Wide::splat);
+    /// None without an IMU (every lane's rig has the same parts).
+    fn new(rigs: &[SlopeRig<f64>], models: &[SlopeModel<f64>; LANES]) -> Option<Self> {
+        let imu = rigs[0].sensors.imu()?.map(Wide::splat);
+        let (clock, rng, noise) = rigs[0].sensors.imu_noise_parts()?;
+        let mut streams = [(rng, noise); LANES];
+        let mut flat = Some([[0.0; LANES]; 2]);
+        for (l, rig) in rigs.iter().enumerate() {
+            let (_, rng, noise) = rig.sensors.imu_noise_parts()?;
+            streams[l] = (rng, noise);
+            match (flat.as_mut(), rig.sensors.flat_ground_trig()) {
+                (Some(trig), Some((s, c))) => (trig[0][l], trig[1][l]) = (s, c),
+                _ => flat = None,
+            }
+        }
         let radius = core::array::from_fn(|l| models[l].params().wheel_radius);
-        Some(Self { imus: [imu; CHUNKS], radius, g: core::array::from_fn(|l| models[l].params().g) })
+        Some(Self { imus: [imu; CHUNKS], clock, streams, flat, radius, g: core::array::from_fn(|l| models[l].params().g) })
     }
 
     /// `BalanceSensors::sample` on every lane: at `t`, state `x` and derivative `xdot`.
-    #[inline(always)]
-    fn sample(&mut self, rigs: &mut [SlopeRig<f64>], t: f64, x: &[Lanes; 4], xdot: &[Lanes; 4]) {
-        let (mut sin, mut cos, mut noise) = ([0.0; LANES], [0.0; LANES], [[0.0; LANES]; 4]);
-        let mut due = false;
-        for (l, rig) in rigs.iter_mut().enumerate() {
-            let Some((s, c)) = rig.sensors.imu_due(t, &Vector4::from(lane(x, l))) else { continue };
-            due = true;
-            (sin[l], cos[l]) = (s, c);
-            let n = rig.sensors.imu_noise().unwrap_or([0.0; 4]); // due: there is an IMU
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn sample(&mut self, rigs: &[SlopeRig<f64>], t: f64, x: &[Lanes; 4], xdot: &[Lanes; 4]) {
+        if !self.clock.due(t) {
+            return;
+        }
+        let [sin, cos] = self.flat.unwrap_or_else(|| {
+            let mut trig = [[0.0; LANES]; 2];
+            for (l, rig) in rigs.iter().enumerate() {
+                (trig[0][l], trig[1][l]) = rig.sensors.ground_trig_at(&Vector4::from(lane(x, l)));
+            }
+            trig
+        });
+        let mut noise = [[0.0; LANES]; 4];
+        for (l, (rng, batch)) in self.streams.iter_mut().enumerate() {
+            let n: [f64; 4] = batch.draw(rng);
             for i in 0..4 {
                 noise[i][l] = n[i];
             }
-        }
-        if !due {
-            return;
         }
         for (c, imu) in self.imus.iter_mut().enumerate() {
             let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
@@ -300,6 +331,12 @@ impl ImuLanes {
             let (radius, g) = (chunk(&self.radius, c), chunk(&self.g, c));
             let (fx, fz) = specific_force_of(&xs, &ds, chunk(&sin, c), chunk(&cos, c), radius, height, g);
             imu.sample_with(fx, fz, xs[1], core::array::from_fn(|i| chunk(&noise[i], c)));
+        }
+    }
+
+    /// The latest registers into each lane's sensors (which the firmware's read takes).
+    fn to_sensors(&self, rigs: &mut [SlopeRig<f64>]) {
+        for (c, imu) in self.imus.iter().enumerate() {
             let r = imu.reading();
             for j in 0..WIDTH {
                 let reading = ImuReading { accel_x: r.accel_x.0[j], accel_z: r.accel_z.0[j], gyro: r.gyro.0[j] };
@@ -404,7 +441,8 @@ fn rig_block<C: LaneLaw>(
     let mut alive = active;
     let mut ended = [(false, 0.0f64, 0u64); LANES];
     // The sensors' registers hold a sample of the initial state.
-    let mut imus = ImuLanes::new(&rigs[0], &models);
+    // On the heap, as the rigs (its lanes' streams and normals are ~13 KB).
+    let mut imus = ImuLanes::new(&rigs, &models).map(alloc::boxed::Box::new);
     if let Some(imus) = imus.as_mut() {
         let mut xdot = [[0.0; LANES]; 4];
         for (l, rig) in rigs.iter().enumerate() {
@@ -413,7 +451,7 @@ fn rig_block<C: LaneLaw>(
                 xdot[i][l] = d[i];
             }
         }
-        imus.sample(&mut rigs, 0.0, &x, &xdot);
+        imus.sample(&rigs, 0.0, &x, &xdot);
     }
     let r0 = reference.sample(0.0);
     let mut cached_speed = r0.theta_dot;
@@ -435,14 +473,16 @@ fn rig_block<C: LaneLaw>(
         }
         speed_scale = speed_scale.max(r.theta_dot.abs());
         direction = if r.theta_dot != 0.0 { r.theta_dot.signum() } else { direction };
-        if plants.geared {
-            // The encoders count the motor shafts, which the play sets apart from the wheels.
-            for rig in rigs.iter_mut() {
-                rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
-            }
-        }
         if k % per_update == 0 {
+            if let Some(imus) = imus.as_ref() {
+                imus.to_sensors(&mut rigs);
+            }
             for (l, rig) in rigs.iter_mut().enumerate() {
+                // The encoders count the motor shafts, which the play sets apart from the
+                // wheels (set here, where they are read: the run sets them every step).
+                if plants.geared {
+                    rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
+                }
                 let yl = rig.sensors.read(t, &Vector4::from(lane(&x, l)));
                 for i in 0..4 {
                     y[i][l] = yl[i];
@@ -498,7 +538,7 @@ fn rig_block<C: LaneLaw>(
             k1 = plants.k1(&x, &input, &engaged);
         }
         if let Some(imus) = imus.as_mut() {
-            imus.sample(&mut rigs, t, &x, &k1);
+            imus.sample(&rigs, t, &x, &k1);
         }
         let next = plants.rk4(&x, &input, &engaged, &k1, dt);
         let Some(ends) = super::advance(&mut x, &next, &alive, 0, config.fall_limit) else { continue };
