@@ -451,6 +451,46 @@ impl NoiseBatch {
     }
 }
 
+/// The [`NoiseBatch`]es of `N` IMUs that sample together (a sweep's lanes), each from its
+/// own stream: refilled together, each sample's four normals are four rows over the IMUs.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct NoiseLanes<const N: usize> {
+    gauss: Ziggurat,
+    rows: [[f64; N]; NOISE_BATCH],
+    used: usize,
+    streams: [Philox; N],
+}
+
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+impl<const N: usize> NoiseLanes<N> {
+    /// From each IMU's stream and batch as they stand. Their batches are in step (the same
+    /// normals used) when the IMUs have sampled alike, as rigs built alike have.
+    pub(crate) fn new(parts: &[(Philox, NoiseBatch); N]) -> Self {
+        let used = parts[0].1.used;
+        debug_assert!(parts.iter().all(|p| p.1.used == used), "the IMUs' batches are in step");
+        let rows = core::array::from_fn(|j| core::array::from_fn(|l| parts[l].1.noise[j]));
+        Self { gauss: Ziggurat::new(), rows, used, streams: parts.map(|p| p.0) }
+    }
+
+    /// Every IMU's next four normals (gyro, accel x, accel z, bias walk): four rows, as
+    /// [`NoiseBatch::draw`] gives each.
+    #[inline(always)]
+    pub(crate) fn draw(&mut self) -> &[[f64; N]] {
+        if self.used == NOISE_BATCH {
+            let mut batch = [0.0; NOISE_BATCH];
+            for (l, rng) in self.streams.iter_mut().enumerate() {
+                self.gauss.fill(rng, &mut batch);
+                for (row, v) in self.rows.iter_mut().zip(batch) {
+                    row[l] = v;
+                }
+            }
+            self.used = 0;
+        }
+        self.used += 4;
+        &self.rows[self.used - 4..self.used]
+    }
+}
+
 /// When an IMU samples: every sample period from t = 0, on a plant's grid of steps (a
 /// sample is due at the step nearest its time).
 #[derive(Clone, Copy, Debug)]

@@ -69,6 +69,23 @@ impl Philox {
         self.buffer[self.used - 1]
     }
 
+    /// The next four words, if the buffer holds four (refilled first when spent), left
+    /// there: [`Self::skip`] takes them.
+    #[inline(always)]
+    fn peek4(&mut self) -> Option<[u64; 4]> {
+        if self.used == self.buffer.len() {
+            self.refill();
+        }
+        let w = self.buffer.get(self.used..self.used + 4)?;
+        Some([w[0], w[1], w[2], w[3]])
+    }
+
+    /// Takes the `n` words peeked.
+    #[inline(always)]
+    fn skip(&mut self, n: usize) {
+        self.used += n;
+    }
+
     /// The next [`BLOCKS`] blocks into the buffer. Out of line: its registers would
     /// otherwise be saved and restored on every word.
     #[inline(never)]
@@ -173,8 +190,24 @@ impl Ziggurat {
 
     /// Fills `out` with standard normals from `rng`, two per word (low half first; the
     /// rare retries and tails draw their words as they come).
+    #[inline(always)]
     pub fn fill(&self, rng: &mut Philox, out: &mut [f64]) {
-        for pair in out.chunks_mut(2) {
+        let mut rest = out;
+        while rest.len() >= 8 {
+            // Eight at once from four words when all are inside their rectangles (91 %):
+            // the numbers one by one gives, without a branch between them.
+            if let Some(normals) = rng.peek4().and_then(Self::all_inside) {
+                rng.skip(4);
+                rest[..8].copy_from_slice(&normals);
+                rest = &mut rest[8..];
+                continue;
+            }
+            let word = rng.next_u64();
+            rest[0] = self.normal((word & 0xFFFF_FFFF) as u32, rng);
+            rest[1] = self.normal((word >> 32) as u32, rng);
+            rest = &mut rest[2..];
+        }
+        for pair in rest.chunks_mut(2) {
             let word = rng.next_u64();
             pair[0] = self.normal((word & 0xFFFF_FFFF) as u32, rng);
             if let Some(second) = pair.get_mut(1) {
@@ -191,6 +224,22 @@ impl Ziggurat {
             return sign * z;
         }
         self.outside(bits, rng)
+    }
+
+    /// The eight normals of four words (each low half first), if all are inside their
+    /// layers' rectangles.
+    #[inline(always)]
+    fn all_inside(words: [u64; 4]) -> Option<[f64; 8]> {
+        let mut out = [0.0; 8];
+        let mut inside = true;
+        for (j, word) in words.into_iter().enumerate() {
+            for (h, bits) in [(word & 0xFFFF_FFFF) as u32, (word >> 32) as u32].into_iter().enumerate() {
+                let (sign, z, i) = Self::candidate(bits);
+                inside &= z < EDGES[i + 1];
+                out[2 * j + h] = sign * z;
+            }
+        }
+        inside.then_some(out)
     }
 
     /// The sign, the candidate |z| and its layer that 32 bits give.
@@ -298,6 +347,40 @@ mod tests {
         // P(|z| > 3) = 0.0027.
         assert!(mean.abs() < 0.01 && (var - 1.0).abs() < 0.01 && (kurt - 3.0).abs() < 0.05 && (tail - 0.0027).abs() < 0.0005,
             "{mean} {var} {kurt} {tail}");
+    }
+
+    /// `fill`'s eight-at-once path gives the numbers one by one gives, whatever the length
+    /// and wherever the retries and tails fall (which move later words off the groups of
+    /// four): against a plain loop of `normal` per half word.
+    #[test]
+    fn fill_gives_the_numbers_one_by_one_gives() {
+        let z = Ziggurat::new();
+        let mut outside = 0;
+        for stream in 0..40 {
+            for len in [0, 1, 7, 8, 9, 32, 33, 1000] {
+                let (mut a, mut b) = (Philox::new(3, stream), Philox::new(3, stream));
+                let mut got = [0.0; 1000];
+                z.fill(&mut a, &mut got[..len]);
+                let mut want = [0.0; 1000];
+                let mut one = |bits: u32, rng: &mut Philox| {
+                    let (_, candidate, i) = Ziggurat::candidate(bits);
+                    outside += (candidate >= EDGES[i + 1]) as usize;
+                    z.normal(bits, rng)
+                };
+                for pair in want[..len].chunks_mut(2) {
+                    let word = b.next_u64();
+                    pair[0] = one((word & 0xFFFF_FFFF) as u32, &mut b);
+                    if let Some(second) = pair.get_mut(1) {
+                        *second = one((word >> 32) as u32, &mut b);
+                    }
+                }
+                for (i, (g, w)) in got[..len].iter().zip(&want[..len]).enumerate() {
+                    assert_eq!(g.to_bits(), w.to_bits(), "stream {stream}, length {len}, normal {i}");
+                }
+                assert_eq!(a.next_u64(), b.next_u64(), "stream {stream}, length {len}: the words after");
+            }
+        }
+        assert!(outside > 100, "want draws outside the rectangles: {outside}");
     }
 
     /// The written-out layers are the derivation's, to an ulp (bit for bit with glibc's

@@ -23,8 +23,7 @@ use crate::hardware::realism::{Realism, SlopeRig};
 use crate::sweep::rig::RealismOf;
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field};
-use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseBatch};
-use crate::rng::Philox;
+use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseLanes};
 use crate::model::lane::{Fused, Lane, Wide, WIDTH};
 use crate::model::slope::{motion, open_motion, SlopeCoefficients, SlopeModel};
 use crate::sim::runner::{Actuator, Plant as _, Sensor, SimConfig, STOP_CHECK_STEPS};
@@ -278,7 +277,7 @@ impl RigPlants {
 struct ImuLanes {
     imus: [Mpu6050<Wide>; CHUNKS],
     clock: ImuClock<f64>,
-    streams: [(Philox, NoiseBatch); LANES],
+    noise: NoiseLanes<LANES>,
     /// (sin, cos) of each lane's slope when its ground is one slope everywhere (else each
     /// sample asks the lane's sensors for the slope under it).
     flat: Option<[Lanes; 2]>,
@@ -291,18 +290,18 @@ impl ImuLanes {
     fn new(rigs: &[SlopeRig<f64>], models: &[SlopeModel<f64>; LANES]) -> Option<Self> {
         let imu = rigs[0].sensors.imu()?.map(Wide::splat);
         let (clock, rng, noise) = rigs[0].sensors.imu_noise_parts()?;
-        let mut streams = [(rng, noise); LANES];
+        let mut parts = [(rng, noise); LANES];
         let mut flat = Some([[0.0; LANES]; 2]);
         for (l, rig) in rigs.iter().enumerate() {
             let (_, rng, noise) = rig.sensors.imu_noise_parts()?;
-            streams[l] = (rng, noise);
+            parts[l] = (rng, noise);
             match (flat.as_mut(), rig.sensors.flat_ground_trig()) {
                 (Some(trig), Some((s, c))) => (trig[0][l], trig[1][l]) = (s, c),
                 _ => flat = None,
             }
         }
         let radius = core::array::from_fn(|l| models[l].params().wheel_radius);
-        Some(Self { imus: [imu; CHUNKS], clock, streams, flat, radius, g: core::array::from_fn(|l| models[l].params().g) })
+        Some(Self { imus: [imu; CHUNKS], clock, noise: NoiseLanes::new(&parts), flat, radius, g: core::array::from_fn(|l| models[l].params().g) })
     }
 
     /// `BalanceSensors::sample` on every lane: at `t`, state `x` and derivative `xdot`.
@@ -318,13 +317,7 @@ impl ImuLanes {
             }
             trig
         });
-        let mut noise = [[0.0; LANES]; 4];
-        for (l, (rng, batch)) in self.streams.iter_mut().enumerate() {
-            let n: [f64; 4] = batch.draw(rng);
-            for i in 0..4 {
-                noise[i][l] = n[i];
-            }
-        }
+        let noise = self.noise.draw();
         for (c, imu) in self.imus.iter_mut().enumerate() {
             let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
             let height = imu.settings().height;
