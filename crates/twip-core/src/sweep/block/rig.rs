@@ -251,17 +251,12 @@ impl RigPlants {
         k1: &[Lanes; 4],
         dt: f64,
     ) -> [Lanes; 4] {
-        // Two lanes per body, as `Plants::rk4`: two independent chains the CPU overlaps.
-        const HALF: usize = LANES / 2;
         let mut out = [[0.0; LANES]; 4];
-        for l in 0..HALF {
-            let m = l + HALF;
-            let (fa, fb) = (self.field::<GEAR, STEADY, GEARED, HILLY>(l, u[l], engaged[l]), self.field::<GEAR, STEADY, GEARED, HILLY>(m, u[m], engaged[m]));
-            let next_a = rk4(&fa, &lane(x, l).map(Fused), &lane(k1, l).map(Fused), Fused(dt));
-            let next_b = rk4(&fb, &lane(x, m).map(Fused), &lane(k1, m).map(Fused), Fused(dt));
+        for l in 0..LANES {
+            let field = self.field::<GEAR, STEADY, GEARED, HILLY>(l, u[l], engaged[l]);
+            let next = rk4(&field, &lane(x, l).map(Fused), &lane(k1, l).map(Fused), Fused(dt));
             for i in 0..4 {
-                out[i][l] = next_a[i].0;
-                out[i][m] = next_b[i].0;
+                out[i][l] = next[i].0;
             }
         }
         out
