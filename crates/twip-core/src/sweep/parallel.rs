@@ -19,8 +19,10 @@ pub struct Progress {
 
 /// Runs samples `range` in blocks of `block`, with `threads` threads (0 = all cores).
 /// `run_block` gets the sample indices of one block and a stop check, and returns their
-/// metrics (of either sweep family) in order, or `None` if it stopped early. Samples of
-/// blocks not finished when `progress.stop` was set are `None`.
+/// metrics (of either sweep family) in order, `Ok(None)` if it stopped early, or an error
+/// (then the other workers stop too, and the first block's error in sample order is the
+/// result: never samples left "not run" as if stopped). Samples of blocks not finished
+/// when `progress.stop` was set are `None`.
 pub fn run<M, F>(
     range: Range<u64>,
     block: usize,
@@ -30,7 +32,7 @@ pub fn run<M, F>(
 ) -> Result<Vec<Option<M>>, TwipError>
 where
     M: Clone + Send,
-    F: Fn(Range<u64>, &dyn Fn() -> bool) -> Option<Vec<M>> + Sync,
+    F: Fn(Range<u64>, &dyn Fn() -> bool) -> Result<Option<Vec<M>>, TwipError> + Sync,
 {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -42,22 +44,25 @@ where
         .try_reserve_exact(((range.end - range.start) / block + 1) as usize)
         .map_err(|_| TwipError::OutOfMemory { name: "n", bytes: (range.end - range.start) / block * 8 })?;
     starts.extend((range.start..range.end).step_by(block as usize));
-    let blocks: Vec<Option<Vec<M>>> = pool.install(|| {
+    let blocks: Vec<Result<Option<Vec<M>>, TwipError>> = pool.install(|| {
         starts
             .par_iter()
             .map(|&start| {
                 if progress.stop.load(Ordering::Relaxed) {
-                    return None;
+                    return Ok(None);
                 }
                 let indices = start..(start + block).min(range.end);
                 let stop = || progress.stop.load(Ordering::Relaxed);
-                let out = run_block(indices.clone(), &stop)?;
+                let Some(out) = run_block(indices.clone(), &stop).inspect_err(|_| progress.stop.store(true, Ordering::Relaxed))? else {
+                    return Ok(None);
+                };
                 debug_assert_eq!(out.len() as u64, indices.end - indices.start);
                 progress.done.fetch_add(out.len(), Ordering::Relaxed);
-                Some(out)
+                Ok(Some(out))
             })
             .collect()
     });
+    let blocks: Vec<Option<Vec<M>>> = blocks.into_iter().collect::<Result<_, _>>()?;
     // Sized by the caller's sample count: reserved fallibly (an error, not an abort).
     let count = (range.end - range.start) as usize;
     let mut results = Vec::new();
@@ -72,4 +77,50 @@ where
         }
     }
     Ok(results)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use alloc::vec::Vec;
+
+    type Blocks = Result<Option<Vec<f64>>, TwipError>;
+
+    /// Each sample's index as its metric; blocks starting at `at` fail.
+    fn failing_at(at: &'static [u64]) -> impl Fn(Range<u64>, &dyn Fn() -> bool) -> Blocks + Sync {
+        move |r: Range<u64>, _: &dyn Fn() -> bool| {
+            if at.contains(&r.start) {
+                return Err(TwipError::InvalidParameter { name: "block", value: r.start as f64, reason: "fails in this test" });
+            }
+            Ok(Some(r.map(|i| i as f64).collect()))
+        }
+    }
+
+    /// A block's error is the run's (the first failing block in sample order, on any
+    /// thread count) and it stops the other workers: never samples left "not run" as if a
+    /// stop had been asked.
+    #[test]
+    fn a_blocks_error_is_the_runs() {
+        for threads in [1, 2, 4] {
+            let progress = Progress::default();
+            match run(0..1000, 10, threads, &progress, failing_at(&[300, 700])) {
+                Err(TwipError::InvalidParameter { name: "block", value, .. }) => assert_eq!(value, 300.0, "{threads} threads"),
+                other => panic!("{threads} threads: want block 300's error, got {other:?}"),
+            }
+            assert!(progress.stop.load(Ordering::Relaxed), "{threads} threads: the workers were asked to stop");
+        }
+    }
+
+    /// A block that stopped early leaves its samples `None`; the others keep their places.
+    #[test]
+    fn a_stopped_block_is_none_and_the_rest_in_place() {
+        let got = run(0..95, 10, 2, &Progress::default(), |r: Range<u64>, _: &dyn Fn() -> bool| {
+            Ok((r.start != 20).then(|| r.map(|i| i as f64).collect::<Vec<f64>>()))
+        })
+        .unwrap();
+        assert_eq!(got.len(), 95);
+        for (i, v) in got.iter().enumerate() {
+            assert_eq!(*v, (!(20..30).contains(&i)).then_some(i as f64), "sample {i}");
+        }
+    }
 }

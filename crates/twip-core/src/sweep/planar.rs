@@ -280,9 +280,7 @@ mod tests {
         for realism in [None, Some(&real)] {
             let sweep = |threads| {
                 run(0..6, BLOCK, threads, &Progress::default(), |range, stop| {
-                    range
-                        .map(|i| run_planar_sample(&ctrl, &circle, &config, &draw(&nominal, &spread, 5, i), 2.0, realism, stop))
-                        .collect()
+                    Ok(range.map(|i| run_planar_sample(&ctrl, &circle, &config, &draw(&nominal, &spread, 5, i), 2.0, realism, stop)).collect())
                 })
                 .unwrap()
             };

@@ -133,7 +133,7 @@ pub(crate) fn run_sweep<'py, M, F>(
 ) -> PyResult<Bound<'py, PyDict>>
 where
     M: SweepMetrics,
-    F: Fn(Range<u64>, &dyn Fn() -> bool) -> Option<Vec<M>> + Send + Sync,
+    F: Fn(Range<u64>, &dyn Fn() -> bool) -> Result<Option<Vec<M>>, TwipError> + Send + Sync,
 {
     let start = samples.start;
     let watch = Progress::default();
@@ -298,7 +298,7 @@ pub fn sweep_raw<'py>(
             (None, SlopeController::Lqr(c)) => run_lqr_samples(&c, &schedule, &config, &nominal, &perts, seed, range, stop),
             (None, SlopeController::Fuzzy(c)) => run_lane_samples(&FuzzyLanes::new(&c), &schedule, &config, &nominal, &perts, seed, range, stop),
         };
-        run.ok().flatten()
+        run
     })
 }
 

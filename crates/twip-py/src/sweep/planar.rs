@@ -92,20 +92,20 @@ pub fn sweep_planar_raw<'py>(
         (None, PlanarController::Pid(pid)) => {
             let law = PidLanes::new(pid);
             return run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
-                run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop).ok().flatten()
+                run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop)
             });
         }
         (None, PlanarController::Smc(smc)) => {
             if let Some(law) = SmcLanes::new(smc) {
                 return run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
-                    run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop).ok().flatten()
+                    run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop)
                 });
             }
         }
         _ => {}
     }
     run_sweep(py, start..start + count, BLOCK, threads, progress.as_ref(), kernel, |range, stop| {
-        range
+        Ok(range
             .map(|i| {
                 let sample = core_planar::draw(&nominal, &perts, seed, i);
                 // Push and force heights default to each sample's own centre of mass.
@@ -117,7 +117,7 @@ pub fn sweep_planar_raw<'py>(
                     Err(_) => Some(PlanarSampleMetrics::INVALID),
                 }
             })
-            .collect()
+            .collect())
     })
 }
 
