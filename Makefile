@@ -26,11 +26,11 @@ build: setup
 demo: build
 	$(VENV)/bin/twip reproduce
 
-# The core is tested with std (all of it) and without (the no_std subset), and the
-# no_std build is checked for dependencies that switch std on; the benches beside the
-# crate are built so that they cannot rot.
+# The core is tested with std and its thread pool (all of it) and without std (the no_std
+# subset), and the no_std build is checked for dependencies that switch std on; the
+# benches beside the crate are built so that they cannot rot.
 test-rust: setup
-	cargo test --workspace --exclude twip-py --quiet
+	cargo test --workspace --exclude twip-py --features twip-core/parallel --quiet
 	cargo test -p twip-core --no-default-features --lib --quiet
 	scripts/check_nostd.sh
 	cargo check -p twip-core --benches --examples --all-features --quiet
