@@ -202,17 +202,21 @@ impl Ziggurat {
                 rest = &mut rest[8..];
                 continue;
             }
-            let word = rng.next_u64();
-            rest[0] = self.normal((word & 0xFFFF_FFFF) as u32, rng);
-            rest[1] = self.normal((word >> 32) as u32, rng);
+            self.one_word(rng, &mut rest[..2]);
             rest = &mut rest[2..];
         }
         for pair in rest.chunks_mut(2) {
-            let word = rng.next_u64();
-            pair[0] = self.normal((word & 0xFFFF_FFFF) as u32, rng);
-            if let Some(second) = pair.get_mut(1) {
-                *second = self.normal((word >> 32) as u32, rng);
-            }
+            self.one_word(rng, pair);
+        }
+    }
+
+    /// The normals of the next word into `pair` (its one or two places), low half first.
+    #[inline(always)]
+    fn one_word(&self, rng: &mut Philox, pair: &mut [f64]) {
+        let word = rng.next_u64();
+        pair[0] = self.normal((word & 0xFFFF_FFFF) as u32, rng);
+        if let Some(second) = pair.get_mut(1) {
+            *second = self.normal((word >> 32) as u32, rng);
         }
     }
 

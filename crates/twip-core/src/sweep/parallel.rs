@@ -19,10 +19,11 @@ pub struct Progress {
 
 /// Runs samples `range` in blocks of `block`, with `threads` threads (0 = all cores).
 /// `run_block` gets the sample indices of one block and a stop check, and returns their
-/// metrics (of either sweep family) in order, `Ok(None)` if it stopped early, or an error
-/// (then the other workers stop too, and the first block's error in sample order is the
-/// result: never samples left "not run" as if stopped). Samples of blocks not finished
-/// when `progress.stop` was set are `None`.
+/// metrics (of either sweep family) in order, `Ok(None)` if it stopped early, or an error:
+/// then the other workers stop too and the run's result is an error (the first in sample
+/// order of the blocks that ran; which ran depends on the threads), never samples left
+/// "not run" as if stopped. Samples of blocks not finished when `progress.stop` was set
+/// are `None`.
 pub fn run<M, F>(
     range: Range<u64>,
     block: usize,
@@ -96,16 +97,18 @@ mod tests {
         }
     }
 
-    /// A block's error is the run's (the first failing block in sample order, on any
-    /// thread count) and it stops the other workers: never samples left "not run" as if a
-    /// stop had been asked.
+    /// A block's error is the run's and it stops the other workers: never samples left
+    /// "not run" as if a stop had been asked. One thread runs the blocks in order, so the
+    /// first failing block's error is the one; more threads may reach the later one first.
     #[test]
     fn a_blocks_error_is_the_runs() {
         for threads in [1, 2, 4] {
             let progress = Progress::default();
             match run(0..1000, 10, threads, &progress, failing_at(&[300, 700])) {
-                Err(TwipError::InvalidParameter { name: "block", value, .. }) => assert_eq!(value, 300.0, "{threads} threads"),
-                other => panic!("{threads} threads: want block 300's error, got {other:?}"),
+                Err(TwipError::InvalidParameter { name: "block", value, .. }) => {
+                    assert!(value == 300.0 || (threads > 1 && value == 700.0), "{threads} threads: block {value}")
+                }
+                other => panic!("{threads} threads: want a failing block's error, got {other:?}"),
             }
             assert!(progress.stop.load(Ordering::Relaxed), "{threads} threads: the workers were asked to stop");
         }

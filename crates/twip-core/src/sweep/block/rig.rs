@@ -429,7 +429,7 @@ fn rig_block<C: LaneLaw>(
     let mut alive = active;
     let mut ended = [(false, 0.0f64, 0u64); LANES];
     // The sensors' registers hold a sample of the initial state.
-    // On the heap, as the rigs (its lanes' streams and normals are ~13 KB).
+    // On the heap, as the rigs: it holds every lane's stream and drawn-ahead normals.
     let mut imus = ImuLanes::new(&rigs, &models).map(alloc::boxed::Box::new);
     if let Some(imus) = imus.as_mut() {
         let mut xdot = [[0.0; LANES]; 4];
