@@ -141,6 +141,22 @@ def test_no_rule_fires_falls_back_to_the_nearest_set():
     assert np.all(np.isnan(twip.FuzzyBasis.default().eval([math.nan, 0.0])))
 
 
+def test_a_subnormal_sum_fires_the_nearest_set_in_both():
+    """Memberships ~1e-309 sum to a subnormal whose inverse overflows: no rule fires, in twip
+    and in the reference alike (dividing would give shares of a few significant bits)."""
+    def sets(lib):
+        return [[lib.Gaussian(0.0, 1.0), lib.Gaussian(0.01, 1.0)], [lib.Gaussian(0.0, 1.0)]]
+    x = [37.73, 0.0]
+    mu = [math.exp(-0.5 * (x[0] - m) ** 2) for m in (0.0, 0.01)]
+    assert 0.0 < sum(mu) and math.isinf(1.0 / sum(mu)), mu
+    expected = [0.0, 1.0]
+    np.testing.assert_array_equal(rf.GridBasis(sets(rf)).eval(x), expected)
+    np.testing.assert_array_equal(twip.FuzzyBasis(sets(twip)).eval(x), expected)
+    # Just inside the band's edge both divide, and agree.
+    near = [37.6, 0.0]
+    np.testing.assert_allclose(rf.GridBasis(sets(rf)).eval(near), twip.FuzzyBasis(sets(twip)).eval(near), rtol=1e-12)
+
+
 def test_basis_sets_round_trip():
     basis = twip.FuzzyBasis(thesis_sets(twip))
     again = twip.FuzzyBasis(basis.sets)

@@ -77,6 +77,13 @@ class Gaussian:
         return abs(x - self.mean) / self.sigma
 
 
+def _silent(total: float) -> bool:
+    """Whether an input's memberships, summing to `total`, fire no rule: none holds it, or they
+    hold it so faintly (a subnormal sum) that 1/total overflows. twip's definition (the Rust
+    core's module docs): such an input fires its nearest set alone."""
+    return not (total > 0 and math.isfinite(1.0 / float(total)))
+
+
 def _nearest(sets, x: float) -> int:
     """Index of the nearest set; ties go to the last set when x > 0, the first otherwise."""
     dist = [s.distance(x) for s in sets]
@@ -105,13 +112,13 @@ class GridBasis:
         mu = [np.array([s(xi) for s in sets]) for sets, xi in zip(self.sets, x)]
         w = np.array([math.prod(m[j] for m, j in zip(mu, idx)) for idx in self._rules()])
         D = w.sum()
-        if D > 0 or math.isnan(D):
+        if math.isnan(D) or (D > 0 and not any(_silent(m.sum()) for m in mu)):
             return w / D
         # No rule fires: each silent input falls back to its nearest set alone.
         parts = []
         for m, sets, xi in zip(mu, self.sets, x):
             s = m.sum()
-            if s > 0:
+            if not _silent(s):
                 parts.append(m / s)
             else:
                 one = np.zeros(len(sets))

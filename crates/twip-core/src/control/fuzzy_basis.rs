@@ -135,7 +135,8 @@ pub fn normalised_memberships<T: Real>(sets: &[Membership<T>], x: T, out: &mut [
     for (j, set) in sets.iter().enumerate() {
         (nearest, best) = nearer(x, (nearest, best), (j, Member::distance(set, x)));
     }
-    let (none, inv) = (sum == T::zero(), T::one() / sum);
+    let inv = T::one() / sum;
+    let none = fires_none(sum, inv);
     for (j, o) in out.iter_mut().enumerate() {
         *o = weight(*o, inv, none, nearest == c::<T>(j as f64));
     }
@@ -175,9 +176,7 @@ pub(crate) fn normalise<S: Lane, M: Member<S>, const N: usize>(sets: &[M; N], x:
     }
     let sum = mu.iter().fold(S::splat(0.0), |sum, m| sum + *m);
     let inv = S::splat(1.0) / sum;
-    // No set holds x, or they hold it so faintly (Gaussians far out: a subnormal Σμ) that
-    // 1/Σμ overflows: μ · ∞ would make ξ infinite or NaN. A NaN input keeps its NaN.
-    let none = sum.eq(S::splat(0.0)) | inv.eq(S::splat(f64::INFINITY));
+    let none = fires_none(sum, inv);
     if !S::any(none) {
         // Some rule fires for every lane (always with sets that cover the line).
         return fill(|j| mu[j] * inv);
@@ -196,6 +195,14 @@ pub(crate) fn normalise<S: Lane, M: Member<S>, const N: usize>(sets: &[M; N], x:
 fn nearer<S: Lane>(x: S, (best, best_d): (S, S), (j, d): (usize, S)) -> (S, S) {
     let take = d.lt(best_d) | (x.gt(S::splat(0.0)) & d.eq(best_d)) | S::mask(j == 0);
     (S::select(take, S::splat(j as f64), best), S::select(take, d, best_d))
+}
+
+/// Whether no rule fires, given the memberships' sum and its inverse: no set holds x, or
+/// they hold it so faintly (Gaussians far out: a subnormal Σμ) that 1/Σμ overflows, where
+/// μ · ∞ would make ξ infinite or NaN. A NaN input keeps its NaN.
+#[inline(always)]
+fn fires_none<S: Lane>(sum: S, inv: S) -> S::Mask {
+    sum.eq(S::splat(0.0)) | inv.eq(S::splat(f64::INFINITY))
 }
 
 /// A set's normalised weight: its share μ · (1/Σμ), or when no set holds x (`none`),
@@ -523,6 +530,10 @@ mod tests {
         let mu = (-0.5f64 * 37.8 * 37.8).exp();
         assert!(mu > 0.0 && (1.0 / mu).is_infinite(), "{mu:e} should be subnormal");
         assert_eq!(basis.eval(&[x, -x]), [0.0, 0.0, 1.0, 0.0]);
+        // The same for a number of sets known at run time (the bindings' `FuzzyBasis.eval`).
+        let mut w = [0.0; 2];
+        normalised_memberships(&g[0], x, &mut w);
+        assert_eq!(w, [0.0, 1.0]);
         let xi = basis.eval(&[1.0 + 0.1 * 37.0, 0.0]); // normal but tiny: shares as usual
         assert!(xi.iter().all(|v| v.is_finite()) && (xi.iter().sum::<f64>() - 1.0).abs() < 1e-15, "{xi:?}");
     }
