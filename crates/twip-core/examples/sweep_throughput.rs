@@ -5,7 +5,8 @@
 //! pid (circle-pid on the 3-DOF runner; the checksum sums its mean |x error| instead),
 //! pid-lanes (the same on the planar lane kernel), realism (LQR through the thesis-like rig,
 //! 5 ms loop), realism-lanes (the same on the rig's lane kernel), realism-lanes-no-imu (that rig
-//! without its IMU: what the IMU costs).
+//! without its IMU: what the IMU costs), realism-lanes-slip (that rig with the data sheet's
+//! gearhead friction, slip law only: `Friction::gb37()`, no stick band).
 use nalgebra::{Matrix4, Vector4};
 use twip_core::control::fuzzy::FuzzyController;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
@@ -62,12 +63,17 @@ fn main() {
             };
             runs.iter().map(|m| m.mean_abs_x_error).sum()
         }
-        "realism" | "realism-lanes" | "realism-lanes-no-imu" => {
+        "realism" | "realism-lanes" | "realism-lanes-no-imu" | "realism-lanes-slip" => {
             use twip_core::hardware::realism::Realism;
             use twip_core::sweep::block::LqrLanes;
             use twip_core::sweep::rig::{for_sweep, run_rig_lane_samples, run_rig_sample};
             let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 5e-3).unwrap();
-            let rig = if path.ends_with("no-imu") { Realism { imu: None, ..Realism::thesis_like() } } else { Realism::thesis_like() };
+            let rig = match path {
+                "realism-lanes-no-imu" => Realism { imu: None, ..Realism::thesis_like() },
+                // The data sheet's gearhead friction, slip law only (no stick band).
+                "realism-lanes-slip" => Realism { friction: Some(twip_core::model::friction::Friction::gb37()), ..Realism::thesis_like() },
+                _ => Realism::thesis_like(),
+            };
             let realism = for_sweep(&rig, 1);
             let runs: Vec<_> = if path == "realism" {
                 (0..n).map(|i| run_rig_sample(&ctrl, &schedule, &config, &draw(&nominal, &perturb, 1, i), &realism, &|| false).unwrap()).collect()

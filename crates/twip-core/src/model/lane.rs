@@ -43,7 +43,8 @@ pub trait Lane:
     /// e^x: libm's in a run; in lanes a polynomial that vectorises (`math::exp_fused`,
     /// within 2 ulp of libm's). Named apart from `ComplexField::exp`, which a `Real` has too.
     fn exponential(self) -> Self;
-    /// tanh x, libm's (a call per lane: no lane law needs it fast).
+    /// tanh x: libm's in a run, `math::tanh_fused` on lanes (libm's is a call per lane,
+    /// which kept the lanes' loops from vectorising).
     fn hyperbolic_tangent(self) -> Self;
     /// The type's machine epsilon (f64's for the lanes).
     fn epsilon() -> Self;
@@ -343,7 +344,7 @@ mod wide {
 
         #[inline(always)]
         fn hyperbolic_tangent(self) -> Self {
-            Fused(self.0.tanh())
+            Fused(crate::model::math::tanh_fused(self.0))
         }
 
         #[inline(always)]
@@ -445,7 +446,7 @@ mod wide {
 
         #[inline(always)]
         fn hyperbolic_tangent(self) -> Self {
-            Wide(each(self.0, f64::tanh))
+            Wide(each(self.0, crate::model::math::tanh_fused))
         }
 
         #[inline(always)]

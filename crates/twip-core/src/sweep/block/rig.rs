@@ -562,7 +562,7 @@ mod tests {
 
     /// Every compiled copy of the rig's kernel gives the same bits (the baseline one
     /// through libm's fma), for the thesis-like rig with and without backlash, with a
-    /// constant force and with slope changes, both outcomes.
+    /// constant force, with slope changes and with slip friction, both outcomes.
     #[test]
     fn every_copy_gives_the_same_bits() {
         let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
@@ -576,6 +576,8 @@ mod tests {
             Realism { backlash: None, ..Realism::thesis_like() },
             Realism { force, ..Realism::thesis_like() },
             Realism { slope_profile: hills, ..Realism::thesis_like() },
+            // The slip law alone: its tanh on lanes is `math::tanh_fused`.
+            Realism { friction: Some(crate::model::friction::Friction::gb37()), ..Realism::thesis_like() },
         ];
         for realism in kinds {
             same_bits_on_every_copy(&law, &realism);
