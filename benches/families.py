@@ -34,6 +34,8 @@ def families():
         ("LQR, thesis-like rig and a push", get("flat-lqr-sim", t_final=10.0), thesis_like.replace(pushes=[(5.0, 0.2)]), 4096),
         ("LQR, thesis-like rig, slope changes", get("flat-lqr-sim", t_final=10.0),
          thesis_like.replace(slope_profile=[(0.3, 0.02), (0.6, -0.02)]), 4096),
+        ("LQR, thesis-like rig, slip friction (no stick band)", get("flat-lqr-sim", t_final=10.0),
+         thesis_like.replace(friction=thesis_like.friction.replace(stick_speed=0.0)), 4096),
         ("fuzzy, Gaussian sets, thesis-like rig", get("flat-fuzzy-sim", t_final=10.0, sets=GAUSSIAN_SETS), thesis_like, 4096),
         ("circle-pid (3-DOF, three laps)", get("circle-pid"), None, 1024),
         ("circle-smc-fuzzy (3-DOF, three laps)", get("circle-smc-fuzzy"), None, 512),

@@ -1,7 +1,8 @@
 //! Throughput of one sweep path, for timing with CPU time on a busy machine:
 //!   /usr/bin/time -f "%U s user" cargo run --release --features parallel \
 //!       --example sweep_throughput -- PATH 256
-//! PATH: lanes (LQR on lanes), fuzzy-lanes, scalar (LQR, general runner), fuzzy-scalar,
+//! PATH: lanes (LQR on lanes), fuzzy-lanes, fuzzy-gaussian-lanes (benches/families.py's
+//! Gaussian sets), scalar (LQR, general runner), fuzzy-scalar,
 //! pid (circle-pid on the 3-DOF runner; the checksum sums its mean |x error| instead),
 //! pid-lanes (the same on the planar lane kernel), realism (LQR through the thesis-like rig,
 //! 5 ms loop), realism-lanes (the same on the rig's lane kernel), realism-lanes-no-imu (that rig
@@ -39,6 +40,23 @@ fn main() {
             .iter()
             .map(|m| m.mean_abs_pitch_error)
             .sum(),
+        "fuzzy-gaussian-lanes" => {
+            // benches/families.py's Gaussian sets.
+            use twip_core::control::fuzzy_basis::{Membership, ThesisBasis};
+            let inf = f64::INFINITY;
+            let (g, tri, trap) = (Membership::gaussian, Membership::triangle, Membership::trapezoid);
+            let sets = [
+                [g(-0.3, 0.15).unwrap(), tri(-0.3, 0.0, 0.3).unwrap(), g(0.3, 0.15).unwrap()],
+                [trap(-inf, -inf, -2.0, -0.5).unwrap(), tri(-2.0, 0.0, 2.0).unwrap(), trap(0.5, 2.0, inf, inf).unwrap()],
+            ];
+            let gaussian = FuzzyController::new(*fuzzy.model(), fuzzy.gains(), fuzzy.adaptation(), ThesisBasis::new(sets).unwrap(), 1e-3).unwrap();
+            run_lane_samples(&FuzzyLanes::new(&gaussian), &schedule, &config, &nominal, &perturb, 1, 0..n, &|| false)
+                .unwrap()
+                .unwrap()
+                .iter()
+                .map(|m| m.mean_abs_pitch_error)
+                .sum()
+        }
         "fuzzy-lanes" => run_lane_samples(&FuzzyLanes::new(&fuzzy), &schedule, &config, &nominal, &perturb, 1, 0..n, &|| false)
             .unwrap()
             .unwrap()
