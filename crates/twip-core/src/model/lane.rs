@@ -441,7 +441,7 @@ mod wide {
 
         #[inline(always)]
         fn exponential(self) -> Self {
-            Wide(each(self.0, crate::model::math::exp_fused))
+            crate::model::math::exp_wide(self)
         }
 
         #[inline(always)]

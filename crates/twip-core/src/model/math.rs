@@ -56,7 +56,7 @@ pub fn sin_cos<T: Real>(x: T) -> (T, T) {
 #[cfg(feature = "std")]
 mod wide {
     use super::kernel;
-    use crate::model::lane::{Fused, Wide, WIDTH};
+    use crate::model::lane::{Fused, Lane, Wide, WIDTH};
 
     // The reduction, the polynomial and the rotation, per lane: one source for both.
 
@@ -111,33 +111,68 @@ mod wide {
     /// results), +inf above ln f64::MAX, NaN for NaN.
     #[inline(always)]
     pub(crate) fn exp_fused(x: f64) -> f64 {
+        let (r, shifted) = exp_reduce(x);
+        exp_edges(Fused(x), Fused(exp_scale(exp_poly(Fused(r)).0, shifted))).0
+    }
+
+    /// e^x on [`WIDTH`] lanes: `exp_fused`'s stages, each a loop over the lanes or `Wide`'s
+    /// own operations, so that each is vector instructions (one loop over the whole of
+    /// `exp_fused` was not vectorised: a scalar copy per lane).
+    #[inline(always)]
+    pub(crate) fn exp_wide(x: Wide) -> Wide {
+        let (mut r, mut shifted) = ([0.0; WIDTH], [0.0; WIDTH]);
+        for i in 0..WIDTH {
+            (r[i], shifted[i]) = exp_reduce(x.0[i]);
+        }
+        let p = exp_poly(Wide(r));
+        let mut scaled = [0.0; WIDTH];
+        for i in 0..WIDTH {
+            scaled[i] = exp_scale(p.0[i], shifted[i]);
+        }
+        exp_edges(x, Wide(scaled))
+    }
+
+    /// e^x's reduction: r = x − k ln 2 for the nearest integer k, and x log2 e + 1.5 · 2^52,
+    /// whose low bits hold k (x clamped to where e^x is a normal number or just overflows).
+    #[inline(always)]
+    fn exp_reduce(x: f64) -> (f64, f64) {
+        let clamped = x.clamp(-708.0, 709.79);
+        let shifted = clamped.mul_add(core::f64::consts::LOG2_E, ROUND_MAGIC);
+        let k = shifted - ROUND_MAGIC;
+        ((-k).mul_add(LN2_LO, (-k).mul_add(LN2_HI, clamped)), shifted)
+    }
+
+    /// e^r for |r| ≤ ln 2 / 2: the Taylor polynomial of degree 13, fused.
+    #[inline(always)]
+    fn exp_poly<S: Lane>(r: S) -> S {
         // 1/n! for n = 13 down to 0.
         const INV_FACT: [f64; 14] = [
             1.0 / 6_227_020_800.0, 1.0 / 479_001_600.0, 1.0 / 39_916_800.0, 1.0 / 3_628_800.0, 1.0 / 362_880.0,
             1.0 / 40_320.0, 1.0 / 5_040.0, 1.0 / 720.0, 1.0 / 120.0, 1.0 / 24.0, 1.0 / 6.0, 0.5, 1.0, 1.0,
         ];
-        let clamped = x.clamp(-708.0, 709.79);
-        let shifted = clamped.mul_add(core::f64::consts::LOG2_E, ROUND_MAGIC);
-        let k = shifted - ROUND_MAGIC;
-        let r = (-k).mul_add(LN2_LO, (-k).mul_add(LN2_HI, clamped));
-        let mut p = INV_FACT[0];
+        let mut p = S::splat(INV_FACT[0]);
         for c in &INV_FACT[1..] {
-            p = p.mul_add(r, *c);
+            p = S::madd(p, r, S::splat(*c));
         }
+        p
+    }
+
+    /// p · 2^k for the polynomial `p` = e^r and k in `shifted`'s low bits.
+    #[inline(always)]
+    fn exp_scale(p: f64, shifted: f64) -> f64 {
         // k in [-1021, 1024]: the low bits of `shifted` hold it. 2^k as 2^(k−1) · 2, so
         // that k = 1024 (x near ln of the largest f64) overflows only if e^x does.
         let k_int = shifted.to_bits().wrapping_sub(ROUND_MAGIC.to_bits()) as i64;
         let half_scale = f64::from_bits(((k_int + 1022) as u64) << 52);
-        let y = (p * half_scale) * 2.0;
-        if x < -708.0 {
-            0.0
-        } else if x > 709.79 {
-            f64::INFINITY
-        } else if x.is_nan() {
-            x
-        } else {
-            y
-        }
+        (p * half_scale) * 2.0
+    }
+
+    /// e^x's edges as selects (branches per lane kept a loop over lanes scalar): 0 below
+    /// −708, +inf above 709.79, NaN for NaN, else `y`.
+    #[inline(always)]
+    fn exp_edges<S: Lane>(x: S, y: S) -> S {
+        let nan = !x.eq(x);
+        S::select(x.lt(S::splat(-708.0)), S::splat(0.0), S::select(x.gt(S::splat(709.79)), S::splat(f64::INFINITY), S::select(nan, x, y)))
     }
 
     /// Below this |x|, tanh takes e^(−2|x|) − 1 from its Taylor polynomial; above, from
@@ -184,7 +219,7 @@ mod wide {
     }
 }
 #[cfg(feature = "std")]
-pub(crate) use wide::{exp_fused, sin_cos_fused, sin_cos_wide, tanh_fused};
+pub(crate) use wide::{exp_fused, exp_wide, sin_cos_fused, sin_cos_wide, tanh_fused};
 
 /// sin and cos of |r| ≤ π/4. The polynomials in r² are evaluated by Estrin's scheme
 /// (pairs, then pairs of pairs): a shorter chain of dependent operations than Horner's,
@@ -236,6 +271,15 @@ mod tests {
             worst = worst.max(ulps(exp_fused(x), x.exp()));
         }
         assert!(worst <= 2, "{worst} ulp");
+        // A `Wide` at once gives each lane's bits, edges included.
+        let xs = [-800.0, -708.0, -1e-300, 0.0, 0.3, 1.0, 709.7, 709.8, f64::NAN, f64::NEG_INFINITY, 42.0, -3.5, 1e-10, -700.0, 700.0, f64::INFINITY];
+        for four in xs.chunks(crate::model::lane::WIDTH) {
+            let four: [f64; crate::model::lane::WIDTH] = four.try_into().unwrap();
+            let got = exp_wide(crate::model::lane::Wide(four)).0;
+            for (g, x) in got.iter().zip(four) {
+                assert_eq!(g.to_bits(), exp_fused(x).to_bits(), "{x:e}");
+            }
+        }
         assert_eq!(exp_fused(-800.0), 0.0);
         assert_eq!(exp_fused(f64::NEG_INFINITY), 0.0);
         assert_eq!(exp_fused(710.0), f64::INFINITY);
