@@ -44,7 +44,8 @@ pub trait Lane:
     /// within 2 ulp of libm's). Named apart from `ComplexField::exp`, which a `Real` has too.
     fn exponential(self) -> Self;
     /// tanh x: libm's in a run, `math::tanh_fused` on lanes (libm's is a call per lane,
-    /// which kept the lanes' loops from vectorising).
+    /// which kept the lanes' loops from vectorising; `Wide` still runs it lane by lane, as no
+    /// `Wide` law takes tanh).
     fn hyperbolic_tangent(self) -> Self;
     /// The type's machine epsilon (f64's for the lanes).
     fn epsilon() -> Self;

@@ -142,19 +142,29 @@ mod wide {
         ((-k).mul_add(LN2_LO, (-k).mul_add(LN2_HI, clamped)), shifted)
     }
 
-    /// e^r for |r| ≤ ln 2 / 2: the Taylor polynomial of degree 13, fused.
+    /// 1/n! for n = 17 down to 0: the Taylor coefficients of e^x (the last 14) and of
+    /// (e^x − 1)/x (the first 17).
+    const INV_FACT: [f64; 18] = [
+        1.0 / 355_687_428_096_000.0, 1.0 / 20_922_789_888_000.0, 1.0 / 1_307_674_368_000.0,
+        1.0 / 87_178_291_200.0, 1.0 / 6_227_020_800.0, 1.0 / 479_001_600.0, 1.0 / 39_916_800.0,
+        1.0 / 3_628_800.0, 1.0 / 362_880.0, 1.0 / 40_320.0, 1.0 / 5_040.0, 1.0 / 720.0, 1.0 / 120.0,
+        1.0 / 24.0, 1.0 / 6.0, 0.5, 1.0, 1.0,
+    ];
+
+    /// The polynomial with `coefficients` (highest power first) at `r`, by Horner, fused.
     #[inline(always)]
-    fn exp_poly<S: Lane>(r: S) -> S {
-        // 1/n! for n = 13 down to 0.
-        const INV_FACT: [f64; 14] = [
-            1.0 / 6_227_020_800.0, 1.0 / 479_001_600.0, 1.0 / 39_916_800.0, 1.0 / 3_628_800.0, 1.0 / 362_880.0,
-            1.0 / 40_320.0, 1.0 / 5_040.0, 1.0 / 720.0, 1.0 / 120.0, 1.0 / 24.0, 1.0 / 6.0, 0.5, 1.0, 1.0,
-        ];
-        let mut p = S::splat(INV_FACT[0]);
-        for c in &INV_FACT[1..] {
+    fn horner<S: Lane>(coefficients: &[f64], r: S) -> S {
+        let mut p = S::splat(coefficients[0]);
+        for c in &coefficients[1..] {
             p = S::madd(p, r, S::splat(*c));
         }
         p
+    }
+
+    /// e^r for |r| ≤ ln 2 / 2: the Taylor polynomial of degree 13.
+    #[inline(always)]
+    fn exp_poly<S: Lane>(r: S) -> S {
+        horner(&INV_FACT[4..], r)
     }
 
     /// p · 2^k for the polynomial `p` = e^r and k in `shifted`'s low bits.
@@ -186,20 +196,10 @@ mod wide {
     /// 3 ulp of libm's `tanh` (tested); ±1 for |x| ≥ 354 and ±∞, NaN for NaN, ±0 for ±0.
     #[inline(always)]
     pub(crate) fn tanh_fused(x: f64) -> f64 {
-        // 1/(n + 1)! for n = 16 down to 0: m = y · Σ y^n/(n + 1)!.
-        const INV_FACT: [f64; 17] = [
-            1.0 / 355_687_428_096_000.0, 1.0 / 20_922_789_888_000.0, 1.0 / 1_307_674_368_000.0,
-            1.0 / 87_178_291_200.0, 1.0 / 6_227_020_800.0, 1.0 / 479_001_600.0, 1.0 / 39_916_800.0,
-            1.0 / 3_628_800.0, 1.0 / 362_880.0, 1.0 / 40_320.0, 1.0 / 5_040.0, 1.0 / 720.0, 1.0 / 120.0,
-            1.0 / 24.0, 1.0 / 6.0, 0.5, 1.0,
-        ];
         let a = x.abs();
         let y = -2.0 * a;
-        let mut p = INV_FACT[0];
-        for c in &INV_FACT[1..] {
-            p = p.mul_add(y, *c);
-        }
-        let m = p * y;
+        // m = y · Σ y^n/(n + 1)! for n = 16 down to 0.
+        let m = horner(&INV_FACT[..17], Fused(y)).0 * y;
         let small = -m / (2.0 + m);
         let e = exp_fused(y);
         let large = (1.0 - e) / (1.0 + e);
