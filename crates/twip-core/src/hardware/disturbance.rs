@@ -367,11 +367,14 @@ impl<T: Real> Disturbed<T> {
     }
 
     /// A step starts at `x` under the lumped `current`: engaged trains whose contact
-    /// torque would pull the flanks apart open, and the motors' torque is noted.
-    pub fn gear_next(&mut self, x: &Vector4<T>, current: T) {
-        let Some(play) = self.play else { return };
-        let (d, friction) = self.piece(x).deriv_geared(x, current, play.engaged()[0], &self.force, self.has_force);
+    /// torque would pull the flanks apart open, and the motors' torque is noted. Returns
+    /// the derivative the trains weighed when they stay as they were (then it is this
+    /// plant's `deriv` at `x` under `current`); None without backlash.
+    pub fn gear_next(&mut self, x: &Vector4<T>, current: T) -> Option<Vector4<T>> {
+        let engaged = self.play?.engaged();
+        let (d, friction) = self.piece(x).deriv_geared(x, current, engaged[0], &self.force, self.has_force);
         self.gear_next_with(x, current, &d, friction);
+        (self.play?.engaged() == engaged).then_some(d)
     }
 
     /// [`Self::gear_next`] given the derivative `d` and the gearhead torque per wheel

@@ -109,11 +109,15 @@ impl<T: Real> PlanarPlant<T> {
     }
 
     /// A step starts at `x` under `u`: engaged trains whose contact torque would pull the
-    /// flanks apart open, and the motors' torques over the step are noted.
-    fn gear_next(&mut self, x: &PlanarState<T>, u: &SVector<T, 2>) {
-        let Some(mut play) = self.play else { return };
+    /// flanks apart open, and the motors' torques over the step are noted. Returns the
+    /// derivative the trains weighed when they stay as they were (then it is `deriv` at `x`
+    /// under `u`: an engaged train's rotor, which this sets, is not read); None without
+    /// backlash.
+    fn gear_next(&mut self, x: &PlanarState<T>, u: &SVector<T, 2>) -> Option<PlanarState<T>> {
+        let mut play = self.play?;
+        let engaged = play.engaged();
         let motor = self.torques(x, u);
-        let (d, friction) = self.model.deriv_geared(x, &motor, play.engaged(), |s, cp| self.extra(s, cp));
+        let (d, friction) = self.model.deriv_geared(x, &motor, engaged, |s, cp| self.extra(s, cp));
         let zero = T::zero();
         let (acc_r, acc_l) = self.model.wheel_speeds(&PlanarState::from([zero, zero, zero, zero, d[4], d[5], d[6]]));
         let j = play.inertia();
@@ -121,6 +125,7 @@ impl<T: Real> PlanarPlant<T> {
         let contact = [motor[0] - friction[0] - j * acc_r, motor[1] - friction[1] - j * acc_l];
         play.next_step([w_r, w_l], contact, [motor[0], motor[1]]);
         self.play = Some(play);
+        (play.engaged() == engaged).then_some(d)
     }
 
     /// The generalised forces of `(F_x, F_z)` at `height` on (φ, v) (flat ground).
@@ -163,6 +168,11 @@ impl<T: Real> Plant<T, 7, 2> for PlanarPlant<T> {
     /// Pushes jump the velocities; the windings' currents advance.
     #[inline]
     fn between_steps(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) {
+        self.between_steps_with_derivative(t, dt, x, u);
+    }
+
+    #[inline]
+    fn between_steps_with_derivative(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) -> Option<PlanarState<T>> {
         self.gear_elapsed(dt, x);
         while let Some(p) = self.pushes.due(t, dt) {
             let (s, cp) = x[3].sin_cos();
@@ -176,7 +186,7 @@ impl<T: Real> Plant<T, 7, 2> for PlanarPlant<T> {
             d.windings[0].advance(u[0], w_r, dt);
             d.windings[1].advance(u[1], w_l, dt);
         }
-        self.gear_next(x, u);
+        self.gear_next(x, u)
     }
 
     #[inline(always)]
@@ -450,6 +460,30 @@ mod tests {
         let mut rig = Trace::default();
         run(&Realism::ideal(), 3.0, &mut rig);
         assert_eq!(plain.0, rig.0);
+    }
+
+    /// As the 2-DOF rig's: the derivative the gear trains weighed is RK4's first stage when
+    /// they stay as they were, and the run is bit for bit one that evaluates every first
+    /// stage; with backlash both kinds of step occur (each wheel's train opens on its own).
+    #[test]
+    fn the_derivative_the_gear_trains_weighed_is_shared_bit_for_bit() {
+        use crate::hardware::realism::Unshared;
+        let (model, ctrl, circle) = setup();
+        let config = SimConfig { dt: 1e-3, t_final: 10.0, fall_limit: 1.0 };
+        for (name, realism) in [("thesis-like", Realism::thesis_like()), ("no backlash", Realism { backlash: None, ..Realism::thesis_like() })] {
+            let mut rig = realism.build_planar(&model, config.dt).unwrap();
+            let mut checked = crate::hardware::realism::Rig {
+                plant: Unshared { plant: rig.plant, shared: 0, not_shared: 0 },
+                sensors: rig.sensors,
+                actuator: rig.actuator,
+                delay: rig.delay,
+            };
+            let (mut a, mut b) = (Trace::default(), Trace::default());
+            assert_eq!(rig.simulate(&mut ctrl.clone(), &circle, &PlanarState::zeros(), &config, &mut a, || false).unwrap().0, Outcome::Completed);
+            checked.simulate(&mut ctrl.clone(), &circle, &PlanarState::zeros(), &config, &mut b, || false).unwrap();
+            assert_eq!(a.0, b.0, "{name}");
+            checked.plant.assert_counts(name, realism.backlash.is_some());
+        }
     }
 
     #[test]

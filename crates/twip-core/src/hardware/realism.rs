@@ -374,6 +374,69 @@ pub trait RigPlant<T: Real, const NX: usize, const NU: usize>: Plant<T, NX, NU> 
     fn currents(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NU>;
 }
 
+/// For tests: plant `P`, each derivative it shares between steps checked bit for bit
+/// against its `deriv` there and then withheld, so that the runner evaluates every first
+/// stage itself. Counts the steps that shared one and those that did not.
+#[cfg(test)]
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Unshared<P> {
+    pub plant: P,
+    pub shared: usize,
+    pub not_shared: usize,
+}
+
+#[cfg(test)]
+impl<P> Unshared<P> {
+    /// Over a 10 s run (`name`): with backlash most steps shared the first stage and some,
+    /// where a train opened, could not; without backlash none did.
+    pub(crate) fn assert_counts(&self, name: &str, backlash: bool) {
+        let (shared, not_shared) = (self.shared, self.not_shared);
+        std::println!("{name}: {shared} steps shared the first stage, {not_shared} did not");
+        if backlash {
+            assert!(shared > 9000 && not_shared > 0, "{name}: {shared} {not_shared}");
+        } else {
+            assert_eq!(shared, 0, "{name}");
+        }
+    }
+}
+
+#[cfg(test)]
+impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Dynamics<T, NX, NU> for Unshared<P> {
+    const PITCH: usize = P::PITCH;
+
+    fn deriv(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NX> {
+        self.plant.deriv(x, u)
+    }
+
+    fn energy(&self, x: &SVector<T, NX>) -> T {
+        self.plant.energy(x)
+    }
+}
+
+#[cfg(test)]
+impl<T: Real, P: Plant<T, NX, NU>, const NX: usize, const NU: usize> Plant<T, NX, NU> for Unshared<P> {
+    fn between_steps(&mut self, t: T, dt: T, x: &mut SVector<T, NX>, u: &SVector<T, NU>) {
+        match self.plant.between_steps_with_derivative(t, dt, x, u) {
+            Some(d) => {
+                assert_eq!(d, self.plant.deriv(x, u), "the derivative shared at t = {t:?}");
+                self.shared += 1;
+            }
+            None => self.not_shared += 1,
+        }
+    }
+
+    fn shaft_offsets(&self) -> [T; 2] {
+        self.plant.shaft_offsets()
+    }
+}
+
+#[cfg(test)]
+impl<T: Real, P: RigPlant<T, NX, NU>, const NX: usize, const NU: usize> RigPlant<T, NX, NU> for Unshared<P> {
+    fn currents(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NU> {
+        self.plant.currents(x, u)
+    }
+}
+
 impl<T: Real> Plant<T, 4, 1> for Disturbed<T> {
     /// Pushes jump the velocities.
     #[inline]
@@ -419,9 +482,18 @@ impl<T: Real> Plant<T, 4, 1> for RealPlant<T> {
     /// new step's start.
     #[inline]
     fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) {
+        self.between_steps_with_derivative(t, dt, x, u);
+    }
+
+    /// The derivative the gear trains weighed, when they stay as they were: the motors
+    /// then turn as they did when it was evaluated (`step_end` changes nothing), and the
+    /// current is the one `deriv` computes.
+    #[inline]
+    fn between_steps_with_derivative(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) -> Option<Vector4<T>> {
         let current = self.step_start(t, dt, x, u[0]);
-        self.ground_mut().gear_next(x, current);
+        let first = self.ground_mut().gear_next(x, current);
         self.step_end(x);
+        first
     }
 
     #[inline(always)]
@@ -685,6 +757,28 @@ mod tests {
         assert_eq!(rig.plant.deriv(&x, &u), model.deriv(&x, &u));
         let plain = SlopeModel::new(RobotParams::balanbot(), 0.1).unwrap();
         assert_ne!(rig.plant.deriv(&x, &u), plain.deriv(&x, &u));
+    }
+
+    /// The derivative the gear trains weighed is RK4's first stage when they stay as they
+    /// were: the run is the same, bit for bit, as one that evaluates every first stage
+    /// (and each shared one is `deriv` there). With backlash the trains open and close, so
+    /// both kinds of step occur; without it nothing is shared.
+    #[test]
+    fn the_derivative_the_gear_trains_weighed_is_shared_bit_for_bit() {
+        use crate::hardware::disturbance::{Push, Pushes};
+        let (model, ctrl, schedule) = setup();
+        let config = SimConfig { dt: 1e-3, t_final: 10.0, fall_limit: 1.0 };
+        let pushed = Realism { pushes: Pushes::new(&[Push { t: 2.0, impulse: 0.05, height: 0.1 }]).unwrap(), ..Realism::thesis_like() };
+        let steady = Realism { motor: Some(crate::hardware::driver::MotorDriver::gb37y3530()), ..pushed };
+        for (name, realism) in [("thesis-like, pushed", pushed), ("steady winding", steady), ("no backlash", Realism { backlash: None, ..pushed })] {
+            let rig = realism.build(&model, config.dt).unwrap();
+            let (mut shared, mut checked) = (rig, Rig { plant: Unshared { plant: rig.plant, shared: 0, not_shared: 0 }, sensors: rig.sensors, actuator: rig.actuator, delay: rig.delay });
+            let (mut a, mut b) = (Trace::default(), Trace::default());
+            shared.simulate(&mut ctrl.clone(), &schedule, &Vector4::zeros(), &config, &mut a, || false).unwrap();
+            checked.simulate(&mut ctrl.clone(), &schedule, &Vector4::zeros(), &config, &mut b, || false).unwrap();
+            assert_eq!(a.0, b.0, "{name}");
+            checked.plant.assert_counts(name, realism.backlash.is_some());
+        }
     }
 
     #[test]

@@ -251,6 +251,17 @@ pub trait Plant<T: Real, const NX: usize, const NU: usize>: Dynamics<T, NX, NU> 
     /// held over it (pushes jump the velocities, a winding current advances).
     fn between_steps(&mut self, t: T, dt: T, x: &mut SVector<T, NX>, u: &SVector<T, NU>);
 
+    /// [`Self::between_steps`], and the derivative at the new step's start under `u` when
+    /// it was evaluated on the way (a rig's gear trains weigh it) and still holds. The
+    /// runner takes it as RK4's first stage instead of evaluating the same function of the
+    /// same state again: the same bits, one derivative fewer per step. The default
+    /// evaluates none.
+    #[inline(always)]
+    fn between_steps_with_derivative(&mut self, t: T, dt: T, x: &mut SVector<T, NX>, u: &SVector<T, NU>) -> Option<SVector<T, NX>> {
+        self.between_steps(t, dt, x, u);
+        None
+    }
+
     /// Each wheel's motor shaft angle minus its wheel's [rad at the wheel] (right, left; the
     /// 2-DOF rig's lumped pair twice): nonzero inside a gearbox's backlash.
     #[inline(always)]
@@ -320,8 +331,9 @@ impl<T: Real, P, const NX: usize, const NU: usize> Signals<T, P, NX, NU> for Con
 
 /// The one closed-loop runner, for ideal and realism runs of either model. Each plant
 /// step: the controller's update when due (the sensor's read, the actuator's drive, the
-/// optional one-period delay), the observation, the plant's `between_steps`, then RK4
-/// with its first stage shared with the sensor's `sample`. The sensor samples once
+/// optional one-period delay), the observation, the plant's `between_steps` (a rig's may
+/// hand back the derivative it evaluated at the step's start), then RK4 with its first
+/// stage shared with the sensor's `sample`. The sensor samples once
 /// before the run (its registers hold a sample of the initial state) and then each step
 /// after the update, so a read sees the samples up to one step before it, as firmware
 /// reads a sensor's last output.
@@ -387,8 +399,10 @@ where
         }
         let raw_len = parts.sensor.raw(&x, &mut raw);
         observer.observe(t, &x, &seen(&command, &u), &r, signals.at(controller.internals(), plant, &x, &u, &raw[..raw_len]));
-        plant.between_steps(t, dt, &mut x, &u);
-        let k1 = plant.deriv(&x, &u);
+        let k1 = match plant.between_steps_with_derivative(t, dt, &mut x, &u) {
+            Some(k1) => k1,
+            None => plant.deriv(&x, &u),
+        };
         parts.sensor.sample(t, &x, &k1);
         x = rk4_step_from_k1(&*plant, &x, &u, dt, &k1);
         let t_next = dt * c::<T>((k + 1) as f64);
