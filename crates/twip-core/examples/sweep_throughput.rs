@@ -4,10 +4,12 @@
 //! PATH: lanes (LQR on lanes), fuzzy-lanes, fuzzy-gaussian-lanes (benches/families.py's
 //! Gaussian sets), scalar (LQR, general runner), fuzzy-scalar,
 //! pid (circle-pid on the 3-DOF runner; the checksum sums its mean |x error| instead),
-//! pid-lanes (the same on the planar lane kernel), realism (LQR through the thesis-like rig,
+//! pid-lanes (the same on the planar lane kernel), pid-realism (circle-pid through the
+//! thesis-like rig: the 3-DOF rig has no lane kernel, so the general runner), realism (LQR through the thesis-like rig,
 //! 5 ms loop), realism-lanes (the same on the rig's lane kernel), realism-lanes-no-imu (that rig
 //! without its IMU: what the IMU costs), realism-lanes-slip (that rig with the data sheet's
 //! gearhead friction, slip law only: `Friction::gb37()`, no stick band).
+//! The checksum's bits tell two builds' results apart (the same bits: the same numbers).
 use nalgebra::{Matrix4, Vector4};
 use twip_core::control::fuzzy::FuzzyController;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
@@ -63,7 +65,7 @@ fn main() {
             .iter()
             .map(|m| m.mean_abs_pitch_error)
             .sum(),
-        "pid" | "pid-lanes" => {
+        "pid" | "pid-lanes" | "pid-realism" => {
             use twip_core::control::pid::PidTracker;
             use twip_core::control::trajectory::{Circle, Direction};
             use twip_core::hardware::motor::DcMotor;
@@ -72,9 +74,11 @@ fn main() {
             let pid = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), 0.005).unwrap();
             let circle = Circle::from_origin(0.6, core::f64::consts::PI * params.wheel_radius, Direction::CounterClockwise).unwrap();
             let nominal = PlanarNominal { params, x0: nalgebra::SVector::zeros() };
-            let runs = if path == "pid" {
+            let runs = if path != "pid-lanes" {
+                let rig = twip_core::hardware::realism::Realism::thesis_like();
+                let realism = (path == "pid-realism").then_some(&rig);
                 (0..n)
-                    .map(|i| planar::run_planar_sample(&pid, &circle, &config, &planar::draw(&nominal, &perturb, 1, i), 0.0, None, &|| false).unwrap())
+                    .map(|i| planar::run_planar_sample(&pid, &circle, &config, &planar::draw(&nominal, &perturb, 1, i), 0.0, realism, &|| false).unwrap())
                     .collect()
             } else {
                 planar::run_planar_lane_samples(&PidLanes::new(&pid), &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|| false).unwrap().unwrap()
@@ -110,5 +114,5 @@ fn main() {
             .sum(),
     };
     let secs = start.elapsed().as_secs_f64();
-    println!("{path}: {n} samples x 10000 steps in {secs:.3} s wall = {:.2} M sample-steps/s (checksum {total:.6e})", n as f64 * 1e4 / secs / 1e6);
+    println!("{path}: {n} samples x 10000 steps in {secs:.3} s wall = {:.2} M sample-steps/s (checksum {total:.6e}; bits {:016x})", n as f64 * 1e4 / secs / 1e6, total.to_bits());
 }
