@@ -1,9 +1,12 @@
 """Sweep throughput of every controller family, both cores, side by side in one run.
 
 Each family's scenario swept over perturbed robots (m_body ±20 %, com_height ±10 %,
-i_body ±20 %), 10 s per sample (the 3-DOF circles: their three laps, 108 s) at dt = 1 ms; M sample-steps per second (median of
-`--repeats` runs) and the ratio to the LQR lane kernel, which the issue's targets are
-stated against (fuzzy >= 0.5x; 3-DOF trackers and the 2-DOF realism rig >= 0.3x).
+i_body ±20 %), 10 s per sample (the 3-DOF circles: their three laps, 108 s) at dt = 1 ms.
+`--repeats` rounds, each running every family once in turn, so that the machine's drift
+moves a round's numbers alike; printed: M sample-steps per second (median over the rounds)
+and the ratio to the LQR lane kernel in the same round (median, and its range over the
+rounds), which the issue's targets are stated against (fuzzy >= 0.5x; 3-DOF trackers and
+the 2-DOF realism rig >= 0.3x).
 
 Run:  .venv/bin/python benches/families.py [--scale 1.0] [--repeats 3]
 """
@@ -52,18 +55,18 @@ def rate(sc, realism, n):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scale", type=float, default=1.0, help="multiplies every family's sample count")
-    ap.add_argument("--repeats", type=int, default=3, help="runs of each; the median counts")
+    ap.add_argument("--repeats", type=int, default=3, help="rounds (each runs every family once); medians count")
     args = ap.parse_args()
-    rows = []
-    for label, sc, realism, n in families():
-        n = max(16, round(n * args.scale))
+    cases = [(label, sc, realism, max(16, round(n * args.scale))) for label, sc, realism, n in families()]
+    for _, sc, realism, _ in cases:
         rate(sc, realism, 16)  # warm-up
-        runs = [rate(sc, realism, n) for _ in range(args.repeats)]
-        rows.append((label, runs[0][1], statistics.median(r for r, _ in runs)))
-    lqr = rows[0][2]
-    print(f"{'family':40s} {'kernel':15s} {'M sample-steps/s':>17s} {'x LQR lanes':>12s}")
-    for label, kernel, r in rows:
-        print(f"{label:40s} {kernel:15s} {r:17.1f} {r / lqr:12.2f}")
+    rounds = [[rate(sc, realism, n) for _, sc, realism, n in cases] for _ in range(args.repeats)]
+    print(f"{'family':52s} {'kernel':15s} {'M sample-steps/s':>17s} {'x LQR lanes':>12s} {'range':>12s}")
+    for j, (label, *_) in enumerate(cases):
+        speeds = [r[j][0] for r in rounds]
+        ratios = [r[j][0] / r[0][0] for r in rounds]
+        span = f"{min(ratios):.2f}-{max(ratios):.2f}"
+        print(f"{label:52s} {rounds[0][j][1]:15s} {statistics.median(speeds):17.1f} {statistics.median(ratios):12.2f} {span:>12s}")
 
 
 if __name__ == "__main__":
