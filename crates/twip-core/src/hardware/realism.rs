@@ -377,7 +377,7 @@ pub trait RigPlant<T: Real, const NX: usize, const NU: usize>: Plant<T, NX, NU> 
 /// For tests: plant `P`, each derivative it shares between steps checked bit for bit
 /// against its `deriv` there and then withheld, so that the runner evaluates every first
 /// stage itself. Counts the steps that shared one and those that did not.
-#[cfg(test)]
+#[cfg(all(test, feature = "std"))]
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Unshared<P> {
     pub plant: P,
@@ -385,7 +385,7 @@ pub(crate) struct Unshared<P> {
     pub not_shared: usize,
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "std"))]
 impl<P> Unshared<P> {
     /// Over a 10 s run (`name`): with backlash most steps shared the first stage and some,
     /// where a train opened, could not; without backlash none did.
@@ -400,7 +400,7 @@ impl<P> Unshared<P> {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "std"))]
 impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Dynamics<T, NX, NU> for Unshared<P> {
     const PITCH: usize = P::PITCH;
 
@@ -413,7 +413,7 @@ impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Dynamics
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "std"))]
 impl<T: Real, P: Plant<T, NX, NU>, const NX: usize, const NU: usize> Plant<T, NX, NU> for Unshared<P> {
     fn between_steps(&mut self, t: T, dt: T, x: &mut SVector<T, NX>, u: &SVector<T, NU>) {
         match self.plant.between_steps_with_derivative(t, dt, x, u) {
@@ -430,7 +430,7 @@ impl<T: Real, P: Plant<T, NX, NU>, const NX: usize, const NU: usize> Plant<T, NX
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "std"))]
 impl<T: Real, P: RigPlant<T, NX, NU>, const NX: usize, const NU: usize> RigPlant<T, NX, NU> for Unshared<P> {
     fn currents(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NU> {
         self.plant.currents(x, u)
