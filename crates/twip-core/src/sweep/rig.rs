@@ -421,7 +421,9 @@ mod tests {
             ..Realism::ideal()
         };
         let thesis_like = Realism { slope_profile: hills, ..Realism::thesis_like() };
-        for (name, realism, t_final) in [("unquantised", unquantised, 3.0), ("thesis-like", thesis_like, 1.0)] {
+        // Two changes: the lanes' loops that pick among a few (`FEW_CHANGES`), not all.
+        let ramp = Realism { slope_profile: SlopeProfile::new(0.0, &[(0.02, 0.04), (0.08, -0.03)]).unwrap(), ..unquantised };
+        for (name, realism, t_final) in [("unquantised", unquantised, 3.0), ("thesis-like", thesis_like, 1.0), ("two changes, unquantised", ramp, 3.0)] {
             let lqr_worst = rig_lanes_agree(&lqr_lanes, &lqr, &realism, t_final);
             let fuzzy_worst = rig_lanes_agree(&fuzzy_lanes, &fuzzy, &realism, t_final);
             println!("{name} on changing slopes: worst relative difference over {t_final} s: LQR {lqr_worst:e}, fuzzy {fuzzy_worst:e}");
