@@ -8,7 +8,8 @@
 //! thesis-like rig: the 3-DOF rig has no lane kernel, so the general runner), realism (LQR through the thesis-like rig,
 //! 5 ms loop), realism-lanes (the same on the rig's lane kernel), realism-lanes-no-imu (that rig
 //! without its IMU: what the IMU costs), realism-lanes-slip (that rig with the data sheet's
-//! gearhead friction, slip law only: `Friction::gb37()`, no stick band).
+//! gearhead friction, slip law only: `Friction::gb37()`, no stick band), realism-lanes-hills
+//! (that rig with benches/families.py's two slope changes along the path).
 //! The checksum's bits tell two builds' results apart (the same bits: the same numbers).
 use nalgebra::{Matrix4, Vector4};
 use twip_core::control::fuzzy::FuzzyController;
@@ -85,7 +86,7 @@ fn main() {
             };
             runs.iter().map(|m| m.mean_abs_x_error).sum()
         }
-        "realism" | "realism-lanes" | "realism-lanes-no-imu" | "realism-lanes-slip" => {
+        "realism" | "realism-lanes" | "realism-lanes-no-imu" | "realism-lanes-slip" | "realism-lanes-hills" => {
             use twip_core::hardware::realism::Realism;
             use twip_core::sweep::block::LqrLanes;
             use twip_core::sweep::rig::{for_sweep, run_rig_lane_samples, run_rig_sample};
@@ -94,6 +95,11 @@ fn main() {
                 "realism-lanes-no-imu" => Realism { imu: None, ..Realism::thesis_like() },
                 // The data sheet's gearhead friction, slip law only (no stick band).
                 "realism-lanes-slip" => Realism { friction: Some(twip_core::model::friction::Friction::gb37()), ..Realism::thesis_like() },
+                // benches/families.py's two slope changes along the path.
+                "realism-lanes-hills" => Realism {
+                    slope_profile: twip_core::hardware::disturbance::SlopeProfile::new(0.0, &[(0.3, 0.02), (0.6, -0.02)]).unwrap(),
+                    ..Realism::thesis_like()
+                },
                 _ => Realism::thesis_like(),
             };
             let realism = for_sweep(&rig, 1);
