@@ -273,10 +273,10 @@ mod tests {
         assert!(worst <= 2, "{worst} ulp");
         // A `Wide` at once gives each lane's bits, edges included.
         let xs = [-800.0, -708.0, -1e-300, 0.0, 0.3, 1.0, 709.7, 709.8, f64::NAN, f64::NEG_INFINITY, 42.0, -3.5, 1e-10, -700.0, 700.0, f64::INFINITY];
-        for four in xs.chunks(crate::model::lane::WIDTH) {
-            let four: [f64; crate::model::lane::WIDTH] = four.try_into().unwrap();
-            let got = exp_wide(crate::model::lane::Wide(four)).0;
-            for (g, x) in got.iter().zip(four) {
+        for lanes in xs.chunks(crate::model::lane::WIDTH) {
+            let lanes: [f64; crate::model::lane::WIDTH] = lanes.try_into().unwrap();
+            let got = exp_wide(crate::model::lane::Wide(lanes)).0;
+            for (g, x) in got.iter().zip(lanes) {
                 assert_eq!(g.to_bits(), exp_fused(x).to_bits(), "{x:e}");
             }
         }

@@ -399,10 +399,7 @@ where
         }
         let raw_len = parts.sensor.raw(&x, &mut raw);
         observer.observe(t, &x, &seen(&command, &u), &r, signals.at(controller.internals(), plant, &x, &u, &raw[..raw_len]));
-        let k1 = match plant.between_steps_with_derivative(t, dt, &mut x, &u) {
-            Some(k1) => k1,
-            None => plant.deriv(&x, &u),
-        };
+        let k1 = plant.between_steps_with_derivative(t, dt, &mut x, &u).unwrap_or_else(|| plant.deriv(&x, &u));
         parts.sensor.sample(t, &x, &k1);
         x = rk4_step_from_k1(&*plant, &x, &u, dt, &k1);
         let t_next = dt * c::<T>((k + 1) as f64);

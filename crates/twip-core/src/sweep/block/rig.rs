@@ -44,7 +44,7 @@ const STICK: u8 = 2;
 
 /// A ground with at most this many slope changes has its own copies of the lanes' loops,
 /// which pick a lane's piece among those only: picking among all that a ground may have
-/// cost a rig with two changes 6 % more instructions and about 10 % more time.
+/// cost a rig with two changes 6 % more instructions and about 9 % more time.
 const FEW_CHANGES: usize = 2;
 
 /// One lane's plant over a step: the input held (a lumped current, or a duty that a
