@@ -110,6 +110,9 @@ struct Hills {
     /// `mrl_cos`, `mrl_sin`, `grade`, `sin_slope`, `cos_slope`, q_θ.
     pieces: [[Lanes; 6]; MAX_SLOPE_CHANGES + 1],
     radius: Lanes,
+    /// How many slope changes the lanes pick among: none on one slope, else [`FEW_CHANGES`]
+    /// when there are that few (a step, or a ramp up and down), else all a ground may have.
+    changes: usize,
 }
 
 impl Hills {
@@ -121,17 +124,12 @@ impl Hills {
             let field = |f: fn(&(SlopeCoefficients<f64>, f64)) -> f64| core::array::from_fn(|l| f(&terms[l]));
             [field(|t| t.0.mrl_cos), field(|t| t.0.mrl_sin), field(|t| t.0.grade), field(|t| t.0.sin_slope), field(|t| t.0.cos_slope), field(|t| t.1)]
         });
-        Self { starts, pieces, radius }
-    }
-
-    /// How many slope changes the lanes pick among: none on one slope, else [`FEW_CHANGES`]
-    /// when there are that few (a step, or a ramp up and down), else all a ground may have.
-    fn changes(&self) -> usize {
-        match self.starts.iter().filter(|s| s.is_finite()).count() {
+        let changes = match last {
             0 => 0,
             n if n <= FEW_CHANGES => FEW_CHANGES,
             _ => MAX_SLOPE_CHANGES,
-        }
+        };
+        Self { starts, pieces, radius, changes }
     }
 
     /// Lane `l`'s force part on θ on a ground of one slope.
@@ -177,7 +175,7 @@ struct RigPlants {
 /// slope changes along the path that a lane picks among (`Hills::changes`).
 macro_rules! by_kind {
     ($self:ident, $steady:expr, $engaged:ident, $run:ident($($arg:expr),*)) => {
-        match ($self.hills.changes(), $self.geared && $engaged.iter().any(|&e| !e)) {
+        match ($self.hills.changes, $self.geared && $engaged.iter().any(|&e| !e)) {
             (0, false) => by_kind!(@gear $self, $steady, $run, false, 0, $($arg),*),
             (0, true) => by_kind!(@gear $self, $steady, $run, true, 0, $($arg),*),
             (FEW_CHANGES, false) => by_kind!(@gear $self, $steady, $run, false, FEW_CHANGES, $($arg),*),
@@ -288,11 +286,51 @@ struct ImuLanes {
     imus: [Mpu6050<Wide>; CHUNKS],
     clock: ImuClock<f64>,
     noise: NoiseLanes<LANES>,
-    /// (sin, cos) of each lane's slope when its ground is one slope everywhere (else each
-    /// sample asks the lane's sensors for the slope under it).
-    flat: Option<[Lanes; 2]>,
+    ground: GroundTrig,
     radius: Lanes,
     g: Lanes,
+}
+
+/// The slopes the accelerometers feel: each lane's sensors' (sin, cos) of every slope of
+/// its ground, and where the slope changes (every lane's alike).
+struct GroundTrig {
+    starts: [f64; MAX_SLOPE_CHANGES],
+    count: usize,
+    trig: [[Lanes; 2]; MAX_SLOPE_CHANGES + 1],
+}
+
+impl GroundTrig {
+    fn new(rigs: &[SlopeRig<f64>]) -> Self {
+        let (mut starts, mut count) = ([f64::INFINITY; MAX_SLOPE_CHANGES], 0);
+        for (start, at) in starts.iter_mut().zip(rigs[0].sensors.ground_trig_table().0) {
+            (*start, count) = (at, count + 1);
+        }
+        let mut trig = [[[0.0; LANES]; 2]; MAX_SLOPE_CHANGES + 1];
+        for (l, rig) in rigs.iter().enumerate() {
+            let (at, table) = rig.sensors.ground_trig_table();
+            debug_assert!(at.eq(starts[..count].iter().copied()), "the lanes' grounds change slope alike");
+            for (piece, &(sin, cos)) in trig.iter_mut().zip(table) {
+                (piece[0][l], piece[1][l]) = (sin, cos);
+            }
+        }
+        Self { starts, count, trig }
+    }
+
+    /// (sin, cos) of the slope under each lane at wheel angle `theta`: the piece
+    /// `BalanceSensors::ground_trig_at` picks (`SlopeProfile::segment`: the changes passed,
+    /// which are in order), as selects over the lanes.
+    #[inline(always)]
+    fn at(&self, theta: &Lanes, radius: &Lanes) -> [Lanes; 2] {
+        let mut out = self.trig[0];
+        for (start, piece) in self.starts[..self.count].iter().zip(&self.trig[1..]) {
+            for l in 0..LANES {
+                let past = !(theta[l] * radius[l]).lt(*start);
+                out[0][l] = if past { piece[0][l] } else { out[0][l] };
+                out[1][l] = if past { piece[1][l] } else { out[1][l] };
+            }
+        }
+        out
+    }
 }
 
 impl ImuLanes {
@@ -301,32 +339,22 @@ impl ImuLanes {
         let imu = rigs[0].sensors.imu()?.map(Wide::splat);
         let (clock, rng, noise) = rigs[0].sensors.imu_noise_parts()?;
         let mut parts = [(rng, noise); LANES];
-        let mut flat = Some([[0.0; LANES]; 2]);
         for (l, rig) in rigs.iter().enumerate() {
             let (_, rng, noise) = rig.sensors.imu_noise_parts()?;
             parts[l] = (rng, noise);
-            match (flat.as_mut(), rig.sensors.flat_ground_trig()) {
-                (Some(trig), Some((s, c))) => (trig[0][l], trig[1][l]) = (s, c),
-                _ => flat = None,
-            }
         }
         let radius = core::array::from_fn(|l| models[l].params().wheel_radius);
-        Some(Self { imus: [imu; CHUNKS], clock, noise: NoiseLanes::new(&parts), flat, radius, g: core::array::from_fn(|l| models[l].params().g) })
+        let ground = GroundTrig::new(rigs);
+        Some(Self { imus: [imu; CHUNKS], clock, noise: NoiseLanes::new(&parts), ground, radius, g: core::array::from_fn(|l| models[l].params().g) })
     }
 
     /// `BalanceSensors::sample` on every lane: at `t`, state `x` and derivative `xdot`.
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn sample(&mut self, rigs: &[SlopeRig<f64>], t: f64, x: &[Lanes; 4], xdot: &[Lanes; 4]) {
+    fn sample(&mut self, t: f64, x: &[Lanes; 4], xdot: &[Lanes; 4]) {
         if !self.clock.due(t) {
             return;
         }
-        let [sin, cos] = self.flat.unwrap_or_else(|| {
-            let mut trig = [[0.0; LANES]; 2];
-            for (l, rig) in rigs.iter().enumerate() {
-                (trig[0][l], trig[1][l]) = rig.sensors.ground_trig_at(&Vector4::from(lane(x, l)));
-            }
-            trig
-        });
+        let [sin, cos] = self.ground.at(&x[2], &self.radius);
         let noise = self.noise.draw();
         for (c, imu) in self.imus.iter_mut().enumerate() {
             let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
@@ -454,7 +482,7 @@ fn rig_block<C: LaneLaw>(
                 xdot[i][l] = d[i];
             }
         }
-        imus.sample(&rigs, 0.0, &x, &xdot);
+        imus.sample(0.0, &x, &xdot);
     }
     let r0 = reference.sample(0.0);
     let mut cached_speed = r0.theta_dot;
@@ -541,7 +569,7 @@ fn rig_block<C: LaneLaw>(
             k1 = plants.k1(&x, &input, &engaged);
         }
         if let Some(imus) = imus.as_mut() {
-            imus.sample(&rigs, t, &x, &k1);
+            imus.sample(t, &x, &k1);
         }
         let next = plants.rk4(&x, &input, &engaged, &k1, dt);
         let Some(ends) = super::advance(&mut x, &next, &alive, 0, config.fall_limit) else { continue };
