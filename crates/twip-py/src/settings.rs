@@ -95,6 +95,8 @@ macro_rules! settings_class {
 
             /// The settings as the constructor's keyword arguments:
             /// `type(x).from_dict(x.to_dict()) == x`.
+            // A Python method takes `&self`, whether or not the Rust type is `Copy`.
+            #[allow(clippy::wrong_self_convention)]
             fn to_dict<'py>(&self, py: pyo3::Python<'py>) -> pyo3::PyResult<pyo3::Bound<'py, pyo3::types::PyDict>> {
                 let d = pyo3::types::PyDict::new(py);
                 $( d.set_item(stringify!($field), self.$field(py)?)?; )*

@@ -109,5 +109,5 @@ fn to_array<'a, 'py>(
 ) -> PyResult<Bound<'py, PyArray3<f64>>> {
     let k = runs.len();
     let flat: Vec<f64> = runs.flat_map(|r| r.iter().flat_map(|v| [v[0], v[1], v[2], v[3]])).collect();
-    Ok(flat.into_pyarray(py).reshape([k, rows, 4])?)
+    flat.into_pyarray(py).reshape([k, rows, 4])
 }

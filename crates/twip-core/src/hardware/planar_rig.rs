@@ -296,8 +296,8 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
         let speeds = self.wheel_speeds(x);
         if t > T::zero() {
             let half = self.dt * c::<T>(0.5);
-            for side in 0..2 {
-                self.beta[side] += half * (self.beta_dot[side] + speeds[side]);
+            for ((beta, was), now) in self.beta.iter_mut().zip(self.beta_dot).zip(speeds) {
+                *beta += half * (was + now);
             }
         }
         self.beta_dot = speeds;

@@ -181,7 +181,7 @@ impl<R: LogRow<f64> + Copy, const NX: usize, const NU: usize> Controller<f64, NX
 /// `f()` as a dict of names to numbers.
 fn internals_dict<'py>(py: Python<'py>, f: &Py<PyAny>) -> PyResult<Bound<'py, PyDict>> {
     let out = f.call0(py)?;
-    out.bind(py).cast::<PyDict>().map(|d| d.clone()).map_err(|_| {
+    out.bind(py).cast::<PyDict>().cloned().map_err(|_| {
         pyo3::exceptions::PyTypeError::new_err(format!(
             "controller.internals() must return a dict of name -> float, got {}",
             out.bind(py).get_type().name().map(|n| n.to_string()).unwrap_or_default()

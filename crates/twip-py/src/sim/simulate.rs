@@ -147,7 +147,7 @@ pub fn simulate_raw<'py>(
         states: 4,
         inputs: 1,
         reference_names: <SpeedRef<f64> as LogRow<f64>>::NAMES,
-        internal_names: &names,
+        internal_names: names,
         signal_names: (extra > 0).then_some(&RIG_SIGNALS[..]),
     };
     run_dict(py, log, &layout, outcome, steps, metrics.summary().named())

@@ -292,13 +292,12 @@ pub fn sweep_raw<'py>(
     run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
         // Push and force heights default to each sample's own centre of mass.
         let realism_of = |p: &RobotParams<f64>| realism.as_ref().expect("realism given").to_core(p).map(|r| for_sweep(&r, seed));
-        let run = match (&realism, ctrl) {
+        match (&realism, ctrl) {
             (Some(_), SlopeController::Lqr(c)) => run_rig_lane_samples(&LqrLanes::new(&c), &schedule, &config, &nominal, &perts, seed, range, &realism_of, stop),
             (Some(_), SlopeController::Fuzzy(c)) => run_rig_lane_samples(&FuzzyLanes::new(&c), &schedule, &config, &nominal, &perts, seed, range, &realism_of, stop),
             (None, SlopeController::Lqr(c)) => run_lqr_samples(&c, &schedule, &config, &nominal, &perts, seed, range, stop),
             (None, SlopeController::Fuzzy(c)) => run_lane_samples(&FuzzyLanes::new(&c), &schedule, &config, &nominal, &perts, seed, range, stop),
-        };
-        run
+        }
     })
 }
 
