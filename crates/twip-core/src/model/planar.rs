@@ -244,14 +244,15 @@ impl<T: Real> PlanarModel<T> {
             return [f.torque(w_r), f.torque(w_l)];
         }
         // Held wheels need the accelerations without friction and the response to it:
-        // a torque on one wheel acts on (φ, v) as (−1, 1/R) and on the yaw as ±b/R.
-        let free = self.driven(x, u[0], u[1], extra);
-        let roll = |d: &PlanarState<T>| self.coef.inv_r * d[5] - d[4];
-        let (a_r, a_l) = (roll(&free) + self.coef.b_r * free[6], roll(&free) - self.coef.b_r * free[6]);
-        let phi = x[3];
-        let shared = self.solve_mass(phi, &Vector3::new(-T::one(), self.coef.inv_r, T::zero()));
-        let common = self.coef.inv_r * shared[1] - shared[0];
-        let yaw = self.coef.b_r * self.coef.b_r / (self.coef.m_ww0 + self.coef.k * phi.sin() * phi.sin());
+        // a torque on one wheel acts on (φ, v) as (−1, 1/R) and on the yaw as ±b/R. Both
+        // at the sin φ, cos φ the forces took (one evaluation of them, not libm's too).
+        let (q, sin_phi, cos_phi) = self.forces(x, u[0], u[1], extra);
+        let free = accelerations(&self.coef, &[q[0], q[1], q[2]], sin_phi, cos_phi);
+        let roll = |nu: &[T; 3]| self.coef.inv_r * nu[1] - nu[0];
+        let (a_r, a_l) = (roll(&free) + self.coef.b_r * free[2], roll(&free) - self.coef.b_r * free[2]);
+        let shared = accelerations(&self.coef, &[-T::one(), self.coef.inv_r, T::zero()], sin_phi, cos_phi);
+        let common = roll(&shared);
+        let yaw = self.coef.b_r * self.coef.b_r / (self.coef.m_ww0 + self.coef.k * sin_phi * sin_phi);
         // ẇ = a0 − S τ: friction takes its torque off the motor's.
         let s = [[common + yaw, common - yaw], [common - yaw, common + yaw]];
         f.torques([w_r, w_l], [a_r, a_l], s)
