@@ -292,15 +292,8 @@ impl<T: Real> BalanceSensors<T> {
 
     /// (sin, cos) of the ground's slope under `x` (what the accelerometer feels).
     #[inline]
-    pub(crate) fn ground_trig_at(&self, x: &Vector4<T>) -> (T, T) {
+    fn ground_trig_at(&self, x: &Vector4<T>) -> (T, T) {
         self.ground_trig[self.ground.segment(x[2] * self.radius)]
-    }
-
-    /// Where the ground's slope changes, and (sin, cos) of each of its slopes, the base's
-    /// first (what [`Self::ground_trig_at`] picks from).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))]
-    pub(crate) fn ground_trig_table(&self) -> (impl Iterator<Item = T> + '_, &[(T, T); MAX_SLOPE_CHANGES + 1]) {
-        (self.ground.changes().map(|(at, _)| at), &self.ground_trig)
     }
 
     /// The IMU's clock, this rig's stream and the IMU's normals drawn ahead, as they stand

@@ -153,6 +153,23 @@ impl Hills {
         }
         (SlopeCoefficients { mrl_cos: v[0], mrl_sin: v[1], grade: v[2], sin_slope: v[3], cos_slope: v[4], ..*k }, v[5])
     }
+
+    /// (sin, cos) of the slope under every lane at wheel angles `theta`, the piece
+    /// [`Self::piece`] picks: what the accelerometers feel. The sensors' own table
+    /// (`BalanceSensors::ground_trig_at`) holds the same `sin_cos` of the same slopes, and
+    /// picks by the same distance (`SlopeProfile::segment`: the changes are in order).
+    #[inline(always)]
+    fn trig_at(&self, theta: &Lanes) -> [Lanes; 2] {
+        let [mut sin, mut cos] = [self.pieces[0][3], self.pieces[0][4]];
+        for (start, piece) in self.starts[..self.changes].iter().zip(&self.pieces[1..]) {
+            for l in 0..LANES {
+                let past = !(theta[l] * self.radius[l]).lt(*start);
+                sin[l] = if past { piece[3][l] } else { sin[l] };
+                cos[l] = if past { piece[4][l] } else { cos[l] };
+            }
+        }
+        [sin, cos]
+    }
 }
 
 /// The lanes' plants: coefficients per lane, the friction all share, and each lane's
@@ -286,51 +303,7 @@ struct ImuLanes {
     imus: [Mpu6050<Wide>; CHUNKS],
     clock: ImuClock<f64>,
     noise: NoiseLanes<LANES>,
-    ground: GroundTrig,
-    radius: Lanes,
     g: Lanes,
-}
-
-/// The slopes the accelerometers feel: each lane's sensors' (sin, cos) of every slope of
-/// its ground, and where the slope changes (every lane's alike).
-struct GroundTrig {
-    starts: [f64; MAX_SLOPE_CHANGES],
-    count: usize,
-    trig: [[Lanes; 2]; MAX_SLOPE_CHANGES + 1],
-}
-
-impl GroundTrig {
-    fn new(rigs: &[SlopeRig<f64>]) -> Self {
-        let (mut starts, mut count) = ([f64::INFINITY; MAX_SLOPE_CHANGES], 0);
-        for (start, at) in starts.iter_mut().zip(rigs[0].sensors.ground_trig_table().0) {
-            (*start, count) = (at, count + 1);
-        }
-        let mut trig = [[[0.0; LANES]; 2]; MAX_SLOPE_CHANGES + 1];
-        for (l, rig) in rigs.iter().enumerate() {
-            let (at, table) = rig.sensors.ground_trig_table();
-            debug_assert!(at.eq(starts[..count].iter().copied()), "the lanes' grounds change slope alike");
-            for (piece, &(sin, cos)) in trig.iter_mut().zip(table) {
-                (piece[0][l], piece[1][l]) = (sin, cos);
-            }
-        }
-        Self { starts, count, trig }
-    }
-
-    /// (sin, cos) of the slope under each lane at wheel angle `theta`: the piece
-    /// `BalanceSensors::ground_trig_at` picks (`SlopeProfile::segment`: the changes passed,
-    /// which are in order), as selects over the lanes.
-    #[inline(always)]
-    fn at(&self, theta: &Lanes, radius: &Lanes) -> [Lanes; 2] {
-        let mut out = self.trig[0];
-        for (start, piece) in self.starts[..self.count].iter().zip(&self.trig[1..]) {
-            for l in 0..LANES {
-                let past = !(theta[l] * radius[l]).lt(*start);
-                out[0][l] = if past { piece[0][l] } else { out[0][l] };
-                out[1][l] = if past { piece[1][l] } else { out[1][l] };
-            }
-        }
-        out
-    }
 }
 
 impl ImuLanes {
@@ -343,23 +316,22 @@ impl ImuLanes {
             let (_, rng, noise) = rig.sensors.imu_noise_parts()?;
             parts[l] = (rng, noise);
         }
-        let radius = core::array::from_fn(|l| models[l].params().wheel_radius);
-        let ground = GroundTrig::new(rigs);
-        Some(Self { imus: [imu; CHUNKS], clock, noise: NoiseLanes::new(&parts), ground, radius, g: core::array::from_fn(|l| models[l].params().g) })
+        Some(Self { imus: [imu; CHUNKS], clock, noise: NoiseLanes::new(&parts), g: core::array::from_fn(|l| models[l].params().g) })
     }
 
-    /// `BalanceSensors::sample` on every lane: at `t`, state `x` and derivative `xdot`.
+    /// `BalanceSensors::sample` on every lane: at `t`, state `x` and derivative `xdot`, on
+    /// the ground `hills` (the sensors' ground and wheels are the plant's).
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn sample(&mut self, t: f64, x: &[Lanes; 4], xdot: &[Lanes; 4]) {
+    fn sample(&mut self, hills: &Hills, t: f64, x: &[Lanes; 4], xdot: &[Lanes; 4]) {
         if !self.clock.due(t) {
             return;
         }
-        let [sin, cos] = self.ground.at(&x[2], &self.radius);
+        let [sin, cos] = hills.trig_at(&x[2]);
         let noise = self.noise.draw();
         for (c, imu) in self.imus.iter_mut().enumerate() {
             let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
             let height = imu.settings().height;
-            let (radius, g) = (chunk(&self.radius, c), chunk(&self.g, c));
+            let (radius, g) = (chunk(&hills.radius, c), chunk(&self.g, c));
             let (fx, fz) = specific_force_of(&xs, &ds, chunk(&sin, c), chunk(&cos, c), radius, height, g);
             imu.sample_with(fx, fz, xs[1], core::array::from_fn(|i| chunk(&noise[i], c)));
         }
@@ -482,7 +454,7 @@ fn rig_block<C: LaneLaw>(
                 xdot[i][l] = d[i];
             }
         }
-        imus.sample(0.0, &x, &xdot);
+        imus.sample(&plants.hills, 0.0, &x, &xdot);
     }
     let r0 = reference.sample(0.0);
     let mut cached_speed = r0.theta_dot;
@@ -569,7 +541,7 @@ fn rig_block<C: LaneLaw>(
             k1 = plants.k1(&x, &input, &engaged);
         }
         if let Some(imus) = imus.as_mut() {
-            imus.sample(t, &x, &k1);
+            imus.sample(&plants.hills, t, &x, &k1);
         }
         let next = plants.rk4(&x, &input, &engaged, &k1, dt);
         let Some(ends) = super::advance(&mut x, &next, &alive, 0, config.fall_limit) else { continue };
