@@ -560,6 +560,14 @@ impl<T: Real> Mpu6050<T> {
         self.sample_with(fx, fz, rate, n);
     }
 
+    /// One sample of the gyroscope alone ([`Self::sample_gyro_with`]): takes the four
+    /// normals a whole sample takes.
+    #[inline]
+    pub fn sample_gyro(&mut self, rate: T, rng: &mut Philox) {
+        let n = self.draw(rng);
+        self.sample_gyro_with(rate, n);
+    }
+
     /// The next sample's four standard normals (gyro, accel x, accel z, bias walk), drawn
     /// in batches from `rng`.
     #[inline]
@@ -636,26 +644,40 @@ impl<S: Lane> Mpu6050<S> {
     #[inline(always)]
     pub(crate) fn sample_with(&mut self, fx: S, fz: S, rate: S, n: [S; 4]) {
         let s = &self.settings;
-        let clean = [rate + self.bias, fx + s.accel_bias[0], fz + s.accel_bias[1]];
-        let (gr, ar) = (s.gyro_range, s.accel_range);
-        let within = |v: S, range: S| v.larger(-range).smaller(range);
+        let clean = [fx + s.accel_bias[0], fz + s.accel_bias[1]];
+        let range = s.accel_range;
+        let within = |v: S| v.larger(-range).smaller(range);
         if !self.primed {
             // The filters act on the converter's output, which never leaves the range.
-            self.gyro_filter.prime(within(clean[0], gr));
-            self.accel_x_filter.prime(within(clean[1], ar));
-            self.accel_z_filter.prime(within(clean[2], ar));
+            self.accel_x_filter.prime(within(clean[0]));
+            self.accel_z_filter.prime(within(clean[1]));
+        }
+        let ax = self.accel_x_filter.filter(within(clean[0] + self.sigma_accel * n[1]));
+        let az = self.accel_z_filter.filter(within(clean[1] + self.sigma_accel * n[2]));
+        if s.quantise {
+            let (a, a_inv) = (self.accel_lsb, self.accel_per_lsb);
+            (self.reading.accel_x, self.reading.accel_z) = (register(ax, a, a_inv), register(az, a, a_inv));
+        } else {
+            (self.reading.accel_x, self.reading.accel_z) = (ax, az);
+        }
+        self.sample_gyro_with(rate, n);
+    }
+
+    /// The gyroscope's part of [`Self::sample_with`], alone for an IMU whose accelerometer
+    /// nothing reads (the 3-DOF robot's yaw axis): it takes the same four normals, and its
+    /// accelerometer's registers stay as they are.
+    #[inline(always)]
+    pub(crate) fn sample_gyro_with(&mut self, rate: S, n: [S; 4]) {
+        let range = self.settings.gyro_range;
+        let within = |v: S| v.larger(-range).smaller(range);
+        let clean = rate + self.bias;
+        if !self.primed {
+            self.gyro_filter.prime(within(clean));
             self.primed = true;
         }
-        let gyro = self.gyro_filter.filter(within(clean[0] + self.sigma_gyro * n[0], gr));
-        let ax = self.accel_x_filter.filter(within(clean[1] + self.sigma_accel * n[1], ar));
-        let az = self.accel_z_filter.filter(within(clean[2] + self.sigma_accel * n[2], ar));
+        let gyro = self.gyro_filter.filter(within(clean + self.sigma_gyro * n[0]));
         self.bias = self.bias + self.sigma_walk * n[3];
-        self.reading = if s.quantise {
-            let (a, a_inv, g, g_inv) = (self.accel_lsb, self.accel_per_lsb, self.gyro_lsb, self.gyro_per_lsb);
-            ImuReading { accel_x: register(ax, a, a_inv), accel_z: register(az, a, a_inv), gyro: register(gyro, g, g_inv) }
-        } else {
-            ImuReading { accel_x: ax, accel_z: az, gyro }
-        };
+        self.reading.gyro = if self.settings.quantise { register(gyro, self.gyro_lsb, self.gyro_per_lsb) } else { gyro };
     }
 }
 

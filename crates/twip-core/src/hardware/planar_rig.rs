@@ -310,7 +310,7 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
                 let (fx, fz) = specific_force(&x4, &xdot4, T::zero(), T::one(), self.radius, height, self.g);
                 pitch.sample(fx, fz, x[4], &mut self.rng);
                 // The z axis turns with the body's pitch: it reads ω cos φ.
-                yaw.sample(T::zero(), self.g, x[6] * x[3].cos(), &mut self.rng);
+                yaw.sample_gyro(x[6] * x[3].cos(), &mut self.rng);
             }
         }
     }
