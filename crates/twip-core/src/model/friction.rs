@@ -483,6 +483,53 @@ mod tests {
             }
         }
 
+        /// One wheel's train open (backlash): the engaged wheel's friction, slipping or held,
+        /// works against the mass matrix without the open rotor. The energy without that
+        /// rotor's then changes at the engaged motor's power less what friction and the
+        /// viscous terms dissipate; the open wheel gets no gearhead torque.
+        #[test]
+        fn planar_energy_balances_with_one_train_open() {
+            let p = RobotParams::<f64>::balanbot();
+            for (label, f) in [("slip law", rough()), ("stick band", sticky())] {
+                let m = PlanarModel::new(p).unwrap().with_friction(Some(f)).unwrap();
+                let j = m.rotor_per_wheel();
+                let mut rng = Lcg(8);
+                let mut worst: f64 = 0.0;
+                let (r, b) = (p.wheel_radius, p.half_track);
+                let mut held = 0;
+                for i in 0..600 {
+                    let on = i % 2;
+                    let engaged = [on == 0, on == 1];
+                    let mut x = PlanarState::from(core::array::from_fn(|_| rng.uniform(-1.2, 1.2)));
+                    if i % 3 == 0 {
+                        // The engaged wheel inside or near the band.
+                        let turn = if on == 0 { b / r * x[6] } else { -b / r * x[6] };
+                        x[5] = r * (x[4] - turn + rng.uniform(-0.1, 0.1));
+                    }
+                    let u = SVector::from([rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3)]);
+                    let (d, tau) = m.deriv_geared(&x, &u, engaged, |_, _| None);
+                    let (w_r, w_l) = m.wheel_speeds(&x);
+                    let w = [w_r, w_l];
+                    assert_eq!(tau[1 - on], 0.0, "the open wheel gets no gearhead torque");
+                    held += (w[on].abs() < GB37_STICK_SPEED && tau[on].abs() < f.breakaway) as usize;
+                    let energy = |x: &PlanarState<f64>| {
+                        let (w_r, w_l) = m.wheel_speeds(x);
+                        m.energy(x) - 0.5 * j * [w_r, w_l][1 - on].powi(2)
+                    };
+                    let h = 1e-6;
+                    let rate = (energy(&(x + d * h)) - energy(&(x - d * h))) / (2.0 * h);
+                    let (spin_r, spin_l) = ((x[5] + b * x[6]) / r, (x[5] - b * x[6]) / r);
+                    let viscous = |w: f64, spin: f64| 0.5 * p.mu_bearing * w * w + 0.5 * p.mu_ground * spin * spin;
+                    let dissipation = viscous(w_r, spin_r) + viscous(w_l, spin_l) + w[on] * tau[on];
+                    let power = u[on] * w[on];
+                    worst = worst.max((rate - (power - dissipation)).abs() / (power.abs() + dissipation.abs()).max(1e-3));
+                }
+                std::println!("3-DOF, one train open ({label}): worst relative energy-balance residual {worst:.1e}, {held} held");
+                assert!(worst < 1e-7, "{label}: {worst:e}");
+                assert!(label == "slip law" || held > 20, "{label}: only {held} states held");
+            }
+        }
+
         fn sticky() -> Friction<f64> {
             rough().with_stick(GB37_STICK_SPEED)
         }

@@ -237,25 +237,27 @@ impl<T: Real> PlanarModel<T> {
         self.deriv_geared(x, u, [true, true], |_, _| None).1
     }
 
+    /// The derivative and each wheel's gearhead torque with a friction that sticks: the
+    /// accelerations without it, less each held or slipping wheel's torque times its
+    /// response (as `slope::motion` does), so the forces are evaluated once.
     #[inline(always)]
-    fn gearhead_torques(&self, f: &Friction<T>, x: &PlanarState<T>, u: &SVector<T, 2>, extra: &impl Fn(T, T) -> Option<Vector2<T>>) -> [T; 2] {
+    fn held_motion(&self, f: &Friction<T>, x: &PlanarState<T>, u: &SVector<T, 2>, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (PlanarState<T>, [T; 2]) {
         let (w_r, w_l) = self.wheel_speeds(x);
-        if !f.sticks() {
-            return [f.torque(w_r), f.torque(w_l)];
-        }
-        // Held wheels need the accelerations without friction and the response to it:
-        // a torque on one wheel acts on (φ, v) as (−1, 1/R) and on the yaw as ±b/R. Both
-        // at the sin φ, cos φ the forces took (one evaluation of them, not libm's too).
+        // A torque on one wheel acts on (φ, v) as (−1, 1/R) and on the yaw as ±b/R: the
+        // response to it is `shared` on (φ, v) and ±`turn` on the yaw.
         let (q, sin_phi, cos_phi) = self.forces(x, u[0], u[1], extra);
         let free = accelerations(&self.coef, &[q[0], q[1], q[2]], sin_phi, cos_phi);
         let roll = |nu: &[T; 3]| self.coef.inv_r * nu[1] - nu[0];
         let (a_r, a_l) = (roll(&free) + self.coef.b_r * free[2], roll(&free) - self.coef.b_r * free[2]);
         let shared = accelerations(&self.coef, &[-T::one(), self.coef.inv_r, T::zero()], sin_phi, cos_phi);
         let common = roll(&shared);
-        let yaw = self.coef.b_r * self.coef.b_r / (self.coef.m_ww0 + self.coef.k * sin_phi * sin_phi);
+        let turn = self.coef.b_r / (self.coef.m_ww0 + self.coef.k * sin_phi * sin_phi);
+        let yaw = self.coef.b_r * turn;
         // ẇ = a0 − S τ: friction takes its torque off the motor's.
         let s = [[common + yaw, common - yaw], [common - yaw, common + yaw]];
-        f.torques([w_r, w_l], [a_r, a_l], s)
+        let tau = f.torques([w_r, w_l], [a_r, a_l], s);
+        let (both, apart) = (tau[0] + tau[1], tau[0] - tau[1]);
+        (self.kinematics(x, free[0] - both * shared[0], free[1] - both * shared[1], free[2] - apart * turn), tau)
     }
 
     /// The state derivative under the wheels' net torques `u_r`, `u_l` (motor minus gearhead).
@@ -340,11 +342,15 @@ impl<T: Real> PlanarModel<T> {
         extra: impl Fn(T, T) -> Option<Vector2<T>>,
     ) -> (PlanarState<T>, [T; 2]) {
         if engaged == [true, true] {
-            let tau = match &self.friction {
-                None => [T::zero(); 2],
-                Some(f) => self.gearhead_torques(f, x, u, &extra),
+            return match &self.friction {
+                Some(f) if f.sticks() => self.held_motion(f, x, u, extra),
+                Some(f) => {
+                    let (w_r, w_l) = self.wheel_speeds(x);
+                    let tau = [f.torque(w_r), f.torque(w_l)];
+                    (self.driven(x, u[0] - tau[0], u[1] - tau[1], extra), tau)
+                }
+                None => (self.driven(x, u[0], u[1], extra), [T::zero(); 2]),
             };
-            return (self.driven(x, u[0] - tau[0], u[1] - tau[1], extra), tau);
         }
         let pick = |i: usize| if engaged[i] { u[i] } else { T::zero() };
         let (f0, _, _) = self.forces(x, pick(0), pick(1), &extra);
@@ -352,17 +358,17 @@ impl<T: Real> PlanarModel<T> {
         let Some(chol) = self.geared_mass_matrix(x[3], engaged).cholesky() else {
             return (PlanarState::from([c::<T>(f64::NAN); 7]), [T::zero(); 2]);
         };
-        let rows = self.wheel_rows();
+        let mut nu_dot = chol.solve(&f0);
         let mut tau = [T::zero(); 2];
         if let (Some(fr), Some(i)) = (&self.friction, engaged.iter().position(|&e| e)) {
-            // One wheel engaged (the other's train is open): its friction against M'.
-            let a0 = rows[i].dot(&chol.solve(&f0));
-            let s = rows[i].dot(&chol.solve(&rows[i]));
+            // One wheel engaged (the other's train is open): its friction against M', which
+            // takes its torque times the wheel's response off the accelerations.
+            let row = self.wheel_rows()[i];
+            let response = chol.solve(&row);
             let (w_r, w_l) = self.wheel_speeds(x);
-            tau[i] = fr.torques([[w_r, w_l][i]], [a0], [[s]])[0];
+            tau[i] = fr.torques([[w_r, w_l][i]], [row.dot(&nu_dot)], [[row.dot(&response)]])[0];
+            nu_dot -= response * tau[i];
         }
-        let f = f0 - rows[0] * tau[0] - rows[1] * tau[1];
-        let nu_dot = chol.solve(&f);
         (self.kinematics(x, nu_dot[0], nu_dot[1], nu_dot[2]), tau)
     }
 }
