@@ -180,33 +180,34 @@ pub use wide::{Fused, Wide, WideMask, WIDTH};
 mod wide {
     use super::*;
 
-    /// Lanes in one [`Wide`]: 8 f64 = one AVX-512 register, two AVX2 ones.
+    /// Lanes in one [`Wide`] unless said otherwise: 8 f64 = one AVX-512 register, two AVX2
+    /// ones. The width changes no lane's numbers, only how many share an instruction.
     pub const WIDTH: usize = 8;
 
-    /// [`WIDTH`] robots' values of one quantity. Every operation is a loop over the lanes
+    /// `N` robots' values of one quantity. Every operation is a loop over the lanes
     /// that the compiler turns into vector instructions.
     #[derive(Clone, Copy, Debug, PartialEq)]
     #[repr(C, align(64))]
-    pub struct Wide(pub [f64; WIDTH]);
+    pub struct Wide<const N: usize = WIDTH>(pub [f64; N]);
 
     /// One comparison's outcome per lane: all ones where it holds (as a vector compare's).
     #[derive(Clone, Copy, Debug, PartialEq, Eq)]
     #[repr(C, align(64))]
-    pub struct WideMask(pub [u64; WIDTH]);
+    pub struct WideMask<const N: usize = WIDTH>(pub [u64; N]);
 
     #[inline(always)]
-    fn each<T: Copy + Default, R: Copy + Default>(a: [T; WIDTH], f: impl Fn(T) -> R) -> [R; WIDTH] {
-        let mut out = [R::default(); WIDTH];
-        for i in 0..WIDTH {
+    fn each<T: Copy + Default, R: Copy + Default, const N: usize>(a: [T; N], f: impl Fn(T) -> R) -> [R; N] {
+        let mut out = [R::default(); N];
+        for i in 0..N {
             out[i] = f(a[i]);
         }
         out
     }
 
     #[inline(always)]
-    fn pair<T: Copy + Default, R: Copy + Default>(a: [T; WIDTH], b: [T; WIDTH], f: impl Fn(T, T) -> R) -> [R; WIDTH] {
-        let mut out = [R::default(); WIDTH];
-        for i in 0..WIDTH {
+    fn pair<T: Copy + Default, R: Copy + Default, const N: usize>(a: [T; N], b: [T; N], f: impl Fn(T, T) -> R) -> [R; N] {
+        let mut out = [R::default(); N];
+        for i in 0..N {
             out[i] = f(a[i], b[i]);
         }
         out
@@ -219,10 +220,10 @@ mod wide {
 
     macro_rules! wide_op {
         ($trait:ident, $method:ident, $op:tt) => {
-            impl $trait for Wide {
-                type Output = Wide;
+            impl<const N: usize> $trait for Wide<N> {
+                type Output = Wide<N>;
                 #[inline(always)]
-                fn $method(self, other: Wide) -> Wide {
+                fn $method(self, other: Wide<N>) -> Wide<N> {
                     Wide(pair(self.0, other.0, |a, b| a $op b))
                 }
             }
@@ -233,20 +234,20 @@ mod wide {
     wide_op!(Mul, mul, *);
     wide_op!(Div, div, /);
 
-    impl Neg for Wide {
-        type Output = Wide;
+    impl<const N: usize> Neg for Wide<N> {
+        type Output = Wide<N>;
         #[inline(always)]
-        fn neg(self) -> Wide {
+        fn neg(self) -> Wide<N> {
             Wide(each(self.0, |a| -a))
         }
     }
 
     macro_rules! mask_op {
         ($trait:ident, $method:ident, $op:tt) => {
-            impl $trait for WideMask {
-                type Output = WideMask;
+            impl<const N: usize> $trait for WideMask<N> {
+                type Output = WideMask<N>;
                 #[inline(always)]
-                fn $method(self, other: WideMask) -> WideMask {
+                fn $method(self, other: WideMask<N>) -> WideMask<N> {
                     WideMask(pair(self.0, other.0, |a, b| a $op b))
                 }
             }
@@ -255,10 +256,10 @@ mod wide {
     mask_op!(BitAnd, bitand, &);
     mask_op!(BitOr, bitor, |);
 
-    impl Not for WideMask {
-        type Output = WideMask;
+    impl<const N: usize> Not for WideMask<N> {
+        type Output = WideMask<N>;
         #[inline(always)]
-        fn not(self) -> WideMask {
+        fn not(self) -> WideMask<N> {
             WideMask(each(self.0, |a| !a))
         }
     }
@@ -393,22 +394,22 @@ mod wide {
         }
     }
 
-    impl Lane for Wide {
-        type Mask = WideMask;
+    impl<const N: usize> Lane for Wide<N> {
+        type Mask = WideMask<N>;
 
         #[inline(always)]
         fn splat(v: f64) -> Self {
-            Wide([v; WIDTH])
+            Wide([v; N])
         }
 
         #[inline(always)]
-        fn mask(m: bool) -> WideMask {
-            WideMask([bits(m); WIDTH])
+        fn mask(m: bool) -> WideMask<N> {
+            WideMask([bits(m); N])
         }
 
         #[inline(always)]
         fn madd(a: Self, b: Self, c: Self) -> Self {
-            let mut out = [0.0; WIDTH];
+            let mut out = [0.0; N];
             for (i, o) in out.iter_mut().enumerate() {
                 *o = a.0[i].mul_add(b.0[i], c.0[i]);
             }
@@ -452,37 +453,37 @@ mod wide {
 
         #[inline(always)]
         fn epsilon() -> Self {
-            Wide::splat(f64::EPSILON)
+            Self::splat(f64::EPSILON)
         }
 
         #[inline(always)]
-        fn lt(self, other: Self) -> WideMask {
+        fn lt(self, other: Self) -> WideMask<N> {
             WideMask(pair(self.0, other.0, |a, b| bits(a < b)))
         }
 
         #[inline(always)]
-        fn le(self, other: Self) -> WideMask {
+        fn le(self, other: Self) -> WideMask<N> {
             WideMask(pair(self.0, other.0, |a, b| bits(a <= b)))
         }
 
         #[inline(always)]
-        fn gt(self, other: Self) -> WideMask {
+        fn gt(self, other: Self) -> WideMask<N> {
             WideMask(pair(self.0, other.0, |a, b| bits(a > b)))
         }
 
         #[inline(always)]
-        fn eq(self, other: Self) -> WideMask {
+        fn eq(self, other: Self) -> WideMask<N> {
             WideMask(pair(self.0, other.0, |a, b| bits(a == b)))
         }
 
         #[inline(always)]
-        fn finite(self) -> WideMask {
+        fn finite(self) -> WideMask<N> {
             WideMask(each(self.0, |a| bits(a.is_finite())))
         }
 
         #[inline(always)]
-        fn select(m: WideMask, a: Self, b: Self) -> Self {
-            let mut out = [0.0; WIDTH];
+        fn select(m: WideMask<N>, a: Self, b: Self) -> Self {
+            let mut out = [0.0; N];
             for (i, o) in out.iter_mut().enumerate() {
                 *o = if m.0[i] != 0 { a.0[i] } else { b.0[i] };
             }
@@ -490,7 +491,7 @@ mod wide {
         }
 
         #[inline(always)]
-        fn any(m: WideMask) -> bool {
+        fn any(m: WideMask<N>) -> bool {
             m.0.iter().fold(0, |acc, b| acc | b) != 0
         }
     }

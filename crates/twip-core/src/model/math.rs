@@ -56,7 +56,7 @@ pub fn sin_cos<T: Real>(x: T) -> (T, T) {
 #[cfg(feature = "std")]
 mod wide {
     use super::kernel;
-    use crate::model::lane::{Fused, Lane, Wide, WIDTH};
+    use crate::model::lane::{Fused, Lane, Wide};
 
     // The reduction, the polynomial and the rotation, per lane: one source for both.
 
@@ -69,14 +69,14 @@ mod wide {
     const PIO2_LO: f64 = 6.123_233_995_736_766e-17;
 
     #[inline(always)]
-    pub(crate) fn sin_cos_wide(x: Wide) -> (Wide, Wide) {
-        let (mut r, mut quadrant) = ([0.0; WIDTH], [0u64; WIDTH]);
-        for i in 0..WIDTH {
+    pub(crate) fn sin_cos_wide<const N: usize>(x: Wide<N>) -> (Wide<N>, Wide<N>) {
+        let (mut r, mut quadrant) = ([0.0; N], [0u64; N]);
+        for i in 0..N {
             (r[i], quadrant[i]) = reduce(x.0[i]);
         }
         let (s, c) = kernel(Wide(r));
-        let (mut sin, mut cos) = ([0.0; WIDTH], [0.0; WIDTH]);
-        for i in 0..WIDTH {
+        let (mut sin, mut cos) = ([0.0; N], [0.0; N]);
+        for i in 0..N {
             (sin[i], cos[i]) = rotate(s.0[i], c.0[i], quadrant[i]);
         }
         (Wide(sin), Wide(cos))
@@ -115,18 +115,18 @@ mod wide {
         exp_edges(Fused(x), Fused(exp_scale(exp_poly(Fused(r)).0, shifted))).0
     }
 
-    /// e^x on [`WIDTH`] lanes: `exp_fused`'s stages, each a loop over the lanes or `Wide`'s
+    /// e^x on `N` lanes: `exp_fused`'s stages, each a loop over the lanes or `Wide`'s
     /// own operations, so that each is vector instructions (one loop over the whole of
     /// `exp_fused` was not vectorised: a scalar copy per lane).
     #[inline(always)]
-    pub(crate) fn exp_wide(x: Wide) -> Wide {
-        let (mut r, mut shifted) = ([0.0; WIDTH], [0.0; WIDTH]);
-        for i in 0..WIDTH {
+    pub(crate) fn exp_wide<const N: usize>(x: Wide<N>) -> Wide<N> {
+        let (mut r, mut shifted) = ([0.0; N], [0.0; N]);
+        for i in 0..N {
             (r[i], shifted[i]) = exp_reduce(x.0[i]);
         }
         let p = exp_poly(Wide(r));
-        let mut scaled = [0.0; WIDTH];
-        for i in 0..WIDTH {
+        let mut scaled = [0.0; N];
+        for i in 0..N {
             scaled[i] = exp_scale(p.0[i], shifted[i]);
         }
         exp_edges(x, Wide(scaled))
@@ -335,7 +335,7 @@ mod tests {
     fn wide_sin_cos_matches_libm() {
         use crate::model::lane::{Lane, Wide};
         let sin_cos_fused = |x: f64| {
-            let (s, c) = Wide::sincos(Wide::splat(x));
+            let (s, c) = <Wide>::sincos(<Wide>::splat(x));
             (s.0[3], c.0[3])
         };
         let mut worst: f64 = 0.0;

@@ -5,7 +5,7 @@ use crate::control::fuzzy::{FuzzyController, FuzzyGains, Law};
 use crate::control::fuzzy_basis::{Member, Prepared, Trapezoid};
 use crate::control::reference::SpeedRef;
 use crate::control::Controller;
-use super::{chunk, put, state_chunk, CHUNKS};
+use super::{chunk, put, state_chunk};
 use crate::model::lane::{fill, Lane, Wide};
 use crate::model::slope::SlopeCoefficients;
 use crate::sweep::lanes::{Lanes, LANES};
@@ -14,11 +14,27 @@ use crate::sweep::lanes::{Lanes, LANES};
 #[derive(Clone, Debug)]
 pub struct FuzzyLanes {
     controller: FuzzyController<f64>,
-    gains: FuzzyGains<Wide>,
-    sets: Sets,
-    model: SlopeCoefficients<Wide>,
+    law: Width,
     /// (θ̇_ref, φ_s) of the last reference speed.
     steady: Option<(f64, f64)>,
+}
+
+/// The law's constants, and how many lanes it takes at a time (which changes no lane's
+/// numbers). Trapezoids take 4 where vectors hold fewer than 8 f64: at 8, the law's nine
+/// weights and nine ξ (two AVX2 registers each) spilled to the stack, and the AVX2 kernel
+/// measured 0.90x the time at 4. Gaussians take 8: at 4 they measured 1.12x the time.
+#[derive(Clone, Debug)]
+enum Width {
+    Four(Constants<4>),
+    Eight(Constants<8>),
+}
+
+/// The law's gains, sets and model in `Wide<N>` numbers.
+#[derive(Clone, Debug)]
+struct Constants<const N: usize> {
+    gains: FuzzyGains<Wide<N>>,
+    sets: Sets<N>,
+    model: SlopeCoefficients<Wide<N>>,
 }
 
 /// The basis's sets in lanes' numbers: all trapezoids (the thesis's), evaluated without a
@@ -26,9 +42,9 @@ pub struct FuzzyLanes {
 /// any sets.
 #[derive(Clone, Debug)]
 #[allow(clippy::large_enum_variant)] // both ~2.5 KB, one per worker's law: no box needed
-enum Sets {
-    Trapezoids([[Trapezoid<Wide>; 3]; 2]),
-    Any([[Prepared<Wide>; 3]; 2]),
+enum Sets<const N: usize> {
+    Trapezoids([[Trapezoid<Wide<N>>; 3]; 2]),
+    Any([[Prepared<Wide<N>>; 3]; 2]),
 }
 
 /// Each lane's weights Ŝ and the PD's integral, one array per quantity.
@@ -38,18 +54,29 @@ pub struct FuzzyState {
     e_int: Lanes,
 }
 
-impl FuzzyLanes {
-    /// Any sets: trapezoids, triangles and Gaussians (whose e^x is the lanes' polynomial).
-    pub fn new(prototype: &FuzzyController<f64>) -> Self {
+/// Whether the widest vectors hold fewer than 8 f64 (x86-64 without AVX-512: the kernels'
+/// AVX2 and baseline copies run; elsewhere, unmeasured, the 8 of before).
+fn narrow_vectors() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        !(std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma"))
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+impl<const N: usize> Constants<N> {
+    fn new(prototype: &FuzzyController<f64>) -> Self {
         let g = prototype.gains();
         let k = prototype.model().coefficients();
-        let f = Wide::splat;
+        let f = Wide::<N>::splat;
         Self {
-            controller: *prototype,
             gains: FuzzyGains { k1: f(g.k1), k2: f(g.k2), kp: f(g.kp), kd: f(g.kd), ki: f(g.ki) },
-            sets: match prototype.basis().trapezoids(Wide::splat) {
+            sets: match prototype.basis().trapezoids(f) {
                 Some(trapezoids) => Sets::Trapezoids(trapezoids),
-                None => Sets::Any(prototype.basis().prepared_in(Wide::splat)),
+                None => Sets::Any(prototype.basis().prepared_in(f)),
             },
             model: SlopeCoefficients {
                 m11: f(k.m11),
@@ -67,8 +94,67 @@ impl FuzzyLanes {
                 sin_slope: f(k.sin_slope),
                 cos_slope: f(k.cos_slope),
             },
-            steady: None,
         }
+    }
+
+    /// The law on every chunk of `N` lanes.
+    #[inline(always)]
+    fn update(&self, controller: &FuzzyController<f64>, phi_s: f64, state: &mut FuzzyState, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
+        match &self.sets {
+            Sets::Trapezoids(sets) => self.update_with(sets, controller, phi_s, state, x, r, u),
+            Sets::Any(sets) => self.update_with(sets, controller, phi_s, state, x, r, u),
+        }
+    }
+
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn update_with<M: Member<Wide<N>>>(
+        &self,
+        sets: &[[M; 3]; 2],
+        controller: &FuzzyController<f64>,
+        phi_s: f64,
+        state: &mut FuzzyState,
+        x: &[Lanes; 4],
+        r: &SpeedRef<f64>,
+        u: &mut Lanes,
+    ) {
+        let a = controller.adaptation();
+        let law = Law {
+            gains: self.gains,
+            gamma: Wide::splat(a.gamma),
+            sigma: Wide::splat(a.sigma),
+            adapt: a.enabled,
+            period: Wide::splat(controller.period()),
+            sets,
+            model: &self.model,
+        };
+        let (phi_s, theta, theta_dot) = (Wide::splat(phi_s), Wide::splat(r.theta), Wide::splat(r.theta_dot));
+        for c in 0..LANES / N {
+            let mut s_hat: [Wide<N>; 9] = fill(|j| chunk(&state.s_hat[j], c));
+            let mut e_int = chunk(&state.e_int, c);
+            let step = law.update(&mut s_hat, &mut e_int, phi_s, &state_chunk(x, c), theta, theta_dot);
+            for (j, s) in s_hat.iter().enumerate() {
+                put(&mut state.s_hat[j], c, *s);
+            }
+            put(&mut state.e_int, c, e_int);
+            put(u, c, step.u);
+        }
+    }
+}
+
+impl FuzzyLanes {
+    /// Any sets: trapezoids, triangles and Gaussians (whose e^x is the lanes' polynomial).
+    pub fn new(prototype: &FuzzyController<f64>) -> Self {
+        let trapezoids = prototype.basis().trapezoids(|v| v).is_some();
+        let law = if trapezoids && narrow_vectors() { Width::Four(Constants::new(prototype)) } else { Width::Eight(Constants::new(prototype)) };
+        Self { controller: *prototype, law, steady: None }
+    }
+
+    /// The law `four` lanes at a time or eight, whatever the sets and the CPU.
+    #[cfg(test)]
+    pub(crate) fn at_width(prototype: &FuzzyController<f64>, four: bool) -> Self {
+        let law = if four { Width::Four(Constants::new(prototype)) } else { Width::Eight(Constants::new(prototype)) };
+        Self { law, ..Self::new(prototype) }
     }
 
     /// φ_s at `speed`, as `FuzzyController::update` finds it: cached, since speeds change
@@ -78,32 +164,6 @@ impl FuzzyLanes {
         match self.steady {
             Some((s, phi_s)) if s == speed => phi_s,
             _ => self.solve_steady_pitch(speed),
-        }
-    }
-
-    /// The law with `sets` on every chunk of lanes.
-    #[inline(always)]
-    fn update_with<M: Member<Wide>>(&self, sets: &[[M; 3]; 2], phi_s: Wide, state: &mut FuzzyState, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
-        let a = self.controller.adaptation();
-        let law = Law {
-            gains: self.gains,
-            gamma: Wide::splat(a.gamma),
-            sigma: Wide::splat(a.sigma),
-            adapt: a.enabled,
-            period: Wide::splat(self.period()),
-            sets,
-            model: &self.model,
-        };
-        let (theta, theta_dot) = (Wide::splat(r.theta), Wide::splat(r.theta_dot));
-        for c in 0..CHUNKS {
-            let mut s_hat: [Wide; 9] = fill(|j| chunk(&state.s_hat[j], c));
-            let mut e_int = chunk(&state.e_int, c);
-            let step = law.update(&mut s_hat, &mut e_int, phi_s, &state_chunk(x, c), theta, theta_dot);
-            for (j, s) in s_hat.iter().enumerate() {
-                put(&mut state.s_hat[j], c, *s);
-            }
-            put(&mut state.e_int, c, e_int);
-            put(u, c, step.u);
         }
     }
 
@@ -130,10 +190,10 @@ impl LaneLaw for FuzzyLanes {
 
     #[inline(always)]
     fn update(&mut self, state: &mut FuzzyState, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
-        let phi_s = Wide::splat(self.steady_pitch(r.theta_dot));
-        match &self.sets {
-            Sets::Trapezoids(sets) => self.update_with(sets, phi_s, state, x, r, u),
-            Sets::Any(sets) => self.update_with(sets, phi_s, state, x, r, u),
+        let phi_s = self.steady_pitch(r.theta_dot);
+        match &self.law {
+            Width::Four(law) => law.update(&self.controller, phi_s, state, x, r, u),
+            Width::Eight(law) => law.update(&self.controller, phi_s, state, x, r, u),
         }
     }
 }

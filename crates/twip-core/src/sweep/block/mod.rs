@@ -36,23 +36,23 @@ pub use smc::SmcLanes;
 /// [`Wide`] vectors in a block.
 pub(crate) const CHUNKS: usize = LANES / WIDTH;
 
-/// Lanes `c·WIDTH ..` of a quantity, as one vector.
+/// Lanes `c·N ..` of a quantity, as one vector.
 #[inline(always)]
-pub(crate) fn chunk(v: &Lanes, c: usize) -> Wide {
-    let mut out = [0.0; WIDTH];
-    out.copy_from_slice(&v[c * WIDTH..(c + 1) * WIDTH]);
+pub(crate) fn chunk<const N: usize>(v: &Lanes, c: usize) -> Wide<N> {
+    let mut out = [0.0; N];
+    out.copy_from_slice(&v[c * N..(c + 1) * N]);
     Wide(out)
 }
 
-/// Writes a vector back to lanes `c·WIDTH ..`.
+/// Writes a vector back to lanes `c·N ..`.
 #[inline(always)]
-pub(crate) fn put(v: &mut Lanes, c: usize, w: Wide) {
-    v[c * WIDTH..(c + 1) * WIDTH].copy_from_slice(&w.0);
+pub(crate) fn put<const N: usize>(v: &mut Lanes, c: usize, w: Wide<N>) {
+    v[c * N..(c + 1) * N].copy_from_slice(&w.0);
 }
 
 /// The state's chunk `c`.
 #[inline(always)]
-pub(crate) fn state_chunk(x: &[Lanes; 4], c: usize) -> [Wide; 4] {
+pub(crate) fn state_chunk<const N: usize>(x: &[Lanes; 4], c: usize) -> [Wide<N>; 4] {
     [chunk(&x[0], c), chunk(&x[1], c), chunk(&x[2], c), chunk(&x[3], c)]
 }
 
@@ -505,7 +505,7 @@ mod tests {
 
     /// Every compiled copy of the kernel gives the same bits (the baseline one through
     /// libm's fma), so a sweep is the same on any x86-64 CPU.
-    fn same_bits_on_every_copy<C: LaneLaw + Clone>(law: C) {
+    fn same_bits_on_every_copy<C: LaneLaw + Clone>(law: C) -> String {
         let schedule = SpeedSchedule::new(&[crate::control::reference::Leg { goal: 10.0, speed: 4.0, hold: 0.5 }]).unwrap();
         let config = SimConfig { dt: 1e-3, t_final: 3.0, fall_limit: 0.45 };
         let samples: Vec<Sample> = (0..LANES as u64)
@@ -529,6 +529,7 @@ mod tests {
             }
         }
         assert!(base.contains("fell: true") && base.contains("fell: false"), "want both outcomes: {base}");
+        base
     }
 
     #[test]
@@ -539,7 +540,12 @@ mod tests {
         let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 0.005).unwrap();
         same_bits_on_every_copy(LqrLanes::new(&ctrl));
         let fuzzy = FuzzyController::thesis_slope(model, 0.005).unwrap();
-        same_bits_on_every_copy(FuzzyLanes::new(&fuzzy));
-        same_bits_on_every_copy(FuzzyLanes::new(&crate::sweep::tests::with_gaussians(&fuzzy)));
+        let gaussian = crate::sweep::tests::with_gaussians(&fuzzy);
+        // The fuzzy law 4 or 8 lanes at a time (whichever this CPU would pick, and the
+        // other): the same bits.
+        for law in [fuzzy, gaussian] {
+            let [four, eight] = [true, false].map(|four| same_bits_on_every_copy(FuzzyLanes::at_width(&law, four)));
+            assert_eq!(four, eight, "4 and 8 lanes at a time");
+        }
     }
 }
