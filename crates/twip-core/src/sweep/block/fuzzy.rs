@@ -146,15 +146,13 @@ impl FuzzyLanes {
     /// Any sets: trapezoids, triangles and Gaussians (whose e^x is the lanes' polynomial).
     pub fn new(prototype: &FuzzyController<f64>) -> Self {
         let trapezoids = prototype.basis().trapezoids(|v| v).is_some();
-        let law = if trapezoids && narrow_vectors() { Width::Four(Constants::new(prototype)) } else { Width::Eight(Constants::new(prototype)) };
-        Self { controller: *prototype, law, steady: None }
+        Self::at_width(prototype, trapezoids && narrow_vectors())
     }
 
     /// The law `four` lanes at a time or eight, whatever the sets and the CPU.
-    #[cfg(test)]
     pub(crate) fn at_width(prototype: &FuzzyController<f64>, four: bool) -> Self {
         let law = if four { Width::Four(Constants::new(prototype)) } else { Width::Eight(Constants::new(prototype)) };
-        Self { law, ..Self::new(prototype) }
+        Self { controller: *prototype, law, steady: None }
     }
 
     /// φ_s at `speed`, as `FuzzyController::update` finds it: cached, since speeds change
