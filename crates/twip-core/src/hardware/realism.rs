@@ -341,6 +341,9 @@ impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
         self.shaft = offsets[0];
     }
 
+    // Inlined: out of line, a sweep's SIMD kernel called a copy built for the baseline
+    // CPU, whose floor (the encoder's count) is a libm call.
+    #[inline]
     fn read(&mut self, t: T, x: &Vector4<T>) -> Vector4<T> {
         let dt = self.last_read.map_or(T::zero(), |last| t - last);
         self.last_read = Some(t);
