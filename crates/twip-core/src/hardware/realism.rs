@@ -524,7 +524,10 @@ impl<T: Real> RealPlant<T> {
 
     /// `between_steps` up to the trains' next step (`Disturbed::gear_next`): the open
     /// rotors' elapsed step and impacts, pushes, the winding's current (turning with the
-    /// open rotors). Returns the lumped current that drives the mechanics now.
+    /// open rotors). Returns the lumped current that drives the mechanics now: for the
+    /// input `u` a current, or a duty through a winding with inductance, also the one held
+    /// over the coming step (a winding without inductance follows the state within the
+    /// step: its input is the duty, [`Self::steady_winding`]).
     #[inline(always)]
     pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) -> T {
         match self {
@@ -547,23 +550,10 @@ impl<T: Real> RealPlant<T> {
     /// `between_steps` after the trains' next step: the motors turn with the rotors of
     /// trains that just opened.
     #[inline]
-    pub(crate) fn step_end(&mut self, x: &Vector4<T>) {
+    fn step_end(&mut self, x: &Vector4<T>) {
         if let Self::Driven(p) = self {
             let open = p.plant_mut().open_rotor_speed(x);
             p.turn_motors_at(open);
-        }
-    }
-
-    /// The lumped current that drives the mechanics over the coming step for the input
-    /// `u` (a current, or a duty through a winding with inductance: its current held over
-    /// the step); None for a driver without inductance, whose current follows the state
-    /// within the step ([`Self::steady_winding`]).
-    #[inline]
-    pub(crate) fn held_current(&self, x: &Vector4<T>, u: T) -> Option<T> {
-        match self {
-            Self::Current(_) => Some(u),
-            Self::Driven(p) if p.inductive() => Some(p.mechanical_current(x, u)),
-            Self::Driven(_) => None,
         }
     }
 

@@ -462,7 +462,6 @@ fn rig_block<C: LaneLaw>(
     let mut metrics = Metrics::new(core::array::from_fn(|l| models[l].params().wheel_radius), &x, &plant_phi_s);
     let mut speed_scale: f64 = 0.0;
     let mut direction: f64 = 1.0;
-    let mut input = [0.0; LANES];
     let mut engaged = [true; LANES];
     for k in 0..n {
         let t = dt * k as f64;
@@ -524,19 +523,19 @@ fn rig_block<C: LaneLaw>(
         // The trains weigh the derivative at the step's start; with the trains as they
         // were, it is RK4's first stage. (Written in place, not as an `Option`: moving the
         // Option cost two copies of it per step.)
-        let (mut k1, mut tau) = ([[0.0; LANES]; 4], [0.0; LANES]);
+        let mut k1 = [[0.0; LANES]; 4];
         if plants.geared {
+            let tau;
             (k1, tau) = plants.geared_motion(&x, &current, &engaged);
-        }
-        for (l, rig) in rigs.iter_mut().enumerate() {
-            let xl = Vector4::from(lane(&x, l));
-            if plants.geared {
-                rig.plant.ground_mut().gear_next_with(&xl, current[l], &Vector4::from(lane(&k1, l)), tau[l]);
+            for (l, rig) in rigs.iter_mut().enumerate() {
+                rig.plant.ground_mut().gear_next_with(&Vector4::from(lane(&x, l)), current[l], &Vector4::from(lane(&k1, l)), tau[l]);
+                engaged[l] = rig.plant.ground().engaged();
             }
-            rig.plant.step_end(&xl);
-            input[l] = rig.plant.held_current(&xl, u[l]).unwrap_or(u[l]);
-            engaged[l] = rig.plant.ground().engaged();
         }
+        // Held over the step: the lumped current, or the duty a winding without inductance
+        // turns into current at each stage. (No `step_end`: the motors' speed it sets for
+        // trains that just opened is next read after the next `step_start` sets it again.)
+        let input = if plants.steady { u } else { current };
         if !(plants.geared && engaged == before) {
             k1 = plants.k1(&x, &input, &engaged);
         }
