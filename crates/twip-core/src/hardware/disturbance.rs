@@ -357,11 +357,11 @@ impl<T: Real> Disturbed<T> {
     #[inline(always)]
     pub fn gear_elapsed(&mut self, dt: T, x: &mut Vector4<T>) {
         // In place, fields apart: a copy of the model or the play costs a sweep's lanes.
-        let i = self.piece_index(x);
+        // Every piece has the same friction: the piece under the robot (`piece_index`,
+        // fields apart) matters only for an impact.
         let Some(play) = self.play.as_mut() else { return };
-        let model = &self.pieces[i].model;
-        if let Some(rotor_speed) = play.elapsed(dt, [x[3] - x[1]], model.friction())[0] {
-            let speed = model.engage(x, rotor_speed);
+        if let Some(rotor_speed) = play.elapsed(dt, [x[3] - x[1]], self.pieces[0].model.friction())[0] {
+            let speed = self.pieces[self.profile.segment(x[2] * self.radius)].model.engage(x, rotor_speed);
             play.engage(0, speed);
         }
     }
@@ -382,7 +382,8 @@ impl<T: Real> Disturbed<T> {
     /// sweep's lanes compute those for all of them at once.
     #[inline(always)]
     pub(crate) fn gear_next_with(&mut self, x: &Vector4<T>, current: T, d: &Vector4<T>, friction: T) {
-        let motor = self.piece(x).model.params().torque_per_amp() * current;
+        // Every piece is the same robot's (only the slope differs).
+        let motor = self.pieces[0].model.params().torque_per_amp() * current;
         let Some(play) = self.play.as_mut() else { return };
         let contact = motor - c::<T>(2.0) * friction - play.inertia() * (d[3] - d[1]);
         play.next_step([x[3] - x[1]], [contact], [motor]);
