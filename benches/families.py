@@ -61,6 +61,7 @@ def main():
     for _, sc, realism, _ in cases:
         rate(sc, realism, 16)  # warm-up
     rounds = [[rate(sc, realism, n) for _, sc, realism, n in cases] for _ in range(args.repeats)]
+    print(f"{os.cpu_count()} cores, twip's {twip.kernel_copy()} lane kernels")
     print(f"{'family':52s} {'kernel':15s} {'M sample-steps/s':>17s} {'x LQR lanes':>12s} {'range':>12s}")
     for j, (label, *_) in enumerate(cases):
         speeds = [r[j][0] for r in rounds]

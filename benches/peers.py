@@ -503,7 +503,7 @@ def circle_pid_workload(n, repeats):
 
 
 def table(title, rows, repeats, steps=STEPS):
-    print(f"{title}, {os.cpu_count()} cores, median of {repeats} runs each\n")
+    print(f"{title}, {os.cpu_count()} cores, twip's {twip.kernel_copy()} lane kernels, median of {repeats} runs each\n")
     print(f"{'implementation':34s} {'samples':>8s} {'seconds':>9s} {'M sample-steps/s':>17s} {'twip is':>9s}  metrics")
     twip_rate = rows[0][1] * steps / rows[0][2]
     for name, n, t, note in rows:
@@ -546,7 +546,8 @@ def main():
     if args.workload not in ("lqr", "all"):
         return
     args.n = args.n or 20_000
-    print(f"workload: flat-lqr-sim, RK4 dt={DT}, {T_FINAL} s = {STEPS} steps per sample, {os.cpu_count()} cores\n")
+    print(f"workload: flat-lqr-sim, RK4 dt={DT}, {T_FINAL} s = {STEPS} steps per sample, {os.cpu_count()} cores, "
+          f"twip's {twip.kernel_copy()} lane kernels\n")
     result, _, p, plant_phi_s, shared = problem(args.n)
     t_twip, _ = median_time(lambda: twip.montecarlo("flat-lqr-sim", args.n, perturb=PERTURB, seed=1, progress=False,
                                                     options={"t_final": T_FINAL}), args.repeats)

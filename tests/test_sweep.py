@@ -745,3 +745,22 @@ def test_bad_traces_are_named(traces, trace_every, message):
 def test_a_sweep_keeps_a_few_trajectories_not_all():
     with pytest.raises(twip.InvalidParameterError, match="101 samples; a sweep keeps at most 100"):
         sweep(n=200, traces=range(101))
+
+
+def test_kernel_copy_is_the_widest_the_cpu_flags_allow():
+    """`twip.kernel_copy()` names the lane kernels' copy this CPU runs, as its own flags
+    (/proc/cpuinfo on Linux) say it should be."""
+    import platform
+    from pathlib import Path
+
+    copy = twip.kernel_copy()
+    if platform.machine() not in ("x86_64", "AMD64"):
+        assert copy == "baseline"
+        return
+    cpuinfo = Path("/proc/cpuinfo")
+    if not cpuinfo.exists():
+        pytest.skip("no /proc/cpuinfo to read the CPU's flags from")
+    flags = next((set(line.split(":", 1)[1].split()) for line in cpuinfo.read_text().splitlines()
+                  if line.startswith("flags")), set())
+    want = "avx512" if {"avx512f", "fma"} <= flags else "avx2" if {"avx2", "fma"} <= flags else "baseline"
+    assert copy == want, (copy, sorted(f for f in flags if f.startswith(("avx", "fma"))))

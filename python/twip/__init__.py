@@ -42,6 +42,7 @@ from twip._core import (
     Waypoints,
     __version__,
     care,
+    kernel_copy,
     lqr,
     rk4_step,
 )
@@ -98,6 +99,7 @@ __all__ = [
     "Waypoints",
     "__version__",
     "care",
+    "kernel_copy",
     "lqr",
     "montecarlo",
     "rk4_step",

@@ -54,6 +54,7 @@ __all__ = [
     "sweep_noise_seed",
     "check_sweep_model",
     "sweep_kernel",
+    "kernel_copy",
     "DEFAULT_FALL_LIMIT",
     "ffi_record",
     "sysid_shoot",
@@ -859,6 +860,11 @@ def check_sweep_model(model: SlopeModel | PlanarModel) -> None:
 def sweep_noise_seed(seed: int) -> int:
     """The sensor-noise key of a sweep with `seed` (sample i replays with
     `realism.replace(seed=sweep_noise_seed(seed), stream=i)`).
+    """
+def kernel_copy() -> str:
+    """Which copy of the sweeps' lane kernels this CPU runs: "avx512" (x86-64 with AVX-512 and
+    FMA), "avx2" (AVX2 and FMA) or "baseline". Every copy gives the same numbers, at its own
+    speed: name it beside any throughput you quote.
     """
 def sweep_kernel(controller: Any, realism: Realism | None = None) -> str:
     """The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),

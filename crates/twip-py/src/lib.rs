@@ -47,6 +47,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::sweep_noise_seed, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::check_sweep_model, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_kernel, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::kernel_copy, m)?)?;
     m.add("DEFAULT_FALL_LIMIT", twip_core::sim::runner::DEFAULT_FALL_LIMIT)?;
     m.add_function(wrap_pyfunction!(sweep::controller_fingerprint, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_planar::sweep_planar_raw, m)?)?;

@@ -311,6 +311,14 @@ fn kernel_of(through_rig: bool) -> &'static str {
     }
 }
 
+/// Which copy of the sweeps' lane kernels this CPU runs: "avx512" (x86-64 with AVX-512 and
+/// FMA), "avx2" (AVX2 and FMA) or "baseline". Every copy gives the same numbers, at its own
+/// speed: name it beside any throughput you quote.
+#[pyfunction]
+pub fn kernel_copy() -> &'static str {
+    twip_core::sweep::block::KernelCopy::detect().name()
+}
+
 /// The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),
 /// with `realism` (a `twip.Realism`) or without (None): "lanes", "realism-lanes",
 /// "planar-lanes", "planar" or "planar-realism".

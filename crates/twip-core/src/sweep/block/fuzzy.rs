@@ -57,14 +57,7 @@ pub struct FuzzyState {
 /// Whether the widest vectors hold fewer than 8 f64 (x86-64 without AVX-512: the kernels'
 /// AVX2 and baseline copies run; elsewhere, unmeasured, the 8 of before).
 fn narrow_vectors() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        !(std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma"))
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    cfg!(target_arch = "x86_64") && super::KernelCopy::detect() != super::KernelCopy::Avx512
 }
 
 impl<const N: usize> Constants<N> {

@@ -325,25 +325,61 @@ pub(crate) fn finite_at<const N: usize>(x: &[Lanes; N], l: usize) -> bool {
     finite
 }
 
+/// Which copy of the lane kernels (`multiversioned!`) this CPU runs: the widest it has
+/// instructions for. Speeds measured on one copy say little about another.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KernelCopy {
+    /// x86-64 with AVX-512 (avx512f) and FMA: 8 f64 per vector.
+    Avx512,
+    /// x86-64 with AVX2 and FMA: 4 f64 per vector.
+    Avx2,
+    /// Any other CPU: the compiler's baseline, `mul_add` through libm's `fma`.
+    Baseline,
+}
+
+impl KernelCopy {
+    /// The copy this CPU runs (the features are detected once and cached by std).
+    pub fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let fma = std::is_x86_feature_detected!("fma");
+            if fma && std::is_x86_feature_detected!("avx512f") {
+                return Self::Avx512;
+            }
+            if fma && std::is_x86_feature_detected!("avx2") {
+                return Self::Avx2;
+            }
+        }
+        Self::Baseline
+    }
+
+    /// "avx512", "avx2" or "baseline".
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Avx512 => "avx512",
+            Self::Avx2 => "avx2",
+            Self::Baseline => "baseline",
+        }
+    }
+}
+
 /// A block runner compiled three times on x86-64: for AVX-512, for AVX2 with FMA and for
-/// the baseline CPU, the widest the CPU has chosen at run time (wheels are built for the
-/// baseline CPU). All copies give the same bits: the baseline copy computes each
-/// `mul_add` with libm's exactly rounded `fma`, a call per value (~15× slower, on CPUs
-/// older than 2013). `$run` dispatches to `$avx512`, `$avx2` or `$base`, each `$inner`.
+/// the baseline CPU, the widest the CPU has chosen at run time ([`KernelCopy::detect`];
+/// wheels are built for the baseline CPU). All copies give the same bits: the baseline
+/// copy computes each `mul_add` with libm's exactly rounded `fma`, a call per value (~15×
+/// slower, on CPUs older than 2013). `$run` dispatches to `$avx512`, `$avx2` or `$base`,
+/// each `$inner`.
 macro_rules! multiversioned {
     ($(#[$doc:meta])* pub fn $run:ident, $avx512:ident, $avx2:ident, $base:ident
         = $inner:ident<$($c:ident: $bound:path),+>($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
         $(#[$doc])*
         pub fn $run<$($c: $bound),+>($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
-            {
-                // SAFETY: each copy runs only on a CPU that has its instructions.
-                if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma") {
-                    return unsafe { $avx512($($arg),*) };
-                }
-                if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-                    return unsafe { $avx2($($arg),*) };
-                }
+            // SAFETY: each copy runs only on a CPU that has its instructions.
+            match $crate::sweep::block::KernelCopy::detect() {
+                $crate::sweep::block::KernelCopy::Avx512 => return unsafe { $avx512($($arg),*) },
+                $crate::sweep::block::KernelCopy::Avx2 => return unsafe { $avx2($($arg),*) },
+                $crate::sweep::block::KernelCopy::Baseline => {}
             }
             $base($($arg),*)
         }
