@@ -356,12 +356,14 @@ impl<T: Real> Disturbed<T> {
     /// they engage in a plastic impact (φ̇ and θ̇ in `x` jump).
     #[inline(always)]
     pub fn gear_elapsed(&mut self, dt: T, x: &mut Vector4<T>) {
-        // In place, fields apart: a copy of the model or the play costs a sweep's lanes.
-        // Every piece has the same friction: the piece under the robot (`piece_index`,
-        // fields apart) matters only for an impact.
+        // By reference: a copy of the model or the play costs a sweep's lanes. Every piece
+        // is the same robot with the same friction: the piece under it (`model_at`) matters
+        // only for an impact, whose response depends on the slope.
+        let friction = self.pieces[0].model.friction();
         let Some(play) = self.play.as_mut() else { return };
-        if let Some(rotor_speed) = play.elapsed(dt, [x[3] - x[1]], self.pieces[0].model.friction())[0] {
-            let speed = self.pieces[self.profile.segment(x[2] * self.radius)].model.engage(x, rotor_speed);
+        let Some(rotor_speed) = play.elapsed(dt, [x[3] - x[1]], friction)[0] else { return };
+        let speed = self.model_at(x).engage(x, rotor_speed);
+        if let Some(play) = self.play.as_mut() {
             play.engage(0, speed);
         }
     }
