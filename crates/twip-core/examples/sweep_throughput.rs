@@ -5,7 +5,8 @@
 //! Gaussian sets), scalar (LQR, general runner), fuzzy-scalar,
 //! pid (circle-pid on the 3-DOF runner; the checksum sums its mean |x error| instead),
 //! pid-lanes (the same on the planar lane kernel), pid-realism (circle-pid through the
-//! thesis-like rig: the 3-DOF rig has no lane kernel, so the general runner), realism (LQR through the thesis-like rig,
+//! thesis-like rig on the general runner), pid-realism-lanes (the same on the planar rig's lane kernel),
+//! realism (LQR through the thesis-like rig,
 //! 5 ms loop), realism-lanes (the same on the rig's lane kernel), realism-lanes-no-imu (that rig
 //! without its IMU: what the IMU costs), realism-lanes-slip (that rig with the data sheet's
 //! gearhead friction, slip law only: `Friction::gb37()`, no stick band), realism-lanes-hills
@@ -66,7 +67,7 @@ fn main() {
             .iter()
             .map(|m| m.mean_abs_pitch_error)
             .sum(),
-        "pid" | "pid-lanes" | "pid-realism" => {
+        "pid" | "pid-lanes" | "pid-realism" | "pid-realism-lanes" => {
             use twip_core::control::pid::PidTracker;
             use twip_core::control::trajectory::{Circle, Direction};
             use twip_core::hardware::motor::DcMotor;
@@ -75,8 +76,11 @@ fn main() {
             let pid = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), 0.005).unwrap();
             let circle = Circle::from_origin(0.6, core::f64::consts::PI * params.wheel_radius, Direction::CounterClockwise).unwrap();
             let nominal = PlanarNominal { params, x0: nalgebra::SVector::zeros() };
-            let runs = if path != "pid-lanes" {
-                let rig = twip_core::hardware::realism::Realism::thesis_like();
+            let rig = twip_core::hardware::realism::Realism::thesis_like();
+            let runs = if path == "pid-realism-lanes" {
+                let law = PidLanes::new(&pid);
+                planar::run_planar_rig_lane_samples(&law, &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|_| Ok(rig), &|| false).unwrap().unwrap()
+            } else if path != "pid-lanes" {
                 let realism = (path == "pid-realism").then_some(&rig);
                 (0..n)
                     .map(|i| planar::run_planar_sample(&pid, &circle, &config, &planar::draw(&nominal, &perturb, 1, i), 0.0, realism, &|| false).unwrap())

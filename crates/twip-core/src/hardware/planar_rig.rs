@@ -30,6 +30,7 @@ use crate::hardware::realism::{Realism, Rig, RigPlant};
 #[cfg(all(test, feature = "std"))]
 use crate::model::friction::Friction;
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
+use crate::model::lane::Lane;
 use crate::model::planar::PlanarState;
 use crate::rng::Philox;
 use crate::sim::runner::{Actuator, Plant, Sensor};
@@ -90,8 +91,7 @@ impl<T: Real> PlanarPlant<T> {
     /// The body force's generalised forces on (φ, v) at (sin φ, cos φ), if any.
     #[inline(always)]
     fn extra(&self, s: T, cp: T) -> Option<Vector2<T>> {
-        let f = &self.force;
-        self.has_force.then(|| Self::body_force(f.horizontal, f.vertical, f.height, s, cp))
+        self.has_force.then(|| Vector2::from(body_force(&self.force, s, cp)))
     }
 
     /// The step under way has ended at `x`: the open trains' rotors advance; those that
@@ -108,16 +108,33 @@ impl<T: Real> PlanarPlant<T> {
         self.play = Some(play);
     }
 
+    /// The derivative at `x` under `u` with the gear trains as they are (open ones neither
+    /// driven nor braked), and each wheel's gearhead friction torque.
+    #[inline(always)]
+    pub(crate) fn geared_motion(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> (PlanarState<T>, [T; 2]) {
+        let engaged = self.play.as_ref().map_or([true; 2], |p| p.engaged());
+        self.model.deriv_geared(x, &self.torques(x, u), engaged, |s, cp| self.extra(s, cp))
+    }
+
     /// A step starts at `x` under `u`: engaged trains whose contact torque would pull the
     /// flanks apart open, and the motors' torques over the step are noted. Returns the
     /// derivative the trains weighed when they stay as they were (then it is `deriv` at `x`
     /// under `u`: an engaged train's rotor, which this sets, is not read); None without
     /// backlash.
     fn gear_next(&mut self, x: &PlanarState<T>, u: &SVector<T, 2>) -> Option<PlanarState<T>> {
-        let mut play = self.play?;
+        self.play?;
+        let (d, friction) = self.geared_motion(x, u);
+        self.gear_next_with(x, u, &d, friction).then_some(d)
+    }
+
+    /// [`Self::gear_next`] given [`Self::geared_motion`] at `x` under `u` (`d` and the
+    /// gearhead torques `friction`), which a sweep's lanes compute: whether the trains
+    /// stayed as they were (always, without backlash).
+    #[inline(always)]
+    pub(crate) fn gear_next_with(&mut self, x: &PlanarState<T>, u: &SVector<T, 2>, d: &PlanarState<T>, friction: [T; 2]) -> bool {
+        let Some(mut play) = self.play else { return true };
         let engaged = play.engaged();
         let motor = self.torques(x, u);
-        let (d, friction) = self.model.deriv_geared(x, &motor, engaged, |s, cp| self.extra(s, cp));
         let zero = T::zero();
         let (acc_r, acc_l) = self.model.wheel_speeds(&PlanarState::from([zero, zero, zero, zero, d[4], d[5], d[6]]));
         let j = play.inertia();
@@ -125,14 +142,72 @@ impl<T: Real> PlanarPlant<T> {
         let contact = [motor[0] - friction[0] - j * acc_r, motor[1] - friction[1] - j * acc_l];
         play.next_step([w_r, w_l], contact, [motor[0], motor[1]]);
         self.play = Some(play);
-        (play.engaged() == engaged).then_some(d)
+        play.engaged() == engaged
     }
 
-    /// The generalised forces of `(F_x, F_z)` at `height` on (φ, v) (flat ground).
-    #[inline(always)]
-    fn body_force(fx: T, fz: T, height: T, sin_phi: T, cos_phi: T) -> Vector2<T> {
-        Vector2::new(height * (fx * cos_phi - fz * sin_phi), fx)
+    /// The start of a step of `dt` at time `t`, before the gear trains weigh it: the open
+    /// trains' rotors advance (an impact jumps the velocities in `x`), pushes due jump
+    /// them, and the windings' currents advance under `u`.
+    #[inline]
+    pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) {
+        self.gear_elapsed(dt, x);
+        while let Some(p) = self.pushes.due(t, dt) {
+            let (s, cp) = x[3].sin_cos();
+            let q = body_force(&Force { horizontal: p.impulse, vertical: T::zero(), height: p.height }, s, cp);
+            let jump = self.model.solve_mass(x[3], &Vector3::new(q[0], q[1], T::zero()));
+            x[4] += jump[0];
+            x[5] += jump[1];
+        }
+        let [w_r, w_l] = self.motor_speeds(x);
+        if let Some(d) = self.drives.as_mut() {
+            d.windings[0].advance(u[0], w_r, dt);
+            d.windings[1].advance(u[1], w_l, dt);
+        }
     }
+
+    /// The planar model this plant moves by (its gearhead friction included).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn model(&self) -> &PlanarModel<T> {
+        &self.model
+    }
+
+    /// The constant force on the body (zero: none).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn force(&self) -> Force<T> {
+        self.force
+    }
+
+    /// Whether every gear train is engaged (always, without backlash).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn engaged(&self) -> bool {
+        self.play.as_ref().is_none_or(|p| p.engaged() == [true; 2])
+    }
+
+    /// The wheels' motor torques over the step under `u` when they do not change with
+    /// the state (the commanded torques, or a winding's current held over the step);
+    /// None for windings without inductance, whose current follows the speed.
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn held_torques(&self, u: &SVector<T, 2>) -> Option<[T; 2]> {
+        match &self.drives {
+            None => Some([u[0], u[1]]),
+            // `torques`' product: an inductive winding's current over the step is its held one.
+            Some(d) if d.windings[0].inductive() => Some(core::array::from_fn(|i| d.torque_per_amp * d.windings[i].mechanical_current(u[i], T::zero()))),
+            Some(_) => None,
+        }
+    }
+
+    /// Each wheel's winding and the wheel torque per ampere, when the windings have no
+    /// inductance (the torques follow the wheels' speeds within a step).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn steady_drives(&self) -> Option<([Winding<T>; 2], T)> {
+        self.drives.filter(|d| !d.windings[0].inductive()).map(|d| (d.windings, d.torque_per_amp))
+    }
+}
+
+/// The generalised forces of a force on the body (flat ground) on (φ, v) at (sin φ, cos φ).
+#[inline(always)]
+pub(crate) fn body_force<S: Lane>(force: &Force<S>, sin_phi: S, cos_phi: S) -> [S; 2] {
+    [force.on_pitch(sin_phi, cos_phi), force.horizontal]
 }
 
 impl<T: Real> PlanarRig<T> {
@@ -147,16 +222,7 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarPlant<T> {
 
     #[inline(always)]
     fn deriv(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> PlanarState<T> {
-        let torques = self.torques(x, u);
-        if let Some(play) = &self.play {
-            return self.model.deriv_geared(x, &torques, play.engaged(), |s, cp| self.extra(s, cp)).0;
-        }
-        if self.has_force {
-            let f = &self.force;
-            self.model.deriv_plus(x, &torques, |s, cp| Some(Self::body_force(f.horizontal, f.vertical, f.height, s, cp)))
-        } else {
-            self.model.deriv(x, &torques)
-        }
+        self.geared_motion(x, u).0
     }
 
     fn energy(&self, x: &PlanarState<T>) -> T {
@@ -173,19 +239,7 @@ impl<T: Real> Plant<T, 7, 2> for PlanarPlant<T> {
 
     #[inline]
     fn between_steps_with_derivative(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) -> Option<PlanarState<T>> {
-        self.gear_elapsed(dt, x);
-        while let Some(p) = self.pushes.due(t, dt) {
-            let (s, cp) = x[3].sin_cos();
-            let q = Self::body_force(p.impulse, T::zero(), p.height, s, cp);
-            let jump = self.model.solve_mass(x[3], &Vector3::new(q[0], q[1], T::zero()));
-            x[4] += jump[0];
-            x[5] += jump[1];
-        }
-        let [w_r, w_l] = self.motor_speeds(x);
-        if let Some(d) = self.drives.as_mut() {
-            d.windings[0].advance(u[0], w_r, dt);
-            d.windings[1].advance(u[1], w_l, dt);
-        }
+        self.step_start(t, dt, x, u);
         self.gear_next(x, u)
     }
 

@@ -31,7 +31,7 @@
 //! (3.38)–(3.48) carry several typos; docs/errata.md lists them (P1–P8).
 use nalgebra::{Matrix3, SVector, Vector2, Vector3};
 
-use crate::model::friction::Friction;
+use crate::model::friction::{Friction, Gearhead};
 use crate::model::lane::Lane;
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
@@ -160,10 +160,8 @@ impl<T: Real> PlanarModel<T> {
     /// Each wheel's speed relative to the body, θ̇_side − φ̇ = (v ± b ω)/R − φ̇ [rad/s].
     #[inline(always)]
     pub fn wheel_speeds(&self, x: &PlanarState<T>) -> (T, T) {
-        let (phi_dot, v, omega) = (x[4], x[5], x[6]);
-        let turn = self.coef.b_r * omega;
-        let roll = self.coef.inv_r * v - phi_dot;
-        (roll + turn, roll - turn)
+        let [w_r, w_l] = wheel_speeds(&self.coef, &(*x).into());
+        (w_r, w_l)
     }
 
     pub fn params(&self) -> &RobotParams<T> {
@@ -237,53 +235,12 @@ impl<T: Real> PlanarModel<T> {
         self.deriv_geared(x, u, [true, true], |_, _| None).1
     }
 
-    /// The derivative and each wheel's gearhead torque with a friction that sticks: the
-    /// accelerations without it, less each held or slipping wheel's torque times its
-    /// response (as `slope::motion` does), so the forces are evaluated once.
-    #[inline(always)]
-    fn held_motion(&self, f: &Friction<T>, x: &PlanarState<T>, u: &SVector<T, 2>, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (PlanarState<T>, [T; 2]) {
-        let (w_r, w_l) = self.wheel_speeds(x);
-        // A torque on one wheel acts on (φ, v) as (−1, 1/R) and on the yaw as ±b/R: the
-        // response to it is `shared` on (φ, v) and ±`turn` on the yaw.
-        let (q, sin_phi, cos_phi) = self.forces(x, u[0], u[1], extra);
-        let free = accelerations(&self.coef, &[q[0], q[1], q[2]], sin_phi, cos_phi);
-        let roll = |nu: &[T; 3]| self.coef.inv_r * nu[1] - nu[0];
-        let (a_r, a_l) = (roll(&free) + self.coef.b_r * free[2], roll(&free) - self.coef.b_r * free[2]);
-        let shared = accelerations(&self.coef, &[-T::one(), self.coef.inv_r, T::zero()], sin_phi, cos_phi);
-        let common = roll(&shared);
-        let turn = self.coef.b_r / (self.coef.m_ww0 + self.coef.k * sin_phi * sin_phi);
-        let yaw = self.coef.b_r * turn;
-        // ẇ = a0 − S τ: friction takes its torque off the motor's.
-        let s = [[common + yaw, common - yaw], [common - yaw, common + yaw]];
-        let tau = f.torques([w_r, w_l], [a_r, a_l], s);
-        let (both, apart) = (tau[0] + tau[1], tau[0] - tau[1]);
-        (self.kinematics(x, free[0] - both * shared[0], free[1] - both * shared[1], free[2] - apart * turn), tau)
-    }
-
-    /// The state derivative under the wheels' net torques `u_r`, `u_l` (motor minus gearhead).
-    #[inline(always)]
-    fn driven(&self, x: &PlanarState<T>, u_r: T, u_l: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> PlanarState<T> {
-        let (f, s, cp) = self.forces(x, u_r, u_l, extra);
-        let nu_dot = accelerations(&self.coef, &[f[0], f[1], f[2]], s, cp);
-        self.kinematics(x, nu_dot[0], nu_dot[1], nu_dot[2])
-    }
-
-    /// The state derivative from the accelerations ν̇ = (φ̈, v̇, ω̇).
-    #[inline(always)]
-    fn kinematics(&self, x: &PlanarState<T>, phi_dd: T, v_dot: T, omega_dot: T) -> PlanarState<T> {
-        PlanarState::from(kinematics(&(*x).into(), [phi_dd, v_dot, omega_dot]))
-    }
-
     /// The generalised forces f = B u − h on ν = (φ̇, v, ω) under the wheels' net torques,
     /// with `extra` on (φ, v); and sin φ, cos φ.
     #[inline(always)]
     fn forces(&self, x: &PlanarState<T>, u_r: T, u_l: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (Vector3<T>, T, T) {
-        let ([f_p, f_v, f_w], s, cp) = forces(&self.coef, &(*x).into(), u_r, u_l);
-        let (f_p, f_v) = match extra(s, cp) {
-            Some(q) => (f_p + q[0], f_v + q[1]),
-            None => (f_p, f_v),
-        };
-        (Vector3::new(f_p, f_v, f_w), s, cp)
+        let (f, s, cp) = forces_plus(&self.coef, &(*x).into(), u_r, u_l, |s, cp| extra(s, cp).map(|q| [q[0], q[1]]));
+        (Vector3::from(f), s, cp)
     }
 
     /// One wheel's rotor inertia at the wheel, η² I_M / 2 [kg m²].
@@ -342,15 +299,9 @@ impl<T: Real> PlanarModel<T> {
         extra: impl Fn(T, T) -> Option<Vector2<T>>,
     ) -> (PlanarState<T>, [T; 2]) {
         if engaged == [true, true] {
-            return match &self.friction {
-                Some(f) if f.sticks() => self.held_motion(f, x, u, extra),
-                Some(f) => {
-                    let (w_r, w_l) = self.wheel_speeds(x);
-                    let tau = [f.torque(w_r), f.torque(w_l)];
-                    (self.driven(x, u[0] - tau[0], u[1] - tau[1], extra), tau)
-                }
-                None => (self.driven(x, u[0], u[1], extra), [T::zero(); 2]),
-            };
+            let gear = Gearhead::of(self.friction.as_ref());
+            let (d, tau) = engaged_motion(&self.coef, gear, &(*x).into(), [u[0], u[1]], |s, cp| extra(s, cp).map(|q| [q[0], q[1]]));
+            return (PlanarState::from(d), tau);
         }
         let pick = |i: usize| if engaged[i] { u[i] } else { T::zero() };
         let (f0, _, _) = self.forces(x, pick(0), pick(1), &extra);
@@ -369,7 +320,7 @@ impl<T: Real> PlanarModel<T> {
             tau[i] = fr.torques([[w_r, w_l][i]], [row.dot(&nu_dot)], [[row.dot(&response)]])[0];
             nu_dot -= response * tau[i];
         }
-        (self.kinematics(x, nu_dot[0], nu_dot[1], nu_dot[2]), tau)
+        (PlanarState::from(kinematics(&(*x).into(), [nu_dot[0], nu_dot[1], nu_dot[2]])), tau)
     }
 }
 
@@ -423,6 +374,71 @@ pub(crate) fn kinematics<S: Lane>(x: &[S; 7], nu_dot: [S; 3]) -> [S; 7] {
 pub(crate) fn deriv<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u: [S; 2]) -> [S; 7] {
     let (f, s, cp) = forces(k, x, u[0], u[1]);
     kinematics(x, accelerations(k, &f, s, cp))
+}
+
+/// Each wheel's speed relative to the body, θ̇_side − φ̇ = (v ± b ω)/R − φ̇ [rad/s].
+#[inline(always)]
+pub(crate) fn wheel_speeds<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7]) -> [S; 2] {
+    let (phi_dot, v, omega) = (x[4], x[5], x[6]);
+    let turn = k.b_r * omega;
+    let roll = k.inv_r * v - phi_dot;
+    [roll + turn, roll - turn]
+}
+
+/// [`forces`] with `extra(sin φ, cos φ)` added on (φ, v) when it gives some (a force on
+/// the body): `None` costs nothing.
+#[inline(always)]
+pub(crate) fn forces_plus<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u_r: S, u_l: S, extra: impl Fn(S, S) -> Option<[S; 2]>) -> ([S; 3], S, S) {
+    let ([f_p, f_v, f_w], s, cp) = forces(k, x, u_r, u_l);
+    let (f_p, f_v) = match extra(s, cp) {
+        Some(q) => (f_p + q[0], f_v + q[1]),
+        None => (f_p, f_v),
+    };
+    ([f_p, f_v, f_w], s, cp)
+}
+
+/// The derivative with both gear trains engaged (`PlanarModel::deriv_geared`'s common
+/// case; a sweep's lanes evaluate it too) under the wheels' motor torques `u`, with
+/// gearhead friction `gear` and `extra` forces on (φ, v); and each wheel's gearhead
+/// torque. With a stick band: the accelerations without it, less each held or slipping
+/// wheel's torque times its response (as `slope::motion` does), so the forces are
+/// evaluated once.
+#[inline(always)]
+pub(crate) fn engaged_motion<S: Lane>(
+    k: &PlanarCoefficients<S>,
+    gear: Gearhead<'_, S>,
+    x: &[S; 7],
+    u: [S; 2],
+    extra: impl Fn(S, S) -> Option<[S; 2]>,
+) -> ([S; 7], [S; 2]) {
+    let [w_r, w_l] = wheel_speeds(k, x);
+    let driven = |u_r: S, u_l: S| {
+        let (f, s, cp) = forces_plus(k, x, u_r, u_l, &extra);
+        kinematics(x, accelerations(k, &f, s, cp))
+    };
+    let f = match gear {
+        Gearhead::Free => return (driven(u[0], u[1]), [S::splat(0.0); 2]),
+        Gearhead::Slip(f) => {
+            let tau = [f.torque(w_r), f.torque(w_l)];
+            return (driven(u[0] - tau[0], u[1] - tau[1]), tau);
+        }
+        Gearhead::Stick(f) => f,
+    };
+    // A torque on one wheel acts on (φ, v) as (−1, 1/R) and on the yaw as ±b/R: the
+    // response to it is `shared` on (φ, v) and ±`turn` on the yaw.
+    let (q, sin_phi, cos_phi) = forces_plus(k, x, u[0], u[1], &extra);
+    let free = accelerations(k, &q, sin_phi, cos_phi);
+    let roll = |nu: &[S; 3]| k.inv_r * nu[1] - nu[0];
+    let (a_r, a_l) = (roll(&free) + k.b_r * free[2], roll(&free) - k.b_r * free[2]);
+    let shared = accelerations(k, &[-S::splat(1.0), k.inv_r, S::splat(0.0)], sin_phi, cos_phi);
+    let common = roll(&shared);
+    let turn = k.b_r / (k.m_ww0 + k.k * sin_phi * sin_phi);
+    let yaw = k.b_r * turn;
+    // ẇ = a0 − S τ: friction takes its torque off the motor's.
+    let s = [[common + yaw, common - yaw], [common - yaw, common + yaw]];
+    let tau = f.held_torques([w_r, w_l], [a_r, a_l], s);
+    let (both, apart) = (tau[0] + tau[1], tau[0] - tau[1]);
+    (kinematics(x, [free[0] - both * shared[0], free[1] - both * shared[1], free[2] - apart * turn]), tau)
 }
 
 #[cfg(test)]

@@ -25,11 +25,13 @@ use crate::TwipError;
 mod fuzzy;
 mod lqr;
 mod planar;
+mod planar_rig;
 mod rig;
 mod smc;
 pub use fuzzy::FuzzyLanes;
 pub use lqr::LqrLanes;
 pub use planar::{run_planar_block, LanePath, PidLanes, PlanarLaneLaw};
+pub use planar_rig::run_planar_rig_block;
 pub use rig::run_rig_block;
 pub use smc::SmcLanes;
 

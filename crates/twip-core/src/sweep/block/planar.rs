@@ -92,12 +92,18 @@ pub(crate) fn lane_ref<S: Lane>(r: &PlanarRef<f64>) -> PlanarRef<S> {
 }
 
 /// Plant coefficients, one array per coefficient, one entry per lane.
-struct Plants([Lanes; PLANAR_COEFFICIENTS]);
+pub(super) struct Plants([Lanes; PLANAR_COEFFICIENTS]);
 
 impl Plants {
-    fn new(models: &[PlanarModel<f64>; LANES]) -> Self {
+    pub(super) fn new(models: &[PlanarModel<f64>; LANES]) -> Self {
         let per_lane = models.map(|m| m.coefficients().to_array());
         Self(core::array::from_fn(|f| core::array::from_fn(|l| per_lane[l][f])))
+    }
+
+    /// Lane `l`'s coefficients.
+    #[inline(always)]
+    pub(super) fn lane(&self, l: usize) -> PlanarCoefficients<Fused> {
+        PlanarCoefficients::from_array(fill(|f| Fused(self.0[f][l])))
     }
 
     /// One RK4 step, the inputs held, on every lane: a lane's whole step is one loop body
@@ -108,7 +114,7 @@ impl Plants {
     fn rk4(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
         let mut out = [[0.0; LANES]; 7];
         for l in 0..LANES {
-            let plant = Plant { k: PlanarCoefficients::from_array(fill(|f| Fused(self.0[f][l]))), u: [Fused(u[0][l]), Fused(u[1][l])] };
+            let plant = Plant { k: self.lane(l), u: [Fused(u[0][l]), Fused(u[1][l])] };
             let xl = fill(|i| Fused(x[i][l]));
             let next = rk4(&plant, &xl, &plant.at(&xl), Fused(dt));
             for i in 0..7 {
@@ -133,13 +139,48 @@ impl Field<Fused, 7> for Plant {
 }
 
 /// [`TrackingTally`] on every lane, one array per field, with each lane's sample counts.
-struct Metrics {
+pub(super) struct Metrics {
     tally: [Lanes; TRACKING_TALLIES],
     samples: [u64; LANES],
     settled: [u64; LANES],
 }
 
 impl Metrics {
+    pub(super) fn new() -> Self {
+        Self { tally: [[0.0; LANES]; TRACKING_TALLIES], samples: [0; LANES], settled: [0; LANES] }
+    }
+
+    /// Every active lane's metrics after the last step (`n` steps to `t_end`): each lane
+    /// still `alive` is observed there and completes; the others ended as `ended` says
+    /// ((fell, t_end, steps)). `u`: what the lanes' metrics observe.
+    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
+    pub(super) fn finish(
+        mut self,
+        (alive, active, ended): (&[bool; LANES], &[bool; LANES], &mut [(bool, f64, u64); LANES]),
+        x: &[Lanes; 7],
+        u: &[Lanes; 2],
+        models: &[PlanarModel<f64>; LANES],
+        path: &impl LanePath,
+        settle: f64,
+        (t_end, n): (f64, usize),
+    ) -> [PlanarSampleMetrics; LANES] {
+        let mut out = [PlanarSampleMetrics::INVALID; LANES];
+        self.observe(alive, t_end >= settle, x, u, &path.sample(t_end), path);
+        for l in 0..LANES {
+            if alive[l] {
+                ended[l] = (false, t_end, n as u64);
+            }
+            if !active[l] {
+                continue;
+            }
+            let summary = self.get(l).summary(self.samples[l] as usize, self.settled[l] as usize);
+            let peaks = DrivePeaks::from_wheel_torque(models[l].params(), summary.peak_abs_torque);
+            let (fell, t_end, steps) = ended[l];
+            out[l] = PlanarSampleMetrics::from_summary(&summary, peaks, fell, t_end, steps);
+        }
+        out
+    }
+
     /// Lane `l`'s tally.
     #[inline(always)]
     fn get(&self, l: usize) -> TrackingTally<f64> {
@@ -155,7 +196,40 @@ impl Metrics {
 
     /// Observes the lanes that are `live` at time `t` (settled when `settled`).
     #[inline(always)]
-    fn observe(&mut self, live: &[bool; LANES], settled: bool, x: &[Lanes; 7], u: &[Lanes; 2], r: &PlanarRef<f64>, path: &impl Path<f64>) {
+    /// The step from step `k` (of `dt`) has given `next`: the lanes that go on move there
+    /// (`block::advance`); those that end do so as fallen at step k + 1, observed past the
+    /// limit with the input `u` when their state is finite (the runner's last observation).
+    /// Returns whether some lane is still alive.
+    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
+    pub(super) fn end_step(
+        &mut self,
+        x: &mut [Lanes; 7],
+        next: &[Lanes; 7],
+        (alive, ended): (&mut [bool; LANES], &mut [(bool, f64, u64); LANES]),
+        (k, dt, fall_limit): (usize, f64, f64),
+        u: &[Lanes; 2],
+        path: &impl LanePath,
+        settle: f64,
+    ) -> bool {
+        let Some(ends) = advance(x, next, alive, 3, fall_limit) else {
+            return true;
+        };
+        let t_next = dt * (k + 1) as f64;
+        for l in (0..LANES).filter(|&l| ends[l]) {
+            alive[l] = false;
+            ended[l] = (true, t_next, (k + 1) as u64);
+            if finite_at(next, l) {
+                // Fell: the runner observes the state past the limit, then stops.
+                for i in 0..7 {
+                    x[i][l] = next[i][l];
+                }
+                self.observe(&only(l), t_next >= settle, x, u, &path.sample(t_next), path);
+            }
+        }
+        alive.iter().any(|&a| a)
+    }
+
+    pub(super) fn observe(&mut self, live: &[bool; LANES], settled: bool, x: &[Lanes; 7], u: &[Lanes; 2], r: &PlanarRef<f64>, path: &impl Path<f64>) {
         let r: PlanarRef<Fused> = lane_ref(r);
         // The distances first, in f64 as a run's (the path's own code, with branches), so
         // that the loop below vectorises.
@@ -209,7 +283,6 @@ fn planar_block<C: PlanarLaneLaw, P: LanePath>(
 ) -> BlockResult {
     assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
     let (n, per_update) = config.steps(controller.period())?;
-    let mut out = [PlanarSampleMetrics::INVALID; LANES];
     // Invalid or missing samples run an idle copy of a valid robot and are never kept.
     let mut active = [false; LANES];
     let mut models = [None; LANES];
@@ -220,7 +293,7 @@ fn planar_block<C: PlanarLaneLaw, P: LanePath>(
         }
     }
     let Some(fallback) = models.iter().flatten().next().copied() else {
-        return Ok(Some(out));
+        return Ok(Some([PlanarSampleMetrics::INVALID; LANES]));
     };
     let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| models[l].unwrap_or(fallback));
     let plants = Plants::new(&models);
@@ -231,7 +304,7 @@ fn planar_block<C: PlanarLaneLaw, P: LanePath>(
     let mut alive = active;
     // (fell, t_end, steps) of each lane that has ended.
     let mut ended = [(false, 0.0f64, 0u64); LANES];
-    let mut metrics = Metrics { tally: [[0.0; LANES]; TRACKING_TALLIES], samples: [0; LANES], settled: [0; LANES] };
+    let mut metrics = Metrics::new();
     for k in 0..n {
         let t = dt * k as f64;
         if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
@@ -250,40 +323,11 @@ fn planar_block<C: PlanarLaneLaw, P: LanePath>(
         }
         metrics.observe(&alive, t >= settle, &x, &u, &r, path);
         let next = plants.rk4(&x, &u, dt);
-        // Lanes that go on take the new state; the few that end are handled below.
-        if let Some(ends) = advance(&mut x, &next, &alive, 3, config.fall_limit) {
-            let t_next = dt * (k + 1) as f64;
-            for l in (0..LANES).filter(|&l| ends[l]) {
-                alive[l] = false;
-                ended[l] = (true, t_next, (k + 1) as u64);
-                if finite_at(&next, l) {
-                    // Fell: the runner observes the state past the limit, then stops.
-                    for i in 0..7 {
-                        x[i][l] = next[i][l];
-                    }
-                    metrics.observe(&only(l), t_next >= settle, &x, &u, &path.sample(t_next), path);
-                }
-            }
-            if !alive.iter().any(|&a| a) {
-                break;
-            }
+        if !metrics.end_step(&mut x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &u, path, settle) {
+            break;
         }
     }
-    let t_end = dt * n as f64;
-    metrics.observe(&alive, t_end >= settle, &x, &u, &path.sample(t_end), path);
-    for l in 0..LANES {
-        if alive[l] {
-            ended[l] = (false, t_end, n as u64);
-        }
-        if !active[l] {
-            continue;
-        }
-        let summary = metrics.get(l).summary(metrics.samples[l] as usize, metrics.settled[l] as usize);
-        let peaks = DrivePeaks::from_wheel_torque(models[l].params(), summary.peak_abs_torque);
-        let (fell, t_end, steps) = ended[l];
-        out[l] = PlanarSampleMetrics::from_summary(&summary, peaks, fell, t_end, steps);
-    }
-    Ok(Some(out))
+    Ok(Some(metrics.finish((&alive, &active, &mut ended), &x, &u, &models, path, settle, (dt * n as f64, n))))
 }
 
 #[cfg(test)]

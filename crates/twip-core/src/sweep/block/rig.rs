@@ -29,7 +29,6 @@ use crate::model::slope::{motion, open_motion, SlopeCoefficients, SlopeModel};
 use crate::sim::runner::{Actuator, Plant as _, Sensor, SimConfig, STOP_CHECK_STEPS};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
-use alloc::vec;
 use alloc::vec::Vec;
 use crate::{Dynamics, RobotParams, TwipError};
 
@@ -349,6 +348,39 @@ impl ImuLanes {
     }
 }
 
+/// Each of a block's samples' model and rig, the rig built by `build` from the realism
+/// its robot gets (`realism_of`, with the noise stream = the sample's index), from
+/// `samples`' (index, robot, model: None when the sample is invalid). None where the
+/// sample is invalid, its realism an error or its robot cannot have the rig: an idle lane.
+/// The lanes share the first rig's kinds (friction, drive, play, delay): only where pushes
+/// and a force act may differ between robots, else the block is an error. On the heap: 16
+/// rigs are ~100 KB, which a worker thread's stack need not hold.
+pub(super) fn block_rigs<M, R>(
+    samples: impl Iterator<Item = (u64, RobotParams<f64>, Option<M>)>,
+    realism_of: RealismOf<'_>,
+    build: impl Fn(&Realism<f64>, &M) -> Result<R, TwipError>,
+) -> Result<Vec<Option<(M, R)>>, TwipError> {
+    let parts = |r: &Realism<f64>| Realism { pushes: Pushes::none(), force: Force::none(), ..*r };
+    let mut shared: Option<Realism<f64>> = None;
+    let mut built = Vec::with_capacity(LANES);
+    for (index, params, model) in samples {
+        let Some(model) = model else {
+            built.push(None);
+            continue;
+        };
+        let Ok(realism) = realism_of(&params) else {
+            built.push(None);
+            continue;
+        };
+        if *shared.get_or_insert(parts(&realism)) != parts(&realism) {
+            let reason = "gave the robot of the sample with this index other rig parts than its block's: only pushes and a force may differ";
+            return Err(TwipError::InvalidParameter { name: "realism_of", value: index as f64, reason });
+        }
+        built.push(build(&realism.with_stream(index), &model).ok().map(|rig| (model, rig)));
+    }
+    Ok(built)
+}
+
 /// Lane `l` of a state.
 #[inline(always)]
 fn lane(x: &[Lanes; 4], l: usize) -> [f64; 4] {
@@ -383,34 +415,18 @@ fn rig_block<C: LaneLaw>(
     let (n, per_update) = config.steps(controller.period())?;
     let dt = config.dt;
     let mut out = [SampleMetrics::INVALID; LANES];
+    let samples_models = samples.iter().map(|s| {
+        let model = s.x0.iter().all(|v| v.is_finite()).then(|| SlopeModel::new(s.params, s.slope).ok()).flatten();
+        (s.index, s.params, model)
+    });
+    let built = block_rigs(samples_models, realism_of, |realism, model| realism.build(model, dt))?;
     // Invalid or missing samples run an idle copy of a valid robot's rig, never kept.
-    let mut active = [false; LANES];
-    // On the heap: 16 rigs are ~100 KB, which a worker thread's stack need not hold.
-    let mut built: Vec<Option<(SlopeModel<f64>, SlopeRig<f64>)>> = vec![None; LANES];
-    // The lanes share the first rig's kinds (friction, winding, play, delay): only where
-    // pushes and a force act may differ between robots.
-    let parts = |r: &Realism<f64>| Realism { pushes: Pushes::none(), force: Force::none(), ..*r };
-    let mut shared: Option<Realism<f64>> = None;
-    for (l, s) in samples.iter().enumerate() {
-        if !s.x0.iter().all(|v| v.is_finite()) {
-            continue;
-        }
-        let Ok(model) = SlopeModel::new(s.params, s.slope) else { continue };
-        let Ok(realism) = realism_of(&s.params) else { continue };
-        if *shared.get_or_insert(parts(&realism)) != parts(&realism) {
-            let reason = "gave the robot of the sample with this index other rig parts than its block's: only pushes and a force may differ";
-            return Err(TwipError::InvalidParameter { name: "realism_of", value: s.index as f64, reason });
-        }
-        if let Ok(rig) = realism.with_stream(s.index).build(&model, dt) {
-            built[l] = Some((model, rig));
-            active[l] = true;
-        }
-    }
+    let active: [bool; LANES] = core::array::from_fn(|l| built.get(l).is_some_and(Option::is_some));
     let Some(fallback) = built.iter().flatten().next().copied() else {
         return Ok(Some(out));
     };
-    let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| built[l].map_or(fallback.0, |b| b.0));
-    let mut rigs: Vec<SlopeRig<f64>> = built.iter().map(|b| b.map_or(fallback.1, |b| b.1)).collect();
+    let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| built.get(l).copied().flatten().map_or(fallback.0, |b| b.0));
+    let mut rigs: Vec<SlopeRig<f64>> = (0..LANES).map(|l| built.get(l).copied().flatten().map_or(fallback.1, |b| b.1)).collect();
     let ground = |l: usize| *rigs[l].plant.ground().model_at(&Vector4::zeros());
     let friction = ground(0).friction().copied();
     let winding = |l: usize| rigs[l].plant.steady_winding();

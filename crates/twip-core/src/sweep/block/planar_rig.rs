@@ -1,0 +1,398 @@
+//! The fast path of a 3-DOF tracking sweep through the realism rig: [`LANES`] samples at
+//! once through the planar rig (`Realism::build_planar`), for the trackers with a law on
+//! lanes ([`PlanarLaneLaw`]: PID, sliding mode).
+//!
+//! The loop is `runner::run_loop`'s, step for step. Each lane's sensors, actuator, windings,
+//! gear play and pushes are its own rig's parts, the very objects a run uses (noise stream =
+//! sample index): they act between steps or once per control period on a lane's numbers,
+//! and give the step's first RK4 stage (the one the accelerometer reads). The rest of the
+//! step, RK4's three later stages, is the run's own source (`model::planar::engaged_motion`
+//! with the gearhead friction's law and the body force, and for windings without
+//! inductance `Winding::steady_current`) on [`Fused`] lanes, which the compiler
+//! vectorises. A lane whose gear trains are open over a step (backlash, a few steps in a
+//! hundred) takes that step with its rig's own RK4. So a lane agrees with
+//! `sweep::planar::run_planar_sample` to rounding, and is bit for bit the same on every
+//! CPU, thread count and block neighbour.
+use nalgebra::SVector;
+
+use super::planar::{LanePath, Metrics, Plants, PlanarLaneLaw};
+use super::rig::block_rigs;
+use super::multiversioned;
+use crate::Dynamics;
+use crate::hardware::disturbance::Force;
+use crate::hardware::driver::{MotorDriver, Winding};
+use crate::hardware::planar_rig::{body_force, PlanarRig};
+use crate::model::friction::{Friction, Gearhead};
+use crate::model::integrate::{rk4, rk4_step_from_k1, Field};
+use crate::model::lane::{fill, Fused};
+use crate::model::planar::{engaged_motion, wheel_speeds, PlanarCoefficients, PlanarModel};
+use crate::sim::runner::{Actuator, Plant, Sensor, SimConfig, STOP_CHECK_STEPS};
+use crate::sweep::lanes::{Lanes, LANES};
+use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
+use crate::sweep::rig::RealismOf;
+use crate::sweep::SweepMetrics;
+use crate::{RobotParams, TwipError};
+use alloc::vec::Vec;
+
+/// The gearhead friction's kind, decided once per block (`GEAR`): none, the slip law, or
+/// with a stick band; each its own loop over lanes, so that no branch inside one keeps
+/// the compiler from vectorising it.
+const FREE: u8 = 0;
+const SLIP: u8 = 1;
+const STICK: u8 = 2;
+
+/// One lane's plant over a step, its trains engaged: the motor torques held, or (`STEADY`:
+/// windings without inductance) the duties, which the windings turn into current at each
+/// stage at the wheels' speeds.
+struct RigField<'a, const GEAR: u8, const STEADY: bool> {
+    k: PlanarCoefficients<Fused>,
+    friction: &'a Friction<Fused>,
+    u: [Fused; 2],
+    windings: [Winding<Fused>; 2],
+    per_amp: Fused,
+    /// A constant force on the body (zero: none), always added: a branch on it would keep
+    /// the lanes' loop from vectorising, and zeros change nothing but the sign of a zero.
+    force: Force<Fused>,
+}
+
+impl<const GEAR: u8, const STEADY: bool> RigField<'_, GEAR, STEADY> {
+    /// The derivative and each wheel's gearhead torque (`PlanarPlant::geared_motion`'s).
+    #[inline(always)]
+    fn motion(&self, x: &[Fused; 7]) -> ([Fused; 7], [Fused; 2]) {
+        // As `PlanarPlant::torques` with the trains engaged (motor speed = wheel speed).
+        let u = if STEADY {
+            let w = wheel_speeds(&self.k, x);
+            let (right, left) = (self.windings[0].steady_current(self.u[0], w[0]), self.windings[1].steady_current(self.u[1], w[1]));
+            [self.per_amp * right, self.per_amp * left]
+        } else {
+            self.u
+        };
+        let gear = match GEAR {
+            FREE => Gearhead::Free,
+            SLIP => Gearhead::Slip(self.friction),
+            _ => Gearhead::Stick(self.friction),
+        };
+        let force = self.force;
+        engaged_motion(&self.k, gear, x, u, |s, cp| Some(body_force(&force, s, cp)))
+    }
+}
+
+impl<const GEAR: u8, const STEADY: bool> Field<Fused, 7> for RigField<'_, GEAR, STEADY> {
+    #[inline(always)]
+    fn at(&self, x: &[Fused; 7]) -> [Fused; 7] {
+        self.motion(x).0
+    }
+}
+
+/// The lanes' plants: coefficients per lane, the friction all share, each lane's force and
+/// (without inductance) windings.
+struct RigPlants {
+    plants: Plants,
+    gear: u8,
+    friction: Friction<Fused>,
+    /// Whether the windings have no inductance: then each lane's windings and torque per
+    /// ampere turn the duties into torques at each stage (else any, unused).
+    steady: bool,
+    windings: [([Winding<f64>; 2], f64); LANES],
+    forces: [Force<f64>; LANES],
+}
+
+/// `$self.$run::<GEAR, STEADY>(args)` for the plants' kinds.
+macro_rules! by_kind {
+    ($self:ident, $run:ident($($arg:expr),*)) => {
+        match ($self.gear, $self.steady) {
+            (FREE, false) => $self.$run::<FREE, false>($($arg),*),
+            (FREE, true) => $self.$run::<FREE, true>($($arg),*),
+            (SLIP, false) => $self.$run::<SLIP, false>($($arg),*),
+            (SLIP, true) => $self.$run::<SLIP, true>($($arg),*),
+            (_, false) => $self.$run::<STICK, false>($($arg),*),
+            (_, true) => $self.$run::<STICK, true>($($arg),*),
+        }
+    };
+}
+
+// The kinds' loops are inlined into the kernel's SIMD copies (out of line they would run
+// baseline code), but not in debug builds, whose inlined copies each keep their own stack
+// slots.
+impl RigPlants {
+    /// Lane `l`'s plant under the input `u` held (motor torques, or duties without inductance).
+    #[inline(always)]
+    fn field<const GEAR: u8, const STEADY: bool>(&self, l: usize, u: &[Lanes; 2]) -> RigField<'_, GEAR, STEADY> {
+        let ([right, left], per_amp) = &self.windings[l];
+        RigField {
+            k: self.plants.lane(l),
+            friction: &self.friction,
+            u: [Fused(u[0][l]), Fused(u[1][l])],
+            windings: [right.map(Fused), left.map(Fused)],
+            per_amp: Fused(*per_amp),
+            force: self.forces[l].map(Fused),
+        }
+    }
+
+    /// The derivative and each wheel's gearhead torque on every lane, its trains engaged:
+    /// RK4's first stage, and what the gear trains weigh.
+    #[inline(always)]
+    fn motion(&self, x: &[Lanes; 7], u: &[Lanes; 2]) -> ([Lanes; 7], [Lanes; 2]) {
+        by_kind!(self, motion_of(x, u))
+    }
+
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn motion_of<const GEAR: u8, const STEADY: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2]) -> ([Lanes; 7], [Lanes; 2]) {
+        let (mut d, mut tau) = ([[0.0; LANES]; 7], [[0.0; LANES]; 2]);
+        for l in 0..LANES {
+            let (dl, tl) = self.field::<GEAR, STEADY>(l, u).motion(&fill(|i| Fused(x[i][l])));
+            for i in 0..7 {
+                d[i][l] = dl[i].0;
+            }
+            tau[0][l] = tl[0].0;
+            tau[1][l] = tl[1].0;
+        }
+        (d, tau)
+    }
+
+    /// RK4's later stages from each lane's first `k1` on every lane, its trains engaged.
+    #[inline(always)]
+    fn rk4(&self, x: &[Lanes; 7], u: &[Lanes; 2], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
+        by_kind!(self, rk4_of(x, u, k1, dt))
+    }
+
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn rk4_of<const GEAR: u8, const STEADY: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
+        let mut out = [[0.0; LANES]; 7];
+        for l in 0..LANES {
+            let field = self.field::<GEAR, STEADY>(l, u);
+            let next = rk4(&field, &fill(|i| Fused(x[i][l])), &fill(|i| Fused(k1[i][l])), Fused(dt));
+            for i in 0..7 {
+                out[i][l] = next[i].0;
+            }
+        }
+        out
+    }
+}
+
+/// Lane `l` of a state.
+#[inline(always)]
+fn lane<const N: usize>(x: &[Lanes; N], l: usize) -> SVector<f64, N> {
+    SVector::from(core::array::from_fn::<f64, N, _>(|i| x[i][l]))
+}
+
+/// Sets lane `l` of a state.
+#[inline(always)]
+fn set_lane<const N: usize>(x: &mut [Lanes; N], l: usize, v: &SVector<f64, N>) {
+    for i in 0..N {
+        x[i][l] = v[i];
+    }
+}
+
+type BlockResult = Result<Option<[PlanarSampleMetrics; LANES]>, TwipError>;
+
+multiversioned! {
+    /// Runs up to [`LANES`] samples through the 3-DOF rig each one's realism builds for
+    /// its robot (`realism_of`; noise stream = the sample's index; see
+    /// `sweep::rig::for_sweep` for the key), with `controller`'s law along `path`
+    /// ("_settled" metrics from `settle` [s]). `should_stop` is asked every
+    /// `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it said yes before the block was done.
+    pub fn run_planar_rig_block, planar_rig_avx512, planar_rig_avx2, planar_rig_baseline = planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
+        controller: C,
+        path: &P,
+        config: &SimConfig<f64>,
+        samples: &[PlanarSample],
+        settle: f64,
+        realism_of: RealismOf<'_>,
+        should_stop: &dyn Fn() -> bool,
+    ) -> BlockResult
+}
+
+#[inline(always)]
+fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
+    mut controller: C,
+    path: &P,
+    config: &SimConfig<f64>,
+    samples: &[PlanarSample],
+    settle: f64,
+    realism_of: RealismOf<'_>,
+    should_stop: &dyn Fn() -> bool,
+) -> BlockResult {
+    assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
+    let (n, per_update) = config.steps(controller.period())?;
+    let dt = config.dt;
+    let samples_models = samples.iter().map(|s| {
+        let model = s.x0.iter().all(|v| v.is_finite()).then(|| PlanarModel::new(s.params).ok()).flatten();
+        (s.index, s.params, model)
+    });
+    let built = block_rigs(samples_models, realism_of, |realism, model| realism.build_planar(model, dt))?;
+    // Invalid or missing samples run an idle copy of a valid robot's rig, never kept.
+    let active: [bool; LANES] = core::array::from_fn(|l| built.get(l).is_some_and(Option::is_some));
+    let Some(fallback) = built.iter().flatten().next().copied() else {
+        return Ok(Some([PlanarSampleMetrics::INVALID; LANES]));
+    };
+    let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| built.get(l).copied().flatten().map_or(fallback.0, |b| b.0));
+    let mut rigs: Vec<PlanarRig<f64>> = (0..LANES).map(|l| built.get(l).copied().flatten().map_or(fallback.1, |b| b.1)).collect();
+    let friction = rigs[0].plant.model().friction().copied();
+    // Any valid windings, for lanes that never evaluate one (held torques).
+    let stand_in = ([Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?; 2], 1.0);
+    let plants = RigPlants {
+        // The rig's model: the sample's, with the realism's gearhead friction.
+        plants: Plants::new(&core::array::from_fn(|l| *rigs[l].plant.model())),
+        gear: match &friction {
+            None => FREE,
+            Some(f) if f.sticks() => STICK,
+            Some(_) => SLIP,
+        },
+        // Unused without a friction: any friction's numbers.
+        friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
+        steady: rigs[0].plant.steady_drives().is_some(),
+        windings: core::array::from_fn(|l| rigs[l].plant.steady_drives().unwrap_or(stand_in)),
+        forces: core::array::from_fn(|l| rigs[l].plant.force()),
+    };
+    let delay = rigs[0].delay;
+
+    let mut x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 }));
+    let mut state = controller.start();
+    // The controller's command and the plant's input (duties or torques), each with the
+    // one period late copy a delayed rig applies.
+    let zero = [[0.0; LANES]; 2];
+    let (mut cmd, mut u, mut pending, mut command, mut pending_command) = (zero, zero, zero, zero, zero);
+    let mut y = [[0.0; LANES]; 7];
+    let mut alive = active;
+    // (fell, t_end, steps) of each lane that has ended.
+    let mut ended = [(false, 0.0f64, 0u64); LANES];
+    let mut metrics = Metrics::new();
+    // The sensors sample the initial state, the input zero.
+    for (l, rig) in rigs.iter_mut().enumerate() {
+        let xl = lane(&x, l);
+        let d = rig.plant.deriv(&xl, &SVector::zeros());
+        rig.sensors.sample(0.0, &xl, &d);
+    }
+    for k in 0..n {
+        let t = dt * k as f64;
+        if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
+            return Ok(None);
+        }
+        let r = path.sample(t);
+        if k % per_update == 0 {
+            for (l, rig) in rigs.iter_mut().enumerate() {
+                // The encoders count the motor shafts, which the play sets apart from the wheels.
+                rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
+                set_lane(&mut y, l, &rig.sensors.read(t, &lane(&x, l)));
+            }
+            controller.update(&mut state, &y, &r, &mut cmd);
+            let mut drive = zero;
+            for (l, rig) in rigs.iter_mut().enumerate() {
+                let d = rig.actuator.drive(t, &lane(&cmd, l), &lane(&y, l));
+                set_lane(&mut drive, l, &d);
+                // A lane whose drive is not finite has diverged: it ends as fallen, unobserved.
+                if alive[l] && !d.iter().all(|v| v.is_finite()) {
+                    alive[l] = false;
+                    ended[l] = (true, t, k as u64);
+                }
+            }
+            if delay {
+                (u, pending, command, pending_command) = (pending, drive, pending_command, cmd);
+            } else {
+                (u, command) = (drive, cmd);
+            }
+        }
+        metrics.observe(&alive, t >= settle, &x, &command, &r, path);
+        // `between_steps` per lane: the play's impacts, pushes and the windings' currents;
+        // then the trains weigh the derivative at the step's start (on lanes; a lane with
+        // a train open, its rig's), which is RK4's first stage when they stay as they
+        // were, else the rig's after the change. The accelerometer reads it. The input
+        // held over the step: the motor torques, or the duties.
+        let mut held = u;
+        let mut was_open = [false; LANES];
+        for (l, rig) in rigs.iter_mut().enumerate() {
+            let (mut xl, ul) = (lane(&x, l), lane(&u, l));
+            rig.plant.step_start(t, dt, &mut xl, &ul);
+            set_lane(&mut x, l, &xl);
+            if let Some(torques) = rig.plant.held_torques(&ul) {
+                held[0][l] = torques[0];
+                held[1][l] = torques[1];
+            }
+            was_open[l] = !rig.plant.engaged();
+        }
+        let (mut k1, tau) = plants.motion(&x, &held);
+        let mut open = [false; LANES];
+        for (l, rig) in rigs.iter_mut().enumerate() {
+            let (xl, ul) = (lane(&x, l), lane(&u, l));
+            let (d, friction) = if was_open[l] { rig.plant.geared_motion(&xl, &ul) } else { (lane(&k1, l), [tau[0][l], tau[1][l]]) };
+            let d = if rig.plant.gear_next_with(&xl, &ul, &d, friction) { d } else { rig.plant.deriv(&xl, &ul) };
+            rig.sensors.sample(t, &xl, &d);
+            set_lane(&mut k1, l, &d);
+            open[l] = !rig.plant.engaged();
+        }
+        let mut next = plants.rk4(&x, &held, &k1, dt);
+        // A lane with a gear train open takes the step with its rig's own RK4.
+        for l in (0..LANES).filter(|&l| open[l]) {
+            set_lane(&mut next, l, &rk4_step_from_k1(&rigs[l].plant, &lane(&x, l), &lane(&u, l), dt, &lane(&k1, l)));
+        }
+        if !metrics.end_step(&mut x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &command, path, settle) {
+            break;
+        }
+    }
+    Ok(Some(metrics.finish((&alive, &active, &mut ended), &x, &command, &models, path, settle, (dt * n as f64, n))))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::pid::PidTracker;
+    use crate::control::trajectory::{Circle, Direction};
+    use crate::hardware::motor::DcMotor;
+    use crate::hardware::realism::Realism;
+    use crate::model::planar::PlanarState;
+    use crate::sweep::block::PidLanes;
+    use alloc::format;
+
+    /// Every compiled copy of the kernel gives the same bits (the baseline one through
+    /// libm's fma), for the thesis-like rig with and without backlash, with a constant
+    /// force, with slip friction and with windings without inductance; both outcomes.
+    #[test]
+    fn every_copy_gives_the_same_bits() {
+        let nominal = RobotParams::balanbot();
+        let law = PidLanes::new(&PidTracker::table_4_1(&nominal, DcMotor::gb37y3530(), 0.005).unwrap());
+        let force = Force { horizontal: 0.3, vertical: -0.5, height: 0.05 };
+        let thesis = Realism::thesis_like();
+        let no_inductance = crate::hardware::driver::MotorDriver { inductance: 0.0, ..thesis.motor.unwrap() };
+        let kinds = [
+            thesis,
+            Realism { backlash: None, ..thesis },
+            Realism { force, ..thesis },
+            Realism { friction: Some(Friction::gb37()), ..thesis },
+            Realism { motor: Some(no_inductance), ..thesis },
+        ];
+        for realism in kinds {
+            same_bits_on_every_copy(&law, &realism);
+        }
+    }
+
+    fn same_bits_on_every_copy(law: &PidLanes, realism: &Realism<f64>) {
+        let circle = Circle::from_origin(0.6, 0.2, Direction::CounterClockwise).unwrap();
+        let config = SimConfig { dt: 1e-3, t_final: 2.0, fall_limit: 0.5 };
+        let realism = crate::sweep::rig::for_sweep(realism, 5);
+        let samples: Vec<PlanarSample> = (0..LANES as u64)
+            .map(|i| {
+                let mut params = RobotParams::balanbot();
+                params.com_height *= 0.6 + 0.05 * i as f64;
+                let mut x0 = PlanarState::zeros();
+                x0[3] = 0.04 * i as f64;
+                PlanarSample { index: i, params, x0 }
+            })
+            .collect();
+        let never = || false;
+        let realism_of = |_: &RobotParams<f64>| Ok(realism);
+        let base = format!("{:?}", planar_rig_baseline(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never).unwrap());
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+                let got = unsafe { planar_rig_avx2(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never) }.unwrap();
+                assert_eq!(format!("{got:?}"), base, "AVX2 copy");
+            }
+            if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma") {
+                let got = unsafe { planar_rig_avx512(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never) }.unwrap();
+                assert_eq!(format!("{got:?}"), base, "AVX-512 copy");
+            }
+        }
+        assert!(base.contains("fell: true") && base.contains("fell: false"), "want both outcomes: {base}");
+    }
+}
