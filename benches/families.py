@@ -42,7 +42,8 @@ def families():
         ("fuzzy, Gaussian sets, thesis-like rig", get("flat-fuzzy-sim", t_final=10.0, sets=GAUSSIAN_SETS), thesis_like, 4096),
         ("circle-pid (3-DOF, three laps)", get("circle-pid"), None, 1024),
         ("circle-smc-fuzzy (3-DOF, three laps)", get("circle-smc-fuzzy"), None, 512),
-        ("circle-pid with realism", get("circle-pid"), thesis_like, 256),
+        ("circle-pid with realism", get("circle-pid"), thesis_like, 768),
+        ("circle-smc-fuzzy with realism", get("circle-smc-fuzzy"), thesis_like, 512),
     ]
 
 
@@ -62,12 +63,12 @@ def main():
         rate(sc, realism, 16)  # warm-up
     rounds = [[rate(sc, realism, n) for _, sc, realism, n in cases] for _ in range(args.repeats)]
     print(f"{os.cpu_count()} cores, twip's {twip.kernel_copy()} lane kernels")
-    print(f"{'family':52s} {'kernel':15s} {'M sample-steps/s':>17s} {'x LQR lanes':>12s} {'range':>12s}")
+    print(f"{'family':52s} {'kernel':21s} {'M sample-steps/s':>17s} {'x LQR lanes':>12s} {'range':>12s}")
     for j, (label, *_) in enumerate(cases):
         speeds = [r[j][0] for r in rounds]
         ratios = [r[j][0] / r[0][0] for r in rounds]
         span = f"{min(ratios):.2f}-{max(ratios):.2f}"
-        print(f"{label:52s} {rounds[0][j][1]:15s} {statistics.median(speeds):17.1f} {statistics.median(ratios):12.2f} {span:>12s}")
+        print(f"{label:52s} {rounds[0][j][1]:21s} {statistics.median(speeds):17.1f} {statistics.median(ratios):12.2f} {span:>12s}")
 
 
 if __name__ == "__main__":

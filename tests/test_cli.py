@@ -257,7 +257,7 @@ def test_sweep_realism_of_a_tracking_scenario_runs_the_3dof_rig(capsys):
     code, out, err = run(["sweep", "circle-pid", "-n", "2", "--perturb", "m_body=±10%", "--realism", "thesis-like",
                           "--option", "laps=1", "--quiet"], capsys)
     assert code == 0, err
-    assert "realism: thesis-like" in out and "(planar-realism)" in out
+    assert "realism: thesis-like" in out and "(planar-realism-lanes)" in out
 
 
 def test_sweep_checkpoint_resumes(tmp_path, capsys):

@@ -119,7 +119,11 @@ def test_kernel_and_fall_limit_come_from_the_core():
     assert twip.sweep.kernel_for(gaussian, twip.Realism.thesis_like()) == "realism-lanes"
     assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid")) == "planar-lanes"
     assert twip.sweep.kernel_for(twip.scenarios.get("circle-smc-fuzzy")) == "planar-lanes"
-    assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid"), twip.Realism.thesis_like()) == "planar-realism"
+    assert twip.sweep.kernel_for(twip.scenarios.get("circle-pid"), twip.Realism.thesis_like()) == "planar-realism-lanes"
+    own_friction = twip.scenarios.get("circle-smc")
+    own_friction = own_friction.replace(controller=twip.SmcTracker(twip.PlanarModel(own_friction.model.params, twip.Friction.gb37())))
+    assert twip.sweep.kernel_for(own_friction) == "planar"
+    assert twip.sweep.kernel_for(own_friction, twip.Realism.thesis_like()) == "planar-realism"
     with pytest.raises(TypeError):
         _core.sweep_kernel(object())
     # The sweep reports the kernel it ran, the one kernel_for names.

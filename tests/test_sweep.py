@@ -276,7 +276,7 @@ SIGNAL_CASES = {
     "flat-lqr-sim": ("lanes", 8_000), "flat-fuzzy-sim": ("lanes", 8_000),
     "circle-pid": ("planar-lanes", 8_000), "circle-smc-fuzzy": ("planar-lanes", 8_000),
     "circle-smc+own-friction": ("planar", 2_000), "flat-lqr-sim+rig": ("realism-lanes", 8_000),
-    "circle-pid+rig": ("planar-realism", 1_000),
+    "circle-pid+rig": ("planar-realism-lanes", 8_000), "circle-smc+own-friction+rig": ("planar-realism", 1_000),
 }
 SCRIPT = r"""
 import sys, twip
@@ -556,19 +556,28 @@ def test_bad_realism_is_refused_with_a_clear_error(realism, message):
 
 
 def test_tracking_realism_sweep_is_bitwise_on_1_and_2_threads_and_replays():
-    """Each sample runs the 3-DOF rig with its own noise stream; thread count changes nothing,
-    and replaying sample i alone (realism with the sweep's noise key, stream i) gives its metrics."""
+    """Each sample runs the 3-DOF rig with its own noise stream, on the planar rig's lane
+    kernel; thread count changes nothing, rerunning sample i alone gives its bits, and
+    replaying it with the full runner (realism with the sweep's noise key, stream i) its
+    metrics to rounding: through the thesis-like rig's quantisers over 3 s, measured within
+    3e-12 relative (rel=1e-9 leaves room), and bit for bit on the general runner."""
     sc = scenarios.get("circle-smc", laps=1).replace(t_final=3.0)
     kw = dict(perturb={"m_body": twip.Uniform(rel=0.1)}, seed=9, progress=False, realism=twip.Realism.thesis_like())
     one = twip.montecarlo(sc, 4, threads=1, **kw)
     two = twip.montecarlo(sc, 4, threads=2, **kw)
-    assert one.kernel == "planar-realism"
+    assert one.kernel == "planar-realism-lanes"
     for k in one.metrics:
         assert np.array_equal(np.asarray(one.metrics[k]), np.asarray(two.metrics[k]), equal_nan=True), k
     ideal = twip.montecarlo(sc, 4, threads=2, **{**kw, "realism": None})
     assert not np.array_equal(one.metrics["mean_abs_x_error"], ideal.metrics["mean_abs_x_error"])
-    r = one.replay(2)
-    assert r.metrics["mean_abs_x_error"] == one.metrics["mean_abs_x_error"][2]
+    assert one.rerun(2)["mean_abs_x_error"] == one.metrics["mean_abs_x_error"][2]
+    for i in range(4):
+        assert one.replay(i).metrics["mean_abs_x_error"] == pytest.approx(one.metrics["mean_abs_x_error"][i], rel=1e-9)
+    # The general runner through the rig (a tracker whose own model has friction) replays bitwise.
+    general = sc.replace(controller=twip.SmcTracker(twip.PlanarModel(sc.model.params, twip.Friction.gb37())))
+    own = twip.montecarlo(general, 4, threads=2, **kw)
+    assert own.kernel == "planar-realism"
+    assert own.replay(2).metrics["mean_abs_x_error"] == own.metrics["mean_abs_x_error"][2]
 
 
 # ============================================================================ 3-DOF tracking sweeps

@@ -869,7 +869,7 @@ def kernel_copy() -> str:
 def sweep_kernel(controller: Any, realism: Realism | None = None) -> str:
     """The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),
     with `realism` (a `twip.Realism`) or without (None): "lanes", "realism-lanes",
-    "planar-lanes", "planar" or "planar-realism".
+    "planar-lanes", "planar-realism-lanes", "planar" or "planar-realism".
     """
 
 DEFAULT_FALL_LIMIT: float

@@ -46,9 +46,10 @@ def family_of(sc) -> Family:
 def kernel_for(sc, realism=None) -> str:
     """The core's kernel for a sweep of Scenario `sc`: "python" (a user's controller),
     "lanes" (vectorised: LQR, and fuzzy with any sets), "realism-lanes" (the same through
-    any rig), "planar-lanes" (vectorised: PID and sliding-mode tracking), "planar" (a
-    sliding-mode tracker without adaptation whose own model has friction) or
-    "planar-realism" (a tracker through a rig)."""
+    any rig), "planar-lanes" (vectorised: PID and sliding-mode tracking),
+    "planar-realism-lanes" (the same through any rig), "planar" (a sliding-mode tracker
+    without adaptation whose own model has friction) or "planar-realism" (that tracker
+    through a rig)."""
     if user_sweep.is_user_controller(sc.controller):
         return "python"
     return _core.sweep_kernel(sc.controller, realism)

@@ -180,8 +180,8 @@ class SweepResult:
     def replay(self, index: int, **simulate_options):
         """Runs sample `index` alone with the full runner (its trajectory included), with
         the sweep's realism and the sample's own noise stream. Its metrics are the
-        sweep's bit for bit, except on the lane kernels ("lanes", "planar-lanes" and
-        "realism-lanes"), which fuse multiply-adds: there they agree to ~1e-13 relative,
+        sweep's bit for bit, except on the lane kernels ("lanes", "realism-lanes",
+        "planar-lanes" and "planar-realism-lanes"), which fuse multiply-adds: there they agree to ~1e-13 relative,
         and through the rig's quantisers (IMU registers, encoder counts, duty counts) the
         two roundings drift apart at the open-loop pendulum's rate (~1e-8 after 3 s).
         `rerun(index)` gives the sweep's bits on every kernel."""

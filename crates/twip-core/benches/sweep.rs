@@ -100,6 +100,21 @@ fn sweep_planar(c: &mut Criterion) {
     group.bench_function("planar_lanes_1_thread", |b| {
         b.iter(|| planar::run_planar_lane_samples(&lanes, &circle, &config, &nominal, &perturb, 1, 0..black_box(samples), 0.0, &|| false).unwrap())
     });
+    // Through the thesis-like rig: the general runner, and the planar rig's lane kernel.
+    let rig = for_sweep(&Realism::thesis_like(), 1);
+    group.bench_function("planar_realism_1_thread", |b| {
+        b.iter(|| {
+            (0..black_box(samples))
+                .map(|i| planar::run_planar_sample(&ctrl, &circle, &config, &planar::draw(&nominal, &perturb, 1, i), 0.0, Some(&rig), &|| false))
+                .collect::<Vec<_>>()
+        })
+    });
+    group.bench_function("planar_realism_lanes_1_thread", |b| {
+        b.iter(|| {
+            let realism_of = |_: &RobotParams<f64>| Ok(rig);
+            planar::run_planar_rig_lane_samples(&lanes, &circle, &config, &nominal, &perturb, 1, 0..black_box(samples), 0.0, &realism_of, &|| false).unwrap()
+        })
+    });
     group.finish();
 }
 

@@ -321,7 +321,7 @@ pub fn kernel_copy() -> &'static str {
 
 /// The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),
 /// with `realism` (a `twip.Realism`) or without (None): "lanes", "realism-lanes",
-/// "planar-lanes", "planar" or "planar-realism".
+/// "planar-lanes", "planar-realism-lanes", "planar" or "planar-realism".
 #[pyfunction]
 #[pyo3(signature = (controller, realism = None))]
 pub fn sweep_kernel(controller: &Bound<'_, PyAny>, realism: Option<&PyRealism>) -> PyResult<&'static str> {

@@ -8,7 +8,10 @@ use twip_core::control::Controller;
 use twip_core::sim::runner::SimConfig;
 use twip_core::sweep::block::{PidLanes, SmcLanes};
 use twip_core::sweep::lanes::LANES;
-use twip_core::sweep::planar::{self as core_planar, run_planar_lane_samples, run_planar_sample, PlanarNominal, PlanarSampleMetrics, BLOCK};
+use twip_core::sweep::planar::{
+    self as core_planar, run_planar_lane_samples, run_planar_rig_lane_samples, run_planar_sample, PlanarNominal, PlanarSampleMetrics, BLOCK,
+};
+use twip_core::RobotParams;
 use twip_core::sweep::SweepMetrics;
 use twip_core::sweep::rig::for_sweep;
 
@@ -88,21 +91,25 @@ pub fn sweep_planar_raw<'py>(
         r.build_planar(&model.inner, config.dt).map_err(PyTwipError)?;
     }
     let kernel = kernel_of(&ctrl, realism.is_some());
-    match (&realism, &ctrl) {
-        (None, PlanarController::Pid(pid)) => {
-            let law = PidLanes::new(pid);
-            return run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
-                run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop)
+    // Push and force heights default to each sample's own centre of mass.
+    let realism_of = |p: &RobotParams<f64>| realism.as_ref().expect("realism given").to_core(p).map(|r| for_sweep(&r, seed));
+    // The trackers with a law on lanes: LANES samples at a time, through the rig or not.
+    macro_rules! on_lanes {
+        ($law:expr) => {{
+            let law = $law;
+            return run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| match &realism {
+                None => run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop),
+                Some(_) => run_planar_rig_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, &realism_of, stop),
             });
-        }
-        (None, PlanarController::Smc(smc)) => {
+        }};
+    }
+    match &ctrl {
+        PlanarController::Pid(pid) => on_lanes!(PidLanes::new(pid)),
+        PlanarController::Smc(smc) => {
             if let Some(law) = SmcLanes::new(smc) {
-                return run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
-                    run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop)
-                });
+                on_lanes!(law)
             }
         }
-        _ => {}
     }
     run_sweep(py, start..start + count, BLOCK, threads, progress.as_ref(), kernel, |range, stop| {
         Ok(range
@@ -121,14 +128,18 @@ pub fn sweep_planar_raw<'py>(
     })
 }
 
-/// The kernel a 3-DOF sweep of this tracker runs on: "planar-realism", "planar-lanes"
-/// (PID, and sliding mode unless its own model has friction without adaptation:
-/// vectorised) or "planar" (the general runner).
+/// The kernel a 3-DOF sweep of this tracker runs on: "planar-lanes" and through a rig
+/// "planar-realism-lanes" (PID, and sliding mode unless its own model has friction without
+/// adaptation: vectorised), else "planar" and "planar-realism" (the general runner).
 pub(crate) fn kernel_of(ctrl: &PlanarController, realism: bool) -> &'static str {
-    match (realism, ctrl) {
-        (true, _) => "planar-realism",
-        (false, PlanarController::Pid(_)) => "planar-lanes",
-        (false, PlanarController::Smc(c)) if SmcLanes::new(c).is_some() => "planar-lanes",
-        (false, _) => "planar",
+    let on_lanes = match ctrl {
+        PlanarController::Pid(_) => true,
+        PlanarController::Smc(c) => SmcLanes::new(c).is_some(),
+    };
+    match (realism, on_lanes) {
+        (false, true) => "planar-lanes",
+        (true, true) => "planar-realism-lanes",
+        (false, false) => "planar",
+        (true, false) => "planar-realism",
     }
 }
