@@ -10,7 +10,8 @@
 //! 5 ms loop), realism-lanes (the same on the rig's lane kernel), realism-lanes-no-imu (that rig
 //! without its IMU: what the IMU costs), realism-lanes-slip (that rig with the data sheet's
 //! gearhead friction, slip law only: `Friction::gb37()`, no stick band), realism-lanes-hills
-//! (that rig with benches/families.py's two slope changes along the path).
+//! (that rig with benches/families.py's two slope changes along the path), fuzzy-realism-lanes
+//! (the thesis's fuzzy law, 5 ms loop, through the thesis-like rig on lanes).
 //! The checksum's bits tell two builds' results apart (the same bits: the same numbers).
 use nalgebra::{Matrix4, Vector4};
 use twip_core::control::fuzzy::FuzzyController;
@@ -90,7 +91,7 @@ fn main() {
             };
             runs.iter().map(|m| m.mean_abs_x_error).sum()
         }
-        "realism" | "realism-lanes" | "realism-lanes-no-imu" | "realism-lanes-slip" | "realism-lanes-hills" => {
+        "realism" | "realism-lanes" | "realism-lanes-no-imu" | "realism-lanes-slip" | "realism-lanes-hills" | "fuzzy-realism-lanes" => {
             use twip_core::hardware::realism::Realism;
             use twip_core::sweep::block::LqrLanes;
             use twip_core::sweep::rig::{for_sweep, run_rig_lane_samples, run_rig_sample};
@@ -109,6 +110,9 @@ fn main() {
             let realism = for_sweep(&rig, 1);
             let runs: Vec<_> = if path == "realism" {
                 (0..n).map(|i| run_rig_sample(&ctrl, &schedule, &config, &draw(&nominal, &perturb, 1, i), &realism, &|| false).unwrap()).collect()
+            } else if path == "fuzzy-realism-lanes" {
+                let fuzzy = FuzzyController::thesis_flat(model, 5e-3).unwrap();
+                run_rig_lane_samples(&FuzzyLanes::new(&fuzzy), &schedule, &config, &nominal, &perturb, 1, 0..n, &|_| Ok(realism), &|| false).unwrap().unwrap()
             } else {
                 run_rig_lane_samples(&LqrLanes::new(&ctrl), &schedule, &config, &nominal, &perturb, 1, 0..n, &|_| Ok(realism), &|| false).unwrap().unwrap()
             };

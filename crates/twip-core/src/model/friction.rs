@@ -24,7 +24,7 @@
 //! models compute it ([`Friction::torques`] takes the wheels' accelerations without
 //! friction and their response to it). The law is smooth inside and outside the band,
 //! so RK4 keeps its order away from the band's edge and from breakaway.
-use crate::model::lane::Lane;
+use crate::model::lane::{fill, Lane};
 use crate::{c, to_f64, Real, TwipError};
 
 /// T_k: how fast a held wheel comes to rest [s]. 5 ms brings it to rest within a few
@@ -237,7 +237,7 @@ impl<S: Lane> Friction<S> {
     #[inline(always)]
     pub fn torques<const N: usize>(&self, w: [S; N], a0: [S; N], s: [[S; N]; N]) -> [S; N] {
         if !self.sticks() {
-            return core::array::from_fn(|i| self.torque_as(w[i], false));
+            return fill(|i| self.torque_as(w[i], false));
         }
         self.held_torques(w, a0, s)
     }
@@ -246,8 +246,13 @@ impl<S: Lane> Friction<S> {
     #[inline(always)]
     pub(crate) fn held_torques<const N: usize>(&self, w: [S; N], a0: [S; N], s: [[S; N]; N]) -> [S; N] {
         const { assert!(N == 1 || N == 2, "one or two wheels") };
-        let mut tau: [S; N] = core::array::from_fn(|i| self.torque_as(w[i], true));
-        let mut held: [S::Mask; N] = core::array::from_fn(|i| w[i].magnitude().lt(self.stick_speed));
+        // Plain loops (`fill`), not `from_fn`: its closures, left out of line, ran the lane
+        // kernels' baseline code (the fuzzy rig 1.5x slower).
+        let mut tau: [S; N] = fill(|i| self.torque_as(w[i], true));
+        let mut held = [S::mask(false); N];
+        for i in 0..N {
+            held[i] = w[i].magnitude().lt(self.stick_speed);
+        }
         let rate = S::splat(1.0) / S::splat(STICK_TIME);
         let (breakaway, zero) = (self.breakaway, S::splat(0.0));
         // Each pass either holds every wheel in the band or releases one. A lane is done at
@@ -280,7 +285,7 @@ impl<S: Lane> Friction<S> {
 /// Cramer's rule). Entries of wheels not held are left as they are.
 #[inline(always)]
 fn hold<S: Lane, const N: usize>(held: &[S::Mask; N], tau: &[S; N], w: &[S; N], a0: &[S; N], s: &[[S; N]; N], rate: S) -> [S; N] {
-    let rhs: [S; N] = core::array::from_fn(|i| {
+    let rhs: [S; N] = fill(|i| {
         let mut v = a0[i] + rate * w[i];
         for j in 0..N {
             // Only the wheels not held (j = i is held wherever rhs[i] is used).
