@@ -194,13 +194,12 @@ impl Metrics {
         }
     }
 
-    /// Observes the lanes that are `live` at time `t` (settled when `settled`).
-    #[inline(always)]
     /// The step from step `k` (of `dt`) has given `next`: the lanes that go on move there
     /// (`block::advance`); those that end do so as fallen at step k + 1, observed past the
     /// limit with the input `u` when their state is finite (the runner's last observation).
     /// Returns whether some lane is still alive.
     #[allow(clippy::type_complexity, clippy::too_many_arguments)]
+    #[inline(always)]
     pub(super) fn end_step(
         &mut self,
         x: &mut [Lanes; 7],
@@ -229,6 +228,8 @@ impl Metrics {
         alive.iter().any(|&a| a)
     }
 
+    /// Observes the lanes that are `live` at time `t` (settled when `settled`).
+    #[inline(always)]
     pub(super) fn observe(&mut self, live: &[bool; LANES], settled: bool, x: &[Lanes; 7], u: &[Lanes; 2], r: &PlanarRef<f64>, path: &impl Path<f64>) {
         let r: PlanarRef<Fused> = lane_ref(r);
         // The distances first, in f64 as a run's (the path's own code, with branches), so
