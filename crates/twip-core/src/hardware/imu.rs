@@ -451,43 +451,57 @@ impl NoiseBatch {
     }
 }
 
-/// The [`NoiseBatch`]es of `N` IMUs that sample together (a sweep's lanes), each from its
-/// own stream: refilled together, each sample's four normals are four rows over the IMUs.
+/// Samples a [`NoiseBatch`] holds (four normals each).
+const BATCH_SAMPLES: usize = NOISE_BATCH / 4;
+
+/// The [`NoiseBatch`]es of `N` robots' IMUs that sample together (a sweep's lanes), `K`
+/// IMUs per robot drawing in turn from the robot's own stream (the 3-DOF robot's pitch
+/// channels, then its yaw gyro): refilled together, each sample's four normals per IMU
+/// are four rows over the robots.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct NoiseLanes<const N: usize> {
+pub(crate) struct NoiseLanes<const N: usize, const K: usize> {
     gauss: Ziggurat,
-    rows: [[f64; N]; NOISE_BATCH],
+    rows: [[[[f64; N]; 4]; K]; BATCH_SAMPLES],
     used: usize,
     streams: [Philox; N],
 }
 
 #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-impl<const N: usize> NoiseLanes<N> {
-    /// From each IMU's stream and batch as they stand. Their batches are in step (the same
-    /// normals used) when the IMUs have sampled alike, as rigs built alike have.
-    pub(crate) fn new(parts: &[(Philox, NoiseBatch); N]) -> Self {
-        let used = parts[0].1.used;
-        debug_assert!(parts.iter().all(|p| p.1.used == used), "the IMUs' batches are in step");
-        let rows = core::array::from_fn(|j| core::array::from_fn(|l| parts[l].1.noise[j]));
-        Self { gauss: Ziggurat::new(), rows, used, streams: parts.map(|p| p.0) }
+impl<const N: usize, const K: usize> NoiseLanes<N, K> {
+    /// From each robot's stream and its IMUs' batches as they stand. Their batches are in
+    /// step (the same normals used) when the IMUs have sampled alike, as rigs built alike have.
+    pub(crate) fn new(parts: &[(Philox, [NoiseBatch; K]); N]) -> Self {
+        let used = parts[0].1[0].used;
+        debug_assert!(parts.iter().all(|p| p.1.iter().all(|b| b.used == used)), "the IMUs' batches are in step");
+        let mut rows = [[[[0.0; N]; 4]; K]; BATCH_SAMPLES];
+        for (l, (_, batches)) in parts.iter().enumerate() {
+            for (k, batch) in batches.iter().enumerate() {
+                for (n, v) in batch.noise.iter().enumerate() {
+                    rows[n / 4][k][n % 4][l] = *v;
+                }
+            }
+        }
+        Self { gauss: Ziggurat::new(), rows, used: used / 4, streams: parts.map(|p| p.0) }
     }
 
-    /// Every IMU's next four normals (gyro, accel x, accel z, bias walk): four rows, as
-    /// [`NoiseBatch::draw`] gives each.
+    /// Every robot's next four normals per IMU (gyro, accel x, accel z, bias walk): four
+    /// rows per IMU, as [`NoiseBatch::draw`] gives each.
     #[inline(always)]
-    pub(crate) fn draw(&mut self) -> &[[f64; N]] {
-        if self.used == NOISE_BATCH {
+    pub(crate) fn draw(&mut self) -> &[[[f64; N]; 4]; K] {
+        if self.used == BATCH_SAMPLES {
             let mut batch = [0.0; NOISE_BATCH];
             for (l, rng) in self.streams.iter_mut().enumerate() {
-                self.gauss.fill(rng, &mut batch);
-                for (row, v) in self.rows.iter_mut().zip(batch) {
-                    row[l] = v;
+                for k in 0..K {
+                    self.gauss.fill(rng, &mut batch);
+                    for (n, v) in batch.iter().enumerate() {
+                        self.rows[n / 4][k][n % 4][l] = *v;
+                    }
                 }
             }
             self.used = 0;
         }
-        self.used += 4;
-        &self.rows[self.used - 4..self.used]
+        self.used += 1;
+        &self.rows[self.used - 1]
     }
 }
 

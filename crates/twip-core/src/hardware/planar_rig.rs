@@ -19,13 +19,13 @@
 //! the pitch-plane motion (the centripetal v ω is lateral, along the axis it does not
 //! read); the sensor follows each wheel's angle relative to the body by the trapezoid
 //! rule on the plant's steps (error ~dt³, against 9 mrad per encoder count).
-use nalgebra::{SVector, Vector2, Vector3, Vector4};
+use nalgebra::{SVector, Vector2, Vector3};
 
 use crate::hardware::backlash::GearPlay;
 use crate::hardware::disturbance::{Force, Pushes};
 use crate::hardware::driver::{PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
-use crate::hardware::imu::{specific_force, ImuClock, ImuSettings, Mpu6050};
+use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, ImuSettings, Mpu6050, NoiseBatch};
 use crate::hardware::realism::{Realism, Rig, RigPlant};
 #[cfg(all(test, feature = "std"))]
 use crate::model::friction::Friction;
@@ -341,12 +341,11 @@ impl<T: Real> PlanarSensors<T> {
         let roll = x[5] * self.inv_r - x[4];
         [roll + turn, roll - turn]
     }
-}
 
-impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
-    /// Follows the wheels' angles; samples the IMU when its period has come round.
+    /// Follows each wheel's angle relative to the body to `x` at time `t` (the trapezoid
+    /// rule on the plant's steps): the sampling the encoders need.
     #[inline]
-    fn sample(&mut self, t: T, x: &PlanarState<T>, xdot: &PlanarState<T>) {
+    pub(crate) fn follow_wheels(&mut self, t: T, x: &PlanarState<T>) {
         let speeds = self.wheel_speeds(x);
         if t > T::zero() {
             let half = self.dt * c::<T>(0.5);
@@ -355,16 +354,63 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
             }
         }
         self.beta_dot = speeds;
+    }
+
+    /// The IMUs (pitch channels, yaw gyro), their clock, this rig's stream and the IMUs'
+    /// normals drawn ahead, as they stand (None without an IMU): a sweep's lanes sample
+    /// for the IMUs from copies of them, and draw the same numbers.
+    #[cfg_attr(not(feature = "std"), allow(dead_code))]
+    pub(crate) fn imu_noise_parts(&self) -> Option<ImuNoiseParts<T>> {
+        self.imu.as_ref().map(|(pitch, yaw)| ([*pitch, *yaw], self.clock, self.rng, [pitch.noise(), yaw.noise()]))
+    }
+
+    /// Sets the IMUs' registers, pitch channels and yaw gyro (a sweep's lanes sample for them).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))]
+    pub(crate) fn set_imu_readings(&mut self, pitch: ImuReading<T>, yaw: ImuReading<T>) {
+        if let Some((p, y)) = self.imu.as_mut() {
+            p.set_reading(pitch);
+            y.set_reading(yaw);
+        }
+    }
+}
+
+/// What a sweep's lanes copy of a 3-DOF rig's IMUs ([`PlanarSensors::imu_noise_parts`]).
+pub(crate) type ImuNoiseParts<T> = ([Mpu6050<T>; 2], ImuClock<T>, Philox, [NoiseBatch; 2]);
+
+/// The IMUs' sample at state `x` with derivative `xdot` (the pitch plane as the 2-DOF
+/// model has it, θ̇ = v/R; the gyro's z axis turns with the body's pitch: it reads
+/// ω cos φ, `cos_phi` libm's in a run, the lanes' polynomial in a sweep), written once over
+/// `Lane`: a run's and a sweep's lanes. The four normals `n` of each IMU; `radius`,
+/// 1/radius, the sensor's height and gravity.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn sample_imus<S: Lane>(
+    (pitch, yaw): (&mut Mpu6050<S>, &mut Mpu6050<S>),
+    x: &[S; 7],
+    xdot: &[S; 7],
+    cos_phi: S,
+    [n_pitch, n_yaw]: [[S; 4]; 2],
+    (radius, inv_r, height, g): (S, S, S, S),
+) {
+    let zero = S::splat(0.0);
+    let x4 = [x[3], x[4], zero, x[5] * inv_r];
+    let xdot4 = [x[4], xdot[4], x[5] * inv_r, xdot[5] * inv_r];
+    let (fx, fz) = specific_force_of(&x4, &xdot4, zero, S::splat(1.0), radius, height, g);
+    pitch.sample_with(fx, fz, x[4], n_pitch);
+    yaw.sample_gyro_with(x[6] * cos_phi, n_yaw);
+}
+
+impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
+    /// Follows the wheels' angles; samples the IMUs when their period has come round.
+    #[inline]
+    fn sample(&mut self, t: T, x: &PlanarState<T>, xdot: &PlanarState<T>) {
+        self.follow_wheels(t, x);
         if let Some((pitch, yaw)) = self.imu.as_mut() {
             if self.clock.due(t) {
-                // The pitch plane as the 2-DOF model has it: θ̇ = v/R.
-                let x4 = Vector4::new(x[3], x[4], T::zero(), x[5] * self.inv_r);
-                let xdot4 = Vector4::new(x[4], xdot[4], x[5] * self.inv_r, xdot[5] * self.inv_r);
+                let n = [pitch.draw(&mut self.rng), yaw.draw(&mut self.rng)];
                 let height = pitch.settings().height;
-                let (fx, fz) = specific_force(&x4, &xdot4, T::zero(), T::one(), self.radius, height, self.g);
-                pitch.sample(fx, fz, x[4], &mut self.rng);
-                // The z axis turns with the body's pitch: it reads ω cos φ.
-                yaw.sample_gyro(x[6] * x[3].cos(), &mut self.rng);
+                let dims = (self.radius, self.inv_r, height, self.g);
+                sample_imus((pitch, yaw), &(*x).into(), &(*xdot).into(), x[3].cos(), n, dims);
             }
         }
     }

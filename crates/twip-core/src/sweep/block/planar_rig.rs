@@ -17,14 +17,15 @@ use nalgebra::SVector;
 
 use super::planar::{LanePath, Metrics, Plants, PlanarLaneLaw};
 use super::rig::block_rigs;
-use super::multiversioned;
+use super::{chunk, multiversioned, CHUNKS};
 use crate::Dynamics;
 use crate::hardware::disturbance::Force;
 use crate::hardware::driver::{MotorDriver, Winding};
-use crate::hardware::planar_rig::{body_force, PlanarRig};
+use crate::hardware::imu::{ImuClock, ImuReading, Mpu6050, NoiseLanes};
+use crate::hardware::planar_rig::{body_force, sample_imus, PlanarRig};
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, rk4_step_from_k1, Field};
-use crate::model::lane::{fill, Fused};
+use crate::model::lane::{fill, Fused, Lane, Wide, WIDTH};
 use crate::model::planar::{engaged_motion, wheel_speeds, PlanarCoefficients, PlanarModel};
 use crate::sim::runner::{Actuator, Plant, Sensor, SimConfig, STOP_CHECK_STEPS};
 use crate::sweep::lanes::{Lanes, LANES};
@@ -170,6 +171,69 @@ impl RigPlants {
     }
 }
 
+/// The IMUs on lanes, as the 2-DOF rig's: per [`WIDTH`] lanes one pitch `Mpu6050` and
+/// one yaw gyro (the converters, filters and registers every lane's alike, the state each
+/// lane's own), sampled on the rigs' clock (every lane's alike) with each lane's own
+/// noise: copies of its rig's stream and of its IMUs' normals drawn ahead, which give the
+/// very numbers its run draws. The registers go to each lane's sensors before the
+/// firmware reads them.
+struct ImuLanes {
+    imus: [(Mpu6050<Wide>, Mpu6050<Wide>); CHUNKS],
+    clock: ImuClock<f64>,
+    noise: NoiseLanes<LANES, 2>,
+    /// Each lane's wheel radius, its inverse and gravity.
+    radius: Lanes,
+    inv_r: Lanes,
+    g: Lanes,
+}
+
+impl ImuLanes {
+    /// None without an IMU (every lane's rig has the same parts).
+    fn new(rigs: &[PlanarRig<f64>], models: &[PlanarModel<f64>; LANES]) -> Option<Self> {
+        let ([pitch, yaw], clock, rng, noise) = rigs[0].sensors.imu_noise_parts()?;
+        let mut parts = [(rng, noise); LANES];
+        for (l, rig) in rigs.iter().enumerate() {
+            let (_, _, rng, noise) = rig.sensors.imu_noise_parts()?;
+            parts[l] = (rng, noise);
+        }
+        let radius: Lanes = core::array::from_fn(|l| models[l].params().wheel_radius);
+        Some(Self {
+            imus: [(pitch.map(Wide::splat), yaw.map(Wide::splat)); CHUNKS],
+            clock,
+            noise: NoiseLanes::new(&parts),
+            radius,
+            inv_r: radius.map(|r| 1.0 / r),
+            g: core::array::from_fn(|l| models[l].params().g),
+        })
+    }
+
+    /// `PlanarSensors::sample`'s IMU part on every lane, at `t`, state `x` and derivative `xdot`.
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn sample(&mut self, t: f64, x: &[Lanes; 7], xdot: &[Lanes; 7]) {
+        if !self.clock.due(t) {
+            return;
+        }
+        let noise = *self.noise.draw();
+        for (c, (pitch, yaw)) in self.imus.iter_mut().enumerate() {
+            let (xs, ds): ([Wide; 7], [Wide; 7]) = (fill(|i| chunk(&x[i], c)), fill(|i| chunk(&xdot[i], c)));
+            let n = [fill(|i| chunk(&noise[0][i], c)), fill(|i| chunk(&noise[1][i], c))];
+            let dims = (chunk(&self.radius, c), chunk(&self.inv_r, c), pitch.settings().height, chunk(&self.g, c));
+            sample_imus((pitch, yaw), &xs, &ds, Wide::sincos(xs[3]).1, n, dims);
+        }
+    }
+
+    /// The latest registers into each lane's sensors (which the firmware's read takes).
+    fn to_sensors(&self, rigs: &mut [PlanarRig<f64>]) {
+        for (c, (pitch, yaw)) in self.imus.iter().enumerate() {
+            let (p, y) = (pitch.reading(), yaw.reading());
+            for j in 0..WIDTH {
+                let at = |r: &ImuReading<Wide>| ImuReading { accel_x: r.accel_x.0[j], accel_z: r.accel_z.0[j], gyro: r.gyro.0[j] };
+                rigs[c * WIDTH + j].sensors.set_imu_readings(at(&p), at(&y));
+            }
+        }
+    }
+}
+
 /// Lane `l` of a state.
 #[inline(always)]
 fn lane<const N: usize>(x: &[Lanes; N], l: usize) -> SVector<f64, N> {
@@ -258,11 +322,17 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
     // (fell, t_end, steps) of each lane that has ended.
     let mut ended = [(false, 0.0f64, 0u64); LANES];
     let mut metrics = Metrics::new();
-    // The sensors sample the initial state, the input zero.
+    // The sensors sample the initial state, the input zero: the encoders' wheels per
+    // lane, the IMUs on lanes.
+    let mut imus = ImuLanes::new(&rigs, &models).map(alloc::boxed::Box::new);
+    let mut d0 = [[0.0; LANES]; 7];
     for (l, rig) in rigs.iter_mut().enumerate() {
         let xl = lane(&x, l);
-        let d = rig.plant.deriv(&xl, &SVector::zeros());
-        rig.sensors.sample(0.0, &xl, &d);
+        set_lane(&mut d0, l, &rig.plant.deriv(&xl, &SVector::zeros()));
+        rig.sensors.follow_wheels(0.0, &xl);
+    }
+    if let Some(imus) = imus.as_mut() {
+        imus.sample(0.0, &x, &d0);
     }
     for k in 0..n {
         let t = dt * k as f64;
@@ -271,6 +341,9 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
         }
         let r = path.sample(t);
         if k % per_update == 0 {
+            if let Some(imus) = imus.as_ref() {
+                imus.to_sensors(&mut rigs);
+            }
             for (l, rig) in rigs.iter_mut().enumerate() {
                 // The encoders count the motor shafts, which the play sets apart from the wheels.
                 rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
@@ -317,9 +390,12 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
             let (xl, ul) = (lane(&x, l), lane(&u, l));
             let (d, friction) = if was_open[l] { rig.plant.geared_motion(&xl, &ul) } else { (lane(&k1, l), [tau[0][l], tau[1][l]]) };
             let d = if rig.plant.gear_next_with(&xl, &ul, &d, friction) { d } else { rig.plant.deriv(&xl, &ul) };
-            rig.sensors.sample(t, &xl, &d);
+            rig.sensors.follow_wheels(t, &xl);
             set_lane(&mut k1, l, &d);
             open[l] = !rig.plant.engaged();
+        }
+        if let Some(imus) = imus.as_mut() {
+            imus.sample(t, &x, &k1);
         }
         let mut next = plants.rk4(&x, &held, &k1, dt);
         // A lane with a gear train open takes the step with its rig's own RK4.

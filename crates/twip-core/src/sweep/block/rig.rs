@@ -301,7 +301,7 @@ impl RigPlants {
 struct ImuLanes {
     imus: [Mpu6050<Wide>; CHUNKS],
     clock: ImuClock<f64>,
-    noise: NoiseLanes<LANES>,
+    noise: NoiseLanes<LANES, 1>,
     g: Lanes,
 }
 
@@ -310,10 +310,10 @@ impl ImuLanes {
     fn new(rigs: &[SlopeRig<f64>], models: &[SlopeModel<f64>; LANES]) -> Option<Self> {
         let imu = rigs[0].sensors.imu()?.map(Wide::splat);
         let (clock, rng, noise) = rigs[0].sensors.imu_noise_parts()?;
-        let mut parts = [(rng, noise); LANES];
+        let mut parts = [(rng, [noise]); LANES];
         for (l, rig) in rigs.iter().enumerate() {
             let (_, rng, noise) = rig.sensors.imu_noise_parts()?;
-            parts[l] = (rng, noise);
+            parts[l] = (rng, [noise]);
         }
         Some(Self { imus: [imu; CHUNKS], clock, noise: NoiseLanes::new(&parts), g: core::array::from_fn(|l| models[l].params().g) })
     }
@@ -326,7 +326,7 @@ impl ImuLanes {
             return;
         }
         let [sin, cos] = hills.trig_at(&x[2]);
-        let noise = self.noise.draw();
+        let [noise] = self.noise.draw();
         for (c, imu) in self.imus.iter_mut().enumerate() {
             let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
             let height = imu.settings().height;
