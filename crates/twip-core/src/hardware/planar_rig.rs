@@ -112,8 +112,7 @@ impl<T: Real> PlanarPlant<T> {
     /// driven nor braked), and each wheel's gearhead friction torque.
     #[inline(always)]
     pub(crate) fn geared_motion(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> (PlanarState<T>, [T; 2]) {
-        let engaged = self.play.as_ref().map_or([true; 2], |p| p.engaged());
-        self.model.deriv_geared(x, &self.torques(x, u), engaged, |s, cp| self.extra(s, cp))
+        self.model.deriv_geared(x, &self.torques(x, u), self.trains(), |s, cp| self.extra(s, cp))
     }
 
     /// A step starts at `x` under `u`: engaged trains whose contact torque would pull the
@@ -177,10 +176,10 @@ impl<T: Real> PlanarPlant<T> {
         self.force
     }
 
-    /// Whether every gear train is engaged (always, without backlash).
+    /// Which gear trains are engaged (every one, without backlash).
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn engaged(&self) -> bool {
-        self.play.as_ref().is_none_or(|p| p.engaged() == [true; 2])
+    pub(crate) fn trains(&self) -> [bool; 2] {
+        self.play.as_ref().map_or([true; 2], |p| p.engaged())
     }
 
     /// The wheels' motor torques over the step under `u` when they do not change with

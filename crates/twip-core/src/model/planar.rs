@@ -32,7 +32,7 @@
 use nalgebra::{Matrix3, SVector, Vector2, Vector3};
 
 use crate::model::friction::{Friction, Gearhead};
-use crate::model::lane::Lane;
+use crate::model::lane::{fill, Lane};
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
 /// State `[x, y, psi, phi, phi_dot, v, omega]`.
@@ -376,6 +376,70 @@ pub(crate) fn deriv<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u: [S; 2]) -
     kinematics(x, accelerations(k, &f, s, cp))
 }
 
+/// The derivative with the gear trains of the wheels not `engaged` open
+/// (`PlanarModel::deriv_geared`'s other case, written over `Lane` for a sweep's lanes):
+/// such a wheel gets neither its motor's torque (of `u`) nor its gearhead friction, and
+/// its rotor's inertia `rotor` leaves it; with one wheel engaged, its friction acts against
+/// the reduced mass matrix M'. M'⁻¹ by the adjugate, not the run's Cholesky: the two agree
+/// to rounding (M' is well conditioned). Also each wheel's gearhead torque.
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn open_motion<S: Lane>(
+    k: &PlanarCoefficients<S>,
+    gear: Gearhead<'_, S>,
+    x: &[S; 7],
+    u: [S; 2],
+    engaged: [S::Mask; 2],
+    rotor: S,
+    extra: impl Fn(S, S) -> Option<[S; 2]>,
+) -> ([S; 7], [S; 2]) {
+    let zero = S::splat(0.0);
+    let (f, s, cp) = forces_plus(k, x, S::select(engaged[0], u[0], zero), S::select(engaged[1], u[1], zero), &extra);
+    // M' = M − Σ J r rᵀ over the open wheels, r = (−1, 1/R, ±b/R).
+    let rows = [[-S::splat(1.0), k.inv_r, k.b_r], [-S::splat(1.0), k.inv_r, -k.b_r]];
+    let mut m = [[k.m_pp, S::madd(k.mbc, cp, -k.rotor_r), zero], [zero, k.m_vv, zero], [zero, zero, S::madd(k.k * s, s, k.m_ww0)]];
+    m[1][0] = m[0][1];
+    for (r, on) in rows.iter().zip(engaged) {
+        let off = S::select(on, zero, rotor);
+        for a in 0..3 {
+            for b in 0..3 {
+                m[a][b] = m[a][b] - off * r[a] * r[b];
+            }
+        }
+    }
+    let [[a, b, c], [_, d, e], [_, _, ff]] = m;
+    let adj = [[d * ff - e * e, c * e - b * ff, b * e - c * d], [c * e - b * ff, a * ff - c * c, b * c - a * e], [b * e - c * d, b * c - a * e, a * d - b * b]];
+    let inv_det = S::splat(1.0) / (a * adj[0][0] + b * adj[0][1] + c * adj[0][2]);
+    let solve = |v: &[S; 3]| -> [S; 3] {
+        let mut out = [zero; 3];
+        for (o, row) in out.iter_mut().zip(&adj) {
+            *o = (row[0] * v[0] + row[1] * v[1] + row[2] * v[2]) * inv_det;
+        }
+        out
+    };
+    let mut nu_dot = solve(&f);
+    let mut tau = [zero; 2];
+    if let Gearhead::Slip(fr) | Gearhead::Stick(fr) = gear {
+        // One wheel engaged (the other's train open): its friction against M'.
+        let right = engaged[0];
+        let row: [S; 3] = fill(|i| S::select(right, rows[0][i], rows[1][i]));
+        let response = solve(&row);
+        let [w_r, w_l] = wheel_speeds(k, x);
+        let w = S::select(right, w_r, w_l);
+        let a0 = row[0] * nu_dot[0] + row[1] * nu_dot[1] + row[2] * nu_dot[2];
+        let sr = row[0] * response[0] + row[1] * response[1] + row[2] * response[2];
+        let one = (engaged[0] & !engaged[1]) | (!engaged[0] & engaged[1]);
+        let t = if matches!(gear, Gearhead::Stick(_)) { fr.held_torques([w], [a0], [[sr]])[0] } else { fr.torque(w) };
+        let t = S::select(one, t, zero);
+        for i in 0..3 {
+            nu_dot[i] = nu_dot[i] - response[i] * t;
+        }
+        tau = [S::select(right, t, zero), S::select(right, zero, t)];
+    }
+    (kinematics(x, nu_dot), tau)
+}
+
 /// Each wheel's speed relative to the body, θ̇_side − φ̇ = (v ± b ω)/R − φ̇ [rad/s].
 #[inline(always)]
 pub(crate) fn wheel_speeds<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7]) -> [S; 2] {
@@ -596,6 +660,41 @@ mod tests {
         assert!((d[4] - ds[1]).abs() < 1e-12 * ds[1].abs().max(1.0));
         assert!((d[5] - r * ds[3]).abs() < 1e-12 * (r * ds[3]).abs().max(1.0));
         assert_eq!(d[6], 0.0);
+    }
+
+    /// The lanes' open-train derivative (`open_motion`: M'⁻¹ by the adjugate, on `Fused`
+    /// lanes) is the run's (`deriv_geared`: Cholesky) to rounding, friction torques too,
+    /// for either wheel open or both, without friction, with the slip law and with a stick
+    /// band (states inside and outside it), under a body force.
+    #[cfg(feature = "std")] // the lanes' number type
+    #[test]
+    fn open_motion_is_deriv_geared_to_rounding() {
+        use crate::model::lane::Fused;
+        let gb37 = Friction::gb37();
+        let mut rng = Lcg(11);
+        let mut worst = 0.0f64;
+        for friction in [None, Some(gb37), Some(gb37.with_stick(0.5))] {
+            let m = PlanarModel::new(RobotParams::balanbot()).unwrap().with_friction(friction).unwrap();
+            let (k, rotor) = (m.coefficients().map(Fused), Fused(m.rotor_per_wheel()));
+            let fused = friction.map(|f| f.map(Fused));
+            for engaged in [[false, true], [true, false], [false, false]] {
+                for n in 0..200 {
+                    // Every other state slow enough for the wheels to sit in the stick band.
+                    let scale = if n % 2 == 0 { 1.0 } else { 5e-3 };
+                    let x: [f64; 7] = core::array::from_fn(|i| rng.uniform(-1.5, 1.5) * if i >= 4 { scale } else { 1.0 });
+                    let u = [rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3)];
+                    let q = [rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2)];
+                    let (d, tau) = m.deriv_geared(&PlanarState::from(x), &SVector::from(u), engaged, |_, _| Some(Vector2::from(q)));
+                    let gear = Gearhead::of(fused.as_ref());
+                    let (dl, tl) = open_motion(&k, gear, &x.map(Fused), u.map(Fused), engaged, rotor, |_, _| Some(q.map(Fused)));
+                    for (a, b) in dl.iter().map(|v| v.0).zip(d.iter()).chain(tl.iter().map(|v| v.0).zip(tau.iter())) {
+                        worst = worst.max((a - b).abs() / b.abs().max(1.0));
+                    }
+                }
+            }
+        }
+        std::println!("open trains: lanes against the run, worst difference {worst:e} (relative, or absolute below 1)");
+        assert!(worst < 1e-13 && worst > 0.0, "{worst:e}");
     }
 
     #[test]

@@ -24,9 +24,9 @@ use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::imu::{ImuClock, ImuReading, Mpu6050, NoiseLanes};
 use crate::hardware::planar_rig::{body_force, sample_imus, PlanarRig};
 use crate::model::friction::{Friction, Gearhead};
-use crate::model::integrate::{rk4, rk4_step_from_k1, Field};
+use crate::model::integrate::{rk4, Field};
 use crate::model::lane::{fill, Fused, Lane, Wide, WIDTH};
-use crate::model::planar::{engaged_motion, wheel_speeds, PlanarCoefficients, PlanarModel};
+use crate::model::planar::{engaged_motion, open_motion, wheel_speeds, PlanarCoefficients, PlanarModel};
 use crate::sim::runner::{Actuator, Plant, Sensor, SimConfig, STOP_CHECK_STEPS};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
@@ -45,8 +45,12 @@ const STICK: u8 = 2;
 /// One lane's plant over a step, its trains engaged: the motor torques held, or (`STEADY`:
 /// windings without inductance) the duties, which the windings turn into current at each
 /// stage at the wheels' speeds.
-struct RigField<'a, const GEAR: u8, const STEADY: bool> {
+struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool> {
     k: PlanarCoefficients<Fused>,
+    /// Which gear trains are engaged over this step (backlash: set between steps), and the
+    /// rotor inertia per wheel that an open one takes off.
+    engaged: [bool; 2],
+    rotor: Fused,
     friction: &'a Friction<Fused>,
     u: [Fused; 2],
     windings: [Winding<Fused>; 2],
@@ -56,7 +60,7 @@ struct RigField<'a, const GEAR: u8, const STEADY: bool> {
     force: Force<Fused>,
 }
 
-impl<const GEAR: u8, const STEADY: bool> RigField<'_, GEAR, STEADY> {
+impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> RigField<'_, GEAR, STEADY, GEARED> {
     /// The derivative and each wheel's gearhead torque (`PlanarPlant::geared_motion`'s).
     #[inline(always)]
     fn motion(&self, x: &[Fused; 7]) -> ([Fused; 7], [Fused; 2]) {
@@ -74,11 +78,19 @@ impl<const GEAR: u8, const STEADY: bool> RigField<'_, GEAR, STEADY> {
             _ => Gearhead::Stick(self.friction),
         };
         let force = self.force;
-        engaged_motion(&self.k, gear, x, u, |s, cp| Some(body_force(&force, s, cp)))
+        let extra = |s, cp| Some(body_force(&force, s, cp));
+        let (d, tau) = engaged_motion(&self.k, gear, x, u, extra);
+        if !GEARED {
+            return (d, tau);
+        }
+        // With a train open somewhere in the block: both computed and one kept, no branch per lane.
+        let (open_d, open_tau) = open_motion(&self.k, gear, x, u, self.engaged, self.rotor, extra);
+        let all = self.engaged[0] & self.engaged[1];
+        (fill(|i| Fused::select(all, d[i], open_d[i])), fill(|i| Fused::select(all, tau[i], open_tau[i])))
     }
 }
 
-impl<const GEAR: u8, const STEADY: bool> Field<Fused, 7> for RigField<'_, GEAR, STEADY> {
+impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> Field<Fused, 7> for RigField<'_, GEAR, STEADY, GEARED> {
     #[inline(always)]
     fn at(&self, x: &[Fused; 7]) -> [Fused; 7] {
         self.motion(x).0
@@ -96,18 +108,28 @@ struct RigPlants {
     steady: bool,
     windings: [([Winding<f64>; 2], f64); LANES],
     forces: [Force<f64>; LANES],
+    /// Each lane's rotor inertia per wheel (an open train takes it off).
+    rotors: Lanes,
 }
 
-/// `$self.$run::<GEAR, STEADY>(args)` for the plants' kinds.
+/// `$self.$run::<GEAR, STEADY, GEARED>(args)` for the plants' kinds; GEARED only while
+/// some lane's trains are open (`$trains`: all engaged is the plain plant, bit for bit).
 macro_rules! by_kind {
-    ($self:ident, $run:ident($($arg:expr),*)) => {
+    ($self:ident, $trains:ident, $run:ident($($arg:expr),*)) => {
+        if $trains.iter().all(|t| t[0] & t[1]) {
+            by_kind!(@gear $self, false, $run($($arg),*))
+        } else {
+            by_kind!(@gear $self, true, $run($($arg),*))
+        }
+    };
+    (@gear $self:ident, $geared:literal, $run:ident($($arg:expr),*)) => {
         match ($self.gear, $self.steady) {
-            (FREE, false) => $self.$run::<FREE, false>($($arg),*),
-            (FREE, true) => $self.$run::<FREE, true>($($arg),*),
-            (SLIP, false) => $self.$run::<SLIP, false>($($arg),*),
-            (SLIP, true) => $self.$run::<SLIP, true>($($arg),*),
-            (_, false) => $self.$run::<STICK, false>($($arg),*),
-            (_, true) => $self.$run::<STICK, true>($($arg),*),
+            (FREE, false) => $self.$run::<FREE, false, $geared>($($arg),*),
+            (FREE, true) => $self.$run::<FREE, true, $geared>($($arg),*),
+            (SLIP, false) => $self.$run::<SLIP, false, $geared>($($arg),*),
+            (SLIP, true) => $self.$run::<SLIP, true, $geared>($($arg),*),
+            (_, false) => $self.$run::<STICK, false, $geared>($($arg),*),
+            (_, true) => $self.$run::<STICK, true, $geared>($($arg),*),
         }
     };
 }
@@ -118,10 +140,12 @@ macro_rules! by_kind {
 impl RigPlants {
     /// Lane `l`'s plant under the input `u` held (motor torques, or duties without inductance).
     #[inline(always)]
-    fn field<const GEAR: u8, const STEADY: bool>(&self, l: usize, u: &[Lanes; 2]) -> RigField<'_, GEAR, STEADY> {
+    fn field<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, l: usize, u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> RigField<'_, GEAR, STEADY, GEARED> {
         let ([right, left], per_amp) = &self.windings[l];
         RigField {
             k: self.plants.lane(l),
+            engaged: trains[l],
+            rotor: Fused(self.rotors[l]),
             friction: &self.friction,
             u: [Fused(u[0][l]), Fused(u[1][l])],
             windings: [right.map(Fused), left.map(Fused)],
@@ -130,18 +154,18 @@ impl RigPlants {
         }
     }
 
-    /// The derivative and each wheel's gearhead torque on every lane, its trains engaged:
-    /// RK4's first stage, and what the gear trains weigh.
+    /// The derivative and each wheel's gearhead torque on every lane, its trains as they
+    /// are (`trains`): RK4's first stage, and what the gear trains weigh.
     #[inline(always)]
-    fn motion(&self, x: &[Lanes; 7], u: &[Lanes; 2]) -> ([Lanes; 7], [Lanes; 2]) {
-        by_kind!(self, motion_of(x, u))
+    fn motion(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
+        by_kind!(self, trains, motion_of(x, u, trains))
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn motion_of<const GEAR: u8, const STEADY: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2]) -> ([Lanes; 7], [Lanes; 2]) {
+    fn motion_of<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
         let (mut d, mut tau) = ([[0.0; LANES]; 7], [[0.0; LANES]; 2]);
         for l in 0..LANES {
-            let (dl, tl) = self.field::<GEAR, STEADY>(l, u).motion(&fill(|i| Fused(x[i][l])));
+            let (dl, tl) = self.field::<GEAR, STEADY, GEARED>(l, u, trains).motion(&fill(|i| Fused(x[i][l])));
             for i in 0..7 {
                 d[i][l] = dl[i].0;
             }
@@ -151,17 +175,18 @@ impl RigPlants {
         (d, tau)
     }
 
-    /// RK4's later stages from each lane's first `k1` on every lane, its trains engaged.
+    /// RK4's later stages from each lane's first `k1` on every lane, its trains as they
+    /// are over the step (`trains`).
     #[inline(always)]
-    fn rk4(&self, x: &[Lanes; 7], u: &[Lanes; 2], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
-        by_kind!(self, rk4_of(x, u, k1, dt))
+    fn rk4(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
+        by_kind!(self, trains, rk4_of(x, u, trains, k1, dt))
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn rk4_of<const GEAR: u8, const STEADY: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
+    fn rk4_of<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
         let mut out = [[0.0; LANES]; 7];
         for l in 0..LANES {
-            let field = self.field::<GEAR, STEADY>(l, u);
+            let field = self.field::<GEAR, STEADY, GEARED>(l, u, trains);
             let next = rk4(&field, &fill(|i| Fused(x[i][l])), &fill(|i| Fused(k1[i][l])), Fused(dt));
             for i in 0..7 {
                 out[i][l] = next[i].0;
@@ -308,6 +333,7 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
         steady: rigs[0].plant.steady_drives().is_some(),
         windings: core::array::from_fn(|l| rigs[l].plant.steady_drives().unwrap_or(stand_in)),
         forces: core::array::from_fn(|l| rigs[l].plant.force()),
+        rotors: core::array::from_fn(|l| models[l].rotor_per_wheel()),
     };
     let delay = rigs[0].delay;
 
@@ -373,7 +399,7 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
         // were, else the rig's after the change. The accelerometer reads it. The input
         // held over the step: the motor torques, or the duties.
         let mut held = u;
-        let mut was_open = [false; LANES];
+        let mut trains = [[true; 2]; LANES];
         for (l, rig) in rigs.iter_mut().enumerate() {
             let (mut xl, ul) = (lane(&x, l), lane(&u, l));
             rig.plant.step_start(t, dt, &mut xl, &ul);
@@ -382,26 +408,25 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
                 held[0][l] = torques[0];
                 held[1][l] = torques[1];
             }
-            was_open[l] = !rig.plant.engaged();
+            trains[l] = rig.plant.trains();
         }
-        let (mut k1, tau) = plants.motion(&x, &held);
-        let mut open = [false; LANES];
+        let (mut k1, tau) = plants.motion(&x, &held, &trains);
+        let before = trains;
         for (l, rig) in rigs.iter_mut().enumerate() {
             let (xl, ul) = (lane(&x, l), lane(&u, l));
-            let (d, friction) = if was_open[l] { rig.plant.geared_motion(&xl, &ul) } else { (lane(&k1, l), [tau[0][l], tau[1][l]]) };
-            let d = if rig.plant.gear_next_with(&xl, &ul, &d, friction) { d } else { rig.plant.deriv(&xl, &ul) };
+            if !rig.plant.gear_next_with(&xl, &ul, &lane(&k1, l), [tau[0][l], tau[1][l]]) {
+                trains[l] = rig.plant.trains();
+            }
             rig.sensors.follow_wheels(t, &xl);
-            set_lane(&mut k1, l, &d);
-            open[l] = !rig.plant.engaged();
+        }
+        if trains != before {
+            // Some trains opened or closed: RK4's first stage with them as they are now.
+            k1 = plants.motion(&x, &held, &trains).0;
         }
         if let Some(imus) = imus.as_mut() {
             imus.sample(t, &x, &k1);
         }
-        let mut next = plants.rk4(&x, &held, &k1, dt);
-        // A lane with a gear train open takes the step with its rig's own RK4.
-        for l in (0..LANES).filter(|&l| open[l]) {
-            set_lane(&mut next, l, &rk4_step_from_k1(&rigs[l].plant, &lane(&x, l), &lane(&u, l), dt, &lane(&k1, l)));
-        }
+        let next = plants.rk4(&x, &held, &trains, &k1, dt);
         if !metrics.end_step(&mut x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &command, path, settle) {
             break;
         }
