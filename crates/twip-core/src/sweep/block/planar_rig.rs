@@ -2,17 +2,16 @@
 //! once through the planar rig (`Realism::build_planar`), for the trackers with a law on
 //! lanes ([`PlanarLaneLaw`]: PID, sliding mode).
 //!
-//! The loop is `runner::run_loop`'s, step for step. Each lane's sensors, actuator, windings,
-//! gear play and pushes are its own rig's parts, the very objects a run uses (noise stream =
-//! sample index): they act between steps or once per control period on a lane's numbers,
-//! and give the step's first RK4 stage (the one the accelerometer reads). The rest of the
-//! step, RK4's three later stages, is the run's own source (`model::planar::engaged_motion`
-//! with the gearhead friction's law and the body force, and for windings without
-//! inductance `Winding::steady_current`) on [`Fused`] lanes, which the compiler
-//! vectorises. A lane whose gear trains are open over a step (backlash, a few steps in a
-//! hundred) takes that step with its rig's own RK4. So a lane agrees with
-//! `sweep::planar::run_planar_sample` to rounding, and is bit for bit the same on every
-//! CPU, thread count and block neighbour.
+//! The loop is `runner::run_loop`'s, step for step. Each lane's actuator, windings, gear
+//! play, pushes, encoders and tilt estimator are its own rig's parts, the very objects a
+//! run uses: they act between steps or once per control period on a lane's numbers. The
+//! plant's RK4 (`model::planar::engaged_motion`, and `open_motion` for a lane whose gear
+//! trains are open: the gearhead friction's law, the body force and, for windings without
+//! inductance, `Winding::steady_current`) and the IMUs (`planar_rig::sample_imus`, each
+//! lane's noise from a copy of its rig's stream: noise stream = sample index) are the
+//! run's own source on lanes, which the compiler vectorises; the gear trains weigh the
+//! lanes' first stage. So a lane agrees with `sweep::planar::run_planar_sample` to
+//! rounding, and is bit for bit the same on every CPU, thread count and block neighbour.
 use nalgebra::SVector;
 
 use super::planar::{LanePath, Metrics, Plants, PlanarLaneLaw};
@@ -42,9 +41,9 @@ const FREE: u8 = 0;
 const SLIP: u8 = 1;
 const STICK: u8 = 2;
 
-/// One lane's plant over a step, its trains engaged: the motor torques held, or (`STEADY`:
-/// windings without inductance) the duties, which the windings turn into current at each
-/// stage at the wheels' speeds.
+/// One lane's plant over a step, its trains as they are (`GEARED`: some lane's in the block
+/// may be open): the motor torques held, or (`STEADY`: windings without inductance) the
+/// duties, which the windings turn into current at each stage at the wheels' speeds.
 struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool> {
     k: PlanarCoefficients<Fused>,
     /// Which gear trains are engaged over this step (backlash: set between steps), and the
