@@ -182,17 +182,13 @@ impl<T: Real> PlanarPlant<T> {
         self.play.as_ref().map_or([true; 2], |p| p.engaged())
     }
 
-    /// The wheels' motor torques over the step under `u` when they do not change with
-    /// the state (the commanded torques, or a winding's current held over the step);
-    /// None for windings without inductance, whose current follows the speed.
+    /// The wheels' motor torques at `x` under `u` ([`Self::torques`]) when they hold over
+    /// the step (the commanded torques, or a winding's current held over the step); None
+    /// for windings without inductance, whose current follows the speed.
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn held_torques(&self, u: &SVector<T, 2>) -> Option<[T; 2]> {
-        match &self.drives {
-            None => Some([u[0], u[1]]),
-            // `torques`' product: an inductive winding's current over the step is its held one.
-            Some(d) if d.windings[0].inductive() => Some(core::array::from_fn(|i| d.torque_per_amp * d.windings[i].mechanical_current(u[i], T::zero()))),
-            Some(_) => None,
-        }
+    pub(crate) fn step_torques(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> Option<[T; 2]> {
+        let held = self.drives.is_none_or(|d| d.windings[0].inductive());
+        held.then(|| self.torques(x, u).into())
     }
 
     /// Each wheel's winding and the wheel torque per ampere, when the windings have no

@@ -393,17 +393,17 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
         }
         metrics.observe(&alive, t >= settle, &x, &command, &r, path);
         // `between_steps` per lane: the play's impacts, pushes and the windings' currents;
-        // then the trains weigh the derivative at the step's start (on lanes; a lane with
-        // a train open, its rig's), which is RK4's first stage when they stay as they
-        // were, else the rig's after the change. The accelerometer reads it. The input
-        // held over the step: the motor torques, or the duties.
+        // then the trains weigh the derivative at the step's start (on lanes), which is
+        // RK4's first stage when they stay as they were, else it is taken again with the
+        // trains as they are now. The accelerometer reads it. The input held over the
+        // step: the motor torques, or the duties.
         let mut held = u;
         let mut trains = [[true; 2]; LANES];
         for (l, rig) in rigs.iter_mut().enumerate() {
             let (mut xl, ul) = (lane(&x, l), lane(&u, l));
             rig.plant.step_start(t, dt, &mut xl, &ul);
             set_lane(&mut x, l, &xl);
-            if let Some(torques) = rig.plant.held_torques(&ul) {
+            if let Some(torques) = rig.plant.step_torques(&xl, &ul) {
                 held[0][l] = torques[0];
                 held[1][l] = torques[1];
             }
