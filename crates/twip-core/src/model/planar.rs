@@ -672,7 +672,7 @@ mod tests {
         use crate::model::lane::Fused;
         let gb37 = Friction::gb37();
         let mut rng = Lcg(11);
-        let mut worst = 0.0f64;
+        let (mut worst, mut in_band) = (0.0f64, 0);
         for friction in [None, Some(gb37), Some(gb37.with_stick(0.5))] {
             let m = PlanarModel::new(RobotParams::balanbot()).unwrap().with_friction(friction).unwrap();
             let (k, rotor) = (m.coefficients().map(Fused), Fused(m.rotor_per_wheel()));
@@ -686,6 +686,9 @@ mod tests {
                     let q = [rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2)];
                     let (d, tau) = m.deriv_geared(&PlanarState::from(x), &SVector::from(u), engaged, |_, _| Some(Vector2::from(q)));
                     let gear = Gearhead::of(fused.as_ref());
+                    let w = m.wheel_speeds(&PlanarState::from(x));
+                    let engaged_w = if engaged[0] { w.0 } else { w.1 };
+                    in_band += (matches!(gear, Gearhead::Stick(_)) && engaged != [false, false] && engaged_w.abs() < 0.5) as usize;
                     let (dl, tl) = open_motion(&k, gear, &x.map(Fused), u.map(Fused), engaged, rotor, |_, _| Some(q.map(Fused)));
                     for (a, b) in dl.iter().map(|v| v.0).zip(d.iter()).chain(tl.iter().map(|v| v.0).zip(tau.iter())) {
                         worst = worst.max((a - b).abs() / b.abs().max(1.0));
@@ -693,8 +696,9 @@ mod tests {
                 }
             }
         }
-        std::println!("open trains: lanes against the run, worst difference {worst:e} (relative, or absolute below 1)");
+        std::println!("open trains: lanes against the run, worst difference {worst:e} (relative, or absolute below 1); {in_band} held in the stick band");
         assert!(worst < 1e-13 && worst > 0.0, "{worst:e}");
+        assert!(in_band > 50, "the engaged wheel inside the stick band only {in_band} times");
     }
 
     #[test]

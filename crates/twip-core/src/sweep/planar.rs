@@ -374,11 +374,7 @@ mod tests {
     {
         let (_, circle, _, nominal) = setup();
         let config = SimConfig { dt: 1e-3, t_final, fall_limit: 60f64.to_radians() };
-        // Through a rig the estimator starts from the sensors: a milder initial pitch.
-        let mut spread = spread();
-        if realism.is_some() {
-            spread[2].spread = Spread::Uniform { low: -0.3, high: 0.3 };
-        }
+        let spread = spread();
         let never = || false;
         let n = 2 * LANES as u64 + 3;
         let realism = realism.map(|r| crate::sweep::rig::for_sweep(r, 7));
