@@ -494,7 +494,10 @@ fn block<C: LaneLaw>(
         let next = plants.rk4(&x, &u, dt);
         // Lanes that go on take the new state; the few that end are handled below.
         // `advance` written out: with it the LQR kernel measured ~9 % slower (median of 10
-        // alternating runs, 2048 samples, one pinned core: 0.745 against 0.68 s CPU).
+        // alternating runs, 2048 samples, one pinned core: 0.745 against 0.68 s CPU), and
+        // 1.15x on the AVX-512 VM with the lanes that end handled as the rig kernel does
+        // (`farm-bench -n 11`, `sweep_throughput lanes 8192`). The branch below is as
+        // touchy: with an array of the lanes that end made in it, the kernel ran 1.24x slower.
         let mut goes_on = [false; LANES];
         let mut any_ends = false;
         for l in 0..LANES {
