@@ -177,15 +177,8 @@ impl<T: Real> PlanarModel<T> {
     #[inline]
     pub fn mass_matrix(&self, phi: T) -> Matrix3<T> {
         let (s, cp) = phi.sin_cos();
-        let m_pv = self.coef.mbc * cp - self.coef.rotor_r;
-        let z = T::zero();
-        #[rustfmt::skip]
-        let m = Matrix3::new(
-            self.coef.m_pp, m_pv,      z,
-            m_pv,      self.coef.m_vv, z,
-            z,         z,         self.coef.m_ww0 + self.coef.k * s * s,
-        );
-        m
+        // Symmetric: its rows are its columns.
+        Matrix3::from(mass(&self.coef, s, cp))
     }
 }
 
@@ -201,8 +194,7 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
     fn energy(&self, x: &PlanarState<T>) -> T {
         let (s, cp) = x[3].sin_cos();
         let (phi_dot, v, omega) = (x[4], x[5], x[6]);
-        let m_pv = self.coef.mbc * cp - self.coef.rotor_r;
-        let m_ww = self.coef.m_ww0 + self.coef.k * s * s;
+        let (m_pv, m_ww) = (pitch_speed_mass(&self.coef, cp), yaw_mass(&self.coef, s));
         let half = c::<T>(0.5);
         half * (self.coef.m_pp * phi_dot * phi_dot + self.coef.m_vv * v * v + m_ww * omega * omega)
             + m_pv * phi_dot * v
@@ -250,7 +242,7 @@ impl<T: Real> PlanarModel<T> {
 
     /// Each wheel's relative-speed row r (w = r · ν, ν = (φ̇, v, ω)).
     fn wheel_rows(&self) -> [Vector3<T>; 2] {
-        [Vector3::new(-T::one(), self.coef.inv_r, self.coef.b_r), Vector3::new(-T::one(), self.coef.inv_r, -self.coef.b_r)]
+        wheel_rows(&self.coef).map(Vector3::from)
     }
 
     /// The mass matrix with the rotors of the wheels not `engaged` taken off (their gear
@@ -351,13 +343,39 @@ pub(crate) fn forces<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u_r: S, u_l
 /// ν̇ = M(φ)⁻¹ f at sin φ, cos φ: the (φ, v) block by Cramer's rule, the yaw row diagonal.
 #[inline(always)]
 pub(crate) fn accelerations<S: Lane>(k: &PlanarCoefficients<S>, f: &[S; 3], s: S, cp: S) -> [S; 3] {
-    let m_pv = S::madd(k.mbc, cp, -k.rotor_r);
+    let m_pv = pitch_speed_mass(k, cp);
     let det = S::madd(-m_pv, m_pv, k.m_pp_vv);
     [
         S::madd(k.m_vv, f[0], -(m_pv * f[1])) / det,
         S::madd(k.m_pp, f[1], -(m_pv * f[0])) / det,
-        f[2] / S::madd(k.k * s, s, k.m_ww0),
+        f[2] / yaw_mass(k, s),
     ]
+}
+
+/// M₁₂ = M₂₁ of the mass matrix at cos φ: the pitch–speed coupling M_b c_z cos φ less the
+/// rotors' η² I_M / R.
+#[inline(always)]
+fn pitch_speed_mass<S: Lane>(k: &PlanarCoefficients<S>, cp: S) -> S {
+    S::madd(k.mbc, cp, -k.rotor_r)
+}
+
+/// M₃₃ of the mass matrix at sin φ: the yaw inertia.
+#[inline(always)]
+fn yaw_mass<S: Lane>(k: &PlanarCoefficients<S>, s: S) -> S {
+    S::madd(k.k * s, s, k.m_ww0)
+}
+
+/// The mass matrix M(φ) at sin φ, cos φ, by rows.
+#[inline(always)]
+fn mass<S: Lane>(k: &PlanarCoefficients<S>, s: S, cp: S) -> [[S; 3]; 3] {
+    let (zero, m_pv) = (S::splat(0.0), pitch_speed_mass(k, cp));
+    [[k.m_pp, m_pv, zero], [m_pv, k.m_vv, zero], [zero, zero, yaw_mass(k, s)]]
+}
+
+/// Each wheel's relative-speed row r, w = r · ν with ν = (φ̇, v, ω): (−1, 1/R, ±b/R).
+#[inline(always)]
+fn wheel_rows<S: Lane>(k: &PlanarCoefficients<S>) -> [[S; 3]; 2] {
+    [[-S::splat(1.0), k.inv_r, k.b_r], [-S::splat(1.0), k.inv_r, -k.b_r]]
 }
 
 /// The state derivative from the accelerations ν̇ = (φ̈, v̇, ω̇).
@@ -396,10 +414,9 @@ pub(crate) fn open_motion<S: Lane>(
 ) -> ([S; 7], [S; 2]) {
     let zero = S::splat(0.0);
     let (f, s, cp) = forces_plus(k, x, S::select(engaged[0], u[0], zero), S::select(engaged[1], u[1], zero), &extra);
-    // M' = M − Σ J r rᵀ over the open wheels, r = (−1, 1/R, ±b/R).
-    let rows = [[-S::splat(1.0), k.inv_r, k.b_r], [-S::splat(1.0), k.inv_r, -k.b_r]];
-    let mut m = [[k.m_pp, S::madd(k.mbc, cp, -k.rotor_r), zero], [zero, k.m_vv, zero], [zero, zero, S::madd(k.k * s, s, k.m_ww0)]];
-    m[1][0] = m[0][1];
+    // M' = M − Σ J r rᵀ over the open wheels.
+    let rows = wheel_rows(k);
+    let mut m = mass(k, s, cp);
     for (r, on) in rows.iter().zip(engaged) {
         let off = S::select(on, zero, rotor);
         for a in 0..3 {

@@ -237,7 +237,7 @@ impl ImuLanes {
         if !self.clock.due(t) {
             return;
         }
-        let noise = *self.noise.draw();
+        let noise = self.noise.draw();
         for (c, (pitch, yaw)) in self.imus.iter_mut().enumerate() {
             let (xs, ds): ([Wide; 7], [Wide; 7]) = (fill(|i| chunk(&x[i], c)), fill(|i| chunk(&xdot[i], c)));
             let n = [fill(|i| chunk(&noise[0][i], c)), fill(|i| chunk(&noise[1][i], c))];
