@@ -31,7 +31,7 @@ use crate::hardware::realism::{Realism, Rig, RigPlant};
 use crate::model::friction::Friction;
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::model::lane::Lane;
-use crate::model::planar::PlanarState;
+use crate::model::planar::{PlanarState, WheelRows};
 use crate::rng::Philox;
 use crate::sim::runner::{Actuator, Plant, Sensor};
 use crate::{c, Dynamics, PlanarModel, Real, RobotParams, TwipError};
@@ -293,6 +293,8 @@ pub struct PlanarSensors<T: Real> {
     radius: T,
     half_track: T,
     inv_r: T,
+    /// The model's, for the wheels' speeds relative to the body.
+    wheels: WheelRows<T>,
     g: T,
     /// When the IMUs sample.
     clock: ImuClock<T>,
@@ -339,6 +341,7 @@ impl<T: Real> PlanarSensors<T> {
             radius: params.wheel_radius,
             half_track: params.half_track,
             inv_r: T::one() / params.wheel_radius,
+            wheels: PlanarModel::new(*params)?.coefficients().wheels(),
             g: params.g,
             clock,
             dt,
@@ -348,19 +351,11 @@ impl<T: Real> PlanarSensors<T> {
         })
     }
 
-    /// Each wheel's speed relative to the body, (v ± b ω)/R − φ̇.
-    #[inline(always)]
-    fn wheel_speeds(&self, x: &PlanarState<T>) -> [T; 2] {
-        let turn = self.half_track * x[6] * self.inv_r;
-        let roll = x[5] * self.inv_r - x[4];
-        [roll + turn, roll - turn]
-    }
-
     /// Follows each wheel's angle relative to the body to `x` at time `t` (the trapezoid
     /// rule on the plant's steps): the sampling the encoders need.
     #[inline]
     pub(crate) fn follow_wheels(&mut self, t: T, x: &PlanarState<T>) {
-        let speeds = self.wheel_speeds(x);
+        let speeds = self.wheels.speeds(&(*x).into());
         if t > T::zero() {
             let half = self.dt * c::<T>(0.5);
             for ((beta, was), now) in self.beta.iter_mut().zip(self.beta_dot).zip(speeds) {

@@ -95,6 +95,12 @@ impl<T: Copy> PlanarCoefficients<T> {
         ]
     }
 
+    /// The entries of the wheels' rows.
+    #[inline(always)]
+    pub(crate) fn wheels(&self) -> WheelRows<T> {
+        WheelRows { inv_r: self.inv_r, b_r: self.b_r }
+    }
+
     /// Every coefficient through `f` (onto a sweep's lanes, say).
     pub(crate) fn map<S: Copy>(self, f: impl Fn(T) -> S) -> PlanarCoefficients<S> {
         PlanarCoefficients::from_array(self.to_array().map(f))
@@ -227,35 +233,16 @@ impl<T: Real> PlanarModel<T> {
         self.deriv_geared(x, u, [true, true], |_, _| None).1
     }
 
-    /// The generalised forces f = B u − h on ν = (φ̇, v, ω) under the wheels' net torques,
-    /// with `extra` on (φ, v); and sin φ, cos φ.
-    #[inline(always)]
-    fn forces(&self, x: &PlanarState<T>, u_r: T, u_l: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (Vector3<T>, T, T) {
-        let (f, s, cp) = forces_plus(&self.coef, &(*x).into(), u_r, u_l, |s, cp| extra(s, cp).map(|q| [q[0], q[1]]));
-        (Vector3::from(f), s, cp)
-    }
-
     /// One wheel's rotor inertia at the wheel, η² I_M / 2 [kg m²].
     pub fn rotor_per_wheel(&self) -> T {
         self.coef.rotor_r * self.params.wheel_radius / c::<T>(2.0)
     }
 
-    /// Each wheel's relative-speed row r (w = r · ν, ν = (φ̇, v, ω)).
-    fn wheel_rows(&self) -> [Vector3<T>; 2] {
-        wheel_rows(&self.coef).map(Vector3::from)
-    }
-
     /// The mass matrix with the rotors of the wheels not `engaged` taken off (their gear
     /// trains open): M − Σ J r rᵀ over those wheels.
     pub fn geared_mass_matrix(&self, phi: T, engaged: [bool; 2]) -> Matrix3<T> {
-        let mut m = self.mass_matrix(phi);
-        let j = self.rotor_per_wheel();
-        for (r, on) in self.wheel_rows().iter().zip(engaged) {
-            if !on {
-                m -= r * r.transpose() * j;
-            }
-        }
-        m
+        let (s, cp) = phi.sin_cos();
+        Matrix3::from(reduced_mass(&self.coef, s, cp, open_rotors(engaged, self.rotor_per_wheel())))
     }
 
     /// The plastic impact of an open train's rotor, turning at `rotor_speed`, on its
@@ -263,14 +250,12 @@ impl<T: Real> PlanarModel<T> {
     /// trains `engaged` as before it (this wheel's open), leaves rotor and wheel at one
     /// speed. Updates the velocities in `x`; returns that speed.
     pub fn engage(&self, x: &mut PlanarState<T>, wheel: usize, rotor_speed: T, engaged: [bool; 2]) -> T {
-        let r = self.wheel_rows()[wheel];
-        let Some(chol) = self.geared_mass_matrix(x[3], engaged).cholesky() else {
-            return rotor_speed;
-        };
-        let response = chol.solve(&r);
-        let nu = Vector3::new(x[4], x[5], x[6]);
         let inertia = self.rotor_per_wheel();
-        let impulse = (rotor_speed - r.dot(&nu)) / (r.dot(&response) + T::one() / inertia);
+        let (s, cp) = crate::model::math::sin_cos(x[3]);
+        let reduced = Adjugate::of(reduced_mass(&self.coef, s, cp, open_rotors(engaged, inertia)));
+        let r = wheel_rows(&self.coef)[wheel];
+        let response = reduced.solve(&r);
+        let impulse = (rotor_speed - dot(&r, &[x[4], x[5], x[6]])) / (dot(&r, &response) + T::one() / inertia);
         for k in 0..3 {
             x[4 + k] += response[k] * impulse;
         }
@@ -290,29 +275,14 @@ impl<T: Real> PlanarModel<T> {
         engaged: [bool; 2],
         extra: impl Fn(T, T) -> Option<Vector2<T>>,
     ) -> (PlanarState<T>, [T; 2]) {
-        if engaged == [true, true] {
-            let gear = Gearhead::of(self.friction.as_ref());
-            let (d, tau) = engaged_motion(&self.coef, gear, &(*x).into(), [u[0], u[1]], |s, cp| extra(s, cp).map(|q| [q[0], q[1]]));
-            return (PlanarState::from(d), tau);
-        }
-        let pick = |i: usize| if engaged[i] { u[i] } else { T::zero() };
-        let (f0, _, _) = self.forces(x, pick(0), pick(1), &extra);
-        // M' is the mass matrix of a physical system, so positive definite: Cholesky holds.
-        let Some(chol) = self.geared_mass_matrix(x[3], engaged).cholesky() else {
-            return (PlanarState::from([c::<T>(f64::NAN); 7]), [T::zero(); 2]);
+        let gear = Gearhead::of(self.friction.as_ref());
+        let extra = |s: T, cp: T| extra(s, cp).map(|q| [q[0], q[1]]);
+        let (d, tau) = if engaged == [true, true] {
+            engaged_motion(&self.coef, gear, &(*x).into(), [u[0], u[1]], extra)
+        } else {
+            open_motion(&self.coef, gear, &(*x).into(), [u[0], u[1]], engaged, self.rotor_per_wheel(), extra)
         };
-        let mut nu_dot = chol.solve(&f0);
-        let mut tau = [T::zero(); 2];
-        if let (Some(fr), Some(i)) = (&self.friction, engaged.iter().position(|&e| e)) {
-            // One wheel engaged (the other's train is open): its friction against M', which
-            // takes its torque times the wheel's response off the accelerations.
-            let row = self.wheel_rows()[i];
-            let response = chol.solve(&row);
-            let (w_r, w_l) = self.wheel_speeds(x);
-            tau[i] = fr.torques([[w_r, w_l][i]], [row.dot(&nu_dot)], [[row.dot(&response)]])[0];
-            nu_dot -= response * tau[i];
-        }
-        (PlanarState::from(kinematics(&(*x).into(), [nu_dot[0], nu_dot[1], nu_dot[2]])), tau)
+        (PlanarState::from(d), tau)
     }
 }
 
@@ -372,6 +342,57 @@ fn mass<S: Lane>(k: &PlanarCoefficients<S>, s: S, cp: S) -> [[S; 3]; 3] {
     [[k.m_pp, m_pv, zero], [m_pv, k.m_vv, zero], [zero, zero, yaw_mass(k, s)]]
 }
 
+/// M' = M − Σ J r rᵀ at sin φ, cos φ: the mass matrix less each open train's rotor, `off`
+/// per wheel its rotor's inertia J when its train is open, zero when engaged.
+#[inline(always)]
+fn reduced_mass<S: Lane>(k: &PlanarCoefficients<S>, s: S, cp: S, off: [S; 2]) -> [[S; 3]; 3] {
+    let mut m = mass(k, s, cp);
+    for (r, off) in wheel_rows(k).iter().zip(off) {
+        for a in 0..3 {
+            for b in 0..3 {
+                m[a][b] = m[a][b] - off * r[a] * r[b];
+            }
+        }
+    }
+    m
+}
+
+/// Each wheel's rotor inertia `j` where its train is open (not `engaged`), else zero: what
+/// [`reduced_mass`] takes off.
+fn open_rotors<T: Real>(engaged: [bool; 2], j: T) -> [T; 2] {
+    engaged.map(|on| if on { T::zero() } else { j })
+}
+
+/// a · b in three dimensions.
+#[inline(always)]
+fn dot<S: Lane>(a: &[S; 3], b: &[S; 3]) -> S {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// A symmetric 3 × 3 matrix's inverse as its adjugate over its determinant: the reduced
+/// mass matrix M' is positive definite and well conditioned, so this needs no pivoting
+/// and no branch (the same code on lanes).
+struct Adjugate<S> {
+    adj: [[S; 3]; 3],
+    inv_det: S,
+}
+
+impl<S: Lane> Adjugate<S> {
+    #[inline(always)]
+    fn of(m: [[S; 3]; 3]) -> Self {
+        let [[a, b, c], [_, d, e], [_, _, ff]] = m;
+        let adj = [[d * ff - e * e, c * e - b * ff, b * e - c * d], [c * e - b * ff, a * ff - c * c, b * c - a * e], [b * e - c * d, b * c - a * e, a * d - b * b]];
+        let inv_det = S::splat(1.0) / (a * adj[0][0] + b * adj[0][1] + c * adj[0][2]);
+        Self { adj, inv_det }
+    }
+
+    /// M⁻¹ v.
+    #[inline(always)]
+    fn solve(&self, v: &[S; 3]) -> [S; 3] {
+        fill(|i| dot(&self.adj[i], v) * self.inv_det)
+    }
+}
+
 /// Each wheel's relative-speed row r, w = r · ν with ν = (φ̇, v, ω): (−1, 1/R, ±b/R).
 #[inline(always)]
 fn wheel_rows<S: Lane>(k: &PlanarCoefficients<S>) -> [[S; 3]; 2] {
@@ -395,12 +416,10 @@ pub(crate) fn deriv<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u: [S; 2]) -
 }
 
 /// The derivative with the gear trains of the wheels not `engaged` open
-/// (`PlanarModel::deriv_geared`'s other case, written over `Lane` for a sweep's lanes):
-/// such a wheel gets neither its motor's torque (of `u`) nor its gearhead friction, and
-/// its rotor's inertia `rotor` leaves it; with one wheel engaged, its friction acts against
-/// the reduced mass matrix M'. M'⁻¹ by the adjugate, not the run's Cholesky: the two agree
-/// to rounding (M' is well conditioned). Also each wheel's gearhead torque.
-#[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+/// (`PlanarModel::deriv_geared`'s other case; a sweep's lanes evaluate it too): such a
+/// wheel gets neither its motor's torque (of `u`) nor its gearhead friction, and its
+/// rotor's inertia `rotor` leaves it; with one wheel engaged, its friction acts against the
+/// reduced mass matrix M' (solved by its adjugate). Also each wheel's gearhead torque.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn open_motion<S: Lane>(
@@ -414,27 +433,9 @@ pub(crate) fn open_motion<S: Lane>(
 ) -> ([S; 7], [S; 2]) {
     let zero = S::splat(0.0);
     let (f, s, cp) = forces_plus(k, x, S::select(engaged[0], u[0], zero), S::select(engaged[1], u[1], zero), &extra);
-    // M' = M − Σ J r rᵀ over the open wheels.
     let rows = wheel_rows(k);
-    let mut m = mass(k, s, cp);
-    for (r, on) in rows.iter().zip(engaged) {
-        let off = S::select(on, zero, rotor);
-        for a in 0..3 {
-            for b in 0..3 {
-                m[a][b] = m[a][b] - off * r[a] * r[b];
-            }
-        }
-    }
-    let [[a, b, c], [_, d, e], [_, _, ff]] = m;
-    let adj = [[d * ff - e * e, c * e - b * ff, b * e - c * d], [c * e - b * ff, a * ff - c * c, b * c - a * e], [b * e - c * d, b * c - a * e, a * d - b * b]];
-    let inv_det = S::splat(1.0) / (a * adj[0][0] + b * adj[0][1] + c * adj[0][2]);
-    let solve = |v: &[S; 3]| -> [S; 3] {
-        let mut out = [zero; 3];
-        for (o, row) in out.iter_mut().zip(&adj) {
-            *o = (row[0] * v[0] + row[1] * v[1] + row[2] * v[2]) * inv_det;
-        }
-        out
-    };
+    let reduced = Adjugate::of(reduced_mass(k, s, cp, [0, 1].map(|i| S::select(engaged[i], zero, rotor))));
+    let solve = |v: &[S; 3]| reduced.solve(v);
     let mut nu_dot = solve(&f);
     let mut tau = [zero; 2];
     if let Gearhead::Slip(fr) | Gearhead::Stick(fr) = gear {
@@ -444,8 +445,7 @@ pub(crate) fn open_motion<S: Lane>(
         let response = solve(&row);
         let [w_r, w_l] = wheel_speeds(k, x);
         let w = S::select(right, w_r, w_l);
-        let a0 = row[0] * nu_dot[0] + row[1] * nu_dot[1] + row[2] * nu_dot[2];
-        let sr = row[0] * response[0] + row[1] * response[1] + row[2] * response[2];
+        let (a0, sr) = (dot(&row, &nu_dot), dot(&row, &response));
         let one = (engaged[0] & !engaged[1]) | (!engaged[0] & engaged[1]);
         let t = if matches!(gear, Gearhead::Stick(_)) { fr.held_torques([w], [a0], [[sr]])[0] } else { fr.torque(w) };
         let t = S::select(one, t, zero);
@@ -460,10 +460,26 @@ pub(crate) fn open_motion<S: Lane>(
 /// Each wheel's speed relative to the body, θ̇_side − φ̇ = (v ± b ω)/R − φ̇ [rad/s].
 #[inline(always)]
 pub(crate) fn wheel_speeds<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7]) -> [S; 2] {
-    let (phi_dot, v, omega) = (x[4], x[5], x[6]);
-    let turn = k.b_r * omega;
-    let roll = k.inv_r * v - phi_dot;
-    [roll + turn, roll - turn]
+    k.wheels().speeds(x)
+}
+
+/// The wheels' rows' entries 1/R and b/R: what turns ν into the wheels' speeds relative to
+/// the body (the encoders' sensors keep these alone).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct WheelRows<S> {
+    inv_r: S,
+    b_r: S,
+}
+
+impl<S: Lane> WheelRows<S> {
+    /// Each wheel's speed relative to the body at state `x`, (v ± b ω)/R − φ̇ [rad/s].
+    #[inline(always)]
+    pub(crate) fn speeds(&self, x: &[S; 7]) -> [S; 2] {
+        let (phi_dot, v, omega) = (x[4], x[5], x[6]);
+        let turn = self.b_r * omega;
+        let roll = self.inv_r * v - phi_dot;
+        [roll + turn, roll - turn]
+    }
 }
 
 /// [`forces`] with `extra(sin φ, cos φ)` added on (φ, v) when it gives some (a force on
@@ -513,7 +529,7 @@ pub(crate) fn engaged_motion<S: Lane>(
     let (a_r, a_l) = (roll(&free) + k.b_r * free[2], roll(&free) - k.b_r * free[2]);
     let shared = accelerations(k, &[-S::splat(1.0), k.inv_r, S::splat(0.0)], sin_phi, cos_phi);
     let common = roll(&shared);
-    let turn = k.b_r / (k.m_ww0 + k.k * sin_phi * sin_phi);
+    let turn = k.b_r / yaw_mass(k, sin_phi);
     let yaw = k.b_r * turn;
     // ẇ = a0 − S τ: friction takes its torque off the motor's.
     let s = [[common + yaw, common - yaw], [common - yaw, common + yaw]];
@@ -679,17 +695,18 @@ mod tests {
         assert_eq!(d[6], 0.0);
     }
 
-    /// The lanes' open-train derivative (`open_motion`: M'⁻¹ by the adjugate, on `Fused`
-    /// lanes) is the run's (`deriv_geared`: Cholesky) to rounding, friction torques too,
-    /// for either wheel open or both, without friction, with the slip law and with a stick
-    /// band (states inside and outside it), under a body force.
+    /// The open-train derivative (`open_motion`, M'⁻¹ by the adjugate) against nalgebra's
+    /// Cholesky solve of `geared_mass_matrix` without friction, and on `Fused` lanes against
+    /// the run's (`deriv_geared`) to rounding, friction torques too: for either wheel open or
+    /// both, without friction, with the slip law and with a stick band (states inside and
+    /// outside it), under a body force.
     #[cfg(feature = "std")] // the lanes' number type
     #[test]
-    fn open_motion_is_deriv_geared_to_rounding() {
+    fn open_motion_solves_the_reduced_mass_matrix_and_lanes_agree() {
         use crate::model::lane::Fused;
         let gb37 = Friction::gb37();
         let mut rng = Lcg(11);
-        let (mut worst, mut in_band) = (0.0f64, 0);
+        let (mut worst_solve, mut worst_lanes, mut in_band) = (0.0f64, 0.0f64, 0);
         for friction in [None, Some(gb37), Some(gb37.with_stick(0.5))] {
             let m = PlanarModel::new(RobotParams::balanbot()).unwrap().with_friction(friction).unwrap();
             let (k, rotor) = (m.coefficients().map(Fused), Fused(m.rotor_per_wheel()));
@@ -702,19 +719,30 @@ mod tests {
                     let u = [rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3)];
                     let q = [rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2)];
                     let (d, tau) = m.deriv_geared(&PlanarState::from(x), &SVector::from(u), engaged, |_, _| Some(Vector2::from(q)));
+                    if friction.is_none() {
+                        // M' ν̇ = f, f the forces with the open wheels' torques left out.
+                        let on = |i: usize| if engaged[i] { u[i] } else { 0.0 };
+                        let (f, _, _) = forces_plus(&m.coefficients(), &x, on(0), on(1), |_, _| Some(q));
+                        let chol = m.geared_mass_matrix(x[3], engaged).cholesky().unwrap();
+                        let want = chol.solve(&Vector3::from(f));
+                        for i in 0..3 {
+                            worst_solve = worst_solve.max((d[4 + i] - want[i]).abs() / want[i].abs().max(1.0));
+                        }
+                    }
                     let gear = Gearhead::of(fused.as_ref());
                     let w = m.wheel_speeds(&PlanarState::from(x));
                     let engaged_w = if engaged[0] { w.0 } else { w.1 };
                     in_band += (matches!(gear, Gearhead::Stick(_)) && engaged != [false, false] && engaged_w.abs() < 0.5) as usize;
                     let (dl, tl) = open_motion(&k, gear, &x.map(Fused), u.map(Fused), engaged, rotor, |_, _| Some(q.map(Fused)));
                     for (a, b) in dl.iter().map(|v| v.0).zip(d.iter()).chain(tl.iter().map(|v| v.0).zip(tau.iter())) {
-                        worst = worst.max((a - b).abs() / b.abs().max(1.0));
+                        worst_lanes = worst_lanes.max((a - b).abs() / b.abs().max(1.0));
                     }
                 }
             }
         }
-        std::println!("open trains: lanes against the run, worst difference {worst:e} (relative, or absolute below 1); {in_band} held in the stick band");
-        assert!(worst < 1e-13 && worst > 0.0, "{worst:e}");
+        std::println!("open trains: adjugate against Cholesky {worst_solve:e}, lanes against the run {worst_lanes:e} (relative, or absolute below 1); {in_band} held in the stick band");
+        assert!(worst_solve < 1e-13, "{worst_solve:e}");
+        assert!(worst_lanes < 1e-13 && worst_lanes > 0.0, "{worst_lanes:e}");
         assert!(in_band > 50, "the engaged wheel inside the stick band only {in_band} times");
     }
 
