@@ -155,6 +155,49 @@ def test_a_combination_the_log_cannot_split_is_named():
     assert {"m_body", "com_height"} in combos, fit.summary()
 
 
+def noisy_run(robot, seconds, seed=0):
+    """A flat-lqr run of `robot` under its own LQR, logged as pitch and wheel angle with
+    2 and 5 mrad of noise."""
+    sc = scenarios.get("flat-lqr", params=robot, controller_params=robot)
+    log = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], seconds, dt=1e-3, reference=sc.reference).to_log()
+    rng = np.random.default_rng(seed)
+    return log.with_signals(phi=log.phi + rng.normal(0, 2e-3, len(log)), theta=log.theta + rng.normal(0, 5e-3, len(log)),
+                            phi_dot=None, theta_dot=None)
+
+
+def test_parameters_the_log_cannot_scale_apart_keep_the_values_that_fit():
+    # Masses, inertias, the torque constant and the friction scaled together leave the flat
+    # run alike: the information is rank-deficient, numerically indefinite. The robot
+    # returned must predict the log as the fit did (it once held some of them at their
+    # start values while the others kept values that leaned on theirs: theta off by 1.4 rad).
+    b = twip.RobotParams.balanbot()
+    robot = b.replace(m_body=2 * b.m_body, com_height=0.6 * b.com_height, i_body=0.7 * b.i_body,
+                      mu_bearing=0.5 * b.mu_bearing, wheel_radius=1.5 * b.wheel_radius)
+    free = ["m_body", "i_body", "i_wheels", "i_motor", "torque_constant", "mu_bearing", "mu_ground", "m_wheels"]
+    log = noisy_run(robot, 6.0)
+    start = robot.replace(**{n: getattr(b, n) for n in free})
+    fit = identify(log, start, free)
+    again = fit.validate(log)
+    assert all(again[s] < 1.01 * fit.rms[s] for s in fit.rms), (again, fit.rms)
+    assert fit.undetermined
+    # No parameter of the undetermined scale gets an interval, let alone one of zero width.
+    assert all(math.isinf(fit.std[n]) for n in free), fit.summary()
+
+
+def test_a_fit_that_did_not_converge_claims_no_interval():
+    # Friction three times the start's (and a smaller wheel): from the Balanbot the first
+    # step lowers nothing. The values are then the start's, and no interval may exclude
+    # the truth on their behalf (it once gave m_body 0.83 +- 0.04 for a true 1.08).
+    b = twip.RobotParams.balanbot()
+    robot = b.replace(wheel_radius=0.7 * b.wheel_radius, gear_ratio=1.5 * b.gear_ratio, i_wheels=2 * b.i_wheels,
+                      m_wheels=1.5 * b.m_wheels, mu_bearing=3 * b.mu_bearing, i_motor=0.5 * b.i_motor,
+                      m_body=1.3 * b.m_body, com_height=1.3 * b.com_height, i_body=1.6 * b.i_body)
+    fit = identify(noisy_run(robot, 6.0), robot.replace(**{n: getattr(b, n) for n in FREE}), FREE)
+    assert not fit.converged, fit.summary()
+    assert all(fit.interval(n) == (-math.inf, math.inf) for n in FREE), fit.summary()
+    assert "NOT CONVERGED" in fit.summary()
+
+
 def test_closed_loop_simulation_error():
     sc = scenarios.get("flat-lqr")
     log = run_of("flat-lqr", 4.0).to_log()

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from typing import Optional, Sequence
 
+import numpy as np
+
 from twip import _core
 from twip.sysid import closed_loop
 from twip.sysid.estimator import Estimator, Problem
@@ -60,7 +62,9 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
     problem = Problem(log, params, list(free), driver, friction, segment, sensors or Sensors(), signals, max_step)
     if method == "closed-loop":
         return Fit(problem, closed_loop.run(problem, controller, reference, max_iter))
-    fit = Fit(problem, Estimator(problem, weights, max_iter).run())
+    estimator = Estimator(problem, weights, max_iter)
+    solution = estimator.run()
+    fit = Fit(problem, solution, lambda delta: estimator.evaluate(np.concatenate([delta, solution.biases]), solution.starts)[0])
     if controller is not None:
         fit.closed_loop_rms = closed_loop.error(problem, fit, controller, reference)
     return fit

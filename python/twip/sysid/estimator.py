@@ -434,6 +434,8 @@ class Estimator:
             if params and closed and np.all(np.abs(step[:n_p]) < 1e-10) and it > 1:
                 # The undamped step moves no parameter and the gaps are closed: converged.
                 return x, starts, True, f"converged in {it} iterations", it
+            # What the undamped step would gain, by the Gauss-Newton model of the cost.
+            predicted = -(float(grad[free] @ step) + 0.5 * float(step @ hess[np.ix_(free, free)] @ step))
             for _ in range(16):
                 step, _ = self.step(hess, grad, gap_vec, con_used, lam, free)
                 z = np.zeros(self.n_g + 4 * n_seg)
@@ -445,6 +447,10 @@ class Estimator:
                     break
                 lam *= 4
             else:
+                if closed and predicted < CHI2_TOLERANCE:
+                    # At the minimum to within rounding (an exact log's cost is ~0): no
+                    # step can show, and none would move a confidence interval.
+                    return x, starts, True, f"converged in {it} iterations (no step lowers the cost further)", it
                 return x, starts, False, f"no step lowered the cost after {it} iterations", it
             decrease = merit - new_merit
             x, starts, cost, gaps = new_x, new_starts, new_cost, new_gaps

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Tuple
+from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 from scipy import stats
@@ -15,6 +15,10 @@ from twip.sysid.log import RunLog
 #: Smallest eigenvalue of the normalised information matrix below which a combination of
 #: parameters counts as undetermined (the log does not tell its members apart).
 UNDETERMINED = 1e-8
+#: How much higher (half a chi-square: the cost's units) the cost may be with the parameters
+#: without information held at their start values: about none, for a parameter the
+#: prediction does not depend on.
+HELD_COST = 1.0
 #: Which run would pin each parameter down.
 EXCITATION = {
     "m_body": "tilt the body: a push, or a speed trip that pitches it",
@@ -55,7 +59,7 @@ class Fit:
     """Fitted values of the free parameters with their covariance, per-signal RMS residuals
     and a diagnosis of what the log could not determine."""
 
-    def __init__(self, problem: Problem, solution: Solution):
+    def __init__(self, problem: Problem, solution: Solution, cost_at: Optional[Callable[[np.ndarray], float]] = None):
         #: The estimator's raw answer (offsets, start states, weights, linearisation).
         self._problem, self.solution = problem, solution
         self.names: Tuple[str, ...] = tuple(u.name for u in problem.unknowns)
@@ -65,6 +69,12 @@ class Fit:
         # A parameter the log says nothing about stays at its start value.
         dead = {n for u in self.undetermined if u.eigenvalue == 0.0 for n in u.weights}
         delta = np.array([0.0 if n in dead else d for n, d in zip(self.names, solution.delta)])
+        if dead and cost_at is not None and not cost_at(delta) <= solution.cost + HELD_COST:
+            # Held there, they predict the log worse: the (numerically rank-deficient)
+            # information mislabelled them, and the others' values lean on theirs. They
+            # keep their fitted values, without an interval (`_covariance` gives none to
+            # a parameter whose information is not positive).
+            delta = np.asarray(solution.delta, dtype=float)
         self.values: Dict[str, float] = problem.values(delta)
         model, driver, params, slope = problem.model_parts(delta)
         #: The fitted robot (a RobotParams), the slope and (for a pwm log) the driver.
@@ -80,9 +90,12 @@ class Fit:
         self.offsets: Dict[str, float] = dict(zip(problem.biased, map(float, solution.biases)))
         self.sigma = dict(solution.sigma)
         scale = np.array([u.slope_at(d) for u, d in zip(problem.unknowns, delta)])
-        cov_all = _inverse(solution.information)
-        cov_delta = cov_all[:n_p, :n_p]
-        #: Covariance of the free parameters (in their units), start states accounted for.
+        cov_delta = _covariance(solution.information)[:n_p, :n_p]
+        if not self.converged:
+            # Away from the minimum the curvature bounds nothing: no interval is claimed.
+            cov_delta = np.full((n_p, n_p), math.inf)
+        #: Covariance of the free parameters (in their units), start states accounted for;
+        #: inf where the log (or a fit that did not converge) does not bound a parameter.
         self.covariance = cov_delta * np.outer(scale, scale)
         std = np.sqrt(np.clip(np.diag(self.covariance), 0, None))
         self.std: Dict[str, float] = dict(zip(self.names, std))
@@ -90,8 +103,6 @@ class Fit:
             self.correlation = self.covariance / np.outer(std, std)
         #: RMS of measured - predicted, per signal, in the signal's units.
         self.rms: Dict[str, float] = {s: float(np.sqrt(np.nanmean(r**2))) for s, r in solution.residuals.items()}
-        for name in dead:  # no information at all: no finite standard deviation
-            self.std[name] = math.inf
         #: With `controller=`: the fitted robot's closed-loop simulation error per signal.
         self.closed_loop_rms: Optional[Dict[str, float]] = None
 
@@ -174,13 +185,32 @@ def _segment_of(problem: Problem) -> float:
     return float(t[s[1]] - t[s[0]]) if len(s) > 1 else float(t[-1] - t[0]) * 2
 
 
-def _inverse(info: np.ndarray) -> np.ndarray:
-    if info.size == 0:
+#: Relative eigenvalue of the normalised information at or below which a direction has no
+#: information at all (rounding): the variance along it is infinite, never zero.
+NO_INFORMATION = 1e-14
+
+
+def _covariance(info: np.ndarray) -> np.ndarray:
+    """The inverse of the information matrix, inf in the rows and columns of the parameters
+    that move along a direction without information."""
+    n = info.shape[0]
+    if n == 0:
         return info
-    try:
-        return np.linalg.inv(info)
-    except np.linalg.LinAlgError:
-        return np.linalg.pinv(info)
+    d = np.sqrt(np.clip(np.diag(info), 0, None))
+    dead = d <= math.sqrt(NO_INFORMATION) * max(float(d.max()), 1e-300)
+    cov = np.full((n, n), math.inf)
+    alive = np.flatnonzero(~dead)
+    if len(alive):
+        normal = info[np.ix_(alive, alive)] / np.outer(d[alive], d[alive])
+        values, vectors = np.linalg.eigh(normal)
+        empty = values <= NO_INFORMATION * max(float(values.max()), 1e-300)
+        kept = vectors[:, ~empty]
+        inner = (kept / values[~empty]) @ kept.T / np.outer(d[alive], d[alive])
+        unbounded = np.any(np.abs(vectors[:, empty]) > 1e-6, axis=1)
+        inner[unbounded, :] = math.inf
+        inner[:, unbounded] = math.inf
+        cov[np.ix_(alive, alive)] = inner
+    return cov
 
 
 def _undetermined(names, info: np.ndarray) -> List[Undetermined]:
