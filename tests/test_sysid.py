@@ -143,7 +143,7 @@ def test_a_run_that_never_tilts_cannot_give_the_bodys_inertia():
     assert flagged == {"i_body", "com_height"}
     assert all(math.isinf(fit.std[n]) for n in flagged)
     assert fit.values["i_body"] == twip.RobotParams.balanbot().i_body  # left where it was
-    assert "push" in fit.summary()
+    assert "speed trip" in fit.summary()
 
 
 def test_a_combination_the_log_cannot_split_is_named():
@@ -196,6 +196,15 @@ def test_a_fit_that_did_not_converge_claims_no_interval():
     assert not fit.converged, fit.summary()
     assert all(fit.interval(n) == (-math.inf, math.inf) for n in FREE), fit.summary()
     assert "NOT CONVERGED" in fit.summary()
+
+
+def test_a_rig_without_sensors_logs_the_states_it_reads():
+    # Pushes alone: the firmware reads the true states, and the log holds them.
+    sc = scenarios.get("flat-lqr")
+    rig = twip.Realism(pushes=[twip.Push(1.0, 0.3)])
+    log = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], 2.0, reference=sc.reference, realism=rig).to_log()
+    assert set(log.signals()) == {"u", "phi", "phi_dot", "theta", "theta_dot"}
+    assert np.max(np.abs(log.phi)) > 0.01
 
 
 def test_closed_loop_simulation_error():

@@ -66,7 +66,8 @@ class SimResult:
         """A `twip.RunLog` of this 2-DOF run, as the robot would log it. Without realism:
         the input current u and the true states. With realism: the plant's input (pwm with a
         motor driver, else the current u) and the raw readings of the parts the rig has
-        (gyro and accelerometer registers, the encoder's count)."""
+        (gyro and accelerometer registers, the encoder's count); the states of the parts it
+        does not have (pitch without an IMU, wheel angle without encoders) as they are."""
         from twip.sysid.log import RunLog
 
         if self.slope is None:
@@ -83,6 +84,12 @@ class SimResult:
         for name in ("gyro", "accel_x", "accel_z", "enc"):
             if not np.all(np.isnan(self.signals[name])):
                 columns[name] = self.signals[name]
+        # A rig without an IMU, or without encoders, reads those states as they are.
+        phi, phi_dot, theta, theta_dot = self.states.T
+        if self.realism.imu is None:
+            columns.update(phi=phi, phi_dot=phi_dot)
+        if self.realism.encoder_cpr is None:
+            columns.update(theta=theta, theta_dot=theta_dot)
         return RunLog(self.t, slope=self.slope, **columns)
 
 

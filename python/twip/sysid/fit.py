@@ -21,9 +21,9 @@ UNDETERMINED = 1e-8
 HELD_COST = 1.0
 #: Which run would pin each parameter down.
 EXCITATION = {
-    "m_body": "tilt the body: a push, or a speed trip that pitches it",
-    "com_height": "tilt the body: a push, or a speed trip that pitches it",
-    "i_body": "tilt the body quickly: a push (pitch accelerations)",
+    "m_body": "tilt the body: a speed trip that pitches it",
+    "com_height": "tilt the body: a speed trip that pitches it",
+    "i_body": "tilt the body quickly: sharp speed steps (pitch accelerations)",
     "m_wheels": "a speed trip: accelerate and brake the wheels",
     "i_wheels": "a speed trip: accelerate and brake the wheels",
     "i_motor": "a speed trip: accelerate and brake the wheels",
