@@ -49,11 +49,25 @@ def run_python(code: str, env=None, limit_gb=None):
      ["InvalidParameterError", "wheel_radius = 1e-09", "would take 3.18e+08 s"]),
     ("scenarios.get('flat-fuzzy', params=twip.RobotParams.balanbot().replace(wheel_radius=1e-6)).run()",
      ["InvalidParameterError", "wheel_radius = 1e-06"]),
+    # A basis's rules are the product of its inputs' set counts: 256^4 aborted allocating
+    # 32 GiB; 10^20 wrapped and panicked; 2^64 wrapped to none and panicked on the index.
+    ("twip.FuzzyBasis([[twip.Gaussian(0, 1)] * 256] * 4).eval(np.zeros(4))",
+     ["InvalidParameterError", "256 x 256 x 256 x 256 sets per input make more than 16777216 rules"]),
+    ("twip.FuzzyBasis([[twip.Gaussian(0, 1)] * 2] * 64).eval(np.zeros(64))", ["InvalidParameterError", "rules"]),
+    # 10 000 threads took 80 s to start; 2**64 was an OverflowError naming nothing.
+    ("twip.montecarlo('flat-lqr', 3, threads=10**5, progress=False)",
+     ["InvalidParameterError", "threads = 100000: must be an integer from 1 to 1024"]),
+    ("twip._core.sweep_raw(*tsweep_args(), threads=10**5)", ["InvalidParameterError", "threads", "at most 1024"]),
 ])
 def test_the_requests_that_aborted_are_clear_errors(code, expect):
     rc, out, err = run_python(f"""
+        import numpy as np
         import twip
         from twip import scenarios
+
+        def tsweep_args():
+            sc = scenarios.get('flat-lqr')
+            return (sc.model, sc.controller, list(sc.x0), 1.0, sc.dt, sc.reference, [], 1, 0, 4)
         try:
             {code}
         except twip.TwipError as e:

@@ -56,6 +56,7 @@ __all__ = [
     "sweep_kernel",
     "kernel_copy",
     "DEFAULT_FALL_LIMIT",
+    "MAX_THREADS",
     "ffi_record",
     "sysid_shoot",
     "ffi_firmware",
@@ -873,6 +874,7 @@ def sweep_kernel(controller: Any, realism: Realism | None = None) -> str:
     """
 
 DEFAULT_FALL_LIMIT: float
+MAX_THREADS: int
 def ffi_record(
     model: Any, controller: Any, x0: Sequence[float], t_final: float, dt: float, reference: Any
 ) -> dict[str, Any]:

@@ -177,8 +177,9 @@ def montecarlo(
         raise _bad(f"n = {n!r}: the number of samples must be a positive integer")
     if not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
         raise _bad(f"seed = {seed!r}: must be an integer in [0, 2**64)")
-    if threads is not None and (not isinstance(threads, int) or threads < 1):
-        raise _bad(f"threads = {threads!r}: must be a positive integer or None (all cores)")
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
+                                or not 1 <= threads <= _core.MAX_THREADS):
+        raise _bad(f"threads = {threads!r}: must be an integer from 1 to {_core.MAX_THREADS}, or None (all cores)")
     if client is not None and not isinstance(scenario, str):
         raise _bad("client= (Dask) needs a scenario name, so that workers can rebuild it")
     traces = _trace_indices(traces, n, trace_every)

@@ -218,8 +218,20 @@ fn sets_of(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vec<Membership<f64>>>> {
     if out.is_empty() {
         return Err(InvalidParameterError::new_err("sets is empty: the basis needs at least one input"));
     }
+    let rules = out.iter().try_fold(1usize, |n, sets| n.checked_mul(sets.len()).filter(|&n| n <= MAX_RULES));
+    if rules.is_none() {
+        let per_input: Vec<String> = out.iter().map(|s| s.len().to_string()).collect();
+        return Err(InvalidParameterError::new_err(format!(
+            "sets: {} sets per input make more than {MAX_RULES} rules (one per combination)",
+            per_input.join(" x ")
+        )));
+    }
     Ok(out)
 }
+
+/// The most rules a basis may have (one per combination of one set per input): a basis
+/// evaluates all of them at every point, 8 bytes each.
+const MAX_RULES: usize = 1 << 24;
 
 /// A basis's sets as Python objects, per input.
 type SetObjects<'py> = Vec<Vec<Bound<'py, PyAny>>>;
