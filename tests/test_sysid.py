@@ -268,6 +268,17 @@ def test_bad_input_is_named(tmp_path):
         identify(RunLog(t, phi=z), twip.RobotParams.balanbot(), ["m_body"])
     with pytest.raises(LogError, match="'resistance' is a motor driver field"):
         identify(log, twip.RobotParams.balanbot(), ["resistance"])
+    # Sizes checked before the work: these hung (a prediction of 1e12 steps, a log with a
+    # 1e6 s gap) or took 10 GB (one segment per sample).
+    with pytest.raises(LogError, match=r"max_step = 1e-12: one prediction of this log would take 9.99e\+11"):
+        identify(log, twip.RobotParams.balanbot(), ["m_body"], max_step=1e-12)
+    with pytest.raises(LogError, match="max_step = nan: must be a finite duration"):
+        identify(log, twip.RobotParams.balanbot(), ["m_body"], max_step=float("nan"))
+    gap = np.concatenate([t, 1e6 + t])
+    with pytest.raises(LogError, match="a gap in t"):
+        identify(RunLog(gap, u=np.zeros(2000), phi=np.zeros(2000)), twip.RobotParams.balanbot(), ["m_body"], segment=1e7)
+    with pytest.raises(LogError, match="segment = 1e-09: 999 segments of a log of 1000 samples"):
+        identify(log, twip.RobotParams.balanbot(), ["m_body"], segment=1e-9)
     path = tmp_path / "bad.csv"
     path.write_text("t,u,phi\n0,0,0\n0.001,0,x\n")
     with pytest.raises(LogError, match=r"column 'phi', row 3: 'x' is not a number"):

@@ -19,13 +19,17 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
-from twip import _core
+from twip import _core, budget
 from twip.sysid.log import LogError, RunLog
 from twip.sysid.measure import BIASED, OUTPUTS, Sensors, noise_floor, noise_level, predict, settling_samples
 
 #: Relative step of a parameter's central difference, and absolute step of a start state.
 PARAM_STEP = 1e-5
 STATE_STEP = 1e-6
+#: The fewest samples a segment may have on average.
+MIN_SEGMENT_SAMPLES = 8
+#: The most integration steps one prediction of a log may take (`max_step` and the log's span).
+MAX_STEPS = 10**8
 #: A decrease of the cost (half a chi-square) below which the fit has converged.
 CHI2_TOLERANCE = 1e-6
 #: Fields of `twip.MotorDriver` that can be free when the log's input is `pwm`.
@@ -61,6 +65,23 @@ class Unknown:
 class Problem:
     """A log, a starting robot and the free parameters, as the estimator sees them."""
 
+    def _check_size(self, n_globals: int) -> None:
+        """The integration steps of one prediction and the normal equations' arrays, before
+        any is made: a tiny `max_step`, a gap in the log or tiny segments would otherwise
+        hang or exhaust the memory."""
+        step = self.max_step
+        if not (isinstance(step, (int, float)) and not isinstance(step, bool) and math.isfinite(step) and step > 0):
+            raise LogError(f"max_step = {step!r}: must be a finite duration > 0 [s]")
+        steps = float(np.sum(np.ceil(np.diff(self.log.t) / step)))
+        if steps > MAX_STEPS:
+            raise LogError(f"max_step = {step!r}: one prediction of this log would take {steps:.3g} integration "
+                           f"steps, more than {MAX_STEPS:.0e} (a gap in t, or a step too small)")
+        n = n_globals + 4 * len(self.segments)
+        # The normal equations and the KKT matrix (n x n each), and each segment's end
+        # against every unknown (linearise).
+        budget.check(f"identify with {len(self.segments)} segments", 8.0 * (3 * n * n + 4 * len(self.segments) * n),
+                     "use longer segments (segment=)")
+
     def __init__(self, log: RunLog, params, free: Sequence[str], driver, friction, segment: float,
                  sensors: Sensors, signals: Optional[Sequence[str]], max_step: float):
         self.log, self.params, self.driver, self.friction = log, params, driver, friction
@@ -88,6 +109,7 @@ class Problem:
             raise LogError(f"free: {list(free)} names a parameter twice")
         self.biased = [s for s in BIASED if s in self.outputs]
         self.segments = _segments(log.t, segment)
+        self._check_size(len(self.unknowns) + len(self.biased))
         if sensors.imu is not None and any(s in self.outputs for s in ("gyro", "accel_x", "accel_z")):
             rate = 1 / float(np.median(np.diff(log.t)))
             if abs(rate / sensors.imu.sample_rate - 1) > 0.01:
@@ -213,6 +235,9 @@ def _segments(t: np.ndarray, segment: float) -> List[int]:
     # A last segment shorter than half a segment joins the one before.
     if len(starts) > 1 and t[-1] - t[starts[-1]] < segment / 2:
         starts.pop()
+    if len(starts) > 1 and len(starts) * MIN_SEGMENT_SAMPLES > len(t):
+        raise LogError(f"segment = {segment!r}: {len(starts)} segments of a log of {len(t)} samples; each needs "
+                       f"{MIN_SEGMENT_SAMPLES} samples on average (its start state is 4 unknowns)")
     return starts
 
 
