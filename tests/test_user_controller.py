@@ -181,6 +181,60 @@ def test_a_python_controller_sweep_is_the_same_on_any_number_of_workers_and_resu
     np.testing.assert_allclose(one.metrics["mean_abs_pitch_error"], builtin.metrics["mean_abs_pitch_error"], rtol=1e-9)
 
 
+EDITED_LAW = """
+SCALE = {scale}
+
+
+class Damped:
+    def __init__(self, gains, period):
+        self.k, self.period = list(gains), period
+
+    def reset(self):
+        pass
+
+    def update(self, t, y, ref):
+        return -SCALE * (self.k[0] * y[0] + self.k[1] * y[1])
+"""
+
+EDITED_RUN = """
+import sys, twip
+sys.path.insert(0, {folder!r})
+from law import Damped
+sc = twip.scenarios.get("flat-lqr-sim", t_final=1.0)
+mine = sc.replace(controller=Damped(sc.controller.gains, sc.controller.period))
+kw = dict(perturb={{"phi0": twip.Normal(std=0.02)}}, seed=2, progress=False, shard_size=4)
+r = twip.montecarlo(mine, 8, checkpoint={checkpoint!r}, **kw)
+print(float(r.metrics["mean_abs_pitch_error"].sum()))
+"""
+
+
+def test_a_checkpoint_of_a_python_controller_is_not_resumed_after_its_code_changed(tmp_path):
+    # A pickle holds the controller's state, not its code: the checkpoint's fingerprint
+    # once missed an edit of the law and resumed the old law's shards.
+    import os
+    import shutil
+    import subprocess
+    import sys
+
+    law, folder = tmp_path / "law.py", tmp_path / "ck"
+
+    def run():
+        script = EDITED_RUN.format(folder=str(tmp_path), checkpoint=str(folder))
+        # No bytecode cache: an edit within the same second, of the same size, would run the old law.
+        env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+        return subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300, env=env)
+
+    law.write_text(EDITED_LAW.format(scale=1.0))
+    before = run()
+    assert before.returncode == 0, before.stderr[-2000:]
+    law.write_text(EDITED_LAW.format(scale=0.5))
+    again = run()
+    assert again.returncode != 0 and "differs in: controller" in again.stderr, (again.stdout, again.stderr[-2000:])
+    shutil.rmtree(folder)
+    after = run()
+    assert after.returncode == 0 and after.stdout != before.stdout, (before.stdout, after.stdout)
+
+
 def test_an_unpicklable_controller_is_refused_before_any_sample_runs():
     sc = scenarios.get("flat-lqr-sim")
     calls = []

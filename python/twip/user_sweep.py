@@ -11,10 +11,14 @@ robot from its own stream (`_core.sweep_draw`), so a sample's metrics depend on
 from __future__ import annotations
 
 import hashlib
+import inspect
+import marshal
 import math
 import multiprocessing
 import os
 import pickle
+import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -45,9 +49,31 @@ def controller_bytes(controller) -> bytes:
 
 
 def fingerprint(controller) -> str:
-    """What a checkpoint records of a Python controller: its class and pickled state."""
+    """What a checkpoint records of a Python controller: its class, its pickled state and
+    its code (a pickle holds only the state: a checkpoint resumed after `update` was edited
+    once returned the old law's shards)."""
     kind = f"{type(controller).__module__}.{type(controller).__qualname__}"
-    return f"python:{kind}:{hashlib.sha256(controller_bytes(controller)).hexdigest()}"
+    digest = hashlib.sha256(controller_bytes(controller))
+    digest.update(_code_of(type(controller)))
+    return f"python:{kind}:{digest.hexdigest()}"
+
+
+def _code_of(cls) -> bytes:
+    """The code behind a class: the source file of each module its classes (but object)
+    come from, whole, since their methods may call the module's functions and read its
+    globals; for a class without a source file, its functions' bytecode."""
+    out = hashlib.sha256()
+    for klass in cls.__mro__:
+        if klass is object:
+            continue
+        try:
+            out.update(Path(inspect.getsourcefile(sys.modules[klass.__module__])).read_bytes())
+        except (KeyError, TypeError, OSError):
+            for name, member in sorted(vars(klass).items()):
+                code = getattr(getattr(member, "__func__", member), "__code__", None)
+                if code is not None:
+                    out.update(name.encode() + marshal.dumps(code))
+    return out.digest()
 
 
 def _sample(index: int) -> dict:
