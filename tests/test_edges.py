@@ -445,6 +445,24 @@ def test_an_animation_too_large_for_the_budget_is_refused_before_drawing(tmp_pat
     assert not (tmp_path / "a.gif").exists()
 
 
+def test_interval_levels_and_sample_indices_are_checked():
+    # A NaN confidence gave (0.5, 0.5); replay(99) of a 5-sample sweep ran a robot the
+    # sweep never drew (rerun refused it).
+    from twip.distributions import wilson_interval
+
+    for args, message in (((5, 10, float("nan")), "confidence = nan"), ((5, 10, 1.5), "confidence = 1.5"),
+                          ((-1, 10), "successes = -1: must be from 0 to n = 10")):
+        with pytest.raises(twip.InvalidParameterError, match=message):
+            wilson_interval(*args)
+    r = twip.montecarlo("flat-lqr-sim", 5, progress=False, options=SHORT)
+    with pytest.raises(twip.InvalidParameterError, match="confidence = nan"):
+        r.fall_rate_interval(confidence=float("nan"))
+    for bad in (99, -1, 2**70, 1.5, True):
+        for call in (r.replay, r.sample, r.rerun):
+            with pytest.raises(twip.InvalidParameterError, match=re.escape(f"index = {bad!r}: this sweep has samples 0..4")):
+                call(bad)
+
+
 # ---------------------------------------------------------------- the command line
 
 def cli(args, capsys):
@@ -474,6 +492,9 @@ def test_cli_simulate_refuses_bad_outputs_before_the_run(tmp_path, capsys, args,
 
 def test_cli_sweep_refuses_bad_outputs_before_the_run(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(tsweep, "run_samples", lambda *a, **k: pytest.fail("a sample ran"))
+    # A second --perturb of the same quantity silently replaced the first.
+    code, _, err = cli(["sweep", "flat-lqr", "-n", "5", "--perturb", "m_body=±5%", "--perturb", "m_body=±60%"], capsys)
+    assert code == 2 and "--perturb m_body: given more than once" in err, err
     for args, message in ((["--plot", tmp_path / "x.txt"], "'.txt' is not a figure format"),
                           (["--csv", tmp_path / "no" / "x.csv"], "--csv: .*does not exist"),
                           (["--checkpoint", tmp_path / "f" / "g"], None)):

@@ -109,6 +109,10 @@ def finite_number(name, what, value) -> float:
 
 def wilson_interval(successes: int, n: int, confidence: float = 0.95):
     """Wilson score interval for a binomial proportion."""
+    if isinstance(confidence, bool) or not (isinstance(confidence, (int, float, np.floating)) and 0 < confidence < 1):
+        raise _core.InvalidParameterError(f"confidence = {confidence!r}: must be a number in (0, 1)")
+    if not 0 <= successes <= max(n, 0):
+        raise _core.InvalidParameterError(f"successes = {successes!r}: must be from 0 to n = {n!r}")
     if n <= 0:
         return (0.0, 1.0)
     from statistics import NormalDist

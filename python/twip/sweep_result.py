@@ -164,14 +164,20 @@ class SweepResult:
         tracking scenario: its ground is flat)."""
         sc = self._scenario
         perturbations = [tuple(p) for p in self.config["perturbations"]]
-        params, slope, x0 = family_of(sc).draw(sc.model, sc.x0, perturbations, self.seed, int(index))
+        params, slope, x0 = family_of(sc).draw(sc.model, sc.x0, perturbations, self.seed, self._index(index))
         return _core.RobotParams.from_dict(params), slope, x0
+
+    def _index(self, index) -> int:
+        """`index` as a sample of this sweep, else an error naming it and the range."""
+        n = self.config["n"]
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not 0 <= int(index) < n:
+            raise _bad(f"index = {index!r}: this sweep has samples 0..{n - 1}")
+        return int(index)
 
     def rerun(self, index: int) -> dict:
         """Runs sample `index` alone through the sweep engine again: its metrics, bit
         for bit those of the sweep (a sample does not depend on the others)."""
-        if not 0 <= int(index) < self.config["n"]:
-            raise _bad(f"index = {index}: this sweep has samples 0..{self.config['n'] - 1}")
+        index = self._index(index)
         from twip.sweep import run_samples  # the sweep imports this module
 
         raw = run_samples(self._scenario, self.config, int(index), 1, 1, None, self._realism)

@@ -157,7 +157,11 @@ def sweep(args) -> int:
     name = scenario_name(args.scenario)
     params = robot(args.param, args.robot)
     options = scenario_options(name, args.option)
-    perturb = dict(perturbation(p) for p in args.perturb or [])
+    pairs = [perturbation(p) for p in args.perturb or []]
+    perturb = dict(pairs)
+    if len(perturb) < len(pairs):
+        twice = sorted({name for name, _ in pairs if sum(n == name for n, _ in pairs) > 1})
+        raise UsageError(f"--perturb {', '.join(twice)}: given more than once (each quantity once)")
     if args.map and not set(args.map) <= set(perturb):
         raise UsageError(f"--map {','.join(args.map)}: both must be --perturb names ({', '.join(perturb) or 'none given'})")
     sc = get_scenario(name, params=params, options=options)  # designed once, here; bad options are named
