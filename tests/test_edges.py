@@ -445,6 +445,13 @@ def test_an_animation_too_large_for_the_budget_is_refused_before_drawing(tmp_pat
     assert not (tmp_path / "a.gif").exists()
 
 
+def test_samples_past_the_last_index_are_an_error_not_an_empty_sweep():
+    # start + count wrapped past 2^64 - 1 to an empty range: no samples, no error.
+    sc = scenarios.get("flat-lqr")
+    with pytest.raises(twip.InvalidParameterError, match="count = 10: start \\+ count passes the last sample index"):
+        twip._core.sweep_raw(sc.model, sc.controller, list(sc.x0), 1.0, sc.dt, sc.reference, [], 1, 2**64 - 2, 10)
+
+
 def test_interval_levels_and_sample_indices_are_checked():
     # A NaN confidence gave (0.5, 0.5); replay(99) of a 5-sample sweep ran a robot the
     # sweep never drew (rerun refused it).

@@ -122,6 +122,17 @@ fn watched<R: Send>(
 /// Runs samples `samples` of a sweep in blocks of `block` on `threads` threads (0 = all
 /// cores) with the GIL released, watched as [`watched`] says, and returns the result as
 /// [`result_dict`] lays it out. `run_block` is [`parallel::run`]'s.
+/// Samples `start..start + count`, or an error naming `count` when the end would pass
+/// the last index a sample can have (it wrapped to an empty range).
+pub(crate) fn sample_range(start: u64, count: u64) -> PyResult<Range<u64>> {
+    let end = start.checked_add(count).ok_or(PyTwipError(TwipError::InvalidParameter {
+        name: "count",
+        value: count as f64,
+        reason: "start + count passes the last sample index, 2^64 - 1",
+    }))?;
+    Ok(start..end)
+}
+
 pub(crate) fn run_sweep<'py, M, F>(
     py: Python<'py>,
     samples: Range<u64>,
@@ -289,7 +300,7 @@ pub fn sweep_raw<'py>(
     }
     let schedule = reference.inner;
     let kernel = kernel_of(realism.is_some());
-    run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| {
+    run_sweep(py, sample_range(start, count)?, LANES, threads, progress.as_ref(), kernel, |range, stop| {
         // Push and force heights default to each sample's own centre of mass.
         let realism_of = |p: &RobotParams<f64>| realism.as_ref().expect("realism given").to_core(p).map(|r| for_sweep(&r, seed));
         match (&realism, ctrl) {

@@ -97,7 +97,7 @@ pub fn sweep_planar_raw<'py>(
     macro_rules! on_lanes {
         ($law:expr) => {{
             let law = $law;
-            return run_sweep(py, start..start + count, LANES, threads, progress.as_ref(), kernel, |range, stop| match &realism {
+            return run_sweep(py, super::sample_range(start, count)?, LANES, threads, progress.as_ref(), kernel, |range, stop| match &realism {
                 None => run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop),
                 Some(_) => run_planar_rig_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, &realism_of, stop),
             });
@@ -111,7 +111,7 @@ pub fn sweep_planar_raw<'py>(
             }
         }
     }
-    run_sweep(py, start..start + count, BLOCK, threads, progress.as_ref(), kernel, |range, stop| {
+    run_sweep(py, super::sample_range(start, count)?, BLOCK, threads, progress.as_ref(), kernel, |range, stop| {
         Ok(range
             .map(|i| {
                 let sample = core_planar::draw(&nominal, &perts, seed, i);
