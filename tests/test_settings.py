@@ -92,6 +92,12 @@ def test_realism_json_round_trip_keeps_every_part():
     assert twip.Realism.from_json(twip.Realism().to_json()).is_ideal
     with pytest.raises(ValueError, match="JSON"):
         twip.Realism.from_json("[1, 2]")
+    # The kind named the estimator class's attribute: "bogus" was an AttributeError,
+    # "__class__" a TypeError.
+    for kind in ("bogus", "__class__", "filter"):
+        bad = json.dumps({**json.loads(text), "estimator": {"kind": kind}})
+        with pytest.raises(twip.InvalidParameterError, match=f'kind = "{kind}": must be "complementary" or "kalman"'):
+            twip.Realism.from_json(bad)
 
 
 def test_realism_json_runs_the_same_robot():

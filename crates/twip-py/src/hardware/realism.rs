@@ -652,7 +652,15 @@ impl PyRealism {
                     let e = tuples(v.cast::<PyDict>()?)?;
                     let kind = e.get_item("kind")?.ok_or_else(|| InvalidParameterError::new_err("estimator: no 'kind'"))?;
                     e.del_item("kind")?;
-                    py.get_type::<PyTiltEstimator>().getattr(kind.extract::<String>()?)?.call((), Some(&e))?
+                    // Only an estimator's own kinds (`PyTiltEstimator::kind`): the name picks
+                    // the class's constructor, and any other attribute of it is no estimator.
+                    let kind: String = kind.extract()?;
+                    if !matches!(kind.as_str(), "complementary" | "kalman") {
+                        return Err(InvalidParameterError::new_err(format!(
+                            "estimator: kind = {kind:?}: must be \"complementary\" or \"kalman\""
+                        )));
+                    }
+                    py.get_type::<PyTiltEstimator>().getattr(kind)?.call((), Some(&e))?
                 }
                 "pushes" => {
                     let list = PyList::empty(py);
