@@ -54,6 +54,17 @@ def test_errors_name_the_file_the_key_and_the_line(tmp_path, edit, message):
         twip.Robot.from_file(_write(tmp_path, edit))
 
 
+def test_a_file_that_is_not_text_is_named(tmp_path):
+    # It was a UnicodeDecodeError naming no file (a traceback on the command line).
+    path = tmp_path / "bin.toml"
+    path.write_bytes(b"\xff\xfe\x00bin")
+    for read in (twip.Robot.from_file, twip.RobotParams.from_file):
+        with pytest.raises(twip.InvalidParameterError, match=r"bin.toml: not a text file \(byte 0 is not UTF-8"):
+            read(path)
+    with pytest.raises(twip.InvalidParameterError, match=r"bin.toml'?: not a text file \(byte 0 is not UTF-8"):
+        twip.RunLog.from_csv(path)
+
+
 def test_the_cli_runs_your_robot_and_its_driver(tmp_path, capsys):
     path = tmp_path / "heavy.toml"
     twip.RobotParams.balanbot().replace(m_body=1.2).to_file(path)

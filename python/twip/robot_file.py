@@ -127,9 +127,11 @@ def load(path) -> Robot:
     """Reads a robot file (see the module docs)."""
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8")
     except OSError as e:
         raise RobotFileError(f"{path}: cannot read the robot file ({e.strerror})") from None
+    except UnicodeDecodeError as e:
+        raise RobotFileError(f"{path}: not a text file (byte {e.start} is not UTF-8; a robot file is TOML)") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:

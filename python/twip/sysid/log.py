@@ -101,10 +101,12 @@ class RunLog:
         columns = dict(columns or {})
         path = Path(path)
         try:
-            with path.open(newline="") as f:
+            with path.open(newline="", encoding="utf-8") as f:
                 rows = list(csv.reader(f))
         except OSError as e:
             raise LogError(f"path = {str(path)!r}: {e.strerror}") from None
+        except UnicodeDecodeError as e:
+            raise LogError(f"path = {str(path)!r}: not a text file (byte {e.start} is not UTF-8; a log is CSV)") from None
         if not rows:
             raise LogError(f"{path}: empty file")
         header = [h.strip() for h in rows[0]]
