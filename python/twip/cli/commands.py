@@ -8,6 +8,7 @@ import os
 import shlex
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 from typing import Any, Dict, List
 
@@ -160,7 +161,7 @@ def sweep(args) -> int:
     pairs = [perturbation(p) for p in args.perturb or []]
     perturb = dict(pairs)
     if len(perturb) < len(pairs):
-        twice = sorted({name for name, _ in pairs if sum(n == name for n, _ in pairs) > 1})
+        twice = sorted(name for name, count in Counter(name for name, _ in pairs).items() if count > 1)
         raise UsageError(f"--perturb {', '.join(twice)}: given more than once (each quantity once)")
     if args.map and not set(args.map) <= set(perturb):
         raise UsageError(f"--map {','.join(args.map)}: both must be --perturb names ({', '.join(perturb) or 'none given'})")

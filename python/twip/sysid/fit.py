@@ -220,7 +220,7 @@ def _undetermined(names, info: np.ndarray) -> List[Undetermined]:
         return []
     diag = np.diag(info).copy()
     out = []
-    dead = diag <= 1e-14 * max(float(diag.max()), 1e-300)
+    dead = diag <= NO_INFORMATION * max(float(diag.max()), 1e-300)
     for i in np.flatnonzero(dead):
         out.append(Undetermined({names[i]: 1.0}, 0.0, (EXCITATION.get(names[i], "a run that moves it"),)))
     alive = np.flatnonzero(~dead)

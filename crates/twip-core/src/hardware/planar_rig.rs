@@ -292,8 +292,7 @@ pub struct PlanarSensors<T: Real> {
     last_beta_hat: Option<[T; 2]>,
     radius: T,
     half_track: T,
-    inv_r: T,
-    /// The model's, for the wheels' speeds relative to the body.
+    /// The model's wheel rows: the wheels' speeds relative to the body, and 1/R.
     wheels: WheelRows<T>,
     g: T,
     /// When the IMUs sample.
@@ -340,7 +339,6 @@ impl<T: Real> PlanarSensors<T> {
             last_beta_hat: None,
             radius: params.wheel_radius,
             half_track: params.half_track,
-            inv_r: T::one() / params.wheel_radius,
             wheels: PlanarModel::new(*params)?.coefficients().wheels(),
             g: params.g,
             clock,
@@ -418,7 +416,7 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
             if self.clock.due(t) {
                 let n = [pitch.draw(&mut self.rng), yaw.draw(&mut self.rng)];
                 let height = pitch.settings().height;
-                let dims = (self.radius, self.inv_r, height, self.g);
+                let dims = (self.radius, self.wheels.inv_r, height, self.g);
                 sample_imus((pitch, yaw), &(*x).into(), &(*xdot).into(), x[3].cos(), n, dims);
             }
         }

@@ -359,8 +359,9 @@ fn reduced_mass<S: Lane>(k: &PlanarCoefficients<S>, s: S, cp: S, off: [S; 2]) ->
 
 /// Each wheel's rotor inertia `j` where its train is open (not `engaged`), else zero: what
 /// [`reduced_mass`] takes off.
-fn open_rotors<T: Real>(engaged: [bool; 2], j: T) -> [T; 2] {
-    engaged.map(|on| if on { T::zero() } else { j })
+#[inline(always)]
+fn open_rotors<S: Lane>(engaged: [S::Mask; 2], j: S) -> [S; 2] {
+    engaged.map(|on| S::select(on, S::splat(0.0), j))
 }
 
 /// a · b in three dimensions.
@@ -434,15 +435,14 @@ pub(crate) fn open_motion<S: Lane>(
     let zero = S::splat(0.0);
     let (f, s, cp) = forces_plus(k, x, S::select(engaged[0], u[0], zero), S::select(engaged[1], u[1], zero), &extra);
     let rows = wheel_rows(k);
-    let reduced = Adjugate::of(reduced_mass(k, s, cp, [0, 1].map(|i| S::select(engaged[i], zero, rotor))));
-    let solve = |v: &[S; 3]| reduced.solve(v);
-    let mut nu_dot = solve(&f);
+    let reduced = Adjugate::of(reduced_mass(k, s, cp, open_rotors(engaged, rotor)));
+    let mut nu_dot = reduced.solve(&f);
     let mut tau = [zero; 2];
     if let Gearhead::Slip(fr) | Gearhead::Stick(fr) = gear {
         // One wheel engaged (the other's train open): its friction against M'.
         let right = engaged[0];
         let row: [S; 3] = fill(|i| S::select(right, rows[0][i], rows[1][i]));
-        let response = solve(&row);
+        let response = reduced.solve(&row);
         let [w_r, w_l] = wheel_speeds(k, x);
         let w = S::select(right, w_r, w_l);
         let (a0, sr) = (dot(&row, &nu_dot), dot(&row, &response));
@@ -467,17 +467,23 @@ pub(crate) fn wheel_speeds<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7]) -> [S
 /// the body (the encoders' sensors keep these alone).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct WheelRows<S> {
-    inv_r: S,
-    b_r: S,
+    pub(crate) inv_r: S,
+    pub(crate) b_r: S,
 }
 
 impl<S: Lane> WheelRows<S> {
     /// Each wheel's speed relative to the body at state `x`, (v ± b ω)/R − φ̇ [rad/s].
     #[inline(always)]
     pub(crate) fn speeds(&self, x: &[S; 7]) -> [S; 2] {
-        let (phi_dot, v, omega) = (x[4], x[5], x[6]);
-        let turn = self.b_r * omega;
-        let roll = self.inv_r * v - phi_dot;
+        self.of(&[x[4], x[5], x[6]])
+    }
+
+    /// r · ν for each wheel's row r: its speed relative to the body from ν = (φ̇, v, ω), or
+    /// its acceleration from ν̇.
+    #[inline(always)]
+    pub(crate) fn of(&self, nu: &[S; 3]) -> [S; 2] {
+        let turn = self.b_r * nu[2];
+        let roll = self.inv_r * nu[1] - nu[0];
         [roll + turn, roll - turn]
     }
 }
@@ -525,10 +531,10 @@ pub(crate) fn engaged_motion<S: Lane>(
     // response to it is `shared` on (φ, v) and ±`turn` on the yaw.
     let (q, sin_phi, cos_phi) = forces_plus(k, x, u[0], u[1], &extra);
     let free = accelerations(k, &q, sin_phi, cos_phi);
-    let roll = |nu: &[S; 3]| k.inv_r * nu[1] - nu[0];
-    let (a_r, a_l) = (roll(&free) + k.b_r * free[2], roll(&free) - k.b_r * free[2]);
+    let [a_r, a_l] = k.wheels().of(&free);
     let shared = accelerations(k, &[-S::splat(1.0), k.inv_r, S::splat(0.0)], sin_phi, cos_phi);
-    let common = roll(&shared);
+    // `shared` does not yaw: both wheels' rows see the same.
+    let [common, _] = k.wheels().of(&shared);
     let turn = k.b_r / yaw_mass(k, sin_phi);
     let yaw = k.b_r * turn;
     // ẇ = a0 − S τ: friction takes its torque off the motor's.
