@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import twip
-from twip import scenarios
+from twip import robot_file, scenarios
 from twip.cli import main
 from twip.sysid import LogError, RunLog, Sensors, identify
 
@@ -285,6 +285,30 @@ def test_bad_input_is_named(tmp_path):
         RunLog.from_csv(path)
     with pytest.raises(LogError, match="no 't' column"):
         RunLog.from_csv(path, columns={"t": "u"})
+
+
+def test_cli_replays_the_imus_filter_on_raw_register_columns(tmp_path, capsys):
+    """The rig's raw registers (ideal driver, no gearhead friction or backlash) through the CLI.
+    With --imu-dlpf 42 the predictions pass through the MPU-6050's filter: within 0.35 % (measured:
+    -0.04 %, -0.31 %, +0.03 %, 0.00 %). Without it the filter's lag is fitted as the robot:
+    i_body +2.7 %, its interval 11 standard deviations off the truth."""
+    base = twip.Realism.thesis_like().replace(friction=None, backlash=None)
+    realism = base.replace(motor=base.motor.replace(inductance=0.0, current_limit=None))
+    run_of("flat-lqr", 12.0, realism).to_log().to_csv(tmp_path / "rig.csv")
+    driver = dict(robot_file.balanbot_driver(), inductance=0.0, current_limit=0.0)
+    robot_file.save(twip.RobotParams.balanbot(), tmp_path / "start.toml", robot_file.BALANBOT_MOTOR, driver)
+    assert twip.Robot.from_file(tmp_path / "start.toml").driver.to_dict() == realism.motor.to_dict()
+    command = ["identify", str(tmp_path / "rig.csv"), "--robot", str(tmp_path / "start.toml"), "--free", ",".join(FREE),
+               "--out", str(tmp_path / "fitted.toml")]
+    assert main(command + ["--imu-dlpf", "42"]) == 0, capsys.readouterr().out
+    fitted = twip.Robot.from_file(tmp_path / "fitted.toml").params
+    for n in FREE:
+        assert abs(getattr(fitted, n) / TRUE.to_dict()[n] - 1) < 0.0035, n
+    # The filter is replayed at the IMU's rate only: a log at another rate is refused, named.
+    assert main(command + ["--imu-dlpf", "42", "--imu-rate", "500"]) == 2
+    assert "500 Hz" in capsys.readouterr().err
+    assert main(command + ["--imu-dlpf", "43"]) == 2
+    assert "dlpf_hz = 43" in capsys.readouterr().err
 
 
 def test_cli_end_to_end(tmp_path, capsys):

@@ -177,6 +177,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="encoder counts per wheel turn, for an enc column (default 700)")
     p.add_argument("--imu-height", type=float, default=0.12, metavar="M",
                    help="the IMU's height above the axle [m], for accel columns (default 0.12)")
+    p.add_argument("--imu-dlpf", type=positive_float, metavar="HZ",
+                   help="the MPU-6050 DLPF bandwidth the gyro and accel columns were read through (one of "
+                        "Table 2.2's: 260, 184, 94, 44/42, 21/20, 10, 5): the predictions pass through the same "
+                        "filter (default: the columns are unfiltered)")
+    p.add_argument("--imu-rate", type=positive_float, default=1000.0, metavar="HZ",
+                   help="the IMU's sample rate with --imu-dlpf; the log must be sampled at it (default 1000)")
     p.add_argument("--out", metavar="FILE", help="write the fitted robot as a robot file (TOML)")
     p.add_argument("--plot", metavar="FILE", help="draw measured against predicted signals and residuals")
     p.set_defaults(func=commands.identify)

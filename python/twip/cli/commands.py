@@ -275,7 +275,9 @@ def identify(args) -> int:
     robot = start.params if start else twip.RobotParams.balanbot()
     free = [f.strip() for f in args.free.split(",") if f.strip()]
     signals = [s.strip() for s in args.signals.split(",")] if args.signals else None
-    sensors = sysid.Sensors(encoder_cpr=args.encoder_cpr, imu_height=args.imu_height)
+    imu = None if args.imu_dlpf is None else twip.Imu(dlpf_hz=args.imu_dlpf, height=args.imu_height,
+                                                     sample_rate=args.imu_rate)
+    sensors = sysid.Sensors(encoder_cpr=args.encoder_cpr, imu_height=args.imu_height, imu=imu)
     fit = sysid.identify(log, robot, free, segment=args.segment, driver=start.driver if start else None,
                          sensors=sensors, signals=signals)
     print(f"twip identify {args.log}: {len(log)} samples over {log.t[-1] - log.t[0]:.3g} s; "
