@@ -117,6 +117,32 @@ def test_the_budget_is_settable_and_named_in_the_error(monkeypatch):
             twip.set_memory_budget(bad)
 
 
+def test_a_user_controllers_internals_are_counted_in_the_log_budget():
+    # 2000 internals logged at every step of 20 s: 320 MB, where the guess of a built-in
+    # controller's internals would have said 4 MB.
+    class Wide:
+        period = 0.005
+        updates = 0
+
+        def update(self, t, y, ref):
+            self.updates += 1
+            return 0.0
+
+        def internals(self):
+            return {f"k{i}": 0.0 for i in range(2000)}
+
+    sc = scenarios.get("flat-lqr")
+    wide = Wide()
+    twip.set_memory_budget(100 << 20)
+    try:
+        with pytest.raises(twip.MemoryBudgetError, match=r"x 2008 columns\) .* record_every = 4 or more"):
+            twip.simulate(sc.model, wide, sc.x0, 20.0)
+        assert wide.updates == 0  # counted without stepping the user's controller
+        assert len(twip.simulate(sc.model, wide, sc.x0, 20.0, record_every=4).internals) == 2000
+    finally:
+        twip.set_memory_budget(None)
+
+
 def test_traces_together_are_checked_against_the_budget():
     twip.set_memory_budget(2_000_000)  # one trace of 500 rows fits, 60 do not
     try:

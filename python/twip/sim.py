@@ -13,8 +13,10 @@ from twip import _core, budget
 _LOG_COLUMNS = {"slope": 1 + 4 + 1 + 2, "planar": 1 + 7 + 2 + 7}
 #: Columns a realism adds (what the controller read, the plant's inputs, the motor currents; 2-DOF: raw readings).
 _SIGNAL_COLUMNS = {"slope": 4 + 1 + 1 + 4, "planar": 7 + 2 + 2}
-#: A generous guess of the internals a controller logs (checked exactly when it matters).
+#: A generous guess of the internals a built-in controller logs (checked exactly when it matters).
 _DEFAULT_INTERNALS = 16
+#: The controllers whose internals the guess bounds; a user's controller logs as many as it likes.
+_BUILT_IN_CONTROLLERS = (_core.LqrController, _core.FuzzyController, _core.PidTracker, _core.SmcTracker)
 
 
 @dataclass(frozen=True)
@@ -161,11 +163,17 @@ def simulate(
             )
 
     # The log's width, when a guess would not fit: from a one-step run (the internals it logs).
+    # A user's controller is not run for it (that would step its state before the run):
+    # its internals() is asked as the runner asks it.
     def logged_extras():
+        if not isinstance(controller, _BUILT_IN_CONTROLLERS):
+            kind = "planar" if isinstance(model, _core.PlanarModel) else "slope"
+            return _user_internals(controller) + (_SIGNAL_COLUMNS[kind] if realism is not None else 0)
         probe = run(dt, 1)
         return probe["internals"].shape[1] + (0 if probe.get("signals") is None else probe["signals"].shape[1])
 
-    _check_log(model, t_final, dt, record_every, realism, logged_extras)
+    _check_log(model, t_final, dt, record_every, realism, logged_extras,
+               exact=not isinstance(controller, _BUILT_IN_CONTROLLERS))
     if stall_current is not None:
         stall_current = _positive_real("stall_current", stall_current)
         if not (math.isfinite(stall_current) and stall_current > 0):
@@ -202,6 +210,16 @@ def stall_warnings(metrics: dict, stall_current: Optional[float]) -> tuple:
             "the real robot cannot give this (run it with realism= to see what it does)",)
 
 
+def _user_internals(controller) -> int:
+    """How many internals a user's controller logs: the size of its internals() dict (none
+    without one; a value that is not a dict is left to the runner, which names it)."""
+    internals = getattr(controller, "internals", None)
+    if not callable(internals):
+        return 0
+    logged = internals()
+    return len(logged) if isinstance(logged, dict) else 0
+
+
 def _positive_real(name: str, value) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise _core.InvalidParameterError(f"{name} = {value!r}: must be a real number, got {type(value).__name__}")
@@ -220,11 +238,11 @@ def log_shape_guess(model, t_final: float, dt: float, record_every: int, realism
 _MAX_RECORD_EVERY = 2**62
 
 
-def _check_log(model, t_final, dt, record_every, realism, internals) -> None:
+def _check_log(model, t_final, dt, record_every, realism, internals, exact: bool = False) -> None:
     """Refuses, before the run, a record_every that is not a count and a log larger
     than the memory budget (naming the rows, columns and the record_every that fits).
     `internals()` says how many internal columns (and signals) the controller logs; it is
-    asked only when a generous guess does not fit."""
+    asked when a generous guess does not fit, or always (`exact`) when no guess bounds it."""
     if isinstance(record_every, bool) or not isinstance(record_every, (int, np.integer)) or record_every < 1:
         raise _core.InvalidParameterError(
             f"record_every = {record_every!r}: must be an integer >= 1 (keep one logged sample in that many)")
@@ -232,7 +250,7 @@ def _check_log(model, t_final, dt, record_every, realism, internals) -> None:
     if not (math.isfinite(t_final) and math.isfinite(dt) and t_final > 0 and dt > 0):
         return  # the core names the bad value
     rows, columns = log_shape_guess(model, t_final, dt, record_every, realism)
-    if rows * columns * 8 > budget.memory_budget():
+    if exact or rows * columns * 8 > budget.memory_budget():
         columns = _LOG_COLUMNS["planar" if isinstance(model, _core.PlanarModel) else "slope"] + internals()
     need = rows * columns * 8
     fits = max(1, math.ceil(int(record_every) * need / budget.memory_budget()))
