@@ -85,15 +85,28 @@ def test_the_core_refuses_a_log_it_cannot_reserve_with_an_error_not_an_abort():
         from twip import scenarios
         twip.set_memory_budget(2**62)
         sc = scenarios.get('flat-lqr-sim')
-        for call in (lambda: sc.run(t_final=1e9), lambda: twip.montecarlo('flat-lqr-sim', 10**12, progress=False)):
+        lqr = scenarios.get('flat-lqr')
+        calls = {
+            "run": lambda: sc.run(t_final=1e9),
+            "montecarlo": lambda: twip.montecarlo('flat-lqr-sim', 10**12, progress=False),
+            # The private calls under them: refused before any sample runs (an hour's
+            # work), and a replay recorded only after its room is reserved.
+            "sweep_raw": lambda: twip._core.sweep_raw(lqr.model, lqr.controller, list(lqr.x0), 1.0, lqr.dt,
+                                                      lqr.reference, [], 1, 0, 10**9),
+            "ffi_record": lambda: twip._core.ffi_record(lqr.model, lqr.controller, [0.0] * 4, 1e9, lqr.dt,
+                                                        lqr.reference),
+        }
+        for name, call in calls.items():
             try:
                 call()
             except MemoryError as e:
-                print(type(e).__name__, e)
+                print(name, type(e).__name__, e)
         """, limit_gb=6)
     assert rc == 0, err[-2000:]
-    assert "MemoryError record_every: could not reserve" in out, out
-    assert "MemoryError n: could not reserve" in out, out
+    assert "run MemoryError record_every: could not reserve" in out, out
+    assert "montecarlo MemoryError n: could not reserve" in out, out
+    assert "sweep_raw MemoryError n: could not reserve" in out, out
+    assert "ffi_record MemoryError t_final: could not reserve" in out, out
 
 
 def test_the_budget_is_settable_and_named_in_the_error(monkeypatch):

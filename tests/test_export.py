@@ -130,6 +130,19 @@ def test_bad_arguments_are_named(tmp_path):
     assert main(["export", "flat-lqr", "--out", str(tmp_path / "file")]) == 2
 
 
+def test_a_replay_too_long_for_the_memory_budget_is_refused_before_it_is_recorded(tmp_path):
+    long_run = scenarios.get("flat-lqr").replace(t_final=3e5)
+    twip.set_memory_budget(200 << 20)
+    try:
+        with pytest.raises(twip.MemoryBudgetError, match=r"replay of 300000 s \(60,000,001 controller updates\).*"
+                                                         r"shorter replay_seconds"):
+            export(long_run, tmp_path, replay_seconds=3e5)
+        assert not tmp_path.joinpath("replay_data.c").exists()
+        assert export(long_run, tmp_path, replay_seconds=2.0)["updates"] == 400  # a short replay still fits
+    finally:
+        twip.set_memory_budget(None)
+
+
 def test_an_install_without_sources_says_how_to_point_at_them(tmp_path, capsys, monkeypatch):
     # A wheel from PyPI carries no Rust sources: the export still writes everything and says
     # how to give a checkout, and the Makefile takes it as TWIP_SRC.

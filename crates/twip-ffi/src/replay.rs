@@ -35,6 +35,22 @@ pub struct Record<const NX: usize, const NU: usize, R> {
     pub u: Vec<[f32; NU]>,
 }
 
+impl<const NX: usize, const NU: usize, R> Record<NX, NU, R> {
+    /// Room for `updates` updates, reserved fallibly: a run too long for memory is an error
+    /// naming `t_final`, never an abort.
+    fn with_capacity(updates: usize) -> Result<Self, TwipError> {
+        let row = core::mem::size_of::<f32>() + core::mem::size_of::<[f32; NX]>() + core::mem::size_of::<R>()
+            + core::mem::size_of::<[f32; NU]>();
+        let oom = |_| TwipError::OutOfMemory { name: "t_final", bytes: (updates as u64).saturating_mul(row as u64) };
+        let mut record = Self { t: Vec::new(), y: Vec::new(), reference: Vec::new(), u: Vec::new() };
+        record.t.try_reserve_exact(updates).map_err(oom)?;
+        record.y.try_reserve_exact(updates).map_err(oom)?;
+        record.reference.try_reserve_exact(updates).map_err(oom)?;
+        record.u.try_reserve_exact(updates).map_err(oom)?;
+        Ok(record)
+    }
+}
+
 /// A reference sample as the C ABI takes it, from the `f64` sample.
 pub trait ToC: Copy {
     type C: Copy;
@@ -151,9 +167,10 @@ where
     R::Sample: ToC,
 {
     controller.reset();
-    let mut record = Record { t: Vec::new(), y: Vec::new(), reference: Vec::new(), u: Vec::new() };
-    let mut recorder = Recorder { inner: controller, record: &mut record };
     let config = SimConfig::new(dt, t_final, None);
+    let (steps, per_update) = config.steps(controller.period())?;
+    let mut record = Record::with_capacity(steps / per_update + 1)?;
+    let mut recorder = Recorder { inner: controller, record: &mut record };
     let (outcome, _) = simulate(plant, &mut recorder, &InF32(reference), &SVector::from(x0), &config, &mut ())?;
     Ok((record, outcome))
 }

@@ -48,6 +48,13 @@ where
         .build()
         .map_err(|_| TwipError::InvalidParameter { name: "threads", value: threads as f64, reason: "could not start a thread pool" })?;
     let block = block.max(1) as u64;
+    // Sized by the caller's sample count: reserved fallibly (an error, not an abort), and
+    // before the run, so that a count too large fails at once, not when the work is done.
+    let count = (range.end - range.start) as usize;
+    let mut results = Vec::new();
+    results
+        .try_reserve_exact(count)
+        .map_err(|_| TwipError::OutOfMemory { name: "n", bytes: (count as u64).saturating_mul(core::mem::size_of::<Option<M>>() as u64) })?;
     let mut starts: Vec<u64> = Vec::new();
     starts
         .try_reserve_exact(((range.end - range.start) / block + 1) as usize)
@@ -72,12 +79,6 @@ where
             .collect()
     });
     let blocks: Vec<Option<Vec<M>>> = blocks.into_iter().collect::<Result<_, _>>()?;
-    // Sized by the caller's sample count: reserved fallibly (an error, not an abort).
-    let count = (range.end - range.start) as usize;
-    let mut results = Vec::new();
-    results
-        .try_reserve_exact(count)
-        .map_err(|_| TwipError::OutOfMemory { name: "n", bytes: (count as u64).saturating_mul(core::mem::size_of::<Option<M>>() as u64) })?;
     for (b, start) in blocks.into_iter().zip(&starts) {
         let len = ((start + block).min(range.end) - start) as usize;
         match b {
