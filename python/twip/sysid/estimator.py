@@ -438,6 +438,10 @@ class Estimator:
                         f"{message} ({iterations} in all)", information,
                         {s: np.where(p.used[s], p.y[s] - out[s], np.nan) for s in p.outputs}, out)
 
+    def _expected_cost(self) -> float:
+        """Half the chi-square a fit with the right noise levels has: half the residuals' count."""
+        return max(0.5 * sum(int(np.count_nonzero(self.p.used[s])) for s in self.p.outputs), 1.0)
+
     def _merit(self, cost, gaps, rho):
         return cost + rho * float(np.sum(np.abs(gaps))) if gaps is not None else math.inf
 
@@ -482,7 +486,11 @@ class Estimator:
             lam = max(lam / 3, 1e-12)
             closed = not joined or np.max(np.abs(gaps), initial=0.0) < 1e-9
             # The cost is half a chi-square (residuals over their noise): a decrease far
-            # below 1 moves nothing a confidence interval could show.
-            if closed and (decrease < max(tolerance * merit, CHI2_TOLERANCE) or cost == 0):
+            # below 1 moves nothing a confidence interval could show. Where the model misfits
+            # (a cost far above the residuals' count) the noise levels are too small and the
+            # chi-square is that much too large: the refit with the residuals' noise levels
+            # scales it back, so the tolerance scales with it.
+            misfit = max(1.0, cost / self._expected_cost())
+            if closed and (decrease < max(tolerance * merit, CHI2_TOLERANCE * misfit) or cost == 0):
                 return x, starts, True, f"converged in {it} iterations", it
         return x, starts, False, f"not converged after {self.max_iter} iterations", self.max_iter
