@@ -287,6 +287,31 @@ def test_bad_input_is_named(tmp_path):
         RunLog.from_csv(path, columns={"t": "u"})
 
 
+def test_weights_are_named_signal_by_signal():
+    # {'zz': 1} was reported as "the noise level of 'phi' ... got None".
+    t = np.arange(0, 1, 1e-3)
+    log = RunLog(t, u=np.zeros_like(t), phi=np.zeros_like(t), theta=np.zeros_like(t))
+    robot = twip.RobotParams.balanbot()
+    for weights, error, message in (
+            ({"zz": 1.0}, LogError, "weights: 'zz' is not a compared signal; give one for each compared signal: phi, theta"),
+            ({"phi": 1.0}, LogError, "weights: no noise level for 'theta'; give one for each compared signal: phi, theta"),
+            ({"phi": 1.0, "theta": float("nan")}, twip.InvalidParameterError, r"weights\['theta'\] must be finite and > 0, got nan"),
+            ({"phi": -1, "theta": 1.0}, twip.InvalidParameterError, r"weights\['phi'\] must be finite and > 0, got -1"),
+            ({"phi": "1", "theta": 1.0}, TypeError, r"weights\['phi'\] must be a real number, got '1' \(str\)"),
+            ([1.0], TypeError, r"weights must be a dict \{signal: noise standard deviation\}, got \[1.0\] \(list\)")):
+        with pytest.raises(error, match=message):
+            identify(log, robot, ["m_body"], weights=weights)
+
+
+def test_a_log_of_the_wrong_type_is_a_type_error_naming_it():
+    # Both were AttributeErrors ('NoneType' object has no attribute 'u').
+    with pytest.raises(TypeError, match=r"log must be a twip.RunLog, got None \(NoneType\)"):
+        identify(None, twip.RobotParams.balanbot(), ["m_body"])
+    fit = identify(run_of("flat-lqr", 1.0).to_log(), twip.RobotParams.balanbot(), ["m_body"], max_iter=1)
+    with pytest.raises(TypeError, match=r"other must be a twip.RunLog \(the run to predict\), got 'x' \(str\)"):
+        fit.validate("x")
+
+
 def test_cli_end_to_end(tmp_path, capsys):
     log = run_of("slope-lqr", 6.0).to_log()
     rng = np.random.default_rng(1)

@@ -11,7 +11,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from twip import _core
+from twip import _core, checks
 from twip.sysid import closed_loop
 from twip.sysid.estimator import Estimator, Problem
 from twip.sysid.fit import Fit, Undetermined
@@ -44,6 +44,7 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
       default standing still); `controller` alone also adds `Fit.closed_loop_rms`, the
       fitted robot's closed-loop simulation error.
     """
+    checks.of_type("log", log, RunLog, "a twip.RunLog")
     params = getattr(robot, "params", robot)
     if not isinstance(params, _core.RobotParams):
         raise LogError(f"robot: {type(robot).__name__} is not a RobotParams or a twip.Robot")
