@@ -128,6 +128,11 @@ def test_bad_arguments_are_named(tmp_path):
                          1e-3, twip.SpeedSchedule.constant(0.0))
     (tmp_path / "file").write_text("")
     assert main(["export", "flat-lqr", "--out", str(tmp_path / "file")]) == 2
+    # Both were AttributeErrors ('str' object has no attribute 'params').
+    with pytest.raises(TypeError, match=r"robot must be a twip.Robot \(from a robot file\) or None .*got 'x' \(str\)"):
+        export("flat-lqr", tmp_path, robot="x")
+    with pytest.raises(TypeError, match=r"scenario must be a scenario name or a twip.scenarios.Scenario, got 5 \(int\)"):
+        export(5, tmp_path)
 
 
 def test_an_install_without_sources_says_how_to_point_at_them(tmp_path, capsys, monkeypatch):

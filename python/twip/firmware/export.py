@@ -23,8 +23,9 @@ from typing import Optional
 
 import numpy as np
 
-from twip import _core, scenarios
+from twip import _core, checks, scenarios
 from twip.firmware import header, units
+from twip.robot_file import Robot
 
 #: Largest relative difference `make check` accepts (of the largest recorded command).
 REPLAY_TOLERANCE = 1e-5
@@ -163,6 +164,8 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
         raise _core.InvalidParameterError(f"units = {units_!r}: must be one of {', '.join(UNITS)}")
     if not (isinstance(replay_seconds, (int, float)) and math.isfinite(replay_seconds) and replay_seconds > 0):
         raise _core.InvalidParameterError(f"replay_seconds = {replay_seconds!r}: must be a finite number > 0")
+    checks.of_type("scenario", scenario, (str, scenarios.Scenario), "a scenario name or a twip.scenarios.Scenario")
+    checks.of_type("robot", robot, (Robot, type(None)), "a twip.Robot (from a robot file) or None (the Balanbot)")
     params = robot.params if robot is not None else None
     sc = scenarios.get(scenario, params=params) if isinstance(scenario, str) else scenario
     realism = robot.realism() if robot is not None else _core.Realism.thesis_like()
