@@ -84,7 +84,8 @@ def target(name: str, sc):
 def resolve(perturb: Mapping, scenario) -> list:
     """Perturbations as tuples for the core, in key order (the draw order)."""
     out = []
-    for name, dist in checks.of_type("perturb", perturb or {}, Mapping, "a dict {name: twip.Uniform or twip.Normal}").items():
+    perturb = checks.of_type("perturb", perturb or {}, Mapping, "a dict {name: twip.Uniform or twip.Normal}")
+    for name, dist in perturb.items():
         checks.of_type("perturb's keys", name, str, "parameter names (str)")
         kind, index = target(name, scenario)
         if kind == "param":
