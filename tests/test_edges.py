@@ -421,7 +421,9 @@ def test_figure_paths_are_checked_before_a_run(tmp_path):
 @pytest.mark.parametrize("kw, message", [
     (dict(path="a.png"), "must end in .gif"), (dict(fps=1e9), "fps = 1000000000.0"), (dict(fps=0), "fps = 0"),
     (dict(fps="20"), "fps = '20'"), (dict(speed=-1.0), "speed = -1.0"), (dict(size=(10**6, 10)), "size = "),
-    (dict(path="missing/a.gif"), "does not exist"),
+    (dict(path="missing/a.gif"), "does not exist"), (dict(max_seconds=0), "max_seconds must be finite and > 0, got 0"),
+    (dict(max_seconds=float("nan")), "max_seconds must be finite and > 0, got nan"),
+    (dict(max_seconds=-5), "max_seconds must be finite and > 0, got -5"),
 ])
 def test_animation_arguments_are_checked_before_a_run(tmp_path, kw, message):
     from twip import animate
@@ -430,6 +432,19 @@ def test_animation_arguments_are_checked_before_a_run(tmp_path, kw, message):
     kw["path"] = tmp_path / kw["path"]
     with pytest.raises(twip.InvalidParameterError, match=message):
         animate.check_options(**kw)
+
+
+def test_an_animations_max_seconds_and_slope_are_checked_before_drawing(tmp_path):
+    # max_seconds = 0 was a ZeroDivisionError, -5 an IndexError, a NaN slope "cannot
+    # convert float NaN to integer".
+    from twip import animate
+
+    r = scenarios.get("flat-lqr-sim").run(t_final=0.1)
+    with pytest.raises(twip.InvalidParameterError, match="max_seconds must be finite and > 0, got 0"):
+        animate.gif(r, tmp_path / "a.gif", max_seconds=0)
+    with pytest.raises(twip.InvalidParameterError, match="slope must be finite, got nan"):
+        animate.gif(r, tmp_path / "a.gif", slope=float("nan"))
+    assert not (tmp_path / "a.gif").exists()
 
 
 def test_an_animation_too_large_for_the_budget_is_refused_before_drawing(tmp_path):
