@@ -384,12 +384,29 @@ def test_distributions_check_their_types(make, message):
 
 # ---------------------------------------------------------------- 6. honest numbers
 
-def test_settled_metrics_are_nan_when_the_run_ends_before_the_settle_time():
+def test_settled_metrics_are_nan_and_warned_of_when_the_run_ends_before_the_settle_time():
     sc = scenarios.get("circle-pid", laps=1)
-    r = sc.run(t_final=2.0)  # the settled part starts after one lap
+    with pytest.warns(UserWarning, match=r"ended at t = 2 s \(t_final = 2 s\), before settle = 36 s \(by default one lap"):
+        r = sc.run(t_final=2.0)  # the settled part starts after one lap
     for name in ("mean_abs_x_error_settled", "mean_abs_y_error_settled", "max_path_error_settled"):
         assert np.isnan(r.metrics[name]), name
     assert np.isfinite(r.metrics["mean_abs_x_error"])
+    with pytest.warns(UserWarning, match=r"before settle = 2.5 s: the _settled metrics are NaN"):
+        sc.run(t_final=2.0, settle=2.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # settled from the run's last sample on: no warning
+        assert np.isfinite(sc.run(t_final=2.0, settle=2.0).metrics["max_path_error_settled"])
+
+
+@pytest.mark.parametrize("settle, error, message", [
+    (-1, twip.InvalidParameterError, "settle must be finite and >= 0, got -1"),
+    (float("nan"), twip.InvalidParameterError, "settle must be finite and >= 0, got nan"),
+    ("1", TypeError, r"settle must be a real number, got '1' \(str\)"),
+])
+def test_a_settle_time_is_a_finite_time_from_the_start(settle, error, message):
+    sc = scenarios.get("circle-pid", laps=1)
+    with pytest.raises(error, match=message):
+        sc.run(t_final=0.1, settle=settle)
 
 
 def test_invalid_samples_are_counted_per_reason_and_absolute_spreads_warned():
