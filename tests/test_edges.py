@@ -160,6 +160,14 @@ def test_a_streamed_sweep_summarises_from_the_shards_as_the_in_memory_one(tmp_pa
     with pytest.raises(twip.MemoryBudgetError, match="summary"):
         streamed.metrics
     assert sum(len(p["index"]) for p in streamed.shards()) == 300
+    for s in (streamed, whole):  # the same checks in memory and from the shards
+        with pytest.raises(twip.InvalidParameterError, match="quantiles: unknown metric 'zz'; this sweep has t_end"):
+            s.quantiles("zz")  # a KeyError in memory
+        with pytest.raises(twip.InvalidParameterError, match=r"q = \(1.5,\): quantile levels must be in \[0, 1\]"):
+            s.quantiles("peak_current", q=(1.5,))
+        for bad in (float("nan"), -1):  # counted nothing, and every sample
+            with pytest.raises(twip.InvalidParameterError, match=f"stall_current must be finite and > 0, got {bad}"):
+                s.over_stall_current(bad)
     assert "300 samples" in repr(streamed)
 
 
