@@ -361,12 +361,26 @@ def test_non_real_entries_are_refused_with_their_index(x0, index, kind):
 @pytest.mark.parametrize("kw, message", [
     (dict(record_every=-1), "record_every = -1"), (dict(record_every=0), "record_every = 0"),
     (dict(record_every=1.5), "record_every = 1.5"), (dict(t_final="1"), "t_final = '1'"),
+    (dict(control_period=0.0), "control_period must be finite and > 0, got 0.0"),  # was "invalid period = 0"
 ])
 def test_simulate_counts_and_times_are_checked(kw, message):
     sc = scenarios.get("flat-lqr-sim")
     args = dict(t_final=0.1, **kw) if "t_final" not in kw else kw
     with pytest.raises(ValueError, match=message):
         twip.simulate(sc.model, sc.controller, np.zeros(4), **args)
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(control_period="x"), r"control_period must be a real number, got 'x' \(str\)"),
+    (dict(fall_limit="a"), r"fall_limit must be a pitch angle \[rad\], got 'a' \(str\)"),
+    (dict(reference=twip.Circle(1.0, 1.0)), r"reference must be a twip.SpeedSchedule \(a trajectory such as twip.Circle"),
+])
+def test_simulate_arguments_of_the_wrong_type_are_type_errors_naming_them(kw, message):
+    # Were "must be real number, not str", "could not convert string to float: 'a'" and
+    # "'Circle' object is not an instance of 'SpeedSchedule'".
+    sc = scenarios.get("flat-lqr-sim")
+    with pytest.raises(TypeError, match=message):
+        twip.simulate(sc.model, sc.controller, np.zeros(4), 0.1, **kw)
 
 
 @pytest.mark.parametrize("kw, message", [

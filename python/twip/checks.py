@@ -11,6 +11,10 @@ import numpy as np
 from twip import _core
 
 
+#: The types a real number may come as (a bool is an int too: `real` refuses it).
+REAL = (int, float, np.integer, np.floating)
+
+
 def of_type(name: str, value, types, what: str):
     """`value` when it is an instance of `types`; else a TypeError: "`name` must be
     `what`, got `value` (its type)"."""
@@ -22,7 +26,7 @@ def of_type(name: str, value, types, what: str):
 def real(name: str, value, above: Optional[float] = None, at_least: Optional[float] = None) -> float:
     """`value` as a float when it is a finite real number (not a bool), > `above` and
     >= `at_least` where given."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+    if isinstance(value, bool) or not isinstance(value, REAL):
         raise TypeError(f"{name} must be a real number, got {value!r} ({type(value).__name__})")
     try:
         number = float(value)

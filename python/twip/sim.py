@@ -137,6 +137,9 @@ def simulate(
     `stall_current` [A] (the motor's data sheet) a run that asked more carries a warning
     in `SimResult.warnings`.
     """
+    checks.of_type("fall_limit", fall_limit, checks.REAL, "a pitch angle [rad]")
+    if control_period is not None:
+        control_period = checks.real("control_period", control_period, above=0)
     if isinstance(model, _core.PlanarModel):
         if reference is None:
             raise _core.InvalidParameterError(
@@ -155,6 +158,8 @@ def simulate(
             raise _core.InvalidParameterError("settle: only a PlanarModel (3-DOF tracking) takes settle")
         if reference is None:
             reference = _core.SpeedSchedule.constant(0.0)
+        checks.of_type("reference", reference, _core.SpeedSchedule,
+                       "a twip.SpeedSchedule (a trajectory such as twip.Circle goes with a PlanarModel)")
 
         def run(t_final, record_every):
             return _core.simulate_raw(
