@@ -303,6 +303,17 @@ def test_weights_are_named_signal_by_signal():
             identify(log, robot, ["m_body"], weights=weights)
 
 
+def test_a_driver_or_friction_of_the_wrong_type_is_a_type_error_naming_it():
+    # driver='x' was taken without a word (a log with u needs no driver), friction='x'
+    # raised "'str' object is not an instance of 'Friction'".
+    t = np.arange(0, 1, 1e-3)
+    log = RunLog(t, u=np.zeros_like(t), phi=np.zeros_like(t))
+    for kw, message in ((dict(driver="x"), r"driver must be a twip.MotorDriver or None, got 'x' \(str\)"),
+                        (dict(friction="x"), r"friction must be a twip.Friction or None, got 'x' \(str\)")):
+        with pytest.raises(TypeError, match=message):
+            identify(log, twip.RobotParams.balanbot(), ["m_body"], **kw)
+
+
 def test_a_log_of_the_wrong_type_is_a_type_error_naming_it():
     # Both were AttributeErrors ('NoneType' object has no attribute 'u').
     with pytest.raises(TypeError, match=r"log must be a twip.RunLog, got None \(NoneType\)"):

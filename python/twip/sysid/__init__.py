@@ -48,6 +48,8 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
     params = getattr(robot, "params", robot)
     if not isinstance(params, _core.RobotParams):
         raise LogError(f"robot: {type(robot).__name__} is not a RobotParams or a twip.Robot")
+    checks.of_type("driver", driver, (_core.MotorDriver, type(None)), "a twip.MotorDriver or None")
+    checks.of_type("friction", friction, (_core.Friction, type(None)), "a twip.Friction or None")
     if driver is None:
         driver = getattr(robot, "driver", None) or _core.MotorDriver()
     if isinstance(free, str):
