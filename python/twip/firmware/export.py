@@ -199,7 +199,10 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
         "Makefile": (here / "Makefile").read_text().replace("@TWIP_SRC@", str(src)),
     }
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise _core.InvalidParameterError(f"out = {str(out)!r}: cannot create the folder ({e.strerror})") from None
     for name, text in files.items():
         (out / name).write_text(text)
     return {"family": fam.name, "updates": len(rec["t"]), "outcome": rec["outcome"], "files": sorted(files),
