@@ -191,6 +191,7 @@ def test_invalid_draws_are_reported_per_sample_not_raised():
         (dict(perturb={"m_body": 0.2}), "expected twip.Uniform"),
         (dict(threads=0), "threads"),
         (dict(seed=-1), "seed"),
+        (dict(seed=True), r"seed = True: must be an integer"),  # was taken as seed 1, as n=True is not
     ],
 )
 def test_bad_input(kwargs, message):

@@ -176,7 +176,7 @@ def montecarlo(
     """
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n <= 0:
         raise _bad(f"n = {n!r}: the number of samples must be a positive integer")
-    if not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
         raise _bad(f"seed = {seed!r}: must be an integer in [0, 2**64)")
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
                                 or not 1 <= threads <= _core.MAX_THREADS):
