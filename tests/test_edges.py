@@ -199,6 +199,14 @@ def test_a_streamed_sweep_summarises_from_the_shards_as_the_in_memory_one(tmp_pa
     with pytest.raises(twip.MemoryBudgetError, match="summary"):
         streamed.metrics
     assert sum(len(p["index"]) for p in streamed.shards()) == 300
+    for s in (streamed, whole):  # the same checks in memory and from the shards
+        with pytest.raises(twip.InvalidParameterError, match="quantiles: unknown metric 'zz'; this sweep has t_end"):
+            s.quantiles("zz")  # a KeyError in memory
+        with pytest.raises(twip.InvalidParameterError, match=r"q = \(1.5,\): quantile levels must be in \[0, 1\]"):
+            s.quantiles("peak_current", q=(1.5,))
+        for bad in (float("nan"), -1):  # counted nothing, and every sample
+            with pytest.raises(twip.InvalidParameterError, match=f"stall_current must be finite and > 0, got {bad}"):
+                s.over_stall_current(bad)
     assert "300 samples" in repr(streamed)
 
 
@@ -392,12 +400,26 @@ def test_non_real_entries_are_refused_with_their_index(x0, index, kind):
 @pytest.mark.parametrize("kw, message", [
     (dict(record_every=-1), "record_every = -1"), (dict(record_every=0), "record_every = 0"),
     (dict(record_every=1.5), "record_every = 1.5"), (dict(t_final="1"), "t_final = '1'"),
+    (dict(control_period=0.0), "control_period must be finite and > 0, got 0.0"),  # was "invalid period = 0"
 ])
 def test_simulate_counts_and_times_are_checked(kw, message):
     sc = scenarios.get("flat-lqr-sim")
     args = dict(t_final=0.1, **kw) if "t_final" not in kw else kw
     with pytest.raises(ValueError, match=message):
         twip.simulate(sc.model, sc.controller, np.zeros(4), **args)
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(control_period="x"), r"control_period must be a real number, got 'x' \(str\)"),
+    (dict(fall_limit="a"), r"fall_limit must be a pitch angle \[rad\], got 'a' \(str\)"),
+    (dict(reference=twip.Circle(1.0, 1.0)), r"reference must be a twip.SpeedSchedule \(a trajectory such as twip.Circle"),
+])
+def test_simulate_arguments_of_the_wrong_type_are_type_errors_naming_them(kw, message):
+    # Were "must be real number, not str", "could not convert string to float: 'a'" and
+    # "'Circle' object is not an instance of 'SpeedSchedule'".
+    sc = scenarios.get("flat-lqr-sim")
+    with pytest.raises(TypeError, match=message):
+        twip.simulate(sc.model, sc.controller, np.zeros(4), 0.1, **kw)
 
 
 @pytest.mark.parametrize("kw, message", [
@@ -423,12 +445,29 @@ def test_distributions_check_their_types(make, message):
 
 # ---------------------------------------------------------------- 6. honest numbers
 
-def test_settled_metrics_are_nan_when_the_run_ends_before_the_settle_time():
+def test_settled_metrics_are_nan_and_warned_of_when_the_run_ends_before_the_settle_time():
     sc = scenarios.get("circle-pid", laps=1)
-    r = sc.run(t_final=2.0)  # the settled part starts after one lap
+    with pytest.warns(UserWarning, match=r"ended at t = 2 s \(t_final = 2 s\), before settle = 36 s \(by default one lap"):
+        r = sc.run(t_final=2.0)  # the settled part starts after one lap
     for name in ("mean_abs_x_error_settled", "mean_abs_y_error_settled", "max_path_error_settled"):
         assert np.isnan(r.metrics[name]), name
     assert np.isfinite(r.metrics["mean_abs_x_error"])
+    with pytest.warns(UserWarning, match=r"before settle = 2.5 s: the _settled metrics are NaN"):
+        sc.run(t_final=2.0, settle=2.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # settled from the run's last sample on: no warning
+        assert np.isfinite(sc.run(t_final=2.0, settle=2.0).metrics["max_path_error_settled"])
+
+
+@pytest.mark.parametrize("settle, error, message", [
+    (-1, twip.InvalidParameterError, "settle must be finite and >= 0, got -1"),
+    (float("nan"), twip.InvalidParameterError, "settle must be finite and >= 0, got nan"),
+    ("1", TypeError, r"settle must be a real number, got '1' \(str\)"),
+])
+def test_a_settle_time_is_a_finite_time_from_the_start(settle, error, message):
+    sc = scenarios.get("circle-pid", laps=1)
+    with pytest.raises(error, match=message):
+        sc.run(t_final=0.1, settle=settle)
 
 
 def test_invalid_samples_are_counted_per_reason_and_absolute_spreads_warned():
@@ -460,7 +499,9 @@ def test_figure_paths_are_checked_before_a_run(tmp_path):
 @pytest.mark.parametrize("kw, message", [
     (dict(path="a.png"), "must end in .gif"), (dict(fps=1e9), "fps = 1000000000.0"), (dict(fps=0), "fps = 0"),
     (dict(fps="20"), "fps = '20'"), (dict(speed=-1.0), "speed = -1.0"), (dict(size=(10**6, 10)), "size = "),
-    (dict(path="missing/a.gif"), "does not exist"),
+    (dict(path="missing/a.gif"), "does not exist"), (dict(max_seconds=0), "max_seconds must be finite and > 0, got 0"),
+    (dict(max_seconds=float("nan")), "max_seconds must be finite and > 0, got nan"),
+    (dict(max_seconds=-5), "max_seconds must be finite and > 0, got -5"),
 ])
 def test_animation_arguments_are_checked_before_a_run(tmp_path, kw, message):
     from twip import animate
@@ -469,6 +510,19 @@ def test_animation_arguments_are_checked_before_a_run(tmp_path, kw, message):
     kw["path"] = tmp_path / kw["path"]
     with pytest.raises(twip.InvalidParameterError, match=message):
         animate.check_options(**kw)
+
+
+def test_an_animations_max_seconds_and_slope_are_checked_before_drawing(tmp_path):
+    # max_seconds = 0 was a ZeroDivisionError, -5 an IndexError, a NaN slope "cannot
+    # convert float NaN to integer".
+    from twip import animate
+
+    r = scenarios.get("flat-lqr-sim").run(t_final=0.1)
+    with pytest.raises(twip.InvalidParameterError, match="max_seconds must be finite and > 0, got 0"):
+        animate.gif(r, tmp_path / "a.gif", max_seconds=0)
+    with pytest.raises(twip.InvalidParameterError, match="slope must be finite, got nan"):
+        animate.gif(r, tmp_path / "a.gif", slope=float("nan"))
+    assert not (tmp_path / "a.gif").exists()
 
 
 def test_an_animation_too_large_for_the_budget_is_refused_before_drawing(tmp_path):

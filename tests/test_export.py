@@ -128,6 +128,13 @@ def test_bad_arguments_are_named(tmp_path):
                          1e-3, twip.SpeedSchedule.constant(0.0))
     (tmp_path / "file").write_text("")
     assert main(["export", "flat-lqr", "--out", str(tmp_path / "file")]) == 2
+    with pytest.raises(twip.InvalidParameterError, match=r"out = '.*file': cannot create the folder \(File exists\)"):
+        export("flat-lqr", tmp_path / "file")  # was a bare FileExistsError
+    # Both were AttributeErrors ('str' object has no attribute 'params').
+    with pytest.raises(TypeError, match=r"robot must be a twip.Robot \(from a robot file\) or None .*got 'x' \(str\)"):
+        export("flat-lqr", tmp_path, robot="x")
+    with pytest.raises(TypeError, match=r"scenario must be a scenario name or a twip.scenarios.Scenario, got 5 \(int\)"):
+        export(5, tmp_path)
 
 
 def test_a_replay_too_long_for_the_memory_budget_is_refused_before_it_is_recorded(tmp_path):

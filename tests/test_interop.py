@@ -56,3 +56,5 @@ def test_bad_points_are_named():
         interop.to_statespace(model, [0, 0, 0, 0], float("nan"))
     with pytest.raises(TypeError, match="SlopeModel or twip.PlanarModel"):
         interop.to_nlsys(object())
+    with pytest.raises(TypeError, match=r"x0 must be numbers, got 'abcd' \(str\)"):
+        interop.jacobians(model, "abcd", [0.0])  # was numpy's "could not convert string to float"

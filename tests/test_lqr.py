@@ -181,6 +181,9 @@ def test_errors(balanbot):
         twip.simulate(model, ctrl, np.zeros(4), 1.0, 1e-3, reference=twip.SpeedSchedule.constant(1e5))
     with pytest.raises(twip.InvalidParameterError, match="unknown scenario"):
         scenarios.get("no-such-scenario")
+    # Was "_flat_lqr() got an unexpected keyword argument 'zz'", naming a private factory.
+    with pytest.raises(TypeError, match="scenario 'flat-lqr' has no option 'zz'; its options: point, period, hold, settle"):
+        scenarios.get("flat-lqr", zz=1)
     with pytest.raises(twip.InvalidParameterError, match="speed"):
         twip.SpeedSchedule([(1.0, -1.0, 0.0)])
 

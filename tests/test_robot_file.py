@@ -48,6 +48,10 @@ def _write(tmp_path, edit):
     (lambda t: t.replace("stall_current = 7.0", "stall_current = 7.0\nstal = 1"), r"\[motor\] stal: unknown key"),
     (lambda t: t.replace("[driver]", "[drivr]"), r"\[drivr\]: unknown table"),
     (lambda t: t.replace("m_body = 0.8301", "m_body = = 1"), r"not valid TOML"),
+    # The motor's data sheet is read at the battery voltage: a battery of 0 was blamed on [motor].
+    (lambda t: t.replace("battery = 11.1", "battery = 0"), r"r.toml:28: \[driver\] battery: invalid supply = 0"),
+    # "... below the battery voltage" was blamed on battery, the key named in it first.
+    (lambda t: t.replace("bridge_drop = 2.0", "bridge_drop = 20.0"), r"r.toml:29: \[driver\] bridge_drop: invalid bridge_drop"),
 ])
 def test_errors_name_the_file_the_key_and_the_line(tmp_path, edit, message):
     with pytest.raises(twip.InvalidParameterError, match=message):

@@ -191,12 +191,33 @@ def test_invalid_draws_are_reported_per_sample_not_raised():
         (dict(perturb={"m_body": 0.2}), "expected twip.Uniform"),
         (dict(threads=0), "threads"),
         (dict(seed=-1), "seed"),
+        (dict(seed=True), r"seed = True: must be an integer"),  # was taken as seed 1, as n=True is not
     ],
 )
 def test_bad_input(kwargs, message):
     n = kwargs.pop("n", 8)
     with pytest.raises(twip.InvalidParameterError, match=message):
         sweep(n=n, **kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs,message",
+    [
+        (dict(perturb={1: twip.Uniform(abs=0.1)}), r"perturb's keys must be parameter names \(str\), got 1 \(int\)"),
+        (dict(perturb=[("m_body", twip.Uniform(abs=0.1))]), r"perturb must be a dict .*got \[.*\(list\)"),
+        (dict(scenario=5), r"scenario must be a scenario name or a twip.scenarios.Scenario, got 5 \(int\)"),
+        (dict(client=object()), r"client must be a dask.distributed.Client, got <object .*\(object\)"),
+    ],
+)
+def test_arguments_of_the_wrong_type_are_type_errors_naming_them(kwargs, message):
+    # Each was an AttributeError from deep inside ('int' object has no attribute 'startswith').
+    with pytest.raises(TypeError, match=message):
+        sweep(n=8, **kwargs)
+
+
+def test_a_drawn_value_is_asked_for_by_name():
+    with pytest.raises(TypeError, match=r"name must be a perturbation name \(str.*got 0 \(int\)"):
+        sweep(n=2).drawn(0)
 
 
 def test_a_changed_configuration_is_refused_by_the_checkpoint(tmp_path):

@@ -332,6 +332,42 @@ def test_cli_replays_the_imus_filter_on_raw_register_columns(tmp_path, capsys):
     assert "dlpf_hz = 43" in capsys.readouterr().err
 
 
+def test_weights_are_named_signal_by_signal():
+    # {'zz': 1} was reported as "the noise level of 'phi' ... got None".
+    t = np.arange(0, 1, 1e-3)
+    log = RunLog(t, u=np.zeros_like(t), phi=np.zeros_like(t), theta=np.zeros_like(t))
+    robot = twip.RobotParams.balanbot()
+    for weights, error, message in (
+            ({"zz": 1.0}, LogError, "weights: 'zz' is not a compared signal; give one for each compared signal: phi, theta"),
+            ({"phi": 1.0}, LogError, "weights: no noise level for 'theta'; give one for each compared signal: phi, theta"),
+            ({"phi": 1.0, "theta": float("nan")}, twip.InvalidParameterError, r"weights\['theta'\] must be finite and > 0, got nan"),
+            ({"phi": -1, "theta": 1.0}, twip.InvalidParameterError, r"weights\['phi'\] must be finite and > 0, got -1"),
+            ({"phi": "1", "theta": 1.0}, TypeError, r"weights\['phi'\] must be a real number, got '1' \(str\)"),
+            ([1.0], TypeError, r"weights must be a dict \{signal: noise standard deviation\}, got \[1.0\] \(list\)")):
+        with pytest.raises(error, match=message):
+            identify(log, robot, ["m_body"], weights=weights)
+
+
+def test_a_driver_or_friction_of_the_wrong_type_is_a_type_error_naming_it():
+    # driver='x' was taken without a word (a log with u needs no driver), friction='x'
+    # raised "'str' object is not an instance of 'Friction'".
+    t = np.arange(0, 1, 1e-3)
+    log = RunLog(t, u=np.zeros_like(t), phi=np.zeros_like(t))
+    for kw, message in ((dict(driver="x"), r"driver must be a twip.MotorDriver or None, got 'x' \(str\)"),
+                        (dict(friction="x"), r"friction must be a twip.Friction or None, got 'x' \(str\)")):
+        with pytest.raises(TypeError, match=message):
+            identify(log, twip.RobotParams.balanbot(), ["m_body"], **kw)
+
+
+def test_a_log_of_the_wrong_type_is_a_type_error_naming_it():
+    # Both were AttributeErrors ('NoneType' object has no attribute 'u').
+    with pytest.raises(TypeError, match=r"log must be a twip.RunLog, got None \(NoneType\)"):
+        identify(None, twip.RobotParams.balanbot(), ["m_body"])
+    fit = identify(run_of("flat-lqr", 1.0).to_log(), twip.RobotParams.balanbot(), ["m_body"], max_iter=1)
+    with pytest.raises(TypeError, match=r"other must be a twip.RunLog \(the run to predict\), got 'x' \(str\)"):
+        fit.validate("x")
+
+
 def test_cli_end_to_end(tmp_path, capsys):
     log = run_of("slope-lqr", 6.0).to_log()
     rng = np.random.default_rng(1)

@@ -18,7 +18,7 @@ from typing import Optional
 
 import numpy as np
 
-from twip import _core, budget
+from twip import _core, budget, checks
 
 BACKGROUND = (250, 250, 247)
 GROUND = (222, 205, 170)
@@ -156,10 +156,11 @@ def _save(frames, path, fps):
 MAX_FPS = 100.0
 
 
-def check_options(path, fps: float = 20.0, speed: Optional[float] = None, size=None) -> None:
+def check_options(path, fps: float = 20.0, speed: Optional[float] = None, size=None,
+                  max_seconds: float = 15.0) -> None:
     """Refuses, before any run or drawing, a GIF path whose folder is missing or whose
-    name does not end in .gif, and an fps, speed or size that is not a positive number
-    (fps at most MAX_FPS)."""
+    name does not end in .gif, and an fps, speed, size or max_seconds that is not a
+    positive number (fps at most MAX_FPS)."""
     from twip.plot import check_folder
 
     if not str(path).lower().endswith(".gif"):
@@ -173,6 +174,7 @@ def check_options(path, fps: float = 20.0, speed: Optional[float] = None, size=N
     if size is not None and not (isinstance(size, (tuple, list)) and len(size) == 2
                                  and all(isinstance(v, int) and not isinstance(v, bool) and 16 <= v <= 4096 for v in size)):
         raise _core.InvalidParameterError(f"size = {size!r}: must be (width, height) in pixels, each 16..4096")
+    checks.real("max_seconds", max_seconds, above=0)
 
 
 def _check_frames(count: int, size) -> None:
@@ -196,7 +198,9 @@ def gif(result, path, scenario=None, params=None, slope: Optional[float] = None,
         from twip import RobotParams
 
         params = RobotParams.balanbot()
-    check_options(path, fps, speed, size)
+    if slope is not None:
+        checks.real("slope", slope)
+    check_options(path, fps, speed, size, max_seconds)
     t = np.asarray(result.t)
     duration = float(t[-1] - t[0])
     speed = _speed(duration, speed, max_seconds)

@@ -41,7 +41,10 @@ def _names(model):
 
 
 def _vector(name, value, n) -> np.ndarray:
-    v = np.asarray(value, dtype=float).ravel()
+    try:
+        v = np.asarray(value, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be numbers, got {value!r} ({type(value).__name__})") from None
     if v.shape != (n,):
         raise _core.ShapeError(f"{name} has shape {np.shape(value)}, expected ({n},)")
     if not np.all(np.isfinite(v)):

@@ -7,7 +7,7 @@ import warnings
 from dataclasses import dataclass
 from typing import Callable, Mapping, Tuple
 
-from twip import _core, user_sweep
+from twip import _core, checks, user_sweep
 from twip.distributions import Normal, Uniform
 
 _bad = _core.InvalidParameterError
@@ -57,6 +57,7 @@ def kernel_for(sc, realism=None) -> str:
 
 def target(name: str, sc):
     """(kind, index) of a perturbation name: ("param", field), ("slope", 0) or ("x0", entry)."""
+    checks.of_type("name", name, str, "a perturbation name (str: a RobotParams field, 'slope' or a state name)")
     fields = list(_core.RobotParams.fields)
     family = family_of(sc)
     states = family.states
@@ -83,7 +84,9 @@ def target(name: str, sc):
 def resolve(perturb: Mapping, scenario) -> list:
     """Perturbations as tuples for the core, in key order (the draw order)."""
     out = []
-    for name, dist in (perturb or {}).items():
+    perturb = checks.of_type("perturb", perturb or {}, Mapping, "a dict {name: twip.Uniform or twip.Normal}")
+    for name, dist in perturb.items():
+        checks.of_type("perturb's keys", name, str, "parameter names (str)")
         kind, index = target(name, scenario)
         if kind == "param":
             nominal = getattr(scenario.model.params, name)

@@ -88,6 +88,20 @@ def _fail(path, text, table, key, message) -> RobotFileError:
     return RobotFileError(f"{path}:{line}: {where}: {message}")
 
 
+#: Arguments of the core's constructors that hold a key of another table: the motor's
+#: data sheet is read at the [driver]'s battery voltage.
+_PASSED_ON = {"supply": ("driver", "battery")}
+
+
+def _core_error(path, text, table: str, keys, error: Exception) -> RobotFileError:
+    """A core constructor's error, under the key of the file its message names first (the
+    one it is about: "invalid bridge_drop = 2: ... below the battery voltage")."""
+    message = str(error)
+    places = {**{key: (table, key) for key in keys}, **_PASSED_ON}
+    named = [(m.start(), place) for name, place in places.items() if (m := re.search(rf"\b{name}\b", message))]
+    return _fail(path, text, *(min(named)[1] if named else (table, None)), message)
+
+
 def _numbers(path, text, data: dict, table: str, allowed: Dict[str, tuple]) -> Dict[str, float]:
     values = data.get(table, {})
     if not isinstance(values, dict):
@@ -149,8 +163,7 @@ def load(path) -> Robot:
     try:
         params = _core.RobotParams.from_dict(given)
     except _core.InvalidParameterError as e:
-        key = next((k for k in FIELDS if re.search(rf"\b{k}\b", str(e))), None)
-        raise _fail(path, text, "robot", key, str(e)) from None
+        raise _core_error(path, text, "robot", FIELDS, e) from None
     motor = stall = None
     if "motor" in data:
         sheet = _numbers(path, text, data, "motor", MOTOR)
@@ -161,8 +174,7 @@ def load(path) -> Robot:
         try:
             motor = _core.DcMotor.from_data_sheet(gear_ratio=params.gear_ratio, supply=supply, **sheet)
         except _core.InvalidParameterError as e:
-            key = next((k for k in MOTOR if k in str(e)), None)
-            raise _fail(path, text, "motor", key, str(e)) from None
+            raise _core_error(path, text, "motor", MOTOR, e) from None
         stall = sheet["stall_current"]
     driver = None
     if "driver" in data:
@@ -174,8 +186,7 @@ def load(path) -> Robot:
         try:
             driver = _core.MotorDriver(**settings)
         except _core.InvalidParameterError as e:
-            key = next((k for k in DRIVER if k in str(e)), None)
-            raise _fail(path, text, "driver", key, str(e)) from None
+            raise _core_error(path, text, "driver", DRIVER, e) from None
     elif motor is not None:
         driver = _core.MotorDriver.thesis_like().replace(resistance=motor.resistance)
     return Robot(params=params, motor=motor, driver=driver, stall_current=stall)

@@ -2,12 +2,13 @@
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
 
-from twip import _core, budget
+from twip import _core, budget, checks
 
 #: Log columns of a run besides the controller's internals: t, state, input, reference.
 _LOG_COLUMNS = {"slope": 1 + 4 + 1 + 2, "planar": 1 + 7 + 2 + 7}
@@ -138,22 +139,29 @@ def simulate(
     `stall_current` [A] (the motor's data sheet) a run that asked more carries a warning
     in `SimResult.warnings`.
     """
+    checks.of_type("fall_limit", fall_limit, checks.REAL, "a pitch angle [rad]")
+    if control_period is not None:
+        control_period = checks.real("control_period", control_period, above=0)
     if isinstance(model, _core.PlanarModel):
         if reference is None:
             raise _core.InvalidParameterError(
                 "reference is required for a PlanarModel: a twip.Circle, Line, FigureEight or Waypoints")
+        if settle is not None:
+            settle = checks.real("settle", settle, at_least=0)
 
         def run(t_final, record_every):
             return _core.simulate_planar_raw(
                 model, controller, x0, float(t_final), float(dt), reference,
                 control_period=control_period, fall_limit=float(fall_limit), record_every=min(int(record_every), _MAX_RECORD_EVERY),
-                settle=None if settle is None else float(settle), realism=realism,
+                settle=settle, realism=realism,
             )
     else:
         if settle is not None:  # the settled metrics are the tracking ones
             raise _core.InvalidParameterError("settle: only a PlanarModel (3-DOF tracking) takes settle")
         if reference is None:
             reference = _core.SpeedSchedule.constant(0.0)
+        checks.of_type("reference", reference, _core.SpeedSchedule,
+                       "a twip.SpeedSchedule (a trajectory such as twip.Circle goes with a PlanarModel)")
 
         def run(t_final, record_every):
             return _core.simulate_raw(
@@ -181,6 +189,8 @@ def simulate(
     raw = run(t_final, record_every)
     names = raw["internal_names"]
     metrics = dict(raw["metrics"])
+    if isinstance(model, _core.PlanarModel):
+        warn_if_unsettled(metrics, float(raw["t"][-1]), settle is None, t_final)
     internals = {n: raw["internals"][:, i] for i, n in enumerate(names)}
     return SimResult(
         t=raw["t"],
@@ -218,6 +228,15 @@ def _user_internals(controller) -> int:
         return 0
     logged = internals()
     return len(logged) if isinstance(logged, dict) else 0
+
+
+def warn_if_unsettled(metrics: dict, end: float, by_default: bool, t_final: float) -> None:
+    """Warns when a tracking run ended before its settled metrics begin (they are NaN)."""
+    settle = metrics["settle"]
+    if end < settle:
+        what = f"settle = {settle:g} s" + (" (by default one lap of the path)" if by_default else "")
+        warnings.warn(f"the run ended at t = {end:g} s (t_final = {t_final:g} s), before {what}: the _settled "
+                      f"metrics are NaN; run to t_final >= {settle:g} s or pass a smaller settle", stacklevel=3)
 
 
 def _positive_real(name: str, value) -> float:

@@ -26,7 +26,7 @@ from typing import Mapping, Optional, Sequence
 
 import numpy as np
 
-from twip import _core, budget, user_sweep
+from twip import _core, budget, checks, user_sweep
 from twip.checkpoint import Checkpoint
 from twip.distributions import Normal, Uniform, finite_number, wilson_interval  # noqa: F401 (re-exported)
 from twip.perturbation import PLANAR_STATE_NAMES, STATE_NAMES, family_of, kernel_for, resolve  # noqa: F401
@@ -45,6 +45,7 @@ BYTES_PER_SAMPLE = 320
 def _scenario_of(scenario, params, options):
     from twip import scenarios
 
+    checks.of_type("scenario", scenario, (str, scenarios.Scenario), "a scenario name or a twip.scenarios.Scenario")
     if isinstance(scenario, str):
         return scenarios.get(scenario, params=params, **(options or {}))
     if params is not None or options:
@@ -175,11 +176,13 @@ def montecarlo(
     """
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n <= 0:
         raise _bad(f"n = {n!r}: the number of samples must be a positive integer")
-    if not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
         raise _bad(f"seed = {seed!r}: must be an integer in [0, 2**64)")
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
                                 or not 1 <= threads <= _core.MAX_THREADS):
         raise _bad(f"threads = {threads!r}: must be an integer from 1 to {_core.MAX_THREADS}, or None (all cores)")
+    if client is not None and not callable(getattr(client, "submit", None)):
+        raise TypeError(f"client must be a dask.distributed.Client, got {client!r} ({type(client).__name__})")
     if client is not None and not isinstance(scenario, str):
         raise _bad("client= (Dask) needs a scenario name, so that workers can rebuild it")
     traces = _trace_indices(traces, n, trace_every)

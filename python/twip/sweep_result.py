@@ -8,7 +8,7 @@ from typing import Dict, Mapping, Optional, Tuple
 
 import numpy as np
 
-from twip import _core, budget
+from twip import _core, budget, checks
 from twip.distributions import wilson_interval
 from twip.perturbation import STATE_UNITS, family_of, target
 from twip.quantiles import streamed_quantiles_of
@@ -74,6 +74,7 @@ class SweepResult:
 
     def quantiles(self, name: str, q=(0.05, 0.5, 0.95)) -> np.ndarray:
         """Quantiles of a metric over valid samples that did not fall."""
+        check_quantiles(self, [name], q)
         keep = self.valid & ~self.metrics["fell"]
         values = self.metrics[name][keep]
         return np.quantile(values, q) if len(values) else np.full(len(q), np.nan)
@@ -156,6 +157,7 @@ class SweepResult:
 
     def over_stall_current(self, stall_current: float) -> int:
         """How many samples asked one motor for more than `stall_current` [A]."""
+        stall_current = checks.real("stall_current", stall_current, above=0)
         peak = np.asarray(self.metrics.get("peak_current", []), float)
         return int(np.sum(peak > stall_current))
 
@@ -222,6 +224,19 @@ class SweepResult:
 MAX_CLASSIFIED = 10_000
 
 
+def check_quantiles(result, names, q) -> None:
+    """Refuses a name that is not one of `result`'s metrics and a level `q` outside [0, 1]."""
+    for name in names:
+        if name not in result.metric_names[1:]:
+            raise _bad(f"quantiles: unknown metric {name!r}; this sweep has {', '.join(result.metric_names[1:])}")
+    try:
+        levels = np.asarray(q, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"q must be quantile levels (numbers in [0, 1]), got {q!r}") from None
+    if not np.all((levels >= 0) & (levels <= 1)):
+        raise _bad(f"q = {q!r}: quantile levels must be in [0, 1]")
+
+
 def invalid_reason(result, index: int) -> str:
     """Why sample `index` is invalid: the model's complaint about its robot, without the
     value (so that samples group), e.g. "m_body: must be > 0"."""
@@ -280,6 +295,7 @@ class StreamedSweepResult(SweepResult):
         return self._store.shards(self._layout)
 
     def over_stall_current(self, stall_current: float) -> int:
+        stall_current = checks.real("stall_current", stall_current, above=0)
         return sum(int(np.sum(np.asarray(part["peak_current"], float) > stall_current)) for part in self.shards())
 
     def _counts(self) -> dict:
@@ -326,9 +342,7 @@ class StreamedSweepResult(SweepResult):
 
     def quantiles_of(self, names, q=(0.05, 0.5, 0.95)) -> Dict[str, np.ndarray]:
         """{name: quantiles(name, q)} for several metrics, in the same passes over the shards."""
-        for name in names:
-            if name not in self.metric_names[1:]:
-                raise _bad(f"quantiles: unknown metric '{name}'; this sweep has {', '.join(self.metric_names[1:])}")
+        check_quantiles(self, names, q)
 
         def values():
             for part in self.shards():

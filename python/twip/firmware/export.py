@@ -23,8 +23,9 @@ from typing import Optional
 
 import numpy as np
 
-from twip import _core, budget, scenarios
+from twip import _core, budget, checks, scenarios
 from twip.firmware import header, units
+from twip.robot_file import Robot
 
 #: Largest relative difference `make check` accepts (of the largest recorded command).
 REPLAY_TOLERANCE = 1e-5
@@ -175,6 +176,8 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
         raise _core.InvalidParameterError(f"units = {units_!r}: must be one of {', '.join(UNITS)}")
     if not (isinstance(replay_seconds, (int, float)) and math.isfinite(replay_seconds) and replay_seconds > 0):
         raise _core.InvalidParameterError(f"replay_seconds = {replay_seconds!r}: must be a finite number > 0")
+    checks.of_type("scenario", scenario, (str, scenarios.Scenario), "a scenario name or a twip.scenarios.Scenario")
+    checks.of_type("robot", robot, (Robot, type(None)), "a twip.Robot (from a robot file) or None (the Balanbot)")
     params = robot.params if robot is not None else None
     sc = scenarios.get(scenario, params=params) if isinstance(scenario, str) else scenario
     realism = robot.realism() if robot is not None else _core.Realism.thesis_like()
@@ -209,7 +212,10 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
         "Makefile": (here / "Makefile").read_text().replace("@TWIP_SRC@", str(src)),
     }
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise _core.InvalidParameterError(f"out = {str(out)!r}: cannot create the folder ({e.strerror})") from None
     for name, text in files.items():
         (out / name).write_text(text)
     return {"family": fam.name, "updates": len(rec["t"]), "outcome": rec["outcome"], "files": sorted(files),

@@ -103,6 +103,14 @@ def get(name: str, params=None, controller_params=None, **options) -> Scenario:
     """The scenario `name` for robot `params` (default: RobotParams.balanbot())."""
     if name not in _REGISTRY:
         raise _core.InvalidParameterError(f"unknown scenario '{name}'; known: {', '.join(names())}")
+    _check_options(name, options)
     params = params if params is not None else _core.RobotParams.balanbot()
     return _REGISTRY[name](params, controller_params or params, **options)
 
+
+def _check_options(name: str, given) -> None:
+    """Refuses an option that scenario `name` does not take, naming the ones it does."""
+    known = options(name)
+    for key in given:
+        if key not in known and "**" not in known:
+            raise TypeError(f"scenario '{name}' has no option {key!r}; its options: {', '.join(known) or 'none'}")

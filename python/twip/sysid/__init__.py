@@ -11,7 +11,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from twip import _core
+from twip import _core, checks
 from twip.sysid import closed_loop
 from twip.sysid.estimator import Estimator, Problem
 from twip.sysid.fit import Fit, Undetermined
@@ -44,9 +44,12 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
       default standing still); `controller` alone also adds `Fit.closed_loop_rms`, the
       fitted robot's closed-loop simulation error.
     """
+    checks.of_type("log", log, RunLog, "a twip.RunLog")
     params = getattr(robot, "params", robot)
     if not isinstance(params, _core.RobotParams):
         raise LogError(f"robot: {type(robot).__name__} is not a RobotParams or a twip.Robot")
+    checks.of_type("driver", driver, (_core.MotorDriver, type(None)), "a twip.MotorDriver or None")
+    checks.of_type("friction", friction, (_core.Friction, type(None)), "a twip.Friction or None")
     if driver is None:
         driver = getattr(robot, "driver", None) or _core.MotorDriver()
     if isinstance(free, str):

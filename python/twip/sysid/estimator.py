@@ -15,11 +15,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Sequence
+from typing import Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
-from twip import _core, budget
+from twip import _core, budget, checks
 from twip.sysid.log import LogError, RunLog
 from twip.sysid.measure import BIASED, OUTPUTS, Sensors, noise_floor, noise_level, predict, settling_samples
 
@@ -272,12 +272,16 @@ class Estimator:
     def __init__(self, problem: Problem, sigma: Optional[Dict[str, float]], max_iter: int):
         self.p = problem
         self.max_iter = max_iter
+        if sigma is not None:  # the caller's weights: one for each compared signal
+            checks.of_type("weights", sigma, Mapping, "a dict {signal: noise standard deviation}")
+            unknown = [s for s in sigma if s not in problem.outputs]
+            missing = [s for s in problem.outputs if s not in sigma]
+            if unknown or missing:
+                what = f"{unknown[0]!r} is not a compared signal" if unknown else f"no noise level for {missing[0]!r}"
+                raise LogError(f"weights: {what}; give one for each compared signal: {', '.join(problem.outputs)}")
+            sigma = {s: checks.real(f"weights[{s!r}]", v, above=0) for s, v in sigma.items()}
         self.fixed_sigma = sigma is not None
-        self.sigma = dict(sigma) if sigma is not None else {s: noise_level(s, y) for s, y in problem.y.items()}
-        for s in problem.outputs:
-            if not (s in self.sigma and math.isfinite(self.sigma[s]) and self.sigma[s] > 0):
-                raise LogError(f"weights: the noise level of {s!r} must be a finite number > 0, "
-                               f"got {self.sigma.get(s)!r}")
+        self.sigma = sigma if sigma is not None else {s: noise_level(s, y) for s, y in problem.y.items()}
         self.ranges = problem.ranges
         self.n_g = len(problem.unknowns) + len(problem.biased)
 

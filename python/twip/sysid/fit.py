@@ -9,6 +9,7 @@ from typing import Callable, Dict, List, Optional, Tuple
 import numpy as np
 from scipy import stats
 
+from twip import checks
 from twip.sysid.estimator import Estimator, Problem, Solution
 from twip.sysid.log import RunLog
 
@@ -136,6 +137,7 @@ class Fit:
     def validate(self, other: RunLog, segment: Optional[float] = None) -> Dict[str, float]:
         """Predicts `other` with the fitted robot (its own start states fitted, parameters held)
         and returns the RMS error of each signal there."""
+        checks.of_type("other", other, RunLog, "a twip.RunLog (the run to predict)")
         p = self._problem
         params = self.robot
         check = Problem(other, params, [], self.driver or p.driver, p.friction, segment or _segment_of(p),

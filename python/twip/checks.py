@@ -1,0 +1,38 @@
+"""Checks of a caller's arguments, shared by the package's modules: a value of the wrong
+type is a TypeError, a number out of range a `twip.InvalidParameterError` (a ValueError),
+each naming the parameter and the value it got."""
+from __future__ import annotations
+
+import math
+from typing import Optional
+
+import numpy as np
+
+from twip import _core
+
+
+#: The types a real number may come as (a bool is an int too: `real` refuses it).
+REAL = (int, float, np.integer, np.floating)
+
+
+def of_type(name: str, value, types, what: str):
+    """`value` when it is an instance of `types`; else a TypeError: "`name` must be
+    `what`, got `value` (its type)"."""
+    if not isinstance(value, types):
+        raise TypeError(f"{name} must be {what}, got {value!r} ({type(value).__name__})")
+    return value
+
+
+def real(name: str, value, above: Optional[float] = None, at_least: Optional[float] = None) -> float:
+    """`value` as a float when it is a finite real number (not a bool), > `above` and
+    >= `at_least` where given."""
+    if isinstance(value, bool) or not isinstance(value, REAL):
+        raise TypeError(f"{name} must be a real number, got {value!r} ({type(value).__name__})")
+    try:
+        number = float(value)
+    except OverflowError:  # an int beyond any float (10**400)
+        number = math.inf
+    if not (math.isfinite(number) and (above is None or number > above) and (at_least is None or number >= at_least)):
+        bound = f" and > {above:g}" if above is not None else f" and >= {at_least:g}" if at_least is not None else ""
+        raise _core.InvalidParameterError(f"{name} must be finite{bound}, got {value!r}")
+    return number
