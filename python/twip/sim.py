@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -189,8 +188,9 @@ def simulate(
     raw = run(t_final, record_every)
     names = raw["internal_names"]
     metrics = dict(raw["metrics"])
+    notes = stall_warnings(metrics, stall_current)
     if isinstance(model, _core.PlanarModel):
-        warn_if_unsettled(metrics, float(raw["t"][-1]), settle is None, t_final)
+        notes += unsettled_warnings(metrics, float(raw["t"][-1]), settle is None, t_final)
     internals = {n: raw["internals"][:, i] for i, n in enumerate(names)}
     return SimResult(
         t=raw["t"],
@@ -205,7 +205,7 @@ def simulate(
         metrics=metrics,
         signals={} if raw.get("signals") is None else {
             n: raw["signals"][:, i] for i, n in enumerate(raw["signal_names"])},
-        warnings=stall_warnings(metrics, stall_current),
+        warnings=notes,
         slope=None if isinstance(model, _core.PlanarModel) else model.slope,
         realism=realism,
     )
@@ -230,13 +230,14 @@ def _user_internals(controller) -> int:
     return len(logged) if isinstance(logged, dict) else 0
 
 
-def warn_if_unsettled(metrics: dict, end: float, by_default: bool, t_final: float) -> None:
-    """Warns when a tracking run ended before its settled metrics begin (they are NaN)."""
+def unsettled_warnings(metrics: dict, end: float, by_default: bool, t_final: float) -> tuple:
+    """A warning when a tracking run ended before its settled metrics begin (they are NaN)."""
     settle = metrics["settle"]
-    if end < settle:
-        what = f"settle = {settle:g} s" + (" (by default one lap of the path)" if by_default else "")
-        warnings.warn(f"the run ended at t = {end:g} s (t_final = {t_final:g} s), before {what}: the _settled "
-                      f"metrics are NaN; run to t_final >= {settle:g} s or pass a smaller settle", stacklevel=3)
+    if not end < settle:
+        return ()
+    what = f"settle = {settle:g} s" + (" (by default one lap of the path)" if by_default else "")
+    return (f"the run ended at t = {end:g} s (t_final = {t_final:g} s), before {what}: the _settled "
+            f"metrics are NaN; run to t_final >= {settle:g} s or pass a smaller settle",)
 
 
 def _positive_real(name: str, value) -> float:
