@@ -55,6 +55,20 @@ def test_driver_limits_and_feed_forward(balanbot):
     assert 2 * flat.current(duty / 255 * (9.6 - 2.0), 0.0, balanbot) < 0.4 * (9.6 - 2) / (11.1 - 2) + 0.03
 
 
+def test_driver_evaluations_refuse_a_nan_or_infinite_input(balanbot):
+    """duty(NaN) was -255 counts, current(NaN) -inf."""
+    m = twip.MotorDriver.thesis_like()
+    for call, name in [
+        (lambda: m.duty(math.nan, 0.0, balanbot), "lumped_current"),
+        (lambda: m.duty(0.1, math.nan, balanbot), "wheel_speed"),
+        (lambda: m.current(math.nan, 0.0, balanbot), "voltage"),
+        (lambda: m.current(1.0, math.inf, balanbot), "wheel_speed"),
+        (lambda: m.wheel_torque(math.inf, 0.0, balanbot), "voltage"),
+    ]:
+        with pytest.raises(twip.NonFiniteError, match=rf"^{name}\[0\] = (NaN|inf)"):
+            call()
+
+
 # --- DLPF -------------------------------------------------------------------------------
 
 

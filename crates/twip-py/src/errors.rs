@@ -70,3 +70,12 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 pub(crate) fn invalid(name: &'static str, value: f64, reason: &'static str) -> PyTwipError {
     PyTwipError(twip_core::TwipError::InvalidParameter { name, value, reason })
 }
+
+/// `value` if it is finite (a time or a parameter), else the error naming it.
+pub(crate) fn finite_param(name: &'static str, value: f64) -> CoreResult<f64> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(invalid(name, value, "must be finite"))
+    }
+}

@@ -13,6 +13,7 @@ use twip_core::hardware::realism::Realism;
 use twip_core::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use twip_core::{RobotParams, TwipError};
 
+use crate::convert::scalar;
 use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::params::PyRobotParams;
 use crate::settings::Reduced;
@@ -355,12 +356,14 @@ impl PyMotorDriver {
     /// speed theta_dot - phi_dot [rad/s] (the robot's torque constant and gear ratio).
     #[pyo3(signature = (voltage, wheel_speed, params = None))]
     fn current(&self, voltage: f64, wheel_speed: f64, params: Option<&PyRobotParams>) -> CoreResult<f64> {
+        let (voltage, wheel_speed) = (scalar("voltage", voltage)?, scalar("wheel_speed", wheel_speed)?);
         Ok(self.inner.current(&params_or_default(params), voltage, wheel_speed)?)
     }
 
     /// Torque of one motor on its wheel [N m] at `voltage` and relative wheel speed.
     #[pyo3(signature = (voltage, wheel_speed, params = None))]
     fn wheel_torque(&self, voltage: f64, wheel_speed: f64, params: Option<&PyRobotParams>) -> CoreResult<f64> {
+        let (voltage, wheel_speed) = (scalar("voltage", voltage)?, scalar("wheel_speed", wheel_speed)?);
         Ok(self.inner.wheel_torque(&params_or_default(params), voltage, wheel_speed)?)
     }
 
@@ -368,6 +371,7 @@ impl PyMotorDriver {
     /// relative wheel speed: R i + back-EMF, rounded and saturated at +-255.
     #[pyo3(signature = (lumped_current, wheel_speed, params = None))]
     fn duty(&self, lumped_current: f64, wheel_speed: f64, params: Option<&PyRobotParams>) -> CoreResult<f64> {
+        let (lumped_current, wheel_speed) = (scalar("lumped_current", lumped_current)?, scalar("wheel_speed", wheel_speed)?);
         Ok(PwmActuator::new(&self.inner, &params_or_default(params))?.duty(lumped_current, wheel_speed))
     }
 
