@@ -79,3 +79,12 @@ pub(crate) fn finite_param(name: &'static str, value: f64) -> CoreResult<f64> {
         Err(invalid(name, value, "must be finite"))
     }
 }
+
+/// `value` if it is finite and > 0, else the error naming it.
+pub(crate) fn positive_param(name: &'static str, value: f64) -> CoreResult<f64> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(invalid(name, value, "must be finite and > 0"))
+    }
+}

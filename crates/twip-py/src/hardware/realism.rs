@@ -2,7 +2,7 @@
 //! `Force`. Each is a frozen, validated settings object; `Realism.to_core` turns them into
 //! the core's `Realism` for one robot (heights left out default to its centre of mass).
 use crate::model::friction::PyFriction;
-use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
+use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
 use twip_core::hardware::backlash::Backlash;
@@ -13,19 +13,15 @@ use twip_core::hardware::realism::Realism;
 use twip_core::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use twip_core::{RobotParams, TwipError};
 
-use crate::convert::scalar;
-use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
+use crate::convert::{scalar, series};
+use crate::errors::{positive_param, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::params::PyRobotParams;
 use crate::settings::Reduced;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 
 fn positive_rate(name: &'static str, rate: f64) -> CoreResult<f64> {
-    if rate.is_finite() && rate > 0.0 {
-        Ok(1.0 / rate)
-    } else {
-        Err(invalid(name, rate, "must be finite and > 0"))
-    }
+    Ok(1.0 / positive_param(name, rate)?)
 }
 
 // --- IMU ------------------------------------------------------------------------------
@@ -169,11 +165,12 @@ impl PyDlpf {
     }
 
     /// Filters `x` (samples at the sample rate), starting in the steady state of x[0].
-    fn filter<'py>(&self, py: Python<'py>, x: PyReadonlyArray1<'py, f64>) -> Bound<'py, PyArray1<f64>> {
+    fn filter<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let x = series("x", x)?;
         let x = x.as_array();
         let mut f = self.inner;
         f.prime(x.first().copied().unwrap_or(0.0));
-        x.iter().map(|v| f.filter(*v)).collect::<Vec<f64>>().into_pyarray(py)
+        Ok(x.iter().map(|v| f.filter(*v)).collect::<Vec<f64>>().into_pyarray(py))
     }
 
 }
@@ -258,17 +255,18 @@ impl PyTiltEstimator {
     fn filter<'py>(
         &self,
         py: Python<'py>,
-        accel_x: PyReadonlyArray1<'py, f64>,
-        accel_z: PyReadonlyArray1<'py, f64>,
-        gyro: PyReadonlyArray1<'py, f64>,
+        accel_x: &Bound<'py, PyAny>,
+        accel_z: &Bound<'py, PyAny>,
+        gyro: &Bound<'py, PyAny>,
         dt: f64,
     ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+        let (accel_x, accel_z, gyro) = (series("accel_x", accel_x)?, series("accel_z", accel_z)?, series("gyro", gyro)?);
         let (ax, az, g) = (accel_x.as_array(), accel_z.as_array(), gyro.as_array());
         if ax.len() != az.len() || ax.len() != g.len() {
             let got = (az.len().min(g.len()), 1);
             return Err(PyTwipError(TwipError::Shape { name: "accel_z, gyro", expected: (ax.len(), 1), got }).into());
         }
-        positive_rate("dt", 1.0 / dt)?;
+        positive_param("dt", dt)?;
         let mut f = TiltFilter::new(self.inner).map_err(PyTwipError)?;
         let (mut phi, mut rate) = (Vec::with_capacity(ax.len()), Vec::with_capacity(ax.len()));
         for k in 0..ax.len() {
