@@ -416,6 +416,10 @@ def test_errors(balanbot):
         (lambda: twip.SmcTracker(model, boundary_layer=-0.1), "width_eta"),
         (lambda: twip.SmcTracker(model, guards=(0.0, 0.2)), "guard_e3"),
         (lambda: twip.SmcTracker(model, fuzzy=True, gamma=(0.05, -1.0)), "gamma2"),
+        # Without fuzzy=True these were kept as 0 (leakage) or dropped (gamma) unseen.
+        (lambda: twip.SmcTracker(model, leakage=math.nan), "leakage"),
+        (lambda: twip.SmcTracker(model, leakage=-1.0), "leakage"),
+        (lambda: twip.SmcTracker(model, gamma=(0.0, 1000.0)), "gamma1"),
         (lambda: twip.SmcTracker(model, pitch="sideways"), "pitch"),
         (lambda: twip.SmcTracker(model, torque_unit="furlong"), "torque_unit"),
         (lambda: twip.PidTracker(balanbot, gains={"kp_pitch": math.inf}), "kp_pitch"),

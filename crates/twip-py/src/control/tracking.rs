@@ -250,7 +250,9 @@ impl PySmcTracker {
             }
         };
         let options = SmcOptions { pitch, width_eta, width_s1, guard_e3: guards.0, guard_d: guards.1, pitch_offset };
-        let adaptation = fuzzy.then_some(Adaptation { gamma1: gamma.0, gamma2: gamma.1, leakage });
+        // Checked with or without fuzzy=True: a setting given is never dropped unseen.
+        let adaptation = Adaptation { gamma1: gamma.0, gamma2: gamma.1, leakage }.validate().map_err(PyTwipError)?;
+        let adaptation = fuzzy.then_some(adaptation);
         let inner = SmcTracker::new(
             smc_gains_from(g),
             options,
