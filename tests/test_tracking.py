@@ -394,6 +394,8 @@ def test_errors(balanbot):
     for make, name in [
         (lambda: twip.Circle(0.0, 0.1), "radius"),
         (lambda: twip.Circle(-1.0, 0.1), "radius"),
+        (lambda: twip.Circle(math.nan, 0.1), "radius"),  # was named "centre", made from it
+        (lambda: twip.Circle(math.inf, 0.1, direction="cw"), "radius"),
         (lambda: twip.Circle(1.0, 0.0), "speed"),
         (lambda: twip.Circle(1.0, 0.1, direction=2), "direction"),
         (lambda: twip.Line(-0.1), "speed"),
