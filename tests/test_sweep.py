@@ -186,6 +186,11 @@ def test_invalid_draws_are_reported_per_sample_not_raised():
         (dict(perturb={"m_body": twip.Uniform(low=0.5, high=math.inf)}), "m_body: high = inf must be a finite"),
         (dict(perturb={"phi0": twip.Normal(mean=math.nan, std=0.1)}), "phi0: mean = nan must be a finite"),
         (dict(perturb={"phi0": twip.Normal(std=0.1, high=math.nan)}), "phi0: .*a bound is NaN"),
+        # Finite, but the draws overflowed to inf (every sample invalid, or NaN metrics).
+        (dict(perturb={"m_body": twip.Uniform(low=-1e308, high=1e308)}), "m_body: .*high - low overflows"),
+        (dict(perturb={"m_body": twip.Uniform(rel=1.5e308)}), "m_body: .*high - low overflows"),
+        (dict(perturb={"m_body": twip.Normal(std=1e308)}), r"m_body: Normal std = 1e\+308 .*overflows"),
+        (dict(perturb={"phi0": twip.Normal(std=1e308, low=-1.0, high=1.0)}), "phi0: Normal std .*overflows"),
         (dict(shard_size=0), "shard_size = 0"),
         (dict(shard_size=-8), "shard_size = -8"),
         (dict(perturb={"m_body": 0.2}), "expected twip.Uniform"),
@@ -197,6 +202,13 @@ def test_bad_input(kwargs, message):
     n = kwargs.pop("n", 8)
     with pytest.raises(twip.InvalidParameterError, match=message):
         sweep(n=n, **kwargs)
+
+
+def test_the_core_refuses_spreads_whose_draws_overflow():
+    sc = scenarios.get("flat-lqr-sim")
+    for spread, name in [(("uniform", -1e308, 1e308, -1e308, 1e308), "high"), (("normal", 1.0, 1e308, -1.0, 1.0), "std")]:
+        with pytest.raises(twip.InvalidParameterError, match=rf"invalid {name} = 10{{308}}: .*overflows"):
+            twip._core.sweep_draw(sc.model, sc.x0, [("param", 0, *spread)], 0, 0)
 
 
 def test_a_changed_configuration_is_refused_by_the_checkpoint(tmp_path):
