@@ -14,7 +14,7 @@ use twip_core::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use twip_core::{RobotParams, TwipError};
 
 use crate::convert::{scalar, series};
-use crate::errors::{positive_param, CoreResult, InvalidParameterError, PyTwipError};
+use crate::errors::{key, positive_param, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::params::PyRobotParams;
 use crate::settings::Reduced;
 
@@ -500,13 +500,6 @@ pub struct PyRealism {
     stream: u64,
 }
 
-fn key(name: &'static str, v: &Bound<'_, PyAny>) -> PyResult<u64> {
-    v.extract::<u64>().map_err(|_| {
-        let value = v.extract::<f64>().unwrap_or(f64::NAN);
-        PyTwipError(TwipError::InvalidParameter { name, value, reason: "must be an integer in [0, 2**64)" }).into()
-    })
-}
-
 #[pymethods]
 impl PyRealism {
     #[new]
@@ -568,10 +561,13 @@ impl PyRealism {
     /// a stick band; `replace(friction=None)` leaves the model's own) and 1 degree of
     /// backlash (`replace(backlash=None)`: none). docs/parameters.md.
     #[staticmethod]
-    #[pyo3(signature = (*, seed = 0, stream = 0))]
-    fn thesis_like(seed: u64, stream: u64) -> Self {
+    // Keys are read by `key` (a bad one is named); the defaults are 0.
+    #[pyo3(signature = (*, seed = None, stream = None), text_signature = "(*, seed=0, stream=0)")]
+    fn thesis_like(seed: Option<&Bound<'_, PyAny>>, stream: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
         let core = Realism::<f64>::thesis_like();
-        Self {
+        let seed = seed.map(|s| key("seed", s)).transpose()?.unwrap_or(0);
+        let stream = stream.map(|s| key("stream", s)).transpose()?.unwrap_or(0);
+        Ok(Self {
             imu: Some(PyImu::thesis_like()),
             estimator: core.estimator,
             encoder_cpr: core.encoder_cpr,
@@ -585,7 +581,7 @@ impl PyRealism {
             backlash: core.backlash.map(|b| b.gap),
             seed,
             stream,
-        }
+        })
     }
 
 }
