@@ -353,6 +353,8 @@ def test_non_real_entries_are_refused_with_their_index(x0, index, kind):
 @pytest.mark.parametrize("kw, message", [
     (dict(record_every=-1), "record_every = -1"), (dict(record_every=0), "record_every = 0"),
     (dict(record_every=1.5), "record_every = 1.5"), (dict(t_final="1"), "t_final = '1'"),
+    # pyo3 (control_period) and float() (fall_limit) named neither.
+    (dict(control_period="x"), "control_period = 'x'"), (dict(fall_limit="a"), "fall_limit = 'a'"),
 ])
 def test_simulate_counts_and_times_are_checked(kw, message):
     sc = scenarios.get("flat-lqr-sim")

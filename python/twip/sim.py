@@ -136,6 +136,13 @@ def simulate(
     `stall_current` [A] (the motor's data sheet) a run that asked more carries a warning
     in `SimResult.warnings`.
     """
+    # Read here so that a wrong type is named (the core's own message does not name it);
+    # _check_log reads t_final and dt.
+    fall_limit = _positive_real("fall_limit", fall_limit)
+    if control_period is not None:
+        control_period = _positive_real("control_period", control_period)
+    if settle is not None:
+        settle = _positive_real("settle", settle)
     if isinstance(model, _core.PlanarModel):
         if reference is None:
             raise _core.InvalidParameterError(

@@ -14,7 +14,7 @@ use twip_core::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use twip_core::{RobotParams, TwipError};
 
 use crate::convert::{scalar, series};
-use crate::errors::{key, positive_param, CoreResult, InvalidParameterError, PyTwipError};
+use crate::errors::{key, naming_argument, positive_param, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::params::PyRobotParams;
 use crate::settings::Reduced;
 
@@ -641,44 +641,49 @@ impl PyRealism {
             let part = |cls: &Bound<'py, PyAny>| -> PyResult<Bound<'py, PyAny>> {
                 if v.is_none() { Ok(v.clone()) } else { cls.call((), Some(&tuples(v.cast::<PyDict>()?)?)) }
             };
-            let value = match key.as_str() {
-                "imu" => part(py.get_type::<PyImu>().as_any())?,
-                "motor" => part(py.get_type::<PyMotorDriver>().as_any())?,
-                "force" => part(py.get_type::<PyForce>().as_any())?,
-                "friction" => part(py.get_type::<PyFriction>().as_any())?,
-                "estimator" => {
-                    let e = tuples(v.cast::<PyDict>()?)?;
-                    let kind = e.get_item("kind")?.ok_or_else(|| InvalidParameterError::new_err("estimator: no 'kind'"))?;
-                    e.del_item("kind")?;
-                    // Only an estimator's own kinds (`PyTiltEstimator::kind`): the name picks
-                    // the class's constructor, and any other attribute of it is no estimator.
-                    let kind: String = kind.extract()?;
-                    if !matches!(kind.as_str(), "complementary" | "kalman") {
-                        return Err(InvalidParameterError::new_err(format!(
-                            "estimator: kind = {kind:?}: must be \"complementary\" or \"kalman\""
-                        )));
+            // A part or entry of the wrong type is named by its key (and its field).
+            let read = || -> PyResult<Bound<'py, PyAny>> {
+                Ok(match key.as_str() {
+                    "imu" => part(py.get_type::<PyImu>().as_any())?,
+                    "motor" => part(py.get_type::<PyMotorDriver>().as_any())?,
+                    "force" => part(py.get_type::<PyForce>().as_any())?,
+                    "friction" => part(py.get_type::<PyFriction>().as_any())?,
+                    "estimator" => {
+                        let e = tuples(v.cast::<PyDict>()?)?;
+                        let kind = e.get_item("kind")?.ok_or_else(|| InvalidParameterError::new_err("estimator: no 'kind'"))?;
+                        e.del_item("kind")?;
+                        // Only an estimator's own kinds (`PyTiltEstimator::kind`): the name picks
+                        // the class's constructor, and any other attribute of it is no estimator.
+                        let kind: String = kind.extract()?;
+                        if !matches!(kind.as_str(), "complementary" | "kalman") {
+                            return Err(InvalidParameterError::new_err(format!(
+                                "estimator: kind = {kind:?}: must be \"complementary\" or \"kalman\""
+                            )));
+                        }
+                        py.get_type::<PyTiltEstimator>().getattr(kind)?.call((), Some(&e))?
                     }
-                    py.get_type::<PyTiltEstimator>().getattr(kind)?.call((), Some(&e))?
-                }
-                "pushes" => {
-                    let list = PyList::empty(py);
-                    for p in v.try_iter()? {
-                        list.append(py.get_type::<PyPush>().call((), Some(&tuples(p?.cast::<PyDict>()?)?))?)?;
+                    "pushes" => {
+                        let list = PyList::empty(py);
+                        for p in v.try_iter()? {
+                            list.append(py.get_type::<PyPush>().call((), Some(&tuples(p?.cast::<PyDict>()?)?))?)?;
+                        }
+                        list.into_any()
                     }
-                    list.into_any()
-                }
-                "slope_profile" => {
-                    let list = PyList::empty(py);
-                    for c in v.try_iter()? {
-                        list.append(PyTuple::new(py, c?.try_iter()?.collect::<PyResult<Vec<_>>>()?)?)?;
+                    "slope_profile" => {
+                        let list = PyList::empty(py);
+                        for c in v.try_iter()? {
+                            list.append(PyTuple::new(py, c?.try_iter()?.collect::<PyResult<Vec<_>>>()?)?)?;
+                        }
+                        list.into_any()
                     }
-                    list.into_any()
-                }
-                _ => v.clone(),
+                    _ => v.clone(),
+                })
             };
+            let value = read().map_err(|e| naming_argument(py, &format!("Realism.from_json: {key}"), e))?;
             kw.set_item(key, value)?;
         }
-        Ok(py.get_type::<Self>().call((), Some(&kw))?.cast_into::<Self>()?.get().clone())
+        let r = py.get_type::<Self>().call((), Some(&kw)).map_err(|e| naming_argument(py, "Realism.from_json", e))?;
+        Ok(r.cast_into::<Self>()?.get().clone())
     }
 }
 
