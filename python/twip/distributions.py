@@ -116,6 +116,14 @@ def finite_number(name, what, value) -> float:
     return value
 
 
+def positive_number(name, what, value) -> float:
+    """`finite_number`, and > 0."""
+    value = finite_number(name, what, value)
+    if not value > 0:
+        raise _bad(f"{name}: {what} = {value} must be > 0")
+    return value
+
+
 def wilson_interval(successes: int, n: int, confidence: float = 0.95):
     """Wilson score interval for a binomial proportion."""
     if isinstance(confidence, bool) or not (isinstance(confidence, (int, float, np.floating)) and 0 < confidence < 1):

@@ -28,7 +28,7 @@ import numpy as np
 
 from twip import _core, budget, user_sweep
 from twip.checkpoint import Checkpoint
-from twip.distributions import Normal, Uniform, finite_number, wilson_interval  # noqa: F401 (re-exported)
+from twip.distributions import Normal, Uniform, finite_number, positive_number, wilson_interval  # noqa: F401 (re-exported)
 from twip.perturbation import PLANAR_STATE_NAMES, STATE_NAMES, family_of, kernel_for, resolve  # noqa: F401
 from twip.sweep_result import StreamedSweepResult, SweepResult  # noqa: F401
 
@@ -196,9 +196,7 @@ def montecarlo(
     perturbations = resolve(perturb or {}, sc)
     config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism)
     if stall_current is not None:  # summary() counts the samples that asked more of a motor
-        stall_current = finite_number("stall_current", "the stall current [A]", stall_current)
-        if stall_current <= 0:
-            raise _bad(f"stall_current = {stall_current}: must be > 0 [A]")
+        stall_current = positive_number("stall_current", "the stall current [A]", stall_current)
     if shard_size is None:
         # Checkpointed sweeps keep at most MAX_SHARDS files (n = 10**9: shards of 10**5).
         shard = max(DEFAULT_SHARD, -(-n // MAX_SHARDS)) if (checkpoint or client) else n

@@ -9,7 +9,7 @@ from typing import Dict, Mapping, Optional, Tuple
 import numpy as np
 
 from twip import _core, budget
-from twip.distributions import wilson_interval
+from twip.distributions import positive_number, wilson_interval
 from twip.perturbation import STATE_UNITS, family_of, target
 from twip.quantiles import streamed_quantiles_of
 
@@ -156,6 +156,7 @@ class SweepResult:
 
     def over_stall_current(self, stall_current: float) -> int:
         """How many samples asked one motor for more than `stall_current` [A]."""
+        stall_current = positive_number("stall_current", "the stall current [A]", stall_current)
         peak = np.asarray(self.metrics.get("peak_current", []), float)
         return int(np.sum(peak > stall_current))
 
@@ -280,6 +281,7 @@ class StreamedSweepResult(SweepResult):
         return self._store.shards(self._layout)
 
     def over_stall_current(self, stall_current: float) -> int:
+        stall_current = positive_number("stall_current", "the stall current [A]", stall_current)
         return sum(int(np.sum(np.asarray(part["peak_current"], float) > stall_current)) for part in self.shards())
 
     def _counts(self) -> dict:
