@@ -56,6 +56,23 @@ def test_sweeps_keep_the_peaks_and_count_samples_above_stall():
     assert planar.metrics["peak_current"][0] == pytest.approx(planar.replay(0).metrics["peak_current"], rel=1e-12)
 
 
+def test_counting_samples_over_a_stall_current_refuses_a_bad_one(tmp_path):
+    """over_stall_current(NaN) counted 0 samples and (-1) all of them."""
+    kw = dict(perturb={"m_body": twip.Uniform(rel=0.2)}, seed=2, progress=False, options={"t_final": 0.2})
+    whole = twip.montecarlo("flat-lqr-sim", 4, **kw)
+    twip.set_memory_budget(4 * twip.sweep.BYTES_PER_SAMPLE - 1)  # streamed from the checkpoint's shards
+    try:
+        streamed = twip.montecarlo("flat-lqr-sim", 4, checkpoint=tmp_path, shard_size=2, **kw)
+    finally:
+        twip.set_memory_budget(None)
+    assert type(streamed).__name__ == "StreamedSweepResult"
+    for s in (whole, streamed):
+        assert s.over_stall_current(0.001) == 4
+        for bad in (math.nan, math.inf, -1.0, 0.0):
+            with pytest.raises(twip.InvalidParameterError, match="stall_current"):
+                s.over_stall_current(bad)
+
+
 def test_sweep_tables_carry_the_drawn_values_and_units(tmp_path):
     perturb = {"m_body": twip.Uniform(rel=0.2), "phi0": twip.Normal(std=0.05), "slope": twip.Uniform(low=0, high=0.1)}
     s = twip.montecarlo("flat-lqr-sim", 6, perturb=perturb, seed=4, progress=False)

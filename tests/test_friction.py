@@ -164,6 +164,16 @@ def test_bad_friction_is_named(kwargs, name):
         twip.Friction(**kwargs)
 
 
+def test_the_law_refuses_a_nan_speed_and_gb37_beside_a_bad_bearing():
+    """torque(NaN) was NaN; gb37_beside(NaN) a friction of 0 and gb37_beside(-1) one above
+    the no-load torque."""
+    with pytest.raises(twip.NonFiniteError, match=r"^w\[0\] = NaN"):
+        twip.Friction.gb37().torque(math.nan)
+    for bad in (math.nan, math.inf, -1.0):
+        with pytest.raises(twip.InvalidParameterError, match="viscous_per_wheel"):
+            twip.Friction.gb37_beside(bad)
+
+
 def test_sweeps_refuse_friction_rather_than_drop_it(balanbot):
     model = twip.SlopeModel(balanbot, friction=twip.Friction.gb37())
     with pytest.raises(ValueError, match="friction"):

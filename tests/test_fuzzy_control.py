@@ -310,6 +310,8 @@ def test_errors_name_the_parameter(balanbot):
         twip.FuzzyController(model, **good, s0=np.zeros(8))
     with pytest.raises(twip.NonFiniteError, match="s0"):
         twip.FuzzyController(model, **good, s0=[math.nan] + [0.0] * 8)
+    with pytest.raises(twip.NonFiniteError, match=r"^phi\[0\] = NaN"):  # was NaN
+        twip.FuzzyController(model, **good).g1(math.nan)
     ctrl = twip.FuzzyController(model, **good)
     with pytest.raises(twip.InvalidParameterError, match="control_period"):
         twip.simulate(model, ctrl, np.zeros(4), 1.0, 1e-3, control_period=0.0025)

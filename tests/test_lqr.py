@@ -186,6 +186,10 @@ def test_errors(balanbot):
         scenarios.get("flat-lqr", zz=1)
     with pytest.raises(twip.InvalidParameterError, match="speed"):
         twip.SpeedSchedule([(1.0, -1.0, 0.0)])
+    # A time that is not finite: sample(NaN) was (inf, 0), sample(inf) the end of the schedule.
+    for t in (math.nan, math.inf, -math.inf):
+        with pytest.raises(twip.InvalidParameterError, match=r"invalid t = (NaN|-?inf): must be finite"):
+            twip.SpeedSchedule.constant(1.0).sample(t)
 
 
 def test_on_the_flat_the_steady_pitch_is_the_ground_frictions_lean(balanbot):

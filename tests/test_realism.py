@@ -204,6 +204,10 @@ def test_parity_with_the_reference_every_option_on(balanbot, estimator):
     (lambda: twip.Realism(slope_profile=[(1.0, 2.0)]), "slope_profile.slope"),
     (lambda: twip.Realism(seed=-1), "seed"),
     (lambda: twip.Realism(stream=1.5), "stream"),
+    # An OverflowError naming nothing; "seed = NaN" for a string.
+    (lambda: twip.Realism.thesis_like(seed=-1), "invalid seed = -1: must be an integer"),
+    (lambda: twip.Realism.thesis_like(stream=2**64), "stream = 18446744073709551616"),
+    (lambda: twip.Realism(seed="1"), "seed = '1'"),
 ])
 def test_invalid_settings_name_the_parameter(make, name):
     with pytest.raises(twip.InvalidParameterError, match=name.replace(".", r"\.")):

@@ -55,6 +55,20 @@ def test_driver_limits_and_feed_forward(balanbot):
     assert 2 * flat.current(duty / 255 * (9.6 - 2.0), 0.0, balanbot) < 0.4 * (9.6 - 2) / (11.1 - 2) + 0.03
 
 
+def test_driver_evaluations_refuse_a_nan_or_infinite_input(balanbot):
+    """duty(NaN) was -255 counts, current(NaN) -inf."""
+    m = twip.MotorDriver.thesis_like()
+    for call, name in [
+        (lambda: m.duty(math.nan, 0.0, balanbot), "lumped_current"),
+        (lambda: m.duty(0.1, math.nan, balanbot), "wheel_speed"),
+        (lambda: m.current(math.nan, 0.0, balanbot), "voltage"),
+        (lambda: m.current(1.0, math.inf, balanbot), "wheel_speed"),
+        (lambda: m.wheel_torque(math.inf, 0.0, balanbot), "voltage"),
+    ]:
+        with pytest.raises(twip.NonFiniteError, match=rf"^{name}\[0\] = (NaN|inf)"):
+            call()
+
+
 # --- DLPF -------------------------------------------------------------------------------
 
 
@@ -63,6 +77,32 @@ def ramp_lag(f, n=20000, period=1e-3):
     t = np.arange(n) * period
     y = f.filter(t)
     return t[-1] - y[-1]
+
+
+def test_filters_take_any_real_array_like_and_refuse_nan():
+    """Lists and int arrays were a TypeError, NaN samples NaN out, and dt = 0 was reported
+    as 'dt = inf'."""
+    dlpf = twip.Dlpf(42.0, 0.0048)
+    expected = dlpf.filter(np.array([1.0, 2.0, 3.0]))
+    for x in ([1, 2, 3], np.array([1, 2, 3]), np.array([1, 2, 3], np.float32), (1.0, 2.0, 3.0)):
+        np.testing.assert_array_equal(dlpf.filter(x), expected)
+    with pytest.raises(twip.NonFiniteError, match=r"^x\[1\] = NaN"):
+        dlpf.filter([0.0, math.nan])
+    with pytest.raises(twip.ShapeError, match=r"x has shape \(2, 2\), expected a 1-D array"):
+        dlpf.filter(np.zeros((2, 2)))
+    tilt = twip.TiltEstimator.kalman()
+    phi, rate = tilt.filter(np.full(3, 0.5), np.full(3, 9.8), np.array([0.0, 0.1, 0.2]), 1e-3)
+    phi2, rate2 = tilt.filter([0.5] * 3, np.full(3, 9.8), [0, 0.1, 0.2], 1e-3)
+    np.testing.assert_array_equal(phi2, phi)
+    np.testing.assert_array_equal(rate2, rate)
+    for i, name in enumerate(("accel_x", "accel_z", "gyro")):
+        args = [[0.0, 0.0], [9.8, 9.8], [0.0, 0.0]]
+        args[i] = [0.0, math.nan]
+        with pytest.raises(twip.NonFiniteError, match=rf"^{name}\[1\] = NaN"):
+            tilt.filter(*args, 1e-3)
+    for dt, shown in ((0.0, "0"), (-1e-3, "-0.001"), (math.nan, "NaN"), (math.inf, "inf")):
+        with pytest.raises(twip.InvalidParameterError, match=rf"invalid dt = {shown}: must be finite and > 0"):
+            tilt.filter([0.0], [9.8], [0.0], dt)
 
 
 def gain_at(f, hz, period=1e-3, cycles=60):

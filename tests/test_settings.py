@@ -82,6 +82,34 @@ def test_replace_changes_one_field_and_validates(name):
         x.replace(no_such_field=1.0)
 
 
+@pytest.mark.parametrize("name", sorted(SETTINGS))
+def test_a_field_of_the_wrong_type_is_named(name):
+    """pyo3 names the argument only in a note that str(error) leaves out: the message was
+    "must be real number, not str"."""
+    x = SETTINGS[name]()
+    key = CHANGE[name]
+    with pytest.raises(TypeError, match=rf"^{name}\.from_dict: {key}: must be real number, not str"):
+        type(x).from_dict({**x.to_dict(), key: "x"})
+    with pytest.raises(TypeError, match=rf"^{name}\.replace: {key}: must be real number, not str"):
+        x.replace(**{key: "x"})
+
+
+def test_realism_json_names_a_field_of_the_wrong_type():
+    text = twip.Realism.thesis_like().to_json()
+    for change, where in [
+        (lambda d: d["imu"].update(dlpf_hz="x"), "imu: dlpf_hz: must be real number"),
+        (lambda d: d["motor"].update(battery=[1]), "motor: battery: must be real number"),
+        (lambda d: d.update(encoder_cpr="700"), "encoder_cpr: must be real number"),
+        (lambda d: d.update(delay="yes"), "delay: 'str' object"),
+        (lambda d: d.update(estimator="kalman"), "estimator: 'str' object"),
+        (lambda d: d.update(pushes=[{"t": "1", "impulse": 0.1}]), "pushes: t: must be real number"),
+    ]:
+        d = json.loads(text)
+        change(d)
+        with pytest.raises(TypeError, match=rf"^Realism\.from_json: {where}"):
+            twip.Realism.from_json(json.dumps(d))
+
+
 def test_realism_json_round_trip_keeps_every_part():
     r = SETTINGS["Realism"]().replace(estimator=twip.TiltEstimator.kalman(2e-3, 3e-6, 0.1), stream=7)
     text = r.to_json()

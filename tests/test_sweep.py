@@ -2,6 +2,7 @@
 import json
 import math
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -186,6 +187,11 @@ def test_invalid_draws_are_reported_per_sample_not_raised():
         (dict(perturb={"m_body": twip.Uniform(low=0.5, high=math.inf)}), "m_body: high = inf must be a finite"),
         (dict(perturb={"phi0": twip.Normal(mean=math.nan, std=0.1)}), "phi0: mean = nan must be a finite"),
         (dict(perturb={"phi0": twip.Normal(std=0.1, high=math.nan)}), "phi0: .*a bound is NaN"),
+        # Finite, but the draws overflowed to inf (every sample invalid, or NaN metrics).
+        (dict(perturb={"m_body": twip.Uniform(low=-1e308, high=1e308)}), "m_body: .*high - low overflows"),
+        (dict(perturb={"m_body": twip.Uniform(rel=1.5e308)}), "m_body: .*high - low overflows"),
+        (dict(perturb={"m_body": twip.Normal(std=1e308)}), r"m_body: Normal std = 1e\+308 .*overflows"),
+        (dict(perturb={"phi0": twip.Normal(std=1e308, low=-1.0, high=1.0)}), "phi0: Normal std .*overflows"),
         (dict(shard_size=0), "shard_size = 0"),
         (dict(shard_size=-8), "shard_size = -8"),
         (dict(perturb={"m_body": 0.2}), "expected twip.Uniform"),
@@ -218,6 +224,33 @@ def test_arguments_of_the_wrong_type_are_type_errors_naming_them(kwargs, message
 def test_a_drawn_value_is_asked_for_by_name():
     with pytest.raises(TypeError, match=r"name must be a perturbation name \(str.*got 0 \(int\)"):
         sweep(n=2).drawn(0)
+
+
+def test_the_core_refuses_spreads_whose_draws_overflow():
+    sc = scenarios.get("flat-lqr-sim")
+    for spread, name in [(("uniform", -1e308, 1e308, -1e308, 1e308), "high"), (("normal", 1.0, 1e308, -1.0, 1.0), "std")]:
+        with pytest.raises(twip.InvalidParameterError, match=rf"invalid {name} = 10{{308}}: .*overflows"):
+            twip._core.sweep_draw(sc.model, sc.x0, [("param", 0, *spread)], 0, 0)
+
+
+def test_seeds_and_indices_out_of_range_are_named_not_an_overflow():
+    """Each was pyo3's OverflowError naming neither the argument nor its value."""
+    sc, planar = scenarios.get("flat-lqr-sim"), scenarios.get("circle-pid")
+    big = 2**64
+    for call, given in [
+        (lambda: twip._core.sweep_noise_seed(-1), "seed = -1"),
+        (lambda: twip._core.sweep_noise_seed(big), f"seed = {big}"),
+        (lambda: twip._core.sweep_draw(sc.model, sc.x0, [], -1, 0), "seed = -1"),
+        (lambda: twip._core.sweep_draw(sc.model, sc.x0, [], 0, -1), "index = -1"),
+        (lambda: twip._core.sweep_planar_draw(planar.model, planar.x0, [], 0, big), f"index = {big}"),
+        (lambda: twip._core.sweep_raw(sc.model, sc.controller, sc.x0, 0.1, sc.dt, sc.reference, [], -1, 0, 1), "seed = -1"),
+        (lambda: twip._core.sweep_raw(sc.model, sc.controller, sc.x0, 0.1, sc.dt, sc.reference, [], 0, -1, 1), "start = -1"),
+        (lambda: twip._core.sweep_planar_raw(planar.model, planar.controller, planar.x0, 0.1, planar.dt,
+                                             planar.reference, [], np.int64(-3), 0, 1), "seed = np.int64(-3)"),
+    ]:
+        with pytest.raises(twip.InvalidParameterError, match=rf"invalid {re.escape(given)}: must be an integer in \[0, 2\*\*64\)"):
+            call()
+    assert twip._core.sweep_noise_seed(np.uint64(big - 1)) == twip._core.sweep_noise_seed(big - 1)
 
 
 def test_a_changed_configuration_is_refused_by_the_checkpoint(tmp_path):

@@ -356,12 +356,46 @@ def test_other_trajectories(balanbot):
 # --- errors --------------------------------------------------------------------------------------------
 
 
+def test_references_refuse_a_time_or_a_point_that_is_not_finite():
+    """sample(NaN) was a NaN pose (Circle) or the start (Waypoints), sample(inf) a pose at inf."""
+    for r in (twip.Circle(1.0, 1.0), twip.Line(1.0), twip.FigureEight(1.0, 10.0), twip.Waypoints([(0, 0), (1, 1)], 1.0)):
+        for t in (math.nan, math.inf):
+            with pytest.raises(twip.InvalidParameterError, match=r"invalid t = (NaN|inf): must be finite"):
+                r.sample(t)
+        with pytest.raises(twip.NonFiniteError, match=r"^x\[0\] = NaN"):
+            r.distance(math.nan, 0.0)
+        with pytest.raises(twip.NonFiniteError, match=r"^y\[0\] = NaN"):
+            r.distance(0.0, math.nan)
+
+
+def test_motor_and_tracker_evaluations_refuse_nan(balanbot):
+    """Each gave NaN (steady_pitch(NaN) even 0.0) for a NaN input."""
+    motor = twip.DcMotor.gb37y3530()
+    smc = twip.SmcTracker(twip.PlanarModel(balanbot))
+    for call, name in [
+        (lambda: motor.current(math.nan, 0.0), "voltage"),
+        (lambda: motor.torque(12.0, math.nan), "relative_speed"),
+        (lambda: motor.voltage_for_torque(math.nan, 0.0), "torque"),
+        (lambda: motor.pwm_voltage(math.nan), "pwm"),
+        (lambda: motor.torque_from_pwm(math.nan, 0.0), "pwm"),
+        (lambda: motor.torque_limits(math.inf), "relative_speed"),
+        (lambda: smc.input_gains(math.nan), "phi"),
+        (lambda: smc.surface_gain(math.nan), "phi"),
+        (lambda: smc.steady_pitch(math.nan, 0.0), "v"),
+        (lambda: smc.steady_pitch(0.1, math.nan), "omega"),
+    ]:
+        with pytest.raises(twip.NonFiniteError, match=rf"^{name}\[0\] = (NaN|inf)"):
+            call()
+
+
 def test_errors(balanbot):
     model = twip.PlanarModel(balanbot)
     circle = twip.Circle(0.45, 0.1)
     for make, name in [
         (lambda: twip.Circle(0.0, 0.1), "radius"),
         (lambda: twip.Circle(-1.0, 0.1), "radius"),
+        (lambda: twip.Circle(math.nan, 0.1), "radius"),  # was named "centre", made from it
+        (lambda: twip.Circle(math.inf, 0.1, direction="cw"), "radius"),
         (lambda: twip.Circle(1.0, 0.0), "speed"),
         (lambda: twip.Circle(1.0, 0.1, direction=2), "direction"),
         (lambda: twip.Line(-0.1), "speed"),
@@ -384,6 +418,10 @@ def test_errors(balanbot):
         (lambda: twip.SmcTracker(model, boundary_layer=-0.1), "width_eta"),
         (lambda: twip.SmcTracker(model, guards=(0.0, 0.2)), "guard_e3"),
         (lambda: twip.SmcTracker(model, fuzzy=True, gamma=(0.05, -1.0)), "gamma2"),
+        # Without fuzzy=True these were kept as 0 (leakage) or dropped (gamma) unseen.
+        (lambda: twip.SmcTracker(model, leakage=math.nan), "leakage"),
+        (lambda: twip.SmcTracker(model, leakage=-1.0), "leakage"),
+        (lambda: twip.SmcTracker(model, gamma=(0.0, 1000.0)), "gamma1"),
         (lambda: twip.SmcTracker(model, pitch="sideways"), "pitch"),
         (lambda: twip.SmcTracker(model, torque_unit="furlong"), "torque_unit"),
         (lambda: twip.PidTracker(balanbot, gains={"kp_pitch": math.inf}), "kp_pitch"),

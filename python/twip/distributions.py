@@ -13,6 +13,9 @@ from twip import _core
 
 _bad = _core.InvalidParameterError
 
+#: The largest |z| the core's standard normal draws take (Box-Muller on 53-bit uniforms).
+NORMAL_REACH = math.sqrt(-2 * math.log(2.0**-53))
+
 
 @dataclass(frozen=True)
 class Uniform:
@@ -45,6 +48,9 @@ class Uniform:
             low, high = finite_number(name, "low", self.low), finite_number(name, "high", self.high)
             if high < low:
                 raise _bad(f"{name}: Uniform high = {high} < low = {low} (a negative width)")
+        if not math.isfinite(high - low):
+            raise _bad(f"{name}: Uniform low = {low}, high = {high}: the width high - low overflows "
+                       "(the draws would be inf)")
         return ("uniform", float(low), float(high), float(low), float(high))
 
 
@@ -75,6 +81,9 @@ class Normal:
         else:
             _width(name, "std", self.std)
             std = float(self.std)
+        if not math.isfinite(abs(mean) + NORMAL_REACH * std):
+            raise _bad(f"{name}: Normal std = {std} (mean {mean}): mean +- {NORMAL_REACH:.3g} std overflows "
+                       "(the draws would be inf)")
         # The bounds may be infinite (no clamp), not NaN (which would compare false).
         if math.isnan(self.low) or math.isnan(self.high):
             raise _bad(f"{name}: Normal low = {self.low}, high = {self.high}: a bound is NaN")

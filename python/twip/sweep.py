@@ -199,9 +199,7 @@ def montecarlo(
     perturbations = resolve(perturb or {}, sc)
     config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism)
     if stall_current is not None:  # summary() counts the samples that asked more of a motor
-        stall_current = finite_number("stall_current", "the stall current [A]", stall_current)
-        if stall_current <= 0:
-            raise _bad(f"stall_current = {stall_current}: must be > 0 [A]")
+        stall_current = checks.real("stall_current", stall_current, above=0)
     if shard_size is None:
         # Checkpointed sweeps keep at most MAX_SHARDS files (n = 10**9: shards of 10**5).
         shard = max(DEFAULT_SHARD, -(-n // MAX_SHARDS)) if (checkpoint or client) else n

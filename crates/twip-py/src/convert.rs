@@ -78,6 +78,17 @@ pub fn vector<const N: usize>(name: &'static str, obj: &Bound<'_, PyAny>) -> PyR
     Ok(v)
 }
 
+/// Reads a 1-D series of samples of any length (any array-like of real numbers, as numpy
+/// reads it: a list, an int array...), checking that every entry is finite.
+pub fn series<'py>(name: &'static str, obj: &Bound<'py, PyAny>) -> PyResult<PyArrayLike1<'py, f64, AllowTypeChange>> {
+    let obj = real_array(name, obj)?;
+    let arr: PyArrayLike1<'py, f64, AllowTypeChange> = obj.extract().map_err(|_| {
+        ShapeError::new_err(format!("{name} has shape {}, expected a 1-D array", shape_of(&obj)))
+    })?;
+    finite(name, arr.as_array().iter().copied())?;
+    Ok(arr)
+}
+
 /// Reads a gain row as python-control's `lqr` returns it: shape (N,) or (1, N).
 pub fn gain_row<const N: usize>(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<SVector<f64, N>> {
     let obj = real_array(name, obj)?;

@@ -1,7 +1,7 @@
 //! Maps the core's `TwipError` onto a Python exception hierarchy rooted at
 //! `twip.TwipError(ValueError)`. One exhaustive match: a new case cannot be forgotten.
 use pyo3::create_exception;
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use twip_core::TwipError as CoreError;
 
@@ -69,4 +69,50 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 /// The error for a bad argument, naming it and its value.
 pub(crate) fn invalid(name: &'static str, value: f64, reason: &'static str) -> PyTwipError {
     PyTwipError(twip_core::TwipError::InvalidParameter { name, value, reason })
+}
+
+/// `value` if it is finite (a time or a parameter), else the error naming it.
+pub(crate) fn finite_param(name: &'static str, value: f64) -> CoreResult<f64> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(invalid(name, value, "must be finite"))
+    }
+}
+
+/// `value` if it is finite and > 0, else the error naming it.
+pub(crate) fn positive_param(name: &'static str, value: f64) -> CoreResult<f64> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(invalid(name, value, "must be finite and > 0"))
+    }
+}
+
+/// An integer key (a seed, a stream, a sample index) in [0, 2**64), naming the argument
+/// and echoing what was given (pyo3's own error names neither).
+pub(crate) fn key(name: &'static str, v: &Bound<'_, PyAny>) -> PyResult<u64> {
+    v.extract::<u64>().map_err(|_| {
+        let given = v.repr().map(|r| r.to_string()).unwrap_or_else(|_| "?".into());
+        InvalidParameterError::new_err(format!("invalid {name} = {given}: must be an integer in [0, 2**64)"))
+    })
+}
+
+/// pyo3 names an argument it could not convert only in a note ("while processing 'x'"),
+/// which `str(error)` leaves out: a TypeError comes back as "`context`: x: message"
+/// (just "`context`: message" when it carries no such note). Other errors pass unchanged.
+pub(crate) fn naming_argument(py: Python<'_>, context: &str, err: PyErr) -> PyErr {
+    if !err.is_instance_of::<PyTypeError>(py) {
+        return err;
+    }
+    let notes: Vec<String> =
+        err.value(py).getattr("__notes__").and_then(|n| n.extract()).unwrap_or_default();
+    let argument = notes.iter().find_map(|n| n.strip_prefix("while processing '")?.strip_suffix('\''));
+    let message = match argument {
+        Some(name) => format!("{context}: {name}: {}", err.value(py)),
+        None => format!("{context}: {}", err.value(py)),
+    };
+    let named = PyTypeError::new_err(message);
+    named.set_cause(py, Some(err));
+    named
 }

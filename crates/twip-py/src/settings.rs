@@ -13,8 +13,10 @@ pub fn kwargs_repr(d: &Bound<'_, PyDict>) -> PyResult<String> {
     Ok(parts.join(", "))
 }
 
-/// `cls(**current)` with the fields in `changes` overridden: the constructor validates.
+/// `cls(**current)` with the fields in `changes` overridden: the constructor validates
+/// (a field of the wrong type is named, after `what`).
 pub fn replaced<'py, T: pyo3::PyClass>(
+    what: &str,
     slf: &Bound<'py, T>,
     current: Bound<'py, PyDict>,
     changes: Option<&Bound<'py, PyDict>>,
@@ -22,7 +24,7 @@ pub fn replaced<'py, T: pyo3::PyClass>(
     if let Some(c) = changes {
         current.update(c.as_mapping())?;
     }
-    slf.as_any().get_type().call((), Some(&current))
+    slf.as_any().get_type().call((), Some(&current)).map_err(|e| crate::errors::naming_argument(slf.py(), what, e))
 }
 
 /// What `__reduce__` returns: the callable that rebuilds the object, and its arguments.
@@ -110,7 +112,9 @@ macro_rules! settings_class {
                 settings: &pyo3::Bound<'py, pyo3::types::PyDict>,
             ) -> pyo3::PyResult<pyo3::Bound<'py, pyo3::PyAny>> {
                 use pyo3::types::PyAnyMethods;
-                cls.as_any().call((), Some(settings))
+                cls.as_any()
+                    .call((), Some(settings))
+                    .map_err(|e| $crate::errors::naming_argument(cls.py(), concat!($name, ".from_dict"), e))
             }
 
             /// A copy with some settings changed (validated as the constructor does).
@@ -119,7 +123,7 @@ macro_rules! settings_class {
                 slf: &pyo3::Bound<'py, Self>,
                 changes: Option<&pyo3::Bound<'py, pyo3::types::PyDict>>,
             ) -> pyo3::PyResult<pyo3::Bound<'py, pyo3::PyAny>> {
-                $crate::settings::replaced(slf, slf.get().to_dict(slf.py())?, changes)
+                $crate::settings::replaced(concat!($name, ".replace"), slf, slf.get().to_dict(slf.py())?, changes)
             }
 
             /// Pickled (and copied) as `from_dict(to_dict())`.

@@ -157,6 +157,21 @@ pub struct Adaptation<T> {
     pub leakage: T,
 }
 
+impl<T: Real> Adaptation<T> {
+    /// Checks the gains (finite, > 0) and the leakage (finite, >= 0).
+    pub fn validate(self) -> Result<Self, TwipError> {
+        for (name, v) in [("gamma1", self.gamma1), ("gamma2", self.gamma2)] {
+            if !(v.is_finite() && v > T::zero()) {
+                return Err(invalid(name, v, "must be finite and > 0"));
+            }
+        }
+        if !(self.leakage.is_finite() && self.leakage >= T::zero()) {
+            return Err(invalid("leakage", self.leakage, "must be finite and >= 0"));
+        }
+        Ok(self)
+    }
+}
+
 impl<T: Real> Default for Adaptation<T> {
     fn default() -> Self {
         Self { gamma1: c(0.05), gamma2: c(1000.0), leakage: T::zero() }
@@ -253,14 +268,7 @@ impl<T: Real> SmcTracker<T> {
             }
         }
         if let Some(a) = adaptation {
-            for (name, v) in [("gamma1", a.gamma1), ("gamma2", a.gamma2)] {
-                if !(v.is_finite() && v > T::zero()) {
-                    return Err(invalid(name, v, "must be finite and > 0"));
-                }
-            }
-            if !(a.leakage.is_finite() && a.leakage >= T::zero()) {
-                return Err(invalid("leakage", a.leakage, "must be finite and >= 0"));
-            }
+            a.validate()?;
         }
         if !(period.is_finite() && period > T::zero()) {
             return Err(invalid("period", period, "must be finite and > 0"));

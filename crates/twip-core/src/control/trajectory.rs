@@ -91,9 +91,12 @@ pub struct Circle<T> {
 
 impl<T: Real> Circle<T> {
     pub fn new(centre: [T; 2], radius: T, speed: T, direction: Direction, phase: T) -> Result<Self, TwipError> {
+        // The radius first: a default centre (`from_origin`, Python's Circle) is made from it,
+        // so a bad radius would otherwise be reported as a bad centre.
+        let radius = positive("radius", radius)?;
         Ok(Self {
             centre: point("centre", centre)?,
-            radius: positive("radius", radius)?,
+            radius,
             speed: positive("speed", speed)?,
             direction,
             phase: finite("phase", phase)?,

@@ -49,6 +49,9 @@ pub struct Perturbation {
     pub spread: Spread,
 }
 
+/// The largest |z| a standard normal draw takes (Box–Muller: sqrt(-2 ln 2^-53)).
+pub const NORMAL_REACH: f64 = 8.571_674_348_652_905;
+
 impl Perturbation {
     /// Checks the spread (finite, ordered, non-negative width) and the target, for the
     /// 2-DOF sweeps (a 4-entry initial state).
@@ -67,6 +70,9 @@ impl Perturbation {
                 if high < low {
                     return bad("high", high, "must be >= low (a negative width)");
                 }
+                if !(high - low).is_finite() {
+                    return bad("high", high, "high - low overflows: the draws would be infinite");
+                }
             }
             Spread::Normal { mean, std, low, high } => {
                 if !mean.is_finite() {
@@ -74,6 +80,9 @@ impl Perturbation {
                 }
                 if !(std.is_finite() && std >= 0.0) {
                     return bad("std", std, "must be finite and >= 0");
+                }
+                if !(mean.abs() + NORMAL_REACH * std).is_finite() {
+                    return bad("std", std, "mean +- 8.57 std overflows: the draws would be infinite");
                 }
                 if high < low || low.is_nan() || high.is_nan() {
                     return bad("high", high, "bounds must satisfy low <= high");
@@ -490,5 +499,18 @@ pub(crate) mod tests {
         assert!(matches!(p.validate(), Err(TwipError::InvalidParameter { name: "high", .. })));
         let p = Perturbation { target: Target::Slope, spread: Spread::Normal { mean: 0.0, std: -1.0, low: -1.0, high: 1.0 } };
         assert!(matches!(p.validate(), Err(TwipError::InvalidParameter { name: "std", .. })));
+        // Finite, but the draws would overflow to inf.
+        let p = Perturbation { target: Target::Slope, spread: Spread::Uniform { low: -1e308, high: 1e308 } };
+        assert!(matches!(p.validate(), Err(TwipError::InvalidParameter { name: "high", .. })));
+        let p = Perturbation { target: Target::Slope, spread: Spread::Normal { mean: 0.0, std: 1e308, low: -1.0, high: 1.0 } };
+        assert!(matches!(p.validate(), Err(TwipError::InvalidParameter { name: "std", .. })));
+    }
+
+    #[test]
+    fn the_normal_reach_is_the_largest_draw() {
+        use nalgebra::ComplexField;
+        // The smallest 1 - U the generator gives is 2^-53.
+        let reach = ComplexField::sqrt(-2.0 * ComplexField::ln(1.0 / (1u64 << 53) as f64));
+        assert!((NORMAL_REACH - reach).abs() < 1e-14, "{reach}");
     }
 }

@@ -6,7 +6,7 @@ use twip_core::control::fuzzy_basis::{grid_product, normalised_memberships, Memb
 use twip_core::control::fuzzy::{Adaptation, FuzzyController, FuzzyGains, DEFAULT_GAMMA, DEFAULT_SIGMA, FUZZY_INTERNALS};
 use twip_core::TwipError;
 
-use crate::convert::vector;
+use crate::convert::{scalar, vector};
 use crate::errors::{CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::models::PySlopeModel;
 use crate::settings::Reduced;
@@ -19,13 +19,24 @@ fn in_context(e: TwipError, what: impl core::fmt::Display) -> PyErr {
     }
 }
 
+/// Refuses a NaN input (its first, in row-major order) naming it; +-inf is an input a
+/// set can take (a shoulder's side).
+fn no_nan<'a>(name: &'static str, values: impl IntoIterator<Item = &'a f64>) -> PyResult<()> {
+    match values.into_iter().enumerate().find(|(_, v)| v.is_nan()) {
+        Some((index, &value)) => Err(PyTwipError(TwipError::NonFinite { name, index, value }).into()),
+        None => Ok(()),
+    }
+}
+
 /// μ(x) for a float (a float back) or any array (an array of the same shape).
 fn eval_any<'py>(m: &Membership<f64>, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
     let py = x.py();
     if let Ok(v) = x.extract::<f64>() {
+        no_nan("x", [&v])?;
         return Ok(m.eval(v).into_pyobject(py)?.into_any());
     }
     let arr: PyArrayLikeDyn<'py, f64, AllowTypeChange> = x.extract()?;
+    no_nan("x", arr.as_array().iter())?;
     Ok(arr.as_array().mapv(|v| m.eval(v)).into_pyarray(py).into_any())
 }
 
@@ -300,6 +311,7 @@ impl PyFuzzyBasis {
     /// (shape (N, n_inputs)) -> (N, n_rules).
     fn eval<'py>(&self, py: Python<'py>, x: PyArrayLikeDyn<'py, f64, AllowTypeChange>) -> PyResult<Bound<'py, PyAny>> {
         let view = x.as_array();
+        no_nan("x", view.iter())?;
         let n_in = self.sets.len();
         let n_rules = self.n_rules();
         let mut w: Vec<Vec<f64>> = self.sets.iter().map(|s| vec![0.0; s.len()]).collect();
@@ -457,8 +469,8 @@ impl PyFuzzyController {
     }
 
     /// G1 at pitch phi: the pitch acceleration per ampere (controller's model).
-    fn g1(&self, phi: f64) -> f64 {
-        self.inner.g1(phi)
+    fn g1(&self, phi: f64) -> CoreResult<f64> {
+        Ok(self.inner.g1(scalar("phi", phi)?))
     }
 
 }

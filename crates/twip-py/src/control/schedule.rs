@@ -5,7 +5,7 @@ use twip_core::control::reference::{Leg, SpeedSchedule};
 use twip_core::TwipError;
 
 use crate::convert::scalar;
-use crate::errors::CoreResult;
+use crate::errors::{finite_param, CoreResult};
 use crate::settings::Reduced;
 /// A wheel schedule from theta = 0: legs of (goal [rad], speed [rad/s] > 0, hold [s]).
 #[pyclass(name = "SpeedSchedule", module = "twip", frozen)]
@@ -57,9 +57,9 @@ impl PySpeedSchedule {
     }
 
     /// (theta_ref, theta_dot_ref) at time t.
-    fn sample(&self, t: f64) -> (f64, f64) {
-        let s = self.inner.sample(t);
-        (s.theta, s.theta_dot)
+    fn sample(&self, t: f64) -> CoreResult<(f64, f64)> {
+        let s = self.inner.sample(finite_param("t", t)?);
+        Ok((s.theta, s.theta_dot))
     }
 
     fn __repr__(&self) -> String {

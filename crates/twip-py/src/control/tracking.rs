@@ -8,6 +8,7 @@ use twip_core::control::pid::{PidGains, PidTracker, PidUnits};
 use twip_core::control::smc::{Adaptation, PitchSign, SmcGains, SmcOptions, SmcTracker};
 use twip_core::RobotParams;
 
+use crate::convert::scalar;
 use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::models::PyPlanarModel;
 use crate::model::params::PyRobotParams;
@@ -249,7 +250,9 @@ impl PySmcTracker {
             }
         };
         let options = SmcOptions { pitch, width_eta, width_s1, guard_e3: guards.0, guard_d: guards.1, pitch_offset };
-        let adaptation = fuzzy.then_some(Adaptation { gamma1: gamma.0, gamma2: gamma.1, leakage });
+        // Checked with or without fuzzy=True: a setting given is never dropped unseen.
+        let adaptation = Adaptation { gamma1: gamma.0, gamma2: gamma.1, leakage }.validate().map_err(PyTwipError)?;
+        let adaptation = fuzzy.then_some(adaptation);
         let inner = SmcTracker::new(
             smc_gains_from(g),
             options,
@@ -283,18 +286,18 @@ impl PySmcTracker {
     }
 
     /// (g21, g22, g23) of (4.72) for the controller's model at pitch phi.
-    fn input_gains(&self, phi: f64) -> (f64, f64, f64) {
-        self.inner.input_gains(phi)
+    fn input_gains(&self, phi: f64) -> CoreResult<(f64, f64, f64)> {
+        Ok(self.inner.input_gains(scalar("phi", phi)?))
     }
 
     /// r1 g21 + r2 g22 at pitch phi, r1 on the controller's pitch: (4.113) needs it < 0.
-    fn surface_gain(&self, phi: f64) -> f64 {
-        self.inner.surface_gain(phi)
+    fn surface_gain(&self, phi: f64) -> CoreResult<f64> {
+        Ok(self.inner.surface_gain(scalar("phi", phi)?))
     }
 
     /// The controller model's steady pitch driving at speed v [m/s] turning at omega [rad/s].
-    fn steady_pitch(&self, v: f64, omega: f64) -> f64 {
-        self.inner.steady_pitch(v, omega)
+    fn steady_pitch(&self, v: f64, omega: f64) -> CoreResult<f64> {
+        Ok(self.inner.steady_pitch(scalar("v", v)?, scalar("omega", omega)?))
     }
 
 }

@@ -5,7 +5,8 @@ use twip_core::control::Reference;
 use twip_core::sim::log::LogRow;
 use twip_core::control::trajectory::{Circle, Direction, FigureEight, Line, Path, PlanarRef, Trajectory, Waypoints};
 
-use crate::errors::{CoreResult, InvalidParameterError, PyTwipError};
+use crate::convert::scalar;
+use crate::errors::{finite_param, CoreResult, InvalidParameterError, PyTwipError};
 
 
 fn sample_dict<'py>(py: Python<'py>, s: &PlanarRef<f64>) -> PyResult<Bound<'py, PyDict>> {
@@ -71,12 +72,12 @@ impl PyCircle {
 
     /// The reference at time t: dict of x, y, psi, v, omega, v_dot, omega_dot (SI).
     fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
-        sample_dict(py, &self.inner.sample(t))
+        sample_dict(py, &self.inner.sample(finite_param("t", t)?))
     }
 
     /// Distance from (x, y) to the circle [m].
-    fn distance(&self, x: f64, y: f64) -> f64 {
-        self.inner.distance(x, y)
+    fn distance(&self, x: f64, y: f64) -> CoreResult<f64> {
+        Ok(self.inner.distance(scalar("x", x)?, scalar("y", y)?))
     }
 
 }
@@ -97,11 +98,11 @@ impl PyLine {
     }
 
     fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
-        sample_dict(py, &self.inner.sample(t))
+        sample_dict(py, &self.inner.sample(finite_param("t", t)?))
     }
 
-    fn distance(&self, x: f64, y: f64) -> f64 {
-        self.inner.distance(x, y)
+    fn distance(&self, x: f64, y: f64) -> CoreResult<f64> {
+        Ok(self.inner.distance(scalar("x", x)?, scalar("y", y)?))
     }
 
 }
@@ -123,11 +124,11 @@ impl PyFigureEight {
     }
 
     fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
-        sample_dict(py, &self.inner.sample(t))
+        sample_dict(py, &self.inner.sample(finite_param("t", t)?))
     }
 
-    fn distance(&self, x: f64, y: f64) -> f64 {
-        self.inner.distance(x, y)
+    fn distance(&self, x: f64, y: f64) -> CoreResult<f64> {
+        Ok(self.inner.distance(scalar("x", x)?, scalar("y", y)?))
     }
 
 }
@@ -150,11 +151,11 @@ impl PyWaypoints {
     }
 
     fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
-        sample_dict(py, &self.inner.sample(t))
+        sample_dict(py, &self.inner.sample(finite_param("t", t)?))
     }
 
-    fn distance(&self, x: f64, y: f64) -> f64 {
-        self.inner.distance(x, y)
+    fn distance(&self, x: f64, y: f64) -> CoreResult<f64> {
+        Ok(self.inner.distance(scalar("x", x)?, scalar("y", y)?))
     }
 
 }

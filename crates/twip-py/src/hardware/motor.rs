@@ -2,6 +2,7 @@
 use pyo3::prelude::*;
 use twip_core::hardware::motor::{DataSheet, DcMotor};
 
+use crate::convert::scalar;
 use crate::errors::CoreResult;
 
 // --- motor -------------------------------------------------------------------------------------
@@ -44,30 +45,30 @@ impl PyDcMotor {
         Ok(Self { inner: DcMotor::from_data_sheet(&sheet, supply)? })
     }
 
-    fn current(&self, voltage: f64, relative_speed: f64) -> f64 {
-        self.inner.current(voltage, relative_speed)
+    fn current(&self, voltage: f64, relative_speed: f64) -> CoreResult<f64> {
+        Ok(self.inner.current(scalar("voltage", voltage)?, scalar("relative_speed", relative_speed)?))
     }
 
     /// Wheel torque [N m] at terminal `voltage` and relative wheel speed [rad/s].
-    fn torque(&self, voltage: f64, relative_speed: f64) -> f64 {
-        self.inner.torque(voltage, relative_speed)
+    fn torque(&self, voltage: f64, relative_speed: f64) -> CoreResult<f64> {
+        Ok(self.inner.torque(scalar("voltage", voltage)?, scalar("relative_speed", relative_speed)?))
     }
 
-    fn voltage_for_torque(&self, torque: f64, relative_speed: f64) -> f64 {
-        self.inner.voltage_for_torque(torque, relative_speed)
+    fn voltage_for_torque(&self, torque: f64, relative_speed: f64) -> CoreResult<f64> {
+        Ok(self.inner.voltage_for_torque(scalar("torque", torque)?, scalar("relative_speed", relative_speed)?))
     }
 
-    fn pwm_voltage(&self, pwm: f64) -> f64 {
-        self.inner.pwm_voltage(pwm)
+    fn pwm_voltage(&self, pwm: f64) -> CoreResult<f64> {
+        Ok(self.inner.pwm_voltage(scalar("pwm", pwm)?))
     }
 
-    fn torque_from_pwm(&self, pwm: f64, relative_speed: f64) -> f64 {
-        self.inner.torque_from_pwm(pwm, relative_speed)
+    fn torque_from_pwm(&self, pwm: f64, relative_speed: f64) -> CoreResult<f64> {
+        Ok(self.inner.torque_from_pwm(scalar("pwm", pwm)?, scalar("relative_speed", relative_speed)?))
     }
 
     /// (full reverse, full forward) torque at `relative_speed`.
-    fn torque_limits(&self, relative_speed: f64) -> (f64, f64) {
-        self.inner.torque_limits(relative_speed)
+    fn torque_limits(&self, relative_speed: f64) -> CoreResult<(f64, f64)> {
+        Ok(self.inner.torque_limits(scalar("relative_speed", relative_speed)?))
     }
 
     /// Stall torque of one PWM count [N m].

@@ -2,7 +2,7 @@
 //! `Force`. Each is a frozen, validated settings object; `Realism.to_core` turns them into
 //! the core's `Realism` for one robot (heights left out default to its centre of mass).
 use crate::model::friction::PyFriction;
-use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
+use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
 use twip_core::hardware::backlash::Backlash;
@@ -13,18 +13,15 @@ use twip_core::hardware::realism::Realism;
 use twip_core::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use twip_core::{RobotParams, TwipError};
 
-use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
+use crate::convert::{scalar, series};
+use crate::errors::{key, naming_argument, positive_param, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::params::PyRobotParams;
 use crate::settings::Reduced;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 
 fn positive_rate(name: &'static str, rate: f64) -> CoreResult<f64> {
-    if rate.is_finite() && rate > 0.0 {
-        Ok(1.0 / rate)
-    } else {
-        Err(invalid(name, rate, "must be finite and > 0"))
-    }
+    Ok(1.0 / positive_param(name, rate)?)
 }
 
 // --- IMU ------------------------------------------------------------------------------
@@ -168,11 +165,12 @@ impl PyDlpf {
     }
 
     /// Filters `x` (samples at the sample rate), starting in the steady state of x[0].
-    fn filter<'py>(&self, py: Python<'py>, x: PyReadonlyArray1<'py, f64>) -> Bound<'py, PyArray1<f64>> {
+    fn filter<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let x = series("x", x)?;
         let x = x.as_array();
         let mut f = self.inner;
         f.prime(x.first().copied().unwrap_or(0.0));
-        x.iter().map(|v| f.filter(*v)).collect::<Vec<f64>>().into_pyarray(py)
+        Ok(x.iter().map(|v| f.filter(*v)).collect::<Vec<f64>>().into_pyarray(py))
     }
 
 }
@@ -257,17 +255,18 @@ impl PyTiltEstimator {
     fn filter<'py>(
         &self,
         py: Python<'py>,
-        accel_x: PyReadonlyArray1<'py, f64>,
-        accel_z: PyReadonlyArray1<'py, f64>,
-        gyro: PyReadonlyArray1<'py, f64>,
+        accel_x: &Bound<'py, PyAny>,
+        accel_z: &Bound<'py, PyAny>,
+        gyro: &Bound<'py, PyAny>,
         dt: f64,
     ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+        let (accel_x, accel_z, gyro) = (series("accel_x", accel_x)?, series("accel_z", accel_z)?, series("gyro", gyro)?);
         let (ax, az, g) = (accel_x.as_array(), accel_z.as_array(), gyro.as_array());
         if ax.len() != az.len() || ax.len() != g.len() {
             let got = (az.len().min(g.len()), 1);
             return Err(PyTwipError(TwipError::Shape { name: "accel_z, gyro", expected: (ax.len(), 1), got }).into());
         }
-        positive_rate("dt", 1.0 / dt)?;
+        positive_param("dt", dt)?;
         let mut f = TiltFilter::new(self.inner).map_err(PyTwipError)?;
         let (mut phi, mut rate) = (Vec::with_capacity(ax.len()), Vec::with_capacity(ax.len()));
         for k in 0..ax.len() {
@@ -355,12 +354,14 @@ impl PyMotorDriver {
     /// speed theta_dot - phi_dot [rad/s] (the robot's torque constant and gear ratio).
     #[pyo3(signature = (voltage, wheel_speed, params = None))]
     fn current(&self, voltage: f64, wheel_speed: f64, params: Option<&PyRobotParams>) -> CoreResult<f64> {
+        let (voltage, wheel_speed) = (scalar("voltage", voltage)?, scalar("wheel_speed", wheel_speed)?);
         Ok(self.inner.current(&params_or_default(params), voltage, wheel_speed)?)
     }
 
     /// Torque of one motor on its wheel [N m] at `voltage` and relative wheel speed.
     #[pyo3(signature = (voltage, wheel_speed, params = None))]
     fn wheel_torque(&self, voltage: f64, wheel_speed: f64, params: Option<&PyRobotParams>) -> CoreResult<f64> {
+        let (voltage, wheel_speed) = (scalar("voltage", voltage)?, scalar("wheel_speed", wheel_speed)?);
         Ok(self.inner.wheel_torque(&params_or_default(params), voltage, wheel_speed)?)
     }
 
@@ -368,6 +369,7 @@ impl PyMotorDriver {
     /// relative wheel speed: R i + back-EMF, rounded and saturated at +-255.
     #[pyo3(signature = (lumped_current, wheel_speed, params = None))]
     fn duty(&self, lumped_current: f64, wheel_speed: f64, params: Option<&PyRobotParams>) -> CoreResult<f64> {
+        let (lumped_current, wheel_speed) = (scalar("lumped_current", lumped_current)?, scalar("wheel_speed", wheel_speed)?);
         Ok(PwmActuator::new(&self.inner, &params_or_default(params))?.duty(lumped_current, wheel_speed))
     }
 
@@ -498,13 +500,6 @@ pub struct PyRealism {
     stream: u64,
 }
 
-fn key(name: &'static str, v: &Bound<'_, PyAny>) -> PyResult<u64> {
-    v.extract::<u64>().map_err(|_| {
-        let value = v.extract::<f64>().unwrap_or(f64::NAN);
-        PyTwipError(TwipError::InvalidParameter { name, value, reason: "must be an integer in [0, 2**64)" }).into()
-    })
-}
-
 #[pymethods]
 impl PyRealism {
     #[new]
@@ -566,10 +561,13 @@ impl PyRealism {
     /// a stick band; `replace(friction=None)` leaves the model's own) and 1 degree of
     /// backlash (`replace(backlash=None)`: none). docs/parameters.md.
     #[staticmethod]
-    #[pyo3(signature = (*, seed = 0, stream = 0))]
-    fn thesis_like(seed: u64, stream: u64) -> Self {
+    // Keys are read by `key` (a bad one is named); the defaults are 0.
+    #[pyo3(signature = (*, seed = None, stream = None), text_signature = "(*, seed=0, stream=0)")]
+    fn thesis_like(seed: Option<&Bound<'_, PyAny>>, stream: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
         let core = Realism::<f64>::thesis_like();
-        Self {
+        let seed = seed.map(|s| key("seed", s)).transpose()?.unwrap_or(0);
+        let stream = stream.map(|s| key("stream", s)).transpose()?.unwrap_or(0);
+        Ok(Self {
             imu: Some(PyImu::thesis_like()),
             estimator: core.estimator,
             encoder_cpr: core.encoder_cpr,
@@ -583,7 +581,7 @@ impl PyRealism {
             backlash: core.backlash.map(|b| b.gap),
             seed,
             stream,
-        }
+        })
     }
 
 }
@@ -643,44 +641,49 @@ impl PyRealism {
             let part = |cls: &Bound<'py, PyAny>| -> PyResult<Bound<'py, PyAny>> {
                 if v.is_none() { Ok(v.clone()) } else { cls.call((), Some(&tuples(v.cast::<PyDict>()?)?)) }
             };
-            let value = match key.as_str() {
-                "imu" => part(py.get_type::<PyImu>().as_any())?,
-                "motor" => part(py.get_type::<PyMotorDriver>().as_any())?,
-                "force" => part(py.get_type::<PyForce>().as_any())?,
-                "friction" => part(py.get_type::<PyFriction>().as_any())?,
-                "estimator" => {
-                    let e = tuples(v.cast::<PyDict>()?)?;
-                    let kind = e.get_item("kind")?.ok_or_else(|| InvalidParameterError::new_err("estimator: no 'kind'"))?;
-                    e.del_item("kind")?;
-                    // Only an estimator's own kinds (`PyTiltEstimator::kind`): the name picks
-                    // the class's constructor, and any other attribute of it is no estimator.
-                    let kind: String = kind.extract()?;
-                    if !matches!(kind.as_str(), "complementary" | "kalman") {
-                        return Err(InvalidParameterError::new_err(format!(
-                            "estimator: kind = {kind:?}: must be \"complementary\" or \"kalman\""
-                        )));
+            // A part or entry of the wrong type is named by its key (and its field).
+            let read = || -> PyResult<Bound<'py, PyAny>> {
+                Ok(match key.as_str() {
+                    "imu" => part(py.get_type::<PyImu>().as_any())?,
+                    "motor" => part(py.get_type::<PyMotorDriver>().as_any())?,
+                    "force" => part(py.get_type::<PyForce>().as_any())?,
+                    "friction" => part(py.get_type::<PyFriction>().as_any())?,
+                    "estimator" => {
+                        let e = tuples(v.cast::<PyDict>()?)?;
+                        let kind = e.get_item("kind")?.ok_or_else(|| InvalidParameterError::new_err("estimator: no 'kind'"))?;
+                        e.del_item("kind")?;
+                        // Only an estimator's own kinds (`PyTiltEstimator::kind`): the name picks
+                        // the class's constructor, and any other attribute of it is no estimator.
+                        let kind: String = kind.extract()?;
+                        if !matches!(kind.as_str(), "complementary" | "kalman") {
+                            return Err(InvalidParameterError::new_err(format!(
+                                "estimator: kind = {kind:?}: must be \"complementary\" or \"kalman\""
+                            )));
+                        }
+                        py.get_type::<PyTiltEstimator>().getattr(kind)?.call((), Some(&e))?
                     }
-                    py.get_type::<PyTiltEstimator>().getattr(kind)?.call((), Some(&e))?
-                }
-                "pushes" => {
-                    let list = PyList::empty(py);
-                    for p in v.try_iter()? {
-                        list.append(py.get_type::<PyPush>().call((), Some(&tuples(p?.cast::<PyDict>()?)?))?)?;
+                    "pushes" => {
+                        let list = PyList::empty(py);
+                        for p in v.try_iter()? {
+                            list.append(py.get_type::<PyPush>().call((), Some(&tuples(p?.cast::<PyDict>()?)?))?)?;
+                        }
+                        list.into_any()
                     }
-                    list.into_any()
-                }
-                "slope_profile" => {
-                    let list = PyList::empty(py);
-                    for c in v.try_iter()? {
-                        list.append(PyTuple::new(py, c?.try_iter()?.collect::<PyResult<Vec<_>>>()?)?)?;
+                    "slope_profile" => {
+                        let list = PyList::empty(py);
+                        for c in v.try_iter()? {
+                            list.append(PyTuple::new(py, c?.try_iter()?.collect::<PyResult<Vec<_>>>()?)?)?;
+                        }
+                        list.into_any()
                     }
-                    list.into_any()
-                }
-                _ => v.clone(),
+                    _ => v.clone(),
+                })
             };
+            let value = read().map_err(|e| naming_argument(py, &format!("Realism.from_json: {key}"), e))?;
             kw.set_item(key, value)?;
         }
-        Ok(py.get_type::<Self>().call((), Some(&kw))?.cast_into::<Self>()?.get().clone())
+        let r = py.get_type::<Self>().call((), Some(&kw)).map_err(|e| naming_argument(py, "Realism.from_json", e))?;
+        Ok(r.cast_into::<Self>()?.get().clone())
     }
 }
 

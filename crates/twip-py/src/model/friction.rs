@@ -3,7 +3,8 @@
 use pyo3::prelude::*;
 use twip_core::model::friction::Friction;
 
-use crate::errors::CoreResult;
+use crate::convert::scalar;
+use crate::errors::{invalid, CoreResult};
 
 /// One wheel's gearhead friction (N m, rad/s): Coulomb + viscous + Stribeck, the sign
 /// regularised by tanh(w / smoothing_speed); `breakaway` is the static (peak) torque.
@@ -44,6 +45,9 @@ impl PyFriction {
     /// (0.0117 N m beside `RobotParams.balanbot()`'s mu_bearing / 2).
     #[staticmethod]
     fn gb37_beside(viscous_per_wheel: f64) -> CoreResult<Self> {
+        if !(viscous_per_wheel.is_finite() && viscous_per_wheel >= 0.0) {
+            return Err(invalid("viscous_per_wheel", viscous_per_wheel, "must be finite and >= 0"));
+        }
         Ok(Self { inner: Friction::gb37_beside(viscous_per_wheel).validate()? })
     }
 
@@ -55,8 +59,8 @@ impl PyFriction {
 
     /// The slip law's torque [N m] at the wheel's speed relative to the body `w` [rad/s]
     /// (with a stick band, a wheel inside it is held by whatever torque that needs).
-    fn torque(&self, w: f64) -> f64 {
-        self.inner.torque(w)
+    fn torque(&self, w: f64) -> CoreResult<f64> {
+        Ok(self.inner.torque(scalar("w", w)?))
     }
 }
 

@@ -28,7 +28,7 @@ use twip_core::sweep::{
 use twip_core::{RobotParams, TwipError};
 
 use crate::convert::vector;
-use crate::errors::PyTwipError;
+use crate::errors::{key, PyTwipError};
 use crate::model::params::params_dict;
 use crate::model::models::PySlopeModel;
 use crate::hardware::realism::PyRealism;
@@ -227,9 +227,10 @@ pub fn sweep_draw<'py>(
     model: &PySlopeModel,
     x0: &Bound<'py, PyAny>,
     perturbations: Vec<PerturbTuple>,
-    seed: u64,
-    index: u64,
+    seed: &Bound<'py, PyAny>,
+    index: &Bound<'py, PyAny>,
 ) -> PyResult<(Bound<'py, PyDict>, f64, Bound<'py, numpy::PyArray1<f64>>)> {
+    let (seed, index) = (key("seed", seed)?, key("index", index)?);
     no_friction_in_sweeps(model.inner.friction().is_some())?;
     let nominal = Nominal { params: *model.inner.params(), slope: model.inner.slope(), x0: vector::<4>("x0", x0)? };
     let perts = parse_perturbations(&perturbations, Perturbation::validate)?;
@@ -251,8 +252,8 @@ pub fn controller_fingerprint(controller: &Bound<'_, PyAny>) -> PyResult<String>
 /// The sensor-noise key of a sweep with `seed` (sample i replays with
 /// `realism.replace(seed=sweep_noise_seed(seed), stream=i)`).
 #[pyfunction]
-pub fn sweep_noise_seed(seed: u64) -> u64 {
-    noise_seed(seed)
+pub fn sweep_noise_seed(seed: &Bound<'_, PyAny>) -> PyResult<u64> {
+    Ok(noise_seed(key("seed", seed)?))
 }
 
 /// Runs samples `start..start + count`; returns their metrics as arrays. With `realism`
@@ -271,15 +272,16 @@ pub fn sweep_raw<'py>(
     dt: f64,
     reference: &PySpeedSchedule,
     perturbations: Vec<PerturbTuple>,
-    seed: u64,
-    start: u64,
-    count: u64,
+    seed: &Bound<'py, PyAny>,
+    start: &Bound<'py, PyAny>,
+    count: &Bound<'py, PyAny>,
     control_period: Option<f64>,
     threads: usize,
     progress: Option<Py<PyAny>>,
     realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
     no_friction_in_sweeps(model.inner.friction().is_some())?;
+    let (seed, start, count) = (key("seed", seed)?, key("start", start)?, key("count", count)?);
     let nominal = Nominal { params: *model.inner.params(), slope: model.inner.slope(), x0: vector::<4>("x0", x0)? };
     let mut ctrl = SlopeController::extract(controller)?;
     let realism = realism.cloned();

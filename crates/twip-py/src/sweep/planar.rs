@@ -18,7 +18,7 @@ use twip_core::sweep::rig::for_sweep;
 use crate::hardware::realism::PyRealism;
 
 use crate::convert::vector;
-use crate::errors::PyTwipError;
+use crate::errors::{key, PyTwipError};
 use crate::model::params::params_dict;
 use crate::model::models::PyPlanarModel;
 use crate::sweep::{parse_perturbations, run_sweep, PerturbTuple};
@@ -38,9 +38,10 @@ pub fn sweep_planar_draw<'py>(
     model: &PyPlanarModel,
     x0: &Bound<'py, PyAny>,
     perturbations: Vec<PerturbTuple>,
-    seed: u64,
-    index: u64,
+    seed: &Bound<'py, PyAny>,
+    index: &Bound<'py, PyAny>,
 ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyArray1<f64>>)> {
+    let (seed, index) = (key("seed", seed)?, key("index", index)?);
     let nominal = nominal(model, x0)?;
     let perts = parse_perturbations(&perturbations, core_planar::validate)?;
     let s = core_planar::draw(&nominal, &perts, seed, index);
@@ -64,14 +65,15 @@ pub fn sweep_planar_raw<'py>(
     dt: f64,
     reference: &Bound<'py, PyAny>,
     perturbations: Vec<PerturbTuple>,
-    seed: u64,
-    start: u64,
-    count: u64,
+    seed: &Bound<'py, PyAny>,
+    start: &Bound<'py, PyAny>,
+    count: &Bound<'py, PyAny>,
     control_period: Option<f64>,
     threads: usize,
     progress: Option<Py<PyAny>>,
     realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let (seed, start, count) = (key("seed", seed)?, key("start", start)?, key("count", count)?);
     let nominal = nominal(model, x0)?;
     let mut ctrl = PlanarController::extract(controller)?;
     let realism = realism.cloned();
