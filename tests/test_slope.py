@@ -191,6 +191,10 @@ def test_params_api(balanbot):
         balanbot.replace(mass=1.0)
     with pytest.raises(twip.InvalidParameterError, match="missing: .*m_wheels"):
         twip.RobotParams(m_body=1.0)
+    # A NaN given is a bad value, named as one; it was reported as a field not given.
+    with pytest.raises(twip.InvalidParameterError, match=r"m_body = NaN") as e:
+        twip.RobotParams.from_dict(dict(balanbot.to_dict(), m_body=float("nan")))
+    assert "missing" not in str(e.value)
     assert twip.RobotParams.from_dict(balanbot.to_dict()) == balanbot
     assert twip.RobotParams(**balanbot.to_dict()) == balanbot
     assert balanbot.replace(m_body=2.0).m_body == 2.0

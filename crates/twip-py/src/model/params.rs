@@ -58,8 +58,9 @@ impl PyRobotParams {
         if let Some(kw) = fields {
             apply(&mut values, kw)?;
         }
-        let missing: Vec<&str> =
-            FIELD_NAMES.iter().zip(values).filter(|(_, v)| v.is_nan()).map(|(n, _)| *n).collect();
+        // Missing is what was not given (a NaN given is named by the validation, as NaN).
+        let given = |name: &str| fields.is_some_and(|kw| kw.contains(name).unwrap_or(false));
+        let missing: Vec<&str> = FIELD_NAMES.iter().copied().filter(|n| !given(n)).collect();
         if !missing.is_empty() {
             return Err(InvalidParameterError::new_err(format!(
                 "RobotParams needs every field; missing: {} (start from RobotParams.balanbot().replace(...))",
