@@ -94,6 +94,16 @@ impl<T: Real> Membership<T> {
                 if c == -T::one() / T::zero() {
                     return Err(invalid("trapezoid.c", c, "must be finite unless c = d = +inf"));
                 }
+                // A ramp is evaluated by its slope 1/width: a width too narrow (subnormal) or
+                // too wide (overflowing) for it to be finite and nonzero would read NaN or 0.
+                const RAMP: &str = "makes a ramp whose slope 1/width is not finite: a width must be 0 or from 5.6e-309 to 1.8e308";
+                let slope_ok = |lo: T, hi: T| lo == hi || ((hi - lo).is_finite() && (T::one() / (hi - lo)).is_finite());
+                if !slope_ok(a, b) {
+                    return Err(invalid("trapezoid.b", b, RAMP));
+                }
+                if !slope_ok(c, d) {
+                    return Err(invalid("trapezoid.d", d, RAMP));
+                }
                 Ok(self)
             }
             Self::Gaussian { mean, sigma } => {
@@ -493,6 +503,14 @@ mod tests {
         assert!(matches!(err, TwipError::InvalidParameter { name: "triangle.c", .. }));
         assert!(Membership::gaussian(0.0, 0.0).is_err());
         assert!(Membership::trapezoid(0.0, f64::NAN, 1.0, 2.0).is_err());
+        // A ramp whose slope 1/width overflows read NaN at its foot (0 · inf); one too wide to
+        // measure read 0 all along it.
+        let err = Membership::trapezoid(0.0, 0.0, 0.0, 2.225073858507e-311).unwrap_err();
+        assert!(matches!(err, TwipError::InvalidParameter { name: "trapezoid.d", .. }));
+        let err = Membership::trapezoid(-1e308, 1e308, 1e308, 1e308).unwrap_err();
+        assert!(matches!(err, TwipError::InvalidParameter { name: "trapezoid.b", .. }));
+        let narrowest = 1.0 / f64::MAX * 1.001;
+        assert_eq!(trap(0.0, narrowest, 1.0, 1.0 + narrowest).eval(narrowest / 2.0), 0.5);
     }
 
     #[test]
