@@ -213,6 +213,24 @@ class Problem:
         return np.array([columns[s] for s in self.segments])
 
 
+#: Sokal's window for a correlation time: the sum of the autocorrelation runs to the first
+#: lag at least this many times the time summed so far.
+CORRELATION_WINDOW = 5.0
+
+
+def correlation_time(e: np.ndarray) -> float:
+    """The integrated autocorrelation time 1 + 2 Σ_k ρ(k) of the series `e` (Sokal's
+    window): how many samples one independent sample of it is worth (1 for white noise)."""
+    e = np.asarray(e, dtype=float) - np.mean(e) if len(e) else np.zeros(0)
+    if len(e) < 2 or not np.any(e):
+        return 1.0
+    spectrum = np.fft.rfft(e, 2 * len(e))
+    acf = np.fft.irfft(spectrum * np.conj(spectrum))[:len(e)]
+    times = 2.0 * np.cumsum(acf / acf[0]) - 1.0  # 1 + 2 Σ_{k=1..K} ρ(k), for each K
+    reached = np.nonzero(np.arange(len(e)) >= CORRELATION_WINDOW * times)[0]
+    return max(float(times[reached[0]] if len(reached) else times[-1]), 1.0)
+
+
 def _smooth_rate(x: np.ndarray, t: np.ndarray, window: float = 0.02) -> np.ndarray:
     """A derivative of a noisy or quantised signal: differences over about `window` seconds."""
     dt = float(np.median(np.diff(t)))
@@ -434,7 +452,14 @@ class Estimator:
             if moved < 0.05:
                 break
         cost, r, out, _ = self.evaluate(x, starts)
+        # The covariance assumes each signal's residuals independent from sample to sample.
+        # Filtered or coloured noise is not: each signal counts with its noise level
+        # scaled by sqrt of its residuals' correlation time (samples per independent one).
+        white = self.sigma
+        times = {s: correlation_time((p.y[s] - out[s])[p.used[s]]) for s in p.outputs}
+        self.sigma = {s: white[s] * math.sqrt(times[s]) for s in p.outputs}
         hess, _, _, con = self.linearise(x, starts)
+        self.sigma = white
         cov = self.covariance(hess, con)
         delta, biases = self.split(x)
         information = np.linalg.pinv(cov, rcond=1e-13) if cov.size else cov
