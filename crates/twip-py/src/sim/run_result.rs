@@ -43,8 +43,16 @@ pub(crate) fn run_dict<'py>(
     let cut = layout.internal_names.len();
     let signal_names = layout.signal_names.unwrap_or(&[]);
     let columns = table(log.internals, cut + signal_names.len())?;
-    let signals = layout.signal_names.map(|_| columns.slice(numpy::ndarray::s![.., cut..]).to_owned().into_pyarray(py));
-    out.set_item("internals", columns.slice(numpy::ndarray::s![.., ..cut]).to_owned().into_pyarray(py))?;
+    // Split only when there are signals: moved whole otherwise, a log of many internals
+    // (a user's controller) is not held twice at its peak.
+    let (internals, signals) = match layout.signal_names {
+        None => (columns.into_pyarray(py), None),
+        Some(_) => (
+            columns.slice(numpy::ndarray::s![.., ..cut]).to_owned().into_pyarray(py),
+            Some(columns.slice(numpy::ndarray::s![.., cut..]).to_owned().into_pyarray(py)),
+        ),
+    };
+    out.set_item("internals", internals)?;
     out.set_item("internal_names", layout.internal_names.to_vec())?;
     out.set_item("signals", signals)?;
     out.set_item("signal_names", signal_names.to_vec())?;
