@@ -182,9 +182,7 @@ def simulate(
     _check_log(model, t_final, dt, record_every, realism, logged_extras,
                exact=not isinstance(controller, _BUILT_IN_CONTROLLERS))
     if stall_current is not None:
-        stall_current = _positive_real("stall_current", stall_current)
-        if not (math.isfinite(stall_current) and stall_current > 0):
-            raise _core.InvalidParameterError(f"stall_current = {stall_current}: must be a finite number > 0 [A]")
+        stall_current = checks.real("stall_current", stall_current, above=0)
     raw = run(t_final, record_every)
     names = raw["internal_names"]
     metrics = dict(raw["metrics"])
