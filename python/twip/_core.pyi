@@ -57,6 +57,7 @@ __all__ = [
     "kernel_copy",
     "DEFAULT_FALL_LIMIT",
     "MAX_THREADS",
+    "NORMAL_REACH",
     "ffi_record",
     "sysid_shoot",
     "ffi_firmware",
@@ -875,6 +876,7 @@ def sweep_kernel(controller: Any, realism: Realism | None = None) -> str:
 
 DEFAULT_FALL_LIMIT: float
 MAX_THREADS: int
+NORMAL_REACH: float
 def ffi_record(
     model: Any, controller: Any, x0: Sequence[float], t_final: float, dt: float, reference: Any
 ) -> dict[str, Any]:

@@ -13,8 +13,6 @@ from twip import _core
 
 _bad = _core.InvalidParameterError
 
-#: The largest |z| the core's standard normal draws take (Box-Muller on 53-bit uniforms).
-NORMAL_REACH = math.sqrt(-2 * math.log(2.0**-53))
 
 
 @dataclass(frozen=True)
@@ -81,8 +79,8 @@ class Normal:
         else:
             _width(name, "std", self.std)
             std = float(self.std)
-        if not math.isfinite(abs(mean) + NORMAL_REACH * std):
-            raise _bad(f"{name}: Normal std = {std} (mean {mean}): mean +- {NORMAL_REACH:.3g} std overflows "
+        if not math.isfinite(abs(mean) + _core.NORMAL_REACH * std):
+            raise _bad(f"{name}: Normal std = {std} (mean {mean}): mean +- {_core.NORMAL_REACH:.3g} std overflows "
                        "(the draws would be inf)")
         # The bounds may be infinite (no clamp), not NaN (which would compare false).
         if math.isnan(self.low) or math.isnan(self.high):
