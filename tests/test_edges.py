@@ -456,6 +456,11 @@ def test_settled_metrics_are_nan_and_warned_of_when_the_run_ends_before_the_sett
     assert any("before settle = 2.5 s: the _settled metrics are NaN" in w for w in sc.run(t_final=2.0, settle=2.5).warnings)
     settled = sc.run(t_final=2.0, settle=2.0)  # settled from the run's last sample on: no warning
     assert np.isfinite(settled.metrics["max_path_error_settled"]) and not settled.warnings
+    # A sweep of such runs says so in its summary (and the CLI prints it), not only NaN quantiles.
+    short = twip.montecarlo(sc.replace(t_final=2.0), 4, progress=False).summary()
+    assert np.isnan(short["max_path_error_settled"]["median"]) and np.isfinite(short["mean_abs_x_error"]["median"])
+    assert any("_settled metrics are NaN: the runs ended before their settle time" in w for w in short["warnings"])
+    assert twip.montecarlo("flat-lqr", 4, progress=False).summary()["warnings"] == ()
 
 
 @pytest.mark.parametrize("settle, error, message", [

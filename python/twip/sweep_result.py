@@ -112,6 +112,7 @@ class SweepResult:
             out["over_stall_current"] = self.over_stall_current(self.stall_current)
         for name in self._summary_metrics():
             out[name] = dict(zip(("q05", "median", "q95"), map(float, self.quantiles(name))))
+        out["warnings"] = unsettled_warnings(out, self.metric_names[2:])
         return out
 
     def _summary_metrics(self):
@@ -218,6 +219,18 @@ class SweepResult:
             q = s[name]
             lines.append(f"  {name:24s} {q['q05']:11.4g} {q['median']:11.4g} {q['q95']:11.4g}")
         return "\n".join(lines)
+
+
+def unsettled_warnings(summary: dict, names) -> tuple:
+    """A warning when a tracking sweep's _settled metrics are NaN while the others are not:
+    its runs ended before their settle time (the one-run case: `twip.sim.unsettled_warnings`)."""
+    settled = [n for n in names if n.endswith("_settled")]
+    others = [n for n in names if n not in settled]
+    if not settled or not all(np.isnan(summary[n]["median"]) for n in settled) or \
+            all(np.isnan(summary[n]["median"]) for n in others):
+        return ()
+    return ("the _settled metrics are NaN: the runs ended before their settle time (by default one lap of the "
+            "path); sweep a longer run (the scenario's t_final) to have them",)
 
 
 #: At most this many invalid samples are drawn again to classify their reason.
@@ -359,6 +372,7 @@ class StreamedSweepResult(SweepResult):
             out = super().summary()
             for name, q in self.quantiles_of(self.metric_names[2:]).items():
                 out[name] = dict(zip(("q05", "median", "q95"), map(float, q)))
+            out["warnings"] = unsettled_warnings(out, self.metric_names[2:])
             self._summary = out
         return dict(self._summary)
 

@@ -37,6 +37,7 @@ def sweep_summary(result, metrics) -> str:
     s = result.summary()
     lines = [f"{result.config['scenario']}: {s['samples']} samples ({s['invalid']} invalid), seed {result.config['seed']}"]
     lines += [f"  invalid: {count} samples, {reason}" for reason, count in s["invalid_reasons"].items()]
+    lines += [f"  warning: {warning}" for warning in s["warnings"]]
     if s.get("over_stall_current"):
         lines.append(f"  warning: {s['over_stall_current']} samples asked one motor for more than its stall current "
                      f"({result.stall_current:g} A): the real robot cannot do those runs as simulated")
