@@ -105,9 +105,9 @@ def test_correlation_times_of_known_series():
 
 def test_the_rigs_intervals_count_its_filtered_samples_by_their_correlation_time():
     """The DLPF colours the raw registers' noise. With every sample counted as independent, the
-    pooled RMS of (fitted - true) / std over these 4 noise seeds and 4 parameters was 5.9 (8 seeds:
-    the 95 % intervals covered 17 of 32). Counting each signal by its residuals' correlation time:
-    1.57 here (8 seeds: 28 of 32)."""
+    pooled RMS of (fitted - true) / std over these 4 noise seeds and 4 parameters was 5.9 (16 seeds:
+    the 95 % intervals covered 32 of 64). Counting each signal by its residuals' correlation time:
+    1.57 here (16 seeds: 46 of 64; still about 2x too narrow for m_body and com_height)."""
     base = twip.Realism.thesis_like().replace(friction=None, backlash=None)
     realism = base.replace(motor=base.motor.replace(inductance=0.0, current_limit=None))
     z = []
