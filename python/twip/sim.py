@@ -174,8 +174,7 @@ def simulate(
     # its internals() is asked as the runner asks it.
     def logged_extras():
         if not isinstance(controller, _BUILT_IN_CONTROLLERS):
-            kind = "planar" if isinstance(model, _core.PlanarModel) else "slope"
-            return _user_internals(controller) + (_SIGNAL_COLUMNS[kind] if realism is not None else 0)
+            return _user_internals(controller) + (_SIGNAL_COLUMNS[_kind(model)] if realism is not None else 0)
         probe = run(dt, 1)
         return probe["internals"].shape[1] + (0 if probe.get("signals") is None else probe["signals"].shape[1])
 
@@ -218,6 +217,11 @@ def stall_warnings(metrics: dict, stall_current: Optional[float]) -> tuple:
             "the real robot cannot give this (run it with realism= to see what it does)",)
 
 
+def _kind(model) -> str:
+    """The key of `model`'s log layout: "planar" or "slope"."""
+    return "planar" if isinstance(model, _core.PlanarModel) else "slope"
+
+
 def _user_internals(controller) -> int:
     """How many internals a user's controller logs: the size of its internals() dict (none
     without one; a value that is not a dict is left to the runner, which names it)."""
@@ -246,7 +250,7 @@ def _positive_real(name: str, value) -> float:
 
 def log_shape_guess(model, t_final: float, dt: float, record_every: int, realism=None):
     """(rows, columns) of a run's log, the columns generously guessed (16 internals)."""
-    kind = "planar" if isinstance(model, _core.PlanarModel) else "slope"
+    kind = _kind(model)
     columns = _LOG_COLUMNS[kind] + _DEFAULT_INTERNALS + (_SIGNAL_COLUMNS[kind] if realism is not None else 0)
     return t_final / dt / int(record_every) + 2, columns
 
@@ -269,7 +273,7 @@ def _check_log(model, t_final, dt, record_every, realism, internals, exact: bool
         return  # the core names the bad value
     rows, columns = log_shape_guess(model, t_final, dt, record_every, realism)
     if exact or rows * columns * 8 > budget.memory_budget():
-        columns = _LOG_COLUMNS["planar" if isinstance(model, _core.PlanarModel) else "slope"] + internals()
+        columns = _LOG_COLUMNS[_kind(model)] + internals()
     need = rows * columns * 8
     fits = max(1, math.ceil(int(record_every) * need / budget.memory_budget()))
     budget.check(f"simulate: the log of t_final = {t_final:g} s at dt = {dt:g} s ({rows:,.0f} rows x {columns} columns)",
