@@ -221,8 +221,11 @@ CORRELATION_WINDOW = 5.0
 def correlation_time(e: np.ndarray) -> float:
     """The integrated autocorrelation time 1 + 2 Σ_k ρ(k) of the series `e` (Sokal's
     window): how many samples one independent sample of it is worth (1 for white noise)."""
-    e = np.asarray(e, dtype=float) - np.mean(e) if len(e) else np.zeros(0)
-    if len(e) < 2 or not np.any(e):
+    e = np.asarray(e, dtype=float)
+    if len(e) < 2:
+        return 1.0
+    e = e - np.mean(e)
+    if not np.any(e):
         return 1.0
     spectrum = np.fft.rfft(e, 2 * len(e))
     acf = np.fft.irfft(spectrum * np.conj(spectrum))[:len(e)]
