@@ -32,8 +32,9 @@ REPLAY_TOLERANCE = 1e-5
 #: Default length of the recorded run [s] (the scenario's own if shorter).
 REPLAY_SECONDS = 20.0
 #: Memory one recorded value takes at its peak [bytes]: as f32 and f64, and as C text
-#: while the file is joined. Measured: 35 (flat-lqr, 400,000 updates: 153 MB of peak
-#: RSS above a 10 s replay's); kept generous for wider text.
+#: while the file is joined. Measured on flat-lqr, 400,000 updates: 153 MB of peak RSS
+#: above a 10 s replay's, 383 bytes per update, 35 per value as `_check_replay_size`
+#: counts them (11; the LQR records 8); kept generous for wider text.
 REPLAY_BYTES_PER_VALUE = 64
 
 
