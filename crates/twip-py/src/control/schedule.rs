@@ -2,10 +2,9 @@
 use pyo3::prelude::*;
 use twip_core::control::Reference;
 use twip_core::control::reference::{Leg, SpeedSchedule};
-use twip_core::TwipError;
 
 use crate::convert::scalar;
-use crate::errors::{finite_param, CoreResult};
+use crate::errors::{finite_param, positive_param, CoreResult};
 use crate::settings::Reduced;
 /// A wheel schedule from theta = 0: legs of (goal [rad], speed [rad/s] > 0, hold [s]).
 #[pyclass(name = "SpeedSchedule", module = "twip", frozen)]
@@ -33,15 +32,7 @@ impl PySpeedSchedule {
     #[staticmethod]
     #[pyo3(signature = (distance, speed, wheel_radius, hold = 0.0))]
     fn go_and_return(distance: f64, speed: f64, wheel_radius: f64, hold: f64) -> CoreResult<Self> {
-        if !(wheel_radius.is_finite() && wheel_radius > 0.0) {
-            return Err(TwipError::InvalidParameter {
-                name: "wheel_radius",
-                value: wheel_radius,
-                reason: "must be finite and > 0",
-            }
-            .into());
-        }
-        let goal = scalar("distance", distance)? / wheel_radius;
+        let goal = scalar("distance", distance)? / positive_param("wheel_radius", wheel_radius)?;
         Self::new(vec![(goal, speed, hold), (0.0, speed, 0.0)])
     }
 

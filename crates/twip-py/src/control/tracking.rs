@@ -9,7 +9,7 @@ use twip_core::control::smc::{Adaptation, PitchSign, SmcGains, SmcOptions, SmcTr
 use twip_core::RobotParams;
 
 use crate::convert::scalar;
-use crate::errors::{invalid, CoreResult, InvalidParameterError, PyTwipError};
+use crate::errors::{positive_param, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::models::PyPlanarModel;
 use crate::model::params::PyRobotParams;
 use crate::hardware::motor::{motor_or_default, PyDcMotor};
@@ -178,10 +178,7 @@ fn torque_unit(obj: &Bound<'_, PyAny>, motor: &DcMotor<f64>) -> PyResult<f64> {
         };
     }
     let v: f64 = obj.extract().map_err(|_| InvalidParameterError::new_err("torque_unit must be 'pwm', 'si' or a number"))?;
-    if !(v.is_finite() && v > 0.0) {
-        return Err(invalid("torque_unit", v, "must be finite and > 0").into());
-    }
-    Ok(v)
+    Ok(positive_param("torque_unit", v)?)
 }
 
 fn pair(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {

@@ -149,14 +149,6 @@ impl PyPlanarModel {
     }
 }
 
-fn positive_dt(dt: f64) -> CoreResult<f64> {
-    if dt.is_finite() && dt > 0.0 {
-        Ok(dt)
-    } else {
-        Err(crate::errors::invalid("dt", dt, "must be finite and > 0"))
-    }
-}
-
 /// One RK4 step of either model with the input held over the step.
 #[pyfunction]
 pub fn rk4_step<'py>(
@@ -166,7 +158,7 @@ pub fn rk4_step<'py>(
     u: &Bound<'py, PyAny>,
     dt: f64,
 ) -> PyResult<Arr1<'py>> {
-    let dt = positive_dt(dt)?;
+    let dt = crate::errors::positive_param("dt", dt)?;
     if let Ok(m) = model.cast::<PySlopeModel>() {
         let x = vector::<4>("x", x)?;
         let next = core_rk4(&m.get().inner, &x, &input::<1>("u", u)?, dt);
