@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import twip
-from twip import robot_file, scenarios
+from twip import robot_file, scenarios, sysid
 from twip.cli import main
 from twip.sysid import LogError, RunLog, Sensors, identify
 from twip.sysid.estimator import correlation_time
@@ -375,7 +375,7 @@ def test_bad_input_is_named(tmp_path):
         RunLog.from_csv(path, columns={"t": "u"})
 
 
-def test_cli_replays_the_imus_filter_on_raw_register_columns(tmp_path, capsys):
+def test_cli_replays_the_imus_filter_on_raw_register_columns(tmp_path, capsys, monkeypatch):
     """The rig's raw registers (ideal driver, no gearhead friction or backlash) through the CLI.
     With --imu-dlpf 42 the predictions pass through the MPU-6050's filter: within 0.35 % (measured:
     -0.04 %, -0.31 %, +0.03 %, 0.00 %). Without it the filter's lag is fitted as the robot:
@@ -397,6 +397,13 @@ def test_cli_replays_the_imus_filter_on_raw_register_columns(tmp_path, capsys):
     assert "500 Hz" in capsys.readouterr().err
     assert main(command + ["--imu-dlpf", "43"]) == 2
     assert "dlpf_hz = 43" in capsys.readouterr().err
+    # The gyroscope's bias walk is the IMU's (in deg/s/sqrt(s)), which the intervals take in.
+    assert main(command + ["--gyro-bias-walk", "0.005"]) == 2
+    assert "--gyro-bias-walk 0.005: describes the IMU, so it needs --imu-dlpf" in capsys.readouterr().err
+    seen = []
+    monkeypatch.setattr(sysid, "identify", lambda *a, **k: seen.append(k["sensors"]) or identify(*a, **k))
+    assert main(command + ["--imu-dlpf", "42", "--gyro-bias-walk", "0.005"]) == 0
+    assert seen[0].imu.gyro_bias_walk == pytest.approx(math.radians(0.005), rel=1e-15)
 
 
 def test_weights_are_named_signal_by_signal():

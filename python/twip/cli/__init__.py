@@ -183,6 +183,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "filter (default: the columns are unfiltered)")
     p.add_argument("--imu-rate", type=positive_float, default=1000.0, metavar="HZ",
                    help="the IMU's sample rate with --imu-dlpf; the log must be sampled at it (default 1000)")
+    p.add_argument("--gyro-bias-walk", type=positive_float, metavar="DPS",
+                   help="the gyroscope's bias random walk [deg/s/sqrt(s)] with --imu-dlpf, which the intervals "
+                        "take in (default: none)")
     p.add_argument("--out", metavar="FILE", help="write the fitted robot as a robot file (TOML)")
     p.add_argument("--plot", metavar="FILE", help="draw measured against predicted signals and residuals")
     p.set_defaults(func=commands.identify)

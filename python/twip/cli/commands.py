@@ -276,8 +276,11 @@ def identify(args) -> int:
     robot = start.params if start else twip.RobotParams.balanbot()
     free = [f.strip() for f in args.free.split(",") if f.strip()]
     signals = [s.strip() for s in args.signals.split(",")] if args.signals else None
+    if args.gyro_bias_walk is not None and args.imu_dlpf is None:
+        raise UsageError(f"--gyro-bias-walk {args.gyro_bias_walk:g}: describes the IMU, so it needs --imu-dlpf too")
+    walk = math.radians(args.gyro_bias_walk or 0.0)
     imu = None if args.imu_dlpf is None else twip.Imu(dlpf_hz=args.imu_dlpf, height=args.imu_height,
-                                                     sample_rate=args.imu_rate)
+                                                     sample_rate=args.imu_rate, gyro_bias_walk=walk)
     sensors = sysid.Sensors(encoder_cpr=args.encoder_cpr, imu_height=args.imu_height, imu=imu)
     fit = sysid.identify(log, robot, free, segment=args.segment, driver=start.driver if start else None,
                          sensors=sensors, signals=signals)
