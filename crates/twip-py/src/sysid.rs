@@ -3,7 +3,7 @@
 use nalgebra::Vector4;
 use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use twip_core::hardware::driver::{Driven, MotorDriver};
+use twip_core::hardware::driver::Driven;
 use twip_core::sysid::parallel::{run_all, Prediction};
 use twip_core::sysid::Shooting;
 use twip_core::{SlopeModel, TwipError};
@@ -18,8 +18,10 @@ type Out<'py> = (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>, Bound<'py
 /// `starts` [K, segments, 4]: returns (states, rates), each [K, n, 4], and each segment's
 /// state carried on to the next segment's first sample, [K, segments, 4] (NaN for the
 /// last). `u[i]` is held over
-/// [t_i, t_i+1): the lumped current [A], or with `drivers` (one MotorDriver per model,
-/// inductance ignored) the PWM duty [counts].
+/// [t_i, t_i+1): the lumped current [A], or with `drivers` (one MotorDriver per model) the
+/// PWM duty [counts]. A driver with inductance carries its winding's current along each
+/// segment, advanced once per RK4 step as `simulate` does (from the steady current of the
+/// duty held before the segment's first sample); without, the current is algebraic.
 #[pyfunction]
 #[pyo3(signature = (models, starts, t, u, segments, max_step = 1e-3, drivers = None))]
 #[allow(clippy::too_many_arguments)]
@@ -64,7 +66,7 @@ pub fn sysid_shoot<'py>(
             let driven = plants
                 .iter()
                 .zip(&drivers)
-                .map(|(p, d)| Driven::new(*p, &MotorDriver { inductance: 0.0, ..d.inner }, p.params()))
+                .map(|(p, d)| Driven::new(*p, &d.inner, p.params()))
                 .collect::<Result<Vec<_>, _>>()
                 .map_err(PyTwipError)?;
             py.detach(|| run_all(&shooting, &driven, &starts, &mut out))

@@ -36,6 +36,9 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
     - `driver`: the MotorDriver behind a pwm log (default: the robot file's, else the
       Balanbot's); `friction`: a twip.Friction on the model.
     - `sensors`: encoder counts per turn and IMU height, for enc and accel columns.
+    - `max_step` [s]: sample intervals longer than this are split into equal RK4 steps; for a
+      log of a twip run, its `dt` (the default is `twip.simulate`'s), so that the prediction
+      takes the simulator's steps (with winding inductance the current moves once per step).
     - `signals`: which logged outputs to compare (default all present); `weights`: their
       noise standard deviations (default estimated from the data, then from the fit).
     - `method`: "shooting" (the prediction error by multiple shooting, the default) or

@@ -210,6 +210,15 @@ impl<T: Real> Winding<T> {
         self.held = clamp(target + gap * average, self.limit);
         self.current = clamp(target + gap * decay, self.limit);
     }
+
+    /// Inductive only: the current set to its steady value for `pwm` at `relative_speed`,
+    /// as if that duty had been held for many time constants (a prediction that starts
+    /// mid-run, where the current is not known).
+    pub fn settle(&mut self, pwm: T, relative_speed: T) {
+        if self.inductive() {
+            self.current = self.steady_current(pwm, relative_speed);
+        }
+    }
 }
 
 // The winding's algebraic current, written once over `Lane`: a run's and a sweep's lanes.
@@ -330,6 +339,12 @@ impl<T: Real, P> Driven<T, P> {
     /// the duty held ([`Winding::advance`]).
     pub fn advance(&mut self, x: &Vector4<T>, pwm: T, dt: T) {
         self.winding.advance(pwm, self.motor_speed(x), dt);
+    }
+
+    /// Inductive only: the current set to its steady value at the state `x` for the duty
+    /// `pwm` ([`Winding::settle`]).
+    pub fn settle(&mut self, x: &Vector4<T>, pwm: T) {
+        self.winding.settle(pwm, self.motor_speed(x));
     }
 }
 

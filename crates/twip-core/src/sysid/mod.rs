@@ -5,12 +5,42 @@
 //! `twip.sysid`) makes the start states unknowns beside the robot's parameters.
 use nalgebra::{SVector, Vector4};
 
+use crate::hardware::driver::Driven;
 use crate::model::dynamics::Dynamics;
 use crate::model::integrate::rk4_step_from_k1;
-use crate::{Real, TwipError};
+use crate::{Real, SlopeModel, TwipError};
 
 #[cfg(feature = "parallel")]
 pub mod parallel;
+
+/// A model as a shooting run carries it along a segment. A plain model has no state of
+/// its own. A PWM-driven one whose winding has inductance carries the winding's current,
+/// advanced once per RK4 step, before it, as the simulator's plant does
+/// (`RealPlant::step_start`): the predictions are then the simulator's own steps.
+pub trait ShootingModel<T: Real>: Dynamics<T, 4, 1> + Copy {
+    /// A segment starts at `x`; `before` is the input held up to its first sample.
+    fn start_segment(&mut self, _x: &Vector4<T>, _before: T) {}
+
+    /// An RK4 step of `dt` starts at `x` under the input `u`.
+    fn start_step(&mut self, _x: &Vector4<T>, _u: T, _dt: T) {}
+}
+
+impl<T: Real> ShootingModel<T> for SlopeModel<T> {}
+
+impl<T: Real, P: Dynamics<T, 4, 1> + Copy> ShootingModel<T> for Driven<T, P> {
+    /// The current a segment starts with is unknown; the steady current of the duty held
+    /// before it, at its start state's speed, is what it has converged to when that duty
+    /// was held for several time constants (L/R ≈ 0.6 ms against a 5 ms control loop).
+    /// No-op without inductance.
+    fn start_segment(&mut self, x: &Vector4<T>, before: T) {
+        self.settle(x, before);
+    }
+
+    /// No-op without inductance: the current is then algebraic, inside `deriv`.
+    fn start_step(&mut self, x: &Vector4<T>, u: T, dt: T) {
+        self.advance(x, u, dt);
+    }
+}
 
 /// A logged run's time base and held inputs, cut into segments.
 #[derive(Clone, Copy, Debug)]
@@ -74,10 +104,12 @@ impl<'a, T: Real> Shooting<'a, T> {
     }
 
     /// Predicts every sample: `states[i]` the state, `rates[i]` its derivative under the
-    /// input held from sample i, and `ends[k]` segment k's state carried on to the next
-    /// segment's first sample (what continuity compares with that segment's start; the
-    /// last segment's is NaN). A segment that leaves the finite numbers stays NaN to its end.
-    pub fn run<M: Dynamics<T, 4, 1>>(
+    /// input held from sample i (with an inductive winding, under the current held over
+    /// the first RK4 step from it, as an accelerometer in the simulator feels it), and
+    /// `ends[k]` segment k's state carried on to the next segment's first sample (what
+    /// continuity compares with that segment's start; the last segment's is NaN). A
+    /// segment that leaves the finite numbers stays NaN to its end.
+    pub fn run<M: ShootingModel<T>>(
         &self,
         model: &M,
         starts: &[Vector4<T>],
@@ -97,9 +129,18 @@ impl<'a, T: Real> Shooting<'a, T> {
         }
         for (k, start) in starts.iter().enumerate() {
             let range = self.range(k);
+            // Each segment carries its own copy: its winding's current is its own. It starts
+            // from the duty held before the segment (the first segment's own: none before).
+            let mut model = *model;
+            model.start_segment(start, self.u[range.start.saturating_sub(1)]);
             let mut x = *start;
             for i in range.clone() {
                 let u = SVector::<T, 1>::new(self.u[i]);
+                // The last sample has no interval of its own: its step is as long as the one
+                // before's (only an inductive winding's held current depends on it).
+                let interval = if i + 1 < n { self.t[i + 1] - self.t[i] } else { self.t[i] - self.t[i - 1] };
+                let (steps, h) = self.split(interval);
+                model.start_step(&x, u[0], h);
                 let k1 = model.deriv(&x, &u);
                 states[i] = x;
                 rates[i] = k1;
@@ -107,7 +148,7 @@ impl<'a, T: Real> Shooting<'a, T> {
                 if i + 1 == n {
                     break;
                 }
-                x = self.advance(model, &x, &u, &k1, self.t[i + 1] - self.t[i]);
+                x = Self::advance(&mut model, &x, &u, &k1, steps, h);
                 if !x.iter().all(|v| v.is_finite()) {
                     x = Vector4::repeat(crate::c::<T>(f64::NAN));
                 }
@@ -119,17 +160,25 @@ impl<'a, T: Real> Shooting<'a, T> {
         Ok(())
     }
 
-    fn advance<M: Dynamics<T, 4, 1>>(&self, model: &M, x: &Vector4<T>, u: &SVector<T, 1>, k1: &Vector4<T>, h: T) -> Vector4<T> {
-        if h <= self.max_step * crate::c::<T>(1.0 + 1e-9) {
-            return rk4_step_from_k1(model, x, u, h, k1);
+    /// A sample interval as (the number of equal RK4 steps, their length): one step when it
+    /// is no longer than `max_step`, else as many as it takes (a whole number of max steps,
+    /// up to rounding, takes that many).
+    fn split(&self, interval: T) -> (T, T) {
+        if interval <= self.max_step * crate::c::<T>(1.0 + 1e-9) {
+            return (T::one(), interval);
         }
-        // A sample interval that is a whole number of max steps, up to rounding, takes that many.
-        let steps = (h / self.max_step - crate::c::<T>(1e-9)).ceil();
-        let dt = h / steps;
-        let mut y = rk4_step_from_k1(model, x, u, dt, k1);
+        let steps = (interval / self.max_step - crate::c::<T>(1e-9)).ceil();
+        (steps, interval / steps)
+    }
+
+    /// `steps` RK4 steps of `h` from `x` under `u`, the first from its first stage `k1`
+    /// (evaluated after the model's `start_step`); each further step starts the model's.
+    fn advance<M: ShootingModel<T>>(model: &mut M, x: &Vector4<T>, u: &SVector<T, 1>, k1: &Vector4<T>, steps: T, h: T) -> Vector4<T> {
+        let mut y = rk4_step_from_k1(model, x, u, h, k1);
         let mut done = T::one();
         while done < steps {
-            y = rk4_step_from_k1(model, &y, u, dt, &model.deriv(&y, u));
+            model.start_step(&y, u[0], h);
+            y = rk4_step_from_k1(model, &y, u, h, &model.deriv(&y, u));
             done += T::one();
         }
         y
@@ -169,6 +218,58 @@ mod tests {
             }
         }
         assert!(ends[1].iter().all(|v| v.is_nan()));
+    }
+
+    /// With an inductive driver a segment is the simulator's plant step for step: the
+    /// realism rig's `between_steps` (the winding's current advanced over the step) and RK4,
+    /// from the same current. Bit for bit: the time base is exact in binary (dt = 2^-10).
+    /// A sample every plant step, and one every 4 (`max_step` = dt splits the interval).
+    #[test]
+    fn an_inductive_segment_is_the_simulators_plant_bit_for_bit() {
+        use crate::hardware::driver::MotorDriver;
+        use crate::hardware::realism::{RealPlant, Realism, RigPlant};
+        use crate::sim::runner::Plant;
+        let model = SlopeModel::new(RobotParams::balanbot(), 0.1).unwrap();
+        let driver = MotorDriver::thesis_like();
+        let driven = Driven::new(model, &driver, model.params()).unwrap();
+        let (dt, n, segments) = (1.0 / 1024.0, 60, [0, 25]);
+        // Duties that swing through full scale: the 2 A limit clamps the current.
+        let u: Vec<f64> = (0..n).map(|i| (255.0 * (i as f64 * 0.3).sin()).round()).collect();
+        let starts = [Vector4::new(0.05, 0.0, 0.0, 0.0), Vector4::new(-0.02, 0.4, 0.3, 6.0)];
+        for every in [1, 4] {
+            let t: Vec<f64> = (0..n).map(|i| (i * every) as f64 * dt).collect();
+            let shooting = Shooting::new(&t, &u, &segments, dt).unwrap();
+            let (mut states, mut rates) = (vec![Vector4::zeros(); n], vec![Vector4::zeros(); n]);
+            let mut ends = [Vector4::zeros(); 2];
+            shooting.run(&driven, &starts, &mut states, &mut rates, &mut ends).unwrap();
+            let mut limited = 0;
+            for (k, range) in [(0, 0..25), (1, 25..n)] {
+                let mut plant = Realism { motor: Some(driver), ..Realism::ideal() }.build(&model, dt).unwrap().plant;
+                let mut x = starts[k];
+                if let RealPlant::Driven(p) = &mut plant {
+                    p.settle(&x, u[range.start.saturating_sub(1)]);
+                }
+                for i in range {
+                    let uu = SVector::<f64, 1>::new(u[i]);
+                    for step in 0..every {
+                        plant.between_steps(t[i] + step as f64 * dt, dt, &mut x, &uu);
+                        let k1 = plant.deriv(&x, &uu);
+                        if step == 0 {
+                            assert_eq!((states[i], rates[i]), (x, k1), "every {every}, sample {i}");
+                        }
+                        limited += usize::from(plant.currents(&x, &uu)[0].abs() == 2.0 * driver.current_limit);
+                        if i + 1 == n {
+                            break;
+                        }
+                        x = rk4_step_from_k1(&plant, &x, &uu, dt, &k1);
+                    }
+                }
+                if k == 0 {
+                    assert_eq!(ends[0], x, "every {every}");
+                }
+            }
+            assert!(limited > 10, "the limit clamped {limited} steps");
+        }
     }
 
     #[test]

@@ -3,8 +3,7 @@
 use nalgebra::Vector4;
 use rayon::prelude::*;
 
-use super::Shooting;
-use crate::model::dynamics::Dynamics;
+use super::{Shooting, ShootingModel};
 use crate::TwipError;
 
 /// One run's outputs: states and rates per sample, ends per segment.
@@ -15,7 +14,7 @@ pub struct Prediction {
 }
 
 /// Runs `models[k]` from `starts[k]` into `out[k]`, in parallel.
-pub fn run_all<M: Dynamics<f64, 4, 1> + Sync>(
+pub fn run_all<M: ShootingModel<f64> + Sync>(
     shooting: &Shooting<'_, f64>,
     models: &[M],
     starts: &[Vec<Vector4<f64>>],
