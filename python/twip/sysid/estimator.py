@@ -450,18 +450,18 @@ class Estimator:
         the global unknowns', `a` the rows of the globals in the inverse of the KKT matrix.
         The walk is a slow error shared by every later sample, which no correlation time
         found in a run's residuals takes in (without it, the thesis-like rig's intervals of
-        m_body and com_height were 1.7x too narrow over 16 noise seeds). The walk's increment w_k over the interval before
-        sample k (variance walk^2 dt_k) moves every gyro row from k on, so it moves the
-        globals by w_k a Σ_{i>=k} J_i / sigma: their covariance is the sum over k of
-        walk^2 dt_k (a Σ_{i>=k} J_i)(a Σ_{i>=k} J_i)^T / sigma^2 (the walk's start is the
-        constant offset, an unknown of its own)."""
+        m_body and com_height were 1.7x too narrow over 16 noise seeds). The walk's increment
+        w_k over the interval before sample k (variance walk^2 dt_k) moves every gyro row from
+        k on, so it moves the globals by w_k a Σ_{i>=k} J_i / sigma: their covariance is the
+        sum over k of walk^2 dt_k (a Σ_{i>=k} J_i)(a Σ_{i>=k} J_i)^T / sigma^2 (the walk's
+        start is the constant offset, an unknown of its own)."""
         imu = self.p.sensors.imu
         walk = float(imu.gyro_bias_walk) if imu is not None else 0.0
         if walk == 0.0 or "gyro" not in self.p.outputs:
             return np.zeros((self.n_g, self.n_g))
         jg, js = jacobian
-        n = len(self.p.log)
-        rows = slice(self.p.outputs.index("gyro") * n, (self.p.outputs.index("gyro") + 1) * n)
+        n, gyro = len(self.p.log), self.p.outputs.index("gyro")
+        rows = slice(gyro * n, (gyro + 1) * n)
         segment = np.repeat(np.arange(len(self.ranges)), [len(r) for r in self.ranges])
         own = a[:, self.n_g + 4 * segment[:, None] + np.arange(4)]  # [globals, n, 4]
         moved = jg[rows] @ a[:, :self.n_g].T + np.einsum("ic,gic->ig", js[rows], own)
@@ -532,7 +532,7 @@ class Estimator:
             predicted = -(float(grad[free] @ step) + 0.5 * float(step @ hess[np.ix_(free, free)] @ step))
             # Every damped step closes the linearised gaps by `closing`: in full they would make
             # it as long as the gaps, however large lam, and far from the answer no such step
-            # need lower the merit (a robot 25-67 % off stopped at its first step). Each failed
+            # need lower the merit (a robot 25-75 % off stopped at its first step). Each failed
             # try damps more and closes half as much: a line search on the gaps.
             closing = 1.0
             for _ in range(16):
