@@ -14,7 +14,6 @@ from twip import _core
 _bad = _core.InvalidParameterError
 
 
-
 @dataclass(frozen=True)
 class Uniform:
     """Uniform on [low, high]; or nominal·(1 ± rel); or nominal ± abs."""
