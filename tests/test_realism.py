@@ -271,3 +271,25 @@ def test_backlash_parity_with_the_reference(balanbot, name):
     r, run, err = part_parity(name, realism, balanbot, backlash=None)
     print(f"{name} with 3 degrees of backlash, 2 s: worst relative state difference {err:.1e}")
     assert r.outcome == run.outcome and err < 1e-9
+
+
+@pytest.mark.parametrize("name", ["slope-lqr-sim", "circle-pid"])
+def test_a_rolling_start_carries_its_rotors_through_the_play(balanbot, name):
+    """The start state's wheels turn relative to the body, and their rotors turn with them, in
+    the core's rigs and the reference's alike (the core's test
+    a_rolling_start_keeps_its_speed_through_a_tiny_play has the physics: rotors started at rest
+    took 3/4 of the wheels' speed in an impact)."""
+    import dataclasses
+
+    from conftest import reference_rig_run
+
+    sc = scenarios.get(name)
+    x0 = np.array(sc.x0, dtype=float)
+    rates = {4: 0.8, 5: 0.3, 6: 0.4} if name.startswith("circle") else {1: 1.5, 3: 6.0}  # phi_dot, v, omega / theta_dot
+    for i, rate in rates.items():
+        x0[i] += rate
+    sc = dataclasses.replace(sc, x0=x0)
+    realism = twip.Realism.thesis_like(seed=4, stream=2).replace(backlash=math.radians(3))
+    r = sc.run(realism=realism, t_final=1.0)
+    run = reference_rig_run(name, sc, realism, balanbot, 1.0)
+    assert r.outcome == run.outcome and rel_diff(r.states, run.states) < 1e-9

@@ -15,7 +15,7 @@ GB37_BACKLASH = math.pi / 180.0  # 1 degree at the output: the data sheet gives 
 class GearPlay:
     """`n` gear trains with `gap` of play [rad at the wheel]; each rotor of `inertia`
     [kg m^2 at the wheel] stands for `trains` trains with the gearhead `friction` each.
-    They start open, centred, at rest."""
+    They start open, centred, each rotor turning with its wheel (set at the first step)."""
 
     def __init__(self, gap: float, inertia: float, trains: float, friction, n: int):
         if not (math.isfinite(gap) and gap >= 0):
@@ -60,6 +60,8 @@ class GearPlay:
 
     def next_step(self, wheel, contact, motor):
         """A step starts: engaged trains whose contact torque pulls the flanks apart open."""
+        if self.before is None:
+            self.rotor = list(wheel)  # the start state's rotors turn with their wheels
         for i, flank in enumerate(self.flank):
             if flank == 0:
                 continue
