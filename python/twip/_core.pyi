@@ -192,7 +192,9 @@ class SlopeModel:
     def deriv(self, x: _ArrayLike, u: Union[float, _ArrayLike]) -> _F64: ...
     def energy(self, x: _ArrayLike) -> float: ...
     def linearize(self, x0: _ArrayLike, u0: float = 0.0) -> Tuple[_F64, _F64]:
-        """Exact Jacobians (A 4x4, B 4x1) at the operating point (x0, u0)."""
+        """Exact Jacobians (A 4x4, B 4x1) at the operating point (x0, u0). With a friction's
+        stick band: those of the slip law that acts outside the band, inside it too (the held
+        wheels there take no input)."""
     def linearize_thesis(self) -> Tuple[_F64, _F64, _F64]:
         """The thesis's linear model (4.6)-(4.10) on [phi, phi_dot, theta_dot]: (A 3x3, B 3x1, D 3x1)."""
     def equilibrium(self, theta_dot_ref: float, linear: bool = False) -> Tuple[_F64, float]:
@@ -519,7 +521,7 @@ class PidTracker:
     wheel torques by `motor` at the measured wheel speeds. `gains` (dict, over Table 4.1's)
     and `units` ("arduino", "si" or a dict of pitch, speed, heading, integral_step).
     A tracker holds no run state (each run starts its integrators at zero), so a pickled
-    copy is the same tracker.
+    copy is the same tracker. The heading error is wrapped to [−π, π) (docs/errata.md T2).
     """
     def __new__(cls, params: RobotParams, gains: Any = None, units: Any = None, motor: Optional[DcMotor] = None,
                 period: float = 0.005) -> PidTracker: ...
@@ -540,7 +542,9 @@ class SmcTracker:
     width of sat(S/w) for (S_eta, S1), one number for both, 0 for sgn; `pitch` is
     "backward" (the reading under which the published r1, r2 work) or "forward". A pickle
     or copy keeps these settings; the fuzzy weights adapt inside each run (from zeros), not
-    in the tracker.
+    in the tracker. The heading error ψ_r − ψ is wrapped to [−π, π) (docs/errata.md T2).
+    Logged internals: `lambda1` = −k_φ (φ − φ_s) in twip's pitch sign (the "backward" reading
+    turns r1, not λ1), `d` = r1 g21 + r2 g22 (the surface's input gain, not (4.82)'s 1 + k3 e1).
     """
     def __new__(cls, model: PlanarModel, fuzzy: bool = False, boundary_layer: Any = None, gains: Any = None,
                 torque_unit: Any = None, pitch: str = "backward", guards: Any = ..., gamma: Any = ...,
@@ -574,7 +578,9 @@ class SmcTracker:
     def replace(self, **changes: Any) -> SmcTracker:
         """A copy with some settings changed (validated as the constructor does)."""
     @property
-    def torque_unit(self) -> str: ...
+    def torque_unit(self) -> str:
+        """The unit the stored gains are in: "si", always (gains read in "pwm" are converted
+        when the tracker is built; `gains` holds them in N m)."""
     @property
     def guards(self) -> Tuple[float, float]:
         """Guards delta of (4.82) for (e3, d)."""

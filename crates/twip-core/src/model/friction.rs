@@ -743,5 +743,29 @@ mod tests {
             let col = (m.deriv(&x0, &SVector::from([0.2 + h])) - m.deriv(&x0, &SVector::from([0.2 - h]))) / (2.0 * h);
             assert!((col - b).norm() < 1e-5 * col.norm());
         }
+
+        #[test]
+        fn with_a_stick_band_the_linearisation_is_the_slip_law_that_acts_outside_it() {
+            // Outside the band the Jacobians are the model's own; inside it, where the held
+            // wheels take no input, they are the same law's, which does not depend on the
+            // band's width (a narrower band leaves the point outside: finite differences).
+            // They had mixed the two: an A row of [24.8, -0.10, 0, -0.06] in the band.
+            let p = RobotParams::<f64>::balanbot();
+            let model = |band: f64| SlopeModel::new(p, 0.1).unwrap().with_friction(Some(Friction::gb37().with_stick(band))).unwrap();
+            let (wide, narrow) = (model(0.1), model(1e-3));
+            let u = SVector::from([0.2]);
+            for x0 in [Vector4::new(0.05, 0.3, 0.0, 0.32), Vector4::new(-0.1, 1.0, 0.0, 1.5)] {
+                let (a, b) = wide.linearize(&x0, 0.2);
+                assert_eq!((a, b), narrow.linearize(&x0, 0.2));
+                let h = 1e-7;
+                for j in 0..4 {
+                    let e = Vector4::from_fn(|i, _| if i == j { h } else { 0.0 });
+                    let col = (narrow.deriv(&(x0 + e), &u) - narrow.deriv(&(x0 - e), &u)) / (2.0 * h);
+                    assert!((col - a.column(j)).norm() < 1e-5 * col.norm().max(1.0), "column {j}: {col} vs {}", a.column(j));
+                }
+                let col = (narrow.deriv(&x0, &SVector::from([0.2 + h])) - narrow.deriv(&x0, &SVector::from([0.2 - h]))) / (2.0 * h);
+                assert!((col - b).norm() < 1e-5 * col.norm());
+            }
+        }
     }
 }

@@ -226,10 +226,19 @@ impl<T: Real> SlopeModel<T> {
         Vector2::from(rotorless_accelerations(&self.k, f, sin_phi, cos_phi))
     }
 
-    /// Exact Jacobians `(A, B)` of `ẋ = f(x, u)` at any operating point `(x0, u0)`.
+    /// Exact Jacobians `(A, B)` of `ẋ = f(x, u)` at any operating point `(x0, u0)`. With a
+    /// gearhead friction's stick band, the Jacobians of the slip law that acts outside the
+    /// band, there too: inside it the held wheels take no input (B = 0), which is no model
+    /// to design on (upright at rest is inside), and the law is not smooth at its edge.
     pub fn linearize(&self, x0: &SlopeState<T>, u0: T) -> (SMatrix<T, 4, 4>, Vector4<T>) {
         let p = &self.params;
-        let (out, _) = forces_plus(&self.k, Gearhead::of(self.friction.as_ref()), &[x0[0], x0[1], x0[2], x0[3]], u0, |_, _| None);
+        let (mut out, _) = forces_plus(&self.k, Gearhead::of(self.friction.as_ref()), &[x0[0], x0[1], x0[2], x0[3]], u0, |_, _| None);
+        if let Some(f) = self.friction.as_ref().filter(|f| f.sticks()) {
+            // The band's model adds its torque once it knows what holds the wheels; here
+            // it is the slip law's, as outside the band.
+            let slip = c::<T>(2.0) * f.torque(x0[3] - x0[1]);
+            out.f = [out.f[0] + slip, out.f[1] - slip];
+        }
         let (sin_phi, cos_phi) = (out.sin_phi, out.cos_phi);
         let qdd = self.accelerations(&out.f, m12(&self.k, sin_phi, cos_phi, self.k.rotor));
         // M_b r l sin(φ + α) and M_b r l cos(φ + α).
