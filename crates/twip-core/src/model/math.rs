@@ -5,7 +5,7 @@
 //! Reduction by π/2 (rounding to nearest even): Cody–Waite's three parts in a run, two
 //! parts and one fused multiply-add in lanes, whose quadrant logic is bit masks (no
 //! branch stops the vectorisation). Then Taylor polynomials on |r| ≤ π/4. Accurate to
-//! a few ulp in f64 for |x| < 1e5.
+//! a few ulp in f64 for |x| < 1e5; a run takes libm's beyond (`REDUCTION_LIMIT`).
 use crate::model::lane::Lane;
 use crate::{c, Real};
 
@@ -38,9 +38,18 @@ pub(crate) const COS: [f64; 8] = [
     1.0 / 20_922_789_888_000.0,
 ];
 
+/// Beyond this angle [rad] a run's sin/cos is the library's: the three-part reduction
+/// holds a few ulp below it, and loses the angle far above (at 1e20 the 2-DOF mass
+/// matrix's M12 read −9.5e27). A sweep's lanes keep the polynomial: their robots fall
+/// long before.
+const REDUCTION_LIMIT: f64 = 1e5;
+
 /// (sin x, cos x).
 #[inline(always)]
 pub fn sin_cos<T: Real>(x: T) -> (T, T) {
+    if x.abs() > c(REDUCTION_LIMIT) {
+        return x.sin_cos();
+    }
     // Adding and removing 1.5/ε rounds to the nearest integer (ties to even).
     let magic = c::<T>(1.5) / T::default_epsilon();
     let k = (x * T::frac_2_pi() + magic) - magic;
@@ -328,6 +337,11 @@ mod tests {
         }
         assert!(worst64 < 5e-16, "f64 worst {worst64:e}");
         assert!(worst32 < 5e-7, "f32 worst {worst32:e} on |x| <= 10");
+        // Far out the library's own, whose reduction is exact.
+        for x in [-1e300f64, -3e20, 1e17, 1e5 + 1.0, 7e8] {
+            assert_eq!(sin_cos(x), x.sin_cos(), "{x:e}");
+        }
+        assert_eq!(sin_cos(1e20f32), 1e20f32.sin_cos());
     }
 
     #[cfg(feature = "std")]
