@@ -58,6 +58,17 @@ def test_errors_name_the_file_the_key_and_the_line(tmp_path, edit, message):
         twip.Robot.from_file(_write(tmp_path, edit))
 
 
+def test_a_data_sheet_of_another_motor_is_not_passed_over_in_silence(tmp_path, recwarn):
+    """The runs take [robot]'s torque_constant; the sheet sets the winding's resistance only.
+    A sheet whose torque constant differs (here 100 rpm at no load: 2.5x the Balanbot's) was
+    read with no word; the Balanbot's own sheet agrees to 0.05 % and stays quiet."""
+    twip.Robot.from_file(_write(tmp_path, lambda t: t))
+    assert not [w for w in recwarn if "torque_constant" in str(w.message)]
+    with pytest.warns(UserWarning, match=r"torque_constant = 0.00992 N m/A, but the \[motor\] data sheet gives 0.0249"):
+        robot = twip.Robot.from_file(_write(tmp_path, lambda t: t.replace("no_load_rpm = 251.0", "no_load_rpm = 100.0")))
+    assert robot.params.torque_constant == 0.00992
+
+
 def test_a_file_that_is_not_text_is_named(tmp_path):
     # It was a UnicodeDecodeError naming no file (a traceback on the command line).
     path = tmp_path / "bin.toml"

@@ -6,13 +6,18 @@
 
 `RobotParams.from_file(path)` reads the [robot] table; `twip.Robot.from_file(path)` reads
 all three, and `Robot.realism()` is `Realism.thesis_like()` with the file's motor and driver
-in place of the Balanbot's. `twip robot init FILE` writes the default robot, commented.
+in place of the Balanbot's. The runs take the torque constant from [robot] and only the
+winding's resistance from [motor] (a warning says when the sheet's torque constant differs
+by more than 2 %). Without a [driver] table the driver is `MotorDriver.thesis_like()`'s (the
+L298's drop, 1 mH, 2 A) with the sheet's resistance; a [driver] table starts from
+`MotorDriver()` (no drop, inductance or limit) and sets what it names. `twip robot init FILE` writes the default robot, commented.
 Errors name the file, the key and its line.
 """
 from __future__ import annotations
 
 import math
 import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Dict, Optional, Tuple
@@ -176,6 +181,7 @@ def load(path) -> Robot:
         except _core.InvalidParameterError as e:
             raise _core_error(path, text, "motor", MOTOR, e) from None
         stall = sheet["stall_current"]
+        _check_torque_constant(path, params, motor)
     driver = None
     if "driver" in data:
         settings = _numbers(path, text, data, "driver", DRIVER)
@@ -190,6 +196,22 @@ def load(path) -> Robot:
     elif motor is not None:
         driver = _core.MotorDriver.thesis_like().replace(resistance=motor.resistance)
     return Robot(params=params, motor=motor, driver=driver, stall_current=stall)
+
+
+#: How far [robot]'s torque_constant may be from the [motor] sheet's before a warning: the
+#: sheet's own rounding (the Balanbot's file: 0.05 %) is well inside.
+TORQUE_CONSTANT_TOLERANCE = 0.02
+
+
+def _check_torque_constant(path, params, motor) -> None:
+    """Warns when the file's torque constant and its motor's data sheet disagree: the runs
+    use [robot]'s torque_constant (the driver takes only the sheet's resistance), so a
+    sheet of another motor would otherwise pass unnoticed."""
+    sheet = motor.to_dict()["k_t"]
+    if abs(sheet / params.torque_constant - 1) > TORQUE_CONSTANT_TOLERANCE:
+        warnings.warn(f"{path}: [robot] torque_constant = {params.torque_constant!r} N m/A, but the [motor] data "
+                      f"sheet gives {sheet:.6g} N m/A (from its rated_voltage, no_load_rpm, no_load_current and stall_current); runs use "
+                      "torque_constant, and the sheet only sets the winding's resistance", stacklevel=3)
 
 
 def _format(value: float) -> str:
