@@ -653,3 +653,15 @@ def test_cli_ctrl_c_prints_the_partial_summary_and_the_resume_command(tmp_path):
     assert "fall rate" in err and "resume with:" in err
     resume = err.split("resume with:")[1].strip().splitlines()[0]
     assert resume.startswith("twip sweep flat-lqr-sim -n 60000") and str(folder) in resume
+
+
+def test_a_diverged_run_is_a_fall_as_sweeps_count_it():
+    """Gains of 1e150 blow the state up in one step: the outcome is "diverged", and `fell` said
+    False while the sweep of the same robots counted every sample as fallen (so `replay(i).fell`
+    disagreed with `metrics["fell"][i]`)."""
+    sc = scenarios.get("flat-lqr-sim", t_final=1.0)
+    wild = twip.LqrController(sc.model, [-1e150] * 4, point="operating", period=1e-3)
+    r = twip.simulate(sc.model, wild, sc.x0, 1.0, reference=sc.reference)
+    assert r.outcome == "diverged" and r.fell and r.t_fall == r.t_end == 0.001
+    sweep = twip.montecarlo(sc.replace(controller=wild), 4, perturb={"m_body": twip.Uniform(rel=0.1)}, progress=False)
+    assert sweep.metrics["fell"].all() and all(sweep.replay(i).fell for i in range(4))

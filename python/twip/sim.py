@@ -21,7 +21,12 @@ _BUILT_IN_CONTROLLERS = (_core.LqrController, _core.FuzzyController, _core.PidTr
 
 @dataclass(frozen=True)
 class SimResult:
-    """One closed-loop run. Arrays have one row per logged sample (SI units, radians)."""
+    """One closed-loop run. Arrays have one row per logged sample (SI units, radians).
+
+    `outcome`: "completed"; "fell" (|pitch| passed the fall limit at `t_end`); "diverged"
+    (the state or the controller's output stopped being finite at `t_end`: a fall for
+    `fell` and for sweeps; the metrics cover the samples before it, so a settling time of
+    0 there means nothing); "interrupted" (Ctrl-C: the run up to `t_end`)."""
 
     t: np.ndarray
     states: np.ndarray
@@ -54,8 +59,9 @@ class SimResult:
 
     @property
     def fell(self) -> bool:
-        """True when |pitch| passed the fall limit."""
-        return self.outcome == "fell"
+        """True when the run ended early: |pitch| passed the fall limit ("fell"), or the state
+        or the input stopped being finite ("diverged"), which sweeps count as a fall too."""
+        return self.outcome in ("fell", "diverged")
 
     @property
     def t_fall(self) -> Optional[float]:
@@ -124,7 +130,8 @@ def simulate(
     `realism` (a `twip.Realism`) puts the robot's real parts in the loop: sensors and
     estimator, motor driver, loop period and delay, disturbances; on a PlanarModel each
     wheel has its motor and encoder and the gyro's z axis gives the yaw rate.
-    `inputs` stay the controller's command (current or wheel torques); `signals` and
+    `inputs` hold the command in effect at each sample (current or wheel torques): with
+    `delay` the one issued a loop period earlier (0 in the first period). `signals` and
     `measurements` hold the rest.
 
     `controller`: a twip controller, an object with `update(t, y, ref) -> u` and `period`
