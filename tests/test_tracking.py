@@ -196,6 +196,21 @@ def test_table_4_1_readings(balanbot):
         assert r.outcome == "completed", period
 
 
+def test_the_trackers_wrap_the_heading_error():
+    """(4.69) and (4.73) take the heading error as it is; twip wraps it to [-pi, pi) (errata T2):
+    a start at psi0 = 2 pi is the start at 0, to rounding (unwrapped, the PID would turn a lap)."""
+    for name in ("circle-pid", "circle-smc", "circle-smc-fuzzy"):
+        sc = scenarios.get(name)
+        turned = np.array(sc.x0, dtype=float)
+        turned[2] += 2 * math.pi
+        runs = [twip.simulate(sc.model, sc.controller, x0, 5.0, sc.dt, reference=sc.reference) for x0 in (sc.x0, turned)]
+        assert runs[0].outcome == runs[1].outcome == "completed", name
+        psi = runs[1].states[:, 2] - 2 * math.pi
+        others = np.delete(runs[1].states, 2, axis=1)
+        assert np.max(np.abs(psi - runs[0].states[:, 2])) < 1e-9, name
+        assert rel_diff(others, np.delete(runs[0].states, 2, axis=1)) < 1e-9, name
+
+
 # --- sliding mode: signs, zero dynamics, guards, boundary layer ----------------------------------------
 
 
