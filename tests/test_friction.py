@@ -1,6 +1,7 @@
 """Gearhead friction (Coulomb + viscous + Stribeck, tanh-regularised or with a stick band): off by
 default, parity of the law and of both models with the pure-Python reference, closed-form checks,
 errors."""
+import dataclasses
 import math
 
 import numpy as np
@@ -117,6 +118,16 @@ def test_stick_band_parity_inside_the_band(balanbot):
         worst = max(worst, rel_err(m.deriv(x, u), r.deriv(x, u)))
     print(f"stick band: worst deriv {worst:.1e}")
     assert worst < 1e-11, worst
+
+
+def test_the_wheel_that_needs_most_breaks_away_first():
+    """Both held would need (1.2, -2.0) against a breakaway of 1: wheel 1 goes, and wheel 0 is
+    held with 0.4 (released in index order both went, though wheel 0 could be held). The
+    reference's rule, as the core's (`the_wheel_that_needs_most_breaks_away_first`)."""
+    f = dataclasses.replace(RefFriction.gb37(), breakaway=1.0, stick_speed=0.1)
+    S = np.array([[1.0, 0.8], [0.8, 1.0]])
+    tau = f.torques([0.0, 0.0], S @ [1.2, -2.0], S)
+    np.testing.assert_allclose(tau, [0.4, -1.0], atol=1e-12)
 
 
 def test_a_held_robot_stays_at_rest_and_the_regularised_one_creeps(balanbot):

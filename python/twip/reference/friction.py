@@ -55,8 +55,8 @@ class Friction:
     def torques(self, w, a0, S) -> np.ndarray:
         """Torques on wheels at speeds `w` whose accelerations are a0 - S tau (S from the
         mass matrix): the slip law, except that wheels in the stick band are held while
-        the torque that takes stays within +-breakaway; one that would need more breaks
-        away at +-breakaway and the rest are held against it."""
+        the torque that takes stays within +-breakaway; the one that would need most beyond
+        it breaks away at +-breakaway and the rest are held against it."""
         w, a0, S = np.asarray(w, float), np.asarray(a0, float), np.asarray(S, float)
         tau = np.array([self.torque(v) for v in w])
         if self.stick_speed <= 0:
@@ -65,11 +65,11 @@ class Friction:
         while held.any():
             h, o = np.flatnonzero(held), np.flatnonzero(~held)
             need = np.linalg.solve(S[np.ix_(h, h)], a0[h] + w[h] / STICK_TIME - S[np.ix_(h, o)] @ tau[o])
-            over = np.abs(need) > self.breakaway
-            if not over.any():
+            excess = np.abs(need) - self.breakaway
+            if not (excess > 0).any():
                 tau[h] = need
                 break
-            first = h[np.argmax(over)]
-            tau[first] = math.copysign(self.breakaway, need[np.argmax(over)])
-            held[first] = False
+            worst = int(np.argmax(excess))  # the wheel that needs most breaks away first
+            tau[h[worst]] = math.copysign(self.breakaway, need[worst])
+            held[h[worst]] = False
         return tau

@@ -263,12 +263,25 @@ impl<S: Lane> Friction<S> {
         let mut done = S::mask(false);
         for _ in 0..N {
             let need = hold(&held, &tau, &w, &a0, &s, rate);
+            // The held wheel that needs most beyond ±τ_s breaks away first: releasing the
+            // first in index order could release a wheel whose partner, released, would let
+            // it be held (both at ±τ_s where one held wheel was consistent).
+            let mut worst = zero;
+            let mut release = [S::mask(false); N];
+            for i in 0..N {
+                let excess = need[i].magnitude() - breakaway;
+                let more = !done & held[i] & excess.gt(worst);
+                for r in release.iter_mut().take(i) {
+                    *r = *r & !more;
+                }
+                release[i] = more;
+                worst = S::select(more, excess, worst);
+            }
             let mut released = S::mask(false);
             for i in 0..N {
-                let release = !done & !released & held[i] & need[i].magnitude().gt(breakaway);
-                held[i] = held[i] & !release;
-                tau[i] = S::select(release, S::select(need[i].gt(zero), breakaway, -breakaway), tau[i]);
-                released = released | release;
+                held[i] = held[i] & !release[i];
+                tau[i] = S::select(release[i], S::select(need[i].gt(zero), breakaway, -breakaway), tau[i]);
+                released = released | release[i];
             }
             let finish = !done & !released;
             for i in 0..N {
@@ -323,6 +336,21 @@ mod tests {
         let at_no_load = f.torque(GB37_NO_LOAD_SPEED);
         assert!((at_no_load - f.coulomb).abs() < 1e-12 * f.coulomb, "{at_no_load}");
         assert!((GB37_NO_LOAD_SPEED - 26.285).abs() < 1e-3);
+    }
+
+    #[test]
+    fn the_wheel_that_needs_most_breaks_away_first() {
+        // Both held would need (1.2, -2.0) against a breakaway of 1. Released in index order,
+        // wheel 0 went first and then wheel 1 too: (1, -1), although with wheel 1 at -1
+        // wheel 0 needs only 0.4 to be held. Wheel 1 needs more: it goes, wheel 0 is held.
+        let f = Friction { breakaway: 1.0, ..Friction::<f64>::gb37() }.with_stick(0.1);
+        let (s, tau_both) = ([[1.0, 0.8], [0.8, 1.0]], [1.2, -2.0]);
+        let a0 = [s[0][0] * tau_both[0] + s[0][1] * tau_both[1], s[1][0] * tau_both[0] + s[1][1] * tau_both[1]];
+        let tau = f.torques([0.0, 0.0], a0, s);
+        assert!((tau[0] - 0.4).abs() < 1e-12 && tau[1] == -1.0, "{tau:?}");
+        // The mirror image: the same with the wheels' roles swapped.
+        let tau = f.torques([0.0, 0.0], [a0[1], a0[0]], s);
+        assert!((tau[1] - 0.4).abs() < 1e-12 && tau[0] == -1.0, "{tau:?}");
     }
 
     #[test]
