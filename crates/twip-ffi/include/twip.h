@@ -261,6 +261,12 @@ typedef struct {
 // The state was not initialised by its `twip_X_init` (or its init failed).
 #define TWIP_ERR_NOT_INITIALISED -4
 
+// A controller update with finite inputs whose command or carried state (integrator,
+// adaptive weights) came out NaN or infinite, as a finite but absurd reading (a sensor
+// glitch of 1e12 rad) makes it: refused, with the state unchanged (as before the call) and
+// the outputs untouched, so the next ordinary update answers as if this one never happened.
+#define TWIP_ERR_OVERFLOW -5
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -275,7 +281,10 @@ const char *twip_status_text(TwipStatus status);
 // `state` and `config` are NULL or valid pointers.
 TwipStatus twip_lqr_init(TwipLqr *state, const TwipLqrConfig *config);
 
-// One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]).
+// One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]). Returns
+// TWIP_OK, TWIP_ERR_NULL, TWIP_ERR_NOT_INITIALISED, TWIP_ERR_NOT_FINITE (a NaN or infinite
+// input) or TWIP_ERR_OVERFLOW (finite inputs, but the command or the integrator came out
+// NaN or infinite: the state is unchanged). `u` is written only with TWIP_OK.
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above.
@@ -296,6 +305,7 @@ TwipStatus twip_lqr_reset(TwipLqr *state);
 TwipStatus twip_fuzzy_init(TwipFuzzy *state, const TwipFuzzyConfig *config);
 
 // One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]).
+// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above.
@@ -316,6 +326,7 @@ TwipStatus twip_fuzzy_reset(TwipFuzzy *state);
 TwipStatus twip_pid_init(TwipPid *state, const TwipPidConfig *config);
 
 // One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
+// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above.
@@ -336,6 +347,7 @@ TwipStatus twip_pid_reset(TwipPid *state);
 TwipStatus twip_smc_init(TwipSmc *state, const TwipSmcConfig *config);
 
 // One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
+// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above.
