@@ -252,7 +252,8 @@ typedef struct {
 // A pointer argument was NULL.
 #define TWIP_ERR_NULL -1
 
-// A configuration value is outside its domain (negative period, inconsistent sets...).
+// A configuration value or an argument is outside its domain (negative period or `dt`,
+// inconsistent sets...).
 #define TWIP_ERR_INVALID -2
 
 // An input (measurement, reference, time) is NaN or infinite; the outputs are untouched.
@@ -371,6 +372,8 @@ TwipStatus twip_tilt_init(TwipTilt *state, const TwipTiltConfig *config);
 
 // One estimator step: the accelerometer tilt [rad] and gyroscope rate [rad/s], `dt` [s]
 // after the previous step; `angle` and `rate` receive the estimated pitch and pitch rate.
+// TWIP_ERR_NOT_FINITE for a NaN or infinite input, TWIP_ERR_INVALID for `dt` < 0; the
+// outputs are then untouched.
 //
 // # Safety
 // Pointers are NULL or valid.
@@ -387,8 +390,16 @@ TwipStatus twip_tilt_update(TwipTilt *state,
 // `state` is NULL or valid.
 TwipStatus twip_encoder_init(TwipEncoder *state, float counts_per_revolution);
 
-// The wheel's angle relative to the body [rad] and its speed [rad/s] from the hardware
-// counter's value `count`, `dt` [s] after the previous read (speed 0 at the first read).
+// The wheel's angle relative to the body [rad] and its speed [rad/s] from the counter's
+// value `count`, `dt` [s] after the previous read (speed 0 at the first read, and with `dt`
+// = 0). `count` is a 32-bit running count that wraps from INT32_MAX to INT32_MIN: the
+// speed comes from the counts' difference modulo 2^32, exact across the wrap while fewer
+// than 2^31 counts pass between reads. A narrower hardware counter must be extended to 32
+// bits by the caller, for example with a 16-bit timer `total += (int16_t)(hw - last_hw);
+// last_hw = hw;` at every read (more often than every 2^15 counts): passed as it is, its
+// wrap from 65535 to 0 reads as a jump of 65535 counts. The angle is `count` × 2π/CPR
+// in f32, so it wraps with the counter and its step grows past 2^24 counts.
+// TWIP_ERR_NOT_FINITE for a NaN or infinite `dt`, TWIP_ERR_INVALID for `dt` < 0.
 //
 // # Safety
 // Pointers are NULL or valid.

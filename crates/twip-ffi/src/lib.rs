@@ -34,7 +34,8 @@ pub type TwipStatus = i32;
 pub const TWIP_OK: TwipStatus = 0;
 /// A pointer argument was NULL.
 pub const TWIP_ERR_NULL: TwipStatus = -1;
-/// A configuration value is outside its domain (negative period, inconsistent sets...).
+/// A configuration value or an argument is outside its domain (negative period or `dt`,
+/// inconsistent sets...).
 pub const TWIP_ERR_INVALID: TwipStatus = -2;
 /// An input (measurement, reference, time) is NaN or infinite; the outputs are untouched.
 pub const TWIP_ERR_NOT_FINITE: TwipStatus = -3;
@@ -52,7 +53,7 @@ pub extern "C" fn twip_status_text(status: TwipStatus) -> *const core::ffi::c_ch
     let text: &'static core::ffi::CStr = match status {
         TWIP_OK => c"ok",
         TWIP_ERR_NULL => c"a pointer argument is NULL",
-        TWIP_ERR_INVALID => c"a configuration value is out of its domain",
+        TWIP_ERR_INVALID => c"a configuration value or argument is out of its domain",
         TWIP_ERR_NOT_FINITE => c"an input is NaN or infinite",
         TWIP_ERR_NOT_INITIALISED => c"the state was not initialised",
         TWIP_ERR_OVERFLOW => c"the update overflowed; the state is unchanged",
