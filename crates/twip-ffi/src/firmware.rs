@@ -5,7 +5,7 @@ use twip_core::hardware::driver::PwmActuator;
 use twip_core::hardware::encoder::Encoder;
 use twip_core::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 
-use crate::config::TwipMotor;
+use crate::config::{narrow, TwipMotor};
 use crate::controllers::init;
 use crate::slot::{self, fits};
 use crate::{TwipStatus, TWIP_ERR_INVALID, TWIP_ERR_NOT_FINITE, TWIP_ERR_NULL, TWIP_OK};
@@ -68,9 +68,9 @@ impl TwipPwmConfig {
         PwmActuator::from_parts(self.motor.to_core()?, self.command_per_amp)
     }
 
-    pub fn from_core(a: &PwmActuator<f64>) -> Self {
+    pub fn from_core(a: &PwmActuator<f64>) -> Result<Self, twip_core::TwipError> {
         let (motor, command_per_amp) = a.parts();
-        Self { motor: TwipMotor::from_core(&motor), command_per_amp: command_per_amp as f32 }
+        Ok(Self { motor: TwipMotor::from_core(&motor)?, command_per_amp: narrow("command_per_amp", command_per_amp)? })
     }
 }
 

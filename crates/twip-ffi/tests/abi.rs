@@ -15,7 +15,7 @@ fn lqr_config() -> TwipLqrConfig {
     let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
     let gains = [-11.0091734, -1.69875395, -0.0500031523, -0.0456435457];
     let c = LqrController::new(gains, model, twip_core::control::lqr::DesignPoint::OperatingPoint, 0.005).unwrap();
-    TwipLqrConfig::from_core(&c)
+    TwipLqrConfig::from_core(&c).unwrap()
 }
 
 fn new_lqr() -> TwipLqr {
@@ -187,4 +187,18 @@ fn firmware_pieces_answer_as_the_core() {
         assert_eq!(duty, duty.round(), "whole counts");
         assert!(twip_accel_tilt(0.0, 9.81).abs() < 1e-7);
     }
+}
+
+/// A tuned f64 value that f32 cannot hold is refused by name with the value given, not
+/// as the f32 conversion's infinity or zero ("gains[0] = -inf is not finite").
+#[test]
+fn a_value_beyond_f32_is_named_with_its_f64_value() {
+    let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
+    let point = twip_core::control::lqr::DesignPoint::OperatingPoint;
+    let huge = LqrController::new([-1e39, -1.7, -0.05, -0.045], model, point, 0.005).unwrap();
+    let err = TwipLqrConfig::from_core(&huge).unwrap_err().to_string();
+    assert!(err.starts_with("invalid gains[0] = -1e39: does not fit in f32"), "{err}");
+    let tiny = LqrController::new([-11.0, -1.7, -0.05, -0.045], model, point, 1e-50).unwrap();
+    let err = TwipLqrConfig::from_core(&tiny).unwrap_err().to_string();
+    assert!(err.starts_with("invalid period = 1e-50: does not fit in f32"), "{err}");
 }

@@ -14,7 +14,7 @@ const PERIOD: f32 = 0.005;
 fn lqr_config() -> TwipLqrConfig {
     let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
     let gains = [-11.0091734, -1.69875395, -0.0500031523, -0.0456435457];
-    TwipLqrConfig::from_core(&LqrController::new(gains, model, DesignPoint::OperatingPoint, PERIOD as f64).unwrap())
+    TwipLqrConfig::from_core(&LqrController::new(gains, model, DesignPoint::OperatingPoint, PERIOD as f64).unwrap()).unwrap()
 }
 
 fn smc_config(motor: bool) -> TwipSmcConfig {
@@ -22,7 +22,7 @@ fn smc_config(motor: bool) -> TwipSmcConfig {
     let gb37 = DcMotor::gb37y3530();
     let gains = SmcGains::thesis(gb37.torque_per_count());
     let smc = SmcTracker::new(gains, SmcOptions::default(), model, motor.then_some(gb37), Some(Adaptation::default()), PERIOD as f64);
-    TwipSmcConfig::from_core(&smc.unwrap())
+    TwipSmcConfig::from_core(&smc.unwrap()).unwrap()
 }
 
 /// `updates` ordinary updates through `update`, with `glitch` (a measurement) slipped in
@@ -92,7 +92,7 @@ fn a_huge_wheel_speed_leaves_the_lqr_integrator_as_it_was() {
 #[test]
 fn a_pid_integrator_that_would_overflow_is_refused() {
     let pid = PidTracker::table_4_1(&RobotParams::balanbot(), DcMotor::gb37y3530(), PERIOD as f64).unwrap();
-    let config = TwipPidConfig::from_core(&pid);
+    let config = TwipPidConfig::from_core(&pid).unwrap();
     let ordinary = [0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0];
     let mut clean = TwipPid { words: [0; TWIP_PID_WORDS] };
     assert_eq!(unsafe { twip_pid_init(&mut clean, &config) }, TWIP_OK);

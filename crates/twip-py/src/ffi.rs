@@ -84,12 +84,12 @@ pub fn ffi_record<'py>(
         let schedule = reference.cast::<PySpeedSchedule>()?.get().inner;
         let x0: [f32; 4] = state_of(&x0)?;
         if let Ok(c) = controller.cast::<PyLqrController>() {
-            let config = TwipLqrConfig::from_core(&c.get().inner);
+            let config = TwipLqrConfig::from_core(&c.get().inner).map_err(PyTwipError)?;
             let run = record(&plant, config.build().map_err(PyTwipError)?, &schedule, x0, dt32, t32).map_err(PyTwipError)?;
             return record_dict(py, "lqr", bytes_of(py, &config), run, 2);
         }
         if let Ok(c) = controller.cast::<PyFuzzyController>() {
-            let config = TwipFuzzyConfig::from_core(&c.get().inner);
+            let config = TwipFuzzyConfig::from_core(&c.get().inner).map_err(PyTwipError)?;
             let run = record(&plant, config.build().map_err(PyTwipError)?, &schedule, x0, dt32, t32).map_err(PyTwipError)?;
             return record_dict(py, "fuzzy", bytes_of(py, &config), run, 2);
         }
@@ -98,12 +98,12 @@ pub fn ffi_record<'py>(
         let path = trajectory(reference)?;
         let x0: [f32; 7] = state_of(&x0)?;
         if let Ok(c) = controller.cast::<PyPidTracker>() {
-            let config = TwipPidConfig::from_core(&c.get().inner);
+            let config = TwipPidConfig::from_core(&c.get().inner).map_err(PyTwipError)?;
             let run = record(&plant, config.build().map_err(PyTwipError)?, &path, x0, dt32, t32).map_err(PyTwipError)?;
             return record_dict(py, "pid", bytes_of(py, &config), run, 7);
         }
         if let Ok(c) = controller.cast::<PySmcTracker>() {
-            let config = TwipSmcConfig::from_core(&c.get().inner);
+            let config = TwipSmcConfig::from_core(&c.get().inner).map_err(PyTwipError)?;
             let run = record(&plant, config.build().map_err(PyTwipError)?, &path, x0, dt32, t32).map_err(PyTwipError)?;
             return record_dict(py, "smc", bytes_of(py, &config), run, 7);
         }
@@ -151,8 +151,8 @@ pub fn ffi_firmware<'py>(
     if let Some(driver) = core.motor {
         let lumped = PwmActuator::new(&driver, &p).map_err(PyTwipError)?;
         let wheel = PwmActuator::per_wheel_torque(&driver, &p).map_err(PyTwipError)?;
-        out.set_item("pwm_lumped", bytes_of(py, &TwipPwmConfig::from_core(&lumped)))?;
-        out.set_item("pwm_wheel", bytes_of(py, &TwipPwmConfig::from_core(&wheel)))?;
+        out.set_item("pwm_lumped", bytes_of(py, &TwipPwmConfig::from_core(&lumped).map_err(PyTwipError)?))?;
+        out.set_item("pwm_wheel", bytes_of(py, &TwipPwmConfig::from_core(&wheel).map_err(PyTwipError)?))?;
     }
     out.set_item("encoder_cpr", core.encoder_cpr)?;
     Ok(out)
