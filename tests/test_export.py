@@ -162,3 +162,49 @@ def test_an_install_without_sources_says_how_to_point_at_them(tmp_path, capsys, 
     monkeypatch.delenv("TWIP_SRC")
     summary = export("flat-lqr", tmp_path / "fw2", replay_seconds=0.1)
     assert summary["source_found"], summary["source"]
+
+
+def _loop_period_macro(folder) -> float:
+    h = (folder / "twip_config.h").read_text()
+    return float(re.search(r"#define TWIP_LOOP_PERIOD_S ([0-9.e+-]+)f", h).group(1))
+
+
+@needs_tools
+def test_the_export_runs_at_the_scenarios_control_period(tmp_path):
+    # Scenario.control_period is the loop period simulate runs: it was ignored, and the
+    # export recorded and wrote the controller's own 5 ms while the simulation ran 10 ms.
+    sc = scenarios.get("flat-lqr").replace(control_period=0.01)
+    summary = export(sc, tmp_path, replay_seconds=2.0)
+    assert summary["updates"] == 200
+    assert _loop_period_macro(tmp_path) == pytest.approx(0.01)
+    assert ".period = 10.0f * TWIP_S_PER_MS,  /* 10 ms */" in (tmp_path / "twip_config.c").read_text()
+    assert _relative(_check(tmp_path)) <= REPLAY_TOLERANCE
+    # The recording is the simulation's loop: an update every 10 ms, the same commands as
+    # the f64 run within f32's rounding.
+    rec = _core.ffi_record(sc.model, sc.controller, [float(v) for v in sc.x0], 2.0, sc.dt, sc.reference,
+                           control_period=sc.control_period)
+    np.testing.assert_allclose(np.diff(rec["t"].astype(float)), 0.01, atol=1e-6)
+    run = sc.run(t_final=2.0)
+    at = np.rint(rec["t"].astype(float) / sc.dt).astype(int)
+    assert np.max(np.abs(run.inputs[at] - rec["u"])) / np.abs(run.inputs).max() < 5e-4
+    # Without control_period, the controller's own period, as before.
+    export("flat-lqr", tmp_path / "own", replay_seconds=0.5)
+    assert _loop_period_macro(tmp_path / "own") == pytest.approx(0.005)
+
+
+def test_values_out_of_f32_or_of_the_loop_are_named_with_the_value_given(tmp_path):
+    model = twip.SlopeModel(twip.RobotParams.balanbot())
+    huge_gain = scenarios.get("flat-lqr").replace(controller=twip.LqrController(model, [-1e39, -1.7, -0.05, -0.045]))
+    with pytest.raises(twip.InvalidParameterError, match=r"invalid gains\[0\] = -1e39: does not fit in f32"):
+        export(huge_gain, tmp_path, replay_seconds=1.0)  # was "gains[0] = -inf is not finite"
+    tiny_period = scenarios.get("flat-lqr").replace(
+        controller=twip.LqrController(model, [-11, -1.7, -0.05, -0.045], period=1e-50))
+    with pytest.raises(twip.InvalidParameterError,
+                       match=r"controller.period = 1e-50 s: .* at least the scenario's dt = 0.001 s"):
+        export(tiny_period, tmp_path, replay_seconds=1.0)  # was a MemoryBudgetError for 1e47 updates
+    with pytest.raises(twip.InvalidParameterError, match=r"control_period = 0.0005 s: .*dt = 0.001 s"):
+        export(scenarios.get("flat-lqr").replace(control_period=5e-4), tmp_path, replay_seconds=1.0)
+    # A robot's value prints as the user wrote it, not in 301 digits.
+    with pytest.raises(twip.InvalidParameterError, match=r"^invalid m_body = 1e\+?300: "):
+        twip.RobotParams.balanbot().replace(m_body=1e300)
+    assert not (tmp_path / "replay_data.c").exists()

@@ -160,9 +160,24 @@ extern const float replay_u[{n}][{fam.nu}];
     return data, h
 
 
-def _check_replay_size(sc, seconds: float) -> None:
+def _loop_period(sc) -> float:
+    """The period [s] the scenario runs its controller at, as `Scenario.run` does: its
+    `control_period` when it has one, else the controller's own; refused, by name, below the
+    simulation step (the runner updates at most once per step)."""
+    if sc.control_period is not None:
+        name, period = "control_period", sc.control_period
+    else:
+        name, period = "controller.period", getattr(sc.controller, "period", sc.dt)
+    if not period >= sc.dt:
+        raise _core.InvalidParameterError(
+            f"{name} = {period!r} s: the controller updates at most once per simulation step, so its period "
+            f"must be at least the scenario's dt = {sc.dt!r} s (and a whole multiple of it)")
+    return period
+
+
+def _check_replay_size(sc, seconds: float, period: float) -> None:
     """The recorded run and its C text against the memory budget, before recording."""
-    updates = seconds / getattr(sc.controller, "period", sc.dt) + 1
+    updates = seconds / period + 1
     values = 1 + 2 * len(sc.x0) + 2  # t, y, the reference (at most a state's width), u
     budget.check(f"export: the replay of {seconds:g} s ({updates:,.0f} controller updates)",
                  updates * values * REPLAY_BYTES_PER_VALUE, "pass a shorter replay_seconds")
@@ -183,8 +198,11 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
     sc = scenarios.get(scenario, params=params) if isinstance(scenario, str) else scenario
     realism = robot.realism() if robot is not None else _core.Realism.thesis_like()
     seconds = min(sc.t_final, replay_seconds)
-    _check_replay_size(sc, seconds)
-    rec = _core.ffi_record(sc.model, sc.controller, [float(v) for v in sc.x0], seconds, sc.dt, sc.reference)
+    _check_replay_size(sc, seconds, _loop_period(sc))
+    # The loop period the simulation runs (Scenario.control_period, if set) is the one
+    # recorded and written as TWIP_LOOP_PERIOD_S.
+    rec = _core.ffi_record(sc.model, sc.controller, [float(v) for v in sc.x0], seconds, sc.dt, sc.reference,
+                           control_period=sc.control_period)
     fam = FAMILIES[rec["family"]]
     parts = _core.ffi_firmware(realism, sc.model.params)
     if fam.pwm not in parts:
