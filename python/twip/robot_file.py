@@ -6,7 +6,8 @@
 
 `RobotParams.from_file(path)` reads the [robot] table; `twip.Robot.from_file(path)` reads
 all three, and `Robot.realism()` is `Realism.thesis_like()` with the file's motor and driver
-in place of the Balanbot's. `twip robot init FILE` writes the default robot, commented.
+in place of the Balanbot's; `Robot.controller_motor()` is the motor a tracker built for the
+robot assumes (`twip.scenarios.robot_options`). `twip robot init FILE` writes the default robot, commented.
 Errors name the file, the key and its line.
 """
 from __future__ import annotations
@@ -128,6 +129,17 @@ class Robot:
     @classmethod
     def from_file(cls, path) -> "Robot":
         return load(path)
+
+    def controller_motor(self):
+        """The motor the trackers built for this robot assume (their torque limits and their
+        PWM-to-torque conversion), the one the PWM feed-forward of `twip export` drives: the
+        [motor] table's (at the [driver]'s battery); without it, the Balanbot's GB37Y3530 at
+        the [driver]'s battery; None without either (the scenarios' default motor)."""
+        if self.motor is not None:
+            return self.motor
+        if self.driver is not None:
+            return _core.DcMotor.gb37y3530(supply=self.driver.battery)
+        return None
 
     def realism(self, **changes):
         """`Realism.thesis_like()` with this robot's motor driver (when the file has one)."""
