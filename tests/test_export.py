@@ -162,3 +162,112 @@ def test_an_install_without_sources_says_how_to_point_at_them(tmp_path, capsys, 
     monkeypatch.delenv("TWIP_SRC")
     summary = export("flat-lqr", tmp_path / "fw2", replay_seconds=0.1)
     assert summary["source_found"], summary["source"]
+
+
+def _loop_period_macro(folder) -> float:
+    h = (folder / "twip_config.h").read_text()
+    return float(re.search(r"#define TWIP_LOOP_PERIOD_S ([0-9.e+-]+)f", h).group(1))
+
+
+@needs_tools
+def test_the_export_runs_at_the_scenarios_control_period(tmp_path):
+    # Scenario.control_period is the loop period simulate runs: it was ignored, and the
+    # export recorded and wrote the controller's own 5 ms while the simulation ran 10 ms.
+    sc = scenarios.get("flat-lqr").replace(control_period=0.01)
+    summary = export(sc, tmp_path, replay_seconds=2.0)
+    assert summary["updates"] == 200
+    assert _loop_period_macro(tmp_path) == pytest.approx(0.01)
+    assert ".period = 10.0f * TWIP_S_PER_MS,  /* 10 ms */" in (tmp_path / "twip_config.c").read_text()
+    assert _relative(_check(tmp_path)) <= REPLAY_TOLERANCE
+    # The recording is the simulation's loop: an update every 10 ms, the same commands as
+    # the f64 run within f32's rounding.
+    rec = _core.ffi_record(sc.model, sc.controller, [float(v) for v in sc.x0], 2.0, sc.dt, sc.reference,
+                           control_period=sc.control_period)
+    np.testing.assert_allclose(np.diff(rec["t"].astype(float)), 0.01, atol=1e-6)
+    run = sc.run(t_final=2.0)
+    at = np.rint(rec["t"].astype(float) / sc.dt).astype(int)
+    assert np.max(np.abs(run.inputs[at] - rec["u"])) / np.abs(run.inputs).max() < 5e-4
+    # Without control_period, the controller's own period, as before.
+    export("flat-lqr", tmp_path / "own", replay_seconds=0.5)
+    assert _loop_period_macro(tmp_path / "own") == pytest.approx(0.005)
+
+
+def _custom_robot(tmp_path) -> "twip.Robot":
+    """A robot file whose motor and driver are not the Balanbot's (the audit's)."""
+    from twip import robot_file
+
+    path = tmp_path / "custom.toml"
+    robot_file.init(path)
+    text = path.read_text()
+    for key, value in dict(gear_ratio=30.0, torque_constant=0.0135, battery=7.4, bridge_drop=0.5, stall_current=5.0,
+                           rated_voltage=6.0, no_load_rpm=300.0, no_load_current=0.2).items():
+        text = re.sub(rf"^{key} = [^#\n]*", f"{key} = {value!r}  ", text, flags=re.M)
+    path.write_text(text)
+    return twip.Robot.from_file(path)
+
+
+def _motors(folder) -> list:
+    """Every motor of the exported twip_config.c (SI units): resistance, gear ratio, supply."""
+    c = (folder / "twip_config.c").read_text()
+    found = re.findall(r"\.motor = \{\s*\.resistance = ([0-9.e+-]+)f.*?\.gear_ratio = ([0-9.e+-]+)f.*?"
+                       r"\.supply = ([0-9.e+-]+)f", c, re.S)
+    return [tuple(float(np.float32(v)) for v in m) for m in found]  # as the C compiler reads them
+
+
+@pytest.mark.parametrize("name", ["circle-pid", "circle-smc-fuzzy"])
+def test_a_robot_files_motor_is_the_trackers_and_the_pwm_feed_forwards(name, tmp_path):
+    # The trackers kept the Balanbot's GB37 (1.71 ohm, 43.7:1, 11.1 V) for their torque
+    # limits and PWM conversion while twip_pwm_config drove the file's motor.
+    robot = _custom_robot(tmp_path)
+    export(name, tmp_path / "fw", robot=robot, units_="si", replay_seconds=0.5)
+    tracker, pwm = _motors(tmp_path / "fw")
+    motor, driver = robot.motor, robot.driver
+    f32 = lambda v: float(np.float32(v))  # noqa: E731
+    assert tracker == (f32(motor.resistance), 30.0, f32(driver.battery))
+    # The feed-forward assumes the battery less the bridge's drop (docs/firmware.md).
+    assert pwm == (f32(motor.resistance), 30.0, f32(driver.battery - driver.bridge_drop))
+    # The CLI's --robot does the same, and so does its simulate.
+    assert main(["export", name, "--robot", str(tmp_path / "custom.toml"), "--out", str(tmp_path / "cli"),
+                 "--units", "si", "--replay-seconds", "0.5"]) == 0
+    assert _motors(tmp_path / "cli") == [tracker, pwm]
+    from twip.cli.args import get_scenario
+
+    simulated = get_scenario(name, params=robot.params, robot_file=str(tmp_path / "custom.toml"))
+    assert _tracker_motor_dict(simulated.controller) == motor.to_dict()
+
+
+def _tracker_motor_dict(controller) -> dict:
+    return (controller.motor if isinstance(controller, twip.PidTracker) else controller.to_dict()["motor"]).to_dict()
+
+
+def test_a_scenario_built_for_another_motor_than_the_robot_files_is_refused(tmp_path):
+    robot = _custom_robot(tmp_path)
+    balanbot_motor = scenarios.get("circle-pid", params=robot.params)
+    with pytest.raises(twip.InvalidParameterError, match=r"robot: the scenario's tracker assumes DcMotor\(resistance=1.71"):
+        export(balanbot_motor, tmp_path / "fw", robot=robot, replay_seconds=0.5)
+    same = scenarios.get("circle-pid", params=robot.params, **scenarios.robot_options("circle-pid", robot))
+    assert export(same, tmp_path / "fw", robot=robot, replay_seconds=0.5)["family"] == "pid"
+    # The Balanbot's own file changes nothing: its data sheet is the GB37's.
+    from twip import robot_file
+
+    robot_file.init(tmp_path / "balanbot.toml")
+    balanbot = twip.Robot.from_file(tmp_path / "balanbot.toml")
+    assert balanbot.controller_motor().to_dict() == twip.DcMotor.gb37y3530().to_dict()
+
+
+def test_values_out_of_f32_or_of_the_loop_are_named_with_the_value_given(tmp_path):
+    model = twip.SlopeModel(twip.RobotParams.balanbot())
+    huge_gain = scenarios.get("flat-lqr").replace(controller=twip.LqrController(model, [-1e39, -1.7, -0.05, -0.045]))
+    with pytest.raises(twip.InvalidParameterError, match=r"invalid gains\[0\] = -1e39: does not fit in f32"):
+        export(huge_gain, tmp_path, replay_seconds=1.0)  # was "gains[0] = -inf is not finite"
+    tiny_period = scenarios.get("flat-lqr").replace(
+        controller=twip.LqrController(model, [-11, -1.7, -0.05, -0.045], period=1e-50))
+    with pytest.raises(twip.InvalidParameterError,
+                       match=r"controller.period = 1e-50 s: .* at least the scenario's dt = 0.001 s"):
+        export(tiny_period, tmp_path, replay_seconds=1.0)  # was a MemoryBudgetError for 1e47 updates
+    with pytest.raises(twip.InvalidParameterError, match=r"control_period = 0.0005 s: .*dt = 0.001 s"):
+        export(scenarios.get("flat-lqr").replace(control_period=5e-4), tmp_path, replay_seconds=1.0)
+    # A robot's value prints as the user wrote it, not in 301 digits.
+    with pytest.raises(twip.InvalidParameterError, match=r"^invalid m_body = 1e\+?300: "):
+        twip.RobotParams.balanbot().replace(m_body=1e300)
+    assert not (tmp_path / "replay_data.c").exists()

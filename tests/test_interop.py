@@ -58,3 +58,15 @@ def test_bad_points_are_named():
         interop.to_nlsys(object())
     with pytest.raises(TypeError, match=r"x0 must be numbers, got 'abcd' \(str\)"):
         interop.jacobians(model, "abcd", [0.0])  # was numpy's "could not convert string to float"
+
+
+def test_the_module_docstring_recipe_runs_and_gives_the_design_gains():
+    # The recipe once handed control.lqr's K on [phi, phi_dot, theta, theta_dot] to
+    # LqrController, which reads [phi, phi_dot, theta_dot - ref, z]: two gains swapped.
+    recipe = "\n".join(line[4:] for line in interop.__doc__.splitlines() if line.startswith("    "))
+    scope: dict = {}
+    exec(compile(recipe, "twip/interop.py docstring", "exec"), scope)
+    design = twip.LqrController.design(scope["model"], 0.0, [100.0, 1.0, 1.0, 1.0], 480.0)
+    np.testing.assert_allclose(scope["ctrl"].gains, design.gains, rtol=1e-8)
+    r = twip.scenarios.get("flat-lqr").replace(controller=scope["ctrl"]).run()
+    assert r.outcome == "completed"

@@ -229,7 +229,7 @@ def test_a_drawn_value_is_asked_for_by_name():
 def test_the_core_refuses_spreads_whose_draws_overflow():
     sc = scenarios.get("flat-lqr-sim")
     for spread, name in [(("uniform", -1e308, 1e308, -1e308, 1e308), "high"), (("normal", 1.0, 1e308, -1.0, 1.0), "std")]:
-        with pytest.raises(twip.InvalidParameterError, match=rf"invalid {name} = 10{{308}}: .*overflows"):
+        with pytest.raises(twip.InvalidParameterError, match=rf"invalid {name} = 1e308: .*overflows"):
             twip._core.sweep_draw(sc.model, sc.x0, [("param", 0, *spread)], 0, 0)
 
 

@@ -884,12 +884,15 @@ DEFAULT_FALL_LIMIT: float
 MAX_THREADS: int
 NORMAL_REACH: float
 def ffi_record(
-    model: Any, controller: Any, x0: Sequence[float], t_final: float, dt: float, reference: Any
+    model: Any, controller: Any, x0: Sequence[float], t_final: float, dt: float, reference: Any,
+    control_period: Optional[float] = None,
 ) -> dict[str, Any]:
-    """`ffi_record(model, controller, x0, t_final, dt, reference)`: the controller's C
-    configuration and a closed-loop run of its `f32` build (as `twip_X_init` makes it) on
-    the `f32` plant, every update recorded: {"family", "config" (bytes of the C struct),
-    "t", "y", "reference", "u", "outcome"}.
+    """`ffi_record(model, controller, x0, t_final, dt, reference, control_period=None)`: the
+    controller's C configuration and a closed-loop run of its `f32` build (as `twip_X_init`
+    makes it) on the `f32` plant, every update recorded: {"family", "config" (bytes of the C
+    struct), "t", "y", "reference", "u", "outcome"}. With `control_period` [s] the controller
+    runs at that period, as `simulate(..., control_period=)` runs it, and its configuration
+    says so.
     """
 def sysid_shoot(
     models: Sequence[SlopeModel], starts: _ArrayLike, t: _ArrayLike, u: _ArrayLike, segments: _ArrayLike,

@@ -1,10 +1,20 @@
 """python-control interop: twip's models as `control.StateSpace` and `control.NonlinearIOSystem`.
 
-    import control, twip, twip.interop
+    import control, numpy as np, twip, twip.interop
     model = twip.SlopeModel(twip.RobotParams.balanbot())
-    sys = twip.interop.to_statespace(model, [0, 0, 0, 0], 0.0)     # exact Jacobian
-    K, S, E = control.lqr(sys, Q, R)                                # K is (1, 4): LqrController takes it
+    sys = twip.interop.to_statespace(model, [0, 0, 0, 0], 0.0)     # exact Jacobian, x = [phi, phi_dot, theta, theta_dot]
+    # LqrController's gains act on [phi, phi_dot, theta_dot - ref, z], z = integral of (theta_dot - ref):
+    # drop theta (nothing depends on it) and append z, as LqrController.design does (thesis 4.19).
+    keep = [0, 1, 3]
+    A = np.zeros((4, 4)); A[:3, :3] = sys.A[np.ix_(keep, keep)]; A[3, 2] = 1.0
+    B = np.vstack([sys.B[keep, :], [[0.0]]])
+    K, S, E = control.lqr(A, B, np.diag([100.0, 1.0, 1.0, 1.0]), 480.0)   # K is (1, 4) in that order
+    ctrl = twip.LqrController(model, K)                             # = LqrController.design(model, 0.0, Q, R)
     nl = twip.interop.to_nlsys(model)                               # update function = model.deriv
+
+The full (1, 4) K of `control.lqr(sys, Q, R)` on the plant's own states is in the order
+[phi, phi_dot, theta, theta_dot]: LqrController would read its theta and theta_dot gains as
+the speed and integral gains. `tests/test_interop.py` runs the recipe above.
 
 python-control is an optional dependency: `pip install 'twip[control]'`.
 """

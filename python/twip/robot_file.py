@@ -6,11 +6,13 @@
 
 `RobotParams.from_file(path)` reads the [robot] table; `twip.Robot.from_file(path)` reads
 all three, and `Robot.realism()` is `Realism.thesis_like()` with the file's motor and driver
-in place of the Balanbot's. The runs take the torque constant from [robot] and only the
-winding's resistance from [motor] (a warning says when the sheet's torque constant differs
-by more than 2 %). Without a [driver] table the driver is `MotorDriver.thesis_like()`'s (the
-L298's drop, 1 mH, 2 A) with the sheet's resistance; a [driver] table starts from
-`MotorDriver()` (no drop, inductance or limit) and sets what it names. `twip robot init FILE` writes the default robot, commented.
+in place of the Balanbot's; `Robot.controller_motor()` is the motor a tracker built for the
+robot assumes (`twip.scenarios.robot_options`). The plant takes the torque constant from
+[robot]; [motor] sets the winding's resistance and the trackers' motor (a warning says when
+the sheet's torque constant differs by more than 2 %). Without a [driver] table the driver
+is `MotorDriver.thesis_like()`'s (the L298's drop, 1 mH, 2 A) with the sheet's resistance;
+a [driver] table starts from `MotorDriver()` (no drop, inductance or limit) and sets what it
+names. `twip robot init FILE` writes the default robot, commented.
 Errors name the file, the key and its line.
 """
 from __future__ import annotations
@@ -134,6 +136,17 @@ class Robot:
     def from_file(cls, path) -> "Robot":
         return load(path)
 
+    def controller_motor(self):
+        """The motor the trackers built for this robot assume (their torque limits and their
+        PWM-to-torque conversion), the one the PWM feed-forward of `twip export` drives: the
+        [motor] table's (at the [driver]'s battery); without it, the Balanbot's GB37Y3530 at
+        the [driver]'s battery; None without either (the scenarios' default motor)."""
+        if self.motor is not None:
+            return self.motor
+        if self.driver is not None:
+            return _core.DcMotor.gb37y3530(supply=self.driver.battery)
+        return None
+
     def realism(self, **changes):
         """`Realism.thesis_like()` with this robot's motor driver (when the file has one)."""
         base = _core.Realism.thesis_like()
@@ -204,14 +217,14 @@ TORQUE_CONSTANT_TOLERANCE = 0.02
 
 
 def _check_torque_constant(path, params, motor) -> None:
-    """Warns when the file's torque constant and its motor's data sheet disagree: the runs
-    use [robot]'s torque_constant (the driver takes only the sheet's resistance), so a
-    sheet of another motor would otherwise pass unnoticed."""
+    """Warns when the file's torque constant and its motor's data sheet disagree: the plant
+    uses [robot]'s torque_constant (its driver takes only the sheet's resistance) while a
+    tracker's motor is the sheet's, so a sheet of another motor would otherwise pass unnoticed."""
     sheet = motor.to_dict()["k_t"]
     if abs(sheet / params.torque_constant - 1) > TORQUE_CONSTANT_TOLERANCE:
         warnings.warn(f"{path}: [robot] torque_constant = {params.torque_constant!r} N m/A, but the [motor] data "
-                      f"sheet gives {sheet:.6g} N m/A (from its rated_voltage, no_load_rpm, no_load_current and stall_current); runs use "
-                      "torque_constant, and the sheet only sets the winding's resistance", stacklevel=3)
+                      f"sheet gives {sheet:.6g} N m/A (from its rated_voltage, no_load_rpm, no_load_current and stall_current); the "
+                      "plant uses torque_constant, the trackers' motor the sheet's", stacklevel=3)
 
 
 def _format(value: float) -> str:

@@ -26,11 +26,29 @@ pub enum TwipError {
     OutOfMemory { name: &'static str, bytes: u64 },
 }
 
+/// A value as a reader wants it in a message: as Rust prints it between 1e-4 and 1e16 (and
+/// for 0, infinities and NaN), else in scientific notation, where plain printing would write
+/// hundreds of digits (`1e300`, not `1000…000`). The same switch as Python's `repr`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Readable(pub f64);
+
+impl fmt::Display for Readable {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let v = self.0;
+        let plain = v == 0.0 || !v.is_finite() || (1e-4..1e16).contains(&v.abs());
+        if plain {
+            write!(f, "{v}")
+        } else {
+            write!(f, "{v:e}")
+        }
+    }
+}
+
 impl fmt::Display for TwipError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             TwipError::InvalidParameter { name, value, reason } => {
-                write!(f, "invalid {name} = {value}: {reason}")
+                write!(f, "invalid {name} = {}: {reason}", Readable(*value))
             }
             TwipError::Shape { name, expected, got } => write!(
                 f,
@@ -38,13 +56,13 @@ impl fmt::Display for TwipError {
                 got.0, got.1, expected.0, expected.1
             ),
             TwipError::NonFinite { name, index, value } => {
-                write!(f, "{name}[{index}] = {value} is not finite")
+                write!(f, "{name}[{index}] = {} is not finite", Readable(*value))
             }
             TwipError::NoEquilibrium { reason, value } => {
-                write!(f, "no equilibrium: {reason} (value {value})")
+                write!(f, "no equilibrium: {reason} (value {})", Readable(*value))
             }
             TwipError::SingularMassMatrix { det } => {
-                write!(f, "mass matrix is singular (determinant {det})")
+                write!(f, "mass matrix is singular (determinant {})", Readable(*det))
             }
             TwipError::NotStabilizable => {
                 write!(f, "the pair (A, B) is not stabilizable: no gain can stabilise it")
@@ -71,3 +89,25 @@ impl fmt::Display for TwipError {
 
 #[cfg(feature = "std")]
 impl std::error::Error for TwipError {}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+    use std::string::ToString;
+
+    #[test]
+    fn values_print_readably_at_any_magnitude() {
+        let shown = |v: f64| TwipError::InvalidParameter { name: "m_body", value: v, reason: "r" }.to_string();
+        assert_eq!(shown(1e300), "invalid m_body = 1e300: r", "not 301 digits");
+        assert_eq!(shown(-1e39), "invalid m_body = -1e39: r");
+        assert_eq!(shown(1e-50), "invalid m_body = 1e-50: r", "not 50 zeros");
+        assert_eq!(shown(0.005), "invalid m_body = 0.005: r");
+        assert_eq!(shown(-2.5), "invalid m_body = -2.5: r");
+        assert_eq!(shown(0.0), "invalid m_body = 0: r");
+        assert_eq!(shown(f64::NEG_INFINITY), "invalid m_body = -inf: r");
+        assert_eq!(shown(1234567.0), "invalid m_body = 1234567: r");
+        assert_eq!(shown(1e16), "invalid m_body = 1e16: r");
+        let nonfinite = TwipError::NonFinite { name: "x0", index: 2, value: f64::NAN }.to_string();
+        assert_eq!(nonfinite, "x0[2] = NaN is not finite");
+    }
+}

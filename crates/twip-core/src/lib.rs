@@ -25,7 +25,7 @@ pub mod sweep;
 #[cfg(feature = "alloc")]
 pub use control::care::{care, lqr, Lqr};
 pub use model::dynamics::Dynamics;
-pub use error::TwipError;
+pub use error::{Readable, TwipError};
 pub use model::integrate::rk4_step;
 pub use model::params::RobotParams;
 pub use model::planar::PlanarModel;

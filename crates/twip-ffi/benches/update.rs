@@ -41,7 +41,7 @@ fn slope_family(c: &mut Criterion) {
     let gains = [-11.0091734, -1.69875395, -0.0500031523, -0.0456435457];
     let lqr = LqrController::new(gains, slope(), DesignPoint::OperatingPoint, PERIOD as f64).unwrap();
     let fuzzy = FuzzyController::thesis_flat(slope(), PERIOD as f64).unwrap();
-    let (lqr_config, fuzzy_config) = (TwipLqrConfig::from_core(&lqr), TwipFuzzyConfig::from_core(&fuzzy));
+    let (lqr_config, fuzzy_config) = (TwipLqrConfig::from_core(&lqr).unwrap(), TwipFuzzyConfig::from_core(&fuzzy).unwrap());
     let (mut lqr, mut fuzzy) = (lqr_config.build().unwrap(), fuzzy_config.build().unwrap());
     let core_ref = SpeedRef { theta: 0.0, theta_dot: 0.5 };
     let c_ref = TwipSpeedRef { theta: 0.0, theta_dot: 0.5 };
@@ -68,7 +68,7 @@ fn planar_family(c: &mut Criterion) {
     let y = Y3.into();
     let mut u = [0.0f32; 2];
     let pid = PidTracker::table_4_1(&RobotParams::balanbot(), DcMotor::gb37y3530(), PERIOD as f64).unwrap();
-    let (pid_config, smc_config) = (TwipPidConfig::from_core(&pid), TwipSmcConfig::from_core(&smc()));
+    let (pid_config, smc_config) = (TwipPidConfig::from_core(&pid).unwrap(), TwipSmcConfig::from_core(&smc()).unwrap());
     let (mut pid, mut smc) = (pid_config.build().unwrap(), smc_config.build().unwrap());
 
     let mut state = TwipPid { words: [0; TWIP_PID_WORDS] };

@@ -252,7 +252,8 @@ typedef struct {
 // A pointer argument was NULL.
 #define TWIP_ERR_NULL -1
 
-// A configuration value is outside its domain (negative period, inconsistent sets...).
+// A configuration value or an argument is outside its domain (negative period or `dt`,
+// inconsistent sets...).
 #define TWIP_ERR_INVALID -2
 
 // An input (measurement, reference, time) is NaN or infinite; the outputs are untouched.
@@ -260,6 +261,12 @@ typedef struct {
 
 // The state was not initialised by its `twip_X_init` (or its init failed).
 #define TWIP_ERR_NOT_INITIALISED -4
+
+// A controller update with finite inputs whose command or carried state (integrator,
+// adaptive weights) came out NaN or infinite, as a finite but absurd reading (a sensor
+// glitch of 1e12 rad) makes it: refused, with the state unchanged (as before the call) and
+// the outputs untouched, so the next ordinary update answers as if this one never happened.
+#define TWIP_ERR_OVERFLOW -5
 
 #ifdef __cplusplus
 extern "C" {
@@ -275,7 +282,10 @@ const char *twip_status_text(TwipStatus status);
 // `state` and `config` are NULL or valid pointers.
 TwipStatus twip_lqr_init(TwipLqr *state, const TwipLqrConfig *config);
 
-// One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]).
+// One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]). Returns
+// TWIP_OK, TWIP_ERR_NULL, TWIP_ERR_NOT_INITIALISED, TWIP_ERR_NOT_FINITE (a NaN or infinite
+// input) or TWIP_ERR_OVERFLOW (finite inputs, but the command or the integrator came out
+// NaN or infinite: the state is unchanged). `u` is written only with TWIP_OK.
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above.
@@ -296,6 +306,7 @@ TwipStatus twip_lqr_reset(TwipLqr *state);
 TwipStatus twip_fuzzy_init(TwipFuzzy *state, const TwipFuzzyConfig *config);
 
 // One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]).
+// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above.
@@ -316,6 +327,7 @@ TwipStatus twip_fuzzy_reset(TwipFuzzy *state);
 TwipStatus twip_pid_init(TwipPid *state, const TwipPidConfig *config);
 
 // One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
+// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above.
@@ -336,6 +348,7 @@ TwipStatus twip_pid_reset(TwipPid *state);
 TwipStatus twip_smc_init(TwipSmc *state, const TwipSmcConfig *config);
 
 // One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
+// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above.
@@ -359,6 +372,8 @@ TwipStatus twip_tilt_init(TwipTilt *state, const TwipTiltConfig *config);
 
 // One estimator step: the accelerometer tilt [rad] and gyroscope rate [rad/s], `dt` [s]
 // after the previous step; `angle` and `rate` receive the estimated pitch and pitch rate.
+// TWIP_ERR_NOT_FINITE for a NaN or infinite input, TWIP_ERR_INVALID for `dt` < 0; the
+// outputs are then untouched.
 //
 // # Safety
 // Pointers are NULL or valid.
@@ -375,8 +390,16 @@ TwipStatus twip_tilt_update(TwipTilt *state,
 // `state` is NULL or valid.
 TwipStatus twip_encoder_init(TwipEncoder *state, float counts_per_revolution);
 
-// The wheel's angle relative to the body [rad] and its speed [rad/s] from the hardware
-// counter's value `count`, `dt` [s] after the previous read (speed 0 at the first read).
+// The wheel's angle relative to the body [rad] and its speed [rad/s] from the counter's
+// value `count`, `dt` [s] after the previous read (speed 0 at the first read, and with `dt`
+// = 0). `count` is a 32-bit running count that wraps from INT32_MAX to INT32_MIN: the
+// speed comes from the counts' difference modulo 2^32, exact across the wrap while fewer
+// than 2^31 counts pass between reads. A narrower hardware counter must be extended to 32
+// bits by the caller, for example with a 16-bit timer `total += (int16_t)(hw - last_hw);
+// last_hw = hw;` at every read (more often than every 2^15 counts): passed as it is, its
+// wrap from 65535 to 0 reads as a jump of 65535 counts. The angle is `count` × 2π/CPR
+// in f32, so it wraps with the counter and its step grows past 2^24 counts.
+// TWIP_ERR_NOT_FINITE for a NaN or infinite `dt`, TWIP_ERR_INVALID for `dt` < 0.
 //
 // # Safety
 // Pointers are NULL or valid.

@@ -1,6 +1,7 @@
 //! The configurations a firmware fills in, as plain C structs of `float`s in SI units, and
 //! their two conversions: into the core's `f32` controllers (what `twip_X_init` runs), and
-//! from the core's `f64` ones (what `twip export` writes after tuning in simulation).
+//! from the core's `f64` ones (what `twip export` writes after tuning in simulation). That
+//! second conversion refuses a value that f32 cannot hold, naming the f64 value given.
 use twip_core::control::fuzzy::{Adaptation as FuzzyAdaptation, FuzzyController, FuzzyGains};
 use twip_core::control::fuzzy_basis::{Membership, ThesisBasis};
 use twip_core::control::lqr::{DesignPoint, LqrController};
@@ -9,7 +10,34 @@ use twip_core::control::smc::{Adaptation as SmcAdaptation, PitchSign, SmcGains, 
 use twip_core::control::Controller;
 use twip_core::hardware::motor::DcMotor;
 use twip_core::model::friction::Friction;
+use twip_core::model::params::FIELD_NAMES;
 use twip_core::{PlanarModel, RobotParams, SlopeModel, TwipError};
+
+/// `v` as the firmware's `f32`, refused when it does not fit: a finite value beyond ±3.4e38
+/// would become an infinity and a nonzero one below 1.4e-45 a zero, so the error names the
+/// f64 value given (an infinite gain of the f32 conversion is not what the user wrote).
+/// NaN and infinities pass unchanged, for the controllers' own checks to name.
+pub fn narrow(name: &'static str, v: f64) -> Result<f32, TwipError> {
+    let n = v as f32;
+    if (v.is_finite() && n.is_infinite()) || (v != 0.0 && n == 0.0) {
+        let reason = "does not fit in f32, the firmware's numbers (magnitudes 1.4e-45 to 3.4e38, or 0)";
+        return Err(TwipError::InvalidParameter { name, value: v, reason });
+    }
+    Ok(n)
+}
+
+/// [`narrow`] of each value, named by `names`.
+fn narrow_all<const N: usize>(names: &[&'static str; N], v: [f64; N]) -> Result<[f32; N], TwipError> {
+    let mut out = [0.0f32; N];
+    for ((o, name), x) in out.iter_mut().zip(names).zip(v) {
+        *o = narrow(name, x)?;
+    }
+    Ok(out)
+}
+
+const GAIN_NAMES: [&str; 4] = ["gains[0]", "gains[1]", "gains[2]", "gains[3]"];
+const S0_NAMES: [&str; 9] = ["s0[0]", "s0[1]", "s0[2]", "s0[3]", "s0[4]", "s0[5]", "s0[6]", "s0[7]", "s0[8]"];
+const SET_NAMES: [[&str; 3]; 2] = [["sets[0][0]", "sets[0][1]", "sets[0][2]"], ["sets[1][0]", "sets[1][1]", "sets[1][2]"]];
 
 /// The robot's physical parameters [SI], in the order of twip-core's `FIELD_NAMES`.
 #[repr(C)]
@@ -52,8 +80,8 @@ impl TwipRobot {
         RobotParams::from_array(&self.to_array())
     }
 
-    pub fn from_core(p: &RobotParams<f64>) -> Self {
-        Self::from_array(p.to_array().map(|v| v as f32))
+    pub fn from_core(p: &RobotParams<f64>) -> Result<Self, TwipError> {
+        Ok(Self::from_array(narrow_all(&FIELD_NAMES, p.to_array())?))
     }
 }
 
@@ -83,15 +111,16 @@ impl TwipFriction {
         })
     }
 
-    pub fn from_core(f: Option<&Friction<f64>>) -> Self {
-        f.map_or(Self::default(), |f| Self {
+    pub fn from_core(f: Option<&Friction<f64>>) -> Result<Self, TwipError> {
+        let Some(f) = f else { return Ok(Self::default()) };
+        Ok(Self {
             enabled: 1,
-            coulomb: f.coulomb as f32,
-            breakaway: f.breakaway as f32,
-            stribeck_speed: f.stribeck_speed as f32,
-            viscous: f.viscous as f32,
-            smoothing_speed: f.smoothing_speed as f32,
-            stick_speed: f.stick_speed as f32,
+            coulomb: narrow("coulomb", f.coulomb)?,
+            breakaway: narrow("breakaway", f.breakaway)?,
+            stribeck_speed: narrow("stribeck_speed", f.stribeck_speed)?,
+            viscous: narrow("viscous", f.viscous)?,
+            smoothing_speed: narrow("smoothing_speed", f.smoothing_speed)?,
+            stick_speed: narrow("stick_speed", f.stick_speed)?,
         })
     }
 }
@@ -118,15 +147,15 @@ impl TwipMotor {
         DcMotor::new(self.resistance, self.k_t, self.gear_ratio, self.friction, self.supply, self.pwm_max)
     }
 
-    pub fn from_core(m: &DcMotor<f64>) -> Self {
-        Self {
-            resistance: m.resistance() as f32,
-            k_t: m.k_t() as f32,
-            gear_ratio: m.gear_ratio() as f32,
-            friction: m.friction() as f32,
-            supply: m.supply() as f32,
-            pwm_max: m.pwm_max() as f32,
-        }
+    pub fn from_core(m: &DcMotor<f64>) -> Result<Self, TwipError> {
+        Ok(Self {
+            resistance: narrow("resistance", m.resistance())?,
+            k_t: narrow("k_t", m.k_t())?,
+            gear_ratio: narrow("gear_ratio", m.gear_ratio())?,
+            friction: narrow("friction", m.friction())?,
+            supply: narrow("supply", m.supply())?,
+            pwm_max: narrow("pwm_max", m.pwm_max())?,
+        })
     }
 }
 
@@ -157,16 +186,16 @@ impl TwipLqrConfig {
         LqrController::new(self.gains, slope_model(self.robot, self.slope, self.friction)?, point, self.period)
     }
 
-    pub fn from_core(c: &LqrController<f64>) -> Self {
+    pub fn from_core(c: &LqrController<f64>) -> Result<Self, TwipError> {
         let model = c.model();
-        Self {
-            robot: TwipRobot::from_core(model.params()),
-            slope: model.slope() as f32,
-            friction: TwipFriction::from_core(model.friction()),
-            gains: c.gains().map(|g| g as f32),
+        Ok(Self {
+            robot: TwipRobot::from_core(model.params())?,
+            slope: narrow("slope", model.slope())?,
+            friction: TwipFriction::from_core(model.friction())?,
+            gains: narrow_all(&GAIN_NAMES, c.gains())?,
             operating_point: i32::from(c.point() == DesignPoint::OperatingPoint),
-            period: c.period() as f32,
-        }
+            period: narrow("period", c.period())?,
+        })
     }
 }
 
@@ -193,11 +222,11 @@ impl TwipMembership {
         }
     }
 
-    fn from_core(m: &Membership<f64>) -> Self {
-        match *m {
-            Membership::Trapezoid { a, b, c, d } => Self { kind: 0, p: [a, b, c, d].map(|v| v as f32) },
-            Membership::Gaussian { mean, sigma } => Self { kind: 1, p: [mean as f32, sigma as f32, 0.0, 0.0] },
-        }
+    fn from_core(m: &Membership<f64>, name: &'static str) -> Result<Self, TwipError> {
+        Ok(match *m {
+            Membership::Trapezoid { a, b, c, d } => Self { kind: 0, p: narrow_all(&[name; 4], [a, b, c, d])? },
+            Membership::Gaussian { mean, sigma } => Self { kind: 1, p: narrow_all(&[name; 4], [mean, sigma, 0.0, 0.0])? },
+        })
     }
 }
 
@@ -240,24 +269,30 @@ impl TwipFuzzyConfig {
         FuzzyController::new(model, gains, adaptation, ThesisBasis::new(sets)?, self.period)?.with_initial_weights(self.s0)
     }
 
-    pub fn from_core(c: &FuzzyController<f64>) -> Self {
+    pub fn from_core(c: &FuzzyController<f64>) -> Result<Self, TwipError> {
         let (model, g, a) = (c.model(), c.gains(), c.adaptation());
-        Self {
-            robot: TwipRobot::from_core(model.params()),
-            slope: model.slope() as f32,
-            friction: TwipFriction::from_core(model.friction()),
-            k1: g.k1 as f32,
-            k2: g.k2 as f32,
-            kp: g.kp as f32,
-            kd: g.kd as f32,
-            ki: g.ki as f32,
-            gamma: a.gamma as f32,
-            sigma: a.sigma as f32,
-            adapt: i32::from(a.enabled),
-            sets: c.basis().sets().map(|row| row.map(|m| TwipMembership::from_core(&m))),
-            s0: c.initial_weights().map(|v| v as f32),
-            period: c.period() as f32,
+        let mut sets = [[TwipMembership::default(); 3]; 2];
+        for ((row, given), names) in sets.iter_mut().zip(c.basis().sets()).zip(&SET_NAMES) {
+            for ((set, m), name) in row.iter_mut().zip(given).zip(names) {
+                *set = TwipMembership::from_core(m, name)?;
+            }
         }
+        Ok(Self {
+            robot: TwipRobot::from_core(model.params())?,
+            slope: narrow("slope", model.slope())?,
+            friction: TwipFriction::from_core(model.friction())?,
+            k1: narrow("k1", g.k1)?,
+            k2: narrow("k2", g.k2)?,
+            kp: narrow("kp", g.kp)?,
+            kd: narrow("kd", g.kd)?,
+            ki: narrow("ki", g.ki)?,
+            gamma: narrow("gamma", a.gamma)?,
+            sigma: narrow("sigma", a.sigma)?,
+            adapt: i32::from(a.enabled),
+            sets,
+            s0: narrow_all(&S0_NAMES, c.initial_weights())?,
+            period: narrow("period", c.period())?,
+        })
     }
 }
 
@@ -307,26 +342,26 @@ impl TwipPidConfig {
         PidTracker::with_geometry(gains, units, self.motor.to_core()?, self.wheel_radius, self.half_track, self.period)
     }
 
-    pub fn from_core(c: &PidTracker<f64>) -> Self {
+    pub fn from_core(c: &PidTracker<f64>) -> Result<Self, TwipError> {
         let (g, u) = (c.gains(), c.units());
         let (wheel_radius, half_track) = c.geometry();
-        Self {
-            kp_pitch: g.kp_pitch as f32,
-            kd_pitch: g.kd_pitch as f32,
-            kp_speed: g.kp_speed as f32,
-            ki_speed: g.ki_speed as f32,
-            kp_yaw: g.kp_yaw as f32,
-            ki_yaw: g.ki_yaw as f32,
-            kd_yaw: g.kd_yaw as f32,
-            unit_pitch: u.pitch as f32,
-            unit_speed: u.speed as f32,
-            unit_heading: u.heading as f32,
-            integral_step: u.integral_step as f32,
-            motor: TwipMotor::from_core(c.motor()),
-            wheel_radius: wheel_radius as f32,
-            half_track: half_track as f32,
-            period: c.period() as f32,
-        }
+        Ok(Self {
+            kp_pitch: narrow("kp_pitch", g.kp_pitch)?,
+            kd_pitch: narrow("kd_pitch", g.kd_pitch)?,
+            kp_speed: narrow("kp_speed", g.kp_speed)?,
+            ki_speed: narrow("ki_speed", g.ki_speed)?,
+            kp_yaw: narrow("kp_yaw", g.kp_yaw)?,
+            ki_yaw: narrow("ki_yaw", g.ki_yaw)?,
+            kd_yaw: narrow("kd_yaw", g.kd_yaw)?,
+            unit_pitch: narrow("unit_pitch", u.pitch)?,
+            unit_speed: narrow("unit_speed", u.speed)?,
+            unit_heading: narrow("unit_heading", u.heading)?,
+            integral_step: narrow("integral_step", u.integral_step)?,
+            motor: TwipMotor::from_core(c.motor())?,
+            wheel_radius: narrow("wheel_radius", wheel_radius)?,
+            half_track: narrow("half_track", half_track)?,
+            period: narrow("period", c.period())?,
+        })
     }
 }
 
@@ -401,37 +436,37 @@ impl TwipSmcConfig {
         SmcTracker::new(gains, options, model, motor, adaptation, self.period)
     }
 
-    pub fn from_core(c: &SmcTracker<f64>) -> Self {
+    pub fn from_core(c: &SmcTracker<f64>) -> Result<Self, TwipError> {
         let (g, o, model) = (c.gains(), c.options(), c.model());
         let adaptation = c.adaptation();
-        Self {
-            robot: TwipRobot::from_core(model.params()),
-            friction: TwipFriction::from_core(model.friction()),
-            k1: g.k1 as f32,
-            k2: g.k2 as f32,
-            k3: g.k3 as f32,
-            k_phi: g.k_phi as f32,
-            r1: g.r1 as f32,
-            r2: g.r2 as f32,
-            k_s3: g.k_s3 as f32,
-            k_s4: g.k_s4 as f32,
-            g_y4: g.g_y4 as f32,
-            k_eta3: g.k_eta3 as f32,
-            k_eta4: g.k_eta4 as f32,
-            g_y3: g.g_y3 as f32,
+        Ok(Self {
+            robot: TwipRobot::from_core(model.params())?,
+            friction: TwipFriction::from_core(model.friction())?,
+            k1: narrow("k1", g.k1)?,
+            k2: narrow("k2", g.k2)?,
+            k3: narrow("k3", g.k3)?,
+            k_phi: narrow("k_phi", g.k_phi)?,
+            r1: narrow("r1", g.r1)?,
+            r2: narrow("r2", g.r2)?,
+            k_s3: narrow("k_s3", g.k_s3)?,
+            k_s4: narrow("k_s4", g.k_s4)?,
+            g_y4: narrow("g_y4", g.g_y4)?,
+            k_eta3: narrow("k_eta3", g.k_eta3)?,
+            k_eta4: narrow("k_eta4", g.k_eta4)?,
+            g_y3: narrow("g_y3", g.g_y3)?,
             pitch_forward: i32::from(o.pitch == PitchSign::Forward),
-            width_eta: o.width_eta as f32,
-            width_s1: o.width_s1 as f32,
-            guard_e3: o.guard_e3 as f32,
-            guard_d: o.guard_d as f32,
+            width_eta: narrow("width_eta", o.width_eta)?,
+            width_s1: narrow("width_s1", o.width_s1)?,
+            guard_e3: narrow("guard_e3", o.guard_e3)?,
+            guard_d: narrow("guard_d", o.guard_d)?,
             pitch_offset: i32::from(o.pitch_offset),
             has_motor: i32::from(c.motor().is_some()),
-            motor: c.motor().map_or(TwipMotor::default(), TwipMotor::from_core),
+            motor: c.motor().map_or(Ok(TwipMotor::default()), TwipMotor::from_core)?,
             adapt: i32::from(adaptation.is_some()),
-            gamma1: adaptation.map_or(0.0, |a| a.gamma1 as f32),
-            gamma2: adaptation.map_or(0.0, |a| a.gamma2 as f32),
-            leakage: adaptation.map_or(0.0, |a| a.leakage as f32),
-            period: c.period() as f32,
-        }
+            gamma1: narrow("gamma1", adaptation.map_or(0.0, |a| a.gamma1))?,
+            gamma2: narrow("gamma2", adaptation.map_or(0.0, |a| a.gamma2))?,
+            leakage: narrow("leakage", adaptation.map_or(0.0, |a| a.leakage))?,
+            period: narrow("period", c.period())?,
+        })
     }
 }

@@ -17,7 +17,7 @@ use twip_core::TwipError;
 
 use crate::config::{TwipFuzzyConfig, TwipLqrConfig, TwipPidConfig, TwipSmcConfig};
 use crate::slot::{self, fits};
-use crate::{TwipStatus, TWIP_ERR_INVALID, TWIP_ERR_NOT_FINITE, TWIP_ERR_NULL, TWIP_OK};
+use crate::{TwipStatus, TWIP_ERR_INVALID, TWIP_ERR_NOT_FINITE, TWIP_ERR_NULL, TWIP_ERR_OVERFLOW, TWIP_OK};
 
 /// The wheel reference of the 2-DOF controllers: angle θ_ref [rad] and speed θ̇_ref [rad/s].
 #[repr(C)]
@@ -65,6 +65,36 @@ impl CReference for TwipPlanarRef {
     }
 }
 
+/// A controller the C ABI drives: it says whether what it carries to its next update
+/// (integrators, adaptive weights) is finite, so that an update that overflowed can be undone.
+pub trait Carried {
+    fn state_is_finite(&self) -> bool;
+}
+
+impl Carried for LqrController<f32> {
+    fn state_is_finite(&self) -> bool {
+        LqrController::state_is_finite(self)
+    }
+}
+
+impl Carried for FuzzyController<f32> {
+    fn state_is_finite(&self) -> bool {
+        FuzzyController::state_is_finite(self)
+    }
+}
+
+impl Carried for PidTracker<f32> {
+    fn state_is_finite(&self) -> bool {
+        PidTracker::state_is_finite(self)
+    }
+}
+
+impl Carried for SmcTracker<f32> {
+    fn state_is_finite(&self) -> bool {
+        SmcTracker::state_is_finite(self)
+    }
+}
+
 /// Builds `V` from the configuration at `config` into the words at `words`.
 ///
 /// # Safety
@@ -87,7 +117,8 @@ pub(crate) unsafe fn init<C, V>(
     }
 }
 
-/// One update of the controller in the words at `words`: `u` gets `NU` commands.
+/// One update of the controller in the words at `words`: `u` gets `NU` commands. An update
+/// whose command or carried state is not finite is undone (`TWIP_ERR_OVERFLOW`).
 ///
 /// # Safety
 /// Pointers are NULL or valid: `y` for `NX` floats, `u` for `NU`, `words` as in [`init`].
@@ -100,7 +131,7 @@ pub(crate) unsafe fn update<V, R, const NX: usize, const NU: usize>(
     u: *mut f32,
 ) -> TwipStatus
 where
-    V: Controller<f32, NX, NU>,
+    V: Controller<f32, NX, NU> + Carried + Copy,
     R: CReference<Core = V::Reference>,
 {
     if y.is_null() || reference.is_null() || u.is_null() {
@@ -117,9 +148,13 @@ where
     if !t.is_finite() || !all_finite(y) {
         return TWIP_ERR_NOT_FINITE;
     }
+    // Finite inputs can still overflow (a glitch of 1e12 rad): kept as it was, the state
+    // cannot carry a NaN weight or a wound-up integrator into every later update.
+    let before = *controller;
     let out = controller.update(t, &SVector::<f32, NX>::from_column_slice(y), &r);
-    if !all_finite(out.as_slice()) {
-        return TWIP_ERR_NOT_FINITE;
+    if !(all_finite(out.as_slice()) && controller.state_is_finite()) {
+        *controller = before;
+        return TWIP_ERR_OVERFLOW;
     }
     slice::from_raw_parts_mut(u, NU).copy_from_slice(out.as_slice());
     TWIP_OK
@@ -193,7 +228,10 @@ pub unsafe extern "C" fn twip_lqr_init(state: *mut TwipLqr, config: *const TwipL
     init(state.cast(), LQR_TAG, config, TwipLqrConfig::build)
 }
 
-/// One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]).
+/// One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]). Returns
+/// TWIP_OK, TWIP_ERR_NULL, TWIP_ERR_NOT_INITIALISED, TWIP_ERR_NOT_FINITE (a NaN or infinite
+/// input) or TWIP_ERR_OVERFLOW (finite inputs, but the command or the integrator came out
+/// NaN or infinite: the state is unchanged). `u` is written only with TWIP_OK.
 ///
 /// # Safety
 /// Pointers are NULL or valid for the sizes above.
@@ -225,6 +263,7 @@ pub unsafe extern "C" fn twip_fuzzy_init(state: *mut TwipFuzzy, config: *const T
 }
 
 /// One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]).
+/// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
 ///
 /// # Safety
 /// Pointers are NULL or valid for the sizes above.
@@ -256,6 +295,7 @@ pub unsafe extern "C" fn twip_pid_init(state: *mut TwipPid, config: *const TwipP
 }
 
 /// One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
+/// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
 ///
 /// # Safety
 /// Pointers are NULL or valid for the sizes above.
@@ -287,6 +327,7 @@ pub unsafe extern "C" fn twip_smc_init(state: *mut TwipSmc, config: *const TwipS
 }
 
 /// One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
+/// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
 ///
 /// # Safety
 /// Pointers are NULL or valid for the sizes above.

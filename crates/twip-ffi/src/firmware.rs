@@ -5,16 +5,16 @@ use twip_core::hardware::driver::PwmActuator;
 use twip_core::hardware::encoder::Encoder;
 use twip_core::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 
-use crate::config::TwipMotor;
+use crate::config::{narrow, TwipMotor};
 use crate::controllers::init;
 use crate::slot::{self, fits};
-use crate::{TwipStatus, TWIP_ERR_NOT_FINITE, TWIP_ERR_NULL, TWIP_OK};
+use crate::{TwipStatus, TWIP_ERR_INVALID, TWIP_ERR_NOT_FINITE, TWIP_ERR_NULL, TWIP_OK};
 
 pub const TWIP_TILT_WORDS: usize = 8;
 pub const TWIP_ENCODER_WORDS: usize = 4;
 pub const TWIP_PWM_WORDS: usize = 6;
 const _: () = assert!(fits::<TiltFilter<f32>>(TWIP_TILT_WORDS));
-const _: () = assert!(fits::<Encoder<f32>>(TWIP_ENCODER_WORDS));
+const _: () = assert!(fits::<CountEncoder>(TWIP_ENCODER_WORDS));
 const _: () = assert!(fits::<PwmActuator<f32>>(TWIP_PWM_WORDS));
 
 const TILT_TAG: u64 = u64::from_le_bytes(*b"twipTLT\0");
@@ -68,9 +68,27 @@ impl TwipPwmConfig {
         PwmActuator::from_parts(self.motor.to_core()?, self.command_per_amp)
     }
 
-    pub fn from_core(a: &PwmActuator<f64>) -> Self {
+    pub fn from_core(a: &PwmActuator<f64>) -> Result<Self, twip_core::TwipError> {
         let (motor, command_per_amp) = a.parts();
-        Self { motor: TwipMotor::from_core(&motor), command_per_amp: command_per_amp as f32 }
+        Ok(Self { motor: TwipMotor::from_core(&motor)?, command_per_amp: narrow("command_per_amp", command_per_amp)? })
+    }
+}
+
+/// The encoder behind the C ABI: the core's, with the last count kept as the hardware's
+/// integer. Differenced as integers, then converted: an f32 count loses whole counts past
+/// 2^24 and jumps by 2^32 across the counter's wrap.
+#[derive(Clone, Copy, Debug)]
+struct CountEncoder {
+    encoder: Encoder<f32>,
+    last: Option<i32>,
+}
+
+/// Checks a step's `dt` [s]: NaN or infinite is not finite, negative is out of its domain.
+fn check_dt(dt: f32) -> Result<(), TwipStatus> {
+    match dt {
+        _ if !dt.is_finite() => Err(TWIP_ERR_NOT_FINITE),
+        _ if dt < 0.0 => Err(TWIP_ERR_INVALID),
+        _ => Ok(()),
     }
 }
 
@@ -108,6 +126,8 @@ pub unsafe extern "C" fn twip_tilt_init(state: *mut TwipTilt, config: *const Twi
 
 /// One estimator step: the accelerometer tilt [rad] and gyroscope rate [rad/s], `dt` [s]
 /// after the previous step; `angle` and `rate` receive the estimated pitch and pitch rate.
+/// TWIP_ERR_NOT_FINITE for a NaN or infinite input, TWIP_ERR_INVALID for `dt` < 0; the
+/// outputs are then untouched.
 ///
 /// # Safety
 /// Pointers are NULL or valid.
@@ -127,8 +147,11 @@ pub unsafe extern "C" fn twip_tilt_update(
         Ok(f) => f,
         Err(status) => return status,
     };
-    if !(tilt.is_finite() && gyro_rate.is_finite() && dt.is_finite() && dt >= 0.0) {
+    if !(tilt.is_finite() && gyro_rate.is_finite()) {
         return TWIP_ERR_NOT_FINITE;
+    }
+    if let Err(status) = check_dt(dt) {
+        return status;
     }
     let (a, r) = filter.update(tilt, gyro_rate, dt);
     angle.write(a);
@@ -142,11 +165,19 @@ pub unsafe extern "C" fn twip_tilt_update(
 /// `state` is NULL or valid.
 #[no_mangle]
 pub unsafe extern "C" fn twip_encoder_init(state: *mut TwipEncoder, counts_per_revolution: f32) -> TwipStatus {
-    init(state.cast(), ENCODER_TAG, &counts_per_revolution, |&cpr| Encoder::new(cpr))
+    init(state.cast(), ENCODER_TAG, &counts_per_revolution, |&cpr| Ok(CountEncoder { encoder: Encoder::new(cpr)?, last: None }))
 }
 
-/// The wheel's angle relative to the body [rad] and its speed [rad/s] from the hardware
-/// counter's value `count`, `dt` [s] after the previous read (speed 0 at the first read).
+/// The wheel's angle relative to the body [rad] and its speed [rad/s] from the counter's
+/// value `count`, `dt` [s] after the previous read (speed 0 at the first read, and with `dt`
+/// = 0). `count` is a 32-bit running count that wraps from INT32_MAX to INT32_MIN: the
+/// speed comes from the counts' difference modulo 2^32, exact across the wrap while fewer
+/// than 2^31 counts pass between reads. A narrower hardware counter must be extended to 32
+/// bits by the caller, for example with a 16-bit timer `total += (int16_t)(hw - last_hw);
+/// last_hw = hw;` at every read (more often than every 2^15 counts): passed as it is, its
+/// wrap from 65535 to 0 reads as a jump of 65535 counts. The angle is `count` × 2π/CPR
+/// in f32, so it wraps with the counter and its step grows past 2^24 counts.
+/// TWIP_ERR_NOT_FINITE for a NaN or infinite `dt`, TWIP_ERR_INVALID for `dt` < 0.
 ///
 /// # Safety
 /// Pointers are NULL or valid.
@@ -161,16 +192,20 @@ pub unsafe extern "C" fn twip_encoder_read(
     if angle.is_null() || speed.is_null() {
         return TWIP_ERR_NULL;
     }
-    let encoder = match slot::get::<Encoder<f32>>(state.cast(), ENCODER_TAG) {
+    let reader = match slot::get::<CountEncoder>(state.cast(), ENCODER_TAG) {
         Ok(e) => e,
         Err(status) => return status,
     };
-    if !(dt.is_finite() && dt >= 0.0) {
-        return TWIP_ERR_NOT_FINITE;
+    if let Err(status) = check_dt(dt) {
+        return status;
     }
-    let (a, s) = encoder.read_count(count as f32, dt);
-    angle.write(a);
-    speed.write(s);
+    let speed_now = match reader.last {
+        Some(last) if dt > 0.0 => reader.encoder.speed_of(count.wrapping_sub(last) as f32, dt),
+        _ => 0.0,
+    };
+    reader.last = Some(count);
+    angle.write(count as f32 * reader.encoder.resolution());
+    speed.write(speed_now);
     TWIP_OK
 }
 

@@ -7,7 +7,8 @@
 //!   and `twip_X_reset(state)`. Configurations are plain C structs in SI units
 //!   (`twip export` writes them in firmware units, each converted next to its value).
 //! - No panic crosses the boundary: every function returns a [`TwipStatus`] code, checks its
-//!   pointers, and refuses a state that was not initialised or a non-finite input.
+//!   pointers, and refuses a state that was not initialised or a non-finite input. A
+//!   controller update that overflows is refused too, and leaves the state as it was.
 //!
 //! The header `include/twip.h` is generated from these declarations by cbindgen and kept
 //! in the repository; `tests/header.rs` fails when the two differ.
@@ -33,12 +34,18 @@ pub type TwipStatus = i32;
 pub const TWIP_OK: TwipStatus = 0;
 /// A pointer argument was NULL.
 pub const TWIP_ERR_NULL: TwipStatus = -1;
-/// A configuration value is outside its domain (negative period, inconsistent sets...).
+/// A configuration value or an argument is outside its domain (negative period or `dt`,
+/// inconsistent sets...).
 pub const TWIP_ERR_INVALID: TwipStatus = -2;
 /// An input (measurement, reference, time) is NaN or infinite; the outputs are untouched.
 pub const TWIP_ERR_NOT_FINITE: TwipStatus = -3;
 /// The state was not initialised by its `twip_X_init` (or its init failed).
 pub const TWIP_ERR_NOT_INITIALISED: TwipStatus = -4;
+/// A controller update with finite inputs whose command or carried state (integrator,
+/// adaptive weights) came out NaN or infinite, as a finite but absurd reading (a sensor
+/// glitch of 1e12 rad) makes it: refused, with the state unchanged (as before the call) and
+/// the outputs untouched, so the next ordinary update answers as if this one never happened.
+pub const TWIP_ERR_OVERFLOW: TwipStatus = -5;
 
 /// A short English description of a status code (a static, NUL-terminated string).
 #[no_mangle]
@@ -46,9 +53,10 @@ pub extern "C" fn twip_status_text(status: TwipStatus) -> *const core::ffi::c_ch
     let text: &'static core::ffi::CStr = match status {
         TWIP_OK => c"ok",
         TWIP_ERR_NULL => c"a pointer argument is NULL",
-        TWIP_ERR_INVALID => c"a configuration value is out of its domain",
+        TWIP_ERR_INVALID => c"a configuration value or argument is out of its domain",
         TWIP_ERR_NOT_FINITE => c"an input is NaN or infinite",
         TWIP_ERR_NOT_INITIALISED => c"the state was not initialised",
+        TWIP_ERR_OVERFLOW => c"the update overflowed; the state is unchanged",
         _ => c"unknown status",
     };
     text.as_ptr()

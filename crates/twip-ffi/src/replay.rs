@@ -12,18 +12,18 @@ use twip_core::model::dynamics::Dynamics;
 use twip_core::sim::runner::{simulate, Outcome, SimConfig};
 use twip_core::{PlanarModel, SlopeModel, TwipError};
 
-use crate::config::{TwipFriction, TwipRobot};
+use crate::config::{narrow, TwipFriction, TwipRobot};
 use crate::controllers::{TwipPlanarRef, TwipSpeedRef};
 
 /// The `f32` plant of an `f64` model, through the C configuration's conversions.
 pub fn slope_f32(m: &SlopeModel<f64>) -> Result<SlopeModel<f32>, TwipError> {
-    SlopeModel::new(TwipRobot::from_core(m.params()).to_core(), m.slope() as f32)?
-        .with_friction(TwipFriction::from_core(m.friction()).to_core())
+    SlopeModel::new(TwipRobot::from_core(m.params())?.to_core(), narrow("slope", m.slope())?)?
+        .with_friction(TwipFriction::from_core(m.friction())?.to_core())
 }
 
 /// The `f32` plant of an `f64` planar model.
 pub fn planar_f32(m: &PlanarModel<f64>) -> Result<PlanarModel<f32>, TwipError> {
-    PlanarModel::new(TwipRobot::from_core(m.params()).to_core())?.with_friction(TwipFriction::from_core(m.friction()).to_core())
+    PlanarModel::new(TwipRobot::from_core(m.params())?.to_core())?.with_friction(TwipFriction::from_core(m.friction())?.to_core())
 }
 
 /// Every controller update of a run: time, measurement, reference and command.

@@ -15,7 +15,7 @@ fn lqr_config() -> TwipLqrConfig {
     let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
     let gains = [-11.0091734, -1.69875395, -0.0500031523, -0.0456435457];
     let c = LqrController::new(gains, model, twip_core::control::lqr::DesignPoint::OperatingPoint, 0.005).unwrap();
-    TwipLqrConfig::from_core(&c)
+    TwipLqrConfig::from_core(&c).unwrap()
 }
 
 fn new_lqr() -> TwipLqr {
@@ -125,6 +125,26 @@ fn status_texts_are_c_strings() {
     }
 }
 
+/// A wheel turning at 3 counts per 5 ms loop reads the same speed wherever its 32-bit
+/// counter is: near 0, past 2^24 counts (where an f32 count loses whole counts) and across
+/// the counter's wrap from INT32_MAX to INT32_MIN (which an f32 difference read as -7.7e9 rad/s).
+#[test]
+fn the_encoder_speed_is_exact_at_any_count_and_across_the_wrap() {
+    let core = Encoder::<f32>::new(700.0).unwrap();
+    let truth = core.speed_of(3.0, 0.005);
+    for start in [0i64, (1 << 24) + 1, (1 << 27) + 1, i32::MAX as i64 - 10] {
+        let mut enc = TwipEncoder { words: [0; TWIP_ENCODER_WORDS] };
+        assert_eq!(unsafe { twip_encoder_init(&mut enc, 700.0) }, TWIP_OK);
+        for k in 0..8i64 {
+            let count = (start + 3 * k) as u32 as i32; // the hardware's counter, wrapping
+            let (mut angle, mut speed) = (0.0, 0.0);
+            assert_eq!(unsafe { twip_encoder_read(&mut enc, count, 0.005, &mut angle, &mut speed) }, TWIP_OK);
+            assert_eq!(speed, if k == 0 { 0.0 } else { truth }, "from {start}, read {k}");
+            assert_eq!(angle, count as f32 * core.resolution());
+        }
+    }
+}
+
 #[test]
 fn firmware_pieces_answer_as_the_core() {
     unsafe {
@@ -138,6 +158,9 @@ fn firmware_pieces_answer_as_the_core() {
             assert_eq!((a, s), core.read_count(count as f32, 0.005), "read {k}");
         }
         assert_eq!(twip_encoder_read(&mut enc, 0, f32::NAN, &mut a, &mut s), TWIP_ERR_NOT_FINITE);
+        (a, s) = (7.0, 7.0);
+        assert_eq!(twip_encoder_read(&mut enc, 0, -0.005, &mut a, &mut s), TWIP_ERR_INVALID, "a negative dt is out of its domain");
+        assert_eq!((a, s), (7.0, 7.0));
 
         let mut tilt = TwipTilt { words: [0; TWIP_TILT_WORDS] };
         let config = TwipTiltConfig { kind: 1, q_angle: 1e-3, q_bias: 3e-3, r_angle: 0.03, ..Default::default() };
@@ -149,6 +172,8 @@ fn firmware_pieces_answer_as_the_core() {
             assert_eq!(twip_tilt_update(&mut tilt, tilt_in, gyro, 0.005, &mut angle, &mut rate), TWIP_OK);
             assert_eq!((angle, rate), core.update(tilt_in, gyro, 0.005));
         }
+        assert_eq!(twip_tilt_update(&mut tilt, 0.0, 0.0, f32::INFINITY, &mut angle, &mut rate), TWIP_ERR_NOT_FINITE);
+        assert_eq!(twip_tilt_update(&mut tilt, 0.0, 0.0, -0.005, &mut angle, &mut rate), TWIP_ERR_INVALID);
         assert_eq!(twip_tilt_init(&mut tilt, &TwipTiltConfig { kind: 2, ..config }), TWIP_ERR_INVALID);
 
         let mut pwm = TwipPwm { words: [0; TWIP_PWM_WORDS] };
@@ -162,4 +187,18 @@ fn firmware_pieces_answer_as_the_core() {
         assert_eq!(duty, duty.round(), "whole counts");
         assert!(twip_accel_tilt(0.0, 9.81).abs() < 1e-7);
     }
+}
+
+/// A tuned f64 value that f32 cannot hold is refused by name with the value given, not
+/// as the f32 conversion's infinity or zero ("gains[0] = -inf is not finite").
+#[test]
+fn a_value_beyond_f32_is_named_with_its_f64_value() {
+    let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
+    let point = twip_core::control::lqr::DesignPoint::OperatingPoint;
+    let huge = LqrController::new([-1e39, -1.7, -0.05, -0.045], model, point, 0.005).unwrap();
+    let err = TwipLqrConfig::from_core(&huge).unwrap_err().to_string();
+    assert!(err.starts_with("invalid gains[0] = -1e39: does not fit in f32"), "{err}");
+    let tiny = LqrController::new([-11.0, -1.7, -0.05, -0.045], model, point, 1e-50).unwrap();
+    let err = TwipLqrConfig::from_core(&tiny).unwrap_err().to_string();
+    assert!(err.starts_with("invalid period = 1e-50: does not fit in f32"), "{err}");
 }

@@ -5,6 +5,7 @@ use numpy::{IntoPyArray, PyArray2};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
+use twip_core::control::Controller;
 use twip_core::hardware::driver::PwmActuator;
 use twip_core::hardware::tilt::TiltEstimator;
 use twip_core::RobotParams;
@@ -64,11 +65,15 @@ fn record_dict<'py, const NX: usize, const NU: usize, R: Copy>(
     Ok(out)
 }
 
-/// `ffi_record(model, controller, x0, t_final, dt, reference)`: the controller's C
-/// configuration and a closed-loop run of its `f32` build (as `twip_X_init` makes it) on
-/// the `f32` plant, every update recorded: {"family", "config" (bytes of the C struct),
-/// "t", "y", "reference", "u", "outcome"}.
+/// `ffi_record(model, controller, x0, t_final, dt, reference, control_period=None)`: the
+/// controller's C configuration and a closed-loop run of its `f32` build (as `twip_X_init`
+/// makes it) on the `f32` plant, every update recorded: {"family", "config" (bytes of the C
+/// struct), "t", "y", "reference", "u", "outcome"}. With `control_period` [s] the controller
+/// runs at that period, as `simulate(..., control_period=)` runs it, and its configuration
+/// says so.
 #[pyfunction]
+#[pyo3(signature = (model, controller, x0, t_final, dt, reference, control_period = None))]
+#[allow(clippy::too_many_arguments)]
 pub fn ffi_record<'py>(
     py: Python<'py>,
     model: &Bound<'py, PyAny>,
@@ -77,19 +82,26 @@ pub fn ffi_record<'py>(
     t_final: f64,
     dt: f64,
     reference: &Bound<'py, PyAny>,
+    control_period: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (dt32, t32) = (dt as f32, t_final as f32);
+    // The period the loop runs at: the scenario's, else the controller's own.
+    let at_period = |period: f64| control_period.unwrap_or(period);
     if let Ok(m) = model.cast::<PySlopeModel>() {
         let plant = slope_f32(&m.get().inner).map_err(PyTwipError)?;
         let schedule = reference.cast::<PySpeedSchedule>()?.get().inner;
         let x0: [f32; 4] = state_of(&x0)?;
         if let Ok(c) = controller.cast::<PyLqrController>() {
-            let config = TwipLqrConfig::from_core(&c.get().inner);
+            let inner = c.get().inner;
+            let config = TwipLqrConfig::from_core(&inner.with_period(at_period(inner.period())).map_err(PyTwipError)?)
+                .map_err(PyTwipError)?;
             let run = record(&plant, config.build().map_err(PyTwipError)?, &schedule, x0, dt32, t32).map_err(PyTwipError)?;
             return record_dict(py, "lqr", bytes_of(py, &config), run, 2);
         }
         if let Ok(c) = controller.cast::<PyFuzzyController>() {
-            let config = TwipFuzzyConfig::from_core(&c.get().inner);
+            let inner = c.get().inner;
+            let config = TwipFuzzyConfig::from_core(&inner.with_period(at_period(inner.period())).map_err(PyTwipError)?)
+                .map_err(PyTwipError)?;
             let run = record(&plant, config.build().map_err(PyTwipError)?, &schedule, x0, dt32, t32).map_err(PyTwipError)?;
             return record_dict(py, "fuzzy", bytes_of(py, &config), run, 2);
         }
@@ -98,12 +110,16 @@ pub fn ffi_record<'py>(
         let path = trajectory(reference)?;
         let x0: [f32; 7] = state_of(&x0)?;
         if let Ok(c) = controller.cast::<PyPidTracker>() {
-            let config = TwipPidConfig::from_core(&c.get().inner);
+            let inner = c.get().inner;
+            let config = TwipPidConfig::from_core(&inner.with_period(at_period(inner.period())).map_err(PyTwipError)?)
+                .map_err(PyTwipError)?;
             let run = record(&plant, config.build().map_err(PyTwipError)?, &path, x0, dt32, t32).map_err(PyTwipError)?;
             return record_dict(py, "pid", bytes_of(py, &config), run, 7);
         }
         if let Ok(c) = controller.cast::<PySmcTracker>() {
-            let config = TwipSmcConfig::from_core(&c.get().inner);
+            let inner = c.get().inner;
+            let config = TwipSmcConfig::from_core(&inner.with_period(at_period(inner.period())).map_err(PyTwipError)?)
+                .map_err(PyTwipError)?;
             let run = record(&plant, config.build().map_err(PyTwipError)?, &path, x0, dt32, t32).map_err(PyTwipError)?;
             return record_dict(py, "smc", bytes_of(py, &config), run, 7);
         }
@@ -151,8 +167,8 @@ pub fn ffi_firmware<'py>(
     if let Some(driver) = core.motor {
         let lumped = PwmActuator::new(&driver, &p).map_err(PyTwipError)?;
         let wheel = PwmActuator::per_wheel_torque(&driver, &p).map_err(PyTwipError)?;
-        out.set_item("pwm_lumped", bytes_of(py, &TwipPwmConfig::from_core(&lumped)))?;
-        out.set_item("pwm_wheel", bytes_of(py, &TwipPwmConfig::from_core(&wheel)))?;
+        out.set_item("pwm_lumped", bytes_of(py, &TwipPwmConfig::from_core(&lumped).map_err(PyTwipError)?))?;
+        out.set_item("pwm_wheel", bytes_of(py, &TwipPwmConfig::from_core(&wheel).map_err(PyTwipError)?))?;
     }
     out.set_item("encoder_cpr", core.encoder_cpr)?;
     Ok(out)

@@ -71,7 +71,8 @@ def key_value(text: str, what: str):
 
 def add_robot_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--robot", metavar="FILE", help="the robot file (TOML; `twip robot init FILE` writes one) instead "
-                   "of the Balanbot; its [motor] and [driver] go into --realism thesis-like")
+                   "of the Balanbot; its [motor] (else the Balanbot's at its [driver]'s battery) is the trackers' "
+                   "motor, and with its [driver] goes into --realism thesis-like and twip export's PWM feed-forward")
 
 
 def robot(param_args, robot_file=None) -> "twip.RobotParams":
@@ -110,9 +111,12 @@ def scenario_options(name: str, option_args) -> dict:
     return options
 
 
-def get_scenario(name, params=None, controller_params=None, options=None):
+def get_scenario(name, params=None, controller_params=None, options=None, robot_file=None):
+    """The scenario, with the motor of --robot FILE in a tracker (scenarios.robot_options)."""
+    robot_options = scenarios.robot_options(name, twip.Robot.from_file(robot_file)) if robot_file else {}
     try:
-        return scenarios.get(name, params=params, controller_params=controller_params, **(options or {}))
+        return scenarios.get(name, params=params, controller_params=controller_params,
+                             **{**robot_options, **(options or {})})
     except TypeError as e:  # a wrong option type or name that reached the factory
         given = ", ".join(f"{k}={v!r}" for k, v in (options or {}).items())
         raise UsageError(f"{name}: an --option does not fit ({given}): {e}") from None

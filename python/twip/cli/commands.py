@@ -104,7 +104,7 @@ def simulate(args) -> int:
     params = robot(args.param, args.robot)
     options = scenario_options(name, args.option)
     ctrl_params = twip.RobotParams.balanbot() if args.nominal_controller else None
-    sc = get_scenario(name, params=params, controller_params=ctrl_params, options=options)
+    sc = get_scenario(name, params=params, controller_params=ctrl_params, options=options, robot_file=args.robot)
     overrides: Dict[str, Any] = {}
     if args.t_final is not None:
         overrides["t_final"] = args.t_final
@@ -166,7 +166,7 @@ def sweep(args) -> int:
         raise UsageError(f"--perturb {', '.join(twice)}: given more than once (each quantity once)")
     if args.map and not set(args.map) <= set(perturb):
         raise UsageError(f"--map {','.join(args.map)}: both must be --perturb names ({', '.join(perturb) or 'none given'})")
-    sc = get_scenario(name, params=params, options=options)  # designed once, here; bad options are named
+    sc = get_scenario(name, params=params, options=options, robot_file=args.robot)  # designed once, here; bad options are named
     if not perturb:
         print("note: no --perturb given, every sample is the same robot", file=sys.stderr)
     try:

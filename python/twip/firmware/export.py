@@ -160,9 +160,45 @@ extern const float replay_u[{n}][{fam.nu}];
     return data, h
 
 
-def _check_replay_size(sc, seconds: float) -> None:
+def _tracker_motor(controller):
+    """The motor of a PID or sliding-mode tracker (None for the others, or without limits)."""
+    if isinstance(controller, _core.PidTracker):
+        return controller.motor
+    if isinstance(controller, _core.SmcTracker):
+        return controller.to_dict()["motor"]
+    return None
+
+
+def _check_one_motor(sc, robot) -> None:
+    """Refuses a tracker built for another motor than the robot file's: its torque limits or
+    PWM conversion and the exported PWM feed-forward would be two motors."""
+    wanted = robot.controller_motor() if robot is not None else None
+    motor = _tracker_motor(sc.controller)
+    if wanted is not None and motor is not None and motor.to_dict() != wanted.to_dict():
+        raise _core.InvalidParameterError(
+            f"robot: the scenario's tracker assumes {motor!r}, the robot file {wanted!r}; the PWM feed-forward "
+            "would drive another motor than the tracker's: build the scenario with "
+            "motor=robot.controller_motor() (twip.scenarios.robot_options(name, robot))")
+
+
+def _loop_period(sc) -> float:
+    """The period [s] the scenario runs its controller at, as `Scenario.run` does: its
+    `control_period` when it has one, else the controller's own; refused, by name, below the
+    simulation step (the runner updates at most once per step)."""
+    if sc.control_period is not None:
+        name, period = "control_period", sc.control_period
+    else:
+        name, period = "controller.period", getattr(sc.controller, "period", sc.dt)
+    if not period >= sc.dt:
+        raise _core.InvalidParameterError(
+            f"{name} = {period!r} s: the controller updates at most once per simulation step, so its period "
+            f"must be at least the scenario's dt = {sc.dt!r} s (and a whole multiple of it)")
+    return period
+
+
+def _check_replay_size(sc, seconds: float, period: float) -> None:
     """The recorded run and its C text against the memory budget, before recording."""
-    updates = seconds / getattr(sc.controller, "period", sc.dt) + 1
+    updates = seconds / period + 1
     values = 1 + 2 * len(sc.x0) + 2  # t, y, the reference (at most a state's width), u
     budget.check(f"export: the replay of {seconds:g} s ({updates:,.0f} controller updates)",
                  updates * values * REPLAY_BYTES_PER_VALUE, "pass a shorter replay_seconds")
@@ -171,8 +207,11 @@ def _check_replay_size(sc, seconds: float) -> None:
 def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: float = REPLAY_SECONDS,
            source_dir: Optional[str] = None) -> dict:
     """Writes the folder `out` for scenario `scenario` (a name or a Scenario) on `robot`
-    (a `twip.Robot` from a robot file; default the Balanbot). Returns a summary: the family,
-    the number of recorded updates and the paths written."""
+    (a `twip.Robot` from a robot file; default the Balanbot). The robot file's parameters,
+    and its motor for a tracker (`Robot.controller_motor()`: torque limits, PWM conversion)
+    and for the PWM feed-forward with its driver: one motor throughout. A Scenario whose
+    tracker assumes another motor than the file's is refused. Returns a summary: the
+    family, the number of recorded updates and the paths written."""
     if units_ not in UNITS:
         raise _core.InvalidParameterError(f"units = {units_!r}: must be one of {', '.join(UNITS)}")
     if not (isinstance(replay_seconds, (int, float)) and math.isfinite(replay_seconds) and replay_seconds > 0):
@@ -180,11 +219,18 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
     checks.of_type("scenario", scenario, (str, scenarios.Scenario), "a scenario name or a twip.scenarios.Scenario")
     checks.of_type("robot", robot, (Robot, type(None)), "a twip.Robot (from a robot file) or None (the Balanbot)")
     params = robot.params if robot is not None else None
-    sc = scenarios.get(scenario, params=params) if isinstance(scenario, str) else scenario
+    if isinstance(scenario, str):
+        sc = scenarios.get(scenario, params=params, **scenarios.robot_options(scenario, robot))
+    else:
+        sc = scenario
+        _check_one_motor(sc, robot)
     realism = robot.realism() if robot is not None else _core.Realism.thesis_like()
     seconds = min(sc.t_final, replay_seconds)
-    _check_replay_size(sc, seconds)
-    rec = _core.ffi_record(sc.model, sc.controller, [float(v) for v in sc.x0], seconds, sc.dt, sc.reference)
+    _check_replay_size(sc, seconds, _loop_period(sc))
+    # The loop period the simulation runs (Scenario.control_period, if set) is the one
+    # recorded and written as TWIP_LOOP_PERIOD_S.
+    rec = _core.ffi_record(sc.model, sc.controller, [float(v) for v in sc.x0], seconds, sc.dt, sc.reference,
+                           control_period=sc.control_period)
     fam = FAMILIES[rec["family"]]
     parts = _core.ffi_firmware(realism, sc.model.params)
     if fam.pwm not in parts:

@@ -3,7 +3,9 @@
 Each scenario is a plant, a controller designed for it, a reference schedule and a
 duration, plus the thesis's own claims about it (for reports). `get` takes the robot
 (`params=`), the controller's own robot when it differs from the plant
-(`controller_params=`, for model-mismatch studies) and scenario options.
+(`controller_params=`, for model-mismatch studies) and scenario options;
+`robot_options(name, robot)` gives the options that put a robot file's motor into a
+tracker.
 """
 from twip.scenarios.registry import (  # noqa: F401
     MAX_TRIP_SECONDS,
@@ -13,6 +15,7 @@ from twip.scenarios.registry import (  # noqa: F401
     names,
     options,
     register,
+    robot_options,
     trip_time,
 )
 

@@ -108,6 +108,14 @@ def get(name: str, params=None, controller_params=None, **options) -> Scenario:
     return _REGISTRY[name](params, controller_params or params, **options)
 
 
+def robot_options(name: str, robot) -> Dict[str, object]:
+    """The options that build scenario `name` for robot file `robot` (a twip.Robot or None):
+    {"motor": robot.controller_motor()} for a scenario that takes a motor (the trackers)
+    when the file describes one, so that the tracker and the robot's driver are one motor."""
+    motor = robot.controller_motor() if robot is not None else None
+    return {"motor": motor} if motor is not None and "motor" in options(name) else {}
+
+
 def _check_options(name: str, given) -> None:
     """Refuses an option that scenario `name` does not take, naming the ones it does."""
     known = options(name)

@@ -27,11 +27,15 @@ def _circle(radius, speed, laps):
 
 
 @register("circle-pid")
-def _circle_pid(params, ctrl_params, laps=3, period=0.005, supply=11.1):
-    """Fig 4.14: the circle of radius 0.6 m at a wheel speed of 180 deg/s (36 s a lap), Table 4.1."""
+def _circle_pid(params, ctrl_params, laps=3, period=0.005, supply=None, motor=None):
+    """Fig 4.14: the circle of radius 0.6 m at a wheel speed of 180 deg/s (36 s a lap), Table 4.1.
+    `motor` (a twip.DcMotor) turns the PID's PWM counts into torques; default the GB37Y3530 at
+    `supply` [V] (default 11.1)."""
     speed = math.radians(180.0) * params.wheel_radius
     circle, t_final = _circle(0.6, speed, laps)
-    motor = _core.DcMotor.gb37y3530(supply)
+    if motor is not None and supply is not None:
+        raise _core.InvalidParameterError(f"supply = {supply!r}: give the motor's supply in motor, not both")
+    motor = motor if motor is not None else _core.DcMotor.gb37y3530(11.1 if supply is None else supply)
     return Scenario(
         name="circle-pid",
         description="PID tracker, Table 4.1's gains in the Arduino's units, r = 0.6 m at 180 deg/s (thesis 4.3.1, Fig 4.14)",
@@ -44,8 +48,10 @@ def _circle_pid(params, ctrl_params, laps=3, period=0.005, supply=11.1):
     )
 
 
-def _smc(params, ctrl_params, fuzzy, laps, period, boundary_layer, pitch_offset, **options):
+def _smc(params, ctrl_params, fuzzy, laps, period, boundary_layer, pitch_offset, motor, **options):
     circle, t_final = _circle(0.45, math.pi / 30, laps)
+    if motor is not None:  # else SmcTracker's default, the GB37Y3530 at 11.1 V
+        options["motor"] = motor
     name = "circle-smc-fuzzy" if fuzzy else "circle-smc"
     what = "fuzzy adaptive sliding mode" if fuzzy else "sliding-mode backstepping"
     tracker = _core.SmcTracker(_core.PlanarModel(ctrl_params), fuzzy=fuzzy, boundary_layer=boundary_layer,
@@ -63,15 +69,18 @@ def _smc(params, ctrl_params, fuzzy, laps, period, boundary_layer, pitch_offset,
 
 
 @register("circle-smc")
-def _circle_smc(params, ctrl_params, laps=3, period=0.005, boundary_layer=None, pitch_offset=True, **options):
-    """4.3.2 with the controller's own model for f2 (4.89, 4.97)."""
-    return _smc(params, ctrl_params, False, laps, period, boundary_layer, pitch_offset, **options)
+def _circle_smc(params, ctrl_params, laps=3, period=0.005, boundary_layer=None, pitch_offset=True, motor=None,
+                **options):
+    """4.3.2 with the controller's own model for f2 (4.89, 4.97). `motor` (a twip.DcMotor)
+    limits the torques and reads the published gains in its PWM counts."""
+    return _smc(params, ctrl_params, False, laps, period, boundary_layer, pitch_offset, motor, **options)
 
 
 @register("circle-smc-fuzzy")
-def _circle_smc_fuzzy(params, ctrl_params, laps=3, period=0.005, boundary_layer=None, pitch_offset=True, **options):
+def _circle_smc_fuzzy(params, ctrl_params, laps=3, period=0.005, boundary_layer=None, pitch_offset=True, motor=None,
+                      **options):
     """4.3.2 with fuzzy estimates of f23 and of the (phi, v) equivalent control (4.99-4.121)."""
-    return _smc(params, ctrl_params, True, laps, period, boundary_layer, pitch_offset, **options)
+    return _smc(params, ctrl_params, True, laps, period, boundary_layer, pitch_offset, motor, **options)
 
 
 def mismatched(params, factor: float):

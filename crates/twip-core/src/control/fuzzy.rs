@@ -204,6 +204,11 @@ impl<T: Real> FuzzyController<T> {
         self.s_hat
     }
 
+    /// Whether what the next update starts from (the weights Ŝ, the error's integral) is finite.
+    pub fn state_is_finite(&self) -> bool {
+        self.e_int.is_finite() && self.s_hat.iter().all(|w| w.is_finite())
+    }
+
     /// φ_s the controller aims for at a reference speed (corrected (4.42), own model).
     pub fn steady_pitch(&self, theta_dot_ref: T) -> Result<T, TwipError> {
         Ok(self.model.equilibrium(theta_dot_ref)?.0[0])

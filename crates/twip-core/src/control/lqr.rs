@@ -66,6 +66,11 @@ impl<T: Real> LqrController<T> {
         self.point
     }
 
+    /// Whether what the next update starts from (the integrator z) is finite.
+    pub fn state_is_finite(&self) -> bool {
+        self.z.is_finite()
+    }
+
     pub fn with_period(mut self, period: T) -> Result<Self, TwipError> {
         self = Self::new(self.gains, self.model, self.point, period)?;
         Ok(self)

@@ -205,6 +205,11 @@ impl<T: Real> PidTracker<T> {
     pub fn geometry(&self) -> (T, T) {
         (self.law.radius, self.law.half_track)
     }
+
+    /// Whether what the next update starts from (the speed and heading integrals) is finite.
+    pub fn state_is_finite(&self) -> bool {
+        self.int_v.is_finite() && self.int_psi.is_finite()
+    }
 }
 
 /// The right and left wheels' speeds relative to the body [rad/s]: what drives the back-EMF.

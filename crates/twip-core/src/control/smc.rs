@@ -29,7 +29,7 @@ use crate::control::Controller;
 use crate::control::fuzzy_basis::{grid, GridBasis, Member, Membership, ThesisBasis};
 use crate::hardware::motor::DcMotor;
 use crate::control::pid::relative_wheel_speeds;
-use crate::model::lane::Lane;
+use crate::model::lane::{clamp, Lane};
 use crate::model::planar::{accelerations, PlanarCoefficients, PlanarModel};
 use crate::control::trajectory::{wrap_angle, PlanarRef};
 use crate::{c, Dynamics, Real, TwipError};
@@ -333,6 +333,11 @@ impl<T: Real> SmcTracker<T> {
         (self.c1, self.c2)
     }
 
+    /// Whether what the next update starts from (the fuzzy weights) is finite.
+    pub fn state_is_finite(&self) -> bool {
+        self.c1.iter().chain(&self.c2).all(|w| w.is_finite())
+    }
+
     /// r1 as it acts on twip's pitch.
     fn r1(&self) -> T {
         match self.options.pitch {
@@ -576,7 +581,7 @@ impl<S: Lane, M: Member<S>> SmcLaw<'_, S, M> {
             let speeds = relative_wheel_speeds(y, self.radius, self.half_track);
             for (ui, w) in u.iter_mut().zip(speeds) {
                 let (lo, hi) = m.torque_limits(w);
-                *ui = ui.larger(lo).smaller(hi);
+                *ui = clamp(*ui, lo, hi);
             }
         }
         let (mut c1_next, mut c2_next) = (*c1, *c2);
@@ -619,6 +624,15 @@ mod tests {
         let options = SmcOptions { pitch: PitchSign::Forward, ..SmcOptions::default() };
         let err = SmcTracker::new(t.gains(), options, *t.model(), None, None, 0.005).unwrap_err();
         assert!(matches!(err, TwipError::InvalidParameter { name: "r1 g21 + r2 g22", .. }));
+    }
+
+    #[test]
+    fn a_nan_torque_is_not_hidden_by_the_motor_limits() {
+        // The torque limits' larger/smaller would have answered the full-reverse torque.
+        let mut t = tracker(true);
+        let y = SVector::from([0.0, 0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0]);
+        let u = t.update(0.0, &y, &PlanarRef::default());
+        assert!(u.iter().all(|v| v.is_nan()), "{u:?}");
     }
 
     #[test]

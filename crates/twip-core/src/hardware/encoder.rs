@@ -42,11 +42,19 @@ impl<T: Real> Encoder<T> {
     /// hardware counter), `dt` after the last read; the speed is 0 at the first read.
     pub fn read_count(&mut self, count: T, dt: T) -> (T, T) {
         let speed = match self.last {
-            Some(last) if dt > T::zero() => (count - last) * self.rad_per_count / dt,
+            Some(last) if dt > T::zero() => self.speed_of(count - last, dt),
             _ => T::zero(),
         };
         self.last = Some(count);
         (count * self.rad_per_count, speed)
+    }
+
+    /// The speed [rad/s] of `counts` counts in `dt` [s] (> 0): for a firmware that
+    /// differences its integer counter itself, exactly (a float count loses whole counts
+    /// past 2^24 in f32).
+    #[inline]
+    pub fn speed_of(&self, counts: T, dt: T) -> T {
+        counts * self.rad_per_count / dt
     }
 
     /// One count [rad].

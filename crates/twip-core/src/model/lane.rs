@@ -63,6 +63,16 @@ pub trait Lane:
     fn any(m: Self::Mask) -> bool;
 }
 
+/// `v` limited to [lo, hi] (hi wins if lo > hi, as `v.larger(lo).smaller(hi)`), with a NaN
+/// `v` staying NaN: `larger`/`smaller` would turn it into a limit and hide it. A NaN limit
+/// limits nothing, as with them; every other input gets the same value (the sign of a zero
+/// aside, which `larger`/`smaller` leave unspecified).
+#[inline(always)]
+pub fn clamp<S: Lane>(v: S, lo: S, hi: S) -> S {
+    let v = S::select(v.lt(lo), lo, v);
+    S::select(v.gt(hi), hi, v)
+}
+
 /// `[f(0), f(1), …]`: `core::array::from_fn` for the hot loops, as a plain loop that the
 /// compiler unrolls into registers (`from_fn`'s drop guard can keep it from inlining).
 #[inline(always)]
@@ -493,6 +503,31 @@ mod wide {
         #[inline(always)]
         fn any(m: WideMask<N>) -> bool {
             m.0.iter().fold(0, |acc, b| acc | b) != 0
+        }
+    }
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+
+    /// `clamp` gives what `larger(lo).smaller(hi)` gives, except that a NaN stays NaN, in a
+    /// run's numbers and in both lane types.
+    #[test]
+    fn clamp_is_larger_then_smaller_but_keeps_a_nan() {
+        let values = [-3.0, -1.0, -0.5, 0.0, 0.5, 1.0, 3.0, f64::INFINITY, f64::NEG_INFINITY, f64::NAN];
+        let limits = [(-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0), (f64::NAN, 1.0), (-1.0, f64::NAN), (0.5, 2.0)];
+        for &(lo, hi) in &limits {
+            for &v in &values {
+                let want = v.max(lo).min(hi);
+                let want = if v.is_nan() { f64::NAN } else { want };
+                let same = |got: f64| got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan());
+                assert!(same(clamp(v, lo, hi)), "{v} in [{lo}, {hi}]: {} vs {want}", clamp(v, lo, hi));
+                assert!(same(clamp(v as f32, lo as f32, hi as f32) as f64), "f32 {v} in [{lo}, {hi}]");
+                assert!(same(clamp(Fused(v), Fused(lo), Fused(hi)).0), "Fused {v} in [{lo}, {hi}]");
+                let wide = clamp(Wide::<WIDTH>::splat(v), Wide::splat(lo), Wide::splat(hi));
+                assert!(wide.0.iter().all(|&w| same(w)), "Wide {v} in [{lo}, {hi}]");
+            }
         }
     }
 }

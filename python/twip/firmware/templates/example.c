@@ -14,7 +14,9 @@ static void read_imu(float *accel_x, float *accel_z, float *gyro_dps) {
     *gyro_dps = 0.0f; /* pitch rate, degrees per second */
 }
 static void read_encoders(int32_t *right, int32_t *left) {
-    *right = 0; /* hardware counters, counts of the wheel relative to the body */
+    /* Running 32-bit counts of each wheel relative to the body. A 16-bit timer counter
+       must be extended here: total += (int16_t)(hw - last_hw); last_hw = hw; */
+    *right = 0;
     *left = 0;
 }
 static void write_pwm(float right, float left) {
