@@ -846,7 +846,8 @@ def table_5_1(rows, thesis: Optional[Mapping] = None, path=None, title=None):
 def table_5_2(rows, thesis: Optional[Mapping] = None, path=None, title=None):
     """Table 5.2 analogue from `twip.scenarios.tracking.compare()` rows: mean |x − x_r| and
     |y − y_r| per tracker (bars) and plant (groups); `thesis` {"pid": (x, y), "smc": (x, y)}
-    [m] drawn as horizontal lines (the thesis's experiments)."""
+    [m] drawn as horizontal lines (PID: the thesis's experiment; sliding mode: the thesis does not
+    say whether simulation or experiment)."""
     fig = _figure((11, 4.3), path)
     gs = _grid(fig, 1, 2, top=0.75, bottom=1.0, wspace=0.2)
     plants = list(dict.fromkeys(r["plant"] for r in rows))
@@ -859,7 +860,8 @@ def table_5_2(rows, thesis: Optional[Mapping] = None, path=None, title=None):
                  for t in trackers}
         robot = {t: [100 * cell[(p, t)].get(f"{axis}_realism", np.nan) for p in plants] for t in trackers}
         bars(plants, series, ax, ylabel=rf"mean $|{axis} - {axis}_r|$ [cm]", log=True, marks=marks, robot=robot)
-        for k, (key, label) in enumerate((("pid", "thesis: PID (experiment)"), ("smc", "thesis: sliding mode (experiment)"))):
+        for k, (key, label) in enumerate((("pid", "thesis: PID (experiment)"),
+                                             ("smc", "thesis: sliding mode (sim. or exp.: not stated)"))):
             if thesis and key in thesis:
                 ax.axhline(100 * thesis[key][j], color=PALETTE[0 if key == "pid" else 2], ls="--", lw=1.3, label=label)
         ax.set_title(f"mean {axis} error over the whole run")

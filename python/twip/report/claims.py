@@ -9,7 +9,7 @@ import numpy as np
 
 from twip.report.numbers import dec, sig
 from twip.scenarios.fuzzy import stop_positions
-from twip.scenarios.tracking import THESIS_TABLE_5_2
+from twip.scenarios.tracking import TABLE_5_2_SOURCE, THESIS_TABLE_5_2
 
 #: Table 5.1 of the thesis (mean |pitch error| [deg], mean |wheel-speed error| [deg/s]).
 THESIS_TABLE_5_1 = {
@@ -28,9 +28,6 @@ _WHY = {
     "flat-lqr-sim/gains": ("the default robot is fitted to these gains (docs/parameters.md)", None),
     "slope-lqr-sim/gains": (None, "(4.25) gives k̂_z = −√(Q_zz/R) = −0.032, not −0.32; no weights give all four (errata E6)"),
     "slope-lqr-sim/phi_s_deg": ("the nonlinear steady pitch (4.42 corrected, errata E5); (4.12) is its linearisation", None),
-    "slope-fuzzy-sim/phi_s_deg": (None, "12.5° is the LQR section's value at 250°/s; at 180°/s (4.42) gives less (errata F8)"),
-    "flat-lqr-sim/phi_s_deg": (None, "ground friction needs a forward lean, arcsin(μ_g θ̇_ref / M_b g l) (4.62); the thesis rounds it to 0"),
-    "flat-fuzzy-sim/phi_s_deg": (None, "ground friction needs a forward lean, arcsin(μ_g θ̇_ref / M_b g l) (4.62); the thesis sets 0"),
     "slope-lqr/goals": ("operating-point design; the thesis's design settles ≈ 2 cm downhill of each goal (errata E7)", None),
     "slope-fuzzy/goals": (None, "the PD's time constant kd/kp = 9 s outlasts the 5 s hold; fuzzy + ki (ours) stops within 1 cm"),
     "circle-pid/table_5_2": ("same size as the thesis's experiment: the PID keeps the offset its start-up leaves", None),
@@ -69,8 +66,31 @@ CALIBRATED = {
     "circle-smc-fuzzy/omega_r": "the reference's own yaw rate: a tracker that follows its reference meets it",
 }
 
+#: Settings of the thesis's simulations that twip deliberately does not follow: shown with our
+#: value and why, not counted (basis "input, deviated", status "deviated").
+DEVIATED = {
+    "slope-fuzzy-sim/phi_s_deg": "a setting of the thesis's simulation (\"the desired pitch angle of the robot is set to "
+                                 "12.5 degrees\", 4.1.2), not a result; twip's controller aims at (4.42)'s φ_s at 180°/s "
+                                 "instead: 12.5° is the LQR section's value at 250°/s (errata F8)",
+    "flat-lqr-sim/phi_s_deg": "a setting of the thesis's simulation (\"assumed as φ_s ≈ 0 deg\", 4.2.1), not a result; "
+                              "twip aims at the lean ground friction needs, arcsin(μ_g θ̇_ref / M_b g l) (4.62)",
+    "flat-fuzzy-sim/phi_s_deg": "a setting of the thesis's simulation (\"both set to 0\", 4.2.1), not a result; twip aims "
+                                "at the lean of (4.62), the same number as flat-lqr-sim/phi_s_deg (same robot, same speed)",
+}
+
+#: Rows whose thesis number another row scores: shown, not counted (basis "duplicate"), so that
+#: each thesis number is scored once.
+DUPLICATE = {
+    "circle-smc/table_5_2": "Table 5.2 has one Sliding-mode row, scored on circle-smc-fuzzy: the thesis's controller is "
+                            "\"the sliding-mode with fuzzy adaptive controller\" (5.1); circle-smc is twip's model-based "
+                            "variant (f2 from the controller's model), shown for comparison",
+}
+
+#: What each basis means, and the status its rows get when it is not "prediction".
+BASES = {"prediction": None, "calibrated": "calibrated", "input, deviated": "deviated", "duplicate": "duplicate"}
+
 #: The statuses a claim can have, in the order the report counts them.
-STATUSES = ("reproduced", "differs", "not checked", "calibrated")
+STATUSES = ("reproduced", "differs", "not checked", "calibrated", "deviated", "duplicate")
 
 
 def count(claims) -> dict:
@@ -81,12 +101,18 @@ def count(claims) -> dict:
 
 
 def summary_line(claims) -> str:
-    """'N predictions: k reproduced, j differ; M calibrated' (the report's opening count)."""
+    """'N predictions: k reproduced, j differ; not counted: M calibrated, D deviated inputs, U
+    duplicates' (the report's opening count)."""
     n = count(claims)
     text = f"{n['predictions']} predictions: {n['reproduced']} reproduced, {n['differs']} differ"
     if n["not checked"]:
         text += f", {n['not checked']} not checked"
-    return text + f"; {n['calibrated']} calibrated (inputs or fits, not counted)"
+    rest = [f"{n['calibrated']} calibrated (inputs or fits)"]
+    if n["deviated"]:
+        rest.append(f"{n['deviated']} thesis input{'s' if n['deviated'] > 1 else ''} twip deviates from")
+    if n["duplicate"]:
+        rest.append(f"{n['duplicate']} duplicate{'s' if n['duplicate'] > 1 else ''}")
+    return text + "; not counted: " + ", ".join(rest)
 
 
 _SETTLE_FASTER = ("ours settles faster with the same gains: the plant differs from the thesis's in a way its text "
@@ -101,9 +127,13 @@ def _claim(cid, source, claim, thesis, ours, unit, ok, why=None, why_ok="", why_
     status = "reproduced" if ok else "differs"
     custom = why or (None, None)
     reason = (custom[0] or why_ok) if ok else (custom[1] or why_not)
-    basis = "calibrated" if cid in CALIBRATED else "prediction"
+    basis = ("calibrated" if cid in CALIBRATED else "input, deviated" if cid in DEVIATED
+             else "duplicate" if cid in DUPLICATE else "prediction")
     if basis == "calibrated":
         status, reason = "calibrated", CALIBRATED[cid] + ("" if ok else f"; ours still differs ({reason})")
+    elif basis != "prediction":
+        status = BASES[basis]
+        reason = {**DEVIATED, **DUPLICATE}[cid] + f" (ours {'meets' if ok else 'differs from'} it: {reason})"
     row = {"id": cid, "source": source, "claim": claim, "thesis": sig(thesis), "ours": sig(ours), "unit": unit,
            "status": status, "basis": basis, "reason": reason}
     if cid in CHECKS:
@@ -154,24 +184,25 @@ def _measured(key, sc, r):
     raise KeyError(key)
 
 
-#: Claims about the thesis's experiments: (claim text of the thesis value, unit, judge(ours,
+#: Claims about the thesis's experiments: (claim text(thesis value, scenario), unit, judge(ours,
 #: thesis), why when reproduced, why when not). Each also carries our number with the
 #: thesis-like robot in the loop (`realism`) when the report runs one.
 _EXPERIMENT = {
-    "goals": (lambda v: "stops at " + " m, then ".join(f"{g:g}" for _, g in v) + " m (end of each hold)", "m",
+    "goals": (lambda v, sc: "stops at " + " m, then ".join(f"{g:g}" for _, g in v) + " m (end of each hold)", "m",
               lambda o, t: all(abs(a - b) <= 0.02 for a, b in zip(o, t)), "both stops within 2 cm",
               "a stop more than 2 cm off"),
-    "pitch_band_deg": (lambda v: "pitch within ± of φ_s (after the first second)", "deg", lambda o, t: o <= t,
+    "pitch_band_deg": (lambda v, sc: "pitch within ± of φ_s (after the first second)", "deg", lambda o, t: o <= t,
                        "inside the band", "outside the band"),
-    "pitch_within_deg": (lambda v: "pitch within ± of upright", "deg", lambda o, t: o <= t, "inside the band",
+    "pitch_within_deg": (lambda v, sc: "pitch within ± of upright", "deg", lambda o, t: o <= t, "inside the band",
                          "outside the band"),
-    "lap_s": (lambda v: "time for one lap", "s", lambda o, t: _within(o, t, 0.05),
+    "lap_s": (lambda v, sc: "time for one lap", "s", lambda o, t: _within(o, t, 0.05),
               "within 5 % (180°/s on a 0.6 m circle)", "more than 5 % off"),
-    "omega_r": (lambda v: "yaw rate after the first lap", "rad/s", lambda o, t: _within(o, t, 0.01), "within 1 %",
+    "omega_r": (lambda v, sc: "yaw rate after the first lap", "rad/s", lambda o, t: _within(o, t, 0.01), "within 1 %",
                 "more than 1 % off"),
-    "table_5_2": (lambda v: "Table 5.2: mean |x − x_r| / |y − y_r| (thesis: experiment)", "m",
-                  lambda o, t: all(_within(a, b, 0.3) for a, b in zip(o, t)), "within 30 % of the experiment",
-                  "more than 30 % from the experiment"),
+    "table_5_2": (lambda v, sc: "Table 5.2: mean |x − x_r| / |y − y_r| (" + TABLE_5_2_SOURCE[
+                      "pid" if sc.name == "circle-pid" else "smc"] + ")", "m",
+                  lambda o, t: all(_within(a, b, 0.3) for a, b in zip(o, t)), "within 30 % of the thesis",
+                  "more than 30 % from the thesis"),
 }
 
 
@@ -256,7 +287,7 @@ def claims_for(sc, r, realism_run=None) -> List[dict]:
             label, unit, judge, why_ok, why_not = _EXPERIMENT[key]
             ours = _measured(key, sc, r)
             thesis = [g for _, g in value] if key == "goals" else value
-            row = _claim(cid, src, label(value), thesis, ours, unit, judge(ours, thesis), why, why_ok, why_not)
+            row = _claim(cid, src, label(value, sc), thesis, ours, unit, judge(ours, thesis), why, why_ok, why_not)
             if realism_run is not None:
                 row = _realism(row, _measured(key, sc, realism_run), realism_run.outcome, float(realism_run.t[-1]))
             rows.append(row)

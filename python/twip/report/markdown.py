@@ -26,7 +26,9 @@ def render_markdown(report: dict) -> str:
         "report.json beside this file; this page is written from it.",
         "",
         f"**{summary_line(claims)}.** A calibrated claim is an input of ours or a value the default robot "
-        "or a choice was fitted to: it is shown beside ours but is not evidence.",
+        "or a choice was fitted to: it is shown beside ours but is not evidence. A deviated input is a setting of "
+        "the thesis's simulations that twip deliberately does not follow (the row says why); a duplicate is a "
+        "thesis number another row scores. Only predictions are counted.",
     ]
     if report["mode"] == "quick":
         out += ["", "**Quick mode**: shorter runs, fewer laps and samples; the numbers are for testing, not for reading."]
@@ -35,7 +37,8 @@ def render_markdown(report: dict) -> str:
         f"## The thesis's claims beside ours ({summary_line(claims)})",
         "",
         "Settling times use a 2 % band (docs/scenarios.md); pitch and speed errors are against the plant's own steady "
-        "pitch; the thesis's Table 5.2 values are experiments, ours simulations.",
+        "pitch; ours are simulations. Table 5.2's PID row is the thesis's experiment (its only PID run); the thesis "
+        "does not say whether its sliding-mode row is a simulation or an experiment.",
         "",
     ]
     out.append(_md_table(["id", "claim", "thesis", "ours", "ours, thesis-like robot", "unit", "basis", "status", "reason"],
@@ -87,10 +90,12 @@ def render_markdown(report: dict) -> str:
                 "Each tracker on its thesis circle; the controllers keep the nominal robot, every mass, inertia, length "
                 "and friction of the plant is 20 % above or below (`twip.scenarios.tracking.compare`). The realism "
                 "column runs the same case on the robot's parts (`Realism.thesis_like()`: each wheel's L298 and motor, "
-                "the MPU-6050 with its z gyro, the tilt filter, 700 CPR encoders, 5 ms loop, one-period delay).", "",
+                "the MPU-6050 with its z gyro, the tilt filter, 700 CPR encoders, 5 ms loop, one-period delay). The "
+                "thesis column: PID, its experiment; sliding mode, a row the thesis does not say is a simulation or an "
+                "experiment (both sliding-mode trackers are shown against it; it is scored on circle-smc-fuzzy).", "",
                 _md_table(["tracker", "plant", "outcome", "mean abs x / y [cm]", "after lap 1 [cm]",
                            "max path error after lap 1 [cm]", "mean abs pitch [deg]",
-                           "thesis-like hardware: mean abs x / y [cm]", "thesis (experiment) [cm]"], rows),
+                           "thesis-like hardware: mean abs x / y [cm]", "thesis [cm]"], rows),
                 "", "![Table 5.2 analogue](table5.2.png)"]
     if report["sweeps"]:
         rows = []

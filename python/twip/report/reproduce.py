@@ -198,8 +198,8 @@ def _table_5_2(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) 
                          laps=2 if quick else 3, realism=twip.Realism.thesis_like()) or []
     if rows:
         claims.extend(table_5_2_claims(rows))
-        figures.add("table5.2.png", "Table 5.2 analogue: mean |x − x_r|, |y − y_r| per tracker and plant, thesis "
-                    "experiments as lines", lambda p: plot.table_5_2(rows, thesis=THESIS_TABLE_5_2, path=p))
+        figures.add("table5.2.png", "Table 5.2 analogue: mean |x − x_r|, |y − y_r| per tracker and plant, the "
+                    "thesis's rows as lines (PID: its experiment; sliding mode: simulation or experiment, not stated)", lambda p: plot.table_5_2(rows, thesis=THESIS_TABLE_5_2, path=p))
     return [{"controller": r["controller"], "plant": r["plant"], "outcome": r["outcome"],
              "x_cm": dec(100 * r["x"], 2), "y_cm": dec(100 * r["y"], 2),
              "x_settled_cm": dec(100 * r["x_settled"], 2), "y_settled_cm": dec(100 * r["y_settled"], 2),

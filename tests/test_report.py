@@ -1,0 +1,89 @@
+"""How `twip reproduce` classifies and explains the thesis's claims (twip.report), row by row,
+without running the whole report (tests/test_cli.py runs it once, in quick mode)."""
+import math
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import twip
+from twip import scenarios
+from twip.report import claims as report_claims
+from twip.report.claims import claims_for, count, summary_line
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+@lru_cache(maxsize=None)
+def _rows(name: str) -> dict:
+    """The claim rows of scenario `name` beside its default run (and, for an experiment, the
+    thesis-like robot's run), by id."""
+    sc = scenarios.get(name)
+    planar = sc.x0.shape[0] == 7
+    r = sc.run(record_every=10 if planar else 1)
+    real = None if name.endswith("-sim") else sc.run(realism=twip.Realism.thesis_like(), record_every=10 if planar else 1)
+    return {c["id"]: c for c in claims_for(sc, r, real)}
+
+
+def test_thesis_settings_twip_does_not_follow_are_shown_not_counted():
+    """The desired pitch of the thesis's simulations is a setting (4.1.2 "is set to 12.5
+    degrees", 4.2.1 "assumed as φ_s ≈ 0", "both set to 0"), not a result: twip aims elsewhere
+    on purpose, so the rows say so and are not counted as predictions."""
+    quotes = {"slope-fuzzy-sim/phi_s_deg": "is set to 12.5 degrees", "flat-lqr-sim/phi_s_deg": "assumed as φ_s ≈ 0",
+              "flat-fuzzy-sim/phi_s_deg": "both set to 0"}
+    for cid, quote in quotes.items():
+        c = _rows(cid.split("/")[0])[cid]
+        assert c["basis"] == "input, deviated" and c["status"] == "deviated", c
+        assert quote in c["reason"] and c["ours"] is not None, c
+    assert count([_rows("flat-lqr-sim")["flat-lqr-sim/phi_s_deg"]])["predictions"] == 0
+    # The two flat rows are one number (the lean of (4.62) at 180 deg/s), shown twice, counted never.
+    flat_lqr, flat_fuzzy = _rows("flat-lqr-sim")["flat-lqr-sim/phi_s_deg"], _rows("flat-fuzzy-sim")["flat-fuzzy-sim/phi_s_deg"]
+    assert flat_lqr["ours"] == flat_fuzzy["ours"] == pytest.approx(1.11, abs=0.005)
+    assert "flat-lqr-sim/phi_s_deg" in flat_fuzzy["reason"]
+
+
+def test_table_5_2s_sliding_mode_row_is_scored_once():
+    """Table 5.2 has one Sliding-mode row; it is scored on the thesis's controller (sliding
+    mode with fuzzy adaptation), the model-based variant is shown, not counted."""
+    scored = _rows("circle-smc-fuzzy")["circle-smc-fuzzy/table_5_2"]
+    shown = _rows("circle-smc")["circle-smc/table_5_2"]
+    assert scored["basis"] == "prediction" and scored["status"] in ("reproduced", "differs")
+    assert shown["basis"] == "duplicate" and shown["status"] == "duplicate"
+    assert "circle-smc-fuzzy" in shown["reason"]
+    assert count([scored, shown])["predictions"] == 1
+
+
+def test_table_5_2s_sources_are_labelled_as_the_thesis_gives_them():
+    """The thesis's only PID run is its experiment; it does not say whether the sliding-mode
+    row is a simulation or an experiment, so no row, caption or legend may call it one."""
+    pid = _rows("circle-pid")["circle-pid/table_5_2"]
+    smc = _rows("circle-smc-fuzzy")["circle-smc-fuzzy/table_5_2"]
+    assert "experiment" in pid["claim"]
+    assert "not stated" in smc["claim"] and "(thesis: experiment" not in smc["claim"]
+    assert "thesis (experiment) [cm]" not in README.read_text()
+    pytest.importorskip("matplotlib")
+    from twip import plot
+    from twip.scenarios.tracking import THESIS_TABLE_5_2
+
+    fig = plot.table_5_2(_table_5_2_rows(), thesis=THESIS_TABLE_5_2)
+    labels = [text.get_text() for legend in fig.legends for text in legend.get_texts()]
+    assert "thesis: PID (experiment)" in labels
+    assert not any("sliding mode (experiment)" in label for label in labels), labels
+
+
+def _table_5_2_rows(realism_outcome="completed"):
+    """Rows as `tracking.compare(realism=...)` gives them: every tracker on one plant."""
+    return [{"controller": name, "plant": "nominal", "outcome": "completed", "x": 0.05, "y": 0.04,
+             "realism_outcome": realism_outcome if name == "circle-smc" else "completed", "x_realism": 0.2,
+             "y_realism": 0.09} for name in ("circle-pid", "circle-smc", "circle-smc-fuzzy")]
+
+
+def test_summary_line_counts_only_predictions():
+    rows = [{"basis": "prediction", "status": "reproduced"}, {"basis": "prediction", "status": "differs"},
+            {"basis": "calibrated", "status": "calibrated"}, {"basis": "input, deviated", "status": "deviated"},
+            {"basis": "duplicate", "status": "duplicate"}]
+    assert summary_line(rows) == ("2 predictions: 1 reproduced, 1 differ; not counted: 1 calibrated (inputs or fits), "
+                                  "1 thesis input twip deviates from, 1 duplicate")
+    for basis, status in report_claims.BASES.items():
+        assert basis == "prediction" or status in report_claims.STATUSES
