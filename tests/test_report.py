@@ -87,3 +87,22 @@ def test_summary_line_counts_only_predictions():
                                   "1 thesis input twip deviates from, 1 duplicate")
     for basis, status in report_claims.BASES.items():
         assert basis == "prediction" or status in report_claims.STATUSES
+
+
+def test_sliding_mode_beats_pid_is_judged_with_the_thesiss_lambda1():
+    """λ1 = −k_φ φ (4.74) is published: the verdict is the thesis's law's (PID better, so it
+    differs), the reason gives twip's correction T8's ratio, and the sensitivity varies only
+    what the thesis does not publish (k1, k2, k3, k_φ, friction), not λ1's form."""
+    from twip.report import sensitivity
+    from twip.report.claims import table_5_2_claims
+    from twip.scenarios import tracking
+
+    thesis_rows = tracking.compare(pitch_offset=False, realism=twip.Realism.thesis_like())
+    (row,) = table_5_2_claims(tracking.compare(), thesis_rows)
+    assert row["status"] == "differs" and row["ours"] < 1.0, row
+    assert "T8" in row["reason"] and row["corrected"]["ours"] > 2.0 and row["corrected"]["holds"]
+    assert f"ratio {row['corrected']['ours']:g}" in row["reason"]
+    assert "realism" in row and row["realism"]["holds"] is not None
+    assert not hasattr(sensitivity, "PITCH_FORMS") and "k_phi" in sensitivity.SMC_GAINS
+    choices = {choice for choice, *_ in sensitivity._variations("circle-smc-fuzzy", quick=False)}
+    assert "λ1" not in choices and "k_phi" in choices

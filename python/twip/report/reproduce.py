@@ -15,7 +15,8 @@ from twip import scenarios
 from twip.plot import metric_unit
 from twip.report import sensitivity
 from twip.report.claims import (RUN_KEYS, THESIS_TABLE_5_1, claims_for, judge, measure, pid_over_smc, summary_line,
-                                 table_5_1_claims, table_5_1_holds, table_5_2_claims, with_sensitivity)
+                                 table_5_1_claims, table_5_1_holds, table_5_2_claims, with_sensitivity,
+                                 with_thesis_lambda1)
 from twip.report.markdown import render_markdown
 from twip.report.numbers import dec, jsonable, sig
 from twip.report.sweeps import fall_maps, robustness_sweeps
@@ -194,12 +195,18 @@ def _table_5_2(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) 
     from twip import plot
     from twip.scenarios import tracking as tracking_sc
 
+    laps = 2 if quick else 3
     rows = steps.attempt("Table 5.2: PID vs sliding mode, nominal and ±20 % plants", tracking_sc.compare,
-                         laps=2 if quick else 3, realism=twip.Realism.thesis_like()) or []
+                         laps=laps, realism=twip.Realism.thesis_like()) or []
+    thesis_rows = steps.attempt("Table 5.2 with the thesis's λ1 (4.74)", tracking_sc.compare, laps=laps,
+                                pitch_offset=False, realism=twip.Realism.thesis_like()) or []
+    if rows and thesis_rows:
+        with_thesis_lambda1(claims, thesis_rows)
+        claims.extend(table_5_2_claims(rows, thesis_rows))
     if rows:
-        claims.extend(table_5_2_claims(rows))
         figures.add("table5.2.png", "Table 5.2 analogue: mean |x − x_r|, |y − y_r| per tracker and plant, the "
-                    "thesis's rows as lines (PID: its experiment; sliding mode: simulation or experiment, not stated)", lambda p: plot.table_5_2(rows, thesis=THESIS_TABLE_5_2, path=p))
+                    "thesis's rows as lines (PID: its experiment; sliding mode: simulation or experiment, not stated)",
+                    lambda p: plot.table_5_2(rows, thesis=THESIS_TABLE_5_2, path=p))
     return [{"controller": r["controller"], "plant": r["plant"], "outcome": r["outcome"],
              "x_cm": dec(100 * r["x"], 2), "y_cm": dec(100 * r["y"], 2),
              "x_settled_cm": dec(100 * r["x_settled"], 2), "y_settled_cm": dec(100 * r["y_settled"], 2),
@@ -215,7 +222,7 @@ def _sensitivity(quick: bool, steps: Steps, claims: List[dict]) -> None:
                                table_5_1_holds, quick) or {})
     table.update(steps.attempt("sensitivity: every scenario's runs over the choices they depend on",
                                sensitivity.scenario_claims, judge, measure, RUN_KEYS, quick) or {})
-    table.update(steps.attempt("sensitivity: Table 5.2's conclusion over λ1, k1-k3 and friction", sensitivity.smc_versus_pid,
+    table.update(steps.attempt("sensitivity: Table 5.2's conclusion over k1-k3, k_φ and friction", sensitivity.smc_versus_pid,
                                pid_over_smc, 2 if quick else 3) or {})
     with_sensitivity(claims, table)
 
