@@ -106,3 +106,38 @@ def test_sliding_mode_beats_pid_is_judged_with_the_thesiss_lambda1():
     assert not hasattr(sensitivity, "PITCH_FORMS") and "k_phi" in sensitivity.SMC_GAINS
     choices = {choice for choice, *_ in sensitivity._variations("circle-smc-fuzzy", quick=False)}
     assert "λ1" not in choices and "k_phi" in choices
+
+
+@pytest.mark.parametrize("name", ["slope-lqr-sim", "flat-lqr-sim", "slope-fuzzy-sim", "flat-fuzzy-sim", "slope-lqr"])
+def test_settling_times_at_the_report_band_are_the_cores(name):
+    """report.claims.settling_time, which measures at other bands for the sensitivity, gives
+    the core's metric at the 2 % band."""
+    from twip.report.claims import settling_time
+
+    sc = scenarios.get(name)
+    r = sc.run()
+    for key in ("pitch_settling_time", "speed_settling_time"):
+        assert settling_time(sc, r, key) == r.metrics[key], key
+
+
+def test_settling_reasons_name_what_accounts_for_the_gap():
+    """No settling row blames a plant difference or the PD's time constant without a run that
+    shows it: slope-fuzzy-sim names the unpublished σ, Γ and fuzzy sets, flat-lqr-sim the band,
+    and each sensitivity lists the runs that close the gap."""
+    rows = {**_rows("slope-fuzzy-sim"), **_rows("flat-lqr-sim")}
+    from twip.report.sensitivity import scenario_claims
+    from twip.report.claims import RUN_KEYS, SETTLING, judge, measure, with_sensitivity
+
+    table = {k: v for k, v in scenario_claims(judge, measure, RUN_KEYS, False, SETTLING).items()
+             if k.split("/")[0] in ("slope-fuzzy-sim", "flat-lqr-sim")}
+    with_sensitivity(list(rows.values()), table)
+    for cid in ("slope-fuzzy-sim/pitch_settling_time", "slope-fuzzy-sim/speed_settling_time",
+                "flat-lqr-sim/speed_settling_time"):
+        reason = rows[cid]["reason"]
+        assert rows[cid]["status"] == "differs", rows[cid]
+        assert "plant differs" not in reason and "kd/kp" not in reason, reason
+        assert "settling band" in rows[cid]["sensitivity"]["choices"], cid
+    assert "sets narrow" in rows["slope-fuzzy-sim/pitch_settling_time"]["reason"]
+    speed = rows["slope-fuzzy-sim/speed_settling_time"]["reason"]
+    assert "σ" in speed and "sigma 0.01" in speed and "gamma 0.005" in speed
+    assert "settling band 0.2 %" in rows["flat-lqr-sim/speed_settling_time"]["reason"]

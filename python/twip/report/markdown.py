@@ -50,7 +50,8 @@ def render_markdown(report: dict) -> str:
         out += ["", "## How much our numbers depend on what the thesis does not give", "",
                 "Each claim below rests on a choice the thesis does not publish; it was rerun over a plausible range of "
                 "that choice (twip/report/sensitivity.py says which and why). *holds*: the share of those runs in which "
-                "the thesis's claim holds. For the stops, *ours* is the largest distance of a stop from its goal [m].", ""]
+                "the thesis's claim holds. A settling band is the default run measured again, counted as a run. For the "
+                "stops, *ours* is the largest distance of a stop from its goal [m].", ""]
         out.append(_md_table(["id", "choices (range)", "ours: low", "ours: high", "holds", "runs"],
                              [[c["id"], "; ".join(f"{k} {' – '.join(str(x) for x in v)}"
                                                   for k, v in c["sensitivity"]["choices"].items()),

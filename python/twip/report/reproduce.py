@@ -14,7 +14,7 @@ import twip
 from twip import scenarios
 from twip.plot import metric_unit
 from twip.report import sensitivity
-from twip.report.claims import (RUN_KEYS, THESIS_TABLE_5_1, claims_for, judge, measure, pid_over_smc, summary_line,
+from twip.report.claims import (RUN_KEYS, SETTLING, THESIS_TABLE_5_1, claims_for, judge, measure, pid_over_smc, summary_line,
                                  table_5_1_claims, table_5_1_holds, table_5_2_claims, with_sensitivity,
                                  with_thesis_lambda1)
 from twip.report.markdown import render_markdown
@@ -221,7 +221,7 @@ def _sensitivity(quick: bool, steps: Steps, claims: List[dict]) -> None:
     table.update(steps.attempt("sensitivity: Table 5.1 over the windows, loop period and friction", sensitivity.table_5_1,
                                table_5_1_holds, quick) or {})
     table.update(steps.attempt("sensitivity: every scenario's runs over the choices they depend on",
-                               sensitivity.scenario_claims, judge, measure, RUN_KEYS, quick) or {})
+                               sensitivity.scenario_claims, judge, measure, RUN_KEYS, quick, SETTLING) or {})
     table.update(steps.attempt("sensitivity: Table 5.2's conclusion over k1-k3, k_φ and friction", sensitivity.smc_versus_pid,
                                pid_over_smc, 2 if quick else 3) or {})
     with_sensitivity(claims, table)
