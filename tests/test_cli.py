@@ -113,6 +113,12 @@ def test_experiment_rows_carry_the_thesis_like_robot(report):
     assert fell == {"circle-smc"}, fell
     assert all(0 < c["realism"]["t_end"] < 36 for c in experiments if c["id"].startswith("circle-smc/"))
     assert not any("realism" in c for c in report["claims"] if c["id"].split("/")[0].endswith("-sim"))
+    # Every such row, Tables 5.1 and 5.2 included, states the thesis-like robot's verdict, whichever it is.
+    checked = experiments + [c for c in report["claims"] if c["id"].startswith("table-")]
+    for c in checked:
+        assert "holds" in c["realism"] and "thesis-like robot" in c["reason"], c["id"]
+        if c["status"] == "reproduced" and not c["realism"]["holds"]:
+            assert "ideal plant only" in c["reason"], c["id"]
 
 
 def test_claims_on_unpublished_choices_carry_their_sensitivity(report, report_dir):

@@ -38,7 +38,10 @@ def render_markdown(report: dict) -> str:
         "",
         "Settling times use a 2 % band (docs/scenarios.md); pitch and speed errors are against the plant's own steady "
         "pitch; ours are simulations. Table 5.2's PID row is the thesis's experiment (its only PID run); the thesis "
-        "does not say whether its sliding-mode row is a simulation or an experiment.",
+        "does not say whether its sliding-mode row is a simulation or an experiment. For every claim about the "
+        "thesis's experiments, *ours, thesis-like robot* is the same run with `Realism.thesis_like()` in the loop "
+        "(its sensors, motor driver, one-period delay, gearhead friction and backlash), and the reason says whether "
+        "the claim holds there too: a row reproduced on the ideal plant only says so.",
         "",
     ]
     out.append(_md_table(["id", "claim", "thesis", "ours", "ours, thesis-like robot", "unit", "basis", "status", "reason"],
