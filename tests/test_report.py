@@ -169,3 +169,25 @@ def test_table_5_1_rows_state_the_thesis_like_robot():
     assert "ideal plant only" in speed["reason"]
     for c in by_id.values():
         assert "thesis-like robot" in c["reason"], c["id"]
+
+
+def test_claims_the_report_missed_are_rows():
+    """4.1.1: "it takes about 2 seconds for the angular velocity [φ̇] to the desired value";
+    4.2.1: φ̇ "stabilized within 7.5 seconds"; 4.1.1's and 4.2.1's experiments keep the pitch
+    "about 12.5 degrees" and "about 0"; 4.3.2's experiment keeps "the inclined angle ...
+    around 0, and the speed ... about 0.1 m/s"."""
+    slope, flat = _rows("slope-lqr-sim"), _rows("flat-lqr-sim")
+    rate = slope["slope-lqr-sim/pitch_rate_settling_time"]
+    assert rate["thesis"] == 2.0 and rate["ours"] == pytest.approx(2.11, abs=0.01) and rate["status"] == "reproduced"
+    rate = flat["flat-lqr-sim/pitch_rate_settling_time"]
+    assert rate["thesis"] == 7.5 and rate["ours"] == pytest.approx(2.26, abs=0.01) and "(≤)" in rate["claim"]
+    up, holding, down = _rows("slope-lqr")["slope-lqr/pitch_about_deg"]["ours"]
+    assert up == pytest.approx(12.9, abs=0.1) and holding == pytest.approx(11.0, abs=0.1) and down == pytest.approx(9.1, abs=0.1)
+    assert _rows("slope-lqr")["slope-lqr/pitch_about_deg"]["status"] == "differs"
+    assert _rows("flat-lqr")["flat-lqr/pitch_about_deg"]["status"] == "reproduced"
+    smc = _rows("circle-smc-fuzzy")
+    pitch, speed = smc["circle-smc-fuzzy/pitch_about_deg"], smc["circle-smc-fuzzy/speed_about"]
+    assert pitch["ours"] == pytest.approx(1.11, abs=0.01) and "Fig 4.20" in pitch["source"]
+    assert speed["ours"] == pytest.approx(math.pi / 30, rel=1e-3) and speed["basis"] == "calibrated"
+    for c in (pitch, speed, _rows("slope-lqr")["slope-lqr/pitch_about_deg"]):
+        assert "realism" in c and "thesis-like robot" in c["reason"], c["id"]

@@ -309,6 +309,9 @@ def timeseries(result, scenario=None, path=None, title=None, internals: bool = T
     ax = _axes(fig, gs[0, 1])
     _line(ax, t, deg(phi_dot), color=OURS, label=r"pitch rate $\dot\varphi$")
     ax.axhline(0.0, color=REF, ls="--", lw=1.0, label="reference 0")
+    if "pitch_rate_settling_time" in thesis:
+        ax.axvline(thesis["pitch_rate_settling_time"], color=REF, ls=":", lw=1.0,
+                   label=f"thesis: settled by {thesis['pitch_rate_settling_time']:g} s")
     ax.set(ylabel="pitch rate [deg/s]", title="Body pitch rate")
     _legend(ax)
 

@@ -138,6 +138,7 @@ def scenario_claims(judge: Callable, measure: Callable, keys: Sequence[str], qui
     claims (`settling`) also at each of BANDS (the default run, measured again):
     `judge(sc, key, ours)`, `measure(sc, key, run, band=None)` as in report.claims."""
     from twip import _core
+    from twip.report.claims import MEASURES, one_number
 
     out = {}
     for name in scenarios.names():
@@ -161,8 +162,7 @@ def scenario_claims(judge: Callable, measure: Callable, keys: Sequence[str], qui
         choices: Dict[str, Dict[str, list]] = {k: {} for k in claimed}
 
         def record(k, choice, label, sc, ours, completed):
-            number = max(abs(p - g) for p, (_, g) in zip(ours, sc.thesis["goals"])) if k == "goals" else (
-                float(np.mean(ours)) if isinstance(ours, list) else ours)
+            number = one_number(sc, k, ours)
             values[k].append(number if completed else float("nan"))
             held[k].append(completed and judge(sc, k, ours))
             if choice != "default":
@@ -183,10 +183,8 @@ def scenario_claims(judge: Callable, measure: Callable, keys: Sequence[str], qui
                 continue
             entry = _entry({c: tuple(v) for c, v in choices[k].items()}, values[k], held[k])
             entry["detail"] = detail[k]
-            if k == "goals":
-                entry["measure"] = "largest |stop − goal| [m]"
-            elif k == "table_5_2":
-                entry["measure"] = "mean of |x − x_r| and |y − y_r| [m]"
+            if k in MEASURES:
+                entry["measure"] = MEASURES[k]
             out[f"{name}/{k}"] = entry
     return out
 

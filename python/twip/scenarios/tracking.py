@@ -63,7 +63,10 @@ def _smc(params, ctrl_params, fuzzy, laps, period, boundary_layer, pitch_offset,
         x0=np.zeros(7),
         reference=circle,
         t_final=t_final,
-        thesis={"figure": "4.16", "omega_r": math.pi / 13.5, "table_5_2": THESIS_TABLE_5_2["smc"]},
+        thesis={"figure": "4.16", "omega_r": math.pi / 13.5, "table_5_2": THESIS_TABLE_5_2["smc"],
+                # the experiment of Figs 4.19/4.20, with the fuzzy tracker: "the inclined angle is maintained
+                # around 0, and the speed is controlled to be about 0.1 m/s"
+                **({"pitch_about_deg": 0.0, "speed_about": 0.1} if fuzzy else {})},
     )
 
 
