@@ -191,3 +191,44 @@ def test_claims_the_report_missed_are_rows():
     assert speed["ours"] == pytest.approx(math.pi / 30, rel=1e-3) and speed["basis"] == "calibrated"
     for c in (pitch, speed, _rows("slope-lqr")["slope-lqr/pitch_about_deg"]):
         assert "realism" in c and "thesis-like robot" in c["reason"], c["id"]
+
+
+def test_table_5_2_figure_draws_no_result_for_a_thesis_like_run_that_fell():
+    """A thesis-like run that fell has no mean error to compare: no ring is drawn for it and
+    its dot says it fell (the report's circle-smc falls at 6.13 s nominal and +20 %)."""
+    pytest.importorskip("matplotlib")
+    from twip import plot
+
+    fig = plot.table_5_2(_table_5_2_rows(realism_outcome="fell"))
+    ax = fig.axes[0]
+    rings = [line for line in ax.get_lines() if line.get_markerfacecolor() == "white"]
+    drawn = np.concatenate([np.asarray(line.get_ydata(), float) for line in rings])
+    assert len(drawn) == 2 and np.allclose(drawn, 20.0), drawn  # PID's and the fuzzy tracker's, not circle-smc's
+    crosses = [line for line in ax.get_lines() if line.get_marker() == "x"]
+    assert len(crosses) == 1 and np.allclose(crosses[0].get_ydata(), 5.0)  # beside circle-smc's own dot
+    labels = [text.get_text() for legend in fig.legends for text in legend.get_texts()]
+    assert "thesis-like robot fell (no ring)" in labels
+
+
+def test_figures_label_their_axes_and_keep_clipped_peaks_readable(tmp_path):
+    """The sliding surfaces' axis has units, the fall maps' colour bar a label, and a clipped
+    peak's note sits on a box that the spike it names does not cross."""
+    pytest.importorskip("matplotlib")
+    from twip import plot
+
+    sc = scenarios.get("circle-smc-fuzzy", laps=1)
+    fig = plot.tracking(sc.run(record_every=10), scenario=sc)
+    surfaces = next(ax for ax in fig.axes if ax.get_title() == "Sliding surfaces")
+    assert "[rad/s]" in surfaces.get_ylabel()
+    note = next(t for t in surfaces.texts if "off scale" in t.get_text())
+    assert note.get_bbox_patch() is not None and note.get_bbox_patch().get_facecolor()[:3] == (1.0, 1.0, 1.0)
+    assert note.get_zorder() > max(line.get_zorder() for line in surfaces.get_lines())
+    res = twip.montecarlo("slope-lqr-sim", 32, perturb={"phi0": twip.Uniform(low=-1.0, high=1.0),
+                                                       "phi_dot0": twip.Uniform(low=-20.0, high=20.0)},
+                          seed=2, progress=False, options={"t_final": 1.0})
+    fig = plot.fall_maps([res, res], "phi0", "phi_dot0", bins=(4, 4))
+    bar = fig.axes[-1]
+    assert "fall rate" in bar.get_ylabel()
+    fig.canvas.draw()  # the label lies inside the figure, not cut off at its right edge
+    box = bar.yaxis.label.get_window_extent()
+    assert box.x1 <= fig.bbox.x1
