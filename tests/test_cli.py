@@ -18,7 +18,7 @@ import twip  # noqa: E402
 from twip import cli, scenarios  # noqa: E402
 from twip.cli import args as cli_args  # noqa: E402
 
-SKIPPED_KEYS = {"figure", "hold", "distance"}  # settings, not claims
+SKIPPED_KEYS = {"figure", "hold", "distance", "thesis_hold"}  # settings, not claims
 #: Each basis and the status its rows get (a prediction's: reproduced or differs).
 BASES = {"prediction": None, "calibrated": "calibrated", "input, deviated": "deviated", "duplicate": "duplicate"}
 

@@ -210,6 +210,35 @@ def test_table_5_2_figure_draws_no_result_for_a_thesis_like_run_that_fell():
     assert "thesis-like robot fell (no ring)" in labels
 
 
+def test_flat_lqr_stops_say_the_hold_is_twips():
+    """The thesis reverses at 1 m at once (4.2.1); the 5 s hold is twip's, to measure the stop.
+    The row and the Fig 4.10 caption say so, and the row gives the stop with hold = 0."""
+    from twip.report.claims import claims_for
+    from twip.scenarios.fuzzy import stop_positions
+
+    sc = scenarios.get("flat-lqr")
+    own_sc = scenarios.get("flat-lqr", hold=0.0)
+    own = own_sc.run()
+    rows = {c["id"]: c for c in claims_for(sc, sc.run(), None, (own_sc, own))}
+    goals = rows["flat-lqr/goals"]
+    assert "twip's 5 s hold" in goals["claim"] and "turns at once" in goals["claim"]
+    turn = stop_positions(own_sc, own)[0]
+    assert turn == pytest.approx(1.0003, abs=2e-4)
+    assert f"with hold = 0 ours is at {turn:.5g} m" in goals["reason"]
+    assert "hold 5 s (twip's" in sc.description and "turns at once" in sc.description
+    # The experiments whose hold is the thesis's (slope-lqr: "stop at the given point for 5 seconds") keep theirs.
+    assert "(end of each hold)" in _rows("slope-lqr")["slope-lqr/goals"]["claim"]
+
+
+def test_the_report_states_the_pitch_bands_floor():
+    from twip.report.markdown import render_markdown
+
+    report = {"claims": [], "mode": "full", "twip": "x", "seconds": 0, "table_5_1": [], "table_5_2": [], "sweeps": [],
+              "fall_maps": [], "figures": {}, "scenarios": {}, "steps": []}
+    md = render_markdown(report)
+    assert "at least 0.25°" in md and "2 % band" in md
+
+
 def test_figures_label_their_axes_and_keep_clipped_peaks_readable(tmp_path):
     """The sliding surfaces' axis has units, the fall maps' colour bar a label, and a clipped
     peak's note sits on a box that the spike it names does not cross."""

@@ -299,7 +299,9 @@ def _about_pitch(ours, thesis) -> bool:
 #: thesis), why when reproduced, why when not). Each also carries our number with the
 #: thesis-like robot in the loop (`realism`) when the report runs one.
 _EXPERIMENT = {
-    "goals": (lambda v, sc: "stops at " + " m, then ".join(f"{g:g}" for _, g in v) + " m (end of each hold)", "m",
+    "goals": (lambda v, sc: "stops at " + " m, then ".join(f"{g:g}" for _, g in v) + " m " + (
+                  f"(end of twip's {sc.thesis['hold']:g} s hold; the thesis turns at once)" if "thesis_hold" in sc.thesis
+                  else "(end of each hold)"), "m",
               lambda o, t: all(abs(a - b) <= 0.02 for a, b in zip(o, t)), "both stops within 2 cm",
               "a stop more than 2 cm off"),
     "pitch_band_deg": (lambda v, sc: "pitch within ± of φ_s (after the first second)", "deg", lambda o, t: o <= t,
@@ -320,6 +322,15 @@ _EXPERIMENT = {
                   lambda o, t: all(_within(a, b, 0.3) for a, b in zip(o, t)), "within 30 % of the thesis",
                   "more than 30 % from the thesis"),
 }
+
+
+def _thesis_hold_note(sc, r) -> str:
+    """Where run `r` of scenario `sc` (with the thesis's hold) is when the reference turns, and
+    how far it goes."""
+    turn = float(stop_positions(sc, r)[0])
+    furthest = float(np.max(r.states[:, 2]) * sc.model.params.wheel_radius)
+    return (f"the thesis turns at once: with hold = {sc.thesis['hold']:g} ours is at {fmt(sig(turn, 5))} m when the reference "
+            f"turns and goes on to {fmt(sig(furthest, 5))} m before it comes back")
 
 
 def judge(sc, key: str, ours) -> bool:
@@ -348,10 +359,11 @@ def measure(sc, key: str, r, band: Optional[float] = None):
 RUN_KEYS = (*_EXPERIMENT, *SETTLING)
 
 
-def claims_for(sc, r, realism_run=None) -> List[dict]:
+def claims_for(sc, r, realism_run=None, thesis_run=None) -> List[dict]:
     """The thesis's claims about scenario `sc` (its `thesis` dict) beside run `r`'s numbers;
     the experiment claims also beside `realism_run` (the same scenario with the thesis-like
-    robot in the loop), when given."""
+    robot in the loop), when given; the stops also beside `thesis_run` = (scenario, run) with
+    the thesis's own hold (`thesis_hold`), where twip's differs."""
     th = sc.thesis or {}
     name = sc.name
     fig = th.get("figure", "?")
@@ -362,7 +374,7 @@ def claims_for(sc, r, realism_run=None) -> List[dict]:
         cid = f"{name}/{key}"
         src = f"{name} (Fig {_SOURCE.get(cid, fig)})"
         why = _WHY.get(cid)
-        if key in ("figure", "hold", "distance"):
+        if key in ("figure", "hold", "distance", "thesis_hold"):
             continue
         if key == "gains":
             if hasattr(ctrl, "k1"):
@@ -407,6 +419,8 @@ def claims_for(sc, r, realism_run=None) -> List[dict]:
             ours = _measured(key, sc, r)
             thesis = [g for _, g in value] if key == "goals" else value
             row = _claim(cid, src, label(value, sc), thesis, ours, unit, judge(ours, thesis), why, why_ok, why_not)
+            if key == "goals" and thesis_run is not None:
+                row["reason"] += "; " + _thesis_hold_note(*thesis_run)
             if realism_run is not None:
                 real = _measured(key, sc, realism_run)
                 row = _realism(row, real, realism_run.outcome, float(realism_run.t[-1]),

@@ -128,7 +128,12 @@ def _run_scenarios(quick: bool, steps: Steps):
         # The thesis's experiments (not its "-sim" runs) also with the thesis-like robot in the loop.
         real = None if sc.name.endswith("-sim") else sc.run(realism=twip.Realism.thesis_like(),
                                                             record_every=10 if is_planar(sc) else 1)
-        claims.extend(claims_for(sc, r, real))
+        # Where twip holds at a goal and the thesis turns at once, the stop also with the thesis's hold.
+        own = None
+        if "thesis_hold" in sc.thesis:
+            own_sc = scenarios.get(sc.name, **{**quick_options(sc.name, quick), "hold": sc.thesis["thesis_hold"]})
+            own = (own_sc, own_sc.run())
+        claims.extend(claims_for(sc, r, real, own))
         summary[sc.name] = {
             "description": sc.description, "controller": controller_family(sc), "figure": sc.thesis.get("figure"),
             "outcome": r.outcome, "t_end": sig(r.t_end if r.t_end is not None else r.t[-1]),
