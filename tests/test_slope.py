@@ -263,3 +263,14 @@ def test_thesis_potential_is_not_a_steady_state(balanbot):
     x_bad = x_s.copy()
     x_bad[0] = printed
     assert abs(model.deriv(x_bad, u_s)[3]) > 1.0
+
+
+def test_on_the_slope_the_steady_pitch_depends_on_the_direction_of_travel(balanbot):
+    """The report's reason for slope-lqr's "pitch about 12.5 degrees": ground friction adds to
+    the slope's load going up and takes from it coming down (4.42), so the steady pitch is
+    12.6° up at 250 deg/s, 11.0° standing and 9.5° coming down; (4.12)'s 12.5° is the first."""
+    model = twip.SlopeModel(balanbot, math.radians(15))
+    up, still, down = (math.degrees(model.equilibrium(math.radians(v))[0][0]) for v in (250, 0, -250))
+    print(f"15 deg slope, steady pitch: {up:.2f} deg up at 250 deg/s, {still:.2f} standing, {down:.2f} coming down")
+    assert abs(up - 12.5) < 0.25 and down < still < up
+    assert abs(down - 12.5) > 2.0 and up - still == pytest.approx(still - down, rel=0.05)

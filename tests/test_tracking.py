@@ -68,7 +68,7 @@ def test_sliding_mode_tracks_better_than_pid():
     pid, smc, fuzzy = (mean_error(n) for n in CIRCLES)
     print(f"mean |error| over x, y and the three plants: PID {100 * pid:.2f} cm, SMC {100 * smc:.2f} cm "
           f"({pid / smc:.1f}x smaller), fuzzy SMC {100 * fuzzy:.2f} cm ({pid / fuzzy:.1f}x smaller); "
-          f"thesis (experiments): PID 7.4 cm, sliding mode 2.85 cm (2.6x smaller)")
+          f"thesis (Table 5.2): PID 7.4 cm, sliding mode 2.85 cm (2.6x smaller)")
     assert smc < pid / 2 and fuzzy < pid / 2
     peak = {n: max(r["peak_torque"] for r in rows if r["controller"] == n) for n in CIRCLES}
     print("peak |torque| over the three plants: " + ", ".join(f"{n} {peak[n]:.3f} N m" for n in CIRCLES))
@@ -352,6 +352,17 @@ def test_thesis_pitch_target_leaves_a_steady_lag(balanbot):
           f"after lap 1 (path {100 * r.metrics['max_path_error_settled']:.1f} cm)")
     assert r.outcome == "completed" and r.metrics["max_path_error_settled"] > 0.05
     assert 0.5 < math.degrees(phi_s) < 2.0
+
+
+def test_with_the_thesis_lambda1_sliding_mode_is_not_better_than_pid():
+    """Table 5.2's conclusion with the thesis's own lambda1 = -k_phi phi (4.74): the steady lag
+    of errata T8 makes the fuzzy sliding-mode tracker no better than PID over the three
+    plants; twip's correction (lambda1 aimed at phi_s) makes it 5.6x better."""
+    from twip.report.claims import pid_over_smc
+
+    thesis, corrected = pid_over_smc(st.compare(pitch_offset=False)), pid_over_smc(st.compare())
+    print(f"PID error / fuzzy sliding-mode error: {thesis:.3f} with (4.74), {corrected:.3f} with T8; thesis 2.6")
+    assert thesis < 1.0 < 2.0 < corrected
 
 
 def test_other_trajectories(balanbot):

@@ -235,8 +235,10 @@ def _robust_ylim(ax, *series, factor=4.0):
     if data.min() < lo - factor * span or data.max() > hi + factor * span:
         ax.set_ylim(lo - 0.6 * span, hi + 0.6 * span)
         peak = data[np.argmax(np.abs(data))]
+        # On a white box above the lines: a clipped spike must not run through the number.
         ax.text(0.99, 0.03, f"peak {peak:.3g} off scale", transform=ax.transAxes, ha="right", va="bottom",
-                fontsize=7, color="#666666")
+                fontsize=7, color="#666666", zorder=10,
+                bbox={"boxstyle": "square,pad=0.2", "facecolor": "white", "edgecolor": "none"})
 
 
 def _is_planar(result) -> bool:
@@ -309,6 +311,9 @@ def timeseries(result, scenario=None, path=None, title=None, internals: bool = T
     ax = _axes(fig, gs[0, 1])
     _line(ax, t, deg(phi_dot), color=OURS, label=r"pitch rate $\dot\varphi$")
     ax.axhline(0.0, color=REF, ls="--", lw=1.0, label="reference 0")
+    if "pitch_rate_settling_time" in thesis:
+        ax.axvline(thesis["pitch_rate_settling_time"], color=REF, ls=":", lw=1.0,
+                   label=f"thesis: settled by {thesis['pitch_rate_settling_time']:g} s")
     ax.set(ylabel="pitch rate [deg/s]", title="Body pitch rate")
     _legend(ax)
 
@@ -380,7 +385,8 @@ def controller_internals(result, ax=None, names: Optional[Sequence[str]] = None,
             title, ylabel = r"Fuzzy weights $\hat S$ (adaptive estimate of $F_1$)", r"$\hat S_k$ [rad/s²]"
         elif "s1" in inner:  # sliding mode
             names = ["s1", "s_eta"]
-            title, ylabel = "Sliding surfaces", "S"
+            # S_η = ω − λ3 [rad/s]; S1 = r1 (φ̇ − λ1) + r2 (v − λ2) with the thesis's unitless r1, r2.
+            title, ylabel = "Sliding surfaces", r"$S_\eta$ [rad/s]; $S_1$ [$r_1$ rad/s + $r_2$ m/s]"
         elif "u_phi" in inner:  # PID tracker
             names = ["u_phi", "u_v", "u_psi"]
             title, ylabel = "PID terms (PWM counts)", "counts"
@@ -715,7 +721,8 @@ def fall_map(result, x: str, y: str, bins=(12, 12), ax=None, path=None, title=No
     ax.set(xlabel=_axis_label(x), ylabel=_axis_label(y))
     ax.set_title(title or f"{result.config['scenario']}: fall rate {result.fall_rate:.1%} of {result.n}")
     if colorbar:
-        ax.figure.colorbar(mesh, ax=ax, label="fall rate", fraction=0.05, pad=0.02)
+        ax.figure.colorbar(mesh, ax=ax, label="fall rate (share of the starts in a cell that fell)", fraction=0.05,
+                           pad=0.02)
     if own:
         return _finish(ax.figure, path)
     return ax
@@ -725,8 +732,8 @@ def fall_map(result, x: str, y: str, bins=(12, 12), ax=None, path=None, title=No
 def fall_maps(results: Sequence, x: str, y: str, bins=(12, 12), path=None, title=None):
     """Side-by-side fall-rate maps of several sweeps over the same two quantities, one colour bar."""
     k = len(results)
-    fig = _figure((4.4 * k + 0.9, 4.0), path)
-    gs = _grid(fig, 1, k, right=0.2, wspace=0.2)
+    fig = _figure((4.4 * k + 1.4, 4.0), path)
+    gs = _grid(fig, 1, k, right=0.95, wspace=0.2)  # room for the colour bar and its label
     axes = []
     for i, r in enumerate(results):
         ax = _axes(fig, gs[0, i])
@@ -734,7 +741,8 @@ def fall_maps(results: Sequence, x: str, y: str, bins=(12, 12), path=None, title
         if i:
             ax.set_ylabel("")
         axes.append(ax)
-    fig.colorbar(axes[0].collections[0], ax=axes, label="fall rate", fraction=0.03, pad=0.02)
+    fig.colorbar(axes[0].collections[0], ax=axes, label="fall rate (share of the starts in a cell that fell)",
+                 fraction=0.03, pad=0.02)
     return _finish(fig, path, title)
 
 
@@ -753,11 +761,13 @@ def _plain_log_axis(ax):
 
 
 def bars(groups: Sequence[str], series: Mapping[str, Sequence[float]], ax, ylabel="", thesis: Optional[Mapping] = None,
-         log: bool = False, marks: Optional[Mapping[str, Sequence[str]]] = None, robot: Optional[Mapping] = None):
+         log: bool = False, marks: Optional[Mapping[str, Sequence[str]]] = None, robot: Optional[Mapping] = None,
+         robot_fell: Optional[Mapping[str, Sequence[bool]]] = None):
     """Grouped bars: one group per label in `groups`, one bar per entry of `series`.
     `thesis` maps a series name to per-group values drawn as black diamonds on that bar;
     `marks` to per-group text written above the bars (e.g. 'fell'); `robot` to per-group
-    values with the thesis-like robot in the loop, drawn as rings (NaN: not run). With `log` the values
+    values with the thesis-like robot in the loop, drawn as rings (NaN: not run, or fell);
+    `robot_fell` to whether that run fell, drawn as a cross beside the dot. With `log` the values
     are dots on a stem from the axis, not bars (a bar's length means nothing on a log axis),
     and the axis shows plain numbers."""
     n = len(series)
@@ -768,7 +778,7 @@ def bars(groups: Sequence[str], series: Mapping[str, Sequence[float]], ax, ylabe
                                 [np.asarray(v, float) for v in (robot or {}).values()])
     values_all = values_all[np.isfinite(values_all) & (values_all > 0)]
     bottom = 10 ** math.floor(math.log10(values_all.min())) if (log and len(values_all)) else 0.0  # a log axis's floor
-    labelled = robot_labelled = False
+    labelled = robot_labelled = fell_labelled = False
     for i, (name, given) in enumerate(series.items()):
         pos = xs - 0.4 + width * (i + 0.5)
         values = np.asarray(given, float)
@@ -785,6 +795,12 @@ def bars(groups: Sequence[str], series: Mapping[str, Sequence[float]], ax, ylabe
                 ax.plot(pos[ok], rv[ok], "o", mfc="white", mec=colour, mew=1.4, ms=7,
                         label=None if robot_labelled else "thesis-like robot (rings)")
                 robot_labelled = True
+        if robot_fell and name in robot_fell:
+            down = np.asarray(robot_fell[name], bool)
+            if down.any():
+                ax.plot(pos[down] + 0.3 * width, values[down], "x", color=colour, mew=1.6, ms=7,
+                        label=None if fell_labelled else "thesis-like robot fell (no ring)")
+                fell_labelled = True
         if thesis and name in thesis:
             tv = np.asarray(thesis[name], float)
             ok = np.isfinite(tv)
@@ -803,6 +819,19 @@ def bars(groups: Sequence[str], series: Mapping[str, Sequence[float]], ax, ylabe
         ax.set_ylim(bottom=bottom)
     ax.grid(axis="x", visible=False)
     return ax
+
+
+def _realism_value(row: Mapping, key: str, outcome: str) -> float:
+    """A comparison row's number with the thesis-like robot, NaN (not drawn) when that run did
+    not complete: a run that fell has no result to compare."""
+    if key not in row or row.get(outcome, "completed") != "completed":
+        return np.nan
+    return row[key]
+
+
+def _realism_fell(row: Mapping, outcome: str) -> bool:
+    """Whether a comparison row's run with the thesis-like robot ran and did not complete."""
+    return row.get(outcome, "completed") != "completed"
 
 
 _CONTROLLER_NAMES = {"lqr": "LQR", "fuzzy": "fuzzy adaptive", "fuzzy-fixed": "fuzzy, adaptation off",
@@ -827,13 +856,15 @@ def table_5_1(rows, thesis: Optional[Mapping] = None, path=None, title=None):
             series = {_CONTROLLER_NAMES.get(c, c): [cell[(p, c)][key] for p in plants] for c in controllers}
             marks = {_CONTROLLER_NAMES.get(c, c): ["" if cell[(p, c)]["outcome"] == "completed" else cell[(p, c)]["outcome"]
                                                    for p in plants] for c in controllers}
+            fell = {_CONTROLLER_NAMES.get(c, c): [_realism_fell(cell[(p, c)], "outcome_realism") for p in plants]
+                    for c in controllers}
             th = None
             if thesis:
                 th = {_CONTROLLER_NAMES.get(c, c): [thesis[(surface, c)][j] if p == "nominal" and (surface, c) in thesis
                                                     else np.nan for p in plants] for c in controllers}
-            robot = {_CONTROLLER_NAMES.get(c, c): [cell[(p, c)].get(key + "_realism", np.nan) for p in plants]
-                     for c in controllers}
-            bars(plants, series, ax, ylabel=ylabel, thesis=th, log=True, marks=marks, robot=robot)
+            robot = {_CONTROLLER_NAMES.get(c, c): [_realism_value(cell[(p, c)], key + "_realism", "outcome_realism")
+                                                   for p in plants] for c in controllers}
+            bars(plants, series, ax, ylabel=ylabel, thesis=th, log=True, marks=marks, robot=robot, robot_fell=fell)
             ax.set_title(f"{surface}: mean {what} error")
     handles, labels = fig.axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(labels), frameon=False)
@@ -846,7 +877,8 @@ def table_5_1(rows, thesis: Optional[Mapping] = None, path=None, title=None):
 def table_5_2(rows, thesis: Optional[Mapping] = None, path=None, title=None):
     """Table 5.2 analogue from `twip.scenarios.tracking.compare()` rows: mean |x − x_r| and
     |y − y_r| per tracker (bars) and plant (groups); `thesis` {"pid": (x, y), "smc": (x, y)}
-    [m] drawn as horizontal lines (the thesis's experiments)."""
+    [m] drawn as horizontal lines (PID: the thesis's experiment; sliding mode: the thesis does not
+    say whether simulation or experiment)."""
     fig = _figure((11, 4.3), path)
     gs = _grid(fig, 1, 2, top=0.75, bottom=1.0, wspace=0.2)
     plants = list(dict.fromkeys(r["plant"] for r in rows))
@@ -857,14 +889,18 @@ def table_5_2(rows, thesis: Optional[Mapping] = None, path=None, title=None):
         series = {t: [100 * cell[(p, t)][axis] for p in plants] for t in trackers}
         marks = {t: ["" if cell[(p, t)]["outcome"] == "completed" else cell[(p, t)]["outcome"] for p in plants]
                  for t in trackers}
-        robot = {t: [100 * cell[(p, t)].get(f"{axis}_realism", np.nan) for p in plants] for t in trackers}
-        bars(plants, series, ax, ylabel=rf"mean $|{axis} - {axis}_r|$ [cm]", log=True, marks=marks, robot=robot)
-        for k, (key, label) in enumerate((("pid", "thesis: PID (experiment)"), ("smc", "thesis: sliding mode (experiment)"))):
+        fell = {t: [_realism_fell(cell[(p, t)], "realism_outcome") for p in plants] for t in trackers}
+        robot = {t: [100 * _realism_value(cell[(p, t)], f"{axis}_realism", "realism_outcome") for p in plants]
+                 for t in trackers}
+        bars(plants, series, ax, ylabel=rf"mean $|{axis} - {axis}_r|$ [cm]", log=True, marks=marks, robot=robot,
+             robot_fell=fell)
+        for k, (key, label) in enumerate((("pid", "thesis: PID (experiment)"),
+                                             ("smc", "thesis: sliding mode (sim. or exp.: not stated)"))):
             if thesis and key in thesis:
                 ax.axhline(100 * thesis[key][j], color=PALETTE[0 if key == "pid" else 2], ls="--", lw=1.3, label=label)
         ax.set_title(f"mean {axis} error over the whole run")
     handles, labels = fig.axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=len(labels), frameon=False)
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 4), frameon=False)
     return _finish(fig, path, title or "Table 5.2 analogue: each tracker on its circle; the controllers keep the nominal "
                    "model, the plant's masses, inertias,\nlengths and frictions change by ±20 % (rings: the thesis-like robot in "
-                   "the loop; log scale)")
+                   "the loop, none where it fell; log scale)")

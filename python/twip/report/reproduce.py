@@ -14,8 +14,9 @@ import twip
 from twip import scenarios
 from twip.plot import metric_unit
 from twip.report import sensitivity
-from twip.report.claims import (RUN_KEYS, THESIS_TABLE_5_1, claims_for, judge, measure, pid_over_smc, summary_line,
-                                 table_5_1_claims, table_5_1_holds, table_5_2_claims, with_sensitivity)
+from twip.report.claims import (RUN_KEYS, SETTLING, THESIS_TABLE_5_1, claims_for, judge, measure, pid_over_smc, summary_line,
+                                 table_5_1_claims, table_5_1_holds, table_5_2_claims, with_sensitivity,
+                                 with_thesis_lambda1)
 from twip.report.markdown import render_markdown
 from twip.report.numbers import dec, jsonable, sig
 from twip.report.sweeps import fall_maps, robustness_sweeps
@@ -127,7 +128,12 @@ def _run_scenarios(quick: bool, steps: Steps):
         # The thesis's experiments (not its "-sim" runs) also with the thesis-like robot in the loop.
         real = None if sc.name.endswith("-sim") else sc.run(realism=twip.Realism.thesis_like(),
                                                             record_every=10 if is_planar(sc) else 1)
-        claims.extend(claims_for(sc, r, real))
+        # Where twip holds at a goal and the thesis turns at once, the stop also with the thesis's hold.
+        own = None
+        if "thesis_hold" in sc.thesis:
+            own_sc = scenarios.get(sc.name, **{**quick_options(sc.name, quick), "hold": sc.thesis["thesis_hold"]})
+            own = (own_sc, own_sc.run())
+        claims.extend(claims_for(sc, r, real, own))
         summary[sc.name] = {
             "description": sc.description, "controller": controller_family(sc), "figure": sc.thesis.get("figure"),
             "outcome": r.outcome, "t_end": sig(r.t_end if r.t_end is not None else r.t[-1]),
@@ -194,12 +200,18 @@ def _table_5_2(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) 
     from twip import plot
     from twip.scenarios import tracking as tracking_sc
 
+    laps = 2 if quick else 3
     rows = steps.attempt("Table 5.2: PID vs sliding mode, nominal and ±20 % plants", tracking_sc.compare,
-                         laps=2 if quick else 3, realism=twip.Realism.thesis_like()) or []
+                         laps=laps, realism=twip.Realism.thesis_like()) or []
+    thesis_rows = steps.attempt("Table 5.2 with the thesis's λ1 (4.74)", tracking_sc.compare, laps=laps,
+                                pitch_offset=False, realism=twip.Realism.thesis_like()) or []
+    if rows and thesis_rows:
+        with_thesis_lambda1(claims, thesis_rows)
+        claims.extend(table_5_2_claims(rows, thesis_rows))
     if rows:
-        claims.extend(table_5_2_claims(rows))
-        figures.add("table5.2.png", "Table 5.2 analogue: mean |x − x_r|, |y − y_r| per tracker and plant, thesis "
-                    "experiments as lines", lambda p: plot.table_5_2(rows, thesis=THESIS_TABLE_5_2, path=p))
+        figures.add("table5.2.png", "Table 5.2 analogue: mean |x − x_r|, |y − y_r| per tracker and plant, the "
+                    "thesis's rows as lines (PID: its experiment; sliding mode: simulation or experiment, not stated)",
+                    lambda p: plot.table_5_2(rows, thesis=THESIS_TABLE_5_2, path=p))
     return [{"controller": r["controller"], "plant": r["plant"], "outcome": r["outcome"],
              "x_cm": dec(100 * r["x"], 2), "y_cm": dec(100 * r["y"], 2),
              "x_settled_cm": dec(100 * r["x_settled"], 2), "y_settled_cm": dec(100 * r["y_settled"], 2),
@@ -214,8 +226,8 @@ def _sensitivity(quick: bool, steps: Steps, claims: List[dict]) -> None:
     table.update(steps.attempt("sensitivity: Table 5.1 over the windows, loop period and friction", sensitivity.table_5_1,
                                table_5_1_holds, quick) or {})
     table.update(steps.attempt("sensitivity: every scenario's runs over the choices they depend on",
-                               sensitivity.scenario_claims, judge, measure, RUN_KEYS, quick) or {})
-    table.update(steps.attempt("sensitivity: Table 5.2's conclusion over λ1, k1-k3 and friction", sensitivity.smc_versus_pid,
+                               sensitivity.scenario_claims, judge, measure, RUN_KEYS, quick, SETTLING) or {})
+    table.update(steps.attempt("sensitivity: Table 5.2's conclusion over k1-k3, k_φ and friction", sensitivity.smc_versus_pid,
                                pid_over_smc, 2 if quick else 3) or {})
     with_sensitivity(claims, table)
 

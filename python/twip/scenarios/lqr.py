@@ -38,7 +38,8 @@ def _slope_lqr_sim(params, ctrl_params, point="operating", period=1e-3, t_final=
         x0=np.zeros(4),
         reference=_core.SpeedSchedule.constant(speed),
         t_final=t_final,
-        thesis={"figure": "4.2", "pitch_settling_time": 5.0, "speed_settling_time": 7.0, "phi_s_deg": 12.5,
+        thesis={"figure": "4.2", "pitch_settling_time": 5.0, "pitch_rate_settling_time": 2.0, "speed_settling_time": 7.0,
+                "phi_s_deg": 12.5,
                 "gains": [-15.2, -4.5, -0.35, -0.32]},
     )
 
@@ -55,7 +56,8 @@ def _flat_lqr_sim(params, ctrl_params, point="operating", period=1e-3, t_final=1
         x0=np.zeros(4),
         reference=_core.SpeedSchedule.constant(speed),
         t_final=t_final,
-        thesis={"figure": "4.9", "pitch_settling_time": 7.5, "speed_settling_time": 8.0, "phi_s_deg": 0.0,
+        thesis={"figure": "4.9", "pitch_settling_time": 7.5, "pitch_rate_settling_time": 7.5, "speed_settling_time": 8.0,
+                "phi_s_deg": 0.0,
                 "gains": [-11.0, -1.7, -0.05, -0.045]},
     )
 
@@ -75,7 +77,8 @@ def _slope_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, se
         x0=x0,
         reference=_core.SpeedSchedule([(distance / params.wheel_radius, speed, hold), (0.0, speed, settle)]),
         t_final=2 * leg + hold + settle,
-        thesis={"figure": "4.3", "distance": distance, "hold": hold, "goals": [(leg + hold, distance), (2 * leg + hold + settle, 0.0)]},
+        thesis={"figure": "4.3", "distance": distance, "hold": hold, "goals": [(leg + hold, distance), (2 * leg + hold + settle, 0.0)],
+                "pitch_about_deg": 12.5},
     )
 
 
@@ -89,11 +92,13 @@ def _flat_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, set
     leg = trip_time(distance, speed, params.wheel_radius)
     return Scenario(
         name="flat-lqr",
-        description="LQR on the flat: 1 m at 180 deg/s and back (thesis 4.2.1, Fig 4.10)",
+        description=(f"LQR on the flat: 1 m at 180 deg/s, hold {hold:g} s (twip's; the thesis turns at once), back "
+                     "(thesis 4.2.1, Fig 4.10)"),
         model=_core.SlopeModel(params, 0.0),
         controller=_lqr(ctrl_params, 0.0, speed, point, period),
         x0=np.zeros(4),
         reference=_core.SpeedSchedule([(distance / params.wheel_radius, speed, hold), (0.0, speed, settle)]),
         t_final=2 * leg + hold + settle,
-        thesis={"figure": "4.10", "distance": distance, "hold": hold, "goals": [(leg + hold, distance), (2 * leg + hold + settle, 0.0)]},
+        thesis={"figure": "4.10", "distance": distance, "hold": hold, "thesis_hold": 0.0,
+                "goals": [(leg + hold, distance), (2 * leg + hold + settle, 0.0)], "pitch_about_deg": 0.0},
     )
