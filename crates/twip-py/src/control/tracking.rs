@@ -46,7 +46,7 @@ fn pid_gains_array(g: &PidGains<f64>) -> [f64; 7] {
 /// wheel torques by `motor` at the measured wheel speeds. `gains` (dict, over Table 4.1's)
 /// and `units` ("arduino", "si" or a dict of pitch, speed, heading, integral_step).
 /// A tracker holds no run state (each run starts its integrators at zero), so a pickled
-/// copy is the same tracker.
+/// copy is the same tracker. The heading error is wrapped to [−π, π) (docs/errata.md T2).
 #[pyclass(name = "PidTracker", module = "twip", frozen)]
 #[derive(Clone)]
 pub struct PyPidTracker {
@@ -195,7 +195,9 @@ fn pair(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
 /// width of sat(S/w) for (S_eta, S1), one number for both, 0 for sgn; `pitch` is
 /// "backward" (the reading under which the published r1, r2 work) or "forward". A pickle
 /// or copy keeps these settings; the fuzzy weights adapt inside each run (from zeros), not
-/// in the tracker.
+/// in the tracker. The heading error ψ_r − ψ is wrapped to [−π, π) (docs/errata.md T2).
+/// Logged internals: `lambda1` = −k_φ (φ − φ_s) in twip's pitch sign (the "backward" reading
+/// turns r1, not λ1), `d` = r1 g21 + r2 g22 (the surface's input gain, not (4.82)'s 1 + k3 e1).
 #[pyclass(name = "SmcTracker", module = "twip", frozen)]
 #[derive(Clone)]
 pub struct PySmcTracker {
@@ -308,6 +310,8 @@ crate::settings::settings_class!(PySmcTracker, "SmcTracker",
         boundary_layer: (f64, f64) = |s| (s.inner.options().width_eta, s.inner.options().width_s1);
         /// The gains in SI (so `torque_unit` is "si").
         gains: NamedFloats = |s| NamedFloats(&SMC_GAINS, smc_gains_array(&s.inner.gains()).to_vec());
+        /// The unit the stored gains are in: "si", always (gains read in "pwm" are converted
+        /// when the tracker is built; `gains` holds them in N m).
         torque_unit: &'static str = |_| "si";
         pitch: &'static str = |s| match s.inner.options().pitch {
             PitchSign::Backward => "backward",

@@ -62,7 +62,9 @@ impl PySlopeModel {
         Ok(self.inner.energy(&vector::<4>("x", x)?))
     }
 
-    /// Exact Jacobians (A 4x4, B 4x1) at the operating point (x0, u0).
+    /// Exact Jacobians (A 4x4, B 4x1) at the operating point (x0, u0). With a friction's
+    /// stick band: those of the slip law that acts outside the band, inside it too (the held
+    /// wheels there take no input).
     #[pyo3(signature = (x0, u0 = 0.0))]
     fn linearize<'py>(&self, py: Python<'py>, x0: &Bound<'py, PyAny>, u0: f64) -> PyResult<(Arr2<'py>, Arr2<'py>)> {
         let (a, b) = self.inner.linearize(&vector::<4>("x0", x0)?, scalar("u0", u0)?);
