@@ -194,7 +194,8 @@ class SlopeModel:
     def linearize(self, x0: _ArrayLike, u0: float = 0.0) -> Tuple[_F64, _F64]:
         """Exact Jacobians (A 4x4, B 4x1) at the operating point (x0, u0). With a friction's
         stick band: those of the slip law that acts outside the band, inside it too (the held
-        wheels there take no input)."""
+        wheels there take no input).
+        """
     def linearize_thesis(self) -> Tuple[_F64, _F64, _F64]:
         """The thesis's linear model (4.6)-(4.10) on [phi, phi_dot, theta_dot]: (A 3x3, B 3x1, D 3x1)."""
     def equilibrium(self, theta_dot_ref: float, linear: bool = False) -> Tuple[_F64, float]:
@@ -580,7 +581,8 @@ class SmcTracker:
     @property
     def torque_unit(self) -> str:
         """The unit the stored gains are in: "si", always (gains read in "pwm" are converted
-        when the tracker is built; `gains` holds them in N m)."""
+        when the tracker is built; `gains` holds them in N m).
+        """
     @property
     def guards(self) -> Tuple[float, float]:
         """Guards delta of (4.82) for (e3, d)."""
