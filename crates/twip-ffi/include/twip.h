@@ -264,7 +264,7 @@ typedef struct {
 
 // A controller update with finite inputs whose command or carried state (integrator,
 // adaptive weights) came out NaN or infinite, as a finite but absurd reading (a sensor
-// glitch of 1e12 rad) makes it: refused, with the state unchanged (as before the call) and
+// glitch near f32's limit, 3e38) makes it: refused, with the state unchanged (as before the call) and
 // the outputs untouched, so the next ordinary update answers as if this one never happened.
 #define TWIP_ERR_OVERFLOW -5
 

@@ -148,7 +148,7 @@ where
     if !t.is_finite() || !all_finite(y) {
         return TWIP_ERR_NOT_FINITE;
     }
-    // Finite inputs can still overflow (a glitch of 1e12 rad): kept as it was, the state
+    // Finite inputs can still overflow (a glitch of 3e38): kept as it was, the state
     // cannot carry a NaN weight or a wound-up integrator into every later update.
     let before = *controller;
     let out = controller.update(t, &SVector::<f32, NX>::from_column_slice(y), &r);

@@ -43,7 +43,7 @@ pub const TWIP_ERR_NOT_FINITE: TwipStatus = -3;
 pub const TWIP_ERR_NOT_INITIALISED: TwipStatus = -4;
 /// A controller update with finite inputs whose command or carried state (integrator,
 /// adaptive weights) came out NaN or infinite, as a finite but absurd reading (a sensor
-/// glitch of 1e12 rad) makes it: refused, with the state unchanged (as before the call) and
+/// glitch near f32's limit, 3e38) makes it: refused, with the state unchanged (as before the call) and
 /// the outputs untouched, so the next ordinary update answers as if this one never happened.
 pub const TWIP_ERR_OVERFLOW: TwipStatus = -5;
 
