@@ -14,11 +14,12 @@ use nalgebra::{SVector, Vector4};
 
 use crate::control::{Controller, Reference};
 use crate::hardware::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_SLOPE_CHANGES};
-use crate::hardware::driver::{Driven, MotorDriver, PwmActuator, Winding};
+use crate::hardware::driver::{Driven, MotorDriver, PwmActuator, Winding, WindingStep};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuClock, ImuReading, ImuSettings, Mpu6050, NoiseBatch};
 use crate::hardware::backlash::Backlash;
 use crate::model::friction::{Friction, GB37_STICK_SPEED};
+use crate::model::integrate::Stage;
 use crate::rng::Philox;
 use crate::sim::runner::{run_loop, Actuator, Loop, Observer, Outcome, Plant, Sensor, Signals, SimConfig, MAX_RAW};
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
@@ -405,6 +406,10 @@ impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Dynamics
         self.plant.deriv(x, u)
     }
 
+    fn deriv_at_stage(&self, x: &SVector<T, NX>, u: &SVector<T, NU>, stage: Stage) -> SVector<T, NX> {
+        self.plant.deriv_at_stage(x, u, stage)
+    }
+
     fn energy(&self, x: &SVector<T, NX>) -> T {
         self.plant.energy(x)
     }
@@ -420,6 +425,10 @@ impl<T: Real, P: Plant<T, NX, NU>, const NX: usize, const NU: usize> Plant<T, NX
             }
             None => self.not_shared += 1,
         }
+    }
+
+    fn step_ended(&mut self, x: &SVector<T, NX>) {
+        self.plant.step_ended(x);
     }
 
     fn shaft_offsets(&self) -> [T; 2] {
@@ -466,6 +475,14 @@ impl<T: Real> Dynamics<T, 4, 1> for RealPlant<T> {
         }
     }
 
+    #[inline(always)]
+    fn deriv_at_stage(&self, x: &Vector4<T>, u: &SVector<T, 1>, stage: Stage) -> Vector4<T> {
+        match self {
+            Self::Current(p) => p.deriv(x, u),
+            Self::Driven(p) => p.deriv_at_stage(x, u, stage),
+        }
+    }
+
     fn energy(&self, x: &Vector4<T>) -> T {
         match self {
             Self::Current(p) => p.energy(x),
@@ -487,10 +504,18 @@ impl<T: Real> Plant<T, 4, 1> for RealPlant<T> {
     /// current is the one `deriv` computes.
     #[inline]
     fn between_steps_with_derivative(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) -> Option<Vector4<T>> {
-        let current = self.step_start(t, dt, x, u[0]);
-        let first = self.ground_mut().gear_next(x, current);
+        let (current, mean) = self.step_start(t, dt, x, u[0]);
+        let first = self.ground_mut().gear_next(x, current, mean);
         self.step_end(x);
         first
+    }
+
+    /// The winding's current is carried to the step's end.
+    #[inline]
+    fn step_ended(&mut self, x: &Vector4<T>) {
+        if let Self::Driven(p) = self {
+            p.end_step(x);
+        }
     }
 
     #[inline(always)]
@@ -523,26 +548,27 @@ impl<T: Real> RealPlant<T> {
     }
 
     /// `between_steps` up to the trains' next step (`Disturbed::gear_next`): the open
-    /// rotors' elapsed step and impacts, pushes, the winding's current (turning with the
-    /// open rotors). Returns the lumped current that drives the mechanics now: for the
-    /// input `u` a current, or a duty through a winding with inductance, also the one held
-    /// over the coming step (a winding without inductance follows the state within the
-    /// step: its input is the duty, [`Self::steady_winding`]).
+    /// rotors' elapsed step and impacts, pushes, the winding's step (turning with the open
+    /// rotors). Returns the lumped current that drives the mechanics at RK4's first stage
+    /// (for the input `u` a current, or a duty through the winding), and its mean over the
+    /// step with the motors' speed held, which drives an open train's rotor (the same
+    /// but for a winding with inductance). Within the step a winding's current follows
+    /// the state: its input is the duty ([`Self::driven_winding`]).
     #[inline(always)]
-    pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) -> T {
+    pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) -> (T, T) {
         match self {
             Self::Current(p) => {
                 p.gear_elapsed(dt, x);
                 p.between_steps(t, dt, x, &SVector::<T, 1>::new(u));
-                u
+                (u, u)
             }
             Self::Driven(p) => {
                 p.plant_mut().gear_elapsed(dt, x);
                 p.plant_mut().between_steps(t, dt, x, &SVector::<T, 1>::new(u));
                 let open = p.plant_mut().open_rotor_speed(x);
                 p.turn_motors_at(open);
-                p.advance(x, u, dt);
-                p.mechanical_current(x, u)
+                p.start_step(x, u, dt);
+                (p.lumped_current_at(x, u, Stage::Start), p.mean_lumped_current(x, u))
             }
         }
     }
@@ -550,21 +576,30 @@ impl<T: Real> RealPlant<T> {
     /// `between_steps` after the trains' next step: the motors turn with the rotors of
     /// trains that just opened.
     #[inline]
-    fn step_end(&mut self, x: &Vector4<T>) {
+    pub(crate) fn step_end(&mut self, x: &Vector4<T>) {
         if let Self::Driven(p) = self {
             let open = p.plant_mut().open_rotor_speed(x);
             p.turn_motors_at(open);
         }
     }
 
-    /// A driver without inductance: its winding and the lumped current per ampere.
-    pub(crate) fn steady_winding(&self) -> Option<(Winding<T>, T)> {
+    /// A driver's winding's step under way.
+    #[inline(always)]
+    pub(crate) fn winding_step(&self) -> Option<WindingStep<T>> {
         match self {
-            Self::Driven(p) if !p.inductive() => {
+            Self::Driven(p) => Some(p.winding().0.step),
+            Self::Current(_) => None,
+        }
+    }
+
+    /// A driver's winding and the lumped current per ampere.
+    pub(crate) fn driven_winding(&self) -> Option<(Winding<T>, T)> {
+        match self {
+            Self::Driven(p) => {
                 let (w, per_amp) = p.winding();
                 Some((*w, per_amp))
             }
-            _ => None,
+            Self::Current(_) => None,
         }
     }
 }

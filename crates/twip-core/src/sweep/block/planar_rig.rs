@@ -6,8 +6,8 @@
 //! play, pushes, encoders and tilt estimator are its own rig's parts, the very objects a
 //! run uses: they act between steps or once per control period on a lane's numbers. The
 //! plant's RK4 (`model::planar::engaged_motion`, and `open_motion` for a lane whose gear
-//! trains are open: the gearhead friction's law, the body force and, for windings without
-//! inductance, `Winding::steady_current`) and the IMUs (`planar_rig::sample_imus`, each
+//! trains are open: the gearhead friction's law, the body force and the windings'
+//! `Winding::steady_current` or, with inductance, `Winding::stepped_current`) and the IMUs (`planar_rig::sample_imus`, each
 //! lane's noise from a copy of its rig's stream: noise stream = sample index) are the
 //! run's own source on lanes, which the compiler vectorises; the gear trains weigh the
 //! lanes' first stage. So a lane agrees with `sweep::planar::run_planar_sample` to
@@ -23,7 +23,7 @@ use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::imu::{ImuClock, ImuReading, Mpu6050, NoiseLanes};
 use crate::hardware::planar_rig::{body_force, sample_imus, PlanarRig};
 use crate::model::friction::{Friction, Gearhead};
-use crate::model::integrate::{rk4, Field};
+use crate::model::integrate::{rk4, Field, Stage};
 use crate::model::lane::{fill, Fused, Lane, Wide, WIDTH};
 use crate::model::planar::{engaged_motion, open_motion, wheel_speeds, PlanarCoefficients, PlanarModel};
 use crate::sim::runner::{Actuator, Plant, Sensor, SimConfig, STOP_CHECK_STEPS};
@@ -34,17 +34,23 @@ use crate::sweep::SweepMetrics;
 use crate::{RobotParams, TwipError};
 use alloc::vec::Vec;
 
-/// The gearhead friction's kind, decided once per block (`GEAR`): none, the slip law, or
-/// with a stick band; each its own loop over lanes, so that no branch inside one keeps
-/// the compiler from vectorising it.
+/// The plant's kinds, decided once per block: the gearhead friction's (`GEAR`: none, the
+/// slip law, or with a stick band) and what drives it (`DRIVE`: the motor torques held
+/// over the step; windings without inductance, which turn the duties into current at
+/// each stage; windings with inductance, whose currents move within the step); each its
+/// own loop over lanes, so that no branch inside one keeps the compiler from vectorising it.
 const FREE: u8 = 0;
 const SLIP: u8 = 1;
 const STICK: u8 = 2;
+const HELD: u8 = 0;
+const STEADY: u8 = 1;
+const STEPPED: u8 = 2;
 
 /// One lane's plant over a step, its trains as they are (`GEARED`: some lane's in the block
-/// may be open): the motor torques held, or (`STEADY`: windings without inductance) the
-/// duties, which the windings turn into current at each stage at the wheels' speeds.
-struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool> {
+/// may be open): the motor torques held, or at the step's start with the windings' steps
+/// under way (`STEPPED`), or (`STEADY`) the duties, which the windings turn into current at
+/// each stage at the wheels' speeds.
+struct RigField<'a, const GEAR: u8, const DRIVE: u8, const GEARED: bool> {
     k: PlanarCoefficients<Fused>,
     /// Which gear trains are engaged over this step (backlash: set between steps), and the
     /// rotor inertia per wheel that an open one takes off.
@@ -59,18 +65,27 @@ struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool> {
     force: Force<Fused>,
 }
 
-impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> RigField<'_, GEAR, STEADY, GEARED> {
-    /// The derivative and each wheel's gearhead torque (`PlanarPlant::geared_motion`'s).
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> RigField<'_, GEAR, DRIVE, GEARED> {
+    /// The derivative and each wheel's gearhead torque (`PlanarPlant::geared_motion`'s) at
+    /// the step's start.
     #[inline(always)]
     fn motion(&self, x: &[Fused; 7]) -> ([Fused; 7], [Fused; 2]) {
-        // As `PlanarPlant::torques` with the trains engaged (motor speed = wheel speed).
-        let u = if STEADY {
-            let w = wheel_speeds(&self.k, x);
-            let (right, left) = (self.windings[0].steady_current(self.u[0], w[0]), self.windings[1].steady_current(self.u[1], w[1]));
-            [self.per_amp * right, self.per_amp * left]
-        } else {
-            self.u
-        };
+        // As `PlanarPlant::torques` with the trains engaged (motor speed = wheel speed; an
+        // open train's torque is not read).
+        let u = if DRIVE == STEADY { self.torques(x, |w, pwm, speed| w.steady_current(pwm, speed)) } else { self.u };
+        self.motion_under(x, u)
+    }
+
+    /// Each wheel's torque from its winding's current `current(winding, duty, wheel speed)`.
+    #[inline(always)]
+    fn torques(&self, x: &[Fused; 7], current: impl Fn(&Winding<Fused>, Fused, Fused) -> Fused) -> [Fused; 2] {
+        let w = wheel_speeds(&self.k, x);
+        [self.per_amp * current(&self.windings[0], self.u[0], w[0]), self.per_amp * current(&self.windings[1], self.u[1], w[1])]
+    }
+
+    /// [`Self::motion`] under the wheel torques `u`.
+    #[inline(always)]
+    fn motion_under(&self, x: &[Fused; 7], u: [Fused; 2]) -> ([Fused; 7], [Fused; 2]) {
         let gear = match GEAR {
             FREE => Gearhead::Free,
             SLIP => Gearhead::Slip(self.friction),
@@ -89,29 +104,39 @@ impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> RigField<'_, GEAR, 
     }
 }
 
-impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> Field<Fused, 7> for RigField<'_, GEAR, STEADY, GEARED> {
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> Field<Fused, 7> for RigField<'_, GEAR, DRIVE, GEARED> {
     #[inline(always)]
     fn at(&self, x: &[Fused; 7]) -> [Fused; 7] {
         self.motion(x).0
     }
+
+    // As `PlanarPlant::deriv_at_stage`.
+    #[inline(always)]
+    fn at_stage(&self, x: &[Fused; 7], stage: Stage) -> [Fused; 7] {
+        if DRIVE == STEPPED {
+            self.motion_under(x, self.torques(x, |w, _, speed| w.stepped_current(stage, speed))).0
+        } else {
+            self.motion(x).0
+        }
+    }
 }
 
 /// The lanes' plants: coefficients per lane, the friction all share, each lane's force and
-/// (without inductance) windings.
+/// windings.
 struct RigPlants {
     plants: Plants,
     gear: u8,
     friction: Friction<Fused>,
-    /// Whether the windings have no inductance: then each lane's windings and torque per
-    /// ampere turn the duties into torques at each stage (else any, unused).
-    steady: bool,
+    drive: u8,
+    /// Each lane's windings and torque per ampere, when there is a driver (else any,
+    /// unused); with inductance, their steps are the rig's, set each step.
     windings: [([Winding<f64>; 2], f64); LANES],
     forces: [Force<f64>; LANES],
     /// Each lane's rotor inertia per wheel (an open train takes it off).
     rotors: Lanes,
 }
 
-/// `$self.$run::<GEAR, STEADY, GEARED>(args)` for the plants' kinds; GEARED only while
+/// `$self.$run::<GEAR, DRIVE, GEARED>(args)` for the plants' kinds; GEARED only while
 /// some lane's trains are open (`$trains`: all engaged is the plain plant, bit for bit).
 macro_rules! by_kind {
     ($self:ident, $trains:ident, $run:ident($($arg:expr),*)) => {
@@ -122,13 +147,17 @@ macro_rules! by_kind {
         }
     };
     (@gear $self:ident, $geared:literal, $run:ident($($arg:expr),*)) => {
-        match ($self.gear, $self.steady) {
-            (FREE, false) => $self.$run::<FREE, false, $geared>($($arg),*),
-            (FREE, true) => $self.$run::<FREE, true, $geared>($($arg),*),
-            (SLIP, false) => $self.$run::<SLIP, false, $geared>($($arg),*),
-            (SLIP, true) => $self.$run::<SLIP, true, $geared>($($arg),*),
-            (_, false) => $self.$run::<STICK, false, $geared>($($arg),*),
-            (_, true) => $self.$run::<STICK, true, $geared>($($arg),*),
+        match $self.gear {
+            FREE => by_kind!(@drive $self, FREE, $geared, $run($($arg),*)),
+            SLIP => by_kind!(@drive $self, SLIP, $geared, $run($($arg),*)),
+            _ => by_kind!(@drive $self, STICK, $geared, $run($($arg),*)),
+        }
+    };
+    (@drive $self:ident, $gear:ident, $geared:literal, $run:ident($($arg:expr),*)) => {
+        match $self.drive {
+            HELD => $self.$run::<$gear, HELD, $geared>($($arg),*),
+            STEADY => $self.$run::<$gear, STEADY, $geared>($($arg),*),
+            _ => $self.$run::<$gear, STEPPED, $geared>($($arg),*),
         }
     };
 }
@@ -137,9 +166,10 @@ macro_rules! by_kind {
 // baseline code), but not in debug builds, whose inlined copies each keep their own stack
 // slots.
 impl RigPlants {
-    /// Lane `l`'s plant under the input `u` held (motor torques, or duties without inductance).
+    /// Lane `l`'s plant under the input `u` held (motor torques, at the step's start with
+    /// inductance, or duties without).
     #[inline(always)]
-    fn field<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, l: usize, u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> RigField<'_, GEAR, STEADY, GEARED> {
+    fn field<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, l: usize, u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> RigField<'_, GEAR, DRIVE, GEARED> {
         let ([right, left], per_amp) = &self.windings[l];
         RigField {
             k: self.plants.lane(l),
@@ -161,10 +191,10 @@ impl RigPlants {
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn motion_of<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
+    fn motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
         let (mut d, mut tau) = ([[0.0; LANES]; 7], [[0.0; LANES]; 2]);
         for l in 0..LANES {
-            let (dl, tl) = self.field::<GEAR, STEADY, GEARED>(l, u, trains).motion(&fill(|i| Fused(x[i][l])));
+            let (dl, tl) = self.field::<GEAR, DRIVE, GEARED>(l, u, trains).motion(&fill(|i| Fused(x[i][l])));
             for i in 0..7 {
                 d[i][l] = dl[i].0;
             }
@@ -182,10 +212,10 @@ impl RigPlants {
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn rk4_of<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
+    fn rk4_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
         let mut out = [[0.0; LANES]; 7];
         for l in 0..LANES {
-            let field = self.field::<GEAR, STEADY, GEARED>(l, u, trains);
+            let field = self.field::<GEAR, DRIVE, GEARED>(l, u, trains);
             let next = rk4(&field, &fill(|i| Fused(x[i][l])), &fill(|i| Fused(k1[i][l])), Fused(dt));
             for i in 0..7 {
                 out[i][l] = next[i].0;
@@ -317,9 +347,16 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
     let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| built.get(l).copied().flatten().map_or(fallback.0, |b| b.0));
     let mut rigs: Vec<PlanarRig<f64>> = (0..LANES).map(|l| built.get(l).copied().flatten().map_or(fallback.1, |b| b.1)).collect();
     let friction = rigs[0].plant.model().friction().copied();
-    // Any valid windings, for lanes that never evaluate one (held torques).
+    // Each lane's windings with their factors for steps of `dt` (their steps are set each
+    // step), and any valid ones for lanes that never evaluate one (no driver).
+    let drives = |l: usize| {
+        rigs[l].plant.drives().map(|(mut w, per_amp)| {
+            w.iter_mut().for_each(|w| w.prepare(dt));
+            (w, per_amp)
+        })
+    };
     let stand_in = ([Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?; 2], 1.0);
-    let plants = RigPlants {
+    let mut plants = RigPlants {
         // The rig's model: the sample's, with the realism's gearhead friction.
         plants: Plants::new(&core::array::from_fn(|l| *rigs[l].plant.model())),
         gear: match &friction {
@@ -329,8 +366,12 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
         },
         // Unused without a friction: any friction's numbers.
         friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
-        steady: rigs[0].plant.steady_drives().is_some(),
-        windings: core::array::from_fn(|l| rigs[l].plant.steady_drives().unwrap_or(stand_in)),
+        drive: match drives(0) {
+            None => HELD,
+            Some((w, _)) if !w[0].inductive() => STEADY,
+            Some(_) => STEPPED,
+        },
+        windings: core::array::from_fn(|l| drives(l).unwrap_or(stand_in)),
         forces: core::array::from_fn(|l| rigs[l].plant.force()),
         rotors: core::array::from_fn(|l| models[l].rotor_per_wheel()),
     };
@@ -392,20 +433,29 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
             }
         }
         metrics.observe(&alive, t >= settle, &x, &command, &r, path);
-        // `between_steps` per lane: the play's impacts, pushes and the windings' currents;
-        // then the trains weigh the derivative at the step's start (on lanes), which is
-        // RK4's first stage when they stay as they were, else it is taken again with the
-        // trains as they are now. The accelerometer reads it. The input held over the
-        // step: the motor torques, or the duties.
+        // Per lane, the last step's `step_ended` (the windings' currents carried to its
+        // end) and this one's `between_steps`: the play's impacts, pushes and the windings'
+        // steps (a lane copies them); then the trains weigh the derivative at the step's
+        // start (on lanes), which is RK4's first stage when they stay as they were, else it
+        // is taken again with the trains as they are now. The accelerometer reads it. The
+        // input held over the step: the motor torques (with inductance, at its start), or
+        // the duties.
         let mut held = u;
         let mut trains = [[true; 2]; LANES];
         for (l, rig) in rigs.iter_mut().enumerate() {
             let (mut xl, ul) = (lane(&x, l), lane(&u, l));
+            if k > 0 {
+                rig.plant.step_ended(&xl);
+            }
             rig.plant.step_start(t, dt, &mut xl, &ul);
             set_lane(&mut x, l, &xl);
             if let Some(torques) = rig.plant.step_torques(&xl, &ul) {
                 held[0][l] = torques[0];
                 held[1][l] = torques[1];
+            }
+            if let (STEPPED, Some(steps)) = (plants.drive, rig.plant.winding_steps()) {
+                plants.windings[l].0[0].step = steps[0];
+                plants.windings[l].0[1].step = steps[1];
             }
             trains[l] = rig.plant.trains();
         }
