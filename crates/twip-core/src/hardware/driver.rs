@@ -37,6 +37,8 @@ use nalgebra::{SVector, Vector4};
 use crate::hardware::motor::{DcMotor, BALANBOT_SUPPLY, PWM_MAX};
 use crate::model::integrate::Stage;
 use crate::model::lane::Lane;
+#[cfg(feature = "std")] // sweeps' lanes
+use crate::model::lane::{Fused, Wide};
 use crate::sim::runner::Actuator;
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
@@ -242,28 +244,27 @@ impl<T: Real> Winding<T> {
     /// its own, per step).
     #[inline]
     pub fn mean_current(&self, pwm: T, relative_speed: T) -> T {
-        if !self.inductive() {
-            return self.steady_current(pwm, relative_speed);
+        if self.inductive() {
+            self.stepped_mean()
+        } else {
+            self.steady_current(pwm, relative_speed)
         }
-        let WindingStep { current, steady, .. } = self.step;
-        clamp(steady + (current - steady) * self.factors.mean, self.limit)
     }
 
     /// Inductive only: a step of `dt` starts with the duty `pwm` held over it and the motor
-    /// at `relative_speed`; the current is the one the last step ended with.
+    /// at `relative_speed` ([`Self::begin_step`]).
     pub fn start_step(&mut self, pwm: T, relative_speed: T, dt: T) {
-        if !self.inductive() {
-            return;
+        if self.inductive() {
+            self.prepare(dt);
+            self.begin_step(pwm, relative_speed);
         }
-        self.prepare(dt);
-        self.step = WindingStep { current: self.step.current, speed: relative_speed, steady: self.free_current(pwm, relative_speed) };
     }
 
-    /// Inductive only: the step under way ended with the motor at `relative_speed`; its
-    /// current there is the next step's start.
+    /// Inductive only: the step under way ended with the motor at `relative_speed`
+    /// ([`Self::finish_step`]).
     pub fn end_step(&mut self, relative_speed: T) {
         if self.inductive() {
-            self.step.current = self.stepped_current(Stage::End, relative_speed);
+            self.finish_step(relative_speed);
         }
     }
 
@@ -322,24 +323,84 @@ impl<S: Lane> Winding<S> {
         let WindingStep { current, speed, steady } = self.step;
         clamp(S::madd(decay, current - steady, steady) - follow * (relative_speed - speed), self.limit)
     }
+
+    /// Inductive: a step starts under the duty `pwm` with the motor at `relative_speed`,
+    /// from the current the last one ended with (its factors prepared for the step size).
+    #[inline(always)]
+    pub(crate) fn begin_step(&mut self, pwm: S, relative_speed: S) {
+        self.step = WindingStep { current: self.step.current, speed: relative_speed, steady: self.free_current(pwm, relative_speed) };
+    }
+
+    /// Inductive: the step under way ended with the motor at `relative_speed`; the current
+    /// there is the next step's start.
+    #[inline(always)]
+    pub(crate) fn finish_step(&mut self, relative_speed: S) {
+        self.step.current = self.stepped_current(Stage::End, relative_speed);
+    }
+
+    /// Inductive: the current's mean over the step under way with the motor's speed held.
+    #[inline(always)]
+    pub(crate) fn stepped_mean(&self) -> S {
+        let WindingStep { current, steady, .. } = self.step;
+        clamp(S::madd(current - steady, self.factors.mean, steady), self.limit)
+    }
 }
 
 impl<T: Copy> Winding<T> {
     /// The same winding in another number type (a sweep's lanes).
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    #[inline(always)]
     pub(crate) fn map<S>(&self, f: impl Fn(T) -> S + Copy) -> Winding<S> {
-        let StepFactors { dt, start, half, end, mean } = self.factors;
-        let WindingStep { current, speed, steady } = self.step;
+        self.zip(self, move |v, _| f(v))
+    }
+
+    /// Each number with `other`'s, combined by `f` (windings side by side on a sweep's
+    /// lanes, [`Winding::side_by_side`]).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    #[inline(always)]
+    pub(crate) fn zip<U: Copy, S>(&self, other: &Winding<U>, f: impl Fn(T, U) -> S + Copy) -> Winding<S> {
+        let (a, b) = (&self.factors, &other.factors);
+        let pair = |x: (T, T), y: (U, U)| (f(x.0, y.0), f(x.1, y.1));
         Winding {
-            motor: self.motor.map(f),
-            volts_per_count: f(self.volts_per_count),
-            back_emf: f(self.back_emf),
-            conductance: f(self.conductance),
-            limit: f(self.limit),
-            tau: f(self.tau),
-            factors: StepFactors { dt: f(dt), start: (f(start.0), f(start.1)), half: (f(half.0), f(half.1)), end: (f(end.0), f(end.1)), mean: f(mean) },
-            step: WindingStep { current: f(current), speed: f(speed), steady: f(steady) },
+            motor: self.motor.zip(&other.motor, f),
+            volts_per_count: f(self.volts_per_count, other.volts_per_count),
+            back_emf: f(self.back_emf, other.back_emf),
+            conductance: f(self.conductance, other.conductance),
+            limit: f(self.limit, other.limit),
+            tau: f(self.tau, other.tau),
+            factors: StepFactors {
+                dt: f(a.dt, b.dt),
+                start: pair(a.start, b.start),
+                half: pair(a.half, b.half),
+                end: pair(a.end, b.end),
+                mean: f(a.mean, b.mean),
+            },
+            step: WindingStep { current: f(self.step.current, other.step.current), speed: f(self.step.speed, other.step.speed), steady: f(self.step.steady, other.step.steady) },
         }
+    }
+}
+
+#[cfg(feature = "std")] // sweeps' lanes
+impl Winding<f64> {
+    /// `N` windings side by side, lane j's numbers the j-th of each (a sweep's lanes).
+    pub(crate) fn side_by_side<const N: usize>(windings: &[Winding<f64>; N]) -> Winding<Wide<N>> {
+        let mut out = windings[0].map(|v| Wide([v; N]));
+        for (j, w) in windings.iter().enumerate().skip(1) {
+            out = out.zip(w, |mut lanes, v| {
+                lanes.0[j] = v;
+                lanes
+            });
+        }
+        out
+    }
+}
+
+#[cfg(feature = "std")] // sweeps' lanes
+impl<const N: usize> Winding<Wide<N>> {
+    /// Lane `j`'s winding.
+    #[inline(always)]
+    pub(crate) fn lane(&self, j: usize) -> Winding<Fused> {
+        self.map(|w| Fused(w.0[j]))
     }
 }
 
@@ -398,7 +459,7 @@ impl<T: Real, P> Driven<T, P> {
 
     /// The motors' speed relative to the body at state `x`.
     #[inline(always)]
-    fn motor_speed(&self, x: &Vector4<T>) -> T {
+    pub(crate) fn motor_speed(&self, x: &Vector4<T>) -> T {
         self.open_rotor.unwrap_or(x[3] - x[1])
     }
 

@@ -23,7 +23,7 @@ use nalgebra::{SVector, Vector2, Vector3};
 
 use crate::hardware::backlash::GearPlay;
 use crate::hardware::disturbance::{Force, Push, Pushes};
-use crate::hardware::driver::{PwmActuator, Winding, WindingStep};
+use crate::hardware::driver::{PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, ImuSettings, Mpu6050, NoiseBatch};
 use crate::hardware::realism::{Realism, Rig, RigPlant};
@@ -84,8 +84,10 @@ impl<T: Real> PlanarPlant<T> {
         self.torques_by(x, u, |w, pwm, speed| w.current_at(pwm, speed, Stage::Start))
     }
 
+    /// Each motor's speed relative to the body [rad/s at the wheel]: its wheel's, or an open
+    /// train's rotor's.
     #[inline(always)]
-    fn motor_speeds(&self, x: &PlanarState<T>) -> [T; 2] {
+    pub(crate) fn motor_speeds(&self, x: &PlanarState<T>) -> [T; 2] {
         let (w_r, w_l) = self.model.wheel_speeds(x);
         match &self.play {
             None => [w_r, w_l],
@@ -135,25 +137,32 @@ impl<T: Real> PlanarPlant<T> {
     fn gear_next(&mut self, x: &PlanarState<T>, u: &SVector<T, 2>) -> Option<PlanarState<T>> {
         self.play?;
         let (d, friction) = self.geared_motion(x, u);
-        self.gear_next_with(x, u, &d, friction).then_some(d)
+        let (motor, mean) = self.motor_torques(x, u);
+        self.gear_next_with(x, motor, mean, &d, friction).then_some(d)
     }
 
-    /// [`Self::gear_next`] given [`Self::geared_motion`] at `x` under `u` (`d` and the
-    /// gearhead torques `friction`), which a sweep's lanes compute: whether the trains
-    /// stayed as they were (always, without backlash).
+    /// The wheels' motor torques [N m] at `x` under `u`: at RK4's first stage, and from
+    /// the currents' means over the step (what an open train's rotor is driven by).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
     #[inline(always)]
-    pub(crate) fn gear_next_with(&mut self, x: &PlanarState<T>, u: &SVector<T, 2>, d: &PlanarState<T>, friction: [T; 2]) -> bool {
+    pub(crate) fn motor_torques(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> ([T; 2], [T; 2]) {
+        (self.torques(x, u).into(), self.torques_by(x, u, Winding::mean_current).into())
+    }
+
+    /// [`Self::gear_next`] given [`Self::geared_motion`] at `x` (`d` and the gearhead
+    /// torques `friction`) and the motor torques `motor` and `mean`
+    /// ([`Self::motor_torques`]), which a sweep's lanes compute: whether the trains stayed
+    /// as they were (always, without backlash).
+    #[inline(always)]
+    pub(crate) fn gear_next_with(&mut self, x: &PlanarState<T>, motor: [T; 2], mean: [T; 2], d: &PlanarState<T>, friction: [T; 2]) -> bool {
         let Some(mut play) = self.play else { return true };
         let engaged = play.engaged();
-        let motor = self.torques(x, u);
-        // An open rotor is driven by the current's mean over the step.
-        let mean = self.torques_by(x, u, Winding::mean_current);
         let zero = T::zero();
         let (acc_r, acc_l) = self.model.wheel_speeds(&PlanarState::from([zero, zero, zero, zero, d[4], d[5], d[6]]));
         let j = play.inertia();
         let (w_r, w_l) = self.model.wheel_speeds(x);
         let contact = [motor[0] - friction[0] - j * acc_r, motor[1] - friction[1] - j * acc_l];
-        play.next_step([w_r, w_l], contact, [mean[0], mean[1]]);
+        play.next_step([w_r, w_l], contact, mean);
         self.play = Some(play);
         play.engaged() == engaged
     }
@@ -165,14 +174,21 @@ impl<T: Real> PlanarPlant<T> {
     // compiled for the baseline CPU.
     #[inline(always)]
     pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) {
-        self.gear_elapsed(dt, x);
-        while let Some(p) = self.pushes.due(t, dt) {
-            push(&self.model, x, &p);
-        }
+        self.ground_start(t, dt, x);
         let [w_r, w_l] = self.motor_speeds(x);
         if let Some(d) = self.drives.as_mut() {
             d.windings[0].start_step(u[0], w_r, dt);
             d.windings[1].start_step(u[1], w_l, dt);
+        }
+    }
+
+    /// [`Self::step_start`] but for the windings' steps (which a sweep's lanes take on
+    /// lanes): the open trains' rotors advance, pushes due jump the velocities.
+    #[inline(always)]
+    pub(crate) fn ground_start(&mut self, t: T, dt: T, x: &mut PlanarState<T>) {
+        self.gear_elapsed(dt, x);
+        while let Some(p) = self.pushes.due(t, dt) {
+            push(&self.model, x, &p);
         }
     }
 
@@ -192,22 +208,6 @@ impl<T: Real> PlanarPlant<T> {
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
     pub(crate) fn trains(&self) -> [bool; 2] {
         self.play.as_ref().map_or([true; 2], |p| p.engaged())
-    }
-
-    /// The wheels' motor torques at `x` under `u` at RK4's first stage ([`Self::torques`]),
-    /// unless the windings have no inductance (their current is the duty's at each stage:
-    /// None).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn step_torques(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> Option<[T; 2]> {
-        let stepped = self.drives.is_none_or(|d| d.windings[0].inductive());
-        stepped.then(|| self.torques(x, u).into())
-    }
-
-    /// The windings' steps under way, when there is a driver.
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    #[inline(always)]
-    pub(crate) fn winding_steps(&self) -> Option<[WindingStep<T>; 2]> {
-        self.drives.as_ref().map(|d| [d.windings[0].step, d.windings[1].step])
     }
 
     /// Each wheel's winding and the wheel torque per ampere, when there is a driver.

@@ -14,7 +14,7 @@ use nalgebra::{SVector, Vector4};
 
 use crate::control::{Controller, Reference};
 use crate::hardware::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_SLOPE_CHANGES};
-use crate::hardware::driver::{Driven, MotorDriver, PwmActuator, Winding, WindingStep};
+use crate::hardware::driver::{Driven, MotorDriver, PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuClock, ImuReading, ImuSettings, Mpu6050, NoiseBatch};
 use crate::hardware::backlash::Backlash;
@@ -504,7 +504,8 @@ impl<T: Real> Plant<T, 4, 1> for RealPlant<T> {
     /// current is the one `deriv` computes.
     #[inline]
     fn between_steps_with_derivative(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) -> Option<Vector4<T>> {
-        let (current, mean) = self.step_start(t, dt, x, u[0]);
+        let current = self.step_start(t, dt, x, u[0]);
+        let mean = self.mean_current(x, u[0]);
         let first = self.ground_mut().gear_next(x, current, mean);
         self.step_end(x);
         first
@@ -549,27 +550,52 @@ impl<T: Real> RealPlant<T> {
 
     /// `between_steps` up to the trains' next step (`Disturbed::gear_next`): the open
     /// rotors' elapsed step and impacts, pushes, the winding's step (turning with the open
-    /// rotors). Returns the lumped current that drives the mechanics at RK4's first stage
-    /// (for the input `u` a current, or a duty through the winding), and its mean over the
-    /// step with the motors' speed held, which drives an open train's rotor (the same
-    /// but for a winding with inductance). Within the step a winding's current follows
-    /// the state: its input is the duty ([`Self::driven_winding`]).
+    /// rotors). Returns the lumped current that drives the mechanics at RK4's first stage:
+    /// for the input `u` a current, or a duty through the winding (within the step its
+    /// current follows the state: its input is the duty, [`Self::driven_winding`]).
     #[inline(always)]
-    pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) -> (T, T) {
+    pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) -> T {
+        self.ground_start(t, dt, x, u);
         match self {
-            Self::Current(p) => {
-                p.gear_elapsed(dt, x);
-                p.between_steps(t, dt, x, &SVector::<T, 1>::new(u));
-                (u, u)
-            }
+            Self::Current(_) => u,
             Self::Driven(p) => {
-                p.plant_mut().gear_elapsed(dt, x);
-                p.plant_mut().between_steps(t, dt, x, &SVector::<T, 1>::new(u));
-                let open = p.plant_mut().open_rotor_speed(x);
-                p.turn_motors_at(open);
                 p.start_step(x, u, dt);
-                (p.lumped_current_at(x, u, Stage::Start), p.mean_lumped_current(x, u))
+                p.lumped_current_at(x, u, Stage::Start)
             }
+        }
+    }
+
+    /// [`Self::step_start`] but for the winding's step (which a sweep's lanes take on
+    /// lanes): the open rotors' elapsed step and impacts, pushes, and the motors turning
+    /// with the open rotors.
+    #[inline(always)]
+    pub(crate) fn ground_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) {
+        let ground = self.ground_mut();
+        ground.gear_elapsed(dt, x);
+        ground.between_steps(t, dt, x, &SVector::<T, 1>::new(u));
+        if let Self::Driven(p) = self {
+            let open = p.plant_mut().open_rotor_speed(x);
+            p.turn_motors_at(open);
+        }
+    }
+
+    /// The motors' speed relative to the body at `x` (an open train's rotor's), when driven.
+    #[inline(always)]
+    pub(crate) fn motor_speed(&self, x: &Vector4<T>) -> Option<T> {
+        match self {
+            Self::Current(_) => None,
+            Self::Driven(p) => Some(p.motor_speed(x)),
+        }
+    }
+
+    /// The lumped current's mean over the step started at `x` under `u`, the motors'
+    /// speed held: what drives an open gear train's rotor (for a winding with inductance,
+    /// not the first stage's).
+    #[inline(always)]
+    pub(crate) fn mean_current(&self, x: &Vector4<T>, u: T) -> T {
+        match self {
+            Self::Current(_) => u,
+            Self::Driven(p) => p.mean_lumped_current(x, u),
         }
     }
 
@@ -580,15 +606,6 @@ impl<T: Real> RealPlant<T> {
         if let Self::Driven(p) = self {
             let open = p.plant_mut().open_rotor_speed(x);
             p.turn_motors_at(open);
-        }
-    }
-
-    /// A driver's winding's step under way.
-    #[inline(always)]
-    pub(crate) fn winding_step(&self) -> Option<WindingStep<T>> {
-        match self {
-            Self::Driven(p) => Some(p.winding().0.step),
-            Self::Current(_) => None,
         }
     }
 

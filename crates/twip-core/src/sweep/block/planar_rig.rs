@@ -16,6 +16,7 @@ use nalgebra::SVector;
 
 use super::planar::{LanePath, Metrics, Plants, PlanarLaneLaw};
 use super::rig::block_rigs;
+use super::winding::WindingLanes;
 use super::{chunk, multiversioned, CHUNKS};
 use crate::Dynamics;
 use crate::hardware::disturbance::Force;
@@ -128,9 +129,9 @@ struct RigPlants {
     gear: u8,
     friction: Friction<Fused>,
     drive: u8,
-    /// Each lane's windings and torque per ampere, when there is a driver (else any,
-    /// unused); with inductance, their steps are the rig's, set each step.
-    windings: [([Winding<f64>; 2], f64); LANES],
+    /// Each lane's right and left windings and the torque per ampere, when there is a
+    /// driver (else any, unused).
+    windings: [WindingLanes; 2],
     forces: [Force<f64>; LANES],
     /// Each lane's rotor inertia per wheel (an open train takes it off).
     rotors: Lanes,
@@ -170,15 +171,15 @@ impl RigPlants {
     /// inductance, or duties without).
     #[inline(always)]
     fn field<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, l: usize, u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> RigField<'_, GEAR, DRIVE, GEARED> {
-        let ([right, left], per_amp) = &self.windings[l];
+        let ((right, per_amp), (left, _)) = (self.windings[0].lane(l), self.windings[1].lane(l));
         RigField {
             k: self.plants.lane(l),
             engaged: trains[l],
             rotor: Fused(self.rotors[l]),
             friction: &self.friction,
             u: [Fused(u[0][l]), Fused(u[1][l])],
-            windings: [right.map(Fused), left.map(Fused)],
-            per_amp: Fused(*per_amp),
+            windings: [right, left],
+            per_amp,
             force: self.forces[l].map(Fused),
         }
     }
@@ -366,16 +367,23 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
         },
         // Unused without a friction: any friction's numbers.
         friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
-        drive: match drives(0) {
+        drive: match rigs[0].plant.drives() {
             None => HELD,
             Some((w, _)) if !w[0].inductive() => STEADY,
             Some(_) => STEPPED,
         },
-        windings: core::array::from_fn(|l| drives(l).unwrap_or(stand_in)),
+        windings: core::array::from_fn(|wheel| {
+            WindingLanes::new(&core::array::from_fn(|l| {
+                let (w, per_amp) = drives(l).unwrap_or(stand_in);
+                (w[wheel], per_amp)
+            }))
+        }),
         forces: core::array::from_fn(|l| rigs[l].plant.force()),
         rotors: core::array::from_fn(|l| models[l].rotor_per_wheel()),
     };
     let delay = rigs[0].delay;
+    // Every lane's realism has the same parts: play in all or none.
+    let geared = rigs[0].plant_play().is_some();
 
     let mut x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 }));
     let mut state = controller.start();
@@ -433,38 +441,48 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
             }
         }
         metrics.observe(&alive, t >= settle, &x, &command, &r, path);
-        // Per lane, the last step's `step_ended` (the windings' currents carried to its
-        // end) and this one's `between_steps`: the play's impacts, pushes and the windings'
-        // steps (a lane copies them); then the trains weigh the derivative at the step's
-        // start (on lanes), which is RK4's first stage when they stay as they were, else it
-        // is taken again with the trains as they are now. The accelerometer reads it. The
-        // input held over the step: the motor torques (with inductance, at its start), or
-        // the duties.
+        // Per lane, the last step's `step_ended` and this one's `between_steps`: the play's
+        // impacts, pushes and the windings' steps (with inductance on lanes: the motors'
+        // speeds where the last step ended and this one starts); then the trains weigh the
+        // derivative at the step's start (on lanes), which is RK4's first stage when they
+        // stay as they were, else it is taken again with the trains as they are now. The
+        // accelerometer reads it. The input held over the step: the motor torques (with
+        // inductance, at its first stage), or the duties.
+        let stepped = plants.drive == STEPPED;
         let mut held = u;
         let mut trains = [[true; 2]; LANES];
+        let (mut finished, mut starts) = ([[0.0; LANES]; 2], [[0.0; LANES]; 2]);
         for (l, rig) in rigs.iter_mut().enumerate() {
             let (mut xl, ul) = (lane(&x, l), lane(&u, l));
-            if k > 0 {
-                rig.plant.step_ended(&xl);
+            if stepped {
+                let [right, left] = rig.plant.motor_speeds(&xl);
+                (finished[0][l], finished[1][l]) = (right, left);
+                rig.plant.ground_start(t, dt, &mut xl);
+                let [right, left] = rig.plant.motor_speeds(&xl);
+                (starts[0][l], starts[1][l]) = (right, left);
+            } else {
+                rig.plant.step_start(t, dt, &mut xl, &ul);
             }
-            rig.plant.step_start(t, dt, &mut xl, &ul);
             set_lane(&mut x, l, &xl);
-            if let Some(torques) = rig.plant.step_torques(&xl, &ul) {
-                held[0][l] = torques[0];
-                held[1][l] = torques[1];
-            }
-            if let (STEPPED, Some(steps)) = (plants.drive, rig.plant.winding_steps()) {
-                plants.windings[l].0[0].step = steps[0];
-                plants.windings[l].0[1].step = steps[1];
-            }
             trains[l] = rig.plant.trains();
+        }
+        if stepped {
+            for (wheel, windings) in plants.windings.iter_mut().enumerate() {
+                windings.step(k > 0, &finished[wheel], &u[wheel], &starts[wheel], &mut held[wheel]);
+            }
         }
         let (mut k1, tau) = plants.motion(&x, &held, &trains);
         let before = trains;
         for (l, rig) in rigs.iter_mut().enumerate() {
             let (xl, ul) = (lane(&x, l), lane(&u, l));
-            if !rig.plant.gear_next_with(&xl, &ul, &lane(&k1, l), [tau[0][l], tau[1][l]]) {
-                trains[l] = rig.plant.trains();
+            if geared {
+                let (motor, mean) = match stepped {
+                    true => ([held[0][l], held[1][l]], [plants.windings[0].mean(l), plants.windings[1].mean(l)]),
+                    false => rig.plant.motor_torques(&xl, &ul),
+                };
+                if !rig.plant.gear_next_with(&xl, motor, mean, &lane(&k1, l), [tau[0][l], tau[1][l]]) {
+                    trains[l] = rig.plant.trains();
+                }
             }
             rig.sensors.follow_wheels(t, &xl);
         }

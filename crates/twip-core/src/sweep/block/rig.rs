@@ -15,6 +15,7 @@
 //! every CPU, thread count and block neighbour.
 use nalgebra::{SVector, Vector4};
 
+use super::winding::WindingLanes;
 use super::{chunk, multiversioned, state_chunk, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared, CHUNKS};
 use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
@@ -195,14 +196,14 @@ impl Hills {
 }
 
 /// The lanes' plants: coefficients per lane, the friction all share, and each lane's
-/// winding (used when there is a driver; with inductance, its step is the rig's, set each
-/// step) and force (its height may be the robot's own centre of mass; its part on θ: `hills`).
+/// winding (used when there is a driver) and force (its height may be the robot's own
+/// centre of mass; its part on θ: `hills`).
 struct RigPlants {
     plants: Plants,
     gear: u8,
     friction: Friction<Fused>,
     drive: u8,
-    windings: [(Winding<f64>, f64); LANES],
+    windings: WindingLanes,
     geared: bool,
     forces: [Force<f64>; LANES],
     hills: Hills,
@@ -245,8 +246,8 @@ macro_rules! by_kind {
 impl RigPlants {
     #[inline(always)]
     fn field<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, DRIVE, GEARED, CHANGES> {
-        let (winding, per_amp) = &self.windings[l];
-        let (k, friction, u, winding, per_amp) = (self.plants.lane(l), &self.friction, Fused(u), winding.map(Fused), Fused(*per_amp));
+        let (winding, per_amp) = self.windings.lane(l);
+        let (k, friction, u) = (self.plants.lane(l), &self.friction, Fused(u));
         let force = self.forces[l].map(Fused);
         RigField { k, friction, u, winding, per_amp, engaged, force, hills: &self.hills, lane: l }
     }
@@ -456,7 +457,7 @@ fn rig_block<C: LaneLaw>(
     let mut rigs: Vec<SlopeRig<f64>> = (0..LANES).map(|l| built.get(l).copied().flatten().map_or(fallback.1, |b| b.1)).collect();
     let ground = |l: usize| *rigs[l].plant.ground().model_at(&Vector4::zeros());
     let friction = ground(0).friction().copied();
-    // Each lane's winding with its factors for steps of `dt` (its steps are set each step).
+    // Each lane's winding with its factors for steps of `dt`.
     let winding = |l: usize| {
         rigs[l].plant.driven_winding().map(|(mut w, per_amp)| {
             w.prepare(dt);
@@ -474,13 +475,13 @@ fn rig_block<C: LaneLaw>(
         },
         // Unused without a friction: any friction's numbers.
         friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
-        drive: match winding(0) {
+        drive: match rigs[0].plant.driven_winding() {
             None => HELD,
             Some((w, _)) if !w.inductive() => STEADY,
             Some(_) => STEPPED,
         },
         // Unused without a driver (the held current is the input).
-        windings: core::array::from_fn(|l| winding(l).unwrap_or(stand_in)),
+        windings: WindingLanes::new(&core::array::from_fn(|l| winding(l).unwrap_or(stand_in))),
         // Every lane's realism has the same parts (but for where pushes and forces act).
         geared: rigs[0].plant.ground().has_play(),
         forces: core::array::from_fn(|l| rigs[l].plant.ground().force()),
@@ -560,25 +561,29 @@ fn rig_block<C: LaneLaw>(
             }
         }
         metrics.observe(&alive, &x, &command, &plant_phi_s, &Shared { t, r, speed_scale, direction });
-        // Per lane, the last step's `step_ended` (the winding's current carried to its end)
-        // and this one's `between_steps`: with backlash, open rotors that reach a flank
-        // engage in an impact that sets the velocities; the winding's step starts (a lane
-        // copies it); then the trains weigh the derivative at the step's start (on lanes)
-        // and may open.
-        let (mut current, mut mean) = ([0.0; LANES], [0.0; LANES]);
+        // Per lane, the last step's `step_ended` and this one's `between_steps`: with
+        // backlash, open rotors that reach a flank engage in an impact that sets the
+        // velocities; the winding's step starts (with inductance, on lanes: the motors'
+        // speeds where the last step ended and this one starts); then the trains weigh the
+        // derivative at the step's start (on lanes) and may open.
+        let stepped = plants.drive == STEPPED;
+        let (mut current, mut finished, mut starts) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
         for (l, rig) in rigs.iter_mut().enumerate() {
             let mut xl = Vector4::from(lane(&x, l));
-            if k > 0 {
-                rig.plant.step_ended(&xl);
+            if stepped {
+                finished[l] = rig.plant.motor_speed(&xl).unwrap_or_default();
+                rig.plant.ground_start(t, dt, &mut xl, u[l]);
+                starts[l] = rig.plant.motor_speed(&xl).unwrap_or_default();
+            } else {
+                current[l] = rig.plant.step_start(t, dt, &mut xl, u[l]);
             }
-            (current[l], mean[l]) = rig.plant.step_start(t, dt, &mut xl, u[l]);
             for i in 0..4 {
                 x[i][l] = xl[i];
             }
             engaged[l] = rig.plant.ground().engaged();
-            if let (STEPPED, Some(step)) = (plants.drive, rig.plant.winding_step()) {
-                plants.windings[l].0.step = step;
-            }
+        }
+        if stepped {
+            plants.windings.step(k > 0, &finished, &u, &starts, &mut current);
         }
         let before = engaged;
         // The trains weigh the derivative at the step's start; with the trains as they
@@ -590,11 +595,14 @@ fn rig_block<C: LaneLaw>(
             (k1, tau) = plants.geared_motion(&x, &current, &engaged);
             for (l, rig) in rigs.iter_mut().enumerate() {
                 let xl = Vector4::from(lane(&x, l));
-                rig.plant.ground_mut().gear_next_with(&xl, current[l], mean[l], &Vector4::from(lane(&k1, l)), tau[l]);
+                let mean = if stepped { plants.windings.mean(l) } else { rig.plant.mean_current(&xl, u[l]) };
+                rig.plant.ground_mut().gear_next_with(&xl, current[l], mean, &Vector4::from(lane(&k1, l)), tau[l]);
                 engaged[l] = rig.plant.ground().engaged();
-                // The motors turn with the rotors of trains that just opened (the step's
-                // end reads their speed).
-                rig.plant.step_end(&xl);
+                // `step_end`: the motors turn with the rotors of trains that just opened
+                // (the step's end reads their speed; those open before turn so already).
+                if before[l] && !engaged[l] {
+                    rig.plant.step_end(&xl);
+                }
             }
         }
         // Held over the step: the lumped current at its start (with inductance, the
