@@ -351,31 +351,33 @@ impl<T: Copy> Winding<T> {
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
     #[inline(always)]
     pub(crate) fn map<S>(&self, f: impl Fn(T) -> S + Copy) -> Winding<S> {
-        self.zip(self, move |v, _| f(v))
+        self.zip(self, move |&v, _| f(v))
     }
 
     /// Each number with `other`'s, combined by `f` (windings side by side on a sweep's
-    /// lanes, [`Winding::side_by_side`]).
+    /// lanes, [`Winding::side_by_side`]). The numbers are passed by reference: a lane's
+    /// winding taken from a block's ([`Winding::lane`]) reads only its lane.
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
     #[inline(always)]
-    pub(crate) fn zip<U: Copy, S>(&self, other: &Winding<U>, f: impl Fn(T, U) -> S + Copy) -> Winding<S> {
+    pub(crate) fn zip<U, S>(&self, other: &Winding<U>, f: impl Fn(&T, &U) -> S + Copy) -> Winding<S> {
         let (a, b) = (&self.factors, &other.factors);
-        let pair = |x: (T, T), y: (U, U)| (f(x.0, y.0), f(x.1, y.1));
+        let pair = |x: &(T, T), y: &(U, U)| (f(&x.0, &y.0), f(&x.1, &y.1));
+        let (s, o) = (&self.step, &other.step);
         Winding {
             motor: self.motor.zip(&other.motor, f),
-            volts_per_count: f(self.volts_per_count, other.volts_per_count),
-            back_emf: f(self.back_emf, other.back_emf),
-            conductance: f(self.conductance, other.conductance),
-            limit: f(self.limit, other.limit),
-            tau: f(self.tau, other.tau),
+            volts_per_count: f(&self.volts_per_count, &other.volts_per_count),
+            back_emf: f(&self.back_emf, &other.back_emf),
+            conductance: f(&self.conductance, &other.conductance),
+            limit: f(&self.limit, &other.limit),
+            tau: f(&self.tau, &other.tau),
             factors: StepFactors {
-                dt: f(a.dt, b.dt),
-                start: pair(a.start, b.start),
-                half: pair(a.half, b.half),
-                end: pair(a.end, b.end),
-                mean: f(a.mean, b.mean),
+                dt: f(&a.dt, &b.dt),
+                start: pair(&a.start, &b.start),
+                half: pair(&a.half, &b.half),
+                end: pair(&a.end, &b.end),
+                mean: f(&a.mean, &b.mean),
             },
-            step: WindingStep { current: f(self.step.current, other.step.current), speed: f(self.step.speed, other.step.speed), steady: f(self.step.steady, other.step.steady) },
+            step: WindingStep { current: f(&s.current, &o.current), speed: f(&s.speed, &o.speed), steady: f(&s.steady, &o.steady) },
         }
     }
 }
@@ -386,7 +388,8 @@ impl Winding<f64> {
     pub(crate) fn side_by_side<const N: usize>(windings: &[Winding<f64>; N]) -> Winding<Wide<N>> {
         let mut out = windings[0].map(|v| Wide([v; N]));
         for (j, w) in windings.iter().enumerate().skip(1) {
-            out = out.zip(w, |mut lanes, v| {
+            out = out.zip(w, |&lanes, &v| {
+                let mut lanes = lanes;
                 lanes.0[j] = v;
                 lanes
             });
@@ -397,10 +400,10 @@ impl Winding<f64> {
 
 #[cfg(feature = "std")] // sweeps' lanes
 impl<const N: usize> Winding<Wide<N>> {
-    /// Lane `j`'s winding.
+    /// Lane `j`'s winding: inlined into a loop over lanes, it reads only the numbers used.
     #[inline(always)]
     pub(crate) fn lane(&self, j: usize) -> Winding<Fused> {
-        self.map(|w| Fused(w.0[j]))
+        self.zip(self, |w, _| Fused(w.0[j]))
     }
 }
 

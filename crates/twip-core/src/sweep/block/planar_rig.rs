@@ -73,15 +73,13 @@ impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> RigField<'_, GEAR, DRI
     fn motion(&self, x: &[Fused; 7]) -> ([Fused; 7], [Fused; 2]) {
         // As `PlanarPlant::torques` with the trains engaged (motor speed = wheel speed; an
         // open train's torque is not read).
-        let u = if DRIVE == STEADY { self.torques(x, |w, pwm, speed| w.steady_current(pwm, speed)) } else { self.u };
+        let u = if DRIVE == STEADY {
+            let [w_r, w_l] = wheel_speeds(&self.k, x);
+            [self.per_amp * self.windings[0].steady_current(self.u[0], w_r), self.per_amp * self.windings[1].steady_current(self.u[1], w_l)]
+        } else {
+            self.u
+        };
         self.motion_under(x, u)
-    }
-
-    /// Each wheel's torque from its winding's current `current(winding, duty, wheel speed)`.
-    #[inline(always)]
-    fn torques(&self, x: &[Fused; 7], current: impl Fn(&Winding<Fused>, Fused, Fused) -> Fused) -> [Fused; 2] {
-        let w = wheel_speeds(&self.k, x);
-        [self.per_amp * current(&self.windings[0], self.u[0], w[0]), self.per_amp * current(&self.windings[1], self.u[1], w[1])]
     }
 
     /// [`Self::motion`] under the wheel torques `u`.
@@ -115,7 +113,11 @@ impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> Field<Fused, 7> for Ri
     #[inline(always)]
     fn at_stage(&self, x: &[Fused; 7], stage: Stage) -> [Fused; 7] {
         if DRIVE == STEPPED {
-            self.motion_under(x, self.torques(x, |w, _, speed| w.stepped_current(stage, speed))).0
+            // Written out, not through a closure: a profile found such a closure out of
+            // line in a kernel 3x slower than this one.
+            let [w_r, w_l] = wheel_speeds(&self.k, x);
+            let torques = [self.per_amp * self.windings[0].stepped_current(stage, w_r), self.per_amp * self.windings[1].stepped_current(stage, w_l)];
+            self.motion_under(x, torques).0
         } else {
             self.motion(x).0
         }
