@@ -195,7 +195,7 @@ def test_claims_the_report_missed_are_rows():
 
 def test_table_5_2_figure_draws_no_result_for_a_thesis_like_run_that_fell():
     """A thesis-like run that fell has no mean error to compare: no ring is drawn for it and
-    its dot says it fell (the report's circle-smc falls at 6.13 s nominal and +20 %)."""
+    its dot says it fell (the report's circle-smc falls on the nominal and +20 % plants)."""
     pytest.importorskip("matplotlib")
     from twip import plot
 

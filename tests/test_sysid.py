@@ -74,10 +74,9 @@ def test_intervals_cover_the_truth_over_noise_seeds():
 @pytest.mark.parametrize("name, seconds, limit, tolerance", [("flat-lqr", 12.0, 2.0, 1e-5), ("slope-lqr", 8.0, 0.5, 1e-4)])
 def test_an_exact_pwm_log_through_an_inductive_driver_gives_the_robot_back(name, seconds, limit, tolerance):
     """The thesis-like driver (1 mH, 2 A) on the thesis-like rig with true sensors, no gearhead
-    friction or backlash; on the slope with a 0.5 A limit, which clamps the current (92 samples).
+    friction or backlash; on the slope with a 0.5 A limit, which clamps the current (89 samples).
     The shooting carries the winding's current as the simulator does. Measured: largest error
-    3.8e-6 (flat; i_body) and 3.5e-5 (slope). The current algebraic, as the estimator had it:
-    1.2 % and 1.1 % (i_body). Not 1e-12: each segment starts from the steady current of the duty
+    1.7e-6 (flat) and 1.7e-5 (slope; i_body). The current algebraic: 0.32 % and 0.22 % (i_body). Not 1e-12: each segment starts from the steady current of the duty
     held before it (a few mA from the true one); from the first sample's duty the slope's
     error was 1.3e-4."""
     base = twip.Realism.thesis_like().replace(imu=None, encoder_cpr=None, friction=None, backlash=None)
@@ -97,8 +96,8 @@ def test_the_rigs_raw_sensors_identify_the_robot():
     """The thesis-like rig: PWM duty in, the MPU-6050's gyro and accelerometer registers
     (DLPF, noise, bias, quantisation) and the encoder's counts out. Measured: within 0.3 %
     with a driver without inductance and current limit (all four), and with the thesis-like
-    one's 1 mH and 2 A (com_height -0.30 %; i_body -0.14 %, where the current held algebraic
-    gave -1.9 %). Without the gearheads' friction and backlash: the fit's model has neither here
+    one's 1 mH and 2 A (com_height -0.34 %; i_body +0.16 %, where the current held algebraic
+    gives +0.60 %). Without the gearheads' friction and backlash: the fit's model has neither here
     (test_gearhead_friction_is_fitted_too has the friction)."""
     base = twip.Realism.thesis_like().replace(friction=None, backlash=None)
     ideal_driver = base.replace(motor=base.motor.replace(inductance=0.0, current_limit=None))

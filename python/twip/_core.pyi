@@ -906,8 +906,9 @@ def sysid_shoot(
     last). `u[i]` is held over
     [t_i, t_i+1): the lumped current [A], or with `drivers` (one MotorDriver per model) the
     PWM duty [counts]. A driver with inductance carries its winding's current along each
-    segment, advanced once per RK4 step as `simulate` does (from the steady current of the
-    duty held before the segment's first sample); without, the current is algebraic.
+    segment, and each RK4 stage feels it within the step, as `simulate` does (from the
+    steady current of the duty held before the segment's first sample); without, the
+    current is algebraic.
     """
 def ffi_firmware(realism: Realism, params: RobotParams) -> dict[str, Any]:
     """`ffi_firmware(realism, params)`: the C configurations of the firmware pieces the

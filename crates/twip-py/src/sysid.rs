@@ -20,8 +20,9 @@ type Out<'py> = (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>, Bound<'py
 /// last). `u[i]` is held over
 /// [t_i, t_i+1): the lumped current [A], or with `drivers` (one MotorDriver per model) the
 /// PWM duty [counts]. A driver with inductance carries its winding's current along each
-/// segment, advanced once per RK4 step as `simulate` does (from the steady current of the
-/// duty held before the segment's first sample); without, the current is algebraic.
+/// segment, and each RK4 stage feels it within the step, as `simulate` does (from the
+/// steady current of the duty held before the segment's first sample); without, the
+/// current is algebraic.
 #[pyfunction]
 #[pyo3(signature = (models, starts, t, u, segments, max_step = 1e-3, drivers = None))]
 #[allow(clippy::too_many_arguments)]

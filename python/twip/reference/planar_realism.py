@@ -52,10 +52,18 @@ class PlanarPlant:
         w = self.wheel_speeds(x)
         return list(w) if self.play is None else self.play.motor_speeds(w)
 
-    def torques(self, x, u):
+    def torques(self, x, u, stage="start"):
+        """The wheel torques at an RK4 stage."""
         if self.windings is None:
             return list(u)
-        return [self.torque_per_amp * d.held_at(wi, ui) for d, wi, ui in zip(self.windings, self.motor_speeds(x), u)]
+        speeds = self.motor_speeds(x)
+        return [self.torque_per_amp * d.stage_current_at(wi, ui, stage) for d, wi, ui in zip(self.windings, speeds, u)]
+
+    def mean_torques(self, x, u):
+        """The wheel torques' means over the step (what an open train's rotor is driven by)."""
+        if self.windings is None:
+            return list(u)
+        return [self.torque_per_amp * d.mean_current_at(wi, ui) for d, wi, ui in zip(self.windings, self.motor_speeds(x), u)]
 
     def shaft_offsets(self):
         return [0.0, 0.0] if self.play is None else list(self.play.offset)
@@ -71,9 +79,9 @@ class PlanarPlant:
     def body_force(self, fx, fz, height, phi):
         return height * (fx * math.cos(phi) - fz * math.sin(phi)), fx
 
-    def deriv(self, x, u):
+    def deriv(self, x, u, stage="start"):
         extra = self.body_force(*self.force, x[3]) if self.has_force else None
-        return self.model.deriv_geared(x, self.torques(x, u), self.engaged(), extra)[0]
+        return self.model.deriv_geared(x, self.torques(x, u, stage), self.engaged(), extra)[0]
 
     def between_steps(self, t, dt, x, u):
         if self.play is not None:
@@ -89,7 +97,7 @@ class PlanarPlant:
             x[5] += jump[1]
         if self.windings is not None:
             for d, wi, ui in zip(self.windings, self.motor_speeds(x), u):
-                d.advance_at(wi, ui, dt)
+                d.start_step_at(wi, ui, dt)
         if self.play is not None:
             motor = self.torques(x, u)
             extra = self.body_force(*self.force, x[3]) if self.has_force else None
@@ -97,7 +105,13 @@ class PlanarPlant:
             w = self.wheel_speeds(x)
             acc = self.wheel_speeds([0, 0, 0, 0, d[4], d[5], d[6]])
             j = self.play.inertia
-            self.play.next_step(list(w), [m - f - j * a for m, f, a in zip(motor, tau, acc)], motor)
+            self.play.next_step(list(w), [m - f - j * a for m, f, a in zip(motor, tau, acc)], self.mean_torques(x, u))
+
+    def end_step(self, x):
+        """The step under way ended at x: the windings' currents are carried to it."""
+        if self.windings is not None:
+            for d, wi in zip(self.windings, self.motor_speeds(x)):
+                d.end_step_at(wi)
 
     def currents(self, x, u):
         if self.windings is None:
@@ -213,6 +227,7 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
         ss.append(list(signals))
         plant.between_steps(t, dt, x, u)
         x = rk4_sampled(plant, sensors, t, x, u, dt)
+        plant.end_step(x)
         if abs(x[3]) > fall_limit:
             outcome = "fell"
             break

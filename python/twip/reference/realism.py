@@ -350,8 +350,11 @@ def _round_half_away(v):
 
 class Driven:
     """Per motor: V = pwm/255 (V_bat - V_drop); L di/dt = V - R i - k eta (theta' - phi');
-    |i| <= limit; the plant gets the lumped current 2 eff i. With L > 0 the current is
-    advanced once per step exactly for the voltage and speed held over it."""
+    |i| <= limit; the plant gets the lumped current 2 eff i. With L > 0 the current is a
+    state carried from step to step, and each RK4 stage ("start", "half", "end") feels the
+    exact solution for the duty held and the speed linear in time from the step's start to
+    the stage; the first stage weighs the decaying transient so that RK4 integrates it
+    exactly (as twip-core's `Winding::stepped_current`)."""
 
     PWM_MAX = 255.0
 
@@ -364,8 +367,10 @@ class Driven:
         self.lumped_per_amp = 2.0 * driver.efficiency
         self.limit = driver.current_limit
         self.tau = driver.inductance / driver.resistance
-        self.factors = None
-        self.current = self.held = 0.0
+        # Per stage: (weight of the transient i0 - i_ss(w0), current per rad/s of the speed's change).
+        self.factors = {"dt": 0.0, "start": (0.0, 0.0), "half": (0.0, 0.0), "end": (0.0, 0.0), "mean": 0.0}
+        # The step under way: the current and the speed at its start, the steady current there.
+        self.current = self.speed = self.steady = 0.0
         self.open_rotor = None  # the motors' speed while their gear trains are open (backlash)
 
     def motor_speed(self, x):
@@ -375,18 +380,37 @@ class Driven:
         volts = _clamp(pwm, self.PWM_MAX) * self.volts_per_count
         return (volts - self.back_emf * w) * self.conductance
 
-    def advance_at(self, w, pwm, dt):
-        """Advances the current over a step at the relative wheel speed w (inductive only)."""
+    def _prepare(self, dt):
+        if self.factors["dt"] == dt:
+            return
+        tau, per_speed = self.tau, self.back_emf * self.conductance
+
+        def at(s):
+            decay = math.exp(-s / tau)
+            return decay, per_speed * (1.0 - tau / s * (1.0 - decay))
+
+        half, end = at(dt / 2.0), at(dt)
+        mean = tau / dt * (1.0 - end[0])
+        # Simpson's weights (1, 4, 1)/6 then integrate the transient e^(-s/tau) exactly.
+        first = 6.0 * mean - 4.0 * half[0] - end[0]
+        self.factors = {"dt": dt, "start": (first, 0.0), "half": half, "end": end, "mean": mean}
+
+    def stepped_at(self, w, stage):
+        """Inductive: the current at an RK4 stage, the motor at w there."""
+        decay, follow = self.factors[stage]
+        return _clamp(decay * (self.current - self.steady) + self.steady - follow * (w - self.speed), self.limit)
+
+    def start_step_at(self, w, pwm, dt):
+        """A step of dt starts at the relative wheel speed w under the duty pwm (inductive only)."""
         if self.tau <= 0:
             return
-        if self.factors is None or self.factors[0] != dt:
-            decay = math.exp(-dt / self.tau)
-            self.factors = (dt, decay, self.tau / dt * (1.0 - decay))
-        _, decay, average = self.factors
-        target = self.free_current(pwm, w)
-        gap = self.current - target
-        self.held = _clamp(target + gap * average, self.limit)
-        self.current = _clamp(target + gap * decay, self.limit)
+        self._prepare(dt)
+        self.speed, self.steady = w, self.free_current(pwm, w)
+
+    def end_step_at(self, w):
+        """The step under way ended at the relative wheel speed w (inductive only)."""
+        if self.tau > 0:
+            self.current = self.stepped_at(w, "end")
 
     def current_at(self, w, pwm):
         """Per motor, now, at the relative wheel speed w."""
@@ -394,23 +418,38 @@ class Driven:
             return self.current
         return _clamp(self.free_current(pwm, w), self.limit)
 
-    def held_at(self, w, pwm):
-        """Per motor, what the mechanics feel over the step."""
-        return self.held if self.tau > 0 else _clamp(self.free_current(pwm, w), self.limit)
+    def stage_current_at(self, w, pwm, stage):
+        """Per motor, at an RK4 stage, at the relative wheel speed w there."""
+        if self.tau > 0:
+            return self.stepped_at(w, stage)
+        return _clamp(self.free_current(pwm, w), self.limit)
 
-    def advance(self, x, pwm, dt):
-        self.advance_at(self.motor_speed(x), pwm, dt)
+    def mean_current_at(self, w, pwm):
+        """Per motor, the mean over the step with the speed w held (an open train's rotor)."""
+        if self.tau <= 0:
+            return _clamp(self.free_current(pwm, w), self.limit)
+        return _clamp(self.steady + (self.current - self.steady) * self.factors["mean"], self.limit)
+
+    def start_step(self, x, pwm, dt):
+        self.start_step_at(self.motor_speed(x), pwm, dt)
+
+    def end_step(self, x):
+        self.end_step_at(self.motor_speed(x))
 
     def motor_current(self, x, pwm):
         """Per motor, now."""
         return self.current_at(self.motor_speed(x), pwm)
 
-    def mechanical_current(self, x, pwm):
-        """The lumped current the mechanics feel over the step."""
-        return self.lumped_per_amp * self.held_at(self.motor_speed(x), pwm)
+    def stage_current(self, x, pwm, stage):
+        """The lumped current the mechanics feel at an RK4 stage."""
+        return self.lumped_per_amp * self.stage_current_at(self.motor_speed(x), pwm, stage)
 
-    def deriv(self, x, pwm):
-        return self.plant.deriv(x, self.mechanical_current(x, pwm))
+    def mean_current(self, x, pwm):
+        """The lumped current's mean over the step (an open train's rotor)."""
+        return self.lumped_per_amp * self.mean_current_at(self.motor_speed(x), pwm)
+
+    def deriv(self, x, pwm, stage="start"):
+        return self.plant.deriv(x, self.stage_current(x, pwm, stage))
 
 
 class PwmActuator:
@@ -479,15 +518,17 @@ class Disturbed:
             model = self.models[self.segment(x[2] * self.radius)]
             self.play.engage(0, model.engage(x, hit))
 
-    def gear_next(self, x, current):
+    def gear_next(self, x, current, mean):
+        """`current`: the lumped current at RK4's first stage; `mean`: its mean over the step
+        (what an open train's rotor is driven by)."""
         if self.play is None:
             return
         i = self.segment(x[2] * self.radius)
         model = self.models[i]
-        motor = self.params.gear_ratio * self.params.torque_constant * current
+        per_amp = self.params.gear_ratio * self.params.torque_constant
         d, tau = model.deriv_geared(x, current, self.play.engaged()[0], self._extra(i, x))
-        contact = motor - 2.0 * tau - self.play.inertia * (d[3] - d[1])
-        self.play.next_step([x[3] - x[1]], [contact], [motor])
+        contact = per_amp * current - 2.0 * tau - self.play.inertia * (d[3] - d[1])
+        self.play.next_step([x[3] - x[1]], [contact], [per_amp * mean])
 
     def _extra(self, i, x):
         if not self.has_force:
@@ -502,7 +543,7 @@ class Disturbed:
             i -= 1
         return i
 
-    def deriv(self, x, u):
+    def deriv(self, x, u, stage="start"):
         i = self.segment(x[2] * self.radius)
         engaged = True if self.play is None else self.play.engaged()[0]
         return self.models[i].deriv_geared(x, u, engaged, self._extra(i, x))[0]
@@ -614,20 +655,22 @@ class RigRun:
 
 
 def rk4_sampled(plant, sensors, t, x, u, dt):
-    """One RK4 step of `plant`, its first stage shared with the sensors' sample (as the core's run_loop)."""
+    """One RK4 step of `plant`, its first stage shared with the sensors' sample (as the core's
+    run_loop); each stage says where in the step it is (an inductive winding's current moves)."""
     half = dt * 0.5
     k1 = plant.deriv(x, u)
     sensors.sample(t, x, k1)
-    k2 = plant.deriv(x + k1 * half, u)
-    k3 = plant.deriv(x + k2 * half, u)
-    k4 = plant.deriv(x + k3 * dt, u)
+    k2 = plant.deriv(x + k1 * half, u, "half")
+    k3 = plant.deriv(x + k2 * half, u, "half")
+    k4 = plant.deriv(x + k3 * dt, u, "end")
     return x + (k1 + (k2 + k3) * 2.0 + k4) * (dt / 6.0)
 
 
 def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fall_limit=math.radians(60)) -> RigRun:
     """The loop of twip-core's `simulate_rig`: per step, read/update/drive every control
-    period (the command optionally one period late), log, kick and advance the plant,
-    then RK4 with its first stage shared with the sensor's sample."""
+    period (the command optionally one period late), log, kick the plant and start the
+    winding's step, then RK4 with its first stage shared with the sensor's sample, and the
+    winding's current carried to the step's end."""
     params = model.params
     period = realism.control_period if realism.control_period is not None else controller.period
     controller.period = period
@@ -674,12 +717,14 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
         ground.kick(t, dt, x)
         if actuator is not None:
             plant.open_rotor = ground.open_rotor_speed(x)
-            plant.advance(x, u, dt)
-            ground.gear_next(x, plant.mechanical_current(x, u))
+            plant.start_step(x, u, dt)
+            ground.gear_next(x, plant.stage_current(x, u, "start"), plant.mean_current(x, u))
             plant.open_rotor = ground.open_rotor_speed(x)
         else:
-            ground.gear_next(x, u)
+            ground.gear_next(x, u, u)
         x = rk4_sampled(plant, sensors, t, x, u, dt)
+        if actuator is not None:
+            plant.end_step(x)
         if abs(x[0]) > fall_limit:
             outcome = "fell"
             break

@@ -38,7 +38,7 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
     - `sensors`: encoder counts per turn and IMU height, for enc and accel columns.
     - `max_step` [s]: sample intervals longer than this are split into equal RK4 steps; for a
       log of a twip run, its `dt` (the default is `twip.simulate`'s), so that the prediction
-      takes the simulator's steps (with winding inductance the current moves once per step).
+      takes the simulator's steps (with winding inductance the current moves within each step).
     - `signals`: which logged outputs to compare (default all present); `weights`: their
       noise standard deviations (default estimated from the data, then from the fit).
     - `method`: "shooting" (the prediction error by multiple shooting, the default) or

@@ -369,13 +369,14 @@ impl<T: Real> Disturbed<T> {
     }
 
     /// A step starts at `x` under the lumped `current`: engaged trains whose contact
-    /// torque would pull the flanks apart open, and the motors' torque is noted. Returns
-    /// the derivative the trains weighed when they stay as they were (then it is this
-    /// plant's `deriv` at `x` under `current`); None without backlash.
-    pub fn gear_next(&mut self, x: &Vector4<T>, current: T) -> Option<Vector4<T>> {
+    /// torque would pull the flanks apart open, and the motors' torque over the step is
+    /// noted (that of the lumped current `mean`, the current's mean over the step at the
+    /// motors' speed). Returns the derivative the trains weighed when they stay as they
+    /// were (then it is this plant's `deriv` at `x` under `current`); None without backlash.
+    pub fn gear_next(&mut self, x: &Vector4<T>, current: T, mean: T) -> Option<Vector4<T>> {
         let engaged = self.play?.engaged();
         let (d, friction) = self.piece(x).deriv_geared(x, current, engaged[0], &self.force, self.has_force);
-        self.gear_next_with(x, current, &d, friction);
+        self.gear_next_with(x, current, mean, &d, friction);
         (self.play?.engaged() == engaged).then_some(d)
     }
 
@@ -383,12 +384,12 @@ impl<T: Real> Disturbed<T> {
     /// `friction` at `x` under `current` with the trains as they are (`deriv_geared`'s): a
     /// sweep's lanes compute those for all of them at once.
     #[inline(always)]
-    pub(crate) fn gear_next_with(&mut self, x: &Vector4<T>, current: T, d: &Vector4<T>, friction: T) {
+    pub(crate) fn gear_next_with(&mut self, x: &Vector4<T>, current: T, mean: T, d: &Vector4<T>, friction: T) {
         // Every piece is the same robot's (only the slope differs).
-        let motor = self.pieces[0].model.params().torque_per_amp() * current;
+        let per_amp = self.pieces[0].model.params().torque_per_amp();
         let Some(play) = self.play.as_mut() else { return };
-        let contact = motor - c::<T>(2.0) * friction - play.inertia() * (d[3] - d[1]);
-        play.next_step([x[3] - x[1]], [contact], [motor]);
+        let contact = per_amp * current - c::<T>(2.0) * friction - play.inertia() * (d[3] - d[1]);
+        play.next_step([x[3] - x[1]], [contact], [per_amp * mean]);
     }
 
     /// The same plant with gearhead friction on every piece of the ground (validated).

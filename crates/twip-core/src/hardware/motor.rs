@@ -199,14 +199,23 @@ impl<T: Copy> DcMotor<T> {
     }
 
     /// The same motor in another number type (onto a sweep's lanes).
+    #[inline(always)]
     pub(crate) fn map<S>(&self, f: impl Fn(T) -> S) -> DcMotor<S> {
+        self.zip(self, |&v, _| f(v))
+    }
+
+    /// Each number with `other`'s, combined by `f` (motors side by side on a sweep's lanes).
+    #[inline(always)]
+    /// The numbers are passed by reference: a lane's motor taken from a block's
+    /// (`DcMotor<Wide>`) reads only its lane.
+    pub(crate) fn zip<U, S>(&self, other: &DcMotor<U>, f: impl Fn(&T, &U) -> S) -> DcMotor<S> {
         DcMotor {
-            resistance: f(self.resistance),
-            k_t: f(self.k_t),
-            gear_ratio: f(self.gear_ratio),
-            friction: f(self.friction),
-            supply: f(self.supply),
-            pwm_max: f(self.pwm_max),
+            resistance: f(&self.resistance, &other.resistance),
+            k_t: f(&self.k_t, &other.k_t),
+            gear_ratio: f(&self.gear_ratio, &other.gear_ratio),
+            friction: f(&self.friction, &other.friction),
+            supply: f(&self.supply, &other.supply),
+            pwm_max: f(&self.pwm_max, &other.pwm_max),
         }
     }
 }

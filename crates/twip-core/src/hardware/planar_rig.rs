@@ -30,6 +30,7 @@ use crate::hardware::realism::{Realism, Rig, RigPlant};
 #[cfg(all(test, feature = "std"))]
 use crate::model::friction::Friction;
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
+use crate::model::integrate::Stage;
 use crate::model::lane::Lane;
 use crate::model::planar::{PlanarState, WheelRows};
 use crate::rng::Philox;
@@ -63,24 +64,30 @@ pub struct PlanarPlant<T: Real> {
 }
 
 impl<T: Real> PlanarPlant<T> {
-    /// The wheel torques [N m] the mechanics feel over the step for the input `u`; a
-    /// motor whose gear train is open turns at its rotor's speed.
+    /// The wheel torques [N m] for the input `u` at `x`, each motor's current given by
+    /// `current` (winding, duty, the motor's speed); a motor whose gear train is open turns
+    /// at its rotor's speed.
     #[inline(always)]
-    fn torques(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> SVector<T, 2> {
+    fn torques_by(&self, x: &PlanarState<T>, u: &SVector<T, 2>, current: impl Fn(&Winding<T>, T, T) -> T) -> SVector<T, 2> {
         match &self.drives {
             None => *u,
             Some(d) => {
                 let [w_r, w_l] = self.motor_speeds(x);
-                SVector::<T, 2>::new(
-                    d.torque_per_amp * d.windings[0].mechanical_current(u[0], w_r),
-                    d.torque_per_amp * d.windings[1].mechanical_current(u[1], w_l),
-                )
+                SVector::<T, 2>::new(d.torque_per_amp * current(&d.windings[0], u[0], w_r), d.torque_per_amp * current(&d.windings[1], u[1], w_l))
             }
         }
     }
 
+    /// The wheel torques [N m] at RK4's first stage.
     #[inline(always)]
-    fn motor_speeds(&self, x: &PlanarState<T>) -> [T; 2] {
+    fn torques(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> SVector<T, 2> {
+        self.torques_by(x, u, |w, pwm, speed| w.current_at(pwm, speed, Stage::Start))
+    }
+
+    /// Each motor's speed relative to the body [rad/s at the wheel]: its wheel's, or an open
+    /// train's rotor's.
+    #[inline(always)]
+    pub(crate) fn motor_speeds(&self, x: &PlanarState<T>) -> [T; 2] {
         let (w_r, w_l) = self.model.wheel_speeds(x);
         match &self.play {
             None => [w_r, w_l],
@@ -112,7 +119,14 @@ impl<T: Real> PlanarPlant<T> {
     /// driven nor braked), and each wheel's gearhead friction torque.
     #[inline(always)]
     pub(crate) fn geared_motion(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> (PlanarState<T>, [T; 2]) {
-        self.model.deriv_geared(x, &self.torques(x, u), self.trains(), |s, cp| self.extra(s, cp))
+        self.geared_motion_at(x, u, Stage::Start)
+    }
+
+    /// [`Self::geared_motion`] at an RK4 stage (the windings' currents move within a step).
+    #[inline(always)]
+    fn geared_motion_at(&self, x: &PlanarState<T>, u: &SVector<T, 2>, stage: Stage) -> (PlanarState<T>, [T; 2]) {
+        let torques = self.torques_by(x, u, |w, pwm, speed| w.current_at(pwm, speed, stage));
+        self.model.deriv_geared(x, &torques, self.trains(), |s, cp| self.extra(s, cp))
     }
 
     /// A step starts at `x` under `u`: engaged trains whose contact torque would pull the
@@ -123,42 +137,58 @@ impl<T: Real> PlanarPlant<T> {
     fn gear_next(&mut self, x: &PlanarState<T>, u: &SVector<T, 2>) -> Option<PlanarState<T>> {
         self.play?;
         let (d, friction) = self.geared_motion(x, u);
-        self.gear_next_with(x, u, &d, friction).then_some(d)
+        let (motor, mean) = self.motor_torques(x, u);
+        self.gear_next_with(x, motor, mean, &d, friction).then_some(d)
     }
 
-    /// [`Self::gear_next`] given [`Self::geared_motion`] at `x` under `u` (`d` and the
-    /// gearhead torques `friction`), which a sweep's lanes compute: whether the trains
-    /// stayed as they were (always, without backlash).
+    /// The wheels' motor torques [N m] at `x` under `u`: at RK4's first stage, and from
+    /// the currents' means over the step (what an open train's rotor is driven by).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
     #[inline(always)]
-    pub(crate) fn gear_next_with(&mut self, x: &PlanarState<T>, u: &SVector<T, 2>, d: &PlanarState<T>, friction: [T; 2]) -> bool {
+    pub(crate) fn motor_torques(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> ([T; 2], [T; 2]) {
+        (self.torques(x, u).into(), self.torques_by(x, u, Winding::mean_current).into())
+    }
+
+    /// [`Self::gear_next`] given [`Self::geared_motion`] at `x` (`d` and the gearhead
+    /// torques `friction`) and the motor torques `motor` and `mean`
+    /// ([`Self::motor_torques`]), which a sweep's lanes compute: whether the trains stayed
+    /// as they were (always, without backlash).
+    #[inline(always)]
+    pub(crate) fn gear_next_with(&mut self, x: &PlanarState<T>, motor: [T; 2], mean: [T; 2], d: &PlanarState<T>, friction: [T; 2]) -> bool {
         let Some(mut play) = self.play else { return true };
         let engaged = play.engaged();
-        let motor = self.torques(x, u);
         let zero = T::zero();
         let (acc_r, acc_l) = self.model.wheel_speeds(&PlanarState::from([zero, zero, zero, zero, d[4], d[5], d[6]]));
         let j = play.inertia();
         let (w_r, w_l) = self.model.wheel_speeds(x);
         let contact = [motor[0] - friction[0] - j * acc_r, motor[1] - friction[1] - j * acc_l];
-        play.next_step([w_r, w_l], contact, [motor[0], motor[1]]);
+        play.next_step([w_r, w_l], contact, mean);
         self.play = Some(play);
         play.engaged() == engaged
     }
 
     /// The start of a step of `dt` at time `t`, before the gear trains weigh it: the open
     /// trains' rotors advance (an impact jumps the velocities in `x`), pushes due jump
-    /// them, and the windings' currents advance under `u`.
+    /// them, and the windings' steps start under `u`.
     // Always inlined, as the 2-DOF rig's: out of line, the lanes' copies for AVX called it
     // compiled for the baseline CPU.
     #[inline(always)]
     pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) {
+        self.ground_start(t, dt, x);
+        let [w_r, w_l] = self.motor_speeds(x);
+        if let Some(d) = self.drives.as_mut() {
+            d.windings[0].start_step(u[0], w_r, dt);
+            d.windings[1].start_step(u[1], w_l, dt);
+        }
+    }
+
+    /// [`Self::step_start`] but for the windings' steps (which a sweep's lanes take on
+    /// lanes): the open trains' rotors advance, pushes due jump the velocities.
+    #[inline(always)]
+    pub(crate) fn ground_start(&mut self, t: T, dt: T, x: &mut PlanarState<T>) {
         self.gear_elapsed(dt, x);
         while let Some(p) = self.pushes.due(t, dt) {
             push(&self.model, x, &p);
-        }
-        let [w_r, w_l] = self.motor_speeds(x);
-        if let Some(d) = self.drives.as_mut() {
-            d.windings[0].advance(u[0], w_r, dt);
-            d.windings[1].advance(u[1], w_l, dt);
         }
     }
 
@@ -180,20 +210,10 @@ impl<T: Real> PlanarPlant<T> {
         self.play.as_ref().map_or([true; 2], |p| p.engaged())
     }
 
-    /// The wheels' motor torques at `x` under `u` ([`Self::torques`]) when they hold over
-    /// the step (the commanded torques, or a winding's current held over the step); None
-    /// for windings without inductance, whose current follows the speed.
+    /// Each wheel's winding and the wheel torque per ampere, when there is a driver.
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn step_torques(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> Option<[T; 2]> {
-        let held = self.drives.is_none_or(|d| d.windings[0].inductive());
-        held.then(|| self.torques(x, u).into())
-    }
-
-    /// Each wheel's winding and the wheel torque per ampere, when the windings have no
-    /// inductance (the torques follow the wheels' speeds within a step).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn steady_drives(&self) -> Option<([Winding<T>; 2], T)> {
-        self.drives.filter(|d| !d.windings[0].inductive()).map(|d| (d.windings, d.torque_per_amp))
+    pub(crate) fn drives(&self) -> Option<([Winding<T>; 2], T)> {
+        self.drives.map(|d| (d.windings, d.torque_per_amp))
     }
 }
 
@@ -239,13 +259,18 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarPlant<T> {
         self.geared_motion(x, u).0
     }
 
+    #[inline(always)]
+    fn deriv_at_stage(&self, x: &PlanarState<T>, u: &SVector<T, 2>, stage: Stage) -> PlanarState<T> {
+        self.geared_motion_at(x, u, stage).0
+    }
+
     fn energy(&self, x: &PlanarState<T>) -> T {
         self.model.energy(x)
     }
 }
 
 impl<T: Real> Plant<T, 7, 2> for PlanarPlant<T> {
-    /// Pushes jump the velocities; the windings' currents advance.
+    /// Pushes jump the velocities; the windings' steps start.
     #[inline]
     fn between_steps(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) {
         self.between_steps_with_derivative(t, dt, x, u);
@@ -255,6 +280,16 @@ impl<T: Real> Plant<T, 7, 2> for PlanarPlant<T> {
     fn between_steps_with_derivative(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) -> Option<PlanarState<T>> {
         self.step_start(t, dt, x, u);
         self.gear_next(x, u)
+    }
+
+    /// The windings' currents are carried to the step's end.
+    #[inline]
+    fn step_ended(&mut self, x: &PlanarState<T>) {
+        let [w_r, w_l] = self.motor_speeds(x);
+        if let Some(d) = self.drives.as_mut() {
+            d.windings[0].end_step(w_r);
+            d.windings[1].end_step(w_l);
+        }
     }
 
     #[inline(always)]

@@ -19,6 +19,7 @@ use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuClock, ImuReading, ImuSettings, Mpu6050, NoiseBatch};
 use crate::hardware::backlash::Backlash;
 use crate::model::friction::{Friction, GB37_STICK_SPEED};
+use crate::model::integrate::Stage;
 use crate::rng::Philox;
 use crate::sim::runner::{run_loop, Actuator, Loop, Observer, Outcome, Plant, Sensor, Signals, SimConfig, MAX_RAW};
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
@@ -405,6 +406,10 @@ impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Dynamics
         self.plant.deriv(x, u)
     }
 
+    fn deriv_at_stage(&self, x: &SVector<T, NX>, u: &SVector<T, NU>, stage: Stage) -> SVector<T, NX> {
+        self.plant.deriv_at_stage(x, u, stage)
+    }
+
     fn energy(&self, x: &SVector<T, NX>) -> T {
         self.plant.energy(x)
     }
@@ -420,6 +425,10 @@ impl<T: Real, P: Plant<T, NX, NU>, const NX: usize, const NU: usize> Plant<T, NX
             }
             None => self.not_shared += 1,
         }
+    }
+
+    fn step_ended(&mut self, x: &SVector<T, NX>) {
+        self.plant.step_ended(x);
     }
 
     fn shaft_offsets(&self) -> [T; 2] {
@@ -466,6 +475,14 @@ impl<T: Real> Dynamics<T, 4, 1> for RealPlant<T> {
         }
     }
 
+    #[inline(always)]
+    fn deriv_at_stage(&self, x: &Vector4<T>, u: &SVector<T, 1>, stage: Stage) -> Vector4<T> {
+        match self {
+            Self::Current(p) => p.deriv(x, u),
+            Self::Driven(p) => p.deriv_at_stage(x, u, stage),
+        }
+    }
+
     fn energy(&self, x: &Vector4<T>) -> T {
         match self {
             Self::Current(p) => p.energy(x),
@@ -488,9 +505,18 @@ impl<T: Real> Plant<T, 4, 1> for RealPlant<T> {
     #[inline]
     fn between_steps_with_derivative(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) -> Option<Vector4<T>> {
         let current = self.step_start(t, dt, x, u[0]);
-        let first = self.ground_mut().gear_next(x, current);
+        let mean = self.mean_current(x, u[0]);
+        let first = self.ground_mut().gear_next(x, current, mean);
         self.step_end(x);
         first
+    }
+
+    /// The winding's current is carried to the step's end.
+    #[inline]
+    fn step_ended(&mut self, x: &Vector4<T>) {
+        if let Self::Driven(p) = self {
+            p.end_step(x);
+        }
     }
 
     #[inline(always)]
@@ -523,48 +549,74 @@ impl<T: Real> RealPlant<T> {
     }
 
     /// `between_steps` up to the trains' next step (`Disturbed::gear_next`): the open
-    /// rotors' elapsed step and impacts, pushes, the winding's current (turning with the
-    /// open rotors). Returns the lumped current that drives the mechanics now: for the
-    /// input `u` a current, or a duty through a winding with inductance, also the one held
-    /// over the coming step (a winding without inductance follows the state within the
-    /// step: its input is the duty, [`Self::steady_winding`]).
+    /// rotors' elapsed step and impacts, pushes, the winding's step (turning with the open
+    /// rotors). Returns the lumped current that drives the mechanics at RK4's first stage:
+    /// for the input `u` a current, or a duty through the winding (within the step its
+    /// current follows the state: its input is the duty, [`Self::driven_winding`]).
     #[inline(always)]
     pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) -> T {
+        self.ground_start(t, dt, x, u);
         match self {
-            Self::Current(p) => {
-                p.gear_elapsed(dt, x);
-                p.between_steps(t, dt, x, &SVector::<T, 1>::new(u));
-                u
-            }
+            Self::Current(_) => u,
             Self::Driven(p) => {
-                p.plant_mut().gear_elapsed(dt, x);
-                p.plant_mut().between_steps(t, dt, x, &SVector::<T, 1>::new(u));
-                let open = p.plant_mut().open_rotor_speed(x);
-                p.turn_motors_at(open);
-                p.advance(x, u, dt);
-                p.mechanical_current(x, u)
+                p.start_step(x, u, dt);
+                p.lumped_current_at(x, u, Stage::Start)
             }
         }
     }
 
-    /// `between_steps` after the trains' next step: the motors turn with the rotors of
-    /// trains that just opened.
-    #[inline]
-    fn step_end(&mut self, x: &Vector4<T>) {
+    /// [`Self::step_start`] but for the winding's step (which a sweep's lanes take on
+    /// lanes): the open rotors' elapsed step and impacts, pushes, and the motors turning
+    /// with the open rotors.
+    #[inline(always)]
+    pub(crate) fn ground_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) {
+        let ground = self.ground_mut();
+        ground.gear_elapsed(dt, x);
+        ground.between_steps(t, dt, x, &SVector::<T, 1>::new(u));
         if let Self::Driven(p) = self {
             let open = p.plant_mut().open_rotor_speed(x);
             p.turn_motors_at(open);
         }
     }
 
-    /// A driver without inductance: its winding and the lumped current per ampere.
-    pub(crate) fn steady_winding(&self) -> Option<(Winding<T>, T)> {
+    /// The motors' speed relative to the body at `x` (an open train's rotor's), when driven.
+    #[inline(always)]
+    pub(crate) fn motor_speed(&self, x: &Vector4<T>) -> Option<T> {
         match self {
-            Self::Driven(p) if !p.inductive() => {
+            Self::Current(_) => None,
+            Self::Driven(p) => Some(p.motor_speed(x)),
+        }
+    }
+
+    /// The lumped current's mean over the step started at `x` under `u`, the motors'
+    /// speed held: what drives an open gear train's rotor (for a winding with inductance,
+    /// not the first stage's).
+    #[inline(always)]
+    pub(crate) fn mean_current(&self, x: &Vector4<T>, u: T) -> T {
+        match self {
+            Self::Current(_) => u,
+            Self::Driven(p) => p.mean_lumped_current(x, u),
+        }
+    }
+
+    /// `between_steps` after the trains' next step: the motors turn with the rotors of
+    /// trains that just opened.
+    #[inline]
+    pub(crate) fn step_end(&mut self, x: &Vector4<T>) {
+        if let Self::Driven(p) = self {
+            let open = p.plant_mut().open_rotor_speed(x);
+            p.turn_motors_at(open);
+        }
+    }
+
+    /// A driver's winding and the lumped current per ampere.
+    pub(crate) fn driven_winding(&self) -> Option<(Winding<T>, T)> {
+        match self {
+            Self::Driven(p) => {
                 let (w, per_amp) = p.winding();
                 Some((*w, per_amp))
             }
-            _ => None,
+            Self::Current(_) => None,
         }
     }
 }

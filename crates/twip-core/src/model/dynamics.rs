@@ -1,6 +1,7 @@
 //! The one trait every plant model implements.
 use nalgebra::SVector;
 
+use crate::model::integrate::Stage;
 use crate::Real;
 
 /// A continuous-time plant `ẋ = f(x, u)` with `NX` states and `NU` inputs.
@@ -10,6 +11,14 @@ pub trait Dynamics<T: Real, const NX: usize, const NU: usize> {
 
     /// The state derivative. Pure: no allocation, no internal state.
     fn deriv(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NX>;
+
+    /// The derivative at a later stage of an RK4 step (`deriv` is its first): `deriv`, but
+    /// for a plant whose input moves within the step (an inductive winding's current,
+    /// which the plant sets up between steps).
+    #[inline(always)]
+    fn deriv_at_stage(&self, x: &SVector<T, NX>, u: &SVector<T, NU>, _stage: Stage) -> SVector<T, NX> {
+        self.deriv(x, u)
+    }
 
     /// Total mechanical energy (kinetic + potential) where the model defines one.
     fn energy(&self, x: &SVector<T, NX>) -> T;

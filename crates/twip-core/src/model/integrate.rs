@@ -38,9 +38,26 @@ where
     SVector::from(rk4(&Held { model, u }, &(*x).into(), &(*k1).into(), dt))
 }
 
+/// RK4's stages by where in the step they fall: at its start (k1), halfway (k2, k3) or at
+/// its end (k4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    Start,
+    Half,
+    End,
+}
+
 /// A vector field ẋ = f(x), as [`rk4`] steps it (a model with its input held).
 pub trait Field<S, const N: usize> {
+    /// The field at the step's start (RK4's first stage).
     fn at(&self, x: &[S; N]) -> [S; N];
+
+    /// The field at a later stage: the same function of the state, but for a plant whose
+    /// input moves within the step (an inductive winding's current).
+    #[inline(always)]
+    fn at_stage(&self, x: &[S; N], _stage: Stage) -> [S; N] {
+        self.at(x)
+    }
 }
 
 /// A model with its input held over a step.
@@ -59,6 +76,11 @@ where
     fn at(&self, x: &[T; NX]) -> [T; NX] {
         self.model.deriv(&SVector::from(*x), self.u).into()
     }
+
+    #[inline(always)]
+    fn at_stage(&self, x: &[T; NX], stage: Stage) -> [T; NX] {
+        self.model.deriv_at_stage(&SVector::from(*x), self.u, stage).into()
+    }
 }
 
 /// One RK4 step of the field `f` (a model with its input held) from `x` given `k1` = f(x),
@@ -68,9 +90,9 @@ pub fn rk4<S: Lane, const N: usize>(f: &impl Field<S, N>, x: &[S; N], k1: &[S; N
     let half = dt * S::splat(0.5);
     // x + k h.
     let stage = |k: &[S; N], h: S| -> [S; N] { fill(|i| S::madd(k[i], h, x[i])) };
-    let k2 = f.at(&stage(k1, half));
-    let k3 = f.at(&stage(&k2, half));
-    let k4 = f.at(&stage(&k3, dt));
+    let k2 = f.at_stage(&stage(k1, half), Stage::Half);
+    let k3 = f.at_stage(&stage(&k2, half), Stage::Half);
+    let k4 = f.at_stage(&stage(&k3, dt), Stage::End);
     let sixth = dt / S::splat(6.0);
     fill(|i| S::madd(S::madd(k2[i] + k3[i], S::splat(2.0), k1[i] + k4[i]), sixth, x[i]))
 }

@@ -4,7 +4,7 @@
 use nalgebra::SVector;
 
 use crate::control::{Controller, Reference};
-use crate::model::integrate::rk4_step_from_k1;
+use crate::model::integrate::{rk4_step_from_k1, Stage};
 use crate::{c, Dynamics, Real, TwipError};
 
 /// Step size, duration and fall limit of one run.
@@ -262,6 +262,11 @@ pub trait Plant<T: Real, const NX: usize, const NU: usize>: Dynamics<T, NX, NU> 
         None
     }
 
+    /// Called after each RK4 step, which ended at `x` (an inductive winding's current is
+    /// carried to it).
+    #[inline(always)]
+    fn step_ended(&mut self, _x: &SVector<T, NX>) {}
+
     /// Each wheel's motor shaft angle minus its wheel's [rad at the wheel] (right, left; the
     /// 2-DOF rig's lumped pair twice): nonzero inside a gearbox's backlash.
     #[inline(always)]
@@ -279,6 +284,11 @@ impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Dynamics
     #[inline(always)]
     fn deriv(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NX> {
         self.0.deriv(x, u)
+    }
+
+    #[inline(always)]
+    fn deriv_at_stage(&self, x: &SVector<T, NX>, u: &SVector<T, NU>, stage: Stage) -> SVector<T, NX> {
+        self.0.deriv_at_stage(x, u, stage)
     }
 
     fn energy(&self, x: &SVector<T, NX>) -> T {
@@ -333,7 +343,7 @@ impl<T: Real, P, const NX: usize, const NU: usize> Signals<T, P, NX, NU> for Con
 /// step: the controller's update when due (the sensor's read, the actuator's drive, the
 /// optional one-period delay), the observation, the plant's `between_steps` (a rig's may
 /// hand back the derivative it evaluated at the step's start), then RK4 with its first
-/// stage shared with the sensor's `sample`. The sensor samples once
+/// stage shared with the sensor's `sample`, and the plant's `step_ended`. The sensor samples once
 /// before the run (its registers hold a sample of the initial state) and then each step
 /// after the update, so a read sees the samples up to one step before it, as firmware
 /// reads a sensor's last output.
@@ -402,6 +412,7 @@ where
         let k1 = plant.between_steps_with_derivative(t, dt, &mut x, &u).unwrap_or_else(|| plant.deriv(&x, &u));
         parts.sensor.sample(t, &x, &k1);
         x = rk4_step_from_k1(&*plant, &x, &u, dt, &k1);
+        plant.step_ended(&x);
         let t_next = dt * c::<T>((k + 1) as f64);
         if x.iter().any(|v| !v.is_finite()) {
             return Ok((Outcome::Diverged { t: t_next }, k + 1));

@@ -14,15 +14,19 @@ use crate::{Real, SlopeModel, TwipError};
 pub mod parallel;
 
 /// A model as a shooting run carries it along a segment. A plain model has no state of
-/// its own. A PWM-driven one whose winding has inductance carries the winding's current,
-/// advanced once per RK4 step, before it, as the simulator's plant does
-/// (`RealPlant::step_start`): the predictions are then the simulator's own steps.
+/// its own. A PWM-driven one whose winding has inductance carries the winding's current
+/// from step to step, and its RK4 stages feel it within the step, as the simulator's
+/// plant does (`RealPlant::step_start`, `step_ended`): the predictions are then the
+/// simulator's own steps.
 pub trait ShootingModel<T: Real>: Dynamics<T, 4, 1> + Copy {
     /// A segment starts at `x`; `before` is the input held up to its first sample.
     fn start_segment(&mut self, _x: &Vector4<T>, _before: T) {}
 
     /// An RK4 step of `dt` starts at `x` under the input `u`.
     fn start_step(&mut self, _x: &Vector4<T>, _u: T, _dt: T) {}
+
+    /// The RK4 step under way ended at `x`.
+    fn end_step(&mut self, _x: &Vector4<T>) {}
 }
 
 impl<T: Real> ShootingModel<T> for SlopeModel<T> {}
@@ -38,7 +42,11 @@ impl<T: Real, P: Dynamics<T, 4, 1> + Copy> ShootingModel<T> for Driven<T, P> {
 
     /// No-op without inductance: the current is then algebraic, inside `deriv`.
     fn start_step(&mut self, x: &Vector4<T>, u: T, dt: T) {
-        self.advance(x, u, dt);
+        Driven::start_step(self, x, u, dt);
+    }
+
+    fn end_step(&mut self, x: &Vector4<T>) {
+        Driven::end_step(self, x);
     }
 }
 
@@ -104,8 +112,8 @@ impl<'a, T: Real> Shooting<'a, T> {
     }
 
     /// Predicts every sample: `states[i]` the state, `rates[i]` its derivative under the
-    /// input held from sample i (with an inductive winding, under the current held over
-    /// the first RK4 step from it, as an accelerometer in the simulator feels it), and
+    /// input held from sample i (with an inductive winding, under the winding's current
+    /// at the sample, as an accelerometer in the simulator feels it), and
     /// `ends[k]` segment k's state carried on to the next segment's first sample (what
     /// continuity compares with that segment's start; the last segment's is NaN). A
     /// segment that leaves the finite numbers stays NaN to its end.
@@ -137,7 +145,7 @@ impl<'a, T: Real> Shooting<'a, T> {
             for i in range.clone() {
                 let u = SVector::<T, 1>::new(self.u[i]);
                 // The last sample has no interval of its own: its step is as long as the one
-                // before's (only an inductive winding's held current depends on it).
+                // before's (its rate does not depend on it).
                 let interval = if i + 1 < n { self.t[i + 1] - self.t[i] } else { self.t[i] - self.t[i - 1] };
                 let (steps, h) = self.split(interval);
                 model.start_step(&x, u[0], h);
@@ -172,13 +180,16 @@ impl<'a, T: Real> Shooting<'a, T> {
     }
 
     /// `steps` RK4 steps of `h` from `x` under `u`, the first from its first stage `k1`
-    /// (evaluated after the model's `start_step`); each further step starts the model's.
+    /// (evaluated after the model's `start_step`); each further step starts the model's,
+    /// and each ends it.
     fn advance<M: ShootingModel<T>>(model: &mut M, x: &Vector4<T>, u: &SVector<T, 1>, k1: &Vector4<T>, steps: T, h: T) -> Vector4<T> {
         let mut y = rk4_step_from_k1(model, x, u, h, k1);
+        model.end_step(&y);
         let mut done = T::one();
         while done < steps {
             model.start_step(&y, u[0], h);
             y = rk4_step_from_k1(model, &y, u, h, &model.deriv(&y, u));
+            model.end_step(&y);
             done += T::one();
         }
         y
@@ -221,8 +232,8 @@ mod tests {
     }
 
     /// With an inductive driver a segment is the simulator's plant step for step: the
-    /// realism rig's `between_steps` (the winding's current advanced over the step) and RK4,
-    /// from the same current. Bit for bit: the time base is exact in binary (dt = 2^-10).
+    /// realism rig's `between_steps` (the winding's step started), RK4 (its stages feel the
+    /// winding's current within the step) and `step_ended`, from the same current. Bit for bit: the time base is exact in binary (dt = 2^-10).
     /// A sample every plant step, and one every 4 (`max_step` = dt splits the interval).
     #[test]
     fn an_inductive_segment_is_the_simulators_plant_bit_for_bit() {
@@ -262,6 +273,7 @@ mod tests {
                             break;
                         }
                         x = rk4_step_from_k1(&plant, &x, &uu, dt, &k1);
+                        plant.step_ended(&x);
                     }
                 }
                 if k == 0 {

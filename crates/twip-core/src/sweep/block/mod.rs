@@ -28,6 +28,7 @@ mod planar;
 mod planar_rig;
 mod rig;
 mod smc;
+mod winding;
 pub use fuzzy::FuzzyLanes;
 pub use lqr::LqrLanes;
 pub use planar::{run_planar_block, LanePath, PidLanes, PlanarLaneLaw};

@@ -6,8 +6,8 @@
 //! play, pushes, encoders and tilt estimator are its own rig's parts, the very objects a
 //! run uses: they act between steps or once per control period on a lane's numbers. The
 //! plant's RK4 (`model::planar::engaged_motion`, and `open_motion` for a lane whose gear
-//! trains are open: the gearhead friction's law, the body force and, for windings without
-//! inductance, `Winding::steady_current`) and the IMUs (`planar_rig::sample_imus`, each
+//! trains are open: the gearhead friction's law, the body force and the windings'
+//! `Winding::steady_current` or, with inductance, `Winding::stepped_current`) and the IMUs (`planar_rig::sample_imus`, each
 //! lane's noise from a copy of its rig's stream: noise stream = sample index) are the
 //! run's own source on lanes, which the compiler vectorises; the gear trains weigh the
 //! lanes' first stage. So a lane agrees with `sweep::planar::run_planar_sample` to
@@ -16,6 +16,7 @@ use nalgebra::SVector;
 
 use super::planar::{LanePath, Metrics, Plants, PlanarLaneLaw};
 use super::rig::block_rigs;
+use super::winding::WindingLanes;
 use super::{chunk, multiversioned, CHUNKS};
 use crate::Dynamics;
 use crate::hardware::disturbance::Force;
@@ -23,7 +24,7 @@ use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::imu::{ImuClock, ImuReading, Mpu6050, NoiseLanes};
 use crate::hardware::planar_rig::{body_force, sample_imus, PlanarRig};
 use crate::model::friction::{Friction, Gearhead};
-use crate::model::integrate::{rk4, Field};
+use crate::model::integrate::{rk4, Field, Stage};
 use crate::model::lane::{fill, Fused, Lane, Wide, WIDTH};
 use crate::model::planar::{engaged_motion, open_motion, wheel_speeds, PlanarCoefficients, PlanarModel};
 use crate::sim::runner::{Actuator, Plant, Sensor, SimConfig, STOP_CHECK_STEPS};
@@ -34,17 +35,23 @@ use crate::sweep::SweepMetrics;
 use crate::{RobotParams, TwipError};
 use alloc::vec::Vec;
 
-/// The gearhead friction's kind, decided once per block (`GEAR`): none, the slip law, or
-/// with a stick band; each its own loop over lanes, so that no branch inside one keeps
-/// the compiler from vectorising it.
+/// The plant's kinds, decided once per block: the gearhead friction's (`GEAR`: none, the
+/// slip law, or with a stick band) and what drives it (`DRIVE`: the motor torques held
+/// over the step; windings without inductance, which turn the duties into current at
+/// each stage; windings with inductance, whose currents move within the step); each its
+/// own loop over lanes, so that no branch inside one keeps the compiler from vectorising it.
 const FREE: u8 = 0;
 const SLIP: u8 = 1;
 const STICK: u8 = 2;
+const HELD: u8 = 0;
+const STEADY: u8 = 1;
+const STEPPED: u8 = 2;
 
 /// One lane's plant over a step, its trains as they are (`GEARED`: some lane's in the block
-/// may be open): the motor torques held, or (`STEADY`: windings without inductance) the
-/// duties, which the windings turn into current at each stage at the wheels' speeds.
-struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool> {
+/// may be open): the motor torques held, or at the step's start with the windings' steps
+/// under way (`STEPPED`), or (`STEADY`) the duties, which the windings turn into current at
+/// each stage at the wheels' speeds.
+struct RigField<'a, const GEAR: u8, const DRIVE: u8, const GEARED: bool> {
     k: PlanarCoefficients<Fused>,
     /// Which gear trains are engaged over this step (backlash: set between steps), and the
     /// rotor inertia per wheel that an open one takes off.
@@ -59,18 +66,25 @@ struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool> {
     force: Force<Fused>,
 }
 
-impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> RigField<'_, GEAR, STEADY, GEARED> {
-    /// The derivative and each wheel's gearhead torque (`PlanarPlant::geared_motion`'s).
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> RigField<'_, GEAR, DRIVE, GEARED> {
+    /// The derivative and each wheel's gearhead torque (`PlanarPlant::geared_motion`'s) at
+    /// the step's start.
     #[inline(always)]
     fn motion(&self, x: &[Fused; 7]) -> ([Fused; 7], [Fused; 2]) {
-        // As `PlanarPlant::torques` with the trains engaged (motor speed = wheel speed).
-        let u = if STEADY {
-            let w = wheel_speeds(&self.k, x);
-            let (right, left) = (self.windings[0].steady_current(self.u[0], w[0]), self.windings[1].steady_current(self.u[1], w[1]));
-            [self.per_amp * right, self.per_amp * left]
+        // As `PlanarPlant::torques` with the trains engaged (motor speed = wheel speed; an
+        // open train's torque is not read).
+        let u = if DRIVE == STEADY {
+            let [w_r, w_l] = wheel_speeds(&self.k, x);
+            [self.per_amp * self.windings[0].steady_current(self.u[0], w_r), self.per_amp * self.windings[1].steady_current(self.u[1], w_l)]
         } else {
             self.u
         };
+        self.motion_under(x, u)
+    }
+
+    /// [`Self::motion`] under the wheel torques `u`.
+    #[inline(always)]
+    fn motion_under(&self, x: &[Fused; 7], u: [Fused; 2]) -> ([Fused; 7], [Fused; 2]) {
         let gear = match GEAR {
             FREE => Gearhead::Free,
             SLIP => Gearhead::Slip(self.friction),
@@ -89,29 +103,43 @@ impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> RigField<'_, GEAR, 
     }
 }
 
-impl<const GEAR: u8, const STEADY: bool, const GEARED: bool> Field<Fused, 7> for RigField<'_, GEAR, STEADY, GEARED> {
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> Field<Fused, 7> for RigField<'_, GEAR, DRIVE, GEARED> {
     #[inline(always)]
     fn at(&self, x: &[Fused; 7]) -> [Fused; 7] {
         self.motion(x).0
     }
+
+    // As `PlanarPlant::deriv_at_stage`.
+    #[inline(always)]
+    fn at_stage(&self, x: &[Fused; 7], stage: Stage) -> [Fused; 7] {
+        if DRIVE == STEPPED {
+            // Written out, not through a closure: a profile found such a closure out of
+            // line in a kernel 3x slower than this one.
+            let [w_r, w_l] = wheel_speeds(&self.k, x);
+            let torques = [self.per_amp * self.windings[0].stepped_current(stage, w_r), self.per_amp * self.windings[1].stepped_current(stage, w_l)];
+            self.motion_under(x, torques).0
+        } else {
+            self.motion(x).0
+        }
+    }
 }
 
 /// The lanes' plants: coefficients per lane, the friction all share, each lane's force and
-/// (without inductance) windings.
+/// windings.
 struct RigPlants {
     plants: Plants,
     gear: u8,
     friction: Friction<Fused>,
-    /// Whether the windings have no inductance: then each lane's windings and torque per
-    /// ampere turn the duties into torques at each stage (else any, unused).
-    steady: bool,
-    windings: [([Winding<f64>; 2], f64); LANES],
+    drive: u8,
+    /// Each lane's right and left windings and the torque per ampere, when there is a
+    /// driver (else any, unused).
+    windings: [WindingLanes; 2],
     forces: [Force<f64>; LANES],
     /// Each lane's rotor inertia per wheel (an open train takes it off).
     rotors: Lanes,
 }
 
-/// `$self.$run::<GEAR, STEADY, GEARED>(args)` for the plants' kinds; GEARED only while
+/// `$self.$run::<GEAR, DRIVE, GEARED>(args)` for the plants' kinds; GEARED only while
 /// some lane's trains are open (`$trains`: all engaged is the plain plant, bit for bit).
 macro_rules! by_kind {
     ($self:ident, $trains:ident, $run:ident($($arg:expr),*)) => {
@@ -122,13 +150,17 @@ macro_rules! by_kind {
         }
     };
     (@gear $self:ident, $geared:literal, $run:ident($($arg:expr),*)) => {
-        match ($self.gear, $self.steady) {
-            (FREE, false) => $self.$run::<FREE, false, $geared>($($arg),*),
-            (FREE, true) => $self.$run::<FREE, true, $geared>($($arg),*),
-            (SLIP, false) => $self.$run::<SLIP, false, $geared>($($arg),*),
-            (SLIP, true) => $self.$run::<SLIP, true, $geared>($($arg),*),
-            (_, false) => $self.$run::<STICK, false, $geared>($($arg),*),
-            (_, true) => $self.$run::<STICK, true, $geared>($($arg),*),
+        match $self.gear {
+            FREE => by_kind!(@drive $self, FREE, $geared, $run($($arg),*)),
+            SLIP => by_kind!(@drive $self, SLIP, $geared, $run($($arg),*)),
+            _ => by_kind!(@drive $self, STICK, $geared, $run($($arg),*)),
+        }
+    };
+    (@drive $self:ident, $gear:ident, $geared:literal, $run:ident($($arg:expr),*)) => {
+        match $self.drive {
+            HELD => $self.$run::<$gear, HELD, $geared>($($arg),*),
+            STEADY => $self.$run::<$gear, STEADY, $geared>($($arg),*),
+            _ => $self.$run::<$gear, STEPPED, $geared>($($arg),*),
         }
     };
 }
@@ -137,18 +169,19 @@ macro_rules! by_kind {
 // baseline code), but not in debug builds, whose inlined copies each keep their own stack
 // slots.
 impl RigPlants {
-    /// Lane `l`'s plant under the input `u` held (motor torques, or duties without inductance).
+    /// Lane `l`'s plant under the input `u` held (motor torques, at the step's start with
+    /// inductance, or duties without).
     #[inline(always)]
-    fn field<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, l: usize, u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> RigField<'_, GEAR, STEADY, GEARED> {
-        let ([right, left], per_amp) = &self.windings[l];
+    fn field<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, l: usize, u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> RigField<'_, GEAR, DRIVE, GEARED> {
+        let ((right, per_amp), (left, _)) = (self.windings[0].lane(l), self.windings[1].lane(l));
         RigField {
             k: self.plants.lane(l),
             engaged: trains[l],
             rotor: Fused(self.rotors[l]),
             friction: &self.friction,
             u: [Fused(u[0][l]), Fused(u[1][l])],
-            windings: [right.map(Fused), left.map(Fused)],
-            per_amp: Fused(*per_amp),
+            windings: [right, left],
+            per_amp,
             force: self.forces[l].map(Fused),
         }
     }
@@ -161,10 +194,10 @@ impl RigPlants {
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn motion_of<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
+    fn motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
         let (mut d, mut tau) = ([[0.0; LANES]; 7], [[0.0; LANES]; 2]);
         for l in 0..LANES {
-            let (dl, tl) = self.field::<GEAR, STEADY, GEARED>(l, u, trains).motion(&fill(|i| Fused(x[i][l])));
+            let (dl, tl) = self.field::<GEAR, DRIVE, GEARED>(l, u, trains).motion(&fill(|i| Fused(x[i][l])));
             for i in 0..7 {
                 d[i][l] = dl[i].0;
             }
@@ -182,10 +215,10 @@ impl RigPlants {
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn rk4_of<const GEAR: u8, const STEADY: bool, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
+    fn rk4_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
         let mut out = [[0.0; LANES]; 7];
         for l in 0..LANES {
-            let field = self.field::<GEAR, STEADY, GEARED>(l, u, trains);
+            let field = self.field::<GEAR, DRIVE, GEARED>(l, u, trains);
             let next = rk4(&field, &fill(|i| Fused(x[i][l])), &fill(|i| Fused(k1[i][l])), Fused(dt));
             for i in 0..7 {
                 out[i][l] = next[i].0;
@@ -317,9 +350,16 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
     let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| built.get(l).copied().flatten().map_or(fallback.0, |b| b.0));
     let mut rigs: Vec<PlanarRig<f64>> = (0..LANES).map(|l| built.get(l).copied().flatten().map_or(fallback.1, |b| b.1)).collect();
     let friction = rigs[0].plant.model().friction().copied();
-    // Any valid windings, for lanes that never evaluate one (held torques).
+    // Each lane's windings with their factors for steps of `dt` (their steps are set each
+    // step), and any valid ones for lanes that never evaluate one (no driver).
+    let drives = |l: usize| {
+        rigs[l].plant.drives().map(|(mut w, per_amp)| {
+            w.iter_mut().for_each(|w| w.prepare(dt));
+            (w, per_amp)
+        })
+    };
     let stand_in = ([Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?; 2], 1.0);
-    let plants = RigPlants {
+    let mut plants = RigPlants {
         // The rig's model: the sample's, with the realism's gearhead friction.
         plants: Plants::new(&core::array::from_fn(|l| *rigs[l].plant.model())),
         gear: match &friction {
@@ -329,12 +369,23 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
         },
         // Unused without a friction: any friction's numbers.
         friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
-        steady: rigs[0].plant.steady_drives().is_some(),
-        windings: core::array::from_fn(|l| rigs[l].plant.steady_drives().unwrap_or(stand_in)),
+        drive: match rigs[0].plant.drives() {
+            None => HELD,
+            Some((w, _)) if !w[0].inductive() => STEADY,
+            Some(_) => STEPPED,
+        },
+        windings: core::array::from_fn(|wheel| {
+            WindingLanes::new(&core::array::from_fn(|l| {
+                let (w, per_amp) = drives(l).unwrap_or(stand_in);
+                (w[wheel], per_amp)
+            }))
+        }),
         forces: core::array::from_fn(|l| rigs[l].plant.force()),
         rotors: core::array::from_fn(|l| models[l].rotor_per_wheel()),
     };
     let delay = rigs[0].delay;
+    // Every lane's realism has the same parts: play in all or none.
+    let geared = rigs[0].plant_play().is_some();
 
     let mut x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 }));
     let mut state = controller.start();
@@ -392,29 +443,48 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
             }
         }
         metrics.observe(&alive, t >= settle, &x, &command, &r, path);
-        // `between_steps` per lane: the play's impacts, pushes and the windings' currents;
-        // then the trains weigh the derivative at the step's start (on lanes), which is
-        // RK4's first stage when they stay as they were, else it is taken again with the
-        // trains as they are now. The accelerometer reads it. The input held over the
-        // step: the motor torques, or the duties.
+        // Per lane, the last step's `step_ended` and this one's `between_steps`: the play's
+        // impacts, pushes and the windings' steps (with inductance on lanes: the motors'
+        // speeds where the last step ended and this one starts); then the trains weigh the
+        // derivative at the step's start (on lanes), which is RK4's first stage when they
+        // stay as they were, else it is taken again with the trains as they are now. The
+        // accelerometer reads it. The input held over the step: the motor torques (with
+        // inductance, at its first stage), or the duties.
+        let stepped = plants.drive == STEPPED;
         let mut held = u;
         let mut trains = [[true; 2]; LANES];
+        let (mut finished, mut starts) = ([[0.0; LANES]; 2], [[0.0; LANES]; 2]);
         for (l, rig) in rigs.iter_mut().enumerate() {
             let (mut xl, ul) = (lane(&x, l), lane(&u, l));
-            rig.plant.step_start(t, dt, &mut xl, &ul);
-            set_lane(&mut x, l, &xl);
-            if let Some(torques) = rig.plant.step_torques(&xl, &ul) {
-                held[0][l] = torques[0];
-                held[1][l] = torques[1];
+            if stepped {
+                let [right, left] = rig.plant.motor_speeds(&xl);
+                (finished[0][l], finished[1][l]) = (right, left);
+                rig.plant.ground_start(t, dt, &mut xl);
+                let [right, left] = rig.plant.motor_speeds(&xl);
+                (starts[0][l], starts[1][l]) = (right, left);
+            } else {
+                rig.plant.step_start(t, dt, &mut xl, &ul);
             }
+            set_lane(&mut x, l, &xl);
             trains[l] = rig.plant.trains();
+        }
+        if stepped {
+            for (wheel, windings) in plants.windings.iter_mut().enumerate() {
+                windings.step(k > 0, &finished[wheel], &u[wheel], &starts[wheel], &mut held[wheel]);
+            }
         }
         let (mut k1, tau) = plants.motion(&x, &held, &trains);
         let before = trains;
         for (l, rig) in rigs.iter_mut().enumerate() {
             let (xl, ul) = (lane(&x, l), lane(&u, l));
-            if !rig.plant.gear_next_with(&xl, &ul, &lane(&k1, l), [tau[0][l], tau[1][l]]) {
-                trains[l] = rig.plant.trains();
+            if geared {
+                let (motor, mean) = match stepped {
+                    true => ([held[0][l], held[1][l]], [plants.windings[0].mean(l), plants.windings[1].mean(l)]),
+                    false => rig.plant.motor_torques(&xl, &ul),
+                };
+                if !rig.plant.gear_next_with(&xl, motor, mean, &lane(&k1, l), [tau[0][l], tau[1][l]]) {
+                    trains[l] = rig.plant.trains();
+                }
             }
             rig.sensors.follow_wheels(t, &xl);
         }

@@ -5,7 +5,8 @@
 //!
 //! The loop is `runner::run_loop`'s, step for step. The plant's RK4 is the run's own
 //! source (`model::slope::motion` with `Friction`'s law, `open_motion` for a lane whose gear
-//! trains are open, and, for a driver without inductance, `Winding::steady_current`) on
+//! trains are open, and a driver's `Winding::steady_current` or, with inductance,
+//! `Winding::stepped_current`) on
 //! [`Fused`] lanes, which the compiler vectorises. Each lane's sensors, actuator, winding and
 //! gear play are its own rig's parts, the very objects a run uses (`Realism::build`, noise
 //! stream = sample index): they act between steps or once per control period on a lane's
@@ -14,6 +15,7 @@
 //! every CPU, thread count and block neighbour.
 use nalgebra::{SVector, Vector4};
 
+use super::winding::WindingLanes;
 use super::{chunk, multiversioned, state_chunk, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared, CHUNKS};
 use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
@@ -22,7 +24,7 @@ use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::realism::{Realism, SlopeRig};
 use crate::sweep::rig::RealismOf;
 use crate::model::friction::{Friction, Gearhead};
-use crate::model::integrate::{rk4, Field};
+use crate::model::integrate::{rk4, Field, Stage};
 use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseLanes};
 use crate::model::lane::{Fused, Lane, Wide, WIDTH};
 use crate::model::slope::{motion, open_motion, SlopeCoefficients, SlopeModel};
@@ -33,13 +35,17 @@ use alloc::vec::Vec;
 use crate::{Dynamics, RobotParams, TwipError};
 
 /// The plant's kinds, decided once per block: its gearhead friction (`GEAR`: 0 none, 1 the
-/// slip law, 2 with a stick band), whether a winding without inductance turns the duty
-/// into current at each stage (`STEADY`) and whether the gear trains have play (`GEARED`).
-/// Each is its own loop over lanes, so that no branch inside one keeps the compiler from
-/// vectorising it.
+/// slip law, 2 with a stick band), what drives it (`DRIVE`: a lumped current held over the
+/// step; a winding without inductance, which turns the duty into current at each stage; a
+/// winding with inductance, whose current moves within the step) and whether the gear
+/// trains have play (`GEARED`). Each is its own loop over lanes, so that no branch inside
+/// one keeps the compiler from vectorising it.
 const FREE: u8 = 0;
 const SLIP: u8 = 1;
 const STICK: u8 = 2;
+const HELD: u8 = 0;
+const STEADY: u8 = 1;
+const STEPPED: u8 = 2;
 
 /// A ground with at most this many slope changes has its own copies of the lanes' loops,
 /// which pick a lane's piece among those only: picking among all that a ground may have
@@ -47,8 +53,9 @@ const STICK: u8 = 2;
 const FEW_CHANGES: usize = 2;
 
 /// One lane's plant over a step: the input held (a lumped current, or a duty that a
-/// winding without inductance turns into current at each stage).
-struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool, const CHANGES: usize> {
+/// winding without inductance turns into current at each stage), or the lumped current at
+/// the step's start of a winding with inductance, which has the step under way.
+struct RigField<'a, const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize> {
     k: SlopeCoefficients<Fused>,
     friction: &'a Friction<Fused>,
     u: Fused,
@@ -64,12 +71,19 @@ struct RigField<'a, const GEAR: u8, const STEADY: bool, const GEARED: bool, cons
     lane: usize,
 }
 
-impl<const GEAR: u8, const STEADY: bool, const GEARED: bool, const CHANGES: usize> RigField<'_, GEAR, STEADY, GEARED, CHANGES> {
-    /// The derivative and the gearhead torque per wheel (`SlopeModel::deriv_geared`'s).
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize> RigField<'_, GEAR, DRIVE, GEARED, CHANGES> {
+    /// The derivative and the gearhead torque per wheel (`SlopeModel::deriv_geared`'s) at
+    /// the step's start.
     #[inline(always)]
     fn motion(&self, x: &[Fused; 4]) -> ([Fused; 4], Fused) {
-        // As `Driven::mechanical_current`: 2 ε times the winding's current.
-        let u = if STEADY { self.per_amp * self.winding.steady_current(self.u, x[3] - x[1]) } else { self.u };
+        // As `Driven::lumped_current_at` the first stage: 2 ε times the winding's current.
+        let u = if DRIVE == STEADY { self.per_amp * self.winding.steady_current(self.u, x[3] - x[1]) } else { self.u };
+        self.motion_under(x, u)
+    }
+
+    /// [`Self::motion`] under the lumped current `u`.
+    #[inline(always)]
+    fn motion_under(&self, x: &[Fused; 4], u: Fused) -> ([Fused; 4], Fused) {
         let gear = match GEAR {
             FREE => Gearhead::Free,
             SLIP => Gearhead::Slip(self.friction),
@@ -92,10 +106,20 @@ impl<const GEAR: u8, const STEADY: bool, const GEARED: bool, const CHANGES: usiz
     }
 }
 
-impl<const GEAR: u8, const STEADY: bool, const GEARED: bool, const CHANGES: usize> Field<Fused, 4> for RigField<'_, GEAR, STEADY, GEARED, CHANGES> {
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize> Field<Fused, 4> for RigField<'_, GEAR, DRIVE, GEARED, CHANGES> {
     #[inline(always)]
     fn at(&self, x: &[Fused; 4]) -> [Fused; 4] {
         self.motion(x).0
+    }
+
+    // As `Driven::deriv_at_stage`.
+    #[inline(always)]
+    fn at_stage(&self, x: &[Fused; 4], stage: Stage) -> [Fused; 4] {
+        if DRIVE == STEPPED {
+            self.motion_under(x, self.per_amp * self.winding.stepped_current(stage, x[3] - x[1])).0
+        } else {
+            self.motion(x).0
+        }
     }
 }
 
@@ -172,42 +196,46 @@ impl Hills {
 }
 
 /// The lanes' plants: coefficients per lane, the friction all share, and each lane's
-/// winding (used when the driver has no inductance) and force (its height may be the
-/// robot's own centre of mass; its part on θ: `hills`).
+/// winding (used when there is a driver) and force (its height may be the robot's own
+/// centre of mass; its part on θ: `hills`).
 struct RigPlants {
     plants: Plants,
     gear: u8,
     friction: Friction<Fused>,
-    steady: bool,
-    windings: [(Winding<f64>, f64); LANES],
+    drive: u8,
+    windings: WindingLanes,
     geared: bool,
     forces: [Force<f64>; LANES],
     hills: Hills,
 }
 
-/// `$run::<GEAR, STEADY, GEARED, CHANGES>(args)` for the plants' kinds (`$steady`: whether
-/// the input is a duty through a winding without inductance); GEARED only while some lane's
-/// trains are open (`$engaged`: all engaged is the plain plant, bit for bit); CHANGES: the
-/// slope changes along the path that a lane picks among (`Hills::changes`).
+/// `$run::<GEAR, DRIVE, GEARED, CHANGES>(args)` for the plants' kinds (`$drive`: what
+/// drives the plant); GEARED only while some lane's trains are open (`$engaged`: all
+/// engaged is the plain plant, bit for bit); CHANGES: the slope changes along the path that
+/// a lane picks among (`Hills::changes`).
 macro_rules! by_kind {
-    ($self:ident, $steady:expr, $engaged:ident, $run:ident($($arg:expr),*)) => {
+    ($self:ident, $drive:expr, $engaged:ident, $run:ident($($arg:expr),*)) => {
         match ($self.hills.changes, $self.geared && $engaged.iter().any(|&e| !e)) {
-            (0, false) => by_kind!(@gear $self, $steady, $run, false, 0, $($arg),*),
-            (0, true) => by_kind!(@gear $self, $steady, $run, true, 0, $($arg),*),
-            (FEW_CHANGES, false) => by_kind!(@gear $self, $steady, $run, false, FEW_CHANGES, $($arg),*),
-            (FEW_CHANGES, true) => by_kind!(@gear $self, $steady, $run, true, FEW_CHANGES, $($arg),*),
-            (_, false) => by_kind!(@gear $self, $steady, $run, false, MAX_SLOPE_CHANGES, $($arg),*),
-            (_, true) => by_kind!(@gear $self, $steady, $run, true, MAX_SLOPE_CHANGES, $($arg),*),
+            (0, false) => by_kind!(@gear $self, $drive, $run, false, 0, $($arg),*),
+            (0, true) => by_kind!(@gear $self, $drive, $run, true, 0, $($arg),*),
+            (FEW_CHANGES, false) => by_kind!(@gear $self, $drive, $run, false, FEW_CHANGES, $($arg),*),
+            (FEW_CHANGES, true) => by_kind!(@gear $self, $drive, $run, true, FEW_CHANGES, $($arg),*),
+            (_, false) => by_kind!(@gear $self, $drive, $run, false, MAX_SLOPE_CHANGES, $($arg),*),
+            (_, true) => by_kind!(@gear $self, $drive, $run, true, MAX_SLOPE_CHANGES, $($arg),*),
         }
     };
-    (@gear $self:ident, $steady:expr, $run:ident, $geared:literal, $changes:tt, $($arg:expr),*) => {
-        match ($self.gear, $steady) {
-            (FREE, false) => $self.$run::<FREE, false, $geared, $changes>($($arg),*),
-            (FREE, true) => $self.$run::<FREE, true, $geared, $changes>($($arg),*),
-            (SLIP, false) => $self.$run::<SLIP, false, $geared, $changes>($($arg),*),
-            (SLIP, true) => $self.$run::<SLIP, true, $geared, $changes>($($arg),*),
-            (_, false) => $self.$run::<STICK, false, $geared, $changes>($($arg),*),
-            (_, true) => $self.$run::<STICK, true, $geared, $changes>($($arg),*),
+    (@gear $self:ident, $drive:expr, $run:ident, $geared:literal, $changes:tt, $($arg:expr),*) => {
+        match $self.gear {
+            FREE => by_kind!(@drive $self, $drive, $run, FREE, $geared, $changes, $($arg),*),
+            SLIP => by_kind!(@drive $self, $drive, $run, SLIP, $geared, $changes, $($arg),*),
+            _ => by_kind!(@drive $self, $drive, $run, STICK, $geared, $changes, $($arg),*),
+        }
+    };
+    (@drive $self:ident, $drive:expr, $run:ident, $gear:ident, $geared:literal, $changes:tt, $($arg:expr),*) => {
+        match $drive {
+            HELD => $self.$run::<$gear, HELD, $geared, $changes>($($arg),*),
+            STEADY => $self.$run::<$gear, STEADY, $geared, $changes>($($arg),*),
+            _ => $self.$run::<$gear, STEPPED, $geared, $changes>($($arg),*),
         }
     };
 }
@@ -217,9 +245,9 @@ macro_rules! by_kind {
 // slots, and the 24 kinds' made the kernel's frame ~2 MB, a thread's whole stack.
 impl RigPlants {
     #[inline(always)]
-    fn field<const GEAR: u8, const STEADY: bool, const GEARED: bool, const CHANGES: usize>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, STEADY, GEARED, CHANGES> {
-        let (winding, per_amp) = &self.windings[l];
-        let (k, friction, u, winding, per_amp) = (self.plants.lane(l), &self.friction, Fused(u), winding.map(Fused), Fused(*per_amp));
+    fn field<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, DRIVE, GEARED, CHANGES> {
+        let (winding, per_amp) = self.windings.lane(l);
+        let (k, friction, u) = (self.plants.lane(l), &self.friction, Fused(u));
         let force = self.forces[l].map(Fused);
         RigField { k, friction, u, winding, per_amp, engaged, force, hills: &self.hills, lane: l }
     }
@@ -228,14 +256,14 @@ impl RigPlants {
     /// sensors sample too).
     #[inline(always)]
     fn k1(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
-        by_kind!(self, self.steady, engaged, k1_of(x, u, engaged))
+        by_kind!(self, self.drive, engaged, k1_of(x, u, engaged))
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn k1_of<const GEAR: u8, const STEADY: bool, const GEARED: bool, const CHANGES: usize>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
+    fn k1_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
         let mut out = [[0.0; LANES]; 4];
         for l in 0..LANES {
-            let d = self.field::<GEAR, STEADY, GEARED, CHANGES>(l, u[l], engaged[l]).at(&lane(x, l).map(Fused));
+            let d = self.field::<GEAR, DRIVE, GEARED, CHANGES>(l, u[l], engaged[l]).at(&lane(x, l).map(Fused));
             for i in 0..4 {
                 out[i][l] = d[i].0;
             }
@@ -248,14 +276,14 @@ impl RigPlants {
     #[inline(always)]
     fn geared_motion(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
         // The lumped current is the input, whatever the winding.
-        by_kind!(self, false, engaged, geared_motion_of(x, current, engaged))
+        by_kind!(self, HELD, engaged, geared_motion_of(x, current, engaged))
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn geared_motion_of<const GEAR: u8, const STEADY: bool, const GEARED: bool, const CHANGES: usize>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
+    fn geared_motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
         let (mut d, mut tau) = ([[0.0; LANES]; 4], [0.0; LANES]);
         for l in 0..LANES {
-            let (dl, tl) = self.field::<GEAR, STEADY, GEARED, CHANGES>(l, current[l], engaged[l]).motion(&lane(x, l).map(Fused));
+            let (dl, tl) = self.field::<GEAR, DRIVE, GEARED, CHANGES>(l, current[l], engaged[l]).motion(&lane(x, l).map(Fused));
             for i in 0..4 {
                 d[i][l] = dl[i].0;
             }
@@ -268,11 +296,11 @@ impl RigPlants {
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn rk4(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
-        by_kind!(self, self.steady, engaged, rk4_of(x, u, engaged, k1, dt))
+        by_kind!(self, self.drive, engaged, rk4_of(x, u, engaged, k1, dt))
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn rk4_of<const GEAR: u8, const STEADY: bool, const GEARED: bool, const CHANGES: usize>(
+    fn rk4_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(
         &self,
         x: &[Lanes; 4],
         u: &Lanes,
@@ -282,7 +310,7 @@ impl RigPlants {
     ) -> [Lanes; 4] {
         let mut out = [[0.0; LANES]; 4];
         for l in 0..LANES {
-            let field = self.field::<GEAR, STEADY, GEARED, CHANGES>(l, u[l], engaged[l]);
+            let field = self.field::<GEAR, DRIVE, GEARED, CHANGES>(l, u[l], engaged[l]);
             let next = rk4(&field, &lane(x, l).map(Fused), &lane(k1, l).map(Fused), Fused(dt));
             for i in 0..4 {
                 out[i][l] = next[i].0;
@@ -429,10 +457,16 @@ fn rig_block<C: LaneLaw>(
     let mut rigs: Vec<SlopeRig<f64>> = (0..LANES).map(|l| built.get(l).copied().flatten().map_or(fallback.1, |b| b.1)).collect();
     let ground = |l: usize| *rigs[l].plant.ground().model_at(&Vector4::zeros());
     let friction = ground(0).friction().copied();
-    let winding = |l: usize| rigs[l].plant.steady_winding();
-    // Any valid winding, for lanes that never evaluate one (the driver has inductance).
+    // Each lane's winding with its factors for steps of `dt`.
+    let winding = |l: usize| {
+        rigs[l].plant.driven_winding().map(|(mut w, per_amp)| {
+            w.prepare(dt);
+            (w, per_amp)
+        })
+    };
+    // Any valid winding, for lanes that never evaluate one (no driver).
     let stand_in = (Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?, 2.0);
-    let plants = RigPlants {
+    let mut plants = RigPlants {
         plants: Plants::new(&core::array::from_fn(|l| ground(l).coefficients())),
         gear: match &friction {
             None => FREE,
@@ -441,9 +475,13 @@ fn rig_block<C: LaneLaw>(
         },
         // Unused without a friction: any friction's numbers.
         friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
-        steady: winding(0).is_some(),
-        // Unused with inductance or without a driver (the held current is the input).
-        windings: core::array::from_fn(|l| winding(l).unwrap_or(stand_in)),
+        drive: match rigs[0].plant.driven_winding() {
+            None => HELD,
+            Some((w, _)) if !w.inductive() => STEADY,
+            Some(_) => STEPPED,
+        },
+        // Unused without a driver (the held current is the input).
+        windings: WindingLanes::new(&core::array::from_fn(|l| winding(l).unwrap_or(stand_in))),
         // Every lane's realism has the same parts (but for where pushes and forces act).
         geared: rigs[0].plant.ground().has_play(),
         forces: core::array::from_fn(|l| rigs[l].plant.ground().force()),
@@ -523,17 +561,29 @@ fn rig_block<C: LaneLaw>(
             }
         }
         metrics.observe(&alive, &x, &command, &plant_phi_s, &Shared { t, r, speed_scale, direction });
-        // `between_steps` per lane: the winding's current advances; with backlash, open rotors
-        // that reach a flank engage in an impact that sets the velocities, then the trains
-        // weigh the derivative at the step's start (on lanes) and may open.
-        let mut current = [0.0; LANES];
+        // Per lane, the last step's `step_ended` and this one's `between_steps`: with
+        // backlash, open rotors that reach a flank engage in an impact that sets the
+        // velocities; the winding's step starts (with inductance, on lanes: the motors'
+        // speeds where the last step ended and this one starts); then the trains weigh the
+        // derivative at the step's start (on lanes) and may open.
+        let stepped = plants.drive == STEPPED;
+        let (mut current, mut finished, mut starts) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
         for (l, rig) in rigs.iter_mut().enumerate() {
             let mut xl = Vector4::from(lane(&x, l));
-            current[l] = rig.plant.step_start(t, dt, &mut xl, u[l]);
+            if stepped {
+                finished[l] = rig.plant.motor_speed(&xl).unwrap_or_default();
+                rig.plant.ground_start(t, dt, &mut xl, u[l]);
+                starts[l] = rig.plant.motor_speed(&xl).unwrap_or_default();
+            } else {
+                current[l] = rig.plant.step_start(t, dt, &mut xl, u[l]);
+            }
             for i in 0..4 {
                 x[i][l] = xl[i];
             }
             engaged[l] = rig.plant.ground().engaged();
+        }
+        if stepped {
+            plants.windings.step(k > 0, &finished, &u, &starts, &mut current);
         }
         let before = engaged;
         // The trains weigh the derivative at the step's start; with the trains as they
@@ -544,14 +594,21 @@ fn rig_block<C: LaneLaw>(
             let tau;
             (k1, tau) = plants.geared_motion(&x, &current, &engaged);
             for (l, rig) in rigs.iter_mut().enumerate() {
-                rig.plant.ground_mut().gear_next_with(&Vector4::from(lane(&x, l)), current[l], &Vector4::from(lane(&k1, l)), tau[l]);
+                let xl = Vector4::from(lane(&x, l));
+                let mean = if stepped { plants.windings.mean(l) } else { rig.plant.mean_current(&xl, u[l]) };
+                rig.plant.ground_mut().gear_next_with(&xl, current[l], mean, &Vector4::from(lane(&k1, l)), tau[l]);
                 engaged[l] = rig.plant.ground().engaged();
+                // `step_end`: the motors turn with the rotors of trains that just opened
+                // (the step's end reads their speed; those open before turn so already).
+                if before[l] && !engaged[l] {
+                    rig.plant.step_end(&xl);
+                }
             }
         }
-        // Held over the step: the lumped current, or the duty a winding without inductance
-        // turns into current at each stage. (No `step_end`: the motors' speed it sets for
-        // trains that just opened is next read after the next `step_start` sets it again.)
-        let input = if plants.steady { u } else { current };
+        // Held over the step: the lumped current at its start (with inductance, the
+        // winding's step gives the later stages'), or the duty a winding without inductance
+        // turns into current at each stage.
+        let input = if plants.drive == STEADY { u } else { current };
         if !(plants.geared && engaged == before) {
             k1 = plants.k1(&x, &input, &engaged);
         }

@@ -1,0 +1,51 @@
+//! The motor windings of a block's rigs on lanes, as `rig::ImuLanes` keeps the IMUs: each
+//! lane's rig's `Winding` (its factors for the block's step size), side by side. With
+//! inductance their steps are taken here, by `Winding`'s own code over [`Wide`] lanes, as a
+//! run's plant takes them (`RealPlant::step_ended` and `step_start`, `PlanarPlant`'s): the
+//! per-step work is vectorised and an RK4 stage reads the lanes' numbers side by side.
+//! (A lane's winding per RK4 stage, copied by value, ran the 3-DOF rig's kernel 3x slower.)
+use crate::hardware::driver::Winding;
+use crate::model::integrate::Stage;
+use crate::model::lane::{Fused, Wide};
+use crate::sweep::lanes::{Lanes, LANES};
+
+pub(super) struct WindingLanes {
+    windings: Winding<Wide<LANES>>,
+    /// The plant's input per motor ampere: 2 ε for the 2-DOF lumped current, ε η k_t for
+    /// a wheel torque.
+    per_amp: Wide<LANES>,
+}
+
+impl WindingLanes {
+    /// Each lane's winding and the plant's input per motor ampere.
+    pub(super) fn new(each: &[(Winding<f64>, f64); LANES]) -> Self {
+        Self { windings: Winding::side_by_side(&each.map(|(w, _)| w)), per_amp: Wide(each.map(|(_, a)| a)) }
+    }
+
+    /// Lane `l`'s winding and the plant's input per motor ampere.
+    #[inline(always)]
+    pub(super) fn lane(&self, l: usize) -> (Winding<Fused>, Fused) {
+        (self.windings.lane(l), Fused(self.per_amp.0[l]))
+    }
+
+    /// With inductance: the last step ended with the motors at `ended` (none before the
+    /// first step), and this one starts under the duties `u` with the motors at `starts`;
+    /// `input` gets each lane's plant input at its first stage.
+    #[inline(always)]
+    pub(super) fn step(&mut self, after_one: bool, ended: &Lanes, u: &Lanes, starts: &Lanes, input: &mut Lanes) {
+        let w = &mut self.windings;
+        if after_one {
+            w.finish_step(Wide(*ended));
+        }
+        w.begin_step(Wide(*u), Wide(*starts));
+        *input = (self.per_amp * w.stepped_current(Stage::Start, Wide(*starts))).0;
+    }
+
+    /// With inductance: lane `l`'s plant input from the current's mean over the step (what
+    /// an open gear train's rotor is driven by), as `RealPlant::mean_current`.
+    #[inline(always)]
+    pub(super) fn mean(&self, l: usize) -> f64 {
+        let (w, per_amp) = self.lane(l);
+        (per_amp * w.stepped_mean()).0
+    }
+}
