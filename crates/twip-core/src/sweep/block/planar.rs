@@ -91,7 +91,9 @@ pub(crate) fn lane_ref<S: Lane>(r: &PlanarRef<f64>) -> PlanarRef<S> {
     }
 }
 
-/// Plant coefficients, one array per coefficient, one entry per lane.
+/// Plant coefficients, one array per coefficient, one entry per lane, aligned to a cache
+/// line for the kernel's frame (as the 2-DOF `Plants`).
+#[repr(C, align(64))]
 pub(super) struct Plants([Lanes; PLANAR_COEFFICIENTS]);
 
 impl Plants {
