@@ -2,8 +2,8 @@
 
 The lane kernels keep their lanes' arrays on the stack and move them 64 bytes at a time. Where
 the compiler does not realign the frame, those loads and stores straddle two cache lines: the
-LQR kernel ran ~1.13x slower so until e231aa1 aligned the plants' coefficients (and with them
-the frame). This reads the machine code (`nm`, `objdump` from binutils; x86-64 only): each copy
+LQR kernel ran ~1.13x slower that way until e231aa1 aligned the plants' coefficients (and with
+them the frame). This reads the machine code (`nm`, `objdump` from binutils; x86-64 only): each copy
 of each kernel (AVX-512, AVX2, baseline) must start by rounding its stack pointer down to a
 multiple of 64 or 32 bytes. Prints one line per kernel; exits 1 if any does not.
 

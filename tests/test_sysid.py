@@ -76,9 +76,10 @@ def test_an_exact_pwm_log_through_an_inductive_driver_gives_the_robot_back(name,
     """The thesis-like driver (1 mH, 2 A) on the thesis-like rig with true sensors, no gearhead
     friction or backlash; on the slope with a 0.5 A limit, which clamps the current (89 samples).
     The shooting carries the winding's current as the simulator does. Measured: largest error
-    1.7e-6 (flat) and 1.7e-5 (slope; i_body). The current algebraic: 0.32 % and 0.22 % (i_body). Not 1e-12: each segment starts from the steady current of the duty
-    held before it (a few mA from the true one); from the first sample's duty the slope's
-    error was 1.3e-4."""
+    1.7e-6 (flat) and 1.7e-5 (slope; i_body). The current algebraic: 0.32 % and 0.22 %
+    (i_body). Not 1e-12: each segment starts from the steady current of the duty held before
+    it (a few mA from the true one); from the first sample's duty the slope's error was
+    1.3e-4 (measured before 0.1.5's second-order winding)."""
     base = twip.Realism.thesis_like().replace(imu=None, encoder_cpr=None, friction=None, backlash=None)
     realism = base.replace(motor=base.motor.replace(current_limit=limit))
     run = run_of(name, seconds, realism)
