@@ -8,7 +8,7 @@ and the ratio to the LQR lane kernel in the same round (median, and its range ov
 rounds), which the issue's targets are stated against (fuzzy >= 0.5x; 3-DOF trackers and
 the 2-DOF realism rig >= 0.3x).
 
-Run:  .venv/bin/python benches/families.py [--scale 1.0] [--repeats 3]
+Run:  .venv/bin/python benches/families.py [--scale 1.0] [--repeats 3] [--kernel-copy avx2]
 """
 import argparse
 import math
@@ -57,7 +57,10 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scale", type=float, default=1.0, help="multiplies every family's sample count")
     ap.add_argument("--repeats", type=int, default=3, help="rounds (each runs every family once); medians count")
+    ap.add_argument("--kernel-copy", choices=["avx512", "avx2", "baseline"], default=None,
+                    help="run this copy of twip's lane kernels (default: the widest this CPU has)")
     args = ap.parse_args()
+    twip.use_kernel_copy(args.kernel_copy)
     cases = [(label, sc, realism, max(16, round(n * args.scale))) for label, sc, realism, n in families()]
     for _, sc, realism, _ in cases:
         rate(sc, realism, 16)  # warm-up

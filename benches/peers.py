@@ -24,7 +24,7 @@ after it, mean |pitch|, peak |torque|) to rel 1e-9. Against twip's general runne
 (model/math.rs): with that polynomial the peer agreed bit for bit. twip now sweeps circle-pid on
 its planar lane kernel (fused multiply-adds), which agrees with the general runner to rounding.
 
-Run:  .venv/bin/pip install numba jax && .venv/bin/python benches/peers.py [--n 20000]
+Run:  .venv/bin/pip install numba jax && .venv/bin/python benches/peers.py [--n 20000] [--kernel-copy avx2]
 (numba and jax are benchmark-only dependencies, not twip's.)
 """
 import argparse
@@ -538,7 +538,10 @@ def main():
     ap.add_argument("--n-slow", type=int, default=1_000, help="samples for NumPy and JAX")
     ap.add_argument("--repeats", type=int, default=3, help="runs of each; the median time counts")
     ap.add_argument("--workload", choices=["lqr", "fuzzy", "circle-pid", "all"], default="all")
+    ap.add_argument("--kernel-copy", choices=["avx512", "avx2", "baseline"], default=None,
+                    help="run this copy of twip's lane kernels (default: the widest this CPU has)")
     args = ap.parse_args()
+    twip.use_kernel_copy(args.kernel_copy)
     if args.workload in ("fuzzy", "all"):
         fuzzy_workload(args.n or 20_000, args.repeats)
     if args.workload in ("circle-pid", "all"):

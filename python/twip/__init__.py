@@ -47,6 +47,8 @@ from twip._core import (
     rk4_step,
 )
 from twip.budget import MemoryBudgetError, set_memory_budget
+from twip.kernel_copies import apply_environment as _apply_kernel_copy_environment
+from twip.kernel_copies import use_kernel_copy
 from twip.robot_file import Robot
 from twip.sim import SimResult, simulate
 from twip.sysid import Fit, RunLog, identify
@@ -105,7 +107,10 @@ __all__ = [
     "rk4_step",
     "set_memory_budget",
     "simulate",
+    "use_kernel_copy",
     "wilson_interval",
 ]
+
+_apply_kernel_copy_environment()
 
 from twip import interop, scenarios  # noqa: E402  (twip.scenarios.get(...) after `import twip`)

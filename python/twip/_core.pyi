@@ -55,6 +55,7 @@ __all__ = [
     "check_sweep_model",
     "sweep_kernel",
     "kernel_copy",
+    "use_kernel_copy",
     "DEFAULT_FALL_LIMIT",
     "MAX_THREADS",
     "NORMAL_REACH",
@@ -872,9 +873,17 @@ def sweep_noise_seed(seed: int) -> int:
     `realism.replace(seed=sweep_noise_seed(seed), stream=i)`).
     """
 def kernel_copy() -> str:
-    """Which copy of the sweeps' lane kernels this CPU runs: "avx512" (x86-64 with AVX-512 and
-    FMA), "avx2" (AVX2 and FMA) or "baseline". Every copy gives the same numbers, at its own
-    speed: name it beside any throughput you quote.
+    """Which copy of the sweeps' lane kernels runs: "avx512" (x86-64 with AVX-512 and FMA),
+    "avx2" (AVX2 and FMA) or "baseline"; the widest this CPU has, unless `use_kernel_copy`
+    chose a narrower one. Every copy gives the same numbers, at its own speed: name it
+    beside any throughput you quote.
+    """
+def use_kernel_copy(name: str | None) -> str:
+    """Makes this process's sweeps run the lane kernels' copy `name` ("avx512", "avx2" or
+    "baseline"; None: the widest this CPU has), to measure what a CPU without the wider
+    instructions gets. The numbers are the same on every copy. Returns the copy that now
+    runs. A copy this CPU has no instructions for is refused (`InvalidParameterError`).
+    `import twip` applies the environment variable `TWIP_KERNEL_COPY` this way.
     """
 def sweep_kernel(controller: Any, realism: Realism | None = None) -> str:
     """The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),

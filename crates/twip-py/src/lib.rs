@@ -48,6 +48,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::check_sweep_model, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_kernel, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::kernel_copy, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::use_kernel_copy, m)?)?;
     m.add("DEFAULT_FALL_LIMIT", twip_core::sim::runner::DEFAULT_FALL_LIMIT)?;
     m.add("MAX_THREADS", twip_core::sweep::parallel::MAX_THREADS)?;
     m.add("NORMAL_REACH", twip_core::sweep::NORMAL_REACH)?;

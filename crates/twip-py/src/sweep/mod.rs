@@ -18,7 +18,7 @@ use twip_core::control::Controller;
 use twip_core::sim::runner::SimConfig;
 use twip_core::sweep::lanes::LANES;
 use twip_core::sweep::parallel::{self, Progress};
-use twip_core::sweep::block::FuzzyLanes;
+use twip_core::sweep::block::{FuzzyLanes, KernelCopy};
 use twip_core::sweep::block::LqrLanes;
 use twip_core::sweep::rig::{for_sweep, noise_seed, run_rig_lane_samples};
 use twip_core::sweep::{
@@ -28,7 +28,7 @@ use twip_core::sweep::{
 use twip_core::{RobotParams, TwipError};
 
 use crate::convert::vector;
-use crate::errors::{key, PyTwipError};
+use crate::errors::{key, InvalidParameterError, PyTwipError};
 use crate::model::params::params_dict;
 use crate::model::models::PySlopeModel;
 use crate::hardware::realism::PyRealism;
@@ -324,12 +324,37 @@ fn kernel_of(through_rig: bool) -> &'static str {
     }
 }
 
-/// Which copy of the sweeps' lane kernels this CPU runs: "avx512" (x86-64 with AVX-512 and
-/// FMA), "avx2" (AVX2 and FMA) or "baseline". Every copy gives the same numbers, at its own
-/// speed: name it beside any throughput you quote.
+/// Which copy of the sweeps' lane kernels runs: "avx512" (x86-64 with AVX-512 and FMA),
+/// "avx2" (AVX2 and FMA) or "baseline"; the widest this CPU has, unless `use_kernel_copy`
+/// chose a narrower one. Every copy gives the same numbers, at its own speed: name it
+/// beside any throughput you quote.
 #[pyfunction]
 pub fn kernel_copy() -> &'static str {
-    twip_core::sweep::block::KernelCopy::detect().name()
+    KernelCopy::active().name()
+}
+
+/// Makes this process's sweeps run the lane kernels' copy `name` ("avx512", "avx2" or
+/// "baseline"; None: the widest this CPU has), to measure what a CPU without the wider
+/// instructions gets. The numbers are the same on every copy. Returns the copy that now
+/// runs. A copy this CPU has no instructions for is refused (`InvalidParameterError`).
+/// `import twip` applies the environment variable `TWIP_KERNEL_COPY` this way.
+#[pyfunction]
+#[pyo3(signature = (name))]
+pub fn use_kernel_copy(name: Option<&str>) -> PyResult<&'static str> {
+    let names = KernelCopy::ALL.map(KernelCopy::name);
+    let copy = match name {
+        None => None,
+        Some(n) => Some(KernelCopy::ALL.into_iter().find(|c| c.name() == n).ok_or_else(|| {
+            InvalidParameterError::new_err(format!("invalid kernel copy {n:?}: must be one of {names:?} or None"))
+        })?),
+    };
+    KernelCopy::choose(copy).map(KernelCopy::name).map_err(|widest| {
+        let name = name.unwrap_or_default();
+        InvalidParameterError::new_err(format!(
+            "invalid kernel copy {name:?}: this CPU has no instructions for it (its widest copy is {:?})",
+            widest.name()
+        ))
+    })
 }
 
 /// The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),

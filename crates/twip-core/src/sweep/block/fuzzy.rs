@@ -54,10 +54,10 @@ pub struct FuzzyState {
     e_int: Lanes,
 }
 
-/// Whether the widest vectors hold fewer than 8 f64 (x86-64 without AVX-512: the kernels'
-/// AVX2 and baseline copies run; elsewhere, unmeasured, the 8 of before).
+/// Whether the kernels' vectors hold fewer than 8 f64 (x86-64 running the AVX2 or the
+/// baseline copy; elsewhere, unmeasured, the 8 of before).
 fn narrow_vectors() -> bool {
-    cfg!(target_arch = "x86_64") && super::KernelCopy::detect() != super::KernelCopy::Avx512
+    cfg!(target_arch = "x86_64") && super::KernelCopy::active() != super::KernelCopy::Avx512
 }
 
 impl<const N: usize> Constants<N> {

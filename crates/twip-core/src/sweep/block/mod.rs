@@ -21,6 +21,7 @@ use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
 use crate::TwipError;
+use core::sync::atomic::{AtomicU8, Ordering};
 
 mod fuzzy;
 mod lqr;
@@ -333,20 +334,29 @@ pub(crate) fn finite_at<const N: usize>(x: &[Lanes; N], l: usize) -> bool {
     finite
 }
 
-/// Which copy of the lane kernels (`multiversioned!`) this CPU runs: the widest it has
-/// instructions for. Speeds measured on one copy say little about another.
+/// Which copy of the lane kernels (`multiversioned!`) the sweeps run: the widest this CPU
+/// has instructions for, unless a narrower one was chosen ([`KernelCopy::choose`]). Speeds
+/// measured on one copy say little about another.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
 pub enum KernelCopy {
     /// x86-64 with AVX-512 (avx512f) and FMA: 8 f64 per vector.
-    Avx512,
+    Avx512 = 1,
     /// x86-64 with AVX2 and FMA: 4 f64 per vector.
-    Avx2,
+    Avx2 = 2,
     /// Any other CPU: the compiler's baseline, `mul_add` through libm's `fma`.
-    Baseline,
+    Baseline = 3,
 }
 
+/// The copy chosen with [`KernelCopy::choose`] (its `u8`), 0 for none: the widest.
+static CHOSEN: AtomicU8 = AtomicU8::new(0);
+
 impl KernelCopy {
-    /// The copy this CPU runs (the features are detected once and cached by std).
+    /// Every copy, widest first.
+    pub const ALL: [Self; 3] = [Self::Avx512, Self::Avx2, Self::Baseline];
+
+    /// The widest copy this CPU has instructions for (the features are detected once and
+    /// cached by std).
     pub fn detect() -> Self {
         #[cfg(target_arch = "x86_64")]
         {
@@ -361,6 +371,36 @@ impl KernelCopy {
         Self::Baseline
     }
 
+    /// Whether this CPU has the instructions this copy uses: the detected copy and every
+    /// narrower one.
+    pub fn runs_here(self) -> bool {
+        self as u8 >= Self::detect() as u8
+    }
+
+    /// The copy the sweeps run now: the chosen one, else the widest.
+    pub fn active() -> Self {
+        match CHOSEN.load(Ordering::Relaxed) {
+            1 => Self::Avx512,
+            2 => Self::Avx2,
+            3 => Self::Baseline,
+            _ => Self::detect(),
+        }
+    }
+
+    /// Makes every sweep of this process from now on run `copy` (None: the widest again),
+    /// to measure what a CPU without the wider instructions gets. Every copy gives the
+    /// same bits, so a sweep under way may change copy between blocks. A copy this CPU
+    /// lacks is refused: `Err` holds the widest it has.
+    pub fn choose(copy: Option<Self>) -> Result<Self, Self> {
+        match copy {
+            Some(c) if !c.runs_here() => Err(Self::detect()),
+            _ => {
+                CHOSEN.store(copy.map_or(0, |c| c as u8), Ordering::Relaxed);
+                Ok(Self::active())
+            }
+        }
+    }
+
     /// "avx512", "avx2" or "baseline".
     pub fn name(self) -> &'static str {
         match self {
@@ -372,11 +412,11 @@ impl KernelCopy {
 }
 
 /// A block runner compiled three times on x86-64: for AVX-512, for AVX2 with FMA and for
-/// the baseline CPU, the widest the CPU has chosen at run time ([`KernelCopy::detect`];
-/// wheels are built for the baseline CPU). All copies give the same bits: the baseline
-/// copy computes each `mul_add` with libm's exactly rounded `fma`, a call per value (~15×
-/// slower, on CPUs older than 2013). `$run` dispatches to `$avx512`, `$avx2` or `$base`,
-/// each `$inner`.
+/// the baseline CPU, the one [`KernelCopy::active`] names picked at run time (wheels are
+/// built for the baseline CPU). All copies give the same bits: the baseline copy computes
+/// each `mul_add` with libm's exactly rounded `fma`, a call per value (20× slower than the
+/// AVX2 copy, measured; x86-64 CPUs older than 2013). `$run` dispatches to `$avx512`,
+/// `$avx2` or `$base`, each `$inner`.
 macro_rules! multiversioned {
     ($(#[$doc:meta])* pub fn $run:ident, $avx512:ident, $avx2:ident, $base:ident
         = $inner:ident<$($c:ident: $bound:path),+>($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
@@ -384,7 +424,7 @@ macro_rules! multiversioned {
         pub fn $run<$($c: $bound),+>($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: each copy runs only on a CPU that has its instructions.
-            match $crate::sweep::block::KernelCopy::detect() {
+            match $crate::sweep::block::KernelCopy::active() {
                 $crate::sweep::block::KernelCopy::Avx512 => return unsafe { $avx512($($arg),*) },
                 $crate::sweep::block::KernelCopy::Avx2 => return unsafe { $avx2($($arg),*) },
                 $crate::sweep::block::KernelCopy::Baseline => {}
@@ -577,6 +617,25 @@ mod tests {
         }
         assert!(base.contains("fell: true") && base.contains("fell: false"), "want both outcomes: {base}");
         base
+    }
+
+    /// A chosen copy runs until it is unchosen; a copy the CPU lacks is refused and leaves
+    /// the widest running. (Chosen only for a moment: other tests' sweeps run meanwhile.)
+    #[test]
+    fn a_chosen_copy_runs_until_unchosen() {
+        let widest = KernelCopy::detect();
+        assert!(widest.runs_here() && KernelCopy::Baseline.runs_here());
+        for copy in KernelCopy::ALL {
+            let got = KernelCopy::choose(Some(copy));
+            let active = KernelCopy::active();
+            assert_eq!(KernelCopy::choose(None), Ok(widest));
+            if copy.runs_here() {
+                assert_eq!((got, active), (Ok(copy), copy));
+            } else {
+                assert_eq!((got, active), (Err(widest), widest));
+            }
+        }
+        assert_eq!(KernelCopy::active(), widest);
     }
 
     #[test]
