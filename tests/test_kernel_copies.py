@@ -49,7 +49,7 @@ def test_every_copy_this_cpu_runs_gives_the_same_sweep(name):
             assert np.array_equal(r.metrics[k], widest.metrics[k], equal_nan=True), (copy, k)
 
 
-def test_a_chosen_copy_is_named_and_kept_for_child_processes():
+def test_a_chosen_copy_is_named_and_kept_in_the_environment():
     assert twip.use_kernel_copy("baseline") == "baseline" == twip.kernel_copy()
     assert os.environ["TWIP_KERNEL_COPY"] == "baseline"
     assert twip.use_kernel_copy(None) == WIDEST == twip.kernel_copy()

@@ -1,7 +1,7 @@
 """Which copy of the sweeps' lane kernels runs: AVX-512, AVX2 or baseline (the numbers are
 the same on every copy, the speed is not). Chosen per process; the choice is kept in the
-environment variable ``TWIP_KERNEL_COPY``, so that the processes a sweep starts (Dask's
-workers on this machine) run the same copy, and ``import twip`` applies it."""
+environment variable ``TWIP_KERNEL_COPY``, which the processes started afterwards inherit,
+and ``import twip`` applies it there."""
 from __future__ import annotations
 
 import os
