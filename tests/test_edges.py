@@ -655,6 +655,44 @@ def test_cli_ctrl_c_prints_the_partial_summary_and_the_resume_command(tmp_path):
     assert resume.startswith("twip sweep flat-lqr-sim -n 60000") and str(folder) in resume
 
 
+class _BlowsUp:
+    """Holds the input at 0 until `at`, then at 1e300 A (finite: a NaN input is an error),
+    which makes the state overflow: a controller whose run diverges."""
+
+    period = 1e-3
+
+    def __init__(self, at):
+        self.at = at
+
+    def reset(self):
+        pass
+
+    def update(self, t, y, ref):
+        return 0.0 if t < self.at else 1e300
+
+
+def test_a_run_that_fell_or_diverged_never_settled():
+    """Its settling times are its end, in a run, in a sweep's sample (on lanes and through a
+    Python controller) and in its replay. Before, a diverged run's covered only the samples
+    before it: 0 when it blew up at the first step, and a standing robot whose controller
+    blew up at 0.2 s read its pitch as settled at 0."""
+    sc = scenarios.get("flat-lqr-sim", t_final=1.0)
+    wild = twip.LqrController(sc.model, [-1e150] * 4, point="operating", period=1e-3)
+    upright = [sc.model.equilibrium(0.0)[0][0], 0.0, 0.0, 0.0]
+    runs = [twip.simulate(sc.model, wild, sc.x0, 1.0, reference=sc.reference),
+            twip.simulate(sc.model, _BlowsUp(0.2), upright, 1.0, reference=twip.SpeedSchedule.constant(0.0))]
+    assert [r.outcome for r in runs] == ["diverged", "diverged"] and runs[1].t_end > 0.2
+    sweeps = [twip.montecarlo(sc.replace(controller=wild), 4, perturb={"m_body": twip.Uniform(rel=0.1)}, progress=False),
+              twip.montecarlo(sc.replace(controller=_BlowsUp(0.2), x0=upright), 2, progress=False)]
+    runs += [s.replay(i) for s in sweeps for i in range(s.n)]
+    for r in runs:
+        assert r.fell and r.metrics["pitch_settling_time"] == r.metrics["speed_settling_time"] == r.t_end, r.metrics
+    for s in sweeps:
+        m = s.metrics
+        assert m["fell"].all() and (m["pitch_settling_time"] == m["t_end"]).all(), m
+        assert (m["speed_settling_time"] == m["t_end"]).all(), m
+
+
 def test_a_diverged_run_is_a_fall_as_sweeps_count_it():
     """Gains of 1e150 blow the state up in one step: the outcome is "diverged", and `fell` said
     False while the sweep of the same robots counted every sample as fallen (so `replay(i).fell`

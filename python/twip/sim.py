@@ -25,8 +25,9 @@ class SimResult:
 
     `outcome`: "completed"; "fell" (|pitch| passed the fall limit at `t_end`); "diverged"
     (the state or the controller's output stopped being finite at `t_end`: a fall for
-    `fell` and for sweeps; the metrics cover the samples before it, so a settling time of
-    0 there means nothing); "interrupted" (Ctrl-C: the run up to `t_end`)."""
+    `fell` and for sweeps; the metrics cover the samples before it); "interrupted" (Ctrl-C:
+    the run up to `t_end`). A run that fell or diverged never settled: its settling times
+    are `t_end`, as its sweep sample's are."""
 
     t: np.ndarray
     states: np.ndarray

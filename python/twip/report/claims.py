@@ -158,7 +158,9 @@ SETTLING = {"pitch_settling_time": "pitch settles", "speed_settling_time": "whee
 def settling_time(sc, r, key: str, band: float = SETTLING_BAND) -> float:
     """The last time [s] run `r` of scenario `sc` was outside `band` (module doc): at the 2 %
     band the pitch's and the speed's equal r.metrics' (the core's metrics, accumulated while
-    the run ran)."""
+    the run ran), and a run that fell or diverged never settled (its end)."""
+    if r.fell:
+        return float(r.t_end)
     x = r.states
     if key == "pitch_settling_time":
         speeds = r.reference("theta_dot")

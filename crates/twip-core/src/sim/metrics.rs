@@ -14,9 +14,11 @@ pub struct SlopeSummary<T> {
     pub mean_abs_pitch_error: T,
     /// Mean |θ̇ − θ̇_ref| [rad/s].
     pub mean_abs_speed_error: T,
-    /// Last time |φ − φ_s| was outside its band (2 % of the initial pitch step, ≥ 0.25°) [s].
+    /// Last time |φ − φ_s| was outside its band (2 % of the initial pitch step, ≥ 0.25°) [s]
+    /// (the end, for a run that fell or diverged: [`Self::ended_early`]).
     pub pitch_settling_time: T,
-    /// Last time |θ̇ − θ̇_ref| was outside 2 % of the largest reference speed [s].
+    /// Last time |θ̇ − θ̇_ref| was outside 2 % of the largest reference speed [s] (the
+    /// end, for a run that fell or diverged).
     pub speed_settling_time: T,
     /// (θ_ref − θ) r at the last sample [m], signed along the last leg travelled (the last
     /// nonzero reference speed): positive short of the goal, negative past it, both ways.
@@ -39,6 +41,17 @@ crate::sim::named_metrics!(SlopeSummary {
     peak_current,
     peak_torque,
 });
+
+impl<T: Copy> SlopeSummary<T> {
+    /// The summary of a run that ended early at `t_end`: it fell, or its state or input
+    /// stopped being finite. It never settled, so both settling times are `t_end`. (A
+    /// diverged run's last state is not observed, so its samples alone could read as
+    /// settled, at 0 if it blew up at the first step; a fallen run's wheel speed could read
+    /// as settled before it fell.)
+    pub fn ended_early(self, t_end: T) -> Self {
+        Self { pitch_settling_time: t_end, speed_settling_time: t_end, ..self }
+    }
+}
 
 /// The largest current one motor carried [A] and torque one wheel got [N m], to hold
 /// against a motor's data sheet (stall current). The 2-DOF model's input is the lumped

@@ -226,8 +226,10 @@ pub struct SampleMetrics {
 }
 
 impl SampleMetrics {
-    /// A valid sample's metrics from its run's summary and how the run ended.
+    /// A valid sample's metrics from its run's summary and how the run ended (`fell`: it
+    /// fell or diverged, and never settled: [`SlopeSummary::ended_early`]).
     pub fn from_summary(s: &SlopeSummary<f64>, fell: bool, t_end: f64, steps: u64) -> Self {
+        let s = if fell { s.ended_early(t_end) } else { *s };
         Self {
             valid: true,
             fell,
@@ -491,6 +493,38 @@ pub(crate) mod tests {
             println!("{family}: worst relative difference over 10 s: {worst:e}");
             assert!(worst <= 1e-12, "{family}: worst relative difference {worst:e}");
         }
+    }
+
+    /// A run that fell or diverged never settled: both settling times are its end, on lanes
+    /// and in the runner alike. Before, a diverged run's (whose last state is not finite
+    /// and not observed) read as settled at 0 when it blew up at the first step.
+    #[test]
+    fn a_run_that_falls_or_diverges_never_settled() {
+        let (lqr, schedule, config, nominal) = setup(0.0);
+        let never = || false;
+        // Gains that overflow the input: the state is not finite after the first step.
+        let wild = LqrController::new(lqr.gains().map(|g| g * 1e306), *lqr.model(), DesignPoint::OperatingPoint, 0.005).unwrap();
+        let tilted = Nominal { x0: Vector4::new(0.1, 0.0, 0.0, 0.0), ..nominal };
+        let run = simulate_until(lqr.model(), &mut wild.clone(), &schedule, &tilted.x0, &config, &mut (), &never);
+        assert!(matches!(run, Ok((Outcome::Diverged { .. }, 1))), "{run:?}");
+        for (name, got) in [
+            ("lanes", run_lqr_samples(&wild, &schedule, &config, &tilted, &[], 1, 0..1, &never).unwrap().unwrap()[0]),
+            ("runner", run_slope_sample(&wild, &schedule, &config, &draw(&tilted, &[], 1, 0), &never).unwrap()),
+        ] {
+            assert!(got.fell && got.t_end == config.dt, "{name}: {got:?}");
+            assert_eq!((got.pitch_settling_time, got.speed_settling_time), (got.t_end, got.t_end), "{name}");
+        }
+        // Robots that fall: the same, lane and runner.
+        let lanes = run_lqr_samples(&lqr, &schedule, &config, &nominal, &spread(), 7, 0..64, &never).unwrap().unwrap();
+        let mut fell = 0;
+        for (i, got) in lanes.iter().enumerate().filter(|(_, m)| m.valid && m.fell) {
+            let expected = run_slope_sample(&lqr, &schedule, &config, &draw(&nominal, &spread(), 7, i as u64), &never).unwrap();
+            for m in [got, &expected] {
+                assert_eq!((m.pitch_settling_time, m.speed_settling_time), (m.t_end, m.t_end), "sample {i}");
+            }
+            fell += 1;
+        }
+        assert!(fell > 0, "the spread should make some robots fall");
     }
 
     #[test]

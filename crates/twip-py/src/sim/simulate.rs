@@ -150,5 +150,10 @@ pub fn simulate_raw<'py>(
         internal_names: names,
         signal_names: (extra > 0).then_some(&RIG_SIGNALS[..]),
     };
-    run_dict(py, log, &layout, outcome, steps, metrics.summary().named())
+    // A run that fell or diverged never settled (as its sweep sample says).
+    let summary = match outcome {
+        Outcome::Fell { t } | Outcome::Diverged { t } => metrics.summary().ended_early(t),
+        _ => metrics.summary(),
+    };
+    run_dict(py, log, &layout, outcome, steps, summary.named())
 }

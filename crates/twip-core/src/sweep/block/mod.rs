@@ -16,7 +16,7 @@ use crate::control::Reference;
 use crate::model::integrate::{rk4, Field};
 use crate::model::lane::{Fused, Wide, WIDTH};
 use crate::model::slope::{deriv, SlopeCoefficients, SlopeModel};
-use crate::sim::metrics::{pitch_band, steady_pitch, Aim, DrivePeaks, Tally};
+use crate::sim::metrics::{pitch_band, steady_pitch, Aim, DrivePeaks, SlopeSummary, Tally};
 use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
@@ -249,10 +249,7 @@ impl Metrics {
         let count = self.samples[l].max(1) as f64;
         let tally = self.get(l);
         let peaks = DrivePeaks::from_lumped_current(model.params(), tally.peak_abs_input.0);
-        SampleMetrics {
-            valid: true,
-            fell,
-            t_end,
+        let summary = SlopeSummary {
             mean_abs_pitch_error: tally.sum_pitch.0 / count,
             mean_abs_speed_error: tally.sum_speed.0 / count,
             pitch_settling_time: tally.pitch_settle.0,
@@ -261,8 +258,9 @@ impl Metrics {
             peak_abs_input: tally.peak_abs_input.0,
             peak_current: peaks.current,
             peak_torque: peaks.torque,
-            steps,
-        }
+            samples: self.samples[l] as usize,
+        };
+        SampleMetrics::from_summary(&summary, fell, t_end, steps)
     }
 
     /// Observes the lanes that are `live`: a loop over lanes without branches, which the
