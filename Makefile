@@ -36,8 +36,8 @@ test-rust: setup
 	cargo check -p twip-core --benches --examples --all-features --quiet
 	cargo check -p twip-ffi --benches --quiet
 
-# The tests run in parallel processes (pytest-xdist), one per core up to four: on CI's two
-# cores this took pytest from ~290 s to ~210 s. A single test runs as usual: `pytest -k name`.
+# The tests run in parallel processes (pytest-xdist), one per core up to four: on a 2-core
+# VM pytest took 196-240 s so, 276-312 s serially (separate runs). One test: `pytest -k name`.
 test-python: build
 	$(PY) -m pytest tests -q -n auto --maxprocesses 4
 

@@ -30,6 +30,17 @@ pub enum Outcome<T> {
     Interrupted { t: T },
 }
 
+impl<T: Copy> Outcome<T> {
+    /// When a run that ended early (it fell or diverged) ended; None for one that completed
+    /// or was interrupted.
+    pub fn ended_early(&self) -> Option<T> {
+        match *self {
+            Self::Fell { t } | Self::Diverged { t } => Some(t),
+            Self::Completed | Self::Interrupted { .. } => None,
+        }
+    }
+}
+
 impl<T: Real> SimConfig<T> {
     /// `dt`, `t_final` and the fall limit, by default [`DEFAULT_FALL_LIMIT`].
     pub fn new(dt: T, t_final: T, fall_limit: Option<T>) -> Self {

@@ -277,11 +277,10 @@ pub(crate) fn finish<M: SweepMetrics>(
     let Ok((outcome, steps)) = run else {
         return Some(M::INVALID);
     };
-    let (fell, t_end) = match outcome {
-        Outcome::Completed => (false, dt * steps as f64),
-        Outcome::Fell { t } | Outcome::Diverged { t } => (true, t),
-        Outcome::Interrupted { .. } => return None,
-    };
+    if let Outcome::Interrupted { .. } = outcome {
+        return None;
+    }
+    let (fell, t_end) = outcome.ended_early().map_or((false, dt * steps as f64), |t| (true, t));
     Some(make(fell, t_end, steps as u64))
 }
 
