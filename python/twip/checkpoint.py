@@ -16,8 +16,11 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import contextlib
 import os
+import signal
 import socket
+import threading
 import warnings
 from pathlib import Path
 from typing import Dict, Iterator, Optional
@@ -238,3 +241,23 @@ def _flock(fd: int) -> bool:
         return False
     fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     return True
+
+
+@contextlib.contextmanager
+def ctrl_c_held():
+    """Holds a Ctrl-C (SIGINT) that arrives inside the block until the block is done, then
+    delivers it to the handler that was in place. Keeping a finished shard (writing it, and
+    counting it as finished) must not be cut in half: a KeyboardInterrupt inside numpy's
+    zip writer left a ValueError and no partial result. Python runs signal handlers in the
+    main thread only, so elsewhere the block runs as it is."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if held:
+            signal.raise_signal(signal.SIGINT)

@@ -27,7 +27,7 @@ from typing import Mapping, Optional, Sequence
 import numpy as np
 
 from twip import _core, budget, checks, user_sweep
-from twip.checkpoint import Checkpoint
+from twip.checkpoint import Checkpoint, ctrl_c_held
 from twip.distributions import Normal, Uniform, finite_number, wilson_interval  # noqa: F401 (re-exported)
 from twip.perturbation import PLANAR_STATE_NAMES, STATE_NAMES, family_of, kernel_for, resolve  # noqa: F401
 from twip.sweep_result import StreamedSweepResult, SweepResult  # noqa: F401
@@ -254,11 +254,12 @@ def _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, re
     kernel = kernel_for(sc, realism)
 
     def keep(s, raw):
-        if store is not None:
-            store.save(s, raw)
-        finished.add(s)
-        if in_memory or store is None:
-            parts[s] = raw
+        with ctrl_c_held():  # a finished shard is kept whole, then a Ctrl-C acts
+            if store is not None:
+                store.save(s, raw)
+            finished.add(s)
+            if in_memory or store is None:
+                parts[s] = raw
 
     try:
         if client is not None:
