@@ -414,10 +414,11 @@ impl KernelCopy {
 /// built for the baseline CPU). All copies give the same bits: the baseline copy computes
 /// each `mul_add` with libm's exactly rounded `fma`, a call per value (20× slower than the
 /// AVX2 copy, measured; x86-64 CPUs older than 2013). `$run` dispatches to `$avx512`,
-/// `$avx2` or `$base`, each `$inner`.
+/// `$avx2` or `$base`, each `$inner`. An `$inner` whose generics end in `; const SIMD` (a
+/// `const SIMD: bool`) learns which copy it is in (see [`out_of_line`]).
 macro_rules! multiversioned {
     ($(#[$doc:meta])* pub fn $run:ident, $avx512:ident, $avx2:ident, $base:ident
-        = $inner:ident<$($c:ident: $bound:path),+>($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
+        = $inner:ident<$($c:ident: $bound:path),+ $(; const $simd:ident)?>($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
         $(#[$doc])*
         pub fn $run<$($c: $bound),+>($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
@@ -433,22 +434,39 @@ macro_rules! multiversioned {
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = "avx512f,fma")]
         unsafe fn $avx512<$($c: $bound),+>($($arg: $ty),*) -> $ret {
-            $inner($($arg),*)
+            multiversioned!(@call $inner [$($c),+] [$($simd)?] true ($($arg),*))
         }
 
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = "avx2,fma")]
         unsafe fn $avx2<$($c: $bound),+>($($arg: $ty),*) -> $ret {
-            $inner($($arg),*)
+            multiversioned!(@call $inner [$($c),+] [$($simd)?] true ($($arg),*))
         }
 
         #[inline(never)]
         fn $base<$($c: $bound),+>($($arg: $ty),*) -> $ret {
-            $inner($($arg),*)
+            multiversioned!(@call $inner [$($c),+] [$($simd)?] false ($($arg),*))
         }
+    };
+    (@call $inner:ident [$($c:ident),+] [] $simd:literal ($($arg:ident),*)) => {
+        $inner($($arg),*)
+    };
+    (@call $inner:ident [$($c:ident),+] [$flag:ident] $simd:literal ($($arg:ident),*)) => {
+        $inner::<$($c,)+ $simd>($($arg),*)
     };
 }
 pub(crate) use multiversioned;
+
+/// Runs `f` out of line: the baseline copies of the rigs' kernels call each plant kind
+/// (`by_kind!`'s `!SIMD`), which their SIMD copies inline (out of line there, a kind would
+/// run baseline code). Inlined there too, the kinds made the rigs' baseline copies 3.3 MB
+/// of machine code and the wheel's 13-minute build 2.6 minutes longer, for CPUs older than
+/// 2013, which run those copies at a twentieth of the AVX2 copy's speed anyway (and no
+/// slower for the call). Same bits.
+#[inline(never)]
+pub(super) fn out_of_line<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
 
 type BlockResult = Result<Option<[SampleMetrics; LANES]>, TwipError>;
 

@@ -17,7 +17,7 @@ use nalgebra::SVector;
 use super::planar::{LanePath, Metrics, Plants, PlanarLaneLaw};
 use super::rig::block_rigs;
 use super::winding::WindingLanes;
-use super::{chunk, multiversioned, CHUNKS};
+use super::{chunk, multiversioned, out_of_line, CHUNKS};
 use crate::Dynamics;
 use crate::hardware::disturbance::Force;
 use crate::hardware::driver::{MotorDriver, Winding};
@@ -158,16 +158,20 @@ macro_rules! by_kind {
     };
     (@drive $self:ident, $gear:ident, $geared:literal, $run:ident($($arg:expr),*)) => {
         match $self.drive {
-            HELD => $self.$run::<$gear, HELD, $geared>($($arg),*),
-            STEADY => $self.$run::<$gear, STEADY, $geared>($($arg),*),
-            _ => $self.$run::<$gear, STEPPED, $geared>($($arg),*),
+            HELD => by_kind!(@call $self, $run::<$gear, HELD, $geared>($($arg),*)),
+            STEADY => by_kind!(@call $self, $run::<$gear, STEADY, $geared>($($arg),*)),
+            _ => by_kind!(@call $self, $run::<$gear, STEPPED, $geared>($($arg),*)),
         }
+    };
+    // Inlined in a SIMD copy of the kernel, called in its baseline copy (`out_of_line`).
+    (@call $self:ident, $run:ident::<$($k:tt),*>($($arg:expr),*)) => {
+        if SIMD { $self.$run::<$($k),*>($($arg),*) } else { out_of_line(|| $self.$run::<$($k),*>($($arg),*)) }
     };
 }
 
 // The kinds' loops are inlined into the kernel's SIMD copies (out of line they would run
-// baseline code), but not in debug builds, whose inlined copies each keep their own stack
-// slots.
+// baseline code), but not into its baseline copy (`out_of_line`) nor in debug builds,
+// whose inlined copies each keep their own stack slots.
 impl RigPlants {
     /// Lane `l`'s plant under the input `u` held (motor torques, at the step's start with
     /// inductance, or duties without).
@@ -189,7 +193,7 @@ impl RigPlants {
     /// The derivative and each wheel's gearhead torque on every lane, its trains as they
     /// are (`trains`): RK4's first stage, and what the gear trains weigh.
     #[inline(always)]
-    fn motion(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
+    fn motion<const SIMD: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
         by_kind!(self, trains, motion_of(x, u, trains))
     }
 
@@ -210,7 +214,7 @@ impl RigPlants {
     /// RK4's later stages from each lane's first `k1` on every lane, its trains as they
     /// are over the step (`trains`).
     #[inline(always)]
-    fn rk4(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
+    fn rk4<const SIMD: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
         by_kind!(self, trains, rk4_of(x, u, trains, k1, dt))
     }
 
@@ -313,7 +317,7 @@ multiversioned! {
     /// `sweep::rig::for_sweep` for the key), with `controller`'s law along `path`
     /// ("_settled" metrics from `settle` [s]). `should_stop` is asked every
     /// `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it said yes before the block was done.
-    pub fn run_planar_rig_block, planar_rig_avx512, planar_rig_avx2, planar_rig_baseline = planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
+    pub fn run_planar_rig_block, planar_rig_avx512, planar_rig_avx2, planar_rig_baseline = planar_rig_block<C: PlanarLaneLaw, P: LanePath; const SIMD>(
         controller: C,
         path: &P,
         config: &SimConfig<f64>,
@@ -325,7 +329,7 @@ multiversioned! {
 }
 
 #[inline(always)]
-fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
+fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const SIMD: bool>(
     mut controller: C,
     path: &P,
     config: &SimConfig<f64>,
@@ -473,7 +477,7 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
                 windings.step(k > 0, &finished[wheel], &u[wheel], &starts[wheel], &mut held[wheel]);
             }
         }
-        let (mut k1, tau) = plants.motion(&x, &held, &trains);
+        let (mut k1, tau) = plants.motion::<SIMD>(&x, &held, &trains);
         let before = trains;
         for (l, rig) in rigs.iter_mut().enumerate() {
             let (xl, ul) = (lane(&x, l), lane(&u, l));
@@ -490,12 +494,12 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath>(
         }
         if trains != before {
             // Some trains opened or closed: RK4's first stage with them as they are now.
-            k1 = plants.motion(&x, &held, &trains).0;
+            k1 = plants.motion::<SIMD>(&x, &held, &trains).0;
         }
         if let Some(imus) = imus.as_mut() {
             imus.sample(t, &x, &k1);
         }
-        let next = plants.rk4(&x, &held, &trains, &k1, dt);
+        let next = plants.rk4::<SIMD>(&x, &held, &trains, &k1, dt);
         if !metrics.end_step(&mut x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &command, path, settle) {
             break;
         }

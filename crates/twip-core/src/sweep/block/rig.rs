@@ -16,7 +16,7 @@
 use nalgebra::{SVector, Vector4};
 
 use super::winding::WindingLanes;
-use super::{chunk, multiversioned, state_chunk, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared, CHUNKS};
+use super::{chunk, multiversioned, out_of_line, state_chunk, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared, CHUNKS};
 use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
 use crate::hardware::disturbance::{Disturbed, Force, Pushes, MAX_SLOPE_CHANGES};
@@ -233,16 +233,21 @@ macro_rules! by_kind {
     };
     (@drive $self:ident, $drive:expr, $run:ident, $gear:ident, $geared:literal, $changes:tt, $($arg:expr),*) => {
         match $drive {
-            HELD => $self.$run::<$gear, HELD, $geared, $changes>($($arg),*),
-            STEADY => $self.$run::<$gear, STEADY, $geared, $changes>($($arg),*),
-            _ => $self.$run::<$gear, STEPPED, $geared, $changes>($($arg),*),
+            HELD => by_kind!(@call $self, $run::<$gear, HELD, $geared, $changes>($($arg),*)),
+            STEADY => by_kind!(@call $self, $run::<$gear, STEADY, $geared, $changes>($($arg),*)),
+            _ => by_kind!(@call $self, $run::<$gear, STEPPED, $geared, $changes>($($arg),*)),
         }
+    };
+    // Inlined in a SIMD copy of the kernel, called in its baseline copy (`out_of_line`).
+    (@call $self:ident, $run:ident::<$($k:tt),*>($($arg:expr),*)) => {
+        if SIMD { $self.$run::<$($k),*>($($arg),*) } else { out_of_line(|| $self.$run::<$($k),*>($($arg),*)) }
     };
 }
 
 // The kinds' loops are inlined into the kernel's SIMD copies (out of line they would run
-// baseline code), but not in debug builds: there, every inlined copy keeps its own stack
-// slots, and the 24 kinds' made the kernel's frame ~2 MB, a thread's whole stack.
+// baseline code), but not into its baseline copy (`out_of_line`) nor in debug builds:
+// there, every inlined copy keeps its own stack slots, and the 24 kinds' made the kernel's
+// frame ~2 MB, a thread's whole stack.
 impl RigPlants {
     #[inline(always)]
     fn field<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, DRIVE, GEARED, CHANGES> {
@@ -255,7 +260,7 @@ impl RigPlants {
     /// The derivative at the step's start on every lane (RK4's first stage, which the
     /// sensors sample too).
     #[inline(always)]
-    fn k1(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
+    fn k1<const SIMD: bool>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
         by_kind!(self, self.drive, engaged, k1_of(x, u, engaged))
     }
 
@@ -274,7 +279,7 @@ impl RigPlants {
     /// The derivative and gearhead torque per wheel on every lane with the trains as they
     /// are, under the lumped `current` held (what `Disturbed::gear_next` weighs).
     #[inline(always)]
-    fn geared_motion(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
+    fn geared_motion<const SIMD: bool>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
         // The lumped current is the input, whatever the winding.
         by_kind!(self, HELD, engaged, geared_motion_of(x, current, engaged))
     }
@@ -295,7 +300,7 @@ impl RigPlants {
     /// One RK4 step from `k1` on every lane, the input held.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn rk4(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
+    fn rk4<const SIMD: bool>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
         by_kind!(self, self.drive, engaged, rk4_of(x, u, engaged, k1, dt))
     }
 
@@ -420,7 +425,7 @@ multiversioned! {
     /// robot (`realism_of`; noise stream = the sample's index; see `sweep::rig::for_sweep`
     /// for the key), with `controller`'s law. `should_stop` is asked every
     /// `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it said yes before the block was done.
-    pub fn run_rig_block, rig_block_avx512, rig_block_avx2, rig_block_baseline = rig_block<C: LaneLaw>(
+    pub fn run_rig_block, rig_block_avx512, rig_block_avx2, rig_block_baseline = rig_block<C: LaneLaw; const SIMD>(
         controller: C,
         reference: &SpeedSchedule<f64>,
         config: &SimConfig<f64>,
@@ -431,7 +436,7 @@ multiversioned! {
 }
 
 #[inline(always)]
-fn rig_block<C: LaneLaw>(
+fn rig_block<C: LaneLaw, const SIMD: bool>(
     mut controller: C,
     reference: &SpeedSchedule<f64>,
     config: &SimConfig<f64>,
@@ -592,7 +597,7 @@ fn rig_block<C: LaneLaw>(
         let mut k1 = [[0.0; LANES]; 4];
         if plants.geared {
             let tau;
-            (k1, tau) = plants.geared_motion(&x, &current, &engaged);
+            (k1, tau) = plants.geared_motion::<SIMD>(&x, &current, &engaged);
             for (l, rig) in rigs.iter_mut().enumerate() {
                 let xl = Vector4::from(lane(&x, l));
                 let mean = if stepped { plants.windings.mean(l) } else { rig.plant.mean_current(&xl, u[l]) };
@@ -610,12 +615,12 @@ fn rig_block<C: LaneLaw>(
         // turns into current at each stage.
         let input = if plants.drive == STEADY { u } else { current };
         if !(plants.geared && engaged == before) {
-            k1 = plants.k1(&x, &input, &engaged);
+            k1 = plants.k1::<SIMD>(&x, &input, &engaged);
         }
         if let Some(imus) = imus.as_mut() {
             imus.sample(&plants.hills, t, &x, &k1);
         }
-        let next = plants.rk4(&x, &input, &engaged, &k1, dt);
+        let next = plants.rk4::<SIMD>(&x, &input, &engaged, &k1, dt);
         let Some(ends) = super::advance(&mut x, &next, &alive, 0, config.fall_limit) else { continue };
         let t_next = dt * (k + 1) as f64;
         for l in (0..LANES).filter(|&l| ends[l]) {
