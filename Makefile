@@ -37,7 +37,7 @@ test-rust: setup
 	cargo check -p twip-ffi --benches --quiet
 
 # The tests run in parallel processes (pytest-xdist), one per core up to four: on a 2-core
-# VM pytest took 196-240 s so, 276-312 s serially (separate runs). One test: `pytest -k name`.
+# VM pytest took 196-250 s, and 276-312 s serially (separate runs). One test: `pytest -k name`.
 test-python: build
 	$(PY) -m pytest tests -q -n auto --maxprocesses 4
 

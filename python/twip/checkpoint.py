@@ -13,10 +13,10 @@ The folder's writability is checked (by taking the lock) before any sample runs.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import json
-import contextlib
 import os
 import signal
 import socket

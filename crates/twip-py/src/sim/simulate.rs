@@ -151,6 +151,7 @@ pub fn simulate_raw<'py>(
         signal_names: (extra > 0).then_some(&RIG_SIGNALS[..]),
     };
     // A run that fell or diverged never settled (as its sweep sample says).
-    let summary = outcome.ended_early().map_or(metrics.summary(), |t| metrics.summary().ended_early(t));
+    let summary = metrics.summary();
+    let summary = outcome.ended_early().map_or(summary, |t| summary.ended_early(t));
     run_dict(py, log, &layout, outcome, steps, summary.named())
 }

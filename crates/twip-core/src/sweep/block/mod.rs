@@ -468,6 +468,14 @@ pub(super) fn out_of_line<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
+/// `$call` inlined in a SIMD copy of a kernel (`$simd`), out of line in its baseline copy.
+macro_rules! inline_if_simd {
+    ($simd:ident, $call:expr) => {
+        if $simd { $call } else { $crate::sweep::block::out_of_line(|| $call) }
+    };
+}
+pub(crate) use inline_if_simd;
+
 type BlockResult = Result<Option<[SampleMetrics; LANES]>, TwipError>;
 
 multiversioned! {

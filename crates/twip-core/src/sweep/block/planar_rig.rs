@@ -17,7 +17,7 @@ use nalgebra::SVector;
 use super::planar::{LanePath, Metrics, Plants, PlanarLaneLaw};
 use super::rig::block_rigs;
 use super::winding::WindingLanes;
-use super::{chunk, multiversioned, out_of_line, CHUNKS};
+use super::{chunk, inline_if_simd, multiversioned, CHUNKS};
 use crate::Dynamics;
 use crate::hardware::disturbance::Force;
 use crate::hardware::driver::{MotorDriver, Winding};
@@ -158,14 +158,10 @@ macro_rules! by_kind {
     };
     (@drive $self:ident, $gear:ident, $geared:literal, $run:ident($($arg:expr),*)) => {
         match $self.drive {
-            HELD => by_kind!(@call $self, $run::<$gear, HELD, $geared>($($arg),*)),
-            STEADY => by_kind!(@call $self, $run::<$gear, STEADY, $geared>($($arg),*)),
-            _ => by_kind!(@call $self, $run::<$gear, STEPPED, $geared>($($arg),*)),
+            HELD => inline_if_simd!(SIMD, $self.$run::<$gear, HELD, $geared>($($arg),*)),
+            STEADY => inline_if_simd!(SIMD, $self.$run::<$gear, STEADY, $geared>($($arg),*)),
+            _ => inline_if_simd!(SIMD, $self.$run::<$gear, STEPPED, $geared>($($arg),*)),
         }
-    };
-    // Inlined in a SIMD copy of the kernel, called in its baseline copy (`out_of_line`).
-    (@call $self:ident, $run:ident::<$($k:tt),*>($($arg:expr),*)) => {
-        if SIMD { $self.$run::<$($k),*>($($arg),*) } else { out_of_line(|| $self.$run::<$($k),*>($($arg),*)) }
     };
 }
 

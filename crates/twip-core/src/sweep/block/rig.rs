@@ -16,7 +16,7 @@
 use nalgebra::{SVector, Vector4};
 
 use super::winding::WindingLanes;
-use super::{chunk, multiversioned, out_of_line, state_chunk, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared, CHUNKS};
+use super::{chunk, inline_if_simd, multiversioned, state_chunk, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared, CHUNKS};
 use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
 use crate::hardware::disturbance::{Disturbed, Force, Pushes, MAX_SLOPE_CHANGES};
@@ -233,14 +233,10 @@ macro_rules! by_kind {
     };
     (@drive $self:ident, $drive:expr, $run:ident, $gear:ident, $geared:literal, $changes:tt, $($arg:expr),*) => {
         match $drive {
-            HELD => by_kind!(@call $self, $run::<$gear, HELD, $geared, $changes>($($arg),*)),
-            STEADY => by_kind!(@call $self, $run::<$gear, STEADY, $geared, $changes>($($arg),*)),
-            _ => by_kind!(@call $self, $run::<$gear, STEPPED, $geared, $changes>($($arg),*)),
+            HELD => inline_if_simd!(SIMD, $self.$run::<$gear, HELD, $geared, $changes>($($arg),*)),
+            STEADY => inline_if_simd!(SIMD, $self.$run::<$gear, STEADY, $geared, $changes>($($arg),*)),
+            _ => inline_if_simd!(SIMD, $self.$run::<$gear, STEPPED, $geared, $changes>($($arg),*)),
         }
-    };
-    // Inlined in a SIMD copy of the kernel, called in its baseline copy (`out_of_line`).
-    (@call $self:ident, $run:ident::<$($k:tt),*>($($arg:expr),*)) => {
-        if SIMD { $self.$run::<$($k),*>($($arg),*) } else { out_of_line(|| $self.$run::<$($k),*>($($arg),*)) }
     };
 }
 
