@@ -30,8 +30,10 @@ demo: build
 # subset), and the no_std build is checked for dependencies that switch std on; the
 # benches beside the crate are built so that they cannot rot. They build in a target folder
 # of their own, so that `make test` can run them while the wheel builds (cargo locks a
-# target folder for the whole of a build).
+# target folder for the whole of a build), and without MAKEFLAGS: under `make --jobs` it names
+# a jobserver that a recipe cannot reach, and rustdoc warned of it.
 test-rust: export CARGO_TARGET_DIR := $(CURDIR)/target/tests
+test-rust: MAKEFLAGS :=
 test-rust: setup
 	cargo test --workspace --exclude twip-py --features twip-core/parallel --quiet
 	cargo test -p twip-core --no-default-features --lib --quiet
@@ -46,10 +48,11 @@ test-python: build
 	$(PYTEST)
 
 # The wheel's build spends most of its time in one rustc (twip-py's one codegen unit, which
-# Cargo.toml explains) and leaves the other core idle: the Rust tests run beside it, and
-# each prints its output whole when it ends.
+# Cargo.toml explains) and leaves the other core idle: the Rust tests run beside it, each
+# cargo compiling one crate at a time so that the two take a core each, and each prints its
+# output whole when it ends.
 test: setup
-	$(MAKE) --no-print-directory --jobs=2 --output-sync=target test-rust build
+	CARGO_BUILD_JOBS=1 $(MAKE) --no-print-directory --jobs=2 --output-sync=target test-rust build
 	$(PYTEST)
 
 nostd:
