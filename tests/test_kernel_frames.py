@@ -1,15 +1,24 @@
-"""The lane kernels' stack frames are aligned to a cache line (`benches/kernel_frames.py` reads
-the wheel's machine code). Misaligned, the LQR kernel swept ~1.13x slower with the same bits, so
-no other test would notice."""
+"""What keeps the lane kernels fast and that no other test would notice, since the bits stay
+the same: their stack frames are aligned to a cache line (`benches/kernel_frames.py` reads the
+wheel's machine code; misaligned, the LQR kernel swept ~1.13x slower), and the release profile
+that builds the wheel keeps one codegen unit with fat LTO (Cargo.toml's comment has the cost
+of more units)."""
 import platform
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benches" / "kernel_frames.py"
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPT = ROOT / "benches" / "kernel_frames.py"
+
+
+def test_the_release_profile_keeps_one_codegen_unit_and_fat_lto():
+    release = tomllib.loads((ROOT / "Cargo.toml").read_text())["profile"]["release"]
+    assert (release.get("codegen-units"), release.get("lto")) == (1, "fat")
 
 
 @pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64") or not (shutil.which("nm") and shutil.which("objdump")),
