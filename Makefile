@@ -50,8 +50,9 @@ test-python: build
 # The wheel's build spends most of its time in one rustc (twip-py's one codegen unit, which
 # Cargo.toml explains) and leaves the other core idle: the Rust tests run beside it, each
 # cargo compiling one crate at a time so that the two take a core each, and each prints its
-# output whole when it ends. On a 2-core VM a clean clone's `make test` took 942 s, against
-# 1153-1227 s one after the other (each cargo at two jobs at once, side by side: 1032 s).
+# output whole when it ends. On a 2-core VM a clean clone's `make test` took 942 and 1014 s
+# (two runs), against 1153-1227 s one after the other (each cargo at two jobs, side by side:
+# 1032 s).
 test: setup
 	CARGO_BUILD_JOBS=1 $(MAKE) --no-print-directory --jobs=2 --output-sync=target test-rust build
 	$(PYTEST)
