@@ -6,6 +6,7 @@
 //! pid (circle-pid on the 3-DOF runner; the checksum sums its mean |x error| instead),
 //! pid-lanes (the same on the planar lane kernel), pid-realism (circle-pid through the
 //! thesis-like rig on the general runner), pid-realism-lanes (the same on the planar rig's lane kernel),
+//! smc-fuzzy-lanes (circle-smc-fuzzy, 5 ms loop, on the planar lane kernel),
 //! realism (LQR through the thesis-like rig,
 //! 5 ms loop), realism-lanes (the same on the rig's lane kernel), realism-lanes-no-imu (that rig
 //! without its IMU: what the IMU costs), realism-lanes-slip (that rig with the data sheet's
@@ -89,6 +90,22 @@ fn main() {
             } else {
                 planar::run_planar_lane_samples(&PidLanes::new(&pid), &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|| false).unwrap().unwrap()
             };
+            runs.iter().map(|m| m.mean_abs_x_error).sum()
+        }
+        "smc-fuzzy-lanes" => {
+            // benches/families.py's circle-smc-fuzzy: r = 0.45 m at pi/30 m/s, a 5 ms loop.
+            use twip_core::control::smc::{Adaptation, SmcGains, SmcOptions, SmcTracker};
+            use twip_core::control::trajectory::{Circle, Direction};
+            use twip_core::hardware::motor::DcMotor;
+            use twip_core::sweep::block::SmcLanes;
+            use twip_core::sweep::planar::{self, PlanarNominal};
+            let motor = DcMotor::gb37y3530();
+            let planar_model = twip_core::PlanarModel::new(params).unwrap();
+            let smc = SmcTracker::new(SmcGains::thesis(motor.torque_per_count()), SmcOptions::default(), planar_model, Some(motor), Some(Adaptation::default()), 0.005).unwrap();
+            let circle = Circle::from_origin(0.45, core::f64::consts::PI / 30.0, Direction::CounterClockwise).unwrap();
+            let nominal = PlanarNominal { params, x0: nalgebra::SVector::zeros() };
+            let law = SmcLanes::new(&smc).unwrap();
+            let runs = planar::run_planar_lane_samples(&law, &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|| false).unwrap().unwrap();
             runs.iter().map(|m| m.mean_abs_x_error).sum()
         }
         "realism" | "realism-lanes" | "realism-lanes-no-imu" | "realism-lanes-slip" | "realism-lanes-hills" | "fuzzy-realism-lanes" => {
