@@ -33,6 +33,7 @@ use nalgebra::{Matrix3, SVector, Vector2, Vector3};
 
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::lane::{fill, Lane};
+use crate::model::slope::cramer;
 use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
 /// State `[x, y, psi, phi, phi_dot, v, omega]`.
@@ -310,16 +311,12 @@ pub(crate) fn forces<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u_r: S, u_l
     ([f_p, f_v, f_w], s, cp)
 }
 
-/// ν̇ = M(φ)⁻¹ f at sin φ, cos φ: the (φ, v) block by Cramer's rule, the yaw row diagonal.
+/// ν̇ = M(φ)⁻¹ f at sin φ, cos φ: the (φ, v) block by Cramer's rule (the slope model's,
+/// one division), the yaw row diagonal.
 #[inline(always)]
 pub(crate) fn accelerations<S: Lane>(k: &PlanarCoefficients<S>, f: &[S; 3], s: S, cp: S) -> [S; 3] {
-    let m_pv = pitch_speed_mass(k, cp);
-    let det = S::madd(-m_pv, m_pv, k.m_pp_vv);
-    [
-        S::madd(k.m_vv, f[0], -(m_pv * f[1])) / det,
-        S::madd(k.m_pp, f[1], -(m_pv * f[0])) / det,
-        f[2] / yaw_mass(k, s),
-    ]
+    let [phi_dd, v_dot] = cramer(k.m_pp, k.m_vv, k.m_pp_vv, pitch_speed_mass(k, cp), &[f[0], f[1]]);
+    [phi_dd, v_dot, f[2] / yaw_mass(k, s)]
 }
 
 /// M₁₂ = M₂₁ of the mass matrix at cos φ: the pitch–speed coupling M_b c_z cos φ less the
