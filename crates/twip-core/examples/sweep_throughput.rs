@@ -93,7 +93,8 @@ fn main() {
             runs.iter().map(|m| m.mean_abs_x_error).sum()
         }
         "smc-fuzzy-lanes" => {
-            // benches/families.py's circle-smc-fuzzy: r = 0.45 m at pi/30 m/s, a 5 ms loop.
+            // circle-smc-fuzzy's tracker (the scenario's defaults, 5 ms loop) and circle (r = 0.45 m
+            // at pi/30 m/s), as benches/families.py sweeps it, but 10 s per sample, not three laps.
             use twip_core::control::smc::{Adaptation, SmcGains, SmcOptions, SmcTracker};
             use twip_core::control::trajectory::{Circle, Direction};
             use twip_core::hardware::motor::DcMotor;
