@@ -20,7 +20,7 @@ use nalgebra::SVector;
 use crate::control::Controller;
 use crate::hardware::motor::DcMotor;
 use crate::control::trajectory::{wrap_angle, PlanarRef};
-use crate::model::lane::Lane;
+use crate::model::lane::{clamp, Lane};
 use crate::{c, Real, RobotParams, TwipError};
 
 /// The gains of (4.67)–(4.69): outputs in PWM counts per unit of [`PidUnits`].
@@ -251,7 +251,7 @@ impl<S: Lane> PidLaw<S> {
         // The heading error's rate from the gyro: ψ̇_r − ω.
         let u_psi = S::madd(g.kd_yaw * u.heading, r.omega - y[6], S::madd(g.kp_yaw, e_psi, g.ki_yaw * int_psi));
         let limit = self.motor.pwm_max();
-        let saturate = |v: S| v.larger(-limit).smaller(limit);
+        let saturate = |v: S| clamp(v, -limit, limit);
         let pwm = [saturate(u_phi + u_v + u_psi), saturate(u_phi + u_v - u_psi)];
         let speeds = relative_wheel_speeds(y, self.radius, self.half_track);
         PidStep {
@@ -355,5 +355,13 @@ mod tests {
         bad.kd_yaw = f64::NAN;
         let err = PidTracker::new(bad, PidUnits::si(0.005), m, &p, 0.005).unwrap_err();
         assert!(matches!(err, TwipError::InvalidParameter { name: "kd_yaw", .. }));
+    }
+
+    #[test]
+    fn a_nan_pitch_is_not_hidden_by_the_pwm_limit() {
+        let p = RobotParams::<f64>::balanbot();
+        let mut pid = PidTracker::table_4_1(&p, DcMotor::gb37y3530(), 0.005).unwrap();
+        let u = pid.update(0.0, &SVector::from([0.0, 0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0]), &PlanarRef::default());
+        assert!(u.iter().all(|v| v.is_nan()), "{u:?}");
     }
 }

@@ -219,7 +219,7 @@ fn guarded_inverse<S: Lane>(x: S, width: S) -> (S, S) {
 fn switch<S: Lane>(s: S, width: S) -> S {
     let (one, zero) = (S::splat(1.0), S::splat(0.0));
     let sign = S::select(s.gt(zero), one, S::select(s.lt(zero), -one, zero));
-    S::select(width.eq(zero), sign, (s / width).larger(-one).smaller(one))
+    S::select(width.eq(zero), sign, clamp(s / width, -one, one))
 }
 
 fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {

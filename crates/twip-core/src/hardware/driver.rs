@@ -36,7 +36,7 @@ use nalgebra::{SVector, Vector4};
 
 use crate::hardware::motor::{DcMotor, BALANBOT_SUPPLY, PWM_MAX};
 use crate::model::integrate::Stage;
-use crate::model::lane::Lane;
+use crate::model::lane::{self, Lane};
 #[cfg(feature = "std")] // sweeps' lanes
 use crate::model::lane::{Fused, Wide};
 use crate::sim::runner::Actuator;
@@ -133,7 +133,7 @@ impl<T: Real> MotorDriver<T> {
 
 #[inline(always)]
 fn clamp<S: Lane>(v: S, limit: S) -> S {
-    v.larger(-limit).smaller(limit)
+    lane::clamp(v, -limit, limit)
 }
 
 /// One motor's winding behind the bridge: the current a duty gives at a relative wheel
@@ -294,7 +294,7 @@ impl<S: Lane> Winding<S> {
     #[inline(always)]
     fn free_current(&self, pwm: S, relative_speed: S) -> S {
         let pwm_max = self.motor.pwm_max();
-        let volts = pwm.larger(-pwm_max).smaller(pwm_max) * self.volts_per_count;
+        let volts = lane::clamp(pwm, -pwm_max, pwm_max) * self.volts_per_count;
         (volts - self.back_emf * relative_speed) * self.conductance
     }
 
@@ -577,7 +577,7 @@ impl<T: Real> PwmActuator<T> {
         let i = command / self.command_per_amp;
         let volts = m.resistance() * i + m.k_t() * m.gear_ratio() * relative_speed;
         let pwm_max = m.pwm_max();
-        (volts / m.supply() * pwm_max).round().max(-pwm_max).min(pwm_max)
+        lane::clamp((volts / m.supply() * pwm_max).round(), -pwm_max, pwm_max)
     }
 }
 
@@ -602,6 +602,7 @@ mod tests {
         let d = MotorDriver::<f64>::gb37y3530();
         let p = params();
         assert!((d.current(&p, 12.0, 0.0).unwrap() - 7.0).abs() < 1e-12);
+        assert!(d.current(&p, f64::NAN, 0.0).unwrap().is_nan(), "a NaN voltage is not hidden by the current limit");
         // No load: the motor's torque balances the bearing friction of one side.
         let friction = p.mu_bearing / MOTORS;
         let (mut lo, mut hi) = (0.0, 100.0);
@@ -656,6 +657,8 @@ mod tests {
         }
         assert_eq!(act.duty(1e3, 0.0), 255.0);
         assert_eq!(act.duty(-1e3, 0.0), -255.0);
+        // A NaN command stays NaN (the runner then stops: diverged), not a full-reverse duty.
+        assert!(act.duty(f64::NAN, 0.0).is_nan());
     }
 
     #[test]

@@ -24,7 +24,7 @@
 //! scales the DC delay by κ = (ω_b T/2)/tan(ω_b T/2); the design targets delay/κ so that
 //! both numbers hold for the discrete filter. The 260 Hz accelerometer row (delay 0)
 //! passes samples through.
-use crate::model::lane::Lane;
+use crate::model::lane::{clamp, Lane};
 use crate::rng::{Philox, Ziggurat};
 use crate::{c, Real, TwipError};
 
@@ -660,7 +660,7 @@ impl<S: Lane> Mpu6050<S> {
         let s = &self.settings;
         let clean = [fx + s.accel_bias[0], fz + s.accel_bias[1]];
         let range = s.accel_range;
-        let within = |v: S| v.larger(-range).smaller(range);
+        let within = |v: S| clamp(v, -range, range);
         if !self.primed {
             // The filters act on the converter's output, which never leaves the range.
             self.accel_x_filter.prime(within(clean[0]));
@@ -683,7 +683,7 @@ impl<S: Lane> Mpu6050<S> {
     #[inline(always)]
     pub(crate) fn sample_gyro_with(&mut self, rate: S, n: [S; 4]) {
         let range = self.settings.gyro_range;
-        let within = |v: S| v.larger(-range).smaller(range);
+        let within = |v: S| clamp(v, -range, range);
         let clean = rate + self.bias;
         if !self.primed {
             self.gyro_filter.prime(within(clean));
@@ -701,7 +701,7 @@ impl<S: Lane> Mpu6050<S> {
 #[inline(always)]
 fn register<S: Lane>(v: S, lsb: S, per_lsb: S) -> S {
     let magic = S::splat(1.5) / S::epsilon();
-    let counts = (v * per_lsb).larger(S::splat(-32768.0)).smaller(S::splat(32767.0));
+    let counts = clamp(v * per_lsb, S::splat(-32768.0), S::splat(32767.0));
     ((counts + magic) - magic) * lsb
 }
 
@@ -771,6 +771,11 @@ mod tests {
         assert_eq!(r.accel_z, (9.81 / lsb).round() * lsb);
         assert_eq!(register(2.5, 1.0, 1.0), 2.0, "ties to even");
         assert_eq!(register(-7.6, 1.0, 1.0), -8.0);
+        // A NaN reads NaN, not a full-scale register that would hide it.
+        assert!(register(f64::NAN, 1.0, 1.0).is_nan());
+        let mut imu = Mpu6050::new(&s).unwrap();
+        imu.sample(f64::NAN, 9.81, f64::NAN, &mut rng);
+        assert!(imu.reading().gyro.is_nan() && imu.reading().accel_x.is_nan(), "{:?}", imu.reading());
         assert!(ImuSettings { gyro_range: 1.0, ..s }.validate().is_err());
         assert!(dlpf_config(42.0) == Ok(3) && dlpf_config(44.0) == Ok(3) && dlpf_config(7.0).is_err());
     }

@@ -13,7 +13,7 @@
 //! is all friction, k_t I_0 at ω_0, read as viscous. [`DcMotor::torque`] is the
 //! electromagnetic torque: that friction is already the plant's `mu_bearing` (docs/parameters.md),
 //! so it is reported ([`DcMotor::friction_at_wheel`]) but not subtracted again.
-use crate::model::lane::Lane;
+use crate::model::lane::{clamp, Lane};
 use crate::{c, Real, TwipError};
 
 /// The numbers a gear motor's data sheet gives.
@@ -176,7 +176,7 @@ impl<S: Lane> DcMotor<S> {
     /// Terminal voltage for a PWM command, saturated at ±`pwm_max`.
     #[inline(always)]
     pub fn pwm_voltage(&self, pwm: S) -> S {
-        pwm.larger(-self.pwm_max).smaller(self.pwm_max) * self.supply / self.pwm_max
+        clamp(pwm, -self.pwm_max, self.pwm_max) * self.supply / self.pwm_max
     }
 
     /// Torque on the wheel for a PWM command at `relative_speed`.
@@ -250,6 +250,7 @@ mod tests {
         }
         assert_eq!(m.pwm_voltage(400.0), 11.1);
         assert_eq!(m.pwm_voltage(-255.0), -11.1);
+        assert!(m.pwm_voltage(f64::NAN).is_nan(), "a NaN duty is not hidden by the saturation");
         let (lo, hi) = m.torque_limits(3.0);
         assert!(lo < 0.0 && hi > 0.0 && hi < m.torque_limits(0.0).1, "back-EMF lowers the forward limit");
     }

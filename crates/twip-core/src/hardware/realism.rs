@@ -820,6 +820,43 @@ mod tests {
         }
     }
 
+    /// A controller that answers NaN from `t = 1` s: the rig's saturations (the duty, the
+    /// winding's current limit) keep the NaN, so the run ends as diverged there instead of
+    /// driving on at full reverse.
+    #[test]
+    fn a_nan_command_ends_the_rig_run_as_diverged() {
+        #[derive(Clone)]
+        struct NanFromOneSecond(LqrController<f64>);
+        impl Controller<f64, 4, 1> for NanFromOneSecond {
+            type Reference = <LqrController<f64> as Controller<f64, 4, 1>>::Reference;
+            fn period(&self) -> f64 {
+                self.0.period()
+            }
+            fn reset(&mut self) {
+                self.0.reset()
+            }
+            fn update(&mut self, t: f64, y: &Vector4<f64>, r: &Self::Reference) -> SVector<f64, 1> {
+                let u = self.0.update(t, y, r);
+                if t >= 1.0 { SVector::<f64, 1>::new(f64::NAN) } else { u }
+            }
+            fn internals(&self) -> &[f64] {
+                self.0.internals()
+            }
+            fn internal_names(&self) -> &'static [&'static str] {
+                self.0.internal_names()
+            }
+        }
+        let (model, ctrl, schedule) = setup();
+        let config = SimConfig { dt: 1e-3, t_final: 3.0, fall_limit: 1.0 };
+        let mut rig = Realism::thesis_like().build(&model, config.dt).unwrap();
+        let mut ctrl = NanFromOneSecond(ctrl);
+        let (outcome, _) = rig.simulate(&mut ctrl, &schedule, &Vector4::zeros(), &config, &mut Trace::default(), || false).unwrap();
+        match outcome {
+            Outcome::Diverged { t } => assert!((1.0..1.01).contains(&t), "diverged at {t}"),
+            other => panic!("expected a divergence at 1 s, got {other:?}"),
+        }
+    }
+
     #[test]
     fn thesis_like_keeps_the_flat_robot_up_and_repeats_bit_for_bit() {
         let (outcome, a) = run(&Realism::thesis_like(), 10.0);

@@ -34,7 +34,8 @@ pub trait Lane:
     fn sincos(x: Self) -> (Self, Self);
     /// |x|.
     fn magnitude(self) -> Self;
-    /// The larger of two (NaN-ignoring, as `f64::max`).
+    /// The larger of two (NaN-ignoring, as `f64::max`: for peaks; a saturation is [`clamp`],
+    /// which keeps a NaN).
     fn larger(self, other: Self) -> Self;
     /// The smaller of two (NaN-ignoring, as `f64::min`).
     fn smaller(self, other: Self) -> Self;
