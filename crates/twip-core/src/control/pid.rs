@@ -20,7 +20,7 @@ use nalgebra::SVector;
 use crate::control::Controller;
 use crate::hardware::motor::DcMotor;
 use crate::control::trajectory::{wrap_angle, PlanarRef};
-use crate::model::lane::{clamp, Lane};
+use crate::model::lane::{saturate, Lane};
 use crate::{c, Real, RobotParams, TwipError};
 
 /// The gains of (4.67)–(4.69): outputs in PWM counts per unit of [`PidUnits`].
@@ -251,8 +251,7 @@ impl<S: Lane> PidLaw<S> {
         // The heading error's rate from the gyro: ψ̇_r − ω.
         let u_psi = S::madd(g.kd_yaw * u.heading, r.omega - y[6], S::madd(g.kp_yaw, e_psi, g.ki_yaw * int_psi));
         let limit = self.motor.pwm_max();
-        let saturate = |v: S| clamp(v, -limit, limit);
-        let pwm = [saturate(u_phi + u_v + u_psi), saturate(u_phi + u_v - u_psi)];
+        let pwm = [saturate(u_phi + u_v + u_psi, limit), saturate(u_phi + u_v - u_psi, limit)];
         let speeds = relative_wheel_speeds(y, self.radius, self.half_track);
         PidStep {
             torque: [self.motor.torque_from_pwm(pwm[0], speeds[0]), self.motor.torque_from_pwm(pwm[1], speeds[1])],

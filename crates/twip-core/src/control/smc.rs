@@ -29,7 +29,7 @@ use crate::control::Controller;
 use crate::control::fuzzy_basis::{grid, GridBasis, Member, Membership, ThesisBasis};
 use crate::hardware::motor::DcMotor;
 use crate::control::pid::relative_wheel_speeds;
-use crate::model::lane::{clamp, Lane};
+use crate::model::lane::{clamp, saturate, Lane};
 use crate::model::planar::{accelerations, PlanarCoefficients, PlanarModel};
 use crate::control::trajectory::{wrap_angle, PlanarRef};
 use crate::{c, Dynamics, Real, TwipError};
@@ -219,7 +219,7 @@ fn guarded_inverse<S: Lane>(x: S, width: S) -> (S, S) {
 fn switch<S: Lane>(s: S, width: S) -> S {
     let (one, zero) = (S::splat(1.0), S::splat(0.0));
     let sign = S::select(s.gt(zero), one, S::select(s.lt(zero), -one, zero));
-    S::select(width.eq(zero), sign, clamp(s / width, -one, one))
+    S::select(width.eq(zero), sign, saturate(s / width, one))
 }
 
 fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {

@@ -36,7 +36,7 @@ use nalgebra::{SVector, Vector4};
 
 use crate::hardware::motor::{DcMotor, BALANBOT_SUPPLY, PWM_MAX};
 use crate::model::integrate::Stage;
-use crate::model::lane::{self, Lane};
+use crate::model::lane::{saturate, Lane};
 #[cfg(feature = "std")] // sweeps' lanes
 use crate::model::lane::{Fused, Wide};
 use crate::sim::runner::Actuator;
@@ -122,18 +122,13 @@ impl<T: Real> MotorDriver<T> {
     /// speed θ̇ − φ̇ [rad/s], clamped to the limit (steady state: no inductance).
     pub fn current(&self, params: &RobotParams<T>, voltage: T, relative_speed: T) -> Result<T, TwipError> {
         let m = self.motor(params)?;
-        Ok(clamp(m.current(voltage, relative_speed), self.current_limit))
+        Ok(saturate(m.current(voltage, relative_speed), self.current_limit))
     }
 
     /// Torque of one motor on its wheel [N m] at `voltage` and relative wheel speed.
     pub fn wheel_torque(&self, params: &RobotParams<T>, voltage: T, relative_speed: T) -> Result<T, TwipError> {
         Ok(self.efficiency * params.torque_per_amp() * self.current(params, voltage, relative_speed)?)
     }
-}
-
-#[inline(always)]
-fn clamp<S: Lane>(v: S, limit: S) -> S {
-    lane::clamp(v, -limit, limit)
 }
 
 /// One motor's winding behind the bridge: the current a duty gives at a relative wheel
@@ -294,14 +289,14 @@ impl<S: Lane> Winding<S> {
     #[inline(always)]
     fn free_current(&self, pwm: S, relative_speed: S) -> S {
         let pwm_max = self.motor.pwm_max();
-        let volts = lane::clamp(pwm, -pwm_max, pwm_max) * self.volts_per_count;
+        let volts = saturate(pwm, pwm_max) * self.volts_per_count;
         (volts - self.back_emf * relative_speed) * self.conductance
     }
 
     /// The steady current (no inductance), clamped to the driver's rating.
     #[inline(always)]
     pub(crate) fn steady_current(&self, pwm: S, relative_speed: S) -> S {
-        clamp(self.free_current(pwm, relative_speed), self.limit)
+        saturate(self.free_current(pwm, relative_speed), self.limit)
     }
 
     /// Inductive: the current at an RK4 stage of the step under way, s into it (`stage`),
@@ -321,7 +316,7 @@ impl<S: Lane> Winding<S> {
             Stage::End => self.factors.end,
         };
         let WindingStep { current, speed, steady } = self.step;
-        clamp(S::madd(decay, current - steady, steady) - follow * (relative_speed - speed), self.limit)
+        saturate(S::madd(decay, current - steady, steady) - follow * (relative_speed - speed), self.limit)
     }
 
     /// Inductive: a step starts under the duty `pwm` with the motor at `relative_speed`,
@@ -342,7 +337,7 @@ impl<S: Lane> Winding<S> {
     #[inline(always)]
     pub(crate) fn stepped_mean(&self) -> S {
         let WindingStep { current, steady, .. } = self.step;
-        clamp(S::madd(current - steady, self.factors.mean, steady), self.limit)
+        saturate(S::madd(current - steady, self.factors.mean, steady), self.limit)
     }
 }
 
@@ -577,7 +572,7 @@ impl<T: Real> PwmActuator<T> {
         let i = command / self.command_per_amp;
         let volts = m.resistance() * i + m.k_t() * m.gear_ratio() * relative_speed;
         let pwm_max = m.pwm_max();
-        lane::clamp((volts / m.supply() * pwm_max).round(), -pwm_max, pwm_max)
+        saturate((volts / m.supply() * pwm_max).round(), pwm_max)
     }
 }
 

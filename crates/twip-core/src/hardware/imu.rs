@@ -24,7 +24,7 @@
 //! scales the DC delay by κ = (ω_b T/2)/tan(ω_b T/2); the design targets delay/κ so that
 //! both numbers hold for the discrete filter. The 260 Hz accelerometer row (delay 0)
 //! passes samples through.
-use crate::model::lane::{clamp, Lane};
+use crate::model::lane::{clamp, saturate, Lane};
 use crate::rng::{Philox, Ziggurat};
 use crate::{c, Real, TwipError};
 
@@ -660,7 +660,7 @@ impl<S: Lane> Mpu6050<S> {
         let s = &self.settings;
         let clean = [fx + s.accel_bias[0], fz + s.accel_bias[1]];
         let range = s.accel_range;
-        let within = |v: S| clamp(v, -range, range);
+        let within = |v: S| saturate(v, range);
         if !self.primed {
             // The filters act on the converter's output, which never leaves the range.
             self.accel_x_filter.prime(within(clean[0]));
@@ -683,7 +683,7 @@ impl<S: Lane> Mpu6050<S> {
     #[inline(always)]
     pub(crate) fn sample_gyro_with(&mut self, rate: S, n: [S; 4]) {
         let range = self.settings.gyro_range;
-        let within = |v: S| clamp(v, -range, range);
+        let within = |v: S| saturate(v, range);
         let clean = rate + self.bias;
         if !self.primed {
             self.gyro_filter.prime(within(clean));

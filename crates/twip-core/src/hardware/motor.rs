@@ -13,7 +13,7 @@
 //! is all friction, k_t I_0 at ω_0, read as viscous. [`DcMotor::torque`] is the
 //! electromagnetic torque: that friction is already the plant's `mu_bearing` (docs/parameters.md),
 //! so it is reported ([`DcMotor::friction_at_wheel`]) but not subtracted again.
-use crate::model::lane::{clamp, Lane};
+use crate::model::lane::{saturate, Lane};
 use crate::{c, Real, TwipError};
 
 /// The numbers a gear motor's data sheet gives.
@@ -176,7 +176,7 @@ impl<S: Lane> DcMotor<S> {
     /// Terminal voltage for a PWM command, saturated at ±`pwm_max`.
     #[inline(always)]
     pub fn pwm_voltage(&self, pwm: S) -> S {
-        clamp(pwm, -self.pwm_max, self.pwm_max) * self.supply / self.pwm_max
+        saturate(pwm, self.pwm_max) * self.supply / self.pwm_max
     }
 
     /// Torque on the wheel for a PWM command at `relative_speed`.

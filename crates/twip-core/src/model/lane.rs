@@ -34,7 +34,7 @@ pub trait Lane:
     fn sincos(x: Self) -> (Self, Self);
     /// |x|.
     fn magnitude(self) -> Self;
-    /// The larger of two (NaN-ignoring, as `f64::max`: for peaks; a saturation is [`clamp`],
+    /// The larger of two (NaN-ignoring, as `f64::max`: for peaks; a saturation is [`saturate`],
     /// which keeps a NaN).
     fn larger(self, other: Self) -> Self;
     /// The smaller of two (NaN-ignoring, as `f64::min`).
@@ -72,6 +72,12 @@ pub trait Lane:
 pub fn clamp<S: Lane>(v: S, lo: S, hi: S) -> S {
     let v = S::select(v.lt(lo), lo, v);
     S::select(v.gt(hi), hi, v)
+}
+
+/// `v` limited to ±`limit` ([`clamp`]: a NaN stays NaN).
+#[inline(always)]
+pub fn saturate<S: Lane>(v: S, limit: S) -> S {
+    clamp(v, -limit, limit)
 }
 
 /// `[f(0), f(1), …]`: `core::array::from_fn` for the hot loops, as a plain loop that the
