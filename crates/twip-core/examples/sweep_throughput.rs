@@ -13,6 +13,8 @@
 //! gearhead friction, slip law only: `Friction::gb37()`, no stick band), realism-lanes-hills
 //! (that rig with benches/families.py's two slope changes along the path), fuzzy-realism-lanes
 //! (the thesis's fuzzy law, 5 ms loop, through the thesis-like rig on lanes).
+//! RIG_DROP=imu,encoder,motor,delay,friction,backlash (any of them) takes those parts out of
+//! the 2-DOF rig paths' realism: what each part costs.
 //! The checksum's bits tell two builds' results apart (the same bits: the same numbers).
 use nalgebra::{Matrix4, Vector4};
 use twip_core::control::fuzzy::FuzzyController;
@@ -125,7 +127,7 @@ fn main() {
                 },
                 _ => Realism::thesis_like(),
             };
-            let realism = for_sweep(&rig, 1);
+            let realism = for_sweep(&without_parts(rig), 1);
             let runs: Vec<_> = if path == "realism" {
                 (0..n).map(|i| run_rig_sample(&ctrl, &schedule, &config, &draw(&nominal, &perturb, 1, i), &realism, &|| false).unwrap()).collect()
             } else if path == "fuzzy-realism-lanes" {
@@ -147,4 +149,24 @@ fn main() {
     };
     let secs = start.elapsed().as_secs_f64();
     println!("{path}: {n} samples x 10000 steps in {secs:.3} s wall = {:.2} M sample-steps/s (checksum {total:.6e}; bits {:016x})", n as f64 * 1e4 / secs / 1e6, total.to_bits());
+}
+
+/// `rig` without the parts the environment's RIG_DROP names (comma-separated).
+fn without_parts(mut rig: twip_core::hardware::realism::Realism<f64>) -> twip_core::hardware::realism::Realism<f64> {
+    let names = std::env::var("RIG_DROP").unwrap_or_default();
+    for part in names.split(',').filter(|p| !p.is_empty()) {
+        match part {
+            "imu" => rig.imu = None,
+            "encoder" => rig.encoder_cpr = None,
+            "motor" => rig.motor = None,
+            "delay" => rig.delay = false,
+            "friction" => rig.friction = None,
+            "backlash" => rig.backlash = None,
+            _ => {
+                eprintln!("RIG_DROP: unknown part {part:?}; the parts are imu, encoder, motor, delay, friction, backlash");
+                std::process::exit(2);
+            }
+        }
+    }
+    rig
 }
