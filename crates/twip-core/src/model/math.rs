@@ -153,69 +153,21 @@ mod wide {
         ((-k).mul_add(LN2_LO, (-k).mul_add(LN2_HI, clamped)), shifted)
     }
 
-    /// 1/n! for n = 17 down to 0: the Taylor coefficients of e^x (the last 14) and of
-    /// (e^x − 1)/x (the first 17).
+    /// 1/n! for n = 0 … 17: the Taylor coefficients of e^x (the first 14) and of
+    /// (e^x − 1)/x (from the second).
     const INV_FACT: [f64; 18] = [
-        1.0 / 355_687_428_096_000.0, 1.0 / 20_922_789_888_000.0, 1.0 / 1_307_674_368_000.0,
-        1.0 / 87_178_291_200.0, 1.0 / 6_227_020_800.0, 1.0 / 479_001_600.0, 1.0 / 39_916_800.0,
-        1.0 / 3_628_800.0, 1.0 / 362_880.0, 1.0 / 40_320.0, 1.0 / 5_040.0, 1.0 / 720.0, 1.0 / 120.0,
-        1.0 / 24.0, 1.0 / 6.0, 0.5, 1.0, 1.0,
+        1.0, 1.0, 0.5, 1.0 / 6.0, 1.0 / 24.0, 1.0 / 120.0, 1.0 / 720.0, 1.0 / 5_040.0, 1.0 / 40_320.0,
+        1.0 / 362_880.0, 1.0 / 3_628_800.0, 1.0 / 39_916_800.0, 1.0 / 479_001_600.0,
+        1.0 / 6_227_020_800.0, 1.0 / 87_178_291_200.0, 1.0 / 1_307_674_368_000.0,
+        1.0 / 20_922_789_888_000.0, 1.0 / 355_687_428_096_000.0,
     ];
 
-    /// Σ c_i r^i for the coefficients `c` (highest power first; at most 16) by Estrin's
-    /// scheme: pairs c_i + c_(i+1) r, then pairs of those with r², r⁴, r⁸. Its chain of
-    /// dependent multiply-adds is 4 long, not Horner's n − 1: where a polynomial sits on
-    /// the chain an RK4 stage waits on (the stick law's e^x), that chain bounds the speed.
-    /// Written out in functions always inlined (`n` is known where they are): a loop over
-    /// the terms, or closures, kept a loop over lanes scalar.
+    /// Σ c_i r^i for the coefficients `c` (lowest power first) by Horner's rule, fused.
     #[inline(always)]
-    fn estrin<S: Lane>(c: &[f64], r: S) -> S {
-        debug_assert!((1..=16).contains(&c.len()));
-        let r2 = r * r;
-        let r4 = r2 * r2;
-        if c.len() > 8 {
-            S::madd(r4 * r4, estrin_8(c, 8, r, r2, r4), estrin_8(c, 0, r, r2, r4))
-        } else {
-            estrin_8(c, 0, r, r2, r4)
-        }
-    }
-
-    /// The terms i … i + 7 of [`estrin`]'s sum, over r^i.
-    #[inline(always)]
-    fn estrin_8<S: Lane>(c: &[f64], i: usize, r: S, r2: S, r4: S) -> S {
-        if i + 4 < c.len() {
-            S::madd(r4, estrin_4(c, i + 4, r, r2), estrin_4(c, i, r, r2))
-        } else {
-            estrin_4(c, i, r, r2)
-        }
-    }
-
-    /// The terms i … i + 3, over r^i.
-    #[inline(always)]
-    fn estrin_4<S: Lane>(c: &[f64], i: usize, r: S, r2: S) -> S {
-        if i + 2 < c.len() {
-            S::madd(r2, estrin_2(c, i + 2, r), estrin_2(c, i, r))
-        } else {
-            estrin_2(c, i, r)
-        }
-    }
-
-    /// The terms i and i + 1, over r^i.
-    #[inline(always)]
-    fn estrin_2<S: Lane>(c: &[f64], i: usize, r: S) -> S {
-        let n = c.len();
-        if i + 1 < n {
-            S::madd(r, S::splat(c[n - 2 - i]), S::splat(c[n - 1 - i]))
-        } else {
-            S::splat(c[n - 1 - i])
-        }
-    }
-
-    /// The polynomial with `coefficients` (highest power first) at `r`, by Horner, fused.
-    #[inline(always)]
-    fn horner<S: Lane>(coefficients: &[f64], r: S) -> S {
-        let mut p = S::splat(coefficients[0]);
-        for c in &coefficients[1..] {
+    fn horner<S: Lane>(c: &[f64], r: S) -> S {
+        let (last, rest) = c.split_last().expect("a coefficient");
+        let mut p = S::splat(*last);
+        for c in rest.iter().rev() {
             p = S::madd(p, r, S::splat(*c));
         }
         p
@@ -227,17 +179,17 @@ mod wide {
     /// [`exp_poly_short`], the Gaussian law took 1.24x the time.
     #[inline(always)]
     fn exp_poly<S: Lane>(r: S) -> S {
-        horner(&INV_FACT[4..], r)
+        horner(&INV_FACT[..14], r)
     }
 
-    /// The same polynomial as 1 + r (1 + r Q(r)), Q's twelve terms by [`estrin`] (the last
+    /// The same polynomial as 1 + r (1 + r Q(r)), Q's twelve terms by [`super::estrin`] (the last
     /// two steps as Horner's keep the rounding of the terms that matter most), for a lane
     /// in a loop over lanes (`Fused`): there e^x sits on the chain each RK4 stage of the
     /// rig's stick law waits on, and the chain's length bounds the speed (`sweep_throughput
     /// realism-lanes`, paired against Horner's: 0.92x the time).
     #[inline(always)]
     fn exp_poly_short<S: Lane>(r: S) -> S {
-        let q = estrin(&INV_FACT[4..16], r);
+        let q = super::estrin(&INV_FACT[2..14], r);
         S::madd(r, S::madd(r, q, S::splat(1.0)), S::splat(1.0))
     }
 
@@ -274,7 +226,7 @@ mod wide {
         let y = -2.0 * a;
         // m = y · Σ y^n/(n + 1)! for n = 0 … 16, as y (1 + y (1/2 + y Q(y))) with Q's
         // fifteen terms by `estrin`.
-        let q = estrin(&INV_FACT[..15], Fused(y)).0;
+        let q = super::estrin(&INV_FACT[3..], Fused(y)).0;
         let m = y.mul_add(y.mul_add(q, 0.5), 1.0) * y;
         let small = -m / (2.0 + m);
         let e = exp_fused(y);
@@ -297,25 +249,59 @@ mod wide {
 #[cfg(feature = "std")]
 pub(crate) use wide::{exp_fused, exp_wide, sin_cos_fused, sin_cos_wide, tanh_fused};
 
-/// sin and cos of |r| ≤ π/4. The polynomials in r² are evaluated by Estrin's scheme
-/// (pairs, then pairs of pairs): a shorter chain of dependent operations than Horner's,
-/// which is what bounds the speed of a single evaluation.
+/// sin and cos of |r| ≤ π/4: the polynomials in r² by [`estrin`].
 #[inline(always)]
 pub(crate) fn kernel<S: Lane>(r: S) -> (S, S) {
-    let k = |table: &[f64], i: usize| S::splat(table[i]);
+    let r2 = r * r;
+    (S::madd(r * r2, estrin(&SIN, r2), r), S::madd(r2, estrin(&COS, r2), S::splat(1.0)))
+}
+
+/// Σ c_i r^i for the coefficients `c` (lowest power first; at most 16) by Estrin's scheme:
+/// pairs c_i + c_(i+1) r, then pairs of those with r², r⁴, r⁸. Its chain of dependent
+/// multiply-adds is 4 long, not Horner's n − 1, which is what bounds the speed of one
+/// evaluation: of sin/cos, and of the lanes' e^x where an RK4 stage waits on it (the stick
+/// law). Written out in functions always inlined (`n` is known where they are): a loop
+/// over the terms, or closures, kept a loop over lanes scalar.
+#[inline(always)]
+pub(crate) fn estrin<S: Lane>(c: &[f64], r: S) -> S {
+    debug_assert!((1..=16).contains(&c.len()));
     let r2 = r * r;
     let r4 = r2 * r2;
-    let r8 = r4 * r4;
-    let s01 = S::madd(r2, k(&SIN, 1), k(&SIN, 0));
-    let s23 = S::madd(r2, k(&SIN, 3), k(&SIN, 2));
-    let s45 = S::madd(r2, k(&SIN, 5), k(&SIN, 4));
-    let ps = S::madd(r8, S::madd(r4, k(&SIN, 6), s45), S::madd(r4, s23, s01));
-    let c01 = S::madd(r2, k(&COS, 1), k(&COS, 0));
-    let c23 = S::madd(r2, k(&COS, 3), k(&COS, 2));
-    let c45 = S::madd(r2, k(&COS, 5), k(&COS, 4));
-    let c67 = S::madd(r2, k(&COS, 7), k(&COS, 6));
-    let pc = S::madd(r8, S::madd(r4, c67, c45), S::madd(r4, c23, c01));
-    (S::madd(r * r2, ps, r), S::madd(r2, pc, S::splat(1.0)))
+    if c.len() > 8 {
+        S::madd(r4 * r4, estrin_8(c, 8, r, r2, r4), estrin_8(c, 0, r, r2, r4))
+    } else {
+        estrin_8(c, 0, r, r2, r4)
+    }
+}
+
+/// The terms i … i + 7 of [`estrin`]'s sum, over r^i.
+#[inline(always)]
+fn estrin_8<S: Lane>(c: &[f64], i: usize, r: S, r2: S, r4: S) -> S {
+    if i + 4 < c.len() {
+        S::madd(r4, estrin_4(c, i + 4, r, r2), estrin_4(c, i, r, r2))
+    } else {
+        estrin_4(c, i, r, r2)
+    }
+}
+
+/// The terms i … i + 3, over r^i.
+#[inline(always)]
+fn estrin_4<S: Lane>(c: &[f64], i: usize, r: S, r2: S) -> S {
+    if i + 2 < c.len() {
+        S::madd(r2, estrin_2(c, i + 2, r), estrin_2(c, i, r))
+    } else {
+        estrin_2(c, i, r)
+    }
+}
+
+/// The terms i and i + 1, over r^i.
+#[inline(always)]
+fn estrin_2<S: Lane>(c: &[f64], i: usize, r: S) -> S {
+    if i + 1 < c.len() {
+        S::madd(r, S::splat(c[i + 1]), S::splat(c[i]))
+    } else {
+        S::splat(c[i])
+    }
 }
 
 /// (sin, cos) of r + quadrant · π/2.
