@@ -20,6 +20,7 @@ use nalgebra::{Matrix4, Vector4};
 use twip_core::control::fuzzy::FuzzyController;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
 use twip_core::control::reference::SpeedSchedule;
+use twip_core::hardware::realism::Realism;
 use twip_core::sim::runner::SimConfig;
 use twip_core::sweep::block::FuzzyLanes;
 use twip_core::sweep::{draw, run_lane_samples, run_lqr_samples, run_slope_sample, Nominal, Perturbation, Spread, Target};
@@ -80,7 +81,7 @@ fn main() {
             let pid = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), 0.005).unwrap();
             let circle = Circle::from_origin(0.6, core::f64::consts::PI * params.wheel_radius, Direction::CounterClockwise).unwrap();
             let nominal = PlanarNominal { params, x0: nalgebra::SVector::zeros() };
-            let rig = twip_core::hardware::realism::Realism::thesis_like();
+            let rig = Realism::thesis_like();
             let runs = if path == "pid-realism-lanes" {
                 let law = PidLanes::new(&pid);
                 planar::run_planar_rig_lane_samples(&law, &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|_| Ok(rig), &|| false).unwrap().unwrap()
@@ -112,7 +113,6 @@ fn main() {
             runs.iter().map(|m| m.mean_abs_x_error).sum()
         }
         "realism" | "realism-lanes" | "realism-lanes-no-imu" | "realism-lanes-slip" | "realism-lanes-hills" | "fuzzy-realism-lanes" => {
-            use twip_core::hardware::realism::Realism;
             use twip_core::sweep::block::LqrLanes;
             use twip_core::sweep::rig::{for_sweep, run_rig_lane_samples, run_rig_sample};
             let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 5e-3).unwrap();
@@ -152,7 +152,7 @@ fn main() {
 }
 
 /// `rig` without the parts the environment's RIG_DROP names (comma-separated).
-fn without_parts(mut rig: twip_core::hardware::realism::Realism<f64>) -> twip_core::hardware::realism::Realism<f64> {
+fn without_parts(mut rig: Realism<f64>) -> Realism<f64> {
     let names = std::env::var("RIG_DROP").unwrap_or_default();
     for part in names.split(',').filter(|p| !p.is_empty()) {
         match part {

@@ -41,8 +41,10 @@ pub trait Lane:
     fn smaller(self, other: Self) -> Self;
     /// The largest whole number ≤ x.
     fn floor(self) -> Self;
-    /// e^x: libm's in a run; in lanes a polynomial that vectorises (`math::exp_fused`,
-    /// within 2 ulp of libm's). Named apart from `ComplexField::exp`, which a `Real` has too.
+    /// e^x: libm's in a run; on lanes a polynomial that vectorises, within 2 ulp of libm's
+    /// (`math::exp_fused` on `Fused`, `math::exp_wide` on `Wide`: summed in other orders,
+    /// the two may differ by an ulp). Named apart from `ComplexField::exp`, which a `Real`
+    /// has too.
     fn exponential(self) -> Self;
     /// tanh x: libm's in a run, `math::tanh_fused` on lanes (libm's is a call per lane,
     /// which kept the lanes' loops from vectorising; `Wide` still runs it lane by lane, as no
