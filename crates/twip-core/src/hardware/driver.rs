@@ -17,7 +17,7 @@
 //! back-EMF damping is then implicit in RK4). With L > 0 the current is a state carried
 //! from step to step, and each RK4 stage feels the current at its own time and speed: the
 //! exact solution for the duty held and the motor's speed linear in time from the step's
-//! start to the stage ([`Winding::stepped_current`]; the first stage weighs the decaying
+//! start to the stage (`Winding::stepped_current`; the first stage weighs the decaying
 //! transient so that RK4 integrates it exactly); the next step starts from that solution
 //! at the step's end state. It converges at second order in the step against the coupled
 //! ODE, and as L → 0 it becomes the algebraic current, stage by stage (tests below). The
@@ -224,7 +224,7 @@ impl<T: Real> Winding<T> {
     }
 
     /// Current [A] at an RK4 stage of the step, the motor turning at `relative_speed` there:
-    /// [`Self::stepped_current`] when inductive, else algebraic.
+    /// the exact solution of the step under way (module docs) when inductive, else algebraic.
     #[inline(always)]
     pub fn current_at(&self, pwm: T, relative_speed: T, stage: Stage) -> T {
         if self.inductive() {
@@ -247,7 +247,7 @@ impl<T: Real> Winding<T> {
     }
 
     /// Inductive only: a step of `dt` starts with the duty `pwm` held over it and the motor
-    /// at `relative_speed` ([`Self::begin_step`]).
+    /// at `relative_speed`.
     pub fn start_step(&mut self, pwm: T, relative_speed: T, dt: T) {
         if self.inductive() {
             self.prepare(dt);
@@ -255,8 +255,7 @@ impl<T: Real> Winding<T> {
         }
     }
 
-    /// Inductive only: the step under way ended with the motor at `relative_speed`
-    /// ([`Self::finish_step`]).
+    /// Inductive only: the step under way ended with the motor at `relative_speed`.
     pub fn end_step(&mut self, relative_speed: T) {
         if self.inductive() {
             self.finish_step(relative_speed);

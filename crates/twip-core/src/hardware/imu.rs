@@ -574,8 +574,9 @@ impl<T: Real> Mpu6050<T> {
         self.sample_with(fx, fz, rate, n);
     }
 
-    /// One sample of the gyroscope alone ([`Self::sample_gyro_with`]): takes the four
-    /// normals a whole sample takes.
+    /// One sample of the gyroscope alone, for an IMU whose accelerometer nothing reads (the
+    /// 3-DOF robot's yaw axis): takes the four normals a whole sample takes, and the
+    /// accelerometer's registers stay as they are.
     #[inline]
     pub fn sample_gyro(&mut self, rate: T, rng: &mut Philox) {
         let n = self.draw(rng);

@@ -1,6 +1,6 @@
 //! Sweeps of the 3-DOF tracking scenarios: each sample a perturbed robot and initial
 //! state on the flat [`PlanarModel`], the tracker designed once for the nominal robot,
-//! [`TrackingMetrics`] kept. Draws are the 2-DOF sweeps' ([`super::draw_values`]), so
+//! [`TrackingMetrics`] kept. Draws are the 2-DOF sweeps' ([`super::draw`]'s), so
 //! sample `i` comes from `Philox::new(seed, i)` here too. A sample runs alone on the
 //! general runner ([`run_planar_sample`]: any tracker, with or without realism) or with 15
 //! others on the planar lane kernels ([`run_planar_lane_samples`], and through the realism

@@ -66,7 +66,7 @@ where
 }
 
 /// Runs the samples `indices` of a sweep, each through the rig of its robot's realism
-/// (`realism_of`, set up by [`for_sweep`]) on lanes, [`LANES`](crate::sweep::lanes::LANES) at a time (`block::run_rig_block`):
+/// (`realism_of`, set up by [`for_sweep`]) on lanes, [`LANES`] at a time (`block::run_rig_block`):
 /// each sample agrees with [`run_rig_sample`] to rounding. `Ok(None)` when `should_stop`
 /// said so.
 #[allow(clippy::too_many_arguments)]
