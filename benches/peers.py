@@ -6,7 +6,9 @@ m_body ±20 %, com_height ±10 %, i_body ±20 % (uniform), as twip.montecarlo dr
 Peers: a NumPy loop vectorised over samples, Numba @njit(parallel=True), and JAX
 jit(vmap(lax.scan)) on the CPU (float64). Each peer gets the very same robots and
 gains and must reproduce twip's metrics (mean |pitch error|, mean |speed error|) to
-rel 1e-9. Printed: sample-steps per second and the ratios.
+rel 1e-9. Printed: sample-steps per second and the ratios. twip and its Numba peer are timed
+in alternating rounds (twip, Numba, twip, Numba, ...), and each round's ratio is printed: a
+shared machine's speed drifts over minutes, and a round's two runs see nearly the same machine.
 
 Workload `fuzzy` (`--workload fuzzy|lqr|circle-pid|all`): the same robots under scenario
 flat-fuzzy-sim (fuzzy adaptive backstepping + PD, the thesis's flat gains and N/Z/P sets, controller every
@@ -28,6 +30,7 @@ Run:  .venv/bin/pip install numba jax && .venv/bin/python benches/peers.py [--n 
 (numba and jax are benchmark-only dependencies, not twip's.)
 """
 import argparse
+import functools
 import math
 import os
 import time
@@ -306,7 +309,6 @@ def fuzzy_workload(n, repeats):
     kw = dict(perturb=PERTURB, seed=1, progress=False, options={"t_final": T_FINAL})
     result = twip.montecarlo("flat-fuzzy-sim", n, **kw)
     assert not result.metrics["fell"].any() and result.kernel == "lanes"
-    t_twip, _ = median_time(lambda: twip.montecarlo("flat-fuzzy-sim", n, **kw), repeats)
     robots = [result.sample(i) for i in range(n)]
     p = {f: np.array([r[0].to_dict()[f] for r in robots]) for f in twip.RobotParams.fields}
     speed = sc.reference.sample(0.0)[1]
@@ -316,15 +318,17 @@ def fuzzy_workload(n, repeats):
     controller_model = (cn[0], cn[1], cn[2], cn[3], cn[5])
     law = (ctrl.k1, ctrl.k2, ctrl.kp, ctrl.kd, ctrl.ki, ctrl.gamma, ctrl.sigma, ctrl.steady_pitch(speed))
     c = np.ascontiguousarray(coefficients(p))
-    rows = [("twip (Rust, lanes, all cores)", n, t_twip, "reference")]
     try:
         run = numba_fuzzy_factory()
         run(c[:, :8].copy(), plant_phi_s[:8].copy(), controller_model, law, speed, STEPS, DT)  # compile
-        t, got = median_time(lambda: run(c, plant_phi_s, controller_model, law, speed, STEPS, DT), repeats)
-        rows.append(("Numba @njit(parallel=True)", n, t, check("numba fuzzy", got, result, slice(None))))
+        peer = functools.partial(run, c, plant_phi_s, controller_model, law, speed, STEPS, DT)
     except ImportError:
-        rows.append(("Numba", 0, float("nan"), "not installed"))
+        peer = None
+    t_twip, peer_time, rounds = against_peer(lambda: twip.montecarlo("flat-fuzzy-sim", n, **kw), peer, repeats)
+    rows = [("twip (Rust, lanes, all cores)", n, t_twip, "reference")]
+    rows.append(peer_row(peer_time, n, lambda got: check("numba fuzzy", got, result, slice(None))))
     table(f"workload: flat-fuzzy-sim, RK4 dt={DT}, {T_FINAL} s = {STEPS} steps per sample", rows, repeats)
+    print_rounds(rounds)
 
 
 # ---- Numba, 3-DOF model + PID tracker on a circle: one sample per iteration of a parallel loop ----
@@ -478,7 +482,6 @@ def circle_pid_workload(n, repeats):
     kw = dict(perturb=PERTURB, seed=1, progress=False)
     result = twip.montecarlo("circle-pid", n, **kw)
     assert not result.metrics["fell"].any() and result.steps == n * steps
-    t_twip, _ = median_time(lambda: twip.montecarlo("circle-pid", n, **kw), repeats)
     robots = [result.sample(i) for i in range(n)]
     p = {f: np.array([r[0].to_dict()[f] for r in robots]) for f in twip.RobotParams.fields}
     c = np.ascontiguousarray(planar_coefficients(p))
@@ -490,16 +493,17 @@ def circle_pid_workload(n, repeats):
     motor = tuple(motor[k] for k in ("resistance", "k_t", "gear_ratio", "supply", "pwm_max"))
     circle = (*circle["centre"], circle["radius"], circle["speed"], circle["phase"])
     rest = (gains, units, geometry, motor, circle)
-    rows = [(f"twip (Rust, {result.kernel}, all cores)", n, t_twip, "reference")]
     try:
         run = numba_circle_pid_factory()
         run(c[:, :2].copy(), *rest, 10, per_update, sc.dt, sc.reference.period)  # compile
-        t, got = median_time(lambda: run(c, *rest, steps, per_update, sc.dt, sc.reference.period), repeats)
-        note = check("numba circle-pid", got, result, slice(None), CIRCLE_METRICS)
-        rows.append(("Numba @njit(parallel=True)", n, t, note))
+        peer = functools.partial(run, c, *rest, steps, per_update, sc.dt, sc.reference.period)
     except ImportError:
-        rows.append(("Numba", 0, float("nan"), "not installed"))
+        peer = None
+    t_twip, peer_time, rounds = against_peer(lambda: twip.montecarlo("circle-pid", n, **kw), peer, repeats)
+    rows = [(f"twip (Rust, {result.kernel}, all cores)", n, t_twip, "reference")]
+    rows.append(peer_row(peer_time, n, lambda got: check("numba circle-pid", got, result, slice(None), CIRCLE_METRICS)))
     table(f"workload: circle-pid, RK4 dt={sc.dt}, {sc.t_final:g} s = {steps} steps per sample", rows, repeats, steps)
+    print_rounds(rounds)
 
 
 def table(title, rows, repeats, steps=STEPS):
@@ -521,6 +525,38 @@ def median_time(run, repeats):
         value = run()
         times.append(time.perf_counter() - start)
     return sorted(times)[len(times) // 2], value
+
+
+def against_peer(twip_run, peer, repeats):
+    """twip's run and its Numba peer's (None: not installed) timed in `repeats` alternating
+    rounds: twip's median time, the peer's (median time, last value) or None, and each
+    round's (twip's time, the peer's time)."""
+    if peer is None:
+        return median_time(twip_run, repeats)[0], None, []
+    rounds, value = [], None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        twip_run()
+        middle = time.perf_counter()
+        value = peer()
+        rounds.append((middle - start, time.perf_counter() - middle))
+    medians = [sorted(r[i] for r in rounds)[len(rounds) // 2] for i in (0, 1)]
+    return medians[0], (medians[1], value), rounds
+
+
+def peer_row(peer_time, n, checked):
+    """The Numba peer's table row from `against_peer`'s (median time, value); `checked` turns
+    its value into the metrics' note."""
+    if peer_time is None:
+        return ("Numba", 0, float("nan"), "not installed")
+    return ("Numba @njit(parallel=True)", n, peer_time[0], checked(peer_time[1]))
+
+
+def print_rounds(rounds):
+    """How many times faster twip was than Numba in each round (the same samples for both)."""
+    if rounds:
+        ratios = sorted(peer / ours for ours, peer in rounds)
+        print("twip is, round by round against Numba: " + ", ".join(f"{r:.1f}x" for r in ratios) + "\n")
 
 
 def check(name, got, result, sel, metrics=("mean_abs_pitch_error", "mean_abs_speed_error")):
@@ -552,9 +588,19 @@ def main():
     print(f"workload: flat-lqr-sim, RK4 dt={DT}, {T_FINAL} s = {STEPS} steps per sample, {os.cpu_count()} cores, "
           f"twip's {twip.kernel_copy()} lane kernels\n")
     result, _, p, plant_phi_s, shared = problem(args.n)
-    t_twip, _ = median_time(lambda: twip.montecarlo("flat-lqr-sim", args.n, perturb=PERTURB, seed=1, progress=False,
-                                                    options={"t_final": T_FINAL}), args.repeats)
     c = coefficients(p)
+    try:
+        run = numba_peer_factory()
+        s = shared
+        args_nb = (s["gains"], s["phi_s"], s["u_s"], s["speed"], s["period"], STEPS, DT)
+        run(c[:, :8].copy(), plant_phi_s[:8].copy(), *args_nb)  # compile
+        c_contiguous = np.ascontiguousarray(c)
+        peer = functools.partial(run, c_contiguous, plant_phi_s, *args_nb)
+    except ImportError:
+        peer = None
+    t_twip, peer_time, rounds = against_peer(
+        lambda: twip.montecarlo("flat-lqr-sim", args.n, perturb=PERTURB, seed=1, progress=False,
+                                options={"t_final": T_FINAL}), peer, args.repeats)
     rates = {"twip": args.n * STEPS / t_twip}
     rows = [("twip (Rust, lanes, all cores)", args.n, t_twip, "reference")]
     # 1 -> 2 threads scaling of twip: three alternating pairs, the median ratio (on a
@@ -575,17 +621,7 @@ def main():
     t, got = median_time(lambda: numpy_peer(c[:, sel], plant_phi_s[sel], shared), args.repeats)
     rows.append(("NumPy, vectorised over samples", args.n_slow, t, check("numpy", got, result, sel)))
     rates["numpy"] = args.n_slow * STEPS / t
-    try:
-        run = numba_peer_factory()
-        s = shared
-        args_nb = (s["gains"], s["phi_s"], s["u_s"], s["speed"], s["period"], STEPS, DT)
-        run(c[:, :8].copy(), plant_phi_s[:8].copy(), *args_nb)  # compile
-        c_contiguous = np.ascontiguousarray(c)
-        t, got = median_time(lambda: run(c_contiguous, plant_phi_s, *args_nb), args.repeats)
-        rows.append(("Numba @njit(parallel=True)", args.n, t, check("numba", got, result, slice(None))))
-        rates["numba"] = args.n * STEPS / t
-    except ImportError:
-        rows.append(("Numba", 0, float("nan"), "not installed"))
+    rows.append(peer_row(peer_time, args.n, lambda got: check("numba", got, result, slice(None))))
     try:
         run = jax_peer_factory()
         run(c[:, :8], plant_phi_s[:8], shared)  # compile for a small batch first
@@ -601,7 +637,9 @@ def main():
         rate = n * STEPS / t if n else float("nan")
         ratio = rates["twip"] / rate if n else float("nan")
         print(f"{name:34s} {n:8d} {t:9.2f} {rate / 1e6:17.2f} {ratio:8.1f}x  {note}")
-    print(f"\ntwip 1 -> 2 threads, median of three pairs: {rates['twip_1t'] / 1e6:.1f} -> "
+    print()
+    print_rounds(rounds)
+    print(f"twip 1 -> 2 threads, median of three pairs: {rates['twip_1t'] / 1e6:.1f} -> "
           f"{rates['twip_2t'] / 1e6:.1f} M sample-steps/s ({rates['twip_2t'] / rates['twip_1t']:.2f}x; "
           f"all pairs: {scaling})")
 
