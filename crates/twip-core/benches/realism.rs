@@ -3,7 +3,10 @@
 //! "all on": MPU-6050 with noise and DLPF, complementary filter, 700 CPR encoder, PWM
 //! motor driver with inductance, one-period delay, the gearheads' friction (stick band)
 //! and backlash, a push, a constant force and a slope change; then the same with only the
-//! friction, only the backlash, and neither. Run: cargo bench -p twip-core --bench realism
+//! friction, only the backlash, and neither. Then what the IMU's noise costs: a batch of 32
+//! normals as an IMU draws them (eight 1 kHz samples), against the 16 Philox words that
+//! they take at least (two normals a word; the ziggurat's rare wedges and tail take more).
+//! Run: cargo bench -p twip-core --bench realism
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -12,6 +15,7 @@ use twip_core::hardware::disturbance::{Force, Push, Pushes, SlopeProfile};
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
 use twip_core::sim::metrics::SlopeMetrics;
 use twip_core::hardware::realism::{simulate_rig, Realism};
+use twip_core::rng::{Philox, Ziggurat};
 use twip_core::control::reference::SpeedSchedule;
 use twip_core::sim::runner::{simulate, Loop, Outcome, SimConfig};
 use twip_core::{RobotParams, SlopeModel};
@@ -65,5 +69,28 @@ fn closed_loop(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, closed_loop);
+fn imu_normals(c: &mut Criterion) {
+    let mut group = c.benchmark_group("imu_normals");
+    let mut rng = Philox::new(1, 2);
+    let gauss = Ziggurat::new();
+    let mut batch = [0.0; 32];
+    group.bench_function("ziggurat_32", |b| {
+        b.iter(|| {
+            gauss.fill(&mut rng, &mut batch);
+            black_box(&batch);
+        })
+    });
+    let mut words = [0u64; 16];
+    group.bench_function("philox_16_words", |b| {
+        b.iter(|| {
+            for w in words.iter_mut() {
+                *w = rng.next_u64();
+            }
+            black_box(&words);
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, closed_loop, imu_normals);
 criterion_main!(benches);
