@@ -3,9 +3,10 @@
 //! "all on": MPU-6050 with noise and DLPF, complementary filter, 700 CPR encoder, PWM
 //! motor driver with inductance, one-period delay, the gearheads' friction (stick band)
 //! and backlash, a push, a constant force and a slope change; then the same with only the
-//! friction, only the backlash, and neither. Then what the IMU's noise costs: a batch of 32
-//! normals as an IMU draws them (eight 1 kHz samples), against the 16 Philox words that
-//! they take at least (two normals a word; the ziggurat's rare wedges and tail take more).
+//! friction, only the backlash, and neither. Then what the IMU's noise costs: a batch of
+//! normals as an IMU draws them (`NOISE_BATCH`, 32: eight 1 kHz samples), against the
+//! Philox words that they take at least (half as many: two normals a word; the
+//! ziggurat's rare wedges and tail take more).
 //! Run: cargo bench -p twip-core --bench realism
 use std::hint::black_box;
 
@@ -14,6 +15,7 @@ use nalgebra::Vector4;
 use twip_core::hardware::disturbance::{Force, Push, Pushes, SlopeProfile};
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
 use twip_core::sim::metrics::SlopeMetrics;
+use twip_core::hardware::imu::NOISE_BATCH;
 use twip_core::hardware::realism::{simulate_rig, Realism};
 use twip_core::rng::{Philox, Ziggurat};
 use twip_core::control::reference::SpeedSchedule;
@@ -73,15 +75,15 @@ fn imu_normals(c: &mut Criterion) {
     let mut group = c.benchmark_group("imu_normals");
     let mut rng = Philox::new(1, 2);
     let gauss = Ziggurat::new();
-    let mut batch = [0.0; 32];
-    group.bench_function("ziggurat_32", |b| {
+    let mut batch = [0.0; NOISE_BATCH];
+    group.bench_function(format!("ziggurat_{NOISE_BATCH}"), |b| {
         b.iter(|| {
             gauss.fill(&mut rng, &mut batch);
             black_box(&batch);
         })
     });
-    let mut words = [0u64; 16];
-    group.bench_function("philox_16_words", |b| {
+    let mut words = [0u64; NOISE_BATCH / 2];
+    group.bench_function(format!("philox_{}_words", NOISE_BATCH / 2), |b| {
         b.iter(|| {
             for w in words.iter_mut() {
                 *w = rng.next_u64();

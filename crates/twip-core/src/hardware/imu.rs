@@ -421,8 +421,8 @@ pub struct Mpu6050<T> {
     noise: NoiseBatch,
 }
 
-/// Normals drawn at a time: eight samples' worth.
-const NOISE_BATCH: usize = 32;
+/// Normals an IMU draws from its stream at a time: eight samples' worth (four each).
+pub const NOISE_BATCH: usize = 32;
 
 /// An IMU's normals, drawn ahead in batches from its stream (the same sequence, drawn
 /// faster in a tight loop): four per sample.
