@@ -4,9 +4,8 @@
 //! motor driver with inductance, one-period delay, the gearheads' friction (stick band)
 //! and backlash, a push, a constant force and a slope change; then the same with only the
 //! friction, only the backlash, and neither. Then what the IMU's noise costs: a batch of
-//! normals as an IMU draws them (`NOISE_BATCH`, 32: eight 1 kHz samples), against the
-//! Philox words that they take at least (half as many: two normals a word; the
-//! ziggurat's rare wedges and tail take more).
+//! `NOISE_BATCH` normals as an IMU draws them, against the Philox words that they take at
+//! least (half as many: two normals a word; the ziggurat's rare wedges and tail take more).
 //! Run: cargo bench -p twip-core --bench realism
 use std::hint::black_box;
 
