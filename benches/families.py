@@ -34,6 +34,10 @@ def families():
         ("fuzzy, Gaussian sets, lanes", get("flat-fuzzy-sim", t_final=10.0, sets=GAUSSIAN_SETS), None, 8192),
         ("LQR with realism (thesis-like rig)", get("flat-lqr-sim", t_final=10.0), thesis_like, 4096),
         ("fuzzy with realism (thesis-like rig)", get("flat-fuzzy-sim", t_final=10.0), thesis_like, 4096),
+        # The rig the issue's goal was set on: thesis_like() before the gearheads' friction
+        # (2ad982d) and play (e34a4c0) joined it.
+        ("LQR, thesis-like rig, no gearhead friction or play", get("flat-lqr-sim", t_final=10.0),
+         thesis_like.replace(friction=None, backlash=None), 4096),
         ("LQR, thesis-like rig and a push", get("flat-lqr-sim", t_final=10.0), thesis_like.replace(pushes=[(5.0, 0.2)]), 4096),
         ("LQR, thesis-like rig, slope changes", get("flat-lqr-sim", t_final=10.0),
          thesis_like.replace(slope_profile=[(0.3, 0.02), (0.6, -0.02)]), 4096),
