@@ -339,6 +339,14 @@ impl<T: Real> Disturbed<T> {
         self.play.is_some()
     }
 
+    /// Whether nothing acts on the plant between steps: no play (no rotor moves apart from
+    /// its wheel, so `gear_elapsed` and `open_rotor_speed` change nothing) and no pushes
+    /// (`kick` changes nothing).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn idle_between_steps(&self) -> bool {
+        self.play.is_none() && self.pushes.as_slice().is_empty()
+    }
+
     /// Whether the gear trains are engaged (always, without backlash).
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
     pub(crate) fn engaged(&self) -> bool {

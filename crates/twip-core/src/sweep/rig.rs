@@ -370,7 +370,16 @@ mod tests {
         let pushes = Pushes::new(&[Push { t: 0.5, impulse: 0.3, height: 0.1 }]).unwrap();
         let force = Force { horizontal: 0.4, vertical: -1.5, height: 0.08 };
         let pushed = Realism { pushes, force, ..thesis_like };
-        for (name, realism) in [("thesis-like", thesis_like), ("thesis-like, no backlash", no_backlash), ("steady winding", steady), ("thesis-like, pushed and pulled", pushed)] {
+        // Without backlash the lanes skip the per-lane work between steps unless a push acts.
+        let pushed_no_backlash = Realism { pushes, ..no_backlash };
+        let cases = [
+            ("thesis-like", thesis_like),
+            ("thesis-like, no backlash", no_backlash),
+            ("steady winding", steady),
+            ("thesis-like, pushed and pulled", pushed),
+            ("no backlash, pushed", pushed_no_backlash),
+        ];
+        for (name, realism) in cases {
             let lqr_worst = rig_lanes_agree(&lqr_lanes, &lqr, &realism, 1.0);
             let fuzzy_worst = rig_lanes_agree(&fuzzy_lanes, &fuzzy, &realism, 1.0);
             println!("{name}: worst relative difference over 1 s: LQR {lqr_worst:e}, fuzzy {fuzzy_worst:e}");
