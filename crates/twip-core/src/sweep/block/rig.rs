@@ -518,9 +518,8 @@ fn rig_block<C: LaneLaw, const SIMD: bool>(
     let mut speed_scale: f64 = 0.0;
     let mut direction: f64 = 1.0;
     let mut engaged = [true; LANES];
-    // Without play and pushes, the per-lane work between steps is the winding's alone
-    // (measured: ~1.1x the rig's speed without it, `sweep_throughput realism-lanes` with
-    // RIG_DROP=friction,backlash).
+    // Without play and pushes, the steps skip the per-lane work between them (measured:
+    // ~1.1x the rig's speed, `sweep_throughput realism-lanes` with RIG_DROP=friction,backlash).
     let idle = rigs.iter().all(|rig| rig.plant.ground().idle_between_steps());
     for k in 0..n {
         let t = dt * k as f64;
@@ -573,11 +572,19 @@ fn rig_block<C: LaneLaw, const SIMD: bool>(
         // derivative at the step's start (on lanes) and may open.
         let stepped = plants.drive == STEPPED;
         let (mut current, mut finished, mut starts) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-        if stepped && idle {
-            // Nothing acts between steps: the motors turn with the wheels (as
-            // `Driven::motor_speed` without an open rotor), on lanes.
-            finished = core::array::from_fn(|l| x[3][l] - x[1][l]);
-            starts = finished;
+        if idle {
+            // Nothing acts between steps: what the lanes' plants take is known on lanes.
+            match plants.drive {
+                // The motors turn with the wheels (`Driven::motor_speed` without an open rotor).
+                STEPPED => {
+                    finished = core::array::from_fn(|l| x[3][l] - x[1][l]);
+                    starts = finished;
+                }
+                // The current is the input.
+                HELD => current = u,
+                // The stages turn the duty into current (`input`); only play reads `current`.
+                _ => {}
+            }
         } else {
             for (l, rig) in rigs.iter_mut().enumerate() {
                 let mut xl = Vector4::from(lane(&x, l));
