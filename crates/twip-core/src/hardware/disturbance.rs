@@ -344,7 +344,15 @@ impl<T: Real> Disturbed<T> {
     /// (`kick` changes nothing).
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
     pub(crate) fn idle_between_steps(&self) -> bool {
-        self.play.is_none() && self.pushes.as_slice().is_empty()
+        self.play.is_none() && self.unpushed()
+    }
+
+    /// Whether no push ever acts (`kick` changes nothing). With the trains engaged as well,
+    /// nothing acts between steps: an engaged train's rotor turns with its wheel
+    /// (`gear_elapsed` and `open_rotor_speed` change nothing).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn unpushed(&self) -> bool {
+        self.pushes.as_slice().is_empty()
     }
 
     /// Whether the gear trains are engaged (always, without backlash).

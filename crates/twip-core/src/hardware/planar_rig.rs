@@ -192,6 +192,13 @@ impl<T: Real> PlanarPlant<T> {
         }
     }
 
+    /// Whether no push ever acts. With the trains engaged as well, nothing acts between
+    /// steps: an engaged train's rotor turns with its wheel (`gear_elapsed` changes nothing).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    pub(crate) fn unpushed(&self) -> bool {
+        self.pushes.as_slice().is_empty()
+    }
+
     /// The planar model this plant moves by (its gearhead friction included).
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
     pub(crate) fn model(&self) -> &PlanarModel<T> {

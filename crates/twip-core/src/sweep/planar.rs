@@ -424,7 +424,7 @@ mod tests {
     /// Through the rig (its parts whose output is not quantised), a lane stays within
     /// 1e-12 of the rig's run over 10 s (relative; the worst is printed), for every law on
     /// lanes; with backlash, a force and pushes too over 3 s, and driven through the
-    /// bridge (windings with and without inductance) over 1 s.
+    /// bridge (windings with and without inductance) over 1 s; the same not pushed.
     #[test]
     fn a_rig_lane_agrees_with_the_rig_run_to_rounding() {
         use crate::hardware::disturbance::{Force, Push, Pushes};
@@ -447,6 +447,8 @@ mod tests {
         let thesis_drive = Realism::thesis_like().motor.unwrap();
         let inductive = Realism { motor: Some(thesis_drive), ..geared };
         let steady = Realism { motor: Some(crate::hardware::driver::MotorDriver { inductance: 0.0, ..thesis_drive }), ..geared };
+        // Never pushed, a lane skips the work between steps while its trains are engaged.
+        let unpushed = [geared, inductive, steady].map(|r| Realism { pushes: Pushes::none(), ..r });
         let (pid, ..) = setup();
         let (pid_lanes, smc_lanes, fuzzy_lanes) = (PidLanes::new(&pid), SmcLanes::new(&smc(false)).unwrap(), SmcLanes::new(&smc(true)).unwrap());
         // (Through the Kalman filter's rig, or pushed and pulled, the sliding-mode trackers
@@ -459,6 +461,9 @@ mod tests {
             ("backlash, pushes, a force: pid", rig_lanes_against_the_runner(&pid, &pid_lanes, Some(&geared), 3.0)),
             ("backlash, pushes, a force, inductive windings: pid", rig_lanes_against_the_runner(&pid, &pid_lanes, Some(&inductive), 1.0)),
             ("backlash, pushes, a force, windings without inductance: pid", rig_lanes_against_the_runner(&pid, &pid_lanes, Some(&steady), 1.0)),
+            ("backlash, a force, not pushed: pid", rig_lanes_against_the_runner(&pid, &pid_lanes, Some(&unpushed[0]), 3.0)),
+            ("backlash, a force, inductive windings, not pushed: pid", rig_lanes_against_the_runner(&pid, &pid_lanes, Some(&unpushed[1]), 1.0)),
+            ("backlash, a force, windings without inductance, not pushed: pid", rig_lanes_against_the_runner(&pid, &pid_lanes, Some(&unpushed[2]), 1.0)),
         ];
         for (name, worst) in all {
             std::println!("{name}: worst relative difference {worst:e}");

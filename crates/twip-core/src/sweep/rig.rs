@@ -370,12 +370,17 @@ mod tests {
         let pushes = Pushes::new(&[Push { t: 0.5, impulse: 0.3, height: 0.1 }]).unwrap();
         let force = Force { horizontal: 0.4, vertical: -1.5, height: 0.08 };
         let pushed = Realism { pushes, force, ..thesis_like };
-        // Without backlash the lanes skip the per-lane work between steps unless a push acts.
+        // Without backlash the lanes skip the per-lane work between steps unless a push acts;
+        // with it, while the trains are engaged (held current or inductive winding).
         let pushed_no_backlash = Realism { pushes, ..no_backlash };
+        let held = Realism { motor: None, ..thesis_like };
+        let steady_backlash = Realism { motor: steady.motor, ..thesis_like };
         let cases = [
             ("thesis-like", thesis_like),
+            ("thesis-like, held current", held),
             ("thesis-like, no backlash", no_backlash),
             ("steady winding", steady),
+            ("steady winding, backlash", steady_backlash),
             ("thesis-like, pushed and pulled", pushed),
             ("no backlash, pushed", pushed_no_backlash),
         ];

@@ -410,6 +410,10 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const SIMD: bool>(
     if let Some(imus) = imus.as_mut() {
         imus.sample(0.0, &x, &d0);
     }
+    // The lanes that are never pushed skip the work between steps while their trains are
+    // engaged (a winding without inductance starts no step: `Winding::start_step`).
+    let quiet_engaged: [bool; LANES] = core::array::from_fn(|l| rigs[l].plant.unpushed());
+    let mut engaged: [[bool; 2]; LANES] = core::array::from_fn(|l| rigs[l].plant.trains());
     for k in 0..n {
         let t = dt * k as f64;
         if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
@@ -455,6 +459,16 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const SIMD: bool>(
         let mut trains = [[true; 2]; LANES];
         let (mut finished, mut starts) = ([[0.0; LANES]; 2], [[0.0; LANES]; 2]);
         for (l, rig) in rigs.iter_mut().enumerate() {
+            if quiet_engaged[l] && engaged[l] == [true; 2] {
+                // Nothing acts between steps (`PlanarPlant::unpushed`): the motors turn with
+                // the wheels (the windings' steps on lanes start from their speeds).
+                if stepped {
+                    let (right, left) = rig.plant.model().wheel_speeds(&lane(&x, l));
+                    (finished[0][l], finished[1][l]) = (right, left);
+                    (starts[0][l], starts[1][l]) = (right, left);
+                }
+                continue;
+            }
             let (mut xl, ul) = (lane(&x, l), lane(&u, l));
             if stepped {
                 let [right, left] = rig.plant.motor_speeds(&xl);
@@ -496,6 +510,7 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const SIMD: bool>(
             imus.sample(t, &x, &k1);
         }
         let next = plants.rk4::<SIMD>(&x, &held, &trains, &k1, dt);
+        engaged = trains;
         if !metrics.end_step(&mut x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &command, path, settle) {
             break;
         }

@@ -517,10 +517,14 @@ fn rig_block<C: LaneLaw, const SIMD: bool>(
     let mut metrics = Metrics::new(core::array::from_fn(|l| models[l].params().wheel_radius), &x, &plant_phi_s);
     let mut speed_scale: f64 = 0.0;
     let mut direction: f64 = 1.0;
-    let mut engaged = [true; LANES];
+    let mut engaged: [bool; LANES] = core::array::from_fn(|l| rigs[l].plant.ground().engaged());
     // Without play and pushes, the steps skip the per-lane work between them (measured:
     // ~1.1x the rig's speed, `sweep_throughput realism-lanes` with RIG_DROP=friction,backlash).
     let idle = rigs.iter().all(|rig| rig.plant.ground().idle_between_steps());
+    // With play, so does each lane that is never pushed while its trains are engaged (but
+    // for a winding without inductance: the trains weigh its lumped current, which
+    // `step_start` gives per lane).
+    let quiet_engaged: [bool; LANES] = core::array::from_fn(|l| rigs[l].plant.ground().unpushed() && plants.drive != STEADY);
     for k in 0..n {
         let t = dt * k as f64;
         if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
@@ -587,6 +591,16 @@ fn rig_block<C: LaneLaw, const SIMD: bool>(
             }
         } else {
             for (l, rig) in rigs.iter_mut().enumerate() {
+                if quiet_engaged[l] && engaged[l] {
+                    // Nothing acts between steps (`Disturbed::unpushed`): as when `idle`.
+                    if stepped {
+                        finished[l] = x[3][l] - x[1][l];
+                        starts[l] = finished[l];
+                    } else {
+                        current[l] = u[l];
+                    }
+                    continue;
+                }
                 let mut xl = Vector4::from(lane(&x, l));
                 if stepped {
                     finished[l] = rig.plant.motor_speed(&xl).unwrap_or_default();
