@@ -313,10 +313,13 @@ fn hold<S: Lane, const N: usize>(held: &[S::Mask; N], tau: &[S; N], w: &[S; N], 
         let (i, j) = (0, N - 1);
         let det = s[i][i] * s[j][j] - s[i][j] * s[j][i];
         let both = held[i] & held[j];
-        let pair_i = (s[j][j] * rhs[i] - s[i][j] * rhs[j]) / det;
-        let pair_j = (s[i][i] * rhs[j] - s[j][i] * rhs[i]) / det;
-        out[i] = S::select(both, pair_i, S::select(held[i], rhs[i] / s[i][i], tau[i]));
-        out[j] = S::select(both, pair_j, S::select(held[j], rhs[j] / s[j][j], tau[j]));
+        // A held wheel's torque is one quotient: Cramer's when both are held, else by its
+        // own entry. Its numerator and divisor are picked first, so that each wheel takes
+        // one division, not two (the same quotient: the same bits).
+        let num_i = S::select(both, s[j][j] * rhs[i] - s[i][j] * rhs[j], rhs[i]);
+        let num_j = S::select(both, s[i][i] * rhs[j] - s[j][i] * rhs[i], rhs[j]);
+        out[i] = S::select(held[i], num_i / S::select(both, det, s[i][i]), tau[i]);
+        out[j] = S::select(held[j], num_j / S::select(both, det, s[j][j]), tau[j]);
     }
     out
 }
