@@ -791,7 +791,7 @@ class Realism:
       `slope_profile`: (distance [m], slope [rad]) changes along the path.
     - `friction`: a `twip.Friction` per wheel on the plant (None: the model's own);
       `backlash`: each gear train's free play at the wheel [rad] (None: none).
-    - `seed`, `stream`: the noise (Philox key); a run is bitwise repeatable.
+    - `seed`, `stream`: the noise's key (its SFC64 stream); a run is bitwise repeatable.
     """
     def __new__(cls, *, imu: Optional[Imu] = None, estimator: Any = None, encoder_cpr: Optional[float] = None,
                 motor: Optional[MotorDriver] = None, delay: bool = False, control_period: Optional[float] = None,

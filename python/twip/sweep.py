@@ -14,7 +14,7 @@ tracking; kernel "planar-realism-lanes": the same through a rig), which fuse mul
 rig's quantisers, over its first seconds: see `SweepResult.replay`).
 
 With `realism=` (a `twip.Realism`) every sample runs with the robot's real parts in the
-loop. Sample i's sensor noise is the Philox stream (sweep_noise_seed(seed), i): the
+loop. Sample i's sensor noise is the stream (sweep_noise_seed(seed), i): the
 realism's own seed and stream are ignored, so a sample depends on (seed, i) alone and
 another sweep seed gives other noise as well as other robots.
 """

@@ -4,8 +4,10 @@
 //! motor driver with inductance, one-period delay, the gearheads' friction (stick band)
 //! and backlash, a push, a constant force and a slope change; then the same with only the
 //! friction, only the backlash, and neither. Then what the IMU's noise costs: a batch of
-//! `NOISE_BATCH` normals as an IMU draws them, against the Philox words that they take at
-//! least (half as many: two normals a word; the ziggurat's rare wedges and tail take more).
+//! `NOISE_BATCH` normals as an IMU draws them, on one stream and on a sweep's 16 lanes side
+//! by side, against the SFC64 words that they take at least (half as many: two normals a
+//! word; the ziggurat's rare wedges and tail take more), and as many Philox words (the
+//! noise's words before SFC64).
 //! Run: cargo bench -p twip-core --bench realism
 use std::hint::black_box;
 
@@ -16,7 +18,8 @@ use twip_core::control::lqr::{design, DesignPoint, LqrController};
 use twip_core::sim::metrics::SlopeMetrics;
 use twip_core::hardware::imu::NOISE_BATCH;
 use twip_core::hardware::realism::{simulate_rig, Realism};
-use twip_core::rng::{Philox, Ziggurat};
+use twip_core::rng::{Philox, Sfc64, Ziggurat};
+use twip_core::sweep::lanes::LANES;
 use twip_core::control::reference::SpeedSchedule;
 use twip_core::sim::runner::{simulate, Loop, Outcome, SimConfig};
 use twip_core::{RobotParams, SlopeModel};
@@ -72,20 +75,37 @@ fn closed_loop(c: &mut Criterion) {
 
 fn imu_normals(c: &mut Criterion) {
     let mut group = c.benchmark_group("imu_normals");
-    let mut rng = Philox::new(1, 2);
     let gauss = Ziggurat::new();
+    let mut rng = Sfc64::new(1, 2);
     let mut batch = [0.0; NOISE_BATCH];
     group.bench_function(format!("ziggurat_{NOISE_BATCH}"), |b| {
         b.iter(|| {
-            gauss.fill(&mut rng, &mut batch);
+            gauss.fill(&mut rng, NOISE_BATCH / 2, |n, [v]| batch[n] = v);
             black_box(&batch);
         })
     });
+    let mut lanes = Sfc64::<LANES>::lanes(core::array::from_fn(|l| Sfc64::new(1, l as u64)));
+    let mut rows = [[0.0; LANES]; NOISE_BATCH];
+    group.bench_function(format!("ziggurat_{NOISE_BATCH}_on_{LANES}_lanes"), |b| {
+        b.iter(|| {
+            gauss.fill(&mut lanes, NOISE_BATCH / 2, |n, row| rows[n] = row);
+            black_box(&rows);
+        })
+    });
     let mut words = [0u64; NOISE_BATCH / 2];
-    group.bench_function(format!("philox_{}_words", NOISE_BATCH / 2), |b| {
+    group.bench_function(format!("sfc64_{}_words", NOISE_BATCH / 2), |b| {
         b.iter(|| {
             for w in words.iter_mut() {
                 *w = rng.next_u64();
+            }
+            black_box(&words);
+        })
+    });
+    let mut philox = Philox::new(1, 2);
+    group.bench_function(format!("philox_{}_words", NOISE_BATCH / 2), |b| {
+        b.iter(|| {
+            for w in words.iter_mut() {
+                *w = philox.next_u64();
             }
             black_box(&words);
         })

@@ -18,7 +18,7 @@ import numpy as np
 from twip.reference.backlash import GearPlay
 from twip.reference.realism import (Driven, Encoder, Mpu6050, PwmActuator, Realism, TiltFilter, rk4_sampled,
                                     specific_force)
-from twip.reference.rng import Philox
+from twip.reference.rng import Sfc64
 
 
 @dataclass
@@ -133,7 +133,7 @@ class PlanarSensors:
         self.pose, self.last_beta_hat = [0.0, 0.0, 0.0], None
         self.r, self.b, self.inv_r, self.g = params.wheel_radius, params.half_track, 1.0 / params.wheel_radius, params.g
         self.next_sample, self.dt = 0.0, dt
-        self.rng = Philox(realism.seed, realism.stream)
+        self.rng = Sfc64(realism.seed, realism.stream)
         self.last_read = None
         self.shaft = [0.0, 0.0]  # each motor shaft's angle minus its wheel's (backlash)
 

@@ -3,11 +3,11 @@ estimators, encoder, PWM motor drive, pushes, a constant force, slope changes, a
 runner that puts them round a 2-DOF controller. Plain Python floats and numpy, written
 from the equations in twip-core's module docs (hardware/: imu.rs, tilt.rs, encoder.rs, driver.rs,
 disturbance.rs, realism.rs), never calling the Rust core. The noise comes from
-`twip.reference.rng.Philox`, so a run draws the very numbers the core draws.
+`twip.reference.rng.Sfc64`, so a run draws the very numbers the core draws.
 
 One file because it is one independent reading of the hardware chain, to be checked against
 the core's modules side by side in the order the signal flows (sensor, estimator, encoder,
-driver, disturbances, runner); its parts share the Philox draw order, which a split would
+driver, disturbances, runner); its parts share the noise's draw order, which a split would
 hide across files.
 """
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 
 from twip.reference.backlash import GearPlay
 from twip.reference.friction import Friction
-from twip.reference.rng import Philox
+from twip.reference.rng import Sfc64
 from twip.reference.slope import SlopeModel
 
 STANDARD_GRAVITY = 9.80665
@@ -183,7 +183,7 @@ class Ziggurat:
     def _gauss(x):
         return math.exp(-0.5 * x * x)
 
-    def fill(self, rng: Philox, n: int):
+    def fill(self, rng: Sfc64, n: int):
         out = []
         while len(out) < n:
             word = rng.next_u64()
@@ -614,7 +614,7 @@ class BalanceSensors:
         self.trig = [(math.sin(a), math.cos(a)) for a in [base_slope] + [a for _, a in realism.slope_profile]]
         self.radius, self.g = params.wheel_radius, params.g
         self.next_sample, self.half_step = 0.0, dt * 0.5
-        self.rng = Philox(realism.seed, realism.stream)
+        self.rng = Sfc64(realism.seed, realism.stream)
         self.last_read = None
         self.shaft = 0.0  # the motor shaft's angle minus the wheels' (backlash): the encoder counts the shaft
 

@@ -25,7 +25,7 @@
 //! both numbers hold for the discrete filter. The 260 Hz accelerometer row (delay 0)
 //! passes samples through.
 use crate::model::lane::{clamp, saturate, Lane};
-use crate::rng::{Philox, Ziggurat};
+use crate::rng::{Sfc64, Ziggurat};
 use crate::{c, Real, TwipError};
 
 /// Standard gravity: the unit of the accelerometer's LSB [m/s²].
@@ -440,9 +440,10 @@ impl NoiseBatch {
 
     /// The next sample's four standard normals (gyro, accel x, accel z, bias walk).
     #[inline]
-    pub(crate) fn draw<T: Real>(&mut self, rng: &mut Philox) -> [T; 4] {
+    pub(crate) fn draw<T: Real>(&mut self, rng: &mut Sfc64) -> [T; 4] {
         if self.used == NOISE_BATCH {
-            self.gauss.fill(rng, &mut self.noise);
+            let noise = &mut self.noise;
+            self.gauss.fill(rng, NOISE_BATCH / 2, |n, [v]| noise[n] = v);
             self.used = 0;
         }
         let k = self.used;
@@ -463,14 +464,14 @@ pub(crate) struct NoiseLanes<const N: usize, const K: usize> {
     gauss: Ziggurat,
     rows: [[[[f64; N]; 4]; K]; BATCH_SAMPLES],
     used: usize,
-    streams: [Philox; N],
+    streams: Sfc64<N>,
 }
 
 #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
 impl<const N: usize, const K: usize> NoiseLanes<N, K> {
     /// From each robot's stream and its IMUs' batches as they stand. Their batches are in
     /// step (the same normals used) when the IMUs have sampled alike, as rigs built alike have.
-    pub(crate) fn new(parts: &[(Philox, [NoiseBatch; K]); N]) -> Self {
+    pub(crate) fn new(parts: &[(Sfc64, [NoiseBatch; K]); N]) -> Self {
         let used = parts[0].1[0].used;
         debug_assert!(parts.iter().all(|p| p.1.iter().all(|b| b.used == used)), "the IMUs' batches are in step");
         let mut rows = [[[[0.0; N]; 4]; K]; BATCH_SAMPLES];
@@ -481,7 +482,7 @@ impl<const N: usize, const K: usize> NoiseLanes<N, K> {
                 }
             }
         }
-        Self { gauss: Ziggurat::new(), rows, used: used / 4, streams: parts.map(|p| p.0) }
+        Self { gauss: Ziggurat::new(), rows, used: used / 4, streams: Sfc64::lanes(parts.map(|p| p.0)) }
     }
 
     /// Every robot's next four normals per IMU (gyro, accel x, accel z, bias walk): four
@@ -489,14 +490,10 @@ impl<const N: usize, const K: usize> NoiseLanes<N, K> {
     #[inline(always)]
     pub(crate) fn draw(&mut self) -> &[[[f64; N]; 4]; K] {
         if self.used == BATCH_SAMPLES {
-            let mut batch = [0.0; NOISE_BATCH];
-            for (l, rng) in self.streams.iter_mut().enumerate() {
-                for k in 0..K {
-                    self.gauss.fill(rng, &mut batch);
-                    for (n, v) in batch.iter().enumerate() {
-                        self.rows[n / 4][k][n % 4][l] = *v;
-                    }
-                }
+            let rows = &mut self.rows;
+            #[allow(clippy::needless_range_loop)] // k indexes the rows' middle axis
+            for k in 0..K {
+                self.gauss.fill(&mut self.streams, NOISE_BATCH / 2, |n, row| rows[n / 4][k][n % 4] = row);
             }
             self.used = 0;
         }
@@ -569,7 +566,7 @@ impl<T: Real> Mpu6050<T> {
     /// x, accel z, bias walk, whatever is switched off, so that one source's numbers do
     /// not depend on the others'.
     #[inline]
-    pub fn sample(&mut self, fx: T, fz: T, rate: T, rng: &mut Philox) {
+    pub fn sample(&mut self, fx: T, fz: T, rate: T, rng: &mut Sfc64) {
         let n = self.draw(rng);
         self.sample_with(fx, fz, rate, n);
     }
@@ -578,7 +575,7 @@ impl<T: Real> Mpu6050<T> {
     /// 3-DOF robot's yaw axis): takes the four normals a whole sample takes, and the
     /// accelerometer's registers stay as they are.
     #[inline]
-    pub fn sample_gyro(&mut self, rate: T, rng: &mut Philox) {
+    pub fn sample_gyro(&mut self, rate: T, rng: &mut Sfc64) {
         let n = self.draw(rng);
         self.sample_gyro_with(rate, n);
     }
@@ -586,7 +583,7 @@ impl<T: Real> Mpu6050<T> {
     /// The next sample's four standard normals (gyro, accel x, accel z, bias walk), drawn
     /// in batches from `rng`.
     #[inline]
-    pub(crate) fn draw(&mut self, rng: &mut Philox) -> [T; 4] {
+    pub(crate) fn draw(&mut self, rng: &mut Sfc64) -> [T; 4] {
         self.noise.draw(rng)
     }
 
@@ -764,7 +761,7 @@ mod tests {
         s.gyro_noise = 0.0;
         s.accel_noise = 0.0;
         let mut imu = Mpu6050::new(&s).unwrap();
-        let mut rng = Philox::new(0, 0);
+        let mut rng = Sfc64::new(0, 0);
         imu.sample(0.0, 9.81, 10.0, &mut rng);
         let r = imu.reading();
         assert_eq!(r.gyro, 32767.0 * s.gyro_range / 32768.0, "saturated");
@@ -789,7 +786,7 @@ mod tests {
         s.gyro_noise = 0.0;
         s.quantise = false;
         let mut imu = Mpu6050::new(&s).unwrap();
-        let mut rng = Philox::new(0, 0);
+        let mut rng = Sfc64::new(0, 0);
         for _ in 0..5 {
             imu.sample(0.0, 9.81, 10.0 * s.gyro_range, &mut rng);
             assert!(imu.reading().gyro <= s.gyro_range, "{} > {}", imu.reading().gyro, s.gyro_range);

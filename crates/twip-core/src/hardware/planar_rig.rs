@@ -12,7 +12,7 @@
 //!   feed-forward on the measured wheel speed, or none;
 //!
 //! run by the one loop (`runner::run_loop`) through [`Rig::simulate`]. Nothing
-//! allocates; the noise comes from the one (seed, stream) Philox stream: each IMU sample
+//! allocates; the noise comes from the one (seed, stream) [`Sfc64`] stream: each IMU sample
 //! takes the pitch channel's four normals, then the yaw gyro's four.
 //!
 //! Approximations, each far below what the firmware can see: the accelerometer feels
@@ -33,7 +33,7 @@ use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::model::integrate::Stage;
 use crate::model::lane::Lane;
 use crate::model::planar::{PlanarState, WheelRows};
-use crate::rng::Philox;
+use crate::rng::Sfc64;
 use crate::sim::runner::{Actuator, Plant, Sensor};
 use crate::{c, Dynamics, PlanarModel, Real, RobotParams, TwipError};
 
@@ -340,7 +340,7 @@ pub struct PlanarSensors<T: Real> {
     /// When the IMUs sample.
     clock: ImuClock<T>,
     dt: T,
-    rng: Philox,
+    rng: Sfc64,
     last_read: Option<T>,
     /// Each motor shaft's angle minus its wheel's (backlash): the encoders count the shafts.
     shaft: [T; 2],
@@ -385,7 +385,7 @@ impl<T: Real> PlanarSensors<T> {
             g: params.g,
             clock,
             dt,
-            rng: Philox::new(seed, stream),
+            rng: Sfc64::new(seed, stream),
             last_read: None,
             shaft: [T::zero(); 2],
         })
@@ -424,7 +424,7 @@ impl<T: Real> PlanarSensors<T> {
 }
 
 /// What a sweep's lanes copy of a 3-DOF rig's IMUs ([`PlanarSensors::imu_noise_parts`]).
-pub(crate) type ImuNoiseParts<T> = ([Mpu6050<T>; 2], ImuClock<T>, Philox, [NoiseBatch; 2]);
+pub(crate) type ImuNoiseParts<T> = ([Mpu6050<T>; 2], ImuClock<T>, Sfc64, [NoiseBatch; 2]);
 
 /// The IMUs' sample at state `x` with derivative `xdot` (the pitch plane as the 2-DOF
 /// model has it, θ̇ = v/R; the gyro's z axis turns with the body's pitch: it reads

@@ -9,7 +9,7 @@
 //! and [`simulate_rig`] runs them through the one loop, `runner::run_loop`, with what
 //! happens to the plant between steps (pushes, the winding current) and the
 //! measurement, duty and motor current logged beside the controller's internals. Nothing allocates; noise comes from
-//! one [`Philox`] stream (seed, stream), so a run is bitwise repeatable.
+//! one [`Sfc64`] stream (seed, stream), so a run is bitwise repeatable.
 use nalgebra::{SVector, Vector4};
 
 use crate::control::{Controller, Reference};
@@ -20,7 +20,7 @@ use crate::hardware::imu::{specific_force, ImuClock, ImuReading, ImuSettings, Mp
 use crate::hardware::backlash::Backlash;
 use crate::model::friction::{Friction, GB37_STICK_SPEED};
 use crate::model::integrate::Stage;
-use crate::rng::Philox;
+use crate::rng::Sfc64;
 use crate::sim::runner::{run_loop, Actuator, Loop, Observer, Outcome, Plant, Sensor, Signals, SimConfig, MAX_RAW};
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
@@ -235,7 +235,7 @@ pub struct BalanceSensors<T: Real> {
     g: T,
     /// When the IMU samples.
     clock: ImuClock<T>,
-    rng: Philox,
+    rng: Sfc64,
     last_read: Option<T>,
     /// The motor shaft's angle minus the wheels' (backlash): the encoder counts the shaft.
     shaft: T,
@@ -272,7 +272,7 @@ impl<T: Real> BalanceSensors<T> {
             radius: params.wheel_radius,
             g: params.g,
             clock,
-            rng: Philox::new(seed, stream),
+            rng: Sfc64::new(seed, stream),
             last_read: None,
             shaft: T::zero(),
         })
@@ -301,7 +301,7 @@ impl<T: Real> BalanceSensors<T> {
     /// (None without an IMU): a sweep's lanes sample for the IMU from copies of them, and
     /// draw the same numbers.
     #[cfg_attr(not(feature = "std"), allow(dead_code))]
-    pub(crate) fn imu_noise_parts(&self) -> Option<(ImuClock<T>, Philox, NoiseBatch)> {
+    pub(crate) fn imu_noise_parts(&self) -> Option<(ImuClock<T>, Sfc64, NoiseBatch)> {
         self.imu.as_ref().map(|imu| (self.clock, self.rng, imu.noise()))
     }
 

@@ -2,7 +2,7 @@
 //! disturbances) instead of the ideal loop.
 //!
 //! Noise keys: sample `i` of a sweep with seed `s` draws its sensor noise from the
-//! Philox stream `(noise_seed(s), i)`. The realism's own `seed` and `stream` are
+//! stream `(noise_seed(s), i)` (`Sfc64`). The realism's own `seed` and `stream` are
 //! replaced, so a sample is reproducible from (sweep seed, index) alone and two sweep
 //! seeds give different noise. `noise_seed` is a bijection that moves the key away from
 //! `s` itself, so the noise is not the very stream the perturbations were drawn from.

@@ -481,7 +481,7 @@ fn push(obj: &Bound<'_, PyAny>) -> PyResult<PyPush> {
 ///   `slope_profile`: (distance [m], slope [rad]) changes along the path.
 /// - `friction`: a `twip.Friction` per wheel on the plant (None: the model's own);
 ///   `backlash`: each gear train's free play at the wheel [rad] (None: none).
-/// - `seed`, `stream`: the noise (Philox key); a run is bitwise repeatable.
+/// - `seed`, `stream`: the noise's key (its SFC64 stream); a run is bitwise repeatable.
 #[pyclass(name = "Realism", module = "twip", frozen)]
 #[derive(Clone)]
 pub struct PyRealism {
