@@ -19,12 +19,12 @@ what draw the boundary.
   quantised loop on the slope stops settling.
 - tracking: the 3-DOF trackers (PID, sliding mode + fuzzy) on two laps of the circle,
   centre-of-mass height and body mass +-90 %, on the thesis-like robot too. They
-  hardly fall on this map (PID never; sliding mode + fuzzy in 0.3 % of 1500 runs,
+  hardly fall on this map (PID never; sliding mode + fuzzy in 0.2 % of 1500 runs,
   measured with the defaults), so the cells show the
   mean of the largest distance from the path during the second lap instead.
 
 Run:  .venv/bin/python examples/robustness_heatmaps.py [--n 6000] [--bins 15] [--out robustness] [--ideal]
-(86 s on 2 cores with the defaults: 4 sweeps of 6000 runs of 10 s, 2 of 1500 of two laps;
+(31-33 s on 2 cores with the defaults: 4 sweeps of 6000 runs of 10 s, 2 of 1500 of two laps;
 --ideal runs the 4 sweeps of the 2-DOF maps only, without realism, and names the files *_ideal.png)
 """
 import argparse

@@ -450,7 +450,8 @@ class Estimator:
         the global unknowns', `a` the rows of the globals in the inverse of the KKT matrix.
         The walk is a slow error shared by every later sample, which no correlation time
         found in a run's residuals takes in (without it, the thesis-like rig's intervals of
-        m_body and com_height were 1.7x too narrow over 16 noise seeds). The walk's increment
+        m_body and com_height were 1.15x and 1.3x too narrow over 16 noise seeds, with it
+        1.45x and 1.3x too wide). The walk's increment
         w_k over the interval before sample k (variance walk^2 dt_k) moves every gyro row from
         k on, so it moves the globals by w_k a Σ_{i>=k} J_i / sigma: their covariance is the
         sum over k of walk^2 dt_k (a Σ_{i>=k} J_i)(a Σ_{i>=k} J_i)^T / sigma^2 (the walk's
