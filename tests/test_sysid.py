@@ -207,16 +207,16 @@ def test_gearhead_friction_is_fitted_too():
 
 
 def test_a_fit_that_cannot_fit_the_log_exactly_still_converges():
-    """Gearheads with 4x the thesis-like Coulomb friction, fitted from the thesis-like level (a
-    quarter of the truth). The best fit leaves residuals 18x the noise levels first estimated from
-    the data (cost 6.6e6 against 41,000 residuals), so the cost is flat to its last digits long
-    before the steps stop lowering it. Measured: without the scaled tolerance the fit crawls
-    (decreases of 1e-2 to 5e-4) and converges in 16 (53 in all; with the noise before 0.1.9 it
-    crawled to "not converged after 50 iterations"); with the tolerance scaled by the misfit it
-    converges in 16 (49 in all), every parameter within 0.5 % and the Coulomb level within 0.02 %."""
-    base = twip.Realism.thesis_like().replace(backlash=None)
+    """Gearheads with 8x the thesis-like Coulomb friction, fitted from the thesis-like level (an
+    eighth of the truth), noise seed 1. The best fit leaves the cost far above the residuals'
+    count, flat to its last digits long before the steps stop lowering it. Measured: without
+    the tolerance scaled by the misfit (`_expected_cost` made infinite) the fit crawls to "not
+    converged after 50 iterations" (56 in all), m_body 0.8 % off; with it, it converges in 27
+    (70 in all), every parameter within 0.2 % and the Coulomb level within 0.01 %. (Seeds 0, 3
+    and 5 stop instead at "no step lowered the cost", scaled or not: see docs/sysid.md.)"""
+    base = twip.Realism.thesis_like(seed=1).replace(backlash=None)
     start = base.friction
-    truth = start.replace(coulomb=4 * start.coulomb, breakaway=4 * start.breakaway)
+    truth = start.replace(coulomb=8 * start.coulomb, breakaway=8 * start.breakaway)
     realism = base.replace(friction=truth, motor=base.motor.replace(inductance=0.0, current_limit=None))
     log = run_of("flat-lqr", 12.0, realism).to_log()
     fit = identify(log, twip.RobotParams.balanbot(), FREE + ["coulomb"], friction=start, driver=realism.motor,
