@@ -37,6 +37,12 @@ impl F64Ext for f64 {
     }
 }
 
+/// A word as a uniform on [0, 1) with 53 random bits (its top 53), as numpy's `random()`.
+#[inline]
+fn unit_interval(word: u64) -> f64 {
+    (word >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
 fn ln(x: f64) -> f64 {
     nalgebra::ComplexField::ln(x)
 }

@@ -1,5 +1,5 @@
 //! Philox4x64-10 (Salmon et al., SC'11): a sweep's draws of its samples.
-use super::{ln, F64Ext};
+use super::{ln, unit_interval, F64Ext};
 use crate::{c, Real};
 
 const M0: u64 = 0xD2E7_470E_E14C_6C93;
@@ -82,7 +82,7 @@ impl Philox {
 
     /// Uniform on [0, 1) with 53 random bits.
     pub fn uniform<T: Real>(&mut self) -> T {
-        c::<T>((self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64))
+        c::<T>(unit_interval(self.next_u64()))
     }
 
     /// Standard normal by Box–Muller (both deviates used, in order).

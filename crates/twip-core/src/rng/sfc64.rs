@@ -10,7 +10,7 @@
 //! so streams are keyed as a sweep's samples are and start from unrelated states; then comes
 //! numpy's own seeding (counter 1, twelve outputs discarded). numpy's `SFC64` given that state
 //! draws the very same words, which lets the pure-Python reference draw the same noise.
-use super::Philox;
+use super::{unit_interval, Philox};
 
 /// `N` SFC64 streams side by side (a sweep's lanes, lane `l` the stream `l`); one robot's
 /// stream is `Sfc64` (`N` = 1). The state is a, b, c and a counter, as numpy's.
@@ -71,7 +71,7 @@ impl<const N: usize> Sfc64<N> {
     /// Lane `lane`'s next word as a uniform on [0, 1) with 53 random bits.
     #[inline]
     pub fn uniform(&mut self, lane: usize) -> f64 {
-        (self.word(lane) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        unit_interval(self.word(lane))
     }
 }
 
