@@ -414,11 +414,12 @@ impl KernelCopy {
 /// built for the baseline CPU). All copies give the same bits: the baseline copy computes
 /// each `mul_add` with libm's exactly rounded `fma`, a call per value (20× slower than the
 /// AVX2 copy, measured; x86-64 CPUs older than 2013). `$run` dispatches to `$avx512`,
-/// `$avx2` or `$base`, each `$inner`. An `$inner` whose generics end in `; const SIMD` (a
-/// `const SIMD: bool`) learns which copy it is in (see [`out_of_line`]).
+/// `$avx2` or `$base`, each `$inner`. An `$inner` whose generics end in `; const COPY` (a
+/// `const COPY: u8`, a [`KernelCopy`] as `u8`) learns which copy it is in (see
+/// [`out_of_line_in`]).
 macro_rules! multiversioned {
     ($(#[$doc:meta])* pub fn $run:ident, $avx512:ident, $avx2:ident, $base:ident
-        = $inner:ident<$($c:ident: $bound:path),+ $(; const $simd:ident)?>($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
+        = $inner:ident<$($c:ident: $bound:path),+ $(; const $copy:ident)?>($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
         $(#[$doc])*
         pub fn $run<$($c: $bound),+>($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
@@ -434,47 +435,70 @@ macro_rules! multiversioned {
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = "avx512f,fma")]
         unsafe fn $avx512<$($c: $bound),+>($($arg: $ty),*) -> $ret {
-            multiversioned!(@call $inner [$($c),+] [$($simd)?] true ($($arg),*))
+            multiversioned!(@call $inner [$($c),+] [$($copy)?] { $crate::sweep::block::KernelCopy::Avx512 as u8 } ($($arg),*))
         }
 
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = "avx2,fma")]
         unsafe fn $avx2<$($c: $bound),+>($($arg: $ty),*) -> $ret {
-            multiversioned!(@call $inner [$($c),+] [$($simd)?] true ($($arg),*))
+            multiversioned!(@call $inner [$($c),+] [$($copy)?] { $crate::sweep::block::KernelCopy::Avx2 as u8 } ($($arg),*))
         }
 
         #[inline(never)]
         fn $base<$($c: $bound),+>($($arg: $ty),*) -> $ret {
-            multiversioned!(@call $inner [$($c),+] [$($simd)?] false ($($arg),*))
+            multiversioned!(@call $inner [$($c),+] [$($copy)?] { $crate::sweep::block::KernelCopy::Baseline as u8 } ($($arg),*))
         }
     };
-    (@call $inner:ident [$($c:ident),+] [] $simd:literal ($($arg:ident),*)) => {
+    (@call $inner:ident [$($c:ident),+] [] $copy:block ($($arg:ident),*)) => {
         $inner($($arg),*)
     };
-    (@call $inner:ident [$($c:ident),+] [$flag:ident] $simd:literal ($($arg:ident),*)) => {
-        $inner::<$($c,)+ $simd>($($arg),*)
+    (@call $inner:ident [$($c:ident),+] [$flag:ident] $copy:block ($($arg:ident),*)) => {
+        $inner::<$($c,)+ $copy>($($arg),*)
     };
 }
 pub(crate) use multiversioned;
 
-/// Runs `f` out of line: the baseline copies of the rigs' kernels call each plant kind
-/// (`by_kind!`'s `!SIMD`), which their SIMD copies inline (out of line there, a kind would
-/// run baseline code). Inlined there too, the kinds made the rigs' baseline copies 3.3 MB
-/// of machine code and the wheel's 13-minute build 2.6 minutes longer, for CPUs older than
-/// 2013, which run those copies at a twentieth of the AVX2 copy's speed anyway (and no
-/// slower for the call). Same bits.
+/// Runs `f` out of line, as a function of its own compiled for `COPY`'s instructions: the
+/// rigs' kernels call each plant kind (`by_kind!`) through it. Inlined into the kernels, the
+/// 54 kinds of the 2-DOF rig and 18 of the 3-DOF one were compiled again for every
+/// controller law and made functions so large that the optimiser's time grew faster than
+/// their size: the wheel's build took 13 minutes of CPU, almost all in them. Out of line,
+/// each kind is compiled once per copy, shared by the laws (the kinds are not generic over
+/// them). Same bits. (The baseline copy's kinds were out of line already: inlined, they made
+/// its frame ~2 MB, a thread's whole stack.)
+#[inline(always)]
+pub(super) fn out_of_line_in<const COPY: u8, R>(f: impl FnOnce() -> R) -> R {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: a kernel's copy `COPY` runs only on a CPU that has its instructions.
+        if COPY == KernelCopy::Avx512 as u8 {
+            return unsafe { avx512(f) };
+        }
+        if COPY == KernelCopy::Avx2 as u8 {
+            return unsafe { avx2(f) };
+        }
+    }
+    baseline(f)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,fma")]
 #[inline(never)]
-pub(super) fn out_of_line<R>(f: impl FnOnce() -> R) -> R {
+unsafe fn avx512<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
-/// `$call` inlined in a SIMD copy of a kernel (`$simd`), out of line in its baseline copy.
-macro_rules! inline_if_simd {
-    ($simd:ident, $call:expr) => {
-        if $simd { $call } else { $crate::sweep::block::out_of_line(|| $call) }
-    };
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn avx2<R>(f: impl FnOnce() -> R) -> R {
+    f()
 }
-pub(crate) use inline_if_simd;
+
+#[inline(never)]
+fn baseline<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
 
 type BlockResult = Result<Option<[SampleMetrics; LANES]>, TwipError>;
 

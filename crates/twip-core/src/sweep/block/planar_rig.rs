@@ -17,7 +17,7 @@ use nalgebra::SVector;
 use super::planar::{LanePath, Metrics, Plants, PlanarLaneLaw};
 use super::rig::block_rigs;
 use super::winding::WindingLanes;
-use super::{chunk, inline_if_simd, multiversioned, CHUNKS};
+use super::{chunk, multiversioned, CHUNKS};
 use crate::Dynamics;
 use crate::hardware::disturbance::Force;
 use crate::hardware::driver::{MotorDriver, Winding};
@@ -158,16 +158,15 @@ macro_rules! by_kind {
     };
     (@drive $self:ident, $gear:ident, $geared:literal, $run:ident($($arg:expr),*)) => {
         match $self.drive {
-            HELD => inline_if_simd!(SIMD, $self.$run::<$gear, HELD, $geared>($($arg),*)),
-            STEADY => inline_if_simd!(SIMD, $self.$run::<$gear, STEADY, $geared>($($arg),*)),
-            _ => inline_if_simd!(SIMD, $self.$run::<$gear, STEPPED, $geared>($($arg),*)),
+            HELD => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, HELD, $geared>($($arg),*)),
+            STEADY => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, STEADY, $geared>($($arg),*)),
+            _ => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, STEPPED, $geared>($($arg),*)),
         }
     };
 }
 
-// The kinds' loops are inlined into the kernel's SIMD copies (out of line they would run
-// baseline code), but not into its baseline copy (`out_of_line`) nor in debug builds,
-// whose inlined copies each keep their own stack slots.
+// Each kind's loop is a function of its own per kernel copy (`out_of_line_in`), compiled
+// with that copy's instructions and shared by the controller laws.
 impl RigPlants {
     /// Lane `l`'s plant under the input `u` held (motor torques, at the step's start with
     /// inductance, or duties without).
@@ -189,7 +188,7 @@ impl RigPlants {
     /// The derivative and each wheel's gearhead torque on every lane, its trains as they
     /// are (`trains`): RK4's first stage, and what the gear trains weigh.
     #[inline(always)]
-    fn motion<const SIMD: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
+    fn motion<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
         by_kind!(self, trains, motion_of(x, u, trains))
     }
 
@@ -210,7 +209,7 @@ impl RigPlants {
     /// RK4's later stages from each lane's first `k1` on every lane, its trains as they
     /// are over the step (`trains`).
     #[inline(always)]
-    fn rk4<const SIMD: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
+    fn rk4<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
         by_kind!(self, trains, rk4_of(x, u, trains, k1, dt))
     }
 
@@ -313,7 +312,7 @@ multiversioned! {
     /// `sweep::rig::for_sweep` for the key), with `controller`'s law along `path`
     /// ("_settled" metrics from `settle` [s]). `should_stop` is asked every
     /// `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it said yes before the block was done.
-    pub fn run_planar_rig_block, planar_rig_avx512, planar_rig_avx2, planar_rig_baseline = planar_rig_block<C: PlanarLaneLaw, P: LanePath; const SIMD>(
+    pub fn run_planar_rig_block, planar_rig_avx512, planar_rig_avx2, planar_rig_baseline = planar_rig_block<C: PlanarLaneLaw, P: LanePath; const COPY>(
         controller: C,
         path: &P,
         config: &SimConfig<f64>,
@@ -325,7 +324,7 @@ multiversioned! {
 }
 
 #[inline(always)]
-fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const SIMD: bool>(
+fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     mut controller: C,
     path: &P,
     config: &SimConfig<f64>,
@@ -487,7 +486,7 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const SIMD: bool>(
                 windings.step(k > 0, &finished[wheel], &u[wheel], &starts[wheel], &mut held[wheel]);
             }
         }
-        let (mut k1, tau) = plants.motion::<SIMD>(&x, &held, &trains);
+        let (mut k1, tau) = plants.motion::<COPY>(&x, &held, &trains);
         let before = trains;
         for (l, rig) in rigs.iter_mut().enumerate() {
             let (xl, ul) = (lane(&x, l), lane(&u, l));
@@ -504,12 +503,12 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const SIMD: bool>(
         }
         if trains != before {
             // Some trains opened or closed: RK4's first stage with them as they are now.
-            k1 = plants.motion::<SIMD>(&x, &held, &trains).0;
+            k1 = plants.motion::<COPY>(&x, &held, &trains).0;
         }
         if let Some(imus) = imus.as_mut() {
             imus.sample(t, &x, &k1);
         }
-        let next = plants.rk4::<SIMD>(&x, &held, &trains, &k1, dt);
+        let next = plants.rk4::<COPY>(&x, &held, &trains, &k1, dt);
         engaged = trains;
         if !metrics.end_step(&mut x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &command, path, settle) {
             break;

@@ -16,7 +16,7 @@
 use nalgebra::{SVector, Vector4};
 
 use super::winding::WindingLanes;
-use super::{chunk, inline_if_simd, multiversioned, state_chunk, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared, CHUNKS};
+use super::{chunk, multiversioned, state_chunk, steady_pitches, BlockResult, LaneLaw, Metrics, Plants, Shared, CHUNKS};
 use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
 use crate::hardware::disturbance::{Disturbed, Force, Pushes, MAX_SLOPE_CHANGES};
@@ -233,17 +233,15 @@ macro_rules! by_kind {
     };
     (@drive $self:ident, $drive:expr, $run:ident, $gear:ident, $geared:literal, $changes:tt, $($arg:expr),*) => {
         match $drive {
-            HELD => inline_if_simd!(SIMD, $self.$run::<$gear, HELD, $geared, $changes>($($arg),*)),
-            STEADY => inline_if_simd!(SIMD, $self.$run::<$gear, STEADY, $geared, $changes>($($arg),*)),
-            _ => inline_if_simd!(SIMD, $self.$run::<$gear, STEPPED, $geared, $changes>($($arg),*)),
+            HELD => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, HELD, $geared, $changes>($($arg),*)),
+            STEADY => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, STEADY, $geared, $changes>($($arg),*)),
+            _ => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, STEPPED, $geared, $changes>($($arg),*)),
         }
     };
 }
 
-// The kinds' loops are inlined into the kernel's SIMD copies (out of line they would run
-// baseline code), but not into its baseline copy (`out_of_line`) nor in debug builds:
-// there, every inlined copy keeps its own stack slots, and the 24 kinds' made the kernel's
-// frame ~2 MB, a thread's whole stack.
+// Each kind's loop is a function of its own per kernel copy (`out_of_line_in`), compiled
+// with that copy's instructions and shared by the controller laws.
 impl RigPlants {
     #[inline(always)]
     fn field<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, DRIVE, GEARED, CHANGES> {
@@ -256,7 +254,7 @@ impl RigPlants {
     /// The derivative at the step's start on every lane (RK4's first stage, which the
     /// sensors sample too).
     #[inline(always)]
-    fn k1<const SIMD: bool>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
+    fn k1<const COPY: u8>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
         by_kind!(self, self.drive, engaged, k1_of(x, u, engaged))
     }
 
@@ -275,7 +273,7 @@ impl RigPlants {
     /// The derivative and gearhead torque per wheel on every lane with the trains as they
     /// are, under the lumped `current` held (what `Disturbed::gear_next` weighs).
     #[inline(always)]
-    fn geared_motion<const SIMD: bool>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
+    fn geared_motion<const COPY: u8>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
         // The lumped current is the input, whatever the winding.
         by_kind!(self, HELD, engaged, geared_motion_of(x, current, engaged))
     }
@@ -296,7 +294,7 @@ impl RigPlants {
     /// One RK4 step from `k1` on every lane, the input held.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn rk4<const SIMD: bool>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
+    fn rk4<const COPY: u8>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
         by_kind!(self, self.drive, engaged, rk4_of(x, u, engaged, k1, dt))
     }
 
@@ -421,7 +419,7 @@ multiversioned! {
     /// robot (`realism_of`; noise stream = the sample's index; see `sweep::rig::for_sweep`
     /// for the key), with `controller`'s law. `should_stop` is asked every
     /// `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it said yes before the block was done.
-    pub fn run_rig_block, rig_block_avx512, rig_block_avx2, rig_block_baseline = rig_block<C: LaneLaw; const SIMD>(
+    pub fn run_rig_block, rig_block_avx512, rig_block_avx2, rig_block_baseline = rig_block<C: LaneLaw; const COPY>(
         controller: C,
         reference: &SpeedSchedule<f64>,
         config: &SimConfig<f64>,
@@ -432,7 +430,7 @@ multiversioned! {
 }
 
 #[inline(always)]
-fn rig_block<C: LaneLaw, const SIMD: bool>(
+fn rig_block<C: LaneLaw, const COPY: u8>(
     mut controller: C,
     reference: &SpeedSchedule<f64>,
     config: &SimConfig<f64>,
@@ -626,7 +624,7 @@ fn rig_block<C: LaneLaw, const SIMD: bool>(
         let mut k1 = [[0.0; LANES]; 4];
         if plants.geared {
             let tau;
-            (k1, tau) = plants.geared_motion::<SIMD>(&x, &current, &engaged);
+            (k1, tau) = plants.geared_motion::<COPY>(&x, &current, &engaged);
             for (l, rig) in rigs.iter_mut().enumerate() {
                 let xl = Vector4::from(lane(&x, l));
                 let mean = if stepped { plants.windings.mean(l) } else { rig.plant.mean_current(&xl, u[l]) };
@@ -644,12 +642,12 @@ fn rig_block<C: LaneLaw, const SIMD: bool>(
         // turns into current at each stage.
         let input = if plants.drive == STEADY { u } else { current };
         if !(plants.geared && engaged == before) {
-            k1 = plants.k1::<SIMD>(&x, &input, &engaged);
+            k1 = plants.k1::<COPY>(&x, &input, &engaged);
         }
         if let Some(imus) = imus.as_mut() {
             imus.sample(&plants.hills, t, &x, &k1);
         }
-        let next = plants.rk4::<SIMD>(&x, &input, &engaged, &k1, dt);
+        let next = plants.rk4::<COPY>(&x, &input, &engaged, &k1, dt);
         let Some(ends) = super::advance(&mut x, &next, &alive, 0, config.fall_limit) else { continue };
         let t_next = dt * (k + 1) as f64;
         for l in (0..LANES).filter(|&l| ends[l]) {
