@@ -145,7 +145,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "through the C ABI.", formatter_class=formatter,
                        epilog="example:\n  twip export flat-lqr --out fw && make -C fw check")
     p.add_argument("scenario", metavar="SCENARIO", help="a scenario name (twip list)")
-    p.add_argument("--out", required=True, metavar="DIR", help="the folder to write (made if missing)")
+    p.add_argument("--out", required=True, metavar="DIR", help="the folder to write (made if missing; a folder "
+                   "that holds files is refused without --force)")
+    p.add_argument("--force", action="store_true", help="write into a folder that holds files, overwriting them")
     p.add_argument("--units", choices=("firmware", "si"), default="firmware",
                    help="firmware: degrees, encoder counts per loop, PWM counts, ms (default); si: SI throughout")
     p.add_argument("--replay-seconds", type=positive_float, default=20.0, metavar="S",
