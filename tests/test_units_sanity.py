@@ -57,3 +57,17 @@ def test_the_cli_prints_the_thesis_claims_only_for_the_thesis_robot(tmp_path, ca
     mine = _file(tmp_path, m_body=1.8, com_height=0.12, wheel_radius=0.02, gear_ratio=30.0)
     assert main(["simulate", "flat-lqr", "--robot", str(mine)]) == 0
     assert "the thesis's claims" not in capsys.readouterr().out
+
+
+def test_a_command_beyond_the_driver_is_named():
+    # 1e12 A ran without a word; the ideal loop's driver is MotorDriver() (11.1 V / 1.71 ohm).
+    plant = twip.SlopeModel(twip.RobotParams.balanbot())
+    r = twip.simulate(plant, lambda t, y, ref: 1e12, [0.0] * 4, 0.01)
+    assert any("beyond the 6.48 A its driver can give" in w for w in r.warnings), r.warnings
+    sc = twip.scenarios.get("flat-lqr", t_final=2.0)
+    assert not any("its driver" in w for w in sc.run().warnings)
+    # Through a rig, its driver's limit (the thesis-like L298: 2 A).
+    driver = twip.Realism.thesis_like().motor
+    assert driver.current_limit == 2.0
+    r = twip.simulate(plant, lambda t, y, ref: 10.0, [0.0] * 4, 0.05, realism=twip.Realism.thesis_like())
+    assert any("beyond the 2 A its driver can give" in w and "2 A limit" in w for w in r.warnings), r.warnings
