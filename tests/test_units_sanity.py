@@ -64,8 +64,8 @@ def test_a_command_beyond_the_driver_is_named():
     plant = twip.SlopeModel(twip.RobotParams.balanbot())
     r = twip.simulate(plant, lambda t, y, ref: 1e12, [0.0] * 4, 0.01)
     assert any("beyond the 6.48 A its driver can give" in w for w in r.warnings), r.warnings
-    sc = twip.scenarios.get("flat-lqr", t_final=2.0)
-    assert not any("its driver" in w for w in sc.run().warnings)
+    sc = twip.scenarios.get("flat-lqr")
+    assert not any("its driver" in w for w in sc.run(t_final=2.0).warnings)
     # Through a rig, its driver's limit (the thesis-like L298: 2 A).
     driver = twip.Realism.thesis_like().motor
     assert driver.current_limit == 2.0
