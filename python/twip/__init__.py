@@ -51,14 +51,28 @@ from twip.kernel_copies import apply_environment as _apply_kernel_copy_environme
 from twip.kernel_copies import use_kernel_copy
 from twip.robot_file import Robot
 from twip.sim import SimResult, simulate
-from twip.sysid import Fit, RunLog, identify
+# Identification (scipy) loads on first use: `twip --help` and `import twip` stay quick.
+_LAZY = {"Fit": "twip.sysid", "RunLog": "twip.sysid", "identify": "twip.sysid"}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'twip' has no attribute {name!r}")
 from twip.sweep import Normal, SweepResult, Uniform, montecarlo, wilson_interval
+from twip.user_sweep import ControllerFailedError
+from twip.plausibility import ImplausibleRobotWarning
 
 __all__ = [
     "Fit",
     "RunLog",
     "identify",
     "Circle",
+    "ControllerFailedError",
     "ConvergenceError",
     "DcMotor",
     "Dlpf",
@@ -69,6 +83,7 @@ __all__ = [
     "FuzzyController",
     "Gaussian",
     "Imu",
+    "ImplausibleRobotWarning",
     "InvalidParameterError",
     "Line",
     "LqrController",

@@ -90,6 +90,17 @@ class Checkpoint:
             self.close()
             raise
 
+    @staticmethod
+    def shard_size_of(path, config: dict) -> Optional[int]:
+        """The shard size of the sweep `config` in folder `path`, when the folder holds that
+        sweep (so that a resume keeps the size it began with), else None."""
+        try:
+            old = json.loads((Path(path) / MANIFEST).read_text())
+            shard = int(old["manifest"]["shard_size"])
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
+        return shard if old.get("fingerprint") == fingerprint(config, shard) else None
+
     # ------------------------------------------------------------------ the lock
     def _lock(self):
         path = self.dir / LOCK

@@ -3,6 +3,7 @@
     [robot]                 every RobotParams field, SI units (see FIELDS)
     [motor]                 optional: the motor's data sheet, as DcMotor.from_data_sheet takes it
     [driver]                optional: battery, bridge drop, current limit (the motor driver)
+    [sensors]               optional: encoder counts per wheel turn, the IMU's height and axes
 
 `RobotParams.from_file(path)` reads the [robot] table; `twip.Robot.from_file(path)` reads
 all three, and `Robot.realism()` is `Realism.thesis_like()` with the file's motor and driver
@@ -12,7 +13,10 @@ robot assumes (`twip.scenarios.robot_options`). The plant takes the torque const
 the sheet's torque constant differs by more than 2 %). Without a [driver] table the driver
 is `MotorDriver.thesis_like()`'s (the L298's drop, 1 mH, 2 A) with the sheet's resistance;
 a [driver] table starts from `MotorDriver()` (no drop, inductance or limit) and sets what it
-names. `twip robot init FILE` writes the default robot, commented.
+names. [sensors] sets the rig's encoder and IMU height (`Robot.realism()`) and what `twip
+export` converts firmware units with and maps the IMU's axes by; without it both are the
+Balanbot's (700 counts per turn, 0.12 m, x forward, z up, y the pitch axis), and the export
+says so. `twip robot init FILE` writes the default robot, commented.
 Errors name the file, the key and its line.
 """
 from __future__ import annotations
@@ -20,7 +24,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, Optional, Tuple
 
@@ -67,7 +71,36 @@ DRIVER: Dict[str, Tuple[str, str]] = {
     "inductance": ("H", "winding inductance"),
 }
 
-_TABLES = {"robot": FIELDS, "motor": MOTOR, "driver": DRIVER}
+#: The [sensors] table: numbers, and the IMU's axes as "+x", "-y"...
+SENSORS: Dict[str, Tuple[str, str]] = {
+    "encoder_cpr": ("counts", "encoder counts per wheel turn (after the gearbox, all edges counted)"),
+    "imu_height": ("m", "the IMU's height on the body's axis above the axle"),
+    "imu_forward": ("axis", "the IMU axis (and sign) that points forward, e.g. \"+x\""),
+    "imu_up": ("axis", "the IMU axis that points up the body, e.g. \"+z\""),
+    "imu_pitch": ("axis", "the gyroscope axis whose rate is the pitch rate (along the axle), e.g. \"+y\""),
+}
+#: An IMU axis as the robot file writes it.
+AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+
+_TABLES = {"robot": FIELDS, "motor": MOTOR, "driver": DRIVER, "sensors": SENSORS}
+
+
+@dataclass(frozen=True)
+class Sensors:
+    """A robot file's [sensors]: the encoder's counts per wheel turn, the IMU's height [m]
+    on the body's axis and which of its axes (with sign) point forward, up and along the
+    axle (the pitch rate). The defaults are the Balanbot's."""
+
+    encoder_cpr: float = field(default_factory=lambda: _core.Realism.thesis_like().encoder_cpr)
+    imu_height: float = field(default_factory=lambda: _core.Realism.thesis_like().imu.height)
+    imu_forward: str = "+x"
+    imu_up: str = "+z"
+    imu_pitch: str = "+y"
+
+    def axis(self, name: str) -> Tuple[int, int]:
+        """(index 0..2, sign ±1) of the IMU axis `name` ("imu_forward", "imu_up", "imu_pitch")."""
+        text = getattr(self, name)
+        return "xyz".index(text[1]), (1 if text[0] == "+" else -1)
 
 
 class RobotFileError(_core.InvalidParameterError):
@@ -131,6 +164,7 @@ class Robot:
     motor: Optional[object] = None  # twip.DcMotor, from the [motor] data sheet
     driver: Optional[object] = None  # twip.MotorDriver
     stall_current: Optional[float] = None  # per motor [A], from the [motor] table
+    sensors: Optional[Sensors] = None  # the [sensors] table
 
     @classmethod
     def from_file(cls, path) -> "Robot":
@@ -148,10 +182,14 @@ class Robot:
         return None
 
     def realism(self, **changes):
-        """`Realism.thesis_like()` with this robot's motor driver (when the file has one)."""
+        """`Realism.thesis_like()` with this robot's motor driver, encoder and IMU height
+        (those the file has)."""
         base = _core.Realism.thesis_like()
         if self.driver is not None:
             base = base.replace(motor=self.driver)
+        if self.sensors is not None:
+            base = base.replace(encoder_cpr=self.sensors.encoder_cpr,
+                                imu=base.imu.replace(height=self.sensors.imu_height))
         return base.replace(**changes) if changes else base
 
 
@@ -208,7 +246,36 @@ def load(path) -> Robot:
             raise _core_error(path, text, "driver", DRIVER, e) from None
     elif motor is not None:
         driver = _core.MotorDriver.thesis_like().replace(resistance=motor.resistance)
-    return Robot(params=params, motor=motor, driver=driver, stall_current=stall)
+    from twip.plausibility import warn_if_implausible
+
+    warn_if_implausible(params, where=str(path))
+    sensors = _sensors(path, text, data) if "sensors" in data else None
+    return Robot(params=params, motor=motor, driver=driver, stall_current=stall, sensors=sensors)
+
+
+def _sensors(path, text, data) -> Sensors:
+    """The [sensors] table, checked key by key."""
+    values = data["sensors"]
+    if not isinstance(values, dict):
+        raise _fail(path, text, "sensors", None, "must be a table")
+    out = {}
+    for key, value in values.items():
+        if key not in SENSORS:
+            raise _fail(path, text, "sensors", key, f"unknown key; [sensors] takes {', '.join(SENSORS)}")
+        if SENSORS[key][0] == "axis":
+            if value not in AXES:
+                raise _fail(path, text, "sensors", key, f"{value!r} is not an axis; write one of {', '.join(AXES)}")
+        elif isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise _fail(path, text, "sensors", key, f"{value!r} is not a finite number")
+        elif key == "encoder_cpr" and value <= 0:
+            raise _fail(path, text, "sensors", key, f"{value!r}: counts per wheel turn must be > 0")
+        out[key] = value if SENSORS[key][0] == "axis" else float(value)
+    sensors = Sensors(**out)
+    axes = [getattr(sensors, k)[1] for k in ("imu_forward", "imu_up", "imu_pitch")]
+    if len(set(axes)) != 3:
+        raise _fail(path, text, "sensors", None, f"imu_forward, imu_up and imu_pitch must be three different axes, "
+                    f"got {sensors.imu_forward}, {sensors.imu_up}, {sensors.imu_pitch}")
+    return sensors
 
 
 #: How far [robot]'s torque_constant may be from the [motor] sheet's before a warning: the
@@ -231,23 +298,26 @@ def _format(value: float) -> str:
     return repr(float(value))
 
 
-def dumps(params, sheet: Optional[dict] = None, driver: Optional[dict] = None) -> str:
+def dumps(params, sheet: Optional[dict] = None, driver: Optional[dict] = None,
+          sensors: Optional[dict] = None) -> str:
     """A robot file's text: every field with its unit, symbol and meaning in a comment."""
     lines = ["# A twip robot file (TOML). SI units; the thesis's symbol in brackets.", "", "[robot]"]
     values = params.to_dict()
     for key, (unit, symbol, what) in FIELDS.items():
         lines.append(f"{key} = {_format(values[key])}".ljust(36) + f"# [{unit}] ({symbol}) {what}")
-    for name, table, content in (("motor", MOTOR, sheet), ("driver", DRIVER, driver)):
+    for name, table, content in (("motor", MOTOR, sheet), ("driver", DRIVER, driver), ("sensors", SENSORS, sensors)):
         if content:
             lines += ["", f"[{name}]"]
             for key, (unit, what) in table.items():
                 if content.get(key) is not None:
-                    lines.append(f"{key} = {_format(content[key])}".ljust(36) + f"# [{unit}] {what}")
+                    value = f'"{content[key]}"' if unit == "axis" else _format(content[key])
+                    lines.append(f"{key} = {value}".ljust(36) + f"# [{unit}] {what}")
     return "\n".join(lines) + "\n"
 
 
-def save(params, path, sheet: Optional[dict] = None, driver: Optional[dict] = None) -> None:
-    Path(path).write_text(dumps(params, sheet, driver))
+def save(params, path, sheet: Optional[dict] = None, driver: Optional[dict] = None,
+         sensors: Optional[dict] = None) -> None:
+    Path(path).write_text(dumps(params, sheet, driver, sensors))
 
 
 #: The Balanbot's motor (GB37Y3530-12V-251R, Table 2.3) and its L298 driver (thesis-like).
@@ -262,4 +332,6 @@ def balanbot_driver() -> dict:
 
 def init(path) -> None:
     """Writes the default robot (the Balanbot), its motor and driver, commented."""
-    save(_core.RobotParams.balanbot(), path, BALANBOT_MOTOR, balanbot_driver())
+    from dataclasses import asdict
+
+    save(_core.RobotParams.balanbot(), path, BALANBOT_MOTOR, balanbot_driver(), asdict(Sensors()))

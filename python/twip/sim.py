@@ -7,7 +7,7 @@ from typing import Optional
 
 import numpy as np
 
-from twip import _core, budget, checks
+from twip import _core, budget, checks, user_controller
 
 #: Log columns of a run besides the controller's internals: t, state, input, reference.
 _LOG_COLUMNS = {"slope": 1 + 4 + 1 + 2, "planar": 1 + 7 + 2 + 7}
@@ -149,6 +149,8 @@ def simulate(
     checks.of_type("fall_limit", fall_limit, checks.REAL, "a pitch angle [rad]")
     if control_period is not None:
         control_period = checks.real("control_period", control_period, above=0)
+    if not isinstance(controller, _BUILT_IN_CONTROLLERS):
+        user_controller.check_period(controller, control_period, realism)
     if isinstance(model, _core.PlanarModel):
         if reference is None:
             raise _core.InvalidParameterError(
@@ -193,7 +195,7 @@ def simulate(
     raw = run(t_final, record_every)
     names = raw["internal_names"]
     metrics = dict(raw["metrics"])
-    notes = stall_warnings(metrics, stall_current)
+    notes = stall_warnings(metrics, stall_current) + drive_warnings(metrics, realism) + plausibility_warnings(model.params)
     if isinstance(model, _core.PlanarModel):
         notes += unsettled_warnings(metrics, float(raw["t"][-1]), settle is None, t_final)
     internals = {n: raw["internals"][:, i] for i, n in enumerate(names)}
@@ -223,6 +225,33 @@ def stall_warnings(metrics: dict, stall_current: Optional[float]) -> tuple:
         return ()
     return (f"the loop asked up to {peak:.3g} A of one motor, above its stall current {stall_current:.3g} A: "
             "the real robot cannot give this (run it with realism= to see what it does)",)
+
+
+def drive_warnings(metrics: dict, realism) -> tuple:
+    """A warning when the loop commanded one motor more current than its driver can give:
+    the battery (less the bridge's drop) over the winding at stall, or the driver's limit.
+    The driver is the realism's, else the default `MotorDriver()` (the ideal loop applies
+    any command: 1e12 A ran without a word)."""
+    driver = getattr(realism, "motor", None) if realism is not None else None
+    driver = driver if driver is not None else _core.MotorDriver()
+    most = (driver.battery - driver.bridge_drop) / driver.resistance
+    if driver.current_limit is not None:
+        most = min(most, driver.current_limit)
+    peak = metrics.get("peak_current", math.nan)
+    if not peak > most:
+        return ()
+    return (f"the loop commanded up to {peak:.3g} A of one motor, beyond the {most:.3g} A its driver can give "
+            f"({driver.battery:g} V battery, {driver.bridge_drop:g} V drop, {driver.resistance:.3g} ohm"
+            + (f", {driver.current_limit:g} A limit" if driver.current_limit is not None else "")
+            + "): the motor saw less",)
+
+
+def plausibility_warnings(params) -> tuple:
+    """A warning naming the values implausible for a tabletop robot (twip.plausibility)."""
+    from twip.plausibility import implausible
+
+    found = implausible(params)
+    return (f"implausible for a tabletop robot (SI units): {'; '.join(found)}",) if found else ()
 
 
 def _kind(model) -> str:

@@ -37,6 +37,9 @@ _bad = _core.InvalidParameterError
 DEFAULT_SHARD = 1024
 #: A checkpointed sweep is cut into at most this many shards by default.
 MAX_SHARDS = 10_000
+#: A checkpointed sweep of a Python controller, whose samples are slow, is cut into shards
+#: of about this many seconds' work (a Ctrl-C keeps every finished shard).
+SHARD_SECONDS = 2.0
 #: Memory one sample of a sweep takes while it runs and when assembled: its metric
 #: columns (~100 bytes), the worker's result and the concatenated copy.
 BYTES_PER_SAMPLE = 320
@@ -94,10 +97,10 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
     }
 
 
-def run_samples(sc, config, start, count, threads, progress, realism=None):
+def run_samples(sc, config, start, count, threads, progress, realism=None, on_error="stop"):
     family = family_of(sc)
     if user_sweep.is_user_controller(sc.controller):  # worker processes, not threads
-        return user_sweep.run(sc, family, config, start, count, threads, progress, realism)
+        return user_sweep.run(sc, family, config, start, count, threads, progress, realism, on_error)
     return family.raw(sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, sc.reference,
                       [tuple(p) for p in config["perturbations"]], config["seed"], start, count,
                       control_period=sc.control_period, threads=threads, progress=progress, realism=realism)
@@ -154,6 +157,7 @@ def montecarlo(
     traces: Optional[Sequence[int]] = None,
     trace_every: int = 10,
     stall_current: Optional[float] = None,
+    on_error: str = "stop",
 ) -> SweepResult:
     """Runs `n` samples of `scenario` (a name from `twip.scenarios.names()`, or a Scenario).
 
@@ -173,7 +177,14 @@ def montecarlo(
     Memory: when n samples' metrics do not fit the memory budget (`twip.set_memory_budget`),
     a sweep needs `checkpoint=`; it then keeps them on disk and returns a
     StreamedSweepResult, whose summaries are read back shard by shard.
+    on_error: what a sample whose Python controller raised (or returned a `u` that is not
+    finite) does: "stop" (the default) raises `ControllerFailedError` naming the sample;
+    "record" counts it invalid, under the exception's type in `summary()["invalid_reasons"]`,
+    keeps its message in `SweepResult.errors` {index: message} and goes on. A checkpointed
+    sweep of a Python controller is cut into shards of about SHARD_SECONDS of work.
     """
+    if on_error not in user_sweep.ON_ERROR:
+        raise _bad(f"on_error = {on_error!r}: must be one of {', '.join(map(repr, user_sweep.ON_ERROR))}")
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n <= 0:
         raise _bad(f"n = {n!r}: the number of samples must be a positive integer")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
@@ -200,7 +211,9 @@ def montecarlo(
     config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism)
     if stall_current is not None:  # summary() counts the samples that asked more of a motor
         stall_current = checks.real("stall_current", stall_current, above=0)
-    if shard_size is None:
+    if shard_size is None and checkpoint is not None and user_sweep.is_user_controller(sc.controller):
+        shard = _timed_shard(sc, config, n, checkpoint, threads, realism)
+    elif shard_size is None:
         # Checkpointed sweeps keep at most MAX_SHARDS files (n = 10**9: shards of 10**5).
         shard = max(DEFAULT_SHARD, -(-n // MAX_SHARDS)) if (checkpoint or client) else n
     elif isinstance(shard_size, bool) or not isinstance(shard_size, (int, np.integer)) or shard_size <= 0:
@@ -218,7 +231,8 @@ def montecarlo(
                      "pass a smaller shard_size")
     store = Checkpoint(checkpoint, config, shard) if checkpoint is not None else None
     try:
-        result = _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, realism, traces, trace_every)
+        result = _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, realism, traces, trace_every,
+                        on_error)
         result.stall_current = stall_current
         return result
     except KeyboardInterrupt as stop:
@@ -230,13 +244,28 @@ def montecarlo(
             store.close()
 
 
+def _timed_shard(sc, config, n, checkpoint, threads, realism) -> int:
+    """The shard size of a checkpointed sweep of a Python controller: the folder's own, when
+    it holds this sweep (a resume), else about SHARD_SECONDS of work on all the workers,
+    timed on one run of the nominal robot."""
+    import os
+
+    resumed = Checkpoint.shard_size_of(checkpoint, config)
+    if resumed is not None:
+        return resumed
+    workers = threads or os.cpu_count() or 1
+    seconds = max(user_sweep.time_one_run(sc, realism), 1e-6)
+    return max(1, min(DEFAULT_SHARD, int(SHARD_SECONDS * workers / seconds)), -(-n // MAX_SHARDS))
+
+
 def fits_in_memory(n: int) -> bool:
     """Whether the metrics of an n-sample sweep fit the memory budget (else a sweep
     needs checkpoint= and returns a StreamedSweepResult)."""
     return n * BYTES_PER_SAMPLE <= budget.memory_budget()
 
 
-def _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, realism, traces, trace_every):
+def _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, realism, traces, trace_every,
+           on_error="stop"):
     layout = [(s, min(shard, n - s)) for s in range(0, n, shard)]
     parts = {}
     finished = set()
@@ -273,7 +302,7 @@ def _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, re
                 bar.update_to(0)
         else:
             for s, c in todo:
-                raw = run_samples(sc, config, s, c, threads or 0, bar.update_to if progress else None, realism)
+                raw = run_samples(sc, config, s, c, threads or 0, bar.update_to if progress else None, realism, on_error)
                 if raw["interrupted"]:
                     parts[s] = raw
                     raise KeyboardInterrupt
@@ -331,5 +360,7 @@ def _assemble(parts, config, elapsed, kernel, sc, complete, realism=None):
     if not complete:
         metrics = {k: v[done] for k, v in metrics.items()}
     steps = int(np.sum(cat("steps"))) if keys else 0
+    errors = {int(i): str(m) for k in keys if "controller_error" in parts[k]
+              for i, m in zip(parts[k]["index"], parts[k]["controller_error"]) if m}
     return SweepResult(metrics=metrics, steps=steps, config=config, elapsed=elapsed, kernel=kernel,
-                       metric_names=names, _scenario=sc, _realism=realism)
+                       metric_names=names, _scenario=sc, _realism=realism, errors=errors)

@@ -35,6 +35,9 @@ class SweepResult:
     traces: Dict[int, object] = field(default_factory=dict, repr=False)
     #: One motor's stall current [A] given to montecarlo: summary() counts the samples above it.
     stall_current: Optional[float] = field(default=None, repr=False)
+    #: {sample index: message} of the samples whose Python controller raised or returned a
+    #: `u` that is not finite (montecarlo(on_error="record")); each is counted invalid.
+    errors: Dict[int, str] = field(default_factory=dict, repr=False)
 
     @property
     def n(self) -> int:
@@ -251,8 +254,13 @@ def check_quantiles(result, names, q) -> None:
 
 
 def invalid_reason(result, index: int) -> str:
-    """Why sample `index` is invalid: the model's complaint about its robot, without the
-    value (so that samples group), e.g. "m_body: must be > 0"."""
+    """Why sample `index` is invalid: its controller's failure (`SweepResult.errors`), or the
+    model's complaint about its robot, without the value (so that samples group), e.g.
+    "m_body: must be > 0"."""
+    if index in result.errors:
+        from twip.user_sweep import failure_reason
+
+        return failure_reason(result.errors[index])
     sc = result._scenario
     perturbations = [tuple(p) for p in result.config["perturbations"]]
     try:
@@ -313,8 +321,10 @@ class StreamedSweepResult(SweepResult):
 
     def _counts(self) -> dict:
         if self._tally is None:
-            t = dict(samples=0, valid=0, fell=0, steps=0, invalid=[])
+            t = dict(samples=0, valid=0, fell=0, steps=0, invalid=[], errors={})
             for part in self.shards():
+                if "controller_error" in part:
+                    t["errors"].update((int(i), str(m)) for i, m in zip(part["index"], part["controller_error"]) if m)
                 valid = part["valid"].astype(bool)
                 t["samples"] += len(valid)
                 t["valid"] += int(valid.sum())
@@ -328,6 +338,14 @@ class StreamedSweepResult(SweepResult):
     @property
     def n(self) -> int:
         return self._counts()["samples"]
+
+    @property
+    def errors(self):
+        return self._counts()["errors"]
+
+    @errors.setter
+    def errors(self, value):  # SweepResult.__init__ sets {}: they are read from the shards
+        pass
 
     @property
     def valid(self):

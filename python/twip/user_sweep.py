@@ -17,12 +17,15 @@ import math
 import multiprocessing
 import os
 import pickle
+import signal
 import sys
+import traceback
 from pathlib import Path
 
 import numpy as np
 
-from twip import _core
+from twip import _core, sim, user_controller
+from twip.checkpoint import ctrl_c_held
 
 #: What a chunk of samples runs with in a forked worker: set before the pool starts.
 _JOB: dict = {}
@@ -76,6 +79,30 @@ def _code_of(cls) -> bytes:
     return out.digest()
 
 
+#: How a sweep treats a sample whose controller raised or returned a bad `u`.
+ON_ERROR = ("stop", "record")
+#: Samples per chunk handed to a worker at most: a Ctrl-C loses the chunks under way, and a
+#: sample of a Python controller (thousands of calls) outweighs a chunk's round trip.
+MAX_CHUNK = 1
+
+
+class ControllerFailedError(_core.TwipError):
+    """A sweep's sample whose Python controller raised (or returned a `u` that is not
+    finite): `.index` names the sample, `.message` the controller's exception."""
+
+    def __init__(self, index: int, message: str):
+        super().__init__(f"sample {index}: the controller failed ({message}); pass on_error='record' to record "
+                         "such samples as invalid and go on (SweepResult.errors), or replay it with "
+                         f"result.rerun({index})")
+        self.index, self.message = index, message
+
+
+def failure_reason(message: str) -> str:
+    """The reason a failed sample is counted invalid under (the exception's type: the
+    messages name times and values, so that samples group)."""
+    return f"the controller failed: {message.split(':', 1)[0]}"
+
+
 def _sample(index: int) -> dict:
     """Sample `index`: its robot drawn from its own stream, then one run."""
     from twip.sim import simulate
@@ -95,8 +122,15 @@ def _sample(index: int) -> dict:
         r = simulate(model, pickle.loads(job["controller"]), x0, sc.t_final, sc.dt, reference=sc.reference,
                      control_period=sc.control_period, record_every=max(1, int(round(sc.t_final / sc.dt))),
                      **options)
-    except _core.TwipError:
-        return {"valid": False}
+    except Exception as e:  # noqa: BLE001 (a controller may raise anything)
+        message = user_controller.failure(e, sim.__file__, "run")
+        if message is not None:
+            if job["on_error"] == "stop":
+                raise ControllerFailedError(index, message) from None
+            return {"valid": False, "error": message}
+        if isinstance(e, _core.TwipError):
+            return {"valid": False}
+        raise
     t_end = r.t_end if r.t_end is not None else r.steps * sc.dt
     return {"valid": True, "fell": r.outcome in ("fell", "diverged"), "t_end": t_end, "steps": r.steps, **r.metrics}
 
@@ -106,37 +140,112 @@ def _chunk(bounds) -> list:
     return [_sample(i) for i in range(start, stop)]
 
 
-def run(sc, family, config, start, count, workers, progress, realism=None) -> dict:
+def _worker(conn) -> None:
+    """A worker process: runs the chunks it is sent until told to stop (None) or its
+    parent is gone. It ignores Ctrl-C: the parent, which a terminal's Ctrl-C reaches too,
+    ends it, so that no worker is caught between a pipe's reads."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    while True:
+        try:
+            bounds = conn.recv()
+        except (EOFError, OSError):
+            return
+        if bounds is None:
+            return
+        try:
+            reply = ("done", bounds[0], _chunk(bounds))
+        except ControllerFailedError as e:
+            reply = ("failed", e.index, e.message)
+        except BaseException as e:  # noqa: BLE001 (sent to the parent, which raises it)
+            reply = ("error", bounds[0], f"{type(e).__name__}: {e}\n{traceback.format_exc()}")
+        try:
+            conn.send(reply)
+        except (BrokenPipeError, OSError):
+            return
+
+
+class _Pool:
+    """Worker processes, each on a pipe of its own (no lock shared between processes:
+    killing one mid-chunk cannot leave another waiting). Leaving the block kills any that
+    are still running: a chunk under way is lost, every finished one was already kept."""
+
+    def __init__(self, workers: int):
+        context = multiprocessing.get_context("fork")
+        self.procs, self.conns = [], []
+        for _ in range(workers):
+            parent, child = context.Pipe()
+            proc = context.Process(target=_worker, args=(child,), daemon=True)
+            proc.start()
+            child.close()
+            self.procs.append(proc)
+            self.conns.append(parent)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        with ctrl_c_held():  # a second Ctrl-C waits the few milliseconds this takes
+            for proc in self.procs:
+                if proc.is_alive():
+                    proc.kill()
+            for proc in self.procs:
+                proc.join(timeout=5)
+            for conn in self.conns:
+                conn.close()
+
+    def run(self, chunks, keep) -> None:
+        """Runs `chunks` on the workers, each result handed to `keep(start, samples)` as it
+        finishes."""
+        from multiprocessing.connection import wait
+
+        todo = list(reversed(chunks))
+        busy = {}
+        for conn in self.conns:
+            if todo:
+                conn.send(todo.pop())
+                busy[conn] = True
+        while busy:
+            for conn in wait(list(busy)):
+                try:
+                    kind, start, payload = conn.recv()
+                except EOFError:
+                    raise RuntimeError("a sweep worker process ended without a reply (killed, or out of memory)") from None
+                if kind == "failed":
+                    raise ControllerFailedError(start, payload)
+                if kind == "error":
+                    raise RuntimeError(f"a sweep worker failed on the chunk at sample {start}: {payload}")
+                keep(start, payload)
+                if todo:
+                    conn.send(todo.pop())
+                else:
+                    del busy[conn]
+
+
+def run(sc, family, config, start, count, workers, progress, realism=None, on_error="stop") -> dict:
     """Samples start..start + count as the core's sweep functions lay them out (index,
-    done, valid, fell, steps, the metrics, metric_names, kernel, interrupted)."""
+    done, valid, fell, steps, the metrics, metric_names, kernel, interrupted), and
+    `controller_error` (the controller's exception per sample, "" for none)."""
     _JOB.update(scenario=sc, family=family, perturbations=[tuple(p) for p in config["perturbations"]],
-                seed=config["seed"], controller=controller_bytes(sc.controller), realism=realism)
-    names = _metric_names(sc)
+                seed=config["seed"], controller=controller_bytes(sc.controller), realism=realism, on_error=on_error)
+    names = _metric_names(sc, realism)
     workers = max(1, min(workers or os.cpu_count() or 1, count))
-    size = max(1, min(64, math.ceil(count / (4 * workers))))
+    size = max(1, min(MAX_CHUNK, math.ceil(count / (4 * workers))))
     chunks = [(s, min(s + size, start + count)) for s in range(start, start + count, size)]
     results: dict = {}
     interrupted = False
+
+    def keep(c0, samples):
+        results[c0] = samples
+        if progress:
+            progress(sum(len(v) for v in results.values()))
+
     try:
         if workers == 1 or "fork" not in multiprocessing.get_all_start_methods():
             for c in chunks:
-                results[c[0]] = _chunk(c)
-                if progress:
-                    progress(sum(len(v) for v in results.values()))
+                keep(c[0], _chunk(c))
         else:
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-
-            with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-                futures = {pool.submit(_chunk, c): c[0] for c in chunks}
-                try:
-                    for future in as_completed(futures):
-                        results[futures[future]] = future.result()
-                        if progress:
-                            progress(sum(len(v) for v in results.values()))
-                except KeyboardInterrupt:
-                    for f in futures:
-                        f.cancel()
-                    raise
+            with _Pool(workers) as pool:
+                pool.run(chunks, keep)
     except KeyboardInterrupt:
         interrupted = True
     finally:
@@ -144,13 +253,32 @@ def run(sc, family, config, start, count, workers, progress, realism=None) -> di
     return _layout(start, count, results, interrupted, names)
 
 
-def _metric_names(sc) -> list:
-    """The family's metrics, as `simulate` reports them, from a one-step run of the
-    nominal robot (so that a shard whose samples all failed or were interrupted has them)."""
+def time_one_run(sc, realism=None) -> float:
+    """Seconds one run of the nominal robot takes (what sizes a sweep's shards by time)."""
+    import time
+
     from twip.sim import simulate
 
+    options = {} if realism is None else {"realism": realism}
+    started = time.perf_counter()
+    try:
+        simulate(sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, reference=sc.reference,
+                 control_period=sc.control_period, record_every=max(1, int(round(sc.t_final / sc.dt))), **options)
+    except Exception:  # noqa: BLE001 (the sweep itself reports a failing controller)
+        pass
+    return time.perf_counter() - started
+
+
+def _metric_names(sc, realism) -> list:
+    """The family's metrics, as `simulate` reports them, from a short run of the nominal
+    robot (so that a shard whose samples all failed or were interrupted has them). It runs
+    through the realism, so that a controller the rig refuses (its period) is refused
+    before any sample."""
+    from twip.sim import simulate
+
+    options = {} if realism is None else {"realism": realism}
     one = simulate(sc.model, pickle.loads(_JOB["controller"]), sc.x0, sc.dt, sc.dt, reference=sc.reference,
-                   control_period=sc.control_period)
+                   control_period=sc.control_period, **options)
     return ["t_end"] + list(one.metrics)
 
 
@@ -166,6 +294,7 @@ def _layout(start, count, results, interrupted, names) -> dict:
         "fell": np.array([bool(r and r.get("fell", False)) for r in rows]),
         "steps": np.array([r.get("steps", 0) if r else 0 for r in rows], dtype=np.uint64),
         "metric_names": ["fell"] + names,
+        "controller_error": np.array([(r or {}).get("error", "") for r in rows], dtype=str),
         "kernel": "python",
         "interrupted": interrupted,
     }

@@ -15,7 +15,6 @@ import sys
 import warnings
 
 import twip
-from twip.cli import commands
 from twip.cli.args import (Parser, UsageError, add_realism_option, add_robot_option, formatter, map_names, positive_float,
                            positive_int, seed)
 from twip.report import DEFAULT_OUT
@@ -63,6 +62,17 @@ with its own sensor noise (2-DOF scenarios only; a tracking scenario is refused)
 A sweep is the same bit for bit on any number of threads and resumes from --checkpoint."""
 
 
+def _command(name: str):
+    """The command `name` of twip.cli.commands, imported when it runs: `twip --help` does not
+    load what the commands need (the report, plotting, sweeps)."""
+    def run(args):
+        import importlib
+
+        return getattr(importlib.import_module("twip.cli.commands"), name)(args)
+
+    return run
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = Parser(prog="twip", description=__doc__, formatter_class=formatter)
     parser.add_argument("--version", action="version", version=f"twip {twip.__version__}")
@@ -82,13 +92,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="figure format: png (default), or svg / pdf for vector output")
     p.add_argument("--dpi", type=positive_float, default=None, metavar="N",
                    help="resolution of the PNGs (default 150; 60 with --quick)")
-    p.set_defaults(func=commands.reproduce)
+    p.set_defaults(func=_command("reproduce"))
 
     p = sub.add_parser("demo", help="the same as `reproduce --quick`",
                        description="An alias of `twip reproduce --quick`.", formatter_class=formatter,
                        epilog="example:\n  twip demo --out /tmp/demo")
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR", help=f"output folder (default: {DEFAULT_OUT}/)")
-    p.set_defaults(func=lambda a: commands.reproduce(argparse.Namespace(out=a.out, quick=True, jobs=None, no_animations=False)))
+    p.set_defaults(func=lambda a: _command("reproduce")(argparse.Namespace(out=a.out, quick=True, jobs=None,
+                                                                            no_animations=False)))
 
     p = sub.add_parser("simulate", help="run one scenario, print its metrics, plot or animate it",
                        description="Run one named scenario and print its metrics (and the thesis's claims about it).",
@@ -106,7 +117,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", type=positive_float, default=20.0, help="GIF frames per second (default 20)")
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
     add_robot_option(p)
-    p.set_defaults(func=commands.simulate)
+    p.set_defaults(func=_command("simulate"))
 
     p = sub.add_parser("sweep", help="Monte Carlo robustness sweep of one scenario",
                        description="Run N perturbed copies of a scenario (controller designed once for the nominal "
@@ -127,7 +138,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_robot_option(p)
-    p.set_defaults(func=commands.sweep)
+    p.set_defaults(func=_command("sweep"))
 
     p = sub.add_parser("robot", help="robot files: `twip robot init FILE` writes the default robot",
                        description="Write a robot file (TOML) to describe your own robot; pass it to other "
@@ -136,7 +147,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("action", choices=("init",), help="init: write the default robot (the Balanbot), commented")
     p.add_argument("file", metavar="FILE", help="the robot file to write")
     p.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
-    p.set_defaults(func=commands.robot_init)
+    p.set_defaults(func=_command("robot_init"))
 
     p = sub.add_parser("export", help="write a scenario's tuned controller for a firmware (C, twip-ffi)",
                        description="Write DIR with twip-ffi's header, the scenario's controller as a C initialiser "
@@ -145,13 +156,15 @@ def build_parser() -> argparse.ArgumentParser:
                                    "through the C ABI.", formatter_class=formatter,
                        epilog="example:\n  twip export flat-lqr --out fw && make -C fw check")
     p.add_argument("scenario", metavar="SCENARIO", help="a scenario name (twip list)")
-    p.add_argument("--out", required=True, metavar="DIR", help="the folder to write (made if missing)")
+    p.add_argument("--out", required=True, metavar="DIR", help="the folder to write (made if missing; a folder "
+                   "that holds files is refused without --force)")
+    p.add_argument("--force", action="store_true", help="write into a folder that holds files, overwriting them")
     p.add_argument("--units", choices=("firmware", "si"), default="firmware",
                    help="firmware: degrees, encoder counts per loop, PWM counts, ms (default); si: SI throughout")
     p.add_argument("--replay-seconds", type=positive_float, default=20.0, metavar="S",
                    help="length of the recorded run that `make check` replays (default 20 s)")
     add_robot_option(p)
-    p.set_defaults(func=commands.export)
+    p.set_defaults(func=_command("export"))
 
     p = sub.add_parser("identify", help="fit a robot's parameters to a logged run (CSV)",
                        description="Fit the --free parameters of the robot (--robot FILE, default the Balanbot) to "
@@ -188,11 +201,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "take in (default: none)")
     p.add_argument("--out", metavar="FILE", help="write the fitted robot as a robot file (TOML)")
     p.add_argument("--plot", metavar="FILE", help="draw measured against predicted signals and residuals")
-    p.set_defaults(func=commands.identify)
+    p.set_defaults(func=_command("identify"))
 
     p = sub.add_parser("list", help="list the scenarios", description="List the named scenarios.",
                        formatter_class=formatter)
-    p.set_defaults(func=commands.list_scenarios)
+    p.set_defaults(func=_command("list_scenarios"))
     return parser
 
 

@@ -115,7 +115,9 @@ def simulate(args) -> int:
     started = time.perf_counter()
     r = sc.run(stall_current=stall_current(args.robot), **overrides)
     elapsed = time.perf_counter() - started
-    claims = claims_for(sc, r) if not overrides and not args.param and not options else []
+    # The thesis's claims are about the thesis's robot: another robot (a file) gets none.
+    thesis_robot = sc.model.params.to_dict() == twip.RobotParams.balanbot().to_dict()
+    claims = claims_for(sc, r) if thesis_robot and not overrides and not args.param and not options else []
     if args.json:
         print(json.dumps(jsonable({"scenario": name, "outcome": r.outcome, "t_end": r.t_end, "steps": r.steps,
                                     "seconds": elapsed, "metrics": r.metrics, "claims": claims,
@@ -240,12 +242,14 @@ def export(args) -> int:
     """twip export SCENARIO --out DIR: the tuned controller for a firmware (twip.firmware)."""
     from twip import firmware
 
+    if not args.out.strip():  # Path('') is the current folder
+        raise UsageError(f"--out {args.out!r}: give the folder to write (--out . --force for the current one)")
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out}: exists and is not a folder")
     robot_file = twip.Robot.from_file(args.robot) if args.robot else None
     summary = firmware.export(scenario_name(args.scenario), out, robot=robot_file, units_=args.units,
-                              replay_seconds=args.replay_seconds)
+                              replay_seconds=args.replay_seconds, force=args.force)
     print(f"wrote {out}/: {summary['family']} controller of {args.scenario} in {args.units} units, "
           f"{summary['updates']} recorded updates ({summary['outcome']}); build and check with "
           f"`make -C {shlex.quote(str(out))} check` (twip-ffi sources: {summary['source']})", file=sys.stderr)

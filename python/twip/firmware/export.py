@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -92,7 +93,18 @@ def _rows(name: str, ctype: str, data: np.ndarray) -> str:
     return f"const {ctype} {name}[{len(data)}][{data.shape[1]}] = {{\n{rows}\n}};\n"
 
 
-def _config_files(fam, config, tilt, pwm, table, firmware, layout, geometry, period) -> tuple:
+def _imu_macros(sensors) -> str:
+    """The IMU's axes as `example.c` reads them: index (0 x, 1 y, 2 z) and sign of the axis
+    that points forward, up, and along the axle (the pitch rate)."""
+    lines = []
+    for key, macro in (("imu_forward", "FORWARD"), ("imu_up", "UP"), ("imu_pitch", "PITCH")):
+        index, sign = sensors.axis(key)
+        lines.append(f"#define TWIP_IMU_{macro} {index}  /* {getattr(sensors, key)}: [sensors] {key} */")
+        lines.append(f"#define TWIP_IMU_{macro}_SIGN {sign:d}.0f")
+    return "\n".join(lines)
+
+
+def _config_files(fam, config, tilt, pwm, table, firmware, layout, geometry, period, sensors) -> tuple:
     macros = "\n".join(f"#define {f.name} {units.c_float(f.value)}  /* {f.how} */" for f in table.values())
     h = f"""/* The exported configuration of a twip controller ({fam.name}). Written by `twip export`. */
 #ifndef TWIP_CONFIG_H
@@ -116,6 +128,8 @@ def _config_files(fam, config, tilt, pwm, table, firmware, layout, geometry, per
 #define TWIP_LOOP_PERIOD_S {units.c_float(period)}
 #define TWIP_WHEEL_RADIUS {units.c_float(geometry[0])}  /* m */
 #define TWIP_HALF_TRACK {units.c_float(geometry[1])}  /* m */
+#define TWIP_PWM_MAX {int(round(pwm["motor"]["pwm_max"]))}  /* the duty's full scale, counts */
+{_imu_macros(sensors)}
 
 extern const {fam.config} twip_controller_config;
 extern const TwipTiltConfig twip_tilt_config;
@@ -204,20 +218,55 @@ def _check_replay_size(sc, seconds: float, period: float) -> None:
                  updates * values * REPLAY_BYTES_PER_VALUE, "pass a shorter replay_seconds")
 
 
+def _check_out(out, force: bool) -> Path:
+    """The folder to write, refused when it is empty text (it would be the current folder)
+    or a folder that holds files, unless `force` (an edited example.c would be lost)."""
+    if not isinstance(out, (str, os.PathLike)) or not str(out).strip():
+        raise _core.InvalidParameterError(
+            f"out = {out!r}: give the folder to write (an empty name would be the current folder; pass '.' "
+            "with force=True (--force) to mean it)")
+    out = Path(out)
+    if out.is_dir() and any(out.iterdir()) and not force:
+        held = ", ".join(sorted(p.name for p in out.iterdir())[:5])
+        raise _core.InvalidParameterError(
+            f"out = {str(out)!r}: the folder is not empty ({held}...); an export would overwrite what is there, an "
+            "edited example.c included: give a new folder, or force=True (--force) to overwrite")
+    return out
+
+
+def _sensors_of(robot, units_: str):
+    """The robot file's [sensors] (the Balanbot's without one, with a warning when firmware
+    units depend on them: the encoder's counts per turn scale the speed gains)."""
+    from twip.robot_file import Sensors
+
+    if robot is not None and robot.sensors is not None:
+        return robot.sensors
+    sensors = Sensors()
+    if robot is not None and units_ == "firmware":
+        warnings.warn(f"the robot file has no [sensors] table: the firmware-unit gains assume the Balanbot's encoder "
+                      f"({sensors.encoder_cpr:g} counts per wheel turn) and IMU axes; add [sensors] encoder_cpr, "
+                      "imu_height, imu_forward, imu_up and imu_pitch (twip robot init writes them)", stacklevel=3)
+    return sensors
+
+
 def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: float = REPLAY_SECONDS,
-           source_dir: Optional[str] = None) -> dict:
+           source_dir: Optional[str] = None, force: bool = False) -> dict:
     """Writes the folder `out` for scenario `scenario` (a name or a Scenario) on `robot`
     (a `twip.Robot` from a robot file; default the Balanbot). The robot file's parameters,
     and its motor for a tracker (`Robot.controller_motor()`: torque limits, PWM conversion)
     and for the PWM feed-forward with its driver: one motor throughout. A Scenario whose
-    tracker assumes another motor than the file's is refused. Returns a summary: the
-    family, the number of recorded updates and the paths written."""
+    tracker assumes another motor than the file's is refused. The file's [sensors] give the
+    encoder's counts per turn (firmware units) and the IMU's axes (`example.c`). `out` must
+    be a new or empty folder unless `force`. Returns a summary: the family, the number of
+    recorded updates and the paths written."""
     if units_ not in UNITS:
         raise _core.InvalidParameterError(f"units = {units_!r}: must be one of {', '.join(UNITS)}")
     if not (isinstance(replay_seconds, (int, float)) and math.isfinite(replay_seconds) and replay_seconds > 0):
         raise _core.InvalidParameterError(f"replay_seconds = {replay_seconds!r}: must be a finite number > 0")
     checks.of_type("scenario", scenario, (str, scenarios.Scenario), "a scenario name or a twip.scenarios.Scenario")
     checks.of_type("robot", robot, (Robot, type(None)), "a twip.Robot (from a robot file) or None (the Balanbot)")
+    out = _check_out(out, force)
+    sensors = _sensors_of(robot, units_)
     params = robot.params if robot is not None else None
     if isinstance(scenario, str):
         sc = scenarios.get(scenario, params=params, **scenarios.robot_options(scenario, robot))
@@ -241,10 +290,10 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
     pwm = header.decode(layout, "TwipPwmConfig", parts[fam.pwm])
     period = config["period"]
     motor = _core.DcMotor.from_dict(pwm["motor"])
-    table = units.factors(parts["encoder_cpr"] or 700.0, period, motor.torque_per_count())
+    table = units.factors(parts["encoder_cpr"] or sensors.encoder_cpr, period, motor.torque_per_count())
     p = sc.model.params
     h, c = _config_files(fam, config, tilt, pwm, table, units_ == "firmware", layout, (p.wheel_radius, p.half_track),
-                         period)
+                         period, sensors)
     data, data_h = _replay_files(fam, rec)
     here = Path(__file__).parent / "templates"
     src = Path(source_dir or os.environ.get("TWIP_SRC") or _core.FFI_SOURCE_DIR).resolve()
@@ -258,7 +307,6 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
         "example.c": (here / "example.c").read_text(),
         "Makefile": (here / "Makefile").read_text().replace("@TWIP_SRC@", str(src)),
     }
-    out = Path(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as e:
