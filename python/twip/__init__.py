@@ -53,6 +53,7 @@ from twip.robot_file import Robot
 from twip.sim import SimResult, simulate
 from twip.sysid import Fit, RunLog, identify
 from twip.sweep import Normal, SweepResult, Uniform, montecarlo, wilson_interval
+from twip.design import Tuning, TuningError, WorstCase, tune, worst_case
 
 __all__ = [
     "Fit",
@@ -96,9 +97,12 @@ __all__ = [
     "Trapezoid",
     "Triangle",
     "SweepResult",
+    "Tuning",
+    "TuningError",
     "TwipError",
     "Uniform",
     "Waypoints",
+    "WorstCase",
     "__version__",
     "care",
     "kernel_copy",
@@ -107,8 +111,10 @@ __all__ = [
     "rk4_step",
     "set_memory_budget",
     "simulate",
+    "tune",
     "use_kernel_copy",
     "wilson_interval",
+    "worst_case",
 ]
 
 _apply_kernel_copy_environment()
