@@ -139,6 +139,21 @@ def test_a_tuning_answers_with_a_validated_controller():
     assert "fall rate" in t.summary()
 
 
+def test_ctrl_c_returns_the_best_candidate_so_far():
+    calls = []
+
+    def objective(result):  # as a Ctrl-C during the 4th candidate's sweep would
+        calls.append(result.fall_rate)
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+        return float(len(calls))  # the first (the scenario's own weights) is the best
+
+    t = tiny_tune(objective=objective)
+    assert t.interrupted and len(t.history) == 3
+    assert t.knobs == pytest.approx(dict(q_phi=10.0, q_phi_dot=10.0, q_theta_dot=1.0, q_z=1.0, r=1000.0))
+    assert t.validation is not None and t.validation.n == 8
+
+
 def test_a_fit_covariance_becomes_the_uncertainty(balanbot):
     fit = fake_fit(balanbot, np.diag([0.01**2, 0.002**2]))
     sc, perturb = uncertainty.scenario_for("slope-lqr", fit, None)
