@@ -75,7 +75,8 @@ def load(path) -> dict:
     for name, v in values.items():
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             raise ControllerFileError(f"{path}: knob {name} = {v!r} must be a finite number")
-    return {"scenario": head.get("scenario"), "family": head["family"], "knobs": {k: float(v) for k, v in values.items()}}
+    knobs = {k: float(v) for k, v in values.items()}
+    return {"scenario": head.get("scenario"), "family": head["family"], "knobs": knobs}
 
 
 def apply(scenario, path):
