@@ -68,12 +68,6 @@ class Tuning:
         controller_file.save(path, self)
 
 
-def _history_frame(rows):
-    import pandas as pd
-
-    return pd.DataFrame(rows)
-
-
 def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, objective=None, constraints=None,
          n: int = 256, budget: int = DEFAULT_BUDGET, seed: int = 0, validate: int = 2000, progress: bool = True,
          threads: Optional[int] = None) -> Tuning:
@@ -88,6 +82,7 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
     and `.baseline`. Ctrl-C stops the search and validates the best so far; a second Ctrl-C
     raises KeyboardInterrupt with `.partial` (the Tuning without validation). Raises
     TuningError when every candidate failed on every robot."""
+    import pandas as pd  # the history is a DataFrame: needed before the search, not after it
     from scipy.optimize import differential_evolution
 
     n = uncertainty.positive_int("n", n)
@@ -134,7 +129,8 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
     interrupted = False
     try:
         differential_evolution(cost, [(0.0, 1.0)] * len(space.names), popsize=pop, init=_init(pop, space, start, seed),
-                               maxiter=max(1, budget), tol=0.0, atol=0.0, polish=False, rng=seed, updating="immediate")
+                               maxiter=max(1, budget), tol=0.0, atol=0.0, polish=False, updating="immediate",
+                               **uncertainty.scipy_seed(seed))
     except _Exhausted:
         pass
     except KeyboardInterrupt:
@@ -146,7 +142,7 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
     if best["values"] is None:
         raise TuningError("tune: interrupted before any candidate finished" if interrupted else
                           "tune: no candidate controller could be built (see the knob ranges)")
-    history = _history_frame(rows)
+    history = pd.DataFrame(rows)
     settings = dict(n=n, budget=budget, seed=seed, validate=validate, evaluations=len(rows), knobs=list(space.names),
                     ranges=[list(r) for r in space.ranges], perturb=sorted(perturb), family=space.family.name)
     if best["failed"] >= 1.0:
@@ -185,7 +181,7 @@ def _init(pop, space, start, seed):
     from scipy.stats import qmc
 
     d = len(space.names)
-    points = qmc.LatinHypercube(d, rng=seed).random(pop) if d else np.zeros((pop, 0))
+    points = qmc.LatinHypercube(d, **uncertainty.scipy_seed(seed)).random(pop) if d else np.zeros((pop, 0))
     if start is not None:
         points[0] = start
     return points

@@ -23,6 +23,15 @@ def seed_of(name: str, value) -> int:
     return int(value)
 
 
+def scipy_seed(seed: int) -> dict:
+    """SciPy's seeding keyword (rng= since SciPy 1.15, seed= before it) with a fresh
+    generator of `seed`: the same stream on either, for any seed below 2**64."""
+    import scipy
+
+    major, minor = (int(x) for x in scipy.__version__.split(".")[:2])
+    return {"rng" if (major, minor) >= (1, 15) else "seed": np.random.default_rng(seed)}
+
+
 def held_out_seed(seed: int) -> int:
     """The sweep seed of the held-out robots: another counter-based key than `seed`'s, so
     other robots and other noise."""

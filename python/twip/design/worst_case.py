@@ -105,6 +105,7 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
     such as "peak_current" (larger is worse; a fall worst of all). `budget` robots are run, each with
     sweep sample 0's noise of `seed`; `threads` run robots side by side (the answer is the
     same on any number)."""
+    import pandas as pd  # the history is a DataFrame: needed before the search, not after it
     from scipy.optimize import differential_evolution
 
     budget = uncertainty.positive_int("budget", budget)
@@ -155,12 +156,10 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
     first = _design(len(names), budget, seed)
     try:
         differential_evolution(lambda u: 0.0, [(0.0, 1.0)] * len(names), init=first, maxiter=budget,
-                               tol=0.0, atol=0.0, polish=False, rng=seed, updating="deferred",
+                               tol=0.0, atol=0.0, polish=False, **uncertainty.scipy_seed(seed), updating="deferred",
                                workers=evaluate_all, popsize=len(first))
     except _Exhausted:
         pass
-    import pandas as pd
-
     history = pd.DataFrame(rows)
     worst = int(np.argmax(history["metric"].to_numpy()))  # the first of equals: deterministic
     params = {k: float(history[k].iloc[worst]) for k in names}
@@ -181,8 +180,8 @@ def _design(d: int, budget: int, seed: int) -> np.ndarray:
     corners = np.array(list(product((0.0, 1.0), repeat=d))) if 2**d <= CORNER_SHARE * budget else np.zeros((0, d))
     size = max(POPULATION, len(corners) + 8)
     size = min(size, budget) if budget >= 5 else 5
-    sobol = qmc.LatinHypercube(d, rng=seed).random(max(size - len(corners), 0))
-    return np.vstack([corners, sobol])[:size]
+    spread = qmc.LatinHypercube(d, **uncertainty.scipy_seed(seed)).random(max(size - len(corners), 0))
+    return np.vstack([corners, spread])[:size]
 
 
 def _robot_of(sc, params: Dict[str, float]):
