@@ -3,7 +3,7 @@
     twip reproduce [--out DIR] [--quick]      the thesis's simulations, figures and tables
     twip simulate SCENARIO [...]              one scenario: metrics, a plot, an animation
     twip sweep SCENARIO -n N [...]            a Monte Carlo robustness sweep
-    twip tune SCENARIO --perturb ... [...]     tune its controller over uncertain robots
+    twip tune SCENARIO --perturb ... [...]    tune its controller over uncertain robots
     twip worst-case SCENARIO --perturb ...    the worst robot inside the perturbations
     twip list                                 the scenarios and what they are
 
