@@ -105,20 +105,23 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
     bar = _bar(budget, progress)
 
     def cost(u) -> float:
-        values = space.values(u)
+        # The own controller's point is its own values, not their log-scale round trip.
+        values = own_values if start is not None and list(u) == list(start) else space.values(u)
         row = {"evaluation": len(rows), **values}
         try:
             candidate = knob_space.apply(sc, values)
-        except _core.TwipError as e:
-            rows.append({**row, "cost": UNBUILDABLE, "fall_rate": math.nan, "error": str(e)})
-            return UNBUILDABLE
-        result = run(candidate, n, seed)
-        c = float(goal(result))
-        bad = failures(result, constraints)
-        rows.append({**row, "cost": c, "fall_rate": result.fall_rate, "failed": float(bad.mean()) if len(bad) else 1.0,
-                     **{f"median_{k}": v for k, v in Objective(constraints).medians(result).items()}, "error": ""})
-        if c < best["cost"]:
-            best.update(cost=c, values=values, failed=rows[-1]["failed"])
+        except _core.TwipError as e:  # counted against the budget, like any candidate
+            c = UNBUILDABLE
+            rows.append({**row, "cost": c, "fall_rate": math.nan, "failed": math.nan, "error": str(e)})
+        else:
+            result = run(candidate, n, seed)
+            c = float(goal(result))
+            bad = failures(result, constraints)
+            rows.append({**row, "cost": c, "fall_rate": result.fall_rate,
+                         "failed": float(bad.mean()) if len(bad) else 1.0,
+                         **{f"median_{k}": v for k, v in Objective(constraints).medians(result).items()}, "error": ""})
+            if c < best["cost"]:
+                best.update(cost=c, values=values, failed=rows[-1]["failed"])
         bar.update(1)
         if len(rows) >= budget:
             raise _Exhausted
@@ -126,6 +129,7 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
 
     pop = max(5, min(POPULATION_PER_KNOB * len(space.names), budget))
     start = _start(space, sc)
+    own_values = {k: v for k, v in space.family.read(sc.controller, sc).items() if k in space.names}
     interrupted = False
     try:
         differential_evolution(cost, [(0.0, 1.0)] * len(space.names), popsize=pop, init=_init(pop, space, start, seed),
