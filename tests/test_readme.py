@@ -29,7 +29,7 @@ BLOCKS = _blocks()
 
 def test_the_readme_has_its_examples():
     headings = [h for h, _ in BLOCKS]
-    assert {"Use", "Your controller", "Your robot"} <= set(headings), headings
+    assert {"Use", "Your controller", "Your robot", "Design a controller for your robot"} <= set(headings), headings
 
 
 @pytest.mark.parametrize("heading, code", BLOCKS, ids=[f"{i}:{h}" for i, (h, _) in enumerate(BLOCKS)])

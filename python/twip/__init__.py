@@ -66,6 +66,7 @@ def __getattr__(name):
 from twip.sweep import Normal, SweepResult, Uniform, montecarlo, wilson_interval
 from twip.user_sweep import ControllerFailedError
 from twip.plausibility import ImplausibleRobotWarning
+from twip.design import Tuning, TuningError, WorstCase, tune, worst_case
 
 __all__ = [
     "Fit",
@@ -111,9 +112,12 @@ __all__ = [
     "Trapezoid",
     "Triangle",
     "SweepResult",
+    "Tuning",
+    "TuningError",
     "TwipError",
     "Uniform",
     "Waypoints",
+    "WorstCase",
     "__version__",
     "care",
     "kernel_copy",
@@ -122,8 +126,10 @@ __all__ = [
     "rk4_step",
     "set_memory_budget",
     "simulate",
+    "tune",
     "use_kernel_copy",
     "wilson_interval",
+    "worst_case",
 ]
 
 _apply_kernel_copy_environment()

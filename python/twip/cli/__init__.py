@@ -3,6 +3,8 @@
     twip reproduce [--out DIR] [--quick]      the thesis's simulations, figures and tables
     twip simulate SCENARIO [...]              one scenario: metrics, a plot, an animation
     twip sweep SCENARIO -n N [...]            a Monte Carlo robustness sweep
+    twip tune SCENARIO --perturb ... [...]    tune its controller over uncertain robots
+    twip worst-case SCENARIO --perturb ...    the worst robot inside the perturbations
     twip list                                 the scenarios and what they are
 
 Run `twip COMMAND --help` for the options and examples.
@@ -15,6 +17,7 @@ import sys
 import warnings
 
 import twip
+from twip.cli import design
 from twip.cli.args import (Parser, UsageError, add_realism_option, add_robot_option, formatter, map_names, positive_float,
                            positive_int, seed)
 from twip.report import DEFAULT_OUT
@@ -117,6 +120,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", type=positive_float, default=20.0, help="GIF frames per second (default 20)")
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
     add_robot_option(p)
+    design.add_controller_option(p)
     p.set_defaults(func=_command("simulate"))
 
     p = sub.add_parser("sweep", help="Monte Carlo robustness sweep of one scenario",
@@ -138,7 +142,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_robot_option(p)
+    design.add_controller_option(p)
     p.set_defaults(func=_command("sweep"))
+
+    design.add_parsers(sub)
 
     p = sub.add_parser("robot", help="robot files: `twip robot init FILE` writes the default robot",
                        description="Write a robot file (TOML) to describe your own robot; pass it to other "
@@ -164,6 +171,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--replay-seconds", type=positive_float, default=20.0, metavar="S",
                    help="length of the recorded run that `make check` replays (default 20 s)")
     add_robot_option(p)
+    design.add_controller_option(p)
     p.set_defaults(func=_command("export"))
 
     p = sub.add_parser("identify", help="fit a robot's parameters to a logged run (CSV)",

@@ -16,6 +16,7 @@ import numpy as np
 
 import twip
 from twip import report, scenarios
+from twip.cli.design import with_controller
 from twip.cli.args import (UsageError, key_value, stall_current, get_scenario, perturbation, realism, robot, scenario_name,
                            scenario_options)
 from twip.plot import metric_unit
@@ -105,6 +106,7 @@ def simulate(args) -> int:
     options = scenario_options(name, args.option)
     ctrl_params = twip.RobotParams.balanbot() if args.nominal_controller else None
     sc = get_scenario(name, params=params, controller_params=ctrl_params, options=options, robot_file=args.robot)
+    sc = with_controller(sc, args.controller)
     overrides: Dict[str, Any] = {}
     if args.t_final is not None:
         overrides["t_final"] = args.t_final
@@ -115,9 +117,11 @@ def simulate(args) -> int:
     started = time.perf_counter()
     r = sc.run(stall_current=stall_current(args.robot), **overrides)
     elapsed = time.perf_counter() - started
-    # The thesis's claims are about the thesis's robot: another robot (a file) gets none.
+    # The thesis's claims are about the thesis's robot and controller: another robot (a file)
+    # or a tuned controller gets none.
     thesis_robot = sc.model.params.to_dict() == twip.RobotParams.balanbot().to_dict()
-    claims = claims_for(sc, r) if thesis_robot and not overrides and not args.param and not options else []
+    claims = (claims_for(sc, r) if thesis_robot and not overrides and not args.param and not options
+              and not args.controller else [])
     if args.json:
         print(json.dumps(jsonable({"scenario": name, "outcome": r.outcome, "t_end": r.t_end, "steps": r.steps,
                                     "seconds": elapsed, "metrics": r.metrics, "claims": claims,
@@ -169,6 +173,7 @@ def sweep(args) -> int:
     if args.map and not set(args.map) <= set(perturb):
         raise UsageError(f"--map {','.join(args.map)}: both must be --perturb names ({', '.join(perturb) or 'none given'})")
     sc = get_scenario(name, params=params, options=options, robot_file=args.robot)  # designed once, here; bad options are named
+    sc = with_controller(sc, args.controller)
     if not perturb:
         print("note: no --perturb given, every sample is the same robot", file=sys.stderr)
     try:
@@ -248,7 +253,12 @@ def export(args) -> int:
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out}: exists and is not a folder")
     robot_file = twip.Robot.from_file(args.robot) if args.robot else None
-    summary = firmware.export(scenario_name(args.scenario), out, robot=robot_file, units_=args.units,
+    target = scenario_name(args.scenario)
+    if args.controller:  # the scenario for the robot, with the file's controller in it
+        params = robot_file.params if robot_file else None
+        target = with_controller(scenarios.get(target, params=params, **scenarios.robot_options(target, robot_file)),
+                                 args.controller)
+    summary = firmware.export(target, out, robot=robot_file, units_=args.units,
                               replay_seconds=args.replay_seconds, force=args.force)
     print(f"wrote {out}/: {summary['family']} controller of {args.scenario} in {args.units} units, "
           f"{summary['updates']} recorded updates ({summary['outcome']}); build and check with "

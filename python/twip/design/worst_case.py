@@ -1,0 +1,189 @@
+"""`twip.worst_case`: the worst robot inside the support of a scenario's perturbations.
+
+Monte Carlo samples robots where they are likely; a worst case sits where they are not
+(a corner of the box). The search scores every robot by a continuous margin, not by the
+fall flag alone: a fall scores 1 plus how early it came, a run that stays up its worst
+pitch excursion over the fall threshold. Its first generation is a space-filling design
+(a Latin hypercube sample, and the box's corners when they are few), which SciPy's
+differential evolution then refines. Every candidate robot runs with the same noise
+(sweep sample 0 of `seed`), so the search is deterministic and its answer replays.
+"""
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from itertools import product
+from typing import Dict, Optional
+
+import numpy as np
+
+from twip import _core
+from twip.design import uncertainty
+from twip.distributions import Normal, Uniform
+
+_bad = _core.InvalidParameterError
+
+#: A Normal perturbation's support, for the search: mean ± this many std (within its clamps).
+NORMAL_SUPPORT = 3.0
+#: The box's 2^d corners join the first generation when they are at most this share of the budget.
+CORNER_SHARE = 0.25
+#: Robots per generation of the refinement.
+POPULATION = 32
+METRICS = ("margin", "time_to_fall")
+
+
+@dataclass
+class WorstCase:
+    """The worst robot found: `robot` (RobotParams), `params` (the searched quantities'
+    values), `metric` (its score; larger is worse), `fell`, `evaluations`, `history` (a
+    DataFrame of every robot tried). `replay()` runs it again with the search's noise."""
+
+    robot: object
+    params: Dict[str, float]
+    metric: float
+    fell: bool
+    evaluations: int
+    history: object
+    scenario: object = None
+    realism: object = None
+    seed: int = 0
+    settings: dict = field(default_factory=dict)
+
+    def _perturb(self):
+        return {k: Uniform(low=v, high=v) for k, v in self.params.items()}
+
+    def replay(self, **simulate_options):
+        """The worst robot's run (a SimResult), with the noise the search gave it."""
+        result = uncertainty.sweep(self.scenario, 1, self._perturb(), self.seed, self.realism, 1)
+        return result.replay(0, **simulate_options)
+
+    def confirm(self, n: int = 20, seed: Optional[int] = None):
+        """The worst robot on `n` fresh noise seeds (sweep samples of another seed): a
+        SweepResult whose fall rate says whether it falls on noise other than the search's."""
+        n = uncertainty.positive_int("n", n)
+        seed = uncertainty.held_out_seed(self.seed) if seed is None else uncertainty.seed_of("seed", seed)
+        return uncertainty.sweep(self.scenario, n, self._perturb(), seed, self.realism, None)
+
+
+def support(perturb, sc) -> Dict[str, tuple]:
+    """{name: (low, high)}: where each perturbation can put its quantity."""
+    from twip.perturbation import resolve
+
+    out = {}
+    for (name, dist), tup in zip(perturb.items(), resolve(perturb, sc)):
+        kind, a, b, low, high = tup[2:]
+        if kind == "uniform":
+            out[name] = (low, high)
+        else:  # normal: mean a, std b, clamped to [low, high]
+            out[name] = (max(low, a - NORMAL_SUPPORT * b), min(high, a + NORMAL_SUPPORT * b))
+    return out
+
+
+def score(result, metric: str) -> np.ndarray:
+    """Each sample's badness under `metric` (larger: worse): a fall scores 1 plus how early
+    it came (as a share of the run); "margin" scores a run that stays up by its mean |pitch
+    error| over the fall limit (below 1), "time_to_fall" by 0, a sweep metric by its value
+    (a fall: inf)."""
+    m = result.metrics
+    t_final = result.config["t_final"]
+    fell = m["fell"]
+    early = 1.0 + (t_final - m["t_end"]) / t_final
+    if metric == "time_to_fall":
+        return np.where(fell, early, 0.0)
+    if metric == "margin":
+        return np.where(fell, early, np.minimum(m["mean_abs_pitch_error"] / _core.DEFAULT_FALL_LIMIT, 1.0))
+    return np.where(fell, math.inf, m[metric])
+
+
+def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 400, seed: int = 0,
+               threads: Optional[int] = None) -> WorstCase:
+    """Searches the support of `perturb` (Uniform: its interval; Normal: ± NORMAL_SUPPORT std)
+    for the robot with the worst `metric`: "margin" (default: falls first, the earlier the
+    worse, then the mean pitch error), "time_to_fall", or a metric of the scenario's sweeps
+    such as "peak_current" (larger is worse; a fall worst of all). `budget` robots are run, each with
+    sweep sample 0's noise of `seed`; `threads` run robots side by side (the answer is the
+    same on any number)."""
+    import pandas as pd  # the history is a DataFrame: needed before the search, not after it
+    from scipy.optimize import differential_evolution
+
+    budget = uncertainty.positive_int("budget", budget)
+    seed = uncertainty.seed_of("seed", seed)
+    if realism is not None and not isinstance(realism, _core.Realism):
+        raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
+    sc, perturb = uncertainty.scenario_for(scenario, None, perturb)
+    if not perturb:
+        raise _bad("perturb: empty; the worst case is searched over the perturbations' support")
+    box = support(perturb, sc)
+    names = list(box)
+    lo = np.array([box[k][0] for k in names])
+    hi = np.array([box[k][1] for k in names])
+    metric = "margin" if metric is None else metric
+    probe = uncertainty.sweep(sc, 1, perturb, seed, realism, 1)
+    if metric not in METRICS and metric not in probe.metric_names:
+        raise _bad(f"metric = {metric!r}: one of {', '.join(METRICS)} or a sweep metric "
+                   f"({', '.join(probe.metric_names[2:])})")
+    rows = []
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
+                                or not 1 <= threads <= _core.MAX_THREADS):
+        raise _bad(f"threads = {threads!r}: must be an integer from 1 to {_core.MAX_THREADS}, or None (all cores)")
+    workers = threads or os.cpu_count() or 1
+
+    def one(u):
+        values = {k: float(v) for k, v in zip(names, lo + np.asarray(u) * (hi - lo))}
+        result = uncertainty.sweep(sc, 1, {k: Uniform(low=v, high=v) for k, v in values.items()}, seed, realism, 1)
+        s = score(result, metric)
+        return values, float(s[0]), bool(result.metrics["fell"][0])
+
+    def evaluate_all(func, population):
+        # Robots side by side; the answers in the population's order, whatever finishes first.
+        population = list(population)
+        room = budget - len(rows)
+        if room <= 0:
+            raise _Exhausted
+        population = population[:room]
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            answers = list(pool.map(one, population))
+        out = []
+        for values, s, fell in answers:
+            rows.append({"evaluation": len(rows), **values, "metric": s, "fell": fell})
+            out.append(-s)
+        if len(rows) >= budget:
+            raise _Exhausted
+        return out
+
+    first = _design(len(names), budget, seed)
+    try:
+        differential_evolution(lambda u: 0.0, [(0.0, 1.0)] * len(names), init=first, maxiter=budget,
+                               tol=0.0, atol=0.0, polish=False, **uncertainty.scipy_seed(seed), updating="deferred",
+                               workers=evaluate_all, popsize=len(first))
+    except _Exhausted:
+        pass
+    history = pd.DataFrame(rows)
+    worst = int(np.argmax(history["metric"].to_numpy()))  # the first of equals: deterministic
+    params = {k: float(history[k].iloc[worst]) for k in names}
+    robot = _robot_of(sc, params)
+    return WorstCase(robot, params, float(history["metric"].iloc[worst]), bool(history["fell"].iloc[worst]),
+                     len(rows), history, sc, realism, seed, dict(metric=metric, budget=budget, box=box))
+
+
+class _Exhausted(Exception):
+    """The budget of robots is spent."""
+
+
+def _design(d: int, budget: int, seed: int) -> np.ndarray:
+    """The first generation: the box's corners (when 2^d is at most CORNER_SHARE of the
+    budget) and a Latin hypercube sample, POPULATION at least, within the budget."""
+    from scipy.stats import qmc
+
+    corners = np.array(list(product((0.0, 1.0), repeat=d))) if 2**d <= CORNER_SHARE * budget else np.zeros((0, d))
+    size = max(POPULATION, len(corners) + 8)
+    size = min(size, budget) if budget >= 5 else 5
+    spread = qmc.LatinHypercube(d, **uncertainty.scipy_seed(seed)).random(max(size - len(corners), 0))
+    return np.vstack([corners, spread])[:size]
+
+
+def _robot_of(sc, params: Dict[str, float]):
+    fields = set(_core.RobotParams.fields)
+    return sc.model.params.replace(**{k: v for k, v in params.items() if k in fields})
