@@ -50,8 +50,8 @@ _WHY = {
     "circle-smc-fuzzy/pitch_about_deg": ("ours leans by the ground-friction lean of (4.62), which the thesis rounds to 0",
                                          None),
     "slope-lqr/goals": ("operating-point design; the thesis's design settles ≈ 2 cm downhill of each goal (errata E7)", None),
-    "slope-fuzzy/goals": (None, "not the 5 s hold: with holds of 10, 20 and 30 s the robot creeps on through the goals "
-                                "(far stop 2.6, 1.0, −0.5 cm short, home stop 0.25, −2.6, −5.4 cm off), by the adaptation's "
+    "slope-fuzzy/goals": (None, "not the 5 s hold: with holds of 10, 20 and 30 s the robot creeps on uphill through each hold "
+                                "(short of the far goal by 2.6, 1.0, −0.5 cm, of home coming down by −0.25, 2.6, 5.4 cm; negative: past it), by the adaptation's "
                                 "leak σ, which hands the slope load from Ŝ to the PD; with σ = 0.001 it stays 5.4–5.0 cm "
                                 "short at every hold. Fuzzy + ki (ours) stops within 1 cm"),
     "circle-pid/table_5_2": ("same size as the thesis's experiment: the PID keeps the offset its start-up leaves", None),
