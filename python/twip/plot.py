@@ -889,6 +889,7 @@ def table_5_1(rows, thesis: Optional[Mapping] = None, path=None, title=None, the
             robot = {_CONTROLLER_NAMES.get(c, c): [_realism_value(cell[(p, c)], key + "_realism", "outcome_realism")
                                                    for p in plants] for c in controllers}
             bars(plants, series, ax, ylabel=ylabel, thesis=th, log=True, marks=marks, robot=robot, robot_fell=fell)
+            ax.tick_params(axis="x", labelsize=8)  # six groups' names side by side
             ax.set_title(f"{surface}: mean {what} error")
     handles, labels = fig.axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(labels), frameon=False)

@@ -51,28 +51,14 @@ def render_markdown(report: dict) -> str:
                          [[c["id"], c["claim"], fmt(c["thesis"]), fmt(c["ours"]),
                            _realism_claim_cell(c), c["unit"], c["basis"], c["status"],
                            c["reason"] + (f" (checked by `{c['check']}`)" if "check" in c else "")] for c in claims]))
-    rig = report.get("rig_check")
-    if rig:
-        n = report["summary"]["rig"]
-        out += ["", "## The thesis-like robot against the thesis's measurements", "",
-                f"Each number the thesis measured on its robot, beside ours on the ideal plant and with the thesis-like "
-                f"robot (`Realism.thesis_like()` on `RobotParams.balanbot()`: sensors, driver, delay, gearhead friction "
-                f"and backlash from data sheets). {n['calibrated']} of the {n['measured']} are calibrated: a parameter of "
-                f"the robot or of a choice of ours was fitted to them, so they are not evidence. The other "
-                f"{n['predictions']} are the rig's predictions; {n['predictions_hold']} hold.", "",
-                _md_table(["id", "claim", "thesis (measured)", "ours, ideal plant", "ours, thesis-like robot", "unit",
-                           "holds with the robot", "basis"],
-                          [[r["id"], r["claim"], fmt(r["thesis"]), fmt(r["ideal"]),
-                            fmt(r["rig"]) if r["outcome"] == "completed" else r["outcome"], r["unit"],
-                            "yes" if r["holds"] else "no",
-                            r["basis"] + (f" ({r['fitted']})" if "fitted" in r else "")] for r in rig])]
     sensitive = [c for c in claims if "sensitivity" in c]
     if sensitive:
         out += ["", "## How much our numbers depend on what the thesis does not give", "",
                 "Each claim below rests on choices the thesis does not publish; it was rerun over the joint box of them "
                 "(twip/report/sensitivity.py says which ranges and why): twip's default run and a scrambled Sobol sample "
-                "of the box (*runs*), then, from the lowest and the highest sampled run, each choice moved to each end "
-                "of its range in turn while that lowers (raises) our number further (*searched*). *low*/*high*: the "
+                "of the box (*runs*), then a run at the corner of the box a linear fit of the sampled runs points to, "
+                "for the worst and for the best case (each range at the end the fit favours, each alternative the one "
+                "with the lowest or highest mean; *searched*). *low*/*high*: the "
                 "range of ours over all of them; *holds*: the share of the sampled runs (the default counted) in which "
                 "the thesis's claim holds. Every run is in report.json (`detail`: its values, ours, holds). A settling "
                 "band is a run measured again. For the stops, *ours* is the largest distance of a stop from its goal "
@@ -84,6 +70,21 @@ def render_markdown(report: dict) -> str:
                                f"{100 * c['sensitivity']['holds']:.0f} %", str(c["sensitivity"]["runs"]),
                                str(c["sensitivity"].get("searched", 0))]
                               for c in sensitive]))
+    rig = report.get("rig_check")
+    if rig:
+        n = report["summary"]["rig"]
+        out += ["", "## The thesis-like robot against the thesis's measurements", "",
+                f"Each number the thesis measured on its robot, beside ours on the ideal plant and with the thesis-like "
+                f"robot (`Realism.thesis_like()` on `RobotParams.balanbot()`: sensors, driver, delay, gearhead friction "
+                f"and backlash from data sheets). {n['calibrated']} of the {n['measured']} are calibrated: a parameter of "
+                f"the robot or of a choice of ours was fitted to them, so they are not evidence. The other "
+                f"{n['predictions']} are the rig's predictions; {n['predictions_hold']} hold.", "",
+                _md_table(["id", "claim", "thesis (measured)", "ours, ideal plant", "ours, thesis-like robot", "unit",
+                           "holds with the robot", "basis"],
+                          [[f"`{r['id']}`", r["claim"], fmt(r["thesis"]), fmt(r["ideal"]),
+                            fmt(r["rig"]) if r["outcome"] == "completed" else r["outcome"], r["unit"],
+                            "yes" if r["holds"] else "no",
+                            r["basis"] + (f" ({r['fitted']})" if "fitted" in r else "")] for r in rig])]
     names = {"lqr": "LQR", "fuzzy": "fuzzy", "fuzzy-fixed": "fuzzy, adapt off", "fuzzy+ki": "fuzzy + ki"}
     own = report.get("table_5_1_experiments")
     if own:

@@ -211,11 +211,11 @@ def _table_5_1(quick: bool, steps: Steps, figures: Figures, claims: List[dict]):
                         twip.Realism.thesis_like()) or []
     claims.extend(table_5_1_claims(own))
     if rows or own:
-        drawn = [{**r, "case": "own experiment"} for r in own] + rows
+        drawn = [{**r, "case": "own\nexperiment"} for r in own] + rows
         figures.add("table5.1.png", "Table 5.1: mean |pitch error| and |speed error|, each controller on its own experiment "
                     "(the thesis's rows, with the thesis-like robot) and, for comparison, every controller on the fuzzy "
                     "experiments' schedule with nominal and wrong plants (simulations)",
-                    lambda p: plot.table_5_1(drawn, thesis=THESIS_TABLE_5_1, path=p, thesis_on="own experiment", title=(
+                    lambda p: plot.table_5_1(drawn, thesis=THESIS_TABLE_5_1, path=p, thesis_on="own\nexperiment", title=(
                         "Table 5.1 (simulations): 'own experiment' is each controller's own run (LQR: Figs 4.3/4.10, fuzzy: "
                         "Figs 4.8/4.12),\nthe other groups the fuzzy runs' schedule for every controller, plant changed "
                         "(diamonds: thesis; rings: thesis-like robot; log scale)")))
