@@ -358,3 +358,26 @@ def test_slope_fuzzy_creeps_through_the_leak_not_the_hold():
     assert far == pytest.approx([2.6, 1.04, -0.47], abs=0.02) and far[0] > far[1] > far[2]  # through the goal
     leakless = [stops(h, sigma=0.001)[0] for h in (5.0, 30.0)]
     assert all(4.9 < s < 5.5 for s in leakless) and abs(leakless[0] - leakless[1]) < 0.5
+
+
+def test_table_5_1s_markers_stand_side_by_side():
+    """Ours, the thesis's diamond and the thesis-like robot's ring of one bar do not share an x:
+    none hides another."""
+    pytest.importorskip("matplotlib")
+    from twip import plot
+
+    rows = [{"surface": "flat", "case": "own\nexperiment", "controller": c, "outcome": "completed", "pitch_error_deg": 1.0,
+             "speed_error_deg_s": 20.0, "outcome_realism": "completed", "pitch_error_deg_realism": 1.0,
+             "speed_error_deg_s_realism": 20.0} for c in ("lqr", "fuzzy")]
+    fig = plot.table_5_1(rows, thesis={("flat", "lqr"): (1.0, 20.0), ("flat", "fuzzy"): (1.0, 20.0)},
+                         thesis_on="own\nexperiment")
+    ax = fig.axes[0]
+    xs = [float(x) for line in ax.get_lines() if line.get_marker() in ("o", "D") for x in np.atleast_1d(line.get_xdata())]
+    assert len(xs) == 6 and len(set(round(x, 9) for x in xs)) == 6, xs
+
+
+def test_experiment_figures_say_they_are_simulations():
+    from twip.report.reproduce import _analogue
+
+    assert _analogue("4.3", True) == "Fig 4.3 analogue (simulation of the experiment: ideal plant and thesis-like robot)"
+    assert _analogue("4.2", False) == "Fig 4.2 analogue (simulation)"
