@@ -20,7 +20,8 @@ from twip.cli import args as cli_args  # noqa: E402
 
 SKIPPED_KEYS = {"figure", "hold", "distance", "thesis_hold"}  # settings, not claims
 #: Each basis and the status its rows get (a prediction's: reproduced or differs).
-BASES = {"prediction": None, "calibrated": "calibrated", "input, deviated": "deviated", "duplicate": "duplicate"}
+BASES = {"prediction": None, "calibrated": "calibrated", "partly calibrated": "calibrated", "input, deviated": "deviated",
+         "duplicate": "duplicate"}
 
 
 def twip_command():
@@ -148,10 +149,18 @@ def test_inputs_and_fits_are_calibrated_not_reproduced(report, report_dir):
     assert calibrated == {"flat-lqr-sim/gains", "slope-fuzzy-sim/gains", "flat-fuzzy-sim/gains",
                           "slope-lqr-sim/phi_s_deg", "circle-pid/lap_s", "circle-smc/omega_r",
                           "circle-smc-fuzzy/omega_r", "circle-smc-fuzzy/speed_about"}
+    partly = {c["id"] for c in report["claims"] if c["basis"] == "partly calibrated"}
+    assert partly == {"slope-lqr/pitch_about_deg", "slope-fuzzy-sim/pitch_settling_time", "table-5.1/fuzzy-flat/speed"}
     deviated = {c["id"] for c in report["claims"] if c["basis"] == "input, deviated"}
     assert deviated == {"slope-fuzzy-sim/phi_s_deg", "flat-lqr-sim/phi_s_deg", "flat-fuzzy-sim/phi_s_deg"}
     assert {c["id"] for c in report["claims"] if c["basis"] == "duplicate"} == {"circle-smc/table_5_2"}
     n = {s: sum(c["status"] == s for c in report["claims"]) for s in ("reproduced", "differs", "calibrated")}
+    summary = report["summary"]
+    assert (summary["predictions"], summary["reproduced"], summary["calibrated"]) == (
+        sum(c["basis"] == "prediction" for c in report["claims"]), n["reproduced"], n["calibrated"])
+    assert {"reproduced_with_rig", "deviated", "duplicate"} <= set(summary)
+    first = (report_dir[0] / "report.md").read_text().splitlines()[0]
+    assert "on the ideal plant" in first and "with the thesis-like robot" in first, first
     predictions = sum(c["basis"] == "prediction" for c in report["claims"])
     md = (report_dir[0] / "report.md").read_text()
     opening = (f"**{predictions} predictions: {n['reproduced']} reproduced, {n['differs']} differ; not counted: "

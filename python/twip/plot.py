@@ -29,6 +29,7 @@ from twip import _core
 
 #: Colours: ours, the reference, the target pitch, measured signals, extra series.
 OURS, REF, TARGET, MEASURED = "#1f5fa8", "#222222", "#c0392b", "#9aa5b1"
+RIG = "#e67e22"  # a second run beside ours: the same scenario with the thesis-like robot in the loop
 PALETTE = ("#1f5fa8", "#e67e22", "#27ae60", "#8e44ad", "#c0392b", "#16a085", "#7f8c8d", "#d35400", "#2c3e50")
 
 _STYLE = {
@@ -279,10 +280,18 @@ def _phi_s(result, scenario):
 
 
 @_styled
-def timeseries(result, scenario=None, path=None, title=None, internals: bool = True):
+def _beside(ax, beside, of) -> None:
+    """Draws `beside` = (label, run)'s signal `of(run)` thin, behind ours (nothing if None)."""
+    if beside is not None:
+        label, run = beside
+        _line(ax, run.t, of(run), color=RIG, lw=0.8, alpha=0.85, label=label, zorder=1)
+
+
+def timeseries(result, scenario=None, path=None, title=None, internals: bool = True, beside=None):
     """A 2-DOF run (SlopeModel): pitch with its target φ_s, pitch rate, wheel speed with its
     reference, distance with the reference position, the input current and the
-    controller's internals (the fuzzy weights Ŝ, or the LQR integrator)."""
+    controller's internals (the fuzzy weights Ŝ, or the LQR integrator). `beside` = (label,
+    run): a second run of the same scenario drawn beside ours on the first four panels."""
     t = result.t
     deg = np.degrees
     phi, phi_dot, theta, theta_dot = result.states.T
@@ -296,6 +305,7 @@ def timeseries(result, scenario=None, path=None, title=None, internals: bool = T
     if "phi_hat" in sig:  # with twip.Realism: what the controller read
         _line(ax, t, deg(sig["phi_hat"]), color=MEASURED, lw=0.8, label="measured φ̂")
     _line(ax, t, deg(phi), color=OURS, label="pitch φ")
+    _beside(ax, beside, lambda r: deg(r.states[:, 0]))
     target, label = _phi_s(result, scenario)
     if target is not None:
         _line(ax, t, deg(target), color=TARGET, ls="--", lw=1.1, label=label)
@@ -310,6 +320,7 @@ def timeseries(result, scenario=None, path=None, title=None, internals: bool = T
 
     ax = _axes(fig, gs[0, 1])
     _line(ax, t, deg(phi_dot), color=OURS, label=r"pitch rate $\dot\varphi$")
+    _beside(ax, beside, lambda r: deg(r.states[:, 1]))
     ax.axhline(0.0, color=REF, ls="--", lw=1.0, label="reference 0")
     if "pitch_rate_settling_time" in thesis:
         ax.axvline(thesis["pitch_rate_settling_time"], color=REF, ls=":", lw=1.0,
@@ -321,6 +332,7 @@ def timeseries(result, scenario=None, path=None, title=None, internals: bool = T
     if "theta_dot_hat" in sig:
         _line(ax, t, deg(sig["theta_dot_hat"]), color=MEASURED, lw=0.8, label=r"measured $\hat{\dot\theta}$")
     _line(ax, t, deg(theta_dot), color=OURS, label=r"wheel speed $\dot\theta$")
+    _beside(ax, beside, lambda r: deg(r.states[:, 3]))
     if "theta_dot" in result.reference_names:
         _line(ax, t, deg(result.reference("theta_dot")), color=REF, ls="--", lw=1.1, label=r"reference $\dot\theta_\mathrm{ref}$")
     if "speed_settling_time" in thesis:
@@ -332,6 +344,7 @@ def timeseries(result, scenario=None, path=None, title=None, internals: bool = T
     ax = _axes(fig, gs[1, 1])
     scale, unit = (radius, "m") if radius else (1.0, "rad")
     _line(ax, t, theta * scale, color=OURS, label="travelled " + (r"$\theta r$" if radius else r"$\theta$"))
+    _beside(ax, beside, lambda r: r.states[:, 2] * scale)
     if "theta" in result.reference_names:
         _line(ax, t, result.reference("theta") * scale, color=REF, ls="--", lw=1.1, label="reference")
     ax.set(ylabel=f"position [{unit}]", title="Position along the ground")
@@ -491,11 +504,13 @@ def paths(results: Mapping, trajectory=None, path=None, title=None):
 
 
 @_styled
-def tracking(result, scenario=None, path=None, title=None, internals: bool = True, show_path: bool = True):
+def tracking(result, scenario=None, path=None, title=None, internals: bool = True, show_path: bool = True,
+             beside=None):
     """A 3-DOF run (PlanarModel): the x–y path against the reference, pitch (with φ_s when
     the controller has one), forward speed and yaw rate against their references, the
     distance to the reference, the wheel torques and the controller's internals (sliding
-    surfaces S1, S_η and fuzzy weights, or the PID terms)."""
+    surfaces S1, S_η and fuzzy weights, or the PID terms). `beside` = (label, run): a second
+    run of the same scenario drawn beside ours on the path, pitch, speed and yaw rate."""
     t = result.t
     deg = np.degrees
     x, y, psi, phi, phi_dot, v, omega = result.states.T
@@ -505,13 +520,14 @@ def tracking(result, scenario=None, path=None, title=None, internals: bool = Tru
     gs = _grid(fig, rows, 3, right=0.7, hspace=0.5, wspace=0.3)
     panels = []
     if show_path:
-        xy_path({"robot": result}, ax=_axes(fig, gs[:2, 0]))
+        xy_path({"robot": result, **({beside[0]: beside[1]} if beside else {})}, ax=_axes(fig, gs[:2, 0]))
         slots = [gs[0, 1], gs[0, 2], gs[1, 1], gs[1, 2]] + ([gs[2, 0], gs[2, 1], gs[2, 2]] if internals else [])
     else:
         slots = [gs[i, j] for i in range(rows) for j in range(3)]
 
     ax = _axes(fig, slots[0])
     _line(ax, t, deg(phi), color=OURS, label="pitch φ")
+    _beside(ax, beside, lambda r: deg(r.states[:, 3]))
     if "phi_s" in inner:
         _line(ax, t, deg(inner["phi_s"]), color=TARGET, ls="--", lw=1.1, label=r"$\varphi_s$ (controller's target)")
     else:
@@ -522,6 +538,7 @@ def tracking(result, scenario=None, path=None, title=None, internals: bool = Tru
 
     ax = _axes(fig, slots[1])
     _line(ax, t, v, color=OURS, label="v")
+    _beside(ax, beside, lambda r: r.states[:, 5])
     _line(ax, t, result.reference("v"), color=REF, ls="--", lw=1.1, label=r"$v_\mathrm{ref}$")
     ax.set(ylabel="speed [m/s]", title="Forward speed")
     _legend(ax)
@@ -529,6 +546,7 @@ def tracking(result, scenario=None, path=None, title=None, internals: bool = Tru
 
     ax = _axes(fig, slots[2])
     _line(ax, t, deg(omega), color=OURS, label=r"$\omega = \dot\psi$")
+    _beside(ax, beside, lambda r: deg(r.states[:, 6]))
     _line(ax, t, deg(result.reference("omega")), color=REF, ls="--", lw=1.1, label=r"$\omega_\mathrm{ref}$")
     ax.set(ylabel="yaw rate [deg/s]", title="Yaw rate")
     _legend(ax)
@@ -788,24 +806,26 @@ def bars(groups: Sequence[str], series: Mapping[str, Sequence[float]], ax, ylabe
             ax.plot(pos, values, "o", color=colour, ms=5, label=name)
         else:
             ax.bar(pos, values, width * 0.92, color=colour, label=name)
+        # The rings and crosses to the right of our dot, the thesis's diamond to its left: none hides another.
+        beside = 0.35 * width
         if robot and name in robot:
             rv = np.asarray(robot[name], float)
             ok = np.isfinite(rv)
             if ok.any():
-                ax.plot(pos[ok], rv[ok], "o", mfc="white", mec=colour, mew=1.4, ms=7,
+                ax.plot(pos[ok] + beside, rv[ok], "o", mfc="white", mec=colour, mew=1.4, ms=7,
                         label=None if robot_labelled else "thesis-like robot (rings)")
                 robot_labelled = True
         if robot_fell and name in robot_fell:
             down = np.asarray(robot_fell[name], bool)
             if down.any():
-                ax.plot(pos[down] + 0.3 * width, values[down], "x", color=colour, mew=1.6, ms=7,
+                ax.plot(pos[down] + beside, values[down], "x", color=colour, mew=1.6, ms=7,
                         label=None if fell_labelled else "thesis-like robot fell (no ring)")
                 fell_labelled = True
         if thesis and name in thesis:
             tv = np.asarray(thesis[name], float)
             ok = np.isfinite(tv)
             if ok.any():
-                ax.plot(pos[ok], tv[ok], "D", color=REF, ms=6, mec="white", mew=0.8, label=None if labelled else "thesis")
+                ax.plot(pos[ok] - beside, tv[ok], "D", color=REF, ms=6, mec="white", mew=0.8, label=None if labelled else "thesis")
                 labelled = True
         if marks and name in marks:
             for p, v, txt in zip(pos, values, marks[name]):
@@ -839,17 +859,21 @@ _CONTROLLER_NAMES = {"lqr": "LQR", "fuzzy": "fuzzy adaptive", "fuzzy-fixed": "fu
 
 
 @_styled
-def table_5_1(rows, thesis: Optional[Mapping] = None, path=None, title=None):
+def table_5_1(rows, thesis: Optional[Mapping] = None, path=None, title=None, thesis_on: str = "nominal"):
     """Table 5.1 analogue from `twip.scenarios.fuzzy.compare_table()` rows: mean |pitch error|
-    and |wheel-speed error| per controller (bars) and plant (groups), flat and slope. `thesis`
-    maps (surface, controller) to the thesis's (pitch, speed), drawn on the nominal group."""
+    and |wheel-speed error| per controller (bars) and plant (groups, a row's "case"), flat and
+    slope. `thesis` maps (surface, controller) to the thesis's (pitch, speed), drawn on the
+    group `thesis_on`."""
     fig = _figure((11, 6.4), path)
     gs = _grid(fig, 2, 2, top=0.75, bottom=0.95, hspace=0.5, wspace=0.2)
     controllers = list(dict.fromkeys(r["controller"] for r in rows))
     for i, surface in enumerate(dict.fromkeys(r["surface"] for r in rows)):
         sel = [r for r in rows if r["surface"] == surface]
         plants = list(dict.fromkeys(r["case"] for r in sel))
-        cell = {(r["case"], r["controller"]): r for r in sel}
+        given = {(r["case"], r["controller"]): r for r in sel}
+        # a controller a group did not run draws nothing there
+        cell = {(p, c): given.get((p, c), {"outcome": "completed", "pitch_error_deg": np.nan, "speed_error_deg_s": np.nan})
+                for p in plants for c in controllers}
         for j, (key, ylabel, what) in enumerate((("pitch_error_deg", r"mean $|\varphi - \varphi_s|$ [deg]", "pitch"),
                                                  ("speed_error_deg_s", r"mean $|\dot\theta - \dot\theta_\mathrm{ref}|$ [deg/s]", "wheel-speed"))):
             ax = _axes(fig, gs[i, j])
@@ -860,11 +884,12 @@ def table_5_1(rows, thesis: Optional[Mapping] = None, path=None, title=None):
                     for c in controllers}
             th = None
             if thesis:
-                th = {_CONTROLLER_NAMES.get(c, c): [thesis[(surface, c)][j] if p == "nominal" and (surface, c) in thesis
+                th = {_CONTROLLER_NAMES.get(c, c): [thesis[(surface, c)][j] if p == thesis_on and (surface, c) in thesis
                                                     else np.nan for p in plants] for c in controllers}
             robot = {_CONTROLLER_NAMES.get(c, c): [_realism_value(cell[(p, c)], key + "_realism", "outcome_realism")
                                                    for p in plants] for c in controllers}
             bars(plants, series, ax, ylabel=ylabel, thesis=th, log=True, marks=marks, robot=robot, robot_fell=fell)
+            ax.tick_params(axis="x", labelsize=8)  # six groups' names side by side
             ax.set_title(f"{surface}: mean {what} error")
     handles, labels = fig.axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(labels), frameon=False)

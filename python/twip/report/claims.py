@@ -50,7 +50,10 @@ _WHY = {
     "circle-smc-fuzzy/pitch_about_deg": ("ours leans by the ground-friction lean of (4.62), which the thesis rounds to 0",
                                          None),
     "slope-lqr/goals": ("operating-point design; the thesis's design settles ≈ 2 cm downhill of each goal (errata E7)", None),
-    "slope-fuzzy/goals": (None, "the PD's time constant kd/kp = 9 s outlasts the 5 s hold; fuzzy + ki (ours) stops within 1 cm"),
+    "slope-fuzzy/goals": (None, "not the 5 s hold: with holds of 10, 20 and 30 s the robot creeps on uphill through each hold "
+                                "(short of the far goal by 2.6, 1.0, −0.5 cm, of home coming down by −0.25, 2.6, 5.4 cm; negative: past it), by the adaptation's "
+                                "leak σ, which hands the slope load from Ŝ to the PD; with σ = 0.001 it stays 5.4–5.0 cm "
+                                "short at every hold. Fuzzy + ki (ours) stops within 1 cm"),
     "circle-pid/table_5_2": ("same size as the thesis's experiment: the PID keeps the offset its start-up leaves", None),
     "circle-smc/table_5_2": (None, "exact model: the lag closes within a lap; with a ±20 % plant the errors are the thesis's size (Table 5.2)"),
     "circle-smc-fuzzy/table_5_2": (None, "exact model: the lag closes within a lap; with a ±20 % plant the errors are the thesis's size (Table 5.2)"),
@@ -67,7 +70,7 @@ CHECKS = {
     "flat-lqr-sim/phi_s_deg": "pytest tests/test_lqr.py -k ground_frictions_lean",
     "flat-fuzzy-sim/phi_s_deg": "pytest tests/test_lqr.py -k ground_frictions_lean",
     "slope-lqr/goals": "pytest tests/test_lqr.py -k operating_design_stops",
-    "slope-fuzzy/goals": "pytest tests/test_fuzzy_control.py -k 'integral_term_stops or ki_is_tuned'",
+    "slope-fuzzy/goals": "pytest tests/test_report.py -k creeps_through_the_leak",
     "circle-smc/table_5_2": "this report's Table 5.2 (the ±20 % plants)",
     "circle-smc-fuzzy/table_5_2": "this report's Table 5.2 (the ±20 % plants)",
     "table-5.1/fuzzy-slope/speed": "this report's Table 5.1, the fuzzy + ki column of docs/scenarios.md",
@@ -115,8 +118,20 @@ DUPLICATE = {
                             "variant (f2 from the controller's model), shown for comparison",
 }
 
+#: Claims with a part that a choice of ours or the robot was fitted to: shown and judged, but
+#: not counted as predictions (basis "partly calibrated", status "calibrated").
+PARTLY_CALIBRATED = {
+    "slope-lqr/pitch_about_deg": "the going-out leg (250°/s up the slope) is the 12.5° the default robot is fitted to "
+                                 "((4.12), scripts/fit_balanbot.py); only the holding and coming-back legs are predictions",
+    "slope-fuzzy-sim/pitch_settling_time": "Γ = 0.02 was chosen so that the weights converge within the thesis's "
+                                           "≈ 1.5 s (docs/scenarios.md)",
+    "table-5.1/fuzzy-flat/speed": "Γ = 0.02 was chosen from the Γ × σ scan of docs/scenarios.md, in which this number "
+                                  "is one of the two it balances (21°/s at Γ = 0.02 against 24 at 0.005 and 17 at 0.05)",
+}
+
 #: What each basis means, and the status its rows get when it is not "prediction".
-BASES = {"prediction": None, "calibrated": "calibrated", "input, deviated": "deviated", "duplicate": "duplicate"}
+BASES = {"prediction": None, "calibrated": "calibrated", "partly calibrated": "calibrated",
+         "input, deviated": "deviated", "duplicate": "duplicate"}
 
 #: The statuses a claim can have, in the order the report counts them.
 STATUSES = ("reproduced", "differs", "not checked", "calibrated", "deviated", "duplicate")
@@ -127,6 +142,27 @@ def count(claims) -> dict:
     out = {s: sum(c["status"] == s for c in claims) for s in STATUSES}
     out["predictions"] = sum(c["basis"] == "prediction" for c in claims)
     return out
+
+
+def summary(claims) -> dict:
+    """report.json's `summary`: the predictions and how many are reproduced on the ideal plant
+    (`reproduced`, `differs`), how many of those about the thesis's experiments (`with_rig`:
+    each also run with the thesis-like robot) hold with that robot (`reproduced_with_rig`),
+    and the rows not counted (`calibrated`, `deviated`, `duplicate`)."""
+    n = count(claims)
+    rig = [c for c in claims if c["basis"] == "prediction" and "realism" in c]
+    return {"predictions": n["predictions"], "reproduced": n["reproduced"], "differs": n["differs"],
+            "not_checked": n["not checked"], "with_rig": len(rig),
+            "reproduced_with_rig": sum(bool(c["realism"].get("holds")) for c in rig),
+            "reproduced_of_with_rig": sum(c["status"] == "reproduced" for c in rig),
+            "calibrated": n["calibrated"], "deviated": n["deviated"], "duplicate": n["duplicate"]}
+
+
+def headline(s: dict) -> str:
+    """Both verdicts in one line, from a `summary`."""
+    return (f"{s['reproduced']} of {s['predictions']} predictions reproduced on the ideal plant; of the {s['with_rig']} "
+            f"about the thesis's experiments, {s['reproduced_of_with_rig']} on the ideal plant and "
+            f"{s['reproduced_with_rig']} with the thesis-like robot")
 
 
 def summary_line(claims) -> str:
@@ -190,10 +226,12 @@ def _claim(cid, source, claim, thesis, ours, unit, ok, why=None, why_ok="", why_
     status = "reproduced" if ok else "differs"
     custom = why or (None, None)
     reason = (custom[0] or why_ok) if ok else (custom[1] or why_not)
-    basis = ("calibrated" if cid in CALIBRATED else "input, deviated" if cid in DEVIATED
-             else "duplicate" if cid in DUPLICATE else "prediction")
-    if basis == "calibrated":
-        status, reason = "calibrated", CALIBRATED[cid] + ("" if ok else f"; ours still differs ({reason})")
+    basis = ("calibrated" if cid in CALIBRATED else "partly calibrated" if cid in PARTLY_CALIBRATED
+             else "input, deviated" if cid in DEVIATED else "duplicate" if cid in DUPLICATE else "prediction")
+    if basis in ("calibrated", "partly calibrated"):
+        fitted = {**CALIBRATED, **PARTLY_CALIBRATED}[cid]
+        status, reason = "calibrated", fitted + (f"; ours meets it ({reason})" if ok and basis != "calibrated" else
+                                                 "" if ok else f"; ours still differs ({reason})")
     elif basis != "prediction":
         status = BASES[basis]
         reason = {**DEVIATED, **DUPLICATE}[cid] + f" (ours {'meets' if ok else 'differs from'} it: {reason})"
@@ -438,7 +476,7 @@ def claims_for(sc, r, realism_run=None, thesis_run=None) -> List[dict]:
 
 def table_5_1_claims(rows) -> List[dict]:
     out = []
-    nominal = {(r["surface"], r["controller"]): r for r in rows if r["case"] == "nominal"}
+    nominal = {(r["surface"], r["controller"]): r for r in rows if r.get("case", "nominal") == "nominal"}
     for (surface, controller), (pitch, speed) in THESIS_TABLE_5_1.items():
         r = nominal.get((surface, controller))
         if r is None:
@@ -456,7 +494,8 @@ def table_5_1_claims(rows) -> List[dict]:
         cid = f"table-5.1/{controller}-{surface}/speed"
         out.append(_realism(_claim(cid, src, f"{name} on the {surface}: mean |wheel-speed error|",
                                    speed, r["speed_error_deg_s"], "deg/s", ok, _WHY.get(cid), "within 25 %",
-                                   "more than 25 % apart (same schedule as Figs 4.8/4.12, 5 ms loop)"),
+                                   f"more than 25 % apart (on its own experiment, {r.get('scenario', 'the go-and-back run')}, "
+                                   "5 ms loop)"),
                             real_speed, r.get("outcome_realism"), None, real_ok and _within(real_speed, speed, 0.25)))
     for surface in ("flat", "slope"):
         lqr, fuzzy = nominal.get((surface, "lqr")), nominal.get((surface, "fuzzy"))
@@ -502,26 +541,36 @@ def settles_about(thesis: float, ours: float) -> bool:
 
 
 #: How many of the runs that turn a verdict a reason names (the rest are counted).
-_MAX_NAMED = 5
+_MAX_NAMED = 2
+
+
+def _values_text(values: dict) -> str:
+    return ", ".join(f"{k} {fmt(v)}" for k, v in values.items())
 
 
 def _turning_runs(entry: dict, reproduced: bool, unit: str = "") -> str:
-    """The runs of a sensitivity `entry` in which the verdict is not the row's: ": it holds with
-    sigma 0.01 (4.014 s), …" (or the range of ours when the entry has no per-run detail)."""
-    turning = [d for d in entry.get("detail", []) if d["holds"] != reproduced]
+    """The runs of a sensitivity `entry` in which the verdict is not the row's: "; it fails at
+    k1 4, k_phi 1, … (2.72×)", the one furthest from the row's number first, or the range of
+    ours when no run turns it."""
+    detail = entry.get("detail", [])
+    turning = [d for d in detail if d["holds"] != reproduced]
     if not turning:
         return f" (ours {fmt(entry['low'])}–{fmt(entry['high'])})"
+    default = next((d["ours"] for d in detail if d.get("run") == "default"), None)
+    if default is not None:
+        turning.sort(key=lambda d: math.inf if d["ours"] is None else -abs(float(d["ours"]) - float(default)))
     unit = f" {unit}" if unit and unit != "×" else unit
-    named = ", ".join(f"{d['choice']} {d['value']} ({'fell' if d['ours'] is None else fmt(d['ours'])}"
+    named = "; ".join(f"{_values_text(d['values'])} ({'fell' if d['ours'] is None else fmt(d['ours'])}"
                       f"{'' if d['ours'] is None or isinstance(d['ours'], bool) else unit})" for d in turning[:_MAX_NAMED])
-    more = f" and {len(turning) - _MAX_NAMED} more" if len(turning) > _MAX_NAMED else ""
+    more = f" and {len(turning) - _MAX_NAMED} more run{'s' if len(turning) - _MAX_NAMED > 1 else ''}" if len(
+        turning) > _MAX_NAMED else ""
     measure = f"; ours as {entry['measure']}" if "measure" in entry else ""
-    return f": it {'fails' if reproduced else 'holds'} with {named}{more}{measure}"
+    return f": it {'fails' if reproduced else 'holds'} at {named}{more}{measure}"
 
 
 def with_sensitivity(claims: List[dict], table: dict) -> None:
     """Puts each claim's sensitivity (report.sensitivity) on its row; a conclusion that does
-    not hold over the whole range says so in its reason, naming the runs that turn it."""
+    not hold over the whole joint box says so in its reason, naming the runs that turn it."""
     for c in claims:
         entry = table.get(c["id"])
         if entry is None:
@@ -530,9 +579,10 @@ def with_sensitivity(claims: List[dict], table: dict) -> None:
         share = entry["holds"]
         if share is None or c["status"] not in ("reproduced", "differs"):
             continue
-        if (c["status"] == "reproduced" and share < 1) or (c["status"] == "differs" and share > 0):
-            c["reason"] += (f"; holds in {share:.0%} of the runs over choices the thesis does not give"
-                            + _turning_runs(entry, c["status"] == "reproduced", c["unit"]))
+        reproduced = c["status"] == "reproduced"
+        if any(d["holds"] != reproduced for d in entry.get("detail", [])):
+            c["reason"] += (f"; holds in {share:.0%} of {entry['runs']} runs sampled jointly over the choices the thesis "
+                            "does not give (the default counted)" + _turning_runs(entry, reproduced, c["unit"]))
 
 
 def table_5_2_claims(rows, thesis_rows) -> List[dict]:
@@ -546,8 +596,9 @@ def table_5_2_claims(rows, thesis_rows) -> List[dict]:
     row = _claim("table-5.2/smc-beats-pid", "Table 5.2",
                  "sliding mode (fuzzy) much better than PID: PID error / sliding-mode error, the thesis's λ1 (4.74)",
                  thesis_ratio, ratio, "×", ratio >= 2.0, None, "at least 2× better",
-                 "less than 2× better: λ1 = −k_φ φ aims at upright while the moving robot leans φ_s, which leaves "
-                 "the sliding-mode tracker a steady lag")
+                 "less than 2× better with twip's k1 = k2 = 2, k3 = 4, k_φ = 2, which the thesis does not publish (errata "
+                 "T4), so the verdict depends on unpublished gains: λ1 = −k_φ φ aims at upright while the moving robot "
+                 "leans φ_s, which leaves the sliding-mode tracker a steady lag")
     row["reason"] += (f" (mean of |x|, |y| errors over the plants {plants}); with twip's correction T8 (λ1 aimed at "
                       f"φ_s, docs/errata.md) it holds: ratio {sig(corrected)}")
     row["corrected"] = {"ours": sig(corrected), "holds": bool(corrected >= 2.0)}

@@ -13,12 +13,13 @@ from typing import Any, Callable, Dict, List, Optional
 import twip
 from twip import scenarios
 from twip.plot import metric_unit
-from twip.report import sensitivity
-from twip.report.claims import (RUN_KEYS, SETTLING, THESIS_TABLE_5_1, claims_for, judge, measure, pid_over_smc, summary_line,
-                                 table_5_1_claims, table_5_1_holds, table_5_2_claims, with_sensitivity,
+from twip.report import experiments, sensitivity
+from twip.report.claims import (RUN_KEYS, SETTLING, THESIS_TABLE_5_1, claims_for, headline, judge, measure, pid_over_smc,
+                                 summary as claims_summary, summary_line, table_5_1_claims, table_5_1_holds, table_5_2_claims, with_sensitivity,
                                  with_thesis_lambda1)
 from twip.report.markdown import render_markdown
 from twip.report.numbers import dec, jsonable, sig
+from twip.report.rig import rig_check, rig_summary
 from twip.report.sweeps import fall_maps, robustness_sweeps
 from twip.scenarios import is_planar
 from twip.scenarios.tracking import THESIS_TABLE_5_2
@@ -105,7 +106,8 @@ def jobs_default() -> int:
 
 
 def _run_scenarios(quick: bool, steps: Steps):
-    """Every scenario, in the thesis's order: (runs, claims, summary)."""
+    """Every scenario, in the thesis's order: (runs, claims, summary, the experiments' runs with
+    the thesis-like robot)."""
     summary: Dict[str, Any] = {}
     built = []
     for name in scenarios.names():
@@ -115,6 +117,7 @@ def _run_scenarios(quick: bool, steps: Steps):
             summary[name] = {"error": str(e)}
             steps.done(f"scenario {name}: FAILED to build ({e})", 0.0)
     runs: Dict[str, Any] = {}
+    rig: Dict[str, Any] = {}
     claims: List[dict] = []
     for sc in sorted(built, key=figure_key):
         t0 = time.perf_counter()
@@ -128,6 +131,8 @@ def _run_scenarios(quick: bool, steps: Steps):
         # The thesis's experiments (not its "-sim" runs) also with the thesis-like robot in the loop.
         real = None if sc.name.endswith("-sim") else sc.run(realism=twip.Realism.thesis_like(),
                                                             record_every=10 if is_planar(sc) else 1)
+        if real is not None:
+            rig[sc.name] = real
         # Where twip holds at a goal and the thesis turns at once, the stop also with the thesis's hold.
         own = None
         if "thesis_hold" in sc.thesis:
@@ -141,22 +146,35 @@ def _run_scenarios(quick: bool, steps: Steps):
             "units": {k: metric_unit(k)[2] for k in r.metrics},
         }
         steps.done(f"scenario {sc.name} ({r.outcome}, {r.steps:,} steps)", time.perf_counter() - t0)
-    return runs, claims, summary
+    return runs, claims, summary, rig
 
 
-def _scenario_figures(runs: dict, quick: bool, steps: Steps, figures: Figures) -> None:
-    """One figure per thesis figure; a tracker also gets its path on the ±20 % plants."""
+#: How a figure of the thesis's experiment is labelled: ours are simulations, of the ideal
+#: plant and of the thesis-like robot (`rig`).
+RIG_LABEL = "thesis-like robot (simulated)"
+
+
+def _analogue(fig_no: str, experiment: bool) -> str:
+    what = "simulation of the experiment: ideal plant and thesis-like robot" if experiment else "simulation"
+    return f"Fig {fig_no} analogue ({what})"
+
+
+def _scenario_figures(runs: dict, rig: dict, quick: bool, steps: Steps, figures: Figures) -> None:
+    """One figure per thesis figure, an experiment's with the thesis-like robot's run beside
+    the ideal plant's; a tracker also gets its path on the ±20 % plants."""
     from twip import plot
     from twip.scenarios import tracking as tracking_sc
 
     for name, (sc, r) in runs.items():
         fig_no = str(sc.thesis.get("figure", "")) or "x"
+        beside = (RIG_LABEL, rig[name]) if name in rig else None
+        head = _analogue(fig_no, beside is not None)
         if not is_planar(sc):
-            figures.add(f"fig{fig_no}_{name}.png", f"Fig {fig_no} analogue: {sc.description}",
-                        lambda p, sc=sc, r=r, fig_no=fig_no: plot.timeseries(
-                            r, scenario=sc, path=p, title=f"Fig {fig_no} analogue: {sc.name}\n{sc.description}"))
+            figures.add(f"fig{fig_no}_{name}.png", f"{head}: {sc.description}",
+                        lambda p, sc=sc, r=r, head=head, beside=beside: plot.timeseries(
+                            r, scenario=sc, path=p, beside=beside, title=f"{head}: {sc.name}\n{sc.description}"))
             continue
-        paths = {"plant = controller's model": r}
+        paths = {"plant = controller's model": r, **({RIG_LABEL: rig[name]} if name in rig else {})}
         t0 = time.perf_counter()
         nominal = sc.model.params
         for label, factor in (("plant +20 %", 1.2), ("plant −20 %", 0.8)):
@@ -165,29 +183,43 @@ def _scenario_figures(runs: dict, quick: bool, steps: Steps, figures: Figures) -
             paths[label] = other.run(record_every=10)
         steps.done(f"scenario {name}: ±20 % plants for the path figure", time.perf_counter() - t0)
         companion = _COMPANION.get(fig_no)
-        figures.add(f"fig{fig_no}_{name}.png", f"Fig {fig_no} analogue: the path of {name} (nominal and ±20 % plants)",
-                    lambda p, sc=sc, paths=paths, fig_no=fig_no: plot.paths(
+        experiment = name in rig and fig_no != "4.16"  # Figs 4.16/4.18 are the thesis's simulation
+        head = _analogue(fig_no, experiment)
+        figures.add(f"fig{fig_no}_{name}.png", f"{head}: the path of {name} (nominal and ±20 % plants"
+                    f"{', thesis-like robot' if name in rig else ''})",
+                    lambda p, sc=sc, paths=paths, head=head: plot.paths(
                         paths, trajectory=sc.reference, path=p,
-                        title=f"Fig {fig_no} analogue: {sc.name}, nominal and ±20 % plants\n{sc.description}"))
+                        title=f"{head}: {sc.name}, nominal and ±20 % plants\n{sc.description}"))
         ts_name = f"fig{companion}_{name}.png" if companion else f"fig{fig_no}_{name}_signals.png"
-        figures.add(ts_name, f"Fig {companion or fig_no} analogue: {name}'s pitch, speed, yaw rate, torques and internals",
-                    lambda p, sc=sc, r=r, c=companion or fig_no, f=fig_no: plot.tracking(
-                        r, scenario=sc, path=p, show_path=True,
-                        title=f"Fig {c} analogue: {sc.name}, the signals of Fig {f}'s run\n{sc.description}"))
+        ts_head = _analogue(companion or fig_no, experiment)
+        figures.add(ts_name, f"{ts_head}: {name}'s pitch, speed, yaw rate, torques and internals",
+                    lambda p, sc=sc, r=r, h=ts_head, f=fig_no, beside=beside: plot.tracking(
+                        r, scenario=sc, path=p, show_path=True, beside=beside,
+                        title=f"{h}: {sc.name}, the signals of Fig {f}'s run\n{sc.description}"))
 
 
-def _table_5_1(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) -> List[dict]:
+def _table_5_1(quick: bool, steps: Steps, figures: Figures, claims: List[dict]):
+    """(each controller on its own experiment, the analogue on one schedule): rows for report.json."""
     from twip import plot
     from twip.scenarios import fuzzy as fuzzy_sc
 
     cases = ("nominal", "all +20 %") if quick else None
-    rows = steps.attempt("Table 5.1: LQR vs fuzzy, nominal and wrong plants", fuzzy_sc.compare_table, cases=cases,
-                         controllers=("lqr", "fuzzy", "fuzzy-fixed"), realism=twip.Realism.thesis_like()) or []
-    claims.extend(table_5_1_claims(rows))
-    if rows:
-        figures.add("table5.1.png", "Table 5.1 analogue: mean |pitch error| and |speed error| per controller and plant",
-                    lambda p: plot.table_5_1(rows, thesis=THESIS_TABLE_5_1, path=p))
-    return [{"surface": r["surface"], "plant": r["case"], "controller": r["controller"], "outcome": r["outcome"],
+    rows = steps.attempt("Table 5.1 analogue: LQR vs fuzzy on one schedule, nominal and wrong plants",
+                         fuzzy_sc.compare_table, cases=cases, controllers=("lqr", "fuzzy", "fuzzy-fixed")) or []
+    # The claims: each controller on its own experiment, as the thesis measured its rows.
+    own = steps.attempt("Table 5.1: each controller on its own experiment", experiments.table_5_1_rows,
+                        twip.Realism.thesis_like()) or []
+    claims.extend(table_5_1_claims(own))
+    if rows or own:
+        drawn = [{**r, "case": "own\nexperiment"} for r in own] + rows
+        figures.add("table5.1.png", "Table 5.1: mean |pitch error| and |speed error|, each controller on its own experiment "
+                    "(the thesis's rows, with the thesis-like robot) and, for comparison, every controller on the fuzzy "
+                    "experiments' schedule with nominal and wrong plants (simulations)",
+                    lambda p: plot.table_5_1(drawn, thesis=THESIS_TABLE_5_1, path=p, thesis_on="own\nexperiment", title=(
+                        "Table 5.1 (simulations): 'own experiment' is each controller's own run (LQR: Figs 4.3/4.10, fuzzy: "
+                        "Figs 4.8/4.12),\nthe other groups the fuzzy runs' schedule for every controller, plant changed "
+                        "(diamonds: thesis; rings: thesis-like robot; log scale)")))
+    return own, [{"surface": r["surface"], "plant": r["case"], "controller": r["controller"], "outcome": r["outcome"],
              "pitch_error_deg": dec(r["pitch_error_deg"], 3), "speed_error_deg_s": dec(r["speed_error_deg_s"], 1),
              "stop_far_cm": dec(r["stop_far_cm"], 1), "stop_home_cm": dec(r["stop_home_cm"], 1),
              **({"outcome_realism": r["outcome_realism"],
@@ -208,10 +240,16 @@ def _table_5_2(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) 
     if rows and thesis_rows:
         with_thesis_lambda1(claims, thesis_rows)
         claims.extend(table_5_2_claims(rows, thesis_rows))
-    if rows:
-        figures.add("table5.2.png", "Table 5.2 analogue: mean |x − x_r|, |y − y_r| per tracker and plant, the "
-                    "thesis's rows as lines (PID: its experiment; sliding mode: simulation or experiment, not stated)",
-                    lambda p: plot.table_5_2(rows, thesis=THESIS_TABLE_5_2, path=p))
+    if rows and thesis_rows:
+        # The verdict is the thesis's λ1's: its runs first, twip's correction T8 beside them.
+        drawn = thesis_rows + [{**r, "controller": f"{r['controller']} (λ1 corrected, T8)"} for r in rows
+                               if r["controller"] != "circle-pid"]
+        figures.add("table5.2.png", "Table 5.2 (simulations): mean |x − x_r|, |y − y_r| per tracker and plant with the "
+                    "thesis's λ1 (4.74), which decides the row, and the sliding-mode trackers with twip's correction T8; "
+                    "the thesis's rows as lines (PID: its experiment; sliding mode: simulation or experiment, not stated)",
+                    lambda p: plot.table_5_2(drawn, thesis=THESIS_TABLE_5_2, path=p, title=(
+                        "Table 5.2 (simulations): the trackers with the thesis's λ1 (4.74), and the sliding-mode ones with "
+                        "twip's λ1 (T8);\nk1–k3 and k_φ are twip's (unpublished); rings: thesis-like robot; log scale")))
     return [{"controller": r["controller"], "plant": r["plant"], "outcome": r["outcome"],
              "x_cm": dec(100 * r["x"], 2), "y_cm": dec(100 * r["y"], 2),
              "x_settled_cm": dec(100 * r["x_settled"], 2), "y_settled_cm": dec(100 * r["y_settled"], 2),
@@ -223,12 +261,12 @@ def _table_5_2(quick: bool, steps: Steps, figures: Figures, claims: List[dict]) 
 def _sensitivity(quick: bool, steps: Steps, claims: List[dict]) -> None:
     """Reruns the claims that rest on unpublished choices over those choices (report.sensitivity)."""
     table: dict = {}
-    table.update(steps.attempt("sensitivity: Table 5.1 over the windows, loop period and friction", sensitivity.table_5_1,
+    table.update(steps.attempt("sensitivity: Table 5.1's experiments over their joint choices", sensitivity.table_5_1,
                                table_5_1_holds, quick) or {})
-    table.update(steps.attempt("sensitivity: every scenario's runs over the choices they depend on",
+    table.update(steps.attempt("sensitivity: every scenario's claims over its joint choices",
                                sensitivity.scenario_claims, judge, measure, RUN_KEYS, quick, SETTLING) or {})
-    table.update(steps.attempt("sensitivity: Table 5.2's conclusion over k1-k3, k_φ and friction", sensitivity.smc_versus_pid,
-                               pid_over_smc, 2 if quick else 3) or {})
+    table.update(steps.attempt("sensitivity: Table 5.2's conclusion over k1-k3, k_φ, loop and friction",
+                               sensitivity.smc_versus_pid, pid_over_smc, 2 if quick else 3, quick) or {})
     with_sensitivity(claims, table)
 
 
@@ -278,9 +316,9 @@ def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, 
     if not quiet:
         print(f"twip {twip.__version__}: reproducing the thesis into {out}/ ({mode}; RobotParams.balanbot())", flush=True)
     figures = Figures(out, fmt)
-    runs, claims, summary = _run_scenarios(quick, steps)
-    _scenario_figures(runs, quick, steps, figures)
-    table_5_1 = _table_5_1(quick, steps, figures, claims)
+    runs, claims, summary, rig = _run_scenarios(quick, steps)
+    _scenario_figures(runs, rig, quick, steps, figures)
+    table_5_1_own, table_5_1 = _table_5_1(quick, steps, figures, claims)
     table_5_2 = _table_5_2(quick, steps, figures, claims)
     _sensitivity(quick, steps, claims)
     sweeps = robustness_sweeps(runs, quick, steps, figures, controller_family, quick_options)
@@ -288,15 +326,19 @@ def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, 
     if animations:
         _animations(runs, quick, figures)
     render(figures.jobs, jobs, steps, dpi=dpi if dpi is not None else (60 if quick else None))  # quick: smaller, faster
+    rig_rows = rig_check(claims)
     report = {
         "twip": twip.__version__, "mode": mode, "robot": twip.RobotParams.balanbot().to_dict(),
-        "claims": claims, "scenarios": summary, "table_5_1": table_5_1, "table_5_2": table_5_2,
+        "summary": {**claims_summary(claims), "rig": rig_summary(rig_rows)}, "claims": claims, "rig_check": rig_rows, "scenarios": summary, "table_5_1": table_5_1,
+        "table_5_1_experiments": [{k: (dec(v, 3) if isinstance(v, float) else v) for k, v in r.items()} for r in table_5_1_own],
+        "table_5_2": table_5_2,
         "sweeps": sweeps, "fall_maps": basins, "figures": figures.captions,
     }
     report = _write_reports(out, report, steps)
     if not quiet:
         total = time.perf_counter() - steps.started
-        print(f"done in {total:.1f} s: {len(claims)} claims ({summary_line(claims)}); see {out}/report.md")
+        print(f"done in {total:.1f} s: {len(claims)} claims ({summary_line(claims)}); {headline(report['summary'])}; "
+              f"see {out}/report.md")
     return report
 
 

@@ -63,7 +63,9 @@ def _smc(params, ctrl_params, fuzzy, laps, period, boundary_layer, pitch_offset,
                                pitch_offset=pitch_offset, period=period, **options)
     return Scenario(
         name=name,
-        description=f"{what} tracker, published gains, r = 0.45 m at pi/30 m/s, pi/13.5 rad/s (thesis 4.3.2, Fig 4.16)",
+        description=(f"{what} tracker: the published switching and yaw gains with twip's k1-k3, k_phi"
+                     f"{', Gamma' if fuzzy else ''} and lambda1 aimed at phi_s (errata T4, T8), r = 0.45 m at pi/30 m/s, "
+                     "pi/13.5 rad/s (thesis 4.3.2, Fig 4.16)"),
         model=_core.PlanarModel(params),
         controller=tracker,
         x0=np.zeros(7),
@@ -97,7 +99,8 @@ def mismatched(params, factor: float):
 
 
 def compare(params=None, mismatch: float = 0.2, laps: int = 3, dt: float = 1e-3, realism=None,
-            pitch_offset: bool = True, smc_gains: Optional[dict] = None, friction=None) -> list:
+            pitch_offset: bool = True, smc_gains: Optional[dict] = None, friction=None, period: float = 0.005,
+            trackers=("circle-pid", "circle-smc", "circle-smc-fuzzy")) -> list:
     """Table 5.2's analogue: mean |x - x_r|, |y - y_r| of each tracker on its circle, with the
     plant as the controllers assume it and with every MISMATCH_FIELDS entry of the plant
     +mismatch and -mismatch off (the controllers keep the nominal robot). One dict per run;
@@ -106,15 +109,16 @@ def compare(params=None, mismatch: float = 0.2, laps: int = 3, dt: float = 1e-3,
     "x_realism" and "y_realism". `pitch_offset=False` gives the sliding-mode trackers the
     thesis's λ1 of (4.74) instead of twip's pitch offset (errata T8); `smc_gains` overrides
     some of their gains (SmcTracker's `gains`); `friction` (a twip.Friction) puts gearhead
-    friction on the plants."""
+    friction on the plants; `period` [s] is every tracker's loop period; `trackers`: which of the
+    three to run."""
     nominal = params if params is not None else _core.RobotParams.balanbot()
     rows = []
     cases = [("nominal", 1.0), (f"+{mismatch:.0%}", 1.0 + mismatch), (f"-{mismatch:.0%}", 1.0 - mismatch)]
     for label, factor in cases:
         plant = mismatched(nominal, factor)
-        for name in ("circle-pid", "circle-smc", "circle-smc-fuzzy"):
+        for name in trackers:
             options = {} if name == "circle-pid" else {"pitch_offset": pitch_offset, "gains": smc_gains}
-            sc = get(name, params=plant, controller_params=nominal, laps=laps, **options)
+            sc = get(name, params=plant, controller_params=nominal, laps=laps, period=period, **options)
             if friction is not None:
                 sc = sc.replace(model=_core.PlanarModel(plant, friction))
             r = sc.run(dt=dt, record_every=1000)
