@@ -1,5 +1,6 @@
 """The thesis's claims, one row each, beside our number: Tables 5.1 and 5.2 are defined here
-and nowhere else."""
+and nowhere else. One file because the claims are one list in the report's order, whose rows
+share the tables' helpers; split by section, each part would import the others'."""
 from __future__ import annotations
 
 import math

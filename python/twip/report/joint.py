@@ -9,7 +9,6 @@ from dataclasses import dataclass
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
-from scipy.stats import qmc
 
 from twip.report.numbers import sig
 
@@ -76,6 +75,8 @@ def sample(box: Box, n: int, seed: int) -> List[dict]:
     names = list(box)
     points = [{k: box[k].default for k in names}]
     if n > 0:
+        from scipy.stats import qmc  # on use: `twip --help` imports the report's defaults only
+
         unit = qmc.Sobol(len(names), scramble=True, seed=seed).random(n)
         points += [{k: box[k].at(float(u)) for k, u in zip(names, row)} for row in unit]
     return points
