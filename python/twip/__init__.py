@@ -51,13 +51,14 @@ from twip.kernel_copies import apply_environment as _apply_kernel_copy_environme
 from twip.kernel_copies import use_kernel_copy
 from twip.robot_file import Robot
 from twip.sim import SimResult, simulate
-from twip.sysid import Fit, RunLog, identify
+from twip.sysid import Fit, RunLog, SysidMisfitWarning, identify
 from twip.sweep import Normal, SweepResult, Uniform, montecarlo, wilson_interval
 
 __all__ = [
     "Fit",
     "RunLog",
     "identify",
+    "SysidMisfitWarning",
     "Circle",
     "ConvergenceError",
     "DcMotor",
