@@ -132,8 +132,9 @@ def test_identify_the_rig_and_the_robot_file_agree_on_the_driver(tmp_path):
     """A Balanbot rig log fitted with `RobotParams.balanbot()` got `MotorDriver()` (no bridge
     drop) while the rig's driver has 2 V: mu_bearing +371 % with a 0.2 % standard deviation.
     Now identify's default is the rig's driver, and the fit says which it assumed; a wrong
-    driver given on purpose is a misfit. (On the user's robot, 8 s, `MotorDriver()` for its thesis-like driver: mu_bearing +442 %, the
-    encoder's residual 270x as correlated as its noise; not converged.)"""
+    driver given on purpose is flagged. (On the user's robot, 8 s, `MotorDriver()` for its
+    thesis-like driver: mu_bearing +442 %, the encoder's residual 270x as correlated as its
+    noise; not converged.)"""
     truth = twip.RobotParams.balanbot()
     log, rig = rig_log(4.0, robot=truth, driver=twip.MotorDriver.thesis_like())
     fit, caught = quiet_identify(log, truth.replace(mu_bearing=truth.mu_bearing * 0.8), ["mu_bearing", "m_body"],

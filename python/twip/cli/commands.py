@@ -283,7 +283,7 @@ def identify(args) -> int:
                                                      sample_rate=args.imu_rate, gyro_bias_walk=walk)
     sensors = sysid.Sensors(encoder_cpr=args.encoder_cpr, imu_height=args.imu_height, imu=imu)
     fit = sysid.identify(log, robot, free, segment=args.segment, driver=start.driver if start else None,
-                         friction=identify_friction(args, robot), sensors=sensors, signals=signals)
+                         friction=identify_friction(args), sensors=sensors, signals=signals)
     print(f"twip identify {args.log}: {len(log)} samples over {log.t[-1] - log.t[0]:.3g} s; "
           f"signals {', '.join(fit.rms)}")
     print(fit.summary())
@@ -304,7 +304,7 @@ def identify(args) -> int:
     return 0 if trusted else 1
 
 
-def identify_friction(args, robot):
+def identify_friction(args):
     """The gearhead friction of --friction and --friction-*, or None."""
     law = twip.Realism.thesis_like().friction if args.friction else None
     if args.friction_coulomb is None:
