@@ -61,7 +61,7 @@ def test_a_fit_without_the_imus_filter_warns_and_with_it_is_quiet_and_within_1_5
     log, rig = rig_log(8.0)
     blind, caught = quiet_identify(log, START, FREE, driver=DRIVER, sensors=Sensors(imu_height=rig.imu.height))
     assert blind.misfits and caught, blind.summary()
-    assert "MISFIT" in blind.summary() and blind.warnings == blind.misfits
+    assert "MISFIT" in blind.summary() and set(blind.misfits) <= set(blind.warnings)
     fit, caught = quiet_identify(log, START, FREE, driver=DRIVER, sensors=Sensors.of(rig))
     assert fit.converged and not fit.warnings and not caught, fit.summary()
     assert max(abs(e) for e in errors(fit).values()) < 0.015, errors(fit)
@@ -80,8 +80,8 @@ def test_a_log_at_the_loop_period_replays_the_filter_at_the_imus_rate():
     blind, caught = quiet_identify(slow, START, FREE, driver=DRIVER, sensors=Sensors(imu_height=rig.imu.height))
     assert blind.warnings and caught, blind.summary()
     # An interval that is not a whole number of the IMU's samples is refused, named.
-    with pytest.raises(LogError, match=r"t: the interval after row 0 \(0.005 s, from t = 0.0\) is 2.2 of the IMU"):
-        identify(slow, START, FREE, driver=DRIVER, sensors=Sensors(imu=rig.imu.replace(sample_rate=440.0)))
+    with pytest.raises(LogError, match=r"t: the interval after row 0 \(0.005 s, from t = 0.0\) is 2.3 of the IMU"):
+        identify(slow, START, FREE, driver=DRIVER, sensors=Sensors(imu=rig.imu.replace(sample_rate=460.0)))
 
 
 def test_the_full_rig_with_friction_declared_from_the_command_line(tmp_path, capsys):
