@@ -38,10 +38,82 @@ def logs():
             "thesis-like rig, raw sensors": (raw, {"driver": realism.motor, "sensors": Sensors.of(realism)})}
 
 
+#: Robots not the Balanbot, for --accuracy: (params, driver). "user": the issue's 1.8 kg body,
+#: 0.12 m centre of mass, 40 mm wheels, 30:1 motor, 3 A driver; "tall": 3 kg, 0.2 m, 100 mm
+#: wheels, 50:1, 2.5 A.
+ROBOTS = {
+    "user": (dict(m_body=1.8, m_wheels=0.1, i_body=0.0135, i_wheels=2e-5, i_motor=3e-6, gear_ratio=30.0,
+                  torque_constant=0.012, wheel_radius=0.02, com_height=0.12, mu_bearing=0.008, mu_ground=0.002),
+             dict(current_limit=3.0)),
+    "tall": (dict(m_body=3.0, m_wheels=0.3, i_body=0.04, i_wheels=3.75e-4, i_motor=5e-6, gear_ratio=50.0,
+                  torque_constant=0.015, wheel_radius=0.05, com_height=0.2, mu_bearing=0.02, mu_ground=0.005),
+             dict(current_limit=2.5)),
+}
+#: The start of every fit: each free parameter 20 % off (alternately high and low).
+START = {"m_body": 1.2, "com_height": 0.8, "i_body": 1.25, "mu_bearing": 0.85}
+
+
+def rig_log(robot, driver, seconds=8.0, friction=False, seed=0):
+    """The thesis-like rig (its sensors, 5 ms loop, the given driver) running flat-lqr with
+    `robot` under its own LQR; with `friction`, the gearheads' friction and backlash too."""
+    rig = twip.Realism.thesis_like(seed=seed).replace(motor=driver)
+    if not friction:
+        rig = rig.replace(friction=None, backlash=None)
+    sc = twip.scenarios.get("flat-lqr", params=robot, controller_params=robot)
+    run = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], seconds, dt=1e-3, reference=sc.reference, realism=rig)
+    assert run.outcome == "completed", run.outcome
+    return run.to_log(), rig
+
+
+def every(log, k):
+    """The log as a firmware logs it every k-th millisecond (the loop's rows)."""
+    return twip.RunLog(log.t[::k], slope=log.slope, **{n: v[::k] for n, v in log.signals().items()})
+
+
+def accuracy():
+    """Largest relative error of the four parameters on rig logs of robots other than the
+    Balanbot, each case with what the fit declares, and whether it warned."""
+    import warnings
+
+    base = twip.RobotParams.balanbot()
+    for name, (fields, driver_changes) in ROBOTS.items():
+        robot = base.replace(**fields)
+        driver = twip.MotorDriver.thesis_like().replace(**driver_changes)
+        start = robot.replace(**{n: getattr(robot, n) * f for n, f in START.items()})
+        clean, rig = rig_log(robot, driver)
+        full, full_rig = rig_log(robot, driver, friction=True)
+        sensors = Sensors.of(rig)
+        cases = [
+            ("1 kHz, sensors declared", clean, dict(sensors=sensors), FREE),
+            ("1 kHz, filter not declared", clean, dict(sensors=Sensors(imu_height=rig.imu.height)), FREE),
+            ("5 ms log, sensors declared", every(clean, 5), dict(sensors=sensors), FREE),
+            ("5 ms log, filter not declared", every(clean, 5), dict(sensors=Sensors(imu_height=rig.imu.height)), FREE),
+            ("full rig, friction declared", full, dict(sensors=sensors, friction=full_rig.friction), FREE + ["coulomb"]),
+            ("full rig, plain", full, dict(sensors=sensors), FREE),
+            ("1 kHz, driver not given", clean, dict(sensors=sensors, driver=twip.MotorDriver()), FREE),
+        ]
+        for case, log, options, free in cases:
+            options.setdefault("driver", driver)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                fit = identify(log, start, free, **options)
+            errors = {n: fit.values[n] / getattr(robot, n) - 1 for n in FREE}
+            worst = max(errors, key=lambda n: abs(errors[n]))
+            flagged = "warned" if fit.warnings else "quiet"
+            print(f"  {name:<5} {case:<32} largest error {worst} {errors[worst]:+.2%}  "
+                  f"({', '.join(f'{n} {e:+.2%}' for n, e in errors.items())}); {flagged}"
+                  f"{' (' + str(len(caught)) + ' warnings)' if caught else ''}", flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--accuracy", action="store_true",
+                    help="instead of timing: the fits' errors on rig logs of two robots other than the Balanbot")
     args = ap.parse_args()
+    if args.accuracy:
+        accuracy()
+        return
     print(f"twip.identify, 4 parameters, 12 s at 1 kHz; median (min-max) of {args.repeats} fits")
     for name, (log, options) in logs().items():
         fit = identify(log, twip.RobotParams.balanbot(), FREE, **options)  # warm-up

@@ -417,8 +417,11 @@ def test_bad_input_is_named(tmp_path):
     path.write_text("t,u,phi\n0,0,0\n0.001,0,x\n")
     with pytest.raises(LogError, match=r"column 'phi', row 3: 'x' is not a number"):
         RunLog.from_csv(path)
-    with pytest.raises(LogError, match="no 't' column"):
+    with pytest.raises(LogError, match="columns 't' and 'u' are both read as 'u'"):
         RunLog.from_csv(path, columns={"t": "u"})
+    path.write_text("time,u\n0,0\n")
+    with pytest.raises(LogError, match="no 't' column"):
+        RunLog.from_csv(path)
 
 
 def test_cli_replays_the_imus_filter_on_raw_register_columns(tmp_path, capsys, monkeypatch):

@@ -52,7 +52,7 @@ from twip.kernel_copies import use_kernel_copy
 from twip.robot_file import Robot
 from twip.sim import SimResult, simulate
 # Identification (scipy) loads on first use: `twip --help` and `import twip` stay quick.
-_LAZY = {"Fit": "twip.sysid", "RunLog": "twip.sysid", "identify": "twip.sysid"}
+_LAZY = {name: "twip.sysid" for name in ("Fit", "RunLog", "SysidMisfitWarning", "identify")}
 
 
 def __getattr__(name):
@@ -72,6 +72,7 @@ __all__ = [
     "Fit",
     "RunLog",
     "identify",
+    "SysidMisfitWarning",
     "Circle",
     "ControllerFailedError",
     "ConvergenceError",

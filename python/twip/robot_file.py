@@ -12,11 +12,11 @@ robot assumes (`twip.scenarios.robot_options`). The plant takes the torque const
 [robot]; [motor] sets the winding's resistance and the trackers' motor (a warning says when
 the sheet's torque constant differs by more than 2 %). Without a [driver] table the driver
 is `MotorDriver.thesis_like()`'s (the L298's drop, 1 mH, 2 A) with the sheet's resistance;
-a [driver] table starts from `MotorDriver()` (no drop, inductance or limit) and sets what it
-names. [sensors] sets the rig's encoder and IMU height (`Robot.realism()`) and what `twip
-export` converts firmware units with and maps the IMU's axes by; without it both are the
-Balanbot's (700 counts per turn, 0.12 m, x forward, z up, y the pitch axis), and the export
-says so. `twip robot init FILE` writes the default robot, commented.
+a [driver] table starts from the same driver (as the rig and `twip.identify` do) and sets what
+it names (current_limit = 0: none). [sensors] sets the rig's encoder and IMU height
+(`Robot.realism()`) and what `twip export` converts firmware units with and maps the IMU's axes
+by; without it both are the Balanbot's (700 counts per turn, 0.12 m, x forward, z up, y the
+pitch axis), and the export says so. `twip robot init FILE` writes the default robot, commented.
 Errors name the file, the key and its line.
 """
 from __future__ import annotations
@@ -67,7 +67,7 @@ MOTOR: Dict[str, Tuple[str, str]] = {
 DRIVER: Dict[str, Tuple[str, str]] = {
     "battery": ("V", "battery voltage"),
     "bridge_drop": ("V", "H-bridge drop, source + sink"),
-    "current_limit": ("A", "current limit per motor (0 or absent: none)"),
+    "current_limit": ("A", "current limit per motor (0: none; absent: the thesis-like 2 A)"),
     "inductance": ("H", "winding inductance"),
 }
 
@@ -241,7 +241,7 @@ def load(path) -> Robot:
         if motor is not None:
             settings["resistance"] = motor.resistance
         try:
-            driver = _core.MotorDriver(**settings)
+            driver = _core.MotorDriver.thesis_like().replace(**settings)
         except _core.InvalidParameterError as e:
             raise _core_error(path, text, "driver", DRIVER, e) from None
     elif motor is not None:

@@ -207,7 +207,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--gyro-bias-walk", type=positive_float, metavar="DPS",
                    help="the gyroscope's bias random walk [deg/s/sqrt(s)] with --imu-dlpf, which the intervals "
                         "take in (default: none)")
-    p.add_argument("--out", metavar="FILE", help="write the fitted robot as a robot file (TOML)")
+    p.add_argument("--friction", choices=("thesis-like",), help="the gearheads' friction law to start from: "
+                   "thesis-like is the rig's (Realism.thesis_like().friction); free its level with --free ...,coulomb")
+    p.add_argument("--friction-coulomb", type=positive_float, metavar="NM", help="the gearhead's Coulomb friction "
+                   "per wheel [N m] (with --friction: its level, the breakaway scaled with it)")
+    p.add_argument("--friction-breakaway", type=positive_float, metavar="NM",
+                   help="the static (breakaway) torque per wheel [N m] (default: the law's, else the Coulomb level)")
+    p.add_argument("--friction-stick", type=positive_float, metavar="RAD/S",
+                   help="the stick band's half-width [rad/s] (default: the law's, else none)")
+    p.add_argument("--out", metavar="FILE", help="write the fitted robot as a robot file (TOML); not for a fit that "
+                   "did not converge or does not explain the log, unless --force")
+    p.add_argument("--force", action="store_true", help="write --out even when the fit did not converge or misfits")
     p.add_argument("--plot", metavar="FILE", help="draw measured against predicted signals and residuals")
     p.set_defaults(func=_command("identify"))
 

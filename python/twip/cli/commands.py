@@ -297,18 +297,39 @@ def identify(args) -> int:
                                                      sample_rate=args.imu_rate, gyro_bias_walk=walk)
     sensors = sysid.Sensors(encoder_cpr=args.encoder_cpr, imu_height=args.imu_height, imu=imu)
     fit = sysid.identify(log, robot, free, segment=args.segment, driver=start.driver if start else None,
-                         sensors=sensors, signals=signals)
+                         friction=identify_friction(args), sensors=sensors, signals=signals)
     print(f"twip identify {args.log}: {len(log)} samples over {log.t[-1] - log.t[0]:.3g} s; "
           f"signals {', '.join(fit.rms)}")
     print(fit.summary())
-    if args.out:
+    trusted = fit.converged and not fit.misfits
+    if args.out and not (trusted or args.force):
+        why = "did not converge" if not fit.converged else "does not explain the log (MISFIT above)"
+        print(f"twip identify: not writing {args.out}: the fit {why}; --force writes it anyway", file=sys.stderr)
+    elif args.out:
         tables = tomllib.loads(Path(args.robot).read_text()) if args.robot else {}
-        driver = dict(tables.get("driver", {}))
-        if fit.driver is not None and start is not None and start.driver is not None:
+        driver = dict(tables.get("driver", {})) or (robot_file.balanbot_driver() if fit.driver is not None else {})
+        if fit.driver is not None:
             driver.update({k: v for k, v in fit.driver.to_dict().items() if k in fit.names})
         robot_file.save(fit.robot, args.out, tables.get("motor"), driver or None)
         print(f"wrote {args.out}")
     if args.plot:
         fit.plot(args.plot)
         print(f"wrote {args.plot}")
-    return 0 if fit.converged else 1
+    return 0 if trusted else 1
+
+
+def identify_friction(args):
+    """The gearhead friction of --friction and --friction-*, or None."""
+    law = twip.Realism.thesis_like().friction if args.friction else None
+    if args.friction_coulomb is None:
+        if law is None and (args.friction_breakaway is not None or args.friction_stick is not None):
+            raise UsageError("--friction-breakaway and --friction-stick need --friction-coulomb or --friction")
+    elif law is None:
+        law = twip.Friction(args.friction_coulomb)
+    else:
+        law = law.replace(coulomb=args.friction_coulomb, breakaway=law.breakaway * args.friction_coulomb / law.coulomb)
+    if law is not None and args.friction_breakaway is not None:
+        law = law.replace(breakaway=args.friction_breakaway)
+    if law is not None and args.friction_stick is not None:
+        law = law.replace(stick_speed=args.friction_stick)
+    return law

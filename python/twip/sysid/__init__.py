@@ -7,6 +7,7 @@ what to log and how the estimator works.
 """
 from __future__ import annotations
 
+import warnings
 from typing import Optional, Sequence
 
 import numpy as np
@@ -17,8 +18,9 @@ from twip.sysid.estimator import Estimator, Problem
 from twip.sysid.fit import Fit, Undetermined
 from twip.sysid.log import SIGNALS, LogError, RunLog
 from twip.sysid.measure import Sensors
+from twip.sysid.misfit import SysidMisfitWarning
 
-__all__ = ["Fit", "LogError", "RunLog", "SIGNALS", "Sensors", "Undetermined", "identify"]
+__all__ = ["Fit", "LogError", "RunLog", "SIGNALS", "Sensors", "SysidMisfitWarning", "Undetermined", "identify"]
 
 
 def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method: str = "shooting",
@@ -33,8 +35,9 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
       "coulomb" level (the breakaway torque keeps its ratio to it).
     - `segment` [s]: the multiple-shooting segment length; each segment's start state is
       an unknown. Shorter segments suit a plant that diverges fast open-loop.
-    - `driver`: the MotorDriver behind a pwm log (default: the robot file's, else the
-      Balanbot's); `friction`: a twip.Friction on the model.
+    - `driver`: the MotorDriver behind a pwm log, with its winding's inductance and current
+      limit (default: the robot file's, else `MotorDriver.thesis_like()`, the rig's;
+      `Fit.assumed` says which); `friction`: a twip.Friction on the model.
     - `sensors`: encoder counts per turn and IMU height, for enc and accel columns.
     - `max_step` [s]: sample intervals longer than this are split into equal RK4 steps; for a
       log of a twip run, its `dt` (the default is `twip.simulate`'s), so that the prediction
@@ -53,8 +56,11 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
         raise LogError(f"robot: {type(robot).__name__} is not a RobotParams or a twip.Robot")
     checks.of_type("driver", driver, (_core.MotorDriver, type(None)), "a twip.MotorDriver or None")
     checks.of_type("friction", friction, (_core.Friction, type(None)), "a twip.Friction or None")
+    assumed = None
     if driver is None:
-        driver = getattr(robot, "driver", None) or _core.MotorDriver()
+        driver = getattr(robot, "driver", None)
+        assumed = "the robot file's [driver]" if driver is not None else DEFAULT_DRIVER_NAME
+        driver = driver or default_driver()
     if isinstance(free, str):
         free = [f.strip() for f in free.split(",") if f.strip()]
     if not (isinstance(max_iter, int) and max_iter > 0):
@@ -67,10 +73,28 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
         segment = log.t[-1] - log.t[0] + 1.0  # one segment: the closed loop is not restarted
     problem = Problem(log, params, list(free), driver, friction, segment, sensors or Sensors(), signals, max_step)
     if method == "closed-loop":
-        return Fit(problem, closed_loop.run(problem, controller, reference, max_iter))
-    estimator = Estimator(problem, weights, max_iter)
-    solution = estimator.run()
-    fit = Fit(problem, solution, lambda delta: estimator.evaluate(np.concatenate([delta, solution.biases]), solution.starts)[0])
-    if controller is not None:
-        fit.closed_loop_rms = closed_loop.error(problem, fit, controller, reference)
+        fit = Fit(problem, closed_loop.run(problem, controller, reference, max_iter))
+    else:
+        estimator = Estimator(problem, weights, max_iter)
+        solution = estimator.run()
+        fit = Fit(problem, solution,
+                  lambda delta: estimator.evaluate(np.concatenate([delta, solution.biases]), solution.starts)[0])
+        if controller is not None:
+            fit.closed_loop_rms = closed_loop.error(problem, fit, controller, reference)
+    if problem.driven:
+        d = driver.to_dict()
+        fit.assumed["driver"] = (f"{assumed or 'driver='}: battery {d['battery']:g} V, bridge drop {d['bridge_drop']:g} V, "
+                                 f"resistance {d['resistance']:.4g} ohm, inductance {d['inductance']:g} H, current "
+                                 f"limit {d['current_limit'] or 'none'}" + (" A" if d['current_limit'] else ""))
+    for w in fit.misfits:
+        warnings.warn(w, SysidMisfitWarning, stacklevel=2)
     return fit
+
+
+#: The motor driver a pwm log is fitted with when neither driver= nor the robot file gives
+#: one: the thesis-like rig's, as `Realism.thesis_like()` and a robot file's [driver] table start from.
+DEFAULT_DRIVER_NAME = "MotorDriver.thesis_like() (the rig's; no driver= and no robot file [driver])"
+
+
+def default_driver():
+    return _core.MotorDriver.thesis_like()

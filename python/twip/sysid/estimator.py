@@ -20,8 +20,10 @@ from typing import Dict, List, Mapping, Optional, Sequence
 import numpy as np
 
 from twip import _core, budget, checks
+from twip.sysid import units
+from twip.sysid.grid import Grid
 from twip.sysid.log import LogError, RunLog
-from twip.sysid.measure import BIASED, OUTPUTS, Sensors, noise_floor, noise_level, predict, settling_samples
+from twip.sysid.measure import BIASED, FILTERED, OUTPUTS, Sensors, noise_floor, noise_level, predict, settling_samples
 
 #: Relative step of a parameter's central difference, and absolute step of a start state.
 PARAM_STEP = 1e-5
@@ -110,11 +112,9 @@ class Problem:
         self.biased = [s for s in BIASED if s in self.outputs]
         self.segments = _segments(log.t, segment)
         self._check_size(len(self.unknowns) + len(self.biased))
-        if sensors.imu is not None and any(s in self.outputs for s in ("gyro", "accel_x", "accel_z")):
-            rate = 1 / float(np.median(np.diff(log.t)))
-            if abs(rate / sensors.imu.sample_rate - 1) > 0.01:
-                raise LogError(f"sensors.imu: the log is sampled at {rate:.6g} Hz, the IMU at "
-                               f"{sensors.imu.sample_rate:.6g} Hz; its filter can only be replayed at its own rate")
+        filtered = sensors.imu is not None and any(s in self.outputs for s in FILTERED)
+        # A log slower than the IMU (a firmware's loop period) is predicted at the IMU's samples.
+        self.grid = Grid(log.t, self.input, self.segments, sensors.imu.sample_rate if filtered else None)
         n_unknowns = len(self.unknowns) + 4 + len(self.biased)
         n_data = len(log) * len(self.outputs)
         if n_data <= n_unknowns:
@@ -129,7 +129,8 @@ class Problem:
         for s in self.outputs:
             used = np.ones(len(log), dtype=bool)
             for r in self.ranges:
-                used[r.start:r.start + settling_samples(sensors, s)] = False
+                settled = self.grid.rows[r.start:r.stop] - self.grid.rows[r.start] >= settling_samples(sensors, s)
+                used[r.start:r.stop] = settled
             self.used[s] = used
 
     def _unknown(self, name: str) -> Unknown:
@@ -181,14 +182,16 @@ class Problem:
         (radius, g, slope)."""
         parts = [self.model_parts(d) for d in deltas]
         drivers = [p[1] for p in parts] if self.driven else None
-        states, rates, ends = _core.sysid_shoot([p[0] for p in parts], starts, self.log.t, self.input,
-                                                np.asarray(self.segments, dtype=np.int64), self.max_step, drivers)
+        grid = self.grid
+        states, rates, ends = _core.sysid_shoot([p[0] for p in parts], starts, grid.t, grid.u,
+                                                np.asarray(grid.segments, dtype=np.int64), self.max_step, drivers)
         geometry = [(p[2].wheel_radius, p[2].g, p[3]) for p in parts]
         return states, rates, ends, geometry
 
     def outputs_of(self, states, rates, geometry, biases: np.ndarray) -> Dict[str, np.ndarray]:
         radius, g, slope = geometry
-        out = {s: predict(s, states, rates, radius, g, slope, self.sensors, self.ranges) for s in self.outputs}
+        out = {s: self.grid.at_rows(predict(s, states, rates, radius, g, slope, self.sensors, self.grid.ranges))
+               for s in self.outputs}
         for s, b in zip(self.biased, biases):
             out[s] = out[s] + b
         return out
@@ -322,7 +325,7 @@ class Estimator:
         delta, biases = self.split(x)
         try:
             states, rates, ends, geometry = self.p.shoot([delta], starts[None])
-        except _core.InvalidParameterError:
+        except (_core.InvalidParameterError, _core.NonFiniteError):
             return math.inf, None, None, None
         out = self.p.outputs_of(states[0], rates[0], geometry[0], biases)
         r = self.residual(out)
@@ -471,6 +474,16 @@ class Estimator:
         return walk ** 2 * (later * dt[:, None]).T @ later
 
     def run(self) -> Solution:
+        try:
+            return self._run()
+        except LogError:
+            raise
+        except (_core.NonFiniteError, _core.InvalidParameterError) as e:
+            # The start robot's prediction from the log's own start states blows up: the log's
+            # columns disagree with the model (a unit, a sign), which the message names.
+            raise LogError(units.diagnosis(self.p, e)) from None
+
+    def _run(self) -> Solution:
         p = self.p
         x = np.zeros(self.n_g)
         starts = p.initial_states()

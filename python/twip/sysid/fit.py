@@ -10,6 +10,7 @@ import numpy as np
 from scipy import stats
 
 from twip import checks
+from twip.sysid import misfit
 from twip.sysid.estimator import Estimator, Problem, Solution
 from twip.sysid.log import RunLog
 
@@ -106,6 +107,16 @@ class Fit:
         self.rms: Dict[str, float] = {s: float(np.sqrt(np.nanmean(r**2))) for s, r in solution.residuals.items()}
         #: With `controller=`: the fitted robot's closed-loop simulation error per signal.
         self.closed_loop_rms: Optional[Dict[str, float]] = None
+        #: What the fit assumed and did not fit: the motor driver of a pwm log, and where it came from.
+        self.assumed: Dict[str, str] = {}
+        #: The signals whose residuals are not the noise the log shows (`twip.SysidMisfitWarning`).
+        self.misfits: List[str] = misfit.check(problem, solution.residuals)
+        #: Why the answer may be far off: the misfits, and a fit that did not converge. Empty
+        #: when the fit converged and the model explains the log.
+        self.warnings: List[str] = list(self.misfits)
+        if not self.converged:
+            self.warnings.append(f"not converged ({self.message}): the values are the last point reached, "
+                                 "without intervals")
 
     def interval(self, name: str, level: float = 0.95) -> Tuple[float, float]:
         """The two-sided `level` confidence interval of parameter `name` (normal approximation)."""
@@ -127,7 +138,9 @@ class Fit:
             lines.append(f"{'(' + name + ' offset)':<16} {'':>12} {value:>12.4g}")
         lines.append("residual RMS: " + ", ".join(f"{s} {v:.3g}" for s, v in self.rms.items()))
         lines.append(("converged: " if self.converged else "NOT CONVERGED: ") + self.message)
+        lines.extend(f"assumed {k}: {v}" for k, v in self.assumed.items())
         lines.extend(str(u) for u in self.undetermined)
+        lines.extend("MISFIT: " + w for w in self.misfits)
         return "\n".join(lines)
 
     def predicted(self) -> Dict[str, np.ndarray]:

@@ -10,6 +10,7 @@ from typing import Dict, Mapping, Optional, Union
 import numpy as np
 
 from twip import _core
+from twip.sysid import units
 
 #: The signals a log may hold, with their units (the constructor's keywords).
 SIGNALS: Dict[str, str] = {
@@ -74,6 +75,9 @@ class RunLog:
             raise LogError(f"slope = {self.slope!r}: must be a finite angle [rad]")
         if not self.signals():
             raise LogError("the log has no signal besides t: give at least one of " + ", ".join(SIGNALS))
+        problem = units.problems(t, self.signals())
+        if problem:
+            raise LogError(problem)
 
     def signals(self) -> Dict[str, np.ndarray]:
         """The signals present, by name."""
@@ -117,6 +121,12 @@ class RunLog:
         for target in columns.values():
             if target != "t" and target not in SIGNALS:
                 raise LogError(f"columns: {target!r} is not a signal (signals: t, {', '.join(SIGNALS)})")
+        given: Dict[str, str] = {}
+        for h, name in zip(header, names):
+            if name in given and (name == "t" or name in SIGNALS):
+                raise LogError(f"{path}: columns {given[name]!r} and {h!r} are both read as {name!r}; map one of "
+                               f"them to another name or leave it out (columns=, --column)")
+            given[name] = h
         if "t" not in names:
             raise LogError(f"{path}: no 't' column (columns: {', '.join(header)}); map one with columns={{...: 't'}}")
         data = {}
@@ -130,6 +140,8 @@ class RunLog:
                 except (ValueError, IndexError):
                     cell = row[j] if j < len(row) else "(missing)"
                     raise LogError(f"{path}: column {h!r}, row {i + 2}: {cell!r} is not a number") from None
+                if not math.isfinite(values[i]):
+                    raise LogError(f"{path}: column {h!r}, row {i + 2}: {row[j]!r} is not a finite number")
             data[name] = values * _factor(name, (scale or {}).get(name, 1.0))
         for name in (scale or {}):
             if name not in data:

@@ -21,7 +21,7 @@ class Sensors:
     """What turns states into raw readings: the encoder's counts per wheel turn, the IMU's
     height above the axle [m], and the IMU (a `twip.Imu`) whose low-pass filter (DLPF)
     smoothed and delayed the gyro and accelerometer columns, if any: the predictions then
-    pass through the same filter. The log must then be sampled at the IMU's rate."""
+    pass through the same filter, at the IMU's samples (a slower log's rows are whole numbers of them)."""
 
     encoder_cpr: float = 700.0
     imu_height: float = 0.12

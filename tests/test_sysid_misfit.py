@@ -1,0 +1,191 @@
+"""Identification that knows when it does not fit (issue 61): the residual check, the route
+for logs at the loop period, one default driver, friction on the command line, and CSV
+columns that are refused by name. The robot is not the Balanbot: the issue's 1.8 kg body,
+0.12 m centre of mass, 40 mm wheels, 30:1 motor and 3 A driver."""
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import twip
+from twip import robot_file, scenarios
+from twip.cli import main
+from twip.sysid import LogError, RunLog, Sensors, identify
+
+FREE = ["m_body", "com_height", "i_body", "mu_bearing"]
+USER = twip.RobotParams.balanbot().replace(m_body=1.8, m_wheels=0.1, i_body=0.0135, i_wheels=2e-5, i_motor=3e-6,
+                                           gear_ratio=30.0, torque_constant=0.012, wheel_radius=0.02, com_height=0.12,
+                                           mu_bearing=0.008, mu_ground=0.002)
+DRIVER = twip.MotorDriver.thesis_like().replace(current_limit=3.0)
+#: Each free parameter 20-25 % off the truth.
+START = USER.replace(m_body=1.8 * 1.2, com_height=0.12 * 0.8, i_body=0.0135 * 1.25, mu_bearing=0.008 * 0.85)
+
+
+def rig_log(seconds, friction=False, robot=USER, driver=DRIVER, seed=0):
+    rig = twip.Realism.thesis_like(seed=seed).replace(motor=driver)
+    if not friction:
+        rig = rig.replace(friction=None, backlash=None)
+    sc = scenarios.get("flat-lqr", params=robot, controller_params=robot)
+    run = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], seconds, dt=1e-3, reference=sc.reference, realism=rig)
+    assert run.outcome == "completed"
+    return run.to_log(), rig
+
+
+def every(log, k):
+    return RunLog(log.t[::k], slope=log.slope, **{n: v[::k] for n, v in log.signals().items()})
+
+
+def write_csv(path, log, t=None, **changes):
+    """The log's CSV with some columns changed (as a firmware might write them: RunLog refuses them)."""
+    columns = {**log.signals(), **changes}
+    table = np.column_stack([log.t if t is None else t, *columns.values()])
+    np.savetxt(path, table, delimiter=",", header=",".join(["t", *columns]), comments="", fmt="%.17g")
+
+
+def errors(fit, robot=USER):
+    return {n: fit.values[n] / getattr(robot, n) - 1 for n in FREE}
+
+
+def quiet_identify(*args, **kwargs):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fit = identify(*args, **kwargs)
+    return fit, [w for w in caught if issubclass(w.category, twip.SysidMisfitWarning)]
+
+
+def test_a_fit_without_the_imus_filter_warns_and_with_it_is_quiet_and_within_1_5_percent():
+    """The user's case: a 1 kHz rig log fitted without declaring the IMU's 42 Hz filter converged
+    quietly, far off. Measured (8 s): undeclared, not converged at m_body +842 %, i_body +1066 %, every signal's
+    residual 17-41x its noise; declared, within 0.67 % (i_body -0.67 %), residuals 0.1-1.1x."""
+    log, rig = rig_log(8.0)
+    blind, caught = quiet_identify(log, START, FREE, driver=DRIVER, sensors=Sensors(imu_height=rig.imu.height))
+    assert blind.misfits and caught, blind.summary()
+    assert "MISFIT" in blind.summary() and set(blind.misfits) <= set(blind.warnings)
+    fit, caught = quiet_identify(log, START, FREE, driver=DRIVER, sensors=Sensors.of(rig))
+    assert fit.converged and not fit.warnings and not caught, fit.summary()
+    assert max(abs(e) for e in errors(fit).values()) < 0.015, errors(fit)
+
+
+def test_a_log_at_the_loop_period_replays_the_filter_at_the_imus_rate():
+    """A firmware's 5 ms log: the IMU's filter runs at 1 kHz between the logged rows, the duty
+    held. It was refused ("its filter can only be replayed at its own rate"). Measured (8 s):
+    within 0.24 % (i_body -0.24 %); without the filter declared: m_body +33 %,
+    com_height -40 %, the gyro's residual 3.9x its noise, and a warning."""
+    log, rig = rig_log(8.0)
+    slow = every(log, 5)
+    fit, caught = quiet_identify(slow, START, FREE, driver=DRIVER, sensors=Sensors.of(rig))
+    assert fit.converged and not fit.warnings and not caught, fit.summary()
+    assert max(abs(e) for e in errors(fit).values()) < 0.03, errors(fit)
+    blind, caught = quiet_identify(slow, START, FREE, driver=DRIVER, sensors=Sensors(imu_height=rig.imu.height))
+    assert blind.warnings and caught, blind.summary()
+    # An interval that is not a whole number of the IMU's samples is refused, named.
+    with pytest.raises(LogError, match=r"t: the interval after row 0 \(0.005 s, from t = 0.0\) is 2.3 of the IMU"):
+        identify(slow, START, FREE, driver=DRIVER, sensors=Sensors(imu=rig.imu.replace(sample_rate=460.0)))
+
+
+def test_the_full_rig_with_friction_declared_from_the_command_line(tmp_path, capsys):
+    """The full thesis-like rig (gearhead friction and backlash). Plain, the fit does not explain
+    the log: exit 1 and no --out (it wrote the robot before, m_body -19 % on the Balanbot's rig).
+    With the friction declared and the Coulomb level free (measured from Python): within 2.4 %
+    (i_body -2.39 %, m_body -0.91 %); plain: mu_bearing +91 %, the encoder's residual 6.8x its noise."""
+    log, rig = rig_log(8.0, friction=True)
+    log.to_csv(tmp_path / "rig.csv")
+    driver = dict(robot_file.balanbot_driver(), current_limit=3.0)
+    robot_file.save(START, tmp_path / "start.toml", None, driver)
+    command = ["identify", str(tmp_path / "rig.csv"), "--robot", str(tmp_path / "start.toml"), "--imu-dlpf", "42",
+               "--out", str(tmp_path / "fitted.toml")]
+    assert main(command + ["--free", ",".join(FREE)]) == 1
+    captured = capsys.readouterr()
+    assert "not writing" in captured.err and not (tmp_path / "fitted.toml").exists(), captured.out
+    code = main(command + ["--free", ",".join(FREE + ["coulomb"]), "--friction", "thesis-like"])
+    assert code == 0, capsys.readouterr()
+    fitted = twip.Robot.from_file(tmp_path / "fitted.toml")
+    for n in FREE:
+        limit = 0.06 if n == "i_body" else 0.03
+        assert abs(getattr(fitted.params, n) / getattr(USER, n) - 1) < limit, n
+    assert fitted.driver.current_limit == 3.0 and fitted.driver.inductance == DRIVER.inductance
+
+
+def test_a_fit_that_did_not_converge_writes_no_robot_unless_forced(tmp_path, capsys):
+    log, rig = rig_log(2.0)
+    log.to_csv(tmp_path / "rig.csv")
+    out = tmp_path / "fitted.toml"
+    command = ["identify", str(tmp_path / "rig.csv"), "--free", ",".join(FREE), "--imu-dlpf", "42", "--out", str(out)]
+    monkey = pytest.MonkeyPatch()
+    try:
+        # One iteration: the fit stops short of the minimum.
+        real = twip.sysid.identify
+        monkey.setattr(twip.sysid, "identify", lambda *a, **k: real(*a, **{**k, "max_iter": 1}))
+        assert main(command) == 1
+        assert "did not converge" in capsys.readouterr().err and not out.exists()
+        assert main(command + ["--force"]) == 1
+        assert out.exists()
+    finally:
+        monkey.undo()
+    # The command line's friction options are checked.
+    assert main(command + ["--friction-stick", "0.1"]) == 2
+    assert "--friction-stick need --friction-coulomb or --friction" in capsys.readouterr().err
+
+
+def test_identify_the_rig_and_the_robot_file_agree_on_the_driver(tmp_path):
+    """A Balanbot rig log fitted with `RobotParams.balanbot()` got `MotorDriver()` (no bridge
+    drop) while the rig's driver has 2 V: mu_bearing +371 % with a 0.2 % standard deviation.
+    Now identify's default is the rig's driver, and the fit says which it assumed; a wrong
+    driver given on purpose is flagged. (On the user's robot, 8 s, `MotorDriver()` for its
+    thesis-like driver: mu_bearing +442 %, the encoder's residual 270x as correlated as its
+    noise; not converged.)"""
+    truth = twip.RobotParams.balanbot()
+    log, rig = rig_log(4.0, robot=truth, driver=twip.MotorDriver.thesis_like())
+    fit, caught = quiet_identify(log, truth.replace(mu_bearing=truth.mu_bearing * 0.8), ["mu_bearing", "m_body"],
+                                 sensors=Sensors.of(rig))
+    assert "MotorDriver.thesis_like()" in fit.assumed["driver"] and "bridge drop 2 V" in fit.summary()
+    assert not fit.warnings and abs(fit.values["mu_bearing"] / truth.mu_bearing - 1) < 0.01, fit.summary()
+    wrong, caught = quiet_identify(log, truth, ["mu_bearing", "m_body"], sensors=Sensors.of(rig),
+                                   driver=twip.MotorDriver())
+    assert wrong.warnings and (caught or not wrong.converged), wrong.summary()
+    # A robot file's [driver] table that names only the battery keeps the rig's drop, winding and limit.
+    robot_file.save(truth, tmp_path / "r.toml", None, {"battery": 12.0})
+    driver = twip.Robot.from_file(tmp_path / "r.toml").driver
+    assert driver.to_dict() == twip.MotorDriver.thesis_like().replace(battery=12.0).to_dict()
+
+
+def test_csv_ambiguities_are_refused_by_name(tmp_path):
+    log, _ = rig_log(1.0)
+    path = tmp_path / "run.csv"
+    # Gyro in deg/s without a scale: it converged, i_body +7 %.
+    write_csv(path, log, gyro=np.degrees(log.gyro))
+    with pytest.raises(LogError, match=r"gyro: \d+\.?\d*x the pitch rate .* in deg/s, not rad/s\? give scale="):
+        RunLog.from_csv(path)
+    assert np.allclose(RunLog.from_csv(path, scale={"gyro": "deg/s"}).gyro, log.gyro)
+    # Both u and pwm: pwm was ignored without a word.
+    path.write_text("t,u,pwm,gyro\n0,0,0,0\n0.001,0,0,0\n0.002,0,0,0\n")
+    with pytest.raises(LogError, match="both u .* and pwm"):
+        RunLog.from_csv(path)
+    # Two headers read as one signal.
+    path.write_text("t,pitch,phi,u\n0,0,0,0\n0.001,0,0,0\n")
+    with pytest.raises(LogError, match="columns 'pitch' and 'phi' are both read as 'phi'"):
+        RunLog.from_csv(path, columns={"pitch": "phi"})
+
+
+def test_columns_in_the_wrong_unit_are_named_with_their_row(tmp_path):
+    """Each of these was "x[3] = NaN is not finite"."""
+    log, rig = rig_log(2.0)
+    path = tmp_path / "run.csv"
+    g = 9.80665
+    write_csv(path, log, accel_x=log.accel_x / g, accel_z=log.accel_z / g)
+    with pytest.raises(LogError, match=r"accel_x, accel_z: the median specific force is 1(\.\d+)?, not ~9.8 m/s\^2: in g\?"):
+        RunLog.from_csv(path)
+    write_csv(path, log, pwm=log.pwm * 10)
+    with pytest.raises(LogError, match=r"pwm: row \d+ is -?\d+\.0, beyond the driver's 255 counts"):
+        RunLog.from_csv(path)
+    keep = (log.t < 0.8) | (log.t >= 1.8)
+    write_csv(path, RunLog(log.t, **{n: v for n, v in log.signals().items()}), t=np.where(keep, log.t, np.nan))
+    np.savetxt(path, np.loadtxt(path, delimiter=",", skiprows=1)[keep], delimiter=",", comments="",
+               header=path.read_text().splitlines()[0], fmt="%.17g")
+    with pytest.raises(LogError, match=r"t: a gap in t after row 799 .*: a dropout"):
+        RunLog.from_csv(path)
+    log.to_csv(path)
+    reversed_enc = RunLog.from_csv(path, scale={"enc": -1})
+    with pytest.raises(LogError, match="enc: the wheels turn against the input"):
+        identify(reversed_enc, START, FREE, driver=DRIVER, sensors=Sensors.of(rig))
