@@ -240,6 +240,8 @@ def load(path) -> Robot:
             settings["current_limit"] = None
         if motor is not None:
             settings["resistance"] = motor.resistance
+        if "battery" in settings:  # the firmware's feed-forward assumes the file's battery
+            settings["assumed_battery"] = settings["battery"]
         try:
             driver = _core.MotorDriver.thesis_like().replace(**settings)
         except _core.InvalidParameterError as e:
