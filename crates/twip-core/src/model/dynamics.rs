@@ -22,4 +22,21 @@ pub trait Dynamics<T: Real, const NX: usize, const NU: usize> {
 
     /// Total mechanical energy (kinetic + potential) where the model defines one.
     fn energy(&self, x: &SVector<T, NX>) -> T;
+
+    /// Whether a run must end at state `x` under the input `u` held over the last step,
+    /// and why (the terrain model's lifted wheel or edge of its grid). None for the rest.
+    #[inline(always)]
+    fn halted(&self, _x: &SVector<T, NX>, _u: &SVector<T, NU>) -> Option<Halt> {
+        None
+    }
+}
+
+/// Why a model ends a run that has neither fallen nor diverged.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Halt {
+    /// A wheel's normal force went below zero: it leaves the ground, which the model
+    /// (both wheels on the ground) does not describe.
+    Lifted,
+    /// The contact point left the terrain (a grid's edge): there is no ground to extrapolate.
+    OffTerrain,
 }

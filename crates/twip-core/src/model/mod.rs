@@ -8,3 +8,5 @@ pub mod math;
 pub mod params;
 pub mod planar;
 pub mod slope;
+pub mod terrain;
+pub mod terrain_model;

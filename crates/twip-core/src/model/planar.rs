@@ -199,13 +199,18 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarModel<T> {
 
     /// ½ νᵀ M(φ) ν + M_b g c_z cos φ.
     fn energy(&self, x: &PlanarState<T>) -> T {
+        self.kinetic(x) + self.coef.mgc * x[3].cos()
+    }
+}
+
+impl<T: Real> PlanarModel<T> {
+    /// The kinetic energy ½ νᵀ M(φ) ν.
+    pub fn kinetic(&self, x: &PlanarState<T>) -> T {
         let (s, cp) = x[3].sin_cos();
         let (phi_dot, v, omega) = (x[4], x[5], x[6]);
         let (m_pv, m_ww) = (pitch_speed_mass(&self.coef, cp), yaw_mass(&self.coef, s));
         let half = c::<T>(0.5);
-        half * (self.coef.m_pp * phi_dot * phi_dot + self.coef.m_vv * v * v + m_ww * omega * omega)
-            + m_pv * phi_dot * v
-            + self.coef.mgc * cp
+        half * (self.coef.m_pp * phi_dot * phi_dot + self.coef.m_vv * v * v + m_ww * omega * omega) + m_pv * phi_dot * v
     }
 }
 
@@ -500,9 +505,7 @@ pub(crate) fn forces_plus<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u_r: S
 /// The derivative with both gear trains engaged (`PlanarModel::deriv_geared`'s common
 /// case; a sweep's lanes evaluate it too) under the wheels' motor torques `u`, with
 /// gearhead friction `gear` and `extra` forces on (φ, v); and each wheel's gearhead
-/// torque. With a stick band: the accelerations without it, less each held or slipping
-/// wheel's torque times its response (as `slope::motion` does), so the forces are
-/// evaluated once.
+/// torque ([`engaged_accelerations`] on flat ground).
 #[inline(always)]
 pub(crate) fn engaged_motion<S: Lane>(
     k: &PlanarCoefficients<S>,
@@ -511,10 +514,28 @@ pub(crate) fn engaged_motion<S: Lane>(
     u: [S; 2],
     extra: impl Fn(S, S) -> Option<[S; 2]>,
 ) -> ([S; 7], [S; 2]) {
+    let (nu_dot, tau) = engaged_accelerations(k, gear, x, u, |u_r, u_l| forces_plus(k, x, u_r, u_l, &extra));
+    (kinematics(x, nu_dot), tau)
+}
+
+/// ν̇ with both gear trains engaged under the wheels' motor torques `u` and gearhead
+/// friction `gear`, the generalised forces at net wheel torques (u_r, u_l) given by
+/// `forces_at` (with sin φ, cos φ); and each wheel's gearhead torque. With a stick band:
+/// the accelerations without it, less each held or slipping wheel's torque times its
+/// response (as `slope::motion` does), so the forces are evaluated once. `x` gives the
+/// wheels' speeds relative to the body.
+#[inline(always)]
+pub(crate) fn engaged_accelerations<S: Lane>(
+    k: &PlanarCoefficients<S>,
+    gear: Gearhead<'_, S>,
+    x: &[S; 7],
+    u: [S; 2],
+    forces_at: impl Fn(S, S) -> ([S; 3], S, S),
+) -> ([S; 3], [S; 2]) {
     let [w_r, w_l] = wheel_speeds(k, x);
     let driven = |u_r: S, u_l: S| {
-        let (f, s, cp) = forces_plus(k, x, u_r, u_l, &extra);
-        kinematics(x, accelerations(k, &f, s, cp))
+        let (f, s, cp) = forces_at(u_r, u_l);
+        accelerations(k, &f, s, cp)
     };
     let f = match gear {
         Gearhead::Free => return (driven(u[0], u[1]), [S::splat(0.0); 2]),
@@ -526,7 +547,7 @@ pub(crate) fn engaged_motion<S: Lane>(
     };
     // A torque on one wheel acts on (φ, v) as (−1, 1/R) and on the yaw as ±b/R: the
     // response to it is `shared` on (φ, v) and ±`turn` on the yaw.
-    let (q, sin_phi, cos_phi) = forces_plus(k, x, u[0], u[1], &extra);
+    let (q, sin_phi, cos_phi) = forces_at(u[0], u[1]);
     let free = accelerations(k, &q, sin_phi, cos_phi);
     let [a_r, a_l] = k.wheels().of(&free);
     let shared = accelerations(k, &[-S::splat(1.0), k.inv_r, S::splat(0.0)], sin_phi, cos_phi);
@@ -538,7 +559,7 @@ pub(crate) fn engaged_motion<S: Lane>(
     let s = [[common + yaw, common - yaw], [common - yaw, common + yaw]];
     let tau = f.held_torques([w_r, w_l], [a_r, a_l], s);
     let (both, apart) = (tau[0] + tau[1], tau[0] - tau[1]);
-    (kinematics(x, [free[0] - both * shared[0], free[1] - both * shared[1], free[2] - apart * turn]), tau)
+    ([free[0] - both * shared[0], free[1] - both * shared[1], free[2] - apart * turn], tau)
 }
 
 #[cfg(test)]

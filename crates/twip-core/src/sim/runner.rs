@@ -28,6 +28,10 @@ pub enum Outcome<T> {
     Diverged { t: T },
     /// Stopped at `t` on request (Ctrl-C); everything up to `t` was observed.
     Interrupted { t: T },
+    /// A wheel's normal force went negative at `t` (the terrain model).
+    Lifted { t: T },
+    /// The robot drove off the terrain (a grid's edge) at `t`.
+    OffTerrain { t: T },
 }
 
 impl<T: Copy> Outcome<T> {
@@ -35,7 +39,7 @@ impl<T: Copy> Outcome<T> {
     /// or was interrupted.
     pub fn ended_early(&self) -> Option<T> {
         match *self {
-            Self::Fell { t } | Self::Diverged { t } => Some(t),
+            Self::Fell { t } | Self::Diverged { t } | Self::Lifted { t } | Self::OffTerrain { t } => Some(t),
             Self::Completed | Self::Interrupted { .. } => None,
         }
     }
@@ -305,6 +309,11 @@ impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Dynamics
     fn energy(&self, x: &SVector<T, NX>) -> T {
         self.0.energy(x)
     }
+
+    #[inline(always)]
+    fn halted(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> Option<crate::model::dynamics::Halt> {
+        self.0.halted(x, u)
+    }
 }
 
 impl<T: Real, P: Dynamics<T, NX, NU>, const NX: usize, const NU: usize> Plant<T, NX, NU> for Fixed<P> {
@@ -428,12 +437,19 @@ where
         if x.iter().any(|v| !v.is_finite()) {
             return Ok((Outcome::Diverged { t: t_next }, k + 1));
         }
-        if x[P::PITCH].abs() > config.fall_limit {
+        let halt = plant.halted(&x, &u);
+        if x[P::PITCH].abs() > config.fall_limit || halt.is_some() {
             parts.sensor.shaft_offsets(plant.shaft_offsets());
             let raw_len = parts.sensor.raw(&x, &mut raw);
             let last = signals.at(controller.internals(), plant, &x, &u, &raw[..raw_len]);
             observer.observe_last(t_next, &x, &seen(&command, &u), &reference.sample(t_next), last);
-            return Ok((Outcome::Fell { t: t_next }, k + 1));
+            let t = t_next;
+            let outcome = match halt {
+                Some(crate::model::dynamics::Halt::Lifted) => Outcome::Lifted { t },
+                Some(crate::model::dynamics::Halt::OffTerrain) => Outcome::OffTerrain { t },
+                None => Outcome::Fell { t },
+            };
+            return Ok((outcome, k + 1));
         }
     }
     let t_end = dt * c::<T>(n as f64);

@@ -61,6 +61,8 @@ pub(crate) fn run_dict<'py>(
         Outcome::Fell { t } => ("fell", Some(t)),
         Outcome::Diverged { t } => ("diverged", Some(t)),
         Outcome::Interrupted { t } => ("interrupted", Some(t)),
+        Outcome::Lifted { t } => ("lifted", Some(t)),
+        Outcome::OffTerrain { t } => ("off_terrain", Some(t)),
     };
     out.set_item("outcome", name)?;
     out.set_item("t_end", t_end)?;
