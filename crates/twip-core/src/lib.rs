@@ -21,6 +21,8 @@ pub mod sim;
 pub mod sysid;
 #[cfg(feature = "std")]
 pub mod sweep;
+#[cfg(feature = "parallel")]
+pub mod envs;
 
 #[cfg(feature = "alloc")]
 pub use control::care::{care, lqr, Lqr};

@@ -79,10 +79,10 @@ pub trait LaneLaw {
 /// frame at 40 bytes past a line and swept ~1.13x slower. `tests/test_kernel_frames.py`
 /// reads the wheel's machine code to check every kernel's frame.
 #[repr(C, align(64))]
-struct Plants([Lanes; 14]);
+pub(crate) struct Plants([Lanes; 14]);
 
 impl Plants {
-    fn new(c: &[SlopeCoefficients<f64>; LANES]) -> Self {
+    pub(crate) fn new(c: &[SlopeCoefficients<f64>; LANES]) -> Self {
         let fields = |k: &SlopeCoefficients<f64>| {
             [
                 k.m11, k.m22, k.m11_m22, k.mrl, k.mrl_cos, k.mrl_sin, k.rotor, k.mgl, k.grade, k.torque_per_amp,
@@ -121,7 +121,7 @@ impl Plants {
     /// lanes (l and l + LANES/2) stage by stage, two independent chains of dependent
     /// operations that the CPU overlaps. (Measured faster than RK4 on `Wide` chunks.)
     #[inline(always)]
-    fn rk4(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
+    pub(crate) fn rk4(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
         const HALF: usize = LANES / 2;
         let mut out = [[0.0; LANES]; 4];
         let state = |l: usize| [Fused(x[0][l]), Fused(x[1][l]), Fused(x[2][l]), Fused(x[3][l])];

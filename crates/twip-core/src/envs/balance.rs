@@ -1,0 +1,513 @@
+//! `twip/Balance-v0`'s robots: N 2-DOF robots (slope model) advanced one control period
+//! per step, on the ideal plant or through each robot's own rig.
+//!
+//! - Ideal plant: the sweep's lanes ([`Plants::rk4`], [`LANES`] robots a block, one block
+//!   per task), so a lane agrees with `runner::simulate` to rounding and is bit for bit the
+//!   same on every CPU copy, thread count and block neighbour. The observation is the state.
+//! - Rig: each robot's [`SlopeRig`] (`Realism::build`: the very plant, sensors and delay a
+//!   run uses), stepped as `runner::run_loop` steps it between two controller updates, so
+//!   a robot agrees with `twip.simulate` through that rig bit for bit. The action is the
+//!   plant's input (the PWM duty with a motor driver, rounded and saturated as the
+//!   firmware writes it; else the lumped current); the observation the sensors' reading.
+use alloc::sync::Arc;
+use alloc::vec::Vec;
+
+use nalgebra::{SVector, Vector4};
+use rayon::prelude::*;
+
+use crate::hardware::realism::{Realism, SlopeRig};
+use crate::model::integrate::rk4_step_from_k1;
+use crate::model::params::RobotParams;
+use crate::model::slope::{SlopeCoefficients, SlopeModel};
+use crate::sim::runner::{Plant, Sensor};
+use crate::sweep::block::{multiversioned, Plants};
+use crate::sweep::lanes::{Lanes, LANES};
+use crate::sweep::rig::noise_seed;
+use crate::sweep::{draw, Nominal, Perturbation};
+use crate::{Dynamics, TwipError};
+
+/// The rig a robot with these parameters gets (pushes and a force act at its own centre
+/// of mass); its seed and stream are set per episode.
+pub type RealismFor = Arc<dyn Fn(&RobotParams<f64>) -> Result<Realism<f64>, TwipError> + Send + Sync>;
+
+/// Most robots in one batch: 2^24 (16.7 M), checked before anything is allocated.
+pub const MAX_ENVS: usize = 1 << 24;
+
+/// What every robot of a batch shares.
+#[derive(Clone)]
+pub struct BalanceSpec {
+    /// The nominal robot, slope and initial state the draws perturb.
+    pub nominal: Nominal,
+    /// Drawn per episode, in order, from `Philox::new(seed, episode)` (`sweep::draw`).
+    pub perturbations: Vec<Perturbation>,
+    /// None: the ideal plant.
+    pub realism: Option<RealismFor>,
+    /// The plant step [s].
+    pub dt: f64,
+    /// Plant steps per control period (env step).
+    pub substeps: usize,
+    /// |φ| beyond which a robot has fallen [rad].
+    pub fall_limit: f64,
+}
+
+impl BalanceSpec {
+    fn validate(&self) -> Result<(), TwipError> {
+        let bad = |name, value: f64, reason| Err(TwipError::InvalidParameter { name, value, reason });
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return bad("dt", self.dt, "must be finite and > 0");
+        }
+        if self.substeps == 0 {
+            return bad("substeps", 0.0, "must be >= 1 (the control period is substeps * dt)");
+        }
+        if !(self.fall_limit.is_finite() && self.fall_limit > 0.0) {
+            return bad("fall_limit", self.fall_limit, "must be finite and > 0");
+        }
+        for p in &self.perturbations {
+            p.validate()?;
+        }
+        SlopeModel::new(self.nominal.params, self.nominal.slope)?;
+        Ok(())
+    }
+}
+
+/// [`LANES`] robots on the ideal plant.
+struct IdealBlock {
+    coefficients: [SlopeCoefficients<f64>; LANES],
+    plants: Plants,
+    x: [Lanes; 4],
+}
+
+/// One robot through its rig, between two controller updates.
+struct RigRobot {
+    rig: SlopeRig<f64>,
+    x: Vector4<f64>,
+    /// The input applied over this period, and the one waiting (a delayed rig's).
+    u: f64,
+    pending: f64,
+    /// The sensors' reading at the last update (reading moves the estimator).
+    reading: Vector4<f64>,
+    steps: u64,
+    /// Largest duty (counts) with a motor driver; None: the input is a current.
+    pwm_max: Option<f64>,
+}
+
+enum Robots {
+    Ideal(Vec<IdealBlock>),
+    Rig(Vec<RigRobot>),
+}
+
+/// N robots of one [`BalanceSpec`], each with its own key (seed, episode).
+pub struct BalanceEnvs {
+    spec: BalanceSpec,
+    n: usize,
+    keys: Vec<(u64, u64)>,
+    robots: Robots,
+    pool: rayon::ThreadPool,
+}
+
+/// A lane plant the ideal kernel advances (the 2-DOF sweep's [`Plants`]).
+pub trait LanePlant {
+    fn rk4_lanes(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4];
+}
+
+impl LanePlant for Plants {
+    #[inline(always)]
+    fn rk4_lanes(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
+        self.rk4(x, u, dt)
+    }
+}
+
+multiversioned! {
+    /// Advances a block of robots `steps` plant steps under the inputs `u`; returns the
+    /// lanes that fell (or diverged). A lane that falls keeps its first state past the
+    /// limit (a non-finite one is not taken) and moves no more.
+    pub fn advance_block, advance_block_avx512, advance_block_avx2, advance_block_baseline = advance<P: LanePlant>(
+        plants: &P,
+        x: &mut [Lanes; 4],
+        u: &Lanes,
+        steps: usize,
+        dt: f64,
+        fall_limit: f64,
+    ) -> [bool; LANES]
+}
+
+#[inline(always)]
+fn advance<P: LanePlant>(plants: &P, x: &mut [Lanes; 4], u: &Lanes, steps: usize, dt: f64, fall_limit: f64) -> [bool; LANES] {
+    let mut alive = [true; LANES];
+    for _ in 0..steps {
+        let next = plants.rk4_lanes(x, u, dt);
+        for l in 0..LANES {
+            let finite = next[0][l].is_finite() & next[1][l].is_finite() & next[2][l].is_finite() & next[3][l].is_finite();
+            let take = alive[l] & finite;
+            for i in 0..4 {
+                x[i][l] = if take { next[i][l] } else { x[i][l] };
+            }
+            alive[l] = take & (next[0][l].abs() <= fall_limit);
+        }
+    }
+    alive.map(|a| !a)
+}
+
+impl RigRobot {
+    /// The rig at rest in `x0`: its sensors sample the initial state and are read once, as
+    /// the runner does before its first update.
+    fn start(mut rig: SlopeRig<f64>, x0: Vector4<f64>, pwm_max: Option<f64>) -> Self {
+        let u = SVector::<f64, 1>::zeros();
+        rig.sensors.sample(0.0, &x0, &rig.plant.deriv(&x0, &u));
+        rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
+        let reading = rig.sensors.read(0.0, &x0);
+        Self { rig, x: x0, u: 0.0, pending: 0.0, reading, steps: 0, pwm_max }
+    }
+
+    /// One control period under `action` (`run_loop`'s steps between two updates, then the
+    /// next update's read); whether the robot fell.
+    fn step(&mut self, action: f64, spec: &BalanceSpec) -> bool {
+        let drive = match self.pwm_max {
+            Some(max) => action.round().clamp(-max, max),
+            None => action,
+        };
+        if self.rig.delay {
+            self.u = self.pending;
+            self.pending = drive;
+        } else {
+            self.u = drive;
+        }
+        let (dt, u) = (spec.dt, SVector::<f64, 1>::new(self.u));
+        let (plant, sensors) = (&mut self.rig.plant, &mut self.rig.sensors);
+        for _ in 0..spec.substeps {
+            let t = dt * self.steps as f64;
+            sensors.shaft_offsets(plant.shaft_offsets());
+            let k1 = plant.between_steps_with_derivative(t, dt, &mut self.x, &u).unwrap_or_else(|| plant.deriv(&self.x, &u));
+            sensors.sample(t, &self.x, &k1);
+            let next = rk4_step_from_k1(&*plant, &self.x, &u, dt, &k1);
+            plant.step_ended(&next);
+            self.steps += 1;
+            if !next.iter().all(|v| v.is_finite()) {
+                return true;
+            }
+            self.x = next;
+            if self.x[0].abs() > spec.fall_limit {
+                return true;
+            }
+        }
+        sensors.shaft_offsets(plant.shaft_offsets());
+        self.reading = sensors.read(dt * self.steps as f64, &self.x);
+        false
+    }
+}
+
+impl BalanceEnvs {
+    /// `n` robots, lane i keyed (i, 0) until it is reset with a seed of its own.
+    pub fn new(spec: BalanceSpec, n: usize, threads: usize) -> Result<Self, TwipError> {
+        if n == 0 || n > MAX_ENVS {
+            return Err(TwipError::InvalidParameter { name: "num_envs", value: n as f64, reason: "must be in 1..=16777216" });
+        }
+        spec.validate()?;
+        let pool = super::pool(threads)?;
+        let nominal = SlopeModel::new(spec.nominal.params, spec.nominal.slope)?;
+        let robots = match &spec.realism {
+            None => {
+                let blocks = n.div_ceil(LANES);
+                let mut v = Vec::new();
+                v.try_reserve_exact(blocks).map_err(|_| oom(blocks * core::mem::size_of::<IdealBlock>()))?;
+                let coefficients = [nominal.coefficients(); LANES];
+                v.extend((0..blocks).map(|_| IdealBlock { coefficients, plants: Plants::new(&coefficients), x: [[0.0; LANES]; 4] }));
+                Robots::Ideal(v)
+            }
+            Some(_) => {
+                let mut v = Vec::new();
+                v.try_reserve_exact(n).map_err(|_| oom(n * core::mem::size_of::<RigRobot>()))?;
+                Robots::Rig(v)
+            }
+        };
+        let mut keys = Vec::new();
+        keys.try_reserve_exact(n).map_err(|_| oom(n * 16))?;
+        keys.extend((0..n as u64).map(|i| (i, 0)));
+        let mut envs = Self { spec, n, keys, robots, pool };
+        for l in 0..n {
+            envs.start(l, (l as u64, 0))?;
+        }
+        Ok(envs)
+    }
+
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// Whether the robots run through a rig.
+    pub fn has_rig(&self) -> bool {
+        matches!(self.robots, Robots::Rig(_))
+    }
+
+    /// Lane `l`'s key (seed, episode).
+    pub fn key(&self, l: usize) -> (u64, u64) {
+        self.keys[l]
+    }
+
+    /// Starts lane `l`'s next episode: with `seed`, episode 0 of that seed; else the next
+    /// episode of its seed. On an error (a draw the model refuses) the lane is unchanged.
+    pub fn reset(&mut self, l: usize, seed: Option<u64>) -> Result<(), TwipError> {
+        if l >= self.n {
+            return Err(TwipError::InvalidParameter { name: "lane", value: l as f64, reason: "past the last robot" });
+        }
+        let (s, e) = self.keys[l];
+        self.start(l, seed.map_or((s, e.wrapping_add(1)), |s| (s, 0)))
+    }
+
+    /// Lane `l`'s robot, slope and initial state for `key`, and its state set.
+    fn start(&mut self, l: usize, key: (u64, u64)) -> Result<(), TwipError> {
+        let sample = draw(&self.spec.nominal, &self.spec.perturbations, key.0, key.1);
+        let model = SlopeModel::new(sample.params, sample.slope)?;
+        for (index, &value) in sample.x0.iter().enumerate() {
+            if !value.is_finite() {
+                return Err(TwipError::NonFinite { name: "x0", index, value });
+            }
+        }
+        match (&mut self.robots, &self.spec.realism) {
+            (Robots::Ideal(blocks), _) => {
+                let (b, j) = (l / LANES, l % LANES);
+                let block = &mut blocks[b];
+                block.coefficients[j] = model.coefficients();
+                block.plants = Plants::new(&block.coefficients);
+                for i in 0..4 {
+                    block.x[i][j] = sample.x0[i];
+                }
+            }
+            (Robots::Rig(robots), Some(realism_for)) => {
+                let realism = Realism { seed: noise_seed(key.0), stream: key.1, ..realism_for(&sample.params)? };
+                let pwm_max = realism.motor.map(|m| m.motor(&sample.params)).transpose()?.map(|m| m.pwm_max());
+                let robot = RigRobot::start(realism.build(&model, self.spec.dt)?, sample.x0, pwm_max);
+                if l < robots.len() {
+                    robots[l] = robot;
+                } else {
+                    robots.push(robot);
+                }
+            }
+            (Robots::Rig(_), None) => unreachable!("a rig batch has a realism"),
+        }
+        self.keys[l] = key;
+        Ok(())
+    }
+
+    /// Lane `l`'s true state.
+    pub fn state(&self, l: usize) -> Vector4<f64> {
+        match &self.robots {
+            Robots::Ideal(blocks) => {
+                let (b, j) = (l / LANES, l % LANES);
+                Vector4::from_fn(|i, _| blocks[b].x[i][j])
+            }
+            Robots::Rig(robots) => robots[l].x,
+        }
+    }
+
+    /// Lane `l`'s observation: the state (ideal plant) or the sensors' last reading.
+    pub fn observation(&self, l: usize) -> Vector4<f64> {
+        match &self.robots {
+            Robots::Ideal(_) => self.state(l),
+            Robots::Rig(robots) => robots[l].reading,
+        }
+    }
+
+    /// Lane `l`'s robot time [s] in its episode.
+    pub fn time(&self, l: usize) -> f64 {
+        match &self.robots {
+            Robots::Ideal(_) => f64::NAN,
+            Robots::Rig(robots) => self.spec.dt * robots[l].steps as f64,
+        }
+    }
+
+    /// One control period of every robot under `actions` (one per robot); `fell[l]`: lane
+    /// l fell (or diverged) during it. Every action must be finite (else nothing moves).
+    pub fn step(&mut self, actions: &[f64], fell: &mut [bool]) -> Result<(), TwipError> {
+        if actions.len() != self.n || fell.len() != self.n {
+            let got = if actions.len() != self.n { actions.len() } else { fell.len() };
+            return Err(TwipError::Shape { name: "actions", expected: (self.n, 1), got: (got, 1) });
+        }
+        if let Some(index) = actions.iter().position(|a| !a.is_finite()) {
+            return Err(TwipError::NonFinite { name: "action", index, value: actions[index] });
+        }
+        let spec = &self.spec;
+        let n = self.n;
+        match &mut self.robots {
+            Robots::Ideal(blocks) => self.pool.install(|| {
+                blocks.par_iter_mut().zip(fell.par_chunks_mut(LANES)).enumerate().for_each(|(b, (block, fell))| {
+                    let start = b * LANES;
+                    let mut u = [0.0; LANES];
+                    let end = (start + LANES).min(n);
+                    u[..end - start].copy_from_slice(&actions[start..end]);
+                    let out = advance_block(&block.plants, &mut block.x, &u, spec.substeps, spec.dt, spec.fall_limit);
+                    fell.copy_from_slice(&out[..fell.len()]);
+                })
+            }),
+            Robots::Rig(robots) => self.pool.install(|| {
+                robots.par_iter_mut().zip(actions.par_iter()).zip(fell.par_iter_mut()).with_min_len(LANES).for_each(|((r, &a), f)| {
+                    *f = r.step(a, spec);
+                })
+            }),
+        }
+        Ok(())
+    }
+}
+
+fn oom(bytes: usize) -> TwipError {
+    TwipError::OutOfMemory { name: "num_envs", bytes: bytes as u64 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::lqr::{design, DesignPoint, LqrController};
+    use crate::control::reference::SpeedSchedule;
+    use crate::control::{Controller, Reference};
+    use crate::sim::runner::{Observer, SimConfig};
+    use crate::sweep::{Spread, Target};
+    use nalgebra::{Matrix4, SVector};
+
+    fn spec(realism: Option<RealismFor>) -> BalanceSpec {
+        let params = RobotParams::balanbot();
+        BalanceSpec {
+            nominal: Nominal { params, slope: 0.05, x0: Vector4::new(0.0, 0.0, 0.0, 0.0) },
+            perturbations: alloc::vec![
+                Perturbation { target: Target::Initial(0), spread: Spread::Uniform { low: -0.1, high: 0.1 } },
+                Perturbation { target: Target::Param(0), spread: Spread::Uniform { low: 0.9 * params.m_body, high: 1.1 * params.m_body } },
+            ],
+            realism,
+            dt: 1e-3,
+            substeps: 5,
+            fall_limit: 0.5,
+        }
+    }
+
+    /// States of every lane over `steps` steps, each lane's action a function of its own
+    /// observation, on `threads` threads.
+    fn rollout(spec: &BalanceSpec, n: usize, threads: usize, steps: usize) -> Vec<[f64; 4]> {
+        let mut envs = BalanceEnvs::new(spec.clone(), n, threads).unwrap();
+        for l in 0..n {
+            envs.reset(l, Some(100 + l as u64)).unwrap();
+        }
+        let mut out = Vec::new();
+        let mut fell = alloc::vec![false; n];
+        for _ in 0..steps {
+            let actions: Vec<f64> = (0..n).map(|l| 8.0 * envs.observation(l)[0] + 0.5 * envs.observation(l)[1]).collect();
+            envs.step(&actions, &mut fell).unwrap();
+            out.extend((0..n).map(|l| <[f64; 4]>::from(envs.state(l))));
+        }
+        out
+    }
+
+    #[test]
+    fn same_bits_on_any_thread_count_and_batch_size() {
+        let rig: RealismFor = Arc::new(|_: &RobotParams<f64>| Ok(Realism::thesis_like()));
+        for realism in [None, Some(rig)] {
+            let spec = spec(realism);
+            let one = rollout(&spec, 37, 1, 40);
+            assert_eq!(one, rollout(&spec, 37, 3, 40));
+            // Lane 5 alone (seeded as lane 5 was) is lane 5 of the batch.
+            let mut alone = BalanceEnvs::new(spec.clone(), 1, 1).unwrap();
+            alone.reset(0, Some(105)).unwrap();
+            let mut fell = [false];
+            for k in 0..40 {
+                let o = alone.observation(0);
+                alone.step(&[8.0 * o[0] + 0.5 * o[1]], &mut fell).unwrap();
+                assert_eq!(<[f64; 4]>::from(alone.state(0)), one[k * 37 + 5], "step {k}");
+            }
+        }
+    }
+
+    /// Replays actions as a controller of the one runner.
+    struct Replay(Vec<f64>, usize);
+
+    impl Controller<f64, 4, 1> for Replay {
+        type Reference = crate::control::reference::SpeedRef<f64>;
+        fn reset(&mut self) {
+            self.1 = 0;
+        }
+        fn period(&self) -> f64 {
+            5e-3
+        }
+        fn update(&mut self, _: f64, _: &Vector4<f64>, _: &Self::Reference) -> SVector<f64, 1> {
+            self.1 += 1;
+            SVector::<f64, 1>::new(self.0[self.1 - 1])
+        }
+        fn internals(&self) -> &[f64] {
+            &[]
+        }
+        fn internal_names(&self) -> &'static [&'static str] {
+            &[]
+        }
+    }
+
+    struct States(Vec<Vector4<f64>>);
+    impl<S> Observer<f64, 4, 1, S> for States {
+        fn observe(&mut self, _: f64, x: &Vector4<f64>, _: &SVector<f64, 1>, _: &S, _: &[f64]) {
+            self.0.push(*x);
+        }
+    }
+
+    /// A lane's run is the runner's with the same inputs: to rounding on the ideal plant's
+    /// lanes, bit for bit through the rig (the same objects, stepped alike).
+    #[test]
+    fn a_lane_is_the_runners_run() {
+        let model = SlopeModel::new(RobotParams::balanbot(), 0.05).unwrap();
+        let q = Matrix4::from_diagonal(&Vector4::new(10.0, 10.0, 1.0, 1.0));
+        let d = design(&model, 0.0, &q, 100.0, DesignPoint::OperatingPoint).unwrap();
+        let lqr = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 5e-3).unwrap();
+        let rig: RealismFor = Arc::new(|_: &RobotParams<f64>| Ok(Realism { motor: None, ..Realism::thesis_like() }));
+        for realism in [None, Some(rig)] {
+            let mut spec = spec(realism.clone());
+            spec.perturbations.clear();
+            spec.nominal.x0 = Vector4::new(0.05, 0.0, 0.0, 0.0);
+            let mut envs = BalanceEnvs::new(spec.clone(), 3, 2).unwrap();
+            let mut ctrl = lqr;
+            ctrl.reset();
+            let (mut actions, mut states) = (Vec::new(), Vec::new());
+            let r = SpeedSchedule::constant(0.0).unwrap().sample(0.0);
+            let mut fell = [false; 3];
+            for k in 0..400 {
+                let a = ctrl.update(k as f64 * 5e-3, &envs.observation(2), &r)[0];
+                actions.push(a);
+                envs.step(&[0.0, 0.0, a], &mut fell).unwrap();
+                assert!(!fell[2]);
+                states.push(envs.state(2));
+            }
+            let config = SimConfig::new(1e-3, 2.0, Some(0.5));
+            let mut seen = States(Vec::new());
+            let mut replay = Replay(actions, 0);
+            match &realism {
+                None => {
+                    crate::sim::runner::simulate(&model, &mut replay, &SpeedSchedule::constant(0.0).unwrap(), &spec.nominal.x0, &config, &mut seen).unwrap();
+                }
+                Some(f) => {
+                    let mut rig = Realism { seed: noise_seed(2), ..f(model.params()).unwrap() }.build(&model, 1e-3).unwrap();
+                    rig.simulate(&mut replay, &SpeedSchedule::constant(0.0).unwrap(), &spec.nominal.x0, &config, &mut seen, || false).unwrap();
+                }
+            }
+            for (k, x) in states.iter().enumerate() {
+                let want = seen.0[5 * (k + 1)];
+                let err = (x - want).amax();
+                if realism.is_some() {
+                    assert_eq!(*x, want, "rig, period {k}");
+                } else {
+                    // Fused lanes against the runner's separate roundings, replayed open
+                    // loop: the upright's unstable pole grows the ~1e-16 differences.
+                    assert!(err < 1e-10, "ideal, period {k}: {err}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bad_input_is_refused_and_changes_nothing() {
+        assert!(matches!(BalanceEnvs::new(spec(None), 0, 1), Err(TwipError::InvalidParameter { name: "num_envs", .. })));
+        let mut envs = BalanceEnvs::new(spec(None), 4, 1).unwrap();
+        let before = envs.state(1);
+        let mut fell = [false; 4];
+        assert!(matches!(envs.step(&[0.0; 3], &mut fell), Err(TwipError::Shape { .. })));
+        assert!(matches!(envs.step(&[0.0, f64::NAN, 0.0, 0.0], &mut fell), Err(TwipError::NonFinite { name: "action", index: 1, .. })));
+        assert_eq!(envs.state(1), before);
+    }
+}
