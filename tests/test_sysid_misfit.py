@@ -144,10 +144,11 @@ def test_identify_the_rig_and_the_robot_file_agree_on_the_driver(tmp_path):
     wrong, caught = quiet_identify(log, truth, ["mu_bearing", "m_body"], sensors=Sensors.of(rig),
                                    driver=twip.MotorDriver())
     assert wrong.warnings and (caught or not wrong.converged), wrong.summary()
-    # A robot file's [driver] table that names only the battery keeps the rig's drop, winding and limit.
+    # A robot file's [driver] table that names only the battery keeps the rig's drop, winding and
+    # limit; the firmware assumes the file's battery.
     robot_file.save(truth, tmp_path / "r.toml", None, {"battery": 12.0})
     driver = twip.Robot.from_file(tmp_path / "r.toml").driver
-    assert driver.to_dict() == twip.MotorDriver.thesis_like().replace(battery=12.0).to_dict()
+    assert driver.to_dict() == twip.MotorDriver.thesis_like().replace(battery=12.0, assumed_battery=12.0).to_dict()
 
 
 def test_csv_ambiguities_are_refused_by_name(tmp_path):
