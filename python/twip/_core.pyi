@@ -45,7 +45,10 @@ __all__ = [
     "TwipError",
     "Waypoints",
     "__version__",
+    "c2d",
     "care",
+    "dare",
+    "dlqr",
     "lqr",
     "rk4_step",
     "simulate_planar_raw",
@@ -229,6 +232,19 @@ def lqr(A: _ArrayLike, B: _ArrayLike, Q: _ArrayLike, R: Union[float, _ArrayLike]
     """Linear-quadratic regulator, python-control's `lqr(A, B, Q, R) -> (K, X, E)`:
     K = R⁻¹ Bᵀ X for u = −K x, X the CARE solution, E the eigenvalues of A − B K (complex).
     """
+def dare(A: _ArrayLike, B: _ArrayLike, Q: _ArrayLike, R: Union[float, _ArrayLike]) -> _F64:
+    """Stabilising solution X of Aᵀ X A − X − Aᵀ X B (R + Bᵀ X B)⁻¹ Bᵀ X A + Q = 0 (like scipy's
+    `solve_discrete_are`: Q, R symmetric, R may be singular where the pencil allows it).
+    B may be 1-D for one input, R a scalar.
+    """
+def dlqr(A: _ArrayLike, B: _ArrayLike, Q: _ArrayLike, R: Union[float, _ArrayLike]) -> Tuple[_F64, _F64, npt.NDArray[np.complex128]]:
+    """Discrete-time LQR, python-control's `dlqr(A, B, Q, R) -> (K, S, E)`: K = (R + Bᵀ S B)⁻¹ Bᵀ S A
+    for u[k] = −K x[k], S the DARE solution, E the eigenvalues of A − B K (complex).
+    """
+def c2d(A: _ArrayLike, B: _ArrayLike, period: float) -> Tuple[_F64, _F64]:
+    """Exact zero-order-hold discretisation over `period` [s]: (Ad, Bd) with x[k+1] = Ad x[k] + Bd u[k]
+    (scipy's `cont2discrete(..., method="zoh")`). B may be 1-D for one input.
+    """
 
 @final
 class SpeedSchedule:
@@ -257,9 +273,12 @@ class LqrController:
     def __new__(cls, model: SlopeModel, gains: _ArrayLike, point: str = "operating", period: float = 0.005) -> LqrController: ...
     @staticmethod
     def design(model: SlopeModel, theta_dot_ref: float, Q: _ArrayLike, R: float, point: str = "operating",
-               period: float = 0.005) -> LqrController:
+               period: float = 0.005, discrete: bool = False, delay: bool = False) -> LqrController:
         """Designs K̂ by LQR on the augmented system (4.17)-(4.23) at `theta_dot_ref`.
-        `Q` is 4x4 (or the 4 diagonal entries), `R` a positive scalar.
+        `Q` is 4x4 (or the 4 diagonal entries), `R` a positive scalar. `discrete=True` designs
+        at `period` instead (zero-order hold, the integrator as the controller runs it, dlqr);
+        `delay=True` (with `discrete=True`) also models the rig's one-period command delay and
+        picks the best 4 gains for it (see docs/dare.md).
         """
     @property
     def gains(self) -> _F64:

@@ -26,6 +26,10 @@ pub mod envs;
 
 #[cfg(feature = "alloc")]
 pub use control::care::{care, lqr, Lqr};
+#[cfg(feature = "alloc")]
+pub use control::c2d::c2d;
+#[cfg(feature = "alloc")]
+pub use control::dare::{dare, dlqr};
 pub use model::dynamics::Dynamics;
 pub use error::{Readable, TwipError};
 pub use model::integrate::rk4_step;

@@ -5,6 +5,7 @@ use pyo3::prelude::*;
 
 mod control;
 mod convert;
+mod discrete;
 mod errors;
 mod ffi;
 mod hardware;
@@ -27,6 +28,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     errors::register(m)?;
     linalg::register(m)?;
+    discrete::register(m)?;
     m.add_class::<params::PyRobotParams>()?;
     m.add_class::<models::PySlopeModel>()?;
     m.add_class::<models::PyPlanarModel>()?;

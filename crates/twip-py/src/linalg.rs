@@ -7,11 +7,11 @@ use twip_core::TwipError;
 use crate::convert::{dmatrix, to_py_complex_vector, to_py_dmatrix};
 use crate::errors::PyTwipError;
 
-type Arr2<'py> = Bound<'py, PyArray2<f64>>;
+pub(crate) type Arr2<'py> = Bound<'py, PyArray2<f64>>;
 
 /// Reads a matrix argument: a 2-D array, a 1-D array (a column: B for one input), or a
 /// scalar (1×1: R for one input). The core checks the shapes against each other.
-fn matrix(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<DMatrix<f64>> {
+pub(crate) fn matrix(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<DMatrix<f64>> {
     let arr: PyArrayLikeDyn<'_, f64, AllowTypeChange> = obj.extract().map_err(|_| {
         PyTwipError(TwipError::InvalidParameter {
             name,
@@ -34,9 +34,9 @@ fn matrix(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<DMatrix<f64>> 
     }
 }
 
-type Problem = (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>);
+pub(crate) type Problem = (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>);
 
-fn problem(
+pub(crate) fn problem(
     a: &Bound<'_, PyAny>,
     b: &Bound<'_, PyAny>,
     q: &Bound<'_, PyAny>,

@@ -162,18 +162,17 @@ pub struct LqrDesign<T: Real> {
     pub u_s: T,
 }
 
-/// Designs K̂ for `model` at the reference speed `theta_dot_ref` with weights Q̂ (4×4)
-/// and R̂ (scalar), linearised where `point` says.
+/// The plant's linear model on `[φ, φ̇, θ̇]` where `point` says, and the steady state
+/// `(φ_s, u_s)` at `theta_dot_ref`: what both designs, continuous and discrete, start from.
 #[cfg(feature = "alloc")]
-pub fn design<T: Real>(
+#[allow(clippy::type_complexity)]
+pub(crate) fn linear_model<T: Real>(
     model: &SlopeModel<T>,
     theta_dot_ref: T,
-    q: &nalgebra::Matrix4<T>,
-    r: T,
     point: DesignPoint,
-) -> Result<LqrDesign<T>, TwipError> {
-    use nalgebra::{DMatrix, Matrix3, Matrix4, Vector3, Vector4};
-    let (a3, b3, phi_s, u_s): (Matrix3<T>, Vector3<T>, T, T) = match point {
+) -> Result<(nalgebra::Matrix3<T>, nalgebra::Vector3<T>, T, T), TwipError> {
+    use nalgebra::{Matrix3, Vector3};
+    Ok(match point {
         DesignPoint::Thesis => {
             let lin = model.linearize_thesis();
             let (x_s, u_s) = model.equilibrium_linear(theta_dot_ref)?;
@@ -186,7 +185,21 @@ pub fn design<T: Real>(
             let keep = [0usize, 1, 3];
             (Matrix3::from_fn(|i, j| a4[(keep[i], keep[j])]), Vector3::from_fn(|i, _| b4[keep[i]]), x_s[0], u_s)
         }
-    };
+    })
+}
+
+/// Designs K̂ for `model` at the reference speed `theta_dot_ref` with weights Q̂ (4×4)
+/// and R̂ (scalar), linearised where `point` says.
+#[cfg(feature = "alloc")]
+pub fn design<T: Real>(
+    model: &SlopeModel<T>,
+    theta_dot_ref: T,
+    q: &nalgebra::Matrix4<T>,
+    r: T,
+    point: DesignPoint,
+) -> Result<LqrDesign<T>, TwipError> {
+    use nalgebra::{DMatrix, Matrix4, Vector4};
+    let (a3, b3, phi_s, u_s) = linear_model(model, theta_dot_ref, point)?;
     // (4.19): the integrator state z integrates θ̇ − θ̇_ref (C = [0 0 1]).
     let mut a = Matrix4::<T>::zeros();
     a.fixed_view_mut::<3, 3>(0, 0).copy_from(&a3);

@@ -7,9 +7,15 @@
 //! trackers), the speed references and the planar trajectories.
 #[cfg(feature = "alloc")]
 pub mod care;
+#[cfg(feature = "alloc")]
+pub mod c2d;
+#[cfg(feature = "alloc")]
+pub mod dare;
 pub mod fuzzy;
 pub mod fuzzy_basis;
 pub mod lqr;
+#[cfg(feature = "alloc")]
+pub mod lqr_discrete;
 pub mod pid;
 pub mod reference;
 pub mod smc;

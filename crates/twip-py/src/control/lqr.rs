@@ -6,6 +6,7 @@ use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
+use twip_core::control::lqr_discrete::design_discrete;
 
 use crate::convert::{dmatrix, gain_row, scalar, to_py_dmatrix, vector};
 use crate::errors::{CoreResult, PyTwipError};
@@ -58,10 +59,13 @@ impl PyLqrController {
     }
 
     /// Designs K̂ by LQR on the augmented system (4.17)-(4.23) at `theta_dot_ref`.
-    /// `Q` is 4x4 (or the 4 diagonal entries), `R` a positive scalar.
+    /// `Q` is 4x4 (or the 4 diagonal entries), `R` a positive scalar. `discrete=True` designs
+    /// at `period` instead (zero-order hold, the integrator as the controller runs it, dlqr);
+    /// `delay=True` (with `discrete=True`) also models the rig's one-period command delay and
+    /// picks the best 4 gains for it (see docs/dare.md).
     #[staticmethod]
-    #[pyo3(name = "design", signature = (model, theta_dot_ref, Q, R, point = "operating", period = 0.005))]
-    #[allow(non_snake_case)]
+    #[pyo3(name = "design", signature = (model, theta_dot_ref, Q, R, point = "operating", period = 0.005, discrete = false, delay = false))]
+    #[allow(non_snake_case, clippy::too_many_arguments)]
     fn design_py(
         py: Python<'_>,
         model: &PySlopeModel,
@@ -70,6 +74,8 @@ impl PyLqrController {
         R: f64,
         point: &str,
         period: f64,
+        discrete: bool,
+        delay: bool,
     ) -> PyResult<Self> {
         let q = match vector::<4>("Q", Q) {
             Ok(diag) => Matrix4::from_diagonal(&diag),
@@ -93,8 +99,18 @@ impl PyLqrController {
             }
         };
         let p = design_point(point)?;
-        let d = design(&model.inner, scalar("theta_dot_ref", theta_dot_ref)?, &q, scalar("R", R)?, p)
-            .map_err(PyTwipError)?;
+        if delay && !discrete {
+            return Err(crate::errors::InvalidParameterError::new_err(
+                "delay = True: needs discrete = True (the delay is one controller period)",
+            ));
+        }
+        let (speed, r) = (scalar("theta_dot_ref", theta_dot_ref)?, scalar("R", R)?);
+        let d = if discrete {
+            design_discrete(&model.inner, speed, &q, r, p, scalar("period", period)?, delay)
+        } else {
+            design(&model.inner, speed, &q, r, p)
+        }
+        .map_err(PyTwipError)?;
         let info = PyDict::new(py);
         info.set_item("A", to_py_dmatrix(py, &nalgebra::DMatrix::from_fn(4, 4, |i, j| d.a[(i, j)])))?;
         info.set_item("B", to_py_dmatrix(py, &nalgebra::DMatrix::from_fn(4, 1, |i, _| d.b[i])))?;
@@ -103,6 +119,8 @@ impl PyLqrController {
         info.set_item("phi_s", d.phi_s)?;
         info.set_item("u_s", d.u_s)?;
         info.set_item("theta_dot_ref", theta_dot_ref)?;
+        info.set_item("discrete", discrete)?;
+        info.set_item("delay", delay)?;
         let inner = LqrController::new(d.gains, model.inner, p, period).map_err(PyTwipError)?;
         Ok(Self { inner, info: OnceLock::from(info.unbind()) })
     }

@@ -6,7 +6,7 @@ use super::*;
 
 /// Solves `Mᵀ D + D M = F` (F symmetric) with `M = U T Uᵀ` in real Schur form
 /// (Bartels–Stewart): `Tᵀ Y + Y T = Uᵀ F U`, block by block, then `D = U Y Uᵀ`.
-pub(super) fn lyapunov_schur<T: Real>(u: &DMatrix<T>, t: &DMatrix<T>, f: &DMatrix<T>) -> DMatrix<T> {
+pub(crate) fn lyapunov_schur<T: Real>(u: &DMatrix<T>, t: &DMatrix<T>, f: &DMatrix<T>) -> DMatrix<T> {
     let n = t.nrows();
     let ft = u.tr_mul(f) * u;
     let blocks = quasi_blocks(t);
@@ -58,7 +58,7 @@ pub(super) fn lyapunov_schur<T: Real>(u: &DMatrix<T>, t: &DMatrix<T>, f: &DMatri
 
 /// Gaussian elimination with complete pivoting on a k×k system (k ≤ 4); pivots smaller
 /// than `smin` are raised to it (as LAPACK's `dlasy2` does), so it always returns.
-pub(super) fn solve_small<T: Real>(k: usize, mut mat: [[T; 4]; 4], mut rhs: [T; 4], smin: T) -> [T; 4] {
+pub(crate) fn solve_small<T: Real>(k: usize, mut mat: [[T; 4]; 4], mut rhs: [T; 4], smin: T) -> [T; 4] {
     let mut cols = [0usize, 1, 2, 3];
     for p in 0..k {
         let (mut ip, mut jp, mut best) = (p, p, T::zero());

@@ -49,13 +49,13 @@ use nalgebra::{Cholesky, Complex, ComplexField, DMatrix, Dyn, Schur, SymmetricEi
 
 use crate::{c, to_f64, Real, TwipError};
 
-mod checks;
-mod lyapunov;
-mod newton;
-mod pbh;
-mod scaling;
-mod schur;
-mod sign;
+pub(crate) mod checks;
+pub(crate) mod lyapunov;
+pub(crate) mod newton;
+pub(crate) mod pbh;
+pub(crate) mod scaling;
+pub(crate) mod schur;
+pub(crate) mod sign;
 #[cfg(test)]
 mod tests;
 
@@ -69,14 +69,15 @@ use sign::*;
 
 
 /// Cap on the Newton iterations of the matrix sign function (it takes ~5–15).
-const SIGN_MAX_ITER: usize = 100;
+pub(crate) const SIGN_MAX_ITER: usize = 100;
 /// Determinant scaling stops after this many sign iterations at the latest.
-const SIGN_SCALED_MAX_ITER: usize = 20;
+pub(crate) const SIGN_SCALED_MAX_ITER: usize = 20;
 /// Cap on the Newton–Kleinman refinement steps (it takes 0–3 after the sign function; from
 /// the fallback start near a double Hamiltonian eigenvalue at 0 it converges linearly).
 const NEWTON_MAX_ITER: usize = 80;
 
-/// The result of [`lqr`].
+/// The result of [`lqr`] (and of [`crate::control::dare::dlqr`], whose gain is
+/// `(R + Bᵀ X B)⁻¹ Bᵀ X A` and whose `X` solves the DARE).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lqr<T: Real> {
     /// The gain `K = R⁻¹ Bᵀ X` (m×n) of the control law `u = −K x`.
@@ -106,17 +107,7 @@ pub fn lqr<T: Real>(a: &DMatrix<T>, b: &DMatrix<T>, q: &DMatrix<T>, r: &DMatrix<
     let problem = Problem::new(a, b, q, r)?;
     let x = problem.solve()?;
     let k = problem.chol_r.solve(&(b.transpose() * &x));
-    let closed = a - b * &k;
-    let (_, t) = schur(closed).ok_or(TwipError::NoConvergence {
-        what: "Schur decomposition of the closed loop A - B K",
-        iterations: schur_cap(a.nrows()),
-    })?;
-    let mut poles = quasi_eigenvalues(&t);
-    poles.sort_by(|u, v| {
-        u.re.partial_cmp(&v.re)
-            .unwrap_or(Ordering::Equal)
-            .then(u.im.partial_cmp(&v.im).unwrap_or(Ordering::Equal))
-    });
+    let poles = sorted_eigenvalues(a - b * &k)?;
     Ok(Lqr { k, x, poles })
 }
 
@@ -137,51 +128,13 @@ struct Problem<'a, T: Real> {
 
 impl<'a, T: Real> Problem<'a, T> {
     fn new(a: &'a DMatrix<T>, b: &'a DMatrix<T>, q: &DMatrix<T>, r: &DMatrix<T>) -> Result<Self, TwipError> {
-        let n = a.nrows();
-        if n == 0 || a.ncols() != n {
-            return Err(TwipError::Shape {
-                name: "A",
-                expected: (n.max(1), n.max(1)),
-                got: a.shape(),
-            });
-        }
-        let m = b.ncols();
-        if b.nrows() != n || m == 0 {
-            return Err(TwipError::Shape {
-                name: "B",
-                expected: (n, m.max(1)),
-                got: b.shape(),
-            });
-        }
-        if q.shape() != (n, n) {
-            return Err(TwipError::Shape {
-                name: "Q",
-                expected: (n, n),
-                got: q.shape(),
-            });
-        }
-        if r.shape() != (m, m) {
-            return Err(TwipError::Shape {
-                name: "R",
-                expected: (m, m),
-                got: r.shape(),
-            });
-        }
-        finite("A", a)?;
-        finite("B", b)?;
-        finite("Q", q)?;
-        finite("R", r)?;
-        let q = symmetric("Q", q)?;
-        let r = symmetric("R", r)?;
+        let (n, m, q, r) = checked_problem(a, b, q, r)?;
 
         let eps = T::default_epsilon();
         // Q may be indefinite (as in SciPy and python-control): a stabilising solution exists
         // whenever the Hamiltonian has no eigenvalue on the imaginary axis, which the solver
         // finds out itself. Its smallest eigenvalue decides whether a detectability test applies.
-        let q_eig = symmetric_eigenvalues("Q", &q)?;
-        let q_top = q_eig.iter().fold(T::zero(), |acc, v| acc.max(v.abs()));
-        let q_min = q_eig.iter().fold(q_top, |acc, &v| acc.min(v));
-        let q_psd = !(q_min < -(c::<T>(100.0) * c::<T>(n as f64) * eps * q_top));
+        let (q_min, q_psd) = smallest_eigenvalue("Q", &q)?;
         let r_eig = symmetric_eigenvalues("R", &r)?;
         let r_top = r_eig.iter().fold(T::zero(), |acc, v| acc.max(v.abs()));
         let r_min = r_eig.iter().fold(r_top, |acc, &v| acc.min(v));
@@ -223,52 +176,9 @@ impl<'a, T: Real> Problem<'a, T> {
     /// stabilising solution exists and mirrors it. A Schur form that does not converge skips
     /// the tests: the solver's own checks (residual, closed-loop stability) still stand.
     fn check_pbh(&self, tol: T) -> Result<(), TwipError> {
-        let n = self.a.nrows();
-        let Some((_, t)) = schur(self.a.clone()) else {
-            return Ok(());
-        };
-        let a_max = self.a.amax();
-        let margin = T::default_epsilon().sqrt() * a_max * c::<T>(n as f64);
-        let suspects: Vec<Complex<T>> = quasi_eigenvalues(&t)
-            .into_iter()
-            .filter(|l| l.re >= -margin && l.im >= T::zero())
-            .collect();
-        if suspects.is_empty() {
-            return Ok(());
-        }
-        // Each PBH matrix is scaled as a whole by a power of two (its singular value ratio
-        // does not change) so that no norm overflows or underflows.
-        // (A, B) stabilizable: rank [A − λI, B] = n; no undamped mode invisible to Q:
-        // rank [Aᵀ − λI, Q] = n for Re λ ≈ 0.
-        let tests = [
-            (self.b, false, TwipError::NotStabilizable),
-            (&self.q, true, TwipError::NotDetectable),
-        ];
-        for (other, transpose, error) in tests {
-            if transpose && !self.q_psd {
-                continue;
-            }
-            let k = -pow2_exponent::<T>(a_max.max(other.amax()));
-            let a = scaled_pow2(self.a, k);
-            let a = if transpose { a.transpose() } else { a };
-            let other = scaled_pow2(other, k);
-            let f = c::<T>(2.0).powi(k);
-            for lambda in &suspects {
-                if transpose && lambda.re.abs() > margin {
-                    continue;
-                }
-                // A positive definite Q (σ_min ≥ its smallest eigenvalue) needs no test.
-                let bound = c::<T>(n as f64) * (a_max + self.q.amax())
-                    + c::<T>(n as f64).sqrt() * (lambda.re.abs() + lambda.im.abs());
-                if transpose && self.q_min > tol * bound {
-                    continue;
-                }
-                if rank_deficient(&a, &other, lambda.scale(f), tol) {
-                    return Err(error);
-                }
-            }
-        }
-        Ok(())
+        let margin = T::default_epsilon().sqrt() * self.a.amax() * c::<T>(self.a.nrows() as f64);
+        let weight = Weight { q: &self.q, q_min: self.q_min, q_psd: self.q_psd };
+        check_pbh(self.a, self.b, weight, tol, |l| l.re >= -margin, |l| l.re.abs() <= margin)
     }
 
     fn solve(&self) -> Result<DMatrix<T>, TwipError> {
@@ -297,7 +207,7 @@ impl<'a, T: Real> Problem<'a, T> {
         let q = scaled_pow2(&self.q, -2 * j);
         // A symplectic diagonal similarity x = D x̃ (powers of two): Ã = D⁻¹ A D,
         // B̃h = D⁻¹ Bh, Q̃ = D Q D, X = D⁻¹ X̃ D⁻¹. It evens out badly scaled states.
-        let d = balance(&a, &bh, &q);
+        let d = balance(&a, &(&bh * bh.transpose()), &q);
         let a = DMatrix::from_fn(a.nrows(), a.ncols(), |i, j| a[(i, j)] * d[j] / d[i]);
         let bh = DMatrix::from_fn(bh.nrows(), bh.ncols(), |i, j| bh[(i, j)] / d[i]);
         let q = DMatrix::from_fn(q.nrows(), q.ncols(), |i, j| q[(i, j)] * d[i] * d[j]);

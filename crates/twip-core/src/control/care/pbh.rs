@@ -1,12 +1,14 @@
 //! The PBH rank test behind the stabilizability and detectability checks.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+use alloc::vec::Vec;
+
 use nalgebra::DMatrix;
 
 use super::*;
 
 /// Is `[M − λI, N]` (n×(n+k)) rank deficient: σ_min ≤ tol · σ_max? In real arithmetic
 /// when λ is real, complex otherwise.
-pub(super) fn rank_deficient<T: Real>(m: &DMatrix<T>, other: &DMatrix<T>, lambda: Complex<T>, tol: T) -> bool {
+pub(crate) fn rank_deficient<T: Real>(m: &DMatrix<T>, other: &DMatrix<T>, lambda: Complex<T>, tol: T) -> bool {
     if lambda.im.is_zero() {
         rank_deficient_in(m, other, lambda.re, tol)
     } else {
@@ -19,7 +21,7 @@ pub(super) fn rank_deficient<T: Real>(m: &DMatrix<T>, other: &DMatrix<T>, lambda
 /// Householder QR of the (n+k)×n conjugate transpose gives a triangular `R` with the same
 /// singular values; `1/‖R⁻¹‖_F ≤ σ_min ≤ √n/‖R⁻¹‖_F` and `‖R‖_F/√n ≤ σ_max ≤ ‖R‖_F`, so the
 /// ratio is known within a factor n, which is nothing next to `tol`. No iteration.
-pub(super) fn rank_deficient_in<T: Real, F: ComplexField<RealField = T> + Copy>(
+pub(crate) fn rank_deficient_in<T: Real, F: ComplexField<RealField = T> + Copy>(
     m: &DMatrix<T>,
     other: &DMatrix<T>,
     lambda: F,
@@ -104,3 +106,68 @@ pub(super) fn rank_deficient_in<T: Real, F: ComplexField<RealField = T> + Copy>(
     T::one() / (inv_norm2 * r_norm2).sqrt() <= tol
 }
 
+
+/// The state weight of a Riccati equation as the PBH tests need it.
+pub(crate) struct Weight<'a, T: Real> {
+    pub(crate) q: &'a DMatrix<T>,
+    /// The smallest eigenvalue of Q.
+    pub(crate) q_min: T,
+    /// Q is positive semi-definite (up to rounding).
+    pub(crate) q_psd: bool,
+}
+
+/// The PBH tests with relative rank tolerance `tol`, on the eigenvalues λ of A that
+/// `unstable(λ)` keeps: (A, B) stabilizable; and, for a positive semi-definite Q, no mode with
+/// `undamped(λ)` (on the stability boundary) invisible to Q (else the Riccati pencil has that
+/// eigenvalue too and no stabilising solution exists). An unstable mode invisible to Q is
+/// no obstacle: the stabilising solution exists and mirrors it. A Schur form that does not
+/// converge skips the tests: the solver's own checks (residual, closed-loop stability) still stand.
+pub(crate) fn check_pbh<T: Real>(
+    a: &DMatrix<T>,
+    b: &DMatrix<T>,
+    weight: Weight<'_, T>,
+    tol: T,
+    unstable: impl Fn(&Complex<T>) -> bool,
+    undamped: impl Fn(&Complex<T>) -> bool,
+) -> Result<(), TwipError> {
+    let n = a.nrows();
+    let Some((_, t)) = schur(a.clone()) else {
+        return Ok(());
+    };
+    let a_max = a.amax();
+    let suspects: Vec<Complex<T>> =
+        quasi_eigenvalues(&t).into_iter().filter(|l| unstable(l) && l.im >= T::zero()).collect();
+    if suspects.is_empty() {
+        return Ok(());
+    }
+    // Each PBH matrix is scaled as a whole by a power of two (its singular value ratio
+    // does not change) so that no norm overflows or underflows.
+    // (A, B) stabilizable: rank [A − λI, B] = n; no undamped mode invisible to Q:
+    // rank [Aᵀ − λI, Q] = n on the boundary.
+    let tests = [(b, false, TwipError::NotStabilizable), (weight.q, true, TwipError::NotDetectable)];
+    for (other, transpose, error) in tests {
+        if transpose && !weight.q_psd {
+            continue;
+        }
+        let k = -pow2_exponent::<T>(a_max.max(other.amax()));
+        let a = scaled_pow2(a, k);
+        let a = if transpose { a.transpose() } else { a };
+        let other = scaled_pow2(other, k);
+        let f = c::<T>(2.0).powi(k);
+        for lambda in &suspects {
+            if transpose && !undamped(lambda) {
+                continue;
+            }
+            // A positive definite Q (σ_min ≥ its smallest eigenvalue) needs no test.
+            let bound = c::<T>(n as f64) * (a_max + weight.q.amax())
+                + c::<T>(n as f64).sqrt() * (lambda.re.abs() + lambda.im.abs());
+            if transpose && weight.q_min > tol * bound {
+                continue;
+            }
+            if rank_deficient(&a, &other, lambda.scale(f), tol) {
+                return Err(error);
+            }
+        }
+    }
+    Ok(())
+}

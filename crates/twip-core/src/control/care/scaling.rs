@@ -9,7 +9,7 @@ use super::*;
 
 /// The exponent k with 2^k nearest to `v` (> 0) in the log, clamped so that 2^±k and
 /// 2^±2k stay finite and normal in `T`.
-pub(super) fn pow2_exponent<T: Real>(v: T) -> i32 {
+pub(crate) fn pow2_exponent<T: Real>(v: T) -> i32 {
     if !(v > T::zero()) || !v.is_finite() {
         return 0;
     }
@@ -19,7 +19,7 @@ pub(super) fn pow2_exponent<T: Real>(v: T) -> i32 {
 }
 
 /// `m · 2^k`, exact barring overflow and underflow.
-pub(super) fn scaled_pow2<T: Real>(m: &DMatrix<T>, k: i32) -> DMatrix<T> {
+pub(crate) fn scaled_pow2<T: Real>(m: &DMatrix<T>, k: i32) -> DMatrix<T> {
     if k == 0 {
         return m.clone();
     }
@@ -27,26 +27,26 @@ pub(super) fn scaled_pow2<T: Real>(m: &DMatrix<T>, k: i32) -> DMatrix<T> {
 }
 
 /// The problem after rescaling and balancing: `X = s D⁻¹ X̃ D⁻¹`.
-pub(super) struct Scaled<T: Real> {
-    pub(super) a: DMatrix<T>,
-    pub(super) bh: DMatrix<T>,
-    pub(super) q: DMatrix<T>,
-    pub(super) g: DMatrix<T>,
-    pub(super) d: Vec<T>,
-    pub(super) s: T,
+pub(crate) struct Scaled<T: Real> {
+    pub(crate) a: DMatrix<T>,
+    pub(crate) bh: DMatrix<T>,
+    pub(crate) q: DMatrix<T>,
+    pub(crate) g: DMatrix<T>,
+    pub(crate) d: Vec<T>,
+    pub(crate) s: T,
 }
 
 /// Diagonal scaling `d` (powers of two) that balances the Hamiltonian under the symplectic
 /// similarity `diag(D, D⁻¹)`: `A_ij d_j / d_i`, `G_ij / (d_i d_j)`, `Q_ij d_i d_j`
 /// (Parlett–Reinsch-like sweeps on 1-norms, at most 50, with 2⁻⁵⁰ ≤ d_i ≤ 2⁵⁰).
-pub(super) fn balance<T: Real>(a: &DMatrix<T>, bh: &DMatrix<T>, q: &DMatrix<T>) -> Vec<T> {
+pub(crate) fn balance<T: Real>(a: &DMatrix<T>, g: &DMatrix<T>, q: &DMatrix<T>) -> Vec<T> {
     let n = a.nrows();
     let mut d = alloc::vec![T::one(); n];
     let mut exps = alloc::vec![0i32; n];
     // The scaled absolute values (column-major), updated in place with each accepted factor.
     let mut aa: Vec<T> = a.iter().map(|v| v.abs()).collect();
     let mut qa: Vec<T> = q.iter().map(|v| v.abs()).collect();
-    let mut ga: Vec<T> = (bh * bh.transpose()).iter().map(|v| v.abs()).collect();
+    let mut ga: Vec<T> = g.iter().map(|v| v.abs()).collect();
     let two = c::<T>(2.0);
     for _ in 0..50 {
         let mut changed = false;

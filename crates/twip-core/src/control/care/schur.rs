@@ -6,7 +6,7 @@ use nalgebra::DMatrix;
 
 use super::*;
 
-pub(super) fn schur_cap(n: usize) -> usize {
+pub(crate) fn schur_cap(n: usize) -> usize {
     100 + 40 * n
 }
 
@@ -14,13 +14,13 @@ pub(super) fn schur_cap(n: usize) -> usize {
 /// exceptional shifts; if they stall, a second try runs on an orthogonally similar matrix,
 /// a third on `Mᵀ` (CAREX #6, n = 30, stalls on every orthogonal similarity tried, not on
 /// its transpose).
-pub(super) fn schur<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
+pub(crate) fn schur<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
     schur_direct(m.clone())
         .or_else(|| schur_reflected(m.clone()))
         .or_else(|| schur_transposed(m))
 }
 
-pub(super) fn schur_direct<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
+pub(crate) fn schur_direct<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
     let cap = schur_cap(m.nrows());
     // nalgebra rescales only from 3×3 up; a power of two keeps 2×2 blocks from overflowing.
     let k = pow2_exponent::<T>(m.amax());
@@ -33,7 +33,7 @@ pub(super) fn schur_direct<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatri
 
 /// Schur form of `P M P` with the reflector `P = I − 2 v vᵀ / (vᵀ v)` (symmetric,
 /// orthogonal), mapped back: `M = (P U) T (P U)ᵀ`.
-pub(super) fn schur_reflected<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
+pub(crate) fn schur_reflected<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
     let n = m.nrows();
     let v = DMatrix::<T>::from_fn(n, 1, |i, _| T::one() / c::<T>((i + 2) as f64));
     let p = DMatrix::<T>::identity(n, n) - (&v * v.transpose()) * (c::<T>(2.0) / v.norm_squared());
@@ -44,7 +44,7 @@ pub(super) fn schur_reflected<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMa
 /// Schur form of `M` from that of `Mᵀ = V S Vᵀ`: with the index reversal `P`,
 /// `M = (V P) (P Sᵀ P) (V P)ᵀ`, and `P Sᵀ P` is upper quasi-triangular again (the 2×2 blocks
 /// stay on the diagonal, each transposed and reversed).
-pub(super) fn schur_transposed<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
+pub(crate) fn schur_transposed<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DMatrix<T>)> {
     let n = m.nrows();
     let (v, s) = schur_direct(m.transpose())?;
     let u = DMatrix::from_fn(n, n, |i, j| v[(i, n - 1 - j)]);
@@ -53,7 +53,7 @@ pub(super) fn schur_transposed<T: Real>(m: DMatrix<T>) -> Option<(DMatrix<T>, DM
 }
 
 /// The diagonal blocks (start, size) of a real quasi-triangular Schur factor.
-pub(super) fn quasi_blocks<T: Real>(t: &DMatrix<T>) -> Vec<(usize, usize)> {
+pub(crate) fn quasi_blocks<T: Real>(t: &DMatrix<T>) -> Vec<(usize, usize)> {
     let n = t.nrows();
     let mut blocks = Vec::with_capacity(n);
     let mut i = 0;
@@ -70,7 +70,7 @@ pub(super) fn quasi_blocks<T: Real>(t: &DMatrix<T>) -> Vec<(usize, usize)> {
 }
 
 /// Eigenvalues of a real quasi-triangular matrix, from its 1×1 and 2×2 diagonal blocks.
-pub(super) fn quasi_eigenvalues<T: Real>(t: &DMatrix<T>) -> Vec<Complex<T>> {
+pub(crate) fn quasi_eigenvalues<T: Real>(t: &DMatrix<T>) -> Vec<Complex<T>> {
     let mut out = Vec::with_capacity(t.nrows());
     for (i, size) in quasi_blocks(t) {
         if size == 1 {
@@ -98,3 +98,19 @@ pub(super) fn quasi_eigenvalues<T: Real>(t: &DMatrix<T>) -> Vec<Complex<T>> {
     out
 }
 
+
+/// The eigenvalues of `m`, sorted by real part then imaginary part (the poles of a closed loop).
+pub(crate) fn sorted_eigenvalues<T: Real>(m: DMatrix<T>) -> Result<Vec<Complex<T>>, TwipError> {
+    let n = m.nrows();
+    let (_, t) = schur(m).ok_or(TwipError::NoConvergence {
+        what: "Schur decomposition of the closed loop A - B K",
+        iterations: schur_cap(n),
+    })?;
+    let mut poles = quasi_eigenvalues(&t);
+    poles.sort_by(|u, v| {
+        u.re.partial_cmp(&v.re)
+            .unwrap_or(Ordering::Equal)
+            .then(u.im.partial_cmp(&v.im).unwrap_or(Ordering::Equal))
+    });
+    Ok(poles)
+}

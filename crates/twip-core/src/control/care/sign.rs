@@ -6,7 +6,7 @@ use super::*;
 
 /// Gauss–Jordan inversion with partial pivoting, in place on a column-major n×n slice;
 /// returns log|det|, or `None` if a pivot is zero or not finite.
-pub(super) fn invert_in_place<T: Real>(a: &mut [T], n: usize, perm: &mut [usize], factors: &mut [T]) -> Option<T> {
+pub(crate) fn invert_in_place<T: Real>(a: &mut [T], n: usize, perm: &mut [usize], factors: &mut [T]) -> Option<T> {
     let mut logdet = T::zero();
     // |det| accumulates as a product, folded into the log when it leaves [2⁻³², 2³²]
     // (a product of two such numbers is finite even in f32).
@@ -66,7 +66,7 @@ pub(super) fn invert_in_place<T: Real>(a: &mut [T], n: usize, perm: &mut [usize]
 }
 
 /// `X` from the matrix sign function of the Hamiltonian (step 3 of the module docs).
-pub(super) fn sign_solution<T: Real>(a: &DMatrix<T>, g: &DMatrix<T>, q: &DMatrix<T>) -> Option<DMatrix<T>> {
+pub(crate) fn sign_solution<T: Real>(a: &DMatrix<T>, g: &DMatrix<T>, q: &DMatrix<T>) -> Option<DMatrix<T>> {
     let n = a.nrows();
     let nn = 2 * n;
     // W = J H = [[−Q, −Aᵀ], [−A, G]], column-major.
@@ -159,7 +159,7 @@ pub(super) fn sign_solution<T: Real>(a: &DMatrix<T>, g: &DMatrix<T>, q: &DMatrix
 /// A stabilising `X` to start Newton–Kleinman from when the sign function of the problem
 /// itself fails: the stabilising solution for the positive definite weight
 /// `Q + (‖Q‖ + 1) I` (its Hamiltonian has no imaginary eigenvalue when (A, B) is stabilizable).
-pub(super) fn stabilising_start<T: Real>(sc: &Scaled<T>) -> Option<DMatrix<T>> {
+pub(crate) fn stabilising_start<T: Real>(sc: &Scaled<T>) -> Option<DMatrix<T>> {
     let n = sc.a.nrows();
     let shift = sc.q.norm() + T::one();
     let q = &sc.q + DMatrix::<T>::identity(n, n) * shift;
@@ -169,7 +169,7 @@ pub(super) fn stabilising_start<T: Real>(sc: &Scaled<T>) -> Option<DMatrix<T>> {
 /// `X` from `W = J sign(H)`: sign H = −J W = [[−W21, −W22], [W11, W12]], and
 /// (sign H + I) [I; X] = 0 reads [W22; W12 + I] X = [I − W21; −W11], solved in the
 /// least-squares sense (Householder QR).
-pub(super) fn graph_from_sign<T: Real>(w: &DMatrix<T>) -> Option<DMatrix<T>> {
+pub(crate) fn graph_from_sign<T: Real>(w: &DMatrix<T>) -> Option<DMatrix<T>> {
     let n = w.nrows() / 2;
     let mut lhs = DMatrix::<T>::zeros(2 * n, n);
     let mut rhs = DMatrix::<T>::zeros(2 * n, n);
