@@ -2,7 +2,10 @@
 //! arrays), loops over lanes that the compiler vectorises. Each lane computes with
 //! `model::lane::Fused`.
 
-/// Samples advanced together: 16 f64 = two AVX-512 registers, four AVX2 ones.
+/// Samples advanced together: 16 f64 = two AVX-512 registers, four AVX2 ones. Chosen by
+/// measurement for every copy (docs/performance.md, "Lanes per CPU"): 4 lanes halved the AVX2
+/// copy, 8 cost the AVX-512 copy's LQR kernel 45 %, and 8 on AVX2 or 32 on either copy moved
+/// no workload beyond the machine's noise.
 pub const LANES: usize = 16;
 
 /// One value per lane.
