@@ -190,3 +190,26 @@ def test_columns_in_the_wrong_unit_are_named_with_their_row(tmp_path):
     reversed_enc = RunLog.from_csv(path, scale={"enc": -1})
     with pytest.raises(LogError, match="enc: the wheels turn against the input"):
         identify(reversed_enc, START, FREE, driver=DRIVER, sensors=Sensors.of(rig))
+
+
+TALL = twip.RobotParams.balanbot().replace(m_body=3.0, m_wheels=0.3, i_body=0.04, i_wheels=3.75e-4, i_motor=5e-6,
+                                           gear_ratio=50.0, torque_constant=0.015, wheel_radius=0.05, com_height=0.2,
+                                           mu_bearing=0.02, mu_ground=0.005)
+
+
+def test_a_wrong_driver_on_a_second_robot_is_not_a_quiet_answer():
+    """A second robot (3 kg, 0.2 m, 100 mm wheels, 50:1, 2.5 A driver), its rig log fitted with the
+    default MotorDriver() instead of its own: the fit converged quietly with mu_bearing +749 % and
+    i_body +150 %, because the gyro's noise was read from the filtered signal's own second differences,
+    which behind the IMU's filter are the robot's motion (12x the noise a correct fit leaves). Its
+    gyro residual was 21x as correlated as noise and 3x a correct fit's. With the right driver the
+    fit stays quiet and within 0.4 %."""
+    driver = twip.MotorDriver.thesis_like().replace(current_limit=2.5)
+    start = TALL.replace(m_body=3.0 * 1.2, com_height=0.2 * 0.8, i_body=0.04 * 1.25, mu_bearing=0.02 * 0.85)
+    log, rig = rig_log(8.0, robot=TALL, driver=driver)
+    wrong, caught = quiet_identify(log, start, FREE, driver=twip.MotorDriver(), sensors=Sensors.of(rig))
+    assert max(abs(e) for e in errors(wrong, TALL).values()) > 0.05, errors(wrong, TALL)
+    assert wrong.warnings and caught and any(m.startswith("gyro") for m in wrong.misfits), wrong.summary()
+    fit, caught = quiet_identify(log, start, FREE, driver=driver, sensors=Sensors.of(rig))
+    assert fit.converged and not fit.warnings and not caught, fit.summary()
+    assert max(abs(e) for e in errors(fit, TALL).values()) < 0.015, errors(fit, TALL)
