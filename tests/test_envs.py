@@ -178,3 +178,23 @@ def test_falls_terminate_and_the_step_limit_truncates():
 def test_registered_through_the_module_entry_point():
     env = gymnasium.make("twip.envs:twip/Balance-v0")
     assert isinstance(env.unwrapped, envs.BalanceEnv)
+
+
+def test_a_linear_policy_runs_through_twip_simulate_as_on_the_env():
+    """LinearPolicy hands twip.simulate the current the firmware turns into the policy's
+    duty: through the rig with its driver, the run is the env's lane bit for bit."""
+    from twip.envs.policy import LinearPolicy
+
+    gains = np.array([6000.0, 110.0, 300.0, -10.0])
+    env = envs.BalanceEnv(realism=RIG, perturb={"phi0": twip.Uniform(low=0.08, high=0.08)}, max_episode_steps=None)
+    obs, _ = env.reset(seed=7)
+    states = []
+    for _ in range(200):
+        obs, _, term, _, info = env.step(np.array([np.clip(gains @ obs, -255.0, 255.0)]))
+        assert not term
+        states.append(info["state"])
+    model = twip.SlopeModel(twip.RobotParams.balanbot())
+    policy = LinearPolicy(gains, period=5e-3, realism=RIG, params=model.params)
+    run = twip.simulate(model, policy, np.array([0.08, 0.0, 0.0, 0.0]), t_final=1.0, dt=1e-3,
+                        realism=RIG.replace(seed=twip._core.sweep_noise_seed(7), stream=0))
+    assert np.array_equal(np.array(states), run.states[5::5][:200])
