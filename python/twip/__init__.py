@@ -5,6 +5,7 @@ with a numpy-friendly API. ``twip.reference`` is an independent pure-Python impl
 used to cross-check the Rust core.
 """
 from twip._core import (
+    BalanceBatch,
     Circle,
     ConvergenceError,
     DcMotor,
@@ -36,6 +37,7 @@ from twip._core import (
     SmcTracker,
     SpeedSchedule,
     TiltEstimator,
+    TrackBatch,
     Trapezoid,
     Triangle,
     TwipError,
@@ -72,6 +74,8 @@ from twip.plausibility import ImplausibleRobotWarning
 from twip.design import Tuning, TuningError, WorstCase, tune, worst_case
 
 __all__ = [
+    "BalanceBatch",
+    "TrackBatch",
     "Fit",
     "RunLog",
     "identify",

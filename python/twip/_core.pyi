@@ -9,6 +9,7 @@ _ArrayLike = npt.ArrayLike
 _F64 = npt.NDArray[np.float64]
 
 __all__ = [
+    "BalanceBatch",
     "Circle",
     "ConvergenceError",
     "DcMotor",
@@ -40,6 +41,7 @@ __all__ = [
     "SmcTracker",
     "SpeedSchedule",
     "TiltEstimator",
+    "TrackBatch",
     "Trapezoid",
     "Triangle",
     "TwipError",
@@ -263,6 +265,60 @@ class SpeedSchedule:
         """Legs as (goal, speed, hold) tuples."""
     def sample(self, t: float) -> Tuple[float, float]:
         """(theta_ref, theta_dot_ref) at time t."""
+
+@final
+class BalanceBatch:
+    """N balancing robots, each keyed (seed, episode); `twip.envs` wraps it."""
+    def __new__(cls, model: SlopeModel, x0: _ArrayLike,
+                perturbations: Sequence[Tuple[str, int, str, float, float, float, float]], num_envs: int, dt: float,
+                substeps: int, fall_limit: float, realism: Optional[Realism] = None,
+                threads: int = 0) -> BalanceBatch: ...
+    @property
+    def num_envs(self) -> int: ...
+    @property
+    def has_rig(self) -> bool: ...
+    def reset(self, lanes: Sequence[int], seeds: Optional[Sequence[int]] = None) -> None:
+        """Starts the next episode of each lane in `lanes`: with `seeds` (one per lane),
+        episode 0 of that seed; else the lane's next episode.
+        """
+    def step(self, actions: _F64) -> npt.NDArray[np.bool_]:
+        """One control period of every robot; returns which fell."""
+    def observations(self) -> _F64:
+        """Every robot's observation (num_envs x 4)."""
+    def states(self) -> _F64:
+        """Every robot's true state (num_envs x 4)."""
+    def keys(self) -> Tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint64]]:
+        """Every robot's (seed, episode) key, as two uint64 arrays."""
+
+@final
+class TrackBatch:
+    """N tracking robots on one path, each keyed (seed, episode); `twip.envs` wraps it."""
+    def __new__(cls, model: PlanarModel, path: Union[Circle, Line, FigureEight, Waypoints], x0: _ArrayLike,
+                perturbations: Sequence[Tuple[str, int, str, float, float, float, float]], num_envs: int, dt: float,
+                substeps: int, fall_limit: float, realism: Optional[Realism] = None,
+                threads: int = 0) -> TrackBatch: ...
+    @property
+    def num_envs(self) -> int: ...
+    @property
+    def has_rig(self) -> bool: ...
+    def reset(self, lanes: Sequence[int], seeds: Optional[Sequence[int]] = None) -> None:
+        """Starts the next episode of each lane in `lanes`: with `seeds` (one per lane),
+        episode 0 of that seed; else the lane's next episode.
+        """
+    def step(self, actions: _F64) -> npt.NDArray[np.bool_]:
+        """One control period of every robot under `actions` (2 per robot, robot after robot);
+        returns which fell.
+        """
+    def observations(self) -> _F64:
+        """Every robot's observation (num_envs x 9): path error in its frame, pitch, speeds,
+        the reference's speeds.
+        """
+    def true_observations(self) -> _F64:
+        """The observations the true states give (num_envs x 9)."""
+    def states(self) -> _F64:
+        """Every robot's true state (num_envs x 7)."""
+    def keys(self) -> Tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint64]]:
+        """Every robot's (seed, episode) key, as two uint64 arrays."""
 
 @final
 class LqrController:

@@ -6,6 +6,7 @@ use pyo3::prelude::*;
 mod control;
 mod convert;
 mod discrete;
+mod envs;
 mod errors;
 mod ffi;
 mod hardware;
@@ -67,6 +68,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate_planar::simulate_planar_raw, m)?)?;
     m.add_function(wrap_pyfunction!(ffi::ffi_record, m)?)?;
     m.add_function(wrap_pyfunction!(ffi::ffi_firmware, m)?)?;
+    m.add_class::<envs::balance::PyBalanceBatch>()?;
+    m.add_class::<envs::track::PyTrackBatch>()?;
     m.add("FFI_HEADER", ffi::HEADER)?;
     m.add("FFI_SOURCE_DIR", ffi::SOURCE_DIR)?;
     Ok(())

@@ -12,26 +12,23 @@
 use alloc::sync::Arc;
 use alloc::vec::Vec;
 
-use nalgebra::{SVector, Vector4};
+use nalgebra::Vector4;
 use rayon::prelude::*;
 
-use crate::hardware::realism::{Realism, SlopeRig};
-use crate::model::integrate::rk4_step_from_k1;
+use super::robot::{advance_block, oom, LanePlant, Period};
+use crate::hardware::realism::{BalanceSensors, RealActuator, RealPlant, Realism};
 use crate::model::params::RobotParams;
 use crate::model::slope::{SlopeCoefficients, SlopeModel};
-use crate::sim::runner::{Plant, Sensor};
-use crate::sweep::block::{multiversioned, Plants};
+use crate::sweep::block::Plants;
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::rig::noise_seed;
 use crate::sweep::{draw, Nominal, Perturbation};
-use crate::{Dynamics, TwipError};
+use crate::TwipError;
 
 /// The rig a robot with these parameters gets (pushes and a force act at its own centre
 /// of mass); its seed and stream are set per episode.
 pub type RealismFor = Arc<dyn Fn(&RobotParams<f64>) -> Result<Realism<f64>, TwipError> + Send + Sync>;
 
-/// Most robots in one batch: 2^24 (16.7 M), checked before anything is allocated.
-pub const MAX_ENVS: usize = 1 << 24;
 
 /// What every robot of a batch shares.
 #[derive(Clone)]
@@ -52,16 +49,7 @@ pub struct BalanceSpec {
 
 impl BalanceSpec {
     fn validate(&self) -> Result<(), TwipError> {
-        let bad = |name, value: f64, reason| Err(TwipError::InvalidParameter { name, value, reason });
-        if !(self.dt.is_finite() && self.dt > 0.0) {
-            return bad("dt", self.dt, "must be finite and > 0");
-        }
-        if self.substeps == 0 {
-            return bad("substeps", 0.0, "must be >= 1 (the control period is substeps * dt)");
-        }
-        if !(self.fall_limit.is_finite() && self.fall_limit > 0.0) {
-            return bad("fall_limit", self.fall_limit, "must be finite and > 0");
-        }
+        self.period().validate()?;
         for p in &self.perturbations {
             p.validate()?;
         }
@@ -77,19 +65,8 @@ struct IdealBlock {
     x: [Lanes; 4],
 }
 
-/// One robot through its rig, between two controller updates.
-struct RigRobot {
-    rig: SlopeRig<f64>,
-    x: Vector4<f64>,
-    /// The input applied over this period, and the one waiting (a delayed rig's).
-    u: f64,
-    pending: f64,
-    /// The sensors' reading at the last update (reading moves the estimator).
-    reading: Vector4<f64>,
-    steps: u64,
-    /// Largest duty (counts) with a motor driver; None: the input is a current.
-    pwm_max: Option<f64>,
-}
+/// One robot through its 2-DOF rig.
+type RigRobot = super::robot::RigRobot<RealPlant<f64>, BalanceSensors<f64>, RealActuator<f64>, 4, 1>;
 
 enum Robots {
     Ideal(Vec<IdealBlock>),
@@ -105,103 +82,27 @@ pub struct BalanceEnvs {
     pool: rayon::ThreadPool,
 }
 
-/// A lane plant the ideal kernel advances (the 2-DOF sweep's [`Plants`]).
-pub trait LanePlant {
-    fn rk4_lanes(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4];
-}
-
 impl LanePlant for Plants {
+    type State = [Lanes; 4];
+    type Input = Lanes;
+    const PITCH: usize = 0;
+
     #[inline(always)]
     fn rk4_lanes(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
         self.rk4(x, u, dt)
     }
 }
 
-multiversioned! {
-    /// Advances a block of robots `steps` plant steps under the inputs `u`; returns the
-    /// lanes that fell (or diverged). A lane that falls keeps its first state past the
-    /// limit (a non-finite one is not taken) and moves no more.
-    pub fn advance_block, advance_block_avx512, advance_block_avx2, advance_block_baseline = advance<P: LanePlant>(
-        plants: &P,
-        x: &mut [Lanes; 4],
-        u: &Lanes,
-        steps: usize,
-        dt: f64,
-        fall_limit: f64,
-    ) -> [bool; LANES]
-}
-
-#[inline(always)]
-fn advance<P: LanePlant>(plants: &P, x: &mut [Lanes; 4], u: &Lanes, steps: usize, dt: f64, fall_limit: f64) -> [bool; LANES] {
-    let mut alive = [true; LANES];
-    for _ in 0..steps {
-        let next = plants.rk4_lanes(x, u, dt);
-        for l in 0..LANES {
-            let finite = next[0][l].is_finite() & next[1][l].is_finite() & next[2][l].is_finite() & next[3][l].is_finite();
-            let take = alive[l] & finite;
-            for i in 0..4 {
-                x[i][l] = if take { next[i][l] } else { x[i][l] };
-            }
-            alive[l] = take & (next[0][l].abs() <= fall_limit);
-        }
-    }
-    alive.map(|a| !a)
-}
-
-impl RigRobot {
-    /// The rig at rest in `x0`: its sensors sample the initial state and are read once, as
-    /// the runner does before its first update.
-    fn start(mut rig: SlopeRig<f64>, x0: Vector4<f64>, pwm_max: Option<f64>) -> Self {
-        let u = SVector::<f64, 1>::zeros();
-        rig.sensors.sample(0.0, &x0, &rig.plant.deriv(&x0, &u));
-        rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
-        let reading = rig.sensors.read(0.0, &x0);
-        Self { rig, x: x0, u: 0.0, pending: 0.0, reading, steps: 0, pwm_max }
-    }
-
-    /// One control period under `action` (`run_loop`'s steps between two updates, then the
-    /// next update's read); whether the robot fell.
-    fn step(&mut self, action: f64, spec: &BalanceSpec) -> bool {
-        let drive = match self.pwm_max {
-            Some(max) => action.round().clamp(-max, max),
-            None => action,
-        };
-        if self.rig.delay {
-            self.u = self.pending;
-            self.pending = drive;
-        } else {
-            self.u = drive;
-        }
-        let (dt, u) = (spec.dt, SVector::<f64, 1>::new(self.u));
-        let (plant, sensors) = (&mut self.rig.plant, &mut self.rig.sensors);
-        for _ in 0..spec.substeps {
-            let t = dt * self.steps as f64;
-            sensors.shaft_offsets(plant.shaft_offsets());
-            let k1 = plant.between_steps_with_derivative(t, dt, &mut self.x, &u).unwrap_or_else(|| plant.deriv(&self.x, &u));
-            sensors.sample(t, &self.x, &k1);
-            let next = rk4_step_from_k1(&*plant, &self.x, &u, dt, &k1);
-            plant.step_ended(&next);
-            self.steps += 1;
-            if !next.iter().all(|v| v.is_finite()) {
-                return true;
-            }
-            self.x = next;
-            if self.x[0].abs() > spec.fall_limit {
-                return true;
-            }
-        }
-        sensors.shaft_offsets(plant.shaft_offsets());
-        self.reading = sensors.read(dt * self.steps as f64, &self.x);
-        false
+impl BalanceSpec {
+    fn period(&self) -> Period {
+        Period { dt: self.dt, substeps: self.substeps, pitch: 0, fall_limit: self.fall_limit }
     }
 }
 
 impl BalanceEnvs {
     /// `n` robots, lane i keyed (i, 0) until it is reset with a seed of its own.
     pub fn new(spec: BalanceSpec, n: usize, threads: usize) -> Result<Self, TwipError> {
-        if n == 0 || n > MAX_ENVS {
-            return Err(TwipError::InvalidParameter { name: "num_envs", value: n as f64, reason: "must be in 1..=16777216" });
-        }
+        let keys = super::robot::keys(n)?;
         spec.validate()?;
         let pool = super::pool(threads)?;
         let nominal = SlopeModel::new(spec.nominal.params, spec.nominal.slope)?;
@@ -220,9 +121,6 @@ impl BalanceEnvs {
                 Robots::Rig(v)
             }
         };
-        let mut keys = Vec::new();
-        keys.try_reserve_exact(n).map_err(|_| oom(n * 16))?;
-        keys.extend((0..n as u64).map(|i| (i, 0)));
         let mut envs = Self { spec, n, keys, robots, pool };
         for l in 0..n {
             envs.start(l, (l as u64, 0))?;
@@ -344,8 +242,9 @@ impl BalanceEnvs {
                 })
             }),
             Robots::Rig(robots) => self.pool.install(|| {
-                robots.par_iter_mut().zip(actions.par_iter()).zip(fell.par_iter_mut()).with_min_len(LANES).for_each(|((r, &a), f)| {
-                    *f = r.step(a, spec);
+                let period = spec.period();
+                robots.par_iter_mut().zip(actions.par_chunks(1)).zip(fell.par_iter_mut()).with_min_len(LANES).for_each(|((r, a), f)| {
+                    *f = r.step(a, period);
                 })
             }),
         }
@@ -353,9 +252,6 @@ impl BalanceEnvs {
     }
 }
 
-fn oom(bytes: usize) -> TwipError {
-    TwipError::OutOfMemory { name: "num_envs", bytes: bytes as u64 }
-}
 
 #[cfg(test)]
 mod tests {

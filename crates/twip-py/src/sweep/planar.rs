@@ -25,7 +25,7 @@ use crate::sweep::{parse_perturbations, run_sweep, PerturbTuple};
 use crate::sim::simulate_planar::{settle_time, PlanarController};
 use crate::control::trajectory::trajectory;
 
-fn nominal(model: &PyPlanarModel, x0: &Bound<'_, PyAny>) -> PyResult<PlanarNominal> {
+pub(crate) fn nominal(model: &PyPlanarModel, x0: &Bound<'_, PyAny>) -> PyResult<PlanarNominal> {
     crate::sweep::no_friction_in_sweeps(model.inner.friction().is_some())?;
     Ok(PlanarNominal { params: *model.inner.params(), x0: vector::<7>("x0", x0)? })
 }

@@ -94,10 +94,10 @@ pub(crate) fn lane_ref<S: Lane>(r: &PlanarRef<f64>) -> PlanarRef<S> {
 /// Plant coefficients, one array per coefficient, one entry per lane, aligned to a cache
 /// line for the kernel's frame (as the 2-DOF `Plants`).
 #[repr(C, align(64))]
-pub(super) struct Plants([Lanes; PLANAR_COEFFICIENTS]);
+pub(crate) struct Plants([Lanes; PLANAR_COEFFICIENTS]);
 
 impl Plants {
-    pub(super) fn new(models: &[PlanarModel<f64>; LANES]) -> Self {
+    pub(crate) fn new(models: &[PlanarModel<f64>; LANES]) -> Self {
         let per_lane = models.map(|m| m.coefficients().to_array());
         Self(core::array::from_fn(|f| core::array::from_fn(|l| per_lane[l][f])))
     }
@@ -113,7 +113,7 @@ impl Plants {
     /// body, as the 2-DOF block does, measured no faster here: the 7-state step already
     /// spills registers.)
     #[inline(always)]
-    fn rk4(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
+    pub(crate) fn rk4(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
         let mut out = [[0.0; LANES]; 7];
         for l in 0..LANES {
             let plant = Plant { k: self.lane(l), u: [Fused(u[0][l]), Fused(u[1][l])] };

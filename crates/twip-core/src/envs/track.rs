@@ -1,0 +1,456 @@
+//! `twip/Track-v0`'s robots: N 3-DOF robots (the planar model) following one path, each
+//! from its own start, advanced one control period per step, on the ideal plant or
+//! through each robot's own 3-DOF rig.
+//!
+//! - Ideal plant: the planar sweep's lanes (`sweep::block::planar`'s plants, [`LANES`]
+//!   robots a block, one block per task); the action is the two wheel torques [N m].
+//! - Rig: each robot's [`PlanarRig`] (`Realism::build_planar`), stepped as the runner steps
+//!   it; the action is the plant's input (the two duties with a motor driver, rounded and
+//!   saturated as the firmware writes them; else the torques); the observation is built
+//!   from the sensors' reading (dead-reckoned pose, encoder heading, tilt estimate, gyros).
+//!
+//! The observation ([`TRACK_OBS`] entries) is the path error in the robot's frame at the
+//! lane's own time since its episode began, then the pitch and the speeds, then the
+//! reference's speeds: `[e_along, e_lateral, e_psi, φ, φ̇, v, ω, v_ref, ω_ref]`.
+use alloc::vec::Vec;
+
+use rayon::prelude::*;
+
+use super::balance::RealismFor;
+use super::robot::{advance_block, keys, oom, LanePlant, Period};
+use crate::control::trajectory::{PlanarRef, Trajectory};
+use crate::control::Reference;
+use crate::hardware::planar_rig::{PlanarActuator, PlanarPlant, PlanarSensors};
+use crate::hardware::realism::Realism;
+use crate::model::planar::{PlanarModel, PlanarState};
+use crate::sweep::block::PlanarPlants;
+use crate::sweep::lanes::{Lanes, LANES};
+use crate::sweep::planar::{draw, validate, PlanarNominal};
+use crate::sweep::rig::noise_seed;
+use crate::sweep::Perturbation;
+use crate::TwipError;
+
+/// Entries of a Track-v0 observation.
+pub const TRACK_OBS: usize = 9;
+
+/// What every robot of a tracking batch shares.
+#[derive(Clone)]
+pub struct TrackSpec {
+    /// The nominal robot and initial state `[x, y, psi, phi, phi_dot, v, omega]` the draws
+    /// perturb.
+    pub nominal: PlanarNominal,
+    /// Drawn per episode, in order, from `Philox::new(seed, episode)` (`sweep::planar::draw`).
+    pub perturbations: Vec<Perturbation>,
+    /// None: the ideal plant.
+    pub realism: Option<RealismFor>,
+    /// The path every robot follows, from its episode's start.
+    pub path: Trajectory<f64>,
+    /// The plant step [s], plant steps per control period, |φ| beyond which a robot fell.
+    pub dt: f64,
+    pub substeps: usize,
+    pub fall_limit: f64,
+}
+
+impl TrackSpec {
+    fn period(&self) -> Period {
+        Period { dt: self.dt, substeps: self.substeps, pitch: 3, fall_limit: self.fall_limit }
+    }
+
+    fn validate(&self) -> Result<(), TwipError> {
+        self.period().validate()?;
+        for p in &self.perturbations {
+            validate(p)?;
+        }
+        PlanarModel::new(self.nominal.params)?;
+        Ok(())
+    }
+}
+
+/// [`LANES`] robots on the ideal planar plant.
+struct IdealBlock {
+    models: [PlanarModel<f64>; LANES],
+    plants: PlanarPlants,
+    x: [Lanes; 7],
+}
+
+impl LanePlant for PlanarPlants {
+    type State = [Lanes; 7];
+    type Input = [Lanes; 2];
+    const PITCH: usize = 3;
+
+    #[inline(always)]
+    fn rk4_lanes(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
+        self.rk4(x, u, dt)
+    }
+}
+
+/// One robot through its 3-DOF rig.
+type RigRobot = super::robot::RigRobot<PlanarPlant<f64>, PlanarSensors<f64>, PlanarActuator<f64>, 7, 2>;
+
+enum Robots {
+    Ideal(Vec<IdealBlock>),
+    Rig(Vec<RigRobot>),
+}
+
+/// N robots of one [`TrackSpec`], each with its own key (seed, episode).
+pub struct TrackEnvs {
+    spec: TrackSpec,
+    n: usize,
+    keys: Vec<(u64, u64)>,
+    /// Control periods since each lane's episode began (its time on the path).
+    periods: Vec<u64>,
+    robots: Robots,
+    pool: rayon::ThreadPool,
+}
+
+/// The observation of a robot whose (measured or true) state is `y`, the reference `r`.
+pub fn observe(y: &PlanarState<f64>, r: &PlanarRef<f64>) -> [f64; TRACK_OBS] {
+    let (dx, dy) = (r.x - y[0], r.y - y[1]);
+    let (s, c) = y[2].sin_cos();
+    [c * dx + s * dy, c * dy - s * dx, r.psi - y[2], y[3], y[4], y[5], y[6], r.v, r.omega]
+}
+
+impl TrackEnvs {
+    /// `n` robots, lane i keyed (i, 0) until it is reset with a seed of its own.
+    pub fn new(spec: TrackSpec, n: usize, threads: usize) -> Result<Self, TwipError> {
+        let keys = keys(n)?;
+        spec.validate()?;
+        let pool = super::pool(threads)?;
+        let nominal = PlanarModel::new(spec.nominal.params)?;
+        let robots = match &spec.realism {
+            None => {
+                let blocks = n.div_ceil(LANES);
+                let mut v = Vec::new();
+                v.try_reserve_exact(blocks).map_err(|_| oom(blocks * core::mem::size_of::<IdealBlock>()))?;
+                let models = [nominal; LANES];
+                v.extend((0..blocks).map(|_| IdealBlock { models, plants: PlanarPlants::new(&models), x: [[0.0; LANES]; 7] }));
+                Robots::Ideal(v)
+            }
+            Some(_) => {
+                let mut v = Vec::new();
+                v.try_reserve_exact(n).map_err(|_| oom(n * core::mem::size_of::<RigRobot>()))?;
+                Robots::Rig(v)
+            }
+        };
+        let mut periods = Vec::new();
+        periods.try_reserve_exact(n).map_err(|_| oom(n * 8))?;
+        periods.resize(n, 0);
+        let mut envs = Self { spec, n, keys, periods, robots, pool };
+        for l in 0..n {
+            envs.start(l, (l as u64, 0))?;
+        }
+        Ok(envs)
+    }
+
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// Whether the robots run through a rig.
+    pub fn has_rig(&self) -> bool {
+        matches!(self.robots, Robots::Rig(_))
+    }
+
+    /// Lane `l`'s key (seed, episode).
+    pub fn key(&self, l: usize) -> (u64, u64) {
+        self.keys[l]
+    }
+
+    /// Starts lane `l`'s next episode: with `seed`, episode 0 of that seed; else the next
+    /// episode of its seed. On an error (a draw the model refuses) the lane is unchanged.
+    pub fn reset(&mut self, l: usize, seed: Option<u64>) -> Result<(), TwipError> {
+        if l >= self.n {
+            return Err(TwipError::InvalidParameter { name: "lane", value: l as f64, reason: "past the last robot" });
+        }
+        let (s, e) = self.keys[l];
+        self.start(l, seed.map_or((s, e.wrapping_add(1)), |s| (s, 0)))
+    }
+
+    fn start(&mut self, l: usize, key: (u64, u64)) -> Result<(), TwipError> {
+        let sample = draw(&self.spec.nominal, &self.spec.perturbations, key.0, key.1);
+        let model = PlanarModel::new(sample.params)?;
+        for (index, &value) in sample.x0.iter().enumerate() {
+            if !value.is_finite() {
+                return Err(TwipError::NonFinite { name: "x0", index, value });
+            }
+        }
+        match (&mut self.robots, &self.spec.realism) {
+            (Robots::Ideal(blocks), _) => {
+                let (b, j) = (l / LANES, l % LANES);
+                let block = &mut blocks[b];
+                block.models[j] = model;
+                block.plants = PlanarPlants::new(&block.models);
+                for i in 0..7 {
+                    block.x[i][j] = sample.x0[i];
+                }
+            }
+            (Robots::Rig(robots), Some(realism_for)) => {
+                let realism = Realism { seed: noise_seed(key.0), stream: key.1, ..realism_for(&sample.params)? };
+                let pwm_max = realism.motor.map(|m| m.motor(&sample.params)).transpose()?.map(|m| m.pwm_max());
+                let robot = RigRobot::start(realism.build_planar(&model, self.spec.dt)?, sample.x0, pwm_max);
+                if l < robots.len() {
+                    robots[l] = robot;
+                } else {
+                    robots.push(robot);
+                }
+            }
+            (Robots::Rig(_), None) => unreachable!("a rig batch has a realism"),
+        }
+        self.keys[l] = key;
+        self.periods[l] = 0;
+        Ok(())
+    }
+
+    /// Lane `l`'s true state `[x, y, psi, phi, phi_dot, v, omega]`.
+    pub fn state(&self, l: usize) -> PlanarState<f64> {
+        match &self.robots {
+            Robots::Ideal(blocks) => {
+                let (b, j) = (l / LANES, l % LANES);
+                PlanarState::from_fn(|i, _| blocks[b].x[i][j])
+            }
+            Robots::Rig(robots) => robots[l].x,
+        }
+    }
+
+    /// The path's reference for lane `l` now.
+    fn reference(&self, l: usize) -> PlanarRef<f64> {
+        let t = self.periods[l] as f64 * self.spec.substeps as f64 * self.spec.dt;
+        self.spec.path.sample(t)
+    }
+
+    /// Lane `l`'s observation: from the sensors' last reading through a rig, else the state.
+    pub fn observation(&self, l: usize) -> [f64; TRACK_OBS] {
+        let y = match &self.robots {
+            Robots::Ideal(_) => self.state(l),
+            Robots::Rig(robots) => robots[l].reading,
+        };
+        observe(&y, &self.reference(l))
+    }
+
+    /// Lane `l`'s observation as the true state gives it (what the reward weighs).
+    pub fn true_observation(&self, l: usize) -> [f64; TRACK_OBS] {
+        observe(&self.state(l), &self.reference(l))
+    }
+
+    /// One control period of every robot under `actions` (two per robot, robot after robot);
+    /// `fell[l]`: lane l fell (or diverged) during it. Every action must be finite (else
+    /// nothing moves).
+    pub fn step(&mut self, actions: &[f64], fell: &mut [bool]) -> Result<(), TwipError> {
+        if actions.len() != 2 * self.n || fell.len() != self.n {
+            let got = if fell.len() != self.n { (fell.len(), 2) } else { (actions.len() / 2, actions.len() % 2 + 2) };
+            return Err(TwipError::Shape { name: "actions", expected: (self.n, 2), got });
+        }
+        if let Some(index) = actions.iter().position(|a| !a.is_finite()) {
+            return Err(TwipError::NonFinite { name: "action", index, value: actions[index] });
+        }
+        let spec = &self.spec;
+        let n = self.n;
+        match &mut self.robots {
+            Robots::Ideal(blocks) => self.pool.install(|| {
+                blocks.par_iter_mut().zip(fell.par_chunks_mut(LANES)).enumerate().for_each(|(b, (block, fell))| {
+                    let start = b * LANES;
+                    let mut u = [[0.0; LANES]; 2];
+                    for l in start..(start + LANES).min(n) {
+                        u[0][l - start] = actions[2 * l];
+                        u[1][l - start] = actions[2 * l + 1];
+                    }
+                    let out = advance_block(&block.plants, &mut block.x, &u, spec.substeps, spec.dt, spec.fall_limit);
+                    fell.copy_from_slice(&out[..fell.len()]);
+                })
+            }),
+            Robots::Rig(robots) => self.pool.install(|| {
+                let period = spec.period();
+                robots.par_iter_mut().zip(actions.par_chunks(2)).zip(fell.par_iter_mut()).with_min_len(LANES).for_each(|((r, a), f)| {
+                    *f = r.step(a, period);
+                })
+            }),
+        }
+        for p in &mut self.periods {
+            *p += 1;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::pid::PidTracker;
+    use crate::control::trajectory::{Circle, Direction};
+    use crate::control::Controller;
+    use crate::hardware::motor::DcMotor;
+    use crate::model::params::RobotParams;
+    use crate::sim::runner::{Observer, SimConfig};
+    use crate::sweep::{Spread, Target};
+    use alloc::sync::Arc;
+    use nalgebra::SVector;
+
+    fn circle() -> Trajectory<f64> {
+        Trajectory::Circle(Circle::from_origin(0.6, 0.2, Direction::CounterClockwise).unwrap())
+    }
+
+    fn spec(realism: Option<RealismFor>) -> TrackSpec {
+        let params = RobotParams::balanbot();
+        TrackSpec {
+            nominal: PlanarNominal { params, x0: PlanarState::zeros() },
+            perturbations: alloc::vec![
+                Perturbation { target: Target::Initial(3), spread: Spread::Uniform { low: -0.05, high: 0.05 } },
+                Perturbation { target: Target::Param(0), spread: Spread::Uniform { low: 0.9 * params.m_body, high: 1.1 * params.m_body } },
+            ],
+            realism,
+            path: circle(),
+            dt: 1e-3,
+            substeps: 5,
+            fall_limit: 0.5,
+        }
+    }
+
+    /// A crude balancing action from the observation (each lane its own).
+    fn act(o: &[f64; TRACK_OBS]) -> [f64; 2] {
+        let a = 2.0 * o[3] + 0.2 * o[4] - 0.05 * o[0];
+        [a + 0.01 * o[1], a - 0.01 * o[1]]
+    }
+
+    fn rollout(spec: &TrackSpec, n: usize, threads: usize, steps: usize) -> Vec<[f64; 7]> {
+        let mut envs = TrackEnvs::new(spec.clone(), n, threads).unwrap();
+        for l in 0..n {
+            envs.reset(l, Some(100 + l as u64)).unwrap();
+        }
+        let (mut out, mut fell) = (Vec::new(), alloc::vec![false; n]);
+        for _ in 0..steps {
+            let actions: Vec<f64> = (0..n).flat_map(|l| act(&envs.observation(l))).collect();
+            envs.step(&actions, &mut fell).unwrap();
+            out.extend((0..n).map(|l| <[f64; 7]>::from(envs.state(l))));
+        }
+        out
+    }
+
+    #[test]
+    fn same_bits_on_any_thread_count_and_batch_size() {
+        let rig: RealismFor = Arc::new(|_: &RobotParams<f64>| Ok(Realism::thesis_like()));
+        for realism in [None, Some(rig)] {
+            let spec = spec(realism);
+            let one = rollout(&spec, 37, 1, 40);
+            assert_eq!(one, rollout(&spec, 37, 3, 40));
+            let mut alone = TrackEnvs::new(spec.clone(), 1, 1).unwrap();
+            alone.reset(0, Some(105)).unwrap();
+            let mut fell = [false];
+            for k in 0..40 {
+                alone.step(&act(&alone.observation(0)), &mut fell).unwrap();
+                assert_eq!(<[f64; 7]>::from(alone.state(0)), one[k * 37 + 5], "step {k}");
+            }
+        }
+    }
+
+    /// Replays actions as a tracker of the one runner.
+    struct Replay(Vec<[f64; 2]>, usize);
+
+    impl Controller<f64, 7, 2> for Replay {
+        type Reference = PlanarRef<f64>;
+        fn reset(&mut self) {
+            self.1 = 0;
+        }
+        fn period(&self) -> f64 {
+            5e-3
+        }
+        fn update(&mut self, _: f64, _: &PlanarState<f64>, _: &PlanarRef<f64>) -> SVector<f64, 2> {
+            self.1 += 1;
+            SVector::<f64, 2>::from(self.0[self.1 - 1])
+        }
+        fn internals(&self) -> &[f64] {
+            &[]
+        }
+        fn internal_names(&self) -> &'static [&'static str] {
+            &[]
+        }
+    }
+
+    struct States(Vec<PlanarState<f64>>);
+    impl<S> Observer<f64, 7, 2, S> for States {
+        fn observe(&mut self, _: f64, x: &PlanarState<f64>, _: &SVector<f64, 2>, _: &S, _: &[f64]) {
+            self.0.push(*x);
+        }
+    }
+
+    /// A lane's run is the runner's with the same inputs, the PID tracker closing the loop
+    /// on the env: to rounding on the ideal plant's lanes, bit for bit through the rig.
+    #[test]
+    fn a_lane_is_the_runners_run() {
+        let params = RobotParams::balanbot();
+        let model = PlanarModel::new(params).unwrap();
+        let pid = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), 0.005).unwrap();
+        let rig: RealismFor = Arc::new(|_: &RobotParams<f64>| Ok(Realism { motor: None, ..Realism::thesis_like() }));
+        let path = circle();
+        for realism in [None, Some(rig)] {
+            let mut spec = spec(realism.clone());
+            spec.perturbations.clear();
+            spec.nominal.x0[3] = 0.03;
+            let mut envs = TrackEnvs::new(spec.clone(), 3, 2).unwrap();
+            let mut ctrl = pid.clone();
+            ctrl.reset();
+            let (mut actions, mut states) = (Vec::new(), Vec::new());
+            let mut fell = [false; 3];
+            for k in 0..600 {
+                // The tracker sees what the env's lane sees: the state or the reading.
+                let y = match &envs.robots {
+                    Robots::Rig(r) => r[2].reading,
+                    Robots::Ideal(_) => envs.state(2),
+                };
+                let a = ctrl.update(k as f64 * 5e-3, &y, &path.sample(k as f64 * 5e-3));
+                actions.push([a[0], a[1]]);
+                envs.step(&[0.0, 0.0, 0.0, 0.0, a[0], a[1]], &mut fell).unwrap();
+                assert!(!fell[2], "period {k}");
+                states.push(envs.state(2));
+            }
+            let config = SimConfig::new(1e-3, 3.0, Some(0.5));
+            let mut seen = States(Vec::new());
+            let mut replay = Replay(actions, 0);
+            match &realism {
+                None => {
+                    crate::sim::runner::simulate(&model, &mut replay, &path, &spec.nominal.x0, &config, &mut seen).unwrap();
+                }
+                Some(f) => {
+                    let mut rig = Realism { seed: noise_seed(2), ..f(&params).unwrap() }.build_planar(&model, 1e-3).unwrap();
+                    rig.simulate(&mut replay, &path, &spec.nominal.x0, &config, &mut seen, || false).unwrap();
+                }
+            }
+            for (k, x) in states.iter().enumerate() {
+                let want = seen.0[5 * (k + 1)];
+                if realism.is_some() {
+                    assert_eq!(*x, want, "rig, period {k}");
+                } else {
+                    let err = (x - want).amax();
+                    assert!(err < 1e-9, "ideal, period {k}: {err}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_observation_is_the_path_error_in_the_robots_frame() {
+        let r = PlanarRef { x: 1.0, y: 2.0, psi: 0.5, v: 0.3, omega: 0.1, ..Default::default() };
+        // Facing +y from (1, 1): the reference is 1 m straight ahead.
+        let y = PlanarState::from([1.0, 1.0, core::f64::consts::FRAC_PI_2, 0.1, 0.2, 0.3, 0.4]);
+        let o = observe(&y, &r);
+        assert!((o[0] - 1.0).abs() < 1e-15 && o[1].abs() < 1e-15, "{o:?}");
+        assert_eq!(&o[2..], &[0.5 - core::f64::consts::FRAC_PI_2, 0.1, 0.2, 0.3, 0.4, 0.3, 0.1]);
+    }
+
+    #[test]
+    fn bad_input_is_refused_and_changes_nothing() {
+        assert!(matches!(TrackEnvs::new(spec(None), 0, 1), Err(TwipError::InvalidParameter { name: "num_envs", .. })));
+        let mut envs = TrackEnvs::new(spec(None), 4, 1).unwrap();
+        let before = envs.state(1);
+        let mut fell = [false; 4];
+        assert!(matches!(envs.step(&[0.0; 7], &mut fell), Err(TwipError::Shape { .. })));
+        let mut a = [0.0; 8];
+        a[3] = f64::NAN;
+        assert!(matches!(envs.step(&a, &mut fell), Err(TwipError::NonFinite { name: "action", index: 3, .. })));
+        assert_eq!(envs.state(1), before);
+        assert_eq!(envs.periods[1], 0);
+    }
+}

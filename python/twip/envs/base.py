@@ -1,0 +1,161 @@
+"""The Gymnasium side of every twip env, over a native batch of robots: the single env
+(one robot) and the vector env (N robots one `step` advances together in Rust), with the
+step limit, seeding, the three autoreset modes and the dict-of-arrays infos. An env
+module gives a `Settings` subclass whose `batch(n)` makes the native batch,
+`observation_space`, `action_width` and `rewards(batch, actions)`."""
+from __future__ import annotations
+
+import numpy as np
+import gymnasium
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from twip.envs.robots import ClosedEnvError, check_actions, num_envs_checked, seeds_for, _bad
+
+
+class Episodes:
+    """The batch, the step counts and the closed flag of N robots."""
+
+    def __init__(self, settings, num_envs: int):
+        self.settings = settings
+        self.n = num_envs_checked(num_envs)
+        self.batch = settings.batch(self.n)
+        self.steps = np.zeros(self.n, dtype=np.int64)
+        self.closed = False
+
+    def check_open(self):
+        if self.closed:
+            raise ClosedEnvError("the env is closed: make a new one to step or reset")
+
+    def reset(self, lanes: np.ndarray, seeds=None):
+        self.check_open()
+        lanes = np.flatnonzero(lanes) if lanes.dtype == np.bool_ else lanes
+        self.batch.reset([int(i) for i in lanes], seeds)
+        self.steps[lanes] = 0
+
+    def step(self, actions):
+        """(rewards, terminated, truncated) of every robot after one step."""
+        self.check_open()
+        a = check_actions(actions, self.n, self.settings.action_width)
+        terminated = self.batch.step(a)
+        self.steps += 1
+        rewards = self.settings.rewards(self.batch, a.reshape(self.n, -1))
+        limit = self.settings.max_episode_steps
+        truncated = (self.steps >= limit) & ~terminated if limit is not None else np.zeros(self.n, dtype=np.bool_)
+        return rewards, terminated, truncated
+
+
+class SingleEnv(gymnasium.Env):
+    """One robot. Subclasses set `settings_class`."""
+
+    metadata = {"render_modes": []}
+    settings_class = None
+
+    def __init__(self, **kwargs):
+        self.settings = self.settings_class(**kwargs)
+        self.observation_space = self.settings.single_observation_space
+        self.action_space = self.settings.single_action_space
+        self._episodes = Episodes(self.settings, 1)
+        self._seeded = False
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        seeds = None
+        if seed is not None or not self._seeded:
+            seeds = seeds_for(seed, 1)
+            self._seeded = True
+        self._episodes.reset(np.array([0]), seeds)
+        return self._obs(), self._info()
+
+    def step(self, action):
+        rewards, terminated, truncated = self._episodes.step(action)
+        return self._obs(), float(rewards[0]), bool(terminated[0]), bool(truncated[0]), self._info()
+
+    def _obs(self):
+        return self._episodes.batch.observations()[0]
+
+    def _info(self):
+        return {"state": self._episodes.batch.states()[0]}
+
+    def close(self):
+        self._episodes.closed = True
+
+
+class BatchVectorEnv(VectorEnv):
+    """`num_envs` robots stepped together in Rust; `autoreset_mode`: NEXT_STEP (default),
+    SAME_STEP or DISABLED. Subclasses set `settings_class` and `single_class`."""
+
+    settings_class = None
+    single_class = None
+
+    def __init__(self, num_envs: int = 1, autoreset_mode=AutoresetMode.NEXT_STEP, **kwargs):
+        self.settings = self.settings_class(**kwargs)
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise _bad(f"autoreset_mode = {autoreset_mode!r}: must be one of {[m.value for m in AutoresetMode]}") from None
+        self._episodes = Episodes(self.settings, num_envs)
+        self.num_envs = self._episodes.n
+        self.metadata = {"autoreset_mode": mode, "render_modes": []}
+        self.single_observation_space = self.settings.single_observation_space
+        self.single_action_space = self.settings.single_action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._done = np.zeros(self.num_envs, dtype=np.bool_)
+        self._seeded = False
+
+    def single_env(self):
+        """A single env with this one's settings (lane i: seed it with lane i's seed)."""
+        return self.single_class(**self.settings.kwargs)
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self._episodes.check_open()
+        mask = np.ones(self.num_envs, dtype=np.bool_)
+        if options and "reset_mask" in options:
+            mask = options["reset_mask"]
+            if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (self.num_envs,)):
+                shape = getattr(mask, "shape", None)
+                raise _bad(f"options['reset_mask']: expected a bool array of shape ({self.num_envs},), got "
+                           f"{type(mask).__name__} of shape {shape}")
+        seeds = None
+        if seed is not None or not self._seeded:
+            seeds = [s for s, m in zip(seeds_for(seed, self.num_envs), mask) if m]
+            self._seeded = True
+        self._episodes.reset(mask, seeds)
+        self._done[mask] = False
+        return self._episodes.batch.observations(), self._info()
+
+    def step(self, actions):
+        mode = self.metadata["autoreset_mode"]
+        if mode == AutoresetMode.DISABLED and self._done.any():
+            raise _bad(f"autoreset_mode DISABLED: envs {np.flatnonzero(self._done).tolist()} are done; "
+                       "reset them first with reset(options={'reset_mask': ...})")
+        rewards, terminated, truncated = self._episodes.step(actions)
+        if mode == AutoresetMode.NEXT_STEP and self._done.any():
+            # The envs done at the last step start anew instead of stepping.
+            self._episodes.reset(self._done)
+            rewards[self._done] = 0.0
+            terminated[self._done] = False
+            truncated[self._done] = False
+        infos = self._info()
+        done = terminated | truncated
+        obs = self._episodes.batch.observations()
+        if mode == AutoresetMode.SAME_STEP and done.any():
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            for i in np.flatnonzero(done):
+                final_obs[i] = obs[i].copy()
+            infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
+            infos["final_info"], infos["_final_info"] = {"state": infos["state"].copy(), "_state": done.copy()}, done.copy()
+            self._episodes.reset(done)
+            obs = self._episodes.batch.observations()
+            infos["state"] = self._episodes.batch.states()
+            done = np.zeros(self.num_envs, dtype=np.bool_)
+        self._done = done
+        return obs, rewards, terminated, truncated, infos
+
+    def _info(self):
+        return {"state": self._episodes.batch.states(), "_state": np.ones(self.num_envs, dtype=np.bool_)}
+
+    def close_extras(self, **kwargs):
+        self._episodes.closed = True

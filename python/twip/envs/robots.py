@@ -1,0 +1,147 @@
+"""What every twip env shares: the keyword arguments common to Balance-v0 and Track-v0
+resolved once (robot, realism, perturbations, reward weights, step limit, control period),
+the checks on actions and seeds, and the error of a closed env. The robots move in Rust;
+here everything is arrays over the N robots."""
+from __future__ import annotations
+
+import types
+from typing import Mapping, Optional
+
+import numpy as np
+
+from twip import _core, checks, perturbation
+from twip.robot_file import Robot
+
+_bad = _core.InvalidParameterError
+
+#: Steps before truncation unless told otherwise: 10 s at the default 5 ms period.
+DEFAULT_MAX_EPISODE_STEPS = 2000
+
+#: The firmware's largest PWM duty [counts]: the action bound with a motor driver.
+PWM_MAX = 255.0
+
+
+class ClosedEnvError(_core.TwipError):
+    """The env was closed: it can no longer step or reset."""
+
+
+def _robot_params(robot):
+    if robot is None:
+        return _core.RobotParams.balanbot()
+    if isinstance(robot, _core.RobotParams):
+        return robot
+    if isinstance(robot, Robot):
+        return robot.params
+    if isinstance(robot, str) or hasattr(robot, "__fspath__"):
+        return Robot.from_file(robot).params
+    raise _bad(f"robot: expected twip.RobotParams or a robot file path, got {robot!r}")
+
+
+def motor_current_bound(driver) -> float:
+    """The current [A] the driver can give one motor: the smaller of its limit and its
+    stall current (battery / resistance)."""
+    per_motor = driver.battery / driver.resistance
+    if driver.current_limit is not None:
+        per_motor = min(per_motor, driver.current_limit)
+    return per_motor
+
+
+class Settings:
+    """The resolved keyword arguments every env takes. A subclass names its model
+    (`make_model`), its initial state's length and default spread (`x0_size`,
+    `default_init`), its reward terms (`default_reward`) and its input bound without a
+    driver (`model_input_bound`)."""
+
+    default_reward: Mapping[str, float] = {}
+    default_init: Mapping[str, object] = {}
+    x0_size = 4
+
+    def __init__(self, robot=None, realism=None, perturb: Optional[Mapping] = None, reward: Optional[Mapping] = None,
+                 max_episode_steps: Optional[int] = DEFAULT_MAX_EPISODE_STEPS, control_period: Optional[float] = None,
+                 dt: float = 1e-3, fall_limit: float = 0.5, threads: int = 0, **own):
+        self.params = _robot_params(robot)
+        self.model = self.make_model(**own)
+        if realism is not None and not isinstance(realism, _core.Realism):
+            raise _bad(f"realism: expected twip.Realism or None, got {realism!r}")
+        self.realism = realism
+        self.dt = checks.real("dt", dt, above=0.0)
+        period = control_period if control_period is not None else (
+            realism.control_period if realism is not None and realism.control_period is not None else 5e-3)
+        period = checks.real("control_period", period, above=0.0)
+        substeps = round(period / self.dt)
+        if substeps < 1 or abs(substeps * self.dt - period) > 1e-9 * period:
+            raise _bad(f"control_period = {period}: must be a whole number (>= 1) of plant steps dt = {self.dt}")
+        self.period, self.substeps = period, substeps
+        self.fall_limit = checks.real("fall_limit", fall_limit, above=0.0)
+        if max_episode_steps is not None and (isinstance(max_episode_steps, bool) or not isinstance(max_episode_steps, int)
+                                              or max_episode_steps < 1):
+            raise _bad(f"max_episode_steps = {max_episode_steps!r}: must be an int >= 1 or None")
+        self.max_episode_steps = max_episode_steps
+        self.reward = dict(self.default_reward)
+        for name, w in (reward or {}).items():
+            if name not in self.default_reward:
+                raise _bad(f"reward: unknown term {name!r}; the terms are {sorted(self.default_reward)}")
+            self.reward[name] = checks.real(f"reward[{name!r}]", w)
+        self.x0 = self.nominal_x0()
+        scenario = types.SimpleNamespace(model=self.model, x0=self.x0, name=type(self).__name__)
+        self.perturbations = perturbation.resolve(perturb or {}, scenario)
+        if not any(kind == "x0" for kind, *_ in self.perturbations):
+            self.perturbations += perturbation.resolve(self.default_init, scenario)
+        self.threads = threads
+        self.kwargs = dict(robot=robot, realism=realism, perturb=perturb, reward=reward,
+                           max_episode_steps=max_episode_steps, control_period=control_period, dt=dt,
+                           fall_limit=fall_limit, threads=threads, **own)
+        driven = realism is not None and realism.motor is not None
+        # With a driver in the rig the action is the firmware's duty; else the model's input.
+        self.action_bound = PWM_MAX if driven else self.model_input_bound(
+            motor_current_bound(_core.MotorDriver.thesis_like()))
+
+    def make_model(self, **own):
+        raise NotImplementedError
+
+    def model_input_bound(self, per_motor_current: float) -> float:
+        raise NotImplementedError
+
+    def nominal_x0(self) -> np.ndarray:
+        """The initial state the perturbations spread (default: upright at rest)."""
+        return np.zeros(self.x0_size)
+
+
+def num_envs_checked(num_envs) -> int:
+    if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+        raise _bad(f"num_envs = {num_envs!r}: must be an int >= 1")
+    return int(num_envs)
+
+
+def check_actions(actions, n: int, width: int) -> np.ndarray:
+    """The actions as float64 (n * width,), robot after robot, or a named error: wrong
+    shape or dtype, NaN. A single env (n = 1) takes shape (width,)."""
+    a = np.asarray(actions)
+    if a.dtype.kind not in "fiu":
+        raise _core.ShapeError(f"action: expected a float array, got dtype {a.dtype}")
+    want = (width,) if n == 1 else (n, width)
+    if a.shape != want and not (n == 1 and a.shape == (1, width)):
+        raise _core.ShapeError(f"action has shape {a.shape}, expected {want}")
+    a = np.ascontiguousarray(a, dtype=np.float64).reshape(n * width)
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise _core.NonFiniteError(f"action[{i}] = {a[i]}: every action must be finite")
+    return a
+
+
+def seeds_for(seed, n: int) -> list:
+    """Gymnasium's convention: an int seeds lane i with seed + i, a list one per lane."""
+    if seed is None:
+        base = int(np.random.SeedSequence().generate_state(1, np.uint64)[0]) >> 1
+        return [base + i for i in range(n)]
+    if isinstance(seed, (list, tuple, np.ndarray)):
+        seeds = [int(s) for s in seed]
+        if len(seeds) != n:
+            raise _bad(f"seed: a list of {len(seeds)} seeds for {n} envs")
+    else:
+        seeds = [int(seed) + i for i in range(n)]
+    for s in seeds:
+        if not 0 <= s < 2 ** 64:
+            raise _bad(f"seed = {s}: must be in 0..2**64")
+    return seeds

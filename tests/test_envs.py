@@ -1,0 +1,200 @@
+"""twip.envs: Gymnasium's checker and ours on Balance-v0 (ideal plant and the rig, every
+autoreset mode), parity with twip.simulate, seeding, and the named errors."""
+import numpy as np
+import pytest
+
+gymnasium = pytest.importorskip("gymnasium")
+
+import twip  # noqa: E402
+from twip import envs  # noqa: E402
+from twip.envs.checker import VectorEnvCheckError  # noqa: E402
+from gymnasium.utils.env_checker import check_env  # noqa: E402
+from gymnasium.vector import AutoresetMode  # noqa: E402
+
+RIG = twip.Realism.thesis_like()
+PERTURB = {"m_body": twip.Uniform(rel=0.1), "phi0": twip.Uniform(abs=0.15)}
+
+
+@pytest.mark.parametrize("realism", [None, RIG], ids=["ideal", "rig"])
+def test_gymnasium_check_env_passes_on_the_single_env(realism):
+    env = gymnasium.make("twip/Balance-v0", realism=realism, perturb=PERTURB)
+    check_env(env.unwrapped, skip_render_check=True)
+
+
+@pytest.mark.parametrize("mode", list(AutoresetMode))
+@pytest.mark.parametrize("realism", [None, RIG], ids=["ideal", "rig"])
+def test_our_vector_checker_passes_in_every_autoreset_mode(realism, mode):
+    env = gymnasium.make_vec("twip/Balance-v0", num_envs=21, vectorization_mode="vector_entry_point",
+                             autoreset_mode=mode, realism=realism, perturb=PERTURB, max_episode_steps=40)
+    assert isinstance(env, envs.BalanceVectorEnv) and env.metadata["autoreset_mode"] == mode
+    envs.check_vector_env(env, seed=3, steps=120, lanes=[0, 7, 20])
+
+
+def test_the_checker_catches_a_lane_that_is_not_the_single_env():
+    env = envs.BalanceVectorEnv(num_envs=4, perturb=PERTURB, max_episode_steps=30)
+    other = {**PERTURB, "m_body": twip.Uniform(rel=0.3)}
+    with pytest.raises(VectorEnvCheckError, match="lane 0"):
+        envs.check_vector_env(env, steps=60, single=lambda i: envs.BalanceEnv(perturb=other, max_episode_steps=30))
+
+
+def test_the_checker_catches_a_broken_next_step_autoreset():
+    class NoAutoreset(envs.BalanceVectorEnv):
+        def step(self, actions):
+            self._done[:] = False  # never starts a done env anew
+            return super().step(actions)
+
+    with pytest.raises(VectorEnvCheckError, match="NEXT_STEP"):
+        envs.check_vector_env(NoAutoreset(num_envs=3, max_episode_steps=20), steps=60)
+
+
+class _Broken(envs.BalanceVectorEnv):
+    """A Balance-v0 vector env with one flaw, for the checker to find."""
+
+    def __init__(self, flaw, **kwargs):
+        super().__init__(num_envs=3, max_episode_steps=20, **kwargs)
+        self.flaw = flaw
+
+    def step(self, actions):
+        obs, rewards, terminated, truncated, infos = super().step(actions)
+        if self.flaw == "list infos":
+            infos = [{"state": s} for s in infos["state"]]
+        elif self.flaw == "float32 obs":
+            obs = obs.astype(np.float32)
+        elif self.flaw == "unseeded":
+            obs = obs + np.random.default_rng().normal(0.0, 1e-12, obs.shape)
+        elif self.flaw == "int terminated":
+            terminated = terminated.astype(np.int8)
+        return obs, rewards, terminated, truncated, infos
+
+
+@pytest.mark.parametrize("flaw, message", [("list infos", "infos is a list"), ("float32 obs", "float32"),
+                                           ("unseeded", "same seed"), ("int terminated", "terminated")])
+def test_the_checker_catches_a_broken_env(flaw, message):
+    with pytest.raises(VectorEnvCheckError, match=message):
+        envs.check_vector_env(_Broken(flaw), steps=60)
+
+
+def _lqr(model):
+    gains, *_ = twip.lqr(*model.linearize(np.zeros(4), 0.0), np.diag([10.0, 10.0, 1.0, 1.0]), np.array([[100.0]]))
+    return np.asarray(gains).reshape(4)
+
+
+class Replay:
+    """A Python controller for twip.simulate that replays the env's actions."""
+
+    def __init__(self, actions, period):
+        self.actions, self.period, self.k = list(actions), period, 0
+
+    def update(self, t, y, ref):
+        self.k += 1
+        return self.actions[self.k - 1]
+
+
+@pytest.mark.parametrize("realism", [None, twip.Realism.thesis_like().replace(motor=None)], ids=["ideal", "rig"])
+def test_a_lane_is_twip_simulate_with_the_same_inputs(realism):
+    x0 = np.array([0.05, 0.0, 0.0, 0.0])
+    perturb = {"phi0": twip.Uniform(low=0.05, high=0.05)}
+    venv = envs.BalanceVectorEnv(num_envs=5, realism=realism, perturb=perturb, slope=0.03)
+    obs, _ = venv.reset(seed=11)
+    model = twip.SlopeModel(twip.RobotParams.balanbot(), 0.03)
+    k = _lqr(model)
+    actions, states = [], []
+    for _ in range(300):
+        a = -(obs @ k)
+        actions.append(a[3])
+        obs, _, term, trunc, info = venv.step(a[:, None])
+        assert not term.any()
+        states.append(info["state"][3])
+    if realism is not None:
+        realism = realism.replace(seed=twip._core.sweep_noise_seed(14), stream=0)
+    run = twip.simulate(model, Replay(actions, 5e-3), x0, t_final=1.5, dt=1e-3, realism=realism)
+    want = run.states[5::5][:300]
+    got = np.array(states)
+    if realism is None:
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-10)  # fused lanes, replayed open loop
+    else:
+        assert np.array_equal(got, want)
+
+
+def test_seeds_give_the_same_bits_on_any_thread_count():
+    def rollout(threads):
+        env = envs.BalanceVectorEnv(num_envs=50, realism=RIG, perturb=PERTURB, threads=threads, max_episode_steps=30)
+        env.action_space.seed(5)
+        out = [env.reset(seed=9)[0]]
+        for _ in range(60):
+            out.append(env.step(env.action_space.sample())[0])
+        return np.array(out)
+
+    assert np.array_equal(rollout(1), rollout(2))
+
+
+def test_bad_input_gets_named_errors_and_changes_nothing():
+    env = envs.BalanceVectorEnv(num_envs=3)
+    obs, _ = env.reset(seed=0)
+    with pytest.raises(twip.ShapeError, match="action"):
+        env.step(np.zeros((2, 1)))
+    with pytest.raises(twip.ShapeError, match="dtype"):
+        env.step(np.array([["a"], ["b"], ["c"]]))
+    with pytest.raises(twip.NonFiniteError, match=r"action\[1\]"):
+        env.step(np.array([[0.0], [np.nan], [0.0]]))
+    with pytest.raises(twip.InvalidParameterError, match="num_envs"):
+        envs.BalanceVectorEnv(num_envs=0)
+    with pytest.raises(twip.InvalidParameterError, match="reset_mask"):
+        env.reset(options={"reset_mask": np.ones(2, dtype=bool)})
+    env.close()
+    with pytest.raises(envs.ClosedEnvError):
+        env.step(np.zeros((3, 1)))
+    single = envs.BalanceEnv()
+    single.reset(seed=0)
+    single.close()
+    with pytest.raises(envs.ClosedEnvError):
+        single.step(np.zeros(1))
+
+
+def test_a_rejected_action_leaves_the_state_as_it_was():
+    env = envs.BalanceVectorEnv(num_envs=3)
+    env.reset(seed=0)
+    before = env._episodes.batch.states()
+    with pytest.raises(twip.NonFiniteError):
+        env.step(np.array([[0.0], [np.inf], [0.0]]))
+    assert np.array_equal(env._episodes.batch.states(), before)
+
+
+def test_falls_terminate_and_the_step_limit_truncates():
+    env = envs.BalanceEnv(max_episode_steps=10, perturb={"phi0": twip.Uniform(low=0.0, high=0.0)})
+    env.reset(seed=0)
+    for k in range(10):
+        _, _, term, trunc, _ = env.step(np.zeros(1))
+        assert not term and trunc == (k == 9)
+    env = envs.BalanceEnv(perturb={"phi0": twip.Uniform(low=0.3, high=0.3)})
+    env.reset(seed=0)
+    for _ in range(400):
+        obs, _, term, trunc, info = env.step(np.zeros(1))
+        if term:
+            break
+    assert term and not trunc and abs(info["state"][0]) > 0.5
+
+
+def test_registered_through_the_module_entry_point():
+    env = gymnasium.make("twip.envs:twip/Balance-v0")
+    assert isinstance(env.unwrapped, envs.BalanceEnv)
+
+
+def test_a_linear_policy_runs_through_twip_simulate_as_on_the_env():
+    """LinearPolicy hands twip.simulate the current the firmware turns into the policy's
+    duty: through the rig with its driver, the run is the env's lane bit for bit."""
+    from twip.envs.policy import LinearPolicy
+
+    gains = np.array([6000.0, 110.0, 300.0, -10.0])
+    env = envs.BalanceEnv(realism=RIG, perturb={"phi0": twip.Uniform(low=0.08, high=0.08)}, max_episode_steps=None)
+    obs, _ = env.reset(seed=7)
+    states = []
+    for _ in range(200):
+        obs, _, term, _, info = env.step(np.array([np.clip(gains @ obs, -255.0, 255.0)]))
+        assert not term
+        states.append(info["state"])
+    model = twip.SlopeModel(twip.RobotParams.balanbot())
+    policy = LinearPolicy(gains, period=5e-3, realism=RIG, params=model.params)
+    run = twip.simulate(model, policy, np.array([0.08, 0.0, 0.0, 0.0]), t_final=1.0, dt=1e-3,
+                        realism=RIG.replace(seed=twip._core.sweep_noise_seed(7), stream=0))
+    assert np.array_equal(np.array(states), run.states[5::5][:200])
