@@ -14,7 +14,8 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet "maturin>=1.5,<2" "pytest>=7" "scipy>=1.9" "sympy>=1.11" "scikit-fuzzy>=0.4" \
 		"numpy>=1.22" "tqdm>=4.60" "dask[distributed]>=2023.1" "mypy>=1.10" "pandas>=1.5" \
-		"matplotlib>=3.5" "pillow>=9" "control>=0.10" "hypothesis>=6" "pytest-xdist>=3"
+		"matplotlib>=3.5" "pillow>=9" "control>=0.10" "hypothesis>=6" "pytest-xdist>=3" \
+		"gymnasium>=1.0"
 	cargo fetch --locked 2>/dev/null || cargo fetch
 	touch $(STAMP)
 
