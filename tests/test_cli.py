@@ -76,6 +76,16 @@ def test_reproduce_writes_every_figure_and_both_reports(report_dir, report):
     assert len(re.findall(r"\d+\.\d\d s\s+\(total", stdout)) >= len(report["steps"]) - 1
 
 
+def test_the_terrain_rows_are_future_work_not_claims(report_dir, report):
+    """Tracking on terrain: report.json's "future_work" rows (predictions of twip), not among
+    the thesis's claims or scenarios, and their table in report.md."""
+    rows = report["future_work"]
+    assert rows and all(r["basis"].startswith("prediction of twip") for r in rows)
+    assert not any(c["id"].startswith("future-work/") for c in report["claims"])
+    assert not {"incline-circle", "figure-eight-bumps"} & set(report["scenarios"])
+    assert "## Future work: tracking on terrain" in (report_dir[0] / "report.md").read_text()
+
+
 def test_report_json_has_a_row_per_thesis_claim(report):
     ids = [c["id"] for c in report["claims"]]
     assert len(ids) == len(set(ids))

@@ -19,6 +19,7 @@ __all__ = [
     "Friction",
     "FuzzyBasis",
     "FuzzyController",
+    "GradeFeedForward",
     "Gaussian",
     "Imu",
     "InvalidParameterError",
@@ -30,6 +31,7 @@ __all__ = [
     "NotDetectableError",
     "NoStabilizingSolutionError",
     "NotStabilizableError",
+    "OffTerrainError",
     "PidTracker",
     "PlanarModel",
     "Push",
@@ -39,6 +41,7 @@ __all__ = [
     "SingularMatrixError",
     "SlopeModel",
     "SmcTracker",
+    "Terrain",
     "SpeedSchedule",
     "TiltEstimator",
     "TrackBatch",
@@ -97,6 +100,8 @@ class NoStabilizingSolutionError(TwipError):
     """The Riccati equation has no stabilising solution (Hamiltonian eigenvalues on the imaginary axis)."""
 class ConvergenceError(TwipError):
     """An iterative method hit its iteration cap."""
+class OffTerrainError(TwipError):
+    """A point is off the terrain (outside its grid): there is no ground to extrapolate."""
 
 @final
 class RobotParams:
@@ -211,18 +216,62 @@ class SlopeModel:
     def mass_matrix(self, phi: float) -> _F64: ...
 
 @final
+class Terrain:
+    """A ground shape: a height z = h(x, y) [m] and its gradient. Build one with
+    `Terrain.plane`, `Terrain.ramp`, `Terrain.bumps` or `Terrain.grid`.
+    """
+    @staticmethod
+    def plane(slope: float, uphill_heading: float = 0.0) -> Terrain:
+        """A plane rising at `slope` [rad, in [0, pi/2)] towards `uphill_heading` [rad from +x]."""
+    @staticmethod
+    def ramp(slope: float, uphill_heading: float = 0.0, start: float = 0.0, blend: float = 0.1) -> Terrain:
+        """Level ground up to the line `start` [m] from the origin along `uphill_heading`, then a
+        plane of `slope`; the grade rises smoothly (cubic smoothstep) over `blend` [m] past
+        the line (0: a kink).
+        """
+    @staticmethod
+    def bumps(height: float, wavelength: float) -> Terrain:
+        """An egg-crate of bumps: h = (height/2) sin(2 pi x / wavelength) sin(2 pi y / wavelength),
+        `height` [m] from hollow to crest, level at the origin.
+        """
+    @staticmethod
+    def grid(x: _ArrayLike, y: _ArrayLike, z: _ArrayLike) -> Terrain:
+        """A height map: `z[i, j]` [m] at (`x[i]`, `y[j]`), x and y strictly increasing (at least
+        2 points each), heights finite; a C1 bicubic Hermite interpolant between the nodes.
+        Off the grid there is no ground: the model raises OffTerrainError and a run ends
+        with the outcome "off_terrain".
+        """
+    def local(self, x: float, y: float) -> Tuple[float, float, float]:
+        """(height [m], dh/dx, dh/dy) at (x, y); OffTerrainError off a grid."""
+    def contains(self, x: float, y: float) -> bool:
+        """Whether (x, y) is on the terrain (always, except off a grid)."""
+
+@final
 class PlanarModel:
     """The 3-DOF planar model; state [x, y, psi, phi, phi_dot, v, omega], input [u_r, u_l] [N m]."""
-    def __new__(cls, params: RobotParams, friction: Optional[Friction] = None) -> PlanarModel: ...
+    def __new__(cls, params: RobotParams, friction: Optional[Friction] = None, terrain: Optional[Terrain] = None) -> PlanarModel: ...
     @property
     def friction(self) -> Optional[Friction]:
         """The gearhead friction per wheel, or None (the thesis's model)."""
     @property
     def params(self) -> RobotParams: ...
+    @property
+    def terrain(self) -> Optional[Terrain]:
+        """The ground (a twip.Terrain), or None: flat ground."""
     def deriv(self, x: _ArrayLike, u: _ArrayLike) -> _F64: ...
-    def energy(self, x: _ArrayLike) -> float: ...
+    def energy(self, x: _ArrayLike) -> float:
+        """Kinetic plus potential energy [J]; on terrain the potential is from the heights of the
+        body's and wheels' centres over the flat model's zero (docs/terrain.md).
+        """
+    def normal_forces(self, x: _ArrayLike, u: _ArrayLike) -> Tuple[float, float]:
+        """Each wheel's normal force [N] (right, left) at state x under motor torques u: a run
+        ends "lifted" when one goes negative. On flat ground too (a terrain-less model is
+        level ground here).
+        """
     def mass_matrix(self, phi: float) -> _F64:
-        """The mass matrix M(phi) of M nu_dot + h = B u, with nu = (phi_dot, v, omega)."""
+        """The mass matrix M(phi) of M nu_dot + h = B u, with nu = (phi_dot, v, omega) (on
+        terrain, in the ground plane's frame with phi the pitch from its normal).
+        """
 
 def rk4_step(model: Union[SlopeModel, PlanarModel], x: _ArrayLike, u: Union[float, _ArrayLike], dt: float) -> _F64:
     """One RK4 step of either model with the input held over the step."""
@@ -610,6 +659,25 @@ class PidTracker:
     motor: DcMotor
     period: float
     units: Any
+
+@final
+class GradeFeedForward:
+    """`tracker` (a twip.PidTracker or SmcTracker designed on flat ground) with the grade's
+    feed-forward on `terrain`: at each update the local plane under the robot gives the rest
+    pitch and wheel torques of a robot with `params` standing there facing its heading; the
+    tracker sees its pitch from that rest pitch and the torques are added to its output
+    (held within its motor's torques). Run it with twip.simulate like the tracker itself.
+    """
+    def __new__(cls, tracker: Any, terrain: Terrain, params: RobotParams) -> GradeFeedForward: ...
+    @property
+    def period(self) -> float:
+        """The tracker's update period [s]."""
+    @property
+    def terrain(self) -> Terrain:
+        """The terrain whose grade it feeds forward."""
+    @property
+    def tracker(self) -> Any:
+        """The tracker it wraps."""
 
 @final
 class SmcTracker:

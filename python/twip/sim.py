@@ -16,7 +16,8 @@ _SIGNAL_COLUMNS = {"slope": 4 + 1 + 1 + 4, "planar": 7 + 2 + 2}
 #: A generous guess of the internals a built-in controller logs (checked exactly when it matters).
 _DEFAULT_INTERNALS = 16
 #: The controllers whose internals the guess bounds; a user's controller logs as many as it likes.
-_BUILT_IN_CONTROLLERS = (_core.LqrController, _core.FuzzyController, _core.PidTracker, _core.SmcTracker)
+_BUILT_IN_CONTROLLERS = (_core.LqrController, _core.FuzzyController, _core.PidTracker, _core.SmcTracker,
+                         _core.GradeFeedForward)
 
 
 @dataclass(frozen=True)
@@ -26,7 +27,8 @@ class SimResult:
     `outcome`: "completed"; "fell" (|pitch| passed the fall limit at `t_end`); "diverged"
     (the state or the controller's output stopped being finite at `t_end`: a fall for
     `fell` and for sweeps; the metrics cover the samples before it); "interrupted" (Ctrl-C:
-    the run up to `t_end`). A run that fell or diverged never settled: its settling times
+    the run up to `t_end`); on a terrain (docs/terrain.md) "lifted" (a wheel's normal force
+    went below zero at `t_end`) and "off_terrain" (the robot left a grid's edge). A run that fell or diverged never settled: its settling times
     are `t_end`, as its sweep sample's are."""
 
     t: np.ndarray

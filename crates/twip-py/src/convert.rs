@@ -20,7 +20,7 @@ fn finite(name: &'static str, values: impl IntoIterator<Item = f64>) -> CoreResu
 
 /// `obj` as a numpy array of real numbers (bool, int or float): anything else (a string,
 /// a complex number, None...) is refused naming the first such entry and its index.
-fn real_array<'py>(name: &'static str, obj: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+pub(crate) fn real_array<'py>(name: &'static str, obj: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
     if let Ok(a) = obj.cast::<PyUntypedArray>() {
         if b"biuf".contains(&a.dtype().kind()) {
             return Ok(obj.clone());

@@ -20,6 +20,7 @@ create_exception!(
     "The Riccati equation has no stabilising solution (Hamiltonian eigenvalues on the imaginary axis)."
 );
 create_exception!(twip, ConvergenceError, TwipError, "An iterative method hit its iteration cap.");
+create_exception!(twip, OffTerrainError, TwipError, "A point is off the terrain (outside its grid): there is no ground to extrapolate.");
 
 /// Local wrapper (orphan rule) so that `?` converts core errors into Python ones.
 pub struct PyTwipError(pub CoreError);
@@ -63,6 +64,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("NotDetectableError", py.get_type::<NotDetectableError>())?;
     m.add("NoStabilizingSolutionError", py.get_type::<NoStabilizingSolutionError>())?;
     m.add("ConvergenceError", py.get_type::<ConvergenceError>())?;
+    m.add("OffTerrainError", py.get_type::<OffTerrainError>())?;
     Ok(())
 }
 

@@ -106,7 +106,7 @@ pub fn ffi_record<'py>(
             return record_dict(py, "fuzzy", bytes_of(py, &config), run, 2);
         }
     } else if let Ok(m) = model.cast::<PyPlanarModel>() {
-        let plant = planar_f32(&m.get().inner).map_err(PyTwipError)?;
+        let plant = planar_f32(m.get().flat_only("twip export")?).map_err(PyTwipError)?;
         let path = trajectory(reference)?;
         let x0: [f32; 7] = state_of(&x0)?;
         if let Ok(c) = controller.cast::<PyPidTracker>() {

@@ -33,6 +33,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<params::PyRobotParams>()?;
     m.add_class::<models::PySlopeModel>()?;
     m.add_class::<models::PyPlanarModel>()?;
+    m.add_class::<crate::model::terrain::PyTerrain>()?;
     m.add_class::<friction::PyFriction>()?;
     m.add_function(wrap_pyfunction!(models::rk4_step, m)?)?;
     m.add_class::<schedule::PySpeedSchedule>()?;
@@ -65,6 +66,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<motor::PyDcMotor>()?;
     m.add_class::<tracking::PyPidTracker>()?;
     m.add_class::<tracking::PySmcTracker>()?;
+    m.add_class::<crate::control::grade::PyGradeFeedForward>()?;
     m.add_function(wrap_pyfunction!(simulate_planar::simulate_planar_raw, m)?)?;
     m.add_function(wrap_pyfunction!(ffi::ffi_record, m)?)?;
     m.add_function(wrap_pyfunction!(ffi::ffi_firmware, m)?)?;

@@ -50,7 +50,7 @@ def scenario_on(name: str, friction: str = FRICTIONS[0], **options):
     if f is None:
         return sc
     if isinstance(sc.model, _core.PlanarModel):
-        return sc.replace(model=_core.PlanarModel(params, f))
+        return sc.replace(model=_core.PlanarModel(params, f, terrain=sc.model.terrain))
     return sc.replace(model=_core.SlopeModel(params, sc.model.slope, f))
 
 

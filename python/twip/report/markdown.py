@@ -158,6 +158,9 @@ def render_markdown(report: dict) -> str:
                 "limit, so this is the controllers' reach, not the robot's.", "",
                 _md_table(["scenario", "controller", "samples", "drawn", "fall rate [%] (95 % CI)"], rows), "",
                 "![fall maps](fall_maps.png)"]
+    if report.get("future_work"):
+        from twip.report.terrain import markdown as future_work_markdown
+        out += future_work_markdown(report["future_work"])
     out += ["", "## Figures", ""]
     for filename, caption in report["figures"].items():
         out.append(f"- [`{filename}`]({filename}): {caption}")

@@ -20,4 +20,4 @@ from twip.scenarios.registry import (  # noqa: F401
 )
 
 # Each module registers its scenarios on import; none imports this package back.
-from twip.scenarios import fuzzy, lqr, tracking  # noqa: E402,F401
+from twip.scenarios import fuzzy, lqr, terrain, tracking  # noqa: E402,F401

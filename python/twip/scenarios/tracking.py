@@ -31,11 +31,21 @@ def _circle(radius, speed, laps):
     return circle, laps * circle.period
 
 
+def _on(terrain, tracker, ctrl_params, grade_feed_forward):
+    """`tracker`, with the grade's feed-forward of `terrain` when there is one and it is asked."""
+    if terrain is None or not grade_feed_forward:
+        return tracker
+    return _core.GradeFeedForward(tracker, terrain, ctrl_params)
+
+
 @register("circle-pid")
-def _circle_pid(params, ctrl_params, laps=3, period=0.005, supply=None, motor=None):
+def _circle_pid(params, ctrl_params, laps=3, period=0.005, supply=None, motor=None, terrain=None,
+                grade_feed_forward=True):
     """Fig 4.14: the circle of radius 0.6 m at a wheel speed of 180 deg/s (36 s a lap), Table 4.1.
     `motor` (a twip.DcMotor) turns the PID's PWM counts into torques; default the GB37Y3530 at
-    `supply` [V] (default 11.1)."""
+    `supply` [V] (default 11.1). `terrain` (a twip.Terrain) puts the plant on it; the tracker
+    keeps its flat-ground gains, with the grade's feed-forward (twip.GradeFeedForward) unless
+    `grade_feed_forward=False` (docs/terrain.md)."""
     speed = math.radians(180.0) * params.wheel_radius
     circle, t_final = _circle(0.6, speed, laps)
     if motor is not None and supply is not None:
@@ -44,8 +54,9 @@ def _circle_pid(params, ctrl_params, laps=3, period=0.005, supply=None, motor=No
     return Scenario(
         name="circle-pid",
         description="PID tracker, Table 4.1's gains in the Arduino's units, r = 0.6 m at 180 deg/s (thesis 4.3.1, Fig 4.14)",
-        model=_core.PlanarModel(params),
-        controller=_core.PidTracker.table_4_1(ctrl_params, motor=motor, period=period),
+        model=_core.PlanarModel(params, terrain=terrain),
+        controller=_on(terrain, _core.PidTracker.table_4_1(ctrl_params, motor=motor, period=period), ctrl_params,
+                       grade_feed_forward),
         x0=np.zeros(7),
         reference=circle,
         t_final=t_final,
@@ -53,7 +64,8 @@ def _circle_pid(params, ctrl_params, laps=3, period=0.005, supply=None, motor=No
     )
 
 
-def _smc(params, ctrl_params, fuzzy, laps, period, boundary_layer, pitch_offset, motor, **options):
+def _smc(params, ctrl_params, fuzzy, laps, period, boundary_layer, pitch_offset, motor, terrain, grade_feed_forward,
+         **options):
     circle, t_final = _circle(0.45, math.pi / 30, laps)
     if motor is not None:  # else SmcTracker's default, the GB37Y3530 at 11.1 V
         options["motor"] = motor
@@ -66,8 +78,8 @@ def _smc(params, ctrl_params, fuzzy, laps, period, boundary_layer, pitch_offset,
         description=(f"{what} tracker: the published switching and yaw gains with twip's k1-k3, k_phi"
                      f"{', Gamma' if fuzzy else ''} and lambda1 aimed at phi_s (errata T4, T8), r = 0.45 m at pi/30 m/s, "
                      "pi/13.5 rad/s (thesis 4.3.2, Fig 4.16)"),
-        model=_core.PlanarModel(params),
-        controller=tracker,
+        model=_core.PlanarModel(params, terrain=terrain),
+        controller=_on(terrain, tracker, ctrl_params, grade_feed_forward),
         x0=np.zeros(7),
         reference=circle,
         t_final=t_final,
@@ -80,17 +92,23 @@ def _smc(params, ctrl_params, fuzzy, laps, period, boundary_layer, pitch_offset,
 
 @register("circle-smc")
 def _circle_smc(params, ctrl_params, laps=3, period=0.005, boundary_layer=None, pitch_offset=True, motor=None,
-                **options):
+                terrain=None, grade_feed_forward=True, **options):
     """4.3.2 with the controller's own model for f2 (4.89, 4.97). `motor` (a twip.DcMotor)
-    limits the torques and reads the published gains in its PWM counts."""
-    return _smc(params, ctrl_params, False, laps, period, boundary_layer, pitch_offset, motor, **options)
+    limits the torques and reads the published gains in its PWM counts. `terrain` (a
+    twip.Terrain) puts the plant on it; the tracker keeps its flat-ground model, with the
+    grade's feed-forward unless `grade_feed_forward=False`."""
+    return _smc(params, ctrl_params, False, laps, period, boundary_layer, pitch_offset, motor, terrain,
+                grade_feed_forward, **options)
 
 
 @register("circle-smc-fuzzy")
 def _circle_smc_fuzzy(params, ctrl_params, laps=3, period=0.005, boundary_layer=None, pitch_offset=True, motor=None,
-                      **options):
-    """4.3.2 with fuzzy estimates of f23 and of the (phi, v) equivalent control (4.99-4.121)."""
-    return _smc(params, ctrl_params, True, laps, period, boundary_layer, pitch_offset, motor, **options)
+                      terrain=None, grade_feed_forward=False, **options):
+    """4.3.2 with fuzzy estimates of f23 and of the (phi, v) equivalent control (4.99-4.121).
+    `terrain` (a twip.Terrain) puts the plant on it; by default without the grade's
+    feed-forward: the fuzzy estimate is left to absorb the grade (docs/terrain.md measures it)."""
+    return _smc(params, ctrl_params, True, laps, period, boundary_layer, pitch_offset, motor, terrain,
+                grade_feed_forward, **options)
 
 
 def mismatched(params, factor: float):
@@ -120,7 +138,7 @@ def compare(params=None, mismatch: float = 0.2, laps: int = 3, dt: float = 1e-3,
             options = {} if name == "circle-pid" else {"pitch_offset": pitch_offset, "gains": smc_gains}
             sc = get(name, params=plant, controller_params=nominal, laps=laps, period=period, **options)
             if friction is not None:
-                sc = sc.replace(model=_core.PlanarModel(plant, friction))
+                sc = sc.replace(model=_core.PlanarModel(plant, friction, terrain=sc.model.terrain))
             r = sc.run(dt=dt, record_every=1000)
             m = r.metrics
             rows.append({

@@ -255,7 +255,7 @@ impl PySmcTracker {
         let inner = SmcTracker::new(
             smc_gains_from(g),
             options,
-            model.inner,
+            *model.flat_only("a tracker's own model")?,
             motor_limits.then_some(motor),
             adaptation,
             period,
@@ -304,7 +304,7 @@ impl PySmcTracker {
 crate::settings::settings_class!(PySmcTracker, "SmcTracker",
     settings {
         /// The controller's own 3-DOF model.
-        model: PyPlanarModel = |s| PyPlanarModel { inner: *s.inner.model() };
+        model: PyPlanarModel = |s| PyPlanarModel { inner: *s.inner.model(), terrain: None };
         fuzzy: bool = |s| s.inner.adaptation().is_some();
         /// (width of S_eta's layer, width of S1's); 0 is sgn.
         boundary_layer: (f64, f64) = |s| (s.inner.options().width_eta, s.inner.options().width_s1);

@@ -8,6 +8,9 @@ use crate::convert::{input, scalar, to_py_matrix, to_py_vector, vector};
 use crate::errors::CoreResult;
 use crate::model::friction::PyFriction;
 use crate::model::params::PyRobotParams;
+use crate::model::terrain::{off_terrain, PyTerrain};
+use twip_core::model::terrain::Terrain;
+use twip_core::model::terrain_model::TerrainModel;
 use crate::settings::Reduced;
 
 /// The 2-DOF model on a slope; state [phi, phi_dot, theta, theta_dot], input current u [A].
@@ -103,14 +106,44 @@ impl PySlopeModel {
 #[derive(Clone)]
 pub struct PyPlanarModel {
     pub inner: PlanarModel<f64>,
+    /// The ground it stands on; None: flat ground, the thesis's model (docs/terrain.md).
+    pub terrain: Option<PyTerrain>,
+}
+
+impl PyPlanarModel {
+    /// The flat model, for what runs on flat ground only: an error naming `what` when this
+    /// model has a terrain (never silently flat).
+    pub fn flat_only(&self, what: &str) -> PyResult<&PlanarModel<f64>> {
+        match self.terrain {
+            None => Ok(&self.inner),
+            Some(_) => Err(crate::errors::InvalidParameterError::new_err(format!(
+                "invalid terrain: {what} runs on flat ground only (a PlanarModel without terrain); \
+                 on terrain, run twip.rk4_step or twip.simulate on the ideal plant"
+            ))),
+        }
+    }
+
+    /// The model on its terrain, if it has one.
+    pub fn on_terrain(&self) -> Option<TerrainModel<f64>> {
+        self.terrain.as_ref().map(|t| TerrainModel::new(self.inner, t.inner.clone()))
+    }
+
+    /// A state's contact point must be on the terrain (a grid's edge): never extrapolated.
+    fn check_on_terrain(&self, x: &nalgebra::SVector<f64, 7>) -> PyResult<()> {
+        match &self.terrain {
+            Some(t) if !t.inner.contains(x[0], x[1]) => Err(off_terrain(x[0], x[1])),
+            _ => Ok(()),
+        }
+    }
 }
 
 #[pymethods]
 impl PyPlanarModel {
     #[new]
-    #[pyo3(signature = (params, friction = None))]
-    fn new(params: &PyRobotParams, friction: Option<&PyFriction>) -> CoreResult<Self> {
-        Ok(Self { inner: PlanarModel::new(params.inner)?.with_friction(friction.map(|f| f.inner))? })
+    #[pyo3(signature = (params, friction = None, terrain = None))]
+    fn new(params: &PyRobotParams, friction: Option<&PyFriction>, terrain: Option<&PyTerrain>) -> CoreResult<Self> {
+        let terrain = terrain.cloned();
+        Ok(Self { inner: PlanarModel::new(params.inner)?.with_friction(friction.map(|f| f.inner))?, terrain })
     }
 
     /// The gearhead friction per wheel, or None (the thesis's model).
@@ -124,30 +157,64 @@ impl PyPlanarModel {
         PyRobotParams { inner: *self.inner.params() }
     }
 
-    /// Pickled as PlanarModel(params, friction).
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> Reduced<'py, (PyRobotParams, Option<PyFriction>)> {
+    /// The ground (a twip.Terrain), or None: flat ground.
+    #[getter]
+    fn terrain(&self) -> Option<PyTerrain> {
+        self.terrain.clone()
+    }
+
+    /// Pickled as PlanarModel(params, friction, terrain).
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> Reduced<'py, (PyRobotParams, Option<PyFriction>, Option<PyTerrain>)> {
         let me = slf.get();
-        (slf.get_type().into_any(), (me.params(), me.friction()))
+        (slf.get_type().into_any(), (me.params(), me.friction(), me.terrain()))
     }
 
     fn deriv<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, u: &Bound<'py, PyAny>) -> PyResult<Arr1<'py>> {
         let x = vector::<7>("x", x)?;
-        let d = self.inner.deriv(&x, &input::<2>("u", u)?);
+        let u = input::<2>("u", u)?;
+        self.check_on_terrain(&x)?;
+        let d = match self.on_terrain() {
+            Some(m) => m.deriv(&x, &u),
+            None => self.inner.deriv(&x, &u),
+        };
         finite_derivative(x.as_slice(), d.as_slice())?;
         Ok(to_py_vector(py, &d))
     }
 
+    /// Kinetic plus potential energy [J]; on terrain the potential is from the heights of the
+    /// body's and wheels' centres over the flat model's zero (docs/terrain.md).
     fn energy(&self, x: &Bound<'_, PyAny>) -> PyResult<f64> {
-        Ok(self.inner.energy(&vector::<7>("x", x)?))
+        let x = vector::<7>("x", x)?;
+        self.check_on_terrain(&x)?;
+        Ok(match self.on_terrain() {
+            Some(m) => m.energy(&x),
+            None => self.inner.energy(&x),
+        })
     }
 
-    /// The mass matrix M(phi) of M nu_dot + h = B u, with nu = (phi_dot, v, omega).
+    /// Each wheel's normal force [N] (right, left) at state x under motor torques u: a run
+    /// ends "lifted" when one goes negative. On flat ground too (a terrain-less model is
+    /// level ground here).
+    fn normal_forces(&self, x: &Bound<'_, PyAny>, u: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
+        let x = vector::<7>("x", x)?;
+        let u = input::<2>("u", u)?;
+        self.check_on_terrain(&x)?;
+        let m = self.on_terrain().unwrap_or_else(|| TerrainModel::new(self.inner, Terrain::flat()));
+        let [n_r, n_l] = m.normal_forces(&x, &u);
+        Ok((n_r, n_l))
+    }
+
+    /// The mass matrix M(phi) of M nu_dot + h = B u, with nu = (phi_dot, v, omega) (on
+    /// terrain, in the ground plane's frame with phi the pitch from its normal).
     fn mass_matrix<'py>(&self, py: Python<'py>, phi: f64) -> CoreResult<Arr2<'py>> {
         Ok(to_py_matrix(py, &self.inner.mass_matrix(scalar("phi", phi)?)))
     }
 
     fn __repr__(&self) -> String {
-        "PlanarModel(RobotParams(...))".to_string()
+        match &self.terrain {
+            None => "PlanarModel(RobotParams(...))".to_string(),
+            Some(_) => "PlanarModel(RobotParams(...), terrain=Terrain(...))".to_string(),
+        }
     }
 }
 
@@ -168,9 +235,16 @@ pub fn rk4_step<'py>(
         return Ok(to_py_vector(py, &next));
     }
     if let Ok(m) = model.cast::<PyPlanarModel>() {
+        let m = m.get();
         let x = vector::<7>("x", x)?;
-        let next = core_rk4(&m.get().inner, &x, &input::<2>("u", u)?, dt);
+        let u = input::<2>("u", u)?;
+        m.check_on_terrain(&x)?;
+        let next = match m.on_terrain() {
+            Some(t) => core_rk4(&t, &x, &u, dt),
+            None => core_rk4(&m.inner, &x, &u, dt),
+        };
         finite_derivative(x.as_slice(), next.as_slice())?;
+        m.check_on_terrain(&next)?;
         return Ok(to_py_vector(py, &next));
     }
     Err(pyo3::exceptions::PyTypeError::new_err(format!(

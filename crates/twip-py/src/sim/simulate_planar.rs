@@ -16,6 +16,7 @@ use crate::sim::run_result::{run_dict, LogLayout};
 use crate::errors::{invalid, PyTwipError};
 use crate::model::models::PyPlanarModel;
 use crate::control::user_controller::{is_user_controller, UserController};
+use crate::control::grade::PyGradeFeedForward;
 use crate::control::tracking::{PyPidTracker, PySmcTracker};
 use crate::control::trajectory::trajectory;
 
@@ -43,9 +44,11 @@ pub(crate) fn settle_time(settle: Option<f64>, path: &Trajectory<f64>) -> PyResu
 }
 
 /// One 3-DOF run's settings, for any controller.
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 struct PlanarRun {
     plant: twip_core::PlanarModel<f64>,
+    /// The plant on its terrain (the ideal loop only), or flat ground.
+    terrain: Option<twip_core::model::terrain_model::TerrainModel<f64>>,
     path: Trajectory<f64>,
     settle: f64,
     x0: nalgebra::SVector<f64, 7>,
@@ -67,9 +70,10 @@ impl PlanarRun {
         let widths = [7, 2, <PlanarRef<f64> as LogRow<f64>>::NAMES.len(), ctrl.internal_names().len() + extra];
         let mut observers =
             (TrackingMetrics::new(self.path, self.settle), TrajectoryLog::with_capacity(n + 1, self.record_every, widths)?);
-        let (outcome, steps) = match &self.realism {
-            None => simulate_until(&self.plant, ctrl, &self.path, &self.x0, &self.config, &mut observers, should_stop)?,
-            Some(r) => r.build_planar(&self.plant, self.config.dt)?.simulate(
+        let (outcome, steps) = match (&self.realism, &self.terrain) {
+            (None, Some(t)) => simulate_until(t, ctrl, &self.path, &self.x0, &self.config, &mut observers, should_stop)?,
+            (None, None) => simulate_until(&self.plant, ctrl, &self.path, &self.x0, &self.config, &mut observers, should_stop)?,
+            (Some(r), _) => r.build_planar(&self.plant, self.config.dt)?.simulate(
                 ctrl,
                 &self.path,
                 &self.x0,
@@ -81,6 +85,22 @@ impl PlanarRun {
         let (metrics, log) = observers;
         Ok((outcome, steps, metrics, log))
     }
+}
+
+/// A twip controller's run without the GIL: its internals' names and the run's output.
+fn run_native<C>(py: Python<'_>, run: &PlanarRun, mut ctrl: C) -> PyResult<(&'static [&'static str], PlanarOutput)>
+where
+    C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Send,
+{
+    let (out, interrupt) = py.detach(|| {
+        let mut interrupt = None;
+        let out = run.run(&mut ctrl, || crate::interrupt::requested(&mut interrupt));
+        (out, interrupt)
+    });
+    if let Some(err) = interrupt {
+        return Err(err);
+    }
+    Ok((ctrl.internal_names(), out.map_err(PyTwipError)?))
 }
 
 /// Runs a tracker on the 3-DOF model; returns a dict that `twip.simulate` wraps into a
@@ -103,11 +123,20 @@ pub fn simulate_planar_raw<'py>(
     settle: Option<f64>,
     realism: Option<&crate::hardware::realism::PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let plant = model
+    let model = model
         .cast::<PyPlanarModel>()
         .map_err(|_| pyo3::exceptions::PyTypeError::new_err("this controller drives a twip.PlanarModel"))?
-        .get()
-        .inner;
+        .get();
+    let (plant, terrain) = match realism {
+        Some(_) => (*model.flat_only("the 3-DOF rig (realism)")?, None),
+        None => (model.inner, model.on_terrain()),
+    };
+    if let Some(t) = &terrain {
+        let x0 = vector::<7>("x0", x0)?;
+        if !t.terrain().contains(x0[0], x0[1]) {
+            return Err(crate::model::terrain::off_terrain(x0[0], x0[1]));
+        }
+    }
     let realism = realism.map(|r| r.to_core(plant.params())).transpose().map_err(PyTwipError)?;
     // As in simulate_raw: an explicit control_period wins over the realism's loop period.
     let control_period = control_period.or(realism.and_then(|r| r.control_period));
@@ -118,7 +147,7 @@ pub fn simulate_planar_raw<'py>(
     if record_every == 0 {
         return Err(invalid("record_every", 0.0, "must be >= 1").into());
     }
-    let run = PlanarRun { plant, path, settle, x0, config, record_every, realism };
+    let run = PlanarRun { plant, terrain, path, settle, x0, config, record_every, realism };
     let (names, (outcome, steps, metrics, log)) =
         if is_user_controller(controller) && PlanarController::extract(controller).is_err() {
             // A Python controller keeps the GIL: it is called back at every update.
@@ -130,20 +159,14 @@ pub fn simulate_planar_raw<'py>(
                 return Err(err);
             }
             (ctrl.internal_names(), out.map_err(PyTwipError)?)
+        } else if let Ok(g) = controller.cast::<PyGradeFeedForward>() {
+            run_native(py, &run, g.get().core(py, control_period)?)?
         } else {
             let mut ctrl = PlanarController::extract(controller)?;
             if let Some(p) = control_period {
                 ctrl = ctrl.with_period(p)?;
             }
-            let (out, interrupt) = py.detach(move || {
-                let mut interrupt = None;
-                let out = run.run(&mut ctrl, || crate::interrupt::requested(&mut interrupt));
-                (out, interrupt)
-            });
-            if let Some(err) = interrupt {
-                return Err(err);
-            }
-            (ctrl.internal_names(), out.map_err(PyTwipError)?)
+            run_native(py, &run, ctrl)?
         };
     let layout = LogLayout {
         states: 7,

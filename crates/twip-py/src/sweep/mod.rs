@@ -204,7 +204,7 @@ pub(crate) fn no_friction_in_sweeps(has_friction: bool) -> PyResult<()> {
 pub fn check_sweep_model(model: &Bound<'_, PyAny>) -> PyResult<()> {
     let has_friction = match model.extract::<PyRef<'_, PySlopeModel>>() {
         Ok(m) => m.inner.friction().is_some(),
-        Err(_) => model.extract::<PyRef<'_, crate::model::models::PyPlanarModel>>()?.inner.friction().is_some(),
+        Err(_) => model.extract::<PyRef<'_, crate::model::models::PyPlanarModel>>()?.flat_only("a sweep")?.friction().is_some(),
     };
     no_friction_in_sweeps(has_friction)
 }

@@ -26,7 +26,7 @@ use crate::sim::simulate_planar::{settle_time, PlanarController};
 use crate::control::trajectory::trajectory;
 
 pub(crate) fn nominal(model: &PyPlanarModel, x0: &Bound<'_, PyAny>) -> PyResult<PlanarNominal> {
-    crate::sweep::no_friction_in_sweeps(model.inner.friction().is_some())?;
+    crate::sweep::no_friction_in_sweeps(model.flat_only("a sweep")?.friction().is_some())?;
     Ok(PlanarNominal { params: *model.inner.params(), x0: vector::<7>("x0", x0)? })
 }
 
