@@ -420,3 +420,21 @@ def test_experiment_figures_say_they_are_simulations():
     assert _analogue("4.3", True) == "Fig 4.3 analogue (simulation of the experiment: ideal plant and thesis-like robot)"
     assert _analogue("4.2", False) == "Fig 4.2 analogue (simulation)"
 
+
+def test_sweep_figures_draw_the_rows_numbers():
+    """A robustness sweep's row reports the stop's error as its size (median, 95 %): its figure
+    draws that size, so the median line is the row's median (it drew the signed error, whose
+    median sits near 0 while the row's is 22 cm on slope-lqr)."""
+    pytest.importorskip("matplotlib")
+    from twip import plot
+    from twip.report.sweeps import SIZES, _metric_summary, sweep_perturb
+
+    res = twip.montecarlo("slope-lqr", 24, perturb=sweep_perturb(False), seed=1, progress=False)
+    keys = ["mean_abs_pitch_error", "final_position_error"]
+    fig = plot.sweep(res, metrics=keys, sizes=SIZES)
+    for ax, key in zip(fig.axes, keys):
+        row = _metric_summary(res, key)
+        assert ax.get_xlabel().endswith(f"[{row['unit']}]") and ("|" in ax.get_xlabel()), ax.get_xlabel()
+        median = next(line for line in ax.get_lines() if line.get_linestyle() == "-")
+        assert median.get_xdata()[0] == pytest.approx(row["median"], rel=2e-3), key
+    assert fig.axes[1].get_xlabel() == "|final position error| [cm]"

@@ -649,6 +649,11 @@ _METRIC_TEX = {
 }
 
 
+def size_label(name: str) -> str:
+    """A signed metric's label as its size: "|final position error|"."""
+    return f"|{metric_unit(name)[0].split(' (')[0]}|"
+
+
 def _metric_label(name: str) -> str:
     return _METRIC_TEX.get(name, metric_unit(name)[0])
 
@@ -664,10 +669,12 @@ def si_unit(name: str) -> str:
 
 
 @_styled
-def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None, bins: int = 30):
+def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None, bins: int = 30,
+          sizes: Sequence[str] = ()):
     """Histograms of a sweep's metrics over the samples that did not fall (fall rate and its
     95 % interval in the title). `result` is a SweepResult (or anything with `.metrics`,
-    `.fall_rate`, `.fall_rate_interval()` and `.config["scenario"]`)."""
+    `.fall_rate`, `.fall_rate_interval()` and `.config["scenario"]`). The metrics named in
+    `sizes` are drawn as their size |x| (a signed error either side of its goal)."""
     m = result.metrics
     if metrics is None:
         metrics = [k for k in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error",
@@ -682,6 +689,8 @@ def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None
         label = _metric_label(name)
         values = np.asarray(m[name], float)[keep] * scale
         values = values[np.isfinite(values)]
+        if name in sizes:
+            values, label = np.abs(values), size_label(name)
         if len(values):
             ax.hist(values, bins=bins, color=PALETTE[i % len(PALETTE)], alpha=0.85, edgecolor="white", linewidth=0.4)
             for q, ls in zip(np.quantile(values, (0.05, 0.5, 0.95)), (":", "-", ":")):
