@@ -438,3 +438,34 @@ def test_sweep_figures_draw_the_rows_numbers():
         median = next(line for line in ax.get_lines() if line.get_linestyle() == "-")
         assert median.get_xdata()[0] == pytest.approx(row["median"], rel=2e-3), key
     assert fig.axes[1].get_xlabel() == "|final position error| [cm]"
+
+
+def test_panels_without_the_thesis_like_trace_say_they_are_the_ideal_plants():
+    """An experiment's figure draws the thesis-like robot's run beside ours on some panels;
+    the others (input, internals, torques, errors) are ours alone, and their colours are not
+    that run's: their titles say so."""
+    pytest.importorskip("matplotlib")
+    from twip import plot
+    from twip.report.reproduce import RIG_LABEL
+
+    for name, draw in (("flat-lqr", plot.timeseries), ("circle-pid", plot.tracking)):
+        sc = scenarios.get(name)
+        r, rig = sc.run(t_final=2.0), sc.run(t_final=2.0, realism=twip.Realism.thesis_like())
+        fig = draw(r, scenario=sc, beside=(RIG_LABEL, rig))
+        for ax in (a for a in fig.axes if a.get_visible() and a.get_title()):
+            drawn = any(line.get_label() == RIG_LABEL for line in ax.get_lines())
+            assert drawn != ax.get_title().endswith("(ideal plant only)"), (name, ax.get_title())
+        plain = draw(r, scenario=sc)
+        assert not any("ideal plant only" in a.get_title() for a in plain.axes)
+
+
+def test_a_thesis_like_run_that_fell_says_when_in_its_legend():
+    """circle-smc falls on the thesis-like robot: its figures' legend entry says when, as its
+    rows do ("fell at 6.39 s"); a completed run keeps the plain label."""
+    from twip.report.reproduce import RIG_LABEL, _rig_label
+
+    sc = scenarios.get("circle-smc")
+    fell = sc.run(realism=twip.Realism.thesis_like(), record_every=50)
+    assert fell.outcome == "fell"
+    assert _rig_label(fell) == f"{RIG_LABEL}, fell at {round(fell.t_end, 2):g} s"
+    assert _rig_label(sc.run(t_final=1.0)) == RIG_LABEL
