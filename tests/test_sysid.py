@@ -96,14 +96,15 @@ def test_an_exact_pwm_log_through_an_inductive_driver_gives_the_robot_back(name,
 
 def test_the_rigs_raw_sensors_identify_the_robot():
     """The thesis-like rig: PWM duty in, the MPU-6050's gyro and accelerometer registers
-    (DLPF, noise, bias, quantisation) and the encoder's counts out. Measured: within 0.13 %
-    with a driver without inductance and current limit (all four), and with the thesis-like
-    one's 1 mH and 2 A (com_height +0.10 %; i_body +0.06 %, where the current held algebraic
-    gives +0.18 %). Without the gearheads' friction and backlash: the fit's model has neither here
-    (test_gearhead_friction_is_fitted_too has the friction)."""
+    (DLPF, noise, bias, quantisation) and the encoder's counts out. Measured with the 0.87
+    gearbox: within 0.15 % with a driver without inductance and current limit (all four), and
+    with the thesis-like one's 1 mH and 2 A i_body -0.67 %, inside the fit's own 1 sigma of
+    0.53 % x 1.3 (seed 1: +0.14 %; with a lossless gearbox +0.06 %, where the current held
+    algebraic gives +0.18 %). Without the gearheads' friction and backlash: the fit's model has
+    neither here (test_gearhead_friction_is_fitted_too has the friction)."""
     base = twip.Realism.thesis_like().replace(friction=None, backlash=None)
     ideal_driver = base.replace(motor=base.motor.replace(inductance=0.0, current_limit=None))
-    for realism, tolerance in ((ideal_driver, 0.005), (base, 0.004)):
+    for realism, tolerance in ((ideal_driver, 0.005), (base, 0.01)):
         log = run_of("flat-lqr", 12.0, realism).to_log()
         assert set(log.signals()) == {"pwm", "gyro", "accel_x", "accel_z", "enc"}
         fit = identify(log, twip.RobotParams.balanbot(), FREE, driver=realism.motor, sensors=Sensors.of(realism))
@@ -111,6 +112,7 @@ def test_the_rigs_raw_sensors_identify_the_robot():
         print(errors, fit.offsets)
         assert fit.converged, fit.message
         assert max(abs(e) for e in errors.values()) < tolerance, errors
+        assert all(abs(fit.values[k] - TRUE.to_dict()[k]) < 3 * fit.std[k] for k in FREE), (errors, fit.std)
         assert abs(fit.offsets["gyro"] - realism.imu.gyro_bias) < 2e-4
 
 
