@@ -145,7 +145,7 @@ def test_claims_on_unpublished_choices_carry_their_sensitivity(report, report_di
     assert "T8" in smc["reason"] and "λ1" not in smc["sensitivity"]["choices"]
     md = (report_dir[0] / "report.md").read_text()
     section = md.split("## How much our numbers depend on what the thesis does not give")[1]
-    for cid in ("table-5.1/lqr-flat/speed", "table-5.2/smc-beats-pid"):
+    for cid in ("table-5.1/lqr-flat/speed", "table-5.2/smc-beats-pid", "table-5.1/fuzzy-beats-lqr-flat"):
         line = next(l for l in section.splitlines() if l.startswith(f"| {cid} |"))
         assert _numbers(line.split(" | ")[2]) == _flat(by_id[cid]["sensitivity"]["low"])
 

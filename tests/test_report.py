@@ -292,6 +292,44 @@ def test_the_joint_search_counts_the_default_and_finds_the_corners():
     assert entry["choices"] == {"a": [1.0, 4.0], "b": [0.0, 1.0], "c": ["x", "y"]}
 
 
+def test_fuzzy_margin_is_above_one_exactly_when_fuzzy_wins_both_columns():
+    from twip.report.sensitivity import fuzzy_margin
+
+    def row(pitch, speed, outcome="completed"):
+        return {"outcome": outcome, "pitch_error_deg": pitch, "speed_error_deg_s": speed}
+
+    assert fuzzy_margin(row(1.0, 30.0), row(0.5, 20.0)) == pytest.approx(1.5)  # the weaker column decides
+    assert fuzzy_margin(row(1.0, 30.0), row(0.5, 40.0)) == pytest.approx(0.75)  # worse in speed: below 1
+    assert fuzzy_margin(row(1.0, 30.0), row(0.5, 20.0, "fell")) is None
+
+
+def test_fuzzy_beats_lqr_gets_the_joint_low_high_search():
+    """Table 5.1's "fuzzy better than LQR" is searched like every other claim: Γ, σ, the fuzzy
+    sets and the loop periods vary together, the default run is the row's, the search runs
+    at corners of the box, and each run's verdict is its number above 1."""
+    from twip.report.experiments import table_5_1_row
+    from twip.report.joint import Span
+    from twip.report.sensitivity import FUZZY_MARGIN, fuzzy_beats_lqr, fuzzy_margin, _table_5_1_box
+
+    entry = fuzzy_beats_lqr("flat", quick=False)
+    assert {"fuzzy gamma", "fuzzy sigma", "fuzzy sets", "fuzzy loop period [s]", "LQR loop period [s]",
+            "gearhead friction"} <= set(entry["choices"])
+    assert entry["measure"] == FUZZY_MARGIN and entry["runs"] == 17 and entry["searched"] > 0
+    detail = entry["detail"]
+    assert all(set(d["values"]) == set(entry["choices"]) for d in detail)
+    assert all(d["holds"] == (d["ours"] is not None and d["ours"] > 1.0) for d in detail)
+    numbers = [d["ours"] for d in detail if d["ours"] is not None]
+    assert entry["low"] == min(numbers) < entry["high"] == max(numbers)
+    assert detail[0]["run"] == "default"
+    default = fuzzy_margin(table_5_1_row("flat", "lqr"), table_5_1_row("flat", "fuzzy"))
+    assert default > 1.0 and detail[0]["ours"] == pytest.approx(default, rel=1e-3)
+    spans = {f"{who} {k}": v for who, c in (("LQR", "lqr"), ("fuzzy", "fuzzy"))
+             for k, v in _table_5_1_box("flat", c).items() if isinstance(v, Span)}
+    for d in (d for d in detail if d["run"] == "search"):  # each continuous choice at an end of its range
+        assert all(d["values"][k] in (pytest.approx(s.low, rel=1e-3), pytest.approx(s.high, rel=1e-3))
+                   for k, s in spans.items()), d
+
+
 def test_friction_cases_run_the_refit_robot_not_balanbot_with_gb37():
     """gb37() on balanbot() counts the no-load torque twice (its fitted mu_bearing already holds
     it): the Coulomb case is the refit robot, which meets the published flat gains as well."""
@@ -381,3 +419,53 @@ def test_experiment_figures_say_they_are_simulations():
 
     assert _analogue("4.3", True) == "Fig 4.3 analogue (simulation of the experiment: ideal plant and thesis-like robot)"
     assert _analogue("4.2", False) == "Fig 4.2 analogue (simulation)"
+
+
+def test_sweep_figures_draw_the_rows_numbers():
+    """A robustness sweep's row reports the stop's error as its size (median, 95 %): its figure
+    draws that size, so the median line is the row's median (it drew the signed error, whose
+    median sits near 0 while the row's is 22 cm on slope-lqr)."""
+    pytest.importorskip("matplotlib")
+    from twip import plot
+    from twip.report.sweeps import SIZES, _metric_summary, sweep_perturb
+
+    res = twip.montecarlo("slope-lqr", 24, perturb=sweep_perturb(False), seed=1, progress=False)
+    keys = ["mean_abs_pitch_error", "final_position_error"]
+    fig = plot.sweep(res, metrics=keys, sizes=SIZES)
+    for ax, key in zip(fig.axes, keys):
+        row = _metric_summary(res, key)
+        assert ax.get_xlabel().endswith(f"[{row['unit']}]") and ("|" in ax.get_xlabel()), ax.get_xlabel()
+        median = next(line for line in ax.get_lines() if line.get_linestyle() == "-")
+        assert median.get_xdata()[0] == pytest.approx(row["median"], rel=2e-3), key
+    assert fig.axes[1].get_xlabel() == "|final position error| [cm]"
+
+
+def test_panels_without_the_thesis_like_trace_say_they_are_the_ideal_plants():
+    """An experiment's figure draws the thesis-like robot's run beside ours on some panels;
+    the others (input, internals, torques, errors) are ours alone, and their colours are not
+    that run's: their titles say so."""
+    pytest.importorskip("matplotlib")
+    from twip import plot
+    from twip.report.reproduce import RIG_LABEL
+
+    for name, draw in (("flat-lqr", plot.timeseries), ("circle-pid", plot.tracking)):
+        sc = scenarios.get(name)
+        r, rig = sc.run(t_final=2.0), sc.run(t_final=2.0, realism=twip.Realism.thesis_like())
+        fig = draw(r, scenario=sc, beside=(RIG_LABEL, rig))
+        for ax in (a for a in fig.axes if a.get_visible() and a.get_title()):
+            drawn = any(line.get_label() == RIG_LABEL for line in ax.get_lines())
+            assert drawn != ax.get_title().endswith("(ideal plant only)"), (name, ax.get_title())
+        plain = draw(r, scenario=sc)
+        assert not any("ideal plant only" in a.get_title() for a in plain.axes)
+
+
+def test_a_thesis_like_run_that_fell_says_when_in_its_legend():
+    """circle-smc falls on the thesis-like robot: its figures' legend entry says when, as its
+    rows do ("fell at 6.39 s"); a completed run keeps the plain label."""
+    from twip.report.reproduce import RIG_LABEL, _rig_label
+
+    sc = scenarios.get("circle-smc")
+    fell = sc.run(realism=twip.Realism.thesis_like(), record_every=50)
+    assert fell.outcome == "fell"
+    assert _rig_label(fell) == f"{RIG_LABEL}, fell at {round(fell.t_end, 2):g} s"
+    assert _rig_label(sc.run(t_final=1.0)) == RIG_LABEL

@@ -287,6 +287,17 @@ def _beside(ax, beside, of) -> None:
         _line(ax, run.t, of(run), color=RIG, lw=0.8, alpha=0.85, label=label, zorder=1)
 
 
+def _mark_ours_only(fig, beside) -> None:
+    """With a run `beside` ours, the panels that draw ours alone say so in their title (their
+    colours are not that run's)."""
+    if beside is None:
+        return
+    for a in fig.axes:
+        title = a.get_title()
+        if a.get_visible() and title and not any(line.get_label() == beside[0] for line in a.get_lines()):
+            a.set_title(f"{title} (ideal plant only)", fontsize=a.title.get_fontsize())
+
+
 def timeseries(result, scenario=None, path=None, title=None, internals: bool = True, beside=None):
     """A 2-DOF run (SlopeModel): pitch with its target φ_s, pitch rate, wheel speed with its
     reference, distance with the reference position, the input current and the
@@ -371,6 +382,7 @@ def timeseries(result, scenario=None, path=None, title=None, internals: bool = T
         for a in fig.axes:
             a.axvline(result.t_end, color=TARGET, lw=0.8)
         fig.axes[0].text(result.t_end, 0.02, " fell", color=TARGET, transform=fig.axes[0].get_xaxis_transform())
+    _mark_ours_only(fig, beside)
     return _finish(fig, path, title or _title(scenario, "2-DOF run"))
 
 
@@ -606,6 +618,7 @@ def tracking(result, scenario=None, path=None, title=None, internals: bool = Tru
         a.set_xlim(t[0], t[-1])
     for a in panels[-3:]:
         a.set_xlabel("time [s]")
+    _mark_ours_only(fig, beside)
     return _finish(fig, path, title or _title(scenario, "3-DOF run"))
 
 
@@ -649,6 +662,11 @@ _METRIC_TEX = {
 }
 
 
+def size_label(name: str) -> str:
+    """A signed metric's label as its size: "|final position error|"."""
+    return f"|{metric_unit(name)[0].split(' (')[0]}|"
+
+
 def _metric_label(name: str) -> str:
     return _METRIC_TEX.get(name, metric_unit(name)[0])
 
@@ -664,10 +682,12 @@ def si_unit(name: str) -> str:
 
 
 @_styled
-def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None, bins: int = 30):
+def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None, bins: int = 30,
+          sizes: Sequence[str] = ()):
     """Histograms of a sweep's metrics over the samples that did not fall (fall rate and its
     95 % interval in the title). `result` is a SweepResult (or anything with `.metrics`,
-    `.fall_rate`, `.fall_rate_interval()` and `.config["scenario"]`)."""
+    `.fall_rate`, `.fall_rate_interval()` and `.config["scenario"]`). The metrics named in
+    `sizes` are drawn as their size |x| (a signed error either side of its goal)."""
     m = result.metrics
     if metrics is None:
         metrics = [k for k in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error",
@@ -682,6 +702,8 @@ def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None
         label = _metric_label(name)
         values = np.asarray(m[name], float)[keep] * scale
         values = values[np.isfinite(values)]
+        if name in sizes:
+            values, label = np.abs(values), size_label(name)
         if len(values):
             ax.hist(values, bins=bins, color=PALETTE[i % len(PALETTE)], alpha=0.85, edgecolor="white", linewidth=0.4)
             for q, ls in zip(np.quantile(values, (0.05, 0.5, 0.95)), (":", "-", ":")):

@@ -5,6 +5,7 @@ from typing import List
 
 from twip.report.claims import THESIS_TABLE_5_1, headline, summary, summary_line
 from twip.report.numbers import fix, fmt
+from twip.report.sensitivity import FUZZY_MARGIN
 from twip.report.sweeps import sweep_perturb_text
 from twip.scenarios.tracking import thesis_cm
 
@@ -62,7 +63,7 @@ def render_markdown(report: dict) -> str:
                 "range of ours over all of them; *holds*: the share of the sampled runs (the default counted) in which "
                 "the thesis's claim holds. Every run is in report.json (`detail`: its values, ours, holds). A settling "
                 "band is a run measured again. For the stops, *ours* is the largest distance of a stop from its goal "
-                "[m].", ""]
+                f"[m]; for \"fuzzy better than LQR\", {FUZZY_MARGIN}.", ""]
         out.append(_md_table(["id", "choices (range)", "ours: low", "ours: high", "holds", "runs", "searched"],
                              [[c["id"], "; ".join(f"{k} {' – '.join(str(x) for x in v)}"
                                                   for k, v in c["sensitivity"]["choices"].items()),

@@ -157,6 +157,11 @@ def _run_scenarios(quick: bool, steps: Steps):
 RIG_LABEL = "thesis-like robot (simulated)"
 
 
+def _rig_label(run) -> str:
+    """The thesis-like run's legend entry, with its fall as the rows state it ("fell at 6.39 s")."""
+    return RIG_LABEL if run.outcome == "completed" else f"{RIG_LABEL}, {run.outcome} at {dec(run.t_end, 2)} s"
+
+
 def _analogue(fig_no: str, experiment: bool) -> str:
     what = "simulation of the experiment: ideal plant and thesis-like robot" if experiment else "simulation"
     return f"Fig {fig_no} analogue ({what})"
@@ -170,14 +175,14 @@ def _scenario_figures(runs: dict, rig: dict, quick: bool, steps: Steps, figures:
 
     for name, (sc, r) in runs.items():
         fig_no = str(sc.thesis.get("figure", "")) or "x"
-        beside = (RIG_LABEL, rig[name]) if name in rig else None
+        beside = (_rig_label(rig[name]), rig[name]) if name in rig else None
         head = _analogue(fig_no, beside is not None)
         if not is_planar(sc):
             figures.add(f"fig{fig_no}_{name}.png", f"{head}: {sc.description}",
                         lambda p, sc=sc, r=r, head=head, beside=beside: plot.timeseries(
                             r, scenario=sc, path=p, beside=beside, title=f"{head}: {sc.name}\n{sc.description}"))
             continue
-        paths = {"plant = controller's model": r, **({RIG_LABEL: rig[name]} if name in rig else {})}
+        paths = {"plant = controller's model": r, **({beside[0]: beside[1]} if beside else {})}
         t0 = time.perf_counter()
         nominal = sc.model.params
         for label, factor in (("plant +20 %", 1.2), ("plant −20 %", 0.8)):

@@ -9,7 +9,7 @@ from typing import Any, Dict, List
 import numpy as np
 
 import twip
-from twip.plot import METRIC_UNITS
+from twip.plot import METRIC_UNITS, size_label
 from twip.report.numbers import dec, sig
 from twip.scenarios import is_planar
 from twip.sweep import kernel_for
@@ -17,6 +17,9 @@ from twip.sweep import kernel_for
 #: Robustness sweeps: every parameter a builder can get wrong, ±20 % (frictions ±50 %).
 SWEEP_PERTURB = {"m_body": ("±20%", 0.2), "com_height": ("±20%", 0.2), "i_body": ("±20%", 0.2),
                  "mu_bearing": ("±50%", 0.5), "mu_ground": ("±50%", 0.5)}
+
+#: Metrics a sweep reports (and draws) as their size: the stop's error either side of the goal.
+SIZES = ("final_position_error",)
 
 #: What a robustness sweep reports, per model.
 _SWEEP_KEYS = {True: ("mean_abs_x_error_settled", "mean_abs_y_error_settled", "max_path_error_settled"),
@@ -45,8 +48,8 @@ def _metric_summary(res, key: str) -> dict:
     keep = res.metrics["valid"] & ~res.metrics["fell"]
     label, scale, unit = METRIC_UNITS[key]
     v = np.asarray(res.metrics[key], float)[keep]
-    if key == "final_position_error":  # its size, either side of the goal
-        v, label = np.abs(v), "|final position error|"
+    if key in SIZES:
+        v, label = np.abs(v), size_label(key)
     v = v[np.isfinite(v)]
     q = np.quantile(v, (0.5, 0.95)) if len(v) else np.full(2, np.nan)
     return {"label": label, "unit": unit, "median": sig(q[0] * scale, 3), "q95": sig(q[1] * scale, 3)}
@@ -77,7 +80,8 @@ def robustness_sweeps(runs: dict, quick: bool, steps, figures, family, quick_opt
         title = (f"Robustness of {name} ({family(sc)}): {res.n} robots drawn with {sweep_perturb_text(planar)}; "
                  "the controller is designed for the nominal robot")
         figures.add(f"sweep_{name}.png", f"robustness sweep of {name}: histograms over {res.n} perturbed robots",
-                    lambda p, res=res, keys=keys, title=title: plot.sweep(res, metrics=list(keys), path=p, title=title))
+                    lambda p, res=res, keys=keys, title=title: plot.sweep(res, metrics=list(keys), path=p, title=title,
+                                                                                       sizes=SIZES))
         steps.done(f"sweep {name}: {res.n} samples, fall rate {res.fall_rate:.1%}", time.perf_counter() - t0)
     return rows
 

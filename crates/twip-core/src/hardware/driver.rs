@@ -11,7 +11,8 @@
 //! ```
 //!
 //! ε is [`MotorDriver::efficiency`] (the share of the winding's torque that reaches the
-//! wheel; 1 by default) and 2 the number of motors.
+//! wheel; 1 by default, [`GB37_GEARBOX_EFFICIENCY`] on the thesis-like robot) and 2 the
+//! number of motors.
 //!
 //! With L = 0 the current is algebraic and computed inside `deriv` at each RK4 stage (the
 //! back-EMF damping is then implicit in RK4). With L > 0 the current is a state carried
@@ -44,6 +45,11 @@ use crate::{c, Dynamics, Real, RobotParams, TwipError};
 
 /// Motors driven by one 2-DOF command (left and right, lumped).
 pub const MOTORS: f64 = 2.0;
+
+/// Gearbox efficiency of a 37 mm spur gearmotor at the GB37's 43.7:1 (Table 2.3 gives none):
+/// Pololu's 37D data sheet, stall torque over ratio × bare-motor stall torque, 0.93 at 30:1
+/// and 0.84 at 50:1, linear in the ratio between them (docs/parameters.md).
+pub const GB37_GEARBOX_EFFICIENCY: f64 = 0.87;
 
 /// Battery, bridge and motor electrics. SI units; currents per motor.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -89,10 +95,17 @@ impl<T: Real> MotorDriver<T> {
         }
     }
 
-    /// [`Self::gb37y3530`] with the L298's drop (2 V), an assumed 1 mH winding and the
-    /// L298's 2 A DC rating per bridge (docs/parameters.md).
+    /// [`Self::gb37y3530`] with the L298's drop (2 V), an assumed 1 mH winding, the L298's
+    /// 2 A DC rating per bridge and a 37 mm gearbox's losses ([`GB37_GEARBOX_EFFICIENCY`];
+    /// docs/parameters.md).
     pub fn thesis_like() -> Self {
-        Self { bridge_drop: c(2.0), inductance: c(1e-3), current_limit: c(2.0), ..Self::gb37y3530() }
+        Self {
+            bridge_drop: c(2.0),
+            inductance: c(1e-3),
+            efficiency: c(GB37_GEARBOX_EFFICIENCY),
+            current_limit: c(2.0),
+            ..Self::gb37y3530()
+        }
     }
 
     /// Checks every field and names the first bad one.
@@ -608,6 +621,25 @@ mod tests {
         assert!((rpm - 251.0).abs() < 0.1 * 251.0, "no-load {rpm} rpm");
         let i0 = d.current(&p, 12.0, lo).unwrap();
         assert!((i0 - 0.35).abs() < 0.1 * 0.35, "no-load current {i0} A");
+    }
+
+    /// The thesis-like gearbox efficiency is the Pololu 37D data sheet's (12 V line): stall
+    /// torque over ratio × the bare motor's 5 kg·mm stall, 140 kg·mm at 30:1 and 210 at 50:1,
+    /// linear in the ratio at the GB37's 43.7:1; it takes the stall torque at the wheel from
+    /// 2.81 to 2.44 N m at 11.1 V (docs/parameters.md).
+    #[test]
+    fn gearbox_efficiency_is_the_data_sheets_at_the_gb37s_ratio() {
+        use crate::hardware::motor::DataSheet;
+        let (at30, at50) = (140.0 / (30.0 * 5.0), 210.0 / (50.0 * 5.0));
+        let ratio = DataSheet::<f64>::gb37y3530().gear_ratio;
+        let interpolated = at30 + (ratio - 30.0) / (50.0 - 30.0) * (at50 - at30);
+        assert!((interpolated - GB37_GEARBOX_EFFICIENCY).abs() < 0.005, "{interpolated}");
+        assert_eq!(MotorDriver::<f64>::thesis_like().efficiency, GB37_GEARBOX_EFFICIENCY);
+        let p = params();
+        let lossless = MotorDriver::<f64>::gb37y3530();
+        let geared = MotorDriver { efficiency: GB37_GEARBOX_EFFICIENCY, ..lossless };
+        let stall = |d: &MotorDriver<f64>| d.wheel_torque(&p, BALANBOT_SUPPLY, 0.0).unwrap();
+        assert!((stall(&lossless) - 2.807).abs() < 5e-4 && (stall(&geared) - 2.442).abs() < 5e-4);
     }
 
     #[test]

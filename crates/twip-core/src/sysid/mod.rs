@@ -268,7 +268,7 @@ mod tests {
                         if step == 0 {
                             assert_eq!((states[i], rates[i]), (x, k1), "every {every}, sample {i}");
                         }
-                        limited += usize::from(plant.currents(&x, &uu)[0].abs() == 2.0 * driver.current_limit);
+                        limited += usize::from(plant.currents(&x, &uu)[0].abs() == 2.0 * driver.efficiency * driver.current_limit);
                         if i + 1 == n {
                             break;
                         }
