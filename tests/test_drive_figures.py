@@ -47,16 +47,17 @@ def test_the_ideal_loop_delivers_every_command():
 
 def test_a_sweep_keeps_them_per_sample_and_in_its_summary():
     sc = twip.scenarios.get("flat-lqr-sim")
-    rig = twip.Realism.thesis_like().replace(motor=twip.MotorDriver.thesis_like().replace(current_limit=0.4))
-    s = twip.montecarlo(sc, 16, perturb={"phi0": twip.Uniform(low=0.15, high=0.25)}, realism=rig, progress=False, seed=3)
+    rig = twip.Realism.thesis_like().replace(motor=twip.MotorDriver.thesis_like().replace(current_limit=0.7))
+    s = twip.montecarlo(sc, 16, perturb={"phi0": twip.Uniform(low=0.1, high=0.2)}, realism=rig, progress=False, seed=3)
     assert {"peak_current", "peak_command", "saturation_share"} <= set(s.metric_names)
-    kept = s.valid
-    assert np.all(s.metrics["peak_current"][kept] <= 0.4)
-    assert np.all(s.metrics["peak_command"][kept] > 0.4)
-    assert np.all(s.metrics["saturation_share"][kept] > 0)
-    summary = s.summary()
-    assert summary["saturation_share"]["median"] > 0
+    m = s.metrics
+    assert np.all(s.valid) and np.all(m["peak_current"] <= 0.7)
+    # A sample that asked more current than the driver gives saturated in some period.
+    asked = m["peak_command"] > 0.7
+    assert 0 < np.sum(asked) < s.n
+    assert np.all(m["saturation_share"][asked] > 0)
+    assert s.summary()["saturation_share"]["median"] > 0
     for i in (0, 5):
         again = s.rerun(i)
         for name in ("peak_current", "peak_command", "saturation_share"):
-            assert np.array_equal(again[name], s.metrics[name][i], equal_nan=True), name
+            assert np.array_equal(again[name], m[name][i], equal_nan=True), name
