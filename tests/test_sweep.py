@@ -61,7 +61,7 @@ def test_a_sample_rerun_alone_is_bitwise_the_same(index, scenario):
     alone = r.rerun(index)
     assert r.metric_names[2:] == ("mean_abs_pitch_error", "mean_abs_speed_error", "pitch_settling_time",
                                   "speed_settling_time", "final_position_error", "peak_abs_input", "peak_current",
-                                  "peak_torque")
+                                  "peak_torque", "peak_command", "saturation_share")
     for name in ("valid",) + r.metric_names:
         assert np.array_equal(alone[name], r.metrics[name][index], equal_nan=True), name
 
@@ -646,7 +646,8 @@ TRACK_PERTURB = {
     "y0": twip.Uniform(abs=0.05),
 }
 TRACK_METRICS = ("mean_abs_x_error", "mean_abs_y_error", "mean_abs_x_error_settled", "mean_abs_y_error_settled",
-                 "max_path_error_settled", "mean_abs_pitch", "peak_abs_torque", "peak_current", "peak_torque")
+                 "max_path_error_settled", "mean_abs_pitch", "peak_abs_torque", "peak_current", "peak_torque",
+                 "peak_command", "saturation_share")
 
 
 def tracking_sweep(n=32, name="circle-smc-fuzzy", **kw):
@@ -756,9 +757,11 @@ def test_tracking_summary_pandas_and_invalid_draws():
     assert "mean_abs_pitch_error" not in s and "max_path_error_settled" in repr(r)
     assert r.steps == int(np.sum(np.rint(r.metrics["t_end"][r.valid] / 1e-3)))
     pytest.importorskip("pandas")
-    units = {"mean_abs_pitch": "rad", "peak_abs_torque": "N m", "peak_current": "A", "peak_torque": "N m"}
+    units = {"mean_abs_pitch": "rad", "peak_abs_torque": "N m", "peak_current": "A", "peak_torque": "N m",
+             "peak_command": "A", "saturation_share": None}
     assert list(r.to_pandas().columns) == ["index", "valid", "m_body[kg]", "x0[m]", "fell", "t_end[s]",
-                                           *(f"{k}[{units.get(k, 'm')}]" for k in TRACK_METRICS)]
+                                           *(k if units.get(k, "m") is None else f"{k}[{units.get(k, 'm')}]"
+                                             for k in TRACK_METRICS)]
 
 
 @pytest.mark.parametrize(

@@ -78,6 +78,12 @@ def test_recorded_failures_survive_a_checkpoint(tmp_path):
     assert again.errors == first.errors and first.errors
 
 
+def test_resuming_with_stop_refuses_the_shards_a_record_run_wrote(tmp_path):
+    _sweep(RaisesOnBigTilt, on_error="record", checkpoint=tmp_path, shard_size=5)
+    with pytest.raises(twip.InvalidParameterError, match="differs in: on_error"):
+        _sweep(RaisesOnBigTilt, checkpoint=tmp_path, shard_size=5)
+
+
 def test_by_default_a_failing_controller_stops_the_sweep_naming_the_sample():
     with pytest.raises(twip.ControllerFailedError, match=r"sample \d+: the controller failed \(ValueError") as info:
         _sweep(RaisesOnBigTilt, threads=1)

@@ -633,8 +633,10 @@ METRIC_UNITS = {
     "speed_settling_time": ("speed settling time (2 %)", 1.0, "s"),
     "final_position_error": ("final position error (short of the reference)", 100.0, "cm"),
     "peak_abs_input": ("peak |u|", 1.0, "A"),
-    "peak_current": ("peak current in one motor", 1.0, "A"),
+    "peak_current": ("peak current in one motor (after the driver)", 1.0, "A"),
     "peak_torque": ("peak torque at one wheel", 1.0, "N m"),
+    "peak_command": ("peak current commanded of one motor", 1.0, "A"),
+    "saturation_share": ("share of control periods beyond the driver", 100.0, "%"),
     "mean_abs_x_error": ("mean |x − x_r|", 100.0, "cm"),
     "mean_abs_y_error": ("mean |y − y_r|", 100.0, "cm"),
     "mean_abs_x_error_settled": ("mean |x − x_r| after the first lap", 100.0, "cm"),
@@ -672,7 +674,7 @@ def _metric_label(name: str) -> str:
 
 
 #: The SI unit behind each display unit of METRIC_UNITS.
-_SI = {"deg": "rad", "deg/s": "rad/s", "cm": "m"}
+_SI = {"deg": "rad", "deg/s": "rad/s", "cm": "m", "%": ""}
 
 
 def si_unit(name: str) -> str:

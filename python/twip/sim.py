@@ -144,9 +144,12 @@ def simulate(
     `ref` the reference sample in the order of `SimResult.reference_names`, `u` a float
     or an array of the model's inputs.
 
-    Metrics include `peak_current` [A, one motor] and `peak_torque` [N m, one wheel]; with
-    `stall_current` [A] (the motor's data sheet) a run that asked more carries a warning
-    in `SimResult.warnings`.
+    Metrics include `peak_current` [A, one motor] and `peak_torque` [N m, one wheel], what
+    the motor got after the driver's clamps (its current limit, the duty at full), beside
+    `peak_command` [A, one motor], what the controller asked, and `saturation_share`, the
+    share of control periods whose command was beyond the driver (0 without realism's
+    driver). With `stall_current` [A] (the motor's data sheet) a run that asked more
+    carries a warning in `SimResult.warnings`.
     """
     checks.of_type("fall_limit", fall_limit, checks.REAL, "a pitch angle [rad]")
     if control_period is not None:
@@ -222,7 +225,7 @@ def simulate(
 
 def stall_warnings(metrics: dict, stall_current: Optional[float]) -> tuple:
     """A warning when the run asked one motor for more than its stall current [A]."""
-    peak = metrics.get("peak_current", math.nan)
+    peak = metrics.get("peak_command", metrics.get("peak_current", math.nan))
     if stall_current is None or not peak > stall_current:
         return ()
     return (f"the loop asked up to {peak:.3g} A of one motor, above its stall current {stall_current:.3g} A: "
@@ -239,13 +242,17 @@ def drive_warnings(metrics: dict, realism) -> tuple:
     most = (driver.battery - driver.bridge_drop) / driver.resistance
     if driver.current_limit is not None:
         most = min(most, driver.current_limit)
-    peak = metrics.get("peak_current", math.nan)
+    peak = metrics.get("peak_command", metrics.get("peak_current", math.nan))
     if not peak > most:
         return ()
+    share = metrics.get("saturation_share", 0.0)
+    driven = realism is not None and getattr(realism, "motor", None) is not None
+    saw = (f"the motor saw at most {metrics['peak_current']:.3g} A" if driven and "peak_current" in metrics
+           else "the motor saw less")
     return (f"the loop commanded up to {peak:.3g} A of one motor, beyond the {most:.3g} A its driver can give "
             f"({driver.battery:g} V battery, {driver.bridge_drop:g} V drop, {driver.resistance:.3g} ohm"
             + (f", {driver.current_limit:g} A limit" if driver.current_limit is not None else "")
-            + "): the motor saw less",)
+            + f"): {saw}" + (f", {100 * share:.3g} % of the control periods saturated" if share > 0 else ""),)
 
 
 def plausibility_warnings(params) -> tuple:

@@ -69,8 +69,12 @@ def _realism_from_config(c: dict):
     return _core.Realism.from_json(json.dumps(c))
 
 
-def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism=None):
+def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism=None, on_error="stop"):
     extra = {} if realism is None else {"realism": _realism_config(realism)}
+    if user_sweep.is_user_controller(sc.controller):
+        # What a failed sample becomes (only a Python controller fails): a checkpoint of
+        # recorded failures is not another sweep's that stops at the first.
+        extra["on_error"] = on_error
     return {
         "scenario": sc.name,
         "by_name": isinstance(scenario, str),
@@ -208,7 +212,7 @@ def montecarlo(
         budget.check(f"montecarlo: traces of {len(traces)} samples ({rows:,.0f} rows x {columns} columns each)",
                      len(traces) * rows * columns * 8, "keep fewer traces= or log them sparser with trace_every=")
     perturbations = resolve(perturb or {}, sc)
-    config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism)
+    config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism, on_error)
     if stall_current is not None:  # summary() counts the samples that asked more of a motor
         stall_current = checks.real("stall_current", stall_current, above=0)
     if shard_size is None and checkpoint is not None and user_sweep.is_user_controller(sc.controller):

@@ -162,7 +162,7 @@ class SweepResult:
     def over_stall_current(self, stall_current: float) -> int:
         """How many samples asked one motor for more than `stall_current` [A]."""
         stall_current = checks.real("stall_current", stall_current, above=0)
-        peak = np.asarray(self.metrics.get("peak_current", []), float)
+        peak = np.asarray(self.metrics.get("peak_command", self.metrics.get("peak_current", [])), float)
         return int(np.sum(peak > stall_current))
 
     def sample(self, index: int):
@@ -317,7 +317,8 @@ class StreamedSweepResult(SweepResult):
 
     def over_stall_current(self, stall_current: float) -> int:
         stall_current = checks.real("stall_current", stall_current, above=0)
-        return sum(int(np.sum(np.asarray(part["peak_current"], float) > stall_current)) for part in self.shards())
+        asked = lambda part: part["peak_command"] if "peak_command" in part else part["peak_current"]  # noqa: E731
+        return sum(int(np.sum(np.asarray(asked(part), float) > stall_current)) for part in self.shards())
 
     def _counts(self) -> dict:
         if self._tally is None:

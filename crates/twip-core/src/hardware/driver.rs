@@ -345,6 +345,13 @@ impl<S: Lane> Winding<S> {
         self.step.current = self.stepped_current(Stage::End, relative_speed);
     }
 
+    /// Inductive: the current now (where the last step ended, or the step under way began).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+    #[inline(always)]
+    pub(crate) fn step_current(&self) -> S {
+        self.step.current
+    }
+
     /// Inductive: the current's mean over the step under way with the motor's speed held.
     #[inline(always)]
     pub(crate) fn stepped_mean(&self) -> S {
@@ -580,11 +587,27 @@ impl<T: Real> PwmActuator<T> {
     /// at a relative wheel speed.
     #[inline]
     pub fn duty(&self, command: T, relative_speed: T) -> T {
+        let (_, counts) = self.wanted(command, relative_speed);
+        saturate(counts, self.motor.pwm_max())
+    }
+
+    /// Whether a command at a relative wheel speed is beyond what a driver with
+    /// `current_limit` [A per motor] delivers: its duty past full (the supply cannot give
+    /// the voltage) or its current past the limit (the driver clamps it).
+    #[inline]
+    pub fn beyond(&self, command: T, relative_speed: T, current_limit: T) -> bool {
+        let (i, counts) = self.wanted(command, relative_speed);
+        counts.abs() > self.motor.pwm_max() || i.abs() > current_limit
+    }
+
+    /// The current per motor a command asks [A] and the duty it wants [counts, whole,
+    /// not saturated].
+    #[inline(always)]
+    fn wanted(&self, command: T, relative_speed: T) -> (T, T) {
         let m = &self.motor;
         let i = command / self.command_per_amp;
         let volts = m.resistance() * i + m.k_t() * m.gear_ratio() * relative_speed;
-        let pwm_max = m.pwm_max();
-        saturate((volts / m.supply() * pwm_max).round(), pwm_max)
+        (i, (volts / m.supply() * m.pwm_max()).round())
     }
 }
 

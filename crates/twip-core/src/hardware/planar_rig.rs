@@ -317,6 +317,15 @@ impl<T: Real> RigPlant<T, 7, 2> for PlanarPlant<T> {
             }
         }
     }
+
+    /// The wheel torques the windings' currents give (the torques applied, without a driver).
+    #[inline]
+    fn delivered(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> SVector<T, 2> {
+        match &self.drives {
+            None => *u,
+            Some(d) => self.currents(x, u) * d.torque_per_amp,
+        }
+    }
 }
 
 /// The IMU, tilt estimator and encoders of the 3-DOF robot, as one sensor.
@@ -506,7 +515,17 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
 pub enum PlanarActuator<T> {
     Ideal,
     /// Each wheel's torque → duty at its measured relative speed.
-    Pwm { pwm: PwmActuator<T>, inv_r: T, b_r: T },
+    Pwm { pwm: PwmActuator<T>, inv_r: T, b_r: T, limit: T },
+}
+
+impl<T: Real> PlanarActuator<T> {
+    /// Each wheel's motor speed relative to the body as measured in `y` (right, left).
+    #[inline]
+    fn measured_speeds(y: &PlanarState<T>, inv_r: T, b_r: T) -> [T; 2] {
+        let roll = y[5] * inv_r - y[4];
+        let turn = b_r * y[6];
+        [roll + turn, roll - turn]
+    }
 }
 
 impl<T: Real> Actuator<T, 7, 2> for PlanarActuator<T> {
@@ -514,10 +533,20 @@ impl<T: Real> Actuator<T, 7, 2> for PlanarActuator<T> {
     fn drive(&mut self, _t: T, command: &SVector<T, 2>, y: &PlanarState<T>) -> SVector<T, 2> {
         match self {
             Self::Ideal => *command,
-            Self::Pwm { pwm, inv_r, b_r } => {
-                let roll = y[5] * *inv_r - y[4];
-                let turn = *b_r * y[6];
-                SVector::<T, 2>::new(pwm.duty(command[0], roll + turn), pwm.duty(command[1], roll - turn))
+            Self::Pwm { pwm, inv_r, b_r, .. } => {
+                let [right, left] = Self::measured_speeds(y, *inv_r, *b_r);
+                SVector::<T, 2>::new(pwm.duty(command[0], right), pwm.duty(command[1], left))
+            }
+        }
+    }
+
+    #[inline]
+    fn beyond(&self, command: &SVector<T, 2>, y: &PlanarState<T>) -> bool {
+        match self {
+            Self::Ideal => false,
+            Self::Pwm { pwm, inv_r, b_r, limit } => {
+                let [right, left] = Self::measured_speeds(y, *inv_r, *b_r);
+                pwm.beyond(command[0], right, *limit) || pwm.beyond(command[1], left, *limit)
             }
         }
     }
@@ -549,7 +578,7 @@ impl<T: Real> Realism<T> {
                 let drives = WheelDrives { windings: [winding; 2], torque_per_amp: m.efficiency * params.torque_per_amp() };
                 let pwm = PwmActuator::per_wheel_torque(m, &params)?;
                 let inv_r = T::one() / params.wheel_radius;
-                (Some(drives), PlanarActuator::Pwm { pwm, inv_r, b_r: params.half_track * inv_r })
+                (Some(drives), PlanarActuator::Pwm { pwm, inv_r, b_r: params.half_track * inv_r, limit: m.current_limit })
             }
         };
         let model = model.with_friction(s.friction_on(model.friction()))?;

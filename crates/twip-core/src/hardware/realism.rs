@@ -152,7 +152,7 @@ impl<T: Real> Realism<T> {
             .with_backlash(s.backlash)?;
         let (plant, actuator) = match &s.motor {
             None => (RealPlant::Current(ground), RealActuator::Ideal),
-            Some(m) => (RealPlant::Driven(Driven::new(ground, m, &params)?), RealActuator::Pwm(PwmActuator::new(m, &params)?)),
+            Some(m) => (RealPlant::Driven(Driven::new(ground, m, &params)?), RealActuator::Pwm(PwmActuator::new(m, &params)?, m.current_limit)),
         };
         let sensors = BalanceSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, profile, &params, dt, s.seed, s.stream)?;
         Ok(Rig { plant, sensors, actuator, delay: s.delay })
@@ -370,6 +370,13 @@ impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
 pub trait RigPlant<T: Real, const NX: usize, const NU: usize>: Plant<T, NX, NU> {
     /// The motor current behind each input now [A] (2-DOF: the lumped current).
     fn currents(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NU>;
+
+    /// The input the plant gets now, in the command's units (lumped current, wheel
+    /// torques), after the driver's clamps: the currents, for the 2-DOF lumped current.
+    #[inline]
+    fn delivered(&self, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NU> {
+        self.currents(x, u)
+    }
 }
 
 /// For tests: plant `P`, each derivative it shares between steps checked bit for bit
@@ -635,7 +642,8 @@ impl<T: Real> RigPlant<T, 4, 1> for RealPlant<T> {
 #[derive(Clone, Copy, Debug)]
 pub enum RealActuator<T> {
     Ideal,
-    Pwm(PwmActuator<T>),
+    /// The firmware's mapping, and the driver's current limit [A per motor].
+    Pwm(PwmActuator<T>, T),
 }
 
 impl<T: Real> Actuator<T, 4, 1> for RealActuator<T> {
@@ -643,7 +651,15 @@ impl<T: Real> Actuator<T, 4, 1> for RealActuator<T> {
     fn drive(&mut self, t: T, command: &SVector<T, 1>, y: &Vector4<T>) -> SVector<T, 1> {
         match self {
             Self::Ideal => *command,
-            Self::Pwm(a) => a.drive(t, command, y),
+            Self::Pwm(a, _) => a.drive(t, command, y),
+        }
+    }
+
+    #[inline]
+    fn beyond(&self, command: &SVector<T, 1>, y: &Vector4<T>) -> bool {
+        match self {
+            Self::Ideal => false,
+            Self::Pwm(a, limit) => a.beyond(command[0], y[3] - y[1], *limit),
         }
     }
 }
@@ -704,6 +720,11 @@ impl<T: Real, P: RigPlant<T, NX, NU>, const NX: usize, const NU: usize> Signals<
         self.buffer[..w].copy_from_slice(internals);
         self.buffer[w..w + NX].copy_from_slice(y.as_slice());
         self.buffer[w + NX..w + NX + NU].copy_from_slice(drive.as_slice());
+    }
+
+    #[inline]
+    fn delivered(&self, plant: &P, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NU> {
+        plant.delivered(x, u)
     }
 
     #[inline]

@@ -2,6 +2,7 @@
 use nalgebra::SVector;
 
 use crate::control::reference::SpeedRef;
+use crate::sim::drive_metrics::DriveTally;
 use crate::sim::runner::Observer;
 use crate::model::lane::Lane;
 use crate::model::slope::SlopeModel;
@@ -23,11 +24,15 @@ pub struct SlopeSummary<T> {
     /// (θ_ref − θ) r at the last sample [m], signed along the last leg travelled (the last
     /// nonzero reference speed): positive short of the goal, negative past it, both ways.
     pub final_position_error: T,
-    /// Largest |u| [A] (the lumped current of both motors).
+    /// Largest |u| [A] (the lumped current of both motors the controller commanded).
     pub peak_abs_input: T,
-    /// Largest current in one motor [A] and torque at one wheel [N m]: see [`DrivePeaks`].
+    /// Largest current in one motor [A] and torque at one wheel [N m] after the driver,
+    /// the largest current commanded of one motor [A], and the share of control periods
+    /// whose command was beyond the driver: see [`DrivePeaks`].
     pub peak_current: T,
     pub peak_torque: T,
+    pub peak_command: T,
+    pub saturation_share: T,
     pub samples: usize,
 }
 
@@ -40,6 +45,8 @@ crate::sim::named_metrics!(SlopeSummary {
     peak_abs_input,
     peak_current,
     peak_torque,
+    peak_command,
+    saturation_share,
 });
 
 impl<T: Copy> SlopeSummary<T> {
@@ -53,31 +60,53 @@ impl<T: Copy> SlopeSummary<T> {
     }
 }
 
-/// The largest current one motor carried [A] and torque one wheel got [N m], to hold
-/// against a motor's data sheet (stall current). The 2-DOF model's input is the lumped
-/// current of both motors (each carries u/2, the wheels share η τ_i u); the 3-DOF model's
-/// inputs are the wheel torques (a motor carries τ / (η τ_i)).
+/// What the motors saw, to hold against a motor's data sheet (stall current) and a
+/// driver's rating: the largest current one motor carried [A] and torque one wheel got
+/// [N m] after the driver's clamps (the current limit, the duty at full), beside the
+/// largest current the controller commanded of one motor [A], and the share of control
+/// periods whose command was beyond the driver (0 without one). The 2-DOF model's input
+/// is the lumped current of both motors (each carries u/2, the wheels share η τ_i u); the
+/// 3-DOF model's inputs are the wheel torques (a motor carries τ / (η τ_i)). Currents are
+/// as a lossless gearbox has them: with a driver's efficiency ε < 1 the winding carries
+/// 1/ε of `current`, and the firmware asks 1/ε of `command`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DrivePeaks<T> {
     pub current: T,
     pub torque: T,
+    pub command: T,
+    pub saturation_share: T,
 }
 
 impl<T: Copy> DrivePeaks<T> {
-    /// ("peak_current", current), ("peak_torque", torque): the metrics' names.
-    pub fn named(&self) -> [(&'static str, T); 2] {
-        [("peak_current", self.current), ("peak_torque", self.torque)]
+    /// The metrics' names: ("peak_current", current), ("peak_torque", torque),
+    /// ("peak_command", command), ("saturation_share", saturation_share).
+    pub fn named(&self) -> [(&'static str, T); 4] {
+        [
+            ("peak_current", self.current),
+            ("peak_torque", self.torque),
+            ("peak_command", self.command),
+            ("saturation_share", self.saturation_share),
+        ]
     }
 }
 
 impl<T: Real> DrivePeaks<T> {
-    pub fn from_lumped_current(params: &RobotParams<T>, peak_abs_u: T) -> Self {
-        let current = peak_abs_u / c::<T>(2.0);
-        Self { current, torque: params.gear_ratio * params.torque_constant * current }
+    /// From the largest lumped current delivered and commanded [A] (2-DOF).
+    pub fn from_lumped_current(params: &RobotParams<T>, delivered: T, commanded: T, saturation_share: T) -> Self {
+        let current = delivered / c::<T>(2.0);
+        let torque = params.gear_ratio * params.torque_constant * current;
+        Self { current, torque, command: commanded / c::<T>(2.0), saturation_share }
     }
 
-    pub fn from_wheel_torque(params: &RobotParams<T>, peak_abs_torque: T) -> Self {
-        Self { current: peak_abs_torque / (params.gear_ratio * params.torque_constant), torque: peak_abs_torque }
+    /// From the largest wheel torque delivered and commanded [N m] (3-DOF).
+    pub fn from_wheel_torque(params: &RobotParams<T>, delivered: T, commanded: T, saturation_share: T) -> Self {
+        let per_amp = params.gear_ratio * params.torque_constant;
+        Self { current: delivered / per_amp, torque: delivered, command: commanded / per_amp, saturation_share }
+    }
+
+    /// From a run's [`DriveTally`] and its largest command (2-DOF: lumped current).
+    pub(crate) fn of_slope_run(params: &RobotParams<T>, drive: &DriveTally<T>, commanded: T) -> Self {
+        Self::from_lumped_current(params, drive.peak_delivered, commanded, drive.saturation_share())
     }
 }
 
@@ -145,6 +174,7 @@ impl<S: Lane> Tally<S> {
 pub struct SlopeMetrics<T: Real> {
     plant: SlopeModel<T>,
     tally: Tally<T>,
+    drive: DriveTally<T>,
     samples: usize,
     pitch_band: Option<T>,
     speed_scale: T,
@@ -157,6 +187,7 @@ impl<T: Real> SlopeMetrics<T> {
         Self {
             plant,
             tally: Tally::new(),
+            drive: DriveTally::new(),
             samples: 0,
             pitch_band: None,
             speed_scale: T::zero(),
@@ -185,7 +216,7 @@ impl<T: Real> SlopeMetrics<T> {
     pub fn summary(&self) -> SlopeSummary<T> {
         let n = c::<T>(self.samples.max(1) as f64);
         let t = &self.tally;
-        let peaks = DrivePeaks::from_lumped_current(self.plant.params(), t.peak_abs_input);
+        let peaks = DrivePeaks::of_slope_run(self.plant.params(), &self.drive, t.peak_abs_input);
         SlopeSummary {
             mean_abs_pitch_error: t.sum_pitch / n,
             mean_abs_speed_error: t.sum_speed / n,
@@ -195,6 +226,8 @@ impl<T: Real> SlopeMetrics<T> {
             peak_abs_input: t.peak_abs_input,
             peak_current: peaks.current,
             peak_torque: peaks.torque,
+            peak_command: peaks.command,
+            saturation_share: peaks.saturation_share,
             samples: self.samples,
         }
     }
@@ -227,5 +260,10 @@ impl<T: Real> Observer<T, 4, 1, SpeedRef<T>> for SlopeMetrics<T> {
         };
         self.tally.observe(true, &[x[0], x[1], x[2], x[3]], u[0], &aim);
         self.samples += 1;
+    }
+
+    #[inline(always)]
+    fn drive(&mut self, delivered: &SVector<T, 1>, beyond: Option<bool>) {
+        self.drive.observe(true, delivered[0].abs(), beyond.is_some(), beyond == Some(true));
     }
 }

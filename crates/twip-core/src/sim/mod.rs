@@ -1,6 +1,7 @@
 //! The closed-loop runner, its logs and the metrics it accumulates while it runs.
 #[cfg(feature = "alloc")]
 pub mod log;
+pub(crate) mod drive_metrics;
 pub mod metrics;
 pub mod runner;
 pub mod tracking_metrics;

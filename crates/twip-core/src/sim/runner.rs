@@ -92,6 +92,14 @@ pub trait Observer<T: Real, const NX: usize, const NU: usize, S> {
     fn observe_last(&mut self, t: T, x: &SVector<T, NX>, u: &SVector<T, NU>, r: &S, internals: &[T]) {
         self.observe(t, x, u, r, internals);
     }
+
+    /// What the plant gets at the start of the step about to be taken (each sample but the
+    /// last, before it is observed): its input after the driver (`delivered`: a current or
+    /// wheel torques, as the command is), and at a controller update whether the command
+    /// applied from then on is beyond the driver (`beyond`: None between updates). Ignored
+    /// by default.
+    #[inline(always)]
+    fn drive(&mut self, _delivered: &SVector<T, NU>, _beyond: Option<bool>) {}
 }
 
 impl<T: Real, const NX: usize, const NU: usize, S> Observer<T, NX, NU, S> for () {
@@ -112,6 +120,12 @@ where
     fn observe_last(&mut self, t: T, x: &SVector<T, NX>, u: &SVector<T, NU>, r: &S, internals: &[T]) {
         self.0.observe_last(t, x, u, r, internals);
         self.1.observe_last(t, x, u, r, internals);
+    }
+
+    #[inline(always)]
+    fn drive(&mut self, delivered: &SVector<T, NU>, beyond: Option<bool>) {
+        self.0.drive(delivered, beyond);
+        self.1.drive(delivered, beyond);
     }
 }
 
@@ -147,6 +161,14 @@ pub const MAX_RAW: usize = 4;
 /// driver, quantisation, saturation). [`Ideal`] passes the command through.
 pub trait Actuator<T: Real, const NX: usize, const NU: usize> {
     fn drive(&mut self, t: T, command: &SVector<T, NU>, measurement: &SVector<T, NX>) -> SVector<T, NU>;
+
+    /// Whether `command` at `measurement` is beyond what the drive delivers (a duty past
+    /// full, a current past the driver's limit): what the saturation share counts. Never,
+    /// by default.
+    #[inline(always)]
+    fn beyond(&self, _command: &SVector<T, NU>, _measurement: &SVector<T, NX>) -> bool {
+        false
+    }
 }
 
 /// The ideal sensor and actuator: the controller sees the true state, the plant gets
@@ -337,6 +359,10 @@ pub trait Signals<T: Real, P, const NX: usize, const NU: usize> {
 
     /// Observe the controller's command (`true`) or the plant input applied (`false`).
     const OBSERVE_COMMAND: bool;
+
+    /// The plant's input at state `x` under the input `u` applied, as the command is (a
+    /// current, wheel torques), after the driver: `u` itself where the command is applied.
+    fn delivered(&self, plant: &P, x: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NU>;
 }
 
 /// The controller's internals as they are, and the input applied.
@@ -356,6 +382,11 @@ impl<T: Real, P, const NX: usize, const NU: usize> Signals<T, P, NX, NU> for Con
     #[inline(always)]
     fn at<'a>(&'a mut self, internals: &'a [T], _: &P, _: &SVector<T, NX>, _: &SVector<T, NU>, _: &[T]) -> &'a [T] {
         internals
+    }
+
+    #[inline(always)]
+    fn delivered(&self, _: &P, _: &SVector<T, NX>, u: &SVector<T, NU>) -> SVector<T, NU> {
+        *u
     }
 }
 
@@ -398,6 +429,8 @@ where
     let mut x = *x0;
     let (mut u, mut pending) = (SVector::<T, NU>::zeros(), SVector::<T, NU>::zeros());
     let (mut command, mut pending_command) = (u, u);
+    // Whether the command applied, and the one pending, is beyond the driver.
+    let (mut beyond, mut pending_beyond) = (false, false);
     let observer = &mut *parts.observer;
     let seen = |command: &SVector<T, NU>, u: &SVector<T, NU>| if L::OBSERVE_COMMAND { *command } else { *u };
     let mut raw = [T::zero(); MAX_RAW];
@@ -416,17 +449,22 @@ where
             if drive.iter().any(|v| !v.is_finite()) {
                 return Ok((Outcome::Diverged { t }, k));
             }
+            let clamped = parts.actuator.beyond(&cmd, &y);
             if parts.delay_one_period {
                 u = pending;
                 pending = drive;
                 command = pending_command;
                 pending_command = cmd;
+                beyond = pending_beyond;
+                pending_beyond = clamped;
             } else {
                 u = drive;
                 command = cmd;
+                beyond = clamped;
             }
             signals.updated(controller.internals(), &y, &u);
         }
+        observer.drive(&signals.delivered(plant, &x, &u), (k % per_update == 0).then_some(beyond));
         let raw_len = parts.sensor.raw(&x, &mut raw);
         observer.observe(t, &x, &seen(&command, &u), &r, signals.at(controller.internals(), plant, &x, &u, &raw[..raw_len]));
         let k1 = plant.between_steps_with_derivative(t, dt, &mut x, &u).unwrap_or_else(|| plant.deriv(&x, &u));

@@ -1,10 +1,12 @@
 //! Metrics of a planar tracking run, accumulated sample by sample (Table 5.2's and more).
 use nalgebra::SVector;
 
+use crate::sim::drive_metrics::DriveTally;
+use crate::sim::metrics::DrivePeaks;
 use crate::sim::runner::Observer;
 use crate::control::trajectory::{Path, PlanarRef};
 use crate::model::lane::Lane;
-use crate::{c, Real};
+use crate::{c, Real, RobotParams};
 
 /// What [`TrackingMetrics`] reports. "Settled" means from the settle time on (one lap of
 /// a circle, say), where the start-up transient no longer counts.
@@ -123,17 +125,24 @@ pub struct TrackingMetrics<T: Real, P> {
     path: P,
     settle: T,
     tally: TrackingTally<T>,
+    drive: DriveTally<T>,
     samples: usize,
     settled_samples: usize,
 }
 
 impl<T: Real, P: Path<T>> TrackingMetrics<T, P> {
     pub fn new(path: P, settle: T) -> Self {
-        Self { path, settle, tally: TrackingTally::new(), samples: 0, settled_samples: 0 }
+        Self { path, settle, tally: TrackingTally::new(), drive: DriveTally::new(), samples: 0, settled_samples: 0 }
     }
 
     pub fn summary(&self) -> TrackingSummary<T> {
         self.tally.summary(self.samples, self.settled_samples)
+    }
+
+    /// What the motors of the robot `params` saw ([`DrivePeaks`]).
+    pub fn drive_peaks(&self, params: &RobotParams<T>) -> DrivePeaks<T> {
+        let share = self.drive.saturation_share();
+        DrivePeaks::from_wheel_torque(params, self.drive.peak_delivered, self.tally.peak_abs_torque, share)
     }
 }
 
@@ -144,6 +153,12 @@ impl<T: Real, P: Path<T>> Observer<T, 7, 2, PlanarRef<T>> for TrackingMetrics<T,
         self.tally.observe(true, settled, &(*x).into(), [u[0], u[1]], r, || path.distance(x[0], x[1]));
         self.samples += 1;
         self.settled_samples += settled as usize;
+    }
+
+    #[inline(always)]
+    fn drive(&mut self, delivered: &SVector<T, 2>, beyond: Option<bool>) {
+        let largest = delivered[0].magnitude().larger(delivered[1].magnitude());
+        self.drive.observe(true, largest, beyond.is_some(), beyond == Some(true));
     }
 }
 

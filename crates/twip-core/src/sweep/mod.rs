@@ -222,6 +222,8 @@ pub struct SampleMetrics {
     pub peak_abs_input: f64,
     pub peak_current: f64,
     pub peak_torque: f64,
+    pub peak_command: f64,
+    pub saturation_share: f64,
     pub steps: u64,
 }
 
@@ -242,6 +244,8 @@ impl SampleMetrics {
             peak_abs_input: s.peak_abs_input,
             peak_current: s.peak_current,
             peak_torque: s.peak_torque,
+            peak_command: s.peak_command,
+            saturation_share: s.saturation_share,
             steps,
         }
     }
@@ -257,6 +261,8 @@ sweep_metrics!(SampleMetrics {
     peak_abs_input,
     peak_current,
     peak_torque,
+    peak_command,
+    saturation_share,
 });
 
 /// A reset copy of a sweep's controller, designed once on the nominal robot.
@@ -417,6 +423,9 @@ pub(crate) mod tests {
                 (got.mean_abs_speed_error, expected.mean_abs_speed_error),
                 (got.final_position_error, expected.final_position_error),
                 (got.peak_abs_input, expected.peak_abs_input),
+                (got.peak_current, expected.peak_current),
+                (got.peak_command, expected.peak_command),
+                (got.saturation_share, expected.saturation_share),
             ];
             for (a, b) in pairs {
                 let close = (a - b).abs() <= 1e-11 * b.abs().max(1e-6) || (a.is_nan() && b.is_nan());

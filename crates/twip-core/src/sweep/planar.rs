@@ -82,6 +82,8 @@ pub struct PlanarSampleMetrics {
     pub peak_abs_torque: f64,
     pub peak_current: f64,
     pub peak_torque: f64,
+    pub peak_command: f64,
+    pub saturation_share: f64,
     pub steps: u64,
 }
 
@@ -101,6 +103,8 @@ impl PlanarSampleMetrics {
             peak_abs_torque: s.peak_abs_torque,
             peak_current: peaks.current,
             peak_torque: peaks.torque,
+            peak_command: peaks.command,
+            saturation_share: peaks.saturation_share,
             steps,
         }
     }
@@ -117,6 +121,8 @@ sweep_metrics!(PlanarSampleMetrics {
     peak_abs_torque,
     peak_current,
     peak_torque,
+    peak_command,
+    saturation_share,
 });
 
 /// Runs one sample: a reset copy of the prototype tracker (designed for the nominal
@@ -153,8 +159,7 @@ where
     };
     finish(run, config.dt, |fell, t_end, steps| {
         let summary = metrics.summary();
-        let peaks = DrivePeaks::from_wheel_torque(&sample.params, summary.peak_abs_torque);
-        PlanarSampleMetrics::from_summary(&summary, peaks, fell, t_end, steps)
+        PlanarSampleMetrics::from_summary(&summary, metrics.drive_peaks(&sample.params), fell, t_end, steps)
     })
 }
 

@@ -201,6 +201,8 @@ mod tests {
                 (got.final_position_error, expected.final_position_error),
                 (got.peak_abs_input, expected.peak_abs_input),
                 (got.peak_current, expected.peak_current),
+                (got.peak_command, expected.peak_command),
+                (got.saturation_share, expected.saturation_share),
             ] {
                 // A falling robot's last moments diverge at the open-loop rate (as the
                 // ideal lanes' test, the bound is for the robots that stay up).

@@ -7,7 +7,6 @@ use twip_core::control::pid::PidTracker;
 use twip_core::hardware::planar_rig::PLANAR_RIG_SIGNALS;
 use twip_core::sim::runner::{simulate_until, Outcome, SimConfig};
 use twip_core::control::smc::SmcTracker;
-use twip_core::sim::metrics::DrivePeaks;
 use twip_core::sim::tracking_metrics::TrackingMetrics;
 use twip_core::control::trajectory::{PlanarRef, Trajectory};
 
@@ -176,7 +175,7 @@ pub fn simulate_planar_raw<'py>(
         signal_names: realism.is_some().then_some(&PLANAR_RIG_SIGNALS[..]),
     };
     let summary = metrics.summary();
-    let peaks = DrivePeaks::from_wheel_torque(plant.params(), summary.peak_abs_torque);
+    let peaks = metrics.drive_peaks(plant.params());
     let named = summary.named().into_iter().chain(peaks.named()).chain([("settle", settle)]);
     run_dict(py, log, &layout, outcome, steps, named)
 }

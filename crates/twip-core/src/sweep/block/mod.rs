@@ -14,8 +14,9 @@
 use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::control::Reference;
 use crate::model::integrate::{rk4, Field};
-use crate::model::lane::{Fused, Wide, WIDTH};
+use crate::model::lane::{Fused, Lane, Wide, WIDTH};
 use crate::model::slope::{deriv, SlopeCoefficients, SlopeModel};
+use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::{pitch_band, steady_pitch, Aim, DrivePeaks, SlopeSummary, Tally};
 use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
 use crate::sweep::lanes::{Lanes, LANES};
@@ -158,6 +159,9 @@ impl Field<Fused, 4> for Plant {
 /// measured against.
 struct Metrics {
     tally: [Lanes; 6],
+    /// [`DriveTally`] on every lane, once a rig's lanes observe what the plants got ([`Self::drive`]);
+    /// ideal lanes' plants get the commands.
+    drive: Option<[Lanes; DRIVE_TALLIES]>,
     samples: [u64; LANES],
     band: Lanes,
     radius: Lanes,
@@ -185,6 +189,7 @@ impl Metrics {
     fn new(radius: Lanes, x: &[Lanes; 4], phi_s: &Lanes) -> Self {
         Self {
             tally: [[0.0; LANES]; 6],
+            drive: None,
             samples: [0; LANES],
             band: core::array::from_fn(|l| pitch_band(phi_s[l], x[0][l])),
             radius,
@@ -249,7 +254,14 @@ impl Metrics {
     fn summary(&self, l: usize, model: &SlopeModel<f64>, (fell, t_end, steps): (bool, f64, u64)) -> SampleMetrics {
         let count = self.samples[l].max(1) as f64;
         let tally = self.get(l);
-        let peaks = DrivePeaks::from_lumped_current(model.params(), tally.peak_abs_input.0);
+        let commanded = tally.peak_abs_input.0;
+        let peaks = match &self.drive {
+            Some(drive) => DrivePeaks::of_slope_run(model.params(), &DriveTally::from_array(drive.map(|v| v[l])), commanded),
+            // The plant got the command: the ideal loop's peak over each step's start is
+            // the commanded one (the last sample's input is the last step's), and the
+            // loop clamps nothing.
+            None => DrivePeaks::from_lumped_current(model.params(), commanded, commanded, 0.0),
+        };
         let summary = SlopeSummary {
             mean_abs_pitch_error: tally.sum_pitch.0 / count,
             mean_abs_speed_error: tally.sum_speed.0 / count,
@@ -259,9 +271,26 @@ impl Metrics {
             peak_abs_input: tally.peak_abs_input.0,
             peak_current: peaks.current,
             peak_torque: peaks.torque,
+            peak_command: peaks.command,
+            saturation_share: peaks.saturation_share,
             samples: self.samples[l] as usize,
         };
         SampleMetrics::from_summary(&summary, fell, t_end, steps)
+    }
+
+    /// What the `live` lanes' plants get at a step's start, as a run's observer sees it
+    /// (`Observer::drive`): the input after the driver, and at a controller update
+    /// (`update`) whether each lane's command applied from then on is `beyond` the driver.
+    #[inline(always)]
+    fn drive(&mut self, live: &[bool; LANES], delivered: &Lanes, update: bool, beyond: &[bool; LANES]) {
+        let drive = self.drive.get_or_insert([[0.0; LANES]; DRIVE_TALLIES]);
+        for l in 0..LANES {
+            let mut tally = DriveTally::from_array(core::array::from_fn(|i| Fused(drive[i][l])));
+            tally.observe(live[l], Fused(delivered[l]).magnitude(), update, beyond[l]);
+            for (i, v) in tally.to_array().into_iter().enumerate() {
+                drive[i][l] = v.0;
+            }
+        }
     }
 
     /// Observes the lanes that are `live`: a loop over lanes without branches, which the

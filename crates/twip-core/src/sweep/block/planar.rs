@@ -16,6 +16,7 @@ use crate::control::{Controller, Reference};
 use crate::model::integrate::{rk4, Field};
 use crate::model::lane::{fill, Fused, Lane};
 use crate::model::planar::{deriv, PlanarCoefficients, PlanarModel, PLANAR_COEFFICIENTS};
+use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::DrivePeaks;
 use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
 use crate::sim::tracking_metrics::{TrackingTally, TRACKING_TALLIES};
@@ -143,13 +144,32 @@ impl Field<Fused, 7> for Plant {
 /// [`TrackingTally`] on every lane, one array per field, with each lane's sample counts.
 pub(super) struct Metrics {
     tally: [Lanes; TRACKING_TALLIES],
+    /// [`DriveTally`] on every lane, once a rig's lanes observe what the plants got
+    /// ([`Self::drive`]); ideal lanes' plants get the commands.
+    drive: Option<[Lanes; DRIVE_TALLIES]>,
     samples: [u64; LANES],
     settled: [u64; LANES],
 }
 
 impl Metrics {
     pub(super) fn new() -> Self {
-        Self { tally: [[0.0; LANES]; TRACKING_TALLIES], samples: [0; LANES], settled: [0; LANES] }
+        Self { tally: [[0.0; LANES]; TRACKING_TALLIES], drive: None, samples: [0; LANES], settled: [0; LANES] }
+    }
+
+    /// What the `live` lanes' plants get at a step's start, as a run's observer sees it
+    /// (`Observer::drive`): the wheel torques after the drivers, and at a controller update
+    /// (`update`) whether each lane's commands applied from then on are `beyond` the driver.
+    #[inline(always)]
+    pub(super) fn drive(&mut self, live: &[bool; LANES], delivered: &[Lanes; 2], update: bool, beyond: &[bool; LANES]) {
+        let drive = self.drive.get_or_insert([[0.0; LANES]; DRIVE_TALLIES]);
+        for l in 0..LANES {
+            let mut tally = DriveTally::from_array(fill(|i| Fused(drive[i][l])));
+            let largest = Fused(delivered[0][l]).magnitude().larger(Fused(delivered[1][l]).magnitude());
+            tally.observe(live[l], largest, update, beyond[l]);
+            for (i, v) in tally.to_array().into_iter().enumerate() {
+                drive[i][l] = v.0;
+            }
+        }
     }
 
     /// Every active lane's metrics after the last step (`n` steps to `t_end`): each lane
@@ -176,7 +196,16 @@ impl Metrics {
                 continue;
             }
             let summary = self.get(l).summary(self.samples[l] as usize, self.settled[l] as usize);
-            let peaks = DrivePeaks::from_wheel_torque(models[l].params(), summary.peak_abs_torque);
+            let commanded = summary.peak_abs_torque;
+            let peaks = match &self.drive {
+                Some(drive) => {
+                    let tally = DriveTally::from_array(drive.map(|v| v[l]));
+                    DrivePeaks::from_wheel_torque(models[l].params(), tally.peak_delivered, commanded, tally.saturation_share())
+                }
+                // The plants got the commands (ideal lanes; the last sample's input is the
+                // last step's), and the loop clamps nothing.
+                None => DrivePeaks::from_wheel_torque(models[l].params(), commanded, commanded, 0.0),
+            };
             let (fell, t_end, steps) = ended[l];
             out[l] = PlanarSampleMetrics::from_summary(&summary, peaks, fell, t_end, steps);
         }

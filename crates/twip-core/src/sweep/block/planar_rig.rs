@@ -23,6 +23,7 @@ use crate::hardware::disturbance::Force;
 use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::imu::{ImuClock, ImuReading, Mpu6050, NoiseLanes};
 use crate::hardware::planar_rig::{body_force, sample_imus, PlanarRig};
+use crate::hardware::realism::RigPlant as _;
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field, Stage};
 use crate::model::lane::{fill, Fused, Lane, Wide, WIDTH};
@@ -392,6 +393,8 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     // one period late copy a delayed rig applies.
     let zero = [[0.0; LANES]; 2];
     let (mut cmd, mut u, mut pending, mut command, mut pending_command) = (zero, zero, zero, zero, zero);
+    // Whether each lane's commands applied, and those pending, are beyond its drivers.
+    let (mut beyond, mut pending_beyond) = ([false; LANES], [false; LANES]);
     let mut y = [[0.0; LANES]; 7];
     let mut alive = active;
     // (fell, t_end, steps) of each lane that has ended.
@@ -429,9 +432,11 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
                 set_lane(&mut y, l, &rig.sensors.read(t, &lane(&x, l)));
             }
             controller.update(&mut state, &y, &r, &mut cmd);
-            let mut drive = zero;
+            let (mut drive, mut clamped) = (zero, [false; LANES]);
             for (l, rig) in rigs.iter_mut().enumerate() {
-                let d = rig.actuator.drive(t, &lane(&cmd, l), &lane(&y, l));
+                let (command_l, yl) = (lane(&cmd, l), lane(&y, l));
+                let d = rig.actuator.drive(t, &command_l, &yl);
+                clamped[l] = rig.actuator.beyond(&command_l, &yl);
                 set_lane(&mut drive, l, &d);
                 // A lane whose drive is not finite has diverged: it ends as fallen, unobserved.
                 if alive[l] && !d.iter().all(|v| v.is_finite()) {
@@ -441,11 +446,20 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
             }
             if delay {
                 (u, pending, command, pending_command) = (pending, drive, pending_command, cmd);
+                (beyond, pending_beyond) = (pending_beyond, clamped);
             } else {
-                (u, command) = (drive, cmd);
+                (u, command, beyond) = (drive, cmd, clamped);
             }
         }
         metrics.observe(&alive, t >= settle, &x, &command, &r, path);
+        // What the plants get at the step's start (`Observer::drive`): the held torques, or
+        // the windings' (with inductance, once the last step has ended, below).
+        let mut delivered = u;
+        if plants.drive == STEADY {
+            for (l, rig) in rigs.iter().enumerate() {
+                set_lane(&mut delivered, l, &rig.plant.delivered(&lane(&x, l), &lane(&u, l)));
+            }
+        }
         // Per lane, the last step's `step_ended` and this one's `between_steps`: the play's
         // impacts, pushes and the windings' steps (with inductance on lanes: the motors'
         // speeds where the last step ended and this one starts); then the trains weigh the
@@ -484,8 +498,10 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
         if stepped {
             for (wheel, windings) in plants.windings.iter_mut().enumerate() {
                 windings.step(k > 0, &finished[wheel], &u[wheel], &starts[wheel], &mut held[wheel]);
+                windings.delivered(&mut delivered[wheel]);
             }
         }
+        metrics.drive(&alive, &delivered, k % per_update == 0, &beyond);
         let (mut k1, tau) = plants.motion::<COPY>(&x, &held, &trains);
         let before = trains;
         for (l, rig) in rigs.iter_mut().enumerate() {

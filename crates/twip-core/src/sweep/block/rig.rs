@@ -21,7 +21,7 @@ use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
 use crate::hardware::disturbance::{Disturbed, Force, Pushes, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{MotorDriver, Winding};
-use crate::hardware::realism::{Realism, SlopeRig};
+use crate::hardware::realism::{Realism, RigPlant as _, SlopeRig};
 use crate::sweep::rig::RealismOf;
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field, Stage};
@@ -493,6 +493,8 @@ fn rig_block<C: LaneLaw, const COPY: u8>(
     // The controller's command and the plant's input (duty or current), each with the
     // one period late copy a delayed rig applies.
     let (mut cmd, mut u, mut pending, mut command, mut pending_command) = ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+    // Whether each lane's command applied, and the one pending, is beyond its driver.
+    let (mut beyond, mut pending_beyond) = ([false; LANES], [false; LANES]);
     let mut y = [[0.0; LANES]; 4];
     let mut alive = active;
     let mut ended = [(false, 0.0f64, 0u64); LANES];
@@ -552,9 +554,11 @@ fn rig_block<C: LaneLaw, const COPY: u8>(
                 }
             }
             controller.update(&mut state, &y, &r, &mut cmd);
-            let mut drive = [0.0; LANES];
+            let (mut drive, mut clamped) = ([0.0; LANES], [false; LANES]);
             for (l, rig) in rigs.iter_mut().enumerate() {
-                drive[l] = rig.actuator.drive(t, &SVector::<f64, 1>::new(cmd[l]), &Vector4::from(lane(&y, l)))[0];
+                let (command_l, yl) = (SVector::<f64, 1>::new(cmd[l]), Vector4::from(lane(&y, l)));
+                drive[l] = rig.actuator.drive(t, &command_l, &yl)[0];
+                clamped[l] = rig.actuator.beyond(&command_l, &yl);
                 // A lane whose drive is not finite has diverged: it ends as fallen.
                 if alive[l] && !drive[l].is_finite() {
                     alive[l] = false;
@@ -563,11 +567,20 @@ fn rig_block<C: LaneLaw, const COPY: u8>(
             }
             if delay {
                 (u, pending, command, pending_command) = (pending, drive, pending_command, cmd);
+                (beyond, pending_beyond) = (pending_beyond, clamped);
             } else {
-                (u, command) = (drive, cmd);
+                (u, command, beyond) = (drive, cmd, clamped);
             }
         }
         metrics.observe(&alive, &x, &command, &plant_phi_s, &Shared { t, r, speed_scale, direction });
+        // What the plants get at the step's start (`Observer::drive`): the held current,
+        // or a winding's current (with inductance, once the last step has ended, below).
+        let mut delivered = u;
+        if plants.drive == STEADY {
+            for (l, rig) in rigs.iter().enumerate() {
+                delivered[l] = rig.plant.delivered(&Vector4::from(lane(&x, l)), &SVector::<f64, 1>::new(u[l]))[0];
+            }
+        }
         // Per lane, the last step's `step_ended` and this one's `between_steps`: with
         // backlash, open rotors that reach a flank engage in an impact that sets the
         // velocities; the winding's step starts (with inductance, on lanes: the motors'
@@ -616,7 +629,9 @@ fn rig_block<C: LaneLaw, const COPY: u8>(
         }
         if stepped {
             plants.windings.step(k > 0, &finished, &u, &starts, &mut current);
+            plants.windings.delivered(&mut delivered);
         }
+        metrics.drive(&alive, &delivered, k % per_update == 0, &beyond);
         let before = engaged;
         // The trains weigh the derivative at the step's start; with the trains as they
         // were, it is RK4's first stage. (Written in place, not as an `Option`: moving the

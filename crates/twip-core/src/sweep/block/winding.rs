@@ -41,6 +41,16 @@ impl WindingLanes {
         *input = (self.per_amp * w.stepped_current(Stage::Start, Wide(*starts))).0;
     }
 
+    /// With inductance: each lane's plant input from its current now (after [`Self::step`]:
+    /// where the last step ended), as `Driven::lumped_current` and `PlanarPlant::delivered`.
+    #[inline(always)]
+    pub(super) fn delivered(&self, out: &mut Lanes) {
+        for (l, v) in out.iter_mut().enumerate() {
+            let (w, per_amp) = self.lane(l);
+            *v = (per_amp * w.step_current()).0;
+        }
+    }
+
     /// With inductance: lane `l`'s plant input from the current's mean over the step (what
     /// an open gear train's rotor is driven by), as `RealPlant::mean_current`.
     #[inline(always)]
