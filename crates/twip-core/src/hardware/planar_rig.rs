@@ -515,7 +515,7 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
 pub enum PlanarActuator<T> {
     Ideal,
     /// Each wheel's torque → duty at its measured relative speed.
-    Pwm { pwm: PwmActuator<T>, inv_r: T, b_r: T, limit: T },
+    Pwm { pwm: PwmActuator<T>, inv_r: T, b_r: T, limit: T, efficiency: T },
 }
 
 impl<T: Real> PlanarActuator<T> {
@@ -544,10 +544,18 @@ impl<T: Real> Actuator<T, 7, 2> for PlanarActuator<T> {
     fn beyond(&self, command: &SVector<T, 2>, y: &PlanarState<T>) -> bool {
         match self {
             Self::Ideal => false,
-            Self::Pwm { pwm, inv_r, b_r, limit } => {
+            Self::Pwm { pwm, inv_r, b_r, limit, .. } => {
                 let [right, left] = Self::measured_speeds(y, *inv_r, *b_r);
                 pwm.beyond(command[0], right, *limit) || pwm.beyond(command[1], left, *limit)
             }
+        }
+    }
+
+    #[inline]
+    fn efficiency(&self) -> T {
+        match self {
+            Self::Ideal => T::one(),
+            Self::Pwm { efficiency, .. } => *efficiency,
         }
     }
 }
@@ -578,7 +586,7 @@ impl<T: Real> Realism<T> {
                 let drives = WheelDrives { windings: [winding; 2], torque_per_amp: m.efficiency * params.torque_per_amp() };
                 let pwm = PwmActuator::per_wheel_torque(m, &params)?;
                 let inv_r = T::one() / params.wheel_radius;
-                (Some(drives), PlanarActuator::Pwm { pwm, inv_r, b_r: params.half_track * inv_r, limit: m.current_limit })
+                (Some(drives), PlanarActuator::Pwm { pwm, inv_r, b_r: params.half_track * inv_r, limit: m.current_limit, efficiency: m.efficiency })
             }
         };
         let model = model.with_friction(s.friction_on(model.friction()))?;

@@ -152,7 +152,7 @@ impl<T: Real> Realism<T> {
             .with_backlash(s.backlash)?;
         let (plant, actuator) = match &s.motor {
             None => (RealPlant::Current(ground), RealActuator::Ideal),
-            Some(m) => (RealPlant::Driven(Driven::new(ground, m, &params)?), RealActuator::Pwm(PwmActuator::new(m, &params)?, m.current_limit)),
+            Some(m) => (RealPlant::Driven(Driven::new(ground, m, &params)?), RealActuator::Pwm(PwmActuator::new(m, &params)?, m.current_limit, m.efficiency)),
         };
         let sensors = BalanceSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, profile, &params, dt, s.seed, s.stream)?;
         Ok(Rig { plant, sensors, actuator, delay: s.delay })
@@ -642,8 +642,9 @@ impl<T: Real> RigPlant<T, 4, 1> for RealPlant<T> {
 #[derive(Clone, Copy, Debug)]
 pub enum RealActuator<T> {
     Ideal,
-    /// The firmware's mapping, and the driver's current limit [A per motor].
-    Pwm(PwmActuator<T>, T),
+    /// The firmware's mapping, the driver's current limit [A per motor] and its gearbox
+    /// efficiency.
+    Pwm(PwmActuator<T>, T, T),
 }
 
 impl<T: Real> Actuator<T, 4, 1> for RealActuator<T> {
@@ -651,7 +652,7 @@ impl<T: Real> Actuator<T, 4, 1> for RealActuator<T> {
     fn drive(&mut self, t: T, command: &SVector<T, 1>, y: &Vector4<T>) -> SVector<T, 1> {
         match self {
             Self::Ideal => *command,
-            Self::Pwm(a, _) => a.drive(t, command, y),
+            Self::Pwm(a, ..) => a.drive(t, command, y),
         }
     }
 
@@ -659,7 +660,15 @@ impl<T: Real> Actuator<T, 4, 1> for RealActuator<T> {
     fn beyond(&self, command: &SVector<T, 1>, y: &Vector4<T>) -> bool {
         match self {
             Self::Ideal => false,
-            Self::Pwm(a, limit) => a.beyond(command[0], y[3] - y[1], *limit),
+            Self::Pwm(a, limit, _) => a.beyond(command[0], y[3] - y[1], *limit),
+        }
+    }
+
+    #[inline]
+    fn efficiency(&self) -> T {
+        match self {
+            Self::Ideal => T::one(),
+            Self::Pwm(.., efficiency) => *efficiency,
         }
     }
 }

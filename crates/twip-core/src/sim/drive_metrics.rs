@@ -107,6 +107,11 @@ mod tests {
         let rig = run(Some(Realism { motor: Some(driver), ..Realism::thesis_like() }));
         assert!(rig.peak_command > limit, "asked {} A", rig.peak_command);
         assert!(rig.peak_current <= limit, "the motor carried {} A past its driver's {limit} A", rig.peak_current);
+        // The winding's current, not what the wheel's torque reads as through a lossless
+        // gearbox: the thesis-like gearbox passes 0.87 of the torque, and the clamped
+        // winding carries the whole limit.
+        assert!(driver.efficiency < 1.0);
+        assert!((rig.peak_current - limit).abs() < 1e-9, "the clamped winding carried {} A, not {limit} A", rig.peak_current);
         assert!(rig.saturation_share > 0.0 && rig.saturation_share < 1.0, "share {}", rig.saturation_share);
         // Without a limit, the duty at full saturates on a 3 V battery (1 V past the bridge: 0.58 A at stall).
         let unlimited = MotorDriver { current_limit: f64::INFINITY, battery: 3.0, assumed_battery: 3.0, ..MotorDriver::thesis_like() };

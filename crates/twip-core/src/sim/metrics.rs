@@ -66,9 +66,9 @@ impl<T: Copy> SlopeSummary<T> {
 /// largest current the controller commanded of one motor [A], and the share of control
 /// periods whose command was beyond the driver (0 without one). The 2-DOF model's input
 /// is the lumped current of both motors (each carries u/2, the wheels share η τ_i u); the
-/// 3-DOF model's inputs are the wheel torques (a motor carries τ / (η τ_i)). Currents are
-/// as a lossless gearbox has them: with a driver's efficiency ε < 1 the winding carries
-/// 1/ε of `current`, and the firmware asks 1/ε of `command`.
+/// 3-DOF model's inputs are the wheel torques (a motor carries τ / (η τ_i)). With a driver
+/// whose gearbox efficiency is ε, the winding's current is 1/ε of what the torque reads as,
+/// and so is the current the firmware asks for a command: both currents are the winding's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DrivePeaks<T> {
     pub current: T,
@@ -91,22 +91,37 @@ impl<T: Copy> DrivePeaks<T> {
 }
 
 impl<T: Real> DrivePeaks<T> {
-    /// From the largest lumped current delivered and commanded [A] (2-DOF).
-    pub fn from_lumped_current(params: &RobotParams<T>, delivered: T, commanded: T, saturation_share: T) -> Self {
-        let current = delivered / c::<T>(2.0);
-        let torque = params.gear_ratio * params.torque_constant * current;
-        Self { current, torque, command: commanded / c::<T>(2.0), saturation_share }
+    /// From the largest lumped current delivered and commanded [A] (2-DOF), through a
+    /// driver of gearbox efficiency `efficiency` (1 without one).
+    pub fn from_lumped_current(
+        params: &RobotParams<T>,
+        delivered: T,
+        commanded: T,
+        saturation_share: T,
+        efficiency: T,
+    ) -> Self {
+        let lossless = delivered / c::<T>(2.0);
+        let torque = params.gear_ratio * params.torque_constant * lossless;
+        let command = commanded / c::<T>(2.0) / efficiency;
+        Self { current: lossless / efficiency, torque, command, saturation_share }
     }
 
-    /// From the largest wheel torque delivered and commanded [N m] (3-DOF).
-    pub fn from_wheel_torque(params: &RobotParams<T>, delivered: T, commanded: T, saturation_share: T) -> Self {
-        let per_amp = params.gear_ratio * params.torque_constant;
+    /// From the largest wheel torque delivered and commanded [N m] (3-DOF), through a
+    /// driver of gearbox efficiency `efficiency` (1 without one).
+    pub fn from_wheel_torque(
+        params: &RobotParams<T>,
+        delivered: T,
+        commanded: T,
+        saturation_share: T,
+        efficiency: T,
+    ) -> Self {
+        let per_amp = params.gear_ratio * params.torque_constant * efficiency;
         Self { current: delivered / per_amp, torque: delivered, command: commanded / per_amp, saturation_share }
     }
 
     /// From a run's [`DriveTally`] and its largest command (2-DOF: lumped current).
-    pub(crate) fn of_slope_run(params: &RobotParams<T>, drive: &DriveTally<T>, commanded: T) -> Self {
-        Self::from_lumped_current(params, drive.peak_delivered, commanded, drive.saturation_share())
+    pub(crate) fn of_slope_run(params: &RobotParams<T>, drive: &DriveTally<T>, commanded: T, efficiency: T) -> Self {
+        Self::from_lumped_current(params, drive.peak_delivered, commanded, drive.saturation_share(), efficiency)
     }
 }
 
@@ -175,6 +190,8 @@ pub struct SlopeMetrics<T: Real> {
     plant: SlopeModel<T>,
     tally: Tally<T>,
     drive: DriveTally<T>,
+    /// The driver's gearbox efficiency ([`Observer::drive_efficiency`]; 1 without one).
+    efficiency: T,
     samples: usize,
     pitch_band: Option<T>,
     speed_scale: T,
@@ -188,6 +205,7 @@ impl<T: Real> SlopeMetrics<T> {
             plant,
             tally: Tally::new(),
             drive: DriveTally::new(),
+            efficiency: T::one(),
             samples: 0,
             pitch_band: None,
             speed_scale: T::zero(),
@@ -216,7 +234,7 @@ impl<T: Real> SlopeMetrics<T> {
     pub fn summary(&self) -> SlopeSummary<T> {
         let n = c::<T>(self.samples.max(1) as f64);
         let t = &self.tally;
-        let peaks = DrivePeaks::of_slope_run(self.plant.params(), &self.drive, t.peak_abs_input);
+        let peaks = DrivePeaks::of_slope_run(self.plant.params(), &self.drive, t.peak_abs_input, self.efficiency);
         SlopeSummary {
             mean_abs_pitch_error: t.sum_pitch / n,
             mean_abs_speed_error: t.sum_speed / n,
@@ -265,5 +283,9 @@ impl<T: Real> Observer<T, 4, 1, SpeedRef<T>> for SlopeMetrics<T> {
     #[inline(always)]
     fn drive(&mut self, delivered: &SVector<T, 1>, beyond: Option<bool>) {
         self.drive.observe(true, delivered[0].abs(), beyond.is_some(), beyond == Some(true));
+    }
+
+    fn drive_efficiency(&mut self, efficiency: T) {
+        self.efficiency = efficiency;
     }
 }

@@ -100,6 +100,12 @@ pub trait Observer<T: Real, const NX: usize, const NU: usize, S> {
     /// by default.
     #[inline(always)]
     fn drive(&mut self, _delivered: &SVector<T, NU>, _beyond: Option<bool>) {}
+
+    /// The driver's gearbox efficiency ε (the share of the winding's torque that reaches
+    /// the wheel; 1 without a driver), told once before the run: a motor carries 1/ε of the
+    /// current its delivered torque reads as. Ignored by default.
+    #[inline(always)]
+    fn drive_efficiency(&mut self, _efficiency: T) {}
 }
 
 impl<T: Real, const NX: usize, const NU: usize, S> Observer<T, NX, NU, S> for () {
@@ -126,6 +132,11 @@ where
     fn drive(&mut self, delivered: &SVector<T, NU>, beyond: Option<bool>) {
         self.0.drive(delivered, beyond);
         self.1.drive(delivered, beyond);
+    }
+
+    fn drive_efficiency(&mut self, efficiency: T) {
+        self.0.drive_efficiency(efficiency);
+        self.1.drive_efficiency(efficiency);
     }
 }
 
@@ -168,6 +179,13 @@ pub trait Actuator<T: Real, const NX: usize, const NU: usize> {
     #[inline(always)]
     fn beyond(&self, _command: &SVector<T, NU>, _measurement: &SVector<T, NX>) -> bool {
         false
+    }
+
+    /// The gearbox efficiency of the driver behind this actuator ([`Observer::drive_efficiency`]);
+    /// 1 by default (no driver).
+    #[inline(always)]
+    fn efficiency(&self) -> T {
+        T::one()
     }
 }
 
@@ -432,6 +450,7 @@ where
     // Whether the command applied, and the one pending, is beyond the driver.
     let (mut beyond, mut pending_beyond) = (false, false);
     let observer = &mut *parts.observer;
+    observer.drive_efficiency(parts.actuator.efficiency());
     let seen = |command: &SVector<T, NU>, u: &SVector<T, NU>| if L::OBSERVE_COMMAND { *command } else { *u };
     let mut raw = [T::zero(); MAX_RAW];
     parts.sensor.sample(T::zero(), &x, &plant.deriv(&x, &u));

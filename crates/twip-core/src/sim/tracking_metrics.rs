@@ -126,13 +126,15 @@ pub struct TrackingMetrics<T: Real, P> {
     settle: T,
     tally: TrackingTally<T>,
     drive: DriveTally<T>,
+    /// The driver's gearbox efficiency ([`Observer::drive_efficiency`]; 1 without one).
+    efficiency: T,
     samples: usize,
     settled_samples: usize,
 }
 
 impl<T: Real, P: Path<T>> TrackingMetrics<T, P> {
     pub fn new(path: P, settle: T) -> Self {
-        Self { path, settle, tally: TrackingTally::new(), drive: DriveTally::new(), samples: 0, settled_samples: 0 }
+        Self { path, settle, tally: TrackingTally::new(), drive: DriveTally::new(), efficiency: T::one(), samples: 0, settled_samples: 0 }
     }
 
     pub fn summary(&self) -> TrackingSummary<T> {
@@ -142,7 +144,7 @@ impl<T: Real, P: Path<T>> TrackingMetrics<T, P> {
     /// What the motors of the robot `params` saw ([`DrivePeaks`]).
     pub fn drive_peaks(&self, params: &RobotParams<T>) -> DrivePeaks<T> {
         let share = self.drive.saturation_share();
-        DrivePeaks::from_wheel_torque(params, self.drive.peak_delivered, self.tally.peak_abs_torque, share)
+        DrivePeaks::from_wheel_torque(params, self.drive.peak_delivered, self.tally.peak_abs_torque, share, self.efficiency)
     }
 }
 
@@ -159,6 +161,10 @@ impl<T: Real, P: Path<T>> Observer<T, 7, 2, PlanarRef<T>> for TrackingMetrics<T,
     fn drive(&mut self, delivered: &SVector<T, 2>, beyond: Option<bool>) {
         let largest = delivered[0].magnitude().larger(delivered[1].magnitude());
         self.drive.observe(true, largest, beyond.is_some(), beyond == Some(true));
+    }
+
+    fn drive_efficiency(&mut self, efficiency: T) {
+        self.efficiency = efficiency;
     }
 }
 

@@ -162,6 +162,8 @@ struct Metrics {
     /// [`DriveTally`] on every lane, once a rig's lanes observe what the plants got ([`Self::drive`]);
     /// ideal lanes' plants get the commands.
     drive: Option<[Lanes; DRIVE_TALLIES]>,
+    /// Each lane's driver's gearbox efficiency (`Observer::drive_efficiency`; 1 without one).
+    efficiency: Lanes,
     samples: [u64; LANES],
     band: Lanes,
     radius: Lanes,
@@ -190,6 +192,7 @@ impl Metrics {
         Self {
             tally: [[0.0; LANES]; 6],
             drive: None,
+            efficiency: [1.0; LANES],
             samples: [0; LANES],
             band: core::array::from_fn(|l| pitch_band(phi_s[l], x[0][l])),
             radius,
@@ -256,11 +259,14 @@ impl Metrics {
         let tally = self.get(l);
         let commanded = tally.peak_abs_input.0;
         let peaks = match &self.drive {
-            Some(drive) => DrivePeaks::of_slope_run(model.params(), &DriveTally::from_array(drive.map(|v| v[l])), commanded),
+            Some(drive) => {
+                let tally = DriveTally::from_array(drive.map(|v| v[l]));
+                DrivePeaks::of_slope_run(model.params(), &tally, commanded, self.efficiency[l])
+            }
             // The plant got the command: the ideal loop's peak over each step's start is
             // the commanded one (the last sample's input is the last step's), and the
             // loop clamps nothing.
-            None => DrivePeaks::from_lumped_current(model.params(), commanded, commanded, 0.0),
+            None => DrivePeaks::from_lumped_current(model.params(), commanded, commanded, 0.0, 1.0),
         };
         let summary = SlopeSummary {
             mean_abs_pitch_error: tally.sum_pitch.0 / count,

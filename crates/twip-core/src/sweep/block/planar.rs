@@ -147,13 +147,15 @@ pub(super) struct Metrics {
     /// [`DriveTally`] on every lane, once a rig's lanes observe what the plants got
     /// ([`Self::drive`]); ideal lanes' plants get the commands.
     drive: Option<[Lanes; DRIVE_TALLIES]>,
+    /// Each lane's driver's gearbox efficiency (`Observer::drive_efficiency`; 1 without one).
+    pub(super) efficiency: Lanes,
     samples: [u64; LANES],
     settled: [u64; LANES],
 }
 
 impl Metrics {
     pub(super) fn new() -> Self {
-        Self { tally: [[0.0; LANES]; TRACKING_TALLIES], drive: None, samples: [0; LANES], settled: [0; LANES] }
+        Self { tally: [[0.0; LANES]; TRACKING_TALLIES], drive: None, efficiency: [1.0; LANES], samples: [0; LANES], settled: [0; LANES] }
     }
 
     /// What the `live` lanes' plants get at a step's start, as a run's observer sees it
@@ -200,11 +202,11 @@ impl Metrics {
             let peaks = match &self.drive {
                 Some(drive) => {
                     let tally = DriveTally::from_array(drive.map(|v| v[l]));
-                    DrivePeaks::from_wheel_torque(models[l].params(), tally.peak_delivered, commanded, tally.saturation_share())
+                    DrivePeaks::from_wheel_torque(models[l].params(), tally.peak_delivered, commanded, tally.saturation_share(), self.efficiency[l])
                 }
                 // The plants got the commands (ideal lanes; the last sample's input is the
                 // last step's), and the loop clamps nothing.
-                None => DrivePeaks::from_wheel_torque(models[l].params(), commanded, commanded, 0.0),
+                None => DrivePeaks::from_wheel_torque(models[l].params(), commanded, commanded, 0.0, 1.0),
             };
             let (fell, t_end, steps) = ended[l];
             out[l] = PlanarSampleMetrics::from_summary(&summary, peaks, fell, t_end, steps);

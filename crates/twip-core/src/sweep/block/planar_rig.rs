@@ -400,6 +400,7 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     // (fell, t_end, steps) of each lane that has ended.
     let mut ended = [(false, 0.0f64, 0u64); LANES];
     let mut metrics = Metrics::new();
+    metrics.efficiency = core::array::from_fn(|l| rigs[l].actuator.efficiency());
     // The sensors sample the initial state, the input zero: the encoders' wheels per
     // lane, the IMUs on lanes.
     let mut imus = ImuLanes::new(&rigs, &models).map(alloc::boxed::Box::new);

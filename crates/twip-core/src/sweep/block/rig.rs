@@ -515,6 +515,7 @@ fn rig_block<C: LaneLaw, const COPY: u8>(
     let mut cached_speed = r0.theta_dot;
     let mut plant_phi_s = steady_pitches(&models, r0.theta_dot);
     let mut metrics = Metrics::new(core::array::from_fn(|l| models[l].params().wheel_radius), &x, &plant_phi_s);
+    metrics.efficiency = core::array::from_fn(|l| rigs[l].actuator.efficiency());
     let mut speed_scale: f64 = 0.0;
     let mut direction: f64 = 1.0;
     let mut engaged: [bool; LANES] = core::array::from_fn(|l| rigs[l].plant.ground().engaged());
