@@ -1,6 +1,7 @@
 """The fuzzy-sets study of docs/fuzzy_sets.md: the thesis's 3 x 3 trapezoids against a 5 x 5
-Gaussian grid in the fuzzy adaptive backstepping + PD controller, on the Table 5.1 analogue
-and on the report's robustness sweeps and fall map.
+Gaussian grid in the fuzzy adaptive backstepping + PD controller (the Table 5.1 analogue, the
+report's robustness sweeps and fall map) and in the sliding-mode tracker's fuzzy estimates
+(the Table 5.2 analogue).
 
     python scripts/fuzzy_sets_study.py [samples]     # samples per sweep, default 2000
 
@@ -21,6 +22,9 @@ from twip.scenarios.fuzzy import compare_table
 GAUSSIAN_5X5 = twip.FuzzyBasis.grid("gaussian", [[-0.3, -0.15, 0.0, 0.15, 0.3], [-2.0, -1.0, 0.0, 1.0, 2.0]],
                                     [0.075, 0.5])
 BASES = {"3x3 trapezoids (thesis)": None, "5x5 Gaussians": GAUSSIAN_5X5}
+#: The tracker's yaw estimate's grid over (φ, ω): ω ±1 rad/s, where its 3 x 3 sets change.
+YAW_5X5 = twip.FuzzyBasis.grid("gaussian", [[-0.3, -0.15, 0.0, 0.15, 0.3], [-1.0, -0.5, 0.0, 0.5, 1.0]],
+                               [0.075, 0.25])
 
 
 def table_5_1() -> None:
@@ -34,6 +38,22 @@ def table_5_1() -> None:
             print(f"| {r['surface']} | {r['case']} | {r['controller']} | {label} | {r['outcome']} | "
                   f"{r['pitch_error_deg']:.3f} | {r['speed_error_deg_s']:.2f} | {r['stop_far_cm']:.2f} | "
                   f"{r['stop_home_cm']:.2f} |")
+
+
+def table_5_2() -> None:
+    from twip.scenarios.tracking import mismatched
+    print("\n## Table 5.2 analogue: circle-smc-fuzzy, 3 laps, mean |x - x_r|, |y - y_r| [cm] (after lap 1)\n")
+    print("| plant | basis | outcome | x | y | x settled | y settled |")
+    print("|---|---|---|---|---|---|---|")
+    nominal = twip.RobotParams.balanbot()
+    for label, factor in (("nominal", 1.0), ("+20%", 1.2), ("-20%", 0.8)):
+        sc = twip.scenarios.get("circle-smc-fuzzy", params=mismatched(nominal, factor), controller_params=nominal, laps=3)
+        for basis, ctrl in (("3x3 trapezoids (thesis)", sc.controller),
+                            ("5x5 Gaussians", sc.controller.replace(yaw_sets=YAW_5X5, pitch_sets=GAUSSIAN_5X5))):
+            m = sc.replace(controller=ctrl).run(record_every=1000)
+            r = m.metrics
+            print(f"| {label} | {basis} | {m.outcome} | {100 * r['mean_abs_x_error']:.2f} | {100 * r['mean_abs_y_error']:.2f} | "
+                  f"{100 * r['mean_abs_x_error_settled']:.3f} | {100 * r['mean_abs_y_error_settled']:.3f} |")
 
 
 def sweeps(n: int) -> None:
@@ -68,4 +88,5 @@ if __name__ == "__main__":
     n = int(sys.argv[1]) if len(sys.argv) > 1 else 2000
     print(f"twip.kernel_copy() = {twip.kernel_copy()}\n")
     table_5_1()
+    table_5_2()
     sweeps(n)
