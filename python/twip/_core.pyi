@@ -446,6 +446,16 @@ class FuzzyBasis:
         """twip's default sets for (phi [rad], phi_dot [rad/s]), N, Z, P each, rules ordered as
         the thesis's (4.39); FuzzyController uses them unless given `sets`.
         """
+    @staticmethod
+    def grid(kind: str, centres: Sequence[Sequence[float]],
+             widths: Optional[Sequence[Union[float, Sequence[float]]]] = None) -> FuzzyBasis:
+        """A regular n x n grid over (phi [rad], phi_dot [rad/s]) for the adaptive controllers:
+        `kind` "trapezoid" (core centre +- width, feet at the neighbours' core edges, the
+        outer two shoulders), "triangle" (peak at the centre, feet at the neighbouring
+        centres, the outer two shoulders; no widths) or "gaussian" (mean centre, sigma
+        width). `centres`: per input, n strictly increasing values (n from 2 to 7);
+        `widths`: per input, one value > 0 for every set or n of them.
+        """
     @property
     def n_inputs(self) -> int: ...
     @property
@@ -462,7 +472,8 @@ class FuzzyController:
     """Fuzzy adaptive backstepping on the pitch + PD on the wheel position (thesis 4.56,
     errata F1-F8): u = -(1/G1)[e1 + S^T xi + k1 phi_dot + (1/2 + k2) z2] + kp e + kd e_dot
     + ki int(e), S' = z2 xi / gamma - sigma S. `model` is the controller's own model (phi_s
-    and G1); `sets` the (phi, phi_dot) x (N, Z, P) sets (a 2 x 3 FuzzyBasis or nested list);
+    and G1); `sets` the (phi, phi_dot) sets, n of each for n x n rules, n from 2 to 7
+    (a 2 x n FuzzyBasis, e.g. FuzzyBasis.grid, or nested list; default twip's 3 x 3);
     `adapt=False` freezes S at `s0` (default zeros). A pickle or copy keeps these settings,
     `s0` included; the weights S adapt inside each run (from `s0`), not in the controller.
     """
@@ -505,7 +516,7 @@ class FuzzyController:
         """A copy with some settings changed (validated as the constructor does)."""
     @property
     def sets(self) -> FuzzyBasis:
-        """The (phi, phi_dot) x (N, Z, P) sets."""
+        """The (phi, phi_dot) sets, n of each."""
 
 @final
 class Circle:
@@ -690,11 +701,14 @@ class SmcTracker:
     in the tracker. The heading error ψ_r − ψ is wrapped to [−π, π) (docs/errata.md T2).
     Logged internals: `lambda1` = −k_φ (φ − φ_s) in twip's pitch sign (the "backward" reading
     turns r1, not λ1), `d` = r1 g21 + r2 g22 (the surface's input gain, not (4.82)'s 1 + k3 e1).
+    `yaw_sets` (over phi, omega) and `pitch_sets` (over phi, phi_dot) are the fuzzy estimates'
+    n x n grids, the same n from 2 to 7 (a FuzzyBasis, e.g. FuzzyBasis.grid; default twip's 3 x 3).
     """
     def __new__(cls, model: PlanarModel, fuzzy: bool = False, boundary_layer: Any = None, gains: Any = None,
                 torque_unit: Any = None, pitch: str = "backward", guards: Any = ..., gamma: Any = ...,
                 leakage: float = 0.0, pitch_offset: bool = True, motor: Optional[DcMotor] = None,
-                motor_limits: bool = True, period: float = 0.005) -> SmcTracker: ...
+                motor_limits: bool = True, period: float = 0.005, yaw_sets: Any = None,
+                pitch_sets: Any = None) -> SmcTracker: ...
     @staticmethod
     def thesis_gains(torque_unit: Any = None) -> Any:
         """The published gains (4.3.2) and twip's k1, k2, k3, k_phi, as a dict in SI with the
@@ -741,6 +755,12 @@ class SmcTracker:
     def motor(self) -> Optional[DcMotor]: ...
     @property
     def motor_limits(self) -> bool: ...
+    @property
+    def yaw_sets(self) -> FuzzyBasis:
+        """The yaw estimate's sets over (phi, omega)."""
+    @property
+    def pitch_sets(self) -> FuzzyBasis:
+        """The pitch estimate's sets over (phi, phi_dot)."""
 
 @final
 class Dlpf:

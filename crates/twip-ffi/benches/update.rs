@@ -5,6 +5,7 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use twip_core::control::fuzzy::FuzzyController;
+use twip_core::control::fuzzy_grid::{FuzzyGrid, SetKind};
 use twip_core::control::lqr::{DesignPoint, LqrController};
 use twip_core::control::pid::PidTracker;
 use twip_core::control::reference::SpeedRef;
@@ -59,6 +60,20 @@ fn slope_family(c: &mut Criterion) {
     assert_eq!(unsafe { twip_fuzzy_init(&mut state, &fuzzy_config) }, TWIP_OK);
     c.bench_function("core_fuzzy_update_f32", |b| b.iter(|| fuzzy.update(0.0, black_box(&y), black_box(&core_ref))));
     c.bench_function("twip_fuzzy_update", |b| {
+        b.iter(|| unsafe { twip_fuzzy_update(&mut state, 0.0, black_box(Y2.as_ptr()), black_box(&c_ref), u.as_mut_ptr()) })
+    });
+
+    // The 5 × 5 Gaussian grid of docs/fuzzy_sets.md, the same way.
+    let (phi, rate) = ([-0.3, -0.15, 0.0, 0.15, 0.3], [-2.0, -1.0, 0.0, 1.0, 2.0]);
+    let grid = FuzzyGrid::regular(SetKind::Gaussian, [&phi, &rate], [&[0.075; 5], &[0.5; 5]]).unwrap();
+    let g = FuzzyController::thesis_flat(slope(), PERIOD as f64).unwrap();
+    let gaussian = FuzzyController::new(*g.model(), g.gains(), g.adaptation(), grid, g.period()).unwrap();
+    let gaussian_config = TwipFuzzyConfig::from_core(&gaussian).unwrap();
+    let mut gaussian = gaussian_config.build().unwrap();
+    let mut state = TwipFuzzy { words: [0; TWIP_FUZZY_WORDS] };
+    assert_eq!(unsafe { twip_fuzzy_init(&mut state, &gaussian_config) }, TWIP_OK);
+    c.bench_function("core_fuzzy_5x5_gaussian_update_f32", |b| b.iter(|| gaussian.update(0.0, black_box(&y), black_box(&core_ref))));
+    c.bench_function("twip_fuzzy_5x5_gaussian_update", |b| {
         b.iter(|| unsafe { twip_fuzzy_update(&mut state, 0.0, black_box(Y2.as_ptr()), black_box(&c_ref), u.as_mut_ptr()) })
     });
 }

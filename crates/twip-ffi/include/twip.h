@@ -5,13 +5,18 @@
 
 #include <stdint.h>
 
+// The most fuzzy sets per input and rules a configuration holds (the core's capacity).
+#define TWIP_FUZZY_MAX_SETS 7
+
+#define TWIP_FUZZY_MAX_RULES 49
+
 #define TWIP_LQR_WORDS 32
 
-#define TWIP_FUZZY_WORDS 96
+#define TWIP_FUZZY_WORDS 256
 
 #define TWIP_PID_WORDS 24
 
-#define TWIP_SMC_WORDS 160
+#define TWIP_SMC_WORDS 512
 
 #define TWIP_TILT_WORDS 8
 
@@ -108,10 +113,13 @@ typedef struct {
   float gamma;
   float sigma;
   int32_t adapt;
-  // Sets (N, Z, P) of the inputs φ [rad] and φ̇ [rad/s].
-  TwipMembership sets[2][3];
-  // Initial weights of the 9 rules.
-  float s0[9];
+  // Sets per input n, from 2 to `TWIP_FUZZY_MAX_SETS` (the thesis's N, Z, P: 3): the
+  // first n of each row of `sets` and n × n weights of `s0` are read.
+  int32_t n_sets;
+  // Sets of the inputs φ [rad] and φ̇ [rad/s].
+  TwipMembership sets[2][TWIP_FUZZY_MAX_SETS];
+  // Initial weights of the n × n rules (φ's set k / n, φ̇'s k % n).
+  float s0[TWIP_FUZZY_MAX_RULES];
   float period;
 } TwipFuzzyConfig;
 

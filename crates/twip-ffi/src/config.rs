@@ -3,7 +3,8 @@
 //! from the core's `f64` ones (what `twip export` writes after tuning in simulation). That
 //! second conversion refuses a value that f32 cannot hold, naming the f64 value given.
 use twip_core::control::fuzzy::{Adaptation as FuzzyAdaptation, FuzzyController, FuzzyGains};
-use twip_core::control::fuzzy_basis::{Membership, ThesisBasis};
+use twip_core::control::fuzzy_basis::Membership;
+use twip_core::control::fuzzy_grid::{FuzzyGrid, MAX_RULES, MAX_SETS};
 use twip_core::control::lqr::{DesignPoint, LqrController};
 use twip_core::control::pid::{PidGains, PidTracker, PidUnits};
 use twip_core::control::smc::{Adaptation as SmcAdaptation, PitchSign, SmcGains, SmcOptions, SmcTracker};
@@ -36,8 +37,13 @@ fn narrow_all<const N: usize>(names: &[&'static str; N], v: [f64; N]) -> Result<
 }
 
 const GAIN_NAMES: [&str; 4] = ["gains[0]", "gains[1]", "gains[2]", "gains[3]"];
-const S0_NAMES: [&str; 9] = ["s0[0]", "s0[1]", "s0[2]", "s0[3]", "s0[4]", "s0[5]", "s0[6]", "s0[7]", "s0[8]"];
-const SET_NAMES: [[&str; 3]; 2] = [["sets[0][0]", "sets[0][1]", "sets[0][2]"], ["sets[1][0]", "sets[1][1]", "sets[1][2]"]];
+
+/// The most fuzzy sets per input and rules a configuration holds (the core's capacity).
+pub const TWIP_FUZZY_MAX_SETS: usize = 7;
+pub const TWIP_FUZZY_MAX_RULES: usize = 49;
+const _: () = assert!(TWIP_FUZZY_MAX_SETS == MAX_SETS && TWIP_FUZZY_MAX_RULES == MAX_RULES);
+const SET_NAMES: [[&str; TWIP_FUZZY_MAX_SETS]; 2] =
+    [["sets[0][0]", "sets[0][1]", "sets[0][2]", "sets[0][3]", "sets[0][4]", "sets[0][5]", "sets[0][6]"], ["sets[1][0]", "sets[1][1]", "sets[1][2]", "sets[1][3]", "sets[1][4]", "sets[1][5]", "sets[1][6]"]];
 
 /// The robot's physical parameters [SI], in the order of twip-core's `FIELD_NAMES`.
 #[repr(C)]
@@ -233,7 +239,7 @@ impl TwipMembership {
 /// Fuzzy adaptive backstepping + PD on the wheel (thesis 4.3.1). `u` is the lumped
 /// motor current [A].
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TwipFuzzyConfig {
     pub robot: TwipRobot,
     pub slope: f32,
@@ -248,34 +254,68 @@ pub struct TwipFuzzyConfig {
     pub gamma: f32,
     pub sigma: f32,
     pub adapt: i32,
-    /// Sets (N, Z, P) of the inputs φ [rad] and φ̇ [rad/s].
-    pub sets: [[TwipMembership; 3]; 2],
-    /// Initial weights of the 9 rules.
-    pub s0: [f32; 9],
+    /// Sets per input n, from 2 to `TWIP_FUZZY_MAX_SETS` (the thesis's N, Z, P: 3): the
+    /// first n of each row of `sets` and n × n weights of `s0` are read.
+    pub n_sets: i32,
+    /// Sets of the inputs φ [rad] and φ̇ [rad/s].
+    pub sets: [[TwipMembership; TWIP_FUZZY_MAX_SETS]; 2],
+    /// Initial weights of the n × n rules (φ's set k / n, φ̇'s k % n).
+    pub s0: [f32; TWIP_FUZZY_MAX_RULES],
     pub period: f32,
+}
+
+impl Default for TwipFuzzyConfig {
+    /// Zeros, with the thesis's 3 sets per input (arrays this long have no derived default).
+    fn default() -> Self {
+        Self {
+            robot: TwipRobot::default(),
+            slope: 0.0,
+            friction: TwipFriction::default(),
+            k1: 0.0,
+            k2: 0.0,
+            kp: 0.0,
+            kd: 0.0,
+            ki: 0.0,
+            gamma: 0.0,
+            sigma: 0.0,
+            adapt: 0,
+            n_sets: 3,
+            sets: [[TwipMembership::default(); TWIP_FUZZY_MAX_SETS]; 2],
+            s0: [0.0; TWIP_FUZZY_MAX_RULES],
+            period: 0.0,
+        }
+    }
 }
 
 impl TwipFuzzyConfig {
     pub fn build(&self) -> Result<FuzzyController<f32>, TwipError> {
-        let mut sets = [[Membership::Gaussian { mean: 0.0, sigma: 1.0 }; 3]; 2];
+        let n = usize::try_from(self.n_sets).ok().filter(|n| (2..=TWIP_FUZZY_MAX_SETS).contains(n)).ok_or(
+            TwipError::InvalidParameter { name: "n_sets", value: self.n_sets as f64, reason: "must be from 2 to TWIP_FUZZY_MAX_SETS (7)" },
+        )?;
+        let mut sets = [[Membership::Gaussian { mean: 0.0, sigma: 1.0 }; TWIP_FUZZY_MAX_SETS]; 2];
         for (row, given) in sets.iter_mut().zip(&self.sets) {
-            for (set, m) in row.iter_mut().zip(given) {
+            for (set, m) in row.iter_mut().zip(given).take(n) {
                 *set = m.to_core()?;
             }
         }
         let gains = FuzzyGains { k1: self.k1, k2: self.k2, kp: self.kp, kd: self.kd, ki: self.ki };
         let adaptation = FuzzyAdaptation { gamma: self.gamma, sigma: self.sigma, enabled: self.adapt != 0 };
         let model = slope_model(self.robot, self.slope, self.friction)?;
-        FuzzyController::new(model, gains, adaptation, ThesisBasis::new(sets)?, self.period)?.with_initial_weights(self.s0)
+        let basis = FuzzyGrid::new([&sets[0][..n], &sets[1][..n]])?;
+        FuzzyController::new(model, gains, adaptation, basis, self.period)?.with_initial_weights(&self.s0[..n * n])
     }
 
     pub fn from_core(c: &FuzzyController<f64>) -> Result<Self, TwipError> {
         let (model, g, a) = (c.model(), c.gains(), c.adaptation());
-        let mut sets = [[TwipMembership::default(); 3]; 2];
+        let mut sets = [[TwipMembership::default(); TWIP_FUZZY_MAX_SETS]; 2];
         for ((row, given), names) in sets.iter_mut().zip(c.basis().sets()).zip(&SET_NAMES) {
             for ((set, m), name) in row.iter_mut().zip(given).zip(names) {
                 *set = TwipMembership::from_core(m, name)?;
             }
+        }
+        let mut s0 = [0.0f32; TWIP_FUZZY_MAX_RULES];
+        for (o, w) in s0.iter_mut().zip(c.initial_weights()) {
+            *o = narrow("s0", *w)?;
         }
         Ok(Self {
             robot: TwipRobot::from_core(model.params())?,
@@ -289,8 +329,9 @@ impl TwipFuzzyConfig {
             gamma: narrow("gamma", a.gamma)?,
             sigma: narrow("sigma", a.sigma)?,
             adapt: i32::from(a.enabled),
+            n_sets: c.basis().n() as i32,
             sets,
-            s0: narrow_all(&S0_NAMES, c.initial_weights())?,
+            s0,
             period: narrow("period", c.period())?,
         })
     }
@@ -437,6 +478,13 @@ impl TwipSmcConfig {
     }
 
     pub fn from_core(c: &SmcTracker<f64>) -> Result<Self, TwipError> {
+        // The C struct carries no sets: it builds the thesis's 3 × 3 bases.
+        let (yaw, pitch) = c.bases();
+        let thesis = SmcTracker::new(c.gains(), c.options(), *c.model(), c.motor().copied(), c.adaptation(), c.period())?;
+        if (yaw, pitch) != thesis.bases() {
+            let reason = "must be the thesis's 3 x 3 sets: the C ABI's sliding-mode configuration carries no others";
+            return Err(TwipError::InvalidParameter { name: "sets", value: yaw.n() as f64, reason });
+        }
         let (g, o, model) = (c.gains(), c.options(), c.model());
         let adaptation = c.adaptation();
         Ok(Self {

@@ -180,9 +180,9 @@ pub(crate) unsafe fn reset<V: Controller<f32, NX, NU>, const NX: usize, const NU
 // Each state's size in 8-byte words (the value, its tag and room to grow), checked
 // against the Rust value at compile time.
 pub const TWIP_LQR_WORDS: usize = 32;
-pub const TWIP_FUZZY_WORDS: usize = 96;
+pub const TWIP_FUZZY_WORDS: usize = 256;
 pub const TWIP_PID_WORDS: usize = 24;
-pub const TWIP_SMC_WORDS: usize = 160;
+pub const TWIP_SMC_WORDS: usize = 512;
 const _: () = assert!(fits::<LqrController<f32>>(TWIP_LQR_WORDS));
 const _: () = assert!(fits::<FuzzyController<f32>>(TWIP_FUZZY_WORDS));
 const _: () = assert!(fits::<PidTracker<f32>>(TWIP_PID_WORDS));

@@ -111,7 +111,7 @@ fn a_bad_configuration_is_refused_and_leaves_the_state_uninitialised() {
         }
     }
     let mut fuzzy = TwipFuzzy { words: [0; TWIP_FUZZY_WORDS] };
-    let mut sets = [[TwipMembership { kind: 1, p: [0.0, 0.1, 0.0, 0.0] }; 3]; 2];
+    let mut sets = [[TwipMembership { kind: 1, p: [0.0, 0.1, 0.0, 0.0] }; TWIP_FUZZY_MAX_SETS]; 2];
     sets[1][2].kind = 5;
     let config = TwipFuzzyConfig { robot: good.robot, k1: 1.0, k2: 1.0, gamma: 0.02, sigma: 0.05, adapt: 1, sets, period: 0.005, ..Default::default() };
     assert_eq!(unsafe { twip_fuzzy_init(&mut fuzzy, &config) }, TWIP_ERR_INVALID);

@@ -142,10 +142,46 @@ def default_sets():
     return [pitch, rate]
 
 
+def regular_grid(kind: str, centres, widths=None):
+    """The sets of an n x n grid over (phi, phi_dot), as `twip.FuzzyBasis.grid` makes them:
+    "gaussian" N(c_j, w_j); "triangle" peaks at c_j with feet at the neighbouring centres;
+    "trapezoid" cores c_j +- w_j with feet at the neighbours' core edges; the outer
+    triangles and trapezoids are shoulders."""
+    inf = math.inf
+    rows = []
+    for i, c in enumerate(centres):
+        c = [float(v) for v in c]
+        n = len(c)
+        if not 2 <= n <= 7:
+            raise ValueError(f"invalid n = {n}: must be from 2 to 7 sets per input")
+        if any(not math.isfinite(v) for v in c) or any(b <= a for a, b in zip(c, c[1:])):
+            raise ValueError(f"invalid centres[{i}] = {c}: must be finite and strictly increasing")
+        w = [] if widths is None else widths[i]
+        w = [float(w)] * n if np.ndim(w) == 0 else [float(v) for v in w]
+        lo = [-inf] + c[:-1]   # the left neighbour's centre (none: shoulder)
+        hi = c[1:] + [inf]
+        if kind == "gaussian":
+            rows.append([Gaussian(m, s) for m, s in zip(c, w)])
+        elif kind == "triangle":
+            rows.append([Trapezoid(a, -inf if a == -inf else m, inf if d == inf else m, d)
+                         for a, m, d in zip(lo, c, hi)])
+        elif kind == "trapezoid":
+            core_lo = [m - s for m, s in zip(c, w)]
+            core_hi = [m + s for m, s in zip(c, w)]
+            feet_lo = [-inf] + core_hi[:-1]
+            feet_hi = core_lo[1:] + [inf]
+            rows.append([Trapezoid(a, -inf if a == -inf else b, inf if d == inf else cc, d)
+                         for a, b, cc, d in zip(feet_lo, core_lo, core_hi, feet_hi)])
+        else:
+            raise ValueError(f"invalid kind = {kind!r}")
+    return rows
+
+
 class FuzzyController:
     """u = -(1/G1) [e1 + S^T xi + k1 phi_dot + (1/2 + k2) z2] + kp e + kd e_dot + ki int(e),
-    S' = z2 xi / gamma - sigma S, forward Euler at the controller's period."""
+    S' = z2 xi / gamma - sigma S, forward Euler at the controller's period; any n x n sets."""
 
+    #: The names with the 3 x 3 sets (an instance's own follow its sets).
     internal_names = tuple(f"xi{k}" for k in range(1, 10)) + tuple(f"S{k}" for k in range(1, 10)) + (
         "z2", "e1", "phi_s", "V2", "e", "e_int")
 
@@ -155,7 +191,10 @@ class FuzzyController:
         self.k1, self.k2, self.kp, self.kd, self.ki = (float(v) for v in (k1, k2, kp, kd, ki))
         self.gamma, self.sigma, self.adapt, self.period = float(gamma), float(sigma), bool(adapt), float(period)
         self.basis = GridBasis(sets if sets is not None else default_sets())
-        self.s0 = np.zeros(9) if s0 is None else np.array(s0, dtype=float)
+        k = self.basis.n_rules
+        self.internal_names = tuple(f"xi{j}" for j in range(1, k + 1)) + tuple(f"S{j}" for j in range(1, k + 1)) + (
+            "z2", "e1", "phi_s", "V2", "e", "e_int")
+        self.s0 = np.zeros(k) if s0 is None else np.array(s0, dtype=float)
         self.reset()
 
     def reset(self):

@@ -406,7 +406,8 @@ class SmcTracker:
     pitch positive leaning backward, the convention under which the published r1, r2 work."""
 
     def __init__(self, model, gains, fuzzy=False, pitch_sign=-1, width=(0.02, 0.5), guards=(0.05, 0.2),
-                 gamma=(0.05, 1000.0), leakage=0.0, pitch_offset=True, motor=None, period=0.005):
+                 gamma=(0.05, 1000.0), leakage=0.0, pitch_offset=True, motor=None, period=0.005,
+                 yaw_sets=None, pitch_sets=None):
         self.model = model
         p = model.params
         self.radius, self.half_track = float(p.wheel_radius), float(p.half_track)
@@ -420,17 +421,22 @@ class SmcTracker:
         self.pitch_offset = bool(pitch_offset)
         self.motor = motor
         self.period = float(period)
-        self.basis1 = GridBasis([_basis_sets(0.1, 0.3), _basis_sets(0.25, 1.0)])  # (phi, omega)
-        self.basis2 = GridBasis([_basis_sets(0.1, 0.3), _basis_sets(0.5, 2.0)])  # (phi, phi_dot)
+        self.basis1 = GridBasis(yaw_sets or [_basis_sets(0.1, 0.3), _basis_sets(0.25, 1.0)])  # (phi, omega)
+        self.basis2 = GridBasis(pitch_sets or [_basis_sets(0.1, 0.3), _basis_sets(0.5, 2.0)])  # (phi, phi_dot)
+        k = self.basis1.n_rules
+        self.internal_names = ("s_eta", "s1", "lambda1", "lambda2", "lambda3", "lambda3_dot", "e1", "e2", "e3",
+                               "c_psi", "c_y", "f1_hat", "f2_hat", "d", "phi_s") + tuple(
+            f"c1_{j}" for j in range(1, k + 1)) + tuple(f"c2_{j}" for j in range(1, k + 1))
         self.reset()
 
+    #: The names with the 3 x 3 bases (an instance's own follow its bases).
     internal_names = ("s_eta", "s1", "lambda1", "lambda2", "lambda3", "lambda3_dot", "e1", "e2", "e3",
                       "c_psi", "c_y", "f1_hat", "f2_hat", "d", "phi_s") + tuple(
         f"c1_{k}" for k in range(1, 10)) + tuple(f"c2_{k}" for k in range(1, 10))
 
     def reset(self):
-        self.c1 = np.zeros(9)
-        self.c2 = np.zeros(9)
+        self.c1 = np.zeros(self.basis1.n_rules)
+        self.c2 = np.zeros(self.basis2.n_rules)
         self._steady = None  # (v_r, omega_r, phi_s) last computed
         self.internals = (0.0,) * len(self.internal_names)
 

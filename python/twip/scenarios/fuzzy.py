@@ -172,7 +172,7 @@ CONTROLLERS = ("lqr", "fuzzy", "fuzzy-fixed", "fuzzy+ki")
 
 def compare_table(params=None, cases: Optional[Iterable[str]] = None,
                   controllers: Iterable[str] = ("lqr", "fuzzy", "fuzzy-fixed"), period: float = 5e-3,
-                  realism=None, hold: float = 5.0, settle: float = 5.0, friction=None) -> list:
+                  realism=None, hold: float = 5.0, settle: float = 5.0, friction=None, sets=None) -> list:
     """Table 5.1 analogue: mean |pitch error| and |wheel-speed error| of each controller on the
     slope-fuzzy and flat-fuzzy runs (same schedule, start and plant for every controller).
 
@@ -184,8 +184,9 @@ def compare_table(params=None, cases: Optional[Iterable[str]] = None,
     robot in the loop: `outcome_realism`, `pitch_error_deg_realism`, `speed_error_deg_s_realism`.
     `hold` and `settle` [s] are the go-and-back run's waits at the far goal and at home (the
     thesis does not give them; twip's 5 s each). `friction` (a twip.Friction) puts gearhead
-    friction on the plant (the controllers' models keep none). Returns one dict per (surface, case,
-    controller)."""
+    friction on the plant (the controllers' models keep none). `sets` (a twip.FuzzyBasis, e.g. an
+    n x n FuzzyBasis.grid) replaces the fuzzy controllers' 3 x 3 sets. Returns one dict per
+    (surface, case, controller)."""
     from twip.scenarios.registry import get
 
     params = params if params is not None else _core.RobotParams.balanbot()
@@ -197,6 +198,8 @@ def compare_table(params=None, cases: Optional[Iterable[str]] = None,
                 if which not in CONTROLLERS:
                     raise _core.InvalidParameterError(f"unknown controller '{which}'; known: {', '.join(CONTROLLERS)}")
                 options = {"fuzzy-fixed": dict(adapt=False), "fuzzy+ki": dict(ki=ki)}.get(which, {})
+                if sets is not None and which != "lqr":
+                    options = {**options, "sets": sets}
                 sc = get(name, params=plant, controller_params=params, period=period, hold=hold, settle=settle,
                          **options)
                 if which == "lqr":

@@ -23,7 +23,7 @@
 use nalgebra::SVector;
 
 use crate::control::Controller;
-use crate::control::fuzzy_basis::{grid, Member, ThesisBasis};
+use crate::control::fuzzy_grid::{FuzzyGrid, RuleBase, MAX_RULES};
 use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::model::lane::Lane;
 use crate::model::slope::{pitch_input_gain, SlopeCoefficients, SlopeModel};
@@ -87,27 +87,60 @@ impl<T: Real> Default for Adaptation<T> {
     }
 }
 
-/// Names of [`FuzzyController::internals`], in order.
+/// Names of [`FuzzyController::internals`] of the thesis's 3 × 3 grid, in order: ξ, Ŝ
+/// before the update, then the law's scalars ([`fuzzy_internal_names`] for any n).
 pub const FUZZY_INTERNALS: [&str; 24] = [
     "xi1", "xi2", "xi3", "xi4", "xi5", "xi6", "xi7", "xi8", "xi9", //
     "S1", "S2", "S3", "S4", "S5", "S6", "S7", "S8", "S9", //
     "z2", "e1", "phi_s", "V2", "e", "e_int",
 ];
 
+/// ξ1…ξk, S1…Sk (k = n²), then the law's scalars, as literals: the names are `'static`.
+macro_rules! names {
+    ($($k:literal)*) => {
+        &[$(concat!("xi", $k),)* $(concat!("S", $k),)* "z2", "e1", "phi_s", "V2", "e", "e_int"]
+    };
+}
+
+/// Names of the internals of an n × n grid's controller, in order (n from 2 to
+/// [`crate::control::fuzzy_grid::MAX_SETS`]; none for any other n, which no grid has).
+pub fn fuzzy_internal_names(n: usize) -> &'static [&'static str] {
+    const N2: &[&str] = names!(1 2 3 4);
+    const N4: &[&str] = names!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16);
+    const N5: &[&str] = names!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25);
+    const N6: &[&str] = names!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29 30 31 32 33 34 35 36);
+    const N7: &[&str] = names!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29 30 31 32 33 34 35 36 37 38 39 40 41 42 43 44 45 46 47 48 49);
+    match n {
+        2 => N2,
+        3 => &FUZZY_INTERNALS,
+        4 => N4,
+        5 => N5,
+        6 => N6,
+        7 => N7,
+        _ => &[],
+    }
+}
+
+/// The law's scalars logged after ξ and Ŝ.
+const SCALARS: usize = 6;
+/// Room for the internals of the largest grid.
+const MAX_INTERNALS: usize = 2 * MAX_RULES + SCALARS;
+
 /// The discrete-time fuzzy adaptive backstepping + PD controller.
 #[derive(Clone, Copy, Debug)]
 pub struct FuzzyController<T: Real> {
     model: SlopeModel<T>,
-    basis: ThesisBasis<T>,
+    basis: FuzzyGrid<T>,
     gains: FuzzyGains<T>,
     adaptation: Adaptation<T>,
     period: T,
-    s0: [T; 9],
-    s_hat: [T; 9],
+    /// The weights' start and current values, the first `basis.rules()` in use.
+    s0: [T; MAX_RULES],
+    s_hat: [T; MAX_RULES],
     e_int: T,
     /// (θ̇_ref, φ_s) of the last reference speed seen: speeds change rarely.
     cache: Option<(T, T)>,
-    internals: [T; 24],
+    internals: [T; MAX_INTERNALS],
 }
 
 fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
@@ -116,12 +149,13 @@ fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError
 
 impl<T: Real> FuzzyController<T> {
     /// `model` is the controller's own model (φ_s and G1 come from it; it may differ
-    /// from the plant). The weights start at zero.
+    /// from the plant). `basis` is an n × n grid ([`FuzzyGrid`], or the thesis's fixed
+    /// [`crate::control::fuzzy_basis::ThesisBasis`]). The weights start at zero.
     pub fn new(
         model: SlopeModel<T>,
         gains: FuzzyGains<T>,
         adaptation: Adaptation<T>,
-        basis: ThesisBasis<T>,
+        basis: impl Into<FuzzyGrid<T>>,
         period: T,
     ) -> Result<Self, TwipError> {
         let gains = gains.validate()?;
@@ -137,8 +171,8 @@ impl<T: Real> FuzzyController<T> {
         if adaptation.sigma * period >= T::one() {
             return Err(invalid("sigma", adaptation.sigma, "sigma * period must be < 1 (forward-Euler leakage)"));
         }
-        let basis = ThesisBasis::new(*basis.sets())?;
-        let zero = [T::zero(); 9];
+        let basis = FuzzyGrid::new(basis.into().sets())?;
+        let zero = [T::zero(); MAX_RULES];
         Ok(Self {
             model,
             basis,
@@ -149,34 +183,39 @@ impl<T: Real> FuzzyController<T> {
             s_hat: zero,
             e_int: T::zero(),
             cache: None,
-            internals: [T::zero(); 24],
+            internals: [T::zero(); MAX_INTERNALS],
         })
     }
 
     /// The thesis's slope gains, twip's sets, Γ and σ, at `period`.
     pub fn thesis_slope(model: SlopeModel<T>, period: T) -> Result<Self, TwipError> {
-        Self::new(model, FuzzyGains::thesis_slope(), Adaptation::default(), ThesisBasis::default(), period)
+        Self::new(model, FuzzyGains::thesis_slope(), Adaptation::default(), FuzzyGrid::default(), period)
     }
 
     /// The thesis's flat gains, twip's sets, Γ and σ, at `period`.
     pub fn thesis_flat(model: SlopeModel<T>, period: T) -> Result<Self, TwipError> {
-        Self::new(model, FuzzyGains::thesis_flat(), Adaptation::default(), ThesisBasis::default(), period)
+        Self::new(model, FuzzyGains::thesis_flat(), Adaptation::default(), FuzzyGrid::default(), period)
     }
 
-    /// Starts (and resets) the weights at `s0` instead of zero.
-    pub fn with_initial_weights(mut self, s0: [T; 9]) -> Result<Self, TwipError> {
+    /// Starts (and resets) the weights at `s0` (one per rule) instead of zero.
+    pub fn with_initial_weights(mut self, s0: impl AsRef<[T]>) -> Result<Self, TwipError> {
+        let s0 = s0.as_ref();
+        let rules = self.basis.rules();
+        if s0.len() != rules {
+            return Err(TwipError::Shape { name: "s0", expected: (rules, 1), got: (s0.len(), 1) });
+        }
         for (index, v) in s0.iter().enumerate() {
             if !v.is_finite() {
                 return Err(TwipError::NonFinite { name: "s0", index, value: crate::to_f64(*v) });
             }
         }
-        self.s0 = s0;
-        self.s_hat = s0;
+        self.s0[..rules].copy_from_slice(s0);
+        self.s_hat = self.s0;
         Ok(self)
     }
 
     pub fn with_period(self, period: T) -> Result<Self, TwipError> {
-        Self::new(self.model, self.gains, self.adaptation, self.basis, period)?.with_initial_weights(self.s0)
+        Self::new(self.model, self.gains, self.adaptation, self.basis, period)?.with_initial_weights(self.initial_weights())
     }
 
     pub fn model(&self) -> &SlopeModel<T> {
@@ -191,17 +230,18 @@ impl<T: Real> FuzzyController<T> {
         self.adaptation
     }
 
-    pub fn basis(&self) -> &ThesisBasis<T> {
+    pub fn basis(&self) -> &FuzzyGrid<T> {
         &self.basis
     }
 
-    pub fn initial_weights(&self) -> [T; 9] {
-        self.s0
+    /// Ŝ's start, one weight per rule.
+    pub fn initial_weights(&self) -> &[T] {
+        &self.s0[..self.basis.rules()]
     }
 
     /// The current weights Ŝ.
-    pub fn weights(&self) -> [T; 9] {
-        self.s_hat
+    pub fn weights(&self) -> &[T] {
+        &self.s_hat[..self.basis.rules()]
     }
 
     /// Whether what the next update starts from (the weights Ŝ, the error's integral) is finite.
@@ -232,44 +272,49 @@ impl<T: Real> FuzzyController<T> {
 }
 
 /// The controller's constants as its law reads them, in `S` (a run's `T`, a sweep
-/// lane's `Fused`), with sets `M` (prepared sets, or a sweep's trapezoids).
-pub(crate) struct Law<'a, S, M> {
+/// lane's `Fused`), with a rule base `B` of `R` slots (a run's sized grid, or a sweep's
+/// fixed or sized sets).
+pub(crate) struct Law<'a, S, B> {
     pub gains: FuzzyGains<S>,
     pub gamma: S,
     pub sigma: S,
     /// Adapt the weights Ŝ (else they stay as they are).
     pub adapt: bool,
     pub period: S,
-    pub sets: &'a [[M; 3]; 2],
+    pub basis: &'a B,
     /// The controller's own model, for g1.
     pub model: &'a SlopeCoefficients<S>,
 }
 
 /// An update's input and the values the controller's internals show.
-pub(crate) struct Step<S> {
+pub(crate) struct Step<S, const R: usize> {
     pub u: S,
-    pub xi: [S; 9],
+    pub xi: [S; R],
     pub z2: S,
     pub e1: S,
     pub v2: S,
     pub e: S,
 }
 
-impl<S: Lane, M: Member<S>> Law<'_, S, M> {
+impl<S: Lane, B> Law<'_, S, B> {
     /// The backstepping law (4.36)–(4.56) with the PD on the wheel angle, written once
     /// over [`Lane`]: the input for measurement `y`, steady pitch `phi_s` and the
     /// reference's wheel angle and speed. Adapts `s_hat` (forward Euler with σ-leakage)
     /// and integrates the wheel-angle error into `e_int`.
     #[inline(always)]
-    pub(crate) fn update(&self, s_hat: &mut [S; 9], e_int: &mut S, phi_s: S, y: &[S; 4], theta: S, theta_dot: S) -> Step<S> {
+    pub(crate) fn update<const R: usize>(&self, s_hat: &mut [S; R], e_int: &mut S, phi_s: S, y: &[S; 4], theta: S, theta_dot: S) -> Step<S, R>
+    where
+        B: RuleBase<S, R>,
+    {
         let g = &self.gains;
         let half = S::splat(0.5);
         let (phi, phi_dot) = (y[0], y[1]);
         let e1 = phi - phi_s;
         let z2 = phi_dot + g.k1 * e1;
-        let xi: [S; 9] = grid(self.sets, &[phi, phi_dot]);
+        let xi = self.basis.xi(&[phi, phi_dot]);
+        let rules = self.basis.rules();
         let (mut f1_hat, mut s_norm2) = (S::splat(0.0), S::splat(0.0));
-        for (s, x) in s_hat.iter().zip(&xi) {
+        for (s, x) in s_hat.iter().zip(&xi).take(rules) {
             f1_hat = f1_hat + *s * *x;
             s_norm2 = s_norm2 + *s * *s;
         }
@@ -279,7 +324,7 @@ impl<S: Lane, M: Member<S>> Law<'_, S, M> {
         let u = backstepping + g.kp * e + g.kd * e_dot + g.ki * *e_int;
         let v2 = half * e1 * e1 + half * z2 * z2 + half * self.gamma * s_norm2;
         let rate = z2 / self.gamma;
-        for (s, x) in s_hat.iter_mut().zip(&xi) {
+        for (s, x) in s_hat.iter_mut().zip(&xi).take(rules) {
             let adapted = *s + self.period * (rate * *x - self.sigma * *s);
             *s = if self.adapt { adapted } else { *s };
         }
@@ -299,7 +344,7 @@ impl<T: Real> Controller<T, 4, 1> for FuzzyController<T> {
         self.s_hat = self.s0;
         self.e_int = T::zero();
         self.cache = None;
-        self.internals = [T::zero(); 24];
+        self.internals = [T::zero(); MAX_INTERNALS];
     }
 
     fn update(&mut self, _t: T, y: &SVector<T, 4>, r: &SpeedRef<T>) -> SVector<T, 1> {
@@ -320,23 +365,24 @@ impl<T: Real> Controller<T, 4, 1> for FuzzyController<T> {
             sigma: a.sigma,
             adapt: a.enabled,
             period: self.period,
-            sets: self.basis.prepared(),
+            basis: &self.basis.sized(),
             model: &self.model.coefficients(),
         };
         let (s_hat, e_int) = (self.s_hat, self.e_int);
         let step = law.update(&mut self.s_hat, &mut self.e_int, phi_s, &[y[0], y[1], y[2], y[3]], r.theta, r.theta_dot);
-        self.internals[..9].copy_from_slice(&step.xi);
-        self.internals[9..18].copy_from_slice(&s_hat);
-        self.internals[18..].copy_from_slice(&[step.z2, step.e1, phi_s, step.v2, step.e, e_int]);
+        let rules = self.basis.rules();
+        self.internals[..rules].copy_from_slice(&step.xi[..rules]);
+        self.internals[rules..2 * rules].copy_from_slice(&s_hat[..rules]);
+        self.internals[2 * rules..2 * rules + SCALARS].copy_from_slice(&[step.z2, step.e1, phi_s, step.v2, step.e, e_int]);
         SVector::<T, 1>::new(step.u)
     }
 
     fn internals(&self) -> &[T] {
-        &self.internals
+        &self.internals[..2 * self.basis.rules() + SCALARS]
     }
 
     fn internal_names(&self) -> &'static [&'static str] {
-        &FUZZY_INTERNALS
+        fuzzy_internal_names(self.basis.n())
     }
 }
 
@@ -377,7 +423,7 @@ mod tests {
     #[test]
     fn bad_parameters_are_named() {
         let model = SlopeModel::<f64>::new(RobotParams::balanbot(), 0.0).unwrap();
-        let basis = ThesisBasis::default();
+        let basis = FuzzyGrid::<f64>::default();
         let name = |gains: FuzzyGains<f64>, a: Adaptation<f64>, period: f64| match FuzzyController::new(model, gains, a, basis, period) {
             Err(TwipError::InvalidParameter { name, .. }) => name,
             other => panic!("expected an error, got {other:?}"),

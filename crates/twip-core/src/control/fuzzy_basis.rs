@@ -202,7 +202,7 @@ pub(crate) fn normalise<S: Lane, M: Member<S>, const N: usize>(sets: &[M; N], x:
 /// at distance `d` from `x`: ties go to the later set when x > 0, else to the first
 /// (module docs).
 #[inline(always)]
-fn nearer<S: Lane>(x: S, (best, best_d): (S, S), (j, d): (usize, S)) -> (S, S) {
+pub(crate) fn nearer<S: Lane>(x: S, (best, best_d): (S, S), (j, d): (usize, S)) -> (S, S) {
     let take = d.lt(best_d) | (x.gt(S::splat(0.0)) & d.eq(best_d)) | S::mask(j == 0);
     (S::select(take, S::splat(j as f64), best), S::select(take, d, best_d))
 }
@@ -211,14 +211,14 @@ fn nearer<S: Lane>(x: S, (best, best_d): (S, S), (j, d): (usize, S)) -> (S, S) {
 /// they hold it so faintly (Gaussians far out: a subnormal Σμ) that 1/Σμ overflows, where
 /// μ · ∞ would make ξ infinite or NaN. A NaN input keeps its NaN.
 #[inline(always)]
-fn fires_none<S: Lane>(sum: S, inv: S) -> S::Mask {
+pub(crate) fn fires_none<S: Lane>(sum: S, inv: S) -> S::Mask {
     sum.eq(S::splat(0.0)) | inv.eq(S::splat(f64::INFINITY))
 }
 
 /// A set's normalised weight: its share μ · (1/Σμ), or when no set holds x (`none`),
 /// 1 for the nearest set and 0 for the others.
 #[inline(always)]
-fn weight<S: Lane>(mu: S, inv: S, none: S::Mask, nearest: S::Mask) -> S {
+pub(crate) fn weight<S: Lane>(mu: S, inv: S, none: S::Mask, nearest: S::Mask) -> S {
     S::select(none, S::select(nearest, S::splat(1.0), S::splat(0.0)), mu * inv)
 }
 
@@ -267,7 +267,7 @@ pub(crate) enum Prepared<T> {
 }
 
 impl<T: Real> Prepared<T> {
-    fn new(m: Membership<T>) -> Self {
+    pub(crate) fn new(m: Membership<T>) -> Self {
         match m {
             Membership::Trapezoid { a, b, c, d } => Self::Trapezoid(Trapezoid::new(a, b, c, d)),
             Membership::Gaussian { mean, sigma } => Self::Gaussian { mean, sigma },
@@ -278,7 +278,7 @@ impl<T: Real> Prepared<T> {
 impl<T: Copy> Prepared<T> {
     /// The same set in another number type (a sweep's lanes).
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps need std
-    fn map<S>(&self, to: impl Fn(T) -> S) -> Prepared<S> {
+    pub(crate) fn map<S>(&self, to: impl Fn(T) -> S) -> Prepared<S> {
         match *self {
             Self::Trapezoid(t) => Prepared::Trapezoid(Trapezoid {
                 a: to(t.a),
@@ -387,31 +387,6 @@ impl<T: Real, const N_IN: usize, const N_SETS: usize, const N_RULES: usize> Grid
     #[inline]
     pub fn eval(&self, x: &[T; N_IN]) -> [T; N_RULES] {
         grid(&self.prepared, x)
-    }
-
-    /// The sets ready for evaluation.
-    pub(crate) fn prepared(&self) -> &[[Prepared<T>; N_SETS]; N_IN] {
-        &self.prepared
-    }
-
-    /// The sets as trapezoids, if every one is, in `S` (a sweep's lanes take those apart:
-    /// no match per set).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps need std
-    pub(crate) fn trapezoids<S: Copy>(&self, to: impl Fn(T) -> S + Copy) -> Option<[[Trapezoid<S>; N_SETS]; N_IN]> {
-        let mut out = [[None; N_SETS]; N_IN];
-        for (row, sets) in out.iter_mut().zip(self.prepared_in(to)) {
-            for (o, p) in row.iter_mut().zip(sets) {
-                let Prepared::Trapezoid(t) = p else { return None };
-                *o = Some(t);
-            }
-        }
-        Some(out.map(|row| row.map(|t| t.expect("every set was filled"))))
-    }
-
-    /// The prepared sets in another number type (a sweep's lanes evaluate those).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps need std
-    pub(crate) fn prepared_in<S>(&self, to: impl Fn(T) -> S + Copy) -> [[Prepared<S>; N_SETS]; N_IN] {
-        self.prepared.map(|row| row.map(|p| p.map(to)))
     }
 }
 

@@ -13,6 +13,7 @@ pub mod c2d;
 pub mod dare;
 pub mod fuzzy;
 pub mod fuzzy_basis;
+pub mod fuzzy_grid;
 pub mod grade;
 pub mod lqr;
 #[cfg(feature = "alloc")]

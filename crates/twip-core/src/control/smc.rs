@@ -26,7 +26,8 @@
 use nalgebra::SVector;
 
 use crate::control::Controller;
-use crate::control::fuzzy_basis::{grid, GridBasis, Member, Membership, ThesisBasis};
+use crate::control::fuzzy_basis::{GridBasis, Membership};
+use crate::control::fuzzy_grid::{FuzzyGrid, RuleBase, MAX_RULES};
 use crate::hardware::motor::DcMotor;
 use crate::control::pid::relative_wheel_speeds;
 use crate::model::lane::{clamp, saturate, Lane};
@@ -178,12 +179,47 @@ impl<T: Real> Default for Adaptation<T> {
     }
 }
 
-/// Names of [`SmcTracker::internals`], in order.
+/// The internals before the fuzzy weights: the law's 15 values.
+const HEAD: usize = 15;
+/// Room for the internals with the largest grids.
+const MAX_INTERNALS: usize = HEAD + 2 * MAX_RULES;
+
+/// Names of [`SmcTracker::internals`] with the 3 × 3 grids, in order ([`smc_internal_names`]
+/// for any n).
 pub const SMC_INTERNALS: [&str; 33] = [
     "s_eta", "s1", "lambda1", "lambda2", "lambda3", "lambda3_dot", "e1", "e2", "e3", "c_psi", "c_y", "f1_hat",
     "f2_hat", "d", "phi_s", "c1_1", "c1_2", "c1_3", "c1_4", "c1_5", "c1_6", "c1_7", "c1_8", "c1_9", "c2_1", "c2_2",
     "c2_3", "c2_4", "c2_5", "c2_6", "c2_7", "c2_8", "c2_9",
 ];
+
+/// The head's names, then c1_1…c1_k, c2_1…c2_k (k = n²), as literals: the names are `'static`.
+macro_rules! names {
+    ($($k:literal)*) => {
+        &[
+            "s_eta", "s1", "lambda1", "lambda2", "lambda3", "lambda3_dot", "e1", "e2", "e3", "c_psi", "c_y", "f1_hat",
+            "f2_hat", "d", "phi_s", $(concat!("c1_", $k),)* $(concat!("c2_", $k),)*
+        ]
+    };
+}
+
+/// Names of the internals with n × n grids, in order (n from 2 to
+/// [`crate::control::fuzzy_grid::MAX_SETS`]; none for any other n, which no grid has).
+pub fn smc_internal_names(n: usize) -> &'static [&'static str] {
+    const N2: &[&str] = names!(1 2 3 4);
+    const N4: &[&str] = names!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16);
+    const N5: &[&str] = names!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25);
+    const N6: &[&str] = names!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29 30 31 32 33 34 35 36);
+    const N7: &[&str] = names!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29 30 31 32 33 34 35 36 37 38 39 40 41 42 43 44 45 46 47 48 49);
+    match n {
+        2 => N2,
+        3 => &SMC_INTERNALS,
+        4 => N4,
+        5 => N5,
+        6 => N6,
+        7 => N7,
+        _ => &[],
+    }
+}
 
 /// The basis of Ĉ1 (estimating f23): (φ [rad], ω [rad/s]) × (N, Z, P).
 pub type YawBasis<T> = GridBasis<T, 2, 3, 9>;
@@ -234,14 +270,16 @@ pub struct SmcTracker<T: Real> {
     model: PlanarModel<T>,
     motor: Option<DcMotor<T>>,
     adaptation: Option<Adaptation<T>>,
-    basis1: YawBasis<T>,
-    basis2: ThesisBasis<T>,
-    c1: [T; 9],
-    c2: [T; 9],
+    /// The yaw basis (φ, ω) and the pitch basis (φ, φ̇), n × n each (the same n).
+    basis1: FuzzyGrid<T>,
+    basis2: FuzzyGrid<T>,
+    /// The weights Ĉ1, Ĉ2, the first n² in use.
+    c1: [T; MAX_RULES],
+    c2: [T; MAX_RULES],
     period: T,
     /// (v_r, ω_r, φ_s) of the last reference seen: on a circle it never changes.
     steady: Option<(T, T, T)>,
-    internals: [T; 33],
+    internals: [T; MAX_INTERNALS],
 }
 
 impl<T: Real> SmcTracker<T> {
@@ -279,13 +317,13 @@ impl<T: Real> SmcTracker<T> {
             model,
             motor,
             adaptation,
-            basis1: yaw_basis(),
-            basis2: ThesisBasis::thesis(),
-            c1: [T::zero(); 9],
-            c2: [T::zero(); 9],
+            basis1: yaw_basis().into(),
+            basis2: FuzzyGrid::default(),
+            c1: [T::zero(); MAX_RULES],
+            c2: [T::zero(); MAX_RULES],
             period,
             steady: None,
-            internals: [T::zero(); 33],
+            internals: [T::zero(); MAX_INTERNALS],
         };
         let d = tracker.surface_gain(T::zero());
         if d >= T::zero() || !d.is_finite() {
@@ -299,7 +337,20 @@ impl<T: Real> SmcTracker<T> {
     }
 
     pub fn with_period(self, period: T) -> Result<Self, TwipError> {
-        Self::new(self.gains, self.options, self.model, self.motor, self.adaptation, period)
+        Self::new(self.gains, self.options, self.model, self.motor, self.adaptation, period)?.with_bases(self.basis1, self.basis2)
+    }
+
+    /// The fuzzy estimates' bases: `yaw` over (φ, ω) for Ĉ1, `pitch` over (φ, φ̇) for Ĉ2,
+    /// n × n grids with the same n (the thesis's: [`yaw_basis`] and
+    /// [`crate::control::fuzzy_basis::ThesisBasis`], 3 × 3). The weights restart at zero.
+    pub fn with_bases(mut self, yaw: impl Into<FuzzyGrid<T>>, pitch: impl Into<FuzzyGrid<T>>) -> Result<Self, TwipError> {
+        let (yaw, pitch) = (yaw.into(), pitch.into());
+        if yaw.n() != pitch.n() {
+            return Err(TwipError::Shape { name: "pitch_sets", expected: (2, yaw.n()), got: (2, pitch.n()) });
+        }
+        (self.basis1, self.basis2) = (FuzzyGrid::new(yaw.sets())?, FuzzyGrid::new(pitch.sets())?);
+        self.reset();
+        Ok(self)
     }
 
     pub fn gains(&self) -> SmcGains<T> {
@@ -324,13 +375,14 @@ impl<T: Real> SmcTracker<T> {
 
     /// The yaw basis (φ, ω) and the pitch basis (φ, φ̇) of the fuzzy estimates.
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn bases(&self) -> (&YawBasis<T>, &ThesisBasis<T>) {
+    pub fn bases(&self) -> (&FuzzyGrid<T>, &FuzzyGrid<T>) {
         (&self.basis1, &self.basis2)
     }
 
-    /// The fuzzy weights (Ĉ1, Ĉ2) as of the last update.
-    pub fn weights(&self) -> ([T; 9], [T; 9]) {
-        (self.c1, self.c2)
+    /// The fuzzy weights (Ĉ1, Ĉ2) as of the last update, n² each.
+    pub fn weights(&self) -> (&[T], &[T]) {
+        let rules = self.basis1.rules();
+        (&self.c1[..rules], &self.c2[..rules])
     }
 
     /// Whether what the next update starts from (the fuzzy weights) is finite.
@@ -354,7 +406,7 @@ impl<T: Real> SmcTracker<T> {
 
     /// The law's parameters in the number type `f` maps to, with the fuzzy sets `sets` (the
     /// yaw basis's and the pitch basis's) in the form that type evaluates.
-    pub(crate) fn law<'a, S: Copy, M>(&self, f: impl Fn(T) -> S + Copy, sets: [&'a [[M; 3]; 2]; 2]) -> SmcLaw<'a, S, M> {
+    pub(crate) fn law<'a, S: Copy, B>(&self, f: impl Fn(T) -> S + Copy, bases: [&'a B; 2]) -> SmcLaw<'a, S, B> {
         let g = self.gains;
         let p = self.model.params();
         SmcLaw {
@@ -380,7 +432,7 @@ impl<T: Real> SmcTracker<T> {
             half_track: f(p.half_track),
             motor: self.motor.map(|m| m.map(f)),
             adaptation: self.adaptation.map(|a| Adaptation { gamma1: f(a.gamma1), gamma2: f(a.gamma2), leakage: f(a.leakage) }),
-            sets,
+            bases,
             period: f(self.period),
         }
     }
@@ -441,38 +493,41 @@ impl<T: Real> Controller<T, 7, 2> for SmcTracker<T> {
     }
 
     fn reset(&mut self) {
-        self.c1 = [T::zero(); 9];
-        self.c2 = [T::zero(); 9];
+        self.c1 = [T::zero(); MAX_RULES];
+        self.c2 = [T::zero(); MAX_RULES];
         self.steady = None;
-        self.internals = [T::zero(); 33];
+        self.internals = [T::zero(); MAX_INTERNALS];
     }
 
     fn update(&mut self, _t: T, y: &SVector<T, 7>, r: &PlanarRef<T>) -> SVector<T, 2> {
         let phi_s = self.cached_steady_pitch(r.v, r.omega);
-        let law = self.law(|v| v, [self.basis1.prepared(), self.basis2.prepared()]);
+        let bases = [self.basis1.sized(), self.basis2.sized()];
+        let law = self.law(|v| v, [&bases[0], &bases[1]]);
         // Without adaptation the equivalent control takes the model's own derivative
         // (with its gearhead friction, if it has some).
         let model = &self.model;
         let step = law.step(&(*y).into(), r, phi_s, &self.c1, &self.c2, || model.deriv(y, &SVector::zeros()).into());
-        self.internals[..15].copy_from_slice(&step.head);
-        self.internals[15..24].copy_from_slice(&self.c1);
-        self.internals[24..].copy_from_slice(&self.c2);
+        let rules = self.basis1.rules();
+        self.internals[..HEAD].copy_from_slice(&step.head);
+        self.internals[HEAD..HEAD + rules].copy_from_slice(&self.c1[..rules]);
+        self.internals[HEAD + rules..HEAD + 2 * rules].copy_from_slice(&self.c2[..rules]);
         (self.c1, self.c2) = (step.c1, step.c2);
         SVector::<T, 2>::from(step.u)
     }
 
     fn internals(&self) -> &[T] {
-        &self.internals
+        &self.internals[..HEAD + 2 * self.basis1.rules()]
     }
 
     fn internal_names(&self) -> &'static [&'static str] {
-        &SMC_INTERNALS
+        smc_internal_names(self.basis1.n())
     }
 }
 
+/// Σ a_j b_j over the first `rules` entries.
 #[inline(always)]
-fn dot9<S: Lane>(a: &[S; 9], b: &[S; 9]) -> S {
-    a.iter().zip(b).fold(S::splat(0.0), |s, (x, y)| s + *x * *y)
+fn dot<S: Lane>(a: &[S], b: &[S], rules: usize) -> S {
+    a.iter().zip(b).take(rules).fold(S::splat(0.0), |s, (x, y)| s + *x * *y)
 }
 
 /// (g21, g22, g23) of (4.72) for a model's coefficients at pitch `phi`: the model's
@@ -486,9 +541,9 @@ pub(crate) fn input_gains<S: Lane>(k: &PlanarCoefficients<S>, phi: S) -> (S, S, 
 }
 
 /// The tracker's parameters in the number type of a run or of a sweep's lanes, its fuzzy
-/// sets as `M` (a run's prepared sets, a sweep's trapezoids).
+/// bases as `B` (a run's sized grids, a sweep's fixed or sized trapezoids).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct SmcLaw<'a, S, M> {
+pub(crate) struct SmcLaw<'a, S, B> {
     pub gains: SmcGains<S>,
     /// r1 as it acts on twip's pitch.
     pub r1: S,
@@ -501,26 +556,37 @@ pub(crate) struct SmcLaw<'a, S, M> {
     pub half_track: S,
     pub motor: Option<DcMotor<S>>,
     pub adaptation: Option<Adaptation<S>>,
-    /// The yaw basis's sets (φ, ω) and the pitch basis's (φ, φ̇).
-    pub sets: [&'a [[M; 3]; 2]; 2],
+    /// The yaw basis (φ, ω) and the pitch basis (φ, φ̇).
+    pub bases: [&'a B; 2],
     pub period: S,
 }
 
 /// What one update gives: the wheels' torques, the first 15 internals
 /// ([`SMC_INTERNALS`]) and the fuzzy weights after it.
-pub(crate) struct SmcStep<S> {
+pub(crate) struct SmcStep<S, const R: usize> {
     pub u: [S; 2],
-    pub head: [S; 15],
-    pub c1: [S; 9],
-    pub c2: [S; 9],
+    pub head: [S; HEAD],
+    pub c1: [S; R],
+    pub c2: [S; R],
 }
 
-impl<S: Lane, M: Member<S>> SmcLaw<'_, S, M> {
+impl<S: Lane, B> SmcLaw<'_, S, B> {
     /// (4.73)–(4.121) at measurement `y`, reference `r` and steady pitch `phi_s`, with the
     /// weights (Ĉ1, Ĉ2) before the update; `free` is the model's derivative at `y` without
     /// input (asked only without adaptation). Written once: a run's update and a sweep's lanes.
     #[inline(always)]
-    pub(crate) fn step(&self, y: &[S; 7], r: &PlanarRef<S>, phi_s: S, c1: &[S; 9], c2: &[S; 9], free: impl FnOnce() -> [S; 7]) -> SmcStep<S> {
+    pub(crate) fn step<const R: usize>(
+        &self,
+        y: &[S; 7],
+        r: &PlanarRef<S>,
+        phi_s: S,
+        c1: &[S; R],
+        c2: &[S; R],
+        free: impl FnOnce() -> [S; 7],
+    ) -> SmcStep<S, R>
+    where
+        B: RuleBase<S, R>,
+    {
         let SmcGains { k1, k2, k3, k_phi, r2, .. } = self.gains;
         let (psi, phi, phi_dot, v, omega) = (y[2], y[3], y[4], y[5], y[6]);
         let one = S::splat(1.0);
@@ -560,12 +626,13 @@ impl<S: Lane, M: Member<S>> SmcLaw<'_, S, M> {
         let (g21, g22, g23) = input_gains(&self.model, phi);
         let d = r1 * g21 + r2 * g22;
         // What the equivalent control needs: the fuzzy estimates, or from the model.
-        let zero = [S::splat(0.0); 9];
+        let zero = [S::splat(0.0); R];
+        let rules = self.bases[0].rules();
         let (xi1, xi2, f1_hat, f2_hat) = match self.adaptation {
             Some(_) => {
-                let xi1: [S; 9] = grid(self.sets[0], &[phi, omega]);
-                let xi2: [S; 9] = grid(self.sets[1], &[phi, phi_dot]);
-                (xi1, xi2, dot9(c1, &xi1), dot9(c2, &xi2))
+                let xi1 = self.bases[0].xi(&[phi, omega]);
+                let xi2 = self.bases[1].xi(&[phi, phi_dot]);
+                (xi1, xi2, dot(c1, &xi1, rules), dot(c2, &xi2, rules))
             }
             None => {
                 let f = free();
@@ -589,7 +656,7 @@ impl<S: Lane, M: Member<S>> SmcLaw<'_, S, M> {
             // (4.107), (4.116) by forward Euler over one period.
             let (k_1, k_2) = (self.period * s_eta / a.gamma1, self.period * s1 * d / a.gamma2);
             let decay = one - self.period * a.leakage;
-            for j in 0..9 {
+            for j in 0..rules {
                 c1_next[j] = c1[j] * decay + k_1 * xi1[j];
                 c2_next[j] = c2[j] * decay + k_2 * xi2[j];
             }

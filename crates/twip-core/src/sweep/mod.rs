@@ -400,6 +400,28 @@ pub(crate) mod tests {
         FuzzyController::new(*fuzzy.model(), fuzzy.gains(), fuzzy.adaptation(), basis, fuzzy.period()).unwrap()
     }
 
+    /// `fuzzy` with an n × n grid of `kind` sets over φ ±0.3 rad and φ̇ ±2 rad/s (the
+    /// sized law, not the 3 × 3 one).
+    pub(crate) fn with_grid(fuzzy: &FuzzyController<f64>, kind: crate::control::fuzzy_grid::SetKind, n: usize) -> FuzzyController<f64> {
+        use crate::control::fuzzy_grid::{FuzzyGrid, SetKind};
+        let centres = |half: f64| (0..n).map(|j| -half + 2.0 * half * j as f64 / (n - 1) as f64).collect::<Vec<_>>();
+        let (phi, rate) = (centres(0.3), centres(2.0));
+        let widths = |w: f64| if kind == SetKind::Triangle { vec![] } else { vec![w; n] };
+        let (w_phi, w_rate) = match kind {
+            SetKind::Gaussian => (widths(0.3 / (n - 1) as f64), widths(2.0 / (n - 1) as f64)),
+            _ => (widths(0.1 / (n - 1) as f64), widths(0.5 / (n - 1) as f64)),
+        };
+        let grid = FuzzyGrid::regular(kind, [&phi, &rate], [&w_phi, &w_rate]).unwrap();
+        FuzzyController::new(*fuzzy.model(), fuzzy.gains(), fuzzy.adaptation(), grid, fuzzy.period()).unwrap()
+    }
+
+    /// The grids the lane tests add to the thesis's sets: 5 × 5 Gaussians, 5 × 5 trapezoids
+    /// (the sized law's two kinds of sets), 7 × 7 triangles (the capacity).
+    pub(crate) fn grids(fuzzy: &FuzzyController<f64>) -> [FuzzyController<f64>; 3] {
+        use crate::control::fuzzy_grid::SetKind;
+        [with_grid(fuzzy, SetKind::Gaussian, 5), with_grid(fuzzy, SetKind::Trapezoid, 5), with_grid(fuzzy, SetKind::Triangle, 7)]
+    }
+
     /// A law's lanes agree with the general runner to rounding (they fuse multiply-adds),
     /// fallen and invalid samples included, and a block does not depend on its
     /// neighbours: a sample replayed alone gives the same bits.
@@ -456,6 +478,9 @@ pub(crate) mod tests {
         lanes_agree_with_the_runner(&fuzzy_lanes, &fuzzy);
         let gaussian = with_gaussians(&fuzzy);
         lanes_agree_with_the_runner(&block::FuzzyLanes::new(&gaussian), &gaussian);
+        for grid in grids(&fuzzy) {
+            lanes_agree_with_the_runner(&block::FuzzyLanes::new(&grid), &grid);
+        }
     }
 
     /// Over 10 s a lane stays within 1e-12 of the run of its robot (relative; the worst
@@ -493,10 +518,14 @@ pub(crate) mod tests {
     fn a_lane_agrees_with_the_runner_to_rounding_over_ten_seconds() {
         let (lqr_lanes, lqr, fuzzy_lanes, fuzzy) = families(0.2);
         let gaussian = with_gaussians(&fuzzy);
+        let [g5, t5, tri7] = grids(&fuzzy);
         for (family, worst) in [
             ("lqr", within_rounding_over_ten_seconds(&lqr_lanes, &lqr)),
             ("fuzzy", within_rounding_over_ten_seconds(&fuzzy_lanes, &fuzzy)),
             ("fuzzy, Gaussian sets", within_rounding_over_ten_seconds(&block::FuzzyLanes::new(&gaussian), &gaussian)),
+            ("fuzzy, 5 x 5 Gaussians", within_rounding_over_ten_seconds(&block::FuzzyLanes::new(&g5), &g5)),
+            ("fuzzy, 5 x 5 trapezoids", within_rounding_over_ten_seconds(&block::FuzzyLanes::new(&t5), &t5)),
+            ("fuzzy, 7 x 7 triangles", within_rounding_over_ten_seconds(&block::FuzzyLanes::new(&tri7), &tri7)),
         ] {
             println!("{family}: worst relative difference over 10 s: {worst:e}");
             assert!(worst <= 1e-12, "{family}: worst relative difference {worst:e}");

@@ -227,7 +227,7 @@ fn in_blocks(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::hardware::motor::DcMotor;
     use crate::sim::runner::Outcome;
@@ -411,6 +411,14 @@ mod tests {
         worst
     }
 
+    /// The fuzzy tracker with 5 × 5 trapezoid grids (the lanes' sized law).
+    pub(crate) fn smc_5x5() -> crate::control::smc::SmcTracker<f64> {
+        use crate::control::fuzzy_grid::{FuzzyGrid, SetKind};
+        let phi = [-0.3, -0.15, 0.0, 0.15, 0.3];
+        let grid = |rate: [f64; 5], w: f64| FuzzyGrid::regular(SetKind::Trapezoid, [&phi, &rate], [&[0.03; 5], &[w; 5]]).unwrap();
+        smc(true).with_bases(grid([-1.0, -0.5, 0.0, 0.5, 1.0], 0.1), grid([-2.0, -1.0, 0.0, 1.0, 2.0], 0.2)).unwrap()
+    }
+
     #[test]
     fn a_lane_agrees_with_the_runner_to_rounding_over_ten_seconds() {
         let (pid, _, _, _) = setup();
@@ -418,6 +426,7 @@ mod tests {
             ("pid", lanes_against_the_runner(&pid, &PidLanes::new(&pid))),
             ("smc", lanes_against_the_runner(&smc(false), &SmcLanes::new(&smc(false)).unwrap())),
             ("smc-fuzzy", lanes_against_the_runner(&smc(true), &SmcLanes::new(&smc(true)).unwrap())),
+            ("smc-fuzzy, 5 x 5 trapezoids", lanes_against_the_runner(&smc_5x5(), &SmcLanes::new(&smc_5x5()).unwrap())),
         ];
         for (name, worst) in laws {
             std::println!("{name}: worst relative difference {worst:e}");

@@ -3,10 +3,11 @@
 use numpy::{AllowTypeChange, IntoPyArray, PyArrayLikeDyn};
 use pyo3::prelude::*;
 use twip_core::control::fuzzy_basis::{grid_product, normalised_memberships, Membership, ThesisBasis};
-use twip_core::control::fuzzy::{Adaptation, FuzzyController, FuzzyGains, DEFAULT_GAMMA, DEFAULT_SIGMA, FUZZY_INTERNALS};
+use twip_core::control::fuzzy::{fuzzy_internal_names, Adaptation, FuzzyController, FuzzyGains, DEFAULT_GAMMA, DEFAULT_SIGMA};
+use twip_core::control::fuzzy_grid::{FuzzyGrid, SetKind};
 use twip_core::TwipError;
 
-use crate::convert::{scalar, vector};
+use crate::convert::{scalar, series};
 use crate::errors::{CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::models::PySlopeModel;
 use crate::settings::Reduced;
@@ -258,6 +259,11 @@ pub struct PyFuzzyBasis {
 }
 
 impl PyFuzzyBasis {
+    /// A grid's sets.
+    pub(crate) fn of(grid: &FuzzyGrid<f64>) -> Self {
+        Self { sets: grid.sets().iter().map(|r| r.to_vec()).collect() }
+    }
+
     fn n_rules(&self) -> usize {
         self.sets.iter().map(Vec::len).product()
     }
@@ -285,6 +291,41 @@ impl PyFuzzyBasis {
     #[staticmethod]
     fn default() -> Self {
         Self { sets: ThesisBasis::<f64>::default().sets().iter().map(|r| r.to_vec()).collect() }
+    }
+
+    /// A regular n x n grid over (phi [rad], phi_dot [rad/s]) for the adaptive controllers:
+    /// `kind` "trapezoid" (core centre +- width, feet at the neighbours' core edges, the
+    /// outer two shoulders), "triangle" (peak at the centre, feet at the neighbouring
+    /// centres, the outer two shoulders; no widths) or "gaussian" (mean centre, sigma
+    /// width). `centres`: per input, n strictly increasing values (n from 2 to 7);
+    /// `widths`: per input, one value > 0 for every set or n of them.
+    #[staticmethod]
+    #[pyo3(signature = (kind, centres, widths = None))]
+    fn grid(kind: &str, centres: [Vec<f64>; 2], widths: Option<[Bound<'_, PyAny>; 2]>) -> PyResult<Self> {
+        let kind = match kind {
+            "trapezoid" => SetKind::Trapezoid,
+            "triangle" => SetKind::Triangle,
+            "gaussian" => SetKind::Gaussian,
+            other => {
+                return Err(InvalidParameterError::new_err(format!(
+                    "invalid kind = {other:?}: must be \"trapezoid\", \"triangle\" or \"gaussian\""
+                )))
+            }
+        };
+        let widths: [Vec<f64>; 2] = match widths {
+            None => [vec![], vec![]],
+            Some([w0, w1]) => {
+                let per_set = |w: Bound<'_, PyAny>, n: usize| -> PyResult<Vec<f64>> {
+                    match w.extract::<f64>() {
+                        Ok(v) => Ok(vec![v; n]),
+                        Err(_) => w.extract::<Vec<f64>>(),
+                    }
+                };
+                [per_set(w0, centres[0].len())?, per_set(w1, centres[1].len())?]
+            }
+        };
+        let grid = FuzzyGrid::regular(kind, [&centres[0], &centres[1]], [&widths[0], &widths[1]]).map_err(PyTwipError)?;
+        Ok(Self::of(&grid))
     }
 
     /// Pickled as FuzzyBasis(sets).
@@ -351,25 +392,21 @@ impl PyFuzzyBasis {
     }
 }
 
-/// The fixed 2 x 3 basis the controller needs, from `sets` (None: twip's).
-fn thesis_basis(sets: Option<&Bound<'_, PyAny>>) -> PyResult<ThesisBasis<f64>> {
-    let Some(obj) = sets else { return Ok(ThesisBasis::default()) };
+/// The n x n grid an adaptive controller needs, from `sets` (None: `default`).
+pub(crate) fn grid_basis(sets: Option<&Bound<'_, PyAny>>, default: FuzzyGrid<f64>) -> PyResult<FuzzyGrid<f64>> {
+    let Some(obj) = sets else { return Ok(default) };
     let rows = sets_of(obj)?;
-    if rows.len() != 2 || rows.iter().any(|r| r.len() != 3) {
-        return Err(PyTwipError(TwipError::Shape {
-            name: "sets",
-            expected: (2, 3),
-            got: (rows.len(), rows.first().map_or(0, Vec::len)),
-        })
-        .into());
+    if rows.len() != 2 {
+        return Err(PyTwipError(TwipError::Shape { name: "sets", expected: (2, rows[0].len()), got: (rows.len(), rows[0].len()) }).into());
     }
-    Ok(ThesisBasis::new([[rows[0][0], rows[0][1], rows[0][2]], [rows[1][0], rows[1][1], rows[1][2]]]).map_err(PyTwipError)?)
+    Ok(FuzzyGrid::new([&rows[0], &rows[1]]).map_err(PyTwipError)?)
 }
 
 /// Fuzzy adaptive backstepping on the pitch + PD on the wheel position (thesis 4.56,
 /// errata F1-F8): u = -(1/G1)[e1 + S^T xi + k1 phi_dot + (1/2 + k2) z2] + kp e + kd e_dot
 /// + ki int(e), S' = z2 xi / gamma - sigma S. `model` is the controller's own model (phi_s
-/// and G1); `sets` the (phi, phi_dot) x (N, Z, P) sets (a 2 x 3 FuzzyBasis or nested list);
+/// and G1); `sets` the (phi, phi_dot) sets, n of each for n x n rules, n from 2 to 7
+/// (a 2 x n FuzzyBasis, e.g. FuzzyBasis.grid, or nested list; default twip's 3 x 3);
 /// `adapt=False` freezes S at `s0` (default zeros). A pickle or copy keeps these settings,
 /// `s0` included; the weights S adapt inside each run (from `s0`), not in the controller.
 #[pyclass(name = "FuzzyController", module = "twip", frozen)]
@@ -389,10 +426,10 @@ fn build(
     s0: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<PyFuzzyController> {
     let adaptation = Adaptation { gamma, sigma, enabled: adapt };
-    let mut inner = FuzzyController::new(model.inner, gains, adaptation, thesis_basis(sets)?, period).map_err(PyTwipError)?;
+    let mut inner = FuzzyController::new(model.inner, gains, adaptation, grid_basis(sets, FuzzyGrid::default())?, period).map_err(PyTwipError)?;
     if let Some(s0) = s0 {
-        let v = vector::<9>("s0", s0)?;
-        inner = inner.with_initial_weights(core::array::from_fn(|i| v[i])).map_err(PyTwipError)?;
+        let v = series("s0", s0)?;
+        inner = inner.with_initial_weights(v.as_array().to_vec()).map_err(PyTwipError)?;
     }
     Ok(PyFuzzyController { inner })
 }
@@ -460,7 +497,7 @@ impl PyFuzzyController {
     /// Names of the logged internals (SimResult.internals).
     #[getter]
     fn internal_names(&self) -> Vec<&'static str> {
-        FUZZY_INTERNALS.to_vec()
+        fuzzy_internal_names(self.inner.basis().n()).to_vec()
     }
 
     /// phi_s the controller aims for at a reference wheel speed (corrected 4.42, own model).
@@ -487,20 +524,20 @@ crate::settings::settings_class!(PyFuzzyController, "FuzzyController",
         sigma: f64 = |s| s.inner.adaptation().sigma;
         ki: f64 = |s| s.inner.gains().ki;
         adapt: bool = |s| s.inner.adaptation().enabled;
-        /// The (phi, phi_dot) x (N, Z, P) sets.
+        /// The (phi, phi_dot) sets, n of each.
         sets: PyFuzzyBasis = |s| s.basis_of();
         period: f64 = |s| twip_core::control::Controller::period(&s.inner);
         /// The weights S the controller starts from (and resets to).
         s0: Vec<f64> = |s| s.inner.initial_weights().to_vec();
     }
     derived {
-        /// The (phi, phi_dot) x (N, Z, P) sets (the same as `sets`).
+        /// The (phi, phi_dot) sets (the same as `sets`).
         basis: PyFuzzyBasis = |s| s.basis_of();
     }
 );
 
 impl PyFuzzyController {
     fn basis_of(&self) -> PyFuzzyBasis {
-        PyFuzzyBasis { sets: self.inner.basis().sets().iter().map(|r| r.to_vec()).collect() }
+        PyFuzzyBasis::of(self.inner.basis())
     }
 }

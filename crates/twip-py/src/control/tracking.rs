@@ -8,6 +8,7 @@ use twip_core::control::pid::{PidGains, PidTracker, PidUnits};
 use twip_core::control::smc::{Adaptation, PitchSign, SmcGains, SmcOptions, SmcTracker};
 use twip_core::RobotParams;
 
+use crate::control::fuzzy::{grid_basis, PyFuzzyBasis};
 use crate::convert::scalar;
 use crate::errors::{positive_param, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::models::PyPlanarModel;
@@ -198,6 +199,8 @@ fn pair(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
 /// in the tracker. The heading error ψ_r − ψ is wrapped to [−π, π) (docs/errata.md T2).
 /// Logged internals: `lambda1` = −k_φ (φ − φ_s) in twip's pitch sign (the "backward" reading
 /// turns r1, not λ1), `d` = r1 g21 + r2 g22 (the surface's input gain, not (4.82)'s 1 + k3 e1).
+/// `yaw_sets` (over phi, omega) and `pitch_sets` (over phi, phi_dot) are the fuzzy estimates'
+/// n x n grids, the same n from 2 to 7 (a FuzzyBasis, e.g. FuzzyBasis.grid; default twip's 3 x 3).
 #[pyclass(name = "SmcTracker", module = "twip", frozen)]
 #[derive(Clone)]
 pub struct PySmcTracker {
@@ -210,7 +213,7 @@ impl PySmcTracker {
     #[pyo3(signature = (
         model, fuzzy = false, boundary_layer = None, gains = None, torque_unit = None, pitch = "backward",
         guards = (0.05, 0.2), gamma = (0.05, 1000.0), leakage = 0.0, pitch_offset = true, motor = None,
-        motor_limits = true, period = 0.005
+        motor_limits = true, period = 0.005, yaw_sets = None, pitch_sets = None
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -227,6 +230,8 @@ impl PySmcTracker {
         motor: Option<&PyDcMotor>,
         motor_limits: bool,
         period: f64,
+        yaw_sets: Option<&Bound<'_, PyAny>>,
+        pitch_sets: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let motor = motor_or_default(motor);
         let unit = match torque_unit {
@@ -261,6 +266,9 @@ impl PySmcTracker {
             period,
         )
         .map_err(PyTwipError)?;
+        let (yaw, pitch) = inner.bases();
+        let (yaw, pitch) = (grid_basis(yaw_sets, *yaw)?, grid_basis(pitch_sets, *pitch)?);
+        let inner = inner.with_bases(yaw, pitch).map_err(PyTwipError)?;
         Ok(Self { inner })
     }
 
@@ -326,6 +334,10 @@ crate::settings::settings_class!(PySmcTracker, "SmcTracker",
         motor: Option<PyDcMotor> = |s| s.inner.motor().map(|m| PyDcMotor { inner: *m });
         motor_limits: bool = |s| s.inner.motor().is_some();
         period: f64 = |s| s.inner.period();
+        /// The yaw estimate's sets over (phi, omega).
+        yaw_sets: PyFuzzyBasis = |s| PyFuzzyBasis::of(s.inner.bases().0);
+        /// The pitch estimate's sets over (phi, phi_dot).
+        pitch_sets: PyFuzzyBasis = |s| PyFuzzyBasis::of(s.inner.bases().1);
     }
 );
 

@@ -2,7 +2,8 @@
 //! weights Ŝ adapt on their own.
 use super::LaneLaw;
 use crate::control::fuzzy::{FuzzyController, FuzzyGains, Law};
-use crate::control::fuzzy_basis::{Member, Prepared, Trapezoid};
+use crate::control::fuzzy_basis::{Prepared, Trapezoid};
+use crate::control::fuzzy_grid::{RuleBase, Sized, MAX_RULES, MAX_SETS};
 use crate::control::reference::SpeedRef;
 use crate::control::Controller;
 use super::{chunk, put, state_chunk};
@@ -39,18 +40,26 @@ struct Constants<const N: usize> {
 
 /// The basis's sets in lanes' numbers: all trapezoids (the thesis's), evaluated without a
 /// match per set (measured: the match costs the trapezoid law 21 % more instructions), or
-/// any sets.
+/// any sets; a 3 × 3 grid fixed when compiling (the thesis's, as fast as before grids of
+/// other sizes came), any other n × n sized at run time.
 #[derive(Clone, Debug)]
-#[allow(clippy::large_enum_variant)] // both ~2.5 KB, one per worker's law: no box needed
+#[allow(clippy::large_enum_variant)] // ~2.5 to 5.4 KB, one per worker's law: no box needed
 enum Sets<const N: usize> {
     Trapezoids([[Trapezoid<Wide<N>>; 3]; 2]),
     Any([[Prepared<Wide<N>>; 3]; 2]),
+    SizedTrapezoids([[Trapezoid<Wide<N>>; MAX_SETS]; 2], usize),
+    SizedAny([[Prepared<Wide<N>>; MAX_SETS]; 2], usize),
 }
 
-/// Each lane's weights Ŝ and the PD's integral, one array per quantity.
+/// The first three sets of each input, for the fixed 3 × 3 law.
+fn first_three<M: Copy>(sets: [[M; MAX_SETS]; 2]) -> [[M; 3]; 2] {
+    sets.map(|row| [row[0], row[1], row[2]])
+}
+
+/// Each lane's weights Ŝ (one per rule) and the PD's integral, one array per quantity.
 #[derive(Clone, Debug)]
 pub struct FuzzyState {
-    s_hat: [Lanes; 9],
+    s_hat: Vec<Lanes>,
     e_int: Lanes,
 }
 
@@ -65,11 +74,14 @@ impl<const N: usize> Constants<N> {
         let g = prototype.gains();
         let k = prototype.model().coefficients();
         let f = Wide::<N>::splat;
+        let basis = prototype.basis();
         Self {
             gains: FuzzyGains { k1: f(g.k1), k2: f(g.k2), kp: f(g.kp), kd: f(g.kd), ki: f(g.ki) },
-            sets: match prototype.basis().trapezoids(f) {
-                Some(trapezoids) => Sets::Trapezoids(trapezoids),
-                None => Sets::Any(prototype.basis().prepared_in(f)),
+            sets: match (basis.n(), basis.trapezoids(f)) {
+                (3, Some(trapezoids)) => Sets::Trapezoids(first_three(trapezoids)),
+                (3, None) => Sets::Any(first_three(basis.prepared_in(f))),
+                (n, Some(trapezoids)) => Sets::SizedTrapezoids(trapezoids, n),
+                (n, None) => Sets::SizedAny(basis.prepared_in(f), n),
             },
             model: SlopeCoefficients {
                 m11: f(k.m11),
@@ -94,16 +106,20 @@ impl<const N: usize> Constants<N> {
     #[inline(always)]
     fn update(&self, controller: &FuzzyController<f64>, phi_s: f64, state: &mut FuzzyState, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
         match &self.sets {
-            Sets::Trapezoids(sets) => self.update_with(sets, controller, phi_s, state, x, r, u),
-            Sets::Any(sets) => self.update_with(sets, controller, phi_s, state, x, r, u),
+            Sets::Trapezoids(sets) => self.update_with::<9, _>(sets, controller, phi_s, state, x, r, u),
+            Sets::Any(sets) => self.update_with::<9, _>(sets, controller, phi_s, state, x, r, u),
+            Sets::SizedTrapezoids(sets, n) => {
+                self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n }, controller, phi_s, state, x, r, u)
+            }
+            Sets::SizedAny(sets, n) => self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n }, controller, phi_s, state, x, r, u),
         }
     }
 
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn update_with<M: Member<Wide<N>>>(
+    fn update_with<const R: usize, B: RuleBase<Wide<N>, R>>(
         &self,
-        sets: &[[M; 3]; 2],
+        basis: &B,
         controller: &FuzzyController<f64>,
         phi_s: f64,
         state: &mut FuzzyState,
@@ -118,16 +134,17 @@ impl<const N: usize> Constants<N> {
             sigma: Wide::splat(a.sigma),
             adapt: a.enabled,
             period: Wide::splat(controller.period()),
-            sets,
+            basis,
             model: &self.model,
         };
         let (phi_s, theta, theta_dot) = (Wide::splat(phi_s), Wide::splat(r.theta), Wide::splat(r.theta_dot));
         for c in 0..LANES / N {
-            let mut s_hat: [Wide<N>; 9] = fill(|j| chunk(&state.s_hat[j], c));
+            let weights = &state.s_hat[..basis.rules()];
+            let mut s_hat: [Wide<N>; R] = fill(|j| weights.get(j).map_or(Wide::splat(0.0), |w| chunk(w, c)));
             let mut e_int = chunk(&state.e_int, c);
             let step = law.update(&mut s_hat, &mut e_int, phi_s, &state_chunk(x, c), theta, theta_dot);
-            for (j, s) in s_hat.iter().enumerate() {
-                put(&mut state.s_hat[j], c, *s);
+            for (w, s) in state.s_hat.iter_mut().zip(&s_hat) {
+                put(w, c, *s);
             }
             put(&mut state.e_int, c, e_int);
             put(u, c, step.u);
@@ -176,7 +193,7 @@ impl LaneLaw for FuzzyLanes {
 
     fn start(&self) -> FuzzyState {
         let s0 = self.controller.initial_weights();
-        FuzzyState { s_hat: s0.map(|w| [w; LANES]), e_int: [0.0; LANES] }
+        FuzzyState { s_hat: s0.iter().map(|w| [*w; LANES]).collect(), e_int: [0.0; LANES] }
     }
 
     #[inline(always)]

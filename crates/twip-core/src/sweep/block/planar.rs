@@ -413,5 +413,6 @@ mod tests {
         let unit = DcMotor::<f64>::gb37y3530().torque_per_count();
         let fuzzy = SmcTracker::new(SmcGains::thesis(unit), SmcOptions::default(), model, Some(DcMotor::gb37y3530()), Some(Adaptation::default()), 0.005).unwrap();
         same_bits_on_every_copy(SmcLanes::new(&fuzzy).expect("the thesis's sets are trapezoids"));
+        same_bits_on_every_copy(SmcLanes::new(&crate::sweep::planar::tests::smc_5x5()).expect("trapezoids"));
     }
 }

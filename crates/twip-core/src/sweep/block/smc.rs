@@ -4,6 +4,7 @@
 use super::planar::{lane_ref, PlanarLaneLaw};
 use super::{chunk, put, CHUNKS};
 use crate::control::fuzzy_basis::Trapezoid;
+use crate::control::fuzzy_grid::{RuleBase, Sized, MAX_RULES, MAX_SETS};
 use crate::control::smc::SmcTracker;
 use crate::control::trajectory::PlanarRef;
 use crate::control::Controller;
@@ -16,15 +17,22 @@ use crate::sweep::lanes::{Lanes, LANES};
 #[derive(Clone, Debug)]
 pub struct SmcLanes {
     controller: SmcTracker<f64>,
-    /// The yaw basis's sets and the pitch basis's.
-    sets: [[[Trapezoid<Wide>; 3]; 2]; 2],
+    sets: Sets,
 }
 
-/// Each lane's fuzzy weights Ĉ1, Ĉ2, one array per weight.
+/// The yaw basis's sets and the pitch basis's: 3 × 3 fixed when compiling (the thesis's,
+/// as fast as before other sizes came), any other n × n sized at run time.
+#[derive(Clone, Debug)]
+enum Sets {
+    Three([[[Trapezoid<Wide>; 3]; 2]; 2]),
+    Sized([[[Trapezoid<Wide>; MAX_SETS]; 2]; 2], usize),
+}
+
+/// Each lane's fuzzy weights Ĉ1, Ĉ2 (n² each), one array per weight.
 #[derive(Clone, Debug)]
 pub struct SmcState {
-    c1: [Lanes; 9],
-    c2: [Lanes; 9],
+    c1: Vec<Lanes>,
+    c2: Vec<Lanes>,
 }
 
 impl SmcLanes {
@@ -38,7 +46,44 @@ impl SmcLanes {
         let (yaw, pitch) = prototype.bases();
         let mut controller = *prototype;
         controller.reset();
-        Some(Self { controller, sets: [yaw.trapezoids(Wide::splat)?, pitch.trapezoids(Wide::splat)?] })
+        let sets = [yaw.trapezoids(Wide::splat)?, pitch.trapezoids(Wide::splat)?];
+        let sets = match yaw.n() {
+            3 => Sets::Three(sets.map(|b| b.map(|row| [row[0], row[1], row[2]]))),
+            n => Sets::Sized(sets, n),
+        };
+        Some(Self { controller, sets })
+    }
+
+    /// The law on every chunk of lanes, with the bases `bases` of `R` rule slots.
+    #[inline(always)]
+    fn update_with<const R: usize, B: RuleBase<Wide, R>>(
+        controller: &SmcTracker<f64>,
+        phi_s: f64,
+        bases: [&B; 2],
+        state: &mut SmcState,
+        x: &[Lanes; 7],
+        r: &PlanarRef<f64>,
+        u: &mut [Lanes; 2],
+    ) {
+        let phi_s = Wide::splat(phi_s);
+        let law = controller.law(Wide::splat, bases);
+        let r = lane_ref(r);
+        let idle = [Wide::splat(0.0); 2];
+        let rules = bases[0].rules();
+        let zero = Wide::splat(0.0);
+        for c in 0..CHUNKS {
+            let y: [Wide; 7] = fill(|i| chunk(&x[i], c));
+            let (w1, w2) = (&state.c1[..rules], &state.c2[..rules]);
+            let c1: [Wide; R] = fill(|j| w1.get(j).map_or(zero, |w| chunk(w, c)));
+            let c2: [Wide; R] = fill(|j| w2.get(j).map_or(zero, |w| chunk(w, c)));
+            let step = law.step(&y, &r, phi_s, &c1, &c2, || deriv(&law.model, &y, idle));
+            for (j, (w1, w2)) in state.c1.iter_mut().zip(state.c2.iter_mut()).enumerate() {
+                put(w1, c, step.c1[j]);
+                put(w2, c, step.c2[j]);
+            }
+            put(&mut u[0], c, step.u[0]);
+            put(&mut u[1], c, step.u[1]);
+        }
     }
 }
 
@@ -51,26 +96,18 @@ impl PlanarLaneLaw for SmcLanes {
 
     fn start(&self) -> SmcState {
         let (c1, c2) = self.controller.weights();
-        SmcState { c1: c1.map(|w| [w; LANES]), c2: c2.map(|w| [w; LANES]) }
+        SmcState { c1: c1.iter().map(|w| [*w; LANES]).collect(), c2: c2.iter().map(|w| [*w; LANES]).collect() }
     }
 
     #[inline(always)]
     fn update(&mut self, state: &mut SmcState, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
-        let phi_s = Wide::splat(self.controller.cached_steady_pitch(r.v, r.omega));
-        let law = self.controller.law(Wide::splat, [&self.sets[0], &self.sets[1]]);
-        let r = lane_ref(r);
-        let idle = [Wide::splat(0.0); 2];
-        for c in 0..CHUNKS {
-            let y: [Wide; 7] = fill(|i| chunk(&x[i], c));
-            let c1: [Wide; 9] = fill(|j| chunk(&state.c1[j], c));
-            let c2: [Wide; 9] = fill(|j| chunk(&state.c2[j], c));
-            let step = law.step(&y, &r, phi_s, &c1, &c2, || deriv(&law.model, &y, idle));
-            for j in 0..9 {
-                put(&mut state.c1[j], c, step.c1[j]);
-                put(&mut state.c2[j], c, step.c2[j]);
+        let phi_s = self.controller.cached_steady_pitch(r.v, r.omega);
+        match &self.sets {
+            Sets::Three(sets) => Self::update_with::<9, _>(&self.controller, phi_s, [&sets[0], &sets[1]], state, x, r, u),
+            Sets::Sized(sets, n) => {
+                let bases = [Sized { sets: &sets[0], n: *n }, Sized { sets: &sets[1], n: *n }];
+                Self::update_with::<MAX_RULES, _>(&self.controller, phi_s, [&bases[0], &bases[1]], state, x, r, u)
             }
-            put(&mut u[0], c, step.u[0]);
-            put(&mut u[1], c, step.u[1]);
         }
     }
 }
