@@ -55,16 +55,20 @@ def test_the_ideal_loop_delivers_every_command():
 
 def test_a_sweep_keeps_them_per_sample_and_in_its_summary():
     sc = twip.scenarios.get("flat-lqr-sim")
-    rig = twip.Realism.thesis_like().replace(motor=twip.MotorDriver.thesis_like().replace(current_limit=0.7))
+    # 0.8 A of winding current: through the 0.87 gearbox about what 0.7 A was through a lossless
+    # one, where no robot of these fell and some asked more.
+    limit = 0.8
+    rig = twip.Realism.thesis_like().replace(motor=twip.MotorDriver.thesis_like().replace(current_limit=limit))
     s = twip.montecarlo(sc, 16, perturb={"phi0": twip.Uniform(low=0.1, high=0.2)}, realism=rig, progress=False, seed=3)
     assert {"peak_current", "peak_command", "saturation_share"} <= set(s.metric_names)
     m = s.metrics
-    assert np.all(s.valid) and np.all(m["peak_current"] <= 0.7)
+    assert np.all(s.valid) and not np.any(m["fell"]) and np.all(m["peak_current"] <= limit * (1 + 1e-12))
     # A sample that asked more current than the driver gives saturated in some period.
-    asked = m["peak_command"] > 0.7
+    asked = m["peak_command"] > limit
     assert 0 < np.sum(asked) < s.n
     assert np.all(m["saturation_share"][asked] > 0)
-    assert s.summary()["saturation_share"]["median"] > 0
+    summary = s.summary()["saturation_share"]
+    assert summary["median"] == pytest.approx(np.median(m["saturation_share"])) and summary["q95"] > 0
     for i in (0, 5):
         again = s.rerun(i)
         for name in ("peak_current", "peak_command", "saturation_share"):

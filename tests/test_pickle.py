@@ -21,7 +21,21 @@ PLANAR = twip.PlanarModel(P)
 #: class of the core holds settings, a model, a controller, a reference or a realism part,
 #: so none is here; a result or handle class added later belongs here (with the TypeError
 #: it raises) or in SAMPLES.
+#: The envs' native batches hold N robots mid-episode (their rigs' noise streams and clocks):
+#: an env is rebuilt from its settings and seed, not pickled.
 UNPICKLABLE = {}
+
+
+def _unpicklable_batches():
+    from twip import envs
+
+    for env in (envs.BalanceVectorEnv, envs.TrackVectorEnv):
+        batch = env(2).settings.batch(2)
+        name = type(batch).__name__
+        UNPICKLABLE[name] = (batch, f"cannot pickle 'twip._core.{name}' object")
+
+
+_unpicklable_batches()
 
 
 def _sc2():

@@ -93,7 +93,7 @@ def test_the_full_rig_with_friction_declared_from_the_command_line(tmp_path, cap
     (i_body -2.39 %, m_body -0.91 %); plain: mu_bearing +91 %, the encoder's residual 6.8x its noise."""
     log, rig = rig_log(8.0, friction=True)
     log.to_csv(tmp_path / "rig.csv")
-    driver = dict(robot_file.balanbot_driver(), current_limit=3.0)
+    driver = dict(robot_file.balanbot_driver(), current_limit=3.0, efficiency=DRIVER.efficiency)
     robot_file.save(START, tmp_path / "start.toml", None, driver)
     command = ["identify", str(tmp_path / "rig.csv"), "--robot", str(tmp_path / "start.toml"), "--imu-dlpf", "42",
                "--out", str(tmp_path / "fitted.toml")]
@@ -205,7 +205,9 @@ def test_a_wrong_driver_on_a_second_robot_is_not_a_quiet_answer():
     i_body +150 %, because the gyro's noise was read from the filtered signal's own second differences,
     which behind the IMU's filter are the robot's motion (12x the noise a correct fit leaves). Its
     gyro residual was 21x as correlated as noise and 3x a correct fit's. With the right driver the
-    fit stays quiet and within 0.4 %."""
+    fit stays quiet and within its own intervals: on this 8 s log i_body's standard deviation is
+    1.1 %, and its error ran from +0.08 % to +2.04 % over two noise seeds and two gearbox
+    efficiencies (1 and 0.87), the other three parameters within 0.5 %."""
     driver = twip.MotorDriver.thesis_like().replace(current_limit=2.5)
     start = TALL.replace(m_body=3.0 * 1.2, com_height=0.2 * 0.8, i_body=0.04 * 1.25, mu_bearing=0.02 * 0.85)
     log, rig = rig_log(8.0, robot=TALL, driver=driver)
@@ -214,4 +216,5 @@ def test_a_wrong_driver_on_a_second_robot_is_not_a_quiet_answer():
     assert wrong.warnings and caught and any(m.startswith("gyro") for m in wrong.misfits), wrong.summary()
     fit, caught = quiet_identify(log, start, FREE, driver=driver, sensors=Sensors.of(rig))
     assert fit.converged and not fit.warnings and not caught, fit.summary()
-    assert max(abs(e) for e in errors(fit, TALL).values()) < 0.015, errors(fit, TALL)
+    for name, e in errors(fit, TALL).items():
+        assert abs(e) < 3 * fit.std[name] / getattr(TALL, name) and abs(e) < 0.03, (name, e, fit.summary())

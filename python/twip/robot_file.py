@@ -69,6 +69,8 @@ DRIVER: Dict[str, Tuple[str, str]] = {
     "bridge_drop": ("V", "H-bridge drop, source + sink"),
     "current_limit": ("A", "current limit per motor (0: none; absent: the thesis-like 2 A)"),
     "inductance": ("H", "winding inductance"),
+    "efficiency": ("1", "gearbox efficiency: the share of the winding's torque that reaches the wheel "
+                        "(absent: the thesis-like 37 mm gearmotor's 0.87)"),
 }
 
 #: The [sensors] table: numbers, and the IMU's axes as "+x", "-y"...
@@ -329,7 +331,7 @@ BALANBOT_MOTOR = {"rated_voltage": 12.0, "no_load_rpm": 251.0, "no_load_current"
 def balanbot_driver() -> dict:
     d = _core.MotorDriver.thesis_like()
     return {"battery": d.battery, "bridge_drop": d.bridge_drop, "current_limit": d.current_limit or 0.0,
-            "inductance": d.inductance}
+            "inductance": d.inductance, "efficiency": d.efficiency}
 
 
 def init(path) -> None:

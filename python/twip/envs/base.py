@@ -10,7 +10,8 @@ import gymnasium
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from twip.envs.robots import ClosedEnvError, check_actions, num_envs_checked, seeds_for, _bad
+from twip._core import InvalidParameterError
+from twip.envs.robots import ClosedEnvError, check_actions, num_envs_checked, seeds_for
 
 
 class Episodes:
@@ -93,7 +94,7 @@ class BatchVectorEnv(VectorEnv):
         try:
             mode = AutoresetMode(autoreset_mode)
         except ValueError:
-            raise _bad(f"autoreset_mode = {autoreset_mode!r}: must be one of {[m.value for m in AutoresetMode]}") from None
+            raise InvalidParameterError(f"autoreset_mode = {autoreset_mode!r}: must be one of {[m.value for m in AutoresetMode]}") from None
         self._episodes = Episodes(self.settings, num_envs)
         self.num_envs = self._episodes.n
         self.metadata = {"autoreset_mode": mode, "render_modes": []}
@@ -116,7 +117,7 @@ class BatchVectorEnv(VectorEnv):
             mask = options["reset_mask"]
             if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (self.num_envs,)):
                 shape = getattr(mask, "shape", None)
-                raise _bad(f"options['reset_mask']: expected a bool array of shape ({self.num_envs},), got "
+                raise InvalidParameterError(f"options['reset_mask']: expected a bool array of shape ({self.num_envs},), got "
                            f"{type(mask).__name__} of shape {shape}")
         seeds = None
         if seed is not None or not self._seeded:
@@ -129,7 +130,7 @@ class BatchVectorEnv(VectorEnv):
     def step(self, actions):
         mode = self.metadata["autoreset_mode"]
         if mode == AutoresetMode.DISABLED and self._done.any():
-            raise _bad(f"autoreset_mode DISABLED: envs {np.flatnonzero(self._done).tolist()} are done; "
+            raise InvalidParameterError(f"autoreset_mode DISABLED: envs {np.flatnonzero(self._done).tolist()} are done; "
                        "reset them first with reset(options={'reset_mask': ...})")
         rewards, terminated, truncated = self._episodes.step(actions)
         if mode == AutoresetMode.NEXT_STEP and self._done.any():

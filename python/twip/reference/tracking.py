@@ -4,7 +4,9 @@ Written apart from the Rust core (crates/twip-core/src/: control/{trajectory,pid
 sim/tracking_metrics.rs) and never calling it: the trajectories by their own
 formulas, the motor from the data sheet, the PID in the Arduino's units, the sliding-mode
 trackers by the thesis's equations with the documented readings and guards, and a planar
-closed-loop runner. Slow by design: for parity tests and for reading.
+closed-loop runner. Slow by design: for parity tests and for reading. One file because it is
+read against one section of the thesis (4.3) and the trackers, their paths and the runner that
+closes their loop are checked as one against the core.
 
 Conventions (twip's): state [x, y, psi, phi, phi_dot, v, omega]; input [u_r, u_l], wheel
 torques [N m]; u_r > u_l turns left; phi > 0 leans towards forward travel.

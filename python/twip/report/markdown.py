@@ -9,7 +9,7 @@ from twip.report.sensitivity import FUZZY_MARGIN
 from twip.report.sweeps import sweep_perturb_text
 from twip.scenarios.tracking import thesis_cm
 
-def _md_table(head: List[str], rows: List[List[str]]) -> str:
+def md_table(head: List[str], rows: List[List[str]]) -> str:
     esc = lambda s: str(s).replace("|", "\\|")
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     lines += ["| " + " | ".join(esc(c) for c in row) + " |" for row in rows]
@@ -48,7 +48,7 @@ def render_markdown(report: dict) -> str:
         "the claim holds there too: a row reproduced on the ideal plant only says so.",
         "",
     ]
-    out.append(_md_table(["id", "claim", "thesis", "ours", "ours, thesis-like robot", "unit", "basis", "status", "reason"],
+    out.append(md_table(["id", "claim", "thesis", "ours", "ours, thesis-like robot", "unit", "basis", "status", "reason"],
                          [[c["id"], c["claim"], fmt(c["thesis"]), fmt(c["ours"]),
                            _realism_claim_cell(c), c["unit"], c["basis"], c["status"],
                            c["reason"] + (f" (checked by `{c['check']}`)" if "check" in c else "")] for c in claims]))
@@ -64,7 +64,7 @@ def render_markdown(report: dict) -> str:
                 "the thesis's claim holds. Every run is in report.json (`detail`: its values, ours, holds). A settling "
                 "band is a run measured again. For the stops, *ours* is the largest distance of a stop from its goal "
                 f"[m]; for \"fuzzy better than LQR\", {FUZZY_MARGIN}.", ""]
-        out.append(_md_table(["id", "choices (range)", "ours: low", "ours: high", "holds", "runs", "searched"],
+        out.append(md_table(["id", "choices (range)", "ours: low", "ours: high", "holds", "runs", "searched"],
                              [[c["id"], "; ".join(f"{k} {' – '.join(str(x) for x in v)}"
                                                   for k, v in c["sensitivity"]["choices"].items()),
                                fmt(c["sensitivity"]["low"]), fmt(c["sensitivity"]["high"]),
@@ -80,7 +80,7 @@ def render_markdown(report: dict) -> str:
                 f"and backlash from data sheets). {n['calibrated']} of the {n['measured']} are calibrated: a parameter of "
                 f"the robot or of a choice of ours was fitted to them, so they are not evidence. The other "
                 f"{n['predictions']} are the rig's predictions; {n['predictions_hold']} hold.", "",
-                _md_table(["id", "claim", "thesis (measured)", "ours, ideal plant", "ours, thesis-like robot", "unit",
+                md_table(["id", "claim", "thesis (measured)", "ours, ideal plant", "ours, thesis-like robot", "unit",
                            "holds with the robot", "basis"],
                           [[f"`{r['id']}`", r["claim"], fmt(r["thesis"]), fmt(r["ideal"]),
                             fmt(r["rig"]) if r["outcome"] == "completed" else r["outcome"], r["unit"],
@@ -92,7 +92,7 @@ def render_markdown(report: dict) -> str:
         out += ["", "## Table 5.1: each controller on its own experiment", "",
                 "The thesis's Table 5.1 measures each controller in its own experiment (LQR: Figs 4.3 and 4.10; fuzzy: "
                 "Figs 4.8 and 4.12); so do its rows above. Mean |φ − φ_s| [deg], mean |θ̇ − θ̇_ref| [deg/s].", "",
-                _md_table(["surface", "controller", "experiment", "ours, ideal plant", "ours, thesis-like robot", "thesis"],
+                md_table(["surface", "controller", "experiment", "ours, ideal plant", "ours, thesis-like robot", "thesis"],
                           [[r["surface"], names.get(r["controller"], r["controller"]), f"`{r['scenario']}`",
                             f"{fix(r['pitch_error_deg'], 3)}, {fix(r['speed_error_deg_s'], 3)}",
                             f"{fix(r.get('pitch_error_deg_realism'), 3)}, {fix(r.get('speed_error_deg_s_realism'), 3)}"
@@ -119,7 +119,7 @@ def render_markdown(report: dict) -> str:
                 "controller's model is always the nominal robot, the plant's m_body, com_height, i_body and frictions "
                 "change (`twip.scenarios.fuzzy.MISMATCH_CASES`). Each cell: mean |φ − φ_s| [deg], mean |θ̇ − θ̇_ref| "
                 "[deg/s]; stop error at the far goal / back home [cm] (positive: short of it).", "",
-                _md_table(["surface", "plant"] + [names.get(c, c) for c in controllers] + ["thesis (Table 5.1)"], rows),
+                md_table(["surface", "plant"] + [names.get(c, c) for c in controllers] + ["thesis (Table 5.1)"], rows),
                 "", "![Table 5.1 analogue](table5.1.png)"]
     t52 = report["table_5_2"]
     if t52:
@@ -133,7 +133,7 @@ def render_markdown(report: dict) -> str:
                 "the MPU-6050 with its z gyro, the tilt filter, 700 CPR encoders, 5 ms loop, one-period delay). The "
                 "thesis column: PID, its experiment; sliding mode, a row the thesis does not say is a simulation or an "
                 "experiment (both sliding-mode trackers are shown against it; it is scored on circle-smc-fuzzy).", "",
-                _md_table(["tracker", "plant", "outcome", "mean abs x / y [cm]", "after lap 1 [cm]",
+                md_table(["tracker", "plant", "outcome", "mean abs x / y [cm]", "after lap 1 [cm]",
                            "max path error after lap 1 [cm]", "mean abs pitch [deg]",
                            "thesis-like hardware: mean abs x / y [cm]", "thesis [cm]"], rows),
                 "", "![Table 5.2 analogue](table5.2.png)"]
@@ -148,7 +148,7 @@ def render_markdown(report: dict) -> str:
                 "Each experiment scenario with its controller designed once for the nominal robot, run on robots "
                 f"drawn with {sweep_perturb_text(False)} (3-DOF: without φ(0)); 95 % Wilson intervals. Metrics over the "
                 "runs that did not fall: median / 95th percentile.", "",
-                _md_table(["scenario", "controller", "samples", "fall rate [%] (95 % CI)", "median / q95"], rows), ""]
+                md_table(["scenario", "controller", "samples", "fall rate [%] (95 % CI)", "median / q95"], rows), ""]
         out += [f"![sweep {s['scenario']}](sweep_{s['scenario']}.png)" for s in report["sweeps"]]
     if report["fall_maps"]:
         rows = [[f"`{b['scenario']}`", b["controller"], str(b["samples"]), b["perturbation"],
@@ -157,7 +157,7 @@ def render_markdown(report: dict) -> str:
         out += ["", "## Which starts each controller catches", "",
                 "Initial pitch and pitch rate drawn uniformly, 4 s runs on the 15° slope; the model has no current "
                 "limit, so this is the controllers' reach, not the robot's.", "",
-                _md_table(["scenario", "controller", "samples", "drawn", "fall rate [%] (95 % CI)"], rows), "",
+                md_table(["scenario", "controller", "samples", "drawn", "fall rate [%] (95 % CI)"], rows), "",
                 "![fall maps](fall_maps.png)"]
     if report.get("future_work"):
         from twip.report.terrain import markdown as future_work_markdown
@@ -173,8 +173,8 @@ def render_markdown(report: dict) -> str:
             continue
         ms = ", ".join(f"{k} {fmt(v)} {s['units'][k]}".rstrip() for k, v in s["metrics"].items() if k != "settle")
         rows.append([f"`{name}`", s["controller"], s["outcome"], ms, f"Fig {s['figure']}"])
-    out.append(_md_table(["scenario", "controller", "outcome", "metrics", "thesis"], rows))
-    out += ["", "## Steps", "", _md_table(["step", "seconds"], [[s["step"].strip(), f"{s['seconds']:.2f}"] for s in report["steps"]]), ""]
+    out.append(md_table(["scenario", "controller", "outcome", "metrics", "thesis"], rows))
+    out += ["", "## Steps", "", md_table(["step", "seconds"], [[s["step"].strip(), f"{s['seconds']:.2f}"] for s in report["steps"]]), ""]
     return "\n".join(out)
 
 

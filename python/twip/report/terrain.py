@@ -62,7 +62,7 @@ def terrain_rows(quick: bool = False) -> List[dict]:
 
 def markdown(rows: List[dict]) -> List[str]:
     """report.md's future-work section, from report.json's "future_work" rows."""
-    from twip.report.markdown import _md_table
+    from twip.report.markdown import md_table
     from twip.report.numbers import fix
 
     table = [[f"`{r['scenario']}`", r["tracker"], r["terrain"], "yes" if r["grade_feed_forward"] else "no", r["outcome"],
@@ -73,5 +73,5 @@ def markdown(rows: List[dict]) -> List[str]:
             "and on a figure-eight over bumps (`twip.scenarios.terrain`, docs/terrain.md), on the ideal plant: the "
             "3-DOF rig does not run on terrain yet. *Holds*: the run completed with its largest path error after the "
             f"first lap under {100 * HOLDS_BELOW:g} cm.", "",
-            _md_table(["scenario", "tracker", "terrain", "grade feed-forward", "outcome", "max path error after lap 1 [cm]",
+            md_table(["scenario", "tracker", "terrain", "grade feed-forward", "outcome", "max path error after lap 1 [cm]",
                        "mean abs x / y [cm]", "holds"], table)]
