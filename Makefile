@@ -57,7 +57,11 @@ test-python: build
 # build 13 min 50 s of CPU against 5 min 12 s now (the rigs' plant kinds compiled once per
 # kernel copy, not inlined per controller law: sweep/block/mod.rs, `out_of_line_in`). With
 # both cores each, a clean clone's `make test` alone (the wheel built in it, as CI does) took
-# 12 min 47 s at 8fc6e2b (pytest 219 s of it).
+# 12 min 47 s at 8fc6e2b (pytest 219 s of it). At 1280b0a (2 December, quiet VM) a clean clone's
+# `make demo` took 11 min 28 s (the wheel's twip-py rustc alone ~11 min of CPU: this session's
+# sized fuzzy laws, env batches and drive tallies in the kernels grew the .so's code 16 %), then
+# `make test` 9 min 3 s (pytest 229 s, 1342 tests); `make test` with its own build (main, before
+# the clean clone) 16 min 19 s. Both above the 8 and 12 min goals again.
 test: setup
 	$(MAKE) --no-print-directory --jobs=2 --output-sync=target test-rust build
 	$(PYTEST)
