@@ -70,7 +70,7 @@ DRIVER: Dict[str, Tuple[str, str]] = {
     "current_limit": ("A", "current limit per motor (0: none; absent: the thesis-like 2 A)"),
     "inductance": ("H", "winding inductance"),
     "efficiency": ("1", "gearbox efficiency: the share of the winding's torque that reaches the wheel "
-                        "(absent: the thesis-like 37 mm gearmotor's 0.87)"),
+                        "(absent: MotorDriver.thesis_like()'s, a 37 mm gearmotor's)"),
 }
 
 #: The [sensors] table: numbers, and the IMU's axes as "+x", "-y"...
