@@ -870,7 +870,9 @@ class MotorDriver:
         """The defaults: the data sheet's motor on the 11.1 V battery, nothing else."""
     @staticmethod
     def thesis_like() -> MotorDriver:
-        """The L298P's 2 V drop and 2 A DC rating, an assumed 1 mH winding."""
+        """The L298P's 2 V drop and 2 A DC rating, an assumed 1 mH winding, and the GB37
+        gearbox's efficiency from its data sheet (docs/parameters.md).
+        """
     assumed_battery: Optional[float]
     battery: float
     bridge_drop: float

@@ -344,7 +344,8 @@ impl PyMotorDriver {
         Self { inner: MotorDriver::gb37y3530() }
     }
 
-    /// The L298P's 2 V drop and 2 A DC rating, an assumed 1 mH winding.
+    /// The L298P's 2 V drop and 2 A DC rating, an assumed 1 mH winding, and the GB37
+    /// gearbox's efficiency from its data sheet (docs/parameters.md).
     #[staticmethod]
     fn thesis_like() -> Self {
         Self { inner: MotorDriver::thesis_like() }
