@@ -12,11 +12,11 @@
 
 #define TWIP_LQR_WORDS 32
 
-#define TWIP_FUZZY_WORDS 256
+#define TWIP_FUZZY_WORDS 213
 
 #define TWIP_PID_WORDS 24
 
-#define TWIP_SMC_WORDS 512
+#define TWIP_SMC_WORDS 312
 
 #define TWIP_TILT_WORDS 8
 

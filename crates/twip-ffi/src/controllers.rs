@@ -178,11 +178,13 @@ pub(crate) unsafe fn reset<V: Controller<f32, NX, NU>, const NX: usize, const NU
 }
 
 // Each state's size in 8-byte words (the value, its tag and room to grow), checked
-// against the Rust value at compile time.
+// against the Rust value at compile time. The fuzzy controller and the sliding-mode tracker
+// are exactly what they hold on a 64-bit host (their 7 x 7 grids' capacity is their room:
+// 2 KiB and more is a microcontroller's whole RAM); `states_are_sized_to_what_they_hold`.
 pub const TWIP_LQR_WORDS: usize = 32;
-pub const TWIP_FUZZY_WORDS: usize = 256;
+pub const TWIP_FUZZY_WORDS: usize = 213;
 pub const TWIP_PID_WORDS: usize = 24;
-pub const TWIP_SMC_WORDS: usize = 512;
+pub const TWIP_SMC_WORDS: usize = 312;
 const _: () = assert!(fits::<LqrController<f32>>(TWIP_LQR_WORDS));
 const _: () = assert!(fits::<FuzzyController<f32>>(TWIP_FUZZY_WORDS));
 const _: () = assert!(fits::<PidTracker<f32>>(TWIP_PID_WORDS));
@@ -347,4 +349,17 @@ pub unsafe extern "C" fn twip_smc_update(
 #[no_mangle]
 pub unsafe extern "C" fn twip_smc_reset(state: *mut TwipSmc) -> TwipStatus {
     reset::<SmcTracker<f32>, 7, 2>(state.cast(), SMC_TAG)
+}
+
+#[cfg(all(test, target_pointer_width = "64"))]
+mod tests {
+    use super::*;
+
+    /// The fuzzy and sliding-mode states hold their value and tag and not a word more (on a
+    /// 64-bit host; a 32-bit target's values are no larger).
+    #[test]
+    fn states_are_sized_to_what_they_hold() {
+        assert!(fits::<FuzzyController<f32>>(TWIP_FUZZY_WORDS) && !fits::<FuzzyController<f32>>(TWIP_FUZZY_WORDS - 1));
+        assert!(fits::<SmcTracker<f32>>(TWIP_SMC_WORDS) && !fits::<SmcTracker<f32>>(TWIP_SMC_WORDS - 1));
+    }
 }

@@ -143,9 +143,8 @@ class PlanarModel:
         if x.shape != (7,) or np.asarray(u).size != 2:
             raise ValueError("x must have 7 entries and u 2")
         if self.terrain is not None:
-            if extra is not None or tuple(engaged) != (True, True):
-                raise ValueError("on terrain: no extra forces, both gear trains engaged")
-            return self._on_terrain(x, u)[0], None
+            out = self._on_terrain(x, u, engaged, extra)
+            return out[0], out[5]
         M, f = self._kane(x, u, engaged)
         if extra is not None:
             f[0] += extra[0]
@@ -166,22 +165,33 @@ class PlanarModel:
         delta, d1, d2 = _terrain.delta_of_chi(gx, gy, float(x[2]))
         return n, d, a, (delta, d1, d2), h, np.array([d[2], a[2], n[2]])
 
-    def _on_terrain(self, x, u):
-        """(derivative, nu_dot' in the plane frame, plane-frame state, up, frame)."""
-        n, d, a, (delta, d1, d2), _, up = self._ground(x)
+    def in_plane(self, x):
+        """The state in the ground plane's frame: phi' = phi + delta, phi_dot' = phi_dot + delta' omega."""
+        _, _, _, (delta, d1, _), _, _ = self._ground(x)
         xp = np.array(x, dtype=float)
         xp[3] += delta
         xp[4] += d1 * x[6]
-        M, f = self._kane(xp, u, up=up)
+        return xp
+
+    def _on_terrain(self, x, u, engaged=(True, True), extra=None):
+        """(derivative, nu_dot' in the plane frame, plane-frame state, up, frame, gearhead
+        torques); `engaged` and `extra` (forces on (phi', v)) as `deriv_geared`'s."""
+        n, d, a, (delta, d1, d2), _, up = self._ground(x)
+        xp = self.in_plane(x)
+        M, f = self._kane(xp, u, engaged, up=up)
+        if extra is not None:
+            f[0] += extra[0]
+            f[1] += extra[1]
+        tau = np.zeros(2)
         if self.friction is not None:
-            f, _ = self._gearhead(M, f, xp[4:])
+            f, tau = self._gearhead(M, f, xp[4:], engaged)
         nu_dot = np.linalg.solve(M, f)
         v, omega = x[5], x[6]
         # The travel direction d turns at omega about n: d_dot = omega a; psi = atan2(d_y, d_x).
         psi_dot = omega * (d[0] * a[1] - d[1] * a[0]) / (d[0] ** 2 + d[1] ** 2)
         phi_dd = nu_dot[0] - d1 * nu_dot[2] - d2 * omega**2
         deriv = np.array([v * d[0], v * d[1], psi_dot, x[4], phi_dd, nu_dot[1], nu_dot[2]])
-        return deriv, nu_dot, xp, up, (n, d, a)
+        return deriv, nu_dot, xp, up, (n, d, a), tau
 
     def normal_forces(self, x, u):
         """(N_r, N_l) [N] by Newton-Euler on the whole robot about the contact midpoint, from
@@ -194,7 +204,7 @@ class PlanarModel:
             M, f = self._kane(xp, u)
             nu_dot = np.linalg.solve(M, f)
         else:
-            _, nu_dot, xp, up, _ = self._on_terrain(x, u)
+            _, nu_dot, xp, up, _, _ = self._on_terrain(x, u)
         phi, nu = float(xp[3]), xp[4:7]
         cz, R, b = p.com_height, p.wheel_radius, p.half_track
         s, c = math.sin(phi), math.cos(phi)
@@ -223,7 +233,14 @@ class PlanarModel:
     def engage(self, x, wheel: int, rotor_speed: float, engaged) -> float:
         """The plastic impact of wheel `wheel`'s rotor on its flank (the trains `engaged` as
         before it): one impulse along its row against the masses without the open rotors.
-        Updates x's rates in place; returns the common speed."""
+        Updates x's rates in place; returns the common speed. On terrain in the plane's frame
+        (the rates phi_dot', v, omega), written back."""
+        if self.terrain is not None:
+            xp = self.in_plane(x)
+            flat = PlanarModel(self.params, friction=self.friction)
+            speed = flat.engage(xp, wheel, rotor_speed, engaged)
+            x[4:] = xp[4:] - np.array([self._ground(x)[3][1] * xp[6], 0.0, 0.0])
+            return speed
         M, _ = self._kane(np.asarray(x, float), np.zeros(2), engaged)
         rel = np.asarray(self._rel[wheel])
         resp = np.linalg.solve(M, rel)

@@ -7,6 +7,12 @@ the body by the trapezoid rule on the plant's steps; the firmware reads an encod
 the heading psi = R (beta_r - beta_l) / (2 b) and the position by dead reckoning along the mean
 heading, and turns each wheel's torque into a duty. The model is `twip.reference.PlanarModel`
 (Kane's method), so the parity of a run checks the rig and the model together.
+
+On a terrain (the model's `terrain`) the plant and the sensors work in the ground plane's frame:
+the wheels turn relative to the body's pitch about the axle phi' = phi + delta, forces and pushes
+act at phi', and the accelerometer reads the pitch-plane motion there with gravity g cos(roll)
+(the roll's sine from the axle's height gradient in 3-D), the pitch gyro phi_dot', the z gyro
+omega cos(phi').
 """
 from __future__ import annotations
 
@@ -71,7 +77,12 @@ class PlanarPlant:
     def engaged(self):
         return (True, True) if self.play is None else tuple(self.play.engaged())
 
+    def in_plane(self, x):
+        """The state in the ground plane's frame (itself on flat ground)."""
+        return x if self.model.terrain is None else self.model.in_plane(x)
+
     def wheel_speeds(self, x):
+        x = self.in_plane(x)
         roll = self.inv_r * x[5] - x[4]
         turn = self.b_r * x[6]
         return roll + turn, roll - turn
@@ -80,7 +91,7 @@ class PlanarPlant:
         return height * (fx * math.cos(phi) - fz * math.sin(phi)), fx
 
     def deriv(self, x, u, stage="start"):
-        extra = self.body_force(*self.force, x[3]) if self.has_force else None
+        extra = self.body_force(*self.force, self.in_plane(x)[3]) if self.has_force else None
         return self.model.deriv_geared(x, self.torques(x, u, stage), self.engaged(), extra)[0]
 
     def between_steps(self, t, dt, x, u):
@@ -91,8 +102,10 @@ class PlanarPlant:
         while self.next_push < len(self.pushes) and self.pushes[self.next_push][0] < t + dt * 0.5:
             _, impulse, height = self.pushes[self.next_push]
             self.next_push += 1
-            q = self.body_force(impulse, 0.0, height, x[3])
-            jump = np.linalg.solve(self.model.mass_matrix(x[3]), [q[0], q[1], 0.0])
+            # On terrain at the pitch from the plane's normal; phi_dot jumps as phi_dot' does.
+            phi = self.in_plane(x)[3]
+            q = self.body_force(impulse, 0.0, height, phi)
+            jump = np.linalg.solve(self.model.mass_matrix(phi), [q[0], q[1], 0.0])
             x[4] += jump[0]
             x[5] += jump[1]
         if self.windings is not None:
@@ -100,10 +113,10 @@ class PlanarPlant:
                 d.start_step_at(wi, ui, dt)
         if self.play is not None:
             motor = self.torques(x, u)
-            extra = self.body_force(*self.force, x[3]) if self.has_force else None
+            extra = self.body_force(*self.force, self.in_plane(x)[3]) if self.has_force else None
             d, tau = self.model.deriv_geared(x, motor, self.engaged(), extra)
             w = self.wheel_speeds(x)
-            acc = self.wheel_speeds([0, 0, 0, 0, d[4], d[5], d[6]])
+            acc = self.wheel_accelerations(x, d)
             j = self.play.inertia
             self.play.next_step(list(w), [m - f - j * a for m, f, a in zip(motor, tau, acc)], self.mean_torques(x, u))
 
@@ -112,6 +125,17 @@ class PlanarPlant:
         if self.windings is not None:
             for d, wi in zip(self.windings, self.motor_speeds(x)):
                 d.end_step_at(wi)
+
+    def wheel_accelerations(self, x, d):
+        """Each wheel's acceleration relative to the body from the derivative d (on terrain,
+        to phi_dd' = phi_dd + delta' omega_dot + delta'' omega^2)."""
+        phi_dd = d[4]
+        if self.model.terrain is not None:
+            _, _, _, (_, d1, d2), _, _ = self.model._ground(x)
+            phi_dd = d[4] + d1 * d[6] + d2 * x[6] ** 2
+        roll = self.inv_r * d[5] - phi_dd
+        turn = self.b_r * d[6]
+        return roll + turn, roll - turn
 
     def currents(self, x, u):
         if self.windings is None:
@@ -123,7 +147,8 @@ class PlanarSensors:
     """The pitch-plane IMU and the z gyro, the tilt filter, an encoder per wheel; the truth
     for each part left out."""
 
-    def __init__(self, realism: Realism, params, dt):
+    def __init__(self, realism: Realism, params, dt, model=None):
+        self.model = model  # its terrain, if any, is the ground the sensors read on
         self.imu = None if realism.imu is None else (Mpu6050(realism.imu), Mpu6050(realism.imu))
         kind, tuning = realism.estimator
         self.tilt = TiltFilter(kind, **tuning)
@@ -137,9 +162,18 @@ class PlanarSensors:
         self.last_read = None
         self.shaft = [0.0, 0.0]  # each motor shaft's angle minus its wheel's (backlash)
 
+    def _on_terrain(self, x, xdot):
+        """On terrain: (phi_dot', phi_dd', sin delta, cos delta, cos roll, phi') from 3-D vectors."""
+        _, _, a, (delta, d1, d2), _, _ = self.model._ground(x)
+        phi_dd = xdot[4] + d1 * xdot[6] + d2 * x[6] ** 2
+        return x[4] + d1 * x[6], phi_dd, math.sin(delta), math.cos(delta), math.sqrt(1.0 - a[2] ** 2), x[3] + delta
+
     def sample(self, t, x, xdot):
+        terrain = self.model is not None and self.model.terrain is not None
+        rate, phi_dd, sin_d, cos_d, cos_roll, tilted = (
+            self._on_terrain(x, xdot) if terrain else (x[4], xdot[4], 0.0, 1.0, 1.0, x[3]))
         turn = self.b * x[6] * self.inv_r
-        roll = x[5] * self.inv_r - x[4]
+        roll = x[5] * self.inv_r - rate
         speeds = [roll + turn, roll - turn]
         if t > 0.0:
             half = self.dt * 0.5
@@ -147,11 +181,11 @@ class PlanarSensors:
         self.beta_dot = speeds
         if self.imu is not None and t + self.dt * 0.5 >= self.next_sample:
             pitch, yaw = self.imu
-            x4 = [x[3], x[4], 0.0, x[5] * self.inv_r]
-            xdot4 = [x[4], xdot[4], x[5] * self.inv_r, xdot[5] * self.inv_r]
-            fx, fz = specific_force(x4, xdot4, 0.0, 1.0, self.r, pitch.s.height, self.g)
-            pitch.sample(fx, fz, x[4], self.rng)
-            yaw.sample(0.0, self.g, x[6] * math.cos(x[3]), self.rng)
+            x4 = [x[3], rate, 0.0, x[5] * self.inv_r]
+            xdot4 = [rate, phi_dd, x[5] * self.inv_r, xdot[5] * self.inv_r]
+            fx, fz = specific_force(x4, xdot4, sin_d, cos_d, self.r, pitch.s.height, self.g * cos_roll)
+            pitch.sample(fx, fz, rate, self.rng)
+            yaw.sample(0.0, self.g, x[6] * math.cos(tilted), self.rng)
             self.next_sample += pitch.period
 
     def read(self, t, x):
@@ -185,9 +219,9 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
     period = realism.control_period if realism.control_period is not None else controller.period
     controller.period = period
     if realism.friction is not None:
-        model = type(model)(p, friction=realism.friction)
+        model = type(model)(p, friction=realism.friction, terrain=model.terrain)
     plant = PlanarPlant(model, realism)
-    sensors = PlanarSensors(realism, p, dt)
+    sensors = PlanarSensors(realism, p, dt, model)
     actuator = None
     if realism.motor is not None:
         m = realism.motor

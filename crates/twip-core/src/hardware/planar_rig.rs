@@ -33,6 +33,8 @@ use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::model::integrate::Stage;
 use crate::model::lane::Lane;
 use crate::model::planar::{PlanarState, WheelRows};
+use crate::model::terrain::Terrain;
+use crate::model::terrain_model::{frame_of, in_plane, TerrainModel};
 use crate::rng::Sfc64;
 use crate::sim::runner::{Actuator, Plant, Sensor};
 use crate::{c, Dynamics, PlanarModel, Real, RobotParams, TwipError};
@@ -52,9 +54,12 @@ pub struct WheelDrives<T> {
 }
 
 /// The planar plant of a realism run.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct PlanarPlant<T: Real> {
     model: PlanarModel<T>,
+    /// The model on its terrain (the same parameters and friction), or flat ground (None:
+    /// the flat model's code, unchanged).
+    ground: Option<TerrainModel<T>>,
     drives: Option<WheelDrives<T>>,
     force: Force<T>,
     has_force: bool,
@@ -88,11 +93,31 @@ impl<T: Real> PlanarPlant<T> {
     /// train's rotor's.
     #[inline(always)]
     pub(crate) fn motor_speeds(&self, x: &PlanarState<T>) -> [T; 2] {
-        let (w_r, w_l) = self.model.wheel_speeds(x);
+        let (w_r, w_l) = self.wheel_speeds(x);
         match &self.play {
             None => [w_r, w_l],
             Some(play) => play.motor_speeds([w_r, w_l]),
         }
+    }
+
+    /// Each wheel's speed relative to the body (on terrain, to its pitch rate about the axle).
+    #[inline(always)]
+    fn wheel_speeds(&self, x: &PlanarState<T>) -> (T, T) {
+        match &self.ground {
+            None => self.model.wheel_speeds(x),
+            Some(g) => g.wheel_speeds(x),
+        }
+    }
+
+    /// Each wheel's acceleration relative to the body from the derivative `d` at `x`.
+    #[inline(always)]
+    fn wheel_accelerations(&self, x: &PlanarState<T>, d: &PlanarState<T>) -> (T, T) {
+        let zero = T::zero();
+        let phi_dd = match &self.ground {
+            None => d[4],
+            Some(g) => TerrainModel::pitch_acceleration(x, d, &g.frame(x)),
+        };
+        self.model.wheel_speeds(&PlanarState::from([zero, zero, zero, zero, phi_dd, d[5], d[6]]))
     }
 
     /// The body force's generalised forces on (φ, v) at (sin φ, cos φ), if any.
@@ -105,10 +130,13 @@ impl<T: Real> PlanarPlant<T> {
     /// reach a flank engage in a plastic impact (the velocities in `x` jump).
     fn gear_elapsed(&mut self, dt: T, x: &mut PlanarState<T>) {
         let Some(mut play) = self.play else { return };
-        let (w_r, w_l) = self.model.wheel_speeds(x);
+        let (w_r, w_l) = self.wheel_speeds(x);
         for (i, hit) in play.elapsed(dt, [w_r, w_l], self.model.friction()).iter().enumerate() {
             if let Some(rotor_speed) = hit {
-                let speed = impact(&self.model, x, i, *rotor_speed, play.engaged());
+                let speed = match &self.ground {
+                    None => impact(&self.model, x, i, *rotor_speed, play.engaged()),
+                    Some(g) => g.jump_in_plane(x, |xp| impact(&self.model, xp, i, *rotor_speed, play.engaged())),
+                };
                 play.engage(i, speed);
             }
         }
@@ -126,7 +154,10 @@ impl<T: Real> PlanarPlant<T> {
     #[inline(always)]
     fn geared_motion_at(&self, x: &PlanarState<T>, u: &SVector<T, 2>, stage: Stage) -> (PlanarState<T>, [T; 2]) {
         let torques = self.torques_by(x, u, |w, pwm, speed| w.current_at(pwm, speed, stage));
-        self.model.deriv_geared(x, &torques, self.trains(), |s, cp| self.extra(s, cp))
+        match &self.ground {
+            None => self.model.deriv_geared(x, &torques, self.trains(), |s, cp| self.extra(s, cp)),
+            Some(g) => g.deriv_geared(x, &torques, self.trains(), |s, cp| self.extra(s, cp).map(|q| [q[0], q[1]])),
+        }
     }
 
     /// A step starts at `x` under `u`: engaged trains whose contact torque would pull the
@@ -157,10 +188,9 @@ impl<T: Real> PlanarPlant<T> {
     pub(crate) fn gear_next_with(&mut self, x: &PlanarState<T>, motor: [T; 2], mean: [T; 2], d: &PlanarState<T>, friction: [T; 2]) -> bool {
         let Some(mut play) = self.play else { return true };
         let engaged = play.engaged();
-        let zero = T::zero();
-        let (acc_r, acc_l) = self.model.wheel_speeds(&PlanarState::from([zero, zero, zero, zero, d[4], d[5], d[6]]));
+        let (acc_r, acc_l) = self.wheel_accelerations(x, d);
         let j = play.inertia();
-        let (w_r, w_l) = self.model.wheel_speeds(x);
+        let (w_r, w_l) = self.wheel_speeds(x);
         let contact = [motor[0] - friction[0] - j * acc_r, motor[1] - friction[1] - j * acc_l];
         play.next_step([w_r, w_l], contact, mean);
         self.play = Some(play);
@@ -188,7 +218,11 @@ impl<T: Real> PlanarPlant<T> {
     pub(crate) fn ground_start(&mut self, t: T, dt: T, x: &mut PlanarState<T>) {
         self.gear_elapsed(dt, x);
         while let Some(p) = self.pushes.due(t, dt) {
-            push(&self.model, x, &p);
+            match &self.ground {
+                None => push(&self.model, x, &p),
+                // On terrain the push acts in the plane's frame, at the pitch φ' from its normal.
+                Some(g) => g.jump_in_plane(x, |xp| push(&self.model, xp, &p)),
+            }
         }
     }
 
@@ -272,7 +306,23 @@ impl<T: Real> Dynamics<T, 7, 2> for PlanarPlant<T> {
     }
 
     fn energy(&self, x: &PlanarState<T>) -> T {
-        self.model.energy(x)
+        match &self.ground {
+            None => self.model.energy(x),
+            Some(g) => g.energy(x),
+        }
+    }
+
+    /// On terrain: off a grid, or a wheel's normal force below zero under the torques
+    /// the windings deliver at `x` with the gear trains as they are.
+    #[inline]
+    fn halted(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> Option<crate::model::dynamics::Halt> {
+        let g = self.ground.as_ref()?;
+        if !g.terrain().contains(x[0], x[1]) {
+            return Some(crate::model::dynamics::Halt::OffTerrain);
+        }
+        let torques = self.torques(x, u);
+        let [n_r, n_l] = g.normal_forces_geared(x, &torques, self.trains(), |s, cp| self.extra(s, cp).map(|q| [q[0], q[1]]));
+        (n_r < T::zero() || n_l < T::zero()).then_some(crate::model::dynamics::Halt::Lifted)
     }
 }
 
@@ -329,7 +379,7 @@ impl<T: Real> RigPlant<T, 7, 2> for PlanarPlant<T> {
 }
 
 /// The IMU, tilt estimator and encoders of the 3-DOF robot, as one sensor.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct PlanarSensors<T: Real> {
     /// The pitch-plane channels, and the gyro's z axis (its accelerometer unused).
     imu: Option<(Mpu6050<T>, Mpu6050<T>)>,
@@ -353,6 +403,9 @@ pub struct PlanarSensors<T: Real> {
     last_read: Option<T>,
     /// Each motor shaft's angle minus its wheel's (backlash): the encoders count the shafts.
     shaft: [T; 2],
+    /// The ground the robot is on (None: flat): the body's pitch about the axle and the
+    /// gravity the accelerometer feels follow its local plane.
+    terrain: Option<Terrain<T>>,
 }
 
 impl<T: Real> PlanarSensors<T> {
@@ -397,14 +450,23 @@ impl<T: Real> PlanarSensors<T> {
             rng: Sfc64::new(seed, stream),
             last_read: None,
             shaft: [T::zero(); 2],
+            terrain: None,
         })
+    }
+
+    /// These sensors on `terrain` (None: flat ground).
+    pub fn on(self, terrain: Option<Terrain<T>>) -> Self {
+        Self { terrain, ..self }
     }
 
     /// Follows each wheel's angle relative to the body to `x` at time `t` (the trapezoid
     /// rule on the plant's steps): the sampling the encoders need.
     #[inline]
     pub(crate) fn follow_wheels(&mut self, t: T, x: &PlanarState<T>) {
-        let speeds = self.wheels.speeds(&(*x).into());
+        let speeds = match &self.terrain {
+            None => self.wheels.speeds(&(*x).into()),
+            Some(g) => self.wheels.speeds(&in_plane(x, &frame_of(g, x))),
+        };
         if t > T::zero() {
             let half = self.dt * c::<T>(0.5);
             for ((beta, was), now) in self.beta.iter_mut().zip(self.beta_dot).zip(speeds) {
@@ -458,6 +520,47 @@ pub(crate) fn sample_imus<S: Lane>(
     yaw.sample_gyro_with(x[6] * cos_phi, n_yaw);
 }
 
+/// The IMUs' sample on terrain at state `x` with derivative `xdot` (docs/terrain.md, "The
+/// rig on terrain"). The sensor's axes are the body's: x forward and z up the body, the
+/// body pitched φ' = φ + δ from the plane's normal about the axle. Gravity in those axes is
+/// g cos ρ (−sin φ, cos φ) (ρ the roll the cross slope gives; the rest, g sin ρ, lies along
+/// the axle, which the pitch channels do not read), and the pitch-plane motion is the flat
+/// model's in the plane's frame: so the flat formula with the pitch rates φ̇', φ̈', the
+/// ground tilted by δ under the body and gravity g cos ρ. The pitch gyro reads φ̇', the z
+/// gyro ω cos φ' (the yaw ω is about the plane's normal). Level ground gives the flat
+/// sample bit for bit.
+#[inline]
+fn sample_imus_on_terrain<T: Real>(
+    (pitch, yaw): (&mut Mpu6050<T>, &mut Mpu6050<T>),
+    terrain: &Terrain<T>,
+    x: &PlanarState<T>,
+    xdot: &PlanarState<T>,
+    n: [[T; 4]; 2],
+    dims: (T, T, T, T),
+) {
+    let [fx, fz, pitch_rate, yaw_rate] = imu_inputs_on_terrain(terrain, x, xdot, dims);
+    pitch.sample_with(fx, fz, pitch_rate, n[0]);
+    yaw.sample_gyro_with(yaw_rate, n[1]);
+}
+
+/// What the IMUs sense on terrain ([`sample_imus_on_terrain`]): the specific force along
+/// the sensor's x and z, the pitch gyro's rate and the z gyro's.
+#[inline]
+fn imu_inputs_on_terrain<T: Real>(terrain: &Terrain<T>, x: &PlanarState<T>, xdot: &PlanarState<T>, (radius, inv_r, height, g): (T, T, T, T)) -> [T; 4] {
+    let f = frame_of(terrain, x);
+    let xp = in_plane(x, &f);
+    let cos_roll = (f.cos_slope * f.cos_slope + f.sin_grade * f.sin_grade).sqrt();
+    let (sin_d, cos_d) = f.delta.sin_cos();
+    // The pitch from the most vertical direction (φ, which gravity's direction gives), and
+    // the body's pitch rates about the axle (φ̇', φ̈').
+    let phi_dd = TerrainModel::pitch_acceleration(x, xdot, &f);
+    let zero = T::zero();
+    let x4 = [x[3], xp[4], zero, x[5] * inv_r];
+    let xdot4 = [xp[4], phi_dd, x[5] * inv_r, xdot[5] * inv_r];
+    let (fx, fz) = specific_force_of(&x4, &xdot4, sin_d, cos_d, radius, height, g * cos_roll);
+    [fx, fz, xp[4], x[6] * xp[3].cos()]
+}
+
 impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
     /// Follows the wheels' angles; samples the IMUs when their period has come round.
     #[inline]
@@ -467,8 +570,13 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
             if self.clock.due(t) {
                 let n = [pitch.draw(&mut self.rng), yaw.draw(&mut self.rng)];
                 let height = pitch.settings().height;
-                let dims = (self.radius, self.wheels.inv_r, height, self.g);
-                sample_imus((pitch, yaw), &(*x).into(), &(*xdot).into(), x[3].cos(), n, dims);
+                match &self.terrain {
+                    None => {
+                        let dims = (self.radius, self.wheels.inv_r, height, self.g);
+                        sample_imus((pitch, yaw), &(*x).into(), &(*xdot).into(), x[3].cos(), n, dims);
+                    }
+                    Some(g) => sample_imus_on_terrain((pitch, yaw), g, x, xdot, n, (self.radius, self.wheels.inv_r, height, self.g)),
+                }
             }
         }
     }
@@ -567,6 +675,14 @@ impl<T: Real> Realism<T> {
     /// The plant, sensor and actuator for a run of the 3-DOF `model` at plant step `dt`.
     /// The planar model is flat: a slope profile is refused.
     pub fn build_planar(&self, model: &PlanarModel<T>, dt: T) -> Result<PlanarRig<T>, TwipError> {
+        self.build_planar_on(model, None, dt)
+    }
+
+    /// [`Self::build_planar`] on `terrain` (None: flat ground, the same rig): the plant moves
+    /// by the terrain model ([`TerrainModel`], its gear trains and forces as on flat
+    /// ground) and the sensors read the body on the terrain's local plane. A slope profile
+    /// (the 2-DOF model's) is refused either way: the terrain is the ground.
+    pub fn build_planar_on(&self, model: &PlanarModel<T>, terrain: Option<&Terrain<T>>, dt: T) -> Result<PlanarRig<T>, TwipError> {
         let s = self.validate()?;
         let profile = s.slope_profile;
         if profile.base() != T::zero() || profile.changes().next().is_some() {
@@ -594,8 +710,9 @@ impl<T: Real> Realism<T> {
             Some(b) if b.gap > T::zero() => Some(GearPlay::new(&b, model.rotor_per_wheel(), T::one())?),
             _ => None,
         };
-        let plant = PlanarPlant { model, drives, force: s.force, has_force: !s.force.is_zero(), pushes, play };
-        let sensors = PlanarSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, &params, dt, s.seed, s.stream)?;
+        let ground = terrain.map(|t| TerrainModel::new(model, t.clone()));
+        let plant = PlanarPlant { model, ground, drives, force: s.force, has_force: !s.force.is_zero(), pushes, play };
+        let sensors = PlanarSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, &params, dt, s.seed, s.stream)?.on(terrain.cloned());
         Ok(Rig { plant, sensors, actuator, delay: s.delay })
     }
 }
@@ -659,8 +776,8 @@ mod tests {
         for (name, realism) in [("thesis-like", Realism::thesis_like()), ("no backlash", Realism { backlash: None, ..Realism::thesis_like() })] {
             let mut rig = realism.build_planar(&model, config.dt).unwrap();
             let mut checked = crate::hardware::realism::Rig {
-                plant: Unshared { plant: rig.plant, shared: 0, not_shared: 0 },
-                sensors: rig.sensors,
+                plant: Unshared { plant: rig.plant.clone(), shared: 0, not_shared: 0 },
+                sensors: rig.sensors.clone(),
                 actuator: rig.actuator,
                 delay: rig.delay,
             };
@@ -769,5 +886,146 @@ mod f32_tests {
         let gap = ((p64[0] - p32[0]).powi(2) + (p64[1] - p32[1]).powi(2)).sqrt();
         std::println!("after 10 s on the circle: f32 and f64 rigs {gap:.1e} m apart");
         assert!(gap < 0.05, "{gap}");
+    }
+}
+
+/// The 3-DOF rig on terrain (`Realism::build_planar_on`).
+#[cfg(all(test, feature = "std"))]
+mod terrain_tests {
+    use super::*;
+    use crate::control::pid::PidTracker;
+    use crate::control::trajectory::{Circle, Direction};
+    use crate::hardware::motor::DcMotor;
+    use crate::sim::runner::{simulate, Observer, Outcome, SimConfig};
+
+    #[derive(Default)]
+    struct Trace(std::vec::Vec<(f64, PlanarState<f64>, SVector<f64, 2>, std::vec::Vec<f64>)>);
+
+    impl<S> Observer<f64, 7, 2, S> for Trace {
+        fn observe(&mut self, t: f64, x: &PlanarState<f64>, u: &SVector<f64, 2>, _: &S, signals: &[f64]) {
+            self.0.push((t, *x, *u, signals.to_vec()));
+        }
+    }
+
+    fn run(realism: &Realism<f64>, terrain: Option<&Terrain<f64>>, t_final: f64) -> (Outcome<f64>, Trace) {
+        let params = RobotParams::balanbot();
+        let mut ctrl = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), 0.005).unwrap();
+        let circle = Circle::from_origin(0.6, core::f64::consts::PI * params.wheel_radius, Direction::CounterClockwise).unwrap();
+        let config = SimConfig { dt: 1e-3, t_final, fall_limit: 1.0 };
+        let mut rig = realism.build_planar_on(&PlanarModel::new(params).unwrap(), terrain, config.dt).unwrap();
+        let mut trace = Trace::default();
+        let outcome = rig.simulate(&mut ctrl, &circle, &PlanarState::zeros(), &config, &mut trace, || false).unwrap().0;
+        (outcome, trace)
+    }
+
+    fn rigs() -> [(&'static str, Realism<f64>); 3] {
+        let pushed = Realism {
+            force: Force { horizontal: 0.05, vertical: -0.2, height: 0.1 },
+            pushes: Pushes::new(&[Push { t: 1.0, impulse: 0.03, height: 0.15 }]).unwrap(),
+            ..Realism::thesis_like()
+        };
+        let stick = Realism { friction: Some(crate::model::friction::Friction::gb37().with_stick(0.1)), ..Realism::thesis_like() };
+        [("thesis-like", Realism::thesis_like()), ("force and a push", pushed), ("stick band", stick)]
+    }
+
+    /// Level ground given as a terrain (a plane of zero slope, any uphill heading) runs the
+    /// flat rig bit for bit: states, commands and every signal, with backlash's impacts, a
+    /// body force, a push and a stick band.
+    #[test]
+    fn level_terrain_is_the_flat_rig_bitwise() {
+        let level = Terrain::plane(0.0, 0.7).unwrap();
+        for (name, realism) in rigs() {
+            let (a, flat) = run(&realism, None, 6.0);
+            let (b, on) = run(&realism, Some(&level), 6.0);
+            assert_eq!(a, Outcome::Completed, "{name}");
+            assert_eq!((a, &flat.0), (b, &on.0), "{name}");
+        }
+    }
+
+    /// With the ideal realism, the rig on terrain is the plain runner on the terrain model,
+    /// bit for bit; with the thesis-like rig a 5° slope changes the run, which still holds.
+    #[test]
+    fn the_rig_on_a_slope_is_the_terrain_model() {
+        let hill = Terrain::plane(5f64.to_radians(), 0.5).unwrap();
+        let params = RobotParams::balanbot();
+        let model = TerrainModel::new(PlanarModel::new(params).unwrap(), hill.clone());
+        let mut ctrl = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), 0.005).unwrap();
+        let circle = Circle::from_origin(0.6, core::f64::consts::PI * params.wheel_radius, Direction::CounterClockwise).unwrap();
+        let config = SimConfig { dt: 1e-3, t_final: 4.0, fall_limit: 1.0 };
+        let mut plain = Trace::default();
+        simulate(&model, &mut ctrl, &circle, &PlanarState::zeros(), &config, &mut plain).unwrap();
+        let (_, ideal) = run(&Realism::ideal(), Some(&hill), 4.0);
+        let states = |t: &Trace| t.0.iter().map(|r| (r.0, r.1, r.2)).collect::<std::vec::Vec<_>>();
+        assert_eq!(states(&plain), states(&ideal));
+        let (flat_outcome, flat) = run(&Realism::thesis_like(), None, 4.0);
+        let (outcome, sloped) = run(&Realism::thesis_like(), Some(&hill), 4.0);
+        assert_eq!((flat_outcome, outcome), (Outcome::Completed, Outcome::Completed));
+        let gap = flat.0.iter().zip(&sloped.0).map(|(a, b)| (a.1 - b.1).amax()).fold(0.0, f64::max);
+        std::println!("thesis-like rig, 4 s of circle-pid: flat and a 5 degree plane differ by {gap:.3} at most (state)");
+        assert!(gap > 1e-3, "{gap}");
+    }
+
+    /// The IMUs' inputs on terrain against the sensor's motion in 3-D: its position from
+    /// the contact point, the normal and the body's axis along a run on a plane with a cross
+    /// slope (ω = 0 at the middle sample, ω̇ not: the yaw torque of the lean), differentiated
+    /// twice; the specific force (acceleration plus g up) along the body's x and z axes. At
+    /// rest the accelerometer's tilt is φ, the pitch from the most vertical direction.
+    #[test]
+    fn the_imu_on_terrain_reads_the_bodys_motion_in_3d() {
+        let p = RobotParams::<f64>::balanbot();
+        let (radius, height, g) = (p.wheel_radius, 0.12, p.g);
+        let dims = (radius, 1.0 / radius, height, g);
+        let hill = Terrain::plane(0.35, 0.4).unwrap();
+        let model = TerrainModel::new(PlanarModel::new(p).unwrap(), hill.clone());
+        let Terrain::Plane { gx, gy } = hill else { unreachable!() };
+        // The sensor's position in 3-D and the body's x and z axes.
+        let axes = |x: &PlanarState<f64>| {
+            let norm = |v: [f64; 3]| {
+                let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                v.map(|c| c / l)
+            };
+            let n = norm([-gx, -gy, 1.0]);
+            let (s, c) = x[2].sin_cos();
+            let d = norm([c, s, gx * c + gy * s]);
+            let f = model.frame(x);
+            let (sp, cp) = (x[3] + f.delta).sin_cos();
+            let bz: [f64; 3] = core::array::from_fn(|i| n[i] * cp + d[i] * sp);
+            let bx: [f64; 3] = core::array::from_fn(|i| d[i] * cp - n[i] * sp);
+            let h = gx * x[0] + gy * x[1];
+            let pos: [f64; 3] = core::array::from_fn(|i| [x[0], x[1], h][i] + radius * n[i] + height * bz[i]);
+            (pos, bx, bz)
+        };
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let mut worst: f64 = 0.0;
+        for (psi, phi, phi_dot, v) in [(1.4, 0.1, 0.5, 0.4), (-0.9, -0.3, -1.0, 1.0), (2.5, 0.0, 0.0, 0.0), (0.4, 0.2, 0.0, -0.3)] {
+            let x = PlanarState::from([0.3, -0.2, psi, phi, phi_dot, v, 0.0]);
+            let u = SVector::from([0.05, 0.02]);
+            let d = model.deriv(&x, &u);
+            let h = 1e-3;
+            let (back, fwd) = (crate::rk4_step(&model, &x, &u, -h), crate::rk4_step(&model, &x, &u, h));
+            let ((p0, bx, bz), (pb, _, _), (pf, _, _)) = (axes(&x), axes(&back), axes(&fwd));
+            let acc: [f64; 3] = core::array::from_fn(|i| (pf[i] - 2.0 * p0[i] + pb[i]) / (h * h));
+            let force = [acc[0], acc[1], acc[2] + g];
+            let [fx, fz, rate, yaw] = imu_inputs_on_terrain(&hill, &x, &d, dims);
+            let e = ((fx - dot(force, bx)).abs()).max((fz - dot(force, bz)).abs());
+            worst = worst.max(e);
+            assert!(e < 1e-5 * g, "psi {psi}: ({fx}, {fz}) against ({}, {})", dot(force, bx), dot(force, bz));
+            assert_eq!((rate, yaw), (phi_dot, 0.0));
+        }
+        std::println!("IMU on a 0.35 rad plane: specific force within {worst:.1e} m/s^2 of the 3-D sensor's");
+        let rest = PlanarState::from([0.0, 0.0, 0.4 + core::f64::consts::FRAC_PI_2, 0.0, 0.0, 0.0, 0.0]);
+        let [fx, fz, _, _] = imu_inputs_on_terrain(&hill, &rest, &model.deriv(&rest, &SVector::zeros()), dims);
+        // Across the slope, upright: the accelerometer reads g cos(roll) up the body, no tilt.
+        assert!(fx.abs() < 1e-12 && (fz - g * 0.35f64.cos()).abs() < 1e-12, "{fx} {fz}");
+        // At rest on the grade at any heading (its rest pitch and torques): the tilt is φ,
+        // the pitch from the most vertical direction, not φ' from the normal.
+        for heading in [0.4, 1.2, 3.0] {
+            let (phi, u) = model.rest(0.0, 0.0, heading).unwrap();
+            let x = PlanarState::from([0.0, 0.0, heading, phi, 0.0, 0.0, 0.0]);
+            let d = model.deriv(&x, &SVector::from(u));
+            assert!(d.amax() < 1e-12, "{d}");
+            let [fx, fz, _, _] = imu_inputs_on_terrain(&hill, &x, &d, dims);
+            assert!((accel_tilt(fx, fz) - phi).abs() < 1e-12 && phi.abs() > 0.01, "{} vs {phi}", accel_tilt(fx, fz));
+        }
     }
 }

@@ -434,8 +434,26 @@ pub(crate) fn open_motion<S: Lane>(
     rotor: S,
     extra: impl Fn(S, S) -> Option<[S; 2]>,
 ) -> ([S; 7], [S; 2]) {
+    let (nu_dot, tau) = open_accelerations(k, gear, x, u, engaged, rotor, |u_r, u_l| forces_plus(k, x, u_r, u_l, &extra));
+    (kinematics(x, nu_dot), tau)
+}
+
+/// ν̇ with the gear trains of the wheels not `engaged` open ([`open_motion`]'s), the
+/// generalised forces at net wheel torques (u_r, u_l) given by `forces_at` (with sin φ,
+/// cos φ), as [`engaged_accelerations`] takes them; and each wheel's gearhead torque.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn open_accelerations<S: Lane>(
+    k: &PlanarCoefficients<S>,
+    gear: Gearhead<'_, S>,
+    x: &[S; 7],
+    u: [S; 2],
+    engaged: [S::Mask; 2],
+    rotor: S,
+    forces_at: impl Fn(S, S) -> ([S; 3], S, S),
+) -> ([S; 3], [S; 2]) {
     let zero = S::splat(0.0);
-    let (f, s, cp) = forces_plus(k, x, S::select(engaged[0], u[0], zero), S::select(engaged[1], u[1], zero), &extra);
+    let (f, s, cp) = forces_at(S::select(engaged[0], u[0], zero), S::select(engaged[1], u[1], zero));
     let rows = wheel_rows(k);
     let reduced = Adjugate::of(reduced_mass(k, s, cp, open_rotors(engaged, rotor)));
     let mut nu_dot = reduced.solve(&f);
@@ -456,7 +474,7 @@ pub(crate) fn open_motion<S: Lane>(
         }
         tau = [S::select(right, t, zero), S::select(right, zero, t)];
     }
-    (kinematics(x, nu_dot), tau)
+    (nu_dot, tau)
 }
 
 /// Each wheel's speed relative to the body, θ̇_side − φ̇ = (v ± b ω)/R − φ̇ [rad/s].

@@ -25,7 +25,7 @@ use nalgebra::SVector;
 use crate::model::dynamics::Halt;
 use crate::model::friction::Gearhead;
 use crate::model::math::sin_cos;
-use crate::model::planar::{engaged_accelerations, forces, PlanarModel, PlanarState};
+use crate::model::planar::{engaged_accelerations, forces_plus, open_accelerations, PlanarModel, PlanarState};
 use crate::model::terrain::{Local, Terrain};
 use crate::{c, Dynamics, Real, TwipError};
 
@@ -99,34 +99,94 @@ impl<T: Real> TerrainModel<T> {
 
     /// The local plane's frame at state `x`.
     pub fn frame(&self, x: &PlanarState<T>) -> Frame<T> {
-        let g = self.ground(x);
-        let (s, co) = sin_cos(x[2]);
-        Frame::new(g.gx, g.gy, s, co)
-    }
-
-    /// The state in the plane's frame: φ → φ' = φ + δ, φ̇ → φ̇' = φ̇ + δ' ω.
-    #[inline(always)]
-    fn in_plane(x: &PlanarState<T>, f: &Frame<T>) -> [T; 7] {
-        [x[0], x[1], x[2], x[3] + f.delta, f.delta_1 * x[6] + x[4], x[5], x[6]]
+        frame_of(&self.terrain, x)
     }
 
     /// ν̇' = (φ̈', v̇, ω̇) in the plane's frame, each wheel's gearhead torque and the frame.
     #[inline(always)]
     fn accelerations(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> ([T; 3], [T; 2], Frame<T>, [T; 7]) {
+        self.geared_accelerations(x, u, [true, true], |_, _| None)
+    }
+
+    /// [`Self::accelerations`] with the gear trains of the wheels not `engaged` open (the
+    /// 3-DOF rig's backlash: as `PlanarModel::deriv_geared`) and `extra` generalised forces
+    /// on (φ', v) at (sin φ', cos φ') (a force on the body, in the plane's frame). All
+    /// engaged and no extra force is [`Self::accelerations`], bit for bit.
+    #[inline(always)]
+    pub(crate) fn geared_accelerations(
+        &self,
+        x: &PlanarState<T>,
+        u: &SVector<T, 2>,
+        engaged: [bool; 2],
+        extra: impl Fn(T, T) -> Option<[T; 2]>,
+    ) -> ([T; 3], [T; 2], Frame<T>, [T; 7]) {
         let f = self.frame(x);
-        let xp = Self::in_plane(x, &f);
+        let xp = in_plane(x, &f);
         let k = self.flat.coefficients();
         let p = self.flat.params();
         let weight = (p.m_body + p.m_wheels) * p.g;
         let forces_at = |u_r: T, u_l: T| {
-            let ([f_p, f_v, f_w], s, cp) = forces(&k, &xp, u_r, u_l);
+            let ([f_p, f_v, f_w], s, cp) = forces_plus(&k, &xp, u_r, u_l, &extra);
             // The flat gravity torque M_b g c_z sin φ' becomes M_b g c_z (cos β sin φ' − sin γ cos φ'):
             // add the difference, which is exactly zero on level ground.
             let lean = (f.cos_slope - T::one()) * s - f.sin_grade * cp;
             ([k.mgc * lean + f_p, f_v - weight * f.sin_grade, k.mgc * f.cross * s + f_w], s, cp)
         };
-        let (nu, tau) = engaged_accelerations(&k, Gearhead::of(self.flat.friction()), &xp, [u[0], u[1]], forces_at);
+        let gear = Gearhead::of(self.flat.friction());
+        let (nu, tau) = if engaged == [true, true] {
+            engaged_accelerations(&k, gear, &xp, [u[0], u[1]], forces_at)
+        } else {
+            open_accelerations(&k, gear, &xp, [u[0], u[1]], engaged, self.flat.rotor_per_wheel(), forces_at)
+        };
         (nu, tau, f, xp)
+    }
+
+    /// The derivative with the gear trains of the wheels not `engaged` open and `extra`
+    /// forces on the body ([`Self::geared_accelerations`]), and each wheel's gearhead
+    /// torque: the 3-DOF rig's plant on terrain.
+    #[inline(always)]
+    pub(crate) fn deriv_geared(
+        &self,
+        x: &PlanarState<T>,
+        u: &SVector<T, 2>,
+        engaged: [bool; 2],
+        extra: impl Fn(T, T) -> Option<[T; 2]>,
+    ) -> (PlanarState<T>, [T; 2]) {
+        let (nu, tau, f, _) = self.geared_accelerations(x, u, engaged, extra);
+        (motion(x, &nu, &f), tau)
+    }
+
+    /// Each wheel's speed relative to the body, θ̇_side − φ̇' = (v ± b ω)/R − φ̇' [rad/s]:
+    /// the body's pitch rate about the axle is φ̇' = φ̇ + δ' ω (what the motors and the
+    /// encoders turn by).
+    pub fn wheel_speeds(&self, x: &PlanarState<T>) -> (T, T) {
+        self.flat.wheel_speeds(&PlanarState::from(in_plane(x, &self.frame(x))))
+    }
+
+    /// φ̈' = φ̈ + δ' ω̇ + δ'' ω² from the state `x` and its derivative `d` in frame `f`.
+    #[inline(always)]
+    pub(crate) fn pitch_acceleration(x: &PlanarState<T>, d: &PlanarState<T>, f: &Frame<T>) -> T {
+        d[4] + f.delta_1 * d[6] + f.delta_2 * x[6] * x[6]
+    }
+
+    /// Each wheel's normal force [N] with the gear trains `engaged` and `extra` forces on
+    /// the body (the rig's plant: its accelerations; the forces' own weight on the ground is
+    /// not counted).
+    pub(crate) fn normal_forces_geared(&self, x: &PlanarState<T>, u: &SVector<T, 2>, engaged: [bool; 2], extra: impl Fn(T, T) -> Option<[T; 2]>) -> [T; 2] {
+        let (nu, _, f, xp) = self.geared_accelerations(x, u, engaged, extra);
+        normal_forces(self.flat.params(), &f, &xp, &nu)
+    }
+
+    /// `change` applied to the state in the plane's frame (a jump of the velocities ν' =
+    /// (φ̇', v, ω): an impulse, an impact), written back to `x` (φ̇ = φ̇' − δ' ω).
+    pub(crate) fn jump_in_plane<R>(&self, x: &mut PlanarState<T>, change: impl FnOnce(&mut PlanarState<T>) -> R) -> R {
+        let f = self.frame(x);
+        let mut xp = PlanarState::from(in_plane(x, &f));
+        let out = change(&mut xp);
+        x[4] = xp[4] - f.delta_1 * xp[6];
+        x[5] = xp[5];
+        x[6] = xp[6];
+        out
     }
 
     /// Each wheel's normal force [N] (right, left) at state `x` under motor torques `u`, by
@@ -165,6 +225,31 @@ impl<T: Real> TerrainModel<T> {
     }
 }
 
+/// The frame of `terrain`'s local plane at state `x` (clamped onto a grid).
+#[inline(always)]
+pub(crate) fn frame_of<T: Real>(terrain: &Terrain<T>, x: &PlanarState<T>) -> Frame<T> {
+    let g = terrain.local_clamped(x[0], x[1]);
+    let (s, co) = sin_cos(x[2]);
+    Frame::new(g.gx, g.gy, s, co)
+}
+
+/// The state in the plane's frame `f`: φ → φ' = φ + δ, φ̇ → φ̇' = φ̇ + δ' ω.
+#[inline(always)]
+pub(crate) fn in_plane<T: Real>(x: &PlanarState<T>, f: &Frame<T>) -> [T; 7] {
+    [x[0], x[1], x[2], x[3] + f.delta, f.delta_1 * x[6] + x[4], x[5], x[6]]
+}
+
+/// The state's derivative from ν̇' = (φ̈', v̇, ω̇) in frame `f`.
+#[inline(always)]
+fn motion<T: Real>(x: &PlanarState<T>, nu: &[T; 3], f: &Frame<T>) -> PlanarState<T> {
+    let (s, co) = sin_cos(x[2]);
+    let (v, omega) = (x[5], x[6]);
+    let speed = v * f.cos_grade;
+    // φ = φ' − δ(χ), χ̇ = ω: φ̈ = φ̈' − δ' ω̇ − δ'' ω².
+    let phi_dd = nu[0] - f.delta_1 * nu[2] - f.delta_2 * omega * omega;
+    PlanarState::from([speed * co, speed * s, omega * f.turn, x[4], phi_dd, nu[1], nu[2]])
+}
+
 /// N_r, N_l from the plane-frame state `xp` = [.., φ', φ̇', v, ω] and ν̇' (docs/terrain.md):
 /// N_r + N_l = (M_b + M_w) g cos β − M_b c_z (sin φ' φ̈' + cos φ' φ̇'²), and
 /// b (N_l − N_r) = g sin β sin χ H − (H + I_w/R) v ω − ω φ̇' (k cos 2φ' + I_yy + M_b c_z² + 2 M_b R c_z cos φ')
@@ -192,19 +277,14 @@ impl<T: Real> Dynamics<T, 7, 2> for TerrainModel<T> {
     #[inline]
     fn deriv(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> PlanarState<T> {
         let (nu, _, f, _) = self.accelerations(x, u);
-        let (s, co) = sin_cos(x[2]);
-        let (v, omega) = (x[5], x[6]);
-        let speed = v * f.cos_grade;
-        // φ = φ' − δ(χ), χ̇ = ω: φ̈ = φ̈' − δ' ω̇ − δ'' ω².
-        let phi_dd = nu[0] - f.delta_1 * nu[2] - f.delta_2 * omega * omega;
-        PlanarState::from([speed * co, speed * s, omega * f.turn, x[4], phi_dd, nu[1], nu[2]])
+        motion(x, &nu, &f)
     }
 
     /// ½ ν'ᵀ M(φ') ν' + M_b g c_z (cos β cos φ' + sin γ sin φ') + (M_b + M_w) g (h + R (cos β − 1)):
     /// heights from the flat model's zero (the axle at R over level ground at h = 0).
     fn energy(&self, x: &PlanarState<T>) -> T {
         let f = self.frame(x);
-        let xp = Self::in_plane(x, &f);
+        let xp = in_plane(x, &f);
         let p = self.flat.params();
         // As the flat model's energy evaluates its cos φ.
         let (s, cp) = (xp[3].sin(), xp[3].cos());

@@ -46,7 +46,7 @@ pub(crate) fn settle_time(settle: Option<f64>, path: &Trajectory<f64>) -> PyResu
 #[derive(Clone)]
 struct PlanarRun {
     plant: twip_core::PlanarModel<f64>,
-    /// The plant on its terrain (the ideal loop only), or flat ground.
+    /// The plant on its terrain, or flat ground.
     terrain: Option<twip_core::model::terrain_model::TerrainModel<f64>>,
     path: Trajectory<f64>,
     settle: f64,
@@ -72,7 +72,7 @@ impl PlanarRun {
         let (outcome, steps) = match (&self.realism, &self.terrain) {
             (None, Some(t)) => simulate_until(t, ctrl, &self.path, &self.x0, &self.config, &mut observers, should_stop)?,
             (None, None) => simulate_until(&self.plant, ctrl, &self.path, &self.x0, &self.config, &mut observers, should_stop)?,
-            (Some(r), _) => r.build_planar(&self.plant, self.config.dt)?.simulate(
+            (Some(r), t) => r.build_planar_on(&self.plant, t.as_ref().map(|t| t.terrain()), self.config.dt)?.simulate(
                 ctrl,
                 &self.path,
                 &self.x0,
@@ -126,10 +126,7 @@ pub fn simulate_planar_raw<'py>(
         .cast::<PyPlanarModel>()
         .map_err(|_| pyo3::exceptions::PyTypeError::new_err("this controller drives a twip.PlanarModel"))?
         .get();
-    let (plant, terrain) = match realism {
-        Some(_) => (*model.flat_only("the 3-DOF rig (realism)")?, None),
-        None => (model.inner, model.on_terrain()),
-    };
+    let (plant, terrain) = (model.inner, model.on_terrain());
     if let Some(t) = &terrain {
         let x0 = vector::<7>("x0", x0)?;
         if !t.terrain().contains(x0[0], x0[1]) {

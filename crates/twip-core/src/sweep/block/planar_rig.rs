@@ -344,11 +344,11 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     let built = block_rigs(samples_models, realism_of, |realism, model| realism.build_planar(model, dt))?;
     // Invalid or missing samples run an idle copy of a valid robot's rig, never kept.
     let active: [bool; LANES] = core::array::from_fn(|l| built.get(l).is_some_and(Option::is_some));
-    let Some(fallback) = built.iter().flatten().next().copied() else {
+    let Some(fallback) = built.iter().flatten().next().cloned() else {
         return Ok(Some([PlanarSampleMetrics::INVALID; LANES]));
     };
-    let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| built.get(l).copied().flatten().map_or(fallback.0, |b| b.0));
-    let mut rigs: Vec<PlanarRig<f64>> = (0..LANES).map(|l| built.get(l).copied().flatten().map_or(fallback.1, |b| b.1)).collect();
+    let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| built.get(l).cloned().flatten().map_or(fallback.0, |b| b.0));
+    let mut rigs: Vec<PlanarRig<f64>> = (0..LANES).map(|l| built.get(l).cloned().flatten().map_or_else(|| fallback.1.clone(), |b| b.1)).collect();
     let friction = rigs[0].plant.model().friction().copied();
     // Each lane's windings with their factors for steps of `dt` (their steps are set each
     // step), and any valid ones for lanes that never evaluate one (no driver).
