@@ -4,7 +4,7 @@
 //! Run: cargo bench -p twip-core --bench step
 use std::hint::black_box;
 
-use criterion::measurement::{Measurement, ValueFormatter, WallTime};
+use criterion::measurement::Measurement;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nalgebra::{SVector, Vector4};
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
@@ -58,70 +58,82 @@ fn closed_loop<M: Measurement + 'static>(c: &mut Criterion<M>, name: &str) {
     group.finish();
 }
 
-/// The time this thread ran [ns], from the OS (Linux's thread CPU clock): other
-/// processes' time on the core does not count, as it does in wall time.
-struct ThreadCpu;
-
-#[repr(C)]
-struct Timespec {
-    seconds: i64,
-    nanoseconds: i64,
-}
-
-extern "C" {
-    fn clock_gettime(clock: i32, time: *mut Timespec) -> i32;
-}
-
-/// CLOCK_THREAD_CPUTIME_ID in Linux's time.h.
-const CLOCK_THREAD_CPUTIME_ID: i32 = 3;
-
-impl Measurement for ThreadCpu {
-    type Intermediate = u64;
-    type Value = u64;
-
-    fn start(&self) -> u64 {
-        let mut t = Timespec { seconds: 0, nanoseconds: 0 };
-        // SAFETY: `t` is a valid, writable timespec; the clock id is Linux's.
-        let status = unsafe { clock_gettime(CLOCK_THREAD_CPUTIME_ID, &mut t) };
-        assert_eq!(status, 0, "the thread CPU clock is not available");
-        t.seconds as u64 * 1_000_000_000 + t.nanoseconds as u64
-    }
-
-    fn end(&self, start: u64) -> u64 {
-        self.start() - start
-    }
-
-    fn add(&self, a: &u64, b: &u64) -> u64 {
-        a + b
-    }
-
-    fn zero(&self) -> u64 {
-        0
-    }
-
-    fn to_f64(&self, value: &u64) -> f64 {
-        *value as f64
-    }
-
-    fn formatter(&self) -> &dyn ValueFormatter {
-        // Nanoseconds, as wall time's.
-        static WALL: WallTime = WallTime;
-        WALL.formatter()
-    }
-}
-
 fn closed_loop_wall(c: &mut Criterion) {
     closed_loop(c, "closed_loop");
 }
 
-fn closed_loop_cpu(c: &mut Criterion<ThreadCpu>) {
-    closed_loop(c, "closed_loop_step");
+criterion_group!(benches, steps, closed_loop_wall);
+
+/// The closed loop per step in this thread's CPU time: Linux only (its thread CPU clock).
+#[cfg(target_os = "linux")]
+mod cpu {
+    use super::*;
+    use criterion::measurement::{Measurement, ValueFormatter, WallTime};
+
+    /// The time this thread ran [ns], from the OS (Linux's thread CPU clock): other
+    /// processes' time on the core does not count, as it does in wall time.
+    struct ThreadCpu;
+
+    #[repr(C)]
+    struct Timespec {
+        seconds: i64,
+        nanoseconds: i64,
+    }
+
+    extern "C" {
+        fn clock_gettime(clock: i32, time: *mut Timespec) -> i32;
+    }
+
+    /// CLOCK_THREAD_CPUTIME_ID in Linux's time.h.
+    const CLOCK_THREAD_CPUTIME_ID: i32 = 3;
+
+    impl Measurement for ThreadCpu {
+        type Intermediate = u64;
+        type Value = u64;
+
+        fn start(&self) -> u64 {
+            let mut t = Timespec { seconds: 0, nanoseconds: 0 };
+            // SAFETY: `t` is a valid, writable timespec; the clock id is Linux's.
+            let status = unsafe { clock_gettime(CLOCK_THREAD_CPUTIME_ID, &mut t) };
+            assert_eq!(status, 0, "the thread CPU clock is not available");
+            t.seconds as u64 * 1_000_000_000 + t.nanoseconds as u64
+        }
+
+        fn end(&self, start: u64) -> u64 {
+            self.start() - start
+        }
+
+        fn add(&self, a: &u64, b: &u64) -> u64 {
+            a + b
+        }
+
+        fn zero(&self) -> u64 {
+            0
+        }
+
+        fn to_f64(&self, value: &u64) -> f64 {
+            *value as f64
+        }
+
+        fn formatter(&self) -> &dyn ValueFormatter {
+            // Nanoseconds, as wall time's.
+            static WALL: WallTime = WallTime;
+            WALL.formatter()
+        }
+    }
+
+    fn closed_loop_cpu(c: &mut Criterion<ThreadCpu>) {
+        closed_loop(c, "closed_loop_step");
+    }
+
+    criterion_group! {
+        name = cpu_benches;
+        config = Criterion::default().with_measurement(ThreadCpu);
+        targets = closed_loop_cpu
+    }
 }
 
-criterion_group!(benches, steps, closed_loop_wall);
-criterion_group! {
-    name = cpu_benches;
-    config = Criterion::default().with_measurement(ThreadCpu);
-    targets = closed_loop_cpu
-}
-criterion_main!(benches, cpu_benches);
+#[cfg(target_os = "linux")]
+criterion_main!(benches, cpu::cpu_benches);
+#[cfg(not(target_os = "linux"))]
+criterion_main!(benches);
