@@ -1,8 +1,11 @@
-//! One RK4 step of each model, f64 and f32, and a closed-loop LQR run.
+//! One RK4 step of each model, f64 and f32, and a closed-loop LQR run: in wall time, and
+//! per closed-loop step in this thread's CPU time (`closed_loop_step`, robust on a busy
+//! machine: ns per step = 1e3 / its Melem/s).
 //! Run: cargo bench -p twip-core --bench step
 use std::hint::black_box;
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::measurement::Measurement;
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nalgebra::{SVector, Vector4};
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
 use twip_core::sim::metrics::SlopeMetrics;
@@ -33,8 +36,9 @@ fn steps(c: &mut Criterion) {
     planar_step::<f32>(c, "planar_rk4_step_f32");
 }
 
-/// 10 s of flat-lqr at dt = 1 ms (10,000 closed-loop steps) with metrics, no log.
-fn closed_loop(c: &mut Criterion) {
+/// 10 s of flat-lqr at dt = 1 ms (10,000 closed-loop steps) with metrics, no log: each
+/// step the plant's RK4 step, the observer's metrics, and every 5th the LQR law.
+fn closed_loop<M: Measurement + 'static>(c: &mut Criterion<M>, name: &str) {
     let model = SlopeModel::<f64>::new(RobotParams::balanbot(), 0.0).unwrap();
     let speed = 180f64.to_radians();
     let q = nalgebra::Matrix4::from_diagonal(&Vector4::new(100.0, 1.0, 1.0, 1.0));
@@ -42,14 +46,94 @@ fn closed_loop(c: &mut Criterion) {
     let ctrl = LqrController::new(d.gains, model, DesignPoint::OperatingPoint, 0.005).unwrap();
     let schedule = SpeedSchedule::constant(speed).unwrap();
     let config = SimConfig { dt: 1e-3, t_final: 10.0, fall_limit: 1.0 };
-    c.bench_function("flat_lqr_10s_closed_loop", |b| {
+    let mut group = c.benchmark_group(name);
+    group.throughput(Throughput::Elements(10_000));
+    group.bench_function("flat_lqr_10s", |b| {
         b.iter(|| {
             let mut ctrl = ctrl;
             let mut metrics = SlopeMetrics::new(model);
             simulate(&model, &mut ctrl, &schedule, &Vector4::zeros(), &config, &mut metrics).unwrap()
         })
     });
+    group.finish();
 }
 
-criterion_group!(benches, steps, closed_loop);
+fn closed_loop_wall(c: &mut Criterion) {
+    closed_loop(c, "closed_loop");
+}
+
+criterion_group!(benches, steps, closed_loop_wall);
+
+/// The closed loop per step in this thread's CPU time: Linux only (its thread CPU clock).
+#[cfg(target_os = "linux")]
+mod cpu {
+    use super::*;
+    use criterion::measurement::{Measurement, ValueFormatter, WallTime};
+
+    /// The time this thread ran [ns], from the OS (Linux's thread CPU clock): other
+    /// processes' time on the core does not count, as it does in wall time.
+    struct ThreadCpu;
+
+    #[repr(C)]
+    struct Timespec {
+        seconds: i64,
+        nanoseconds: i64,
+    }
+
+    extern "C" {
+        fn clock_gettime(clock: i32, time: *mut Timespec) -> i32;
+    }
+
+    /// CLOCK_THREAD_CPUTIME_ID in Linux's time.h.
+    const CLOCK_THREAD_CPUTIME_ID: i32 = 3;
+
+    impl Measurement for ThreadCpu {
+        type Intermediate = u64;
+        type Value = u64;
+
+        fn start(&self) -> u64 {
+            let mut t = Timespec { seconds: 0, nanoseconds: 0 };
+            // SAFETY: `t` is a valid, writable timespec; the clock id is Linux's.
+            let status = unsafe { clock_gettime(CLOCK_THREAD_CPUTIME_ID, &mut t) };
+            assert_eq!(status, 0, "the thread CPU clock is not available");
+            t.seconds as u64 * 1_000_000_000 + t.nanoseconds as u64
+        }
+
+        fn end(&self, start: u64) -> u64 {
+            self.start() - start
+        }
+
+        fn add(&self, a: &u64, b: &u64) -> u64 {
+            a + b
+        }
+
+        fn zero(&self) -> u64 {
+            0
+        }
+
+        fn to_f64(&self, value: &u64) -> f64 {
+            *value as f64
+        }
+
+        fn formatter(&self) -> &dyn ValueFormatter {
+            // Nanoseconds, as wall time's.
+            static WALL: WallTime = WallTime;
+            WALL.formatter()
+        }
+    }
+
+    fn closed_loop_cpu(c: &mut Criterion<ThreadCpu>) {
+        closed_loop(c, "closed_loop_step");
+    }
+
+    criterion_group! {
+        name = cpu_benches;
+        config = Criterion::default().with_measurement(ThreadCpu);
+        targets = closed_loop_cpu
+    }
+}
+
+#[cfg(target_os = "linux")]
+criterion_main!(benches, cpu::cpu_benches);
+#[cfg(not(target_os = "linux"))]
 criterion_main!(benches);
