@@ -29,6 +29,7 @@ use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, ImuSettings,
 use crate::hardware::realism::{Realism, Rig, RigPlant};
 #[cfg(all(test, feature = "std"))]
 use crate::model::friction::Friction;
+use crate::hardware::settle::Settle;
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::model::integrate::Stage;
 use crate::model::lane::Lane;
@@ -353,6 +354,7 @@ pub struct PlanarSensors<T: Real> {
     last_read: Option<T>,
     /// Each motor shaft's angle minus its wheel's (backlash): the encoders count the shafts.
     shaft: [T; 2],
+    settle: Option<Settle<T>>,
 }
 
 impl<T: Real> PlanarSensors<T> {
@@ -397,7 +399,13 @@ impl<T: Real> PlanarSensors<T> {
             rng: Sfc64::new(seed, stream),
             last_read: None,
             shaft: [T::zero(); 2],
+            settle: None,
         })
+    }
+
+    /// These sensors with a firmware's start at rest before the run ([`Settle`]).
+    pub fn settled(self, settle: Option<Settle<T>>) -> Self {
+        Self { settle, ..self }
     }
 
     /// Follows each wheel's angle relative to the body to `x` at time `t` (the trapezoid
@@ -470,6 +478,13 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
                 let dims = (self.radius, self.wheels.inv_r, height, self.g);
                 sample_imus((pitch, yaw), &(*x).into(), &(*xdot).into(), x[3].cos(), n, dims);
             }
+        }
+    }
+
+    /// The estimator reads the pitch IMU at rest at `x0`'s pitch ([`Settle`]).
+    fn settle(&mut self, x0: &PlanarState<T>, period: T) {
+        if let (Some(settle), Some((pitch, _))) = (&self.settle, &self.imu) {
+            self.last_read = Some(settle.run(&mut self.tilt, pitch, x0[3], self.g, period));
         }
     }
 
@@ -595,7 +610,8 @@ impl<T: Real> Realism<T> {
             _ => None,
         };
         let plant = PlanarPlant { model, drives, force: s.force, has_force: !s.force.is_zero(), pushes, play };
-        let sensors = PlanarSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, &params, dt, s.seed, s.stream)?;
+        let sensors = PlanarSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, &params, dt, s.seed, s.stream)?
+            .settled(Settle::new(s.settle, dt, s.seed, s.stream)?);
         Ok(Rig { plant, sensors, actuator, delay: s.delay })
     }
 }
