@@ -43,8 +43,8 @@ impl<T: Real> Settle<T> {
     pub fn run(&self, tilt: &mut TiltFilter<T>, imu: &Mpu6050<T>, phi: T, g: T, period: T) -> T {
         let (mut imu, mut rng) = (*imu, self.rng);
         let dt = self.dt;
-        let per_update = crate::to_f64(period / dt).round().max(1.0) as usize;
-        let reads = crate::to_f64(self.seconds / period).ceil().max(1.0) as usize;
+        let per_update = crate::to_f64((period / dt).round().max(T::one())) as usize;
+        let reads = crate::to_f64((self.seconds / period).ceil().max(T::one())) as usize;
         let mut clock = ImuClock::new(imu.settings().sample_period, dt);
         let (rest, still) = (Vector4::new(phi, T::zero(), T::zero(), T::zero()), Vector4::zeros());
         // At rest the ground's slope and the wheel's radius drop out.
