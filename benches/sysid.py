@@ -55,8 +55,10 @@ START = {"m_body": 1.2, "com_height": 0.8, "i_body": 1.25, "mu_bearing": 0.85}
 
 def rig_log(robot, driver, seconds=8.0, friction=False, seed=0):
     """The thesis-like rig (its sensors, 5 ms loop, the given driver) running flat-lqr with
-    `robot` under its own LQR; with `friction`, the gearheads' friction and backlash too."""
-    rig = twip.Realism.thesis_like(seed=seed).replace(motor=driver)
+    `robot` under its own LQR; with `friction`, the gearheads' friction and backlash too.
+    Without the estimator's settle at rest: the start's transient excites these logs (as
+    tests/test_sysid_misfit.py's)."""
+    rig = twip.Realism.thesis_like(seed=seed).replace(motor=driver, settle=None)
     if not friction:
         rig = rig.replace(friction=None, backlash=None)
     sc = twip.scenarios.get("flat-lqr", params=robot, controller_params=robot)

@@ -227,7 +227,10 @@ def test_the_worst_case_of_the_8_percent_box_falls_on_fresh_noise():
     """Issue 59's target: in the ±8 % box, where random robots almost all stay up, the search
     finds a falling robot (a corner: benches/design_targets.py finds it at run 13 of 400),
     and that robot falls on noise it was not found with."""
-    w = twip.worst_case("slope-lqr", perturb=box(0.08), realism=twip.Realism.thesis_like(), budget=64, seed=0)
+    # The rig without the estimator's settle at rest, issue 59's landscape: settled, the box's
+    # worst robot of 64 runs stays up (metric 0.028 against 1.91), the falls having been the start's.
+    rig = twip.Realism.thesis_like().replace(settle=None)
+    w = twip.worst_case("slope-lqr", perturb=box(0.08), realism=rig, budget=64, seed=0)
     assert w.fell and w.metric > 1.0
     assert w.replay().fell
     fresh = w.confirm(8)

@@ -956,13 +956,16 @@ class Realism:
       `slope_profile`: (distance [m], slope [rad]) changes along the path.
     - `friction`: a `twip.Friction` per wheel on the plant (None: the model's own);
       `backlash`: each gear train's free play at the wheel [rad] (None: none).
+    - `settle`: seconds the robot stands still at its initial pitch before the run while
+      the firmware's loop reads the IMU through the estimator (None or 0: the estimator
+      starts at the run's first read, while the robot free-rolls).
     - `seed`, `stream`: the noise's key (its SFC64 stream); a run is bitwise repeatable.
     """
     def __new__(cls, *, imu: Optional[Imu] = None, estimator: Any = None, encoder_cpr: Optional[float] = None,
                 motor: Optional[MotorDriver] = None, delay: bool = False, control_period: Optional[float] = None,
                 pushes: Optional[Sequence[Push]] = None, force: Optional[Force] = None, slope_profile: Any = None,
                 friction: Optional[Friction] = None, backlash: Optional[float] = None, seed: Optional[int] = None,
-                stream: Optional[int] = None) -> Realism: ...
+                stream: Optional[int] = None, settle: Optional[float] = None) -> Realism: ...
     @staticmethod
     def ideal() -> Realism:
         """Every part ideal (the same run as without realism, through the realism runner)."""
@@ -973,7 +976,9 @@ class Realism:
         complementary filter, 700 CPR encoders, the L298P on 11.1 V, and the GB37 gearheads:
         their friction (the no-load torque split beside the Balanbot's viscous bearing, with
         a stick band; `replace(friction=None)` leaves the model's own) and 1 degree of
-        backlash (`replace(backlash=None)`: none). docs/parameters.md.
+        backlash (`replace(backlash=None)`: none). The estimator settles for 2 s at rest
+        before the motors run (`replace(settle=None)`: it starts at the run's first read).
+        docs/parameters.md.
         """
     backlash: Optional[float]
     control_period: Optional[float]
@@ -987,6 +992,7 @@ class Realism:
     motor: Optional[MotorDriver]
     pushes: list[Push]
     seed: int
+    settle: Optional[float]
     slope_profile: Any
     stream: int
     def replace(self, **changes: Any) -> Realism:

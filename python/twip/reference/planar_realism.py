@@ -23,7 +23,7 @@ import numpy as np
 
 from twip.reference.backlash import GearPlay
 from twip.reference.realism import (Driven, Encoder, Mpu6050, PwmActuator, Realism, TiltFilter, rk4_sampled,
-                                    specific_force)
+                                    settle_at_rest, specific_force)
 from twip.reference.rng import Sfc64
 
 
@@ -161,6 +161,11 @@ class PlanarSensors:
         self.rng = Sfc64(realism.seed, realism.stream)
         self.last_read = None
         self.shaft = [0.0, 0.0]  # each motor shaft's angle minus its wheel's (backlash)
+        self.realism = realism
+
+    def settle(self, x0, period):
+        """The estimator reads the pitch IMU at rest at x0's pitch (the realism's `settle`)."""
+        settle_at_rest(self, x0[3], self.g, period)
 
     def _on_terrain(self, x, xdot):
         """On terrain: (phi_dot', phi_dd', sin delta, cos delta, cos roll, phi') from 3-D vectors."""
@@ -239,6 +244,7 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
     u = pending = command = pending_command = [0.0, 0.0]
     signals = [0.0] * 11
     ts, xs, us, ss = [], [], [], []
+    sensors.settle(x, dt * per_update)
     sensors.sample(0.0, x, plant.deriv(x, u))
     outcome = "completed"
     for k in range(n):

@@ -21,6 +21,7 @@ import numpy as np
 from twip.reference.backlash import GearPlay
 from twip.reference.friction import Friction
 from twip.reference.rng import Sfc64
+from twip.reference.settle import settle
 from twip.reference.slope import SlopeModel
 
 STANDARD_GRAVITY = 9.80665
@@ -579,6 +580,7 @@ class Realism:
     backlash: Optional[float] = None  # each gear train's play at the wheel [rad]
     seed: int = 0
     stream: int = 0
+    settle: Optional[float] = None  # seconds the estimator reads the IMU at rest before the run
 
     @classmethod
     def from_twip(cls, r, params) -> "Realism":
@@ -599,7 +601,7 @@ class Realism:
         pushes = [(p.t, p.impulse, com if p.height is None else p.height) for p in r.pushes]
         return cls(imu, (r.estimator.kind, dict(r.estimator.parameters)), r.encoder_cpr, motor, r.delay,
                    r.control_period, pushes, force, list(r.slope_profile), Friction.of(r.friction),
-                   getattr(r, "backlash", None), r.seed, r.stream)
+                   getattr(r, "backlash", None), r.seed, r.stream, getattr(r, "settle", None))
 
 
 class BalanceSensors:
@@ -617,6 +619,11 @@ class BalanceSensors:
         self.rng = Sfc64(realism.seed, realism.stream)
         self.last_read = None
         self.shaft = 0.0  # the motor shaft's angle minus the wheels' (backlash): the encoder counts the shaft
+        self.realism, self.dt = realism, dt
+
+    def settle(self, x0, period):
+        """The estimator reads the IMU at rest at x0's pitch (the realism's `settle`)."""
+        settle_at_rest(self, x0[0], self.g, period)
 
     def sample(self, t, x, xdot):
         if self.imu is not None and t + self.half_step >= self.next_sample:
@@ -692,6 +699,7 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
     u = pending = command = pending_command = 0.0
     signals = [0.0] * 6
     ts, xs, us, ss, ins = [], [], [], [], []
+    sensors.settle(x, dt * per_update)
     sensors.sample(0.0, x, plant.deriv(x, u))
     outcome = "completed"
     for k in range(n):
@@ -735,3 +743,11 @@ def simulate(model, controller, x0, t_final, dt, reference, realism: Realism, fa
     ss.append(list(signals))
     ins.append(controller.internals)
     return RigRun(np.array(ts), np.array(xs), np.array(us), np.array(ss), outcome, ins)
+
+
+def settle_at_rest(sensors, phi, g, period):
+    """A sensor's settle at pitch `phi` (reads every `period`), when its realism has one and
+    an IMU: the estimator and the last read's time carry over."""
+    r = sensors.realism
+    if r.settle and r.imu is not None:
+        sensors.last_read = settle(sensors.tilt, Mpu6050(r.imu), phi, g, r.settle, sensors.dt, period, r.seed, r.stream)

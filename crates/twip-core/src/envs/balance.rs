@@ -178,7 +178,7 @@ impl BalanceEnvs {
             (Robots::Rig(robots), Some(realism_for)) => {
                 let realism = Realism { seed: noise_seed(key.0), stream: key.1, ..realism_for(&sample.params)? };
                 let pwm_max = realism.motor.map(|m| m.motor(&sample.params)).transpose()?.map(|m| m.pwm_max());
-                let robot = RigRobot::start(realism.build(&model, self.spec.dt)?, sample.x0, pwm_max);
+                let robot = RigRobot::start(realism.build(&model, self.spec.dt)?, sample.x0, pwm_max, self.spec.dt * self.spec.substeps as f64);
                 if l < robots.len() {
                     robots[l] = robot;
                 } else {

@@ -111,10 +111,11 @@ pub(super) fn keys(n: usize) -> Result<alloc::vec::Vec<(u64, u64)>, TwipError> {
 }
 
 impl<P: Plant<f64, NX, NU>, S: Sensor<f64, NX>, A, const NX: usize, const NU: usize> RigRobot<P, S, A, NX, NU> {
-    /// The rig at rest in `x0`: its sensors sample the initial state and are read once, as
-    /// the runner does before its first update.
-    pub fn start(mut rig: Rig<P, S, A>, x0: SVector<f64, NX>, pwm_max: Option<f64>) -> Self {
+    /// The rig at rest in `x0`: its sensors settle (reads every `period`), sample the
+    /// initial state and are read once, as `Rig::simulate` does before its first update.
+    pub fn start(mut rig: Rig<P, S, A>, x0: SVector<f64, NX>, pwm_max: Option<f64>, period: f64) -> Self {
         let u = SVector::<f64, NU>::zeros();
+        rig.sensors.settle(&x0, period);
         rig.sensors.sample(0.0, &x0, &rig.plant.deriv(&x0, &u));
         rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
         let reading = rig.sensors.read(0.0, &x0);

@@ -8,4 +8,5 @@ pub mod imu;
 pub mod motor;
 pub mod planar_rig;
 pub mod realism;
+pub mod settle;
 pub mod tilt;

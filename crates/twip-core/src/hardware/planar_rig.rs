@@ -29,6 +29,7 @@ use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, ImuSettings,
 use crate::hardware::realism::{Realism, Rig, RigPlant};
 #[cfg(all(test, feature = "std"))]
 use crate::model::friction::Friction;
+use crate::hardware::settle::Settle;
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::model::integrate::Stage;
 use crate::model::lane::Lane;
@@ -406,6 +407,8 @@ pub struct PlanarSensors<T: Real> {
     /// The ground the robot is on (None: flat): the body's pitch about the axle and the
     /// gravity the accelerometer feels follow its local plane.
     terrain: Option<Terrain<T>>,
+    /// The firmware's start at rest before the run ([`Settle`]; None: none).
+    settle: Option<Settle<T>>,
 }
 
 impl<T: Real> PlanarSensors<T> {
@@ -451,7 +454,13 @@ impl<T: Real> PlanarSensors<T> {
             last_read: None,
             shaft: [T::zero(); 2],
             terrain: None,
+            settle: None,
         })
+    }
+
+    /// These sensors with a firmware's start at rest before the run ([`Settle`]).
+    pub fn settled(self, settle: Option<Settle<T>>) -> Self {
+        Self { settle, ..self }
     }
 
     /// These sensors on `terrain` (None: flat ground).
@@ -578,6 +587,13 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
                     Some(g) => sample_imus_on_terrain((pitch, yaw), g, x, xdot, n, (self.radius, self.wheels.inv_r, height, self.g)),
                 }
             }
+        }
+    }
+
+    /// The estimator reads the pitch IMU at rest at `x0`'s pitch ([`Settle`]).
+    fn settle(&mut self, x0: &PlanarState<T>, period: T) {
+        if let (Some(settle), Some((pitch, _))) = (&self.settle, &self.imu) {
+            self.last_read = Some(settle.run(&mut self.tilt, pitch, x0[3], self.g, period));
         }
     }
 
@@ -712,7 +728,8 @@ impl<T: Real> Realism<T> {
         };
         let ground = terrain.map(|t| TerrainModel::new(model, t.clone()));
         let plant = PlanarPlant { model, ground, drives, force: s.force, has_force: !s.force.is_zero(), pushes, play };
-        let sensors = PlanarSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, &params, dt, s.seed, s.stream)?.on(terrain.cloned());
+        let sensors = PlanarSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, &params, dt, s.seed, s.stream)?.on(terrain.cloned())
+            .settled(Settle::new(s.settle, dt, s.seed, s.stream)?);
         Ok(Rig { plant, sensors, actuator, delay: s.delay })
     }
 }

@@ -18,12 +18,17 @@ use crate::hardware::driver::{Driven, MotorDriver, PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuClock, ImuReading, ImuSettings, Mpu6050, NoiseBatch};
 use crate::hardware::backlash::Backlash;
+use crate::hardware::settle::Settle;
 use crate::model::friction::{Friction, GB37_STICK_SPEED};
 use crate::model::integrate::Stage;
 use crate::rng::Sfc64;
 use crate::sim::runner::{run_loop, Actuator, Loop, Observer, Outcome, Plant, Sensor, Signals, SimConfig, MAX_RAW};
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
+
+/// How long the thesis-like rig's robot stands still before its run [s]: two of the
+/// complementary filter's time constants.
+pub const THESIS_LIKE_SETTLE: f64 = 2.0;
 
 /// Which real parts are in the loop. `Default` is the ideal loop.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -47,6 +52,10 @@ pub struct Realism<T: Real> {
     pub friction: Option<Friction<T>>,
     /// Free play in each wheel's gear train (None: none).
     pub backlash: Option<Backlash<T>>,
+    /// Seconds the robot stands still at its initial pitch before the run while the
+    /// firmware's loop reads the IMU through the estimator ([`Settle`]; None or 0: the
+    /// estimator starts at the run's first read).
+    pub settle: Option<T>,
     pub seed: u64,
     pub stream: u64,
 }
@@ -72,6 +81,7 @@ impl<T: Real> Realism<T> {
             slope_profile: SlopeProfile::constant(T::zero()),
             friction: None,
             backlash: None,
+            settle: None,
             seed: 0,
             stream: 0,
         }
@@ -83,7 +93,8 @@ impl<T: Real> Realism<T> {
     /// encoders, the L298P on 11.1 V, and the GB37 gearheads: their friction, the data
     /// sheet's no-load torque split beside the Balanbot's viscous bearing (0.0117 N m
     /// Coulomb per wheel) with a stick band ([`Self::thesis_like_friction`]), and 1° of
-    /// backlash ([`Backlash::gb37`]). No disturbances.
+    /// backlash ([`Backlash::gb37`]). The firmware's estimator settles for
+    /// [`THESIS_LIKE_SETTLE`] at rest before the motors run. No disturbances.
     pub fn thesis_like() -> Self {
         Self {
             imu: Some(ImuSettings::thesis_like()),
@@ -93,6 +104,7 @@ impl<T: Real> Realism<T> {
             control_period: Some(c(5e-3)),
             friction: Some(Self::thesis_like_friction()),
             backlash: Some(Backlash::gb37()),
+            settle: Some(c(THESIS_LIKE_SETTLE)),
             ..Self::ideal()
         }
     }
@@ -127,6 +139,9 @@ impl<T: Real> Realism<T> {
         if let Some(cpr) = self.encoder_cpr {
             Encoder::new(cpr)?;
         }
+        if let Some(seconds) = self.settle {
+            crate::hardware::settle::check(seconds)?;
+        }
         if let Some(m) = &self.motor {
             m.validate()?;
         }
@@ -154,7 +169,8 @@ impl<T: Real> Realism<T> {
             None => (RealPlant::Current(ground), RealActuator::Ideal),
             Some(m) => (RealPlant::Driven(Driven::new(ground, m, &params)?), RealActuator::Pwm(PwmActuator::new(m, &params)?, m.current_limit, m.efficiency)),
         };
-        let sensors = BalanceSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, profile, &params, dt, s.seed, s.stream)?;
+        let sensors = BalanceSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, profile, &params, dt, s.seed, s.stream)?
+            .settled(Settle::new(s.settle, dt, s.seed, s.stream)?);
         Ok(Rig { plant, sensors, actuator, delay: s.delay })
     }
 }
@@ -196,6 +212,8 @@ impl<P, S, A> Rig<P, S, A> {
         O: Observer<T, NX, NU, R::Sample>,
         F: FnMut() -> bool,
     {
+        let (_, per_update) = config.steps(controller.period())?;
+        self.sensors.settle(x0, config.dt * c::<T>(per_update as f64));
         let parts = Loop {
             sensor: &mut self.sensors,
             actuator: &mut self.actuator,
@@ -239,6 +257,7 @@ pub struct BalanceSensors<T: Real> {
     last_read: Option<T>,
     /// The motor shaft's angle minus the wheels' (backlash): the encoder counts the shaft.
     shaft: T,
+    settle: Option<Settle<T>>,
 }
 
 impl<T: Real> BalanceSensors<T> {
@@ -275,7 +294,13 @@ impl<T: Real> BalanceSensors<T> {
             rng: Sfc64::new(seed, stream),
             last_read: None,
             shaft: T::zero(),
+            settle: None,
         })
+    }
+
+    /// These sensors with a firmware's start at rest before the run ([`Settle`]).
+    pub fn settled(self, settle: Option<Settle<T>>) -> Self {
+        Self { settle, ..self }
     }
 
     /// The IMU's latest registers, if there is an IMU.
@@ -340,6 +365,13 @@ impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
     #[inline(always)]
     fn shaft_offsets(&mut self, offsets: [T; 2]) {
         self.shaft = offsets[0];
+    }
+
+    /// The estimator reads the IMU at rest at `x0`'s pitch ([`Settle`]).
+    fn settle(&mut self, x0: &Vector4<T>, period: T) {
+        if let (Some(settle), Some(imu)) = (&self.settle, &self.imu) {
+            self.last_read = Some(settle.run(&mut self.tilt, imu, x0[0], self.g, period));
+        }
     }
 
     // Inlined: out of line, a sweep's SIMD kernel called a copy built for the baseline

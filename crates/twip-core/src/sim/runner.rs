@@ -163,6 +163,10 @@ pub trait Sensor<T: Real, const NX: usize> {
     /// wheel's angle. Ignored by default.
     #[inline(always)]
     fn shaft_offsets(&mut self, _offsets: [T; 2]) {}
+
+    /// Before a run from `x0` whose reads come every `period`: what the sensor does while
+    /// the robot stands still (a rig's settle). Nothing by default.
+    fn settle(&mut self, _x0: &SVector<T, NX>, _period: T) {}
 }
 
 /// Most raw readings a sensor logs per sample.

@@ -450,6 +450,8 @@ pub(crate) mod tests {
             delay: true,
             control_period: Some(5e-3),
             friction: Some(Realism::thesis_like_friction()),
+            // The estimators settle at rest first, each lane's its own.
+            settle: Some(0.5),
             ..Realism::ideal()
         };
         let second = Realism { estimator: TiltEstimator::kalman(), delay: false, friction: Some(Friction::gb37()), ..first };

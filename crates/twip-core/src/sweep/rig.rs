@@ -247,6 +247,8 @@ mod tests {
             delay: true,
             control_period: Some(5e-3),
             friction: Some(Realism::thesis_like_friction()),
+            // The estimators settle at rest first, each lane's its own.
+            settle: Some(0.5),
             ..Realism::ideal()
         };
         let second = Realism { estimator: TiltEstimator::kalman(), delay: false, friction: Some(Friction::gb37()), ..first };
@@ -390,8 +392,10 @@ mod tests {
             let lqr_worst = rig_lanes_agree(&lqr_lanes, &lqr, &realism, 1.0);
             let fuzzy_worst = rig_lanes_agree(&fuzzy_lanes, &fuzzy, &realism, 1.0);
             println!("{name}: worst relative difference over 1 s: LQR {lqr_worst:e}, fuzzy {fuzzy_worst:e}");
+            // Rounding only: from the settled start the fuzzy law's run without backlash
+            // reached 1.6e-12 (a lane without the settle is degrees off).
             for worst in [lqr_worst, fuzzy_worst] {
-                assert!(worst <= 1e-12 && worst > 0.0, "{name}: {worst:e}");
+                assert!(worst <= 3e-12 && worst > 0.0, "{name}: {worst:e}");
             }
         }
         let (_, schedule, mut config, nominal) = setup(5e-3);

@@ -482,6 +482,9 @@ fn push(obj: &Bound<'_, PyAny>) -> PyResult<PyPush> {
 ///   `slope_profile`: (distance [m], slope [rad]) changes along the path.
 /// - `friction`: a `twip.Friction` per wheel on the plant (None: the model's own);
 ///   `backlash`: each gear train's free play at the wheel [rad] (None: none).
+/// - `settle`: seconds the robot stands still at its initial pitch before the run while
+///   the firmware's loop reads the IMU through the estimator (None or 0: the estimator
+///   starts at the run's first read, while the robot free-rolls).
 /// - `seed`, `stream`: the noise's key (its SFC64 stream); a run is bitwise repeatable.
 #[pyclass(name = "Realism", module = "twip", frozen)]
 #[derive(Clone)]
@@ -497,6 +500,7 @@ pub struct PyRealism {
     slope_profile: Vec<(f64, f64)>,
     friction: Option<PyFriction>,
     backlash: Option<f64>,
+    settle: Option<f64>,
     seed: u64,
     stream: u64,
 }
@@ -506,7 +510,7 @@ impl PyRealism {
     #[new]
     #[pyo3(signature = (*, imu = None, estimator = None, encoder_cpr = None, motor = None, delay = false, control_period = None,
                         pushes = None, force = None, slope_profile = None, friction = None, backlash = None, seed = None,
-                        stream = None))]
+                        stream = None, settle = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         imu: Option<&PyImu>,
@@ -522,6 +526,7 @@ impl PyRealism {
         backlash: Option<f64>,
         seed: Option<&Bound<'_, PyAny>>,
         stream: Option<&Bound<'_, PyAny>>,
+        settle: Option<f64>,
     ) -> PyResult<Self> {
         let mut list = Vec::new();
         if let Some(ps) = pushes {
@@ -541,6 +546,7 @@ impl PyRealism {
             slope_profile: slope_profile.unwrap_or_default(),
             friction: friction.copied(),
             backlash,
+            settle,
             seed: seed.map(|s| key("seed", s)).transpose()?.unwrap_or(0),
             stream: stream.map(|s| key("stream", s)).transpose()?.unwrap_or(0),
         };
@@ -552,7 +558,7 @@ impl PyRealism {
     /// Every part ideal (the same run as without realism, through the realism runner).
     #[staticmethod]
     fn ideal() -> PyResult<Self> {
-        Self::new(None, None, None, None, false, None, None, None, None, None, None, None, None)
+        Self::new(None, None, None, None, false, None, None, None, None, None, None, None, None, None)
     }
 
     /// The thesis's robot as built: a 5 ms loop applying its command one period late,
@@ -560,7 +566,9 @@ impl PyRealism {
     /// complementary filter, 700 CPR encoders, the L298P on 11.1 V, and the GB37 gearheads:
     /// their friction (the no-load torque split beside the Balanbot's viscous bearing, with
     /// a stick band; `replace(friction=None)` leaves the model's own) and 1 degree of
-    /// backlash (`replace(backlash=None)`: none). docs/parameters.md.
+    /// backlash (`replace(backlash=None)`: none). The estimator settles for 2 s at rest
+    /// before the motors run (`replace(settle=None)`: it starts at the run's first read).
+    /// docs/parameters.md.
     #[staticmethod]
     // Keys are read by `key` (a bad one is named); the defaults are 0.
     #[pyo3(signature = (*, seed = None, stream = None), text_signature = "(*, seed=0, stream=0)")]
@@ -580,6 +588,7 @@ impl PyRealism {
             slope_profile: Vec::new(),
             friction: core.friction.map(|inner| PyFriction { inner }),
             backlash: core.backlash.map(|b| b.gap),
+            settle: core.settle,
             seed,
             stream,
         })
@@ -602,6 +611,8 @@ crate::settings::settings_class!(PyRealism, "Realism",
         friction: Option<PyFriction> = |s| s.friction;
         /// Each gear train's free play at the wheel [rad] (None: none).
         backlash: Option<f64> = |s| s.backlash;
+        /// Seconds the estimator reads the IMU at rest before the run (None: none).
+        settle: Option<f64> = |s| s.settle;
         seed: u64 = |s| s.seed;
         stream: u64 = |s| s.stream;
     }
@@ -751,6 +762,7 @@ impl PyRealism {
             slope_profile: SlopeProfile::new(0.0, &self.slope_profile)?,
             friction: self.friction.map(|f| f.inner),
             backlash: self.backlash.map(|gap| Backlash { gap }),
+            settle: self.settle,
             seed: self.seed,
             stream: self.stream,
         }

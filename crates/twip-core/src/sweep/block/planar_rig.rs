@@ -409,6 +409,8 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
         let xl = lane(&x, l);
         set_lane(&mut d0, l, &rig.plant.deriv(&xl, &SVector::zeros()));
         rig.sensors.follow_wheels(0.0, &xl);
+        // The scalar runner's settle, each lane's estimator its own (`Rig::simulate`).
+        rig.sensors.settle(&xl, dt * per_update as f64);
     }
     if let Some(imus) = imus.as_mut() {
         imus.sample(0.0, &x, &d0);

@@ -498,6 +498,10 @@ fn rig_block<C: LaneLaw, const COPY: u8>(
     let mut y = [[0.0; LANES]; 4];
     let mut alive = active;
     let mut ended = [(false, 0.0f64, 0u64); LANES];
+    // The scalar runner's settle, each lane's estimator its own (`Rig::simulate`).
+    for (l, rig) in rigs.iter_mut().enumerate() {
+        rig.sensors.settle(&Vector4::from(lane(&x, l)), dt * per_update as f64);
+    }
     // The sensors' registers hold a sample of the initial state.
     // On the heap, as the rigs: it holds every lane's stream and drawn-ahead normals.
     let mut imus = ImuLanes::new(&rigs, &models).map(alloc::boxed::Box::new);
