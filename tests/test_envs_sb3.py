@@ -23,3 +23,21 @@ def test_sb3_checks_and_steps_the_adapter():
             ended += 1
     assert ended >= 16  # every env truncated at 20 and 40 steps
     env.close()
+
+
+def test_sb3_check_env_passes_and_ppo_runs_on_the_adapter():
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_checker import check_env
+    from stable_baselines3.common.vec_env import VecCheckNan, VecMonitor
+    from twip.envs import BalanceEnv
+    from twip.envs.sb3 import SB3VecEnv
+
+    check_env(BalanceEnv(max_episode_steps=50), warn=True)
+    env = VecMonitor(VecCheckNan(SB3VecEnv(4, max_episode_steps=50), raise_exception=True))
+    env.seed(0)
+    model = PPO("MlpPolicy", env, n_steps=64, batch_size=128, n_epochs=1, seed=0, device="cpu")
+    model.learn(total_timesteps=512)
+    assert model.num_timesteps >= 512
+    # Episodes ended (falls or the 50-step limit) and were reported through the monitor.
+    assert len(model.ep_info_buffer) > 0
+    env.close()

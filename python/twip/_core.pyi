@@ -331,11 +331,13 @@ class BalanceBatch:
         episode 0 of that seed; else the lane's next episode.
         """
     def step(self, actions: _F64) -> npt.NDArray[np.bool_]:
-        """One control period of every robot; returns which fell."""
+        """One control period of every robot under `actions` (the model's inputs of
+        each robot, robot after robot); returns which fell.
+        """
     def observations(self) -> _F64:
         """Every robot's observation (num_envs x 4)."""
     def states(self) -> _F64:
-        """Every robot's true state (num_envs x 4)."""
+        """Every robot's true state (num_envs rows)."""
     def keys(self) -> Tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint64]]:
         """Every robot's (seed, episode) key, as two uint64 arrays."""
 
@@ -355,8 +357,8 @@ class TrackBatch:
         episode 0 of that seed; else the lane's next episode.
         """
     def step(self, actions: _F64) -> npt.NDArray[np.bool_]:
-        """One control period of every robot under `actions` (2 per robot, robot after robot);
-        returns which fell.
+        """One control period of every robot under `actions` (the model's inputs of
+        each robot, robot after robot); returns which fell.
         """
     def observations(self) -> _F64:
         """Every robot's observation (num_envs x 9): path error in its frame, pitch, speeds,
@@ -365,7 +367,7 @@ class TrackBatch:
     def true_observations(self) -> _F64:
         """The observations the true states give (num_envs x 9)."""
     def states(self) -> _F64:
-        """Every robot's true state (num_envs x 7)."""
+        """Every robot's true state (num_envs rows)."""
     def keys(self) -> Tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint64]]:
         """Every robot's (seed, episode) key, as two uint64 arrays."""
 

@@ -48,7 +48,9 @@ class SB3VecEnv(VecEnv):
         self.env.close()
 
     def get_attr(self, attr_name: str, indices=None) -> List[Any]:
-        return [getattr(self.env.settings, attr_name)] * len(self._get_indices(indices))
+        # SB3 asks every env for its render mode; the robots have none to render.
+        value = None if attr_name == "render_mode" else getattr(self.env.settings, attr_name)
+        return [value] * len(self._get_indices(indices))
 
     def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
         raise AttributeError(f"{attr_name}: the robots' settings are fixed when the env is made")

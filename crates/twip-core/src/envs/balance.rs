@@ -9,26 +9,18 @@
 //!   a robot agrees with `twip.simulate` through that rig bit for bit. The action is the
 //!   plant's input (the PWM duty with a motor driver, rounded and saturated as the
 //!   firmware writes it; else the lumped current); the observation the sensors' reading.
-use alloc::sync::Arc;
 use alloc::vec::Vec;
 
 use nalgebra::Vector4;
-use rayon::prelude::*;
 
-use super::robot::{advance_block, oom, LanePlant, Period};
-use crate::hardware::realism::{BalanceSensors, RealActuator, RealPlant, Realism};
-use crate::model::params::RobotParams;
-use crate::model::slope::{SlopeCoefficients, SlopeModel};
+use super::batch::{Drawn, EnvKind, Envs, RealismFor};
+use super::robot::{LanePlant, Period};
+use crate::hardware::realism::{BalanceSensors, RealActuator, RealPlant, Realism, SlopeRig};
+use crate::model::slope::SlopeModel;
 use crate::sweep::block::Plants;
 use crate::sweep::lanes::{Lanes, LANES};
-use crate::sweep::rig::noise_seed;
 use crate::sweep::{draw, Nominal, Perturbation};
 use crate::TwipError;
-
-/// The rig a robot with these parameters gets (pushes and a force act at its own centre
-/// of mass); its seed and stream are set per episode.
-pub type RealismFor = Arc<dyn Fn(&RobotParams<f64>) -> Result<Realism<f64>, TwipError> + Send + Sync>;
-
 
 /// What every robot of a batch shares.
 #[derive(Clone)]
@@ -47,215 +39,73 @@ pub struct BalanceSpec {
     pub fall_limit: f64,
 }
 
-impl BalanceSpec {
-    fn validate(&self) -> Result<(), TwipError> {
-        self.period().validate()?;
-        for p in &self.perturbations {
-            p.validate()?;
-        }
-        SlopeModel::new(self.nominal.params, self.nominal.slope)?;
-        Ok(())
-    }
-}
-
-/// [`LANES`] robots on the ideal plant.
-struct IdealBlock {
-    coefficients: [SlopeCoefficients<f64>; LANES],
-    plants: Plants,
-    x: [Lanes; 4],
-}
-
-/// One robot through its 2-DOF rig.
-type RigRobot = super::robot::RigRobot<RealPlant<f64>, BalanceSensors<f64>, RealActuator<f64>, 4, 1>;
-
-enum Robots {
-    Ideal(Vec<IdealBlock>),
-    Rig(Vec<RigRobot>),
-}
-
-/// N robots of one [`BalanceSpec`], each with its own key (seed, episode).
-pub struct BalanceEnvs {
-    spec: BalanceSpec,
-    n: usize,
-    keys: Vec<(u64, u64)>,
-    robots: Robots,
-    pool: rayon::ThreadPool,
-}
-
 impl LanePlant for Plants {
     type State = [Lanes; 4];
-    type Input = Lanes;
+    type Input = [Lanes; 1];
     const PITCH: usize = 0;
 
     #[inline(always)]
-    fn rk4_lanes(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
-        self.rk4(x, u, dt)
+    fn rk4_lanes(&self, x: &[Lanes; 4], u: &[Lanes; 1], dt: f64) -> [Lanes; 4] {
+        self.rk4(x, &u[0], dt)
     }
 }
 
-impl BalanceSpec {
+impl EnvKind<4, 1> for BalanceSpec {
+    type Model = SlopeModel<f64>;
+    type Plants = Plants;
+    type RigPlant = RealPlant<f64>;
+    type RigSensors = BalanceSensors<f64>;
+    type RigActuator = RealActuator<f64>;
+
     fn period(&self) -> Period {
         Period { dt: self.dt, substeps: self.substeps, pitch: 0, fall_limit: self.fall_limit }
     }
+
+    fn realism(&self) -> Option<&RealismFor> {
+        self.realism.as_ref()
+    }
+
+    fn validate(&self) -> Result<(), TwipError> {
+        for p in &self.perturbations {
+            p.validate()?;
+        }
+        self.nominal().map(|_| ())
+    }
+
+    fn nominal(&self) -> Result<SlopeModel<f64>, TwipError> {
+        SlopeModel::new(self.nominal.params, self.nominal.slope)
+    }
+
+    fn draw(&self, key: (u64, u64)) -> Result<Drawn<SlopeModel<f64>, 4>, TwipError> {
+        let sample = draw(&self.nominal, &self.perturbations, key.0, key.1);
+        Ok(Drawn { params: sample.params, model: SlopeModel::new(sample.params, sample.slope)?, x0: sample.x0 })
+    }
+
+    fn plants(models: &[SlopeModel<f64>; LANES]) -> Plants {
+        Plants::new(&models.map(|m| m.coefficients()))
+    }
+
+    fn rig(realism: &Realism<f64>, model: &SlopeModel<f64>, dt: f64) -> Result<SlopeRig<f64>, TwipError> {
+        realism.build(model, dt)
+    }
 }
 
-impl BalanceEnvs {
-    /// `n` robots, lane i keyed (i, 0) until it is reset with a seed of its own.
-    pub fn new(spec: BalanceSpec, n: usize, threads: usize) -> Result<Self, TwipError> {
-        let keys = super::robot::keys(n)?;
-        spec.validate()?;
-        let pool = super::pool(threads)?;
-        let nominal = SlopeModel::new(spec.nominal.params, spec.nominal.slope)?;
-        let robots = match &spec.realism {
-            None => {
-                let blocks = n.div_ceil(LANES);
-                let mut v = Vec::new();
-                v.try_reserve_exact(blocks).map_err(|_| oom(blocks * core::mem::size_of::<IdealBlock>()))?;
-                let coefficients = [nominal.coefficients(); LANES];
-                v.extend((0..blocks).map(|_| IdealBlock { coefficients, plants: Plants::new(&coefficients), x: [[0.0; LANES]; 4] }));
-                Robots::Ideal(v)
-            }
-            Some(_) => {
-                let mut v = Vec::new();
-                v.try_reserve_exact(n).map_err(|_| oom(n * core::mem::size_of::<RigRobot>()))?;
-                Robots::Rig(v)
-            }
-        };
-        let mut envs = Self { spec, n, keys, robots, pool };
-        for l in 0..n {
-            envs.start(l, (l as u64, 0))?;
-        }
-        Ok(envs)
-    }
+/// N balancing robots of one [`BalanceSpec`], each with its own key (seed, episode).
+pub type BalanceEnvs = Envs<BalanceSpec, 4, 1>;
 
-    pub fn len(&self) -> usize {
-        self.n
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.n == 0
-    }
-
-    /// Whether the robots run through a rig.
-    pub fn has_rig(&self) -> bool {
-        matches!(self.robots, Robots::Rig(_))
-    }
-
-    /// Lane `l`'s key (seed, episode).
-    pub fn key(&self, l: usize) -> (u64, u64) {
-        self.keys[l]
-    }
-
-    /// Starts lane `l`'s next episode: with `seed`, episode 0 of that seed; else the next
-    /// episode of its seed. On an error (a draw the model refuses) the lane is unchanged.
-    pub fn reset(&mut self, l: usize, seed: Option<u64>) -> Result<(), TwipError> {
-        if l >= self.n {
-            return Err(TwipError::InvalidParameter { name: "lane", value: l as f64, reason: "past the last robot" });
-        }
-        let (s, e) = self.keys[l];
-        self.start(l, seed.map_or((s, e.wrapping_add(1)), |s| (s, 0)))
-    }
-
-    /// Lane `l`'s robot, slope and initial state for `key`, and its state set.
-    fn start(&mut self, l: usize, key: (u64, u64)) -> Result<(), TwipError> {
-        let sample = draw(&self.spec.nominal, &self.spec.perturbations, key.0, key.1);
-        let model = SlopeModel::new(sample.params, sample.slope)?;
-        for (index, &value) in sample.x0.iter().enumerate() {
-            if !value.is_finite() {
-                return Err(TwipError::NonFinite { name: "x0", index, value });
-            }
-        }
-        match (&mut self.robots, &self.spec.realism) {
-            (Robots::Ideal(blocks), _) => {
-                let (b, j) = (l / LANES, l % LANES);
-                let block = &mut blocks[b];
-                block.coefficients[j] = model.coefficients();
-                block.plants = Plants::new(&block.coefficients);
-                for i in 0..4 {
-                    block.x[i][j] = sample.x0[i];
-                }
-            }
-            (Robots::Rig(robots), Some(realism_for)) => {
-                let realism = Realism { seed: noise_seed(key.0), stream: key.1, ..realism_for(&sample.params)? };
-                let pwm_max = realism.motor.map(|m| m.motor(&sample.params)).transpose()?.map(|m| m.pwm_max());
-                let robot = RigRobot::start(realism.build(&model, self.spec.dt)?, sample.x0, pwm_max, self.spec.dt * self.spec.substeps as f64);
-                if l < robots.len() {
-                    robots[l] = robot;
-                } else {
-                    robots.push(robot);
-                }
-            }
-            (Robots::Rig(_), None) => unreachable!("a rig batch has a realism"),
-        }
-        self.keys[l] = key;
-        Ok(())
-    }
-
-    /// Lane `l`'s true state.
-    pub fn state(&self, l: usize) -> Vector4<f64> {
-        match &self.robots {
-            Robots::Ideal(blocks) => {
-                let (b, j) = (l / LANES, l % LANES);
-                Vector4::from_fn(|i, _| blocks[b].x[i][j])
-            }
-            Robots::Rig(robots) => robots[l].x,
-        }
-    }
-
+impl Envs<BalanceSpec, 4, 1> {
     /// Lane `l`'s observation: the state (ideal plant) or the sensors' last reading.
     pub fn observation(&self, l: usize) -> Vector4<f64> {
-        match &self.robots {
-            Robots::Ideal(_) => self.state(l),
-            Robots::Rig(robots) => robots[l].reading,
-        }
-    }
-
-    /// Lane `l`'s robot time [s] in its episode.
-    pub fn time(&self, l: usize) -> f64 {
-        match &self.robots {
-            Robots::Ideal(_) => f64::NAN,
-            Robots::Rig(robots) => self.spec.dt * robots[l].steps as f64,
-        }
-    }
-
-    /// One control period of every robot under `actions` (one per robot); `fell[l]`: lane
-    /// l fell (or diverged) during it. Every action must be finite (else nothing moves).
-    pub fn step(&mut self, actions: &[f64], fell: &mut [bool]) -> Result<(), TwipError> {
-        if actions.len() != self.n || fell.len() != self.n {
-            let got = if actions.len() != self.n { actions.len() } else { fell.len() };
-            return Err(TwipError::Shape { name: "actions", expected: (self.n, 1), got: (got, 1) });
-        }
-        if let Some(index) = actions.iter().position(|a| !a.is_finite()) {
-            return Err(TwipError::NonFinite { name: "action", index, value: actions[index] });
-        }
-        let spec = &self.spec;
-        let n = self.n;
-        match &mut self.robots {
-            Robots::Ideal(blocks) => self.pool.install(|| {
-                blocks.par_iter_mut().zip(fell.par_chunks_mut(LANES)).enumerate().for_each(|(b, (block, fell))| {
-                    let start = b * LANES;
-                    let mut u = [0.0; LANES];
-                    let end = (start + LANES).min(n);
-                    u[..end - start].copy_from_slice(&actions[start..end]);
-                    let out = advance_block(&block.plants, &mut block.x, &u, spec.substeps, spec.dt, spec.fall_limit);
-                    fell.copy_from_slice(&out[..fell.len()]);
-                })
-            }),
-            Robots::Rig(robots) => self.pool.install(|| {
-                let period = spec.period();
-                robots.par_iter_mut().zip(actions.par_chunks(1)).zip(fell.par_iter_mut()).with_min_len(LANES).for_each(|((r, a), f)| {
-                    *f = r.step(a, period);
-                })
-            }),
-        }
-        Ok(())
+        self.measured(l)
     }
 }
-
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::params::RobotParams;
+    use crate::sweep::rig::noise_seed;
+    use alloc::sync::Arc;
     use crate::control::lqr::{design, DesignPoint, LqrController};
     use crate::control::reference::SpeedSchedule;
     use crate::control::{Controller, Reference};

@@ -6,11 +6,13 @@
 //! stream `episode` under `sweep::rig::noise_seed(seed)`. A lane never reads another, so
 //! the numbers are the same on any thread count and next to any neighbours.
 pub mod balance;
+mod batch;
 mod robot;
 pub mod track;
 
-pub use balance::{BalanceEnvs, BalanceSpec, RealismFor};
-pub use robot::MAX_ENVS;
+pub use balance::{BalanceEnvs, BalanceSpec};
+pub use batch::{Envs, RealismFor};
+pub use robot::{Period, MAX_ENVS};
 pub use track::{TrackEnvs, TrackSpec, TRACK_OBS};
 
 use crate::TwipError;

@@ -53,7 +53,7 @@ fn advance<P: LanePlant>(plants: &P, x: &mut P::State, u: &P::Input, steps: usiz
 }
 
 /// One robot through its rig between two controller updates.
-pub(super) struct RigRobot<P, S, A, const NX: usize, const NU: usize> {
+pub struct RigRobot<P, S, A, const NX: usize, const NU: usize> {
     pub rig: Rig<P, S, A>,
     pub x: SVector<f64, NX>,
     /// The input applied over this period, and the one waiting (a delayed rig's).
@@ -68,7 +68,7 @@ pub(super) struct RigRobot<P, S, A, const NX: usize, const NU: usize> {
 
 /// How a rig robot's period runs: the plant step, steps per period, the fall test.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Period {
+pub struct Period {
     pub dt: f64,
     pub substeps: usize,
     pub pitch: usize,

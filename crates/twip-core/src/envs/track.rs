@@ -14,19 +14,16 @@
 //! reference's speeds: `[e_along, e_lateral, e_psi, φ, φ̇, v, ω, v_ref, ω_ref]`.
 use alloc::vec::Vec;
 
-use rayon::prelude::*;
-
-use super::balance::RealismFor;
-use super::robot::{advance_block, keys, oom, LanePlant, Period};
+use super::batch::{Drawn, EnvKind, Envs, RealismFor};
+use super::robot::{LanePlant, Period};
 use crate::control::trajectory::{PlanarRef, Trajectory};
 use crate::control::Reference;
-use crate::hardware::planar_rig::{PlanarActuator, PlanarPlant, PlanarSensors};
+use crate::hardware::planar_rig::{PlanarActuator, PlanarPlant, PlanarRig, PlanarSensors};
 use crate::hardware::realism::Realism;
 use crate::model::planar::{PlanarModel, PlanarState};
 use crate::sweep::block::PlanarPlants;
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::planar::{draw, validate, PlanarNominal};
-use crate::sweep::rig::noise_seed;
 use crate::sweep::Perturbation;
 use crate::TwipError;
 
@@ -51,28 +48,6 @@ pub struct TrackSpec {
     pub fall_limit: f64,
 }
 
-impl TrackSpec {
-    fn period(&self) -> Period {
-        Period { dt: self.dt, substeps: self.substeps, pitch: 3, fall_limit: self.fall_limit }
-    }
-
-    fn validate(&self) -> Result<(), TwipError> {
-        self.period().validate()?;
-        for p in &self.perturbations {
-            validate(p)?;
-        }
-        PlanarModel::new(self.nominal.params)?;
-        Ok(())
-    }
-}
-
-/// [`LANES`] robots on the ideal planar plant.
-struct IdealBlock {
-    models: [PlanarModel<f64>; LANES],
-    plants: PlanarPlants,
-    x: [Lanes; 7],
-}
-
 impl LanePlant for PlanarPlants {
     type State = [Lanes; 7];
     type Input = [Lanes; 2];
@@ -84,24 +59,48 @@ impl LanePlant for PlanarPlants {
     }
 }
 
-/// One robot through its 3-DOF rig.
-type RigRobot = super::robot::RigRobot<PlanarPlant<f64>, PlanarSensors<f64>, PlanarActuator<f64>, 7, 2>;
+impl EnvKind<7, 2> for TrackSpec {
+    type Model = PlanarModel<f64>;
+    type Plants = PlanarPlants;
+    type RigPlant = PlanarPlant<f64>;
+    type RigSensors = PlanarSensors<f64>;
+    type RigActuator = PlanarActuator<f64>;
 
-enum Robots {
-    Ideal(Vec<IdealBlock>),
-    Rig(Vec<RigRobot>),
+    fn period(&self) -> Period {
+        Period { dt: self.dt, substeps: self.substeps, pitch: 3, fall_limit: self.fall_limit }
+    }
+
+    fn realism(&self) -> Option<&RealismFor> {
+        self.realism.as_ref()
+    }
+
+    fn validate(&self) -> Result<(), TwipError> {
+        for p in &self.perturbations {
+            validate(p)?;
+        }
+        self.nominal().map(|_| ())
+    }
+
+    fn nominal(&self) -> Result<PlanarModel<f64>, TwipError> {
+        PlanarModel::new(self.nominal.params)
+    }
+
+    fn draw(&self, key: (u64, u64)) -> Result<Drawn<PlanarModel<f64>, 7>, TwipError> {
+        let sample = draw(&self.nominal, &self.perturbations, key.0, key.1);
+        Ok(Drawn { params: sample.params, model: PlanarModel::new(sample.params)?, x0: sample.x0 })
+    }
+
+    fn plants(models: &[PlanarModel<f64>; LANES]) -> PlanarPlants {
+        PlanarPlants::new(models)
+    }
+
+    fn rig(realism: &Realism<f64>, model: &PlanarModel<f64>, dt: f64) -> Result<PlanarRig<f64>, TwipError> {
+        realism.build_planar(model, dt)
+    }
 }
 
-/// N robots of one [`TrackSpec`], each with its own key (seed, episode).
-pub struct TrackEnvs {
-    spec: TrackSpec,
-    n: usize,
-    keys: Vec<(u64, u64)>,
-    /// Control periods since each lane's episode began (its time on the path).
-    periods: Vec<u64>,
-    robots: Robots,
-    pool: rayon::ThreadPool,
-}
+/// N tracking robots of one [`TrackSpec`], each with its own key (seed, episode).
+pub type TrackEnvs = Envs<TrackSpec, 7, 2>;
 
 /// The observation of a robot whose (measured or true) state is `y`, the reference `r`.
 pub fn observe(y: &PlanarState<f64>, r: &PlanarRef<f64>) -> [f64; TRACK_OBS] {
@@ -110,175 +109,27 @@ pub fn observe(y: &PlanarState<f64>, r: &PlanarRef<f64>) -> [f64; TRACK_OBS] {
     [c * dx + s * dy, c * dy - s * dx, r.psi - y[2], y[3], y[4], y[5], y[6], r.v, r.omega]
 }
 
-impl TrackEnvs {
-    /// `n` robots, lane i keyed (i, 0) until it is reset with a seed of its own.
-    pub fn new(spec: TrackSpec, n: usize, threads: usize) -> Result<Self, TwipError> {
-        let keys = keys(n)?;
-        spec.validate()?;
-        let pool = super::pool(threads)?;
-        let nominal = PlanarModel::new(spec.nominal.params)?;
-        let robots = match &spec.realism {
-            None => {
-                let blocks = n.div_ceil(LANES);
-                let mut v = Vec::new();
-                v.try_reserve_exact(blocks).map_err(|_| oom(blocks * core::mem::size_of::<IdealBlock>()))?;
-                let models = [nominal; LANES];
-                v.extend((0..blocks).map(|_| IdealBlock { models, plants: PlanarPlants::new(&models), x: [[0.0; LANES]; 7] }));
-                Robots::Ideal(v)
-            }
-            Some(_) => {
-                let mut v = Vec::new();
-                v.try_reserve_exact(n).map_err(|_| oom(n * core::mem::size_of::<RigRobot>()))?;
-                Robots::Rig(v)
-            }
-        };
-        let mut periods = Vec::new();
-        periods.try_reserve_exact(n).map_err(|_| oom(n * 8))?;
-        periods.resize(n, 0);
-        let mut envs = Self { spec, n, keys, periods, robots, pool };
-        for l in 0..n {
-            envs.start(l, (l as u64, 0))?;
-        }
-        Ok(envs)
-    }
-
-    pub fn len(&self) -> usize {
-        self.n
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.n == 0
-    }
-
-    /// Whether the robots run through a rig.
-    pub fn has_rig(&self) -> bool {
-        matches!(self.robots, Robots::Rig(_))
-    }
-
-    /// Lane `l`'s key (seed, episode).
-    pub fn key(&self, l: usize) -> (u64, u64) {
-        self.keys[l]
-    }
-
-    /// Starts lane `l`'s next episode: with `seed`, episode 0 of that seed; else the next
-    /// episode of its seed. On an error (a draw the model refuses) the lane is unchanged.
-    pub fn reset(&mut self, l: usize, seed: Option<u64>) -> Result<(), TwipError> {
-        if l >= self.n {
-            return Err(TwipError::InvalidParameter { name: "lane", value: l as f64, reason: "past the last robot" });
-        }
-        let (s, e) = self.keys[l];
-        self.start(l, seed.map_or((s, e.wrapping_add(1)), |s| (s, 0)))
-    }
-
-    fn start(&mut self, l: usize, key: (u64, u64)) -> Result<(), TwipError> {
-        let sample = draw(&self.spec.nominal, &self.spec.perturbations, key.0, key.1);
-        let model = PlanarModel::new(sample.params)?;
-        for (index, &value) in sample.x0.iter().enumerate() {
-            if !value.is_finite() {
-                return Err(TwipError::NonFinite { name: "x0", index, value });
-            }
-        }
-        match (&mut self.robots, &self.spec.realism) {
-            (Robots::Ideal(blocks), _) => {
-                let (b, j) = (l / LANES, l % LANES);
-                let block = &mut blocks[b];
-                block.models[j] = model;
-                block.plants = PlanarPlants::new(&block.models);
-                for i in 0..7 {
-                    block.x[i][j] = sample.x0[i];
-                }
-            }
-            (Robots::Rig(robots), Some(realism_for)) => {
-                let realism = Realism { seed: noise_seed(key.0), stream: key.1, ..realism_for(&sample.params)? };
-                let pwm_max = realism.motor.map(|m| m.motor(&sample.params)).transpose()?.map(|m| m.pwm_max());
-                let robot = RigRobot::start(realism.build_planar(&model, self.spec.dt)?, sample.x0, pwm_max, self.spec.dt * self.spec.substeps as f64);
-                if l < robots.len() {
-                    robots[l] = robot;
-                } else {
-                    robots.push(robot);
-                }
-            }
-            (Robots::Rig(_), None) => unreachable!("a rig batch has a realism"),
-        }
-        self.keys[l] = key;
-        self.periods[l] = 0;
-        Ok(())
-    }
-
-    /// Lane `l`'s true state `[x, y, psi, phi, phi_dot, v, omega]`.
-    pub fn state(&self, l: usize) -> PlanarState<f64> {
-        match &self.robots {
-            Robots::Ideal(blocks) => {
-                let (b, j) = (l / LANES, l % LANES);
-                PlanarState::from_fn(|i, _| blocks[b].x[i][j])
-            }
-            Robots::Rig(robots) => robots[l].x,
-        }
-    }
-
+impl Envs<TrackSpec, 7, 2> {
     /// The path's reference for lane `l` now.
     fn reference(&self, l: usize) -> PlanarRef<f64> {
-        let t = self.periods[l] as f64 * self.spec.substeps as f64 * self.spec.dt;
-        self.spec.path.sample(t)
+        self.spec().path.sample(self.time(l))
     }
 
     /// Lane `l`'s observation: from the sensors' last reading through a rig, else the state.
     pub fn observation(&self, l: usize) -> [f64; TRACK_OBS] {
-        let y = match &self.robots {
-            Robots::Ideal(_) => self.state(l),
-            Robots::Rig(robots) => robots[l].reading,
-        };
-        observe(&y, &self.reference(l))
+        observe(&self.measured(l), &self.reference(l))
     }
 
     /// Lane `l`'s observation as the true state gives it (what the reward weighs).
     pub fn true_observation(&self, l: usize) -> [f64; TRACK_OBS] {
         observe(&self.state(l), &self.reference(l))
     }
-
-    /// One control period of every robot under `actions` (two per robot, robot after robot);
-    /// `fell[l]`: lane l fell (or diverged) during it. Every action must be finite (else
-    /// nothing moves).
-    pub fn step(&mut self, actions: &[f64], fell: &mut [bool]) -> Result<(), TwipError> {
-        if actions.len() != 2 * self.n || fell.len() != self.n {
-            let got = if fell.len() != self.n { (fell.len(), 2) } else { (actions.len() / 2, actions.len() % 2 + 2) };
-            return Err(TwipError::Shape { name: "actions", expected: (self.n, 2), got });
-        }
-        if let Some(index) = actions.iter().position(|a| !a.is_finite()) {
-            return Err(TwipError::NonFinite { name: "action", index, value: actions[index] });
-        }
-        let spec = &self.spec;
-        let n = self.n;
-        match &mut self.robots {
-            Robots::Ideal(blocks) => self.pool.install(|| {
-                blocks.par_iter_mut().zip(fell.par_chunks_mut(LANES)).enumerate().for_each(|(b, (block, fell))| {
-                    let start = b * LANES;
-                    let mut u = [[0.0; LANES]; 2];
-                    for l in start..(start + LANES).min(n) {
-                        u[0][l - start] = actions[2 * l];
-                        u[1][l - start] = actions[2 * l + 1];
-                    }
-                    let out = advance_block(&block.plants, &mut block.x, &u, spec.substeps, spec.dt, spec.fall_limit);
-                    fell.copy_from_slice(&out[..fell.len()]);
-                })
-            }),
-            Robots::Rig(robots) => self.pool.install(|| {
-                let period = spec.period();
-                robots.par_iter_mut().zip(actions.par_chunks(2)).zip(fell.par_iter_mut()).with_min_len(LANES).for_each(|((r, a), f)| {
-                    *f = r.step(a, period);
-                })
-            }),
-        }
-        for p in &mut self.periods {
-            *p += 1;
-        }
-        Ok(())
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sweep::rig::noise_seed;
     use crate::control::pid::PidTracker;
     use crate::control::trajectory::{Circle, Direction};
     use crate::control::Controller;
@@ -396,10 +247,7 @@ mod tests {
             let mut fell = [false; 3];
             for k in 0..600 {
                 // The tracker sees what the env's lane sees: the state or the reading.
-                let y = match &envs.robots {
-                    Robots::Rig(r) => r[2].reading,
-                    Robots::Ideal(_) => envs.state(2),
-                };
+                let y = envs.measured(2);
                 let a = ctrl.update(k as f64 * 5e-3, &y, &path.sample(k as f64 * 5e-3));
                 actions.push([a[0], a[1]]);
                 envs.step(&[0.0, 0.0, 0.0, 0.0, a[0], a[1]], &mut fell).unwrap();
@@ -451,6 +299,6 @@ mod tests {
         a[3] = f64::NAN;
         assert!(matches!(envs.step(&a, &mut fell), Err(TwipError::NonFinite { name: "action", index: 3, .. })));
         assert_eq!(envs.state(1), before);
-        assert_eq!(envs.periods[1], 0);
+        assert_eq!(envs.time(1), 0.0);
     }
 }

@@ -44,6 +44,72 @@ pub(crate) fn reset_lanes(
     Ok(())
 }
 
+/// `$class`, a pyclass named `$name` over an `Envs` batch (`inner`), with the methods
+/// both envs' batches share; each env's own `#[pymethods]` add `new` and the observations.
+/// The actions' and the falls' buffers are reused from step to step.
+macro_rules! batch_class {
+    ($(#[$doc:meta])* $class:ident, $name:literal, $envs:ty) => {
+        $(#[$doc])*
+        #[pyclass(name = $name, module = "twip._core")]
+        pub struct $class {
+            inner: $envs,
+            actions: Vec<f64>,
+            fell: Vec<bool>,
+        }
+
+        impl $class {
+            fn wrap(inner: $envs) -> Self {
+                Self { inner, actions: Vec::new(), fell: Vec::new() }
+            }
+        }
+
+        #[pymethods]
+        impl $class {
+            #[getter]
+            fn num_envs(&self) -> usize {
+                self.inner.len()
+            }
+
+            #[getter]
+            fn has_rig(&self) -> bool {
+                self.inner.has_rig()
+            }
+
+            /// Starts the next episode of each lane in `lanes`: with `seeds` (one per lane),
+            /// episode 0 of that seed; else the lane's next episode.
+            #[pyo3(signature = (lanes, seeds = None))]
+            fn reset(&mut self, py: Python<'_>, lanes: Vec<usize>, seeds: Option<Vec<u64>>) -> PyResult<()> {
+                let inner = &mut self.inner;
+                $crate::envs::reset_lanes(py, &lanes, seeds, |l, seed| inner.reset(l, seed))
+            }
+
+            /// One control period of every robot under `actions` (the model's inputs of
+            /// each robot, robot after robot); returns which fell.
+            fn step<'py>(&mut self, py: Python<'py>, actions: numpy::PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, numpy::PyArray1<bool>>> {
+                self.actions.clear();
+                self.actions.extend_from_slice(actions.as_slice()?);
+                self.fell.resize(self.inner.len(), false);
+                let (inner, actions, fell) = (&mut self.inner, &self.actions, &mut self.fell);
+                py.detach(|| inner.step(actions, fell)).map_err(crate::errors::PyTwipError)?;
+                Ok(numpy::PyArray1::from_slice(py, &self.fell))
+            }
+
+            /// Every robot's true state (num_envs rows).
+            fn states<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
+                $crate::envs::rows(py, self.inner.len(), |l| self.inner.state(l).data.0[0])
+            }
+
+            /// Every robot's (seed, episode) key, as two uint64 arrays.
+            fn keys<'py>(&self, py: Python<'py>) -> (Bound<'py, numpy::PyArray1<u64>>, Bound<'py, numpy::PyArray1<u64>>) {
+                use numpy::IntoPyArray;
+                let (seeds, episodes): (Vec<u64>, Vec<u64>) = (0..self.inner.len()).map(|l| self.inner.key(l)).unzip();
+                (seeds.into_pyarray(py), episodes.into_pyarray(py))
+            }
+        }
+    };
+}
+pub(crate) use batch_class;
+
 /// `n` rows of `W` values as an (n, W) array.
 pub(crate) fn rows<'py, const W: usize>(py: Python<'py>, n: usize, row: impl Fn(usize) -> [f64; W]) -> Bound<'py, PyArray2<f64>> {
     let data: Vec<f64> = (0..n).flat_map(row).collect();

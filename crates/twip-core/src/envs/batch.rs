@@ -1,0 +1,244 @@
+//! The batch both envs are: N robots of one spec, each with its own key (seed, episode),
+//! on the ideal lanes ([`LANES`] robots a block, one block per task) or each through its
+//! own rig; what differs between the envs (model, lanes, rig, draw) is their [`EnvKind`].
+use alloc::sync::Arc;
+use alloc::vec::Vec;
+
+use nalgebra::SVector;
+use rayon::prelude::*;
+
+use super::robot::{advance_block, oom, LanePlant, Period, RigRobot};
+use crate::hardware::realism::{Realism, Rig};
+use crate::model::params::RobotParams;
+use crate::sim::runner::{Plant, Sensor};
+use crate::sweep::lanes::{Lanes, LANES};
+use crate::sweep::rig::noise_seed;
+use crate::TwipError;
+
+/// The rig a robot with these parameters gets (pushes and a force act at its own centre
+/// of mass); its seed and stream are set per episode.
+pub type RealismFor = Arc<dyn Fn(&RobotParams<f64>) -> Result<Realism<f64>, TwipError> + Send + Sync>;
+
+/// A robot of a batch for one key: its parameters, model and initial state.
+pub(crate) struct Drawn<M, const NX: usize> {
+    pub params: RobotParams<f64>,
+    pub model: M,
+    pub x0: SVector<f64, NX>,
+}
+
+/// An env's spec: what its robots are (`NX` states, `NU` inputs) and how a key draws one.
+/// Crate-private, as the lanes' plants are: a batch is made of one of the specs here.
+pub(crate) trait EnvKind<const NX: usize, const NU: usize>: Send + Sync {
+    /// A robot's model, as the lanes and the rig take it.
+    type Model: Copy + Send + Sync;
+    /// [`LANES`] robots on the ideal plant.
+    type Plants: LanePlant<State = [Lanes; NX], Input = [Lanes; NU]> + Send + Sync;
+    type RigPlant: Plant<f64, NX, NU> + Send;
+    type RigSensors: Sensor<f64, NX> + Send;
+    type RigActuator: Send;
+
+    /// The plant step, steps per period and fall limit.
+    fn period(&self) -> Period;
+    /// None: the ideal plant.
+    fn realism(&self) -> Option<&RealismFor>;
+    /// The perturbations and the nominal model, checked.
+    fn validate(&self) -> Result<(), TwipError>;
+    /// The nominal robot's model.
+    fn nominal(&self) -> Result<Self::Model, TwipError>;
+    /// The robot of key (seed, episode) (`sweep::draw`'s); an error if its model is refused.
+    fn draw(&self, key: (u64, u64)) -> Result<Drawn<Self::Model, NX>, TwipError>;
+    fn plants(models: &[Self::Model; LANES]) -> Self::Plants;
+    fn rig(realism: &Realism<f64>, model: &Self::Model, dt: f64) -> Result<Rig<Self::RigPlant, Self::RigSensors, Self::RigActuator>, TwipError>;
+}
+
+/// [`LANES`] robots on the ideal plant.
+struct IdealBlock<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
+    models: [K::Model; LANES],
+    plants: K::Plants,
+    x: [Lanes; NX],
+}
+
+enum Robots<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
+    Ideal(Vec<IdealBlock<K, NX, NU>>),
+    Rig(Vec<RigRobot<K::RigPlant, K::RigSensors, K::RigActuator, NX, NU>>),
+}
+
+/// N robots of one spec `K`, each with its own key (seed, episode).
+#[allow(private_bounds)]
+pub struct Envs<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
+    spec: K,
+    n: usize,
+    keys: Vec<(u64, u64)>,
+    /// Control periods since each lane's episode began.
+    periods: Vec<u64>,
+    robots: Robots<K, NX, NU>,
+    pool: rayon::ThreadPool,
+}
+
+/// `v` with room for `n` items, or the named error.
+fn reserved<T>(n: usize) -> Result<Vec<T>, TwipError> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| oom(n * core::mem::size_of::<T>()))?;
+    Ok(v)
+}
+
+#[allow(private_bounds)]
+impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
+    /// `n` robots, lane i keyed (i, 0) until it is reset with a seed of its own.
+    pub fn new(spec: K, n: usize, threads: usize) -> Result<Self, TwipError> {
+        let keys = super::robot::keys(n)?;
+        spec.period().validate()?;
+        spec.validate()?;
+        let pool = super::pool(threads)?;
+        let robots = match spec.realism() {
+            None => {
+                let blocks = n.div_ceil(LANES);
+                let mut v = reserved::<IdealBlock<K, NX, NU>>(blocks)?;
+                let models = [spec.nominal()?; LANES];
+                v.extend((0..blocks).map(|_| IdealBlock { models, plants: K::plants(&models), x: [[0.0; LANES]; NX] }));
+                Robots::Ideal(v)
+            }
+            Some(_) => Robots::Rig(reserved(n)?),
+        };
+        let mut periods = reserved(n)?;
+        periods.resize(n, 0);
+        let mut envs = Self { spec, n, keys, periods, robots, pool };
+        for l in 0..n {
+            envs.start(l, (l as u64, 0))?;
+        }
+        Ok(envs)
+    }
+
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    pub fn spec(&self) -> &K {
+        &self.spec
+    }
+
+    /// Whether the robots run through a rig.
+    pub fn has_rig(&self) -> bool {
+        matches!(self.robots, Robots::Rig(_))
+    }
+
+    /// Lane `l`'s key (seed, episode).
+    pub fn key(&self, l: usize) -> (u64, u64) {
+        self.keys[l]
+    }
+
+    /// Lane `l`'s time in its episode [s].
+    pub fn time(&self, l: usize) -> f64 {
+        let p = self.spec.period();
+        self.periods[l] as f64 * p.substeps as f64 * p.dt
+    }
+
+    /// Starts lane `l`'s next episode: with `seed`, episode 0 of that seed; else the next
+    /// episode of its seed. On an error (a draw the model refuses) the lane is unchanged.
+    pub fn reset(&mut self, l: usize, seed: Option<u64>) -> Result<(), TwipError> {
+        if l >= self.n {
+            return Err(TwipError::InvalidParameter { name: "lane", value: l as f64, reason: "past the last robot" });
+        }
+        let (s, e) = self.keys[l];
+        self.start(l, seed.map_or((s, e.wrapping_add(1)), |s| (s, 0)))
+    }
+
+    /// Lane `l`'s robot and initial state for `key`, and its state set.
+    fn start(&mut self, l: usize, key: (u64, u64)) -> Result<(), TwipError> {
+        let Drawn { params, model, x0 } = self.spec.draw(key)?;
+        for (index, &value) in x0.iter().enumerate() {
+            if !value.is_finite() {
+                return Err(TwipError::NonFinite { name: "x0", index, value });
+            }
+        }
+        match (&mut self.robots, self.spec.realism()) {
+            (Robots::Ideal(blocks), _) => {
+                let (b, j) = (l / LANES, l % LANES);
+                let block = &mut blocks[b];
+                block.models[j] = model;
+                block.plants = K::plants(&block.models);
+                for i in 0..NX {
+                    block.x[i][j] = x0[i];
+                }
+            }
+            (Robots::Rig(robots), Some(realism_for)) => {
+                let realism = Realism { seed: noise_seed(key.0), stream: key.1, ..realism_for(&params)? };
+                let pwm_max = realism.motor.map(|m| m.motor(&params)).transpose()?.map(|m| m.pwm_max());
+                let period = self.spec.period();
+                let robot = RigRobot::start(K::rig(&realism, &model, period.dt)?, x0, pwm_max, period.dt * period.substeps as f64);
+                if l < robots.len() {
+                    robots[l] = robot;
+                } else {
+                    robots.push(robot);
+                }
+            }
+            (Robots::Rig(_), None) => unreachable!("a rig batch has a realism"),
+        }
+        self.keys[l] = key;
+        self.periods[l] = 0;
+        Ok(())
+    }
+
+    /// Lane `l`'s true state.
+    pub fn state(&self, l: usize) -> SVector<f64, NX> {
+        match &self.robots {
+            Robots::Ideal(blocks) => {
+                let (b, j) = (l / LANES, l % LANES);
+                SVector::from_fn(|i, _| blocks[b].x[i][j])
+            }
+            Robots::Rig(robots) => robots[l].x,
+        }
+    }
+
+    /// Lane `l`'s state as its controller sees it: the state (ideal plant) or the sensors'
+    /// last reading.
+    pub fn measured(&self, l: usize) -> SVector<f64, NX> {
+        match &self.robots {
+            Robots::Ideal(_) => self.state(l),
+            Robots::Rig(robots) => robots[l].reading,
+        }
+    }
+
+    /// One control period of every robot under `actions` (`NU` per robot, robot after
+    /// robot); `fell[l]`: lane l fell (or diverged) during it. Every action must be finite
+    /// (else nothing moves).
+    pub fn step(&mut self, actions: &[f64], fell: &mut [bool]) -> Result<(), TwipError> {
+        if actions.len() != NU * self.n || fell.len() != self.n {
+            let got = if fell.len() != self.n { (fell.len(), NU) } else { (actions.len() / NU, NU + actions.len() % NU) };
+            return Err(TwipError::Shape { name: "actions", expected: (self.n, NU), got });
+        }
+        if let Some(index) = actions.iter().position(|a| !a.is_finite()) {
+            return Err(TwipError::NonFinite { name: "action", index, value: actions[index] });
+        }
+        let period = self.spec.period();
+        let n = self.n;
+        match &mut self.robots {
+            Robots::Ideal(blocks) => self.pool.install(|| {
+                blocks.par_iter_mut().zip(fell.par_chunks_mut(LANES)).enumerate().for_each(|(b, (block, fell))| {
+                    let start = b * LANES;
+                    let mut u = [[0.0; LANES]; NU];
+                    for l in start..(start + LANES).min(n) {
+                        for (i, ui) in u.iter_mut().enumerate() {
+                            ui[l - start] = actions[NU * l + i];
+                        }
+                    }
+                    let out = advance_block(&block.plants, &mut block.x, &u, period.substeps, period.dt, period.fall_limit);
+                    fell.copy_from_slice(&out[..fell.len()]);
+                })
+            }),
+            Robots::Rig(robots) => self.pool.install(|| {
+                robots.par_iter_mut().zip(actions.par_chunks(NU)).zip(fell.par_iter_mut()).with_min_len(LANES).for_each(|((r, a), f)| {
+                    *f = r.step(a, period);
+                })
+            }),
+        }
+        for p in &mut self.periods {
+            *p += 1;
+        }
+        Ok(())
+    }
+}
