@@ -50,18 +50,17 @@ test-python: build
 
 # The wheel's build and the Rust tests run side by side, each cargo with both cores (most of
 # the wheel's build is one rustc, twip-py's one codegen unit, which leaves a core idle), each
-# printing its output whole when it ends. Measured on a clean clone, 2-core VM (with other
-# work at nice 15 beside it): `make demo` 5 min 24 s to the report, then `make test` 12 min
-# 26 s (pytest 241 s of it), at d2aa31f with the Rust tests at one job each; before it
-# (9841fb6) a clean clone's `make demo` took 21 minutes and `make test` 1491 s, the wheel's
-# build 13 min 50 s of CPU against 5 min 12 s now (the rigs' plant kinds compiled once per
-# kernel copy, not inlined per controller law: sweep/block/mod.rs, `out_of_line_in`). With
-# both cores each, a clean clone's `make test` alone (the wheel built in it, as CI does) took
-# 12 min 47 s at 8fc6e2b (pytest 219 s of it). At 1280b0a (2 December, quiet VM) a clean clone's
-# `make demo` took 11 min 28 s (the wheel's twip-py rustc alone ~11 min of CPU: this session's
-# sized fuzzy laws, env batches and drive tallies in the kernels grew the .so's code 16 %), then
-# `make test` 9 min 3 s (pytest 229 s, 1342 tests); `make test` with its own build (main, before
-# the clean clone) 16 min 19 s. Both above the 8 and 12 min goals again.
+# printing its output whole when it ends. Where that rustc's time went at 5184891 (LLVM's time
+# trace: `RUSTC_BOOTSTRAP=1 cargo rustc --release -p twip-py --lib -- -Z llvm-time-trace`):
+# 87 % of the optimiser's time in the twelve lane kernels that inline a fuzzy law (ideal and rig
+# kernels with FuzzyLanes, planar ones with SmcLanes, 3 copies each), mostly loop rotation, SROA
+# and full unrolling of the sized n x n laws' 49-rule loops. The sized laws now run out of line,
+# once per kernel copy (sweep/block/mod.rs, `out_of_line_in`; the thesis's 3 x 3 stays inlined,
+# which its speed needs). The same command, nice'd on the 2-core VM beside other builds (load
+# 7-9): before, 856 s of CPU (the dependencies rebuilt with it), twip-py's LLVM passes 2,501 s
+# of wall time; after, 264 s of CPU (twip-core, twip-ffi and twip-py only), LLVM passes 515 s.
+# Last clean-clone times (1280b0a, before this): `make demo` 11 min 28 s, then `make test`
+# 9 min 3 s; `make test` with its own wheel build 16 min 19 s. Goals: 8 and 12 min.
 test: setup
 	$(MAKE) --no-print-directory --jobs=2 --output-sync=target test-rust build
 	$(PYTEST)

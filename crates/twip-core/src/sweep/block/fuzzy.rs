@@ -1,6 +1,6 @@
 //! Fuzzy adaptive backstepping + PD on lanes: `control::fuzzy::Law` on each lane, whose
 //! weights Ŝ adapt on their own.
-use super::LaneLaw;
+use super::{out_of_line_in, LaneLaw};
 use crate::control::fuzzy::{FuzzyController, FuzzyGains, Law};
 use crate::control::fuzzy_basis::{Prepared, Trapezoid};
 use crate::control::fuzzy_grid::{RuleBase, Sized, MAX_RULES, MAX_SETS};
@@ -102,16 +102,24 @@ impl<const N: usize> Constants<N> {
         }
     }
 
-    /// The law on every chunk of `N` lanes.
+    /// The law on every chunk of `N` lanes, in kernel copy `COPY`. The sized n × n forms
+    /// are functions of their own per copy (`out_of_line_in`), shared by the kernels that
+    /// run the law: inlined, their 49-rule loops were compiled again into each kernel, and
+    /// made the wheel's build slow. The thesis's 3 × 3 stays inlined: out of line, its
+    /// sweeps ran at 0.46-0.49x (the sized ones within noise).
     #[inline(always)]
-    fn update(&self, controller: &FuzzyController<f64>, phi_s: f64, state: &mut FuzzyState, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
+    fn update<const COPY: u8>(&self, controller: &FuzzyController<f64>, phi_s: f64, state: &mut FuzzyState, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
         match &self.sets {
             Sets::Trapezoids(sets) => self.update_with::<9, _>(sets, controller, phi_s, state, x, r, u),
             Sets::Any(sets) => self.update_with::<9, _>(sets, controller, phi_s, state, x, r, u),
-            Sets::SizedTrapezoids(sets, n) => {
+            // `inline(always)`: the closure inlined into the copy's function, so compiled with
+            // its instructions.
+            Sets::SizedTrapezoids(sets, n) => out_of_line_in::<COPY, _>(#[inline(always)] || {
                 self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n }, controller, phi_s, state, x, r, u)
-            }
-            Sets::SizedAny(sets, n) => self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n }, controller, phi_s, state, x, r, u),
+            }),
+            Sets::SizedAny(sets, n) => out_of_line_in::<COPY, _>(#[inline(always)] || {
+                self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n }, controller, phi_s, state, x, r, u)
+            }),
         }
     }
 
@@ -197,11 +205,11 @@ impl LaneLaw for FuzzyLanes {
     }
 
     #[inline(always)]
-    fn update(&mut self, state: &mut FuzzyState, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
+    fn update<const COPY: u8>(&mut self, state: &mut FuzzyState, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
         let phi_s = self.steady_pitch(r.theta_dot);
         match &self.law {
-            Width::Four(law) => law.update(&self.controller, phi_s, state, x, r, u),
-            Width::Eight(law) => law.update(&self.controller, phi_s, state, x, r, u),
+            Width::Four(law) => law.update::<COPY>(&self.controller, phi_s, state, x, r, u),
+            Width::Eight(law) => law.update::<COPY>(&self.controller, phi_s, state, x, r, u),
         }
     }
 }

@@ -52,7 +52,7 @@ impl LaneLaw for LqrLanes {
     }
 
     #[inline(always)]
-    fn update(&mut self, z: &mut Lanes, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
+    fn update<const COPY: u8>(&mut self, z: &mut Lanes, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
         let (phi_s, u_s) = self.steady_state(r.theta_dot);
         let (phi_s, u_s, speed, period) = (Fused(phi_s), Fused(u_s), Fused(r.theta_dot), Fused(self.period()));
         // A loop over lanes that the compiler vectorises.

@@ -71,8 +71,10 @@ pub trait LaneLaw {
     /// The state every lane starts from (the prototype's, reset).
     fn start(&self) -> Self::State;
     /// Every lane's input `u` for its true state `x` (sweeps sense ideally) and the
-    /// reference `r`. Lanes that have ended compute on and are never kept.
-    fn update(&mut self, state: &mut Self::State, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes);
+    /// reference `r`. Lanes that have ended compute on and are never kept. `COPY` is the
+    /// kernel copy that asks (a [`KernelCopy`] as `u8`), for a law that runs out of line
+    /// in it ([`out_of_line_in`]).
+    fn update<const COPY: u8>(&mut self, state: &mut Self::State, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes);
 }
 
 /// Plant coefficients, one array per coefficient, one entry per lane. Aligned to a cache
@@ -495,7 +497,10 @@ macro_rules! multiversioned {
 pub(crate) use multiversioned;
 
 /// Runs `f` out of line, as a function of its own compiled for `COPY`'s instructions: the
-/// rigs' kernels call each plant kind (`by_kind!`) through it. Inlined into the kernels, the
+/// rigs' kernels call each plant kind (`by_kind!`) through it, and every kernel the fuzzy
+/// laws' sized n × n forms (`FuzzyLanes`, `SmcLanes`; once per copy, shared by the ideal and
+/// the rig kernels). Inlined, those made the twelve kernels that run a fuzzy law take 87 %
+/// of the wheel's optimiser time (loop rotation, SROA, full unrolling). Inlined into the kernels, the
 /// 54 kinds of the 2-DOF rig and 18 of the 3-DOF one were compiled again for every
 /// controller law and made functions so large that the optimiser's time grew faster than
 /// their size: the wheel's build took 13 minutes of CPU, almost all in them. Out of line,
@@ -543,7 +548,7 @@ multiversioned! {
     /// block with idle lanes). `should_stop` is asked every `runner::STOP_CHECK_STEPS`
     /// steps; `Ok(None)` means it said yes before the block was done. Compiled once per
     /// x86-64 vector width, all giving the same bits (`multiversioned`).
-    pub fn run_block, block_avx512, block_avx2, block_baseline = block<C: LaneLaw>(
+    pub fn run_block, block_avx512, block_avx2, block_baseline = block<C: LaneLaw; const COPY>(
         controller: C,
         reference: &SpeedSchedule<f64>,
         config: &SimConfig<f64>,
@@ -553,7 +558,7 @@ multiversioned! {
 }
 
 #[inline(always)]
-fn block<C: LaneLaw>(
+fn block<C: LaneLaw, const COPY: u8>(
     mut controller: C,
     reference: &SpeedSchedule<f64>,
     config: &SimConfig<f64>,
@@ -605,7 +610,7 @@ fn block<C: LaneLaw>(
         speed_scale = speed_scale.max(r.theta_dot.abs());
         direction = if r.theta_dot != 0.0 { r.theta_dot.signum() } else { direction };
         if k % per_update == 0 {
-            controller.update(&mut state, &x, &r, &mut u);
+            controller.update::<COPY>(&mut state, &x, &r, &mut u);
             // A lane whose input is not finite has diverged: it ends as fallen.
             let mut finite = true;
             for l in 0..LANES {

@@ -34,8 +34,9 @@ pub trait PlanarLaneLaw {
     /// The state every lane starts from (the prototype's, reset).
     fn start(&self) -> Self::State;
     /// Every lane's wheel torques `u` for its true state `x` (sweeps sense ideally) and the
-    /// reference `r`. Lanes that have ended compute on and are never kept.
-    fn update(&mut self, state: &mut Self::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]);
+    /// reference `r`. Lanes that have ended compute on and are never kept. `COPY`: the
+    /// kernel copy that asks, as in [`LaneLaw::update`](super::LaneLaw::update).
+    fn update<const COPY: u8>(&mut self, state: &mut Self::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]);
 }
 
 /// The PID tracker on lanes: `PidLaw::step` on each lane, each lane's two integrals.
@@ -64,7 +65,7 @@ impl PlanarLaneLaw for PidLanes {
     }
 
     #[inline(always)]
-    fn update(&mut self, integrals: &mut [Lanes; 2], x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
+    fn update<const COPY: u8>(&mut self, integrals: &mut [Lanes; 2], x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
         let r: PlanarRef<Fused> = lane_ref(r);
         // A loop over lanes that the compiler vectorises.
         for l in 0..LANES {
@@ -296,7 +297,7 @@ multiversioned! {
     /// metrics from `settle` [s]; fewer samples fill the block with idle lanes).
     /// `should_stop` is asked every `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it
     /// said yes before the block was done.
-    pub fn run_planar_block, planar_avx512, planar_avx2, planar_baseline = planar_block<C: PlanarLaneLaw, P: LanePath>(
+    pub fn run_planar_block, planar_avx512, planar_avx2, planar_baseline = planar_block<C: PlanarLaneLaw, P: LanePath; const COPY>(
         controller: C,
         path: &P,
         config: &SimConfig<f64>,
@@ -307,7 +308,7 @@ multiversioned! {
 }
 
 #[inline(always)]
-fn planar_block<C: PlanarLaneLaw, P: LanePath>(
+fn planar_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     mut controller: C,
     path: &P,
     config: &SimConfig<f64>,
@@ -346,7 +347,7 @@ fn planar_block<C: PlanarLaneLaw, P: LanePath>(
         }
         let r = path.sample(t);
         if k % per_update == 0 {
-            controller.update(&mut state, &x, &r, &mut u);
+            controller.update::<COPY>(&mut state, &x, &r, &mut u);
             // A lane whose input is not finite has diverged: it ends as fallen, unobserved.
             for l in 0..LANES {
                 if alive[l] && !(u[0][l].is_finite() && u[1][l].is_finite()) {

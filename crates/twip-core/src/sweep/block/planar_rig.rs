@@ -434,7 +434,7 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
                 rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
                 set_lane(&mut y, l, &rig.sensors.read(t, &lane(&x, l)));
             }
-            controller.update(&mut state, &y, &r, &mut cmd);
+            controller.update::<COPY>(&mut state, &y, &r, &mut cmd);
             let (mut drive, mut clamped) = (zero, [false; LANES]);
             for (l, rig) in rigs.iter_mut().enumerate() {
                 let (command_l, yl) = (lane(&cmd, l), lane(&y, l));

@@ -558,7 +558,7 @@ fn rig_block<C: LaneLaw, const COPY: u8>(
                     y[i][l] = yl[i];
                 }
             }
-            controller.update(&mut state, &y, &r, &mut cmd);
+            controller.update::<COPY>(&mut state, &y, &r, &mut cmd);
             let (mut drive, mut clamped) = ([0.0; LANES], [false; LANES]);
             for (l, rig) in rigs.iter_mut().enumerate() {
                 let (command_l, yl) = (SVector::<f64, 1>::new(cmd[l]), Vector4::from(lane(&y, l)));

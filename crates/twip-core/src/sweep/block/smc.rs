@@ -2,7 +2,7 @@
 //! on each lane, [`WIDTH`](crate::model::lane::WIDTH) lanes at a time in [`Wide`] numbers
 //! (the fuzzy sets' selects and guards, which a loop over lanes would not vectorise).
 use super::planar::{lane_ref, PlanarLaneLaw};
-use super::{chunk, put, CHUNKS};
+use super::{chunk, out_of_line_in, put, CHUNKS};
 use crate::control::fuzzy_basis::Trapezoid;
 use crate::control::fuzzy_grid::{RuleBase, Sized, MAX_RULES, MAX_SETS};
 use crate::control::smc::SmcTracker;
@@ -99,15 +99,18 @@ impl PlanarLaneLaw for SmcLanes {
         SmcState { c1: c1.iter().map(|w| [*w; LANES]).collect(), c2: c2.iter().map(|w| [*w; LANES]).collect() }
     }
 
+    /// The sized n × n sets' law is a function of its own per kernel copy (`out_of_line_in`),
+    /// as `FuzzyLanes`' is, shared by the kernels; the 3 × 3 stays inlined.
     #[inline(always)]
-    fn update(&mut self, state: &mut SmcState, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
+    fn update<const COPY: u8>(&mut self, state: &mut SmcState, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
         let phi_s = self.controller.cached_steady_pitch(r.v, r.omega);
+        let controller = &self.controller;
         match &self.sets {
-            Sets::Three(sets) => Self::update_with::<9, _>(&self.controller, phi_s, [&sets[0], &sets[1]], state, x, r, u),
-            Sets::Sized(sets, n) => {
+            Sets::Three(sets) => Self::update_with::<9, _>(controller, phi_s, [&sets[0], &sets[1]], state, x, r, u),
+            Sets::Sized(sets, n) => out_of_line_in::<COPY, _>(#[inline(always)] || {
                 let bases = [Sized { sets: &sets[0], n: *n }, Sized { sets: &sets[1], n: *n }];
-                Self::update_with::<MAX_RULES, _>(&self.controller, phi_s, [&bases[0], &bases[1]], state, x, r, u)
-            }
+                Self::update_with::<MAX_RULES, _>(controller, phi_s, [&bases[0], &bases[1]], state, x, r, u)
+            }),
         }
     }
 }
