@@ -59,8 +59,9 @@ test-python: build
 # which its speed needs). The same command, nice'd on the 2-core VM beside other builds (load
 # 7-9): before, 856 s of CPU (the dependencies rebuilt with it), twip-py's LLVM passes 2,501 s
 # of wall time; after, 264 s of CPU (twip-core, twip-ffi and twip-py only), LLVM passes 515 s.
-# Last clean-clone times (1280b0a, before this): `make demo` 11 min 28 s, then `make test`
-# 9 min 3 s; `make test` with its own wheel build 16 min 19 s. Goals: 8 and 12 min.
+# Clean clone on the quiet 2-core VM: before (1280b0a) `make demo` 11 min 28 s, then `make test`
+# 9 min 3 s; after (e3c986c) `make demo` 5 min 45 s (345 s wall, 358 s user; the report 19.5 s
+# of it), then `make test` 9 min 19 s (pytest 226 s, 1356 passed). Goals: 8 and 12 min.
 test: setup
 	$(MAKE) --no-print-directory --jobs=2 --output-sync=target test-rust build
 	$(PYTEST)
