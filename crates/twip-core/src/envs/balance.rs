@@ -164,6 +164,43 @@ mod tests {
         }
     }
 
+    /// Resetting many lanes at once (their robots made side by side) is resetting them one
+    /// by one: the same keys and bits, a lane named twice started twice, and a lane past the
+    /// end stopping the resets there.
+    #[test]
+    fn reset_many_is_reset_one_by_one() {
+        let rig: RealismFor = Arc::new(|_: &RobotParams<f64>| Ok(Realism::thesis_like()));
+        for realism in [None, Some(rig)] {
+            let spec = spec(realism);
+            let mut fell = alloc::vec![false; 20];
+            let (mut many, mut one) = (BalanceEnvs::new(spec.clone(), 20, 2).unwrap(), BalanceEnvs::new(spec.clone(), 20, 1).unwrap());
+            let lanes = [3, 7, 0, 19];
+            many.reset_many(&lanes, Some(&[11, 12, 13, 14])).unwrap();
+            many.reset_many(&[7, 2, 7], None).unwrap();
+            let past = many.reset_many(&[1, 25, 4], None);
+            assert!(matches!(past, Err(TwipError::InvalidParameter { name: "lane", .. })), "{past:?}");
+            for (l, seed) in lanes.into_iter().zip(11..) {
+                one.reset(l, Some(seed)).unwrap();
+            }
+            for l in [7, 2, 7, 1] {
+                one.reset(l, None).unwrap();
+            }
+            assert_eq!(many.key(4), (4, 0));
+            assert_eq!(many.key(7), (12, 2));
+            for _ in 0..30 {
+                let actions: Vec<f64> = (0..20).map(|l| 8.0 * one.observation(l)[0] + 0.5 * one.observation(l)[1]).collect();
+                many.step(&actions, &mut fell).unwrap();
+                one.step(&actions, &mut fell).unwrap();
+            }
+            for l in 0..20 {
+                assert_eq!(many.key(l), one.key(l));
+                assert_eq!(<[f64; 4]>::from(many.state(l)), <[f64; 4]>::from(one.state(l)), "lane {l}");
+                assert_eq!(<[f64; 4]>::from(many.observation(l)), <[f64; 4]>::from(one.observation(l)), "lane {l}");
+            }
+            assert!(matches!(many.reset_many(&[1, 2], Some(&[5])), Err(TwipError::InvalidParameter { name: "seeds", .. })));
+        }
+    }
+
     /// Replays actions as a controller of the one runner.
     struct Replay(Vec<f64>, usize);
 

@@ -82,6 +82,27 @@ fn reserved<T>(n: usize) -> Result<Vec<T>, TwipError> {
     Ok(v)
 }
 
+/// A lane's next robot, made apart from the batch so that many can be made at once.
+enum Started<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
+    Ideal(K::Model, SVector<f64, NX>),
+    Rig(RigRobot<K::RigPlant, K::RigSensors, K::RigActuator, NX, NU>),
+}
+
+/// The robot of `spec` for `key`: its model and initial state, or its rig started at rest.
+fn make<K: EnvKind<NX, NU>, const NX: usize, const NU: usize>(spec: &K, key: (u64, u64)) -> Result<Started<K, NX, NU>, TwipError> {
+    let Drawn { params, model, x0 } = spec.draw(key)?;
+    for (index, &value) in x0.iter().enumerate() {
+        if !value.is_finite() {
+            return Err(TwipError::NonFinite { name: "x0", index, value });
+        }
+    }
+    let Some(realism_for) = spec.realism() else { return Ok(Started::Ideal(model, x0)) };
+    let realism = Realism { seed: noise_seed(key.0), stream: key.1, ..realism_for(&params)? };
+    let pwm_max = realism.motor.map(|m| m.motor(&params)).transpose()?.map(|m| m.pwm_max());
+    let period = spec.period();
+    Ok(Started::Rig(RigRobot::start(K::rig(&realism, &model, period.dt)?, x0, pwm_max, period.dt * period.substeps as f64)))
+}
+
 #[allow(private_bounds)]
 impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
     /// `n` robots, lane i keyed (i, 0) until it is reset with a seed of its own.
@@ -147,16 +168,50 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
         self.start(l, seed.map_or((s, e.wrapping_add(1)), |s| (s, 0)))
     }
 
+    /// Starts the next episode of each lane of `lanes` in turn, as [`Self::reset`] one by one
+    /// would (`seeds`: one per lane, or None), with the new robots made side by side on the
+    /// batch's threads: a rig's start (its estimator's settle) costs as much as many steps.
+    /// On an error the lanes before the failing one are reset, it and those after unchanged.
+    pub fn reset_many(&mut self, lanes: &[usize], seeds: Option<&[u64]>) -> Result<(), TwipError> {
+        if let Some(s) = seeds.filter(|s| s.len() != lanes.len()) {
+            return Err(TwipError::InvalidParameter { name: "seeds", value: s.len() as f64, reason: "one seed per lane reset" });
+        }
+        let mut sorted = reserved::<usize>(lanes.len())?;
+        sorted.extend_from_slice(lanes);
+        sorted.sort_unstable();
+        if sorted.windows(2).any(|w| w[0] == w[1]) {
+            // A lane reset twice starts two episodes in turn: one by one.
+            return lanes.iter().enumerate().try_for_each(|(i, &l)| self.reset(l, seeds.map(|s| s[i])));
+        }
+        let mut keys = reserved::<(u64, u64)>(lanes.len())?;
+        let mut past_the_end = None;
+        for (i, &l) in lanes.iter().enumerate() {
+            if l >= self.n {
+                past_the_end = Some(TwipError::InvalidParameter { name: "lane", value: l as f64, reason: "past the last robot" });
+                break;
+            }
+            let (s, e) = self.keys[l];
+            keys.push(seeds.map_or((s, e.wrapping_add(1)), |s| (s[i], 0)));
+        }
+        let spec = &self.spec;
+        let made: Vec<_> = self.pool.install(|| keys.par_iter().map(|&key| make::<K, NX, NU>(spec, key)).collect());
+        for ((&l, &key), robot) in lanes.iter().zip(&keys).zip(made) {
+            self.put(l, key, robot?);
+        }
+        past_the_end.map_or(Ok(()), Err)
+    }
+
     /// Lane `l`'s robot and initial state for `key`, and its state set.
     fn start(&mut self, l: usize, key: (u64, u64)) -> Result<(), TwipError> {
-        let Drawn { params, model, x0 } = self.spec.draw(key)?;
-        for (index, &value) in x0.iter().enumerate() {
-            if !value.is_finite() {
-                return Err(TwipError::NonFinite { name: "x0", index, value });
-            }
-        }
-        match (&mut self.robots, self.spec.realism()) {
-            (Robots::Ideal(blocks), _) => {
+        let robot = make::<K, NX, NU>(&self.spec, key)?;
+        self.put(l, key, robot);
+        Ok(())
+    }
+
+    /// Puts `robot`, made for `key`, in lane `l`.
+    fn put(&mut self, l: usize, key: (u64, u64), robot: Started<K, NX, NU>) {
+        match (&mut self.robots, robot) {
+            (Robots::Ideal(blocks), Started::Ideal(model, x0)) => {
                 let (b, j) = (l / LANES, l % LANES);
                 let block = &mut blocks[b];
                 block.models[j] = model;
@@ -165,22 +220,17 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
                     block.x[i][j] = x0[i];
                 }
             }
-            (Robots::Rig(robots), Some(realism_for)) => {
-                let realism = Realism { seed: noise_seed(key.0), stream: key.1, ..realism_for(&params)? };
-                let pwm_max = realism.motor.map(|m| m.motor(&params)).transpose()?.map(|m| m.pwm_max());
-                let period = self.spec.period();
-                let robot = RigRobot::start(K::rig(&realism, &model, period.dt)?, x0, pwm_max, period.dt * period.substeps as f64);
+            (Robots::Rig(robots), Started::Rig(robot)) => {
                 if l < robots.len() {
                     robots[l] = robot;
                 } else {
                     robots.push(robot);
                 }
             }
-            (Robots::Rig(_), None) => unreachable!("a rig batch has a realism"),
+            _ => unreachable!("a batch's robots are all ideal or all through a rig"),
         }
         self.keys[l] = key;
         self.periods[l] = 0;
-        Ok(())
     }
 
     /// Lane `l`'s true state.

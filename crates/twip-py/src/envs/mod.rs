@@ -21,26 +21,15 @@ pub(crate) fn realism_for(realism: Option<&PyRealism>) -> Option<RealismFor> {
     })
 }
 
-/// Resets lanes `lanes` through `reset(lane, seed)`: with `seeds` (one per lane) episode 0
-/// of that seed, else the lane's next episode.
+/// Resets lanes `lanes` through `reset(lanes, seeds)` (the batch's `reset_many`): with
+/// `seeds` (one per lane) episode 0 of that seed, else the lane's next episode.
 pub(crate) fn reset_lanes(
     py: Python<'_>,
     lanes: &[usize],
     seeds: Option<Vec<u64>>,
-    mut reset: impl FnMut(usize, Option<u64>) -> Result<(), TwipError> + Send,
+    reset: impl FnOnce(&[usize], Option<&[u64]>) -> Result<(), TwipError> + Send,
 ) -> PyResult<()> {
-    if let Some(s) = &seeds {
-        if s.len() != lanes.len() {
-            return Err(crate::errors::invalid("seeds", s.len() as f64, "one seed per lane reset").into());
-        }
-    }
-    py.detach(|| {
-        for (i, &l) in lanes.iter().enumerate() {
-            reset(l, seeds.as_ref().map(|s| s[i]))?;
-        }
-        Ok::<(), TwipError>(())
-    })
-    .map_err(crate::errors::PyTwipError)?;
+    py.detach(|| reset(lanes, seeds.as_deref())).map_err(crate::errors::PyTwipError)?;
     Ok(())
 }
 
@@ -80,7 +69,7 @@ macro_rules! batch_class {
             #[pyo3(signature = (lanes, seeds = None))]
             fn reset(&mut self, py: Python<'_>, lanes: Vec<usize>, seeds: Option<Vec<u64>>) -> PyResult<()> {
                 let inner = &mut self.inner;
-                $crate::envs::reset_lanes(py, &lanes, seeds, |l, seed| inner.reset(l, seed))
+                $crate::envs::reset_lanes(py, &lanes, seeds, |lanes, seeds| inner.reset_many(lanes, seeds))
             }
 
             /// One control period of every robot under `actions` (the model's inputs of
