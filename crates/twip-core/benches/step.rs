@@ -74,29 +74,16 @@ mod cpu {
     /// processes' time on the core does not count, as it does in wall time.
     struct ThreadCpu;
 
-    #[repr(C)]
-    struct Timespec {
-        seconds: i64,
-        nanoseconds: i64,
-    }
-
-    extern "C" {
-        fn clock_gettime(clock: i32, time: *mut Timespec) -> i32;
-    }
-
-    /// CLOCK_THREAD_CPUTIME_ID in Linux's time.h.
-    const CLOCK_THREAD_CPUTIME_ID: i32 = 3;
-
     impl Measurement for ThreadCpu {
         type Intermediate = u64;
         type Value = u64;
 
         fn start(&self) -> u64 {
-            let mut t = Timespec { seconds: 0, nanoseconds: 0 };
-            // SAFETY: `t` is a valid, writable timespec; the clock id is Linux's.
-            let status = unsafe { clock_gettime(CLOCK_THREAD_CPUTIME_ID, &mut t) };
+            let mut t = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+            // SAFETY: `t` is a valid, writable timespec and the clock id is libc's own.
+            let status = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) };
             assert_eq!(status, 0, "the thread CPU clock is not available");
-            t.seconds as u64 * 1_000_000_000 + t.nanoseconds as u64
+            t.tv_sec as u64 * 1_000_000_000 + t.tv_nsec as u64
         }
 
         fn end(&self, start: u64) -> u64 {
