@@ -369,8 +369,7 @@ def test_interrupted_sweep_resumes_to_the_uninterrupted_result(tmp_path, sig, na
     print(f"{signal.Signals(sig).name}: stopped after {waited * 1e3:.0f} ms with {shards} of {n // 200} shards written")
     assert 0 < shards < n // 200
     if sig == signal.SIGINT:
-        assert code == 3 and out.startswith("interrupted")
-        assert waited < 1.0
+        assert code == 3 and out.startswith("interrupted")  # how fast: benches/ctrl_c.py
     sc, kw = case(name)
     if sig == signal.SIGKILL:  # killed holding the lock: taken over, and said so
         with pytest.warns(UserWarning, match="took over the lock left by pid"):

@@ -271,7 +271,9 @@ def test_ctrl_c_stops_a_python_controller_sweep_and_it_resumes(tmp_path):
     script.write_text(SCRIPT.format(tests=tests, n=4000, folder=str(tmp_path / "ck")))
     proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
     assert proc.stdout.readline().strip() == "started"
-    time.sleep(2.0)
+    deadline = time.monotonic() + 120  # a loaded machine: wait for the first shard, not a fixed time
+    while not list((tmp_path / "ck").glob("shard-*.npz")) and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
     proc.send_signal(signal.SIGINT)
     out, _ = proc.communicate(timeout=60)
     assert out.startswith("interrupted"), out

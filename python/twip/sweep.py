@@ -215,33 +215,35 @@ def montecarlo(
     config = _config(sc, scenario, n, seed, perturbations, options, (perturb or {}).keys(), realism, on_error)
     if stall_current is not None:  # summary() counts the samples that asked more of a motor
         stall_current = checks.real("stall_current", stall_current, above=0)
-    if shard_size is None and checkpoint is not None and user_sweep.is_user_controller(sc.controller):
-        shard = _timed_shard(sc, config, n, checkpoint, threads, realism)
-    elif shard_size is None:
-        # Checkpointed sweeps keep at most MAX_SHARDS files (n = 10**9: shards of 10**5).
-        shard = max(DEFAULT_SHARD, -(-n // MAX_SHARDS)) if (checkpoint or client) else n
-    elif isinstance(shard_size, bool) or not isinstance(shard_size, (int, np.integer)) or shard_size <= 0:
-        raise _bad(f"shard_size = {shard_size!r}: must be a positive integer")
-    else:
-        shard = int(shard_size)
-    # Memory: all the metrics when they fit the budget, else (with a checkpoint) a
-    # shard at a time, the summaries read back from the shards.
-    in_memory = fits_in_memory(n)
-    if checkpoint is None:
-        budget.check(f"montecarlo: n = {n:,} samples", n * BYTES_PER_SAMPLE,
-                     "pass checkpoint=FOLDER to stream the sweep to disk in shards")
-    else:
-        budget.check(f"montecarlo: a shard of shard_size = {shard:,} samples", shard * BYTES_PER_SAMPLE,
-                     "pass a smaller shard_size")
-    store = Checkpoint(checkpoint, config, shard) if checkpoint is not None else None
+    store = None
     try:
+        if shard_size is None and checkpoint is not None and user_sweep.is_user_controller(sc.controller):
+            shard = _timed_shard(sc, config, n, checkpoint, threads, realism)
+        elif shard_size is None:
+            # Checkpointed sweeps keep at most MAX_SHARDS files (n = 10**9: shards of 10**5).
+            shard = max(DEFAULT_SHARD, -(-n // MAX_SHARDS)) if (checkpoint or client) else n
+        elif isinstance(shard_size, bool) or not isinstance(shard_size, (int, np.integer)) or shard_size <= 0:
+            raise _bad(f"shard_size = {shard_size!r}: must be a positive integer")
+        else:
+            shard = int(shard_size)
+        # Memory: all the metrics when they fit the budget, else (with a checkpoint) a
+        # shard at a time, the summaries read back from the shards.
+        in_memory = fits_in_memory(n)
+        if checkpoint is None:
+            budget.check(f"montecarlo: n = {n:,} samples", n * BYTES_PER_SAMPLE,
+                         "pass checkpoint=FOLDER to stream the sweep to disk in shards")
+        else:
+            budget.check(f"montecarlo: a shard of shard_size = {shard:,} samples", shard * BYTES_PER_SAMPLE,
+                         "pass a smaller shard_size")
+        store = Checkpoint(checkpoint, config, shard) if checkpoint is not None else None
         result = _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, realism, traces, trace_every,
                         on_error)
         result.stall_current = stall_current
         return result
     except KeyboardInterrupt as stop:
-        if getattr(stop, "partial", None) is not None:
-            stop.partial.stall_current = stall_current
+        if getattr(stop, "partial", None) is None:  # stopped before the first shard began
+            stop.partial = _assemble({}, config, 0.0, kernel_for(sc, realism), sc, complete=False, realism=realism)
+        stop.partial.stall_current = stall_current
         raise
     finally:
         if store is not None:

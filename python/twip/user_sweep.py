@@ -140,11 +140,15 @@ def _chunk(bounds) -> list:
     return [_sample(i) for i in range(start, stop)]
 
 
-def _worker(conn) -> None:
+def _worker(conn, parent_ends) -> None:
     """A worker process: runs the chunks it is sent until told to stop (None) or its
     parent is gone. It ignores Ctrl-C: the parent, which a terminal's Ctrl-C reaches too,
-    ends it, so that no worker is caught between a pipe's reads."""
+    ends it, so that no worker is caught between a pipe's reads. It closes the parent's
+    ends of the pipes it inherited from the fork: holding its own pipe's other end, it never
+    saw the parent die, and lived on as an orphan holding the parent's stdout."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for end in parent_ends:
+        end.close()
     while True:
         try:
             bounds = conn.recv()
@@ -172,13 +176,21 @@ class _Pool:
     def __init__(self, workers: int):
         context = multiprocessing.get_context("fork")
         self.procs, self.conns = [], []
-        for _ in range(workers):
-            parent, child = context.Pipe()
-            proc = context.Process(target=_worker, args=(child,), daemon=True)
-            proc.start()
-            child.close()
-            self.procs.append(proc)
-            self.conns.append(parent)
+        try:
+            # A Ctrl-C that lands in the fork's own handlers (logging's lock release) is
+            # printed as "Exception ignored" and lost, and the sweep ran on: hold it until
+            # the workers are started, then let it stop the sweep.
+            with ctrl_c_held():
+                for _ in range(workers):
+                    parent, child = context.Pipe()
+                    self.conns.append(parent)
+                    proc = context.Process(target=_worker, args=(child, self.conns), daemon=True)
+                    proc.start()
+                    child.close()
+                    self.procs.append(proc)
+        except BaseException:
+            self.__exit__()
+            raise
 
     def __enter__(self):
         return self
