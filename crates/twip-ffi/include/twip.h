@@ -39,8 +39,8 @@ typedef struct {
 } TwipLqr;
 
 // The C ABI version a controller configuration was written for: its first field, which
-// `twip_X_init` reads before any other ([`crate::TWIP_ERR_ABI`] when it is not
-// [`crate::TWIP_ABI_VERSION`]). A default configuration is of this library's version.
+// `twip_X_init` reads before any other (`TWIP_ERR_ABI` when it is not `TWIP_ABI_VERSION`).
+// A default configuration is of this library's version.
 typedef int32_t TwipAbiVersion;
 
 // The robot's physical parameters [SI], in the order of twip-core's `FIELD_NAMES`.
