@@ -3,6 +3,7 @@ of trapezoid, triangle or Gaussian sets into TwipSmcConfig, the exported C repla
 controller's commands on the host (`make check`, 1e-5 relative), bad grids are named at
 export, and a configuration, header or library of another C ABI version is refused by a
 clear check."""
+import math
 import re
 import subprocess
 
@@ -106,6 +107,13 @@ def test_a_set_that_f32_cannot_hold_is_named_at_export(tmp_path):
     with pytest.raises(twip.InvalidParameterError, match=r"invalid pitch_sets\[0\]\[0\] = -1e\+?39: does not fit"):
         export(_smc(twip.FuzzyBasis.grid("triangle", [[-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0]]), huge), tmp_path,
                replay_seconds=0.1)
+    # Valid in f64, not in f32: a ramp 1e-40 wide, whose slope 1/width f32 cannot hold.
+    inf = math.inf
+    ramp = [twip.Trapezoid(-inf, -inf, 0.0, 1e-40), twip.Trapezoid(0.0, 1e-40, 0.5, 0.6), twip.Trapezoid(0.5, 0.6, inf, inf)]
+    with pytest.raises(twip.InvalidParameterError,
+                       match=r"invalid pitch_sets\[0\]\[0\] = .*: makes a ramp whose slope 1/width is not finite"):
+        export(_smc(twip.FuzzyBasis.grid("triangle", [[-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0]]), twip.FuzzyBasis([ramp, ramp])),
+               tmp_path, replay_seconds=0.1)
     assert not (tmp_path / "replay_data.c").exists()
 
 

@@ -332,7 +332,7 @@ impl Default for TwipFuzzyConfig {
 
 impl TwipFuzzyConfig {
     pub fn build(&self) -> Result<FuzzyController<f32>, TwipError> {
-        let basis = grid_of(self.n_sets, &self.sets)?;
+        let basis = grid_of(self.n_sets, &self.sets, &SET_NAMES)?;
         let gains = FuzzyGains { k1: self.k1, k2: self.k2, kp: self.kp, kd: self.kd, ki: self.ki };
         let adaptation = FuzzyAdaptation { gamma: self.gamma, sigma: self.sigma, enabled: self.adapt != 0 };
         let model = slope_model(self.robot, self.slope, self.friction)?;
@@ -513,7 +513,7 @@ impl TwipSmcConfig {
             gamma2: self.gamma2,
             leakage: self.leakage,
         });
-        let (yaw, pitch) = (grid_of(self.n_sets, &self.yaw_sets)?, grid_of(self.n_sets, &self.pitch_sets)?);
+        let (yaw, pitch) = (grid_of(self.n_sets, &self.yaw_sets, &YAW_SET_NAMES)?, grid_of(self.n_sets, &self.pitch_sets, &PITCH_SET_NAMES)?);
         SmcTracker::new(gains, options, model, motor, adaptation, self.period)?.with_bases(yaw, pitch)
     }
 
@@ -563,15 +563,20 @@ unsafe impl Versioned for TwipFuzzyConfig {}
 unsafe impl Versioned for TwipPidConfig {}
 unsafe impl Versioned for TwipSmcConfig {}
 
-/// The n × n grid of the first `n_sets` sets of each row of `sets` (a configuration's).
-fn grid_of(n_sets: i32, sets: &[[TwipMembership; TWIP_FUZZY_MAX_SETS]; 2]) -> Result<FuzzyGrid<f32>, TwipError> {
+/// The n × n grid of the first `n_sets` sets of each row of `sets` (a configuration's). A set
+/// the core refuses is named by `names` (which set of the configuration), with the core's
+/// reason: an f64 set can be valid and its f32 not (a ramp too narrow for f32's 1/width).
+fn grid_of(n_sets: i32, sets: &[[TwipMembership; TWIP_FUZZY_MAX_SETS]; 2], names: &SetNames) -> Result<FuzzyGrid<f32>, TwipError> {
     let n = usize::try_from(n_sets).ok().filter(|n| (2..=TWIP_FUZZY_MAX_SETS).contains(n)).ok_or(
         TwipError::InvalidParameter { name: "n_sets", value: n_sets as f64, reason: "must be from 2 to TWIP_FUZZY_MAX_SETS (7)" },
     )?;
     let mut core = [[Membership::Gaussian { mean: 0.0, sigma: 1.0 }; TWIP_FUZZY_MAX_SETS]; 2];
-    for (row, given) in core.iter_mut().zip(sets) {
-        for (set, m) in row.iter_mut().zip(given).take(n) {
-            *set = m.to_core()?;
+    for ((row, given), names) in core.iter_mut().zip(sets).zip(names) {
+        for ((set, m), name) in row.iter_mut().zip(given).zip(names).take(n) {
+            *set = m.to_core().map_err(|e| match e {
+                TwipError::InvalidParameter { value, reason, .. } => TwipError::InvalidParameter { name, value, reason },
+                other => other,
+            })?;
         }
     }
     FuzzyGrid::new([&core[0][..n], &core[1][..n]])

@@ -134,9 +134,9 @@ fn bad_grids_are_refused_and_leave_the_state_uninitialised() {
         (TwipSmcConfig { n_sets: 1, ..good }, "n_sets"),
         (TwipSmcConfig { n_sets: 8, ..good }, "n_sets"),
         (TwipSmcConfig { n_sets: -3, ..good }, "n_sets"),
-        (bad_kind, "kind"),
-        (bad_sigma, "gaussian.sigma"),
-        (nan_centre, "gaussian.mean"),
+        (bad_kind, "pitch_sets[1][3]"),
+        (bad_sigma, "yaw_sets[0][0]"),
+        (nan_centre, "yaw_sets[1][2]"),
     ] {
         match bad.build() {
             Err(TwipError::InvalidParameter { name: got, .. }) => assert_eq!(got, name),
