@@ -1,6 +1,8 @@
 //! One update through the C ABI beside the same f32 core controller called from Rust: the
 //! ABI's price (finiteness checks, tag check, copies) is the difference.
 //! Run: cargo bench -p twip-ffi --bench update
+//! The fuzzy controller and the sliding-mode tracker run with the thesis's 3 × 3 trapezoids
+//! and with docs/fuzzy_sets.md's 5 × 5 Gaussian grids, side by side (the grids' cost ratio).
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -29,6 +31,14 @@ fn smc() -> SmcTracker<f64> {
     let motor = DcMotor::gb37y3530();
     let gains = SmcGains::thesis(motor.torque_per_count());
     SmcTracker::new(gains, SmcOptions::default(), model, Some(motor), Some(Adaptation::default()), PERIOD as f64).unwrap()
+}
+
+/// [`smc`] with the fuzzy-sets study's 5 × 5 Gaussian grids (σ half the spacing).
+fn smc_gaussian_5x5() -> SmcTracker<f64> {
+    let (phi, omega, rate) = ([-0.3, -0.15, 0.0, 0.15, 0.3], [-1.0, -0.5, 0.0, 0.5, 1.0], [-2.0, -1.0, 0.0, 1.0, 2.0]);
+    let yaw = FuzzyGrid::regular(SetKind::Gaussian, [&phi, &omega], [&[0.075; 5], &[0.25; 5]]).unwrap();
+    let pitch = FuzzyGrid::regular(SetKind::Gaussian, [&phi, &rate], [&[0.075; 5], &[0.5; 5]]).unwrap();
+    smc().with_bases(yaw, pitch).unwrap()
 }
 
 fn planar_ref() -> (TwipPlanarRef, PlanarRef<f32>) {
@@ -97,6 +107,15 @@ fn planar_family(c: &mut Criterion) {
     assert_eq!(unsafe { twip_smc_init(&mut state, &smc_config) }, TWIP_OK);
     c.bench_function("core_smc_fuzzy_update_f32", |b| b.iter(|| smc.update(0.0, black_box(&y), black_box(&core_ref))));
     c.bench_function("twip_smc_update", |b| {
+        b.iter(|| unsafe { twip_smc_update(&mut state, 0.0, black_box(Y3.as_ptr()), black_box(&c_ref), u.as_mut_ptr()) })
+    });
+
+    let gaussian_config = TwipSmcConfig::from_core(&smc_gaussian_5x5()).unwrap();
+    let mut gaussian = gaussian_config.build().unwrap();
+    let mut state = TwipSmc { words: [0; TWIP_SMC_WORDS] };
+    assert_eq!(unsafe { twip_smc_init(&mut state, &gaussian_config) }, TWIP_OK);
+    c.bench_function("core_smc_5x5_gaussian_update_f32", |b| b.iter(|| gaussian.update(0.0, black_box(&y), black_box(&core_ref))));
+    c.bench_function("twip_smc_5x5_gaussian_update", |b| {
         b.iter(|| unsafe { twip_smc_update(&mut state, 0.0, black_box(Y3.as_ptr()), black_box(&c_ref), u.as_mut_ptr()) })
     });
 }

@@ -5,6 +5,12 @@
 
 #include <stdint.h>
 
+// The version of the C ABI: the layout of the configurations and states. It goes up with
+// every change to them; each controller configuration starts with the version it was
+// written for (`abi_version`), which `twip_X_init` checks. Version 2 gave the sliding-mode
+// configuration its fuzzy grids (and every controller configuration its `abi_version`).
+#define TWIP_ABI_VERSION 2
+
 // The most fuzzy sets per input and rules a configuration holds (the core's capacity).
 #define TWIP_FUZZY_MAX_SETS 7
 
@@ -31,6 +37,11 @@ typedef int32_t TwipStatus;
 typedef struct {
   uint64_t words[TWIP_LQR_WORDS];
 } TwipLqr;
+
+// The C ABI version a controller configuration was written for: its first field, which
+// `twip_X_init` reads before any other (`TWIP_ERR_ABI` when it is not `TWIP_ABI_VERSION`).
+// A default configuration is of this library's version.
+typedef int32_t TwipAbiVersion;
 
 // The robot's physical parameters [SI], in the order of twip-core's `FIELD_NAMES`.
 typedef struct {
@@ -66,6 +77,8 @@ typedef struct {
 
 // LQR with integral action on the wheel speed. `u` is the lumped motor current [A].
 typedef struct {
+  // `TWIP_ABI_VERSION` when the configuration was written (checked first by the init).
+  TwipAbiVersion abi_version;
   // The controller's own model of the robot (steady state and feed-forward).
   TwipRobot robot;
   // Ground slope [rad].
@@ -100,6 +113,7 @@ typedef struct {
 // Fuzzy adaptive backstepping + PD on the wheel (thesis 4.3.1). `u` is the lumped
 // motor current [A].
 typedef struct {
+  TwipAbiVersion abi_version;
   TwipRobot robot;
   float slope;
   TwipFriction friction;
@@ -147,6 +161,7 @@ typedef struct {
 // `units`: counts of PWM per unit of pitch, speed and heading as the Arduino measured
 // them. `u` is the two wheels' torques [N m] (right, left).
 typedef struct {
+  TwipAbiVersion abi_version;
   float kp_pitch;
   float kd_pitch;
   float kp_speed;
@@ -186,6 +201,7 @@ typedef struct {
 // Sliding mode with fuzzy adaptive backstepping (thesis 4.3.2), SI gains. `u` is the
 // two wheels' torques [N m] (right, left).
 typedef struct {
+  TwipAbiVersion abi_version;
   TwipRobot robot;
   TwipFriction friction;
   float k1;
@@ -215,6 +231,13 @@ typedef struct {
   float gamma1;
   float gamma2;
   float leakage;
+  // Sets per input n of both fuzzy estimates' grids, from 2 to `TWIP_FUZZY_MAX_SETS` (the
+  // thesis's 3): the first n of each row of `yaw_sets` and `pitch_sets` are read.
+  int32_t n_sets;
+  // Sets of Ĉ1's inputs φ [rad] and ω [rad/s] (the yaw estimate).
+  TwipMembership yaw_sets[2][TWIP_FUZZY_MAX_SETS];
+  // Sets of Ĉ2's inputs φ [rad] and φ̇ [rad/s] (the pitch estimate).
+  TwipMembership pitch_sets[2][TWIP_FUZZY_MAX_SETS];
   float period;
 } TwipSmcConfig;
 
@@ -276,15 +299,25 @@ typedef struct {
 // the outputs untouched, so the next ordinary update answers as if this one never happened.
 #define TWIP_ERR_OVERFLOW -5
 
+// A controller configuration written for another version of the C ABI than the library's
+// (its `abi_version` is not `TWIP_ABI_VERSION`): refused before any other field is read,
+// since its fields may lie elsewhere (re-export it with this twip).
+#define TWIP_ERR_ABI -6
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
 
+// The C ABI version of this library, for a firmware to compare with its header's
+// `TWIP_ABI_VERSION` at start-up (a header and a library of two versions disagree on sizes).
+int32_t twip_abi_version(void);
+
 // A short English description of a status code (a static, NUL-terminated string).
 const char *twip_status_text(TwipStatus status);
 
-// Initialises `state` from `config`: TWIP_OK, TWIP_ERR_NULL, or TWIP_ERR_INVALID (a value
-// out of its domain; `state` is then marked not initialised).
+// Initialises `state` from `config`: TWIP_OK, TWIP_ERR_NULL, TWIP_ERR_ABI (`config` was
+// written for another version of the C ABI than this library's) or TWIP_ERR_INVALID (a value
+// out of its domain); after an error `state` is marked not initialised.
 //
 // # Safety
 // `state` and `config` are NULL or valid pointers.

@@ -42,8 +42,46 @@ const GAIN_NAMES: [&str; 4] = ["gains[0]", "gains[1]", "gains[2]", "gains[3]"];
 pub const TWIP_FUZZY_MAX_SETS: usize = 7;
 pub const TWIP_FUZZY_MAX_RULES: usize = 49;
 const _: () = assert!(TWIP_FUZZY_MAX_SETS == MAX_SETS && TWIP_FUZZY_MAX_RULES == MAX_RULES);
-const SET_NAMES: [[&str; TWIP_FUZZY_MAX_SETS]; 2] =
-    [["sets[0][0]", "sets[0][1]", "sets[0][2]", "sets[0][3]", "sets[0][4]", "sets[0][5]", "sets[0][6]"], ["sets[1][0]", "sets[1][1]", "sets[1][2]", "sets[1][3]", "sets[1][4]", "sets[1][5]", "sets[1][6]"]];
+/// `field[i][j]` for every set of a configuration's grid, as `'static` names for errors.
+macro_rules! set_names {
+    ($field:literal) => {
+        [set_names!(@row $field "[0]"), set_names!(@row $field "[1]")]
+    };
+    (@row $field:literal $i:literal) => {
+        [
+            concat!($field, $i, "[0]"),
+            concat!($field, $i, "[1]"),
+            concat!($field, $i, "[2]"),
+            concat!($field, $i, "[3]"),
+            concat!($field, $i, "[4]"),
+            concat!($field, $i, "[5]"),
+            concat!($field, $i, "[6]"),
+        ]
+    };
+}
+type SetNames = [[&'static str; TWIP_FUZZY_MAX_SETS]; 2];
+const SET_NAMES: SetNames = set_names!("sets");
+const YAW_SET_NAMES: SetNames = set_names!("yaw_sets");
+const PITCH_SET_NAMES: SetNames = set_names!("pitch_sets");
+
+/// The C ABI version a controller configuration was written for: its first field, which
+/// `twip_X_init` reads before any other (`TWIP_ERR_ABI` when it is not `TWIP_ABI_VERSION`).
+/// A default configuration is of this library's version.
+#[repr(transparent)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TwipAbiVersion(pub i32);
+
+impl Default for TwipAbiVersion {
+    fn default() -> Self {
+        Self(crate::TWIP_ABI_VERSION)
+    }
+}
+
+/// A configuration whose first field is its [`TwipAbiVersion`].
+///
+/// # Safety
+/// The implementing type is `repr(C)` with `abi_version: TwipAbiVersion` as its first field.
+pub unsafe trait Versioned {}
 
 /// The robot's physical parameters [SI], in the order of twip-core's `FIELD_NAMES`.
 #[repr(C)]
@@ -169,6 +207,8 @@ impl TwipMotor {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct TwipLqrConfig {
+    /// `TWIP_ABI_VERSION` when the configuration was written (checked first by the init).
+    pub abi_version: TwipAbiVersion,
     /// The controller's own model of the robot (steady state and feed-forward).
     pub robot: TwipRobot,
     /// Ground slope [rad].
@@ -195,6 +235,7 @@ impl TwipLqrConfig {
     pub fn from_core(c: &LqrController<f64>) -> Result<Self, TwipError> {
         let model = c.model();
         Ok(Self {
+            abi_version: TwipAbiVersion::default(),
             robot: TwipRobot::from_core(model.params())?,
             slope: narrow("slope", model.slope())?,
             friction: TwipFriction::from_core(model.friction())?,
@@ -241,6 +282,7 @@ impl TwipMembership {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TwipFuzzyConfig {
+    pub abi_version: TwipAbiVersion,
     pub robot: TwipRobot,
     pub slope: f32,
     pub friction: TwipFriction,
@@ -268,6 +310,7 @@ impl Default for TwipFuzzyConfig {
     /// Zeros, with the thesis's 3 sets per input (arrays this long have no derived default).
     fn default() -> Self {
         Self {
+            abi_version: TwipAbiVersion::default(),
             robot: TwipRobot::default(),
             slope: 0.0,
             friction: TwipFriction::default(),
@@ -289,35 +332,21 @@ impl Default for TwipFuzzyConfig {
 
 impl TwipFuzzyConfig {
     pub fn build(&self) -> Result<FuzzyController<f32>, TwipError> {
-        let n = usize::try_from(self.n_sets).ok().filter(|n| (2..=TWIP_FUZZY_MAX_SETS).contains(n)).ok_or(
-            TwipError::InvalidParameter { name: "n_sets", value: self.n_sets as f64, reason: "must be from 2 to TWIP_FUZZY_MAX_SETS (7)" },
-        )?;
-        let mut sets = [[Membership::Gaussian { mean: 0.0, sigma: 1.0 }; TWIP_FUZZY_MAX_SETS]; 2];
-        for (row, given) in sets.iter_mut().zip(&self.sets) {
-            for (set, m) in row.iter_mut().zip(given).take(n) {
-                *set = m.to_core()?;
-            }
-        }
+        let basis = grid_of(self.n_sets, &self.sets, &SET_NAMES)?;
         let gains = FuzzyGains { k1: self.k1, k2: self.k2, kp: self.kp, kd: self.kd, ki: self.ki };
         let adaptation = FuzzyAdaptation { gamma: self.gamma, sigma: self.sigma, enabled: self.adapt != 0 };
         let model = slope_model(self.robot, self.slope, self.friction)?;
-        let basis = FuzzyGrid::new([&sets[0][..n], &sets[1][..n]])?;
-        FuzzyController::new(model, gains, adaptation, basis, self.period)?.with_initial_weights(&self.s0[..n * n])
+        FuzzyController::new(model, gains, adaptation, basis, self.period)?.with_initial_weights(&self.s0[..basis.rules()])
     }
 
     pub fn from_core(c: &FuzzyController<f64>) -> Result<Self, TwipError> {
         let (model, g, a) = (c.model(), c.gains(), c.adaptation());
-        let mut sets = [[TwipMembership::default(); TWIP_FUZZY_MAX_SETS]; 2];
-        for ((row, given), names) in sets.iter_mut().zip(c.basis().sets()).zip(&SET_NAMES) {
-            for ((set, m), name) in row.iter_mut().zip(given).zip(names) {
-                *set = TwipMembership::from_core(m, name)?;
-            }
-        }
         let mut s0 = [0.0f32; TWIP_FUZZY_MAX_RULES];
         for (o, w) in s0.iter_mut().zip(c.initial_weights()) {
             *o = narrow("s0", *w)?;
         }
         Ok(Self {
+            abi_version: TwipAbiVersion::default(),
             robot: TwipRobot::from_core(model.params())?,
             slope: narrow("slope", model.slope())?,
             friction: TwipFriction::from_core(model.friction())?,
@@ -330,7 +359,7 @@ impl TwipFuzzyConfig {
             sigma: narrow("sigma", a.sigma)?,
             adapt: i32::from(a.enabled),
             n_sets: c.basis().n() as i32,
-            sets,
+            sets: sets_of(c.basis(), &SET_NAMES)?,
             s0,
             period: narrow("period", c.period())?,
         })
@@ -343,6 +372,7 @@ impl TwipFuzzyConfig {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct TwipPidConfig {
+    pub abi_version: TwipAbiVersion,
     pub kp_pitch: f32,
     pub kd_pitch: f32,
     pub kp_speed: f32,
@@ -387,6 +417,7 @@ impl TwipPidConfig {
         let (g, u) = (c.gains(), c.units());
         let (wheel_radius, half_track) = c.geometry();
         Ok(Self {
+            abi_version: TwipAbiVersion::default(),
             kp_pitch: narrow("kp_pitch", g.kp_pitch)?,
             kd_pitch: narrow("kd_pitch", g.kd_pitch)?,
             kp_speed: narrow("kp_speed", g.kp_speed)?,
@@ -411,6 +442,7 @@ impl TwipPidConfig {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct TwipSmcConfig {
+    pub abi_version: TwipAbiVersion,
     pub robot: TwipRobot,
     pub friction: TwipFriction,
     pub k1: f32,
@@ -440,6 +472,13 @@ pub struct TwipSmcConfig {
     pub gamma1: f32,
     pub gamma2: f32,
     pub leakage: f32,
+    /// Sets per input n of both fuzzy estimates' grids, from 2 to `TWIP_FUZZY_MAX_SETS` (the
+    /// thesis's 3): the first n of each row of `yaw_sets` and `pitch_sets` are read.
+    pub n_sets: i32,
+    /// Sets of Ĉ1's inputs φ [rad] and ω [rad/s] (the yaw estimate).
+    pub yaw_sets: [[TwipMembership; TWIP_FUZZY_MAX_SETS]; 2],
+    /// Sets of Ĉ2's inputs φ [rad] and φ̇ [rad/s] (the pitch estimate).
+    pub pitch_sets: [[TwipMembership; TWIP_FUZZY_MAX_SETS]; 2],
     pub period: f32,
 }
 
@@ -474,20 +513,16 @@ impl TwipSmcConfig {
             gamma2: self.gamma2,
             leakage: self.leakage,
         });
-        SmcTracker::new(gains, options, model, motor, adaptation, self.period)
+        let (yaw, pitch) = (grid_of(self.n_sets, &self.yaw_sets, &YAW_SET_NAMES)?, grid_of(self.n_sets, &self.pitch_sets, &PITCH_SET_NAMES)?);
+        SmcTracker::new(gains, options, model, motor, adaptation, self.period)?.with_bases(yaw, pitch)
     }
 
     pub fn from_core(c: &SmcTracker<f64>) -> Result<Self, TwipError> {
-        // The C struct carries no sets: it builds the thesis's 3 × 3 bases.
         let (yaw, pitch) = c.bases();
-        let thesis = SmcTracker::new(c.gains(), c.options(), *c.model(), c.motor().copied(), c.adaptation(), c.period())?;
-        if (yaw, pitch) != thesis.bases() {
-            let reason = "must be the thesis's 3 x 3 sets: the C ABI's sliding-mode configuration carries no others";
-            return Err(TwipError::InvalidParameter { name: "sets", value: yaw.n() as f64, reason });
-        }
         let (g, o, model) = (c.gains(), c.options(), c.model());
         let adaptation = c.adaptation();
         Ok(Self {
+            abi_version: TwipAbiVersion::default(),
             robot: TwipRobot::from_core(model.params())?,
             friction: TwipFriction::from_core(model.friction())?,
             k1: narrow("k1", g.k1)?,
@@ -514,7 +549,47 @@ impl TwipSmcConfig {
             gamma1: narrow("gamma1", adaptation.map_or(0.0, |a| a.gamma1))?,
             gamma2: narrow("gamma2", adaptation.map_or(0.0, |a| a.gamma2))?,
             leakage: narrow("leakage", adaptation.map_or(0.0, |a| a.leakage))?,
+            n_sets: yaw.n() as i32,
+            yaw_sets: sets_of(yaw, &YAW_SET_NAMES)?,
+            pitch_sets: sets_of(pitch, &PITCH_SET_NAMES)?,
             period: narrow("period", c.period())?,
         })
     }
+}
+
+// SAFETY: each is repr(C) with `abi_version` first.
+unsafe impl Versioned for TwipLqrConfig {}
+unsafe impl Versioned for TwipFuzzyConfig {}
+unsafe impl Versioned for TwipPidConfig {}
+unsafe impl Versioned for TwipSmcConfig {}
+
+/// The n × n grid of the first `n_sets` sets of each row of `sets` (a configuration's). A set
+/// the core refuses is named by `names` (which set of the configuration), with the core's
+/// reason: an f64 set can be valid and its f32 not (a ramp too narrow for f32's 1/width).
+fn grid_of(n_sets: i32, sets: &[[TwipMembership; TWIP_FUZZY_MAX_SETS]; 2], names: &SetNames) -> Result<FuzzyGrid<f32>, TwipError> {
+    let n = usize::try_from(n_sets).ok().filter(|n| (2..=TWIP_FUZZY_MAX_SETS).contains(n)).ok_or(
+        TwipError::InvalidParameter { name: "n_sets", value: n_sets as f64, reason: "must be from 2 to TWIP_FUZZY_MAX_SETS (7)" },
+    )?;
+    let mut core = [[Membership::Gaussian { mean: 0.0, sigma: 1.0 }; TWIP_FUZZY_MAX_SETS]; 2];
+    for ((row, given), names) in core.iter_mut().zip(sets).zip(names) {
+        for ((set, m), name) in row.iter_mut().zip(given).zip(names).take(n) {
+            *set = m.to_core().map_err(|e| match e {
+                TwipError::InvalidParameter { value, reason, .. } => TwipError::InvalidParameter { name, value, reason },
+                other => other,
+            })?;
+        }
+    }
+    FuzzyGrid::new([&core[0][..n], &core[1][..n]])
+}
+
+/// A grid's sets as a configuration holds them (the slots past n zero), each named by
+/// `names` when it does not fit in f32.
+fn sets_of(grid: &FuzzyGrid<f64>, names: &SetNames) -> Result<[[TwipMembership; TWIP_FUZZY_MAX_SETS]; 2], TwipError> {
+    let mut out = [[TwipMembership::default(); TWIP_FUZZY_MAX_SETS]; 2];
+    for ((row, given), names) in out.iter_mut().zip(grid.sets()).zip(names) {
+        for ((set, m), name) in row.iter_mut().zip(given).zip(names) {
+            *set = TwipMembership::from_core(m, name)?;
+        }
+    }
+    Ok(out)
 }

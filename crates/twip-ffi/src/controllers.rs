@@ -15,9 +15,9 @@ use twip_core::control::trajectory::PlanarRef;
 use twip_core::control::Controller;
 use twip_core::TwipError;
 
-use crate::config::{TwipFuzzyConfig, TwipLqrConfig, TwipPidConfig, TwipSmcConfig};
+use crate::config::{TwipFuzzyConfig, TwipLqrConfig, TwipPidConfig, TwipSmcConfig, Versioned};
 use crate::slot::{self, fits};
-use crate::{TwipStatus, TWIP_ERR_INVALID, TWIP_ERR_NOT_FINITE, TWIP_ERR_NULL, TWIP_ERR_OVERFLOW, TWIP_OK};
+use crate::{TwipStatus, TWIP_ABI_VERSION, TWIP_ERR_ABI, TWIP_ERR_INVALID, TWIP_ERR_NOT_FINITE, TWIP_ERR_NULL, TWIP_ERR_OVERFLOW, TWIP_OK};
 
 /// The wheel reference of the 2-DOF controllers: angle θ_ref [rad] and speed θ̇_ref [rad/s].
 #[repr(C)]
@@ -93,6 +93,26 @@ impl Carried for SmcTracker<f32> {
     fn state_is_finite(&self) -> bool {
         SmcTracker::state_is_finite(self)
     }
+}
+
+/// As [`init`], for a controller's configuration: one of another ABI version is refused
+/// (`TWIP_ERR_ABI`) having read only its first field, since a stale firmware's struct may be
+/// shorter than this library's.
+///
+/// # Safety
+/// `words` is NULL or caller-owned storage that fits a `V`; `config` is NULL or points to at
+/// least its version, and to a valid `C` when that version is this library's.
+unsafe fn init_versioned<C: Versioned, V>(
+    words: *mut u64,
+    tag: u64,
+    config: *const C,
+    build: impl FnOnce(&C) -> Result<V, TwipError>,
+) -> TwipStatus {
+    if !(words.is_null() || config.is_null()) && config.cast::<i32>().read() != TWIP_ABI_VERSION {
+        slot::clear(words);
+        return TWIP_ERR_ABI;
+    }
+    init(words, tag, config, build)
 }
 
 /// Builds `V` from the configuration at `config` into the words at `words`.
@@ -220,14 +240,15 @@ pub struct TwipSmc {
     pub words: [u64; TWIP_SMC_WORDS],
 }
 
-/// Initialises `state` from `config`: TWIP_OK, TWIP_ERR_NULL, or TWIP_ERR_INVALID (a value
-/// out of its domain; `state` is then marked not initialised).
+/// Initialises `state` from `config`: TWIP_OK, TWIP_ERR_NULL, TWIP_ERR_ABI (`config` was
+/// written for another version of the C ABI than this library's) or TWIP_ERR_INVALID (a value
+/// out of its domain); after an error `state` is marked not initialised.
 ///
 /// # Safety
 /// `state` and `config` are NULL or valid pointers.
 #[no_mangle]
 pub unsafe extern "C" fn twip_lqr_init(state: *mut TwipLqr, config: *const TwipLqrConfig) -> TwipStatus {
-    init(state.cast(), LQR_TAG, config, TwipLqrConfig::build)
+    init_versioned(state.cast(), LQR_TAG, config, TwipLqrConfig::build)
 }
 
 /// One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]). Returns
@@ -261,7 +282,7 @@ pub unsafe extern "C" fn twip_lqr_reset(state: *mut TwipLqr) -> TwipStatus {
 /// `state` and `config` are NULL or valid pointers.
 #[no_mangle]
 pub unsafe extern "C" fn twip_fuzzy_init(state: *mut TwipFuzzy, config: *const TwipFuzzyConfig) -> TwipStatus {
-    init(state.cast(), FUZZY_TAG, config, TwipFuzzyConfig::build)
+    init_versioned(state.cast(), FUZZY_TAG, config, TwipFuzzyConfig::build)
 }
 
 /// One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]).
@@ -293,7 +314,7 @@ pub unsafe extern "C" fn twip_fuzzy_reset(state: *mut TwipFuzzy) -> TwipStatus {
 /// `state` and `config` are NULL or valid pointers.
 #[no_mangle]
 pub unsafe extern "C" fn twip_pid_init(state: *mut TwipPid, config: *const TwipPidConfig) -> TwipStatus {
-    init(state.cast(), PID_TAG, config, TwipPidConfig::build)
+    init_versioned(state.cast(), PID_TAG, config, TwipPidConfig::build)
 }
 
 /// One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
@@ -325,7 +346,7 @@ pub unsafe extern "C" fn twip_pid_reset(state: *mut TwipPid) -> TwipStatus {
 /// `state` and `config` are NULL or valid pointers.
 #[no_mangle]
 pub unsafe extern "C" fn twip_smc_init(state: *mut TwipSmc, config: *const TwipSmcConfig) -> TwipStatus {
-    init(state.cast(), SMC_TAG, config, TwipSmcConfig::build)
+    init_versioned(state.cast(), SMC_TAG, config, TwipSmcConfig::build)
 }
 
 /// One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).

@@ -46,6 +46,23 @@ pub const TWIP_ERR_NOT_INITIALISED: TwipStatus = -4;
 /// glitch near f32's limit, 3e38) makes it: refused, with the state unchanged (as before the call) and
 /// the outputs untouched, so the next ordinary update answers as if this one never happened.
 pub const TWIP_ERR_OVERFLOW: TwipStatus = -5;
+/// A controller configuration written for another version of the C ABI than the library's
+/// (its `abi_version` is not `TWIP_ABI_VERSION`): refused before any other field is read,
+/// since its fields may lie elsewhere (re-export it with this twip).
+pub const TWIP_ERR_ABI: TwipStatus = -6;
+
+/// The version of the C ABI: the layout of the configurations and states. It goes up with
+/// every change to them; each controller configuration starts with the version it was
+/// written for (`abi_version`), which `twip_X_init` checks. Version 2 gave the sliding-mode
+/// configuration its fuzzy grids (and every controller configuration its `abi_version`).
+pub const TWIP_ABI_VERSION: i32 = 2;
+
+/// The C ABI version of this library, for a firmware to compare with its header's
+/// `TWIP_ABI_VERSION` at start-up (a header and a library of two versions disagree on sizes).
+#[no_mangle]
+pub extern "C" fn twip_abi_version() -> i32 {
+    TWIP_ABI_VERSION
+}
 
 /// A short English description of a status code (a static, NUL-terminated string).
 #[no_mangle]
@@ -57,6 +74,7 @@ pub extern "C" fn twip_status_text(status: TwipStatus) -> *const core::ffi::c_ch
         TWIP_ERR_NOT_FINITE => c"an input is NaN or infinite",
         TWIP_ERR_NOT_INITIALISED => c"the state was not initialised",
         TWIP_ERR_OVERFLOW => c"the update overflowed; the state is unchanged",
+        TWIP_ERR_ABI => c"the configuration was written for another version of the C ABI",
         _ => c"unknown status",
     };
     text.as_ptr()

@@ -106,11 +106,19 @@ def _imu_macros(sensors) -> str:
 
 def _config_files(fam, config, tilt, pwm, table, firmware, layout, geometry, period, sensors) -> tuple:
     macros = "\n".join(f"#define {f.name} {units.c_float(f.value)}  /* {f.how} */" for f in table.values())
+    layout_version = header.macros()["TWIP_ABI_VERSION"]
     h = f"""/* The exported configuration of a twip controller ({fam.name}). Written by `twip export`. */
 #ifndef TWIP_CONFIG_H
 #define TWIP_CONFIG_H
 
 #include "twip.h"
+
+/* The C ABI version this configuration was written for: a twip.h of another version lays
+   the structs out otherwise (the library refuses the configuration: TWIP_ERR_ABI). */
+#define TWIP_CONFIG_ABI_VERSION {layout_version}
+#if TWIP_ABI_VERSION != TWIP_CONFIG_ABI_VERSION
+#error "twip_config.c was written for another C ABI version than this twip.h: export it again with this twip"
+#endif
 
 /* Conversions: SI units per firmware unit. A value written `X * TWIP_FACTOR` is X in the
    firmware unit named beside it. */

@@ -15,6 +15,7 @@ SCALARS = {"float": "f", "int32_t": "i"}
 _STRUCT = re.compile(r"typedef struct \{(.*?)\} (\w+);", re.S)
 _FIELD = re.compile(r"^\s*(\w+)\s+(\w+)((?:\[\w+\])*);", re.M)
 _MACRO = re.compile(r"^#define (\w+) (-?\d+)$", re.M)
+_TYPEDEF = re.compile(r"^typedef (\w+) (\w+);$", re.M)
 
 
 @dataclass(frozen=True)
@@ -29,14 +30,15 @@ def macros(text: str = _core.FFI_HEADER) -> Dict[str, int]:
 
 
 def structs(text: str = _core.FFI_HEADER) -> Dict[str, List[Field]]:
-    """{struct name: its fields in order}."""
+    """{struct name: its fields in order}, a typedef'd scalar (`TwipAbiVersion`) as its type."""
     consts = macros(text)
+    aliases = {alias: ctype for ctype, alias in _TYPEDEF.findall(text)}
     out = {}
     for body, name in _STRUCT.findall(text):
         fields = []
         for ctype, field, dims in _FIELD.findall(body):
             sizes = tuple(int(consts.get(d, d)) for d in re.findall(r"\[(\w+)\]", dims))
-            fields.append(Field(ctype, field, sizes))
+            fields.append(Field(aliases.get(ctype, ctype), field, sizes))
         out[name] = fields
     return out
 

@@ -54,6 +54,9 @@ RULES: Tuple[Tuple[str, Tuple[str, ...], str, str, str], ...] = (
     (r"gains\[3\]", ("lqr",), "A/rad", "A per encoder count of integrated speed error", "TWIP_COUNTS_PER_RAD"),
     (r"sets\[0\]\[\d\]\.p\[\d\]", ("fuzzy",), "rad", "deg of pitch", "TWIP_RAD_PER_DEG"),
     (r"sets\[1\]\[\d\]\.p\[\d\]", ("fuzzy",), "rad/s", "deg/s of pitch rate", "TWIP_RAD_PER_DEG"),
+    (r"(yaw|pitch)_sets\[0\]\[\d\]\.p\[\d\]", ("smc",), "rad", "deg of pitch", "TWIP_RAD_PER_DEG"),
+    (r"pitch_sets\[1\]\[\d\]\.p\[\d\]", ("smc",), "rad/s", "deg/s of pitch rate", "TWIP_RAD_PER_DEG"),
+    (r"yaw_sets\[1\]\[\d\]\.p\[\d\]", ("smc",), "rad/s", "deg/s of yaw rate", "TWIP_RAD_PER_DEG"),
     (r"k_s3|k_s4|g_y4", ("smc",), "N m", "PWM counts", "TWIP_NM_PER_PWM"),
 )
 

@@ -67,6 +67,8 @@ static int killed;     /* the robot fell: motors off until reset */
 void setup(void) {
     TwipStatus s;
     motors_off();
+    /* twip.h and the library of two C ABI versions disagree on every size: refuse to run. */
+    if (twip_abi_version() != TWIP_ABI_VERSION) halt(TWIP_ERR_ABI);
     if ((s = TWIP_INIT(&controller, &twip_controller_config)) != TWIP_OK) halt(s);
     if ((s = twip_tilt_init(&tilt, &twip_tilt_config)) != TWIP_OK) halt(s);
     if ((s = twip_encoder_init(&encoder_right, twip_encoder_cpr)) != TWIP_OK) halt(s);

@@ -9,6 +9,11 @@
 
 int main(void) {
     static TWIP_STATE state;
+    if (twip_abi_version() != TWIP_ABI_VERSION) {
+        printf("%s: twip.h is the C ABI's version %d, the library's is %d: export again with the twip the library is "
+               "built from\n", TWIP_FAMILY, TWIP_ABI_VERSION, (int)twip_abi_version());
+        return 2;
+    }
     TwipStatus status = TWIP_INIT(&state, &twip_controller_config);
     if (status != TWIP_OK) {
         printf("%s: init failed: %s\n", TWIP_FAMILY, twip_status_text(status));
