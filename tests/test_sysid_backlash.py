@@ -84,3 +84,27 @@ def test_bad_play_is_refused_by_name(tmp_path, capsys):
     # The command line passes the play on, in degrees.
     main(["identify", str(tmp_path / "rig.csv"), "--free", "m_body", "--imu-dlpf", "42", "--backlash", "1"])
     assert "0.01745 rad (1 deg) of gear play, declared" in capsys.readouterr().out
+
+
+USER = twip.RobotParams.balanbot().replace(m_body=1.8, m_wheels=0.1, i_body=0.0135, i_wheels=2e-5, i_motor=3e-6,
+                                           gear_ratio=30.0, torque_constant=0.012, wheel_radius=0.02, com_height=0.12,
+                                           mu_bearing=0.008, mu_ground=0.002)
+
+
+def test_the_issues_robot_with_friction_and_play_declared_is_within_3_percent():
+    """The issue's robot (1.8 kg, 0.12 m, 40 mm wheels, 30:1, 3 A driver) on the full rig, 8 s,
+    from 15-25 % off, friction and play declared, coulomb free. Measured: noise seed 0 within
+    0.51 % (i_body -0.51 %), converged, quiet (with the friction alone: i_body -2.59 %); seed 1
+    within 1.04 % but "no step lowered the cost" (not converged, so flagged)."""
+    driver = twip.MotorDriver.thesis_like().replace(current_limit=3.0)
+    rig = twip.Realism.thesis_like(seed=0).replace(motor=driver, settle=None)
+    sc = twip.scenarios.get("flat-lqr", params=USER, controller_params=USER)
+    run = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], 8.0, dt=1e-3, reference=sc.reference, realism=rig)
+    start = USER.replace(m_body=1.8 * 1.2, com_height=0.12 * 0.8, i_body=0.0135 * 1.25, mu_bearing=0.008 * 0.85)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fit = identify(run.to_log(), start, FREE + ["coulomb"], driver=driver, sensors=Sensors.of(rig),
+                       friction=rig.friction, backlash=rig.backlash)
+    assert fit.converged and not fit.warnings and not caught, fit.summary()
+    for name in FREE:
+        assert abs(fit.values[name] / getattr(USER, name) - 1) < (0.06 if name == "i_body" else 0.03), fit.summary()
