@@ -91,6 +91,8 @@ def accuracy():
             ("5 ms log, sensors declared", every(clean, 5), dict(sensors=sensors), FREE),
             ("5 ms log, filter not declared", every(clean, 5), dict(sensors=Sensors(imu_height=rig.imu.height)), FREE),
             ("full rig, friction declared", full, dict(sensors=sensors, friction=full_rig.friction), FREE + ["coulomb"]),
+            ("full rig, friction and play declared", full,
+             dict(sensors=sensors, friction=full_rig.friction, backlash=full_rig.backlash), FREE + ["coulomb"]),
             ("full rig, plain", full, dict(sensors=sensors), FREE),
             ("1 kHz, driver not given", clean, dict(sensors=sensors, driver=twip.MotorDriver()), FREE),
         ]
@@ -102,7 +104,7 @@ def accuracy():
             errors = {n: fit.values[n] / getattr(robot, n) - 1 for n in FREE}
             worst = max(errors, key=lambda n: abs(errors[n]))
             flagged = "warned" if fit.warnings else "quiet"
-            print(f"  {name:<5} {case:<32} largest error {worst} {errors[worst]:+.2%}  "
+            print(f"  {name:<5} {case:<38} largest error {worst} {errors[worst]:+.2%}  "
                   f"({', '.join(f'{n} {e:+.2%}' for n, e in errors.items())}); {flagged}"
                   f"{' (' + str(len(caught)) + ' warnings)' if caught else ''}", flush=True)
 

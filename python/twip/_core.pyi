@@ -1080,8 +1080,8 @@ def ffi_record(
     """
 def sysid_shoot(
     models: Sequence[SlopeModel], starts: _ArrayLike, t: _ArrayLike, u: _ArrayLike, segments: _ArrayLike,
-    max_step: float = 1e-3, drivers: Optional[Sequence[MotorDriver]] = None,
-) -> Tuple[_F64, _F64, _F64]:
+    max_step: float = 1e-3, drivers: Optional[Sequence[MotorDriver]] = None, backlash: Optional[float] = None,
+) -> Tuple[_F64, _F64, _F64, _F64]:
     """Predicts the log for each of `models` (K SlopeModels) from its own start states
     `starts` [K, segments, 4]: returns (states, rates), each [K, n, 4], and each segment's
     state carried on to the next segment's first sample, [K, segments, 4] (NaN for the
@@ -1090,7 +1090,12 @@ def sysid_shoot(
     PWM duty [counts]. A driver with inductance carries its winding's current along each
     segment, and each RK4 stage feels it within the step, as `simulate` does (from the
     steady current of the duty held before the segment's first sample); without, the
-    current is algebraic.
+    current is algebraic. The fourth array, [K, n, 2], is what the sensors see besides the
+    state: the motor shafts' offset from the wheels (the encoder counts the shaft) and the
+    pitch rate the IMU samples. With `backlash` (each gear train's play at the wheel [rad])
+    the models' gear trains have play, as the rig's (`Realism(backlash=)`): the first run
+    carries each segment's play on from the previous segment's end, the others start each
+    segment from the first run's (a finite difference holds it).
     """
 def ffi_firmware(realism: Realism, params: RobotParams) -> dict[str, Any]:
     """`ffi_firmware(realism, params)`: the C configurations of the firmware pieces the

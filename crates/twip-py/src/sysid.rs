@@ -5,6 +5,8 @@ use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyA
 use pyo3::prelude::*;
 use twip_core::hardware::driver::Driven;
 use twip_core::sysid::parallel::{run_all, Prediction};
+use twip_core::hardware::backlash::Backlash;
+use twip_core::sysid::geared::geared;
 use twip_core::sysid::Shooting;
 use twip_core::{SlopeModel, TwipError};
 
@@ -12,7 +14,7 @@ use crate::errors::PyTwipError;
 use crate::model::models::PySlopeModel;
 use crate::hardware::realism::PyMotorDriver;
 
-type Out<'py> = (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>);
+type Out<'py> = (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>);
 
 /// Predicts the log for each of `models` (K SlopeModels) from its own start states
 /// `starts` [K, segments, 4]: returns (states, rates), each [K, n, 4], and each segment's
@@ -22,9 +24,14 @@ type Out<'py> = (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>, Bound<'py
 /// PWM duty [counts]. A driver with inductance carries its winding's current along each
 /// segment, and each RK4 stage feels it within the step, as `simulate` does (from the
 /// steady current of the duty held before the segment's first sample); without, the
-/// current is algebraic.
+/// current is algebraic. The fourth array, [K, n, 2], is what the sensors see besides the
+/// state: the motor shafts' offset from the wheels (the encoder counts the shaft) and the
+/// pitch rate the IMU samples. With `backlash` (each gear train's play at the wheel [rad])
+/// the models' gear trains have play, as the rig's (`Realism(backlash=)`): the first run
+/// carries each segment's play on from the previous segment's end, the others start each
+/// segment from the first run's (a finite difference holds it).
 #[pyfunction]
-#[pyo3(signature = (models, starts, t, u, segments, max_step = 1e-3, drivers = None))]
+#[pyo3(signature = (models, starts, t, u, segments, max_step = 1e-3, drivers = None, backlash = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn sysid_shoot<'py>(
     py: Python<'py>,
@@ -35,6 +42,7 @@ pub fn sysid_shoot<'py>(
     segments: PyReadonlyArray1<'py, i64>,
     max_step: f64,
     drivers: Option<Vec<PyRef<'py, PyMotorDriver>>>,
+    backlash: Option<f64>,
 ) -> PyResult<Out<'py>> {
     let (t, u) = (t.as_slice()?, u.as_slice()?);
     let segments: Vec<usize> = segments
@@ -57,17 +65,30 @@ pub fn sysid_shoot<'py>(
     let n = shooting.samples();
     let mut out = buffer(k, n, segments.len())?;
     let plants: Vec<SlopeModel<f64>> = models.iter().map(|m| m.inner).collect();
-    match drivers {
-        None => py.detach(|| run_all(&shooting, &plants, &starts, &mut out)),
-        Some(drivers) => {
-            if drivers.len() != k {
-                let got = (drivers.len(), 1);
-                return Err(PyTwipError(TwipError::Shape { name: "drivers", expected: (k, 1), got }).into());
-            }
+    if let Some(d) = &drivers {
+        if d.len() != k {
+            let got = (d.len(), 1);
+            return Err(PyTwipError(TwipError::Shape { name: "drivers", expected: (k, 1), got }).into());
+        }
+    }
+    let drivers: Option<Vec<_>> = drivers.map(|d| d.iter().map(|d| d.inner).collect());
+    match (backlash, drivers) {
+        (Some(gap), drivers) => {
+            let play = Backlash { gap }.validate().map_err(PyTwipError)?;
+            let geared = plants
+                .iter()
+                .enumerate()
+                .map(|(i, p)| geared(p, drivers.as_ref().map(|d| &d[i]), play))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(PyTwipError)?;
+            py.detach(|| run_all(&shooting, &geared, &starts, &mut out))
+        }
+        (None, None) => py.detach(|| run_all(&shooting, &plants, &starts, &mut out)),
+        (None, Some(drivers)) => {
             let driven = plants
                 .iter()
                 .zip(&drivers)
-                .map(|(p, d)| Driven::new(*p, &d.inner, p.params()))
+                .map(|(p, d)| Driven::new(*p, d, p.params()))
                 .collect::<Result<Vec<_>, _>>()
                 .map_err(PyTwipError)?;
             py.detach(|| run_all(&shooting, &driven, &starts, &mut out))
@@ -78,7 +99,9 @@ pub fn sysid_shoot<'py>(
     let states = to_array(py, out.iter().map(|p| &p.states), n)?;
     let rates = to_array(py, out.iter().map(|p| &p.rates), n)?;
     let ends = to_array(py, out.iter().map(|p| &p.ends), segments)?;
-    Ok((states, rates, ends))
+    let flat: Vec<f64> = out.iter().flat_map(|p| p.sensed.iter().flatten().copied()).collect();
+    let sensed = flat.into_pyarray(py).reshape([k, n, 2])?;
+    Ok((states, rates, ends, sensed))
 }
 
 fn invalid(name: &'static str, value: f64, reason: &'static str) -> TwipError {
@@ -88,7 +111,7 @@ fn invalid(name: &'static str, value: f64, reason: &'static str) -> TwipError {
 /// k runs of n states (and as many rates, and one end per segment), reserved fallibly:
 /// a MemoryError naming the size, not an abort.
 fn buffer(k: usize, n: usize, segments: usize) -> PyResult<Vec<Prediction>> {
-    let rows = (n as u64).saturating_mul(2).saturating_add(segments as u64);
+    let rows = (n as u64).saturating_mul(3).saturating_add(segments as u64 * 2);
     let bytes = (k as u64).saturating_mul(rows).saturating_mul(32);
     let oom = || PyTwipError(TwipError::OutOfMemory { name: "models x samples", bytes });
     let column = |len: usize| -> PyResult<Vec<Vector4<f64>>> {
@@ -100,7 +123,10 @@ fn buffer(k: usize, n: usize, segments: usize) -> PyResult<Vec<Prediction>> {
     let mut out = Vec::new();
     out.try_reserve_exact(k).map_err(|_| oom())?;
     for _ in 0..k {
-        out.push(Prediction { states: column(n)?, rates: column(n)?, ends: column(segments)? });
+        let mut sensed = Vec::new();
+        sensed.try_reserve_exact(n).map_err(|_| oom())?;
+        sensed.resize(n, [0.0; 2]);
+        out.push(Prediction { states: column(n)?, rates: column(n)?, sensed, ends: column(segments)?, plays: vec![None; segments] });
     }
     Ok(out)
 }

@@ -215,6 +215,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the static (breakaway) torque per wheel [N m] (default: the law's, else the Coulomb level)")
     p.add_argument("--friction-stick", type=positive_float, metavar="RAD/S",
                    help="the stick band's half-width [rad/s] (default: the law's, else none)")
+    p.add_argument("--backlash", type=positive_float, metavar="DEG", help="each gear train's free play at the wheel "
+                   "[deg], declared (not fitted): the predictions carry the motors through it, as the rig does "
+                   "(the thesis-like rig's: 1; default: none)")
     p.add_argument("--out", metavar="FILE", help="write the fitted robot as a robot file (TOML); not for a fit that "
                    "did not converge or does not explain the log, unless --force")
     p.add_argument("--force", action="store_true", help="write --out even when the fit did not converge or misfits")

@@ -194,7 +194,8 @@ REALISM_CHOICES = ("ideal", "thesis-like")
 
 def add_realism_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--realism", choices=REALISM_CHOICES,
-                   help="the thesis-like robot in the loop: sensors, driver, delay, gearhead friction and backlash")
+                   help="the thesis-like robot in the loop: sensors, driver, delay, gearhead friction and backlash; "
+                        "its estimator first settles 2 s at rest at the start pitch, as a firmware does")
 
 
 def realism(choice: Optional[str], robot_file=None):

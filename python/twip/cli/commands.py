@@ -297,7 +297,8 @@ def identify(args) -> int:
                                                      sample_rate=args.imu_rate, gyro_bias_walk=walk)
     sensors = sysid.Sensors(encoder_cpr=args.encoder_cpr, imu_height=args.imu_height, imu=imu)
     fit = sysid.identify(log, robot, free, segment=args.segment, driver=start.driver if start else None,
-                         friction=identify_friction(args), sensors=sensors, signals=signals)
+                         friction=identify_friction(args), sensors=sensors, signals=signals,
+                         backlash=math.radians(args.backlash) if args.backlash else None)
     print(f"twip identify {args.log}: {len(log)} samples over {log.t[-1] - log.t[0]:.3g} s; "
           f"signals {', '.join(fit.rms)}")
     print(fit.summary())

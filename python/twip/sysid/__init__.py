@@ -7,6 +7,7 @@ what to log and how the estimator works.
 """
 from __future__ import annotations
 
+import math
 import warnings
 from typing import Optional, Sequence
 
@@ -15,18 +16,19 @@ import numpy as np
 from twip import _core, checks
 from twip.sysid import closed_loop
 from twip.sysid.estimator import Estimator, Problem
+from twip.sysid.excite import speed_steps
 from twip.sysid.fit import Fit, Undetermined
 from twip.sysid.log import SIGNALS, LogError, RunLog
 from twip.sysid.measure import Sensors
 from twip.sysid.misfit import SysidMisfitWarning
 
-__all__ = ["Fit", "LogError", "RunLog", "SIGNALS", "Sensors", "SysidMisfitWarning", "Undetermined", "identify"]
+__all__ = ["Fit", "LogError", "RunLog", "SIGNALS", "Sensors", "SysidMisfitWarning", "Undetermined", "identify", "speed_steps"]
 
 
 def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method: str = "shooting",
              reference=None, segment: float = 0.25, driver=None, friction=None, sensors: Optional[Sensors] = None,
              signals: Optional[Sequence[str]] = None, weights: Optional[dict] = None, max_iter: int = 50,
-             max_step: float = 1e-3) -> Fit:
+             max_step: float = 1e-3, backlash: Optional[float] = None) -> Fit:
     """Fits the `free` parameters of `robot` (a RobotParams or a `twip.Robot` from a robot
     file) to `log` by minimising the weighted prediction error of its signals.
 
@@ -38,6 +40,10 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
     - `driver`: the MotorDriver behind a pwm log, with its winding's inductance and current
       limit (default: the robot file's, else `MotorDriver.thesis_like()`, the rig's;
       `Fit.assumed` says which); `friction`: a twip.Friction on the model.
+    - `backlash` [rad]: each gear train's free play at the wheel, as the rig takes it
+      (`Realism(backlash=)`, e.g. `Realism.thesis_like().backlash`; None: none). Declared, not
+      fitted: the predictions carry the rotors through the play as the simulator does (the
+      encoder counts the motor shaft), and the fitted robot's parameters stay its own.
     - `sensors`: encoder counts per turn and IMU height, for enc and accel columns.
     - `max_step` [s]: sample intervals longer than this are split into equal RK4 steps; for a
       log of a twip run, its `dt` (the default is `twip.simulate`'s), so that the prediction
@@ -56,6 +62,8 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
         raise LogError(f"robot: {type(robot).__name__} is not a RobotParams or a twip.Robot")
     checks.of_type("driver", driver, (_core.MotorDriver, type(None)), "a twip.MotorDriver or None")
     checks.of_type("friction", friction, (_core.Friction, type(None)), "a twip.Friction or None")
+    if backlash is not None:
+        backlash = checks.real("backlash", backlash, at_least=0.0) or None
     assumed = None
     if driver is None:
         driver = getattr(robot, "driver", None)
@@ -71,7 +79,8 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
         raise LogError("method = 'closed-loop' needs controller= (the robot's own controller)")
     if method == "closed-loop":
         segment = log.t[-1] - log.t[0] + 1.0  # one segment: the closed loop is not restarted
-    problem = Problem(log, params, list(free), driver, friction, segment, sensors or Sensors(), signals, max_step)
+    problem = Problem(log, params, list(free), driver, friction, segment, sensors or Sensors(), signals, max_step,
+                      backlash)
     if method == "closed-loop":
         fit = Fit(problem, closed_loop.run(problem, controller, reference, max_iter))
     else:
@@ -86,6 +95,8 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
         fit.assumed["driver"] = (f"{assumed or 'driver='}: battery {d['battery']:g} V, bridge drop {d['bridge_drop']:g} V, "
                                  f"resistance {d['resistance']:.4g} ohm, inductance {d['inductance']:g} H, current "
                                  f"limit {d['current_limit'] or 'none'}" + (" A" if d['current_limit'] else ""))
+    if backlash is not None:
+        fit.assumed["backlash"] = f"{backlash:.4g} rad ({math.degrees(backlash):.3g} deg) of gear play, declared"
     for w in fit.misfits:
         warnings.warn(w, SysidMisfitWarning, stacklevel=2)
     return fit

@@ -21,7 +21,10 @@ def _simulated(problem: Problem, controller, reference, delta, biases, x0) -> di
     log = problem.log
     dt = float(np.mean(np.diff(log.t)))
     model, _, params, slope = problem.model_parts(delta)
-    result = simulate(model, controller, x0, log.t[-1] - log.t[0] + 0.5 * dt, dt=dt, reference=reference)
+    # The declared gear play in the loop, as the rig has it.
+    realism = _core.Realism(backlash=problem.backlash) if problem.backlash else None
+    result = simulate(model, controller, x0, log.t[-1] - log.t[0] + 0.5 * dt, dt=dt, reference=reference,
+                      realism=realism)
     n, k = len(log), min(len(log), len(result.t))
     states = np.full((n, 4), np.nan)
     states[:k] = result.states[:k]

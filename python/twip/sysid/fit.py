@@ -154,7 +154,7 @@ class Fit:
         p = self._problem
         params = self.robot
         check = Problem(other, params, [], self.driver or p.driver, p.friction, segment or _segment_of(p),
-                        p.sensors, [s for s in p.outputs if getattr(other, s) is not None], p.max_step)
+                        p.sensors, [s for s in p.outputs if getattr(other, s) is not None], p.max_step, p.backlash)
         sigma = {s: self.sigma[s] for s in check.outputs}
         solution = Estimator(check, sigma, max_iter=50).run()
         return {s: float(np.sqrt(np.nanmean(r**2))) for s, r in solution.residuals.items()}

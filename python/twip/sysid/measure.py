@@ -38,11 +38,20 @@ FILTERED = ("gyro", "accel_x", "accel_z")
 
 
 def predict(name: str, states: np.ndarray, rates: np.ndarray, radius: float, g: float, slope: float,
-            sensors: Sensors, segments: Sequence[range]) -> np.ndarray:
+            sensors: Sensors, segments: Sequence[range], sensed: Optional[np.ndarray] = None) -> np.ndarray:
     """Signal `name` over states [n, 4] and their rates (as `_core.sysid_shoot` gives), without
-    any sensor offset. Through an IMU's filter, each shooting segment is filtered on its own,
-    from the steady state of its first value, so that it depends on its own start state
-    only; the estimator leaves out the rows where that start has not yet been forgotten."""
+    any sensor offset. `sensed` [n, 2] (sysid_shoot's too): the motor shafts' offset from the
+    wheels, which the encoder counts (gear play), and the pitch rate the IMU samples (after
+    an impact in the play, which jumps it); None: no play. Through an IMU's filter, each
+    shooting segment is filtered on its own, from the steady state of its first value, so
+    that it depends on its own start state only; the estimator leaves out the rows where
+    that start has not yet been forgotten."""
+    if sensed is not None and (name == "enc" or name in FILTERED):
+        states = states.copy()
+        if name == "enc":
+            states[..., 2] = states[..., 2] + sensed[..., 0]
+        else:
+            states[..., 1] = sensed[..., 1]
     raw = _unfiltered(name, states, rates, radius, g, slope, sensors)
     if sensors.imu is None or name not in FILTERED:
         return raw

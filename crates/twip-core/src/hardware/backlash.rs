@@ -45,6 +45,19 @@ impl<T: Real> Backlash<T> {
     }
 }
 
+/// What a gear train with play carries from one plant step to the next: each rotor's
+/// offset from its wheel, its speed, the flank it is engaged on, and the step under way
+/// (the motors' torques over it, the wheels' speeds at its start). A shooting segment of
+/// a log (`sysid`) starts from the previous segment's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlayState<T, const N: usize> {
+    offset: [T; N],
+    rotor: [T; N],
+    flank: [i8; N],
+    motor: [T; N],
+    before: Option<[T; N]>,
+}
+
 /// The rotors of `N` gear trains with play (N = 1: the 2-DOF model's lumped pair).
 #[derive(Clone, Copy, Debug)]
 pub struct GearPlay<T, const N: usize> {
@@ -80,6 +93,16 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
         }
         let zero = [T::zero(); N];
         Ok(Self { half: b.gap / c(2.0), inertia, trains, offset: zero, rotor: zero, flank: [0; N], motor: zero, before: None })
+    }
+
+    /// The trains' state between steps ([`PlayState`]).
+    pub fn state(&self) -> PlayState<T, N> {
+        PlayState { offset: self.offset, rotor: self.rotor, flank: self.flank, motor: self.motor, before: self.before }
+    }
+
+    /// The trains in `state` (the play's width and the rotors' inertia stay this one's).
+    pub fn set_state(&mut self, state: &PlayState<T, N>) {
+        (self.offset, self.rotor, self.flank, self.motor, self.before) = (state.offset, state.rotor, state.flank, state.motor, state.before);
     }
 
     /// Which trains are engaged.

@@ -15,7 +15,7 @@
 //! crossing a change keeps (φ̇, θ̇) (the crease's own impact is neglected).
 use nalgebra::{SVector, Vector2, Vector4};
 
-use crate::hardware::backlash::{Backlash, GearPlay};
+use crate::hardware::backlash::{Backlash, GearPlay, PlayState};
 use crate::model::friction::Friction;
 use crate::model::lane::Lane;
 use crate::model::slope::SlopeCoefficients;
@@ -312,6 +312,18 @@ impl<T: Real> Disturbed<T> {
     #[inline(always)]
     pub fn shaft_offset(&self) -> T {
         self.play.as_ref().map_or(T::zero(), |p| p.offsets()[0])
+    }
+
+    /// The gear trains' state between steps (None without backlash).
+    pub fn play_state(&self) -> Option<PlayState<T, 1>> {
+        self.play.as_ref().map(|p| p.state())
+    }
+
+    /// The gear trains in `state` (no-op without backlash).
+    pub fn set_play_state(&mut self, state: &PlayState<T, 1>) {
+        if let Some(p) = self.play.as_mut() {
+            p.set_state(state);
+        }
     }
 
     /// The constant force on the body (zero components: none).

@@ -5,11 +5,13 @@
 //! `twip.sysid`) makes the start states unknowns beside the robot's parameters.
 use nalgebra::{SVector, Vector4};
 
+use crate::hardware::backlash::PlayState;
 use crate::hardware::driver::Driven;
 use crate::model::dynamics::Dynamics;
 use crate::model::integrate::rk4_step_from_k1;
 use crate::{Real, SlopeModel, TwipError};
 
+pub mod geared;
 #[cfg(feature = "parallel")]
 pub mod parallel;
 
@@ -17,16 +19,33 @@ pub mod parallel;
 /// its own. A PWM-driven one whose winding has inductance carries the winding's current
 /// from step to step, and its RK4 stages feel it within the step, as the simulator's
 /// plant does (`RealPlant::step_start`, `step_ended`): the predictions are then the
-/// simulator's own steps.
+/// simulator's own steps. One with gear play (`geared`) carries its rotors, and an impact
+/// at a step's start jumps the state.
 pub trait ShootingModel<T: Real>: Dynamics<T, 4, 1> + Copy {
     /// A segment starts at `x`; `before` is the input held up to its first sample.
     fn start_segment(&mut self, _x: &Vector4<T>, _before: T) {}
 
-    /// An RK4 step of `dt` starts at `x` under the input `u`.
-    fn start_step(&mut self, _x: &Vector4<T>, _u: T, _dt: T) {}
+    /// An RK4 step of `dt` starts at `x` under the input `u`: `x` may jump (an impact in
+    /// the gear play). Returns the step's first stage when the model has it at hand.
+    fn start_step(&mut self, _x: &mut Vector4<T>, _u: T, _dt: T) -> Option<Vector4<T>> {
+        None
+    }
 
     /// The RK4 step under way ended at `x`.
     fn end_step(&mut self, _x: &Vector4<T>) {}
+
+    /// The gear play's state between steps (None: the model has no play).
+    fn play(&self) -> Option<PlayState<T, 1>> {
+        None
+    }
+
+    /// The gear play in `state`.
+    fn set_play(&mut self, _state: &PlayState<T, 1>) {}
+
+    /// The motor shafts' angle minus the wheels' [rad at the wheel]: the encoder counts the shaft.
+    fn shaft_offset(&self) -> T {
+        T::zero()
+    }
 }
 
 impl<T: Real> ShootingModel<T> for SlopeModel<T> {}
@@ -41,8 +60,9 @@ impl<T: Real, P: Dynamics<T, 4, 1> + Copy> ShootingModel<T> for Driven<T, P> {
     }
 
     /// No-op without inductance: the current is then algebraic, inside `deriv`.
-    fn start_step(&mut self, x: &Vector4<T>, u: T, dt: T) {
+    fn start_step(&mut self, x: &mut Vector4<T>, u: T, dt: T) -> Option<Vector4<T>> {
         Driven::start_step(self, x, u, dt);
+        None
     }
 
     fn end_step(&mut self, x: &Vector4<T>) {
@@ -57,6 +77,17 @@ pub struct Shooting<'a, T> {
     u: &'a [T],
     segments: &'a [usize],
     max_step: T,
+}
+
+/// Where one shooting run puts its outputs ([`Shooting::run`]): per sample the state, its
+/// rate and what the sensors see besides ([shaft offset, pitch rate at the IMU]); per
+/// segment its end and the gear play it started from.
+pub struct Outputs<'o, T> {
+    pub states: &'o mut [Vector4<T>],
+    pub rates: &'o mut [Vector4<T>],
+    pub sensed: &'o mut [[T; 2]],
+    pub ends: &'o mut [Vector4<T>],
+    pub plays: &'o mut [Option<PlayState<T, 1>>],
 }
 
 fn invalid(name: &'static str, value: f64, reason: &'static str) -> TwipError {
@@ -111,35 +142,41 @@ impl<'a, T: Real> Shooting<'a, T> {
         self.segments[k]..end
     }
 
-    /// Predicts every sample: `states[i]` the state, `rates[i]` its derivative under the
-    /// input held from sample i (with an inductive winding, under the winding's current
-    /// at the sample, as an accelerometer in the simulator feels it), and
-    /// `ends[k]` segment k's state carried on to the next segment's first sample (what
-    /// continuity compares with that segment's start; the last segment's is NaN). A
-    /// segment that leaves the finite numbers stays NaN to its end.
-    pub fn run<M: ShootingModel<T>>(
-        &self,
-        model: &M,
-        starts: &[Vector4<T>],
-        states: &mut [Vector4<T>],
-        rates: &mut [Vector4<T>],
-        ends: &mut [Vector4<T>],
-    ) -> Result<(), TwipError> {
+    /// Predicts every sample into `out` ([`Outputs`]): `states[i]` the state as logged
+    /// at sample i (before its step starts), `rates[i]` its derivative under the input held
+    /// from sample i (with an inductive winding, under the winding's current at the sample,
+    /// as an accelerometer in the simulator feels it; after an impact in the gear play, at
+    /// the state it left), `sensed[i]` the motor shafts' offset from the wheels as logged
+    /// and the pitch rate the IMU samples (after an impact), and `ends[k]` segment k's state
+    /// carried on to the next segment's first sample (what continuity compares with that
+    /// segment's start; the last segment's is NaN). A segment that leaves the finite numbers
+    /// stays NaN to its end.
+    ///
+    /// A model with gear play starts its first segment with the play as it is, and each
+    /// later one either from the previous segment's play at its end (`carry`: recorded in
+    /// `out.plays`) or from `out.plays` as given (so that a finite difference holds it).
+    pub fn run<M: ShootingModel<T>>(&self, model: &M, starts: &[Vector4<T>], out: Outputs<'_, T>, carry: bool) -> Result<(), TwipError> {
         let n = self.samples();
         if starts.len() != self.segment_count() {
             return Err(invalid("starts", starts.len() as f64, "needs one start state per segment"));
         }
-        if states.len() != n || rates.len() != n {
-            return Err(invalid("states", states.len() as f64, "needs one row per sample"));
+        if out.states.len() != n || out.rates.len() != n || out.sensed.len() != n {
+            return Err(invalid("states", out.states.len() as f64, "needs one row per sample"));
         }
-        if ends.len() != starts.len() {
-            return Err(invalid("ends", ends.len() as f64, "needs one row per segment"));
+        if out.ends.len() != starts.len() || out.plays.len() != starts.len() {
+            return Err(invalid("ends", out.ends.len() as f64, "needs one row per segment"));
         }
+        let mut carried = model.play();
         for (k, start) in starts.iter().enumerate() {
             let range = self.range(k);
             // Each segment carries its own copy: its winding's current is its own. It starts
             // from the duty held before the segment (the first segment's own: none before).
             let mut model = *model;
+            let play = if carry || k == 0 { carried } else { out.plays[k] };
+            if let Some(p) = &play {
+                model.set_play(p);
+            }
+            out.plays[k] = play;
             model.start_segment(start, self.u[range.start.saturating_sub(1)]);
             let mut x = *start;
             for i in range.clone() {
@@ -148,11 +185,12 @@ impl<'a, T: Real> Shooting<'a, T> {
                 // before's (its rate does not depend on it).
                 let interval = if i + 1 < n { self.t[i + 1] - self.t[i] } else { self.t[i] - self.t[i - 1] };
                 let (steps, h) = self.split(interval);
-                model.start_step(&x, u[0], h);
-                let k1 = model.deriv(&x, &u);
-                states[i] = x;
-                rates[i] = k1;
-                ends[k] = Vector4::repeat(crate::c::<T>(f64::NAN));
+                out.states[i] = x;
+                let shaft = model.shaft_offset();
+                let k1 = model.start_step(&mut x, u[0], h).unwrap_or_else(|| model.deriv(&x, &u));
+                out.rates[i] = k1;
+                out.sensed[i] = [shaft, x[1]];
+                out.ends[k] = Vector4::repeat(crate::c::<T>(f64::NAN));
                 if i + 1 == n {
                     break;
                 }
@@ -161,9 +199,10 @@ impl<'a, T: Real> Shooting<'a, T> {
                     x = Vector4::repeat(crate::c::<T>(f64::NAN));
                 }
                 if i + 1 == range.end {
-                    ends[k] = x;
+                    out.ends[k] = x;
                 }
             }
+            carried = model.play();
         }
         Ok(())
     }
@@ -187,8 +226,8 @@ impl<'a, T: Real> Shooting<'a, T> {
         model.end_step(&y);
         let mut done = T::one();
         while done < steps {
-            model.start_step(&y, u[0], h);
-            y = rk4_step_from_k1(model, &y, u, h, &model.deriv(&y, u));
+            let k1 = model.start_step(&mut y, u[0], h).unwrap_or_else(|| model.deriv(&y, u));
+            y = rk4_step_from_k1(model, &y, u, h, &k1);
             model.end_step(&y);
             done += T::one();
         }
@@ -210,9 +249,10 @@ mod tests {
         let segments = [0, 20];
         let shooting = Shooting::new(&t, &u, &segments, 1e-3).unwrap();
         let starts = [Vector4::new(0.05, 0.0, 0.0, 0.0), Vector4::new(-0.02, 0.1, 0.3, 1.0)];
-        let (mut states, mut rates) = (vec![Vector4::zeros(); 50], vec![Vector4::zeros(); 50]);
-        let mut ends = [Vector4::zeros(); 2];
-        shooting.run(&model, &starts, &mut states, &mut rates, &mut ends).unwrap();
+        let (mut states, mut rates, mut sensed) = (vec![Vector4::zeros(); 50], vec![Vector4::zeros(); 50], vec![[0.0; 2]; 50]);
+        let (mut ends, mut plays) = ([Vector4::zeros(); 2], [None; 2]);
+        let out = Outputs { states: &mut states, rates: &mut rates, sensed: &mut sensed, ends: &mut ends, plays: &mut plays };
+        shooting.run(&model, &starts, out, false).unwrap();
         for (k, range) in [(0, 0..20), (1, 20..50)] {
             let mut x = starts[k];
             for i in range {
@@ -250,9 +290,10 @@ mod tests {
         for every in [1, 4] {
             let t: Vec<f64> = (0..n).map(|i| (i * every) as f64 * dt).collect();
             let shooting = Shooting::new(&t, &u, &segments, dt).unwrap();
-            let (mut states, mut rates) = (vec![Vector4::zeros(); n], vec![Vector4::zeros(); n]);
-            let mut ends = [Vector4::zeros(); 2];
-            shooting.run(&driven, &starts, &mut states, &mut rates, &mut ends).unwrap();
+            let (mut states, mut rates, mut sensed) = (vec![Vector4::zeros(); n], vec![Vector4::zeros(); n], vec![[0.0; 2]; n]);
+            let (mut ends, mut plays) = ([Vector4::zeros(); 2], [None; 2]);
+            let out = Outputs { states: &mut states, rates: &mut rates, sensed: &mut sensed, ends: &mut ends, plays: &mut plays };
+            shooting.run(&driven, &starts, out, false).unwrap();
             let mut limited = 0;
             for (k, range) in [(0, 0..25), (1, 25..n)] {
                 let mut plant = Realism { motor: Some(driver), ..Realism::ideal() }.build(&model, dt).unwrap().plant;
@@ -282,6 +323,67 @@ mod tests {
             }
             assert!(limited > 10, "the limit clamped {limited} steps");
         }
+    }
+
+    /// With gear play (and gearhead friction, and a current-limited driver) a run is the
+    /// simulator's plant step for step: the rig's `between_steps` (the open rotors' elapsed
+    /// step and impacts, the winding, the trains that open), RK4 and `step_ended`. Carried,
+    /// each segment starts from the play the one before left, so that segments started at
+    /// the plant's own states are its run, bit for bit: states as logged (before the step's
+    /// impact), the shaft's offset as the encoder counts it, and the pitch rate the IMU
+    /// samples (after it). Held, a segment starts from the play given. (The winding has no
+    /// inductance here: its current is not carried from segment to segment.)
+    #[test]
+    fn a_geared_run_is_the_simulators_plant_bit_for_bit() {
+        use crate::hardware::backlash::Backlash;
+        use crate::hardware::driver::MotorDriver;
+        use crate::hardware::realism::Realism;
+        use crate::sim::runner::Plant;
+        let friction = Realism::<f64>::thesis_like_friction();
+        let model = SlopeModel::new(RobotParams::balanbot(), 0.05).unwrap().with_friction(Some(friction)).unwrap();
+        let driver = MotorDriver { inductance: 0.0, ..MotorDriver::thesis_like() };
+        let backlash = Backlash { gap: 2f64.to_radians() };
+        let (dt, n) = (1.0 / 1024.0, 400);
+        // Duties that reverse often: the trains open and cross the play.
+        let u: Vec<f64> = (0..n).map(|i| (200.0 * (i as f64 * 0.05).sin() + 40.0 * (i as f64 * 0.7).cos()).round()).collect();
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
+        let mut plant = Realism { motor: Some(driver), backlash: Some(backlash), ..Realism::ideal() }.build(&model, dt).unwrap().plant;
+        let mut x = Vector4::new(0.05, 0.0, 0.0, 0.0);
+        let (mut truth, mut rates, mut sensed, mut open) = (vec![], vec![], vec![], 0);
+        for i in 0..n {
+            let uu = SVector::<f64, 1>::new(u[i]);
+            truth.push(x);
+            let shaft = plant.shaft_offsets()[0];
+            let k1 = plant.between_steps_with_derivative(t[i], dt, &mut x, &uu).unwrap_or_else(|| plant.deriv(&x, &uu));
+            open += usize::from(!plant.ground().engaged());
+            rates.push(k1);
+            sensed.push([shaft, x[1]]);
+            x = rk4_step_from_k1(&plant, &x, &uu, dt, &k1);
+            plant.step_ended(&x);
+        }
+        assert!(open > 20, "the trains were open {open} steps");
+        let segments = [0, 130, 260];
+        let starts: Vec<_> = segments.iter().map(|&s| truth[s]).collect();
+        let shooting = Shooting::new(&t, &u, &segments, dt).unwrap();
+        let shooter = geared::geared(&model, Some(&driver), backlash).unwrap();
+        let (mut states, mut rs, mut ss) = (vec![Vector4::zeros(); n], vec![Vector4::zeros(); n], vec![[0.0; 2]; n]);
+        let (mut ends, mut plays) = ([Vector4::zeros(); 3], [None; 3]);
+        let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays };
+        shooting.run(&shooter, &starts, out, true).unwrap();
+        for i in 0..n {
+            assert_eq!((states[i], rs[i], ss[i]), (truth[i], rates[i], sensed[i]), "sample {i}");
+        }
+        assert_eq!(ends[0], truth[130]);
+        assert!(plays.iter().all(|p| p.is_some()));
+        // Held: the same plays given, the same run; another play given, another run.
+        let kept = plays;
+        let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays };
+        shooting.run(&shooter, &starts, out, false).unwrap();
+        assert_eq!(states[n - 1], truth[n - 1]);
+        plays[2] = kept[1];
+        let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays };
+        shooting.run(&shooter, &starts, out, false).unwrap();
+        assert_ne!(states[n - 1], truth[n - 1]);
     }
 
     #[test]
