@@ -28,6 +28,7 @@ mod fuzzy;
 mod lqr;
 mod planar;
 mod planar_rig;
+mod planar_rig_lanes;
 mod rig;
 mod smc;
 mod winding;
