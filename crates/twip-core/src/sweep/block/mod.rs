@@ -30,6 +30,7 @@ mod planar;
 mod planar_rig;
 mod planar_rig_lanes;
 mod rig;
+mod rig_lanes;
 mod smc;
 mod winding;
 pub use fuzzy::FuzzyLanes;
