@@ -25,6 +25,7 @@ use crate::TwipError;
 use core::sync::atomic::{AtomicU8, Ordering};
 
 mod fuzzy;
+mod held;
 mod lqr;
 mod planar;
 mod planar_rig;

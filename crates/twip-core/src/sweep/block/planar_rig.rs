@@ -9,6 +9,7 @@
 use super::planar::{LanePath, Metrics, PlanarLaneLaw};
 use super::planar_rig_lanes::PlanarRigLanes;
 use super::rig::block_rigs;
+use super::held::end_diverged;
 use super::multiversioned;
 use crate::model::planar::PlanarModel;
 use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
@@ -78,13 +79,8 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
             let y = rig.read(t);
             controller.update::<COPY>(&mut state, y, &r, &mut cmd);
             let diverged = rig.apply(t, &cmd);
-            for l in 0..LANES {
-                // A lane whose drive is not finite has diverged: it ends as fallen, unobserved.
-                if alive[l] && diverged[l] {
-                    alive[l] = false;
-                    ended[l] = (true, t, k as u64);
-                }
-            }
+            // A lane whose drive is not finite has diverged: it ends as fallen, unobserved.
+            end_diverged(&diverged, &mut alive, &mut ended, t, k);
         }
         metrics.observe(&alive, t >= settle, &rig.x, rig.command(), &r, path);
         let next = rig.step::<COPY>(k, |delivered, beyond| metrics.drive(&alive, delivered, update, beyond));

@@ -17,6 +17,7 @@ use alloc::vec::Vec;
 use nalgebra::SVector;
 
 use super::planar::Plants;
+use super::held::Held;
 use super::winding::WindingLanes;
 use super::{chunk, CHUNKS};
 use crate::Dynamics;
@@ -325,15 +326,8 @@ pub(super) struct PlanarRigLanes {
     pub(super) x: [Lanes; 7],
     /// The sensors' last reading.
     y: [Lanes; 7],
-    /// The plant's input (duties or torques) and the controller's command, each applied
-    /// and pending (the one period late copy a delayed rig applies); whether each lane's
-    /// commands applied, and those pending, are beyond its drivers.
-    u: [Lanes; 2],
-    pending: [Lanes; 2],
-    command: [Lanes; 2],
-    pending_command: [Lanes; 2],
-    beyond: [bool; LANES],
-    pending_beyond: [bool; LANES],
+    /// The plant's input and the controller's command, applied and pending.
+    held: Held<[Lanes; 2]>,
 }
 
 impl PlanarRigLanes {
@@ -400,7 +394,6 @@ impl PlanarRigLanes {
         }
         let quiet_engaged = core::array::from_fn(|l| rigs[l].plant.unpushed());
         let engaged = core::array::from_fn(|l| rigs[l].plant.trains());
-        let zero = [[0.0; LANES]; 2];
         Ok(Some(Self {
             models,
             rigs,
@@ -413,12 +406,7 @@ impl PlanarRigLanes {
             engaged,
             x,
             y: [[0.0; LANES]; 7],
-            u: zero,
-            pending: zero,
-            command: zero,
-            pending_command: zero,
-            beyond: [false; LANES],
-            pending_beyond: [false; LANES],
+            held: Held::new([[0.0; LANES]; 2]),
         }))
     }
 
@@ -430,7 +418,7 @@ impl PlanarRigLanes {
     /// The controller's commands that the plants get now (a delayed rig's: the last period's).
     #[inline(always)]
     pub(super) fn command(&self) -> &[Lanes; 2] {
-        &self.command
+        &self.held.command
     }
 
     /// What the firmware reads at `t`: the IMUs' latest registers and the encoders (which
@@ -461,12 +449,7 @@ impl PlanarRigLanes {
             set_lane(&mut drive, l, &d);
             diverged[l] = !d.iter().all(|v| v.is_finite());
         }
-        if self.delay {
-            (self.u, self.pending, self.command, self.pending_command) = (self.pending, drive, self.pending_command, *cmd);
-            (self.beyond, self.pending_beyond) = (self.pending_beyond, clamped);
-        } else {
-            (self.u, self.command, self.beyond) = (drive, *cmd, clamped);
-        }
+        self.held.hold(self.delay, drive, *cmd, clamped);
         diverged
     }
 
@@ -477,7 +460,7 @@ impl PlanarRigLanes {
     /// go on there (`x`).
     #[inline(always)]
     pub(super) fn step<const COPY: u8>(&mut self, k: usize, on_drive: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
-        let (t, dt, u) = (self.dt * k as f64, self.dt, self.u);
+        let (t, dt, u) = (self.dt * k as f64, self.dt, self.held.u);
         let (plants, x) = (&mut self.plants, &mut self.x);
         // What the plants get at the step's start (`Observer::drive`): the held torques, or
         // the windings' (with inductance, once the last step has ended, below).
@@ -528,7 +511,7 @@ impl PlanarRigLanes {
                 windings.delivered(&mut delivered[wheel]);
             }
         }
-        on_drive(&delivered, &self.beyond);
+        on_drive(&delivered, &self.held.beyond);
         let (mut k1, tau) = plants.motion::<COPY>(x, &held, &trains);
         let before = trains;
         for (l, rig) in self.rigs.iter_mut().enumerate() {

@@ -8,6 +8,7 @@
 //! lanes; noise stream = sample index). So a lane
 //! agrees with `sweep::rig::run_rig_sample` to rounding, and is bit for bit the same on
 //! every CPU, thread count and block neighbour.
+use super::held::end_diverged;
 use super::rig_lanes::RigLanes;
 use super::{multiversioned, steady_pitches, BlockResult, LaneLaw, Metrics, Shared};
 use crate::control::reference::SpeedSchedule;
@@ -122,13 +123,8 @@ fn rig_block<C: LaneLaw, const COPY: u8>(
             let y = rig.read(t);
             controller.update::<COPY>(&mut state, y, &r, &mut cmd);
             let diverged = rig.apply(t, &cmd);
-            for l in 0..LANES {
-                // A lane whose drive is not finite has diverged: it ends as fallen.
-                if alive[l] && diverged[l] {
-                    alive[l] = false;
-                    ended[l] = (true, t, k as u64);
-                }
-            }
+            // A lane whose drive is not finite has diverged: it ends as fallen, unobserved.
+            end_diverged(&diverged, &mut alive, &mut ended, t, k);
         }
         metrics.observe(&alive, &rig.x, rig.command(), &plant_phi_s, &Shared { t, r, speed_scale, direction });
         let next = rig.step::<COPY>(k, |delivered, beyond| metrics.drive(&alive, delivered, update, beyond));

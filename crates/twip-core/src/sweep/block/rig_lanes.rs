@@ -15,6 +15,7 @@ use alloc::vec::Vec;
 
 use nalgebra::{SVector, Vector4};
 
+use super::held::Held;
 use super::winding::WindingLanes;
 use super::{chunk, state_chunk, Plants, CHUNKS};
 use crate::hardware::disturbance::{Disturbed, Force, MAX_SLOPE_CHANGES};
@@ -404,15 +405,8 @@ pub(super) struct RigLanes {
     pub(super) x: [Lanes; 4],
     /// The sensors' last reading.
     y: [Lanes; 4],
-    /// The plant's input (duty or current) and the controller's command, each applied and
-    /// pending (the one period late copy a delayed rig applies); whether each lane's
-    /// command applied, and the one pending, is beyond its driver.
-    u: Lanes,
-    pending: Lanes,
-    command: Lanes,
-    pending_command: Lanes,
-    beyond: [bool; LANES],
-    pending_beyond: [bool; LANES],
+    /// The plant's input and the controller's command, applied and pending.
+    held: Held<Lanes>,
 }
 
 impl RigLanes {
@@ -491,12 +485,7 @@ impl RigLanes {
             engaged,
             x,
             y: [[0.0; LANES]; 4],
-            u: [0.0; LANES],
-            pending: [0.0; LANES],
-            command: [0.0; LANES],
-            pending_command: [0.0; LANES],
-            beyond: [false; LANES],
-            pending_beyond: [false; LANES],
+            held: Held::new([0.0; LANES]),
         }))
     }
 
@@ -508,7 +497,7 @@ impl RigLanes {
     /// The controller's command that the plants get now (a delayed rig's: the last period's).
     #[inline(always)]
     pub(super) fn command(&self) -> &Lanes {
-        &self.command
+        &self.held.command
     }
 
     /// What the firmware reads at `t`: the IMU's latest registers and the encoders (which
@@ -543,12 +532,7 @@ impl RigLanes {
             clamped[l] = rig.actuator.beyond(&command_l, &yl);
             diverged[l] = !drive[l].is_finite();
         }
-        if self.delay {
-            (self.u, self.pending, self.command, self.pending_command) = (self.pending, drive, self.pending_command, *cmd);
-            (self.beyond, self.pending_beyond) = (self.pending_beyond, clamped);
-        } else {
-            (self.u, self.command, self.beyond) = (drive, *cmd, clamped);
-        }
+        self.held.hold(self.delay, drive, *cmd, clamped);
         diverged
     }
 
@@ -559,7 +543,7 @@ impl RigLanes {
     /// go on there (`x`).
     #[inline(always)]
     pub(super) fn step<const COPY: u8>(&mut self, k: usize, on_drive: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
-        let (t, dt, u) = (self.dt * k as f64, self.dt, self.u);
+        let (t, dt, u) = (self.dt * k as f64, self.dt, self.held.u);
         let (plants, x, engaged) = (&mut self.plants, &mut self.x, &mut self.engaged);
         // What the plants get at the step's start (`Observer::drive`): the held current,
         // or a winding's current (with inductance, once the last step has ended, below).
@@ -619,7 +603,7 @@ impl RigLanes {
             plants.windings.step(k > 0, &finished, &u, &starts, &mut current);
             plants.windings.delivered(&mut delivered);
         }
-        on_drive(&delivered, &self.beyond);
+        on_drive(&delivered, &self.held.beyond);
         let before = *engaged;
         // The trains weigh the derivative at the step's start; with the trains as they
         // were, it is RK4's first stage. (Written in place, not as an `Option`: moving the
