@@ -25,10 +25,13 @@ use crate::TwipError;
 use core::sync::atomic::{AtomicU8, Ordering};
 
 mod fuzzy;
+mod held;
 mod lqr;
 mod planar;
 mod planar_rig;
+mod planar_rig_lanes;
 mod rig;
+mod rig_lanes;
 mod smc;
 mod winding;
 pub use fuzzy::FuzzyLanes;

@@ -1,4 +1,4 @@
-//! The motor windings of a block's rigs on lanes, as `rig::ImuLanes` keeps the IMUs: each
+//! The motor windings of a block's rigs on lanes, as `rig_lanes::ImuLanes` keeps the IMUs: each
 //! lane's rig's `Winding` (its factors for the block's step size), side by side. With
 //! inductance their steps are taken here, by `Winding`'s own code over [`Wide`] lanes, as a
 //! run's plant takes them (`RealPlant::step_ended` and `step_start`, `PlanarPlant`'s): the

@@ -1,0 +1,46 @@
+//! What both rigs' lanes keep between control periods: the input the plants hold and the
+//! controller's command that gave it, with the one period late copies a delayed rig applies.
+use crate::sweep::lanes::LANES;
+
+/// The plant's input (duties or currents, `U`: one or two arrays of lanes) and the
+/// controller's command, each applied and pending; whether each lane's command applied,
+/// and the one pending, is beyond its drivers.
+pub(super) struct Held<U> {
+    pub(super) u: U,
+    pending: U,
+    pub(super) command: U,
+    pending_command: U,
+    pub(super) beyond: [bool; LANES],
+    pending_beyond: [bool; LANES],
+}
+
+impl<U: Copy> Held<U> {
+    /// Nothing applied (`zero` held).
+    pub(super) fn new(zero: U) -> Self {
+        Self { u: zero, pending: zero, command: zero, pending_command: zero, beyond: [false; LANES], pending_beyond: [false; LANES] }
+    }
+
+    /// The drive a controller update gives (`drive` for the command `cmd`, `clamped` where it
+    /// is beyond a driver), applied from now on, or (`delay`) once the next update comes.
+    #[inline(always)]
+    pub(super) fn hold(&mut self, delay: bool, drive: U, cmd: U, clamped: [bool; LANES]) {
+        if delay {
+            (self.u, self.pending, self.command, self.pending_command) = (self.pending, drive, self.pending_command, cmd);
+            (self.beyond, self.pending_beyond) = (self.pending_beyond, clamped);
+        } else {
+            (self.u, self.command, self.beyond) = (drive, cmd, clamped);
+        }
+    }
+}
+
+/// Ends the lanes still `alive` whose drive at step `k` (time `t`) `diverged`: as fallen
+/// there, unobserved (`ended`: (fell, t_end, steps)).
+#[inline(always)]
+pub(super) fn end_diverged(diverged: &[bool; LANES], alive: &mut [bool; LANES], ended: &mut [(bool, f64, u64); LANES], t: f64, k: usize) {
+    for l in 0..LANES {
+        if alive[l] && diverged[l] {
+            alive[l] = false;
+            ended[l] = (true, t, k as u64);
+        }
+    }
+}

@@ -1,0 +1,541 @@
+//! The 3-DOF rig on a block of [`LANES`] robots, as a state object stepped one plant step
+//! at a time ([`PlanarRigLanes`]): what a closed loop around it needs (the sensors' read,
+//! the actuator's drive, the held input and its delay, one plant step), with the loop's
+//! controller and metrics outside it (`planar_rig::run_planar_rig_block`).
+//!
+//! Each lane's actuator, windings, gear play, pushes, encoders and tilt estimator are its
+//! own rig's parts, the very objects a run uses: they act between steps or once per control
+//! period on a lane's numbers. The plant's RK4 (`model::planar::engaged_motion`, and
+//! `open_motion` for a lane whose gear trains are open: the gearhead friction's law, the
+//! body force and the windings' `Winding::steady_current` or, with inductance,
+//! `Winding::stepped_current`) and the IMUs (`planar_rig::sample_imus`, each lane's noise
+//! from a copy of its rig's stream) are the run's own source on lanes, which the compiler
+//! vectorises; the gear trains weigh the lanes' first stage.
+use alloc::boxed::Box;
+use alloc::vec::Vec;
+
+use nalgebra::SVector;
+
+use super::planar::Plants;
+use super::held::Held;
+use super::winding::WindingLanes;
+use super::{chunk, CHUNKS};
+use crate::Dynamics;
+use crate::hardware::disturbance::Force;
+use crate::hardware::driver::{MotorDriver, Winding};
+use crate::hardware::imu::{ImuClock, ImuReading, Mpu6050, NoiseLanes};
+use crate::hardware::planar_rig::{body_force, sample_imus, PlanarRig};
+use crate::hardware::realism::RigPlant as _;
+use crate::model::friction::{Friction, Gearhead};
+use crate::model::integrate::{rk4, Field, Stage};
+use crate::model::lane::{fill, Fused, Lane, Wide, WIDTH};
+use crate::model::planar::{engaged_motion, open_motion, wheel_speeds, PlanarCoefficients, PlanarModel};
+use crate::sim::runner::{Actuator, Plant, Sensor};
+use crate::sweep::lanes::{Lanes, LANES};
+use crate::{RobotParams, TwipError};
+
+/// The plant's kinds, decided once per block: the gearhead friction's (`GEAR`: none, the
+/// slip law, or with a stick band) and what drives it (`DRIVE`: the motor torques held
+/// over the step; windings without inductance, which turn the duties into current at
+/// each stage; windings with inductance, whose currents move within the step); each its
+/// own loop over lanes, so that no branch inside one keeps the compiler from vectorising it.
+const FREE: u8 = 0;
+const SLIP: u8 = 1;
+const STICK: u8 = 2;
+const HELD: u8 = 0;
+const STEADY: u8 = 1;
+const STEPPED: u8 = 2;
+
+/// One lane's plant over a step, its trains as they are (`GEARED`: some lane's in the block
+/// may be open): the motor torques held, or at the step's start with the windings' steps
+/// under way (`STEPPED`), or (`STEADY`) the duties, which the windings turn into current at
+/// each stage at the wheels' speeds.
+struct RigField<'a, const GEAR: u8, const DRIVE: u8, const GEARED: bool> {
+    k: PlanarCoefficients<Fused>,
+    /// Which gear trains are engaged over this step (backlash: set between steps), and the
+    /// rotor inertia per wheel that an open one takes off.
+    engaged: [bool; 2],
+    rotor: Fused,
+    friction: &'a Friction<Fused>,
+    u: [Fused; 2],
+    windings: [Winding<Fused>; 2],
+    per_amp: Fused,
+    /// A constant force on the body (zero: none), always added: a branch on it would keep
+    /// the lanes' loop from vectorising, and zeros change nothing but the sign of a zero.
+    force: Force<Fused>,
+}
+
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> RigField<'_, GEAR, DRIVE, GEARED> {
+    /// The derivative and each wheel's gearhead torque (`PlanarPlant::geared_motion`'s) at
+    /// the step's start.
+    #[inline(always)]
+    fn motion(&self, x: &[Fused; 7]) -> ([Fused; 7], [Fused; 2]) {
+        // As `PlanarPlant::torques` with the trains engaged (motor speed = wheel speed; an
+        // open train's torque is not read).
+        let u = if DRIVE == STEADY {
+            let [w_r, w_l] = wheel_speeds(&self.k, x);
+            [self.per_amp * self.windings[0].steady_current(self.u[0], w_r), self.per_amp * self.windings[1].steady_current(self.u[1], w_l)]
+        } else {
+            self.u
+        };
+        self.motion_under(x, u)
+    }
+
+    /// [`Self::motion`] under the wheel torques `u`.
+    #[inline(always)]
+    fn motion_under(&self, x: &[Fused; 7], u: [Fused; 2]) -> ([Fused; 7], [Fused; 2]) {
+        let gear = match GEAR {
+            FREE => Gearhead::Free,
+            SLIP => Gearhead::Slip(self.friction),
+            _ => Gearhead::Stick(self.friction),
+        };
+        let force = self.force;
+        let extra = |s, cp| Some(body_force(&force, s, cp));
+        let (d, tau) = engaged_motion(&self.k, gear, x, u, extra);
+        if !GEARED {
+            return (d, tau);
+        }
+        // With a train open somewhere in the block: both computed and one kept, no branch per lane.
+        let (open_d, open_tau) = open_motion(&self.k, gear, x, u, self.engaged, self.rotor, extra);
+        let all = self.engaged[0] & self.engaged[1];
+        (fill(|i| Fused::select(all, d[i], open_d[i])), fill(|i| Fused::select(all, tau[i], open_tau[i])))
+    }
+}
+
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> Field<Fused, 7> for RigField<'_, GEAR, DRIVE, GEARED> {
+    #[inline(always)]
+    fn at(&self, x: &[Fused; 7]) -> [Fused; 7] {
+        self.motion(x).0
+    }
+
+    // As `PlanarPlant::deriv_at_stage`.
+    #[inline(always)]
+    fn at_stage(&self, x: &[Fused; 7], stage: Stage) -> [Fused; 7] {
+        if DRIVE == STEPPED {
+            // Written out, not through a closure: a profile found such a closure out of
+            // line in a kernel 3x slower than this one.
+            let [w_r, w_l] = wheel_speeds(&self.k, x);
+            let torques = [self.per_amp * self.windings[0].stepped_current(stage, w_r), self.per_amp * self.windings[1].stepped_current(stage, w_l)];
+            self.motion_under(x, torques).0
+        } else {
+            self.motion(x).0
+        }
+    }
+}
+
+/// The lanes' plants: coefficients per lane, the friction all share, each lane's force and
+/// windings.
+struct RigPlants {
+    plants: Plants,
+    gear: u8,
+    friction: Friction<Fused>,
+    drive: u8,
+    /// Each lane's right and left windings and the torque per ampere, when there is a
+    /// driver (else any, unused).
+    windings: [WindingLanes; 2],
+    forces: [Force<f64>; LANES],
+    /// Each lane's rotor inertia per wheel (an open train takes it off).
+    rotors: Lanes,
+}
+
+/// `$self.$run::<GEAR, DRIVE, GEARED>(args)` for the plants' kinds; GEARED only while
+/// some lane's trains are open (`$trains`: all engaged is the plain plant, bit for bit).
+macro_rules! by_kind {
+    ($self:ident, $trains:ident, $run:ident($($arg:expr),*)) => {
+        if $trains.iter().all(|t| t[0] & t[1]) {
+            by_kind!(@gear $self, false, $run($($arg),*))
+        } else {
+            by_kind!(@gear $self, true, $run($($arg),*))
+        }
+    };
+    (@gear $self:ident, $geared:literal, $run:ident($($arg:expr),*)) => {
+        match $self.gear {
+            FREE => by_kind!(@drive $self, FREE, $geared, $run($($arg),*)),
+            SLIP => by_kind!(@drive $self, SLIP, $geared, $run($($arg),*)),
+            _ => by_kind!(@drive $self, STICK, $geared, $run($($arg),*)),
+        }
+    };
+    (@drive $self:ident, $gear:ident, $geared:literal, $run:ident($($arg:expr),*)) => {
+        match $self.drive {
+            HELD => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, HELD, $geared>($($arg),*)),
+            STEADY => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, STEADY, $geared>($($arg),*)),
+            _ => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, STEPPED, $geared>($($arg),*)),
+        }
+    };
+}
+
+// Each kind's loop is a function of its own per kernel copy (`out_of_line_in`), compiled
+// with that copy's instructions and shared by the controller laws.
+impl RigPlants {
+    /// Lane `l`'s plant under the input `u` held (motor torques, at the step's start with
+    /// inductance, or duties without).
+    #[inline(always)]
+    fn field<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, l: usize, u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> RigField<'_, GEAR, DRIVE, GEARED> {
+        let ((right, per_amp), (left, _)) = (self.windings[0].lane(l), self.windings[1].lane(l));
+        RigField {
+            k: self.plants.lane(l),
+            engaged: trains[l],
+            rotor: Fused(self.rotors[l]),
+            friction: &self.friction,
+            u: [Fused(u[0][l]), Fused(u[1][l])],
+            windings: [right, left],
+            per_amp,
+            force: self.forces[l].map(Fused),
+        }
+    }
+
+    /// The derivative and each wheel's gearhead torque on every lane, its trains as they
+    /// are (`trains`): RK4's first stage, and what the gear trains weigh.
+    #[inline(always)]
+    fn motion<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
+        by_kind!(self, trains, motion_of(x, u, trains))
+    }
+
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
+        let (mut d, mut tau) = ([[0.0; LANES]; 7], [[0.0; LANES]; 2]);
+        for l in 0..LANES {
+            let (dl, tl) = self.field::<GEAR, DRIVE, GEARED>(l, u, trains).motion(&fill(|i| Fused(x[i][l])));
+            for i in 0..7 {
+                d[i][l] = dl[i].0;
+            }
+            tau[0][l] = tl[0].0;
+            tau[1][l] = tl[1].0;
+        }
+        (d, tau)
+    }
+
+    /// RK4's later stages from each lane's first `k1` on every lane, its trains as they
+    /// are over the step (`trains`).
+    #[inline(always)]
+    fn rk4<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
+        by_kind!(self, trains, rk4_of(x, u, trains, k1, dt))
+    }
+
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn rk4_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
+        let mut out = [[0.0; LANES]; 7];
+        for l in 0..LANES {
+            let field = self.field::<GEAR, DRIVE, GEARED>(l, u, trains);
+            let next = rk4(&field, &fill(|i| Fused(x[i][l])), &fill(|i| Fused(k1[i][l])), Fused(dt));
+            for i in 0..7 {
+                out[i][l] = next[i].0;
+            }
+        }
+        out
+    }
+}
+
+/// The IMUs on lanes, as the 2-DOF rig's: per [`WIDTH`] lanes one pitch `Mpu6050` and
+/// one yaw gyro (the converters, filters and registers every lane's alike, the state each
+/// lane's own), sampled on the rigs' clock (every lane's alike) with each lane's own
+/// noise: copies of its rig's stream and of its IMUs' normals drawn ahead, which give the
+/// very numbers its run draws. The registers go to each lane's sensors before the
+/// firmware reads them.
+struct ImuLanes {
+    imus: [(Mpu6050<Wide>, Mpu6050<Wide>); CHUNKS],
+    clock: ImuClock<f64>,
+    noise: NoiseLanes<LANES, 2>,
+    /// Each lane's wheel radius, its inverse and gravity.
+    radius: Lanes,
+    inv_r: Lanes,
+    g: Lanes,
+}
+
+impl ImuLanes {
+    /// None without an IMU (every lane's rig has the same parts).
+    fn new(rigs: &[PlanarRig<f64>], models: &[PlanarModel<f64>; LANES]) -> Option<Self> {
+        let ([pitch, yaw], clock, rng, noise) = rigs[0].sensors.imu_noise_parts()?;
+        let mut parts = [(rng, noise); LANES];
+        for (l, rig) in rigs.iter().enumerate() {
+            let (_, _, rng, noise) = rig.sensors.imu_noise_parts()?;
+            parts[l] = (rng, noise);
+        }
+        let radius: Lanes = core::array::from_fn(|l| models[l].params().wheel_radius);
+        Some(Self {
+            imus: [(pitch.map(Wide::splat), yaw.map(Wide::splat)); CHUNKS],
+            clock,
+            noise: NoiseLanes::new(&parts),
+            radius,
+            inv_r: radius.map(|r| 1.0 / r),
+            g: core::array::from_fn(|l| models[l].params().g),
+        })
+    }
+
+    /// `PlanarSensors::sample`'s IMU part on every lane, at `t`, state `x` and derivative `xdot`.
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn sample(&mut self, t: f64, x: &[Lanes; 7], xdot: &[Lanes; 7]) {
+        if !self.clock.due(t) {
+            return;
+        }
+        let noise = self.noise.draw();
+        for (c, (pitch, yaw)) in self.imus.iter_mut().enumerate() {
+            let (xs, ds): ([Wide; 7], [Wide; 7]) = (fill(|i| chunk(&x[i], c)), fill(|i| chunk(&xdot[i], c)));
+            let n = [fill(|i| chunk(&noise[0][i], c)), fill(|i| chunk(&noise[1][i], c))];
+            let dims = (chunk(&self.radius, c), chunk(&self.inv_r, c), pitch.settings().height, chunk(&self.g, c));
+            sample_imus((pitch, yaw), &xs, &ds, Wide::sincos(xs[3]).1, n, dims);
+        }
+    }
+
+    /// The latest registers into each lane's sensors (which the firmware's read takes).
+    fn to_sensors(&self, rigs: &mut [PlanarRig<f64>]) {
+        for (c, (pitch, yaw)) in self.imus.iter().enumerate() {
+            let (p, y) = (pitch.reading(), yaw.reading());
+            for j in 0..WIDTH {
+                let at = |r: &ImuReading<Wide>| ImuReading { accel_x: r.accel_x.0[j], accel_z: r.accel_z.0[j], gyro: r.gyro.0[j] };
+                rigs[c * WIDTH + j].sensors.set_imu_readings(at(&p), at(&y));
+            }
+        }
+    }
+}
+
+/// Lane `l` of a state.
+#[inline(always)]
+fn lane<const N: usize>(x: &[Lanes; N], l: usize) -> SVector<f64, N> {
+    SVector::from(core::array::from_fn::<f64, N, _>(|i| x[i][l]))
+}
+
+/// Sets lane `l` of a state.
+#[inline(always)]
+fn set_lane<const N: usize>(x: &mut [Lanes; N], l: usize, v: &SVector<f64, N>) {
+    for i in 0..N {
+        x[i][l] = v[i];
+    }
+}
+
+/// The 3-DOF rig on a block of lanes: every lane's rig and state, and what carries over
+/// from one plant step to the next (the inputs held and pending, the gear trains), so that
+/// a loop can step it, stop, and go on. Invalid or missing lanes run an idle copy of a
+/// valid robot's rig, whose numbers no one keeps.
+pub(super) struct PlanarRigLanes {
+    /// Each lane's model (the sample's).
+    pub(super) models: [PlanarModel<f64>; LANES],
+    rigs: Vec<PlanarRig<f64>>,
+    plants: RigPlants,
+    imus: Option<Box<ImuLanes>>,
+    dt: f64,
+    delay: bool,
+    /// Every lane's realism has the same parts: play in all or none.
+    geared: bool,
+    /// The lanes that are never pushed, which skip the work between steps while their
+    /// trains are engaged (a winding without inductance starts no step: `Winding::start_step`).
+    quiet_engaged: [bool; LANES],
+    /// Each lane's gear trains over the last step.
+    engaged: [[bool; 2]; LANES],
+    /// The state.
+    pub(super) x: [Lanes; 7],
+    /// The sensors' last reading.
+    y: [Lanes; 7],
+    /// The plant's input and the controller's command, applied and pending.
+    held: Held<[Lanes; 2]>,
+}
+
+impl PlanarRigLanes {
+    /// The rigs `built` (per lane: its model and rig, or None for an idle lane) at rest in
+    /// `x0(l)`, their estimators settled as a run settles them (reads every `period` [s]),
+    /// their sensors at the initial state under no input; plant steps of `dt`. None when no
+    /// lane has a rig.
+    pub(super) fn start(built: Vec<Option<(PlanarModel<f64>, PlanarRig<f64>)>>, x0: impl Fn(usize) -> [f64; 7], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
+        let Some(fallback) = built.iter().flatten().next().cloned() else {
+            return Ok(None);
+        };
+        let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| built.get(l).cloned().flatten().map_or(fallback.0, |b| b.0));
+        let mut rigs: Vec<PlanarRig<f64>> = (0..LANES).map(|l| built.get(l).cloned().flatten().map_or_else(|| fallback.1.clone(), |b| b.1)).collect();
+        let friction = rigs[0].plant.model().friction().copied();
+        // Each lane's windings with their factors for steps of `dt` (their steps are set each
+        // step), and any valid ones for lanes that never evaluate one (no driver).
+        let drives = |l: usize| {
+            rigs[l].plant.drives().map(|(mut w, per_amp)| {
+                w.iter_mut().for_each(|w| w.prepare(dt));
+                (w, per_amp)
+            })
+        };
+        let stand_in = ([Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?; 2], 1.0);
+        let plants = RigPlants {
+            // The rig's model: the sample's, with the realism's gearhead friction.
+            plants: Plants::new(&core::array::from_fn(|l| *rigs[l].plant.model())),
+            gear: match &friction {
+                None => FREE,
+                Some(f) if f.sticks() => STICK,
+                Some(_) => SLIP,
+            },
+            // Unused without a friction: any friction's numbers.
+            friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
+            drive: match rigs[0].plant.drives() {
+                None => HELD,
+                Some((w, _)) if !w[0].inductive() => STEADY,
+                Some(_) => STEPPED,
+            },
+            windings: core::array::from_fn(|wheel| {
+                WindingLanes::new(&core::array::from_fn(|l| {
+                    let (w, per_amp) = drives(l).unwrap_or(stand_in);
+                    (w[wheel], per_amp)
+                }))
+            }),
+            forces: core::array::from_fn(|l| rigs[l].plant.force()),
+            rotors: core::array::from_fn(|l| models[l].rotor_per_wheel()),
+        };
+        let (delay, geared) = (rigs[0].delay, rigs[0].plant_play().is_some());
+        let x0: [[f64; 7]; LANES] = core::array::from_fn(x0);
+        let x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| x0[l][i]));
+        // The sensors sample the initial state, the input zero: the encoders' wheels per
+        // lane, the IMUs on lanes.
+        let mut imus = ImuLanes::new(&rigs, &models).map(Box::new);
+        let mut d0 = [[0.0; LANES]; 7];
+        for (l, rig) in rigs.iter_mut().enumerate() {
+            let xl = lane(&x, l);
+            set_lane(&mut d0, l, &rig.plant.deriv(&xl, &SVector::zeros()));
+            rig.sensors.follow_wheels(0.0, &xl);
+            // The scalar runner's settle, each lane's estimator its own (`Rig::simulate`).
+            rig.sensors.settle(&xl, period);
+        }
+        if let Some(imus) = imus.as_mut() {
+            imus.sample(0.0, &x, &d0);
+        }
+        let quiet_engaged = core::array::from_fn(|l| rigs[l].plant.unpushed());
+        let engaged = core::array::from_fn(|l| rigs[l].plant.trains());
+        Ok(Some(Self {
+            models,
+            rigs,
+            plants,
+            imus,
+            dt,
+            delay,
+            geared,
+            quiet_engaged,
+            engaged,
+            x,
+            y: [[0.0; LANES]; 7],
+            held: Held::new([[0.0; LANES]; 2]),
+        }))
+    }
+
+    /// Each lane's driver's gearbox efficiency (1 without one).
+    pub(super) fn efficiencies(&self) -> Lanes {
+        core::array::from_fn(|l| self.rigs[l].actuator.efficiency())
+    }
+
+    /// The controller's commands that the plants get now (a delayed rig's: the last period's).
+    #[inline(always)]
+    pub(super) fn command(&self) -> &[Lanes; 2] {
+        &self.held.command
+    }
+
+    /// What the firmware reads at `t`: the IMUs' latest registers and the encoders (which
+    /// count the motor shafts, which the play sets apart from the wheels) through each
+    /// lane's tilt estimator.
+    #[inline(always)]
+    pub(super) fn read(&mut self, t: f64) -> &[Lanes; 7] {
+        if let Some(imus) = self.imus.as_ref() {
+            imus.to_sensors(&mut self.rigs);
+        }
+        for (l, rig) in self.rigs.iter_mut().enumerate() {
+            rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
+            set_lane(&mut self.y, l, &rig.sensors.read(t, &lane(&self.x, l)));
+        }
+        &self.y
+    }
+
+    /// The controller's commands `cmd` at `t` through each lane's actuator (on the last
+    /// reading), held from now on (a period late with a delay); returns the lanes whose
+    /// drive is not finite (diverged).
+    #[inline(always)]
+    pub(super) fn apply(&mut self, t: f64, cmd: &[Lanes; 2]) -> [bool; LANES] {
+        let (mut drive, mut clamped, mut diverged) = ([[0.0; LANES]; 2], [false; LANES], [false; LANES]);
+        for (l, rig) in self.rigs.iter_mut().enumerate() {
+            let (command_l, yl) = (lane(cmd, l), lane(&self.y, l));
+            let d = rig.actuator.drive(t, &command_l, &yl);
+            clamped[l] = rig.actuator.beyond(&command_l, &yl);
+            set_lane(&mut drive, l, &d);
+            diverged[l] = !d.iter().all(|v| v.is_finite());
+        }
+        self.held.hold(self.delay, drive, *cmd, clamped);
+        diverged
+    }
+
+    /// Plant step `k` (from t = k·dt) under the input held: the pieces that act between
+    /// steps, the gear trains, the IMUs' sample and RK4. `on_drive` sees what the plants
+    /// get at the step's start (`Observer::drive`) and whether the commands applied are
+    /// beyond the drivers. Returns the state after the step; the caller moves the lanes that
+    /// go on there (`x`).
+    #[inline(always)]
+    pub(super) fn step<const COPY: u8>(&mut self, k: usize, on_drive: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
+        let (t, dt, u) = (self.dt * k as f64, self.dt, self.held.u);
+        let (plants, x) = (&mut self.plants, &mut self.x);
+        // What the plants get at the step's start (`Observer::drive`): the held torques, or
+        // the windings' (with inductance, once the last step has ended, below).
+        let mut delivered = u;
+        if plants.drive == STEADY {
+            for (l, rig) in self.rigs.iter().enumerate() {
+                set_lane(&mut delivered, l, &rig.plant.delivered(&lane(x, l), &lane(&u, l)));
+            }
+        }
+        // Per lane, the last step's `step_ended` and this one's `between_steps`: the play's
+        // impacts, pushes and the windings' steps (with inductance on lanes: the motors'
+        // speeds where the last step ended and this one starts); then the trains weigh the
+        // derivative at the step's start (on lanes), which is RK4's first stage when they
+        // stay as they were, else it is taken again with the trains as they are now. The
+        // accelerometer reads it. The input held over the step: the motor torques (with
+        // inductance, at its first stage), or the duties.
+        let stepped = plants.drive == STEPPED;
+        let mut held = u;
+        let mut trains = [[true; 2]; LANES];
+        let (mut finished, mut starts) = ([[0.0; LANES]; 2], [[0.0; LANES]; 2]);
+        for (l, rig) in self.rigs.iter_mut().enumerate() {
+            if self.quiet_engaged[l] && self.engaged[l] == [true; 2] {
+                // Nothing acts between steps (`PlanarPlant::unpushed`): the motors turn with
+                // the wheels (the windings' steps on lanes start from their speeds).
+                if stepped {
+                    let (right, left) = rig.plant.model().wheel_speeds(&lane(x, l));
+                    (finished[0][l], finished[1][l]) = (right, left);
+                    (starts[0][l], starts[1][l]) = (right, left);
+                }
+                continue;
+            }
+            let (mut xl, ul) = (lane(x, l), lane(&u, l));
+            if stepped {
+                let [right, left] = rig.plant.motor_speeds(&xl);
+                (finished[0][l], finished[1][l]) = (right, left);
+                rig.plant.ground_start(t, dt, &mut xl);
+                let [right, left] = rig.plant.motor_speeds(&xl);
+                (starts[0][l], starts[1][l]) = (right, left);
+            } else {
+                rig.plant.step_start(t, dt, &mut xl, &ul);
+            }
+            set_lane(x, l, &xl);
+            trains[l] = rig.plant.trains();
+        }
+        if stepped {
+            for (wheel, windings) in plants.windings.iter_mut().enumerate() {
+                windings.step(k > 0, &finished[wheel], &u[wheel], &starts[wheel], &mut held[wheel]);
+                windings.delivered(&mut delivered[wheel]);
+            }
+        }
+        on_drive(&delivered, &self.held.beyond);
+        let (mut k1, tau) = plants.motion::<COPY>(x, &held, &trains);
+        let before = trains;
+        for (l, rig) in self.rigs.iter_mut().enumerate() {
+            let (xl, ul) = (lane(x, l), lane(&u, l));
+            if self.geared {
+                let (motor, mean) = match stepped {
+                    true => ([held[0][l], held[1][l]], [plants.windings[0].mean(l), plants.windings[1].mean(l)]),
+                    false => rig.plant.motor_torques(&xl, &ul),
+                };
+                if !rig.plant.gear_next_with(&xl, motor, mean, &lane(&k1, l), [tau[0][l], tau[1][l]]) {
+                    trains[l] = rig.plant.trains();
+                }
+            }
+            rig.sensors.follow_wheels(t, &xl);
+        }
+        if trains != before {
+            // Some trains opened or closed: RK4's first stage with them as they are now.
+            k1 = plants.motion::<COPY>(x, &held, &trains).0;
+        }
+        if let Some(imus) = self.imus.as_mut() {
+            imus.sample(t, x, &k1);
+        }
+        let next = plants.rk4::<COPY>(x, &held, &trains, &k1, dt);
+        self.engaged = trains;
+        next
+    }
+}

@@ -1,0 +1,639 @@
+//! The 2-DOF rig on a block of [`LANES`] robots, as a state object stepped one plant step
+//! at a time ([`RigLanes`]): what a closed loop around it needs (the sensors' read, the
+//! actuator's drive, the held input and its delay, one plant step), with the loop's
+//! controller and metrics outside it (`rig::run_rig_block`).
+//!
+//! The plant's RK4 is the run's own source (`model::slope::motion` with `Friction`'s law,
+//! `open_motion` for a lane whose gear trains are open, and a driver's
+//! `Winding::steady_current` or, with inductance, `Winding::stepped_current`) on [`Fused`]
+//! lanes, which the compiler vectorises. Each lane's sensors, actuator, winding and gear
+//! play are its own rig's parts, the very objects a run uses (`Realism::build`): they act
+//! between steps or once per control period on a lane's numbers (the play's impacts and
+//! openings, and pushes, too), and their noise draws are a lane's own.
+use alloc::boxed::Box;
+use alloc::vec::Vec;
+
+use nalgebra::{SVector, Vector4};
+
+use super::held::Held;
+use super::winding::WindingLanes;
+use super::{chunk, state_chunk, Plants, CHUNKS};
+use crate::hardware::disturbance::{Disturbed, Force, MAX_SLOPE_CHANGES};
+use crate::hardware::driver::{MotorDriver, Winding};
+use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseLanes};
+use crate::hardware::realism::{RigPlant as _, SlopeRig};
+use crate::model::friction::{Friction, Gearhead};
+use crate::model::integrate::{rk4, Field, Stage};
+use crate::model::lane::{Fused, Lane, Wide, WIDTH};
+use crate::model::slope::{motion, open_motion, SlopeCoefficients, SlopeModel};
+use crate::sim::runner::{Actuator, Plant as _, Sensor};
+use crate::sweep::lanes::{Lanes, LANES};
+use crate::{Dynamics, RobotParams, TwipError};
+
+/// The plant's kinds, decided once per block: its gearhead friction (`GEAR`: 0 none, 1 the
+/// slip law, 2 with a stick band), what drives it (`DRIVE`: a lumped current held over the
+/// step; a winding without inductance, which turns the duty into current at each stage; a
+/// winding with inductance, whose current moves within the step) and whether the gear
+/// trains have play (`GEARED`). Each is its own loop over lanes, so that no branch inside
+/// one keeps the compiler from vectorising it.
+const FREE: u8 = 0;
+const SLIP: u8 = 1;
+const STICK: u8 = 2;
+const HELD: u8 = 0;
+const STEADY: u8 = 1;
+const STEPPED: u8 = 2;
+
+/// A ground with at most this many slope changes has its own copies of the lanes' loops,
+/// which pick a lane's piece among those only: picking among all that a ground may have
+/// cost a rig with two changes 6 % more instructions and about 9 % more time.
+const FEW_CHANGES: usize = 2;
+
+/// One lane's plant over a step: the input held (a lumped current, or a duty that a
+/// winding without inductance turns into current at each stage), or the lumped current at
+/// the step's start of a winding with inductance, which has the step under way.
+struct RigField<'a, const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize> {
+    k: SlopeCoefficients<Fused>,
+    friction: &'a Friction<Fused>,
+    u: Fused,
+    winding: Winding<Fused>,
+    per_amp: Fused,
+    /// The gear trains are engaged over this step (backlash: set between steps).
+    engaged: bool,
+    /// A constant force on the body (zero: none), at this lane's robot's height.
+    force: Force<Fused>,
+    /// The ground's pieces (with `CHANGES` > 0, this lane's is picked at each stage among
+    /// the first `CHANGES` + 1) and the force's part on θ on each.
+    hills: &'a Hills,
+    lane: usize,
+}
+
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize> RigField<'_, GEAR, DRIVE, GEARED, CHANGES> {
+    /// The derivative and the gearhead torque per wheel (`SlopeModel::deriv_geared`'s) at
+    /// the step's start.
+    #[inline(always)]
+    fn motion(&self, x: &[Fused; 4]) -> ([Fused; 4], Fused) {
+        // As `Driven::lumped_current_at` the first stage: 2 ε times the winding's current.
+        let u = if DRIVE == STEADY { self.per_amp * self.winding.steady_current(self.u, x[3] - x[1]) } else { self.u };
+        self.motion_under(x, u)
+    }
+
+    /// [`Self::motion`] under the lumped current `u`.
+    #[inline(always)]
+    fn motion_under(&self, x: &[Fused; 4], u: Fused) -> ([Fused; 4], Fused) {
+        let gear = match GEAR {
+            FREE => Gearhead::Free,
+            SLIP => Gearhead::Slip(self.friction),
+            _ => Gearhead::Stick(self.friction),
+        };
+        let (k, q_theta) = if CHANGES > 0 { self.hills.piece::<CHANGES>(self.lane, &self.k, x[2]) } else { (self.k, self.hills.flat_q_theta(self.lane)) };
+        // As `Piece::force_at`, always added: a branch on it kept the compiler from
+        // vectorising the lanes' loop (measured: 1.56x the kernel's instructions). Without a
+        // force it adds zeros, which change nothing but the sign of a zero sum.
+        let force = self.force;
+        let extra = |sin_phi: Fused, cos_phi: Fused| Some([force.on_pitch(sin_phi, cos_phi), q_theta]);
+        let (engaged, tau) = motion(&k, gear, x, u, extra);
+        if !GEARED {
+            return (engaged, tau);
+        }
+        // As `SlopeModel::deriv_geared`, both computed and one kept: no branch per lane.
+        let open = open_motion(&k, x, extra);
+        let zero = Fused(0.0);
+        (core::array::from_fn(|i| Fused::select(self.engaged, engaged[i], open[i])), Fused::select(self.engaged, tau, zero))
+    }
+}
+
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize> Field<Fused, 4> for RigField<'_, GEAR, DRIVE, GEARED, CHANGES> {
+    #[inline(always)]
+    fn at(&self, x: &[Fused; 4]) -> [Fused; 4] {
+        self.motion(x).0
+    }
+
+    // As `Driven::deriv_at_stage`.
+    #[inline(always)]
+    fn at_stage(&self, x: &[Fused; 4], stage: Stage) -> [Fused; 4] {
+        if DRIVE == STEPPED {
+            self.motion_under(x, self.per_amp * self.winding.stepped_current(stage, x[3] - x[1])).0
+        } else {
+            self.motion(x).0
+        }
+    }
+}
+
+/// The ground's pieces: each piece's coefficients that depend on the slope, and the force's
+/// part on θ on it, per lane, and the distances where the pieces after the first start
+/// (every lane's alike; none on a ground of one slope).
+struct Hills {
+    /// +∞ past the last change, whose piece the ones past it copy: a lane picks as
+    /// `SlopeProfile::segment` does, a NaN distance included (the last piece).
+    starts: [f64; MAX_SLOPE_CHANGES],
+    /// `mrl_cos`, `mrl_sin`, `grade`, `sin_slope`, `cos_slope`, q_θ.
+    pieces: [[Lanes; 6]; MAX_SLOPE_CHANGES + 1],
+    radius: Lanes,
+    /// How many slope changes the lanes pick among: none on one slope, else [`FEW_CHANGES`]
+    /// when there are that few (a step, or a ramp up and down), else all a ground may have.
+    changes: usize,
+}
+
+impl Hills {
+    fn new(grounds: [&Disturbed<f64>; LANES], radius: Lanes) -> Self {
+        let starts = core::array::from_fn(|j| grounds[0].slope_changes().nth(j).unwrap_or(f64::INFINITY));
+        let last = grounds[0].slope_changes().count();
+        let pieces = core::array::from_fn(|j| {
+            let terms = grounds.map(|g| g.piece_terms(j.min(last)));
+            let field = |f: fn(&(SlopeCoefficients<f64>, f64)) -> f64| core::array::from_fn(|l| f(&terms[l]));
+            [field(|t| t.0.mrl_cos), field(|t| t.0.mrl_sin), field(|t| t.0.grade), field(|t| t.0.sin_slope), field(|t| t.0.cos_slope), field(|t| t.1)]
+        });
+        let changes = match last {
+            0 => 0,
+            n if n <= FEW_CHANGES => FEW_CHANGES,
+            _ => MAX_SLOPE_CHANGES,
+        };
+        Self { starts, pieces, radius, changes }
+    }
+
+    /// Lane `l`'s force part on θ on a ground of one slope.
+    #[inline(always)]
+    fn flat_q_theta(&self, l: usize) -> Fused {
+        Fused(self.pieces[0][5][l])
+    }
+
+    /// Lane `l`'s coefficients `k` with the slope of the piece under it at wheel angle
+    /// `theta`, and the force's part on θ there (`Disturbed::piece`'s, as masks), among the
+    /// first `N` changes: the same piece as among all when the ground has no more (the
+    /// starts past its last are +∞, never passed; a NaN distance passes every start, and
+    /// piece `N` copies the last).
+    #[inline(always)]
+    fn piece<const N: usize>(&self, l: usize, k: &SlopeCoefficients<Fused>, theta: Fused) -> (SlopeCoefficients<Fused>, Fused) {
+        let distance = theta * Fused(self.radius[l]);
+        let mut v: [Fused; 6] = core::array::from_fn(|i| Fused(self.pieces[0][i][l]));
+        for j in 0..N {
+            let past = !distance.lt(Fused(self.starts[j]));
+            v = core::array::from_fn(|i| Fused::select(past, Fused(self.pieces[j + 1][i][l]), v[i]));
+        }
+        (SlopeCoefficients { mrl_cos: v[0], mrl_sin: v[1], grade: v[2], sin_slope: v[3], cos_slope: v[4], ..*k }, v[5])
+    }
+
+    /// (sin, cos) of the slope under every lane at wheel angles `theta`, the piece
+    /// [`Self::piece`] picks: what the accelerometers feel. The sensors' own table
+    /// (`BalanceSensors::ground_trig_at`) holds the same `sin_cos` of the same slopes, and
+    /// picks by the same distance (`SlopeProfile::segment`: the changes are in order).
+    #[inline(always)]
+    fn trig_at(&self, theta: &Lanes) -> [Lanes; 2] {
+        let [mut sin, mut cos] = [self.pieces[0][3], self.pieces[0][4]];
+        for (start, piece) in self.starts[..self.changes].iter().zip(&self.pieces[1..]) {
+            for l in 0..LANES {
+                let past = !(theta[l] * self.radius[l]).lt(*start);
+                sin[l] = if past { piece[3][l] } else { sin[l] };
+                cos[l] = if past { piece[4][l] } else { cos[l] };
+            }
+        }
+        [sin, cos]
+    }
+}
+
+/// The lanes' plants: coefficients per lane, the friction all share, and each lane's
+/// winding (used when there is a driver) and force (its height may be the robot's own
+/// centre of mass; its part on θ: `hills`).
+struct RigPlants {
+    plants: Plants,
+    gear: u8,
+    friction: Friction<Fused>,
+    drive: u8,
+    windings: WindingLanes,
+    geared: bool,
+    forces: [Force<f64>; LANES],
+    hills: Hills,
+}
+
+/// `$run::<GEAR, DRIVE, GEARED, CHANGES>(args)` for the plants' kinds (`$drive`: what
+/// drives the plant); GEARED only while some lane's trains are open (`$engaged`: all
+/// engaged is the plain plant, bit for bit); CHANGES: the slope changes along the path that
+/// a lane picks among (`Hills::changes`).
+macro_rules! by_kind {
+    ($self:ident, $drive:expr, $engaged:ident, $run:ident($($arg:expr),*)) => {
+        match ($self.hills.changes, $self.geared && $engaged.iter().any(|&e| !e)) {
+            (0, false) => by_kind!(@gear $self, $drive, $run, false, 0, $($arg),*),
+            (0, true) => by_kind!(@gear $self, $drive, $run, true, 0, $($arg),*),
+            (FEW_CHANGES, false) => by_kind!(@gear $self, $drive, $run, false, FEW_CHANGES, $($arg),*),
+            (FEW_CHANGES, true) => by_kind!(@gear $self, $drive, $run, true, FEW_CHANGES, $($arg),*),
+            (_, false) => by_kind!(@gear $self, $drive, $run, false, MAX_SLOPE_CHANGES, $($arg),*),
+            (_, true) => by_kind!(@gear $self, $drive, $run, true, MAX_SLOPE_CHANGES, $($arg),*),
+        }
+    };
+    (@gear $self:ident, $drive:expr, $run:ident, $geared:literal, $changes:tt, $($arg:expr),*) => {
+        match $self.gear {
+            FREE => by_kind!(@drive $self, $drive, $run, FREE, $geared, $changes, $($arg),*),
+            SLIP => by_kind!(@drive $self, $drive, $run, SLIP, $geared, $changes, $($arg),*),
+            _ => by_kind!(@drive $self, $drive, $run, STICK, $geared, $changes, $($arg),*),
+        }
+    };
+    (@drive $self:ident, $drive:expr, $run:ident, $gear:ident, $geared:literal, $changes:tt, $($arg:expr),*) => {
+        match $drive {
+            HELD => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, HELD, $geared, $changes>($($arg),*)),
+            STEADY => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, STEADY, $geared, $changes>($($arg),*)),
+            _ => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, STEPPED, $geared, $changes>($($arg),*)),
+        }
+    };
+}
+
+// Each kind's loop is a function of its own per kernel copy (`out_of_line_in`), compiled
+// with that copy's instructions and shared by the controller laws.
+impl RigPlants {
+    #[inline(always)]
+    fn field<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, DRIVE, GEARED, CHANGES> {
+        let (winding, per_amp) = self.windings.lane(l);
+        let (k, friction, u) = (self.plants.lane(l), &self.friction, Fused(u));
+        let force = self.forces[l].map(Fused);
+        RigField { k, friction, u, winding, per_amp, engaged, force, hills: &self.hills, lane: l }
+    }
+
+    /// The derivative at the step's start on every lane (RK4's first stage, which the
+    /// sensors sample too).
+    #[inline(always)]
+    fn k1<const COPY: u8>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
+        by_kind!(self, self.drive, engaged, k1_of(x, u, engaged))
+    }
+
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn k1_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
+        let mut out = [[0.0; LANES]; 4];
+        for l in 0..LANES {
+            let d = self.field::<GEAR, DRIVE, GEARED, CHANGES>(l, u[l], engaged[l]).at(&lane(x, l).map(Fused));
+            for i in 0..4 {
+                out[i][l] = d[i].0;
+            }
+        }
+        out
+    }
+
+    /// The derivative and gearhead torque per wheel on every lane with the trains as they
+    /// are, under the lumped `current` held (what `Disturbed::gear_next` weighs).
+    #[inline(always)]
+    fn geared_motion<const COPY: u8>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
+        // The lumped current is the input, whatever the winding.
+        by_kind!(self, HELD, engaged, geared_motion_of(x, current, engaged))
+    }
+
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn geared_motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
+        let (mut d, mut tau) = ([[0.0; LANES]; 4], [0.0; LANES]);
+        for l in 0..LANES {
+            let (dl, tl) = self.field::<GEAR, DRIVE, GEARED, CHANGES>(l, current[l], engaged[l]).motion(&lane(x, l).map(Fused));
+            for i in 0..4 {
+                d[i][l] = dl[i].0;
+            }
+            tau[l] = tl.0;
+        }
+        (d, tau)
+    }
+
+    /// One RK4 step from `k1` on every lane, the input held.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn rk4<const COPY: u8>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
+        by_kind!(self, self.drive, engaged, rk4_of(x, u, engaged, k1, dt))
+    }
+
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn rk4_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(
+        &self,
+        x: &[Lanes; 4],
+        u: &Lanes,
+        engaged: &[bool; LANES],
+        k1: &[Lanes; 4],
+        dt: f64,
+    ) -> [Lanes; 4] {
+        let mut out = [[0.0; LANES]; 4];
+        for l in 0..LANES {
+            let field = self.field::<GEAR, DRIVE, GEARED, CHANGES>(l, u[l], engaged[l]);
+            let next = rk4(&field, &lane(x, l).map(Fused), &lane(k1, l).map(Fused), Fused(dt));
+            for i in 0..4 {
+                out[i][l] = next[i].0;
+            }
+        }
+        out
+    }
+}
+
+/// The IMU on lanes: one `Mpu6050` per [`WIDTH`] lanes (the converter, filters and
+/// registers every lane's alike, the state each lane's own), sampled on the rigs' clock
+/// (every lane's alike) with each lane's own noise: copies of its rig's stream and of its
+/// IMU's normals drawn ahead, which give the very numbers its run draws. Kept here, the
+/// lanes' per-step work touches no rig; the registers go to each lane's sensors before the
+/// firmware reads them.
+struct ImuLanes {
+    imus: [Mpu6050<Wide>; CHUNKS],
+    clock: ImuClock<f64>,
+    noise: NoiseLanes<LANES, 1>,
+    g: Lanes,
+}
+
+impl ImuLanes {
+    /// None without an IMU (every lane's rig has the same parts).
+    fn new(rigs: &[SlopeRig<f64>], models: &[SlopeModel<f64>; LANES]) -> Option<Self> {
+        let imu = rigs[0].sensors.imu()?.map(Wide::splat);
+        let (clock, rng, noise) = rigs[0].sensors.imu_noise_parts()?;
+        let mut parts = [(rng, [noise]); LANES];
+        for (l, rig) in rigs.iter().enumerate() {
+            let (_, rng, noise) = rig.sensors.imu_noise_parts()?;
+            parts[l] = (rng, [noise]);
+        }
+        Some(Self { imus: [imu; CHUNKS], clock, noise: NoiseLanes::new(&parts), g: core::array::from_fn(|l| models[l].params().g) })
+    }
+
+    /// `BalanceSensors::sample` on every lane: at `t`, state `x` and derivative `xdot`, on
+    /// the ground `hills` (the sensors' ground and wheels are the plant's).
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn sample(&mut self, hills: &Hills, t: f64, x: &[Lanes; 4], xdot: &[Lanes; 4]) {
+        if !self.clock.due(t) {
+            return;
+        }
+        let [sin, cos] = hills.trig_at(&x[2]);
+        let [noise] = self.noise.draw();
+        for (c, imu) in self.imus.iter_mut().enumerate() {
+            let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
+            let height = imu.settings().height;
+            let (radius, g) = (chunk(&hills.radius, c), chunk(&self.g, c));
+            let (fx, fz) = specific_force_of(&xs, &ds, chunk(&sin, c), chunk(&cos, c), radius, height, g);
+            imu.sample_with(fx, fz, xs[1], core::array::from_fn(|i| chunk(&noise[i], c)));
+        }
+    }
+
+    /// The latest registers into each lane's sensors (which the firmware's read takes).
+    fn to_sensors(&self, rigs: &mut [SlopeRig<f64>]) {
+        for (c, imu) in self.imus.iter().enumerate() {
+            let r = imu.reading();
+            for j in 0..WIDTH {
+                let reading = ImuReading { accel_x: r.accel_x.0[j], accel_z: r.accel_z.0[j], gyro: r.gyro.0[j] };
+                rigs[c * WIDTH + j].sensors.set_imu_reading(reading);
+            }
+        }
+    }
+}
+
+/// Lane `l` of a state.
+#[inline(always)]
+fn lane(x: &[Lanes; 4], l: usize) -> [f64; 4] {
+    [x[0][l], x[1][l], x[2][l], x[3][l]]
+}
+
+
+/// The 2-DOF rig on a block of lanes: every lane's rig and state, and what carries over
+/// from one plant step to the next (the inputs held and pending, the gear trains), so that
+/// a loop can step it, stop, and go on. Invalid or missing lanes run an idle copy of a
+/// valid robot's rig, whose numbers no one keeps.
+pub(super) struct RigLanes {
+    /// Each lane's model (the sample's).
+    pub(super) models: [SlopeModel<f64>; LANES],
+    rigs: Vec<SlopeRig<f64>>,
+    plants: RigPlants,
+    /// On the heap, as the rigs: it holds every lane's stream and drawn-ahead normals.
+    imus: Option<Box<ImuLanes>>,
+    dt: f64,
+    delay: bool,
+    /// Without play and pushes, the steps skip the per-lane work between them (measured:
+    /// ~1.1x the rig's speed, `sweep_throughput realism-lanes` with RIG_DROP=friction,backlash).
+    idle: bool,
+    /// With play, so does each lane that is never pushed while its trains are engaged (but
+    /// for a winding without inductance: the trains weigh its lumped current, which
+    /// `step_start` gives per lane). That per-lane test also covers `idle`, but without play
+    /// the rig measured 1.04-1.06x the CPU time through it (farm-bench, 20 and 24 pairs).
+    quiet_engaged: [bool; LANES],
+    /// Each lane's gear trains over the last step.
+    engaged: [bool; LANES],
+    /// The state.
+    pub(super) x: [Lanes; 4],
+    /// The sensors' last reading.
+    y: [Lanes; 4],
+    /// The plant's input and the controller's command, applied and pending.
+    held: Held<Lanes>,
+}
+
+impl RigLanes {
+    /// The rigs `built` (per lane: its model and rig, or None for an idle lane) at rest in
+    /// `x0(l)`, their estimators settled as a run settles them (reads every `period` [s]),
+    /// their sensors' registers holding a sample of the initial state; plant steps of `dt`.
+    /// None when no lane has a rig.
+    pub(super) fn start(built: Vec<Option<(SlopeModel<f64>, SlopeRig<f64>)>>, x0: impl Fn(usize) -> [f64; 4], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
+        let Some(fallback) = built.iter().flatten().next().copied() else {
+            return Ok(None);
+        };
+        let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| built.get(l).copied().flatten().map_or(fallback.0, |b| b.0));
+        let mut rigs: Vec<SlopeRig<f64>> = (0..LANES).map(|l| built.get(l).copied().flatten().map_or(fallback.1, |b| b.1)).collect();
+        let ground = |l: usize| *rigs[l].plant.ground().model_at(&Vector4::zeros());
+        let friction = ground(0).friction().copied();
+        // Each lane's winding with its factors for steps of `dt`.
+        let winding = |l: usize| {
+            rigs[l].plant.driven_winding().map(|(mut w, per_amp)| {
+                w.prepare(dt);
+                (w, per_amp)
+            })
+        };
+        // Any valid winding, for lanes that never evaluate one (no driver).
+        let stand_in = (Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?, 2.0);
+        let plants = RigPlants {
+            plants: Plants::new(&core::array::from_fn(|l| ground(l).coefficients())),
+            gear: match &friction {
+                None => FREE,
+                Some(f) if f.sticks() => STICK,
+                Some(_) => SLIP,
+            },
+            // Unused without a friction: any friction's numbers.
+            friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
+            drive: match rigs[0].plant.driven_winding() {
+                None => HELD,
+                Some((w, _)) if !w.inductive() => STEADY,
+                Some(_) => STEPPED,
+            },
+            // Unused without a driver (the held current is the input).
+            windings: WindingLanes::new(&core::array::from_fn(|l| winding(l).unwrap_or(stand_in))),
+            // Every lane's realism has the same parts (but for where pushes and forces act).
+            geared: rigs[0].plant.ground().has_play(),
+            forces: core::array::from_fn(|l| rigs[l].plant.ground().force()),
+            hills: Hills::new(core::array::from_fn(|l| rigs[l].plant.ground()), core::array::from_fn(|l| models[l].params().wheel_radius)),
+        };
+        let x0: [[f64; 4]; LANES] = core::array::from_fn(x0);
+        let x: [Lanes; 4] = core::array::from_fn(|i| core::array::from_fn(|l| x0[l][i]));
+        // The scalar runner's settle, each lane's estimator its own (`Rig::simulate`).
+        for (l, rig) in rigs.iter_mut().enumerate() {
+            rig.sensors.settle(&Vector4::from(lane(&x, l)), period);
+        }
+        // The sensors' registers hold a sample of the initial state.
+        let mut imus = ImuLanes::new(&rigs, &models).map(Box::new);
+        if let Some(imus) = imus.as_mut() {
+            let mut xdot = [[0.0; LANES]; 4];
+            for (l, rig) in rigs.iter().enumerate() {
+                let d = rig.plant.deriv(&Vector4::from(lane(&x, l)), &SVector::<f64, 1>::zeros());
+                for i in 0..4 {
+                    xdot[i][l] = d[i];
+                }
+            }
+            imus.sample(&plants.hills, 0.0, &x, &xdot);
+        }
+        let engaged = core::array::from_fn(|l| rigs[l].plant.ground().engaged());
+        let idle = rigs.iter().all(|rig| rig.plant.ground().idle_between_steps());
+        let quiet_engaged = core::array::from_fn(|l| rigs[l].plant.ground().unpushed() && plants.drive != STEADY);
+        Ok(Some(Self {
+            models,
+            delay: rigs[0].delay,
+            rigs,
+            plants,
+            imus,
+            dt,
+            idle,
+            quiet_engaged,
+            engaged,
+            x,
+            y: [[0.0; LANES]; 4],
+            held: Held::new([0.0; LANES]),
+        }))
+    }
+
+    /// Each lane's driver's gearbox efficiency (1 without one).
+    pub(super) fn efficiencies(&self) -> Lanes {
+        core::array::from_fn(|l| self.rigs[l].actuator.efficiency())
+    }
+
+    /// The controller's command that the plants get now (a delayed rig's: the last period's).
+    #[inline(always)]
+    pub(super) fn command(&self) -> &Lanes {
+        &self.held.command
+    }
+
+    /// What the firmware reads at `t`: the IMU's latest registers and the encoders (which
+    /// count the motor shafts, which the play sets apart from the wheels: set here, where
+    /// they are read; the run sets them every step) through each lane's tilt estimator.
+    #[inline(always)]
+    pub(super) fn read(&mut self, t: f64) -> &[Lanes; 4] {
+        if let Some(imus) = self.imus.as_ref() {
+            imus.to_sensors(&mut self.rigs);
+        }
+        for (l, rig) in self.rigs.iter_mut().enumerate() {
+            if self.plants.geared {
+                rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
+            }
+            let yl = rig.sensors.read(t, &Vector4::from(lane(&self.x, l)));
+            for i in 0..4 {
+                self.y[i][l] = yl[i];
+            }
+        }
+        &self.y
+    }
+
+    /// The controller's command `cmd` at `t` through each lane's actuator (on the last
+    /// reading), held from now on (a period late with a delay); returns the lanes whose
+    /// drive is not finite (diverged).
+    #[inline(always)]
+    pub(super) fn apply(&mut self, t: f64, cmd: &Lanes) -> [bool; LANES] {
+        let (mut drive, mut clamped, mut diverged) = ([0.0; LANES], [false; LANES], [false; LANES]);
+        for (l, rig) in self.rigs.iter_mut().enumerate() {
+            let (command_l, yl) = (SVector::<f64, 1>::new(cmd[l]), Vector4::from(lane(&self.y, l)));
+            drive[l] = rig.actuator.drive(t, &command_l, &yl)[0];
+            clamped[l] = rig.actuator.beyond(&command_l, &yl);
+            diverged[l] = !drive[l].is_finite();
+        }
+        self.held.hold(self.delay, drive, *cmd, clamped);
+        diverged
+    }
+
+    /// Plant step `k` (from t = k·dt) under the input held: the pieces that act between
+    /// steps, the gear trains, the IMU's sample and RK4. `on_drive` sees what the plants
+    /// get at the step's start (`Observer::drive`) and whether the commands applied are
+    /// beyond the drivers. Returns the state after the step; the caller moves the lanes that
+    /// go on there (`x`).
+    #[inline(always)]
+    pub(super) fn step<const COPY: u8>(&mut self, k: usize, on_drive: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
+        let (t, dt, u) = (self.dt * k as f64, self.dt, self.held.u);
+        let (plants, x, engaged) = (&mut self.plants, &mut self.x, &mut self.engaged);
+        // What the plants get at the step's start (`Observer::drive`): the held current,
+        // or a winding's current (with inductance, once the last step has ended, below).
+        let mut delivered = u;
+        if plants.drive == STEADY {
+            for (l, rig) in self.rigs.iter().enumerate() {
+                delivered[l] = rig.plant.delivered(&Vector4::from(lane(x, l)), &SVector::<f64, 1>::new(u[l]))[0];
+            }
+        }
+        // Per lane, the last step's `step_ended` and this one's `between_steps`: with
+        // backlash, open rotors that reach a flank engage in an impact that sets the
+        // velocities; the winding's step starts (with inductance, on lanes: the motors'
+        // speeds where the last step ended and this one starts); then the trains weigh the
+        // derivative at the step's start (on lanes) and may open.
+        let stepped = plants.drive == STEPPED;
+        let (mut current, mut finished, mut starts) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        if self.idle {
+            // Nothing acts between steps: what the lanes' plants take is known on lanes.
+            match plants.drive {
+                // The motors turn with the wheels (`Driven::motor_speed` without an open rotor).
+                STEPPED => {
+                    finished = core::array::from_fn(|l| x[3][l] - x[1][l]);
+                    starts = finished;
+                }
+                // The current is the input.
+                HELD => current = u,
+                // The stages turn the duty into current (`input`); only play reads `current`.
+                _ => {}
+            }
+        } else {
+            for (l, rig) in self.rigs.iter_mut().enumerate() {
+                if self.quiet_engaged[l] && engaged[l] {
+                    // Nothing acts between steps (`Disturbed::unpushed`): as when `idle`.
+                    if stepped {
+                        finished[l] = x[3][l] - x[1][l];
+                        starts[l] = finished[l];
+                    } else {
+                        current[l] = u[l];
+                    }
+                    continue;
+                }
+                let mut xl = Vector4::from(lane(x, l));
+                if stepped {
+                    finished[l] = rig.plant.motor_speed(&xl).unwrap_or_default();
+                    rig.plant.ground_start(t, dt, &mut xl, u[l]);
+                    starts[l] = rig.plant.motor_speed(&xl).unwrap_or_default();
+                } else {
+                    current[l] = rig.plant.step_start(t, dt, &mut xl, u[l]);
+                }
+                for i in 0..4 {
+                    x[i][l] = xl[i];
+                }
+                engaged[l] = rig.plant.ground().engaged();
+            }
+        }
+        if stepped {
+            plants.windings.step(k > 0, &finished, &u, &starts, &mut current);
+            plants.windings.delivered(&mut delivered);
+        }
+        on_drive(&delivered, &self.held.beyond);
+        let before = *engaged;
+        // The trains weigh the derivative at the step's start; with the trains as they
+        // were, it is RK4's first stage. (Written in place, not as an `Option`: moving the
+        // Option cost two copies of it per step.)
+        let mut k1 = [[0.0; LANES]; 4];
+        if plants.geared {
+            let tau;
+            (k1, tau) = plants.geared_motion::<COPY>(x, &current, engaged);
+            for (l, rig) in self.rigs.iter_mut().enumerate() {
+                let xl = Vector4::from(lane(x, l));
+                let mean = if stepped { plants.windings.mean(l) } else { rig.plant.mean_current(&xl, u[l]) };
+                rig.plant.ground_mut().gear_next_with(&xl, current[l], mean, &Vector4::from(lane(&k1, l)), tau[l]);
+                engaged[l] = rig.plant.ground().engaged();
+                // `step_end`: the motors turn with the rotors of trains that just opened
+                // (the step's end reads their speed; those open before turn so already).
+                if before[l] && !engaged[l] {
+                    rig.plant.step_end(&xl);
+                }
+            }
+        }
+        // Held over the step: the lumped current at its start (with inductance, the
+        // winding's step gives the later stages'), or the duty a winding without inductance
+        // turns into current at each stage.
+        let input = if plants.drive == STEADY { u } else { current };
+        if !(plants.geared && *engaged == before) {
+            k1 = plants.k1::<COPY>(x, &input, engaged);
+        }
+        if let Some(imus) = self.imus.as_mut() {
+            imus.sample(&plants.hills, t, x, &k1);
+        }
+        plants.rk4::<COPY>(x, &input, engaged, &k1, dt)
+    }
+}
