@@ -19,7 +19,8 @@ def main(n: int = 64, slope_deg: float = 10.0, realism=None) -> None:
     perturb = {"slope": twip.Uniform(low=0.0, high=math.radians(slope_deg)),
                "heading": twip.Uniform(low=-math.pi, high=math.pi),
                "m_body": twip.Uniform(rel=0.2)}
-    print(f"n = {n}, slope U(0, {slope_deg:g} deg), heading U(-pi, pi), m_body ±20 %, realism: {realism}, "
+    rig = "thesis-like rig" if realism is not None else "ideal plant"
+    print(f"n = {n}, slope U(0, {slope_deg:g} deg), heading U(-pi, pi), m_body ±20 %, {rig}, "
           f"kernel copy {twip.kernel_copy()}")
     print("| tracker | fall rate (95 % CI) | lift rate | median settled path error of those that completed |")
     print("|---|---|---|---|")
