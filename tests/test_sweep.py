@@ -647,6 +647,8 @@ TRACK_PERTURB = {
 TRACK_METRICS = ("mean_abs_x_error", "mean_abs_y_error", "mean_abs_x_error_settled", "mean_abs_y_error_settled",
                  "max_path_error_settled", "mean_abs_pitch", "peak_abs_torque", "peak_current", "peak_torque",
                  "peak_command", "saturation_share")
+#: A tracking sweep's columns: twip.simulate's metrics, then how a run on terrain ended.
+TRACK_COLUMNS = TRACK_METRICS + ("lifted", "off_terrain")
 
 
 def tracking_sweep(n=32, name="circle-smc-fuzzy", **kw):
@@ -666,7 +668,7 @@ def test_tracking_sweep_same_bits_on_one_and_two_threads_and_in_shards(tmp_path,
     one, two = tracking_sweep(name=name, threads=1), tracking_sweep(name=name, threads=2)
     same(one, two)
     assert one.kernel == "planar-lanes"
-    assert one.metric_names == ("fell", "t_end") + TRACK_METRICS
+    assert one.metric_names == ("fell", "t_end") + TRACK_COLUMNS
     # Every sample is its own robot: the metrics differ from sample to sample.
     assert len(np.unique(one.metrics["mean_abs_y_error"])) == 32
     same(one, tracking_sweep(name=name, checkpoint=tmp_path / "c", shard_size=7))
@@ -757,10 +759,10 @@ def test_tracking_summary_pandas_and_invalid_draws():
     assert r.steps == int(np.sum(np.rint(r.metrics["t_end"][r.valid] / 1e-3)))
     pytest.importorskip("pandas")
     units = {"mean_abs_pitch": "rad", "peak_abs_torque": "N m", "peak_current": "A", "peak_torque": "N m",
-             "peak_command": "A", "saturation_share": None}
+             "peak_command": "A", "saturation_share": None, "lifted": None, "off_terrain": None}
     assert list(r.to_pandas().columns) == ["index", "valid", "m_body[kg]", "x0[m]", "fell", "t_end[s]",
                                            *(k if units.get(k, "m") is None else f"{k}[{units.get(k, 'm')}]"
-                                             for k in TRACK_METRICS)]
+                                             for k in TRACK_COLUMNS)]
 
 
 @pytest.mark.parametrize(

@@ -207,5 +207,4 @@ def test_what_runs_on_flat_ground_only_refuses_a_terrain():
     m = twip.PlanarModel(twip.RobotParams.balanbot(), terrain=twip.Terrain.plane(0.1))
     with pytest.raises(twip.InvalidParameterError, match="flat ground only"):
         twip.SmcTracker(m)
-    with pytest.raises(twip.InvalidParameterError, match="flat ground only"):
-        twip._core.check_sweep_model(m)
+    twip._core.check_sweep_model(m)  # sweeps run on terrain (tests/test_terrain_sweep.py)

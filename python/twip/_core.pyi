@@ -245,6 +245,16 @@ class Terrain:
         """(height [m], dh/dx, dh/dy) at (x, y); OffTerrainError off a grid."""
     def contains(self, x: float, y: float) -> bool:
         """Whether (x, y) is on the terrain (always, except off a grid)."""
+    @property
+    def slope(self) -> Optional[float]:
+        """The plane's slope [rad] (a plane or a ramp; None for bumps and a grid): a sweep's
+        `slope` axis draws it.
+        """
+    @property
+    def uphill_heading(self) -> Optional[float]:
+        """The plane's uphill heading [rad from +x] (a plane or a ramp; None for bumps and a
+        grid): a sweep's `heading` axis draws it.
+        """
 
 @final
 class PlanarModel:
@@ -682,6 +692,9 @@ class GradeFeedForward:
     (held within its motor's torques). Run it with twip.simulate like the tracker itself.
     """
     def __new__(cls, tracker: Any, terrain: Terrain, params: RobotParams) -> GradeFeedForward: ...
+    @property
+    def params(self) -> RobotParams:
+        """The robot whose rest on the grade it feeds forward."""
     @property
     def period(self) -> float:
         """The tracker's update period [s]."""
@@ -1122,5 +1135,8 @@ def sweep_planar_raw(model: PlanarModel, controller: Any, x0: _ArrayLike, t_fina
     """
 def sweep_planar_draw(model: PlanarModel, x0: _ArrayLike,
                       perturbations: Sequence[Tuple[str, int, str, float, float, float, float]], seed: int,
-                      index: int) -> Tuple[dict[str, float], _F64]:
-    """The robot and initial state of sample `index` (to replay it alone)."""
+                      index: int) -> Tuple[dict[str, float], _F64, Optional[Tuple[Optional[float], Optional[float], Terrain]]]:
+    """The robot, initial state and ground of sample `index` (to replay it alone): the ground
+    None on flat ground, else (slope, heading, terrain) drawn (slope and heading None on a
+    terrain without a plane).
+    """

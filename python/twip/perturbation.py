@@ -21,8 +21,32 @@ PLANAR_STATE_NAMES = ("x0", "y0", "psi0", "phi0", "phi_dot0", "v0", "omega0")
 
 
 def _planar_draw(model, x0, perturbations, seed, index):
-    params, x0 = _core.sweep_planar_draw(model, x0, perturbations, seed, index)
-    return params, None, x0  # flat ground: no slope
+    params, x0, ground = _core.sweep_planar_draw(model, x0, perturbations, seed, index)
+    return params, ground, x0  # ground: None on flat ground, else (slope, heading, terrain)
+
+
+def ground_value(ground, kind: str) -> float:
+    """The drawn `kind` ("slope" or "heading") of a sample's ground: a 2-DOF sample's slope,
+    or a 3-DOF sample's (slope, heading, terrain)."""
+    if not isinstance(ground, tuple):
+        return ground
+    value = ground[0 if kind == "slope" else 1]
+    return float("nan") if value is None else value
+
+
+def ground_model(robot, ground, family):
+    """The model a sample of `family` runs on: its robot on its drawn ground."""
+    if not family.planar:
+        return _core.SlopeModel(robot, ground)
+    return _core.PlanarModel(robot, terrain=None if ground is None else ground[2])
+
+
+def ground_controller(controller, ground):
+    """A sweep's controller for a sample's drawn ground: a grade feed-forward feeds the
+    sample's own terrain forward; any other controller as it is."""
+    if ground is None or not isinstance(controller, _core.GradeFeedForward):
+        return controller
+    return _core.GradeFeedForward(controller.tracker, ground[2], controller.params)
 
 
 @dataclass(frozen=True)
@@ -52,33 +76,49 @@ def kernel_for(sc, realism=None) -> str:
     through a rig)."""
     if user_sweep.is_user_controller(sc.controller):
         return "python"
+    if getattr(sc.model, "terrain", None) is not None:  # on terrain: the general runner
+        return "planar" if realism is None else "planar-realism"
     return _core.sweep_kernel(sc.controller, realism)
 
 
 def target(name: str, sc):
-    """(kind, index) of a perturbation name: ("param", field), ("slope", 0) or ("x0", entry)."""
-    checks.of_type("name", name, str, "a perturbation name (str: a RobotParams field, 'slope' or a state name)")
+    """(kind, index) of a perturbation name: ("param", field), ("slope", 0), ("heading", 0) or
+    ("x0", entry). A 3-DOF scenario's slope and heading are its terrain plane's."""
+    checks.of_type("name", name, str, "a perturbation name (str: a RobotParams field, 'slope', 'heading' or a state name)")
     fields = list(_core.RobotParams.fields)
     family = family_of(sc)
     states = family.states
     if name in fields:
         return ("param", fields.index(name))
-    if name == "slope":
+    if name in ("slope", "heading"):
         if family.planar:
-            raise _bad(
-                f"perturbation 'slope': '{sc.name}' is a 3-DOF tracking scenario on flat ground (PlanarModel), "
-                "it has no slope to perturb"
-            )
-        return ("slope", 0)
+            _plane_value(name, sc)
+        elif name == "heading":
+            raise _bad(f"perturbation 'heading': '{sc.name}' is a 2-DOF scenario (SlopeModel), it has no heading; "
+                       "the heading axis is a 3-DOF scenario's terrain plane's uphill heading")
+        return (name, 0)
     if name in states:
         return ("x0", states.index(name))
     if name.startswith("x0[") and name.endswith("]") and name[3:-1].isdigit() and int(name[3:-1]) < len(states):
         return ("x0", int(name[3:-1]))
-    slope = "" if family.planar else "'slope', "
+    slope = "'slope', 'heading' (on a terrain plane), " if family.planar else "'slope', "
     raise _bad(
         f"unknown perturbation '{name}'; perturb RobotParams fields ({', '.join(fields)}), "
         f"{slope}or initial-state entries ({', '.join(states)} or x0[0]..x0[{len(states) - 1}])"
     )
+
+
+def _plane_value(name: str, sc) -> float:
+    """A 3-DOF scenario's terrain plane's nominal slope or uphill heading, or an error
+    naming `name` when its ground has no plane to redraw."""
+    terrain = sc.model.terrain
+    value = None if terrain is None else terrain.slope if name == "slope" else terrain.uphill_heading
+    if value is None:
+        ground = "flat ground (PlanarModel without terrain)" if terrain is None else f"{terrain!r}, which has no plane"
+        raise _bad(f"perturbation '{name}': '{sc.name}' is a 3-DOF tracking scenario on {ground}; the slope and "
+                   "heading axes redraw a terrain plane (terrain=twip.Terrain.plane(slope, uphill_heading) or "
+                   "Terrain.ramp)")
+    return value
 
 
 def resolve(perturb: Mapping, scenario) -> list:
@@ -90,8 +130,8 @@ def resolve(perturb: Mapping, scenario) -> list:
         kind, index = target(name, scenario)
         if kind == "param":
             nominal = getattr(scenario.model.params, name)
-        elif kind == "slope":
-            nominal = scenario.model.slope
+        elif kind in ("slope", "heading"):
+            nominal = _plane_value(kind, scenario) if family_of(scenario).planar else scenario.model.slope
         else:
             nominal = float(scenario.x0[index])
         if not isinstance(dist, (Uniform, Normal)):

@@ -2,8 +2,8 @@
 
 The controller of the scenario is designed once on the nominal robot; each sample runs
 it on a perturbed plant (RobotParams fields, slope, initial state). The 2-DOF scenarios
-(LQR, fuzzy) and the 3-DOF tracking ones (PID, sliding mode on a PlanarModel: flat, no
-slope) run alike; each family has its own metrics (`SweepResult.metric_names`). Sample i draws from
+(LQR, fuzzy) and the 3-DOF tracking ones (PID, sliding mode on a PlanarModel, flat or on a
+terrain: its plane's "slope" and uphill "heading" are sweep axes) run alike; each family has its own metrics (`SweepResult.metric_names`). Sample i draws from
 its own counter-based random stream, so a sweep gives the same numbers, bit for bit, on
 any number of threads, in shards, resumed after a crash, on a Dask cluster, and when a
 sample is run alone again (`SweepResult.rerun(i)`). Replayed with the full runner and its
@@ -81,6 +81,7 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
         "options": dict(options or {}),
         "params": sc.model.params.to_dict(),
         "slope": None if family_of(sc).planar else sc.model.slope,
+        **_terrain_config(sc),
         "x0": [float(v) for v in sc.x0],
         "t_final": sc.t_final,
         "dt": sc.dt,
@@ -99,6 +100,18 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
         "kernel": kernel_for(sc, realism),
         **extra,
     }
+
+
+def _terrain_config(sc) -> dict:
+    """A 3-DOF scenario's terrain for the checkpoint fingerprint (none on flat ground): its
+    constructor call, a grid's heights by their hash."""
+    terrain = getattr(sc.model, "terrain", None)
+    if terrain is None:
+        return {}
+    import hashlib
+    import pickle
+
+    return {"terrain": repr(terrain), "terrain_sha256": hashlib.sha256(pickle.dumps(terrain)).hexdigest()}
 
 
 def run_samples(sc, config, start, count, threads, progress, realism=None, on_error="stop"):
@@ -167,7 +180,9 @@ def montecarlo(
 
     perturb: {"m_body": twip.Uniform(rel=0.2), "slope": twip.Uniform(low=0, high=0.2),
               "phi0": twip.Normal(std=0.02), ...}; drawn in key order, per sample. The
-              initial state of a 3-DOF tracking scenario is PLANAR_STATE_NAMES (no slope).
+              initial state of a 3-DOF tracking scenario is PLANAR_STATE_NAMES; on a terrain
+              plane its "slope" and uphill "heading" [rad] are drawn per sample too (the
+              model's and a GradeFeedForward's plane; docs/terrain.md).
     threads: worker threads (default: all cores). checkpoint: a folder; the sweep is
     written there in shards and a re-run with the same arguments resumes. client: a
     dask.distributed.Client; shards run as Dask tasks (needs a scenario name).

@@ -10,7 +10,7 @@ import numpy as np
 
 from twip import _core, budget, checks
 from twip.distributions import wilson_interval
-from twip.perturbation import STATE_UNITS, family_of, target
+from twip.perturbation import STATE_UNITS, family_of, ground_controller, ground_model, ground_value, target
 from twip.quantiles import streamed_quantiles_of
 
 _bad = _core.InvalidParameterError
@@ -71,6 +71,15 @@ class SweepResult:
         v = self.valid
         return float(np.mean(self.metrics["fell"][v])) if v.any() else float("nan")
 
+    @property
+    def lift_rate(self) -> float:
+        """The share of valid samples whose run ended "lifted" (a wheel's normal force went
+        negative, on terrain: counted in `fall_rate` too); NaN without valid samples or in
+        a sweep that does not tell (2-DOF, a Python controller)."""
+        v = self.valid
+        lifted = self.metrics.get("lifted")
+        return float(np.mean(lifted[v] == 1.0)) if lifted is not None and v.any() else float("nan")
+
     def fall_rate_interval(self, confidence: float = 0.95):
         v = self.valid
         return wilson_interval(int(np.sum(self.metrics["fell"][v])), int(np.sum(v)), confidence)
@@ -129,8 +138,9 @@ class SweepResult:
         sc, perturbations = self._scenario, [tuple(p) for p in self.config["perturbations"]]
         out = np.empty(len(index))
         for k, i in enumerate(index):  # the raw draw: an invalid robot has its values too
-            params, slope, x0 = family_of(sc).draw(sc.model, sc.x0, perturbations, self.seed, int(i))
-            out[k] = slope if kind == "slope" else x0[at] if kind == "x0" else params[name]
+            params, ground, x0 = family_of(sc).draw(sc.model, sc.x0, perturbations, self.seed, int(i))
+            out[k] = (ground_value(ground, kind) if kind in ("slope", "heading") else x0[at] if kind == "x0"
+                      else params[name])
         return out
 
     def table(self, part: Optional[Mapping] = None) -> Dict[str, np.ndarray]:
@@ -145,7 +155,7 @@ class SweepResult:
         out: Dict[str, np.ndarray] = {"index": np.asarray(part["index"]), "valid": np.asarray(part["valid"])}
         for name in self.config["perturb"]:
             kind, at = self.perturbation_target(name)
-            unit = (FIELDS[name][0] if kind == "param" else "rad" if kind == "slope"
+            unit = (FIELDS[name][0] if kind == "param" else "rad" if kind in ("slope", "heading")
                     else STATE_UNITS[self.state_names[at]])
             out[f"{name}[{unit}]"] = self.drawn(name, part["index"])
         for name in self.metric_names:
@@ -166,8 +176,9 @@ class SweepResult:
         return int(np.sum(peak > stall_current))
 
     def sample(self, index: int):
-        """The robot, slope and initial state of sample `index` (slope None for a 3-DOF
-        tracking scenario: its ground is flat)."""
+        """The robot, ground and initial state of sample `index`: the ground is a 2-DOF
+        sample's slope; a 3-DOF sample's None on flat ground, else (slope, heading, terrain)
+        drawn (slope and heading None on a terrain without a plane)."""
         sc = self._scenario
         perturbations = [tuple(p) for p in self.config["perturbations"]]
         params, slope, x0 = family_of(sc).draw(sc.model, sc.x0, perturbations, self.seed, self._index(index))
@@ -200,12 +211,12 @@ class SweepResult:
         from twip.sim import simulate
 
         sc = self._scenario
-        params, slope, x0 = self.sample(index)
-        model = _core.PlanarModel(params) if slope is None else _core.SlopeModel(params, slope)
+        params, ground, x0 = self.sample(index)
+        model = ground_model(params, ground, family_of(sc))
         if self._realism is not None:
             noise = self._realism.replace(seed=_core.sweep_noise_seed(self.seed), stream=int(index))
             simulate_options = {"realism": noise, **simulate_options}
-        return simulate(model, sc.controller, x0, sc.t_final, sc.dt, reference=sc.reference,
+        return simulate(model, ground_controller(sc.controller, ground), x0, sc.t_final, sc.dt, reference=sc.reference,
                         control_period=sc.control_period, **simulate_options)
 
     def __repr__(self) -> str:
@@ -266,7 +277,7 @@ def invalid_reason(result, index: int) -> str:
     try:
         params, slope, x0 = family_of(sc).draw(sc.model, sc.x0, perturbations, result.seed, index)
         robot = _core.RobotParams.from_dict(params)
-        _core.PlanarModel(robot) if slope is None else _core.SlopeModel(robot, slope)
+        ground_model(robot, slope, family_of(sc))
         if result.realism is not None:
             _core.simulate_raw(_core.SlopeModel(robot, slope), sc.controller, x0, sc.dt, sc.dt,
                                sc.reference, realism=result.realism)

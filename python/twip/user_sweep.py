@@ -32,7 +32,7 @@ _JOB: dict = {}
 
 
 #: twip's own controller classes; anything else is a controller written in Python.
-_BUILTIN = tuple(getattr(_core, n) for n in ("LqrController", "FuzzyController", "PidTracker", "SmcTracker"))
+_BUILTIN = tuple(getattr(_core, n) for n in ("LqrController", "FuzzyController", "PidTracker", "SmcTracker", "GradeFeedForward"))
 
 
 def is_user_controller(controller) -> bool:
@@ -105,14 +105,15 @@ def failure_reason(message: str) -> str:
 
 def _sample(index: int) -> dict:
     """Sample `index`: its robot drawn from its own stream, then one run."""
+    from twip.perturbation import ground_model  # (it imports this module)
     from twip.sim import simulate
 
     job = _JOB
     sc, family = job["scenario"], job["family"]
-    params, slope, x0 = family.draw(sc.model, sc.x0, job["perturbations"], job["seed"], index)
+    params, ground, x0 = family.draw(sc.model, sc.x0, job["perturbations"], job["seed"], index)
     try:
         robot = _core.RobotParams.from_dict(params)
-        model = _core.PlanarModel(robot) if family.planar else _core.SlopeModel(robot, slope)
+        model = ground_model(robot, ground, family)
     except _core.TwipError:
         return {"valid": False}
     options = {}
@@ -132,7 +133,7 @@ def _sample(index: int) -> dict:
             return {"valid": False}
         raise
     t_end = r.t_end if r.t_end is not None else r.steps * sc.dt
-    return {"valid": True, "fell": r.outcome in ("fell", "diverged"), "t_end": t_end, "steps": r.steps, **r.metrics}
+    return {"valid": True, "fell": r.outcome in ("fell", "diverged", "lifted", "off_terrain"), "t_end": t_end, "steps": r.steps, **r.metrics}
 
 
 def _chunk(bounds) -> list:

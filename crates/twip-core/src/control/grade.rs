@@ -32,6 +32,15 @@ impl<T: Real, C: Controller<T, 7, 2, Reference = PlanarRef<T>>> GradeFeedForward
         Self { inner, ground, motor }
     }
 
+    /// The same tracker and robot with the feed-forward of `terrain` (a sweep's sample on
+    /// its own drawn plane).
+    pub fn on(&self, terrain: crate::model::terrain::Terrain<T>) -> Self
+    where
+        C: Clone,
+    {
+        Self { inner: self.inner.clone(), ground: TerrainModel::new(self.ground.flat().clone(), terrain), motor: self.motor }
+    }
+
     pub fn inner(&self) -> &C {
         &self.inner
     }

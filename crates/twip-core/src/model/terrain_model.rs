@@ -24,8 +24,9 @@ use nalgebra::SVector;
 
 use crate::model::dynamics::Halt;
 use crate::model::friction::Gearhead;
+use crate::model::lane::Lane;
 use crate::model::math::sin_cos;
-use crate::model::planar::{engaged_accelerations, forces_plus, open_accelerations, PlanarModel, PlanarState};
+use crate::model::planar::{engaged_accelerations, forces_plus, open_accelerations, PlanarCoefficients, PlanarModel, PlanarState};
 use crate::model::terrain::{Local, Terrain};
 use crate::{c, Dynamics, Real, TwipError};
 
@@ -55,24 +56,26 @@ pub struct Frame<T> {
     pub turn: T,
 }
 
-impl<T: Real> Frame<T> {
+impl<S: Lane> Frame<S> {
     /// The frame from the ground's gradient (gx, gy) at heading ψ = atan2(`sin_psi`, `cos_psi`).
+    /// Over [`Lane`]: a run's frame (`f64`, `f32`) and a sweep lane's ([`crate::model::lane::Fused`]:
+    /// its multiply-adds and arctangent its own, so the two agree to rounding).
     #[inline(always)]
-    pub fn new(gx: T, gy: T, sin_psi: T, cos_psi: T) -> Self {
-        let one = T::one();
+    pub fn new(gx: S, gy: S, sin_psi: S, cos_psi: S) -> Self {
+        let one = S::splat(1.0);
         // p: the grade's tangent along the heading; q: across it (to the left).
         let p = gx * cos_psi + gy * sin_psi;
         let q = gy * cos_psi - gx * sin_psi;
         let w = one + p * p;
-        let root_w = w.sqrt();
-        let cos_slope = one / (w + q * q).sqrt();
+        let root_w = w.square_root();
+        let cos_slope = one / (w + q * q).square_root();
         let sin_grade = p / root_w;
         let cross = -(q * cos_slope) / root_w;
         // cos²ρ = cos²β + sin²γ: the most vertical direction perpendicular to the axle.
         let c2 = cos_slope * cos_slope + sin_grade * sin_grade;
-        let delta = sin_grade.atan2(cos_slope);
+        let delta = sin_grade.arctangent_over(cos_slope);
         let delta_1 = -(cross * cos_slope) / c2;
-        let delta_2 = -(sin_grade * cos_slope) * (c2 + c::<T>(2.0) * cross * cross) / (c2 * c2);
+        let delta_2 = -(sin_grade * cos_slope) * (c2 + S::splat(2.0) * cross * cross) / (c2 * c2);
         Self { cos_slope, sin_grade, cross, delta, delta_1, delta_2, cos_grade: one / root_w, turn: cos_slope * w }
     }
 }
@@ -125,13 +128,7 @@ impl<T: Real> TerrainModel<T> {
         let k = self.flat.coefficients();
         let p = self.flat.params();
         let weight = (p.m_body + p.m_wheels) * p.g;
-        let forces_at = |u_r: T, u_l: T| {
-            let ([f_p, f_v, f_w], s, cp) = forces_plus(&k, &xp, u_r, u_l, &extra);
-            // The flat gravity torque M_b g c_z sin φ' becomes M_b g c_z (cos β sin φ' − sin γ cos φ'):
-            // add the difference, which is exactly zero on level ground.
-            let lean = (f.cos_slope - T::one()) * s - f.sin_grade * cp;
-            ([k.mgc * lean + f_p, f_v - weight * f.sin_grade, k.mgc * f.cross * s + f_w], s, cp)
-        };
+        let forces_at = |u_r: T, u_l: T| tilted_forces(&k, weight, &f, &xp, u_r, u_l, &extra);
         let gear = Gearhead::of(self.flat.friction());
         let (nu, tau) = if engaged == [true, true] {
             engaged_accelerations(&k, gear, &xp, [u[0], u[1]], forces_at)
@@ -236,18 +233,55 @@ pub(crate) fn frame_of<T: Real>(terrain: &Terrain<T>, x: &PlanarState<T>) -> Fra
 /// The state in the plane's frame `f`: φ → φ' = φ + δ, φ̇ → φ̇' = φ̇ + δ' ω.
 #[inline(always)]
 pub(crate) fn in_plane<T: Real>(x: &PlanarState<T>, f: &Frame<T>) -> [T; 7] {
+    plane_state(&core::array::from_fn(|i| x[i]), f)
+}
+
+/// [`in_plane`] over [`Lane`].
+#[inline(always)]
+fn plane_state<S: Lane>(x: &[S; 7], f: &Frame<S>) -> [S; 7] {
     [x[0], x[1], x[2], x[3] + f.delta, f.delta_1 * x[6] + x[4], x[5], x[6]]
 }
 
 /// The state's derivative from ν̇' = (φ̈', v̇, ω̇) in frame `f`.
 #[inline(always)]
 fn motion<T: Real>(x: &PlanarState<T>, nu: &[T; 3], f: &Frame<T>) -> PlanarState<T> {
-    let (s, co) = sin_cos(x[2]);
+    PlanarState::from(motion_of(&core::array::from_fn(|i| x[i]), nu, f))
+}
+
+/// [`motion`] over [`Lane`].
+#[inline(always)]
+fn motion_of<S: Lane>(x: &[S; 7], nu: &[S; 3], f: &Frame<S>) -> [S; 7] {
+    let (s, co) = S::sincos(x[2]);
     let (v, omega) = (x[5], x[6]);
     let speed = v * f.cos_grade;
     // φ = φ' − δ(χ), χ̇ = ω: φ̈ = φ̈' − δ' ω̇ − δ'' ω².
     let phi_dd = nu[0] - f.delta_1 * nu[2] - f.delta_2 * omega * omega;
-    PlanarState::from([speed * co, speed * s, omega * f.turn, x[4], phi_dd, nu[1], nu[2]])
+    [speed * co, speed * s, omega * f.turn, x[4], phi_dd, nu[1], nu[2]]
+}
+
+/// The forces on ν' = (φ̇', v, ω) on the plane of frame `f` at the plane-frame state `xp`:
+/// the flat model's (with `extra`), its gravity torque M_b g c_z sin φ' become
+/// M_b g c_z (cos β sin φ' − sin γ cos φ') (the difference added: exactly zero on level
+/// ground), the grade's pull on v and the lean's yaw torque; with sin φ' and cos φ'.
+/// `weight` = (M_b + M_w) g.
+#[inline(always)]
+fn tilted_forces<S: Lane>(k: &PlanarCoefficients<S>, weight: S, f: &Frame<S>, xp: &[S; 7], u_r: S, u_l: S, extra: impl Fn(S, S) -> Option<[S; 2]>) -> ([S; 3], S, S) {
+    let ([f_p, f_v, f_w], s, cp) = forces_plus(k, xp, u_r, u_l, extra);
+    let lean = (f.cos_slope - S::splat(1.0)) * s - f.sin_grade * cp;
+    ([k.mgc * lean + f_p, f_v - weight * f.sin_grade, k.mgc * f.cross * s + f_w], s, cp)
+}
+
+/// The terrain model's derivative at `x` under wheel torques `u` on the ground of gradient
+/// (`gx`, `gy`) under the contact point, over [`Lane`]: a run's ([`TerrainModel::deriv`])
+/// and a sweep lane's, one source. Gear trains engaged with `gear`'s friction, no force on
+/// the body; `k`: the flat model's coefficients, `weight` = (M_b + M_w) g.
+#[inline(always)]
+pub(crate) fn deriv_on_ground<S: Lane>(k: &PlanarCoefficients<S>, weight: S, gear: Gearhead<'_, S>, x: &[S; 7], u: [S; 2], gx: S, gy: S) -> [S; 7] {
+    let (s, co) = S::sincos(x[2]);
+    let f = Frame::new(gx, gy, s, co);
+    let xp = plane_state(x, &f);
+    let (nu, _) = engaged_accelerations(k, gear, &xp, u, |u_r, u_l| tilted_forces(k, weight, &f, &xp, u_r, u_l, |_, _| None));
+    motion_of(x, &nu, &f)
 }
 
 /// N_r, N_l from the plane-frame state `xp` = [.., φ', φ̇', v, ω] and ν̇' (docs/terrain.md):
@@ -276,8 +310,11 @@ impl<T: Real> Dynamics<T, 7, 2> for TerrainModel<T> {
 
     #[inline]
     fn deriv(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> PlanarState<T> {
-        let (nu, _, f, _) = self.accelerations(x, u);
-        motion(x, &nu, &f)
+        let g = self.ground(x);
+        let p = self.flat.params();
+        let weight = (p.m_body + p.m_wheels) * p.g;
+        let gear = Gearhead::of(self.flat.friction());
+        PlanarState::from(deriv_on_ground(&self.flat.coefficients(), weight, gear, &core::array::from_fn(|i| x[i]), [u[0], u[1]], g.gx, g.gy))
     }
 
     /// ½ ν'ᵀ M(φ') ν' + M_b g c_z (cos β cos φ' + sin γ sin φ') + (M_b + M_w) g (h + R (cos β − 1)):
@@ -314,6 +351,81 @@ mod tests {
 
     fn model(terrain: Terrain<f64>) -> TerrainModel<f64> {
         TerrainModel::new(PlanarModel::new(RobotParams::balanbot()).unwrap(), terrain)
+    }
+
+    /// A sweep lane's frame ([`Fused`]: fused multiply-adds, the polynomial arctangent) is a
+    /// run's to rounding: every field within 4 ulp of its size (relative; 1e-300 absolute)
+    /// over gradients up to 80° and any heading, and level ground gives the run's exact zeros.
+    #[cfg(feature = "std")]
+    #[test]
+    fn a_lanes_frame_is_a_runs_to_rounding() {
+        use crate::model::lane::Fused;
+        let fields = |f: Frame<f64>| [f.cos_slope, f.sin_grade, f.cross, f.delta, f.delta_1, f.delta_2, f.cos_grade, f.turn];
+        let (mut worst, mut seed) = (0.0f64, 11u64);
+        let mut next = |lo: f64, hi: f64| {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
+        };
+        for k in 0..20_000 {
+            let (slope, uphill, psi) = (next(0.0, 1.4), next(-4.0, 4.0), next(-4.0, 4.0));
+            let (gx, gy) = (slope.tan() * uphill.cos(), slope.tan() * uphill.sin());
+            let (s, c) = psi.sin_cos();
+            let run = fields(Frame::new(gx, gy, s, c));
+            let f = Frame::new(Fused(gx), Fused(gy), Fused(s), Fused(c));
+            let lane = fields(Frame { cos_slope: f.cos_slope.0, sin_grade: f.sin_grade.0, cross: f.cross.0, delta: f.delta.0, delta_1: f.delta_1.0, delta_2: f.delta_2.0, cos_grade: f.cos_grade.0, turn: f.turn.0 });
+            for (i, (a, b)) in run.iter().zip(lane).enumerate() {
+                let e = (a - b).abs() / (a.abs().max(1e-300) * f64::EPSILON);
+                assert!(e <= 4.0, "field {i} at {k}: {a:e} vs {b:e}");
+                worst = worst.max(e);
+            }
+        }
+        std::println!("lane frame against the run's: worst {worst} ulp of the field's size");
+        let level = Frame::new(Fused(0.0), Fused(0.0), Fused(0.3f64.sin()), Fused(0.3f64.cos()));
+        let run = Frame::new(0.0, 0.0, 0.3f64.sin(), 0.3f64.cos());
+        assert_eq!((level.delta.0, level.delta_1.0, level.delta_2.0, level.cos_slope.0), (run.delta, run.delta_1, run.delta_2, run.cos_slope));
+        assert_eq!((run.delta, run.cos_slope), (0.0, 1.0));
+    }
+
+    /// The derivative over `Lane` ([`deriv_on_ground`], a run's) is the model's accelerations
+    /// in the plane's frame taken back to the state (`deriv_geared`, the rig's path), bit for
+    /// bit in `f64` with and without gearhead friction, and a sweep lane's ([`Fused`], no
+    /// friction) agrees with it to rounding, on a plane, a ramp, bumps and a grid, at random
+    /// states.
+    #[cfg(feature = "std")]
+    #[test]
+    fn the_lanes_derivative_is_the_models() {
+        use crate::model::lane::Fused;
+        let xs: std::vec::Vec<f64> = (0..6).map(|i| -1.5 + 0.6 * i as f64).collect();
+        let z: std::vec::Vec<f64> = xs.iter().flat_map(|x| xs.iter().map(move |y| 0.1 * (1.1 * x).sin() * (0.7 * y).cos())).collect();
+        let grid = Terrain::Grid(alloc::sync::Arc::new(crate::model::terrain::Grid::new(xs.clone(), xs, &z).unwrap()));
+        let terrains = [Terrain::plane(0.3, 0.8).unwrap(), Terrain::ramp(0.2, -0.5, -0.2, 0.3).unwrap(), Terrain::bumps(0.05, 0.9).unwrap(), grid];
+        let gb37 = crate::model::friction::Friction::gb37();
+        let mut worst = 0.0f64;
+        for t in terrains {
+            for friction in [None, Some(gb37), Some(gb37.with_stick(0.5))] {
+                let m = TerrainModel::new(PlanarModel::new(RobotParams::balanbot()).unwrap().with_friction(friction).unwrap(), t.clone());
+                for (x, u) in states().take(200) {
+                    let want = m.deriv_geared(&x, &u, [true, true], |_, _| None).0;
+                    assert_eq!(m.deriv(&x, &u).map(f64::to_bits), want.map(f64::to_bits), "{t:?} {friction:?} {x:?}");
+                    if friction.is_some() {
+                        continue;
+                    }
+                    let k = m.flat().coefficients();
+                    let p = m.flat().params();
+                    let g = t.local_clamped(x[0], x[1]);
+                    let kf = PlanarCoefficients::from_array(k.to_array().map(Fused));
+                    let a: [f64; 7] = core::array::from_fn(|i| x[i]);
+                    let weight = Fused((p.m_body + p.m_wheels) * p.g);
+                    let lane = deriv_on_ground(&kf, weight, Gearhead::of(None), &a.map(Fused), [Fused(u[0]), Fused(u[1])], Fused(g.gx), Fused(g.gy));
+                    let scale = want.amax().max(1e-300);
+                    for i in 0..7 {
+                        worst = worst.max((lane[i].0 - want[i]).abs() / scale);
+                    }
+                }
+            }
+        }
+        std::println!("a lane's terrain derivative against the model's: worst {worst:e} of the largest entry");
+        assert!(worst < 1e-13 && worst > 0.0, "{worst:e}");
     }
 
     fn states() -> impl Iterator<Item = (PlanarState<f64>, SVector<f64, 2>)> {

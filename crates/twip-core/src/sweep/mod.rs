@@ -22,6 +22,7 @@ pub mod block;
 #[cfg(feature = "parallel")]
 pub mod parallel;
 pub mod planar;
+pub mod terrain;
 pub mod rig;
 
 /// What a perturbation changes.
@@ -29,8 +30,10 @@ pub mod rig;
 pub enum Target {
     /// A `RobotParams` field, by its index in `params::FIELD_NAMES`.
     Param(usize),
-    /// The slope angle [rad].
+    /// The slope angle [rad] (3-DOF: the terrain's plane's steepest slope).
     Slope,
+    /// The uphill heading [rad] of a 3-DOF sweep's terrain plane.
+    Heading,
     /// An entry of the initial state.
     Initial(usize),
 }
@@ -57,6 +60,13 @@ impl Perturbation {
     /// 2-DOF sweeps (a 4-entry initial state).
     pub fn validate(&self) -> Result<(), TwipError> {
         self.validate_spread()?;
+        if self.target == Target::Heading {
+            return Err(TwipError::InvalidParameter {
+                name: "heading",
+                value: self.spread.high(),
+                reason: "cannot be perturbed in a 2-DOF sweep: the slope model has no heading (a 3-DOF scenario on a terrain plane has)",
+            });
+        }
         self.validate_target(4)
     }
 
@@ -101,7 +111,28 @@ impl Perturbation {
             _ => Ok(()),
         }
     }
+}
 
+impl Spread {
+    /// The largest value a draw can take (a uniform's high end; a normal's clamp, or its
+    /// mean + `NORMAL_REACH` std when that is nearer).
+    pub fn high(&self) -> f64 {
+        match *self {
+            Spread::Uniform { high, .. } => high,
+            Spread::Normal { mean, std, low, high } => (mean + NORMAL_REACH * std).min(high).max(low),
+        }
+    }
+
+    /// The smallest value a draw can take.
+    pub fn low(&self) -> f64 {
+        match *self {
+            Spread::Uniform { low, .. } => low,
+            Spread::Normal { mean, std, low, high } => (mean - NORMAL_REACH * std).max(low).min(high),
+        }
+    }
+}
+
+impl Perturbation {
     fn draw(&self, rng: &mut Philox) -> f64 {
         match self.spread {
             Spread::Uniform { low, high } => low + (high - low) * rng.uniform::<f64>(),
@@ -129,37 +160,39 @@ pub struct Sample {
 
 /// Draws sample `index`: the perturbations in their given order from stream `index`.
 pub fn draw(nominal: &Nominal, perturbations: &[Perturbation], seed: u64, index: u64) -> Sample {
-    let (params, slope, x0) = draw_values(&nominal.params, nominal.slope, &nominal.x0, perturbations, seed, index);
+    let (params, [slope, _], x0) = draw_values(&nominal.params, [nominal.slope, 0.0], &nominal.x0, perturbations, seed, index);
     Sample { index, params, slope, x0 }
 }
 
 /// The draw of both sweep families (any state size): the perturbations in their given
 /// order from `Philox::new(seed, index)` over the nominal values. A target past the end
 /// of the fields or the state draws its number but changes nothing (`validate` refuses it).
+/// `ground`: the slope and the (3-DOF) uphill heading.
 pub(crate) fn draw_values<const NX: usize>(
     params: &RobotParams<f64>,
-    slope: f64,
+    ground: [f64; 2],
     x0: &SVector<f64, NX>,
     perturbations: &[Perturbation],
     seed: u64,
     index: u64,
-) -> (RobotParams<f64>, f64, SVector<f64, NX>) {
+) -> (RobotParams<f64>, [f64; 2], SVector<f64, NX>) {
     let mut rng = Philox::new(seed, index);
     let mut values = params.to_array();
-    let mut slope = slope;
+    let [mut slope, mut heading] = ground;
     let mut x0 = *x0;
     for p in perturbations {
         let v = p.draw(&mut rng);
         let slot = match p.target {
             Target::Param(i) => values.get_mut(i),
             Target::Slope => Some(&mut slope),
+            Target::Heading => Some(&mut heading),
             Target::Initial(i) => x0.as_mut_slice().get_mut(i),
         };
         if let Some(slot) = slot {
             *slot = v;
         }
     }
-    (RobotParams::from_array(&values), slope, x0)
+    (RobotParams::from_array(&values), [slope, heading], x0)
 }
 
 /// What the bindings lay out as columns of a sweep's result: flags, step count and the

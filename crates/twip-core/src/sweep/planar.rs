@@ -9,7 +9,9 @@
 use crate::control::{Controller, Reference};
 use crate::hardware::realism::Realism;
 use crate::model::planar::{PlanarModel, PlanarState};
-use crate::sim::runner::{simulate_until, SimConfig};
+use crate::model::terrain::Terrain;
+use crate::model::terrain_model::TerrainModel;
+use crate::sim::runner::{simulate_until, Outcome, SimConfig};
 use crate::control::trajectory::{Path, PlanarRef};
 use crate::sim::metrics::DrivePeaks;
 use crate::sim::tracking_metrics::{TrackingMetrics, TrackingSummary};
@@ -20,7 +22,7 @@ use alloc::vec::Vec;
 use super::block::{self, LanePath, PlanarLaneLaw};
 use super::lanes::LANES;
 use super::rig::RealismOf;
-use super::{draw_values, finish, fresh, sweep_metrics, Perturbation, Spread, SweepMetrics, Target};
+use super::{draw_values, finish, fresh, sweep_metrics, Perturbation, SweepMetrics, Target};
 
 /// Samples per parallel block: one. A tracking run is 10⁴–10⁵ steps, so a task per
 /// sample costs nothing, balances the threads and reports progress per sample.
@@ -41,28 +43,33 @@ pub struct PlanarSample {
     pub x0: PlanarState<f64>,
 }
 
-/// Checks a perturbation for the planar model: the spread, a RobotParams field or one of
-/// the 7 state entries; the slope is refused, the planar model being flat.
+/// Checks a perturbation for the planar model on flat ground: the spread, a RobotParams
+/// field or one of the 7 state entries; the slope and the heading are refused (they need a
+/// terrain plane: [`super::terrain::SweepTerrain::validate`]).
 pub fn validate(p: &Perturbation) -> Result<(), TwipError> {
     p.validate_spread()?;
-    if p.target == Target::Slope {
-        let value = match p.spread {
-            Spread::Uniform { high, .. } => high,
-            Spread::Normal { mean, .. } => mean,
-        };
-        return Err(TwipError::InvalidParameter {
-            name: "slope",
-            value,
-            reason: "cannot be perturbed in a 3-DOF (tracking) sweep: the planar model is flat ground",
-        });
-    }
-    p.validate_target(7)
+    let name = match p.target {
+        Target::Slope => "slope",
+        Target::Heading => "heading",
+        _ => return p.validate_target(7),
+    };
+    Err(TwipError::InvalidParameter {
+        name,
+        value: p.spread.high(),
+        reason: "cannot be perturbed in a 3-DOF (tracking) sweep on flat ground: give the model a terrain plane (PlanarModel(..., terrain=Terrain.plane(slope, uphill_heading)))",
+    })
 }
 
 /// Draws sample `index` (perturbations validated by [`validate`]).
 pub fn draw(nominal: &PlanarNominal, perturbations: &[Perturbation], seed: u64, index: u64) -> PlanarSample {
-    let (params, _, x0) = draw_values(&nominal.params, 0.0, &nominal.x0, perturbations, seed, index);
-    PlanarSample { index, params, x0 }
+    draw_on(nominal, [0.0; 2], perturbations, seed, index).0
+}
+
+/// Draws sample `index` on ground of nominal `[slope, uphill heading]`: the sample and its
+/// drawn ground.
+pub(crate) fn draw_on(nominal: &PlanarNominal, ground: [f64; 2], perturbations: &[Perturbation], seed: u64, index: u64) -> (PlanarSample, [f64; 2]) {
+    let (params, ground, x0) = draw_values(&nominal.params, ground, &nominal.x0, perturbations, seed, index);
+    (PlanarSample { index, params, x0 }, ground)
 }
 
 /// What a tracking sweep keeps of one sample; the names of `simulate_planar_raw`'s metrics.
@@ -84,6 +91,11 @@ pub struct PlanarSampleMetrics {
     pub peak_torque: f64,
     pub peak_command: f64,
     pub saturation_share: f64,
+    /// 1 when the run ended "lifted" (a wheel's normal force went negative; on terrain),
+    /// else 0; such a run counts as fallen too.
+    pub lifted: f64,
+    /// 1 when the run ended "off_terrain" (off a grid), else 0; counted as fallen too.
+    pub off_terrain: f64,
     pub steps: u64,
 }
 
@@ -105,8 +117,16 @@ impl PlanarSampleMetrics {
             peak_torque: peaks.torque,
             peak_command: peaks.command,
             saturation_share: peaks.saturation_share,
+            lifted: 0.0,
+            off_terrain: 0.0,
             steps,
         }
+    }
+
+    /// These metrics with how the run ended marked ("lifted", "off_terrain").
+    pub fn ended(self, outcome: &Outcome<f64>) -> Self {
+        let is = |b: bool| if b { 1.0 } else { 0.0 };
+        Self { lifted: is(matches!(outcome, Outcome::Lifted { .. })), off_terrain: is(matches!(outcome, Outcome::OffTerrain { .. })), ..self }
     }
 }
 
@@ -123,6 +143,8 @@ sweep_metrics!(PlanarSampleMetrics {
     peak_torque,
     peak_command,
     saturation_share,
+    lifted,
+    off_terrain,
 });
 
 /// Runs one sample: a reset copy of the prototype tracker (designed for the nominal
@@ -144,22 +166,44 @@ where
     C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Clone,
     P: Reference<f64, Sample = PlanarRef<f64>> + Path<f64> + Copy,
 {
+    run_sample_on(prototype, path, config, sample, None, settle, realism, should_stop)
+}
+
+/// [`run_planar_sample`] on `terrain` (None: flat ground), a run that ended "lifted" or
+/// "off_terrain" marked so.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn run_sample_on<C, P>(
+    prototype: &C,
+    path: &P,
+    config: &SimConfig<f64>,
+    sample: &PlanarSample,
+    terrain: Option<Terrain<f64>>,
+    settle: f64,
+    realism: Option<&Realism<f64>>,
+    should_stop: &dyn Fn() -> bool,
+) -> Option<PlanarSampleMetrics>
+where
+    C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Clone,
+    P: Reference<f64, Sample = PlanarRef<f64>> + Path<f64> + Copy,
+{
     let Ok(plant) = PlanarModel::new(sample.params) else {
         return Some(PlanarSampleMetrics::INVALID);
     };
     let mut metrics = TrackingMetrics::new(*path, settle);
-    let run = match realism {
-        None => simulate_until(&plant, &mut fresh(prototype), path, &sample.x0, config, &mut metrics, should_stop),
-        Some(r) => {
-            let Ok(mut rig) = r.with_stream(sample.index).build_planar(&plant, config.dt) else {
+    let run = match (realism, terrain) {
+        (None, None) => simulate_until(&plant, &mut fresh(prototype), path, &sample.x0, config, &mut metrics, should_stop),
+        (None, Some(t)) => simulate_until(&TerrainModel::new(plant, t), &mut fresh(prototype), path, &sample.x0, config, &mut metrics, should_stop),
+        (Some(r), t) => {
+            let Ok(mut rig) = r.with_stream(sample.index).build_planar_on(&plant, t.as_ref(), config.dt) else {
                 return Some(PlanarSampleMetrics::INVALID);
             };
             rig.simulate(&mut fresh(prototype), path, &sample.x0, config, &mut metrics, should_stop)
         }
     };
+    let outcome = run.as_ref().ok().map(|(o, _)| *o);
     finish(run, config.dt, |fell, t_end, steps| {
-        let summary = metrics.summary();
-        PlanarSampleMetrics::from_summary(&summary, metrics.drive_peaks(&sample.params), fell, t_end, steps)
+        let m = PlanarSampleMetrics::from_summary(&metrics.summary(), metrics.drive_peaks(&sample.params), fell, t_end, steps);
+        outcome.map_or(m, |o| m.ended(&o))
     })
 }
 
@@ -235,8 +279,9 @@ pub(crate) mod tests {
     use crate::sim::runner::simulate;
     use crate::control::trajectory::{Circle, Direction};
     use crate::sweep::block::{PidLanes, SmcLanes};
+    use crate::sweep::Spread;
 
-    fn setup() -> (PidTracker<f64>, Circle<f64>, SimConfig<f64>, PlanarNominal) {
+    pub(crate) fn setup() -> (PidTracker<f64>, Circle<f64>, SimConfig<f64>, PlanarNominal) {
         let params = RobotParams::balanbot();
         let ctrl = PidTracker::table_4_1(&params, DcMotor::gb37y3530(), 0.005).unwrap();
         let circle = Circle::from_origin(0.6, core::f64::consts::PI * params.wheel_radius, Direction::CounterClockwise).unwrap();

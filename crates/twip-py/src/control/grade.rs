@@ -43,6 +43,12 @@ impl PyGradeFeedForward {
         self.terrain.clone()
     }
 
+    /// The robot whose rest on the grade it feeds forward.
+    #[getter]
+    fn params(&self) -> PyRobotParams {
+        self.params.clone()
+    }
+
     /// The tracker's update period [s].
     #[getter]
     fn period(&self, py: Python<'_>) -> PyResult<f64> {

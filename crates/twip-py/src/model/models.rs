@@ -118,7 +118,7 @@ impl PyPlanarModel {
             None => Ok(&self.inner),
             Some(_) => Err(crate::errors::InvalidParameterError::new_err(format!(
                 "invalid terrain: {what} runs on flat ground only (a PlanarModel without terrain); \
-                 on terrain, run twip.rk4_step or twip.simulate (ideal or with realism=)"
+                 on terrain, run twip.rk4_step, twip.simulate (ideal or with realism=) or twip.montecarlo"
             ))),
         }
     }

@@ -4,6 +4,8 @@ use std::sync::Arc;
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 use twip_core::model::terrain::{Grid, Terrain};
+use twip_core::sweep::terrain::SweepTerrain;
+use twip_core::TwipError;
 
 use crate::convert::real_array;
 use crate::errors::{CoreResult, ShapeError};
@@ -25,6 +27,28 @@ enum Recipe {
     Ramp(f64, f64, f64, f64),
     Bumps(f64, f64),
     Grid(Vec<f64>, Vec<f64>, Vec<f64>),
+}
+
+impl PyTerrain {
+    /// What a sweep's slope and heading axes redraw of this terrain.
+    pub(crate) fn sweep_terrain(&self) -> SweepTerrain {
+        match self.recipe {
+            Recipe::Plane(slope, uphill_heading) => SweepTerrain::Plane { slope, uphill_heading },
+            Recipe::Ramp(slope, uphill_heading, start, blend) => SweepTerrain::Ramp { slope, uphill_heading, start, blend },
+            _ => SweepTerrain::Fixed(self.inner.clone()),
+        }
+    }
+
+    /// A sweep sample's terrain: `terrain` at `ground` = [slope, uphill heading] (`given`,
+    /// the model's own, when it has no plane to redraw; level ground when there is none).
+    pub(crate) fn of_sweep(terrain: &SweepTerrain, [slope, heading]: [f64; 2], given: Option<&PyTerrain>) -> Result<Self, TwipError> {
+        let recipe = match *terrain {
+            SweepTerrain::Plane { .. } => Recipe::Plane(slope, heading),
+            SweepTerrain::Ramp { start, blend, .. } => Recipe::Ramp(slope, heading, start, blend),
+            SweepTerrain::Fixed(_) => return Ok(given.cloned().unwrap_or(Self { inner: Terrain::flat(), recipe: Recipe::Plane(0.0, 0.0) })),
+        };
+        Ok(Self { inner: terrain.at([slope, heading])?, recipe })
+    }
 }
 
 #[pymethods]
@@ -88,6 +112,26 @@ impl PyTerrain {
     /// Whether (x, y) is on the terrain (always, except off a grid).
     fn contains(&self, x: f64, y: f64) -> bool {
         self.inner.contains(x, y)
+    }
+
+    /// The plane's slope [rad] (a plane or a ramp; None for bumps and a grid): a sweep's
+    /// `slope` axis draws it.
+    #[getter]
+    fn slope(&self) -> Option<f64> {
+        match self.recipe {
+            Recipe::Plane(s, _) | Recipe::Ramp(s, ..) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// The plane's uphill heading [rad from +x] (a plane or a ramp; None for bumps and a
+    /// grid): a sweep's `heading` axis draws it.
+    #[getter]
+    fn uphill_heading(&self) -> Option<f64> {
+        match self.recipe {
+            Recipe::Plane(_, h) | Recipe::Ramp(_, h, ..) => Some(h),
+            _ => None,
+        }
     }
 
     /// Pickled as the constructor call that made it.

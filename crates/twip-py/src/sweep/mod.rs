@@ -5,6 +5,7 @@
 //! every sample runs through the rig (`sweep::rig`), noise stream = sample index. The
 //! watcher, the perturbation tuples and the result's layout are shared with `sweep_planar`.
 pub mod planar;
+pub mod terrain;
 
 use std::ops::Range;
 use std::sync::atomic::Ordering;
@@ -35,7 +36,7 @@ use crate::hardware::realism::PyRealism;
 use crate::control::schedule::PySpeedSchedule;
 use crate::sim::simulate::SlopeController;
 
-/// (target, index, kind, a, b, low, high): target "param" | "slope" | "x0";
+/// (target, index, kind, a, b, low, high): target "param" | "slope" | "heading" | "x0";
 /// kind "uniform" (a = low, b = high) | "normal" (a = mean, b = std, clamped to [low, high]).
 pub(crate) type PerturbTuple = (String, usize, String, f64, f64, f64, f64);
 
@@ -59,10 +60,11 @@ fn perturbation(t: &PerturbTuple) -> Result<Perturbation, PyErr> {
     let target = match target.as_str() {
         "param" => Target::Param(*index),
         "slope" => Target::Slope,
+        "heading" => Target::Heading,
         "x0" => Target::Initial(*index),
         other => {
             return Err(crate::errors::InvalidParameterError::new_err(format!(
-                "perturbation target '{other}': must be 'param', 'slope' or 'x0'"
+                "perturbation target '{other}': must be 'param', 'slope', 'heading' or 'x0'"
             )))
         }
     };
@@ -204,7 +206,7 @@ pub(crate) fn no_friction_in_sweeps(has_friction: bool) -> PyResult<()> {
 pub fn check_sweep_model(model: &Bound<'_, PyAny>) -> PyResult<()> {
     let has_friction = match model.extract::<PyRef<'_, PySlopeModel>>() {
         Ok(m) => m.inner.friction().is_some(),
-        Err(_) => model.extract::<PyRef<'_, crate::model::models::PyPlanarModel>>()?.flat_only("a sweep")?.friction().is_some(),
+        Err(_) => model.extract::<PyRef<'_, crate::model::models::PyPlanarModel>>()?.inner.friction().is_some(),
     };
     no_friction_in_sweeps(has_friction)
 }
@@ -243,6 +245,9 @@ pub fn sweep_draw<'py>(
 /// as text: what a sweep's checkpoint fingerprints, so that any change is noticed.
 #[pyfunction]
 pub fn controller_fingerprint(controller: &Bound<'_, PyAny>) -> PyResult<String> {
+    if let Ok(g) = controller.cast::<crate::control::grade::PyGradeFeedForward>() {
+        return Ok(format!("{:?}", g.get().core(controller.py(), None)?));
+    }
     match SlopeController::extract(controller) {
         Ok(c) => Ok(format!("{c:?}")),
         Err(_) => Ok(format!("{:?}", crate::sim::simulate_planar::PlanarController::extract(controller)?)),
@@ -365,6 +370,10 @@ pub fn use_kernel_copy(name: Option<&str>) -> PyResult<&'static str> {
 pub fn sweep_kernel(controller: &Bound<'_, PyAny>, realism: Option<&PyRealism>) -> PyResult<&'static str> {
     if SlopeController::extract(controller).is_ok() {
         return Ok(kernel_of(realism.is_some()));
+    }
+    // With the grade's feed-forward: a sweep on terrain, the general runner.
+    if controller.cast::<crate::control::grade::PyGradeFeedForward>().is_ok() {
+        return Ok(if realism.is_some() { "planar-realism" } else { "planar" });
     }
     let ctrl = crate::sim::simulate_planar::PlanarController::extract(controller)?;
     Ok(crate::sweep::planar::kernel_of(&ctrl, realism.is_some()))

@@ -30,7 +30,9 @@ pub(crate) fn nominal(model: &PyPlanarModel, x0: &Bound<'_, PyAny>) -> PyResult<
     Ok(PlanarNominal { params: *model.inner.params(), x0: vector::<7>("x0", x0)? })
 }
 
-/// The robot and initial state of sample `index` (to replay it alone).
+/// The robot, initial state and ground of sample `index` (to replay it alone): the ground
+/// None on flat ground, else (slope, heading, terrain) drawn (slope and heading None on a
+/// terrain without a plane).
 #[pyfunction]
 #[pyo3(signature = (model, x0, perturbations, seed, index))]
 pub fn sweep_planar_draw<'py>(
@@ -40,14 +42,21 @@ pub fn sweep_planar_draw<'py>(
     perturbations: Vec<PerturbTuple>,
     seed: &Bound<'py, PyAny>,
     index: &Bound<'py, PyAny>,
-) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyArray1<f64>>)> {
+) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyArray1<f64>>, Option<Ground>)> {
     let (seed, index) = (key("seed", seed)?, key("index", index)?);
-    let nominal = nominal(model, x0)?;
-    let perts = parse_perturbations(&perturbations, core_planar::validate)?;
-    let s = core_planar::draw(&nominal, &perts, seed, index);
+    let (s, ground) = if model.terrain.is_some() {
+        let (s, ground) = crate::sweep::terrain::draw(model, x0, &perturbations, seed, index)?;
+        (s, Some(ground))
+    } else {
+        let perts = parse_perturbations(&perturbations, core_planar::validate)?;
+        (core_planar::draw(&nominal(model, x0)?, &perts, seed, index), None)
+    };
     let params = params_dict(py, &s.params)?;
-    Ok((params, crate::convert::to_py_vector(py, &s.x0)))
+    Ok((params, crate::convert::to_py_vector(py, &s.x0), ground))
 }
+
+/// A sample's drawn slope, uphill heading and terrain.
+type Ground = (Option<f64>, Option<f64>, crate::model::terrain::PyTerrain);
 
 /// Runs samples `start..start + count` of a tracker on perturbed planar robots along
 /// `reference`; returns their metrics as arrays ("_settled" ones after one lap of a
@@ -74,6 +83,13 @@ pub fn sweep_planar_raw<'py>(
     realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (seed, start, count) = (key("seed", seed)?, key("start", start)?, key("count", count)?);
+    if model.terrain.is_some() || controller.cast::<crate::control::grade::PyGradeFeedForward>().is_ok() {
+        let path = trajectory(reference)?;
+        let settle = settle_time(None, &path)?;
+        return crate::sweep::terrain::sweep_raw(
+            py, model, controller, x0, (t_final, dt), path, settle, &perturbations, (seed, start, count), control_period, threads, progress, realism,
+        );
+    }
     let nominal = nominal(model, x0)?;
     let mut ctrl = PlanarController::extract(controller)?;
     let realism = realism.cloned();

@@ -1,0 +1,131 @@
+"""Sweeps of the 3-DOF tracking scenarios on terrain (docs/terrain.md): the slope and
+heading axes redraw the terrain plane per sample, reaching the model and the grade's
+feed-forward; the same bits on any thread count, in shards, resumed, rerun and replayed."""
+import math
+
+import numpy as np
+import pytest
+
+import twip
+
+AXES = {
+    "m_body": twip.Uniform(rel=0.2),
+    "slope": twip.Uniform(low=0.0, high=math.radians(12)),
+    "heading": twip.Uniform(low=-math.pi, high=math.pi),
+}
+
+
+def incline(n=12, tracker="pid", **kw):
+    kw.setdefault("perturb", AXES)
+    kw.setdefault("seed", 3)
+    kw.setdefault("progress", False)
+    return twip.montecarlo("incline-circle", n, options={"tracker": tracker, "laps": 0.1}, **kw)
+
+
+def same(a, b):
+    assert a.metrics.keys() == b.metrics.keys()
+    for k in a.metrics:
+        np.testing.assert_array_equal(a.metrics[k], b.metrics[k], err_msg=k)
+    assert a.steps == b.steps
+
+
+def test_slope_and_heading_are_drawn_per_sample_and_reach_the_model_and_the_feed_forward():
+    r = incline()
+    assert r.kernel == "planar" and "lifted" in r.metric_names
+    slope, heading = r.drawn("slope"), r.drawn("heading")
+    assert np.all((slope >= 0) & (slope < math.radians(12))) and np.ptp(slope) > math.radians(5)
+    assert np.all(np.abs(heading) <= math.pi) and np.ptp(heading) > 2.0
+    cols = r.table()
+    assert np.array_equal(cols["slope[rad]"], slope) and np.array_equal(cols["heading[rad]"], heading)
+    params, (s, h, terrain), x0 = r.sample(4)
+    assert (s, h) == (slope[4], heading[4]) and (terrain.slope, terrain.uphill_heading) == (s, h)
+    # The sample is a run of its robot on its own plane, the feed-forward of that plane:
+    # the general runner, so bit for bit.
+    sc = twip.scenarios.get("incline-circle", tracker="pid", laps=0.1)
+    ff = twip.GradeFeedForward(sc.controller.tracker, terrain, sc.controller.params)
+    direct = twip.simulate(twip.PlanarModel(params, terrain=terrain), ff, x0, sc.t_final, sc.dt, reference=sc.reference)
+    assert direct.metrics["mean_abs_y_error"] == r.metrics["mean_abs_y_error"][4]
+    # The nominal plane's feed-forward on the drawn plane is another run.
+    stale = twip.simulate(twip.PlanarModel(params, terrain=terrain), sc.controller, x0, sc.t_final, sc.dt,
+                          reference=sc.reference)
+    assert stale.metrics["mean_abs_pitch"] != r.metrics["mean_abs_pitch"][4]
+
+
+@pytest.mark.parametrize("tracker", ["pid", "smc-fuzzy"])
+def test_same_bits_on_threads_in_shards_resumed_rerun_and_replayed(tmp_path, tracker):
+    one = incline(tracker=tracker, threads=1)
+    same(one, incline(tracker=tracker, threads=2))
+    same(one, incline(tracker=tracker, checkpoint=tmp_path / "c", shard_size=5))
+    same(one, incline(tracker=tracker, checkpoint=tmp_path / "c", shard_size=5))  # every shard read back
+    for i in (0, 7):
+        alone = one.rerun(i)
+        for k in ("valid",) + one.metric_names:
+            assert np.array_equal(alone[k], one.metrics[k][i], equal_nan=True), k
+        replayed = one.replay(i)
+        assert replayed.metrics["mean_abs_y_error"] == one.metrics["mean_abs_y_error"][i]
+        assert replayed.metrics["mean_abs_pitch"] == one.metrics["mean_abs_pitch"][i]
+
+
+def test_a_resumed_checkpoint_on_another_terrain_is_refused(tmp_path):
+    incline(n=4, checkpoint=tmp_path / "c", shard_size=2)
+    other = twip.scenarios.get("incline-circle", tracker="pid", laps=0.1, slope_deg=7.0)
+    with pytest.raises(Exception, match="(?i)checkpoint|fingerprint|different|another"):
+        twip.montecarlo(other, 4, perturb=AXES, seed=3, progress=False, checkpoint=tmp_path / "c", shard_size=2)
+
+
+def test_through_the_rig_on_terrain_the_same_bits_on_threads_and_replayed():
+    kw = dict(realism=twip.Realism.thesis_like(), n=4)
+    one, two = incline(threads=1, **kw), incline(threads=2, **kw)
+    same(one, two)
+    assert one.kernel == "planar-realism"
+    assert one.replay(1).metrics["mean_abs_pitch"] == one.metrics["mean_abs_pitch"][1]
+
+
+def test_a_hard_turn_across_a_steep_drawn_plane_lifts():
+    """Across a 0.45-0.5 rad plane at 1.5 m/s, turning at 8 rad/s: every sample ends
+    "lifted" (counted as fallen too), as a run of it does."""
+    perturb = {"slope": twip.Uniform(low=0.45, high=0.5), "heading": twip.Uniform(low=-0.01, high=0.01),
+               "psi0": twip.Uniform(low=1.57, high=1.571), "v0": twip.Uniform(low=1.5, high=1.51),
+               "omega0": twip.Uniform(low=-8.0, high=-7.9)}
+    r = incline(n=4, perturb=perturb)
+    assert r.lift_rate == 1.0 and r.fall_rate == 1.0
+    assert r.replay(2).outcome == "lifted"
+    flat = twip.montecarlo("circle-pid", 4, options={"laps": 0.1}, progress=False)
+    assert flat.lift_rate == 0.0
+
+
+def test_over_bumps_the_terrain_is_fixed_and_its_robots_are_drawn():
+    sc = twip.scenarios.get("figure-eight-bumps", tracker="smc").replace(t_final=1.0)
+    r = twip.montecarlo(sc, 4, perturb={"m_body": twip.Uniform(rel=0.2)}, progress=False)
+    assert r.kernel == "planar" and r.valid.all()
+    params, (s, h, terrain), x0 = r.sample(1)
+    assert s is None and h is None and repr(terrain) == repr(sc.model.terrain)
+    assert r.replay(1).metrics["mean_abs_pitch"] == r.metrics["mean_abs_pitch"][1]
+
+
+def test_bad_axes_are_refused_by_name():
+    bad = twip.InvalidParameterError
+    with pytest.raises(bad, match="slope"):
+        incline(n=2, perturb={"slope": twip.Uniform(low=0.0, high=math.radians(90))})
+    with pytest.raises(bad, match="slope"):
+        incline(n=2, perturb={"slope": twip.Uniform(low=-0.1, high=0.1)})
+    with pytest.raises(bad, match="slope"):  # a normal unclamped reaches below 0
+        incline(n=2, perturb={"slope": twip.Normal(std=0.05)})
+    incline(n=2, perturb={"slope": twip.Normal(std=0.02, low=0.0, high=0.3)})
+    bumps = twip.scenarios.get("figure-eight-bumps").replace(t_final=0.1)
+    for name in ("heading", "slope"):
+        with pytest.raises(bad, match=f"'{name}'.*no plane"):
+            twip.montecarlo(bumps, 2, perturb={name: twip.Uniform(low=0.0, high=0.1)}, progress=False)
+        with pytest.raises(bad, match=f"'{name}'.*flat ground"):
+            twip.montecarlo("circle-pid", 2, perturb={name: twip.Uniform(low=0.0, high=0.1)}, progress=False)
+    with pytest.raises(bad, match="heading.*2-DOF"):
+        twip.montecarlo("flat-lqr", 2, perturb={"heading": twip.Uniform(low=0.0, high=0.1)}, progress=False)
+    # The core refuses them too, by name, whatever the Python layer lets through.
+    sc = twip.scenarios.get("figure-eight-bumps")
+    with pytest.raises(bad, match="heading"):
+        twip._core.sweep_planar_raw(sc.model, sc.controller, sc.x0, 0.1, sc.dt, sc.reference,
+                                    [("heading", 0, "uniform", 0.0, 1.0, 0.0, 1.0)], 0, 0, 1)
+    inc = twip.scenarios.get("incline-circle")
+    with pytest.raises(bad, match="slope"):
+        twip._core.sweep_planar_raw(inc.model, inc.controller, inc.x0, 0.1, inc.dt, inc.reference,
+                                    [("slope", 0, "uniform", 0.0, 1.6, 0.0, 1.6)], 0, 0, 1)
