@@ -302,6 +302,20 @@ def test_a_checkpoint_begun_on_another_kernel_is_refused(tmp_path):
         tracking_sweep(**kw)
 
 
+def test_a_checkpoint_of_an_older_shard_layout_is_refused(tmp_path):
+    """3-DOF shards gained the lifted and off_terrain columns within one version: a folder
+    begun before (no shard_format, the first layout) is refused, never resumed with mixed shards."""
+    kw = dict(name="circle-pid", n=16, checkpoint=tmp_path, shard_size=8)
+    tracking_sweep(**kw)
+    manifest = tmp_path / "manifest.json"
+    stored = json.loads(manifest.read_text())
+    assert stored["manifest"]["config"]["shard_format"] == twip.sweep.SHARD_FORMAT
+    del stored["manifest"]["config"]["shard_format"]
+    manifest.write_text(json.dumps(stored))
+    with pytest.raises(twip.InvalidParameterError, match=r"different configuration.*differs in: shard_format\)"):
+        tracking_sweep(**kw)
+
+
 def test_a_changed_scenario_object_is_refused_by_the_checkpoint(tmp_path):
     sc = scenarios.get("flat-lqr-sim", **SHORT)
     run = lambda s: twip.montecarlo(s, 16, perturb=PERTURB, seed=7, progress=False, checkpoint=tmp_path, shard_size=8)

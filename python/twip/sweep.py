@@ -40,6 +40,9 @@ MAX_SHARDS = 10_000
 #: A checkpointed sweep of a Python controller, whose samples are slow, is cut into shards
 #: of about this many seconds' work (a Ctrl-C keeps every finished shard).
 SHARD_SECONDS = 2.0
+#: The layout of a checkpoint shard's columns: bumped when they change (2: the 3-DOF sweeps'
+#: lifted and off_terrain columns).
+SHARD_FORMAT = 2
 #: Memory one sample of a sweep takes while it runs and when assembled: its metric
 #: columns (~100 bytes), the worker's result and the concatenated copy.
 BYTES_PER_SAMPLE = 320
@@ -95,6 +98,9 @@ def _config(sc, scenario, n, seed, perturbations, options, perturb_keys, realism
         "seed": int(seed),
         "n": int(n),
         "twip": _core.__version__,
+        # The layout of a shard's columns, so that a folder of an older layout is refused
+        # rather than resumed with mixed shards.
+        "shard_format": SHARD_FORMAT,
         # The engine that computes the samples: kernels agree to rounding, not bit for bit,
         # so a checkpoint resumes only on the kernel that began it.
         "kernel": kernel_for(sc, realism),
