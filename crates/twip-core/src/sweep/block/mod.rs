@@ -37,6 +37,7 @@ mod winding;
 pub use fuzzy::FuzzyLanes;
 pub use lqr::LqrLanes;
 pub use planar::{run_planar_block, LanePath, PidLanes, PlanarLaneLaw};
+#[cfg(feature = "parallel")] // the envs' only use, and they build with `parallel`
 pub(crate) use planar::Plants as PlanarPlants;
 pub use planar_rig::run_planar_rig_block;
 pub use rig::run_rig_block;
