@@ -635,7 +635,7 @@ fn block<C: LaneLaw, const COPY: u8>(
         // `advance` written out: with it the LQR kernel measured ~9 % slower (median of 10
         // alternating runs, 2048 samples, one pinned core: 0.745 against 0.68 s CPU), and
         // 1.15x on the AVX-512 VM with the lanes that end handled as the rig kernel does
-        // (`farm-bench -n 11`, `sweep_throughput lanes 8192`). The branch below is as
+        // (11 paired timings, `sweep_throughput lanes 8192`). The branch below is as
         // touchy: with an array of the lanes that end made in it, the kernel ran 1.24x slower.
         let mut goes_on = [false; LANES];
         let mut any_ends = false;

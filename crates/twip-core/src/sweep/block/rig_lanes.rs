@@ -397,7 +397,7 @@ pub(super) struct RigLanes {
     /// With play, so does each lane that is never pushed while its trains are engaged (but
     /// for a winding without inductance: the trains weigh its lumped current, which
     /// `step_start` gives per lane). That per-lane test also covers `idle`, but without play
-    /// the rig measured 1.04-1.06x the CPU time through it (farm-bench, 20 and 24 pairs).
+    /// the rig measured 1.04-1.06x the CPU time through it (paired timings, 20 and 24 pairs).
     quiet_engaged: [bool; LANES],
     /// Each lane's gear trains over the last step.
     engaged: [bool; LANES],
