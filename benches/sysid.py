@@ -9,7 +9,8 @@ after one warm-up; printed: the median and the range, in s, and the iterations.
 
 Run:  .venv/bin/python benches/sysid.py [--repeats 5]   (after `make build`)
       --accuracy: the errors on rig logs of robots other than the Balanbot;
-      --excitation [--seeds 4]: speed_steps on settled rig logs, per robot and noise seed.
+      --excitation [--seeds 4]: speed_steps on settled rig logs, per robot and noise seed;
+      --play-jacobian: why the full rig with the play declared is not found (the differences jump).
 """
 import argparse
 import statistics
@@ -145,6 +146,39 @@ def excitation(seeds):
                       f"{run.metrics['saturation_share']:.1%}; {'warned' if fit.warnings else 'quiet'}", flush=True)
 
 
+def play_jacobian():
+    """Why the tall robot's full-rig fit with the play declared gets lost: the central
+    differences of its prediction at the true robot and the run's own start states, for
+    steps h of 1e-4 to 1e-2 (relative), with the play and without. A smooth prediction gives
+    one column whatever h; with the play an impact that moves by a whole plant step jumps
+    the prediction, and the column's size grows as 1/h (printed: its norm, and its cosine
+    with the h = 1e-2 column)."""
+    from twip.sysid.estimator import Estimator, Problem
+
+    fields, driver_changes = ROBOTS["tall"]
+    robot = twip.RobotParams.balanbot().replace(**fields)
+    driver = twip.MotorDriver.thesis_like().replace(**driver_changes)
+    _, rig = rig_log(robot, driver, friction=True)
+    sc = twip.scenarios.get("flat-lqr", params=robot, controller_params=robot)
+    run = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], 8.0, dt=1e-3, reference=sc.reference, realism=rig)
+    steps = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2)
+    for backlash in (rig.backlash, None):
+        problem = Problem(run.to_log(), robot, FREE + ["coulomb"], driver, rig.friction, 0.25, Sensors.of(rig), None,
+                          1e-3, backlash)
+        estimator = Estimator(problem, None, 1)
+        starts, x = run.states[problem.segments], np.zeros(estimator.n_g)
+        for j, name in enumerate(FREE):
+            columns = []
+            for h in steps:
+                up, down = x.copy(), x.copy()
+                up[j], down[j] = h, -h
+                columns.append((estimator.evaluate(up, starts)[1] - estimator.evaluate(down, starts)[1]) / (2 * h))
+            last = columns[-1] / np.linalg.norm(columns[-1])
+            print(f"  {'with the play' if backlash else 'rigid trains':<13} {name:<10} " + ", ".join(
+                f"h {h:g}: {np.linalg.norm(c):.3g} ({c @ last / np.linalg.norm(c):+.2f})" for h, c in zip(steps, columns)),
+                flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--repeats", type=int, default=5)
@@ -153,7 +187,13 @@ def main():
     ap.add_argument("--excitation", action="store_true",
                     help="instead of timing: speed_steps' fits on settled rig logs of three robots, per noise seed")
     ap.add_argument("--seeds", type=int, default=4, help="noise seeds 0..N-1 for --excitation")
+    ap.add_argument("--play-jacobian", action="store_true",
+                    help="instead of timing: the finite differences of the tall robot's full-rig prediction, with and "
+                         "without the gear play")
     args = ap.parse_args()
+    if args.play_jacobian:
+        play_jacobian()
+        return
     if args.excitation:
         excitation(range(args.seeds))
         return
