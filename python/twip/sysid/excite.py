@@ -6,7 +6,7 @@ short trip tips the body and brings it back. On the thesis-like rig (settled at 
 8 s, sensors declared) four such trips narrowed i_body's standard deviation from 1.1-1.5 % to
 0.2-1.0 % on three robots. The default turns back at once (no hold at the ends), a step of
 twice the speed: over eight noise seeds the tall robot's i_body errors scattered half as
-widely as with 0.3 s holds (standard deviation 0.78 % against 1.4 %; docs/sysid.md).
+widely as with 0.3 s holds (standard deviation 0.76 % against 1.38 %; docs/sysid.md).
 """
 from __future__ import annotations
 
