@@ -45,7 +45,9 @@ impl<T: Real, C: Controller<T, 7, 2, Reference = PlanarRef<T>>> GradeFeedForward
         &self.inner
     }
 
-    /// The terrain model whose rest it feeds forward and the motor it holds the sum within.
+    /// The terrain model whose rest it feeds forward and the motor it holds the sum within
+    /// (a sweep's lanes').
+    #[cfg(feature = "std")]
     pub(crate) fn parts(&self) -> (&TerrainModel<T>, Option<&DcMotor<T>>) {
         (&self.ground, self.motor.as_ref())
     }

@@ -230,6 +230,7 @@ impl<T: Real> RestTerms<T> {
     }
 
     /// In another number type (a sweep's lanes).
+    #[cfg(feature = "std")]
     pub(crate) fn map<S>(&self, f: impl Fn(T) -> S) -> RestTerms<S> {
         RestTerms { drive_per_grade: f(self.drive_per_grade), mgc: f(self.mgc), radius: f(self.radius), half_track: f(self.half_track) }
     }
@@ -328,6 +329,7 @@ fn accelerations_on_ground<S: Lane>(k: &PlanarCoefficients<S>, weight: S, gear: 
 /// Each wheel's normal force (right, left) at `x` under `u` on the ground of gradient
 /// (`gx`, `gy`), over [`Lane`]: a sweep lane's "lifted" test, as [`TerrainModel::normal_forces`]
 /// (gear trains engaged, `gear`'s friction; its sine and cosine of φ' the lanes' own).
+#[cfg(feature = "std")]
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn normal_forces_on_ground<S: Lane>(k: &PlanarCoefficients<S>, weight: S, gear: Gearhead<'_, S>, contact: &Contact<S>, x: &[S; 7], u: [S; 2], gx: S, gy: S) -> [S; 2] {
@@ -366,6 +368,7 @@ impl<T: Real> Contact<T> {
     }
 
     /// In another number type (a sweep's lanes).
+    #[cfg(feature = "std")]
     pub(crate) fn map<S>(&self, f: impl Fn(T) -> S) -> Contact<S> {
         Contact { r: f(self.r), l: f(self.l), mb: f(self.mb), mw: f(self.mw), g: f(self.g), k: f(self.k), i_wheels: f(self.i_wheels), i_body: f(self.i_body), half_track: f(self.half_track) }
     }
