@@ -67,7 +67,7 @@ def test_same_bits_on_threads_in_shards_resumed_rerun_and_replayed(tmp_path, tra
         replayed = one.replay(i)
         assert one.kernel == "planar-lanes"
         for k in ("mean_abs_y_error", "mean_abs_pitch", "max_path_error_settled", "peak_abs_torque"):
-            assert replayed.metrics[k] == pytest.approx(one.metrics[k][i], rel=1e-12), k
+            assert replayed.metrics[k] == pytest.approx(one.metrics[k][i], rel=1e-12, nan_ok=True), k
 
 
 def test_a_resumed_checkpoint_on_another_terrain_is_refused(tmp_path):
@@ -113,7 +113,6 @@ def test_a_python_controller_sweep_on_terrain_has_the_lifted_and_off_terrain_col
     r = twip.montecarlo(sc, 3, perturb=perturb, seed=3, progress=False, threads=1)
     assert r.kernel == "python" and {"lifted", "off_terrain"} <= set(r.metric_names)
     assert r.lift_rate == 1.0 and r.fall_rate == 1.0 and not r.metrics["off_terrain"].any()
-    assert r.metric_names == incline(n=2).metric_names
 
 
 def test_over_bumps_the_terrain_is_fixed_and_its_robots_are_drawn():
