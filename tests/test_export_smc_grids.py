@@ -33,6 +33,21 @@ def _smc(yaw=None, pitch=None):
     return sc.replace(controller=sc.controller.replace(yaw_sets=yaw, pitch_sets=pitch))
 
 
+def test_the_scenario_takes_the_study_grids_by_name_from_the_command_line(tmp_path):
+    """`twip export circle-smc-fuzzy --option sets=gaussian-5x5` exports the study's 5 x 5
+    Gaussian grids: the same configuration as the Python API's; a bad name is named."""
+    from twip.cli import main
+
+    assert repr(scenarios.get("circle-smc-fuzzy", sets="gaussian-5x5").controller) == repr(_smc(YAW_5X5, PITCH_5X5).controller)
+    assert main(["export", "circle-smc-fuzzy", "--option", "sets=gaussian-5x5", "--out", str(tmp_path / "cli"),
+                 "--replay-seconds", "0.1"]) == 0
+    export(_smc(YAW_5X5, PITCH_5X5), tmp_path / "api", replay_seconds=0.1)
+    config = (tmp_path / "cli" / "twip_config.c").read_text()
+    assert re.search(r"\.n_sets = 5", config) and config == (tmp_path / "api" / "twip_config.c").read_text()
+    with pytest.raises(twip.InvalidParameterError, match="sets = 'gauss'.*gaussian-5x5"):
+        scenarios.get("circle-smc-fuzzy", sets="gauss")
+
+
 def _triangles_7x7():
     phi = [-0.45, -0.3, -0.15, 0.0, 0.15, 0.3, 0.45]
     omega = [-1.5, -1.0, -0.5, 0.0, 0.5, 1.0, 1.5]

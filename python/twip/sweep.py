@@ -10,7 +10,8 @@ sample is run alone again (`SweepResult.rerun(i)`). Replayed with the full runne
 trajectory (`SweepResult.replay(i)`), a sample is also the sweep's bit for bit, except in
 sweeps on the lane kernels (kernel "lanes": LQR, and fuzzy with any sets; kernel
 "realism-lanes": the same through a rig; kernel "planar-lanes": PID and sliding-mode
-tracking; kernel "planar-realism-lanes": the same through a rig), which fuse multiply-adds: there the metrics agree to ~1e-13 relative (through a
+tracking, on flat ground or terrain; kernel "planar-realism-lanes": the same through a rig on
+flat ground), which fuse multiply-adds: there the metrics agree to ~1e-13 relative (through a
 rig's quantisers, over its first seconds: see `SweepResult.replay`).
 
 With `realism=` (a `twip.Realism`) every sample runs with the robot's real parts in the
@@ -41,8 +42,8 @@ MAX_SHARDS = 10_000
 #: of about this many seconds' work (a Ctrl-C keeps every finished shard).
 SHARD_SECONDS = 2.0
 #: The layout of a checkpoint shard's columns: bumped when they change (2: the 3-DOF sweeps'
-#: lifted and off_terrain columns).
-SHARD_FORMAT = 2
+#: lifted and off_terrain columns; 3: those of a Python controller's 3-DOF sweeps).
+SHARD_FORMAT = 3
 #: Memory one sample of a sweep takes while it runs and when assembled: its metric
 #: columns (~100 bytes), the worker's result and the concatenated copy.
 BYTES_PER_SAMPLE = 320

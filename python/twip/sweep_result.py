@@ -75,7 +75,7 @@ class SweepResult:
     def lift_rate(self) -> float:
         """The share of valid samples whose run ended "lifted" (a wheel's normal force went
         negative, on terrain: counted in `fall_rate` too); NaN without valid samples or in
-        a sweep that does not tell (2-DOF, a Python controller)."""
+        a sweep that does not tell (2-DOF)."""
         v = self.valid
         lifted = self.metrics.get("lifted")
         return float(np.mean(lifted[v] == 1.0)) if lifted is not None and v.any() else float("nan")

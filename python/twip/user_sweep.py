@@ -103,6 +103,11 @@ def failure_reason(message: str) -> str:
     return f"the controller failed: {message.split(':', 1)[0]}"
 
 
+#: How a 3-DOF run on terrain can end besides a fall, each a column of its sweep as in the
+#: built-in trackers' (1 when the run ended so, counted as fallen too).
+_HALTS = ("lifted", "off_terrain")
+
+
 def _sample(index: int) -> dict:
     """Sample `index`: its robot drawn from its own stream, then one run."""
     from twip.perturbation import ground_model  # (it imports this module)
@@ -133,7 +138,8 @@ def _sample(index: int) -> dict:
             return {"valid": False}
         raise
     t_end = r.t_end if r.t_end is not None else r.steps * sc.dt
-    return {"valid": True, "fell": r.outcome in ("fell", "diverged", "lifted", "off_terrain"), "t_end": t_end, "steps": r.steps, **r.metrics}
+    ended = {name: float(r.outcome == name) for name in _HALTS} if family.planar else {}
+    return {"valid": True, "fell": r.outcome in ("fell", "diverged", *_HALTS), "t_end": t_end, "steps": r.steps, **r.metrics, **ended}
 
 
 def _chunk(bounds) -> list:
@@ -287,12 +293,13 @@ def _metric_names(sc, realism) -> list:
     robot (so that a shard whose samples all failed or were interrupted has them). It runs
     through the realism, so that a controller the rig refuses (its period) is refused
     before any sample."""
+    from twip.perturbation import family_of  # (it imports this module)
     from twip.sim import simulate
 
     options = {} if realism is None else {"realism": realism}
     one = simulate(sc.model, pickle.loads(_JOB["controller"]), sc.x0, sc.dt, sc.dt, reference=sc.reference,
                    control_period=sc.control_period, **options)
-    return ["t_end"] + list(one.metrics)
+    return ["t_end"] + list(one.metrics) + (list(_HALTS) if family_of(sc).planar else [])
 
 
 def _layout(start, count, results, interrupted, names) -> dict:

@@ -7,6 +7,9 @@
 //! pid-lanes (the same on the planar lane kernel), pid-realism (circle-pid through the
 //! thesis-like rig on the general runner), pid-realism-lanes (the same on the planar rig's lane kernel),
 //! smc-fuzzy-lanes (circle-smc-fuzzy, 5 ms loop, on the planar lane kernel),
+//! pid-terrain (circle-pid with the grade's feed-forward on planes drawn per sample, slope
+//! 0-10 deg at any uphill heading, on the general runner), pid-terrain-lanes (the same on the
+//! planar lanes on terrain),
 //! realism (LQR through the thesis-like rig,
 //! 5 ms loop), realism-lanes (the same on the rig's lane kernel), realism-lanes-no-imu (that rig
 //! without its IMU: what the IMU costs), realism-lanes-slip (that rig with the data sheet's
@@ -15,7 +18,8 @@
 //! (the thesis's fuzzy law, 5 ms loop, through the thesis-like rig on lanes).
 //! RIG_DROP=imu,encoder,motor,delay,friction,backlash (any of them) takes those parts out of
 //! the 2-DOF rig paths' realism: what each part costs.
-//! The checksum's bits tell two builds' results apart (the same bits: the same numbers).
+//! The checksum's bits tell two builds' results apart (the same bits: the same numbers); the
+//! 3-DOF paths print a digest of every metric of every sample too.
 use nalgebra::{Matrix4, Vector4};
 use twip_core::control::fuzzy::FuzzyController;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
@@ -91,8 +95,44 @@ fn main() {
                     .map(|i| planar::run_planar_sample(&pid, &circle, &config, &planar::draw(&nominal, &perturb, 1, i), 0.0, realism, &|| false).unwrap())
                     .collect()
             } else {
-                planar::run_planar_lane_samples(&PidLanes::new(&pid), &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|| false).unwrap().unwrap()
+                planar::run_planar_lane_samples(&PidLanes::new(&pid), &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|| false, None).unwrap().unwrap()
             };
+            digest(&runs);
+            runs.iter().map(|m| m.mean_abs_x_error).sum()
+        }
+        "pid-terrain" | "pid-terrain-lanes" => {
+            use twip_core::control::grade::GradeFeedForward;
+            use twip_core::control::pid::PidTracker;
+            use twip_core::control::trajectory::{Circle, Direction};
+            use twip_core::hardware::motor::DcMotor;
+            use twip_core::model::terrain::Terrain;
+            use twip_core::model::terrain_model::TerrainModel;
+            use twip_core::sweep::block::{FeedForwardLanes, PidLanes};
+            use twip_core::sweep::planar::{self, PlanarNominal};
+            use twip_core::sweep::terrain::{self, SweepTerrain};
+            let motor = DcMotor::gb37y3530();
+            let pid = PidTracker::table_4_1(&params, motor, 0.005).unwrap();
+            let ff = GradeFeedForward::new(pid, TerrainModel::new(twip_core::PlanarModel::new(params).unwrap(), Terrain::flat()), Some(motor));
+            let circle = Circle::from_origin(0.6, core::f64::consts::PI * params.wheel_radius, Direction::CounterClockwise).unwrap();
+            let nominal = PlanarNominal { params, x0: nalgebra::SVector::zeros() };
+            let ground = SweepTerrain::Plane { slope: 0.0, uphill_heading: 0.0 };
+            let perturb = [
+                perturb[0],
+                Perturbation { target: Target::Slope, spread: Spread::Uniform { low: 0.0, high: 10f64.to_radians() } },
+                Perturbation { target: Target::Heading, spread: Spread::Uniform { low: -core::f64::consts::PI, high: core::f64::consts::PI } },
+            ];
+            let runs: Vec<_> = if path == "pid-terrain" {
+                (0..n)
+                    .map(|i| {
+                        let (sample, drawn) = terrain::draw(&nominal, &ground, &perturb, 1, i);
+                        terrain::run_terrain_sample(|t| ff.on(t.clone()), &circle, &config, &sample, &ground, drawn, 0.0, None, &|| false).unwrap()
+                    })
+                    .collect()
+            } else {
+                let feed = Some(FeedForwardLanes::new(&ff));
+                planar::run_planar_lane_samples(&PidLanes::new(&pid), &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|| false, Some((&ground, feed))).unwrap().unwrap()
+            };
+            digest(&runs);
             runs.iter().map(|m| m.mean_abs_x_error).sum()
         }
         "smc-fuzzy-lanes" => {
@@ -109,7 +149,8 @@ fn main() {
             let circle = Circle::from_origin(0.45, core::f64::consts::PI / 30.0, Direction::CounterClockwise).unwrap();
             let nominal = PlanarNominal { params, x0: nalgebra::SVector::zeros() };
             let law = SmcLanes::new(&smc).unwrap();
-            let runs = planar::run_planar_lane_samples(&law, &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|| false).unwrap().unwrap();
+            let runs = planar::run_planar_lane_samples(&law, &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|| false, None).unwrap().unwrap();
+            digest(&runs);
             runs.iter().map(|m| m.mean_abs_x_error).sum()
         }
         "realism" | "realism-lanes" | "realism-lanes-no-imu" | "realism-lanes-slip" | "realism-lanes-hills" | "fuzzy-realism-lanes" => {
@@ -149,6 +190,14 @@ fn main() {
     };
     let secs = start.elapsed().as_secs_f64();
     println!("{path}: {n} samples x 10000 steps in {secs:.3} s wall = {:.2} M sample-steps/s (checksum {total:.6e}; bits {:016x})", n as f64 * 1e4 / secs / 1e6, total.to_bits());
+}
+
+/// Prints a digest of every sample's metrics (their `Debug` text, so every bit of every field).
+fn digest<M: std::fmt::Debug>(runs: &[M]) {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    format!("{runs:?}").hash(&mut h);
+    println!("digest of every metric: {:016x}", h.finish());
 }
 
 /// `rig` without the parts the environment's RIG_DROP names (comma-separated).

@@ -170,6 +170,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="firmware: degrees, encoder counts per loop, PWM counts, ms (default); si: SI throughout")
     p.add_argument("--replay-seconds", type=positive_float, default=20.0, metavar="S",
                    help="length of the recorded run that `make check` replays (default 20 s)")
+    p.add_argument("--option", action="append", metavar="NAME=VALUE",
+                   help="a scenario option (repeatable; e.g. circle-smc-fuzzy's sets=gaussian-5x5)")
     add_robot_option(p)
     design.add_controller_option(p)
     p.set_defaults(func=_command("export"))

@@ -254,10 +254,11 @@ def export(args) -> int:
         raise UsageError(f"--out {out}: exists and is not a folder")
     robot_file = twip.Robot.from_file(args.robot) if args.robot else None
     target = scenario_name(args.scenario)
-    if args.controller:  # the scenario for the robot, with the file's controller in it
+    options = scenario_options(target, args.option)
+    if args.controller or options:  # the scenario for the robot, with its options and the file's controller
         params = robot_file.params if robot_file else None
-        target = with_controller(scenarios.get(target, params=params, **scenarios.robot_options(target, robot_file)),
-                                 args.controller)
+        built = scenarios.get(target, params=params, **scenarios.robot_options(target, robot_file), **options)
+        target = with_controller(built, args.controller) if args.controller else built
     summary = firmware.export(target, out, robot=robot_file, units_=args.units,
                               replay_seconds=args.replay_seconds, force=args.force)
     print(f"wrote {out}/: {summary['family']} controller of {args.scenario} in {args.units} units, "

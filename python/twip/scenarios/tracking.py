@@ -101,14 +101,47 @@ def _circle_smc(params, ctrl_params, laps=3, period=0.005, boundary_layer=None, 
                 grade_feed_forward, **options)
 
 
+#: The fuzzy-sets study's 5 x 5 Gaussian grids (docs/fuzzy_sets.md): centres phi (rad) and
+#: omega, phi_dot (rad/s), sigma half the spacing.
+_PHI5 = [-0.3, -0.15, 0.0, 0.15, 0.3]
+SMC_GRIDS = {
+    "gaussian-5x5": lambda: (_core.FuzzyBasis.grid("gaussian", [_PHI5, [-1.0, -0.5, 0.0, 0.5, 1.0]], [0.075, 0.25]),
+                             _core.FuzzyBasis.grid("gaussian", [_PHI5, [-2.0, -1.0, 0.0, 1.0, 2.0]], [0.075, 0.5])),
+}
+
+
+def _smc_grids(sets) -> dict:
+    """The SmcTracker options of `sets`: None (the thesis's 3 x 3 trapezoids), a name of
+    SMC_GRIDS (what the command line can give) or a pair (yaw_sets, pitch_sets)."""
+    if sets is None:
+        return {}
+    if isinstance(sets, str):
+        if sets not in SMC_GRIDS:
+            raise _core.InvalidParameterError(f"sets = {sets!r}: not a grid name; the names are {sorted(SMC_GRIDS)} "
+                                              "(or give a pair (yaw_sets, pitch_sets) of twip.FuzzyBasis grids)")
+        sets = SMC_GRIDS[sets]()
+    try:
+        yaw, pitch = sets
+    except (TypeError, ValueError):
+        raise _core.InvalidParameterError(f"sets = {sets!r}: expected a grid name {sorted(SMC_GRIDS)} or a pair "
+                                          "(yaw_sets, pitch_sets)") from None
+    return {"yaw_sets": yaw, "pitch_sets": pitch}
+
+
 @register("circle-smc-fuzzy")
 def _circle_smc_fuzzy(params, ctrl_params, laps=3, period=0.005, boundary_layer=None, pitch_offset=True, motor=None,
-                      terrain=None, grade_feed_forward=False, **options):
+                      terrain=None, grade_feed_forward=False, sets=None, **options):
     """4.3.2 with fuzzy estimates of f23 and of the (phi, v) equivalent control (4.99-4.121).
     `terrain` (a twip.Terrain) puts the plant on it; by default without the grade's
-    feed-forward: the fuzzy estimate is left to absorb the grade (docs/terrain.md measures it)."""
+    feed-forward: the fuzzy estimate is left to absorb the grade (docs/terrain.md measures it).
+    `sets`: the estimates' grids, a pair (yaw_sets, pitch_sets) or a name of SMC_GRIDS
+    ("gaussian-5x5": the fuzzy-sets study's; `twip export circle-smc-fuzzy --option
+    sets=gaussian-5x5`); default the thesis's 3 x 3 trapezoids."""
+    grids = _smc_grids(sets)
+    if grids and ({"yaw_sets", "pitch_sets"} & set(options)):
+        raise _core.InvalidParameterError("sets: give the grids in sets or in yaw_sets/pitch_sets, not both")
     return _smc(params, ctrl_params, True, laps, period, boundary_layer, pitch_offset, motor, terrain,
-                grade_feed_forward, **options)
+                grade_feed_forward, **options, **grids)
 
 
 def mismatched(params, factor: float):

@@ -45,6 +45,13 @@ impl<T: Real, C: Controller<T, 7, 2, Reference = PlanarRef<T>>> GradeFeedForward
         &self.inner
     }
 
+    /// The terrain model whose rest it feeds forward and the motor it holds the sum within
+    /// (a sweep's lanes').
+    #[cfg(feature = "std")]
+    pub(crate) fn parts(&self) -> (&TerrainModel<T>, Option<&DcMotor<T>>) {
+        (&self.ground, self.motor.as_ref())
+    }
+
     /// The rest pitch and torques at measurement `y`; zero where there is no rest (a grade
     /// steeper than the body can balance, or off a grid: the run ends there anyway).
     pub fn feed_forward(&self, y: &SVector<T, 7>) -> (T, [T; 2]) {

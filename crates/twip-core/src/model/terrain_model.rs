@@ -28,7 +28,7 @@ use crate::model::lane::Lane;
 use crate::model::math::sin_cos;
 use crate::model::planar::{engaged_accelerations, forces_plus, open_accelerations, PlanarCoefficients, PlanarModel, PlanarState};
 use crate::model::terrain::{Local, Terrain};
-use crate::{c, Dynamics, Real, TwipError};
+use crate::{Dynamics, Real, TwipError};
 
 /// The 3-DOF model on a [`Terrain`]; input `[u_r, u_l]`, motor torques [N m] on the wheels.
 #[derive(Clone, Debug)]
@@ -205,21 +205,55 @@ impl<T: Real> TerrainModel<T> {
         let g = self.terrain.local(x, y).ok_or(TwipError::InvalidParameter { name: "x", value: crate::to_f64(x), reason: "is off the terrain" })?;
         let (s, co) = heading.sin_cos();
         let f = Frame::new(g.gx, g.gy, s, co);
-        let p = self.flat.params();
-        // v̇ = φ̈ = 0: u_r + u_l = R (M_b + M_w) g sin γ (the grade), and the pitch row
-        // M_b g c_z (cos β sin φ' − sin γ cos φ') = u_r + u_l, i.e. M_b g c_z cos ρ sin φ = u_r + u_l.
-        let drive = p.wheel_radius * (p.m_body + p.m_wheels) * p.g * f.sin_grade;
-        let cos_roll = (f.cos_slope * f.cos_slope + f.sin_grade * f.sin_grade).sqrt();
-        let sin_phi = drive / (p.m_body * p.g * p.com_height * cos_roll);
+        let k = RestTerms::of(self.flat.params());
+        let (drive, sin_phi) = rest_drive(&k, &f);
         if sin_phi.abs() >= T::one() {
             return Err(TwipError::NoEquilibrium { reason: "the grade exceeds what gravity on the body can balance (sin phi_s)", value: crate::to_f64(sin_phi) });
         }
         let phi = sin_phi.asin();
-        // The yaw row: the lean's turn −M_b g c_z sin β sin χ sin φ' = b (u_r − u_l)/R.
-        let yaw = -(p.m_body * p.g * p.com_height * f.cross * (phi + f.delta).sin()) * p.wheel_radius / p.half_track;
-        let half = c::<T>(0.5);
-        Ok((phi, [half * (drive + yaw), half * (drive - yaw)]))
+        Ok((phi, rest_torques(&k, &f, drive, (phi + f.delta).sin())))
     }
+}
+
+/// What the rest on a grade needs of a robot: R (M_b + M_w) g, M_b g c_z, R and b.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RestTerms<S> {
+    pub drive_per_grade: S,
+    pub mgc: S,
+    pub radius: S,
+    pub half_track: S,
+}
+
+impl<T: Real> RestTerms<T> {
+    pub(crate) fn of(p: &crate::RobotParams<T>) -> Self {
+        Self { drive_per_grade: p.wheel_radius * (p.m_body + p.m_wheels) * p.g, mgc: p.m_body * p.g * p.com_height, radius: p.wheel_radius, half_track: p.half_track }
+    }
+
+    /// In another number type (a sweep's lanes).
+    #[cfg(feature = "std")]
+    pub(crate) fn map<S>(&self, f: impl Fn(T) -> S) -> RestTerms<S> {
+        RestTerms { drive_per_grade: f(self.drive_per_grade), mgc: f(self.mgc), radius: f(self.radius), half_track: f(self.half_track) }
+    }
+}
+
+/// The rest on the plane of frame `f`, over [`Lane`] (a run's and a sweep lane's, one
+/// source): the wheels' summed torque and sin φ_s. v̇ = φ̈ = 0: u_r + u_l = R (M_b + M_w) g sin γ
+/// (the grade), and the pitch row M_b g c_z (cos β sin φ' − sin γ cos φ') = u_r + u_l, i.e.
+/// M_b g c_z cos ρ sin φ = u_r + u_l. A rest exists where |sin φ_s| < 1.
+#[inline(always)]
+pub(crate) fn rest_drive<S: Lane>(k: &RestTerms<S>, f: &Frame<S>) -> (S, S) {
+    let drive = k.drive_per_grade * f.sin_grade;
+    let cos_roll = (f.cos_slope * f.cos_slope + f.sin_grade * f.sin_grade).square_root();
+    (drive, drive / (k.mgc * cos_roll))
+}
+
+/// The wheel torques (u_r, u_l) of the rest of summed torque `drive`, `sin_lean` = sin(φ_s + δ):
+/// the yaw row, the lean's turn −M_b g c_z sin β sin χ sin φ' = b (u_r − u_l)/R.
+#[inline(always)]
+pub(crate) fn rest_torques<S: Lane>(k: &RestTerms<S>, f: &Frame<S>, drive: S, sin_lean: S) -> [S; 2] {
+    let yaw = -(k.mgc * f.cross * sin_lean) * k.radius / k.half_track;
+    let half = S::splat(0.5);
+    [half * (drive + yaw), half * (drive - yaw)]
 }
 
 /// The frame of `terrain`'s local plane at state `x` (clamped onto a grid).
@@ -277,11 +311,30 @@ fn tilted_forces<S: Lane>(k: &PlanarCoefficients<S>, weight: S, f: &Frame<S>, xp
 /// the body; `k`: the flat model's coefficients, `weight` = (M_b + M_w) g.
 #[inline(always)]
 pub(crate) fn deriv_on_ground<S: Lane>(k: &PlanarCoefficients<S>, weight: S, gear: Gearhead<'_, S>, x: &[S; 7], u: [S; 2], gx: S, gy: S) -> [S; 7] {
+    let (nu, f, _) = accelerations_on_ground(k, weight, gear, x, u, gx, gy);
+    motion_of(x, &nu, &f)
+}
+
+/// ν̇' = (φ̈', v̇, ω̇) at `x` on the ground of gradient (`gx`, `gy`), with the frame and the
+/// plane-frame state: [`deriv_on_ground`]'s and [`normal_forces_on_ground`]'s.
+#[inline(always)]
+fn accelerations_on_ground<S: Lane>(k: &PlanarCoefficients<S>, weight: S, gear: Gearhead<'_, S>, x: &[S; 7], u: [S; 2], gx: S, gy: S) -> ([S; 3], Frame<S>, [S; 7]) {
     let (s, co) = S::sincos(x[2]);
     let f = Frame::new(gx, gy, s, co);
     let xp = plane_state(x, &f);
     let (nu, _) = engaged_accelerations(k, gear, &xp, u, |u_r, u_l| tilted_forces(k, weight, &f, &xp, u_r, u_l, |_, _| None));
-    motion_of(x, &nu, &f)
+    (nu, f, xp)
+}
+
+/// Each wheel's normal force (right, left) at `x` under `u` on the ground of gradient
+/// (`gx`, `gy`), over [`Lane`]: a sweep lane's "lifted" test, as [`TerrainModel::normal_forces`]
+/// (gear trains engaged, `gear`'s friction; its sine and cosine of φ' the lanes' own).
+#[cfg(feature = "std")]
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn normal_forces_on_ground<S: Lane>(k: &PlanarCoefficients<S>, weight: S, gear: Gearhead<'_, S>, contact: &Contact<S>, x: &[S; 7], u: [S; 2], gx: S, gy: S) -> [S; 2] {
+    let (nu, f, xp) = accelerations_on_ground(k, weight, gear, x, u, gx, gy);
+    normal_forces_of(contact, &f, &xp, &nu, S::sincos(xp[3]))
 }
 
 /// N_r, N_l from the plane-frame state `xp` = [.., φ', φ̇', v, ω] and ν̇' (docs/terrain.md):
@@ -289,19 +342,52 @@ pub(crate) fn deriv_on_ground<S: Lane>(k: &PlanarCoefficients<S>, weight: S, gea
 /// b (N_l − N_r) = g sin β sin χ H − (H + I_w/R) v ω − ω φ̇' (k cos 2φ' + I_yy + M_b c_z² + 2 M_b R c_z cos φ')
 ///                 − ω̇ sin φ' (k cos φ' + M_b R c_z),  H = M_b (R + c_z cos φ') + M_w R.
 fn normal_forces<T: Real>(p: &crate::RobotParams<T>, f: &Frame<T>, xp: &[T; 7], nu: &[T; 3]) -> [T; 2] {
-    let (s, cp) = xp[3].sin_cos();
+    normal_forces_of(&Contact::of(p), f, xp, nu, xp[3].sin_cos())
+}
+
+/// The robot's numbers the normal forces take: R, c_z, M_b, M_w, g, k = M_b c_z² + I_xx − I_zz,
+/// I_w, I_yy and b.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Contact<S> {
+    r: S,
+    l: S,
+    mb: S,
+    mw: S,
+    g: S,
+    k: S,
+    i_wheels: S,
+    i_body: S,
+    half_track: S,
+}
+
+impl<T: Real> Contact<T> {
+    pub(crate) fn of(p: &crate::RobotParams<T>) -> Self {
+        let (r, l, mb) = (p.wheel_radius, p.com_height, p.m_body);
+        let k = mb * l * l + p.i_body_roll - p.i_body_yaw;
+        Self { r, l, mb, mw: p.m_wheels, g: p.g, k, i_wheels: p.i_wheels, i_body: p.i_body, half_track: p.half_track }
+    }
+
+    /// In another number type (a sweep's lanes).
+    #[cfg(feature = "std")]
+    pub(crate) fn map<S>(&self, f: impl Fn(T) -> S) -> Contact<S> {
+        Contact { r: f(self.r), l: f(self.l), mb: f(self.mb), mw: f(self.mw), g: f(self.g), k: f(self.k), i_wheels: f(self.i_wheels), i_body: f(self.i_body), half_track: f(self.half_track) }
+    }
+}
+
+/// [`normal_forces`] over [`Lane`], given (sin φ', cos φ') (a run's libm's, a lane's own).
+#[inline(always)]
+fn normal_forces_of<S: Lane>(p: &Contact<S>, f: &Frame<S>, xp: &[S; 7], nu: &[S; 3], (s, cp): (S, S)) -> [S; 2] {
     let (phi_dot, v, omega) = (xp[4], xp[5], xp[6]);
-    let (r, l, mb) = (p.wheel_radius, p.com_height, p.m_body);
-    let k = mb * l * l + p.i_body_roll - p.i_body_yaw;
-    let sum = (mb + p.m_wheels) * p.g * f.cos_slope - mb * l * (s * nu[0] + cp * phi_dot * phi_dot);
-    let h = mb * (r + l * cp) + p.m_wheels * r;
+    let (r, l, mb, k) = (p.r, p.l, p.mb, p.k);
+    let sum = (mb + p.mw) * p.g * f.cos_slope - mb * l * (s * nu[0] + cp * phi_dot * phi_dot);
+    let h = mb * (r + l * cp) + p.mw * r;
     let cos_2 = cp * cp - s * s;
     let moment = p.g * f.cross * h
         - (h + p.i_wheels / r) * v * omega
-        - omega * phi_dot * (k * cos_2 + p.i_body + mb * l * l + c::<T>(2.0) * mb * r * l * cp)
+        - omega * phi_dot * (k * cos_2 + p.i_body + mb * l * l + S::splat(2.0) * mb * r * l * cp)
         - nu[2] * s * (k * cp + mb * r * l);
     let diff = moment / p.half_track;
-    let half = c::<T>(0.5);
+    let half = S::splat(0.5);
     [half * (sum - diff), half * (sum + diff)]
 }
 

@@ -8,6 +8,7 @@
 //! with the former to rounding.
 use crate::control::{Controller, Reference};
 use crate::hardware::realism::Realism;
+use crate::model::dynamics::Halt;
 use crate::model::planar::{PlanarModel, PlanarState};
 use crate::model::terrain::Terrain;
 use crate::model::terrain_model::TerrainModel;
@@ -19,7 +20,8 @@ use crate::{RobotParams, TwipError};
 
 use alloc::vec::Vec;
 
-use super::block::{self, LanePath, PlanarLaneLaw};
+use super::block::{self, FeedForwardLanes, LanePath, PlanarLaneLaw, TerrainLanes};
+use super::terrain::SweepTerrain;
 use super::lanes::LANES;
 use super::rig::RealismOf;
 use super::{draw_values, finish, fresh, sweep_metrics, Perturbation, SweepMetrics, Target};
@@ -125,8 +127,17 @@ impl PlanarSampleMetrics {
 
     /// These metrics with how the run ended marked ("lifted", "off_terrain").
     pub fn ended(self, outcome: &Outcome<f64>) -> Self {
+        self.halted(match outcome {
+            Outcome::Lifted { .. } => Some(Halt::Lifted),
+            Outcome::OffTerrain { .. } => Some(Halt::OffTerrain),
+            _ => None,
+        })
+    }
+
+    /// These metrics marked with what halted the run, if anything did.
+    pub fn halted(self, halt: Option<Halt>) -> Self {
         let is = |b: bool| if b { 1.0 } else { 0.0 };
-        Self { lifted: is(matches!(outcome, Outcome::Lifted { .. })), off_terrain: is(matches!(outcome, Outcome::OffTerrain { .. })), ..self }
+        Self { lifted: is(halt == Some(Halt::Lifted)), off_terrain: is(halt == Some(Halt::OffTerrain)), ..self }
     }
 }
 
@@ -209,7 +220,10 @@ where
 
 /// Runs samples `indices` of a tracking sweep on lanes ([`block::run_planar_block`], for
 /// trackers with a [`PlanarLaneLaw`]): [`LANES`] at a time, each lane agreeing with
-/// [`run_planar_sample`] to rounding. `Ok(None)` when `should_stop` said so.
+/// [`run_planar_sample`] to rounding. On flat ground, or on `terrain` (each sample's robot,
+/// start and ground drawn by [`super::terrain::draw`]) with the grade's feed-forward or
+/// without: there each lane agrees with [`super::terrain::run_terrain_sample`] to rounding,
+/// "lifted" and "off_terrain" included. `Ok(None)` when `should_stop` said so.
 #[allow(clippy::too_many_arguments)]
 pub fn run_planar_lane_samples<C: PlanarLaneLaw + Clone, P: LanePath>(
     law: &C,
@@ -221,8 +235,16 @@ pub fn run_planar_lane_samples<C: PlanarLaneLaw + Clone, P: LanePath>(
     indices: core::ops::Range<u64>,
     settle: f64,
     should_stop: &dyn Fn() -> bool,
+    terrain: Option<(&SweepTerrain, Option<FeedForwardLanes>)>,
 ) -> Result<Option<Vec<PlanarSampleMetrics>>, TwipError> {
-    in_blocks(nominal, perturbations, seed, indices, |samples| block::run_planar_block(law.clone(), path, config, samples, settle, should_stop))
+    let Some((terrain, feed)) = terrain else {
+        return in_blocks(indices, |i| draw(nominal, perturbations, seed, i), |samples| block::run_planar_block(law.clone(), path, config, samples, settle, should_stop, &block::Flat));
+    };
+    in_blocks(indices, |i| super::terrain::draw(nominal, terrain, perturbations, seed, i), |drawn| {
+        let samples: Vec<PlanarSample> = drawn.iter().map(|d| d.0).collect();
+        let grounds: Vec<Option<Terrain<f64>>> = drawn.iter().map(|d| terrain.at(d.1).ok()).collect();
+        block::run_planar_block(law.clone(), path, config, &samples, settle, should_stop, &TerrainLanes::new(&samples, &grounds, feed))
+    })
 }
 
 /// Runs samples `indices` of a tracking sweep, each through the 3-DOF rig of its robot's
@@ -243,24 +265,22 @@ pub fn run_planar_rig_lane_samples<C: PlanarLaneLaw + Clone, P: LanePath>(
     realism_of: RealismOf<'_>,
     should_stop: &dyn Fn() -> bool,
 ) -> Result<Option<Vec<PlanarSampleMetrics>>, TwipError> {
-    in_blocks(nominal, perturbations, seed, indices, |samples| {
+    in_blocks(indices, |i| draw(nominal, perturbations, seed, i), |samples| {
         block::run_planar_rig_block(law.clone(), path, config, samples, settle, realism_of, should_stop)
     })
 }
 
-/// The samples `indices`, drawn and run `run_block` by block of [`LANES`].
-fn in_blocks(
-    nominal: &PlanarNominal,
-    perturbations: &[Perturbation],
-    seed: u64,
+/// The samples `indices`, each drawn by `draw`, run `run_block` by block of [`LANES`].
+fn in_blocks<D>(
     indices: core::ops::Range<u64>,
-    run_block: impl Fn(&[PlanarSample]) -> Result<Option<[PlanarSampleMetrics; LANES]>, TwipError>,
+    draw: impl Fn(u64) -> D,
+    run_block: impl Fn(&[D]) -> Result<Option<[PlanarSampleMetrics; LANES]>, TwipError>,
 ) -> Result<Option<Vec<PlanarSampleMetrics>>, TwipError> {
     let mut out = Vec::with_capacity((indices.end - indices.start) as usize);
     let mut start = indices.start;
     while start < indices.end {
         let end = (start + LANES as u64).min(indices.end);
-        let samples: Vec<PlanarSample> = (start..end).map(|i| draw(nominal, perturbations, seed, i)).collect();
+        let samples: Vec<D> = (start..end).map(&draw).collect();
         let Some(block) = run_block(&samples)? else {
             return Ok(None);
         };
@@ -291,7 +311,7 @@ pub(crate) mod tests {
 
     /// m_body (field 0) may go negative (an invalid robot); com_height (8) up to 5x;
     /// the initial pitch (state 3) up to ±0.6 rad, which some survive.
-    fn spread() -> [Perturbation; 3] {
+    pub(crate) fn spread() -> [Perturbation; 3] {
         [
             Perturbation { target: Target::Param(0), spread: Spread::Normal { mean: 0.83, std: 0.6, low: -1.0, high: 2.0 } },
             Perturbation { target: Target::Param(8), spread: Spread::Uniform { low: 0.02, high: 0.4 } },
@@ -395,7 +415,7 @@ pub(crate) mod tests {
     }
 
     /// The thesis's sliding-mode tracker, with or without its fuzzy adaptation.
-    fn smc(fuzzy: bool) -> crate::control::smc::SmcTracker<f64> {
+    pub(crate) fn smc(fuzzy: bool) -> crate::control::smc::SmcTracker<f64> {
         use crate::control::smc::{Adaptation, SmcGains, SmcOptions, SmcTracker};
         let model = PlanarModel::new(RobotParams::balanbot()).unwrap();
         let unit = DcMotor::<f64>::gb37y3530().torque_per_count();
@@ -429,7 +449,7 @@ pub(crate) mod tests {
         let n = 2 * LANES as u64 + 3;
         let realism = realism.map(|r| crate::sweep::rig::for_sweep(r, 7));
         let lanes = match &realism {
-            None => run_planar_lane_samples(law, &circle, &config, &nominal, &spread, 5, 0..n, 2.0, &never),
+            None => run_planar_lane_samples(law, &circle, &config, &nominal, &spread, 5, 0..n, 2.0, &never, None),
             Some(r) => run_planar_rig_lane_samples(law, &circle, &config, &nominal, &spread, 5, 0..n, 2.0, &|_| Ok(*r), &never),
         };
         let lanes = lanes.unwrap().unwrap();
@@ -442,17 +462,25 @@ pub(crate) mod tests {
                 continue;
             }
             (ran, fell) = (ran + 1, fell + one.fell as usize);
-            assert_eq!(got.t_end, one.t_end, "sample {i}");
-            for k in 0..PlanarSampleMetrics::NAMES.len() {
-                let (a, b) = (got.value(k), one.value(k));
-                if a.is_nan() || b.is_nan() {
-                    assert!(a.is_nan() && b.is_nan(), "sample {i} {}: {a} vs {b}", PlanarSampleMetrics::NAMES[k]);
-                    continue;
-                }
-                worst = worst.max((a - b).abs() / b.abs().max(1e-300));
-            }
+            worst = worst.max(worst_difference(&got, &one, i));
         }
         assert!(ran > 10 && fell > 0 && fell < ran, "{ran} ran, {fell} fell");
+        worst
+    }
+
+    /// The largest relative difference of a lane's metrics `got` from its run's `one` (sample
+    /// `i`), which end at the same time and are NaN together.
+    pub(crate) fn worst_difference(got: &PlanarSampleMetrics, one: &PlanarSampleMetrics, i: u64) -> f64 {
+        assert_eq!(got.t_end, one.t_end, "sample {i}");
+        let mut worst = 0.0f64;
+        for k in 0..PlanarSampleMetrics::NAMES.len() {
+            let (a, b) = (got.value(k), one.value(k));
+            if a.is_nan() || b.is_nan() {
+                assert!(a.is_nan() && b.is_nan(), "sample {i} {}: {a} vs {b}", PlanarSampleMetrics::NAMES[k]);
+                continue;
+            }
+            worst = worst.max((a - b).abs() / b.abs().max(1e-300));
+        }
         worst
     }
 

@@ -120,6 +120,9 @@ mod tests {
     use crate::model::terrain_model::TerrainModel;
     use crate::sim::tracking_metrics::TrackingMetrics;
     use crate::sim::runner::{simulate, Outcome};
+    use crate::sweep::block::{FeedForwardLanes, PlanarLaneLaw};
+    use crate::sweep::lanes::LANES;
+    use crate::sweep::planar::run_planar_lane_samples;
     use crate::sweep::Spread;
 
     /// The flat sweep's tracker, circle and robot, over 3 s.
@@ -186,6 +189,81 @@ mod tests {
         assert!(matches!(outcome, Outcome::Lifted { .. }), "{outcome:?}");
         let got = run_terrain_sample(|_| pid, &line, &config, &sample, &terrain, ground, 0.0, None, &|| false).unwrap();
         assert!(got.fell && got.lifted == 1.0 && got.off_terrain == 0.0, "{got:?}");
+    }
+
+    /// The lanes of a sweep on `terrain` (each sample's robot, initial state and ground drawn
+    /// from `axes`) against each sample's run: the same validity, outcome ("lifted",
+    /// "off_terrain" included), steps and end, every metric within 1e-12 relative (as on flat
+    /// ground); returns the worst difference and how many samples (ran, fell, lifted, off).
+    fn lanes_against_the_runs<C, L>(controller_on: impl Fn(&Terrain<f64>) -> C, law: &L, feed: Option<FeedForwardLanes>, terrain: &SweepTerrain, axes: &[Perturbation], x0: PlanarState<f64>, t_final: f64) -> (f64, [usize; 4])
+    where
+        C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Clone,
+        L: PlanarLaneLaw + Clone,
+    {
+        let (_, circle, config, nominal) = setup();
+        let config = SimConfig { t_final, ..config };
+        let nominal = PlanarNominal { x0, ..nominal };
+        let never = || false;
+        let n = LANES as u64 + 5;
+        let lanes = run_planar_lane_samples(law, &circle, &config, &nominal, axes, 5, 0..n, 1.0, &never, Some((terrain, feed))).unwrap().unwrap();
+        let (mut worst, mut counts) = (0.0f64, [0; 4]);
+        for i in 0..n {
+            let (sample, ground) = draw(&nominal, terrain, axes, 5, i);
+            let one = run_terrain_sample(&controller_on, &circle, &config, &sample, terrain, ground, 1.0, None, &never).unwrap();
+            let got = lanes[i as usize];
+            let ending = |m: &PlanarSampleMetrics| format!("{:?}", (m.valid, m.fell, m.steps, m.lifted, m.off_terrain));
+            assert_eq!(ending(&got), ending(&one), "sample {i}");
+            if !one.valid {
+                continue;
+            }
+            counts = [counts[0] + 1, counts[1] + one.fell as usize, counts[2] + (one.lifted == 1.0) as usize, counts[3] + (one.off_terrain == 1.0) as usize];
+            worst = worst.max(crate::sweep::planar::tests::worst_difference(&got, &one, i));
+        }
+        (worst, counts)
+    }
+
+    /// A lane on terrain agrees with the run of its sample to rounding, on drawn planes with
+    /// and without the grade's feed-forward (PID, fuzzy sliding mode), on a drawn ramp, over
+    /// bumps, and on a grid it drives off; lanes lift on steep planes turning hard.
+    #[test]
+    fn a_lane_on_terrain_agrees_with_the_run_to_rounding() {
+        use crate::sweep::block::{PidLanes, SmcLanes};
+        use crate::sweep::planar::tests::{smc, spread};
+        let (pid, _, _, nominal) = setup();
+        let motor = Some(DcMotor::gb37y3530());
+        let flat_model = || TerrainModel::new(PlanarModel::new(nominal.params).unwrap(), Terrain::flat());
+        let ff_pid = GradeFeedForward::new(pid, flat_model(), motor);
+        let ff_smc = GradeFeedForward::new(smc(true), flat_model(), motor);
+        let plane = SweepTerrain::Plane { slope: 0.1, uphill_heading: 0.0 };
+        let ramp = SweepTerrain::Ramp { slope: 0.1, uphill_heading: 0.0, start: 0.05, blend: 0.1 };
+        let [m_body, com, pitch] = spread();
+        let drawn = [m_body, pitch, axes()[1], axes()[2]];
+        let zero = PlanarState::zeros();
+        let (pid_lanes, smc_lanes) = (PidLanes::new(&pid), SmcLanes::new(&smc(true)).unwrap());
+        let xs: alloc::vec::Vec<f64> = (0..9).map(|i| -0.4 + 0.1 * i as f64).collect();
+        let ys: alloc::vec::Vec<f64> = (0..6).map(|j| -0.3 + 0.07 * j as f64).collect();
+        let z: alloc::vec::Vec<f64> = xs.iter().flat_map(|x| ys.iter().map(move |y| 0.02 * (5.0 * x).sin() * (4.0 * y).cos())).collect();
+        let grid = SweepTerrain::Fixed(Terrain::Grid(alloc::sync::Arc::new(crate::model::terrain::Grid::new(xs, ys, &z).unwrap())));
+        let bumps = SweepTerrain::Fixed(Terrain::bumps(0.03, 0.5).unwrap());
+        // Across steep planes (0.3-0.5 rad) at speed, turning hard: some lift.
+        let hard = PlanarState::from([0.0, 0.0, core::f64::consts::FRAC_PI_2, 0.0, 0.0, 1.5, -8.0]);
+        let steep = [Perturbation { target: Target::Slope, spread: Spread::Uniform { low: 0.3, high: 0.5 } }, Perturbation { target: Target::Initial(6), spread: Spread::Uniform { low: -9.0, high: 0.0 } }];
+        let cases = [
+            ("pid, drawn planes", lanes_against_the_runs(|_| pid, &pid_lanes, None, &plane, &drawn, zero, 4.0)),
+            ("pid + feed-forward, drawn planes", lanes_against_the_runs(|t| ff_pid.on(t.clone()), &pid_lanes, Some(FeedForwardLanes::new(&ff_pid)), &plane, &drawn, zero, 4.0)),
+            ("smc-fuzzy + feed-forward, drawn planes", lanes_against_the_runs(|t| ff_smc.on(t.clone()), &smc_lanes, Some(FeedForwardLanes::new(&ff_smc)), &plane, &drawn, zero, 4.0)),
+            ("pid + feed-forward, drawn ramps", lanes_against_the_runs(|t| ff_pid.on(t.clone()), &pid_lanes, Some(FeedForwardLanes::new(&ff_pid)), &ramp, &drawn, zero, 4.0)),
+            ("smc-fuzzy, bumps", lanes_against_the_runs(|_| smc(true), &smc_lanes, None, &bumps, &[m_body, com], zero, 4.0)),
+            ("pid + feed-forward, a grid driven off", lanes_against_the_runs(|t| ff_pid.on(t.clone()), &pid_lanes, Some(FeedForwardLanes::new(&ff_pid)), &grid, &[m_body, pitch], zero, 4.0)),
+            ("pid, steep planes turning hard", lanes_against_the_runs(|_| pid, &pid_lanes, None, &plane, &steep, hard, 1.0)),
+        ];
+        for (name, (worst, [ran, fell, lifted, off])) in cases {
+            std::println!("{name}: worst relative difference {worst:e}; {ran} ran, {fell} fell, {lifted} lifted, {off} off the terrain");
+            assert!(worst <= 1e-12 && worst > 0.0, "{name}: worst relative difference {worst:e}");
+            assert!(ran > 10 && (fell < ran || lifted > 0), "{name}: {ran} ran, {fell} fell");
+        }
+        let counts = |i: usize| cases[i].1 .1;
+        assert!(counts(0)[1] > 0 && counts(5)[3] > 0 && counts(6)[2] > 0, "want falls, a grid's edge and lifts: {:?}", cases.map(|c| c.1 .1));
     }
 
     /// Bad axes are refused by name: a slope that can reach 90° or below 0, a slope or

@@ -371,9 +371,14 @@ pub fn sweep_kernel(controller: &Bound<'_, PyAny>, realism: Option<&PyRealism>) 
     if SlopeController::extract(controller).is_ok() {
         return Ok(kernel_of(realism.is_some()));
     }
-    // With the grade's feed-forward: a sweep on terrain, the general runner.
-    if controller.cast::<crate::control::grade::PyGradeFeedForward>().is_ok() {
-        return Ok(if realism.is_some() { "planar-realism" } else { "planar" });
+    // With the grade's feed-forward: a sweep on terrain, its tracker's lanes when ideal (the
+    // 3-DOF rig on terrain runs on the general runner).
+    if let Ok(g) = controller.cast::<crate::control::grade::PyGradeFeedForward>() {
+        if realism.is_some() {
+            return Ok("planar-realism");
+        }
+        let ff = g.get().core(controller.py(), None)?;
+        return Ok(crate::sweep::planar::kernel_of(ff.inner(), false));
     }
     let ctrl = crate::sim::simulate_planar::PlanarController::extract(controller)?;
     Ok(crate::sweep::planar::kernel_of(&ctrl, realism.is_some()))

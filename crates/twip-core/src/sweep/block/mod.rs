@@ -30,13 +30,15 @@ mod lqr;
 mod planar;
 mod planar_rig;
 mod planar_rig_lanes;
+mod planar_terrain;
 mod rig;
 mod rig_lanes;
 mod smc;
 mod winding;
 pub use fuzzy::FuzzyLanes;
 pub use lqr::LqrLanes;
-pub use planar::{run_planar_block, LanePath, PidLanes, PlanarLaneLaw};
+pub use planar::{run_planar_block, BlockGround, Flat, LanePath, PidLanes, PlanarLaneLaw};
+pub use planar_terrain::{FeedForwardLanes, TerrainLanes};
 #[cfg(feature = "parallel")] // the envs' only use, and they build with `parallel`
 pub(crate) use planar::Plants as PlanarPlants;
 pub use planar_rig::run_planar_rig_block;

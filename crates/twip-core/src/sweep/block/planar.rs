@@ -15,6 +15,7 @@ use crate::control::trajectory::{Path, PlanarRef};
 use crate::control::{Controller, Reference};
 use crate::model::integrate::{rk4, Field};
 use crate::model::lane::{fill, Fused, Lane};
+use crate::model::dynamics::Halt;
 use crate::model::planar::{deriv, PlanarCoefficients, PlanarModel, PLANAR_COEFFICIENTS};
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::DrivePeaks;
@@ -96,7 +97,7 @@ pub(crate) fn lane_ref<S: Lane>(r: &PlanarRef<f64>) -> PlanarRef<S> {
 /// Plant coefficients, one array per coefficient, one entry per lane, aligned to a cache
 /// line for the kernel's frame (as the 2-DOF `Plants`).
 #[repr(C, align(64))]
-pub(crate) struct Plants([Lanes; PLANAR_COEFFICIENTS]);
+pub struct Plants([Lanes; PLANAR_COEFFICIENTS]);
 
 impl Plants {
     pub(crate) fn new(models: &[PlanarModel<f64>; LANES]) -> Self {
@@ -106,7 +107,7 @@ impl Plants {
 
     /// Lane `l`'s coefficients.
     #[inline(always)]
-    pub(super) fn lane(&self, l: usize) -> PlanarCoefficients<Fused> {
+    pub(crate) fn lane(&self, l: usize) -> PlanarCoefficients<Fused> {
         PlanarCoefficients::from_array(fill(|f| Fused(self.0[f][l])))
     }
 
@@ -152,11 +153,13 @@ pub(super) struct Metrics {
     pub(super) efficiency: Lanes,
     samples: [u64; LANES],
     settled: [u64; LANES],
+    /// Why each lane that the terrain ended was ended (a run's "lifted", "off_terrain").
+    halts: [Option<Halt>; LANES],
 }
 
 impl Metrics {
     pub(super) fn new() -> Self {
-        Self { tally: [[0.0; LANES]; TRACKING_TALLIES], drive: None, efficiency: [1.0; LANES], samples: [0; LANES], settled: [0; LANES] }
+        Self { tally: [[0.0; LANES]; TRACKING_TALLIES], drive: None, efficiency: [1.0; LANES], samples: [0; LANES], settled: [0; LANES], halts: [None; LANES] }
     }
 
     /// What the `live` lanes' plants get at a step's start, as a run's observer sees it
@@ -210,7 +213,7 @@ impl Metrics {
                 None => DrivePeaks::from_wheel_torque(models[l].params(), commanded, commanded, 0.0, 1.0),
             };
             let (fell, t_end, steps) = ended[l];
-            out[l] = PlanarSampleMetrics::from_summary(&summary, peaks, fell, t_end, steps);
+            out[l] = PlanarSampleMetrics::from_summary(&summary, peaks, fell, t_end, steps).halted(self.halts[l]);
         }
         out
     }
@@ -231,7 +234,8 @@ impl Metrics {
     /// The step from step `k` (of `dt`) has given `next`: the lanes that go on move there
     /// (`block::advance`); those that end do so as fallen at step k + 1, observed past the
     /// limit with the input `u` when their state is finite (the runner's last observation).
-    /// Returns whether some lane is still alive.
+    /// A lane whose finite new state the ground `halts` (on terrain: lifted, off the grid) ends
+    /// there too, marked so, as the runner ends a run. Returns whether some lane is still alive.
     #[allow(clippy::type_complexity, clippy::too_many_arguments)]
     #[inline(always)]
     pub(super) fn end_step(
@@ -243,15 +247,23 @@ impl Metrics {
         u: &[Lanes; 2],
         path: &impl LanePath,
         settle: f64,
+        halts: Option<&[Option<Halt>; LANES]>,
     ) -> bool {
-        let Some(ends) = advance(x, next, alive, 3, fall_limit) else {
-            return true;
+        let fell = advance(x, next, alive, 3, fall_limit);
+        // A lane the ground halts that went on has moved to `next` already.
+        let halted: Option<[bool; LANES]> = halts.map(|h| core::array::from_fn(|l| alive[l] && h[l].is_some() && finite_at(next, l)));
+        let ends: [bool; LANES] = match (fell, halted) {
+            (None, None) => return true,
+            (Some(f), None) => f,
+            (None, Some(h)) if !h.iter().any(|&e| e) => return true,
+            (f, Some(h)) => core::array::from_fn(|l| h[l] || f.is_some_and(|f| f[l])),
         };
         let t_next = dt * (k + 1) as f64;
         for l in (0..LANES).filter(|&l| ends[l]) {
             alive[l] = false;
             ended[l] = (true, t_next, (k + 1) as u64);
             if finite_at(next, l) {
+                self.halts[l] = halts.and_then(|h| h[l]);
                 // Fell: the runner observes the state past the limit, then stops.
                 for i in 0..7 {
                     x[i][l] = next[i][l];
@@ -297,24 +309,67 @@ multiversioned! {
     /// metrics from `settle` [s]; fewer samples fill the block with idle lanes).
     /// `should_stop` is asked every `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it
     /// said yes before the block was done.
-    pub fn run_planar_block, planar_avx512, planar_avx2, planar_baseline = planar_block<C: PlanarLaneLaw, P: LanePath; const COPY>(
+    /// On `ground`: [`Flat`], or the lanes' terrains ([`TerrainLanes`], chosen once per block:
+    /// a flat block keeps its kernel and its bits).
+    pub fn run_planar_block, planar_avx512, planar_avx2, planar_baseline = planar_block<C: PlanarLaneLaw, P: LanePath, G: BlockGround; const COPY>(
         controller: C,
         path: &P,
         config: &SimConfig<f64>,
         samples: &[PlanarSample],
         settle: f64,
         should_stop: &dyn Fn() -> bool,
+        ground: &G,
     ) -> BlockResult
 }
 
+/// The ground a block of lanes runs on: how a step is taken, what ends a lane besides a fall,
+/// and what the tracker is fed forward.
+pub trait BlockGround {
+    /// Whether lane `l`'s sample can run on it (its terrain valid and its start on it).
+    fn valid(&self, l: usize) -> bool;
+    /// One RK4 step, the inputs held, on every lane.
+    fn rk4(&self, plants: &Plants, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7];
+    /// What ends each lane at `next` under `u` besides a fall (None: nothing can).
+    fn halts(&self, plants: &Plants, next: &[Lanes; 7], u: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]>;
+    /// The tracker's update on every lane, with what this ground feeds forward.
+    fn update<C: PlanarLaneLaw, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]);
+}
+
+/// Flat ground: the planar model, nothing halts a lane, nothing fed forward.
+pub struct Flat;
+
+impl BlockGround for Flat {
+    #[inline(always)]
+    fn valid(&self, _: usize) -> bool {
+        true
+    }
+
+    #[inline(always)]
+    fn rk4(&self, plants: &Plants, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
+        plants.rk4(x, u, dt)
+    }
+
+    #[inline(always)]
+    fn halts(&self, _: &Plants, _: &[Lanes; 7], _: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]> {
+        None
+    }
+
+    #[inline(always)]
+    fn update<C: PlanarLaneLaw, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
+        controller.update::<COPY>(state, x, r, u);
+    }
+}
+
 #[inline(always)]
-fn planar_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
+#[allow(clippy::too_many_arguments)]
+fn planar_block<C: PlanarLaneLaw, P: LanePath, G: BlockGround, const COPY: u8>(
     mut controller: C,
     path: &P,
     config: &SimConfig<f64>,
     samples: &[PlanarSample],
     settle: f64,
     should_stop: &dyn Fn() -> bool,
+    ground: &G,
 ) -> BlockResult {
     assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
     let (n, per_update) = config.steps(controller.period())?;
@@ -322,7 +377,7 @@ fn planar_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     let mut active = [false; LANES];
     let mut models = [None; LANES];
     for (l, s) in samples.iter().enumerate() {
-        if s.x0.iter().all(|v| v.is_finite()) {
+        if s.x0.iter().all(|v| v.is_finite()) && ground.valid(l) {
             models[l] = PlanarModel::new(s.params).ok();
             active[l] = models[l].is_some();
         }
@@ -347,7 +402,7 @@ fn planar_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
         }
         let r = path.sample(t);
         if k % per_update == 0 {
-            controller.update::<COPY>(&mut state, &x, &r, &mut u);
+            ground.update::<C, COPY>(&mut controller, &mut state, &x, &r, &mut u);
             // A lane whose input is not finite has diverged: it ends as fallen, unobserved.
             for l in 0..LANES {
                 if alive[l] && !(u[0][l].is_finite() && u[1][l].is_finite()) {
@@ -357,8 +412,9 @@ fn planar_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
             }
         }
         metrics.observe(&alive, t >= settle, &x, &u, &r, path);
-        let next = plants.rk4(&x, &u, dt);
-        if !metrics.end_step(&mut x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &u, path, settle) {
+        let next = ground.rk4(&plants, &x, &u, dt);
+        let halts = ground.halts(&plants, &next, &u);
+        if !metrics.end_step(&mut x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &u, path, settle, halts.as_ref()) {
             break;
         }
     }
@@ -374,14 +430,21 @@ mod tests {
     use crate::control::smc::{Adaptation, SmcGains, SmcOptions, SmcTracker};
     use crate::model::planar::PlanarState;
     use crate::sweep::block::SmcLanes;
+    use alloc::vec::Vec;
 
     /// Every compiled copy of the kernel gives the same bits (the baseline one through
     /// libm's fma), so a tracking sweep is the same on any x86-64 CPU.
     fn same_bits_on_every_copy<C: PlanarLaneLaw + Clone>(law: C) {
+        same_bits_on_every_copy_on(law, |_| Flat, "fell: true");
+    }
+
+    /// [`same_bits_on_every_copy`] on the ground `ground_of` gives the block's samples (which
+    /// it may change), some ending as `ending` says.
+    fn same_bits_on_every_copy_on<C: PlanarLaneLaw + Clone, G: BlockGround>(law: C, ground_of: impl Fn(&mut [PlanarSample]) -> G, ending: &str) {
         let nominal = RobotParams::balanbot();
         let circle = Circle::from_origin(0.6, 0.2, Direction::CounterClockwise).unwrap();
         let config = SimConfig { dt: 1e-3, t_final: 3.0, fall_limit: 0.5 };
-        let samples: Vec<PlanarSample> = (0..LANES as u64)
+        let mut samples: Vec<PlanarSample> = (0..LANES as u64)
             .map(|i| {
                 let mut params = nominal;
                 params.com_height *= 0.6 + 0.05 * i as f64;
@@ -390,20 +453,48 @@ mod tests {
                 PlanarSample { index: i, params, x0 }
             })
             .collect();
+        let ground = ground_of(&mut samples);
         let never = || false;
-        let base = format!("{:?}", planar_baseline(law.clone(), &circle, &config, &samples, 1.0, &never).unwrap());
+        let base = format!("{:?}", planar_baseline(law.clone(), &circle, &config, &samples, 1.0, &never, &ground).unwrap());
         #[cfg(target_arch = "x86_64")]
         {
             if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-                let got = unsafe { planar_avx2(law.clone(), &circle, &config, &samples, 1.0, &never) }.unwrap();
+                let got = unsafe { planar_avx2(law.clone(), &circle, &config, &samples, 1.0, &never, &ground) }.unwrap();
                 assert_eq!(format!("{got:?}"), base, "AVX2 copy");
             }
             if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma") {
-                let got = unsafe { planar_avx512(law.clone(), &circle, &config, &samples, 1.0, &never) }.unwrap();
+                let got = unsafe { planar_avx512(law.clone(), &circle, &config, &samples, 1.0, &never, &ground) }.unwrap();
                 assert_eq!(format!("{got:?}"), base, "AVX-512 copy");
             }
         }
-        assert!(base.contains("fell: true") && base.contains("fell: false"), "want both outcomes: {base}");
+        assert!(base.contains(ending) && base.contains("fell: false"), "want both outcomes: {base}");
+    }
+
+    /// On terrain too (each lane its own plane, the grade fed forward; bumps): every copy the
+    /// same bits, lanes lifting among them.
+    #[test]
+    fn every_copy_gives_the_same_bits_on_terrain() {
+        use crate::control::grade::GradeFeedForward;
+        use crate::model::terrain::Terrain;
+        use crate::model::terrain_model::TerrainModel;
+        use crate::sweep::block::{FeedForwardLanes, TerrainLanes};
+        let nominal = RobotParams::balanbot();
+        let motor = DcMotor::gb37y3530();
+        let pid = PidTracker::table_4_1(&nominal, motor, 0.005).unwrap();
+        let flat = TerrainModel::new(PlanarModel::new(nominal).unwrap(), Terrain::flat());
+        let feed = FeedForwardLanes::new(&GradeFeedForward::new(pid, flat, Some(motor)));
+        // Planes up to 0.6 rad at headings all round; half the lanes start across them at
+        // speed, turning hard: some of those lift a wheel.
+        let planes = |samples: &mut [PlanarSample]| {
+            let terrains: Vec<_> = (0..samples.len()).map(|i| Terrain::plane(0.04 * i as f64, 0.7 * i as f64).ok()).collect();
+            for (i, s) in samples.iter_mut().enumerate().filter(|(i, _)| i % 2 == 1) {
+                (s.x0[2], s.x0[5], s.x0[6]) = (0.7 * i as f64 + core::f64::consts::FRAC_PI_2, 1.5, -8.0);
+            }
+            TerrainLanes::new(samples, &terrains, Some(feed))
+        };
+        same_bits_on_every_copy_on(PidLanes::new(&pid), planes, "lifted: 1.0");
+        let bumps = |samples: &mut [PlanarSample]| TerrainLanes::new(samples, &alloc::vec![Terrain::bumps(0.03, 0.4).ok(); samples.len()], None);
+        same_bits_on_every_copy_on(PidLanes::new(&pid), bumps, "fell: true");
     }
 
     #[test]
