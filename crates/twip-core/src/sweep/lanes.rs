@@ -5,7 +5,8 @@
 /// Samples advanced together: 16 f64 = two AVX-512 registers, four AVX2 ones. Chosen by
 /// measurement for every copy (docs/performance.md, "Lanes per CPU"): 4 lanes halved the AVX2
 /// copy, 8 cost the AVX-512 copy's LQR kernel 45 %, and 8 on AVX2 or 32 on either copy moved
-/// no workload beyond the machine's noise.
+/// no workload beyond the machine's noise (8 on a real AVX2 CPU too: within 2-3 % in
+/// instructions and in paired CPU time).
 pub const LANES: usize = 16;
 
 /// One value per lane.
