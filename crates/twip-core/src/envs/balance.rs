@@ -283,8 +283,8 @@ mod tests {
         }
     }
 
-    /// Replays actions as a controller of the one runner.
-    struct Replay(Vec<f64>, usize);
+    /// Replays actions as a controller of the one runner (and keeps what it was shown).
+    struct Replay(Vec<f64>, usize, Vec<Vector4<f64>>);
 
     impl Controller<f64, 4, 1> for Replay {
         type Reference = crate::control::reference::SpeedRef<f64>;
@@ -294,7 +294,8 @@ mod tests {
         fn period(&self) -> f64 {
             5e-3
         }
-        fn update(&mut self, _: f64, _: &Vector4<f64>, _: &Self::Reference) -> SVector<f64, 1> {
+        fn update(&mut self, _: f64, y: &Vector4<f64>, _: &Self::Reference) -> SVector<f64, 1> {
+            self.2.push(*y);
             self.1 += 1;
             SVector::<f64, 1>::new(self.0[self.1 - 1])
         }
@@ -332,6 +333,7 @@ mod tests {
             let (mut actions, mut states) = (Vec::new(), Vec::new());
             let r = SpeedSchedule::constant(0.0).unwrap().sample(0.0);
             let mut fell = [false; 3];
+            let first_observation = envs.observation(2);
             for k in 0..400 {
                 let a = ctrl.update(k as f64 * 5e-3, &envs.observation(2), &r)[0];
                 actions.push(a);
@@ -341,7 +343,7 @@ mod tests {
             }
             let config = SimConfig::new(1e-3, 2.0, Some(0.5));
             let mut seen = States(Vec::new());
-            let mut replay = Replay(actions, 0);
+            let mut replay = Replay(actions, 0, Vec::new());
             match &realism {
                 None => {
                     crate::sim::runner::simulate(&model, &mut replay, &SpeedSchedule::constant(0.0).unwrap(), &spec.nominal.x0, &config, &mut seen).unwrap();
@@ -360,6 +362,10 @@ mod tests {
                 // loop: the upright's unstable pole grows the ~1e-16 differences.
                 assert!(err < 1e-10, "{}, period {k}: {err}", if realism.is_some() { "rig" } else { "ideal" });
             }
+            // The first observation is the firmware's first read at t = 0 (through the rig:
+            // the sensors' reading, not zeros).
+            let first = (first_observation - replay.2[0]).amax();
+            assert!(first < 1e-9 && first_observation != Vector4::zeros(), "first observation {first_observation:?} against {:?}", replay.2[0]);
             // Measured (worst over 400 periods): 6.1e-12 ideal, 3.3e-12 through the rig.
             std::println!("{}: worst {worst:e}", if realism.is_some() { "rig" } else { "ideal" });
         }

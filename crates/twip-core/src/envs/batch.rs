@@ -154,9 +154,11 @@ fn rig_block<K: EnvKind<NX, NU>, const NX: usize, const NU: usize>(spec: &K, fir
         (x0[j], pwm_max[j]) = (x, max);
     }
     let p = spec.period();
-    let Some(lanes) = K::RigLanes::start(built, |l| x0[l], p.dt, seconds(&p))? else {
+    let Some(mut lanes) = K::RigLanes::start(built, |l| x0[l], p.dt, seconds(&p))? else {
         unreachable!("a block has at least one robot")
     };
+    // The firmware's first read, at t = 0: the first observation.
+    lanes.read_at(&[0.0; LANES]);
     Ok(RigRobots { lanes, steps: [0; LANES], pwm_max })
 }
 

@@ -483,7 +483,10 @@ impl PlanarRigLanes {
             let mut xdot = [[0.0; LANES]; 7];
             set_lane(&mut xdot, l, &d0);
             imus.restart(l, &self.rigs[l], &model, &self.x, &xdot);
+            imus.to_sensors(&mut self.rigs);
         }
+        // The firmware's first read, at t = 0 (as `read_at` reads the lanes `start` started).
+        self.read_lane(l, 0.0);
     }
 
     /// The plants' input `drive` (duties or torques) held from now on (a period late with a
@@ -524,11 +527,18 @@ impl PlanarRigLanes {
         if let Some(imus) = self.imus.as_ref() {
             imus.to_sensors(&mut self.rigs);
         }
-        for (l, rig) in self.rigs.iter_mut().enumerate() {
-            rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
-            set_lane(&mut self.y, l, &rig.sensors.read(ts[l], &lane(&self.x, l)));
+        for (l, &t) in ts.iter().enumerate() {
+            self.read_lane(l, t);
         }
         &self.y
+    }
+
+    /// Lane `l`'s read at `t` (its IMUs' registers in its sensors already).
+    #[inline(always)]
+    fn read_lane(&mut self, l: usize, t: f64) {
+        let rig = &mut self.rigs[l];
+        rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
+        set_lane(&mut self.y, l, &rig.sensors.read(t, &lane(&self.x, l)));
     }
 
     /// The controller's commands `cmd` at `t` through each lane's actuator (on the last

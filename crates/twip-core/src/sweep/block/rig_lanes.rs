@@ -554,7 +554,10 @@ impl RigLanes {
                 xdot[i][l] = d[i];
             }
             imus.restart(l, &self.rigs[l], &model, &self.plants.hills, &self.x, &xdot);
+            imus.to_sensors(&mut self.rigs);
         }
+        // The firmware's first read, at t = 0 (as `read_at` reads the lanes `start` started).
+        self.read_lane(l, 0.0);
     }
 
     /// The plants' input `drive` (duties or currents) held from now on (a period late with a
@@ -595,16 +598,23 @@ impl RigLanes {
         if let Some(imus) = self.imus.as_ref() {
             imus.to_sensors(&mut self.rigs);
         }
-        for (l, rig) in self.rigs.iter_mut().enumerate() {
-            if self.plants.geared {
-                rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
-            }
-            let yl = rig.sensors.read(ts[l], &Vector4::from(lane(&self.x, l)));
-            for i in 0..4 {
-                self.y[i][l] = yl[i];
-            }
+        for (l, &t) in ts.iter().enumerate() {
+            self.read_lane(l, t);
         }
         &self.y
+    }
+
+    /// Lane `l`'s read at `t` (its IMU's registers in its sensors already).
+    #[inline(always)]
+    fn read_lane(&mut self, l: usize, t: f64) {
+        let rig = &mut self.rigs[l];
+        if self.plants.geared {
+            rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
+        }
+        let yl = rig.sensors.read(t, &Vector4::from(lane(&self.x, l)));
+        for i in 0..4 {
+            self.y[i][l] = yl[i];
+        }
     }
 
     /// The controller's command `cmd` at `t` through each lane's actuator (on the last
