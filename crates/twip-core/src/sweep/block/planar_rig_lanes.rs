@@ -23,7 +23,7 @@ use super::{chunk, CHUNKS};
 use crate::Dynamics;
 use crate::hardware::disturbance::Force;
 use crate::hardware::driver::{MotorDriver, Winding};
-use crate::hardware::imu::{ImuClock, ImuReading, Mpu6050, NoiseLanes};
+use crate::hardware::imu::{lane_from, ImuClock, ImuReading, Mpu6050, NoiseLanes};
 use crate::hardware::planar_rig::{body_force, sample_imus, PlanarRig};
 use crate::hardware::realism::RigPlant as _;
 use crate::model::friction::{Friction, Gearhead};
@@ -332,11 +332,7 @@ impl ImuLanes {
         let due: [bool; LANES] = core::array::from_fn(|m| m == l && self.clocks[l].due(0.0));
         let (c, j) = (l / WIDTH, l % WIDTH);
         let kept = self.imus[c];
-        let take_j = move |mine: Wide, theirs: Wide| {
-            let mut v = mine;
-            v.0[j] = theirs.0[j];
-            v
-        };
+        let take_j = lane_from(j);
         // Their filters start from their first sample: the chunk's unprimed for it, then put back.
         let (p, y) = &mut self.imus[c];
         p.zip_state(&pitch.map(Wide::splat), take_j);

@@ -20,7 +20,7 @@ use super::winding::WindingLanes;
 use super::{chunk, state_chunk, Plants, CHUNKS};
 use crate::hardware::disturbance::{Disturbed, Force, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{MotorDriver, Winding};
-use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseLanes};
+use crate::hardware::imu::{lane_from, specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseLanes};
 use crate::hardware::realism::{RigPlant as _, SlopeRig};
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field, Stage};
@@ -408,11 +408,7 @@ impl ImuLanes {
         let due: [bool; LANES] = core::array::from_fn(|m| m == l && self.clocks[l].due(0.0));
         let (c, j) = (l / WIDTH, l % WIDTH);
         let kept = self.imus[c];
-        let take_j = move |mine: Wide, theirs: Wide| {
-            let mut v = mine;
-            v.0[j] = theirs.0[j];
-            v
-        };
+        let take_j = lane_from(j);
         // Its filters start from its first sample: the chunk's unprimed for it, then put back.
         self.imus[c].zip_state(&fresh.map(Wide::splat), take_j);
         self.imus[c].unprime();
