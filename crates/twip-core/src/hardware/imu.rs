@@ -24,7 +24,7 @@
 //! scales the DC delay by κ = (ω_b T/2)/tan(ω_b T/2); the design targets delay/κ so that
 //! both numbers hold for the discrete filter. The 260 Hz accelerometer row (delay 0)
 //! passes samples through.
-use crate::model::lane::{clamp, saturate, Lane, Wide};
+use crate::model::lane::{clamp, saturate, Lane};
 use crate::rng::{Sfc64, Ziggurat};
 use crate::{c, Real, TwipError};
 
@@ -702,8 +702,9 @@ impl<T: Copy> Mpu6050<T> {
 }
 
 /// For [`Mpu6050::zip_state`]: lane `j` of the other copy, the rest kept.
+#[cfg(feature = "std")] // the lanes' (`Wide`)
 #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
-pub(crate) fn lane_from<const N: usize>(j: usize) -> impl Fn(Wide<N>, Wide<N>) -> Wide<N> + Copy {
+pub(crate) fn lane_from<const N: usize>(j: usize) -> impl Fn(crate::model::lane::Wide<N>, crate::model::lane::Wide<N>) -> crate::model::lane::Wide<N> + Copy {
     move |mine, theirs| {
         let mut v = mine;
         v.0[j] = theirs.0[j];
