@@ -478,9 +478,12 @@ pub(crate) struct NoiseLanes<const N: usize, const K: usize> {
     /// Samples of the rows used: every lane's while they are in step (`apart` None), else
     /// each lane's own, and the rows each lane's place gave (what `draw` hands out).
     used: usize,
-    apart: Option<([usize; N], [[[f64; N]; 4]; K])>,
+    apart: Option<Apart<N, K>>,
     streams: Sfc64<N>,
 }
+
+/// Each lane's place in its rows, and the rows their places gave, of lanes apart.
+type Apart<const N: usize, const K: usize> = ([usize; N], [[[f64; N]; 4]; K]);
 
 #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
 impl<const N: usize, const K: usize> NoiseLanes<N, K> {
@@ -539,15 +542,16 @@ impl<const N: usize, const K: usize> NoiseLanes<N, K> {
                 // This lane's stream alone, its IMUs in turn: the normals the lanes' fill
                 // gives it.
                 let mut rng = self.streams.lane(l);
+                #[allow(clippy::needless_range_loop)] // k indexes the rows' middle axis
                 for k in 0..K {
                     self.gauss.fill(&mut rng, NOISE_BATCH / 2, |n, [v]| self.rows[n / 4][k][n % 4][l] = v);
                 }
                 self.streams.set_lane(l, rng);
                 used[l] = 0;
             }
-            for k in 0..K {
-                for i in 0..4 {
-                    out[k][i][l] = self.rows[used[l]][k][i][l];
+            for (out_k, row_k) in out.iter_mut().zip(&self.rows[used[l]]) {
+                for (o, r) in out_k.iter_mut().zip(row_k) {
+                    o[l] = r[l];
                 }
             }
             used[l] += 1;

@@ -532,8 +532,8 @@ impl RigLanes {
     #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
     pub(crate) fn restart(&mut self, l: usize, model: SlopeModel<f64>, rig: SlopeRig<f64>, x0: [f64; 4]) {
         (self.models[l], self.rigs[l]) = (model, rig);
-        for i in 0..4 {
-            (self.x[i][l], self.y[i][l]) = (x0[i], 0.0);
+        for (i, &v) in x0.iter().enumerate() {
+            (self.x[i][l], self.y[i][l]) = (v, 0.0);
         }
         // The plants' numbers anew from every lane's rig; the windings' states are each lane's.
         let fresh = RigPlants::new(&self.rigs, &self.models, self.dt, self.stand_in);
