@@ -91,10 +91,7 @@ def test_a_lane_is_twip_simulate_with_the_same_inputs(realism):
     run = twip.simulate(model, Replay(actions, 5e-3), x0, t_final=0.5, dt=1e-3, reference=venv.settings.path,
                         realism=realism)
     want, got = run.states[5::5][:100], np.array(states)
-    if realism is None:
-        np.testing.assert_allclose(got, want, rtol=0, atol=1e-10)
-    else:
-        assert np.array_equal(got, want)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-10)
 
 
 def test_seeds_give_the_same_bits_on_any_thread_count():

@@ -1,16 +1,16 @@
 //! The batch both envs are: N robots of one spec, each with its own key (seed, episode),
-//! on the ideal lanes ([`LANES`] robots a block, one block per task) or each through its
-//! own rig; what differs between the envs (model, lanes, rig, draw) is their [`EnvKind`].
+//! [`LANES`] robots a block, one block per task, on the ideal lanes or through their rigs on
+//! the rig's lanes (the sweep's, each lane at its own step); what differs between the envs
+//! (model, lanes, rig, draw) is their [`EnvKind`].
 use alloc::sync::Arc;
 use alloc::vec::Vec;
 
 use nalgebra::SVector;
 use rayon::prelude::*;
 
-use super::robot::{advance_block, oom, LanePlant, Period, RigRobot};
-use crate::hardware::realism::{Realism, Rig};
+use super::robot::{advance_block, advance_rig, oom, LanePlant, Period, RigBlock};
+use crate::hardware::realism::Realism;
 use crate::model::params::RobotParams;
-use crate::sim::runner::{Plant, Sensor};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::rig::noise_seed;
 use crate::TwipError;
@@ -33,9 +33,8 @@ pub(crate) trait EnvKind<const NX: usize, const NU: usize>: Send + Sync {
     type Model: Copy + Send + Sync;
     /// [`LANES`] robots on the ideal plant.
     type Plants: LanePlant<State = [Lanes; NX], Input = [Lanes; NU]> + Send + Sync;
-    type RigPlant: Plant<f64, NX, NU> + Send;
-    type RigSensors: Sensor<f64, NX> + Send;
-    type RigActuator: Send;
+    /// [`LANES`] robots through their rigs.
+    type RigLanes: RigBlock<Model = Self::Model, State = [Lanes; NX], State1 = [f64; NX], Drive = [Lanes; NU]>;
 
     /// The plant step, steps per period and fall limit.
     fn period(&self) -> Period;
@@ -48,7 +47,7 @@ pub(crate) trait EnvKind<const NX: usize, const NU: usize>: Send + Sync {
     /// The robot of key (seed, episode) (`sweep::draw`'s); an error if its model is refused.
     fn draw(&self, key: (u64, u64)) -> Result<Drawn<Self::Model, NX>, TwipError>;
     fn plants(models: &[Self::Model; LANES]) -> Self::Plants;
-    fn rig(realism: &Realism<f64>, model: &Self::Model, dt: f64) -> Result<Rig<Self::RigPlant, Self::RigSensors, Self::RigActuator>, TwipError>;
+    fn rig(realism: &Realism<f64>, model: &Self::Model, dt: f64) -> Result<<Self::RigLanes as RigBlock>::Rig, TwipError>;
 }
 
 /// [`LANES`] robots on the ideal plant.
@@ -58,9 +57,17 @@ struct IdealBlock<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
     x: [Lanes; NX],
 }
 
+/// [`LANES`] robots through their rigs, each lane at its own plant step since its episode
+/// began; the largest duty (counts) each lane's driver takes (None: the input is the model's).
+struct RigRobots<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
+    lanes: K::RigLanes,
+    steps: [usize; LANES],
+    pwm_max: [Option<f64>; LANES],
+}
+
 enum Robots<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
     Ideal(Vec<IdealBlock<K, NX, NU>>),
-    Rig(Vec<RigRobot<K::RigPlant, K::RigSensors, K::RigActuator, NX, NU>>),
+    Rig(Vec<RigRobots<K, NX, NU>>),
 }
 
 /// N robots of one spec `K`, each with its own key (seed, episode).
@@ -75,6 +82,27 @@ pub struct Envs<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
     pool: rayon::ThreadPool,
 }
 
+impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> IdealBlock<K, NX, NU> {
+    /// `robot` in lane `j`.
+    fn put(&mut self, j: usize, robot: Started<K, NX, NU>) {
+        let Started::Ideal(model, x0) = robot else { unreachable!("a batch's robots are all ideal or all through a rig") };
+        self.models[j] = model;
+        self.plants = K::plants(&self.models);
+        for i in 0..NX {
+            self.x[i][j] = x0[i];
+        }
+    }
+}
+
+impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> RigRobots<K, NX, NU> {
+    /// `robot` (settled) in lane `j`.
+    fn put(&mut self, j: usize, robot: Started<K, NX, NU>) {
+        let Started::Rig(model, rig, x0, pwm_max) = robot else { unreachable!("a batch's robots are all ideal or all through a rig") };
+        self.lanes.restart(j, model, rig, x0);
+        (self.steps[j], self.pwm_max[j]) = (0, pwm_max);
+    }
+}
+
 /// `v` with room for `n` items, or the named error.
 fn reserved<T>(n: usize) -> Result<Vec<T>, TwipError> {
     let mut v = Vec::new();
@@ -85,11 +113,13 @@ fn reserved<T>(n: usize) -> Result<Vec<T>, TwipError> {
 /// A lane's next robot, made apart from the batch so that many can be made at once.
 enum Started<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
     Ideal(K::Model, SVector<f64, NX>),
-    Rig(RigRobot<K::RigPlant, K::RigSensors, K::RigActuator, NX, NU>),
+    /// Its model, rig, initial state and driver's largest duty.
+    Rig(K::Model, <K::RigLanes as RigBlock>::Rig, [f64; NX], Option<f64>),
 }
 
-/// The robot of `spec` for `key`: its model and initial state, or its rig started at rest.
-fn make<K: EnvKind<NX, NU>, const NX: usize, const NU: usize>(spec: &K, key: (u64, u64)) -> Result<Started<K, NX, NU>, TwipError> {
+/// The robot of `spec` for `key`: its model and initial state, and its rig, with `settle`
+/// settled at rest there (which costs as much as many steps: robots are made side by side).
+fn make<K: EnvKind<NX, NU>, const NX: usize, const NU: usize>(spec: &K, key: (u64, u64), settle: bool) -> Result<Started<K, NX, NU>, TwipError> {
     let Drawn { params, model, x0 } = spec.draw(key)?;
     for (index, &value) in x0.iter().enumerate() {
         if !value.is_finite() {
@@ -99,8 +129,37 @@ fn make<K: EnvKind<NX, NU>, const NX: usize, const NU: usize>(spec: &K, key: (u6
     let Some(realism_for) = spec.realism() else { return Ok(Started::Ideal(model, x0)) };
     let realism = Realism { seed: noise_seed(key.0), stream: key.1, ..realism_for(&params)? };
     let pwm_max = realism.motor.map(|m| m.motor(&params)).transpose()?.map(|m| m.pwm_max());
-    let period = spec.period();
-    Ok(Started::Rig(RigRobot::start(K::rig(&realism, &model, period.dt)?, x0, pwm_max, period.dt * period.substeps as f64)))
+    let p = spec.period();
+    let mut rig = K::rig(&realism, &model, p.dt)?;
+    if settle {
+        K::RigLanes::settle(&mut rig, x0.into(), seconds(&p));
+    }
+    Ok(Started::Rig(model, rig, x0.into(), pwm_max))
+}
+
+/// The control period [s].
+fn seconds(p: &Period) -> f64 {
+    p.dt * p.substeps as f64
+}
+
+/// The rig robots of lanes `first..` (at most [`LANES`]) for keys (l, 0), started at rest.
+fn rig_block<K: EnvKind<NX, NU>, const NX: usize, const NU: usize>(spec: &K, first: usize, n: usize) -> Result<RigRobots<K, NX, NU>, TwipError> {
+    let (mut built, mut x0, mut pwm_max) = (Vec::new(), [[0.0; NX]; LANES], [None; LANES]);
+    for j in 0..LANES.min(n - first) {
+        // `start` settles the sensors itself.
+        let Started::Rig(model, rig, x, max) = make::<K, NX, NU>(spec, ((first + j) as u64, 0), false)? else {
+            unreachable!("a spec with a realism makes rig robots")
+        };
+        built.push(Some((model, rig)));
+        (x0[j], pwm_max[j]) = (x, max);
+    }
+    let p = spec.period();
+    let Some(mut lanes) = K::RigLanes::start(built, |l| x0[l], p.dt, seconds(&p))? else {
+        unreachable!("a block has at least one robot")
+    };
+    // The firmware's first read, at t = 0: the first observation.
+    lanes.read_at(&[0.0; LANES]);
+    Ok(RigRobots { lanes, steps: [0; LANES], pwm_max })
 }
 
 #[allow(private_bounds)]
@@ -119,13 +178,20 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
                 v.extend((0..blocks).map(|_| IdealBlock { models, plants: K::plants(&models), x: [[0.0; LANES]; NX] }));
                 Robots::Ideal(v)
             }
-            Some(_) => Robots::Rig(reserved(n)?),
+            Some(_) => {
+                let mut v = reserved::<RigRobots<K, NX, NU>>(n.div_ceil(LANES))?;
+                let made: Result<Vec<_>, _> = pool.install(|| (0..n).step_by(LANES).collect::<Vec<_>>().into_par_iter().map(|first| rig_block(&spec, first, n)).collect());
+                v.extend(made?);
+                Robots::Rig(v)
+            }
         };
         let mut periods = reserved(n)?;
         periods.resize(n, 0);
         let mut envs = Self { spec, n, keys, periods, robots, pool };
-        for l in 0..n {
-            envs.start(l, (l as u64, 0))?;
+        if !envs.has_rig() {
+            for l in 0..n {
+                envs.start(l, (l as u64, 0))?;
+            }
         }
         Ok(envs)
     }
@@ -194,43 +260,40 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
             keys.push(seeds.map_or((s, e.wrapping_add(1)), |s| (s[i], 0)));
         }
         let spec = &self.spec;
-        let made: Vec<_> = self.pool.install(|| keys.par_iter().map(|&key| make::<K, NX, NU>(spec, key)).collect());
+        let made: Vec<_> = self.pool.install(|| keys.par_iter().map(|&key| make::<K, NX, NU>(spec, key, true)).collect());
+        // The robots up to the first one refused go into their lanes, each block's side by side.
+        let mut per_block: Vec<Vec<(usize, Started<K, NX, NU>)>> = (0..self.n.div_ceil(LANES)).map(|_| Vec::new()).collect();
+        let mut refused = None;
         for ((&l, &key), robot) in lanes.iter().zip(&keys).zip(made) {
-            self.put(l, key, robot?);
+            match robot {
+                Ok(robot) => {
+                    (self.keys[l], self.periods[l]) = (key, 0);
+                    per_block[l / LANES].push((l % LANES, robot));
+                }
+                Err(e) => {
+                    refused = Some(e);
+                    break;
+                }
+            }
         }
-        past_the_end.map_or(Ok(()), Err)
+        let robots = &mut self.robots;
+        self.pool.install(|| match robots {
+            Robots::Ideal(blocks) => blocks.par_iter_mut().zip(per_block).for_each(|(block, robots)| robots.into_iter().for_each(|(j, r)| block.put(j, r))),
+            Robots::Rig(blocks) => blocks.par_iter_mut().zip(per_block).for_each(|(block, robots)| robots.into_iter().for_each(|(j, r)| block.put(j, r))),
+        });
+        refused.or(past_the_end).map_or(Ok(()), Err)
     }
 
     /// Lane `l`'s robot and initial state for `key`, and its state set.
     fn start(&mut self, l: usize, key: (u64, u64)) -> Result<(), TwipError> {
-        let robot = make::<K, NX, NU>(&self.spec, key)?;
-        self.put(l, key, robot);
-        Ok(())
-    }
-
-    /// Puts `robot`, made for `key`, in lane `l`.
-    fn put(&mut self, l: usize, key: (u64, u64), robot: Started<K, NX, NU>) {
-        match (&mut self.robots, robot) {
-            (Robots::Ideal(blocks), Started::Ideal(model, x0)) => {
-                let (b, j) = (l / LANES, l % LANES);
-                let block = &mut blocks[b];
-                block.models[j] = model;
-                block.plants = K::plants(&block.models);
-                for i in 0..NX {
-                    block.x[i][j] = x0[i];
-                }
-            }
-            (Robots::Rig(robots), Started::Rig(robot)) => {
-                if l < robots.len() {
-                    robots[l] = robot;
-                } else {
-                    robots.push(robot);
-                }
-            }
-            _ => unreachable!("a batch's robots are all ideal or all through a rig"),
+        let robot = make::<K, NX, NU>(&self.spec, key, true)?;
+        let (b, j) = (l / LANES, l % LANES);
+        match &mut self.robots {
+            Robots::Ideal(blocks) => blocks[b].put(j, robot),
+            Robots::Rig(blocks) => blocks[b].put(j, robot),
         }
-        self.keys[l] = key;
-        self.periods[l] = 0;
+        (self.keys[l], self.periods[l]) = (key, 0);
+        Ok(())
     }
 
     /// Lane `l`'s true state.
@@ -240,7 +303,7 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
                 let (b, j) = (l / LANES, l % LANES);
                 SVector::from_fn(|i, _| blocks[b].x[i][j])
             }
-            Robots::Rig(robots) => robots[l].x,
+            Robots::Rig(blocks) => SVector::from_fn(|i, _| blocks[l / LANES].lanes.state()[i][l % LANES]),
         }
     }
 
@@ -249,7 +312,7 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
     pub fn measured(&self, l: usize) -> SVector<f64, NX> {
         match &self.robots {
             Robots::Ideal(_) => self.state(l),
-            Robots::Rig(robots) => robots[l].reading,
+            Robots::Rig(blocks) => SVector::from_fn(|i, _| blocks[l / LANES].lanes.reading()[i][l % LANES]),
         }
     }
 
@@ -280,9 +343,21 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
                     fell.copy_from_slice(&out[..fell.len()]);
                 })
             }),
-            Robots::Rig(robots) => self.pool.install(|| {
-                robots.par_iter_mut().zip(actions.par_chunks(NU)).zip(fell.par_iter_mut()).with_min_len(LANES).for_each(|((r, a), f)| {
-                    *f = r.step(a, period);
+            Robots::Rig(blocks) => self.pool.install(|| {
+                blocks.par_iter_mut().zip(fell.par_chunks_mut(LANES)).enumerate().for_each(|(b, (block, fell))| {
+                    let start = b * LANES;
+                    // The action as the plants take it: a duty rounded and saturated as the
+                    // firmware writes it, or the model's input.
+                    let mut drive = [[0.0; LANES]; NU];
+                    for l in start..(start + LANES).min(n) {
+                        for (i, di) in drive.iter_mut().enumerate() {
+                            let a = actions[NU * l + i];
+                            di[l - start] = block.pwm_max[l - start].map_or(a, |max| a.round().clamp(-max, max));
+                        }
+                    }
+                    block.lanes.hold_drive(&drive);
+                    let out = advance_rig(&mut block.lanes, &mut block.steps, period);
+                    fell.copy_from_slice(&out[..fell.len()]);
                 })
             }),
         }

@@ -1,10 +1,5 @@
-//! What both envs' batches step: a block of [`LANES`] robots on an ideal lane plant, and
-//! one robot through its own rig, each for one control period under a held action.
-use nalgebra::SVector;
-
-use crate::hardware::realism::Rig;
-use crate::model::integrate::rk4_step_from_k1;
-use crate::sim::runner::{Plant, Sensor};
+//! What both envs' batches step: a block of [`LANES`] robots on an ideal lane plant or
+//! through their rigs on the rig's lanes, for one control period under a held action.
 use crate::sweep::block::multiversioned;
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::TwipError;
@@ -52,20 +47,6 @@ fn advance<P: LanePlant>(plants: &P, x: &mut P::State, u: &P::Input, steps: usiz
     alive.map(|a| !a)
 }
 
-/// One robot through its rig between two controller updates.
-pub struct RigRobot<P, S, A, const NX: usize, const NU: usize> {
-    pub rig: Rig<P, S, A>,
-    pub x: SVector<f64, NX>,
-    /// The input applied over this period, and the one waiting (a delayed rig's).
-    u: SVector<f64, NU>,
-    pending: SVector<f64, NU>,
-    /// The sensors' reading at the last update (reading moves the estimator).
-    pub reading: SVector<f64, NX>,
-    pub steps: u64,
-    /// Largest duty (counts) with a motor driver; None: the input is the model's.
-    pwm_max: Option<f64>,
-}
-
 /// How a rig robot's period runs: the plant step, steps per period, the fall test.
 #[derive(Clone, Copy, Debug)]
 pub struct Period {
@@ -110,55 +91,72 @@ pub(super) fn keys(n: usize) -> Result<alloc::vec::Vec<(u64, u64)>, TwipError> {
     Ok(keys)
 }
 
-impl<P: Plant<f64, NX, NU>, S: Sensor<f64, NX>, A, const NX: usize, const NU: usize> RigRobot<P, S, A, NX, NU> {
-    /// The rig at rest in `x0`: its sensors settle (reads every `period`), sample the
-    /// initial state and are read once, as `Rig::simulate` does before its first update.
-    pub fn start(mut rig: Rig<P, S, A>, x0: SVector<f64, NX>, pwm_max: Option<f64>, period: f64) -> Self {
-        let u = SVector::<f64, NU>::zeros();
-        rig.sensors.settle(&x0, period);
-        rig.sensors.sample(0.0, &x0, &rig.plant.deriv(&x0, &u));
-        rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
-        let reading = rig.sensors.read(0.0, &x0);
-        Self { rig, x: x0, u, pending: u, reading, steps: 0, pwm_max }
-    }
+/// A block of [`LANES`] robots through their rigs, the rig's lanes (the 2-DOF or the
+/// 3-DOF one's), each lane at its own step: its robot is started anew apart from the others.
+pub trait RigBlock: Sized + Send {
+    type Model: Copy + Send;
+    type Rig: Send;
+    /// The state (one array of lanes per entry), one lane's, and the plants' input (one
+    /// array of lanes per input).
+    type State: Copy + AsRef<[Lanes]> + AsMut<[Lanes]>;
+    type State1;
+    type Drive;
+    /// The rigs `built` (None: an idle lane) at rest in `x0(l)`, plant steps of `dt`,
+    /// control periods of `period` [s] (the estimators settle on them).
+    fn start(built: Vec<Option<(Self::Model, Self::Rig)>>, x0: impl Fn(usize) -> Self::State1, dt: f64, period: f64) -> Result<Option<Self>, TwipError>;
+    /// The rig's sensors settled at rest in `x0` (reads every `period` [s]), as `start`
+    /// settles a lane's: apart from the block, so that many robots settle side by side.
+    fn settle(rig: &mut Self::Rig, x0: Self::State1, period: f64);
+    /// Lane `l` runs `rig` ([`Self::settle`]d) from rest in `x0`, as `start` starts a lane.
+    fn restart(&mut self, l: usize, model: Self::Model, rig: Self::Rig, x0: Self::State1);
+    /// The input held from now on (a period late with a delay).
+    fn hold_drive(&mut self, drive: &Self::Drive);
+    /// One plant step, lane l at its step `ks[l]`; the state after it (`state` moves only
+    /// where the caller takes it).
+    fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> Self::State;
+    fn state(&self) -> &Self::State;
+    fn state_mut(&mut self) -> &mut Self::State;
+    /// The sensors' reading, lane l at its time `ts[l]`, kept for [`Self::reading`].
+    fn read_at(&mut self, ts: &Lanes);
+    fn reading(&self) -> &Self::State;
+}
 
-    /// One control period under `action` (`run_loop`'s steps between two updates, then the
-    /// next update's read); whether the robot fell (or diverged: its last finite state kept).
-    pub fn step(&mut self, action: &[f64], p: Period) -> bool {
-        let drive = SVector::<f64, NU>::from_fn(|i, _| match self.pwm_max {
-            Some(max) => action[i].round().clamp(-max, max),
-            None => action[i],
-        });
-        if self.rig.delay {
-            self.u = self.pending;
-            self.pending = drive;
-        } else {
-            self.u = drive;
-        }
-        let (dt, u) = (p.dt, self.u);
-        let (plant, sensors) = (&mut self.rig.plant, &mut self.rig.sensors);
-        let mut fell = false;
-        for _ in 0..p.substeps {
-            let t = dt * self.steps as f64;
-            sensors.shaft_offsets(plant.shaft_offsets());
-            let k1 = plant.between_steps_with_derivative(t, dt, &mut self.x, &u).unwrap_or_else(|| plant.deriv(&self.x, &u));
-            sensors.sample(t, &self.x, &k1);
-            let next = rk4_step_from_k1(&*plant, &self.x, &u, dt, &k1);
-            plant.step_ended(&next);
-            self.steps += 1;
-            if !next.iter().all(|v| v.is_finite()) {
-                fell = true;
-                break;
+multiversioned! {
+    /// One control period of a block of rig robots under the input held: `substeps` plant
+    /// steps, lane l from its step `steps[l]` (advanced), then the sensors' read; returns
+    /// the lanes that fell (or diverged). A lane that falls keeps its first state past the
+    /// limit (a non-finite one is not taken: its last finite state stays) and moves no more
+    /// this period, as `runner::run_loop` stops there.
+    pub fn advance_rig, advance_rig_avx512, advance_rig_avx2, advance_rig_baseline = advance_rig_block<R: RigBlock; const COPY>(
+        lanes: &mut R,
+        steps: &mut [usize; LANES],
+        period: Period,
+    ) -> [bool; LANES]
+}
+
+#[inline(always)]
+fn advance_rig_block<R: RigBlock, const COPY: u8>(lanes: &mut R, steps: &mut [usize; LANES], period: Period) -> [bool; LANES] {
+    let mut alive = [true; LANES];
+    for _ in 0..period.substeps {
+        let before = *lanes.state();
+        let next = lanes.step_at::<COPY>(steps);
+        let (next, x) = (next.as_ref(), lanes.state_mut().as_mut());
+        for l in 0..LANES {
+            if !alive[l] {
+                // Fallen: what the step did between steps is undone too.
+                for (xi, bi) in x.iter_mut().zip(before.as_ref()) {
+                    xi[l] = bi[l];
+                }
+                continue;
             }
-            self.x = next;
-            if self.x[p.pitch].abs() > p.fall_limit {
-                fell = true;
-                break;
+            steps[l] += 1;
+            let finite = next.iter().all(|entry| entry[l].is_finite());
+            for (xi, ni) in x.iter_mut().zip(next) {
+                xi[l] = if finite { ni[l] } else { xi[l] };
             }
+            alive[l] = finite && next[period.pitch][l].abs() <= period.fall_limit;
         }
-        // The sensors are read after a fall too: a final observation is a reading.
-        sensors.shaft_offsets(plant.shaft_offsets());
-        self.reading = sensors.read(dt * self.steps as f64, &self.x);
-        fell
     }
+    lanes.read_at(&steps.map(|k| period.dt * k as f64));
+    alive.map(|a| !a)
 }

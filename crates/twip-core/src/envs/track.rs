@@ -4,8 +4,10 @@
 //!
 //! - Ideal plant: the planar sweep's lanes (`sweep::block::planar`'s plants, [`LANES`]
 //!   robots a block, one block per task); the action is the two wheel torques [N m].
-//! - Rig: each robot's [`PlanarRig`] (`Realism::build_planar`), stepped as the runner steps
-//!   it; the action is the plant's input (the two duties with a motor driver, rounded and
+//! - Rig: each robot's [`PlanarRig`] (`Realism::build_planar`) on the 3-DOF rig sweep's
+//!   lanes ([`PlanarRigLanes`], each lane at its own step), stepped as the runner steps a
+//!   rig, so a robot agrees with `twip.simulate` through it to rounding (the lanes fuse
+//!   multiply-adds); the action is the plant's input (the two duties with a motor driver, rounded and
 //!   saturated as the firmware writes them; else the torques); the observation is built
 //!   from the sensors' reading (dead-reckoned pose, encoder heading, tilt estimate, gyros).
 //!
@@ -15,13 +17,13 @@
 use alloc::vec::Vec;
 
 use super::batch::{Drawn, EnvKind, Envs, RealismFor};
-use super::robot::{LanePlant, Period};
+use super::robot::{LanePlant, Period, RigBlock};
 use crate::control::trajectory::{PlanarRef, Trajectory};
 use crate::control::Reference;
-use crate::hardware::planar_rig::{PlanarActuator, PlanarPlant, PlanarRig, PlanarSensors};
+use crate::hardware::planar_rig::PlanarRig;
 use crate::hardware::realism::Realism;
 use crate::model::planar::{PlanarModel, PlanarState};
-use crate::sweep::block::PlanarPlants;
+use crate::sweep::block::{PlanarPlants, PlanarRigLanes};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::planar::{draw, validate, PlanarNominal};
 use crate::sweep::Perturbation;
@@ -62,9 +64,7 @@ impl LanePlant for PlanarPlants {
 impl EnvKind<7, 2> for TrackSpec {
     type Model = PlanarModel<f64>;
     type Plants = PlanarPlants;
-    type RigPlant = PlanarPlant<f64>;
-    type RigSensors = PlanarSensors<f64>;
-    type RigActuator = PlanarActuator<f64>;
+    type RigLanes = PlanarRigLanes;
 
     fn period(&self) -> Period {
         Period { dt: self.dt, substeps: self.substeps, pitch: 3, fall_limit: self.fall_limit }
@@ -96,6 +96,52 @@ impl EnvKind<7, 2> for TrackSpec {
 
     fn rig(realism: &Realism<f64>, model: &PlanarModel<f64>, dt: f64) -> Result<PlanarRig<f64>, TwipError> {
         realism.build_planar(model, dt)
+    }
+}
+
+impl RigBlock for PlanarRigLanes {
+    type Model = PlanarModel<f64>;
+    type Rig = PlanarRig<f64>;
+    type State = [Lanes; 7];
+    type State1 = [f64; 7];
+    type Drive = [Lanes; 2];
+
+    fn start(built: Vec<Option<(PlanarModel<f64>, PlanarRig<f64>)>>, x0: impl Fn(usize) -> [f64; 7], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
+        PlanarRigLanes::start(built, x0, dt, period)
+    }
+
+    fn settle(rig: &mut PlanarRig<f64>, x0: [f64; 7], period: f64) {
+        PlanarRigLanes::settle(rig, x0, period);
+    }
+
+    fn restart(&mut self, l: usize, model: PlanarModel<f64>, rig: PlanarRig<f64>, x0: [f64; 7]) {
+        PlanarRigLanes::restart(self, l, model, rig, x0);
+    }
+
+    fn hold_drive(&mut self, drive: &[Lanes; 2]) {
+        PlanarRigLanes::hold_drive(self, drive);
+    }
+
+    #[inline(always)]
+    fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> [Lanes; 7] {
+        PlanarRigLanes::step_at::<COPY>(self, ks, |_, _| {})
+    }
+
+    fn state(&self) -> &[Lanes; 7] {
+        &self.x
+    }
+
+    fn state_mut(&mut self) -> &mut [Lanes; 7] {
+        &mut self.x
+    }
+
+    #[inline(always)]
+    fn read_at(&mut self, ts: &Lanes) {
+        PlanarRigLanes::read_at(self, ts);
+    }
+
+    fn reading(&self) -> &[Lanes; 7] {
+        PlanarRigLanes::reading(self)
     }
 }
 
@@ -197,6 +243,42 @@ mod tests {
         }
     }
 
+    /// A robot started anew mid-run, its IMUs' clock out of phase with its neighbours' (a
+    /// 2 ms sample period in 5 ms control periods), is bit for bit the single env started
+    /// with its seed; and a lane started anew with the key it had is the lane as the batch
+    /// started it.
+    #[test]
+    fn a_lane_started_apart_is_the_single_env() {
+        use crate::hardware::imu::ImuSettings;
+        let imu = ImuSettings { sample_period: 2e-3, ..ImuSettings::thesis_like() };
+        let rig: RealismFor = Arc::new(move |_: &RobotParams<f64>| Ok(Realism { imu: Some(imu), ..Realism::thesis_like() }));
+        let spec = spec(Some(rig));
+        let duties = |o: &[f64; TRACK_OBS]| act(o).map(|a| 150.0 * a);
+        let actions = |envs: &TrackEnvs| (0..envs.len()).flat_map(|l| duties(&envs.observation(l))).collect::<Vec<f64>>();
+        let (n, mut fell) = (21, alloc::vec![false; 21]);
+        let (mut batch, mut as_started) = (TrackEnvs::new(spec.clone(), n, 2).unwrap(), TrackEnvs::new(spec.clone(), n, 1).unwrap());
+        batch.reset(3, Some(3)).unwrap();
+        for k in 0..7 {
+            assert_eq!(batch.observation(3), as_started.observation(3), "period {k}");
+            let a = actions(&batch);
+            batch.step(&a, &mut fell).unwrap();
+            as_started.step(&a, &mut fell).unwrap();
+            assert_eq!(<[f64; 7]>::from(batch.state(3)), <[f64; 7]>::from(as_started.state(3)), "period {k}");
+        }
+        batch.reset(5, Some(105)).unwrap();
+        let mut alone = TrackEnvs::new(spec.clone(), 1, 1).unwrap();
+        alone.reset(0, Some(105)).unwrap();
+        let mut fell_alone = [false];
+        for k in 0..60 {
+            assert_eq!(batch.observation(5), alone.observation(0), "period {k}");
+            let a = actions(&batch);
+            batch.step(&a, &mut fell).unwrap();
+            alone.step(&a[10..12], &mut fell_alone).unwrap();
+            assert_eq!(<[f64; 7]>::from(batch.state(5)), <[f64; 7]>::from(alone.state(0)), "period {k}");
+            assert_eq!(fell[5], fell_alone[0]);
+        }
+    }
+
     /// Replays actions as a tracker of the one runner.
     struct Replay(Vec<[f64; 2]>, usize);
 
@@ -228,7 +310,8 @@ mod tests {
     }
 
     /// A lane's run is the runner's with the same inputs, the PID tracker closing the loop
-    /// on the env: to rounding on the ideal plant's lanes, bit for bit through the rig.
+    /// on the env: to rounding (the lanes fuse multiply-adds), on the ideal plant's lanes
+    /// and through the rig.
     #[test]
     fn a_lane_is_the_runners_run() {
         let params = RobotParams::balanbot();
@@ -266,15 +349,18 @@ mod tests {
                     rig.simulate(&mut replay, &path, &spec.nominal.x0, &config, &mut seen, || false).unwrap();
                 }
             }
+            // Replayed open loop, the upright's unstable pole grows the roundings: measured,
+            // the worst over 600 periods is 5.3e-10 on the ideal plant, and through the rig
+            // (whose play and stick band pass them on) 1.0e-9 by period 511, 1.5e-8 by 600.
+            let bound = if realism.is_some() { 1e-7 } else { 1e-9 };
+            let mut worst: f64 = 0.0;
             for (k, x) in states.iter().enumerate() {
                 let want = seen.0[5 * (k + 1)];
-                if realism.is_some() {
-                    assert_eq!(*x, want, "rig, period {k}");
-                } else {
-                    let err = (x - want).amax();
-                    assert!(err < 1e-9, "ideal, period {k}: {err}");
-                }
+                let err = (x - want).amax();
+                worst = worst.max(err);
+                assert!(err < bound, "{}, period {k}: {err}", if realism.is_some() { "rig" } else { "ideal" });
             }
+            std::println!("{}: worst {worst:e}", if realism.is_some() { "rig" } else { "ideal" });
         }
     }
 

@@ -93,9 +93,11 @@ pub struct Dlpf<T> {
     allpass: Option<T>,
     ap_x: T,
     ap_y: T,
+    /// The pure delay's samples, newest first (a shift register, not a ring with a head:
+    /// every lane of a sweep's or an env's lanes then keeps its own at the same places, even
+    /// when lanes sample at different steps).
     ring: [T; MAX_DELAY_SAMPLES],
     whole: usize,
-    head: usize,
     zeta: T,
     natural: T,
     pure: T,
@@ -117,7 +119,7 @@ impl<T: Real> Dlpf<T> {
             bypass: delay == z,
             b0: z, a1: z, a2: z, s1: z, s2: z,
             allpass: None, ap_x: z, ap_y: z,
-            ring: [z; MAX_DELAY_SAMPLES], whole: 0, head: 0,
+            ring: [z; MAX_DELAY_SAMPLES], whole: 0,
             zeta: z, natural: z, pure: z,
         };
         if f.bypass {
@@ -227,12 +229,22 @@ impl<S: Lane> Dlpf<S> {
             self.ap_y = out;
         }
         if self.whole > 0 {
-            let delayed = self.ring[self.head];
-            self.ring[self.head] = out;
-            self.head = (self.head + 1) % self.whole;
+            let delayed = self.ring[self.whole - 1];
+            self.ring.copy_within(0..self.whole - 1, 1);
+            self.ring[0] = out;
             out = delayed;
         }
         out
+    }
+
+    /// Each state of this filter set to `f(its own, the same state of `other`)`: a lane's
+    /// state taken from another copy of the same filter.
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // the lanes use it
+    fn zip_state(&mut self, other: &Self, f: impl Fn(S, S) -> S + Copy) {
+        (self.s1, self.s2, self.ap_x, self.ap_y) = (f(self.s1, other.s1), f(self.s2, other.s2), f(self.ap_x, other.ap_x), f(self.ap_y, other.ap_y));
+        for (mine, theirs) in self.ring.iter_mut().zip(&other.ring) {
+            *mine = f(*mine, *theirs);
+        }
     }
 }
 
@@ -252,7 +264,6 @@ impl<T: Copy> Dlpf<T> {
             ap_y: f(self.ap_y),
             ring: self.ring.map(f),
             whole: self.whole,
-            head: self.head,
             zeta: f(self.zeta),
             natural: f(self.natural),
             pure: f(self.pure),
@@ -458,14 +469,21 @@ const BATCH_SAMPLES: usize = NOISE_BATCH / 4;
 /// The [`NoiseBatch`]es of `N` robots' IMUs that sample together (a sweep's lanes), `K`
 /// IMUs per robot drawing in turn from the robot's own stream (the 3-DOF robot's pitch
 /// channels, then its yaw gyro): refilled together, each sample's four normals per IMU
-/// are four rows over the robots.
+/// are four rows over the robots. Lanes that restart apart (an env's robots, each started
+/// at its own step) each keep their own place in their rows and refill alone.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct NoiseLanes<const N: usize, const K: usize> {
     gauss: Ziggurat,
     rows: [[[[f64; N]; 4]; K]; BATCH_SAMPLES],
+    /// Samples of the rows used: every lane's while they are in step (`apart` None), else
+    /// each lane's own, and the rows each lane's place gave (what `draw` hands out).
     used: usize,
+    apart: Option<Apart<N, K>>,
     streams: Sfc64<N>,
 }
+
+/// Each lane's place in its rows, and the rows their places gave, of lanes apart.
+type Apart<const N: usize, const K: usize> = ([usize; N], [[[f64; N]; 4]; K]);
 
 #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
 impl<const N: usize, const K: usize> NoiseLanes<N, K> {
@@ -474,31 +492,71 @@ impl<const N: usize, const K: usize> NoiseLanes<N, K> {
     pub(crate) fn new(parts: &[(Sfc64, [NoiseBatch; K]); N]) -> Self {
         let used = parts[0].1[0].used;
         debug_assert!(parts.iter().all(|p| p.1.iter().all(|b| b.used == used)), "the IMUs' batches are in step");
-        let mut rows = [[[[0.0; N]; 4]; K]; BATCH_SAMPLES];
+        let mut lanes = Self { gauss: Ziggurat::new(), rows: [[[[0.0; N]; 4]; K]; BATCH_SAMPLES], used: used / 4, apart: None, streams: Sfc64::lanes(parts.map(|p| p.0)) };
         for (l, (_, batches)) in parts.iter().enumerate() {
-            for (k, batch) in batches.iter().enumerate() {
-                for (n, v) in batch.noise.iter().enumerate() {
-                    rows[n / 4][k][n % 4][l] = *v;
-                }
+            lanes.put_rows(l, batches);
+        }
+        lanes
+    }
+
+    fn put_rows(&mut self, l: usize, batches: &[NoiseBatch; K]) {
+        for (k, batch) in batches.iter().enumerate() {
+            for (n, v) in batch.noise.iter().enumerate() {
+                self.rows[n / 4][k][n % 4][l] = *v;
             }
         }
-        Self { gauss: Ziggurat::new(), rows, used: used / 4, streams: Sfc64::lanes(parts.map(|p| p.0)) }
+    }
+
+    /// Lane `l` goes on as the robot whose stream and batches these are (a robot started
+    /// anew): from now on the lanes keep their places apart.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(crate) fn restart(&mut self, l: usize, rng: Sfc64, batches: &[NoiseBatch; K]) {
+        let (used, _) = self.apart.get_or_insert(([self.used; N], [[[0.0; N]; 4]; K]));
+        used[l] = batches[0].used / 4;
+        self.streams.set_lane(l, rng);
+        self.put_rows(l, batches);
     }
 
     /// Every robot's next four normals per IMU (gyro, accel x, accel z, bias walk): four
-    /// rows per IMU, as [`NoiseBatch::draw`] gives each.
+    /// rows per IMU, as [`NoiseBatch::draw`] gives each. Only the lanes `due` draw (the
+    /// others' rows are left as they were): lanes that do not all draw go apart.
     #[inline(always)]
-    pub(crate) fn draw(&mut self) -> &[[[f64; N]; 4]; K] {
-        if self.used == BATCH_SAMPLES {
-            let rows = &mut self.rows;
-            #[allow(clippy::needless_range_loop)] // k indexes the rows' middle axis
-            for k in 0..K {
-                self.gauss.fill(&mut self.streams, NOISE_BATCH / 2, |n, row| rows[n / 4][k][n % 4] = row);
-            }
-            self.used = 0;
+    pub(crate) fn draw(&mut self, due: &[bool; N]) -> &[[[f64; N]; 4]; K] {
+        if self.apart.is_none() && due.iter().any(|&d| !d) {
+            self.apart = Some(([self.used; N], [[[0.0; N]; 4]; K]));
         }
-        self.used += 1;
-        &self.rows[self.used - 1]
+        let Some((used, out)) = self.apart.as_mut() else {
+            if self.used == BATCH_SAMPLES {
+                let rows = &mut self.rows;
+                #[allow(clippy::needless_range_loop)] // k indexes the rows' middle axis
+                for k in 0..K {
+                    self.gauss.fill(&mut self.streams, NOISE_BATCH / 2, |n, row| rows[n / 4][k][n % 4] = row);
+                }
+                self.used = 0;
+            }
+            self.used += 1;
+            return &self.rows[self.used - 1];
+        };
+        for l in (0..N).filter(|&l| due[l]) {
+            if used[l] == BATCH_SAMPLES {
+                // This lane's stream alone, its IMUs in turn: the normals the lanes' fill
+                // gives it.
+                let mut rng = self.streams.lane(l);
+                #[allow(clippy::needless_range_loop)] // k indexes the rows' middle axis
+                for k in 0..K {
+                    self.gauss.fill(&mut rng, NOISE_BATCH / 2, |n, [v]| self.rows[n / 4][k][n % 4][l] = v);
+                }
+                self.streams.set_lane(l, rng);
+                used[l] = 0;
+            }
+            for (out_k, row_k) in out.iter_mut().zip(&self.rows[used[l]]) {
+                for (o, r) in out_k.iter_mut().zip(row_k) {
+                    o[l] = r[l];
+                }
+            }
+            used[l] += 1;
+        }
+        out
     }
 }
 
@@ -644,6 +702,38 @@ impl<T: Copy> Mpu6050<T> {
             reading: ImuReading { accel_x: f(self.reading.accel_x), accel_z: f(self.reading.accel_z), gyro: f(self.reading.gyro) },
             noise: self.noise,
         }
+    }
+}
+
+/// For [`Mpu6050::zip_state`]: lane `j` of the other copy, the rest kept.
+#[cfg(feature = "std")] // the lanes' (`Wide`)
+#[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+pub(crate) fn lane_from<const N: usize>(j: usize) -> impl Fn(crate::model::lane::Wide<N>, crate::model::lane::Wide<N>) -> crate::model::lane::Wide<N> + Copy {
+    move |mine, theirs| {
+        let mut v = mine;
+        v.0[j] = theirs.0[j];
+        v
+    }
+}
+
+// A lane's state taken from another copy (an env's robot started anew, or a lane that did
+// not sample): the filters, the bias and the registers; the settings are every lane's alike.
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // the lanes use it
+impl<S: Lane> Mpu6050<S> {
+    /// Each state set to `f(its own, the same state of `other`)`.
+    pub(crate) fn zip_state(&mut self, other: &Self, f: impl Fn(S, S) -> S + Copy) {
+        self.gyro_filter.zip_state(&other.gyro_filter, f);
+        self.accel_x_filter.zip_state(&other.accel_x_filter, f);
+        self.accel_z_filter.zip_state(&other.accel_z_filter, f);
+        self.bias = f(self.bias, other.bias);
+        let (r, o) = (self.reading, other.reading);
+        self.reading = ImuReading { accel_x: f(r.accel_x, o.accel_x), accel_z: f(r.accel_z, o.accel_z), gyro: f(r.gyro, o.gyro) };
+    }
+
+    /// As before the first sample: the next one starts the filters.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(crate) fn unprime(&mut self) {
+        self.primed = false;
     }
 }
 

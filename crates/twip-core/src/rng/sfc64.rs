@@ -50,6 +50,16 @@ impl<const N: usize> Sfc64<N> {
         Self { a: of(|s| s.a[0]), b: of(|s| s.b[0]), c: of(|s| s.c[0]), counter: of(|s| s.counter[0]) }
     }
 
+    /// Lane `lane`'s stream as it stands.
+    pub fn lane(&self, lane: usize) -> Sfc64 {
+        Sfc64 { a: [self.a[lane]], b: [self.b[lane]], c: [self.c[lane]], counter: [self.counter[lane]] }
+    }
+
+    /// Lane `lane` goes on as `stream` would.
+    pub fn set_lane(&mut self, lane: usize, stream: Sfc64) {
+        (self.a[lane], self.b[lane], self.c[lane], self.counter[lane]) = (stream.a[0], stream.b[0], stream.c[0], stream.counter[0]);
+    }
+
     /// Lane `lane`'s next word.
     #[inline(always)]
     pub fn word(&mut self, lane: usize) -> u64 {
@@ -114,6 +124,14 @@ mod tests {
             for (l, w) in words.into_iter().enumerate() {
                 assert_eq!(w, alone[l].next_u64(), "round {round}, lane {l}");
             }
+        }
+        // A lane taken out, drawn alone and put back goes on as its stream.
+        let mut three = lanes.lane(3);
+        assert_eq!(three.next_u64(), alone[3].next_u64());
+        lanes.set_lane(3, three);
+        let words = lanes.words();
+        for (l, w) in words.into_iter().enumerate() {
+            assert_eq!(w, alone[l].next_u64(), "after lane 3 alone, lane {l}");
         }
         assert_ne!(Sfc64::new(1, 0).next_u64(), Sfc64::new(1, 1).next_u64());
     }

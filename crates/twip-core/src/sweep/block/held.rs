@@ -20,6 +20,15 @@ impl<U: Copy> Held<U> {
         Self { u: zero, pending: zero, command: zero, pending_command: zero, beyond: [false; LANES], pending_beyond: [false; LANES] }
     }
 
+    /// Lane `l` holds nothing (a robot started anew): `zero` clears lane `l` of a `U`.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(super) fn clear(&mut self, l: usize, zero: impl Fn(&mut U)) {
+        for v in [&mut self.u, &mut self.pending, &mut self.command, &mut self.pending_command] {
+            zero(v);
+        }
+        (self.beyond[l], self.pending_beyond[l]) = (false, false);
+    }
+
     /// The drive a controller update gives (`drive` for the command `cmd`, `clamped` where it
     /// is beyond a driver), applied from now on, or (`delay`) once the next update comes.
     #[inline(always)]

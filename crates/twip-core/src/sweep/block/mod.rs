@@ -26,6 +26,7 @@ use core::sync::atomic::{AtomicU8, Ordering};
 
 mod fuzzy;
 mod held;
+mod kinds;
 mod lqr;
 mod planar;
 mod planar_rig;
@@ -40,7 +41,7 @@ pub use lqr::LqrLanes;
 pub use planar::{run_planar_block, BlockGround, Flat, LanePath, PidLanes, PlanarLaneLaw};
 pub use planar_terrain::{FeedForwardLanes, TerrainLanes};
 #[cfg(feature = "parallel")] // the envs' only use, and they build with `parallel`
-pub(crate) use planar::Plants as PlanarPlants;
+pub(crate) use {planar::Plants as PlanarPlants, planar_rig_lanes::PlanarRigLanes, rig_lanes::RigLanes};
 pub use planar_rig::run_planar_rig_block;
 pub use rig::run_rig_block;
 pub use smc::SmcLanes;

@@ -23,7 +23,7 @@ use super::{chunk, CHUNKS};
 use crate::Dynamics;
 use crate::hardware::disturbance::Force;
 use crate::hardware::driver::{MotorDriver, Winding};
-use crate::hardware::imu::{ImuClock, ImuReading, Mpu6050, NoiseLanes};
+use crate::hardware::imu::{lane_from, ImuClock, ImuReading, Mpu6050, NoiseLanes};
 use crate::hardware::planar_rig::{body_force, sample_imus, PlanarRig};
 use crate::hardware::realism::RigPlant as _;
 use crate::model::friction::{Friction, Gearhead};
@@ -34,17 +34,9 @@ use crate::sim::runner::{Actuator, Plant, Sensor};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::{RobotParams, TwipError};
 
-/// The plant's kinds, decided once per block: the gearhead friction's (`GEAR`: none, the
-/// slip law, or with a stick band) and what drives it (`DRIVE`: the motor torques held
-/// over the step; windings without inductance, which turn the duties into current at
-/// each stage; windings with inductance, whose currents move within the step); each its
-/// own loop over lanes, so that no branch inside one keeps the compiler from vectorising it.
-const FREE: u8 = 0;
-const SLIP: u8 = 1;
-const STICK: u8 = 2;
-const HELD: u8 = 0;
-const STEADY: u8 = 1;
-const STEPPED: u8 = 2;
+// The plant's kinds, decided once per block (`kinds`): the gearhead friction's (`GEAR`) and
+// what drives it (`DRIVE`: the motor torques held over the step, or the windings').
+use super::kinds::{FREE, HELD, SLIP, STEADY, STEPPED, STICK};
 
 /// One lane's plant over a step, its trains as they are (`GEARED`: some lane's in the block
 /// may be open): the motor torques held, or at the step's start with the windings' steps
@@ -138,6 +130,42 @@ struct RigPlants {
     rotors: Lanes,
 }
 
+/// Any valid windings, for lanes that never evaluate one (no driver).
+fn stand_in() -> Result<([Winding<f64>; 2], f64), TwipError> {
+    Ok(([Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?; 2], 1.0))
+}
+
+impl RigPlants {
+    /// The plants of `rigs` (each lane's `models`' robot) for steps of `dt`.
+    fn new(rigs: &[PlanarRig<f64>], models: &[PlanarModel<f64>; LANES], dt: f64, stand_in: ([Winding<f64>; 2], f64)) -> Self {
+        let friction = rigs[0].plant.model().friction().copied();
+        // Each lane's windings with their factors for steps of `dt` (their steps are set each
+        // step), and the stand-ins for lanes that never evaluate one (no driver).
+        let drives = |l: usize| {
+            rigs[l].plant.drives().map(|(mut w, per_amp)| {
+                w.iter_mut().for_each(|w| w.prepare(dt));
+                (w, per_amp)
+            })
+        };
+        Self {
+            // The rig's model: the sample's, with the realism's gearhead friction.
+            plants: Plants::new(&core::array::from_fn(|l| *rigs[l].plant.model())),
+            gear: super::kinds::gear(friction.as_ref()),
+            // Unused without a friction: any friction's numbers.
+            friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
+            drive: super::kinds::drive(rigs[0].plant.drives().map(|(w, _)| w[0].inductive())),
+            windings: core::array::from_fn(|wheel| {
+                WindingLanes::new(&core::array::from_fn(|l| {
+                    let (w, per_amp) = drives(l).unwrap_or(stand_in);
+                    (w[wheel], per_amp)
+                }))
+            }),
+            forces: core::array::from_fn(|l| rigs[l].plant.force()),
+            rotors: core::array::from_fn(|l| models[l].rotor_per_wheel()),
+        }
+    }
+}
+
 /// `$self.$run::<GEAR, DRIVE, GEARED>(args)` for the plants' kinds; GEARED only while
 /// some lane's trains are open (`$trains`: all engaged is the plain plant, bit for bit).
 macro_rules! by_kind {
@@ -228,13 +256,12 @@ impl RigPlants {
 
 /// The IMUs on lanes, as the 2-DOF rig's: per [`WIDTH`] lanes one pitch `Mpu6050` and
 /// one yaw gyro (the converters, filters and registers every lane's alike, the state each
-/// lane's own), sampled on the rigs' clock (every lane's alike) with each lane's own
-/// noise: copies of its rig's stream and of its IMUs' normals drawn ahead, which give the
-/// very numbers its run draws. The registers go to each lane's sensors before the
-/// firmware reads them.
+/// lane's own), each lane sampled on its own rig's clock with its own noise: copies of
+/// its rig's stream and of its IMUs' normals drawn ahead, which give the very numbers its
+/// run draws. The registers go to each lane's sensors before the firmware reads them.
 struct ImuLanes {
     imus: [(Mpu6050<Wide>, Mpu6050<Wide>); CHUNKS],
-    clock: ImuClock<f64>,
+    clocks: [ImuClock<f64>; LANES],
     noise: NoiseLanes<LANES, 2>,
     /// Each lane's wheel radius, its inverse and gravity.
     radius: Lanes,
@@ -246,15 +273,15 @@ impl ImuLanes {
     /// None without an IMU (every lane's rig has the same parts).
     fn new(rigs: &[PlanarRig<f64>], models: &[PlanarModel<f64>; LANES]) -> Option<Self> {
         let ([pitch, yaw], clock, rng, noise) = rigs[0].sensors.imu_noise_parts()?;
-        let mut parts = [(rng, noise); LANES];
+        let (mut parts, mut clocks) = ([(rng, noise); LANES], [clock; LANES]);
         for (l, rig) in rigs.iter().enumerate() {
-            let (_, _, rng, noise) = rig.sensors.imu_noise_parts()?;
-            parts[l] = (rng, noise);
+            let (_, clock, rng, noise) = rig.sensors.imu_noise_parts()?;
+            (parts[l], clocks[l]) = ((rng, noise), clock);
         }
         let radius: Lanes = core::array::from_fn(|l| models[l].params().wheel_radius);
         Some(Self {
             imus: [(pitch.map(Wide::splat), yaw.map(Wide::splat)); CHUNKS],
-            clock,
+            clocks,
             noise: NoiseLanes::new(&parts),
             radius,
             inv_r: radius.map(|r| 1.0 / r),
@@ -262,19 +289,60 @@ impl ImuLanes {
         })
     }
 
-    /// `PlanarSensors::sample`'s IMU part on every lane, at `t`, state `x` and derivative `xdot`.
+    /// `PlanarSensors::sample`'s IMU part on every lane, at its time `ts`, state `x` and
+    /// derivative `xdot`.
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn sample(&mut self, t: f64, x: &[Lanes; 7], xdot: &[Lanes; 7]) {
-        if !self.clock.due(t) {
-            return;
+    fn sample(&mut self, ts: &Lanes, x: &[Lanes; 7], xdot: &[Lanes; 7]) {
+        let due = core::array::from_fn(|l| self.clocks[l].due(ts[l]));
+        if due.iter().any(|&d| d) {
+            self.sample_where(&due, x, xdot);
         }
-        let noise = self.noise.draw();
+    }
+
+    /// The lanes `due` sample (the others' IMUs stay as they are).
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn sample_where(&mut self, due: &[bool; LANES], x: &[Lanes; 7], xdot: &[Lanes; 7]) {
+        let noise = self.noise.draw(due);
         for (c, (pitch, yaw)) in self.imus.iter_mut().enumerate() {
+            let lanes = &due[c * WIDTH..(c + 1) * WIDTH];
+            if !lanes.iter().any(|&d| d) {
+                continue;
+            }
+            let before = (*pitch, *yaw);
             let (xs, ds): ([Wide; 7], [Wide; 7]) = (fill(|i| chunk(&x[i], c)), fill(|i| chunk(&xdot[i], c)));
             let n = [fill(|i| chunk(&noise[0][i], c)), fill(|i| chunk(&noise[1][i], c))];
             let dims = (chunk(&self.radius, c), chunk(&self.inv_r, c), pitch.settings().height, chunk(&self.g, c));
             sample_imus((pitch, yaw), &xs, &ds, Wide::sincos(xs[3]).1, n, dims);
+            if !lanes.iter().all(|&d| d) {
+                let keep = |now: Wide, was: Wide| Wide(core::array::from_fn(|j| if lanes[j] { now.0[j] } else { was.0[j] }));
+                pitch.zip_state(&before.0, keep);
+                yaw.zip_state(&before.1, keep);
+            }
         }
+    }
+
+    /// Lane `l`'s IMUs are `rig`'s, new (its robot `model` started anew), and take their
+    /// first sample as [`Self::new`]'s lanes take theirs: at the state `x` and derivative `xdot`.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    fn restart(&mut self, l: usize, rig: &PlanarRig<f64>, model: &PlanarModel<f64>, x: &[Lanes; 7], xdot: &[Lanes; 7]) {
+        let Some(([pitch, yaw], clock, rng, noise)) = rig.sensors.imu_noise_parts() else { return };
+        let r = model.params().wheel_radius;
+        (self.clocks[l], self.radius[l], self.inv_r[l], self.g[l]) = (clock, r, 1.0 / r, model.params().g);
+        self.noise.restart(l, rng, &noise);
+        let due: [bool; LANES] = core::array::from_fn(|m| m == l && self.clocks[l].due(0.0));
+        let (c, j) = (l / WIDTH, l % WIDTH);
+        let kept = self.imus[c];
+        let take_j = lane_from(j);
+        // Their filters start from their first sample: the chunk's unprimed for it, then put back.
+        let (p, y) = &mut self.imus[c];
+        p.zip_state(&pitch.map(Wide::splat), take_j);
+        y.zip_state(&yaw.map(Wide::splat), take_j);
+        p.unprime();
+        y.unprime();
+        self.sample_where(&due, x, xdot);
+        let first = core::mem::replace(&mut self.imus[c], kept);
+        self.imus[c].0.zip_state(&first.0, take_j);
+        self.imus[c].1.zip_state(&first.1, take_j);
     }
 
     /// The latest registers into each lane's sensors (which the firmware's read takes).
@@ -307,13 +375,15 @@ fn set_lane<const N: usize>(x: &mut [Lanes; N], l: usize, v: &SVector<f64, N>) {
 /// from one plant step to the next (the inputs held and pending, the gear trains), so that
 /// a loop can step it, stop, and go on. Invalid or missing lanes run an idle copy of a
 /// valid robot's rig, whose numbers no one keeps.
-pub(super) struct PlanarRigLanes {
+pub(crate) struct PlanarRigLanes {
     /// Each lane's model (the sample's).
     pub(super) models: [PlanarModel<f64>; LANES],
     rigs: Vec<PlanarRig<f64>>,
     plants: RigPlants,
     imus: Option<Box<ImuLanes>>,
     dt: f64,
+    /// The windings of lanes without a driver.
+    stand_in: ([Winding<f64>; 2], f64),
     delay: bool,
     /// Every lane's realism has the same parts: play in all or none.
     geared: bool,
@@ -323,7 +393,7 @@ pub(super) struct PlanarRigLanes {
     /// Each lane's gear trains over the last step.
     engaged: [[bool; 2]; LANES],
     /// The state.
-    pub(super) x: [Lanes; 7],
+    pub(crate) x: [Lanes; 7],
     /// The sensors' last reading.
     y: [Lanes; 7],
     /// The plant's input and the controller's command, applied and pending.
@@ -335,46 +405,14 @@ impl PlanarRigLanes {
     /// `x0(l)`, their estimators settled as a run settles them (reads every `period` [s]),
     /// their sensors at the initial state under no input; plant steps of `dt`. None when no
     /// lane has a rig.
-    pub(super) fn start(built: Vec<Option<(PlanarModel<f64>, PlanarRig<f64>)>>, x0: impl Fn(usize) -> [f64; 7], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
+    pub(crate) fn start(built: Vec<Option<(PlanarModel<f64>, PlanarRig<f64>)>>, x0: impl Fn(usize) -> [f64; 7], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
         let Some(fallback) = built.iter().flatten().next().cloned() else {
             return Ok(None);
         };
         let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| built.get(l).cloned().flatten().map_or(fallback.0, |b| b.0));
         let mut rigs: Vec<PlanarRig<f64>> = (0..LANES).map(|l| built.get(l).cloned().flatten().map_or_else(|| fallback.1.clone(), |b| b.1)).collect();
-        let friction = rigs[0].plant.model().friction().copied();
-        // Each lane's windings with their factors for steps of `dt` (their steps are set each
-        // step), and any valid ones for lanes that never evaluate one (no driver).
-        let drives = |l: usize| {
-            rigs[l].plant.drives().map(|(mut w, per_amp)| {
-                w.iter_mut().for_each(|w| w.prepare(dt));
-                (w, per_amp)
-            })
-        };
-        let stand_in = ([Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?; 2], 1.0);
-        let plants = RigPlants {
-            // The rig's model: the sample's, with the realism's gearhead friction.
-            plants: Plants::new(&core::array::from_fn(|l| *rigs[l].plant.model())),
-            gear: match &friction {
-                None => FREE,
-                Some(f) if f.sticks() => STICK,
-                Some(_) => SLIP,
-            },
-            // Unused without a friction: any friction's numbers.
-            friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
-            drive: match rigs[0].plant.drives() {
-                None => HELD,
-                Some((w, _)) if !w[0].inductive() => STEADY,
-                Some(_) => STEPPED,
-            },
-            windings: core::array::from_fn(|wheel| {
-                WindingLanes::new(&core::array::from_fn(|l| {
-                    let (w, per_amp) = drives(l).unwrap_or(stand_in);
-                    (w[wheel], per_amp)
-                }))
-            }),
-            forces: core::array::from_fn(|l| rigs[l].plant.force()),
-            rotors: core::array::from_fn(|l| models[l].rotor_per_wheel()),
-        };
+        let stand_in = stand_in()?;
+        let plants = RigPlants::new(&rigs, &models, dt, stand_in);
         let (delay, geared) = (rigs[0].delay, rigs[0].plant_play().is_some());
         let x0: [[f64; 7]; LANES] = core::array::from_fn(x0);
         let x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| x0[l][i]));
@@ -385,12 +423,10 @@ impl PlanarRigLanes {
         for (l, rig) in rigs.iter_mut().enumerate() {
             let xl = lane(&x, l);
             set_lane(&mut d0, l, &rig.plant.deriv(&xl, &SVector::zeros()));
-            rig.sensors.follow_wheels(0.0, &xl);
-            // The scalar runner's settle, each lane's estimator its own (`Rig::simulate`).
-            rig.sensors.settle(&xl, period);
+            Self::settle(rig, xl.into(), period);
         }
         if let Some(imus) = imus.as_mut() {
-            imus.sample(0.0, &x, &d0);
+            imus.sample(&[0.0; LANES], &x, &d0);
         }
         let quiet_engaged = core::array::from_fn(|l| rigs[l].plant.unpushed());
         let engaged = core::array::from_fn(|l| rigs[l].plant.trains());
@@ -400,6 +436,7 @@ impl PlanarRigLanes {
             plants,
             imus,
             dt,
+            stand_in,
             delay,
             geared,
             quiet_engaged,
@@ -408,6 +445,57 @@ impl PlanarRigLanes {
             y: [[0.0; LANES]; 7],
             held: Held::new([[0.0; LANES]; 2]),
         }))
+    }
+
+    /// The rig's sensors at rest in `x0` (the encoders' wheels there), settled with reads
+    /// every `period` [s], as a run settles them before it starts (`Rig::simulate`).
+    pub(crate) fn settle(rig: &mut PlanarRig<f64>, x0: [f64; 7], period: f64) {
+        let xl = SVector::from(x0);
+        rig.sensors.follow_wheels(0.0, &xl);
+        rig.sensors.settle(&xl, period);
+    }
+
+    /// Lane `l` runs `rig` (its robot `model`, [`Self::settle`]d) from rest in `x0`, started
+    /// as [`Self::start`] starts a lane (an env's robot started anew); the other lanes go on
+    /// as they were.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(crate) fn restart(&mut self, l: usize, model: PlanarModel<f64>, rig: PlanarRig<f64>, x0: [f64; 7]) {
+        let xl = SVector::from(x0);
+        let d0 = rig.plant.deriv(&xl, &SVector::zeros());
+        (self.models[l], self.rigs[l]) = (model, rig);
+        set_lane(&mut self.x, l, &xl);
+        set_lane(&mut self.y, l, &SVector::zeros());
+        // The plants' numbers anew from every lane's rig; the windings' states are each lane's.
+        let fresh = RigPlants::new(&self.rigs, &self.models, self.dt, self.stand_in);
+        let windings = core::mem::replace(&mut self.plants, fresh).windings;
+        let fresh = core::mem::replace(&mut self.plants.windings, windings);
+        for (mine, new) in self.plants.windings.iter_mut().zip(&fresh) {
+            mine.copy_lane(l, new);
+        }
+        let plant = &self.rigs[l].plant;
+        (self.engaged[l], self.quiet_engaged[l]) = (plant.trains(), plant.unpushed());
+        self.held.clear(l, |u| (u[0][l], u[1][l]) = (0.0, 0.0));
+        if let Some(imus) = self.imus.as_mut() {
+            let mut xdot = [[0.0; LANES]; 7];
+            set_lane(&mut xdot, l, &d0);
+            imus.restart(l, &self.rigs[l], &model, &self.x, &xdot);
+            imus.to_sensors(&mut self.rigs);
+        }
+        // The firmware's first read, at t = 0 (as `read_at` reads the lanes `start` started).
+        self.read_lane(l, 0.0);
+    }
+
+    /// The plants' input `drive` (duties or torques) held from now on (a period late with a
+    /// delay), as is: an env's action, which no actuator turns into a drive.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(crate) fn hold_drive(&mut self, drive: &[Lanes; 2]) {
+        self.held.hold(self.delay, *drive, *drive, [false; LANES]);
+    }
+
+    /// The sensors' last reading.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(crate) fn reading(&self) -> &[Lanes; 7] {
+        &self.y
     }
 
     /// Each lane's driver's gearbox efficiency (1 without one).
@@ -426,14 +514,27 @@ impl PlanarRigLanes {
     /// lane's tilt estimator.
     #[inline(always)]
     pub(super) fn read(&mut self, t: f64) -> &[Lanes; 7] {
+        self.read_at(&[t; LANES])
+    }
+
+    /// [`Self::read`] with each lane at its own time `ts`.
+    #[inline(always)]
+    pub(crate) fn read_at(&mut self, ts: &Lanes) -> &[Lanes; 7] {
         if let Some(imus) = self.imus.as_ref() {
             imus.to_sensors(&mut self.rigs);
         }
-        for (l, rig) in self.rigs.iter_mut().enumerate() {
-            rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
-            set_lane(&mut self.y, l, &rig.sensors.read(t, &lane(&self.x, l)));
+        for (l, &t) in ts.iter().enumerate() {
+            self.read_lane(l, t);
         }
         &self.y
+    }
+
+    /// Lane `l`'s read at `t` (its IMUs' registers in its sensors already).
+    #[inline(always)]
+    fn read_lane(&mut self, l: usize, t: f64) {
+        let rig = &mut self.rigs[l];
+        rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
+        set_lane(&mut self.y, l, &rig.sensors.read(t, &lane(&self.x, l)));
     }
 
     /// The controller's commands `cmd` at `t` through each lane's actuator (on the last
@@ -460,7 +561,14 @@ impl PlanarRigLanes {
     /// go on there (`x`).
     #[inline(always)]
     pub(super) fn step<const COPY: u8>(&mut self, k: usize, on_drive: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
-        let (t, dt, u) = (self.dt * k as f64, self.dt, self.held.u);
+        self.step_at::<COPY>(&[k; LANES], on_drive)
+    }
+
+    /// [`Self::step`] with each lane at its own step `ks` (an env's robots start apart).
+    #[inline(always)]
+    pub(crate) fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES], on_drive: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
+        let (dt, u) = (self.dt, self.held.u);
+        let ts: Lanes = core::array::from_fn(|l| dt * ks[l] as f64);
         let (plants, x) = (&mut self.plants, &mut self.x);
         // What the plants get at the step's start (`Observer::drive`): the held torques, or
         // the windings' (with inductance, once the last step has ended, below).
@@ -496,18 +604,18 @@ impl PlanarRigLanes {
             if stepped {
                 let [right, left] = rig.plant.motor_speeds(&xl);
                 (finished[0][l], finished[1][l]) = (right, left);
-                rig.plant.ground_start(t, dt, &mut xl);
+                rig.plant.ground_start(ts[l], dt, &mut xl);
                 let [right, left] = rig.plant.motor_speeds(&xl);
                 (starts[0][l], starts[1][l]) = (right, left);
             } else {
-                rig.plant.step_start(t, dt, &mut xl, &ul);
+                rig.plant.step_start(ts[l], dt, &mut xl, &ul);
             }
             set_lane(x, l, &xl);
             trains[l] = rig.plant.trains();
         }
         if stepped {
             for (wheel, windings) in plants.windings.iter_mut().enumerate() {
-                windings.step(k > 0, &finished[wheel], &u[wheel], &starts[wheel], &mut held[wheel]);
+                windings.step(&ks.map(|k| k > 0), &finished[wheel], &u[wheel], &starts[wheel], &mut held[wheel]);
                 windings.delivered(&mut delivered[wheel]);
             }
         }
@@ -525,14 +633,14 @@ impl PlanarRigLanes {
                     trains[l] = rig.plant.trains();
                 }
             }
-            rig.sensors.follow_wheels(t, &xl);
+            rig.sensors.follow_wheels(ts[l], &xl);
         }
         if trains != before {
             // Some trains opened or closed: RK4's first stage with them as they are now.
             k1 = plants.motion::<COPY>(x, &held, &trains).0;
         }
         if let Some(imus) = self.imus.as_mut() {
-            imus.sample(t, x, &k1);
+            imus.sample(&ts, x, &k1);
         }
         let next = plants.rk4::<COPY>(x, &held, &trains, &k1, dt);
         self.engaged = trains;

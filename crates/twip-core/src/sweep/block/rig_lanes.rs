@@ -20,7 +20,7 @@ use super::winding::WindingLanes;
 use super::{chunk, state_chunk, Plants, CHUNKS};
 use crate::hardware::disturbance::{Disturbed, Force, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{MotorDriver, Winding};
-use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseLanes};
+use crate::hardware::imu::{lane_from, specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseLanes};
 use crate::hardware::realism::{RigPlant as _, SlopeRig};
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field, Stage};
@@ -30,18 +30,10 @@ use crate::sim::runner::{Actuator, Plant as _, Sensor};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::{Dynamics, RobotParams, TwipError};
 
-/// The plant's kinds, decided once per block: its gearhead friction (`GEAR`: 0 none, 1 the
-/// slip law, 2 with a stick band), what drives it (`DRIVE`: a lumped current held over the
-/// step; a winding without inductance, which turns the duty into current at each stage; a
-/// winding with inductance, whose current moves within the step) and whether the gear
-/// trains have play (`GEARED`). Each is its own loop over lanes, so that no branch inside
-/// one keeps the compiler from vectorising it.
-const FREE: u8 = 0;
-const SLIP: u8 = 1;
-const STICK: u8 = 2;
-const HELD: u8 = 0;
-const STEADY: u8 = 1;
-const STEPPED: u8 = 2;
+// The plant's kinds, decided once per block (`kinds`): its gearhead friction (`GEAR`), what
+// drives it (`DRIVE`: a lumped current held over the step, or a winding's) and whether the
+// gear trains have play (`GEARED`).
+use super::kinds::{FREE, HELD, SLIP, STEADY, STEPPED, STICK};
 
 /// A ground with at most this many slope changes has its own copies of the lanes' loops,
 /// which pick a lane's piece among those only: picking among all that a ground may have
@@ -205,6 +197,39 @@ struct RigPlants {
     hills: Hills,
 }
 
+/// Any valid winding, for lanes that never evaluate one (no driver).
+fn stand_in() -> Result<(Winding<f64>, f64), TwipError> {
+    Ok((Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?, 2.0))
+}
+
+impl RigPlants {
+    /// The plants of `rigs` (each lane's `models`' robot) for steps of `dt`.
+    fn new(rigs: &[SlopeRig<f64>], models: &[SlopeModel<f64>; LANES], dt: f64, stand_in: (Winding<f64>, f64)) -> Self {
+        let ground = |l: usize| *rigs[l].plant.ground().model_at(&Vector4::zeros());
+        let friction = ground(0).friction().copied();
+        // Each lane's winding with its factors for steps of `dt`.
+        let winding = |l: usize| {
+            rigs[l].plant.driven_winding().map(|(mut w, per_amp)| {
+                w.prepare(dt);
+                (w, per_amp)
+            })
+        };
+        Self {
+            plants: Plants::new(&core::array::from_fn(|l| ground(l).coefficients())),
+            gear: super::kinds::gear(friction.as_ref()),
+            // Unused without a friction: any friction's numbers.
+            friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
+            drive: super::kinds::drive(rigs[0].plant.driven_winding().map(|(w, _)| w.inductive())),
+            // Unused without a driver (the held current is the input).
+            windings: WindingLanes::new(&core::array::from_fn(|l| winding(l).unwrap_or(stand_in))),
+            // Every lane's realism has the same parts (but for where pushes and forces act).
+            geared: rigs[0].plant.ground().has_play(),
+            forces: core::array::from_fn(|l| rigs[l].plant.ground().force()),
+            hills: Hills::new(core::array::from_fn(|l| rigs[l].plant.ground()), core::array::from_fn(|l| models[l].params().wheel_radius)),
+        }
+    }
+}
+
 /// `$run::<GEAR, DRIVE, GEARED, CHANGES>(args)` for the plants' kinds (`$drive`: what
 /// drives the plant); GEARED only while some lane's trains are open (`$engaged`: all
 /// engaged is the plain plant, bit for bit); CHANGES: the slope changes along the path that
@@ -316,14 +341,14 @@ impl RigPlants {
 }
 
 /// The IMU on lanes: one `Mpu6050` per [`WIDTH`] lanes (the converter, filters and
-/// registers every lane's alike, the state each lane's own), sampled on the rigs' clock
-/// (every lane's alike) with each lane's own noise: copies of its rig's stream and of its
-/// IMU's normals drawn ahead, which give the very numbers its run draws. Kept here, the
-/// lanes' per-step work touches no rig; the registers go to each lane's sensors before the
-/// firmware reads them.
+/// registers every lane's alike, the state each lane's own), each lane sampled on its own
+/// rig's clock (a sweep's lanes all at once; an env's robots start apart) with its own
+/// noise: copies of its rig's stream and of its IMU's normals drawn ahead, which give the
+/// very numbers its run draws. Kept here, the lanes' per-step work touches no rig; the
+/// registers go to each lane's sensors before the firmware reads them.
 struct ImuLanes {
     imus: [Mpu6050<Wide>; CHUNKS],
-    clock: ImuClock<f64>,
+    clocks: [ImuClock<f64>; LANES],
     noise: NoiseLanes<LANES, 1>,
     g: Lanes,
 }
@@ -333,30 +358,63 @@ impl ImuLanes {
     fn new(rigs: &[SlopeRig<f64>], models: &[SlopeModel<f64>; LANES]) -> Option<Self> {
         let imu = rigs[0].sensors.imu()?.map(Wide::splat);
         let (clock, rng, noise) = rigs[0].sensors.imu_noise_parts()?;
-        let mut parts = [(rng, [noise]); LANES];
+        let (mut parts, mut clocks) = ([(rng, [noise]); LANES], [clock; LANES]);
         for (l, rig) in rigs.iter().enumerate() {
-            let (_, rng, noise) = rig.sensors.imu_noise_parts()?;
-            parts[l] = (rng, [noise]);
+            let (clock, rng, noise) = rig.sensors.imu_noise_parts()?;
+            (parts[l], clocks[l]) = ((rng, [noise]), clock);
         }
-        Some(Self { imus: [imu; CHUNKS], clock, noise: NoiseLanes::new(&parts), g: core::array::from_fn(|l| models[l].params().g) })
+        Some(Self { imus: [imu; CHUNKS], clocks, noise: NoiseLanes::new(&parts), g: core::array::from_fn(|l| models[l].params().g) })
     }
 
-    /// `BalanceSensors::sample` on every lane: at `t`, state `x` and derivative `xdot`, on
-    /// the ground `hills` (the sensors' ground and wheels are the plant's).
+    /// `BalanceSensors::sample` on every lane: at its time `ts`, state `x` and derivative
+    /// `xdot`, on the ground `hills` (the sensors' ground and wheels are the plant's).
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn sample(&mut self, hills: &Hills, t: f64, x: &[Lanes; 4], xdot: &[Lanes; 4]) {
-        if !self.clock.due(t) {
-            return;
+    fn sample(&mut self, hills: &Hills, ts: &Lanes, x: &[Lanes; 4], xdot: &[Lanes; 4]) {
+        let due = core::array::from_fn(|l| self.clocks[l].due(ts[l]));
+        if due.iter().any(|&d| d) {
+            self.sample_where(hills, &due, x, xdot);
         }
+    }
+
+    /// The lanes `due` sample (the others' IMUs stay as they are).
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    fn sample_where(&mut self, hills: &Hills, due: &[bool; LANES], x: &[Lanes; 4], xdot: &[Lanes; 4]) {
         let [sin, cos] = hills.trig_at(&x[2]);
-        let [noise] = self.noise.draw();
+        let [noise] = self.noise.draw(due);
         for (c, imu) in self.imus.iter_mut().enumerate() {
+            let lanes = &due[c * WIDTH..(c + 1) * WIDTH];
+            if !lanes.iter().any(|&d| d) {
+                continue;
+            }
+            let before = *imu;
             let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
             let height = imu.settings().height;
             let (radius, g) = (chunk(&hills.radius, c), chunk(&self.g, c));
             let (fx, fz) = specific_force_of(&xs, &ds, chunk(&sin, c), chunk(&cos, c), radius, height, g);
             imu.sample_with(fx, fz, xs[1], core::array::from_fn(|i| chunk(&noise[i], c)));
+            if !lanes.iter().all(|&d| d) {
+                imu.zip_state(&before, |now, was| Wide(core::array::from_fn(|j| if lanes[j] { now.0[j] } else { was.0[j] })));
+            }
         }
+    }
+
+    /// Lane `l`'s IMU is `rig`'s, new (its robot `model` started anew), and takes its first
+    /// sample as [`Self::new`]'s lanes take theirs: at the state `x` and derivative `xdot`.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    fn restart(&mut self, l: usize, rig: &SlopeRig<f64>, model: &SlopeModel<f64>, hills: &Hills, x: &[Lanes; 4], xdot: &[Lanes; 4]) {
+        let (Some(fresh), Some((clock, rng, noise))) = (rig.sensors.imu(), rig.sensors.imu_noise_parts()) else { return };
+        (self.clocks[l], self.g[l]) = (clock, model.params().g);
+        self.noise.restart(l, rng, &[noise]);
+        let due: [bool; LANES] = core::array::from_fn(|m| m == l && self.clocks[l].due(0.0));
+        let (c, j) = (l / WIDTH, l % WIDTH);
+        let kept = self.imus[c];
+        let take_j = lane_from(j);
+        // Its filters start from its first sample: the chunk's unprimed for it, then put back.
+        self.imus[c].zip_state(&fresh.map(Wide::splat), take_j);
+        self.imus[c].unprime();
+        self.sample_where(hills, &due, x, xdot);
+        let first = core::mem::replace(&mut self.imus[c], kept);
+        self.imus[c].zip_state(&first, take_j);
     }
 
     /// The latest registers into each lane's sensors (which the firmware's read takes).
@@ -382,7 +440,7 @@ fn lane(x: &[Lanes; 4], l: usize) -> [f64; 4] {
 /// from one plant step to the next (the inputs held and pending, the gear trains), so that
 /// a loop can step it, stop, and go on. Invalid or missing lanes run an idle copy of a
 /// valid robot's rig, whose numbers no one keeps.
-pub(super) struct RigLanes {
+pub(crate) struct RigLanes {
     /// Each lane's model (the sample's).
     pub(super) models: [SlopeModel<f64>; LANES],
     rigs: Vec<SlopeRig<f64>>,
@@ -390,6 +448,8 @@ pub(super) struct RigLanes {
     /// On the heap, as the rigs: it holds every lane's stream and drawn-ahead normals.
     imus: Option<Box<ImuLanes>>,
     dt: f64,
+    /// The winding of lanes without a driver.
+    stand_in: (Winding<f64>, f64),
     delay: bool,
     /// Without play and pushes, the steps skip the per-lane work between them (measured:
     /// ~1.1x the rig's speed, `sweep_throughput realism-lanes` with RIG_DROP=friction,backlash).
@@ -402,7 +462,7 @@ pub(super) struct RigLanes {
     /// Each lane's gear trains over the last step.
     engaged: [bool; LANES],
     /// The state.
-    pub(super) x: [Lanes; 4],
+    pub(crate) x: [Lanes; 4],
     /// The sensors' last reading.
     y: [Lanes; 4],
     /// The plant's input and the controller's command, applied and pending.
@@ -414,49 +474,19 @@ impl RigLanes {
     /// `x0(l)`, their estimators settled as a run settles them (reads every `period` [s]),
     /// their sensors' registers holding a sample of the initial state; plant steps of `dt`.
     /// None when no lane has a rig.
-    pub(super) fn start(built: Vec<Option<(SlopeModel<f64>, SlopeRig<f64>)>>, x0: impl Fn(usize) -> [f64; 4], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
+    pub(crate) fn start(built: Vec<Option<(SlopeModel<f64>, SlopeRig<f64>)>>, x0: impl Fn(usize) -> [f64; 4], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
         let Some(fallback) = built.iter().flatten().next().copied() else {
             return Ok(None);
         };
         let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| built.get(l).copied().flatten().map_or(fallback.0, |b| b.0));
         let mut rigs: Vec<SlopeRig<f64>> = (0..LANES).map(|l| built.get(l).copied().flatten().map_or(fallback.1, |b| b.1)).collect();
-        let ground = |l: usize| *rigs[l].plant.ground().model_at(&Vector4::zeros());
-        let friction = ground(0).friction().copied();
-        // Each lane's winding with its factors for steps of `dt`.
-        let winding = |l: usize| {
-            rigs[l].plant.driven_winding().map(|(mut w, per_amp)| {
-                w.prepare(dt);
-                (w, per_amp)
-            })
-        };
-        // Any valid winding, for lanes that never evaluate one (no driver).
-        let stand_in = (Winding::new(&MotorDriver::gb37y3530(), &RobotParams::balanbot())?, 2.0);
-        let plants = RigPlants {
-            plants: Plants::new(&core::array::from_fn(|l| ground(l).coefficients())),
-            gear: match &friction {
-                None => FREE,
-                Some(f) if f.sticks() => STICK,
-                Some(_) => SLIP,
-            },
-            // Unused without a friction: any friction's numbers.
-            friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
-            drive: match rigs[0].plant.driven_winding() {
-                None => HELD,
-                Some((w, _)) if !w.inductive() => STEADY,
-                Some(_) => STEPPED,
-            },
-            // Unused without a driver (the held current is the input).
-            windings: WindingLanes::new(&core::array::from_fn(|l| winding(l).unwrap_or(stand_in))),
-            // Every lane's realism has the same parts (but for where pushes and forces act).
-            geared: rigs[0].plant.ground().has_play(),
-            forces: core::array::from_fn(|l| rigs[l].plant.ground().force()),
-            hills: Hills::new(core::array::from_fn(|l| rigs[l].plant.ground()), core::array::from_fn(|l| models[l].params().wheel_radius)),
-        };
+        let stand_in = stand_in()?;
+        let plants = RigPlants::new(&rigs, &models, dt, stand_in);
         let x0: [[f64; 4]; LANES] = core::array::from_fn(x0);
         let x: [Lanes; 4] = core::array::from_fn(|i| core::array::from_fn(|l| x0[l][i]));
         // The scalar runner's settle, each lane's estimator its own (`Rig::simulate`).
         for (l, rig) in rigs.iter_mut().enumerate() {
-            rig.sensors.settle(&Vector4::from(lane(&x, l)), period);
+            Self::settle(rig, lane(&x, l), period);
         }
         // The sensors' registers hold a sample of the initial state.
         let mut imus = ImuLanes::new(&rigs, &models).map(Box::new);
@@ -468,7 +498,7 @@ impl RigLanes {
                     xdot[i][l] = d[i];
                 }
             }
-            imus.sample(&plants.hills, 0.0, &x, &xdot);
+            imus.sample(&plants.hills, &[0.0; LANES], &x, &xdot);
         }
         let engaged = core::array::from_fn(|l| rigs[l].plant.ground().engaged());
         let idle = rigs.iter().all(|rig| rig.plant.ground().idle_between_steps());
@@ -480,6 +510,7 @@ impl RigLanes {
             plants,
             imus,
             dt,
+            stand_in,
             idle,
             quiet_engaged,
             engaged,
@@ -487,6 +518,55 @@ impl RigLanes {
             y: [[0.0; LANES]; 4],
             held: Held::new([0.0; LANES]),
         }))
+    }
+
+    /// The rig's sensors settled at rest in `x0`, reads every `period` [s], as a run settles
+    /// them before it starts (`Rig::simulate`).
+    pub(crate) fn settle(rig: &mut SlopeRig<f64>, x0: [f64; 4], period: f64) {
+        rig.sensors.settle(&Vector4::from(x0), period);
+    }
+
+    /// Lane `l` runs `rig` (its robot `model`, [`Self::settle`]d) from rest in `x0`, started
+    /// as [`Self::start`] starts a lane (an env's robot started anew); the other lanes go on
+    /// as they were.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(crate) fn restart(&mut self, l: usize, model: SlopeModel<f64>, rig: SlopeRig<f64>, x0: [f64; 4]) {
+        (self.models[l], self.rigs[l]) = (model, rig);
+        for (i, &v) in x0.iter().enumerate() {
+            (self.x[i][l], self.y[i][l]) = (v, 0.0);
+        }
+        // The plants' numbers anew from every lane's rig; the windings' states are each lane's.
+        let fresh = RigPlants::new(&self.rigs, &self.models, self.dt, self.stand_in);
+        let windings = core::mem::replace(&mut self.plants, fresh).windings;
+        let fresh = core::mem::replace(&mut self.plants.windings, windings);
+        self.plants.windings.copy_lane(l, &fresh);
+        let ground = self.rigs[l].plant.ground();
+        (self.engaged[l], self.quiet_engaged[l]) = (ground.engaged(), ground.unpushed() && self.plants.drive != STEADY);
+        self.held.clear(l, |u| u[l] = 0.0);
+        if let Some(imus) = self.imus.as_mut() {
+            let mut xdot = [[0.0; LANES]; 4];
+            let d = self.rigs[l].plant.deriv(&Vector4::from(x0), &SVector::<f64, 1>::zeros());
+            for i in 0..4 {
+                xdot[i][l] = d[i];
+            }
+            imus.restart(l, &self.rigs[l], &model, &self.plants.hills, &self.x, &xdot);
+            imus.to_sensors(&mut self.rigs);
+        }
+        // The firmware's first read, at t = 0 (as `read_at` reads the lanes `start` started).
+        self.read_lane(l, 0.0);
+    }
+
+    /// The plants' input `drive` (duties or currents) held from now on (a period late with a
+    /// delay), as is: an env's action, which no actuator turns into a drive.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(crate) fn hold_drive(&mut self, drive: &Lanes) {
+        self.held.hold(self.delay, *drive, *drive, [false; LANES]);
+    }
+
+    /// The sensors' last reading.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(crate) fn reading(&self) -> &[Lanes; 4] {
+        &self.y
     }
 
     /// Each lane's driver's gearbox efficiency (1 without one).
@@ -505,19 +585,32 @@ impl RigLanes {
     /// they are read; the run sets them every step) through each lane's tilt estimator.
     #[inline(always)]
     pub(super) fn read(&mut self, t: f64) -> &[Lanes; 4] {
+        self.read_at(&[t; LANES])
+    }
+
+    /// [`Self::read`] with each lane at its own time `ts`.
+    #[inline(always)]
+    pub(crate) fn read_at(&mut self, ts: &Lanes) -> &[Lanes; 4] {
         if let Some(imus) = self.imus.as_ref() {
             imus.to_sensors(&mut self.rigs);
         }
-        for (l, rig) in self.rigs.iter_mut().enumerate() {
-            if self.plants.geared {
-                rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
-            }
-            let yl = rig.sensors.read(t, &Vector4::from(lane(&self.x, l)));
-            for i in 0..4 {
-                self.y[i][l] = yl[i];
-            }
+        for (l, &t) in ts.iter().enumerate() {
+            self.read_lane(l, t);
         }
         &self.y
+    }
+
+    /// Lane `l`'s read at `t` (its IMU's registers in its sensors already).
+    #[inline(always)]
+    fn read_lane(&mut self, l: usize, t: f64) {
+        let rig = &mut self.rigs[l];
+        if self.plants.geared {
+            rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
+        }
+        let yl = rig.sensors.read(t, &Vector4::from(lane(&self.x, l)));
+        for i in 0..4 {
+            self.y[i][l] = yl[i];
+        }
     }
 
     /// The controller's command `cmd` at `t` through each lane's actuator (on the last
@@ -543,7 +636,14 @@ impl RigLanes {
     /// go on there (`x`).
     #[inline(always)]
     pub(super) fn step<const COPY: u8>(&mut self, k: usize, on_drive: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
-        let (t, dt, u) = (self.dt * k as f64, self.dt, self.held.u);
+        self.step_at::<COPY>(&[k; LANES], on_drive)
+    }
+
+    /// [`Self::step`] with each lane at its own step `ks` (an env's robots start apart).
+    #[inline(always)]
+    pub(crate) fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES], on_drive: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
+        let (dt, u) = (self.dt, self.held.u);
+        let ts: Lanes = core::array::from_fn(|l| dt * ks[l] as f64);
         let (plants, x, engaged) = (&mut self.plants, &mut self.x, &mut self.engaged);
         // What the plants get at the step's start (`Observer::drive`): the held current,
         // or a winding's current (with inductance, once the last step has ended, below).
@@ -588,10 +688,10 @@ impl RigLanes {
                 let mut xl = Vector4::from(lane(x, l));
                 if stepped {
                     finished[l] = rig.plant.motor_speed(&xl).unwrap_or_default();
-                    rig.plant.ground_start(t, dt, &mut xl, u[l]);
+                    rig.plant.ground_start(ts[l], dt, &mut xl, u[l]);
                     starts[l] = rig.plant.motor_speed(&xl).unwrap_or_default();
                 } else {
-                    current[l] = rig.plant.step_start(t, dt, &mut xl, u[l]);
+                    current[l] = rig.plant.step_start(ts[l], dt, &mut xl, u[l]);
                 }
                 for i in 0..4 {
                     x[i][l] = xl[i];
@@ -600,7 +700,7 @@ impl RigLanes {
             }
         }
         if stepped {
-            plants.windings.step(k > 0, &finished, &u, &starts, &mut current);
+            plants.windings.step(&ks.map(|k| k > 0), &finished, &u, &starts, &mut current);
             plants.windings.delivered(&mut delivered);
         }
         on_drive(&delivered, &self.held.beyond);
@@ -632,7 +732,7 @@ impl RigLanes {
             k1 = plants.k1::<COPY>(x, &input, engaged);
         }
         if let Some(imus) = self.imus.as_mut() {
-            imus.sample(&plants.hills, t, x, &k1);
+            imus.sample(&plants.hills, &ts, x, &k1);
         }
         plants.rk4::<COPY>(x, &input, engaged, &k1, dt)
     }

@@ -28,14 +28,29 @@ impl WindingLanes {
         (self.windings.lane(l), Fused(self.per_amp.0[l]))
     }
 
-    /// With inductance: the last step ended with the motors at `ended` (none before the
-    /// first step), and this one starts under the duties `u` with the motors at `starts`;
-    /// `input` gets each lane's plant input at its first stage.
+    /// Lane `l`'s winding and input per ampere taken from `other` (a robot started anew).
+    pub(super) fn copy_lane(&mut self, l: usize, other: &Self) {
+        self.windings = self.windings.zip(&other.windings, |mine, theirs| {
+            let mut v = *mine;
+            v.0[l] = theirs.0[l];
+            v
+        });
+        self.per_amp.0[l] = other.per_amp.0[l];
+    }
+
+    /// With inductance: the last step ended with the motors at `ended` (on the lanes
+    /// `after_one`: none before a lane's first step), and this one starts under the duties
+    /// `u` with the motors at `starts`; `input` gets each lane's plant input at its first stage.
     #[inline(always)]
-    pub(super) fn step(&mut self, after_one: bool, ended: &Lanes, u: &Lanes, starts: &Lanes, input: &mut Lanes) {
+    pub(super) fn step(&mut self, after_one: &[bool; LANES], ended: &Lanes, u: &Lanes, starts: &Lanes, input: &mut Lanes) {
         let w = &mut self.windings;
-        if after_one {
+        if after_one.iter().all(|&a| a) {
             w.finish_step(Wide(*ended));
+        } else if after_one.iter().any(|&a| a) {
+            // Lanes that start apart (an env's robots): the others keep their current.
+            let before = *w;
+            w.finish_step(Wide(*ended));
+            *w = w.zip(&before, |now, was| Wide(core::array::from_fn(|l| if after_one[l] { now.0[l] } else { was.0[l] })));
         }
         w.begin_step(Wide(*u), Wide(*starts));
         *input = (self.per_amp * w.stepped_current(Stage::Start, Wide(*starts))).0;
