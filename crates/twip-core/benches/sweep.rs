@@ -98,7 +98,7 @@ fn sweep_planar(c: &mut Criterion) {
     });
     let lanes = PidLanes::new(&ctrl);
     group.bench_function("planar_lanes_1_thread", |b| {
-        b.iter(|| planar::run_planar_lane_samples(&lanes, &circle, &config, &nominal, &perturb, 1, 0..black_box(samples), 0.0, &|| false).unwrap())
+        b.iter(|| planar::run_planar_lane_samples(&lanes, &circle, &config, &nominal, &perturb, 1, 0..black_box(samples), 0.0, &|| false, None).unwrap())
     });
     // Through the thesis-like rig: the general runner, and the planar rig's lane kernel.
     let rig = for_sweep(&Realism::thesis_like(), 1);
