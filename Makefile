@@ -62,9 +62,18 @@ test-python: build
 # Clean clone on the quiet 2-core VM: before (1280b0a) `make demo` 11 min 28 s, then `make test`
 # 9 min 3 s; after (e3c986c) `make demo` 5 min 45 s (345 s wall, 358 s user; the report 19.5 s
 # of it), then `make test` 9 min 19 s (pytest 226 s, 1356 passed). Goals: 8 and 12 min.
+#
+# On this project's AVX2 machine (AMD EPYC, 2 cores; it does the same work with ~2.3x the CPU
+# time of that VM), clean clone of c6a24c6 with other builds nice'd beside it: `make demo`
+# 13 min 37 s (setup 78 s, the wheel 11 min 28 s at 828 s of CPU, the report 48 s), then
+# `make test` 26 min 51 s (the Rust tests 15 min 36 s, then pytest 11 min 11 s, 884 s of CPU).
+# Since then: pytest starts beside the Rust tests once the wheel is built, so neither leaves a
+# core idle (the Rust tests' one-rustc phases, pytest's tail), and the longest test (the
+# terrain's sympy derivation, 83 s) takes 23 s. What was tried for the wheel is in Cargo.toml;
+# built at opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than
+# the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
 test: setup
-	$(MAKE) --no-print-directory --jobs=2 --output-sync=target test-rust build
-	$(PYTEST)
+	$(MAKE) --no-print-directory --jobs=2 --output-sync=target test-rust test-python
 
 nostd:
 	cargo tree -p twip-core --no-default-features -e normal,features
