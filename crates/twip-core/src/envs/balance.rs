@@ -101,8 +101,8 @@ impl RigBlock for RigLanes {
         RigLanes::start(built, x0, dt, period)
     }
 
-    fn settle(rig: &mut SlopeRig<f64>, x0: [f64; 4], period: f64) {
-        RigLanes::settle(rig, x0, period);
+    fn settle(robots: &mut [(&mut SlopeRig<f64>, [f64; 4])], period: f64) {
+        RigLanes::settle(robots, period);
     }
 
     fn restart(&mut self, l: usize, model: SlopeModel<f64>, rig: SlopeRig<f64>, x0: [f64; 4]) {

@@ -132,7 +132,7 @@ fn make<K: EnvKind<NX, NU>, const NX: usize, const NU: usize>(spec: &K, key: (u6
     let p = spec.period();
     let mut rig = K::rig(&realism, &model, p.dt)?;
     if settle {
-        K::RigLanes::settle(&mut rig, x0.into(), seconds(&p));
+        K::RigLanes::settle(&mut [(&mut rig, x0.into())], seconds(&p));
     }
     Ok(Started::Rig(model, rig, x0.into(), pwm_max))
 }
@@ -259,8 +259,15 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
             let (s, e) = self.keys[l];
             keys.push(seeds.map_or((s, e.wrapping_add(1)), |s| (s[i], 0)));
         }
-        let spec = &self.spec;
-        let made: Vec<_> = self.pool.install(|| keys.par_iter().map(|&key| make::<K, NX, NU>(spec, key, true)).collect());
+        let (spec, period) = (&self.spec, seconds(&self.spec.period()));
+        let mut made: Vec<_> = self.pool.install(|| keys.par_iter().map(|&key| make::<K, NX, NU>(spec, key, false)).collect());
+        // The rigs' settles, side by side a block at a time.
+        self.pool.install(|| {
+            made.par_chunks_mut(LANES).for_each(|robots| {
+                let mut rigs: Vec<_> = robots.iter_mut().filter_map(|r| if let Ok(Started::Rig(_, rig, x0, _)) = r { Some((rig, *x0)) } else { None }).collect();
+                K::RigLanes::settle(&mut rigs, period);
+            })
+        });
         // The robots up to the first one refused go into their lanes, each block's side by side.
         let mut per_block: Vec<Vec<(usize, Started<K, NX, NU>)>> = (0..self.n.div_ceil(LANES)).map(|_| Vec::new()).collect();
         let mut refused = None;

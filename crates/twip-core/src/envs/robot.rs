@@ -104,9 +104,9 @@ pub trait RigBlock: Sized + Send {
     /// The rigs `built` (None: an idle lane) at rest in `x0(l)`, plant steps of `dt`,
     /// control periods of `period` [s] (the estimators settle on them).
     fn start(built: Vec<Option<(Self::Model, Self::Rig)>>, x0: impl Fn(usize) -> Self::State1, dt: f64, period: f64) -> Result<Option<Self>, TwipError>;
-    /// The rig's sensors settled at rest in `x0` (reads every `period` [s]), as `start`
-    /// settles a lane's: apart from the block, so that many robots settle side by side.
-    fn settle(rig: &mut Self::Rig, x0: Self::State1, period: f64);
+    /// Each rig's sensors settled at rest in its `x0` (reads every `period` [s]), as `start`
+    /// settles a lane's: apart from the block, many robots side by side.
+    fn settle(robots: &mut [(&mut Self::Rig, Self::State1)], period: f64);
     /// Lane `l` runs `rig` ([`Self::settle`]d) from rest in `x0`, as `start` starts a lane.
     fn restart(&mut self, l: usize, model: Self::Model, rig: Self::Rig, x0: Self::State1);
     /// The input held from now on (a period late with a delay).

@@ -110,8 +110,8 @@ impl RigBlock for PlanarRigLanes {
         PlanarRigLanes::start(built, x0, dt, period)
     }
 
-    fn settle(rig: &mut PlanarRig<f64>, x0: [f64; 7], period: f64) {
-        PlanarRigLanes::settle(rig, x0, period);
+    fn settle(robots: &mut [(&mut PlanarRig<f64>, [f64; 7])], period: f64) {
+        PlanarRigLanes::settle(robots, period);
     }
 
     fn restart(&mut self, l: usize, model: PlanarModel<f64>, rig: PlanarRig<f64>, x0: [f64; 7]) {

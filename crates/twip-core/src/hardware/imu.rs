@@ -716,6 +716,26 @@ pub(crate) fn lane_from<const N: usize>(j: usize) -> impl Fn(crate::model::lane:
     }
 }
 
+// Alike IMUs (settle side by side) on lanes.
+#[cfg(feature = "std")]
+impl Mpu6050<f64> {
+    /// Whether this IMU and `other` run on lanes as one: the same settings and priming, and
+    /// their normals drawn ahead at the same place (their states may differ).
+    pub(crate) fn alike(&self, other: &Self) -> bool {
+        self.settings == other.settings && self.primed == other.primed && self.noise.used == other.noise.used
+    }
+
+    /// The [`Self::alike`] `imus` as one IMU on lanes, lane `j`'s state `imus[j]`'s; each
+    /// lane's noise is drawn apart (`NoiseLanes`).
+    pub(crate) fn lanes<const N: usize>(imus: &[&Self; N]) -> Mpu6050<crate::model::lane::Wide<N>> {
+        let mut out = imus[0].map(crate::model::lane::Wide::splat);
+        for (j, imu) in imus.iter().enumerate().skip(1) {
+            out.zip_state(&imu.map(crate::model::lane::Wide::splat), lane_from(j));
+        }
+        out
+    }
+}
+
 // A lane's state taken from another copy (an env's robot started anew, or a lane that did
 // not sample): the filters, the bias and the registers; the settings are every lane's alike.
 #[cfg_attr(not(feature = "std"), allow(dead_code))] // the lanes use it

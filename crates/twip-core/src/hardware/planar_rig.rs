@@ -29,7 +29,7 @@ use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, ImuSettings,
 use crate::hardware::realism::{Realism, Rig, RigPlant};
 #[cfg(all(test, feature = "std"))]
 use crate::model::friction::Friction;
-use crate::hardware::settle::Settle;
+use crate::hardware::settle::{Settle, Settles, Settling};
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::model::integrate::Stage;
 use crate::model::lane::Lane;
@@ -570,6 +570,21 @@ fn imu_inputs_on_terrain<T: Real>(terrain: &Terrain<T>, x: &PlanarState<T>, xdot
     [fx, fz, xp[4], x[6] * xp[3].cos()]
 }
 
+impl<T: Real> PlanarSensors<T> {
+    /// What a settle at pitch `phi` reads and sets: the pitch IMU's (None without a settle
+    /// or an IMU).
+    fn settling_at(&mut self, phi: T) -> Option<Settling<'_, T>> {
+        let (Some(settle), Some((pitch, _))) = (&self.settle, &self.imu) else { return None };
+        Some(Settling { settle, tilt: &mut self.tilt, imu: pitch, phi, g: self.g, last_read: &mut self.last_read })
+    }
+}
+
+impl Settles for PlanarSensors<f64> {
+    fn settling(&mut self, phi: f64) -> Option<Settling<'_, f64>> {
+        self.settling_at(phi)
+    }
+}
+
 impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
     /// Follows the wheels' angles; samples the IMUs when their period has come round.
     #[inline]
@@ -592,8 +607,8 @@ impl<T: Real> Sensor<T, 7> for PlanarSensors<T> {
 
     /// The estimator reads the pitch IMU at rest at `x0`'s pitch ([`Settle`]).
     fn settle(&mut self, x0: &PlanarState<T>, period: T) {
-        if let (Some(settle), Some((pitch, _))) = (&self.settle, &self.imu) {
-            self.last_read = Some(settle.run(&mut self.tilt, pitch, x0[3], self.g, period));
+        if let Some(mut s) = self.settling_at(x0[3]) {
+            s.run(period);
         }
     }
 

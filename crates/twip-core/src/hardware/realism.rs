@@ -18,7 +18,7 @@ use crate::hardware::driver::{Driven, MotorDriver, PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuClock, ImuReading, ImuSettings, Mpu6050, NoiseBatch};
 use crate::hardware::backlash::Backlash;
-use crate::hardware::settle::Settle;
+use crate::hardware::settle::{Settle, Settles, Settling};
 use crate::model::friction::{Friction, GB37_STICK_SPEED};
 use crate::model::integrate::Stage;
 use crate::rng::Sfc64;
@@ -339,6 +339,20 @@ impl<T: Real> BalanceSensors<T> {
     }
 }
 
+impl<T: Real> BalanceSensors<T> {
+    /// What a settle at pitch `phi` reads and sets (None without a settle or an IMU).
+    fn settling_at(&mut self, phi: T) -> Option<Settling<'_, T>> {
+        let (Some(settle), Some(imu)) = (&self.settle, &self.imu) else { return None };
+        Some(Settling { settle, tilt: &mut self.tilt, imu, phi, g: self.g, last_read: &mut self.last_read })
+    }
+}
+
+impl Settles for BalanceSensors<f64> {
+    fn settling(&mut self, phi: f64) -> Option<Settling<'_, f64>> {
+        self.settling_at(phi)
+    }
+}
+
 impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
     /// Samples the IMU when its period has come round (from t = 0 on).
     #[inline]
@@ -369,8 +383,8 @@ impl<T: Real> Sensor<T, 4> for BalanceSensors<T> {
 
     /// The estimator reads the IMU at rest at `x0`'s pitch ([`Settle`]).
     fn settle(&mut self, x0: &Vector4<T>, period: T) {
-        if let (Some(settle), Some(imu)) = (&self.settle, &self.imu) {
-            self.last_read = Some(settle.run(&mut self.tilt, imu, x0[0], self.g, period));
+        if let Some(mut s) = self.settling_at(x0[0]) {
+            s.run(period);
         }
     }
 

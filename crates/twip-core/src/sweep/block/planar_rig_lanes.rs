@@ -26,6 +26,7 @@ use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::imu::{lane_from, ImuClock, ImuReading, Mpu6050, NoiseLanes};
 use crate::hardware::planar_rig::{body_force, sample_imus, PlanarRig};
 use crate::hardware::realism::RigPlant as _;
+use crate::hardware::settle::settle_side_by_side;
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field, Stage};
 use crate::model::lane::{fill, Fused, Lane, Wide, WIDTH};
@@ -423,8 +424,8 @@ impl PlanarRigLanes {
         for (l, rig) in rigs.iter_mut().enumerate() {
             let xl = lane(&x, l);
             set_lane(&mut d0, l, &rig.plant.deriv(&xl, &SVector::zeros()));
-            Self::settle(rig, xl.into(), period);
         }
+        Self::settle(&mut rigs.iter_mut().enumerate().map(|(l, rig)| (rig, lane(&x, l).into())).collect::<Vec<_>>(), period);
         if let Some(imus) = imus.as_mut() {
             imus.sample(&[0.0; LANES], &x, &d0);
         }
@@ -447,12 +448,14 @@ impl PlanarRigLanes {
         }))
     }
 
-    /// The rig's sensors at rest in `x0` (the encoders' wheels there), settled with reads
-    /// every `period` [s], as a run settles them before it starts (`Rig::simulate`).
-    pub(crate) fn settle(rig: &mut PlanarRig<f64>, x0: [f64; 7], period: f64) {
-        let xl = SVector::from(x0);
-        rig.sensors.follow_wheels(0.0, &xl);
-        rig.sensors.settle(&xl, period);
+    /// Each rig's sensors at rest in its `x0` (the encoders' wheels there), settled with
+    /// reads every `period` [s], as a run settles them before it starts (`Rig::simulate`),
+    /// side by side.
+    pub(crate) fn settle(robots: &mut [(&mut PlanarRig<f64>, [f64; 7])], period: f64) {
+        for (rig, x0) in robots.iter_mut() {
+            rig.sensors.follow_wheels(0.0, &SVector::from(*x0));
+        }
+        settle_side_by_side(&mut robots.iter_mut().map(|(rig, x0)| (&mut rig.sensors, x0[3])).collect::<Vec<_>>(), period);
     }
 
     /// Lane `l` runs `rig` (its robot `model`, [`Self::settle`]d) from rest in `x0`, started

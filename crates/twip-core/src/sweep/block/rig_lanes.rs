@@ -22,6 +22,7 @@ use crate::hardware::disturbance::{Disturbed, Force, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::imu::{lane_from, specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseLanes};
 use crate::hardware::realism::{RigPlant as _, SlopeRig};
+use crate::hardware::settle::settle_side_by_side;
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field, Stage};
 use crate::model::lane::{Fused, Lane, Wide, WIDTH};
@@ -485,9 +486,7 @@ impl RigLanes {
         let x0: [[f64; 4]; LANES] = core::array::from_fn(x0);
         let x: [Lanes; 4] = core::array::from_fn(|i| core::array::from_fn(|l| x0[l][i]));
         // The scalar runner's settle, each lane's estimator its own (`Rig::simulate`).
-        for (l, rig) in rigs.iter_mut().enumerate() {
-            Self::settle(rig, lane(&x, l), period);
-        }
+        Self::settle(&mut rigs.iter_mut().enumerate().map(|(l, rig)| (rig, lane(&x, l))).collect::<Vec<_>>(), period);
         // The sensors' registers hold a sample of the initial state.
         let mut imus = ImuLanes::new(&rigs, &models).map(Box::new);
         if let Some(imus) = imus.as_mut() {
@@ -520,10 +519,10 @@ impl RigLanes {
         }))
     }
 
-    /// The rig's sensors settled at rest in `x0`, reads every `period` [s], as a run settles
-    /// them before it starts (`Rig::simulate`).
-    pub(crate) fn settle(rig: &mut SlopeRig<f64>, x0: [f64; 4], period: f64) {
-        rig.sensors.settle(&Vector4::from(x0), period);
+    /// Each rig's sensors settled at rest in its `x0`, reads every `period` [s], as a run
+    /// settles them before it starts (`Rig::simulate`), side by side.
+    pub(crate) fn settle(robots: &mut [(&mut SlopeRig<f64>, [f64; 4])], period: f64) {
+        settle_side_by_side(&mut robots.iter_mut().map(|(rig, x0)| (&mut rig.sensors, x0[0])).collect::<Vec<_>>(), period);
     }
 
     /// Lane `l` runs `rig` (its robot `model`, [`Self::settle`]d) from rest in `x0`, started
