@@ -116,8 +116,8 @@ mod lanes {
     use crate::model::lane::{Lane as _, Wide};
     use crate::sweep::block::multiversioned;
 
-    /// Robots settled on one set of lanes. 8: with fewer robots reset at once, the padding
-    /// costs less than with 16 (measured by instruction counts).
+    /// Robots settled on one set of lanes. 8, chosen without a measurement yet: with fewer
+    /// robots reset at once, the padding costs less than with 16.
     const SETTLE_LANES: usize = 8;
 
     impl Settling<'_, f64> {
