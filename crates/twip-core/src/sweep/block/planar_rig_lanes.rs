@@ -186,9 +186,9 @@ macro_rules! by_kind {
     };
     (@drive $self:ident, $gear:ident, $geared:literal, $run:ident($($arg:expr),*)) => {
         match $self.drive {
-            HELD => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, HELD, $geared>($($arg),*)),
-            STEADY => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, STEADY, $geared>($($arg),*)),
-            _ => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, STEPPED, $geared>($($arg),*)),
+            HELD => super::out_of_line_in::<COPY, _>(#[inline(always)] || $self.$run::<$gear, HELD, $geared>($($arg),*)),
+            STEADY => super::out_of_line_in::<COPY, _>(#[inline(always)] || $self.$run::<$gear, STEADY, $geared>($($arg),*)),
+            _ => super::out_of_line_in::<COPY, _>(#[inline(always)] || $self.$run::<$gear, STEPPED, $geared>($($arg),*)),
         }
     };
 }

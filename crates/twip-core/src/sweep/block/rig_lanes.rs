@@ -255,9 +255,9 @@ macro_rules! by_kind {
     };
     (@drive $self:ident, $drive:expr, $run:ident, $gear:ident, $geared:literal, $changes:tt, $($arg:expr),*) => {
         match $drive {
-            HELD => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, HELD, $geared, $changes>($($arg),*)),
-            STEADY => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, STEADY, $geared, $changes>($($arg),*)),
-            _ => super::out_of_line_in::<COPY, _>(|| $self.$run::<$gear, STEPPED, $geared, $changes>($($arg),*)),
+            HELD => super::out_of_line_in::<COPY, _>(#[inline(always)] || $self.$run::<$gear, HELD, $geared, $changes>($($arg),*)),
+            STEADY => super::out_of_line_in::<COPY, _>(#[inline(always)] || $self.$run::<$gear, STEADY, $geared, $changes>($($arg),*)),
+            _ => super::out_of_line_in::<COPY, _>(#[inline(always)] || $self.$run::<$gear, STEPPED, $geared, $changes>($($arg),*)),
         }
     };
 }

@@ -76,7 +76,7 @@ impl SmcLanes {
             let (w1, w2) = (&state.c1[..rules], &state.c2[..rules]);
             let c1: [Wide; R] = fill(|j| w1.get(j).map_or(zero, |w| chunk(w, c)));
             let c2: [Wide; R] = fill(|j| w2.get(j).map_or(zero, |w| chunk(w, c)));
-            let step = law.step(&y, &r, phi_s, &c1, &c2, || deriv(&law.model, &y, idle));
+            let step = law.step(&y, &r, phi_s, &c1, &c2, #[inline(always)] || deriv(&law.model, &y, idle));
             for (j, (w1, w2)) in state.c1.iter_mut().zip(state.c2.iter_mut()).enumerate() {
                 put(w1, c, step.c1[j]);
                 put(w2, c, step.c2[j]);
