@@ -69,7 +69,9 @@ test-python: build
 # `make test` 26 min 51 s (the Rust tests 15 min 36 s, then pytest 11 min 11 s, 884 s of CPU).
 # Since then: pytest starts beside the Rust tests once the wheel is built, so neither leaves a
 # core idle (the Rust tests' one-rustc phases, pytest's tail), and the longest test (the
-# terrain's sympy derivation, 83 s) takes 23 s. What was tried for the wheel is in Cargo.toml;
+# terrain's sympy derivation, 83 s) takes 23 s: clean clone of 36b8437, `make test` after demo
+# 19 min 35 s (1,175 s wall, 2,116 s user; pytest 868 s beside the Rust tests), still over the
+# goal on this machine. What was tried for the wheel is in Cargo.toml;
 # built at opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than
 # the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
 test: setup
