@@ -10,7 +10,7 @@ after one warm-up; printed: the median and the range, in s, and the iterations.
 Run:  .venv/bin/python benches/sysid.py [--repeats 5]   (after `make build`)
       --accuracy: the errors on rig logs of robots other than the Balanbot;
       --excitation [--seeds 4]: speed_steps on settled rig logs, per robot and noise seed;
-      --play-jacobian: why the full rig with the play declared is not found (the differences jump).
+      --play-jacobian: the full rig's differences with the play declared, free and replayed.
 """
 import argparse
 import statistics
@@ -78,18 +78,21 @@ def every(log, k):
     return twip.RunLog(log.t[::k], slope=log.slope, **{n: v[::k] for n, v in log.signals().items()})
 
 
-def accuracy():
+def accuracy(robots=None, only=None, seed=0):
     """Largest relative error of the four parameters on rig logs of robots other than the
-    Balanbot, each case with what the fit declares, and whether it warned."""
+    Balanbot (`robots`, default all), each case (those whose name contains `only`, default all)
+    with what the fit declares, and whether it warned; noise `seed`."""
     import warnings
 
     base = twip.RobotParams.balanbot()
     for name, (fields, driver_changes) in ROBOTS.items():
+        if robots and name not in robots:
+            continue
         robot = base.replace(**fields)
         driver = twip.MotorDriver.thesis_like().replace(**driver_changes)
         start = robot.replace(**{n: getattr(robot, n) * f for n, f in START.items()})
-        clean, rig = rig_log(robot, driver)
-        full, full_rig = rig_log(robot, driver, friction=True)
+        clean, rig = rig_log(robot, driver, seed=seed)
+        full, full_rig = rig_log(robot, driver, friction=True, seed=seed)
         sensors = Sensors.of(rig)
         cases = [
             ("1 kHz, sensors declared", clean, dict(sensors=sensors), FREE),
@@ -103,7 +106,10 @@ def accuracy():
             ("1 kHz, driver not given", clean, dict(sensors=sensors, driver=twip.MotorDriver()), FREE),
         ]
         for case, log, options, free in cases:
+            if only and only not in case:
+                continue
             options.setdefault("driver", driver)
+            began = time.perf_counter()
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 fit = identify(log, start, free, **options)
@@ -112,7 +118,8 @@ def accuracy():
             flagged = "warned" if fit.warnings else "quiet"
             print(f"  {name:<5} {case:<38} largest error {worst} {errors[worst]:+.2%}  "
                   f"({', '.join(f'{n} {e:+.2%}' for n, e in errors.items())}); {flagged}"
-                  f"{' (' + str(len(caught)) + ' warnings)' if caught else ''}", flush=True)
+                  f"{' (' + str(len(caught)) + ' warnings)' if caught else ''}; {fit.message}, "
+                  f"i_body std {fit.std['i_body'] / robot.i_body:.2%}; {time.perf_counter() - began:.0f} s", flush=True)
 
 
 def excitation(seeds):
@@ -148,12 +155,15 @@ def excitation(seeds):
 
 
 def play_jacobian():
-    """Why the tall robot's full-rig fit with the play declared gets lost: the central
-    differences of its prediction at the true robot and the run's own start states, for
-    steps h of 1e-4 to 1e-2 (relative), with the play and without. A smooth prediction gives
-    one column whatever h; with the play an impact that moves by a whole plant step jumps
+    """Why the tall robot's full-rig fit with the play declared got lost, and what the replay
+    changes: the central differences of its prediction at the true robot and the run's own
+    start states, for steps h of 1e-6 to 1e-2 (relative), three ways. "free runs": each
+    perturbed run on its own (as a trial step runs), its impacts where its motion puts them;
+    "replayed": the estimator's Jacobian (`Estimator.linearise`: the base run records its
+    impacts and openings, the perturbed runs replay them); "rigid trains": no play. A smooth
+    prediction gives one column whatever h; an impact that moves by a whole plant step jumps
     the prediction, and the column's size grows as 1/h (printed: its norm, and its cosine
-    with the h = 1e-2 column)."""
+    with the h = 1e-6 column)."""
     from twip.sysid.estimator import Estimator, Problem
 
     fields, driver_changes = ROBOTS["tall"]
@@ -162,22 +172,29 @@ def play_jacobian():
     _, rig = rig_log(robot, driver, friction=True)
     sc = twip.scenarios.get("flat-lqr", params=robot, controller_params=robot)
     run = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], 8.0, dt=1e-3, reference=sc.reference, realism=rig)
-    steps = (1e-4, 3e-4, 1e-3, 3e-3, 1e-2)
-    for backlash in (rig.backlash, None):
+    steps = (1e-6, 1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2)
+    for how, backlash in (("free runs", rig.backlash), ("replayed", rig.backlash), ("rigid trains", None)):
         problem = Problem(run.to_log(), robot, FREE + ["coulomb"], driver, rig.friction, 0.25, Sensors.of(rig), None,
                           1e-3, backlash)
         estimator = Estimator(problem, None, 1)
         starts, x = run.states[problem.segments], np.zeros(estimator.n_g)
-        for j, name in enumerate(FREE):
-            columns = []
-            for h in steps:
+        columns = {}  # h -> [residuals, parameters]
+        for h in steps:
+            if how == "replayed":
+                estimator.param_step = h
+                columns[h] = estimator.linearise(x, starts)[4][0][:, :len(FREE)]
+                continue
+            at = []
+            for j in range(len(FREE)):
                 up, down = x.copy(), x.copy()
                 up[j], down[j] = h, -h
-                columns.append((estimator.evaluate(up, starts)[1] - estimator.evaluate(down, starts)[1]) / (2 * h))
-            last = columns[-1] / np.linalg.norm(columns[-1])
-            print(f"  {'with the play' if backlash else 'rigid trains':<13} {name:<10} " + ", ".join(
-                f"h {h:g}: {np.linalg.norm(c):.3g} ({c @ last / np.linalg.norm(c):+.2f})" for h, c in zip(steps, columns)),
-                flush=True)
+                at.append((estimator.evaluate(up, starts)[1] - estimator.evaluate(down, starts)[1]) / (2 * h))
+            columns[h] = np.column_stack(at)  # dr/dx, as linearise's
+        for j, name in enumerate(FREE):
+            first = columns[steps[0]][:, j] / np.linalg.norm(columns[steps[0]][:, j])
+            print(f"  {how:<12} {name:<10} " + ", ".join(
+                f"h {h:g}: {np.linalg.norm(c[:, j]):.3g} ({c[:, j] @ first / np.linalg.norm(c[:, j]):+.2f})"
+                for h, c in columns.items()), flush=True)
 
 
 def main():
@@ -188,6 +205,10 @@ def main():
     ap.add_argument("--excitation", action="store_true",
                     help="instead of timing: speed_steps' fits on settled rig logs of three robots, per noise seed")
     ap.add_argument("--seeds", type=int, default=4, help="noise seeds 0..N-1 for --excitation")
+    ap.add_argument("--robots", default="", help="--accuracy: these robots only (comma-separated: user,tall,mid)")
+    ap.add_argument("--case", default="", help="--accuracy: the cases whose name contains this only "
+                                              "(e.g. 'friction and play declared')")
+    ap.add_argument("--seed", type=int, default=0, help="--accuracy: the rig's noise seed")
     ap.add_argument("--play-jacobian", action="store_true",
                     help="instead of timing: the finite differences of the tall robot's full-rig prediction, with and "
                          "without the gear play")
@@ -199,7 +220,7 @@ def main():
         excitation(range(args.seeds))
         return
     if args.accuracy:
-        accuracy()
+        accuracy([r for r in args.robots.split(",") if r], args.case, args.seed)
         return
     print(f"twip.identify, 4 parameters, 12 s at 1 kHz; median (min-max) of {args.repeats} fits")
     for name, (log, options) in logs().items():

@@ -1107,8 +1107,9 @@ def sysid_shoot(
     state: the motor shafts' offset from the wheels (the encoder counts the shaft) and the
     pitch rate the IMU samples. With `backlash` (each gear train's play at the wheel [rad])
     the models' gear trains have play, as the rig's (`Realism(backlash=)`): the first run
-    carries each segment's play on from the previous segment's end, the others start each
-    segment from the first run's (a finite difference holds it).
+    carries each segment's play on from the previous segment's end and records its impacts
+    and openings, step by step; the others start each segment from the first run's play and
+    replay its events (a finite difference holds the impacts' schedule; `run_all`).
     """
 def ffi_firmware(realism: Realism, params: RobotParams) -> dict[str, Any]:
     """`ffi_firmware(realism, params)`: the C configurations of the firmware pieces the

@@ -5,7 +5,7 @@ use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyA
 use pyo3::prelude::*;
 use twip_core::hardware::driver::Driven;
 use twip_core::sysid::parallel::{run_all, Prediction};
-use twip_core::hardware::backlash::Backlash;
+use twip_core::hardware::backlash::{Backlash, GearEvent};
 use twip_core::sysid::geared::geared;
 use twip_core::sysid::Shooting;
 use twip_core::{SlopeModel, TwipError};
@@ -28,8 +28,9 @@ type Out<'py> = (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>, Bound<'py
 /// state: the motor shafts' offset from the wheels (the encoder counts the shaft) and the
 /// pitch rate the IMU samples. With `backlash` (each gear train's play at the wheel [rad])
 /// the models' gear trains have play, as the rig's (`Realism(backlash=)`): the first run
-/// carries each segment's play on from the previous segment's end, the others start each
-/// segment from the first run's (a finite difference holds it).
+/// carries each segment's play on from the previous segment's end and records its impacts
+/// and openings, step by step; the others start each segment from the first run's play and
+/// replay its events (a finite difference holds the impacts' schedule; `run_all`).
 #[pyfunction]
 #[pyo3(signature = (models, starts, t, u, segments, max_step = 1e-3, drivers = None, backlash = None))]
 #[allow(clippy::too_many_arguments)]
@@ -63,7 +64,9 @@ pub fn sysid_shoot<'py>(
         .map(|run| run.outer_iter().map(|s| Vector4::new(s[0], s[1], s[2], s[3])).collect())
         .collect();
     let n = shooting.samples();
-    let mut out = buffer(k, n, segments.len())?;
+    // One gear event per plant step, with play (`Shooting::plant_steps`).
+    let events = if backlash.is_some() { shooting.plant_steps() } else { 0 };
+    let mut out = buffer(k, n, segments.len(), events)?;
     let plants: Vec<SlopeModel<f64>> = models.iter().map(|m| m.inner).collect();
     if let Some(d) = &drivers {
         if d.len() != k {
@@ -108,10 +111,11 @@ fn invalid(name: &'static str, value: f64, reason: &'static str) -> TwipError {
     TwipError::InvalidParameter { name, value, reason }
 }
 
-/// k runs of n states (and as many rates, and one end per segment), reserved fallibly:
-/// a MemoryError naming the size, not an abort.
-fn buffer(k: usize, n: usize, segments: usize) -> PyResult<Vec<Prediction>> {
-    let rows = (n as u64).saturating_mul(3).saturating_add(segments as u64 * 2);
+/// k runs of n states (and as many rates, one end per segment, and `events` gear events),
+/// reserved fallibly: a MemoryError naming the size, not an abort.
+fn buffer(k: usize, n: usize, segments: usize, events: usize) -> PyResult<Vec<Prediction>> {
+    // A gear event is 2 bytes, a row 32.
+    let rows = (n as u64).saturating_mul(3).saturating_add(segments as u64 * 2).saturating_add(events as u64 / 16);
     let bytes = (k as u64).saturating_mul(rows).saturating_mul(32);
     let oom = || PyTwipError(TwipError::OutOfMemory { name: "models x samples", bytes });
     let column = |len: usize| -> PyResult<Vec<Vector4<f64>>> {
@@ -126,7 +130,10 @@ fn buffer(k: usize, n: usize, segments: usize) -> PyResult<Vec<Prediction>> {
         let mut sensed = Vec::new();
         sensed.try_reserve_exact(n).map_err(|_| oom())?;
         sensed.resize(n, [0.0; 2]);
-        out.push(Prediction { states: column(n)?, rates: column(n)?, sensed, ends: column(segments)?, plays: vec![None; segments] });
+        let mut script = Vec::new();
+        script.try_reserve_exact(events).map_err(|_| oom())?;
+        script.resize(events, GearEvent::default());
+        out.push(Prediction { states: column(n)?, rates: column(n)?, sensed, ends: column(segments)?, plays: vec![None; segments], events: script });
     }
     Ok(out)
 }

@@ -45,6 +45,18 @@ impl<T: Real> Backlash<T> {
     }
 }
 
+/// What one gear train did at a plant step's start: `hit` the flank its rotor struck at
+/// the end of the step before (+1 ahead, −1 behind, 0 none), `opened` whether its engaged
+/// flanks parted. A run's events, step by step, are its hybrid schedule: a shooting run
+/// perturbed for a finite difference replays its base run's (`sysid`), so that the
+/// difference sees how the motion moves with the schedule held, not the jump of an impact
+/// moved across a step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GearEvent {
+    pub hit: i8,
+    pub opened: bool,
+}
+
 /// What a gear train with play carries from one plant step to the next: each rotor's
 /// offset from its wheel, its speed, the flank it is engaged on, and the step under way
 /// (the motors' torques over it, the wheels' speeds at its start). A shooting segment of
@@ -76,6 +88,9 @@ pub struct GearPlay<T, const N: usize> {
     /// speeds at its start (None before the first step).
     motor: [T; N],
     before: Option<[T; N]>,
+    /// The events the step under way must have (None: those its motion gives), and those it had.
+    script: Option<[GearEvent; N]>,
+    events: [GearEvent; N],
 }
 
 impl<T: Real, const N: usize> GearPlay<T, N> {
@@ -92,7 +107,7 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
             });
         }
         let zero = [T::zero(); N];
-        Ok(Self { half: b.gap / c(2.0), inertia, trains, offset: zero, rotor: zero, flank: [0; N], motor: zero, before: None })
+        Ok(Self { half: b.gap / c(2.0), inertia, trains, offset: zero, rotor: zero, flank: [0; N], motor: zero, before: None, script: None, events: [GearEvent::default(); N] })
     }
 
     /// The trains' state between steps ([`PlayState`]).
@@ -103,6 +118,18 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
     /// The trains in `state` (the play's width and the rotors' inertia stay this one's).
     pub fn set_state(&mut self, state: &PlayState<T, N>) {
         (self.offset, self.rotor, self.flank, self.motor, self.before) = (state.offset, state.rotor, state.flank, state.motor, state.before);
+    }
+
+    /// The next step's events, imposed (None: the step's motion decides them). A scripted
+    /// hit puts the rotor on that flank (it engages there whatever its offset), a scripted
+    /// 0 leaves it open; a scripted opening parts an engaged train. Consumed by the step.
+    pub fn script(&mut self, events: Option<[GearEvent; N]>) {
+        self.script = events;
+    }
+
+    /// What the last step's start did ([`GearEvent`]).
+    pub fn events(&self) -> [GearEvent; N] {
+        self.events
     }
 
     /// Which trains are engaged.
@@ -125,11 +152,13 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
     /// The step of `dt` under way has ended at wheel speeds `after`: the open rotors
     /// advance under the motors' torques over it and the gearhead `friction` (the
     /// model's, per train). Returns, for each train whose rotor
-    /// reached a flank moving into it, its rotor speed: the plant applies the impact
-    /// ([`Self::engage`]). A rotor at a flank moving back out stays open.
+    /// reached a flank moving into it (with a script: that the script says hit), its rotor
+    /// speed: the plant applies the impact ([`Self::engage`]). A rotor at a flank moving
+    /// back out stays open.
     #[inline(always)]
     pub fn elapsed(&mut self, dt: T, after: [T; N], friction: Option<&Friction<T>>) -> [Option<T>; N] {
         let mut hits = [None; N];
+        self.events = [GearEvent::default(); N];
         let Some(before) = self.before else { return hits };
         let half_step = c::<T>(0.5);
         for i in 0..N {
@@ -141,17 +170,29 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
             self.rotor[i] = end;
             self.offset[i] += dt * half_step * ((start + end) - (before[i] + after[i]));
             let closing = end - after[i];
+            let mut hit = 0;
             if self.offset[i] >= self.half {
                 self.offset[i] = self.half;
                 if closing > T::zero() {
-                    hits[i] = Some(end);
+                    hit = 1;
                 }
             } else if self.offset[i] <= -self.half {
                 self.offset[i] = -self.half;
                 if closing < T::zero() {
-                    hits[i] = Some(end);
+                    hit = -1;
                 }
             }
+            if let Some(script) = &self.script {
+                hit = script[i].hit.signum();
+                if hit != 0 {
+                    // On the scripted flank, wherever this run's rotor has got to.
+                    self.offset[i] = if hit > 0 { self.half } else { -self.half };
+                }
+            }
+            if hit != 0 {
+                hits[i] = Some(end);
+            }
+            self.events[i].hit = hit;
         }
         hits
     }
@@ -178,13 +219,19 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
             let pushes = match self.flank[i] {
                 1 => contact[i] >= T::zero(),
                 -1 => contact[i] <= T::zero(),
-                _ => continue,
+                _ => {
+                    self.events[i].opened = false;
+                    continue;
+                }
             };
+            let opens = self.script.map_or(!pushes, |s| s[i].opened);
             self.rotor[i] = wheel[i];
-            if !pushes {
+            if opens {
                 self.flank[i] = 0;
             }
+            self.events[i].opened = opens;
         }
+        self.script = None;
         self.motor = motor;
         self.before = Some(wheel);
     }

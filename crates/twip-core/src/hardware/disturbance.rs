@@ -15,7 +15,7 @@
 //! crossing a change keeps (φ̇, θ̇) (the crease's own impact is neglected).
 use nalgebra::{SVector, Vector2, Vector4};
 
-use crate::hardware::backlash::{Backlash, GearPlay, PlayState};
+use crate::hardware::backlash::{Backlash, GearEvent, GearPlay, PlayState};
 use crate::model::friction::Friction;
 use crate::model::lane::Lane;
 use crate::model::slope::SlopeCoefficients;
@@ -324,6 +324,18 @@ impl<T: Real> Disturbed<T> {
         if let Some(p) = self.play.as_mut() {
             p.set_state(state);
         }
+    }
+
+    /// The next step's gear events imposed ([`GearPlay::script`]; no-op without backlash).
+    pub fn script_gears(&mut self, events: Option<GearEvent>) {
+        if let Some(p) = self.play.as_mut() {
+            p.script(events.map(|e| [e]));
+        }
+    }
+
+    /// What the last step's start did to the gear trains (None without backlash).
+    pub fn gear_events(&self) -> Option<GearEvent> {
+        self.play.as_ref().map(|p| p.events()[0])
     }
 
     /// The constant force on the body (zero components: none).

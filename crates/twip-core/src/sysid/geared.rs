@@ -6,7 +6,7 @@
 use nalgebra::{SVector, Vector4};
 
 use super::ShootingModel;
-use crate::hardware::backlash::{Backlash, PlayState};
+use crate::hardware::backlash::{Backlash, GearEvent, PlayState};
 use crate::hardware::disturbance::Disturbed;
 use crate::hardware::driver::{Driven, MotorDriver};
 use crate::sim::runner::Plant;
@@ -53,5 +53,13 @@ impl<T: Real> ShootingModel<T> for RealPlant<T> {
 
     fn shaft_offset(&self) -> T {
         self.ground().shaft_offset()
+    }
+
+    fn script(&mut self, events: Option<GearEvent>) {
+        self.ground_mut().script_gears(events);
+    }
+
+    fn events(&self) -> Option<GearEvent> {
+        self.ground().gear_events()
     }
 }

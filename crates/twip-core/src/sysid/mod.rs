@@ -5,7 +5,7 @@
 //! `twip.sysid`) makes the start states unknowns beside the robot's parameters.
 use nalgebra::{SVector, Vector4};
 
-use crate::hardware::backlash::PlayState;
+use crate::hardware::backlash::{GearEvent, PlayState};
 use crate::hardware::driver::Driven;
 use crate::model::dynamics::Dynamics;
 use crate::model::integrate::rk4_step_from_k1;
@@ -46,6 +46,31 @@ pub trait ShootingModel<T: Real>: Dynamics<T, 4, 1> + Copy {
     fn shaft_offset(&self) -> T {
         T::zero()
     }
+
+    /// The gear play's events at the next step's start imposed ([`GearEvent`]; None: its
+    /// motion decides them).
+    fn script(&mut self, _events: Option<GearEvent>) {}
+
+    /// What the last step's start did to the gear play (None: the model has no play).
+    fn events(&self) -> Option<GearEvent> {
+        None
+    }
+}
+
+/// How a shooting run with gear play starts its segments and schedules its impacts
+/// ([`Shooting::run`]). Without play all three are the same run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Play {
+    /// Each later segment from the play the one before left (recorded in `Outputs::plays`),
+    /// the impacts and openings where the motion puts them (recorded in `Outputs::events`):
+    /// a run of the robot as it is, the base of a finite difference.
+    Carry,
+    /// Each later segment from `Outputs::plays` as given, the events where the motion puts them.
+    Held,
+    /// The segments from `Outputs::plays` and every plant step's events from `Outputs::events`
+    /// as given (the base run's): a finite difference then differences the motion with the
+    /// impacts' schedule held, not the jump of an impact that a perturbation moved by a step.
+    Replay,
 }
 
 impl<T: Real> ShootingModel<T> for SlopeModel<T> {}
@@ -77,17 +102,21 @@ pub struct Shooting<'a, T> {
     u: &'a [T],
     segments: &'a [usize],
     max_step: T,
+    /// How many plant steps a run takes (one gear event each).
+    steps: usize,
 }
 
 /// Where one shooting run puts its outputs ([`Shooting::run`]): per sample the state, its
 /// rate and what the sensors see besides ([shaft offset, pitch rate at the IMU]); per
-/// segment its end and the gear play it started from.
+/// segment its end and the gear play it started from; per plant step the gear play's
+/// events ([`Shooting::plant_steps`] of them with play carried or replayed; else unused).
 pub struct Outputs<'o, T> {
     pub states: &'o mut [Vector4<T>],
     pub rates: &'o mut [Vector4<T>],
     pub sensed: &'o mut [[T; 2]],
     pub ends: &'o mut [Vector4<T>],
     pub plays: &'o mut [Option<PlayState<T, 1>>],
+    pub events: &'o mut [GearEvent],
 }
 
 fn invalid(name: &'static str, value: f64, reason: &'static str) -> TwipError {
@@ -125,7 +154,16 @@ impl<'a, T: Real> Shooting<'a, T> {
         if !(max_step.is_finite() && max_step > T::zero()) {
             return Err(invalid("max_step", crate::to_f64(max_step), "must be finite and > 0"));
         }
-        Ok(Self { t, u, segments, max_step })
+        let mut shooting = Self { t, u, segments, max_step, steps: 1 };
+        // Every interval's steps, and the last sample's start (its rate).
+        shooting.steps += t.windows(2).map(|w| crate::to_f64(shooting.split(w[1] - w[0]).0) as usize).sum::<usize>();
+        Ok(shooting)
+    }
+
+    /// How many plant steps a run takes: each interval's RK4 steps and the last sample's
+    /// start. A run with gear play has one [`GearEvent`] per step.
+    pub fn plant_steps(&self) -> usize {
+        self.steps
     }
 
     pub fn samples(&self) -> usize {
@@ -153,9 +191,10 @@ impl<'a, T: Real> Shooting<'a, T> {
     /// stays NaN to its end.
     ///
     /// A model with gear play starts its first segment with the play as it is, and each
-    /// later one either from the previous segment's play at its end (`carry`: recorded in
-    /// `out.plays`) or from `out.plays` as given (so that a finite difference holds it).
-    pub fn run<M: ShootingModel<T>>(&self, model: &M, starts: &[Vector4<T>], out: Outputs<'_, T>, carry: bool) -> Result<(), TwipError> {
+    /// later one as `play` says ([`Play`]): from the previous segment's play at its end
+    /// (recorded in `out.plays`, and every step's events in `out.events`), or from
+    /// `out.plays` as given (and with `Replay` every step's events from `out.events`).
+    pub fn run<M: ShootingModel<T>>(&self, model: &M, starts: &[Vector4<T>], out: Outputs<'_, T>, play: Play) -> Result<(), TwipError> {
         let n = self.samples();
         if starts.len() != self.segment_count() {
             return Err(invalid("starts", starts.len() as f64, "needs one start state per segment"));
@@ -166,17 +205,22 @@ impl<'a, T: Real> Shooting<'a, T> {
         if out.ends.len() != starts.len() || out.plays.len() != starts.len() {
             return Err(invalid("ends", out.ends.len() as f64, "needs one row per segment"));
         }
+        let geared = model.play().is_some();
+        if geared && play != Play::Held && out.events.len() != self.steps {
+            return Err(invalid("events", out.events.len() as f64, "needs one gear event per plant step of the log (Shooting::plant_steps)"));
+        }
+        let mut events = Schedule { play: if geared { play } else { Play::Held }, events: out.events, next: 0 };
         let mut carried = model.play();
         for (k, start) in starts.iter().enumerate() {
             let range = self.range(k);
             // Each segment carries its own copy: its winding's current is its own. It starts
             // from the duty held before the segment (the first segment's own: none before).
             let mut model = *model;
-            let play = if carry || k == 0 { carried } else { out.plays[k] };
-            if let Some(p) = &play {
+            let start_play = if play == Play::Carry || k == 0 { carried } else { out.plays[k] };
+            if let Some(p) = &start_play {
                 model.set_play(p);
             }
-            out.plays[k] = play;
+            out.plays[k] = start_play;
             model.start_segment(start, self.u[range.start.saturating_sub(1)]);
             let mut x = *start;
             for i in range.clone() {
@@ -187,14 +231,14 @@ impl<'a, T: Real> Shooting<'a, T> {
                 let (steps, h) = self.split(interval);
                 out.states[i] = x;
                 let shaft = model.shaft_offset();
-                let k1 = model.start_step(&mut x, u[0], h).unwrap_or_else(|| model.deriv(&x, &u));
+                let k1 = events.start_step(&mut model, &mut x, &u, h);
                 out.rates[i] = k1;
                 out.sensed[i] = [shaft, x[1]];
                 out.ends[k] = Vector4::repeat(crate::c::<T>(f64::NAN));
                 if i + 1 == n {
                     break;
                 }
-                x = Self::advance(&mut model, &x, &u, &k1, steps, h);
+                x = Self::advance(&mut model, &x, &u, &k1, steps, h, &mut events);
                 if !x.iter().all(|v| v.is_finite()) {
                     x = Vector4::repeat(crate::c::<T>(f64::NAN));
                 }
@@ -221,17 +265,43 @@ impl<'a, T: Real> Shooting<'a, T> {
     /// `steps` RK4 steps of `h` from `x` under `u`, the first from its first stage `k1`
     /// (evaluated after the model's `start_step`); each further step starts the model's,
     /// and each ends it.
-    fn advance<M: ShootingModel<T>>(model: &mut M, x: &Vector4<T>, u: &SVector<T, 1>, k1: &Vector4<T>, steps: T, h: T) -> Vector4<T> {
+    #[allow(clippy::too_many_arguments)]
+    fn advance<M: ShootingModel<T>>(model: &mut M, x: &Vector4<T>, u: &SVector<T, 1>, k1: &Vector4<T>, steps: T, h: T, events: &mut Schedule<'_>) -> Vector4<T> {
         let mut y = rk4_step_from_k1(model, x, u, h, k1);
         model.end_step(&y);
         let mut done = T::one();
         while done < steps {
-            let k1 = model.start_step(&mut y, u[0], h).unwrap_or_else(|| model.deriv(&y, u));
+            let k1 = events.start_step(model, &mut y, u, h);
             y = rk4_step_from_k1(model, &y, u, h, &k1);
             model.end_step(&y);
             done += T::one();
         }
         y
+    }
+}
+
+/// A run's gear events, step by step: recorded (`Carry`), imposed (`Replay`) or left to
+/// the motion (`Held`, or a model without play).
+struct Schedule<'e> {
+    play: Play,
+    events: &'e mut [GearEvent],
+    next: usize,
+}
+
+impl Schedule<'_> {
+    /// The model's step of `h` starts at `x` under `u`, with the next step's events imposed
+    /// or recorded; returns its first stage.
+    #[inline]
+    fn start_step<T: Real, M: ShootingModel<T>>(&mut self, model: &mut M, x: &mut Vector4<T>, u: &SVector<T, 1>, h: T) -> Vector4<T> {
+        if self.play == Play::Replay {
+            model.script(Some(self.events[self.next]));
+        }
+        let k1 = model.start_step(x, u[0], h).unwrap_or_else(|| model.deriv(x, u));
+        if self.play == Play::Carry {
+            self.events[self.next] = model.events().unwrap_or_default();
+        }
+        self.next += 1;
+        k1
     }
 }
 
@@ -251,8 +321,8 @@ mod tests {
         let starts = [Vector4::new(0.05, 0.0, 0.0, 0.0), Vector4::new(-0.02, 0.1, 0.3, 1.0)];
         let (mut states, mut rates, mut sensed) = (vec![Vector4::zeros(); 50], vec![Vector4::zeros(); 50], vec![[0.0; 2]; 50]);
         let (mut ends, mut plays) = ([Vector4::zeros(); 2], [None; 2]);
-        let out = Outputs { states: &mut states, rates: &mut rates, sensed: &mut sensed, ends: &mut ends, plays: &mut plays };
-        shooting.run(&model, &starts, out, false).unwrap();
+        let out = Outputs { states: &mut states, rates: &mut rates, sensed: &mut sensed, ends: &mut ends, plays: &mut plays, events: &mut [] };
+        shooting.run(&model, &starts, out, Play::Held).unwrap();
         for (k, range) in [(0, 0..20), (1, 20..50)] {
             let mut x = starts[k];
             for i in range {
@@ -292,8 +362,8 @@ mod tests {
             let shooting = Shooting::new(&t, &u, &segments, dt).unwrap();
             let (mut states, mut rates, mut sensed) = (vec![Vector4::zeros(); n], vec![Vector4::zeros(); n], vec![[0.0; 2]; n]);
             let (mut ends, mut plays) = ([Vector4::zeros(); 2], [None; 2]);
-            let out = Outputs { states: &mut states, rates: &mut rates, sensed: &mut sensed, ends: &mut ends, plays: &mut plays };
-            shooting.run(&driven, &starts, out, false).unwrap();
+            let out = Outputs { states: &mut states, rates: &mut rates, sensed: &mut sensed, ends: &mut ends, plays: &mut plays, events: &mut [] };
+            shooting.run(&driven, &starts, out, Play::Held).unwrap();
             let mut limited = 0;
             for (k, range) in [(0, 0..25), (1, 25..n)] {
                 let mut plant = Realism { motor: Some(driver), ..Realism::ideal() }.build(&model, dt).unwrap().plant;
@@ -349,13 +419,14 @@ mod tests {
         let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
         let mut plant = Realism { motor: Some(driver), backlash: Some(backlash), ..Realism::ideal() }.build(&model, dt).unwrap().plant;
         let mut x = Vector4::new(0.05, 0.0, 0.0, 0.0);
-        let (mut truth, mut rates, mut sensed, mut open) = (vec![], vec![], vec![], 0);
+        let (mut truth, mut rates, mut sensed, mut open, mut plant_events) = (vec![], vec![], vec![], 0, vec![]);
         for i in 0..n {
             let uu = SVector::<f64, 1>::new(u[i]);
             truth.push(x);
             let shaft = plant.shaft_offsets()[0];
             let k1 = plant.between_steps_with_derivative(t[i], dt, &mut x, &uu).unwrap_or_else(|| plant.deriv(&x, &uu));
             open += usize::from(!plant.ground().engaged());
+            plant_events.push(plant.ground().gear_events().unwrap());
             rates.push(k1);
             sensed.push([shaft, x[1]]);
             x = rk4_step_from_k1(&plant, &x, &uu, dt, &k1);
@@ -368,22 +439,59 @@ mod tests {
         let shooter = geared::geared(&model, Some(&driver), backlash).unwrap();
         let (mut states, mut rs, mut ss) = (vec![Vector4::zeros(); n], vec![Vector4::zeros(); n], vec![[0.0; 2]; n]);
         let (mut ends, mut plays) = ([Vector4::zeros(); 3], [None; 3]);
-        let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays };
-        shooting.run(&shooter, &starts, out, true).unwrap();
+        assert_eq!(shooting.plant_steps(), n);
+        let mut events = vec![GearEvent::default(); n];
+        let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays, events: &mut events };
+        shooting.run(&shooter, &starts, out, Play::Carry).unwrap();
         for i in 0..n {
             assert_eq!((states[i], rs[i], ss[i]), (truth[i], rates[i], sensed[i]), "sample {i}");
         }
         assert_eq!(ends[0], truth[130]);
         assert!(plays.iter().all(|p| p.is_some()));
+        // The run's impacts and openings were recorded, step by step, as the plant had them.
+        let hits = events.iter().filter(|e| e.hit != 0).count();
+        let openings = events.iter().filter(|e| e.opened).count();
+        assert_eq!(events, plant_events);
+        assert!(hits > 3 && openings > 3, "{hits} impacts, {openings} openings");
+        // Replayed, its own events give the same run, bit for bit.
+        let (kept, recorded) = (plays, events.clone());
+        let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays, events: &mut events };
+        shooting.run(&shooter, &starts, out, Play::Replay).unwrap();
+        for i in 0..n {
+            assert_eq!((states[i], rs[i], ss[i]), (truth[i], rates[i], sensed[i]), "replayed, sample {i}");
+        }
+        assert_eq!(events, recorded);
         // Held: the same plays given, the same run; another play given, another run.
-        let kept = plays;
-        let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays };
-        shooting.run(&shooter, &starts, out, false).unwrap();
+        let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays, events: &mut [] };
+        shooting.run(&shooter, &starts, out, Play::Held).unwrap();
         assert_eq!(states[n - 1], truth[n - 1]);
         plays[2] = kept[1];
-        let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays };
-        shooting.run(&shooter, &starts, out, false).unwrap();
+        let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays, events: &mut [] };
+        shooting.run(&shooter, &starts, out, Play::Held).unwrap();
         assert_ne!(states[n - 1], truth[n - 1]);
+        // Another robot, carried, has its impacts elsewhere; replaying the first's schedule
+        // is another run (the script is obeyed), finite to its end.
+        let heavier = SlopeModel::new(RobotParams { m_body: 1.2, ..RobotParams::balanbot() }, 0.05).unwrap().with_friction(Some(friction)).unwrap();
+        let shooter = geared::geared(&heavier, Some(&driver), backlash).unwrap();
+        plays = kept;
+        let mut own = vec![GearEvent::default(); n];
+        let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays, events: &mut own };
+        shooting.run(&shooter, &starts, out, Play::Carry).unwrap();
+        assert_ne!(own, recorded);
+        let carried = states.clone();
+        plays = kept;
+        let mut replayed = recorded.clone();
+        let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays, events: &mut replayed };
+        shooting.run(&shooter, &starts, out, Play::Replay).unwrap();
+        assert_ne!(states, carried);
+        assert!(states.iter().all(|x| x.iter().all(|v| v.is_finite())));
+        // A wrong event count is refused by name, carried or replayed.
+        for play in [Play::Carry, Play::Replay] {
+            let mut short = vec![GearEvent::default(); n - 1];
+            let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays, events: &mut short };
+            let err = shooting.run(&shooter, &starts, out, play).unwrap_err();
+            assert!(matches!(err, TwipError::InvalidParameter { name: "events", .. }), "{err:?}");
+        }
     }
 
     #[test]

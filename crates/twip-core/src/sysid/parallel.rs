@@ -4,30 +4,42 @@ use alloc::vec::Vec;
 use nalgebra::Vector4;
 use rayon::prelude::*;
 
-use super::{Outputs, Shooting, ShootingModel};
-use crate::hardware::backlash::PlayState;
+use super::{Outputs, Play, Shooting, ShootingModel};
+use crate::hardware::backlash::{GearEvent, PlayState};
 use crate::TwipError;
 
 /// One run's outputs: states, rates and what the sensors see besides per sample, ends and
-/// the gear play started from per segment ([`Outputs`]).
+/// the gear play started from per segment, and with gear play its events per plant step
+/// ([`Outputs`]; empty without play).
 pub struct Prediction {
     pub states: Vec<Vector4<f64>>,
     pub rates: Vec<Vector4<f64>>,
     pub sensed: Vec<[f64; 2]>,
     pub ends: Vec<Vector4<f64>>,
     pub plays: Vec<Option<PlayState<f64, 1>>>,
+    pub events: Vec<GearEvent>,
 }
 
 impl Prediction {
     pub fn outputs(&mut self) -> Outputs<'_, f64> {
-        Outputs { states: &mut self.states, rates: &mut self.rates, sensed: &mut self.sensed, ends: &mut self.ends, plays: &mut self.plays }
+        Outputs {
+            states: &mut self.states,
+            rates: &mut self.rates,
+            sensed: &mut self.sensed,
+            ends: &mut self.ends,
+            plays: &mut self.plays,
+            events: &mut self.events,
+        }
     }
 }
 
 /// Runs `models[k]` from `starts[k]` into `out[k]`, in parallel. With gear play, the first
-/// run carries each segment's play on from the previous segment's end, and the others
-/// start each segment from the first run's: a finite difference (the first run the base,
-/// the others perturbed) then holds the play where the base has it.
+/// run carries each segment's play on from the previous segment's end and records its
+/// impacts and openings step by step; the others start each segment from the first run's
+/// play and replay its events ([`Play::Replay`]): a finite difference (the first run the
+/// base, the others perturbed) then differences the motion with the impacts' schedule
+/// held. A run alone (a trial step) is free: carried. Each `out[k].events` must then have
+/// one entry per plant step ([`Shooting::plant_steps`]).
 pub fn run_all<M: ShootingModel<f64> + Sync>(
     shooting: &Shooting<'_, f64>,
     models: &[M],
@@ -40,17 +52,25 @@ pub fn run_all<M: ShootingModel<f64> + Sync>(
             .par_iter()
             .zip(starts.par_iter())
             .zip(out.par_iter_mut())
-            .try_for_each(|((model, starts), p)| shooting.run(model, starts, p.outputs(), false));
+            .try_for_each(|((model, starts), p)| shooting.run(model, starts, p.outputs(), Play::Held));
     }
     let (base, rest) = out.split_at_mut(1);
-    shooting.run(&models[0], &starts[0], base[0].outputs(), true)?;
-    let plays = &base[0].plays;
+    shooting.run(&models[0], &starts[0], base[0].outputs(), Play::Carry)?;
+    let (plays, events) = (&base[0].plays, &base[0].events);
     models[1..]
         .par_iter()
         .zip(starts[1..].par_iter())
         .zip(rest.par_iter_mut())
         .try_for_each(|((model, starts), p)| {
             p.plays.copy_from_slice(plays);
-            shooting.run(model, starts, p.outputs(), false)
+            if p.events.len() != events.len() {
+                return Err(TwipError::InvalidParameter {
+                    name: "events",
+                    value: p.events.len() as f64,
+                    reason: "each run needs as many gear events as the base run (one per plant step)",
+                });
+            }
+            p.events.copy_from_slice(events);
+            shooting.run(model, starts, p.outputs(), Play::Replay)
         })
 }
