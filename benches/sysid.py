@@ -201,7 +201,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--accuracy", action="store_true",
-                    help="instead of timing: the fits' errors on rig logs of two robots other than the Balanbot")
+                    help="instead of timing: the fits' errors on rig logs of the robots other than the Balanbot (ROBOTS: user, tall, mid)")
     ap.add_argument("--excitation", action="store_true",
                     help="instead of timing: speed_steps' fits on settled rig logs of three robots, per noise seed")
     ap.add_argument("--seeds", type=int, default=4, help="noise seeds 0..N-1 for --excitation")
