@@ -88,7 +88,7 @@ fn main() {
             let rig = Realism::thesis_like();
             let runs = if path == "pid-realism-lanes" {
                 let law = PidLanes::new(&pid);
-                planar::run_planar_rig_lane_samples(&law, &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|_| Ok(rig), &|| false).unwrap().unwrap()
+                planar::run_planar_rig_lane_samples(&law, &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|_| Ok(rig), &|| false, None).unwrap().unwrap()
             } else if path != "pid-lanes" {
                 let realism = (path == "pid-realism").then_some(&rig);
                 (0..n)

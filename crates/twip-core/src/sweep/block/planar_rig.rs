@@ -6,18 +6,21 @@
 //! the rig's lanes ([`PlanarRigLanes`], which step the rig's parts and the plant). So a lane
 //! agrees with `sweep::planar::run_planar_sample` to rounding, and is bit for bit the same
 //! on every CPU, thread count and block neighbour.
-use super::planar::{LanePath, Metrics, PlanarLaneLaw};
+use super::planar::{BlockGround, LanePath, Metrics, PlanarLaneLaw};
 use super::planar_rig_lanes::PlanarRigLanes;
+use super::planar_terrain::{FeedForwardLanes, TerrainLanes};
 use super::rig::block_rigs;
 use super::held::end_diverged;
 use super::multiversioned;
 use crate::model::planar::PlanarModel;
+use crate::model::terrain::Terrain;
 use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
 use crate::sweep::lanes::LANES;
 use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
 use crate::sweep::rig::RealismOf;
 use crate::sweep::SweepMetrics;
 use crate::TwipError;
+use alloc::vec::Vec;
 
 type BlockResult = Result<Option<[PlanarSampleMetrics; LANES]>, TwipError>;
 
@@ -27,6 +30,12 @@ multiversioned! {
     /// `sweep::rig::for_sweep` for the key), with `controller`'s law along `path`
     /// ("_settled" metrics from `settle` [s]). `should_stop` is asked every
     /// `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it said yes before the block was done.
+    /// On `terrain` (None: flat ground): each sample's terrain (None: one no draw should give;
+    /// the lane is invalid, as when its start is off its terrain) and the tracker's grade
+    /// feed-forward, if any: each rig built on its sample's terrain
+    /// (`Realism::build_planar_on`), the lanes' plants, IMUs and "lifted"/"off_terrain" ends
+    /// as the ideal lanes' on terrain ([`TerrainLanes`]). A runtime choice inside the flat
+    /// kernel's instances: the flat rig keeps its code and its bits.
     pub fn run_planar_rig_block, planar_rig_avx512, planar_rig_avx2, planar_rig_baseline = planar_rig_block<C: PlanarLaneLaw, P: LanePath; const COPY>(
         controller: C,
         path: &P,
@@ -35,6 +44,7 @@ multiversioned! {
         settle: f64,
         realism_of: RealismOf<'_>,
         should_stop: &dyn Fn() -> bool,
+        terrain: Option<(&[Option<Terrain<f64>>], Option<FeedForwardLanes>)>,
     ) -> BlockResult
 }
 
@@ -47,18 +57,22 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     settle: f64,
     realism_of: RealismOf<'_>,
     should_stop: &dyn Fn() -> bool,
+    terrain: Option<(&[Option<Terrain<f64>>], Option<FeedForwardLanes>)>,
 ) -> BlockResult {
     assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
     let (n, per_update) = config.steps(controller.period())?;
     let dt = config.dt;
-    let samples_models = samples.iter().map(|s| {
-        let model = s.x0.iter().all(|v| v.is_finite()).then(|| PlanarModel::new(s.params).ok()).flatten();
-        (s.index, s.params, model)
+    let ground = terrain.map(|(terrains, feed)| TerrainLanes::new(samples, terrains, feed));
+    let samples_models = samples.iter().enumerate().map(|(l, s)| {
+        let valid = s.x0.iter().all(|v| v.is_finite()) && ground.as_ref().is_none_or(|g| g.valid(l));
+        let model = valid.then(|| PlanarModel::new(s.params).ok()).flatten();
+        (s.index, s.params, model.map(|m| (m, terrain.and_then(|(t, _)| t[l].as_ref()))))
     });
-    let built = block_rigs(samples_models, realism_of, |realism, model| realism.build_planar(model, dt))?;
+    let built = block_rigs(samples_models, realism_of, |realism, (model, on)| realism.build_planar_on(model, *on, dt))?;
+    let built: Vec<_> = built.into_iter().map(|b| b.map(|((model, _), rig)| (model, rig))).collect();
     let active: [bool; LANES] = core::array::from_fn(|l| built.get(l).is_some_and(Option::is_some));
     let x0 = |l: usize| if active[l] { samples[l].x0.into() } else { [0.0; 7] };
-    let Some(mut rig) = PlanarRigLanes::start(built, x0, dt, dt * per_update as f64)? else {
+    let Some(mut rig) = PlanarRigLanes::start(built, x0, dt, dt * per_update as f64, ground.clone())? else {
         return Ok(Some([PlanarSampleMetrics::INVALID; LANES]));
     };
     let mut state = controller.start();
@@ -77,7 +91,11 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
         let update = k % per_update == 0;
         if update {
             let y = rig.read(t);
-            controller.update::<COPY>(&mut state, y, &r, &mut cmd);
+            match &ground {
+                None => controller.update::<COPY>(&mut state, y, &r, &mut cmd),
+                // The feed-forward from what the firmware reads, as a run's `GradeFeedForward`.
+                Some(g) => g.update::<C, COPY>(&mut controller, &mut state, y, &r, &mut cmd),
+            }
             let diverged = rig.apply(t, &cmd);
             // A lane whose drive is not finite has diverged: it ends as fallen, unobserved.
             end_diverged(&diverged, &mut alive, &mut ended, t, k);
@@ -85,7 +103,8 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
         metrics.observe(&alive, t >= settle, &rig.x, rig.command(), &r, path);
         let next = rig.step::<COPY>(k, |delivered, beyond| metrics.drive(&alive, delivered, update, beyond));
         let command = *rig.command();
-        if !metrics.end_step(&mut rig.x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &command, path, settle, None) {
+        let halts = rig.halts::<COPY>(&next);
+        if !metrics.end_step(&mut rig.x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &command, path, settle, halts.as_ref()) {
             break;
         }
     }
@@ -145,15 +164,15 @@ mod tests {
             .collect();
         let never = || false;
         let realism_of = |_: &RobotParams<f64>| Ok(realism);
-        let base = format!("{:?}", planar_rig_baseline(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never).unwrap());
+        let base = format!("{:?}", planar_rig_baseline(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, None).unwrap());
         #[cfg(target_arch = "x86_64")]
         {
             if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-                let got = unsafe { planar_rig_avx2(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never) }.unwrap();
+                let got = unsafe { planar_rig_avx2(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, None) }.unwrap();
                 assert_eq!(format!("{got:?}"), base, "AVX2 copy");
             }
             if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma") {
-                let got = unsafe { planar_rig_avx512(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never) }.unwrap();
+                let got = unsafe { planar_rig_avx512(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, None) }.unwrap();
                 assert_eq!(format!("{got:?}"), base, "AVX-512 copy");
             }
         }
