@@ -150,10 +150,22 @@ mod tests {
     }
 
     fn same_bits_on_every_copy(law: &PidLanes, realism: &Realism<f64>) {
+        same_bits_on_every_copy_on(law, realism, |_| None, "fell: true");
+    }
+
+    /// [`same_bits_on_every_copy`] on the terrains and feed-forward `ground_of` gives the
+    /// block's samples (which it may change), some ending as `ending` says.
+    #[allow(clippy::type_complexity)]
+    fn same_bits_on_every_copy_on(
+        law: &PidLanes,
+        realism: &Realism<f64>,
+        ground_of: impl Fn(&mut [PlanarSample]) -> Option<(Vec<Option<Terrain<f64>>>, Option<FeedForwardLanes>)>,
+        ending: &str,
+    ) {
         let circle = Circle::from_origin(0.6, 0.2, Direction::CounterClockwise).unwrap();
         let config = SimConfig { dt: 1e-3, t_final: 2.0, fall_limit: 0.5 };
         let realism = crate::sweep::rig::for_sweep(realism, 5);
-        let samples: Vec<PlanarSample> = (0..LANES as u64)
+        let mut samples: Vec<PlanarSample> = (0..LANES as u64)
             .map(|i| {
                 let mut params = RobotParams::balanbot();
                 params.com_height *= 0.6 + 0.05 * i as f64;
@@ -162,20 +174,58 @@ mod tests {
                 PlanarSample { index: i, params, x0 }
             })
             .collect();
+        let ground = ground_of(&mut samples);
+        let ground = ground.as_ref().map(|(t, feed)| (t.as_slice(), *feed));
         let never = || false;
         let realism_of = |_: &RobotParams<f64>| Ok(realism);
-        let base = format!("{:?}", planar_rig_baseline(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, None).unwrap());
+        let base = format!("{:?}", planar_rig_baseline(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, ground).unwrap());
         #[cfg(target_arch = "x86_64")]
         {
             if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-                let got = unsafe { planar_rig_avx2(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, None) }.unwrap();
+                let got = unsafe { planar_rig_avx2(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, ground) }.unwrap();
                 assert_eq!(format!("{got:?}"), base, "AVX2 copy");
             }
             if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma") {
-                let got = unsafe { planar_rig_avx512(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, None) }.unwrap();
+                let got = unsafe { planar_rig_avx512(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, ground) }.unwrap();
                 assert_eq!(format!("{got:?}"), base, "AVX-512 copy");
             }
         }
-        assert!(base.contains("fell: true") && base.contains("fell: false"), "want both outcomes: {base}");
+        assert!(base.contains(ending) && base.contains("fell: false"), "want both outcomes: {base}");
+    }
+
+    /// On terrain too (each lane its own plane, the grade fed forward, half the lanes across
+    /// steep planes turning hard; bumps; a grid some leave), for the thesis-like rig with and
+    /// without backlash and with windings without inductance: every copy the same bits, lanes
+    /// lifting and leaving the grid among them.
+    #[test]
+    fn every_copy_gives_the_same_bits_on_terrain() {
+        use crate::control::grade::GradeFeedForward;
+        use crate::model::terrain_model::TerrainModel;
+        let nominal = RobotParams::balanbot();
+        let motor = DcMotor::gb37y3530();
+        let pid = PidTracker::table_4_1(&nominal, motor, 0.005).unwrap();
+        let law = PidLanes::new(&pid);
+        let flat = TerrainModel::new(PlanarModel::new(nominal).unwrap(), Terrain::flat());
+        let feed = FeedForwardLanes::new(&GradeFeedForward::new(pid, flat, Some(motor)));
+        let planes = |samples: &mut [PlanarSample]| {
+            let terrains: Vec<_> = (0..samples.len()).map(|i| Terrain::plane(0.04 * i as f64, 0.7 * i as f64).ok()).collect();
+            for (i, s) in samples.iter_mut().enumerate().filter(|(i, _)| i % 2 == 1) {
+                (s.x0[2], s.x0[5], s.x0[6]) = (0.7 * i as f64 + core::f64::consts::FRAC_PI_2, 1.5, -8.0);
+            }
+            Some((terrains, Some(feed)))
+        };
+        let thesis = Realism::thesis_like();
+        let no_inductance = crate::hardware::driver::MotorDriver { inductance: 0.0, ..thesis.motor.unwrap() };
+        for realism in [thesis, Realism { backlash: None, ..thesis }, Realism { motor: Some(no_inductance), ..thesis }] {
+            same_bits_on_every_copy_on(&law, &realism, planes, "lifted: 1.0");
+        }
+        let bumps = |samples: &mut [PlanarSample]| Some((alloc::vec![Terrain::bumps(0.03, 0.4).ok(); samples.len()], None));
+        same_bits_on_every_copy_on(&law, &thesis, bumps, "fell: true");
+        // A grid around the start, which the circle leaves.
+        let xs: Vec<f64> = (0..6).map(|i| -0.3 + 0.1 * i as f64).collect();
+        let z: Vec<f64> = xs.iter().flat_map(|x| xs.iter().map(move |y| 0.02 * (5.0 * x).sin() * (4.0 * y).cos())).collect();
+        let grid = Terrain::Grid(alloc::sync::Arc::new(crate::model::terrain::Grid::new(xs.clone(), xs, &z).unwrap()));
+        let off = |samples: &mut [PlanarSample]| Some((alloc::vec![Some(grid.clone()); samples.len()], Some(feed)));
+        same_bits_on_every_copy_on(&law, &thesis, off, "off_terrain: 1.0");
     }
 }
