@@ -24,6 +24,10 @@ use alloc::vec::Vec;
 
 type BlockResult = Result<Option<[PlanarSampleMetrics; LANES]>, TwipError>;
 
+/// A block's terrains, one per sample (None: one no draw should give), and the tracker's
+/// grade feed-forward, if any.
+pub type BlockTerrain<'a> = Option<(&'a [Option<Terrain<f64>>], Option<FeedForwardLanes>)>;
+
 multiversioned! {
     /// Runs up to [`LANES`] samples through the 3-DOF rig each one's realism builds for
     /// its robot (`realism_of`; noise stream = the sample's index; see
@@ -44,11 +48,12 @@ multiversioned! {
         settle: f64,
         realism_of: RealismOf<'_>,
         should_stop: &dyn Fn() -> bool,
-        terrain: Option<(&[Option<Terrain<f64>>], Option<FeedForwardLanes>)>,
+        terrain: BlockTerrain<'_>,
     ) -> BlockResult
 }
 
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     mut controller: C,
     path: &P,
@@ -57,7 +62,7 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     settle: f64,
     realism_of: RealismOf<'_>,
     should_stop: &dyn Fn() -> bool,
-    terrain: Option<(&[Option<Terrain<f64>>], Option<FeedForwardLanes>)>,
+    terrain: BlockTerrain<'_>,
 ) -> BlockResult {
     assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
     let (n, per_update) = config.steps(controller.period())?;
