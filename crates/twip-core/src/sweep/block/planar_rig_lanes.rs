@@ -180,43 +180,34 @@ fn in_frame(x: &[Fused; 7], g: [Fused; 3]) -> (Frame<Fused>, [Fused; 7]) {
     (f, plane_state(x, &f))
 }
 
-/// Every lane's rig plant on its ground over a step, its trains as they are: the field of all
-/// the lanes at once, as the ideal lanes' on terrain (one RK4 stage is one lookup of the
-/// lanes' grounds, then one loop over lanes).
-struct RigOnGround<'a, const GEAR: u8, const DRIVE: u8, const GEARED: bool> {
-    plants: &'a RigPlants,
+/// One lane's rig plant on its ground over a step, its trains as they are: its local plane
+/// looked up at every RK4 stage (a drawn plane's gradient is the lane's constant), so that a
+/// lane's whole step stays one loop body, as on flat ground.
+struct LaneOnGround<'a, const GEAR: u8, const DRIVE: u8, const GEARED: bool> {
+    field: RigField<'a, GEAR, DRIVE, GEARED>,
     ground: &'a TerrainLanes,
-    u: &'a [Lanes; 2],
-    trains: &'a [[bool; 2]; LANES],
+    l: usize,
+    weight: Fused,
 }
 
-impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> RigOnGround<'_, GEAR, DRIVE, GEARED> {
-    /// Each lane's `eval(field, its state, its ground)`, its ground looked up at `x`.
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> LaneOnGround<'_, GEAR, DRIVE, GEARED> {
+    /// The ground under `x`: its gradient and the robot's weight.
     #[inline(always)]
-    fn each<const M: usize>(&self, x: &[Lanes; 7], eval: impl Fn(&RigField<'_, GEAR, DRIVE, GEARED>, &[Fused; 7], [Fused; 3]) -> [Fused; M]) -> [Lanes; M] {
-        let [gx, gy] = self.ground.gradients(&x[0], &x[1]);
-        let mut out = [[0.0; LANES]; M];
-        for l in 0..LANES {
-            let field = self.plants.field::<GEAR, DRIVE, GEARED>(l, self.u, self.trains);
-            let g = [Fused(gx[l]), Fused(gy[l]), Fused(self.ground.weight(l))];
-            let d = eval(&field, &fill(|i| Fused(x[i][l])), g);
-            for i in 0..M {
-                out[i][l] = d[i].0;
-            }
-        }
-        out
+    fn at(&self, x: &[Fused; 7]) -> [Fused; 3] {
+        let [gx, gy] = self.ground.gradient(self.l, x[0].0, x[1].0);
+        [Fused(gx), Fused(gy), self.weight]
     }
 }
 
-impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> Field<Wide<LANES>, 7> for RigOnGround<'_, GEAR, DRIVE, GEARED> {
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> Field<Fused, 7> for LaneOnGround<'_, GEAR, DRIVE, GEARED> {
     #[inline(always)]
-    fn at(&self, x: &[Wide<LANES>; 7]) -> [Wide<LANES>; 7] {
-        self.each(&x.map(|w| w.0), |field, x, g| field.motion_on(x, g).0).map(Wide)
+    fn at(&self, x: &[Fused; 7]) -> [Fused; 7] {
+        self.field.motion_on(x, LaneOnGround::at(self, x)).0
     }
 
     #[inline(always)]
-    fn at_stage(&self, x: &[Wide<LANES>; 7], stage: Stage) -> [Wide<LANES>; 7] {
-        self.each(&x.map(|w| w.0), |field, x, g| field.at_stage_on(x, stage, g)).map(Wide)
+    fn at_stage(&self, x: &[Fused; 7], stage: Stage) -> [Fused; 7] {
+        self.field.at_stage_on(x, stage, LaneOnGround::at(self, x))
     }
 }
 
@@ -327,15 +318,22 @@ impl RigPlants {
 
     #[cfg_attr(not(debug_assertions), inline(always))]
     fn motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], ground: Option<&TerrainLanes>) -> ([Lanes; 7], [Lanes; 2]) {
-        if let Some(ground) = ground {
-            let on = RigOnGround::<GEAR, DRIVE, GEARED> { plants: self, ground, u, trains };
-            let both = on.each(x, |field, x, g| {
-                let (d, tau) = field.motion_on(x, g);
-                [d[0], d[1], d[2], d[3], d[4], d[5], d[6], tau[0], tau[1]]
-            });
-            return (core::array::from_fn(|i| both[i]), [both[7], both[8]]);
-        }
         let (mut d, mut tau) = ([[0.0; LANES]; 7], [[0.0; LANES]; 2]);
+        if let Some(ground) = ground {
+            // The flat loop below, each lane on its ground (a loop of its own: the flat one
+            // keeps its code).
+            for l in 0..LANES {
+                let xl = fill(|i| Fused(x[i][l]));
+                let on = LaneOnGround { field: self.field::<GEAR, DRIVE, GEARED>(l, u, trains), ground, l, weight: Fused(ground.weight(l)) };
+                let (dl, tl) = on.field.motion_on(&xl, on.at(&xl));
+                for i in 0..7 {
+                    d[i][l] = dl[i].0;
+                }
+                tau[0][l] = tl[0].0;
+                tau[1][l] = tl[1].0;
+            }
+            return (d, tau);
+        }
         for l in 0..LANES {
             let (dl, tl) = self.field::<GEAR, DRIVE, GEARED>(l, u, trains).motion(&fill(|i| Fused(x[i][l])));
             for i in 0..7 {
@@ -356,13 +354,18 @@ impl RigPlants {
 
     #[cfg_attr(not(debug_assertions), inline(always))]
     fn rk4_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64, ground: Option<&TerrainLanes>) -> [Lanes; 7] {
-        if let Some(ground) = ground {
-            // RK4 over all the lanes at once, each stage's grounds looked up ([`Wide`]'s
-            // arithmetic is [`Fused`]'s lane by lane).
-            let field = RigOnGround::<GEAR, DRIVE, GEARED> { plants: self, ground, u, trains };
-            return rk4(&field, &x.map(Wide), &k1.map(Wide), Wide::splat(dt)).map(|w| w.0);
-        }
         let mut out = [[0.0; LANES]; 7];
+        if let Some(ground) = ground {
+            // The flat loop below, each lane's whole step on its ground (a loop of its own).
+            for l in 0..LANES {
+                let on = LaneOnGround { field: self.field::<GEAR, DRIVE, GEARED>(l, u, trains), ground, l, weight: Fused(ground.weight(l)) };
+                let next = rk4(&on, &fill(|i| Fused(x[i][l])), &fill(|i| Fused(k1[i][l])), Fused(dt));
+                for i in 0..7 {
+                    out[i][l] = next[i].0;
+                }
+            }
+            return out;
+        }
         for l in 0..LANES {
             let field = self.field::<GEAR, DRIVE, GEARED>(l, u, trains);
             let next = rk4(&field, &fill(|i| Fused(x[i][l])), &fill(|i| Fused(k1[i][l])), Fused(dt));

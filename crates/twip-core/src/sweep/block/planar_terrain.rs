@@ -134,6 +134,18 @@ impl TerrainLanes {
         self.grounds.gradients(x, y)
     }
 
+    /// Lane `l`'s gradient at (`x`, `y`), clamped onto a grid, as [`Self::gradients`] gives it.
+    #[inline(always)]
+    pub(super) fn gradient(&self, l: usize, x: f64, y: f64) -> [f64; 2] {
+        match &self.grounds {
+            Grounds::Planes { gx, gy } => [gx[l], gy[l]],
+            Grounds::Any(t) => {
+                let local = t[l].local_clamped(x, y);
+                [local.gx, local.gy]
+            }
+        }
+    }
+
     /// (M_b + M_w) g of lane `l`'s robot.
     #[inline(always)]
     pub(super) fn weight(&self, l: usize) -> f64 {
