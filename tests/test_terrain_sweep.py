@@ -1,9 +1,11 @@
 """Sweeps of the 3-DOF tracking scenarios on terrain (docs/terrain.md): the slope and
 heading axes redraw the terrain plane per sample, reaching the model and the grade's
-feed-forward; the same bits on any thread count, in shards, resumed and rerun; ideal sweeps
-of PID and sliding mode run on the planar lanes on terrain ("planar-lanes"), which agree with
-a replay on the general runner to rounding (1e-12 relative, as on flat ground); through the
-rig, on the general runner, bit for bit."""
+feed-forward; the same bits on any thread count, in shards, resumed and rerun; sweeps of PID
+and sliding mode run on the planar lanes on terrain ("planar-lanes"), which agree with a
+replay on the general runner to rounding (1e-12 relative, as on flat ground), and through the
+rig on the rig's lanes on terrain ("planar-realism-lanes"), which agree with a replay through
+the rig as the flat rig's lanes do (rounding amplified by the thesis-like rig's quantisers);
+a tracker without lanes runs through the rig on the general runner, bit for bit."""
 import math
 
 import numpy as np
@@ -77,9 +79,54 @@ def test_a_resumed_checkpoint_on_another_terrain_is_refused(tmp_path):
         twip.montecarlo(other, 4, perturb=AXES, seed=3, progress=False, checkpoint=tmp_path / "c", shard_size=2)
 
 
-def test_through_the_rig_on_terrain_the_same_bits_on_threads_and_replayed():
-    kw = dict(realism=twip.Realism.thesis_like(), n=4)
-    one, two = incline(threads=1, **kw), incline(threads=2, **kw)
+def ends_as_replayed(r, i, replayed):
+    """Sample i of sweep `r` ends as its replay: the same outcome; a run that did not complete
+    at the same time (a completed run's `t_end` is None, the sweep's is the run's length)."""
+    m = {k: r.metrics[k][i] for k in ("fell", "t_end", "lifted", "off_terrain")}
+    assert bool(m["fell"]) == (replayed.outcome != "completed")
+    assert bool(m["lifted"]) == (replayed.outcome == "lifted") and bool(m["off_terrain"]) == (replayed.outcome == "off_terrain")
+    if replayed.outcome == "completed":
+        assert replayed.t_end is None and m["t_end"] == pytest.approx(r.config["t_final"], rel=1e-12)
+    else:
+        assert replayed.t_end == m["t_end"]
+
+
+@pytest.mark.parametrize("tracker", ["pid", "smc-fuzzy"])
+def test_through_the_rig_on_terrain_on_lanes_the_same_bits_everywhere_and_replayed(tmp_path, tracker):
+    """The thesis-like rig on drawn planes, the grade fed forward: on the rig's lanes, the same
+    bits on 1 and 2 threads, in shards, resumed and rerun alone; a replay through the rig (its
+    noise the sample's stream) ends as the sample does and agrees to rounding amplified by the
+    rig's quantisers (IMU registers, encoder and duty counts): measured within 3.1e-7 relative
+    (PID, 3.6 s) and 1.6e-10 (smc-fuzzy), where the flat rig's lanes give 2.0e-7 for circle-pid
+    over the same 3.6 s, so rel=1e-6. (Without quantisers a lane is its run's within 1e-12:
+    `sweep::terrain::tests::a_rig_lane_on_terrain_agrees_with_the_rig_run_to_rounding`.)"""
+    kw = dict(realism=twip.Realism.thesis_like(), tracker=tracker)
+    one = incline(threads=1, **kw)
+    assert one.kernel == "planar-realism-lanes"
+    same(one, incline(threads=2, **kw))
+    same(one, incline(checkpoint=tmp_path / "c", shard_size=5, **kw))
+    same(one, incline(checkpoint=tmp_path / "c", shard_size=5, **kw))  # every shard read back
+    ideal = incline(tracker=tracker)
+    assert not np.array_equal(one.metrics["mean_abs_pitch"], ideal.metrics["mean_abs_pitch"])
+    for i in range(len(one.valid)):
+        alone = one.rerun(i)
+        for k in ("valid",) + one.metric_names:
+            assert np.array_equal(alone[k], one.metrics[k][i], equal_nan=True), k
+    for i in (0, 3, 7):
+        replayed = one.replay(i)
+        ends_as_replayed(one, i, replayed)
+        for k in ("mean_abs_y_error", "mean_abs_pitch", "max_path_error_settled", "peak_abs_torque"):
+            assert replayed.metrics[k] == pytest.approx(one.metrics[k][i], rel=1e-6, nan_ok=True), k
+
+
+def test_through_the_rig_on_terrain_a_tracker_without_lanes_runs_on_the_general_runner_bitwise():
+    """A sliding-mode tracker whose own model has friction (no law on lanes) runs through the
+    rig on terrain on the general runner, and replays bit for bit."""
+    sc = twip.scenarios.get("incline-circle", tracker="smc", laps=0.1)
+    model = twip.PlanarModel(sc.model.params, twip.Friction.gb37())
+    sc = sc.replace(controller=twip.GradeFeedForward(twip.SmcTracker(model), sc.model.terrain, sc.model.params))
+    kw = dict(perturb=AXES, seed=3, progress=False, realism=twip.Realism.thesis_like())
+    one, two = twip.montecarlo(sc, 4, threads=1, **kw), twip.montecarlo(sc, 4, threads=2, **kw)
     same(one, two)
     assert one.kernel == "planar-realism"
     assert one.replay(1).metrics["mean_abs_pitch"] == one.metrics["mean_abs_pitch"][1]
@@ -96,6 +143,10 @@ def test_a_hard_turn_across_a_steep_drawn_plane_lifts():
     assert r.lift_rate == 1.0 and r.fall_rate == 1.0
     assert r.replay(2).outcome == "lifted"
     assert r.replay(2).t_end == r.metrics["t_end"][2]
+    # Through the rig, on its lanes, as a replay through the rig.
+    rig = incline(n=4, perturb=perturb, realism=twip.Realism.thesis_like())
+    assert rig.kernel == "planar-realism-lanes" and rig.lift_rate == 1.0
+    ends_as_replayed(rig, 2, rig.replay(2))
     flat = twip.montecarlo("circle-pid", 4, options={"laps": 0.1}, progress=False)
     assert flat.lift_rate == 0.0
 
@@ -124,22 +175,25 @@ def test_over_bumps_the_terrain_is_fixed_and_its_robots_are_drawn():
     assert r.replay(1).metrics["mean_abs_pitch"] == pytest.approx(r.metrics["mean_abs_pitch"][1], rel=1e-12)
 
 
-def test_a_grid_driven_off_ends_off_terrain_on_the_lanes_as_in_a_replay():
-    """A grid smaller than the circle: the lanes end the samples "off_terrain" at the step
-    a replay does, and the feed-forward (of the grid's local plane) is on lanes too."""
+@pytest.mark.parametrize("realism", [None, twip.Realism.thesis_like()], ids=["ideal", "rig"])
+def test_a_grid_driven_off_ends_off_terrain_on_the_lanes_as_in_a_replay(realism):
+    """A grid smaller than the circle: the lanes (ideal, or the rig's) end the samples
+    "off_terrain" at the step a replay does, and the feed-forward (of the grid's local plane)
+    is on lanes too."""
     xs, ys = np.linspace(-0.5, 0.5, 9), np.linspace(-0.04, 0.04, 5)
     z = 0.02 * np.sin(5 * xs)[:, None] * np.cos(4 * ys)[None, :]
     grid = twip.Terrain.grid(xs, ys, z)
     sc = twip.scenarios.get("incline-circle", tracker="pid", laps=0.1)
     sc = sc.replace(model=twip.PlanarModel(sc.model.params, terrain=grid),
                     controller=twip.GradeFeedForward(sc.controller.tracker, grid, sc.controller.params))
-    r = twip.montecarlo(sc, 5, perturb={"m_body": twip.Uniform(rel=0.2)}, progress=False)
-    assert r.kernel == "planar-lanes"
+    r = twip.montecarlo(sc, 5, perturb={"m_body": twip.Uniform(rel=0.2)}, progress=False, realism=realism)
+    assert r.kernel == ("planar-lanes" if realism is None else "planar-realism-lanes")
     off = r.metrics["off_terrain"]
     assert off.sum() >= 1, off
     i = int(np.argmax(off))
     replayed = r.replay(i)
     assert replayed.outcome == "off_terrain" and replayed.t_end == r.metrics["t_end"][i]
+    ends_as_replayed(r, i, replayed)
 
 
 def test_bad_axes_are_refused_by_name():

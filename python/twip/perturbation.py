@@ -71,14 +71,12 @@ def kernel_for(sc, realism=None) -> str:
     """The core's kernel for a sweep of Scenario `sc`: "python" (a user's controller),
     "lanes" (vectorised: LQR, and fuzzy with any sets), "realism-lanes" (the same through
     any rig), "planar-lanes" (vectorised: PID and sliding-mode tracking),
-    "planar-realism-lanes" (the same through any rig on flat ground), "planar" (a
-    sliding-mode tracker without adaptation whose own model has friction) or
-    "planar-realism" (that tracker through a rig; any tracker through the rig on terrain).
-    Ideal sweeps on terrain take "planar-lanes" as on flat ground."""
+    "planar-realism-lanes" (the same through any rig), "planar" (a sliding-mode tracker
+    without adaptation whose own model has friction) or "planar-realism" (that tracker
+    through a rig). Sweeps on terrain take the same kernels as on flat ground, with the
+    grade's feed-forward or without."""
     if user_sweep.is_user_controller(sc.controller):
         return "python"
-    if getattr(sc.model, "terrain", None) is not None and realism is not None:  # the rig on terrain: the general runner
-        return "planar-realism"
     return _core.sweep_kernel(sc.controller, realism)
 
 

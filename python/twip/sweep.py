@@ -10,8 +10,8 @@ sample is run alone again (`SweepResult.rerun(i)`). Replayed with the full runne
 trajectory (`SweepResult.replay(i)`), a sample is also the sweep's bit for bit, except in
 sweeps on the lane kernels (kernel "lanes": LQR, and fuzzy with any sets; kernel
 "realism-lanes": the same through a rig; kernel "planar-lanes": PID and sliding-mode
-tracking, on flat ground or terrain; kernel "planar-realism-lanes": the same through a rig on
-flat ground), which fuse multiply-adds: there the metrics agree to ~1e-13 relative (through a
+tracking, on flat ground or terrain; kernel "planar-realism-lanes": the same through a rig,
+on flat ground or terrain), which fuse multiply-adds: there the metrics agree to ~1e-13 relative (through a
 rig's quantisers, over its first seconds: see `SweepResult.replay`).
 
 With `realism=` (a `twip.Realism`) every sample runs with the robot's real parts in the

@@ -112,7 +112,7 @@ fn sweep_planar(c: &mut Criterion) {
     group.bench_function("planar_realism_lanes_1_thread", |b| {
         b.iter(|| {
             let realism_of = |_: &RobotParams<f64>| Ok(rig);
-            planar::run_planar_rig_lane_samples(&lanes, &circle, &config, &nominal, &perturb, 1, 0..black_box(samples), 0.0, &realism_of, &|| false).unwrap()
+            planar::run_planar_rig_lane_samples(&lanes, &circle, &config, &nominal, &perturb, 1, 0..black_box(samples), 0.0, &realism_of, &|| false, None).unwrap()
         })
     });
     group.finish();

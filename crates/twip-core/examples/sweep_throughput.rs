@@ -9,7 +9,8 @@
 //! smc-fuzzy-lanes (circle-smc-fuzzy, 5 ms loop, on the planar lane kernel),
 //! pid-terrain (circle-pid with the grade's feed-forward on planes drawn per sample, slope
 //! 0-10 deg at any uphill heading, on the general runner), pid-terrain-lanes (the same on the
-//! planar lanes on terrain),
+//! planar lanes on terrain), pid-terrain-realism (the same through the thesis-like rig on the
+//! general runner), pid-terrain-realism-lanes (the same on the planar rig's lanes on terrain),
 //! realism (LQR through the thesis-like rig,
 //! 5 ms loop), realism-lanes (the same on the rig's lane kernel), realism-lanes-no-imu (that rig
 //! without its IMU: what the IMU costs), realism-lanes-slip (that rig with the data sheet's
@@ -88,7 +89,7 @@ fn main() {
             let rig = Realism::thesis_like();
             let runs = if path == "pid-realism-lanes" {
                 let law = PidLanes::new(&pid);
-                planar::run_planar_rig_lane_samples(&law, &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|_| Ok(rig), &|| false).unwrap().unwrap()
+                planar::run_planar_rig_lane_samples(&law, &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|_| Ok(rig), &|| false, None).unwrap().unwrap()
             } else if path != "pid-lanes" {
                 let realism = (path == "pid-realism").then_some(&rig);
                 (0..n)
@@ -100,7 +101,7 @@ fn main() {
             digest(&runs);
             runs.iter().map(|m| m.mean_abs_x_error).sum()
         }
-        "pid-terrain" | "pid-terrain-lanes" => {
+        "pid-terrain" | "pid-terrain-lanes" | "pid-terrain-realism" | "pid-terrain-realism-lanes" => {
             use twip_core::control::grade::GradeFeedForward;
             use twip_core::control::pid::PidTracker;
             use twip_core::control::trajectory::{Circle, Direction};
@@ -121,16 +122,23 @@ fn main() {
                 Perturbation { target: Target::Slope, spread: Spread::Uniform { low: 0.0, high: 10f64.to_radians() } },
                 Perturbation { target: Target::Heading, spread: Spread::Uniform { low: -core::f64::consts::PI, high: core::f64::consts::PI } },
             ];
-            let runs: Vec<_> = if path == "pid-terrain" {
-                (0..n)
-                    .map(|i| {
-                        let (sample, drawn) = terrain::draw(&nominal, &ground, &perturb, 1, i);
-                        terrain::run_terrain_sample(|t| ff.on(t.clone()), &circle, &config, &sample, &ground, drawn, 0.0, None, &|| false).unwrap()
-                    })
-                    .collect()
-            } else {
-                let feed = Some(FeedForwardLanes::new(&ff));
-                planar::run_planar_lane_samples(&PidLanes::new(&pid), &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|| false, Some((&ground, feed))).unwrap().unwrap()
+            // As a sweep sets the rig up: noise key the seed, stream the sample's index.
+            let rig = twip_core::sweep::rig::for_sweep(&Realism::thesis_like(), 1);
+            let feed = Some(FeedForwardLanes::new(&ff));
+            let runs: Vec<_> = match path {
+                "pid-terrain" | "pid-terrain-realism" => {
+                    let realism = (path == "pid-terrain-realism").then_some(&rig);
+                    (0..n)
+                        .map(|i| {
+                            let (sample, drawn) = terrain::draw(&nominal, &ground, &perturb, 1, i);
+                            terrain::run_terrain_sample(|t| ff.on(t.clone()), &circle, &config, &sample, &ground, drawn, 0.0, realism, &|| false).unwrap()
+                        })
+                        .collect()
+                }
+                "pid-terrain-lanes" => planar::run_planar_lane_samples(&PidLanes::new(&pid), &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|| false, Some((&ground, feed))).unwrap().unwrap(),
+                _ => planar::run_planar_rig_lane_samples(&PidLanes::new(&pid), &circle, &config, &nominal, &perturb, 1, 0..n, 0.0, &|_| Ok(rig), &|| false, Some((&ground, feed)))
+                    .unwrap()
+                    .unwrap(),
             };
             digest(&runs);
             runs.iter().map(|m| m.mean_abs_x_error).sum()
@@ -189,7 +197,8 @@ fn main() {
             .sum(),
     };
     let secs = start.elapsed().as_secs_f64();
-    println!("{path}: {n} samples x 10000 steps in {secs:.3} s wall = {:.2} M sample-steps/s (checksum {total:.6e}; bits {:016x})", n as f64 * 1e4 / secs / 1e6, total.to_bits());
+    let copy = twip_core::sweep::block::KernelCopy::active().name();
+    println!("{path}: {n} samples x 10000 steps in {secs:.3} s wall = {:.2} M sample-steps/s, kernel copy {copy} (checksum {total:.6e}; bits {:016x})", n as f64 * 1e4 / secs / 1e6, total.to_bits());
 }
 
 /// Prints a digest of every sample's metrics (their `Debug` text, so every bit of every field).

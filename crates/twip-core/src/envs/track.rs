@@ -107,7 +107,7 @@ impl RigBlock for PlanarRigLanes {
     type Drive = [Lanes; 2];
 
     fn start(built: Vec<Option<(PlanarModel<f64>, PlanarRig<f64>)>>, x0: impl Fn(usize) -> [f64; 7], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
-        PlanarRigLanes::start(built, x0, dt, period)
+        PlanarRigLanes::start(built, x0, dt, period, None)
     }
 
     fn settle(robots: &mut [(&mut PlanarRig<f64>, [f64; 7])], period: f64) {

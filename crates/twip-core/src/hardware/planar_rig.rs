@@ -35,7 +35,7 @@ use crate::model::integrate::Stage;
 use crate::model::lane::Lane;
 use crate::model::planar::{PlanarState, WheelRows};
 use crate::model::terrain::Terrain;
-use crate::model::terrain_model::{frame_of, in_plane, TerrainModel};
+use crate::model::terrain_model::{frame_of, in_plane, pitch_acceleration_of, plane_state, Frame, TerrainModel};
 use crate::rng::Sfc64;
 use crate::sim::runner::{Actuator, Plant, Sensor};
 use crate::{c, Dynamics, PlanarModel, Real, RobotParams, TwipError};
@@ -103,7 +103,7 @@ impl<T: Real> PlanarPlant<T> {
 
     /// Each wheel's speed relative to the body (on terrain, to its pitch rate about the axle).
     #[inline(always)]
-    fn wheel_speeds(&self, x: &PlanarState<T>) -> (T, T) {
+    pub(crate) fn wheel_speeds(&self, x: &PlanarState<T>) -> (T, T) {
         match &self.ground {
             None => self.model.wheel_speeds(x),
             Some(g) => g.wheel_speeds(x),
@@ -547,27 +547,52 @@ fn sample_imus_on_terrain<T: Real>(
     n: [[T; 4]; 2],
     dims: (T, T, T, T),
 ) {
-    let [fx, fz, pitch_rate, yaw_rate] = imu_inputs_on_terrain(terrain, x, xdot, dims);
+    let f = frame_of(terrain, x);
+    let lean = x[3] + f.delta;
+    sample_imus_in_frame((pitch, yaw), &f, &(*x).into(), &(*xdot).into(), (f.delta.sin_cos(), lean.cos()), n, dims);
+}
+
+/// [`sample_imus_on_terrain`] in the local plane's frame `f` over [`Lane`] (a run's and a
+/// sweep's lanes), given (sin δ, cos δ) and cos φ' (`trig`: a run's libm's, the lanes' own).
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+pub(crate) fn sample_imus_in_frame<S: Lane>(
+    (pitch, yaw): (&mut Mpu6050<S>, &mut Mpu6050<S>),
+    f: &Frame<S>,
+    x: &[S; 7],
+    xdot: &[S; 7],
+    (delta, cos_lean): ((S, S), S),
+    n: [[S; 4]; 2],
+    dims: (S, S, S, S),
+) {
+    let [fx, fz, pitch_rate, yaw_rate] = imu_inputs_in_frame(f, x, xdot, delta, cos_lean, dims);
     pitch.sample_with(fx, fz, pitch_rate, n[0]);
     yaw.sample_gyro_with(yaw_rate, n[1]);
 }
 
 /// What the IMUs sense on terrain ([`sample_imus_on_terrain`]): the specific force along
 /// the sensor's x and z, the pitch gyro's rate and the z gyro's.
-#[inline]
-fn imu_inputs_on_terrain<T: Real>(terrain: &Terrain<T>, x: &PlanarState<T>, xdot: &PlanarState<T>, (radius, inv_r, height, g): (T, T, T, T)) -> [T; 4] {
+#[cfg(all(test, feature = "std"))]
+fn imu_inputs_on_terrain<T: Real>(terrain: &Terrain<T>, x: &PlanarState<T>, xdot: &PlanarState<T>, dims: (T, T, T, T)) -> [T; 4] {
     let f = frame_of(terrain, x);
     let xp = in_plane(x, &f);
-    let cos_roll = (f.cos_slope * f.cos_slope + f.sin_grade * f.sin_grade).sqrt();
-    let (sin_d, cos_d) = f.delta.sin_cos();
+    imu_inputs_in_frame(&f, &(*x).into(), &(*xdot).into(), f.delta.sin_cos(), xp[3].cos(), dims)
+}
+
+/// [`imu_inputs_on_terrain`] in the local plane's frame `f` over [`Lane`] (a run's and a
+/// sweep's lanes), given sin δ, cos δ and cos φ' (a run's libm's, the lanes' own).
+#[inline(always)]
+pub(crate) fn imu_inputs_in_frame<S: Lane>(f: &Frame<S>, x: &[S; 7], xdot: &[S; 7], (sin_d, cos_d): (S, S), cos_lean: S, (radius, inv_r, height, g): (S, S, S, S)) -> [S; 4] {
+    let xp = plane_state(x, f);
+    let cos_roll = (f.cos_slope * f.cos_slope + f.sin_grade * f.sin_grade).square_root();
     // The pitch from the most vertical direction (φ, which gravity's direction gives), and
     // the body's pitch rates about the axle (φ̇', φ̈').
-    let phi_dd = TerrainModel::pitch_acceleration(x, xdot, &f);
-    let zero = T::zero();
+    let phi_dd = pitch_acceleration_of(x, xdot, f);
+    let zero = S::splat(0.0);
     let x4 = [x[3], xp[4], zero, x[5] * inv_r];
     let xdot4 = [xp[4], phi_dd, x[5] * inv_r, xdot[5] * inv_r];
     let (fx, fz) = specific_force_of(&x4, &xdot4, sin_d, cos_d, radius, height, g * cos_roll);
-    [fx, fz, xp[4], x[6] * xp[3].cos()]
+    [fx, fz, xp[4], x[6] * cos_lean]
 }
 
 impl<T: Real> PlanarSensors<T> {

@@ -125,16 +125,11 @@ impl<T: Real> TerrainModel<T> {
     ) -> ([T; 3], [T; 2], Frame<T>, [T; 7]) {
         let f = self.frame(x);
         let xp = in_plane(x, &f);
-        let k = self.flat.coefficients();
         let p = self.flat.params();
         let weight = (p.m_body + p.m_wheels) * p.g;
-        let forces_at = |u_r: T, u_l: T| tilted_forces(&k, weight, &f, &xp, u_r, u_l, &extra);
         let gear = Gearhead::of(self.flat.friction());
-        let (nu, tau) = if engaged == [true, true] {
-            engaged_accelerations(&k, gear, &xp, [u[0], u[1]], forces_at)
-        } else {
-            open_accelerations(&k, gear, &xp, [u[0], u[1]], engaged, self.flat.rotor_per_wheel(), forces_at)
-        };
+        let open = (engaged != [true, true]).then(|| (engaged, self.flat.rotor_per_wheel()));
+        let (nu, tau) = geared_in_frame(&self.flat.coefficients(), weight, gear, &f, &xp, [u[0], u[1]], open, extra);
         (nu, tau, f, xp)
     }
 
@@ -163,7 +158,7 @@ impl<T: Real> TerrainModel<T> {
     /// φ̈' = φ̈ + δ' ω̇ + δ'' ω² from the state `x` and its derivative `d` in frame `f`.
     #[inline(always)]
     pub(crate) fn pitch_acceleration(x: &PlanarState<T>, d: &PlanarState<T>, f: &Frame<T>) -> T {
-        d[4] + f.delta_1 * d[6] + f.delta_2 * x[6] * x[6]
+        pitch_acceleration_of(&(*x).into(), &(*d).into(), f)
     }
 
     /// Each wheel's normal force [N] with the gear trains `engaged` and `extra` forces on
@@ -270,9 +265,15 @@ pub(crate) fn in_plane<T: Real>(x: &PlanarState<T>, f: &Frame<T>) -> [T; 7] {
     plane_state(&core::array::from_fn(|i| x[i]), f)
 }
 
+/// [`TerrainModel::pitch_acceleration`] over [`Lane`] (a run's and a sweep lane's).
+#[inline(always)]
+pub(crate) fn pitch_acceleration_of<S: Lane>(x: &[S; 7], d: &[S; 7], f: &Frame<S>) -> S {
+    d[4] + f.delta_1 * d[6] + f.delta_2 * x[6] * x[6]
+}
+
 /// [`in_plane`] over [`Lane`].
 #[inline(always)]
-fn plane_state<S: Lane>(x: &[S; 7], f: &Frame<S>) -> [S; 7] {
+pub(crate) fn plane_state<S: Lane>(x: &[S; 7], f: &Frame<S>) -> [S; 7] {
     [x[0], x[1], x[2], x[3] + f.delta, f.delta_1 * x[6] + x[4], x[5], x[6]]
 }
 
@@ -284,7 +285,7 @@ fn motion<T: Real>(x: &PlanarState<T>, nu: &[T; 3], f: &Frame<T>) -> PlanarState
 
 /// [`motion`] over [`Lane`].
 #[inline(always)]
-fn motion_of<S: Lane>(x: &[S; 7], nu: &[S; 3], f: &Frame<S>) -> [S; 7] {
+pub(crate) fn motion_of<S: Lane>(x: &[S; 7], nu: &[S; 3], f: &Frame<S>) -> [S; 7] {
     let (s, co) = S::sincos(x[2]);
     let (v, omega) = (x[5], x[6]);
     let speed = v * f.cos_grade;
@@ -322,8 +323,33 @@ fn accelerations_on_ground<S: Lane>(k: &PlanarCoefficients<S>, weight: S, gear: 
     let (s, co) = S::sincos(x[2]);
     let f = Frame::new(gx, gy, s, co);
     let xp = plane_state(x, &f);
-    let (nu, _) = engaged_accelerations(k, gear, &xp, u, |u_r, u_l| tilted_forces(k, weight, &f, &xp, u_r, u_l, |_, _| None));
+    let (nu, _) = geared_in_frame(k, weight, gear, &f, &xp, u, None, |_, _| None);
     (nu, f, xp)
+}
+
+/// ν̇' = (φ̈', v̇, ω̇) and each wheel's gearhead torque on the plane of frame `f` at the
+/// plane-frame state `xp`, under the wheels' motor torques `u`, over [`Lane`]: a run's
+/// ([`TerrainModel::geared_accelerations`]) and a sweep lane's (the 3-DOF rig's lanes on
+/// terrain), one source. `open`: the gear trains' engagement and the rotor per wheel when
+/// some train may be open (None: both engaged); `extra`: generalised forces on (φ', v) at
+/// (sin φ', cos φ') (a force on the body).
+#[inline(always)]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub(crate) fn geared_in_frame<S: Lane>(
+    k: &PlanarCoefficients<S>,
+    weight: S,
+    gear: Gearhead<'_, S>,
+    f: &Frame<S>,
+    xp: &[S; 7],
+    u: [S; 2],
+    open: Option<([S::Mask; 2], S)>,
+    extra: impl Fn(S, S) -> Option<[S; 2]>,
+) -> ([S; 3], [S; 2]) {
+    let forces_at = |u_r: S, u_l: S| tilted_forces(k, weight, f, xp, u_r, u_l, &extra);
+    match open {
+        None => engaged_accelerations(k, gear, xp, u, forces_at),
+        Some((engaged, rotor)) => open_accelerations(k, gear, xp, u, engaged, rotor, forces_at),
+    }
 }
 
 /// Each wheel's normal force (right, left) at `x` under `u` on the ground of gradient
@@ -376,7 +402,7 @@ impl<T: Real> Contact<T> {
 
 /// [`normal_forces`] over [`Lane`], given (sin φ', cos φ') (a run's libm's, a lane's own).
 #[inline(always)]
-fn normal_forces_of<S: Lane>(p: &Contact<S>, f: &Frame<S>, xp: &[S; 7], nu: &[S; 3], (s, cp): (S, S)) -> [S; 2] {
+pub(crate) fn normal_forces_of<S: Lane>(p: &Contact<S>, f: &Frame<S>, xp: &[S; 7], nu: &[S; 3], (s, cp): (S, S)) -> [S; 2] {
     let (phi_dot, v, omega) = (xp[4], xp[5], xp[6]);
     let (r, l, mb, k) = (p.r, p.l, p.mb, p.k);
     let sum = (mb + p.mw) * p.g * f.cos_slope - mb * l * (s * nu[0] + cp * phi_dot * phi_dot);

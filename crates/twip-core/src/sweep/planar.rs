@@ -241,8 +241,7 @@ pub fn run_planar_lane_samples<C: PlanarLaneLaw + Clone, P: LanePath>(
         return in_blocks(indices, |i| draw(nominal, perturbations, seed, i), |samples| block::run_planar_block(law.clone(), path, config, samples, settle, should_stop, &block::Flat));
     };
     in_blocks(indices, |i| super::terrain::draw(nominal, terrain, perturbations, seed, i), |drawn| {
-        let samples: Vec<PlanarSample> = drawn.iter().map(|d| d.0).collect();
-        let grounds: Vec<Option<Terrain<f64>>> = drawn.iter().map(|d| terrain.at(d.1).ok()).collect();
+        let (samples, grounds) = on_their_grounds(terrain, drawn);
         block::run_planar_block(law.clone(), path, config, &samples, settle, should_stop, &TerrainLanes::new(&samples, &grounds, feed))
     })
 }
@@ -251,7 +250,10 @@ pub fn run_planar_lane_samples<C: PlanarLaneLaw + Clone, P: LanePath>(
 /// realism (`realism_of`, set up by [`for_sweep`](super::rig::for_sweep): noise stream =
 /// the sample's index), on lanes ([`block::run_planar_rig_block`], for trackers with a
 /// [`PlanarLaneLaw`]): [`LANES`] at a time, each lane agreeing with [`run_planar_sample`]
-/// with that realism to rounding. `Ok(None)` when `should_stop` said so.
+/// with that realism to rounding. On flat ground, or on `terrain` as
+/// [`run_planar_lane_samples`]: there each lane agrees with
+/// [`super::terrain::run_terrain_sample`] through the rig to rounding, "lifted" and
+/// "off_terrain" included. `Ok(None)` when `should_stop` said so.
 #[allow(clippy::too_many_arguments)]
 pub fn run_planar_rig_lane_samples<C: PlanarLaneLaw + Clone, P: LanePath>(
     law: &C,
@@ -264,10 +266,23 @@ pub fn run_planar_rig_lane_samples<C: PlanarLaneLaw + Clone, P: LanePath>(
     settle: f64,
     realism_of: RealismOf<'_>,
     should_stop: &dyn Fn() -> bool,
+    terrain: Option<(&SweepTerrain, Option<FeedForwardLanes>)>,
 ) -> Result<Option<Vec<PlanarSampleMetrics>>, TwipError> {
-    in_blocks(indices, |i| draw(nominal, perturbations, seed, i), |samples| {
-        block::run_planar_rig_block(law.clone(), path, config, samples, settle, realism_of, should_stop)
+    let Some((terrain, feed)) = terrain else {
+        return in_blocks(indices, |i| draw(nominal, perturbations, seed, i), |samples| {
+            block::run_planar_rig_block(law.clone(), path, config, samples, settle, realism_of, should_stop, None)
+        });
+    };
+    in_blocks(indices, |i| super::terrain::draw(nominal, terrain, perturbations, seed, i), |drawn| {
+        let (samples, grounds) = on_their_grounds(terrain, drawn);
+        block::run_planar_rig_block(law.clone(), path, config, &samples, settle, realism_of, should_stop, Some((&grounds, feed)))
     })
+}
+
+/// A block's samples drawn on `terrain` and each one's ground (None: one no draw should give).
+#[allow(clippy::type_complexity)]
+fn on_their_grounds(terrain: &SweepTerrain, drawn: &[(PlanarSample, [f64; 2])]) -> (Vec<PlanarSample>, Vec<Option<Terrain<f64>>>) {
+    (drawn.iter().map(|d| d.0).collect(), drawn.iter().map(|d| terrain.at(d.1).ok()).collect())
 }
 
 /// The samples `indices`, each drawn by `draw`, run `run_block` by block of [`LANES`].
@@ -450,7 +465,7 @@ pub(crate) mod tests {
         let realism = realism.map(|r| crate::sweep::rig::for_sweep(r, 7));
         let lanes = match &realism {
             None => run_planar_lane_samples(law, &circle, &config, &nominal, &spread, 5, 0..n, 2.0, &never, None),
-            Some(r) => run_planar_rig_lane_samples(law, &circle, &config, &nominal, &spread, 5, 0..n, 2.0, &|_| Ok(*r), &never),
+            Some(r) => run_planar_rig_lane_samples(law, &circle, &config, &nominal, &spread, 5, 0..n, 2.0, &|_| Ok(*r), &never, None),
         };
         let lanes = lanes.unwrap().unwrap();
         let (mut worst, mut ran, mut fell) = (0.0f64, 0, 0);

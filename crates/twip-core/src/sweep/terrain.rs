@@ -200,16 +200,41 @@ mod tests {
         C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Clone,
         L: PlanarLaneLaw + Clone,
     {
+        rig_lanes_against_the_runs(controller_on, law, feed, terrain, axes, x0, t_final, None)
+    }
+
+    /// [`lanes_against_the_runs`] through the rig of `realism` (set up for the sweep, each
+    /// sample its own noise stream), or without one.
+    #[allow(clippy::too_many_arguments)]
+    fn rig_lanes_against_the_runs<C, L>(
+        controller_on: impl Fn(&Terrain<f64>) -> C,
+        law: &L,
+        feed: Option<FeedForwardLanes>,
+        terrain: &SweepTerrain,
+        axes: &[Perturbation],
+        x0: PlanarState<f64>,
+        t_final: f64,
+        realism: Option<&Realism<f64>>,
+    ) -> (f64, [usize; 4])
+    where
+        C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Clone,
+        L: PlanarLaneLaw + Clone,
+    {
         let (_, circle, config, nominal) = setup();
         let config = SimConfig { t_final, ..config };
         let nominal = PlanarNominal { x0, ..nominal };
         let never = || false;
         let n = LANES as u64 + 5;
-        let lanes = run_planar_lane_samples(law, &circle, &config, &nominal, axes, 5, 0..n, 1.0, &never, Some((terrain, feed))).unwrap().unwrap();
+        let realism = realism.map(|r| crate::sweep::rig::for_sweep(r, 7));
+        let lanes = match &realism {
+            None => run_planar_lane_samples(law, &circle, &config, &nominal, axes, 5, 0..n, 1.0, &never, Some((terrain, feed))),
+            Some(r) => crate::sweep::planar::run_planar_rig_lane_samples(law, &circle, &config, &nominal, axes, 5, 0..n, 1.0, &|_| Ok(*r), &never, Some((terrain, feed))),
+        };
+        let lanes = lanes.unwrap().unwrap();
         let (mut worst, mut counts) = (0.0f64, [0; 4]);
         for i in 0..n {
             let (sample, ground) = draw(&nominal, terrain, axes, 5, i);
-            let one = run_terrain_sample(&controller_on, &circle, &config, &sample, terrain, ground, 1.0, None, &never).unwrap();
+            let one = run_terrain_sample(&controller_on, &circle, &config, &sample, terrain, ground, 1.0, realism.as_ref(), &never).unwrap();
             let got = lanes[i as usize];
             let ending = |m: &PlanarSampleMetrics| format!("{:?}", (m.valid, m.fell, m.steps, m.lifted, m.off_terrain));
             assert_eq!(ending(&got), ending(&one), "sample {i}");
@@ -264,6 +289,75 @@ mod tests {
         }
         let counts = |i: usize| cases[i].1 .1;
         assert!(counts(0)[1] > 0 && counts(5)[3] > 0 && counts(6)[2] > 0, "want falls, a grid's edge and lifts: {:?}", cases.map(|c| c.1 .1));
+    }
+
+    /// Through the 3-DOF rig (its parts whose output is not quantised), a lane on terrain
+    /// agrees with its sample's rig run on that terrain to rounding (1e-12 relative, as the
+    /// flat rig's lanes), the same cases as the ideal lanes': drawn planes with the grade's
+    /// feed-forward and without (PID, fuzzy sliding mode), a drawn ramp, bumps, a grid driven
+    /// off ("off_terrain") and steep planes turning hard ("lifted"); and with backlash, pushes
+    /// and a body force, driven through the bridge (windings with and without inductance).
+    #[test]
+    fn a_rig_lane_on_terrain_agrees_with_the_rig_run_to_rounding() {
+        use crate::hardware::disturbance::{Force, Push, Pushes};
+        use crate::hardware::imu::ImuSettings;
+        use crate::sweep::block::{PidLanes, SmcLanes};
+        use crate::sweep::planar::tests::{smc, spread};
+        let (pid, _, _, nominal) = setup();
+        let motor = Some(DcMotor::gb37y3530());
+        let flat_model = || TerrainModel::new(PlanarModel::new(nominal.params).unwrap(), Terrain::flat());
+        let ff_pid = GradeFeedForward::new(pid, flat_model(), motor);
+        let ff_smc = GradeFeedForward::new(smc(true), flat_model(), motor);
+        let first = Realism {
+            imu: Some(ImuSettings { quantise: false, ..ImuSettings::thesis_like() }),
+            delay: true,
+            control_period: Some(5e-3),
+            friction: Some(Realism::thesis_like_friction()),
+            settle: Some(0.5),
+            ..Realism::ideal()
+        };
+        let pushes = Pushes::new(&[Push { t: 0.5, impulse: 0.05, height: 0.1 }, Push { t: 2.0, impulse: -0.04, height: 0.05 }]).unwrap();
+        let force = Force { horizontal: 0.1, vertical: -0.5, height: 0.08 };
+        let geared = Realism { backlash: Realism::thesis_like().backlash, pushes, force, ..first };
+        let thesis_drive = Realism::thesis_like().motor.unwrap();
+        let inductive = Realism { motor: Some(thesis_drive), ..geared };
+        let steady = Realism { motor: Some(crate::hardware::driver::MotorDriver { inductance: 0.0, ..thesis_drive }), ..geared };
+        let plane = SweepTerrain::Plane { slope: 0.1, uphill_heading: 0.0 };
+        let ramp = SweepTerrain::Ramp { slope: 0.1, uphill_heading: 0.0, start: 0.05, blend: 0.1 };
+        let [m_body, com, pitch] = spread();
+        let drawn = [m_body, pitch, axes()[1], axes()[2]];
+        let zero = PlanarState::zeros();
+        let (pid_lanes, smc_lanes) = (PidLanes::new(&pid), SmcLanes::new(&smc(true)).unwrap());
+        let xs: alloc::vec::Vec<f64> = (0..9).map(|i| -0.4 + 0.1 * i as f64).collect();
+        let ys: alloc::vec::Vec<f64> = (0..6).map(|j| -0.3 + 0.07 * j as f64).collect();
+        let z: alloc::vec::Vec<f64> = xs.iter().flat_map(|x| ys.iter().map(move |y| 0.02 * (5.0 * x).sin() * (4.0 * y).cos())).collect();
+        let grid = SweepTerrain::Fixed(Terrain::Grid(alloc::sync::Arc::new(crate::model::terrain::Grid::new(xs, ys, &z).unwrap())));
+        let bumps = SweepTerrain::Fixed(Terrain::bumps(0.03, 0.5).unwrap());
+        let hard = PlanarState::from([0.0, 0.0, core::f64::consts::FRAC_PI_2, 0.0, 0.0, 1.5, -8.0]);
+        let steep = [Perturbation { target: Target::Slope, spread: Spread::Uniform { low: 0.3, high: 0.5 } }, Perturbation { target: Target::Initial(6), spread: Spread::Uniform { low: -9.0, high: 0.0 } }];
+        let ff = |t: &Terrain<f64>| ff_pid.on(t.clone());
+        // Pushed and pulled, the robots hold on gentler planes (up to 0.15 rad).
+        let gentle = [m_body, Perturbation { target: Target::Slope, spread: Spread::Uniform { low: 0.0, high: 0.15 } }, axes()[2]];
+        let cases = [
+            ("pid, drawn planes", rig_lanes_against_the_runs(|_| pid, &pid_lanes, None, &plane, &drawn, zero, 4.0, Some(&first))),
+            ("pid + feed-forward, drawn planes", rig_lanes_against_the_runs(ff, &pid_lanes, Some(FeedForwardLanes::new(&ff_pid)), &plane, &drawn, zero, 4.0, Some(&first))),
+            ("smc-fuzzy + feed-forward, drawn planes", rig_lanes_against_the_runs(|t| ff_smc.on(t.clone()), &smc_lanes, Some(FeedForwardLanes::new(&ff_smc)), &plane, &drawn, zero, 4.0, Some(&first))),
+            ("pid + feed-forward, drawn ramps", rig_lanes_against_the_runs(ff, &pid_lanes, Some(FeedForwardLanes::new(&ff_pid)), &ramp, &drawn, zero, 4.0, Some(&first))),
+            ("smc-fuzzy, bumps", rig_lanes_against_the_runs(|_| smc(true), &smc_lanes, None, &bumps, &[m_body, com], zero, 4.0, Some(&first))),
+            ("pid + feed-forward, a grid driven off", rig_lanes_against_the_runs(ff, &pid_lanes, Some(FeedForwardLanes::new(&ff_pid)), &grid, &[m_body, pitch], zero, 4.0, Some(&first))),
+            ("pid, steep planes turning hard", rig_lanes_against_the_runs(|_| pid, &pid_lanes, None, &plane, &steep, hard, 1.0, Some(&first))),
+            ("backlash, pushes, a force: pid + feed-forward, drawn planes", rig_lanes_against_the_runs(ff, &pid_lanes, Some(FeedForwardLanes::new(&ff_pid)), &plane, &gentle, zero, 3.0, Some(&geared))),
+            ("inductive windings: pid + feed-forward, drawn planes", rig_lanes_against_the_runs(ff, &pid_lanes, Some(FeedForwardLanes::new(&ff_pid)), &plane, &gentle, zero, 1.0, Some(&inductive))),
+            ("windings without inductance: pid + feed-forward, drawn planes", rig_lanes_against_the_runs(ff, &pid_lanes, Some(FeedForwardLanes::new(&ff_pid)), &plane, &gentle, zero, 1.0, Some(&steady))),
+            ("backlash, inductive windings: steep planes turning hard", rig_lanes_against_the_runs(|_| pid, &pid_lanes, None, &plane, &steep, hard, 1.0, Some(&inductive))),
+        ];
+        for (name, (worst, [ran, fell, lifted, off])) in cases {
+            std::println!("rig, {name}: worst relative difference {worst:e}; {ran} ran, {fell} fell, {lifted} lifted, {off} off the terrain");
+            assert!(worst <= 1e-12 && worst > 0.0, "{name}: worst relative difference {worst:e}");
+            assert!(ran > 10 && (fell < ran || lifted > 0), "{name}: {ran} ran, {fell} fell");
+        }
+        let counts = |i: usize| cases[i].1 .1;
+        assert!(counts(0)[1] > 0 && counts(5)[3] > 0 && counts(6)[2] > 0 && counts(10)[2] > 0, "want falls, a grid's edge and lifts: {:?}", cases.map(|c| c.1 .1));
     }
 
     /// Bad axes are refused by name: a slope that can reach 90° or below 0, a slope or

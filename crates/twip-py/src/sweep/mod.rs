@@ -371,14 +371,11 @@ pub fn sweep_kernel(controller: &Bound<'_, PyAny>, realism: Option<&PyRealism>) 
     if SlopeController::extract(controller).is_ok() {
         return Ok(kernel_of(realism.is_some()));
     }
-    // With the grade's feed-forward: a sweep on terrain, its tracker's lanes when ideal (the
-    // 3-DOF rig on terrain runs on the general runner).
+    // With the grade's feed-forward: a sweep on terrain, its tracker's lanes (through the
+    // rig or not).
     if let Ok(g) = controller.cast::<crate::control::grade::PyGradeFeedForward>() {
-        if realism.is_some() {
-            return Ok("planar-realism");
-        }
         let ff = g.get().core(controller.py(), None)?;
-        return Ok(crate::sweep::planar::kernel_of(ff.inner(), false));
+        return Ok(crate::sweep::planar::kernel_of(ff.inner(), realism.is_some()));
     }
     let ctrl = crate::sim::simulate_planar::PlanarController::extract(controller)?;
     Ok(crate::sweep::planar::kernel_of(&ctrl, realism.is_some()))

@@ -117,7 +117,7 @@ pub fn sweep_planar_raw<'py>(
             let law = $law;
             return run_sweep(py, super::sample_range(start, count)?, LANES, threads, progress.as_ref(), kernel, |range, stop| match &realism {
                 None => run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop, None),
-                Some(_) => run_planar_rig_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, &realism_of, stop),
+                Some(_) => run_planar_rig_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, &realism_of, stop, None),
             });
         }};
     }

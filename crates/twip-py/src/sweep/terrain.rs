@@ -1,16 +1,16 @@
 //! 3-DOF tracking sweeps on terrain (`sweep_planar_raw` and `sweep_planar_draw` with a
 //! PlanarModel on a terrain, or a GradeFeedForward): the slope and heading axes redraw the
-//! terrain's plane per sample. Ideal sweeps of the PID and sliding-mode trackers (with the
-//! grade's feed-forward or without) run on the planar lanes on terrain (kernel
-//! "planar-lanes"), the others on the general runner (core `sweep::terrain`), ideal or
-//! through the 3-DOF rig on its terrain.
+//! terrain's plane per sample. Sweeps of the PID and sliding-mode trackers (with the grade's
+//! feed-forward or without) run on the planar lanes on terrain (kernel "planar-lanes"; through
+//! the 3-DOF rig on its terrain, the rig lanes "planar-realism-lanes"), the others on the
+//! general runner (core `sweep::terrain`: "planar", "planar-realism").
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use twip_core::control::grade::GradeFeedForward;
 use twip_core::sim::runner::SimConfig;
 use twip_core::sweep::block::{FeedForwardLanes, PidLanes, SmcLanes};
 use twip_core::sweep::lanes::LANES;
-use twip_core::sweep::planar::{run_planar_lane_samples, PlanarNominal, PlanarSample, PlanarSampleMetrics, BLOCK};
+use twip_core::sweep::planar::{run_planar_lane_samples, run_planar_rig_lane_samples, PlanarNominal, PlanarSample, PlanarSampleMetrics, BLOCK};
 use twip_core::sweep::rig::for_sweep;
 use twip_core::sweep::terrain::{self as core_terrain, run_terrain_sample, SweepTerrain};
 use twip_core::sweep::{Perturbation, SweepMetrics};
@@ -93,8 +93,9 @@ pub(crate) fn draw(
     Ok((sample, (finite(ground[0]), finite(ground[1]), drawn)))
 }
 
-/// `sweep_planar_raw` on terrain: samples `start..start + count` on the general runner
-/// (kernel "planar", through the rig "planar-realism").
+/// `sweep_planar_raw` on terrain: samples `start..start + count` on the lanes (PID and
+/// sliding mode: kernel "planar-lanes", through the rig "planar-realism-lanes"), else on the
+/// general runner (kernel "planar", through the rig "planar-realism").
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn sweep_raw<'py>(
     py: Python<'py>,
@@ -125,27 +126,29 @@ pub(crate) fn sweep_raw<'py>(
     if let Some(r) = &nominal_realism {
         r.build_planar_on(&model.inner, Some(&nominal_terrain), config.dt).map_err(PyTwipError)?;
     }
-    // PID and sliding mode, with the feed-forward or without: on lanes when ideal.
-    if realism.is_none() {
-        let (tracker, feed) = match &ctrl {
-            TerrainController::Plain(c) => (c, None),
-            TerrainController::Graded(g) => (g.inner(), Some(FeedForwardLanes::new(g))),
-        };
-        let ground = Some((&terrain, feed));
-        macro_rules! on_lanes {
-            ($law:expr) => {{
-                let law = $law;
-                return run_sweep(py, crate::sweep::sample_range(start, count)?, LANES, threads, progress.as_ref(), "planar-lanes", |range, stop| {
-                    run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop, ground)
-                });
-            }};
-        }
-        match tracker {
-            PlanarController::Pid(pid) => on_lanes!(PidLanes::new(pid)),
-            PlanarController::Smc(smc) => {
-                if let Some(law) = SmcLanes::new(smc) {
-                    on_lanes!(law)
-                }
+    // PID and sliding mode, with the feed-forward or without: on lanes, through the rig or not.
+    let (tracker, feed) = match &ctrl {
+        TerrainController::Plain(c) => (c, None),
+        TerrainController::Graded(g) => (g.inner(), Some(FeedForwardLanes::new(g))),
+    };
+    let ground = Some((&terrain, feed));
+    // Push and force heights default to each sample's own centre of mass.
+    let realism_of = |p: &twip_core::RobotParams<f64>| realism.as_ref().expect("realism given").to_core(p).map(|r| for_sweep(&r, seed));
+    let lanes_kernel = crate::sweep::planar::kernel_of(tracker, realism.is_some());
+    macro_rules! on_lanes {
+        ($law:expr) => {{
+            let law = $law;
+            return run_sweep(py, crate::sweep::sample_range(start, count)?, LANES, threads, progress.as_ref(), lanes_kernel, |range, stop| match &realism {
+                None => run_planar_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, stop, ground),
+                Some(_) => run_planar_rig_lane_samples(&law, &path, &config, &nominal, &perts, seed, range, settle, &realism_of, stop, ground),
+            });
+        }};
+    }
+    match tracker {
+        PlanarController::Pid(pid) => on_lanes!(PidLanes::new(pid)),
+        PlanarController::Smc(smc) => {
+            if let Some(law) = SmcLanes::new(smc) {
+                on_lanes!(law)
             }
         }
     }

@@ -6,20 +6,27 @@
 //! the rig's lanes ([`PlanarRigLanes`], which step the rig's parts and the plant). So a lane
 //! agrees with `sweep::planar::run_planar_sample` to rounding, and is bit for bit the same
 //! on every CPU, thread count and block neighbour.
-use super::planar::{LanePath, Metrics, PlanarLaneLaw};
+use super::planar::{BlockGround, LanePath, Metrics, PlanarLaneLaw};
 use super::planar_rig_lanes::PlanarRigLanes;
+use super::planar_terrain::{FeedForwardLanes, TerrainLanes};
 use super::rig::block_rigs;
 use super::held::end_diverged;
 use super::multiversioned;
 use crate::model::planar::PlanarModel;
+use crate::model::terrain::Terrain;
 use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
 use crate::sweep::lanes::LANES;
 use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
 use crate::sweep::rig::RealismOf;
 use crate::sweep::SweepMetrics;
 use crate::TwipError;
+use alloc::vec::Vec;
 
 type BlockResult = Result<Option<[PlanarSampleMetrics; LANES]>, TwipError>;
+
+/// A block's terrains, one per sample (None: one no draw should give), and the tracker's
+/// grade feed-forward, if any.
+pub type BlockTerrain<'a> = Option<(&'a [Option<Terrain<f64>>], Option<FeedForwardLanes>)>;
 
 multiversioned! {
     /// Runs up to [`LANES`] samples through the 3-DOF rig each one's realism builds for
@@ -27,6 +34,12 @@ multiversioned! {
     /// `sweep::rig::for_sweep` for the key), with `controller`'s law along `path`
     /// ("_settled" metrics from `settle` [s]). `should_stop` is asked every
     /// `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it said yes before the block was done.
+    /// On `terrain` (None: flat ground): each sample's terrain (None: one no draw should give;
+    /// the lane is invalid, as when its start is off its terrain) and the tracker's grade
+    /// feed-forward, if any: each rig built on its sample's terrain
+    /// (`Realism::build_planar_on`), the lanes' plants, IMUs and "lifted"/"off_terrain" ends
+    /// as the ideal lanes' on terrain ([`TerrainLanes`]). A runtime choice inside the flat
+    /// kernel's instances: the flat rig keeps its code and its bits.
     pub fn run_planar_rig_block, planar_rig_avx512, planar_rig_avx2, planar_rig_baseline = planar_rig_block<C: PlanarLaneLaw, P: LanePath; const COPY>(
         controller: C,
         path: &P,
@@ -35,10 +48,12 @@ multiversioned! {
         settle: f64,
         realism_of: RealismOf<'_>,
         should_stop: &dyn Fn() -> bool,
+        terrain: BlockTerrain<'_>,
     ) -> BlockResult
 }
 
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     mut controller: C,
     path: &P,
@@ -47,18 +62,22 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     settle: f64,
     realism_of: RealismOf<'_>,
     should_stop: &dyn Fn() -> bool,
+    terrain: BlockTerrain<'_>,
 ) -> BlockResult {
     assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
     let (n, per_update) = config.steps(controller.period())?;
     let dt = config.dt;
-    let samples_models = samples.iter().map(|s| {
-        let model = s.x0.iter().all(|v| v.is_finite()).then(|| PlanarModel::new(s.params).ok()).flatten();
-        (s.index, s.params, model)
+    let ground = terrain.map(|(terrains, feed)| TerrainLanes::new(samples, terrains, feed));
+    let samples_models = samples.iter().enumerate().map(|(l, s)| {
+        let valid = s.x0.iter().all(|v| v.is_finite()) && ground.as_ref().is_none_or(|g| g.valid(l));
+        let model = valid.then(|| PlanarModel::new(s.params).ok()).flatten();
+        (s.index, s.params, model.map(|m| (m, terrain.and_then(|(t, _)| t[l].as_ref()))))
     });
-    let built = block_rigs(samples_models, realism_of, |realism, model| realism.build_planar(model, dt))?;
+    let built = block_rigs(samples_models, realism_of, |realism, (model, on)| realism.build_planar_on(model, *on, dt))?;
+    let built: Vec<_> = built.into_iter().map(|b| b.map(|((model, _), rig)| (model, rig))).collect();
     let active: [bool; LANES] = core::array::from_fn(|l| built.get(l).is_some_and(Option::is_some));
     let x0 = |l: usize| if active[l] { samples[l].x0.into() } else { [0.0; 7] };
-    let Some(mut rig) = PlanarRigLanes::start(built, x0, dt, dt * per_update as f64)? else {
+    let Some(mut rig) = PlanarRigLanes::start(built, x0, dt, dt * per_update as f64, ground.clone())? else {
         return Ok(Some([PlanarSampleMetrics::INVALID; LANES]));
     };
     let mut state = controller.start();
@@ -77,7 +96,11 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
         let update = k % per_update == 0;
         if update {
             let y = rig.read(t);
-            controller.update::<COPY>(&mut state, y, &r, &mut cmd);
+            match &ground {
+                None => controller.update::<COPY>(&mut state, y, &r, &mut cmd),
+                // The feed-forward from what the firmware reads, as a run's `GradeFeedForward`.
+                Some(g) => g.update::<C, COPY>(&mut controller, &mut state, y, &r, &mut cmd),
+            }
             let diverged = rig.apply(t, &cmd);
             // A lane whose drive is not finite has diverged: it ends as fallen, unobserved.
             end_diverged(&diverged, &mut alive, &mut ended, t, k);
@@ -85,7 +108,8 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
         metrics.observe(&alive, t >= settle, &rig.x, rig.command(), &r, path);
         let next = rig.step::<COPY>(k, |delivered, beyond| metrics.drive(&alive, delivered, update, beyond));
         let command = *rig.command();
-        if !metrics.end_step(&mut rig.x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &command, path, settle, None) {
+        let halts = rig.halts::<COPY>(&next);
+        if !metrics.end_step(&mut rig.x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &command, path, settle, halts.as_ref()) {
             break;
         }
     }
@@ -131,10 +155,22 @@ mod tests {
     }
 
     fn same_bits_on_every_copy(law: &PidLanes, realism: &Realism<f64>) {
+        same_bits_on_every_copy_on(law, realism, |_| None, "fell: true");
+    }
+
+    /// [`same_bits_on_every_copy`] on the terrains and feed-forward `ground_of` gives the
+    /// block's samples (which it may change), some ending as `ending` says.
+    #[allow(clippy::type_complexity)]
+    fn same_bits_on_every_copy_on(
+        law: &PidLanes,
+        realism: &Realism<f64>,
+        ground_of: impl Fn(&mut [PlanarSample]) -> Option<(Vec<Option<Terrain<f64>>>, Option<FeedForwardLanes>)>,
+        ending: &str,
+    ) {
         let circle = Circle::from_origin(0.6, 0.2, Direction::CounterClockwise).unwrap();
         let config = SimConfig { dt: 1e-3, t_final: 2.0, fall_limit: 0.5 };
         let realism = crate::sweep::rig::for_sweep(realism, 5);
-        let samples: Vec<PlanarSample> = (0..LANES as u64)
+        let mut samples: Vec<PlanarSample> = (0..LANES as u64)
             .map(|i| {
                 let mut params = RobotParams::balanbot();
                 params.com_height *= 0.6 + 0.05 * i as f64;
@@ -143,20 +179,58 @@ mod tests {
                 PlanarSample { index: i, params, x0 }
             })
             .collect();
+        let ground = ground_of(&mut samples);
+        let ground = ground.as_ref().map(|(t, feed)| (t.as_slice(), *feed));
         let never = || false;
         let realism_of = |_: &RobotParams<f64>| Ok(realism);
-        let base = format!("{:?}", planar_rig_baseline(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never).unwrap());
+        let base = format!("{:?}", planar_rig_baseline(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, ground).unwrap());
         #[cfg(target_arch = "x86_64")]
         {
             if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-                let got = unsafe { planar_rig_avx2(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never) }.unwrap();
+                let got = unsafe { planar_rig_avx2(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, ground) }.unwrap();
                 assert_eq!(format!("{got:?}"), base, "AVX2 copy");
             }
             if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma") {
-                let got = unsafe { planar_rig_avx512(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never) }.unwrap();
+                let got = unsafe { planar_rig_avx512(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, ground) }.unwrap();
                 assert_eq!(format!("{got:?}"), base, "AVX-512 copy");
             }
         }
-        assert!(base.contains("fell: true") && base.contains("fell: false"), "want both outcomes: {base}");
+        assert!(base.contains(ending) && base.contains("fell: false"), "want both outcomes: {base}");
+    }
+
+    /// On terrain too (each lane its own plane, the grade fed forward, half the lanes across
+    /// steep planes turning hard; bumps; a grid some leave), for the thesis-like rig with and
+    /// without backlash and with windings without inductance: every copy the same bits, lanes
+    /// lifting and leaving the grid among them.
+    #[test]
+    fn every_copy_gives_the_same_bits_on_terrain() {
+        use crate::control::grade::GradeFeedForward;
+        use crate::model::terrain_model::TerrainModel;
+        let nominal = RobotParams::balanbot();
+        let motor = DcMotor::gb37y3530();
+        let pid = PidTracker::table_4_1(&nominal, motor, 0.005).unwrap();
+        let law = PidLanes::new(&pid);
+        let flat = TerrainModel::new(PlanarModel::new(nominal).unwrap(), Terrain::flat());
+        let feed = FeedForwardLanes::new(&GradeFeedForward::new(pid, flat, Some(motor)));
+        let planes = |samples: &mut [PlanarSample]| {
+            let terrains: Vec<_> = (0..samples.len()).map(|i| Terrain::plane(0.04 * i as f64, 0.7 * i as f64).ok()).collect();
+            for (i, s) in samples.iter_mut().enumerate().filter(|(i, _)| i % 2 == 1) {
+                (s.x0[2], s.x0[5], s.x0[6]) = (0.7 * i as f64 + core::f64::consts::FRAC_PI_2, 1.5, -8.0);
+            }
+            Some((terrains, Some(feed)))
+        };
+        let thesis = Realism::thesis_like();
+        let no_inductance = crate::hardware::driver::MotorDriver { inductance: 0.0, ..thesis.motor.unwrap() };
+        for realism in [thesis, Realism { backlash: None, ..thesis }, Realism { motor: Some(no_inductance), ..thesis }] {
+            same_bits_on_every_copy_on(&law, &realism, planes, "lifted: 1.0");
+        }
+        let bumps = |samples: &mut [PlanarSample]| Some((alloc::vec![Terrain::bumps(0.03, 0.4).ok(); samples.len()], None));
+        same_bits_on_every_copy_on(&law, &thesis, bumps, "fell: true");
+        // A grid around the start, which the circle leaves.
+        let xs: Vec<f64> = (0..6).map(|i| -0.3 + 0.1 * i as f64).collect();
+        let z: Vec<f64> = xs.iter().flat_map(|x| xs.iter().map(move |y| 0.02 * (5.0 * x).sin() * (4.0 * y).cos())).collect();
+        let grid = Terrain::Grid(alloc::sync::Arc::new(crate::model::terrain::Grid::new(xs.clone(), xs, &z).unwrap()));
+        let off = |samples: &mut [PlanarSample]| Some((alloc::vec![Some(grid.clone()); samples.len()], Some(feed)));
+        same_bits_on_every_copy_on(&law, &thesis, off, "off_terrain: 1.0");
     }
 }

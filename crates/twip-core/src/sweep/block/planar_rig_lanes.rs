@@ -17,6 +17,7 @@ use alloc::vec::Vec;
 use nalgebra::SVector;
 
 use super::planar::Plants;
+use super::planar_terrain::TerrainLanes;
 use super::held::Held;
 use super::winding::WindingLanes;
 use super::{chunk, CHUNKS};
@@ -24,13 +25,15 @@ use crate::Dynamics;
 use crate::hardware::disturbance::Force;
 use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::imu::{lane_from, ImuClock, ImuReading, Mpu6050, NoiseLanes};
-use crate::hardware::planar_rig::{body_force, sample_imus, PlanarRig};
+use crate::hardware::planar_rig::{body_force, sample_imus, sample_imus_in_frame, PlanarRig};
 use crate::hardware::realism::RigPlant as _;
 use crate::hardware::settle::settle_side_by_side;
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field, Stage};
 use crate::model::lane::{fill, Fused, Lane, Wide, WIDTH};
+use crate::model::dynamics::Halt;
 use crate::model::planar::{engaged_motion, open_motion, wheel_speeds, PlanarCoefficients, PlanarModel};
+use crate::model::terrain_model::{geared_in_frame, motion_of, normal_forces_of, pitch_acceleration_of, plane_state, Frame};
 use crate::sim::runner::{Actuator, Plant, Sensor};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::{RobotParams, TwipError};
@@ -113,6 +116,98 @@ impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> Field<Fused, 7> for Ri
         } else {
             self.motion(x).0
         }
+    }
+}
+
+/// On terrain (docs/terrain.md, "The rig on terrain"): as `PlanarPlant::geared_motion_at`
+/// with its ground, the terrain model's geared derivative (`geared_in_frame`, a run's own
+/// source) on the ground `g` = (gradient x, gradient y, (M_b + M_w) g) under the lane, the
+/// windings driven at the wheels' speeds relative to the body's pitch about the axle.
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> RigField<'_, GEAR, DRIVE, GEARED> {
+    /// [`Self::motion`] on the ground `g`.
+    #[inline(always)]
+    fn motion_on(&self, x: &[Fused; 7], g: [Fused; 3]) -> ([Fused; 7], [Fused; 2]) {
+        let (f, xp) = in_frame(x, g);
+        let u = if DRIVE == STEADY {
+            let [w_r, w_l] = wheel_speeds(&self.k, &xp);
+            [self.per_amp * self.windings[0].steady_current(self.u[0], w_r), self.per_amp * self.windings[1].steady_current(self.u[1], w_l)]
+        } else {
+            self.u
+        };
+        self.motion_in(x, &f, &xp, u, g[2])
+    }
+
+    /// [`Field::at_stage`] on the ground `g`.
+    #[inline(always)]
+    fn at_stage_on(&self, x: &[Fused; 7], stage: Stage, g: [Fused; 3]) -> [Fused; 7] {
+        if DRIVE != STEPPED {
+            return self.motion_on(x, g).0;
+        }
+        let (f, xp) = in_frame(x, g);
+        let [w_r, w_l] = wheel_speeds(&self.k, &xp);
+        let torques = [self.per_amp * self.windings[0].stepped_current(stage, w_r), self.per_amp * self.windings[1].stepped_current(stage, w_l)];
+        self.motion_in(x, &f, &xp, torques, g[2]).0
+    }
+
+    /// The derivative and gearhead torques under the wheel torques `u` in the frame `f`
+    /// (`xp`: the state in it), the robot's weight `weight`.
+    #[inline(always)]
+    fn motion_in(&self, x: &[Fused; 7], f: &Frame<Fused>, xp: &[Fused; 7], u: [Fused; 2], weight: Fused) -> ([Fused; 7], [Fused; 2]) {
+        let gear = match GEAR {
+            FREE => Gearhead::Free,
+            SLIP => Gearhead::Slip(self.friction),
+            _ => Gearhead::Stick(self.friction),
+        };
+        let force = self.force;
+        let extra = |s, cp| Some(body_force(&force, s, cp));
+        let (nu, tau) = geared_in_frame(&self.k, weight, gear, f, xp, u, None, extra);
+        if !GEARED {
+            return (motion_of(x, &nu, f), tau);
+        }
+        // With a train open somewhere in the block: both computed and one kept, as on flat ground.
+        let (open_nu, open_tau) = geared_in_frame(&self.k, weight, gear, f, xp, u, Some((self.engaged, self.rotor)), extra);
+        let all = self.engaged[0] & self.engaged[1];
+        let nu = fill(|i| Fused::select(all, nu[i], open_nu[i]));
+        (motion_of(x, &nu, f), fill(|i| Fused::select(all, tau[i], open_tau[i])))
+    }
+}
+
+/// The local plane's frame at `x` on the ground `g` (its gradient first) and the state in it.
+#[inline(always)]
+fn in_frame(x: &[Fused; 7], g: [Fused; 3]) -> (Frame<Fused>, [Fused; 7]) {
+    let (s, co) = Fused::sincos(x[2]);
+    let f = Frame::new(g[0], g[1], s, co);
+    (f, plane_state(x, &f))
+}
+
+/// One lane's rig plant on its ground over a step, its trains as they are: its local plane
+/// looked up at every RK4 stage (a drawn plane's gradient is the lane's constant), so that a
+/// lane's whole step stays one loop body, as on flat ground.
+struct LaneOnGround<'a, const GEAR: u8, const DRIVE: u8, const GEARED: bool> {
+    field: RigField<'a, GEAR, DRIVE, GEARED>,
+    ground: &'a TerrainLanes,
+    l: usize,
+    weight: Fused,
+}
+
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> LaneOnGround<'_, GEAR, DRIVE, GEARED> {
+    /// The ground under `x`: its gradient and the robot's weight.
+    #[inline(always)]
+    fn at(&self, x: &[Fused; 7]) -> [Fused; 3] {
+        let [gx, gy] = self.ground.gradient(self.l, x[0].0, x[1].0);
+        [Fused(gx), Fused(gy), self.weight]
+    }
+}
+
+impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> Field<Fused, 7> for LaneOnGround<'_, GEAR, DRIVE, GEARED> {
+    #[inline(always)]
+    fn at(&self, x: &[Fused; 7]) -> [Fused; 7] {
+        self.field.motion_on(x, LaneOnGround::at(self, x)).0
+    }
+
+    #[inline(always)]
+    fn at_stage(&self, x: &[Fused; 7], stage: Stage) -> [Fused; 7] {
+        self.field.at_stage_on(x, stage, LaneOnGround::at(self, x))
     }
 }
 
@@ -214,15 +309,31 @@ impl RigPlants {
     }
 
     /// The derivative and each wheel's gearhead torque on every lane, its trains as they
-    /// are (`trains`): RK4's first stage, and what the gear trains weigh.
+    /// are (`trains`): RK4's first stage, and what the gear trains weigh. On `ground`
+    /// (None: flat ground), a runtime choice inside each kind's loop.
     #[inline(always)]
-    fn motion<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
-        by_kind!(self, trains, motion_of(x, u, trains))
+    fn motion<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], ground: Option<&TerrainLanes>) -> ([Lanes; 7], [Lanes; 2]) {
+        by_kind!(self, trains, motion_of(x, u, trains, ground))
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
+    fn motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], ground: Option<&TerrainLanes>) -> ([Lanes; 7], [Lanes; 2]) {
         let (mut d, mut tau) = ([[0.0; LANES]; 7], [[0.0; LANES]; 2]);
+        if let Some(ground) = ground {
+            // The flat loop below, each lane on its ground (a loop of its own: the flat one
+            // keeps its code).
+            for l in 0..LANES {
+                let xl = fill(|i| Fused(x[i][l]));
+                let on = LaneOnGround { field: self.field::<GEAR, DRIVE, GEARED>(l, u, trains), ground, l, weight: Fused(ground.weight(l)) };
+                let (dl, tl) = on.field.motion_on(&xl, on.at(&xl));
+                for i in 0..7 {
+                    d[i][l] = dl[i].0;
+                }
+                tau[0][l] = tl[0].0;
+                tau[1][l] = tl[1].0;
+            }
+            return (d, tau);
+        }
         for l in 0..LANES {
             let (dl, tl) = self.field::<GEAR, DRIVE, GEARED>(l, u, trains).motion(&fill(|i| Fused(x[i][l])));
             for i in 0..7 {
@@ -237,13 +348,24 @@ impl RigPlants {
     /// RK4's later stages from each lane's first `k1` on every lane, its trains as they
     /// are over the step (`trains`).
     #[inline(always)]
-    fn rk4<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
-        by_kind!(self, trains, rk4_of(x, u, trains, k1, dt))
+    fn rk4<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64, ground: Option<&TerrainLanes>) -> [Lanes; 7] {
+        by_kind!(self, trains, rk4_of(x, u, trains, k1, dt, ground))
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn rk4_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64) -> [Lanes; 7] {
+    fn rk4_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64, ground: Option<&TerrainLanes>) -> [Lanes; 7] {
         let mut out = [[0.0; LANES]; 7];
+        if let Some(ground) = ground {
+            // The flat loop below, each lane's whole step on its ground (a loop of its own).
+            for l in 0..LANES {
+                let on = LaneOnGround { field: self.field::<GEAR, DRIVE, GEARED>(l, u, trains), ground, l, weight: Fused(ground.weight(l)) };
+                let next = rk4(&on, &fill(|i| Fused(x[i][l])), &fill(|i| Fused(k1[i][l])), Fused(dt));
+                for i in 0..7 {
+                    out[i][l] = next[i].0;
+                }
+            }
+            return out;
+        }
         for l in 0..LANES {
             let field = self.field::<GEAR, DRIVE, GEARED>(l, u, trains);
             let next = rk4(&field, &fill(|i| Fused(x[i][l])), &fill(|i| Fused(k1[i][l])), Fused(dt));
@@ -293,17 +415,19 @@ impl ImuLanes {
     /// `PlanarSensors::sample`'s IMU part on every lane, at its time `ts`, state `x` and
     /// derivative `xdot`.
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn sample(&mut self, ts: &Lanes, x: &[Lanes; 7], xdot: &[Lanes; 7]) {
+    fn sample(&mut self, ts: &Lanes, x: &[Lanes; 7], xdot: &[Lanes; 7], ground: Option<&TerrainLanes>) {
         let due = core::array::from_fn(|l| self.clocks[l].due(ts[l]));
         if due.iter().any(|&d| d) {
-            self.sample_where(&due, x, xdot);
+            self.sample_where(&due, x, xdot, ground);
         }
     }
 
     /// The lanes `due` sample (the others' IMUs stay as they are).
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn sample_where(&mut self, due: &[bool; LANES], x: &[Lanes; 7], xdot: &[Lanes; 7]) {
+    /// On `ground` (None: flat), as `PlanarSensors::sample`'s `sample_imus_on_terrain`.
+    fn sample_where(&mut self, due: &[bool; LANES], x: &[Lanes; 7], xdot: &[Lanes; 7], ground: Option<&TerrainLanes>) {
         let noise = self.noise.draw(due);
+        let gradients = ground.map(|g| g.gradients(&x[0], &x[1]));
         for (c, (pitch, yaw)) in self.imus.iter_mut().enumerate() {
             let lanes = &due[c * WIDTH..(c + 1) * WIDTH];
             if !lanes.iter().any(|&d| d) {
@@ -313,7 +437,15 @@ impl ImuLanes {
             let (xs, ds): ([Wide; 7], [Wide; 7]) = (fill(|i| chunk(&x[i], c)), fill(|i| chunk(&xdot[i], c)));
             let n = [fill(|i| chunk(&noise[0][i], c)), fill(|i| chunk(&noise[1][i], c))];
             let dims = (chunk(&self.radius, c), chunk(&self.inv_r, c), pitch.settings().height, chunk(&self.g, c));
-            sample_imus((pitch, yaw), &xs, &ds, Wide::sincos(xs[3]).1, n, dims);
+            match &gradients {
+                None => sample_imus((pitch, yaw), &xs, &ds, Wide::sincos(xs[3]).1, n, dims),
+                Some([gx, gy]) => {
+                    let (s, co) = Wide::sincos(xs[2]);
+                    let f = Frame::new(chunk(gx, c), chunk(gy, c), s, co);
+                    let trig = (Wide::sincos(f.delta), Wide::sincos(xs[3] + f.delta).1);
+                    sample_imus_in_frame((pitch, yaw), &f, &xs, &ds, trig, n, dims);
+                }
+            }
             if !lanes.iter().all(|&d| d) {
                 let keep = |now: Wide, was: Wide| Wide(core::array::from_fn(|j| if lanes[j] { now.0[j] } else { was.0[j] }));
                 pitch.zip_state(&before.0, keep);
@@ -340,7 +472,7 @@ impl ImuLanes {
         y.zip_state(&yaw.map(Wide::splat), take_j);
         p.unprime();
         y.unprime();
-        self.sample_where(&due, x, xdot);
+        self.sample_where(&due, x, xdot, None);
         let first = core::mem::replace(&mut self.imus[c], kept);
         self.imus[c].0.zip_state(&first.0, take_j);
         self.imus[c].1.zip_state(&first.1, take_j);
@@ -399,14 +531,23 @@ pub(crate) struct PlanarRigLanes {
     y: [Lanes; 7],
     /// The plant's input and the controller's command, applied and pending.
     held: Held<[Lanes; 2]>,
+    /// The lanes' terrains (None: flat ground, the flat rig's code).
+    ground: Option<TerrainLanes>,
 }
 
 impl PlanarRigLanes {
     /// The rigs `built` (per lane: its model and rig, or None for an idle lane) at rest in
     /// `x0(l)`, their estimators settled as a run settles them (reads every `period` [s]),
     /// their sensors at the initial state under no input; plant steps of `dt`. None when no
-    /// lane has a rig.
-    pub(crate) fn start(built: Vec<Option<(PlanarModel<f64>, PlanarRig<f64>)>>, x0: impl Fn(usize) -> [f64; 7], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
+    /// lane has a rig. On `ground` (None: flat), each lane's rig built on its lane's terrain
+    /// (`Realism::build_planar_on`).
+    pub(crate) fn start(
+        built: Vec<Option<(PlanarModel<f64>, PlanarRig<f64>)>>,
+        x0: impl Fn(usize) -> [f64; 7],
+        dt: f64,
+        period: f64,
+        ground: Option<TerrainLanes>,
+    ) -> Result<Option<Self>, TwipError> {
         let Some(fallback) = built.iter().flatten().next().cloned() else {
             return Ok(None);
         };
@@ -427,7 +568,7 @@ impl PlanarRigLanes {
         }
         Self::settle(&mut rigs.iter_mut().enumerate().map(|(l, rig)| (rig, lane(&x, l).into())).collect::<Vec<_>>(), period);
         if let Some(imus) = imus.as_mut() {
-            imus.sample(&[0.0; LANES], &x, &d0);
+            imus.sample(&[0.0; LANES], &x, &d0, ground.as_ref());
         }
         let quiet_engaged = core::array::from_fn(|l| rigs[l].plant.unpushed());
         let engaged = core::array::from_fn(|l| rigs[l].plant.trains());
@@ -445,6 +586,7 @@ impl PlanarRigLanes {
             x,
             y: [[0.0; LANES]; 7],
             held: Held::new([[0.0; LANES]; 2]),
+            ground,
         }))
     }
 
@@ -597,7 +739,8 @@ impl PlanarRigLanes {
                 // Nothing acts between steps (`PlanarPlant::unpushed`): the motors turn with
                 // the wheels (the windings' steps on lanes start from their speeds).
                 if stepped {
-                    let (right, left) = rig.plant.model().wheel_speeds(&lane(x, l));
+                    // (On terrain: relative to the body's pitch rate about the axle.)
+                    let (right, left) = rig.plant.wheel_speeds(&lane(x, l));
                     (finished[0][l], finished[1][l]) = (right, left);
                     (starts[0][l], starts[1][l]) = (right, left);
                 }
@@ -623,7 +766,8 @@ impl PlanarRigLanes {
             }
         }
         on_drive(&delivered, &self.held.beyond);
-        let (mut k1, tau) = plants.motion::<COPY>(x, &held, &trains);
+        let ground = self.ground.as_ref();
+        let (mut k1, tau) = plants.motion::<COPY>(x, &held, &trains, ground);
         let before = trains;
         for (l, rig) in self.rigs.iter_mut().enumerate() {
             let (xl, ul) = (lane(x, l), lane(&u, l));
@@ -640,13 +784,39 @@ impl PlanarRigLanes {
         }
         if trains != before {
             // Some trains opened or closed: RK4's first stage with them as they are now.
-            k1 = plants.motion::<COPY>(x, &held, &trains).0;
+            k1 = plants.motion::<COPY>(x, &held, &trains, ground).0;
         }
         if let Some(imus) = self.imus.as_mut() {
-            imus.sample(&ts, x, &k1);
+            imus.sample(&ts, x, &k1, ground);
         }
-        let next = plants.rk4::<COPY>(x, &held, &trains, &k1, dt);
+        let next = plants.rk4::<COPY>(x, &held, &trains, &k1, dt, ground);
         self.engaged = trains;
         next
+    }
+
+    /// On terrain, what ends each lane at `next`, the state after the step just taken, as the
+    /// rig's `halted` after `step_ended`: off its terrain, else a wheel's normal force below
+    /// zero under the torques the windings deliver there with the gear trains as they are
+    /// and the body force (its generalised forces from the plant's derivative there); None on
+    /// flat ground.
+    #[inline(always)]
+    pub(super) fn halts<const COPY: u8>(&self, next: &[Lanes; 7]) -> Option<[Option<Halt>; LANES]> {
+        let ground = self.ground.as_ref()?;
+        let mut input = self.held.u;
+        if self.plants.drive == STEPPED {
+            for (l, rig) in self.rigs.iter().enumerate() {
+                let speeds = rig.plant.motor_speeds(&lane(next, l));
+                for (wheel, windings) in self.plants.windings.iter().enumerate() {
+                    input[wheel][l] = windings.ended_input(l, speeds[wheel]);
+                }
+            }
+        }
+        let (d, _) = self.plants.motion::<COPY>(next, &input, &self.engaged, Some(ground));
+        Some(ground.halts_where(next, |l, [gx, gy], contact| {
+            let (xl, dl) = (fill(|i| Fused(next[i][l])), fill(|i| Fused(d[i][l])));
+            let (f, xp) = in_frame(&xl, [gx, gy, Fused(0.0)]);
+            let nu = [pitch_acceleration_of(&xl, &dl, &f), dl[5], dl[6]];
+            normal_forces_of(contact, &f, &xp, &nu, Fused::sincos(xp[3]))
+        }))
     }
 }

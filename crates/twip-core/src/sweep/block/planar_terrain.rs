@@ -126,6 +126,48 @@ impl TerrainLanes {
     }
 }
 
+impl TerrainLanes {
+    /// Every lane's gradient at (`x`, `y`), clamped onto a grid (the run's plant's): what an
+    /// RK4 stage looks up.
+    #[inline(always)]
+    pub(super) fn gradients(&self, x: &Lanes, y: &Lanes) -> [Lanes; 2] {
+        self.grounds.gradients(x, y)
+    }
+
+    /// Lane `l`'s gradient at (`x`, `y`), clamped onto a grid, as [`Self::gradients`] gives it.
+    #[inline(always)]
+    pub(super) fn gradient(&self, l: usize, x: f64, y: f64) -> [f64; 2] {
+        match &self.grounds {
+            Grounds::Planes { gx, gy } => [gx[l], gy[l]],
+            Grounds::Any(t) => {
+                let local = t[l].local_clamped(x, y);
+                [local.gx, local.gy]
+            }
+        }
+    }
+
+    /// (M_b + M_w) g of lane `l`'s robot.
+    #[inline(always)]
+    pub(super) fn weight(&self, l: usize) -> f64 {
+        self.weight[l]
+    }
+
+    /// What ends each lane at `next`, as the terrain model's and the rig's `halted`: off its
+    /// terrain, else a wheel's normal force below zero, `normal_forces(l, gradient, contact)`
+    /// giving lane `l`'s on the gradient under it (the ideal lanes' plant, or the rig's).
+    #[inline(always)]
+    pub(super) fn halts_where(&self, next: &[Lanes; 7], normal_forces: impl Fn(usize, [Fused; 2], &Contact<Fused>) -> [Fused; 2]) -> [Option<Halt>; LANES] {
+        let (_, on) = self.grounds.local(&next[0], &next[1]);
+        let [gx, gy] = self.grounds.gradients(&next[0], &next[1]);
+        let mut lifted = [false; LANES];
+        for l in 0..LANES {
+            let [n_r, n_l] = normal_forces(l, [Fused(gx[l]), Fused(gy[l])], &self.contact[l].map(Fused));
+            lifted[l] = n_r.0 < 0.0 || n_l.0 < 0.0;
+        }
+        core::array::from_fn(|l| if !on[l] { Some(Halt::OffTerrain) } else if lifted[l] { Some(Halt::Lifted) } else { None })
+    }
+}
+
 /// Every lane's plant on its ground, the inputs `u` held over a step: the field of all the
 /// lanes at once (one RK4 stage is one lookup of the lanes' grounds, then one loop over
 /// lanes that the compiler vectorises).
@@ -169,17 +211,11 @@ impl BlockGround for TerrainLanes {
     /// As the terrain model's `halted`: off its terrain, else a wheel's normal force below zero.
     #[inline(always)]
     fn halts(&self, plants: &Plants, next: &[Lanes; 7], u: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]> {
-        let (_, on) = self.grounds.local(&next[0], &next[1]);
-        let [gx, gy] = self.grounds.gradients(&next[0], &next[1]);
-        let mut lifted = [false; LANES];
-        for l in 0..LANES {
+        Some(self.halts_where(next, |l, [gx, gy], contact| {
             let xl = fill(|i| Fused(next[i][l]));
             let ul = [Fused(u[0][l]), Fused(u[1][l])];
-            let contact = self.contact[l].map(Fused);
-            let [n_r, n_l] = normal_forces_on_ground(&plants.lane(l), Fused(self.weight[l]), Gearhead::of(None), &contact, &xl, ul, Fused(gx[l]), Fused(gy[l]));
-            lifted[l] = n_r.0 < 0.0 || n_l.0 < 0.0;
-        }
-        Some(core::array::from_fn(|l| if !on[l] { Some(Halt::OffTerrain) } else if lifted[l] { Some(Halt::Lifted) } else { None }))
+            normal_forces_on_ground(&plants.lane(l), Fused(self.weight[l]), Gearhead::of(None), contact, &xl, ul, gx, gy)
+        }))
     }
 
     /// With the feed-forward, as `GradeFeedForward::update`: the tracker sees its pitch from

@@ -66,6 +66,16 @@ impl WindingLanes {
         }
     }
 
+    /// With inductance: lane `l`'s plant input at a step's start once the step under way has
+    /// ended with its motor at `speed`: what a run's `halted` reads after `step_ended`
+    /// (`PlanarPlant::torques` then), which the lanes take at the next step's start.
+    #[inline(always)]
+    pub(super) fn ended_input(&self, l: usize, speed: f64) -> f64 {
+        let (mut w, per_amp) = self.lane(l);
+        w.finish_step(Fused(speed));
+        (per_amp * w.stepped_current(Stage::Start, Fused(speed))).0
+    }
+
     /// With inductance: lane `l`'s plant input from the current's mean over the step (what
     /// an open gear train's rotor is driven by), as `RealPlant::mean_current`.
     #[inline(always)]
