@@ -326,6 +326,21 @@ pub(crate) mod tests {
 
     /// m_body (field 0) may go negative (an invalid robot); com_height (8) up to 5x;
     /// the initial pitch (state 3) up to ±0.6 rad, which some survive.
+    /// A rig whose outputs are not quantised (a lane and its run then agree to rounding):
+    /// the thesis-like IMU unquantised, the loop's delay, a 5 ms period, the thesis-like
+    /// gearhead friction, and the estimators settled at rest first, each lane's its own.
+    pub(crate) fn unquantised_rig() -> Realism<f64> {
+        use crate::hardware::imu::ImuSettings;
+        Realism {
+            imu: Some(ImuSettings { quantise: false, ..ImuSettings::thesis_like() }),
+            delay: true,
+            control_period: Some(5e-3),
+            friction: Some(Realism::thesis_like_friction()),
+            settle: Some(0.5),
+            ..Realism::ideal()
+        }
+    }
+
     pub(crate) fn spread() -> [Perturbation; 3] {
         [
             Perturbation { target: Target::Param(0), spread: Spread::Normal { mean: 0.83, std: 0.6, low: -1.0, high: 2.0 } },
@@ -530,18 +545,9 @@ pub(crate) mod tests {
     #[test]
     fn a_rig_lane_agrees_with_the_rig_run_to_rounding() {
         use crate::hardware::disturbance::{Force, Push, Pushes};
-        use crate::hardware::imu::ImuSettings;
         use crate::hardware::tilt::TiltEstimator;
         use crate::model::friction::Friction;
-        let first = Realism {
-            imu: Some(ImuSettings { quantise: false, ..ImuSettings::thesis_like() }),
-            delay: true,
-            control_period: Some(5e-3),
-            friction: Some(Realism::thesis_like_friction()),
-            // The estimators settle at rest first, each lane's its own.
-            settle: Some(0.5),
-            ..Realism::ideal()
-        };
+        let first = unquantised_rig();
         let second = Realism { estimator: TiltEstimator::kalman(), delay: false, friction: Some(Friction::gb37()), ..first };
         let pushes = Pushes::new(&[Push { t: 1.0, impulse: 0.3, height: 0.1 }, Push { t: 2.0, impulse: -0.25, height: 0.05 }]).unwrap();
         let force = Force { horizontal: 0.4, vertical: -1.5, height: 0.08 };

@@ -247,6 +247,19 @@ mod tests {
         (worst, counts)
     }
 
+    /// A 0.8 m x 0.35 m height map of gentle waves, which robots drive off.
+    fn small_grid() -> SweepTerrain {
+        let xs: alloc::vec::Vec<f64> = (0..9).map(|i| -0.4 + 0.1 * i as f64).collect();
+        let ys: alloc::vec::Vec<f64> = (0..6).map(|j| -0.3 + 0.07 * j as f64).collect();
+        let z: alloc::vec::Vec<f64> = xs.iter().flat_map(|x| ys.iter().map(move |y| 0.02 * (5.0 * x).sin() * (4.0 * y).cos())).collect();
+        SweepTerrain::Fixed(Terrain::Grid(alloc::sync::Arc::new(crate::model::terrain::Grid::new(xs, ys, &z).unwrap())))
+    }
+
+    /// Bumps 3 cm high, of 0.5 m wavelength.
+    fn wave_bumps() -> SweepTerrain {
+        SweepTerrain::Fixed(Terrain::bumps(0.03, 0.5).unwrap())
+    }
+
     /// A lane on terrain agrees with the run of its sample to rounding, on drawn planes with
     /// and without the grade's feed-forward (PID, fuzzy sliding mode), on a drawn ramp, over
     /// bumps, and on a grid it drives off; lanes lift on steep planes turning hard.
@@ -265,11 +278,7 @@ mod tests {
         let drawn = [m_body, pitch, axes()[1], axes()[2]];
         let zero = PlanarState::zeros();
         let (pid_lanes, smc_lanes) = (PidLanes::new(&pid), SmcLanes::new(&smc(true)).unwrap());
-        let xs: alloc::vec::Vec<f64> = (0..9).map(|i| -0.4 + 0.1 * i as f64).collect();
-        let ys: alloc::vec::Vec<f64> = (0..6).map(|j| -0.3 + 0.07 * j as f64).collect();
-        let z: alloc::vec::Vec<f64> = xs.iter().flat_map(|x| ys.iter().map(move |y| 0.02 * (5.0 * x).sin() * (4.0 * y).cos())).collect();
-        let grid = SweepTerrain::Fixed(Terrain::Grid(alloc::sync::Arc::new(crate::model::terrain::Grid::new(xs, ys, &z).unwrap())));
-        let bumps = SweepTerrain::Fixed(Terrain::bumps(0.03, 0.5).unwrap());
+        let (grid, bumps) = (small_grid(), wave_bumps());
         // Across steep planes (0.3-0.5 rad) at speed, turning hard: some lift.
         let hard = PlanarState::from([0.0, 0.0, core::f64::consts::FRAC_PI_2, 0.0, 0.0, 1.5, -8.0]);
         let steep = [Perturbation { target: Target::Slope, spread: Spread::Uniform { low: 0.3, high: 0.5 } }, Perturbation { target: Target::Initial(6), spread: Spread::Uniform { low: -9.0, high: 0.0 } }];
@@ -300,7 +309,6 @@ mod tests {
     #[test]
     fn a_rig_lane_on_terrain_agrees_with_the_rig_run_to_rounding() {
         use crate::hardware::disturbance::{Force, Push, Pushes};
-        use crate::hardware::imu::ImuSettings;
         use crate::sweep::block::{PidLanes, SmcLanes};
         use crate::sweep::planar::tests::{smc, spread};
         let (pid, _, _, nominal) = setup();
@@ -308,14 +316,7 @@ mod tests {
         let flat_model = || TerrainModel::new(PlanarModel::new(nominal.params).unwrap(), Terrain::flat());
         let ff_pid = GradeFeedForward::new(pid, flat_model(), motor);
         let ff_smc = GradeFeedForward::new(smc(true), flat_model(), motor);
-        let first = Realism {
-            imu: Some(ImuSettings { quantise: false, ..ImuSettings::thesis_like() }),
-            delay: true,
-            control_period: Some(5e-3),
-            friction: Some(Realism::thesis_like_friction()),
-            settle: Some(0.5),
-            ..Realism::ideal()
-        };
+        let first = crate::sweep::planar::tests::unquantised_rig();
         let pushes = Pushes::new(&[Push { t: 0.5, impulse: 0.05, height: 0.1 }, Push { t: 2.0, impulse: -0.04, height: 0.05 }]).unwrap();
         let force = Force { horizontal: 0.1, vertical: -0.5, height: 0.08 };
         let geared = Realism { backlash: Realism::thesis_like().backlash, pushes, force, ..first };
@@ -328,11 +329,7 @@ mod tests {
         let drawn = [m_body, pitch, axes()[1], axes()[2]];
         let zero = PlanarState::zeros();
         let (pid_lanes, smc_lanes) = (PidLanes::new(&pid), SmcLanes::new(&smc(true)).unwrap());
-        let xs: alloc::vec::Vec<f64> = (0..9).map(|i| -0.4 + 0.1 * i as f64).collect();
-        let ys: alloc::vec::Vec<f64> = (0..6).map(|j| -0.3 + 0.07 * j as f64).collect();
-        let z: alloc::vec::Vec<f64> = xs.iter().flat_map(|x| ys.iter().map(move |y| 0.02 * (5.0 * x).sin() * (4.0 * y).cos())).collect();
-        let grid = SweepTerrain::Fixed(Terrain::Grid(alloc::sync::Arc::new(crate::model::terrain::Grid::new(xs, ys, &z).unwrap())));
-        let bumps = SweepTerrain::Fixed(Terrain::bumps(0.03, 0.5).unwrap());
+        let (grid, bumps) = (small_grid(), wave_bumps());
         let hard = PlanarState::from([0.0, 0.0, core::f64::consts::FRAC_PI_2, 0.0, 0.0, 1.5, -8.0]);
         let steep = [Perturbation { target: Target::Slope, spread: Spread::Uniform { low: 0.3, high: 0.5 } }, Perturbation { target: Target::Initial(6), spread: Spread::Uniform { low: -9.0, high: 0.0 } }];
         let ff = |t: &Terrain<f64>| ff_pid.on(t.clone());

@@ -77,14 +77,20 @@ impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> RigField<'_, GEAR, DRI
         self.motion_under(x, u)
     }
 
-    /// [`Self::motion`] under the wheel torques `u`.
+    /// The gearheads' law this kernel instance was compiled for (`GEAR`).
     #[inline(always)]
-    fn motion_under(&self, x: &[Fused; 7], u: [Fused; 2]) -> ([Fused; 7], [Fused; 2]) {
-        let gear = match GEAR {
+    fn gearhead(&self) -> Gearhead<'_, Fused> {
+        match GEAR {
             FREE => Gearhead::Free,
             SLIP => Gearhead::Slip(self.friction),
             _ => Gearhead::Stick(self.friction),
-        };
+        }
+    }
+
+    /// [`Self::motion`] under the wheel torques `u`.
+    #[inline(always)]
+    fn motion_under(&self, x: &[Fused; 7], u: [Fused; 2]) -> ([Fused; 7], [Fused; 2]) {
+        let gear = self.gearhead();
         let force = self.force;
         let extra = |s, cp| Some(body_force(&force, s, cp));
         let (d, tau) = engaged_motion(&self.k, gear, x, u, extra);
@@ -153,11 +159,7 @@ impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> RigField<'_, GEAR, DRI
     /// (`xp`: the state in it), the robot's weight `weight`.
     #[inline(always)]
     fn motion_in(&self, x: &[Fused; 7], f: &Frame<Fused>, xp: &[Fused; 7], u: [Fused; 2], weight: Fused) -> ([Fused; 7], [Fused; 2]) {
-        let gear = match GEAR {
-            FREE => Gearhead::Free,
-            SLIP => Gearhead::Slip(self.friction),
-            _ => Gearhead::Stick(self.friction),
-        };
+        let gear = self.gearhead();
         let force = self.force;
         let extra = |s, cp| Some(body_force(&force, s, cp));
         let (nu, tau) = geared_in_frame(&self.k, weight, gear, f, xp, u, None, extra);
