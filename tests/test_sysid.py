@@ -10,7 +10,7 @@ import twip
 from twip import robot_file, scenarios, sysid
 from twip.cli import main
 from twip.sysid import LogError, RunLog, Sensors, identify
-from twip.sysid.estimator import correlation_time
+from twip.sysid.signals import correlation_time
 
 FREE = ["m_body", "com_height", "i_body", "mu_bearing"]
 #: The robot the logs come from: four parameters 15-25 % off the Balanbot.

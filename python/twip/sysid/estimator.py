@@ -24,6 +24,7 @@ from twip.sysid import units
 from twip.sysid.grid import Grid
 from twip.sysid.log import LogError, RunLog
 from twip.sysid.measure import BIASED, FILTERED, OUTPUTS, Sensors, noise_floor, noise_level, predict, settling_samples
+from twip.sysid.signals import correlation_time, segments, smooth_rate
 
 #: Relative step of a parameter's central difference, and absolute step of a start state.
 #: With gear play declared too: the perturbed runs replay the base run's impacts and openings
@@ -32,8 +33,6 @@ from twip.sysid.measure import BIASED, FILTERED, OUTPUTS, Sensors, noise_floor, 
 #: at 1e-6, 1e-4 and 1e-3 (tests/test_sysid_backlash.py).
 PARAM_STEP = 1e-5
 STATE_STEP = 1e-6
-#: The fewest samples a segment may have on average.
-MIN_SEGMENT_SAMPLES = 8
 #: The most integration steps one prediction of a log may take (`max_step` and the log's span).
 MAX_STEPS = 10**8
 #: A decrease of the cost (half a chi-square) below which the fit has converged.
@@ -116,7 +115,7 @@ class Problem:
         if len(set(free)) != len(free):
             raise LogError(f"free: {list(free)} names a parameter twice")
         self.biased = [s for s in BIASED if s in self.outputs]
-        self.segments = _segments(log.t, segment)
+        self.segments = segments(log.t, segment)
         self._check_size(len(self.unknowns) + len(self.biased))
         filtered = sensors.imu is not None and any(s in self.outputs for s in FILTERED)
         # A log slower than the IMU (a firmware's loop period) is predicted at the IMU's samples.
@@ -220,58 +219,9 @@ class Problem:
             theta = log.enc * (2 * math.pi / self.sensors.encoder_cpr) + phi
         else:
             theta = np.zeros(n)
-        wheel = log.theta_dot if log.theta_dot is not None else _smooth_rate(theta, log.t)
+        wheel = log.theta_dot if log.theta_dot is not None else smooth_rate(theta, log.t)
         columns = np.column_stack([phi, rate, theta, wheel])
         return np.array([columns[s] for s in self.segments])
-
-
-#: Sokal's window for a correlation time: the sum of the autocorrelation runs to the first
-#: lag at least this many times the time summed so far.
-CORRELATION_WINDOW = 5.0
-
-
-def correlation_time(e: np.ndarray) -> float:
-    """The integrated autocorrelation time 1 + 2 Σ_k ρ(k) of the series `e` (Sokal's
-    window): how many samples one independent sample of it is worth (1 for white noise)."""
-    e = np.asarray(e, dtype=float)
-    if len(e) < 2:
-        return 1.0
-    e = e - np.mean(e)
-    if not np.any(e):
-        return 1.0
-    spectrum = np.fft.rfft(e, 2 * len(e))
-    acf = np.fft.irfft(spectrum * np.conj(spectrum))[:len(e)]
-    times = 2.0 * np.cumsum(acf / acf[0]) - 1.0  # 1 + 2 Σ_{k=1..K} ρ(k), for each K
-    reached = np.nonzero(np.arange(len(e)) >= CORRELATION_WINDOW * times)[0]
-    return max(float(times[reached[0]] if len(reached) else times[-1]), 1.0)
-
-
-def _smooth_rate(x: np.ndarray, t: np.ndarray, window: float = 0.02) -> np.ndarray:
-    """A derivative of a noisy or quantised signal: differences over about `window` seconds."""
-    dt = float(np.median(np.diff(t)))
-    k = max(1, int(round(window / dt / 2)))
-    out = np.empty_like(x)
-    for i in range(len(x)):
-        a, b = max(0, i - k), min(len(x) - 1, i + k)
-        out[i] = (x[b] - x[a]) / (t[b] - t[a])
-    return out
-
-
-def _segments(t: np.ndarray, segment: float) -> List[int]:
-    if not (isinstance(segment, (int, float)) and math.isfinite(segment) and segment > 0):
-        raise LogError(f"segment = {segment!r}: must be a finite duration > 0 [s]")
-    starts, next_start = [0], t[0] + segment
-    for i in range(1, len(t) - 1):
-        if t[i] >= next_start:
-            starts.append(i)
-            next_start = t[i] + segment
-    # A last segment shorter than half a segment joins the one before.
-    if len(starts) > 1 and t[-1] - t[starts[-1]] < segment / 2:
-        starts.pop()
-    if len(starts) > 1 and len(starts) * MIN_SEGMENT_SAMPLES > len(t):
-        raise LogError(f"segment = {segment!r}: {len(starts)} segments of a log of {len(t)} samples; each needs "
-                       f"{MIN_SEGMENT_SAMPLES} samples on average (its start state is 4 unknowns)")
-    return starts
 
 
 @dataclass

@@ -23,7 +23,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from twip.sysid.estimator import correlation_time
+from twip.sysid.signals import correlation_time
 from twip.sysid.measure import FILTERED, noise_level
 
 
