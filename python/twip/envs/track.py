@@ -76,14 +76,12 @@ class TrackSettings(Settings):
                                 self.substeps, self.fall_limit, realism=self.realism, threads=self.threads)
 
     def rewards(self, batch, actions: np.ndarray) -> np.ndarray:
-        """The default terms on the true path error and pitch after the step, and the actions:
-        each a weighted square, so one product of the squares with the weights."""
+        """The default terms on the true path error and pitch after the step, and the actions."""
         w = self.reward
         o = batch.true_observations()
-        # Per observation entry (OBSERVATION_NAMES) and per action: the weight of its square.
-        on_obs = np.array([w["tracking"], w["tracking"], w["heading"], w["upright"], 0.0, 0.0, 0.0, 0.0, 0.0])
-        on_action = np.full(2, w["effort"] / (2.0 * self.action_bound ** 2))
-        return w["alive"] - np.square(o) @ on_obs - np.square(actions) @ on_action
+        effort = np.mean((actions / self.action_bound) ** 2, axis=1)
+        return (w["alive"] - w["upright"] * o[:, 3] ** 2 - w["tracking"] * (o[:, 0] ** 2 + o[:, 1] ** 2)
+                - w["heading"] * o[:, 2] ** 2 - w["effort"] * effort)
 
 
 class TrackEnv(SingleEnv):
