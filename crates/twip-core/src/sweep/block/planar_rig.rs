@@ -6,7 +6,7 @@
 //! the rig's lanes ([`PlanarRigLanes`], which step the rig's parts and the plant). So a lane
 //! agrees with `sweep::planar::run_planar_sample` to rounding, and is bit for bit the same
 //! on every CPU, thread count and block neighbour.
-use super::planar::{BlockGround, LanePath, Metrics, PlanarLaneLaw};
+use super::planar::{update_out_of_line, BlockGround, LanePath, Metrics, PlanarLaneLaw};
 use super::planar_rig_lanes::PlanarRigLanes;
 use super::planar_terrain::{FeedForwardLanes, TerrainLanes};
 use super::rig::block_rigs;
@@ -97,7 +97,7 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
         if update {
             let y = rig.read(t);
             match &ground {
-                None => controller.update::<COPY>(&mut state, y, &r, &mut cmd),
+                None => update_out_of_line::<C, COPY>(&mut controller, &mut state, y, &r, &mut cmd),
                 // The feed-forward from what the firmware reads, as a run's `GradeFeedForward`.
                 Some(g) => g.update::<C, COPY>(&mut controller, &mut state, y, &r, &mut cmd),
             }
