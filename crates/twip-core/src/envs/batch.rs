@@ -157,7 +157,7 @@ fn rig_block<K: EnvKind<NX, NU>, const NX: usize, const NU: usize>(spec: &K, fir
         (x0[j], pwm_max[j]) = (x, max);
     }
     let p = spec.period();
-    let Some(mut lanes) = K::RigLanes::start(built, |l| x0[l], p.dt, seconds(&p))? else {
+    let Some(mut lanes) = K::RigLanes::start(built, x0, p.dt, seconds(&p))? else {
         unreachable!("a block has at least one robot")
     };
     // The firmware's first read, at t = 0: the first observation.

@@ -106,7 +106,7 @@ impl RigBlock for PlanarRigLanes {
     type State1 = [f64; 7];
     type Drive = [Lanes; 2];
 
-    fn start(built: Vec<Option<(PlanarModel<f64>, PlanarRig<f64>)>>, x0: impl Fn(usize) -> [f64; 7], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
+    fn start(built: Vec<Option<(PlanarModel<f64>, PlanarRig<f64>)>>, x0: [[f64; 7]; LANES], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
         PlanarRigLanes::start(built, x0, dt, period, None)
     }
 
@@ -124,7 +124,7 @@ impl RigBlock for PlanarRigLanes {
 
     #[inline(always)]
     fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> [Lanes; 7] {
-        PlanarRigLanes::step_at::<COPY>(self, ks, |_, _| {})
+        PlanarRigLanes::step_at::<COPY>(self, ks).0
     }
 
     fn state(&self) -> &[Lanes; 7] {

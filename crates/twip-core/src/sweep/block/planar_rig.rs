@@ -76,7 +76,7 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     let built = block_rigs(samples_models, realism_of, |realism, (model, on)| realism.build_planar_on(model, *on, dt))?;
     let built: Vec<_> = built.into_iter().map(|b| b.map(|((model, _), rig)| (model, rig))).collect();
     let active: [bool; LANES] = core::array::from_fn(|l| built.get(l).is_some_and(Option::is_some));
-    let x0 = |l: usize| if active[l] { samples[l].x0.into() } else { [0.0; 7] };
+    let x0 = core::array::from_fn(|l| if active[l] { samples[l].x0.into() } else { [0.0; 7] });
     let Some(mut rig) = PlanarRigLanes::start(built, x0, dt, dt * per_update as f64, ground.clone())? else {
         return Ok(Some([PlanarSampleMetrics::INVALID; LANES]));
     };
@@ -106,7 +106,8 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
             end_diverged(&diverged, &mut alive, &mut ended, t, k);
         }
         metrics.observe(&alive, t >= settle, &rig.x, rig.command(), &r, path);
-        let next = rig.step::<COPY>(k, |delivered, beyond| metrics.drive(&alive, delivered, update, beyond));
+        let (next, delivered) = rig.step::<COPY>(k);
+        metrics.drive(&alive, &delivered, update, rig.beyond());
         let command = *rig.command();
         let halts = rig.halts::<COPY>(&next);
         if !metrics.end_step(&mut rig.x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &command, path, settle, halts.as_ref()) {
