@@ -384,7 +384,7 @@ class TrackBatch:
         """Every robot's reward (num_envs) for the step just taken under `actions`
         (num_envs x 2): the default terms with these weights on the true observations
         (`true_observations`, made here), each action over `bound`, with the bits of the
-        formula in NumPy (`twip.envs.track.TrackSettings.rewards`).
+        formula in NumPy (`twip.envs.track.TrackSettings.reward_terms`).
         """
     def states(self) -> _F64:
         """Every robot's true state (num_envs rows)."""

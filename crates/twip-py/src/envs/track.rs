@@ -69,7 +69,7 @@ impl PyTrackBatch {
     /// Every robot's reward (num_envs) for the step just taken under `actions`
     /// (num_envs x 2): the default terms with these weights on the true observations
     /// (`true_observations`, made here), each action over `bound`, with the bits of the
-    /// formula in NumPy (`twip.envs.track.TrackSettings.rewards`).
+    /// formula in NumPy (`twip.envs.track.TrackSettings.reward_terms`).
     #[allow(clippy::too_many_arguments)]
     fn rewards<'py>(
         &mut self,
