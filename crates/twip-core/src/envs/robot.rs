@@ -109,7 +109,7 @@ pub trait RigBlock: Sized + Send + Sync {
     type State: Copy + AsRef<[Lanes]> + AsMut<[Lanes]>;
     type State1;
     type Drive;
-    /// The rigs `built` (None: an idle lane) at rest in `x0(l)`, plant steps of `dt`,
+    /// The rigs `built` (None: an idle lane) at rest in `x0[l]`, plant steps of `dt`,
     /// control periods of `period` [s] (the estimators settle on them).
     fn start(built: Vec<Option<(Self::Model, Self::Rig)>>, x0: [Self::State1; LANES], dt: f64, period: f64) -> Result<Option<Self>, TwipError>;
     /// Each rig's sensors settled at rest in its `x0` (reads every `period` [s]), as `start`
