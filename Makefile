@@ -44,18 +44,23 @@ demo:
 
 # The core is tested with std and its thread pool (all of it) and without std (the no_std
 # subset), and the no_std build is checked for dependencies that switch std on; the
-# benches beside the crate are built so that they cannot rot. They build in a target folder
+# benches and examples beside the crates are type-checked so that they cannot rot. The tests build in a target folder
 # of their own, so that `make test` can run them while the wheel builds (cargo locks a
 # target folder for the whole of a build), and without MAKEFLAGS: under `make --jobs` it names
 # a jobserver that a recipe cannot reach, and rustdoc warned of it.
+# The examples (release-build measuring tools) are only checked: `cargo test` alone builds
+# them unoptimised too, with every kernel monomorphised again. Its units from a clean target
+# folder (`--no-run`, 2-core VM, helpers' builds beside it): 300 s of CPU with the examples,
+# 138 s without (sweep_throughput 92 s, env_throughput 46-58 s of unit time); one `cargo check`
+# of both crates 53 s against 86 s for two.
 test-rust: export CARGO_TARGET_DIR := $(CURDIR)/target/tests
 test-rust: MAKEFLAGS :=
 test-rust: $(TOOLS)
-	cargo test --workspace --exclude twip-py --features twip-core/parallel --quiet
+	cargo test --workspace --exclude twip-py --features twip-core/parallel --quiet --lib --bins --tests
+	cargo test --workspace --exclude twip-py --features twip-core/parallel --quiet --doc
 	cargo test -p twip-core --no-default-features --lib --quiet
 	scripts/check_nostd.sh
-	cargo check -p twip-core --benches --examples --all-features --quiet
-	cargo check -p twip-ffi --benches --quiet
+	cargo check -p twip-core -p twip-ffi --benches --examples --features twip-core/parallel --quiet
 
 # The tests run in parallel processes (pytest-xdist), one per core up to four: on a 2-core
 # VM pytest took 196-250 s, and 276-312 s serially (separate runs). One test: `pytest -k name`.
