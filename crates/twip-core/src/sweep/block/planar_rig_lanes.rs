@@ -236,32 +236,57 @@ fn stand_in() -> Result<([Winding<f64>; 2], f64), TwipError> {
 impl RigPlants {
     /// The plants of `rigs` (each lane's `models`' robot) for steps of `dt`.
     fn new(rigs: &[PlanarRig<f64>], models: &[PlanarModel<f64>; LANES], dt: f64, stand_in: ([Winding<f64>; 2], f64)) -> Self {
-        let friction = rigs[0].plant.model().friction().copied();
-        // Each lane's windings with their factors for steps of `dt` (their steps are set each
-        // step), and the stand-ins for lanes that never evaluate one (no driver).
-        let drives = |l: usize| {
-            rigs[l].plant.drives().map(|(mut w, per_amp)| {
-                w.iter_mut().for_each(|w| w.prepare(dt));
-                (w, per_amp)
-            })
-        };
+        let drives: [([Winding<f64>; 2], f64); LANES] = core::array::from_fn(|l| drives_of(&rigs[l], dt, stand_in));
+        let (gear, friction, drive) = shared_parts(&rigs[0]);
         Self {
             // The rig's model: the sample's, with the realism's gearhead friction.
             plants: Plants::new(&core::array::from_fn(|l| *rigs[l].plant.model())),
-            gear: super::kinds::gear(friction.as_ref()),
-            // Unused without a friction: any friction's numbers.
-            friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
-            drive: super::kinds::drive(rigs[0].plant.drives().map(|(w, _)| w[0].inductive())),
-            windings: core::array::from_fn(|wheel| {
-                WindingLanes::new(&core::array::from_fn(|l| {
-                    let (w, per_amp) = drives(l).unwrap_or(stand_in);
-                    (w[wheel], per_amp)
-                }))
-            }),
+            gear,
+            friction,
+            drive,
+            windings: core::array::from_fn(|wheel| WindingLanes::new(&drives.map(|(w, per_amp)| (w[wheel], per_amp)))),
             forces: core::array::from_fn(|l| rigs[l].plant.force()),
             rotors: core::array::from_fn(|l| models[l].rotor_per_wheel()),
         }
     }
+
+    /// Lane `l`'s numbers anew from its rig `rigs[l]` (a robot started anew: its windings'
+    /// state too), the other lanes' as they are (their windings' states are theirs): what
+    /// [`Self::new`] of `rigs` gives (a lane's numbers are its rig's and model's, which do
+    /// not change, and the parts every lane shares are lane 0's), without making every lane's
+    /// anew (`perf` of Track-v0's rig: 2-3 % of the samples in `new` at each restart).
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    fn restart_lane(&mut self, l: usize, rigs: &[PlanarRig<f64>], models: &[PlanarModel<f64>; LANES], dt: f64, stand_in: ([Winding<f64>; 2], f64)) {
+        (self.gear, self.friction, self.drive) = shared_parts(&rigs[0]);
+        self.plants.set_lane(l, rigs[l].plant.model());
+        let (w, per_amp) = drives_of(&rigs[l], dt, stand_in);
+        for (wheel, lanes) in self.windings.iter_mut().enumerate() {
+            lanes.set_lane(l, (w[wheel], per_amp));
+        }
+        self.forces[l] = rigs[l].plant.force();
+        self.rotors[l] = models[l].rotor_per_wheel();
+    }
+}
+
+/// `rig`'s windings with their factors for steps of `dt` (their steps are set each step)
+/// and the wheel torque per ampere; the stand-ins for a lane that never evaluates one (no driver).
+fn drives_of(rig: &PlanarRig<f64>, dt: f64, stand_in: ([Winding<f64>; 2], f64)) -> ([Winding<f64>; 2], f64) {
+    rig.plant.drives().map_or(stand_in, |(mut w, per_amp)| {
+        w.iter_mut().for_each(|w| w.prepare(dt));
+        (w, per_amp)
+    })
+}
+
+/// What every lane's plant shares, from lane 0's rig `rig` (every lane's realism has the same
+/// parts): the gearhead's kind and friction, the drive's kind.
+fn shared_parts(rig: &PlanarRig<f64>) -> (u8, Friction<Fused>, u8) {
+    let friction = rig.plant.model().friction().copied();
+    (
+        super::kinds::gear(friction.as_ref()),
+        // Unused without a friction: any friction's numbers.
+        friction.unwrap_or_else(Friction::gb37).map(Fused),
+        super::kinds::drive(rig.plant.drives().map(|(w, _)| w[0].inductive())),
+    )
 }
 
 /// `$self.$run::<GEAR, DRIVE, GEARED>(args)` for the plants' kinds; GEARED only while
@@ -615,13 +640,7 @@ impl PlanarRigLanes {
         (self.models[l], self.rigs[l]) = (model, rig);
         set_lane(&mut self.x, l, &xl);
         set_lane(&mut self.y, l, &SVector::zeros());
-        // The plants' numbers anew from every lane's rig; the windings' states are each lane's.
-        let fresh = RigPlants::new(&self.rigs, &self.models, self.dt, self.stand_in);
-        let windings = core::mem::replace(&mut self.plants, fresh).windings;
-        let fresh = core::mem::replace(&mut self.plants.windings, windings);
-        for (mine, new) in self.plants.windings.iter_mut().zip(&fresh) {
-            mine.copy_lane(l, new);
-        }
+        self.plants.restart_lane(l, &self.rigs, &self.models, self.dt, self.stand_in);
         let plant = &self.rigs[l].plant;
         (self.engaged[l], self.quiet_engaged[l]) = (plant.trains(), plant.unpushed());
         self.held.clear(l, |u| (u[0][l], u[1][l]) = (0.0, 0.0));
