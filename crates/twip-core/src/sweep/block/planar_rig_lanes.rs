@@ -465,18 +465,8 @@ impl ImuLanes {
             // `perf`, when every lane's IMU samples at every step).
             let all_due = lanes.iter().all(|&d| d);
             let before = if all_due { None } else { Some((*pitch, *yaw)) };
-            let (xs, ds): ([Wide; 7], [Wide; 7]) = (fill(|i| chunk(&x[i], c)), fill(|i| chunk(&xdot[i], c)));
-            let n = [fill(|i| chunk(&noise[0][i], c)), fill(|i| chunk(&noise[1][i], c))];
             let dims = (chunk(&self.radius, c), chunk(&self.inv_r, c), pitch.settings().height, chunk(&self.g, c));
-            match &gradients {
-                None => sample_imus((pitch, yaw), &xs, &ds, Wide::sincos(xs[3]).1, n, dims),
-                Some([gx, gy]) => {
-                    let (s, co) = Wide::sincos(xs[2]);
-                    let f = Frame::new(chunk(gx, c), chunk(gy, c), s, co);
-                    let trig = (Wide::sincos(f.delta), Wide::sincos(xs[3] + f.delta).1);
-                    sample_imus_in_frame((pitch, yaw), &f, &xs, &ds, trig, n, dims);
-                }
-            }
+            sample_chunk((pitch, yaw), c, dims, noise, x, xdot, gradients.as_ref());
             if let Some(before) = before {
                 let keep = |now: Wide, was: Wide| Wide(core::array::from_fn(|j| if lanes[j] { now.0[j] } else { was.0[j] }));
                 pitch.zip_state(&before.0, keep);
@@ -495,18 +485,22 @@ impl ImuLanes {
         self.noise.restart(l, rng, &noise);
         let due: [bool; LANES] = core::array::from_fn(|m| m == l && self.clocks[l].due(0.0));
         let (c, j) = (l / WIDTH, l % WIDTH);
-        let kept = self.imus[c];
         let take_j = lane_from(j);
-        // Their filters start from their first sample: the chunk's unprimed for it, then put back.
-        let (p, y) = &mut self.imus[c];
+        // Their filters start from their first sample: on a copy of the chunk's, unprimed for
+        // it, whose lane j is this robot's (the other lanes' numbers there are not kept; sampled
+        // in the chunk itself, the chunk was copied to put them back, 4-5 copies of 11.6 kB).
+        let noise = self.noise.draw(&due);
+        let (mut p, mut y) = self.imus[c];
         p.zip_state(&pitch.map(Wide::splat), take_j);
         y.zip_state(&yaw.map(Wide::splat), take_j);
         p.unprime();
         y.unprime();
-        self.sample_where(&due, x, xdot, None);
-        let first = core::mem::replace(&mut self.imus[c], kept);
-        self.imus[c].0.zip_state(&first.0, take_j);
-        self.imus[c].1.zip_state(&first.1, take_j);
+        if due[l] {
+            let dims = (chunk(&self.radius, c), chunk(&self.inv_r, c), p.settings().height, chunk(&self.g, c));
+            sample_chunk((&mut p, &mut y), c, dims, noise, x, xdot, None);
+        }
+        self.imus[c].0.zip_state(&p, take_j);
+        self.imus[c].1.zip_state(&y, take_j);
     }
 
     /// The latest registers into each lane's sensors (which the firmware's read takes).
@@ -517,6 +511,34 @@ impl ImuLanes {
                 let at = |r: &ImuReading<Wide>| ImuReading { accel_x: r.accel_x.0[j], accel_z: r.accel_z.0[j], gyro: r.gyro.0[j] };
                 rigs[c * WIDTH + j].sensors.set_imu_readings(at(&p), at(&y));
             }
+        }
+    }
+}
+
+/// `PlanarSensors::sample`'s IMU part on chunk `c`'s lanes of the IMUs (every lane of the
+/// chunk: the caller keeps the lanes due): state `x`, derivative `xdot`, the noise `noise` of
+/// every lane, `dims` (radius, 1/radius, the sensor's height, gravity) of the chunk's lanes;
+/// on the ground's `gradients` (None: flat), as `sample_imus_on_terrain`.
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+fn sample_chunk(
+    (pitch, yaw): (&mut Mpu6050<Wide>, &mut Mpu6050<Wide>),
+    c: usize,
+    dims: (Wide, Wide, Wide, Wide),
+    noise: &[[Lanes; 4]; 2],
+    x: &[Lanes; 7],
+    xdot: &[Lanes; 7],
+    gradients: Option<&[Lanes; 2]>,
+) {
+    let (xs, ds): ([Wide; 7], [Wide; 7]) = (fill(|i| chunk(&x[i], c)), fill(|i| chunk(&xdot[i], c)));
+    let n = [fill(|i| chunk(&noise[0][i], c)), fill(|i| chunk(&noise[1][i], c))];
+    match gradients {
+        None => sample_imus((pitch, yaw), &xs, &ds, Wide::sincos(xs[3]).1, n, dims),
+        Some([gx, gy]) => {
+            let (s, co) = Wide::sincos(xs[2]);
+            let f = Frame::new(chunk(gx, c), chunk(gy, c), s, co);
+            let trig = (Wide::sincos(f.delta), Wide::sincos(xs[3] + f.delta).1);
+            sample_imus_in_frame((pitch, yaw), &f, &xs, &ds, trig, n, dims);
         }
     }
 }

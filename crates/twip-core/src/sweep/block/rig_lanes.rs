@@ -423,7 +423,7 @@ impl ImuLanes {
     /// The lanes `due` sample (the others' IMUs stay as they are).
     #[cfg_attr(not(debug_assertions), inline(always))]
     fn sample_where(&mut self, hills: &Hills, due: &[bool; LANES], x: &[Lanes; 4], xdot: &[Lanes; 4]) {
-        let [sin, cos] = hills.trig_at(&x[2]);
+        let trig = hills.trig_at(&x[2]);
         let [noise] = self.noise.draw(due);
         for (c, imu) in self.imus.iter_mut().enumerate() {
             let lanes = &due[c * WIDTH..(c + 1) * WIDTH];
@@ -432,11 +432,7 @@ impl ImuLanes {
             }
             // The IMU as it was, for the lanes not due: only when some are not.
             let before = if lanes.iter().all(|&d| d) { None } else { Some(*imu) };
-            let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
-            let height = imu.settings().height;
-            let (radius, g) = (chunk(&hills.radius, c), chunk(&self.g, c));
-            let (fx, fz) = specific_force_of(&xs, &ds, chunk(&sin, c), chunk(&cos, c), radius, height, g);
-            imu.sample_with(fx, fz, xs[1], core::array::from_fn(|i| chunk(&noise[i], c)));
+            sample_chunk(imu, c, hills, &self.g, &trig, noise, x, xdot);
             if let Some(before) = before {
                 imu.zip_state(&before, |now, was| Wide(core::array::from_fn(|j| if lanes[j] { now.0[j] } else { was.0[j] })));
             }
@@ -452,13 +448,17 @@ impl ImuLanes {
         self.noise.restart(l, rng, &[noise]);
         let due: [bool; LANES] = core::array::from_fn(|m| m == l && self.clocks[l].due(0.0));
         let (c, j) = (l / WIDTH, l % WIDTH);
-        let kept = self.imus[c];
         let take_j = lane_from(j);
-        // Its filters start from its first sample: the chunk's unprimed for it, then put back.
-        self.imus[c].zip_state(&fresh.map(Wide::splat), take_j);
-        self.imus[c].unprime();
-        self.sample_where(hills, &due, x, xdot);
-        let first = core::mem::replace(&mut self.imus[c], kept);
+        // Its filters start from its first sample: on a copy of its chunk, unprimed for it,
+        // whose lane j is its own (the other lanes' numbers there are not kept; sampled in the
+        // chunk itself, the chunk was copied to put them back, 4-5 copies of 5.8 kB a restart).
+        let [noise] = self.noise.draw(&due);
+        let mut first = self.imus[c];
+        first.zip_state(&fresh.map(Wide::splat), take_j);
+        first.unprime();
+        if due[l] {
+            sample_chunk(&mut first, c, hills, &self.g, &hills.trig_at(&x[2]), noise, x, xdot);
+        }
         self.imus[c].zip_state(&first, take_j);
     }
 
@@ -472,6 +472,19 @@ impl ImuLanes {
             }
         }
     }
+}
+
+/// `BalanceSensors::sample`'s IMU sample on chunk `c`'s lanes of `imu` (every lane of the
+/// chunk: the caller keeps the lanes due): state `x`, derivative `xdot`, the ground's (sin,
+/// cos) `trig` under each lane, gravity `g` and the noise `noise` of every lane.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn sample_chunk(imu: &mut Mpu6050<Wide>, c: usize, hills: &Hills, g: &Lanes, [sin, cos]: &[Lanes; 2], noise: &[Lanes; 4], x: &[Lanes; 4], xdot: &[Lanes; 4]) {
+    let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
+    let height = imu.settings().height;
+    let (radius, g) = (chunk(&hills.radius, c), chunk(g, c));
+    let (fx, fz) = specific_force_of(&xs, &ds, chunk(sin, c), chunk(cos, c), radius, height, g);
+    imu.sample_with(fx, fz, xs[1], core::array::from_fn(|i| chunk(&noise[i], c)));
 }
 
 /// Lane `l` of a state.
