@@ -424,9 +424,10 @@ impl<T: Real> PlanarSensors<T> {
     ) -> Result<Self, TwipError> {
         let imu = match imu {
             Some(s) => {
+                // The yaw IMU is the pitch one as built (the same settings): its filters designed once.
                 let pitch = Mpu6050::new(s)?;
                 crate::hardware::realism::check_imu_grid(pitch.settings(), dt)?;
-                Some((pitch, Mpu6050::new(s)?))
+                Some((pitch, pitch))
             }
             None => None,
         };

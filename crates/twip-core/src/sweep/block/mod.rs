@@ -94,14 +94,24 @@ pub(crate) struct Plants([Lanes; 14]);
 
 impl Plants {
     pub(crate) fn new(c: &[SlopeCoefficients<f64>; LANES]) -> Self {
-        let fields = |k: &SlopeCoefficients<f64>| {
-            [
-                k.m11, k.m22, k.m11_m22, k.mrl, k.mrl_cos, k.mrl_sin, k.rotor, k.mgl, k.grade, k.torque_per_amp,
-                k.mu_bearing, k.mu_ground, k.sin_slope, k.cos_slope,
-            ]
-        };
-        let per_lane = c.map(|k| fields(&k));
+        let per_lane = c.map(|k| Self::fields(&k));
         Self(core::array::from_fn(|f| core::array::from_fn(|l| per_lane[l][f])))
+    }
+
+    /// Lane `l`'s coefficients set to `k` (a robot started anew), the others' as they are.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(crate) fn set_lane(&mut self, l: usize, k: &SlopeCoefficients<f64>) {
+        for (field, v) in self.0.iter_mut().zip(Self::fields(k)) {
+            field[l] = v;
+        }
+    }
+
+    /// A robot's coefficients in the order of the arrays.
+    fn fields(k: &SlopeCoefficients<f64>) -> [f64; 14] {
+        [
+            k.m11, k.m22, k.m11_m22, k.mrl, k.mrl_cos, k.mrl_sin, k.rotor, k.mgl, k.grade, k.torque_per_amp,
+            k.mu_bearing, k.mu_ground, k.sin_slope, k.cos_slope,
+        ]
     }
 
     /// Lane `l`'s coefficients.

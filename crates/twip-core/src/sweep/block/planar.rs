@@ -116,6 +116,14 @@ impl Plants {
         Self(core::array::from_fn(|f| core::array::from_fn(|l| per_lane[l][f])))
     }
 
+    /// Lane `l`'s coefficients set to `model`'s (a robot started anew), the others' as they are.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(crate) fn set_lane(&mut self, l: usize, model: &PlanarModel<f64>) {
+        for (field, v) in self.0.iter_mut().zip(model.coefficients().to_array()) {
+            field[l] = v;
+        }
+    }
+
     /// Lane `l`'s coefficients.
     #[inline(always)]
     pub(crate) fn lane(&self, l: usize) -> PlanarCoefficients<Fused> {

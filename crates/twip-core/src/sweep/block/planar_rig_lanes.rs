@@ -236,32 +236,57 @@ fn stand_in() -> Result<([Winding<f64>; 2], f64), TwipError> {
 impl RigPlants {
     /// The plants of `rigs` (each lane's `models`' robot) for steps of `dt`.
     fn new(rigs: &[PlanarRig<f64>], models: &[PlanarModel<f64>; LANES], dt: f64, stand_in: ([Winding<f64>; 2], f64)) -> Self {
-        let friction = rigs[0].plant.model().friction().copied();
-        // Each lane's windings with their factors for steps of `dt` (their steps are set each
-        // step), and the stand-ins for lanes that never evaluate one (no driver).
-        let drives = |l: usize| {
-            rigs[l].plant.drives().map(|(mut w, per_amp)| {
-                w.iter_mut().for_each(|w| w.prepare(dt));
-                (w, per_amp)
-            })
-        };
+        let drives: [([Winding<f64>; 2], f64); LANES] = core::array::from_fn(|l| drives_of(&rigs[l], dt, stand_in));
+        let (gear, friction, drive) = shared_parts(&rigs[0]);
         Self {
             // The rig's model: the sample's, with the realism's gearhead friction.
             plants: Plants::new(&core::array::from_fn(|l| *rigs[l].plant.model())),
-            gear: super::kinds::gear(friction.as_ref()),
-            // Unused without a friction: any friction's numbers.
-            friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
-            drive: super::kinds::drive(rigs[0].plant.drives().map(|(w, _)| w[0].inductive())),
-            windings: core::array::from_fn(|wheel| {
-                WindingLanes::new(&core::array::from_fn(|l| {
-                    let (w, per_amp) = drives(l).unwrap_or(stand_in);
-                    (w[wheel], per_amp)
-                }))
-            }),
+            gear,
+            friction,
+            drive,
+            windings: core::array::from_fn(|wheel| WindingLanes::new(&drives.map(|(w, per_amp)| (w[wheel], per_amp)))),
             forces: core::array::from_fn(|l| rigs[l].plant.force()),
             rotors: core::array::from_fn(|l| models[l].rotor_per_wheel()),
         }
     }
+
+    /// Lane `l`'s numbers anew from its rig `rigs[l]` (a robot started anew: its windings'
+    /// state too), the other lanes' as they are (their windings' states are theirs): what
+    /// [`Self::new`] of `rigs` gives (a lane's numbers are its rig's and model's, which do
+    /// not change, and the parts every lane shares are lane 0's), without making every lane's
+    /// anew (`perf` of Track-v0's rig: 2-3 % of the samples in `new` at each restart).
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    fn restart_lane(&mut self, l: usize, rigs: &[PlanarRig<f64>], models: &[PlanarModel<f64>; LANES], dt: f64, stand_in: ([Winding<f64>; 2], f64)) {
+        (self.gear, self.friction, self.drive) = shared_parts(&rigs[0]);
+        self.plants.set_lane(l, rigs[l].plant.model());
+        let (w, per_amp) = drives_of(&rigs[l], dt, stand_in);
+        for (wheel, lanes) in self.windings.iter_mut().enumerate() {
+            lanes.set_lane(l, (w[wheel], per_amp));
+        }
+        self.forces[l] = rigs[l].plant.force();
+        self.rotors[l] = models[l].rotor_per_wheel();
+    }
+}
+
+/// `rig`'s windings with their factors for steps of `dt` (their steps are set each step)
+/// and the wheel torque per ampere; the stand-ins for a lane that never evaluates one (no driver).
+fn drives_of(rig: &PlanarRig<f64>, dt: f64, stand_in: ([Winding<f64>; 2], f64)) -> ([Winding<f64>; 2], f64) {
+    rig.plant.drives().map_or(stand_in, |(mut w, per_amp)| {
+        w.iter_mut().for_each(|w| w.prepare(dt));
+        (w, per_amp)
+    })
+}
+
+/// What every lane's plant shares, from lane 0's rig `rig` (every lane's realism has the same
+/// parts): the gearhead's kind and friction, the drive's kind.
+fn shared_parts(rig: &PlanarRig<f64>) -> (u8, Friction<Fused>, u8) {
+    let friction = rig.plant.model().friction().copied();
+    (
+        super::kinds::gear(friction.as_ref()),
+        // Unused without a friction: any friction's numbers.
+        friction.unwrap_or_else(Friction::gb37).map(Fused),
+        super::kinds::drive(rig.plant.drives().map(|(w, _)| w[0].inductive())),
+    )
 }
 
 /// `$self.$run::<GEAR, DRIVE, GEARED>(args)` for the plants' kinds; GEARED only while
@@ -440,18 +465,8 @@ impl ImuLanes {
             // `perf`, when every lane's IMU samples at every step).
             let all_due = lanes.iter().all(|&d| d);
             let before = if all_due { None } else { Some((*pitch, *yaw)) };
-            let (xs, ds): ([Wide; 7], [Wide; 7]) = (fill(|i| chunk(&x[i], c)), fill(|i| chunk(&xdot[i], c)));
-            let n = [fill(|i| chunk(&noise[0][i], c)), fill(|i| chunk(&noise[1][i], c))];
             let dims = (chunk(&self.radius, c), chunk(&self.inv_r, c), pitch.settings().height, chunk(&self.g, c));
-            match &gradients {
-                None => sample_imus((pitch, yaw), &xs, &ds, Wide::sincos(xs[3]).1, n, dims),
-                Some([gx, gy]) => {
-                    let (s, co) = Wide::sincos(xs[2]);
-                    let f = Frame::new(chunk(gx, c), chunk(gy, c), s, co);
-                    let trig = (Wide::sincos(f.delta), Wide::sincos(xs[3] + f.delta).1);
-                    sample_imus_in_frame((pitch, yaw), &f, &xs, &ds, trig, n, dims);
-                }
-            }
+            sample_chunk((pitch, yaw), c, dims, noise, x, xdot, gradients.as_ref());
             if let Some(before) = before {
                 let keep = |now: Wide, was: Wide| Wide(core::array::from_fn(|j| if lanes[j] { now.0[j] } else { was.0[j] }));
                 pitch.zip_state(&before.0, keep);
@@ -470,18 +485,22 @@ impl ImuLanes {
         self.noise.restart(l, rng, &noise);
         let due: [bool; LANES] = core::array::from_fn(|m| m == l && self.clocks[l].due(0.0));
         let (c, j) = (l / WIDTH, l % WIDTH);
-        let kept = self.imus[c];
         let take_j = lane_from(j);
-        // Their filters start from their first sample: the chunk's unprimed for it, then put back.
-        let (p, y) = &mut self.imus[c];
+        // Their filters start from their first sample: on a copy of the chunk's, unprimed for
+        // it, whose lane j is this robot's (the other lanes' numbers there are not kept; sampled
+        // in the chunk itself, the chunk was copied to put them back, 4-5 copies of 11.6 kB).
+        let noise = self.noise.draw(&due);
+        let (mut p, mut y) = self.imus[c];
         p.zip_state(&pitch.map(Wide::splat), take_j);
         y.zip_state(&yaw.map(Wide::splat), take_j);
         p.unprime();
         y.unprime();
-        self.sample_where(&due, x, xdot, None);
-        let first = core::mem::replace(&mut self.imus[c], kept);
-        self.imus[c].0.zip_state(&first.0, take_j);
-        self.imus[c].1.zip_state(&first.1, take_j);
+        if due[l] {
+            let dims = (chunk(&self.radius, c), chunk(&self.inv_r, c), p.settings().height, chunk(&self.g, c));
+            sample_chunk((&mut p, &mut y), c, dims, noise, x, xdot, None);
+        }
+        self.imus[c].0.zip_state(&p, take_j);
+        self.imus[c].1.zip_state(&y, take_j);
     }
 
     /// The latest registers into each lane's sensors (which the firmware's read takes).
@@ -492,6 +511,34 @@ impl ImuLanes {
                 let at = |r: &ImuReading<Wide>| ImuReading { accel_x: r.accel_x.0[j], accel_z: r.accel_z.0[j], gyro: r.gyro.0[j] };
                 rigs[c * WIDTH + j].sensors.set_imu_readings(at(&p), at(&y));
             }
+        }
+    }
+}
+
+/// `PlanarSensors::sample`'s IMU part on chunk `c`'s lanes of the IMUs (every lane of the
+/// chunk: the caller keeps the lanes due): state `x`, derivative `xdot`, the noise `noise` of
+/// every lane, `dims` (radius, 1/radius, the sensor's height, gravity) of the chunk's lanes;
+/// on the ground's `gradients` (None: flat), as `sample_imus_on_terrain`.
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+fn sample_chunk(
+    (pitch, yaw): (&mut Mpu6050<Wide>, &mut Mpu6050<Wide>),
+    c: usize,
+    dims: (Wide, Wide, Wide, Wide),
+    noise: &[[Lanes; 4]; 2],
+    x: &[Lanes; 7],
+    xdot: &[Lanes; 7],
+    gradients: Option<&[Lanes; 2]>,
+) {
+    let (xs, ds): ([Wide; 7], [Wide; 7]) = (fill(|i| chunk(&x[i], c)), fill(|i| chunk(&xdot[i], c)));
+    let n = [fill(|i| chunk(&noise[0][i], c)), fill(|i| chunk(&noise[1][i], c))];
+    match gradients {
+        None => sample_imus((pitch, yaw), &xs, &ds, Wide::sincos(xs[3]).1, n, dims),
+        Some([gx, gy]) => {
+            let (s, co) = Wide::sincos(xs[2]);
+            let f = Frame::new(chunk(gx, c), chunk(gy, c), s, co);
+            let trig = (Wide::sincos(f.delta), Wide::sincos(xs[3] + f.delta).1);
+            sample_imus_in_frame((pitch, yaw), &f, &xs, &ds, trig, n, dims);
         }
     }
 }
@@ -615,13 +662,7 @@ impl PlanarRigLanes {
         (self.models[l], self.rigs[l]) = (model, rig);
         set_lane(&mut self.x, l, &xl);
         set_lane(&mut self.y, l, &SVector::zeros());
-        // The plants' numbers anew from every lane's rig; the windings' states are each lane's.
-        let fresh = RigPlants::new(&self.rigs, &self.models, self.dt, self.stand_in);
-        let windings = core::mem::replace(&mut self.plants, fresh).windings;
-        let fresh = core::mem::replace(&mut self.plants.windings, windings);
-        for (mine, new) in self.plants.windings.iter_mut().zip(&fresh) {
-            mine.copy_lane(l, new);
-        }
+        self.plants.restart_lane(l, &self.rigs, &self.models, self.dt, self.stand_in);
         let plant = &self.rigs[l].plant;
         (self.engaged[l], self.quiet_engaged[l]) = (plant.trains(), plant.unpushed());
         self.held.clear(l, |u| (u[0][l], u[1][l]) = (0.0, 0.0));

@@ -132,9 +132,8 @@ impl Hills {
         let starts = core::array::from_fn(|j| grounds[0].slope_changes().nth(j).unwrap_or(f64::INFINITY));
         let last = grounds[0].slope_changes().count();
         let pieces = core::array::from_fn(|j| {
-            let terms = grounds.map(|g| g.piece_terms(j.min(last)));
-            let field = |f: fn(&(SlopeCoefficients<f64>, f64)) -> f64| core::array::from_fn(|l| f(&terms[l]));
-            [field(|t| t.0.mrl_cos), field(|t| t.0.mrl_sin), field(|t| t.0.grade), field(|t| t.0.sin_slope), field(|t| t.0.cos_slope), field(|t| t.1)]
+            let terms = grounds.map(|g| Self::piece_fields(g, j.min(last)));
+            core::array::from_fn(|i| core::array::from_fn(|l| terms[l][i]))
         });
         let changes = match last {
             0 => 0,
@@ -142,6 +141,25 @@ impl Hills {
             _ => MAX_SLOPE_CHANGES,
         };
         Self { starts, pieces, radius, changes }
+    }
+
+    /// Lane `l` on `ground` with wheels of `radius` (a robot started anew), the other lanes
+    /// as they are and where lane 0's ground has its changes: lane `l` of [`Self::new`].
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    fn set_lane(&mut self, l: usize, ground: &Disturbed<f64>, lane0: &Disturbed<f64>, radius: f64) {
+        let last = lane0.slope_changes().count();
+        for (j, piece) in self.pieces.iter_mut().enumerate() {
+            for (field, v) in piece.iter_mut().zip(Self::piece_fields(ground, j.min(last))) {
+                field[l] = v;
+            }
+        }
+        self.radius[l] = radius;
+    }
+
+    /// Piece `i`'s `mrl_cos`, `mrl_sin`, `grade`, `sin_slope`, `cos_slope` and q_θ on `ground`.
+    fn piece_fields(ground: &Disturbed<f64>, i: usize) -> [f64; 6] {
+        let (k, q_theta) = ground.piece_terms(i);
+        [k.mrl_cos, k.mrl_sin, k.grade, k.sin_slope, k.cos_slope, q_theta]
     }
 
     /// Lane `l`'s force part on θ on a ground of one slope.
@@ -206,29 +224,54 @@ fn stand_in() -> Result<(Winding<f64>, f64), TwipError> {
 impl RigPlants {
     /// The plants of `rigs` (each lane's `models`' robot) for steps of `dt`.
     fn new(rigs: &[SlopeRig<f64>], models: &[SlopeModel<f64>; LANES], dt: f64, stand_in: (Winding<f64>, f64)) -> Self {
-        let ground = |l: usize| *rigs[l].plant.ground().model_at(&Vector4::zeros());
-        let friction = ground(0).friction().copied();
-        // Each lane's winding with its factors for steps of `dt`.
-        let winding = |l: usize| {
-            rigs[l].plant.driven_winding().map(|(mut w, per_amp)| {
-                w.prepare(dt);
-                (w, per_amp)
-            })
-        };
+        let friction = ground_model(&rigs[0]).friction().copied();
         Self {
-            plants: Plants::new(&core::array::from_fn(|l| ground(l).coefficients())),
+            plants: Plants::new(&core::array::from_fn(|l| ground_model(&rigs[l]).coefficients())),
             gear: super::kinds::gear(friction.as_ref()),
             // Unused without a friction: any friction's numbers.
             friction: friction.unwrap_or_else(Friction::gb37).map(Fused),
             drive: super::kinds::drive(rigs[0].plant.driven_winding().map(|(w, _)| w.inductive())),
             // Unused without a driver (the held current is the input).
-            windings: WindingLanes::new(&core::array::from_fn(|l| winding(l).unwrap_or(stand_in))),
+            windings: WindingLanes::new(&core::array::from_fn(|l| winding_of(&rigs[l], dt, stand_in))),
             // Every lane's realism has the same parts (but for where pushes and forces act).
             geared: rigs[0].plant.ground().has_play(),
             forces: core::array::from_fn(|l| rigs[l].plant.ground().force()),
             hills: Hills::new(core::array::from_fn(|l| rigs[l].plant.ground()), core::array::from_fn(|l| models[l].params().wheel_radius)),
         }
     }
+
+    /// Lane `l`'s numbers anew from its rig `rigs[l]` (a robot started anew: its winding's
+    /// state too), the other lanes' as they are (their windings' states are theirs): what
+    /// [`Self::new`] of `rigs` gives (a lane's numbers are its rig's and model's, which do
+    /// not change), without making every lane's anew. Lane 0's rig sets the parts every lane
+    /// shares (friction, drive, play, where the slope changes): its restart makes them all anew.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    fn restart_lane(&mut self, l: usize, rigs: &[SlopeRig<f64>], models: &[SlopeModel<f64>; LANES], dt: f64, stand_in: (Winding<f64>, f64)) {
+        let fresh = winding_of(&rigs[l], dt, stand_in);
+        if l == 0 {
+            let windings = core::mem::replace(self, Self::new(rigs, models, dt, stand_in)).windings;
+            self.windings = windings;
+        } else {
+            self.plants.set_lane(l, &ground_model(&rigs[l]).coefficients());
+            self.forces[l] = rigs[l].plant.ground().force();
+            self.hills.set_lane(l, rigs[l].plant.ground(), rigs[0].plant.ground(), models[l].params().wheel_radius);
+        }
+        self.windings.set_lane(l, fresh);
+    }
+}
+
+/// `rig`'s ground model at rest (its first piece: the coefficients but for the slope's).
+fn ground_model(rig: &SlopeRig<f64>) -> SlopeModel<f64> {
+    *rig.plant.ground().model_at(&Vector4::zeros())
+}
+
+/// `rig`'s winding with its factors for steps of `dt` and its input per ampere; the
+/// stand-in for a lane that never evaluates one (no driver).
+fn winding_of(rig: &SlopeRig<f64>, dt: f64, stand_in: (Winding<f64>, f64)) -> (Winding<f64>, f64) {
+    rig.plant.driven_winding().map_or(stand_in, |(mut w, per_amp)| {
+        w.prepare(dt);
+        (w, per_amp)
+    })
 }
 
 /// `$run::<GEAR, DRIVE, GEARED, CHANGES>(args)` for the plants' kinds (`$drive`: what
@@ -380,7 +423,7 @@ impl ImuLanes {
     /// The lanes `due` sample (the others' IMUs stay as they are).
     #[cfg_attr(not(debug_assertions), inline(always))]
     fn sample_where(&mut self, hills: &Hills, due: &[bool; LANES], x: &[Lanes; 4], xdot: &[Lanes; 4]) {
-        let [sin, cos] = hills.trig_at(&x[2]);
+        let trig = hills.trig_at(&x[2]);
         let [noise] = self.noise.draw(due);
         for (c, imu) in self.imus.iter_mut().enumerate() {
             let lanes = &due[c * WIDTH..(c + 1) * WIDTH];
@@ -389,11 +432,7 @@ impl ImuLanes {
             }
             // The IMU as it was, for the lanes not due: only when some are not.
             let before = if lanes.iter().all(|&d| d) { None } else { Some(*imu) };
-            let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
-            let height = imu.settings().height;
-            let (radius, g) = (chunk(&hills.radius, c), chunk(&self.g, c));
-            let (fx, fz) = specific_force_of(&xs, &ds, chunk(&sin, c), chunk(&cos, c), radius, height, g);
-            imu.sample_with(fx, fz, xs[1], core::array::from_fn(|i| chunk(&noise[i], c)));
+            sample_chunk(imu, c, hills, &self.g, &trig, noise, x, xdot);
             if let Some(before) = before {
                 imu.zip_state(&before, |now, was| Wide(core::array::from_fn(|j| if lanes[j] { now.0[j] } else { was.0[j] })));
             }
@@ -409,13 +448,17 @@ impl ImuLanes {
         self.noise.restart(l, rng, &[noise]);
         let due: [bool; LANES] = core::array::from_fn(|m| m == l && self.clocks[l].due(0.0));
         let (c, j) = (l / WIDTH, l % WIDTH);
-        let kept = self.imus[c];
         let take_j = lane_from(j);
-        // Its filters start from its first sample: the chunk's unprimed for it, then put back.
-        self.imus[c].zip_state(&fresh.map(Wide::splat), take_j);
-        self.imus[c].unprime();
-        self.sample_where(hills, &due, x, xdot);
-        let first = core::mem::replace(&mut self.imus[c], kept);
+        // Its filters start from its first sample: on a copy of its chunk, unprimed for it,
+        // whose lane j is its own (the other lanes' numbers there are not kept; sampled in the
+        // chunk itself, the chunk was copied to put them back, 4-5 copies of 5.8 kB a restart).
+        let [noise] = self.noise.draw(&due);
+        let mut first = self.imus[c];
+        first.zip_state(&fresh.map(Wide::splat), take_j);
+        first.unprime();
+        if due[l] {
+            sample_chunk(&mut first, c, hills, &self.g, &hills.trig_at(&x[2]), noise, x, xdot);
+        }
         self.imus[c].zip_state(&first, take_j);
     }
 
@@ -429,6 +472,19 @@ impl ImuLanes {
             }
         }
     }
+}
+
+/// `BalanceSensors::sample`'s IMU sample on chunk `c`'s lanes of `imu` (every lane of the
+/// chunk: the caller keeps the lanes due): state `x`, derivative `xdot`, the ground's (sin,
+/// cos) `trig` under each lane, gravity `g` and the noise `noise` of every lane.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn sample_chunk(imu: &mut Mpu6050<Wide>, c: usize, hills: &Hills, g: &Lanes, [sin, cos]: &[Lanes; 2], noise: &[Lanes; 4], x: &[Lanes; 4], xdot: &[Lanes; 4]) {
+    let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
+    let height = imu.settings().height;
+    let (radius, g) = (chunk(&hills.radius, c), chunk(g, c));
+    let (fx, fz) = specific_force_of(&xs, &ds, chunk(sin, c), chunk(cos, c), radius, height, g);
+    imu.sample_with(fx, fz, xs[1], core::array::from_fn(|i| chunk(&noise[i], c)));
 }
 
 /// Lane `l` of a state.
@@ -537,11 +593,7 @@ impl RigLanes {
         for (i, &v) in x0.iter().enumerate() {
             (self.x[i][l], self.y[i][l]) = (v, 0.0);
         }
-        // The plants' numbers anew from every lane's rig; the windings' states are each lane's.
-        let fresh = RigPlants::new(&self.rigs, &self.models, self.dt, self.stand_in);
-        let windings = core::mem::replace(&mut self.plants, fresh).windings;
-        let fresh = core::mem::replace(&mut self.plants.windings, windings);
-        self.plants.windings.copy_lane(l, &fresh);
+        self.plants.restart_lane(l, &self.rigs, &self.models, self.dt, self.stand_in);
         let ground = self.rigs[l].plant.ground();
         (self.engaged[l], self.quiet_engaged[l]) = (ground.engaged(), ground.unpushed() && self.plants.drive != STEADY);
         self.held.clear(l, |u| u[l] = 0.0);

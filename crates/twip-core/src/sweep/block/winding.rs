@@ -28,14 +28,16 @@ impl WindingLanes {
         (self.windings.lane(l), Fused(self.per_amp.0[l]))
     }
 
-    /// Lane `l`'s winding and input per ampere taken from `other` (a robot started anew).
-    pub(super) fn copy_lane(&mut self, l: usize, other: &Self) {
-        self.windings = self.windings.zip(&other.windings, |mine, theirs| {
-            let mut v = *mine;
-            v.0[l] = theirs.0[l];
-            v
+    /// Lane `l`'s winding and input per ampere set to `winding`'s (a robot started anew),
+    /// the other lanes' as they are: lane `l` of [`Self::new`] given it there.
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(super) fn set_lane(&mut self, l: usize, (winding, per_amp): (Winding<f64>, f64)) {
+        self.windings = self.windings.zip(&winding, |&lanes, &v| {
+            let mut lanes = lanes;
+            lanes.0[l] = v;
+            lanes
         });
-        self.per_amp.0[l] = other.per_amp.0[l];
+        self.per_amp.0[l] = per_amp;
     }
 
     /// With inductance: the last step ended with the motors at `ended` (on the lanes
