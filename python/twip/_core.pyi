@@ -375,7 +375,10 @@ class TrackBatch:
         the reference's speeds.
         """
     def true_observations(self) -> _F64:
-        """The observations the true states give (num_envs x 9)."""
+        """The observations the true states give (num_envs x 9). On the ideal plant they are
+        the observations: the next `observations` call (before a step or reset) returns
+        this array instead of making them again.
+        """
     def states(self) -> _F64:
         """Every robot's true state (num_envs rows)."""
     def keys(self) -> Tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint64]]:

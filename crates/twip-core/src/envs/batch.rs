@@ -103,6 +103,9 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> RigRobots<K, NX, NU> 
     }
 }
 
+/// Lanes a task of [`Envs::rows_into`] fills: enough that a task outweighs handing it out.
+const ROWS_A_TASK: usize = 512;
+
 /// `v` with room for `n` items, or the named error.
 fn reserved<T>(n: usize) -> Result<Vec<T>, TwipError> {
     let mut v = Vec::new();
@@ -300,6 +303,22 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
             Robots::Rig(blocks) => blocks[b].put(j, robot),
         }
         (self.keys[l], self.periods[l]) = (key, 0);
+        Ok(())
+    }
+
+    /// `row(self, l)` of every lane `l` into `out` (`W` values a lane, lane after lane), on
+    /// the batch's threads: the numbers one by one would give (each row its own).
+    pub fn rows_into<const W: usize>(&self, out: &mut [f64], row: impl Fn(&Self, usize) -> [f64; W] + Sync) -> Result<(), TwipError> {
+        if out.len() != W * self.n {
+            return Err(TwipError::Shape { name: "rows", expected: (self.n, W), got: (out.len() / W.max(1), W) });
+        }
+        self.pool.install(|| {
+            out.par_chunks_mut(W * ROWS_A_TASK).enumerate().for_each(|(c, rows)| {
+                for (i, r) in rows.chunks_exact_mut(W).enumerate() {
+                    r.copy_from_slice(&row(self, c * ROWS_A_TASK + i));
+                }
+            })
+        });
         Ok(())
     }
 

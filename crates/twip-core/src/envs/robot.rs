@@ -93,7 +93,7 @@ pub(super) fn keys(n: usize) -> Result<alloc::vec::Vec<(u64, u64)>, TwipError> {
 
 /// A block of [`LANES`] robots through their rigs, the rig's lanes (the 2-DOF or the
 /// 3-DOF one's), each lane at its own step: its robot is started anew apart from the others.
-pub trait RigBlock: Sized + Send {
+pub trait RigBlock: Sized + Send + Sync {
     type Model: Copy + Send;
     type Rig: Send;
     /// The state (one array of lanes per entry), one lane's, and the plants' input (one

@@ -243,6 +243,30 @@ mod tests {
         }
     }
 
+    /// The rows a batch fills on its threads are the lanes' one by one, on any thread count
+    /// (1000 robots: two tasks of rows and a part); a buffer of the wrong length is refused.
+    #[test]
+    fn rows_filled_on_the_threads_are_the_lanes_rows() {
+        let rig: RealismFor = Arc::new(|_: &RobotParams<f64>| Ok(Realism::thesis_like()));
+        for realism in [None, Some(rig)] {
+            for threads in [1, 3] {
+                let n = if realism.is_some() { 40 } else { 1000 };
+                let mut envs = TrackEnvs::new(spec(realism.clone()), n, threads).unwrap();
+                let mut fell = alloc::vec![false; n];
+                let actions: Vec<f64> = (0..n).flat_map(|l| act(&envs.observation(l))).collect();
+                envs.step(&actions, &mut fell).unwrap();
+                let mut out = alloc::vec![f64::NAN; n * TRACK_OBS];
+                envs.rows_into(&mut out, |e, l| e.observation(l)).unwrap();
+                let want: Vec<f64> = (0..n).flat_map(|l| envs.observation(l)).collect();
+                assert_eq!(out, want);
+                let mut states = alloc::vec![f64::NAN; n * 7];
+                envs.rows_into(&mut states, |e, l| <[f64; 7]>::from(e.state(l))).unwrap();
+                assert_eq!(states, (0..n).flat_map(|l| <[f64; 7]>::from(envs.state(l))).collect::<Vec<f64>>());
+                assert!(matches!(envs.rows_into(&mut out[1..], |e, l| e.observation(l)), Err(TwipError::Shape { name: "rows", .. })));
+            }
+        }
+    }
+
     /// A robot started anew mid-run, its IMUs' clock out of phase with its neighbours' (a
     /// 2 ms sample period in 5 ms control periods), is bit for bit the single env started
     /// with its seed; and a lane started anew with the key it had is the lane as the batch

@@ -166,13 +166,18 @@ mod lanes {
         // Each lane's as `run` computes it (its sine is the scalar one).
         let force: [(f64, f64); N] = core::array::from_fn(|l| rest_force(lane(l).phi, first.settings().height, lane(l).g));
         let (fx, fz, zero) = (Wide(force.map(|f| f.0)), Wide(force.map(|f| f.1)), Wide::splat(0.0));
-        let mut sample = |imu: &mut Mpu6050<Wide<N>>, t: f64| {
+        // A function always inlined, not a closure: the closure, called twice, was left out
+        // of line and so built without the kernel copy's instructions (SSE2 code in the
+        // AVX-512 copy: `perf annotate` of the env's settle, a quarter of the 2-DOF rig env's time).
+        #[inline(always)]
+        fn sample<const N: usize>(imu: &mut Mpu6050<Wide<N>>, clock: &mut ImuClock<f64>, noise: &mut NoiseLanes<N, 1>, force: [Wide<N>; 3], t: f64) {
             if clock.due(t) {
                 let [n] = noise.draw(&[true; N]);
-                imu.sample_with(fx, fz, zero, n.map(Wide));
+                imu.sample_with(force[0], force[1], force[2], n.map(Wide));
             }
-        };
-        sample(&mut imu, 0.0);
+        }
+        let force = [fx, fz, zero];
+        sample(&mut imu, &mut clock, &mut noise, force, 0.0);
         let mut last: Option<f64> = None;
         for k in 0..reads * per_update {
             let t = dt * k as f64;
@@ -183,7 +188,7 @@ mod lanes {
                 }
                 last = Some(t);
             }
-            sample(&mut imu, t);
+            sample(&mut imu, &mut clock, &mut noise, force, t);
         }
         for robot in robots.iter_mut() {
             *robot.last_read = Some(-(dt * per_update as f64));

@@ -14,7 +14,7 @@ use crate::sweep::{no_friction_in_sweeps, parse_perturbations, PerturbTuple};
 
 batch_class! {
     /// N balancing robots, each keyed (seed, episode); `twip.envs` wraps it.
-    PyBalanceBatch, "BalanceBatch", BalanceEnvs
+    PyBalanceBatch, "BalanceBatch", BalanceEnvs, 4
 }
 
 #[pymethods]
@@ -43,7 +43,8 @@ impl PyBalanceBatch {
     }
 
     /// Every robot's observation (num_envs x 4).
-    fn observations<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        rows::<4>(py, self.inner.len(), |l| self.inner.observation(l).into())
+    fn observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let inner = &self.inner;
+        rows::<4>(py, inner.len(), |out| inner.rows_into(out, |envs, l| envs.observation(l).into()))
     }
 }

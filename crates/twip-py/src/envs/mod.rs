@@ -33,22 +33,27 @@ pub(crate) fn reset_lanes(
     Ok(())
 }
 
-/// `$class`, a pyclass named `$name` over an `Envs` batch (`inner`), with the methods
+/// `$class`, a pyclass named `$name` over an `Envs` batch (`inner`) of robots with
+/// `$states` states, with the methods
 /// both envs' batches share; each env's own `#[pymethods]` add `new` and the observations.
 /// The actions' and the falls' buffers are reused from step to step.
 macro_rules! batch_class {
-    ($(#[$doc:meta])* $class:ident, $name:literal, $envs:ty) => {
+    ($(#[$doc:meta])* $class:ident, $name:literal, $envs:ty, $states:literal) => {
         $(#[$doc])*
         #[pyclass(name = $name, module = "twip._core")]
         pub struct $class {
             inner: $envs,
             actions: Vec<f64>,
             fell: Vec<bool>,
+            /// Observations made since the last step or reset (the ideal plant's true
+            /// ones, which the rewards read), handed out once by `observations` instead of
+            /// made again.
+            kept: Option<Py<numpy::PyArray2<f64>>>,
         }
 
         impl $class {
             fn wrap(inner: $envs) -> Self {
-                Self { inner, actions: Vec::new(), fell: Vec::new() }
+                Self { inner, actions: Vec::new(), fell: Vec::new(), kept: None }
             }
         }
 
@@ -68,6 +73,7 @@ macro_rules! batch_class {
             /// episode 0 of that seed; else the lane's next episode.
             #[pyo3(signature = (lanes, seeds = None))]
             fn reset(&mut self, py: Python<'_>, lanes: Vec<usize>, seeds: Option<Vec<u64>>) -> PyResult<()> {
+                self.kept = None;
                 let inner = &mut self.inner;
                 $crate::envs::reset_lanes(py, &lanes, seeds, |lanes, seeds| inner.reset_many(lanes, seeds))
             }
@@ -75,6 +81,7 @@ macro_rules! batch_class {
             /// One control period of every robot under `actions` (the model's inputs of
             /// each robot, robot after robot); returns which fell.
             fn step<'py>(&mut self, py: Python<'py>, actions: numpy::PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, numpy::PyArray1<bool>>> {
+                self.kept = None;
                 self.actions.clear();
                 self.actions.extend_from_slice(actions.as_slice()?);
                 self.fell.resize(self.inner.len(), false);
@@ -84,8 +91,9 @@ macro_rules! batch_class {
             }
 
             /// Every robot's true state (num_envs rows).
-            fn states<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
-                $crate::envs::rows(py, self.inner.len(), |l| self.inner.state(l).data.0[0])
+            fn states<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+                let inner = &self.inner;
+                $crate::envs::rows::<$states>(py, inner.len(), |out| inner.rows_into(out, |envs, l| envs.state(l).data.0[0]))
             }
 
             /// Every robot's (seed, episode) key, as two uint64 arrays.
@@ -99,8 +107,14 @@ macro_rules! batch_class {
 }
 pub(crate) use batch_class;
 
-/// `n` rows of `W` values as an (n, W) array.
-pub(crate) fn rows<'py, const W: usize>(py: Python<'py>, n: usize, row: impl Fn(usize) -> [f64; W]) -> Bound<'py, PyArray2<f64>> {
-    let data: Vec<f64> = (0..n).flat_map(row).collect();
-    Array2::from_shape_vec((n, W), data).expect("n rows of W").into_pyarray(py)
+/// `n` rows of `W` values as an (n, W) array, which `fill` fills (a batch's `rows_into`, on
+/// its threads) with the GIL released.
+pub(crate) fn rows<'py, const W: usize>(
+    py: Python<'py>,
+    n: usize,
+    fill: impl FnOnce(&mut [f64]) -> Result<(), TwipError> + Send,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let mut data = vec![0.0; n * W];
+    py.detach(|| fill(&mut data)).map_err(crate::errors::PyTwipError)?;
+    Ok(Array2::from_shape_vec((n, W), data).expect("n rows of W").into_pyarray(py))
 }

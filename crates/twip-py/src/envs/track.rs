@@ -15,7 +15,7 @@ use crate::sweep::{parse_perturbations, PerturbTuple};
 
 batch_class! {
     /// N tracking robots on one path, each keyed (seed, episode); `twip.envs` wraps it.
-    PyTrackBatch, "TrackBatch", TrackEnvs
+    PyTrackBatch, "TrackBatch", TrackEnvs, 7
 }
 
 #[pymethods]
@@ -46,12 +46,23 @@ impl PyTrackBatch {
 
     /// Every robot's observation (num_envs x 9): path error in its frame, pitch, speeds,
     /// the reference's speeds.
-    fn observations<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        rows::<TRACK_OBS>(py, self.inner.len(), |l| self.inner.observation(l))
+    fn observations<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        if let Some(kept) = self.kept.take() {
+            return Ok(kept.into_bound(py));
+        }
+        let inner = &self.inner;
+        rows::<TRACK_OBS>(py, inner.len(), |out| inner.rows_into(out, |envs, l| envs.observation(l)))
     }
 
-    /// The observations the true states give (num_envs x 9).
-    fn true_observations<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        rows::<TRACK_OBS>(py, self.inner.len(), |l| self.inner.true_observation(l))
+    /// The observations the true states give (num_envs x 9). On the ideal plant they are
+    /// the observations: the next `observations` call (before a step or reset) returns
+    /// this array instead of making them again.
+    fn true_observations<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let inner = &self.inner;
+        let o = rows::<TRACK_OBS>(py, inner.len(), |out| inner.rows_into(out, |envs, l| envs.true_observation(l)))?;
+        if !inner.has_rig() {
+            self.kept = Some(o.clone().unbind());
+        }
+        Ok(o)
     }
 }

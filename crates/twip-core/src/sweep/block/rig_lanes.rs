@@ -387,13 +387,14 @@ impl ImuLanes {
             if !lanes.iter().any(|&d| d) {
                 continue;
             }
-            let before = *imu;
+            // The IMU as it was, for the lanes not due: only when some are not.
+            let before = if lanes.iter().all(|&d| d) { None } else { Some(*imu) };
             let (xs, ds) = (state_chunk(x, c), state_chunk(xdot, c));
             let height = imu.settings().height;
             let (radius, g) = (chunk(&hills.radius, c), chunk(&self.g, c));
             let (fx, fz) = specific_force_of(&xs, &ds, chunk(&sin, c), chunk(&cos, c), radius, height, g);
             imu.sample_with(fx, fz, xs[1], core::array::from_fn(|i| chunk(&noise[i], c)));
-            if !lanes.iter().all(|&d| d) {
+            if let Some(before) = before {
                 imu.zip_state(&before, |now, was| Wide(core::array::from_fn(|j| if lanes[j] { now.0[j] } else { was.0[j] })));
             }
         }
