@@ -3,28 +3,43 @@
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
+# The venv with pip and maturin, the crates fetched: enough to compile.
+TOOLS := $(VENV)/.tools
+# And every Python package the demo and the tests need.
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test setup build test-rust test-python bench nostd clean
+.PHONY: demo test setup compile build test-rust test-python bench nostd clean
 
 setup: $(STAMP)
 
-$(STAMP): pyproject.toml
+$(TOOLS):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet "maturin>=1.5,<2" "pytest>=7" "scipy>=1.9" "sympy>=1.11" "scikit-fuzzy>=0.4" \
+	$(PY) -m pip install --quiet "maturin>=1.5,<2"
+	cargo fetch --locked 2>/dev/null || cargo fetch
+	touch $(TOOLS)
+
+$(STAMP): $(TOOLS) pyproject.toml
+	$(PY) -m pip install --quiet "pytest>=7" "scipy>=1.9" "sympy>=1.11" "scikit-fuzzy>=0.4" \
 		"numpy>=1.22" "tqdm>=4.60" "dask[distributed]>=2023.1" "mypy>=1.10" "pandas>=1.5" \
 		"matplotlib>=3.5" "pillow>=9" "control>=0.10" "hypothesis>=6" "pytest-xdist>=3" \
 		"gymnasium>=1.0"
-	cargo fetch --locked 2>/dev/null || cargo fetch
 	touch $(STAMP)
 
+# Compiles the extension in place while pip installs the rest (`--skip-install`); `build` then
+# finds it fresh and only installs it. Its cargo finds the cores itself (no jobserver, as
+# test-rust below).
+compile: MAKEFLAGS :=
+compile: $(TOOLS)
+	$(VENV)/bin/maturin develop --release --quiet --skip-install
+
 # Builds the extension in release mode into the venv (maturin develop = the wheel, installed).
-build: setup
+build: setup compile
 	$(VENV)/bin/maturin develop --release --quiet
 
 # Regenerates the thesis's simulations, figures and tables into twip-report/.
-demo: build
+demo:
+	$(MAKE) --no-print-directory --jobs=2 build
 	$(VENV)/bin/twip reproduce
 
 # The core is tested with std and its thread pool (all of it) and without std (the no_std
@@ -35,7 +50,7 @@ demo: build
 # a jobserver that a recipe cannot reach, and rustdoc warned of it.
 test-rust: export CARGO_TARGET_DIR := $(CURDIR)/target/tests
 test-rust: MAKEFLAGS :=
-test-rust: setup
+test-rust: $(TOOLS)
 	cargo test --workspace --exclude twip-py --features twip-core/parallel --quiet
 	cargo test -p twip-core --no-default-features --lib --quiet
 	scripts/check_nostd.sh
@@ -74,8 +89,8 @@ test-python: build
 # goal on this machine. What was tried for the wheel is in Cargo.toml;
 # built at opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than
 # the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
-test: setup
-	$(MAKE) --no-print-directory --jobs=2 --output-sync=target test-rust test-python
+test:
+	$(MAKE) --no-print-directory --jobs=2 --output-sync=target test-python test-rust
 
 nostd:
 	cargo tree -p twip-core --no-default-features -e normal,features

@@ -94,6 +94,27 @@ def test_a_lane_is_twip_simulate_with_the_same_inputs(realism):
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-10)
 
 
+@pytest.mark.parametrize("realism", [None, RIG], ids=["ideal", "rig"])
+def test_the_native_rewards_are_the_numpy_formulas_bits(realism):
+    """The rewards made in Rust are the formula's in NumPy column by column, bit for bit,
+    with falls and odd weights (the bits a vector env's rewards had)."""
+    env = envs.TrackVectorEnv(num_envs=40, realism=realism, perturb=PERTURB, max_episode_steps=25,
+                              reward={"alive": 0.3, "upright": 7.1, "tracking": 3.3, "heading": 0.7, "effort": 0.37})
+    env.reset(seed=2)
+    rng = np.random.default_rng(3)
+    batch, settings = env._episodes.batch, env.settings
+    falls = 0
+    for _ in range(60):
+        a = rng.uniform(-0.2, 1.2, size=(40, 2)) * env.single_action_space.high  # pushed: falls
+        fell = batch.step(a.ravel())
+        rewards = settings.rewards(batch, a)
+        want = settings.reward_terms(batch.true_observations(), a)
+        assert np.array_equal(rewards.view(np.uint64), want.view(np.uint64))
+        falls += fell.sum()
+        batch.reset(np.flatnonzero(fell).tolist())
+    assert falls > 0
+
+
 def test_seeds_give_the_same_bits_on_any_thread_count():
     def rollout(threads):
         env = envs.TrackVectorEnv(num_envs=50, realism=RIG, perturb=PERTURB, threads=threads, max_episode_steps=30)

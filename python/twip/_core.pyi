@@ -379,6 +379,13 @@ class TrackBatch:
         the observations: the next `observations` call (before a step or reset) returns
         this array instead of making them again.
         """
+    def rewards(self, actions: _F64, alive: float, upright: float, tracking: float, heading: float, effort: float,
+                bound: float) -> _F64:
+        """Every robot's reward (num_envs) for the step just taken under `actions`
+        (num_envs x 2): the default terms with these weights on the true observations
+        (`true_observations`, made here), each action over `bound`, with the bits of the
+        formula in NumPy (`twip.envs.track.TrackSettings.reward_terms`).
+        """
     def states(self) -> _F64:
         """Every robot's true state (num_envs rows)."""
     def keys(self) -> Tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint64]]:

@@ -76,9 +76,17 @@ class TrackSettings(Settings):
                                 self.substeps, self.fall_limit, realism=self.realism, threads=self.threads)
 
     def rewards(self, batch, actions: np.ndarray) -> np.ndarray:
-        """The default terms on the true path error and pitch after the step, and the actions."""
+        """The default terms on the true path error and pitch after the step, and the actions
+        (`reward_terms`' numbers, made in Rust in one pass: the NumPy columns cost a sixth of
+        a step of 4096 robots)."""
         w = self.reward
-        o = batch.true_observations()
+        return batch.rewards(actions, w["alive"], w["upright"], w["tracking"], w["heading"], w["effort"],
+                             self.action_bound)
+
+    def reward_terms(self, observations: np.ndarray, actions: np.ndarray) -> np.ndarray:
+        """The rewards as NumPy evaluates the formula on true observations and actions: what
+        `rewards` gives, bit for bit (tests/test_envs_track.py)."""
+        w, o = self.reward, observations
         effort = np.mean((actions / self.action_bound) ** 2, axis=1)
         return (w["alive"] - w["upright"] * o[:, 3] ** 2 - w["tracking"] * (o[:, 0] ** 2 + o[:, 1] ** 2)
                 - w["heading"] * o[:, 2] ** 2 - w["effort"] * effort)

@@ -97,7 +97,7 @@ impl RigBlock for RigLanes {
     type State1 = [f64; 4];
     type Drive = [Lanes; 1];
 
-    fn start(built: Vec<Option<(SlopeModel<f64>, SlopeRig<f64>)>>, x0: impl Fn(usize) -> [f64; 4], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
+    fn start(built: Vec<Option<(SlopeModel<f64>, SlopeRig<f64>)>>, x0: [[f64; 4]; LANES], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
         RigLanes::start(built, x0, dt, period)
     }
 
@@ -115,7 +115,7 @@ impl RigBlock for RigLanes {
 
     #[inline(always)]
     fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> [Lanes; 4] {
-        RigLanes::step_at::<COPY>(self, ks, |_, _| {})
+        RigLanes::step_at::<COPY>(self, ks).0
     }
 
     fn state(&self) -> &[Lanes; 4] {

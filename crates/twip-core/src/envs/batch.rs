@@ -157,7 +157,7 @@ fn rig_block<K: EnvKind<NX, NU>, const NX: usize, const NU: usize>(spec: &K, fir
         (x0[j], pwm_max[j]) = (x, max);
     }
     let p = spec.period();
-    let Some(mut lanes) = K::RigLanes::start(built, |l| x0[l], p.dt, seconds(&p))? else {
+    let Some(mut lanes) = K::RigLanes::start(built, x0, p.dt, seconds(&p))? else {
         unreachable!("a block has at least one robot")
     };
     // The firmware's first read, at t = 0: the first observation.
@@ -264,13 +264,15 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
         }
         let (spec, period) = (&self.spec, seconds(&self.spec.period()));
         let mut made: Vec<_> = self.pool.install(|| keys.par_iter().map(|&key| make::<K, NX, NU>(spec, key, false)).collect());
-        // The rigs' settles, side by side a block at a time.
-        self.pool.install(|| {
-            made.par_chunks_mut(LANES).for_each(|robots| {
-                let mut rigs: Vec<_> = robots.iter_mut().filter_map(|r| if let Ok(Started::Rig(_, rig, x0, _)) = r { Some((rig, *x0)) } else { None }).collect();
-                K::RigLanes::settle(&mut rigs, period);
-            })
-        });
+        if self.has_rig() {
+            // The rigs' settles, side by side a block at a time.
+            self.pool.install(|| {
+                made.par_chunks_mut(LANES).for_each(|robots| {
+                    let mut rigs: Vec<_> = robots.iter_mut().filter_map(|r| if let Ok(Started::Rig(_, rig, x0, _)) = r { Some((rig, *x0)) } else { None }).collect();
+                    K::RigLanes::settle(&mut rigs, period);
+                })
+            });
+        }
         // The robots up to the first one refused go into their lanes, each block's side by side.
         let mut per_block: Vec<Vec<(usize, Started<K, NX, NU>)>> = (0..self.n.div_ceil(LANES)).map(|_| Vec::new()).collect();
         let mut refused = None;
@@ -286,11 +288,13 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
                 }
             }
         }
-        let robots = &mut self.robots;
-        self.pool.install(|| match robots {
-            Robots::Ideal(blocks) => blocks.par_iter_mut().zip(per_block).for_each(|(block, robots)| robots.into_iter().for_each(|(j, r)| block.put(j, r))),
-            Robots::Rig(blocks) => blocks.par_iter_mut().zip(per_block).for_each(|(block, robots)| robots.into_iter().for_each(|(j, r)| block.put(j, r))),
-        });
+        // An ideal robot goes into its lane in well under a microsecond: on this thread, not
+        // handed to the pool (which wakes its threads for little work); a rig robot's restart
+        // (its lanes' plants made anew, its IMUs' first sample) on the threads.
+        match &mut self.robots {
+            Robots::Ideal(blocks) => blocks.iter_mut().zip(per_block).for_each(|(block, robots)| robots.into_iter().for_each(|(j, r)| block.put(j, r))),
+            Robots::Rig(blocks) => self.pool.install(|| blocks.par_iter_mut().zip(per_block).for_each(|(block, robots)| robots.into_iter().for_each(|(j, r)| block.put(j, r)))),
+        }
         refused.or(past_the_end).map_or(Ok(()), Err)
     }
 

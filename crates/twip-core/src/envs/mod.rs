@@ -13,7 +13,7 @@ pub mod track;
 pub use balance::{BalanceEnvs, BalanceSpec};
 pub use batch::{Envs, RealismFor};
 pub use robot::{Period, MAX_ENVS};
-pub use track::{TrackEnvs, TrackSpec, TRACK_OBS};
+pub use track::{TrackEnvs, TrackReward, TrackSpec, TRACK_OBS};
 
 use crate::TwipError;
 

@@ -35,13 +35,21 @@ fn advance<P: LanePlant>(plants: &P, x: &mut P::State, u: &P::Input, steps: usiz
     for _ in 0..steps {
         let next = plants.rk4_lanes(x, u, dt);
         let (next, x) = (next.as_ref(), x.as_mut());
-        for l in 0..LANES {
-            let finite = next.iter().all(|entry| entry[l].is_finite());
-            let take = alive[l] & finite;
-            for (xi, ni) in x.iter_mut().zip(next) {
-                xi[l] = if take { ni[l] } else { xi[l] };
+        // Entry by entry, each a loop over the lanes without a branch, which the compiler can
+        // vectorise (a lane's entries tested in turn, `all`, stop at the first that fails).
+        let mut take = alive;
+        for entry in next {
+            for l in 0..LANES {
+                take[l] &= entry[l].is_finite();
             }
-            alive[l] = take & (next[P::PITCH][l].abs() <= fall_limit);
+        }
+        for (xi, ni) in x.iter_mut().zip(next) {
+            for l in 0..LANES {
+                xi[l] = if take[l] { ni[l] } else { xi[l] };
+            }
+        }
+        for l in 0..LANES {
+            alive[l] = take[l] & (next[P::PITCH][l].abs() <= fall_limit);
         }
     }
     alive.map(|a| !a)
@@ -101,9 +109,9 @@ pub trait RigBlock: Sized + Send + Sync {
     type State: Copy + AsRef<[Lanes]> + AsMut<[Lanes]>;
     type State1;
     type Drive;
-    /// The rigs `built` (None: an idle lane) at rest in `x0(l)`, plant steps of `dt`,
+    /// The rigs `built` (None: an idle lane) at rest in `x0[l]`, plant steps of `dt`,
     /// control periods of `period` [s] (the estimators settle on them).
-    fn start(built: Vec<Option<(Self::Model, Self::Rig)>>, x0: impl Fn(usize) -> Self::State1, dt: f64, period: f64) -> Result<Option<Self>, TwipError>;
+    fn start(built: Vec<Option<(Self::Model, Self::Rig)>>, x0: [Self::State1; LANES], dt: f64, period: f64) -> Result<Option<Self>, TwipError>;
     /// Each rig's sensors settled at rest in its `x0` (reads every `period` [s]), as `start`
     /// settles a lane's: apart from the block, many robots side by side.
     fn settle(robots: &mut [(&mut Self::Rig, Self::State1)], period: f64);
@@ -159,4 +167,54 @@ fn advance_rig_block<R: RigBlock, const COPY: u8>(lanes: &mut R, steps: &mut [us
     }
     lanes.read_at(&steps.map(|k| period.dt * k as f64));
     alive.map(|a| !a)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::params::RobotParams;
+    use crate::model::planar::PlanarModel;
+    use crate::sweep::block::PlanarPlants;
+
+    /// Every kernel copy of the ideal block's period gives the same states and falls, bit
+    /// for bit: lanes that stay up, lanes that fall (their pitch past the limit) and a lane
+    /// whose input is not finite; each robot its own.
+    #[test]
+    fn every_copy_gives_the_same_bits() {
+        let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| {
+            let mut params = RobotParams::balanbot();
+            params.com_height *= 0.8 + 0.03 * l as f64;
+            PlanarModel::new(params).unwrap()
+        });
+        let plants = PlanarPlants::new(&models);
+        // Every fourth lane starts past the limit (falls at once), every fourth at rest upright
+        // under no input (never falls), the others leaning and pushed; lane 6's input is NaN.
+        let x0: [Lanes; 7] = core::array::from_fn(|i| {
+            core::array::from_fn(|l| match (l % 4, i) {
+                (0, 3) => 0.6,
+                (1, _) => 0.0,
+                (_, 3) => 0.03 * l as f64 - 0.24,
+                _ => 0.01 * (i + l) as f64,
+            })
+        });
+        let mut u: [Lanes; 2] = core::array::from_fn(|w| core::array::from_fn(|l| if l % 4 == 1 { 0.0 } else { 0.002 * l as f64 - 0.01 * w as f64 }));
+        u[1][6] = f64::NAN;
+        let period = |run: &dyn Fn(&mut [Lanes; 7]) -> [bool; LANES]| {
+            let mut x = x0;
+            let falls: alloc::vec::Vec<[bool; LANES]> = (0..200).map(|_| run(&mut x)).collect();
+            (x.map(|lanes| lanes.map(f64::to_bits)), falls)
+        };
+        let base = period(&|x| advance_block_baseline(&plants, x, &u, 5, 1e-3, 0.5));
+        let fell: [bool; LANES] = core::array::from_fn(|l| base.1.iter().any(|f| f[l]));
+        assert!(fell[6] && fell.iter().any(|&f| !f) && fell.iter().filter(|&&f| f).count() > 1, "want both outcomes: {fell:?}");
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+                assert!(period(&|x| unsafe { advance_block_avx2(&plants, x, &u, 5, 1e-3, 0.5) }) == base, "AVX2 copy");
+            }
+            if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("fma") {
+                assert!(period(&|x| unsafe { advance_block_avx512(&plants, x, &u, 5, 1e-3, 0.5) }) == base, "AVX-512 copy");
+            }
+        }
+    }
 }

@@ -106,7 +106,7 @@ impl RigBlock for PlanarRigLanes {
     type State1 = [f64; 7];
     type Drive = [Lanes; 2];
 
-    fn start(built: Vec<Option<(PlanarModel<f64>, PlanarRig<f64>)>>, x0: impl Fn(usize) -> [f64; 7], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
+    fn start(built: Vec<Option<(PlanarModel<f64>, PlanarRig<f64>)>>, x0: [[f64; 7]; LANES], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
         PlanarRigLanes::start(built, x0, dt, period, None)
     }
 
@@ -124,7 +124,7 @@ impl RigBlock for PlanarRigLanes {
 
     #[inline(always)]
     fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> [Lanes; 7] {
-        PlanarRigLanes::step_at::<COPY>(self, ks, |_, _| {})
+        PlanarRigLanes::step_at::<COPY>(self, ks).0
     }
 
     fn state(&self) -> &[Lanes; 7] {
@@ -153,6 +153,46 @@ pub fn observe(y: &PlanarState<f64>, r: &PlanarRef<f64>) -> [f64; TRACK_OBS] {
     let (dx, dy) = (r.x - y[0], r.y - y[1]);
     let (s, c) = y[2].sin_cos();
     [c * dx + s * dy, c * dy - s * dx, r.psi - y[2], y[3], y[4], y[5], y[6], r.v, r.omega]
+}
+
+/// Track-v0's default reward's weights (`twip.envs.track.DEFAULT_REWARD`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackReward {
+    pub alive: f64,
+    pub upright: f64,
+    pub tracking: f64,
+    pub heading: f64,
+    pub effort: f64,
+}
+
+impl TrackReward {
+    /// The reward of a step that ends at the true observation `o` under `action`, each
+    /// action over `bound`: alive − upright·φ² − tracking·(e_along² + e_lateral²) −
+    /// heading·e_psi² − effort·mean((action / bound)²). Evaluated as NumPy evaluates the
+    /// formula column by column (a square is a product, the mean of two their sum over 2,
+    /// the terms taken off left to right, nothing fused), so the same bits as NumPy's.
+    #[inline]
+    pub fn of(&self, o: &[f64; TRACK_OBS], action: [f64; 2], bound: f64) -> f64 {
+        let sq = |v: f64| v * v;
+        let effort = (sq(action[0] / bound) + sq(action[1] / bound)) / 2.0;
+        self.alive - self.upright * sq(o[3]) - self.tracking * (sq(o[0]) + sq(o[1])) - self.heading * sq(o[2]) - self.effort * effort
+    }
+
+    /// Every robot's reward into `out` from its true observation (rows of [`TRACK_OBS`]
+    /// in `observations`) and its action (rows of 2 in `actions`).
+    pub fn rewards_into(&self, observations: &[f64], actions: &[f64], bound: f64, out: &mut [f64]) -> Result<(), TwipError> {
+        let n = out.len();
+        if actions.len() != n * 2 {
+            return Err(TwipError::Shape { name: "actions", expected: (n, 2), got: (actions.len() / 2, 2 + actions.len() % 2) });
+        }
+        if observations.len() != n * TRACK_OBS {
+            return Err(TwipError::Shape { name: "observations", expected: (n, TRACK_OBS), got: (observations.len() / TRACK_OBS, TRACK_OBS + observations.len() % TRACK_OBS) });
+        }
+        for ((r, o), a) in out.iter_mut().zip(observations.chunks_exact(TRACK_OBS)).zip(actions.chunks_exact(2)) {
+            *r = self.of(o.try_into().expect("rows of TRACK_OBS"), [a[0], a[1]], bound);
+        }
+        Ok(())
+    }
 }
 
 impl Envs<TrackSpec, 7, 2> {
@@ -396,6 +436,23 @@ mod tests {
         let o = observe(&y, &r);
         assert!((o[0] - 1.0).abs() < 1e-15 && o[1].abs() < 1e-15, "{o:?}");
         assert_eq!(&o[2..], &[0.5 - core::f64::consts::FRAC_PI_2, 0.1, 0.2, 0.3, 0.4, 0.3, 0.1]);
+    }
+
+    /// The reward's terms on a worked example, and the rows' shapes checked.
+    #[test]
+    fn the_reward_is_its_terms() {
+        let w = TrackReward { alive: 1.0, upright: 10.0, tracking: 10.0, heading: 1.0, effort: 0.1 };
+        let o = [0.3, -0.4, 0.2, 0.1, 9.0, 9.0, 9.0, 9.0, 9.0];
+        // 1 − 10·0.01 − 10·(0.09 + 0.16) − 0.04 − 0.1·(0.25 + 1)/2
+        let want = 1.0 - 0.1 - 2.5 - 0.04 - 0.0625;
+        assert!((w.of(&o, [0.5, -1.0], 1.0) - want).abs() < 1e-12);
+        assert_eq!(w.of(&o, [1.0, -2.0], 2.0), w.of(&o, [0.5, -1.0], 1.0));
+        let mut out = [0.0; 2];
+        let rows: Vec<f64> = o.iter().chain(&o).copied().collect();
+        w.rewards_into(&rows, &[0.5, -1.0, 0.0, 0.0], 1.0, &mut out).unwrap();
+        assert_eq!(out, [w.of(&o, [0.5, -1.0], 1.0), w.of(&o, [0.0, 0.0], 1.0)]);
+        assert!(matches!(w.rewards_into(&rows, &[0.0; 3], 1.0, &mut out), Err(TwipError::Shape { name: "actions", .. })));
+        assert!(matches!(w.rewards_into(&rows[1..], &[0.0; 4], 1.0, &mut out), Err(TwipError::Shape { name: "observations", .. })));
     }
 
     #[test]

@@ -1,8 +1,8 @@
 //! `twip/Track-v0`'s native batch.
-use numpy::PyArray2;
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use twip_core::control::trajectory::Trajectory;
-use twip_core::envs::{TrackEnvs, TrackSpec, TRACK_OBS};
+use twip_core::envs::{TrackEnvs, TrackReward, TrackSpec, TRACK_OBS};
 use twip_core::sweep::planar::validate;
 
 use super::{batch_class, realism_for, rows};
@@ -64,5 +64,30 @@ impl PyTrackBatch {
             self.kept = Some(o.clone().unbind());
         }
         Ok(o)
+    }
+
+    /// Every robot's reward (num_envs) for the step just taken under `actions`
+    /// (num_envs x 2): the default terms with these weights on the true observations
+    /// (`true_observations`, made here), each action over `bound`, with the bits of the
+    /// formula in NumPy (`twip.envs.track.TrackSettings.reward_terms`).
+    #[allow(clippy::too_many_arguments)]
+    fn rewards<'py>(
+        &mut self,
+        py: Python<'py>,
+        actions: PyReadonlyArray2<'py, f64>,
+        alive: f64,
+        upright: f64,
+        tracking: f64,
+        heading: f64,
+        effort: f64,
+        bound: f64,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let weights = TrackReward { alive, upright, tracking, heading, effort };
+        let o = self.true_observations(py)?;
+        let mut out = vec![0.0; self.inner.len()];
+        let shape = actions.shape().to_vec();
+        let actions = actions.as_slice().map_err(|_| PyTwipError(twip_core::TwipError::Shape { name: "actions", expected: (out.len(), 2), got: (shape[0], shape[1]) }))?;
+        weights.rewards_into(o.readonly().as_slice()?, actions, bound, &mut out).map_err(PyTwipError)?;
+        Ok(PyArray1::from_vec(py, out))
     }
 }

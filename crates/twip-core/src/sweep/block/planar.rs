@@ -9,7 +9,7 @@
 //! bit the same on every CPU, thread count and block neighbour. The reference is the
 //! same for every lane: sampled once per step. What is here is the data layout and the
 //! runner's loop over a block.
-use super::{advance, finite_at, multiversioned, only};
+use super::{advance, finite_at, multiversioned, only, out_of_line_in};
 use crate::control::pid::{PidLaw, PidTracker};
 use crate::control::trajectory::{Path, PlanarRef};
 use crate::control::{Controller, Reference};
@@ -38,6 +38,17 @@ pub trait PlanarLaneLaw {
     /// reference `r`. Lanes that have ended compute on and are never kept. `COPY`: the
     /// kernel copy that asks, as in [`LaneLaw::update`](super::LaneLaw::update).
     fn update<const COPY: u8>(&mut self, state: &mut Self::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]);
+}
+
+/// `controller.update` as a function of its own per law and kernel copy (`out_of_line_in`),
+/// for the kernels where the law runs once per control period beside much more work: the
+/// rig's and the terrain's. Inlined there (three times in the 3-DOF rig kernel: flat ground,
+/// terrain, terrain with feed-forward), the sliding-mode law made the rig kernel's three copies
+/// 47 % of the wheel's optimiser time (LLVM's time trace: loop rotation, SROA and full
+/// unrolling over one huge function). The ideal flat kernel keeps it inlined.
+#[inline(always)]
+pub(super) fn update_out_of_line<C: PlanarLaneLaw, const COPY: u8>(controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
+    out_of_line_in::<COPY, _>(#[inline(always)] || controller.update::<COPY>(state, x, r, u))
 }
 
 /// The PID tracker on lanes: `PidLaw::step` on each lane, each lane's two integrals.

@@ -6,7 +6,7 @@
 //! the rig's lanes ([`PlanarRigLanes`], which step the rig's parts and the plant). So a lane
 //! agrees with `sweep::planar::run_planar_sample` to rounding, and is bit for bit the same
 //! on every CPU, thread count and block neighbour.
-use super::planar::{BlockGround, LanePath, Metrics, PlanarLaneLaw};
+use super::planar::{update_out_of_line, BlockGround, LanePath, Metrics, PlanarLaneLaw};
 use super::planar_rig_lanes::PlanarRigLanes;
 use super::planar_terrain::{FeedForwardLanes, TerrainLanes};
 use super::rig::block_rigs;
@@ -76,7 +76,7 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
     let built = block_rigs(samples_models, realism_of, |realism, (model, on)| realism.build_planar_on(model, *on, dt))?;
     let built: Vec<_> = built.into_iter().map(|b| b.map(|((model, _), rig)| (model, rig))).collect();
     let active: [bool; LANES] = core::array::from_fn(|l| built.get(l).is_some_and(Option::is_some));
-    let x0 = |l: usize| if active[l] { samples[l].x0.into() } else { [0.0; 7] };
+    let x0 = core::array::from_fn(|l| if active[l] { samples[l].x0.into() } else { [0.0; 7] });
     let Some(mut rig) = PlanarRigLanes::start(built, x0, dt, dt * per_update as f64, ground.clone())? else {
         return Ok(Some([PlanarSampleMetrics::INVALID; LANES]));
     };
@@ -97,7 +97,7 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
         if update {
             let y = rig.read(t);
             match &ground {
-                None => controller.update::<COPY>(&mut state, y, &r, &mut cmd),
+                None => update_out_of_line::<C, COPY>(&mut controller, &mut state, y, &r, &mut cmd),
                 // The feed-forward from what the firmware reads, as a run's `GradeFeedForward`.
                 Some(g) => g.update::<C, COPY>(&mut controller, &mut state, y, &r, &mut cmd),
             }
@@ -106,7 +106,8 @@ fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
             end_diverged(&diverged, &mut alive, &mut ended, t, k);
         }
         metrics.observe(&alive, t >= settle, &rig.x, rig.command(), &r, path);
-        let next = rig.step::<COPY>(k, |delivered, beyond| metrics.drive(&alive, delivered, update, beyond));
+        let (next, delivered) = rig.step::<COPY>(k);
+        metrics.drive(&alive, &delivered, update, rig.beyond());
         let command = *rig.command();
         let halts = rig.halts::<COPY>(&next);
         if !metrics.end_step(&mut rig.x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &command, path, settle, halts.as_ref()) {

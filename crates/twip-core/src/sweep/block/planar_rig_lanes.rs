@@ -543,13 +543,13 @@ pub(crate) struct PlanarRigLanes {
 
 impl PlanarRigLanes {
     /// The rigs `built` (per lane: its model and rig, or None for an idle lane) at rest in
-    /// `x0(l)`, their estimators settled as a run settles them (reads every `period` [s]),
+    /// `x0[l]`, their estimators settled as a run settles them (reads every `period` [s]),
     /// their sensors at the initial state under no input; plant steps of `dt`. None when no
     /// lane has a rig. On `ground` (None: flat), each lane's rig built on its lane's terrain
-    /// (`Realism::build_planar_on`).
+    /// (`Realism::build_planar_on`). As `RigLanes::start`, one function.
     pub(crate) fn start(
         built: Vec<Option<(PlanarModel<f64>, PlanarRig<f64>)>>,
-        x0: impl Fn(usize) -> [f64; 7],
+        x0: [[f64; 7]; LANES],
         dt: f64,
         period: f64,
         ground: Option<TerrainLanes>,
@@ -562,7 +562,6 @@ impl PlanarRigLanes {
         let stand_in = stand_in()?;
         let plants = RigPlants::new(&rigs, &models, dt, stand_in);
         let (delay, geared) = (rigs[0].delay, rigs[0].plant_play().is_some());
-        let x0: [[f64; 7]; LANES] = core::array::from_fn(x0);
         let x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| x0[l][i]));
         // The sensors sample the initial state, the input zero: the encoders' wheels per
         // lane, the IMUs on lanes.
@@ -706,18 +705,30 @@ impl PlanarRigLanes {
     }
 
     /// Plant step `k` (from t = k·dt) under the input held: the pieces that act between
-    /// steps, the gear trains, the IMUs' sample and RK4. `on_drive` sees what the plants
-    /// get at the step's start (`Observer::drive`) and whether the commands applied are
-    /// beyond the drivers. Returns the state after the step; the caller moves the lanes that
-    /// go on there (`x`).
+    /// steps, the gear trains, the IMUs' sample and RK4. Returns the state after the step
+    /// (the caller moves the lanes that go on there, `x`) and what the plants got at the
+    /// step's start (`Observer::drive`; [`Self::beyond`]: whether the commands applied are
+    /// beyond the drivers).
     #[inline(always)]
-    pub(super) fn step<const COPY: u8>(&mut self, k: usize, on_drive: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
-        self.step_at::<COPY>(&[k; LANES], on_drive)
+    pub(super) fn step<const COPY: u8>(&mut self, k: usize) -> ([Lanes; 7], [Lanes; 2]) {
+        self.step_at::<COPY>(&[k; LANES])
     }
 
     /// [`Self::step`] with each lane at its own step `ks` (an env's robots start apart).
+    /// A function of its own per kernel copy (`out_of_line_in`), shared by the laws' kernels
+    /// and the envs: inlined, it was compiled again for each of them and copy (LLVM's time trace).
     #[inline(always)]
-    pub(crate) fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES], on_drive: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
+    pub(crate) fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
+        super::out_of_line_in::<COPY, _>(#[inline(always)] || self.step_in::<COPY>(ks))
+    }
+
+    /// Whether each lane's commands applied now are beyond its drivers.
+    pub(super) fn beyond(&self) -> &[bool; LANES] {
+        &self.held.beyond
+    }
+
+    #[inline(always)]
+    fn step_in<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
         let (dt, u) = (self.dt, self.held.u);
         let ts: Lanes = core::array::from_fn(|l| dt * ks[l] as f64);
         let (plants, x) = (&mut self.plants, &mut self.x);
@@ -771,7 +782,6 @@ impl PlanarRigLanes {
                 windings.delivered(&mut delivered[wheel]);
             }
         }
-        on_drive(&delivered, &self.held.beyond);
         let ground = self.ground.as_ref();
         let (mut k1, tau) = plants.motion::<COPY>(x, &held, &trains, ground);
         let before = trains;
@@ -797,7 +807,7 @@ impl PlanarRigLanes {
         }
         let next = plants.rk4::<COPY>(x, &held, &trains, &k1, dt, ground);
         self.engaged = trains;
-        next
+        (next, delivered)
     }
 
     /// On terrain, what ends each lane at `next`, the state after the step just taken, as the

@@ -4,7 +4,7 @@
 //! looked up at every RK4 stage; after each step the run's own tests end a lane "lifted" (a
 //! wheel's normal force below zero) or "off_terrain" (off a grid), and the grade's feed-forward
 //! (`GradeFeedForward`) is the run's own rest (`rest_drive`, `rest_torques`) on lanes.
-use super::planar::{BlockGround, PlanarLaneLaw, Plants};
+use super::planar::{update_out_of_line, BlockGround, PlanarLaneLaw, Plants};
 use crate::control::grade::GradeFeedForward;
 use crate::control::pid::relative_wheel_speeds;
 use crate::control::trajectory::PlanarRef;
@@ -224,7 +224,7 @@ impl BlockGround for TerrainLanes {
     #[inline(always)]
     fn update<C: PlanarLaneLaw, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
         let Some(feed) = &self.feed else {
-            return controller.update::<COPY>(state, x, r, u);
+            return update_out_of_line::<C, COPY>(controller, state, x, r, u);
         };
         let ([gx, gy], on) = self.grounds.local(&x[0], &x[1]);
         let k = feed.rest.map(Fused);
@@ -242,7 +242,7 @@ impl BlockGround for TerrainLanes {
                 torque[w][l] = if holds { t[w].0 } else { 0.0 };
             }
         }
-        controller.update::<COPY>(state, &seen, r, u);
+        update_out_of_line::<C, COPY>(controller, state, &seen, r, u);
         for l in 0..LANES {
             let mut out = [Fused(u[0][l]) + Fused(torque[0][l]), Fused(u[1][l]) + Fused(torque[1][l])];
             if let Some(m) = &feed.motor {

@@ -10,7 +10,7 @@
 //! every CPU, thread count and block neighbour.
 use super::held::end_diverged;
 use super::rig_lanes::RigLanes;
-use super::{multiversioned, steady_pitches, BlockResult, LaneLaw, Metrics, Shared};
+use super::{multiversioned, out_of_line_in, steady_pitches, BlockResult, LaneLaw, Metrics, Shared};
 use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
 use crate::hardware::disturbance::{Force, Pushes};
@@ -90,7 +90,7 @@ fn rig_block<C: LaneLaw, const COPY: u8>(
     });
     let built = block_rigs(samples_models, realism_of, |realism, model| realism.build(model, dt))?;
     let active: [bool; LANES] = core::array::from_fn(|l| built.get(l).is_some_and(Option::is_some));
-    let x0 = |l: usize| if active[l] { samples[l].x0.into() } else { [0.0; 4] };
+    let x0 = core::array::from_fn(|l| if active[l] { samples[l].x0.into() } else { [0.0; 4] });
     let Some(mut rig) = RigLanes::start(built, x0, dt, dt * per_update as f64)? else {
         return Ok(Some(out));
     };
@@ -121,13 +121,16 @@ fn rig_block<C: LaneLaw, const COPY: u8>(
         let update = k % per_update == 0;
         if update {
             let y = rig.read(t);
-            controller.update::<COPY>(&mut state, y, &r, &mut cmd);
+            // The law out of line (once per law and copy): it runs once per control period
+            // here, and inlined it grew this kernel's optimiser time (as `update_out_of_line`).
+            out_of_line_in::<COPY, _>(#[inline(always)] || controller.update::<COPY>(&mut state, y, &r, &mut cmd));
             let diverged = rig.apply(t, &cmd);
             // A lane whose drive is not finite has diverged: it ends as fallen, unobserved.
             end_diverged(&diverged, &mut alive, &mut ended, t, k);
         }
         metrics.observe(&alive, &rig.x, rig.command(), &plant_phi_s, &Shared { t, r, speed_scale, direction });
-        let next = rig.step::<COPY>(k, |delivered, beyond| metrics.drive(&alive, delivered, update, beyond));
+        let (next, delivered) = rig.step::<COPY>(k);
+        metrics.drive(&alive, &delivered, update, rig.beyond());
         let Some(ends) = super::advance(&mut rig.x, &next, &alive, 0, config.fall_limit) else { continue };
         let t_next = dt * (k + 1) as f64;
         for l in (0..LANES).filter(|&l| ends[l]) {

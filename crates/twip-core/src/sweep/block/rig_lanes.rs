@@ -473,10 +473,13 @@ pub(crate) struct RigLanes {
 
 impl RigLanes {
     /// The rigs `built` (per lane: its model and rig, or None for an idle lane) at rest in
-    /// `x0(l)`, their estimators settled as a run settles them (reads every `period` [s]),
+    /// `x0[l]`, their estimators settled as a run settles them (reads every `period` [s]),
     /// their sensors' registers holding a sample of the initial state; plant steps of `dt`.
     /// None when no lane has a rig.
-    pub(crate) fn start(built: Vec<Option<(SlopeModel<f64>, SlopeRig<f64>)>>, x0: impl Fn(usize) -> [f64; 4], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
+    /// `x0` is an array, not a closure, so that this is one function: given the kernels'
+    /// closures it was compiled once per law and kernel copy (9 times in the wheel, 5-8 s of
+    /// the optimiser's time each; LLVM's time trace), though it runs once per block.
+    pub(crate) fn start(built: Vec<Option<(SlopeModel<f64>, SlopeRig<f64>)>>, x0: [[f64; 4]; LANES], dt: f64, period: f64) -> Result<Option<Self>, TwipError> {
         let Some(fallback) = built.iter().flatten().next().copied() else {
             return Ok(None);
         };
@@ -484,7 +487,6 @@ impl RigLanes {
         let mut rigs: Vec<SlopeRig<f64>> = (0..LANES).map(|l| built.get(l).copied().flatten().map_or(fallback.1, |b| b.1)).collect();
         let stand_in = stand_in()?;
         let plants = RigPlants::new(&rigs, &models, dt, stand_in);
-        let x0: [[f64; 4]; LANES] = core::array::from_fn(x0);
         let x: [Lanes; 4] = core::array::from_fn(|i| core::array::from_fn(|l| x0[l][i]));
         // The scalar runner's settle, each lane's estimator its own (`Rig::simulate`).
         Self::settle(&mut rigs.iter_mut().enumerate().map(|(l, rig)| (rig, lane(&x, l))).collect::<Vec<_>>(), period);
@@ -630,18 +632,30 @@ impl RigLanes {
     }
 
     /// Plant step `k` (from t = k·dt) under the input held: the pieces that act between
-    /// steps, the gear trains, the IMU's sample and RK4. `on_drive` sees what the plants
-    /// get at the step's start (`Observer::drive`) and whether the commands applied are
-    /// beyond the drivers. Returns the state after the step; the caller moves the lanes that
-    /// go on there (`x`).
+    /// steps, the gear trains, the IMU's sample and RK4. Returns the state after the step
+    /// (the caller moves the lanes that go on there, `x`) and what the plants got at the
+    /// step's start (`Observer::drive`; [`Self::beyond`]: whether the commands applied are
+    /// beyond the drivers).
     #[inline(always)]
-    pub(super) fn step<const COPY: u8>(&mut self, k: usize, on_drive: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
-        self.step_at::<COPY>(&[k; LANES], on_drive)
+    pub(super) fn step<const COPY: u8>(&mut self, k: usize) -> ([Lanes; 4], Lanes) {
+        self.step_at::<COPY>(&[k; LANES])
     }
 
     /// [`Self::step`] with each lane at its own step `ks` (an env's robots start apart).
+    /// A function of its own per kernel copy (`out_of_line_in`), shared by the laws' kernels
+    /// and the envs: inlined, it was compiled again for each of them and copy (LLVM's time trace).
     #[inline(always)]
-    pub(crate) fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES], on_drive: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
+    pub(crate) fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> ([Lanes; 4], Lanes) {
+        super::out_of_line_in::<COPY, _>(#[inline(always)] || self.step_in::<COPY>(ks))
+    }
+
+    /// Whether each lane's commands applied now are beyond its drivers.
+    pub(super) fn beyond(&self) -> &[bool; LANES] {
+        &self.held.beyond
+    }
+
+    #[inline(always)]
+    fn step_in<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> ([Lanes; 4], Lanes) {
         let (dt, u) = (self.dt, self.held.u);
         let ts: Lanes = core::array::from_fn(|l| dt * ks[l] as f64);
         let (plants, x, engaged) = (&mut self.plants, &mut self.x, &mut self.engaged);
@@ -703,7 +717,6 @@ impl RigLanes {
             plants.windings.step(&ks.map(|k| k > 0), &finished, &u, &starts, &mut current);
             plants.windings.delivered(&mut delivered);
         }
-        on_drive(&delivered, &self.held.beyond);
         let before = *engaged;
         // The trains weigh the derivative at the step's start; with the trains as they
         // were, it is RK4's first stage. (Written in place, not as an `Option`: moving the
@@ -734,6 +747,6 @@ impl RigLanes {
         if let Some(imus) = self.imus.as_mut() {
             imus.sample(&plants.hills, &ts, x, &k1);
         }
-        plants.rk4::<COPY>(x, &input, engaged, &k1, dt)
+        (plants.rk4::<COPY>(x, &input, engaged, &k1, dt), delivered)
     }
 }
