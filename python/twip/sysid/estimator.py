@@ -23,7 +23,8 @@ from twip import _core, budget, checks
 from twip.sysid import units
 from twip.sysid.grid import Grid
 from twip.sysid.log import LogError, RunLog
-from twip.sysid.measure import BIASED, FILTERED, OUTPUTS, Sensors, noise_floor, noise_level, predict, settling_samples
+from twip.sysid.measure import (BIASED, FILTERED, OUTPUTS, Sensors, impact_samples, noise_floor, noise_level, predict,
+                                settling_samples)
 from twip.sysid.signals import correlation_time, segments, smooth_rate
 
 #: Relative step of a parameter's central difference, and absolute step of a start state.
@@ -37,6 +38,14 @@ STATE_STEP = 1e-6
 MAX_STEPS = 10**8
 #: A decrease of the cost (half a chi-square) below which the fit has converged.
 CHI2_TOLERANCE = 1e-6
+#: With gear play declared, the fit has also converged when the gaps are below the start
+#: states' difference step and the undamped step moves every parameter by less than
+#: PLAY_STEP of its standard deviation (white noise's: the fit's own is larger): rows enter
+#: and leave the impacts' windows from one iteration to the next (`Problem.note_impacts`), so
+#: the cost keeps moving by a fraction of a chi-square unit and no decrease settles below
+#: CHI2_TOLERANCE (the mid robot's log: 0.02 to 0.3 for 30 iterations, the steps 0.04-0.26
+#: of those deviations, within 0.51 % of the robot, "not converged after 50 iterations").
+PLAY_STEP = 0.25
 #: Fields of `twip.MotorDriver` that can be free when the log's input is `pwm`.
 DRIVER_FIELDS = ("battery", "bridge_drop", "resistance", "efficiency")
 #: The gearhead friction's level that can be free when `friction=` gives the law to start from;
@@ -130,13 +139,40 @@ class Problem:
         ends = [*self.segments[1:], len(log)]
         self.ranges = [range(a, b) for a, b in zip(self.segments, ends)]
         # Rows compared per signal: all but the filtered signals' settling at segment starts.
-        self.used = {}
+        self.settled = {}
         for s in self.outputs:
             used = np.ones(len(log), dtype=bool)
             for r in self.ranges:
                 settled = self.grid.rows[r.start:r.stop] - self.grid.rows[r.start] >= settling_samples(sensors, s)
                 used[r.start:r.stop] = settled
-            self.used[s] = used
+            self.settled[s] = used
+        #: The rows compared at the current point: the settled ones, less those near its impacts.
+        self.used = dict(self.settled)
+
+    def note_impacts(self, states: np.ndarray, sensed: np.ndarray) -> None:
+        """Leave out the filtered signals' rows near the impacts of a run (its states [n, 4]
+        and `sensed` [n, 2] on the grid, as `shoot` gives them). With gear play the IMU samples
+        the pitch rate after an impact at its sample and before it otherwise: a parameter that
+        moves an impact across a sample instant moves that one sample by the impact's jump,
+        which the filter spreads over the next samples (15-21 noise levels on the tall robot's
+        log), so the cost jumps there. Those rows are left out, as a segment's start is."""
+        self.used = dict(self.settled)
+        if self.backlash is None or sensed is None:
+            return
+        # An impact at a sample changes the rate the IMU samples there (the state's is before it).
+        jumps = np.flatnonzero(sensed[:, 1] != states[:, 1])
+        n = len(self.grid.t)
+        for s in self.outputs:
+            after = impact_samples(self.sensors, s)
+            if after == 0:
+                continue
+            # Grid samples from the one before the impact (it may move there) to the last that
+            # still reads the impact's sample through the filter (the register is one behind).
+            edges = np.zeros(n + 1, dtype=np.int64)
+            np.add.at(edges, np.maximum(jumps - 1, 0), 1)
+            np.add.at(edges, np.minimum(jumps + after + 2, n), -1)
+            near = np.cumsum(edges[:n]) > 0
+            self.used[s] = self.settled[s] & ~near[self.grid.rows]
 
     def _unknown(self, name: str) -> Unknown:
         fields = self.params.to_dict()
@@ -296,6 +332,10 @@ class Estimator:
                 states, rates, ends, geometry = self.p.shoot([delta], starts[None])
         except (_core.InvalidParameterError, _core.NonFiniteError):
             return math.inf, None, None, None
+        if schedule is None:
+            # The point's own run: the rows near its own impacts are left out from here on (the
+            # Jacobian's runs and the trial steps replay these impacts, so they keep these rows).
+            self.p.note_impacts(states[0], geometry[0][3])
         out = self.p.outputs_of(states[k], rates[k], geometry[k], biases)
         r = self.residual(out)
         gaps = starts[1:] - ends[k, :-1]
@@ -476,9 +516,7 @@ class Estimator:
                 break
             # The noise levels the fit's residuals show; refit if a weight moved by > 5 %.
             _, _, out, _ = self.evaluate(x, starts)
-            dof = 1 - (self.n_g + 4) / (len(p.log) * len(p.outputs))
-            new = {s: max(float(np.sqrt(np.mean((p.y[s] - out[s])[p.used[s]] ** 2) / dof)), noise_floor(s, p.y[s]))
-                   for s in p.outputs}
+            new = self._levels(out)
             moved = max(abs(new[s] / self.sigma[s] - 1) for s in p.outputs)
             self.sigma = new
             if moved < 0.05:
@@ -492,6 +530,31 @@ class Estimator:
         return Solution(delta, starts, biases, dict(self.sigma), cost, iterations, converged,
                         f"{message} ({iterations} in all)", information,
                         {s: np.where(p.used[s], p.y[s] - out[s], np.nan) for s in p.outputs}, out)
+
+    def _levels(self, out) -> Dict[str, float]:
+        """The noise levels the residuals of predictions `out` show. With gear play they are
+        taken at every iteration: a parameter that moves an impact across a sample changes
+        which rows are compared (`Problem.note_impacts`), and the first levels, read from the
+        filtered signals, are far too small on a rig's log (at the tall robot's truth its
+        residuals are 2.5x, 4.5x and 26.7x them for gyro, accel_x, accel_z), so that each
+        such change weighed thousands."""
+        p = self.p
+        dof = 1 - (self.n_g + 4) / (len(p.log) * len(p.outputs))
+        return {s: max(float(np.sqrt(np.mean((p.y[s] - out[s])[p.used[s]] ** 2) / dof)), noise_floor(s, p.y[s]))
+                for s in p.outputs}
+
+    def _within_deviation(self, hess, con, gaps, step, free) -> bool:
+        """With gear play: are the gaps below the start states' difference step and the
+        parameters' undamped `step` within PLAY_STEP of their standard deviations (from the
+        normal equations and the gaps' constraints: white noise, so smaller than the fit's own)?"""
+        if np.max(np.abs(gaps), initial=0.0) >= self.state_step:
+            return False
+        h = hess[np.ix_(free, free)]
+        scale = math.sqrt(max(float(np.max(np.abs(np.diag(h)))), 1e-300))
+        c = con[:, free] * scale
+        kkt = np.block([[h, c.T], [c, np.zeros((c.shape[0], c.shape[0]))]])
+        variance = np.diag(np.linalg.pinv(kkt, rcond=1e-15, hermitian=True))[:len(step)]
+        return bool(np.all(np.abs(step) < PLAY_STEP * np.sqrt(np.maximum(variance, 0.0))))
 
     def _expected_cost(self) -> float:
         """Half the chi-square a fit with the right noise levels has: half the residuals' count."""
@@ -512,10 +575,16 @@ class Estimator:
         cost, _, _, gaps = self.evaluate(x, starts)
         if not math.isfinite(cost):
             return x, starts, False, "the prediction from the starting robot is not finite", 0
+        # With gear play, the noise levels follow the residuals from the start (see _levels).
+        levels = held and params and not self.fixed_sigma
         for it in range(1, self.max_iter + 1):
-            if held and it > 1:
+            if held and (it > 1 or levels):
                 # The last step was weighed with the schedule before it: this point's own.
-                cost, _, _, gaps = self.evaluate(x, starts)
+                cost, _, out, gaps = self.evaluate(x, starts)
+                if levels and math.isfinite(cost):
+                    self.sigma = self._levels(out)
+                    r = self.residual(out)
+                    cost = 0.5 * float(r @ r)
             hess, grad, gap_vec, con, _ = self.linearise(x, starts)
             con_used = con if joined else None
             step, mu = self.step(hess, grad, gap_vec, con_used, 0.0, free)
@@ -526,6 +595,8 @@ class Estimator:
             if params and closed and np.all(np.abs(step[:n_p]) < 1e-10) and it > 1:
                 # The undamped step moves no parameter and the gaps are closed: converged.
                 return x, starts, True, f"converged in {it} iterations", it
+            if held and params and joined and it > 1 and self._within_deviation(hess, con, gap_vec, step[:n_p], free):
+                return x, starts, True, f"converged in {it} iterations (steps within {PLAY_STEP} of a deviation)", it
             # What the undamped step would gain, by the Gauss-Newton model of the cost.
             predicted = -(float(grad[free] @ step) + 0.5 * float(step @ hess[np.ix_(free, free)] @ step))
             # Every damped step closes the linearised gaps by `closing`: in full they would make
