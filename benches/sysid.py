@@ -205,7 +205,10 @@ def at_truth(name="tall", seed=0):
     With the estimator's first noise levels held (so that every cost compares): the cost at
     the true robot (its start states and offsets fitted, the parameters held); the cost along
     i_body and m_body from there, the start states held, against the Gauss-Newton model's
-    prediction (a smooth cost follows it, a jump does not); and the fit started there."""
+    prediction (a smooth cost follows it, a jump does not); and the fit started there. Each
+    point's cost leaves out the IMU rows near its own impacts (`Problem.note_impacts`), so two
+    points' costs sum over slightly different rows (docs/sysid.md's ninth-session figures were
+    measured before that)."""
     from twip.sysid.estimator import Estimator, Problem
 
     fields, driver_changes = ROBOTS[name]
