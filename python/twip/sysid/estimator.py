@@ -23,8 +23,8 @@ from twip import _core, budget, checks
 from twip.sysid import units
 from twip.sysid.grid import Grid
 from twip.sysid.log import LogError, RunLog
-from twip.sysid.measure import (BIASED, FILTERED, OUTPUTS, Sensors, impact_samples, noise_floor, noise_level, predict,
-                                settling_samples)
+from twip.sysid.measure import BIASED, FILTERED, OUTPUTS, Sensors, noise_floor, noise_level, predict, settling_samples
+from twip.sysid.play import PLAY_STEP, rows_near_impacts, steps_within_deviation
 from twip.sysid.signals import correlation_time, segments, smooth_rate
 
 #: Relative step of a parameter's central difference, and absolute step of a start state.
@@ -38,14 +38,6 @@ STATE_STEP = 1e-6
 MAX_STEPS = 10**8
 #: A decrease of the cost (half a chi-square) below which the fit has converged.
 CHI2_TOLERANCE = 1e-6
-#: With gear play declared, the fit has also converged when the gaps are below the start
-#: states' difference step and the undamped step moves every parameter by less than
-#: PLAY_STEP of its standard deviation (white noise's: the fit's own is larger): rows enter
-#: and leave the impacts' windows from one iteration to the next (`Problem.note_impacts`), so
-#: the cost keeps moving by a fraction of a chi-square unit and no decrease settles below
-#: CHI2_TOLERANCE (the mid robot's log: 0.02 to 0.3 for 30 iterations, the steps 0.04-0.26
-#: of those deviations, within 0.51 % of the robot, "not converged after 50 iterations").
-PLAY_STEP = 0.25
 #: Fields of `twip.MotorDriver` that can be free when the log's input is `pwm`.
 DRIVER_FIELDS = ("battery", "bridge_drop", "resistance", "efficiency")
 #: The gearhead friction's level that can be free when `friction=` gives the law to start from;
@@ -151,28 +143,10 @@ class Problem:
 
     def note_impacts(self, states: np.ndarray, sensed: np.ndarray) -> None:
         """Leave out the filtered signals' rows near the impacts of a run (its states [n, 4]
-        and `sensed` [n, 2] on the grid, as `shoot` gives them). With gear play the IMU samples
-        the pitch rate after an impact at its sample and before it otherwise: a parameter that
-        moves an impact across a sample instant moves that one sample by the impact's jump,
-        which the filter spreads over the next samples (15-21 noise levels on the tall robot's
-        log), so the cost jumps there. Those rows are left out, as a segment's start is."""
+        and `sensed` [n, 2] on the grid, as `shoot` gives them): `play.rows_near_impacts`."""
         self.used = dict(self.settled)
-        if self.backlash is None or sensed is None:
-            return
-        # An impact at a sample changes the rate the IMU samples there (the state's is before it).
-        jumps = np.flatnonzero(sensed[:, 1] != states[:, 1])
-        n = len(self.grid.t)
-        for s in self.outputs:
-            after = impact_samples(self.sensors, s)
-            if after == 0:
-                continue
-            # Grid samples from the one before the impact (it may move there) to the last that
-            # still reads the impact's sample through the filter (the register is one behind).
-            edges = np.zeros(n + 1, dtype=np.int64)
-            np.add.at(edges, np.maximum(jumps - 1, 0), 1)
-            np.add.at(edges, np.minimum(jumps + after + 2, n), -1)
-            near = np.cumsum(edges[:n]) > 0
-            self.used[s] = self.settled[s] & ~near[self.grid.rows]
+        if self.backlash is not None and sensed is not None:
+            self.used = rows_near_impacts(self.grid, self.sensors, self.settled, states, sensed)
 
     def _unknown(self, name: str) -> Unknown:
         fields = self.params.to_dict()
@@ -543,19 +517,6 @@ class Estimator:
         return {s: max(float(np.sqrt(np.mean((p.y[s] - out[s])[p.used[s]] ** 2) / dof)), noise_floor(s, p.y[s]))
                 for s in p.outputs}
 
-    def _within_deviation(self, hess, con, gaps, step, free) -> bool:
-        """With gear play: are the gaps below the start states' difference step and the
-        parameters' undamped `step` within PLAY_STEP of their standard deviations (from the
-        normal equations and the gaps' constraints: white noise, so smaller than the fit's own)?"""
-        if np.max(np.abs(gaps), initial=0.0) >= self.state_step:
-            return False
-        h = hess[np.ix_(free, free)]
-        scale = math.sqrt(max(float(np.max(np.abs(np.diag(h)))), 1e-300))
-        c = con[:, free] * scale
-        kkt = np.block([[h, c.T], [c, np.zeros((c.shape[0], c.shape[0]))]])
-        variance = np.diag(np.linalg.pinv(kkt, rcond=1e-15, hermitian=True))[:len(step)]
-        return bool(np.all(np.abs(step) < PLAY_STEP * np.sqrt(np.maximum(variance, 0.0))))
-
     def _expected_cost(self) -> float:
         """Half the chi-square a fit with the right noise levels has: half the residuals' count."""
         return max(0.5 * sum(int(np.count_nonzero(self.p.used[s])) for s in self.p.outputs), 1.0)
@@ -595,7 +556,7 @@ class Estimator:
             if params and closed and np.all(np.abs(step[:n_p]) < 1e-10) and it > 1:
                 # The undamped step moves no parameter and the gaps are closed: converged.
                 return x, starts, True, f"converged in {it} iterations", it
-            if held and params and joined and it > 1 and self._within_deviation(hess, con, gap_vec, step[:n_p], free):
+            if held and params and joined and it > 1 and steps_within_deviation(hess, con, gap_vec, step[:n_p], free, self.state_step):
                 return x, starts, True, f"converged in {it} iterations (steps within {PLAY_STEP} of a deviation)", it
             # What the undamped step would gain, by the Gauss-Newton model of the cost.
             predicted = -(float(grad[free] @ step) + 0.5 * float(step @ hess[np.ix_(free, free)] @ step))
