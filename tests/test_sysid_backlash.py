@@ -12,6 +12,7 @@ import twip
 from twip.cli import main
 from twip.sysid import Sensors, identify
 from twip.sysid.estimator import Estimator, Problem
+from twip.sysid.measure import impact_samples, noise_level
 
 FREE = ["m_body", "com_height", "i_body", "mu_bearing"]
 TALL = twip.RobotParams.balanbot().replace(m_body=3.0, m_wheels=0.3, i_body=0.04, i_wheels=3.75e-4, i_motor=5e-6,
@@ -87,21 +88,134 @@ def test_the_jacobian_with_the_play_declared_is_the_same_for_any_step():
             assert cosine > 0.99 and abs(ratio - 1) < 0.05, (h, name, cosine, ratio)
 
 
-def test_a_fit_with_the_play_declared_is_never_a_quiet_answer_far_off():
-    """From 15-25 % off, the full rig's 8 s log with its friction and play declared. Measured:
-    the fit does not converge (before the impacts' schedule was replayed, m_body +14 %, i_body
-    +25 %; with it, m_body +62 %, i_body +241 %: the cost still jumps where a step moves an
-    impact, docs/sysid.md). Not built is a fit that finds this robot from so far. What holds:
-    such an answer is never quiet."""
+def test_a_free_run_with_the_play_declared_moves_continuously_with_the_robot():
+    """Each perturbed run on its own (as a trial step runs: its impacts where its own motion
+    puts them), the central differences of its states at the true robot and the run's own
+    start states. With each impact applied at its plant step's end, an impact that a
+    perturbation moved across a step's end jumped the prediction: m_body's column was 6.2e5 at
+    h = 1e-4 and 6.1e4 at 1e-3, against 1.0e4 at 1e-6 (benches/sysid.py --play-jacobian).
+    Located within its step, the states' columns of m_body, com_height and i_body at 1e-4 are
+    the one at 1e-6, and the replayed runs' (the IMU's are not: it samples the pitch rate
+    before or after an impact, whichever side of the sample the impact falls, so its rows near
+    an impact are left out: test_the_imu_rows_after_an_impact_are_left_out). The motion is not
+    continuous everywhere: mu_bearing's free column at 1e-4 is 12x the one at 1e-6 (cosine
+    0.08), and at 1e-3 every column is 10-29x its 1e-6 one; measured, not traced (the openings are still
+    decided at a step's start), so those are printed, not checked."""
     run, rig = full_rig_log(8.0)
-    start = TALL.replace(m_body=3.0 * 1.2, com_height=0.2 * 0.8, i_body=0.04 * 1.25, mu_bearing=0.02 * 0.85)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        fit = identify(run.to_log(), start, FREE + ["coulomb"], driver=DRIVER, sensors=Sensors.of(rig),
+    p = Problem(run.to_log(), TALL, FREE + ["coulomb"], DRIVER, rig.friction, 0.25, Sensors.of(rig), None, 1e-3,
+                rig.backlash)
+    starts, n = run.states[p.segments], len(FREE) + 1
+    # Each state in units of its size over the run, so that no component dominates the cosines.
+    scale = np.std(run.states, axis=0)
+
+    def columns(h, replayed):
+        at = []
+        for j in range(len(FREE)):
+            moved = [np.zeros(n), np.zeros(n), np.zeros(n)]
+            moved[1][j], moved[2][j] = h, -h
+            if replayed:  # the first run records its events, the others replay them
+                states = p.shoot(moved, np.stack([starts] * 3))[0][1:]
+            else:
+                states = np.stack([p.shoot([d], starts[None])[0][0] for d in moved[1:]])
+            at.append(((states[0] - states[1]) / scale / (2 * h)).reshape(-1))
+        return np.column_stack(at)
+
+    reference = columns(1e-6, False)
+    for h, replayed in ((1e-4, False), (1e-6, True), (1e-3, False)):
+        got = columns(h, replayed)
+        for j, name in enumerate(FREE):
+            a, b = got[:, j], reference[:, j]
+            cosine = a @ b / (np.linalg.norm(a) * np.linalg.norm(b))
+            ratio = np.linalg.norm(a) / np.linalg.norm(b)
+            print(f"h {h} {'replayed' if replayed else 'free'} {name}: norm {np.linalg.norm(a):.4g} / "
+                  f"{np.linalg.norm(b):.4g}, cosine {cosine:.5f}")
+            if name != "mu_bearing" and h != 1e-3:
+                assert cosine > 0.99 and abs(ratio - 1) < 0.05, (h, replayed, name, cosine, ratio)
+
+
+#: The third robot of benches/sysid.py: 1.2 kg, 0.08 m, 66 mm wheels, 34:1, 2 A.
+MID = twip.RobotParams.balanbot().replace(m_body=1.2, m_wheels=0.08, i_body=0.006, i_wheels=1e-5, i_motor=2e-6,
+                                          gear_ratio=34.0, torque_constant=0.01, wheel_radius=0.033, com_height=0.08,
+                                          mu_bearing=0.005, mu_ground=0.002)
+MID_DRIVER = twip.MotorDriver.thesis_like().replace(current_limit=2.0)
+
+
+@pytest.mark.parametrize("name", ["tall", "mid"])
+def test_the_full_rig_with_friction_and_play_declared_is_within_3_percent(name):
+    """From 15-25 % off, the full rig's 8 s log with its friction and play declared, coulomb
+    free (benches/sysid.py --accuracy --case "friction and play declared"). Measured before the
+    IMU rows near impacts were left out: not converged and flagged, tall i_body +241 % (the
+    impacts' schedule replayed) and +204 % (located too), mid mu_bearing -79 %: the cost jumped
+    by thousands where a parameter moved an impact across an IMU sample (docs/sysid.md). With
+    them (and the residuals' noise levels): tall within 0.76 %, mid within 0.52 %, converged,
+    quiet; without the play's convergence test (PLAY_STEP) the mid robot's fit did not converge
+    in 50 iterations (within 0.51 %, its cost moving by 0.02-0.3 from one to the next)."""
+    robot, driver = (TALL, DRIVER) if name == "tall" else (MID, MID_DRIVER)
+    rig = twip.Realism.thesis_like(seed=0).replace(motor=driver, settle=None)
+    sc = twip.scenarios.get("flat-lqr", params=robot, controller_params=robot)
+    run = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], 8.0, dt=1e-3, reference=sc.reference, realism=rig)
+    start = robot.replace(**{n: getattr(robot, n) * f for n, f in
+                             (("m_body", 1.2), ("com_height", 0.8), ("i_body", 1.25), ("mu_bearing", 0.85))})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fit = identify(run.to_log(), start, FREE + ["coulomb"], driver=driver, sensors=Sensors.of(rig),
                        friction=rig.friction, backlash=rig.backlash)
     assert "gear play, declared" in fit.summary()
-    worst = max(abs(fit.values[n] / getattr(TALL, n) - 1) for n in FREE)
-    assert worst < 0.05 or fit.warnings, fit.summary()
+    assert fit.converged and not fit.warnings and not caught, fit.summary()
+    for n in FREE:
+        assert abs(fit.values[n] / getattr(robot, n) - 1) < (0.06 if n == "i_body" else 0.03), fit.summary()
+
+
+def test_with_the_play_declared_the_noise_levels_follow_the_residuals():
+    """Read from the filtered signals, the first noise levels are far below a rig log's
+    residuals (at the tall robot's truth 2.5x, 4.5x and 26.7x for gyro, accel_x, accel_z), so
+    each row that enters or leaves an impact's window weighed thousands. With the play
+    declared they are the residuals' own from the first iteration on, not only after a fit
+    that converged: here two iterations from the true robot, not converged, the levels those
+    of the residuals at the last iteration's start (its step moves them: gyro's level 1.58x
+    the final residuals', measured), not the first levels."""
+    run, rig = full_rig_log(4.0)
+    p = Problem(run.to_log(), TALL, FREE + ["coulomb"], DRIVER, rig.friction, 0.25, Sensors.of(rig), None, 1e-3,
+                rig.backlash)
+    solution = Estimator(p, None, 2).run()
+    assert not solution.converged, solution.message
+    for s in ("gyro", "accel_x", "accel_z"):
+        rms = float(np.sqrt(np.nanmean(solution.residuals[s] ** 2)))
+        first = noise_level(s, p.y[s])
+        print(s, solution.sigma[s], rms, first)
+        assert 0.5 < solution.sigma[s] / rms < 2, (s, solution.sigma[s], rms)
+        assert abs(math.log(solution.sigma[s] / rms)) < abs(math.log(first / rms)), (s, solution.sigma[s], rms, first)
+
+
+def test_the_imu_rows_after_an_impact_are_left_out():
+    """An impact at an IMU sample jumps the pitch rate the IMU samples there; a parameter that
+    moves the impact across the sample moves that sample, and the filter spreads it over the
+    next ones (15-21 noise levels on this log). The filtered signals' rows from the sample
+    before each impact to IMPACT_DELAYS filter delays after it are left out, the encoder's
+    kept; without the play nothing is left out but the segments' starts."""
+    run, rig = full_rig_log(2.0)
+    sensors = Sensors.of(rig)
+    for backlash in (rig.backlash, None):
+        p = Problem(run.to_log(), TALL, FREE, DRIVER, rig.friction, 0.25, sensors, None, 1e-3, backlash)
+        estimator = Estimator(p, None, 1)
+        estimator.evaluate(np.zeros(estimator.n_g), run.states[p.segments])
+        states, _, _, geometry = p.shoot([np.zeros(len(FREE))], run.states[p.segments][None])
+        impacts = np.flatnonzero(geometry[0][3][:, 1] != states[0][:, 1])
+        assert np.array_equal(p.used["enc"], p.settled["enc"])
+        if backlash is None:
+            assert all(np.array_equal(p.used[s], p.settled[s]) for s in p.outputs)
+            continue
+        assert len(impacts) > 10, impacts
+        for s in ("gyro", "accel_x", "accel_z"):
+            after = impact_samples(sensors, s)
+            assert after > 0
+            for i in impacts:
+                assert not p.used[s][max(i - 1, 0):i + after + 2].any(), (s, i)
+            # What is left out is only near an impact (or at a segment's start).
+            near = np.zeros(len(p.log), dtype=bool)
+            for i in impacts:
+                near[max(i - 1, 0):i + after + 2] = True
+            assert np.array_equal(p.used[s], p.settled[s] & ~near), s
 
 
 def test_bad_play_is_refused_by_name(tmp_path, capsys):

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twip.reference.backlash import GearPlay
+from twip.reference.backlash import GearPlay, heun
 from twip.reference.realism import (Driven, Encoder, Mpu6050, PwmActuator, Realism, TiltFilter, rk4_sampled,
                                     settle_at_rest, specific_force)
 from twip.reference.rng import Sfc64
@@ -98,7 +98,7 @@ class PlanarPlant:
         if self.play is not None:
             for i, hit in enumerate(self.play.elapsed(dt, list(self.wheel_speeds(x)))):
                 if hit is not None:
-                    self.play.engage(i, self.model.engage(x, i, hit, self.engaged()))
+                    self._impact_at_its_time(x, i, *hit)
         while self.next_push < len(self.pushes) and self.pushes[self.next_push][0] < t + dt * 0.5:
             _, impulse, height = self.pushes[self.next_push]
             self.next_push += 1
@@ -119,6 +119,22 @@ class PlanarPlant:
             acc = self.wheel_accelerations(x, d)
             j = self.play.inertia
             self.play.next_step(list(w), [m - f - j * a for m, f, a in zip(motor, tau, acc)], self.mean_torques(x, u))
+
+    def _impact_at_its_time(self, x, i, rotor, late):
+        """Train `i`'s impact `late` [s] before the step's end at `x`: back along the open
+        motion, the impact, forward engaged (planar_rig.rs's gear_elapsed)."""
+        torques = self.play.motors()
+        before = self.engaged()
+        after = tuple(True if k == i else e for k, e in enumerate(before))
+        extra = (lambda y: self.body_force(*self.force, self.in_plane(y)[3])) if self.has_force else (lambda y: None)
+
+        def motion(engaged):
+            return lambda y: self.model.deriv_geared(y, torques, engaged, extra(y))[0]
+
+        x[:] = heun(x, -late, motion(before))
+        self.model.engage(x, i, rotor, before)
+        x[:] = heun(x, late, motion(after))
+        self.play.engage(i, self.wheel_speeds(x)[i])
 
     def end_step(self, x):
         """The step under way ended at x: the windings' currents are carried to it."""

@@ -18,7 +18,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from twip.reference.backlash import GearPlay
+from twip.reference.backlash import GearPlay, heun
 from twip.reference.friction import Friction
 from twip.reference.rng import Sfc64
 from twip.reference.settle import settle
@@ -515,9 +515,22 @@ class Disturbed:
         if self.play is None:
             return
         (hit,) = self.play.elapsed(dt, [x[3] - x[1]])
-        if hit is not None:
-            model = self.models[self.segment(x[2] * self.radius)]
-            self.play.engage(0, model.engage(x, hit))
+        if hit is None:
+            return
+        rotor, late = hit
+        current = self.play.motors()[0] / (self.params.gear_ratio * self.params.torque_constant)
+
+        def motion(engaged):
+            def f(y):
+                i = self.segment(y[2] * self.radius)
+                return self.models[i].deriv_geared(y, current, engaged, self._extra(i, y))[0]
+            return f
+
+        # Back to the impact along the open motion, the impact, forward from it engaged.
+        x[:] = heun(x, -late, motion(False))
+        self.models[self.segment(x[2] * self.radius)].engage(x, rotor)
+        x[:] = heun(x, late, motion(True))
+        self.play.engage(0, x[3] - x[1])
 
     def gear_next(self, x, current, mean):
         """`current`: the lumped current at RK4's first stage; `mean`: its mean over the step

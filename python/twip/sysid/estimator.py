@@ -24,6 +24,7 @@ from twip.sysid import units
 from twip.sysid.grid import Grid
 from twip.sysid.log import LogError, RunLog
 from twip.sysid.measure import BIASED, FILTERED, OUTPUTS, Sensors, noise_floor, noise_level, predict, settling_samples
+from twip.sysid.play import PLAY_STEP, rows_near_impacts, steps_within_deviation
 from twip.sysid.signals import correlation_time, segments, smooth_rate
 
 #: Relative step of a parameter's central difference, and absolute step of a start state.
@@ -130,13 +131,22 @@ class Problem:
         ends = [*self.segments[1:], len(log)]
         self.ranges = [range(a, b) for a, b in zip(self.segments, ends)]
         # Rows compared per signal: all but the filtered signals' settling at segment starts.
-        self.used = {}
+        self.settled = {}
         for s in self.outputs:
             used = np.ones(len(log), dtype=bool)
             for r in self.ranges:
                 settled = self.grid.rows[r.start:r.stop] - self.grid.rows[r.start] >= settling_samples(sensors, s)
                 used[r.start:r.stop] = settled
-            self.used[s] = used
+            self.settled[s] = used
+        #: The rows compared at the current point: the settled ones, less those near its impacts.
+        self.used = dict(self.settled)
+
+    def note_impacts(self, states: np.ndarray, sensed: np.ndarray) -> None:
+        """Leave out the filtered signals' rows near the impacts of a run (its states [n, 4]
+        and `sensed` [n, 2] on the grid, as `shoot` gives them): `play.rows_near_impacts`."""
+        self.used = dict(self.settled)
+        if self.backlash is not None and sensed is not None:
+            self.used = rows_near_impacts(self.grid, self.sensors, self.settled, states, sensed)
 
     def _unknown(self, name: str) -> Unknown:
         fields = self.params.to_dict()
@@ -296,6 +306,10 @@ class Estimator:
                 states, rates, ends, geometry = self.p.shoot([delta], starts[None])
         except (_core.InvalidParameterError, _core.NonFiniteError):
             return math.inf, None, None, None
+        if schedule is None:
+            # The point's own run: the rows near its own impacts are left out from here on (the
+            # Jacobian's runs and the trial steps replay these impacts, so they keep these rows).
+            self.p.note_impacts(states[0], geometry[0][3])
         out = self.p.outputs_of(states[k], rates[k], geometry[k], biases)
         r = self.residual(out)
         gaps = starts[1:] - ends[k, :-1]
@@ -476,9 +490,7 @@ class Estimator:
                 break
             # The noise levels the fit's residuals show; refit if a weight moved by > 5 %.
             _, _, out, _ = self.evaluate(x, starts)
-            dof = 1 - (self.n_g + 4) / (len(p.log) * len(p.outputs))
-            new = {s: max(float(np.sqrt(np.mean((p.y[s] - out[s])[p.used[s]] ** 2) / dof)), noise_floor(s, p.y[s]))
-                   for s in p.outputs}
+            new = self._levels(out)
             moved = max(abs(new[s] / self.sigma[s] - 1) for s in p.outputs)
             self.sigma = new
             if moved < 0.05:
@@ -492,6 +504,18 @@ class Estimator:
         return Solution(delta, starts, biases, dict(self.sigma), cost, iterations, converged,
                         f"{message} ({iterations} in all)", information,
                         {s: np.where(p.used[s], p.y[s] - out[s], np.nan) for s in p.outputs}, out)
+
+    def _levels(self, out) -> Dict[str, float]:
+        """The noise levels the residuals of predictions `out` show. With gear play they are
+        taken at every iteration: a parameter that moves an impact across a sample changes
+        which rows are compared (`Problem.note_impacts`), and the first levels, read from the
+        filtered signals, are far too small on a rig's log (at the tall robot's truth its
+        residuals are 2.5x, 4.5x and 26.7x them for gyro, accel_x, accel_z), so that each
+        such change weighed thousands."""
+        p = self.p
+        dof = 1 - (self.n_g + 4) / (len(p.log) * len(p.outputs))
+        return {s: max(float(np.sqrt(np.mean((p.y[s] - out[s])[p.used[s]] ** 2) / dof)), noise_floor(s, p.y[s]))
+                for s in p.outputs}
 
     def _expected_cost(self) -> float:
         """Half the chi-square a fit with the right noise levels has: half the residuals' count."""
@@ -512,10 +536,16 @@ class Estimator:
         cost, _, _, gaps = self.evaluate(x, starts)
         if not math.isfinite(cost):
             return x, starts, False, "the prediction from the starting robot is not finite", 0
+        # With gear play, the noise levels follow the residuals from the start (see _levels).
+        levels = held and params and not self.fixed_sigma
         for it in range(1, self.max_iter + 1):
-            if held and it > 1:
+            if held and (it > 1 or levels):
                 # The last step was weighed with the schedule before it: this point's own.
-                cost, _, _, gaps = self.evaluate(x, starts)
+                cost, _, out, gaps = self.evaluate(x, starts)
+                if levels and math.isfinite(cost):
+                    self.sigma = self._levels(out)
+                    r = self.residual(out)
+                    cost = 0.5 * float(r @ r)
             hess, grad, gap_vec, con, _ = self.linearise(x, starts)
             con_used = con if joined else None
             step, mu = self.step(hess, grad, gap_vec, con_used, 0.0, free)
@@ -526,6 +556,8 @@ class Estimator:
             if params and closed and np.all(np.abs(step[:n_p]) < 1e-10) and it > 1:
                 # The undamped step moves no parameter and the gaps are closed: converged.
                 return x, starts, True, f"converged in {it} iterations", it
+            if held and params and joined and it > 1 and steps_within_deviation(hess, con, gap_vec, step[:n_p], free, self.state_step):
+                return x, starts, True, f"converged in {it} iterations (steps within {PLAY_STEP} of a deviation)", it
             # What the undamped step would gain, by the Gauss-Newton model of the cost.
             predicted = -(float(grad[free] @ step) + 0.5 * float(step @ hess[np.ix_(free, free)] @ step))
             # Every damped step closes the linearised gaps by `closing`: in full they would make

@@ -15,7 +15,7 @@
 //! crossing a change keeps (φ̇, θ̇) (the crease's own impact is neglected).
 use nalgebra::{SVector, Vector2, Vector4};
 
-use crate::hardware::backlash::{Backlash, GearEvent, GearPlay, PlayState};
+use crate::hardware::backlash::{heun, Backlash, GearEvent, GearPlay, PlayState};
 use crate::model::friction::Friction;
 use crate::model::lane::Lane;
 use crate::model::slope::SlopeCoefficients;
@@ -393,7 +393,8 @@ impl<T: Real> Disturbed<T> {
     }
 
     /// The step under way has ended at `x`: the open rotors advance; reaching a flank
-    /// they engage in a plastic impact (φ̇ and θ̇ in `x` jump).
+    /// they engage in a plastic impact (φ̇ and θ̇ in `x` jump), located within the step
+    /// ([`Hit::late`](crate::hardware::backlash::Hit::late)).
     #[inline(always)]
     pub fn gear_elapsed(&mut self, dt: T, x: &mut Vector4<T>) {
         // By reference: a copy of the model or the play costs a sweep's lanes. Every piece
@@ -401,11 +402,26 @@ impl<T: Real> Disturbed<T> {
         // only for an impact, whose response depends on the slope.
         let friction = self.pieces[0].model.friction();
         let Some(play) = self.play.as_mut() else { return };
-        let Some(rotor_speed) = play.elapsed(dt, [x[3] - x[1]], friction)[0] else { return };
-        let speed = self.model_at(x).engage(x, rotor_speed);
+        let Some(hit) = play.elapsed(dt, [x[3] - x[1]], friction)[0] else { return };
+        let current = play.motors()[0] / self.pieces[0].model.params().torque_per_amp();
+        let speed = self.impact_at_its_time(x, hit.rotor, hit.late, current);
         if let Some(play) = self.play.as_mut() {
             play.engage(0, speed);
         }
+    }
+
+    /// The impact of the rotors at `rotor` [rad/s] `late` [s] before the step's end at
+    /// `x`, under the step's lumped `current`: `x` taken back by `late` along the open
+    /// motion, the impact, and forward along the engaged motion (`heun`, both ways).
+    /// Returns the speed rotor and wheel share at the step's end.
+    #[cold]
+    #[inline(never)]
+    fn impact_at_its_time(&self, x: &mut Vector4<T>, rotor: T, late: T, current: T) -> T {
+        let motion = |engaged: bool| move |x: &Vector4<T>| self.piece(x).deriv_geared(x, current, engaged, &self.force, self.has_force).0;
+        *x = heun(x, -late, motion(false));
+        self.model_at(x).engage(x, rotor);
+        *x = heun(x, late, motion(true));
+        x[3] - x[1]
     }
 
     /// A step starts at `x` under the lumped `current`: engaged trains whose contact

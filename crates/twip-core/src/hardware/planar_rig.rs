@@ -21,7 +21,7 @@
 //! rule on the plant's steps (error ~dt³, against 9 mrad per encoder count).
 use nalgebra::{SVector, Vector2, Vector3};
 
-use crate::hardware::backlash::GearPlay;
+use crate::hardware::backlash::{heun, GearPlay};
 use crate::hardware::disturbance::{Force, Push, Pushes};
 use crate::hardware::driver::{PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
@@ -128,20 +128,39 @@ impl<T: Real> PlanarPlant<T> {
     }
 
     /// The step under way has ended at `x`: the open trains' rotors advance; those that
-    /// reach a flank engage in a plastic impact (the velocities in `x` jump).
+    /// reach a flank engage in a plastic impact (the velocities in `x` jump), located
+    /// within the step ([`Hit::late`](crate::hardware::backlash::Hit::late)).
     fn gear_elapsed(&mut self, dt: T, x: &mut PlanarState<T>) {
         let Some(mut play) = self.play else { return };
         let (w_r, w_l) = self.wheel_speeds(x);
         for (i, hit) in play.elapsed(dt, [w_r, w_l], self.model.friction()).iter().enumerate() {
-            if let Some(rotor_speed) = hit {
-                let speed = match &self.ground {
-                    None => impact(&self.model, x, i, *rotor_speed, play.engaged()),
-                    Some(g) => g.jump_in_plane(x, |xp| impact(&self.model, xp, i, *rotor_speed, play.engaged())),
+            if let Some(hit) = hit {
+                let torques = SVector::from(play.motors());
+                let before = play.engaged();
+                let mut after = before;
+                after[i] = true;
+                // Back to the impact along the open motion, forward from it engaged.
+                *x = heun(x, -hit.late, |x| self.motion_with(x, &torques, before));
+                match &self.ground {
+                    None => impact(&self.model, x, i, hit.rotor, before),
+                    Some(g) => g.jump_in_plane(x, |xp| impact(&self.model, xp, i, hit.rotor, before)),
                 };
-                play.engage(i, speed);
+                *x = heun(x, hit.late, |x| self.motion_with(x, &torques, after));
+                let (w_r, w_l) = self.wheel_speeds(x);
+                play.engage(i, [w_r, w_l][i]);
             }
         }
         self.play = Some(play);
+    }
+
+    /// The derivative at `x` under the wheel torques `torques` with the trains `engaged`.
+    #[cold]
+    #[inline(never)]
+    fn motion_with(&self, x: &PlanarState<T>, torques: &SVector<T, 2>, engaged: [bool; 2]) -> PlanarState<T> {
+        match &self.ground {
+            None => self.model.deriv_geared(x, torques, engaged, |s, cp| self.extra(s, cp)).0,
+            Some(g) => g.deriv_geared(x, torques, engaged, |s, cp| self.extra(s, cp).map(|q| [q[0], q[1]])).0,
+        }
     }
 
     /// The derivative at `x` under `u` with the gear trains as they are (open ones neither

@@ -393,9 +393,11 @@ mod tests {
             let fuzzy_worst = rig_lanes_agree(&fuzzy_lanes, &fuzzy, &realism, 1.0);
             println!("{name}: worst relative difference over 1 s: LQR {lqr_worst:e}, fuzzy {fuzzy_worst:e}");
             // Rounding only: from the settled start the fuzzy law's run without backlash
-            // reached 1.6e-12 (a lane without the settle is degrees off).
+            // reached 1.6e-12 (a lane without the settle is degrees off). An impact located
+            // within its step divides by the rotor's travel over the step, which scales a
+            // rounding up where that travel is short (held current, fuzzy: 5.1e-12).
             for worst in [lqr_worst, fuzzy_worst] {
-                assert!(worst <= 3e-12 && worst > 0.0, "{name}: {worst:e}");
+                assert!(worst <= 1e-11 && worst > 0.0, "{name}: {worst:e}");
             }
         }
         let (_, schedule, mut config, nominal) = setup(5e-3);

@@ -1,0 +1,64 @@
+"""What declared gear play changes in the estimator (`identify(..., backlash=)`).
+
+The IMU samples the pitch rate after an impact at its sample and before it otherwise: a
+parameter that moves an impact across a sample instant moves that one sample by the impact's
+jump, which the filter spreads over the next samples (15-21 noise levels on the tall robot's
+log of benches/sysid.py), so the cost jumps there. The filtered rows near each impact are left
+out, as a segment's start is, and the fit's convergence allows for the rows that enter and
+leave those windows from one iteration to the next.
+"""
+from __future__ import annotations
+
+import math
+from typing import Dict
+
+import numpy as np
+
+from twip.sysid.measure import impact_samples
+
+#: With gear play declared, the fit has also converged when the gaps are below the start
+#: states' difference step and the undamped step moves every parameter by less than
+#: PLAY_STEP of its standard deviation (white noise's: the fit's own is larger): rows enter
+#: and leave the impacts' windows from one iteration to the next (`Problem.note_impacts`), so
+#: the cost keeps moving by a fraction of a chi-square unit and no decrease settles below
+#: CHI2_TOLERANCE (the mid robot's log: 0.02 to 0.3 for 30 iterations, the steps 0.04-0.26
+#: of those deviations, within 0.51 % of the robot, "not converged after 50 iterations").
+PLAY_STEP = 0.25
+
+
+def rows_near_impacts(grid, sensors, settled: Dict[str, np.ndarray], states: np.ndarray,
+                      sensed: np.ndarray) -> Dict[str, np.ndarray]:
+    """The rows compared of each signal (`settled`: the segments' starts left out), less the
+    filtered signals' rows from the IMU sample before each impact of a run (its `states` [n, 4]
+    and `sensed` [n, 2] on `grid`) to `measure.IMPACT_DELAYS` filter delays after it."""
+    # An impact at a sample changes the rate the IMU samples there (the state's is before it).
+    jumps = np.flatnonzero(sensed[:, 1] != states[:, 1])
+    n = len(grid.t)
+    used = dict(settled)
+    for s in settled:
+        after = impact_samples(sensors, s)
+        if after == 0:
+            continue
+        # Grid samples from the one before the impact (it may move there) to the last that
+        # still reads the impact's sample through the filter (the register is one behind).
+        edges = np.zeros(n + 1, dtype=np.int64)
+        np.add.at(edges, np.maximum(jumps - 1, 0), 1)
+        np.add.at(edges, np.minimum(jumps + after + 2, n), -1)
+        near = np.cumsum(edges[:n]) > 0
+        used[s] = settled[s] & ~near[grid.rows]
+    return used
+
+
+def steps_within_deviation(hess, con, gaps, step, free, gap_tolerance: float) -> bool:
+    """Are the `gaps` below `gap_tolerance` (the start states' difference step) and the
+    parameters' undamped `step` within PLAY_STEP of their standard deviations (from the normal
+    equations `hess` over the unknowns `free` and the gaps' constraints `con`: white noise, so
+    smaller than the fit's own)?"""
+    if np.max(np.abs(gaps), initial=0.0) >= gap_tolerance:
+        return False
+    h = hess[np.ix_(free, free)]
+    scale = math.sqrt(max(float(np.max(np.abs(np.diag(h)))), 1e-300))
+    c = con[:, free] * scale
+    kkt = np.block([[h, c.T], [c, np.zeros((c.shape[0], c.shape[0]))]])
+    variance = np.diag(np.linalg.pinv(kkt, rcond=1e-15, hermitian=True))[:len(step)]
+    return bool(np.all(np.abs(step) < PLAY_STEP * np.sqrt(np.maximum(variance, 0.0))))
