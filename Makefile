@@ -82,6 +82,10 @@ test-python: build
 # Clean clone on the quiet 2-core VM: before (1280b0a) `make demo` 11 min 28 s, then `make test`
 # 9 min 3 s; after (e3c986c) `make demo` 5 min 45 s (345 s wall, 358 s user; the report 19.5 s
 # of it), then `make test` 9 min 19 s (pytest 226 s, 1356 passed). Goals: 8 and 12 min.
+# Clean clones since, on the same quiet 2-core VM, whose speed varies from day to day: 8ce8061
+# `make demo` 358 s, then `make test` 710 s (pytest 555 s beside the Rust tests); eee0fbe (with
+# the examples only checked, above, and more sysid and rig tests) `make demo` 469 s, then
+# `make test` 781 s, on a day when the same wheel's build took 446 s against 336 s.
 #
 # On this project's AVX2 machine (AMD EPYC, 2 cores; it does the same work with ~2.3x the CPU
 # time of that VM), clean clone of c6a24c6 with other builds nice'd beside it: `make demo`
