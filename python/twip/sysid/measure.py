@@ -72,8 +72,7 @@ def settling_samples(sensors: Sensors, name: str) -> int:
     samples at 1 kHz), and the register's sample."""
     if sensors.imu is None or name not in FILTERED:
         return 0
-    dlpf = sensors.imu.dlpf("gyro" if name == "gyro" else "accel")
-    return int(math.ceil(SETTLING_DELAYS * dlpf.delay * dlpf.sample_rate)) + 1
+    return _filter_delays(sensors, name, SETTLING_DELAYS) + 1
 
 
 #: Filter delays after a segment's start that a filtered signal is not compared over.
@@ -89,8 +88,13 @@ def impact_samples(sensors: Sensors, name: str) -> int:
     (`IMPACT_DELAYS` filter delays): its one jumped sample has faded through the filter."""
     if sensors.imu is None or name not in FILTERED:
         return 0
+    return _filter_delays(sensors, name, IMPACT_DELAYS)
+
+
+def _filter_delays(sensors: Sensors, name: str, delays: float) -> int:
+    """IMU samples in `delays` delays of filtered signal `name`'s filter, rounded up."""
     dlpf = sensors.imu.dlpf("gyro" if name == "gyro" else "accel")
-    return int(math.ceil(IMPACT_DELAYS * dlpf.delay * dlpf.sample_rate))
+    return int(math.ceil(delays * dlpf.delay * dlpf.sample_rate))
 
 
 def _unfiltered(name, states, rates, radius, g, slope, sensors) -> np.ndarray:
