@@ -1,6 +1,6 @@
 //! One update through the C ABI beside the same f32 core controller called from Rust: the
 //! ABI's price (finiteness checks, tag check, copies) is the difference.
-//! Run: cargo bench -p twip-ffi --bench update
+//! Run: cargo bench -p twip-benches --bench update
 //! The fuzzy controller and the sliding-mode tracker run with the thesis's 3 × 3 trapezoids
 //! and with docs/fuzzy_sets.md's 5 × 5 Gaussian grids, side by side (the grids' cost ratio).
 use std::hint::black_box;

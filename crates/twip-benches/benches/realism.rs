@@ -8,7 +8,7 @@
 //! by side, against the SFC64 words that they take at least (half as many: two normals a
 //! word; the ziggurat's rare wedges and tail take more), and as many Philox words (the
 //! noise's words before SFC64).
-//! Run: cargo bench -p twip-core --bench realism
+//! Run: cargo bench -p twip-benches --bench realism
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};

@@ -1,7 +1,7 @@
 //! `care` on the representative problem: the 2-DOF TWIP linearised upright (n = 4, m = 1,
 //! one unstable mode and one integrator), Q = diag(10, 1, 1, 1), R = 1. Target ≤ 20 µs.
 //!
-//! `cargo bench -p twip-core --bench care`
+//! `cargo bench -p twip-benches --bench care`
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{DMatrix, Vector4};
 use std::hint::black_box;

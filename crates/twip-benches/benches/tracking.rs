@@ -1,6 +1,6 @@
 //! Trajectory tracking on the 3-DOF model: one update of each tracker, and 60 s of
 //! circle-smc-fuzzy (r = 0.45 m, v = π/30 m/s) at dt = 1 ms with the tracking metrics, no log.
-//! Run: cargo bench -p twip-core --bench tracking
+//! Run: cargo bench -p twip-benches --bench tracking
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};

@@ -2,7 +2,7 @@
 //! the fuzzy adaptive controller with the thesis's 3 × 3 trapezoids and with a 5 × 5
 //! Gaussian grid (f64, f32: docs/fuzzy_sets.md), and 10 s of flat-fuzzy (1 m at 180°/s,
 //! hold, back) at dt = 1 ms with metrics, no log.
-//! Run: cargo bench -p twip-core --bench fuzzy
+//! Run: cargo bench -p twip-benches --bench fuzzy
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};

@@ -1,7 +1,7 @@
 //! One RK4 step of each model, f64 and f32, and a closed-loop LQR run: in wall time, and
 //! per closed-loop step in this thread's CPU time (`closed_loop_step`, robust on a busy
 //! machine: ns per step = 1e3 / its Melem/s).
-//! Run: cargo bench -p twip-core --bench step
+//! Run: cargo bench -p twip-benches --bench step
 use std::hint::black_box;
 
 use criterion::measurement::Measurement;

@@ -3,7 +3,7 @@
 //! 10 s per sample), the fuzzy family on lanes and on the general runner (the thesis's
 //! flat gains, controller every 1 ms as the LQR's), the same samples through the thesis-like rig (realism), and the
 //! 3-DOF PID tracker on its circle (4 s per sample) on the general runner and on lanes.
-//! Run: cargo bench -p twip-core --features parallel --bench sweep
+//! Run: cargo bench -p twip-benches --bench sweep
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};

@@ -1,7 +1,7 @@
 //! What a richer fuzzy grid costs the sliding-mode tracker per update, through the C ABI and
 //! in the core's f32 tracker beside it: the thesis's 3 × 3 trapezoids, the fuzzy-sets study's
 //! 5 × 5 Gaussians (docs/fuzzy_sets.md) and 7 × 7 triangles, side by side in one run.
-//! Run: cargo bench -p twip-ffi --bench smc_grids [-- rounds]
+//! Run: cargo bench -p twip-benches --bench smc_grids [-- rounds]
 //!
 //! Each round replays the same 2000 updates (a circle's reference, measurements wandering
 //! about it so that every set fires) from a reset state, once per grid in a rotating order,
