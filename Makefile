@@ -44,7 +44,8 @@ demo:
 
 # The core is tested with std and its thread pool (all of it) and without std (the no_std
 # subset), and the no_std build is checked for dependencies that switch std on; the
-# benches and examples beside the crates are type-checked so that they cannot rot. The tests build in a target folder
+# benches (crates/twip-benches: criterion is no dependency of the cores' tests, see its
+# Cargo.toml) and the examples are type-checked so that they cannot rot. The tests build in a target folder
 # of their own, so that `make test` can run them while the wheel builds (cargo locks a
 # target folder for the whole of a build), and without MAKEFLAGS: under `make --jobs` it names
 # a jobserver that a recipe cannot reach, and rustdoc warned of it.
@@ -55,12 +56,20 @@ demo:
 # of both crates 53 s against 86 s for two.
 test-rust: export CARGO_TARGET_DIR := $(CURDIR)/target/tests
 test-rust: MAKEFLAGS :=
+# Everything is built before anything runs: the builds are mostly one rustc at a time, which
+# pytest's share of the cores fills beside them, while the test runs take both cores, so that
+# no core is left idle at the end (at eee0fbe pytest ended first, and the no_std build and the
+# check ran alone after it).
+RUST_STD_TESTS := cargo test --workspace --exclude twip-py --features twip-core/parallel --quiet
+RUST_NOSTD_TESTS := cargo test -p twip-core --no-default-features --lib --quiet
 test-rust: $(TOOLS)
-	cargo test --workspace --exclude twip-py --features twip-core/parallel --quiet --lib --bins --tests
-	cargo test --workspace --exclude twip-py --features twip-core/parallel --quiet --doc
-	cargo test -p twip-core --no-default-features --lib --quiet
+	$(RUST_STD_TESTS) --lib --bins --tests --no-run
+	$(RUST_NOSTD_TESTS) --no-run
 	scripts/check_nostd.sh
-	cargo check -p twip-core -p twip-ffi --benches --examples --features twip-core/parallel --quiet
+	cargo check -p twip-core -p twip-ffi -p twip-benches --benches --examples --features twip-core/parallel --quiet
+	$(RUST_STD_TESTS) --lib --bins --tests
+	$(RUST_STD_TESTS) --doc
+	$(RUST_NOSTD_TESTS)
 
 # The tests run in parallel processes (pytest-xdist), one per core up to four: on a 2-core
 # VM pytest took 196-250 s, and 276-312 s serially (separate runs). One test: `pytest -k name`.
@@ -105,7 +114,7 @@ nostd:
 	cargo tree -p twip-core --no-default-features -e normal,features
 
 bench: build
-	cargo bench -p twip-core
+	cargo bench -p twip-benches
 
 clean:
 	rm -rf $(VENV) target
