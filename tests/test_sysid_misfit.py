@@ -241,3 +241,5 @@ def test_the_widened_covariance_is_at_least_both():
     assert np.allclose(spread.larger(model, np.diag([0.5, 9.0])), np.diag([1.0, 9.0]))
     assert np.allclose(spread.ratios(model, np.diag([0.25, 16.0])), [0.5, 2.0])
     assert spread.check(["m_body", "i_body"], [0.5, 2.5])[0].startswith("i_body: the residuals spread")
+    # No globals (Fit.validate's problem, no parameter free): nothing to widen.
+    assert spread.larger(np.zeros((0, 0)), np.zeros((0, 0))).shape == (0, 0)

@@ -62,8 +62,8 @@ def empirical(a: np.ndarray, jg: np.ndarray, js: np.ndarray, r: np.ndarray, rang
 def widened(model: np.ndarray, a: np.ndarray, jacobian, r: np.ndarray, ranges: Sequence[range], n_signals: int):
     """The noise `model`'s covariance of the globals widened to the residuals' empirical one
     (`larger`), and each global's ratio of the two deviations (`ratios`); `model` and ones with
-    fewer than MIN_SEGMENTS segments. The arguments as `empirical` takes them."""
-    if len(ranges) < MIN_SEGMENTS:
+    fewer than MIN_SEGMENTS segments or no globals. The arguments as `empirical` takes them."""
+    if len(ranges) < MIN_SEGMENTS or len(model) == 0:
         return model, np.ones(len(model))
     measured = empirical(a, *jacobian, r, ranges, len(model), n_signals)
     return larger(model, measured), ratios(model, measured)
@@ -74,7 +74,7 @@ def larger(model: np.ndarray, measured: np.ndarray) -> np.ndarray:
     (each eigenvalue of `measured` in `model`'s metric raised to 1): `model` where the residuals
     spread the estimate less, `measured` where they spread it more."""
     d = np.sqrt(np.clip(np.diag(model), 0, None))
-    if not np.all(np.isfinite(model)) or not np.all(d > 0):
+    if not len(d) or not np.all(np.isfinite(model)) or not np.all(d > 0):
         return model
     values, vectors = np.linalg.eigh(model / np.outer(d, d))
     if values.min() <= 1e-12 * values.max():
