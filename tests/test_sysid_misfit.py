@@ -222,3 +222,24 @@ def test_a_wrong_driver_on_a_second_robot_is_not_a_quiet_answer():
     assert fit.converged and not fit.warnings and not caught, fit.summary()
     for name, e in errors(fit, TALL).items():
         assert abs(e) < 3 * fit.std[name] / getattr(TALL, name) and abs(e) < 0.03, (name, e, fit.summary())
+
+
+def test_the_widened_covariance_is_at_least_both():
+    """`spread.larger`: the least covariance as wide as the noise model's and the residuals'
+    in every direction: both differences are positive semi-definite, and it is the noise
+    model's where the residuals spread less, the residuals' where they spread more."""
+    from twip.sysid import spread
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        a, b = rng.normal(size=(4, 4)), rng.normal(size=(4, 4))
+        model, measured = a @ a.T + 1e-3 * np.eye(4), b @ b.T + 1e-3 * np.eye(4)
+        both = spread.larger(model, measured)
+        for other in (model, measured):
+            assert np.linalg.eigvalsh(both - other).min() > -1e-9 * np.abs(both).max()
+    model = np.diag([1.0, 4.0])
+    assert np.allclose(spread.larger(model, np.diag([0.5, 9.0])), np.diag([1.0, 9.0]))
+    assert np.allclose(spread.ratios(model, np.diag([0.25, 16.0])), [0.5, 2.0])
+    assert spread.check(["m_body", "i_body"], [0.5, 2.5])[0].startswith("i_body: the residuals spread")
+    # No globals (Fit.validate's problem, no parameter free): nothing to widen.
+    assert spread.larger(np.zeros((0, 0)), np.zeros((0, 0))).shape == (0, 0)

@@ -1,15 +1,14 @@
 """The prediction-error estimator by multiple shooting.
 
-The log is cut into segments. Each segment is predicted from its own start state, which
-is an unknown beside the free parameters, so the unstable open-loop plant is only
-followed for one segment and a noisy measurement never serves as an initial condition
-(that would bias the estimate: errors in variables). The cost is the sum over the
-logged signals of (measured - predicted)^2 / sigma^2, sigma each signal's noise level.
-Levenberg-Marquardt on the Gauss-Newton normal equations; the start states are
-eliminated segment by segment (a Schur complement), which gives the free parameters'
-covariance with the start states' uncertainty accounted for. Central finite
-differences: one `_core.sysid_shoot` call predicts the base and every perturbed run on
-all cores (all segments' start states are perturbed at once: a segment only sees its own).
+The log is cut into segments. Each segment is predicted from its own start state, which is an
+unknown beside the free parameters, so the unstable open-loop plant is only followed for one
+segment and a noisy measurement never serves as an initial condition (that would bias the
+estimate: errors in variables). The cost is the sum over the logged signals of (measured -
+predicted)^2 / sigma^2, sigma each signal's noise level. Levenberg-Marquardt on the
+Gauss-Newton normal equations; the start states are eliminated segment by segment (a Schur
+complement), which gives the free parameters' covariance with the start states' uncertainty
+accounted for. Central finite differences: one `_core.sysid_shoot` call predicts the base and
+every perturbed run on all cores (all segments' start states are perturbed at once).
 """
 from __future__ import annotations
 
@@ -20,7 +19,7 @@ from typing import Dict, List, Mapping, Optional, Sequence
 import numpy as np
 
 from twip import _core, budget, checks
-from twip.sysid import units
+from twip.sysid import spread, units
 from twip.sysid.grid import Grid
 from twip.sysid.log import LogError, RunLog
 from twip.sysid.measure import BIASED, FILTERED, OUTPUTS, Sensors, noise_floor, noise_level, predict, settling_samples
@@ -249,6 +248,7 @@ class Solution:
     information: np.ndarray  # of (delta, biases), start states eliminated
     residuals: Dict[str, np.ndarray]  # measured - predicted, in the signals' units
     predicted: Dict[str, np.ndarray]
+    spread: Optional[np.ndarray] = None  # each parameter's deviation, residuals' over noise model's
 
 
 class Estimator:
@@ -410,7 +410,7 @@ class Estimator:
             sol = np.linalg.lstsq(kkt, rhs, rcond=None)[0]
         return sol[:len(free)], sol[len(free):] * scale
 
-    def covariance(self, hess, con, jacobian, times: Dict[str, float]) -> np.ndarray:
+    def covariance(self, hess, con, jacobian, times: Dict[str, float], r: np.ndarray):
         """Covariance of the global unknowns, the start states and continuity accounted for:
         the sandwich A B A^T of the fit's own weights. A, the globals' rows of the KKT
         matrix's inverse, turns the residuals' sum J^T r into the unknowns' change. B is the
@@ -419,7 +419,8 @@ class Estimator:
         each signal's J_s^T J_s counts `times[s]` times (its residuals' correlation time:
         samples per independent one), and the gyroscope's bias walk (`gyro_walk`) adds its
         own. Written as the block plus what these add, so that a direction without
-        information keeps the block's huge variance (A H A^T would round it away)."""
+        information keeps the block's huge variance (A H A^T would round it away). Widened to the
+        spread the residuals `r` show (`spread.widened`, which also gives the ratios)."""
         scale = math.sqrt(max(float(np.max(np.abs(np.diag(hess)))), 1e-300))
         c = con * scale
         kkt = np.block([[hess, c.T], [c, np.zeros((c.shape[0], c.shape[0]))]])
@@ -429,7 +430,9 @@ class Estimator:
         n = len(self.p.log)
         weight = np.repeat([math.sqrt(times[s] - 1) for s in self.p.outputs], n)[:, None]
         correlated, _ = self.normal_equations(np.zeros(len(jg)), jg * weight, js * weight)
-        return inverse[:self.n_g, :self.n_g] + a @ correlated @ a.T + self.gyro_walk(jacobian, a)
+        model, ratio = spread.widened(inverse[:self.n_g, :self.n_g] + a @ correlated @ a.T, a, jacobian, r,
+                                      self.ranges, len(self.p.outputs))
+        return model + self.gyro_walk(jacobian, a), ratio
 
     def gyro_walk(self, jacobian, a) -> np.ndarray:
         """The covariance the gyroscope's bias random walk (the IMU's `gyro_bias_walk`) adds to
@@ -470,13 +473,12 @@ class Estimator:
         p = self.p
         x = np.zeros(self.n_g)
         starts = p.initial_states()
-        # First the start states (and offsets) alone, the robot held and the segments
-        # apart: a start state from a noisy or indirect measurement diverges fast on the
-        # unstable plant, and a robot fitted to such predictions would be dragged anywhere
-        # (a huge inertia that slows the fall). Then everything, joined up.
-        # Without the gear play: with the segments apart, each one's play would be carried on
-        # from a neighbour's prediction gone astray (from 3 % off, a rig log's fit then left for
-        # i_body +5000 %).
+        # First the start states (and offsets) alone, the robot held and the segments apart: a
+        # start state from a noisy or indirect measurement diverges fast on the unstable plant,
+        # and a robot fitted to such predictions would be dragged anywhere (a huge inertia that
+        # slows the fall). Then everything, joined up. Without the gear play: with the segments
+        # apart, each one's play would be carried on from a neighbour's prediction gone astray
+        # (from 3 % off, a rig log's fit then left for i_body +5000 %).
         backlash, p.backlash = p.backlash, None
         try:
             x, starts, _, _, iterations = self._minimise(x, starts, params=False, joined=False, tolerance=1e-6)
@@ -498,12 +500,13 @@ class Estimator:
         cost, r, out, _ = self.evaluate(x, starts)
         times = {s: correlation_time((p.y[s] - out[s])[p.used[s]]) for s in p.outputs}
         hess, _, _, con, jacobian = self.linearise(x, starts)
-        cov = self.covariance(hess, con, jacobian, times)
+        cov, ratio = self.covariance(hess, con, jacobian, times, r)
         delta, biases = self.split(x)
         information = np.linalg.pinv(cov, rcond=1e-13) if cov.size else cov
         return Solution(delta, starts, biases, dict(self.sigma), cost, iterations, converged,
                         f"{message} ({iterations} in all)", information,
-                        {s: np.where(p.used[s], p.y[s] - out[s], np.nan) for s in p.outputs}, out)
+                        {s: np.where(p.used[s], p.y[s] - out[s], np.nan) for s in p.outputs}, out,
+                        ratio[:len(p.unknowns)])
 
     def _levels(self, out) -> Dict[str, float]:
         """The noise levels the residuals of predictions `out` show. With gear play they are

@@ -10,7 +10,7 @@ import numpy as np
 from scipy import stats
 
 from twip import checks
-from twip.sysid import misfit
+from twip.sysid import misfit, spread
 from twip.sysid.estimator import Estimator, Problem, Solution
 from twip.sysid.log import RunLog
 
@@ -111,6 +111,9 @@ class Fit:
         self.assumed: Dict[str, str] = {}
         #: The signals whose residuals are not the noise the log shows (`twip.SysidMisfitWarning`).
         self.misfits: List[str] = misfit.check(problem, solution.residuals)
+        if self.converged and solution.spread is not None:
+            # ... and the parameters the residuals spread wider than the noise would.
+            self.misfits += spread.check(self.names, solution.spread)
         #: Why the answer may be far off: the misfits, and a fit that did not converge. Empty
         #: when the fit converged and the model explains the log.
         self.warnings: List[str] = list(self.misfits)
