@@ -140,6 +140,21 @@ MID = twip.RobotParams.balanbot().replace(m_body=1.2, m_wheels=0.08, i_body=0.00
 MID_DRIVER = twip.MotorDriver.thesis_like().replace(current_limit=2.0)
 
 
+def fitted_from_off(robot, driver, seed):
+    """The full rig's 8 s log of `robot` (noise `seed`, `driver`), fitted from 15-25 % off with its
+    friction and play declared, coulomb free: the Fit and the warnings it raised."""
+    rig = twip.Realism.thesis_like(seed=seed).replace(motor=driver, settle=None)
+    sc = twip.scenarios.get("flat-lqr", params=robot, controller_params=robot)
+    run = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], 8.0, dt=1e-3, reference=sc.reference, realism=rig)
+    start = robot.replace(**{n: getattr(robot, n) * f for n, f in
+                             (("m_body", 1.2), ("com_height", 0.8), ("i_body", 1.25), ("mu_bearing", 0.85))})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fit = identify(run.to_log(), start, FREE + ["coulomb"], driver=driver, sensors=Sensors.of(rig),
+                       friction=rig.friction, backlash=rig.backlash)
+    return fit, caught
+
+
 @pytest.mark.parametrize("name", ["tall", "mid"])
 def test_the_full_rig_with_friction_and_play_declared_is_within_3_percent(name):
     """From 15-25 % off, the full rig's 8 s log with its friction and play declared, coulomb
@@ -151,15 +166,7 @@ def test_the_full_rig_with_friction_and_play_declared_is_within_3_percent(name):
     quiet; without the play's convergence test (PLAY_STEP) the mid robot's fit did not converge
     in 50 iterations (within 0.51 %, its cost moving by 0.02-0.3 from one to the next)."""
     robot, driver = (TALL, DRIVER) if name == "tall" else (MID, MID_DRIVER)
-    rig = twip.Realism.thesis_like(seed=0).replace(motor=driver, settle=None)
-    sc = twip.scenarios.get("flat-lqr", params=robot, controller_params=robot)
-    run = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], 8.0, dt=1e-3, reference=sc.reference, realism=rig)
-    start = robot.replace(**{n: getattr(robot, n) * f for n, f in
-                             (("m_body", 1.2), ("com_height", 0.8), ("i_body", 1.25), ("mu_bearing", 0.85))})
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        fit = identify(run.to_log(), start, FREE + ["coulomb"], driver=driver, sensors=Sensors.of(rig),
-                       friction=rig.friction, backlash=rig.backlash)
+    fit, caught = fitted_from_off(robot, driver, 0)
     assert "gear play, declared" in fit.summary()
     assert fit.converged and not fit.warnings and not caught, fit.summary()
     for n in FREE:
@@ -246,15 +253,7 @@ def test_the_issues_robot_with_friction_and_play_declared_is_within_3_percent(se
     0.51 % (i_body -0.51 %), converged, quiet (with the friction alone: i_body -2.59 %); seed 1
     within 1.52 %, converged, quiet (before the impacts' schedule was replayed: within 1.04 % but
     "no step lowered the cost", so flagged)."""
-    driver = twip.MotorDriver.thesis_like().replace(current_limit=3.0)
-    rig = twip.Realism.thesis_like(seed=seed).replace(motor=driver, settle=None)
-    sc = twip.scenarios.get("flat-lqr", params=USER, controller_params=USER)
-    run = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], 8.0, dt=1e-3, reference=sc.reference, realism=rig)
-    start = USER.replace(m_body=1.8 * 1.2, com_height=0.12 * 0.8, i_body=0.0135 * 1.25, mu_bearing=0.008 * 0.85)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        fit = identify(run.to_log(), start, FREE + ["coulomb"], driver=driver, sensors=Sensors.of(rig),
-                       friction=rig.friction, backlash=rig.backlash)
+    fit, caught = fitted_from_off(USER, twip.MotorDriver.thesis_like().replace(current_limit=3.0), seed)
     assert fit.converged and not fit.warnings and not caught, fit.summary()
     for name in FREE:
         assert abs(fit.values[name] / getattr(USER, name) - 1) < (0.06 if name == "i_body" else 0.03), fit.summary()
@@ -268,14 +267,7 @@ def test_a_fit_whose_residuals_spread_it_wider_than_noise_warns_and_covers_the_t
     gyro's residuals 26-84 samples after them 1.5-2.6 of its level, far from them 0.62), and its
     residuals, segment by segment, spread i_body 3.3x as wide as the noise model does: the Fit
     warns by name and the widened interval holds the truth."""
-    rig = twip.Realism.thesis_like(seed=2).replace(motor=DRIVER, settle=None)
-    sc = twip.scenarios.get("flat-lqr", params=TALL, controller_params=TALL)
-    run = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], 8.0, dt=1e-3, reference=sc.reference, realism=rig)
-    start = TALL.replace(m_body=3.0 * 1.2, com_height=0.2 * 0.8, i_body=0.04 * 1.25, mu_bearing=0.02 * 0.85)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        fit = identify(run.to_log(), start, FREE + ["coulomb"], driver=DRIVER, sensors=Sensors.of(rig),
-                       friction=rig.friction, backlash=rig.backlash)
+    fit, caught = fitted_from_off(TALL, DRIVER, 2)
     off = {n: fit.values[n] / getattr(TALL, n) - 1 for n in FREE}
     print(off, fit.std, fit.solution.spread)
     assert any(abs(e) > 0.05 for e in off.values()), off  # the case is still the hard one
