@@ -146,14 +146,12 @@ multiversioned! {
 fn advance_rig_block<R: RigBlock, const COPY: u8>(lanes: &mut R, steps: &mut [usize; LANES], period: Period) -> [bool; LANES] {
     let mut alive = [true; LANES];
     for _ in 0..period.substeps {
-        // Kept only while some lane has fallen (most periods none has: a copy saved).
-        let before = alive.iter().any(|&a| !a).then(|| *lanes.state());
+        let before = *lanes.state();
         let next = lanes.step_at::<COPY>(steps);
         let (next, x) = (next.as_ref(), lanes.state_mut().as_mut());
         for l in 0..LANES {
             if !alive[l] {
                 // Fallen: what the step did between steps is undone too.
-                let before = before.as_ref().expect("kept while a lane has fallen");
                 for (xi, bi) in x.iter_mut().zip(before.as_ref()) {
                     xi[l] = bi[l];
                 }
