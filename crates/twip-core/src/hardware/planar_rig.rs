@@ -505,21 +505,6 @@ impl<T: Real> PlanarSensors<T> {
         self.beta_dot = speeds;
     }
 
-    /// Each wheel's angle relative to the body and its speed at the last sample, the rows
-    /// that give those speeds and the plant step, on flat ground (None on terrain): a
-    /// sweep's lanes follow many robots' wheels at once with [`Self::follow_wheels`]'s
-    /// arithmetic, and hand them back ([`Self::set_wheels`]) before a read.
-    #[cfg_attr(not(feature = "std"), allow(dead_code))]
-    pub(crate) fn wheel_parts(&self) -> Option<([T; 2], [T; 2], WheelRows<T>, T)> {
-        self.terrain.is_none().then_some((self.beta, self.beta_dot, self.wheels, self.dt))
-    }
-
-    /// Sets each wheel's angle relative to the body and its speed at the last sample.
-    #[cfg_attr(not(feature = "std"), allow(dead_code))]
-    pub(crate) fn set_wheels(&mut self, beta: [T; 2], beta_dot: [T; 2]) {
-        (self.beta, self.beta_dot) = (beta, beta_dot);
-    }
-
     /// The IMUs (pitch channels, yaw gyro), their clock, this rig's stream and the IMUs'
     /// normals drawn ahead, as they stand (None without an IMU): a sweep's lanes sample
     /// for the IMUs from copies of them, and draw the same numbers.

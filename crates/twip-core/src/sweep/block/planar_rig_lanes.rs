@@ -557,65 +557,6 @@ fn set_lane<const N: usize>(x: &mut [Lanes; N], l: usize, v: &SVector<f64, N>) {
     }
 }
 
-/// Every lane's wheels as its encoders follow them on flat ground:
-/// `PlanarSensors::follow_wheels` on lanes (the same arithmetic, each lane's own numbers),
-/// so that a plant step touches no lane's sensors; the angles go to each lane's sensors
-/// before it is read. (Per lane in its sensors, following took 6.5 % of Track-v0's rig env
-/// under `perf`.)
-struct WheelLanes {
-    /// Each wheel's angle relative to the body and its speed at the last sample.
-    beta: [Lanes; 2],
-    beta_dot: [Lanes; 2],
-    /// The wheels' rows (1/R, b/R) and half the plant step.
-    inv_r: Lanes,
-    b_r: Lanes,
-    half_dt: Lanes,
-}
-
-impl WheelLanes {
-    /// `rigs`' wheels (one per lane); None if any is on terrain (each lane follows its own).
-    fn new(rigs: &[PlanarRig<f64>]) -> Option<Self> {
-        let mut wheels = Self { beta: [[0.0; LANES]; 2], beta_dot: [[0.0; LANES]; 2], inv_r: [0.0; LANES], b_r: [0.0; LANES], half_dt: [0.0; LANES] };
-        for (l, rig) in rigs.iter().enumerate() {
-            wheels.set_lane(l, rig)?;
-        }
-        Some(wheels)
-    }
-
-    /// Lane `l`'s wheels from `rig`'s sensors (None on terrain, nothing set).
-    fn set_lane(&mut self, l: usize, rig: &PlanarRig<f64>) -> Option<()> {
-        let (beta, beta_dot, rows, dt) = rig.sensors.wheel_parts()?;
-        for w in 0..2 {
-            (self.beta[w][l], self.beta_dot[w][l]) = (beta[w], beta_dot[w]);
-        }
-        (self.inv_r[l], self.b_r[l], self.half_dt[l]) = (rows.inv_r, rows.b_r, dt * 0.5);
-        Some(())
-    }
-
-    /// Follows each lane's wheels to the state `x` at its time `ts[l]` (the trapezoid rule
-    /// on the plant's steps).
-    #[inline(always)]
-    fn follow(&mut self, ts: &Lanes, x: &[Lanes; 7]) {
-        for l in 0..LANES {
-            // `WheelRows::speeds`: (v ± b ω)/R − φ̇.
-            let turn = self.b_r[l] * x[6][l];
-            let roll = self.inv_r[l] * x[5][l] - x[4][l];
-            let now = [roll + turn, roll - turn];
-            for (w, now) in now.into_iter().enumerate() {
-                let moved = self.beta[w][l] + self.half_dt[l] * (self.beta_dot[w][l] + now);
-                self.beta[w][l] = if ts[l] > 0.0 { moved } else { self.beta[w][l] };
-                self.beta_dot[w][l] = now;
-            }
-        }
-    }
-
-    /// Lane `l`'s wheels into `rig`'s sensors.
-    #[inline(always)]
-    fn to_sensors(&self, l: usize, rig: &mut PlanarRig<f64>) {
-        rig.sensors.set_wheels([self.beta[0][l], self.beta[1][l]], [self.beta_dot[0][l], self.beta_dot[1][l]]);
-    }
-}
-
 /// The 3-DOF rig on a block of lanes: every lane's rig and state, and what carries over
 /// from one plant step to the next (the inputs held and pending, the gear trains), so that
 /// a loop can step it, stop, and go on. Invalid or missing lanes run an idle copy of a
@@ -626,8 +567,6 @@ pub(crate) struct PlanarRigLanes {
     rigs: Vec<PlanarRig<f64>>,
     plants: RigPlants,
     imus: Option<Box<ImuLanes>>,
-    /// The lanes' wheels on flat ground (None: each lane's sensors follow its own).
-    wheels: Option<WheelLanes>,
     dt: f64,
     /// The windings of lanes without a driver.
     stand_in: ([Winding<f64>; 2], f64),
@@ -683,7 +622,6 @@ impl PlanarRigLanes {
         if let Some(imus) = imus.as_mut() {
             imus.sample(&[0.0; LANES], &x, &d0, ground.as_ref());
         }
-        let wheels = if ground.is_none() { WheelLanes::new(&rigs) } else { None };
         let quiet_engaged = core::array::from_fn(|l| rigs[l].plant.unpushed());
         let engaged = core::array::from_fn(|l| rigs[l].plant.trains());
         Ok(Some(Self {
@@ -691,7 +629,6 @@ impl PlanarRigLanes {
             rigs,
             plants,
             imus,
-            wheels,
             dt,
             stand_in,
             delay,
@@ -728,15 +665,6 @@ impl PlanarRigLanes {
         self.plants.restart_lane(l, &self.rigs, &self.models, self.dt, self.stand_in);
         let plant = &self.rigs[l].plant;
         (self.engaged[l], self.quiet_engaged[l]) = (plant.trains(), plant.unpushed());
-        if let Some(wheels) = self.wheels.as_mut() {
-            if wheels.set_lane(l, &self.rigs[l]).is_none() {
-                // This robot is on terrain: every lane's sensors follow their own wheels.
-                for (j, rig) in self.rigs.iter_mut().enumerate().filter(|&(j, _)| j != l) {
-                    wheels.to_sensors(j, rig);
-                }
-                self.wheels = None;
-            }
-        }
         self.held.clear(l, |u| (u[0][l], u[1][l]) = (0.0, 0.0));
         if let Some(imus) = self.imus.as_mut() {
             let mut xdot = [[0.0; LANES]; 7];
@@ -796,9 +724,6 @@ impl PlanarRigLanes {
     #[inline(always)]
     fn read_lane(&mut self, l: usize, t: f64) {
         let rig = &mut self.rigs[l];
-        if let Some(wheels) = self.wheels.as_ref() {
-            wheels.to_sensors(l, rig);
-        }
         rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
         set_lane(&mut self.y, l, &rig.sensors.read(t, &lane(&self.x, l)));
     }
@@ -912,12 +837,7 @@ impl PlanarRigLanes {
                     trains[l] = rig.plant.trains();
                 }
             }
-            if self.wheels.is_none() {
-                rig.sensors.follow_wheels(ts[l], &xl);
-            }
-        }
-        if let Some(wheels) = self.wheels.as_mut() {
-            wheels.follow(&ts, x);
+            rig.sensors.follow_wheels(ts[l], &xl);
         }
         if trains != before {
             // Some trains opened or closed: RK4's first stage with them as they are now.
@@ -955,41 +875,5 @@ impl PlanarRigLanes {
             let nu = [pitch_acceleration_of(&xl, &dl, &f), dl[5], dl[6]];
             normal_forces_of(contact, &f, &xp, &nu, Fused::sincos(xp[3]))
         }))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::hardware::realism::Realism;
-
-    /// The lanes follow each lane's wheels as its sensors would, bit for bit: robots of other
-    /// sizes, lanes at time 0 (which only take the speeds) and lanes moving, over many steps.
-    #[test]
-    fn the_wheels_on_lanes_are_each_sensors_own() {
-        let mut rigs: Vec<PlanarRig<f64>> = (0..LANES)
-            .map(|l| {
-                let mut params = RobotParams::balanbot();
-                params.wheel_radius *= 0.9 + 0.013 * l as f64;
-                params.half_track *= 1.1 - 0.011 * l as f64;
-                Realism::thesis_like().build_planar(&PlanarModel::new(params).unwrap(), 1e-3).unwrap()
-            })
-            .collect();
-        let mut wheels = WheelLanes::new(&rigs).unwrap();
-        for k in 0..40usize {
-            let x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| ((k * 7 + i * 3 + l) as f64 * 0.37).sin()));
-            // Lanes 0, 5 and 10 stand at time 0 for the first ten steps (only their speeds are taken).
-            let ts: Lanes = core::array::from_fn(|l| if k < 10 && l % 5 == 0 && l != 15 { 0.0 } else { 1e-3 * (k + l) as f64 });
-            wheels.follow(&ts, &x);
-            for (l, rig) in rigs.iter_mut().enumerate() {
-                rig.sensors.follow_wheels(ts[l], &lane(&x, l));
-                let (beta, beta_dot, _, _) = rig.sensors.wheel_parts().unwrap();
-                for w in 0..2 {
-                    assert_eq!(beta[w].to_bits(), wheels.beta[w][l].to_bits(), "step {k}, lane {l}");
-                    assert_eq!(beta_dot[w].to_bits(), wheels.beta_dot[w][l].to_bits(), "step {k}, lane {l}");
-                }
-            }
-        }
-        assert!(wheels.beta[0].iter().all(|&b| b != 0.0));
     }
 }
