@@ -115,6 +115,27 @@ def test_the_native_rewards_are_the_numpy_formulas_bits(realism):
     assert falls > 0
 
 
+@pytest.mark.parametrize("reset", [[3, 17, 39], list(range(0, 1200, 2))], ids=["few", "many"])
+def test_the_observations_kept_from_the_rewards_are_made_anew_for_the_lanes_reset(reset):
+    """On the ideal plant the rewards' true observations are handed out by `observations`;
+    a reset in between makes the rows of the lanes it starts anew (a few one by one, many
+    all again): the same bits as observations made from scratch, each array its own."""
+    env = envs.TrackVectorEnv(num_envs=1200, perturb=PERTURB)
+    env.reset(seed=4)
+    batch, settings = env._episodes.batch, env.settings
+    rng = np.random.default_rng(8)
+    for k in range(30):
+        a = rng.uniform(-1, 1, size=(1200, 2)) * env.single_action_space.high
+        batch.step(a.ravel())
+        settings.rewards(batch, a)
+        if k % 3 == 0:
+            batch.reset(reset)
+        kept, made = batch.observations(), batch.observations()
+        assert kept is not made
+        assert np.array_equal(kept.view(np.uint64), made.view(np.uint64)), k
+        assert np.array_equal(made.view(np.uint64), batch.true_observations().view(np.uint64)), k
+
+
 def test_seeds_give_the_same_bits_on_any_thread_count():
     def rollout(threads):
         env = envs.TrackVectorEnv(num_envs=50, realism=RIG, perturb=PERTURB, threads=threads, max_episode_steps=30)

@@ -375,9 +375,8 @@ class TrackBatch:
         the reference's speeds.
         """
     def true_observations(self) -> _F64:
-        """The observations the true states give (num_envs x 9). On the ideal plant they are
-        the observations: the next `observations` call (before a step or reset) returns
-        this array instead of making them again.
+        """The observations the true states give (num_envs x 9): on the ideal plant, the
+        observations.
         """
     def rewards(self, actions: _F64, alive: float, upright: float, tracking: float, heading: float, effort: float,
                 bound: float) -> _F64:

@@ -85,6 +85,14 @@ impl EnvKind<4, 1> for BalanceSpec {
         Plants::new(&models.map(|m| m.coefficients()))
     }
 
+    fn set_plant(plants: &mut Plants, l: usize, model: &SlopeModel<f64>) {
+        plants.set_lane(l, &model.coefficients());
+    }
+
+    /// Balance-v0's observation depends on nothing but the robot.
+    type AtTime = ();
+    fn at_time(&self, _: f64) {}
+
     fn rig(realism: &Realism<f64>, model: &SlopeModel<f64>, dt: f64) -> Result<SlopeRig<f64>, TwipError> {
         realism.build(model, dt)
     }

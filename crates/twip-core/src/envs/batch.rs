@@ -47,12 +47,18 @@ pub(crate) trait EnvKind<const NX: usize, const NU: usize>: Send + Sync {
     /// The robot of key (seed, episode) (`sweep::draw`'s); an error if its model is refused.
     fn draw(&self, key: (u64, u64)) -> Result<Drawn<Self::Model, NX>, TwipError>;
     fn plants(models: &[Self::Model; LANES]) -> Self::Plants;
+    /// Lane `l` of `plants` set to `model`'s (a robot started anew), the others' as they are.
+    fn set_plant(plants: &mut Self::Plants, l: usize, model: &Self::Model);
+    /// What every robot at time `t` [s] in its episode shares (Track-v0: the path's
+    /// reference; `()` when nothing is), which the batch makes once per control period
+    /// count ([`Envs::at_period`]).
+    type AtTime: Copy + Send + Sync;
+    fn at_time(&self, t: f64) -> Self::AtTime;
     fn rig(realism: &Realism<f64>, model: &Self::Model, dt: f64) -> Result<<Self::RigLanes as RigBlock>::Rig, TwipError>;
 }
 
 /// [`LANES`] robots on the ideal plant.
 struct IdealBlock<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
-    models: [K::Model; LANES],
     plants: K::Plants,
     x: [Lanes; NX],
 }
@@ -78,6 +84,9 @@ pub struct Envs<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
     keys: Vec<(u64, u64)>,
     /// Control periods since each lane's episode began.
     periods: Vec<u64>,
+    /// [`EnvKind::at_time`] after k control periods, k = 0.. up to the most any lane has
+    /// run (at most [`AT_PERIODS`]): what the lanes at the same k share, made once.
+    at_periods: Vec<K::AtTime>,
     robots: Robots<K, NX, NU>,
     pool: rayon::ThreadPool,
 }
@@ -86,8 +95,7 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> IdealBlock<K, NX, NU>
     /// `robot` in lane `j`.
     fn put(&mut self, j: usize, robot: Started<K, NX, NU>) {
         let Started::Ideal(model, x0) = robot else { unreachable!("a batch's robots are all ideal or all through a rig") };
-        self.models[j] = model;
-        self.plants = K::plants(&self.models);
+        K::set_plant(&mut self.plants, j, &model);
         for i in 0..NX {
             self.x[i][j] = x0[i];
         }
@@ -102,6 +110,11 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> RigRobots<K, NX, NU> 
         (self.steps[j], self.pwm_max[j]) = (0, pwm_max);
     }
 }
+
+/// Most control periods whose [`EnvKind::at_time`] a batch keeps (Track-v0's references:
+/// 1.8 MB, 164 s at the default 5 ms); a lane past them has its own made each time. The
+/// tests' builds keep few, so that lanes run past them.
+pub(crate) const AT_PERIODS: usize = if cfg!(test) { 64 } else { 1 << 15 };
 
 /// Lanes a task of [`Envs::rows_into`] fills: enough that a task outweighs handing it out.
 const ROWS_A_TASK: usize = 512;
@@ -178,7 +191,7 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
                 let blocks = n.div_ceil(LANES);
                 let mut v = reserved::<IdealBlock<K, NX, NU>>(blocks)?;
                 let models = [spec.nominal()?; LANES];
-                v.extend((0..blocks).map(|_| IdealBlock { models, plants: K::plants(&models), x: [[0.0; LANES]; NX] }));
+                v.extend((0..blocks).map(|_| IdealBlock { plants: K::plants(&models), x: [[0.0; LANES]; NX] }));
                 Robots::Ideal(v)
             }
             Some(_) => {
@@ -190,7 +203,9 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
         };
         let mut periods = reserved(n)?;
         periods.resize(n, 0);
-        let mut envs = Self { spec, n, keys, periods, robots, pool };
+        let mut at_periods = reserved(1)?;
+        at_periods.push(spec.at_time(0.0));
+        let mut envs = Self { spec, n, keys, periods, at_periods, robots, pool };
         if !envs.has_rig() {
             for l in 0..n {
                 envs.start(l, (l as u64, 0))?;
@@ -223,8 +238,22 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
 
     /// Lane `l`'s time in its episode [s].
     pub fn time(&self, l: usize) -> f64 {
+        self.time_after(self.periods[l])
+    }
+
+    /// The time [s] after `k` control periods.
+    fn time_after(&self, k: u64) -> f64 {
         let p = self.spec.period();
-        self.periods[l] as f64 * p.substeps as f64 * p.dt
+        k as f64 * p.substeps as f64 * p.dt
+    }
+
+    /// [`EnvKind::at_time`] at lane `l`'s time: made once per period count.
+    pub(crate) fn at_period(&self, l: usize) -> K::AtTime {
+        let k = self.periods[l];
+        match self.at_periods.get(k as usize) {
+            Some(&shared) => shared,
+            None => self.spec.at_time(self.time_after(k)),
+        }
     }
 
     /// Starts lane `l`'s next episode: with `seed`, episode 0 of that seed; else the next
@@ -393,6 +422,12 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
         }
         for p in &mut self.periods {
             *p += 1;
+        }
+        // No lane has run more periods than the batch has stepped: one more entry at most.
+        let k = self.at_periods.len();
+        if k < AT_PERIODS && self.periods.iter().any(|&p| p as usize >= k) && self.at_periods.try_reserve(1).is_ok() {
+            let shared = self.spec.at_time(self.time_after(k as u64));
+            self.at_periods.push(shared);
         }
         Ok(())
     }

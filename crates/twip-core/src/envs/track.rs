@@ -94,6 +94,16 @@ impl EnvKind<7, 2> for TrackSpec {
         PlanarPlants::new(models)
     }
 
+    fn set_plant(plants: &mut PlanarPlants, l: usize, model: &PlanarModel<f64>) {
+        plants.set_lane(l, model);
+    }
+
+    /// The path's reference: every robot follows the path from its episode's start.
+    type AtTime = PlanarRef<f64>;
+    fn at_time(&self, t: f64) -> PlanarRef<f64> {
+        self.path.sample(t)
+    }
+
     fn rig(realism: &Realism<f64>, model: &PlanarModel<f64>, dt: f64) -> Result<PlanarRig<f64>, TwipError> {
         realism.build_planar(model, dt)
     }
@@ -196,9 +206,9 @@ impl TrackReward {
 }
 
 impl Envs<TrackSpec, 7, 2> {
-    /// The path's reference for lane `l` now.
+    /// The path's reference for lane `l` now (made once per period count).
     fn reference(&self, l: usize) -> PlanarRef<f64> {
-        self.spec().path.sample(self.time(l))
+        self.at_period(l)
     }
 
     /// Lane `l`'s observation: from the sensors' last reading through a rig, else the state.
@@ -280,6 +290,30 @@ mod tests {
                 alone.step(&act(&alone.observation(0)), &mut fell).unwrap();
                 assert_eq!(<[f64; 7]>::from(alone.state(0)), one[k * 37 + 5], "step {k}");
             }
+        }
+    }
+
+    /// Each lane's observation holds the path's reference at the lane's own time (made once
+    /// per period count): lanes started anew at other times, and a lane past the periods the
+    /// batch keeps; ideal and through the rig.
+    #[test]
+    fn the_reference_is_the_paths_at_each_lanes_own_time() {
+        let rig: RealismFor = Arc::new(|_: &RobotParams<f64>| Ok(Realism::thesis_like()));
+        for realism in [None, Some(rig)] {
+            let mut envs = TrackEnvs::new(spec(realism), 3, 1).unwrap();
+            let mut fell = [false; 3];
+            let periods = super::super::batch::AT_PERIODS + 20;
+            for k in 0..periods {
+                envs.step(&[0.0; 6], &mut fell).unwrap();
+                if k % 7 == 3 {
+                    envs.reset(1, None).unwrap();
+                }
+                for l in 0..3 {
+                    let want = observe(&envs.measured(l), &envs.spec().path.sample(envs.time(l)));
+                    assert_eq!(envs.observation(l).map(f64::to_bits), want.map(f64::to_bits), "lane {l}, period {k}");
+                }
+            }
+            assert_eq!(envs.time(0), periods as f64 * 5.0 * 1e-3);
         }
     }
 

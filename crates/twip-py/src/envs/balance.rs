@@ -14,7 +14,7 @@ use crate::sweep::{no_friction_in_sweeps, parse_perturbations, PerturbTuple};
 
 batch_class! {
     /// N balancing robots, each keyed (seed, episode); `twip.envs` wraps it.
-    PyBalanceBatch, "BalanceBatch", BalanceEnvs, 4
+    PyBalanceBatch, "BalanceBatch", BalanceEnvs, 4, 4, |envs: &BalanceEnvs, l| envs.observation(l).into()
 }
 
 #[pymethods]

@@ -34,21 +34,41 @@ pub(crate) fn reset_lanes(
 }
 
 /// `$class`, a pyclass named `$name` over an `Envs` batch (`inner`) of robots with
-/// `$states` states, with the methods
-/// both envs' batches share; each env's own `#[pymethods]` add `new` and the observations.
-/// The actions' and the falls' buffers are reused from step to step.
+/// `$states` states and observations of `$obs` entries (lane l's: `$observation(inner, l)`),
+/// with the methods both envs' batches share; each env's own `#[pymethods]` add `new` and
+/// the observations. The actions' and the falls' buffers are reused from step to step.
 macro_rules! batch_class {
-    ($(#[$doc:meta])* $class:ident, $name:literal, $envs:ty, $states:literal) => {
+    ($(#[$doc:meta])* $class:ident, $name:literal, $envs:ty, $states:literal, $obs:expr, $observation:expr) => {
         $(#[$doc])*
         #[pyclass(name = $name, module = "twip._core")]
         pub struct $class {
             inner: $envs,
             actions: Vec<f64>,
             fell: Vec<bool>,
-            /// Observations made since the last step or reset (the ideal plant's true
-            /// ones, which the rewards read), handed out once by `observations` instead of
-            /// made again.
-            kept: Option<Py<numpy::PyArray2<f64>>>,
+            /// Every robot's observation (rows of `$obs`) made since the last step (the
+            /// ideal plant's true ones, which the rewards read), handed out once by
+            /// `observations` instead of made again; a reset makes the rows of the lanes it
+            /// starts anew.
+            kept: Option<Vec<f64>>,
+        }
+
+        impl $class {
+            /// The kept observations after `lanes` started anew (`reset`, which gave
+            /// `reset`): those lanes' rows made again, the others' as they were; none kept
+            /// after an error or a reset of many lanes (the rows are then made on the
+            /// threads when asked for).
+            fn refresh_kept(&mut self, lanes: &[usize], reset: &PyResult<()>) {
+                let (inner, kept) = (&self.inner, &mut self.kept);
+                match kept.as_mut() {
+                    Some(rows) if reset.is_ok() && lanes.len() <= $crate::envs::KEPT_REFRESH => {
+                        for &l in lanes {
+                            let row: [f64; $obs] = ($observation)(inner, l);
+                            rows[l * $obs..(l + 1) * $obs].copy_from_slice(&row);
+                        }
+                    }
+                    _ => *kept = None,
+                }
+            }
         }
 
         impl $class {
@@ -73,9 +93,10 @@ macro_rules! batch_class {
             /// episode 0 of that seed; else the lane's next episode.
             #[pyo3(signature = (lanes, seeds = None))]
             fn reset(&mut self, py: Python<'_>, lanes: Vec<usize>, seeds: Option<Vec<u64>>) -> PyResult<()> {
-                self.kept = None;
                 let inner = &mut self.inner;
-                $crate::envs::reset_lanes(py, &lanes, seeds, |lanes, seeds| inner.reset_many(lanes, seeds))
+                let reset = $crate::envs::reset_lanes(py, &lanes, seeds, |lanes, seeds| inner.reset_many(lanes, seeds));
+                self.refresh_kept(&lanes, &reset);
+                reset
             }
 
             /// One control period of every robot under `actions` (the model's inputs of
@@ -107,6 +128,10 @@ macro_rules! batch_class {
 }
 pub(crate) use batch_class;
 
+/// Most lanes whose kept observations a reset makes again one by one (with the GIL held);
+/// past them the observations are made anew, on the batch's threads.
+pub(crate) const KEPT_REFRESH: usize = 512;
+
 /// `n` rows of `W` values as an (n, W) array, which `fill` fills (a batch's `rows_into`, on
 /// its threads) with the GIL released.
 pub(crate) fn rows<'py, const W: usize>(
@@ -114,7 +139,21 @@ pub(crate) fn rows<'py, const W: usize>(
     n: usize,
     fill: impl FnOnce(&mut [f64]) -> Result<(), TwipError> + Send,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    Ok(rows_array::<W>(py, n, filled_rows::<W>(py, n, fill)?))
+}
+
+/// `n` rows of `W` values, which `fill` fills with the GIL released.
+pub(crate) fn filled_rows<const W: usize>(
+    py: Python<'_>,
+    n: usize,
+    fill: impl FnOnce(&mut [f64]) -> Result<(), TwipError> + Send,
+) -> PyResult<Vec<f64>> {
     let mut data = vec![0.0; n * W];
     py.detach(|| fill(&mut data)).map_err(crate::errors::PyTwipError)?;
-    Ok(Array2::from_shape_vec((n, W), data).expect("n rows of W").into_pyarray(py))
+    Ok(data)
+}
+
+/// `n` rows of `W` values (`data`) as an (n, W) array, without a copy.
+pub(crate) fn rows_array<'py, const W: usize>(py: Python<'py>, n: usize, data: Vec<f64>) -> Bound<'py, PyArray2<f64>> {
+    Array2::from_shape_vec((n, W), data).expect("n rows of W").into_pyarray(py)
 }

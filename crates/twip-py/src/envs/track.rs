@@ -1,11 +1,11 @@
 //! `twip/Track-v0`'s native batch.
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use twip_core::control::trajectory::Trajectory;
 use twip_core::envs::{TrackEnvs, TrackReward, TrackSpec, TRACK_OBS};
 use twip_core::sweep::planar::validate;
 
-use super::{batch_class, realism_for, rows};
+use super::{batch_class, filled_rows, realism_for, rows, rows_array};
 use crate::control::trajectory::trajectory;
 use crate::errors::PyTwipError;
 use crate::hardware::realism::PyRealism;
@@ -15,7 +15,7 @@ use crate::sweep::{parse_perturbations, PerturbTuple};
 
 batch_class! {
     /// N tracking robots on one path, each keyed (seed, episode); `twip.envs` wraps it.
-    PyTrackBatch, "TrackBatch", TrackEnvs, 7
+    PyTrackBatch, "TrackBatch", TrackEnvs, 7, TRACK_OBS, |envs: &TrackEnvs, l| envs.observation(l)
 }
 
 #[pymethods]
@@ -47,23 +47,18 @@ impl PyTrackBatch {
     /// Every robot's observation (num_envs x 9): path error in its frame, pitch, speeds,
     /// the reference's speeds.
     fn observations<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let n = self.inner.len();
         if let Some(kept) = self.kept.take() {
-            return Ok(kept.into_bound(py));
+            return Ok(rows_array::<TRACK_OBS>(py, n, kept));
         }
         let inner = &self.inner;
-        rows::<TRACK_OBS>(py, inner.len(), |out| inner.rows_into(out, |envs, l| envs.observation(l)))
+        rows::<TRACK_OBS>(py, n, |out| inner.rows_into(out, |envs, l| envs.observation(l)))
     }
 
-    /// The observations the true states give (num_envs x 9). On the ideal plant they are
-    /// the observations: the next `observations` call (before a step or reset) returns
-    /// this array instead of making them again.
-    fn true_observations<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let inner = &self.inner;
-        let o = rows::<TRACK_OBS>(py, inner.len(), |out| inner.rows_into(out, |envs, l| envs.true_observation(l)))?;
-        if !inner.has_rig() {
-            self.kept = Some(o.clone().unbind());
-        }
-        Ok(o)
+    /// The observations the true states give (num_envs x 9): on the ideal plant, the
+    /// observations.
+    fn true_observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        Ok(rows_array::<TRACK_OBS>(py, self.inner.len(), self.true_rows(py)?))
     }
 
     /// Every robot's reward (num_envs) for the step just taken under `actions`
@@ -83,11 +78,23 @@ impl PyTrackBatch {
         bound: f64,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let weights = TrackReward { alive, upright, tracking, heading, effort };
-        let o = self.true_observations(py)?;
+        let o = self.true_rows(py)?;
         let mut out = vec![0.0; self.inner.len()];
         let shape = actions.shape().to_vec();
         let actions = actions.as_slice().map_err(|_| PyTwipError(twip_core::TwipError::Shape { name: "actions", expected: (out.len(), 2), got: (shape[0], shape[1]) }))?;
-        weights.rewards_into(o.readonly().as_slice()?, actions, bound, &mut out).map_err(PyTwipError)?;
+        weights.rewards_into(&o, actions, bound, &mut out).map_err(PyTwipError)?;
+        if !self.inner.has_rig() {
+            // On the ideal plant these are the observations: `observations` hands them out.
+            self.kept = Some(o);
+        }
         Ok(PyArray1::from_vec(py, out))
+    }
+}
+
+impl PyTrackBatch {
+    /// Every robot's observation as its true state gives it, made on the batch's threads.
+    fn true_rows(&self, py: Python<'_>) -> PyResult<Vec<f64>> {
+        let inner = &self.inner;
+        filled_rows::<TRACK_OBS>(py, inner.len(), |out| inner.rows_into(out, |envs, l| envs.true_observation(l)))
     }
 }
