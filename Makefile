@@ -94,7 +94,10 @@ test-python: build
 # Clean clones since, on the same quiet 2-core VM, whose speed varies from day to day: 8ce8061
 # `make demo` 358 s, then `make test` 710 s (pytest 555 s beside the Rust tests); eee0fbe (with
 # the examples only checked, above, and more sysid and rig tests) `make demo` 469 s, then
-# `make test` 781 s, on a day when the same wheel's build took 446 s against 336 s.
+# `make test` 781 s, on a day when the same wheel's build took 446 s against 336 s; 22cb25d (the
+# lane tests' fewer debug-build blocks, criterion out of the cores' tests, every Rust build before
+# the runs) `make demo` 429 s, then `make test` 675 s (pytest 576 s beside the Rust tests, whose
+# lib suite ran 237 s against 400 s at eee0fbe).
 #
 # On this project's AVX2 machine (AMD EPYC, 2 cores; it does the same work with ~2.3x the CPU
 # time of that VM), clean clone of c6a24c6 with other builds nice'd beside it: `make demo`
