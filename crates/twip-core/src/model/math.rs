@@ -238,7 +238,7 @@ mod wide {
     /// atan's reduction points c = atan⁻¹ of 0.5, 1, 1.5 and ∞ (fdlibm's `s_atan.c`): the
     /// nearest f64 (HI) and the nearest to the rest (LO).
     #[allow(clippy::excessive_precision)]
-    const ATAN_HI: [f64; 4] = [4.636_476_090_008_060_935_15e-01, 7.853_981_633_974_482_789_99e-01, 9.827_937_232_473_290_540_82e-01, 1.570_796_326_794_896_558_00e+00];
+    const ATAN_HI: [f64; 4] = [4.636_476_090_008_060_935_15e-01, core::f64::consts::FRAC_PI_4, 9.827_937_232_473_290_540_82e-01, core::f64::consts::FRAC_PI_2];
     #[allow(clippy::excessive_precision)]
     const ATAN_LO: [f64; 4] = [2.269_877_745_296_168_709_24e-17, 3.061_616_997_868_383_017_93e-17, 1.390_331_103_123_099_845_16e-17, 6.123_233_995_736_766_035_87e-17];
     /// fdlibm's odd polynomial for atan on |r| ≤ 7/16: atan r = r − r (s₁ + s₂).
@@ -284,9 +284,8 @@ mod wide {
     /// rest (LO); the rational function R(t) = t P(t) / Q(t) whose asin x = x + x R(x²) on
     /// |x| < 1/2, P's coefficients lowest power first, Q's after its leading 1.
     #[allow(clippy::excessive_precision)]
-    const ASIN_PIO2: (f64, f64) = (1.570_796_326_794_896_558_00e+00, 6.123_233_995_736_766_035_87e-17);
-    #[allow(clippy::excessive_precision)]
-    const ASIN_PIO4_HI: f64 = 7.853_981_633_974_482_789_99e-01;
+    const ASIN_PIO2: (f64, f64) = (core::f64::consts::FRAC_PI_2, 6.123_233_995_736_766_035_87e-17);
+    const ASIN_PIO4_HI: f64 = core::f64::consts::FRAC_PI_4;
     #[allow(clippy::excessive_precision)]
     const ASIN_P: [f64; 6] = [
         1.666_666_666_666_666_574_15e-01,
