@@ -420,7 +420,8 @@ class Estimator:
         samples per independent one), and the gyroscope's bias walk (`gyro_walk`) adds its
         own. Written as the block plus what these add, so that a direction without
         information keeps the block's huge variance (A H A^T would round it away). Widened to the
-        spread the residuals `r` show (`spread.widened`, which also gives the ratios)."""
+        spread the residuals `r` show (`spread.widened`, which also gives the ratios), compared
+        with all of the noise model's, the bias walk's share included."""
         scale = math.sqrt(max(float(np.max(np.abs(np.diag(hess)))), 1e-300))
         c = con * scale
         kkt = np.block([[hess, c.T], [c, np.zeros((c.shape[0], c.shape[0]))]])
@@ -430,9 +431,8 @@ class Estimator:
         n = len(self.p.log)
         weight = np.repeat([math.sqrt(times[s] - 1) for s in self.p.outputs], n)[:, None]
         correlated, _ = self.normal_equations(np.zeros(len(jg)), jg * weight, js * weight)
-        model, ratio = spread.widened(inverse[:self.n_g, :self.n_g] + a @ correlated @ a.T, a, jacobian, r,
-                                      self.ranges, len(self.p.outputs))
-        return model + self.gyro_walk(jacobian, a), ratio
+        model = inverse[:self.n_g, :self.n_g] + a @ correlated @ a.T + self.gyro_walk(jacobian, a)
+        return spread.widened(model, a, jacobian, r, self.ranges, len(self.p.outputs))
 
     def gyro_walk(self, jacobian, a) -> np.ndarray:
         """The covariance the gyroscope's bias random walk (the IMU's `gyro_bias_walk`) adds to

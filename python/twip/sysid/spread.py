@@ -48,12 +48,12 @@ def empirical(a: np.ndarray, jg: np.ndarray, js: np.ndarray, r: np.ndarray, rang
     n = len(r) // n_signals
     starts = np.array([rg.start for rg in ranges])
     moves = np.zeros((len(ranges), n_g))
+    own = a[:, n_g:].reshape(n_g, len(ranges), 4)  # each segment's start states' columns
     for k in range(n_signals):
         rows = slice(k * n, (k + 1) * n)
         weighted_g = np.add.reduceat(jg[rows] * r[rows, None], starts, axis=0)  # [S, n_g]
         weighted_s = np.add.reduceat(js[rows] * r[rows, None], starts, axis=0)  # [S, 4]
         moves += weighted_g @ a[:, :n_g].T
-        own = a[:, n_g:].reshape(n_g, len(ranges), 4)  # each segment's start states' columns
         moves += np.einsum("sc,gsc->sg", weighted_s, own)
     moves -= moves.mean(axis=0)
     return moves.T @ moves * len(ranges) / max(len(ranges) - 1, 1)
