@@ -365,7 +365,7 @@ pub fn run_lqr_samples(
 /// [`block::FuzzyLanes`]), blocks of [`lanes::LANES`]. `None` when `should_stop` said
 /// so before all were done.
 #[allow(clippy::too_many_arguments)]
-pub fn run_lane_samples<C: block::LaneLaw + Clone>(
+pub fn run_lane_samples<C: block::LaneLaw<Shape = block::Slope> + Clone>(
     law: &C,
     reference: &SpeedSchedule<f64>,
     config: &SimConfig<f64>,
@@ -460,7 +460,7 @@ pub(crate) mod tests {
     /// neighbours: a sample replayed alone gives the same bits.
     fn lanes_agree_with_the_runner<L, C>(law: &L, prototype: &C)
     where
-        L: block::LaneLaw + Clone,
+        L: block::LaneLaw<Shape = block::Slope> + Clone,
         C: Controller<f64, 4, 1, Reference = SpeedRef<f64>> + Clone,
     {
         let (_, schedule, config, nominal) = setup(0.2);
@@ -527,7 +527,7 @@ pub(crate) mod tests {
     /// is printed): the same source, rounded once instead of twice per multiply-add.
     fn within_rounding_over_ten_seconds<L, C>(law: &L, prototype: &C) -> f64
     where
-        L: block::LaneLaw + Clone,
+        L: block::LaneLaw<Shape = block::Slope> + Clone,
         C: Controller<f64, 4, 1, Reference = SpeedRef<f64>> + Clone,
     {
         let (_, schedule, mut config, nominal) = setup(0.2);

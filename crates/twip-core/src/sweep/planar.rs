@@ -20,7 +20,7 @@ use crate::{RobotParams, TwipError};
 
 use alloc::vec::Vec;
 
-use super::block::{self, FeedForwardLanes, LanePath, PlanarLaneLaw, TerrainLanes};
+use super::block::{self, FeedForwardLanes, LaneLaw, LanePath, Planar, TerrainLanes};
 use super::terrain::SweepTerrain;
 use super::lanes::LANES;
 use super::rig::RealismOf;
@@ -219,13 +219,13 @@ where
 }
 
 /// Runs samples `indices` of a tracking sweep on lanes ([`block::run_planar_block`], for
-/// trackers with a [`PlanarLaneLaw`]): [`LANES`] at a time, each lane agreeing with
+/// trackers with a [`LaneLaw`] of the [`Planar`] shape): [`LANES`] at a time, each lane agreeing with
 /// [`run_planar_sample`] to rounding. On flat ground, or on `terrain` (each sample's robot,
 /// start and ground drawn by [`super::terrain::draw`]) with the grade's feed-forward or
 /// without: there each lane agrees with [`super::terrain::run_terrain_sample`] to rounding,
 /// "lifted" and "off_terrain" included. `Ok(None)` when `should_stop` said so.
 #[allow(clippy::too_many_arguments)]
-pub fn run_planar_lane_samples<C: PlanarLaneLaw + Clone, P: LanePath>(
+pub fn run_planar_lane_samples<C: LaneLaw<Shape = Planar> + Clone, P: LanePath>(
     law: &C,
     path: &P,
     config: &SimConfig<f64>,
@@ -249,13 +249,13 @@ pub fn run_planar_lane_samples<C: PlanarLaneLaw + Clone, P: LanePath>(
 /// Runs samples `indices` of a tracking sweep, each through the 3-DOF rig of its robot's
 /// realism (`realism_of`, set up by [`for_sweep`](super::rig::for_sweep): noise stream =
 /// the sample's index), on lanes ([`block::run_planar_rig_block`], for trackers with a
-/// [`PlanarLaneLaw`]): [`LANES`] at a time, each lane agreeing with [`run_planar_sample`]
+/// [`LaneLaw`] of the [`Planar`] shape): [`LANES`] at a time, each lane agreeing with [`run_planar_sample`]
 /// with that realism to rounding. On flat ground, or on `terrain` as
 /// [`run_planar_lane_samples`]: there each lane agrees with
 /// [`super::terrain::run_terrain_sample`] through the rig to rounding, "lifted" and
 /// "off_terrain" included. `Ok(None)` when `should_stop` said so.
 #[allow(clippy::too_many_arguments)]
-pub fn run_planar_rig_lane_samples<C: PlanarLaneLaw + Clone, P: LanePath>(
+pub fn run_planar_rig_lane_samples<C: LaneLaw<Shape = Planar> + Clone, P: LanePath>(
     law: &C,
     path: &P,
     config: &SimConfig<f64>,
@@ -460,7 +460,7 @@ pub(crate) mod tests {
     fn lanes_against_the_runner<C, L>(ctrl: &C, law: &L) -> f64
     where
         C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Clone,
-        L: PlanarLaneLaw + Clone,
+        L: LaneLaw<Shape = Planar> + Clone,
     {
         rig_lanes_against_the_runner(ctrl, law, None, 10.0)
     }
@@ -470,7 +470,7 @@ pub(crate) mod tests {
     fn rig_lanes_against_the_runner<C, L>(ctrl: &C, law: &L, realism: Option<&Realism<f64>>, t_final: f64) -> f64
     where
         C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Clone,
-        L: PlanarLaneLaw + Clone,
+        L: LaneLaw<Shape = Planar> + Clone,
     {
         let (_, circle, _, nominal) = setup();
         let config = SimConfig { dt: 1e-3, t_final, fall_limit: 60f64.to_radians() };

@@ -6,7 +6,7 @@
 //! replaced, so a sample is reproducible from (sweep seed, index) alone and two sweep
 //! seeds give different noise. `noise_seed` is a bijection that moves the key away from
 //! `s` itself, so the noise is not the very stream the perturbations were drawn from.
-use super::block::{run_rig_block, LaneLaw};
+use super::block::{run_rig_block, LaneLaw, Slope};
 use super::lanes::LANES;
 use super::{draw, finish, fresh, Nominal, Perturbation, Sample, SampleMetrics, SweepMetrics};
 use crate::TwipError;
@@ -70,7 +70,7 @@ where
 /// each sample agrees with [`run_rig_sample`] to rounding. `Ok(None)` when `should_stop`
 /// said so.
 #[allow(clippy::too_many_arguments)]
-pub fn run_rig_lane_samples<C: LaneLaw + Clone>(
+pub fn run_rig_lane_samples<C: LaneLaw<Shape = Slope> + Clone>(
     law: &C,
     reference: &SpeedSchedule<f64>,
     config: &SimConfig<f64>,
@@ -170,7 +170,7 @@ mod tests {
     /// some falling) ends the same way at the same step.
     fn rig_lanes_agree<L, C>(law: &L, prototype: &C, realism: &Realism<f64>, t_final: f64) -> f64
     where
-        L: LaneLaw + Clone,
+        L: LaneLaw<Shape = Slope> + Clone,
         C: Controller<f64, 4, 1, Reference = SpeedRef<f64>> + Clone,
     {
         rig_lanes_agree_per_robot(law, prototype, &|_| *realism, &spread(), t_final)
@@ -180,7 +180,7 @@ mod tests {
     /// robots drawn from `spread`.
     fn rig_lanes_agree_per_robot<L, C>(law: &L, prototype: &C, realism_of: &dyn Fn(&RobotParams<f64>) -> Realism<f64>, spread: &[Perturbation], t_final: f64) -> f64
     where
-        L: LaneLaw + Clone,
+        L: LaneLaw<Shape = Slope> + Clone,
         C: Controller<f64, 4, 1, Reference = SpeedRef<f64>> + Clone,
     {
         let (_, schedule, mut config, nominal) = setup(5e-3);

@@ -120,7 +120,7 @@ mod tests {
     use crate::model::terrain_model::TerrainModel;
     use crate::sim::tracking_metrics::TrackingMetrics;
     use crate::sim::runner::{simulate, Outcome};
-    use crate::sweep::block::{FeedForwardLanes, PlanarLaneLaw};
+    use crate::sweep::block::{FeedForwardLanes, LaneLaw, Planar};
     use crate::sweep::lanes::LANES;
     use crate::sweep::planar::run_planar_lane_samples;
     use crate::sweep::Spread;
@@ -198,7 +198,7 @@ mod tests {
     fn lanes_against_the_runs<C, L>(controller_on: impl Fn(&Terrain<f64>) -> C, law: &L, feed: Option<FeedForwardLanes>, terrain: &SweepTerrain, axes: &[Perturbation], x0: PlanarState<f64>, t_final: f64) -> (f64, [usize; 4])
     where
         C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Clone,
-        L: PlanarLaneLaw + Clone,
+        L: LaneLaw<Shape = Planar> + Clone,
     {
         rig_lanes_against_the_runs(controller_on, law, feed, terrain, axes, x0, t_final, None)
     }
@@ -218,7 +218,7 @@ mod tests {
     ) -> (f64, [usize; 4])
     where
         C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Clone,
-        L: PlanarLaneLaw + Clone,
+        L: LaneLaw<Shape = Planar> + Clone,
     {
         let (_, circle, config, nominal) = setup();
         let config = SimConfig { t_final, ..config };

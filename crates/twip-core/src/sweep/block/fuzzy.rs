@@ -1,6 +1,6 @@
 //! Fuzzy adaptive backstepping + PD on lanes: `control::fuzzy::Law` on each lane, whose
 //! weights Ŝ adapt on their own.
-use super::{out_of_line_in, LaneLaw};
+use super::{out_of_line_in, LaneLaw, Slope};
 use crate::control::fuzzy::{FuzzyController, FuzzyGains, Law};
 use crate::control::fuzzy_basis::{Prepared, Trapezoid};
 use crate::control::fuzzy_grid::{RuleBase, Sized, MAX_RULES, MAX_SETS};
@@ -193,6 +193,7 @@ impl FuzzyLanes {
 }
 
 impl LaneLaw for FuzzyLanes {
+    type Shape = Slope;
     type State = FuzzyState;
 
     fn period(&self) -> f64 {

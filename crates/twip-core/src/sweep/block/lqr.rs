@@ -1,5 +1,5 @@
 //! LQR with integral action on lanes: `control::lqr::law` on each lane.
-use super::LaneLaw;
+use super::{LaneLaw, Slope};
 use crate::control::lqr::{law, LqrController};
 use crate::control::reference::SpeedRef;
 use crate::control::Controller;
@@ -40,6 +40,7 @@ impl LqrLanes {
 }
 
 impl LaneLaw for LqrLanes {
+    type Shape = Slope;
     /// The integrator z of each lane.
     type State = Lanes;
 

@@ -1,5 +1,6 @@
 //! The fast path of a sweep: [`LANES`] samples at once on the 2-DOF model, for every
-//! controller family with a law on lanes ([`LaneLaw`]: LQR, fuzzy backstepping + PD).
+//! controller family with a law on lanes ([`LaneLaw`] of the [`Slope`] shape: LQR, fuzzy
+//! backstepping + PD).
 //!
 //! Each lane is its own robot (plant coefficients per lane); the controller is the one
 //! prototype designed on the nominal robot, each lane with its own controller state.
@@ -27,6 +28,7 @@ use core::sync::atomic::{AtomicU8, Ordering};
 mod fuzzy;
 mod held;
 mod kinds;
+mod law;
 mod lqr;
 mod planar;
 mod planar_rig;
@@ -37,8 +39,9 @@ mod rig_lanes;
 mod smc;
 mod winding;
 pub use fuzzy::FuzzyLanes;
+pub use law::{LaneLaw, Planar, Shape, Slope};
 pub use lqr::LqrLanes;
-pub use planar::{run_planar_block, BlockGround, Flat, LanePath, PidLanes, PlanarLaneLaw};
+pub use planar::{run_planar_block, BlockGround, Flat, LanePath, PidLanes};
 pub use planar_terrain::{FeedForwardLanes, TerrainLanes};
 #[cfg(feature = "parallel")] // the envs' only use, and they build with `parallel`
 pub(crate) use {planar::Plants as PlanarPlants, planar_rig_lanes::PlanarRigLanes, rig_lanes::RigLanes};
@@ -67,21 +70,6 @@ pub(crate) fn put<const N: usize>(v: &mut Lanes, c: usize, w: Wide<N>) {
 #[inline(always)]
 pub(crate) fn state_chunk<const N: usize>(x: &[Lanes; 4], c: usize) -> [Wide<N>; 4] {
     [chunk(&x[0], c), chunk(&x[1], c), chunk(&x[2], c), chunk(&x[3], c)]
-}
-
-/// A controller's law on lanes: the sweep's prototype, with each lane's own state.
-pub trait LaneLaw {
-    /// Every lane's controller state, one array per quantity.
-    type State;
-    /// The control period [s].
-    fn period(&self) -> f64;
-    /// The state every lane starts from (the prototype's, reset).
-    fn start(&self) -> Self::State;
-    /// Every lane's input `u` for its true state `x` (sweeps sense ideally) and the
-    /// reference `r`. Lanes that have ended compute on and are never kept. `COPY` is the
-    /// kernel copy that asks (a [`KernelCopy`] as `u8`), for a law that runs out of line
-    /// in it ([`out_of_line_in`]).
-    fn update<const COPY: u8>(&mut self, state: &mut Self::State, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes);
 }
 
 /// Plant coefficients, one array per coefficient, one entry per lane. Aligned to a cache
@@ -565,7 +553,7 @@ multiversioned! {
     /// block with idle lanes). `should_stop` is asked every `runner::STOP_CHECK_STEPS`
     /// steps; `Ok(None)` means it said yes before the block was done. Compiled once per
     /// x86-64 vector width, all giving the same bits (`multiversioned`).
-    pub fn run_block, block_avx512, block_avx2, block_baseline = block<C: LaneLaw; const COPY>(
+    pub fn run_block, block_avx512, block_avx2, block_baseline = block<C: LaneLaw<Shape = Slope>; const COPY>(
         controller: C,
         reference: &SpeedSchedule<f64>,
         config: &SimConfig<f64>,
@@ -575,7 +563,7 @@ multiversioned! {
 }
 
 #[inline(always)]
-fn block<C: LaneLaw, const COPY: u8>(
+fn block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
     mut controller: C,
     reference: &SpeedSchedule<f64>,
     config: &SimConfig<f64>,
@@ -698,7 +686,7 @@ mod tests {
 
     /// Every compiled copy of the kernel gives the same bits (the baseline one through
     /// libm's fma), so a sweep is the same on any x86-64 CPU.
-    fn same_bits_on_every_copy<C: LaneLaw + Clone>(law: C) -> String {
+    fn same_bits_on_every_copy<C: LaneLaw<Shape = Slope> + Clone>(law: C) -> String {
         let schedule = SpeedSchedule::new(&[crate::control::reference::Leg { goal: 10.0, speed: 4.0, hold: 0.5 }]).unwrap();
         let config = SimConfig { dt: 1e-3, t_final: 3.0, fall_limit: 0.45 };
         let samples: Vec<Sample> = (0..LANES as u64)

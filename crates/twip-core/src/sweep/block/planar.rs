@@ -1,5 +1,5 @@
 //! The fast path of a 3-DOF tracking sweep: [`LANES`] samples at once on the planar model,
-//! for the trackers with a law on lanes ([`PlanarLaneLaw`]: PID, sliding mode).
+//! for the trackers with a law on lanes ([`LaneLaw`] of the [`Planar`] shape: PID, sliding mode).
 //!
 //! As the 2-DOF block: each lane its own robot, the tracker the one prototype designed on
 //! the nominal robot with each lane's own state; the physics is the run's own source
@@ -9,7 +9,8 @@
 //! bit the same on every CPU, thread count and block neighbour. The reference is the
 //! same for every lane: sampled once per step. What is here is the data layout and the
 //! runner's loop over a block.
-use super::{advance, finite_at, multiversioned, only, out_of_line_in};
+use super::law::{LaneLaw, Planar};
+use super::{advance, finite_at, multiversioned, only};
 use crate::control::pid::{PidLaw, PidTracker};
 use crate::control::trajectory::{Path, PlanarRef};
 use crate::control::{Controller, Reference};
@@ -26,31 +27,6 @@ use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
 use crate::sweep::SweepMetrics;
 use crate::TwipError;
 
-/// A tracker's law on lanes: the sweep's prototype, with each lane's own state.
-pub trait PlanarLaneLaw {
-    /// Every lane's controller state, one array per quantity.
-    type State;
-    /// The control period [s].
-    fn period(&self) -> f64;
-    /// The state every lane starts from (the prototype's, reset).
-    fn start(&self) -> Self::State;
-    /// Every lane's wheel torques `u` for its true state `x` (sweeps sense ideally) and the
-    /// reference `r`. Lanes that have ended compute on and are never kept. `COPY`: the
-    /// kernel copy that asks, as in [`LaneLaw::update`](super::LaneLaw::update).
-    fn update<const COPY: u8>(&mut self, state: &mut Self::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]);
-}
-
-/// `controller.update` as a function of its own per law and kernel copy (`out_of_line_in`),
-/// for the kernels where the law runs once per control period beside much more work: the
-/// rig's and the terrain's. Inlined there (three times in the 3-DOF rig kernel: flat ground,
-/// terrain, terrain with feed-forward), the sliding-mode law made the rig kernel's three copies
-/// 47 % of the wheel's optimiser time (LLVM's time trace: loop rotation, SROA and full
-/// unrolling over one huge function). The ideal flat kernel keeps it inlined.
-#[inline(always)]
-pub(super) fn update_out_of_line<C: PlanarLaneLaw, const COPY: u8>(controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
-    out_of_line_in::<COPY, _>(#[inline(always)] || controller.update::<COPY>(state, x, r, u))
-}
-
 /// The PID tracker on lanes: `PidLaw::step` on each lane, each lane's two integrals.
 #[derive(Clone, Debug)]
 pub struct PidLanes {
@@ -64,7 +40,8 @@ impl PidLanes {
     }
 }
 
-impl PlanarLaneLaw for PidLanes {
+impl LaneLaw for PidLanes {
+    type Shape = Planar;
     /// Σ e_v and Σ e_ψ of each lane.
     type State = [Lanes; 2];
 
@@ -330,7 +307,7 @@ multiversioned! {
     /// said yes before the block was done.
     /// On `ground`: [`Flat`], or the lanes' terrains ([`TerrainLanes`], chosen once per block:
     /// a flat block keeps its kernel and its bits).
-    pub fn run_planar_block, planar_avx512, planar_avx2, planar_baseline = planar_block<C: PlanarLaneLaw, P: LanePath, G: BlockGround; const COPY>(
+    pub fn run_planar_block, planar_avx512, planar_avx2, planar_baseline = planar_block<C: LaneLaw<Shape = Planar>, P: LanePath, G: BlockGround; const COPY>(
         controller: C,
         path: &P,
         config: &SimConfig<f64>,
@@ -351,7 +328,7 @@ pub trait BlockGround {
     /// What ends each lane at `next` under `u` besides a fall (None: nothing can).
     fn halts(&self, plants: &Plants, next: &[Lanes; 7], u: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]>;
     /// The tracker's update on every lane, with what this ground feeds forward.
-    fn update<C: PlanarLaneLaw, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]);
+    fn update<C: LaneLaw<Shape = Planar>, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]);
 }
 
 /// Flat ground: the planar model, nothing halts a lane, nothing fed forward.
@@ -374,14 +351,14 @@ impl BlockGround for Flat {
     }
 
     #[inline(always)]
-    fn update<C: PlanarLaneLaw, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
+    fn update<C: LaneLaw<Shape = Planar>, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
         controller.update::<COPY>(state, x, r, u);
     }
 }
 
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn planar_block<C: PlanarLaneLaw, P: LanePath, G: BlockGround, const COPY: u8>(
+fn planar_block<C: LaneLaw<Shape = Planar>, P: LanePath, G: BlockGround, const COPY: u8>(
     mut controller: C,
     path: &P,
     config: &SimConfig<f64>,
@@ -453,13 +430,13 @@ mod tests {
 
     /// Every compiled copy of the kernel gives the same bits (the baseline one through
     /// libm's fma), so a tracking sweep is the same on any x86-64 CPU.
-    fn same_bits_on_every_copy<C: PlanarLaneLaw + Clone>(law: C) {
+    fn same_bits_on_every_copy<C: LaneLaw<Shape = Planar> + Clone>(law: C) {
         same_bits_on_every_copy_on(law, |_| Flat, "fell: true");
     }
 
     /// [`same_bits_on_every_copy`] on the ground `ground_of` gives the block's samples (which
     /// it may change), some ending as `ending` says.
-    fn same_bits_on_every_copy_on<C: PlanarLaneLaw + Clone, G: BlockGround>(law: C, ground_of: impl Fn(&mut [PlanarSample]) -> G, ending: &str) {
+    fn same_bits_on_every_copy_on<C: LaneLaw<Shape = Planar> + Clone, G: BlockGround>(law: C, ground_of: impl Fn(&mut [PlanarSample]) -> G, ending: &str) {
         let nominal = RobotParams::balanbot();
         let circle = Circle::from_origin(0.6, 0.2, Direction::CounterClockwise).unwrap();
         let config = SimConfig { dt: 1e-3, t_final: 3.0, fall_limit: 0.5 };

@@ -1,12 +1,13 @@
 //! The fast path of a 3-DOF tracking sweep through the realism rig: [`LANES`] samples at
 //! once through the planar rig (`Realism::build_planar`), for the trackers with a law on
-//! lanes ([`PlanarLaneLaw`]: PID, sliding mode).
+//! lanes ([`LaneLaw`] of the [`Planar`] shape: PID, sliding mode).
 //!
 //! The loop is `runner::run_loop`'s, step for step: the controller and the metrics around
 //! the rig's lanes ([`PlanarRigLanes`], which step the rig's parts and the plant). So a lane
 //! agrees with `sweep::planar::run_planar_sample` to rounding, and is bit for bit the same
 //! on every CPU, thread count and block neighbour.
-use super::planar::{update_out_of_line, BlockGround, LanePath, Metrics, PlanarLaneLaw};
+use super::law::{update_out_of_line, LaneLaw, Planar};
+use super::planar::{BlockGround, LanePath, Metrics};
 use super::planar_rig_lanes::PlanarRigLanes;
 use super::planar_terrain::{FeedForwardLanes, TerrainLanes};
 use super::rig::block_rigs;
@@ -40,7 +41,7 @@ multiversioned! {
     /// (`Realism::build_planar_on`), the lanes' plants, IMUs and "lifted"/"off_terrain" ends
     /// as the ideal lanes' on terrain ([`TerrainLanes`]). A runtime choice inside the flat
     /// kernel's instances: the flat rig keeps its code and its bits.
-    pub fn run_planar_rig_block, planar_rig_avx512, planar_rig_avx2, planar_rig_baseline = planar_rig_block<C: PlanarLaneLaw, P: LanePath; const COPY>(
+    pub fn run_planar_rig_block, planar_rig_avx512, planar_rig_avx2, planar_rig_baseline = planar_rig_block<C: LaneLaw<Shape = Planar>, P: LanePath; const COPY>(
         controller: C,
         path: &P,
         config: &SimConfig<f64>,
@@ -54,7 +55,7 @@ multiversioned! {
 
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn planar_rig_block<C: PlanarLaneLaw, P: LanePath, const COPY: u8>(
+fn planar_rig_block<C: LaneLaw<Shape = Planar>, P: LanePath, const COPY: u8>(
     mut controller: C,
     path: &P,
     config: &SimConfig<f64>,

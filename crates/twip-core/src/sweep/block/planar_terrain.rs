@@ -4,7 +4,8 @@
 //! looked up at every RK4 stage; after each step the run's own tests end a lane "lifted" (a
 //! wheel's normal force below zero) or "off_terrain" (off a grid), and the grade's feed-forward
 //! (`GradeFeedForward`) is the run's own rest (`rest_drive`, `rest_torques`) on lanes.
-use super::planar::{update_out_of_line, BlockGround, PlanarLaneLaw, Plants};
+use super::law::{update_out_of_line, LaneLaw, Planar};
+use super::planar::{BlockGround, Plants};
 use crate::control::grade::GradeFeedForward;
 use crate::control::pid::relative_wheel_speeds;
 use crate::control::trajectory::PlanarRef;
@@ -222,7 +223,7 @@ impl BlockGround for TerrainLanes {
     /// the rest pitch of each lane's local grade and gets the rest torques added (zero off the
     /// terrain or where no rest exists), the sum held within the motor's torques.
     #[inline(always)]
-    fn update<C: PlanarLaneLaw, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
+    fn update<C: LaneLaw<Shape = Planar>, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
         let Some(feed) = &self.feed else {
             return update_out_of_line::<C, COPY>(controller, state, x, r, u);
         };

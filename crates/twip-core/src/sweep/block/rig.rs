@@ -1,5 +1,5 @@
 //! The fast path of a realism sweep: [`LANES`] samples at once through the 2-DOF rig, for
-//! every law on lanes ([`LaneLaw`]) and every realism: the slope model with its gearhead
+//! every law on lanes ([`LaneLaw`] of the [`Slope`] shape) and every realism: the slope model with its gearhead
 //! friction, backlash, a constant force and slope changes along the path (each lane picks
 //! its piece of the ground at every stage), pushes (each lane's rig's, between steps).
 //!
@@ -10,7 +10,8 @@
 //! every CPU, thread count and block neighbour.
 use super::held::end_diverged;
 use super::rig_lanes::RigLanes;
-use super::{multiversioned, out_of_line_in, steady_pitches, BlockResult, LaneLaw, Metrics, Shared};
+use super::law::update_out_of_line;
+use super::{multiversioned, steady_pitches, BlockResult, LaneLaw, Metrics, Shared, Slope};
 use crate::control::reference::SpeedSchedule;
 use crate::control::Reference;
 use crate::hardware::disturbance::{Force, Pushes};
@@ -61,7 +62,7 @@ multiversioned! {
     /// robot (`realism_of`; noise stream = the sample's index; see `sweep::rig::for_sweep`
     /// for the key), with `controller`'s law. `should_stop` is asked every
     /// `runner::STOP_CHECK_STEPS` steps; `Ok(None)` means it said yes before the block was done.
-    pub fn run_rig_block, rig_block_avx512, rig_block_avx2, rig_block_baseline = rig_block<C: LaneLaw; const COPY>(
+    pub fn run_rig_block, rig_block_avx512, rig_block_avx2, rig_block_baseline = rig_block<C: LaneLaw<Shape = Slope>; const COPY>(
         controller: C,
         reference: &SpeedSchedule<f64>,
         config: &SimConfig<f64>,
@@ -72,7 +73,7 @@ multiversioned! {
 }
 
 #[inline(always)]
-fn rig_block<C: LaneLaw, const COPY: u8>(
+fn rig_block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
     mut controller: C,
     reference: &SpeedSchedule<f64>,
     config: &SimConfig<f64>,
@@ -122,8 +123,8 @@ fn rig_block<C: LaneLaw, const COPY: u8>(
         if update {
             let y = rig.read(t);
             // The law out of line (once per law and copy): it runs once per control period
-            // here, and inlined it grew this kernel's optimiser time (as `update_out_of_line`).
-            out_of_line_in::<COPY, _>(#[inline(always)] || controller.update::<COPY>(&mut state, y, &r, &mut cmd));
+            // here, and inlined it grew this kernel's optimiser time.
+            update_out_of_line::<C, COPY>(&mut controller, &mut state, y, &r, &mut cmd);
             let diverged = rig.apply(t, &cmd);
             // A lane whose drive is not finite has diverged: it ends as fallen, unobserved.
             end_diverged(&diverged, &mut alive, &mut ended, t, k);

@@ -1,7 +1,8 @@
 //! The sliding-mode tracker (with or without fuzzy adaptation) on lanes: `SmcLaw::step`
 //! on each lane, [`WIDTH`](crate::model::lane::WIDTH) lanes at a time in [`Wide`] numbers
 //! (the fuzzy sets' selects and guards, which a loop over lanes would not vectorise).
-use super::planar::{lane_ref, PlanarLaneLaw};
+use super::law::{LaneLaw, Planar};
+use super::planar::lane_ref;
 use super::{chunk, out_of_line_in, put, CHUNKS};
 use crate::control::fuzzy_basis::Trapezoid;
 use crate::control::fuzzy_grid::{RuleBase, Sized, MAX_RULES, MAX_SETS};
@@ -87,7 +88,8 @@ impl SmcLanes {
     }
 }
 
-impl PlanarLaneLaw for SmcLanes {
+impl LaneLaw for SmcLanes {
+    type Shape = Planar;
     type State = SmcState;
 
     fn period(&self) -> f64 {
