@@ -2,11 +2,10 @@
 //! at once (the finite-difference columns of the estimator's Jacobian), on all cores.
 use nalgebra::Vector4;
 use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray3, PyUntypedArrayMethods};
-use twip_core::hardware::backlash::PlayState;
 use pyo3::prelude::*;
 use twip_core::hardware::driver::Driven;
 use twip_core::sysid::parallel::run_all;
-use twip_core::hardware::backlash::{Backlash, GearEvent};
+use twip_core::hardware::backlash::{Backlash, GearEvent, PlayState};
 use twip_core::sysid::geared::geared;
 use twip_core::sysid::{Outputs, Shooting};
 use twip_core::{SlopeModel, TwipError};
