@@ -180,6 +180,7 @@ def play_jacobian():
         problem = Problem(run.to_log(), robot, FREE + ["coulomb"], driver, rig.friction, 0.25, Sensors.of(rig), None,
                           1e-3, backlash)
         estimator = Estimator(problem, None, 1)
+        estimator.robust_limit = math.inf  # the prediction's own columns, not Huber's rescaling
         starts, x = run.states[problem.segments], np.zeros(estimator.n_g)
         columns = {}  # h -> [residuals, parameters]
         for h in steps:

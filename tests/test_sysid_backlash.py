@@ -64,6 +64,7 @@ def play_jacobian(run, rig, h):
                 rig.backlash)
     estimator = Estimator(p, None, 1)
     estimator.param_step = estimator.state_step = h
+    estimator.robust_limit = math.inf  # the prediction's own columns (Huber's rescaling is smooth, not a jump)
     *_, (jg, js) = estimator.linearise(np.zeros(estimator.n_g), run.states[p.segments])
     return np.column_stack([jg[:, :len(FREE) + 1], js])
 
@@ -140,9 +141,9 @@ MID = twip.RobotParams.balanbot().replace(m_body=1.2, m_wheels=0.08, i_body=0.00
 MID_DRIVER = twip.MotorDriver.thesis_like().replace(current_limit=2.0)
 
 
-def fitted_from_off(robot, driver, seed):
+def fitted_from_off(robot, driver, seed, play=True):
     """The full rig's 8 s log of `robot` (noise `seed`, `driver`), fitted from 15-25 % off with its
-    friction and play declared, coulomb free: the Fit and the warnings it raised."""
+    friction and (with `play`) its play declared, coulomb free: the Fit and the warnings it raised."""
     rig = twip.Realism.thesis_like(seed=seed).replace(motor=driver, settle=None)
     sc = twip.scenarios.get("flat-lqr", params=robot, controller_params=robot)
     run = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], 8.0, dt=1e-3, reference=sc.reference, realism=rig)
@@ -151,12 +152,12 @@ def fitted_from_off(robot, driver, seed):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         fit = identify(run.to_log(), start, FREE + ["coulomb"], driver=driver, sensors=Sensors.of(rig),
-                       friction=rig.friction, backlash=rig.backlash)
+                       friction=rig.friction, backlash=rig.backlash if play else None)
     return fit, caught
 
 
-@pytest.mark.parametrize("name", ["tall", "mid"])
-def test_the_full_rig_with_friction_and_play_declared_is_within_3_percent(name):
+@pytest.mark.parametrize("name, seed", [("tall", 0), ("mid", 0), ("tall", 2), ("tall", 3)])
+def test_the_full_rig_with_friction_and_play_declared_is_within_3_percent(name, seed):
     """From 15-25 % off, the full rig's 8 s log with its friction and play declared, coulomb
     free (benches/sysid.py --accuracy --case "friction and play declared"). Measured before the
     IMU rows near impacts were left out: not converged and flagged, tall i_body +241 % (the
@@ -164,9 +165,12 @@ def test_the_full_rig_with_friction_and_play_declared_is_within_3_percent(name):
     by thousands where a parameter moved an impact across an IMU sample (docs/sysid.md). With
     them (and the residuals' noise levels): tall within 0.76 %, mid within 0.52 %, converged,
     quiet; without the play's convergence test (PLAY_STEP) the mid robot's fit did not converge
-    in 50 iterations (within 0.51 %, its cost moving by 0.02-0.3 from one to the next)."""
+    in 50 iterations (within 0.51 %, its cost moving by 0.02-0.3 from one to the next). Tall
+    noise seeds 2 and 3 before the residuals beyond two noise levels cost as in Huber's loss
+    (`play.robust`): i_body +6.76 % (warned) and +10.6 % (not converged); with it +2.62 % and
+    +0.30 %, converged, quiet."""
     robot, driver = (TALL, DRIVER) if name == "tall" else (MID, MID_DRIVER)
-    fit, caught = fitted_from_off(robot, driver, 0)
+    fit, caught = fitted_from_off(robot, driver, seed)
     assert "gear play, declared" in fit.summary()
     assert fit.converged and not fit.warnings and not caught, fit.summary()
     for n in FREE:
@@ -259,20 +263,19 @@ def test_the_issues_robot_with_friction_and_play_declared_is_within_3_percent(se
         assert abs(fit.values[name] / getattr(USER, name) - 1) < (0.06 if name == "i_body" else 0.03), fit.summary()
 
 
-def test_a_fit_whose_residuals_spread_it_wider_than_noise_warns_and_covers_the_truth():
-    """The tall robot's full rig with friction and play declared, noise seed 2, from 15-25 % off
-    (benches/sysid.py --accuracy --robots tall --case 'friction and play declared' --seed 2).
-    Before the empirical spread (`sysid.spread`): i_body +6.76 % with a standard deviation of
-    1.50 %, converged and quiet. The fit sits where the model's impacts are not the log's (the
-    gyro's residuals 26-84 samples after them 1.5-2.6 of its level, far from them 0.62), and its
-    residuals, segment by segment, spread i_body 3.3x as wide as the noise model does: the Fit
-    warns by name and the widened interval holds the truth."""
-    fit, caught = fitted_from_off(TALL, DRIVER, 2)
-    off = {n: fit.values[n] / getattr(TALL, n) - 1 for n in FREE}
-    print(off, fit.std, fit.solution.spread)
-    assert any(abs(e) > 0.05 for e in off.values()), off  # the case is still the hard one
-    assert any(w.startswith("i_body: the residuals spread") for w in fit.warnings), fit.summary()
+def test_a_fit_whose_residuals_spread_it_wider_than_noise_warns_and_widens_its_interval():
+    """The issue's robot on the full rig with its friction declared and its play not (so the
+    model lacks the play), noise seed 0, from 15-25 % off. mu_bearing comes out -0.65 %, about
+    9 of the noise model's deviations off; its residuals, segment by segment, spread it 3.4x as
+    wide (coulomb too). Before the empirical spread (`sysid.spread`) that was a quiet answer.
+    The Fit warns by name, and the widened deviation puts the truth within 3 of them (measured
+    2.7). (Tall seed 2 with the play declared was this test's case until Huber's loss made that
+    fit right: +2.62 %, quiet.)"""
+    fit, caught = fitted_from_off(USER, twip.MotorDriver.thesis_like().replace(current_limit=3.0), 0, play=False)
+    print(fit.summary(), fit.solution.spread)
+    assert any(w.startswith("mu_bearing: the residuals spread") for w in fit.warnings), fit.summary()
     assert any(issubclass(w.category, twip.SysidMisfitWarning) for w in caught)
-    for n in FREE:
-        lo, hi = fit.interval(n)
-        assert lo <= getattr(TALL, n) <= hi, (n, lo, hi, fit.summary())
+    j = fit.names.index("mu_bearing")
+    widened, ratio = fit.std["mu_bearing"], fit.solution.spread[j]
+    off = abs(fit.values["mu_bearing"] - USER.mu_bearing)
+    assert off > 3 * widened / ratio and off < 3 * widened, (off, widened, ratio)

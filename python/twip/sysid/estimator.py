@@ -21,9 +21,10 @@ import numpy as np
 from twip import _core, budget, checks
 from twip.sysid import spread, units
 from twip.sysid.grid import Grid
+from twip.sysid.kkt import kkt_matrix
 from twip.sysid.log import LogError, RunLog
 from twip.sysid.measure import BIASED, FILTERED, OUTPUTS, Sensors, noise_floor, noise_level, predict, settling_samples
-from twip.sysid.play import PLAY_STEP, rows_near_impacts, steps_within_deviation
+from twip.sysid.play import PLAY_STEP, ROBUST_LIMIT, robust, robust_slope, rows_near_impacts, steps_within_deviation
 from twip.sysid.signals import correlation_time, segments, smooth_rate
 
 #: Relative step of a parameter's central difference, and absolute step of a start state.
@@ -278,11 +279,14 @@ class Estimator:
         self.ranges = problem.ranges
         self.n_g = len(problem.unknowns) + len(problem.biased)
         self.param_step, self.state_step = PARAM_STEP, STATE_STEP
+        #: With gear play: residuals beyond this many noise levels cost as in Huber's loss.
+        self.robust_limit = ROBUST_LIMIT
 
-    # r = (y - h) / sigma, stacked signal by signal; J = dr/d(unknowns)
+    # r = (y - h) / sigma, stacked signal by signal (with play, Huber's: `play.robust`); J = dr/d(unknowns)
     def residual(self, outputs: Dict[str, np.ndarray]) -> np.ndarray:
-        return np.concatenate([np.where(self.p.used[s], self.p.y[s] - outputs[s], 0.0) / self.sigma[s]
-                               for s in self.p.outputs])
+        r = np.concatenate([np.where(self.p.used[s], self.p.y[s] - outputs[s], 0.0) / self.sigma[s]
+                            for s in self.p.outputs])
+        return robust(r, self.robust_limit) if self.p.backlash is not None else r
 
     def split(self, x: np.ndarray):
         n_p = len(self.p.unknowns)
@@ -346,9 +350,12 @@ class Estimator:
             jg[:, j] = (h[1 + 2 * j] - h[2 + 2 * j]) / (2 * self.param_step)
             d_ends[:, :, j] = (ends[1 + 2 * j] - ends[2 + 2 * j]) / (2 * self.param_step)
         for i, name in enumerate(self.p.biased):
-            # An offset moves its own signal's rows only, by -1/sigma.
+            # An offset moves its own signal's rows only, by -1/sigma (with play, Huber's slope times).
             at = self.p.outputs.index(name) * len(self.p.log)
-            jg[at:at + len(self.p.log), n_p + i] = np.where(self.p.used[name], -1.0 / self.sigma[name], 0.0)
+            column = np.where(self.p.used[name], -1.0 / self.sigma[name], 0.0)
+            if self.p.backlash is not None:
+                column = column * robust_slope(r[at:at + len(self.p.log)], self.robust_limit)
+            jg[at:at + len(self.p.log), n_p + i] = column
         base = 1 + 2 * n_p
         # All segments' starts were moved at once: each row answers to its own segment's.
         js = np.column_stack([(h[base + 2 * c] - h[base + 2 * c + 1]) / (2 * state_steps[c]) for c in range(4)])
@@ -398,11 +405,7 @@ class Estimator:
         g = grad[free]
         if con is None:
             return np.linalg.lstsq(h, -g, rcond=None)[0], np.zeros(0)
-        # The constraints are scaled to the normal equations' size, so that the KKT matrix
-        # is balanced (1/sigma^2 weights make H's entries huge against C's).
-        scale = math.sqrt(max(float(np.max(np.abs(np.diag(h)))), 1e-300))
-        c = con[:, free] * scale
-        kkt = np.block([[h, c.T], [c, np.zeros((c.shape[0], c.shape[0]))]])
+        kkt, scale = kkt_matrix(h, con[:, free])
         rhs = np.concatenate([-g, -gaps * scale])
         try:
             sol = np.linalg.solve(kkt, rhs)
@@ -422,10 +425,7 @@ class Estimator:
         information keeps the block's huge variance (A H A^T would round it away). Widened to the
         spread the residuals `r` show (`spread.widened`, which also gives the ratios), compared
         with all of the noise model's, the bias walk's share included."""
-        scale = math.sqrt(max(float(np.max(np.abs(np.diag(hess)))), 1e-300))
-        c = con * scale
-        kkt = np.block([[hess, c.T], [c, np.zeros((c.shape[0], c.shape[0]))]])
-        inverse = np.linalg.pinv(kkt, rcond=1e-15, hermitian=True)
+        inverse = np.linalg.pinv(kkt_matrix(hess, con)[0], rcond=1e-15, hermitian=True)
         a = inverse[:self.n_g, :len(hess)]
         jg, js = jacobian
         n = len(self.p.log)
