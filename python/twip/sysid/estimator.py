@@ -24,14 +24,13 @@ from twip.sysid.grid import Grid
 from twip.sysid.kkt import kkt_matrix
 from twip.sysid.log import LogError, RunLog
 from twip.sysid.measure import BIASED, FILTERED, OUTPUTS, Sensors, noise_floor, noise_level, predict, settling_samples
-from twip.sysid.play import PLAY_STEP, ROBUST_LIMIT, robust, robust_slope, rows_near_impacts, steps_within_deviation
+from twip.sysid import play
+from twip.sysid.play import ROBUST_LIMIT, robust, robust_slope, rows_near_impacts
 from twip.sysid.signals import correlation_time, segments, smooth_rate
 
-#: Relative step of a parameter's central difference, and absolute step of a start state.
-#: With gear play declared too: the perturbed runs replay the base run's impacts and openings
-#: (`_core.sysid_shoot`), so that no difference sees an impact moved across a plant step (free,
-#: m_body's column was 6x the smooth one at 1e-3, 61x at 1e-4), and the columns are the same
-#: at 1e-6, 1e-4 and 1e-3 (tests/test_sysid_backlash.py).
+#: Relative step of a parameter's central difference, and absolute step of a start state. With
+#: gear play the perturbed runs replay the base run's impacts and openings (`_core.sysid_shoot`;
+#: free, m_body's column was 61x the smooth one at 1e-4): the same columns at 1e-6 to 1e-3.
 PARAM_STEP = 1e-5
 STATE_STEP = 1e-6
 #: The most integration steps one prediction of a log may take (`max_step` and the log's span).
@@ -289,8 +288,7 @@ class Estimator:
         return robust(r, self.robust_limit) if self.p.backlash is not None else r
 
     def split(self, x: np.ndarray):
-        n_p = len(self.p.unknowns)
-        return x[:n_p], x[n_p:]
+        return x[:len(self.p.unknowns)], x[len(self.p.unknowns):]
 
     def evaluate(self, x, starts, schedule=None):
         """(half the sum of squares, r, outputs, continuity gaps [S-1, 4]) at global unknowns
@@ -501,6 +499,7 @@ class Estimator:
         times = {s: correlation_time((p.y[s] - out[s])[p.used[s]]) for s in p.outputs}
         hess, _, _, con, jacobian = self.linearise(x, starts)
         cov, ratio = self.covariance(hess, con, jacobian, times, r)
+        cov[:len(p.unknowns), :len(p.unknowns)] += np.outer(self.short, self.short)  # the step a play fit did not take
         delta, biases = self.split(x)
         information = np.linalg.pinv(cov, rcond=1e-13) if cov.size else cov
         return Solution(delta, starts, biases, dict(self.sigma), cost, iterations, converged,
@@ -532,15 +531,14 @@ class Estimator:
         free = np.arange(0 if params else n_p, self.n_g + 4 * n_seg)
         lam, rho = 1e-3, 0.0
         # With gear play, each trial step is weighed with this point's impacts and openings
-        # replayed, the function the Jacobian differences. Run free, a step that moved an
-        # impact by a plant step jumped the cost: the issue's robot then converged quietly at
-        # i_body +5.4 % (within 0.51 % so). The next iteration starts from the point's own.
+        # replayed, the function the Jacobian differences (run free, the issue's robot converged
+        # quietly at i_body +5.4 %). The next iteration starts from the point's own.
         held = self.p.backlash is not None
+        moved, self.short = np.full(n_p, np.inf), np.zeros(n_p)
         cost, _, _, gaps = self.evaluate(x, starts)
         if not math.isfinite(cost):
             return x, starts, False, "the prediction from the starting robot is not finite", 0
-        # With gear play, the noise levels follow the residuals from the start (see _levels).
-        levels = held and params and not self.fixed_sigma
+        levels = held and params and not self.fixed_sigma  # with play, from the start (_levels)
         for it in range(1, self.max_iter + 1):
             if held and (it > 1 or levels):
                 # The last step was weighed with the schedule before it: this point's own.
@@ -559,8 +557,10 @@ class Estimator:
             if params and closed and np.all(np.abs(step[:n_p]) < 1e-10) and it > 1:
                 # The undamped step moves no parameter and the gaps are closed: converged.
                 return x, starts, True, f"converged in {it} iterations", it
-            if held and params and joined and it > 1 and steps_within_deviation(hess, con, gap_vec, step[:n_p], free, self.state_step):
-                return x, starts, True, f"converged in {it} iterations (steps within {PLAY_STEP} of a deviation)", it
+            if held and params and joined and it > 1:
+                why, self.short = play.stop(hess, con, gap_vec, step[:n_p], moved, free, self.state_step)
+                if why:
+                    return x, starts, True, f"converged in {it} iterations ({why})", it
             # What the undamped step would gain, by the Gauss-Newton model of the cost.
             predicted = -(float(grad[free] @ step) + 0.5 * float(step @ hess[np.ix_(free, free)] @ step))
             # Every damped step closes the linearised gaps by `closing`: in full they would make
@@ -586,7 +586,7 @@ class Estimator:
                     return x, starts, True, f"converged in {it} iterations (no step lowers the cost further)", it
                 return x, starts, False, f"no step lowered the cost after {it} iterations", it
             decrease = merit - new_merit
-            x, starts, cost, gaps = new_x, new_starts, new_cost, new_gaps
+            x, starts, cost, gaps, moved = new_x, new_starts, new_cost, new_gaps, z[:n_p]
             lam = max(lam / 3, 1e-12)
             closed = not joined or np.max(np.abs(gaps), initial=0.0) < 1e-9
             # The cost is half a chi-square (residuals over their noise): a decrease far
