@@ -92,8 +92,12 @@ def diagnosis(problem, error: Exception) -> str:
     if sign:
         return sign
     checks = ", ".join(f"{name} [{unit}]" for name, unit in CHECKED.items() if getattr(log, name) is not None)
+    # A pwm log through a driver other than the rig's blows up as a wrong unit does (a 4 kg
+    # robot's 5 ms log through MotorDriver()'s, tests/test_sysid_misfit.py).
+    model = (" the motor driver (driver=, the robot file's [driver]) and" if problem.driven else "")
     return (f"the prediction from the start robot and the log's own start states is not finite ({error}): the "
-            f"log's columns disagree with the model; check each one's unit and sign: {checks}")
+            f"log's columns disagree with the model; check each one's unit and sign: {checks}; and that the "
+            f"model is the rig's:{model} the gearhead friction (friction=, --friction-coulomb)")
 
 
 #: What each column must be in, for the diagnosis.
