@@ -41,7 +41,7 @@ STALL_MOVE = 0.01
 #: samples after an impact 2.6 noise levels in RMS, far from them 0.62), and squared they
 #: pulled the fit there: benches/sysid.py --accuracy --robots tall --case 'friction and play'
 #: seeds 2 and 3 were i_body +6.76 % (warned) and +10.6 % (not converged); with the limit 2,
-#: +2.41 % and +0.28 %, converged (3: +3.32 % and +0.30 %). Only with the play: its noise
+#: +2.62 % and +0.30 %, converged and quiet. Only with the play: its noise
 #: levels follow the residuals from the start (`Estimator._levels`), so that a limit in them
 #: means something; without the play the first levels are the log's second differences, far
 #: below a filtered signal's residuals, and the same limit made the user robot's clean 1 kHz
