@@ -2,6 +2,7 @@
 //! [`LANES`] robots a block, one block per task, on the ideal lanes or through their rigs on
 //! the rig's lanes (the sweep's, each lane at its own step); what differs between the envs
 //! (model, lanes, rig, draw) is their [`EnvKind`].
+use alloc::boxed::Box;
 use alloc::sync::Arc;
 use alloc::vec::Vec;
 
@@ -107,7 +108,7 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> RigRobots<K, NX, NU> 
     /// `robot` (settled) in lane `j`.
     fn put(&mut self, j: usize, robot: Started<K, NX, NU>) {
         let Started::Rig(model, rig, x0, pwm_max) = robot else { unreachable!("a batch's robots are all ideal or all through a rig") };
-        self.lanes.restart(j, model, rig, x0);
+        self.lanes.restart(j, model, *rig, x0);
         (self.steps[j], self.pwm_max[j]) = (0, pwm_max);
     }
 }
@@ -134,8 +135,10 @@ fn reserved<T>(n: usize) -> Result<Vec<T>, TwipError> {
 /// A lane's next robot, made apart from the batch so that many can be made at once.
 enum Started<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
     Ideal(K::Model, SVector<f64, NX>),
-    /// Its model, rig, initial state and driver's largest duty.
-    Rig(K::Model, <K::RigLanes as RigBlock>::Rig, [f64; NX], Option<f64>),
+    /// Its model, rig, initial state and driver's largest duty. The rig is boxed: unboxed,
+    /// every `Started` (an ideal robot's too) was the size of a rig (kilobytes of IMU state),
+    /// and moving the new robots through a reset was 5 % of Track-v0's ideal step (`memmove`).
+    Rig(K::Model, Box<<K::RigLanes as RigBlock>::Rig>, [f64; NX], Option<f64>),
 }
 
 /// The robot of `spec` for `key`: its model and initial state, and its rig, with `settle`
@@ -155,7 +158,7 @@ fn make<K: EnvKind<NX, NU>, const NX: usize, const NU: usize>(spec: &K, key: (u6
     if settle {
         K::RigLanes::settle(&mut [(&mut rig, x0.into())], seconds(&p));
     }
-    Ok(Started::Rig(model, rig, x0.into(), pwm_max))
+    Ok(Started::Rig(model, Box::new(rig), x0.into(), pwm_max))
 }
 
 /// The control period [s].
@@ -171,7 +174,7 @@ fn rig_block<K: EnvKind<NX, NU>, const NX: usize, const NU: usize>(spec: &K, fir
         let Started::Rig(model, rig, x, max) = make::<K, NX, NU>(spec, ((first + j) as u64, 0), false)? else {
             unreachable!("a spec with a realism makes rig robots")
         };
-        built.push(Some((model, rig)));
+        built.push(Some((model, *rig)));
         (x0[j], pwm_max[j]) = (x, max);
     }
     let p = spec.period();
@@ -310,7 +313,7 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
                 // The rigs' settles, side by side a set of the settle's lanes at a time (a
                 // task each, which the threads share out evenly).
                 made.par_chunks_mut(SETTLE_LANES).for_each(|robots| {
-                    let mut rigs: Vec<_> = robots.iter_mut().filter_map(|r| if let Ok(Started::Rig(_, rig, x0, _)) = r { Some((rig, *x0)) } else { None }).collect();
+                    let mut rigs: Vec<_> = robots.iter_mut().filter_map(|r| if let Ok(Started::Rig(_, rig, x0, _)) = r { Some((&mut **rig, *x0)) } else { None }).collect();
                     K::RigLanes::settle(&mut rigs, period);
                 });
             }
