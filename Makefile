@@ -97,7 +97,9 @@ test-python: build
 # `make test` 781 s, on a day when the same wheel's build took 446 s against 336 s; 22cb25d (the
 # lane tests' fewer debug-build blocks, criterion out of the cores' tests, every Rust build before
 # the runs) `make demo` 429 s, then `make test` 675 s (pytest 576 s beside the Rust tests, whose
-# lib suite ran 237 s against 400 s at eee0fbe).
+# lib suite ran 237 s against 400 s at eee0fbe); 443e4ee (OpenBLAS at one thread in pytest's
+# workers, faster identification), with a helper's builds nice'd beside it, `make demo` 451 s,
+# then `make test` 629 s (pytest 452 s beside the Rust tests).
 #
 # On this project's AVX2 machine (AMD EPYC, 2 cores; it does the same work with ~2.3x the CPU
 # time of that VM), clean clone of c6a24c6 with other builds nice'd beside it: `make demo`

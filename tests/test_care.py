@@ -20,15 +20,9 @@ Two rules keep the comparison meaningful, and the test counts what they do:
   cases; 2 with this seed, both ``weights``). Checked against 40-digit Newton refinement,
   twip's X was the closer to the true solution in every such case looked at.
 """
-import os
-
-# scipy's bundled OpenBLAS starts threads even for 12x12 problems; on a busy machine that
-# makes the 1,000 reference solves 5-10x slower. One thread is faster at these sizes.
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-import scipy.linalg as sl  # noqa: E402
+import numpy as np
+import pytest
+import scipy.linalg as sl
 
 import twip
 

@@ -105,6 +105,25 @@ def test_filters_take_any_real_array_like_and_refuse_nan():
             tilt.filter([0.0], [9.8], [0.0], dt)
 
 
+def test_a_filter_over_segments_filters_each_from_its_own_start():
+    """With `segments`, each segment is the filter of its own samples alone, from the steady
+    state of its first (identification's shooting segments): the same bits as one call per
+    segment. Bad starts are refused by name."""
+    dlpf = twip.Dlpf.mpu6050(42, "gyro")
+    x = np.sin(np.arange(500) * 0.05) + 0.3 * (np.arange(500) >= 200)
+    starts = [0, 130, 200, 499]
+    ends = [*starts[1:], len(x)]
+    expected = np.concatenate([dlpf.filter(x[a:b]) for a, b in zip(starts, ends)])
+    np.testing.assert_array_equal(dlpf.filter(x, starts), expected)
+    np.testing.assert_array_equal(dlpf.filter(x, [0]), dlpf.filter(x))
+    # Not the whole run's filter: each segment forgot what came before it.
+    assert not np.array_equal(expected, dlpf.filter(x))
+    for bad, shown in (([], "none given"), ([5, 10], "the first is 5, not 0"),
+                       ([0, 10, 10], r"segments\[2\] = 10 after 10"), ([0, 500], r"segments\[1\] = 500 after 0 in a series of 500")):
+        with pytest.raises(twip.InvalidParameterError, match=rf"^segments: {shown}"):
+            dlpf.filter(x, bad)
+
+
 def gain_at(f, hz, period=1e-3, cycles=60):
     n = int(cycles / (hz * period))
     t = np.arange(n) * period

@@ -806,8 +806,11 @@ class Dlpf:
     pure_delay: float
     sample_rate: float
     zeta: float
-    def filter(self, x: _ArrayLike) -> _F64:
-        """Filters `x` (samples at the sample rate), starting in the steady state of x[0]."""
+    def filter(self, x: _ArrayLike, segments: Optional[Sequence[int]] = None) -> _F64:
+        """Filters `x` (samples at the sample rate), starting in the steady state of x[0]. With
+        `segments` (each segment's first sample: 0 first, increasing), each segment is
+        filtered on its own, from the steady state of its own first sample.
+        """
     def to_dict(self) -> dict[str, Any]:
         """The settings as the constructor's keyword arguments:
         `type(x).from_dict(x.to_dict()) == x`.

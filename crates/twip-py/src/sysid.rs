@@ -4,10 +4,10 @@ use nalgebra::Vector4;
 use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use twip_core::hardware::driver::Driven;
-use twip_core::sysid::parallel::{run_all, Prediction};
-use twip_core::hardware::backlash::{Backlash, GearEvent};
+use twip_core::sysid::parallel::run_all;
+use twip_core::hardware::backlash::{Backlash, GearEvent, PlayState};
 use twip_core::sysid::geared::geared;
-use twip_core::sysid::Shooting;
+use twip_core::sysid::{Outputs, Shooting};
 use twip_core::{SlopeModel, TwipError};
 
 use crate::errors::PyTwipError;
@@ -66,7 +66,8 @@ pub fn sysid_shoot<'py>(
     let n = shooting.samples();
     // One gear event per plant step, with play (`Shooting::plant_steps`).
     let events = if backlash.is_some() { shooting.plant_steps() } else { 0 };
-    let mut out = buffer(k, n, segments.len(), events)?;
+    let mut buffers = Buffers::new(k, n, segments.len(), events)?;
+    let mut out = buffers.outputs(n, segments.len(), events);
     let plants: Vec<SlopeModel<f64>> = models.iter().map(|m| m.inner).collect();
     if let Some(d) = &drivers {
         if d.len() != k {
@@ -98,52 +99,75 @@ pub fn sysid_shoot<'py>(
         }
     }
     .map_err(PyTwipError)?;
+    drop(out);
     let segments = segments.len();
-    let states = to_array(py, out.iter().map(|p| &p.states), n)?;
-    let rates = to_array(py, out.iter().map(|p| &p.rates), n)?;
-    let ends = to_array(py, out.iter().map(|p| &p.ends), segments)?;
-    let flat: Vec<f64> = out.iter().flat_map(|p| p.sensed.iter().flatten().copied()).collect();
-    let sensed = flat.into_pyarray(py).reshape([k, n, 2])?;
-    Ok((states, rates, ends, sensed))
+    let Buffers { states, rates, ends, sensed, .. } = buffers;
+    Ok((
+        states.into_pyarray(py).reshape([k, n, 4])?,
+        rates.into_pyarray(py).reshape([k, n, 4])?,
+        ends.into_pyarray(py).reshape([k, segments, 4])?,
+        sensed.into_pyarray(py).reshape([k, n, 2])?,
+    ))
 }
 
 fn invalid(name: &'static str, value: f64, reason: &'static str) -> TwipError {
     TwipError::InvalidParameter { name, value, reason }
 }
 
-/// k runs of n states (and as many rates, one end per segment, and `events` gear events),
-/// reserved fallibly: a MemoryError naming the size, not an abort.
-fn buffer(k: usize, n: usize, segments: usize, events: usize) -> PyResult<Vec<Prediction>> {
-    // A gear event is 2 bytes, a row 32.
-    let rows = (n as u64).saturating_mul(3).saturating_add(segments as u64 * 2).saturating_add(events as u64 / 16);
-    let bytes = (k as u64).saturating_mul(rows).saturating_mul(32);
-    let oom = || PyTwipError(TwipError::OutOfMemory { name: "models x samples", bytes });
-    let column = |len: usize| -> PyResult<Vec<Vector4<f64>>> {
-        let mut v = Vec::new();
-        v.try_reserve_exact(len).map_err(|_| oom())?;
-        v.resize(len, Vector4::zeros());
-        Ok(v)
-    };
-    let mut out = Vec::new();
-    out.try_reserve_exact(k).map_err(|_| oom())?;
-    for _ in 0..k {
-        let mut sensed = Vec::new();
-        sensed.try_reserve_exact(n).map_err(|_| oom())?;
-        sensed.resize(n, [0.0; 2]);
-        let mut script = Vec::new();
-        script.try_reserve_exact(events).map_err(|_| oom())?;
-        script.resize(events, GearEvent::default());
-        out.push(Prediction { states: column(n)?, rates: column(n)?, sensed, ends: column(segments)?, plays: vec![None; segments], events: script });
-    }
-    Ok(out)
+/// The k runs' outputs, each array flat in the layout NumPy is handed ([k, rows, columns]):
+/// the runs write there and the arrays move to NumPy without a copy.
+struct Buffers {
+    states: Vec<f64>,
+    rates: Vec<f64>,
+    ends: Vec<f64>,
+    sensed: Vec<f64>,
+    plays: Vec<Option<PlayState<f64, 1>>>,
+    events: Vec<GearEvent>,
 }
 
-fn to_array<'a, 'py>(
-    py: Python<'py>,
-    runs: impl ExactSizeIterator<Item = &'a Vec<Vector4<f64>>>,
-    rows: usize,
-) -> PyResult<Bound<'py, PyArray3<f64>>> {
-    let k = runs.len();
-    let flat: Vec<f64> = runs.flat_map(|r| r.iter().flat_map(|v| [v[0], v[1], v[2], v[3]])).collect();
-    flat.into_pyarray(py).reshape([k, rows, 4])
+impl Buffers {
+    /// Reserved fallibly: a MemoryError naming the size, not an abort.
+    fn new(k: usize, n: usize, segments: usize, events: usize) -> PyResult<Self> {
+        // A gear event is 2 bytes, a row 32.
+        let rows = (n as u64).saturating_mul(3).saturating_add(segments as u64 * 2).saturating_add(events as u64 / 16);
+        let bytes = (k as u64).saturating_mul(rows).saturating_mul(32);
+        let oom = || PyTwipError(TwipError::OutOfMemory { name: "models x samples", bytes });
+        fn filled<T: Clone>(len: Option<usize>, value: T, oom: &dyn Fn() -> PyTwipError) -> PyResult<Vec<T>> {
+            let len = len.ok_or_else(oom)?;
+            let mut v = Vec::new();
+            v.try_reserve_exact(len).map_err(|_| oom())?;
+            v.resize(len, value);
+            Ok(v)
+        }
+        let per_runs = |columns: usize, rows: usize| k.checked_mul(rows).and_then(|r| r.checked_mul(columns));
+        Ok(Self {
+            states: filled(per_runs(4, n), 0.0, &oom)?,
+            rates: filled(per_runs(4, n), 0.0, &oom)?,
+            ends: filled(per_runs(4, segments), 0.0, &oom)?,
+            sensed: filled(per_runs(2, n), 0.0, &oom)?,
+            plays: filled(per_runs(1, segments), None, &oom)?,
+            events: filled(per_runs(1, events), GearEvent::default(), &oom)?,
+        })
+    }
+
+    /// Each run's share of the arrays: n samples, `segments` ends and plays, and `events`
+    /// gear events (none without play).
+    fn outputs(&mut self, n: usize, segments: usize, events: usize) -> Vec<Outputs<'_, f64>> {
+        let mut gear_events = self.events.chunks_mut(events.max(1));
+        runs_of_rows(&mut self.states, n)
+            .zip(runs_of_rows(&mut self.rates, n))
+            .zip(runs_of_rows(&mut self.ends, segments))
+            .zip(bytemuck::cast_slice_mut::<f64, [f64; 2]>(&mut self.sensed).chunks_mut(n))
+            .zip(self.plays.chunks_mut(segments))
+            .map(|((((states, rates), ends), sensed), plays)| {
+                let events = gear_events.next().unwrap_or(&mut []);
+                Outputs { states, rates, sensed, ends, plays, events }
+            })
+            .collect()
+    }
+}
+
+/// A flat array of runs × `rows` rows of 4 numbers, as each run's rows of states.
+fn runs_of_rows(flat: &mut [f64], rows: usize) -> core::slice::ChunksMut<'_, Vector4<f64>> {
+    bytemuck::cast_slice_mut::<f64, Vector4<f64>>(flat).chunks_mut(rows)
 }

@@ -56,12 +56,13 @@ def predict(name: str, states: np.ndarray, rates: np.ndarray, radius: float, g: 
     if sensors.imu is None or name not in FILTERED:
         return raw
     dlpf = sensors.imu.dlpf("gyro" if name == "gyro" else "accel")
-    out = np.empty_like(raw)
-    for r in segments:
-        filtered = dlpf.filter(raw[r.start:r.stop])
-        # A log row holds the register as last sampled: one IMU sample before the row's state.
-        out[r.start] = filtered[0]
-        out[r.start + 1:r.stop] = filtered[:-1]
+    starts = [r.start for r in segments]
+    filtered = dlpf.filter(raw, starts)
+    # A log row holds the register as last sampled: one IMU sample before the row's state
+    # (within its segment: a segment's first row holds its own first sample).
+    out = np.empty_like(filtered)
+    out[1:] = filtered[:-1]
+    out[starts] = filtered[starts]
     return out
 
 

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 
 use super::robot::{advance_block, advance_rig, oom, LanePlant, Period, RigBlock};
 use crate::hardware::realism::Realism;
+use crate::hardware::settle::SETTLE_LANES;
 use crate::model::params::RobotParams;
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::rig::noise_seed;
@@ -115,6 +116,10 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> RigRobots<K, NX, NU> 
 /// 1.8 MB, 164 s at the default 5 ms); a lane past them has its own made each time. The
 /// tests' builds keep few, so that lanes run past them.
 pub(crate) const AT_PERIODS: usize = if cfg!(test) { 64 } else { 1 << 15 };
+
+/// Fewer ideal robots than this are started anew on the thread that resets them: not worth
+/// a trip to the threads.
+const IDEAL_MADE_HERE: usize = 256;
 
 /// Lanes a task of [`Envs::rows_into`] fills: enough that a task outweighs handing it out.
 const ROWS_A_TASK: usize = 512;
@@ -291,39 +296,48 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
             let (s, e) = self.keys[l];
             keys.push(seeds.map_or((s, e.wrapping_add(1)), |s| (s[i], 0)));
         }
-        let (spec, period) = (&self.spec, seconds(&self.spec.period()));
-        let mut made: Vec<_> = self.pool.install(|| keys.par_iter().map(|&key| make::<K, NX, NU>(spec, key, false)).collect());
-        if self.has_rig() {
-            // The rigs' settles, side by side a block at a time.
-            self.pool.install(|| {
-                made.par_chunks_mut(LANES).for_each(|robots| {
+        let Self { spec, n, keys: lane_keys, periods, robots, pool, .. } = self;
+        let (spec, period, blocks) = (&*spec, seconds(&spec.period()), n.div_ceil(LANES));
+        // Each robot made, settled and put in its lane: the robots up to the first one
+        // refused, each block's side by side.
+        // Ideal robots are a draw and a model each, about a microsecond: few of them are made
+        // on this thread, not handed to the pool.
+        let here = matches!(robots, Robots::Ideal(_)) && keys.len() < IDEAL_MADE_HERE;
+        let mut run = || -> Option<TwipError> {
+            let one = |&key| make::<K, NX, NU>(spec, key, false);
+            let mut made: Vec<_> = if here { keys.iter().map(one).collect() } else { keys.par_iter().map(one).collect() };
+            if let Robots::Rig(_) = robots {
+                // The rigs' settles, side by side a set of the settle's lanes at a time (a
+                // task each, which the threads share out evenly).
+                made.par_chunks_mut(SETTLE_LANES).for_each(|robots| {
                     let mut rigs: Vec<_> = robots.iter_mut().filter_map(|r| if let Ok(Started::Rig(_, rig, x0, _)) = r { Some((rig, *x0)) } else { None }).collect();
                     K::RigLanes::settle(&mut rigs, period);
-                })
-            });
-        }
-        // The robots up to the first one refused go into their lanes, each block's side by side.
-        let mut per_block: Vec<Vec<(usize, Started<K, NX, NU>)>> = (0..self.n.div_ceil(LANES)).map(|_| Vec::new()).collect();
-        let mut refused = None;
-        for ((&l, &key), robot) in lanes.iter().zip(&keys).zip(made) {
-            match robot {
-                Ok(robot) => {
-                    (self.keys[l], self.periods[l]) = (key, 0);
-                    per_block[l / LANES].push((l % LANES, robot));
-                }
-                Err(e) => {
-                    refused = Some(e);
-                    break;
+                });
+            }
+            let mut per_block: Vec<Vec<(usize, Started<K, NX, NU>)>> = (0..blocks).map(|_| Vec::new()).collect();
+            let mut refused = None;
+            for ((&l, &key), robot) in lanes.iter().zip(&keys).zip(made) {
+                match robot {
+                    Ok(robot) => {
+                        (lane_keys[l], periods[l]) = (key, 0);
+                        per_block[l / LANES].push((l % LANES, robot));
+                    }
+                    Err(e) => {
+                        refused = Some(e);
+                        break;
+                    }
                 }
             }
-        }
-        // An ideal robot goes into its lane in well under a microsecond: on this thread, not
-        // handed to the pool (which wakes its threads for little work); a rig robot's restart
-        // (its lanes' plants made anew, its IMUs' first sample) on the threads.
-        match &mut self.robots {
-            Robots::Ideal(blocks) => blocks.iter_mut().zip(per_block).for_each(|(block, robots)| robots.into_iter().for_each(|(j, r)| block.put(j, r))),
-            Robots::Rig(blocks) => self.pool.install(|| blocks.par_iter_mut().zip(per_block).for_each(|(block, robots)| robots.into_iter().for_each(|(j, r)| block.put(j, r)))),
-        }
+            match robots {
+                Robots::Ideal(blocks) => blocks.iter_mut().zip(per_block).for_each(|(block, robots)| robots.into_iter().for_each(|(j, r)| block.put(j, r))),
+                // A rig robot's restart (its lanes' plants made anew, its IMUs' first sample).
+                Robots::Rig(blocks) => blocks.par_iter_mut().zip(per_block).for_each(|(block, robots)| robots.into_iter().for_each(|(j, r)| block.put(j, r))),
+            }
+            refused
+        };
+        // One trip to the threads for all of it, or none: a trip costs ~10-15 us of CPU (the
+        // threads woken and waited for), and three trips were ~45 us a reset of no lanes.
+        let refused = if here { run() } else { pool.install(run) };
         refused.or(past_the_end).map_or(Ok(()), Err)
     }
 

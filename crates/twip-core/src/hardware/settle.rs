@@ -105,7 +105,7 @@ pub(crate) trait Settles {
 }
 
 #[cfg(feature = "std")]
-pub(crate) use lanes::settle_side_by_side;
+pub(crate) use lanes::{settle_side_by_side, SETTLE_LANES};
 
 /// Many robots' settles side by side, on lanes: the robots that reset together (an env's)
 /// or start together (a sweep's block). A settle costs as much as a few hundred plant steps.
@@ -117,8 +117,9 @@ mod lanes {
     use crate::sweep::block::multiversioned;
 
     /// Robots settled on one set of lanes. 8, chosen without a measurement yet: with fewer
-    /// robots reset at once, the padding costs less than with 16.
-    const SETTLE_LANES: usize = 8;
+    /// robots reset at once, the padding costs less than with 16. An env's reset hands its
+    /// robots' settles to its threads this many at a time.
+    pub(crate) const SETTLE_LANES: usize = 8;
 
     impl Settling<'_, f64> {
         /// Whether this robot's settle and `other`'s run on lanes as one: the same length,

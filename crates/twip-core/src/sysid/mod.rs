@@ -119,6 +119,20 @@ pub struct Outputs<'o, T> {
     pub events: &'o mut [GearEvent],
 }
 
+impl<T> Outputs<'_, T> {
+    /// The same places, borrowed again: for a run that does not take them for good.
+    pub fn reborrow(&mut self) -> Outputs<'_, T> {
+        Outputs {
+            states: self.states,
+            rates: self.rates,
+            sensed: self.sensed,
+            ends: self.ends,
+            plays: self.plays,
+            events: self.events,
+        }
+    }
+}
+
 fn invalid(name: &'static str, value: f64, reason: &'static str) -> TwipError {
     TwipError::InvalidParameter { name, value, reason }
 }

@@ -5,33 +5,7 @@ use nalgebra::Vector4;
 use rayon::prelude::*;
 
 use super::{Outputs, Play, Shooting, ShootingModel};
-use crate::hardware::backlash::{GearEvent, PlayState};
 use crate::TwipError;
-
-/// One run's outputs: states, rates and what the sensors see besides per sample, ends and
-/// the gear play started from per segment, and with gear play its events per plant step
-/// ([`Outputs`]; empty without play).
-pub struct Prediction {
-    pub states: Vec<Vector4<f64>>,
-    pub rates: Vec<Vector4<f64>>,
-    pub sensed: Vec<[f64; 2]>,
-    pub ends: Vec<Vector4<f64>>,
-    pub plays: Vec<Option<PlayState<f64, 1>>>,
-    pub events: Vec<GearEvent>,
-}
-
-impl Prediction {
-    pub fn outputs(&mut self) -> Outputs<'_, f64> {
-        Outputs {
-            states: &mut self.states,
-            rates: &mut self.rates,
-            sensed: &mut self.sensed,
-            ends: &mut self.ends,
-            plays: &mut self.plays,
-            events: &mut self.events,
-        }
-    }
-}
 
 /// Runs `models[k]` from `starts[k]` into `out[k]`, in parallel. With gear play, the first
 /// run carries each segment's play on from the previous segment's end and records its
@@ -44,7 +18,7 @@ pub fn run_all<M: ShootingModel<f64> + Sync>(
     shooting: &Shooting<'_, f64>,
     models: &[M],
     starts: &[Vec<Vector4<f64>>],
-    out: &mut [Prediction],
+    out: &mut [Outputs<'_, f64>],
 ) -> Result<(), TwipError> {
     let geared = models.first().is_some_and(|m| m.play().is_some());
     if !geared {
@@ -52,11 +26,11 @@ pub fn run_all<M: ShootingModel<f64> + Sync>(
             .par_iter()
             .zip(starts.par_iter())
             .zip(out.par_iter_mut())
-            .try_for_each(|((model, starts), p)| shooting.run(model, starts, p.outputs(), Play::Held));
+            .try_for_each(|((model, starts), p)| shooting.run(model, starts, p.reborrow(), Play::Held));
     }
     let (base, rest) = out.split_at_mut(1);
-    shooting.run(&models[0], &starts[0], base[0].outputs(), Play::Carry)?;
-    let (plays, events) = (&base[0].plays, &base[0].events);
+    shooting.run(&models[0], &starts[0], base[0].reborrow(), Play::Carry)?;
+    let (plays, events) = (&*base[0].plays, &*base[0].events);
     models[1..]
         .par_iter()
         .zip(starts[1..].par_iter())
@@ -71,6 +45,6 @@ pub fn run_all<M: ShootingModel<f64> + Sync>(
                 });
             }
             p.events.copy_from_slice(events);
-            shooting.run(model, starts, p.outputs(), Play::Replay)
+            shooting.run(model, starts, p.reborrow(), Play::Replay)
         })
 }

@@ -2,6 +2,7 @@
 //! `Force`. Each is a frozen, validated settings object; `Realism.to_core` turns them into
 //! the core's `Realism` for one robot (heights left out default to its centre of mass).
 use crate::model::friction::PyFriction;
+use numpy::ndarray::s;
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
@@ -164,15 +165,40 @@ impl PyDlpf {
         DLPF_TABLE.iter().map(|r| (r.accel_hz, r.accel_delay, r.gyro_hz, r.gyro_delay)).collect()
     }
 
-    /// Filters `x` (samples at the sample rate), starting in the steady state of x[0].
-    fn filter<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    /// Filters `x` (samples at the sample rate), starting in the steady state of x[0]. With
+    /// `segments` (each segment's first sample: 0 first, increasing), each segment is
+    /// filtered on its own, from the steady state of its own first sample.
+    #[pyo3(signature = (x, segments = None))]
+    fn filter<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, segments: Option<Vec<i64>>) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let x = series("x", x)?;
         let x = x.as_array();
-        let mut f = self.inner;
-        f.prime(x.first().copied().unwrap_or(0.0));
-        Ok(x.iter().map(|v| f.filter(*v)).collect::<Vec<f64>>().into_pyarray(py))
+        let starts = segment_starts(segments.unwrap_or_else(|| vec![0]), x.len())?;
+        let mut out = Vec::with_capacity(x.len());
+        for (k, &start) in starts.iter().enumerate() {
+            let end = starts.get(k + 1).copied().unwrap_or(x.len());
+            let mut f = self.inner;
+            f.prime(x.get(start).copied().unwrap_or(0.0));
+            out.extend(x.slice(s![start..end]).iter().map(|v| f.filter(*v)));
+        }
+        Ok(out.into_pyarray(py))
     }
 
+}
+
+/// Segments' first samples in a series of `len`: 0 first, increasing, each inside it.
+fn segment_starts(starts: Vec<i64>, len: usize) -> PyResult<Vec<usize>> {
+    let refuse = |what: String| InvalidParameterError::new_err(format!("segments: {what}; give each segment's first sample, 0 first, increasing"));
+    match starts.first() {
+        None => return Err(refuse("none given".into())),
+        Some(&first) if first != 0 => return Err(refuse(format!("the first is {first}, not 0"))),
+        _ => {}
+    }
+    for (i, w) in starts.windows(2).enumerate() {
+        if w[1] <= w[0] || w[1] as u64 >= len as u64 {
+            return Err(refuse(format!("segments[{}] = {} after {} in a series of {len} samples", i + 1, w[1], w[0])));
+        }
+    }
+    Ok(starts.into_iter().map(|s| s as usize).collect())
 }
 
 crate::settings::settings_class!(PyDlpf, "Dlpf",
