@@ -123,8 +123,11 @@ where
             }
         }
         hooks.observe(&alive, t, x, u, &r);
-        let next = Aligned(hooks.step(x, u, dt));
-        let next = &next.0;
+        // Not wrapped in `Aligned`: wrapped, the new state was copied there from `step`'s own
+        // array every step (a `memcpy` call, 896 bytes in the planar kernels, with a
+        // `vzeroupper` before it and the loop's registers reloaded after), and circle-pid swept
+        // at 0.91x.
+        let next = &hooks.step(x, u, dt);
         let halts = hooks.halts(next, u);
         // Lanes that go on take the new state; the few that end are handled below.
         // Written out (not `advance`): with `advance` the 2-DOF LQR kernel measured ~9 %
