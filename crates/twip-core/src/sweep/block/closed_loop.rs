@@ -110,8 +110,8 @@ where
             hooks.update::<C, COPY>(&mut controller, &mut state, x, &r, u);
             // A lane whose input is not finite has diverged: it ends as fallen, unobserved.
             let mut finite = true;
-            for l in 0..LANES {
-                finite &= u.finite_at(l) | !alive[l];
+            for (l, &a) in alive.iter().enumerate() {
+                finite &= u.finite_at(l) | !a;
             }
             if !finite {
                 for l in 0..LANES {

@@ -395,15 +395,17 @@ fn planar_block<C: LaneLaw<Shape = Planar>, P: LanePath, G: BlockGround, const C
     };
     let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| models[l].unwrap_or(fallback));
     let x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 }));
-    let hooks = PlanarLanes { plants: Plants::new(&models), models, metrics: Metrics::new(), path, settle, ground };
+    let plants = Plants::new(&models);
+    let hooks = PlanarLanes { plants: &plants, models: &models, metrics: Metrics::new(), path, settle, ground };
     Ok(closed_loop::<C, _, 7, COPY>(controller, hooks, x, active, steps, config, should_stop))
 }
 
 /// The ideal 3-DOF lanes' hooks in the closed loop: their plants on their ground, their
-/// metrics along the path ("_settled" from `settle` [s]).
+/// metrics along the path ("_settled" from `settle` [s]). The plants and models are borrowed
+/// from the kernel's frame, as the 2-DOF hooks' arrays (`SlopeLanes` says why).
 struct PlanarLanes<'a, P, G> {
-    plants: Plants,
-    models: [PlanarModel<f64>; LANES],
+    plants: &'a Plants,
+    models: &'a [PlanarModel<f64>; LANES],
     metrics: Metrics,
     path: &'a P,
     settle: f64,
@@ -432,12 +434,12 @@ impl<P: LanePath, G: BlockGround> Hooks for PlanarLanes<'_, P, G> {
 
     #[inline(always)]
     fn step(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
-        self.ground.rk4(&self.plants, x, u, dt)
+        self.ground.rk4(self.plants, x, u, dt)
     }
 
     #[inline(always)]
     fn halts(&self, next: &[Lanes; 7], u: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]> {
-        self.ground.halts(&self.plants, next, u)
+        self.ground.halts(self.plants, next, u)
     }
 
     #[inline(always)]
@@ -447,7 +449,7 @@ impl<P: LanePath, G: BlockGround> Hooks for PlanarLanes<'_, P, G> {
 
     #[inline(always)]
     fn finish(self, lanes: (&[bool; LANES], &[bool; LANES], &mut [(bool, f64, u64); LANES]), x: &[Lanes; 7], u: &[Lanes; 2], end: (f64, usize)) -> [PlanarSampleMetrics; LANES] {
-        self.metrics.finish(lanes, x, u, &self.models, self.path, self.settle, end)
+        self.metrics.finish(lanes, x, u, self.models, self.path, self.settle, end)
     }
 }
 
