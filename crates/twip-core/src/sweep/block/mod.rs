@@ -571,7 +571,7 @@ multiversioned! {
 
 #[inline(always)]
 fn block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
-    controller: C,
+    mut controller: C,
     reference: &SpeedSchedule<f64>,
     config: &SimConfig<f64>,
     samples: &[Sample],
@@ -609,7 +609,7 @@ fn block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
         speed_scale: 0.0,
         direction: 1.0,
     };
-    Ok(closed_loop::<C, _, 4, COPY>(controller, hooks, x, active, steps, config, should_stop))
+    Ok(closed_loop::<C, _, 4, COPY>(&mut controller, hooks, x, active, steps, config, should_stop))
 }
 
 /// The ideal 2-DOF lanes' hooks in the closed loop: their plants and metrics, and what the

@@ -371,7 +371,7 @@ impl BlockGround for Flat {
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn planar_block<C: LaneLaw<Shape = Planar>, P: LanePath, G: BlockGround, const COPY: u8>(
-    controller: C,
+    mut controller: C,
     path: &P,
     config: &SimConfig<f64>,
     samples: &[PlanarSample],
@@ -397,7 +397,7 @@ fn planar_block<C: LaneLaw<Shape = Planar>, P: LanePath, G: BlockGround, const C
     let x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 }));
     let plants = Plants::new(&models);
     let hooks = PlanarLanes { plants: &plants, models: &models, metrics: Metrics::new(), path, settle, ground };
-    Ok(closed_loop::<C, _, 7, COPY>(controller, hooks, x, active, steps, config, should_stop))
+    Ok(closed_loop::<C, _, 7, COPY>(&mut controller, hooks, x, active, steps, config, should_stop))
 }
 
 /// The ideal 3-DOF lanes' hooks in the closed loop: their plants on their ground, their
