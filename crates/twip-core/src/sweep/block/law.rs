@@ -1,6 +1,7 @@
 //! The one trait of a controller's law on lanes ([`LaneLaw`]), written in the quantities of
 //! the model it controls: its [`Shape`], 2-DOF ([`Slope`]) or 3-DOF ([`Planar`]). The lanes'
 //! kernels ask a law for inputs through it alike, whatever the model.
+use super::closed_loop::Inputs;
 use super::out_of_line_in;
 use crate::control::reference::SpeedRef;
 use crate::control::trajectory::PlanarRef;
@@ -11,7 +12,7 @@ pub trait Shape {
     /// Every lane's plant state.
     type X;
     /// Every lane's input.
-    type U;
+    type U: Inputs;
     /// The reference, the same for every lane (sampled once per step).
     type Ref;
 }

@@ -11,20 +11,24 @@
 //! for bit; it is bit for bit the same on every CPU, thread count and block neighbour,
 //! because a fused multiply-add is exactly rounded wherever it runs. What is here is the
 //! data layout (one array per quantity, loops over lanes that the compiler vectorises)
-//! and the runner's loop over a block.
+//! and the 2-DOF hooks ([`SlopeLanes`]) of the runner's loop over a block, which is written
+//! once for the 2-DOF and 3-DOF lanes ([`closed_loop`](closed_loop::closed_loop)).
+use closed_loop::{closed_loop, Hooks};
 use crate::control::reference::{SpeedRef, SpeedSchedule};
+use crate::model::dynamics::Halt;
 use crate::control::Reference;
 use crate::model::integrate::{rk4, Field};
 use crate::model::lane::{Fused, Lane, Wide, WIDTH};
 use crate::model::slope::{deriv, SlopeCoefficients, SlopeModel};
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::{pitch_band, steady_pitch, Aim, DrivePeaks, SlopeSummary, Tally};
-use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
+use crate::sim::runner::SimConfig;
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
 use crate::TwipError;
 use core::sync::atomic::{AtomicU8, Ordering};
 
+mod closed_loop;
 mod fuzzy;
 mod held;
 mod kinds;
@@ -163,17 +167,20 @@ impl Field<Fused, 4> for Plant {
 }
 
 /// [`Tally`] on every lane, one array per field, and what each lane's observations are
-/// measured against.
+/// measured against. Laid out as written (`repr(C)`) from a cache line's boundary, so that every
+/// array of lanes starts on one, as the loop's (`closed_loop::Aligned`): the optional drive
+/// tallies, whose tag would shift what follows, last.
+#[repr(C, align(64))]
 struct Metrics {
     tally: [Lanes; 6],
-    /// [`DriveTally`] on every lane, once a rig's lanes observe what the plants got ([`Self::drive`]);
-    /// ideal lanes' plants get the commands.
-    drive: Option<[Lanes; DRIVE_TALLIES]>,
-    /// Each lane's driver's gearbox efficiency (`Observer::drive_efficiency`; 1 without one).
-    efficiency: Lanes,
     samples: [u64; LANES],
     band: Lanes,
     radius: Lanes,
+    /// Each lane's driver's gearbox efficiency (`Observer::drive_efficiency`; 1 without one).
+    efficiency: Lanes,
+    /// [`DriveTally`] on every lane, once a rig's lanes observe what the plants got ([`Self::drive`]);
+    /// ideal lanes' plants get the commands.
+    drive: Option<[Lanes; DRIVE_TALLIES]>,
 }
 
 /// What the lanes share of an observation's aim: the time and the reference.
@@ -571,8 +578,7 @@ fn block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
     should_stop: &dyn Fn() -> bool,
 ) -> Result<Option<[SampleMetrics; LANES]>, TwipError> {
     assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
-    let (n, per_update) = config.steps(controller.period())?;
-    let mut out = [SampleMetrics::INVALID; LANES];
+    let steps = config.steps(controller.period())?;
     // Invalid or missing samples run an idle copy of a valid robot and are never kept.
     let mut active = [false; LANES];
     let mut models = [None; LANES];
@@ -583,98 +589,101 @@ fn block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
         }
     }
     let Some(fallback) = models.iter().flatten().next().copied() else {
-        return Ok(Some(out));
+        return Ok(Some([SampleMetrics::INVALID; LANES]));
     };
     let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| models[l].unwrap_or(fallback));
-    let plants = Plants::new(&core::array::from_fn(|l| models[l].coefficients()));
-    let mut x: [Lanes; 4] = core::array::from_fn(|i| {
+    let x: [Lanes; 4] = core::array::from_fn(|i| {
         core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 })
     });
-    let dt = config.dt;
-    let mut state = controller.start();
-    let mut u = [0.0; LANES];
-    let mut alive = active;
-    // (fell, t_end, steps) of each lane that has ended.
-    let mut ended = [(false, 0.0f64, 0u64); LANES];
-    let r0 = reference.sample(0.0);
-    let mut cached_speed = r0.theta_dot;
-    let mut plant_phi_s = steady_pitches(&models, r0.theta_dot);
+    let plants = Plants::new(&core::array::from_fn(|l| models[l].coefficients()));
+    let cached_speed = reference.sample(0.0).theta_dot;
+    let mut plant_phi_s = steady_pitches(&models, cached_speed);
     let mut metrics = Metrics::new(core::array::from_fn(|l| models[l].params().wheel_radius), &x, &plant_phi_s);
-    let mut speed_scale: f64 = 0.0;
-    let mut direction: f64 = 1.0;
-    for k in 0..n {
-        let t = dt * k as f64;
-        if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
-            return Ok(None);
-        }
-        let r = reference.sample(t);
-        if r.theta_dot != cached_speed {
-            cached_speed = r.theta_dot;
-            plant_phi_s = steady_pitches(&models, r.theta_dot);
-        }
-        speed_scale = speed_scale.max(r.theta_dot.abs());
-        direction = if r.theta_dot != 0.0 { r.theta_dot.signum() } else { direction };
-        if k % per_update == 0 {
-            controller.update::<COPY>(&mut state, &x, &r, &mut u);
-            // A lane whose input is not finite has diverged: it ends as fallen.
-            let mut finite = true;
-            for l in 0..LANES {
-                finite &= u[l].is_finite() | !alive[l];
-            }
-            if !finite {
-                for l in 0..LANES {
-                    if alive[l] && !u[l].is_finite() {
-                        alive[l] = false;
-                        ended[l] = (true, t, k as u64);
-                    }
-                }
-            }
-        }
-        metrics.observe(&alive, &x, &u, &plant_phi_s, &Shared { t, r, speed_scale, direction });
-        let next = plants.rk4(&x, &u, dt);
-        // Lanes that go on take the new state; the few that end are handled below.
-        // `advance` written out: with it the LQR kernel measured ~9 % slower (median of 10
-        // alternating runs, 2048 samples, one pinned core: 0.745 against 0.68 s CPU), and
-        // 1.15x on the AVX-512 VM with the lanes that end handled as the rig kernel does
-        // (11 paired timings, `sweep_throughput lanes 8192`). The branch below is as
-        // touchy: with an array of the lanes that end made in it, the kernel ran 1.24x slower.
-        let mut goes_on = [false; LANES];
-        let mut any_ends = false;
-        for l in 0..LANES {
-            let finite = next[0][l].is_finite() & next[1][l].is_finite() & next[2][l].is_finite() & next[3][l].is_finite();
-            goes_on[l] = alive[l] & finite & (next[0][l].abs() <= config.fall_limit);
-            any_ends |= alive[l] & !goes_on[l];
-        }
-        for i in 0..4 {
-            for l in 0..LANES {
-                x[i][l] = if goes_on[l] { next[i][l] } else { x[i][l] };
-            }
-        }
-        if any_ends {
-            let t_next = dt * (k + 1) as f64;
-            for l in 0..LANES {
-                if !alive[l] || goes_on[l] {
-                    continue;
-                }
-                alive[l] = false;
-                ended[l] = (true, t_next, (k + 1) as u64);
-                if (0..4).all(|i| next[i][l].is_finite()) {
-                    // Fell: the runner observes the state past the limit, then stops.
-                    for i in 0..4 {
-                        x[i][l] = next[i][l];
-                    }
-                    metrics.observe_fall(l, &x, &u, &models[l], &plant_phi_s, &Shared::at(t_next, reference, speed_scale, direction));
-                }
-            }
-            if !alive.iter().any(|&a| a) {
-                break;
-            }
-        }
-    }
-    metrics.finish(&mut out, (&alive, &active, &mut ended), &x, &u, &models, &Shared::at(dt * n as f64, reference, speed_scale, direction), n);
-    Ok(Some(out))
+    let hooks = SlopeLanes {
+        plants: &plants,
+        models: &models,
+        metrics: &mut metrics,
+        plant_phi_s: &mut plant_phi_s,
+        reference,
+        cached_speed,
+        speed_scale: 0.0,
+        direction: 1.0,
+    };
+    Ok(closed_loop::<C, _, 4, COPY>(&mut controller, hooks, x, active, steps, config, should_stop))
 }
 
+/// The ideal 2-DOF lanes' hooks in the closed loop: their plants and metrics, and what the
+/// metrics measure against as the reference runs. The arrays are borrowed from the kernel's
+/// frame, each apart, as in the loop written out, and the hooks hold only them and scalars: the
+/// out-of-line calls that take an array (`Metrics::observe_fall`, `Metrics::finish`) then take
+/// no address of the hooks. Owned by the hooks, the arrays made them one object in memory,
+/// copied whole (8.6 KB) to `finish`, and the fuzzy lanes swept at 0.95x of the loop written
+/// out (avx512, 12 alternated pairs); borrowed, 1.04-1.06x.
+struct SlopeLanes<'a> {
+    plants: &'a Plants,
+    models: &'a [SlopeModel<f64>; LANES],
+    metrics: &'a mut Metrics,
+    /// Each plant's steady pitch at `cached_speed`, recomputed only when the reference speed
+    /// changes.
+    plant_phi_s: &'a mut Lanes,
+    reference: &'a SpeedSchedule<f64>,
+    cached_speed: f64,
+    /// The largest reference speed so far and the direction of travel (`Aim`'s).
+    speed_scale: f64,
+    direction: f64,
+}
+
+impl Hooks for SlopeLanes<'_> {
+    type Shape = Slope;
+    type Out = [SampleMetrics; LANES];
+    const PITCH: usize = 0;
+
+    #[inline(always)]
+    fn reference(&mut self, t: f64) -> SpeedRef<f64> {
+        let r = self.reference.sample(t);
+        if r.theta_dot != self.cached_speed {
+            self.cached_speed = r.theta_dot;
+            *self.plant_phi_s = steady_pitches(self.models, r.theta_dot);
+        }
+        self.speed_scale = self.speed_scale.max(r.theta_dot.abs());
+        self.direction = if r.theta_dot != 0.0 { r.theta_dot.signum() } else { self.direction };
+        r
+    }
+
+    #[inline(always)]
+    fn update<C: LaneLaw<Shape = Slope>, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
+        controller.update::<COPY>(state, x, r, u);
+    }
+
+    #[inline(always)]
+    fn observe(&mut self, live: &[bool; LANES], t: f64, x: &[Lanes; 4], u: &Lanes, r: &SpeedRef<f64>) {
+        self.metrics.observe(live, x, u, self.plant_phi_s, &Shared { t, r: *r, speed_scale: self.speed_scale, direction: self.direction });
+    }
+
+    #[inline(always)]
+    fn step(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
+        self.plants.rk4(x, u, dt)
+    }
+
+    #[inline(always)]
+    fn halts(&self, _: &[Lanes; 4], _: &Lanes) -> Option<[Option<Halt>; LANES]> {
+        None
+    }
+
+    #[inline(always)]
+    fn observe_end(&mut self, l: usize, t: f64, x: &[Lanes; 4], u: &Lanes, _: Option<Halt>) {
+        let at = Shared::at(t, self.reference, self.speed_scale, self.direction);
+        self.metrics.observe_fall(l, x, u, &self.models[l], self.plant_phi_s, &at);
+    }
+
+    #[inline(always)]
+    fn finish(self, lanes: (&[bool; LANES], &[bool; LANES], &mut [(bool, f64, u64); LANES]), x: &[Lanes; 4], u: &Lanes, (t_end, n): (f64, usize)) -> [SampleMetrics; LANES] {
+        let mut out = [SampleMetrics::INVALID; LANES];
+        let at = Shared::at(t_end, self.reference, self.speed_scale, self.direction);
+        self.metrics.finish(&mut out, lanes, x, u, self.models, &at, n);
+        out
+    }
+}
 
 #[cfg(test)]
 mod tests {

@@ -8,7 +8,9 @@
 //! on [`Fused`] lanes, so a lane agrees with `runner::simulate` to rounding and is bit for
 //! bit the same on every CPU, thread count and block neighbour. The reference is the
 //! same for every lane: sampled once per step. What is here is the data layout and the
-//! runner's loop over a block.
+//! 3-DOF hooks ([`PlanarLanes`]) of the runner's loop over a block, the 2-DOF lanes' too
+//! ([`closed_loop`](super::closed_loop::closed_loop)).
+use super::closed_loop::{closed_loop, Hooks};
 use super::law::{LaneLaw, Planar};
 use super::{advance, finite_at, multiversioned, only};
 use crate::control::pid::{PidLaw, PidTracker};
@@ -20,7 +22,7 @@ use crate::model::dynamics::Halt;
 use crate::model::planar::{deriv, PlanarCoefficients, PlanarModel, PLANAR_COEFFICIENTS};
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::DrivePeaks;
-use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
+use crate::sim::runner::SimConfig;
 use crate::sim::tracking_metrics::{TrackingTally, TRACKING_TALLIES};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
@@ -140,15 +142,17 @@ impl Field<Fused, 7> for Plant {
 }
 
 /// [`TrackingTally`] on every lane, one array per field, with each lane's sample counts.
+/// Laid out as written from a cache line's boundary, as the 2-DOF `Metrics` (which says why).
+#[repr(C, align(64))]
 pub(super) struct Metrics {
     tally: [Lanes; TRACKING_TALLIES],
+    samples: [u64; LANES],
+    settled: [u64; LANES],
+    /// Each lane's driver's gearbox efficiency (`Observer::drive_efficiency`; 1 without one).
+    pub(super) efficiency: Lanes,
     /// [`DriveTally`] on every lane, once a rig's lanes observe what the plants got
     /// ([`Self::drive`]); ideal lanes' plants get the commands.
     drive: Option<[Lanes; DRIVE_TALLIES]>,
-    /// Each lane's driver's gearbox efficiency (`Observer::drive_efficiency`; 1 without one).
-    pub(super) efficiency: Lanes,
-    samples: [u64; LANES],
-    settled: [u64; LANES],
     /// Why each lane that the terrain ended was ended (a run's "lifted", "off_terrain").
     halts: [Option<Halt>; LANES],
 }
@@ -259,15 +263,23 @@ impl Metrics {
             alive[l] = false;
             ended[l] = (true, t_next, (k + 1) as u64);
             if finite_at(next, l) {
-                self.halts[l] = halts.and_then(|h| h[l]);
                 // Fell: the runner observes the state past the limit, then stops.
                 for i in 0..7 {
                     x[i][l] = next[i][l];
                 }
-                self.observe(&only(l), t_next >= settle, x, u, &path.sample(t_next), path);
+                self.end_lane(l, halts.and_then(|h| h[l]), t_next >= settle, x, u, &path.sample(t_next), path);
             }
         }
         alive.iter().any(|&a| a)
+    }
+
+    /// Lane `l` has ended in `x` (fallen, or halted for `halt`): the runner's last
+    /// observation, `r` its reference then (settled when `settled`).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn end_lane(&mut self, l: usize, halt: Option<Halt>, settled: bool, x: &[Lanes; 7], u: &[Lanes; 2], r: &PlanarRef<f64>, path: &impl Path<f64>) {
+        self.halts[l] = halt;
+        self.observe(&only(l), settled, x, u, r, path);
     }
 
     /// Observes the lanes that are `live` at time `t` (settled when `settled`).
@@ -368,7 +380,7 @@ fn planar_block<C: LaneLaw<Shape = Planar>, P: LanePath, G: BlockGround, const C
     ground: &G,
 ) -> BlockResult {
     assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
-    let (n, per_update) = config.steps(controller.period())?;
+    let steps = config.steps(controller.period())?;
     // Invalid or missing samples run an idle copy of a valid robot and are never kept.
     let mut active = [false; LANES];
     let mut models = [None; LANES];
@@ -382,39 +394,63 @@ fn planar_block<C: LaneLaw<Shape = Planar>, P: LanePath, G: BlockGround, const C
         return Ok(Some([PlanarSampleMetrics::INVALID; LANES]));
     };
     let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| models[l].unwrap_or(fallback));
+    let x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 }));
     let plants = Plants::new(&models);
-    let mut x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 }));
-    let dt = config.dt;
-    let mut state = controller.start();
-    let mut u = [[0.0; LANES]; 2];
-    let mut alive = active;
-    // (fell, t_end, steps) of each lane that has ended.
-    let mut ended = [(false, 0.0f64, 0u64); LANES];
-    let mut metrics = Metrics::new();
-    for k in 0..n {
-        let t = dt * k as f64;
-        if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
-            return Ok(None);
-        }
-        let r = path.sample(t);
-        if k % per_update == 0 {
-            ground.update::<C, COPY>(&mut controller, &mut state, &x, &r, &mut u);
-            // A lane whose input is not finite has diverged: it ends as fallen, unobserved.
-            for l in 0..LANES {
-                if alive[l] && !(u[0][l].is_finite() && u[1][l].is_finite()) {
-                    alive[l] = false;
-                    ended[l] = (true, t, k as u64);
-                }
-            }
-        }
-        metrics.observe(&alive, t >= settle, &x, &u, &r, path);
-        let next = ground.rk4(&plants, &x, &u, dt);
-        let halts = ground.halts(&plants, &next, &u);
-        if !metrics.end_step(&mut x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &u, path, settle, halts.as_ref()) {
-            break;
-        }
+    let hooks = PlanarLanes { plants: &plants, models: &models, metrics: Metrics::new(), path, settle, ground };
+    Ok(closed_loop::<C, _, 7, COPY>(&mut controller, hooks, x, active, steps, config, should_stop))
+}
+
+/// The ideal 3-DOF lanes' hooks in the closed loop: their plants on their ground, their
+/// metrics along the path ("_settled" from `settle` [s]). The plants and models are borrowed
+/// from the kernel's frame, as the 2-DOF hooks' arrays (`SlopeLanes` says why).
+struct PlanarLanes<'a, P, G> {
+    plants: &'a Plants,
+    models: &'a [PlanarModel<f64>; LANES],
+    metrics: Metrics,
+    path: &'a P,
+    settle: f64,
+    ground: &'a G,
+}
+
+impl<P: LanePath, G: BlockGround> Hooks for PlanarLanes<'_, P, G> {
+    type Shape = Planar;
+    type Out = [PlanarSampleMetrics; LANES];
+    const PITCH: usize = 3;
+
+    #[inline(always)]
+    fn reference(&mut self, t: f64) -> PlanarRef<f64> {
+        self.path.sample(t)
     }
-    Ok(Some(metrics.finish((&alive, &active, &mut ended), &x, &u, &models, path, settle, (dt * n as f64, n))))
+
+    #[inline(always)]
+    fn update<C: LaneLaw<Shape = Planar>, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
+        self.ground.update::<C, COPY>(controller, state, x, r, u);
+    }
+
+    #[inline(always)]
+    fn observe(&mut self, live: &[bool; LANES], t: f64, x: &[Lanes; 7], u: &[Lanes; 2], r: &PlanarRef<f64>) {
+        self.metrics.observe(live, t >= self.settle, x, u, r, self.path);
+    }
+
+    #[inline(always)]
+    fn step(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
+        self.ground.rk4(self.plants, x, u, dt)
+    }
+
+    #[inline(always)]
+    fn halts(&self, next: &[Lanes; 7], u: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]> {
+        self.ground.halts(self.plants, next, u)
+    }
+
+    #[inline(always)]
+    fn observe_end(&mut self, l: usize, t: f64, x: &[Lanes; 7], u: &[Lanes; 2], halt: Option<Halt>) {
+        self.metrics.end_lane(l, halt, t >= self.settle, x, u, &self.path.sample(t), self.path);
+    }
+
+    #[inline(always)]
+    fn finish(self, lanes: (&[bool; LANES], &[bool; LANES], &mut [(bool, f64, u64); LANES]), x: &[Lanes; 7], u: &[Lanes; 2], end: (f64, usize)) -> [PlanarSampleMetrics; LANES] {
+        self.metrics.finish(lanes, x, u, self.models, self.path, self.settle, end)
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,182 @@
+//! The one closed-loop step of the ideal lanes, 2-DOF and 3-DOF alike: `runner::run_loop`'s
+//! loop over a block of lanes, step for step. What differs between the models (their plants,
+//! the reference's bookkeeping, the metrics, the ground) are the [`Hooks`] of a [`Shape`],
+//! inlined into the loop, so each kernel is one function as before.
+use super::finite_at;
+use super::law::{LaneLaw, Ref, Shape, U, X};
+use crate::model::dynamics::Halt;
+use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
+use crate::sweep::lanes::{Lanes, LANES};
+
+/// A shape's input lanes, as the loop checks them.
+pub trait Inputs: Copy {
+    /// Zero on every lane.
+    const ZERO: Self;
+    /// Whether lane `l`'s every input is finite.
+    fn finite_at(&self, l: usize) -> bool;
+}
+
+impl Inputs for Lanes {
+    const ZERO: Self = [0.0; LANES];
+
+    #[inline(always)]
+    fn finite_at(&self, l: usize) -> bool {
+        self[l].is_finite()
+    }
+}
+
+impl<const N: usize> Inputs for [Lanes; N] {
+    const ZERO: Self = [[0.0; LANES]; N];
+
+    #[inline(always)]
+    fn finite_at(&self, l: usize) -> bool {
+        finite_at(self, l)
+    }
+}
+
+/// The loop's state, input and new state on a cache line's boundary, as the metrics' arrays
+/// (`Metrics`): their lanes are moved a vector at a time, and a vector that straddles two lines
+/// costs (as `Plants` says). Left to the frame's layout when this loop was first written once,
+/// the planar kernels made ~100 of their AVX-512 stack accesses off a 64-byte boundary (8 to 16
+/// before; `objdump`), and circle-pid swept at 0.92-0.94x.
+#[repr(C, align(64))]
+struct Aligned<T>(T);
+
+/// What a block of lanes on one model does in the loop besides the law: its reference, its
+/// plants, its metrics, its ground. Every hook is `#[inline(always)]`: the loop with its hooks
+/// is each kernel's one function, as when each kernel wrote it out.
+pub(super) trait Hooks {
+    /// The model.
+    type Shape: Shape;
+    /// The block's metrics, one entry per lane.
+    type Out;
+    /// The state's entry whose magnitude past the fall limit is a fall: the pitch.
+    const PITCH: usize;
+    /// The reference at time `t`, the same for every lane (sampled once per step).
+    fn reference(&mut self, t: f64) -> Ref<Self::Shape>;
+    /// Every lane's input from `controller` (with what the ground feeds forward).
+    fn update<C: LaneLaw<Shape = Self::Shape>, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &X<Self::Shape>, r: &Ref<Self::Shape>, u: &mut U<Self::Shape>);
+    /// Observes the lanes that are `live` at time `t` in state `x` under input `u`.
+    fn observe(&mut self, live: &[bool; LANES], t: f64, x: &X<Self::Shape>, u: &U<Self::Shape>, r: &Ref<Self::Shape>);
+    /// One RK4 step, the inputs held, on every lane.
+    fn step(&self, x: &X<Self::Shape>, u: &U<Self::Shape>, dt: f64) -> X<Self::Shape>;
+    /// What ends each lane at `next` under `u` besides a fall (None: nothing can).
+    fn halts(&self, next: &X<Self::Shape>, u: &U<Self::Shape>) -> Option<[Option<Halt>; LANES]>;
+    /// Lane `l` has ended in `x` at `t` (fallen, or halted for `halt`): the runner observes
+    /// that state, then stops.
+    fn observe_end(&mut self, l: usize, t: f64, x: &X<Self::Shape>, u: &U<Self::Shape>, halt: Option<Halt>);
+    /// The runner's last observation at `t_end` (after `n` steps) of the lanes still `alive`,
+    /// then every `active` lane's metrics, with how each `ended` ((fell, t_end, steps)).
+    #[allow(clippy::type_complexity)]
+    fn finish(self, lanes: (&[bool; LANES], &[bool; LANES], &mut [(bool, f64, u64); LANES]), x: &X<Self::Shape>, u: &U<Self::Shape>, end: (f64, usize)) -> Self::Out;
+}
+
+/// `runner::run_loop` on a block of lanes, from `x` (the `active` lanes' starts), `n` steps
+/// with the law `controller` updated every `per_update`: the reference sampled, the law's
+/// update (a lane whose input is not finite ends as fallen there), the metrics' observation,
+/// the RK4 step, the lanes that end (past the fall limit, not finite, halted by the ground).
+/// `should_stop` is asked every `runner::STOP_CHECK_STEPS` steps; None means it said yes.
+/// The law is borrowed, as the loop written out used it where its caller put it: taken by
+/// value, it was copied into the kernel's frame (11 KB for the fuzzy law), and the `avx2`
+/// fuzzy lanes read 0.96x of the loop written out in three runs of paired timings (0.98x and
+/// 1.01x borrowed).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(super) fn closed_loop<C, H, const NX: usize, const COPY: u8>(
+    controller: &mut C,
+    mut hooks: H,
+    x: [Lanes; NX],
+    active: [bool; LANES],
+    (n, per_update): (usize, usize),
+    config: &SimConfig<f64>,
+    should_stop: &dyn Fn() -> bool,
+) -> Option<H::Out>
+where
+    H: Hooks,
+    H::Shape: Shape<X = [Lanes; NX]>,
+    C: LaneLaw<Shape = H::Shape>,
+{
+    let dt = config.dt;
+    let mut state = controller.start();
+    let mut x = Aligned(x);
+    let mut u = Aligned(U::<H::Shape>::ZERO);
+    let (x, u) = (&mut x.0, &mut u.0);
+    let mut alive = active;
+    // (fell, t_end, steps) of each lane that has ended.
+    let mut ended = [(false, 0.0f64, 0u64); LANES];
+    for k in 0..n {
+        let t = dt * k as f64;
+        if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
+            return None;
+        }
+        let r = hooks.reference(t);
+        if k % per_update == 0 {
+            hooks.update::<C, COPY>(controller, &mut state, x, &r, u);
+            // A lane whose input is not finite has diverged: it ends as fallen, unobserved.
+            let mut finite = true;
+            for (l, &a) in alive.iter().enumerate() {
+                finite &= u.finite_at(l) | !a;
+            }
+            if !finite {
+                for l in 0..LANES {
+                    if alive[l] && !u.finite_at(l) {
+                        alive[l] = false;
+                        ended[l] = (true, t, k as u64);
+                    }
+                }
+            }
+        }
+        hooks.observe(&alive, t, x, u, &r);
+        // Not wrapped in `Aligned`: wrapped, the new state was copied there from `step`'s own
+        // array every step (a `memcpy` call, 896 bytes in the planar kernels, with a
+        // `vzeroupper` before it and the loop's registers reloaded after), and circle-pid swept
+        // at 0.91x.
+        let next = &hooks.step(x, u, dt);
+        let halts = hooks.halts(next, u);
+        // Lanes that go on take the new state; the few that end are handled below.
+        // Written out (not `advance`): with `advance` the 2-DOF LQR kernel measured ~9 %
+        // slower (median of 10 alternating runs, 2048 samples, one pinned core: 0.745
+        // against 0.68 s CPU), and 1.15x on the AVX-512 VM with the lanes that end handled
+        // as the rig kernel does (11 paired timings, `sweep_throughput lanes 8192`). The
+        // branch below is as touchy: with an array of the lanes that end made in it, the
+        // kernel ran 1.24x slower.
+        let mut goes_on = [false; LANES];
+        let mut any_ends = false;
+        for l in 0..LANES {
+            goes_on[l] = alive[l] & finite_at(next, l) & (next[H::PITCH][l].abs() <= config.fall_limit);
+            any_ends |= alive[l] & !goes_on[l];
+        }
+        for i in 0..NX {
+            for l in 0..LANES {
+                x[i][l] = if goes_on[l] { next[i][l] } else { x[i][l] };
+            }
+        }
+        // A lane whose finite new state the ground halts ends there too (having moved there
+        // if it went on), as the runner ends a run.
+        let halted: Option<[bool; LANES]> = halts.map(|h| core::array::from_fn(|l| alive[l] && h[l].is_some() && finite_at(next, l)));
+        if let Some(h) = &halted {
+            any_ends |= h.iter().any(|&e| e);
+        }
+        if any_ends {
+            let t_next = dt * (k + 1) as f64;
+            for l in 0..LANES {
+                if !alive[l] || (goes_on[l] && !halted.is_some_and(|h| h[l])) {
+                    continue;
+                }
+                alive[l] = false;
+                ended[l] = (true, t_next, (k + 1) as u64);
+                if finite_at(next, l) {
+                    // Fell: the runner observes the state past the limit, then stops.
+                    for i in 0..NX {
+                        x[i][l] = next[i][l];
+                    }
+                    hooks.observe_end(l, t_next, x, u, halts.and_then(|h| h[l]));
+                }
+            }
+            if !alive.iter().any(|&a| a) {
+                break;
+            }
+        }
+    }
+    Some(hooks.finish((&alive, &active, &mut ended), x, u, (dt * n as f64, n)))
+}
