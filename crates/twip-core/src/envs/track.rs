@@ -22,9 +22,7 @@ use crate::control::trajectory::{PlanarRef, Trajectory};
 use crate::control::Reference;
 use crate::hardware::planar_rig::PlanarRig;
 use crate::hardware::realism::Realism;
-use crate::model::integrate::{rk4, Field};
-use crate::model::lane::{fill, Fused};
-use crate::model::planar::{deriv, PlanarCoefficients, PlanarModel, PlanarState};
+use crate::model::planar::{PlanarModel, PlanarState};
 use crate::sweep::block::{PlanarPlants, PlanarRigLanes};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::planar::{draw, validate, PlanarNominal};
@@ -65,35 +63,13 @@ impl LanePlant for PlanarPlants {
         const HALF: usize = LANES / 2;
         let mut out = [[0.0; LANES]; 7];
         for l in 0..HALF {
-            let (a, b) = (rk4_lane(self, x, u, l, dt), rk4_lane(self, x, u, l + HALF, dt));
+            let (a, b) = (self.rk4_lane(x, u, l, dt), self.rk4_lane(x, u, l + HALF, dt));
             for i in 0..7 {
                 out[i][l] = a[i].0;
                 out[i][l + HALF] = b[i].0;
             }
         }
         out
-    }
-}
-
-/// Lane `l`'s RK4 step. Always inlined: out of line it would be built without the kernel
-/// copy's instructions (a call per multiply-add).
-#[inline(always)]
-fn rk4_lane(plants: &PlanarPlants, x: &[Lanes; 7], u: &[Lanes; 2], l: usize, dt: f64) -> [Fused; 7] {
-    let plant = HeldPlanar { k: plants.lane(l), u: [Fused(u[0][l]), Fused(u[1][l])] };
-    let xl = fill(|i| Fused(x[i][l]));
-    rk4(&plant, &xl, &plant.at(&xl), Fused(dt))
-}
-
-/// One lane's planar plant with its inputs held.
-struct HeldPlanar {
-    k: PlanarCoefficients<Fused>,
-    u: [Fused; 2],
-}
-
-impl Field<Fused, 7> for HeldPlanar {
-    #[inline(always)]
-    fn at(&self, x: &[Fused; 7]) -> [Fused; 7] {
-        deriv(&self.k, x, self.u)
     }
 }
 

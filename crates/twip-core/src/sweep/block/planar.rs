@@ -117,14 +117,21 @@ impl Plants {
     pub(crate) fn rk4(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
         let mut out = [[0.0; LANES]; 7];
         for l in 0..LANES {
-            let plant = Plant { k: self.lane(l), u: [Fused(u[0][l]), Fused(u[1][l])] };
-            let xl = fill(|i| Fused(x[i][l]));
-            let next = rk4(&plant, &xl, &plant.at(&xl), Fused(dt));
+            let next = self.rk4_lane(x, u, l, dt);
             for i in 0..7 {
                 out[i][l] = next[i].0;
             }
         }
         out
+    }
+
+    /// Lane `l`'s RK4 step, the inputs held. Always inlined: out of line it would be built
+    /// without the kernel copy's instructions (a call per multiply-add).
+    #[inline(always)]
+    pub(crate) fn rk4_lane(&self, x: &[Lanes; 7], u: &[Lanes; 2], l: usize, dt: f64) -> [Fused; 7] {
+        let plant = Plant { k: self.lane(l), u: [Fused(u[0][l]), Fused(u[1][l])] };
+        let xl = fill(|i| Fused(x[i][l]));
+        rk4(&plant, &xl, &plant.at(&xl), Fused(dt))
     }
 }
 
