@@ -319,3 +319,31 @@ def test_a_play_fit_whose_search_stalls_converges_with_its_interval_widened():
         assert abs(fit.values[n] / getattr(TINY, n) - 1) < 0.03, fit.summary()
         lo, hi = fit.interval(n)
         assert lo <= getattr(TINY, n) <= hi, (n, lo, hi, fit.summary())
+
+
+def test_the_most_open_gap_beyond_the_tolerance_names_its_boundary():
+    """`joins.stuck_boundary` on toy gaps: each state's gap in units of that state's size (at
+    least 1), the segment whose start is missed most, none within the tolerance."""
+    from twip.sysid.joins import stuck_boundary
+
+    starts = np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 10.0, 0.0], [0.0, 0.0, 0.0, 0.0]])
+    gaps = np.array([[0.0, 0.0, 0.0, 3e-6], [0.0, 0.0, 2e-5, 0.0]])
+    # 2e-5 in a state of size 10 is 2e-6: the first boundary's 3e-6 is the larger.
+    assert stuck_boundary(gaps, starts, 1e-6) == 1
+    assert stuck_boundary(gaps * [[1], [10]], starts, 1e-6) == 2
+    assert stuck_boundary(gaps, starts, 1e-5) is None
+    assert stuck_boundary(None, starts, 1e-6) is None
+    assert stuck_boundary(np.full((2, 4), np.nan), starts, 1e-6) is None
+
+
+def test_a_play_fit_whose_gap_stays_open_joins_the_segments_there():
+    """The mid robot's noise seed 3, full rig, friction and play declared, from 15-25 % off.
+    Before the joins: within 0.62 %, but "not converged after 50 iterations" (so no robot
+    written without --force): the gap at the first boundary (0.25 s) stayed at 1e-4, where the
+    prediction jumps within the last plant steps. The two segments there joined, the fit
+    converges, quiet, within 3 %."""
+    fit, caught = fitted_from_off(MID, MID_DRIVER, 3)
+    assert fit.converged and "segments joined at t = 0.250 s" in fit.message, fit.summary()
+    assert not fit.warnings and not caught, fit.summary()
+    for n in FREE:
+        assert abs(fit.values[n] / getattr(MID, n) - 1) < 0.03, fit.summary()

@@ -20,6 +20,7 @@ import numpy as np
 
 from twip import _core, checks
 from twip.sysid import play, spread, units
+from twip.sysid.joins import MAX_JOINS, joined, stuck_boundary
 from twip.sysid.kkt import kkt_matrix
 from twip.sysid.log import LogError
 from twip.sysid.measure import noise_floor, noise_level
@@ -285,10 +286,19 @@ class Estimator:
             x, starts, _, _, iterations = self._minimise(x, starts, params=False, joined=False, tolerance=1e-6)
         finally:
             p.backlash = backlash
-        message, converged, refits = "", False, 0
+        message, converged, refits, joins = "", False, 0, []
         while refits < 3:
             x, starts, converged, message, used = self._minimise(x, starts, params=True, joined=True)
             iterations += used
+            if not converged and p.jumps() and len(joins) < MAX_JOINS:
+                # A gap left open where the prediction jumps (`joins`): the segments there
+                # become one, and the search goes on.
+                k = stuck_boundary(self.evaluate(x, starts)[3], starts, self.state_step)
+                if k is not None:
+                    joins.append(p.log.t[p.segments[k]])
+                    p.cut(np.delete(p.segments, k))
+                    starts, self.ranges = np.delete(starts, k, axis=0), p.ranges
+                    continue
             refits += 1
             if self.fixed_sigma or not converged:
                 break
@@ -307,7 +317,7 @@ class Estimator:
         delta, biases = self.split(x)
         information = np.linalg.pinv(cov, rcond=1e-13) if cov.size else cov
         return Solution(delta, starts, biases, dict(self.sigma), cost, iterations, converged,
-                        f"{message} ({iterations} in all)", information,
+                        f"{message} ({iterations} in all{joined(joins)})", information,
                         {s: np.where(p.used[s], p.y[s] - out[s], np.nan) for s in p.outputs}, out,
                         ratio[:len(p.unknowns)])
 

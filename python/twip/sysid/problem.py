@@ -128,6 +128,11 @@ class Problem:
         #: The rows compared at the current point: the settled ones, less those near its impacts.
         self.used = dict(self.settled)
 
+    def jumps(self) -> bool:
+        """Whether the prediction can jump within a plant step: impacts in the gear play, or the
+        gearhead friction's stick band switching."""
+        return self.backlash is not None or (self.friction is not None and self.friction.stick_speed > 0)
+
     def note_impacts(self, states: np.ndarray, sensed: np.ndarray) -> None:
         """Leave out the filtered signals' rows near the impacts of a run (its states [n, 4]
         and `sensed` [n, 2] on the grid, as `shoot` gives them): `play.rows_near_impacts`."""
