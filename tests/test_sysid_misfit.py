@@ -268,3 +268,38 @@ def test_the_widened_covariance_is_at_least_both():
     assert spread.check(["m_body", "i_body"], [0.5, 2.5])[0].startswith("i_body: the residuals spread")
     # No globals (Fit.validate's problem, no parameter free): nothing to widen.
     assert spread.larger(np.zeros((0, 0)), np.zeros((0, 0))).shape == (0, 0)
+
+
+@pytest.mark.parametrize("scale", [0.1, 0.3, 1.0, 3.0])
+def test_the_noise_on_a_filtered_and_rounded_column_is_calibrated_in_its_band(scale):
+    """`misfit.noise_path`: noise made as the rig makes it (white, through the IMU's 42 Hz gyro
+    filter, on a moving column, rounded to the gyro register's step), at 0.1-3x the rig's gyro
+    noise: its standard deviation is recovered from its size in the noise's band within 5 %.
+    Read from the second differences before (the noise's level times the filter's gain), the
+    rounding was taken for filtered noise: 0.43x the right level on a rig's log."""
+    from twip.sysid import misfit
+
+    imu = twip.Realism.thesis_like().imu
+    dlpf, step, band = imu.dlpf("gyro"), misfit.lsb(imu, "gyro"), misfit.noise_band(imu, 1)
+    white = np.random.default_rng(5).normal(size=12200) * imu.gyro_noise * math.sqrt(500.0) * scale
+    noise = np.asarray(dlpf.filter(white))[200:]
+    moving = 0.3 * np.sin(np.linspace(0.0, 40.0, len(noise)))  # a column that crosses many steps
+    rounded = np.round((noise + moving) / step) * step - moving
+    deviation, _ = misfit.noise_path(dlpf, 1, step, misfit.band_size(rounded, band), moving, band)
+    assert deviation == pytest.approx(np.std(rounded), rel=0.05)
+    # A 5 ms log's band stays below its Nyquist frequency.
+    low, high = misfit.noise_band(imu, 5)
+    assert 0 < low < high <= 0.45
+
+
+def test_a_right_fits_filtered_residuals_read_as_the_noise():
+    """The user robot's 1 kHz rig log, sensors declared: every filtered signal's residual is
+    0.8-1.25x the noise the log shows. Before the rounding of the IMU's registers was
+    calibrated, the gyro's read 0.43x, so that a residual 4.6x its noise passed the 2x limit."""
+    from twip.sysid import misfit
+
+    log, rig = rig_log(8.0)
+    fit, _ = quiet_identify(log, START, FREE, driver=DRIVER, sensors=Sensors.of(rig))
+    levels = {s: v[2] for s, v in misfit.measured(fit._problem, fit.solution.residuals).items()}
+    for s in ("gyro", "accel_x", "accel_z"):
+        assert 0.8 < levels[s] < 1.25, levels

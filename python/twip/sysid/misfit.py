@@ -6,23 +6,24 @@ A model that lacks a part of the robot (an undeclared IMU filter, gearhead frict
 wrong driver) leaves a slow, motion-shaped residual above the noise, and its parameters
 take up what it cannot explain: a fit can converge there, with narrow intervals, far off.
 
-The noise each signal carries is estimated from second differences (`measure.noise_level`),
-scaled by what the declared sensor filter does to white noise sampled as the log samples it
-(measured on a fixed white series): the smaller of the signal's estimate and the residual's.
-Behind a filter the signal's own differences are mostly the robot's motion (its jerk at each
-new command), not noise: the gain that undoes the filter's smoothing then read a gyro's noise
-at 12x what a correct fit left (measured on rig logs of two robots), and a wrong driver's
-gyro residual, 21x as correlated as noise and 3x a correct fit's, passed as 0.26x "the
-noise" without a word. The residual's differences have the motion taken out; where the model
-misses a slow part, that part barely moves them, so it still stands out against them.
+The noise an unfiltered signal carries is estimated from its second differences
+(`measure.noise_level`); a filtered one's from its size in the noise's band (`noise_band`:
+above the model's slow errors, below the filter's corner), calibrated by making noise as the
+rig makes it: white, through the declared filter, rounded to the IMU register's step on the
+fit's own prediction (`noise_path`). Each from the smaller of the signal's estimate and the
+residual's: the signal's own differences are mostly the robot's motion (its jerk at each new
+command), not noise, so that a wrong driver's gyro residual, 21x as correlated as noise and 3x a
+correct fit's, once passed as 0.26x "the noise". The residual's have the motion taken out; where
+the model misses a slow part, that part barely moves them, so it still stands out against them.
 """
 from __future__ import annotations
 
 import math
-from typing import Dict, List, Optional
+from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
+from twip.sysid.log import UNIT_NAMES
 from twip.sysid.signals import correlation_time
 from twip.sysid.measure import FILTERED, noise_floor, noise_level
 
@@ -40,55 +41,123 @@ LEVEL_LIMIT = 2.0
 #: its noise estimate and 270x as correlated; a right fit, 0.48x and 1.0x.)
 CORRELATED_LEVEL = 0.75
 WHITENESS_LIMIT = 4.0
-#: Samples of the white series that calibrates a filter's effect on noise.
-CALIBRATION_SAMPLES = 20000
+#: The band a filtered column's noise is measured in, in its filter's corner frequency.
+NOISE_BAND = (0.25, 1.0)
+#: Filter samples a calibration's white series settles for; halvings of the search for its scale.
+CALIBRATION_SETTLING = 200
+CALIBRATION_HALVINGS = 40
+#: Steps of a 16-bit IMU register from zero to its full scale.
+REGISTER_HALF_RANGE = 32768.0
 
 
-def noise_path(dlpf, ratio: int):
-    """(gain, correlation time) of white noise through `dlpf` (None: no filter), sampled every
-    `ratio`-th filter sample: the noise's standard deviation over what `noise_level` reads
-    from its second differences, and its integrated correlation time in log samples."""
-    if dlpf is None:
-        return 1.0, 1.0
-    key = (tuple(sorted(dlpf.to_dict().items())), int(ratio))
-    if key not in _CALIBRATED:
-        white = np.random.default_rng(0).normal(size=CALIBRATION_SAMPLES * int(ratio))
-        seen = np.asarray(dlpf.filter(white))[::int(ratio)][200:]
-        _CALIBRATED[key] = (float(np.std(seen) / noise_level("", seen)), correlation_time(seen))
-    return _CALIBRATED[key]
+def noise_path(dlpf, ratio: int, step: float, seen: float, predicted: np.ndarray,
+               band: Tuple[float, float]) -> Tuple[float, float]:
+    """(standard deviation, correlation time in log samples) of the noise on a column filtered by
+    `dlpf` whose size in the noise's `band` (`band_size`) is `seen`, were that noise made as the
+    rig makes it: white, through the filter, every `ratio`-th filter sample logged, added to the
+    fit's `predicted` column and rounded to the register's `step` (0: not rounded). Calibrated
+    on a fixed white series, scaled until its size in the band is `seen`. The band is where the
+    filtered noise is most of a residual: above the model's slow errors, below the filter's
+    corner, where the register's rounding (white) is a small part. Read from the second
+    differences before, as the noise's level times the filter's gain: the rounding was most of
+    them (the user robot's 1 kHz gyro, 42 Hz, rounded to 7.6e-3 deg/s), a right fit's residual
+    read 0.43x "the noise" (0.94x unrounded), and a fit with the gear play left out, 4x a right
+    fit's, passed at 1.8x."""
+    n = len(predicted)
+    key = (tuple(sorted(dlpf.to_dict().items())), int(ratio), n)
+    if key not in _FILTERED_WHITE:
+        _FILTERED_WHITE.clear()  # one log's at a time
+        white = np.random.default_rng(0).normal(size=(n + CALIBRATION_SETTLING) * int(ratio))
+        _FILTERED_WHITE[key] = np.asarray(dlpf.filter(white))[::int(ratio)][CALIBRATION_SETTLING:]
+    unit = _FILTERED_WHITE[key]
+    unit_size = max(band_size(unit, band), 1e-300)
+
+    def made(scale: float) -> np.ndarray:
+        noisy = scale * unit
+        return np.round((noisy + predicted) / step) * step - predicted if step > 0 else noisy
+
+    if step > 0:  # the size grows with the scale
+        low, high = 0.0, 4 * max(seen, step) / unit_size
+        for _ in range(CALIBRATION_HALVINGS):
+            mid = 0.5 * (low + high)
+            low, high = (mid, high) if band_size(made(mid), band) < seen else (low, mid)
+        noise = made(0.5 * (low + high))
+    else:
+        noise = made(seen / unit_size)
+    return float(np.std(noise)), correlation_time(noise)
 
 
-_CALIBRATED: dict = {}
+_FILTERED_WHITE: dict = {}
+
+
+def noise_band(imu, ratio: int) -> Tuple[float, float]:
+    """The band a filtered column's noise is measured in, in cycles per log sample: NOISE_BAND
+    of the IMU filter's corner, within 0.45 of the log's rate (its Nyquist's 0.9)."""
+    rate = imu.sample_rate / ratio
+    low, high = (min(f * imu.dlpf_hz, 0.45 * rate) for f in NOISE_BAND)
+    return min(low, 0.5 * high) / rate, high / rate
+
+
+def band_size(x: np.ndarray, band: Tuple[float, float]) -> float:
+    """The RMS of `x`'s part in `band` (cycles per sample, by its discrete Fourier transform)."""
+    x = np.asarray(x, dtype=float)
+    if len(x) < 2:
+        return 0.0
+    spectrum = np.fft.rfft(x - np.mean(x))
+    f = np.fft.rfftfreq(len(x))
+    inside = (f >= band[0]) & (f <= band[1])
+    return float(np.sqrt(2.0 * np.sum(np.abs(spectrum[inside]) ** 2)) / len(x))
 
 
 def check(problem, residuals: Dict[str, np.ndarray], sigma: Optional[Dict[str, float]] = None) -> List[str]:
     """One sentence for each compared signal whose residuals (measured - predicted, NaN where
     not compared) are not the noise the log shows; [] when the model explains the log."""
     out = []
-    for s, r in residuals.items():
-        r = np.asarray(r, dtype=float)
-        r = r[np.isfinite(r)]
-        if len(r) < 20:
-            continue
-        y = problem.y[s]
-        dlpf = problem.sensors.imu.dlpf("gyro" if s == "gyro" else "accel") \
-            if (problem.sensors.imu is not None and s in FILTERED) else None
-        gain, tau_noise = noise_path(dlpf, problem.grid.ratio if dlpf is not None else 1)
-        if s == "enc":
-            tau_noise = max(tau_noise, counting_time(y, residuals[s]))
-        # Never below the signal's own floor (`noise_floor`: a billionth of its size, an encoder's
-        # count): an exact log's residuals are the integrator's rounding, 1e-15 to 5e-14 against
-        # second differences of 1e-15, which read as 1.5-48x "the noise" (benches/sysid.py's
-        # exact states warned on four signals).
-        expected = gain * max(min(noise_level(s, y), noise_level(s, r)), noise_floor(s, y))
-        rms = float(np.sqrt(np.mean(r ** 2)))
-        level = rms / expected if expected > 0 else math.inf
-        tau = correlation_time(r) / tau_noise
+    for s, (rms, expected, level, tau) in measured(problem, residuals).items():
         if level > LEVEL_LIMIT or (level > CORRELATED_LEVEL and tau > WHITENESS_LIMIT):
             out.append(f"{s}: residual RMS {rms:.3g} is {level:.1f}x the noise the log shows ({expected:.3g}), and "
                        f"{tau:.0f}x as correlated as that noise: the model does not explain this signal, so the "
                        f"fitted values may be far off. {ADVICE}")
     return out
+
+
+def measured(problem, residuals: Dict[str, np.ndarray]) -> Dict[str, Tuple[float, float, float, float]]:
+    """For each compared signal with enough rows: its residuals' RMS, the noise the log shows,
+    their ratio (the level) and how many times as correlated as that noise the residuals are."""
+    out = {}
+    imu = problem.sensors.imu
+    for s, r in residuals.items():
+        compared = np.isfinite(np.asarray(r, dtype=float))
+        r = np.asarray(r, dtype=float)[compared]
+        if len(r) < 20:
+            continue
+        y = problem.y[s]
+        # Never below the signal's own floor (`noise_floor`: a billionth of its size, an encoder's
+        # count): an exact log's residuals are the integrator's rounding, 1e-15 to 5e-14 against
+        # second differences of 1e-15, which read as 1.5-48x "the noise" (benches/sysid.py's
+        # exact states warned on four signals).
+        if imu is not None and s in FILTERED:
+            band = noise_band(imu, problem.grid.ratio)
+            seen = min(band_size(y, band), band_size(r, band))
+            expected, tau_noise = noise_path(imu.dlpf("gyro" if s == "gyro" else "accel"), problem.grid.ratio,
+                                             lsb(imu, s), seen, np.asarray(y, dtype=float)[compared] - r, band)
+            expected = max(expected, noise_floor(s, y))
+        else:
+            expected, tau_noise = max(min(noise_level(s, y), noise_level(s, r)), noise_floor(s, y)), 1.0
+        if s == "enc":
+            tau_noise = max(tau_noise, counting_time(y, residuals[s]))
+        rms = float(np.sqrt(np.mean(r ** 2)))
+        out[s] = (rms, expected, rms / expected if expected > 0 else math.inf, correlation_time(r) / tau_noise)
+    return out
+
+
+def lsb(imu, signal: str) -> float:
+    """The step of an IMU column's 16-bit register (0 when the IMU does not round): the gyro's in
+    rad/s, the accelerometer's in m/s^2, as the rig rounds them."""
+    if not imu.quantise:
+        return 0.0
+    full = math.radians(imu.gyro_range_dps) if signal == "gyro" else imu.accel_range_g * UNIT_NAMES["g"]
+    return full / REGISTER_HALF_RANGE
 
 
 def counting_time(counts: np.ndarray, residuals: np.ndarray) -> float:
