@@ -156,7 +156,7 @@ def fitted_from_off(robot, driver, seed, play=True):
     return fit, caught
 
 
-@pytest.mark.parametrize("name, seed", [("tall", 0), ("mid", 0), ("tall", 2), ("tall", 3)])
+@pytest.mark.parametrize("name, seed", [("tall", 0), ("mid", 0), ("tall", 3)])
 def test_the_full_rig_with_friction_and_play_declared_is_within_3_percent(name, seed):
     """From 15-25 % off, the full rig's 8 s log with its friction and play declared, coulomb
     free (benches/sysid.py --accuracy --case "friction and play declared"). Measured before the
@@ -166,9 +166,9 @@ def test_the_full_rig_with_friction_and_play_declared_is_within_3_percent(name, 
     them (and the residuals' noise levels): tall within 0.76 %, mid within 0.52 %, converged,
     quiet; without the play's convergence test (PLAY_STEP) the mid robot's fit did not converge
     in 50 iterations (within 0.51 %, its cost moving by 0.02-0.3 from one to the next). Tall
-    noise seeds 2 and 3 before the residuals beyond two noise levels cost as in Huber's loss
-    (`play.robust`): i_body +6.76 % (warned) and +10.6 % (not converged); with it +2.62 % and
-    +0.30 %, converged, quiet."""
+    noise seed 3 before the residuals beyond two noise levels cost as in Huber's loss
+    (`play.robust`): i_body +10.6 % (not converged); with it +0.30 %, converged, quiet (seed 2:
+    its own test below)."""
     robot, driver = (TALL, DRIVER) if name == "tall" else (MID, MID_DRIVER)
     fit, caught = fitted_from_off(robot, driver, seed)
     assert "gear play, declared" in fit.summary()
@@ -347,3 +347,27 @@ def test_a_play_fit_whose_gap_stays_open_joins_the_segments_there():
     assert not fit.warnings and not caught, fit.summary()
     for n in FREE:
         assert abs(fit.values[n] / getattr(MID, n) - 1) < 0.03, fit.summary()
+
+
+@pytest.mark.parametrize("seed", [0, 5])
+def test_gear_play_left_out_of_the_model_is_a_misfit(seed):
+    """The mid robot's full-rig log fitted with its friction declared and its play not: quiet
+    before, off by 3.7-5.4 % over noise seeds 0-7 (seed 0: m_body +3.9 %; seed 5: 5.4 %, a quiet
+    answer beyond the issue's 5 %). The gyro's residuals come in spikes where the gear trains hit
+    (kurtosis 25-33, against 2.8-15.3 with the play declared): the fit warns, naming the play."""
+    fit, caught = fitted_from_off(MID, MID_DRIVER, seed, play=False)
+    assert any(m.startswith("gyro: the residuals come in spikes") and "backlash=" in m for m in fit.misfits), fit.summary()
+    assert caught and fit.warnings
+
+
+def test_a_play_fit_whose_impacts_miss_the_logs_is_within_3_percent_and_says_so():
+    """The tall robot's noise seed 2, full rig, friction and play declared: within 3 % (i_body
+    +2.62 % since Huber's loss; +6.76 % before), but the model's impacts are not the log's: the
+    gyro's residuals come in spikes (kurtosis 68) where they miss, and the fit says so. Quiet
+    before the residuals' tails were checked, as was the same log at 5 ms, at i_body +3.8 %."""
+    fit, caught = fitted_from_off(TALL, DRIVER, 2)
+    assert fit.converged, fit.summary()
+    for n in FREE:
+        assert abs(fit.values[n] / getattr(TALL, n) - 1) < 0.03, fit.summary()
+    assert any(m.startswith("gyro: the residuals come in spikes") and "at other times than the model's" in m
+               for m in fit.misfits), fit.summary()
