@@ -347,6 +347,9 @@ def test_a_play_fit_whose_gap_stays_open_joins_the_segments_there():
     assert not fit.warnings and not caught, fit.summary()
     for n in FREE:
         assert abs(fit.values[n] / getattr(MID, n) - 1) < 0.03, fit.summary()
+    # Another log is predicted with the segments asked for (0.25 s), not the joined first one's 0.5 s.
+    problem = fit._problem
+    assert problem.segment == 0.25 and problem.log.t[problem.segments[1]] == pytest.approx(0.5)
 
 
 @pytest.mark.parametrize("seed", [0, 5])

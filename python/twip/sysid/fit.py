@@ -156,7 +156,7 @@ class Fit:
         checks.of_type("other", other, RunLog, "a twip.RunLog (the run to predict)")
         p = self._problem
         params = self.robot
-        check = Problem(other, params, [], self.driver or p.driver, p.friction, segment or _segment_of(p),
+        check = Problem(other, params, [], self.driver or p.driver, p.friction, segment or p.segment,
                         p.sensors, [s for s in p.outputs if getattr(other, s) is not None], p.max_step, p.backlash)
         sigma = {s: self.sigma[s] for s in check.outputs}
         solution = Estimator(check, sigma, max_iter=50).run()
@@ -198,9 +198,6 @@ _UNITS = {"phi": "rad", "phi_dot": "rad/s", "theta": "rad", "theta_dot": "rad/s"
           "enc": "counts", "accel_x": "m/s²", "accel_z": "m/s²"}
 
 
-def _segment_of(problem: Problem) -> float:
-    t, s = problem.log.t, problem.segments
-    return float(t[s[1]] - t[s[0]]) if len(s) > 1 else float(t[-1] - t[0]) * 2
 
 
 #: Relative eigenvalue of the normalised information at or below which a direction has no

@@ -97,6 +97,8 @@ class Problem:
         if len(set(free)) != len(free):
             raise LogError(f"free: {list(free)} names a parameter twice")
         self.biased = [s for s in BIASED if s in self.outputs]
+        #: The shooting segments' length asked for [s] (`cut` may join some into longer ones).
+        self.segment = segment
         self.segments = segments(log.t, segment)
         self._check_size(len(self.unknowns) + len(self.biased))
         filtered = sensors.imu is not None and any(s in self.outputs for s in FILTERED)
