@@ -196,3 +196,41 @@ def test_a_linear_policy_runs_through_twip_simulate_as_on_the_env():
     run = twip.simulate(model, policy, np.array([0.08, 0.0, 0.0, 0.0]), t_final=1.0, dt=1e-3,
                         realism=RIG.replace(seed=twip._core.sweep_noise_seed(7), stream=0))
     np.testing.assert_allclose(np.array(states), run.states[5::5][:200], rtol=0, atol=1e-10)
+
+
+def _bits(a):
+    return np.ascontiguousarray(a).view(np.uint8)
+
+
+@pytest.mark.parametrize("cls", [envs.BalanceVectorEnv, envs.TrackVectorEnv], ids=["balance", "track"])
+@pytest.mark.parametrize("realism", [None, RIG], ids=["ideal", "rig"])
+def test_next_step_in_one_native_call_is_the_calls_one_by_one(cls, realism):
+    """NEXT_STEP's one native call (`step_next`: step, rewards, the restarts, states and
+    observations in one trip to the threads) gives the bits of the native calls one by
+    one, with falls, a few lanes started anew and (ideal plant) more than 512 at once."""
+    n = 40 if realism is not None else 1100
+    odd = {"alive": 0.3, "upright": 7.1, "tracking": 0.33, "effort": 0.37}
+    if cls is envs.TrackVectorEnv:
+        odd["heading"] = 0.7
+    # Leaning far at the start: robots fall within the steps.
+    lean = {"phi0": twip.Uniform(abs=0.45)}
+    one, many = (cls(num_envs=n, realism=realism, reward=odd, perturb=lean, threads=2) for _ in range(2))
+    one.reset(seed=5)
+    many.reset(seed=5)
+    settings = one.settings
+    rng = np.random.default_rng(7)
+    falls = 0
+    for k in range(40):
+        a = rng.uniform(-0.2, 1.2, size=(n, settings.action_width)) * one.single_action_space.high
+        again = list(range(0, n, 2)) if k == 20 and realism is None else rng.choice(n, size=3, replace=False).tolist()
+        again.sort()
+        fell, rewards, states, obs = settings.step_next(one._episodes.batch, a.ravel(), again)
+        batch = many._episodes.batch
+        want_fell = batch.step(a.ravel())
+        want_rewards = settings.rewards(batch, a)
+        batch.reset(again)
+        for got, want in [(fell, want_fell), (rewards, want_rewards), (states, batch.states()), (obs, batch.observations())]:
+            assert got.dtype == want.dtype and got.shape == want.shape
+            assert np.array_equal(_bits(got), _bits(want)), k
+        falls += fell.sum()
+    assert falls > 0

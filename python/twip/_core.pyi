@@ -344,6 +344,15 @@ class BalanceBatch:
         """One control period of every robot under `actions` (the model's inputs of
         each robot, robot after robot); returns which fell.
         """
+    def step_next(self, actions: _F64, reset: Sequence[int], weights: Tuple[float, float, float, float],
+                  speed_ref: float, bound: float) -> Tuple[npt.NDArray[np.bool_], _F64, _F64, _F64]:
+        """One step under Gymnasium's NEXT_STEP autoreset, in one trip to the threads: every
+        robot steps under `actions`, the rewards are the default terms with these weights on
+        the true states after it (`twip.envs.balance.BalanceSettings.rewards`' bits), then the
+        lanes `reset` (done at the last step) start their next episode. Returns which fell,
+        the rewards, and the true states and observations after the restarts.
+        `weights`: (alive, upright, tracking, effort).
+        """
     def observations(self) -> _F64:
         """Every robot's observation (num_envs x 4)."""
     def states(self) -> _F64:
@@ -369,6 +378,15 @@ class TrackBatch:
     def step(self, actions: _F64) -> npt.NDArray[np.bool_]:
         """One control period of every robot under `actions` (the model's inputs of
         each robot, robot after robot); returns which fell.
+        """
+    def step_next(self, actions: _F64, reset: Sequence[int], weights: Tuple[float, float, float, float, float],
+                  bound: float) -> Tuple[npt.NDArray[np.bool_], _F64, _F64, _F64]:
+        """One step under Gymnasium's NEXT_STEP autoreset, in one trip to the threads: every
+        robot steps under `actions` (robot after robot), the rewards are `rewards`' with these
+        weights, then the lanes `reset` (done at the last step) start their next episode.
+        Returns which fell, the rewards, and the true states and observations after the
+        restarts.
+        `weights`: (alive, upright, tracking, heading, effort).
         """
     def observations(self) -> _F64:
         """Every robot's observation (num_envs x 9): path error in its frame, pitch, speeds,

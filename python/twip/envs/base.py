@@ -129,6 +129,8 @@ class BatchVectorEnv(VectorEnv):
 
     def step(self, actions):
         mode = self.metadata["autoreset_mode"]
+        if mode == AutoresetMode.NEXT_STEP:
+            return self._step_next(actions)
         if mode == AutoresetMode.DISABLED and self._done.any():
             raise InvalidParameterError(f"autoreset_mode DISABLED: envs {np.flatnonzero(self._done).tolist()} are done; "
                        "reset them first with reset(options={'reset_mask': ...})")
@@ -154,6 +156,27 @@ class BatchVectorEnv(VectorEnv):
             done = np.zeros(self.num_envs, dtype=np.bool_)
         self._done = done
         return obs, rewards, terminated, truncated, infos
+
+    def _step_next(self, actions):
+        """A NEXT_STEP step as `step`'s general path takes it (step, rewards, the envs done at
+        the last step started anew, states, observations), made by the batch in one trip to
+        its threads: each native call was a trip of its own (~10-15 us of CPU each)."""
+        episodes = self._episodes
+        episodes.check_open()
+        a = check_actions(actions, self.num_envs, self.settings.action_width)
+        again = np.flatnonzero(self._done)
+        episodes.steps += 1
+        terminated, rewards, states, obs = self.settings.step_next(episodes.batch, a, again.tolist())
+        limit = self.settings.max_episode_steps
+        truncated = (episodes.steps >= limit) & ~terminated if limit is not None else np.zeros(self.num_envs, dtype=np.bool_)
+        if again.size:
+            # The envs done at the last step started anew instead of stepping.
+            episodes.steps[again] = 0
+            rewards[again] = 0.0
+            terminated[again] = False
+            truncated[again] = False
+        self._done = terminated | truncated
+        return obs, rewards, terminated, truncated, {"state": states, "_state": np.ones(self.num_envs, dtype=np.bool_)}
 
     def _info(self):
         return {"state": self._episodes.batch.states(), "_state": np.ones(self.num_envs, dtype=np.bool_)}

@@ -83,6 +83,12 @@ class TrackSettings(Settings):
         return batch.rewards(actions, w["alive"], w["upright"], w["tracking"], w["heading"], w["effort"],
                              self.action_bound)
 
+    def step_next(self, batch, actions: np.ndarray, again: list):
+        """A NEXT_STEP step of the vector env in one native call (`BatchVectorEnv._step_next`)."""
+        w = self.reward
+        weights = (w["alive"], w["upright"], w["tracking"], w["heading"], w["effort"])
+        return batch.step_next(actions, again, weights, self.action_bound)
+
     def reward_terms(self, observations: np.ndarray, actions: np.ndarray) -> np.ndarray:
         """The rewards as NumPy evaluates the formula on true observations and actions: what
         `rewards` gives, bit for bit (tests/test_envs_track.py)."""

@@ -147,6 +147,45 @@ impl RigBlock for RigLanes {
 /// N balancing robots of one [`BalanceSpec`], each with its own key (seed, episode).
 pub type BalanceEnvs = Envs<BalanceSpec, 4, 1>;
 
+/// Balance-v0's default reward's weights and wheel-speed reference
+/// (`twip.envs.balance.DEFAULT_REWARD`, `speed_ref` [rad/s]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BalanceReward {
+    pub alive: f64,
+    pub upright: f64,
+    pub tracking: f64,
+    pub effort: f64,
+    pub speed_ref: f64,
+}
+
+impl BalanceReward {
+    /// The reward of a step that ends in the true state `x` under `action` over `bound`:
+    /// alive − upright·φ² − tracking·(θ̇ − θ̇_ref)² − effort·(action / bound)². Evaluated
+    /// as NumPy evaluates `BalanceSettings.rewards` column by column (a square is a product,
+    /// the terms taken off left to right, nothing fused), so the same bits as NumPy's.
+    #[inline]
+    pub fn of(&self, x: &[f64; 4], action: f64, bound: f64) -> f64 {
+        let sq = |v: f64| v * v;
+        self.alive - self.upright * sq(x[0]) - self.tracking * sq(x[3] - self.speed_ref) - self.effort * sq(action / bound)
+    }
+
+    /// Every robot's reward into `out` from its true state (rows of 4 in `states`) and its
+    /// action (one each in `actions`).
+    pub fn rewards_into(&self, states: &[f64], actions: &[f64], bound: f64, out: &mut [f64]) -> Result<(), TwipError> {
+        let n = out.len();
+        if actions.len() != n {
+            return Err(TwipError::Shape { name: "actions", expected: (n, 1), got: (actions.len(), 1) });
+        }
+        if states.len() != n * 4 {
+            return Err(TwipError::Shape { name: "states", expected: (n, 4), got: (states.len() / 4, 4 + states.len() % 4) });
+        }
+        for ((r, x), &a) in out.iter_mut().zip(states.chunks_exact(4)).zip(actions) {
+            *r = self.of(x.try_into().expect("rows of 4"), a, bound);
+        }
+        Ok(())
+    }
+}
+
 impl Envs<BalanceSpec, 4, 1> {
     /// Lane `l`'s observation: the state (ideal plant) or the sensors' last reading.
     pub fn observation(&self, l: usize) -> Vector4<f64> {

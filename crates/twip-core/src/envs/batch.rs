@@ -90,7 +90,8 @@ pub struct Envs<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> {
     /// run (at most [`AT_PERIODS`]): what the lanes at the same k share, made once.
     at_periods: Vec<K::AtTime>,
     robots: Robots<K, NX, NU>,
-    pool: rayon::ThreadPool,
+    /// Shared with [`Envs::in_one_trip`]'s caller, which holds the batch meanwhile.
+    pool: Arc<rayon::ThreadPool>,
 }
 
 impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> IdealBlock<K, NX, NU> {
@@ -193,7 +194,7 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
         let keys = super::robot::keys(n)?;
         spec.period().validate()?;
         spec.validate()?;
-        let pool = super::pool(threads)?;
+        let pool = Arc::new(super::pool(threads)?);
         let robots = match spec.realism() {
             None => {
                 let blocks = n.div_ceil(LANES);
@@ -354,6 +355,14 @@ impl<K: EnvKind<NX, NU>, const NX: usize, const NU: usize> Envs<K, NX, NU> {
         }
         (self.keys[l], self.periods[l]) = (key, 0);
         Ok(())
+    }
+
+    /// `f(self)` on the batch's threads, in one trip: the steps, resets and rows it asks for
+    /// run there as they come (a call into the pool from one of its own threads runs in
+    /// place), not each a trip of its own that wakes the threads and waits for them.
+    pub fn in_one_trip<R: Send>(&mut self, f: impl FnOnce(&mut Self) -> R + Send) -> R {
+        let pool = Arc::clone(&self.pool);
+        pool.install(|| f(self))
     }
 
     /// `row(self, l)` of every lane `l` into `out` (`W` values a lane, lane after lane), on

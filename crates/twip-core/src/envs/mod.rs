@@ -10,7 +10,7 @@ mod batch;
 mod robot;
 pub mod track;
 
-pub use balance::{BalanceEnvs, BalanceSpec};
+pub use balance::{BalanceEnvs, BalanceReward, BalanceSpec};
 pub use batch::{Envs, RealismFor};
 pub use robot::{Period, MAX_ENVS};
 pub use track::{TrackEnvs, TrackReward, TrackSpec, TRACK_OBS};

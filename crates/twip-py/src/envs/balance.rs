@@ -1,10 +1,10 @@
 //! `twip/Balance-v0`'s native batch.
-use numpy::PyArray2;
+use numpy::{PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::prelude::*;
-use twip_core::envs::{BalanceEnvs, BalanceSpec};
+use twip_core::envs::{BalanceEnvs, BalanceReward, BalanceSpec};
 use twip_core::sweep::{Nominal, Perturbation};
 
-use super::{batch_class, realism_for, rows};
+use super::{batch_class, realism_for, rows, rows_array, NextStep, KEPT_REFRESH};
 
 use crate::convert::vector;
 use crate::errors::PyTwipError;
@@ -40,6 +40,53 @@ impl PyBalanceBatch {
         let spec = BalanceSpec { nominal, perturbations, realism: realism_for(realism), dt, substeps, fall_limit };
         let inner = py.detach(|| BalanceEnvs::new(spec, num_envs, threads)).map_err(PyTwipError)?;
         Ok(Self::wrap(inner))
+    }
+
+    /// One step under Gymnasium's NEXT_STEP autoreset, in one trip to the threads: every
+    /// robot steps under `actions`, the rewards are the default terms with these weights on
+    /// the true states after it (`twip.envs.balance.BalanceSettings.rewards`' bits), then the
+    /// lanes `reset` (done at the last step) start their next episode. Returns which fell,
+    /// the rewards, and the true states and observations after the restarts.
+    /// `weights`: (alive, upright, tracking, effort).
+    fn step_next<'py>(
+        &mut self,
+        py: Python<'py>,
+        actions: PyReadonlyArray1<'py, f64>,
+        reset: Vec<usize>,
+        weights: (f64, f64, f64, f64),
+        speed_ref: f64,
+        bound: f64,
+    ) -> PyResult<NextStep<'py>> {
+        let (alive, upright, tracking, effort) = weights;
+        let weights = BalanceReward { alive, upright, tracking, effort, speed_ref };
+        let n = self.hold_actions(actions)?;
+        let (mut rewards, mut states) = (vec![0.0; n], vec![0.0; 4 * n]);
+        let (inner, actions, fell) = (&mut self.inner, &self.actions, &mut self.fell);
+        let observations = py
+            .detach(|| {
+                inner.in_one_trip(|envs| {
+                    envs.step(actions, fell)?;
+                    envs.rows_into(&mut states, |envs, l| envs.state(l).into())?;
+                    weights.rewards_into(&states, actions, bound, &mut rewards)?;
+                    envs.reset_many(&reset, None)?;
+                    if reset.len() > KEPT_REFRESH {
+                        envs.rows_into(&mut states, |envs, l| envs.state(l).into())?;
+                    } else {
+                        for &l in &reset {
+                            states[4 * l..4 * (l + 1)].copy_from_slice(&<[f64; 4]>::from(envs.state(l)));
+                        }
+                    }
+                    if !envs.has_rig() {
+                        // The ideal plant's observation is the state.
+                        return Ok(states.clone());
+                    }
+                    let mut observations = vec![0.0; 4 * n];
+                    envs.rows_into(&mut observations, |envs, l| envs.observation(l).into())?;
+                    Ok(observations)
+                })
+            })
+            .map_err(PyTwipError)?;
+        Ok((PyArray1::from_slice(py, &self.fell), PyArray1::from_vec(py, rewards), rows_array::<4>(py, n, states), rows_array::<4>(py, n, observations)))
     }
 
     /// Every robot's observation (num_envs x 4).

@@ -75,6 +75,16 @@ macro_rules! batch_class {
             fn wrap(inner: $envs) -> Self {
                 Self { inner, actions: Vec::new(), fell: Vec::new(), kept: None }
             }
+
+            /// A step's `actions` into the reused buffer and room for the falls (the kept
+            /// observations dropped: the step moves the robots); returns the robots' count.
+            fn hold_actions(&mut self, actions: numpy::PyReadonlyArray1<'_, f64>) -> PyResult<usize> {
+                self.kept = None;
+                self.actions.clear();
+                self.actions.extend_from_slice(actions.as_slice()?);
+                self.fell.resize(self.inner.len(), false);
+                Ok(self.inner.len())
+            }
         }
 
         #[pymethods]
@@ -102,10 +112,7 @@ macro_rules! batch_class {
             /// One control period of every robot under `actions` (the model's inputs of
             /// each robot, robot after robot); returns which fell.
             fn step<'py>(&mut self, py: Python<'py>, actions: numpy::PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, numpy::PyArray1<bool>>> {
-                self.kept = None;
-                self.actions.clear();
-                self.actions.extend_from_slice(actions.as_slice()?);
-                self.fell.resize(self.inner.len(), false);
+                self.hold_actions(actions)?;
                 let (inner, actions, fell) = (&mut self.inner, &self.actions, &mut self.fell);
                 py.detach(|| inner.step(actions, fell)).map_err(crate::errors::PyTwipError)?;
                 Ok(numpy::PyArray1::from_slice(py, &self.fell))
@@ -127,6 +134,10 @@ macro_rules! batch_class {
     };
 }
 pub(crate) use batch_class;
+
+/// What a NEXT_STEP step (`step_next`) hands back: which robots fell, their rewards, and
+/// their true states and observations after the restarts.
+pub(crate) type NextStep<'py> = (Bound<'py, numpy::PyArray1<bool>>, Bound<'py, numpy::PyArray1<f64>>, Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
 
 /// Most lanes whose kept observations a reset makes again one by one (with the GIL held);
 /// past them the observations are made anew, on the batch's threads.

@@ -1,11 +1,11 @@
 //! `twip/Track-v0`'s native batch.
-use numpy::{PyArray1, PyArray2, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use twip_core::control::trajectory::Trajectory;
 use twip_core::envs::{TrackEnvs, TrackReward, TrackSpec, TRACK_OBS};
 use twip_core::sweep::planar::validate;
 
-use super::{batch_class, filled_rows, realism_for, rows, rows_array};
+use super::{batch_class, filled_rows, realism_for, rows, rows_array, NextStep, KEPT_REFRESH};
 use crate::control::trajectory::trajectory;
 use crate::errors::PyTwipError;
 use crate::hardware::realism::PyRealism;
@@ -42,6 +42,48 @@ impl PyTrackBatch {
         let spec = TrackSpec { nominal, perturbations, realism: realism_for(realism), path, dt, substeps, fall_limit };
         let inner = py.detach(|| TrackEnvs::new(spec, num_envs, threads)).map_err(PyTwipError)?;
         Ok(Self::wrap(inner))
+    }
+
+    /// One step under Gymnasium's NEXT_STEP autoreset, in one trip to the threads: every
+    /// robot steps under `actions` (robot after robot), the rewards are `rewards`' with these
+    /// weights, then the lanes `reset` (done at the last step) start their next episode.
+    /// Returns which fell, the rewards, and the true states and observations after the
+    /// restarts.
+    /// `weights`: (alive, upright, tracking, heading, effort).
+    fn step_next<'py>(
+        &mut self,
+        py: Python<'py>,
+        actions: PyReadonlyArray1<'py, f64>,
+        reset: Vec<usize>,
+        weights: (f64, f64, f64, f64, f64),
+        bound: f64,
+    ) -> PyResult<NextStep<'py>> {
+        let (alive, upright, tracking, heading, effort) = weights;
+        let weights = TrackReward { alive, upright, tracking, heading, effort };
+        let n = self.hold_actions(actions)?;
+        let (mut rewards, mut states, mut observations) = (vec![0.0; n], vec![0.0; 7 * n], vec![0.0; TRACK_OBS * n]);
+        let (inner, actions, fell) = (&mut self.inner, &self.actions, &mut self.fell);
+        py.detach(|| {
+            inner.in_one_trip(|envs| {
+                envs.step(actions, fell)?;
+                envs.rows_into(&mut observations, |envs, l| envs.true_observation(l))?;
+                weights.rewards_into(&observations, actions, bound, &mut rewards)?;
+                envs.reset_many(&reset, None)?;
+                envs.rows_into(&mut states, |envs, l| envs.state(l).data.0[0])?;
+                if envs.has_rig() || reset.len() > KEPT_REFRESH {
+                    envs.rows_into(&mut observations, |envs, l| envs.observation(l))
+                } else {
+                    // On the ideal plant the true observations are the observations: those
+                    // of the lanes started anew made again.
+                    for &l in &reset {
+                        observations[TRACK_OBS * l..TRACK_OBS * (l + 1)].copy_from_slice(&envs.observation(l));
+                    }
+                    Ok(())
+                }
+            })
+        })
+        .map_err(PyTwipError)?;
+        Ok((PyArray1::from_slice(py, &self.fell), PyArray1::from_vec(py, rewards), rows_array::<7>(py, n, states), rows_array::<TRACK_OBS>(py, n, observations)))
     }
 
     /// Every robot's observation (num_envs x 9): path error in its frame, pitch, speeds,
