@@ -2,11 +2,11 @@
 //! loop over a block of lanes, step for step. What differs between the models (their plants,
 //! the reference's bookkeeping, the metrics, the ground) are the [`Hooks`] of a [`Shape`],
 //! inlined into the loop, so each kernel is one function as before.
-use super::finite_at;
+use super::{finite_at, go_on};
 use super::law::{LaneLaw, Ref, Shape, U, X};
 use crate::model::dynamics::Halt;
 use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
-use crate::sweep::lanes::{mask, Lanes, LANES};
+use crate::sweep::lanes::{Lanes, LANES};
 
 /// A shape's input lanes, as the loop checks them.
 pub trait Inputs: Copy {
@@ -134,31 +134,13 @@ where
         let next = &hooks.step(x, u, dt);
         let halts = hooks.halts(next, u);
         // Lanes that go on take the new state; the few that end are handled below.
-        // Written out (not `advance`): with `advance` the 2-DOF LQR kernel measured ~9 %
-        // slower (median of 10 alternating runs, 2048 samples, one pinned core: 0.745
-        // against 0.68 s CPU), and 1.15x on the AVX-512 VM with the lanes that end handled
-        // as the rig kernel does (11 paired timings, `sweep_throughput lanes 8192`). The
-        // branch below is as touchy: with an array of the lanes that end made in it, the
-        // kernel ran 1.24x slower.
-        // Lane by lane, each lane's entries in turn, on 64-bit lane masks (`mask`): one loop
-        // whose body the compiler makes vector instructions across the lanes. Entry by entry
-        // with `bool` flags, circle-pid's `avx512` kernel ran 1.10x the time (1.07-1.13, 10
-        // paired runs of `sweep_throughput pid-lanes 2048`; fuzzy and LQR within noise).
-        let mut goes_on = [0u64; LANES];
-        let mut ends = 0u64;
-        for l in 0..LANES {
-            let live = mask(alive[l]);
-            let mut take = live & mask(next[H::PITCH][l].abs() <= config.fall_limit);
-            for entry in next {
-                take &= mask(entry[l].is_finite());
-            }
-            for (xi, ni) in x.iter_mut().zip(next) {
-                xi[l] = f64::from_bits((ni[l].to_bits() & take) | (xi[l].to_bits() & !take));
-            }
-            goes_on[l] = take;
-            ends |= live & !take;
-        }
-        let mut any_ends = ends != 0;
+        // `go_on`, not `advance`: with `advance` (which makes the array of the lanes that
+        // end) the 2-DOF LQR kernel measured ~9 % slower (median of 10 alternating runs, 2048
+        // samples, one pinned core: 0.745 against 0.68 s CPU), and 1.15x on the AVX-512 VM
+        // with the lanes that end handled as the rig kernel does (11 paired timings,
+        // `sweep_throughput lanes 8192`). The branch below is as touchy: with an array of the
+        // lanes that end made in it, the kernel ran 1.24x slower.
+        let (goes_on, mut any_ends) = go_on(x, next, &alive, H::PITCH, config.fall_limit);
         // A lane whose finite new state the ground halts ends there too (having moved there
         // if it went on), as the runner ends a run.
         let halted: Option<[bool; LANES]> = halts.map(|h| core::array::from_fn(|l| alive[l] && h[l].is_some() && finite_at(next, l)));
