@@ -23,7 +23,9 @@ pub struct FuzzyLanes {
 /// The law's constants, and how many lanes it takes at a time (which changes no lane's
 /// numbers). Trapezoids take 4 where vectors hold fewer than 8 f64: at 8, the law's nine
 /// weights and nine ξ (two AVX2 registers each) spilled to the stack, and the AVX2 kernel
-/// measured 0.90x the time at 4. Gaussians take 8: at 4 they measured 1.12x the time.
+/// measured 0.90x the time at 4 (1.00x once the weights stayed in the frame, `FuzzyState`).
+/// Gaussians take 8: at 4 they measured 1.12x the time. On AVX-512, 16 at a time measured
+/// 0.93x the speed of 8 and 4 0.87x (`sweep_throughput fuzzy-lanes`, 8 alternated runs).
 #[derive(Clone, Debug)]
 enum Width {
     Four(Constants<4>),
