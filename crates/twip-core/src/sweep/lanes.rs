@@ -11,3 +11,11 @@ pub const LANES: usize = 16;
 
 /// One value per lane.
 pub type Lanes = [f64; LANES];
+
+/// All ones where `b` holds, else zero: a lane's flag as a 64-bit mask, with which a loop over
+/// the lanes selects an f64's bits without a branch (the compiler's vector masks), where `bool`
+/// arrays were tested and selected with gathers and scalar moves.
+#[inline(always)]
+pub(crate) fn mask(b: bool) -> u64 {
+    (b as u64).wrapping_neg()
+}

@@ -2,7 +2,7 @@
 //! loop over a block of lanes, step for step. What differs between the models (their plants,
 //! the reference's bookkeeping, the metrics, the ground) are the [`Hooks`] of a [`Shape`],
 //! inlined into the loop, so each kernel is one function as before.
-use super::finite_at;
+use super::{finite_at, go_on};
 use super::law::{LaneLaw, Ref, Shape, U, X};
 use crate::model::dynamics::Halt;
 use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
@@ -134,23 +134,13 @@ where
         let next = &hooks.step(x, u, dt);
         let halts = hooks.halts(next, u);
         // Lanes that go on take the new state; the few that end are handled below.
-        // Written out (not `advance`): with `advance` the 2-DOF LQR kernel measured ~9 %
-        // slower (median of 10 alternating runs, 2048 samples, one pinned core: 0.745
-        // against 0.68 s CPU), and 1.15x on the AVX-512 VM with the lanes that end handled
-        // as the rig kernel does (11 paired timings, `sweep_throughput lanes 8192`). The
-        // branch below is as touchy: with an array of the lanes that end made in it, the
-        // kernel ran 1.24x slower.
-        let mut goes_on = [false; LANES];
-        let mut any_ends = false;
-        for l in 0..LANES {
-            goes_on[l] = alive[l] & finite_at(next, l) & (next[H::PITCH][l].abs() <= config.fall_limit);
-            any_ends |= alive[l] & !goes_on[l];
-        }
-        for i in 0..NX {
-            for l in 0..LANES {
-                x[i][l] = if goes_on[l] { next[i][l] } else { x[i][l] };
-            }
-        }
+        // `go_on`, not `advance`: with `advance` (which makes the array of the lanes that
+        // end) the 2-DOF LQR kernel measured ~9 % slower (median of 10 alternating runs, 2048
+        // samples, one pinned core: 0.745 against 0.68 s CPU), and 1.15x on the AVX-512 VM
+        // with the lanes that end handled as the rig kernel does (11 paired timings,
+        // `sweep_throughput lanes 8192`). The branch below is as touchy: with an array of the
+        // lanes that end made in it, the kernel ran 1.24x slower.
+        let (goes_on, mut any_ends) = go_on(x, next, &alive, H::PITCH, config.fall_limit);
         // A lane whose finite new state the ground halts ends there too (having moved there
         // if it went on), as the runner ends a run.
         let halted: Option<[bool; LANES]> = halts.map(|h| core::array::from_fn(|l| alive[l] && h[l].is_some() && finite_at(next, l)));
@@ -160,7 +150,7 @@ where
         if any_ends {
             let t_next = dt * (k + 1) as f64;
             for l in 0..LANES {
-                if !alive[l] || (goes_on[l] && !halted.is_some_and(|h| h[l])) {
+                if !alive[l] || (goes_on[l] != 0 && !halted.is_some_and(|h| h[l])) {
                     continue;
                 }
                 alive[l] = false;

@@ -23,7 +23,9 @@ pub struct FuzzyLanes {
 /// The law's constants, and how many lanes it takes at a time (which changes no lane's
 /// numbers). Trapezoids take 4 where vectors hold fewer than 8 f64: at 8, the law's nine
 /// weights and nine ξ (two AVX2 registers each) spilled to the stack, and the AVX2 kernel
-/// measured 0.90x the time at 4. Gaussians take 8: at 4 they measured 1.12x the time.
+/// measured 0.90x the time at 4 (1.00x once the weights stayed in the frame, `FuzzyState`).
+/// Gaussians take 8: at 4 they measured 1.12x the time. On AVX-512, 16 at a time measured
+/// 0.93x the speed of 8 and 4 0.87x (`sweep_throughput fuzzy-lanes`, 8 alternated runs).
 #[derive(Clone, Debug)]
 enum Width {
     Four(Constants<4>),
@@ -56,10 +58,17 @@ fn first_three<M: Copy>(sets: [[M; MAX_SETS]; 2]) -> [[M; 3]; 2] {
     sets.map(|row| [row[0], row[1], row[2]])
 }
 
-/// Each lane's weights Ŝ (one per rule) and the PD's integral, one array per quantity.
+/// Each lane's weights Ŝ (one per rule, room for the largest grid, the rest zero) and the
+/// PD's integral, one array per quantity, in the kernel's frame from a cache line's boundary.
+/// In a `Vec` (on the heap, 8-byte aligned), each chunk's weights were copied out to the frame
+/// and back every update, vectors straddling two lines: the `avx2` fuzzy kernel ran 17 % more
+/// instructions (46.5 M against 39.7 M for a block, `cachegrind` of `sweep_throughput
+/// fuzzy-lanes 16`), with `memcpy` calls; the `avx512` one ran within noise of this (1.01x,
+/// 10 paired runs).
 #[derive(Clone, Debug)]
+#[repr(C, align(64))]
 pub struct FuzzyState {
-    s_hat: Vec<Lanes>,
+    s_hat: [Lanes; MAX_RULES],
     e_int: Lanes,
 }
 
@@ -147,11 +156,10 @@ impl<const N: usize> Constants<N> {
         };
         let (phi_s, theta, theta_dot) = (Wide::splat(phi_s), Wide::splat(r.theta), Wide::splat(r.theta_dot));
         for c in 0..LANES / N {
-            let weights = &state.s_hat[..basis.rules()];
-            let mut s_hat: [Wide<N>; R] = fill(|j| weights.get(j).map_or(Wide::splat(0.0), |w| chunk(w, c)));
+            let mut s_hat: [Wide<N>; R] = fill(|j| chunk(&state.s_hat[j], c));
             let mut e_int = chunk(&state.e_int, c);
             let step = law.update(&mut s_hat, &mut e_int, phi_s, &state_chunk(x, c), theta, theta_dot);
-            for (w, s) in state.s_hat.iter_mut().zip(&s_hat) {
+            for (w, s) in state.s_hat.iter_mut().zip(&s_hat).take(basis.rules()) {
                 put(w, c, *s);
             }
             put(&mut state.e_int, c, e_int);
@@ -202,7 +210,7 @@ impl LaneLaw for FuzzyLanes {
 
     fn start(&self) -> FuzzyState {
         let s0 = self.controller.initial_weights();
-        FuzzyState { s_hat: s0.iter().map(|w| [*w; LANES]).collect(), e_int: [0.0; LANES] }
+        FuzzyState { s_hat: core::array::from_fn(|j| [s0.get(j).copied().unwrap_or(0.0); LANES]), e_int: [0.0; LANES] }
     }
 
     #[inline(always)]

@@ -23,7 +23,7 @@ use crate::model::slope::{deriv, SlopeCoefficients, SlopeModel};
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::{pitch_band, steady_pitch, Aim, DrivePeaks, SlopeSummary, Tally};
 use crate::sim::runner::SimConfig;
-use crate::sweep::lanes::{Lanes, LANES};
+use crate::sweep::lanes::{mask, Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
 use crate::TwipError;
 use core::sync::atomic::{AtomicU8, Ordering};
@@ -349,7 +349,7 @@ pub(crate) fn only(l: usize) -> [bool; LANES] {
 
 /// Moves the lanes that go on (alive, the new state finite and its pitch, entry `pitch`,
 /// within the fall limit) to their new state `next`; returns the lanes that end at this
-/// step, when some do. Loops over lanes without branches, which the compiler vectorises.
+/// step, when some do (`go_on`).
 #[inline(always)]
 pub(crate) fn advance<const N: usize>(
     x: &mut [Lanes; N],
@@ -358,18 +358,39 @@ pub(crate) fn advance<const N: usize>(
     pitch: usize,
     fall_limit: f64,
 ) -> Option<[bool; LANES]> {
-    let mut goes_on = [false; LANES];
-    let mut any_ends = false;
+    let (goes_on, any_ends) = go_on(x, next, alive, pitch, fall_limit);
+    any_ends.then(|| core::array::from_fn(|l| alive[l] & (goes_on[l] == 0)))
+}
+
+/// Moves the lanes that go on (as [`advance`]) to `next`; returns each lane's mask, all ones
+/// where it went on, and whether some lane alive ends. Lane by lane, each lane's entries in
+/// turn, on 64-bit lane masks (`mask`): one loop whose body the compiler makes vector
+/// instructions across the lanes. Entry by entry with `bool` flags, circle-pid's `avx512`
+/// kernel ran 1.10x the time (1.07-1.13, 10 paired runs of `sweep_throughput pid-lanes
+/// 2048`; fuzzy and LQR within noise).
+#[inline(always)]
+pub(crate) fn go_on<const N: usize>(
+    x: &mut [Lanes; N],
+    next: &[Lanes; N],
+    alive: &[bool; LANES],
+    pitch: usize,
+    fall_limit: f64,
+) -> ([u64; LANES], bool) {
+    let mut goes_on = [0u64; LANES];
+    let mut ends = 0u64;
     for l in 0..LANES {
-        goes_on[l] = alive[l] & finite_at(next, l) & (next[pitch][l].abs() <= fall_limit);
-        any_ends |= alive[l] & !goes_on[l];
-    }
-    for i in 0..N {
-        for l in 0..LANES {
-            x[i][l] = if goes_on[l] { next[i][l] } else { x[i][l] };
+        let live = mask(alive[l]);
+        let mut take = live & mask(next[pitch][l].abs() <= fall_limit);
+        for entry in next {
+            take &= mask(entry[l].is_finite());
         }
+        for (xi, ni) in x.iter_mut().zip(next) {
+            xi[l] = f64::from_bits((ni[l].to_bits() & take) | (xi[l].to_bits() & !take));
+        }
+        goes_on[l] = take;
+        ends |= live & !take;
     }
-    any_ends.then(|| core::array::from_fn(|l| alive[l] & !goes_on[l]))
+    (goes_on, ends != 0)
 }
 
 /// Whether lane `l` of a state is finite in every entry.
