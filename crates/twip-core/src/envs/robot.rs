@@ -1,7 +1,7 @@
 //! What both envs' batches step: a block of [`LANES`] robots on an ideal lane plant or
 //! through their rigs on the rig's lanes, for one control period under a held action.
 use crate::sweep::block::multiversioned;
-use crate::sweep::lanes::{Lanes, LANES};
+use crate::sweep::lanes::{mask, Lanes, LANES};
 use crate::TwipError;
 
 /// A lane plant the ideal kernel advances: the 2-DOF sweep's or the 3-DOF one's.
@@ -51,12 +51,6 @@ fn advance<P: LanePlant>(plants: &P, x: &mut P::State, u: &P::Input, steps: usiz
         }
     }
     alive.map(|a| a == 0)
-}
-
-/// All ones where `b` holds, else zero.
-#[inline(always)]
-fn mask(b: bool) -> u64 {
-    (b as u64).wrapping_neg()
 }
 
 /// How a rig robot's period runs: the plant step, steps per period, the fall test.
