@@ -109,7 +109,10 @@ test-python: build
 # core idle (the Rust tests' one-rustc phases, pytest's tail), and the longest test (the
 # terrain's sympy derivation, 83 s) takes 23 s: clean clone of 36b8437, `make test` after demo
 # 19 min 35 s (1,175 s wall, 2,116 s user; pytest 868 s beside the Rust tests), still over the
-# goal on this machine. What was tried for the wheel is in Cargo.toml;
+# goal on this machine. On the AVX-512 EPYC (4 December 2026): a fresh checkout of 36fed85,
+# `make demo` 280 s, then `make test` 538 s (two other release builds beside it); a clean clone
+# of 9d6e146, `make test` alone (CI's case, the wheel's build included) 580 s, pytest 181 s
+# beside the Rust tests. What was tried for the wheel is in Cargo.toml;
 # built at opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than
 # the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
