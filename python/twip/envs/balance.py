@@ -61,7 +61,6 @@ class BalanceSettings(Settings):
         return (w["alive"] - w["upright"] * phi ** 2 - w["tracking"] * (theta_dot - self.speed_ref) ** 2
                 - w["effort"] * effort)
 
-
     def step_next(self, batch, actions: np.ndarray, again: list):
         """A NEXT_STEP step of the vector env in one native call: `rewards`' numbers, bit for
         bit, made in Rust (`BatchVectorEnv._step_next`)."""

@@ -41,9 +41,12 @@ class Episodes:
         terminated = self.batch.step(a)
         self.steps += 1
         rewards = self.settings.rewards(self.batch, a.reshape(self.n, -1))
+        return rewards, terminated, self.truncated(terminated)
+
+    def truncated(self, terminated: np.ndarray) -> np.ndarray:
+        """The robots at the step limit that did not terminate (none without a limit)."""
         limit = self.settings.max_episode_steps
-        truncated = (self.steps >= limit) & ~terminated if limit is not None else np.zeros(self.n, dtype=np.bool_)
-        return rewards, terminated, truncated
+        return (self.steps >= limit) & ~terminated if limit is not None else np.zeros(self.n, dtype=np.bool_)
 
 
 class SingleEnv(gymnasium.Env):
@@ -135,12 +138,6 @@ class BatchVectorEnv(VectorEnv):
             raise InvalidParameterError(f"autoreset_mode DISABLED: envs {np.flatnonzero(self._done).tolist()} are done; "
                        "reset them first with reset(options={'reset_mask': ...})")
         rewards, terminated, truncated = self._episodes.step(actions)
-        if mode == AutoresetMode.NEXT_STEP and self._done.any():
-            # The envs done at the last step start anew instead of stepping.
-            self._episodes.reset(self._done)
-            rewards[self._done] = 0.0
-            terminated[self._done] = False
-            truncated[self._done] = False
         infos = self._info()
         done = terminated | truncated
         obs = self._episodes.batch.observations()
@@ -167,8 +164,7 @@ class BatchVectorEnv(VectorEnv):
         again = np.flatnonzero(self._done)
         episodes.steps += 1
         terminated, rewards, states, obs = self.settings.step_next(episodes.batch, a, again.tolist())
-        limit = self.settings.max_episode_steps
-        truncated = (episodes.steps >= limit) & ~terminated if limit is not None else np.zeros(self.num_envs, dtype=np.bool_)
+        truncated = episodes.truncated(terminated)
         if again.size:
             # The envs done at the last step started anew instead of stepping.
             episodes.steps[again] = 0
