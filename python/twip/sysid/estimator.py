@@ -79,11 +79,15 @@ class Estimator:
             sigma = {s: checks.real(f"weights[{s!r}]", v, above=0) for s, v in sigma.items()}
         self.fixed_sigma = sigma is not None
         self.sigma = sigma if sigma is not None else {s: noise_level(s, y) for s, y in problem.y.items()}
-        self.ranges = problem.ranges
         self.n_g = len(problem.unknowns) + len(problem.biased)
         self.param_step, self.state_step = PARAM_STEP, STATE_STEP
         #: With gear play: residuals beyond this many noise levels cost as in Huber's loss.
         self.robust_limit = ROBUST_LIMIT
+
+    @property
+    def ranges(self):
+        """The samples of each shooting segment (the problem's, which a join cuts anew)."""
+        return self.p.ranges
 
     # r = (y - h) / sigma, stacked signal by signal (with play, Huber's: `play.robust`); J = dr/d(unknowns)
     def residual(self, outputs: Dict[str, np.ndarray]) -> np.ndarray:
@@ -297,7 +301,7 @@ class Estimator:
                 if k is not None:
                     joins.append(p.log.t[p.segments[k]])
                     p.cut(np.delete(p.segments, k))
-                    starts, self.ranges = np.delete(starts, k, axis=0), p.ranges
+                    starts = np.delete(starts, k, axis=0)
                     continue
             refits += 1
             if self.fixed_sigma or not converged:
