@@ -54,7 +54,7 @@ WHITENESS_LIMIT = 4.0
 TAIL_LIMIT = 20.0
 #: The band a filtered column's noise is measured in, in its filter's corner frequency.
 NOISE_BAND = (0.25, 1.0)
-#: Filter samples a calibration's white series settles for; halvings of the search for its scale.
+#: Log samples a calibration's white series settles for (left out); halvings of the search for its scale.
 CALIBRATION_SETTLING = 200
 CALIBRATION_HALVINGS = 40
 #: Steps of a 16-bit IMU register from zero to its full scale.
@@ -74,13 +74,8 @@ def noise_path(dlpf, ratio: int, step: float, seen: float, predicted: np.ndarray
     them (the user robot's 1 kHz gyro, 42 Hz, rounded to 7.6e-3 deg/s), a right fit's residual
     read 0.43x "the noise" (0.94x unrounded), and a fit with the gear play left out, 4x a right
     fit's, passed at 1.8x."""
-    n = len(predicted)
-    key = (tuple(sorted(dlpf.to_dict().items())), int(ratio), n)
-    if key not in _FILTERED_WHITE:
-        _FILTERED_WHITE.clear()  # one log's at a time
-        white = np.random.default_rng(0).normal(size=(n + CALIBRATION_SETTLING) * int(ratio))
-        _FILTERED_WHITE[key] = np.asarray(dlpf.filter(white))[::int(ratio)][CALIBRATION_SETTLING:]
-    unit = _FILTERED_WHITE[key]
+    white = np.random.default_rng(0).normal(size=(len(predicted) + CALIBRATION_SETTLING) * int(ratio))
+    unit = np.asarray(dlpf.filter(white))[::int(ratio)][CALIBRATION_SETTLING:]
     unit_size = max(band_size(unit, band), 1e-300)
 
     def made(scale: float) -> np.ndarray:
@@ -96,9 +91,6 @@ def noise_path(dlpf, ratio: int, step: float, seen: float, predicted: np.ndarray
     else:
         noise = made(seen / unit_size)
     return float(np.std(noise)), correlation_time(noise)
-
-
-_FILTERED_WHITE: dict = {}
 
 
 def noise_band(imu, ratio: int) -> Tuple[float, float]:
