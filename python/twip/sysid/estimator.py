@@ -20,7 +20,7 @@ import numpy as np
 
 from twip import _core, checks
 from twip.sysid import play, spread, units
-from twip.sysid.joins import MAX_JOINS, joined, stuck_boundary
+from twip.sysid.joins import MAX_JOINS, passed, stuck_boundary
 from twip.sysid.kkt import kkt_matrix
 from twip.sysid.log import LogError
 from twip.sysid.measure import noise_floor, noise_level
@@ -83,6 +83,8 @@ class Estimator:
         self.param_step, self.state_step = PARAM_STEP, STATE_STEP
         #: With gear play: residuals beyond this many noise levels cost as in Huber's loss.
         self.robust_limit = ROBUST_LIMIT
+        #: Segments whose start is free of the one before's end (`joins`: released).
+        self.released: set = set()
 
     @property
     def ranges(self):
@@ -123,6 +125,7 @@ class Estimator:
         out = self.p.outputs_of(states[k], rates[k], geometry[k], biases)
         r = self.residual(out)
         gaps = starts[1:] - ends[k, :-1]
+        gaps[[j - 1 for j in self.released]] = 0.0
         finite = np.all(np.isfinite(r)) and np.all(np.isfinite(gaps))
         return (0.5 * float(r @ r) if finite else math.inf), r, out, gaps
 
@@ -174,7 +177,8 @@ class Estimator:
         for k in range(n_seg - 1):
             con[4 * k:4 * k + 4] = -d_ends[k]
             con[4 * k:4 * k + 4, self.n_g + 4 * (k + 1):self.n_g + 4 * (k + 2)] += np.eye(4)
-        return hess, grad, gaps, con, (jg, js)
+        kept = [i for i in range(len(gaps)) if i // 4 + 1 not in self.released]
+        return hess, grad, gaps[kept], con[kept], (jg, js)
 
     def normal_equations(self, r, jg, js):
         """J^T J and J^T r from the global columns and each row's own-segment columns."""
@@ -290,29 +294,17 @@ class Estimator:
             x, starts, _, _, iterations = self._minimise(x, starts, params=False, joined=False, tolerance=1e-6)
         finally:
             p.backlash = backlash
-        message, converged, refits, joins = "", False, 0, []
-        while refits < 3:
-            x, starts, converged, message, used = self._minimise(x, starts, params=True, joined=True)
-            iterations += used
-            if not converged and p.jumps() and len(joins) < MAX_JOINS:
-                # A gap left open where the prediction jumps (`joins`): the segments there
-                # become one, and the search goes on.
-                k = stuck_boundary(self.evaluate(x, starts)[3], starts, self.state_step)
-                if k is not None:
-                    joins.append(p.log.t[p.segments[k]])
-                    p.cut(np.delete(p.segments, k))
-                    starts = np.delete(starts, k, axis=0)
-                    continue
-            refits += 1
-            if self.fixed_sigma or not converged:
-                break
-            # The noise levels the fit's residuals show; refit if a weight moved by > 5 %.
-            _, _, out, _ = self.evaluate(x, starts)
-            new = self._levels(out)
-            moved = max(abs(new[s] / self.sigma[s] - 1) for s in p.outputs)
-            self.sigma = new
-            if moved < 0.05:
-                break
+        segments, sigma = list(p.segments), dict(self.sigma)
+        found = self._search(x, starts, release=False)
+        if not found[2] and found[5]:
+            # Joining left a gap open (the joined segment's end jumps in turn): from the same
+            # point, the stuck boundaries are released instead.
+            iterations += found[4]
+            p.cut(segments)
+            self.sigma = sigma
+            found = self._search(x, starts, release=True)
+        x, starts, converged, message, used, gone = found
+        iterations += used
         cost, r, out, _ = self.evaluate(x, starts)
         times = {s: correlation_time((p.y[s] - out[s])[p.used[s]]) for s in p.outputs}
         hess, _, _, con, jacobian = self.linearise(x, starts)
@@ -321,9 +313,41 @@ class Estimator:
         delta, biases = self.split(x)
         information = np.linalg.pinv(cov, rcond=1e-13) if cov.size else cov
         return Solution(delta, starts, biases, dict(self.sigma), cost, iterations, converged,
-                        f"{message} ({iterations} in all{joined(joins)})", information,
+                        f"{message} ({iterations} in all{passed(gone, bool(self.released))})", information,
                         {s: np.where(p.used[s], p.y[s] - out[s], np.nan) for s in p.outputs}, out,
                         ratio[:len(p.unknowns)])
+
+    def _search(self, x, starts, release: bool):
+        """Everything fitted, the segments joined up, the weights refitted to the residuals; a gap
+        left open where the prediction jumps (`joins`) joins the segments there, or with
+        `release` frees the later one's start. (x, starts, converged, message, iterations, the
+        times of the boundaries joined or released)."""
+        p = self.p
+        self.released = set()
+        refits, iterations, gone = 0, 0, []
+        while True:
+            x, starts, converged, message, used = self._minimise(x, starts, params=True, joined=True)
+            iterations += used
+            if not converged and p.jumps() and len(gone) < MAX_JOINS:
+                k = stuck_boundary(self.evaluate(x, starts)[3], starts, self.state_step)
+                if k is not None:
+                    gone.append(p.log.t[p.segments[k]])
+                    if release:
+                        self.released.add(k)
+                    else:
+                        p.cut(np.delete(p.segments, k))
+                        starts = np.delete(starts, k, axis=0)
+                    continue
+            refits += 1
+            if self.fixed_sigma or not converged:
+                return x, starts, converged, message, iterations, gone
+            # The noise levels the fit's residuals show; refit if a weight moved by > 5 %.
+            _, _, out, _ = self.evaluate(x, starts)
+            new = self._levels(out)
+            moved = max(abs(new[s] / self.sigma[s] - 1) for s in p.outputs)
+            self.sigma = new
+            if moved < 0.05 or refits == 3:
+                return x, starts, converged, message, iterations, gone
 
     def _levels(self, out) -> Dict[str, float]:
         """The noise levels the residuals of predictions `out` show. With gear play they are

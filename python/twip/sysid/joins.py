@@ -1,11 +1,14 @@
-"""Segments joined where continuity cannot be met.
+"""Segments joined, or their continuity released, where it cannot be met.
 
 Each segment's end must meet the next one's start. Where the prediction jumps just before a
 boundary (an impact in the gear play, or the gearhead friction's stick band switching within a
 plant step), the end is not a smooth function of the unknowns: the linearised gap closes, the
 run's does not, and the search stops "not converged" with one boundary open. Shooting's
 boundaries are the estimator's choice, not the log's: the two segments there become one,
-whose prediction carries through the jump, and the search goes on.
+whose prediction carries through the jump, and the search goes on. Where the joined
+segment's end jumps in turn (a stretch of impacts), the boundaries are released instead: the
+later segment's start is free of the earlier one's end, a constraint less, and the rows of
+both segments still count.
 """
 from __future__ import annotations
 
@@ -13,7 +16,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-#: The most boundaries one fit joins.
+#: The most boundaries one fit joins (or releases).
 MAX_JOINS = 3
 
 
@@ -28,8 +31,9 @@ def stuck_boundary(gaps: Optional[np.ndarray], starts: np.ndarray, tolerance: fl
     return worst + 1 if size[worst].max() >= tolerance else None
 
 
-def joined(times: Sequence[float]) -> str:
-    """What a message says of the boundaries joined at `times` [s]."""
+def passed(times: Sequence[float], released: bool) -> str:
+    """What a message says of the boundaries joined (or `released`) at `times` [s]."""
     if not times:
         return ""
-    return "; segments joined at t = " + ", ".join(f"{t:.3f}" for t in times) + " s, where the prediction jumps"
+    what = "continuity released" if released else "segments joined"
+    return f"; {what} at t = " + ", ".join(f"{t:.3f}" for t in times) + " s, where the prediction jumps"
