@@ -16,13 +16,14 @@ import numpy as np
 from twip import _core, checks
 from twip.sysid import closed_loop
 from twip.sysid.estimator import Estimator, Problem
+from twip.sysid.dither import Dithered
 from twip.sysid.excite import speed_steps
 from twip.sysid.fit import Fit, Undetermined
 from twip.sysid.log import SIGNALS, LogError, RunLog
 from twip.sysid.measure import Sensors
 from twip.sysid.misfit import SysidMisfitWarning
 
-__all__ = ["Fit", "LogError", "RunLog", "SIGNALS", "Sensors", "SysidMisfitWarning", "Undetermined", "identify", "speed_steps"]
+__all__ = ["Dithered", "Fit", "LogError", "RunLog", "SIGNALS", "Sensors", "SysidMisfitWarning", "Undetermined", "identify", "speed_steps"]
 
 
 def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method: str = "shooting",
