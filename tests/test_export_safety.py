@@ -50,11 +50,12 @@ def test_the_example_kills_the_motors_keeps_integer_ticks_and_drives_direction_p
 
 
 @pytest.mark.skipif(not shutil.which("cc"), reason="needs a C compiler")
-@pytest.mark.parametrize("name", ["flat-lqr", "circle-pid"])
-def test_the_example_compiles_warning_free(name, tmp_path):
+@pytest.mark.parametrize("name, defines", [("flat-lqr", []), ("flat-lqr", ["-DDITHER_AMPS=0.8f"]), ("circle-pid", [])])
+def test_the_example_compiles_warning_free(name, defines, tmp_path):
+    """As it comes, and with the identification dither on (docs/sysid.md)."""
     export(name, tmp_path, replay_seconds=0.1)
     done = subprocess.run(["cc", "-fsyntax-only", "-std=c11", "-Wall", "-Wextra", "-Werror", "-DTWIP_HOST_MAIN",
-                           "example.c", "twip_config.c"], cwd=tmp_path, capture_output=True, text=True)
+                           *defines, "example.c", "twip_config.c"], cwd=tmp_path, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
 
 

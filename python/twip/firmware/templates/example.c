@@ -11,6 +11,13 @@
 /* The pitch beyond which the robot has fallen [rad]. */
 #define TILT_CUTOFF_RAD (45.0f * TWIP_RAD_PER_DEG)
 
+/* For identification (docs/sysid.md, "A dither on the command"): ± this current [A] added to
+   the command, its sign drawn anew every period; about a third of the driver's current limit.
+   Log the dithered command. 0 for normal running (or build with -DDITHER_AMPS=0.8f). */
+#ifndef DITHER_AMPS
+#define DITHER_AMPS 0.0f
+#endif
+
 /* ---- the board: replace these ---------------------------------------------------- */
 static void read_imu(float accel[3], float gyro_dps[3]) {
     /* The sensor's own x, y, z: specific force (any unit) and rate (degrees per second).
@@ -63,6 +70,17 @@ static TwipEncoder encoder_right, encoder_left;
 static TwipPwm pwm;
 static uint32_t ticks; /* loop periods since setup(): time kept exactly, never a growing float */
 static int killed;     /* the robot fell: motors off until reset */
+#if TWIP_NX == 4
+static uint32_t dither_bits = 2463534242u;
+
+/* +1 or -1, drawn by a xorshift32 generator (identification fits the 2-DOF model). */
+static float dither_sign(void) {
+    dither_bits ^= dither_bits << 13;
+    dither_bits ^= dither_bits >> 17;
+    dither_bits ^= dither_bits << 5;
+    return (dither_bits & 1u) ? 1.0f : -1.0f;
+}
+#endif
 
 void setup(void) {
     TwipStatus s;
@@ -104,9 +122,13 @@ void loop(void) {
     TwipSpeedRef reference = {0.0f, 0.0f}; /* stand still; set theta_dot to drive */
     float u[1];
     float duty = 0.0f;
-    if (TWIP_UPDATE(&controller, t, y, &reference, u) != TWIP_OK ||
-        twip_pwm_duty(&pwm, u[0], 0.5f * (beta_r_dot + beta_l_dot), &duty) != TWIP_OK) {
+    if (TWIP_UPDATE(&controller, t, y, &reference, u) != TWIP_OK) {
         motors_off(); /* a bad measurement: no drive this period */
+        return;
+    }
+    u[0] += DITHER_AMPS * dither_sign();
+    if (twip_pwm_duty(&pwm, u[0], 0.5f * (beta_r_dot + beta_l_dot), &duty) != TWIP_OK) {
+        motors_off();
         return;
     }
     drive(0, duty);
