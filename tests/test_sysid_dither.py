@@ -40,6 +40,10 @@ def test_a_dither_narrows_the_tall_robots_i_body_to_within_1_5_percent():
     assert fit.std["i_body"] < 0.5 * plain.std["i_body"], (fit.std, plain.std)
     for n in FREE:
         assert abs(fit.values[n] / getattr(TALL, n) - 1) < 0.015, fit.summary()
+    # The summary names the wide interval of the undithered log, and the run that narrows it.
+    assert any(line.startswith("WIDE: i_body is known to ±") and "Dithered" in line
+               for line in plain.summary().splitlines()), plain.summary()
+    assert "WIDE" not in fit.summary(), fit.summary()
 
 
 def test_an_lqr_dithered_by_nothing_runs_as_the_core_lqr():
