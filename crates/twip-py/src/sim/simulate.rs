@@ -18,7 +18,8 @@ use crate::control::lqr::PyLqrController;
 use crate::model::models::PySlopeModel;
 use crate::hardware::realism::PyRealism;
 use crate::control::schedule::PySpeedSchedule;
-use crate::control::user_controller::{is_user_controller, UserController};
+use crate::control::user_controller::is_user_controller;
+use crate::sim::drive::{run_native, run_user, Run};
 
 /// Every controller of the 2-DOF model. A new controller family adds a variant here
 /// and in the `controller_enum!` line below; the runner stays one monomorphised loop.
@@ -61,6 +62,11 @@ impl SlopeRun {
     fn widths(&self, internals: usize) -> [usize; 4] {
         [4, 1, <SpeedRef<f64> as LogRow<f64>>::NAMES.len(), internals + self.extra]
     }
+}
+
+impl Run<4, 1> for SlopeRun {
+    type Reference = SpeedRef<f64>;
+    type Output = SlopeOutput;
 
     /// The ideal loop is the plain runner; realism builds its own plant, sensor and
     /// actuator kinds (core enums) and runs them through simulate_rig.
@@ -118,30 +124,14 @@ pub fn simulate_raw<'py>(
     let extra = if realism.is_some() { RIG_SIGNALS.len() } else { 0 };
     let run = SlopeRun { plant, schedule, x0, config, realism, record_every, extra };
     let (names, (outcome, steps, metrics, log)) = if is_user_controller(controller) && SlopeController::extract(controller).is_err() {
-        // A Python controller keeps the GIL: it is called back at every update.
-        let mut ctrl = UserController::<SpeedRef<f64>, 4, 1>::new(controller, period, dt, "SlopeModel")?;
-        let failed = ctrl.failed.clone();
-        let mut interrupt = None;
-        let out = run.run(&mut ctrl, || failed.get() || crate::interrupt::requested(&mut interrupt));
-        if let Some(err) = ctrl.take_error().or(interrupt) {
-            return Err(err);
-        }
-        (ctrl.internal_names(), out.map_err(PyTwipError)?)
+        run_user(&run, controller, period, dt, "SlopeModel")?
     } else {
         let mut ctrl = SlopeController::extract(controller)?;
         if let Some(p) = period {
             ctrl = ctrl.with_period(p)?;
         }
         ctrl.check_reference(&schedule)?;
-        let (out, interrupt) = py.detach(move || {
-            let mut interrupt = None;
-            let out = run.run(&mut ctrl, || crate::interrupt::requested(&mut interrupt));
-            (out, interrupt)
-        });
-        if let Some(err) = interrupt {
-            return Err(err);
-        }
-        (ctrl.internal_names(), out.map_err(PyTwipError)?)
+        run_native(py, &run, ctrl)?
     };
     let layout = LogLayout {
         states: 4,

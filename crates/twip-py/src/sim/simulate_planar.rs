@@ -14,7 +14,8 @@ use crate::convert::vector;
 use crate::sim::run_result::{run_dict, LogLayout};
 use crate::errors::{invalid, PyTwipError};
 use crate::model::models::PyPlanarModel;
-use crate::control::user_controller::{is_user_controller, UserController};
+use crate::control::user_controller::is_user_controller;
+use crate::sim::drive::{run_native, run_user, Run};
 use crate::control::grade::PyGradeFeedForward;
 use crate::control::tracking::{PyPidTracker, PySmcTracker};
 use crate::control::trajectory::trajectory;
@@ -59,7 +60,10 @@ struct PlanarRun {
 
 type PlanarOutput = (Outcome<f64>, usize, TrackingMetrics<f64, Trajectory<f64>>, TrajectoryLog<f64>);
 
-impl PlanarRun {
+impl Run<7, 2> for PlanarRun {
+    type Reference = PlanarRef<f64>;
+    type Output = PlanarOutput;
+
     fn run<C>(&self, ctrl: &mut C, should_stop: impl FnMut() -> bool) -> Result<PlanarOutput, twip_core::TwipError>
     where
         C: Controller<f64, 7, 2, Reference = PlanarRef<f64>>,
@@ -84,22 +88,6 @@ impl PlanarRun {
         let (metrics, log) = observers;
         Ok((outcome, steps, metrics, log))
     }
-}
-
-/// A twip controller's run without the GIL: its internals' names and the run's output.
-fn run_native<C>(py: Python<'_>, run: &PlanarRun, mut ctrl: C) -> PyResult<(&'static [&'static str], PlanarOutput)>
-where
-    C: Controller<f64, 7, 2, Reference = PlanarRef<f64>> + Send,
-{
-    let (out, interrupt) = py.detach(|| {
-        let mut interrupt = None;
-        let out = run.run(&mut ctrl, || crate::interrupt::requested(&mut interrupt));
-        (out, interrupt)
-    });
-    if let Some(err) = interrupt {
-        return Err(err);
-    }
-    Ok((ctrl.internal_names(), out.map_err(PyTwipError)?))
 }
 
 /// Runs a tracker on the 3-DOF model; returns a dict that `twip.simulate` wraps into a
@@ -146,15 +134,7 @@ pub fn simulate_planar_raw<'py>(
     let run = PlanarRun { plant, terrain, path, settle, x0, config, record_every, realism };
     let (names, (outcome, steps, metrics, log)) =
         if is_user_controller(controller) && PlanarController::extract(controller).is_err() {
-            // A Python controller keeps the GIL: it is called back at every update.
-            let mut ctrl = UserController::<PlanarRef<f64>, 7, 2>::new(controller, control_period, dt, "PlanarModel")?;
-            let failed = ctrl.failed.clone();
-            let mut interrupt = None;
-            let out = run.run(&mut ctrl, || failed.get() || crate::interrupt::requested(&mut interrupt));
-            if let Some(err) = ctrl.take_error().or(interrupt) {
-                return Err(err);
-            }
-            (ctrl.internal_names(), out.map_err(PyTwipError)?)
+            run_user(&run, controller, control_period, dt, "PlanarModel")?
         } else if let Ok(g) = controller.cast::<PyGradeFeedForward>() {
             run_native(py, &run, g.get().core(py, control_period)?)?
         } else {
