@@ -62,7 +62,8 @@ pub(super) trait Plant {
     fn state(&self) -> &X<Self::Shape>;
     fn state_mut(&mut self) -> &mut X<Self::Shape>;
     /// Every lane's input `u` from `controller` at time `t`, on what it reads (with what the
-    /// ground feeds forward).
+    /// ground feeds forward). `COPY`: the kernel copy that runs the loop (`out_of_line_in`),
+    /// here and below.
     fn update<C: LaneLaw<Shape = Self::Shape>, const COPY: u8>(&mut self, controller: &mut C, state: &mut C::State, t: f64, r: &Ref<Self::Shape>, u: &mut U<Self::Shape>);
     /// The law's input `u` at `t` applied from now on; returns the lanes whose drive is not
     /// finite (diverged).
@@ -74,9 +75,9 @@ pub(super) trait Plant {
     /// the lanes that go on there). A rig tells `drive` what its plants got at the step's start
     /// and whether each lane's command is beyond its driver (`Observer::drive`); ideal plants
     /// get `u`, and do not.
-    fn step(&mut self, k: usize, u: &U<Self::Shape>, dt: f64, drive: impl FnOnce(&U<Self::Shape>, &[bool; LANES])) -> X<Self::Shape>;
+    fn step<const COPY: u8>(&mut self, k: usize, u: &U<Self::Shape>, dt: f64, drive: impl FnOnce(&U<Self::Shape>, &[bool; LANES])) -> X<Self::Shape>;
     /// What ends each lane at `next` under `u` besides a fall (None: nothing can).
-    fn halts(&self, next: &X<Self::Shape>, u: &U<Self::Shape>) -> Option<[Option<Halt>; LANES]>;
+    fn halts<const COPY: u8>(&self, next: &X<Self::Shape>, u: &U<Self::Shape>) -> Option<[Option<Halt>; LANES]>;
 }
 
 /// What a block's metrics do in the loop: the reference they measure against, their
@@ -168,8 +169,8 @@ where
         // array every step (a `memcpy` call, 896 bytes in the planar kernels, with a
         // `vzeroupper` before it and the loop's registers reloaded after), and circle-pid swept
         // at 0.91x.
-        let next = &plant.step(k, u, dt, |delivered, beyond| observer.drive(&alive, delivered, update, beyond));
-        let halts = plant.halts(next, u);
+        let next = &plant.step::<COPY>(k, u, dt, |delivered, beyond| observer.drive(&alive, delivered, update, beyond));
+        let halts = plant.halts::<COPY>(next, u);
         // Lanes that go on take the new state; the few that end are handled below.
         // `go_on`, not `advance` (which made the array of the lanes that end, and the rig
         // kernels' own loops used until they ran this one): with `advance` the 2-DOF LQR kernel measured ~9 % slower (median of 10 alternating runs, 2048

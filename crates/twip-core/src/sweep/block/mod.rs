@@ -646,12 +646,12 @@ impl closed_loop::Plant for SlopePlants<'_> {
     }
 
     #[inline(always)]
-    fn step(&mut self, _: usize, u: &Lanes, dt: f64, _: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
+    fn step<const COPY: u8>(&mut self, _: usize, u: &Lanes, dt: f64, _: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
         self.plants.rk4(self.x, u, dt)
     }
 
     #[inline(always)]
-    fn halts(&self, _: &[Lanes; 4], _: &Lanes) -> Option<[Option<Halt>; LANES]> {
+    fn halts<const COPY: u8>(&self, _: &[Lanes; 4], _: &Lanes) -> Option<[Option<Halt>; LANES]> {
         None
     }
 }

@@ -404,12 +404,12 @@ impl<G: BlockGround> closed_loop::Plant for PlanarPlants<'_, G> {
     }
 
     #[inline(always)]
-    fn step(&mut self, _: usize, u: &[Lanes; 2], dt: f64, _: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
+    fn step<const COPY: u8>(&mut self, _: usize, u: &[Lanes; 2], dt: f64, _: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
         self.ground.rk4(self.plants, self.x, u, dt)
     }
 
     #[inline(always)]
-    fn halts(&self, next: &[Lanes; 7], u: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]> {
+    fn halts<const COPY: u8>(&self, next: &[Lanes; 7], u: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]> {
         self.ground.halts(self.plants, next, u)
     }
 }

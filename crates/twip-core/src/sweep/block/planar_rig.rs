@@ -88,19 +88,19 @@ fn planar_rig_block<C: LaneLaw<Shape = Planar>, P: LanePath, const COPY: u8>(
     let models = rig.models;
     let mut observer = Tracking::new(&models, path, settle);
     observer.metrics.efficiency = rig.efficiencies();
-    let plant = PlanarRigPlant::<COPY> { rig: &mut rig, feed: ground.as_ref() };
+    let plant = PlanarRigPlant { rig: &mut rig, feed: ground.as_ref() };
     Ok(closed_loop::<C, _, _, 7, COPY>(&mut controller, plant, observer, active, (n, per_update), config, should_stop))
 }
 
 /// The 3-DOF rig's lanes as the closed loop's plant, as the 2-DOF rig's (`rig::RigPlant`):
 /// on terrain, the tracker fed forward from what the firmware reads (`feed`, as a run's
 /// `GradeFeedForward`) and the lanes halted as the rig's `halted` ends a run.
-struct PlanarRigPlant<'a, const COPY: u8> {
+struct PlanarRigPlant<'a> {
     rig: &'a mut PlanarRigLanes,
     feed: Option<&'a TerrainLanes>,
 }
 
-impl<const COPY: u8> Plant for PlanarRigPlant<'_, COPY> {
+impl Plant for PlanarRigPlant<'_> {
     type Shape = Planar;
 
     #[inline(always)]
@@ -115,11 +115,11 @@ impl<const COPY: u8> Plant for PlanarRigPlant<'_, COPY> {
 
     /// The law out of line (`update_out_of_line`), as the 2-DOF rig's.
     #[inline(always)]
-    fn update<L: LaneLaw<Shape = Planar>, const K: u8>(&mut self, controller: &mut L, state: &mut L::State, t: f64, r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
+    fn update<C: LaneLaw<Shape = Planar>, const COPY: u8>(&mut self, controller: &mut C, state: &mut C::State, t: f64, r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
         let y = self.rig.read(t);
         match self.feed {
-            None => update_out_of_line::<L, K>(controller, state, y, r, u),
-            Some(g) => g.update::<L, K>(controller, state, y, r, u),
+            None => update_out_of_line::<C, COPY>(controller, state, y, r, u),
+            Some(g) => g.update::<C, COPY>(controller, state, y, r, u),
         }
     }
 
@@ -134,14 +134,14 @@ impl<const COPY: u8> Plant for PlanarRigPlant<'_, COPY> {
     }
 
     #[inline(always)]
-    fn step(&mut self, k: usize, _: &[Lanes; 2], _: f64, drive: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
+    fn step<const COPY: u8>(&mut self, k: usize, _: &[Lanes; 2], _: f64, drive: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
         let (next, delivered) = self.rig.step::<COPY>(k);
         drive(&delivered, self.rig.beyond());
         next
     }
 
     #[inline(always)]
-    fn halts(&self, next: &[Lanes; 7], _: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]> {
+    fn halts<const COPY: u8>(&self, next: &[Lanes; 7], _: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]> {
         self.rig.halts::<COPY>(next)
     }
 }

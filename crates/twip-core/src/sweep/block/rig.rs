@@ -99,16 +99,16 @@ fn rig_block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
     let (mut plant_phi_s, mut metrics) = SlopeLanes::metrics(&models, reference, &rig.x);
     metrics.efficiency = rig.efficiencies();
     let observer = SlopeLanes::new(&models, &mut metrics, &mut plant_phi_s, reference);
-    Ok(closed_loop::<C, _, _, 4, COPY>(&mut controller, RigPlant::<COPY>(&mut rig), observer, active, (n, per_update), config, should_stop))
+    Ok(closed_loop::<C, _, _, 4, COPY>(&mut controller, RigPlant(&mut rig), observer, active, (n, per_update), config, should_stop))
 }
 
 /// The 2-DOF rig's lanes as the closed loop's plant: the law reads the sensors and its
 /// command goes through each lane's actuator (`RigLanes`, which keeps the state and all that
 /// carries over between steps), the metrics observe the command the plants get and what the
 /// drivers deliver.
-struct RigPlant<'a, const COPY: u8>(&'a mut RigLanes);
+struct RigPlant<'a>(&'a mut RigLanes);
 
-impl<const COPY: u8> Plant for RigPlant<'_, COPY> {
+impl Plant for RigPlant<'_> {
     type Shape = Slope;
 
     #[inline(always)]
@@ -124,8 +124,8 @@ impl<const COPY: u8> Plant for RigPlant<'_, COPY> {
     /// The law out of line (once per law and copy): it runs once per control period here,
     /// and inlined it grew this kernel's optimiser time.
     #[inline(always)]
-    fn update<L: LaneLaw<Shape = Slope>, const K: u8>(&mut self, controller: &mut L, state: &mut L::State, t: f64, r: &SpeedRef<f64>, u: &mut Lanes) {
-        update_out_of_line::<L, K>(controller, state, self.0.read(t), r, u);
+    fn update<C: LaneLaw<Shape = Slope>, const COPY: u8>(&mut self, controller: &mut C, state: &mut C::State, t: f64, r: &SpeedRef<f64>, u: &mut Lanes) {
+        update_out_of_line::<C, COPY>(controller, state, self.0.read(t), r, u);
     }
 
     #[inline(always)]
@@ -139,14 +139,14 @@ impl<const COPY: u8> Plant for RigPlant<'_, COPY> {
     }
 
     #[inline(always)]
-    fn step(&mut self, k: usize, _: &Lanes, _: f64, drive: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
+    fn step<const COPY: u8>(&mut self, k: usize, _: &Lanes, _: f64, drive: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
         let (next, delivered) = self.0.step::<COPY>(k);
         drive(&delivered, self.0.beyond());
         next
     }
 
     #[inline(always)]
-    fn halts(&self, _: &[Lanes; 4], _: &Lanes) -> Option<[Option<Halt>; LANES]> {
+    fn halts<const COPY: u8>(&self, _: &[Lanes; 4], _: &Lanes) -> Option<[Option<Halt>; LANES]> {
         None
     }
 }
