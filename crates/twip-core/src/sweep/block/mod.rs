@@ -11,8 +11,9 @@
 //! for bit; it is bit for bit the same on every CPU, thread count and block neighbour,
 //! because a fused multiply-add is exactly rounded wherever it runs. What is here is the
 //! data layout (one array per quantity, loops over lanes that the compiler vectorises)
-//! and the 2-DOF hooks ([`SlopeLanes`]) of the runner's loop over a block, which is written
-//! once for the 2-DOF and 3-DOF lanes ([`closed_loop`](closed_loop::closed_loop)).
+//! and the 2-DOF hooks ([`SlopePlants`], and [`SlopeLanes`], the rig's lanes' observer too) of
+//! the runner's loop over a block, which is written once for the 2-DOF and 3-DOF lanes, ideal
+//! and through a rig ([`closed_loop`](closed_loop::closed_loop)).
 use closed_loop::{closed_loop, Aligned, Observer};
 use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::model::dynamics::Halt;

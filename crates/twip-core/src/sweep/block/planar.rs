@@ -8,7 +8,8 @@
 //! on [`Fused`] lanes, so a lane agrees with `runner::simulate` to rounding and is bit for
 //! bit the same on every CPU, thread count and block neighbour. The reference is the
 //! same for every lane: sampled once per step. What is here is the data layout and the
-//! 3-DOF hooks ([`PlanarLanes`]) of the runner's loop over a block, the 2-DOF lanes' too
+//! 3-DOF hooks ([`PlanarPlants`], and [`Tracking`], the rig's lanes' observer too) of the
+//! runner's loop over a block, the 2-DOF lanes' and the rigs' too
 //! ([`closed_loop`](super::closed_loop::closed_loop)).
 use super::closed_loop::{self, closed_loop, Aligned, Observer};
 use super::law::{LaneLaw, Planar};
