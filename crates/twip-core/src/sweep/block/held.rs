@@ -41,15 +41,3 @@ impl<U: Copy> Held<U> {
         }
     }
 }
-
-/// Ends the lanes still `alive` whose drive at step `k` (time `t`) `diverged`: as fallen
-/// there, unobserved (`ended`: (fell, t_end, steps)).
-#[inline(always)]
-pub(super) fn end_diverged(diverged: &[bool; LANES], alive: &mut [bool; LANES], ended: &mut [(bool, f64, u64); LANES], t: f64, k: usize) {
-    for l in 0..LANES {
-        if alive[l] && diverged[l] {
-            alive[l] = false;
-            ended[l] = (true, t, k as u64);
-        }
-    }
-}

@@ -11,9 +11,10 @@
 //! for bit; it is bit for bit the same on every CPU, thread count and block neighbour,
 //! because a fused multiply-add is exactly rounded wherever it runs. What is here is the
 //! data layout (one array per quantity, loops over lanes that the compiler vectorises)
-//! and the 2-DOF hooks ([`SlopeLanes`]) of the runner's loop over a block, which is written
-//! once for the 2-DOF and 3-DOF lanes ([`closed_loop`](closed_loop::closed_loop)).
-use closed_loop::{closed_loop, Hooks};
+//! and the 2-DOF hooks ([`SlopePlants`], and [`SlopeLanes`], the rig's lanes' observer too) of
+//! the runner's loop over a block, which is written once for the 2-DOF and 3-DOF lanes, ideal
+//! and through a rig ([`closed_loop`](closed_loop::closed_loop)).
+use closed_loop::{closed_loop, Aligned, Observer};
 use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::model::dynamics::Halt;
 use crate::control::Reference;
@@ -348,21 +349,7 @@ pub(crate) fn only(l: usize) -> [bool; LANES] {
 }
 
 /// Moves the lanes that go on (alive, the new state finite and its pitch, entry `pitch`,
-/// within the fall limit) to their new state `next`; returns the lanes that end at this
-/// step, when some do (`go_on`).
-#[inline(always)]
-pub(crate) fn advance<const N: usize>(
-    x: &mut [Lanes; N],
-    next: &[Lanes; N],
-    alive: &[bool; LANES],
-    pitch: usize,
-    fall_limit: f64,
-) -> Option<[bool; LANES]> {
-    let (goes_on, any_ends) = go_on(x, next, alive, pitch, fall_limit);
-    any_ends.then(|| core::array::from_fn(|l| alive[l] & (goes_on[l] == 0)))
-}
-
-/// Moves the lanes that go on (as [`advance`]) to `next`; returns each lane's mask, all ones
+/// within the fall limit) to their new state `next`; returns each lane's mask, all ones
 /// where it went on, and whether some lane alive ends. Lane by lane, each lane's entries in
 /// turn, on 64-bit lane masks (`mask`): one loop whose body the compiler makes vector
 /// instructions across the lanes. Entry by entry with `bool` flags, circle-pid's `avx512`
@@ -617,31 +604,67 @@ fn block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
         core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 })
     });
     let plants = Plants::new(&core::array::from_fn(|l| models[l].coefficients()));
-    let cached_speed = reference.sample(0.0).theta_dot;
-    let mut plant_phi_s = steady_pitches(&models, cached_speed);
-    let mut metrics = Metrics::new(core::array::from_fn(|l| models[l].params().wheel_radius), &x, &plant_phi_s);
-    let hooks = SlopeLanes {
-        plants: &plants,
-        models: &models,
-        metrics: &mut metrics,
-        plant_phi_s: &mut plant_phi_s,
-        reference,
-        cached_speed,
-        speed_scale: 0.0,
-        direction: 1.0,
-    };
-    Ok(closed_loop::<C, _, 4, COPY>(&mut controller, hooks, x, active, steps, config, should_stop))
+    let (mut plant_phi_s, mut metrics) = SlopeLanes::metrics(&models, reference, &x);
+    let mut x = Aligned(x);
+    let plant = SlopePlants { plants: &plants, x: &mut x.0 };
+    let observer = SlopeLanes::new(&models, &mut metrics, &mut plant_phi_s, reference);
+    Ok(closed_loop::<C, _, _, 4, COPY>(&mut controller, plant, observer, active, steps, config, should_stop))
 }
 
-/// The ideal 2-DOF lanes' hooks in the closed loop: their plants and metrics, and what the
-/// metrics measure against as the reference runs. The arrays are borrowed from the kernel's
-/// frame, each apart, as in the loop written out, and the hooks hold only them and scalars: the
-/// out-of-line calls that take an array (`Metrics::observe_fall`, `Metrics::finish`) then take
-/// no address of the hooks. Owned by the hooks, the arrays made them one object in memory,
-/// copied whole (8.6 KB) to `finish`, and the fuzzy lanes swept at 0.95x of the loop written
-/// out (avx512, 12 alternated pairs); borrowed, 1.04-1.06x.
-struct SlopeLanes<'a> {
+/// The ideal 2-DOF lanes' plant in the closed loop: their plants, and their state in the
+/// loop's frame. The law reads the state, the plants get its input.
+struct SlopePlants<'a> {
     plants: &'a Plants,
+    x: &'a mut [Lanes; 4],
+}
+
+impl closed_loop::Plant for SlopePlants<'_> {
+    type Shape = Slope;
+
+    #[inline(always)]
+    fn state(&self) -> &[Lanes; 4] {
+        self.x
+    }
+
+    #[inline(always)]
+    fn state_mut(&mut self) -> &mut [Lanes; 4] {
+        self.x
+    }
+
+    #[inline(always)]
+    fn update<C: LaneLaw<Shape = Slope>, const COPY: u8>(&mut self, controller: &mut C, state: &mut C::State, _: f64, r: &SpeedRef<f64>, u: &mut Lanes) {
+        controller.update::<COPY>(state, self.x, r, u);
+    }
+
+    #[inline(always)]
+    fn apply(&mut self, _: f64, u: &Lanes) -> [bool; LANES] {
+        closed_loop::not_finite(u)
+    }
+
+    #[inline(always)]
+    fn command<'s>(&'s self, u: &'s Lanes) -> &'s Lanes {
+        u
+    }
+
+    #[inline(always)]
+    fn step<const COPY: u8>(&mut self, _: usize, u: &Lanes, dt: f64, _: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
+        self.plants.rk4(self.x, u, dt)
+    }
+
+    #[inline(always)]
+    fn halts<const COPY: u8>(&self, _: &[Lanes; 4], _: &Lanes) -> Option<[Option<Halt>; LANES]> {
+        None
+    }
+}
+
+/// The 2-DOF lanes' observer in the closed loop, ideal or through a rig: their metrics, and
+/// what the metrics measure against as the reference runs. The arrays are borrowed from the
+/// kernel's frame, each apart, as in the loop written out, and the hooks hold only them and
+/// scalars: the out-of-line calls that take an array (`Metrics::observe_fall`,
+/// `Metrics::finish`) then take no address of the hooks. Owned by the hooks, the arrays made
+/// them one object in memory, copied whole (8.6 KB) to `finish`, and the fuzzy lanes swept at
+/// 0.95x of the loop written out (avx512, 12 alternated pairs); borrowed, 1.04-1.06x.
+struct SlopeLanes<'a> {
     models: &'a [SlopeModel<f64>; LANES],
     metrics: &'a mut Metrics,
     /// Each plant's steady pitch at `cached_speed`, recomputed only when the reference speed
@@ -654,7 +677,23 @@ struct SlopeLanes<'a> {
     direction: f64,
 }
 
-impl Hooks for SlopeLanes<'_> {
+impl<'a> SlopeLanes<'a> {
+    /// The plants' steady pitches at the reference's start and the metrics of `models` from `x`.
+    fn metrics(models: &[SlopeModel<f64>; LANES], reference: &SpeedSchedule<f64>, x: &[Lanes; 4]) -> (Lanes, Metrics) {
+        let plant_phi_s = steady_pitches(models, reference.sample(0.0).theta_dot);
+        let metrics = Metrics::new(core::array::from_fn(|l| models[l].params().wheel_radius), x, &plant_phi_s);
+        (plant_phi_s, metrics)
+    }
+
+    /// The observer of `models` along `reference`, into `metrics`, the plants' steady pitches
+    /// at its start `plant_phi_s` (`Self::metrics`).
+    fn new(models: &'a [SlopeModel<f64>; LANES], metrics: &'a mut Metrics, plant_phi_s: &'a mut Lanes, reference: &'a SpeedSchedule<f64>) -> Self {
+        let cached_speed = reference.sample(0.0).theta_dot;
+        Self { models, metrics, plant_phi_s, reference, cached_speed, speed_scale: 0.0, direction: 1.0 }
+    }
+}
+
+impl Observer for SlopeLanes<'_> {
     type Shape = Slope;
     type Out = [SampleMetrics; LANES];
     const PITCH: usize = 0;
@@ -672,23 +711,13 @@ impl Hooks for SlopeLanes<'_> {
     }
 
     #[inline(always)]
-    fn update<C: LaneLaw<Shape = Slope>, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
-        controller.update::<COPY>(state, x, r, u);
-    }
-
-    #[inline(always)]
     fn observe(&mut self, live: &[bool; LANES], t: f64, x: &[Lanes; 4], u: &Lanes, r: &SpeedRef<f64>) {
         self.metrics.observe(live, x, u, self.plant_phi_s, &Shared { t, r: *r, speed_scale: self.speed_scale, direction: self.direction });
     }
 
     #[inline(always)]
-    fn step(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
-        self.plants.rk4(x, u, dt)
-    }
-
-    #[inline(always)]
-    fn halts(&self, _: &[Lanes; 4], _: &Lanes) -> Option<[Option<Halt>; LANES]> {
-        None
+    fn drive(&mut self, live: &[bool; LANES], delivered: &Lanes, update: bool, beyond: &[bool; LANES]) {
+        self.metrics.drive(live, delivered, update, beyond);
     }
 
     #[inline(always)]

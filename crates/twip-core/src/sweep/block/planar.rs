@@ -8,11 +8,12 @@
 //! on [`Fused`] lanes, so a lane agrees with `runner::simulate` to rounding and is bit for
 //! bit the same on every CPU, thread count and block neighbour. The reference is the
 //! same for every lane: sampled once per step. What is here is the data layout and the
-//! 3-DOF hooks ([`PlanarLanes`]) of the runner's loop over a block, the 2-DOF lanes' too
+//! 3-DOF hooks ([`PlanarPlants`], and [`Tracking`], the rig's lanes' observer too) of the
+//! runner's loop over a block, the 2-DOF lanes' and the rigs' too
 //! ([`closed_loop`](super::closed_loop::closed_loop)).
-use super::closed_loop::{closed_loop, Hooks};
+use super::closed_loop::{self, closed_loop, Aligned, Observer};
 use super::law::{LaneLaw, Planar};
-use super::{advance, finite_at, multiversioned, only};
+use super::{multiversioned, only};
 use crate::control::pid::{PidLaw, PidTracker};
 use crate::control::trajectory::{Path, PlanarRef};
 use crate::control::{Controller, Reference};
@@ -238,48 +239,6 @@ impl Metrics {
         }
     }
 
-    /// The step from step `k` (of `dt`) has given `next`: the lanes that go on move there
-    /// (`block::advance`); those that end do so as fallen at step k + 1, observed past the
-    /// limit with the input `u` when their state is finite (the runner's last observation).
-    /// A lane whose finite new state the ground `halts` (on terrain: lifted, off the grid) ends
-    /// there too, marked so, as the runner ends a run. Returns whether some lane is still alive.
-    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
-    #[inline(always)]
-    pub(super) fn end_step(
-        &mut self,
-        x: &mut [Lanes; 7],
-        next: &[Lanes; 7],
-        (alive, ended): (&mut [bool; LANES], &mut [(bool, f64, u64); LANES]),
-        (k, dt, fall_limit): (usize, f64, f64),
-        u: &[Lanes; 2],
-        path: &impl LanePath,
-        settle: f64,
-        halts: Option<&[Option<Halt>; LANES]>,
-    ) -> bool {
-        let fell = advance(x, next, alive, 3, fall_limit);
-        // A lane the ground halts that went on has moved to `next` already.
-        let halted: Option<[bool; LANES]> = halts.map(|h| core::array::from_fn(|l| alive[l] && h[l].is_some() && finite_at(next, l)));
-        let ends: [bool; LANES] = match (fell, halted) {
-            (None, None) => return true,
-            (Some(f), None) => f,
-            (None, Some(h)) if !h.iter().any(|&e| e) => return true,
-            (f, Some(h)) => core::array::from_fn(|l| h[l] || f.is_some_and(|f| f[l])),
-        };
-        let t_next = dt * (k + 1) as f64;
-        for l in (0..LANES).filter(|&l| ends[l]) {
-            alive[l] = false;
-            ended[l] = (true, t_next, (k + 1) as u64);
-            if finite_at(next, l) {
-                // Fell: the runner observes the state past the limit, then stops.
-                for i in 0..7 {
-                    x[i][l] = next[i][l];
-                }
-                self.end_lane(l, halts.and_then(|h| h[l]), t_next >= settle, x, u, &path.sample(t_next), path);
-            }
-        }
-        alive.iter().any(|&a| a)
-    }
-
     /// Lane `l` has ended in `x` (fallen, or halted for `halt`): the runner's last
     /// observation, `r` its reference then (settled when `settled`).
     #[allow(clippy::too_many_arguments)]
@@ -403,23 +362,75 @@ fn planar_block<C: LaneLaw<Shape = Planar>, P: LanePath, G: BlockGround, const C
     let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| models[l].unwrap_or(fallback));
     let x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| if active[l] { samples[l].x0[i] } else { 0.0 }));
     let plants = Plants::new(&models);
-    let hooks = PlanarLanes { plants: &plants, models: &models, metrics: Metrics::new(), path, settle, ground };
-    Ok(closed_loop::<C, _, 7, COPY>(&mut controller, hooks, x, active, steps, config, should_stop))
+    let mut x = Aligned(x);
+    let plant = PlanarPlants { plants: &plants, x: &mut x.0, ground };
+    Ok(closed_loop::<C, _, _, 7, COPY>(&mut controller, plant, Tracking::new(&models, path, settle), active, steps, config, should_stop))
 }
 
-/// The ideal 3-DOF lanes' hooks in the closed loop: their plants on their ground, their
-/// metrics along the path ("_settled" from `settle` [s]). The plants and models are borrowed
-/// from the kernel's frame, as the 2-DOF hooks' arrays (`SlopeLanes` says why).
-struct PlanarLanes<'a, P, G> {
+/// The ideal 3-DOF lanes' plant in the closed loop: their plants on their ground, their state
+/// in the loop's frame. The plants are borrowed from the kernel's frame, as the 2-DOF hooks'
+/// arrays (`SlopeLanes` says why).
+struct PlanarPlants<'a, G> {
     plants: &'a Plants,
-    models: &'a [PlanarModel<f64>; LANES],
-    metrics: Metrics,
-    path: &'a P,
-    settle: f64,
+    x: &'a mut [Lanes; 7],
     ground: &'a G,
 }
 
-impl<P: LanePath, G: BlockGround> Hooks for PlanarLanes<'_, P, G> {
+impl<G: BlockGround> closed_loop::Plant for PlanarPlants<'_, G> {
+    type Shape = Planar;
+
+    #[inline(always)]
+    fn state(&self) -> &[Lanes; 7] {
+        self.x
+    }
+
+    #[inline(always)]
+    fn state_mut(&mut self) -> &mut [Lanes; 7] {
+        self.x
+    }
+
+    #[inline(always)]
+    fn update<C: LaneLaw<Shape = Planar>, const COPY: u8>(&mut self, controller: &mut C, state: &mut C::State, _: f64, r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
+        self.ground.update::<C, COPY>(controller, state, self.x, r, u);
+    }
+
+    #[inline(always)]
+    fn apply(&mut self, _: f64, u: &[Lanes; 2]) -> [bool; LANES] {
+        closed_loop::not_finite(u)
+    }
+
+    #[inline(always)]
+    fn command<'s>(&'s self, u: &'s [Lanes; 2]) -> &'s [Lanes; 2] {
+        u
+    }
+
+    #[inline(always)]
+    fn step<const COPY: u8>(&mut self, _: usize, u: &[Lanes; 2], dt: f64, _: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
+        self.ground.rk4(self.plants, self.x, u, dt)
+    }
+
+    #[inline(always)]
+    fn halts<const COPY: u8>(&self, next: &[Lanes; 7], u: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]> {
+        self.ground.halts(self.plants, next, u)
+    }
+}
+
+/// The 3-DOF lanes' observer in the closed loop, ideal or through a rig: their metrics along
+/// the path ("_settled" from `settle` [s]). The models are borrowed from the kernel's frame.
+pub(super) struct Tracking<'a, P> {
+    models: &'a [PlanarModel<f64>; LANES],
+    pub(super) metrics: Metrics,
+    path: &'a P,
+    settle: f64,
+}
+
+impl<'a, P: LanePath> Tracking<'a, P> {
+    pub(super) fn new(models: &'a [PlanarModel<f64>; LANES], path: &'a P, settle: f64) -> Self {
+        Self { models, metrics: Metrics::new(), path, settle }
+    }
+}
+
+impl<P: LanePath> Observer for Tracking<'_, P> {
     type Shape = Planar;
     type Out = [PlanarSampleMetrics; LANES];
     const PITCH: usize = 3;
@@ -430,23 +441,13 @@ impl<P: LanePath, G: BlockGround> Hooks for PlanarLanes<'_, P, G> {
     }
 
     #[inline(always)]
-    fn update<C: LaneLaw<Shape = Planar>, const COPY: u8>(&self, controller: &mut C, state: &mut C::State, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
-        self.ground.update::<C, COPY>(controller, state, x, r, u);
-    }
-
-    #[inline(always)]
     fn observe(&mut self, live: &[bool; LANES], t: f64, x: &[Lanes; 7], u: &[Lanes; 2], r: &PlanarRef<f64>) {
         self.metrics.observe(live, t >= self.settle, x, u, r, self.path);
     }
 
     #[inline(always)]
-    fn step(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
-        self.ground.rk4(self.plants, x, u, dt)
-    }
-
-    #[inline(always)]
-    fn halts(&self, next: &[Lanes; 7], u: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]> {
-        self.ground.halts(self.plants, next, u)
+    fn drive(&mut self, live: &[bool; LANES], delivered: &[Lanes; 2], update: bool, beyond: &[bool; LANES]) {
+        self.metrics.drive(live, delivered, update, beyond);
     }
 
     #[inline(always)]

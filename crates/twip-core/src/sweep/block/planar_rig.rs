@@ -2,21 +2,25 @@
 //! once through the planar rig (`Realism::build_planar`), for the trackers with a law on
 //! lanes ([`LaneLaw`] of the [`Planar`] shape: PID, sliding mode).
 //!
-//! The loop is `runner::run_loop`'s, step for step: the controller and the metrics around
-//! the rig's lanes ([`PlanarRigLanes`], which step the rig's parts and the plant). So a lane
+//! The loop is the ideal lanes' (`closed_loop`, `runner::run_loop`'s step for step), with
+//! the rig's lanes as its plant ([`PlanarRigPlant`] on [`PlanarRigLanes`], which step the
+//! rig's parts and the plant) and the ideal 3-DOF lanes' metrics (`Tracking`) as its
+//! observer. So a lane
 //! agrees with `sweep::planar::run_planar_sample` to rounding, and is bit for bit the same
 //! on every CPU, thread count and block neighbour.
+use super::closed_loop::{closed_loop, Plant};
 use super::law::{update_out_of_line, LaneLaw, Planar};
-use super::planar::{BlockGround, LanePath, Metrics};
+use super::planar::{BlockGround, LanePath, Tracking};
 use super::planar_rig_lanes::PlanarRigLanes;
 use super::planar_terrain::{FeedForwardLanes, TerrainLanes};
 use super::rig::block_rigs;
-use super::held::end_diverged;
 use super::multiversioned;
+use crate::control::trajectory::PlanarRef;
+use crate::model::dynamics::Halt;
 use crate::model::planar::PlanarModel;
 use crate::model::terrain::Terrain;
-use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
-use crate::sweep::lanes::LANES;
+use crate::sim::runner::SimConfig;
+use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
 use crate::sweep::rig::RealismOf;
 use crate::sweep::SweepMetrics;
@@ -81,42 +85,65 @@ fn planar_rig_block<C: LaneLaw<Shape = Planar>, P: LanePath, const COPY: u8>(
     let Some(mut rig) = PlanarRigLanes::start(built, x0, dt, dt * per_update as f64, ground.clone())? else {
         return Ok(Some([PlanarSampleMetrics::INVALID; LANES]));
     };
-    let mut state = controller.start();
-    let mut cmd = [[0.0; LANES]; 2];
-    let mut alive = active;
-    // (fell, t_end, steps) of each lane that has ended.
-    let mut ended = [(false, 0.0f64, 0u64); LANES];
-    let mut metrics = Metrics::new();
-    metrics.efficiency = rig.efficiencies();
-    for k in 0..n {
-        let t = dt * k as f64;
-        if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
-            return Ok(None);
-        }
-        let r = path.sample(t);
-        let update = k % per_update == 0;
-        if update {
-            let y = rig.read(t);
-            match &ground {
-                None => update_out_of_line::<C, COPY>(&mut controller, &mut state, y, &r, &mut cmd),
-                // The feed-forward from what the firmware reads, as a run's `GradeFeedForward`.
-                Some(g) => g.update::<C, COPY>(&mut controller, &mut state, y, &r, &mut cmd),
-            }
-            let diverged = rig.apply(t, &cmd);
-            // A lane whose drive is not finite has diverged: it ends as fallen, unobserved.
-            end_diverged(&diverged, &mut alive, &mut ended, t, k);
-        }
-        metrics.observe(&alive, t >= settle, &rig.x, rig.command(), &r, path);
-        let (next, delivered) = rig.step::<COPY>(k);
-        metrics.drive(&alive, &delivered, update, rig.beyond());
-        let command = *rig.command();
-        let halts = rig.halts::<COPY>(&next);
-        if !metrics.end_step(&mut rig.x, &next, (&mut alive, &mut ended), (k, dt, config.fall_limit), &command, path, settle, halts.as_ref()) {
-            break;
+    let models = rig.models;
+    let mut observer = Tracking::new(&models, path, settle);
+    observer.metrics.efficiency = rig.efficiencies();
+    let plant = PlanarRigPlant { rig: &mut rig, feed: ground.as_ref() };
+    Ok(closed_loop::<C, _, _, 7, COPY>(&mut controller, plant, observer, active, (n, per_update), config, should_stop))
+}
+
+/// The 3-DOF rig's lanes as the closed loop's plant, as the 2-DOF rig's (`rig::RigPlant`):
+/// on terrain, the tracker fed forward from what the firmware reads (`feed`, as a run's
+/// `GradeFeedForward`) and the lanes halted as the rig's `halted` ends a run.
+struct PlanarRigPlant<'a> {
+    rig: &'a mut PlanarRigLanes,
+    feed: Option<&'a TerrainLanes>,
+}
+
+impl Plant for PlanarRigPlant<'_> {
+    type Shape = Planar;
+
+    #[inline(always)]
+    fn state(&self) -> &[Lanes; 7] {
+        &self.rig.x
+    }
+
+    #[inline(always)]
+    fn state_mut(&mut self) -> &mut [Lanes; 7] {
+        &mut self.rig.x
+    }
+
+    /// The law out of line (`update_out_of_line`), as the 2-DOF rig's.
+    #[inline(always)]
+    fn update<C: LaneLaw<Shape = Planar>, const COPY: u8>(&mut self, controller: &mut C, state: &mut C::State, t: f64, r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
+        let y = self.rig.read(t);
+        match self.feed {
+            None => update_out_of_line::<C, COPY>(controller, state, y, r, u),
+            Some(g) => g.update::<C, COPY>(controller, state, y, r, u),
         }
     }
-    let command = *rig.command();
-    Ok(Some(metrics.finish((&alive, &active, &mut ended), &rig.x, &command, &rig.models, path, settle, (dt * n as f64, n))))
+
+    #[inline(always)]
+    fn apply(&mut self, t: f64, u: &[Lanes; 2]) -> [bool; LANES] {
+        self.rig.apply(t, u)
+    }
+
+    #[inline(always)]
+    fn command<'s>(&'s self, _: &'s [Lanes; 2]) -> &'s [Lanes; 2] {
+        self.rig.command()
+    }
+
+    #[inline(always)]
+    fn step<const COPY: u8>(&mut self, k: usize, _: &[Lanes; 2], _: f64, drive: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
+        let (next, delivered) = self.rig.step::<COPY>(k);
+        drive(&delivered, self.rig.beyond());
+        next
+    }
+
+    #[inline(always)]
+    fn halts<const COPY: u8>(&self, next: &[Lanes; 7], _: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]> {
+        self.rig.halts::<COPY>(next)
+    }
 }
 
 #[cfg(test)]

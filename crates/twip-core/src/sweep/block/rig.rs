@@ -3,22 +3,23 @@
 //! friction, backlash, a constant force and slope changes along the path (each lane picks
 //! its piece of the ground at every stage), pushes (each lane's rig's, between steps).
 //!
-//! The loop is `runner::run_loop`'s, step for step: the controller and the metrics around
-//! the rig's lanes ([`RigLanes`], which step the rig's parts and the plant on `Fused`
-//! lanes; noise stream = sample index). So a lane
+//! The loop is the ideal lanes' (`closed_loop`, `runner::run_loop`'s step for step), with
+//! the rig's lanes as its plant ([`RigPlant`] on [`RigLanes`], which step the rig's parts and
+//! the plant on `Fused` lanes; noise stream = sample index) and the ideal 2-DOF lanes'
+//! metrics ([`SlopeLanes`]) as its observer. So a lane
 //! agrees with `sweep::rig::run_rig_sample` to rounding, and is bit for bit the same on
 //! every CPU, thread count and block neighbour.
-use super::held::end_diverged;
+use super::closed_loop::{closed_loop, Plant};
 use super::rig_lanes::RigLanes;
 use super::law::update_out_of_line;
-use super::{multiversioned, steady_pitches, BlockResult, LaneLaw, Metrics, Shared, Slope};
-use crate::control::reference::SpeedSchedule;
-use crate::control::Reference;
+use super::{multiversioned, BlockResult, LaneLaw, Slope, SlopeLanes};
+use crate::control::reference::{SpeedRef, SpeedSchedule};
+use crate::model::dynamics::Halt;
 use crate::hardware::disturbance::{Force, Pushes};
 use crate::hardware::realism::Realism;
 use crate::model::slope::SlopeModel;
-use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
-use crate::sweep::lanes::LANES;
+use crate::sim::runner::SimConfig;
+use crate::sweep::lanes::{Lanes, LANES};
 use crate::sweep::rig::RealismOf;
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
 use crate::{RobotParams, TwipError};
@@ -84,7 +85,6 @@ fn rig_block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
     assert!(samples.len() <= LANES, "a block holds at most {LANES} samples");
     let (n, per_update) = config.steps(controller.period())?;
     let dt = config.dt;
-    let mut out = [SampleMetrics::INVALID; LANES];
     let samples_models = samples.iter().map(|s| {
         let model = s.x0.iter().all(|v| v.is_finite()).then(|| SlopeModel::new(s.params, s.slope).ok()).flatten();
         (s.index, s.params, model)
@@ -93,64 +93,62 @@ fn rig_block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
     let active: [bool; LANES] = core::array::from_fn(|l| built.get(l).is_some_and(Option::is_some));
     let x0 = core::array::from_fn(|l| if active[l] { samples[l].x0.into() } else { [0.0; 4] });
     let Some(mut rig) = RigLanes::start(built, x0, dt, dt * per_update as f64)? else {
-        return Ok(Some(out));
+        return Ok(Some([SampleMetrics::INVALID; LANES]));
     };
     let models = rig.models;
-    let mut state = controller.start();
-    let mut cmd = [0.0; LANES];
-    let mut alive = active;
-    let mut ended = [(false, 0.0f64, 0u64); LANES];
-    let r0 = reference.sample(0.0);
-    let mut cached_speed = r0.theta_dot;
-    let mut plant_phi_s = steady_pitches(&models, r0.theta_dot);
-    let mut metrics = Metrics::new(core::array::from_fn(|l| models[l].params().wheel_radius), &rig.x, &plant_phi_s);
+    let (mut plant_phi_s, mut metrics) = SlopeLanes::metrics(&models, reference, &rig.x);
     metrics.efficiency = rig.efficiencies();
-    let mut speed_scale: f64 = 0.0;
-    let mut direction: f64 = 1.0;
-    for k in 0..n {
-        let t = dt * k as f64;
-        if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
-            return Ok(None);
-        }
-        let r = reference.sample(t);
-        if r.theta_dot != cached_speed {
-            cached_speed = r.theta_dot;
-            plant_phi_s = steady_pitches(&models, r.theta_dot);
-        }
-        speed_scale = speed_scale.max(r.theta_dot.abs());
-        direction = if r.theta_dot != 0.0 { r.theta_dot.signum() } else { direction };
-        let update = k % per_update == 0;
-        if update {
-            let y = rig.read(t);
-            // The law out of line (once per law and copy): it runs once per control period
-            // here, and inlined it grew this kernel's optimiser time.
-            update_out_of_line::<C, COPY>(&mut controller, &mut state, y, &r, &mut cmd);
-            let diverged = rig.apply(t, &cmd);
-            // A lane whose drive is not finite has diverged: it ends as fallen, unobserved.
-            end_diverged(&diverged, &mut alive, &mut ended, t, k);
-        }
-        metrics.observe(&alive, &rig.x, rig.command(), &plant_phi_s, &Shared { t, r, speed_scale, direction });
-        let (next, delivered) = rig.step::<COPY>(k);
-        metrics.drive(&alive, &delivered, update, rig.beyond());
-        let Some(ends) = super::advance(&mut rig.x, &next, &alive, 0, config.fall_limit) else { continue };
-        let t_next = dt * (k + 1) as f64;
-        for l in (0..LANES).filter(|&l| ends[l]) {
-            alive[l] = false;
-            ended[l] = (true, t_next, (k + 1) as u64);
-            if super::finite_at(&next, l) {
-                // Fell: the runner observes the state past the limit, then stops.
-                for i in 0..4 {
-                    rig.x[i][l] = next[i][l];
-                }
-                metrics.observe_fall(l, &rig.x, rig.command(), &models[l], &plant_phi_s, &Shared::at(t_next, reference, speed_scale, direction));
-            }
-        }
-        if !alive.iter().any(|&a| a) {
-            break;
-        }
+    let observer = SlopeLanes::new(&models, &mut metrics, &mut plant_phi_s, reference);
+    Ok(closed_loop::<C, _, _, 4, COPY>(&mut controller, RigPlant(&mut rig), observer, active, (n, per_update), config, should_stop))
+}
+
+/// The 2-DOF rig's lanes as the closed loop's plant: the law reads the sensors and its
+/// command goes through each lane's actuator (`RigLanes`, which keeps the state and all that
+/// carries over between steps), the metrics observe the command the plants get and what the
+/// drivers deliver.
+struct RigPlant<'a>(&'a mut RigLanes);
+
+impl Plant for RigPlant<'_> {
+    type Shape = Slope;
+
+    #[inline(always)]
+    fn state(&self) -> &[Lanes; 4] {
+        &self.0.x
     }
-    metrics.finish(&mut out, (&alive, &active, &mut ended), &rig.x, rig.command(), &models, &Shared::at(dt * n as f64, reference, speed_scale, direction), n);
-    Ok(Some(out))
+
+    #[inline(always)]
+    fn state_mut(&mut self) -> &mut [Lanes; 4] {
+        &mut self.0.x
+    }
+
+    /// The law out of line (once per law and copy): it runs once per control period here,
+    /// and inlined it grew this kernel's optimiser time.
+    #[inline(always)]
+    fn update<C: LaneLaw<Shape = Slope>, const COPY: u8>(&mut self, controller: &mut C, state: &mut C::State, t: f64, r: &SpeedRef<f64>, u: &mut Lanes) {
+        update_out_of_line::<C, COPY>(controller, state, self.0.read(t), r, u);
+    }
+
+    #[inline(always)]
+    fn apply(&mut self, t: f64, u: &Lanes) -> [bool; LANES] {
+        self.0.apply(t, u)
+    }
+
+    #[inline(always)]
+    fn command<'s>(&'s self, _: &'s Lanes) -> &'s Lanes {
+        self.0.command()
+    }
+
+    #[inline(always)]
+    fn step<const COPY: u8>(&mut self, k: usize, _: &Lanes, _: f64, drive: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
+        let (next, delivered) = self.0.step::<COPY>(k);
+        drive(&delivered, self.0.beyond());
+        next
+    }
+
+    #[inline(always)]
+    fn halts<const COPY: u8>(&self, _: &[Lanes; 4], _: &Lanes) -> Option<[Option<Halt>; LANES]> {
+        None
+    }
 }
 
 #[cfg(test)]
