@@ -67,13 +67,6 @@ impl<T: Real> Force<T> {
     }
 }
 
-#[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-impl<T: Copy> Force<T> {
-    pub(crate) fn map<S>(&self, f: impl Fn(T) -> S) -> Force<S> {
-        Force { horizontal: f(self.horizontal), vertical: f(self.vertical), height: f(self.height) }
-    }
-}
-
 /// Forces side by side on `N` lanes, one array per number: a lane's numbers read from
 /// them are loads of consecutive lanes, where an array of forces cost a rig lanes' plant
 /// step twelve gathers.
