@@ -67,10 +67,25 @@ impl<T: Real> Force<T> {
     }
 }
 
+/// Forces side by side on `N` lanes, one array per number: a lane's numbers read from
+/// them are loads of consecutive lanes, where an array of forces cost a rig lanes' plant
+/// step twelve gathers.
 #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-impl<T: Copy> Force<T> {
-    pub(crate) fn map<S>(&self, f: impl Fn(T) -> S) -> Force<S> {
-        Force { horizontal: f(self.horizontal), vertical: f(self.vertical), height: f(self.height) }
+impl<const N: usize> Force<[f64; N]> {
+    pub(crate) fn side_by_side(each: &[Force<f64>; N]) -> Self {
+        Force { horizontal: each.map(|f| f.horizontal), vertical: each.map(|f| f.vertical), height: each.map(|f| f.height) }
+    }
+
+    /// Lane `l` set to `force` (the other lanes as they are).
+    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
+    pub(crate) fn set_lane(&mut self, l: usize, force: Force<f64>) {
+        (self.horizontal[l], self.vertical[l], self.height[l]) = (force.horizontal, force.vertical, force.height);
+    }
+
+    /// Lane `l`'s force, each number through `f`.
+    #[inline(always)]
+    pub(crate) fn lane<S>(&self, l: usize, f: impl Fn(f64) -> S) -> Force<S> {
+        Force { horizontal: f(self.horizontal[l]), vertical: f(self.vertical[l]), height: f(self.height[l]) }
     }
 }
 

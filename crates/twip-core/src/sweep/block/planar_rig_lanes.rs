@@ -223,7 +223,8 @@ struct RigPlants {
     /// Each lane's right and left windings and the torque per ampere, when there is a
     /// driver (else any, unused).
     windings: [WindingLanes; 2],
-    forces: [Force<f64>; LANES],
+    /// Side by side (`Force::side_by_side`).
+    forces: Force<Lanes>,
     /// Each lane's rotor inertia per wheel (an open train takes it off).
     rotors: Lanes,
 }
@@ -245,7 +246,7 @@ impl RigPlants {
             friction,
             drive,
             windings: core::array::from_fn(|wheel| WindingLanes::new(&drives.map(|(w, per_amp)| (w[wheel], per_amp)))),
-            forces: core::array::from_fn(|l| rigs[l].plant.force()),
+            forces: Force::side_by_side(&core::array::from_fn(|l| rigs[l].plant.force())),
             rotors: core::array::from_fn(|l| models[l].rotor_per_wheel()),
         }
     }
@@ -263,7 +264,7 @@ impl RigPlants {
         for (wheel, lanes) in self.windings.iter_mut().enumerate() {
             lanes.set_lane(l, (w[wheel], per_amp));
         }
-        self.forces[l] = rigs[l].plant.force();
+        self.forces.set_lane(l, rigs[l].plant.force());
         self.rotors[l] = models[l].rotor_per_wheel();
     }
 }
@@ -331,7 +332,7 @@ impl RigPlants {
             u: [Fused(u[0][l]), Fused(u[1][l])],
             windings: [right, left],
             per_amp,
-            force: self.forces[l].map(Fused),
+            force: self.forces.lane(l, Fused),
         }
     }
 

@@ -212,7 +212,8 @@ struct RigPlants {
     drive: u8,
     windings: WindingLanes,
     geared: bool,
-    forces: [Force<f64>; LANES],
+    /// Side by side (`Force::side_by_side`).
+    forces: Force<Lanes>,
     hills: Hills,
 }
 
@@ -235,7 +236,7 @@ impl RigPlants {
             windings: WindingLanes::new(&core::array::from_fn(|l| winding_of(&rigs[l], dt, stand_in))),
             // Every lane's realism has the same parts (but for where pushes and forces act).
             geared: rigs[0].plant.ground().has_play(),
-            forces: core::array::from_fn(|l| rigs[l].plant.ground().force()),
+            forces: Force::side_by_side(&core::array::from_fn(|l| rigs[l].plant.ground().force())),
             hills: Hills::new(core::array::from_fn(|l| rigs[l].plant.ground()), core::array::from_fn(|l| models[l].params().wheel_radius)),
         }
     }
@@ -253,7 +254,7 @@ impl RigPlants {
             self.windings = windings;
         } else {
             self.plants.set_lane(l, &ground_model(&rigs[l]).coefficients());
-            self.forces[l] = rigs[l].plant.ground().force();
+            self.forces.set_lane(l, rigs[l].plant.ground().force());
             self.hills.set_lane(l, rigs[l].plant.ground(), rigs[0].plant.ground(), models[l].params().wheel_radius);
         }
         self.windings.set_lane(l, fresh);
@@ -312,7 +313,7 @@ impl RigPlants {
     fn field<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, DRIVE, GEARED, CHANGES> {
         let (winding, per_amp) = self.windings.lane(l);
         let (k, friction, u) = (self.plants.lane(l), &self.friction, Fused(u));
-        let force = self.forces[l].map(Fused);
+        let force = self.forces.lane(l, Fused);
         RigField { k, friction, u, winding, per_amp, engaged, force, hills: &self.hills, lane: l }
     }
 
