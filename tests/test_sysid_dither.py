@@ -1,6 +1,6 @@
 """A dither on the command for identification (issue 61's 1.5 % target at 1 kHz with the sensors
 declared): `twip.sysid.Dithered`. Speed steps alone left the tall robot's i_body deviation at
-0.85-1.1 % (its noise seed 4: +1.57 %); ±a third of the driver's limit, its sign drawn every
+0.87-1.11 % at 0.1 m/s (its noise seed 4: +1.57 %); ±a third of the driver's limit, its sign drawn every
 loop period, narrows it to 0.36-0.45 % over seeds 0-7 (docs/sysid.md)."""
 import warnings
 

@@ -2,8 +2,8 @@
 
 Speed steps (`speed_steps`) pitch the body slowly, and each shooting segment's free start state
 takes up most of what a slow motion says of `i_body`: on the tall robot of benches/sysid.py
-(3 kg, 0.2 m, 2.5 A driver) i_body's standard deviation stayed 0.85-1.1 % at 0.1, 0.12 and 0.14
-m/s steps, and its white-noise part hardly moved (0.27 % and 0.26 % at 0.1 and 0.14 m/s). What
+(3 kg, 0.2 m, 2.5 A driver) i_body's standard deviation stayed 0.79-1.15 % at 0.1, 0.12 and 0.14
+m/s steps, and its white-noise part hardly moved (noise seed 0: 0.27 % and 0.26 % at 0.1 and 0.14 m/s). What
 the pitch's response measures an inertia by is the command's quick changes. A firmware adds a
 dither of ±`amplitude` to its command, the sign drawn anew every `hold` loop periods, and logs
 the command it sent. With a third of the driver's current limit beside 0.1 m/s speed steps,

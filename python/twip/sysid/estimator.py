@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Dict, Mapping, Optional
+from typing import Dict, List, Mapping, NamedTuple, Optional
 
 import numpy as np
 
@@ -35,6 +35,18 @@ PARAM_STEP = 1e-5
 STATE_STEP = 1e-6
 #: A decrease of the cost (half a chi-square) below which the fit has converged.
 CHI2_TOLERANCE = 1e-6
+
+
+class Search(NamedTuple):
+    """Where one search (`Estimator._search`) ended, and the boundaries it passed (joined or
+    released) at `passed` [s]."""
+
+    x: np.ndarray
+    starts: np.ndarray
+    converged: bool
+    message: str
+    iterations: int
+    passed: List[float]
 
 
 @dataclass
@@ -296,10 +308,10 @@ class Estimator:
             p.backlash = backlash
         segments, sigma = list(p.segments), dict(self.sigma)
         found = self._search(x, starts, release=False)
-        if not found[2] and found[5]:
+        if not found.converged and found.passed:
             # Joining left a gap open (the joined segment's end jumps in turn): from the same
             # point, the stuck boundaries are released instead.
-            iterations += found[4]
+            iterations += found.iterations
             p.cut(segments)
             self.sigma = sigma
             found = self._search(x, starts, release=True)
@@ -317,11 +329,10 @@ class Estimator:
                         {s: np.where(p.used[s], p.y[s] - out[s], np.nan) for s in p.outputs}, out,
                         ratio[:len(p.unknowns)])
 
-    def _search(self, x, starts, release: bool):
+    def _search(self, x, starts, release: bool) -> "Search":
         """Everything fitted, the segments joined up, the weights refitted to the residuals; a gap
         left open where the prediction jumps (`joins`) joins the segments there, or with
-        `release` frees the later one's start. (x, starts, converged, message, iterations, the
-        times of the boundaries joined or released)."""
+        `release` frees the later one's start."""
         p = self.p
         self.released = set()
         refits, iterations, gone = 0, 0, []
@@ -340,14 +351,14 @@ class Estimator:
                     continue
             refits += 1
             if self.fixed_sigma or not converged:
-                return x, starts, converged, message, iterations, gone
+                return Search(x, starts, converged, message, iterations, gone)
             # The noise levels the fit's residuals show; refit if a weight moved by > 5 %.
             _, _, out, _ = self.evaluate(x, starts)
             new = self._levels(out)
             moved = max(abs(new[s] / self.sigma[s] - 1) for s in p.outputs)
             self.sigma = new
             if moved < 0.05 or refits == 3:
-                return x, starts, converged, message, iterations, gone
+                return Search(x, starts, converged, message, iterations, gone)
 
     def _levels(self, out) -> Dict[str, float]:
         """The noise levels the residuals of predictions `out` show. With gear play they are

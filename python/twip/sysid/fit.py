@@ -216,8 +216,6 @@ _UNITS = {"phi": "rad", "phi_dot": "rad/s", "theta": "rad", "theta_dot": "rad/s"
           "enc": "counts", "accel_x": "m/s²", "accel_z": "m/s²"}
 
 
-
-
 #: Relative eigenvalue of the normalised information at or below which a direction has no
 #: information at all (rounding): the variance along it is infinite, never zero.
 NO_INFORMATION = 1e-14
