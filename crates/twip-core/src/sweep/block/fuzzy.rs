@@ -156,6 +156,12 @@ impl<const N: usize> Constants<N> {
         };
         let (phi_s, theta, theta_dot) = (Wide::splat(phi_s), Wide::splat(r.theta), Wide::splat(r.theta_dot));
         for c in 0..LANES / N {
+            // The law's constants read where they are, chunk by chunk (`black_box`: the compiler
+            // cannot see the law is the same every chunk). Seen so, ~45 vectors of them (the sets,
+            // the model) were loaded before the loop and, too many for the registers, copied
+            // into the frame every update: the kernels' copies 66 -> 13 (`avx512`) and 142 -> 9
+            // (`avx2`), the fuzzy lanes 1.01-1.035x on `avx512` (3 runs of 6-8 pairs), 1.01x on `avx2`.
+            let law = core::hint::black_box(&law);
             let mut s_hat: [Wide<N>; R] = fill(|j| chunk(&state.s_hat[j], c));
             let mut e_int = chunk(&state.e_int, c);
             let step = law.update(&mut s_hat, &mut e_int, phi_s, &state_chunk(x, c), theta, theta_dot);
