@@ -454,8 +454,11 @@ where
     let Loop { sensor, actuator, observer, should_stop, delay_one_period } = parts;
     observer.drive_efficiency(actuator.efficiency());
     let hooks = RunHooks::start(plant, reference, sensor, actuator, observer, signals, x0, delay_one_period);
+    // Asked as the lanes ask (`closed_loop`'s `&dyn Fn`), every `STOP_CHECK_STEPS` steps.
+    let should_stop = core::cell::RefCell::new(should_stop);
+    let asked = || (should_stop.borrow_mut())();
     // One lane, in no kernel copy (`COPY` = 0: the hooks do not ask).
-    let end = closed_loop::<C, _, 1, 0>(controller, hooks, [true], steps, config, should_stop);
+    let end = closed_loop::<C, _, 1, 0>(controller, hooks, [true], steps, config, &asked);
     Ok(match end {
         Err(k) => (Outcome::Interrupted { t: config.dt * c::<T>(k as f64) }, k),
         Ok(None) => (Outcome::Completed, steps.0),
