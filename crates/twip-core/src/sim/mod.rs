@@ -1,7 +1,9 @@
 //! The closed-loop runner, its logs and the metrics it accumulates while it runs.
 #[cfg(feature = "alloc")]
 pub mod log;
+pub(crate) mod closed_loop;
 pub(crate) mod drive_metrics;
+pub(crate) mod held;
 pub mod metrics;
 pub mod runner;
 pub mod tracking_metrics;

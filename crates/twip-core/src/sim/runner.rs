@@ -4,7 +4,10 @@
 use nalgebra::SVector;
 
 use crate::control::{Controller, Reference};
+use crate::model::dynamics::Halt;
 use crate::model::integrate::{rk4_step_from_k1, Stage};
+use crate::sim::closed_loop::{closed_loop, End, Ended, Hooks};
+use crate::sim::held::Held;
 use crate::{c, Dynamics, Real, TwipError};
 
 /// Step size, duration and fall limit of one run.
@@ -412,21 +415,22 @@ impl<T: Real, P, const NX: usize, const NU: usize> Signals<T, P, NX, NU> for Con
     }
 }
 
-/// The one closed-loop runner, for ideal and realism runs of either model. Each plant
-/// step: the controller's update when due (the sensor's read, the actuator's drive, the
-/// optional one-period delay), the observation, the plant's `between_steps` (a rig's may
-/// hand back the derivative it evaluated at the step's start), then RK4 with its first
-/// stage shared with the sensor's `sample`, and the plant's `step_ended`. The sensor samples once
-/// before the run (its registers hold a sample of the initial state) and then each step
-/// after the update, so a read sees the samples up to one step before it, as firmware
-/// reads a sensor's last output.
+/// The one closed-loop runner, for ideal and realism runs of either model: the one loop
+/// (`sim::closed_loop`) on one lane, with this run's parts as its hooks ([`RunHooks`]). Each
+/// plant step: the controller's update when due (the sensor's read, the actuator's drive,
+/// the optional one-period delay), the observation, what the plant gets at the step's start
+/// (`Observer::drive`), the plant's `between_steps` (a rig's may hand back the derivative it
+/// evaluated at the step's start), then RK4 with its first stage shared with the sensor's
+/// `sample`, and the plant's `step_ended`. The sensor samples once before the run (its
+/// registers hold a sample of the initial state) and then each step after the update, so a
+/// read sees the samples up to one step before it, as firmware reads a sensor's last output.
 pub fn run_loop<T, P, C, R, S, A, O, F, L, const NX: usize, const NU: usize>(
     plant: &mut P,
     controller: &mut C,
     reference: &R,
     x0: &SVector<T, NX>,
     config: &SimConfig<T>,
-    mut parts: Loop<'_, S, A, O, F>,
+    parts: Loop<'_, S, A, O, F>,
     signals: &mut L,
 ) -> Result<(Outcome<T>, usize), TwipError>
 where
@@ -440,83 +444,196 @@ where
     F: FnMut() -> bool,
     L: Signals<T, P, NX, NU>,
 {
-    let (n, per_update) = config.steps(controller.period())?;
+    let steps = config.steps(controller.period())?;
     for (index, value) in x0.iter().enumerate() {
         if !value.is_finite() {
             return Err(TwipError::NonFinite { name: "x0", index, value: crate::to_f64(*value) });
         }
     }
     signals.check(controller.internals().len())?;
-    let dt = config.dt;
-    let mut x = *x0;
-    let (mut u, mut pending) = (SVector::<T, NU>::zeros(), SVector::<T, NU>::zeros());
-    let (mut command, mut pending_command) = (u, u);
-    // Whether the command applied, and the one pending, is beyond the driver.
-    let (mut beyond, mut pending_beyond) = (false, false);
-    let observer = &mut *parts.observer;
-    observer.drive_efficiency(parts.actuator.efficiency());
-    let seen = |command: &SVector<T, NU>, u: &SVector<T, NU>| if L::OBSERVE_COMMAND { *command } else { *u };
-    let mut raw = [T::zero(); MAX_RAW];
-    parts.sensor.sample(T::zero(), &x, &plant.deriv(&x, &u));
-    for k in 0..n {
-        let t = dt * c::<T>(k as f64);
-        if k % STOP_CHECK_STEPS == 0 && k > 0 && (parts.should_stop)() {
-            return Ok((Outcome::Interrupted { t }, k));
-        }
-        let r = reference.sample(t);
-        parts.sensor.shaft_offsets(plant.shaft_offsets());
-        if k % per_update == 0 {
-            let y = parts.sensor.read(t, &x);
-            let cmd = controller.update(t, &y, &r);
-            let drive = parts.actuator.drive(t, &cmd, &y);
-            if drive.iter().any(|v| !v.is_finite()) {
-                return Ok((Outcome::Diverged { t }, k));
-            }
-            let clamped = parts.actuator.beyond(&cmd, &y);
-            if parts.delay_one_period {
-                u = pending;
-                pending = drive;
-                command = pending_command;
-                pending_command = cmd;
-                beyond = pending_beyond;
-                pending_beyond = clamped;
-            } else {
-                u = drive;
-                command = cmd;
-                beyond = clamped;
-            }
-            signals.updated(controller.internals(), &y, &u);
-        }
-        observer.drive(&signals.delivered(plant, &x, &u), (k % per_update == 0).then_some(beyond));
-        let raw_len = parts.sensor.raw(&x, &mut raw);
-        observer.observe(t, &x, &seen(&command, &u), &r, signals.at(controller.internals(), plant, &x, &u, &raw[..raw_len]));
-        let k1 = plant.between_steps_with_derivative(t, dt, &mut x, &u).unwrap_or_else(|| plant.deriv(&x, &u));
-        parts.sensor.sample(t, &x, &k1);
-        x = rk4_step_from_k1(&*plant, &x, &u, dt, &k1);
-        plant.step_ended(&x);
-        let t_next = dt * c::<T>((k + 1) as f64);
-        if x.iter().any(|v| !v.is_finite()) {
-            return Ok((Outcome::Diverged { t: t_next }, k + 1));
-        }
-        let halt = plant.halted(&x, &u);
-        if x[P::PITCH].abs() > config.fall_limit || halt.is_some() {
-            parts.sensor.shaft_offsets(plant.shaft_offsets());
-            let raw_len = parts.sensor.raw(&x, &mut raw);
-            let last = signals.at(controller.internals(), plant, &x, &u, &raw[..raw_len]);
-            observer.observe_last(t_next, &x, &seen(&command, &u), &reference.sample(t_next), last);
-            let t = t_next;
-            let outcome = match halt {
-                Some(crate::model::dynamics::Halt::Lifted) => Outcome::Lifted { t },
-                Some(crate::model::dynamics::Halt::OffTerrain) => Outcome::OffTerrain { t },
-                None => Outcome::Fell { t },
+    let Loop { sensor, actuator, observer, should_stop, delay_one_period } = parts;
+    observer.drive_efficiency(actuator.efficiency());
+    let hooks = RunHooks::start(plant, reference, sensor, actuator, observer, signals, x0, delay_one_period);
+    // Asked as the lanes ask (`closed_loop`'s `&dyn Fn`), every `STOP_CHECK_STEPS` steps.
+    let should_stop = core::cell::RefCell::new(should_stop);
+    let asked = || (should_stop.borrow_mut())();
+    // One lane, in no kernel copy (`COPY` = 0: the hooks do not ask).
+    let end = closed_loop::<C, _, 1, 0>(controller, hooks, [true], steps, config, &asked);
+    Ok(match end {
+        Err(k) => (Outcome::Interrupted { t: config.dt * c::<T>(k as f64) }, k),
+        Ok(None) => (Outcome::Completed, steps.0),
+        Ok(Some((end, t, k))) => {
+            let outcome = match end {
+                End::Diverged => Outcome::Diverged { t },
+                End::Fell => Outcome::Fell { t },
+                End::Halted(Halt::Lifted) => Outcome::Lifted { t },
+                End::Halted(Halt::OffTerrain) => Outcome::OffTerrain { t },
             };
-            return Ok((outcome, k + 1));
+            (outcome, k as usize)
+        }
+    })
+}
+
+/// A run's parts as the one loop's hooks on one lane: the plant and its state, the sensor,
+/// actuator and what they hold between updates, the observer with the signals it sees.
+struct RunHooks<'a, T: Real, P, R, S, A, O, L, const NX: usize, const NU: usize> {
+    plant: &'a mut P,
+    reference: &'a R,
+    sensor: &'a mut S,
+    actuator: &'a mut A,
+    observer: &'a mut O,
+    signals: &'a mut L,
+    delay: bool,
+    x: SVector<T, NX>,
+    held: Held<SVector<T, NU>, 1>,
+    raw: [T; MAX_RAW],
+}
+
+impl<'a, T, P, R, S, A, O, L, const NX: usize, const NU: usize> RunHooks<'a, T, P, R, S, A, O, L, NX, NU>
+where
+    T: Real,
+    P: Plant<T, NX, NU>,
+    R: Reference<T>,
+    S: Sensor<T, NX>,
+    A: Actuator<T, NX, NU>,
+    O: Observer<T, NX, NU, R::Sample>,
+    L: Signals<T, P, NX, NU>,
+{
+    /// The run from `x0`: the sensor samples it (its registers hold a sample of the initial
+    /// state) and learns the shaft offsets.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn start(plant: &'a mut P, reference: &'a R, sensor: &'a mut S, actuator: &'a mut A, observer: &'a mut O, signals: &'a mut L, x0: &SVector<T, NX>, delay: bool) -> Self {
+        let held = Held::new(SVector::zeros());
+        sensor.sample(T::zero(), x0, &plant.deriv(x0, &held.u));
+        sensor.shaft_offsets(plant.shaft_offsets());
+        Self { plant, reference, sensor, actuator, observer, signals, delay, x: *x0, held, raw: [T::zero(); MAX_RAW] }
+    }
+
+    /// What the observer sees as the input: the command or the plant input applied.
+    #[inline(always)]
+    fn seen(&self) -> SVector<T, NU> {
+        if L::OBSERVE_COMMAND { self.held.command } else { self.held.u }
+    }
+
+    /// The observation at `t` of the state now, with the controller's `internals` and the
+    /// sensor's raw readings: each step's (`last`: the run's final one).
+    #[inline(always)]
+    fn observe_at(&mut self, t: T, internals: &[T], r: &R::Sample, last: bool) {
+        let seen = self.seen();
+        let raw_len = self.sensor.raw(&self.x, &mut self.raw);
+        let signals = self.signals.at(internals, self.plant, &self.x, &self.held.u, &self.raw[..raw_len]);
+        if last {
+            self.observer.observe_last(t, &self.x, &seen, r, signals);
+        } else {
+            self.observer.observe(t, &self.x, &seen, r, signals);
         }
     }
-    let t_end = dt * c::<T>(n as f64);
-    parts.sensor.shaft_offsets(plant.shaft_offsets());
-    let raw_len = parts.sensor.raw(&x, &mut raw);
-    let last = signals.at(controller.internals(), plant, &x, &u, &raw[..raw_len]);
-    observer.observe_last(t_end, &x, &seen(&command, &u), &reference.sample(t_end), last);
-    Ok((Outcome::Completed, n))
+}
+
+impl<T, P, C, R, S, A, O, L, const NX: usize, const NU: usize> Hooks<C, 1> for RunHooks<'_, T, P, R, S, A, O, L, NX, NU>
+where
+    T: Real,
+    P: Plant<T, NX, NU>,
+    R: Reference<T>,
+    C: Controller<T, NX, NU, Reference = R::Sample>,
+    S: Sensor<T, NX>,
+    A: Actuator<T, NX, NU>,
+    O: Observer<T, NX, NU, R::Sample>,
+    L: Signals<T, P, NX, NU>,
+{
+    type T = T;
+    type X = SVector<T, NX>;
+    type U = SVector<T, NU>;
+    type Ref = R::Sample;
+    /// The controller keeps its own state.
+    type LawState = ();
+    /// How the run ended early (why, when, after how many steps), None if it did not.
+    type Out = Option<(End, T, u64)>;
+
+    #[inline(always)]
+    fn no_input() -> SVector<T, NU> {
+        SVector::zeros()
+    }
+
+    #[inline(always)]
+    fn start(_: &C) {}
+
+    #[inline(always)]
+    fn reference(&mut self, t: T) -> R::Sample {
+        self.reference.sample(t)
+    }
+
+    /// The sensor's read, the controller's command `u` and the actuator's drive of it,
+    /// held (a period late with a delay) unless it is not finite.
+    #[inline(always)]
+    fn update<const COPY: u8>(&mut self, controller: &mut C, _: &mut (), t: T, r: &R::Sample, u: &mut SVector<T, NU>) -> [bool; 1] {
+        let y = self.sensor.read(t, &self.x);
+        *u = controller.update(t, &y, r);
+        let drive = self.actuator.drive(t, u, &y);
+        if drive.iter().any(|v| !v.is_finite()) {
+            return [true];
+        }
+        let clamped = self.actuator.beyond(u, &y);
+        self.held.hold(self.delay, drive, *u, [clamped]);
+        self.signals.updated(controller.internals(), &y, &self.held.u);
+        [false]
+    }
+
+    /// The one lane is live (the loop stops once it ends).
+    #[inline(always)]
+    fn observe(&mut self, _: &[bool; 1], t: T, controller: &C, _: &SVector<T, NU>, r: &R::Sample) {
+        self.observe_at(t, controller.internals(), r, false);
+    }
+
+    #[inline(always)]
+    fn step<const COPY: u8>(&mut self, _: usize, t: T, update: bool, _: &[bool; 1], _: &SVector<T, NU>, dt: T) -> SVector<T, NX> {
+        let (plant, u) = (&mut *self.plant, &self.held.u);
+        self.observer.drive(&self.signals.delivered(plant, &self.x, u), update.then_some(self.held.beyond[0]));
+        let k1 = plant.between_steps_with_derivative(t, dt, &mut self.x, u).unwrap_or_else(|| plant.deriv(&self.x, u));
+        self.sensor.sample(t, &self.x, &k1);
+        let next = rk4_step_from_k1(&*plant, &self.x, u, dt, &k1);
+        plant.step_ended(&next);
+        // What the encoders on the motor shafts add from here on: the next read's and the
+        // observations' (set here, where the plant's trains change).
+        self.sensor.shaft_offsets(plant.shaft_offsets());
+        next
+    }
+
+    #[inline(always)]
+    fn halts<const COPY: u8>(&self, next: &SVector<T, NX>, _: &SVector<T, NU>) -> Option<[Option<Halt>; 1]> {
+        let finite = next.iter().all(|v| v.is_finite());
+        Some([if finite { self.plant.halted(next, &self.held.u) } else { None }])
+    }
+
+    #[inline(always)]
+    fn go_on(&mut self, next: &SVector<T, NX>, _: &[bool; 1], fall_limit: T) -> ([u64; 1], bool) {
+        let goes_on = next.iter().all(|v| v.is_finite()) && next[P::PITCH].abs() <= fall_limit;
+        if goes_on {
+            self.x = *next;
+        }
+        ([if goes_on { u64::MAX } else { 0 }], !goes_on)
+    }
+
+    #[inline(always)]
+    fn finite_at(x: &SVector<T, NX>, _: usize) -> bool {
+        x.iter().all(|v| v.is_finite())
+    }
+
+    #[inline(always)]
+    fn observe_end(&mut self, _: usize, next: &SVector<T, NX>, t: T, controller: &C, _: &SVector<T, NU>, _: Option<Halt>) {
+        self.x = *next;
+        let r = self.reference.sample(t);
+        self.observe_at(t, controller.internals(), &r, true);
+    }
+
+    #[inline(always)]
+    fn finish(mut self, (alive, _, ended): (&[bool; 1], &[bool; 1], &Ended<T, 1>), controller: &C, _: &SVector<T, NU>, (t_end, _): (T, usize)) -> Self::Out {
+        if !alive[0] {
+            return Some(ended[0]);
+        }
+        let r = self.reference.sample(t_end);
+        self.observe_at(t_end, controller.internals(), &r, true);
+        None
+    }
 }

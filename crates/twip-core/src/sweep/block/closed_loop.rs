@@ -1,12 +1,14 @@
-//! The one closed-loop step of the lanes, ideal and through a rig, 2-DOF and 3-DOF alike:
-//! `runner::run_loop`'s loop over a block of lanes, step for step. What differs between the
-//! kernels are the hooks of a [`Shape`], inlined into the loop, so each kernel is one function
-//! as before: the [`Plant`] (its state, what the law reads, how its input reaches the plants,
-//! the step, the ground) and the [`Observer`] (the reference's bookkeeping, the metrics).
+//! The lanes' side of the one closed-loop step (`sim::closed_loop`), ideal and through a rig,
+//! 2-DOF and 3-DOF alike: the loop's [`Hooks`] on a block of lanes, made of a [`Plant`] (its
+//! state, what the law reads, how its input reaches the plants, the step, the ground) and an
+//! [`Observer`] (the reference's bookkeeping, the metrics), whose hooks each kernel's shape
+//! has, inlined into the loop, so each kernel is one function as before.
 use super::{finite_at, go_on};
 use super::law::{LaneLaw, Ref, Shape, U, X};
 use crate::model::dynamics::Halt;
-use crate::sim::runner::{SimConfig, STOP_CHECK_STEPS};
+use crate::sim::closed_loop::{self as one, Ended, Hooks};
+pub(super) use crate::sim::closed_loop::Aligned;
+use crate::sim::runner::SimConfig;
 use crate::sweep::lanes::{Lanes, LANES};
 
 /// A shape's input lanes, as the loop checks them.
@@ -41,15 +43,6 @@ impl<const N: usize> Inputs for [Lanes; N] {
 pub(super) fn not_finite<U: Inputs>(u: &U) -> [bool; LANES] {
     core::array::from_fn(|l| !u.finite_at(l))
 }
-
-/// The ideal lanes' state (in their kernel's frame, `Plant::state`), the loop's input and the
-/// new state on a cache line's boundary, as the metrics' arrays
-/// (`Metrics`): their lanes are moved a vector at a time, and a vector that straddles two lines
-/// costs (as `Plants` says). Left to the frame's layout when this loop was first written once,
-/// the planar kernels made ~100 of their AVX-512 stack accesses off a 64-byte boundary (8 to 16
-/// before; `objdump`), and circle-pid swept at 0.92-0.94x.
-#[repr(C, align(64))]
-pub(super) struct Aligned<T>(pub(super) T);
 
 /// The plant side of a block of lanes in the loop: where its state lives, what the law reads
 /// (the state, or a rig's sensors), how its input reaches the plants (as is, or through a
@@ -105,25 +98,18 @@ pub(super) trait Observer {
     fn finish(self, lanes: (&[bool; LANES], &[bool; LANES], &mut [(bool, f64, u64); LANES]), x: &X<Self::Shape>, u: &U<Self::Shape>, end: (f64, usize)) -> Self::Out;
 }
 
-/// `runner::run_loop` on a block of lanes, the `active` lanes' starts in `plant`, `n` steps
-/// with the law `controller` updated every `per_update`: the reference sampled, the law's
-/// update and its input applied (a lane whose drive is not finite ends as fallen there,
-/// unobserved), the metrics' observation, the step (and what the plants got, observed), the
-/// lanes that end (past the fall limit, not finite, halted by the ground). `should_stop` is
-/// asked every `runner::STOP_CHECK_STEPS` steps; None means it said yes. The same loop for the
-/// ideal lanes and the rigs', 2-DOF and 3-DOF.
-/// The law is borrowed, as the loop written out used it where its caller put it: taken by
-/// value, it was copied into the kernel's frame (11 KB for the fuzzy law), and the `avx2`
-/// fuzzy lanes read 0.96x of the loop written out in three runs of paired timings (0.98x and
-/// 1.01x borrowed).
+/// The one closed loop (`sim::closed_loop`) on a block of lanes, the `active` lanes' starts
+/// in `plant`, `n` steps with the law `controller` updated every `per_update`. A lane that
+/// ends diverged, fallen or halted ends as fallen (`SampleMetrics::fell`). `should_stop` is
+/// asked every `runner::STOP_CHECK_STEPS` steps; None means it said yes.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn closed_loop<C, P, O, const NX: usize, const COPY: u8>(
     controller: &mut C,
-    mut plant: P,
-    mut observer: O,
+    plant: P,
+    observer: O,
     active: [bool; LANES],
-    (n, per_update): (usize, usize),
+    steps: (usize, usize),
     config: &SimConfig<f64>,
     should_stop: &dyn Fn() -> bool,
 ) -> Option<O::Out>
@@ -133,79 +119,89 @@ where
     P::Shape: Shape<X = [Lanes; NX]>,
     C: LaneLaw<Shape = P::Shape>,
 {
-    let dt = config.dt;
-    let mut state = controller.start();
-    let mut u = Aligned(U::<P::Shape>::ZERO);
-    let u = &mut u.0;
-    let mut alive = active;
-    // (fell, t_end, steps) of each lane that has ended.
-    let mut ended = [(false, 0.0f64, 0u64); LANES];
-    for k in 0..n {
-        let t = dt * k as f64;
-        if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
-            return None;
-        }
-        let r = observer.reference(t);
-        let update = k % per_update == 0;
-        if update {
-            plant.update::<C, COPY>(controller, &mut state, t, &r, u);
-            // A lane whose drive is not finite has diverged: it ends as fallen, unobserved.
-            let diverged = plant.apply(t, u);
-            let mut finite = true;
-            for (l, &a) in alive.iter().enumerate() {
-                finite &= !diverged[l] | !a;
-            }
-            if !finite {
-                for l in 0..LANES {
-                    if alive[l] && diverged[l] {
-                        alive[l] = false;
-                        ended[l] = (true, t, k as u64);
-                    }
-                }
-            }
-        }
-        observer.observe(&alive, t, plant.state(), plant.command(u), &r);
-        // Not wrapped in `Aligned`: wrapped, the new state was copied there from `step`'s own
-        // array every step (a `memcpy` call, 896 bytes in the planar kernels, with a
-        // `vzeroupper` before it and the loop's registers reloaded after), and circle-pid swept
-        // at 0.91x.
-        let next = &plant.step::<COPY>(k, u, dt, |delivered, beyond| observer.drive(&alive, delivered, update, beyond));
-        let halts = plant.halts::<COPY>(next, u);
-        // Lanes that go on take the new state; the few that end are handled below.
-        // `go_on`, not `advance` (which made the array of the lanes that end, and the rig
-        // kernels' own loops used until they ran this one): with `advance` the 2-DOF LQR kernel measured ~9 % slower (median of 10 alternating runs, 2048
-        // samples, one pinned core: 0.745 against 0.68 s CPU), and 1.15x on the AVX-512 VM
-        // with the lanes that end handled as the rig kernel does (11 paired timings,
-        // `sweep_throughput lanes 8192`). The branch below is as touchy: with an array of the
-        // lanes that end made in it, the kernel ran 1.24x slower.
-        let (goes_on, mut any_ends) = go_on(plant.state_mut(), next, &alive, O::PITCH, config.fall_limit);
-        // A lane whose finite new state the ground halts ends there too (having moved there
-        // if it went on), as the runner ends a run.
-        let halted: Option<[bool; LANES]> = halts.map(|h| core::array::from_fn(|l| alive[l] && h[l].is_some() && finite_at(next, l)));
-        if let Some(h) = &halted {
-            any_ends |= h.iter().any(|&e| e);
-        }
-        if any_ends {
-            let t_next = dt * (k + 1) as f64;
-            for l in 0..LANES {
-                if !alive[l] || (goes_on[l] != 0 && !halted.is_some_and(|h| h[l])) {
-                    continue;
-                }
-                alive[l] = false;
-                ended[l] = (true, t_next, (k + 1) as u64);
-                if finite_at(next, l) {
-                    // Fell: the runner observes the state past the limit, then stops.
-                    let x = plant.state_mut();
-                    for i in 0..NX {
-                        x[i][l] = next[i][l];
-                    }
-                    observer.observe_end(l, t_next, plant.state(), plant.command(u), halts.and_then(|h| h[l]));
-                }
-            }
-            if !alive.iter().any(|&a| a) {
-                break;
-            }
-        }
+    one::closed_loop::<C, _, LANES, COPY>(controller, Block { plant, observer }, active, steps, config, should_stop).ok()
+}
+
+/// A block's plant and observer, as the one loop's hooks.
+struct Block<P, O> {
+    plant: P,
+    observer: O,
+}
+
+impl<C, P, O, const NX: usize> Hooks<C, LANES> for Block<P, O>
+where
+    P: Plant,
+    O: Observer<Shape = P::Shape>,
+    P::Shape: Shape<X = [Lanes; NX]>,
+    C: LaneLaw<Shape = P::Shape>,
+{
+    type T = f64;
+    type X = [Lanes; NX];
+    type U = U<P::Shape>;
+    type Ref = Ref<P::Shape>;
+    type LawState = C::State;
+    type Out = O::Out;
+
+    #[inline(always)]
+    fn no_input() -> Self::U {
+        <U<P::Shape> as Inputs>::ZERO
     }
-    Some(observer.finish((&alive, &active, &mut ended), plant.state(), plant.command(u), (dt * n as f64, n)))
+
+    #[inline(always)]
+    fn start(controller: &C) -> C::State {
+        controller.start()
+    }
+
+    #[inline(always)]
+    fn reference(&mut self, t: f64) -> Self::Ref {
+        self.observer.reference(t)
+    }
+
+    #[inline(always)]
+    fn update<const COPY: u8>(&mut self, controller: &mut C, state: &mut C::State, t: f64, r: &Self::Ref, u: &mut Self::U) -> [bool; LANES] {
+        self.plant.update::<C, COPY>(controller, state, t, r, u);
+        self.plant.apply(t, u)
+    }
+
+    #[inline(always)]
+    fn observe(&mut self, live: &[bool; LANES], t: f64, _: &C, u: &Self::U, r: &Self::Ref) {
+        self.observer.observe(live, t, self.plant.state(), self.plant.command(u), r);
+    }
+
+    #[inline(always)]
+    fn step<const COPY: u8>(&mut self, k: usize, _: f64, update: bool, live: &[bool; LANES], u: &Self::U, dt: f64) -> [Lanes; NX] {
+        let Self { plant, observer } = self;
+        plant.step::<COPY>(k, u, dt, |delivered, beyond| observer.drive(live, delivered, update, beyond))
+    }
+
+    #[inline(always)]
+    fn halts<const COPY: u8>(&self, next: &[Lanes; NX], u: &Self::U) -> Option<[Option<Halt>; LANES]> {
+        self.plant.halts::<COPY>(next, u)
+    }
+
+    #[inline(always)]
+    fn go_on(&mut self, next: &[Lanes; NX], alive: &[bool; LANES], fall_limit: f64) -> ([u64; LANES], bool) {
+        go_on(self.plant.state_mut(), next, alive, O::PITCH, fall_limit)
+    }
+
+    #[inline(always)]
+    fn finite_at(x: &[Lanes; NX], l: usize) -> bool {
+        finite_at(x, l)
+    }
+
+    #[inline(always)]
+    fn observe_end(&mut self, l: usize, next: &[Lanes; NX], t: f64, _: &C, u: &Self::U, halt: Option<Halt>) {
+        let x = self.plant.state_mut();
+        for i in 0..NX {
+            x[i][l] = next[i][l];
+        }
+        self.observer.observe_end(l, t, self.plant.state(), self.plant.command(u), halt);
+    }
+
+    #[inline(always)]
+    fn finish(self, (alive, active, ended): (&[bool; LANES], &[bool; LANES], &Ended<f64, LANES>), _: &C, u: &Self::U, end: (f64, usize)) -> O::Out {
+        // Every lane that ended before the end counts as fallen.
+        let mut ended = ended.map(|(_, t, steps)| (true, t, steps));
+        self.observer.finish((alive, active, &mut ended), self.plant.state(), self.plant.command(u), end)
+    }
 }

@@ -12,8 +12,9 @@
 //! because a fused multiply-add is exactly rounded wherever it runs. What is here is the
 //! data layout (one array per quantity, loops over lanes that the compiler vectorises)
 //! and the 2-DOF hooks ([`SlopePlants`], and [`SlopeLanes`], the rig's lanes' observer too) of
-//! the runner's loop over a block, which is written once for the 2-DOF and 3-DOF lanes, ideal
-//! and through a rig ([`closed_loop`](closed_loop::closed_loop)).
+//! the one closed loop (`sim::closed_loop`), which is written once for the runner and the
+//! 2-DOF and 3-DOF lanes, ideal and through a rig, on a block
+//! ([`closed_loop`](closed_loop::closed_loop)).
 use closed_loop::{closed_loop, Aligned, Observer};
 use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::model::dynamics::Halt;
@@ -31,7 +32,6 @@ use core::sync::atomic::{AtomicU8, Ordering};
 
 mod closed_loop;
 mod fuzzy;
-mod held;
 mod kinds;
 mod law;
 mod lqr;
@@ -169,7 +169,7 @@ impl Field<Fused, 4> for Plant {
 
 /// [`Tally`] on every lane, one array per field, and what each lane's observations are
 /// measured against. Laid out as written (`repr(C)`) from a cache line's boundary, so that every
-/// array of lanes starts on one, as the loop's (`closed_loop::Aligned`): the optional drive
+/// array of lanes starts on one, as the loop's input (`sim::closed_loop::Aligned`): the optional drive
 /// tallies, whose tag would shift what follows, last.
 #[repr(C, align(64))]
 struct Metrics {

@@ -9,8 +9,8 @@
 //! bit the same on every CPU, thread count and block neighbour. The reference is the
 //! same for every lane: sampled once per step. What is here is the data layout and the
 //! 3-DOF hooks ([`PlanarPlants`], and [`Tracking`], the rig's lanes' observer too) of the
-//! runner's loop over a block, the 2-DOF lanes' and the rigs' too
-//! ([`closed_loop`](super::closed_loop::closed_loop)).
+//! one closed loop (`sim::closed_loop`, the runner's, the 2-DOF lanes' and the rigs' too) on a
+//! block ([`closed_loop`](super::closed_loop::closed_loop)).
 use super::closed_loop::{self, closed_loop, Aligned, Observer};
 use super::law::{LaneLaw, Planar};
 use super::{multiversioned, only};

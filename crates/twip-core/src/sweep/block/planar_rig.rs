@@ -2,7 +2,7 @@
 //! once through the planar rig (`Realism::build_planar`), for the trackers with a law on
 //! lanes ([`LaneLaw`] of the [`Planar`] shape: PID, sliding mode).
 //!
-//! The loop is the ideal lanes' (`closed_loop`, `runner::run_loop`'s step for step), with
+//! The loop is the one closed loop (`sim::closed_loop`: the ideal lanes' and the runner's), with
 //! the rig's lanes as its plant ([`PlanarRigPlant`] on [`PlanarRigLanes`], which step the
 //! rig's parts and the plant) and the ideal 3-DOF lanes' metrics (`Tracking`) as its
 //! observer. So a lane

@@ -18,7 +18,7 @@ use nalgebra::SVector;
 
 use super::planar::Plants;
 use super::planar_terrain::TerrainLanes;
-use super::held::Held;
+use crate::sim::held::Held;
 use super::winding::WindingLanes;
 use super::{chunk, CHUNKS};
 use crate::Dynamics;
@@ -584,7 +584,7 @@ pub(crate) struct PlanarRigLanes {
     /// The sensors' last reading.
     y: [Lanes; 7],
     /// The plant's input and the controller's command, applied and pending.
-    held: Held<[Lanes; 2]>,
+    held: Held<[Lanes; 2], LANES>,
     /// The lanes' terrains (None: flat ground, the flat rig's code).
     ground: Option<TerrainLanes>,
 }

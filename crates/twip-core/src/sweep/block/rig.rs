@@ -3,7 +3,7 @@
 //! friction, backlash, a constant force and slope changes along the path (each lane picks
 //! its piece of the ground at every stage), pushes (each lane's rig's, between steps).
 //!
-//! The loop is the ideal lanes' (`closed_loop`, `runner::run_loop`'s step for step), with
+//! The loop is the one closed loop (`sim::closed_loop`: the ideal lanes' and the runner's), with
 //! the rig's lanes as its plant ([`RigPlant`] on [`RigLanes`], which step the rig's parts and
 //! the plant on `Fused` lanes; noise stream = sample index) and the ideal 2-DOF lanes'
 //! metrics ([`SlopeLanes`]) as its observer. So a lane

@@ -15,7 +15,7 @@ use alloc::vec::Vec;
 
 use nalgebra::{SVector, Vector4};
 
-use super::held::Held;
+use crate::sim::held::Held;
 use super::winding::WindingLanes;
 use super::{chunk, state_chunk, Plants, CHUNKS};
 use crate::hardware::disturbance::{Disturbed, Force, MAX_SLOPE_CHANGES};
@@ -525,7 +525,7 @@ pub(crate) struct RigLanes {
     /// The sensors' last reading.
     y: [Lanes; 4],
     /// The plant's input and the controller's command, applied and pending.
-    held: Held<Lanes>,
+    held: Held<Lanes, LANES>,
 }
 
 impl RigLanes {
