@@ -118,7 +118,7 @@ impl RigBlock for RigLanes {
     }
 
     fn hold_drive(&mut self, drive: &[Lanes; 1]) {
-        RigLanes::hold_drive(self, &drive[0]);
+        self.context.hold_drive(&drive[0]);
     }
 
     #[inline(always)]
@@ -127,11 +127,11 @@ impl RigBlock for RigLanes {
     }
 
     fn state(&self) -> &[Lanes; 4] {
-        &self.x
+        &self.context.x
     }
 
     fn state_mut(&mut self) -> &mut [Lanes; 4] {
-        &mut self.x
+        &mut self.context.x
     }
 
     #[inline(always)]
@@ -140,7 +140,7 @@ impl RigBlock for RigLanes {
     }
 
     fn reading(&self) -> &[Lanes; 4] {
-        RigLanes::reading(self)
+        self.context.reading()
     }
 }
 

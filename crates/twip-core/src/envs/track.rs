@@ -141,7 +141,7 @@ impl RigBlock for PlanarRigLanes {
     }
 
     fn hold_drive(&mut self, drive: &[Lanes; 2]) {
-        PlanarRigLanes::hold_drive(self, drive);
+        self.context.hold_drive(drive);
     }
 
     #[inline(always)]
@@ -150,11 +150,11 @@ impl RigBlock for PlanarRigLanes {
     }
 
     fn state(&self) -> &[Lanes; 7] {
-        &self.x
+        &self.context.x
     }
 
     fn state_mut(&mut self) -> &mut [Lanes; 7] {
-        &mut self.x
+        &mut self.context.x
     }
 
     #[inline(always)]
@@ -163,7 +163,7 @@ impl RigBlock for PlanarRigLanes {
     }
 
     fn reading(&self) -> &[Lanes; 7] {
-        PlanarRigLanes::reading(self)
+        self.context.reading()
     }
 }
 

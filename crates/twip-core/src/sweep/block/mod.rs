@@ -40,6 +40,7 @@ mod planar_rig;
 mod planar_rig_lanes;
 mod planar_terrain;
 mod rig;
+mod rig_context;
 mod rig_lanes;
 mod smc;
 mod winding;

@@ -87,7 +87,7 @@ fn planar_rig_block<C: LaneLaw<Shape = Planar>, P: LanePath, const COPY: u8>(
     };
     let models = rig.models;
     let mut observer = Tracking::new(&models, path, settle);
-    observer.metrics.efficiency = rig.efficiencies();
+    observer.metrics.efficiency = rig.context.efficiencies();
     let plant = PlanarRigPlant { rig: &mut rig, feed: ground.as_ref() };
     Ok(closed_loop::<C, _, _, 7, COPY>(&mut controller, plant, observer, active, (n, per_update), config, should_stop))
 }
@@ -105,12 +105,12 @@ impl Plant for PlanarRigPlant<'_> {
 
     #[inline(always)]
     fn state(&self) -> &[Lanes; 7] {
-        &self.rig.x
+        &self.rig.context.x
     }
 
     #[inline(always)]
     fn state_mut(&mut self) -> &mut [Lanes; 7] {
-        &mut self.rig.x
+        &mut self.rig.context.x
     }
 
     /// The law out of line (`update_out_of_line`), as the 2-DOF rig's.
@@ -125,18 +125,18 @@ impl Plant for PlanarRigPlant<'_> {
 
     #[inline(always)]
     fn apply(&mut self, t: f64, u: &[Lanes; 2]) -> [bool; LANES] {
-        self.rig.apply(t, u)
+        self.rig.context.apply(t, u)
     }
 
     #[inline(always)]
     fn command<'s>(&'s self, _: &'s [Lanes; 2]) -> &'s [Lanes; 2] {
-        self.rig.command()
+        self.rig.context.command()
     }
 
     #[inline(always)]
     fn step<const COPY: u8>(&mut self, k: usize, _: &[Lanes; 2], _: f64, drive: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
         let (next, delivered) = self.rig.step::<COPY>(k);
-        drive(&delivered, self.rig.beyond());
+        drive(&delivered, self.rig.context.beyond());
         next
     }
 

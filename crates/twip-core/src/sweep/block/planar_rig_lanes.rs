@@ -18,14 +18,14 @@ use nalgebra::SVector;
 
 use super::planar::Plants;
 use super::planar_terrain::TerrainLanes;
-use crate::sim::held::Held;
+use super::rig_context::{lane, set_lane, RigContext};
 use super::winding::WindingLanes;
 use super::{chunk, CHUNKS};
 use crate::Dynamics;
 use crate::hardware::disturbance::Force;
 use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::imu::{lane_from, ImuClock, ImuReading, Mpu6050, NoiseLanes};
-use crate::hardware::planar_rig::{body_force, sample_imus, sample_imus_in_frame, PlanarRig};
+use crate::hardware::planar_rig::{body_force, sample_imus, sample_imus_in_frame, PlanarActuator, PlanarPlant, PlanarRig, PlanarSensors};
 use crate::hardware::realism::RigPlant as _;
 use crate::hardware::settle::settle_side_by_side;
 use crate::model::friction::{Friction, Gearhead};
@@ -34,7 +34,6 @@ use crate::model::lane::{fill, Fused, Lane, Wide, WIDTH};
 use crate::model::dynamics::Halt;
 use crate::model::planar::{engaged_motion, open_motion, wheel_speeds, PlanarCoefficients, PlanarModel};
 use crate::model::terrain_model::{geared_in_frame, motion_of, normal_forces_of, pitch_acceleration_of, plane_state, Frame};
-use crate::sim::runner::{Actuator, Plant, Sensor};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::{RobotParams, TwipError};
 
@@ -544,20 +543,6 @@ fn sample_chunk(
     }
 }
 
-/// Lane `l` of a state.
-#[inline(always)]
-fn lane<const N: usize>(x: &[Lanes; N], l: usize) -> SVector<f64, N> {
-    SVector::from(core::array::from_fn::<f64, N, _>(|i| x[i][l]))
-}
-
-/// Sets lane `l` of a state.
-#[inline(always)]
-fn set_lane<const N: usize>(x: &mut [Lanes; N], l: usize, v: &SVector<f64, N>) {
-    for i in 0..N {
-        x[i][l] = v[i];
-    }
-}
-
 /// The 3-DOF rig on a block of lanes: every lane's rig and state, and what carries over
 /// from one plant step to the next (the inputs held and pending, the gear trains), so that
 /// a loop can step it, stop, and go on. Invalid or missing lanes run an idle copy of a
@@ -565,13 +550,13 @@ fn set_lane<const N: usize>(x: &mut [Lanes; N], l: usize, v: &SVector<f64, N>) {
 pub(crate) struct PlanarRigLanes {
     /// Each lane's model (the sample's).
     pub(super) models: [PlanarModel<f64>; LANES],
-    rigs: Vec<PlanarRig<f64>>,
+    /// Each lane's rig, the state, the reading and the inputs held.
+    pub(crate) context: Context,
     plants: RigPlants,
     imus: Option<Box<ImuLanes>>,
     dt: f64,
     /// The windings of lanes without a driver.
     stand_in: ([Winding<f64>; 2], f64),
-    delay: bool,
     /// Every lane's realism has the same parts: play in all or none.
     geared: bool,
     /// The lanes that are never pushed, which skip the work between steps while their
@@ -579,15 +564,12 @@ pub(crate) struct PlanarRigLanes {
     quiet_engaged: [bool; LANES],
     /// Each lane's gear trains over the last step.
     engaged: [[bool; 2]; LANES],
-    /// The state.
-    pub(crate) x: [Lanes; 7],
-    /// The sensors' last reading.
-    y: [Lanes; 7],
-    /// The plant's input and the controller's command, applied and pending.
-    held: Held<[Lanes; 2], LANES>,
     /// The lanes' terrains (None: flat ground, the flat rig's code).
     ground: Option<TerrainLanes>,
 }
+
+/// The 3-DOF rigs' [`RigContext`].
+type Context = RigContext<PlanarPlant<f64>, PlanarSensors<f64>, PlanarActuator<f64>, [Lanes; 2], 7, 2>;
 
 impl PlanarRigLanes {
     /// The rigs `built` (per lane: its model and rig, or None for an idle lane) at rest in
@@ -609,7 +591,7 @@ impl PlanarRigLanes {
         let mut rigs: Vec<PlanarRig<f64>> = (0..LANES).map(|l| built.get(l).cloned().flatten().map_or_else(|| fallback.1.clone(), |b| b.1)).collect();
         let stand_in = stand_in()?;
         let plants = RigPlants::new(&rigs, &models, dt, stand_in);
-        let (delay, geared) = (rigs[0].delay, rigs[0].plant_play().is_some());
+        let geared = rigs[0].plant_play().is_some();
         let x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| x0[l][i]));
         // The sensors sample the initial state, the input zero: the encoders' wheels per
         // lane, the IMUs on lanes.
@@ -627,18 +609,14 @@ impl PlanarRigLanes {
         let engaged = core::array::from_fn(|l| rigs[l].plant.trains());
         Ok(Some(Self {
             models,
-            rigs,
+            context: RigContext::new(rigs, x),
             plants,
             imus,
             dt,
             stand_in,
-            delay,
             geared,
             quiet_engaged,
             engaged,
-            x,
-            y: [[0.0; LANES]; 7],
-            held: Held::new([[0.0; LANES]; 2]),
             ground,
         }))
     }
@@ -660,50 +638,24 @@ impl PlanarRigLanes {
     pub(crate) fn restart(&mut self, l: usize, model: PlanarModel<f64>, rig: PlanarRig<f64>, x0: [f64; 7]) {
         let xl = SVector::from(x0);
         let d0 = rig.plant.deriv(&xl, &SVector::zeros());
-        (self.models[l], self.rigs[l]) = (model, rig);
-        set_lane(&mut self.x, l, &xl);
-        set_lane(&mut self.y, l, &SVector::zeros());
-        self.plants.restart_lane(l, &self.rigs, &self.models, self.dt, self.stand_in);
-        let plant = &self.rigs[l].plant;
+        self.models[l] = model;
+        self.context.restart(l, rig, &xl);
+        let rigs = &mut self.context.rigs;
+        self.plants.restart_lane(l, rigs, &self.models, self.dt, self.stand_in);
+        let plant = &rigs[l].plant;
         (self.engaged[l], self.quiet_engaged[l]) = (plant.trains(), plant.unpushed());
-        self.held.clear(l, |u| (u[0][l], u[1][l]) = (0.0, 0.0));
         if let Some(imus) = self.imus.as_mut() {
             let mut xdot = [[0.0; LANES]; 7];
             set_lane(&mut xdot, l, &d0);
-            imus.restart(l, &self.rigs[l], &model, &self.x, &xdot);
-            imus.to_sensors(&mut self.rigs);
+            imus.restart(l, &rigs[l], &model, &self.context.x, &xdot);
+            imus.to_sensors(rigs);
         }
         // The firmware's first read, at t = 0 (as `read_at` reads the lanes `start` started).
-        self.read_lane(l, 0.0);
+        self.context.read_lane(l, 0.0, self.geared);
     }
 
-    /// The plants' input `drive` (duties or torques) held from now on (a period late with a
-    /// delay), as is: an env's action, which no actuator turns into a drive.
-    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
-    pub(crate) fn hold_drive(&mut self, drive: &[Lanes; 2]) {
-        self.held.hold(self.delay, *drive, *drive, [false; LANES]);
-    }
-
-    /// The sensors' last reading.
-    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
-    pub(crate) fn reading(&self) -> &[Lanes; 7] {
-        &self.y
-    }
-
-    /// Each lane's driver's gearbox efficiency (1 without one).
-    pub(super) fn efficiencies(&self) -> Lanes {
-        core::array::from_fn(|l| self.rigs[l].actuator.efficiency())
-    }
-
-    /// The controller's commands that the plants get now (a delayed rig's: the last period's).
-    #[inline(always)]
-    pub(super) fn command(&self) -> &[Lanes; 2] {
-        &self.held.command
-    }
-
-    /// What the firmware reads at `t`: the IMUs' latest registers and the encoders (which
-    /// count the motor shafts, which the play sets apart from the wheels) through each
-    /// lane's tilt estimator.
+    /// What the firmware reads at `t`: the IMUs' latest registers and the encoders through
+    /// each lane's tilt estimator (`RigContext::read_at`).
     #[inline(always)]
     pub(super) fn read(&mut self, t: f64) -> &[Lanes; 7] {
         self.read_at(&[t; LANES])
@@ -713,37 +665,9 @@ impl PlanarRigLanes {
     #[inline(always)]
     pub(crate) fn read_at(&mut self, ts: &Lanes) -> &[Lanes; 7] {
         if let Some(imus) = self.imus.as_ref() {
-            imus.to_sensors(&mut self.rigs);
+            imus.to_sensors(&mut self.context.rigs);
         }
-        for (l, &t) in ts.iter().enumerate() {
-            self.read_lane(l, t);
-        }
-        &self.y
-    }
-
-    /// Lane `l`'s read at `t` (its IMUs' registers in its sensors already).
-    #[inline(always)]
-    fn read_lane(&mut self, l: usize, t: f64) {
-        let rig = &mut self.rigs[l];
-        rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
-        set_lane(&mut self.y, l, &rig.sensors.read(t, &lane(&self.x, l)));
-    }
-
-    /// The controller's commands `cmd` at `t` through each lane's actuator (on the last
-    /// reading), held from now on (a period late with a delay); returns the lanes whose
-    /// drive is not finite (diverged).
-    #[inline(always)]
-    pub(super) fn apply(&mut self, t: f64, cmd: &[Lanes; 2]) -> [bool; LANES] {
-        let (mut drive, mut clamped, mut diverged) = ([[0.0; LANES]; 2], [false; LANES], [false; LANES]);
-        for (l, rig) in self.rigs.iter_mut().enumerate() {
-            let (command_l, yl) = (lane(cmd, l), lane(&self.y, l));
-            let d = rig.actuator.drive(t, &command_l, &yl);
-            clamped[l] = rig.actuator.beyond(&command_l, &yl);
-            set_lane(&mut drive, l, &d);
-            diverged[l] = !d.iter().all(|v| v.is_finite());
-        }
-        self.held.hold(self.delay, drive, *cmd, clamped);
-        diverged
+        self.context.read_at(ts, self.geared)
     }
 
     /// Plant step `k` (from t = k·dt) under the input held: the pieces that act between
@@ -764,21 +688,16 @@ impl PlanarRigLanes {
         super::out_of_line_in::<COPY, _>(#[inline(always)] || self.step_in::<COPY>(ks))
     }
 
-    /// Whether each lane's commands applied now are beyond its drivers.
-    pub(super) fn beyond(&self) -> &[bool; LANES] {
-        &self.held.beyond
-    }
-
     #[inline(always)]
     fn step_in<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
-        let (dt, u) = (self.dt, self.held.u);
+        let (dt, u) = (self.dt, self.context.input());
         let ts: Lanes = core::array::from_fn(|l| dt * ks[l] as f64);
-        let (plants, x) = (&mut self.plants, &mut self.x);
+        let (plants, x) = (&mut self.plants, &mut self.context.x);
         // What the plants get at the step's start (`Observer::drive`): the held torques, or
         // the windings' (with inductance, once the last step has ended, below).
         let mut delivered = u;
         if plants.drive == STEADY {
-            for (l, rig) in self.rigs.iter().enumerate() {
+            for (l, rig) in self.context.rigs.iter().enumerate() {
                 set_lane(&mut delivered, l, &rig.plant.delivered(&lane(x, l), &lane(&u, l)));
             }
         }
@@ -793,7 +712,7 @@ impl PlanarRigLanes {
         let mut held = u;
         let mut trains = [[true; 2]; LANES];
         let (mut finished, mut starts) = ([[0.0; LANES]; 2], [[0.0; LANES]; 2]);
-        for (l, rig) in self.rigs.iter_mut().enumerate() {
+        for (l, rig) in self.context.rigs.iter_mut().enumerate() {
             if self.quiet_engaged[l] && self.engaged[l] == [true; 2] {
                 // Nothing acts between steps (`PlanarPlant::unpushed`): the motors turn with
                 // the wheels (the windings' steps on lanes start from their speeds).
@@ -827,7 +746,7 @@ impl PlanarRigLanes {
         let ground = self.ground.as_ref();
         let (mut k1, tau) = plants.motion::<COPY>(x, &held, &trains, ground);
         let before = trains;
-        for (l, rig) in self.rigs.iter_mut().enumerate() {
+        for (l, rig) in self.context.rigs.iter_mut().enumerate() {
             let (xl, ul) = (lane(x, l), lane(&u, l));
             if self.geared {
                 let (motor, mean) = match stepped {
@@ -860,9 +779,9 @@ impl PlanarRigLanes {
     #[inline(always)]
     pub(super) fn halts<const COPY: u8>(&self, next: &[Lanes; 7]) -> Option<[Option<Halt>; LANES]> {
         let ground = self.ground.as_ref()?;
-        let mut input = self.held.u;
+        let mut input = self.context.input();
         if self.plants.drive == STEPPED {
-            for (l, rig) in self.rigs.iter().enumerate() {
+            for (l, rig) in self.context.rigs.iter().enumerate() {
                 let speeds = rig.plant.motor_speeds(&lane(next, l));
                 for (wheel, windings) in self.plants.windings.iter().enumerate() {
                     input[wheel][l] = windings.ended_input(l, speeds[wheel]);

@@ -96,8 +96,8 @@ fn rig_block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
         return Ok(Some([SampleMetrics::INVALID; LANES]));
     };
     let models = rig.models;
-    let (mut plant_phi_s, mut metrics) = SlopeLanes::metrics(&models, reference, &rig.x);
-    metrics.efficiency = rig.efficiencies();
+    let (mut plant_phi_s, mut metrics) = SlopeLanes::metrics(&models, reference, &rig.context.x);
+    metrics.efficiency = rig.context.efficiencies();
     let observer = SlopeLanes::new(&models, &mut metrics, &mut plant_phi_s, reference);
     Ok(closed_loop::<C, _, _, 4, COPY>(&mut controller, RigPlant(&mut rig), observer, active, (n, per_update), config, should_stop))
 }
@@ -113,12 +113,12 @@ impl Plant for RigPlant<'_> {
 
     #[inline(always)]
     fn state(&self) -> &[Lanes; 4] {
-        &self.0.x
+        &self.0.context.x
     }
 
     #[inline(always)]
     fn state_mut(&mut self) -> &mut [Lanes; 4] {
-        &mut self.0.x
+        &mut self.0.context.x
     }
 
     /// The law out of line (once per law and copy): it runs once per control period here,
@@ -130,18 +130,18 @@ impl Plant for RigPlant<'_> {
 
     #[inline(always)]
     fn apply(&mut self, t: f64, u: &Lanes) -> [bool; LANES] {
-        self.0.apply(t, u)
+        self.0.context.apply(t, u)
     }
 
     #[inline(always)]
     fn command<'s>(&'s self, _: &'s Lanes) -> &'s Lanes {
-        self.0.command()
+        self.0.context.command()
     }
 
     #[inline(always)]
     fn step<const COPY: u8>(&mut self, k: usize, _: &Lanes, _: f64, drive: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
         let (next, delivered) = self.0.step::<COPY>(k);
-        drive(&delivered, self.0.beyond());
+        drive(&delivered, self.0.context.beyond());
         next
     }
 

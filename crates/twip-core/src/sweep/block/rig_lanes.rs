@@ -15,19 +15,18 @@ use alloc::vec::Vec;
 
 use nalgebra::{SVector, Vector4};
 
-use crate::sim::held::Held;
+use super::rig_context::RigContext;
 use super::winding::WindingLanes;
 use super::{chunk, state_chunk, Plants, CHUNKS};
 use crate::hardware::disturbance::{Disturbed, Force, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::imu::{lane_from, specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseLanes};
-use crate::hardware::realism::{RigPlant as _, SlopeRig};
+use crate::hardware::realism::{BalanceSensors, RealActuator, RealPlant, RigPlant as _, SlopeRig};
 use crate::hardware::settle::settle_side_by_side;
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field, Stage};
 use crate::model::lane::{Fused, Lane, Wide, WIDTH};
 use crate::model::slope::{motion, open_motion, SlopeCoefficients, SlopeModel};
-use crate::sim::runner::{Actuator, Plant as _, Sensor};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::{Dynamics, RobotParams, TwipError};
 
@@ -488,12 +487,12 @@ fn sample_chunk(imu: &mut Mpu6050<Wide>, c: usize, hills: &Hills, g: &Lanes, [si
     imu.sample_with(fx, fz, xs[1], core::array::from_fn(|i| chunk(&noise[i], c)));
 }
 
-/// Lane `l` of a state.
+
+/// Lane `l` of a state, as the lanes' arithmetic takes it.
 #[inline(always)]
 fn lane(x: &[Lanes; 4], l: usize) -> [f64; 4] {
     [x[0][l], x[1][l], x[2][l], x[3][l]]
 }
-
 
 /// The 2-DOF rig on a block of lanes: every lane's rig and state, and what carries over
 /// from one plant step to the next (the inputs held and pending, the gear trains), so that
@@ -502,14 +501,14 @@ fn lane(x: &[Lanes; 4], l: usize) -> [f64; 4] {
 pub(crate) struct RigLanes {
     /// Each lane's model (the sample's).
     pub(super) models: [SlopeModel<f64>; LANES],
-    rigs: Vec<SlopeRig<f64>>,
+    /// Each lane's rig, the state, the reading and the input held.
+    pub(crate) context: Context,
     plants: RigPlants,
     /// On the heap, as the rigs: it holds every lane's stream and drawn-ahead normals.
     imus: Option<Box<ImuLanes>>,
     dt: f64,
     /// The winding of lanes without a driver.
     stand_in: (Winding<f64>, f64),
-    delay: bool,
     /// Without play and pushes, the steps skip the per-lane work between them (measured:
     /// ~1.1x the rig's speed, `sweep_throughput realism-lanes` with RIG_DROP=friction,backlash).
     idle: bool,
@@ -520,13 +519,10 @@ pub(crate) struct RigLanes {
     quiet_engaged: [bool; LANES],
     /// Each lane's gear trains over the last step.
     engaged: [bool; LANES],
-    /// The state.
-    pub(crate) x: [Lanes; 4],
-    /// The sensors' last reading.
-    y: [Lanes; 4],
-    /// The plant's input and the controller's command, applied and pending.
-    held: Held<Lanes, LANES>,
 }
+
+/// The 2-DOF rigs' [`RigContext`].
+type Context = RigContext<RealPlant<f64>, BalanceSensors<f64>, RealActuator<f64>, Lanes, 4, 1>;
 
 impl RigLanes {
     /// The rigs `built` (per lane: its model and rig, or None for an idle lane) at rest in
@@ -564,8 +560,7 @@ impl RigLanes {
         let quiet_engaged = core::array::from_fn(|l| rigs[l].plant.ground().unpushed() && plants.drive != STEADY);
         Ok(Some(Self {
             models,
-            delay: rigs[0].delay,
-            rigs,
+            context: RigContext::new(rigs, x),
             plants,
             imus,
             dt,
@@ -573,9 +568,6 @@ impl RigLanes {
             idle,
             quiet_engaged,
             engaged,
-            x,
-            y: [[0.0; LANES]; 4],
-            held: Held::new([0.0; LANES]),
         }))
     }
 
@@ -590,54 +582,27 @@ impl RigLanes {
     /// as they were.
     #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
     pub(crate) fn restart(&mut self, l: usize, model: SlopeModel<f64>, rig: SlopeRig<f64>, x0: [f64; 4]) {
-        (self.models[l], self.rigs[l]) = (model, rig);
-        for (i, &v) in x0.iter().enumerate() {
-            (self.x[i][l], self.y[i][l]) = (v, 0.0);
-        }
-        self.plants.restart_lane(l, &self.rigs, &self.models, self.dt, self.stand_in);
-        let ground = self.rigs[l].plant.ground();
+        self.models[l] = model;
+        self.context.restart(l, rig, &Vector4::from(x0));
+        let rigs = &mut self.context.rigs;
+        self.plants.restart_lane(l, rigs, &self.models, self.dt, self.stand_in);
+        let ground = rigs[l].plant.ground();
         (self.engaged[l], self.quiet_engaged[l]) = (ground.engaged(), ground.unpushed() && self.plants.drive != STEADY);
-        self.held.clear(l, |u| u[l] = 0.0);
         if let Some(imus) = self.imus.as_mut() {
             let mut xdot = [[0.0; LANES]; 4];
-            let d = self.rigs[l].plant.deriv(&Vector4::from(x0), &SVector::<f64, 1>::zeros());
+            let d = rigs[l].plant.deriv(&Vector4::from(x0), &SVector::<f64, 1>::zeros());
             for i in 0..4 {
                 xdot[i][l] = d[i];
             }
-            imus.restart(l, &self.rigs[l], &model, &self.plants.hills, &self.x, &xdot);
-            imus.to_sensors(&mut self.rigs);
+            imus.restart(l, &rigs[l], &model, &self.plants.hills, &self.context.x, &xdot);
+            imus.to_sensors(rigs);
         }
         // The firmware's first read, at t = 0 (as `read_at` reads the lanes `start` started).
-        self.read_lane(l, 0.0);
+        self.context.read_lane(l, 0.0, self.plants.geared);
     }
 
-    /// The plants' input `drive` (duties or currents) held from now on (a period late with a
-    /// delay), as is: an env's action, which no actuator turns into a drive.
-    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
-    pub(crate) fn hold_drive(&mut self, drive: &Lanes) {
-        self.held.hold(self.delay, *drive, *drive, [false; LANES]);
-    }
-
-    /// The sensors' last reading.
-    #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
-    pub(crate) fn reading(&self) -> &[Lanes; 4] {
-        &self.y
-    }
-
-    /// Each lane's driver's gearbox efficiency (1 without one).
-    pub(super) fn efficiencies(&self) -> Lanes {
-        core::array::from_fn(|l| self.rigs[l].actuator.efficiency())
-    }
-
-    /// The controller's command that the plants get now (a delayed rig's: the last period's).
-    #[inline(always)]
-    pub(super) fn command(&self) -> &Lanes {
-        &self.held.command
-    }
-
-    /// What the firmware reads at `t`: the IMU's latest registers and the encoders (which
-    /// count the motor shafts, which the play sets apart from the wheels: set here, where
-    /// they are read; the run sets them every step) through each lane's tilt estimator.
+    /// What the firmware reads at `t`: the IMU's latest registers and the encoders through
+    /// each lane's tilt estimator (`RigContext::read_at`).
     #[inline(always)]
     pub(super) fn read(&mut self, t: f64) -> &[Lanes; 4] {
         self.read_at(&[t; LANES])
@@ -647,41 +612,9 @@ impl RigLanes {
     #[inline(always)]
     pub(crate) fn read_at(&mut self, ts: &Lanes) -> &[Lanes; 4] {
         if let Some(imus) = self.imus.as_ref() {
-            imus.to_sensors(&mut self.rigs);
+            imus.to_sensors(&mut self.context.rigs);
         }
-        for (l, &t) in ts.iter().enumerate() {
-            self.read_lane(l, t);
-        }
-        &self.y
-    }
-
-    /// Lane `l`'s read at `t` (its IMU's registers in its sensors already).
-    #[inline(always)]
-    fn read_lane(&mut self, l: usize, t: f64) {
-        let rig = &mut self.rigs[l];
-        if self.plants.geared {
-            rig.sensors.shaft_offsets(rig.plant.shaft_offsets());
-        }
-        let yl = rig.sensors.read(t, &Vector4::from(lane(&self.x, l)));
-        for i in 0..4 {
-            self.y[i][l] = yl[i];
-        }
-    }
-
-    /// The controller's command `cmd` at `t` through each lane's actuator (on the last
-    /// reading), held from now on (a period late with a delay); returns the lanes whose
-    /// drive is not finite (diverged).
-    #[inline(always)]
-    pub(super) fn apply(&mut self, t: f64, cmd: &Lanes) -> [bool; LANES] {
-        let (mut drive, mut clamped, mut diverged) = ([0.0; LANES], [false; LANES], [false; LANES]);
-        for (l, rig) in self.rigs.iter_mut().enumerate() {
-            let (command_l, yl) = (SVector::<f64, 1>::new(cmd[l]), Vector4::from(lane(&self.y, l)));
-            drive[l] = rig.actuator.drive(t, &command_l, &yl)[0];
-            clamped[l] = rig.actuator.beyond(&command_l, &yl);
-            diverged[l] = !drive[l].is_finite();
-        }
-        self.held.hold(self.delay, drive, *cmd, clamped);
-        diverged
+        self.context.read_at(ts, self.plants.geared)
     }
 
     /// Plant step `k` (from t = k·dt) under the input held: the pieces that act between
@@ -702,21 +635,16 @@ impl RigLanes {
         super::out_of_line_in::<COPY, _>(#[inline(always)] || self.step_in::<COPY>(ks))
     }
 
-    /// Whether each lane's commands applied now are beyond its drivers.
-    pub(super) fn beyond(&self) -> &[bool; LANES] {
-        &self.held.beyond
-    }
-
     #[inline(always)]
     fn step_in<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> ([Lanes; 4], Lanes) {
-        let (dt, u) = (self.dt, self.held.u);
+        let (dt, u) = (self.dt, self.context.input());
         let ts: Lanes = core::array::from_fn(|l| dt * ks[l] as f64);
-        let (plants, x, engaged) = (&mut self.plants, &mut self.x, &mut self.engaged);
+        let (plants, x, engaged) = (&mut self.plants, &mut self.context.x, &mut self.engaged);
         // What the plants get at the step's start (`Observer::drive`): the held current,
         // or a winding's current (with inductance, once the last step has ended, below).
         let mut delivered = u;
         if plants.drive == STEADY {
-            for (l, rig) in self.rigs.iter().enumerate() {
+            for (l, rig) in self.context.rigs.iter().enumerate() {
                 delivered[l] = rig.plant.delivered(&Vector4::from(lane(x, l)), &SVector::<f64, 1>::new(u[l]))[0];
             }
         }
@@ -741,7 +669,7 @@ impl RigLanes {
                 _ => {}
             }
         } else {
-            for (l, rig) in self.rigs.iter_mut().enumerate() {
+            for (l, rig) in self.context.rigs.iter_mut().enumerate() {
                 if self.quiet_engaged[l] && engaged[l] {
                     // Nothing acts between steps (`Disturbed::unpushed`): as when `idle`.
                     if stepped {
@@ -778,7 +706,7 @@ impl RigLanes {
         if plants.geared {
             let tau;
             (k1, tau) = plants.geared_motion::<COPY>(x, &current, engaged);
-            for (l, rig) in self.rigs.iter_mut().enumerate() {
+            for (l, rig) in self.context.rigs.iter_mut().enumerate() {
                 let xl = Vector4::from(lane(x, l));
                 let mean = if stepped { plants.windings.mean(l) } else { rig.plant.mean_current(&xl, u[l]) };
                 rig.plant.ground_mut().gear_next_with(&xl, current[l], mean, &Vector4::from(lane(&k1, l)), tau[l]);
