@@ -1,0 +1,105 @@
+"""Two builds of twip side by side: each family's sweep speed, new against old, and whether
+their metrics have the same bits.
+
+A change to the lane kernels is judged against the build before it on the same machine in
+the same minutes, because this project's VMs drift by more than most changes gain. So each
+round runs the old build and then the new (the next round the other way round), each in a
+fresh process that imports its own copy of the package, one thread, timed by CPU time; a
+row's ratio is old CPU time / new (above 1: the new build is faster). Each child hashes
+every metric of its sweep: a row's bits are the same when every run of both builds gave one
+hash.
+
+A build is a folder holding a `twip` package with its compiled `_core` (for example a copy of
+`python/twip` made before the change: `cp -r python/twip /tmp/old/`).
+
+Run:  .venv/bin/python benches/pair_builds.py OLD_DIR NEW_DIR [--rounds 6] [--kernel-copy avx2]
+          [--rows lqr fuzzy ...]
+Rows are benches/families.py's workloads, sized to about 0.8 s of one thread on AVX-512.
+"""
+import argparse
+import hashlib
+import os
+import statistics
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+# label: (index into families.families(), samples)
+ROWS = {
+    "lqr": (0, 8192), "fuzzy": (1, 4096), "fuzzy-gauss": (2, 4096), "lqr-rig": (3, 1024),
+    "fuzzy-rig": (4, 1024), "lqr-rig-nofric": (5, 2048), "lqr-rig-push": (6, 1024),
+    "lqr-rig-slopes": (7, 1024), "lqr-rig-slip": (8, 1024), "fuzzy-gauss-rig": (9, 1024),
+    "circle-pid": (10, 384), "circle-smc": (11, 256), "circle-pid-rig": (12, 64), "circle-smc-rig": (13, 64),
+}
+
+
+def child(row, copy):
+    """In a fresh process: one sweep of `row` on one thread; prints the package's file, the CPU
+    seconds, the sample-steps, the kernel copy and the metrics' hash."""
+    import numpy as np
+    import twip
+    sys.path.insert(0, HERE)
+    import families
+
+    if copy != "widest":
+        twip.use_kernel_copy(copy)
+    i, n = ROWS[row]
+    _, sc, realism, _ = families.families()[i]
+    kw = dict(perturb=families.PERTURB, seed=1, progress=False, threads=1, realism=realism)
+    twip.montecarlo(sc, 16, **kw)  # warm: the first call loads and sets up
+    start = time.process_time()
+    r = twip.montecarlo(sc, n, **kw)
+    cpu = time.process_time() - start
+    digest = hashlib.sha256(b"".join(k.encode() + np.ascontiguousarray(r.metrics[k]).tobytes() for k in sorted(r.metrics)))
+    print(twip.__file__, cpu, r.steps, twip.kernel_copy(), digest.hexdigest()[:16])
+
+
+def run(build, row, copy):
+    """(cpu seconds, sample-steps, kernel copy, hash) of `row` in a child importing `build`."""
+    env = dict(os.environ, PYTHONPATH=build)
+    out = subprocess.run([sys.executable, __file__, "--child", row, copy], env=env, capture_output=True, text=True)
+    if out.returncode:
+        raise SystemExit(f"{row} with {build}:\n{out.stderr}")
+    path, cpu, steps, kernel_copy, digest = out.stdout.split()
+    if not path.startswith(os.path.abspath(build)):
+        raise SystemExit(f"{row}: the child imported {path}, not the build in {build}")
+    return float(cpu), int(steps), kernel_copy, digest
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("old")
+    p.add_argument("new")
+    p.add_argument("--rounds", type=int, default=6)
+    p.add_argument("--kernel-copy", default="widest", help="avx512, avx2, baseline, or widest (the CPU's)")
+    p.add_argument("--rows", nargs="+", default=list(ROWS), choices=list(ROWS))
+    a = p.parse_args()
+    if a.rounds < 1:
+        p.error(f"--rounds must be at least 1, got {a.rounds}")
+    builds = {"old": a.old, "new": a.new}
+    speed = {row: {"old": [], "new": [], "ratio": []} for row in a.rows}
+    hashes = {(row, b): set() for row in a.rows for b in builds}
+    for k in range(a.rounds):
+        for j, row in enumerate(a.rows):
+            order = ["old", "new"] if (k + j) % 2 == 0 else ["new", "old"]
+            cpu = {}
+            for b in order:
+                cpu[b], steps, kernel_copy, digest = run(builds[b], row, a.kernel_copy)
+                hashes[(row, b)].add(digest)
+                speed[row][b].append(steps / cpu[b] / 1e6)
+            speed[row]["ratio"].append(cpu["old"] / cpu["new"])
+            print(f"round {k} {row:16s} {kernel_copy} old {cpu['old']:.3f} s new {cpu['new']:.3f} s new/old speed {cpu['old'] / cpu['new']:.3f}", flush=True)
+    print(f"\nkernel copy {kernel_copy}; M sample-steps/s (CPU time, one thread), medians; new/old speed: median [range]; same bits")
+    for row in a.rows:
+        s = speed[row]
+        same = len(hashes[(row, "old")]) == 1 and hashes[(row, "old")] == hashes[(row, "new")]
+        print(f"{row:16s} old {statistics.median(s['old']):7.2f} new {statistics.median(s['new']):7.2f}  "
+              f"{statistics.median(s['ratio']):.3f} [{min(s['ratio']):.3f}-{max(s['ratio']):.3f}]  {'same bits' if same else 'BITS DIFFER'}")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) > 1 and sys.argv[1] == "--child":
+        child(sys.argv[2], sys.argv[3])
+    else:
+        main()
