@@ -26,7 +26,7 @@ use crate::control::Controller;
 use crate::control::fuzzy_grid::{FuzzyGrid, RuleBase, MAX_RULES};
 use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::model::lane::Lane;
-use crate::model::slope::{pitch_input_gain, pitch_input_gain_at, SlopeCoefficients, SlopeModel};
+use crate::model::slope::{pitch_input_gain, SlopeCoefficients, SlopeModel};
 use crate::{c, Real, TwipError};
 
 /// k1, k2 of the backstepping, kp, kd of the PD on the wheel position (4.56), and our
@@ -306,17 +306,6 @@ impl<S: Lane, B> Law<'_, S, B> {
     where
         B: RuleBase<S, R>,
     {
-        self.update_at(s_hat, e_int, phi_s, y, S::sincos(y[0]), theta, theta_dot)
-    }
-
-    /// [`Self::update`] given (sin φ, cos φ) of the measured pitch (which a sweep's plants
-    /// also need at the step's start).
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn update_at<const R: usize>(&self, s_hat: &mut [S; R], e_int: &mut S, phi_s: S, y: &[S; 4], sin_cos_phi: (S, S), theta: S, theta_dot: S) -> Step<S, R>
-    where
-        B: RuleBase<S, R>,
-    {
         let g = &self.gains;
         let half = S::splat(0.5);
         let (phi, phi_dot) = (y[0], y[1]);
@@ -331,7 +320,7 @@ impl<S: Lane, B> Law<'_, S, B> {
         }
         let e = theta - y[2];
         let e_dot = theta_dot - y[3];
-        let backstepping = -(e1 + f1_hat + g.k1 * phi_dot + (half + g.k2) * z2) / pitch_input_gain_at(self.model, sin_cos_phi);
+        let backstepping = -(e1 + f1_hat + g.k1 * phi_dot + (half + g.k2) * z2) / pitch_input_gain(self.model, phi);
         let u = backstepping + g.kp * e + g.kd * e_dot + g.ki * *e_int;
         let v2 = half * e1 * e1 + half * z2 * z2 + half * self.gamma * s_norm2;
         let rate = z2 / self.gamma;

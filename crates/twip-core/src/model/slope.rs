@@ -431,12 +431,7 @@ pub(crate) fn cramer<S: Lane>(m11: S, m22: S, m11_m22: S, m12: S, f: &[S; 2]) ->
 /// M(φ)⁻¹ (−η τ_i, η τ_i).
 #[inline(always)]
 pub(crate) fn pitch_input_gain<S: Lane>(k: &SlopeCoefficients<S>, phi: S) -> S {
-    pitch_input_gain_at(k, S::sincos(phi))
-}
-
-/// [`pitch_input_gain`] given (sin φ, cos φ).
-#[inline(always)]
-pub(crate) fn pitch_input_gain_at<S: Lane>(k: &SlopeCoefficients<S>, (s, c): (S, S)) -> S {
+    let (s, c) = S::sincos(phi);
     let tau = k.torque_per_amp;
     cramer(k.m11, k.m22, k.m11_m22, m12(k, s, c, k.rotor), &[-tau, tau])[0]
 }

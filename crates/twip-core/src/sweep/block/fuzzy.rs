@@ -117,18 +117,17 @@ impl<const N: usize> Constants<N> {
     /// made the wheel's build slow. The thesis's 3 × 3 stays inlined: out of line, its
     /// sweeps ran at 0.46-0.49x (the sized ones within noise).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn update<const COPY: u8>(&self, controller: &FuzzyController<f64>, phi_s: f64, state: &mut FuzzyState, x: &[Lanes; 4], trig: Option<&[Lanes; 2]>, r: &SpeedRef<f64>, u: &mut Lanes) {
+    fn update<const COPY: u8>(&self, controller: &FuzzyController<f64>, phi_s: f64, state: &mut FuzzyState, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
         match &self.sets {
-            Sets::Trapezoids(sets) => self.update_with::<9, _>(sets, controller, phi_s, state, x, trig, r, u),
-            Sets::Any(sets) => self.update_with::<9, _>(sets, controller, phi_s, state, x, trig, r, u),
+            Sets::Trapezoids(sets) => self.update_with::<9, _>(sets, controller, phi_s, state, x, r, u),
+            Sets::Any(sets) => self.update_with::<9, _>(sets, controller, phi_s, state, x, r, u),
             // `inline(always)`: the closure inlined into the copy's function, so compiled with
             // its instructions.
             Sets::SizedTrapezoids(sets, n) => out_of_line_in::<COPY, _>(#[inline(always)] || {
-                self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n }, controller, phi_s, state, x, trig, r, u)
+                self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n }, controller, phi_s, state, x, r, u)
             }),
             Sets::SizedAny(sets, n) => out_of_line_in::<COPY, _>(#[inline(always)] || {
-                self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n }, controller, phi_s, state, x, trig, r, u)
+                self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n }, controller, phi_s, state, x, r, u)
             }),
         }
     }
@@ -142,7 +141,6 @@ impl<const N: usize> Constants<N> {
         phi_s: f64,
         state: &mut FuzzyState,
         x: &[Lanes; 4],
-        trig: Option<&[Lanes; 2]>,
         r: &SpeedRef<f64>,
         u: &mut Lanes,
     ) {
@@ -166,10 +164,7 @@ impl<const N: usize> Constants<N> {
             let law = core::hint::black_box(&law);
             let mut s_hat: [Wide<N>; R] = fill(|j| chunk(&state.s_hat[j], c));
             let mut e_int = chunk(&state.e_int, c);
-            let y = state_chunk(x, c);
-            // sin/cos of the pitch from the plants' (the same bits), or the law's own.
-            let sin_cos_phi = trig.map_or_else(|| Wide::sincos(y[0]), |t| (chunk(&t[0], c), chunk(&t[1], c)));
-            let step = law.update_at(&mut s_hat, &mut e_int, phi_s, &y, sin_cos_phi, theta, theta_dot);
+            let step = law.update(&mut s_hat, &mut e_int, phi_s, &state_chunk(x, c), theta, theta_dot);
             for (w, s) in state.s_hat.iter_mut().zip(&s_hat).take(basis.rules()) {
                 put(w, c, *s);
             }
@@ -211,17 +206,6 @@ impl FuzzyLanes {
     }
 }
 
-impl FuzzyLanes {
-    #[inline(always)]
-    fn update_given<const COPY: u8>(&mut self, state: &mut FuzzyState, x: &[Lanes; 4], trig: Option<&[Lanes; 2]>, r: &SpeedRef<f64>, u: &mut Lanes) {
-        let phi_s = self.steady_pitch(r.theta_dot);
-        match &self.law {
-            Width::Four(law) => law.update::<COPY>(&self.controller, phi_s, state, x, trig, r, u),
-            Width::Eight(law) => law.update::<COPY>(&self.controller, phi_s, state, x, trig, r, u),
-        }
-    }
-}
-
 impl LaneLaw for FuzzyLanes {
     type Shape = Slope;
     type State = FuzzyState;
@@ -237,12 +221,11 @@ impl LaneLaw for FuzzyLanes {
 
     #[inline(always)]
     fn update<const COPY: u8>(&mut self, state: &mut FuzzyState, x: &[Lanes; 4], r: &SpeedRef<f64>, u: &mut Lanes) {
-        self.update_given::<COPY>(state, x, None, r, u)
-    }
-
-    #[inline(always)]
-    fn update_at<const COPY: u8>(&mut self, state: &mut FuzzyState, x: &[Lanes; 4], trig: &[Lanes; 2], r: &SpeedRef<f64>, u: &mut Lanes) {
-        self.update_given::<COPY>(state, x, Some(trig), r, u)
+        let phi_s = self.steady_pitch(r.theta_dot);
+        match &self.law {
+            Width::Four(law) => law.update::<COPY>(&self.controller, phi_s, state, x, r, u),
+            Width::Eight(law) => law.update::<COPY>(&self.controller, phi_s, state, x, r, u),
+        }
     }
 }
 

@@ -57,14 +57,6 @@ pub trait LaneLaw {
     /// [`KernelCopy`](super::KernelCopy) as `u8`), for a law that runs out of line in it
     /// ([`out_of_line_in`]).
     fn update<const COPY: u8>(&mut self, state: &mut Self::State, x: &X<Self::Shape>, r: &Ref<Self::Shape>, u: &mut U<Self::Shape>);
-
-    /// [`Self::update`] given `trig` = [sin, cos] of each lane's true pitch, which the ideal
-    /// 2-DOF lanes' plants need at the step's start too: for a law that reads them.
-    #[inline(always)]
-    fn update_at<const COPY: u8>(&mut self, state: &mut Self::State, x: &X<Self::Shape>, trig: &[Lanes; 2], r: &Ref<Self::Shape>, u: &mut U<Self::Shape>) {
-        let _ = trig;
-        self.update::<COPY>(state, x, r, u)
-    }
 }
 
 /// `controller.update` as a function of its own per law and kernel copy (`out_of_line_in`),

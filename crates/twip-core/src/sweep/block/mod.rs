@@ -21,7 +21,7 @@ use crate::model::dynamics::Halt;
 use crate::control::Reference;
 use crate::model::integrate::{rk4, Field};
 use crate::model::lane::{Fused, Lane, Wide, WIDTH};
-use crate::model::math::{sin_cos_fused, sin_cos_unreduced, UNREDUCED};
+use crate::model::math::{sin_cos_unreduced, UNREDUCED};
 use crate::model::slope::{deriv, deriv_at, SlopeCoefficients, SlopeModel};
 use core::cell::Cell;
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
@@ -138,7 +138,7 @@ impl Plants {
     /// operations that the CPU overlaps. (Measured faster than RK4 on `Wide` chunks.)
     #[inline(always)]
     pub(crate) fn rk4(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
-        self.rk4_in::<false>(x, None, u, dt).0
+        self.rk4_in::<false>(x, u, dt).0
     }
 
     /// [`Self::rk4`]'s step where every `live` lane's pitch stays within ±[`UNREDUCED`] at
@@ -148,8 +148,8 @@ impl Plants {
     /// multiply-adds. A loop over lanes cannot branch per lane, so the range is checked
     /// after the step.
     #[inline(always)]
-    pub(crate) fn rk4_unreduced(&self, x: &[Lanes; 4], trig: &[Lanes; 2], u: &Lanes, dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 4]> {
-        let (out, inside) = self.rk4_in::<true>(x, Some(trig), u, dt);
+    pub(crate) fn rk4_unreduced(&self, x: &[Lanes; 4], u: &Lanes, dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 4]> {
+        let (out, inside) = self.rk4_in::<true>(x, u, dt);
         let mut all = true;
         for l in 0..LANES {
             all &= inside[l] | !live[l];
@@ -158,10 +158,9 @@ impl Plants {
     }
 
     /// The step, with sin/cos unreduced or not, and whether each lane's pitch stayed within
-    /// ±[`UNREDUCED`] (unreduced; else every lane's is true). The first stage takes `trig`,
-    /// [sin, cos] of x's pitch, if given.
+    /// ±[`UNREDUCED`] (unreduced; else every lane's is true).
     #[inline(always)]
-    fn rk4_in<const UNREDUCED_SIN: bool>(&self, x: &[Lanes; 4], trig: Option<&[Lanes; 2]>, u: &Lanes, dt: f64) -> ([Lanes; 4], [bool; LANES]) {
+    fn rk4_in<const UNREDUCED_SIN: bool>(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> ([Lanes; 4], [bool; LANES]) {
         const HALF: usize = LANES / 2;
         let mut out = [[0.0; LANES]; 4];
         let mut inside = [true; LANES];
@@ -171,12 +170,8 @@ impl Plants {
             let m = l + HALF;
             let (pa, pb) = (plant(l), plant(m));
             let (xa, xb) = (state(l), state(m));
-            let first = |p: &Plant<UNREDUCED_SIN>, x: &[Fused; 4], l: usize| match trig {
-                Some(t) => deriv_at(&p.k, x, p.u, (Fused(t[0][l]), Fused(t[1][l]))),
-                None => deriv(&p.k, x, p.u),
-            };
-            let next_a = rk4(&pa, &xa, &first(&pa, &xa, l), Fused(dt));
-            let next_b = rk4(&pb, &xb, &first(&pb, &xb, m), Fused(dt));
+            let next_a = rk4(&pa, &xa, &pa.at(&xa), Fused(dt));
+            let next_b = rk4(&pb, &xb, &pb.at(&xb), Fused(dt));
             for i in 0..4 {
                 out[i][l] = next_a[i].0;
                 out[i][m] = next_b[i].0;
@@ -648,8 +643,7 @@ fn block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
     let plants = Plants::new(&core::array::from_fn(|l| models[l].coefficients()));
     let (mut plant_phi_s, mut metrics) = SlopeLanes::metrics(&models, reference, &x);
     let mut x = Aligned(x);
-    let mut trig = Aligned([[0.0; LANES]; 2]);
-    let plant = SlopePlants { plants: &plants, x: &mut x.0, trig: &mut trig.0, fresh: false };
+    let plant = SlopePlants { plants: &plants, x: &mut x.0 };
     let observer = SlopeLanes::new(&models, &mut metrics, &mut plant_phi_s, reference);
     Ok(closed_loop::<C, _, _, 4, COPY>(&mut controller, plant, observer, active, steps, config, should_stop))
 }
@@ -659,22 +653,6 @@ fn block<C: LaneLaw<Shape = Slope>, const COPY: u8>(
 struct SlopePlants<'a> {
     plants: &'a Plants,
     x: &'a mut [Lanes; 4],
-    /// [sin, cos] of `x`'s pitch, for the law and the step's first stage, and whether they
-    /// are `x`'s (at a controller update; the step moves x).
-    trig: &'a mut [Lanes; 2],
-    fresh: bool,
-}
-
-impl SlopePlants<'_> {
-    /// sin/cos of the pitch of every lane, once for the law and the step: the law's and the
-    /// first RK4 stage's were the same bits.
-    #[inline(always)]
-    fn pitch_trig(&mut self) {
-        for l in 0..LANES {
-            (self.trig[0][l], self.trig[1][l]) = sin_cos_fused(self.x[0][l]);
-        }
-        self.fresh = true;
-    }
 }
 
 impl closed_loop::Plant for SlopePlants<'_> {
@@ -692,8 +670,7 @@ impl closed_loop::Plant for SlopePlants<'_> {
 
     #[inline(always)]
     fn update<C: LaneLaw<Shape = Slope>, const COPY: u8>(&mut self, controller: &mut C, state: &mut C::State, _: f64, r: &SpeedRef<f64>, u: &mut Lanes) {
-        self.pitch_trig();
-        controller.update_at::<COPY>(state, self.x, self.trig, r, u);
+        controller.update::<COPY>(state, self.x, r, u);
     }
 
     #[inline(always)]
@@ -715,11 +692,7 @@ impl closed_loop::Plant for SlopePlants<'_> {
     /// step again with the reduction, out of line (rare: a pitch past ±0.78 rad).
     #[inline(always)]
     fn step_live<const COPY: u8>(&mut self, _: usize, u: &Lanes, dt: f64, live: &[bool; LANES], _: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
-        if !self.fresh {
-            self.pitch_trig();
-        }
-        self.fresh = false;
-        match self.plants.rk4_unreduced(self.x, self.trig, u, dt, live) {
+        match self.plants.rk4_unreduced(self.x, u, dt, live) {
             Some(next) => next,
             None => out_of_line_in::<COPY, _>(
                 #[inline(always)]
@@ -888,16 +861,15 @@ mod tests {
             [core::array::from_fn(|l| if l == 0 { pitch } else { 0.05 * l as f64 - 0.4 }), [0.5; LANES], [0.0; LANES], [1.0; LANES]]
         };
         let bits = |x: &[Lanes; 4]| x.map(|v| v.map(f64::to_bits));
-        let trig = |x: &[Lanes; 4]| -> [Lanes; 2] { [x[0].map(|p| sin_cos_fused(p).0), x[0].map(|p| sin_cos_fused(p).1)] };
         let live = [true; LANES];
         let x = state(-0.77);
-        assert_eq!(plants.rk4_unreduced(&x, &trig(&x), &u, 1e-3, &live).map(|n| bits(&n)), Some(bits(&plants.rk4(&x, &u, 1e-3))));
+        assert_eq!(plants.rk4_unreduced(&x, &u, 1e-3, &live).map(|n| bits(&n)), Some(bits(&plants.rk4(&x, &u, 1e-3))));
         // Lane 0 at -0.9 rad: refused while it is live.
         let x = state(-0.9);
-        assert!(plants.rk4_unreduced(&x, &trig(&x), &u, 1e-3, &live).is_none());
+        assert!(plants.rk4_unreduced(&x, &u, 1e-3, &live).is_none());
         let mut others = live;
         others[0] = false;
-        let next = plants.rk4_unreduced(&x, &trig(&x), &u, 1e-3, &others).expect("lane 0 dead");
+        let next = plants.rk4_unreduced(&x, &u, 1e-3, &others).expect("lane 0 dead");
         assert_eq!(bits(&next)[..].iter().map(|v| &v[1..]).collect::<Vec<_>>(), bits(&plants.rk4(&x, &u, 1e-3))[..].iter().map(|v| &v[1..]).collect::<Vec<_>>());
     }
 
