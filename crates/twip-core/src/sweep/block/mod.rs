@@ -146,7 +146,8 @@ impl Plants {
     /// count). There sin/cos skip the reduction by π/2 and the quadrant's rotation, which
     /// change nothing there: the same bits, and each stage's chain shorter by three
     /// multiply-adds. A loop over lanes cannot branch per lane, so the range is checked
-    /// after the step.
+    /// after the step. Measured (new/old CPU time, 6 pairs): LQR lanes 1.055x, fuzzy 1.095x
+    /// on `avx512`; 1.083x and 1.067x on `avx2`.
     #[inline(always)]
     pub(crate) fn rk4_unreduced(&self, x: &[Lanes; 4], u: &Lanes, dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 4]> {
         let (out, inside) = self.rk4_in::<true>(x, u, dt);
@@ -689,7 +690,8 @@ impl closed_loop::Plant for SlopePlants<'_> {
     }
 
     /// Unreduced sin/cos where the live lanes allow (`Plants::rk4_unreduced`), else the
-    /// step again with the reduction, out of line (rare: a pitch past ±0.78 rad).
+    /// step again with the reduction (rare: a pitch past ±0.78 rad; asked out of line, but
+    /// the 2-DOF kernels keep it inline, `objdump`).
     #[inline(always)]
     fn step_live<const COPY: u8>(&mut self, _: usize, u: &Lanes, dt: f64, live: &[bool; LANES], _: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
         match self.plants.rk4_unreduced(self.x, u, dt, live) {
