@@ -77,8 +77,22 @@ mod wide {
     const PIO2_HI: f64 = core::f64::consts::FRAC_PI_2;
     const PIO2_LO: f64 = 6.123_233_995_736_766e-17;
 
+    /// Up to this |x|, [`reduce`] takes k = 0 (|x| · 2/π < 0.5), so r = x exactly and the
+    /// quadrant is 0: [`kernel`] alone gives the same bits (π/4 = 0.785…). A pitch stays
+    /// there but near a fall.
+    pub(crate) const UNREDUCED: f64 = 0.78;
+
     #[inline(always)]
     pub(crate) fn sin_cos_wide<const N: usize>(x: Wide<N>) -> (Wide<N>, Wide<N>) {
+        // One branch for all N lanes (explicit vectors): the reduction's chain of three
+        // multiply-adds and the quadrant's masks skipped where no lane needs them.
+        let mut near = true;
+        for v in x.0 {
+            near &= v.abs() <= UNREDUCED;
+        }
+        if near {
+            return kernel(x);
+        }
         let (mut r, mut quadrant) = ([0.0; N], [0u64; N]);
         for i in 0..N {
             (r[i], quadrant[i]) = reduce(x.0[i]);
@@ -97,6 +111,14 @@ mod wide {
         let (r, quadrant) = reduce(x);
         let (s, c) = kernel(Fused(r));
         rotate(s.0, c.0, quadrant)
+    }
+
+    /// `sin_cos_fused` for |x| ≤ [`UNREDUCED`] (which the caller checks): the same bits,
+    /// without the reduction or the rotation, for a loop over lanes that cannot branch.
+    #[inline(always)]
+    pub(crate) fn sin_cos_unreduced(x: f64) -> (f64, f64) {
+        let (s, c) = kernel(Fused(x));
+        (s.0, c.0)
     }
 
     /// x − k π/2 for the nearest integer k, and k's low bits. In two parts: a fused
@@ -336,7 +358,7 @@ mod wide {
     }
 }
 #[cfg(feature = "std")]
-pub(crate) use wide::{asin_fused, atan_fused, exp_fused, exp_wide, sin_cos_fused, sin_cos_wide, tanh_fused};
+pub(crate) use wide::{asin_fused, atan_fused, exp_fused, exp_wide, sin_cos_fused, sin_cos_unreduced, sin_cos_wide, tanh_fused, UNREDUCED};
 
 /// sin and cos of |r| ≤ π/4: the polynomials in r² by [`estrin`].
 #[inline(always)]
@@ -554,6 +576,27 @@ mod tests {
         for x in [0.0, -0.0, 1e-300, core::f64::consts::FRAC_PI_2, core::f64::consts::PI, 3.0e4] {
             let (s, c) = sin_cos_fused(x);
             assert!((s - x.sin()).abs() < 1e-15 && (c - x.cos()).abs() < 1e-15, "x = {x}");
+        }
+    }
+
+    /// Within ±UNREDUCED the unreduced sin/cos (one lane's, and `Wide`'s branch) give the
+    /// reduced one's bits.
+    #[cfg(feature = "std")]
+    #[test]
+    fn unreduced_sin_cos_is_the_same_bits() {
+        use crate::model::lane::{Lane, Wide};
+        let bits = |(s, c): (f64, f64)| (s.to_bits(), c.to_bits());
+        let wide = |x: f64| {
+            let (s, c) = <Wide>::sincos(<Wide>::splat(x));
+            (s.0[0], c.0[0])
+        };
+        let n = 400_000;
+        let edges = [0.0, -0.0, 1e-300, -1e-300, 5e-324, f64::MIN_POSITIVE, UNREDUCED, -UNREDUCED];
+        let grid = (0..=n).map(|i| UNREDUCED * (2.0 * i as f64 / n as f64 - 1.0));
+        for x in grid.chain(edges) {
+            let full = sin_cos_fused(x);
+            assert_eq!(bits(sin_cos_unreduced(x)), bits(full), "x = {x:e}");
+            assert_eq!(bits(wide(x)), bits(full), "x = {x:e}");
         }
     }
 }

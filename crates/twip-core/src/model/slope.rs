@@ -390,7 +390,12 @@ pub(crate) struct Forces<S> {
 /// f at state `x` under current `u`.
 #[inline(always)]
 pub(crate) fn forces<S: Lane>(k: &SlopeCoefficients<S>, x: &[S; 4], u: S) -> Forces<S> {
-    let (s, c) = S::sincos(x[0]);
+    forces_at(k, x, u, S::sincos(x[0]))
+}
+
+/// [`forces`] given (sin φ, cos φ) of x's pitch.
+#[inline(always)]
+pub(crate) fn forces_at<S: Lane>(k: &SlopeCoefficients<S>, x: &[S; 4], u: S, (s, c): (S, S)) -> Forces<S> {
     let (phi_dot, theta_dot) = (x[1], x[3]);
     let bearing = k.mu_bearing * (theta_dot - phi_dot);
     let motor = k.torque_per_amp * u;
@@ -501,7 +506,13 @@ pub(crate) fn open_motion<S: Lane>(k: &SlopeCoefficients<S>, x: &[S; 4], extra: 
 /// The derivative of the thesis's plant (no gearhead friction, no external force).
 #[inline(always)]
 pub(crate) fn deriv<S: Lane>(k: &SlopeCoefficients<S>, x: &[S; 4], u: S) -> [S; 4] {
-    let out = forces(k, x, u);
+    deriv_at(k, x, u, S::sincos(x[0]))
+}
+
+/// [`deriv`] given (sin φ, cos φ) of x's pitch.
+#[inline(always)]
+pub(crate) fn deriv_at<S: Lane>(k: &SlopeCoefficients<S>, x: &[S; 4], u: S, sin_cos_phi: (S, S)) -> [S; 4] {
+    let out = forces_at(k, x, u, sin_cos_phi);
     let qdd = cramer(k.m11, k.m22, k.m11_m22, m12(k, out.sin_phi, out.cos_phi, k.rotor), &out.f);
     [x[1], qdd[0], x[3], qdd[1]]
 }

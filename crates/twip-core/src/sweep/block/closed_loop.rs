@@ -69,6 +69,12 @@ pub(super) trait Plant {
     /// and whether each lane's command is beyond its driver (`Observer::drive`); ideal plants
     /// get `u`, and do not.
     fn step<const COPY: u8>(&mut self, k: usize, u: &U<Self::Shape>, dt: f64, drive: impl FnOnce(&U<Self::Shape>, &[bool; LANES])) -> X<Self::Shape>;
+    /// [`Self::step`], knowing which lanes are `live` (only their new states count).
+    #[inline(always)]
+    fn step_live<const COPY: u8>(&mut self, k: usize, u: &U<Self::Shape>, dt: f64, live: &[bool; LANES], drive: impl FnOnce(&U<Self::Shape>, &[bool; LANES])) -> X<Self::Shape> {
+        let _ = live;
+        self.step::<COPY>(k, u, dt, drive)
+    }
     /// What ends each lane at `next` under `u` besides a fall (None: nothing can).
     fn halts<const COPY: u8>(&self, next: &X<Self::Shape>, u: &U<Self::Shape>) -> Option<[Option<Halt>; LANES]>;
 }
@@ -171,7 +177,7 @@ where
     #[inline(always)]
     fn step<const COPY: u8>(&mut self, k: usize, _: f64, update: bool, live: &[bool; LANES], u: &Self::U, dt: f64) -> [Lanes; NX] {
         let Self { plant, observer } = self;
-        plant.step::<COPY>(k, u, dt, |delivered, beyond| observer.drive(live, delivered, update, beyond))
+        plant.step_live::<COPY>(k, u, dt, live, |delivered, beyond| observer.drive(live, delivered, update, beyond))
     }
 
     #[inline(always)]

@@ -21,7 +21,9 @@ use crate::model::dynamics::Halt;
 use crate::control::Reference;
 use crate::model::integrate::{rk4, Field};
 use crate::model::lane::{Fused, Lane, Wide, WIDTH};
-use crate::model::slope::{deriv, SlopeCoefficients, SlopeModel};
+use crate::model::math::{sin_cos_unreduced, UNREDUCED};
+use crate::model::slope::{deriv, deriv_at, SlopeCoefficients, SlopeModel};
+use core::cell::Cell;
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::{pitch_band, steady_pitch, Aim, DrivePeaks, SlopeSummary, Tally};
 use crate::sim::runner::SimConfig;
@@ -137,12 +139,38 @@ impl Plants {
     /// operations that the CPU overlaps. (Measured faster than RK4 on `Wide` chunks.)
     #[inline(always)]
     pub(crate) fn rk4(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
+        self.rk4_in::<false>(x, u, dt).0
+    }
+
+    /// [`Self::rk4`]'s step where every `live` lane's pitch stays within ±[`UNREDUCED`] at
+    /// every stage, else None (the caller takes `rk4`; the other lanes' steps do not
+    /// count). There sin/cos skip the reduction by π/2 and the quadrant's rotation, which
+    /// change nothing there: the same bits, and each stage's chain shorter by three
+    /// multiply-adds. A loop over lanes cannot branch per lane, so the range is checked
+    /// after the step. Measured (new/old CPU time, 6 pairs): LQR lanes 1.055x, fuzzy 1.095x
+    /// on `avx512`; 1.083x and 1.067x on `avx2`.
+    #[inline(always)]
+    pub(crate) fn rk4_unreduced(&self, x: &[Lanes; 4], u: &Lanes, dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 4]> {
+        let (out, inside) = self.rk4_in::<true>(x, u, dt);
+        let mut all = true;
+        for l in 0..LANES {
+            all &= inside[l] | !live[l];
+        }
+        all.then_some(out)
+    }
+
+    /// The step, with sin/cos unreduced or not, and whether each lane's pitch stayed within
+    /// ±[`UNREDUCED`] (unreduced; else every lane's is true).
+    #[inline(always)]
+    fn rk4_in<const UNREDUCED_SIN: bool>(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> ([Lanes; 4], [bool; LANES]) {
         const HALF: usize = LANES / 2;
         let mut out = [[0.0; LANES]; 4];
+        let mut inside = [true; LANES];
         let state = |l: usize| [Fused(x[0][l]), Fused(x[1][l]), Fused(x[2][l]), Fused(x[3][l])];
+        let plant = |l: usize| Plant::<UNREDUCED_SIN> { k: self.lane(l), u: Fused(u[l]), inside: Cell::new(true) };
         for l in 0..HALF {
             let m = l + HALF;
-            let (pa, pb) = (Plant { k: self.lane(l), u: Fused(u[l]) }, Plant { k: self.lane(m), u: Fused(u[m]) });
+            let (pa, pb) = (plant(l), plant(m));
             let (xa, xb) = (state(l), state(m));
             let next_a = rk4(&pa, &xa, &pa.at(&xa), Fused(dt));
             let next_b = rk4(&pb, &xb, &pb.at(&xb), Fused(dt));
@@ -150,21 +178,31 @@ impl Plants {
                 out[i][l] = next_a[i].0;
                 out[i][m] = next_b[i].0;
             }
+            (inside[l], inside[m]) = (pa.inside.get(), pb.inside.get());
         }
-        out
+        (out, inside)
     }
 }
 
-/// One lane's plant with its input held.
-struct Plant {
+/// One lane's plant with its input held; `UNREDUCED_SIN`: sin/cos without the reduction,
+/// noting in `inside` whether each pitch it saw allowed that.
+struct Plant<const UNREDUCED_SIN: bool> {
     k: SlopeCoefficients<Fused>,
     u: Fused,
+    inside: Cell<bool>,
 }
 
-impl Field<Fused, 4> for Plant {
+impl<const UNREDUCED_SIN: bool> Field<Fused, 4> for Plant<UNREDUCED_SIN> {
     #[inline(always)]
     fn at(&self, x: &[Fused; 4]) -> [Fused; 4] {
-        deriv(&self.k, x, self.u)
+        if !UNREDUCED_SIN {
+            return deriv(&self.k, x, self.u);
+        }
+        let phi = x[0].0;
+        // NaN is outside.
+        self.inside.set(self.inside.get() & (phi.abs() <= UNREDUCED));
+        let (s, c) = sin_cos_unreduced(phi);
+        deriv_at(&self.k, x, self.u, (Fused(s), Fused(c)))
     }
 }
 
@@ -652,6 +690,20 @@ impl closed_loop::Plant for SlopePlants<'_> {
         self.plants.rk4(self.x, u, dt)
     }
 
+    /// Unreduced sin/cos where the live lanes allow (`Plants::rk4_unreduced`), else the
+    /// step again with the reduction (rare: a pitch past ±0.78 rad; asked out of line, but
+    /// the 2-DOF kernels keep it inline, `objdump`).
+    #[inline(always)]
+    fn step_live<const COPY: u8>(&mut self, _: usize, u: &Lanes, dt: f64, live: &[bool; LANES], _: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
+        match self.plants.rk4_unreduced(self.x, u, dt, live) {
+            Some(next) => next,
+            None => out_of_line_in::<COPY, _>(
+                #[inline(always)]
+                || self.plants.rk4(self.x, u, dt),
+            ),
+        }
+    }
+
     #[inline(always)]
     fn halts<const COPY: u8>(&self, _: &[Lanes; 4], _: &Lanes) -> Option<[Option<Halt>; LANES]> {
         None
@@ -795,6 +847,33 @@ mod tests {
             }
         }
         assert_eq!(KernelCopy::active(), widest);
+    }
+
+    /// The unreduced step is `rk4`'s bits where the live lanes' pitches allow it, and
+    /// refused where a live lane's does not (a dead lane's does not count).
+    #[test]
+    fn unreduced_step_is_the_same_bits_or_refused() {
+        let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|l| {
+            let mut params = RobotParams::balanbot();
+            params.com_height *= 0.7 + 0.04 * l as f64;
+            SlopeModel::new(params, 0.05).unwrap()
+        });
+        let plants = Plants::new(&models.map(|m| m.coefficients()));
+        let u: Lanes = core::array::from_fn(|l| 0.3 * l as f64 - 2.0);
+        let state = |pitch: f64| -> [Lanes; 4] {
+            [core::array::from_fn(|l| if l == 0 { pitch } else { 0.05 * l as f64 - 0.4 }), [0.5; LANES], [0.0; LANES], [1.0; LANES]]
+        };
+        let bits = |x: &[Lanes; 4]| x.map(|v| v.map(f64::to_bits));
+        let live = [true; LANES];
+        let x = state(-0.77);
+        assert_eq!(plants.rk4_unreduced(&x, &u, 1e-3, &live).map(|n| bits(&n)), Some(bits(&plants.rk4(&x, &u, 1e-3))));
+        // Lane 0 at -0.9 rad: refused while it is live.
+        let x = state(-0.9);
+        assert!(plants.rk4_unreduced(&x, &u, 1e-3, &live).is_none());
+        let mut others = live;
+        others[0] = false;
+        let next = plants.rk4_unreduced(&x, &u, 1e-3, &others).expect("lane 0 dead");
+        assert_eq!(bits(&next)[..].iter().map(|v| &v[1..]).collect::<Vec<_>>(), bits(&plants.rk4(&x, &u, 1e-3))[..].iter().map(|v| &v[1..]).collect::<Vec<_>>());
     }
 
     #[test]
