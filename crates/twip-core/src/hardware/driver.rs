@@ -429,9 +429,6 @@ pub struct Driven<T, P> {
     winding: Winding<T>,
     /// 2 ε: lumped current per motor ampere.
     lumped_per_amp: T,
-    /// The motors' speed relative to the body while their gear trains are open (backlash;
-    /// None: the wheels' β̇).
-    open_rotor: Option<T>,
 }
 
 impl<T: Real, P> Driven<T, P> {
@@ -441,7 +438,6 @@ impl<T: Real, P> Driven<T, P> {
             plant,
             winding: Winding::new(driver, params)?,
             lumped_per_amp: c::<T>(MOTORS) * driver.efficiency,
-            open_rotor: None,
         })
     }
 
@@ -462,22 +458,11 @@ impl<T: Real, P> Driven<T, P> {
         self.winding.inductive()
     }
 
-    /// The winding, and the lumped current per motor ampere (2 ε).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn winding(&self) -> (&Winding<T>, T) {
-        (&self.winding, self.lumped_per_amp)
-    }
-
-    /// The motors now turn at `speed` relative to the body (an open gear train's rotor),
-    /// or with the wheels (None).
-    pub fn turn_motors_at(&mut self, speed: Option<T>) {
-        self.open_rotor = speed;
-    }
-
-    /// The motors' speed relative to the body at state `x`.
+    /// The motors' speed relative to the body at state `x` (the wheels': no gear play, as
+    /// the rig's plant has it, `RealPlant`).
     #[inline(always)]
     pub(crate) fn motor_speed(&self, x: &Vector4<T>) -> T {
-        self.open_rotor.unwrap_or(x[3] - x[1])
+        x[3] - x[1]
     }
 
     /// Current per motor now [A]: the state when inductive, else algebraic.

@@ -362,7 +362,7 @@ mod tests {
     #[test]
     fn an_inductive_segment_is_the_simulators_plant_bit_for_bit() {
         use crate::hardware::driver::MotorDriver;
-        use crate::hardware::realism::{RealPlant, Realism, RigPlant};
+        use crate::hardware::realism::{Realism, RigPlant};
         use crate::sim::runner::Plant;
         let model = SlopeModel::new(RobotParams::balanbot(), 0.1).unwrap();
         let driver = MotorDriver::thesis_like();
@@ -382,9 +382,7 @@ mod tests {
             for (k, range) in [(0, 0..25), (1, 25..n)] {
                 let mut plant = Realism { motor: Some(driver), ..Realism::ideal() }.build(&model, dt).unwrap().plant;
                 let mut x = starts[k];
-                if let RealPlant::Driven(p) = &mut plant {
-                    p.settle(&x, u[range.start.saturating_sub(1)]);
-                }
+                plant.settle(&x, &SVector::<f64, 1>::new(u[range.start.saturating_sub(1)]));
                 for i in range {
                     let uu = SVector::<f64, 1>::new(u[i]);
                     for step in 0..every {
@@ -439,8 +437,8 @@ mod tests {
             truth.push(x);
             let shaft = plant.shaft_offsets()[0];
             let k1 = plant.between_steps_with_derivative(t[i], dt, &mut x, &uu).unwrap_or_else(|| plant.deriv(&x, &uu));
-            open += usize::from(!plant.ground().engaged());
-            plant_events.push(plant.ground().gear_events().unwrap());
+            open += usize::from(!plant.engaged());
+            plant_events.push(plant.play().unwrap().events()[0]);
             rates.push(k1);
             sensed.push([shaft, x[1]]);
             x = rk4_step_from_k1(&plant, &x, &uu, dt, &k1);
