@@ -368,11 +368,12 @@ impl<T: Real> RigGround<T, 4, 1> for Slopes<T> {
     }
 
     #[inline(always)]
-    fn deriv(&self, x: &Vector4<T>, u: &SVector<T, 1>, force: Option<&Force<T>>) -> Vector4<T> {
+    fn deriv(&self, x: &Vector4<T>, u: &SVector<T, 1>, engaged: Option<[bool; 1]>, force: Option<&Force<T>>) -> Vector4<T> {
         let piece = self.piece(x);
-        match force {
-            Some(f) => piece.deriv_with_force(x, u[0], f),
-            None => piece.model.deriv(x, u),
+        match (engaged, force) {
+            (Some([engaged]), _) => piece.deriv_geared(x, u[0], engaged, force).0,
+            (None, Some(f)) => piece.deriv_with_force(x, u[0], f),
+            (None, None) => piece.model.deriv(x, u),
         }
     }
 

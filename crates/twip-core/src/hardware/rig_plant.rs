@@ -35,9 +35,9 @@ pub trait RigGround<T: Real, const NX: usize, const N: usize> {
     /// Each train's wheel speed relative to the body [rad/s].
     fn wheel_speeds(&self, x: &SVector<T, NX>) -> [T; N];
 
-    /// The derivative under the input `u` with every train engaged and no play, with
-    /// `force` on the body (None: none).
-    fn deriv(&self, x: &SVector<T, NX>, u: &SVector<T, N>, force: Option<&Force<T>>) -> SVector<T, NX>;
+    /// The derivative under the input `u` with the trains not `engaged` open (None: no
+    /// play, every train engaged), with `force` on the body (None: none).
+    fn deriv(&self, x: &SVector<T, NX>, u: &SVector<T, N>, engaged: Option<[bool; N]>, force: Option<&Force<T>>) -> SVector<T, NX>;
 
     /// The derivative under `u` with the trains not `engaged` open, and each train's
     /// gearhead friction torque.
@@ -105,7 +105,8 @@ pub struct RealPlant<T: Real, G, const NX: usize, const N: usize> {
     /// Each gear train's play and rotor (backlash).
     play: Option<GearPlay<T, N>>,
     /// The motors' speeds relative to the body while their trains are open, as of the last
-    /// change of the trains (None: with their wheels, as before the first step).
+    /// [`Self::turn_motors`] (None: with their wheels, as the 2-DOF rig's before the first
+    /// step; the 3-DOF rig's start as the trains say, [`Self::motors_as_trains`]).
     open: [Option<T>; N],
 }
 
@@ -144,6 +145,8 @@ impl<T: Real, G, const NX: usize, const N: usize> RealPlant<T, G, NX, N> {
         self.play.as_ref()
     }
 
+    /// The gear trains to set (a shooting segment's start): the motors follow them at the
+    /// next step's start or [`Self::settle`].
     pub fn play_mut(&mut self) -> Option<&mut GearPlay<T, N>> {
         self.play.as_mut()
     }
@@ -179,12 +182,21 @@ impl<T: Real, G, const NX: usize, const N: usize> RealPlant<T, G, NX, N> {
         self.drives.map(|d| (d.windings, d.per_amp))
     }
 
-    /// The motors now turn as the trains say: an open train's at its rotor's speed.
+    /// The motors now turn as the trains say: an open train's at its rotor's speed. A step's
+    /// start and end turn them (`between_steps`); a sweep's lanes, which take the trains'
+    /// next step themselves (`gear_next_with`), turn them after it.
     #[inline(always)]
     pub(crate) fn turn_motors(&mut self) {
         if let Some(play) = &self.play {
             self.open = play.open_rotors();
         }
+    }
+
+    /// The same plant with its motors turning as the trains say before the first step (open
+    /// trains: at their rotors' speed, at rest until the first step), not with the wheels.
+    pub(crate) fn motors_as_trains(mut self) -> Self {
+        self.turn_motors();
+        self
     }
 }
 
@@ -209,7 +221,6 @@ impl<T: Real, G: RigGround<T, NX, N>, const NX: usize, const N: usize> RealPlant
             None => None,
             Some(d) => Some(Drives { windings: [Winding::new(d, params)?; N], per_amp: self.ground.input_per_amp(d, params) }),
         };
-        self.open = [None; N];
         Ok(self)
     }
 
@@ -364,10 +375,7 @@ impl<T: Real, G: RigGround<T, NX, N>, const NX: usize, const N: usize> RealPlant
         let engaged = play.engaged();
         let contact = self.ground.contact(x, d, input, friction, play.inertia());
         play.next_step(self.ground.wheel_speeds(x), contact, self.ground.motor_torques(mean));
-        let stayed = play.engaged() == engaged;
-        // The motors of trains that just opened turn with their rotors.
-        self.turn_motors();
-        stayed
+        play.engaged() == engaged
     }
 }
 
@@ -385,10 +393,7 @@ impl<T: Real, G: RigGround<T, NX, N>, const NX: usize, const N: usize> Dynamics<
     #[inline(always)]
     fn deriv_at_stage(&self, x: &SVector<T, NX>, u: &SVector<T, N>, stage: Stage) -> SVector<T, NX> {
         let input = self.inputs_at(x, u, stage);
-        match &self.play {
-            Some(play) => self.ground.deriv_geared(x, &input, play.engaged(), self.force_on()).0,
-            None => self.ground.deriv(x, &input, self.force_on()),
-        }
+        self.ground.deriv(x, &input, self.play.as_ref().map(|p| p.engaged()), self.force_on())
     }
 
     fn energy(&self, x: &SVector<T, NX>) -> T {
@@ -412,12 +417,14 @@ impl<T: Real, G: RigGround<T, NX, N>, const NX: usize, const N: usize> Plant<T, 
     }
 
     /// The derivative the gear trains weighed, when they stay as they were: the motors
-    /// then turn as they did when it was evaluated, and the input is the one `deriv`
-    /// computes.
+    /// then turn as they did when it was evaluated (`turn_motors` changes nothing), and the
+    /// input is the one `deriv` computes.
     #[inline]
     fn between_steps_with_derivative(&mut self, t: T, dt: T, x: &mut SVector<T, NX>, u: &SVector<T, N>) -> Option<SVector<T, NX>> {
         let input = self.step_start(t, dt, x, u);
-        self.gear_next(x, u, &input)
+        let first = self.gear_next(x, u, &input);
+        self.turn_motors();
+        first
     }
 
     /// The windings' currents are carried to the step's end.

@@ -837,6 +837,8 @@ impl PlanarRigLanes {
                 if !rig.plant.gear_next_with(&xl, &motor, &mean, &lane(&k1, l), [tau[0][l], tau[1][l]]) {
                     trains[l] = rig.plant.trains();
                 }
+                // The motors turn as the trains now say (as a run's `between_steps` ends).
+                rig.plant.turn_motors();
             }
             rig.sensors.follow_wheels(ts[l], &xl);
         }
