@@ -266,7 +266,7 @@ impl<T: Real, G: RigGround<T, NX, N>, const NX: usize, const N: usize> RealPlant
     }
 
     /// Each winding's current now [A] (the state when inductive, else algebraic).
-    #[inline]
+    #[inline(always)]
     fn winding_currents(&self, d: &Drives<T, N>, x: &SVector<T, NX>, u: &SVector<T, N>) -> SVector<T, N> {
         let speeds = self.motor_speeds(x);
         SVector::from(core::array::from_fn(|i| d.windings[i].current(u[i], speeds[i])))
@@ -452,7 +452,9 @@ impl<T: Real, G: RigGround<T, NX, N>, const NX: usize, const N: usize> RigPlant<
     }
 
     /// The input the windings' currents give (the input applied, without a driver).
-    #[inline]
+    // Always inlined: a sweep's 2-DOF lanes without inductance ask it of every lane every
+    // step; out of line (as `#[inline]` left it), those sweeps ran 1.09x slower.
+    #[inline(always)]
     fn delivered(&self, x: &SVector<T, NX>, u: &SVector<T, N>) -> SVector<T, N> {
         match &self.drives {
             None => *u,
