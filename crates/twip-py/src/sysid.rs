@@ -3,10 +3,9 @@
 use nalgebra::Vector4;
 use numpy::{IntoPyArray, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use twip_core::hardware::driver::Driven;
 use twip_core::sysid::parallel::run_all;
 use twip_core::hardware::backlash::{Backlash, GearEvent, PlayState};
-use twip_core::sysid::geared::geared;
+use twip_core::sysid::geared::rig_plant;
 use twip_core::sysid::{Outputs, Shooting};
 use twip_core::{SlopeModel, TwipError};
 
@@ -77,25 +76,17 @@ pub fn sysid_shoot<'py>(
     }
     let drivers: Option<Vec<_>> = drivers.map(|d| d.iter().map(|d| d.inner).collect());
     match (backlash, drivers) {
-        (Some(gap), drivers) => {
-            let play = Backlash { gap }.validate().map_err(PyTwipError)?;
-            let geared = plants
+        (None, None) => py.detach(|| run_all(&shooting, &plants, &starts, &mut out)),
+        // The rig's plant: the driver, the play, or both.
+        (backlash, drivers) => {
+            let play = backlash.map(|gap| Backlash { gap }.validate()).transpose().map_err(PyTwipError)?;
+            let rigs = plants
                 .iter()
                 .enumerate()
-                .map(|(i, p)| geared(p, drivers.as_ref().map(|d| &d[i]), play))
+                .map(|(i, p)| rig_plant(p, drivers.as_ref().map(|d| &d[i]), play))
                 .collect::<Result<Vec<_>, _>>()
                 .map_err(PyTwipError)?;
-            py.detach(|| run_all(&shooting, &geared, &starts, &mut out))
-        }
-        (None, None) => py.detach(|| run_all(&shooting, &plants, &starts, &mut out)),
-        (None, Some(drivers)) => {
-            let driven = plants
-                .iter()
-                .zip(&drivers)
-                .map(|(p, d)| Driven::new(*p, d, p.params()))
-                .collect::<Result<Vec<_>, _>>()
-                .map_err(PyTwipError)?;
-            py.detach(|| run_all(&shooting, &driven, &starts, &mut out))
+            py.detach(|| run_all(&shooting, &rigs, &starts, &mut out))
         }
     }
     .map_err(PyTwipError)?;

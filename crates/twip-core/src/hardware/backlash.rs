@@ -178,6 +178,12 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
         core::array::from_fn(|i| if self.flank[i] == 0 { self.rotor[i] } else { wheel[i] })
     }
 
+    /// Each open train's rotor speed (None: engaged, the motor turns with its wheel).
+    #[inline(always)]
+    pub fn open_rotors(&self) -> [Option<T>; N] {
+        core::array::from_fn(|i| (self.flank[i] == 0).then_some(self.rotor[i]))
+    }
+
     /// The step of `dt` under way has ended at wheel speeds `after`: the open rotors
     /// advance under the motors' torques over it and the gearhead `friction` (the
     /// model's, per train). Returns, for each train whose rotor
@@ -483,14 +489,14 @@ mod tests {
             step(&mut rig.plant, &mut x, &SVector::from([0.02, 0.02]), t, dt);
             t += dt;
         }
-        let play = rig.plant_play().unwrap();
+        let play = rig.plant.play().unwrap();
         assert_eq!(play.engaged(), [true, true]);
         let mut open_steps = 0;
         let mut opened = false;
         for _ in 0..20000 {
             step(&mut rig.plant, &mut x, &SVector::from([-0.02, -0.02]), t, dt);
             t += dt;
-            let engaged = rig.plant_play().unwrap().engaged();
+            let engaged = rig.plant.play().unwrap().engaged();
             if engaged == [false, false] {
                 opened = true;
                 open_steps += 1;
@@ -501,7 +507,7 @@ mod tests {
         let crossing = open_steps as f64 * dt;
         std::println!("the rotors cross the whole play back in {crossing:.4} s");
         assert!(opened && crossing > 0.05 && crossing < 1.0, "{crossing}");
-        assert_eq!(rig.plant_play().unwrap().offsets()[0], -Backlash::<f64>::gb37().gap / 2.0);
+        assert_eq!(rig.plant.play().unwrap().offsets()[0], -Backlash::<f64>::gb37().gap / 2.0);
     }
 
     #[test]

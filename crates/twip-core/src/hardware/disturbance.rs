@@ -15,7 +15,8 @@
 //! crossing a change keeps (φ̇, θ̇) (the crease's own impact is neglected).
 use nalgebra::{SVector, Vector2, Vector4};
 
-use crate::hardware::backlash::{heun, Backlash, GearEvent, GearPlay, PlayState};
+use crate::hardware::driver::{MotorDriver, MOTORS};
+use crate::hardware::rig_plant::{RealPlant, RigGround};
 use crate::model::friction::Friction;
 use crate::model::lane::Lane;
 use crate::model::slope::SlopeCoefficients;
@@ -277,86 +278,48 @@ impl<T: Real> Piece<T> {
         Some(Vector2::new(force.on_pitch(sin_phi, cos_phi), self.q_theta))
     }
 
-    /// `SlopeModel::deriv_geared` with the force (if `has_force`).
+    /// `SlopeModel::deriv_geared` with the force (None: none).
     #[inline(always)]
-    fn deriv_geared(&self, x: &Vector4<T>, u: T, engaged: bool, force: &Force<T>, has_force: bool) -> (Vector4<T>, T) {
-        self.model.deriv_geared(x, u, engaged, |s, cp| if has_force { self.force_at(force, s, cp) } else { None })
+    fn deriv_geared(&self, x: &Vector4<T>, u: T, engaged: bool, force: Option<&Force<T>>) -> (Vector4<T>, T) {
+        self.model.deriv_geared(x, u, engaged, |s, cp| force.and_then(|f| self.force_at(f, s, cp)))
     }
 }
 
-/// The 2-DOF model with a slope profile, a constant force on the body and pushes.
-/// Input: the lumped current, as `SlopeModel`.
+/// The 2-DOF model on a slope profile: one model per slope, each with the constant part of
+/// the force on the body. The ground of the 2-DOF rig's plant, [`SlopePlant`].
 #[derive(Clone, Copy, Debug)]
-pub struct Disturbed<T: Real> {
+pub struct Slopes<T: Real> {
     /// One piece per slope of the profile.
     pieces: [Piece<T>; MAX_SLOPE_CHANGES + 1],
     profile: SlopeProfile<T>,
     radius: T,
-    force: Force<T>,
-    has_force: bool,
-    pushes: Pushes<T>,
-    /// Both gear trains' play and rotors, lumped (backlash).
-    play: Option<GearPlay<T, 1>>,
 }
 
-impl<T: Real> Disturbed<T> {
-    pub fn new(params: RobotParams<T>, profile: SlopeProfile<T>, force: Force<T>, pushes: Pushes<T>) -> Result<Self, TwipError> {
-        let force = force.validate()?;
-        let base = Piece::new(SlopeModel::new(params, profile.base())?, &force);
+impl<T: Real> Slopes<T> {
+    pub fn new(params: RobotParams<T>, profile: SlopeProfile<T>, force: &Force<T>) -> Result<Self, TwipError> {
+        let base = Piece::new(SlopeModel::new(params, profile.base())?, force);
         let mut pieces = [base; MAX_SLOPE_CHANGES + 1];
         for (i, (_, slope)) in profile.changes().enumerate() {
-            pieces[i + 1] = Piece::new(SlopeModel::new(params, slope)?, &force);
+            pieces[i + 1] = Piece::new(SlopeModel::new(params, slope)?, force);
         }
-        Ok(Self { pieces, profile, radius: params.wheel_radius, has_force: !force.is_zero(), force, pushes, play: None })
+        Ok(Self { pieces, profile, radius: params.wheel_radius })
     }
 
-    /// The same plant with `backlash` in both gear trains (None or no gap: none); the open
-    /// rotors take the model's gearhead friction.
-    pub fn with_backlash(mut self, backlash: Option<Backlash<T>>) -> Result<Self, TwipError> {
-        self.play = match backlash {
-            Some(b) if b.validate()?.gap > T::zero() => {
-                let model = &self.pieces[0].model;
-                Some(GearPlay::new(&b, model.rotor_inertia(), c(2.0))?)
-            }
-            _ => None,
-        };
+    /// Nothing but `model`: the same numbers as `model` itself.
+    pub fn plain(model: &SlopeModel<T>) -> Self {
+        Self {
+            pieces: [Piece::new(*model, &Force::none()); MAX_SLOPE_CHANGES + 1],
+            profile: SlopeProfile::constant(model.slope()),
+            radius: model.params().wheel_radius,
+        }
+    }
+
+    /// The same ground with gearhead friction on every piece (validated).
+    pub fn with_friction(mut self, friction: Option<Friction<T>>) -> Result<Self, TwipError> {
+        for piece in self.pieces.iter_mut() {
+            piece.model = piece.model.with_friction(friction)?;
+        }
         Ok(self)
-    }
-
-    /// The motor shafts' angle minus the wheels' [rad at the wheel] (0 without backlash).
-    #[inline(always)]
-    pub fn shaft_offset(&self) -> T {
-        self.play.as_ref().map_or(T::zero(), |p| p.offsets()[0])
-    }
-
-    /// The gear trains' state between steps (None without backlash).
-    pub fn play_state(&self) -> Option<PlayState<T, 1>> {
-        self.play.as_ref().map(|p| p.state())
-    }
-
-    /// The gear trains in `state` (no-op without backlash).
-    pub fn set_play_state(&mut self, state: &PlayState<T, 1>) {
-        if let Some(p) = self.play.as_mut() {
-            p.set_state(state);
-        }
-    }
-
-    /// The next step's gear events imposed ([`GearPlay::script`]; no-op without backlash).
-    pub fn script_gears(&mut self, events: Option<GearEvent>) {
-        if let Some(p) = self.play.as_mut() {
-            p.script(events.map(|e| [e]));
-        }
-    }
-
-    /// What the last step's start did to the gear trains (None without backlash).
-    pub fn gear_events(&self) -> Option<GearEvent> {
-        self.play.as_ref().map(|p| p.events()[0])
-    }
-
-    /// The constant force on the body (zero components: none).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn force(&self) -> Force<T> {
-        self.force
     }
 
     /// Where the ground's slope changes along the path [m] (`SlopeProfile::changes`).
@@ -370,118 +333,6 @@ impl<T: Real> Disturbed<T> {
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
     pub(crate) fn piece_terms(&self, i: usize) -> (SlopeCoefficients<T>, T) {
         (self.pieces[i].model.coefficients(), self.pieces[i].q_theta)
-    }
-
-    /// Whether the gear trains have play (backlash).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn has_play(&self) -> bool {
-        self.play.is_some()
-    }
-
-    /// Whether nothing acts on the plant between steps: no play (no rotor moves apart from
-    /// its wheel, so `gear_elapsed` and `open_rotor_speed` change nothing) and no pushes
-    /// (`kick` changes nothing).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn idle_between_steps(&self) -> bool {
-        self.play.is_none() && self.unpushed()
-    }
-
-    /// Whether no push ever acts (`kick` changes nothing). With the trains engaged as well,
-    /// nothing acts between steps: an engaged train's rotor turns with its wheel
-    /// (`gear_elapsed` and `open_rotor_speed` change nothing).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn unpushed(&self) -> bool {
-        self.pushes.as_slice().is_empty()
-    }
-
-    /// Whether the gear trains are engaged (always, without backlash).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn engaged(&self) -> bool {
-        self.play.as_ref().is_none_or(|p| p.engaged()[0])
-    }
-
-    /// The motors' speed relative to the body when their gear trains are open (None:
-    /// engaged, or no backlash): the rotors'.
-    pub fn open_rotor_speed(&self, x: &Vector4<T>) -> Option<T> {
-        let play = self.play.as_ref()?;
-        (!play.engaged()[0]).then(|| play.motor_speeds([x[3] - x[1]])[0])
-    }
-
-    /// The step under way has ended at `x`: the open rotors advance; reaching a flank
-    /// they engage in a plastic impact (φ̇ and θ̇ in `x` jump), located within the step
-    /// ([`Hit::late`](crate::hardware::backlash::Hit::late)).
-    #[inline(always)]
-    pub fn gear_elapsed(&mut self, dt: T, x: &mut Vector4<T>) {
-        // By reference: a copy of the model or the play costs a sweep's lanes. Every piece
-        // is the same robot with the same friction: the piece under it (`model_at`) matters
-        // only for an impact, whose response depends on the slope.
-        let friction = self.pieces[0].model.friction();
-        let Some(play) = self.play.as_mut() else { return };
-        let Some(hit) = play.elapsed(dt, [x[3] - x[1]], friction)[0] else { return };
-        let current = play.motors()[0] / self.pieces[0].model.params().torque_per_amp();
-        let speed = self.impact_at_its_time(x, hit.rotor, hit.late, current);
-        if let Some(play) = self.play.as_mut() {
-            play.engage(0, speed);
-        }
-    }
-
-    /// The impact of the rotors at `rotor` [rad/s] `late` [s] before the step's end at
-    /// `x`, under the step's lumped `current`: `x` taken back by `late` along the open
-    /// motion, the impact, and forward along the engaged motion (`heun`, both ways).
-    /// Returns the speed rotor and wheel share at the step's end.
-    #[cold]
-    #[inline(never)]
-    fn impact_at_its_time(&self, x: &mut Vector4<T>, rotor: T, late: T, current: T) -> T {
-        let motion = |engaged: bool| move |x: &Vector4<T>| self.piece(x).deriv_geared(x, current, engaged, &self.force, self.has_force).0;
-        *x = heun(x, -late, motion(false));
-        self.model_at(x).engage(x, rotor);
-        *x = heun(x, late, motion(true));
-        x[3] - x[1]
-    }
-
-    /// A step starts at `x` under the lumped `current`: engaged trains whose contact
-    /// torque would pull the flanks apart open, and the motors' torque over the step is
-    /// noted (that of the lumped current `mean`, the current's mean over the step at the
-    /// motors' speed). Returns the derivative the trains weighed when they stay as they
-    /// were (then it is this plant's `deriv` at `x` under `current`); None without backlash.
-    pub fn gear_next(&mut self, x: &Vector4<T>, current: T, mean: T) -> Option<Vector4<T>> {
-        let engaged = self.play?.engaged();
-        let (d, friction) = self.piece(x).deriv_geared(x, current, engaged[0], &self.force, self.has_force);
-        self.gear_next_with(x, current, mean, &d, friction);
-        (self.play?.engaged() == engaged).then_some(d)
-    }
-
-    /// [`Self::gear_next`] given the derivative `d` and the gearhead torque per wheel
-    /// `friction` at `x` under `current` with the trains as they are (`deriv_geared`'s): a
-    /// sweep's lanes compute those for all of them at once.
-    #[inline(always)]
-    pub(crate) fn gear_next_with(&mut self, x: &Vector4<T>, current: T, mean: T, d: &Vector4<T>, friction: T) {
-        // Every piece is the same robot's (only the slope differs).
-        let per_amp = self.pieces[0].model.params().torque_per_amp();
-        let Some(play) = self.play.as_mut() else { return };
-        let contact = per_amp * current - c::<T>(2.0) * friction - play.inertia() * (d[3] - d[1]);
-        play.next_step([x[3] - x[1]], [contact], [per_amp * mean]);
-    }
-
-    /// The same plant with gearhead friction on every piece of the ground (validated).
-    pub fn with_friction(mut self, friction: Option<Friction<T>>) -> Result<Self, TwipError> {
-        for piece in self.pieces.iter_mut() {
-            piece.model = piece.model.with_friction(friction)?;
-        }
-        Ok(self)
-    }
-
-    /// Nothing but `model`: the same numbers as `model` itself.
-    pub fn plain(model: &SlopeModel<T>) -> Self {
-        Self {
-            pieces: [Piece::new(*model, &Force::none()); MAX_SLOPE_CHANGES + 1],
-            profile: SlopeProfile::constant(model.slope()),
-            radius: model.params().wheel_radius,
-            force: Force::none(),
-            has_force: false,
-            pushes: Pushes::none(),
-            play: None,
-        }
     }
 
     #[inline(always)]
@@ -501,42 +352,133 @@ impl<T: Real> Disturbed<T> {
         &self.piece(x).model
     }
 
-    /// Applies the pushes due at the sample `t` (step `dt`) to the velocities in `x`.
-    #[inline]
-    pub fn kick(&mut self, t: T, dt: T, x: &mut Vector4<T>) {
-        while let Some(p) = self.pushes.due(t, dt) {
-            self.push(&p, x);
+    /// The lumped current's wheel torque per ampere (every piece is the same robot's).
+    #[inline(always)]
+    fn torque_per_amp(&self) -> T {
+        self.pieces[0].model.params().torque_per_amp()
+    }
+}
+
+impl<T: Real> RigGround<T, 4, 1> for Slopes<T> {
+    const PITCH: usize = 0;
+
+    #[inline(always)]
+    fn wheel_speeds(&self, x: &Vector4<T>) -> [T; 1] {
+        [x[3] - x[1]]
+    }
+
+    #[inline(always)]
+    fn deriv(&self, x: &Vector4<T>, u: &SVector<T, 1>, engaged: Option<[bool; 1]>, force: Option<&Force<T>>) -> Vector4<T> {
+        let piece = self.piece(x);
+        match (engaged, force) {
+            (Some([engaged]), _) => piece.deriv_geared(x, u[0], engaged, force).0,
+            (None, Some(f)) => piece.deriv_with_force(x, u[0], f),
+            (None, None) => piece.model.deriv(x, u),
         }
+    }
+
+    #[inline(always)]
+    fn deriv_geared(&self, x: &Vector4<T>, u: &SVector<T, 1>, engaged: [bool; 1], force: Option<&Force<T>>) -> (Vector4<T>, [T; 1]) {
+        let (d, friction) = self.piece(x).deriv_geared(x, u[0], engaged[0], force);
+        (d, [friction])
+    }
+
+    /// τ_i u − 2 τ_f − J β̈ for the lumped pair (the friction is per wheel).
+    #[inline(always)]
+    fn contact(&self, _: &Vector4<T>, d: &Vector4<T>, u: &SVector<T, 1>, friction: [T; 1], j: T) -> [T; 1] {
+        [self.torque_per_amp() * u[0] - c::<T>(2.0) * friction[0] - j * (d[3] - d[1])]
+    }
+
+    #[inline(always)]
+    fn motor_torques(&self, u: &SVector<T, 1>) -> [T; 1] {
+        [self.torque_per_amp() * u[0]]
+    }
+
+    #[inline(always)]
+    fn input_of(&self, torques: [T; 1]) -> SVector<T, 1> {
+        SVector::<T, 1>::new(torques[0] / self.torque_per_amp())
+    }
+
+    #[inline(always)]
+    fn impact(&self, x: &mut Vector4<T>, _: usize, rotor_speed: T, _: [bool; 1]) {
+        self.model_at(x).engage(x, rotor_speed);
     }
 
     // Rare, and kept out of line: inlined, its sin/cos got hoisted into every step.
     #[cold]
     #[inline(never)]
-    fn push(&self, p: &Push<T>, x: &mut Vector4<T>) {
+    fn push(&self, x: &mut Vector4<T>, p: &Push<T>) {
         let dv = impulse_response(self.model_at(x), x, p.impulse, p.height);
         x[1] += dv[0];
         x[3] += dv[1];
     }
-}
 
-impl<T: Real> Dynamics<T, 4, 1> for Disturbed<T> {
-    // Always inlined: out of line, RK4 reloads the model's constants every stage.
+    /// Every piece is the same robot with the same friction.
     #[inline(always)]
-    fn deriv(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> Vector4<T> {
-        let piece = self.piece(x);
-        if let Some(play) = &self.play {
-            return piece.deriv_geared(x, u[0], play.engaged()[0], &self.force, self.has_force).0;
-        }
-        if self.has_force {
-            piece.deriv_with_force(x, u[0], &self.force)
-        } else {
-            piece.model.deriv(x, u)
-        }
+    fn friction(&self) -> Option<&Friction<T>> {
+        self.pieces[0].model.friction()
+    }
+
+    /// The lumped pair's rotors, two trains.
+    fn rotors(&self) -> (T, T) {
+        (self.pieces[0].model.rotor_inertia(), c(2.0))
+    }
+
+    /// 2 ε: both motors' current, lumped.
+    fn input_per_amp(&self, driver: &MotorDriver<T>, _: &RobotParams<T>) -> T {
+        c::<T>(MOTORS) * driver.efficiency
+    }
+
+    /// The lumped current (the input's units).
+    #[inline(always)]
+    fn logged_currents(&self, u: &SVector<T, 1>, windings: Option<(SVector<T, 1>, T)>) -> SVector<T, 1> {
+        windings.map_or(*u, |(amps, per_amp)| amps * per_amp)
+    }
+
+    /// The lumped pair's offset, for each wheel.
+    #[inline(always)]
+    fn shafts([offset]: [T; 1]) -> [T; 2] {
+        [offset, offset]
     }
 
     /// Energy of the piece under the robot (the profile's height is not tracked).
     fn energy(&self, x: &Vector4<T>) -> T {
         self.model_at(x).energy(x)
+    }
+}
+
+/// The 2-DOF rig's plant: the slope model on its profile with the rig's parts
+/// ([`RealPlant`]). Input: the lumped current, as `SlopeModel`, or the duty with a driver.
+pub type SlopePlant<T> = RealPlant<T, Slopes<T>, 4, 1>;
+
+impl<T: Real> SlopePlant<T> {
+    /// The 2-DOF model on `profile` with the constant `force` on the body and `pushes`.
+    pub fn disturbed(params: RobotParams<T>, profile: SlopeProfile<T>, force: Force<T>, pushes: Pushes<T>) -> Result<Self, TwipError> {
+        let force = force.validate()?;
+        Self::new(Slopes::new(params, profile, &force)?, force, pushes)
+    }
+
+    /// Nothing but `model`: the same numbers as `model` itself.
+    pub fn plain(model: &SlopeModel<T>) -> Self {
+        Self::new(Slopes::plain(model), Force::none(), Pushes::none()).expect("no force is a valid force")
+    }
+
+    /// The same plant with gearhead friction on every piece of the ground (validated).
+    pub fn with_friction(self, friction: Option<Friction<T>>) -> Result<Self, TwipError> {
+        let ground = self.ground().with_friction(friction)?;
+        Ok(self.with_ground(ground))
+    }
+
+    /// The model of the ground under the robot at state `x`.
+    #[inline]
+    pub fn model_at(&self, x: &Vector4<T>) -> &SlopeModel<T> {
+        self.ground().model_at(x)
+    }
+
+    /// Applies the pushes due at the sample `t` (step `dt`) to the velocities in `x`.
+    #[cfg(test)]
+    pub(crate) fn kick(&mut self, t: T, dt: T, x: &mut Vector4<T>) {
+        self.ground_start(t, dt, x);
     }
 }
 
@@ -556,7 +498,7 @@ mod tests {
         let x0 = Vector4::new(0.05, 0.1, 0.0, 1.0);
         let (j, h, dt) = (0.05, 0.12, 1e-6);
         let force = Force { horizontal: j / dt, vertical: 0.0, height: h };
-        let pushed = Disturbed::new(*m.params(), SlopeProfile::constant(0.1), force, Pushes::none()).unwrap();
+        let pushed = SlopePlant::disturbed(*m.params(), SlopeProfile::constant(0.1), force, Pushes::none()).unwrap();
         let u = SVector::<f64, 1>::new(0.2);
         let by_force = rk4_step(&pushed, &x0, &u, dt);
         let dv = impulse_response(&m, &x0, j, h);
@@ -571,7 +513,7 @@ mod tests {
         let m = model();
         let x = Vector4::new(0.1, -0.3, 2.0, 4.0);
         let (j, h) = (0.2, 0.1);
-        let mut d = Disturbed::new(*m.params(), SlopeProfile::constant(0.1), Force::none(),
+        let mut d = SlopePlant::disturbed(*m.params(), SlopeProfile::constant(0.1), Force::none(),
                                    Pushes::new(&[Push { t: 1.0, impulse: j, height: h }]).unwrap()).unwrap();
         let mut y = x;
         d.kick(0.9, 1e-3, &mut y);
@@ -596,7 +538,7 @@ mod tests {
         assert!(SlopeProfile::new(0.0, &[(0.5, 0.2), (0.5, 0.1)]).is_err());
         assert!(SlopeProfile::<f64>::new(0.0, &[(0.5, 2.0)]).is_err());
         let params = RobotParams::balanbot();
-        let d = Disturbed::new(params, p, Force::none(), Pushes::none()).unwrap();
+        let d = SlopePlant::disturbed(params, p, Force::none(), Pushes::none()).unwrap();
         let x = Vector4::new(0.0, 0.0, 0.7 / params.wheel_radius, 0.0);
         let u = SVector::<f64, 1>::zeros();
         assert_eq!(d.deriv(&x, &u), SlopeModel::new(params, 0.2).unwrap().deriv(&x, &u));
@@ -617,7 +559,7 @@ mod tests {
     #[test]
     fn plain_is_the_model_itself() {
         let m = model();
-        let d = Disturbed::plain(&m);
+        let d = SlopePlant::plain(&m);
         let x = Vector4::new(0.2, 0.1, 3.0, -1.0);
         let u = SVector::<f64, 1>::new(0.4);
         assert_eq!(d.deriv(&x, &u), m.deriv(&x, &u));

@@ -1,7 +1,8 @@
 //! The motor drive of the 2-DOF robot (thesis chapter 2): the Arduino's 8-bit PWM, the
 //! Balance Shield's L298P bridge on three 18650 cells, two GB37Y3530 gear motors.
 //!
-//! Plant side, [`Driven`] (per motor; both motors get the same command in 2-DOF):
+//! Plant side, [`Winding`] (per motor; the rig's plant, `RealPlant`, drives its model by one
+//! per input: both motors get the same command in 2-DOF):
 //!
 //! ```text
 //! V = pwm / 255 · (V_bat − V_drop)         averaged over a PWM period, |pwm| ≤ 255
@@ -41,7 +42,7 @@ use crate::model::lane::{saturate, Lane};
 #[cfg(feature = "std")] // sweeps' lanes
 use crate::model::lane::{Fused, Wide};
 use crate::sim::runner::Actuator;
-use crate::{c, Dynamics, Real, RobotParams, TwipError};
+use crate::{c, Real, RobotParams, TwipError};
 
 /// Motors driven by one 2-DOF command (left and right, lumped).
 pub const MOTORS: f64 = 2.0;
@@ -421,128 +422,6 @@ impl<const N: usize> Winding<Wide<N>> {
     }
 }
 
-/// A 2-DOF plant driven through the bridge: its input is the PWM duty [counts].
-#[derive(Clone, Copy, Debug)]
-pub struct Driven<T, P> {
-    plant: P,
-    /// Both motors: they get the same duty and turn at the same relative speed.
-    winding: Winding<T>,
-    /// 2 ε: lumped current per motor ampere.
-    lumped_per_amp: T,
-    /// The motors' speed relative to the body while their gear trains are open (backlash;
-    /// None: the wheels' β̇).
-    open_rotor: Option<T>,
-}
-
-impl<T: Real, P> Driven<T, P> {
-    /// `plant` driven by `driver`; `params` gives the torque constant and gear ratio.
-    pub fn new(plant: P, driver: &MotorDriver<T>, params: &RobotParams<T>) -> Result<Self, TwipError> {
-        Ok(Self {
-            plant,
-            winding: Winding::new(driver, params)?,
-            lumped_per_amp: c::<T>(MOTORS) * driver.efficiency,
-            open_rotor: None,
-        })
-    }
-
-    pub fn plant_mut(&mut self) -> &mut P {
-        &mut self.plant
-    }
-
-    pub fn plant(&self) -> &P {
-        &self.plant
-    }
-
-    pub fn motor(&self) -> &DcMotor<T> {
-        self.winding.motor()
-    }
-
-    /// Whether the winding's inductance is modelled.
-    pub fn inductive(&self) -> bool {
-        self.winding.inductive()
-    }
-
-    /// The winding, and the lumped current per motor ampere (2 ε).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn winding(&self) -> (&Winding<T>, T) {
-        (&self.winding, self.lumped_per_amp)
-    }
-
-    /// The motors now turn at `speed` relative to the body (an open gear train's rotor),
-    /// or with the wheels (None).
-    pub fn turn_motors_at(&mut self, speed: Option<T>) {
-        self.open_rotor = speed;
-    }
-
-    /// The motors' speed relative to the body at state `x`.
-    #[inline(always)]
-    pub(crate) fn motor_speed(&self, x: &Vector4<T>) -> T {
-        self.open_rotor.unwrap_or(x[3] - x[1])
-    }
-
-    /// Current per motor now [A]: the state when inductive, else algebraic.
-    #[inline]
-    pub fn current(&self, x: &Vector4<T>, pwm: T) -> T {
-        self.winding.current(pwm, self.motor_speed(x))
-    }
-
-    /// The lumped current of `SlopeModel` now [A] (both motors, efficiency included).
-    #[inline]
-    pub fn lumped_current(&self, x: &Vector4<T>, pwm: T) -> T {
-        self.lumped_per_amp * self.current(x, pwm)
-    }
-
-    /// The lumped current the mechanics feel at an RK4 stage of the step, at state `x`
-    /// ([`Winding::current_at`]).
-    #[inline(always)]
-    pub fn lumped_current_at(&self, x: &Vector4<T>, pwm: T, stage: Stage) -> T {
-        self.lumped_per_amp * self.winding.current_at(pwm, self.motor_speed(x), stage)
-    }
-
-    /// The lumped current's mean over the step with the motors' speed held
-    /// ([`Winding::mean_current`]): what an open gear train's rotor is driven by.
-    #[inline]
-    pub fn mean_lumped_current(&self, x: &Vector4<T>, pwm: T) -> T {
-        self.lumped_per_amp * self.winding.mean_current(pwm, self.motor_speed(x))
-    }
-
-    /// Inductive only: a step of `dt` starts at the state `x` with the duty held
-    /// ([`Winding::start_step`]).
-    pub fn start_step(&mut self, x: &Vector4<T>, pwm: T, dt: T) {
-        self.winding.start_step(pwm, self.motor_speed(x), dt);
-    }
-
-    /// Inductive only: the step under way ended at the state `x` ([`Winding::end_step`]).
-    pub fn end_step(&mut self, x: &Vector4<T>) {
-        self.winding.end_step(self.motor_speed(x));
-    }
-
-    /// Inductive only: the current set to its steady value at the state `x` for the duty
-    /// `pwm` ([`Winding::settle`]).
-    pub fn settle(&mut self, x: &Vector4<T>, pwm: T) {
-        self.winding.settle(pwm, self.motor_speed(x));
-    }
-}
-
-impl<T: Real, P: Dynamics<T, 4, 1>> Dynamics<T, 4, 1> for Driven<T, P> {
-    const PITCH: usize = P::PITCH;
-
-    // Always inlined: out of line, RK4 reloads the model's constants every stage.
-    #[inline(always)]
-    fn deriv(&self, x: &Vector4<T>, pwm: &SVector<T, 1>) -> Vector4<T> {
-        self.deriv_at_stage(x, pwm, Stage::Start)
-    }
-
-    #[inline(always)]
-    fn deriv_at_stage(&self, x: &Vector4<T>, pwm: &SVector<T, 1>, stage: Stage) -> Vector4<T> {
-        self.plant.deriv(x, &SVector::<T, 1>::new(self.lumped_current_at(x, pwm[0], stage)))
-    }
-
-    fn energy(&self, x: &Vector4<T>) -> T {
-        self.plant.energy(x)
-    }
-}
-
 /// The firmware's command → PWM mapping (feed-forward on the measured wheel speed).
 #[derive(Clone, Copy, Debug)]
 pub struct PwmActuator<T> {
@@ -669,24 +548,22 @@ mod tests {
     fn inductive_current_follows_the_exact_exponential() {
         let p = params();
         let driver = MotorDriver { inductance: 2e-3, ..MotorDriver::<f64>::gb37y3530() };
-        let plant = SlopeModel::new(p, 0.0).unwrap();
-        let mut d = Driven::new(plant, &driver, &p).unwrap();
-        let x = Vector4::zeros();
+        let mut w = Winding::new(&driver, &p).unwrap();
         let tau = 2e-3 / driver.resistance;
         let full = 11.1 / driver.resistance;
         let dt = 1e-4;
         for k in 1..=50 {
-            d.start_step(&x, 255.0, dt);
-            d.end_step(&x);
+            w.start_step(255.0, 0.0, dt);
+            w.end_step(0.0);
             let t = k as f64 * dt;
-            assert!((d.current(&x, 255.0) - full * (1.0 - (-t / tau).exp())).abs() < 1e-12);
+            assert!((w.current(255.0, 0.0) - full * (1.0 - (-t / tau).exp())).abs() < 1e-12);
         }
         // The rising current's mean over a step lies between its start and end values.
-        d.start_step(&x, 255.0, dt);
-        let start = d.current(&x, 255.0);
-        let mean = d.winding.mean_current(255.0, 0.0);
-        d.end_step(&x);
-        assert!(start < mean && mean < d.current(&x, 255.0));
+        w.start_step(255.0, 0.0, dt);
+        let start = w.current(255.0, 0.0);
+        let mean = w.mean_current(255.0, 0.0);
+        w.end_step(0.0);
+        assert!(start < mean && mean < w.current(255.0, 0.0));
     }
 
     #[test]
@@ -694,12 +571,12 @@ mod tests {
         let p = params();
         let driver = MotorDriver::<f64>::gb37y3530();
         let act = PwmActuator::new(&driver, &p).unwrap();
-        let plant = Driven::new(SlopeModel::new(p, 0.0).unwrap(), &driver, &p).unwrap();
+        let winding = Winding::new(&driver, &p).unwrap();
         let x = Vector4::new(0.0, 0.5, 0.0, 3.0);
         for u in [-1.0, -0.2, 0.0, 0.3, 1.2] {
             let pwm = act.duty(u, x[3] - x[1]);
             assert_eq!(pwm, pwm.round());
-            let got = MOTORS * plant.current(&x, pwm);
+            let got = MOTORS * winding.current(pwm, x[3] - x[1]);
             // Within half a count of quantisation.
             let count = driver.battery / 255.0 / driver.resistance * MOTORS;
             assert!((got - u).abs() <= 0.5 * count + 1e-12, "{u} -> {got}");
@@ -730,6 +607,7 @@ mod tests {
     #[cfg(feature = "std")]
     mod against_the_coupled_ode {
         use super::*;
+        use crate::Dynamics;
 
         /// The audit's setting: the thesis-like drive (1 mH, 2 V drop) open loop on a 0.1 rad
         /// slope, a duty swinging through ±200 counts, held over control periods of 2^-8 s.

@@ -8,5 +8,6 @@ pub mod imu;
 pub mod motor;
 pub mod planar_rig;
 pub mod realism;
+pub mod rig_plant;
 pub mod settle;
 pub mod tilt;

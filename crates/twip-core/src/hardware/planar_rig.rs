@@ -21,23 +21,24 @@
 //! rule on the plant's steps (error ~dt³, against 9 mrad per encoder count).
 use nalgebra::{SVector, Vector2, Vector3};
 
-use crate::hardware::backlash::{heun, GearPlay};
-use crate::hardware::disturbance::{Force, Push, Pushes};
-use crate::hardware::driver::{PwmActuator, Winding};
+use crate::hardware::disturbance::{Force, Push};
+#[cfg(all(test, feature = "std"))]
+use crate::hardware::disturbance::Pushes;
+use crate::hardware::driver::{MotorDriver, PwmActuator};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force_of, ImuClock, ImuReading, ImuSettings, Mpu6050, NoiseBatch};
-use crate::hardware::realism::{Realism, Rig, RigPlant};
-#[cfg(all(test, feature = "std"))]
+use crate::hardware::realism::{Realism, Rig};
+use crate::hardware::rig_plant::{RealPlant, RigGround};
+use crate::model::dynamics::Halt;
 use crate::model::friction::Friction;
 use crate::hardware::settle::{Settle, Settles, Settling};
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
-use crate::model::integrate::Stage;
 use crate::model::lane::Lane;
 use crate::model::planar::{PlanarState, WheelRows};
 use crate::model::terrain::Terrain;
 use crate::model::terrain_model::{frame_of, in_plane, pitch_acceleration_of, plane_state, Frame, TerrainModel};
 use crate::rng::Sfc64;
-use crate::sim::runner::{Actuator, Plant, Sensor};
+use crate::sim::runner::{Actuator, Sensor};
 use crate::{c, Dynamics, PlanarModel, Real, RobotParams, TwipError};
 
 /// What the 3-DOF rig logs after the controller's internals.
@@ -46,235 +47,158 @@ pub const PLANAR_RIG_SIGNALS: [&str; 11] = [
     "current_l",
 ];
 
-/// Each wheel's bridge and motor (input: the duties).
-#[derive(Clone, Copy, Debug)]
-pub struct WheelDrives<T> {
-    windings: [Winding<T>; 2],
-    /// ε η τ_i: wheel torque per motor ampere (ε the driver's `efficiency`).
-    torque_per_amp: T,
-}
-
-/// The planar plant of a realism run.
+/// The 3-DOF model on its ground: flat, or on terrain. The ground of the 3-DOF rig's
+/// plant, [`PlanarPlant`].
 #[derive(Clone, Debug)]
-pub struct PlanarPlant<T: Real> {
+pub struct PlanarGround<T: Real> {
     model: PlanarModel<T>,
     /// The model on its terrain (the same parameters and friction), or flat ground (None:
     /// the flat model's code, unchanged).
-    ground: Option<TerrainModel<T>>,
-    drives: Option<WheelDrives<T>>,
-    force: Force<T>,
-    has_force: bool,
-    pushes: Pushes<T>,
-    /// Each gear train's play and rotor (backlash).
-    play: Option<GearPlay<T, 2>>,
+    terrain: Option<TerrainModel<T>>,
 }
 
-impl<T: Real> PlanarPlant<T> {
-    /// The wheel torques [N m] for the input `u` at `x`, each motor's current given by
-    /// `current` (winding, duty, the motor's speed); a motor whose gear train is open turns
-    /// at its rotor's speed.
-    #[inline(always)]
-    fn torques_by(&self, x: &PlanarState<T>, u: &SVector<T, 2>, current: impl Fn(&Winding<T>, T, T) -> T) -> SVector<T, 2> {
-        match &self.drives {
-            None => *u,
-            Some(d) => {
-                let [w_r, w_l] = self.motor_speeds(x);
-                SVector::<T, 2>::new(d.torque_per_amp * current(&d.windings[0], u[0], w_r), d.torque_per_amp * current(&d.windings[1], u[1], w_l))
-            }
-        }
-    }
-
-    /// The wheel torques [N m] at RK4's first stage.
-    #[inline(always)]
-    fn torques(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> SVector<T, 2> {
-        self.torques_by(x, u, |w, pwm, speed| w.current_at(pwm, speed, Stage::Start))
-    }
-
-    /// Each motor's speed relative to the body [rad/s at the wheel]: its wheel's, or an open
-    /// train's rotor's.
-    #[inline(always)]
-    pub(crate) fn motor_speeds(&self, x: &PlanarState<T>) -> [T; 2] {
-        let (w_r, w_l) = self.wheel_speeds(x);
-        match &self.play {
-            None => [w_r, w_l],
-            Some(play) => play.motor_speeds([w_r, w_l]),
-        }
-    }
-
-    /// Each wheel's speed relative to the body (on terrain, to its pitch rate about the axle).
-    #[inline(always)]
-    pub(crate) fn wheel_speeds(&self, x: &PlanarState<T>) -> (T, T) {
-        match &self.ground {
-            None => self.model.wheel_speeds(x),
-            Some(g) => g.wheel_speeds(x),
-        }
+impl<T: Real> PlanarGround<T> {
+    /// `model` on `terrain` (None: flat ground).
+    pub fn new(model: PlanarModel<T>, terrain: Option<&Terrain<T>>) -> Self {
+        Self { terrain: terrain.map(|t| TerrainModel::new(model, t.clone())), model }
     }
 
     /// Each wheel's acceleration relative to the body from the derivative `d` at `x`.
     #[inline(always)]
     fn wheel_accelerations(&self, x: &PlanarState<T>, d: &PlanarState<T>) -> (T, T) {
         let zero = T::zero();
-        let phi_dd = match &self.ground {
+        let phi_dd = match &self.terrain {
             None => d[4],
             Some(g) => TerrainModel::pitch_acceleration(x, d, &g.frame(x)),
         };
         self.model.wheel_speeds(&PlanarState::from([zero, zero, zero, zero, phi_dd, d[5], d[6]]))
     }
+}
 
-    /// The body force's generalised forces on (φ, v) at (sin φ, cos φ), if any.
+/// The body force's generalised forces on (φ, v) at (sin φ, cos φ), if any.
+#[inline(always)]
+fn extra<T: Real>(force: Option<&Force<T>>, s: T, cp: T) -> Option<Vector2<T>> {
+    force.map(|f| Vector2::from(body_force(f, s, cp)))
+}
+
+impl<T: Real> RigGround<T, 7, 2> for PlanarGround<T> {
+    const PITCH: usize = 3;
+
+    /// On terrain, relative to the body's pitch rate about the axle.
     #[inline(always)]
-    fn extra(&self, s: T, cp: T) -> Option<Vector2<T>> {
-        self.has_force.then(|| Vector2::from(body_force(&self.force, s, cp)))
+    fn wheel_speeds(&self, x: &PlanarState<T>) -> [T; 2] {
+        let (right, left) = match &self.terrain {
+            None => self.model.wheel_speeds(x),
+            Some(g) => g.wheel_speeds(x),
+        };
+        [right, left]
     }
 
-    /// The step under way has ended at `x`: the open trains' rotors advance; those that
-    /// reach a flank engage in a plastic impact (the velocities in `x` jump), located
-    /// within the step ([`Hit::late`](crate::hardware::backlash::Hit::late)).
-    fn gear_elapsed(&mut self, dt: T, x: &mut PlanarState<T>) {
-        let Some(mut play) = self.play else { return };
-        let (w_r, w_l) = self.wheel_speeds(x);
-        for (i, hit) in play.elapsed(dt, [w_r, w_l], self.model.friction()).iter().enumerate() {
-            if let Some(hit) = hit {
-                let torques = SVector::from(play.motors());
-                let before = play.engaged();
-                let mut after = before;
-                after[i] = true;
-                // Back to the impact along the open motion, forward from it engaged.
-                *x = heun(x, -hit.late, |x| self.motion_with(x, &torques, before));
-                match &self.ground {
-                    None => impact(&self.model, x, i, hit.rotor, before),
-                    Some(g) => g.jump_in_plane(x, |xp| impact(&self.model, xp, i, hit.rotor, before)),
-                };
-                *x = heun(x, hit.late, |x| self.motion_with(x, &torques, after));
-                let (w_r, w_l) = self.wheel_speeds(x);
-                play.engage(i, [w_r, w_l][i]);
-            }
-        }
-        self.play = Some(play);
+    /// One geared derivative, every train engaged without play (one copy of the motion's
+    /// code per RK4 stage: a second, for no play, grew each 3-DOF rig run by 44 KB).
+    #[inline(always)]
+    fn deriv(&self, x: &PlanarState<T>, u: &SVector<T, 2>, engaged: Option<[bool; 2]>, force: Option<&Force<T>>) -> PlanarState<T> {
+        self.deriv_geared(x, u, engaged.unwrap_or([true; 2]), force).0
     }
 
-    /// The derivative at `x` under the wheel torques `torques` with the trains `engaged`.
-    #[cold]
-    #[inline(never)]
-    fn motion_with(&self, x: &PlanarState<T>, torques: &SVector<T, 2>, engaged: [bool; 2]) -> PlanarState<T> {
-        match &self.ground {
-            None => self.model.deriv_geared(x, torques, engaged, |s, cp| self.extra(s, cp)).0,
-            Some(g) => g.deriv_geared(x, torques, engaged, |s, cp| self.extra(s, cp).map(|q| [q[0], q[1]])).0,
+    #[inline(always)]
+    fn deriv_geared(&self, x: &PlanarState<T>, u: &SVector<T, 2>, engaged: [bool; 2], force: Option<&Force<T>>) -> (PlanarState<T>, [T; 2]) {
+        match &self.terrain {
+            None => self.model.deriv_geared(x, u, engaged, |s, cp| extra(force, s, cp)),
+            Some(g) => g.deriv_geared(x, u, engaged, |s, cp| extra(force, s, cp).map(|q| [q[0], q[1]])),
         }
     }
 
-    /// The derivative at `x` under `u` with the gear trains as they are (open ones neither
-    /// driven nor braked), and each wheel's gearhead friction torque.
     #[inline(always)]
-    pub(crate) fn geared_motion(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> (PlanarState<T>, [T; 2]) {
-        self.geared_motion_at(x, u, Stage::Start)
-    }
-
-    /// [`Self::geared_motion`] at an RK4 stage (the windings' currents move within a step).
-    #[inline(always)]
-    fn geared_motion_at(&self, x: &PlanarState<T>, u: &SVector<T, 2>, stage: Stage) -> (PlanarState<T>, [T; 2]) {
-        let torques = self.torques_by(x, u, |w, pwm, speed| w.current_at(pwm, speed, stage));
-        match &self.ground {
-            None => self.model.deriv_geared(x, &torques, self.trains(), |s, cp| self.extra(s, cp)),
-            Some(g) => g.deriv_geared(x, &torques, self.trains(), |s, cp| self.extra(s, cp).map(|q| [q[0], q[1]])),
-        }
-    }
-
-    /// A step starts at `x` under `u`: engaged trains whose contact torque would pull the
-    /// flanks apart open, and the motors' torques over the step are noted. Returns the
-    /// derivative the trains weighed when they stay as they were (then it is `deriv` at `x`
-    /// under `u`: an engaged train's rotor, which this sets, is not read); None without
-    /// backlash.
-    fn gear_next(&mut self, x: &PlanarState<T>, u: &SVector<T, 2>) -> Option<PlanarState<T>> {
-        self.play?;
-        let (d, friction) = self.geared_motion(x, u);
-        let (motor, mean) = self.motor_torques(x, u);
-        self.gear_next_with(x, motor, mean, &d, friction).then_some(d)
-    }
-
-    /// The wheels' motor torques [N m] at `x` under `u`: at RK4's first stage, and from
-    /// the currents' means over the step (what an open train's rotor is driven by).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    #[inline(always)]
-    pub(crate) fn motor_torques(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> ([T; 2], [T; 2]) {
-        (self.torques(x, u).into(), self.torques_by(x, u, Winding::mean_current).into())
-    }
-
-    /// [`Self::gear_next`] given [`Self::geared_motion`] at `x` (`d` and the gearhead
-    /// torques `friction`) and the motor torques `motor` and `mean`
-    /// ([`Self::motor_torques`]), which a sweep's lanes compute: whether the trains stayed
-    /// as they were (always, without backlash).
-    #[inline(always)]
-    pub(crate) fn gear_next_with(&mut self, x: &PlanarState<T>, motor: [T; 2], mean: [T; 2], d: &PlanarState<T>, friction: [T; 2]) -> bool {
-        let Some(mut play) = self.play else { return true };
-        let engaged = play.engaged();
+    fn contact(&self, x: &PlanarState<T>, d: &PlanarState<T>, u: &SVector<T, 2>, friction: [T; 2], j: T) -> [T; 2] {
         let (acc_r, acc_l) = self.wheel_accelerations(x, d);
-        let j = play.inertia();
-        let (w_r, w_l) = self.wheel_speeds(x);
-        let contact = [motor[0] - friction[0] - j * acc_r, motor[1] - friction[1] - j * acc_l];
-        play.next_step([w_r, w_l], contact, mean);
-        self.play = Some(play);
-        play.engaged() == engaged
+        [u[0] - friction[0] - j * acc_r, u[1] - friction[1] - j * acc_l]
     }
 
-    /// The start of a step of `dt` at time `t`, before the gear trains weigh it: the open
-    /// trains' rotors advance (an impact jumps the velocities in `x`), pushes due jump
-    /// them, and the windings' steps start under `u`.
-    // Always inlined, as the 2-DOF rig's: out of line, the lanes' copies for AVX called it
-    // compiled for the baseline CPU.
     #[inline(always)]
-    pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) {
-        self.ground_start(t, dt, x);
-        let [w_r, w_l] = self.motor_speeds(x);
-        if let Some(d) = self.drives.as_mut() {
-            d.windings[0].start_step(u[0], w_r, dt);
-            d.windings[1].start_step(u[1], w_l, dt);
+    fn motor_torques(&self, u: &SVector<T, 2>) -> [T; 2] {
+        [u[0], u[1]]
+    }
+
+    #[inline(always)]
+    fn input_of(&self, torques: [T; 2]) -> SVector<T, 2> {
+        SVector::from(torques)
+    }
+
+    #[inline(always)]
+    fn impact(&self, x: &mut PlanarState<T>, train: usize, rotor_speed: T, engaged: [bool; 2]) {
+        match &self.terrain {
+            None => impact(&self.model, x, train, rotor_speed, engaged),
+            Some(g) => g.jump_in_plane(x, |xp| impact(&self.model, xp, train, rotor_speed, engaged)),
+        };
+    }
+
+    #[inline(always)]
+    fn push(&self, x: &mut PlanarState<T>, p: &Push<T>) {
+        match &self.terrain {
+            None => push(&self.model, x, p),
+            // On terrain the push acts in the plane's frame, at the pitch φ' from its normal.
+            Some(g) => g.jump_in_plane(x, |xp| push(&self.model, xp, p)),
         }
     }
 
-    /// [`Self::step_start`] but for the windings' steps (which a sweep's lanes take on
-    /// lanes): the open trains' rotors advance, pushes due jump the velocities.
     #[inline(always)]
-    pub(crate) fn ground_start(&mut self, t: T, dt: T, x: &mut PlanarState<T>) {
-        self.gear_elapsed(dt, x);
-        while let Some(p) = self.pushes.due(t, dt) {
-            match &self.ground {
-                None => push(&self.model, x, &p),
-                // On terrain the push acts in the plane's frame, at the pitch φ' from its normal.
-                Some(g) => g.jump_in_plane(x, |xp| push(&self.model, xp, &p)),
-            }
+    fn friction(&self) -> Option<&Friction<T>> {
+        self.model.friction()
+    }
+
+    fn rotors(&self) -> (T, T) {
+        (self.model.rotor_per_wheel(), T::one())
+    }
+
+    /// ε η τ_i: a wheel's torque per motor ampere.
+    fn input_per_amp(&self, driver: &MotorDriver<T>, params: &RobotParams<T>) -> T {
+        driver.efficiency * params.torque_per_amp()
+    }
+
+    /// Each motor's current; without a driver, the torques commanded as the motor currents
+    /// of an ideal drive.
+    #[inline(always)]
+    fn logged_currents(&self, u: &SVector<T, 2>, windings: Option<(SVector<T, 2>, T)>) -> SVector<T, 2> {
+        windings.map_or_else(|| *u / self.model.params().torque_per_amp(), |(amps, _)| amps)
+    }
+
+    #[inline(always)]
+    fn shafts(offsets: [T; 2]) -> [T; 2] {
+        offsets
+    }
+
+    fn energy(&self, x: &PlanarState<T>) -> T {
+        match &self.terrain {
+            None => self.model.energy(x),
+            Some(g) => g.energy(x),
         }
     }
 
-    /// Whether no push ever acts. With the trains engaged as well, nothing acts between
-    /// steps: an engaged train's rotor turns with its wheel (`gear_elapsed` changes nothing).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn unpushed(&self) -> bool {
-        self.pushes.as_slice().is_empty()
+    /// On terrain: off a grid, or a wheel's normal force below zero under the torques `u()`
+    /// with the gear trains `engaged`.
+    #[inline]
+    fn halted(&self, x: &PlanarState<T>, u: impl FnOnce() -> SVector<T, 2>, engaged: [bool; 2], force: Option<&Force<T>>) -> Option<Halt> {
+        let g = self.terrain.as_ref()?;
+        if !g.terrain().contains(x[0], x[1]) {
+            return Some(Halt::OffTerrain);
+        }
+        let [n_r, n_l] = g.normal_forces_geared(x, &u(), engaged, |s, cp| extra(force, s, cp).map(|q| [q[0], q[1]]));
+        (n_r < T::zero() || n_l < T::zero()).then_some(Halt::Lifted)
     }
+}
 
+/// The 3-DOF rig's plant: the planar model on its ground with the rig's parts
+/// ([`RealPlant`]), each wheel driven through its own bridge and motor when there is a
+/// driver (input: the two duties), else by the commanded torques.
+pub type PlanarPlant<T> = RealPlant<T, PlanarGround<T>, 7, 2>;
+
+// What a sweep's 3-DOF rig lanes ask of each lane's plant.
+#[cfg_attr(not(feature = "std"), allow(dead_code))]
+impl<T: Real> PlanarPlant<T> {
     /// The planar model this plant moves by (its gearhead friction included).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
     pub(crate) fn model(&self) -> &PlanarModel<T> {
-        &self.model
-    }
-
-    /// The constant force on the body (zero: none).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn force(&self) -> Force<T> {
-        self.force
-    }
-
-    /// Which gear trains are engaged (every one, without backlash).
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn trains(&self) -> [bool; 2] {
-        self.play.as_ref().map_or([true; 2], |p| p.engaged())
-    }
-
-    /// Each wheel's winding and the wheel torque per ampere, when there is a driver.
-    #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
-    pub(crate) fn drives(&self) -> Option<([Winding<T>; 2], T)> {
-        self.drives.map(|d| (d.windings, d.torque_per_amp))
+        &self.ground().model
     }
 }
 
@@ -303,99 +227,6 @@ fn push<T: Real>(model: &PlanarModel<T>, x: &mut PlanarState<T>, p: &Push<T>) {
 #[inline(always)]
 pub(crate) fn body_force<S: Lane>(force: &Force<S>, sin_phi: S, cos_phi: S) -> [S; 2] {
     [force.on_pitch(sin_phi, cos_phi), force.horizontal]
-}
-
-impl<T: Real> PlanarRig<T> {
-    /// The gear trains' play and rotors, when the rig has backlash.
-    pub fn plant_play(&self) -> Option<&GearPlay<T, 2>> {
-        self.plant.play.as_ref()
-    }
-}
-
-impl<T: Real> Dynamics<T, 7, 2> for PlanarPlant<T> {
-    const PITCH: usize = 3;
-
-    #[inline(always)]
-    fn deriv(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> PlanarState<T> {
-        self.geared_motion(x, u).0
-    }
-
-    #[inline(always)]
-    fn deriv_at_stage(&self, x: &PlanarState<T>, u: &SVector<T, 2>, stage: Stage) -> PlanarState<T> {
-        self.geared_motion_at(x, u, stage).0
-    }
-
-    fn energy(&self, x: &PlanarState<T>) -> T {
-        match &self.ground {
-            None => self.model.energy(x),
-            Some(g) => g.energy(x),
-        }
-    }
-
-    /// On terrain: off a grid, or a wheel's normal force below zero under the torques
-    /// the windings deliver at `x` with the gear trains as they are.
-    #[inline]
-    fn halted(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> Option<crate::model::dynamics::Halt> {
-        let g = self.ground.as_ref()?;
-        if !g.terrain().contains(x[0], x[1]) {
-            return Some(crate::model::dynamics::Halt::OffTerrain);
-        }
-        let torques = self.torques(x, u);
-        let [n_r, n_l] = g.normal_forces_geared(x, &torques, self.trains(), |s, cp| self.extra(s, cp).map(|q| [q[0], q[1]]));
-        (n_r < T::zero() || n_l < T::zero()).then_some(crate::model::dynamics::Halt::Lifted)
-    }
-}
-
-impl<T: Real> Plant<T, 7, 2> for PlanarPlant<T> {
-    /// Pushes jump the velocities; the windings' steps start.
-    #[inline]
-    fn between_steps(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) {
-        self.between_steps_with_derivative(t, dt, x, u);
-    }
-
-    #[inline]
-    fn between_steps_with_derivative(&mut self, t: T, dt: T, x: &mut PlanarState<T>, u: &SVector<T, 2>) -> Option<PlanarState<T>> {
-        self.step_start(t, dt, x, u);
-        self.gear_next(x, u)
-    }
-
-    /// The windings' currents are carried to the step's end.
-    #[inline]
-    fn step_ended(&mut self, x: &PlanarState<T>) {
-        let [w_r, w_l] = self.motor_speeds(x);
-        if let Some(d) = self.drives.as_mut() {
-            d.windings[0].end_step(w_r);
-            d.windings[1].end_step(w_l);
-        }
-    }
-
-    #[inline(always)]
-    fn shaft_offsets(&self) -> [T; 2] {
-        self.play.as_ref().map_or([T::zero(); 2], |p| p.offsets())
-    }
-}
-
-impl<T: Real> RigPlant<T, 7, 2> for PlanarPlant<T> {
-    #[inline]
-    fn currents(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> SVector<T, 2> {
-        match &self.drives {
-            // The torques the controller commands, as motor currents of an ideal drive.
-            None => *u / self.model.params().torque_per_amp(),
-            Some(d) => {
-                let [w_r, w_l] = self.motor_speeds(x);
-                SVector::<T, 2>::new(d.windings[0].current(u[0], w_r), d.windings[1].current(u[1], w_l))
-            }
-        }
-    }
-
-    /// The wheel torques the windings' currents give (the torques applied, without a driver).
-    #[inline]
-    fn delivered(&self, x: &PlanarState<T>, u: &SVector<T, 2>) -> SVector<T, 2> {
-        match &self.drives {
-            None => *u,
-            Some(d) => self.currents(x, u) * d.torque_per_amp,
-        }
-    }
 }
 
 /// The IMU, tilt estimator and encoders of the 3-DOF robot, as one sensor.
@@ -769,25 +600,21 @@ impl<T: Real> Realism<T> {
             });
         }
         let params = *model.params();
-        let mut pushes = s.pushes;
-        pushes.rewind();
-        let (drives, actuator) = match &s.motor {
-            None => (None, PlanarActuator::Ideal),
+        let actuator = match &s.motor {
+            None => PlanarActuator::Ideal,
             Some(m) => {
-                let winding = Winding::new(m, &params)?;
-                let drives = WheelDrives { windings: [winding; 2], torque_per_amp: m.efficiency * params.torque_per_amp() };
                 let pwm = PwmActuator::per_wheel_torque(m, &params)?;
                 let inv_r = T::one() / params.wheel_radius;
-                (Some(drives), PlanarActuator::Pwm { pwm, inv_r, b_r: params.half_track * inv_r, limit: m.current_limit, efficiency: m.efficiency })
+                PlanarActuator::Pwm { pwm, inv_r, b_r: params.half_track * inv_r, limit: m.current_limit, efficiency: m.efficiency }
             }
         };
         let model = model.with_friction(s.friction_on(model.friction()))?;
-        let play = match s.backlash {
-            Some(b) if b.gap > T::zero() => Some(GearPlay::new(&b, model.rotor_per_wheel(), T::one())?),
-            _ => None,
-        };
-        let ground = terrain.map(|t| TerrainModel::new(model, t.clone()));
-        let plant = PlanarPlant { model, ground, drives, force: s.force, has_force: !s.force.is_zero(), pushes, play };
+        let plant = PlanarPlant::new(PlanarGround::new(model, terrain), s.force, s.pushes)?
+            .with_driver(s.motor.as_ref(), &params)?
+            .with_backlash(s.backlash)?
+            // Before the first step the motors turn as the trains say, as they always did
+            // here (the 2-DOF rig's with their wheels: the report's follow-up unifies them).
+            .motors_as_trains();
         let sensors = PlanarSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, &params, dt, s.seed, s.stream)?.on(terrain.cloned())
             .settled(Settle::new(s.settle, dt, s.seed, s.stream)?);
         Ok(Rig { plant, sensors, actuator, delay: s.delay })

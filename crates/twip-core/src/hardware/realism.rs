@@ -1,7 +1,7 @@
 //! "Does this controller still work on my robot?": the 2-DOF loop with the robot's real
 //! parts, each optional. [`Realism`] says which; [`Realism::build`] turns it into
-//! - a plant, [`RealPlant`]: the slope model with disturbances ([`Disturbed`]), driven
-//!   through the motor driver ([`Driven`]) when there is one;
+//! - a plant, [`SlopePlant`]: the slope model on its slope profile with the force, pushes,
+//!   gear play and motor driver the realism has ([`RealPlant`](crate::hardware::rig_plant::RealPlant), the 3-DOF rig's too);
 //! - a [`Sensor`], [`BalanceSensors`]: MPU-6050 + tilt estimator + encoder, or the truth
 //!   for each part left out;
 //! - an [`Actuator`], [`RealActuator`]: the firmware's current → PWM mapping, or none;
@@ -13,18 +13,21 @@
 use nalgebra::{SVector, Vector4};
 
 use crate::control::{Controller, Reference};
-use crate::hardware::disturbance::{Disturbed, Force, Pushes, SlopeProfile, MAX_SLOPE_CHANGES};
-use crate::hardware::driver::{Driven, MotorDriver, PwmActuator, Winding};
+use crate::hardware::disturbance::{Force, Pushes, SlopePlant, SlopeProfile, MAX_SLOPE_CHANGES};
+use crate::hardware::driver::{MotorDriver, PwmActuator, Winding};
 use crate::hardware::encoder::Encoder;
 use crate::hardware::imu::{specific_force, ImuClock, ImuReading, ImuSettings, Mpu6050, NoiseBatch};
 use crate::hardware::backlash::Backlash;
 use crate::hardware::settle::{Settle, Settles, Settling};
 use crate::model::friction::{Friction, GB37_STICK_SPEED};
+#[cfg(all(test, feature = "std"))]
 use crate::model::integrate::Stage;
 use crate::rng::Sfc64;
 use crate::sim::runner::{run_loop, Actuator, Loop, Observer, Outcome, Plant, Sensor, Signals, SimConfig, MAX_RAW};
 use crate::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
-use crate::{c, Dynamics, Real, RobotParams, SlopeModel, TwipError};
+#[cfg(all(test, feature = "std"))]
+use crate::Dynamics;
+use crate::{c, Real, RobotParams, SlopeModel, TwipError};
 
 /// How long the thesis-like rig's robot stands still before its run [s]: two of the
 /// complementary filter's time constants.
@@ -162,12 +165,13 @@ impl<T: Real> Realism<T> {
         let profile = s.slope_profile.with_base(model.slope());
         let mut pushes = s.pushes;
         pushes.rewind();
-        let ground = Disturbed::new(params, profile, s.force, pushes)?
+        let plant = SlopePlant::disturbed(params, profile, s.force, pushes)?
             .with_friction(s.friction_on(model.friction()))?
-            .with_backlash(s.backlash)?;
-        let (plant, actuator) = match &s.motor {
-            None => (RealPlant::Current(ground), RealActuator::Ideal),
-            Some(m) => (RealPlant::Driven(Driven::new(ground, m, &params)?), RealActuator::Pwm(PwmActuator::new(m, &params)?, m.current_limit, m.efficiency)),
+            .with_backlash(s.backlash)?
+            .with_driver(s.motor.as_ref(), &params)?;
+        let actuator = match &s.motor {
+            None => RealActuator::Ideal,
+            Some(m) => RealActuator::Pwm(PwmActuator::new(m, &params)?, m.current_limit, m.efficiency),
         };
         let sensors = BalanceSensors::new(s.imu.as_ref(), s.estimator, s.encoder_cpr, profile, &params, dt, s.seed, s.stream)?
             .settled(Settle::new(s.settle, dt, s.seed, s.stream)?);
@@ -185,7 +189,7 @@ pub struct Rig<P, S, A> {
 }
 
 /// The 2-DOF rig ([`Realism::build`]).
-pub type SlopeRig<T> = Rig<RealPlant<T>, BalanceSensors<T>, RealActuator<T>>;
+pub type SlopeRig<T> = Rig<SlopePlant<T>, BalanceSensors<T>, RealActuator<T>>;
 
 impl<P, S, A> Rig<P, S, A> {
     /// Runs `controller` through this rig's plant, sensors, actuator and delay with the
@@ -496,149 +500,30 @@ impl<T: Real, P: RigPlant<T, NX, NU>, const NX: usize, const NU: usize> RigPlant
     }
 }
 
-impl<T: Real> Plant<T, 4, 1> for Disturbed<T> {
-    /// Pushes jump the velocities.
-    #[inline]
-    fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, _: &SVector<T, 1>) {
-        self.kick(t, dt, x);
-    }
-}
-
-impl<T: Real> RigPlant<T, 4, 1> for Disturbed<T> {
-    #[inline(always)]
-    fn currents(&self, _: &Vector4<T>, u: &SVector<T, 1>) -> SVector<T, 1> {
-        *u
-    }
-}
-
-/// The plant of a realism run: current-driven, or PWM-driven through the motor driver.
-#[derive(Clone, Copy, Debug)]
-pub enum RealPlant<T: Real> {
-    Current(Disturbed<T>),
-    Driven(Driven<T, Disturbed<T>>),
-}
-
-impl<T: Real> Dynamics<T, 4, 1> for RealPlant<T> {
-    // Always inlined: out of line, RK4 reloads the model's constants every stage.
-    #[inline(always)]
-    fn deriv(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> Vector4<T> {
-        match self {
-            Self::Current(p) => p.deriv(x, u),
-            Self::Driven(p) => p.deriv(x, u),
-        }
-    }
-
-    #[inline(always)]
-    fn deriv_at_stage(&self, x: &Vector4<T>, u: &SVector<T, 1>, stage: Stage) -> Vector4<T> {
-        match self {
-            Self::Current(p) => p.deriv(x, u),
-            Self::Driven(p) => p.deriv_at_stage(x, u, stage),
-        }
-    }
-
-    fn energy(&self, x: &Vector4<T>) -> T {
-        match self {
-            Self::Current(p) => p.energy(x),
-            Self::Driven(p) => p.energy(x),
-        }
-    }
-}
-
-impl<T: Real> Plant<T, 4, 1> for RealPlant<T> {
-    /// The gear trains' elapsed step, pushes, the winding current; then the trains at the
-    /// new step's start.
-    #[inline]
-    fn between_steps(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) {
-        self.between_steps_with_derivative(t, dt, x, u);
-    }
-
-    /// The derivative the gear trains weighed, when they stay as they were: the motors
-    /// then turn as they did when it was evaluated (`step_end` changes nothing), and the
-    /// current is the one `deriv` computes.
-    #[inline]
-    fn between_steps_with_derivative(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: &SVector<T, 1>) -> Option<Vector4<T>> {
-        let current = self.step_start(t, dt, x, u[0]);
-        let mean = self.mean_current(x, u[0]);
-        let first = self.ground_mut().gear_next(x, current, mean);
-        self.step_end(x);
-        first
-    }
-
-    /// The winding's current is carried to the step's end.
-    #[inline]
-    fn step_ended(&mut self, x: &Vector4<T>) {
-        if let Self::Driven(p) = self {
-            p.end_step(x);
-        }
-    }
-
-    #[inline(always)]
-    fn shaft_offsets(&self) -> [T; 2] {
-        let ground = match self {
-            Self::Current(p) => p,
-            Self::Driven(p) => p.plant(),
-        };
-        let offset = ground.shaft_offset();
-        [offset, offset]
-    }
-}
-
-// What a sweep's rig lanes ask of each lane's plant (`sweep::block::run_rig_block`).
+// What a sweep's rig lanes ask of each lane's plant (`sweep::block::run_rig_block`): the
+// 2-DOF plant's one input and one (lumped) train as numbers.
 #[cfg_attr(not(feature = "std"), allow(dead_code))]
-impl<T: Real> RealPlant<T> {
-    /// The ground plant, driven or not.
-    pub(crate) fn ground(&self) -> &Disturbed<T> {
-        match self {
-            Self::Current(p) => p,
-            Self::Driven(p) => p.plant(),
-        }
-    }
-
-    pub(crate) fn ground_mut(&mut self) -> &mut Disturbed<T> {
-        match self {
-            Self::Current(p) => p,
-            Self::Driven(p) => p.plant_mut(),
-        }
-    }
-
-    /// `between_steps` up to the trains' next step (`Disturbed::gear_next`): the open
-    /// rotors' elapsed step and impacts, pushes, the winding's step (turning with the open
-    /// rotors). Returns the lumped current that drives the mechanics at RK4's first stage:
-    /// for the input `u` a current, or a duty through the winding (within the step its
-    /// current follows the state: its input is the duty, [`Self::driven_winding`]).
+impl<T: Real> SlopePlant<T> {
+    /// Whether the gear trains are engaged (always, without backlash).
     #[inline(always)]
-    pub(crate) fn step_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) -> T {
-        self.ground_start(t, dt, x, u);
-        match self {
-            Self::Current(_) => u,
-            Self::Driven(p) => {
-                p.start_step(x, u, dt);
-                p.lumped_current_at(x, u, Stage::Start)
-            }
-        }
+    pub(crate) fn engaged(&self) -> bool {
+        self.trains()[0]
     }
 
-    /// [`Self::step_start`] but for the winding's step (which a sweep's lanes take on
-    /// lanes): the open rotors' elapsed step and impacts, pushes, and the motors turning
-    /// with the open rotors.
+    /// `between_steps` up to the trains' next step (`gear_next_with`): the open rotors'
+    /// elapsed step and impacts, pushes, the winding's step (turning with the open rotors).
+    /// Returns the lumped current that drives the mechanics at RK4's first stage: for the
+    /// input `u` a current, or a duty through the winding (within the step its current
+    /// follows the state: its input is the duty, [`Self::driven_winding`]).
     #[inline(always)]
-    pub(crate) fn ground_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) {
-        let ground = self.ground_mut();
-        ground.gear_elapsed(dt, x);
-        ground.between_steps(t, dt, x, &SVector::<T, 1>::new(u));
-        if let Self::Driven(p) = self {
-            let open = p.plant_mut().open_rotor_speed(x);
-            p.turn_motors_at(open);
-        }
+    pub(crate) fn lumped_step_start(&mut self, t: T, dt: T, x: &mut Vector4<T>, u: T) -> T {
+        self.step_start(t, dt, x, &SVector::<T, 1>::new(u))[0]
     }
 
     /// The motors' speed relative to the body at `x` (an open train's rotor's), when driven.
     #[inline(always)]
     pub(crate) fn motor_speed(&self, x: &Vector4<T>) -> Option<T> {
-        match self {
-            Self::Current(_) => None,
-            Self::Driven(p) => Some(p.motor_speed(x)),
-        }
+        self.drives().map(|_| self.motor_speeds(x)[0])
     }
 
     /// The lumped current's mean over the step started at `x` under `u`, the motors'
@@ -646,41 +531,19 @@ impl<T: Real> RealPlant<T> {
     /// not the first stage's).
     #[inline(always)]
     pub(crate) fn mean_current(&self, x: &Vector4<T>, u: T) -> T {
-        match self {
-            Self::Current(_) => u,
-            Self::Driven(p) => p.mean_lumped_current(x, u),
-        }
+        self.mean_inputs(x, &SVector::<T, 1>::new(u))[0]
     }
 
-    /// `between_steps` after the trains' next step: the motors turn with the rotors of
-    /// trains that just opened.
-    #[inline]
-    pub(crate) fn step_end(&mut self, x: &Vector4<T>) {
-        if let Self::Driven(p) = self {
-            let open = p.plant_mut().open_rotor_speed(x);
-            p.turn_motors_at(open);
-        }
+    /// `RealPlant::gear_next_with` for the lumped `current` at RK4's first stage, its
+    /// `mean` over the step and the gearhead torque per wheel `friction`.
+    #[inline(always)]
+    pub(crate) fn lumped_gear_next(&mut self, x: &Vector4<T>, current: T, mean: T, d: &Vector4<T>, friction: T) {
+        self.gear_next_with(x, &SVector::<T, 1>::new(current), &SVector::<T, 1>::new(mean), d, [friction]);
     }
 
     /// A driver's winding and the lumped current per ampere.
     pub(crate) fn driven_winding(&self) -> Option<(Winding<T>, T)> {
-        match self {
-            Self::Driven(p) => {
-                let (w, per_amp) = p.winding();
-                Some((*w, per_amp))
-            }
-            Self::Current(_) => None,
-        }
-    }
-}
-
-impl<T: Real> RigPlant<T, 4, 1> for RealPlant<T> {
-    #[inline]
-    fn currents(&self, x: &Vector4<T>, u: &SVector<T, 1>) -> SVector<T, 1> {
-        match self {
-            Self::Current(_) => *u,
-            Self::Driven(p) => SVector::<T, 1>::new(p.lumped_current(x, u[0])),
-        }
+        self.drives().map(|([w], per_amp)| (w, per_amp))
     }
 }
 

@@ -6,7 +6,6 @@
 use nalgebra::{SVector, Vector4};
 
 use crate::hardware::backlash::{GearEvent, PlayState};
-use crate::hardware::driver::Driven;
 use crate::model::dynamics::Dynamics;
 use crate::model::integrate::rk4_step_from_k1;
 use crate::{Real, SlopeModel, TwipError};
@@ -19,7 +18,7 @@ pub mod parallel;
 /// its own. A PWM-driven one whose winding has inductance carries the winding's current
 /// from step to step, and its RK4 stages feel it within the step, as the simulator's
 /// plant does (`RealPlant::step_start`, `step_ended`): the predictions are then the
-/// simulator's own steps. One with gear play (`geared`) carries its rotors, and an impact
+/// simulator's own steps. One with gear play (`geared::rig_plant`) carries its rotors, and an impact
 /// at a step's start jumps the state.
 pub trait ShootingModel<T: Real>: Dynamics<T, 4, 1> + Copy {
     /// A segment starts at `x`; `before` is the input held up to its first sample.
@@ -74,26 +73,6 @@ pub enum Play {
 }
 
 impl<T: Real> ShootingModel<T> for SlopeModel<T> {}
-
-impl<T: Real, P: Dynamics<T, 4, 1> + Copy> ShootingModel<T> for Driven<T, P> {
-    /// The current a segment starts with is unknown; the steady current of the duty held
-    /// before it, at its start state's speed, is what it has converged to when that duty
-    /// was held for several time constants (L/R ≈ 0.6 ms against a 5 ms control loop).
-    /// No-op without inductance.
-    fn start_segment(&mut self, x: &Vector4<T>, before: T) {
-        self.settle(x, before);
-    }
-
-    /// No-op without inductance: the current is then algebraic, inside `deriv`.
-    fn start_step(&mut self, x: &mut Vector4<T>, u: T, dt: T) -> Option<Vector4<T>> {
-        Driven::start_step(self, x, u, dt);
-        None
-    }
-
-    fn end_step(&mut self, x: &Vector4<T>) {
-        Driven::end_step(self, x);
-    }
-}
 
 /// A logged run's time base and held inputs, cut into segments.
 #[derive(Clone, Copy, Debug)]
@@ -362,11 +341,11 @@ mod tests {
     #[test]
     fn an_inductive_segment_is_the_simulators_plant_bit_for_bit() {
         use crate::hardware::driver::MotorDriver;
-        use crate::hardware::realism::{RealPlant, Realism, RigPlant};
+        use crate::hardware::realism::{Realism, RigPlant};
         use crate::sim::runner::Plant;
         let model = SlopeModel::new(RobotParams::balanbot(), 0.1).unwrap();
         let driver = MotorDriver::thesis_like();
-        let driven = Driven::new(model, &driver, model.params()).unwrap();
+        let driven = geared::rig_plant(&model, Some(&driver), None).unwrap();
         let (dt, n, segments) = (1.0 / 1024.0, 60, [0, 25]);
         // Duties that swing through full scale: the 2 A limit clamps the current.
         let u: Vec<f64> = (0..n).map(|i| (255.0 * (i as f64 * 0.3).sin()).round()).collect();
@@ -382,9 +361,7 @@ mod tests {
             for (k, range) in [(0, 0..25), (1, 25..n)] {
                 let mut plant = Realism { motor: Some(driver), ..Realism::ideal() }.build(&model, dt).unwrap().plant;
                 let mut x = starts[k];
-                if let RealPlant::Driven(p) = &mut plant {
-                    p.settle(&x, u[range.start.saturating_sub(1)]);
-                }
+                plant.settle(&x, &SVector::<f64, 1>::new(u[range.start.saturating_sub(1)]));
                 for i in range {
                     let uu = SVector::<f64, 1>::new(u[i]);
                     for step in 0..every {
@@ -439,8 +416,8 @@ mod tests {
             truth.push(x);
             let shaft = plant.shaft_offsets()[0];
             let k1 = plant.between_steps_with_derivative(t[i], dt, &mut x, &uu).unwrap_or_else(|| plant.deriv(&x, &uu));
-            open += usize::from(!plant.ground().engaged());
-            plant_events.push(plant.ground().gear_events().unwrap());
+            open += usize::from(!plant.engaged());
+            plant_events.push(plant.play().unwrap().events()[0]);
             rates.push(k1);
             sensed.push([shaft, x[1]]);
             x = rk4_step_from_k1(&plant, &x, &uu, dt, &k1);
@@ -450,7 +427,7 @@ mod tests {
         let segments = [0, 130, 260];
         let starts: Vec<_> = segments.iter().map(|&s| truth[s]).collect();
         let shooting = Shooting::new(&t, &u, &segments, dt).unwrap();
-        let shooter = geared::geared(&model, Some(&driver), backlash).unwrap();
+        let shooter = geared::rig_plant(&model, Some(&driver), Some(backlash)).unwrap();
         let (mut states, mut rs, mut ss) = (vec![Vector4::zeros(); n], vec![Vector4::zeros(); n], vec![[0.0; 2]; n]);
         let (mut ends, mut plays) = ([Vector4::zeros(); 3], [None; 3]);
         assert_eq!(shooting.plant_steps(), n);
@@ -486,7 +463,7 @@ mod tests {
         // Another robot, carried, has its impacts elsewhere; replaying the first's schedule
         // is another run (the script is obeyed), finite to its end.
         let heavier = SlopeModel::new(RobotParams { m_body: 1.2, ..RobotParams::balanbot() }, 0.05).unwrap().with_friction(Some(friction)).unwrap();
-        let shooter = geared::geared(&heavier, Some(&driver), backlash).unwrap();
+        let shooter = geared::rig_plant(&heavier, Some(&driver), Some(backlash)).unwrap();
         plays = kept;
         let mut own = vec![GearEvent::default(); n];
         let out = Outputs { states: &mut states, rates: &mut rs, sensed: &mut ss, ends: &mut ends, plays: &mut plays, events: &mut own };

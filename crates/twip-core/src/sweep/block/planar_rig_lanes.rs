@@ -61,11 +61,11 @@ struct RigField<'a, const GEAR: u8, const DRIVE: u8, const GEARED: bool> {
 }
 
 impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> RigField<'_, GEAR, DRIVE, GEARED> {
-    /// The derivative and each wheel's gearhead torque (`PlanarPlant::geared_motion`'s) at
+    /// The derivative and each wheel's gearhead torque (`RealPlant::deriv`'s) at
     /// the step's start.
     #[inline(always)]
     fn motion(&self, x: &[Fused; 7]) -> ([Fused; 7], [Fused; 2]) {
-        // As `PlanarPlant::torques` with the trains engaged (motor speed = wheel speed; an
+        // As `RealPlant::inputs_at` with the trains engaged (motor speed = wheel speed; an
         // open train's torque is not read).
         let u = if DRIVE == STEADY {
             let [w_r, w_l] = wheel_speeds(&self.k, x);
@@ -109,7 +109,7 @@ impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> Field<Fused, 7> for Ri
         self.motion(x).0
     }
 
-    // As `PlanarPlant::deriv_at_stage`.
+    // As `RealPlant::deriv_at_stage`.
     #[inline(always)]
     fn at_stage(&self, x: &[Fused; 7], stage: Stage) -> [Fused; 7] {
         if DRIVE == STEPPED {
@@ -124,7 +124,7 @@ impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> Field<Fused, 7> for Ri
     }
 }
 
-/// On terrain (docs/terrain.md, "The rig on terrain"): as `PlanarPlant::geared_motion_at`
+/// On terrain (docs/terrain.md, "The rig on terrain"): as `RealPlant::deriv_at_stage`
 /// with its ground, the terrain model's geared derivative (`geared_in_frame`, a run's own
 /// source) on the ground `g` = (gradient x, gradient y, (M_b + M_w) g) under the lane, the
 /// windings driven at the wheels' speeds relative to the body's pitch about the axle.
@@ -591,7 +591,7 @@ impl PlanarRigLanes {
         let mut rigs: Vec<PlanarRig<f64>> = (0..LANES).map(|l| built.get(l).cloned().flatten().map_or_else(|| fallback.1.clone(), |b| b.1)).collect();
         let stand_in = stand_in()?;
         let plants = RigPlants::new(&rigs, &models, dt, stand_in);
-        let geared = rigs[0].plant_play().is_some();
+        let geared = rigs[0].plant.has_play();
         let x: [Lanes; 7] = core::array::from_fn(|i| core::array::from_fn(|l| x0[l][i]));
         // The sensors sample the initial state, the input zero: the encoders' wheels per
         // lane, the IMUs on lanes.
@@ -714,11 +714,11 @@ impl PlanarRigLanes {
         let (mut finished, mut starts) = ([[0.0; LANES]; 2], [[0.0; LANES]; 2]);
         for (l, rig) in self.context.rigs.iter_mut().enumerate() {
             if self.quiet_engaged[l] && self.engaged[l] == [true; 2] {
-                // Nothing acts between steps (`PlanarPlant::unpushed`): the motors turn with
+                // Nothing acts between steps (`RealPlant::unpushed`): the motors turn with
                 // the wheels (the windings' steps on lanes start from their speeds).
                 if stepped {
                     // (On terrain: relative to the body's pitch rate about the axle.)
-                    let (right, left) = rig.plant.wheel_speeds(&lane(x, l));
+                    let [right, left] = rig.plant.wheel_speeds(&lane(x, l));
                     (finished[0][l], finished[1][l]) = (right, left);
                     (starts[0][l], starts[1][l]) = (right, left);
                 }
@@ -750,12 +750,14 @@ impl PlanarRigLanes {
             let (xl, ul) = (lane(x, l), lane(&u, l));
             if self.geared {
                 let (motor, mean) = match stepped {
-                    true => ([held[0][l], held[1][l]], [plants.windings[0].mean(l), plants.windings[1].mean(l)]),
-                    false => rig.plant.motor_torques(&xl, &ul),
+                    true => (SVector::from([held[0][l], held[1][l]]), SVector::from([plants.windings[0].mean(l), plants.windings[1].mean(l)])),
+                    false => (rig.plant.inputs_at(&xl, &ul, Stage::Start), rig.plant.mean_inputs(&xl, &ul)),
                 };
-                if !rig.plant.gear_next_with(&xl, motor, mean, &lane(&k1, l), [tau[0][l], tau[1][l]]) {
+                if !rig.plant.gear_next_with(&xl, &motor, &mean, &lane(&k1, l), [tau[0][l], tau[1][l]]) {
                     trains[l] = rig.plant.trains();
                 }
+                // The motors turn as the trains now say (as a run's `between_steps` ends).
+                rig.plant.turn_motors();
             }
             rig.sensors.follow_wheels(ts[l], &xl);
         }

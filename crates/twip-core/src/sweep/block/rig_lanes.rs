@@ -18,10 +18,10 @@ use nalgebra::{SVector, Vector4};
 use super::rig_context::RigContext;
 use super::winding::WindingLanes;
 use super::{chunk, state_chunk, Plants, CHUNKS};
-use crate::hardware::disturbance::{Disturbed, Force, MAX_SLOPE_CHANGES};
+use crate::hardware::disturbance::{Force, SlopePlant, Slopes, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::imu::{lane_from, specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseLanes};
-use crate::hardware::realism::{BalanceSensors, RealActuator, RealPlant, RigPlant as _, SlopeRig};
+use crate::hardware::realism::{BalanceSensors, RealActuator, RigPlant as _, SlopeRig};
 use crate::hardware::settle::settle_side_by_side;
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field, Stage};
@@ -127,7 +127,7 @@ struct Hills {
 }
 
 impl Hills {
-    fn new(grounds: [&Disturbed<f64>; LANES], radius: Lanes) -> Self {
+    fn new(grounds: [&Slopes<f64>; LANES], radius: Lanes) -> Self {
         let starts = core::array::from_fn(|j| grounds[0].slope_changes().nth(j).unwrap_or(f64::INFINITY));
         let last = grounds[0].slope_changes().count();
         let pieces = core::array::from_fn(|j| {
@@ -145,7 +145,7 @@ impl Hills {
     /// Lane `l` on `ground` with wheels of `radius` (a robot started anew), the other lanes
     /// as they are and where lane 0's ground has its changes: lane `l` of [`Self::new`].
     #[cfg_attr(not(feature = "parallel"), allow(dead_code))] // the envs' (built with `parallel`)
-    fn set_lane(&mut self, l: usize, ground: &Disturbed<f64>, lane0: &Disturbed<f64>, radius: f64) {
+    fn set_lane(&mut self, l: usize, ground: &Slopes<f64>, lane0: &Slopes<f64>, radius: f64) {
         let last = lane0.slope_changes().count();
         for (j, piece) in self.pieces.iter_mut().enumerate() {
             for (field, v) in piece.iter_mut().zip(Self::piece_fields(ground, j.min(last))) {
@@ -156,7 +156,7 @@ impl Hills {
     }
 
     /// Piece `i`'s `mrl_cos`, `mrl_sin`, `grade`, `sin_slope`, `cos_slope` and q_θ on `ground`.
-    fn piece_fields(ground: &Disturbed<f64>, i: usize) -> [f64; 6] {
+    fn piece_fields(ground: &Slopes<f64>, i: usize) -> [f64; 6] {
         let (k, q_theta) = ground.piece_terms(i);
         [k.mrl_cos, k.mrl_sin, k.grade, k.sin_slope, k.cos_slope, q_theta]
     }
@@ -168,7 +168,7 @@ impl Hills {
     }
 
     /// Lane `l`'s coefficients `k` with the slope of the piece under it at wheel angle
-    /// `theta`, and the force's part on θ there (`Disturbed::piece`'s, as masks), among the
+    /// `theta`, and the force's part on θ there (`Slopes::piece`'s, as masks), among the
     /// first `N` changes: the same piece as among all when the ground has no more (the
     /// starts past its last are +∞, never passed; a NaN distance passes every start, and
     /// piece `N` copies the last).
@@ -234,8 +234,8 @@ impl RigPlants {
             // Unused without a driver (the held current is the input).
             windings: WindingLanes::new(&core::array::from_fn(|l| winding_of(&rigs[l], dt, stand_in))),
             // Every lane's realism has the same parts (but for where pushes and forces act).
-            geared: rigs[0].plant.ground().has_play(),
-            forces: Force::side_by_side(&core::array::from_fn(|l| rigs[l].plant.ground().force())),
+            geared: rigs[0].plant.has_play(),
+            forces: Force::side_by_side(&core::array::from_fn(|l| rigs[l].plant.force())),
             hills: Hills::new(core::array::from_fn(|l| rigs[l].plant.ground()), core::array::from_fn(|l| models[l].params().wheel_radius)),
         }
     }
@@ -253,7 +253,7 @@ impl RigPlants {
             self.windings = windings;
         } else {
             self.plants.set_lane(l, &ground_model(&rigs[l]).coefficients());
-            self.forces.set_lane(l, rigs[l].plant.ground().force());
+            self.forces.set_lane(l, rigs[l].plant.force());
             self.hills.set_lane(l, rigs[l].plant.ground(), rigs[0].plant.ground(), models[l].params().wheel_radius);
         }
         self.windings.set_lane(l, fresh);
@@ -336,7 +336,7 @@ impl RigPlants {
     }
 
     /// The derivative and gearhead torque per wheel on every lane with the trains as they
-    /// are, under the lumped `current` held (what `Disturbed::gear_next` weighs).
+    /// are, under the lumped `current` held (what `RealPlant::gear_next` weighs).
     #[inline(always)]
     fn geared_motion<const COPY: u8>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
         // The lumped current is the input, whatever the winding.
@@ -522,7 +522,7 @@ pub(crate) struct RigLanes {
 }
 
 /// The 2-DOF rigs' [`RigContext`].
-type Context = RigContext<RealPlant<f64>, BalanceSensors<f64>, RealActuator<f64>, Lanes, 4, 1>;
+type Context = RigContext<SlopePlant<f64>, BalanceSensors<f64>, RealActuator<f64>, Lanes, 4, 1>;
 
 impl RigLanes {
     /// The rigs `built` (per lane: its model and rig, or None for an idle lane) at rest in
@@ -555,9 +555,9 @@ impl RigLanes {
             }
             imus.sample(&plants.hills, &[0.0; LANES], &x, &xdot);
         }
-        let engaged = core::array::from_fn(|l| rigs[l].plant.ground().engaged());
-        let idle = rigs.iter().all(|rig| rig.plant.ground().idle_between_steps());
-        let quiet_engaged = core::array::from_fn(|l| rigs[l].plant.ground().unpushed() && plants.drive != STEADY);
+        let engaged = core::array::from_fn(|l| rigs[l].plant.engaged());
+        let idle = rigs.iter().all(|rig| rig.plant.idle_between_steps());
+        let quiet_engaged = core::array::from_fn(|l| rigs[l].plant.unpushed() && plants.drive != STEADY);
         Ok(Some(Self {
             models,
             context: RigContext::new(rigs, x),
@@ -586,8 +586,8 @@ impl RigLanes {
         self.context.restart(l, rig, &Vector4::from(x0));
         let rigs = &mut self.context.rigs;
         self.plants.restart_lane(l, rigs, &self.models, self.dt, self.stand_in);
-        let ground = rigs[l].plant.ground();
-        (self.engaged[l], self.quiet_engaged[l]) = (ground.engaged(), ground.unpushed() && self.plants.drive != STEADY);
+        let plant = &rigs[l].plant;
+        (self.engaged[l], self.quiet_engaged[l]) = (plant.engaged(), plant.unpushed() && self.plants.drive != STEADY);
         if let Some(imus) = self.imus.as_mut() {
             let mut xdot = [[0.0; LANES]; 4];
             let d = rigs[l].plant.deriv(&Vector4::from(x0), &SVector::<f64, 1>::zeros());
@@ -658,7 +658,7 @@ impl RigLanes {
         if self.idle {
             // Nothing acts between steps: what the lanes' plants take is known on lanes.
             match plants.drive {
-                // The motors turn with the wheels (`Driven::motor_speed` without an open rotor).
+                // The motors turn with the wheels (`RealPlant::motor_speeds` without an open rotor).
                 STEPPED => {
                     finished = core::array::from_fn(|l| x[3][l] - x[1][l]);
                     starts = finished;
@@ -671,7 +671,7 @@ impl RigLanes {
         } else {
             for (l, rig) in self.context.rigs.iter_mut().enumerate() {
                 if self.quiet_engaged[l] && engaged[l] {
-                    // Nothing acts between steps (`Disturbed::unpushed`): as when `idle`.
+                    // Nothing acts between steps (`RealPlant::unpushed`): as when `idle`.
                     if stepped {
                         finished[l] = x[3][l] - x[1][l];
                         starts[l] = finished[l];
@@ -683,15 +683,15 @@ impl RigLanes {
                 let mut xl = Vector4::from(lane(x, l));
                 if stepped {
                     finished[l] = rig.plant.motor_speed(&xl).unwrap_or_default();
-                    rig.plant.ground_start(ts[l], dt, &mut xl, u[l]);
+                    rig.plant.ground_start(ts[l], dt, &mut xl);
                     starts[l] = rig.plant.motor_speed(&xl).unwrap_or_default();
                 } else {
-                    current[l] = rig.plant.step_start(ts[l], dt, &mut xl, u[l]);
+                    current[l] = rig.plant.lumped_step_start(ts[l], dt, &mut xl, u[l]);
                 }
                 for i in 0..4 {
                     x[i][l] = xl[i];
                 }
-                engaged[l] = rig.plant.ground().engaged();
+                engaged[l] = rig.plant.engaged();
             }
         }
         if stepped {
@@ -709,12 +709,12 @@ impl RigLanes {
             for (l, rig) in self.context.rigs.iter_mut().enumerate() {
                 let xl = Vector4::from(lane(x, l));
                 let mean = if stepped { plants.windings.mean(l) } else { rig.plant.mean_current(&xl, u[l]) };
-                rig.plant.ground_mut().gear_next_with(&xl, current[l], mean, &Vector4::from(lane(&k1, l)), tau[l]);
-                engaged[l] = rig.plant.ground().engaged();
-                // `step_end`: the motors turn with the rotors of trains that just opened
+                rig.plant.lumped_gear_next(&xl, current[l], mean, &Vector4::from(lane(&k1, l)), tau[l]);
+                engaged[l] = rig.plant.engaged();
+                // `turn_motors`: the motors turn with the rotors of trains that just opened
                 // (the step's end reads their speed; those open before turn so already).
                 if before[l] && !engaged[l] {
-                    rig.plant.step_end(&xl);
+                    rig.plant.turn_motors();
                 }
             }
         }

@@ -1,7 +1,7 @@
 //! The motor windings of a block's rigs on lanes, as `rig_lanes::ImuLanes` keeps the IMUs: each
 //! lane's rig's `Winding` (its factors for the block's step size), side by side. With
 //! inductance their steps are taken here, by `Winding`'s own code over [`Wide`] lanes, as a
-//! run's plant takes them (`RealPlant::step_ended` and `step_start`, `PlanarPlant`'s): the
+//! run's plant takes them (`RealPlant::step_ended` and `step_start`, both models'): the
 //! per-step work is vectorised and an RK4 stage reads the lanes' numbers side by side.
 //! (A lane's winding per RK4 stage, copied by value, ran the 3-DOF rig's kernel 3x slower.)
 use crate::hardware::driver::Winding;
@@ -59,7 +59,7 @@ impl WindingLanes {
     }
 
     /// With inductance: each lane's plant input from its current now (after [`Self::step`]:
-    /// where the last step ended), as `Driven::lumped_current` and `PlanarPlant::delivered`.
+    /// where the last step ended), as `RealPlant::delivered`.
     #[inline(always)]
     pub(super) fn delivered(&self, out: &mut Lanes) {
         for (l, v) in out.iter_mut().enumerate() {
@@ -70,7 +70,7 @@ impl WindingLanes {
 
     /// With inductance: lane `l`'s plant input at a step's start once the step under way has
     /// ended with its motor at `speed`: what a run's `halted` reads after `step_ended`
-    /// (`PlanarPlant::torques` then), which the lanes take at the next step's start.
+    /// (`RealPlant::inputs_at` then), which the lanes take at the next step's start.
     #[inline(always)]
     pub(super) fn ended_input(&self, l: usize, speed: f64) -> f64 {
         let (mut w, per_amp) = self.lane(l);
@@ -79,7 +79,7 @@ impl WindingLanes {
     }
 
     /// With inductance: lane `l`'s plant input from the current's mean over the step (what
-    /// an open gear train's rotor is driven by), as `RealPlant::mean_current`.
+    /// an open gear train's rotor is driven by), as `RealPlant::mean_inputs`.
     #[inline(always)]
     pub(super) fn mean(&self, l: usize) -> f64 {
         let (w, per_amp) = self.lane(l);
