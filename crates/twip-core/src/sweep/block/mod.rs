@@ -148,7 +148,8 @@ impl Plants {
     /// change nothing there: the same bits, and each stage's chain shorter by three
     /// multiply-adds. A loop over lanes cannot branch per lane, so the range is checked
     /// after the step. Measured (new/old CPU time, 6 pairs): LQR lanes 1.055x, fuzzy 1.095x
-    /// on `avx512`; 1.083x and 1.067x on `avx2`.
+    /// on `avx512`, 1.083x and 1.067x on its forced `avx2` copy (an AVX-512 EPYC); on an
+    /// AVX2-only EPYC (`avx2`) 1.052x and 1.187x (docs/performance.md).
     #[inline(always)]
     pub(crate) fn rk4_unreduced(&self, x: &[Lanes; 4], u: &Lanes, dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 4]> {
         let (out, inside) = self.rk4_in::<true>(x, u, dt);
