@@ -115,7 +115,9 @@ test-python: build
 # beside the Rust tests; a clean clone of d165eff (the runner on the lanes' loop), `make test`
 # 535 s with a release build of the wheel beside it. Back on an AVX2-only EPYC (5 December 2026,
 # nothing beside it): a clean clone of 7bcc665, `make demo` 341 s, then `make test` 496 s (pytest
-# 429 s beside the Rust tests). What was tried for the wheel is in Cargo.toml;
+# 429 s beside the Rust tests); a clean clone of 1e7ab55 (nineteenth session, nothing beside it),
+# `make demo` 370 s, then `make test` 522 s (pytest 452 s beside the Rust tests), and one of
+# e5b8ee7, `make test` alone (CI's case) 711 s. What was tried for the wheel is in Cargo.toml;
 # built at opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than
 # the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
