@@ -27,7 +27,7 @@ use core::cell::Cell;
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::{pitch_band, steady_pitch, Aim, DrivePeaks, SlopeSummary, Tally};
 use crate::sim::runner::SimConfig;
-use crate::sweep::lanes::{mask, Lanes, LANES};
+use crate::sweep::lanes::{mask, where_live, Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
 use crate::TwipError;
 use core::sync::atomic::{AtomicU8, Ordering};
@@ -345,36 +345,40 @@ impl Metrics {
     #[inline(always)]
     fn drive(&mut self, live: &[bool; LANES], delivered: &Lanes, update: bool, beyond: &[bool; LANES]) {
         let drive = self.drive.get_or_insert([[0.0; LANES]; DRIVE_TALLIES]);
-        for l in 0..LANES {
-            let mut tally = DriveTally::from_array(core::array::from_fn(|i| Fused(drive[i][l])));
-            tally.observe(live[l], Fused(delivered[l]).magnitude(), update, beyond[l]);
-            for (i, v) in tally.to_array().into_iter().enumerate() {
-                drive[i][l] = v.0;
+        where_live(live, #[inline(always)] |live| {
+            for l in 0..LANES {
+                let mut tally = DriveTally::from_array(core::array::from_fn(|i| Fused(drive[i][l])));
+                tally.observe(live[l], Fused(delivered[l]).magnitude(), update, beyond[l]);
+                for (i, v) in tally.to_array().into_iter().enumerate() {
+                    drive[i][l] = v.0;
+                }
             }
-        }
+        });
     }
 
     /// Observes the lanes that are `live`: a loop over lanes without branches, which the
-    /// compiler vectorises.
+    /// compiler vectorises, without masks while every lane is live (`where_live`).
     #[inline(always)]
     fn observe(&mut self, live: &[bool; LANES], x: &[Lanes; 4], u: &Lanes, phi_s: &Lanes, shared: &Shared) {
-        for l in 0..LANES {
-            let aim = Aim {
-                t: Fused(shared.t),
-                phi_s: Fused(phi_s[l]),
-                band: Fused(self.band[l]),
-                theta_dot: Fused(shared.r.theta_dot),
-                theta: Fused(shared.r.theta),
-                speed_band: Fused(0.02 * shared.speed_scale),
-                direction: Fused(shared.direction),
-                wheel_radius: Fused(self.radius[l]),
-            };
-            let state = [Fused(x[0][l]), Fused(x[1][l]), Fused(x[2][l]), Fused(x[3][l])];
-            let mut tally = self.get(l);
-            tally.observe(live[l], &state, Fused(u[l]), &aim);
-            self.set(l, &tally);
-            self.samples[l] += live[l] as u64;
-        }
+        where_live(live, #[inline(always)] |live| {
+            for l in 0..LANES {
+                let aim = Aim {
+                    t: Fused(shared.t),
+                    phi_s: Fused(phi_s[l]),
+                    band: Fused(self.band[l]),
+                    theta_dot: Fused(shared.r.theta_dot),
+                    theta: Fused(shared.r.theta),
+                    speed_band: Fused(0.02 * shared.speed_scale),
+                    direction: Fused(shared.direction),
+                    wheel_radius: Fused(self.radius[l]),
+                };
+                let state = [Fused(x[0][l]), Fused(x[1][l]), Fused(x[2][l]), Fused(x[3][l])];
+                let mut tally = self.get(l);
+                tally.observe(live[l], &state, Fused(u[l]), &aim);
+                self.set(l, &tally);
+                self.samples[l] += live[l] as u64;
+            }
+        });
     }
 }
 

@@ -25,7 +25,7 @@ use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::DrivePeaks;
 use crate::sim::runner::SimConfig;
 use crate::sim::tracking_metrics::{TrackingTally, TRACKING_TALLIES};
-use crate::sweep::lanes::{Lanes, LANES};
+use crate::sweep::lanes::{where_live, Lanes, LANES};
 use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
 use crate::sweep::SweepMetrics;
 use crate::TwipError;
@@ -176,14 +176,16 @@ impl Metrics {
     #[inline(always)]
     pub(super) fn drive(&mut self, live: &[bool; LANES], delivered: &[Lanes; 2], update: bool, beyond: &[bool; LANES]) {
         let drive = self.drive.get_or_insert([[0.0; LANES]; DRIVE_TALLIES]);
-        for l in 0..LANES {
-            let mut tally = DriveTally::from_array(fill(|i| Fused(drive[i][l])));
-            let largest = Fused(delivered[0][l]).magnitude().larger(Fused(delivered[1][l]).magnitude());
-            tally.observe(live[l], largest, update, beyond[l]);
-            for (i, v) in tally.to_array().into_iter().enumerate() {
-                drive[i][l] = v.0;
+        where_live(live, #[inline(always)] |live| {
+            for l in 0..LANES {
+                let mut tally = DriveTally::from_array(fill(|i| Fused(drive[i][l])));
+                let largest = Fused(delivered[0][l]).magnitude().larger(Fused(delivered[1][l]).magnitude());
+                tally.observe(live[l], largest, update, beyond[l]);
+                for (i, v) in tally.to_array().into_iter().enumerate() {
+                    drive[i][l] = v.0;
+                }
             }
-        }
+        });
     }
 
     /// Every active lane's metrics after the last step (`n` steps to `t_end`): each lane
@@ -260,15 +262,17 @@ impl Metrics {
                 distances[l] = path.distance(x[0][l], x[1][l]);
             }
         }
-        for l in 0..LANES {
-            let state = fill(|i| Fused(x[i][l]));
-            let mut tally = TrackingTally::from_array(self.get(l).to_array().map(Fused));
-            let distance = || Fused(distances[l]);
-            tally.observe(live[l], settled, &state, [Fused(u[0][l]), Fused(u[1][l])], &r, distance);
-            self.set(l, TrackingTally::from_array(tally.to_array().map(|v| v.0)));
-            self.samples[l] += live[l] as u64;
-            self.settled[l] += (live[l] & settled) as u64;
-        }
+        where_live(live, #[inline(always)] |live| {
+            for l in 0..LANES {
+                let state = fill(|i| Fused(x[i][l]));
+                let mut tally = TrackingTally::from_array(self.get(l).to_array().map(Fused));
+                let distance = || Fused(distances[l]);
+                tally.observe(live[l], settled, &state, [Fused(u[0][l]), Fused(u[1][l])], &r, distance);
+                self.set(l, TrackingTally::from_array(tally.to_array().map(|v| v.0)));
+                self.samples[l] += live[l] as u64;
+                self.settled[l] += (live[l] & settled) as u64;
+            }
+        });
     }
 }
 
