@@ -22,9 +22,9 @@ pub(crate) fn mask(b: bool) -> u64 {
 
 /// `observe(live)`, but with `live` the constant "every lane" when every lane is live (a
 /// block whose robots all still run, the common case): in that copy of `observe` the
-/// compiler drops the masks of its loop over lanes (the selects that keep an ended lane's
-/// tallies, and the masks made from `bool`s for them) and stores every lane's new values as
-/// they are. The same bits; on the AVX2 EPYC (`avx2`, 6 pairs against the build before):
+/// compiler drops the selects that keep an ended lane's tallies and the masks made from
+/// `bool`s for them (a tally's own per-lane choices, as a settling time's, stay). The same
+/// bits; on the AVX2 EPYC (`avx2`, 6 pairs against the build before):
 /// LQR lanes 1.077x, fuzzy 1.054x, Gaussian sets 1.062x, circle-smc 1.036x; the thesis-like
 /// rig 0.984x and the 3-DOF one 0.985x, within their pairs' spread (docs/performance.md).
 #[inline(always)]
