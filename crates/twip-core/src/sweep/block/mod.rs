@@ -357,7 +357,7 @@ impl Metrics {
     }
 
     /// Observes the lanes that are `live`: a loop over lanes without branches, which the
-    /// compiler vectorises, without masks while every lane is live (`where_live`).
+    /// compiler vectorises, without the alive masks while every lane is live (`where_live`).
     #[inline(always)]
     fn observe(&mut self, live: &[bool; LANES], x: &[Lanes; 4], u: &Lanes, phi_s: &Lanes, shared: &Shared) {
         where_live(live, #[inline(always)] |live| {
