@@ -345,15 +345,13 @@ impl Metrics {
     #[inline(always)]
     fn drive(&mut self, live: &[bool; LANES], delivered: &Lanes, update: bool, beyond: &[bool; LANES]) {
         let drive = self.drive.get_or_insert([[0.0; LANES]; DRIVE_TALLIES]);
-        where_live(live, #[inline(always)] |live| {
-            for l in 0..LANES {
-                let mut tally = DriveTally::from_array(core::array::from_fn(|i| Fused(drive[i][l])));
-                tally.observe(live[l], Fused(delivered[l]).magnitude(), update, beyond[l]);
-                for (i, v) in tally.to_array().into_iter().enumerate() {
-                    drive[i][l] = v.0;
-                }
+        for l in 0..LANES {
+            let mut tally = DriveTally::from_array(core::array::from_fn(|i| Fused(drive[i][l])));
+            tally.observe(live[l], Fused(delivered[l]).magnitude(), update, beyond[l]);
+            for (i, v) in tally.to_array().into_iter().enumerate() {
+                drive[i][l] = v.0;
             }
-        });
+        }
     }
 
     /// Observes the lanes that are `live`: a loop over lanes without branches, which the

@@ -176,16 +176,14 @@ impl Metrics {
     #[inline(always)]
     pub(super) fn drive(&mut self, live: &[bool; LANES], delivered: &[Lanes; 2], update: bool, beyond: &[bool; LANES]) {
         let drive = self.drive.get_or_insert([[0.0; LANES]; DRIVE_TALLIES]);
-        where_live(live, #[inline(always)] |live| {
-            for l in 0..LANES {
-                let mut tally = DriveTally::from_array(fill(|i| Fused(drive[i][l])));
-                let largest = Fused(delivered[0][l]).magnitude().larger(Fused(delivered[1][l]).magnitude());
-                tally.observe(live[l], largest, update, beyond[l]);
-                for (i, v) in tally.to_array().into_iter().enumerate() {
-                    drive[i][l] = v.0;
-                }
+        for l in 0..LANES {
+            let mut tally = DriveTally::from_array(fill(|i| Fused(drive[i][l])));
+            let largest = Fused(delivered[0][l]).magnitude().larger(Fused(delivered[1][l]).magnitude());
+            tally.observe(live[l], largest, update, beyond[l]);
+            for (i, v) in tally.to_array().into_iter().enumerate() {
+                drive[i][l] = v.0;
             }
-        });
+        }
     }
 
     /// Every active lane's metrics after the last step (`n` steps to `t_end`): each lane
