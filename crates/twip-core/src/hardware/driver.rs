@@ -500,7 +500,6 @@ impl<T: Real> Actuator<T, 4, 1> for PwmActuator<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::SlopeModel;
 
     fn params() -> RobotParams<f64> {
         RobotParams::balanbot()
@@ -607,7 +606,7 @@ mod tests {
     #[cfg(feature = "std")]
     mod against_the_coupled_ode {
         use super::*;
-        use crate::Dynamics;
+        use crate::{Dynamics, SlopeModel};
 
         /// The audit's setting: the thesis-like drive (1 mH, 2 V drop) open loop on a 0.1 rad
         /// slope, a duty swinging through ±200 counts, held over control periods of 2^-8 s.
