@@ -13,7 +13,9 @@ A build is a folder holding a `twip` package with its compiled `_core` (for exam
 `python/twip` made before the change: `cp -r python/twip /tmp/old/`).
 
 Run:  .venv/bin/python benches/pair_builds.py OLD_DIR NEW_DIR [--rounds 6] [--kernel-copy avx2]
-          [--rows lqr fuzzy ...]
+          [--rows lqr fuzzy ...] [--no-settle]
+`--no-settle` runs the rigs without `Realism.thesis_like()`'s settled start (`settle=0.0`), the
+work a build from before it (0.1.9) did; a build whose `Realism` has no `settle` runs as it is.
 Rows are benches/families.py's workloads, sized to about 0.8 s of one thread on AVX-512.
 """
 import argparse
@@ -34,7 +36,7 @@ ROWS = {
 }
 
 
-def child(row, copy):
+def child(row, copy, settle):
     """In a fresh process: one sweep of `row` on one thread; prints the package's file, the CPU
     seconds, the sample-steps, the kernel copy and the metrics' hash."""
     import numpy as np
@@ -46,6 +48,8 @@ def child(row, copy):
         twip.use_kernel_copy(copy)
     i, n = ROWS[row]
     _, sc, realism, _ = families.families()[i]
+    if settle == "no-settle" and realism is not None and hasattr(realism, "settle"):
+        realism = realism.replace(settle=0.0)
     kw = dict(perturb=families.PERTURB, seed=1, progress=False, threads=1, realism=realism)
     twip.montecarlo(sc, 16, **kw)  # warm: the first call loads and sets up
     start = time.process_time()
@@ -55,10 +59,11 @@ def child(row, copy):
     print(twip.__file__, cpu, r.steps, twip.kernel_copy(), digest.hexdigest()[:16])
 
 
-def run(build, row, copy):
-    """(cpu seconds, sample-steps, kernel copy, hash) of `row` in a child importing `build`."""
+def run(build, row, copy, settle):
+    """(cpu seconds, sample-steps, kernel copy, hash) of `row` in a child importing `build`;
+    `settle`: "settle" as the rows are, or "no-settle"."""
     env = dict(os.environ, PYTHONPATH=build)
-    out = subprocess.run([sys.executable, __file__, "--child", row, copy], env=env, capture_output=True, text=True)
+    out = subprocess.run([sys.executable, __file__, "--child", row, copy, settle], env=env, capture_output=True, text=True)
     if out.returncode:
         raise SystemExit(f"{row} with {build}:\n{out.stderr}")
     path, cpu, steps, kernel_copy, digest = out.stdout.split()
@@ -74,6 +79,7 @@ def main():
     p.add_argument("--rounds", type=int, default=6)
     p.add_argument("--kernel-copy", default="widest", help="avx512, avx2, baseline, or widest (the CPU's)")
     p.add_argument("--rows", nargs="+", default=list(ROWS), choices=list(ROWS))
+    p.add_argument("--no-settle", action="store_true", help="the rigs without the settled start (settle=0.0)")
     a = p.parse_args()
     if a.rounds < 1:
         p.error(f"--rounds must be at least 1, got {a.rounds}")
@@ -85,7 +91,7 @@ def main():
             order = ["old", "new"] if (k + j) % 2 == 0 else ["new", "old"]
             cpu = {}
             for b in order:
-                cpu[b], steps, kernel_copy, digest = run(builds[b], row, a.kernel_copy)
+                cpu[b], steps, kernel_copy, digest = run(builds[b], row, a.kernel_copy, "no-settle" if a.no_settle else "settle")
                 hashes[(row, b)].add(digest)
                 speed[row][b].append(steps / cpu[b] / 1e6)
             speed[row]["ratio"].append(cpu["old"] / cpu["new"])
@@ -100,6 +106,6 @@ def main():
 
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
-        child(sys.argv[2], sys.argv[3])
+        child(sys.argv[2], sys.argv[3], sys.argv[4])
     else:
         main()
