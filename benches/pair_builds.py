@@ -100,9 +100,19 @@ def count(build, row, copy, settle, samples):
         if not path.startswith(os.path.abspath(build)):
             raise SystemExit(f"{row}: the child imported {path}, not the build in {build}")
         table = subprocess.run(["callgrind_annotate", "--threshold=100", out_file], capture_output=True, text=True, check=True).stdout
-    # Each function's line: "1,234 (12.3%)  file:function [object]"; twip's are in _core.
-    ours = sum(int(line.split()[0].replace(",", "")) for line in table.splitlines() if "/_core." in line and line.strip()[:1].isdigit())
-    return ours / int(steps), kernel_copy, digest
+    return ours(table, build) / int(steps), kernel_copy, digest
+
+
+def ours(table, build):
+    """The instructions `callgrind_annotate`'s `table` gives the functions of `build`'s `_core`
+    (other packages have a `_core` too: scipy's)."""
+    core = os.path.join(os.path.abspath(build), "twip", "_core.")
+    total = 0
+    for line in table.splitlines():
+        # A function's line: "1,234 (12.3%)  file:function [object]".
+        if line.strip()[:1].isdigit() and line.rstrip().endswith("]") and line.rsplit("[", 1)[-1].startswith(core):
+            total += int(line.split()[0].replace(",", ""))
+    return total
 
 
 def count_rows(a, builds):
