@@ -100,17 +100,21 @@ def count(build, row, copy, settle, samples):
         if not path.startswith(os.path.abspath(build)):
             raise SystemExit(f"{row}: the child imported {path}, not the build in {build}")
         table = subprocess.run(["callgrind_annotate", "--threshold=100", out_file], capture_output=True, text=True, check=True).stdout
-    return ours(table, build) / int(steps), kernel_copy, digest
+    n = ours(table, build)
+    if not n:
+        raise SystemExit(f"{row}: callgrind counted no instructions in {build}'s twip/_core")
+    return n / int(steps), kernel_copy, digest
 
 
 def ours(table, build):
     """The instructions `callgrind_annotate`'s `table` gives the functions of `build`'s `_core`
     (other packages have a `_core` too: scipy's)."""
-    core = os.path.join(os.path.abspath(build), "twip", "_core.")
+    # The object's path as the build was named or with its links resolved.
+    cores = tuple(os.path.join(f(build), "twip", "_core.") for f in (os.path.abspath, os.path.realpath))
     total = 0
     for line in table.splitlines():
         # A function's line: "1,234 (12.3%)  file:function [object]".
-        if line.strip()[:1].isdigit() and line.rstrip().endswith("]") and line.rsplit("[", 1)[-1].startswith(core):
+        if line.strip()[:1].isdigit() and line.rstrip().endswith("]") and line.rsplit("[", 1)[-1].startswith(cores):
             total += int(line.split()[0].replace(",", ""))
     return total
 
