@@ -19,7 +19,7 @@ Run:  .venv/bin/python benches/pair_builds.py OLD_DIR NEW_DIR [--rounds 6] [--ke
 sample-step, without the warm-up sweep. A count moves by under 0.1 % from run to run, so it
 tells a change of a few per cent that the VM's noise hides; it is not the time (stalls,
 divisions and masked stores cost more than an add). `--samples N` shortens the rows (about
-1-2 min a count for 16 samples of a rig row): keep N a multiple of 16, the lanes' block, or
+1-3 min a count for 16 samples of a rig row): keep N a multiple of 16, the lanes' block, or
 idle lanes are counted.
 `--no-settle` runs the rigs without `Realism.thesis_like()`'s settled start (`settle=0.0`), the
 work a build from before it (0.1.9) did; a build whose `Realism` has no `settle` runs as it is.
