@@ -77,10 +77,17 @@ def run(build, row, copy, settle, samples):
     out = subprocess.run([sys.executable, __file__, "--child", row, copy, settle, "warm", str(samples)], env=env, capture_output=True, text=True)
     if out.returncode:
         raise SystemExit(f"{row} with {build}:\n{out.stderr}")
-    path, cpu, steps, kernel_copy, digest = out.stdout.split()
+    cpu, steps, kernel_copy, digest = child_said(out.stdout, build, row)
+    return float(cpu), int(steps), kernel_copy, digest
+
+
+def child_said(stdout, build, row):
+    """A child's (cpu seconds, sample-steps, kernel copy, hash), once it is sure the child ran
+    `build`'s package."""
+    path, cpu, steps, kernel_copy, digest = stdout.split()
     if not path.startswith(os.path.abspath(build)):
         raise SystemExit(f"{row}: the child imported {path}, not the build in {build}")
-    return float(cpu), int(steps), kernel_copy, digest
+    return cpu, steps, kernel_copy, digest
 
 
 def count(build, row, copy, settle, samples):
@@ -96,9 +103,7 @@ def count(build, row, copy, settle, samples):
             raise SystemExit("--instructions needs valgrind (Debian: apt install valgrind)")
         if out.returncode:
             raise SystemExit(f"{row} with {build} under callgrind:\n{out.stderr[-2000:]}")
-        path, _, steps, kernel_copy, digest = out.stdout.split()
-        if not path.startswith(os.path.abspath(build)):
-            raise SystemExit(f"{row}: the child imported {path}, not the build in {build}")
+        _, steps, kernel_copy, digest = child_said(out.stdout, build, row)
         table = subprocess.run(["callgrind_annotate", "--threshold=100", out_file], capture_output=True, text=True, check=True).stdout
     n = ours(table, build)
     if not n:
@@ -119,11 +124,16 @@ def ours(table, build):
     return total
 
 
+def settle_of(a):
+    """The children's word for the rigs' settled start: "settle" as the rows are, or "no-settle"."""
+    return "no-settle" if a.no_settle else "settle"
+
+
 def count_rows(a, builds):
     """Each row's instructions per sample-step in both builds, once each (`--instructions`)."""
     print("instructions in twip's _core per sample-step (callgrind; one thread; no warm-up); new/old; same bits")
     for row in a.rows:
-        got = {b: count(builds[b], row, a.kernel_copy, "no-settle" if a.no_settle else "settle", a.samples) for b in builds}
+        got = {b: count(builds[b], row, a.kernel_copy, settle_of(a), a.samples) for b in builds}
         (old, kernel_copy, h_old), (new, _, h_new) = got["old"], got["new"]
         print(f"{row:16s} {kernel_copy} old {old:8.1f} new {new:8.1f}  {new / old:.3f}  {'same bits' if h_old == h_new else 'BITS DIFFER'}", flush=True)
 
@@ -153,7 +163,7 @@ def main():
             order = ["old", "new"] if (k + j) % 2 == 0 else ["new", "old"]
             cpu = {}
             for b in order:
-                cpu[b], steps, kernel_copy, digest = run(builds[b], row, a.kernel_copy, "no-settle" if a.no_settle else "settle", a.samples)
+                cpu[b], steps, kernel_copy, digest = run(builds[b], row, a.kernel_copy, settle_of(a), a.samples)
                 hashes[(row, b)].add(digest)
                 speed[row][b].append(steps / cpu[b] / 1e6)
             speed[row]["ratio"].append(cpu["old"] / cpu["new"])
