@@ -75,6 +75,13 @@ impl<T: Real> PlanarGround<T> {
     }
 }
 
+/// Each train's flank contact torque τ_m − τ_f − J ẇ: the motors' torques `u`, the gearhead
+/// torques `friction`, the rotor inertia `j` and the wheels' accelerations `acc`.
+#[inline(always)]
+pub(crate) fn flank_contact<T: Real>(u: &SVector<T, 2>, friction: [T; 2], j: T, acc: [T; 2]) -> [T; 2] {
+    [u[0] - friction[0] - j * acc[0], u[1] - friction[1] - j * acc[1]]
+}
+
 /// The body force's generalised forces on (φ, v) at (sin φ, cos φ), if any.
 #[inline(always)]
 fn extra<T: Real>(force: Option<&Force<T>>, s: T, cp: T) -> Option<Vector2<T>> {
@@ -112,7 +119,7 @@ impl<T: Real> RigGround<T, 7, 2> for PlanarGround<T> {
     #[inline(always)]
     fn contact(&self, x: &PlanarState<T>, d: &PlanarState<T>, u: &SVector<T, 2>, friction: [T; 2], j: T) -> [T; 2] {
         let (acc_r, acc_l) = self.wheel_accelerations(x, d);
-        [u[0] - friction[0] - j * acc_r, u[1] - friction[1] - j * acc_l]
+        flank_contact(u, friction, j, [acc_r, acc_l])
     }
 
     #[inline(always)]
@@ -327,6 +334,14 @@ impl<T: Real> PlanarSensors<T> {
             None => self.wheels.speeds(&(*x).into()),
             Some(g) => self.wheels.speeds(&in_plane(x, &frame_of(g, x))),
         };
+        self.follow_speeds(t, speeds);
+    }
+
+    /// [`Self::follow_wheels`] given the wheels' speeds relative to the body there (on flat
+    /// ground a sweep's lanes work them out side by side, with the model's `WheelRows`,
+    /// which are these sensors').
+    #[inline(always)]
+    pub(crate) fn follow_speeds(&mut self, t: T, speeds: [T; 2]) {
         if t > T::zero() {
             let half = self.dt * c::<T>(0.5);
             for ((beta, was), now) in self.beta.iter_mut().zip(self.beta_dot).zip(speeds) {

@@ -371,11 +371,27 @@ impl<T: Real, G: RigGround<T, NX, N>, const NX: usize, const N: usize> RealPlant
     /// whether the trains stayed as they were (always, without backlash).
     #[inline(always)]
     pub(crate) fn gear_next_with(&mut self, x: &SVector<T, NX>, input: &SVector<T, N>, mean: &SVector<T, N>, d: &SVector<T, NX>, friction: [T; N]) -> bool {
+        let Some(j) = self.rotor_inertia() else { return true };
+        let contact = self.ground.contact(x, d, input, friction, j);
+        self.gear_next_at(self.ground.wheel_speeds(x), contact, mean)
+    }
+
+    /// [`Self::gear_next_with`] given each train's wheel speed `wheels` and flank contact
+    /// torque `contact` at the step's start, which a sweep's 3-DOF lanes on flat ground work
+    /// out side by side.
+    #[inline(always)]
+    pub(crate) fn gear_next_at(&mut self, wheels: [T; N], contact: [T; N], mean: &SVector<T, N>) -> bool {
+        let motor = self.ground.motor_torques(mean);
         let Some(play) = self.play.as_mut() else { return true };
         let engaged = play.engaged();
-        let contact = self.ground.contact(x, d, input, friction, play.inertia());
-        play.next_step(self.ground.wheel_speeds(x), contact, self.ground.motor_torques(mean));
+        play.next_step(wheels, contact, motor);
         play.engaged() == engaged
+    }
+
+    /// The gear trains' rotor inertia (None: no play).
+    #[inline(always)]
+    pub(crate) fn rotor_inertia(&self) -> Option<T> {
+        self.play.as_ref().map(|p| p.inertia())
     }
 }
 

@@ -110,6 +110,18 @@ impl Plants {
         PlanarCoefficients::from_array(fill(|f| Fused(self.0[f][l])))
     }
 
+    /// Each lane's wheels' speeds relative to the body (right, left) from its ν = (φ̇, v, ω),
+    /// or their accelerations from ν̇ (`WheelRows::of`).
+    #[inline(always)]
+    pub(crate) fn wheels_of(&self, nu: [&Lanes; 3]) -> [Lanes; 2] {
+        let mut out = [[0.0; LANES]; 2];
+        for l in 0..LANES {
+            let [right, left] = self.lane(l).wheels().of(&[Fused(nu[0][l]), Fused(nu[1][l]), Fused(nu[2][l])]);
+            (out[0][l], out[1][l]) = (right.0, left.0);
+        }
+        out
+    }
+
     /// One RK4 step, the inputs held, on every lane: a lane's whole step is one loop body
     /// in [`Fused`] numbers, which the compiler vectorises across lanes. (Two lanes per
     /// body, as the 2-DOF block does, measured no faster here: the 7-state step already

@@ -196,18 +196,8 @@ mod tests {
         ground_of: impl Fn(&mut [PlanarSample]) -> Option<(Vec<Option<Terrain<f64>>>, Option<FeedForwardLanes>)>,
         ending: &str,
     ) {
-        let circle = Circle::from_origin(0.6, 0.2, Direction::CounterClockwise).unwrap();
-        let config = SimConfig { dt: 1e-3, t_final: 2.0, fall_limit: 0.5 };
+        let (circle, config, mut samples) = block();
         let realism = crate::sweep::rig::for_sweep(realism, 5);
-        let mut samples: Vec<PlanarSample> = (0..LANES as u64)
-            .map(|i| {
-                let mut params = RobotParams::balanbot();
-                params.com_height *= 0.6 + 0.05 * i as f64;
-                let mut x0 = PlanarState::zeros();
-                x0[3] = 0.04 * i as f64;
-                PlanarSample { index: i, params, x0 }
-            })
-            .collect();
         let ground = ground_of(&mut samples);
         let ground = ground.as_ref().map(|(t, feed)| (t.as_slice(), *feed));
         let never = || false;
@@ -225,6 +215,48 @@ mod tests {
             }
         }
         assert!(base.contains(ending) && base.contains("fell: false"), "want both outcomes: {base}");
+    }
+
+    /// A block's path, run and robots: the circle for 2 s, each lane's robot with its centre
+    /// of mass higher and its start tilted further than the last (some fall, some do not).
+    fn block() -> (Circle<f64>, SimConfig<f64>, Vec<PlanarSample>) {
+        let circle = Circle::from_origin(0.6, 0.2, Direction::CounterClockwise).unwrap();
+        let config = SimConfig { dt: 1e-3, t_final: 2.0, fall_limit: 0.5 };
+        let samples = (0..LANES as u64)
+            .map(|i| {
+                let mut params = RobotParams::balanbot();
+                params.com_height *= 0.6 + 0.05 * i as f64;
+                let mut x0 = PlanarState::zeros();
+                x0[3] = 0.04 * i as f64;
+                PlanarSample { index: i, params, x0 }
+            })
+            .collect();
+        (circle, config, samples)
+    }
+
+    /// On flat ground the lanes work out the wheels' speeds for the gear play and the
+    /// encoders side by side; on terrain each lane's rig does: on level planes (any uphill
+    /// heading) the two give the same bits, for the thesis-like rig with and without play,
+    /// pushed and without inductance, on the widest copy this CPU runs.
+    #[test]
+    fn flat_ground_is_level_terrain_bit_for_bit() {
+        use crate::hardware::disturbance::Push;
+        let nominal = RobotParams::balanbot();
+        let law = PidLanes::new(&PidTracker::table_4_1(&nominal, DcMotor::gb37y3530(), 0.005).unwrap());
+        let (circle, config, samples) = block();
+        let level: Vec<_> = (0..LANES).map(|i| Terrain::plane(0.0, 0.7 * i as f64).ok()).collect();
+        let thesis = Realism::thesis_like();
+        let no_inductance = crate::hardware::driver::MotorDriver { inductance: 0.0, ..thesis.motor.unwrap() };
+        let pushed = Realism { pushes: crate::hardware::disturbance::Pushes::new(&[Push { t: 0.3, impulse: 0.02, height: 0.1 }]).unwrap(), ..thesis };
+        let never = || false;
+        for realism in [thesis, Realism { backlash: None, ..thesis }, Realism { motor: Some(no_inductance), ..thesis }, pushed] {
+            let realism = crate::sweep::rig::for_sweep(&realism, 5);
+            let realism_of = |_: &RobotParams<f64>| Ok(realism);
+            let run = |ground| format!("{:?}", run_planar_rig_block(law.clone(), &circle, &config, &samples, 1.0, &realism_of, &never, ground).unwrap());
+            let flat = run(None);
+            assert_eq!(flat, run(Some((level.as_slice(), None))), "{realism:?}");
+            assert!(flat.contains("fell: false"), "{flat}");
+        }
     }
 
     /// On terrain too (each lane its own plane, the grade fed forward, half the lanes across

@@ -25,7 +25,7 @@ use crate::Dynamics;
 use crate::hardware::disturbance::Force;
 use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::imu::{lane_from, ImuClock, ImuReading, Mpu6050, NoiseLanes};
-use crate::hardware::planar_rig::{body_force, sample_imus, sample_imus_in_frame, PlanarActuator, PlanarPlant, PlanarRig, PlanarSensors};
+use crate::hardware::planar_rig::{body_force, flank_contact, sample_imus, sample_imus_in_frame, PlanarActuator, PlanarPlant, PlanarRig, PlanarSensors};
 use crate::hardware::realism::RigPlant as _;
 use crate::hardware::settle::settle_side_by_side;
 use crate::model::friction::{Friction, Gearhead};
@@ -712,13 +712,21 @@ impl PlanarRigLanes {
         let mut held = u;
         let mut trains = [[true; 2]; LANES];
         let (mut finished, mut starts) = ([[0.0; LANES]; 2], [[0.0; LANES]; 2]);
+        // On flat ground the wheels' speeds on lanes, with the model's rows (a rig's plant's
+        // and encoders' are its model's): once for every lane, not through each rig.
+        let flat = self.ground.is_none();
+        let wheels_at = |x: &[Lanes; 7]| plants.plants.wheels_of([&x[4], &x[5], &x[6]]);
+        let speeds = (flat && stepped).then(|| wheels_at(x));
         for (l, rig) in self.context.rigs.iter_mut().enumerate() {
             if self.quiet_engaged[l] && self.engaged[l] == [true; 2] {
                 // Nothing acts between steps (`RealPlant::unpushed`): the motors turn with
                 // the wheels (the windings' steps on lanes start from their speeds).
                 if stepped {
                     // (On terrain: relative to the body's pitch rate about the axle.)
-                    let [right, left] = rig.plant.wheel_speeds(&lane(x, l));
+                    let [right, left] = match &speeds {
+                        Some(s) => [s[0][l], s[1][l]],
+                        None => rig.plant.wheel_speeds(&lane(x, l)),
+                    };
                     (finished[0][l], finished[1][l]) = (right, left);
                     (starts[0][l], starts[1][l]) = (right, left);
                 }
@@ -746,20 +754,33 @@ impl PlanarRigLanes {
         let ground = self.ground.as_ref();
         let (mut k1, tau) = plants.motion::<COPY>(x, &held, &trains, ground);
         let before = trains;
+        // On flat ground, the wheels' speeds (impacts and pushes may have moved them) and
+        // accelerations at the step's start, for the play and the encoders.
+        let wheels = flat.then(|| (wheels_at(x), wheels_at(&k1)));
         for (l, rig) in self.context.rigs.iter_mut().enumerate() {
-            let (xl, ul) = (lane(x, l), lane(&u, l));
+            let at = |w: &[Lanes; 2]| [w[0][l], w[1][l]];
             if self.geared {
                 let (motor, mean) = match stepped {
-                    true => (SVector::from([held[0][l], held[1][l]]), SVector::from([plants.windings[0].mean(l), plants.windings[1].mean(l)])),
-                    false => (rig.plant.inputs_at(&xl, &ul, Stage::Start), rig.plant.mean_inputs(&xl, &ul)),
+                    true => (SVector::from(at(&held)), SVector::from([plants.windings[0].mean(l), plants.windings[1].mean(l)])),
+                    false => {
+                        let (xl, ul) = (lane(x, l), lane(&u, l));
+                        (rig.plant.inputs_at(&xl, &ul, Stage::Start), rig.plant.mean_inputs(&xl, &ul))
+                    }
                 };
-                if !rig.plant.gear_next_with(&xl, &motor, &mean, &lane(&k1, l), [tau[0][l], tau[1][l]]) {
+                let same = match (&wheels, rig.plant.rotor_inertia()) {
+                    (Some((speeds, accels)), Some(j)) => rig.plant.gear_next_at(at(speeds), flank_contact(&motor, at(&tau), j, at(accels)), &mean),
+                    _ => rig.plant.gear_next_with(&lane(x, l), &motor, &mean, &lane(&k1, l), at(&tau)),
+                };
+                if !same {
                     trains[l] = rig.plant.trains();
                 }
                 // The motors turn as the trains now say (as a run's `between_steps` ends).
                 rig.plant.turn_motors();
             }
-            rig.sensors.follow_wheels(ts[l], &xl);
+            match &wheels {
+                Some((speeds, _)) => rig.sensors.follow_speeds(ts[l], at(speeds)),
+                None => rig.sensors.follow_wheels(ts[l], &lane(x, l)),
+            }
         }
         if trains != before {
             // Some trains opened or closed: RK4's first stage with them as they are now.
