@@ -273,13 +273,9 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
             self.rotor = wheel;
         }
         for i in 0..N {
-            let pushes = match self.flank[i] {
-                1 => contact[i] >= T::zero(),
-                -1 => contact[i] <= T::zero(),
-                _ => {
-                    self.events[i].opened = false;
-                    continue;
-                }
+            let Some(pushes) = self.pushes(i, contact[i]) else {
+                self.events[i].opened = false;
+                continue;
             };
             let opens = self.script.map_or(!pushes, |s| s[i].opened);
             self.rotor[i] = wheel[i];
@@ -291,6 +287,27 @@ impl<T: Real, const N: usize> GearPlay<T, N> {
         self.script = None;
         self.motor = motor;
         self.before = Some(wheel);
+    }
+
+    /// Whether engaged train `i` pushes into its flank at the contact torque `contact` (None:
+    /// it is open).
+    #[inline(always)]
+    fn pushes(&self, i: usize, contact: T) -> Option<bool> {
+        match self.flank[i] {
+            1 => Some(contact >= T::zero()),
+            -1 => Some(contact <= T::zero()),
+            _ => None,
+        }
+    }
+
+    /// Whether [`Self::next_step`] at the contact torques `contact` would leave every train
+    /// engaged, no script imposing an event. What it notes then (the rotors' and the wheels'
+    /// speeds, the motors' torques) is read only while a train is open, and the step at which
+    /// one opens notes it again; so a sweep's lanes skip such a step (not noting its events,
+    /// which only system identification reads).
+    #[inline(always)]
+    pub(crate) fn stays_engaged(&self, contact: [T; N]) -> bool {
+        self.script.is_none() && (0..N).all(|i| self.pushes(i, contact[i]) == Some(true))
     }
 
     /// The rotor inertia [kg m² at the wheel].

@@ -388,6 +388,13 @@ impl<T: Real, G: RigGround<T, NX, N>, const NX: usize, const N: usize> RealPlant
         play.engaged() == engaged
     }
 
+    /// Whether the gear trains' next step would leave them all engaged at the flank contact
+    /// torques `contact`, with nothing to note (`GearPlay::stays_engaged`); false without play.
+    #[inline(always)]
+    pub(crate) fn stays_engaged(&self, contact: [T; N]) -> bool {
+        self.play.as_ref().is_some_and(|p| p.stays_engaged(contact))
+    }
+
     /// The gear trains' rotor inertia (None: no play).
     #[inline(always)]
     pub(crate) fn rotor_inertia(&self) -> Option<T> {

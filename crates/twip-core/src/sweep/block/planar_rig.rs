@@ -235,9 +235,10 @@ mod tests {
     }
 
     /// On flat ground the lanes work out the wheels' speeds for the gear play and the
-    /// encoders side by side; on terrain each lane's rig does: on level planes (any uphill
-    /// heading) the two give the same bits, for the thesis-like rig with and without play,
-    /// pushed and without inductance, on the widest copy this CPU runs.
+    /// encoders side by side, and skip the play's step where its trains stay engaged; on
+    /// terrain each lane's rig does it all: on level planes (any uphill heading) the two give
+    /// the same bits, for the thesis-like rig with and without play, pushed and without
+    /// inductance, on the widest copy this CPU runs.
     #[test]
     fn flat_ground_is_level_terrain_bit_for_bit() {
         use crate::hardware::disturbance::Push;

@@ -767,15 +767,23 @@ impl PlanarRigLanes {
                         (rig.plant.inputs_at(&xl, &ul, Stage::Start), rig.plant.mean_inputs(&xl, &ul))
                     }
                 };
-                let same = match (&wheels, rig.plant.rotor_inertia()) {
-                    (Some((speeds, accels)), Some(j)) => rig.plant.gear_next_at(at(speeds), flank_contact(&motor, at(&tau), j, at(accels)), &mean),
-                    _ => rig.plant.gear_next_with(&lane(x, l), &motor, &mean, &lane(&k1, l), at(&tau)),
+                // Whether the trains stayed as they were, when the play took its step.
+                let stepped_play = match (&wheels, rig.plant.rotor_inertia()) {
+                    (Some((speeds, accels)), Some(j)) => {
+                        let contact = flank_contact(&motor, at(&tau), j, at(accels));
+                        // Trains engaged that stay so: no step to take, and the motors turn
+                        // with the wheels already (`turn_motors` would change nothing).
+                        (!rig.plant.stays_engaged(contact)).then(|| rig.plant.gear_next_at(at(speeds), contact, &mean))
+                    }
+                    _ => Some(rig.plant.gear_next_with(&lane(x, l), &motor, &mean, &lane(&k1, l), at(&tau))),
                 };
-                if !same {
-                    trains[l] = rig.plant.trains();
+                if let Some(same) = stepped_play {
+                    if !same {
+                        trains[l] = rig.plant.trains();
+                    }
+                    // The motors turn as the trains now say (as a run's `between_steps` ends).
+                    rig.plant.turn_motors();
                 }
-                // The motors turn as the trains now say (as a run's `between_steps` ends).
-                rig.plant.turn_motors();
             }
             match &wheels {
                 Some((speeds, _)) => rig.sensors.follow_speeds(ts[l], at(speeds)),
