@@ -357,6 +357,13 @@ impl<T: Real> Slopes<T> {
     fn torque_per_amp(&self) -> T {
         self.pieces[0].model.params().torque_per_amp()
     }
+
+    /// The lumped pair's flank contact torque τ_i u − 2 τ_f − J β̈: the current `u`, the
+    /// gearhead torque per wheel `friction`, the rotor inertia `j` and β̈ = θ̈ − φ̈.
+    #[inline(always)]
+    pub(crate) fn lumped_contact(&self, u: T, friction: T, j: T, beta_ddot: T) -> T {
+        self.torque_per_amp() * u - c::<T>(2.0) * friction - j * beta_ddot
+    }
 }
 
 impl<T: Real> RigGround<T, 4, 1> for Slopes<T> {
@@ -386,7 +393,7 @@ impl<T: Real> RigGround<T, 4, 1> for Slopes<T> {
     /// τ_i u − 2 τ_f − J β̈ for the lumped pair (the friction is per wheel).
     #[inline(always)]
     fn contact(&self, _: &Vector4<T>, d: &Vector4<T>, u: &SVector<T, 1>, friction: [T; 1], j: T) -> [T; 1] {
-        [self.torque_per_amp() * u[0] - c::<T>(2.0) * friction[0] - j * (d[3] - d[1])]
+        [self.lumped_contact(u[0], friction[0], j, d[3] - d[1])]
     }
 
     #[inline(always)]

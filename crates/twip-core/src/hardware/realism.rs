@@ -541,6 +541,14 @@ impl<T: Real> SlopePlant<T> {
         self.gear_next_with(x, &SVector::<T, 1>::new(current), &SVector::<T, 1>::new(mean), d, [friction]);
     }
 
+    /// Whether the lumped trains are engaged and stay so at the `current` of RK4's first
+    /// stage, β̈ = θ̈ − φ̈ there and the gearhead torque per wheel `friction`
+    /// (`GearPlay::stays_engaged`): a sweep's lanes skip [`Self::lumped_gear_next`] then.
+    #[inline(always)]
+    pub(crate) fn lumped_stays_engaged(&self, current: T, beta_ddot: T, friction: T) -> bool {
+        self.rotor_inertia().is_some_and(|j| self.stays_engaged([self.ground().lumped_contact(current, friction, j, beta_ddot)]))
+    }
+
     /// A driver's winding and the lumped current per ampere.
     pub(crate) fn driven_winding(&self) -> Option<(Winding<T>, T)> {
         self.drives().map(|([w], per_amp)| (w, per_amp))

@@ -707,6 +707,10 @@ impl RigLanes {
             let tau;
             (k1, tau) = plants.geared_motion::<COPY>(x, &current, engaged);
             for (l, rig) in self.context.rigs.iter_mut().enumerate() {
+                // Trains engaged that stay so: no step to take, nothing to turn.
+                if before[l] && rig.plant.lumped_stays_engaged(current[l], k1[3][l] - k1[1][l], tau[l]) {
+                    continue;
+                }
                 let xl = Vector4::from(lane(x, l));
                 let mean = if stepped { plants.windings.mean(l) } else { rig.plant.mean_current(&xl, u[l]) };
                 rig.plant.lumped_gear_next(&xl, current[l], mean, &Vector4::from(lane(&k1, l)), tau[l]);
