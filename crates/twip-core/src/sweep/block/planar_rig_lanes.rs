@@ -760,12 +760,16 @@ impl PlanarRigLanes {
         for (l, rig) in self.context.rigs.iter_mut().enumerate() {
             let at = |w: &[Lanes; 2]| [w[0][l], w[1][l]];
             if self.geared {
-                let (motor, mean) = match stepped {
-                    true => (SVector::from(at(&held)), SVector::from([plants.windings[0].mean(l), plants.windings[1].mean(l)])),
-                    false => {
-                        let (xl, ul) = (lane(x, l), lane(&u, l));
-                        (rig.plant.inputs_at(&xl, &ul, Stage::Start), rig.plant.mean_inputs(&xl, &ul))
-                    }
+                // The motors' torques at the step's start, and (read only by the play's step)
+                // their mean over it.
+                let inputs = (!stepped).then(|| (lane(x, l), lane(&u, l)));
+                let motor = match &inputs {
+                    Some((xl, ul)) => rig.plant.inputs_at(xl, ul, Stage::Start),
+                    None => SVector::from(at(&held)),
+                };
+                let mean_of = |plant: &PlanarPlant<f64>| match &inputs {
+                    Some((xl, ul)) => plant.mean_inputs(xl, ul),
+                    None => SVector::from([plants.windings[0].mean(l), plants.windings[1].mean(l)]),
                 };
                 // Whether the trains stayed as they were, when the play took its step.
                 let stepped_play = match (&wheels, rig.plant.rotor_inertia()) {
@@ -773,9 +777,15 @@ impl PlanarRigLanes {
                         let contact = flank_contact(&motor, at(&tau), j, at(accels));
                         // Trains engaged that stay so: no step to take, and the motors turn
                         // with the wheels already (`turn_motors` would change nothing).
-                        (!rig.plant.stays_engaged(contact)).then(|| rig.plant.gear_next_at(at(speeds), contact, &mean))
+                        (!rig.plant.stays_engaged(contact)).then(|| {
+                            let mean = mean_of(&rig.plant);
+                            rig.plant.gear_next_at(at(speeds), contact, &mean)
+                        })
                     }
-                    _ => Some(rig.plant.gear_next_with(&lane(x, l), &motor, &mean, &lane(&k1, l), at(&tau))),
+                    _ => {
+                        let mean = mean_of(&rig.plant);
+                        Some(rig.plant.gear_next_with(&lane(x, l), &motor, &mean, &lane(&k1, l), at(&tau)))
+                    }
                 };
                 if let Some(same) = stepped_play {
                     if !same {
