@@ -306,7 +306,7 @@ impl<S: Lane> Member<S> for Prepared<S> {
             Self::Trapezoid(t) => t.value(x),
             Self::Gaussian { mean, sigma } => {
                 let z = (x - mean) / sigma;
-                (S::splat(-0.5) * z * z).exponential()
+                (S::splat(-0.5) * z * z).decay()
             }
         }
     }

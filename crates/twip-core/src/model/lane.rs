@@ -46,6 +46,12 @@ pub trait Lane:
     /// the two may differ by an ulp). Named apart from `ComplexField::exp`, which a `Real`
     /// has too.
     fn exponential(self) -> Self;
+    /// e^x for x ≤ 0 or NaN (a decay): [`Self::exponential`]'s value, on lanes without the
+    /// guards against overflow, which x ≤ 0 cannot reach.
+    #[inline(always)]
+    fn decay(self) -> Self {
+        self.exponential()
+    }
     /// tanh x: libm's in a run, `math::tanh_fused` on lanes (libm's is a call per lane,
     /// which kept the lanes' loops from vectorising; `Wide` still runs it lane by lane, as no
     /// `Wide` law takes tanh).
@@ -390,6 +396,11 @@ mod wide {
         }
 
         #[inline(always)]
+        fn decay(self) -> Self {
+            Fused(crate::model::math::decay_fused(self.0))
+        }
+
+        #[inline(always)]
         fn hyperbolic_tangent(self) -> Self {
             Fused(crate::model::math::tanh_fused(self.0))
         }
@@ -504,6 +515,11 @@ mod wide {
         #[inline(always)]
         fn exponential(self) -> Self {
             crate::model::math::exp_wide(self)
+        }
+
+        #[inline(always)]
+        fn decay(self) -> Self {
+            crate::model::math::decay_wide(self)
         }
 
         #[inline(always)]

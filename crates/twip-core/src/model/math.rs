@@ -146,6 +146,17 @@ mod wide {
         exp_edges(Fused(x), Fused(exp_scale(exp_poly_short(Fused(r)).0, shifted))).0
     }
 
+    /// `exp_fused` for x ≤ 0 or NaN (a decay): the same bits for x ≥ −707, within 2 ulp of
+    /// libm's below (tested). e^x cannot overflow there, so the reduction clamps only below,
+    /// 2^k is one product and the edge below −708 the only select (a NaN stays NaN through the
+    /// arithmetic): a shorter chain where e^x sits on one (the Stribeck hump of the stick
+    /// law's RK4 stages: the thesis-like rig 1.07x, `benches/pair_builds.py`).
+    #[inline(always)]
+    pub(crate) fn decay_fused(x: f64) -> f64 {
+        let (r, shifted) = decay_reduce(x);
+        decay_edge(Fused(x), Fused(exp_poly_short(Fused(r)).0 * power_of_two(shifted, 0))).0
+    }
+
     /// e^x on `N` lanes: `exp_fused`'s stages, each a loop over the lanes or `Wide`'s
     /// own operations, so that each is vector instructions (one loop over the whole of
     /// `exp_fused` was not vectorised: a scalar copy per lane). The polynomial is summed
@@ -153,23 +164,48 @@ mod wide {
     /// both are within 2 ulp of libm's (tested).
     #[inline(always)]
     pub(crate) fn exp_wide<const N: usize>(x: Wide<N>) -> Wide<N> {
+        exp_edges(x, scaled_poly::<false, N>(x))
+    }
+
+    /// `exp_wide` for x ≤ 0 or NaN, as `decay_fused` is `exp_fused` (the same bits for
+    /// x ≥ −707): fewer operations for the fuzzy law's Gaussian sets.
+    #[inline(always)]
+    pub(crate) fn decay_wide<const N: usize>(x: Wide<N>) -> Wide<N> {
+        decay_edge(x, scaled_poly::<true, N>(x))
+    }
+
+    /// e^x on `N` lanes before its edges, of any x or (`DECAY`) of x ≤ 0 (a constant, not
+    /// functions passed in, so that nothing here waits on the compiler inlining a call).
+    #[inline(always)]
+    fn scaled_poly<const DECAY: bool, const N: usize>(x: Wide<N>) -> Wide<N> {
         let (mut r, mut shifted) = ([0.0; N], [0.0; N]);
         for i in 0..N {
-            (r[i], shifted[i]) = exp_reduce(x.0[i]);
+            (r[i], shifted[i]) = if DECAY { decay_reduce(x.0[i]) } else { exp_reduce(x.0[i]) };
         }
         let p = exp_poly(Wide(r));
         let mut scaled = [0.0; N];
         for i in 0..N {
-            scaled[i] = exp_scale(p.0[i], shifted[i]);
+            scaled[i] = if DECAY { p.0[i] * power_of_two(shifted[i], 0) } else { exp_scale(p.0[i], shifted[i]) };
         }
-        exp_edges(x, Wide(scaled))
+        Wide(scaled)
     }
 
     /// e^x's reduction: r = x − k ln 2 for the nearest integer k, and x log2 e + 1.5 · 2^52,
     /// whose low bits hold k (x clamped to where e^x is a normal number or just overflows).
     #[inline(always)]
     fn exp_reduce(x: f64) -> (f64, f64) {
-        let clamped = x.clamp(-708.0, 709.79);
+        reduce_clamped(x.clamp(-708.0, 709.79))
+    }
+
+    /// [`exp_reduce`] of x ≤ 0 or NaN: clamped below only (a NaN stays NaN).
+    #[inline(always)]
+    fn decay_reduce(x: f64) -> (f64, f64) {
+        reduce_clamped(if x < -708.0 { -708.0 } else { x })
+    }
+
+    /// [`exp_reduce`] once x is clamped.
+    #[inline(always)]
+    fn reduce_clamped(clamped: f64) -> (f64, f64) {
         let shifted = clamped.mul_add(core::f64::consts::LOG2_E, ROUND_MAGIC);
         let k = shifted - ROUND_MAGIC;
         ((-k).mul_add(LN2_LO, (-k).mul_add(LN2_HI, clamped)), shifted)
@@ -218,11 +254,17 @@ mod wide {
     /// p · 2^k for the polynomial `p` = e^r and k in `shifted`'s low bits.
     #[inline(always)]
     fn exp_scale(p: f64, shifted: f64) -> f64 {
-        // k in [-1021, 1024]: the low bits of `shifted` hold it. 2^k as 2^(k−1) · 2, so
-        // that k = 1024 (x near ln of the largest f64) overflows only if e^x does.
+        // k in [-1021, 1024]. 2^k as 2^(k−1) · 2, so that k = 1024 (x near ln of the largest
+        // f64) overflows only if e^x does.
+        (p * power_of_two(shifted, -1)) * 2.0
+    }
+
+    /// 2^(k + `offset`) for k in `shifted`'s low bits, a normal number for k + offset in
+    /// [−1022, 1023].
+    #[inline(always)]
+    fn power_of_two(shifted: f64, offset: i64) -> f64 {
         let k_int = shifted.to_bits().wrapping_sub(ROUND_MAGIC.to_bits()) as i64;
-        let half_scale = f64::from_bits(((k_int + 1022) as u64) << 52);
-        (p * half_scale) * 2.0
+        f64::from_bits(((k_int + offset + 1023) as u64) << 52)
     }
 
     /// e^x's edges as selects (branches per lane kept a loop over lanes scalar): 0 below
@@ -230,17 +272,23 @@ mod wide {
     #[inline(always)]
     fn exp_edges<S: Lane>(x: S, y: S) -> S {
         let nan = !x.eq(x);
-        S::select(x.lt(S::splat(-708.0)), S::splat(0.0), S::select(x.gt(S::splat(709.79)), S::splat(f64::INFINITY), S::select(nan, x, y)))
+        decay_edge(x, S::select(x.gt(S::splat(709.79)), S::splat(f64::INFINITY), S::select(nan, x, y)))
+    }
+
+    /// The edge below: 0 below −708, else `y`.
+    #[inline(always)]
+    fn decay_edge<S: Lane>(x: S, y: S) -> S {
+        S::select(x.lt(S::splat(-708.0)), S::splat(0.0), y)
     }
 
     /// Below this |x|, tanh takes e^(−2|x|) − 1 from its Taylor polynomial; above, from
-    /// `exp_fused`, where 1 − e^(−2|x|) ≥ 0.5 loses no precision to cancellation.
+    /// `decay_fused`, where 1 − e^(−2|x|) ≥ 0.5 loses no precision to cancellation.
     const TANH_SMALL: f64 = 0.35;
 
     /// tanh x for one lane, without a branch or a call, so that a loop over lanes
     /// vectorises (libm's `tanh` is a call per lane): tanh |x| = −m / (2 + m) with
     /// m = e^(−2|x|) − 1, from the Taylor polynomial of degree 17 for |x| ≤ 0.35 (its
-    /// remainder < 2e-17 relative), else from `exp_fused`; the sign of x put back. Within
+    /// remainder < 2e-17 relative), else from `decay_fused`; the sign of x put back. Within
     /// 3 ulp of libm's `tanh` (tested); ±1 for |x| ≥ 354 and ±∞, NaN for NaN, ±0 for ±0.
     #[inline(always)]
     pub(crate) fn tanh_fused(x: f64) -> f64 {
@@ -251,7 +299,7 @@ mod wide {
         let q = super::estrin(&INV_FACT[3..], Fused(y)).0;
         let m = y.mul_add(y.mul_add(q, 0.5), 1.0) * y;
         let small = -m / (2.0 + m);
-        let e = exp_fused(y);
+        let e = decay_fused(y);
         let large = (1.0 - e) / (1.0 + e);
         let magnitude = if a <= TANH_SMALL { small } else { large };
         magnitude.copysign(x)
@@ -358,7 +406,7 @@ mod wide {
     }
 }
 #[cfg(feature = "std")]
-pub(crate) use wide::{asin_fused, atan_fused, exp_fused, exp_wide, sin_cos_fused, sin_cos_unreduced, sin_cos_wide, tanh_fused, UNREDUCED};
+pub(crate) use wide::{asin_fused, atan_fused, decay_fused, decay_wide, exp_fused, exp_wide, sin_cos_fused, sin_cos_unreduced, sin_cos_wide, tanh_fused, UNREDUCED};
 
 /// sin and cos of |r| ≤ π/4: the polynomials in r² by [`estrin`].
 #[inline(always)]
@@ -460,6 +508,35 @@ mod tests {
             assert_eq!(exp(710.0), f64::INFINITY);
             assert_eq!(exp(f64::INFINITY), f64::INFINITY);
             assert!(exp(f64::NAN).is_nan());
+        }
+    }
+
+    /// The lanes' e^x of x ≤ 0 (`decay_fused`, `decay_wide`) is their e^x bit for bit down to
+    /// −707, libm's to 2 ulp below, with the same edges.
+    #[cfg(feature = "std")]
+    #[test]
+    fn decay_is_the_lanes_exp_where_its_scale_is_normal() {
+        let ulps = |a: f64, b: f64| (a.to_bits() as i64 - b.to_bits() as i64).unsigned_abs();
+        // From −707 up, exp_fused's halved scale 2^(k−1) leaves p · 2^(k−1) a normal number, so
+        // its doubling is exact: the same bits as decay's one product.
+        use crate::model::lane::{Wide, WIDTH};
+        let n = 400_000;
+        let (wide, decay) = (|x: f64| exp_wide(Wide([x; WIDTH])).0[0], |x: f64| decay_wide(Wide([x; WIDTH])).0[0]);
+        for x in (0..=n).map(|i| -707.0 * i as f64 / n as f64).chain([-0.0, -1e-300, -1e-9, -0.5 * core::f64::consts::LN_2]) {
+            assert_eq!(decay_fused(x).to_bits(), exp_fused(x).to_bits(), "x = {x:e}");
+            assert_eq!(decay(x).to_bits(), wide(x).to_bits(), "x = {x:e}, wide");
+        }
+        // Below, where exp_fused's intermediate is subnormal, decay is as close to libm's.
+        let (mut worst, mut worst_wide) = (0, 0);
+        for x in (0..=1000).map(|i| -708.0 + i as f64 / 1000.0) {
+            worst = worst.max(ulps(decay_fused(x), x.exp()));
+            worst_wide = worst_wide.max(ulps(decay(x), x.exp()));
+        }
+        assert!(worst <= 2 && worst_wide <= 2, "{worst} ulp one lane, {worst_wide} ulp wide");
+        for e in [decay_fused, decay] {
+            assert_eq!(e(-708.5), 0.0);
+            assert_eq!(e(f64::NEG_INFINITY), 0.0);
+            assert!(e(f64::NAN).is_nan());
         }
     }
 
