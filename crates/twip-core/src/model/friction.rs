@@ -211,8 +211,10 @@ impl<S: Lane> Friction<S> {
     #[inline(always)]
     fn parts_as(&self, w: S, sticks: bool) -> (S, S, S, S) {
         let (zero, one) = (S::splat(0.0), S::splat(1.0));
-        let z = w / self.stribeck_speed;
-        let hump = (-z * z).exponential();
+        // w / ω_s as a product: 1/ω_s is the same for every stage (off their chain), and the
+        // same number when ω_s is a power of two (the GB37 laws' 1 rad/s).
+        let z = w * (one / self.stribeck_speed);
+        let hump = (-z * z).decay();
         let peak = self.breakaway - self.coulomb;
         let level = self.coulomb + peak * hump;
         let d_level = -S::splat(2.0) * z / self.stribeck_speed * peak * hump;
