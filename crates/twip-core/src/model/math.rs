@@ -149,8 +149,8 @@ mod wide {
     /// `exp_fused` for x ≤ 0 or NaN (a decay): the same bits for x ≥ −707, within 2 ulp of
     /// libm's below (tested). e^x cannot overflow there, so the reduction clamps only below,
     /// 2^k is one product and the edge below −708 the only select (a NaN stays NaN through the
-    /// arithmetic): a shorter chain where e^x sits on one (the Stribeck hump of the stick
-    /// law's RK4 stages: the thesis-like rig 1.07x, `benches/pair_builds.py`).
+    /// arithmetic): fewer operations where e^x sits on a chain (the Stribeck hump of the
+    /// stick law's RK4 stages: the thesis-like rig 1.07x, `benches/pair_builds.py`).
     #[inline(always)]
     pub(crate) fn decay_fused(x: f64) -> f64 {
         let (r, shifted) = decay_reduce(x);
