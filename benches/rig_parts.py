@@ -2,7 +2,8 @@
 
 flat-lqr-sim (10 s at dt = 1 ms) swept over perturbed robots (as benches/families.py) on one
 thread, through `twip.Realism.thesis_like()`, then with one part taken out at a time (its
-`replace(part=None)`), then with the gearheads' friction and play both out, and through a rig
+`replace(part=None)`; the IMU also sampled 5x less often, unquantised, and with its widest
+filter), then with the gearheads' friction and play both out, and through a rig
 of nothing but its 5 ms loop and one-period delay; beside the LQR lanes without a rig.
 `--repeats` rounds, each running every row once in turn; printed: M sample-steps per CPU-second
 (median over the rounds) and the ratio to the LQR lanes in the same round (median and range),
@@ -26,6 +27,9 @@ def rows():
         ("LQR lanes, no rig", None),
         ("thesis-like rig", rig),
         ("  without IMU", rig.replace(imu=None)),
+        ("  IMU sampled at 200 Hz, not 1 kHz", rig.replace(imu=rig.imu.replace(sample_rate=200.0))),
+        ("  IMU registers not quantised", rig.replace(imu=rig.imu.replace(quantise=False))),
+        ("  IMU's DLPF at 260 Hz (no delay)", rig.replace(imu=rig.imu.replace(dlpf_hz=260.0))),
         ("  without encoders", rig.replace(encoder_cpr=None)),
         ("  without motor driver", rig.replace(motor=None)),
         ("  without gearhead friction", rig.replace(friction=None)),
@@ -61,10 +65,10 @@ def main():
             lqr = r if realism is None else lqr
             rates[label].append(r)
             ratios[label].append(r / lqr)
-    print(f"{'row':34s} {'M sample-steps/CPU-s':>21s} {'x LQR lanes (range)':>22s}")
+    print(f"{'row':38s} {'M sample-steps/CPU-s':>21s} {'x LQR lanes (range)':>22s}")
     for label, _ in table:
         ratio = ratios[label]
-        print(f"{label:34s} {statistics.median(rates[label]):21.2f} "
+        print(f"{label:38s} {statistics.median(rates[label]):21.2f} "
               f"{statistics.median(ratio):10.3f} ({min(ratio):.3f}-{max(ratio):.3f})")
 
 
