@@ -29,7 +29,7 @@ def rows():
         ("  without IMU", rig.replace(imu=None)),
         ("  IMU sampled at 200 Hz, not 1 kHz", rig.replace(imu=rig.imu.replace(sample_rate=200.0))),
         ("  IMU registers not quantised", rig.replace(imu=rig.imu.replace(quantise=False))),
-        ("  IMU's DLPF at 260 Hz (no delay)", rig.replace(imu=rig.imu.replace(dlpf_hz=260.0))),
+        ("  IMU's DLPF at its widest, 260 Hz", rig.replace(imu=rig.imu.replace(dlpf_hz=260.0))),
         ("  without encoders", rig.replace(encoder_cpr=None)),
         ("  without motor driver", rig.replace(motor=None)),
         ("  without gearhead friction", rig.replace(friction=None)),

@@ -46,8 +46,8 @@ pub trait Lane:
     /// the two may differ by an ulp). Named apart from `ComplexField::exp`, which a `Real`
     /// has too.
     fn exponential(self) -> Self;
-    /// e^x for x ≤ 0 or NaN (a decay): [`Self::exponential`]'s value, on lanes without the
-    /// guards against overflow, which x ≤ 0 cannot reach.
+    /// e^x for x ≤ 0 or NaN (a decay): [`Self::exponential`] in a run; on lanes without its
+    /// guards against overflow, which x ≤ 0 cannot reach (its bits from −707 up).
     #[inline(always)]
     fn decay(self) -> Self {
         self.exponential()
