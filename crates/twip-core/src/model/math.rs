@@ -150,7 +150,8 @@ mod wide {
     /// libm's below (tested). e^x cannot overflow there, so the reduction clamps only below,
     /// 2^k is one product and the edge below −708 the only select (a NaN stays NaN through the
     /// arithmetic): fewer operations where e^x sits on a chain (the Stribeck hump of the
-    /// stick law's RK4 stages: the thesis-like rig 1.07x, `benches/pair_builds.py`).
+    /// stick law's RK4 stages: the thesis-like rig 1.07x on the `avx2` copy, an AVX2-only
+    /// EPYC, `benches/pair_builds.py`; docs/performance.md).
     #[inline(always)]
     pub(crate) fn decay_fused(x: f64) -> f64 {
         let (r, shifted) = decay_reduce(x);
