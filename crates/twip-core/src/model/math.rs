@@ -113,11 +113,19 @@ mod wide {
         rotate(s.0, c.0, quadrant)
     }
 
-    /// `sin_cos_fused` for |x| ≤ [`UNREDUCED`] (which the caller checks): the same bits,
+    /// [`sin_cos_fused`] by [`super::kernel_from`], its polynomials' terms read as `coef(i)`.
+    #[inline(always)]
+    pub(crate) fn sin_cos_fused_from(x: f64, coef: impl Fn(usize) -> f64) -> (f64, f64) {
+        let (r, quadrant) = reduce(x);
+        let (s, c) = super::kernel_from(Fused(r), |i| Fused(coef(i)));
+        rotate(s.0, c.0, quadrant)
+    }
+
+    /// [`sin_cos_fused_from`] for |x| ≤ [`UNREDUCED`] (which the caller checks): the same bits,
     /// without the reduction or the rotation, for a loop over lanes that cannot branch.
     #[inline(always)]
-    pub(crate) fn sin_cos_unreduced(x: f64) -> (f64, f64) {
-        let (s, c) = kernel(Fused(x));
+    pub(crate) fn sin_cos_unreduced_from(x: f64, coef: impl Fn(usize) -> f64) -> (f64, f64) {
+        let (s, c) = super::kernel_from(Fused(x), |i| Fused(coef(i)));
         (s.0, c.0)
     }
 
@@ -407,13 +415,57 @@ mod wide {
     }
 }
 #[cfg(feature = "std")]
-pub(crate) use wide::{asin_fused, atan_fused, decay_fused, decay_wide, exp_fused, exp_wide, sin_cos_fused, sin_cos_unreduced, sin_cos_wide, tanh_fused, UNREDUCED};
+pub(crate) use wide::{asin_fused, atan_fused, decay_fused, decay_wide, exp_fused, exp_wide, sin_cos_fused, sin_cos_fused_from, sin_cos_unreduced_from, sin_cos_wide, tanh_fused, UNREDUCED};
 
 /// sin and cos of |r| ≤ π/4: the polynomials in r² by [`estrin`].
 #[inline(always)]
 pub(crate) fn kernel<S: Lane>(r: S) -> (S, S) {
     let r2 = r * r;
     (S::madd(r * r2, estrin(&SIN, r2), r), S::madd(r2, estrin(&COS, r2), S::splat(1.0)))
+}
+
+/// [`SIN`]'s coefficients, then [`COS`]'s, in one array: the terms a sweep's 2-DOF plants read
+/// as lanes (`sweep::block::Plants`), for [`kernel_from`].
+pub(crate) const SIN_COS: [f64; SIN.len() + COS.len()] = {
+    let mut all = [0.0; SIN.len() + COS.len()];
+    let mut i = 0;
+    while i < all.len() {
+        all[i] = if i < SIN.len() { SIN[i] } else { COS[i - SIN.len()] };
+        i += 1;
+    }
+    all
+};
+
+/// [`kernel`]'s polynomials with [`SIN_COS`]'s term `i` read as `coef(i)`, each by Horner's
+/// rule of the second order ([`horner2`]), for a loop over lanes that reads the terms from an
+/// array of lanes. There each term is one multiply-add's memory operand; by Estrin's pairs (two
+/// terms to each multiply-add) one of two needs a register, and terms given as constants are a
+/// broadcast each where AVX-512's embedded broadcast is missing. On the `avx2` copy (an AVX2-only
+/// EPYC, callgrind) sin/cos was 28 % of the LQR lanes' instructions, 15 of its 134 a sample-step
+/// broadcasts; by this kernel the lanes run 131, at 1.06-1.09x the speed (docs/performance.md).
+#[inline(always)]
+pub(crate) fn kernel_from<S: Lane>(r: S, coef: impl Fn(usize) -> S) -> (S, S) {
+    let r2 = r * r;
+    let sin = horner2(SIN.len(), &coef, r2);
+    let cos = horner2(COS.len(), |i| coef(SIN.len() + i), r2);
+    (S::madd(r * r2, sin, r), S::madd(r2, cos, S::splat(1.0)))
+}
+
+/// Σ c(i) z^i for i < n ≥ 2: the even and the odd terms each by Horner's rule in z², joined.
+/// Its chain of dependent multiply-adds is about n/2 long, not Horner's n − 1.
+#[inline(always)]
+fn horner2<S: Lane>(n: usize, c: impl Fn(usize) -> S, z: S) -> S {
+    let z2 = z * z;
+    let half = |first: usize| {
+        let mut i = first + 2 * ((n - 1 - first) / 2);
+        let mut p = c(i);
+        while i > first {
+            i -= 2;
+            p = S::madd(p, z2, c(i));
+        }
+        p
+    };
+    S::madd(z, half(1), half(0))
 }
 
 /// Σ c_i r^i for the coefficients `c` (lowest power first; at most 16) by Estrin's scheme:
@@ -671,10 +723,36 @@ mod tests {
         let n = 400_000;
         let edges = [0.0, -0.0, 1e-300, -1e-300, 5e-324, f64::MIN_POSITIVE, UNREDUCED, -UNREDUCED];
         let grid = (0..=n).map(|i| UNREDUCED * (2.0 * i as f64 / n as f64 - 1.0));
+        let table = |i: usize| SIN_COS[i];
         for x in grid.chain(edges) {
-            let full = sin_cos_fused(x);
-            assert_eq!(bits(sin_cos_unreduced(x)), bits(full), "x = {x:e}");
-            assert_eq!(bits(wide(x)), bits(full), "x = {x:e}");
+            assert_eq!(bits(wide(x)), bits(sin_cos_fused(x)), "x = {x:e}");
+            assert_eq!(bits(sin_cos_unreduced_from(x, table)), bits(sin_cos_fused_from(x, table)), "x = {x:e}");
         }
+    }
+
+    #[cfg(feature = "std")]
+    #[test]
+    fn sin_cos_from_a_table_is_libms_to_an_ulp() {
+        // Its terms read from a table in the order of `SIN_COS` (a term out of place, or the
+        // even and odd halves swapped, is off by far more), reduced where |x| > π/4.
+        let table = |i: usize| SIN_COS[i];
+        let ulps = |a: f64, b: f64| (a.to_bits() as i64 - b.to_bits() as i64).unsigned_abs();
+        let (mut worst, n) = (0, 400_000);
+        for i in 0..=n {
+            let x = -50.0 + 100.0 * i as f64 / n as f64;
+            let (s, c) = sin_cos_fused_from(x, table);
+            let (ls, lc) = x.sin_cos();
+            // Near a zero of sin or cos an ulp of the reduced angle is many of the result's.
+            if ls.abs() > 1e-3 {
+                worst = worst.max(ulps(s, ls));
+            }
+            if lc.abs() > 1e-3 {
+                worst = worst.max(ulps(c, lc));
+            }
+            assert!((s - ls).abs() < 5e-16 && (c - lc).abs() < 5e-16, "x = {x:e}");
+        }
+        assert!(worst <= 2, "{worst} ulp");
+        assert_eq!(sin_cos_unreduced_from(0.0, table), (0.0, 1.0));
+        assert!(sin_cos_fused_from(f64::NAN, table).0.is_nan());
     }
 }

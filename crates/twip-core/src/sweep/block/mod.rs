@@ -21,8 +21,8 @@ use crate::model::dynamics::Halt;
 use crate::control::Reference;
 use crate::model::integrate::{rk4, Field};
 use crate::model::lane::{Fused, Lane, Wide, WIDTH};
-use crate::model::math::{sin_cos_unreduced, UNREDUCED};
-use crate::model::slope::{deriv, deriv_at, SlopeCoefficients, SlopeModel};
+use crate::model::math::{sin_cos_fused_from, sin_cos_unreduced_from, SIN_COS, UNREDUCED};
+use crate::model::slope::{deriv_at, SlopeCoefficients, SlopeModel};
 use core::cell::Cell;
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::{pitch_band, steady_pitch, Aim, DrivePeaks, SlopeSummary, Tally};
@@ -86,12 +86,12 @@ pub(crate) fn state_chunk<const N: usize>(x: &[Lanes; 4], c: usize) -> [Wide<N>;
 /// frame at 40 bytes past a line and swept ~1.13x slower. `tests/test_kernel_frames.py`
 /// reads the wheel's machine code to check every kernel's frame.
 #[repr(C, align(64))]
-pub(crate) struct Plants([Lanes; 14]);
+pub(crate) struct Plants([Lanes; 14], [Lanes; SIN_COS.len()]);
 
 impl Plants {
     pub(crate) fn new(c: &[SlopeCoefficients<f64>; LANES]) -> Self {
         let per_lane = c.map(|k| Self::fields(&k));
-        Self(core::array::from_fn(|f| core::array::from_fn(|l| per_lane[l][f])))
+        Self(core::array::from_fn(|f| core::array::from_fn(|l| per_lane[l][f])), SIN_COS.map(|c| [c; LANES]))
     }
 
     /// Lane `l`'s coefficients set to `k` (a robot started anew), the others' as they are.
@@ -108,6 +108,15 @@ impl Plants {
             k.m11, k.m22, k.m11_m22, k.mrl, k.mrl_cos, k.mrl_sin, k.rotor, k.mgl, k.grade, k.torque_per_amp,
             k.mu_bearing, k.mu_ground, k.sin_slope, k.cos_slope,
         ]
+    }
+
+    /// sin/cos's terms (`math::SIN_COS`) as lanes, for `math::kernel_from` (`lane_terms`):
+    /// each a vector load that a multiply-add takes as its operand. Behind `black_box`, so that
+    /// the compiler reads them as lanes and not as the constants they are; taken once, out of a
+    /// loop over lanes (inside it, the barrier kept the loop scalar: 3x the instructions).
+    #[inline(always)]
+    pub(crate) fn sin_cos_terms(&self) -> &[Lanes; SIN_COS.len()] {
+        core::hint::black_box(&self.1)
     }
 
     /// Lane `l`'s coefficients.
@@ -168,7 +177,8 @@ impl Plants {
         let mut out = [[0.0; LANES]; 4];
         let mut inside = [true; LANES];
         let state = |l: usize| [Fused(x[0][l]), Fused(x[1][l]), Fused(x[2][l]), Fused(x[3][l])];
-        let plant = |l: usize| Plant::<UNREDUCED_SIN> { k: self.lane(l), u: Fused(u[l]), inside: Cell::new(true) };
+        let terms = self.sin_cos_terms();
+        let plant = |l: usize| Plant::<UNREDUCED_SIN> { k: self.lane(l), poly: lane_terms(terms, l), u: Fused(u[l]), inside: Cell::new(true) };
         for l in 0..HALF {
             let m = l + HALF;
             let (pa, pb) = (plant(l), plant(m));
@@ -185,10 +195,17 @@ impl Plants {
     }
 }
 
+/// Lane `l` of sin/cos's `terms` ([`Plants::sin_cos_terms`]).
+#[inline(always)]
+pub(crate) fn lane_terms(terms: &[Lanes; SIN_COS.len()], l: usize) -> [f64; SIN_COS.len()] {
+    core::array::from_fn(|i| terms[i][l])
+}
+
 /// One lane's plant with its input held; `UNREDUCED_SIN`: sin/cos without the reduction,
 /// noting in `inside` whether each pitch it saw allowed that.
 struct Plant<const UNREDUCED_SIN: bool> {
     k: SlopeCoefficients<Fused>,
+    poly: [f64; SIN_COS.len()],
     u: Fused,
     inside: Cell<bool>,
 }
@@ -196,13 +213,14 @@ struct Plant<const UNREDUCED_SIN: bool> {
 impl<const UNREDUCED_SIN: bool> Field<Fused, 4> for Plant<UNREDUCED_SIN> {
     #[inline(always)]
     fn at(&self, x: &[Fused; 4]) -> [Fused; 4] {
-        if !UNREDUCED_SIN {
-            return deriv(&self.k, x, self.u);
-        }
         let phi = x[0].0;
-        // NaN is outside.
-        self.inside.set(self.inside.get() & (phi.abs() <= UNREDUCED));
-        let (s, c) = sin_cos_unreduced(phi);
+        let (s, c) = if UNREDUCED_SIN {
+            // NaN is outside.
+            self.inside.set(self.inside.get() & (phi.abs() <= UNREDUCED));
+            sin_cos_unreduced_from(phi, |i| self.poly[i])
+        } else {
+            sin_cos_fused_from(phi, |i| self.poly[i])
+        };
         deriv_at(&self.k, x, self.u, (Fused(s), Fused(c)))
     }
 }
