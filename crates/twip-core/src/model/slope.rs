@@ -163,7 +163,7 @@ impl<T: Real> SlopeModel<T> {
     /// ([`motion`], the one source).
     #[inline(always)]
     fn motion(&self, x: &SlopeState<T>, u: T, extra: impl Fn(T, T) -> Option<Vector2<T>>) -> (SlopeState<T>, T) {
-        let (d, tau) = motion(&self.k, Gearhead::of(self.friction.as_ref()), &[x[0], x[1], x[2], x[3]], u, |s, co| extra(s, co).map(|q| [q[0], q[1]]));
+        let (d, tau) = motion(&self.k, Gearhead::of(self.friction.as_ref()), &[x[0], x[1], x[2], x[3]], u, |s, co| extra(s, co).map(|q| [q[0], q[1]]), <T as Lane>::sincos(x[0]));
         (Vector4::from(d), tau)
     }
 
@@ -183,7 +183,7 @@ impl<T: Real> SlopeModel<T> {
         if engaged {
             return self.motion(x, u, extra);
         }
-        let open = open_motion(&self.k, &[x[0], x[1], x[2], x[3]], |s, co| extra(s, co).map(|q| [q[0], q[1]]));
+        let open = open_motion(&self.k, &[x[0], x[1], x[2], x[3]], |s, co| extra(s, co).map(|q| [q[0], q[1]]), <T as Lane>::sincos(x[0]));
         (Vector4::from(open), T::zero())
     }
 
@@ -232,7 +232,7 @@ impl<T: Real> SlopeModel<T> {
     /// to design on (upright at rest is inside), and the law is not smooth at its edge.
     pub fn linearize(&self, x0: &SlopeState<T>, u0: T) -> (SMatrix<T, 4, 4>, Vector4<T>) {
         let p = &self.params;
-        let (mut out, _) = forces_plus(&self.k, Gearhead::of(self.friction.as_ref()), &[x0[0], x0[1], x0[2], x0[3]], u0, |_, _| None);
+        let (mut out, _) = forces_plus(&self.k, Gearhead::of(self.friction.as_ref()), &[x0[0], x0[1], x0[2], x0[3]], u0, |_, _| None, <T as Lane>::sincos(x0[0]));
         if let Some(f) = self.friction.as_ref().filter(|f| f.sticks()) {
             // The band's model adds its torque once it knows what holds the wheels; here
             // it is the slip law's, as outside the band.
@@ -387,13 +387,7 @@ pub(crate) struct Forces<S> {
     pub cos_phi: S,
 }
 
-/// f at state `x` under current `u`.
-#[inline(always)]
-pub(crate) fn forces<S: Lane>(k: &SlopeCoefficients<S>, x: &[S; 4], u: S) -> Forces<S> {
-    forces_at(k, x, u, S::sincos(x[0]))
-}
-
-/// [`forces`] given (sin φ, cos φ) of x's pitch.
+/// f at state `x` under current `u`, given (sin φ, cos φ) of x's pitch.
 #[inline(always)]
 pub(crate) fn forces_at<S: Lane>(k: &SlopeCoefficients<S>, x: &[S; 4], u: S, (s, c): (S, S)) -> Forces<S> {
     let (phi_dot, theta_dot) = (x[1], x[3]);
@@ -436,10 +430,11 @@ pub(crate) fn pitch_input_gain<S: Lane>(k: &SlopeCoefficients<S>, phi: S) -> S {
     cramer(k.m11, k.m22, k.m11_m22, m12(k, s, c, k.rotor), &[-tau, tau])[0]
 }
 
-/// `forces` with both wheels' slip-law gearhead friction `gear` (a torque on β̇ = θ̇ − φ̇,
+/// [`forces_at`] with both wheels' slip-law gearhead friction `gear` (a torque on β̇ = θ̇ − φ̇,
 /// as the bearing's: (+, −) on (φ, θ); none with a stick band, which [`motion`] adds) and
 /// `extra(sin φ, cos φ)` added to f when it gives some (an external force on the body):
-/// φ's sin/cos are shared, and `None` costs nothing. Also that gearhead torque.
+/// φ's sin/cos (`sin_cos_phi`, of x's pitch) are shared, and `None` costs nothing. Also that
+/// gearhead torque.
 #[inline(always)]
 pub(crate) fn forces_plus<S: Lane>(
     k: &SlopeCoefficients<S>,
@@ -447,9 +442,10 @@ pub(crate) fn forces_plus<S: Lane>(
     x: &[S; 4],
     u: S,
     extra: impl Fn(S, S) -> Option<[S; 2]>,
+    sin_cos_phi: (S, S),
 ) -> (Forces<S>, S) {
     let gearhead = gear.slip_pair(x[3] - x[1]);
-    let mut out = forces(k, x, u);
+    let mut out = forces_at(k, x, u, sin_cos_phi);
     if !matches!(gear, Gearhead::Free) {
         out.f = [out.f[0] + gearhead, out.f[1] - gearhead];
     }
@@ -463,6 +459,7 @@ pub(crate) fn forces_plus<S: Lane>(
 /// and the extra forces `extra`, and each wheel's gearhead friction torque: the slip
 /// law's (in f already), or with a stick band what holds the wheels. A total torque F on
 /// β̇ adds (F, −F) to f, so β̈ = a0 − s τ per wheel with s = −2 (r_θ − r_φ), r = M⁻¹ (1, −1).
+/// `sin_cos_phi`: (sin φ, cos φ) of x's pitch.
 #[inline(always)]
 pub(crate) fn motion<S: Lane>(
     k: &SlopeCoefficients<S>,
@@ -470,8 +467,9 @@ pub(crate) fn motion<S: Lane>(
     x: &[S; 4],
     u: S,
     extra: impl Fn(S, S) -> Option<[S; 2]>,
+    sin_cos_phi: (S, S),
 ) -> ([S; 4], S) {
-    let (out, gearhead) = forces_plus(k, gear, x, u, extra);
+    let (out, gearhead) = forces_plus(k, gear, x, u, extra, sin_cos_phi);
     let m12 = m12(k, out.sin_phi, out.cos_phi, k.rotor);
     let qdd = cramer(k.m11, k.m22, k.m11_m22, m12, &out.f);
     match gear {
@@ -496,9 +494,10 @@ pub(crate) fn rotorless_accelerations<S: Lane>(k: &SlopeCoefficients<S>, f: &[S;
 
 /// The derivative with both wheels' gear trains open (gearbox backlash): the wheels get
 /// neither the motors' torque nor the gearhead friction, and lose the rotors' inertia.
+/// `sin_cos_phi`: (sin φ, cos φ) of x's pitch.
 #[inline(always)]
-pub(crate) fn open_motion<S: Lane>(k: &SlopeCoefficients<S>, x: &[S; 4], extra: impl Fn(S, S) -> Option<[S; 2]>) -> [S; 4] {
-    let (out, _) = forces_plus(k, Gearhead::Free, x, S::splat(0.0), extra);
+pub(crate) fn open_motion<S: Lane>(k: &SlopeCoefficients<S>, x: &[S; 4], extra: impl Fn(S, S) -> Option<[S; 2]>, sin_cos_phi: (S, S)) -> [S; 4] {
+    let (out, _) = forces_plus(k, Gearhead::Free, x, S::splat(0.0), extra, sin_cos_phi);
     let qdd = rotorless_accelerations(k, &out.f, out.sin_phi, out.cos_phi);
     [x[1], qdd[0], x[3], qdd[1]]
 }

@@ -17,7 +17,7 @@ use nalgebra::{SVector, Vector4};
 
 use super::rig_context::RigContext;
 use super::winding::WindingLanes;
-use super::{chunk, state_chunk, Plants, CHUNKS};
+use super::{chunk, lane_terms, state_chunk, Plants, CHUNKS};
 use crate::hardware::disturbance::{Force, SlopePlant, Slopes, MAX_SLOPE_CHANGES};
 use crate::hardware::driver::{MotorDriver, Winding};
 use crate::hardware::imu::{lane_from, specific_force_of, ImuClock, ImuReading, Mpu6050, NoiseLanes};
@@ -26,6 +26,7 @@ use crate::hardware::settle::settle_side_by_side;
 use crate::model::friction::{Friction, Gearhead};
 use crate::model::integrate::{rk4, Field, Stage};
 use crate::model::lane::{Fused, Lane, Wide, WIDTH};
+use crate::model::math::{sin_cos_fused_from, SIN_COS};
 use crate::model::slope::{motion, open_motion, SlopeCoefficients, SlopeModel};
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::{Dynamics, RobotParams, TwipError};
@@ -45,6 +46,8 @@ const FEW_CHANGES: usize = 2;
 /// the step's start of a winding with inductance, which has the step under way.
 struct RigField<'a, const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize> {
     k: SlopeCoefficients<Fused>,
+    /// sin/cos's terms as this lane reads them (`Plants`).
+    poly: [f64; SIN_COS.len()],
     friction: &'a Friction<Fused>,
     u: Fused,
     winding: Winding<Fused>,
@@ -83,12 +86,14 @@ impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize> 
         // force it adds zeros, which change nothing but the sign of a zero sum.
         let force = self.force;
         let extra = |sin_phi: Fused, cos_phi: Fused| Some([force.on_pitch(sin_phi, cos_phi), q_theta]);
-        let (engaged, tau) = motion(&k, gear, x, u, extra);
+        let sin_cos = sin_cos_fused_from(x[0].0, |i| self.poly[i]);
+        let sin_cos = (Fused(sin_cos.0), Fused(sin_cos.1));
+        let (engaged, tau) = motion(&k, gear, x, u, extra, sin_cos);
         if !GEARED {
             return (engaged, tau);
         }
         // As `SlopeModel::deriv_geared`, both computed and one kept: no branch per lane.
-        let open = open_motion(&k, x, extra);
+        let open = open_motion(&k, x, extra, sin_cos);
         let zero = Fused(0.0);
         (core::array::from_fn(|i| Fused::select(self.engaged, engaged[i], open[i])), Fused::select(self.engaged, tau, zero))
     }
@@ -309,11 +314,11 @@ macro_rules! by_kind {
 // with that copy's instructions and shared by the controller laws.
 impl RigPlants {
     #[inline(always)]
-    fn field<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, DRIVE, GEARED, CHANGES> {
+    fn field<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, terms: &[Lanes; SIN_COS.len()], l: usize, u: f64, engaged: bool) -> RigField<'_, GEAR, DRIVE, GEARED, CHANGES> {
         let (winding, per_amp) = self.windings.lane(l);
         let (k, friction, u) = (self.plants.lane(l), &self.friction, Fused(u));
         let force = self.forces.lane(l, Fused);
-        RigField { k, friction, u, winding, per_amp, engaged, force, hills: &self.hills, lane: l }
+        RigField { k, poly: lane_terms(terms, l), friction, u, winding, per_amp, engaged, force, hills: &self.hills, lane: l }
     }
 
     /// The derivative at the step's start on every lane (RK4's first stage, which the
@@ -325,9 +330,9 @@ impl RigPlants {
 
     #[cfg_attr(not(debug_assertions), inline(always))]
     fn k1_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
-        let mut out = [[0.0; LANES]; 4];
+        let (mut out, terms) = ([[0.0; LANES]; 4], self.plants.sin_cos_terms());
         for l in 0..LANES {
-            let d = self.field::<GEAR, DRIVE, GEARED, CHANGES>(l, u[l], engaged[l]).at(&lane(x, l).map(Fused));
+            let d = self.field::<GEAR, DRIVE, GEARED, CHANGES>(terms, l, u[l], engaged[l]).at(&lane(x, l).map(Fused));
             for i in 0..4 {
                 out[i][l] = d[i].0;
             }
@@ -345,9 +350,9 @@ impl RigPlants {
 
     #[cfg_attr(not(debug_assertions), inline(always))]
     fn geared_motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
-        let (mut d, mut tau) = ([[0.0; LANES]; 4], [0.0; LANES]);
+        let (mut d, mut tau, terms) = ([[0.0; LANES]; 4], [0.0; LANES], self.plants.sin_cos_terms());
         for l in 0..LANES {
-            let (dl, tl) = self.field::<GEAR, DRIVE, GEARED, CHANGES>(l, current[l], engaged[l]).motion(&lane(x, l).map(Fused));
+            let (dl, tl) = self.field::<GEAR, DRIVE, GEARED, CHANGES>(terms, l, current[l], engaged[l]).motion(&lane(x, l).map(Fused));
             for i in 0..4 {
                 d[i][l] = dl[i].0;
             }
@@ -372,9 +377,9 @@ impl RigPlants {
         k1: &[Lanes; 4],
         dt: f64,
     ) -> [Lanes; 4] {
-        let mut out = [[0.0; LANES]; 4];
+        let (mut out, terms) = ([[0.0; LANES]; 4], self.plants.sin_cos_terms());
         for l in 0..LANES {
-            let field = self.field::<GEAR, DRIVE, GEARED, CHANGES>(l, u[l], engaged[l]);
+            let field = self.field::<GEAR, DRIVE, GEARED, CHANGES>(terms, l, u[l], engaged[l]);
             let next = rk4(&field, &lane(x, l).map(Fused), &lane(k1, l).map(Fused), Fused(dt));
             for i in 0..4 {
                 out[i][l] = next[i].0;
