@@ -442,7 +442,9 @@ pub(crate) const SIN_COS: [f64; SIN.len() + COS.len()] = {
 /// terms to each multiply-add) one of two needs a register, and terms given as constants are a
 /// broadcast each where AVX-512's embedded broadcast is missing. On the `avx2` copy (an AVX2-only
 /// EPYC, callgrind) sin/cos was 28 % of the LQR lanes' instructions, 15 of its 134 a sample-step
-/// broadcasts; by this kernel the lanes run 131, at 1.06-1.09x the speed (docs/performance.md).
+/// broadcasts; by this kernel the lanes run 131, at 1.07-1.09x the speed, and the fuzzy lanes,
+/// whose plants these are too, read 0.95-0.98x: not told apart from a layout effect
+/// (docs/performance.md).
 #[inline(always)]
 pub(crate) fn kernel_from<S: Lane>(r: S, coef: impl Fn(usize) -> S) -> (S, S) {
     let r2 = r * r;
@@ -455,6 +457,7 @@ pub(crate) fn kernel_from<S: Lane>(r: S, coef: impl Fn(usize) -> S) -> (S, S) {
 /// Its chain of dependent multiply-adds is about n/2 long, not Horner's n − 1.
 #[inline(always)]
 fn horner2<S: Lane>(n: usize, c: impl Fn(usize) -> S, z: S) -> S {
+    debug_assert!(n >= 2);
     let z2 = z * z;
     let half = |first: usize| {
         let mut i = first + 2 * ((n - 1 - first) / 2);
@@ -732,7 +735,7 @@ mod tests {
 
     #[cfg(feature = "std")]
     #[test]
-    fn sin_cos_from_a_table_is_libms_to_an_ulp() {
+    fn sin_cos_from_a_table_is_libms_to_two_ulp() {
         // Its terms read from a table in the order of `SIN_COS` (a term out of place, or the
         // even and odd halves swapped, is off by far more), reduced where |x| > π/4.
         let table = |i: usize| SIN_COS[i];

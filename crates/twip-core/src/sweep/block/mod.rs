@@ -178,7 +178,7 @@ impl Plants {
         let mut inside = [true; LANES];
         let state = |l: usize| [Fused(x[0][l]), Fused(x[1][l]), Fused(x[2][l]), Fused(x[3][l])];
         let terms = self.sin_cos_terms();
-        let plant = |l: usize| Plant::<UNREDUCED_SIN> { k: self.lane(l), poly: lane_terms(terms, l), u: Fused(u[l]), inside: Cell::new(true) };
+        let plant = |l: usize| Plant::<UNREDUCED_SIN> { k: self.lane(l), terms: lane_terms(terms, l), u: Fused(u[l]), inside: Cell::new(true) };
         for l in 0..HALF {
             let m = l + HALF;
             let (pa, pb) = (plant(l), plant(m));
@@ -205,7 +205,7 @@ pub(crate) fn lane_terms(terms: &[Lanes; SIN_COS.len()], l: usize) -> [f64; SIN_
 /// noting in `inside` whether each pitch it saw allowed that.
 struct Plant<const UNREDUCED_SIN: bool> {
     k: SlopeCoefficients<Fused>,
-    poly: [f64; SIN_COS.len()],
+    terms: [f64; SIN_COS.len()],
     u: Fused,
     inside: Cell<bool>,
 }
@@ -217,9 +217,9 @@ impl<const UNREDUCED_SIN: bool> Field<Fused, 4> for Plant<UNREDUCED_SIN> {
         let (s, c) = if UNREDUCED_SIN {
             // NaN is outside.
             self.inside.set(self.inside.get() & (phi.abs() <= UNREDUCED));
-            sin_cos_unreduced_from(phi, |i| self.poly[i])
+            sin_cos_unreduced_from(phi, |i| self.terms[i])
         } else {
-            sin_cos_fused_from(phi, |i| self.poly[i])
+            sin_cos_fused_from(phi, |i| self.terms[i])
         };
         deriv_at(&self.k, x, self.u, (Fused(s), Fused(c)))
     }

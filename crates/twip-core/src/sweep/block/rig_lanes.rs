@@ -47,7 +47,7 @@ const FEW_CHANGES: usize = 2;
 struct RigField<'a, const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize> {
     k: SlopeCoefficients<Fused>,
     /// sin/cos's terms as this lane reads them (`Plants`).
-    poly: [f64; SIN_COS.len()],
+    terms: [f64; SIN_COS.len()],
     friction: &'a Friction<Fused>,
     u: Fused,
     winding: Winding<Fused>,
@@ -86,7 +86,7 @@ impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize> 
         // force it adds zeros, which change nothing but the sign of a zero sum.
         let force = self.force;
         let extra = |sin_phi: Fused, cos_phi: Fused| Some([force.on_pitch(sin_phi, cos_phi), q_theta]);
-        let sin_cos = sin_cos_fused_from(x[0].0, |i| self.poly[i]);
+        let sin_cos = sin_cos_fused_from(x[0].0, |i| self.terms[i]);
         let sin_cos = (Fused(sin_cos.0), Fused(sin_cos.1));
         let (engaged, tau) = motion(&k, gear, x, u, extra, sin_cos);
         if !GEARED {
@@ -318,7 +318,7 @@ impl RigPlants {
         let (winding, per_amp) = self.windings.lane(l);
         let (k, friction, u) = (self.plants.lane(l), &self.friction, Fused(u));
         let force = self.forces.lane(l, Fused);
-        RigField { k, poly: lane_terms(terms, l), friction, u, winding, per_amp, engaged, force, hills: &self.hills, lane: l }
+        RigField { k, terms: lane_terms(terms, l), friction, u, winding, per_amp, engaged, force, hills: &self.hills, lane: l }
     }
 
     /// The derivative at the step's start on every lane (RK4's first stage, which the
