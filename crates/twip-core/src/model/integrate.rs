@@ -58,6 +58,17 @@ pub trait Field<S, const N: usize> {
     fn at_stage(&self, x: &[S; N], _stage: Stage) -> [S; N] {
         self.at(x)
     }
+
+    /// The field at RK4's later `stage` x + k h, from the step's start `x`: by default at
+    /// that state. A field may reuse what it computed at `x` (the sweeps' 2-DOF plants: the
+    /// pitch's sin/cos, shifted by k₀ h).
+    #[inline(always)]
+    fn at_offset(&self, x: &[S; N], k: &[S; N], h: S, stage: Stage) -> [S; N]
+    where
+        S: Lane,
+    {
+        self.at_stage(&fill(|i| S::madd(k[i], h, x[i])), stage)
+    }
 }
 
 /// A model with its input held over a step.
@@ -88,11 +99,9 @@ where
 #[inline(always)]
 pub fn rk4<S: Lane, const N: usize>(f: &impl Field<S, N>, x: &[S; N], k1: &[S; N], dt: S) -> [S; N] {
     let half = dt * S::splat(0.5);
-    // x + k h.
-    let stage = |k: &[S; N], h: S| -> [S; N] { fill(|i| S::madd(k[i], h, x[i])) };
-    let k2 = f.at_stage(&stage(k1, half), Stage::Half);
-    let k3 = f.at_stage(&stage(&k2, half), Stage::Half);
-    let k4 = f.at_stage(&stage(&k3, dt), Stage::End);
+    let k2 = f.at_offset(x, k1, half, Stage::Half);
+    let k3 = f.at_offset(x, &k2, half, Stage::Half);
+    let k4 = f.at_offset(x, &k3, dt, Stage::End);
     let sixth = dt / S::splat(6.0);
     fill(|i| S::madd(S::madd(k2[i] + k3[i], S::splat(2.0), k1[i] + k4[i]), sixth, x[i]))
 }

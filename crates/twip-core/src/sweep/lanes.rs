@@ -35,3 +35,14 @@ pub(crate) fn where_live(live: &[bool; LANES], mut observe: impl FnMut(&[bool; L
         observe(live);
     }
 }
+
+/// `step` where every `live` lane says it holds (`holds`, the step's own check per lane), else
+/// None: a fast step that a loop over lanes cannot branch on per lane, checked after it.
+#[inline(always)]
+pub(crate) fn if_every_live<T>(live: &[bool; LANES], (step, holds): (T, [bool; LANES])) -> Option<T> {
+    let mut all = true;
+    for l in 0..LANES {
+        all &= holds[l] | !live[l];
+    }
+    all.then_some(step)
+}

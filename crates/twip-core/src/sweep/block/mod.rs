@@ -19,15 +19,15 @@ use closed_loop::{closed_loop, Aligned, Observer};
 use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::model::dynamics::Halt;
 use crate::control::Reference;
-use crate::model::integrate::{rk4, Field};
+use crate::model::integrate::{rk4, Field, Stage};
 use crate::model::lane::{Fused, Lane, Wide, WIDTH};
-use crate::model::math::{sin_cos_fused_from, sin_cos_unreduced_from, SIN_COS, UNREDUCED};
+use crate::model::math::{sin_cos_fused_from, sin_cos_plus, sin_cos_unreduced_from, SHIFT_LIMIT, SIN_COS, UNREDUCED};
 use crate::model::slope::{deriv_at, SlopeCoefficients, SlopeModel};
 use core::cell::Cell;
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::{pitch_band, steady_pitch, Aim, DrivePeaks, SlopeSummary, Tally};
 use crate::sim::runner::SimConfig;
-use crate::sweep::lanes::{mask, where_live, Lanes, LANES};
+use crate::sweep::lanes::{if_every_live, mask, where_live, Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
 use crate::TwipError;
 use core::sync::atomic::{AtomicU8, Ordering};
@@ -151,26 +151,25 @@ impl Plants {
         self.rk4_in::<false>(x, u, dt).0
     }
 
-    /// [`Self::rk4`]'s step where every `live` lane's pitch stays within ±[`UNREDUCED`] at
-    /// every stage, else None (the caller takes `rk4`; the other lanes' steps do not
-    /// count). There sin/cos skip the reduction by π/2 and the quadrant's rotation, which
-    /// change nothing there: the same bits, and each stage's chain shorter by three
-    /// multiply-adds. A loop over lanes cannot branch per lane, so the range is checked
-    /// after the step. Measured (new/old CPU time, 6 pairs): LQR lanes 1.055x, fuzzy 1.095x
-    /// on `avx512`, 1.083x and 1.067x on its forced `avx2` copy (an AVX-512 EPYC); on an
-    /// AVX2-only EPYC (`avx2`) 1.052x and 1.187x (docs/performance.md).
+    /// [`Self::rk4`]'s step where every `live` lane's pitch starts within ±[`UNREDUCED`] and
+    /// moves by at most [`SHIFT_LIMIT`] to each later stage, else None (the caller takes
+    /// `rk4`; the other lanes' steps do not count). There sin/cos skip the reduction by π/2
+    /// and the quadrant's rotation, which change nothing there, and every later stage's
+    /// sin/cos is shifted from the first's (`Plant::at_offset`), as `rk4`'s is there: the
+    /// same bits, and each stage's chain shorter. A loop over lanes cannot branch per lane, so
+    /// the range is checked after the step. Measured (new/old CPU time, 6 pairs): unreduced,
+    /// LQR lanes 1.055x, fuzzy 1.095x on `avx512`, 1.083x and 1.067x on its forced `avx2`
+    /// copy (an AVX-512 EPYC); on an AVX2-only EPYC (`avx2`) 1.052x and 1.187x; then shifted,
+    /// 1.086x and 1.066x on `avx512`, 1.040x and 1.018x on `avx2`, on an AVX-512 EPYC
+    /// (docs/performance.md).
     #[inline(always)]
     pub(crate) fn rk4_unreduced(&self, x: &[Lanes; 4], u: &Lanes, dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 4]> {
-        let (out, inside) = self.rk4_in::<true>(x, u, dt);
-        let mut all = true;
-        for l in 0..LANES {
-            all &= inside[l] | !live[l];
-        }
-        all.then_some(out)
+        if_every_live(live, self.rk4_in::<true>(x, u, dt))
     }
 
-    /// The step, with sin/cos unreduced or not, and whether each lane's pitch stayed within
-    /// ±[`UNREDUCED`] (unreduced; else every lane's is true).
+    /// The step, with sin/cos unreduced or not, and whether each lane's pitch started within
+    /// ±[`UNREDUCED`] and moved by at most [`SHIFT_LIMIT`] a stage (unreduced; else every
+    /// lane's is true).
     #[inline(always)]
     fn rk4_in<const UNREDUCED_SIN: bool>(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> ([Lanes; 4], [bool; LANES]) {
         const HALF: usize = LANES / 2;
@@ -178,7 +177,13 @@ impl Plants {
         let mut inside = [true; LANES];
         let state = |l: usize| [Fused(x[0][l]), Fused(x[1][l]), Fused(x[2][l]), Fused(x[3][l])];
         let terms = self.sin_cos_terms();
-        let plant = |l: usize| Plant::<UNREDUCED_SIN> { k: self.lane(l), terms: lane_terms(terms, l), u: Fused(u[l]), inside: Cell::new(true) };
+        let plant = |l: usize| Plant::<UNREDUCED_SIN> {
+            k: self.lane(l),
+            terms: lane_terms(terms, l),
+            u: Fused(u[l]),
+            inside: Cell::new(true),
+            start: Cell::new((0.0, 1.0)),
+        };
         for l in 0..HALF {
             let m = l + HALF;
             let (pa, pb) = (plant(l), plant(m));
@@ -208,6 +213,8 @@ struct Plant<const UNREDUCED_SIN: bool> {
     terms: [f64; SIN_COS.len()],
     u: Fused,
     inside: Cell<bool>,
+    /// sin/cos of the step's first pitch (`at`), which the later stages shift.
+    start: Cell<(f64, f64)>,
 }
 
 impl<const UNREDUCED_SIN: bool> Field<Fused, 4> for Plant<UNREDUCED_SIN> {
@@ -221,7 +228,32 @@ impl<const UNREDUCED_SIN: bool> Field<Fused, 4> for Plant<UNREDUCED_SIN> {
         } else {
             sin_cos_fused_from(phi, |i| self.terms[i])
         };
+        self.start.set((s, c));
         deriv_at(&self.k, x, self.u, (Fused(s), Fused(c)))
+    }
+
+    /// A later stage's sin/cos: the first's shifted by d = k₀ h where |d| ≤ [`SHIFT_LIMIT`]
+    /// (`math::sin_cos_plus`: 15 operations, not 19, for all of the pitch's sin/cos but the
+    /// first), else the stage's own. Unreduced, the shift alone, noting in `inside` whether it
+    /// holds; else both, and the one that holds selected, so that a lane's bits are the same
+    /// either way.
+    #[inline(always)]
+    fn at_offset(&self, x: &[Fused; 4], k: &[Fused; 4], h: Fused, _: Stage) -> [Fused; 4] {
+        let stage: [Fused; 4] = core::array::from_fn(|i| Fused::madd(k[i], h, x[i]));
+        let d = k[0] * h;
+        let (s, c) = self.start.get();
+        let coef = |i: usize| Fused(self.terms[i]);
+        let (s_d, c_d) = sin_cos_plus((Fused(s), Fused(c)), d, coef);
+        // NaN is not near.
+        let near = d.0.abs() <= SHIFT_LIMIT;
+        let (s, c) = if UNREDUCED_SIN {
+            self.inside.set(self.inside.get() & near);
+            (s_d.0, c_d.0)
+        } else {
+            let (s, c) = sin_cos_fused_from(stage[0].0, |i| self.terms[i]);
+            if near { (s_d.0, c_d.0) } else { (s, c) }
+        };
+        deriv_at(&self.k, &stage, self.u, (Fused(s), Fused(c)))
     }
 }
 
@@ -895,6 +927,21 @@ mod tests {
         others[0] = false;
         let next = plants.rk4_unreduced(&x, &u, 1e-3, &others).expect("lane 0 dead");
         assert_eq!(bits(&next)[..].iter().map(|v| &v[1..]).collect::<Vec<_>>(), bits(&plants.rk4(&x, &u, 1e-3))[..].iter().map(|v| &v[1..]).collect::<Vec<_>>());
+        // Lane 0 pitching at 1,000 rad/s: its pitch moves 0.5 rad to the half step, far past
+        // SHIFT_LIMIT, so refused while it is live; the others' bits are rk4's either way.
+        let mut x = state(-0.5);
+        x[1][0] = 1000.0;
+        assert!(plants.rk4_unreduced(&x, &u, 1e-3, &live).is_none());
+        let next = plants.rk4_unreduced(&x, &u, 1e-3, &others).expect("lane 0 dead");
+        let full = plants.rk4(&x, &u, 1e-3);
+        assert_eq!(bits(&next)[..].iter().map(|v| &v[1..]).collect::<Vec<_>>(), bits(&full)[..].iter().map(|v| &v[1..]).collect::<Vec<_>>());
+        // There rk4 takes the stages' own sin/cos: a step as the runner's, to rounding (Taylor's
+        // four terms at 0.5 rad would be off by ~5e-9).
+        let model = models[0];
+        let runner = crate::rk4_step(&model, &nalgebra::Vector4::new(x[0][0], x[1][0], x[2][0], x[3][0]), &nalgebra::Vector1::new(u[0]), 1e-3);
+        for i in 0..4 {
+            assert!((full[i][0] - runner[i]).abs() <= 1e-12 * runner[i].abs().max(1.0), "{i}: {} against {}", full[i][0], runner[i]);
+        }
     }
 
     #[test]
