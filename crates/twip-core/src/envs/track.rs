@@ -460,7 +460,7 @@ mod tests {
                 }
             }
             // Replayed open loop, the upright's unstable pole grows the roundings: measured,
-            // the worst over 600 periods is 5.3e-10 on the ideal plant, and through the rig
+            // the worst over 600 periods is 4.0e-10 on the ideal plant, and through the rig
             // (whose play and stick band pass them on) 1.0e-9 by period 511, 1.5e-8 by 600.
             let bound = if realism.is_some() { 1e-7 } else { 1e-9 };
             let mut worst: f64 = 0.0;

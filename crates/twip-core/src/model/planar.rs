@@ -300,7 +300,12 @@ impl<T: Real> PlanarModel<T> {
 /// `u_r`, `u_l`; and sin φ, cos φ.
 #[inline(always)]
 pub(crate) fn forces<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u_r: S, u_l: S) -> ([S; 3], S, S) {
-    let (s, cp) = S::sincos(x[3]);
+    forces_at(k, x, u_r, u_l, S::sincos(x[3]))
+}
+
+/// [`forces`] given the pitch's (sin φ, cos φ).
+#[inline(always)]
+pub(crate) fn forces_at<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u_r: S, u_l: S, (s, cp): (S, S)) -> ([S; 3], S, S) {
     let (phi_dot, v, omega) = (x[4], x[5], x[6]);
     let (u_sum, u_diff) = (u_r + u_l, u_r - u_l);
     let w2 = omega * omega;
@@ -405,7 +410,12 @@ fn wheel_rows<S: Lane>(k: &PlanarCoefficients<S>) -> [[S; 3]; 2] {
 /// The state derivative from the accelerations ν̇ = (φ̈, v̇, ω̇).
 #[inline(always)]
 pub(crate) fn kinematics<S: Lane>(x: &[S; 7], nu_dot: [S; 3]) -> [S; 7] {
-    let (sin_psi, cos_psi) = S::sincos(x[2]);
+    kinematics_at(x, nu_dot, S::sincos(x[2]))
+}
+
+/// [`kinematics`] given the heading's (sin ψ, cos ψ).
+#[inline(always)]
+pub(crate) fn kinematics_at<S: Lane>(x: &[S; 7], nu_dot: [S; 3], (sin_psi, cos_psi): (S, S)) -> [S; 7] {
     let v = x[5];
     [v * cos_psi, v * sin_psi, x[6], x[4], nu_dot[0], nu_dot[1], nu_dot[2]]
 }
@@ -414,8 +424,15 @@ pub(crate) fn kinematics<S: Lane>(x: &[S; 7], nu_dot: [S; 3]) -> [S; 7] {
 #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
 #[inline(always)]
 pub(crate) fn deriv<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u: [S; 2]) -> [S; 7] {
-    let (f, s, cp) = forces(k, x, u[0], u[1]);
-    kinematics(x, accelerations(k, &f, s, cp))
+    deriv_at(k, x, u, S::sincos(x[3]), S::sincos(x[2]))
+}
+
+/// [`deriv`] given the pitch's (sin φ, cos φ) and the heading's (sin ψ, cos ψ).
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps' lanes use it
+#[inline(always)]
+pub(crate) fn deriv_at<S: Lane>(k: &PlanarCoefficients<S>, x: &[S; 7], u: [S; 2], pitch: (S, S), heading: (S, S)) -> [S; 7] {
+    let (f, s, cp) = forces_at(k, x, u[0], u[1], pitch);
+    kinematics_at(x, accelerations(k, &f, s, cp), heading)
 }
 
 /// The derivative with the gear trains of the wheels not `engaged` open

@@ -17,15 +17,17 @@ use super::{multiversioned, only};
 use crate::control::pid::{PidLaw, PidTracker};
 use crate::control::trajectory::{Path, PlanarRef};
 use crate::control::{Controller, Reference};
-use crate::model::integrate::{rk4, Field};
+use core::cell::Cell;
+use crate::model::integrate::{rk4, Field, Stage};
 use crate::model::lane::{fill, Fused, Lane};
+use crate::model::math::{sin_cos_plus, SHIFT_LIMIT, SIN_COS};
 use crate::model::dynamics::Halt;
-use crate::model::planar::{deriv, PlanarCoefficients, PlanarModel, PLANAR_COEFFICIENTS};
+use crate::model::planar::{deriv_at, PlanarCoefficients, PlanarModel, PLANAR_COEFFICIENTS};
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::DrivePeaks;
 use crate::sim::runner::SimConfig;
 use crate::sim::tracking_metrics::{TrackingTally, TRACKING_TALLIES};
-use crate::sweep::lanes::{where_live, Lanes, LANES};
+use crate::sweep::lanes::{if_every_live, where_live, Lanes, LANES};
 use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
 use crate::sweep::SweepMetrics;
 use crate::TwipError;
@@ -128,36 +130,98 @@ impl Plants {
     /// spills registers.)
     #[inline(always)]
     pub(crate) fn rk4(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
+        self.rk4_in::<false>(x, u, dt).0
+    }
+
+    /// [`Self::rk4`]'s step where every `live` lane's pitch and heading move by at most
+    /// [`SHIFT_LIMIT`] to each later stage, else None (the caller takes `rk4`; the other
+    /// lanes' steps do not count). There every later stage's sin/cos is only shifted from
+    /// the first's (`Plant::at_offset`), as `rk4`'s is there: the same bits, with two
+    /// reduced sin/cos a stage fewer. A loop over lanes cannot branch per lane, so the shifts
+    /// are checked after the step.
+    #[inline(always)]
+    pub(crate) fn rk4_shifted(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 7]> {
+        if_every_live(live, self.rk4_in::<true>(x, u, dt))
+    }
+
+    /// The step, with the later stages' sin/cos shifted only or not, and whether each lane's
+    /// shifts were within [`SHIFT_LIMIT`] (shifted only; else every lane's is true).
+    #[inline(always)]
+    fn rk4_in<const SHIFTED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> ([Lanes; 7], [bool; LANES]) {
         let mut out = [[0.0; LANES]; 7];
+        let mut near = [true; LANES];
         for l in 0..LANES {
-            let next = self.rk4_lane(x, u, l, dt);
+            let (next, lane_near) = self.rk4_lane_in::<SHIFTED>(x, u, l, dt);
             for i in 0..7 {
                 out[i][l] = next[i].0;
             }
+            near[l] = lane_near;
         }
-        out
+        (out, near)
     }
 
     /// Lane `l`'s RK4 step, the inputs held. Always inlined: out of line it would be built
     /// without the kernel copy's instructions (a call per multiply-add).
     #[inline(always)]
     pub(crate) fn rk4_lane(&self, x: &[Lanes; 7], u: &[Lanes; 2], l: usize, dt: f64) -> [Fused; 7] {
-        let plant = Plant { k: self.lane(l), u: [Fused(u[0][l]), Fused(u[1][l])] };
+        self.rk4_lane_in::<false>(x, u, l, dt).0
+    }
+
+    #[inline(always)]
+    fn rk4_lane_in<const SHIFTED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], l: usize, dt: f64) -> ([Fused; 7], bool) {
+        let plant = Plant::<SHIFTED> {
+            k: self.lane(l),
+            u: [Fused(u[0][l]), Fused(u[1][l])],
+            near: Cell::new(true),
+            start: Cell::new([(0.0, 1.0); 2]),
+        };
         let xl = fill(|i| Fused(x[i][l]));
-        rk4(&plant, &xl, &plant.at(&xl), Fused(dt))
+        (rk4(&plant, &xl, &plant.at(&xl), Fused(dt)), plant.near.get())
     }
 }
 
-/// One lane's plant with its inputs held.
-struct Plant {
+/// One lane's plant with its inputs held; `SHIFTED`: the later stages' sin/cos shifted from
+/// the first's only, noting in `near` whether each shift allowed that.
+struct Plant<const SHIFTED: bool> {
     k: PlanarCoefficients<Fused>,
     u: [Fused; 2],
+    near: Cell<bool>,
+    /// (sin, cos) of the step's first pitch and heading (`at`), which the later stages shift.
+    start: Cell<[(f64, f64); 2]>,
 }
 
-impl Field<Fused, 7> for Plant {
+impl<const SHIFTED: bool> Field<Fused, 7> for Plant<SHIFTED> {
     #[inline(always)]
     fn at(&self, x: &[Fused; 7]) -> [Fused; 7] {
-        deriv(&self.k, x, self.u)
+        let (pitch, heading) = (Fused::sincos(x[3]), Fused::sincos(x[2]));
+        self.start.set([(pitch.0 .0, pitch.1 .0), (heading.0 .0, heading.1 .0)]);
+        deriv_at(&self.k, x, self.u, pitch, heading)
+    }
+
+    /// A later stage's sin/cos of the pitch and of the heading: the first's shifted by
+    /// d = k h where |d| ≤ [`SHIFT_LIMIT`] (`math::sin_cos_plus`), else the stage's own.
+    /// Shifted only, noting in `near` whether both shifts hold; else both ways, and the one
+    /// that holds selected, so that a lane's bits are the same either way.
+    #[inline(always)]
+    fn at_offset(&self, x: &[Fused; 7], k: &[Fused; 7], h: Fused, _: Stage) -> [Fused; 7] {
+        let stage: [Fused; 7] = fill(|i| Fused::madd(k[i], h, x[i]));
+        let coef = |i: usize| Fused(SIN_COS[i]);
+        let start = self.start.get();
+        let angle = |i: usize, (s, c): (f64, f64)| {
+            let d = k[i] * h;
+            let (shifted_s, shifted_c) = sin_cos_plus((Fused(s), Fused(c)), d, coef);
+            // NaN is not near.
+            let near = d.0.abs() <= SHIFT_LIMIT;
+            if SHIFTED {
+                self.near.set(self.near.get() & near);
+                (shifted_s, shifted_c)
+            } else {
+                let own = Fused::sincos(stage[i]);
+                if near { (shifted_s, shifted_c) } else { own }
+            }
+        };
+        let (pitch, heading) = (angle(3, start[0]), angle(2, start[1]));
+        deriv_at(&self.k, &stage, self.u, pitch, heading)
     }
 }
 
@@ -317,6 +381,12 @@ pub trait BlockGround {
     fn valid(&self, l: usize) -> bool;
     /// One RK4 step, the inputs held, on every lane.
     fn rk4(&self, plants: &Plants, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7];
+    /// [`Self::rk4`], knowing which lanes are `live` (only their new states count).
+    #[inline(always)]
+    fn rk4_live(&self, plants: &Plants, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES]) -> [Lanes; 7] {
+        let _ = live;
+        self.rk4(plants, x, u, dt)
+    }
     /// What ends each lane at `next` under `u` besides a fall (None: nothing can).
     fn halts(&self, plants: &Plants, next: &[Lanes; 7], u: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]>;
     /// The tracker's update on every lane, with what this ground feeds forward.
@@ -335,6 +405,14 @@ impl BlockGround for Flat {
     #[inline(always)]
     fn rk4(&self, plants: &Plants, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
         plants.rk4(x, u, dt)
+    }
+
+    /// The later stages' sin/cos shifted only where the live lanes allow
+    /// (`Plants::rk4_shifted`), else the step again with each stage's own where needed (rare:
+    /// a stage's pitch or heading moving by more than `SHIFT_LIMIT`).
+    #[inline(always)]
+    fn rk4_live(&self, plants: &Plants, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES]) -> [Lanes; 7] {
+        plants.rk4_shifted(x, u, dt, live).unwrap_or_else(|| plants.rk4(x, u, dt))
     }
 
     #[inline(always)]
@@ -421,6 +499,11 @@ impl<G: BlockGround> closed_loop::Plant for PlanarPlants<'_, G> {
     #[inline(always)]
     fn step<const COPY: u8>(&mut self, _: usize, u: &[Lanes; 2], dt: f64, _: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
         self.ground.rk4(self.plants, self.x, u, dt)
+    }
+
+    #[inline(always)]
+    fn step_live<const COPY: u8>(&mut self, _: usize, u: &[Lanes; 2], dt: f64, live: &[bool; LANES], _: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
+        self.ground.rk4_live(self.plants, self.x, u, dt, live)
     }
 
     #[inline(always)]
@@ -549,6 +632,50 @@ mod tests {
         same_bits_on_every_copy_on(PidLanes::new(&pid), planes, "lifted: 1.0");
         let bumps = |samples: &mut [PlanarSample]| TerrainLanes::new(samples, &alloc::vec![Terrain::bumps(0.03, 0.4).ok(); samples.len()], None);
         same_bits_on_every_copy_on(PidLanes::new(&pid), bumps, "fell: true");
+    }
+
+    /// The shifted step is `rk4`'s bits where the live lanes' pitches and headings move little
+    /// enough, and refused where a live lane's does not (a dead lane's does not count); there
+    /// `rk4` takes the stage's own sin/cos, as the runner.
+    #[test]
+    fn shifted_step_is_the_same_bits_or_refused() {
+        let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| {
+            let mut params = RobotParams::balanbot();
+            params.com_height *= 0.7 + 0.04 * l as f64;
+            PlanarModel::new(params).unwrap()
+        });
+        let plants = Plants::new(&models);
+        let u: [Lanes; 2] = [core::array::from_fn(|l| 0.03 * l as f64 - 0.2), core::array::from_fn(|l| 0.1 - 0.02 * l as f64)];
+        // Headings all round, pitches either side, turning and pitching.
+        let x: [Lanes; 7] = [
+            [0.1; LANES],
+            [-0.2; LANES],
+            core::array::from_fn(|l| 0.9 * l as f64 - 7.0),
+            core::array::from_fn(|l| 0.05 * l as f64 - 0.4),
+            [0.8; LANES],
+            [0.5; LANES],
+            core::array::from_fn(|l| 0.3 * l as f64 - 2.0),
+        ];
+        let bits = |x: &[Lanes; 7]| x.map(|v| v.map(f64::to_bits));
+        let others = |x: &[Lanes; 7]| bits(x).map(|v| v[1..].to_vec());
+        let live = [true; LANES];
+        assert_eq!(plants.rk4_shifted(&x, &u, 1e-3, &live).map(|n| bits(&n)), Some(bits(&plants.rk4(&x, &u, 1e-3))));
+        // Lane 0 turning, then pitching, at 1,000 rad/s: its heading or pitch moves 0.5 rad to
+        // the half step, far past SHIFT_LIMIT.
+        for i in [6, 4] {
+            let mut fast = x;
+            fast[i][0] = 1000.0;
+            assert!(plants.rk4_shifted(&fast, &u, 1e-3, &live).is_none(), "state {i}");
+            let mut dead = live;
+            dead[0] = false;
+            let full = plants.rk4(&fast, &u, 1e-3);
+            assert_eq!(others(&plants.rk4_shifted(&fast, &u, 1e-3, &dead).expect("lane 0 dead")), others(&full));
+            // Taylor's four terms at 0.5 rad would be off by ~5e-9.
+            let runner = crate::rk4_step(&models[0], &PlanarState::from_fn(|j, _| fast[j][0]), &nalgebra::Vector2::new(u[0][0], u[1][0]), 1e-3);
+            for j in 0..7 {
+                assert!((full[j][0] - runner[j]).abs() <= 1e-12 * runner[j].abs().max(1.0), "state {i}, {j}: {} against {}", full[j][0], runner[j]);
+            }
+        }
     }
 
     #[test]
