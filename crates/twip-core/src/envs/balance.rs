@@ -47,8 +47,8 @@ impl LanePlant for Plants {
     const PITCH: usize = 0;
 
     #[inline(always)]
-    fn rk4_lanes(&self, x: &[Lanes; 4], u: &[Lanes; 1], dt: f64) -> [Lanes; 4] {
-        self.rk4(x, &u[0], dt)
+    fn rk4_lanes(&self, x: &[Lanes; 4], u: &[Lanes; 1], dt: f64, live: &[bool; LANES]) -> [Lanes; 4] {
+        self.rk4_unreduced(x, &u[0], dt, live).unwrap_or_else(|| self.rk4(x, &u[0], dt))
     }
 }
 

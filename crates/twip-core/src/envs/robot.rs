@@ -12,7 +12,9 @@ pub trait LanePlant {
     type Input;
     /// The state entry of the pitch φ (the fall test).
     const PITCH: usize;
-    fn rk4_lanes(&self, x: &Self::State, u: &Self::Input, dt: f64) -> Self::State;
+    /// One RK4 step on every lane; only the `live` lanes' new states count (the sweeps' fast
+    /// step, checked over them).
+    fn rk4_lanes(&self, x: &Self::State, u: &Self::Input, dt: f64, live: &[bool; LANES]) -> Self::State;
 }
 
 multiversioned! {
@@ -37,7 +39,7 @@ fn advance<P: LanePlant>(plants: &P, x: &mut P::State, u: &P::Input, steps: usiz
     // selected with gathers and scalar moves: a third of Track-v0's period (`perf annotate`).
     let mut alive = [u64::MAX; LANES];
     for _ in 0..steps {
-        let next = plants.rk4_lanes(x, u, dt);
+        let next = plants.rk4_lanes(x, u, dt, &alive.map(|a| a != 0));
         let (next, x) = (next.as_ref(), x.as_mut());
         for l in 0..LANES {
             let mut take = alive[l];
