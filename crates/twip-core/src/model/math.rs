@@ -426,6 +426,7 @@ pub(crate) fn kernel<S: Lane>(r: S) -> (S, S) {
 
 /// [`SIN`]'s coefficients, then [`COS`]'s, in one array: the terms a sweep's 2-DOF plants read
 /// as lanes (`sweep::block::Plants`), for [`kernel_from`].
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // the sweeps' lanes use it
 pub(crate) const SIN_COS: [f64; SIN.len() + COS.len()] = {
     let mut all = [0.0; SIN.len() + COS.len()];
     let mut i = 0;
@@ -445,6 +446,7 @@ pub(crate) const SIN_COS: [f64; SIN.len() + COS.len()] = {
 /// broadcasts; by this kernel the lanes run 131, at 1.07-1.09x the speed, and the fuzzy lanes,
 /// whose plants these are too, read 0.95-0.98x: not told apart from a layout effect
 /// (docs/performance.md).
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // the sweeps' lanes use it
 #[inline(always)]
 pub(crate) fn kernel_from<S: Lane>(r: S, coef: impl Fn(usize) -> S) -> (S, S) {
     let r2 = r * r;
@@ -455,6 +457,7 @@ pub(crate) fn kernel_from<S: Lane>(r: S, coef: impl Fn(usize) -> S) -> (S, S) {
 
 /// Up to this |d|, [`sin_cos_plus`] holds: Taylor's next terms, d⁹/9! and d¹⁰/10!, are
 /// below 3e-18 of sin d and 3e-22 of cos d.
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // the sweeps' lanes use it
 pub(crate) const SHIFT_LIMIT: f64 = 1.0 / 32.0;
 
 /// sin and cos of φ + d from (sin φ, cos φ), for |d| ≤ [`SHIFT_LIMIT`]: sin d and cos d − 1
@@ -467,6 +470,7 @@ pub(crate) const SHIFT_LIMIT: f64 = 1.0 / 32.0;
 /// of φ + d rounded (`scripts/sin_cos_shift_accuracy.py`, against 120-bit sin/cos, φ in ±3,
 /// |d| ≤ 1/32: 0.38 ulp on average, against 1.89 for libm's of the rounded sum; 0.45 with the
 /// terms added to sin φ one by one). The terms are read as [`kernel_from`]'s: [`SIN_COS`]'s term `i` as `coef(i)`.
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // the sweeps' lanes use it
 #[inline(always)]
 pub(crate) fn sin_cos_plus<S: Lane>((s, c): (S, S), d: S, coef: impl Fn(usize) -> S) -> (S, S) {
     let (sin, cos) = (|i: usize| coef(i), |i: usize| coef(SIN.len() + i));
@@ -478,6 +482,7 @@ pub(crate) fn sin_cos_plus<S: Lane>((s, c): (S, S), d: S, coef: impl Fn(usize) -
 
 /// Σ c(i) z^i for i < n ≥ 2: the even and the odd terms each by Horner's rule in z², joined.
 /// Its chain of dependent multiply-adds is about n/2 long, not Horner's n − 1.
+#[cfg_attr(not(feature = "std"), allow(dead_code))] // the sweeps' lanes use it
 #[inline(always)]
 fn horner2<S: Lane>(n: usize, c: impl Fn(usize) -> S, z: S) -> S {
     debug_assert!(n >= 2);
@@ -554,6 +559,7 @@ pub(crate) fn rotate<T: Real>(s: T, co: T, quadrant: i64) -> (T, T) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    #[cfg(feature = "std")]
     use crate::model::lane::Fused;
 
     /// The lanes' e^x is libm's to 2 ulp over the whole normal range, and its edges are
