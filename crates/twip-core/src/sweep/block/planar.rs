@@ -20,7 +20,7 @@ use crate::control::{Controller, Reference};
 use core::cell::Cell;
 use crate::model::integrate::{rk4, Field, Stage};
 use crate::model::lane::{fill, Fused, Lane};
-use crate::model::math::{sin_cos_plus, SHIFT_LIMIT, SIN_COS};
+use crate::model::math::{kernel, sin_cos_plus, SHIFT_LIMIT, SIN_COS, UNREDUCED};
 use crate::model::dynamics::Halt;
 use crate::model::planar::{deriv_at, PlanarCoefficients, PlanarModel, PLANAR_COEFFICIENTS};
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
@@ -133,19 +133,22 @@ impl Plants {
         self.rk4_in::<false>(x, u, dt).0
     }
 
-    /// [`Self::rk4`]'s step where every `live` lane's pitch and heading move by at most
-    /// [`SHIFT_LIMIT`] to each later stage, else None (the caller takes `rk4`; the other
-    /// lanes' steps do not count). There every later stage's sin/cos is only shifted from
-    /// the first's (`Plant::at_offset`), as `rk4`'s is there: the same bits, with two
-    /// reduced sin/cos a stage fewer. A loop over lanes cannot branch per lane, so the shifts
-    /// are checked after the step.
+    /// [`Self::rk4`]'s step where every `live` lane's pitch starts within ±[`UNREDUCED`] and
+    /// its pitch and heading move by at most [`SHIFT_LIMIT`] to each later stage, else None
+    /// (the caller takes `rk4`; the other lanes' steps do not count). There the first pitch's
+    /// sin/cos skips the reduction by π/2 and the quadrant's rotation, which change nothing
+    /// there, and every later stage's sin/cos is only shifted from the first's
+    /// (`Plant::at_offset`), as `rk4`'s is there: the same bits, with two reduced sin/cos a
+    /// stage fewer. A loop over lanes cannot branch per lane, so this is checked after the
+    /// step.
     #[inline(always)]
     pub(crate) fn rk4_shifted(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 7]> {
         if_every_live(live, self.rk4_in::<true>(x, u, dt))
     }
 
-    /// The step, with the later stages' sin/cos shifted only or not, and whether each lane's
-    /// shifts were within [`SHIFT_LIMIT`] (shifted only; else every lane's is true).
+    /// The step, with the later stages' sin/cos shifted only (and the first pitch's unreduced)
+    /// or not, and whether each lane's pitch started within ±[`UNREDUCED`] and its shifts were
+    /// within [`SHIFT_LIMIT`] (shifted only; else every lane's is true).
     #[inline(always)]
     fn rk4_in<const SHIFTED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> ([Lanes; 7], [bool; LANES]) {
         let mut out = [[0.0; LANES]; 7];
@@ -180,8 +183,8 @@ impl Plants {
     }
 }
 
-/// One lane's plant with its inputs held; `SHIFTED`: the later stages' sin/cos shifted from
-/// the first's only, noting in `near` whether each shift allowed that.
+/// One lane's plant with its inputs held; `SHIFTED`: the first pitch's sin/cos unreduced and
+/// the later stages' shifted from the first's only, noting in `near` whether each allowed that.
 struct Plant<const SHIFTED: bool> {
     k: PlanarCoefficients<Fused>,
     u: [Fused; 2],
@@ -193,7 +196,15 @@ struct Plant<const SHIFTED: bool> {
 impl<const SHIFTED: bool> Field<Fused, 7> for Plant<SHIFTED> {
     #[inline(always)]
     fn at(&self, x: &[Fused; 7]) -> [Fused; 7] {
-        let (pitch, heading) = (Fused::sincos(x[3]), Fused::sincos(x[2]));
+        // Shifted only, the pitch unreduced where it may be (the same bits: `Plants::rk4_shifted`).
+        let pitch = if SHIFTED {
+            // NaN is not near.
+            self.near.set(self.near.get() & (x[3].0.abs() <= UNREDUCED));
+            kernel(x[3])
+        } else {
+            Fused::sincos(x[3])
+        };
+        let heading = Fused::sincos(x[2]);
         self.start.set([(pitch.0 .0, pitch.1 .0), (heading.0 .0, heading.1 .0)]);
         deriv_at(&self.k, x, self.u, pitch, heading)
     }
@@ -634,9 +645,9 @@ mod tests {
         same_bits_on_every_copy_on(PidLanes::new(&pid), bumps, "fell: true");
     }
 
-    /// The shifted step is `rk4`'s bits where the live lanes' pitches and headings move little
-    /// enough, and refused where a live lane's does not (a dead lane's does not count); there
-    /// `rk4` takes the stage's own sin/cos, as the runner.
+    /// The shifted step is `rk4`'s bits where the live lanes' pitches start within ±UNREDUCED
+    /// and they and the headings move little enough, and refused where a live lane's does not
+    /// (a dead lane's does not count); there `rk4` takes the stage's own sin/cos, as the runner.
     #[test]
     fn shifted_step_is_the_same_bits_or_refused() {
         let models: [PlanarModel<f64>; LANES] = core::array::from_fn(|l| {
@@ -660,14 +671,20 @@ mod tests {
         let others = |x: &[Lanes; 7]| bits(x).map(|v| v[1..].to_vec());
         let live = [true; LANES];
         assert_eq!(plants.rk4_shifted(&x, &u, 1e-3, &live).map(|n| bits(&n)), Some(bits(&plants.rk4(&x, &u, 1e-3))));
+        // Lane 0 pitched 0.9 rad, where its first sin/cos needs the reduction: refused while it
+        // is live, the others' bits the same.
+        let mut far = x;
+        far[3][0] = -0.9;
+        assert!(plants.rk4_shifted(&far, &u, 1e-3, &live).is_none());
+        let mut dead = live;
+        dead[0] = false;
+        assert_eq!(others(&plants.rk4_shifted(&far, &u, 1e-3, &dead).expect("lane 0 dead")), others(&plants.rk4(&far, &u, 1e-3)));
         // Lane 0 turning, then pitching, at 1,000 rad/s: its heading or pitch moves 0.5 rad to
         // the half step, far past SHIFT_LIMIT.
         for i in [6, 4] {
             let mut fast = x;
             fast[i][0] = 1000.0;
             assert!(plants.rk4_shifted(&fast, &u, 1e-3, &live).is_none(), "state {i}");
-            let mut dead = live;
-            dead[0] = false;
             let full = plants.rk4(&fast, &u, 1e-3);
             assert_eq!(others(&plants.rk4_shifted(&fast, &u, 1e-3, &dead).expect("lane 0 dead")), others(&full));
             // Taylor's four terms at 0.5 rad would be off by ~5e-9.
