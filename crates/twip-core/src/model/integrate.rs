@@ -67,8 +67,14 @@ pub trait Field<S, const N: usize> {
     where
         S: Lane,
     {
-        self.at_stage(&fill(|i| S::madd(k[i], h, x[i])), stage)
+        self.at_stage(&stage_state(x, k, h), stage)
     }
+}
+
+/// RK4's stage state x + k h.
+#[inline(always)]
+pub fn stage_state<S: Lane, const N: usize>(x: &[S; N], k: &[S; N], h: S) -> [S; N] {
+    fill(|i| S::madd(k[i], h, x[i]))
 }
 
 /// A model with its input held over a step.

@@ -469,7 +469,8 @@ pub(crate) const SHIFT_LIMIT: f64 = 1.0 / 32.0;
 /// instead of [`kernel_from`]'s 19, and of the exact φ + d, where the stage's own sin/cos is
 /// of φ + d rounded (`scripts/sin_cos_shift_accuracy.py`, against 120-bit sin/cos, φ in ±3,
 /// |d| ≤ 1/32: 0.38 ulp on average, against 1.89 for libm's of the rounded sum; 0.45 with the
-/// terms added to sin φ one by one). The terms are read as [`kernel_from`]'s: [`SIN_COS`]'s term `i` as `coef(i)`.
+/// terms added to sin φ one by one). The terms are read as [`kernel_from`]'s: [`SIN_COS`]'s
+/// term `i` as `coef(i)`.
 #[cfg_attr(not(feature = "std"), allow(dead_code))] // the sweeps' lanes use it
 #[inline(always)]
 pub(crate) fn sin_cos_plus<S: Lane>((s, c): (S, S), d: S, coef: impl Fn(usize) -> S) -> (S, S) {

@@ -19,7 +19,7 @@ use closed_loop::{closed_loop, Aligned, Observer};
 use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::model::dynamics::Halt;
 use crate::control::Reference;
-use crate::model::integrate::{rk4, Field, Stage};
+use crate::model::integrate::{rk4, stage_state, Field, Stage};
 use crate::model::lane::{Fused, Lane, Wide, WIDTH};
 use crate::model::math::{sin_cos_fused_from, sin_cos_plus, sin_cos_unreduced_from, SHIFT_LIMIT, SIN_COS, UNREDUCED};
 use crate::model::slope::{deriv_at, SlopeCoefficients, SlopeModel};
@@ -232,29 +232,38 @@ impl<const UNREDUCED_SIN: bool> Field<Fused, 4> for Plant<UNREDUCED_SIN> {
         deriv_at(&self.k, x, self.u, (Fused(s), Fused(c)))
     }
 
-    /// A later stage's sin/cos: the first's shifted by d = k₀ h where |d| ≤ [`SHIFT_LIMIT`]
-    /// (`math::sin_cos_plus`: 15 operations, not 19, for all of the pitch's sin/cos but the
-    /// first), else the stage's own. Unreduced, the shift alone, noting in `inside` whether it
-    /// holds; else both, and the one that holds selected, so that a lane's bits are the same
-    /// either way.
+    /// A later stage's sin/cos: the first's shifted by d = k₀ h (`stage_sin_cos`; 15
+    /// operations, not `kernel_from`'s 19, for all of the pitch's sin/cos but the first).
     #[inline(always)]
     fn at_offset(&self, x: &[Fused; 4], k: &[Fused; 4], h: Fused, _: Stage) -> [Fused; 4] {
-        let stage: [Fused; 4] = core::array::from_fn(|i| Fused::madd(k[i], h, x[i]));
-        let d = k[0] * h;
-        let (s, c) = self.start.get();
-        let coef = |i: usize| Fused(self.terms[i]);
-        let (s_d, c_d) = sin_cos_plus((Fused(s), Fused(c)), d, coef);
-        // NaN is not near.
-        let near = d.0.abs() <= SHIFT_LIMIT;
-        let (s, c) = if UNREDUCED_SIN {
-            self.inside.set(self.inside.get() & near);
-            (s_d.0, c_d.0)
-        } else {
-            let (s, c) = sin_cos_fused_from(stage[0].0, |i| self.terms[i]);
-            if near { (s_d.0, c_d.0) } else { (s, c) }
-        };
-        deriv_at(&self.k, &stage, self.u, (Fused(s), Fused(c)))
+        let stage = stage_state(x, k, h);
+        let own = || sin_cos_fused_from(stage[0].0, |i| self.terms[i]);
+        let (s, c) = stage_sin_cos::<UNREDUCED_SIN>(self.start.get(), k[0] * h, |i| Fused(self.terms[i]), &self.inside, own);
+        deriv_at(&self.k, &stage, self.u, (s, c))
     }
+}
+
+/// A later RK4 stage's sin/cos in a lanes' plant (`Field::at_offset`): the step's first,
+/// `start`, shifted by `d` (`math::sin_cos_plus`) where |d| ≤ [`SHIFT_LIMIT`], else the stage's
+/// `own`. `SHIFT_ONLY` (a fast step): the shift alone, noting in `near` whether it holds;
+/// else both, and the one that holds selected, so that a lane's bits are the same either way.
+#[inline(always)]
+pub(crate) fn stage_sin_cos<const SHIFT_ONLY: bool>(
+    start: (f64, f64),
+    d: Fused,
+    coef: impl Fn(usize) -> Fused,
+    near: &Cell<bool>,
+    own: impl FnOnce() -> (f64, f64),
+) -> (Fused, Fused) {
+    let shifted = sin_cos_plus((Fused(start.0), Fused(start.1)), d, coef);
+    // NaN is not near.
+    let holds = d.0.abs() <= SHIFT_LIMIT;
+    if SHIFT_ONLY {
+        near.set(near.get() & holds);
+        return shifted;
+    }
+    let (s, c) = own();
+    if holds { shifted } else { (Fused(s), Fused(c)) }
 }
 
 /// [`Tally`] on every lane, one array per field, and what each lane's observations are

@@ -13,14 +13,14 @@
 //! block ([`closed_loop`](super::closed_loop::closed_loop)).
 use super::closed_loop::{self, closed_loop, Aligned, Observer};
 use super::law::{LaneLaw, Planar};
-use super::{multiversioned, only};
+use super::{multiversioned, only, stage_sin_cos};
 use crate::control::pid::{PidLaw, PidTracker};
 use crate::control::trajectory::{Path, PlanarRef};
 use crate::control::{Controller, Reference};
 use core::cell::Cell;
-use crate::model::integrate::{rk4, Field, Stage};
+use crate::model::integrate::{rk4, stage_state, Field, Stage};
 use crate::model::lane::{fill, Fused, Lane};
-use crate::model::math::{kernel, sin_cos_plus, SHIFT_LIMIT, SIN_COS, UNREDUCED};
+use crate::model::math::{kernel, SIN_COS, UNREDUCED};
 use crate::model::dynamics::Halt;
 use crate::model::planar::{deriv_at, PlanarCoefficients, PlanarModel, PLANAR_COEFFICIENTS};
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
@@ -134,7 +134,7 @@ impl Plants {
     }
 
     /// [`Self::rk4`]'s step where every `live` lane's pitch starts within ±[`UNREDUCED`] and
-    /// its pitch and heading move by at most [`SHIFT_LIMIT`] to each later stage, else None
+    /// its pitch and heading move by at most `math::SHIFT_LIMIT` to each later stage, else None
     /// (the caller takes `rk4`; the other lanes' steps do not count). There the first pitch's
     /// sin/cos skips the reduction by π/2 and the quadrant's rotation, which change nothing
     /// there, and every later stage's sin/cos is only shifted from the first's
@@ -148,7 +148,7 @@ impl Plants {
 
     /// The step, with the later stages' sin/cos shifted only (and the first pitch's unreduced)
     /// or not, and whether each lane's pitch started within ±[`UNREDUCED`] and its shifts were
-    /// within [`SHIFT_LIMIT`] (shifted only; else every lane's is true).
+    /// within `math::SHIFT_LIMIT` (shifted only; else every lane's is true).
     #[inline(always)]
     fn rk4_in<const SHIFTED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> ([Lanes; 7], [bool; LANES]) {
         let mut out = [[0.0; LANES]; 7];
@@ -210,26 +210,17 @@ impl<const SHIFTED: bool> Field<Fused, 7> for Plant<SHIFTED> {
     }
 
     /// A later stage's sin/cos of the pitch and of the heading: the first's shifted by
-    /// d = k h where |d| ≤ [`SHIFT_LIMIT`] (`math::sin_cos_plus`), else the stage's own.
-    /// Shifted only, noting in `near` whether both shifts hold; else both ways, and the one
-    /// that holds selected, so that a lane's bits are the same either way.
+    /// d = k h (`stage_sin_cos`), noting in `near` whether both shifts hold.
     #[inline(always)]
     fn at_offset(&self, x: &[Fused; 7], k: &[Fused; 7], h: Fused, _: Stage) -> [Fused; 7] {
-        let stage: [Fused; 7] = fill(|i| Fused::madd(k[i], h, x[i]));
-        let coef = |i: usize| Fused(SIN_COS[i]);
+        let stage = stage_state(x, k, h);
         let start = self.start.get();
-        let angle = |i: usize, (s, c): (f64, f64)| {
-            let d = k[i] * h;
-            let (shifted_s, shifted_c) = sin_cos_plus((Fused(s), Fused(c)), d, coef);
-            // NaN is not near.
-            let near = d.0.abs() <= SHIFT_LIMIT;
-            if SHIFTED {
-                self.near.set(self.near.get() & near);
-                (shifted_s, shifted_c)
-            } else {
-                let own = Fused::sincos(stage[i]);
-                if near { (shifted_s, shifted_c) } else { own }
-            }
+        let angle = |i: usize, start: (f64, f64)| {
+            let own = || {
+                let (s, c) = Fused::sincos(stage[i]);
+                (s.0, c.0)
+            };
+            stage_sin_cos::<SHIFTED>(start, k[i] * h, |j| Fused(SIN_COS[j]), &self.near, own)
         };
         let (pitch, heading) = (angle(3, start[0]), angle(2, start[1]));
         deriv_at(&self.k, &stage, self.u, pitch, heading)
