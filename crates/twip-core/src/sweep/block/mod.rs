@@ -171,17 +171,17 @@ impl Plants {
     /// ±[`UNREDUCED`] and moved by at most [`SHIFT_LIMIT`] a stage (unreduced; else every
     /// lane's is true).
     #[inline(always)]
-    fn rk4_in<const UNREDUCED_SIN: bool>(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> ([Lanes; 4], [bool; LANES]) {
+    fn rk4_in<const UNREDUCED_SIN: bool>(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> ([Lanes; 4], [u64; LANES]) {
         const HALF: usize = LANES / 2;
         let mut out = [[0.0; LANES]; 4];
-        let mut inside = [true; LANES];
+        let mut inside = [u64::MAX; LANES];
         let state = |l: usize| [Fused(x[0][l]), Fused(x[1][l]), Fused(x[2][l]), Fused(x[3][l])];
         let terms = self.sin_cos_terms();
         let plant = |l: usize| Plant::<UNREDUCED_SIN> {
             k: self.lane(l),
             terms: lane_terms(terms, l),
             u: Fused(u[l]),
-            inside: Cell::new(true),
+            inside: Cell::new(u64::MAX),
             start: Cell::new((0.0, 1.0)),
         };
         for l in 0..HALF {
@@ -207,12 +207,12 @@ pub(crate) fn lane_terms(terms: &[Lanes; SIN_COS.len()], l: usize) -> [f64; SIN_
 }
 
 /// One lane's plant with its input held; `UNREDUCED_SIN`: sin/cos without the reduction,
-/// noting in `inside` whether each pitch it saw allowed that.
+/// noting in `inside` (a [`mask`]) whether each pitch it saw allowed that.
 struct Plant<const UNREDUCED_SIN: bool> {
     k: SlopeCoefficients<Fused>,
     terms: [f64; SIN_COS.len()],
     u: Fused,
-    inside: Cell<bool>,
+    inside: Cell<u64>,
     /// sin/cos of the step's first pitch (`at`), which the later stages shift.
     start: Cell<(f64, f64)>,
 }
@@ -223,7 +223,7 @@ impl<const UNREDUCED_SIN: bool> Field<Fused, 4> for Plant<UNREDUCED_SIN> {
         let phi = x[0].0;
         let (s, c) = if UNREDUCED_SIN {
             // NaN is outside.
-            self.inside.set(self.inside.get() & (phi.abs() <= UNREDUCED));
+            self.inside.set(self.inside.get() & mask(phi.abs() <= UNREDUCED));
             sin_cos_unreduced_from(phi, |i| self.terms[i])
         } else {
             sin_cos_fused_from(phi, |i| self.terms[i])
@@ -245,21 +245,21 @@ impl<const UNREDUCED_SIN: bool> Field<Fused, 4> for Plant<UNREDUCED_SIN> {
 
 /// A later RK4 stage's sin/cos in a lanes' plant (`Field::at_offset`): the step's first,
 /// `start`, shifted by `d` (`math::sin_cos_plus`) where |d| ≤ [`SHIFT_LIMIT`], else the stage's
-/// `own`. `SHIFT_ONLY` (a fast step): the shift alone, noting in `near` whether it holds;
+/// `own`. `SHIFT_ONLY` (a fast step): the shift alone, noting in `near` (a [`mask`]) whether it holds;
 /// else both, and the one that holds selected, so that a lane's bits are the same either way.
 #[inline(always)]
 pub(crate) fn stage_sin_cos<const SHIFT_ONLY: bool>(
     start: (f64, f64),
     d: Fused,
     coef: impl Fn(usize) -> Fused,
-    near: &Cell<bool>,
+    near: &Cell<u64>,
     own: impl FnOnce() -> (f64, f64),
 ) -> (Fused, Fused) {
     let shifted = sin_cos_plus((Fused(start.0), Fused(start.1)), d, coef);
     // NaN is not near.
     let holds = d.0.abs() <= SHIFT_LIMIT;
     if SHIFT_ONLY {
-        near.set(near.get() & holds);
+        near.set(near.get() & mask(holds));
         return shifted;
     }
     let (s, c) = own();

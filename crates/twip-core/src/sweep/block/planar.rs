@@ -27,7 +27,7 @@ use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::DrivePeaks;
 use crate::sim::runner::SimConfig;
 use crate::sim::tracking_metrics::{TrackingTally, TRACKING_TALLIES};
-use crate::sweep::lanes::{if_every_live, where_live, Lanes, LANES};
+use crate::sweep::lanes::{if_every_live, mask, where_live, Lanes, LANES};
 use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
 use crate::sweep::SweepMetrics;
 use crate::TwipError;
@@ -150,9 +150,9 @@ impl Plants {
     /// or not, and whether each lane's pitch started within ±[`UNREDUCED`] and its shifts were
     /// within `math::SHIFT_LIMIT` (shifted only; else every lane's is true).
     #[inline(always)]
-    fn rk4_in<const SHIFTED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> ([Lanes; 7], [bool; LANES]) {
+    fn rk4_in<const SHIFTED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> ([Lanes; 7], [u64; LANES]) {
         let mut out = [[0.0; LANES]; 7];
-        let mut near = [true; LANES];
+        let mut near = [u64::MAX; LANES];
         for l in 0..LANES {
             let (next, lane_near) = self.rk4_lane_in::<SHIFTED>(x, u, l, dt);
             for i in 0..7 {
@@ -171,11 +171,11 @@ impl Plants {
     }
 
     #[inline(always)]
-    fn rk4_lane_in<const SHIFTED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], l: usize, dt: f64) -> ([Fused; 7], bool) {
+    fn rk4_lane_in<const SHIFTED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], l: usize, dt: f64) -> ([Fused; 7], u64) {
         let plant = Plant::<SHIFTED> {
             k: self.lane(l),
             u: [Fused(u[0][l]), Fused(u[1][l])],
-            near: Cell::new(true),
+            near: Cell::new(u64::MAX),
             start: Cell::new([(0.0, 1.0); 2]),
         };
         let xl = fill(|i| Fused(x[i][l]));
@@ -184,11 +184,11 @@ impl Plants {
 }
 
 /// One lane's plant with its inputs held; `SHIFTED`: the first pitch's sin/cos unreduced and
-/// the later stages' shifted from the first's only, noting in `near` whether each allowed that.
+/// the later stages' shifted from the first's only, noting in `near` (a `mask`) whether each allowed that.
 struct Plant<const SHIFTED: bool> {
     k: PlanarCoefficients<Fused>,
     u: [Fused; 2],
-    near: Cell<bool>,
+    near: Cell<u64>,
     /// (sin, cos) of the step's first pitch and heading (`at`), which the later stages shift.
     start: Cell<[(f64, f64); 2]>,
 }
@@ -199,7 +199,7 @@ impl<const SHIFTED: bool> Field<Fused, 7> for Plant<SHIFTED> {
         // Shifted only, the pitch unreduced where it may be (the same bits: `Plants::rk4_shifted`).
         let pitch = if SHIFTED {
             // NaN is not near.
-            self.near.set(self.near.get() & (x[3].0.abs() <= UNREDUCED));
+            self.near.set(self.near.get() & mask(x[3].0.abs() <= UNREDUCED));
             kernel(x[3])
         } else {
             Fused::sincos(x[3])
