@@ -1,15 +1,16 @@
 """How near the sweeps' shifted sin/cos (`math::sin_cos_plus`) is to sin/cos of φ + d.
 
 An RK4 stage's pitch is the step's first pitch φ moved by d = k h. The lanes take the later
-stages' sin/cos from the first's by the sum formulas (sin d, cos d − 1 by Taylor's first four
-terms), where before they took sin/cos of the rounded sum fl(φ + d). This script emulates
+stages' sin/cos from the first's by the sum formulas (sin d and cos d − 1 by Taylor's first
+four and three terms), where before they took sin/cos of the rounded sum fl(φ + d). This script emulates
 the Rust arithmetic in Python (each multiply-add rounded once, by exact fractions) and
 measures both against 120-bit sin/cos of the exact φ + d, in ulp of the true value:
 
     .venv/bin/python scripts/sin_cos_shift_accuracy.py [--n 20000]
 
 It also measures the sum formulas with the small terms added to sin φ one at a time (two
-roundings at the result's scale), the order first tried.
+roundings at the result's scale), the order first tried, and with cos d − 1's fourth term,
+d⁸/8!, which the lanes took until the twenty-eighth session.
 """
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from fractions import Fraction
 
 import mpmath
 
-# Taylor's terms, as math::SIN[..3] and math::COS[..4].
+# Taylor's terms, as math::SIN[..3] and math::COS[..3] (and COS[3], the term dropped).
 SIN = [-1 / 6, 1 / 120, -1 / 5040]
 COS = [-0.5, 1 / 24, -1 / 720, 1 / 40320]
 SHIFT_LIMIT = 1 / 32
@@ -31,11 +32,12 @@ def fma(a: float, b: float, c: float) -> float:
     return float(Fraction(a) * Fraction(b) + Fraction(c))
 
 
-def shifted(s: float, c: float, d: float, one_by_one: bool = False) -> tuple[float, float]:
-    """`sin_cos_plus((s, c), d)`, operation for operation."""
+def shifted(s: float, c: float, d: float, one_by_one: bool = False, cos_terms: int = 3) -> tuple[float, float]:
+    """`sin_cos_plus((s, c), d)`, operation for operation (cos_terms = 4: with d⁸/8!)."""
     d2 = d * d
     sin_d = fma(d * d2, fma(d2, fma(d2, SIN[2], SIN[1]), SIN[0]), d)
-    cos_d_1 = d2 * fma(d2, fma(d2, fma(d2, COS[3], COS[2]), COS[1]), COS[0])
+    inner = fma(d2, COS[3], COS[2]) if cos_terms == 4 else COS[2]
+    cos_d_1 = d2 * fma(d2, fma(d2, inner, COS[1]), COS[0])
     if one_by_one:
         return fma(c, sin_d, fma(s, cos_d_1, s)), fma(-s, sin_d, fma(c, cos_d_1, c))
     return s + fma(c, sin_d, s * cos_d_1), c + fma(-s, sin_d, c * cos_d_1)
@@ -50,6 +52,7 @@ def main() -> None:
     ways = {
         "shifted (sin_cos_plus)": lambda x, d: shifted(math.sin(x), math.cos(x), d),
         "shifted, terms added one by one": lambda x, d: shifted(math.sin(x), math.cos(x), d, True),
+        "shifted, cos d − 1 to d⁸/8!": lambda x, d: shifted(math.sin(x), math.cos(x), d, cos_terms=4),
         "libm's sin/cos of fl(φ + d)": lambda x, d: (math.sin(x + d), math.cos(x + d)),
     }
     errors = {name: [] for name in ways}
