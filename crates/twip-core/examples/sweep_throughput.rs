@@ -17,6 +17,7 @@
 //! gearhead friction, slip law only: `Friction::gb37()`, no stick band), realism-lanes-hills
 //! (that rig with benches/families.py's two slope changes along the path), fuzzy-realism-lanes
 //! (the thesis's fuzzy law, 5 ms loop, through the thesis-like rig on lanes).
+//! TWIP_KERNEL_COPY=avx2 (or avx512, baseline) runs that copy of the lane kernels.
 //! RIG_DROP=imu,encoder,motor,delay,friction,backlash (any of them) takes those parts out of
 //! the 2-DOF rig paths' realism: what each part costs.
 //! The checksum's bits tell two builds' results apart (the same bits: the same numbers); the
@@ -46,6 +47,15 @@ fn main() {
     let schedule = SpeedSchedule::constant(speed).unwrap();
     let config = SimConfig { dt: 1e-3, t_final: 10.0, fall_limit: 1.0 };
     let fuzzy = FuzzyController::thesis_flat(model, 1e-3).unwrap();
+    // TWIP_KERNEL_COPY=avx512|avx2|baseline runs that copy (`twip.use_kernel_copy`'s names).
+    if let Ok(name) = std::env::var("TWIP_KERNEL_COPY") {
+        use twip_core::sweep::block::KernelCopy;
+        let chosen = KernelCopy::ALL.into_iter().find(|c| c.name() == name).map(|c| KernelCopy::choose(Some(c)));
+        if !matches!(chosen, Some(Ok(_))) {
+            eprintln!("TWIP_KERNEL_COPY={name:?}: not a copy that runs here (avx512, avx2, baseline)");
+            std::process::exit(2);
+        }
+    }
     let start = std::time::Instant::now();
     let total: f64 = match path {
         "lanes" => run_lqr_samples(&ctrl, &schedule, &config, &nominal, &perturb, 1, 0..n, &|| false)
