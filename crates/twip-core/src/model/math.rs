@@ -461,9 +461,9 @@ pub(crate) fn kernel_from<S: Lane>(r: S, coef: impl Fn(usize) -> S) -> (S, S) {
 pub(crate) const SHIFT_LIMIT: f64 = 1.0 / 32.0;
 
 /// sin and cos of φ + d from (sin φ, cos φ), for |d| ≤ [`SHIFT_LIMIT`]: sin d and cos d − 1
-/// by Taylor's first four and three terms ([`SIN`]'s and [`COS`]'s; cos's fourth, d⁸/8!, moved
-/// no result beyond noise and cost one multiply-add in the stage's chain: the LQR lanes ran
-/// 1.035x without it, 10 pairs), then the sum formulas, the two
+/// by Taylor's first four and three terms ([`SIN`]'s and [`COS`]'s; cos's fourth, d⁸/8!, below
+/// a tenth of an ulp here, moved no sweep's bits in paired runs and cost one multiply-add in
+/// the stage's chain: the LQR lanes ran 1.035x without it, 10 pairs), then the sum formulas, the two
 /// small terms summed before sin φ or cos φ is added (one rounding at the result's scale).
 /// Where (sin φ, cos φ) are libm's, within 2 ulp of libm's sin/cos of φ + d, in ulp of the
 /// largest of the result, the value shifted and d (tested): near a zero, as when φ + d is

@@ -168,8 +168,8 @@ impl Plants {
     }
 
     /// The step, with sin/cos unreduced or not, and whether each lane's pitch started within
-    /// ±[`UNREDUCED`] and moved by at most [`SHIFT_LIMIT`] a stage (unreduced; else every
-    /// lane's is true).
+    /// ±[`UNREDUCED`] and moved by at most [`SHIFT_LIMIT`] a stage, as a [`mask`] (unreduced;
+    /// else all ones on every lane).
     #[inline(always)]
     fn rk4_in<const UNREDUCED_SIN: bool>(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> ([Lanes; 4], [u64; LANES]) {
         const HALF: usize = LANES / 2;

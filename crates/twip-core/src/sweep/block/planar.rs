@@ -148,7 +148,7 @@ impl Plants {
 
     /// The step, with the later stages' sin/cos shifted only (and the first pitch's unreduced)
     /// or not, and whether each lane's pitch started within ±[`UNREDUCED`] and its shifts were
-    /// within `math::SHIFT_LIMIT` (shifted only; else every lane's is true).
+    /// within `math::SHIFT_LIMIT`, as a `mask` (shifted only; else all ones on every lane).
     #[inline(always)]
     fn rk4_in<const SHIFTED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> ([Lanes; 7], [u64; LANES]) {
         let mut out = [[0.0; LANES]; 7];
