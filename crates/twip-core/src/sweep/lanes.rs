@@ -40,7 +40,7 @@ pub(crate) fn where_live(live: &[bool; LANES], mut observe: impl FnMut(&[bool; L
 /// [`mask`]), else None: a fast step that a loop over lanes cannot branch on per lane, checked
 /// after it. On masks, not `bool`s: with `bool` flags, the check's lines held 10.6 % of the
 /// `avx512` LQR kernel's samples (bytes packed into mask bits one lane at a time); on masks the
-/// LQR lanes ran 1.081x, the fuzzy lanes 1.045x, circle-pid 1.00x (an AVX-512 EPYC,
+/// `avx512` LQR lanes ran 1.081x, the fuzzy lanes 1.045x, circle-pid 1.00x (an AVX-512 EPYC,
 /// `sweep_throughput`, 6 alternated pairs).
 #[inline(always)]
 pub(crate) fn if_every_live<T>(live: &[bool; LANES], (step, holds): (T, [u64; LANES])) -> Option<T> {

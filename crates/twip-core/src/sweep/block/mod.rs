@@ -232,7 +232,7 @@ impl<const UNREDUCED_SIN: bool> Field<Fused, 4> for Plant<UNREDUCED_SIN> {
         deriv_at(&self.k, x, self.u, (Fused(s), Fused(c)))
     }
 
-    /// A later stage's sin/cos: the first's shifted by d = k₀ h (`stage_sin_cos`; 15
+    /// A later stage's sin/cos: the first's shifted by d = k₀ h (`stage_sin_cos`; 14
     /// operations, not `kernel_from`'s 19, for all of the pitch's sin/cos but the first).
     #[inline(always)]
     fn at_offset(&self, x: &[Fused; 4], k: &[Fused; 4], h: Fused, _: Stage) -> [Fused; 4] {
@@ -945,7 +945,8 @@ mod tests {
         let full = plants.rk4(&x, &u, 1e-3);
         assert_eq!(bits(&next)[..].iter().map(|v| &v[1..]).collect::<Vec<_>>(), bits(&full)[..].iter().map(|v| &v[1..]).collect::<Vec<_>>());
         // There rk4 takes the stages' own sin/cos: a step as the runner's, to rounding (Taylor's
-        // four terms at 0.5 rad would be off by ~5e-9).
+        // terms at 0.5 rad would be off by up to 9.7e-8, scripts/sin_cos_shift_accuracy.py's
+        // `shifted` over φ in ±3).
         let model = models[0];
         let runner = crate::rk4_step(&model, &nalgebra::Vector4::new(x[0][0], x[1][0], x[2][0], x[3][0]), &nalgebra::Vector1::new(u[0]), 1e-3);
         for i in 0..4 {
