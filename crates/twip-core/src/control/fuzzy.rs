@@ -26,7 +26,7 @@ use crate::control::Controller;
 use crate::control::fuzzy_grid::{FuzzyGrid, RuleBase, MAX_RULES};
 use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::model::lane::Lane;
-use crate::model::slope::{pitch_input_gain, SlopeCoefficients, SlopeModel};
+use crate::model::slope::{inverse_pitch_input_gain, pitch_input_gain, SlopeCoefficients, SlopeModel};
 use crate::{c, Real, TwipError};
 
 /// k1, k2 of the backstepping, kp, kd of the PD on the wheel position (4.56), and our
@@ -80,6 +80,15 @@ pub struct Adaptation<T> {
 pub const DEFAULT_GAMMA: f64 = 0.02;
 /// twip's σ [1/s] (not in the thesis; docs/scenarios.md says why).
 pub const DEFAULT_SIGMA: f64 = 0.05;
+
+impl<T: Real> Adaptation<T> {
+    /// (4.49)'s forward Euler step over `period` as Ŝ ← keep · Ŝ + (z2 · per_z2) · ξ:
+    /// (keep, per_z2) = (1 − period σ, period / γ), constants of the law, so an update
+    /// neither divides nor multiplies out the leakage per weight.
+    pub(crate) fn euler(&self, period: T) -> (T, T) {
+        (T::one() - period * self.sigma, period / self.gamma)
+    }
+}
 
 impl<T: Real> Default for Adaptation<T> {
     fn default() -> Self {
@@ -277,7 +286,9 @@ impl<T: Real> FuzzyController<T> {
 pub(crate) struct Law<'a, S, B> {
     pub gains: FuzzyGains<S>,
     pub gamma: S,
-    pub sigma: S,
+    /// The adaptation's Euler step ([`Adaptation::euler`]).
+    pub keep: S,
+    pub per_z2: S,
     /// Adapt the weights Ŝ (else they stay as they are).
     pub adapt: bool,
     pub period: S,
@@ -315,18 +326,20 @@ impl<S: Lane, B> Law<'_, S, B> {
         let rules = self.basis.rules();
         let (mut f1_hat, mut s_norm2) = (S::splat(0.0), S::splat(0.0));
         for (s, x) in s_hat.iter().zip(&xi).take(rules) {
-            f1_hat = f1_hat + *s * *x;
-            s_norm2 = s_norm2 + *s * *s;
+            f1_hat = S::madd(*s, *x, f1_hat);
+            s_norm2 = S::madd(*s, *s, s_norm2);
         }
         let e = theta - y[2];
         let e_dot = theta_dot - y[3];
-        let backstepping = -(e1 + f1_hat + g.k1 * phi_dot + (half + g.k2) * z2) / pitch_input_gain(self.model, phi);
+        // 1/g1 depends on φ alone: its division runs beside f̂1's sum, not after it.
+        let backstepping = -(e1 + f1_hat + g.k1 * phi_dot + (half + g.k2) * z2) * inverse_pitch_input_gain(self.model, phi);
         let u = backstepping + g.kp * e + g.kd * e_dot + g.ki * *e_int;
         let v2 = half * e1 * e1 + half * z2 * z2 + half * self.gamma * s_norm2;
-        let rate = z2 / self.gamma;
-        for (s, x) in s_hat.iter_mut().zip(&xi).take(rules) {
-            let adapted = *s + self.period * (rate * *x - self.sigma * *s);
-            *s = if self.adapt { adapted } else { *s };
+        if self.adapt {
+            let rate = z2 * self.per_z2;
+            for (s, x) in s_hat.iter_mut().zip(&xi).take(rules) {
+                *s = S::madd(rate, *x, *s * self.keep);
+            }
         }
         *e_int = *e_int + self.period * e;
         Step { u, xi, z2, e1, v2, e }
@@ -359,10 +372,12 @@ impl<T: Real> Controller<T, 4, 1> for FuzzyController<T> {
             }
         };
         let a = &self.adaptation;
+        let (keep, per_z2) = a.euler(self.period);
         let law = Law {
             gains: self.gains,
             gamma: a.gamma,
-            sigma: a.sigma,
+            keep,
+            per_z2,
             adapt: a.enabled,
             period: self.period,
             basis: &self.basis.sized(),

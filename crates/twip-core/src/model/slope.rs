@@ -430,6 +430,15 @@ pub(crate) fn pitch_input_gain<S: Lane>(k: &SlopeCoefficients<S>, phi: S) -> S {
     cramer(k.m11, k.m22, k.m11_m22, m12(k, s, c, k.rotor), &[-tau, tau])[0]
 }
 
+/// 1/g1(φ) ([`pitch_input_gain`]) in one division: det M over the first entry of
+/// adj(M) (−η τ_i, η τ_i).
+#[inline(always)]
+pub(crate) fn inverse_pitch_input_gain<S: Lane>(k: &SlopeCoefficients<S>, phi: S) -> S {
+    let (s, c) = S::sincos(phi);
+    let (tau, m12) = (k.torque_per_amp, m12(k, s, c, k.rotor));
+    S::madd(-m12, m12, k.m11_m22) / S::madd(k.m22, -tau, -(m12 * tau))
+}
+
 /// [`forces_at`] with both wheels' slip-law gearhead friction `gear` (a torque on β̇ = θ̇ − φ̇,
 /// as the bearing's: (+, −) on (φ, θ); none with a stick band, which [`motion`] adds) and
 /// `extra(sin φ, cos φ)` added to f when it gives some (an external force on the body):

@@ -145,10 +145,12 @@ impl<const N: usize> Constants<N> {
         u: &mut Lanes,
     ) {
         let a = controller.adaptation();
+        let (keep, per_z2) = a.euler(controller.period());
         let law = Law {
             gains: self.gains,
             gamma: Wide::splat(a.gamma),
-            sigma: Wide::splat(a.sigma),
+            keep: Wide::splat(keep),
+            per_z2: Wide::splat(per_z2),
             adapt: a.enabled,
             period: Wide::splat(controller.period()),
             basis,
