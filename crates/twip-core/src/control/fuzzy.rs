@@ -324,16 +324,25 @@ impl<S: Lane, B> Law<'_, S, B> {
         let z2 = phi_dot + g.k1 * e1;
         let xi = self.basis.xi(&[phi, phi_dot]);
         let rules = self.basis.rules();
-        let (mut f1_hat, mut s_norm2) = (S::splat(0.0), S::splat(0.0));
-        for (s, x) in s_hat.iter().zip(&xi).take(rules) {
-            f1_hat = S::madd(*s, *x, f1_hat);
-            s_norm2 = S::madd(*s, *s, s_norm2);
+        // f̂1 = Σ Ŝ_k ξ_k in three running sums (rules k ≡ 0, 1, 2 mod 3): the law's input
+        // waits for a chain of three multiply-adds, not nine.
+        let mut parts = [S::splat(0.0); 3];
+        let mut s_norm2 = S::splat(0.0);
+        for (s3, x3) in s_hat[..rules].chunks(3).zip(xi[..rules].chunks(3)) {
+            for ((part, s), x) in parts.iter_mut().zip(s3).zip(x3) {
+                *part = S::madd(*s, *x, *part);
+                s_norm2 = S::madd(*s, *s, s_norm2);
+            }
         }
+        let f1_hat = (parts[0] + parts[1]) + parts[2];
         let e = theta - y[2];
         let e_dot = theta_dot - y[3];
-        // 1/g1 depends on φ alone: its division runs beside f̂1's sum, not after it.
-        let backstepping = -(e1 + f1_hat + g.k1 * phi_dot + (half + g.k2) * z2) * inverse_pitch_input_gain(self.model, phi);
-        let u = backstepping + g.kp * e + g.kd * e_dot + g.ki * *e_int;
+        // What does not wait for f̂1 is summed beside it; 1/g1 depends on φ alone, so its
+        // division runs beside f̂1's sum too.
+        let known = e1 + g.k1 * phi_dot + (half + g.k2) * z2;
+        let pd = g.kp * e + g.kd * e_dot + g.ki * *e_int;
+        let backstepping = -(f1_hat + known) * inverse_pitch_input_gain(self.model, phi);
+        let u = backstepping + pd;
         let v2 = half * e1 * e1 + half * z2 * z2 + half * self.gamma * s_norm2;
         if self.adapt {
             let rate = z2 * self.per_z2;
