@@ -431,6 +431,44 @@ mod tests {
     }
 
     #[test]
+    fn the_adaptation_step_is_the_euler_step_of_4_49() {
+        // keep · Ŝ + (z2 · per_z2) · ξ against Ŝ + T (z2 ξ / γ − σ Ŝ) as (4.49) writes it.
+        for (gamma, sigma, period) in [(0.02f64, 0.05, 1e-3), (5.0, 20.0, 5e-3), (1e-4, 0.0, 0.01)] {
+            let (keep, per_z2) = Adaptation { gamma, sigma, enabled: true }.euler(period);
+            for (s, xi, z2) in [(0.3f64, 0.25, -1.7), (-2.0, 1.0, 0.04), (1e-3, 0.5, 30.0), (7.0, 0.0, -3.0)] {
+                let direct = s + period * (z2 * xi / gamma - sigma * s);
+                let stepped = keep * s + (z2 * per_z2) * xi;
+                let scale = s.abs() + (period * z2 * xi / gamma).abs();
+                assert!((stepped - direct).abs() <= 4.0 * f64::EPSILON * scale, "{gamma} {sigma} {period}: {stepped} vs {direct}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_inverse_input_gain_is_one_over_g1_on_runs_and_lanes() {
+        use crate::model::lane::{Fused, Wide};
+        use crate::model::slope::inverse_pitch_input_gain;
+        for slope in [0.0, 0.26] {
+            let model = SlopeModel::<f64>::new(RobotParams::balanbot(), slope).unwrap();
+            let ctrl = FuzzyController::thesis_slope(model, 0.005).unwrap();
+            let k = model.coefficients();
+            let lanes = k.map(Wide::<8>::splat);
+            let fused = k.map(Fused);
+            for phi in [-1.2, -0.5, 0.0, 0.2, 0.9, 3.0] {
+                let inv = inverse_pitch_input_gain(&k, phi);
+                assert!((inv * ctrl.g1(phi) - 1.0).abs() <= 4.0 * f64::EPSILON, "{slope} {phi}");
+                let (wide, one) = (inverse_pitch_input_gain(&lanes, Wide::splat(phi)), inverse_pitch_input_gain(&fused, Fused(phi)).0);
+                assert!(wide.0.iter().all(|w| w.to_bits() == one.to_bits()), "{slope} {phi}: the lanes' types disagree");
+                // Fused and plain roundings differ by what the two sums' cancellation makes of
+                // an ulp (det M = M11 M22 − M12², and M22 + M12 where M12 < 0 upside down).
+                let m12 = crate::model::slope::m12(&k, phi.sin(), phi.cos(), k.rotor);
+                let cancel = (k.m11_m22 + m12 * m12) / (k.m11_m22 - m12 * m12) + (k.m22 + m12.abs()) / (k.m22 + m12).abs();
+                assert!((one - inv).abs() <= 4.0 * f64::EPSILON * cancel * inv.abs(), "{slope} {phi}: a lane {one} vs a run {inv}");
+            }
+        }
+    }
+
+    #[test]
     fn slope_run_stays_up_in_f64_and_f32() {
         fn run<T: Real>() -> Outcome<T> {
             let model = SlopeModel::<T>::new(RobotParams::balanbot(), c(15f64.to_radians())).unwrap();

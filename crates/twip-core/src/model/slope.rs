@@ -68,6 +68,28 @@ pub struct SlopeCoefficients<T> {
     pub cos_slope: T,
 }
 
+impl<T: Copy> SlopeCoefficients<T> {
+    /// Every constant through `f` (into a lane's numbers, say).
+    pub(crate) fn map<U>(&self, f: impl Fn(T) -> U) -> SlopeCoefficients<U> {
+        SlopeCoefficients {
+            m11: f(self.m11),
+            m22: f(self.m22),
+            m11_m22: f(self.m11_m22),
+            mrl: f(self.mrl),
+            mrl_cos: f(self.mrl_cos),
+            mrl_sin: f(self.mrl_sin),
+            rotor: f(self.rotor),
+            mgl: f(self.mgl),
+            grade: f(self.grade),
+            torque_per_amp: f(self.torque_per_amp),
+            mu_bearing: f(self.mu_bearing),
+            mu_ground: f(self.mu_ground),
+            sin_slope: f(self.sin_slope),
+            cos_slope: f(self.cos_slope),
+        }
+    }
+}
+
 /// The thesis's linear model (4.6–4.10) on the reduced state `[phi, phi_dot, theta_dot]`:
 /// `ẋ = A x + B u + D`.
 #[derive(Clone, Copy, Debug, PartialEq)]

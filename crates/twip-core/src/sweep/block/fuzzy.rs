@@ -92,22 +92,7 @@ impl<const N: usize> Constants<N> {
                 (n, Some(trapezoids)) => Sets::SizedTrapezoids(trapezoids, n),
                 (n, None) => Sets::SizedAny(basis.prepared_in(f), n),
             },
-            model: SlopeCoefficients {
-                m11: f(k.m11),
-                m22: f(k.m22),
-                m11_m22: f(k.m11_m22),
-                mrl: f(k.mrl),
-                mrl_cos: f(k.mrl_cos),
-                mrl_sin: f(k.mrl_sin),
-                rotor: f(k.rotor),
-                mgl: f(k.mgl),
-                grade: f(k.grade),
-                torque_per_amp: f(k.torque_per_amp),
-                mu_bearing: f(k.mu_bearing),
-                mu_ground: f(k.mu_ground),
-                sin_slope: f(k.sin_slope),
-                cos_slope: f(k.cos_slope),
-            },
+            model: k.map(f),
         }
     }
 
