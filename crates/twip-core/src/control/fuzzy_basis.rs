@@ -244,12 +244,14 @@ impl<S: Lane> Trapezoid<S> {
 }
 
 impl<S: Lane> Member<S> for Trapezoid<S> {
-    /// Every piece computed, the one that holds selected; NaN stays NaN.
+    /// Every piece computed, the one that holds selected; NaN stays NaN. Outside [a, d]
+    /// the ramp that is selected there is negative (or −∞ at a vertical edge), so one
+    /// compare with 0 gives the zero, not two with the ends: the same numbers.
     #[inline(always)]
     fn value(&self, x: S) -> S {
         let top = S::select(x.le(self.c), S::splat(1.0), (self.d - x) * self.inv_fall);
-        let inside = S::select(x.lt(self.b), (x - self.a) * self.inv_rise, top);
-        S::select(x.lt(self.a) | x.gt(self.d), S::splat(0.0), inside)
+        let piece = S::select(x.lt(self.b), (x - self.a) * self.inv_rise, top);
+        S::select(piece.lt(S::splat(0.0)), S::splat(0.0), piece)
     }
 
     #[inline(always)]
@@ -442,6 +444,7 @@ impl<T: Real> Default for ThesisBasis<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::lane::Wide;
 
     fn trap(a: f64, b: f64, c: f64, d: f64) -> Membership<f64> {
         Membership::trapezoid(a, b, c, d).unwrap()
@@ -466,6 +469,41 @@ mod tests {
         let spike = trap(1.0, 1.0, 1.0, 1.0);
         assert_eq!((spike.eval(1.0), spike.eval(1.0 + 1e-15)), (1.0, 0.0));
         assert!(t.eval(f64::NAN).is_nan());
+    }
+
+    #[test]
+    fn a_trapezoid_is_its_four_pieces_bit_for_bit_on_runs_and_lanes() {
+        // The pieces as the definition reads: 0 outside [a, d], the rise on [a, b), 1 on
+        // [b, c], the fall on (c, d].
+        fn pieces(a: f64, b: f64, c: f64, d: f64, x: f64) -> f64 {
+            let (rise, fall) = ((x - a) * (1.0 / (b - a)), (d - x) * (1.0 / (d - c)));
+            match x {
+                x if x.is_nan() => f64::NAN,
+                x if x < a || x > d => 0.0,
+                x if x < b => rise,
+                x if x <= c => 1.0,
+                _ => fall,
+            }
+        }
+        let inf = f64::INFINITY;
+        let sets = [
+            (0.0, 1.0, 2.0, 4.0), (-inf, -inf, -0.3, -0.1), (-0.3, -0.1, 0.1, 0.3), (0.1, 0.3, inf, inf),
+            (1.0, 1.0, 2.0, 2.0), (1.0, 1.0, 1.0, 1.0), (-2.0, 0.5, 0.5, 0.7), (-1e-3, 0.0, 1e300, 1e301),
+        ];
+        let ulp = |x: f64, up: bool| if x.is_finite() { f64::from_bits((x.to_bits() as i64 + if (x >= 0.0) == up { 1 } else { -1 }) as u64) } else { x };
+        for (a, b, c, d) in sets {
+            let t = trap(a, b, c, d);
+            let mut xs = vec![-inf, inf, f64::NAN, 0.0, -0.0, 1e300, -1e300, -5.0, 5.0];
+            for p in [a, b, c, d, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + d), 0.3 * a + 0.7 * b, 0.9 * c + 0.1 * d] {
+                xs.extend([p, ulp(p, true), ulp(p, false)]);
+            }
+            let lanes: Trapezoid<Wide<8>> = Trapezoid::new(Wide::splat(a), Wide::splat(b), Wide::splat(c), Wide::splat(d));
+            for x in xs {
+                let (want, run, lane) = (pieces(a, b, c, d, x), t.eval(x), lanes.value(Wide::splat(x)).0[3]);
+                assert!(want.to_bits() == run.to_bits() || (want.is_nan() && run.is_nan()), "({a}, {b}, {c}, {d}) at {x}: {run} vs {want}");
+                assert!(lane.to_bits() == run.to_bits() || (lane.is_nan() && run.is_nan()), "({a}, {b}, {c}, {d}) at {x}: lane {lane}");
+            }
+        }
     }
 
     #[test]
