@@ -26,7 +26,7 @@ use crate::control::Controller;
 use crate::control::fuzzy_grid::{FuzzyGrid, RuleBase, MAX_RULES};
 use crate::control::reference::{SpeedRef, SpeedSchedule};
 use crate::model::lane::Lane;
-use crate::model::slope::{inverse_pitch_input_gain, pitch_input_gain, SlopeCoefficients, SlopeModel};
+use crate::model::slope::{inverse_pitch_input_gain, inverse_pitch_input_gain_at, pitch_input_gain, SlopeCoefficients, SlopeModel};
 use crate::{c, Real, TwipError};
 
 /// k1, k2 of the backstepping, kp, kd of the PD on the wheel position (4.56), and our
@@ -311,9 +311,11 @@ impl<S: Lane, B> Law<'_, S, B> {
     /// The backstepping law (4.36)–(4.56) with the PD on the wheel angle, written once
     /// over [`Lane`]: the input for measurement `y`, steady pitch `phi_s` and the
     /// reference's wheel angle and speed. Adapts `s_hat` (forward Euler with σ-leakage)
-    /// and integrates the wheel-angle error into `e_int`.
+    /// and integrates the wheel-angle error into `e_int`. `pitch`: sin and cos of y's pitch
+    /// where the caller has them (a sweep's plant), else the law takes its own.
     #[inline(always)]
-    pub(crate) fn update<const R: usize>(&self, s_hat: &mut [S; R], e_int: &mut S, phi_s: S, y: &[S; 4], theta: S, theta_dot: S) -> Step<S, R>
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn update<const R: usize>(&self, s_hat: &mut [S; R], e_int: &mut S, phi_s: S, y: &[S; 4], pitch: Option<(S, S)>, theta: S, theta_dot: S) -> Step<S, R>
     where
         B: RuleBase<S, R>,
     {
@@ -341,7 +343,11 @@ impl<S: Lane, B> Law<'_, S, B> {
         // division runs beside f̂1's sum too.
         let known = e1 + g.k1 * phi_dot + (half + g.k2) * z2;
         let pd = g.kp * e + g.kd * e_dot + g.ki * *e_int;
-        let backstepping = -(f1_hat + known) * inverse_pitch_input_gain(self.model, phi);
+        let inverse_g1 = match pitch {
+            Some((sin_phi, cos_phi)) => inverse_pitch_input_gain_at(self.model, sin_phi, cos_phi),
+            None => inverse_pitch_input_gain(self.model, phi),
+        };
+        let backstepping = -(f1_hat + known) * inverse_g1;
         let u = backstepping + pd;
         let v2 = half * e1 * e1 + half * z2 * z2 + half * self.gamma * s_norm2;
         if self.adapt {
@@ -393,7 +399,7 @@ impl<T: Real> Controller<T, 4, 1> for FuzzyController<T> {
             model: &self.model.coefficients(),
         };
         let (s_hat, e_int) = (self.s_hat, self.e_int);
-        let step = law.update(&mut self.s_hat, &mut self.e_int, phi_s, &[y[0], y[1], y[2], y[3]], r.theta, r.theta_dot);
+        let step = law.update(&mut self.s_hat, &mut self.e_int, phi_s, &[y[0], y[1], y[2], y[3]], None, r.theta, r.theta_dot);
         let rules = self.basis.rules();
         self.internals[..rules].copy_from_slice(&step.xi[..rules]);
         self.internals[rules..2 * rules].copy_from_slice(&s_hat[..rules]);

@@ -457,7 +457,13 @@ pub(crate) fn pitch_input_gain<S: Lane>(k: &SlopeCoefficients<S>, phi: S) -> S {
 #[inline(always)]
 pub(crate) fn inverse_pitch_input_gain<S: Lane>(k: &SlopeCoefficients<S>, phi: S) -> S {
     let (s, c) = S::sincos(phi);
-    let (tau, m12) = (k.torque_per_amp, m12(k, s, c, k.rotor));
+    inverse_pitch_input_gain_at(k, s, c)
+}
+
+/// [`inverse_pitch_input_gain`] at the pitch whose sin and cos are given.
+#[inline(always)]
+pub(crate) fn inverse_pitch_input_gain_at<S: Lane>(k: &SlopeCoefficients<S>, sin_phi: S, cos_phi: S) -> S {
+    let (tau, m12) = (k.torque_per_amp, m12(k, sin_phi, cos_phi, k.rotor));
     S::madd(-m12, m12, k.m11_m22) / S::madd(k.m22, -tau, -(m12 * tau))
 }
 

@@ -57,6 +57,14 @@ pub trait LaneLaw {
     /// [`KernelCopy`](super::KernelCopy) as `u8`), for a law that runs out of line in it
     /// ([`out_of_line_in`]).
     fn update<const COPY: u8>(&mut self, state: &mut Self::State, x: &X<Self::Shape>, r: &Ref<Self::Shape>, u: &mut U<Self::Shape>);
+    /// [`Self::update`], given a 2-DOF plant's sin and cos of each lane's pitch x[0], which
+    /// hold where |x[0]| ≤ `math::UNREDUCED` (taken there without the reduction by π/2), for a
+    /// law that reads them rather than taking its own; the others ignore them.
+    #[inline(always)]
+    fn update_at_pitch<const COPY: u8>(&mut self, state: &mut Self::State, x: &X<Self::Shape>, pitch: &[Lanes; 2], r: &Ref<Self::Shape>, u: &mut U<Self::Shape>) {
+        let _ = pitch;
+        self.update::<COPY>(state, x, r, u)
+    }
 }
 
 /// `controller.update` as a function of its own per law and kernel copy (`out_of_line_in`),
