@@ -451,6 +451,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "std")] // the lanes' types
     fn the_inverse_input_gain_is_one_over_g1_on_runs_and_lanes() {
         use crate::model::lane::{Fused, Wide};
         use crate::model::slope::inverse_pitch_input_gain;

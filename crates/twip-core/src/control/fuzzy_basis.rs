@@ -444,7 +444,6 @@ impl<T: Real> Default for ThesisBasis<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::lane::Wide;
 
     fn trap(a: f64, b: f64, c: f64, d: f64) -> Membership<f64> {
         Membership::trapezoid(a, b, c, d).unwrap()
@@ -472,7 +471,9 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "std")] // the lanes' types
     fn a_trapezoid_is_its_four_pieces_bit_for_bit_on_runs_and_lanes() {
+        use crate::model::lane::Wide;
         // The pieces as the definition reads: 0 outside [a, d], the rise on [a, b), 1 on
         // [b, c], the fall on (c, d].
         fn pieces(a: f64, b: f64, c: f64, d: f64, x: f64) -> f64 {

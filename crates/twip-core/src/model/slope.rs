@@ -70,6 +70,7 @@ pub struct SlopeCoefficients<T> {
 
 impl<T: Copy> SlopeCoefficients<T> {
     /// Every constant through `f` (into a lane's numbers, say).
+    #[cfg_attr(not(feature = "std"), allow(dead_code))] // the sweeps' lanes use it
     pub(crate) fn map<U>(&self, f: impl Fn(T) -> U) -> SlopeCoefficients<U> {
         SlopeCoefficients {
             m11: f(self.m11),
