@@ -190,16 +190,7 @@ impl FuzzyLanes {
         }
     }
 
-    #[cold]
-    #[inline(never)]
-    fn solve_steady_pitch(&mut self, speed: f64) -> f64 {
-        let phi_s = self.controller.steady_pitch(speed).unwrap_or(0.0);
-        self.steady = Some((speed, phi_s));
-        phi_s
-    }
-}
-
-impl FuzzyLanes {
+    /// The law on every lane, from the plant's sin/cos of the pitch where they are `pitch`.
     #[inline(always)]
     fn update_in<const COPY: u8>(&mut self, state: &mut FuzzyState, x: &[Lanes; 4], pitch: Option<&[Lanes; 2]>, r: &SpeedRef<f64>, u: &mut Lanes) {
         let phi_s = self.steady_pitch(r.theta_dot);
@@ -207,6 +198,14 @@ impl FuzzyLanes {
             Width::Four(law) => law.update::<COPY>(&self.controller, phi_s, state, x, pitch, r, u),
             Width::Eight(law) => law.update::<COPY>(&self.controller, phi_s, state, x, pitch, r, u),
         }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn solve_steady_pitch(&mut self, speed: f64) -> f64 {
+        let phi_s = self.controller.steady_pitch(speed).unwrap_or(0.0);
+        self.steady = Some((speed, phi_s));
+        phi_s
     }
 }
 

@@ -188,7 +188,8 @@ impl Plants {
 
     /// The step, with sin/cos unreduced or not, and whether each lane's pitch started within
     /// ±[`UNREDUCED`] and moved by at most [`SHIFT_LIMIT`] a stage, as a [`mask`] (unreduced;
-    /// else all ones on every lane).
+    /// else all ones on every lane). `pitch`: the first stage's sin/cos, read when unreduced
+    /// (the reduced step takes its own).
     #[inline(always)]
     fn rk4_in<const UNREDUCED_SIN: bool>(&self, x: &[Lanes; 4], pitch: &[Lanes; 2], u: &Lanes, dt: f64) -> ([Lanes; 4], [u64; LANES]) {
         const HALF: usize = LANES / 2;
@@ -950,7 +951,7 @@ mod tests {
         let models: [SlopeModel<f64>; LANES] = core::array::from_fn(|_| SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap());
         let plants = Plants::new(&models.map(|m| m.coefficients()));
         let (steps, mut differ) = (20_000, 0);
-        for k in 0..=steps / LANES {
+        for k in 0..steps / LANES {
             let phi: Lanes = core::array::from_fn(|l| UNREDUCED * (2.0 * ((k * LANES + l) as f64) / steps as f64 - 1.0));
             let x = [phi, [0.0; LANES], [0.0; LANES], [0.0; LANES]];
             let [sin, cos] = plants.pitch_sin_cos(&x);
