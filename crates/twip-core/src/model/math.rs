@@ -464,8 +464,8 @@ pub(crate) const SHIFT_LIMIT: f64 = 1.0 / 32.0;
 /// by Taylor's first four and three terms ([`SIN`]'s and [`COS`]'s; cos's fourth, d⁸/8!, below
 /// a tenth of an ulp here, moved no sweep's bits in paired runs and cost one multiply-add in
 /// the stage's chain: the `avx512` LQR lanes ran 1.035x without it on an AVX-512 EPYC, 10
-/// pairs), then the sum formulas, the two
-/// small terms summed before sin φ or cos φ is added (one rounding at the result's scale).
+/// pairs), then the sum formulas, the two small terms summed before sin φ or cos φ is added
+/// (one rounding at the result's scale).
 /// Where (sin φ, cos φ) are libm's, within 2 ulp of libm's sin/cos of φ + d, in ulp of the
 /// largest of the result, the value shifted and d (tested): near a zero, as when φ + d is
 /// rounded first. An RK4 stage's pitch is the step's first moved by d = k₀ h: 14 operations

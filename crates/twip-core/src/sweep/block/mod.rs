@@ -760,7 +760,8 @@ impl closed_loop::Plant for SlopePlants<'_> {
 
     /// The first stage's sin/cos of the pitch taken here, for the law and then the step (the
     /// LQR lanes, whose law ignores them, measured 1.033x and 1.072x with the sin/cos taken
-    /// before the step's loop rather than in it: avx512, paired builds, 8 rounds).
+    /// before the step's loop rather than in it: avx512 on an AVX-512 EPYC, paired builds, 8
+    /// rounds).
     #[inline(always)]
     fn update<C: LaneLaw<Shape = Slope>, const COPY: u8>(&mut self, controller: &mut C, state: &mut C::State, _: f64, r: &SpeedRef<f64>, u: &mut Lanes) {
         let pitch = self.pitch.insert(self.plants.pitch_sin_cos(self.x));
@@ -779,6 +780,8 @@ impl closed_loop::Plant for SlopePlants<'_> {
 
     #[inline(always)]
     fn step<const COPY: u8>(&mut self, _: usize, u: &Lanes, dt: f64, _: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
+        // The reduced step takes its own sin/cos; the pitch's, of this x, must not outlive it.
+        *self.pitch = None;
         self.plants.rk4(self.x, u, dt)
     }
 
