@@ -172,47 +172,17 @@ impl<T: Real> Member<T> for Membership<T> {
     }
 }
 
-/// Whether a row of sets sums to 1 at every x, so that its memberships are their own
-/// normalised weights (`normalise` skips the division by Σμ, and some set always fires):
-/// trapezoids in order, the first a left shoulder (a = b = −∞) and the last a right one
-/// (c = d = +∞), each one's fall [c, d] the next one's rise [a', b'], with c < d. Then on
-/// a ramp the two sets' memberships sum to 1 to rounding, and elsewhere one set's is 1
-/// (the thesis's N, Z, P, and regular trapezoid and triangle grids, are such).
-pub(crate) fn sums_to_one<T: Real>(row: &[Membership<T>]) -> bool {
-    let inf = T::one() / T::zero();
-    let mut last: Option<(T, T)> = None;
-    for set in row {
-        let Membership::Trapezoid { a, b, c, d } = *set else { return false };
-        let joined = match last {
-            None => a == -inf && b == -inf,
-            Some((fall_from, fall_to)) => fall_from == a && fall_to == b && fall_from < fall_to,
-        };
-        if !joined {
-            return false;
-        }
-        last = Some((c, d));
-    }
-    last.is_some_and(|(c, d)| c == inf && d == inf)
-}
-
 /// [`normalised_memberships`] of one input of a grid basis, over any [`Member`], written
 /// once over [`Lane`] without branches: every membership and the nearest set are
 /// computed, and the case that holds is selected. A NaN input gives NaN. Fixed-size and
 /// by value, so that a sweep's loop over lanes keeps it in registers and vectorises it.
-/// Sets that `sums_to_one` ([`sums_to_one`]) are their own weights: their division by
-/// Σμ = 1 (to rounding) is left out (the thesis's sets, `sweep_throughput fuzzy-lanes` on an
-/// AVX-512 EPYC: 2.0 % fewer instructions, `callgrind` of 16 samples; 1.01-1.02x the speed,
-/// paired builds, 10-12 rounds; the same bits).
 #[inline(always)]
-pub(crate) fn normalise<S: Lane, M: Member<S>, const N: usize>(sets: &[M; N], sums_to_one: bool, x: S) -> [S; N] {
+pub(crate) fn normalise<S: Lane, M: Member<S>, const N: usize>(sets: &[M; N], x: S) -> [S; N] {
     // A loop, not `fill`'s closure: a Gaussian's e^x made that closure too large to inline
     // into a sweep's CPU-specific copy, which then ran baseline code calling libm's fma.
     let mut mu = [S::splat(0.0); N];
     for (m, set) in mu.iter_mut().zip(sets) {
         *m = set.value(x);
-    }
-    if sums_to_one {
-        return mu;
     }
     let sum = mu.iter().fold(S::splat(0.0), |sum, m| sum + *m);
     let inv = S::splat(1.0) / sum;
@@ -388,8 +358,6 @@ fn product_into<S: Lane>(weights: &[&[S]], out: &mut [S]) {
 pub struct GridBasis<T, const N_IN: usize, const N_SETS: usize, const N_RULES: usize> {
     sets: [[Membership<T>; N_SETS]; N_IN],
     prepared: [[Prepared<T>; N_SETS]; N_IN],
-    /// Each input's [`sums_to_one`].
-    sums_to_one: [bool; N_IN],
 }
 
 /// The thesis's basis (4.39): (φ, φ̇) × (N, Z, P), ξ1 = N(φ)N(φ̇), ξ2 = N(φ)Z(φ̇), …
@@ -410,7 +378,7 @@ impl<T: Real, const N_IN: usize, const N_SETS: usize, const N_RULES: usize> Grid
                 s.validate()?;
             }
         }
-        Ok(Self { sets, prepared: sets.map(|row| row.map(Prepared::new)), sums_to_one: sets.map(|row| sums_to_one(&row)) })
+        Ok(Self { sets, prepared: sets.map(|row| row.map(Prepared::new)) })
     }
 
     pub fn sets(&self) -> &[[Membership<T>; N_SETS]; N_IN] {
@@ -420,22 +388,20 @@ impl<T: Real, const N_IN: usize, const N_SETS: usize, const N_RULES: usize> Grid
     /// ξ(x) of (4.29): non-negative, sums to 1 (module docs for when no rule fires).
     #[inline]
     pub fn eval(&self, x: &[T; N_IN]) -> [T; N_RULES] {
-        grid(&self.prepared, &self.sums_to_one, x)
+        grid(&self.prepared, x)
     }
 }
 
 /// ξ(x) of a grid basis of prepared sets, written once over [`Lane`] (a run's and a
-/// sweep lane's): each input's memberships normalised on their own (as they are where
-/// that input's sets `sums_to_one`), then their product.
+/// sweep lane's): each input's memberships normalised on their own, then their product.
 #[inline(always)]
 pub(crate) fn grid<S: Lane, M: Member<S>, const N_IN: usize, const N_SETS: usize, const N_RULES: usize>(
     sets: &[[M; N_SETS]; N_IN],
-    sums_to_one: &[bool; N_IN],
     x: &[S; N_IN],
 ) -> [S; N_RULES] {
     let mut w = [[S::splat(0.0); N_SETS]; N_IN];
     for (i, wi) in w.iter_mut().enumerate() {
-        *wi = normalise(&sets[i], sums_to_one[i], x[i]);
+        *wi = normalise(&sets[i], x[i]);
     }
     // Rule k's set for input i is digit i of k in base N_SETS (most significant first).
     let xi = fill(|k| {
@@ -471,7 +437,7 @@ impl<T: Real> Default for ThesisBasis<T> {
             ]
         };
         let sets = [shoulders(0.1, 0.3), shoulders(0.5, 2.0)];
-        Self { sets, prepared: sets.map(|row| row.map(Prepared::new)), sums_to_one: sets.map(|row| sums_to_one(&row)) }
+        Self { sets, prepared: sets.map(|row| row.map(Prepared::new)) }
     }
 }
 
@@ -572,57 +538,6 @@ mod tests {
         assert_eq!(basis.eval(&[-1.0, 0.0])[1], 1.0);
         // φ in P, φ̇ in N: rule 7 (index 6).
         assert_eq!(basis.eval(&[1.0, -5.0])[6], 1.0);
-    }
-
-    /// Rows that join fall to rise from shoulder to shoulder sum to 1; a Gaussian, a gap,
-    /// an overlap, a crisp join or a missing shoulder does not, and is normalised as before.
-    #[test]
-    fn rows_that_sum_to_one_are_found() {
-        let inf = f64::INFINITY;
-        let [phi, rate] = *ThesisBasis::<f64>::default().sets();
-        assert!(sums_to_one(&phi) && sums_to_one(&rate));
-        let grid = |kind, widths: &[f64]| {
-            let g = crate::control::fuzzy_grid::FuzzyGrid::<f64>::regular(kind, [&[-1.0, 0.0, 0.5, 2.0], &[-1.0, 0.0, 0.5, 2.0]], [widths, widths]).unwrap();
-            sums_to_one(g.sets()[0])
-        };
-        use crate::control::fuzzy_grid::SetKind;
-        assert!(grid(SetKind::Trapezoid, &[0.2, 0.1, 0.1, 0.3]) && grid(SetKind::Triangle, &[]));
-        assert!(!grid(SetKind::Gaussian, &[0.2, 0.1, 0.1, 0.3]));
-        // Neighbouring cores that touch: a crisp step, where both sets are 1.
-        assert!(!grid(SetKind::Trapezoid, &[0.75, 0.25, 0.125, 0.5]));
-        let shoulders = |z: Membership<f64>| [trap(-inf, -inf, -0.3, -0.1), z, trap(0.1, 0.3, inf, inf)];
-        assert!(sums_to_one(&shoulders(trap(-0.3, -0.1, 0.1, 0.3))));
-        for z in [trap(-0.3, -0.15, 0.1, 0.3), trap(-0.35, -0.1, 0.1, 0.3), trap(-0.3, -0.1, 0.1, 0.25)] {
-            assert!(!sums_to_one(&shoulders(z)), "{z:?}");
-        }
-        assert!(!sums_to_one(&[trap(-2.0, -1.0, -0.3, -0.1), trap(-0.3, -0.1, inf, inf)]));
-        assert!(!sums_to_one(&[trap(-inf, -inf, -0.3, -0.1), trap(-0.3, -0.1, 0.1, 0.3)]));
-        assert!(!sums_to_one::<f64>(&[]));
-    }
-
-    /// Where a row sums to 1 its memberships are its normalised weights to 2 ulp (one
-    /// rounding in Σμ and one in the division, left out), through ±∞; NaN stays NaN.
-    #[test]
-    fn memberships_that_sum_to_one_are_their_weights() {
-        let ulps = |a: f64, b: f64| (a.to_bits() as i64 - b.to_bits() as i64).unsigned_abs();
-        let grid = crate::control::fuzzy_grid::FuzzyGrid::<f64>::regular(crate::control::fuzzy_grid::SetKind::Trapezoid, [&[-1.0, 0.0, 0.7], &[-1.0, 0.0, 0.7]], [&[0.2, 0.15, 0.1]; 2]).unwrap();
-        let row: [Prepared<f64>; 3] = core::array::from_fn(|j| Prepared::new(grid.sets()[0][j]));
-        let (mut worst, mut changed) = (0, 0);
-        for i in 0..=100_000 {
-            let x = -1.5 + 3.0 * i as f64 / 100_000.0;
-            let (as_they_are, normalised) = (normalise(&row, true, x), normalise(&row, false, x));
-            for (a, b) in as_they_are.iter().zip(normalised) {
-                worst = worst.max(ulps(*a, b));
-                changed += usize::from(*a != b);
-            }
-            assert!((as_they_are.iter().sum::<f64>() - 1.0).abs() <= 2.0 * f64::EPSILON, "{x}");
-        }
-        // The ramps' sums are 1 to rounding, not always exactly: some weights do change.
-        assert!(worst <= 2 && changed > 0);
-        for x in [f64::INFINITY, f64::NEG_INFINITY, 0.0, -0.0] {
-            assert_eq!(normalise(&row, true, x), normalise(&row, false, x), "{x}");
-        }
-        assert!(normalise(&row, true, f64::NAN).iter().all(|m| m.is_nan()));
     }
 
     #[test]

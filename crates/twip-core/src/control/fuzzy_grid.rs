@@ -7,7 +7,7 @@
 //! ξ is computed as [`super::fuzzy_basis`]'s grid (each input's memberships normalised on
 //! their own, then their product, the last input fastest, the same operations in the same
 //! order), so the thesis's 3 × 3 trapezoids give the same bits through either.
-use crate::control::fuzzy_basis::{fires_none, grid, nearer, sums_to_one, weight, Member, Membership, Prepared, ThesisBasis, Trapezoid};
+use crate::control::fuzzy_basis::{fires_none, grid, nearer, weight, Member, Membership, Prepared, ThesisBasis, Trapezoid};
 use crate::model::lane::Lane;
 use crate::{Real, TwipError};
 
@@ -34,14 +34,10 @@ pub enum SetKind {
 /// An n × n grid basis over (φ, φ̇): rule k takes set k / n of φ and set k % n of φ̇.
 #[derive(Clone, Copy, Debug)]
 pub struct FuzzyGrid<T> {
-    /// Sets per input, ≤ [`MAX_SETS`]: a u32 beside `sums_to_one` takes the one word a usize
-    /// did (the C ABI's storage for a controller is sized to the word).
-    n: u32,
+    n: usize,
     /// The sets, the slots past n holding copies of the last (never evaluated).
     sets: [[Membership<T>; MAX_SETS]; 2],
     prepared: [[Prepared<T>; MAX_SETS]; 2],
-    /// Whether each input's n sets sum to 1 everywhere (`fuzzy_basis::sums_to_one`).
-    sums_to_one: [bool; 2],
 }
 
 fn invalid(name: &'static str, value: f64, reason: &'static str) -> TwipError {
@@ -73,8 +69,7 @@ impl<T: Real> FuzzyGrid<T> {
                 *slot = given[j.min(n - 1)].validate()?;
             }
         }
-        let sums_to_one = out.map(|row| sums_to_one(&row[..n]));
-        Ok(Self { n: n as u32, sets: out, prepared: out.map(|row| row.map(Prepared::new)), sums_to_one })
+        Ok(Self { n, sets: out, prepared: out.map(|row| row.map(Prepared::new)) })
     }
 
     /// A regular grid: `kind` sets at `centres[i]` (n per input, finite, strictly
@@ -109,17 +104,17 @@ impl<T: Real> FuzzyGrid<T> {
 
     /// Sets per input.
     pub fn n(&self) -> usize {
-        self.n as usize
+        self.n
     }
 
     /// n².
     pub fn rules(&self) -> usize {
-        self.n() * self.n()
+        self.n * self.n
     }
 
     /// φ's sets and φ̇'s, n each.
     pub fn sets(&self) -> [&[Membership<T>]; 2] {
-        [&self.sets[0][..self.n()], &self.sets[1][..self.n()]]
+        [&self.sets[0][..self.n], &self.sets[1][..self.n]]
     }
 
     /// ξ(φ, φ̇): the first n² entries are the rules', the rest 0.
@@ -131,13 +126,7 @@ impl<T: Real> FuzzyGrid<T> {
     /// The prepared sets with their count, as the law reads them.
     #[inline(always)]
     pub(crate) fn sized(&self) -> Sized<'_, Prepared<T>> {
-        Sized { sets: &self.prepared, n: self.n(), sums_to_one: self.sums_to_one }
-    }
-
-    /// Whether each input's sets sum to 1 everywhere, so that ξ needs no normalising
-    /// (`fuzzy_basis::sums_to_one`).
-    pub(crate) fn sums_to_one(&self) -> [bool; 2] {
-        self.sums_to_one
+        Sized { sets: &self.prepared, n: self.n }
     }
 
     /// The prepared sets in another number type (a sweep's lanes).
@@ -224,14 +213,7 @@ pub(crate) trait RuleBase<S, const R: usize> {
 }
 
 /// A fixed n × n grid, n known when compiling (the thesis's 3 × 3 on lanes).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Fixed<'a, M, const NS: usize> {
-    pub sets: &'a [[M; NS]; 2],
-    /// Whether each input's sets sum to 1 everywhere ([`FuzzyGrid::sums_to_one`]).
-    pub sums_to_one: [bool; 2],
-}
-
-impl<S: Lane, M: Member<S>, const NS: usize, const R: usize> RuleBase<S, R> for Fixed<'_, M, NS> {
+impl<S: Lane, M: Member<S>, const NS: usize, const R: usize> RuleBase<S, R> for [[M; NS]; 2] {
     #[inline(always)]
     fn rules(&self) -> usize {
         R
@@ -239,7 +221,7 @@ impl<S: Lane, M: Member<S>, const NS: usize, const R: usize> RuleBase<S, R> for 
 
     #[inline(always)]
     fn xi(&self, x: &[S; 2]) -> [S; R] {
-        grid(self.sets, &self.sums_to_one, x)
+        grid(self, x)
     }
 }
 
@@ -248,8 +230,6 @@ impl<S: Lane, M: Member<S>, const NS: usize, const R: usize> RuleBase<S, R> for 
 pub(crate) struct Sized<'a, M> {
     pub sets: &'a [[M; MAX_SETS]; 2],
     pub n: usize,
-    /// Whether each input's n sets sum to 1 everywhere ([`FuzzyGrid::sums_to_one`]).
-    pub sums_to_one: [bool; 2],
 }
 
 impl<S: Lane, M: Member<S>> RuleBase<S, MAX_RULES> for Sized<'_, M> {
@@ -262,8 +242,8 @@ impl<S: Lane, M: Member<S>> RuleBase<S, MAX_RULES> for Sized<'_, M> {
     #[inline(always)]
     fn xi(&self, x: &[S; 2]) -> [S; MAX_RULES] {
         let n = self.n;
-        let w0 = normalise_first(&self.sets[0], n, self.sums_to_one[0], x[0]);
-        let w1 = normalise_first(&self.sets[1], n, self.sums_to_one[1], x[1]);
+        let w0 = normalise_first(&self.sets[0], n, x[0]);
+        let w1 = normalise_first(&self.sets[1], n, x[1]);
         let mut xi = [S::splat(0.0); MAX_RULES];
         for (k, o) in xi.iter_mut().take(n * n).enumerate() {
             *o = S::splat(1.0) * w0[k / n] * w1[k % n];
@@ -274,13 +254,10 @@ impl<S: Lane, M: Member<S>> RuleBase<S, MAX_RULES> for Sized<'_, M> {
 
 /// [`super::fuzzy_basis::normalise`] over the first `n` sets of `sets`.
 #[inline(always)]
-fn normalise_first<S: Lane, M: Member<S>>(sets: &[M; MAX_SETS], n: usize, sums_to_one: bool, x: S) -> [S; MAX_SETS] {
+fn normalise_first<S: Lane, M: Member<S>>(sets: &[M; MAX_SETS], n: usize, x: S) -> [S; MAX_SETS] {
     let mut mu = [S::splat(0.0); MAX_SETS];
     for (m, set) in mu.iter_mut().zip(sets).take(n) {
         *m = set.value(x);
-    }
-    if sums_to_one {
-        return mu;
     }
     let sum = mu[..n].iter().fold(S::splat(0.0), |sum, m| sum + *m);
     let inv = S::splat(1.0) / sum;

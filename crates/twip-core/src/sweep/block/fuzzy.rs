@@ -3,7 +3,7 @@
 use super::{out_of_line_in, LaneLaw, Slope};
 use crate::control::fuzzy::{FuzzyController, FuzzyGains, Law};
 use crate::control::fuzzy_basis::{Prepared, Trapezoid};
-use crate::control::fuzzy_grid::{Fixed, RuleBase, Sized, MAX_RULES, MAX_SETS};
+use crate::control::fuzzy_grid::{RuleBase, Sized, MAX_RULES, MAX_SETS};
 use crate::control::reference::SpeedRef;
 use crate::control::Controller;
 use super::{chunk, put, state_chunk};
@@ -38,8 +38,6 @@ enum Width {
 struct Constants<const N: usize> {
     gains: FuzzyGains<Wide<N>>,
     sets: Sets<N>,
-    /// Whether each input's sets sum to 1 everywhere (ξ needs no normalising).
-    sums_to_one: [bool; 2],
     model: SlopeCoefficients<Wide<N>>,
 }
 
@@ -95,7 +93,6 @@ impl<const N: usize> Constants<N> {
                 (n, Some(trapezoids)) => Sets::SizedTrapezoids(trapezoids, n),
                 (n, None) => Sets::SizedAny(basis.prepared_in(f), n),
             },
-            sums_to_one: basis.sums_to_one(),
             model: k.map(f),
         }
     }
@@ -108,17 +105,16 @@ impl<const N: usize> Constants<N> {
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn update<const COPY: u8>(&self, controller: &FuzzyController<f64>, phi_s: f64, state: &mut FuzzyState, x: &[Lanes; 4], pitch: Option<&[Lanes; 2]>, r: &SpeedRef<f64>, u: &mut Lanes) {
-        let sums_to_one = self.sums_to_one;
         match &self.sets {
-            Sets::Trapezoids(sets) => self.update_with::<9, _>(&Fixed { sets, sums_to_one }, controller, phi_s, state, x, pitch, r, u),
-            Sets::Any(sets) => self.update_with::<9, _>(&Fixed { sets, sums_to_one }, controller, phi_s, state, x, pitch, r, u),
+            Sets::Trapezoids(sets) => self.update_with::<9, _>(sets, controller, phi_s, state, x, pitch, r, u),
+            Sets::Any(sets) => self.update_with::<9, _>(sets, controller, phi_s, state, x, pitch, r, u),
             // `inline(always)`: the closure inlined into the copy's function, so compiled with
             // its instructions.
             Sets::SizedTrapezoids(sets, n) => out_of_line_in::<COPY, _>(#[inline(always)] || {
-                self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n, sums_to_one }, controller, phi_s, state, x, pitch, r, u)
+                self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n }, controller, phi_s, state, x, pitch, r, u)
             }),
             Sets::SizedAny(sets, n) => out_of_line_in::<COPY, _>(#[inline(always)] || {
-                self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n, sums_to_one }, controller, phi_s, state, x, pitch, r, u)
+                self.update_with::<MAX_RULES, _>(&Sized { sets, n: *n }, controller, phi_s, state, x, pitch, r, u)
             }),
         }
     }

@@ -5,7 +5,7 @@ use super::law::{LaneLaw, Planar};
 use super::planar::lane_ref;
 use super::{chunk, out_of_line_in, put, CHUNKS};
 use crate::control::fuzzy_basis::Trapezoid;
-use crate::control::fuzzy_grid::{Fixed, RuleBase, Sized, MAX_RULES, MAX_SETS};
+use crate::control::fuzzy_grid::{RuleBase, Sized, MAX_RULES, MAX_SETS};
 use crate::control::smc::SmcTracker;
 use crate::control::trajectory::PlanarRef;
 use crate::control::Controller;
@@ -19,8 +19,6 @@ use crate::sweep::lanes::{Lanes, LANES};
 pub struct SmcLanes {
     controller: SmcTracker<f64>,
     sets: Sets,
-    /// Whether each basis's inputs' sets sum to 1 everywhere (ξ needs no normalising).
-    sums_to_one: [[bool; 2]; 2],
 }
 
 /// The yaw basis's sets and the pitch basis's: 3 × 3 fixed when compiling (the thesis's,
@@ -54,7 +52,7 @@ impl SmcLanes {
             3 => Sets::Three(sets.map(|b| b.map(|row| [row[0], row[1], row[2]]))),
             n => Sets::Sized(sets, n),
         };
-        Some(Self { controller, sets, sums_to_one: [yaw.sums_to_one(), pitch.sums_to_one()] })
+        Some(Self { controller, sets })
     }
 
     /// The law on every chunk of lanes, with the bases `bases` of `R` rule slots.
@@ -108,14 +106,11 @@ impl LaneLaw for SmcLanes {
     #[inline(always)]
     fn update<const COPY: u8>(&mut self, state: &mut SmcState, x: &[Lanes; 7], r: &PlanarRef<f64>, u: &mut [Lanes; 2]) {
         let phi_s = self.controller.cached_steady_pitch(r.v, r.omega);
-        let (controller, [yaw, pitch]) = (&self.controller, self.sums_to_one);
+        let controller = &self.controller;
         match &self.sets {
-            Sets::Three(sets) => {
-                let bases = [Fixed { sets: &sets[0], sums_to_one: yaw }, Fixed { sets: &sets[1], sums_to_one: pitch }];
-                Self::update_with::<9, _>(controller, phi_s, [&bases[0], &bases[1]], state, x, r, u)
-            }
+            Sets::Three(sets) => Self::update_with::<9, _>(controller, phi_s, [&sets[0], &sets[1]], state, x, r, u),
             Sets::Sized(sets, n) => out_of_line_in::<COPY, _>(#[inline(always)] || {
-                let bases = [Sized { sets: &sets[0], n: *n, sums_to_one: yaw }, Sized { sets: &sets[1], n: *n, sums_to_one: pitch }];
+                let bases = [Sized { sets: &sets[0], n: *n }, Sized { sets: &sets[1], n: *n }];
                 Self::update_with::<MAX_RULES, _>(controller, phi_s, [&bases[0], &bases[1]], state, x, r, u)
             }),
         }
