@@ -61,11 +61,12 @@ where
         .map_err(|_| TwipError::OutOfMemory { name: "n", bytes: (range.end - range.start) / block * 8 })?;
     starts.extend((range.start..range.end).step_by(block as usize));
     let blocks: Vec<Result<Option<Vec<M>>, TwipError>> = pool.install(|| {
-        // One task per block (`with_max_len(1)`): rayon otherwise runs a thread's share
-        // (a quarter of the blocks at two threads) in pieces it no longer splits, and the
-        // last piece can run alone (a profile of a 20,000-sample fuzzy sweep on two cores:
-        // one thread for the last 0.19 of 1.59 s). Measured CPU time / wall time of such
-        // sweeps, three each: fuzzy 1.93-1.97 -> 1.96-1.98, LQR 1.90-1.91 -> 1.93-1.97.
+        // One task per block (`with_max_len(1)`): rayon otherwise halves the blocks only
+        // until there are about twice as many pieces as threads (more where one is stolen)
+        // and runs each piece whole, so the last can run alone (a profile of a 20,000-sample
+        // fuzzy sweep on two cores: one thread for the last 0.19 of 1.59 s). Measured CPU
+        // time / wall time of such sweeps, three each: fuzzy 1.93-1.97 -> 1.96-1.98, LQR
+        // 1.90-1.91 -> 1.93-1.97.
         starts
             .par_iter()
             .with_max_len(1)
