@@ -65,7 +65,7 @@ where
         // until there are about twice as many pieces as threads (more where one is stolen)
         // and runs each piece whole, so the last can run alone (a profile of a 20,000-sample
         // fuzzy sweep on two cores: one thread for the last 0.19 of 1.59 s). Measured CPU
-        // time / wall time of such sweeps, three each: fuzzy 1.93-1.97 -> 1.96-1.98, LQR
+        // time / wall time of such sweeps, three in a process: fuzzy 1.93-1.97 -> 1.96-1.98, LQR
         // 1.90-1.91 -> 1.93-1.97.
         starts
             .par_iter()
