@@ -25,6 +25,7 @@
 //! friction and their response to it). The law is smooth inside and outside the band,
 //! so RK4 keeps its order away from the band's edge and from breakaway.
 use crate::model::lane::{fill, Lane};
+use core::cell::Cell;
 use crate::{c, to_f64, Real, TwipError};
 
 /// T_k: how fast a held wheel comes to rest [s]. 5 ms brings it to rest within a few
@@ -138,10 +139,15 @@ impl<T: Copy> Friction<T> {
 /// A gearhead friction with its kind decided once: none, the slip law, or with a stick
 /// band (a sweep's friction is every lane's, so its lanes branch on it together).
 #[derive(Clone, Copy, Debug)]
-pub(crate) enum Gearhead<'a, S> {
+pub(crate) enum Gearhead<'a, S: Lane> {
     Free,
     Slip(&'a Friction<S>),
     Stick(&'a Friction<S>),
+    /// The stick band's law where the caller expects no wheel in the band: there it is the
+    /// slip law with the exact sign, bit for bit, without the holding torques' solve. The
+    /// cell notes whether some wheel was in the band after all (then the caller takes the
+    /// step again with `Stick`).
+    Outside(&'a Friction<S>, &'a Cell<S::Mask>),
 }
 
 impl<'a, S: Lane> Gearhead<'a, S> {
@@ -151,6 +157,23 @@ impl<'a, S: Lane> Gearhead<'a, S> {
             Some(f) if f.sticks() => Self::Stick(f),
             Some(f) => Self::Slip(f),
             None => Self::Free,
+        }
+    }
+
+    /// The torques of a stick band's law on `N` wheels ([`Friction::held_torques`]); for
+    /// `Outside`, what that gives while no wheel is in the band, noting whether one is. None
+    /// without a band.
+    #[inline(always)]
+    pub(crate) fn held_torques<const N: usize>(&self, w: [S; N], a0: [S; N], s: [[S; N]; N]) -> [S; N] {
+        match self {
+            Self::Stick(f) => f.held_torques(w, a0, s),
+            Self::Outside(f, band) => {
+                for wi in w {
+                    band.set(band.get() | wi.magnitude().lt(f.stick_speed));
+                }
+                fill(|i| f.torque_as(w[i], true))
+            }
+            _ => [S::splat(0.0); N],
         }
     }
 
@@ -395,22 +418,33 @@ mod tests {
         ));
     }
 
+    /// Uniform in [lo, hi) from a fixed sequence (no dependencies).
+    struct Lcg(u64);
+
+    impl Lcg {
+        fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
+        }
+
+        /// Two coupled wheels: a response S (symmetric positive definite), speeds within ±`w`
+        /// and accelerations without friction.
+        fn coupled_pair(&mut self, w: f64) -> ([[f64; 2]; 2], [f64; 2], [f64; 2]) {
+            let (d0, d1, off) = (self.uniform(50.0, 400.0), self.uniform(50.0, 400.0), self.uniform(-0.9, 0.9));
+            let s = [[d0, off * (d0 * d1).sqrt()], [off * (d0 * d1).sqrt(), d1]];
+            (s, [self.uniform(-w, w), self.uniform(-w, w)], [self.uniform(-80.0, 80.0), self.uniform(-80.0, 80.0)])
+        }
+    }
+
     #[test]
     fn the_stick_solver_holds_within_breakaway_and_breaks_away_at_it() {
         // Random coupled pairs: S symmetric positive definite, wheels in or out of the band.
         let f = Friction::<f64>::gb37().with_stick(GB37_STICK_SPEED);
-        let mut seed: u64 = 11;
-        let mut uniform = |lo: f64, hi: f64| {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
-        };
+        let mut rng = Lcg(11);
         let rate = 1.0 / STICK_TIME;
         let (mut held, mut broke) = (0, 0);
         for _ in 0..20_000 {
-            let (d0, d1, off) = (uniform(50.0, 400.0), uniform(50.0, 400.0), uniform(-0.9, 0.9));
-            let s = [[d0, off * (d0 * d1).sqrt()], [off * (d0 * d1).sqrt(), d1]];
-            let w = [uniform(-0.2, 0.2), uniform(-0.2, 0.2)];
-            let a0 = [uniform(-80.0, 80.0), uniform(-80.0, 80.0)];
+            let (s, w, a0) = rng.coupled_pair(0.2);
             let tau = f.torques(w, a0, s);
             for i in 0..2 {
                 let accel = a0[i] - s[i][0] * tau[0] - s[i][1] * tau[1];
@@ -432,21 +466,41 @@ mod tests {
         assert!(held > 1000 && broke > 1000);
     }
 
+    #[test]
+    fn outside_the_band_the_slip_law_is_the_stick_laws_bits_and_notes_a_wheel_in_it() {
+        // As above, one or two wheels, some of them in the band.
+        let f = Friction::<f64>::gb37().with_stick(GB37_STICK_SPEED);
+        let mut rng = Lcg(5);
+        let (mut clear, mut in_band) = (0, 0);
+        for _ in 0..20_000 {
+            let (s, w, a0) = rng.coupled_pair(1.0);
+            let band = Cell::new(false);
+            let outside = Gearhead::Outside(&f, &band);
+            let two = outside.held_torques(w, a0, s);
+            let wheels_in = w.iter().any(|v| v.abs() < f.stick_speed);
+            assert_eq!(band.get(), wheels_in, "{w:?}");
+            if !wheels_in {
+                clear += 1;
+                assert_eq!(two.map(f64::to_bits), Gearhead::Stick(&f).held_torques(w, a0, s).map(f64::to_bits));
+            } else {
+                in_band += 1;
+            }
+            let one = Cell::new(false);
+            let [tau] = Gearhead::Outside(&f, &one).held_torques([w[0]], [a0[0]], [[s[0][0]]]);
+            assert_eq!(one.get(), w[0].abs() < f.stick_speed);
+            if !one.get() {
+                assert_eq!(tau.to_bits(), f.held_torques([w[0]], [a0[0]], [[s[0][0]]])[0].to_bits());
+            }
+        }
+        assert!(clear > 1000 && in_band > 1000, "{clear} clear, {in_band} in the band");
+    }
+
     /// Both models with friction on, and their per-wheel relative speeds.
     mod in_the_models {
         use super::*;
         use crate::model::planar::PlanarState;
         use crate::{rk4_step, Dynamics, PlanarModel, RobotParams, SlopeModel};
         use nalgebra::{SVector, Vector4};
-
-        /// Uniform in [lo, hi) from a fixed sequence (no dependencies).
-        struct Lcg(u64);
-        impl Lcg {
-            fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-                self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
-            }
-        }
 
         fn rough() -> Friction<f64> {
             Friction { viscous: 2e-3, ..Friction::gb37() }

@@ -475,7 +475,7 @@ pub(crate) fn open_accelerations<S: Lane>(
     let reduced = Adjugate::of(reduced_mass(k, s, cp, open_rotors(engaged, rotor)));
     let mut nu_dot = reduced.solve(&f);
     let mut tau = [zero; 2];
-    if let Gearhead::Slip(fr) | Gearhead::Stick(fr) = gear {
+    if let Gearhead::Slip(fr) | Gearhead::Stick(fr) | Gearhead::Outside(fr, _) = gear {
         // One wheel engaged (the other's train open): its friction against M'.
         let right = engaged[0];
         let row: [S; 3] = fill(|i| S::select(right, rows[0][i], rows[1][i]));
@@ -484,7 +484,7 @@ pub(crate) fn open_accelerations<S: Lane>(
         let w = S::select(right, w_r, w_l);
         let (a0, sr) = (dot(&row, &nu_dot), dot(&row, &response));
         let one = (engaged[0] & !engaged[1]) | (!engaged[0] & engaged[1]);
-        let t = if matches!(gear, Gearhead::Stick(_)) { fr.held_torques([w], [a0], [[sr]])[0] } else { fr.torque(w) };
+        let t = if matches!(gear, Gearhead::Slip(_)) { fr.torque(w) } else { gear.held_torques([w], [a0], [[sr]])[0] };
         let t = S::select(one, t, zero);
         for i in 0..3 {
             nu_dot[i] = nu_dot[i] - response[i] * t;
@@ -572,14 +572,14 @@ pub(crate) fn engaged_accelerations<S: Lane>(
         let (f, s, cp) = forces_at(u_r, u_l);
         accelerations(k, &f, s, cp)
     };
-    let f = match gear {
+    match gear {
         Gearhead::Free => return (driven(u[0], u[1]), [S::splat(0.0); 2]),
         Gearhead::Slip(f) => {
             let tau = [f.torque(w_r), f.torque(w_l)];
             return (driven(u[0] - tau[0], u[1] - tau[1]), tau);
         }
-        Gearhead::Stick(f) => f,
-    };
+        Gearhead::Stick(_) | Gearhead::Outside(..) => {}
+    }
     // A torque on one wheel acts on (φ, v) as (−1, 1/R) and on the yaw as ±b/R: the
     // response to it is `shared` on (φ, v) and ±`turn` on the yaw.
     let (q, sin_phi, cos_phi) = forces_at(u[0], u[1]);
@@ -592,7 +592,7 @@ pub(crate) fn engaged_accelerations<S: Lane>(
     let yaw = k.b_r * turn;
     // ẇ = a0 − S τ: friction takes its torque off the motor's.
     let s = [[common + yaw, common - yaw], [common - yaw, common + yaw]];
-    let tau = f.held_torques([w_r, w_l], [a_r, a_l], s);
+    let tau = gear.held_torques([w_r, w_l], [a_r, a_l], s);
     let (both, apart) = (tau[0] + tau[1], tau[0] - tau[1]);
     ([free[0] - both * shared[0], free[1] - both * shared[1], free[2] - apart * turn], tau)
 }

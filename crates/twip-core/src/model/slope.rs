@@ -511,10 +511,10 @@ pub(crate) fn motion<S: Lane>(
     let m12 = m12(k, out.sin_phi, out.cos_phi, k.rotor);
     let qdd = cramer(k.m11, k.m22, k.m11_m22, m12, &out.f);
     match gear {
-        Gearhead::Stick(f) => {
+        Gearhead::Stick(_) | Gearhead::Outside(..) => {
             let two = S::splat(2.0);
             let r = cramer(k.m11, k.m22, k.m11_m22, m12, &[S::splat(1.0), -S::splat(1.0)]);
-            let [tau] = f.held_torques([x[3] - x[1]], [qdd[1] - qdd[0]], [[-two * (r[1] - r[0])]]);
+            let [tau] = gear.held_torques([x[3] - x[1]], [qdd[1] - qdd[0]], [[-two * (r[1] - r[0])]]);
             let total = two * tau;
             ([x[1], qdd[0] + r[0] * total, x[3], qdd[1] + r[1] * total], tau)
         }

@@ -8,6 +8,9 @@ use crate::model::friction::Friction;
 pub(super) const FREE: u8 = 0;
 pub(super) const SLIP: u8 = 1;
 pub(super) const STICK: u8 = 2;
+/// The stick band's law on a step where no lane's wheel is expected in the band
+/// (`Gearhead::Outside`): taken again with `STICK` when one was.
+pub(super) const OUTSIDE: u8 = 3;
 /// The input held over the step (no driver); a driver whose windings have no inductance
 /// (the duty turned into current at each stage); with inductance (the current moves within
 /// the step).

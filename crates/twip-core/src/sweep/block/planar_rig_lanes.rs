@@ -13,6 +13,7 @@
 //! vectorises; the gear trains weigh the lanes' first stage.
 use alloc::boxed::Box;
 use alloc::vec::Vec;
+use core::cell::Cell;
 
 use nalgebra::SVector;
 
@@ -39,7 +40,7 @@ use crate::{RobotParams, TwipError};
 
 // The plant's kinds, decided once per block (`kinds`): the gearhead friction's (`GEAR`) and
 // what drives it (`DRIVE`: the motor torques held over the step, or the windings').
-use super::kinds::{FREE, HELD, SLIP, STEADY, STEPPED, STICK};
+use super::kinds::{FREE, HELD, OUTSIDE, SLIP, STEADY, STEPPED, STICK};
 
 /// One lane's plant over a step, its trains as they are (`GEARED`: some lane's in the block
 /// may be open): the motor torques held, or at the step's start with the windings' steps
@@ -58,6 +59,8 @@ struct RigField<'a, const GEAR: u8, const DRIVE: u8, const GEARED: bool> {
     /// A constant force on the body (zero: none), always added: a branch on it would keep
     /// the lanes' loop from vectorising, and zeros change nothing but the sign of a zero.
     force: Force<Fused>,
+    /// Whether some stage found a wheel in the stick band (`OUTSIDE` only).
+    band: Cell<bool>,
 }
 
 impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> RigField<'_, GEAR, DRIVE, GEARED> {
@@ -82,6 +85,7 @@ impl<const GEAR: u8, const DRIVE: u8, const GEARED: bool> RigField<'_, GEAR, DRI
         match GEAR {
             FREE => Gearhead::Free,
             SLIP => Gearhead::Slip(self.friction),
+            OUTSIDE => Gearhead::Outside(self.friction, &self.band),
             _ => Gearhead::Stick(self.friction),
         }
     }
@@ -332,6 +336,7 @@ impl RigPlants {
             windings: [right, left],
             per_amp,
             force: self.forces.lane(l, Fused),
+            band: Cell::new(false),
         }
     }
 
@@ -373,15 +378,31 @@ impl RigPlants {
     }
 
     /// RK4's later stages from each lane's first `k1` on every lane, its trains as they
-    /// are over the step (`trains`).
+    /// are over the step (`trains`). With a stick band, where every train is engaged and no
+    /// lane's wheel starts near the band, first with the slip law (`OUTSIDE`), as the 2-DOF
+    /// rig's steps are.
     #[inline(always)]
     fn rk4<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64, ground: Option<&TerrainLanes>) -> [Lanes; 7] {
-        by_kind!(self, trains, rk4_of(x, u, trains, k1, dt, ground))
+        if self.gear == STICK && trains.iter().all(|t| t[0] & t[1]) && self.clear_of_band(x) {
+            let (next, band) = by_kind!(@drive self, OUTSIDE, false, rk4_of(x, u, trains, k1, dt, ground));
+            if !band {
+                return next;
+            }
+        }
+        by_kind!(self, trains, rk4_of(x, u, trains, k1, dt, ground)).0
+    }
+
+    /// Whether every lane's wheels start the step at least twice the stick band's
+    /// half-width from rest relative to the body (the 2-DOF rig's `clear_of_band`).
+    #[inline(always)]
+    fn clear_of_band(&self, x: &[Lanes; 7]) -> bool {
+        let near = 2.0 * self.friction.stick_speed.0;
+        (0..LANES).all(|l| self.plants.lane(l).wheels().speeds(&fill(|i| Fused(x[i][l]))).iter().all(|w| w.0.abs() >= near))
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn rk4_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64, ground: Option<&TerrainLanes>) -> [Lanes; 7] {
-        let mut out = [[0.0; LANES]; 7];
+    fn rk4_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64, ground: Option<&TerrainLanes>) -> ([Lanes; 7], bool) {
+        let (mut out, mut band) = ([[0.0; LANES]; 7], false);
         if let Some(ground) = ground {
             // The flat loop below, each lane's whole step on its ground (a loop of its own).
             for l in 0..LANES {
@@ -390,8 +411,9 @@ impl RigPlants {
                 for i in 0..7 {
                     out[i][l] = next[i].0;
                 }
+                band |= on.field.band.get();
             }
-            return out;
+            return (out, band);
         }
         for l in 0..LANES {
             let field = self.field::<GEAR, DRIVE, GEARED>(l, u, trains);
@@ -399,8 +421,9 @@ impl RigPlants {
             for i in 0..7 {
                 out[i][l] = next[i].0;
             }
+            band |= field.band.get();
         }
-        out
+        (out, band)
     }
 }
 
