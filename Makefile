@@ -120,8 +120,10 @@ test-python: build
 # e5b8ee7, `make test` alone (CI's case) 711 s. On the AVX-512 EPYC again (6 December 2026,
 # nothing beside it): a clean clone of a4f32af, `make demo` 327 s, then `make test` 458 s
 # (pytest 367 s beside the Rust tests, 1432 passed); a clean clone of 3c60614 (twenty-ninth
-# session), `make test` alone (CI's case) 576 s; one of fc1fb35 (thirtieth), 566 s. What was
-# tried for the wheel is in Cargo.toml;
+# session), `make test` alone (CI's case) 576 s; one of fc1fb35 (thirtieth), 566 s; one of
+# 87d8884 (thirty-first), `make demo` 319 s, then `make test` 472 s (pytest 364 s); one of
+# b619d55 (more rig kinds: a step's first try outside the stick band), `make demo` 319 s, then
+# `make test` 416 s (pytest 336 s). What was tried for the wheel is in Cargo.toml;
 # built at opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than
 # the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
