@@ -137,7 +137,8 @@ impl<T: Copy> Friction<T> {
 }
 
 /// A gearhead friction with its kind decided once: none, the slip law, or with a stick
-/// band (a sweep's friction is every lane's, so its lanes branch on it together).
+/// band, solved or taken as the slip law outside it (a sweep's friction is every lane's,
+/// so its lanes branch on it together).
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Gearhead<'a, S: Lane> {
     Free,

@@ -38,8 +38,9 @@ use crate::model::terrain_model::{geared_in_frame, motion_of, normal_forces_of, 
 use crate::sweep::lanes::{Lanes, LANES};
 use crate::{RobotParams, TwipError};
 
-// The plant's kinds, decided once per block (`kinds`): the gearhead friction's (`GEAR`) and
-// what drives it (`DRIVE`: the motor torques held over the step, or the windings').
+// The plant's kinds, decided once per block (`kinds`): the gearhead friction's (`GEAR`; a stick
+// band's law as the slip law, `OUTSIDE`, decided per step) and what drives it (`DRIVE`: the
+// motor torques held over the step, or the windings').
 use super::kinds::{FREE, HELD, OUTSIDE, SLIP, STEADY, STEPPED, STICK};
 
 /// One lane's plant over a step, its trains as they are (`GEARED`: some lane's in the block
