@@ -346,6 +346,11 @@ impl RigPlants {
     /// (None: flat ground), a runtime choice inside each kind's loop.
     #[inline(always)]
     fn motion<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], ground: Option<&TerrainLanes>) -> ([Lanes; 7], [Lanes; 2]) {
+        // On flat ground, where `outside`, by the slip law: the stick band's bits at a state
+        // clear of the band (on terrain the law reads the wheels' speeds in the plane's frame).
+        if ground.is_none() && self.outside(x, trains) {
+            return by_kind!(@drive self, OUTSIDE, false, motion_of(x, u, trains, ground));
+        }
         by_kind!(self, trains, motion_of(x, u, trains, ground))
     }
 
@@ -384,7 +389,7 @@ impl RigPlants {
     /// rig's steps are.
     #[inline(always)]
     fn rk4<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64, ground: Option<&TerrainLanes>) -> [Lanes; 7] {
-        if self.gear == STICK && trains.iter().all(|t| t[0] & t[1]) && self.clear_of_band(x) {
+        if self.outside(x, trains) {
             let (next, band) = by_kind!(@drive self, OUTSIDE, false, rk4_of(x, u, trains, k1, dt, ground));
             if !band {
                 return next;
@@ -393,12 +398,14 @@ impl RigPlants {
         by_kind!(self, trains, rk4_of(x, u, trains, k1, dt, ground)).0
     }
 
-    /// Whether every lane's wheels start the step at least twice the stick band's
-    /// half-width from rest relative to the body (the 2-DOF rig's `clear_of_band`).
+    /// Whether a stick band's law may be taken as the slip law from `x` on: every train
+    /// engaged and every lane's wheels at least twice the band's half-width from rest
+    /// relative to the body (the 2-DOF rig's `outside`).
     #[inline(always)]
-    fn clear_of_band(&self, x: &[Lanes; 7]) -> bool {
+    fn outside(&self, x: &[Lanes; 7], trains: &[[bool; 2]; LANES]) -> bool {
         let near = 2.0 * self.friction.stick_speed.0;
-        (0..LANES).all(|l| self.plants.lane(l).wheels().speeds(&fill(|i| Fused(x[i][l]))).iter().all(|w| w.0.abs() >= near))
+        let clear = |l: usize| self.plants.lane(l).wheels().speeds(&fill(|i| Fused(x[i][l]))).iter().all(|w| w.0.abs() >= near);
+        self.gear == STICK && trains.iter().all(|t| t[0] & t[1]) && (0..LANES).all(clear)
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
@@ -860,5 +867,56 @@ impl PlanarRigLanes {
             let nu = [pitch_acceleration_of(&xl, &dl, &f), dl[5], dl[6]];
             normal_forces_of(contact, &f, &xp, &nu, Fused::sincos(xp[3]))
         }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hardware::realism::Realism;
+    use crate::sweep::block::KernelCopy;
+
+    const COPY: u8 = KernelCopy::Baseline as u8;
+    const DT: f64 = 1e-3;
+
+    /// The bits of every lane's state.
+    fn bits(x: &[Lanes; 7]) -> Vec<u64> {
+        x.iter().flatten().map(|v| v.to_bits()).collect()
+    }
+
+    /// As the 2-DOF rig's test: the first stage by the slip law has the stick band's bits,
+    /// the later ones too while no wheel meets the band, and a step braked into it is taken
+    /// again. Both wheels braked, the left one harder (on its own it meets the band).
+    #[test]
+    fn a_step_clear_of_the_stick_band_has_its_bits_and_one_into_it_is_taken_again() {
+        let model = PlanarModel::new(RobotParams::balanbot()).unwrap();
+        let realism = Realism { motor: None, backlash: None, ..Realism::thesis_like() };
+        let rigs: Vec<PlanarRig<f64>> = (0..LANES).map(|_| realism.build_planar(&model, DT).unwrap()).collect();
+        let plants = RigPlants::new(&rigs, &[model; LANES], DT, stand_in().unwrap());
+        assert_eq!((plants.gear, plants.drive), (STICK, HELD));
+        let trains = [[true; 2]; LANES];
+        let (r, b) = (RobotParams::<f64>::balanbot().wheel_radius, RobotParams::<f64>::balanbot().half_track);
+        // (each wheel's speed relative to the body, torques): far from the band; the left
+        // wheel near it (0.25 rad/s) and braked into it within the step.
+        for (w, torque, enters) in [([3.0, 2.5], [0.05, 0.05], false), ([3.0, 0.25], [0.05, -2.0], true)] {
+            // ν = (φ̇, v, ω) from the wheels' speeds relative to the body, each lane's φ̇ its own.
+            let x: [Lanes; 7] = core::array::from_fn(|i| {
+                core::array::from_fn(|l| {
+                    let phi_dot = 0.1 * l as f64 / LANES as f64;
+                    let (right, left) = (w[0] + phi_dot + 0.002 * l as f64, w[1] + phi_dot + 0.002 * l as f64);
+                    [0.0, 0.0, 0.0, 0.02, phi_dot, r * (right + left) / 2.0, r * (right - left) / (2.0 * b)][i]
+                })
+            });
+            let u = [[torque[0]; LANES], [torque[1]; LANES]];
+            assert!(plants.outside(&x, &trains), "{w:?}: the first try is taken");
+            let (k1, _) = plants.motion::<COPY>(&x, &u, &trains, None);
+            assert_eq!(bits(&k1), bits(&plants.motion_of::<STICK, HELD, false>(&x, &u, &trains, None).0), "{w:?}");
+            let (stick, stick_band) = plants.rk4_of::<STICK, HELD, false>(&x, &u, &trains, &k1, DT, None);
+            let (outside, band) = plants.rk4_of::<OUTSIDE, HELD, false>(&x, &u, &trains, &k1, DT, None);
+            assert!(!stick_band, "only the first try notes the band");
+            assert_eq!(band, enters, "{w:?}");
+            assert_eq!(bits(&outside) == bits(&stick), !enters, "{w:?}");
+            assert_eq!(bits(&plants.rk4::<COPY>(&x, &u, &trains, &k1, DT, None)), bits(&stick), "{w:?}");
+        }
     }
 }

@@ -286,8 +286,16 @@ fn winding_of(rig: &SlopeRig<f64>, dt: f64, stand_in: (Winding<f64>, f64)) -> (W
 /// `$run::<GEAR, DRIVE, GEARED, CHANGES>(args)` for the plants' kinds (`$drive`: what
 /// drives the plant); GEARED only while some lane's trains are open (`$engaged`: all
 /// engaged is the plain plant, bit for bit); CHANGES: the slope changes along the path that
-/// a lane picks among (`Hills::changes`).
+/// a lane picks among (`Hills::changes`). `@outside`: the stick band's law as the slip
+/// law (`OUTSIDE`), every train engaged.
 macro_rules! by_kind {
+    (@outside $self:ident, $drive:expr, $run:ident($($arg:expr),*)) => {
+        match $self.hills.changes {
+            0 => by_kind!(@drive $self, $drive, $run, OUTSIDE, false, 0, $($arg),*),
+            FEW_CHANGES => by_kind!(@drive $self, $drive, $run, OUTSIDE, false, FEW_CHANGES, $($arg),*),
+            _ => by_kind!(@drive $self, $drive, $run, OUTSIDE, false, MAX_SLOPE_CHANGES, $($arg),*),
+        }
+    };
     ($self:ident, $drive:expr, $engaged:ident, $run:ident($($arg:expr),*)) => {
         match ($self.hills.changes, $self.geared && $engaged.iter().any(|&e| !e)) {
             (0, false) => by_kind!(@gear $self, $drive, $run, false, 0, $($arg),*),
@@ -326,9 +334,13 @@ impl RigPlants {
     }
 
     /// The derivative at the step's start on every lane (RK4's first stage, which the
-    /// sensors sample too).
+    /// sensors sample too): where [`Self::outside`], by the slip law, which has the stick
+    /// band's bits at a state clear of the band.
     #[inline(always)]
     fn k1<const COPY: u8>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES]) -> [Lanes; 4] {
+        if self.outside(x, engaged) {
+            return by_kind!(@outside self, self.drive, k1_of(x, u, engaged));
+        }
         by_kind!(self, self.drive, engaged, k1_of(x, u, engaged))
     }
 
@@ -345,10 +357,14 @@ impl RigPlants {
     }
 
     /// The derivative and gearhead torque per wheel on every lane with the trains as they
-    /// are, under the lumped `current` held (what `RealPlant::gear_next` weighs).
+    /// are, under the lumped `current` held (what `RealPlant::gear_next` weighs); where
+    /// [`Self::outside`], by the slip law, as [`Self::k1`].
     #[inline(always)]
     fn geared_motion<const COPY: u8>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
         // The lumped current is the input, whatever the winding.
+        if self.outside(x, engaged) {
+            return by_kind!(@outside self, HELD, geared_motion_of(x, current, engaged));
+        }
         by_kind!(self, HELD, engaged, geared_motion_of(x, current, engaged))
     }
 
@@ -365,22 +381,17 @@ impl RigPlants {
         (d, tau)
     }
 
-    /// One RK4 step from `k1` on every lane, the input held. With a stick band, where every
-    /// train is engaged and no lane's wheel starts near the band, the later stages take the
-    /// slip law (`OUTSIDE`): the same bits while no wheel enters the band, else the step
-    /// is taken again with the band's solve. Measured against the band's solve at every stage
-    /// (`sweep_throughput`, paired builds, 8 rounds, the same bits): the thesis-like rig
-    /// 1.039x on `avx512`, 1.030x on `avx2`; the 3-DOF rig 1.120x and 1.184x.
+    /// One RK4 step from `k1` on every lane, the input held. Where [`Self::outside`], the
+    /// later stages first take the slip law (`OUTSIDE`): the same bits while no wheel enters
+    /// the band, else the step is taken again with the band's solve. Measured, with the first
+    /// stage's too, against the band's solve at every stage (`sweep_throughput`, paired
+    /// builds, 8 rounds, the same bits): the thesis-like rig 1.049x on `avx512`, 1.066x on
+    /// `avx2`; the 3-DOF rig 1.177x and 1.221x.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn rk4<const COPY: u8>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
-        let open = self.geared && engaged.iter().any(|&e| !e);
-        if self.gear == STICK && !open && self.clear_of_band(x) {
-            let (next, band) = match self.hills.changes {
-                0 => by_kind!(@drive self, self.drive, rk4_of, OUTSIDE, false, 0, x, u, engaged, k1, dt),
-                FEW_CHANGES => by_kind!(@drive self, self.drive, rk4_of, OUTSIDE, false, FEW_CHANGES, x, u, engaged, k1, dt),
-                _ => by_kind!(@drive self, self.drive, rk4_of, OUTSIDE, false, MAX_SLOPE_CHANGES, x, u, engaged, k1, dt),
-            };
+        if self.outside(x, engaged) {
+            let (next, band) = by_kind!(@outside self, self.drive, rk4_of(x, u, engaged, k1, dt));
             if !band {
                 return next;
             }
@@ -388,13 +399,15 @@ impl RigPlants {
         by_kind!(self, self.drive, engaged, rk4_of(x, u, engaged, k1, dt)).0
     }
 
-    /// Whether every lane's wheels start the step at least twice the stick band's half-width
-    /// from rest relative to the body: then they seldom reach it within a step, and the
-    /// step's first try (`OUTSIDE`) is seldom wasted.
+    /// Whether a stick band's law may be taken as the slip law from `x` on: every train is
+    /// `engaged` and every lane's wheels are at least twice the band's half-width from rest
+    /// relative to the body. So no wheel is in the band at `x` (the first stage's state), and
+    /// seldom within the step, so that the step's first try is seldom wasted.
     #[inline(always)]
-    fn clear_of_band(&self, x: &[Lanes; 4]) -> bool {
+    fn outside(&self, x: &[Lanes; 4], engaged: &[bool; LANES]) -> bool {
         let near = 2.0 * self.friction.stick_speed.0;
-        (0..LANES).all(|l| (x[3][l] - x[1][l]).abs() >= near)
+        let open = self.geared && engaged.iter().any(|&e| !e);
+        self.gear == STICK && !open && (0..LANES).all(|l| (x[3][l] - x[1][l]).abs() >= near)
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
@@ -786,9 +799,9 @@ mod tests {
         x.iter().flatten().map(|v| v.to_bits()).collect()
     }
 
-    /// A step's first try with the slip law (`OUTSIDE`) has the stick band's bits while no
-    /// wheel meets the band, and says when one does; `rk4` then takes the step again, so
-    /// it has the band's bits either way. The thesis-like robot's stick band (0.1 rad/s), no
+    /// A step's first stage by the slip law (`OUTSIDE`) has the stick band's bits, and so do
+    /// its later stages while no wheel meets the band; the first try says when one does, and
+    /// `rk4` then takes the step again, so it has the band's bits either way. The thesis-like robot's stick band (0.1 rad/s), no
     /// play (every train engaged) and no driver (the current held), on flat ground; each
     /// lane's wheels start a little faster relative to the body than the one before.
     #[test]
@@ -805,8 +818,10 @@ mod tests {
             let pitch_rate: Lanes = core::array::from_fn(|l| 0.1 * l as f64 / LANES as f64);
             let x = [[0.02; LANES], pitch_rate, [0.0; LANES], core::array::from_fn(|l| pitch_rate[l] + w0 + 0.002 * l as f64)];
             let u = [current; LANES];
-            assert!(plants.clear_of_band(&x), "w0 = {w0}: the first try is taken");
+            assert!(plants.outside(&x, &engaged), "w0 = {w0}: the first try is taken");
+            // The first stage, at a state clear of the band, by the slip law: the band's bits.
             let k1 = plants.k1::<COPY>(&x, &u, &engaged);
+            assert_eq!(bits(&k1), bits(&plants.k1_of::<STICK, HELD, false, 0>(&x, &u, &engaged)), "w0 = {w0}");
             let (stick, stick_band) = plants.rk4_of::<STICK, HELD, false, 0>(&x, &u, &engaged, &k1, DT);
             let (outside, band) = plants.rk4_of::<OUTSIDE, HELD, false, 0>(&x, &u, &engaged, &k1, DT);
             assert!(!stick_band, "only the first try notes the band");
