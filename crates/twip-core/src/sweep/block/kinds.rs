@@ -3,6 +3,9 @@
 //! (`DRIVE`). Each kind is its own loop over lanes, so that no branch inside one keeps the
 //! compiler from vectorising it.
 use crate::model::friction::Friction;
+use crate::model::lane::Fused;
+#[cfg(test)]
+use crate::sweep::lanes::Lanes;
 
 /// No gearhead friction, the slip law, the slip law with a stick band.
 pub(super) const FREE: u8 = 0;
@@ -34,4 +37,17 @@ pub(super) fn drive(inductive: Option<bool>) -> u8 {
         Some(false) => STEADY,
         Some(true) => STEPPED,
     }
+}
+
+/// Whether a wheel turning at `w` relative to the body is clear of `friction`'s stick band
+/// by a margin (twice its half-width from rest), so that it seldom enters the band within a
+/// step: the rigs' test for trying `OUTSIDE` first.
+pub(super) fn clear_of_band(friction: &Friction<Fused>, w: f64) -> bool {
+    w.abs() >= 2.0 * friction.stick_speed.0
+}
+
+/// The bits of every lane's state, for the rigs' tests of `OUTSIDE`.
+#[cfg(test)]
+pub(super) fn state_bits<const N: usize>(x: &[Lanes; N]) -> alloc::vec::Vec<u64> {
+    x.iter().flatten().map(|v| v.to_bits()).collect()
 }

@@ -41,7 +41,7 @@ use crate::{RobotParams, TwipError};
 // The plant's kinds, decided once per block (`kinds`): the gearhead friction's (`GEAR`; a stick
 // band's law as the slip law, `OUTSIDE`, decided per step) and what drives it (`DRIVE`: the
 // motor torques held over the step, or the windings').
-use super::kinds::{FREE, HELD, OUTSIDE, SLIP, STEADY, STEPPED, STICK};
+use super::kinds::{clear_of_band, FREE, HELD, OUTSIDE, SLIP, STEADY, STEPPED, STICK};
 
 /// One lane's plant over a step, its trains as they are (`GEARED`: some lane's in the block
 /// may be open): the motor torques held, or at the step's start with the windings' steps
@@ -403,8 +403,7 @@ impl RigPlants {
     /// relative to the body (the 2-DOF rig's `outside`).
     #[inline(always)]
     fn outside(&self, x: &[Lanes; 7], trains: &[[bool; 2]; LANES]) -> bool {
-        let near = 2.0 * self.friction.stick_speed.0;
-        let clear = |l: usize| self.plants.lane(l).wheels().speeds(&fill(|i| Fused(x[i][l]))).iter().all(|w| w.0.abs() >= near);
+        let clear = |l: usize| self.plants.lane(l).wheels().speeds(&fill(|i| Fused(x[i][l]))).iter().all(|w| clear_of_band(&self.friction, w.0));
         self.gear == STICK && trains.iter().all(|t| t[0] & t[1]) && (0..LANES).all(clear)
     }
 
@@ -874,15 +873,11 @@ impl PlanarRigLanes {
 mod tests {
     use super::*;
     use crate::hardware::realism::Realism;
+    use crate::sweep::block::kinds::state_bits as bits;
     use crate::sweep::block::KernelCopy;
 
     const COPY: u8 = KernelCopy::Baseline as u8;
     const DT: f64 = 1e-3;
-
-    /// The bits of every lane's state.
-    fn bits(x: &[Lanes; 7]) -> Vec<u64> {
-        x.iter().flatten().map(|v| v.to_bits()).collect()
-    }
 
     /// As the 2-DOF rig's test: the first stage by the slip law has the stick band's bits,
     /// the later ones too while no wheel meets the band, and a step braked into it is taken

@@ -35,7 +35,7 @@ use crate::{Dynamics, RobotParams, TwipError};
 // The plant's kinds, decided once per block (`kinds`): its gearhead friction (`GEAR`; a stick
 // band's law as the slip law, `OUTSIDE`, decided per step), what drives it (`DRIVE`: a lumped
 // current held over the step, or a winding's) and whether the gear trains have play (`GEARED`).
-use super::kinds::{FREE, HELD, OUTSIDE, SLIP, STEADY, STEPPED, STICK};
+use super::kinds::{clear_of_band, FREE, HELD, OUTSIDE, SLIP, STEADY, STEPPED, STICK};
 
 /// A ground with at most this many slope changes has its own copies of the lanes' loops,
 /// which pick a lane's piece among those only: picking among all that a ground may have
@@ -385,8 +385,8 @@ impl RigPlants {
     /// later stages first take the slip law (`OUTSIDE`): the same bits while no wheel enters
     /// the band, else the step is taken again with the band's solve. Measured, with the first
     /// stage's too, against the band's solve at every stage (`sweep_throughput`, paired
-    /// builds, 8 rounds, the same bits): the thesis-like rig 1.049x on `avx512`, 1.066x on
-    /// `avx2`; the 3-DOF rig 1.177x and 1.221x.
+    /// builds, 8 rounds, the same bits, an AVX-512 EPYC): the thesis-like rig 1.049x on
+    /// `avx512`, 1.066x on its forced `avx2` copy; the 3-DOF rig 1.177x and 1.221x.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn rk4<const COPY: u8>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
@@ -405,9 +405,8 @@ impl RigPlants {
     /// seldom within the step, so that the step's first try is seldom wasted.
     #[inline(always)]
     fn outside(&self, x: &[Lanes; 4], engaged: &[bool; LANES]) -> bool {
-        let near = 2.0 * self.friction.stick_speed.0;
         let open = self.geared && engaged.iter().any(|&e| !e);
-        self.gear == STICK && !open && (0..LANES).all(|l| (x[3][l] - x[1][l]).abs() >= near)
+        self.gear == STICK && !open && (0..LANES).all(|l| clear_of_band(&self.friction, x[3][l] - x[1][l]))
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
@@ -789,21 +788,18 @@ impl RigLanes {
 mod tests {
     use super::*;
     use crate::hardware::realism::Realism;
+    use crate::sweep::block::kinds::state_bits as bits;
     use crate::sweep::block::KernelCopy;
 
     const COPY: u8 = KernelCopy::Baseline as u8;
     const DT: f64 = 1e-3;
 
-    /// The bits of every lane's state.
-    fn bits(x: &[Lanes; 4]) -> Vec<u64> {
-        x.iter().flatten().map(|v| v.to_bits()).collect()
-    }
-
     /// A step's first stage by the slip law (`OUTSIDE`) has the stick band's bits, and so do
     /// its later stages while no wheel meets the band; the first try says when one does, and
-    /// `rk4` then takes the step again, so it has the band's bits either way. The thesis-like robot's stick band (0.1 rad/s), no
-    /// play (every train engaged) and no driver (the current held), on flat ground; each
-    /// lane's wheels start a little faster relative to the body than the one before.
+    /// `rk4` then takes the step again, so it has the band's bits either way. The thesis-like
+    /// robot's stick band (0.1 rad/s), no play (every train engaged) and no driver (the
+    /// current held), on flat ground; each lane's wheels start a little faster relative to
+    /// the body than the one before.
     #[test]
     fn a_step_clear_of_the_stick_band_has_its_bits_and_one_into_it_is_taken_again() {
         let model = SlopeModel::new(RobotParams::balanbot(), 0.0).unwrap();
