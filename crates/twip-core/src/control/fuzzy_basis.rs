@@ -243,6 +243,14 @@ impl<S: Lane> Trapezoid<S> {
     }
 }
 
+impl<T: Copy> Trapezoid<T> {
+    /// The same trapezoid in another number type (a sweep's lanes).
+    #[inline(always)]
+    pub(crate) fn map<S>(&self, to: impl Fn(T) -> S) -> Trapezoid<S> {
+        Trapezoid { a: to(self.a), b: to(self.b), c: to(self.c), d: to(self.d), inv_rise: to(self.inv_rise), inv_fall: to(self.inv_fall) }
+    }
+}
+
 impl<S: Lane> Member<S> for Trapezoid<S> {
     /// Every piece computed, the one that holds selected; NaN stays NaN. Outside [a, d]
     /// the ramp that is selected there is negative (or −∞ at a vertical edge), so one
@@ -282,14 +290,7 @@ impl<T: Copy> Prepared<T> {
     #[cfg_attr(not(feature = "std"), allow(dead_code))] // sweeps need std
     pub(crate) fn map<S>(&self, to: impl Fn(T) -> S) -> Prepared<S> {
         match *self {
-            Self::Trapezoid(t) => Prepared::Trapezoid(Trapezoid {
-                a: to(t.a),
-                b: to(t.b),
-                c: to(t.c),
-                d: to(t.d),
-                inv_rise: to(t.inv_rise),
-                inv_fall: to(t.inv_fall),
-            }),
+            Self::Trapezoid(t) => Prepared::Trapezoid(t.map(to)),
             Self::Gaussian { mean, sigma } => Prepared::Gaussian { mean: to(mean), sigma: to(sigma) },
         }
     }
