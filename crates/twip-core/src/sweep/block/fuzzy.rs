@@ -59,7 +59,7 @@ enum Sets<const N: usize> {
 /// on AVX-512, an operand broadcast from 8 bytes of memory (`{1to8}`), not a vector's 64. In a
 /// trace of one 16-lane fuzzy step (`gdb`, `stepi`): 359 -> 337 vector loads, 54 operands
 /// broadcast; `sweep_throughput fuzzy-lanes`, paired builds: 1.015x (8 rounds), 1.056x (12),
-/// the same bits. AVX2 has no broadcast operand, so there each becomes an instruction of its
+/// 1.012x (10), the same bits; the wheel against 0.1.12's, 1.042x (8 rounds, an AVX-512 EPYC). AVX2 has no broadcast operand, so there each becomes an instruction of its
 /// own: 0.982x on the forced `avx2` copy (8 rounds), which keeps the sets as vectors.
 #[derive(Clone, Copy, Debug)]
 struct Broadcast(Trapezoid<f64>);
@@ -267,7 +267,6 @@ impl LaneLaw for FuzzyLanes {
         self.update_in::<COPY>(state, x, Some(pitch), r, u)
     }
 }
-
 
 #[cfg(test)]
 mod tests {
