@@ -116,8 +116,9 @@ impl<const N: usize> Constants<N> {
             gains: FuzzyGains { k1: f(g.k1), k2: f(g.k2), kp: f(g.kp), kd: f(g.kd), ki: f(g.ki) },
             sets: match (basis.n(), basis.trapezoids(f)) {
                 (3, Some(trapezoids)) => {
-                    let scalar = first_three(basis.trapezoids(|v| v).expect("the same sets"));
-                    Sets::Trapezoids(first_three(trapezoids), scalar.map(|row| row.map(Broadcast)))
+                    let sets = first_three(trapezoids);
+                    // Every lane holds the same numbers: lane 0's.
+                    Sets::Trapezoids(sets, sets.map(|row| row.map(|t| Broadcast(t.map(|v| v.0[0])))))
                 }
                 (3, None) => Sets::Any(first_three(basis.prepared_in(f))),
                 (n, Some(trapezoids)) => Sets::SizedTrapezoids(trapezoids, n),
@@ -274,7 +275,9 @@ mod tests {
 
     /// A trapezoid read as numbers broadcast at use is the lanes' trapezoid bit for bit,
     /// membership and distance, at its breakpoints, an ulp either side, ±∞ and NaN, a
-    /// different x on each lane.
+    /// different x on each lane: it guards the numbers' way into the lanes (each breakpoint to
+    /// its field); that the AVX-512 kernel built on it gives the other copies' bits is
+    /// `same_bits_on_every_copy`'s (the thesis's law, both widths).
     #[test]
     fn a_broadcast_trapezoid_is_the_lanes_trapezoid_bit_for_bit() {
         let inf = f64::INFINITY;
