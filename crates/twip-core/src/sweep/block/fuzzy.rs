@@ -45,11 +45,12 @@ struct Constants<const N: usize> {
 /// match per set (measured: the match costs the trapezoid law 21 % more instructions), or
 /// any sets; a 3 × 3 grid fixed when compiling (the thesis's, as fast as before grids of
 /// other sizes came), any other n × n sized at run time. The 3 × 3 trapezoids also in a
-/// run's numbers, which the AVX-512 copy reads ([`Broadcast`]).
+/// run's numbers, which the AVX-512 copy reads ([`Broadcast`]), and where each holds x alone
+/// ([`Alone`]).
 #[derive(Clone, Debug)]
 #[allow(clippy::large_enum_variant)] // ~2.5 to 5.4 KB, one per worker's law: no box needed
 enum Sets<const N: usize> {
-    Trapezoids([[Trapezoid<Wide<N>>; 3]; 2], [[Broadcast; 3]; 2]),
+    Trapezoids([[Trapezoid<Wide<N>>; 3]; 2], [[Broadcast; 3]; 2], [[Alone; 3]; 2]),
     Any([[Prepared<Wide<N>>; 3]; 2]),
     SizedTrapezoids([[Trapezoid<Wide<N>>; MAX_SETS]; 2], usize),
     SizedAny([[Prepared<Wide<N>>; MAX_SETS]; 2], usize),
@@ -73,6 +74,78 @@ impl<const N: usize> Member<Wide<N>> for Broadcast {
     #[inline(always)]
     fn distance(&self, x: Wide<N>) -> Wide<N> {
         self.0.map(Wide::splat).distance(x)
+    }
+}
+
+/// Where one trapezoid of an input holds x alone: inside its top (μ = 1) and strictly outside
+/// every other set's support (μ = +0 exactly there, as `Trapezoid::value` computes it), so the
+/// input's normalised weights are exactly the unit vector of that set. The bounds: x ≥ `from`
+/// and x ≤ `to` (the top), x > `after` and x < `before` (the other sets' supports; a set whose
+/// support covers the whole top leaves no such x: `after` = +∞). ±∞ and NaN are never inside.
+#[derive(Clone, Copy, Debug)]
+struct Alone {
+    from: f64,
+    to: f64,
+    after: f64,
+    before: f64,
+}
+
+impl Alone {
+    /// Set `j`'s of `sets` (part of its top when another set's support reaches into it).
+    fn of(sets: &[Trapezoid<f64>; 3], j: usize) -> Self {
+        let mut alone = Self { from: sets[j].b, to: sets[j].c, after: f64::NEG_INFINITY, before: f64::INFINITY };
+        for other in sets.iter().enumerate().filter(|&(k, _)| k != j).map(|(_, other)| other) {
+            if other.a > sets[j].b {
+                alone.before = alone.before.min(other.a);
+            } else if other.d < sets[j].c {
+                alone.after = alone.after.max(other.d);
+            } else {
+                alone.after = f64::INFINITY;
+            }
+        }
+        alone
+    }
+
+    /// Whether this set holds `x` alone.
+    #[inline(always)]
+    fn holds(&self, x: f64) -> bool {
+        (x >= self.from) & (x <= self.to) & (x > self.after) & (x < self.before)
+    }
+}
+
+/// The one set of `alone`'s that holds every lane of `x` alone, if there is one: lane 0's set,
+/// found in scalar code, then every lane checked in vectors. (The check on `Wide`'s masks, set
+/// by set, compiled to scalar compares lane by lane, and the fuzzy lanes ran 0.735×.)
+#[inline(always)]
+fn alone_in<const N: usize>(alone: &[Alone; 3], x: &Wide<N>) -> Option<usize> {
+    let j = alone.iter().position(|a| a.holds(x.0[0]))?;
+    let mut every = true;
+    for v in x.0 {
+        every &= alone[j].holds(v);
+    }
+    every.then_some(j)
+}
+
+/// The fixed 3 × 3 trapezoids (`sets`, as vectors or as broadcast numbers), whose weights are
+/// a unit vector where one set of each input holds every lane alone ([`Alone`]): then the
+/// memberships, their normalisation and products are skipped, the same bits as computed.
+struct Alone3<'a, M> {
+    sets: &'a [[M; 3]; 2],
+    alone: &'a [[Alone; 3]; 2],
+}
+
+impl<const N: usize, M: Member<Wide<N>>> RuleBase<Wide<N>, 9> for Alone3<'_, M> {
+    #[inline(always)]
+    fn rules(&self) -> usize {
+        9
+    }
+
+    #[inline(always)]
+    fn xi(&self, x: &[Wide<N>; 2]) -> [Wide<N>; 9] {
+        match (alone_in(&self.alone[0], &x[0]), alone_in(&self.alone[1], &x[1])) {
+            (Some(i), Some(j)) => core::array::from_fn(|k| Wide::splat(if k == 3 * i + j { 1.0 } else { 0.0 })),
+            _ => self.sets.xi(x),
+        }
     }
 }
 
@@ -118,7 +191,8 @@ impl<const N: usize> Constants<N> {
                 (3, Some(trapezoids)) => {
                     let sets = first_three(trapezoids);
                     // Every lane holds the same numbers: lane 0's.
-                    Sets::Trapezoids(sets, sets.map(|row| row.map(|t| Broadcast(t.map(|v| v.0[0])))))
+                    let numbers = sets.map(|row| row.map(|t| t.map(|v| v.0[0])));
+                    Sets::Trapezoids(sets, numbers.map(|row| row.map(Broadcast)), numbers.map(|row| core::array::from_fn(|j| Alone::of(&row, j))))
                 }
                 (3, None) => Sets::Any(first_three(basis.prepared_in(f))),
                 (n, Some(trapezoids)) => Sets::SizedTrapezoids(trapezoids, n),
@@ -137,8 +211,8 @@ impl<const N: usize> Constants<N> {
     #[allow(clippy::too_many_arguments)]
     fn update<const COPY: u8>(&self, controller: &FuzzyController<f64>, phi_s: f64, state: &mut FuzzyState, x: &[Lanes; 4], pitch: Option<&[Lanes; 2]>, r: &SpeedRef<f64>, u: &mut Lanes) {
         match &self.sets {
-            Sets::Trapezoids(_, sets) if broadcasts::<COPY>() => self.update_with::<9, _>(sets, controller, phi_s, state, x, pitch, r, u),
-            Sets::Trapezoids(sets, _) => self.update_with::<9, _>(sets, controller, phi_s, state, x, pitch, r, u),
+            Sets::Trapezoids(_, sets, alone) if broadcasts::<COPY>() => self.update_with::<9, _>(&Alone3 { sets, alone }, controller, phi_s, state, x, pitch, r, u),
+            Sets::Trapezoids(sets, _, alone) => self.update_with::<9, _>(&Alone3 { sets, alone }, controller, phi_s, state, x, pitch, r, u),
             Sets::Any(sets) => self.update_with::<9, _>(sets, controller, phi_s, state, x, pitch, r, u),
             // `inline(always)`: the closure inlined into the copy's function, so compiled with
             // its instructions.
@@ -272,6 +346,59 @@ impl LaneLaw for FuzzyLanes {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Where [`Alone`] says one set of each input holds every lane alone, the 3 × 3 weights
+    /// skipped to a unit vector are the computed ones bit for bit, from the vectors' sets and
+    /// the broadcast ones: the thesis's sets, overlapping ramps, triangles, crisp edges and
+    /// gaps, at every breakpoint, an ulp either side, ±0, ±∞ and NaN, lanes alike (the skip
+    /// taken where it holds) and lanes apart (computed).
+    #[test]
+    fn weights_skipped_where_one_set_holds_x_alone_are_the_computed_ones() {
+        let inf = f64::INFINITY;
+        let rows = [
+            [(-inf, -inf, -0.3, -0.1), (-0.3, -0.1, 0.1, 0.3), (0.1, 0.3, inf, inf)],
+            [(-inf, -inf, -2.0, -0.5), (-2.0, -0.5, 0.5, 2.0), (0.5, 2.0, inf, inf)],
+            [(-inf, -inf, -0.2, 0.1), (-0.3, -0.1, 0.1, 0.3), (0.0, 0.3, inf, inf)],
+            [(-2.0, -1.0, -1.0, 0.0), (-1.0, 0.0, 0.0, 1.0), (0.0, 1.0, 1.0, 2.0)],
+            [(-inf, -inf, -1.0, -1.0), (-1.0, -1.0, 1.0, 1.0), (1.0, 1.0, inf, inf)],
+            [(-3.0, -2.0, -1.0, -0.5), (0.0, 0.5, 1.0, 2.0), (2.5, 3.0, 4.0, 5.0)],
+        ];
+        let next = |x: f64, up: bool| if x.is_finite() { if x == 0.0 { if up { 5e-324 } else { -5e-324 } } else { f64::from_bits((x.to_bits() as i64 + if (x > 0.0) == up { 1 } else { -1 }) as u64) } } else { x };
+        let same = |a: &[Wide<8>; 9], b: &[Wide<8>; 9]| a.iter().zip(b).all(|(a, b)| a.0.iter().zip(&b.0).all(|(a, b)| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())));
+        let points = |row: &[(f64, f64, f64, f64); 3]| {
+            let mut xs = vec![-inf, inf, f64::NAN, 0.0, -0.0, 1e300, -1e300, -7.0, 7.0];
+            for &(a, b, c, d) in row {
+                for p in [a, b, c, d, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + d)] {
+                    xs.extend([p, next(p, true), next(p, false)]);
+                }
+            }
+            xs
+        };
+        let mut skipped = 0;
+        for row0 in &rows {
+            for row1 in &rows {
+                let numbers = [row0, row1].map(|row| row.map(|(a, b, c, d)| Trapezoid::new(a, b, c, d)));
+                let wide = numbers.map(|row| row.map(|t| t.map(Wide::<8>::splat)));
+                let broadcast = numbers.map(|row| row.map(Broadcast));
+                let alone = numbers.map(|row| core::array::from_fn(|j| Alone::of(&row, j)));
+                let (xs0, xs1) = (points(row0), points(row1));
+                for (i, &v0) in xs0.iter().enumerate() {
+                    for (k, &v1) in xs1.iter().enumerate() {
+                        let alike = [Wide::<8>::splat(v0), Wide::splat(v1)];
+                        let apart = [Wide(core::array::from_fn(|l| xs0[(i + l) % xs0.len()])), Wide(core::array::from_fn(|l| xs1[(k + 3 * l) % xs1.len()]))];
+                        for x in [alike, apart] {
+                            let want = wide.xi(&x);
+                            assert!(same(&Alone3 { sets: &wide, alone: &alone }.xi(&x), &want), "{row0:?} {row1:?} at {x:?}");
+                            assert!(same(&Alone3 { sets: &broadcast, alone: &alone }.xi(&x), &want), "{row0:?} {row1:?} at {x:?}");
+                            skipped += (alone_in(&alone[0], &x[0]).is_some() && alone_in(&alone[1], &x[1]).is_some()) as usize;
+                        }
+                    }
+                }
+            }
+        }
+        // The skip was taken, not only the computation checked against itself.
+        assert!(skipped > 5_000, "{skipped}");
+    }
 
     /// A trapezoid read as numbers broadcast at use is the lanes' trapezoid bit for bit,
     /// membership and distance, at its breakpoints, an ulp either side, ±∞ and NaN, a
