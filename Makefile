@@ -128,7 +128,8 @@ test-python: build
 # (docs since), `make test` alone 622 s; one of 46047c4, 659 s; one of d5d7807 (thirty-second
 # session), `make test` alone 569 s (pytest 180 s); one of ecc2524 (the same code), 703 s (pytest
 # 209 s): the VM's speed moves that much within an hour; one of 5613df6 (thirty-third session,
-# docs only), 648 s (pytest 178 s). What was tried for the wheel is in Cargo.toml;
+# docs only), 648 s (pytest 178 s); one of 6966f9e (the fuzzy weights' skip), 619 s (pytest
+# 178 s). What was tried for the wheel is in Cargo.toml;
 # built at opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than
 # the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
