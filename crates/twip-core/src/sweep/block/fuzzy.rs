@@ -60,8 +60,9 @@ enum Sets<const N: usize> {
 /// on AVX-512, an operand broadcast from 8 bytes of memory (`{1to8}`), not a vector's 64. In a
 /// trace of one 16-lane fuzzy step (`gdb`, `stepi`): 359 -> 337 vector loads, 54 operands
 /// broadcast; `sweep_throughput fuzzy-lanes`, paired builds: 1.015x (8 rounds), 1.056x (12),
-/// 1.012x (10), the same bits; the wheel against 0.1.12's, 1.042x (8 rounds, an AVX-512 EPYC). AVX2 has no broadcast operand, so there each becomes an instruction of its
-/// own: 0.982x on the forced `avx2` copy (8 rounds), which keeps the sets as vectors.
+/// 1.012x (10), the same bits; the wheel against 0.1.12's, 1.042x (8 rounds, an AVX-512 EPYC).
+/// AVX2 has no broadcast operand, so there each becomes an instruction of its own: 0.982x on
+/// the forced `avx2` copy (8 rounds), which keeps the sets as vectors.
 #[derive(Clone, Copy, Debug)]
 struct Broadcast(Trapezoid<f64>);
 
@@ -94,7 +95,10 @@ impl Alone {
     /// Set `j`'s of `sets` (part of its top when another set's support reaches into it).
     fn of(sets: &[Trapezoid<f64>; 3], j: usize) -> Self {
         let mut alone = Self { from: sets[j].b, to: sets[j].c, after: f64::NEG_INFINITY, before: f64::INFINITY };
-        for other in sets.iter().enumerate().filter(|&(k, _)| k != j).map(|(_, other)| other) {
+        for (k, other) in sets.iter().enumerate() {
+            if k == j {
+                continue;
+            }
             if other.a > sets[j].b {
                 alone.before = alone.before.min(other.a);
             } else if other.d < sets[j].c {
@@ -347,6 +351,29 @@ impl LaneLaw for FuzzyLanes {
 mod tests {
     use super::*;
 
+    /// The next f64 from finite `x` towards +∞ (`up`) or −∞, across zero too; ±∞ and NaN as
+    /// they are.
+    fn beside(x: f64, up: bool) -> f64 {
+        if !x.is_finite() {
+            return x;
+        }
+        if x == 0.0 {
+            return if up { 5e-324 } else { -5e-324 };
+        }
+        f64::from_bits(if (x > 0.0) == up { x.to_bits() + 1 } else { x.to_bits() - 1 })
+    }
+
+    /// Inputs that test a set's edges: ±0, ±∞, NaN, far and `outside` values, and each of
+    /// `points` (breakpoints and midpoints) with the f64 either side of it.
+    fn around(points: impl IntoIterator<Item = f64>, outside: f64) -> Vec<f64> {
+        let inf = f64::INFINITY;
+        let mut xs = vec![-inf, inf, f64::NAN, 0.0, -0.0, 1e300, -1e300, -outside, outside];
+        for p in points {
+            xs.extend([p, beside(p, true), beside(p, false)]);
+        }
+        xs
+    }
+
     /// Where [`Alone`] says one set of each input holds every lane alone, the 3 × 3 weights
     /// skipped to a unit vector are the computed ones bit for bit, from the vectors' sets and
     /// the broadcast ones: the thesis's sets, overlapping ramps, triangles, crisp edges and
@@ -363,17 +390,8 @@ mod tests {
             [(-inf, -inf, -1.0, -1.0), (-1.0, -1.0, 1.0, 1.0), (1.0, 1.0, inf, inf)],
             [(-3.0, -2.0, -1.0, -0.5), (0.0, 0.5, 1.0, 2.0), (2.5, 3.0, 4.0, 5.0)],
         ];
-        let next = |x: f64, up: bool| if x.is_finite() { if x == 0.0 { if up { 5e-324 } else { -5e-324 } } else { f64::from_bits((x.to_bits() as i64 + if (x > 0.0) == up { 1 } else { -1 }) as u64) } } else { x };
         let same = |a: &[Wide<8>; 9], b: &[Wide<8>; 9]| a.iter().zip(b).all(|(a, b)| a.0.iter().zip(&b.0).all(|(a, b)| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())));
-        let points = |row: &[(f64, f64, f64, f64); 3]| {
-            let mut xs = vec![-inf, inf, f64::NAN, 0.0, -0.0, 1e300, -1e300, -7.0, 7.0];
-            for &(a, b, c, d) in row {
-                for p in [a, b, c, d, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + d)] {
-                    xs.extend([p, next(p, true), next(p, false)]);
-                }
-            }
-            xs
-        };
+        let points = |row: &[(f64, f64, f64, f64); 3]| around(row.iter().flat_map(|&(a, b, c, d)| [a, b, c, d, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + d)]), 7.0);
         let mut skipped = 0;
         for row0 in &rows {
             for row1 in &rows {
@@ -412,15 +430,11 @@ mod tests {
             (0.0, 1.0, 2.0, 4.0), (-inf, -inf, -0.3, -0.1), (-0.3, -0.1, 0.1, 0.3), (0.1, 0.3, inf, inf),
             (1.0, 1.0, 2.0, 2.0), (1.0, 1.0, 1.0, 1.0), (-2.0, 0.5, 0.5, 0.7), (-1e-3, 0.0, 1e300, 1e301),
         ];
-        let next = |x: f64, up: bool| if x.is_finite() { f64::from_bits((x.to_bits() as i64 + if (x >= 0.0) == up { 1 } else { -1 }) as u64) } else { x };
         let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
         for (a, b, c, d) in sets {
             let t = Trapezoid::new(a, b, c, d);
             let (lanes, broadcast) = (t.map(Wide::<8>::splat), Broadcast(t));
-            let mut xs = vec![-inf, inf, f64::NAN, 0.0, -0.0, 1e300, -1e300, -5.0, 5.0];
-            for p in [a, b, c, d, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + d)] {
-                xs.extend([p, next(p, true), next(p, false)]);
-            }
+            let xs = around([a, b, c, d, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + d)], 5.0);
             for chunk in xs.chunks(8) {
                 let x = Wide::<8>(core::array::from_fn(|j| chunk[j % chunk.len()]));
                 for (want, got) in [(lanes.value(x), broadcast.value(x)), (lanes.distance(x), broadcast.distance(x))] {
