@@ -55,25 +55,24 @@ impl LanePlant for PlanarPlants {
     type Input = [Lanes; 2];
     const PITCH: usize = 3;
 
-    /// The sweeps' shifted step where the live lanes allow (`PlanarPlants::rk4_shifted`), else
-    /// `PlanarPlants::rk4`'s arithmetic on every lane, each body two lanes (l and
+    /// The sweeps' shifted step where the live lanes allow (`PlanarPlants::rk4_shifted_into`),
+    /// else `PlanarPlants::rk4`'s arithmetic on every lane, each body two lanes (l and
     /// l + LANES/2): two independent chains of dependent operations (each RK4 stage waits
     /// on the last one's divisions) that the CPU overlaps, as the 2-DOF block's RK4 does.
     #[inline(always)]
     fn rk4_lanes(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES]) -> [Lanes; 7] {
-        if let Some(next) = self.rk4_shifted(x, u, dt, live) {
-            return next;
-        }
-        const HALF: usize = LANES / 2;
-        let mut out = [[0.0; LANES]; 7];
-        for l in 0..HALF {
-            let (a, b) = (self.rk4_lane(x, u, l, dt), self.rk4_lane(x, u, l + HALF, dt));
-            for i in 0..7 {
-                out[i][l] = a[i].0;
-                out[i][l + HALF] = b[i].0;
+        let mut next = [[0.0; LANES]; 7];
+        self.rk4_shifted_into(x, u, dt, live, &mut next, |out| {
+            const HALF: usize = LANES / 2;
+            for l in 0..HALF {
+                let (a, b) = (self.rk4_lane(x, u, l, dt), self.rk4_lane(x, u, l + HALF, dt));
+                for i in 0..7 {
+                    out[i][l] = a[i].0;
+                    out[i][l + HALF] = b[i].0;
+                }
             }
-        }
-        out
+        });
+        next
     }
 }
 

@@ -41,7 +41,7 @@ pub(crate) trait Hooks<C, const W: usize> {
     /// The numbers: time, step and fall limit (`f64` on lanes).
     type T: Real;
     /// Every lane's state.
-    type X;
+    type X: Copy;
     /// Every lane's input from the law.
     type U;
     /// The reference, the same for every lane (sampled once per step).
@@ -65,8 +65,11 @@ pub(crate) trait Hooks<C, const W: usize> {
     /// Step `k` (from `t`, of `dt`) under the input held, on every lane: observes what the
     /// `live` lanes' plants get at its start (at a controller `update`, whether each
     /// command is beyond its driver), then the new state (the lanes that go on are moved
-    /// there by [`Self::go_on`]).
-    fn step<const COPY: u8>(&mut self, k: usize, t: Self::T, update: bool, live: &[bool; W], u: &Self::U, dt: Self::T) -> Self::X;
+    /// there by [`Self::go_on`]), written into `next`.
+    #[allow(clippy::too_many_arguments)]
+    fn step<const COPY: u8>(&mut self, k: usize, t: Self::T, update: bool, live: &[bool; W], u: &Self::U, dt: Self::T, next: &mut Self::X);
+    /// Every lane's state now.
+    fn state(&self) -> &Self::X;
     /// What ends each lane at `next` under `u` besides a fall (None: nothing can).
     fn halts<const COPY: u8>(&self, next: &Self::X, u: &Self::U) -> Option<[Option<Halt>; W]>;
     /// Moves the lanes that go on (alive, `next` finite and its pitch within `fall_limit`)
@@ -116,6 +119,12 @@ where
     let u = &mut u.0;
     let mut alive = active;
     let mut ended: Ended<H::T, W> = [(End::Fell, c::<H::T>(0.0), 0); W];
+    // Each step's new state, written in place by `step`. (Returned, the lanes' new state was
+    // copied from the kernels' own arrays: `memcpy` calls of 512 or 896 bytes every step in
+    // the `avx2` copy. Wrapped in `Aligned`, it was copied there too: 896 bytes a step in the
+    // planar kernels, with a `vzeroupper` before and the loop's registers reloaded after, and
+    // circle-pid swept at 0.91x.)
+    let mut next = *hooks.state();
     for k in 0..n {
         let t = dt * c::<H::T>(k as f64);
         if k % STOP_CHECK_STEPS == 0 && k > 0 && should_stop() {
@@ -142,11 +151,8 @@ where
             }
         }
         hooks.observe(&alive, t, controller, u, &r);
-        // Not wrapped in `Aligned`: wrapped, the lanes' new state was copied there from
-        // `step`'s own array every step (a `memcpy` call, 896 bytes in the planar kernels,
-        // with a `vzeroupper` before it and the loop's registers reloaded after), and
-        // circle-pid swept at 0.91x.
-        let next = &hooks.step::<COPY>(k, t, update, &alive, u, dt);
+        hooks.step::<COPY>(k, t, update, &alive, u, dt, &mut next);
+        let next = &next;
         let halts = hooks.halts::<COPY>(next, u);
         // Lanes that go on take the new state; the few that end are handled below.
         // (The lanes' `go_on`, not an array of the lanes that end: with one, the 2-DOF LQR

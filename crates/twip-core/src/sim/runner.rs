@@ -587,17 +587,21 @@ where
     }
 
     #[inline(always)]
-    fn step<const COPY: u8>(&mut self, _: usize, t: T, update: bool, _: &[bool; 1], _: &SVector<T, NU>, dt: T) -> SVector<T, NX> {
+    fn step<const COPY: u8>(&mut self, _: usize, t: T, update: bool, _: &[bool; 1], _: &SVector<T, NU>, dt: T, next: &mut SVector<T, NX>) {
         let (plant, u) = (&mut *self.plant, &self.held.u);
         self.observer.drive(&self.signals.delivered(plant, &self.x, u), update.then_some(self.held.beyond[0]));
         let k1 = plant.between_steps_with_derivative(t, dt, &mut self.x, u).unwrap_or_else(|| plant.deriv(&self.x, u));
         self.sensor.sample(t, &self.x, &k1);
-        let next = rk4_step_from_k1(&*plant, &self.x, u, dt, &k1);
-        plant.step_ended(&next);
+        *next = rk4_step_from_k1(&*plant, &self.x, u, dt, &k1);
+        plant.step_ended(next);
         // What the encoders on the motor shafts add from here on: the next read's and the
         // observations' (set here, where the plant's trains change).
         self.sensor.shaft_offsets(plant.shaft_offsets());
-        next
+    }
+
+    #[inline(always)]
+    fn state(&self) -> &SVector<T, NX> {
+        &self.x
     }
 
     #[inline(always)]

@@ -36,17 +36,26 @@ pub(crate) fn where_live(live: &[bool; LANES], mut observe: impl FnMut(&[bool; L
     }
 }
 
-/// `step` where every `live` lane says it holds (`holds`, the step's own check per lane, a
-/// [`mask`]), else None: a fast step that a loop over lanes cannot branch on per lane, checked
-/// after it. On masks, not `bool`s: with `bool` flags, the check's lines held 10.6 % of the
-/// `avx512` LQR kernel's samples (bytes packed into mask bits one lane at a time); on masks the
-/// `avx512` LQR lanes ran 1.081x, the fuzzy lanes 1.045x, circle-pid 1.00x (an AVX-512 EPYC,
-/// `sweep_throughput`, 6 alternated pairs).
+/// `fast`'s step where every `live` lane says it holds (`fast` writes the step's own check per
+/// lane into `holds`, a [`mask`]), else `slow`'s: a fast step that a loop over lanes cannot
+/// branch on per lane, checked after it. On masks, not `bool`s: with `bool` flags, the check's
+/// lines held 10.6 % of the `avx512` LQR kernel's samples (bytes packed into mask bits one lane
+/// at a time); on masks the `avx512` LQR lanes ran 1.081x, the fuzzy lanes 1.045x, circle-pid
+/// 1.00x (an AVX-512 EPYC, `sweep_throughput`, 6 alternated pairs). Both write the step into
+/// `step`, the loop's own array: handed on in a tuple with its checks, then an `Option`, then
+/// returned, it was copied up to three times a step, by `memcpy` calls in the `avx2` copy (5-6 %
+/// of its LQR lanes' profile). `fast` is an `#[inline(always)]` closure: left to the compiler,
+/// the 3-DOF step's was built out of line without the kernel copy's instructions (a call per
+/// multiply-add; circle-pid's lanes at 0.06x).
 #[inline(always)]
-pub(crate) fn if_every_live<T>(live: &[bool; LANES], (step, holds): (T, [u64; LANES])) -> Option<T> {
+pub(crate) fn fast_where_every_live<T>(live: &[bool; LANES], step: &mut T, fast: impl FnOnce(&mut T, &mut [u64; LANES]), slow: impl FnOnce(&mut T)) {
+    let mut holds = [u64::MAX; LANES];
+    fast(step, &mut holds);
     let mut all = u64::MAX;
     for l in 0..LANES {
         all &= holds[l] | !mask(live[l]);
     }
-    (all == u64::MAX).then_some(step)
+    if all != u64::MAX {
+        slow(step);
+    }
 }

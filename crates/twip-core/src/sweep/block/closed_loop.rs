@@ -64,16 +64,16 @@ pub(super) trait Plant {
     /// What the metrics observe as the input, the law's input being `u`: the command the
     /// plants get now (a delayed rig's: the last period's).
     fn command<'s>(&'s self, u: &'s U<Self::Shape>) -> &'s U<Self::Shape>;
-    /// Step `k` (of `dt`) under the input held, on every lane: the new state (the caller moves
-    /// the lanes that go on there). A rig tells `drive` what its plants got at the step's start
-    /// and whether each lane's command is beyond its driver (`Observer::drive`); ideal plants
-    /// get `u`, and do not.
-    fn step<const COPY: u8>(&mut self, k: usize, u: &U<Self::Shape>, dt: f64, drive: impl FnOnce(&U<Self::Shape>, &[bool; LANES])) -> X<Self::Shape>;
+    /// Step `k` (of `dt`) under the input held, on every lane: the new state, into `next` (the
+    /// caller moves the lanes that go on there). A rig tells `drive` what its plants got at the
+    /// step's start and whether each lane's command is beyond its driver (`Observer::drive`);
+    /// ideal plants get `u`, and do not.
+    fn step<const COPY: u8>(&mut self, k: usize, u: &U<Self::Shape>, dt: f64, drive: impl FnOnce(&U<Self::Shape>, &[bool; LANES]), next: &mut X<Self::Shape>);
     /// [`Self::step`], knowing which lanes are `live` (only their new states count).
     #[inline(always)]
-    fn step_live<const COPY: u8>(&mut self, k: usize, u: &U<Self::Shape>, dt: f64, live: &[bool; LANES], drive: impl FnOnce(&U<Self::Shape>, &[bool; LANES])) -> X<Self::Shape> {
+    fn step_live<const COPY: u8>(&mut self, k: usize, u: &U<Self::Shape>, dt: f64, live: &[bool; LANES], drive: impl FnOnce(&U<Self::Shape>, &[bool; LANES]), next: &mut X<Self::Shape>) {
         let _ = live;
-        self.step::<COPY>(k, u, dt, drive)
+        self.step::<COPY>(k, u, dt, drive, next);
     }
     /// What ends each lane at `next` under `u` besides a fall (None: nothing can).
     fn halts<const COPY: u8>(&self, next: &X<Self::Shape>, u: &U<Self::Shape>) -> Option<[Option<Halt>; LANES]>;
@@ -175,9 +175,14 @@ where
     }
 
     #[inline(always)]
-    fn step<const COPY: u8>(&mut self, k: usize, _: f64, update: bool, live: &[bool; LANES], u: &Self::U, dt: f64) -> [Lanes; NX] {
+    fn step<const COPY: u8>(&mut self, k: usize, _: f64, update: bool, live: &[bool; LANES], u: &Self::U, dt: f64, next: &mut [Lanes; NX]) {
         let Self { plant, observer } = self;
-        plant.step_live::<COPY>(k, u, dt, live, |delivered, beyond| observer.drive(live, delivered, update, beyond))
+        plant.step_live::<COPY>(k, u, dt, live, |delivered, beyond| observer.drive(live, delivered, update, beyond), next);
+    }
+
+    #[inline(always)]
+    fn state(&self) -> &[Lanes; NX] {
+        self.plant.state()
     }
 
     #[inline(always)]

@@ -27,7 +27,7 @@ use core::cell::Cell;
 use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::{pitch_band, steady_pitch, Aim, DrivePeaks, SlopeSummary, Tally};
 use crate::sim::runner::SimConfig;
-use crate::sweep::lanes::{if_every_live, mask, where_live, Lanes, LANES};
+use crate::sweep::lanes::{fast_where_every_live, mask, where_live, Lanes, LANES};
 use crate::sweep::{Sample, SampleMetrics, SweepMetrics};
 use crate::TwipError;
 use core::sync::atomic::{AtomicU8, Ordering};
@@ -148,34 +148,40 @@ impl Plants {
     /// operations that the CPU overlaps. (Measured faster than RK4 on `Wide` chunks.)
     #[inline(always)]
     pub(crate) fn rk4(&self, x: &[Lanes; 4], u: &Lanes, dt: f64) -> [Lanes; 4] {
-        self.rk4_in::<false>(x, &[[0.0; LANES]; 2], u, dt).0
+        let mut next = [[0.0; LANES]; 4];
+        self.rk4_in::<false>(x, &[[0.0; LANES]; 2], u, dt, &mut next, &mut [u64::MAX; LANES]);
+        next
     }
 
-    /// [`Self::rk4`]'s step where every `live` lane's pitch starts within ±[`UNREDUCED`] and
-    /// moves by at most [`SHIFT_LIMIT`] to each later stage, else None (the caller takes
-    /// `rk4`; the other lanes' steps do not count). There sin/cos skip the reduction by π/2
-    /// and the quadrant's rotation, which change nothing there, and every later stage's
-    /// sin/cos is shifted from the first's (`Plant::at_offset`), as `rk4`'s is there: the
-    /// same bits, and each stage's chain shorter. A loop over lanes cannot branch per lane, so
-    /// the range is checked after the step. Measured (new/old CPU time, 6 pairs): unreduced,
+    /// [`Self::rk4`]'s step, into `next`, where every `live` lane's pitch starts within
+    /// ±[`UNREDUCED`] and moves by at most [`SHIFT_LIMIT`] to each later stage, else
+    /// `reduced`'s (the caller's `rk4`; the other lanes' steps do not count), from the first
+    /// stage's sin/cos `pitch` ([`Self::pitch_sin_cos`] of `x`, taken before for the law too).
+    /// There sin/cos skip the reduction by π/2 and the quadrant's rotation, which change
+    /// nothing there, and every later stage's sin/cos is shifted from the first's
+    /// (`Plant::at_offset`), as `rk4`'s is there: the same bits, and each stage's chain
+    /// shorter. A loop over lanes cannot branch per lane, so the range is checked after the
+    /// step. Measured (new/old CPU time, 6 pairs): unreduced,
     /// LQR lanes 1.055x, fuzzy 1.095x on `avx512`, 1.083x and 1.067x on its forced `avx2`
     /// copy (an AVX-512 EPYC); on an AVX2-only EPYC (`avx2`) 1.052x and 1.187x; then shifted,
     /// 1.086x and 1.066x on `avx512`, 1.040x and 1.018x on `avx2`, on an AVX-512 EPYC
     /// (docs/performance.md).
     #[inline(always)]
-    pub(crate) fn rk4_unreduced(&self, x: &[Lanes; 4], u: &Lanes, dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 4]> {
-        self.rk4_unreduced_from(x, &self.pitch_sin_cos(x), u, dt, live)
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn rk4_unreduced_into(&self, x: &[Lanes; 4], pitch: &[Lanes; 2], u: &Lanes, dt: f64, live: &[bool; LANES], next: &mut [Lanes; 4], reduced: impl FnOnce(&mut [Lanes; 4])) {
+        fast_where_every_live(live, next, #[inline(always)] |next, inside| self.rk4_in::<true>(x, pitch, u, dt, next, inside), reduced)
     }
 
-    /// [`Self::rk4_unreduced`] from the first stage's sin/cos `pitch` ([`Self::pitch_sin_cos`]
-    /// of `x`), taken before for the law too.
-    #[inline(always)]
-    pub(crate) fn rk4_unreduced_from(&self, x: &[Lanes; 4], pitch: &[Lanes; 2], u: &Lanes, dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 4]> {
-        if_every_live(live, self.rk4_in::<true>(x, pitch, u, dt))
+    /// [`Self::rk4_unreduced_into`]'s step, None where it would take the reduced one.
+    #[cfg(test)]
+    fn rk4_unreduced(&self, x: &[Lanes; 4], u: &Lanes, dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 4]> {
+        let (mut next, mut reduced) = ([[f64::NAN; LANES]; 4], false);
+        self.rk4_unreduced_into(x, &self.pitch_sin_cos(x), u, dt, live, &mut next, |_| reduced = true);
+        (!reduced).then_some(next)
     }
 
     /// sin and cos of every lane's pitch x[0] without the reduction by π/2: right where
-    /// |x[0]| ≤ [`UNREDUCED`], which [`Self::rk4_unreduced_from`] checks.
+    /// |x[0]| ≤ [`UNREDUCED`], which [`Self::rk4_unreduced_into`] checks.
     #[inline(always)]
     pub(crate) fn pitch_sin_cos(&self, x: &[Lanes; 4]) -> [Lanes; 2] {
         let terms = self.sin_cos_terms();
@@ -186,15 +192,15 @@ impl Plants {
         out
     }
 
-    /// The step, with sin/cos unreduced or not, and whether each lane's pitch started within
-    /// ±[`UNREDUCED`] and moved by at most [`SHIFT_LIMIT`] a stage, as a [`mask`] (unreduced;
-    /// else all ones on every lane). `pitch`: the first stage's sin/cos, read when unreduced
-    /// (the reduced step takes its own).
+    /// The step into `out`, with sin/cos unreduced or not, and whether each lane's pitch started
+    /// within ±[`UNREDUCED`] and moved by at most [`SHIFT_LIMIT`] a stage, as a [`mask`] in
+    /// `inside` (unreduced; else left as it is). `pitch`: the first stage's sin/cos, read when
+    /// unreduced (the reduced step takes its own).
     #[inline(always)]
-    fn rk4_in<const UNREDUCED_SIN: bool>(&self, x: &[Lanes; 4], pitch: &[Lanes; 2], u: &Lanes, dt: f64) -> ([Lanes; 4], [u64; LANES]) {
+    #[allow(clippy::too_many_arguments)]
+    fn rk4_in<const UNREDUCED_SIN: bool>(&self, x: &[Lanes; 4], pitch: &[Lanes; 2], u: &Lanes, dt: f64, out: &mut [Lanes; 4], inside: &mut [u64; LANES]) {
         const HALF: usize = LANES / 2;
-        let mut out = [[0.0; LANES]; 4];
-        let mut inside = [u64::MAX; LANES];
+        let mut lanes_inside = [u64::MAX; LANES];
         let state = |l: usize| [Fused(x[0][l]), Fused(x[1][l]), Fused(x[2][l]), Fused(x[3][l])];
         let terms = self.sin_cos_terms();
         let plant = |l: usize| Plant::<UNREDUCED_SIN> {
@@ -215,9 +221,11 @@ impl Plants {
                 out[i][l] = next_a[i].0;
                 out[i][m] = next_b[i].0;
             }
-            (inside[l], inside[m]) = (pa.inside.get(), pb.inside.get());
+            (lanes_inside[l], lanes_inside[m]) = (pa.inside.get(), pb.inside.get());
         }
-        (out, inside)
+        if UNREDUCED_SIN {
+            *inside = lanes_inside;
+        }
     }
 }
 
@@ -779,25 +787,20 @@ impl closed_loop::Plant for SlopePlants<'_> {
     }
 
     #[inline(always)]
-    fn step<const COPY: u8>(&mut self, _: usize, u: &Lanes, dt: f64, _: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
+    fn step<const COPY: u8>(&mut self, _: usize, u: &Lanes, dt: f64, _: impl FnOnce(&Lanes, &[bool; LANES]), next: &mut [Lanes; 4]) {
         // The reduced step takes its own sin/cos; the pitch's, of this x, must not outlive it.
         *self.pitch = None;
-        self.plants.rk4(self.x, u, dt)
+        *next = self.plants.rk4(self.x, u, dt);
     }
 
-    /// Unreduced sin/cos where the live lanes allow (`Plants::rk4_unreduced`), else the
+    /// Unreduced sin/cos where the live lanes allow (`Plants::rk4_unreduced_into`), else the
     /// step again with the reduction (rare: a pitch past ±0.78 rad; asked out of line, but
     /// the 2-DOF kernels keep it inline, `objdump`).
     #[inline(always)]
-    fn step_live<const COPY: u8>(&mut self, _: usize, u: &Lanes, dt: f64, live: &[bool; LANES], _: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
+    fn step_live<const COPY: u8>(&mut self, _: usize, u: &Lanes, dt: f64, live: &[bool; LANES], _: impl FnOnce(&Lanes, &[bool; LANES]), next: &mut [Lanes; 4]) {
         let pitch = self.pitch.take().unwrap_or_else(|| self.plants.pitch_sin_cos(self.x));
-        match self.plants.rk4_unreduced_from(self.x, &pitch, u, dt, live) {
-            Some(next) => next,
-            None => out_of_line_in::<COPY, _>(
-                #[inline(always)]
-                || self.plants.rk4(self.x, u, dt),
-            ),
-        }
+        let (plants, x) = (&self.plants, &*self.x);
+        plants.rk4_unreduced_into(x, &pitch, u, dt, live, next, |next| *next = out_of_line_in::<COPY, _>(#[inline(always)] || plants.rk4(x, u, dt)));
     }
 
     #[inline(always)]

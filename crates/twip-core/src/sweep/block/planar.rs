@@ -27,7 +27,7 @@ use crate::sim::drive_metrics::{DriveTally, DRIVE_TALLIES};
 use crate::sim::metrics::DrivePeaks;
 use crate::sim::runner::SimConfig;
 use crate::sim::tracking_metrics::{TrackingTally, TRACKING_TALLIES};
-use crate::sweep::lanes::{if_every_live, mask, where_live, Lanes, LANES};
+use crate::sweep::lanes::{fast_where_every_live, mask, where_live, Lanes, LANES};
 use crate::sweep::planar::{PlanarSample, PlanarSampleMetrics};
 use crate::sweep::SweepMetrics;
 use crate::TwipError;
@@ -130,37 +130,49 @@ impl Plants {
     /// spills registers.)
     #[inline(always)]
     pub(crate) fn rk4(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7] {
-        self.rk4_in::<false>(x, u, dt).0
+        let mut next = [[0.0; LANES]; 7];
+        self.rk4_in::<false>(x, u, dt, &mut next, &mut [u64::MAX; LANES]);
+        next
     }
 
-    /// [`Self::rk4`]'s step where every `live` lane's pitch starts within ±[`UNREDUCED`] and
-    /// its pitch and heading move by at most `math::SHIFT_LIMIT` to each later stage, else None
-    /// (the caller takes `rk4`; the other lanes' steps do not count). There the first pitch's
-    /// sin/cos skips the reduction by π/2 and the quadrant's rotation, which change nothing
+    /// [`Self::rk4`]'s step, into `next`, where every `live` lane's pitch starts within
+    /// ±[`UNREDUCED`] and its pitch and heading move by at most `math::SHIFT_LIMIT` to each
+    /// later stage, else `full`'s (the caller's `rk4`; the other lanes' steps do not count).
+    /// There the first pitch's sin/cos skips the reduction by π/2 and the quadrant's rotation, which change nothing
     /// there, and every later stage's sin/cos is only shifted from the first's
     /// (`Plant::at_offset`), as `rk4`'s is there: the same bits, with two reduced sin/cos a
     /// stage fewer. A loop over lanes cannot branch per lane, so this is checked after the
     /// step.
     #[inline(always)]
-    pub(crate) fn rk4_shifted(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 7]> {
-        if_every_live(live, self.rk4_in::<true>(x, u, dt))
+    pub(crate) fn rk4_shifted_into(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES], next: &mut [Lanes; 7], full: impl FnOnce(&mut [Lanes; 7])) {
+        fast_where_every_live(live, next, #[inline(always)] |next, near| self.rk4_in::<true>(x, u, dt, next, near), full)
+    }
+
+    /// [`Self::rk4_shifted_into`]'s step, None where it would take the full one.
+    #[cfg(test)]
+    fn rk4_shifted(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES]) -> Option<[Lanes; 7]> {
+        let (mut next, mut full) = ([[f64::NAN; LANES]; 7], false);
+        self.rk4_shifted_into(x, u, dt, live, &mut next, |_| full = true);
+        (!full).then_some(next)
     }
 
     /// The step, with the later stages' sin/cos shifted only (and the first pitch's unreduced)
     /// or not, and whether each lane's pitch started within ±[`UNREDUCED`] and its shifts were
-    /// within `math::SHIFT_LIMIT`, as a `mask` (shifted only; else all ones on every lane).
+    /// within `math::SHIFT_LIMIT`, as a `mask` in `near` (shifted only; else left as it is),
+    /// the step into `out`.
     #[inline(always)]
-    fn rk4_in<const SHIFTED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> ([Lanes; 7], [u64; LANES]) {
-        let mut out = [[0.0; LANES]; 7];
-        let mut near = [u64::MAX; LANES];
+    fn rk4_in<const SHIFTED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, out: &mut [Lanes; 7], near: &mut [u64; LANES]) {
+        let mut lanes_near = [u64::MAX; LANES];
         for l in 0..LANES {
             let (next, lane_near) = self.rk4_lane_in::<SHIFTED>(x, u, l, dt);
             for i in 0..7 {
                 out[i][l] = next[i].0;
             }
-            near[l] = lane_near;
+            lanes_near[l] = lane_near;
         }
-        (out, near)
+        if SHIFTED {
+            *near = lanes_near;
+        }
     }
 
     /// Lane `l`'s RK4 step, the inputs held. Always inlined: out of line it would be built
@@ -196,7 +208,8 @@ struct Plant<const SHIFTED: bool> {
 impl<const SHIFTED: bool> Field<Fused, 7> for Plant<SHIFTED> {
     #[inline(always)]
     fn at(&self, x: &[Fused; 7]) -> [Fused; 7] {
-        // Shifted only, the pitch unreduced where it may be (the same bits: `Plants::rk4_shifted`).
+        // Shifted only, the pitch unreduced where it may be (the same bits:
+        // `Plants::rk4_shifted_into`).
         let pitch = if SHIFTED {
             // NaN is not near.
             self.near.set(self.near.get() & mask(x[3].0.abs() <= UNREDUCED));
@@ -383,11 +396,12 @@ pub trait BlockGround {
     fn valid(&self, l: usize) -> bool;
     /// One RK4 step, the inputs held, on every lane.
     fn rk4(&self, plants: &Plants, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64) -> [Lanes; 7];
-    /// [`Self::rk4`], knowing which lanes are `live` (only their new states count).
+    /// [`Self::rk4`] into `next`, knowing which lanes are `live` (only their new states count).
     #[inline(always)]
-    fn rk4_live(&self, plants: &Plants, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES]) -> [Lanes; 7] {
+    #[allow(clippy::too_many_arguments)]
+    fn rk4_live(&self, plants: &Plants, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES], next: &mut [Lanes; 7]) {
         let _ = live;
-        self.rk4(plants, x, u, dt)
+        *next = self.rk4(plants, x, u, dt);
     }
     /// What ends each lane at `next` under `u` besides a fall (None: nothing can).
     fn halts(&self, plants: &Plants, next: &[Lanes; 7], u: &[Lanes; 2]) -> Option<[Option<Halt>; LANES]>;
@@ -410,11 +424,12 @@ impl BlockGround for Flat {
     }
 
     /// The later stages' sin/cos shifted only where the live lanes allow
-    /// (`Plants::rk4_shifted`), else the step again with each stage's own where needed (rare:
-    /// a stage's pitch or heading moving by more than `SHIFT_LIMIT`).
+    /// (`Plants::rk4_shifted_into`), else the step again with each stage's own where needed
+    /// (rare: a stage's pitch or heading moving by more than `SHIFT_LIMIT`).
     #[inline(always)]
-    fn rk4_live(&self, plants: &Plants, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES]) -> [Lanes; 7] {
-        plants.rk4_shifted(x, u, dt, live).unwrap_or_else(|| plants.rk4(x, u, dt))
+    #[allow(clippy::too_many_arguments)]
+    fn rk4_live(&self, plants: &Plants, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES], next: &mut [Lanes; 7]) {
+        plants.rk4_shifted_into(x, u, dt, live, next, |next| *next = plants.rk4(x, u, dt));
     }
 
     #[inline(always)]
@@ -499,13 +514,13 @@ impl<G: BlockGround> closed_loop::Plant for PlanarPlants<'_, G> {
     }
 
     #[inline(always)]
-    fn step<const COPY: u8>(&mut self, _: usize, u: &[Lanes; 2], dt: f64, _: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
-        self.ground.rk4(self.plants, self.x, u, dt)
+    fn step<const COPY: u8>(&mut self, _: usize, u: &[Lanes; 2], dt: f64, _: impl FnOnce(&[Lanes; 2], &[bool; LANES]), next: &mut [Lanes; 7]) {
+        *next = self.ground.rk4(self.plants, self.x, u, dt);
     }
 
     #[inline(always)]
-    fn step_live<const COPY: u8>(&mut self, _: usize, u: &[Lanes; 2], dt: f64, live: &[bool; LANES], _: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
-        self.ground.rk4_live(self.plants, self.x, u, dt, live)
+    fn step_live<const COPY: u8>(&mut self, _: usize, u: &[Lanes; 2], dt: f64, live: &[bool; LANES], _: impl FnOnce(&[Lanes; 2], &[bool; LANES]), next: &mut [Lanes; 7]) {
+        self.ground.rk4_live(self.plants, self.x, u, dt, live, next);
     }
 
     #[inline(always)]

@@ -134,10 +134,10 @@ impl Plant for PlanarRigPlant<'_> {
     }
 
     #[inline(always)]
-    fn step<const COPY: u8>(&mut self, k: usize, _: &[Lanes; 2], _: f64, drive: impl FnOnce(&[Lanes; 2], &[bool; LANES])) -> [Lanes; 7] {
-        let (next, delivered) = self.rig.step::<COPY>(k);
+    fn step<const COPY: u8>(&mut self, k: usize, _: &[Lanes; 2], _: f64, drive: impl FnOnce(&[Lanes; 2], &[bool; LANES]), next: &mut [Lanes; 7]) {
+        let delivered;
+        (*next, delivered) = self.rig.step::<COPY>(k);
         drive(&delivered, self.rig.context.beyond());
-        next
     }
 
     #[inline(always)]

@@ -139,10 +139,10 @@ impl Plant for RigPlant<'_> {
     }
 
     #[inline(always)]
-    fn step<const COPY: u8>(&mut self, k: usize, _: &Lanes, _: f64, drive: impl FnOnce(&Lanes, &[bool; LANES])) -> [Lanes; 4] {
-        let (next, delivered) = self.0.step::<COPY>(k);
+    fn step<const COPY: u8>(&mut self, k: usize, _: &Lanes, _: f64, drive: impl FnOnce(&Lanes, &[bool; LANES]), next: &mut [Lanes; 4]) {
+        let delivered;
+        (*next, delivered) = self.0.step::<COPY>(k);
         drive(&delivered, self.0.context.beyond());
-        next
     }
 
     #[inline(always)]
