@@ -47,10 +47,8 @@ impl LanePlant for Plants {
     const PITCH: usize = 0;
 
     #[inline(always)]
-    fn rk4_lanes(&self, x: &[Lanes; 4], u: &[Lanes; 1], dt: f64, live: &[bool; LANES]) -> [Lanes; 4] {
-        let mut next = [[0.0; LANES]; 4];
-        self.rk4_unreduced_into(x, &self.pitch_sin_cos(x), &u[0], dt, live, &mut next, |next| *next = self.rk4(x, &u[0], dt));
-        next
+    fn rk4_lanes(&self, x: &[Lanes; 4], u: &[Lanes; 1], dt: f64, live: &[bool; LANES], next: &mut [Lanes; 4]) {
+        self.rk4_unreduced_into(x, &self.pitch_sin_cos(x), &u[0], dt, live, next, |next| *next = self.rk4(x, &u[0], dt));
     }
 }
 

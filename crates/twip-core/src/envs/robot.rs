@@ -12,9 +12,9 @@ pub trait LanePlant {
     type Input;
     /// The state entry of the pitch φ (the fall test).
     const PITCH: usize;
-    /// One RK4 step on every lane; only the `live` lanes' new states count (the sweeps' fast
-    /// step, checked over them).
-    fn rk4_lanes(&self, x: &Self::State, u: &Self::Input, dt: f64, live: &[bool; LANES]) -> Self::State;
+    /// One RK4 step on every lane, into `next`; only the `live` lanes' new states count (the
+    /// sweeps' fast step, checked over them).
+    fn rk4_lanes(&self, x: &Self::State, u: &Self::Input, dt: f64, live: &[bool; LANES], next: &mut Self::State);
 }
 
 multiversioned! {
@@ -38,8 +38,10 @@ fn advance<P: LanePlant>(plants: &P, x: &mut P::State, u: &P::Input, steps: usiz
     // (a loop over the lanes for each entry) with `bool` flags, the AVX-512 copy tested and
     // selected with gathers and scalar moves: a third of Track-v0's period (`perf annotate`).
     let mut alive = [u64::MAX; LANES];
+    // Each step's new state, written in place (as the sweeps' loop keeps it).
+    let mut next = *x;
     for _ in 0..steps {
-        let next = plants.rk4_lanes(x, u, dt, &alive.map(|a| a != 0));
+        plants.rk4_lanes(x, u, dt, &alive.map(|a| a != 0), &mut next);
         let (next, x) = (next.as_ref(), x.as_mut());
         for l in 0..LANES {
             let mut take = alive[l];

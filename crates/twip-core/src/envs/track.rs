@@ -60,9 +60,8 @@ impl LanePlant for PlanarPlants {
     /// l + LANES/2): two independent chains of dependent operations (each RK4 stage waits
     /// on the last one's divisions) that the CPU overlaps, as the 2-DOF block's RK4 does.
     #[inline(always)]
-    fn rk4_lanes(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES]) -> [Lanes; 7] {
-        let mut next = [[0.0; LANES]; 7];
-        self.rk4_shifted_into(x, u, dt, live, &mut next, |out| {
+    fn rk4_lanes(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES], next: &mut [Lanes; 7]) {
+        self.rk4_shifted_into(x, u, dt, live, next, |out| {
             const HALF: usize = LANES / 2;
             for l in 0..HALF {
                 let (a, b) = (self.rk4_lane(x, u, l, dt), self.rk4_lane(x, u, l + HALF, dt));
@@ -72,7 +71,6 @@ impl LanePlant for PlanarPlants {
                 }
             }
         });
-        next
     }
 }
 
