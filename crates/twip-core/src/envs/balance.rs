@@ -48,7 +48,7 @@ impl LanePlant for Plants {
 
     #[inline(always)]
     fn rk4_lanes(&self, x: &[Lanes; 4], u: &[Lanes; 1], dt: f64, live: &[bool; LANES], next: &mut [Lanes; 4]) {
-        self.rk4_unreduced_into(x, &self.pitch_sin_cos(x), &u[0], dt, live, next, |next| *next = self.rk4(x, &u[0], dt));
+        self.rk4_unreduced_into(x, &self.pitch_sin_cos(x), &u[0], dt, live, next, #[inline(always)] |next| *next = self.rk4(x, &u[0], dt));
     }
 }
 

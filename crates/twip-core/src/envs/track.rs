@@ -61,7 +61,7 @@ impl LanePlant for PlanarPlants {
     /// on the last one's divisions) that the CPU overlaps, as the 2-DOF block's RK4 does.
     #[inline(always)]
     fn rk4_lanes(&self, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES], next: &mut [Lanes; 7]) {
-        self.rk4_shifted_into(x, u, dt, live, next, |out| {
+        self.rk4_shifted_into(x, u, dt, live, next, #[inline(always)] |out| {
             const HALF: usize = LANES / 2;
             for l in 0..HALF {
                 let (a, b) = (self.rk4_lane(x, u, l, dt), self.rk4_lane(x, u, l + HALF, dt));

@@ -44,9 +44,11 @@ pub(crate) fn where_live(live: &[bool; LANES], mut observe: impl FnMut(&[bool; L
 /// 1.00x (an AVX-512 EPYC, `sweep_throughput`, 6 alternated pairs). Both write the step into
 /// `step`, the loop's own array: handed on in a tuple with its checks, then an `Option`, then
 /// returned, it was copied up to three times a step, by `memcpy` calls in the `avx2` copy (5-6 %
-/// of its LQR lanes' profile). `fast` is an `#[inline(always)]` closure: left to the compiler,
-/// the 3-DOF step's was built out of line without the kernel copy's instructions (a call per
-/// multiply-add; circle-pid's lanes at 0.06x).
+/// of its LQR lanes' profile). `fast` and `slow` are `#[inline(always)]` closures (or `slow`
+/// calls a copy's own function): left to the compiler, the 3-DOF step's `fast` was built out
+/// of line without the kernel copy's instructions (a call per multiply-add; circle-pid's lanes
+/// at 0.06x), and so was the planar kernels' and the envs' `slow` (`nm`: their closures had
+/// symbols of their own).
 #[inline(always)]
 pub(crate) fn fast_where_every_live<T>(live: &[bool; LANES], step: &mut T, fast: impl FnOnce(&mut T, &mut [u64; LANES]), slow: impl FnOnce(&mut T)) {
     let mut holds = [u64::MAX; LANES];

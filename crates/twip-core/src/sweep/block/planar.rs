@@ -429,7 +429,7 @@ impl BlockGround for Flat {
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn rk4_live(&self, plants: &Plants, x: &[Lanes; 7], u: &[Lanes; 2], dt: f64, live: &[bool; LANES], next: &mut [Lanes; 7]) {
-        plants.rk4_shifted_into(x, u, dt, live, next, |next| *next = plants.rk4(x, u, dt));
+        plants.rk4_shifted_into(x, u, dt, live, next, #[inline(always)] |next| *next = plants.rk4(x, u, dt));
     }
 
     #[inline(always)]
