@@ -132,8 +132,8 @@ test-python: build
 # 178 s); one of bfff89e (thirty-fourth session, each step written in place), 617 s (pytest
 # 178 s); one of 1e38f69 (the same code), `make demo` 311 s, then `make test` 408 s; one of
 # 3968687 (the envs' step in place), `make test` alone 740 s (its Rust lib tests ran 179 s against
-# 159 s and pytest 193 s against 178 s at bfff89e: a slower hour). What was tried for the wheel
-# is in Cargo.toml;
+# 159 s and pytest 193 s against 178 s at bfff89e: a slower hour); one of e326b02 (the review's
+# mend), `make test` alone 670 s (pytest 176 s). What was tried for the wheel is in Cargo.toml;
 # built at opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than
 # the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
