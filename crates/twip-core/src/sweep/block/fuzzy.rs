@@ -16,22 +16,17 @@ use crate::sweep::lanes::{Lanes, LANES};
 #[derive(Clone, Debug)]
 pub struct FuzzyLanes {
     controller: FuzzyController<f64>,
-    law: Width,
+    law: Constants<LAW_WIDTH>,
     /// (θ̇_ref, φ_s) of the last reference speed.
     steady: Option<(f64, f64)>,
 }
 
-/// The law's constants, and how many lanes it takes at a time (which changes no lane's
-/// numbers). Trapezoids take 4 where vectors hold fewer than 8 f64: at 8, the law's nine
-/// weights and nine ξ (two AVX2 registers each) spilled to the stack, and the AVX2 kernel
-/// measured 0.90x the time at 4 (1.00x once the weights stayed in the frame, `FuzzyState`).
-/// Gaussians take 8: at 4 they measured 1.12x the time. On AVX-512, 16 at a time measured
-/// 0.93x the speed of 8 and 4 0.87x (`sweep_throughput fuzzy-lanes`, 8 alternated runs).
-#[derive(Clone, Debug)]
-enum Width {
-    Four(Constants<4>),
-    Eight(Constants<8>),
-}
+/// How many lanes the law takes at a time, on every copy and for every set (which changes no
+/// lane's numbers). On AVX-512, 16 at a time measured 0.93x the speed of 8 and 4 0.87x
+/// (`sweep_throughput fuzzy-lanes`, 8 alternated runs); Gaussians at 4 took 1.12x the time of
+/// 8 on AVX2. The thesis's trapezoids took 4 on AVX2 and the baseline copy until a real AVX2
+/// CPU (a Zen 3 EPYC) measured 8 at 1.074x (10 rounds; the baseline copy 1.056x, 4 rounds).
+const LAW_WIDTH: usize = 8;
 
 /// The law's gains, sets and model in `Wide<N>` numbers.
 #[derive(Clone, Debug)]
@@ -177,12 +172,6 @@ pub struct FuzzyState {
     e_int: Lanes,
 }
 
-/// Whether the kernels' vectors hold fewer than 8 f64 (x86-64 running the AVX2 or the
-/// baseline copy; elsewhere, unmeasured, the 8 of before).
-fn narrow_vectors() -> bool {
-    cfg!(target_arch = "x86_64") && super::KernelCopy::active() != super::KernelCopy::Avx512
-}
-
 impl<const N: usize> Constants<N> {
     fn new(prototype: &FuzzyController<f64>) -> Self {
         let g = prototype.gains();
@@ -280,14 +269,7 @@ impl<const N: usize> Constants<N> {
 impl FuzzyLanes {
     /// Any sets: trapezoids, triangles and Gaussians (whose e^x is the lanes' polynomial).
     pub fn new(prototype: &FuzzyController<f64>) -> Self {
-        let trapezoids = prototype.basis().trapezoids(|v| v).is_some();
-        Self::at_width(prototype, trapezoids && narrow_vectors())
-    }
-
-    /// The law `four` lanes at a time or eight, whatever the sets and the CPU.
-    pub(crate) fn at_width(prototype: &FuzzyController<f64>, four: bool) -> Self {
-        let law = if four { Width::Four(Constants::new(prototype)) } else { Width::Eight(Constants::new(prototype)) };
-        Self { controller: *prototype, law, steady: None }
+        Self { controller: *prototype, law: Constants::new(prototype), steady: None }
     }
 
     /// φ_s at `speed`, as `FuzzyController::update` finds it: cached, since speeds change
@@ -304,10 +286,7 @@ impl FuzzyLanes {
     #[inline(always)]
     fn update_in<const COPY: u8>(&mut self, state: &mut FuzzyState, x: &[Lanes; 4], pitch: Option<&[Lanes; 2]>, r: &SpeedRef<f64>, u: &mut Lanes) {
         let phi_s = self.steady_pitch(r.theta_dot);
-        match &self.law {
-            Width::Four(law) => law.update::<COPY>(&self.controller, phi_s, state, x, pitch, r, u),
-            Width::Eight(law) => law.update::<COPY>(&self.controller, phi_s, state, x, pitch, r, u),
-        }
+        self.law.update::<COPY>(&self.controller, phi_s, state, x, pitch, r, u)
     }
 
     #[cold]
