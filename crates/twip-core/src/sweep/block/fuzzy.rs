@@ -234,7 +234,7 @@ impl<const N: usize> Constants<N> {
         let a = controller.adaptation();
         let (keep, per_z2) = a.euler(controller.period());
         let law = Law {
-            gains: self.gains,
+            gains: &self.gains,
             gamma: Wide::splat(a.gamma),
             keep: Wide::splat(keep),
             per_z2: Wide::splat(per_z2),
