@@ -75,41 +75,54 @@ impl<const N: usize> Member<Wide<N>> for Broadcast {
 
 /// Where one trapezoid of an input holds x alone: inside its top (μ = 1) and strictly outside
 /// every other set's support (μ = +0 exactly there, as `Trapezoid::value` computes it), so the
-/// input's normalised weights are exactly the unit vector of that set. The bounds: x ≥ `from`
-/// and x ≤ `to` (the top), x > `after` and x < `before` (the other sets' supports; a set whose
-/// support covers the whole top leaves no such x: `after` = +∞). ±∞ and NaN are never inside.
+/// input's normalised weights are exactly the unit vector of that set. There x lies in
+/// [`lo`, `hi`]: the top's [b, c] narrowed to the f64 strictly inside the others' supports' gaps
+/// (a set whose support covers the whole top leaves none: `lo` = +∞ > `hi` = −∞). Two compares
+/// a lane, not four; ±∞ beyond the bounds and NaN are never inside.
 #[derive(Clone, Copy, Debug)]
 struct Alone {
-    from: f64,
-    to: f64,
-    after: f64,
-    before: f64,
+    lo: f64,
+    hi: f64,
 }
 
 impl Alone {
     /// Set `j`'s of `sets` (part of its top when another set's support reaches into it).
     fn of(sets: &[Trapezoid<f64>; 3], j: usize) -> Self {
-        let mut alone = Self { from: sets[j].b, to: sets[j].c, after: f64::NEG_INFINITY, before: f64::INFINITY };
+        // x > after and x < before: the f64 above `after` and below `before` (both open bounds).
+        let (mut after, mut before) = (f64::NEG_INFINITY, f64::INFINITY);
         for (k, other) in sets.iter().enumerate() {
             if k == j {
                 continue;
             }
             if other.a > sets[j].b {
-                alone.before = alone.before.min(other.a);
+                before = before.min(other.a);
             } else if other.d < sets[j].c {
-                alone.after = alone.after.max(other.d);
+                after = after.max(other.d);
             } else {
-                alone.after = f64::INFINITY;
+                return Self { lo: f64::INFINITY, hi: f64::NEG_INFINITY };
             }
         }
-        alone
+        Self { lo: sets[j].b.max(next_toward(after, true)), hi: sets[j].c.min(next_toward(before, false)) }
     }
 
     /// Whether this set holds `x` alone.
     #[inline(always)]
     fn holds(&self, x: f64) -> bool {
-        (x >= self.from) & (x <= self.to) & (x > self.after) & (x < self.before)
+        (x >= self.lo) & (x <= self.hi)
     }
+}
+
+/// The f64 next to `x` towards +∞ (`up`) or −∞; ±∞ stay where they are when moving outwards,
+/// and step to ±f64::MAX when moving in.
+fn next_toward(x: f64, up: bool) -> f64 {
+    if x.is_nan() || (x == f64::INFINITY && up) || (x == f64::NEG_INFINITY && !up) {
+        return x;
+    }
+    if x == 0.0 {
+        return if up { f64::from_bits(1) } else { -f64::from_bits(1) };
+    }
+    let bits = x.to_bits();
+    f64::from_bits(if (x > 0.0) == up { bits + 1 } else { bits - 1 })
 }
 
 /// The one set of `alone`'s that holds every lane of `x` alone, if there is one: lane 0's set,
