@@ -24,7 +24,7 @@ pub struct FuzzyLanes {
 /// How many lanes the law takes at a time, on every copy and for every set (which changes no
 /// lane's numbers). On AVX-512, 16 at a time measured 0.93x the speed of 8 and 4 0.87x
 /// (`sweep_throughput fuzzy-lanes`, 8 alternated runs); Gaussians at 4 took 1.12x the time of
-/// 8 on AVX2. The thesis's trapezoids took 4 on AVX2 and the baseline copy until a real AVX2
+/// 8. The thesis's trapezoids took 4 on AVX2 and the baseline copy until a real AVX2
 /// CPU (a Zen 3 EPYC) measured 8 at 1.074x (10 rounds; the baseline copy 1.056x, 4 rounds).
 const LAW_WIDTH: usize = 8;
 
@@ -343,25 +343,13 @@ impl LaneLaw for FuzzyLanes {
 mod tests {
     use super::*;
 
-    /// The next f64 from finite `x` towards +∞ (`up`) or −∞, across zero too; ±∞ and NaN as
-    /// they are.
-    fn beside(x: f64, up: bool) -> f64 {
-        if !x.is_finite() {
-            return x;
-        }
-        if x == 0.0 {
-            return if up { 5e-324 } else { -5e-324 };
-        }
-        f64::from_bits(if (x > 0.0) == up { x.to_bits() + 1 } else { x.to_bits() - 1 })
-    }
-
     /// Inputs that test a set's edges: ±0, ±∞, NaN, far and `outside` values, and each of
     /// `points` (breakpoints and midpoints) with the f64 either side of it.
     fn around(points: impl IntoIterator<Item = f64>, outside: f64) -> Vec<f64> {
         let inf = f64::INFINITY;
         let mut xs = vec![-inf, inf, f64::NAN, 0.0, -0.0, 1e300, -1e300, -outside, outside];
         for p in points {
-            xs.extend([p, beside(p, true), beside(p, false)]);
+            xs.extend([p, next_toward(p, true), next_toward(p, false)]);
         }
         xs
     }
