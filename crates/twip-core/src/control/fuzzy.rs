@@ -328,14 +328,21 @@ impl<S: Lane, B> Law<'_, S, B> {
         let z2 = phi_dot + g.k1 * e1;
         let xi = self.basis.xi(&[phi, phi_dot]);
         let rules = self.basis.rules();
+        // (4.49)'s adaptation waits for z2 alone, not for f̂1, so each weight is read, summed
+        // and adapted in one pass: a weight is then dead once adapted, and the lanes' nine
+        // weights need not all stay live (in registers, or spilled) between two loops.
+        let rate = z2 * self.per_z2;
         // f̂1 = Σ Ŝ_k ξ_k in three running sums (rules k ≡ 0, 1, 2 mod 3): the law's input
         // waits for a chain of three multiply-adds, not nine.
         let mut parts = [S::splat(0.0); 3];
         let mut s_norm2 = S::splat(0.0);
-        for (s3, x3) in s_hat[..rules].chunks(3).zip(xi[..rules].chunks(3)) {
+        for (s3, x3) in s_hat[..rules].chunks_mut(3).zip(xi[..rules].chunks(3)) {
             for ((part, s), x) in parts.iter_mut().zip(s3).zip(x3) {
                 *part = S::madd(*s, *x, *part);
                 s_norm2 = S::madd(*s, *s, s_norm2);
+                if self.adapt {
+                    *s = S::madd(rate, *x, *s * self.keep);
+                }
             }
         }
         let f1_hat = (parts[0] + parts[1]) + parts[2];
@@ -352,12 +359,6 @@ impl<S: Lane, B> Law<'_, S, B> {
         let backstepping = -(f1_hat + known) * inverse_g1;
         let u = backstepping + pd;
         let v2 = half * e1 * e1 + half * z2 * z2 + half * self.gamma * s_norm2;
-        if self.adapt {
-            let rate = z2 * self.per_z2;
-            for (s, x) in s_hat.iter_mut().zip(&xi).take(rules) {
-                *s = S::madd(rate, *x, *s * self.keep);
-            }
-        }
         *e_int = *e_int + self.period * e;
         Step { u, xi, z2, e1, v2, e }
     }
