@@ -7,7 +7,7 @@ use crate::control::fuzzy_grid::{RuleBase, Sized, MAX_RULES, MAX_SETS};
 use crate::control::reference::SpeedRef;
 use crate::control::Controller;
 use super::{chunk, put, state_chunk};
-use crate::model::lane::{fill, Lane, Wide};
+use crate::model::lane::{Lane, Wide};
 use crate::model::math::UNREDUCED;
 use crate::model::slope::SlopeCoefficients;
 use crate::sweep::lanes::{Lanes, LANES};
@@ -172,17 +172,25 @@ fn first_three<M: Copy>(sets: [[M; MAX_SETS]; 2]) -> [[M; 3]; 2] {
 }
 
 /// Each lane's weights Ŝ (one per rule, room for the largest grid, the rest zero) and the
-/// PD's integral, one array per quantity, in the kernel's frame from a cache line's boundary.
+/// PD's integral, in the kernel's frame (vectors from a cache line's boundary), a chunk of the
+/// law's lanes at a time, so that the law reads and writes each chunk's weights where they lie.
 /// In a `Vec` (on the heap, 8-byte aligned), each chunk's weights were copied out to the frame
 /// and back every update, vectors straddling two lines: the `avx2` fuzzy kernel ran 17 % more
 /// instructions (46.5 M against 39.7 M for a block, `cachegrind` of `sweep_throughput
 /// fuzzy-lanes 16`), with `memcpy` calls; the `avx512` one ran within noise of this (1.01x,
-/// 10 paired runs).
+/// 10 paired runs). Held one array per rule across all the lanes, each chunk's weights were
+/// copied into a local array and back: loaded at the update's start, they were spilled
+/// and loaded again.
 #[derive(Clone, Debug)]
-#[repr(C, align(64))]
 pub struct FuzzyState {
-    s_hat: [Lanes; MAX_RULES],
-    e_int: Lanes,
+    chunks: [LawChunk<LAW_WIDTH>; LANES / LAW_WIDTH],
+}
+
+/// One chunk's weights Ŝ and integral (see [`FuzzyState`]).
+#[derive(Clone, Debug)]
+struct LawChunk<const N: usize> {
+    s_hat: [Wide<N>; MAX_RULES],
+    e_int: Wide<N>,
 }
 
 impl<const N: usize> Constants<N> {
@@ -215,7 +223,7 @@ impl<const N: usize> Constants<N> {
     /// sweeps ran at 0.46-0.49x (the sized ones within noise).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn update<const COPY: u8>(&self, controller: &FuzzyController<f64>, phi_s: f64, state: &mut FuzzyState, x: &[Lanes; 4], pitch: Option<&[Lanes; 2]>, r: &SpeedRef<f64>, u: &mut Lanes) {
+    fn update<const COPY: u8>(&self, controller: &FuzzyController<f64>, phi_s: f64, state: &mut [LawChunk<N>], x: &[Lanes; 4], pitch: Option<&[Lanes; 2]>, r: &SpeedRef<f64>, u: &mut Lanes) {
         match &self.sets {
             Sets::Trapezoids(_, sets, alone) if broadcasts::<COPY>() => self.update_with::<9, _>(&Alone3 { sets, alone }, controller, phi_s, state, x, pitch, r, u),
             Sets::Trapezoids(sets, _, alone) => self.update_with::<9, _>(&Alone3 { sets, alone }, controller, phi_s, state, x, pitch, r, u),
@@ -238,7 +246,7 @@ impl<const N: usize> Constants<N> {
         basis: &B,
         controller: &FuzzyController<f64>,
         phi_s: f64,
-        state: &mut FuzzyState,
+        state: &mut [LawChunk<N>],
         x: &[Lanes; 4],
         pitch: Option<&[Lanes; 2]>,
         r: &SpeedRef<f64>,
@@ -257,23 +265,19 @@ impl<const N: usize> Constants<N> {
             model: &self.model,
         };
         let (phi_s, theta, theta_dot) = (Wide::splat(phi_s), Wide::splat(r.theta), Wide::splat(r.theta_dot));
-        for c in 0..LANES / N {
+        for (c, state) in state.iter_mut().enumerate() {
             // The law's constants read where they are, chunk by chunk (`black_box`: the compiler
             // cannot see the law is the same every chunk). Seen so, ~45 vectors of them (the sets,
             // the model) were loaded before the loop and, too many for the registers, copied
             // into the frame every update: the kernels' copies 66 -> 13 (`avx512`) and 142 -> 9
             // (`avx2`), the fuzzy lanes 1.01-1.035x on `avx512` (3 runs of 6-8 pairs), 1.01x on `avx2`.
             let law = core::hint::black_box(&law);
-            let mut s_hat: [Wide<N>; R] = fill(|j| chunk(&state.s_hat[j], c));
-            let mut e_int = chunk(&state.e_int, c);
+            // R is 9 or MAX_RULES.
+            let s_hat = state.s_hat.first_chunk_mut::<R>().expect("no more rules than MAX_RULES");
             let y = state_chunk(x, c);
             // The plant's sin/cos of the pitch hold where it took them unreduced.
             let given = pitch.filter(|_| y[0].0.iter().all(|phi| phi.abs() <= UNREDUCED)).map(|p| (chunk(&p[0], c), chunk(&p[1], c)));
-            let step = law.update(&mut s_hat, &mut e_int, phi_s, &y, given, theta, theta_dot);
-            for (w, s) in state.s_hat.iter_mut().zip(&s_hat).take(basis.rules()) {
-                put(w, c, *s);
-            }
-            put(&mut state.e_int, c, e_int);
+            let step = law.update(s_hat, &mut state.e_int, phi_s, &y, given, theta, theta_dot);
             put(u, c, step.u);
         }
     }
@@ -299,7 +303,7 @@ impl FuzzyLanes {
     #[inline(always)]
     fn update_in<const COPY: u8>(&mut self, state: &mut FuzzyState, x: &[Lanes; 4], pitch: Option<&[Lanes; 2]>, r: &SpeedRef<f64>, u: &mut Lanes) {
         let phi_s = self.steady_pitch(r.theta_dot);
-        self.law.update::<COPY>(&self.controller, phi_s, state, x, pitch, r, u)
+        self.law.update::<COPY>(&self.controller, phi_s, &mut state.chunks, x, pitch, r, u)
     }
 
     #[cold]
@@ -321,7 +325,8 @@ impl LaneLaw for FuzzyLanes {
 
     fn start(&self) -> FuzzyState {
         let s0 = self.controller.initial_weights();
-        FuzzyState { s_hat: core::array::from_fn(|j| [s0.get(j).copied().unwrap_or(0.0); LANES]), e_int: [0.0; LANES] }
+        let chunk = LawChunk { s_hat: core::array::from_fn(|j| Wide::splat(s0.get(j).copied().unwrap_or(0.0))), e_int: Wide::splat(0.0) };
+        FuzzyState { chunks: core::array::from_fn(|_| chunk.clone()) }
     }
 
     #[inline(always)]
