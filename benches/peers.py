@@ -571,12 +571,16 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--n", type=int, default=None,
                     help="samples for twip and Numba (default 20000; circle-pid 256, a sample being 108000 steps)")
-    ap.add_argument("--n-slow", type=int, default=1_000, help="samples for NumPy and JAX")
+    ap.add_argument("--n-slow", type=int, default=1_000, help="samples for NumPy and JAX (0: skip them)")
     ap.add_argument("--repeats", type=int, default=3, help="runs of each; the median time counts")
     ap.add_argument("--workload", choices=["lqr", "fuzzy", "circle-pid", "all"], default="all")
     ap.add_argument("--kernel-copy", choices=["avx512", "avx2", "baseline"], default=None,
                     help="run this copy of twip's lane kernels (default: the widest this CPU has)")
     args = ap.parse_args()
+    if args.n_slow < 0 or (args.n is not None and args.n < 1):
+        ap.error(f"--n must be at least 1 and --n-slow at least 0 (got --n {args.n}, --n-slow {args.n_slow})")
+    if args.n_slow > (args.n or 20_000):
+        ap.error(f"--n-slow {args.n_slow} is more than the lqr workload's {args.n or 20_000} samples")
     twip.use_kernel_copy(args.kernel_copy)
     if args.workload in ("fuzzy", "all"):
         fuzzy_workload(args.n or 20_000, args.repeats)
@@ -618,19 +622,26 @@ def main():
     rates["twip_1t"], rates["twip_2t"] = pairs[1][1], pairs[1][2]
     scaling = ", ".join(f"{p[2] / p[1]:.2f}x" for p in pairs)
     sel = slice(0, args.n_slow)
-    t, got = median_time(lambda: numpy_peer(c[:, sel], plant_phi_s[sel], shared), args.repeats)
-    rows.append(("NumPy, vectorised over samples", args.n_slow, t, check("numpy", got, result, sel)))
-    rates["numpy"] = args.n_slow * STEPS / t
+    if args.n_slow == 0:
+        # Only twip against Numba, the speed targets' pair.
+        rows.append(("NumPy", 0, float("nan"), "skipped (--n-slow 0)"))
+    else:
+        t, got = median_time(lambda: numpy_peer(c[:, sel], plant_phi_s[sel], shared), args.repeats)
+        rows.append(("NumPy, vectorised over samples", args.n_slow, t, check("numpy", got, result, sel)))
+        rates["numpy"] = args.n_slow * STEPS / t
     rows.append(peer_row(peer_time, args.n, lambda got: check("numba", got, result, slice(None))))
-    try:
-        run = jax_peer_factory()
-        run(c[:, :8], plant_phi_s[:8], shared)  # compile for a small batch first
-        run(c[:, sel], plant_phi_s[sel], shared)  # compile for this batch size
-        t, got = median_time(lambda: run(c[:, sel], plant_phi_s[sel], shared), args.repeats)
-        rows.append(("JAX jit(vmap(lax.scan)), CPU", args.n_slow, t, check("jax", got, result, sel)))
-        rates["jax"] = args.n_slow * STEPS / t
-    except ImportError:
-        rows.append(("JAX", 0, float("nan"), "not installed"))
+    if args.n_slow == 0:
+        rows.append(("JAX", 0, float("nan"), "skipped (--n-slow 0)"))
+    else:
+        try:
+            run = jax_peer_factory()
+            run(c[:, :8], plant_phi_s[:8], shared)  # compile for a small batch first
+            run(c[:, sel], plant_phi_s[sel], shared)  # compile for this batch size
+            t, got = median_time(lambda: run(c[:, sel], plant_phi_s[sel], shared), args.repeats)
+            rows.append(("JAX jit(vmap(lax.scan)), CPU", args.n_slow, t, check("jax", got, result, sel)))
+            rates["jax"] = args.n_slow * STEPS / t
+        except ImportError:
+            rows.append(("JAX", 0, float("nan"), "not installed"))
     print(f"median of {args.repeats} runs each\n")
     print(f"{'implementation':34s} {'samples':>8s} {'seconds':>9s} {'M sample-steps/s':>17s} {'twip is':>9s}  metrics")
     for name, n, t, note in rows:
