@@ -579,7 +579,7 @@ def main():
     args = ap.parse_args()
     if args.n_slow < 0 or (args.n is not None and args.n < 1):
         ap.error(f"--n must be at least 1 and --n-slow at least 0 (got --n {args.n}, --n-slow {args.n_slow})")
-    if args.n_slow > (args.n or 20_000):
+    if args.workload in ("lqr", "all") and args.n_slow > (args.n or 20_000):
         ap.error(f"--n-slow {args.n_slow} is more than the lqr workload's {args.n or 20_000} samples")
     twip.use_kernel_copy(args.kernel_copy)
     if args.workload in ("fuzzy", "all"):
