@@ -136,7 +136,9 @@ test-python: build
 # mend), `make test` alone 670 s (pytest 176 s). On the AVX2-only Zen 3 EPYC (7 December 2026,
 # thirty-fifth session): a clean clone of b8392ed, `make test` alone 853 s (pytest 261 s); another,
 # `make demo` 445 s, then `make test` 556 s (pytest 451 s beside the Rust tests); one of c97f5d1
-# (the review's mend), `make test` alone 794 s. What was tried for the wheel is in Cargo.toml;
+# (the review's mend), `make test` alone 794 s; thirty-sixth session, clean clones of b0723c3 (the
+# fuzzy weights in place): `make demo` 383 s, then `make test` 615 s (pytest 510 s beside the
+# Rust tests); `make test` alone 904 s (pytest 263 s). What was tried for the wheel is in Cargo.toml;
 # built at opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than
 # the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
