@@ -265,19 +265,19 @@ impl<const N: usize> Constants<N> {
             model: &self.model,
         };
         let (phi_s, theta, theta_dot) = (Wide::splat(phi_s), Wide::splat(r.theta), Wide::splat(r.theta_dot));
-        for (c, state) in state.iter_mut().enumerate() {
+        for (c, own) in state.iter_mut().enumerate() {
             // The law's constants read where they are, chunk by chunk (`black_box`: the compiler
             // cannot see the law is the same every chunk). Seen so, ~45 vectors of them (the sets,
             // the model) were loaded before the loop and, too many for the registers, copied
             // into the frame every update: the kernels' copies 66 -> 13 (`avx512`) and 142 -> 9
             // (`avx2`), the fuzzy lanes 1.01-1.035x on `avx512` (3 runs of 6-8 pairs), 1.01x on `avx2`.
             let law = core::hint::black_box(&law);
-            // R is 9 or MAX_RULES.
-            let s_hat = state.s_hat.first_chunk_mut::<R>().expect("no more rules than MAX_RULES");
+            // R (9, or MAX_RULES for the sized grids) fits the room for MAX_RULES: never fails.
+            let s_hat = own.s_hat.first_chunk_mut::<R>().expect("no more rules than MAX_RULES");
             let y = state_chunk(x, c);
             // The plant's sin/cos of the pitch hold where it took them unreduced.
             let given = pitch.filter(|_| y[0].0.iter().all(|phi| phi.abs() <= UNREDUCED)).map(|p| (chunk(&p[0], c), chunk(&p[1], c)));
-            let step = law.update(s_hat, &mut state.e_int, phi_s, &y, given, theta, theta_dot);
+            let step = law.update(s_hat, &mut own.e_int, phi_s, &y, given, theta, theta_dot);
             put(u, c, step.u);
         }
     }
