@@ -138,7 +138,8 @@ test-python: build
 # `make demo` 445 s, then `make test` 556 s (pytest 451 s beside the Rust tests); one of c97f5d1
 # (the review's mend), `make test` alone 794 s; thirty-sixth session, clean clones of b0723c3 (the
 # fuzzy weights in place): `make demo` 383 s, then `make test` 615 s (pytest 510 s beside the
-# Rust tests); `make test` alone 904 s (pytest 263 s). What was tried for the wheel is in Cargo.toml;
+# Rust tests); `make test` alone 904 s (pytest 263 s); one of dbfc914 (the review's mend), `make
+# test` alone 807 s (pytest 271 s). What was tried for the wheel is in Cargo.toml;
 # built at opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than
 # the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
