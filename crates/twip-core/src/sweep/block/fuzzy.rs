@@ -113,7 +113,8 @@ impl Alone {
 }
 
 /// The f64 next to `x` towards +∞ (`up`) or −∞; ±∞ stay where they are when moving outwards,
-/// and step to ±f64::MAX when moving in.
+/// and step to ±f64::MAX when moving in: `f64::next_up` / `next_down`, which came in Rust 1.86,
+/// one past the workspace's `rust-version`. Call those once it moves.
 fn next_toward(x: f64, up: bool) -> f64 {
     if x.is_nan() || (x == f64::INFINITY && up) || (x == f64::NEG_INFINITY && !up) {
         return x;
@@ -325,8 +326,8 @@ impl LaneLaw for FuzzyLanes {
 
     fn start(&self) -> FuzzyState {
         let s0 = self.controller.initial_weights();
-        let chunk = LawChunk { s_hat: core::array::from_fn(|j| Wide::splat(s0.get(j).copied().unwrap_or(0.0))), e_int: Wide::splat(0.0) };
-        FuzzyState { chunks: core::array::from_fn(|_| chunk.clone()) }
+        let first = LawChunk { s_hat: core::array::from_fn(|j| Wide::splat(s0.get(j).copied().unwrap_or(0.0))), e_int: Wide::splat(0.0) };
+        FuzzyState { chunks: core::array::from_fn(|_| first.clone()) }
     }
 
     #[inline(always)]
