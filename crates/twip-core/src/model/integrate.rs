@@ -71,10 +71,12 @@ pub trait Field<S, const N: usize> {
     }
 }
 
-/// RK4's stage state x + k h.
+/// RK4's stage state x + k h. (Its closure and `rk4`'s `inline(always)`: on a sweep's 16-lane
+/// `Wide`, the compiler left them out of line, baseline code whose every multiply-add called
+/// the software fma; `benches/kernel_calls.py` checks the kernels for such calls.)
 #[inline(always)]
 pub fn stage_state<S: Lane, const N: usize>(x: &[S; N], k: &[S; N], h: S) -> [S; N] {
-    fill(|i| S::madd(k[i], h, x[i]))
+    fill(#[inline(always)] |i| S::madd(k[i], h, x[i]))
 }
 
 /// A model with its input held over a step.
@@ -109,5 +111,5 @@ pub fn rk4<S: Lane, const N: usize>(f: &impl Field<S, N>, x: &[S; N], k1: &[S; N
     let k3 = f.at_offset(x, &k2, half, Stage::Half);
     let k4 = f.at_offset(x, &k3, dt, Stage::End);
     let sixth = dt / S::splat(6.0);
-    fill(|i| S::madd(S::madd(k2[i] + k3[i], S::splat(2.0), k1[i] + k4[i]), sixth, x[i]))
+    fill(#[inline(always)] |i| S::madd(S::madd(k2[i] + k3[i], S::splat(2.0), k1[i] + k4[i]), sixth, x[i]))
 }

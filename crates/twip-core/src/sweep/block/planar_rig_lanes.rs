@@ -797,9 +797,15 @@ impl PlanarRigLanes {
                     Some((xl, ul)) => rig.plant.inputs_at(xl, ul, Stage::Start),
                     None => SVector::from(at(&held)),
                 };
-                let mean_of = |plant: &PlanarPlant<f64>| match &inputs {
-                    Some((xl, ul)) => plant.mean_inputs(xl, ul),
-                    None => SVector::from([plants.windings[0].mean(l), plants.windings[1].mean(l)]),
+                // `inline(always)` (in a block: attributes on a `let`'s expression are unstable),
+                // as the closure that calls it below: out of line, each was baseline code that
+                // called the software fma.
+                let mean_of = {
+                    #[inline(always)]
+                    |plant: &PlanarPlant<f64>| match &inputs {
+                        Some((xl, ul)) => plant.mean_inputs(xl, ul),
+                        None => SVector::from([plants.windings[0].mean(l), plants.windings[1].mean(l)]),
+                    }
                 };
                 // Whether the trains stayed as they were, when the play took its step.
                 let stepped_play = match (&wheels, rig.plant.rotor_inertia()) {
@@ -807,7 +813,7 @@ impl PlanarRigLanes {
                         let contact = flank_contact(&motor, at(&tau), j, at(accels));
                         // Trains engaged that stay so: no step to take, and the motors turn
                         // with the wheels already (`turn_motors` would change nothing).
-                        (!rig.plant.stays_engaged(contact)).then(|| {
+                        (!rig.plant.stays_engaged(contact)).then(#[inline(always)] || {
                             let mean = mean_of(&rig.plant);
                             rig.plant.gear_next_at(at(speeds), contact, &mean)
                         })
@@ -860,7 +866,9 @@ impl PlanarRigLanes {
             }
         }
         let (d, _) = self.plants.motion::<COPY>(next, &input, &self.engaged, Some(ground));
-        Some(ground.halts_where(next, |l, [gx, gy], contact| {
+        // `inline(always)`, as the ideal lanes' (`TerrainLanes::halts`): out of line, baseline
+        // code calling the software fma.
+        Some(ground.halts_where(next, #[inline(always)] |l, [gx, gy], contact| {
             let (xl, dl) = (fill(|i| Fused(next[i][l])), fill(|i| Fused(d[i][l])));
             let (f, xp) = in_frame(&xl, [gx, gy, Fused(0.0)]);
             let nu = [pitch_acceleration_of(&xl, &dl, &f), dl[5], dl[6]];
