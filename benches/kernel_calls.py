@@ -2,11 +2,12 @@
 
 Each lane kernel is compiled once per x86-64 copy (AVX-512, AVX2 with FMA, baseline). A function
 the kernel calls out of line is not part of that copy: it is compiled for the baseline, where
-`f64::mul_add` has no instruction and becomes a call of the software `fma` (compiler-builtins),
-some twenty instructions for one multiply-add. The bits stay the same (both round once), so no
-other test notices; the time does not. A closure the compiler chose not to inline did this to
+`f64::mul_add` has no instruction and becomes a call of compiler-builtins' `fma` function (which
+picks the FMA instruction at run time where the CPU has it: 8 instructions and a call per
+multiply-add, in a loop that can then not be vectorised). The bits stay the same (both round
+once), so no other test notices; the time does not. A closure the compiler chose not to inline did this to
 the 3-DOF lanes on terrain: their RK4 stages and each step's normal forces made ~45 % of the
-kernel's instructions in software fma (`callgrind`, 37th session).
+kernel's instructions in and around those calls (`callgrind`, 37th session).
 
 This reads the machine code (`nm`, `objdump`, `readelf` from binutils; x86-64 only): from every
 AVX2 and AVX-512 copy, the functions reached through direct calls (not entering another copy),
