@@ -5,9 +5,9 @@ the kernel calls out of line is not part of that copy: it is compiled for the ba
 `f64::mul_add` has no instruction and becomes a call of compiler-builtins' `fma` function (which
 picks the FMA instruction at run time where the CPU has it: 8 instructions and a call per
 multiply-add, in a loop that can then not be vectorised). The bits stay the same (both round
-once), so no other test notices; the time does not. A closure the compiler chose not to inline did this to
-the 3-DOF lanes on terrain: their RK4 stages and each step's normal forces made ~45 % of the
-kernel's instructions in and around those calls (`callgrind`, 37th session).
+once), so no other test notices; the time does not. Closures the compiler chose not to inline
+did this to the 3-DOF lanes on terrain: their RK4 stages and each step's normal forces made
+~45 % of the kernel's instructions, in and around those calls (`callgrind`, 37th session).
 
 This reads the machine code (`nm`, `objdump`, `readelf` from binutils; x86-64 only): from every
 AVX2 and AVX-512 copy, the functions reached through direct calls (not entering another copy),
@@ -83,7 +83,7 @@ def main():
     so = twip._core.__file__
     addresses, slots = software_fma(so)
     names, body = functions(so)
-    copies = {a: VECTOR_COPY.match(n)[1] for a, n in names.items() if VECTOR_COPY.match(n)}
+    copies = {a: copy[1] for a, n in names.items() if (copy := VECTOR_COPY.match(n))}
     if not copies:
         sys.exit(f"kernel_calls: no vector kernel copies found in {so} (not x86-64, or stripped?)")
     bad = {}
