@@ -123,7 +123,9 @@ impl RigBlock for RigLanes {
 
     #[inline(always)]
     fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> [Lanes; 4] {
-        RigLanes::step_at::<COPY>(self, ks).0
+        let mut next = [[0.0; LANES]; 4];
+        RigLanes::step_at::<COPY>(self, ks, &mut next);
+        next
     }
 
     fn state(&self) -> &[Lanes; 4] {

@@ -147,7 +147,9 @@ impl RigBlock for PlanarRigLanes {
 
     #[inline(always)]
     fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> [Lanes; 7] {
-        PlanarRigLanes::step_at::<COPY>(self, ks).0
+        let mut next = [[0.0; LANES]; 7];
+        PlanarRigLanes::step_at::<COPY>(self, ks, &mut next);
+        next
     }
 
     fn state(&self) -> &[Lanes; 7] {

@@ -135,8 +135,7 @@ impl Plant for PlanarRigPlant<'_> {
 
     #[inline(always)]
     fn step<const COPY: u8>(&mut self, k: usize, _: &[Lanes; 2], _: f64, drive: impl FnOnce(&[Lanes; 2], &[bool; LANES]), next: &mut [Lanes; 7]) {
-        let delivered;
-        (*next, delivered) = self.rig.step::<COPY>(k);
+        let delivered = self.rig.step::<COPY>(k, next);
         drive(&delivered, self.rig.context.beyond());
     }
 

@@ -341,22 +341,23 @@ impl RigPlants {
         }
     }
 
-    /// The derivative and each wheel's gearhead torque on every lane, its trains as they
-    /// are (`trains`): RK4's first stage, and what the gear trains weigh. On `ground`
-    /// (None: flat ground), a runtime choice inside each kind's loop.
+    /// The derivative (into `d`, as the 2-DOF rig's `geared_motion`) and each wheel's
+    /// gearhead torque on every lane, its trains as they are (`trains`): RK4's first stage,
+    /// and what the gear trains weigh. On `ground` (None: flat ground), a runtime choice
+    /// inside each kind's loop.
     #[inline(always)]
-    fn motion<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], ground: Option<&TerrainLanes>) -> ([Lanes; 7], [Lanes; 2]) {
+    fn motion<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], ground: Option<&TerrainLanes>, d: &mut [Lanes; 7]) -> [Lanes; 2] {
         // On flat ground, where `outside`, by the slip law: the stick band's bits at a state
         // clear of the band (on terrain the law reads the wheels' speeds in the plane's frame).
         if ground.is_none() && self.outside(x, trains) {
-            return by_kind!(@drive self, OUTSIDE, false, motion_of(x, u, trains, ground));
+            return by_kind!(@drive self, OUTSIDE, false, motion_of(x, u, trains, ground, d));
         }
-        by_kind!(self, trains, motion_of(x, u, trains, ground))
+        by_kind!(self, trains, motion_of(x, u, trains, ground, d))
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], ground: Option<&TerrainLanes>) -> ([Lanes; 7], [Lanes; 2]) {
-        let (mut d, mut tau) = ([[0.0; LANES]; 7], [[0.0; LANES]; 2]);
+    fn motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], ground: Option<&TerrainLanes>, d: &mut [Lanes; 7]) -> [Lanes; 2] {
+        let mut tau = [[0.0; LANES]; 2];
         if let Some(ground) = ground {
             // The flat loop below, each lane on its ground (a loop of its own: the flat one
             // keeps its code).
@@ -370,7 +371,7 @@ impl RigPlants {
                 tau[0][l] = tl[0].0;
                 tau[1][l] = tl[1].0;
             }
-            return (d, tau);
+            return tau;
         }
         for l in 0..LANES {
             let (dl, tl) = self.field::<GEAR, DRIVE, GEARED>(l, u, trains).motion(&fill(|i| Fused(x[i][l])));
@@ -380,22 +381,23 @@ impl RigPlants {
             tau[0][l] = tl[0].0;
             tau[1][l] = tl[1].0;
         }
-        (d, tau)
+        tau
     }
 
-    /// RK4's later stages from each lane's first `k1` on every lane, its trains as they
-    /// are over the step (`trains`). With a stick band, where every train is engaged and no
-    /// lane's wheel starts near the band, first with the slip law (`OUTSIDE`), as the 2-DOF
-    /// rig's steps are.
+    /// RK4's later stages from each lane's first `k1` on every lane into `next`, its trains
+    /// as they are over the step (`trains`). With a stick band, where every train is engaged
+    /// and no lane's wheel starts near the band, first with the slip law (`OUTSIDE`), as the
+    /// 2-DOF rig's steps are.
     #[inline(always)]
-    fn rk4<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64, ground: Option<&TerrainLanes>) -> [Lanes; 7] {
+    #[allow(clippy::too_many_arguments)]
+    fn rk4<const COPY: u8>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64, ground: Option<&TerrainLanes>, next: &mut [Lanes; 7]) {
         if self.outside(x, trains) {
-            let (next, band) = by_kind!(@drive self, OUTSIDE, false, rk4_of(x, u, trains, k1, dt, ground));
+            let band = by_kind!(@drive self, OUTSIDE, false, rk4_of(x, u, trains, k1, dt, ground, next));
             if !band {
-                return next;
+                return;
             }
         }
-        by_kind!(self, trains, rk4_of(x, u, trains, k1, dt, ground)).0
+        by_kind!(self, trains, rk4_of(x, u, trains, k1, dt, ground, next));
     }
 
     /// Whether a stick band's law may be taken as the slip law from `x` on: every train
@@ -408,8 +410,9 @@ impl RigPlants {
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn rk4_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64, ground: Option<&TerrainLanes>) -> ([Lanes; 7], bool) {
-        let (mut out, mut band) = ([[0.0; LANES]; 7], false);
+    #[allow(clippy::too_many_arguments)]
+    fn rk4_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool>(&self, x: &[Lanes; 7], u: &[Lanes; 2], trains: &[[bool; 2]; LANES], k1: &[Lanes; 7], dt: f64, ground: Option<&TerrainLanes>, out: &mut [Lanes; 7]) -> bool {
+        let mut band = false;
         if let Some(ground) = ground {
             // The flat loop below, each lane's whole step on its ground (a loop of its own).
             for l in 0..LANES {
@@ -420,7 +423,7 @@ impl RigPlants {
                 }
                 band |= on.field.band.get();
             }
-            return (out, band);
+            return band;
         }
         for l in 0..LANES {
             let field = self.field::<GEAR, DRIVE, GEARED>(l, u, trains);
@@ -430,7 +433,7 @@ impl RigPlants {
             }
             band |= field.band.get();
         }
-        (out, band)
+        band
     }
 }
 
@@ -701,25 +704,26 @@ impl PlanarRigLanes {
     }
 
     /// Plant step `k` (from t = k·dt) under the input held: the pieces that act between
-    /// steps, the gear trains, the IMUs' sample and RK4. Returns the state after the step
-    /// (the caller moves the lanes that go on there, `x`) and what the plants got at the
-    /// step's start (`Observer::drive`; [`Self::beyond`]: whether the commands applied are
-    /// beyond the drivers).
+    /// steps, the gear trains, the IMUs' sample and RK4. Writes the state after the step
+    /// into `next` (the caller moves the lanes that go on there, `x`; as the 2-DOF rig's
+    /// step, in place) and returns what the plants got at the step's start
+    /// (`Observer::drive`; [`Self::beyond`]: whether the commands applied are beyond the
+    /// drivers).
     #[inline(always)]
-    pub(super) fn step<const COPY: u8>(&mut self, k: usize) -> ([Lanes; 7], [Lanes; 2]) {
-        self.step_at::<COPY>(&[k; LANES])
+    pub(super) fn step<const COPY: u8>(&mut self, k: usize, next: &mut [Lanes; 7]) -> [Lanes; 2] {
+        self.step_at::<COPY>(&[k; LANES], next)
     }
 
     /// [`Self::step`] with each lane at its own step `ks` (an env's robots start apart).
     /// A function of its own per kernel copy (`out_of_line_in`), shared by the laws' kernels
     /// and the envs: inlined, it was compiled again for each of them and copy (LLVM's time trace).
     #[inline(always)]
-    pub(crate) fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
-        super::out_of_line_in::<COPY, _>(#[inline(always)] || self.step_in::<COPY>(ks))
+    pub(crate) fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES], next: &mut [Lanes; 7]) -> [Lanes; 2] {
+        super::out_of_line_in::<COPY, _>(#[inline(always)] || self.step_in::<COPY>(ks, next))
     }
 
     #[inline(always)]
-    fn step_in<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> ([Lanes; 7], [Lanes; 2]) {
+    fn step_in<const COPY: u8>(&mut self, ks: &[usize; LANES], next: &mut [Lanes; 7]) -> [Lanes; 2] {
         let (dt, u) = (self.dt, self.context.input());
         let ts: Lanes = core::array::from_fn(|l| dt * ks[l] as f64);
         let (plants, x) = (&mut self.plants, &mut self.context.x);
@@ -782,7 +786,8 @@ impl PlanarRigLanes {
             }
         }
         let ground = self.ground.as_ref();
-        let (mut k1, tau) = plants.motion::<COPY>(x, &held, &trains, ground);
+        let mut k1 = [[0.0; LANES]; 7];
+        let tau = plants.motion::<COPY>(x, &held, &trains, ground, &mut k1);
         let before = trains;
         // On flat ground, the wheels' speeds (impacts and pushes may have moved them) and
         // accelerations at the step's start, for the play and the encoders.
@@ -838,14 +843,14 @@ impl PlanarRigLanes {
         }
         if trains != before {
             // Some trains opened or closed: RK4's first stage with them as they are now.
-            k1 = plants.motion::<COPY>(x, &held, &trains, ground).0;
+            plants.motion::<COPY>(x, &held, &trains, ground, &mut k1);
         }
         if let Some(imus) = self.imus.as_mut() {
             imus.sample(&ts, x, &k1, ground);
         }
-        let next = plants.rk4::<COPY>(x, &held, &trains, &k1, dt, ground);
+        plants.rk4::<COPY>(x, &held, &trains, &k1, dt, ground, next);
         self.engaged = trains;
-        (next, delivered)
+        delivered
     }
 
     /// On terrain, what ends each lane at `next`, the state after the step just taken, as the
@@ -865,7 +870,8 @@ impl PlanarRigLanes {
                 }
             }
         }
-        let (d, _) = self.plants.motion::<COPY>(next, &input, &self.engaged, Some(ground));
+        let mut d = [[0.0; LANES]; 7];
+        self.plants.motion::<COPY>(next, &input, &self.engaged, Some(ground), &mut d);
         // `inline(always)`, as the ideal lanes' (`TerrainLanes::halts`): out of line, baseline
         // code calling the software fma.
         Some(ground.halts_where(next, #[inline(always)] |l, [gx, gy], contact| {
@@ -912,14 +918,20 @@ mod tests {
             });
             let u = [[torque[0]; LANES], [torque[1]; LANES]];
             assert!(plants.outside(&x, &trains), "{w:?}: the first try is taken");
-            let (k1, _) = plants.motion::<COPY>(&x, &u, &trains, None);
-            assert_eq!(bits(&k1), bits(&plants.motion_of::<STICK, HELD, false>(&x, &u, &trains, None).0), "{w:?}");
-            let (stick, stick_band) = plants.rk4_of::<STICK, HELD, false>(&x, &u, &trains, &k1, DT, None);
-            let (outside, band) = plants.rk4_of::<OUTSIDE, HELD, false>(&x, &u, &trains, &k1, DT, None);
+            let (mut k1, mut stick_k1) = ([[f64::NAN; LANES]; 7], [[f64::NAN; LANES]; 7]);
+            plants.motion::<COPY>(&x, &u, &trains, None, &mut k1);
+            plants.motion_of::<STICK, HELD, false>(&x, &u, &trains, None, &mut stick_k1);
+            assert_eq!(bits(&k1), bits(&stick_k1), "{w:?}");
+            let (mut stick, mut outside) = ([[f64::NAN; LANES]; 7], [[f64::NAN; LANES]; 7]);
+            let stick_band = plants.rk4_of::<STICK, HELD, false>(&x, &u, &trains, &k1, DT, None, &mut stick);
+            let band = plants.rk4_of::<OUTSIDE, HELD, false>(&x, &u, &trains, &k1, DT, None, &mut outside);
             assert!(!stick_band, "only the first try notes the band");
             assert_eq!(band, enters, "{w:?}");
             assert_eq!(bits(&outside) == bits(&stick), !enters, "{w:?}");
-            assert_eq!(bits(&plants.rk4::<COPY>(&x, &u, &trains, &k1, DT, None)), bits(&stick), "{w:?}");
+            // Taken again over the first try's state where it enters the band.
+            let mut next = outside;
+            plants.rk4::<COPY>(&x, &u, &trains, &k1, DT, None, &mut next);
+            assert_eq!(bits(&next), bits(&stick), "{w:?}");
         }
     }
 }

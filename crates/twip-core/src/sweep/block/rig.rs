@@ -140,8 +140,7 @@ impl Plant for RigPlant<'_> {
 
     #[inline(always)]
     fn step<const COPY: u8>(&mut self, k: usize, _: &Lanes, _: f64, drive: impl FnOnce(&Lanes, &[bool; LANES]), next: &mut [Lanes; 4]) {
-        let delivered;
-        (*next, delivered) = self.0.step::<COPY>(k);
+        let delivered = self.0.step::<COPY>(k, next);
         drive(&delivered, self.0.context.beyond());
     }
 

@@ -356,21 +356,22 @@ impl RigPlants {
         out
     }
 
-    /// The derivative and gearhead torque per wheel on every lane with the trains as they
-    /// are, under the lumped `current` held (what `RealPlant::gear_next` weighs); where
-    /// [`Self::outside`], by the slip law, as [`Self::k1`].
+    /// The derivative (into `d`: returned, it was copied twice a step) and gearhead torque
+    /// per wheel on every lane with the trains as they are, under the lumped `current` held
+    /// (what `RealPlant::gear_next` weighs); where [`Self::outside`], by the slip law, as
+    /// [`Self::k1`].
     #[inline(always)]
-    fn geared_motion<const COPY: u8>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
+    fn geared_motion<const COPY: u8>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES], d: &mut [Lanes; 4]) -> Lanes {
         // The lumped current is the input, whatever the winding.
         if self.outside(x, engaged) {
-            return by_kind!(@outside self, HELD, geared_motion_of(x, current, engaged));
+            return by_kind!(@outside self, HELD, geared_motion_of(x, current, engaged, d));
         }
-        by_kind!(self, HELD, engaged, geared_motion_of(x, current, engaged))
+        by_kind!(self, HELD, engaged, geared_motion_of(x, current, engaged, d))
     }
 
     #[cfg_attr(not(debug_assertions), inline(always))]
-    fn geared_motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES]) -> ([Lanes; 4], Lanes) {
-        let (mut d, mut tau, terms) = ([[0.0; LANES]; 4], [0.0; LANES], self.plants.sin_cos_terms());
+    fn geared_motion_of<const GEAR: u8, const DRIVE: u8, const GEARED: bool, const CHANGES: usize>(&self, x: &[Lanes; 4], current: &Lanes, engaged: &[bool; LANES], d: &mut [Lanes; 4]) -> Lanes {
+        let (mut tau, terms) = ([0.0; LANES], self.plants.sin_cos_terms());
         for l in 0..LANES {
             let (dl, tl) = self.field::<GEAR, DRIVE, GEARED, CHANGES>(terms, l, current[l], engaged[l]).motion(&lane(x, l).map(Fused));
             for i in 0..4 {
@@ -378,25 +379,26 @@ impl RigPlants {
             }
             tau[l] = tl.0;
         }
-        (d, tau)
+        tau
     }
 
-    /// One RK4 step from `k1` on every lane, the input held. Where [`Self::outside`], the
-    /// later stages first take the slip law (`OUTSIDE`): the same bits while no wheel enters
-    /// the band, else the step is taken again with the band's solve. Measured, with the first
-    /// stage's too, against the band's solve at every stage (`sweep_throughput`, paired
-    /// builds, 8 rounds, the same bits, an AVX-512 EPYC): the thesis-like rig 1.049x on
-    /// `avx512`, 1.066x on its forced `avx2` copy; the 3-DOF rig 1.177x and 1.221x.
+    /// One RK4 step from `k1` on every lane into `next`, the input held. Where
+    /// [`Self::outside`], the later stages first take the slip law (`OUTSIDE`): the same bits
+    /// while no wheel enters the band, else the step is taken again with the band's solve.
+    /// Measured, with the first stage's too, against the band's solve at every stage
+    /// (`sweep_throughput`, paired builds, 8 rounds, the same bits, an AVX-512 EPYC): the
+    /// thesis-like rig 1.049x on `avx512`, 1.066x on its forced `avx2` copy; the 3-DOF rig
+    /// 1.177x and 1.221x.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn rk4<const COPY: u8>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64) -> [Lanes; 4] {
+    fn rk4<const COPY: u8>(&self, x: &[Lanes; 4], u: &Lanes, engaged: &[bool; LANES], k1: &[Lanes; 4], dt: f64, next: &mut [Lanes; 4]) {
         if self.outside(x, engaged) {
-            let (next, band) = by_kind!(@outside self, self.drive, rk4_of(x, u, engaged, k1, dt));
+            let band = by_kind!(@outside self, self.drive, rk4_of(x, u, engaged, k1, dt, next));
             if !band {
-                return next;
+                return;
             }
         }
-        by_kind!(self, self.drive, engaged, rk4_of(x, u, engaged, k1, dt)).0
+        by_kind!(self, self.drive, engaged, rk4_of(x, u, engaged, k1, dt, next));
     }
 
     /// Whether a stick band's law may be taken as the slip law from `x` on: every train is
@@ -417,8 +419,9 @@ impl RigPlants {
         engaged: &[bool; LANES],
         k1: &[Lanes; 4],
         dt: f64,
-    ) -> ([Lanes; 4], bool) {
-        let (mut out, terms) = ([[0.0; LANES]; 4], self.plants.sin_cos_terms());
+        out: &mut [Lanes; 4],
+    ) -> bool {
+        let terms = self.plants.sin_cos_terms();
         let mut band = false;
         for l in 0..LANES {
             let field = self.field::<GEAR, DRIVE, GEARED, CHANGES>(terms, l, u[l], engaged[l]);
@@ -428,7 +431,7 @@ impl RigPlants {
             }
             band |= field.band.get();
         }
-        (out, band)
+        band
     }
 }
 
@@ -666,25 +669,26 @@ impl RigLanes {
     }
 
     /// Plant step `k` (from t = k·dt) under the input held: the pieces that act between
-    /// steps, the gear trains, the IMU's sample and RK4. Returns the state after the step
-    /// (the caller moves the lanes that go on there, `x`) and what the plants got at the
+    /// steps, the gear trains, the IMU's sample and RK4. Writes the state after the step
+    /// into `next` (the caller moves the lanes that go on there, `x`; written in place, as
+    /// a returned array it was copied twice a step) and returns what the plants got at the
     /// step's start (`Observer::drive`; [`Self::beyond`]: whether the commands applied are
     /// beyond the drivers).
     #[inline(always)]
-    pub(super) fn step<const COPY: u8>(&mut self, k: usize) -> ([Lanes; 4], Lanes) {
-        self.step_at::<COPY>(&[k; LANES])
+    pub(super) fn step<const COPY: u8>(&mut self, k: usize, next: &mut [Lanes; 4]) -> Lanes {
+        self.step_at::<COPY>(&[k; LANES], next)
     }
 
     /// [`Self::step`] with each lane at its own step `ks` (an env's robots start apart).
     /// A function of its own per kernel copy (`out_of_line_in`), shared by the laws' kernels
     /// and the envs: inlined, it was compiled again for each of them and copy (LLVM's time trace).
     #[inline(always)]
-    pub(crate) fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> ([Lanes; 4], Lanes) {
-        super::out_of_line_in::<COPY, _>(#[inline(always)] || self.step_in::<COPY>(ks))
+    pub(crate) fn step_at<const COPY: u8>(&mut self, ks: &[usize; LANES], next: &mut [Lanes; 4]) -> Lanes {
+        super::out_of_line_in::<COPY, _>(#[inline(always)] || self.step_in::<COPY>(ks, next))
     }
 
     #[inline(always)]
-    fn step_in<const COPY: u8>(&mut self, ks: &[usize; LANES]) -> ([Lanes; 4], Lanes) {
+    fn step_in<const COPY: u8>(&mut self, ks: &[usize; LANES], next: &mut [Lanes; 4]) -> Lanes {
         let (dt, u) = (self.dt, self.context.input());
         let ts: Lanes = core::array::from_fn(|l| dt * ks[l] as f64);
         let (plants, x, engaged) = (&mut self.plants, &mut self.context.x, &mut self.engaged);
@@ -752,8 +756,7 @@ impl RigLanes {
         // Option cost two copies of it per step.)
         let mut k1 = [[0.0; LANES]; 4];
         if plants.geared {
-            let tau;
-            (k1, tau) = plants.geared_motion::<COPY>(x, &current, engaged);
+            let tau = plants.geared_motion::<COPY>(x, &current, engaged, &mut k1);
             for (l, rig) in self.context.rigs.iter_mut().enumerate() {
                 // Trains engaged that stay so: no step to take, nothing to turn.
                 if before[l] && rig.plant.lumped_stays_engaged(current[l], k1[3][l] - k1[1][l], tau[l]) {
@@ -780,7 +783,8 @@ impl RigLanes {
         if let Some(imus) = self.imus.as_mut() {
             imus.sample(&plants.hills, &ts, x, &k1);
         }
-        (plants.rk4::<COPY>(x, &input, engaged, &k1, dt), delivered)
+        plants.rk4::<COPY>(x, &input, engaged, &k1, dt, next);
+        delivered
     }
 }
 
@@ -818,13 +822,17 @@ mod tests {
             // The first stage, at a state clear of the band, by the slip law: the band's bits.
             let k1 = plants.k1::<COPY>(&x, &u, &engaged);
             assert_eq!(bits(&k1), bits(&plants.k1_of::<STICK, HELD, false, 0>(&x, &u, &engaged)), "w0 = {w0}");
-            let (stick, stick_band) = plants.rk4_of::<STICK, HELD, false, 0>(&x, &u, &engaged, &k1, DT);
-            let (outside, band) = plants.rk4_of::<OUTSIDE, HELD, false, 0>(&x, &u, &engaged, &k1, DT);
+            let (mut stick, mut outside) = ([[f64::NAN; LANES]; 4], [[f64::NAN; LANES]; 4]);
+            let stick_band = plants.rk4_of::<STICK, HELD, false, 0>(&x, &u, &engaged, &k1, DT, &mut stick);
+            let band = plants.rk4_of::<OUTSIDE, HELD, false, 0>(&x, &u, &engaged, &k1, DT, &mut outside);
             assert!(!stick_band, "only the first try notes the band");
             assert_eq!(band, enters, "w0 = {w0}");
-            // Into the band the slip law is not the band's: the step must be taken again.
+            // Into the band the slip law is not the band's: the step must be taken again,
+            // over the first try's state.
             assert_eq!(bits(&outside) == bits(&stick), !enters, "w0 = {w0}");
-            assert_eq!(bits(&plants.rk4::<COPY>(&x, &u, &engaged, &k1, DT)), bits(&stick), "w0 = {w0}");
+            let mut next = outside;
+            plants.rk4::<COPY>(&x, &u, &engaged, &k1, DT, &mut next);
+            assert_eq!(bits(&next), bits(&stick), "w0 = {w0}");
         }
     }
 }
