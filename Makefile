@@ -142,7 +142,9 @@ test-python: build
 # test` alone 807 s (pytest 271 s); thirty-seventh session, in a slow hour (the LQR lanes 104 M
 # sample-steps/s against 126-137 M), clean clones of 9dd9550: `make test` alone 1,041 s (pytest
 # 345 s), and `make demo` 490 s, then `make test` 726 s; the wheels of 5ce0337 and 9dd9550 built
-# side by side, 427 s and 424 s. What was tried for the wheel is in Cargo.toml;
+# side by side, 427 s and 424 s; thirty-eighth session, a quiet hour (the LQR lanes 141 M), a
+# clean clone of 9580dfb (the rig steps written in place): `make demo` 408 s, then `make test`
+# 599 s (pytest 479 s beside the Rust tests). What was tried for the wheel is in Cargo.toml;
 # built at opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than
 # the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
