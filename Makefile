@@ -145,8 +145,8 @@ test-python: build
 # side by side, 427 s and 424 s; thirty-eighth session, a quiet hour (the LQR lanes 141 M), a
 # clean clone of 9580dfb (the rig steps written in place): `make demo` 408 s, then `make test`
 # 599 s (pytest 479 s beside the Rust tests); one of 800ebaf, `make test` alone 783 s. What was
-# tried for the wheel is in Cargo.toml; built at opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than
-# the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
+# tried for the wheel is in Cargo.toml; built at opt-level 1, the Rust tests took 23 min (1,816 s
+# of CPU) to compile, more than the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
 	$(MAKE) --no-print-directory --jobs=2 --output-sync=target test-python test-rust
 
