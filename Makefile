@@ -144,7 +144,10 @@ test-python: build
 # 345 s), and `make demo` 490 s, then `make test` 726 s; the wheels of 5ce0337 and 9dd9550 built
 # side by side, 427 s and 424 s; thirty-eighth session, a quiet hour (the LQR lanes 141 M), a
 # clean clone of 9580dfb (the rig steps written in place): `make demo` 408 s, then `make test`
-# 599 s (pytest 479 s beside the Rust tests); one of 800ebaf, `make test` alone 783 s. What was
+# 599 s (pytest 479 s beside the Rust tests); one of 800ebaf, `make test` alone 783 s.
+# Thirty-ninth session, the VM an Intel Xeon with AVX-512: a fresh checkout of 3e3c521 (no cargo
+# registry, no pip cache), `make demo` 304 s, then `make test` 338 s (pytest 275 s beside the
+# Rust tests); a clean clone of it, `make test` alone 533 s (pytest 149 s). What was
 # tried for the wheel is in Cargo.toml; built at opt-level 1, the Rust tests took 23 min (1,816 s
 # of CPU) to compile, more than the whole of test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
