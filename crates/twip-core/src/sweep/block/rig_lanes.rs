@@ -828,9 +828,10 @@ mod tests {
             assert!(!stick_band, "only the first try notes the band");
             assert_eq!(band, enters, "w0 = {w0}");
             // Into the band the slip law is not the band's: the step must be taken again,
-            // over the first try's state.
+            // over the first try's state in `next`. From NaN, so that either try leaving a
+            // lane unwritten fails.
             assert_eq!(bits(&outside) == bits(&stick), !enters, "w0 = {w0}");
-            let mut next = outside;
+            let mut next = [[f64::NAN; LANES]; 4];
             plants.rk4::<COPY>(&x, &u, &engaged, &k1, DT, &mut next);
             assert_eq!(bits(&next), bits(&stick), "w0 = {w0}");
         }
