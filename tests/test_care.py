@@ -325,6 +325,41 @@ def test_non_finite(which, bad):
     _raises_naming(twip.NonFiniteError, "ABQR"[which], *args)
 
 
+# Every design tool reads its matrices alike; a 1-D B and a scalar R take the same road as a
+# matrix, not numpy's cast (which kept 1+5j as 1 with only a ComplexWarning, read "1" as 1.0
+# and None as NaN).
+DESIGN_TOOLS = {
+    "care": lambda a, b, q, r: twip.care(a, b, q, r),
+    "lqr": lambda a, b, q, r: twip.lqr(a, b, q, r),
+    "dare": lambda a, b, q, r: twip.dare(a, b, q, r),
+    "dlqr": lambda a, b, q, r: twip.dlqr(a, b, q, r),
+    "c2d": lambda a, b, q, r: twip.c2d(a, b, 0.01),
+}
+
+
+NON_REAL_ENTRIES = [
+    # A complex array's entries are all complex numbers: its first is named.
+    ("B", np.array([0.0, 1.0 + 5.0j]), "B[0] = 0j: not a real number (got complex)"),
+    ("B", [0.0, 1.0 + 5.0j], "B[1] = (1+5j): not a real number (got complex)"),
+    ("B", np.array(["0", "1"]), "B[0] = '0': not a real number (got str)"),
+    ("R", 1.0 + 2.0j, "R[0] = (1+2j): not a real number (got complex)"),
+    ("R", None, "R[0] = None: not a real number (got NoneType)"),
+    ("A", [[0.0, 1.0j], [0.0, 0.0]], "A[1] = 1j: not a real number (got complex)"),
+    ("A", np.array([[0.0, 1.0j], [0.0, 0.0]]), "A[0] = 0j: not a real number (got complex)"),
+]
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("tool, which, bad, shown", [
+    (tool, *entry) for tool in DESIGN_TOOLS for entry in NON_REAL_ENTRIES if not (tool == "c2d" and entry[0] == "R")
+])
+def test_a_non_real_entry_is_refused_by_name_and_index_at_any_rank(tool, which, bad, shown):
+    args = {"A": A2, "B": [0.0, 1.0], "Q": Q2, "R": 1.0} | {which: bad}
+    with pytest.raises(twip.InvalidParameterError) as info:
+        DESIGN_TOOLS[tool](*args.values())
+    assert str(info.value) == shown
+
+
 def test_not_a_matrix():
     _raises_naming(twip.InvalidParameterError, "Q", A2, B2, np.zeros((2, 2, 2)), R1)
     _raises_naming(twip.InvalidParameterError, "A", "not a matrix", B2, Q2, R1)

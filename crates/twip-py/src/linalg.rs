@@ -4,7 +4,7 @@ use numpy::{AllowTypeChange, Complex64, PyArray1, PyArray2, PyArrayLikeDyn};
 use pyo3::prelude::*;
 use twip_core::TwipError;
 
-use crate::convert::{dmatrix, to_py_complex_vector, to_py_dmatrix};
+use crate::convert::{dmatrix, real_array, to_py_complex_vector, to_py_dmatrix};
 use crate::errors::PyTwipError;
 
 pub(crate) type Arr2<'py> = Bound<'py, PyArray2<f64>>;
@@ -12,6 +12,9 @@ pub(crate) type Arr2<'py> = Bound<'py, PyArray2<f64>>;
 /// Reads a matrix argument: a 2-D array, a 1-D array (a column: B for one input), or a
 /// scalar (1×1: R for one input). The core checks the shapes against each other.
 pub(crate) fn matrix(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<DMatrix<f64>> {
+    // Refused by entry first: numpy's cast would drop a complex entry's imaginary part (with
+    // only a warning) or read a string of digits as its number.
+    let obj = &real_array(name, obj)?;
     let arr: PyArrayLikeDyn<'_, f64, AllowTypeChange> = obj.extract().map_err(|_| {
         PyTwipError(TwipError::InvalidParameter {
             name,
