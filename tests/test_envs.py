@@ -198,6 +198,22 @@ def test_a_linear_policy_runs_through_twip_simulate_as_on_the_env():
     np.testing.assert_allclose(np.array(states), run.states[5::5][:200], rtol=0, atol=1e-10)
 
 
+@pytest.mark.parametrize("kwargs, error, message", [
+    ({"gains": [1.0, 2.0, 3.0]}, twip.ShapeError, r"^gains has shape \(3,\), expected \(4,\)$"),
+    ({"gains": [1.0, np.nan, 3.0, 4.0]}, twip.NonFiniteError, r"^gains = \[1.0, nan, 3.0, 4.0\]"),
+    ({"gains": np.array([1.0, 2.0, 3.0, 4.0 + 1.0j])}, twip.InvalidParameterError,
+     r"^gains\[3\] = \(4\+1j\): not a real number \(got complex\)$"),
+    ({"gains": "abcd"}, TypeError, r"^gains must be numbers, got 'abcd' \(str\)$"),
+    ({"gains": [1.0, 2.0, 3.0, 4.0], "period": 0.0}, twip.InvalidParameterError, r"^period must be finite and > 0, got 0.0$"),
+    ({"gains": [1.0, 2.0, 3.0, 4.0], "period": "5 ms"}, TypeError, r"^period must be a real number, got '5 ms' \(str\)$"),
+])
+def test_a_linear_policys_bad_gains_or_period_are_refused_by_name(kwargs, error, message):
+    from twip.envs.policy import LinearPolicy
+
+    with pytest.raises(error, match=message):
+        LinearPolicy(**kwargs)
+
+
 def _bits(a):
     return np.ascontiguousarray(a).view(np.uint8)
 

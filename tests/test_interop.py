@@ -58,6 +58,8 @@ def test_bad_points_are_named():
         interop.to_nlsys(object())
     with pytest.raises(TypeError, match=r"x0 must be numbers, got 'abcd' \(str\)"):
         interop.jacobians(model, "abcd", [0.0])  # was numpy's "could not convert string to float"
+    with pytest.raises(twip.InvalidParameterError, match=r"^x0\[2\] = 0.1j: not a real number \(got complex\)$"):
+        interop.jacobians(model, np.array([0, 0, 0.1j, 0]), [0.0])  # was cast to its real parts
 
 
 def test_the_module_docstring_recipe_runs_and_gives_the_design_gains():

@@ -397,6 +397,9 @@ def test_bad_input_is_named(tmp_path):
         RunLog(t, u=z, phi=np.where(np.arange(len(t)) == 7, np.nan, 0.0))
     with pytest.raises(LogError, match="theta: 3 values for 1000 samples"):
         RunLog(t, u=z, theta=[0.0, 1.0, 2.0])
+    # A complex column is refused, not cast to its real parts with only a ComplexWarning.
+    with pytest.raises(LogError, match=r"^theta\[9\] = \(1\+2j\): not a real number \(got complex\)$"):
+        RunLog(t, u=z, theta=np.where(np.arange(len(t)) == 9, 1 + 2j, 0j))
     log = RunLog(t, u=z, phi=z)
     with pytest.raises(LogError, match="'gyro' was asked for but the log has no 'gyro' column"):
         identify(log, twip.RobotParams.balanbot(), ["m_body"], signals=["gyro"])

@@ -36,3 +36,31 @@ def real(name: str, value, above: Optional[float] = None, at_least: Optional[flo
         bound = f" and > {above:g}" if above is not None else f" and >= {at_least:g}" if at_least is not None else ""
         raise _core.InvalidParameterError(f"{name} must be finite{bound}, got {value!r}")
     return number
+
+
+def not_complex(name: str, value, error=_core.InvalidParameterError):
+    """`value` unless it is a numpy array or scalar of complex numbers: numpy's cast to float
+    would keep only its real parts, with nothing but a warning. The error names the first
+    entry off the real axis (the first entry when none is)."""
+    if getattr(getattr(value, "dtype", None), "kind", None) == "c":
+        entries = np.asarray(value).ravel()
+        off = np.flatnonzero(entries.imag != 0)
+        i = int(off[0]) if len(off) else 0
+        raise error(f"{name}[{i}] = {complex(entries[i])!r}: not a real number (got complex)")
+    return value
+
+
+def vector(name: str, value, n: int) -> np.ndarray:
+    """`value` as n finite floats (any array-like of n real numbers, flattened): else a
+    TypeError (not numbers), an InvalidParameterError (complex), a ShapeError or a
+    NonFiniteError, each naming the parameter."""
+    not_complex(name, value)
+    try:
+        v = np.asarray(value, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be numbers, got {value!r} ({type(value).__name__})") from None
+    if v.shape != (n,):
+        raise _core.ShapeError(f"{name} has shape {np.shape(value)}, expected ({n},)")
+    if not np.all(np.isfinite(v)):
+        raise _core.NonFiniteError(f"{name} = {v.tolist()}: every entry must be finite")
+    return v

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from twip import _core
+from twip import _core, checks
 
 #: State and input names, per model (the order of `deriv`).
 SLOPE_STATES = ("phi", "phi_dot", "theta", "theta_dot")
@@ -50,24 +50,12 @@ def _names(model):
     raise TypeError(f"model must be a twip.SlopeModel or twip.PlanarModel, got {type(model).__name__}")
 
 
-def _vector(name, value, n) -> np.ndarray:
-    try:
-        v = np.asarray(value, dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be numbers, got {value!r} ({type(value).__name__})") from None
-    if v.shape != (n,):
-        raise _core.ShapeError(f"{name} has shape {np.shape(value)}, expected ({n},)")
-    if not np.all(np.isfinite(v)):
-        raise _core.NonFiniteError(f"{name} = {v.tolist()}: every entry must be finite")
-    return v
-
-
 def jacobians(model, x0, u0):
     """(A, B) of `model` about (x0, u0): exact for a SlopeModel, central differences of
     `deriv` (step 1e-6, relative error ~1e-9) for a PlanarModel."""
     states, inputs = _names(model)
-    x0 = _vector("x0", x0, len(states))
-    u0 = _vector("u0", u0, len(inputs))
+    x0 = checks.vector("x0", x0, len(states))
+    u0 = checks.vector("u0", u0, len(inputs))
     if isinstance(model, _core.SlopeModel):
         return model.linearize(x0, float(u0[0]))
     a = np.empty((len(states), len(states)))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from twip import _core
+from twip import _core, checks
 
 
 class LinearPolicy:
@@ -17,8 +17,8 @@ class LinearPolicy:
     (bisection: the mapping is monotone, rounded to whole counts)."""
 
     def __init__(self, gains, period: float = 5e-3, realism=None, params=None):
-        self.gains = np.asarray(gains, dtype=np.float64).reshape(4)
-        self.period = float(period)
+        self.gains = checks.vector("gains", gains, 4)
+        self.period = checks.real("period", period, above=0.0)
         self.driver = realism.motor if realism is not None else None
         self.params = params if params is not None else _core.RobotParams.balanbot()
 

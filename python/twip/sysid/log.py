@@ -9,7 +9,7 @@ from typing import Dict, Mapping, Optional, Union
 
 import numpy as np
 
-from twip import _core
+from twip import _core, checks
 from twip.sysid import units
 
 #: The signals a log may hold, with their units (the constructor's keywords).
@@ -167,6 +167,7 @@ def _factor(name: str, scale) -> float:
 
 
 def _column(name: str, value) -> np.ndarray:
+    checks.not_complex(name, value, LogError)
     try:
         column = np.ascontiguousarray(value, dtype=float)
     except (TypeError, ValueError):
