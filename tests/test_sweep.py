@@ -178,6 +178,9 @@ def test_invalid_draws_are_reported_per_sample_not_raised():
         (dict(n=0), "positive integer"),
         (dict(n=-5), "positive integer"),
         (dict(perturb={"mass": twip.Uniform(rel=0.1)}), "unknown perturbation 'mass'"),
+        # One quantity under two names: the later draw overwrote the earlier, both stored as drawn.
+        (dict(perturb={"phi0": twip.Uniform(abs=0.1), "x0[0]": twip.Uniform(low=0.2, high=0.3)}),
+         "perturb: 'phi0' and 'x0\\[0\\]' are the same quantity; give it once"),
         (dict(perturb={"m_body": twip.Uniform(rel=-0.1)}), "negative width"),
         (dict(perturb={"m_body": twip.Uniform(low=1.0, high=0.5)}), "negative width"),
         (dict(perturb={"m_body": twip.Normal(std=-1.0)}), "negative width"),

@@ -124,9 +124,14 @@ def resolve(perturb: Mapping, scenario) -> list:
     """Perturbations as tuples for the core, in key order (the draw order)."""
     out = []
     perturb = checks.of_type("perturb", perturb or {}, Mapping, "a dict {name: twip.Uniform or twip.Normal}")
+    named = {}  # (kind, index) -> the first name given for it
     for name, dist in perturb.items():
         checks.of_type("perturb's keys", name, str, "parameter names (str)")
         kind, index = target(name, scenario)
+        # Two names of one quantity (phi0 and x0[0]): the later draw would overwrite the
+        # earlier while both are stored as drawn.
+        if named.setdefault((kind, index), name) != name:
+            raise _bad(f"perturb: {named[kind, index]!r} and {name!r} are the same quantity; give it once")
         if kind == "param":
             nominal = getattr(scenario.model.params, name)
         elif kind in ("slope", "heading"):
