@@ -75,6 +75,15 @@ fn check<T: Real>(name: &'static str, v: T, allow_zero: bool) -> Result<T, TwipE
     }
 }
 
+/// Finite, > 0 and not subnormal (as f64).
+fn normal<T: Real>(v: T) -> bool {
+    v > T::zero() && crate::to_f64(v).is_normal()
+}
+
+fn sheet_error<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
+    TwipError::InvalidParameter { name, value: crate::to_f64(v), reason }
+}
+
 impl<T: Real> DcMotor<T> {
     pub fn new(resistance: T, k_t: T, gear_ratio: T, friction: T, supply: T, pwm_max: T) -> Result<Self, TwipError> {
         Ok(Self {
@@ -93,17 +102,28 @@ impl<T: Real> DcMotor<T> {
         let stall = check("stall_current", sheet.stall_current, false)?;
         let idle = check("no_load_current", sheet.no_load_current, true)?;
         let eta = check("gear_ratio", sheet.gear_ratio, false)?;
-        let resistance = volts / stall;
-        let w0 = check("no_load_rpm", sheet.no_load_rpm, false)? * T::two_pi() / c::<T>(60.0) * eta;
-        let k = (volts - idle * resistance) / w0;
-        if k <= T::zero() || !k.is_finite() {
-            return Err(TwipError::InvalidParameter {
-                name: "no_load_current",
-                value: crate::to_f64(idle),
-                reason: "must be below the stall current",
-            });
+        let rpm = check("no_load_rpm", sheet.no_load_rpm, false)?;
+        if idle >= stall {
+            return Err(sheet_error("no_load_current", idle, "must be below the stall current"));
         }
-        Self::new(resistance, k, eta, k * idle / w0, supply, c(PWM_MAX))
+        // Values each finite can still give a motor beyond floating point's range (an
+        // overflow, or an underflow that loses the no-load current): name the value that
+        // did it, not the next derived one.
+        let resistance = volts / stall;
+        if !normal(resistance) {
+            return Err(sheet_error("rated_voltage", volts, "over stall_current gives a resistance beyond floating point's range"));
+        }
+        let w0 = rpm * T::two_pi() / c::<T>(60.0) * eta;
+        let k = (volts - idle * resistance) / w0;
+        let friction = k * idle / w0;
+        if !(normal(w0) && normal(k) && (normal(friction) || idle == T::zero())) {
+            return Err(sheet_error(
+                "no_load_rpm",
+                rpm,
+                "with rated_voltage and gear_ratio gives a torque constant or friction beyond floating point's range",
+            ));
+        }
+        Self::new(resistance, k, eta, friction, supply, c(PWM_MAX))
     }
 
     /// The thesis's motor (Table 2.3) on its 11.1 V battery.
@@ -267,5 +287,21 @@ mod tests {
             DcMotor::from_data_sheet(&sheet, 11.1),
             Err(TwipError::InvalidParameter { name: "no_load_current", .. })
         ));
+    }
+
+    #[test]
+    fn a_sheet_value_beyond_floating_points_range_is_named_not_the_next_field() {
+        // 1e308 rpm was blamed on no_load_current; 1e300 gave a friction of 0 (the no-load
+        // current lost) and 1e-308 V a subnormal resistance, both accepted.
+        for (field, value) in [("no_load_rpm", 1e308), ("no_load_rpm", 1e300), ("rated_voltage", 1e-308)] {
+            let mut sheet = DataSheet::<f64>::gb37y3530();
+            match field {
+                "no_load_rpm" => sheet.no_load_rpm = value,
+                _ => sheet.rated_voltage = value,
+            }
+            let got = DcMotor::from_data_sheet(&sheet, 11.1);
+            let named = matches!(got, Err(TwipError::InvalidParameter { name, value: v, .. }) if name == field && v == value);
+            assert!(named, "{field} = {value}: {got:?}");
+        }
     }
 }
