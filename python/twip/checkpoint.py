@@ -2,7 +2,8 @@
 
 - `lock`: one writer at a time. The lock is an OS file lock (released by the kernel when
   its process dies); the file names the holder's pid and host, so a second writer is told
-  who holds it, and a lock left by a process that is gone is noticed and taken over.
+  who holds it, and a lock left by a process that is gone (or a file that names no
+  sweep) is noticed, named in a warning and taken over.
 - `manifest.json`: the sweep's configuration and its fingerprint (`fingerprint`, the one
   function the API and the CLI share); another configuration in the folder is refused.
 - `shard-<start>.npz`: one per finished shard, written under a temporary name and renamed
@@ -42,6 +43,16 @@ def _bad(message: str) -> Exception:
     return _core.InvalidParameterError(message)
 
 
+def checkpoint_folder(path) -> Path:
+    """`path` (a str or os.PathLike) as the checkpoint folder; an empty one, which is the
+    working directory, is refused (it would fill it with the sweep's lock, manifest and shards)."""
+    if not isinstance(path, (str, os.PathLike)) or not isinstance(os.fspath(path), str):
+        raise TypeError(f"checkpoint must be a folder path (str or os.PathLike), got {path!r} ({type(path).__name__})")
+    if not os.fspath(path):
+        raise _bad("checkpoint = '': an empty path is the working directory; pass a folder for the sweep's shards")
+    return Path(path)
+
+
 def fingerprint(config: dict, shard_size: int) -> str:
     """The SHA-256 of what a sweep computes (its configuration and shard size)."""
     significant = {k: v for k, v in config.items() if k not in HOW_GIVEN}
@@ -74,7 +85,7 @@ class Checkpoint:
     Call `close()` (or use it as a context manager) to release the lock."""
 
     def __init__(self, path, config: dict, shard: int):
-        self.dir = Path(path)
+        self.dir = checkpoint_folder(path)
         self.fingerprint = fingerprint(config, shard)
         self._fd: Optional[int] = None
         if self.dir.exists() and not self.dir.is_dir():
@@ -117,7 +128,11 @@ class Checkpoint:
             raise self._in_use(holder) from None
         previous = self._holder(fd)
         host = socket.gethostname()
-        if previous.get("pid") is not None:
+        if "unreadable" in previous:
+            # Not a sweep's record (a sweep writes its pid and host): no holder to wait for.
+            warnings.warn(f"checkpoint {self.dir}: the lock file {path} held {previous['unreadable']!r}, not a "
+                          "sweep's pid and host; took it over", stacklevel=3)
+        elif previous.get("pid") is not None:
             # A pid left in the file: its holder ended without releasing (killed, crashed).
             # Without OS locks, a live holder on this host is still in charge.
             pid = int(previous["pid"])
@@ -136,11 +151,23 @@ class Checkpoint:
 
     @staticmethod
     def _holder(fd: int) -> dict:
+        """The lock file's record, {"pid": int, "host": str} as a sweep writes it; {} when
+        empty (a clean release); {"unreadable": its text} for anything else."""
         try:
-            text = os.pread(fd, 4096, 0).decode()
-            return json.loads(text) if text.strip() else {}
-        except (OSError, ValueError):
+            text = os.pread(fd, 4096, 0).decode(errors="replace")
+            record = json.loads(text) if text.strip() else {}
+        except OSError:
             return {}
+        except ValueError:
+            record = None
+        if record == {}:
+            return record
+        pid = record.get("pid") if isinstance(record, dict) else None
+        # A pid os.kill takes as one process: not a bool, not 0 or negative (a group), not past pid_t.
+        if isinstance(pid, bool) or not isinstance(pid, int) or not 0 < pid < 2**31 \
+                or not isinstance(record.get("host"), str):
+            return {"unreadable": text[:200]}
+        return record
 
     def close(self):
         """Releases the lock (the file stays, empty: a clean release)."""
@@ -165,9 +192,14 @@ class Checkpoint:
                 old = json.loads(path.read_text())
             except (OSError, ValueError) as e:
                 raise _bad(f"checkpoint {path} cannot be read ({e}); use a new folder") from None
-            before = old.get("manifest", {}).get("config", {})
-            old_shard = old.get("manifest", {}).get("shard_size")
-            if before and fingerprint(before, old_shard or 0) != self.fingerprint:
+            manifest = old.get("manifest") if isinstance(old, dict) else None
+            before, old_shard = (manifest.get("config"), manifest.get("shard_size")) if isinstance(manifest, dict) \
+                else (None, None)
+            if not (isinstance(before, dict) and before and isinstance(old_shard, int)
+                    and not isinstance(old_shard, bool) and old_shard > 0):
+                raise _bad(f"checkpoint {path} cannot be read (not a sweep's manifest: it needs "
+                           "{\"manifest\": {\"config\": {...}, \"shard_size\": N}}); use a new folder")
+            if fingerprint(before, old_shard) != self.fingerprint:
                 diff = [k for k in {**before, **config} if k not in HOW_GIVEN and before.get(k) != config.get(k)]
                 if old_shard != shard:
                     diff.append("shard_size")

@@ -114,12 +114,19 @@ def finite_number(name, what, value) -> float:
 
 
 def wilson_interval(successes: int, n: int, confidence: float = 0.95):
-    """Wilson score interval for a binomial proportion."""
+    """Wilson score interval for a binomial proportion: `successes` of `n` trials (integers,
+    0 <= successes <= n). n = 0 (no trials: a sweep without valid samples) tells nothing
+    about the proportion: (0.0, 1.0)."""
     if isinstance(confidence, bool) or not (isinstance(confidence, (int, float, np.floating)) and 0 < confidence < 1):
         raise _core.InvalidParameterError(f"confidence = {confidence!r}: must be a number in (0, 1)")
-    if not 0 <= successes <= max(n, 0):
+    for name, value in (("successes", successes), ("n", n)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise TypeError(f"{name} must be an integer, got {value!r} ({type(value).__name__})")
+    if n < 0:
+        raise _core.InvalidParameterError(f"n = {n!r}: the number of trials must be >= 0")
+    if not 0 <= successes <= n:
         raise _core.InvalidParameterError(f"successes = {successes!r}: must be from 0 to n = {n!r}")
-    if n <= 0:
+    if n == 0:
         return (0.0, 1.0)
     from statistics import NormalDist
 

@@ -98,7 +98,8 @@ def target(name: str, sc):
         return (name, 0)
     if name in states:
         return ("x0", states.index(name))
-    if name.startswith("x0[") and name.endswith("]") and name[3:-1].isdigit() and int(name[3:-1]) < len(states):
+    # Spelled as the error below lists them: str.isdigit would take "x0[¹]" (and int() not).
+    if name.startswith("x0[") and name.endswith("]") and name[3:-1] in [str(i) for i in range(len(states))]:
         return ("x0", int(name[3:-1]))
     slope = "'slope', 'heading' (on a terrain plane), " if family.planar else "'slope', "
     raise _bad(

@@ -28,7 +28,7 @@ from typing import Mapping, Optional, Sequence
 import numpy as np
 
 from twip import _core, budget, checks, user_sweep
-from twip.checkpoint import Checkpoint, ctrl_c_held
+from twip.checkpoint import Checkpoint, checkpoint_folder, ctrl_c_held
 from twip.distributions import Normal, Uniform, finite_number, wilson_interval  # noqa: F401 (re-exported)
 from twip.perturbation import PLANAR_STATE_NAMES, STATE_NAMES, family_of, kernel_for, resolve  # noqa: F401
 from twip.sweep_result import StreamedSweepResult, SweepResult  # noqa: F401
@@ -36,7 +36,8 @@ from twip.sweep_result import StreamedSweepResult, SweepResult  # noqa: F401
 _bad = _core.InvalidParameterError
 
 DEFAULT_SHARD = 1024
-#: A checkpointed sweep is cut into at most this many shards by default.
+#: A sweep is cut into at most this many shards: the default shard size grows to keep
+#: within it, a shard_size that would make more is refused.
 MAX_SHARDS = 10_000
 #: A checkpointed sweep of a Python controller, whose samples are slow, is cut into shards
 #: of about this many seconds' work (a Ctrl-C keeps every finished shard).
@@ -53,6 +54,8 @@ def _scenario_of(scenario, params, options):
     from twip import scenarios
 
     checks.of_type("scenario", scenario, (str, scenarios.Scenario), "a scenario name or a twip.scenarios.Scenario")
+    if params is not None:  # a dict of fields failed deep inside the scenario's design
+        checks.of_type("params", params, _core.RobotParams, "a twip.RobotParams (from_dict(...) for a dict)")
     if isinstance(scenario, str):
         return scenarios.get(scenario, params=params, **(options or {}))
     if params is not None or options:
@@ -215,9 +218,12 @@ def montecarlo(
         raise _bad(f"n = {n!r}: the number of samples must be a positive integer")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
         raise _bad(f"seed = {seed!r}: must be an integer in [0, 2**64)")
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
                                 or not 1 <= threads <= _core.MAX_THREADS):
         raise _bad(f"threads = {threads!r}: must be an integer from 1 to {_core.MAX_THREADS}, or None (all cores)")
+    threads = None if threads is None else int(threads)
+    if checkpoint is not None:  # before a shard size is read from it or the folder is made
+        checkpoint = checkpoint_folder(checkpoint)
     if client is not None and not callable(getattr(client, "submit", None)):
         raise TypeError(f"client must be a dask.distributed.Client, got {client!r} ({type(client).__name__})")
     if client is not None and not isinstance(scenario, str):
@@ -248,6 +254,9 @@ def montecarlo(
             raise _bad(f"shard_size = {shard_size!r}: must be a positive integer")
         else:
             shard = int(shard_size)
+        if -(-n // shard) > MAX_SHARDS:  # before the shards' layout is built
+            raise _bad(f"n = {n:,} samples in shards of shard_size = {shard:,} make {-(-n // shard):,} shards, "
+                       f"more than MAX_SHARDS = {MAX_SHARDS:,}; pass shard_size >= {-(-n // MAX_SHARDS):,}")
         # Memory: all the metrics when they fit the budget, else (with a checkpoint) a
         # shard at a time, the summaries read back from the shards.
         in_memory = fits_in_memory(n)

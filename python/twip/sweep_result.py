@@ -132,13 +132,18 @@ class SweepResult:
 
     def drawn(self, name: str, index=None) -> np.ndarray:
         """The value drawn for perturbed quantity `name` (as in `perturb=`: a RobotParams
-        field, 'slope', 'phi0', 'x0[0]'...) in each sample of `index` (default: all)."""
+        field, 'slope', 'phi0', 'x0[0]'...) in each sample of `index` (a list of sample indices;
+        default: all)."""
         kind, at = self.perturbation_target(name)
-        index = np.asarray(self.metrics["index"] if index is None else index, dtype=np.int64)
+        try:  # each a sample of this sweep, as sample() takes it
+            index = [self._index(i) for i in (self.metrics["index"] if index is None else index)]
+        except TypeError:  # not iterable
+            raise TypeError(f"index must be a list of sample indices (or None: all), got {index!r} "
+                            f"({type(index).__name__})") from None
         sc, perturbations = self._scenario, [tuple(p) for p in self.config["perturbations"]]
         out = np.empty(len(index))
         for k, i in enumerate(index):  # the raw draw: an invalid robot has its values too
-            params, ground, x0 = family_of(sc).draw(sc.model, sc.x0, perturbations, self.seed, int(i))
+            params, ground, x0 = family_of(sc).draw(sc.model, sc.x0, perturbations, self.seed, i)
             out[k] = (ground_value(ground, kind) if kind in ("slope", "heading") else x0[at] if kind == "x0"
                       else params[name])
         return out

@@ -8,8 +8,8 @@ from typing import Dict, Iterable, Optional
 import numpy as np
 
 from twip import _core
-from twip.scenarios.lqr import thesis_weights
-from twip.scenarios.registry import Scenario, register, trip_time
+from twip.scenarios.lqr import go_and_back, thesis_weights
+from twip.scenarios.registry import Scenario, register
 
 SPEED = math.radians(180)
 
@@ -32,13 +32,6 @@ def _fuzzy(ctrl_params, slope, period, ki, adapt, gamma, sigma, sets):
     build = _core.FuzzyController.thesis_slope if slope else _core.FuzzyController.thesis_flat
     extra = {k: v for k, v in dict(gamma=gamma, sigma=sigma, sets=sets).items() if v is not None}
     return build(model, ki=ki, adapt=adapt, period=period, **extra)
-
-
-def _go_and_back(distance, radius, hold, settle):
-    leg = trip_time(distance, SPEED, radius)
-    reference = _core.SpeedSchedule([(distance / radius, SPEED, hold), (0.0, SPEED, settle)])
-    goals = [(leg + hold, distance), (2 * leg + hold + settle, 0.0)]
-    return reference, 2 * leg + hold + settle, goals
 
 
 @register("slope-fuzzy-sim")
@@ -81,7 +74,7 @@ def _slope_fuzzy(params, ctrl_params, ki=0.0, adapt=True, gamma=None, sigma=None
     """Thesis 4.1.2 experiment (Fig 4.8): upright (phi = 0) at rest on 15 deg, 0.75 m up at
     180 deg/s, hold, back, hold. The desired pitch is phi_s of the controller's model."""
     slope, distance = math.radians(15), 0.75
-    reference, t_final, goals = _go_and_back(distance, params.wheel_radius, hold, settle)
+    reference, t_final, goals = go_and_back(distance, SPEED, params.wheel_radius, hold, settle)
     return Scenario(
         name="slope-fuzzy",
         description="Fuzzy adaptive backstepping + PD on a 15 deg slope: 0.75 m at 180 deg/s, hold, back (thesis 4.1.2, Fig 4.8)",
@@ -99,7 +92,7 @@ def _flat_fuzzy(params, ctrl_params, ki=0.0, adapt=True, gamma=None, sigma=None,
                 hold=5.0, settle=5.0):
     """Thesis 4.2.2 experiment (Fig 4.12): 1 m at 180 deg/s, hold, back, hold."""
     distance = 1.0
-    reference, t_final, goals = _go_and_back(distance, params.wheel_radius, hold, settle)
+    reference, t_final, goals = go_and_back(distance, SPEED, params.wheel_radius, hold, settle)
     return Scenario(
         name="flat-fuzzy",
         description="Fuzzy adaptive backstepping + PD on the flat: 1 m at 180 deg/s, hold, back (thesis 4.2.2, Fig 4.12)",

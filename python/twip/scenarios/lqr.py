@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from twip import _core
+from twip import _core, checks
 from twip.scenarios.registry import Scenario, register, trip_time
 
 
@@ -18,6 +18,16 @@ THESIS_FLAT_WEIGHTS = ([100.0, 1.0, 1.0, 1.0], 480.0)
 def thesis_weights(slope: float):
     """(Q, R) of the thesis's LQR for a run on `slope` [rad] (flat: 0)."""
     return THESIS_WEIGHTS if slope else THESIS_FLAT_WEIGHTS
+
+
+def go_and_back(distance, speed, radius, hold, settle):
+    """(reference, t_final, goals) of a trip `distance` [m] out at wheel speed `speed`
+    [rad/s] on wheels of `radius` [m], `hold` s there, back, and `settle` s at home."""
+    settle = checks.real("settle", settle, at_least=0)  # the core would name it hold (its second leg's)
+    leg = trip_time(distance, speed, radius)
+    reference = _core.SpeedSchedule([(distance / radius, speed, hold), (0.0, speed, settle)])
+    goals = [(leg + hold, distance), (2 * leg + hold + settle, 0.0)]
+    return reference, 2 * leg + hold + settle, goals
 
 
 def _lqr(ctrl_params, slope, speed, point, period):
@@ -68,17 +78,16 @@ def _slope_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, se
     slope, speed, distance = math.radians(15), math.radians(250), 0.6
     plant = _core.SlopeModel(params, slope)
     x0, _ = plant.equilibrium(0.0)  # standing still, balanced on the slope
-    leg = trip_time(distance, speed, params.wheel_radius)
+    reference, t_final, goals = go_and_back(distance, speed, params.wheel_radius, hold, settle)
     return Scenario(
         name="slope-lqr",
         description="LQR on a 15 deg slope: 0.6 m at 250 deg/s, hold 5 s, back (thesis 4.1.1, Fig 4.3)",
         model=plant,
         controller=_lqr(ctrl_params, slope, speed, point, period),
         x0=x0,
-        reference=_core.SpeedSchedule([(distance / params.wheel_radius, speed, hold), (0.0, speed, settle)]),
-        t_final=2 * leg + hold + settle,
-        thesis={"figure": "4.3", "distance": distance, "hold": hold, "goals": [(leg + hold, distance), (2 * leg + hold + settle, 0.0)],
-                "pitch_about_deg": 12.5},
+        reference=reference,
+        t_final=t_final,
+        thesis={"figure": "4.3", "distance": distance, "hold": hold, "goals": goals, "pitch_about_deg": 12.5},
     )
 
 
@@ -89,7 +98,7 @@ def _flat_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, set
     The thesis reverses at once; we hold `hold` seconds at 1 m so that the stop can be
     measured (hold=0 gives the thesis's run)."""
     speed, distance = math.radians(180), 1.0
-    leg = trip_time(distance, speed, params.wheel_radius)
+    reference, t_final, goals = go_and_back(distance, speed, params.wheel_radius, hold, settle)
     return Scenario(
         name="flat-lqr",
         description=(f"LQR on the flat: 1 m at 180 deg/s, hold {hold:g} s (twip's; the thesis turns at once), back "
@@ -97,8 +106,8 @@ def _flat_lqr(params, ctrl_params, point="operating", period=5e-3, hold=5.0, set
         model=_core.SlopeModel(params, 0.0),
         controller=_lqr(ctrl_params, 0.0, speed, point, period),
         x0=np.zeros(4),
-        reference=_core.SpeedSchedule([(distance / params.wheel_radius, speed, hold), (0.0, speed, settle)]),
-        t_final=2 * leg + hold + settle,
-        thesis={"figure": "4.10", "distance": distance, "hold": hold, "thesis_hold": 0.0,
-                "goals": [(leg + hold, distance), (2 * leg + hold + settle, 0.0)], "pitch_about_deg": 0.0},
+        reference=reference,
+        t_final=t_final,
+        thesis={"figure": "4.10", "distance": distance, "hold": hold, "thesis_hold": 0.0, "goals": goals,
+                "pitch_about_deg": 0.0},
     )
