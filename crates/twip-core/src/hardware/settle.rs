@@ -197,12 +197,16 @@ mod lanes {
     }
 }
 
-/// A settle's length must be finite and ≥ 0.
+/// The longest settle [s]. The tilt estimator settles within seconds; a settle runs the IMU
+/// at its sample rate before every run, uninterruptibly, so 1e9 s hung a run for good.
+pub const MAX_SETTLE: f64 = 600.0;
+
+/// A settle's length must be finite, ≥ 0 and at most [`MAX_SETTLE`].
 pub fn check<T: Real>(seconds: T) -> Result<(), TwipError> {
-    if seconds.is_finite() && seconds >= T::zero() {
+    if seconds.is_finite() && seconds >= T::zero() && seconds <= c(MAX_SETTLE) {
         Ok(())
     } else {
-        Err(TwipError::InvalidParameter { name: "settle", value: crate::to_f64(seconds), reason: "must be finite and >= 0 [s]" })
+        Err(TwipError::InvalidParameter { name: "settle", value: crate::to_f64(seconds), reason: "must be finite, >= 0 and <= 600 [s]" })
     }
 }
 
@@ -227,9 +231,11 @@ mod tests {
         }
         assert!(Settle::<f64>::new(Some(0.0), 1e-3, 0, 0).unwrap().is_none());
         assert!(Settle::<f64>::new(None, 1e-3, 0, 0).unwrap().is_none());
-        for bad in [-1.0, f64::NAN, f64::INFINITY] {
-            assert!(matches!(Settle::new(Some(bad), 1e-3, 0, 0), Err(TwipError::InvalidParameter { name: "settle", .. })));
+        for bad in [-1.0, f64::NAN, f64::INFINITY, MAX_SETTLE * (1.0 + f64::EPSILON), 1e9] {
+            let got = Settle::new(Some(bad), 1e-3, 0, 0);
+            assert!(matches!(got, Err(TwipError::InvalidParameter { name: "settle", reason, .. }) if reason.contains(&format!("<= {MAX_SETTLE}"))));
         }
+        assert!(Settle::<f64>::new(Some(MAX_SETTLE), 1e-3, 0, 0).unwrap().is_some());
     }
 
     /// A robot's parts a settle takes, for [`settle_side_by_side`].
