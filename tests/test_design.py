@@ -88,6 +88,31 @@ def test_bad_knobs_are_named():
         twip.tune(short(), perturb=box(0.1), knobs=["k_phi"], budget=3, n=2, progress=False)
 
 
+def test_knob_ranges_and_values_must_be_real_numbers():
+    sc = short()
+    for given in ((1, 10**400), (1, math.nan)):
+        with pytest.raises(twip.InvalidParameterError, match="knob 'r': range's high must be finite"):
+            knobs.space(sc, {"r": given})
+    for given in (np.array([1 + 2j, 10 + 0j]), [1 + 2j, 10.0], ("1", "10"), (True, 10)):  # not cut to a real part
+        with pytest.raises(TypeError, match="knob 'r': range's low must be a real number"):
+            knobs.space(sc, {"r": given})
+    for given in ("19", (1, 2, 3), 5):  # a string is not read char by char
+        with pytest.raises(TypeError, match="knob 'r': range must be two numbers"):
+            knobs.space(sc, {"r": given})
+    with pytest.raises(TypeError, match=r"knobs: a knob name must be a string, got \['r'\]"):
+        knobs.space(sc, [["r"]])
+    assert knobs.space(sc, {"r": np.array([1.0, 10.0])}).ranges == ((1.0, 10.0),)
+    weights = dict(q_phi=10.0, q_phi_dot=10.0, q_theta_dot=1.0, q_z=1.0)
+    for r in (1 + 2j, np.complex128(3), "7", True, None, np.array([1.0])):
+        with pytest.raises(TypeError, match=r"knob 'r' must be a real number"):
+            knobs.apply(sc, {**weights, "r": r})
+    with pytest.raises(twip.InvalidParameterError, match="knob 'r' must be finite"):
+        knobs.apply(sc, {**weights, "r": math.inf})
+    with pytest.raises(TypeError, match="values must be a dict"):
+        knobs.apply(sc, None)
+    assert fingerprint(knobs.apply(sc, {**weights, "r": np.float32(1000)})) == fingerprint(sc)
+
+
 # --- common random numbers -------------------------------------------------------------
 
 def test_every_candidate_meets_the_same_robots_and_the_same_noise():
@@ -152,6 +177,43 @@ def test_ctrl_c_returns_the_best_candidate_so_far():
     assert t.interrupted and len(t.history) == 3
     assert t.knobs == pytest.approx(dict(q_phi=10.0, q_phi_dot=10.0, q_theta_dot=1.0, q_z=1.0, r=1000.0))
     assert t.validation is not None and t.validation.n == 8
+
+
+@pytest.mark.parametrize("value", [np.complex128(1 + 2j), None, "x", np.array([1.0, 2.0]), math.nan, math.inf])
+def test_an_objective_that_returns_no_finite_number_is_named(value):
+    # not its real part, not SciPy's "map-like callable", not "no candidate could be built"
+    with pytest.raises(twip.InvalidParameterError, match=r"objective returned .*must be a finite real number"):
+        tiny_tune(n=3, budget=3, validate=3, objective=lambda result: value)
+
+
+def sweeps_of(monkeypatch):
+    """The sizes of the sweeps tune runs from now on."""
+    sizes = []
+    sweep = uncertainty.sweep
+
+    def counted(sc, n, *args):
+        sizes.append(n)
+        return sweep(sc, n, *args)
+
+    monkeypatch.setattr(uncertainty, "sweep", counted)
+    return sizes
+
+
+def test_constraints_and_sizes_are_checked_before_the_sweeps(monkeypatch):
+    sizes = sweeps_of(monkeypatch)
+    with pytest.raises(TypeError, match="constraints must be a dict"):
+        tiny_tune(constraints=[("peak_current", 1.0)])
+    for bound, error in ((math.nan, twip.InvalidParameterError), (True, TypeError), ("2", TypeError)):
+        with pytest.raises(error, match="constraints: the bound of peak_current"):
+            tiny_tune(constraints={"peak_current": bound})
+    with pytest.raises(twip.InvalidParameterError, match="unknown metric 'nope'"):
+        tiny_tune(constraints={"nope": 1.0})
+    for name in ("validate", "n"):  # not "montecarlo: n = ..." after the search
+        with pytest.raises(twip.MemoryBudgetError, match=f"tune: {name} = 1,000,000,000,000 robots"):
+            tiny_tune(**{name: 10**12, "budget": 2})
+    assert max(sizes) <= 1  # at most the one robot that gives the metrics' names
+    t = tiny_tune(n=3, budget=3, validate=3, constraints={"peak_current": np.int64(100)})
+    assert t.settings["n"] == 3
 
 
 def test_a_fit_covariance_becomes_the_uncertainty(balanbot):
@@ -246,6 +308,35 @@ def test_worst_case_bad_input_is_named():
         twip.worst_case(short(), perturb={}, budget=3)
 
 
+def test_a_worst_case_is_a_robot_that_could_be_simulated():
+    # Slopes past 90 degrees and negative masses are no robots: left out, with a warning.
+    with pytest.warns(UserWarning, match=r"4 of the 8 robots tried could not be simulated \(slope: must be"):
+        w = twip.worst_case(short(), perturb={"slope": twip.Uniform(low=0.0, high=3.1)}, budget=8, threads=1)
+    assert w.history["valid"].sum() == 4 and math.isfinite(w.metric) and w.params["slope"] < math.pi / 2
+    assert w.metric == w.history["metric"][w.history["valid"]].max()
+    with pytest.warns(UserWarning, match="m_body: must be > 0"):  # the box's low corner is below 0
+        w = twip.worst_case(short(), perturb={"m_body": twip.Normal(rel=0.5)}, budget=8, threads=1)
+    assert w.robot.m_body == w.params["m_body"] > 0
+    with pytest.raises(twip.InvalidParameterError, match="perturb: none of the 6 robots tried could be simulated"):
+        twip.worst_case(short(), perturb={"slope": twip.Uniform(low=2.0, high=3.1)}, budget=6, threads=1)
+
+
+def test_worst_case_metrics_are_the_scenarios_and_ranked_by_magnitude():
+    w = twip.worst_case(scenarios.get("circle-pid", laps=0.05), perturb={"m_body": twip.Uniform(rel=0.1)},
+                        budget=3, threads=np.int64(1))  # a planar sweep's pitch metric: mean_abs_pitch
+    assert 0 < w.metric < 1 and not w.fell
+    # final_position_error is signed: overshooting the goal by 0.79 m is worse than stopping 0.34 m short
+    w = tiny_worst(perturb=box(0.3), realism=None, budget=8, seed=0, metric="final_position_error", threads=1)
+    assert (w.history["metric"] >= 0).all() and w.metric == w.history["metric"].max()
+    final = uncertainty.sweep(short(), 1, w._perturb(), 0, None, 1).metrics["final_position_error"][0]
+    assert final < 0 and w.metric == -final
+    with pytest.raises(TypeError, match="metric must be a metric name"):
+        twip.worst_case(short(), perturb=box(0.1), metric=np.array(["margin"]), budget=3)
+    for metric in ("fell", "t_end"):  # how a run ended: "time_to_fall" ranks it
+        with pytest.raises(twip.InvalidParameterError, match=f"metric = '{metric}'"):
+            twip.worst_case(short(), perturb=box(0.1), metric=metric, budget=3)
+
+
 # --- controller files and the command line ------------------------------------------------
 
 def test_a_controller_file_round_trips(tmp_path):
@@ -259,6 +350,15 @@ def test_a_controller_file_round_trips(tmp_path):
     (tmp_path / "bad.toml").write_text("[controller]\nfamily = \"lqr\"\n[knobs]\nq_x = 1.0\n")
     with pytest.raises(controller_file.ControllerFileError, match="unknown knob 'q_x'"):
         controller_file.apply(short(), tmp_path / "bad.toml")
+
+
+def test_a_controller_file_that_is_not_text_is_named(tmp_path):
+    path = tmp_path / "binary.toml"
+    path.write_bytes(b"\xff\xfe[controller]\n")
+    with pytest.raises(controller_file.ControllerFileError, match="binary.toml: not UTF-8 text"):
+        controller_file.load(path)
+    with pytest.raises(TypeError, match="path must be a file path, got None"):
+        controller_file.load(None)
 
 
 def test_tune_and_worst_case_commands(tmp_path, capsys):

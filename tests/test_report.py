@@ -469,3 +469,34 @@ def test_a_thesis_like_run_that_fell_says_when_in_its_legend():
     assert fell.outcome == "fell"
     assert _rig_label(fell) == f"{RIG_LABEL}, fell at {round(fell.t_end, 2):g} s"
     assert _rig_label(sc.run(t_final=1.0)) == RIG_LABEL
+
+
+def test_reproduce_checks_jobs_before_any_work(tmp_path, monkeypatch, capsys):
+    import importlib
+
+    from test_cli import run  # cli.main in-process: (code, out, err)
+
+    module = importlib.import_module("twip.report.reproduce")
+
+    def ran(*args):
+        raise AssertionError("reproduce ran with bad jobs")
+
+    monkeypatch.setattr(module, "_run_scenarios", ran)
+    out = tmp_path / "report"
+    for jobs, error in (("2", TypeError), (True, TypeError), (-3, twip.InvalidParameterError),
+                        (10**12, twip.InvalidParameterError)):  # not a process pool of 10**12 workers
+        with pytest.raises(error, match=f"jobs .*{jobs!r}"):
+            module.reproduce(out, jobs=jobs, quiet=True)
+    assert not out.exists()
+    code, _, err = run(["reproduce", "--out", out, "--jobs", twip._core.MAX_THREADS + 1], capsys)
+    assert code == 2 and f"must be from 1 to {twip._core.MAX_THREADS}" in err
+
+
+def test_compare_names_laps():
+    from twip.scenarios import tracking
+
+    with pytest.raises(twip.InvalidParameterError, match="laps must be finite and > 0, got 0"):  # not t_final
+        tracking.compare(laps=0, trackers=("circle-pid",))
+    for laps in ("2", True):
+        with pytest.raises(TypeError, match="laps must be a real number"):
+            tracking.compare(laps=laps, trackers=("circle-pid",))

@@ -64,3 +64,13 @@ def vector(name: str, value, n: int) -> np.ndarray:
     if not np.all(np.isfinite(v)):
         raise _core.NonFiniteError(f"{name} = {v.tolist()}: every entry must be finite")
     return v
+
+
+def threads(value) -> Optional[int]:
+    """`value` as a thread count: None (all cores) or an integer from 1 to MAX_THREADS
+    (a numpy integer too; not a bool)."""
+    if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer))
+                              or not 1 <= value <= _core.MAX_THREADS):
+        raise _core.InvalidParameterError(
+            f"threads = {value!r}: must be an integer from 1 to {_core.MAX_THREADS}, or None (all cores)")
+    return None if value is None else int(value)

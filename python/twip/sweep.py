@@ -218,10 +218,7 @@ def montecarlo(
         raise _bad(f"n = {n!r}: the number of samples must be a positive integer")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
         raise _bad(f"seed = {seed!r}: must be an integer in [0, 2**64)")
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
-                                or not 1 <= threads <= _core.MAX_THREADS):
-        raise _bad(f"threads = {threads!r}: must be an integer from 1 to {_core.MAX_THREADS}, or None (all cores)")
-    threads = None if threads is None else int(threads)
+    threads = checks.threads(threads)
     if checkpoint is not None:  # before a shard size is read from it or the folder is made
         checkpoint = checkpoint_folder(checkpoint)
     if client is not None and not callable(getattr(client, "submit", None)):

@@ -80,7 +80,7 @@ def add_parsers(sub) -> None:
     add_realism_option(p)
     p.add_argument("--budget", type=positive_int, default=400, metavar="N", help="robots to run (default 400)")
     p.add_argument("--metric", default=None, help="margin (default), time_to_fall, or a sweep metric such as "
-                   "peak_current (larger: worse)")
+                   "peak_current (a larger magnitude: worse)")
     p.add_argument("--seed", type=seed, default=0, help="random seed (default 0)")
     p.add_argument("--confirm", type=positive_int, default=20, metavar="N",
                    help="fresh noise seeds the worst robot is run on (default 20)")

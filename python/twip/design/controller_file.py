@@ -10,9 +10,10 @@ The knobs, not the gains, are kept: an LQR is designed again for the robot it ru
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
-from twip import _core
+from twip import _core, checks
 from twip.design import knobs as knob_space
 
 try:  # Python >= 3.11
@@ -62,11 +63,13 @@ def save(path, tuning) -> None:
 
 def load(path) -> dict:
     """{"scenario", "family", "knobs"} of a controller file."""
-    path = Path(path)
+    path = Path(checks.of_type("path", path, (str, os.PathLike), "a file path"))
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_text(encoding="utf-8"))  # TOML is UTF-8, whatever the locale
     except OSError as e:
         raise ControllerFileError(f"{path}: cannot read the controller file ({e.strerror})") from None
+    except UnicodeDecodeError as e:
+        raise ControllerFileError(f"{path}: not UTF-8 text, as TOML is ({e.reason} at byte {e.start})") from None
     except tomllib.TOMLDecodeError as e:
         raise ControllerFileError(f"{path}: not valid TOML ({e})") from None
     head, values = data.get("controller"), data.get("knobs")

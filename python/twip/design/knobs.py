@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import Callable, Dict, Mapping, Optional, Tuple
 
-from twip import _core
+from twip import _core, checks
 
 _bad = _core.InvalidParameterError
 
@@ -224,6 +224,8 @@ def space(scenario, knobs=None) -> Space:
     if knobs is None:
         knobs = {k.name: None for k in fam.knobs}
     elif isinstance(knobs, (list, tuple)):
+        for name in knobs:  # before the dict: a list as a name is not hashable
+            checks.of_type("knobs: a knob name", name, str, "a string")
         knobs = {name: None for name in knobs}
     elif not isinstance(knobs, Mapping):
         raise _bad(f"knobs = {knobs!r}: must be None, a list of knob names or a dict {{name: (low, high) or None}}")
@@ -239,12 +241,11 @@ def space(scenario, knobs=None) -> Space:
 
 
 def _range(name, given) -> Tuple[float, float]:
-    try:
-        low, high = (float(v) for v in given)
-    except (TypeError, ValueError):
-        raise _bad(f"knob '{name}': range {given!r} must be two numbers (low, high)") from None
-    if not (math.isfinite(low) and math.isfinite(high)):
-        raise _bad(f"knob '{name}': range ({low}, {high}) must be finite")
+    # A string is a sequence too ("19": 1 to 9): refused with the other non-pairs. Each end
+    # is a real number, not cast (a complex's real part).
+    if isinstance(given, (str, bytes)) or not hasattr(given, "__len__") or len(given) != 2:
+        raise TypeError(f"knob '{name}': range must be two numbers (low, high), got {given!r}")
+    low, high = (checks.real(f"knob '{name}': range's {end}", v) for end, v in zip(("low", "high"), given))
     if low == 0 or high == 0 or (low < 0) != (high < 0):
         raise _bad(f"knob '{name}': range ({low:g}, {high:g}) is searched on a log scale, so both ends need "
                    "the same sign and neither may be 0")
@@ -256,11 +257,13 @@ def _range(name, given) -> Tuple[float, float]:
 def apply(scenario, values: Mapping[str, float]):
     """`scenario` with its controller built from knob values (the others keep the
     controller's own values; an LQR needs all five weights)."""
+    checks.of_type("values", values, Mapping, "a dict {knob name: value}")
     controller = scenario.controller
     fam = family_of(controller)
     for name in values:
         fam.knob(name)
-    full = {**fam.read(controller, scenario), **{k: float(v) for k, v in values.items()}}
+    given = {k: checks.real(f"knob '{k}'", v) for k, v in values.items()}
+    full = {**fam.read(controller, scenario), **given}
     missing = [k.name for k in fam.knobs if k.name not in full]
     if missing:
         raise _bad(f"the {fam.name} controller's own values of {', '.join(missing)} are not known (its gains "

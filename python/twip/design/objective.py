@@ -7,7 +7,7 @@ from typing import Mapping, Optional
 
 import numpy as np
 
-from twip import _core
+from twip import _core, checks
 
 _bad = _core.InvalidParameterError
 
@@ -18,14 +18,13 @@ SECONDARY = ("mean_abs_pitch_error", "final_position_error", "peak_current")
 
 
 def check_constraints(constraints: Optional[Mapping], names) -> dict:
-    """{metric: upper bound}, each a metric of the sweep and a finite number."""
+    """{metric: upper bound}, each a metric of the sweep and a finite real number."""
+    checks.of_type("constraints", constraints, (Mapping, type(None)), "a dict {metric: upper bound} or None")
     out = {}
     for name, bound in (constraints or {}).items():
         if name not in names:
             raise _bad(f"constraints: unknown metric '{name}'; the sweep's metrics: {', '.join(names)}")
-        if isinstance(bound, bool) or not isinstance(bound, (int, float)) or not math.isfinite(bound):
-            raise _bad(f"constraints: {name} <= {bound!r}: the bound must be a finite number")
-        out[name] = float(bound)
+        out[name] = checks.real(f"constraints: the bound of {name}", bound)
     return out
 
 

@@ -17,6 +17,7 @@ from typing import Callable, Dict, Mapping, Optional
 import numpy as np
 
 from twip import _core, checks
+from twip import budget as memory
 from twip.design import knobs as knob_space
 from twip.design import uncertainty
 from twip.design.objective import Objective, check_constraints, failures
@@ -74,9 +75,9 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
     """Tunes the knobs of `scenario`'s controller (twip.design.knobs) so that it holds over
     the robots of `perturb` (and of a Fit's covariance, `robot=`), through `realism`.
 
-    objective: a callable (SweepResult on the tuning set) -> float to minimise; default: the
-    share of robots that fall or break a constraint, then the median pitch error, stop error
-    and RMS current relative to the scenario's own controller's. constraints: {metric: upper
+    objective: a callable (SweepResult on the tuning set) -> a finite number to minimise;
+    default: the share of robots that fall or break a constraint, then the median pitch error,
+    stop error and RMS current relative to the scenario's own controller's. constraints: {metric: upper
     bound}; a robot over a bound counts as failed. budget: candidates evaluated (each a sweep
     of n robots, seed `seed`); validate: held-out robots (another seed) for `.validation`
     and `.baseline`. Ctrl-C stops the search and validates the best so far; a second Ctrl-C
@@ -88,6 +89,8 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
     n = uncertainty.positive_int("n", n)
     budget = uncertainty.positive_int("budget", budget)
     validate = uncertainty.positive_int("validate", validate)
+    for name, count in (("n", n), ("validate", validate)):
+        _fits_in_memory(name, count)
     seed = uncertainty.seed_of("seed", seed)
     if realism is not None and not isinstance(realism, _core.Realism):
         raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
@@ -96,9 +99,10 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
     sc, perturb = uncertainty.scenario_for(scenario, robot, perturb)
     space = knob_space.space(sc, knobs)
     run = lambda s, count, at: uncertainty.sweep(s, count, perturb, at, realism, threads)
+    # Checked before the sweeps: the metric names from one robot (own's sample 0).
+    constraints = check_constraints(constraints, run(sc, 1, seed).metric_names if constraints else ())
 
     own = run(sc, n, seed)  # the scenario's own controller on the tuning set
-    constraints = check_constraints(constraints, own.metric_names)
     goal = objective if objective is not None else Objective(constraints, reference=own)
     rows = []
     best = {"cost": math.inf, "values": None}
@@ -115,7 +119,10 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
             rows.append({**row, "cost": c, "fall_rate": math.nan, "failed": math.nan, "error": str(e)})
         else:
             result = run(candidate, n, seed)
-            c = float(goal(result))
+            try:
+                c = _cost_of(goal(result))
+            except (TypeError, ValueError) as e:  # SciPy would blame them on its map-like callable
+                raise _Through(e) from None
             bad = failures(result, constraints)
             rows.append({**row, "cost": c, "fall_rate": result.fall_rate,
                          "failed": float(bad.mean()) if len(bad) else 1.0,
@@ -137,6 +144,8 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
                                **uncertainty.scipy_seed(seed))
     except _Exhausted:
         pass
+    except _Through as e:
+        raise e.error from None
     except KeyboardInterrupt:
         interrupted = True
         print("tune: interrupted: validating the best candidate so far (Ctrl-C again to stop at once)",
@@ -168,6 +177,31 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
 
 class _Exhausted(Exception):
     """The budget of candidates is spent."""
+
+
+class _Through(Exception):
+    """An error of the objective's, carried through SciPy as it is."""
+
+    def __init__(self, error: Exception):
+        super().__init__(error)
+        self.error = error
+
+
+def _fits_in_memory(name: str, count: int) -> None:
+    """montecarlo's memory check of a sweep of `count` robots, made before the search rather
+    than when that sweep comes, and naming tune's parameter."""
+    from twip.sweep import BYTES_PER_SAMPLE
+
+    memory.check(f"tune: {name} = {count:,} robots", count * BYTES_PER_SAMPLE, f"give a smaller {name}")
+
+
+def _cost_of(value) -> float:
+    """The objective's value: a finite real number (else float() would keep a complex's real
+    part, and SciPy would misread the rest)."""
+    try:
+        return checks.real("objective", value)
+    except (TypeError, _bad):
+        raise _bad(f"objective returned {value!r} ({type(value).__name__}): must be a finite real number") from None
 
 
 def _start(space, sc):

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
+from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from itertools import product
@@ -19,7 +21,7 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from twip import _core
+from twip import _core, checks
 from twip.design import uncertainty
 from twip.distributions import Normal, Uniform
 
@@ -32,13 +34,16 @@ CORNER_SHARE = 0.25
 #: Robots per generation of the refinement.
 POPULATION = 32
 METRICS = ("margin", "time_to_fall")
+#: Sweep metrics that are no badness: how a run ended, which the scores above already rank.
+NOT_RANKED = ("fell", "t_end")
 
 
 @dataclass
 class WorstCase:
     """The worst robot found: `robot` (RobotParams), `params` (the searched quantities'
     values), `metric` (its score; larger is worse), `fell`, `evaluations`, `history` (a
-    DataFrame of every robot tried). `replay()` runs it again with the search's noise."""
+    DataFrame of every robot tried; `valid` False: it could not be simulated, and scored
+    -inf). `replay()` runs it again with the search's noise."""
 
     robot: object
     params: Dict[str, float]
@@ -84,17 +89,22 @@ def support(perturb, sc) -> Dict[str, tuple]:
 def score(result, metric: str) -> np.ndarray:
     """Each sample's badness under `metric` (larger: worse): a fall scores 1 plus how early
     it came (as a share of the run); "margin" scores a run that stays up by its mean |pitch
-    error| over the fall limit (below 1), "time_to_fall" by 0, a sweep metric by its value
-    (a fall: inf)."""
+    error| (a 3-DOF tracker's: mean |pitch|) over the fall limit (below 1), "time_to_fall"
+    by 0, a sweep metric by its magnitude (final_position_error is signed: short of the goal
+    or past it are alike) and a fall by inf. A robot that could not be simulated (invalid)
+    scores -inf: never the worst."""
     m = result.metrics
     t_final = result.config["t_final"]
     fell = m["fell"]
     early = 1.0 + (t_final - m["t_end"]) / t_final
     if metric == "time_to_fall":
-        return np.where(fell, early, 0.0)
-    if metric == "margin":
-        return np.where(fell, early, np.minimum(m["mean_abs_pitch_error"] / _core.DEFAULT_FALL_LIMIT, 1.0))
-    return np.where(fell, math.inf, m[metric])
+        s = np.where(fell, early, 0.0)
+    elif metric == "margin":
+        pitch = m["mean_abs_pitch_error"] if "mean_abs_pitch_error" in m else m["mean_abs_pitch"]
+        s = np.where(fell, early, np.minimum(pitch / _core.DEFAULT_FALL_LIMIT, 1.0))
+    else:
+        s = np.where(fell, math.inf, np.abs(m[metric]))
+    return np.where(m["valid"], s, -math.inf)
 
 
 def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 400, seed: int = 0,
@@ -102,9 +112,11 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
     """Searches the support of `perturb` (Uniform: its interval; Normal: ± NORMAL_SUPPORT std)
     for the robot with the worst `metric`: "margin" (default: falls first, the earlier the
     worse, then the mean pitch error), "time_to_fall", or a metric of the scenario's sweeps
-    such as "peak_current" (larger is worse; a fall worst of all). `budget` robots are run, each with
-    sweep sample 0's noise of `seed`; `threads` run robots side by side (the answer is the
-    same on any number)."""
+    such as "peak_current" (a larger magnitude is worse; a fall worst of all). `budget` robots
+    are run, each with sweep sample 0's noise of `seed`; `threads` run robots side by side (the
+    answer is the same on any number). Robots that cannot be simulated (e.g. a negative mass
+    within a Normal's ± NORMAL_SUPPORT std) are never the answer: a warning counts them, and
+    when every robot tried was one, InvalidParameterError."""
     import pandas as pd  # the history is a DataFrame: needed before the search, not after it
     from scipy.optimize import differential_evolution
 
@@ -112,6 +124,8 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
     seed = uncertainty.seed_of("seed", seed)
     if realism is not None and not isinstance(realism, _core.Realism):
         raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
+    checks.of_type("metric", metric, (str, type(None)), "a metric name or None")
+    workers = checks.threads(threads) or os.cpu_count() or 1
     sc, perturb = uncertainty.scenario_for(scenario, None, perturb)
     if not perturb:
         raise _bad("perturb: empty; the worst case is searched over the perturbations' support")
@@ -121,20 +135,18 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
     hi = np.array([box[k][1] for k in names])
     metric = "margin" if metric is None else metric
     probe = uncertainty.sweep(sc, 1, perturb, seed, realism, 1)
-    if metric not in METRICS and metric not in probe.metric_names:
-        raise _bad(f"metric = {metric!r}: one of {', '.join(METRICS)} or a sweep metric "
-                   f"({', '.join(probe.metric_names[2:])})")
+    ranked = [k for k in probe.metric_names if k not in NOT_RANKED]
+    if metric not in METRICS and metric not in ranked:
+        raise _bad(f"metric = {metric!r}: one of {', '.join(METRICS)} or a sweep metric ({', '.join(ranked)})")
     rows = []
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int)
-                                or not 1 <= threads <= _core.MAX_THREADS):
-        raise _bad(f"threads = {threads!r}: must be an integer from 1 to {_core.MAX_THREADS}, or None (all cores)")
-    workers = threads or os.cpu_count() or 1
+    invalid = Counter()  # why robots could not be simulated: {reason: count}
 
     def one(u):
         values = {k: float(v) for k, v in zip(names, lo + np.asarray(u) * (hi - lo))}
         result = uncertainty.sweep(sc, 1, {k: Uniform(low=v, high=v) for k, v in values.items()}, seed, realism, 1)
         s = score(result, metric)
-        return values, float(s[0]), bool(result.metrics["fell"][0])
+        valid = bool(result.metrics["valid"][0])
+        return values, float(s[0]), bool(result.metrics["fell"][0]), valid, {} if valid else result.invalid_reasons()
 
     def evaluate_all(func, population):
         # Robots side by side; the answers in the population's order, whatever finishes first.
@@ -146,8 +158,9 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
         with ThreadPoolExecutor(max_workers=workers) as pool:
             answers = list(pool.map(one, population))
         out = []
-        for values, s, fell in answers:
-            rows.append({"evaluation": len(rows), **values, "metric": s, "fell": fell})
+        for values, s, fell, valid, reasons in answers:
+            rows.append({"evaluation": len(rows), **values, "metric": s, "fell": fell, "valid": valid})
+            invalid.update(reasons)
             out.append(-s)
         if len(rows) >= budget:
             raise _Exhausted
@@ -161,6 +174,14 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
     except _Exhausted:
         pass
     history = pd.DataFrame(rows)
+    if invalid:
+        count = len(history) - int(history["valid"].sum())
+        why = "; ".join(f"{reason} ({k})" for reason, k in invalid.items())
+        if count == len(history):
+            raise _bad(f"perturb: none of the {count} robots tried could be simulated ({why}); "
+                       "keep the perturbations within what a robot can be")
+        warnings.warn(f"worst_case: {count} of the {len(history)} robots tried could not be simulated ({why}); "
+                      "they are left out of the search", stacklevel=2)
     worst = int(np.argmax(history["metric"].to_numpy()))  # the first of equals: deterministic
     params = {k: float(history[k].iloc[worst]) for k in names}
     robot = _robot_of(sc, params)

@@ -10,6 +10,8 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional
 
+import numpy as np
+
 import twip
 from twip import scenarios
 from twip.plot import metric_unit
@@ -104,6 +106,21 @@ def figure_key(sc):
 
 def jobs_default() -> int:
     return max(1, min(2, os.cpu_count() or 1))
+
+
+#: The most figure-rendering processes `jobs` may ask for (the thread cap of the sweeps).
+MAX_JOBS = twip._core.MAX_THREADS
+
+
+def jobs_of(jobs) -> int:
+    """`jobs` (None: jobs_default()) checked before any work, not when the figures come."""
+    if jobs is None:
+        return jobs_default()
+    if isinstance(jobs, bool) or not isinstance(jobs, (int, np.integer)):
+        raise TypeError(f"jobs must be an integer or None, got {jobs!r} ({type(jobs).__name__})")
+    if not 1 <= jobs <= MAX_JOBS:
+        raise twip.InvalidParameterError(f"jobs = {jobs!r}: must be from 1 to {MAX_JOBS}")
+    return int(jobs)
 
 
 def _run_scenarios(quick: bool, steps: Steps):
@@ -310,6 +327,7 @@ def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, 
     `quick`), report.md and report.json to `out`. Returns the report (a dict)."""
     from twip import plot
 
+    jobs = jobs_of(jobs)
     if fmt not in FORMATS:
         raise twip.InvalidParameterError(f"fmt = {fmt!r}: must be one of {', '.join(FORMATS)}")
     if dpi is not None and not (isinstance(dpi, (int, float)) and 10 <= dpi <= 1200):
@@ -319,7 +337,6 @@ def reproduce(out=DEFAULT_OUT, quick: bool = False, jobs: Optional[int] = None, 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     steps = Steps(quiet)
-    jobs = jobs_default() if jobs is None else jobs
     mode = "quick" if quick else "full"
     if not quiet:
         print(f"twip {twip.__version__}: reproducing the thesis into {out}/ ({mode}; RobotParams.balanbot())", flush=True)

@@ -10,7 +10,7 @@ from typing import Optional
 
 import numpy as np
 
-from twip import _core
+from twip import _core, checks
 from twip.scenarios.registry import Scenario, get, register
 
 #: Table 5.2: mean |x - x_r|, |y - y_r| [m].
@@ -27,6 +27,7 @@ MISMATCH_FIELDS = ("m_body", "m_wheels", "i_body", "i_wheels", "i_motor", "com_h
 
 
 def _circle(radius, speed, laps):
+    laps = checks.real("laps", laps, above=0)  # else its error would name t_final, laps * a lap
     circle = _core.Circle(radius, speed)
     return circle, laps * circle.period
 
