@@ -352,6 +352,14 @@ def test_bad_arguments_give_one_line_and_exit_code_2(args, capsys):
     assert "Traceback" not in err
 
 
+def test_robot_init_names_a_folder_that_does_not_exist(tmp_path, capsys):
+    # Was "twip robot: error: [Errno 2] No such file or directory: ...", exit code 1.
+    code, out, err = run(["robot", "init", tmp_path / "missing" / "r.toml"], capsys)
+    assert code == 2
+    assert err == (f"twip robot: error: FILE: output '{tmp_path / 'missing' / 'r.toml'}': the folder "
+                   f"{tmp_path / 'missing'} does not exist\n")
+
+
 def test_the_console_script_reports_bad_input_without_a_traceback():
     proc = subprocess.run(twip_command() + ["simulate", "flat-lqr", "--param", "m_body=oops"], capture_output=True,
                           text=True, timeout=60)

@@ -360,7 +360,9 @@ def test_validation_on_another_run_and_the_fits_report(tmp_path):
     fit = identify(run_of("flat-lqr", 4.0).to_log(), twip.RobotParams.balanbot(), FREE)
     other = run_of("slope-lqr", 4.0).to_log()
     assert max(fit.validate(other).values()) < 1e-8
-    start = identify(run_of("flat-lqr", 4.0).to_log(), twip.RobotParams.balanbot(), [], max_iter=5)
+    # Only the slope (not a robot field) free: the fit's robot is the start's.
+    start = identify(run_of("flat-lqr", 4.0).to_log(), twip.RobotParams.balanbot(), ["slope"], max_iter=5)
+    assert start.robot == twip.RobotParams.balanbot()
     assert max(start.validate(other).values()) > 1e-4  # the unfitted robot predicts worse
     assert fit.covariance.shape == (4, 4) and np.allclose(np.diag(fit.correlation), 1.0)
     assert fit.robot.m_body == pytest.approx(TRUE.m_body, rel=1e-6)
@@ -415,7 +417,7 @@ def test_bad_input_is_named(tmp_path):
     # 1e6 s gap) or took 10 GB (one segment per sample).
     with pytest.raises(LogError, match=r"max_step = 1e-12: one prediction of this log would take 9.99e\+11"):
         identify(log, twip.RobotParams.balanbot(), ["m_body"], max_step=1e-12)
-    with pytest.raises(LogError, match="max_step = nan: must be a finite duration"):
+    with pytest.raises(twip.InvalidParameterError, match="max_step must be finite and > 0, got nan"):
         identify(log, twip.RobotParams.balanbot(), ["m_body"], max_step=float("nan"))
     gap = np.concatenate([t, 1e6 + t])
     with pytest.raises(LogError, match="a gap in t"):

@@ -13,6 +13,10 @@ from twip import _core
 
 #: The types a real number may come as (a bool is an int too: `real` refuses it).
 REAL = (int, float, np.integer, np.floating)
+#: The highest IMU above the axle a robot file or a sysid Sensors takes [m]: a balancing
+#: robot's is well below it, and far beyond it the accelerometer's predictions overflow
+#: (1e300 m: an SVD of NaNs).
+MAX_IMU_HEIGHT = 10.0
 
 
 def of_type(name: str, value, types, what: str):

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, Optional, Tuple
 
-from twip import _core
+from twip import _core, checks
 
 try:  # Python >= 3.11
     import tomllib
@@ -273,8 +273,15 @@ def _sensors(path, text, data) -> Sensors:
             raise _fail(path, text, "sensors", key, f"{value!r} is not a finite number")
         elif key == "encoder_cpr" and value <= 0:
             raise _fail(path, text, "sensors", key, f"{value!r}: counts per wheel turn must be > 0")
+        elif key == "imu_height" and not 0 <= value <= checks.MAX_IMU_HEIGHT:  # 120 would be millimetres
+            raise _fail(path, text, "sensors", key, f"{value!r} m is outside 0..{checks.MAX_IMU_HEIGHT:g} m "
+                        "(the IMU's height above the axle, in metres)")
         out[key] = value if SENSORS[key][0] == "axis" else float(value)
     sensors = Sensors(**out)
+    try:  # the rig's own bounds (encoder_cpr >= 1), here rather than at Robot.realism()
+        Robot(params=None, sensors=sensors).realism()
+    except _core.InvalidParameterError as e:
+        raise _core_error(path, text, "sensors", SENSORS, e) from None
     axes = [getattr(sensors, k)[1] for k in ("imu_forward", "imu_up", "imu_pitch")]
     if len(set(axes)) != 3:
         raise _fail(path, text, "sensors", None, f"imu_forward, imu_up and imu_pitch must be three different axes, "

@@ -2,6 +2,7 @@
 returning the exit code. Bad arguments raise UsageError (cli.args)."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -21,6 +22,7 @@ from twip.cli.args import (UsageError, key_value, stall_current, get_scenario, p
                            scenario_options)
 from twip.plot import metric_unit
 from twip.report.claims import claims_for
+from twip.report.reproduce import MAX_JOBS
 from twip.report.numbers import fmt, jsonable
 from twip.sweep import StreamedSweepResult, fits_in_memory
 
@@ -68,10 +70,17 @@ def check_outputs(args) -> None:
         except twip.TwipError as e:
             raise UsageError(f"--animate: {e}") from None
     if getattr(args, "csv", None):
-        try:
-            plot.check_folder(args.csv)
-        except twip.TwipError as e:
-            raise UsageError(f"--csv: {e}") from None
+        check_output_file("--csv", args.csv)
+
+
+def check_output_file(option: str, path) -> None:
+    """Refuses, before the work, an output file whose folder is missing or not writable."""
+    from twip import plot
+
+    try:
+        plot.check_folder(path)
+    except twip.TwipError as e:
+        raise UsageError(f"{option}: {e}") from None
 
 
 def write_csv(result, path) -> None:
@@ -224,8 +233,8 @@ def sweep(args) -> int:
 
 
 def reproduce(args) -> int:
-    if args.jobs is not None and args.jobs < 1:
-        raise UsageError(f"--jobs {args.jobs}: must be at least 1")
+    if args.jobs is not None and not 1 <= args.jobs <= MAX_JOBS:
+        raise UsageError(f"--jobs {args.jobs}: must be from 1 to {MAX_JOBS}")
     report.reproduce(args.out, quick=args.quick, jobs=args.jobs, animations=not args.no_animations,
                      fmt=args.format, dpi=args.dpi)
     return 0
@@ -238,6 +247,7 @@ def robot_init(args) -> int:
     path = Path(args.file)
     if path.exists() and not args.force:
         raise UsageError(f"{path} exists; pass --force to overwrite it")
+    check_output_file("FILE", path)
     robot_file.init(path)
     print(f"wrote {path}: the Balanbot (RobotParams.balanbot()), its GB37Y3530 motor and L298 driver", file=sys.stderr)
     return 0
@@ -278,6 +288,9 @@ def identify(args) -> int:
 
     from twip import robot_file, sysid
 
+    check_outputs(args)  # --plot and --out before the fit, not after it
+    if args.out:
+        check_output_file("--out", args.out)
     columns = dict(key_value(text, "--column") for text in args.column or [])
     scale = {}
     for text in args.scale or []:
@@ -294,9 +307,13 @@ def identify(args) -> int:
     if args.gyro_bias_walk is not None and args.imu_dlpf is None:
         raise UsageError(f"--gyro-bias-walk {args.gyro_bias_walk:g}: describes the IMU, so it needs --imu-dlpf too")
     walk = math.radians(args.gyro_bias_walk or 0.0)
-    imu = None if args.imu_dlpf is None else twip.Imu(dlpf_hz=args.imu_dlpf, height=args.imu_height,
-                                                     sample_rate=args.imu_rate, gyro_bias_walk=walk)
-    sensors = sysid.Sensors(encoder_cpr=args.encoder_cpr, imu_height=args.imu_height, imu=imu)
+    try:  # Sensors checks the height, before an IMU is built with it
+        sensors = sysid.Sensors(encoder_cpr=args.encoder_cpr, imu_height=args.imu_height)
+    except twip.TwipError as e:
+        raise UsageError(f"--imu-height: {e}") from None
+    if args.imu_dlpf is not None:
+        sensors = dataclasses.replace(sensors, imu=twip.Imu(dlpf_hz=args.imu_dlpf, height=args.imu_height,
+                                                             sample_rate=args.imu_rate, gyro_bias_walk=walk))
     fit = sysid.identify(log, robot, free, segment=args.segment, driver=start.driver if start else None,
                          friction=identify_friction(args), sensors=sensors, signals=signals,
                          backlash=math.radians(args.backlash) if args.backlash else None)

@@ -72,8 +72,17 @@ def identify(log: RunLog, robot, free: Sequence[str], controller=None, *, method
         driver = driver or default_driver()
     if isinstance(free, str):
         free = [f.strip() for f in free.split(",") if f.strip()]
-    if not (isinstance(max_iter, int) and max_iter > 0):
+    checks.of_type("free", free, (list, tuple), "parameter names (a list, or a string 'a,b')")
+    for i, name in enumerate(free):
+        checks.of_type(f"free[{i}]", name, str, "a parameter name")
+    if not free:  # here, not in Problem: `Fit.validate` holds every parameter
+        raise LogError("free = []: name at least one parameter to fit")
+    checks.of_type("sensors", sensors, (Sensors, type(None)), "a twip.sysid.Sensors or None")
+    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)):
+        raise TypeError(f"max_iter must be a positive integer, got {max_iter!r} ({type(max_iter).__name__})")
+    if not max_iter > 0:
         raise LogError(f"max_iter = {max_iter!r}: must be a positive integer")
+    max_iter = int(max_iter)
     if method not in ("shooting", "closed-loop"):
         raise LogError(f"method = {method!r}: must be 'shooting' or 'closed-loop'")
     if method == "closed-loop" and controller is None:

@@ -112,11 +112,11 @@ class Estimator:
     def split(self, x: np.ndarray):
         return x[:len(self.p.unknowns)], x[len(self.p.unknowns):]
 
-    def evaluate(self, x, starts, schedule=None):
+    def evaluate(self, x, starts, schedule=None, strict=False):
         """(half the sum of squares, r, outputs, continuity gaps [S-1, 4]) at global unknowns
         `x`; an infinite cost where the model cannot be built (a step that left a
-        parameter's domain) or its prediction blew up. With gear play and `schedule` (the
-        unknowns and start states of another point): the prediction with that point's
+        parameter's domain; with `strict`, its error) or its prediction blew up. With gear
+        play and `schedule` (the unknowns and start states of another point): the prediction with that point's
         impacts and openings replayed and its plays held, as the Jacobian's perturbed runs
         are (`sysid_shoot` runs that point first, then this one)."""
         delta, biases = self.split(x)
@@ -129,6 +129,8 @@ class Estimator:
             else:
                 states, rates, ends, geometry = self.p.shoot([delta], starts[None])
         except (_core.InvalidParameterError, _core.NonFiniteError):
+            if strict:
+                raise
             return math.inf, None, None, None
         if schedule is None:
             # The point's own run: the rows near its own impacts are left out from here on (the
@@ -162,7 +164,13 @@ class Estimator:
                 s[:, c] += sign * state_steps[c]
                 deltas.append(delta)
                 runs.append(s)
-        states, rates, ends, geometry = self.p.shoot(deltas, np.stack(runs))
+        try:
+            states, rates, ends, geometry = self.p.shoot(deltas, np.stack(runs))
+        except _core.InvalidParameterError as e:
+            # The point itself was built (evaluate): a difference step left a parameter's range.
+            raise _core.InvalidParameterError(
+                f"free: {e}: the fit's finite differences step each free parameter by {self.param_step:g} (of "
+                "its value; the slope's in rad) either side of it: none can start at the edge of its range") from None
         h = [self.residual(self.p.outputs_of(states[k], rates[k], geometry[k], biases)) for k in range(len(deltas))]
         r, n = h[0], self.n_g + 4 * n_seg
         jg = np.zeros((len(r), self.n_g))
@@ -284,11 +292,10 @@ class Estimator:
     def run(self) -> Solution:
         try:
             return self._run()
-        except LogError:
-            raise
-        except (_core.NonFiniteError, _core.InvalidParameterError) as e:
+        except _core.NonFiniteError as e:
             # The start robot's prediction from the log's own start states blows up: the log's
-            # columns disagree with the model (a unit, a sign), which the message names.
+            # columns disagree with the model (a unit, a sign), which the message names. (An
+            # InvalidParameterError is a parameter's value, named as it is: not the log's.)
             raise LogError(units.diagnosis(self.p, e)) from None
 
     def _run(self) -> Solution:
@@ -388,9 +395,12 @@ class Estimator:
         # quietly at i_body +5.4 %). The next iteration starts from the point's own.
         held = self.p.backlash is not None
         moved, self.short = np.full(n_p, np.inf), np.zeros(n_p)
-        cost, _, _, gaps = self.evaluate(x, starts)
+        # The point the search starts from (the start robot, or where the last search ended):
+        # a model that cannot be built is its error, a prediction that blows up a NonFiniteError
+        # (`run` names the log's columns), not a point to step away from.
+        cost, _, _, gaps = self.evaluate(x, starts, strict=True)
         if not math.isfinite(cost):
-            return x, starts, False, "the prediction from the starting robot is not finite", 0
+            raise _core.NonFiniteError("the prediction from the fit's starting point is not finite")
         levels = held and params and not self.fixed_sigma  # with play, from the start (_levels)
         for it in range(1, self.max_iter + 1):
             if held and (it > 1 or levels):

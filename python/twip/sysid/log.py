@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, Mapping, Optional, Union
@@ -71,8 +72,11 @@ class RunLog:
             if len(column) != len(t):
                 raise LogError(f"{name}: {len(column)} values for {len(t)} samples of t")
             object.__setattr__(self, name, column)
-        if not (isinstance(self.slope, (int, float)) and math.isfinite(self.slope)):
-            raise LogError(f"slope = {self.slope!r}: must be a finite angle [rad]")
+        slope = checks.real("slope", self.slope)
+        if not abs(slope) < math.pi / 2:  # a robot cannot stand on a wall or beyond
+            raise LogError(f"slope = {slope!r} rad ({math.degrees(slope):.4g} deg): must be within "
+                           "(-pi/2, pi/2) rad, +-90 deg")
+        object.__setattr__(self, "slope", slope)
         if not self.signals():
             raise LogError("the log has no signal besides t: give at least one of " + ", ".join(SIGNALS))
         problem = units.problems(t, self.signals())
@@ -102,11 +106,19 @@ class RunLog:
         """Reads a CSV with a header row. `columns` maps header names to signal names
         ({"angle": "phi"}); `scale` multiplies a signal into SI, by a number or a unit name
         ({"phi": "deg"}, {"u": 1e-3}). Columns that are neither t nor a signal are ignored."""
-        columns = dict(columns or {})
+        checks.of_type("path", path, (str, os.PathLike), "a file path (str or Path)")
+        checks.of_type("columns", columns, (Mapping, type(None)), "a dict {header: signal name} or None")
+        checks.of_type("scale", scale, (Mapping, type(None)), "a dict {signal: number or unit name} or None")
+        columns, scale = dict(columns or {}), dict(scale or {})
         path = Path(path)
         try:
-            with path.open(newline="", encoding="utf-8") as f:
-                rows = list(csv.reader(f))
+            # utf-8-sig: a spreadsheet's byte order mark is not part of the first header.
+            with path.open(newline="", encoding="utf-8-sig") as f:
+                reader = csv.reader(f)
+                try:
+                    rows = list(reader)
+                except csv.Error as e:  # e.g. a cell beyond the csv module's field size limit
+                    raise LogError(f"{path}: line {reader.line_num}: {e}; a log is a CSV of numbers") from None
         except OSError as e:
             raise LogError(f"path = {str(path)!r}: {e.strerror}") from None
         except UnicodeDecodeError as e:
@@ -136,14 +148,16 @@ class RunLog:
             values = np.empty(len(rows) - 1)
             for i, row in enumerate(rows[1:]):
                 try:
+                    if "_" in row[j]:  # float() reads "1_0" as 10.0
+                        raise ValueError
                     values[i] = float(row[j])
                 except (ValueError, IndexError):
                     cell = row[j] if j < len(row) else "(missing)"
                     raise LogError(f"{path}: column {h!r}, row {i + 2}: {cell!r} is not a number") from None
                 if not math.isfinite(values[i]):
                     raise LogError(f"{path}: column {h!r}, row {i + 2}: {row[j]!r} is not a finite number")
-            data[name] = values * _factor(name, (scale or {}).get(name, 1.0))
-        for name in (scale or {}):
+            data[name] = values * _factor(name, scale.get(name, 1.0))
+        for name in scale:
             if name not in data:
                 raise LogError(f"scale: {name!r} is not a column of the log")
         ignored = tuple(h for h, n in zip(header, names) if n != "t" and n not in SIGNALS)
@@ -161,9 +175,13 @@ def _factor(name: str, scale) -> float:
         if scale not in UNIT_NAMES:
             raise LogError(f"scale[{name!r}] = {scale!r}: not a unit name ({', '.join(UNIT_NAMES)}) or a number")
         return UNIT_NAMES[scale]
-    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale != 0):
+    if isinstance(scale, bool) or not isinstance(scale, checks.REAL):
+        raise TypeError(f"scale[{name!r}] must be a number or a unit name ({', '.join(UNIT_NAMES)}), "
+                        f"got {scale!r} ({type(scale).__name__})")
+    factor = checks.real(f"scale[{name!r}]", scale)
+    if factor == 0:
         raise LogError(f"scale[{name!r}] = {scale!r}: must be a finite nonzero number or a unit name")
-    return float(scale)
+    return factor
 
 
 def _column(name: str, value) -> np.ndarray:

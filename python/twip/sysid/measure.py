@@ -8,6 +8,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from twip import _core, checks
+
 #: The signals the estimator compares with predictions (the inputs u and pwm drive them).
 OUTPUTS = ("phi", "phi_dot", "theta", "theta_dot", "gyro", "enc", "accel_x", "accel_z")
 
@@ -26,6 +28,15 @@ class Sensors:
     encoder_cpr: float = 700.0
     imu_height: float = 0.12
     imu: Optional[object] = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "encoder_cpr", checks.real("encoder_cpr", self.encoder_cpr, above=0))
+        height = checks.real("imu_height", self.imu_height, at_least=0)
+        if height > checks.MAX_IMU_HEIGHT:
+            raise _core.InvalidParameterError(f"imu_height = {self.imu_height!r}: must be at most "
+                                              f"{checks.MAX_IMU_HEIGHT:g} m (the IMU's height above the axle)")
+        object.__setattr__(self, "imu_height", height)
+        checks.of_type("imu", self.imu, (_core.Imu, type(None)), "a twip.Imu or None")
 
     @classmethod
     def of(cls, realism) -> "Sensors":

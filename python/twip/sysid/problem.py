@@ -10,7 +10,7 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
-from twip import _core, budget
+from twip import _core, budget, checks
 from twip.sysid.grid import Grid
 from twip.sysid.log import LogError, RunLog
 from twip.sysid.measure import BIASED, FILTERED, OUTPUTS, Sensors, predict, settling_samples
@@ -29,8 +29,9 @@ FRICTION_FIELDS = ("coulomb",)
 @dataclass(frozen=True)
 class Unknown:
     """A free parameter: where it lives (`robot`, `driver`, `friction` or `slope`) and its start value.
-    A positive one is estimated as start * exp(d), so no step leaves its domain and d is
-    its relative change; the slope (any sign) as start + d."""
+    All but the slope are positive (`Problem._unknown` refuses a start <= 0) and estimated as
+    start * exp(d), so no step leaves their domain and d is the relative change; the slope
+    (any sign) as start + d."""
 
     name: str
     where: str
@@ -38,7 +39,7 @@ class Unknown:
 
     @property
     def positive(self) -> bool:
-        return self.where != "slope" and self.start > 0
+        return self.where != "slope"
 
     def value(self, d: float) -> float:
         # Clipped: a wild trial step gives a huge value the model refuses, not an overflow.
@@ -57,8 +58,6 @@ class Problem:
         any is made: a tiny `max_step`, a gap in the log or tiny segments would otherwise
         hang or exhaust the memory."""
         step = self.max_step
-        if not (isinstance(step, (int, float)) and not isinstance(step, bool) and math.isfinite(step) and step > 0):
-            raise LogError(f"max_step = {step!r}: must be a finite duration > 0 [s]")
         steps = float(np.sum(np.ceil(np.diff(self.log.t) / step)))
         if steps > MAX_STEPS:
             raise LogError(f"max_step = {step!r}: one prediction of this log would take {steps:.3g} integration "
@@ -74,7 +73,8 @@ class Problem:
         self.log, self.params, self.driver, self.friction = log, params, driver, friction
         #: Each gear train's play at the wheel [rad], declared (None: none).
         self.backlash = backlash
-        self.sensors, self.max_step = sensors, max_step
+        self.sensors = sensors
+        self.max_step = checks.real("max_step", max_step, above=0)
         if log.u is not None:
             self.input = log.u
             self.driven = False
@@ -143,6 +143,15 @@ class Problem:
             self.used = rows_near_impacts(self.grid, self.sensors, self.settled, states, sensed)
 
     def _unknown(self, name: str) -> Unknown:
+        unknown = self._locate(name)
+        if unknown.where != "slope" and not unknown.start > 0:
+            # Fitted as a factor on its start (`Unknown`): from 0 it could not move.
+            raise LogError(f"free: {name!r} starts at {unknown.start!r}; a free parameter other than the slope is "
+                           f"fitted relative to its start, so it must start > 0: give a small positive {name} "
+                           "to start from")
+        return unknown
+
+    def _locate(self, name: str) -> Unknown:
         fields = self.params.to_dict()
         if name in fields:
             return Unknown(name, "robot", float(fields[name]))

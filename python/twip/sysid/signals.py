@@ -3,11 +3,11 @@ smoothed from a noisy or quantised angle, and a residual's correlation time (how
 one independent sample is worth), which the covariance and the misfit check both use."""
 from __future__ import annotations
 
-import math
 from typing import List
 
 import numpy as np
 
+from twip import checks
 from twip.sysid.log import LogError
 
 #: The fewest samples a segment may have on average.
@@ -46,8 +46,7 @@ def smooth_rate(x: np.ndarray, t: np.ndarray, window: float = 0.02) -> np.ndarra
 
 def segments(t: np.ndarray, segment: float) -> List[int]:
     """The indices where the log's shooting segments of about `segment` seconds start."""
-    if not (isinstance(segment, (int, float)) and math.isfinite(segment) and segment > 0):
-        raise LogError(f"segment = {segment!r}: must be a finite duration > 0 [s]")
+    segment = checks.real("segment", segment, above=0)
     starts, next_start = [0], t[0] + segment
     for i in range(1, len(t) - 1):
         if t[i] >= next_start:

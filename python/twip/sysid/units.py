@@ -73,8 +73,7 @@ def _gyro_over_pitch_rate(t, columns) -> Optional[float]:
     steps = np.diff(t)
     angle = np.concatenate([[0.0], np.cumsum(0.5 * (columns["gyro"][1:] + columns["gyro"][:-1]) * steps)])
     # Low-passed over ~50 ms: the accelerometer's pitch carries the wheels' acceleration too.
-    k = max(1, int(round(0.05 / float(np.median(steps)))))
-    kernel = np.ones(k) / k
+    kernel = _moving_average(t, 0.05)
     a, p = (np.convolve(x, kernel, "valid") for x in (angle, pitch))
     basis = np.vstack([np.ones(len(a)), np.linspace(-1, 1, len(a))]).T
     a = a - basis @ np.linalg.lstsq(basis, a, rcond=None)[0]
@@ -118,9 +117,7 @@ def _reversed_wheel(problem) -> Optional[str]:
         name, rel = "theta", log.theta - log.phi
     else:
         return None
-    steps = np.diff(log.t)
-    k = max(1, int(round(0.1 / float(np.median(steps)))))
-    kernel = np.ones(k) / k
+    kernel = _moving_average(log.t, 0.1)
     speed = np.convolve(np.gradient(rel, log.t), kernel, "same")
     drive = np.convolve(problem.input, kernel, "same")
     if not (np.std(speed) > 0 and np.std(drive) > 0):
@@ -133,3 +130,11 @@ def _reversed_wheel(problem) -> Optional[str]:
             f"{'duty' if problem.driven else 'current'} and the wheels' speed relative to the body; row {row}: "
             f"{'pwm' if problem.driven else 'u'} {float(problem.input[row]):.4g}, {name} speed {float(speed[row]):.4g}/s): "
             f"a negative scale or a reversed encoder? {name} must rise as the wheels roll forward")
+
+
+def _moving_average(t: np.ndarray, seconds: float) -> np.ndarray:
+    """The kernel of a moving average over about `seconds` of samples at t's median
+    interval; never longer than the log (a tiny interval would size it by the data)."""
+    samples = seconds / float(np.median(np.diff(t)))  # inf for a subnormal interval
+    k = len(t) if samples >= len(t) else max(1, int(round(samples)))
+    return np.ones(k) / k

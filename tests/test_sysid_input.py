@@ -1,0 +1,151 @@
+"""twip.identify, RunLog, Sensors and `twip identify` on bad input: each is refused with an
+error naming the parameter and its value (a TypeError for a wrong type), before any work,
+never a raw numpy or Python exception, a misdiagnosis or a fit of nothing."""
+import math
+
+import numpy as np
+import pytest
+
+import twip
+from twip import scenarios, sysid
+from twip.cli import main
+from twip.sysid import LogError, RunLog, Sensors, identify, units
+from twip.sysid.problem import Problem
+
+ROBOT = twip.RobotParams.balanbot()
+
+
+@pytest.fixture(scope="module")
+def log():
+    """An exact 1 s flat-lqr run."""
+    sc = scenarios.get("flat-lqr")
+    return twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], 1.0, dt=1e-3, reference=sc.reference).to_log()
+
+
+@pytest.fixture
+def csv_log(tmp_path, log):
+    path = tmp_path / "run.csv"
+    log.to_csv(path)
+    return path
+
+
+def test_a_slope_beyond_90_degrees_is_refused_by_name(log, csv_log, capsys):
+    # slope=2.0 reached the estimator: "'NoneType' object is not subscriptable".
+    for slope in (2.0, -math.pi / 2):
+        with pytest.raises(LogError, match=rf"^slope = {slope!r} rad \(-?\d+(\.\d+)? deg\): must be within"):
+            RunLog(log.t, u=log.u, phi=log.phi, theta=log.theta, slope=slope)
+    assert main(["identify", str(csv_log), "--free", "m_body", "--slope", "100"]) == 2
+    assert "slope = 1.745" in capsys.readouterr().err
+
+
+def test_a_start_whose_prediction_is_not_finite_is_diagnosed():
+    # The first evaluation's "not finite" was dropped and the search went on: a LinAlgError.
+    t = np.arange(200) * 1e-3
+    wild = RunLog(t, u=np.full(200, 1e100), phi=np.zeros(200), theta=np.zeros(200))
+    with pytest.raises(LogError, match="the prediction from the start robot .* is not finite"):
+        identify(wild, ROBOT, ["m_body"])
+
+
+def test_a_free_parameter_at_the_edge_of_its_range_is_not_blamed_on_the_log(log):
+    # Both were "the log's columns disagree" diagnoses (the first "theta: the wheels turn
+    # against the input ... reversed encoder?"): a difference step out of the range.
+    with pytest.raises(LogError, match=r"^free: 'mu_ground' starts at 0.0; .* must start > 0"):
+        identify(log, ROBOT.replace(mu_ground=0.0), ["mu_ground"])
+    assert identify(log, ROBOT.replace(mu_ground=0.001), ["mu_ground"]).converged
+    t = np.arange(500) * 1e-3
+    pwm = RunLog(t, pwm=50 * np.sin(20 * t), phi=np.zeros_like(t), theta=np.zeros_like(t))
+    ideal = twip.MotorDriver.thesis_like().replace(efficiency=1.0)
+    with pytest.raises(twip.InvalidParameterError, match=r"^free: invalid efficiency = 1.00001.*edge of its") as e:
+        identify(pwm, ROBOT, ["efficiency"], driver=ideal)
+    assert not isinstance(e.value, LogError)
+
+
+@pytest.mark.parametrize("height, error, message", [
+    (float("nan"), twip.InvalidParameterError, "imu_height must be finite and >= 0, got nan"),
+    (1e300, twip.InvalidParameterError, r"imu_height = 1e\+300: must be at most 10 m"),
+    (-5, twip.InvalidParameterError, "imu_height must be finite and >= 0, got -5"),
+    ("0.1", TypeError, r"imu_height must be a real number, got '0.1' \(str\)")])
+def test_an_imu_height_out_of_range_is_refused_by_name(height, error, message, csv_log, capsys):
+    # nan and 1e300 were numpy's "SVD did not converge", -5 ran.
+    with pytest.raises(error, match=message):
+        Sensors(imu_height=height)
+    if not isinstance(height, str):
+        assert main(["identify", str(csv_log), "--free", "m_body", "--imu-height", str(height)]) == 2
+        assert "--imu-height: imu_height" in capsys.readouterr().err
+    with pytest.raises(TypeError, match=r"imu must be a twip.Imu or None, got 'x' \(str\)"):
+        Sensors(imu="x")
+    with pytest.raises(twip.InvalidParameterError, match="encoder_cpr must be finite and > 0, got 0"):
+        Sensors(encoder_cpr=0)
+
+
+def test_a_tiny_time_step_allocates_by_the_log_not_by_the_step():
+    # The low-pass windows were sized 0.05 s / the median step: 373 GiB for 1e-12 s.
+    n = 30
+    wave = np.sin(np.arange(n) * 1.0)
+    for step in (1e-12, 1e-320):  # 1e-320: 0.05 s is inf steps
+        RunLog(np.arange(n) * step, u=wave, gyro=wave, phi=0.1 * np.cos(np.arange(n) * 1.0))
+    # The wheels' sign check of a diagnosis (0.1 s).
+    log = RunLog(np.arange(n) * 1e-12, u=wave, phi=0.1 * wave, theta=wave)
+    problem = Problem(log, ROBOT, ["m_body"], None, None, 1.0, Sensors(), None, 1e-3)
+    assert units.diagnosis(problem, ValueError("x")).startswith("the prediction from the start robot")
+
+
+def test_free_and_sensors_of_the_wrong_type_or_empty_are_named(log, csv_log, capsys):
+    with pytest.raises(TypeError, match=r"^free must be parameter names .*, got None \(NoneType\)"):
+        identify(log, ROBOT, None)
+    with pytest.raises(TypeError, match=r"^free\[1\] must be a parameter name, got 3 \(int\)"):
+        identify(log, ROBOT, ["m_body", 3])
+    with pytest.raises(TypeError, match=r"^sensors must be a twip.sysid.Sensors or None, got 'x' \(str\)"):
+        identify(log, ROBOT, ["m_body"], sensors="x")
+    # An empty list was a "converged" fit of nothing.
+    for free in ([], ","):
+        with pytest.raises(LogError, match=r"^free = \[\]: name at least one parameter"):
+            identify(log, ROBOT, free)
+    assert main(["identify", str(csv_log), "--free", ","]) == 2
+    assert "free = []" in capsys.readouterr().err
+
+
+def test_from_csv_refuses_bad_arguments_and_cells_by_name(tmp_path, csv_log):
+    with pytest.raises(TypeError, match=r"^scale must be a dict .*, got \[\('u', 2\)\] \(list\)"):
+        RunLog.from_csv(csv_log, scale=[("u", 2)])
+    with pytest.raises(TypeError, match=r"^columns must be a dict .*, got \['t'\] \(list\)"):
+        RunLog.from_csv(csv_log, columns=["t"])
+    with pytest.raises(TypeError, match=r"^path must be a file path \(str or Path\), got 5 \(int\)"):
+        RunLog.from_csv(5)
+    path = tmp_path / "big.csv"
+    path.write_text("t,u\n0,0\n1," + "1" * 200_000 + "\n")
+    with pytest.raises(LogError, match=rf"^{path}: line 3: field larger than field limit"):
+        RunLog.from_csv(path)
+    path = tmp_path / "under.csv"
+    path.write_text("t,u\n0,0\n0.001,1_0\n")
+    with pytest.raises(LogError, match=r"column 'u', row 3: '1_0' is not a number"):
+        RunLog.from_csv(path)
+    # A spreadsheet's byte order mark was read into the first header ('\ufefft').
+    path = tmp_path / "bom.csv"
+    path.write_bytes(b"\xef\xbb\xbft,u,phi\n0,0,0\n0.001,1,0\n")
+    assert RunLog.from_csv(path).u.tolist() == [0.0, 1.0]
+
+
+def test_cli_identify_checks_its_outputs_before_the_fit(csv_log, capsys, monkeypatch):
+    monkeypatch.setattr(sysid, "identify", lambda *a, **k: pytest.fail("the fit ran"))
+    assert main(["identify", str(csv_log), "--free", "m_body", "--plot", str(csv_log.with_name("f.xyz"))]) == 2
+    assert "--plot: figure path" in capsys.readouterr().err
+    assert main(["identify", str(csv_log), "--free", "m_body", "--out", "/nonexistent/dir/f.toml"]) == 2
+    err = capsys.readouterr().err
+    assert "--out: output '/nonexistent/dir/f.toml': the folder /nonexistent/dir does not exist" in err
+
+
+def test_numpy_numbers_are_taken_and_bools_refused(log, csv_log):
+    assert RunLog(log.t, u=log.u, phi=log.phi, slope=np.float32(0.25)).slope == float(np.float32(0.25))
+    with pytest.raises(TypeError, match=r"^slope must be a real number, got True \(bool\)"):
+        RunLog(log.t, u=log.u, phi=log.phi, slope=True)
+    fit = identify(log, ROBOT, ["m_body"], segment=np.float32(0.25), max_step=np.float32(1e-3), max_iter=np.int64(3))
+    assert fit.converged
+    for kw, message in ((dict(max_iter=True), r"^max_iter must be a positive integer, got True \(bool\)"),
+                        (dict(segment=True), r"^segment must be a real number, got True \(bool\)"),
+                        (dict(max_step="x"), r"^max_step must be a real number, got 'x' \(str\)")):
+        with pytest.raises(TypeError, match=message):
+            identify(log, ROBOT, ["m_body"], **kw)
+    assert np.array_equal(RunLog.from_csv(csv_log, scale={"u": np.float32(2)}).u, 2 * log.u)
+    with pytest.raises(TypeError, match=r"^scale\['u'\] must be a number or a unit name .*, got True \(bool\)"):
+        RunLog.from_csv(csv_log, scale={"u": True})
