@@ -4,6 +4,7 @@ loop's, and whether an exception out of a run is the controller's failure or the
 from __future__ import annotations
 
 import math
+import numbers
 from pathlib import Path
 from typing import Optional
 
@@ -19,11 +20,16 @@ def own_period(controller) -> Optional[float]:
     if not hasattr(controller, "update") or not hasattr(controller, "period"):
         return None
     period = controller.period
-    ok = not isinstance(period, bool) and isinstance(period, (int, float)) and math.isfinite(period) and period > 0
-    if not ok:
+    # Any real number (np.float32, np.int64, Fraction): numbers.Real, not a bool.
+    real = isinstance(period, numbers.Real) and not isinstance(period, bool)
+    try:
+        seconds = float(period) if real else math.nan
+    except OverflowError:  # an int beyond any float (10**400)
+        seconds = math.inf
+    if not (math.isfinite(seconds) and seconds > 0):
         raise _core.InvalidParameterError(f"controller.period = {period!r}: must be a positive, finite number of "
                                           "seconds (the loop period the controller is written for)")
-    return float(period)
+    return seconds
 
 
 def check_period(controller, control_period: Optional[float], realism) -> None:

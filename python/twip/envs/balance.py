@@ -33,7 +33,10 @@ class BalanceSettings(Settings):
     def make_model(self, slope: float = 0.0, speed_ref: float = 0.0):
         self.slope = checks.real("slope", slope)
         self.speed_ref = checks.real("speed_ref", speed_ref)
-        return _core.SlopeModel(self.params, self.slope)
+        return self.model_on(self.params)
+
+    def model_on(self, params, slope=None):
+        return _core.SlopeModel(params, self.slope if slope is None else slope)
 
     def model_input_bound(self, per_motor_current: float) -> float:
         # The model's input is the lumped current of both motors.
@@ -79,8 +82,12 @@ class BalanceEnv(SingleEnv):
     - `perturb`: the sweep's `{name: twip.Uniform | twip.Normal}`, drawn per episode
       (default: φ0 uniform in ±0.1 rad);
     - `reward`: weights of the default terms (`DEFAULT_REWARD`);
-    - `max_episode_steps` (default 2000; None: never truncated), `control_period`, `dt`,
-      `fall_limit` [rad] (default 0.5: terminated beyond it), `speed_ref` [rad/s].
+    - `max_episode_steps` (default 2000; None: never truncated), `control_period`, `dt`
+      (at most `robots.MAX_SUBSTEPS` plant steps a step), `fall_limit` [rad] (default 0.5:
+      terminated beyond it), `speed_ref` [rad/s], `threads` (0, the default, or None: all cores).
+
+    An action beyond the action space is taken (a rig saturates the duty; the effort term
+    is on the action given) up to `robots.MAX_ACTION_BOUNDS` times the bound, refused beyond.
     """
 
     settings_class = BalanceSettings

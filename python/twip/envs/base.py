@@ -5,11 +5,14 @@ module gives a `Settings` subclass whose `batch(n)` makes the native batch,
 `observation_space`, `action_width` and `rewards(batch, actions)`."""
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import gymnasium
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from twip import checks
 from twip._core import InvalidParameterError
 from twip.envs.robots import ClosedEnvError, check_actions, num_envs_checked, seeds_for
 
@@ -37,7 +40,7 @@ class Episodes:
     def step(self, actions):
         """(rewards, terminated, truncated) of every robot after one step."""
         self.check_open()
-        a = check_actions(actions, self.n, self.settings.action_width)
+        a = check_actions(actions, self.n, self.settings.action_width, self.settings.action_bound)
         terminated = self.batch.step(a)
         self.steps += 1
         rewards = self.settings.rewards(self.batch, a.reshape(self.n, -1))
@@ -115,6 +118,7 @@ class BatchVectorEnv(VectorEnv):
     def reset(self, *, seed=None, options=None):
         super().reset(seed=seed)
         self._episodes.check_open()
+        checks.of_type("options", {} if options is None else options, Mapping, "a dict or None")
         mask = np.ones(self.num_envs, dtype=np.bool_)
         if options and "reset_mask" in options:
             mask = options["reset_mask"]
@@ -160,10 +164,10 @@ class BatchVectorEnv(VectorEnv):
         its threads: each native call was a trip of its own (~10-15 us of CPU each)."""
         episodes = self._episodes
         episodes.check_open()
-        a = check_actions(actions, self.num_envs, self.settings.action_width)
+        a = check_actions(actions, self.num_envs, self.settings.action_width, self.settings.action_bound)
         again = np.flatnonzero(self._done)
-        episodes.steps += 1
         terminated, rewards, states, obs = self.settings.step_next(episodes.batch, a, again.tolist())
+        episodes.steps += 1  # after the native step: a refused step moves nothing
         truncated = episodes.truncated(terminated)
         if again.size:
             # The envs done at the last step started anew instead of stepping.

@@ -10,6 +10,12 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from twip import _core, checks
+
+#: The most steps a check rolls out: it keeps every step's arrays, twice (10**12 grew a
+#: list until memory ran out).
+MAX_CHECK_STEPS = 100_000
+
 
 class VectorEnvCheckError(AssertionError):
     """A vector env breaks Gymnasium's vector-env contract; the message says where."""
@@ -18,6 +24,15 @@ class VectorEnvCheckError(AssertionError):
 def _require(ok: bool, what: str):
     if not ok:
         raise VectorEnvCheckError(what)
+
+
+def _count(name: str, value, low: int, high: int) -> int:
+    """`value` as an int in [low, high] (numpy ints too, not a bool), or an error naming it."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an integer, got {value!r} ({type(value).__name__})")
+    if not low <= value <= high:
+        raise _core.InvalidParameterError(f"{name} = {value!r}: must be from {low} to {high}")
+    return int(value)
 
 
 def _check_spaces(env: VectorEnv):
@@ -126,13 +141,19 @@ def _check_lane(record, mode, lane, single, seed):
 
 def check_vector_env(env: VectorEnv, *, seed: int = 0, steps: int = 300,
                      single: Optional[Callable[[int], object]] = None, lanes=None) -> None:
-    """Checks `env` against Gymnasium's vector-env contract; raises `VectorEnvCheckError`.
+    """Checks `env` against Gymnasium's vector-env contract; raises `VectorEnvCheckError`
+    (a bad `steps`, at most MAX_CHECK_STEPS, or `lanes` is a TypeError or an
+    InvalidParameterError naming it, before any step).
 
     Two rollouts of `steps` random actions (the action space seeded with `seed`) must give
     the same bits. `single(i)` makes the single env for lane i (default: `env.single_env()`
     when the env has it); lanes `lanes` (default: the first and last) are replayed on it
     and must agree bit for bit, through every autoreset. Leaves `env` reset."""
     n, mode = _check_spaces(env)
+    steps = _count("steps", steps, 1, MAX_CHECK_STEPS)
+    if lanes is not None:
+        checks.of_type("lanes", lanes, (list, tuple, range, np.ndarray), "a list of lane indices or None")
+        lanes = [_count(f"lanes[{i}]", lane, 0, n - 1) for i, lane in enumerate(lanes)]
     first = _rollout(env, n, mode, seed, steps)
     again = _rollout(env, n, mode, seed, steps)
     for k, (a, b) in enumerate(zip(first["steps"], again["steps"])):

@@ -20,6 +20,16 @@ DEFAULT_MAX_EPISODE_STEPS = 2000
 #: The firmware's largest PWM duty [counts]: the action bound with a motor driver.
 PWM_MAX = 255.0
 
+#: The most plant steps (RK4 steps of `dt`) one env step may take: a native step cannot be
+#: interrupted, and dt = 1e-12 under the default 5 ms period was 5e9 of them (hours).
+MAX_SUBSTEPS = 100_000
+
+#: The largest |action| taken, as a multiple of the action space's bound. Beyond the bound
+#: a rig saturates the duty, but the reward's effort term, (action / bound)², is on the
+#: action given: past ~1e154 bounds it overflowed to a reward of -inf. A million bounds is
+#: no saturation but a mistake (a unit slip, a diverged policy).
+MAX_ACTION_BOUNDS = 1e6
+
 
 class ClosedEnvError(_core.TwipError):
     """The env was closed: it can no longer step or reset."""
@@ -68,7 +78,11 @@ class Settings:
         period = control_period if control_period is not None else (
             realism.control_period if realism is not None and realism.control_period is not None else 5e-3)
         period = checks.real("control_period", period, above=0.0)
-        substeps = round(period / self.dt)
+        plant_steps = period / self.dt  # inf for a subnormal dt: refused below, not rounded
+        if not plant_steps <= MAX_SUBSTEPS + 0.5:
+            raise _bad(f"control_period = {period} over dt = {self.dt} is {plant_steps:.3g} plant steps a step: "
+                       f"at most {MAX_SUBSTEPS} (raise dt or lower control_period)")
+        substeps = round(plant_steps)
         if substeps < 1 or abs(substeps * self.dt - period) > 1e-9 * period:
             raise _bad(f"control_period = {period}: must be a whole number (>= 1) of plant steps dt = {self.dt}")
         self.period, self.substeps = period, substeps
@@ -78,7 +92,8 @@ class Settings:
             raise _bad(f"max_episode_steps = {max_episode_steps!r}: must be an int >= 1 or None")
         self.max_episode_steps = max_episode_steps
         self.reward = dict(self.default_reward)
-        for name, w in (reward or {}).items():
+        weights = checks.of_type("reward", {} if reward is None else reward, Mapping, "a dict {term: weight} or None")
+        for name, w in weights.items():
             if name not in self.default_reward:
                 raise _bad(f"reward: unknown term {name!r}; the terms are {sorted(self.default_reward)}")
             self.reward[name] = checks.real(f"reward[{name!r}]", w)
@@ -87,7 +102,10 @@ class Settings:
         self.perturbations = perturbation.resolve(perturb or {}, scenario)
         if not any(kind == "x0" for kind, *_ in self.perturbations):
             self.perturbations += perturbation.resolve(self.default_init, scenario)
-        self.threads = threads
+        self.check_draws()
+        # All cores: 0 for the envs (their default, the core's word), None for checks.threads.
+        zero = isinstance(threads, (int, np.integer)) and not isinstance(threads, bool) and threads == 0
+        self.threads = checks.threads(None if zero else threads) or 0
         self.kwargs = dict(robot=robot, realism=realism, perturb=perturb, reward=reward,
                            max_episode_steps=max_episode_steps, control_period=control_period, dt=dt,
                            fall_limit=fall_limit, threads=threads, **own)
@@ -99,6 +117,31 @@ class Settings:
     def make_model(self, **own):
         raise NotImplementedError
 
+    def model_on(self, params, slope: Optional[float] = None):
+        """The env's model of robot `params` (on `slope`, None: the nominal one): what a
+        reset makes of a draw."""
+        raise NotImplementedError
+
+    def check_draws(self):
+        """Refuses a perturbation one of whose draws the model refuses, here rather than at
+        some later reset (each batch's autoreset would raise it again): each end of its reach,
+        the other quantities nominal. An initial-state entry takes any (finite) value."""
+        fields = list(_core.RobotParams.fields)
+        for kind, index, *spread in self.perturbations:
+            if kind == "x0":
+                continue
+            name = fields[index] if kind == "param" else kind
+            for end in reach(*spread):
+                try:
+                    if kind == "param":
+                        self.model_on(self.params.replace(**{name: end}))
+                    else:
+                        self.model_on(self.params, end)
+                except _core.TwipError as e:
+                    clamp = (f" (a Normal draws up to {_core.NORMAL_REACH:g} std from its mean: clamp it with "
+                             "low=/high=)" if spread[0] == "normal" else "")
+                    raise _bad(f"perturb[{name!r}]: {e}: a draw can reach it{clamp}") from None
+
     def model_input_bound(self, per_motor_current: float) -> float:
         raise NotImplementedError
 
@@ -107,16 +150,30 @@ class Settings:
         return np.zeros(self.x0_size)
 
 
+def reach(spread: str, a: float, b: float, low: float, high: float):
+    """The smallest and largest value a resolved distribution draws: a uniform's ends (a, b),
+    a normal's mean a -+ NORMAL_REACH std b clamped into [low, high] (the core's
+    `Spread::low`/`high`)."""
+    if spread == "uniform":
+        return a, b
+    return min(max(a - _core.NORMAL_REACH * b, low), high), min(max(a + _core.NORMAL_REACH * b, low), high)
+
+
 def num_envs_checked(num_envs) -> int:
     if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
         raise _bad(f"num_envs = {num_envs!r}: must be an int >= 1")
     return int(num_envs)
 
 
-def check_actions(actions, n: int, width: int) -> np.ndarray:
+def check_actions(actions, n: int, width: int, bound: float) -> np.ndarray:
     """The actions as float64 (n * width,), robot after robot, or a named error: wrong
-    shape or dtype, NaN. A single env (n = 1) takes shape (width,)."""
-    a = np.asarray(actions)
+    shape or dtype, NaN, beyond MAX_ACTION_BOUNDS times `bound`. A single env (n = 1) takes
+    shape (width,)."""
+    try:
+        a = np.asarray(actions)
+    except ValueError:  # ragged: rows of different lengths
+        raise _core.ShapeError(f"action: rows of different lengths, expected shape "
+                               f"{(width,) if n == 1 else (n, width)}") from None
     if a.dtype.kind not in "fiu":
         raise _core.ShapeError(f"action: expected a float array, got dtype {a.dtype}")
     want = (width,) if n == 1 else (n, width)
@@ -127,6 +184,10 @@ def check_actions(actions, n: int, width: int) -> np.ndarray:
     if bad.any():
         i = int(np.argmax(bad))
         raise _core.NonFiniteError(f"action[{i}] = {a[i]}: every action must be finite")
+    big = np.abs(a) > MAX_ACTION_BOUNDS * bound
+    if big.any():
+        i = int(np.argmax(big))
+        raise _bad(f"action[{i}] = {a[i]:g}: beyond {MAX_ACTION_BOUNDS:g} times the action bound {bound:g}")
     return a
 
 

@@ -51,7 +51,10 @@ class TrackSettings(Settings):
         if not isinstance(self.path, _PATHS):
             raise _core.InvalidParameterError(
                 f"path: expected a twip.Circle, Line, FigureEight or Waypoints, got {path!r}")
-        return _core.PlanarModel(self.params)
+        return self.model_on(self.params)
+
+    def model_on(self, params, slope=None):
+        return _core.PlanarModel(params)  # flat: `perturb` has no slope here
 
     def nominal_x0(self) -> np.ndarray:
         """On the path's start, along it, upright and at rest."""

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from twip import _core
+from twip import _core, checks
 from twip.scenarios.registry import get, register
 
 #: The trackers, as the suffix of their circle scenario (circle-pid, circle-smc, circle-smc-fuzzy).
@@ -21,7 +21,8 @@ def _tracker_on(tracker, params, ctrl_params, terrain, grade_feed_forward, **opt
     if tracker not in TRACKERS:
         raise _core.InvalidParameterError(f"invalid tracker = {tracker!r}: expected one of {', '.join(TRACKERS)}")
     if grade_feed_forward is not None:
-        options["grade_feed_forward"] = grade_feed_forward
+        checks.of_type("grade_feed_forward", grade_feed_forward, (bool, np.bool_), "a bool or None")
+        options["grade_feed_forward"] = bool(grade_feed_forward)
     return get(f"circle-{tracker}", params=params, controller_params=ctrl_params, terrain=terrain, **options)
 
 
@@ -42,6 +43,7 @@ def _figure_eight_bumps(params, ctrl_params, tracker="smc", height=0.04, wavelen
                         laps=2, grade_feed_forward=None, **options):
     """circle-`tracker`'s gains on a figure-eight (twip.FigureEight(`half_width`, `period`),
     starting at the origin heading 45 deg) over twip.Terrain.bumps(`height`, `wavelength`)."""
+    laps = checks.real("laps", laps, above=0)  # t_final = laps * period
     terrain = _core.Terrain.bumps(height, wavelength)
     sc = _tracker_on(tracker, params, ctrl_params, terrain, grade_feed_forward, **options)
     x0 = np.zeros(7)

@@ -1,0 +1,139 @@
+"""Bad input to the Gymnasium envs, their checker, the terrain scenarios and a Python
+controller's period: a named error before any work (no hang, no raw Python/numpy error,
+no -inf reward, no state stored wrong)."""
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+gymnasium = pytest.importorskip("gymnasium")
+
+import twip  # noqa: E402
+from twip import envs, scenarios  # noqa: E402
+from twip.user_controller import own_period  # noqa: E402
+
+
+@pytest.mark.parametrize("kwargs", [dict(dt=1e-12), dict(control_period=1e7), dict(dt=1e-300), dict(dt=5e-324)])
+def test_a_step_of_too_many_plant_steps_is_refused_naming_dt_and_period(kwargs):
+    # Each was 5e9 or more uninterruptible RK4 steps a step (or an OverflowError).
+    with pytest.raises(twip.InvalidParameterError, match=r"control_period = .* over dt = .* plant steps"):
+        envs.BalanceEnv(**kwargs)
+    assert envs.BalanceEnv(dt=1e-7, control_period=1e-2).settings.substeps == envs.robots.MAX_SUBSTEPS
+
+
+@pytest.mark.parametrize("perturb, name", [
+    ({"slope": twip.Uniform(low=1.5, high=1.6)}, "slope"),
+    ({"slope": twip.Normal(mean=1.0, std=0.1)}, "slope"),  # mean + 8.57 std > pi/2
+    ({"m_body": twip.Uniform(rel=1.05)}, "m_body"),
+])
+def test_a_perturbation_a_draw_of_which_is_invalid_is_refused_when_made(perturb, name):
+    for make in (envs.BalanceEnv, lambda **kw: envs.BalanceVectorEnv(num_envs=4, **kw)):
+        with pytest.raises(twip.InvalidParameterError, match=rf"perturb\['{name}'\]: invalid {name} = .*a draw can reach it"):
+            make(perturb=perturb)
+    with pytest.raises(twip.InvalidParameterError, match="a draw can reach it"):
+        envs.TrackEnv(perturb={"g": twip.Uniform(low=-1.0, high=9.8)})
+    # Clamped into the valid range, it is taken.
+    envs.BalanceEnv(perturb={"slope": twip.Normal(mean=1.0, std=0.1, high=1.5)})
+
+
+def test_a_refused_step_moves_no_step_count():
+    v = envs.BalanceVectorEnv(num_envs=2)
+    v.reset(seed=0)
+    v.step(np.zeros((2, 1)))
+    v.settings.step_next = lambda *a: (_ for _ in ()).throw(twip.InvalidParameterError("refused"))
+    for _ in range(3):
+        with pytest.raises(twip.InvalidParameterError):
+            v.step(np.zeros((2, 1)))
+    assert v._episodes.steps.tolist() == [1, 1]
+
+
+@pytest.mark.parametrize("make, width", [(envs.BalanceVectorEnv, 1), (envs.TrackVectorEnv, 2)])
+def test_a_huge_action_is_refused_not_a_minus_inf_reward(make, width):
+    for realism in (None, twip.Realism.thesis_like()):
+        e = make(num_envs=2, realism=realism)
+        e.reset(seed=0)
+        with pytest.raises(twip.InvalidParameterError, match=r"action\[0\] = 1e\+200: beyond 1e\+06 times the action bound"):
+            e.step(np.full((2, width), 1e200))
+        assert e._episodes.steps.tolist() == [0, 0]
+        # Beyond the bound (saturated through a rig), a finite reward.
+        _, rewards, *_ = e.step(np.full((2, width), 1e3 * e.settings.action_bound))
+        assert np.all(np.isfinite(rewards))
+    single = envs.BalanceEnv()
+    single.reset(seed=0)
+    with pytest.raises(twip.InvalidParameterError, match=r"action\[0\] = -1e\+200"):
+        single.step(np.array([-1e200]))
+
+
+@pytest.mark.parametrize("threads", [-1, 10**30, 1025, "2", 2.5, True])
+def test_threads_must_be_an_int_up_to_max_threads(threads):
+    with pytest.raises(twip.InvalidParameterError, match=rf"threads = {threads!r}: must be an integer from 1 to"):
+        envs.BalanceVectorEnv(num_envs=2, threads=threads)
+    for all_cores in (0, None):
+        assert envs.BalanceVectorEnv(num_envs=2, threads=all_cores).settings.threads == 0
+    assert envs.BalanceVectorEnv(num_envs=2, threads=np.int64(2)).settings.threads == 2
+
+
+@pytest.mark.parametrize("reward", [[("alive", 1.0)], "alive", 0])
+def test_reward_must_be_a_mapping(reward):
+    with pytest.raises(TypeError, match=r"reward must be a dict .*got"):
+        envs.BalanceEnv(reward=reward)
+    assert envs.BalanceEnv(reward=None).settings.reward == envs.balance.DEFAULT_REWARD
+
+
+def test_a_ragged_action_is_a_shape_error():
+    e = envs.BalanceVectorEnv(num_envs=2)
+    e.reset(seed=0)
+    with pytest.raises(twip.ShapeError, match=r"action: rows of different lengths, expected shape \(2, 1\)"):
+        e.step([[1.0], [2.0, 3.0]])
+
+
+@pytest.mark.parametrize("options", ["reset_mask", ["x"]])
+def test_reset_options_must_be_a_dict(options):
+    e = envs.BalanceVectorEnv(num_envs=2)
+    with pytest.raises(TypeError, match="options must be a dict or None"):
+        e.reset(options=options)
+
+
+@pytest.mark.parametrize("laps, error", [(-2, twip.InvalidParameterError), (0, twip.InvalidParameterError),
+                                         (float("nan"), twip.InvalidParameterError), ("2", TypeError)])
+def test_figure_eight_bumps_laps_is_checked(laps, error):
+    with pytest.raises(error, match="laps"):
+        scenarios.get("figure-eight-bumps", laps=laps)
+
+
+@pytest.mark.parametrize("name", ["incline-circle", "figure-eight-bumps"])
+@pytest.mark.parametrize("value", ["yes", 2])
+def test_grade_feed_forward_must_be_a_bool(name, value):
+    with pytest.raises(TypeError, match="grade_feed_forward must be a bool"):
+        scenarios.get(name, grade_feed_forward=value)
+
+
+@pytest.mark.parametrize("kwargs, error", [(dict(steps=10**12), twip.InvalidParameterError),
+                                           (dict(steps="10"), TypeError), (dict(steps=-1), twip.InvalidParameterError),
+                                           (dict(lanes=[5]), twip.InvalidParameterError),
+                                           (dict(lanes=[-1]), twip.InvalidParameterError),
+                                           (dict(lanes=[0.5]), TypeError), (dict(lanes=1), TypeError)])
+def test_check_vector_env_checks_steps_and_lanes_before_any_step(kwargs, error):
+    e = envs.BalanceVectorEnv(num_envs=2)
+    name = next(iter(kwargs))
+    with pytest.raises(error, match=name):
+        envs.check_vector_env(e, **kwargs)
+
+
+class _Controller:
+    def __init__(self, period):
+        self.period = period
+
+    def update(self, t, y, ref):
+        return 0.0
+
+
+@pytest.mark.parametrize("period, seconds", [(np.float32(0.25), 0.25), (np.int64(1), 1.0), (Fraction(1, 200), 0.005)])
+def test_a_controller_period_may_be_any_real_number(period, seconds):
+    assert own_period(_Controller(period)) == seconds
+
+
+@pytest.mark.parametrize("period", [True, 1j, "5ms", float("nan"), np.float32("inf"), 10**400, 0, -0.005])
+def test_a_controller_period_that_is_no_positive_real_is_refused(period):
+    with pytest.raises(twip.InvalidParameterError, match="controller.period"):
+        own_period(_Controller(period))
