@@ -214,6 +214,11 @@ def test_parity_with_the_reference_every_option_on(balanbot, estimator):
     (lambda: twip.Realism.thesis_like(seed=-1), "invalid seed = -1: must be an integer"),
     (lambda: twip.Realism.thesis_like(stream=2**64), "stream = 18446744073709551616"),
     (lambda: twip.Realism(seed="1"), "seed = '1'"),
+    # A settle runs before every run and cannot be interrupted: 1e9 s hung for good.
+    (lambda: twip.Realism.thesis_like().replace(settle=1e9), "invalid settle = 1(e9|000000000): must be finite, >= 0 and <= 600"),
+    # A data sheet value past floating point's range was blamed on no_load_current.
+    (lambda: twip.DcMotor.from_data_sheet(12.0, 1e308, 0.35, 7.0, 43.7), "invalid no_load_rpm = 1e308"),
+    (lambda: twip.DcMotor.from_data_sheet(1e-308, 251.0, 0.35, 7.0, 43.7), "invalid rated_voltage = 1e-308"),
 ])
 def test_invalid_settings_name_the_parameter(make, name):
     with pytest.raises(twip.InvalidParameterError, match=name.replace(".", r"\.")):
