@@ -233,8 +233,9 @@ mod tests {
         assert!(Settle::<f64>::new(None, 1e-3, 0, 0).unwrap().is_none());
         for bad in [-1.0, f64::NAN, f64::INFINITY, MAX_SETTLE * (1.0 + f64::EPSILON), 1e9] {
             let got = Settle::new(Some(bad), 1e-3, 0, 0);
-            assert!(matches!(got, Err(TwipError::InvalidParameter { name: "settle", reason, .. }) if reason.contains(&format!("<= {MAX_SETTLE}"))));
+            assert!(matches!(got, Err(TwipError::InvalidParameter { name: "settle", reason, .. }) if reason.contains("<= 600 [s]")));
         }
+        assert_eq!(MAX_SETTLE, 600.0, "the message names the bound");
         assert!(Settle::<f64>::new(Some(MAX_SETTLE), 1e-3, 0, 0).unwrap().is_some());
     }
 
