@@ -236,6 +236,10 @@ def test_invalid_runs_name_the_parameter(balanbot):
         scenarios.get("circle-pid").run(realism=twip.Realism(imu=twip.Imu()), dt=0.003, control_period=0.006)
     with pytest.raises(TypeError):
         sc.run(realism="thesis")
+    # A rig's settle runs a whole loop period first, uninterruptibly: 1e7 s hung for good.
+    for run in (sc.run, scenarios.get("circle-pid").run):
+        with pytest.raises(twip.InvalidParameterError, match="control_period = 1e7: over dt is more than 1e7"):
+            run(realism=twip.Realism.thesis_like(), control_period=1e7)
 
 
 def plain(value):
