@@ -393,10 +393,15 @@ impl<T: Real> Piece<T> {
     }
 }
 
+/// The smallest share of `corner_radius` a corner's arc may shrink to (to fit its legs)
+/// before the corner is left sharp: a near-reversal's arc would be a point.
+const MIN_CORNER_SHARE: f64 = 1e-3;
+
 /// Straight legs through the points at constant speed, each inner corner rounded by a
 /// circular arc of `corner_radius` (smaller where a leg is too short: an arc's tangent
-/// length is at most half of either leg). A corner radius of 0 gives sharp corners, where
-/// the heading jumps. After the last point the reference stands there (v_r = 0).
+/// length is at most half of either leg; sharp where that leaves under a thousandth of
+/// it, as at a reversal). A corner radius of 0 gives sharp corners, where the heading
+/// jumps. After the last point the reference stands there (v_r = 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Waypoints<T> {
     points: [[T; 2]; MAX_WAYPOINTS],
@@ -450,6 +455,12 @@ impl<T: Real> Waypoints<T> {
             let mut rho = T::zero();
             if half > T::zero() && corner_radius > T::zero() {
                 rho = corner_radius.min(c::<T>(0.5) * lengths[i].min(lengths[i + 1]) / half);
+                // Near a reversal the fitted arc shrinks to nothing (3e-17 m at 180°: a yaw
+                // rate of 3e16 rad/s) while still cutting half of each leg, so the path turned
+                // back half-way: such a corner is sharp, at the waypoint.
+                if rho < c::<T>(MIN_CORNER_SHARE) * corner_radius {
+                    rho = T::zero();
+                }
             }
             arcs[i] = (rho, turn);
             cut[i] = rho * half;
@@ -673,6 +684,21 @@ mod tests {
         let sharp = Waypoints::new(&pts, 0.1, 0.0).unwrap();
         assert!(close(sharp.length(), 3.0, 1e-12));
         assert!(close(sharp.sample(10.0 + 1e-9).psi, PI / 2.0, 1e-9));
+    }
+
+    #[test]
+    fn a_reversal_is_a_sharp_corner_at_its_waypoint_not_a_turn_half_way() {
+        // Rounded, the arc of a 180° corner was 3e-17 m (a yaw rate of 3e16 rad/s) and cut
+        // half of each leg: the path was 1 m long and turned back at x = 0.5.
+        for last in [[0.0, 0.0], [0.0, 1e-9]] {
+            let w = Waypoints::new(&[[0.0, 0.0], [1.0, 0.0], last], 1.0, 0.1).unwrap();
+            assert!(close(w.length(), 1.0 + 1.0f64.hypot(last[1]), 1e-12), "{}", w.length());
+            let at = w.sample(1.0 - 1e-9);
+            assert!(close(at.x, 1.0, 1e-6) && at.omega.abs() < 1.0, "{at:?}");
+        }
+        // A tight corner that still fits keeps its (smaller) arc.
+        let tight = Waypoints::new(&[[0.0, 0.0], [1.0, 0.0], [0.0, 0.1]], 1.0, 0.1).unwrap();
+        assert!(tight.length() < 1.0 + 1.0f64.hypot(0.1) - 1e-3);
     }
 
     #[test]
