@@ -71,6 +71,9 @@ class SimResult:
         return self.t_end if self.fell else None
 
     def reference(self, name: str) -> np.ndarray:
+        if name not in self.reference_names:
+            raise _core.InvalidParameterError(f"reference: unknown name {name!r}; this run's are "
+                                              f"{', '.join(self.reference_names)}")
         return self.references[:, self.reference_names.index(name)]
 
     def to_log(self):
@@ -202,7 +205,9 @@ def simulate(
     metrics = dict(raw["metrics"])
     notes = stall_warnings(metrics, stall_current) + drive_warnings(metrics, realism) + plausibility_warnings(model.params)
     if isinstance(model, _core.PlanarModel):
-        notes += unsettled_warnings(metrics, float(raw["t"][-1]), settle is None, t_final)
+        # A run that diverged at once logs no row: it ended at 0.
+        end = float(raw["t"][-1]) if len(raw["t"]) else 0.0
+        notes += unsettled_warnings(metrics, end, settle is None, t_final)
     internals = {n: raw["internals"][:, i] for i, n in enumerate(names)}
     return SimResult(
         t=raw["t"],
