@@ -154,6 +154,8 @@ def _save(frames, path, fps):
 
 #: Frames per second a GIF can show (its frame delay is in hundredths of a second).
 MAX_FPS = 100.0
+#: ... and the fewest: the delay is 16 bits of hundredths, at most 655.35 s.
+MIN_FPS = 1 / 655.35
 
 
 def check_options(path, fps: float = 20.0, speed: Optional[float] = None, size=None,
@@ -166,8 +168,9 @@ def check_options(path, fps: float = 20.0, speed: Optional[float] = None, size=N
     if not str(path).lower().endswith(".gif"):
         raise _core.InvalidParameterError(f"animation path {str(path)!r}: must end in .gif (an animated GIF is written)")
     check_folder(path)
-    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not (0 < fps <= MAX_FPS):
-        raise _core.InvalidParameterError(f"fps = {fps!r}: must be a number in (0, {MAX_FPS:g}] (frames per second)")
+    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not (MIN_FPS <= fps <= MAX_FPS):
+        raise _core.InvalidParameterError(f"fps = {fps!r}: must be a number in [{MIN_FPS:.4g}, {MAX_FPS:g}] (frames "
+                                          "per second; a GIF holds a frame at most 655.35 s)")
     if speed is not None and (isinstance(speed, bool) or not isinstance(speed, (int, float))
                               or not (speed > 0 and math.isfinite(speed))):
         raise _core.InvalidParameterError(f"speed = {speed!r}: must be a positive number")
@@ -206,7 +209,11 @@ def gif(result, path, scenario=None, params=None, slope: Optional[float] = None,
     speed = _speed(duration, speed, max_seconds)
     planar = result.states.shape[1] == 7
     size = size or ((640, 400) if planar else (560, 340))
-    _check_frames(int(duration / speed * fps) + 1, size)
+    frames = duration / speed * fps
+    if not math.isfinite(frames):  # a speed so small (5e-324) that the count overflows
+        raise _core.InvalidParameterError(f"speed = {speed!r}: too slow, the frames of {duration:g} s of "
+                                          "run are beyond counting; raise speed")
+    _check_frames(int(frames) + 1, size)
     times, idx = _frame_indices(t, fps, speed)
     if planar:
         frames = _planar_frames(result, params, times, idx, speed, size, title)

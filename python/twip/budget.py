@@ -41,7 +41,7 @@ def _parse(text: str) -> int:
     scale = _SUFFIX.get(t[-1:], 1)
     try:
         value = int(float(t[:-1] if scale > 1 else t) * scale)
-    except ValueError:
+    except (ValueError, OverflowError):  # not a number, nan or inf
         value = 0
     if value <= 0:
         raise _core.InvalidParameterError(f"{ENV} = {text!r}: must be a positive number of bytes (e.g. 2G)")

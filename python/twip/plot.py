@@ -140,9 +140,12 @@ COMPACT_PNG = False
 
 
 def check_folder(path) -> None:
-    """Refuses an output path whose folder does not exist or cannot be written, before
-    the work whose result it would hold."""
-    folder = os.path.dirname(os.path.abspath(os.fspath(path)))
+    """Refuses an output path that is a folder, or whose folder does not exist or cannot
+    be written, before the work whose result it would hold."""
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        raise _core.InvalidParameterError(f"output {str(path)!r}: is a folder, not a file")
+    folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
         raise _core.InvalidParameterError(f"output {str(path)!r}: the folder {folder} does not exist")
     if not os.access(folder, os.W_OK):
@@ -683,6 +686,19 @@ def si_unit(name: str) -> str:
     return _SI.get(unit, unit)
 
 
+#: The most bins a histogram or a fall map takes along an axis: more than a figure has
+#: pixels (and 10**9 would take gigabytes).
+MAX_BINS = 1000
+
+
+def _check_bins(bins, pair: bool = False) -> None:
+    """Refuses bins that are not an integer from 1 to MAX_BINS (with `pair`, or two of them)."""
+    each = tuple(bins) if pair and isinstance(bins, (tuple, list)) and len(bins) == 2 else (bins,)
+    if not all(isinstance(b, (int, np.integer)) and not isinstance(b, bool) and 1 <= b <= MAX_BINS for b in each):
+        raise _core.InvalidParameterError(
+            f"bins = {bins!r}: must be an integer from 1 to {MAX_BINS}" + (" or a pair (x, y) of them" if pair else ""))
+
+
 @_styled
 def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None, bins: int = 30,
           sizes: Sequence[str] = ()):
@@ -695,6 +711,10 @@ def sweep(result, metrics: Optional[Sequence[str]] = None, path=None, title=None
         metrics = [k for k in ("mean_abs_pitch_error", "mean_abs_speed_error", "final_position_error",
                                "mean_abs_x_error_settled", "mean_abs_y_error_settled", "max_path_error_settled")
                    if k in m][:3]
+    # A str would be iterated letter by letter; an unknown name is a KeyError mid-figure.
+    if isinstance(metrics, str) or not metrics or not all(isinstance(k, str) and k in m for k in metrics):
+        raise _core.InvalidParameterError(f"metrics = {metrics!r}: must be a list of one or more of {', '.join(m)}")
+    _check_bins(bins)
     keep = np.asarray(m["valid"], bool) & ~np.asarray(m["fell"], bool)
     fig = _figure((3.6 * len(metrics), 2.9), path)
     gs = _grid(fig, 1, len(metrics), top=1.0, wspace=0.3)
@@ -743,6 +763,7 @@ def _axis_label(name):
 def fall_map(result, x: str, y: str, bins=(12, 12), ax=None, path=None, title=None, colorbar: bool = True):
     """Fall rate of a sweep binned over two perturbed quantities (angles in degrees): which
     combinations the controller does not survive. Empty bins are left white."""
+    _check_bins(bins, pair=True)
     xs, ys = perturbed_values(result, x), perturbed_values(result, y)
     x, y = _state_name(result, x), _state_name(result, y)
     if x in _ANGLES:
@@ -773,6 +794,9 @@ def fall_map(result, x: str, y: str, bins=(12, 12), ax=None, path=None, title=No
 @_styled
 def fall_maps(results: Sequence, x: str, y: str, bins=(12, 12), path=None, title=None):
     """Side-by-side fall-rate maps of several sweeps over the same two quantities, one colour bar."""
+    if not len(results):
+        raise _core.InvalidParameterError(f"results = {results!r}: give one or more sweeps to map")
+    _check_bins(bins, pair=True)
     k = len(results)
     fig = _figure((4.4 * k + 1.4, 4.0), path)
     gs = _grid(fig, 1, k, right=0.95, wspace=0.2)  # room for the colour bar and its label

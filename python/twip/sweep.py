@@ -212,7 +212,7 @@ def montecarlo(
     keeps its message in `SweepResult.errors` {index: message} and goes on. A checkpointed
     sweep of a Python controller is cut into shards of about SHARD_SECONDS of work.
     """
-    if on_error not in user_sweep.ON_ERROR:
+    if not isinstance(on_error, str) or on_error not in user_sweep.ON_ERROR:  # an array's `in` is ambiguous
         raise _bad(f"on_error = {on_error!r}: must be one of {', '.join(map(repr, user_sweep.ON_ERROR))}")
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n <= 0:
         raise _bad(f"n = {n!r}: the number of samples must be a positive integer")
@@ -221,8 +221,11 @@ def montecarlo(
     threads = checks.threads(threads)
     if checkpoint is not None:  # before a shard size is read from it or the folder is made
         checkpoint = checkpoint_folder(checkpoint)
-    if client is not None and not callable(getattr(client, "submit", None)):
-        raise TypeError(f"client must be a dask.distributed.Client, got {client!r} ({type(client).__name__})")
+    if client is not None:  # dask only when a client is given (an executor has .submit too, but no Dask)
+        from dask.distributed import Client
+
+        if not isinstance(client, Client):
+            raise TypeError(f"client must be a dask.distributed.Client, got {client!r} ({type(client).__name__})")
     if client is not None and not isinstance(scenario, str):
         raise _bad("client= (Dask) needs a scenario name, so that workers can rebuild it")
     traces = _trace_indices(traces, n, trace_every)
@@ -261,8 +264,10 @@ def montecarlo(
             budget.check(f"montecarlo: n = {n:,} samples", n * BYTES_PER_SAMPLE,
                          "pass checkpoint=FOLDER to stream the sweep to disk in shards")
         else:
-            budget.check(f"montecarlo: a shard of shard_size = {shard:,} samples", shard * BYTES_PER_SAMPLE,
-                         "pass a smaller shard_size")
+            # Without shard_size the shard is as small as MAX_SHARDS allows: only a smaller n helps.
+            budget.check(f"montecarlo: a shard of {shard:,} samples", shard * BYTES_PER_SAMPLE,
+                         "pass a smaller shard_size" if shard_size is not None
+                         else f"sweep fewer samples (n = {n:,} is cut into at most {MAX_SHARDS:,} shards)")
         store = Checkpoint(checkpoint, config, shard) if checkpoint is not None else None
         result = _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, realism, traces, trace_every,
                         on_error)

@@ -39,21 +39,27 @@ def parse_value(text: str):
         return int(text)
     except ValueError:
         pass
-    try:
-        return parse_number(text)
-    except UsageError:
+    if _number(text) is None:
         return text
+    return parse_number(text)  # a number: refused when not finite (nan would reach the core as a string)
 
 
-def parse_number(text: str) -> float:
+def _number(text: str) -> Optional[float]:
+    """The number `text` spells (a trailing 'deg' in radians), or None."""
     t = text.strip().replace("−", "-")
     scale = 1.0
     if t.lower().endswith("deg"):
         t, scale = t[:-3], math.pi / 180
     try:
-        value = float(t) * scale
+        return float(t) * scale
     except ValueError:
-        raise UsageError(f"'{text}' is not a number") from None
+        return None
+
+
+def parse_number(text: str) -> float:
+    value = _number(text)
+    if value is None:
+        raise UsageError(f"'{text}' is not a number")
     if not math.isfinite(value):
         raise UsageError(f"'{text}' is not a finite number")
     return value
@@ -107,7 +113,10 @@ def scenario_options(name: str, option_args) -> dict:
         key, value = key_value(text, "--option")
         if key not in known and not open_ended:
             raise UsageError(f"unknown --option '{key}' for {name}; its options: {', '.join(known) or 'none'}")
-        options[key] = parse_value(value)
+        try:
+            options[key] = parse_value(value)
+        except UsageError as e:
+            raise UsageError(f"--option {key}: {e}") from None
     return options
 
 
@@ -132,6 +141,11 @@ def perturbation(text: str):
     spec = spec.replace(" ", "").replace("−", "-")
     normal = spec.startswith("~")
     body = spec[1:] if normal else spec
+    if "%" in body and "deg" in body.lower():
+        raise UsageError(f"malformed --perturb '{text}': a % is a share of the nominal, it takes no 'deg'")
+    if ":" in body and not normal and body.split(":")[0].lower().endswith("deg") and not body.lower().endswith("deg"):
+        raise UsageError(f"malformed --perturb '{text}': 'deg' on the low end only; write low:highdeg "
+                         "(a trailing 'deg' gives both ends in degrees)")
     try:
         if ":" in body and not normal:
             low, high = body.split(":", 1)

@@ -91,6 +91,10 @@ def add_parsers(sub) -> None:
 
 
 def tune(args) -> int:
+    from twip.cli.commands import check_output_file  # (commands imports this module)
+
+    if args.out:  # before the search, not after it
+        check_output_file("--out", args.out)
     name = scenario_name(args.scenario)
     sc = get_scenario(name, params=robot(None, args.robot), robot_file=args.robot)
     perturb = _perturb(args)
@@ -107,6 +111,11 @@ def tune(args) -> int:
 
 
 def worst_case(args) -> int:
+    from twip.sweep import fits_in_memory
+
+    if not fits_in_memory(args.confirm):  # its sweep would be refused only after the search
+        raise UsageError(f"--confirm {args.confirm:,}: the metrics of that many runs do not fit the memory budget; "
+                         "confirm on fewer noise seeds")
     name = scenario_name(args.scenario)
     sc = with_controller(get_scenario(name, params=robot(None, args.robot), robot_file=args.robot), args.controller)
     rig = realism(args.realism, args.robot)

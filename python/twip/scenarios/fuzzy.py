@@ -7,7 +7,7 @@ from typing import Dict, Iterable, Optional
 
 import numpy as np
 
-from twip import _core
+from twip import _core, checks
 from twip.scenarios.lqr import go_and_back, thesis_weights
 from twip.scenarios.registry import Scenario, register
 
@@ -46,7 +46,7 @@ def _slope_fuzzy_sim(params, ctrl_params, ki=0.0, adapt=True, gamma=None, sigma=
         controller=_fuzzy(ctrl_params, slope, period, ki, adapt, gamma, sigma, sets),
         x0=np.zeros(4),
         reference=_core.SpeedSchedule.constant(SPEED),
-        t_final=t_final,
+        t_final=checks.real("t_final", t_final, above=0),  # named here, not by the core at run time
         thesis={"figure": "4.7", "pitch_settling_time": 1.5, "speed_settling_time": 5.0, "phi_s_deg": 12.5,
                 "gains": [10, 13, -0.01, -0.09]},
     )
@@ -63,7 +63,7 @@ def _flat_fuzzy_sim(params, ctrl_params, ki=0.0, adapt=True, gamma=None, sigma=N
         controller=_fuzzy(ctrl_params, 0.0, period, ki, adapt, gamma, sigma, sets),
         x0=np.zeros(4),
         reference=_core.SpeedSchedule.constant(SPEED),
-        t_final=t_final,
+        t_final=checks.real("t_final", t_final, above=0),  # named here, not by the core at run time
         thesis={"figure": "4.11", "phi_s_deg": 0.0, "gains": [30, 33, -0.1, -0.9]},
     )
 

@@ -47,7 +47,7 @@ def _slope_lqr_sim(params, ctrl_params, point="operating", period=1e-3, t_final=
         controller=_lqr(ctrl_params, slope, speed, point, period),
         x0=np.zeros(4),
         reference=_core.SpeedSchedule.constant(speed),
-        t_final=t_final,
+        t_final=checks.real("t_final", t_final, above=0),  # named here, not by the core at run time
         thesis={"figure": "4.2", "pitch_settling_time": 5.0, "pitch_rate_settling_time": 2.0, "speed_settling_time": 7.0,
                 "phi_s_deg": 12.5,
                 "gains": [-15.2, -4.5, -0.35, -0.32]},
@@ -65,7 +65,7 @@ def _flat_lqr_sim(params, ctrl_params, point="operating", period=1e-3, t_final=1
         controller=_lqr(ctrl_params, 0.0, speed, point, period),
         x0=np.zeros(4),
         reference=_core.SpeedSchedule.constant(speed),
-        t_final=t_final,
+        t_final=checks.real("t_final", t_final, above=0),  # named here, not by the core at run time
         thesis={"figure": "4.9", "pitch_settling_time": 7.5, "pitch_rate_settling_time": 7.5, "speed_settling_time": 8.0,
                 "phi_s_deg": 0.0,
                 "gains": [-11.0, -1.7, -0.05, -0.045]},
