@@ -350,6 +350,14 @@ impl<T: Real> ImuSettings<T> {
         if !(self.sample_period.is_finite() && self.sample_period > T::zero()) {
             return bad("sample_period", self.sample_period, "must be finite and > 0");
         }
+        // The filters' own condition (`Dlpf::new`), here rather than at the first run.
+        let row = DLPF_TABLE[self.dlpf];
+        let period = crate::to_f64(self.sample_period);
+        for (hz, delay) in [(row.accel_hz, row.accel_delay), (row.gyro_hz, row.gyro_delay)] {
+            if delay > 0.0 && !(hz * period < 0.5) {
+                return bad("sample_period", self.sample_period, "must be below half the DLPF bandwidth's period (the sample rate above twice the bandwidth)");
+            }
+        }
         if !self.height.is_finite() {
             return bad("height", self.height, "must be finite");
         }
@@ -927,6 +935,12 @@ mod tests {
         imu.sample(f64::NAN, 9.81, f64::NAN, &mut rng);
         assert!(imu.reading().gyro.is_nan() && imu.reading().accel_x.is_nan(), "{:?}", imu.reading());
         assert!(ImuSettings { gyro_range: 1.0, ..s }.validate().is_err());
+        // A sample rate the DLPF cannot run at is refused here, not at the first run (where
+        // its error named a bandwidth): 44 Hz needs more than 88 samples a second.
+        let slow = ImuSettings { sample_period: 1.0 / 88.0, ..s }.validate();
+        assert!(matches!(slow, Err(TwipError::InvalidParameter { name: "sample_period", .. })), "{slow:?}");
+        assert!(ImuSettings { sample_period: 1.0 / 89.0, ..s }.validate().is_ok());
+        assert!(ImuSettings { sample_period: 1.0 / 89.0, dlpf: 0, ..s }.validate().is_err(), "256 Hz gyro");
         assert!(dlpf_config(42.0) == Ok(3) && dlpf_config(44.0) == Ok(3) && dlpf_config(7.0).is_err());
     }
 

@@ -237,7 +237,7 @@ pub(crate) fn check_imu_grid<T: Real>(settings: &ImuSettings<T>, dt: T) -> Resul
         return Err(TwipError::InvalidParameter {
             name: "dt",
             value: crate::to_f64(dt),
-            reason: "must divide the IMU's sample period (1 ms)",
+            reason: "must divide the IMU's sample period (1 / its sample_rate)",
         });
     }
     Ok(())

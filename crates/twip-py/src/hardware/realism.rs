@@ -40,6 +40,23 @@ pub struct PyImu {
     accel_range_g: f64,
 }
 
+/// The core's error on a field it holds in SI, named and valued as the caller gave it
+/// (gyro_range = 5.236 rad/s was the 300 deg/s given as gyro_range_dps).
+fn in_given_units(e: TwipError, sample_rate: f64, gyro_range_dps: f64, accel_range_g: f64) -> TwipError {
+    match e {
+        TwipError::InvalidParameter { name: "sample_period", reason, .. } => {
+            TwipError::InvalidParameter { name: "sample_rate", value: sample_rate, reason }
+        }
+        TwipError::InvalidParameter { name: "gyro_range", reason, .. } => {
+            TwipError::InvalidParameter { name: "gyro_range_dps", value: gyro_range_dps, reason }
+        }
+        TwipError::InvalidParameter { name: "accel_range", reason, .. } => {
+            TwipError::InvalidParameter { name: "accel_range_g", value: accel_range_g, reason }
+        }
+        e => e,
+    }
+}
+
 #[pymethods]
 impl PyImu {
     #[new]
@@ -73,7 +90,8 @@ impl PyImu {
             accel_range: accel_range_g * STANDARD_GRAVITY,
             quantise,
         }
-        .validate()?;
+        .validate()
+        .map_err(|e| in_given_units(e, sample_rate, gyro_range_dps, accel_range_g))?;
         Ok(Self { inner, dlpf_hz, gyro_range_dps, accel_range_g })
     }
 
