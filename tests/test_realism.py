@@ -214,6 +214,11 @@ def test_parity_with_the_reference_every_option_on(balanbot, estimator):
     (lambda: twip.Realism.thesis_like(seed=-1), "invalid seed = -1: must be an integer"),
     (lambda: twip.Realism.thesis_like(stream=2**64), "stream = 18446744073709551616"),
     (lambda: twip.Realism(seed="1"), "seed = '1'"),
+    # A rate the DLPF cannot run at failed at the first run, naming a bandwidth; the ranges
+    # were named and valued in SI (gyro_range = 5.236).
+    (lambda: twip.Imu(sample_rate=37.3), "invalid sample_rate = 37.3: must be below half"),
+    (lambda: twip.Imu(gyro_range_dps=300), "invalid gyro_range_dps = 300: must be 250"),
+    (lambda: twip.Imu(accel_range_g=3), "invalid accel_range_g = 3: must be 2"),
     # A settle runs before every run and cannot be interrupted: 1e9 s hung for good.
     (lambda: twip.Realism.thesis_like().replace(settle=1e9), "invalid settle = 1(e9|000000000): must be finite, >= 0 and <= 600"),
     # A data sheet value past floating point's range was blamed on no_load_current.
@@ -238,7 +243,7 @@ def test_invalid_runs_name_the_parameter(balanbot):
         sc.run(realism="thesis")
     # A rig's settle runs a whole loop period first, uninterruptibly: 1e7 s hung for good.
     for run in (sc.run, scenarios.get("circle-pid").run):
-        with pytest.raises(twip.InvalidParameterError, match="control_period = 1e7: over dt is more than 1e7"):
+        with pytest.raises(twip.InvalidParameterError, match="invalid control_period = 10000000: over dt is more than 1e7 plant steps"):
             run(realism=twip.Realism.thesis_like(), control_period=1e7)
 
 

@@ -4,13 +4,14 @@ import pytest
 import twip
 
 
-def test_a_run_that_diverged_before_its_first_log_row_is_a_result():
-    """A reference that is NaN from the start (a figure eight of period 1e-200) ends the
-    run at t = 0 with an empty log: its warnings take the end at 0, not the log's last row
-    (an IndexError before)."""
+def test_a_figure_eight_too_fast_to_sample_is_refused_by_its_period():
+    """A figure eight of period 1e-200 sampled inf and NaN from the start: the 3-DOF run
+    diverged before its first log row and simulate failed reading that row (an IndexError)."""
+    with pytest.raises(twip.InvalidParameterError, match=r"invalid period = 1e-200: is too short for half_width"):
+        twip.FigureEight(1.0, 1e-200)
     sc = twip.scenarios.get("circle-pid")
-    r = twip.simulate(sc.model, sc.controller, sc.x0, 1.0, reference=twip.FigureEight(1.0, 1e-200))
-    assert r.outcome == "diverged" and r.t_end == 0.0 and len(r.t) == 0
+    r = twip.simulate(sc.model, sc.controller, sc.x0, 1.0, reference=twip.FigureEight(1.0, 1e-60))
+    assert r.fell and len(r.t) > 0
 
 
 def test_an_unknown_reference_name_is_named_with_the_runs_names():

@@ -627,7 +627,8 @@ class FigureEight:
 @final
 class Waypoints:
     """Straight legs through `points` (2 to 16 (x, y) pairs) at constant `speed`, inner corners
-    rounded by arcs of `corner_radius` (0: sharp; smaller where a leg is short, sharp at a near-reversal). The reference stops at the last point.
+    rounded by arcs of `corner_radius` (0: sharp; smaller where a leg is short, sharp at a
+    near-reversal). The reference stops at the last point.
     """
     def __new__(cls, points: Sequence[Tuple[float, float]], speed: float, corner_radius: float = 0.0) -> Waypoints: ...
     corner_radius: float

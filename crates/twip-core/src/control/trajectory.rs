@@ -238,11 +238,14 @@ struct Jet<T> {
 
 impl<T: Real> FigureEight<T> {
     pub fn new(centre: [T; 2], half_width: T, period: T) -> Result<Self, TwipError> {
-        Ok(Self {
-            centre: point("centre", centre)?,
-            half_width: positive("half_width", half_width)?,
-            period: positive("period", period)?,
-        })
+        let (half_width, period) = (positive("half_width", half_width)?, positive("period", period)?);
+        // The jet's third derivative grows as half_width (2π/period)³ (and the speed's
+        // square in the yaw rate): beyond range, a reference of inf and NaN from the start.
+        let w = T::two_pi() / period;
+        if !(half_width * w * w * w * w).is_finite() {
+            return Err(invalid("period", period, "is too short for half_width: the reference's derivatives overflow"));
+        }
+        Ok(Self { centre: point("centre", centre)?, half_width, period })
     }
 
     pub fn centre(&self) -> [T; 2] {
@@ -711,6 +714,9 @@ mod tests {
         assert_eq!(name(Circle::from_origin(1.0, -1.0, Direction::Clockwise).unwrap_err()), "speed");
         assert_eq!(name(Line::new([0.0, f64::NAN], 0.0, 1.0).unwrap_err()), "start");
         assert_eq!(name(FigureEight::new([0.0, 0.0], 1.0, 0.0).unwrap_err()), "period");
+        // Its samples were inf and NaN from the start.
+        assert_eq!(name(FigureEight::new([0.0, 0.0], 1.0, 1e-200).unwrap_err()), "period");
+        assert!(FigureEight::new([0.0, 0.0], 1.0, 1e-60).is_ok());
         assert_eq!(name(Waypoints::new(&[[0.0, 0.0]], 1.0, 0.0).unwrap_err()), "waypoints");
         assert_eq!(name(Waypoints::new(&[[0.0, 0.0], [f64::INFINITY, 0.0]], 1.0, 0.0).unwrap_err()), "waypoints");
         assert_eq!(name(Waypoints::new(&[[0.0, 0.0], [0.0, 0.0]], 1.0, 0.0).unwrap_err()), "waypoints");

@@ -134,7 +134,8 @@ impl PyFigureEight {
 }
 
 /// Straight legs through `points` (2 to 16 (x, y) pairs) at constant `speed`, inner corners
-/// rounded by arcs of `corner_radius` (0: sharp). The reference stops at the last point.
+/// rounded by arcs of `corner_radius` (0: sharp; smaller where a leg is short, sharp at a
+/// near-reversal). The reference stops at the last point.
 #[pyclass(name = "Waypoints", module = "twip", frozen)]
 #[derive(Clone)]
 pub struct PyWaypoints {
