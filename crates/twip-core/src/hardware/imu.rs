@@ -354,7 +354,7 @@ impl<T: Real> ImuSettings<T> {
         let row = DLPF_TABLE[self.dlpf];
         let period = crate::to_f64(self.sample_period);
         for (hz, delay) in [(row.accel_hz, row.accel_delay), (row.gyro_hz, row.gyro_delay)] {
-            if delay > 0.0 && !(hz * period < 0.5) {
+            if delay > 0.0 && hz * period >= 0.5 {
                 return bad("sample_period", self.sample_period, "must be below half the DLPF bandwidth's period (the sample rate above twice the bandwidth)");
             }
         }
