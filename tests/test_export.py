@@ -135,6 +135,16 @@ def test_bad_arguments_are_named(tmp_path):
         export("flat-lqr", tmp_path, robot="x")
     with pytest.raises(TypeError, match=r"scenario must be a scenario name or a twip.scenarios.Scenario, got 5 \(int\)"):
         export(5, tmp_path)
+    # Raw OSErrors before: a name too long to read, a folder where a file goes; and a replay
+    # shorter than a step was named t_final at the 32-bit build's rounding.
+    with pytest.raises(twip.InvalidParameterError, match=r"out = '.*': cannot be read as a folder \(File name too long\)"):
+        export("flat-lqr", tmp_path / ("x" * 300))
+    (tmp_path / "held").mkdir()
+    (tmp_path / "held" / "twip.h").mkdir()
+    with pytest.raises(twip.InvalidParameterError, match=r"out = '.*held': cannot write twip.h \(Is a directory\)"):
+        export("flat-lqr", tmp_path / "held", replay_seconds=0.1, force=True)
+    with pytest.raises(twip.InvalidParameterError, match=r"replay_seconds = 1e-300: shorter than one step \(dt = 0.001 s\)"):
+        export("flat-lqr", tmp_path / "new", replay_seconds=1e-300)
 
 
 def test_a_replay_too_long_for_the_memory_budget_is_refused_before_it_is_recorded(tmp_path):

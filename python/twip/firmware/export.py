@@ -234,8 +234,12 @@ def _check_out(out, force: bool) -> Path:
             f"out = {out!r}: give the folder to write (an empty name would be the current folder; pass '.' "
             "with force=True (--force) to mean it)")
     out = Path(out)
-    if out.is_dir() and any(out.iterdir()) and not force:
-        held = ", ".join(sorted(p.name for p in out.iterdir())[:5])
+    try:
+        held = sorted(p.name for p in out.iterdir()) if out.is_dir() else []
+    except OSError as e:  # a name too long, a folder not readable
+        raise _core.InvalidParameterError(f"out = {str(out)!r}: cannot be read as a folder ({e.strerror})") from None
+    if held and not force:
+        held = ", ".join(held[:5])
         raise _core.InvalidParameterError(
             f"out = {str(out)!r}: the folder is not empty ({held}...); an export would overwrite what is there, an "
             "edited example.c included: give a new folder, or force=True (--force) to overwrite")
@@ -283,6 +287,8 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
         _check_one_motor(sc, robot)
     realism = robot.realism() if robot is not None else _core.Realism.thesis_like()
     seconds = min(sc.t_final, replay_seconds)
+    if seconds < sc.dt:  # else the core names it t_final, at the 32-bit build's rounding
+        raise _core.InvalidParameterError(f"replay_seconds = {replay_seconds!r}: shorter than one step (dt = {sc.dt:g} s)")
     _check_replay_size(sc, seconds, _loop_period(sc))
     # The loop period the simulation runs (Scenario.control_period, if set) is the one
     # recorded and written as TWIP_LOOP_PERIOD_S.
@@ -320,6 +326,9 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
     except OSError as e:
         raise _core.InvalidParameterError(f"out = {str(out)!r}: cannot create the folder ({e.strerror})") from None
     for name, text in files.items():
-        (out / name).write_text(text)
+        try:
+            (out / name).write_text(text)
+        except OSError as e:  # e.g. a folder of that name (force=True)
+            raise _core.InvalidParameterError(f"out = {str(out)!r}: cannot write {name} ({e.strerror})") from None
     return {"family": fam.name, "updates": len(rec["t"]), "outcome": rec["outcome"], "files": sorted(files),
             "out": str(out), "source": str(src), "source_found": (src / "Cargo.toml").is_file()}
