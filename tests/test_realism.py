@@ -219,6 +219,9 @@ def test_parity_with_the_reference_every_option_on(balanbot, estimator):
     (lambda: twip.Imu(sample_rate=37.3), "invalid sample_rate = 37.3: must be below half"),
     (lambda: twip.Imu(gyro_range_dps=300), "invalid gyro_range_dps = 300: must be 250"),
     (lambda: twip.Imu(accel_range_g=3), "invalid accel_range_g = 3: must be 2"),
+    # The estimate was NaN, handed back without a word.
+    (lambda: twip.TiltEstimator.kalman().filter([0, .1, .2], [9.8] * 3, [0, 1, 0], 1e160),
+     "invalid dt = 1e160: overflows the estimator's state"),
     # A settle runs before every run and cannot be interrupted: 1e9 s hung for good.
     (lambda: twip.Realism.thesis_like().replace(settle=1e9), "invalid settle = 1(e9|000000000): must be finite, >= 0 and <= 600"),
     # A data sheet value past floating point's range was blamed on no_load_current.

@@ -315,6 +315,11 @@ impl PyTiltEstimator {
         let (mut phi, mut rate) = (Vec::with_capacity(ax.len()), Vec::with_capacity(ax.len()));
         for k in 0..ax.len() {
             let (p, r) = f.update(accel_tilt(ax[k], az[k]), g[k], if k == 0 { 0.0 } else { dt });
+            // The readings are finite (checked): a non-finite estimate is dt's (1e160 s
+            // overflowed the Kalman filter's covariance), not a result to hand back.
+            if !(p.is_finite() && r.is_finite()) {
+                return Err(PyTwipError(TwipError::InvalidParameter { name: "dt", value: dt, reason: "overflows the estimator's state: its estimate is not finite" }).into());
+            }
             phi.push(p);
             rate.push(r);
         }
