@@ -23,7 +23,8 @@ def test_a_step_of_too_many_plant_steps_is_refused_naming_dt_and_period(kwargs):
 
 @pytest.mark.parametrize("perturb, name", [
     ({"slope": twip.Uniform(low=1.5, high=1.6)}, "slope"),
-    ({"slope": twip.Normal(mean=1.0, std=0.1)}, "slope"),  # mean + 8.57 std > pi/2
+    ({"slope": twip.Normal(mean=1.0, std=0.1)}, "slope"),  # mean + 6 std > pi/2
+    ({"m_body": twip.Normal(rel=0.2)}, "m_body"),  # 5 std below the mean: one reset in 3.5e6
     ({"m_body": twip.Uniform(rel=1.05)}, "m_body"),
 ])
 def test_a_perturbation_a_draw_of_which_is_invalid_is_refused_when_made(perturb, name):
@@ -32,8 +33,10 @@ def test_a_perturbation_a_draw_of_which_is_invalid_is_refused_when_made(perturb,
             make(perturb=perturb)
     with pytest.raises(twip.InvalidParameterError, match="a draw can reach it"):
         envs.TrackEnv(perturb={"g": twip.Uniform(low=-1.0, high=9.8)})
-    # Clamped into the valid range, it is taken.
+    # Clamped into the valid range, it is taken; so is a Normal valid within 6 std (checked
+    # to its 8.57 std reach, Normal(rel=0.15) on a mass was refused).
     envs.BalanceEnv(perturb={"slope": twip.Normal(mean=1.0, std=0.1, high=1.5)})
+    envs.BalanceEnv(perturb={"m_body": twip.Normal(rel=0.15)})
 
 
 def test_a_refused_step_moves_no_step_count():
