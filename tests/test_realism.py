@@ -246,7 +246,7 @@ def test_invalid_runs_name_the_parameter(balanbot):
         sc.run(realism="thesis")
     # A rig's settle runs a whole loop period first, uninterruptibly: 1e7 s hung for good.
     for run in (sc.run, scenarios.get("circle-pid").run):
-        with pytest.raises(twip.InvalidParameterError, match="invalid control_period = 10000000: over dt is more than 1e7 plant steps"):
+        with pytest.raises(twip.InvalidParameterError, match="invalid control_period = 10000000: over dt is more than 1e8 plant steps"):
             run(realism=twip.Realism.thesis_like(), control_period=1e7)
 
 

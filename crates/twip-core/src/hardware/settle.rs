@@ -36,7 +36,7 @@ impl<T: Real> Settle<T> {
         check(seconds)?;
         // In steps too: 2 s at dt = 1e-9 would be 2e9 of them, as uninterruptible.
         if seconds / dt > c(MAX_STEPS_PER_PERIOD) {
-            return Err(TwipError::InvalidParameter { name: "settle", value: crate::to_f64(seconds), reason: "over dt is more than 1e7 plant steps" });
+            return Err(TwipError::InvalidParameter { name: "settle", value: crate::to_f64(seconds), reason: "over dt is more than 1e8 plant steps" });
         }
         Ok((seconds > T::zero()).then(|| Self { seconds, dt, rng: Sfc64::new(seed ^ SETTLE_SEED, stream) }))
     }
@@ -243,7 +243,7 @@ mod tests {
         assert_eq!(MAX_SETTLE, 600.0, "the message names the bound");
         assert!(Settle::<f64>::new(Some(MAX_SETTLE), 1e-3, 0, 0).unwrap().is_some());
         let tiny_dt = Settle::<f64>::new(Some(2.0), 1e-9, 0, 0);
-        assert!(matches!(tiny_dt, Err(TwipError::InvalidParameter { name: "settle", reason, .. }) if reason.contains("1e7")));
+        assert!(matches!(tiny_dt, Err(TwipError::InvalidParameter { name: "settle", reason, .. }) if reason.contains("1e8")));
     }
 
     /// A robot's parts a settle takes, for [`settle_side_by_side`].
