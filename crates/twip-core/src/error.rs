@@ -32,6 +32,11 @@ pub enum TwipError {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Readable(pub f64);
 
+/// The error for a parameter `name` whose value `v` is refused for `reason`.
+pub(crate) fn invalid<T: crate::Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
+    TwipError::InvalidParameter { name, value: crate::to_f64(v), reason }
+}
+
 impl fmt::Display for Readable {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let v = self.0;

@@ -22,6 +22,7 @@
 //! leakage step a contraction).
 use nalgebra::SVector;
 
+use crate::error::invalid;
 use crate::control::Controller;
 use crate::control::fuzzy_grid::{FuzzyGrid, RuleBase, MAX_RULES};
 use crate::control::reference::{SpeedRef, SpeedSchedule};
@@ -150,10 +151,6 @@ pub struct FuzzyController<T: Real> {
     /// (θ̇_ref, φ_s) of the last reference speed seen: speeds change rarely.
     cache: Option<(T, T)>,
     internals: [T; MAX_INTERNALS],
-}
-
-fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
-    TwipError::InvalidParameter { name, value: crate::to_f64(v), reason }
 }
 
 impl<T: Real> FuzzyController<T> {

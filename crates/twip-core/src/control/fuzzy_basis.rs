@@ -18,6 +18,7 @@
 //! never need the fallback.
 //!
 //! Everything is fixed-size: no allocation, no_std.
+use crate::error::invalid;
 use crate::model::lane::{fill, Lane};
 use crate::{c, Real, TwipError};
 
@@ -29,10 +30,6 @@ pub enum Membership<T> {
     Trapezoid { a: T, b: T, c: T, d: T },
     /// exp(−(x − mean)² / (2 σ²)), σ > 0.
     Gaussian { mean: T, sigma: T },
-}
-
-fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
-    TwipError::InvalidParameter { name, value: crate::to_f64(v), reason }
 }
 
 impl<T: Real> Membership<T> {

@@ -17,6 +17,7 @@
 //! units and signs are read as they are.
 use nalgebra::SVector;
 
+use crate::error::invalid;
 use crate::control::Controller;
 use crate::hardware::motor::DcMotor;
 use crate::control::trajectory::{wrap_angle, PlanarRef};
@@ -112,10 +113,6 @@ pub struct PidTracker<T: Real> {
     int_v: T,
     int_psi: T,
     internals: [T; 9],
-}
-
-fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
-    TwipError::InvalidParameter { name, value: crate::to_f64(v), reason }
 }
 
 impl<T: Real> PidTracker<T> {

@@ -1,5 +1,6 @@
 //! Wheel speed / position schedules: the thesis's "run at a speed to a distance, hold,
 //! come back" experiments, and constant-speed runs.
+use crate::error::invalid;
 use crate::control::Reference;
 use crate::{Real, TwipError};
 
@@ -97,10 +98,6 @@ impl<T: Real> SpeedSchedule<T> {
 #[allow(clippy::eq_op)] // NaN is the one value not equal to itself
 fn is_nan<T: Real>(v: T) -> bool {
     v != v
-}
-
-fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
-    TwipError::InvalidParameter { name, value: crate::to_f64(v), reason }
 }
 
 impl<T: Real> Reference<T> for SpeedSchedule<T> {

@@ -25,6 +25,7 @@
 //! controller model's steady pitch at (v_r, ω_r) (0 in the thesis).
 use nalgebra::SVector;
 
+use crate::error::invalid;
 use crate::control::Controller;
 use crate::control::fuzzy_basis::{GridBasis, Membership};
 use crate::control::fuzzy_grid::{FuzzyGrid, RuleBase, MAX_RULES};
@@ -256,10 +257,6 @@ fn switch<S: Lane>(s: S, width: S) -> S {
     let (one, zero) = (S::splat(1.0), S::splat(0.0));
     let sign = S::select(s.gt(zero), one, S::select(s.lt(zero), -one, zero));
     S::select(width.eq(zero), sign, saturate(s / width, one))
-}
-
-fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
-    TwipError::InvalidParameter { name, value: crate::to_f64(v), reason }
 }
 
 /// The sliding-mode tracker, model-based or fuzzy adaptive.

@@ -15,6 +15,7 @@
 //! crossing a change keeps (φ̇, θ̇) (the crease's own impact is neglected).
 use nalgebra::{SVector, Vector2, Vector4};
 
+use crate::error::invalid;
 use crate::hardware::driver::{MotorDriver, MOTORS};
 use crate::hardware::rig_plant::{RealPlant, RigGround};
 use crate::model::friction::Friction;
@@ -43,10 +44,6 @@ pub struct Force<T> {
     pub horizontal: T,
     pub vertical: T,
     pub height: T,
-}
-
-fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
-    TwipError::InvalidParameter { name, value: crate::to_f64(v), reason }
 }
 
 impl<T: Real> Force<T> {

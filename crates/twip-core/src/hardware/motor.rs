@@ -13,6 +13,7 @@
 //! is all friction, k_t I_0 at ω_0, read as viscous. [`DcMotor::torque`] is the
 //! electromagnetic torque: that friction is already the plant's `mu_bearing` (docs/parameters.md),
 //! so it is reported ([`DcMotor::friction_at_wheel`]) but not subtracted again.
+use crate::error::invalid;
 use crate::model::lane::{saturate, Lane};
 use crate::{c, Real, TwipError};
 
@@ -71,17 +72,13 @@ fn check<T: Real>(name: &'static str, v: T, allow_zero: bool) -> Result<T, TwipE
         Ok(v)
     } else {
         let reason = if allow_zero { "must be finite and >= 0" } else { "must be finite and > 0" };
-        Err(TwipError::InvalidParameter { name, value: crate::to_f64(v), reason })
+        Err(invalid(name, v, reason))
     }
 }
 
 /// Finite, > 0 and not subnormal (as f64).
 fn normal<T: Real>(v: T) -> bool {
     v > T::zero() && crate::to_f64(v).is_normal()
-}
-
-fn sheet_error<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
-    TwipError::InvalidParameter { name, value: crate::to_f64(v), reason }
 }
 
 impl<T: Real> DcMotor<T> {
@@ -104,20 +101,20 @@ impl<T: Real> DcMotor<T> {
         let eta = check("gear_ratio", sheet.gear_ratio, false)?;
         let rpm = check("no_load_rpm", sheet.no_load_rpm, false)?;
         if idle >= stall {
-            return Err(sheet_error("no_load_current", idle, "must be below the stall current"));
+            return Err(invalid("no_load_current", idle, "must be below the stall current"));
         }
         // Values each finite can still give a motor beyond floating point's range (an
         // overflow, or an underflow that loses the no-load current): name the value that
         // did it, not the next derived one.
         let resistance = volts / stall;
         if !normal(resistance) {
-            return Err(sheet_error("rated_voltage", volts, "over stall_current gives a resistance beyond floating point's range"));
+            return Err(invalid("rated_voltage", volts, "over stall_current gives a resistance beyond floating point's range"));
         }
         let w0 = rpm * T::two_pi() / c::<T>(60.0) * eta;
         let k = (volts - idle * resistance) / w0;
         let friction = k * idle / w0;
         if !(normal(w0) && normal(k) && (normal(friction) || idle == T::zero())) {
-            return Err(sheet_error(
+            return Err(invalid(
                 "no_load_rpm",
                 rpm,
                 "with rated_voltage and gear_ratio gives a torque constant or friction beyond floating point's range",
