@@ -3,6 +3,7 @@
 //! where the robot should be (x_r, y_r, ψ_r), how fast it moves along and turns (v_r, ω_r)
 //! and the derivatives of those the sliding-mode tracker needs (v̇_r, ω̇_r); each is also a
 //! [`Path`] (distance to the curve, for the metrics). Fixed-size, no allocation.
+use crate::error::invalid;
 use crate::control::Reference;
 use crate::model::lane::Lane;
 use crate::{c, Real, TwipError};
@@ -50,10 +51,6 @@ impl Direction {
 pub fn wrap_angle<S: Lane>(angle: S) -> S {
     let two_pi = S::splat(core::f64::consts::TAU);
     angle - two_pi * ((angle + S::splat(core::f64::consts::PI)) / two_pi).floor()
-}
-
-fn invalid<T: Real>(name: &'static str, v: T, reason: &'static str) -> TwipError {
-    TwipError::InvalidParameter { name, value: crate::to_f64(v), reason }
 }
 
 fn finite<T: Real>(name: &'static str, v: T) -> Result<T, TwipError> {
@@ -238,14 +235,15 @@ struct Jet<T> {
 
 impl<T: Real> FigureEight<T> {
     pub fn new(centre: [T; 2], half_width: T, period: T) -> Result<Self, TwipError> {
-        let (half_width, period) = (positive("half_width", half_width)?, positive("period", period)?);
-        // The jet's third derivative grows as half_width (2π/period)³ (and the speed's
-        // square in the yaw rate): beyond range, a reference of inf and NaN from the start.
-        let w = T::two_pi() / period;
-        if !(half_width * w * w * w * w).is_finite() {
-            return Err(invalid("period", period, "is too short for half_width: the reference's derivatives overflow"));
+        let eight = Self { centre: point("centre", centre)?, half_width: positive("half_width", half_width)?, period: positive("period", period)? };
+        // The samples' yaw rate and its derivative divide powers of the speed (a w) into
+        // products of its derivatives (a w^k): far enough from 1, inf over inf, NaN from the
+        // start. Checked on the samples themselves, at eight phases of the period.
+        let finite = |r: PlanarRef<T>| [r.x, r.y, r.psi, r.v, r.omega, r.v_dot, r.omega_dot].iter().all(|v| v.is_finite());
+        if !(0..8).all(|k| finite(eight.sample(period * c::<T>(k as f64 / 8.0)))) {
+            return Err(invalid("period", period, "with half_width gives a reference beyond floating point's range"));
         }
-        Ok(Self { centre: point("centre", centre)?, half_width, period })
+        Ok(eight)
     }
 
     pub fn centre(&self) -> [T; 2] {
@@ -716,7 +714,9 @@ mod tests {
         assert_eq!(name(FigureEight::new([0.0, 0.0], 1.0, 0.0).unwrap_err()), "period");
         // Its samples were inf and NaN from the start.
         assert_eq!(name(FigureEight::new([0.0, 0.0], 1.0, 1e-200).unwrap_err()), "period");
-        assert!(FigureEight::new([0.0, 0.0], 1.0, 1e-60).is_ok());
+        // 1e-60 passed a bound on half_width (2π/period)⁴ and sampled an infinite omega_dot.
+        assert_eq!(name(FigureEight::new([0.0, 0.0], 1.0, 1e-60).unwrap_err()), "period");
+        assert!(FigureEight::new([0.0, 0.0], 1.0, 1e-20).is_ok());
         assert_eq!(name(Waypoints::new(&[[0.0, 0.0]], 1.0, 0.0).unwrap_err()), "waypoints");
         assert_eq!(name(Waypoints::new(&[[0.0, 0.0], [f64::INFINITY, 0.0]], 1.0, 0.0).unwrap_err()), "waypoints");
         assert_eq!(name(Waypoints::new(&[[0.0, 0.0], [0.0, 0.0]], 1.0, 0.0).unwrap_err()), "waypoints");
