@@ -203,7 +203,8 @@ mod lanes {
 }
 
 /// The longest settle [s]. The tilt estimator settles within seconds; a settle runs the IMU
-/// at its sample rate before every run, uninterruptibly, so 1e9 s hung a run for good.
+/// at its sample rate before every run, uninterruptibly: 1e9 s (1e12 steps at 1 ms) hung
+/// simulate and the envs past any wait (SIGINT ignored).
 pub const MAX_SETTLE: f64 = 600.0;
 
 /// A settle's length must be finite, ≥ 0 and at most [`MAX_SETTLE`].

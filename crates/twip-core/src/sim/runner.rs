@@ -49,8 +49,9 @@ impl<T: Copy> Outcome<T> {
 }
 
 /// The most plant steps a control period (or a settle) may take. A rig's settle runs at least
-/// one whole period before the run, where Ctrl-C cannot stop it: control_period = 1e7 s hung
-/// for good. 1e8 of the settle's steps took 0.19 s (a 2 s settle at dt = 2e-8, the 0.1.13 wheel).
+/// one whole period before the run, where Ctrl-C cannot stop it: control_period = 1e7 s was
+/// still settling after 40 s, 1e300 s would never end. 1e8 of the settle's steps took 0.19 s
+/// (a 2 s settle at dt = 2e-8, the 0.1.13 wheel).
 pub const MAX_STEPS_PER_PERIOD: f64 = 1e8;
 
 impl<T: Real> SimConfig<T> {
