@@ -261,13 +261,12 @@ def montecarlo(
         # shard at a time, the summaries read back from the shards.
         in_memory = fits_in_memory(n)
         if checkpoint is None:
-            budget.check(f"montecarlo: n = {n:,} samples", n * BYTES_PER_SAMPLE,
-                         "pass checkpoint=FOLDER to stream the sweep to disk in shards")
+            check_samples_fit(f"montecarlo: n = {n:,} samples", n, "pass checkpoint=FOLDER to stream the sweep to disk in shards")
         else:
             # Without shard_size the shard is as small as MAX_SHARDS allows: only a smaller n helps.
-            budget.check(f"montecarlo: a shard of {shard:,} samples", shard * BYTES_PER_SAMPLE,
-                         "pass a smaller shard_size" if shard_size is not None
-                         else f"sweep fewer samples (n = {n:,} is cut into at most {MAX_SHARDS:,} shards)")
+            check_samples_fit(f"montecarlo: a shard of {shard:,} samples", shard,
+                              "pass a smaller shard_size" if shard_size is not None
+                              else f"sweep fewer samples (n = {n:,} is cut into at most {MAX_SHARDS:,} shards)")
         store = Checkpoint(checkpoint, config, shard) if checkpoint is not None else None
         result = _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, realism, traces, trace_every,
                         on_error)
@@ -295,6 +294,11 @@ def _timed_shard(sc, config, n, checkpoint, threads, realism) -> int:
     workers = threads or os.cpu_count() or 1
     seconds = max(user_sweep.time_one_run(sc, realism), 1e-6)
     return max(1, min(DEFAULT_SHARD, int(SHARD_SECONDS * workers / seconds)), -(-n // MAX_SHARDS))
+
+
+def check_samples_fit(what: str, n: int, hint: str) -> None:
+    """Refuses `what`, n samples' metrics held at once, when they exceed the memory budget."""
+    budget.check(what, n * BYTES_PER_SAMPLE, hint)
 
 
 def fits_in_memory(n: int) -> bool:

@@ -17,7 +17,6 @@ from typing import Callable, Dict, Mapping, Optional
 import numpy as np
 
 from twip import _core, checks
-from twip import budget as memory
 from twip.design import knobs as knob_space
 from twip.design import uncertainty
 from twip.design.objective import Objective, check_constraints, failures
@@ -86,11 +85,13 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
     import pandas as pd  # the history is a DataFrame: needed before the search, not after it
     from scipy.optimize import differential_evolution
 
+    from twip.sweep import check_samples_fit
+
     n = uncertainty.positive_int("n", n)
     budget = uncertainty.positive_int("budget", budget)
     validate = uncertainty.positive_int("validate", validate)
-    for name, count in (("n", n), ("validate", validate)):
-        _fits_in_memory(name, count)
+    for name, count in (("n", n), ("validate", validate)):  # before the search, not when that sweep comes
+        check_samples_fit(f"tune: {name} = {count:,} robots", count, f"give a smaller {name}")
     seed = uncertainty.seed_of("seed", seed)
     if realism is not None and not isinstance(realism, _core.Realism):
         raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
@@ -185,14 +186,6 @@ class _Through(Exception):
     def __init__(self, error: Exception):
         super().__init__(error)
         self.error = error
-
-
-def _fits_in_memory(name: str, count: int) -> None:
-    """montecarlo's memory check of a sweep of `count` robots, made before the search rather
-    than when that sweep comes, and naming tune's parameter."""
-    from twip.sweep import BYTES_PER_SAMPLE
-
-    memory.check(f"tune: {name} = {count:,} robots", count * BYTES_PER_SAMPLE, f"give a smaller {name}")
 
 
 def _cost_of(value) -> float:
