@@ -193,9 +193,13 @@ impl<T: Real> Reference<T> for Line<T> {
     fn sample(&self, t: T) -> PlanarRef<T> {
         let (sin, cos) = self.heading.sin_cos();
         let s = self.speed * t;
+        // Along an axis the line does not move on (sin or cos exactly 0) the robot stays at
+        // its start, also where s overflows: inf times 0 would make it NaN. Any other
+        // product is the one it was (the same bits).
+        let along = |c: T| if c == T::zero() { T::zero() } else { s * c };
         PlanarRef {
-            x: self.start[0] + s * cos,
-            y: self.start[1] + s * sin,
+            x: self.start[0] + along(cos),
+            y: self.start[1] + along(sin),
             psi: self.heading,
             v: self.speed,
             omega: T::zero(),
@@ -658,6 +662,22 @@ mod tests {
             })
             .fold(f64::INFINITY, f64::min);
         assert!(close(f.distance(px, py), dense, 1e-6));
+    }
+
+    #[test]
+    fn a_line_beyond_range_moves_only_along_itself() {
+        // speed * t overflows: x is infinite, y stays at its start (inf * 0 would be NaN).
+        let l = Line::new([0.5, -2.0], 0.0, 1e300).unwrap();
+        let s = l.sample(1e300);
+        assert!(s.x == f64::INFINITY && s.y == -2.0);
+        let back = Line::new([0.5, -2.0], PI, 1e300).unwrap();
+        let s = back.sample(1e300);
+        // sin(pi) is 1.2e-16, not 0: both overflow, neither is NaN.
+        assert!(s.x == f64::NEG_INFINITY && s.y == f64::INFINITY);
+        // Within range the sample is the product it always was.
+        let l = Line::new([1.0, -2.0], 0.0, 0.3).unwrap();
+        assert_eq!(l.sample(4.0).x, 1.0 + 0.3 * 4.0 * 1.0);
+        assert_eq!(l.sample(4.0).y, -2.0);
     }
 
     #[test]
