@@ -27,6 +27,8 @@ after it, mean |pitch|, peak |torque|) to rel 1e-9. Against twip's general runne
 its planar lane kernel (fused multiply-adds), which agrees with the general runner to rounding.
 
 Run:  .venv/bin/pip install numba jax && .venv/bin/python benches/peers.py [--n 20000] [--kernel-copy avx2]
+On an AVX-512 machine, `--as-avx2` races twip's avx2 copy against Numba compiled for Haswell
+(LLVM's 256-bit code without AVX-512), the nearest this machine comes to an AVX2 CPU.
 (numba and jax are benchmark-only dependencies, not twip's.)
 """
 import argparse
@@ -39,6 +41,11 @@ import numpy as np
 
 import twip
 import twip.scenarios
+
+# LLVM features that switch AVX-512 off, for Numba (`--as-avx2`).
+AVX512_OFF = ",".join("-" + f for f in ("avx512f", "avx512cd", "avx512dq", "avx512bw", "avx512vl",
+                                         "avx512ifma", "avx512vbmi", "avx512vnni", "avx512bf16",
+                                         "avx512vpopcntdq", "avx512bitalg", "avx512vbmi2", "avx512fp16"))
 
 T_FINAL, DT = 10.0, 1e-3
 STEPS = round(T_FINAL / DT)
@@ -576,7 +583,19 @@ def main():
     ap.add_argument("--workload", choices=["lqr", "fuzzy", "circle-pid", "all"], default="all")
     ap.add_argument("--kernel-copy", choices=["avx512", "avx2", "baseline"], default=None,
                     help="run this copy of twip's lane kernels (default: the widest this CPU has)")
+    ap.add_argument("--as-avx2", action="store_true",
+                    help="an AVX2 machine's race on an AVX-512 one: twip's avx2 copy against Numba "
+                         "compiled for Haswell (AVX2 and FMA, no AVX-512)")
     args = ap.parse_args()
+    if args.as_avx2:
+        if args.kernel_copy not in (None, "avx2"):
+            ap.error(f"--as-avx2 runs twip's avx2 copy, not --kernel-copy {args.kernel_copy}")
+        args.kernel_copy = "avx2"
+        # Read when numba is first imported (the peers' factories import it). The features
+        # must be given too: with a CPU name alone numba adds the host's, AVX-512 among them.
+        os.environ["NUMBA_CPU_NAME"] = "haswell"
+        os.environ["NUMBA_CPU_FEATURES"] = AVX512_OFF
+        print("as on an AVX2 machine: Numba compiled for haswell, without AVX-512\n")
     if args.n_slow < 0 or (args.n is not None and args.n < 1):
         ap.error(f"--n must be at least 1 and --n-slow at least 0 (got --n {args.n}, --n-slow {args.n_slow})")
     if args.workload in ("lqr", "all") and args.n_slow > (args.n or 20_000):
