@@ -1,6 +1,7 @@
 """Controller design: knobs per family, `twip.tune`, `twip.worst_case`, controller files and
 their commands. The tunings here are tiny (a few robots, a few candidates, short runs); the
 issue's targets are measured by benches/design_targets.py."""
+import dataclasses
 import math
 
 import numpy as np
@@ -61,6 +62,20 @@ def test_lqr_knobs_are_weights_redesigned_at_the_scenario_speed():
     tuned = knobs.apply(sc, dict(zip(knobs.LQR_Q + ("r",), q + [r])))
     direct = twip.LqrController.design(sc.controller.model, math.radians(250), q, r, period=sc.controller.period)
     np.testing.assert_array_equal(tuned.controller.gains, direct.gains)
+
+
+@pytest.mark.parametrize("delay", [False, True])
+def test_lqr_knobs_redesign_a_discrete_controller_as_it_was_designed(delay):
+    """A discrete (and delay-aware) design tuned by its weights stays one: its knobs were
+    once redesigned in continuous time, other gains than the same weights give."""
+    sc = scenarios.get("slope-lqr")
+    own = sc.controller
+    speed = own.design_info["theta_dot_ref"]
+    q, r = [10.0, 10.0, 100.0, 10.0], 100.0
+    made = twip.LqrController.design(own.model, speed, q, r, period=own.period, discrete=True, delay=delay)
+    tuned = knobs.apply(dataclasses.replace(sc, controller=made), dict(zip(knobs.LQR_Q + ("r",), q + [r])))
+    assert (tuned.controller.design_info["discrete"], tuned.controller.design_info["delay"]) == (True, delay)
+    np.testing.assert_array_equal(tuned.controller.gains, made.gains)
 
 
 def test_knob_spaces_are_log_scaled_and_round_trip():

@@ -67,14 +67,15 @@ class Family:
 
 # --- LQR: Q's diagonal and R, redesigned at the scenario's speed ---------------------------
 
-def lqr_design(controller, speed: float, q, r: float, discrete: bool = False):
+def lqr_design(controller, speed: float, q, r: float):
     """The one place an LQR is designed from knob values: `LqrController.design` on the
-    controller's own model, point and period at wheel speed `speed` [rad/s]. `discrete`
-    asks for the design at the controller period (the core's discrete-time design, when the
-    core has it)."""
-    options = {"discrete": True} if discrete else {}
+    controller's own model, point and period at wheel speed `speed` [rad/s], and the way
+    the controller itself was designed (its design_info's `discrete` and `delay`): a tuned
+    discrete, delay-aware design stays one."""
+    info = controller.design_info or {}
     return _core.LqrController.design(controller.model, speed, list(q), float(r), point=controller.point,
-                                      period=controller.period, **options)
+                                      period=controller.period, discrete=bool(info.get("discrete", False)),
+                                      delay=bool(info.get("delay", False)))
 
 
 def design_speed(scenario) -> float:
