@@ -176,9 +176,10 @@ impl<'a, T: Real> Problem<'a, T> {
     /// stabilising solution exists and mirrors it. A Schur form that does not converge skips
     /// the tests: the solver's own checks (residual, closed-loop stability) still stand.
     fn check_pbh(&self, tol: T) -> Result<(), TwipError> {
-        let margin = T::default_epsilon().sqrt() * self.a.amax() * c::<T>(self.a.nrows() as f64);
+        // The margins are relative to the balanced A's size (see `check_pbh`).
+        let margin = |size: T| T::default_epsilon().sqrt() * size * c::<T>(self.a.nrows() as f64);
         let weight = Weight { q: &self.q, q_min: self.q_min, q_psd: self.q_psd };
-        check_pbh(self.a, self.b, weight, tol, |l| l.re >= -margin, |l| l.re.abs() <= margin)
+        check_pbh(self.a, self.b, weight, tol, |l, size| l.re >= -margin(size), |l, size| l.re.abs() <= margin(size))
     }
 
     fn solve(&self) -> Result<DMatrix<T>, TwipError> {

@@ -117,26 +117,44 @@ pub(crate) struct Weight<'a, T: Real> {
 }
 
 /// The PBH tests with relative rank tolerance `tol`, on the eigenvalues λ of A that
-/// `unstable(λ)` keeps: (A, B) stabilizable; and, for a positive semi-definite Q, no mode with
-/// `undamped(λ)` (on the stability boundary) invisible to Q (else the Riccati pencil has that
+/// `unstable(λ, ‖Ã‖)` keeps: (A, B) stabilizable; and, for a positive semi-definite Q, no mode with
+/// `undamped(λ, ‖Ã‖)` (on the stability boundary) invisible to Q (else the Riccati pencil has that
 /// eigenvalue too and no stabilising solution exists). An unstable mode invisible to Q is
 /// no obstacle: the stabilising solution exists and mirrors it. A Schur form that does not
 /// converge skips the tests: the solver's own checks (residual, closed-loop stability) still stand.
+///
+/// The verdicts must not depend on the units of the states or the inputs, while a rank
+/// tolerance relative to the norm does: the tests run on `Ã = D⁻¹ A D` (Parlett–Reinsch
+/// balancing, powers of two), `D⁻¹ B` with each column brought to Ã's size, and `D Q D`
+/// likewise. `‖Ã‖` is Ã's largest entry, for the closures' margins.
 pub(crate) fn check_pbh<T: Real>(
     a: &DMatrix<T>,
     b: &DMatrix<T>,
     weight: Weight<'_, T>,
     tol: T,
-    unstable: impl Fn(&Complex<T>) -> bool,
-    undamped: impl Fn(&Complex<T>) -> bool,
+    unstable: impl Fn(&Complex<T>, T) -> bool,
+    undamped: impl Fn(&Complex<T>, T) -> bool,
 ) -> Result<(), TwipError> {
     let n = a.nrows();
+    let d = balance(a, &DMatrix::zeros(n, n), &DMatrix::zeros(n, n));
+    let a = DMatrix::from_fn(n, n, |i, j| a[(i, j)] * (d[j] / d[i]));
+    let a_max = a.amax();
+    let size = if a_max > T::zero() { a_max } else { T::one() };
+    // Each column of D⁻¹ B (any input scaling keeps the rank), and D Q D as a whole, to Ã's size.
+    let mut b = DMatrix::from_fn(n, b.ncols(), |i, j| b[(i, j)] / d[i]);
+    for mut col in b.column_iter_mut() {
+        let top = col.amax();
+        if top > T::zero() {
+            col *= c::<T>(2.0).powi(pow2_exponent(size / top));
+        }
+    }
+    let q = DMatrix::from_fn(n, n, |i, j| weight.q[(i, j)] * d[i] * d[j]);
+    let q = if q.amax() > T::zero() { scaled_pow2(&q, pow2_exponent(size / q.amax())) } else { q };
     let Some((_, t)) = schur(a.clone()) else {
         return Ok(());
     };
-    let a_max = a.amax();
     let suspects: Vec<Complex<T>> =
-        quasi_eigenvalues(&t).into_iter().filter(|l| unstable(l) && l.im >= T::zero()).collect();
+        quasi_eigenvalues(&t).into_iter().filter(|l| unstable(l, a_max) && l.im >= T::zero()).collect();
     if suspects.is_empty() {
         return Ok(());
     }
@@ -144,18 +162,18 @@ pub(crate) fn check_pbh<T: Real>(
     // does not change) so that no norm overflows or underflows.
     // (A, B) stabilizable: rank [A − λI, B] = n; no undamped mode invisible to Q:
     // rank [Aᵀ − λI, Q] = n on the boundary.
-    let tests = [(b, false, TwipError::NotStabilizable), (weight.q, true, TwipError::NotDetectable)];
+    let tests = [(&b, false, TwipError::NotStabilizable), (&q, true, TwipError::NotDetectable)];
     for (other, transpose, error) in tests {
         if transpose && !weight.q_psd {
             continue;
         }
         let k = -pow2_exponent::<T>(a_max.max(other.amax()));
-        let a = scaled_pow2(a, k);
+        let a = scaled_pow2(&a, k);
         let a = if transpose { a.transpose() } else { a };
         let other = scaled_pow2(other, k);
         let f = c::<T>(2.0).powi(k);
         for lambda in &suspects {
-            if transpose && !undamped(lambda) {
+            if transpose && !undamped(lambda, a_max) {
                 continue;
             }
             // A positive definite Q (σ_min ≥ its smallest eigenvalue) needs no test.

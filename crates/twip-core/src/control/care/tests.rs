@@ -269,3 +269,41 @@ fn indefinite_q_has_a_stabilising_solution_when_the_hamiltonian_allows() {
     let res = &l.x * &a + a.transpose() * &l.x - &l.x * &b * b.transpose() * &l.x + &q;
     assert!(res.amax() < 1e-13, "{res}");
 }
+
+/// The closed loop's largest real part.
+fn max_re(a: &DMatrix<f64>, b: &DMatrix<f64>, r: &DMatrix<f64>, x: &DMatrix<f64>) -> f64 {
+    let k = r.clone().lu().solve(&(b.transpose() * x)).unwrap();
+    (a - b * k).complex_eigenvalues().iter().fold(f64::NEG_INFINITY, |acc, l| acc.max(l.re))
+}
+
+#[test]
+fn stabilizable_whatever_the_units_of_the_states() {
+    // A = D A0 D⁻¹, B = D B0, D = diag(1e-4, 1, 1e4) (A0, B0: numpy default_rng(3) normals):
+    // was NotStabilizable; SciPy solves it with the closed loop's max Re = −0.079.
+    let a0 = m(3, 3, &[
+        2.0409191213851825, -2.5556650313141818, 0.41809884672577885,
+        -0.5677696061279298, -0.45264929211044586, -0.2155971630897659,
+        -2.019986129147251, -0.23193237764418947, -0.8652130762749417,
+    ]);
+    let b0 = m(3, 1, &[3.3229995166448827, 0.22578661322792176, -0.3526307943415954]);
+    let d = [1e-4, 1.0, 1e4];
+    let a = DMatrix::from_fn(3, 3, |i, j| d[i] * a0[(i, j)] / d[j]);
+    let b = DMatrix::from_fn(3, 1, |i, j| d[i] * b0[(i, j)]);
+    let (q, r) = (DMatrix::identity(3, 3), m(1, 1, &[1.0]));
+    let x = care(&a, &b, &q, &r).unwrap();
+    assert!(rel_residual(&a, &b, &q, &r, &x) < 1e-12);
+    let worst = max_re(&a, &b, &r, &x);
+    assert!((worst + 0.079).abs() < 1e-3, "{worst}");
+}
+
+#[test]
+fn stabilizable_whatever_the_units_of_the_input() {
+    // care(A, c B, Q, 1) is care(A, B, Q, 1/c²): c = 1e-12 was refused as not stabilizable.
+    let (a, b, q) = (m(2, 2, &[0.0, 1.0, 2.0, -1.0]), m(2, 1, &[0.0, 1.0]), DMatrix::identity(2, 2));
+    let x = care(&a, &(&b * 1e-12), &q, &m(1, 1, &[1.0])).unwrap();
+    let same = care(&a, &b, &q, &m(1, 1, &[1e24])).unwrap();
+    assert!((&x - &same).amax() <= 1e-10 * same.amax(), "{x} vs {same}");
+    // c = 1e16 (Q/R = 1e32 in effect) is stabilizable too, whatever the solver makes of it.
+    let err = care(&a, &(&b * 1e16), &q, &m(1, 1, &[1.0])).err();
+    assert!(err != Some(TwipError::NotStabilizable), "{err:?}");
+}

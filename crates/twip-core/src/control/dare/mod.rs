@@ -113,11 +113,12 @@ impl<'a, T: Real> Problem<'a, T> {
     /// the unit circle (within `n √ε max(1, ‖A‖)`).
     fn check_pbh(&self, tol: T) -> Result<(), TwipError> {
         let n = self.a.nrows();
-        let margin = T::default_epsilon().sqrt() * self.a.amax().max(T::one()) * c::<T>(n as f64);
+        // The margins are relative to the balanced A's size (see `check_pbh`).
+        let margin = |a_size: T| T::default_epsilon().sqrt() * a_size.max(T::one()) * c::<T>(n as f64);
         let weight = Weight { q: &self.q, q_min: self.q_min, q_psd: self.q_psd };
         let size = |l: &Complex<T>| l.re.hypot(l.im);
-        check_pbh(self.a, self.b, weight, tol, |l| size(l) >= T::one() - margin, |l| {
-            (size(l) - T::one()).abs() <= margin
+        check_pbh(self.a, self.b, weight, tol, |l, a_size| size(l) >= T::one() - margin(a_size), |l, a_size| {
+            (size(l) - T::one()).abs() <= margin(a_size)
         })
     }
 

@@ -127,3 +127,12 @@ fn c2d_closed_forms_and_errors() {
     assert!(matches!(c2d(&m(1, 1, &[f64::INFINITY]), &m(1, 1, &[1.0]), 1.0), Err(TwipError::NonFinite { name: "A", .. })));
     assert!(matches!(c2d(&m(2, 2, &[0.0; 4]), &m(1, 1, &[1.0]), 1.0), Err(TwipError::Shape { name: "B", .. })));
 }
+
+#[test]
+fn stabilizable_whatever_the_units_of_the_input() {
+    // dare(A, c B, Q, 1) is dare(A, B, Q, 1/c²): c = 1e-12 was refused.
+    let (a, b, q) = (m(2, 2, &[1.2, 0.3, 0.1, 0.5]), m(2, 1, &[0.0, 1.0]), DMatrix::identity(2, 2));
+    let x = dare(&a, &(&b * 1e-12), &q, &m(1, 1, &[1.0])).unwrap();
+    let same = dare(&a, &b, &q, &m(1, 1, &[1e24])).unwrap();
+    assert!((&x - &same).amax() <= 1e-10 * same.amax(), "{x} vs {same}");
+}
