@@ -183,7 +183,12 @@ impl<'a, T: Real> Problem<'a, T> {
     }
 
     fn solve(&self) -> Result<DMatrix<T>, TwipError> {
-        match self.solve_scaled() {
+        // X at the size Q and G give it, else at the size A and G give it: a tiny Q on an
+        // unstable A (X ≈ its Q = 0 value, ~‖A‖/‖G‖) scaled the first way leaves G̃ at
+        // ‖Q‖/‖G‖ of Ã and the sign iteration sees an imaginary axis that is not there.
+        let first = self.solve_scaled(false);
+        let retry = matches!(first, Err(TwipError::NoStabilizingSolution | TwipError::NoConvergence { .. }));
+        match if retry { self.solve_scaled(true).or(first) } else { first } {
             Ok(x) => Ok(x),
             // A failure close to the rank tolerance is reported as what it most likely is.
             Err(e) => {
@@ -193,8 +198,9 @@ impl<'a, T: Real> Problem<'a, T> {
         }
     }
 
-    /// The balanced and scaled problem (step 2 of the module docs), all scalings exact.
-    fn scaled(&self) -> Scaled<T> {
+    /// The balanced and scaled problem (step 2 of the module docs), all scalings exact;
+    /// with `from_a`, `s` brings ‖G̃‖ to ‖Ã‖ instead of balancing ‖Q̃‖ against it.
+    fn scaled(&self, from_a: bool) -> Scaled<T> {
         // Dividing the equation by α = 4^j (A, G, Q → A/α, G/α, Q/α) leaves X alone; α ≈ the
         // larger of ‖A‖ and √(‖Q‖ ‖G‖) brings the data near unit size.
         let size = self.a.amax().max(self.q.amax().sqrt() * self.bh.amax());
@@ -216,7 +222,9 @@ impl<'a, T: Real> Problem<'a, T> {
         // s = 4^k so that Bh scales by 2^k.
         let g = &bh * bh.transpose();
         let (qn, gn) = (q.norm(), g.norm());
-        let k = if qn > T::zero() && gn > T::zero() {
+        let k = if from_a && gn > T::zero() && a.norm() > T::zero() {
+            pow2_exponent::<T>(a.norm() / gn) / 2
+        } else if qn > T::zero() && gn > T::zero() {
             pow2_exponent::<T>(qn / gn) / 2
         } else {
             0
@@ -229,8 +237,8 @@ impl<'a, T: Real> Problem<'a, T> {
         Scaled { a, bh, q, g, d, s }
     }
 
-    fn solve_scaled(&self) -> Result<DMatrix<T>, TwipError> {
-        let sc = self.scaled();
+    fn solve_scaled(&self, from_a: bool) -> Result<DMatrix<T>, TwipError> {
+        let sc = self.scaled(from_a);
         // The sign iteration fails when the Hamiltonian has eigenvalues on, or within rounding
         // of, the imaginary axis; Newton–Kleinman from a stabilising start still finds the
         // stabilising solution of the latter, and fails on the former.

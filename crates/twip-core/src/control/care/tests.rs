@@ -307,3 +307,18 @@ fn stabilizable_whatever_the_units_of_the_input() {
     let err = care(&a, &(&b * 1e16), &q, &m(1, 1, &[1.0])).err();
     assert!(err != Some(TwipError::NotStabilizable), "{err:?}");
 }
+
+#[test]
+fn a_tiny_q_on_an_unstable_a_is_no_imaginary_axis() {
+    // Q = s I, s ≤ 1e-17, was NoStabilizingSolution while Q = 0 gives [[8, 4], [4, 2]]
+    // (SciPy's answer for 1e-20 matches it to 1e-15).
+    let (a, b, r) = (m(2, 2, &[0.0, 1.0, 2.0, -1.0]), m(2, 1, &[0.0, 1.0]), m(1, 1, &[1.0]));
+    let limit = care(&a, &b, &DMatrix::zeros(2, 2), &r).unwrap();
+    assert!((&limit - m(2, 2, &[8.0, 4.0, 4.0, 2.0])).amax() < 1e-13, "{limit}");
+    for s in [1e-17, 1e-20, 1e-30] {
+        let q = DMatrix::identity(2, 2) * s;
+        let x = care(&a, &b, &q, &r).map_err(|e| (s, e)).unwrap();
+        assert!((&x - &limit).amax() < 1e-13, "{s}: {x}");
+        assert!(max_re(&a, &b, &r, &x) < 0.0);
+    }
+}

@@ -123,7 +123,11 @@ impl<'a, T: Real> Problem<'a, T> {
     }
 
     fn solve(&self) -> Result<DMatrix<T>, TwipError> {
-        match self.solve_scaled() {
+        // As the CARE: should X at the size Q and G give it fail, X at the size A and G give
+        // it (a tiny Q on an unstable A).
+        let first = self.solve_scaled(false);
+        let retry = matches!(first, Err(TwipError::NoStabilizingSolution | TwipError::NoConvergence { .. }));
+        match if retry { self.solve_scaled(true).or(first) } else { first } {
             Ok(x) => Ok(x),
             // A failure close to the rank tolerance is reported as what it most likely is.
             Err(e) => {
@@ -155,7 +159,8 @@ impl<'a, T: Real> Problem<'a, T> {
         symmetrise(scaled * bv.transpose())
     }
 
-    fn solve_scaled(&self) -> Result<DMatrix<T>, TwipError> {
+    /// With `from_a`, `s` brings ‖G̃‖ to max(‖Ã‖², 1) instead of balancing ‖Q̃‖ against it.
+    fn solve_scaled(&self, from_a: bool) -> Result<DMatrix<T>, TwipError> {
         // x = D x̃: Ã = D⁻¹ A D, B̃ = D⁻¹ B, Q̃ = D Q D, X = D⁻¹ X̃ D⁻¹ (powers of two).
         let g = self.g_for_scaling();
         let d = balance(self.a, &g, &self.q);
@@ -166,7 +171,13 @@ impl<'a, T: Real> Problem<'a, T> {
         let g = DMatrix::from_fn(n, n, |i, j| g[(i, j)] / (d[i] * d[j]));
         // X = s X̃ with Q and R divided by s = 4^k (G times s): balance ‖Q̃‖ against ‖G̃‖.
         let (qn, gn) = (q.norm(), g.norm());
-        let k = if qn > T::zero() && gn > T::zero() { pow2_exponent::<T>(qn / gn) / 2 } else { 0 };
+        let k = if from_a && gn > T::zero() {
+            pow2_exponent::<T>(a.norm().powi(2).max(T::one()) / gn) / 2
+        } else if qn > T::zero() && gn > T::zero() {
+            pow2_exponent::<T>(qn / gn) / 2
+        } else {
+            0
+        };
         let s = c::<T>(4.0).powi(k);
         let (q, r) = (q / s, &self.r / s);
 

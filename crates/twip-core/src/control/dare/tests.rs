@@ -136,3 +136,16 @@ fn stabilizable_whatever_the_units_of_the_input() {
     let same = dare(&a, &b, &q, &m(1, 1, &[1e24])).unwrap();
     assert!((&x - &same).amax() <= 1e-10 * same.amax(), "{x} vs {same}");
 }
+
+#[test]
+fn a_tiny_q_on_an_unstable_a_is_no_unit_circle() {
+    // 0.7 [[0, 1], [2, −1]] (eigenvalues 0.7, −1.4) with Q = s I, s ≤ 1e-17: was refused.
+    let (a, b, r) = (m(2, 2, &[0.0, 0.7, 1.4, -0.7]), m(2, 1, &[0.0, 1.0]), m(1, 1, &[1.0]));
+    let limit = dare(&a, &b, &DMatrix::zeros(2, 2), &r).unwrap();
+    for s in [1e-17, 1e-20, 1e-30] {
+        let q = DMatrix::identity(2, 2) * s;
+        let x = dare(&a, &b, &q, &r).map_err(|e| (s, e)).unwrap();
+        assert!((&x - &limit).amax() < 1e-12 * limit.amax(), "{s}: {x} vs {limit}");
+        assert!(stabilising(&a, &b, &q, &r, &x));
+    }
+}
