@@ -303,6 +303,44 @@ def test_fuzzy_margin_is_above_one_exactly_when_fuzzy_wins_both_columns():
     assert fuzzy_margin(row(1.0, 30.0), row(0.5, 20.0, "fell")) is None
 
 
+def _tracking_row(controller, plant, outcome="completed", error=0.05, real="completed"):
+    """A row as tracking.compare(realism=...) gives it, with mean |x| = |y| = `error` [m]."""
+    nan = float("nan")
+    return {"controller": controller, "plant": plant, "outcome": outcome, "x": error if outcome == "completed" else nan,
+            "y": error if outcome == "completed" else nan, "realism_outcome": real, "x_realism": error,
+            "y_realism": error}
+
+
+def test_a_tracker_that_fell_is_no_smaller_error_in_table_5_2():
+    """As fuzzy_margin: a fall of either tracker on any plant gives no ratio, the conclusion
+    does not hold, and the row says which fell; the sensitivity counts such a run as not
+    holding (leaving its plants out made the ratio inf or flattered the sliding mode)."""
+    from twip.report import sensitivity
+    from twip.report.claims import pid_over_smc, table_5_2_claims
+
+    pid = [_tracking_row("circle-pid", p, error=0.3) for p in ("nominal", "+20%")]
+    smc = [_tracking_row("circle-smc-fuzzy", "nominal", error=0.01), _tracking_row("circle-smc-fuzzy", "+20%", "fell")]
+    assert pid_over_smc(pid + smc) is None and pid_over_smc(pid + smc[:1]) == pytest.approx(30.0)
+    assert pid_over_smc(pid + smc, realism=True) == pytest.approx(10.0)  # with the robot every run completed
+    (row,) = table_5_2_claims(pid + smc, pid + smc)
+    assert row["status"] == "differs" and row["ours"] is None and not row["corrected"]["holds"], row
+    assert "circle-smc-fuzzy fell on the +20% plant" in row["reason"], row["reason"]
+    assert "T8" in row["reason"] and "it does not hold" in row["reason"]
+    assert row["realism"]["holds"]  # the thesis-like robot's runs all completed
+    (row,) = table_5_2_claims(pid + smc, [{**r, "realism_outcome": "fell"} if r["controller"] == "circle-pid" else r
+                                         for r in pid + smc[:1]])
+    assert row["status"] == "reproduced" and not row["realism"]["holds"], row
+    assert "circle-pid fell on the nominal plant" in row["reason"], row["reason"]
+
+    def compare(params=None, trackers=(), **_):
+        return [r for r in pid + smc if r["controller"] in trackers]
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr("twip.scenarios.tracking.compare", compare)
+        entry = sensitivity.smc_versus_pid(pid_over_smc, laps=1, quick=True)["table-5.2/smc-beats-pid"]
+    assert entry["holds"] == 0 and all(d["ours"] is None and not d["holds"] for d in entry["detail"])
+
+
 def test_fuzzy_beats_lqr_gets_the_joint_low_high_search():
     """Table 5.1's "fuzzy better than LQR" is searched like every other claim: Γ, σ, the fuzzy
     sets and the loop periods vary together, the default run is the row's, the search runs

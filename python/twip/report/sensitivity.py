@@ -198,7 +198,7 @@ def scenario_claims(judge: Callable, measure: Callable, keys: Sequence[str], qui
 TABLE_5_2_BOX: Box = {**SMC_GAINS, "loop period [s]": PERIOD, "gearhead friction": FRICTION}
 
 
-def smc_versus_pid(ratio_of: Callable[[list], float], laps: int, quick: bool = False) -> Dict[str, dict]:
+def smc_versus_pid(ratio_of: Callable[[list], Optional[float]], laps: int, quick: bool = False) -> Dict[str, dict]:
     """Table 5.2's conclusion (PID error / sliding-mode error ≥ 2) with the thesis's λ1 (4.74)
     over the joint box of the sliding-mode tracker's unpublished gains k1, k2, k3, k_φ, the
     loop period (both trackers') and gearhead friction on the plants, over tracking.compare's
@@ -219,7 +219,7 @@ def smc_versus_pid(ratio_of: Callable[[list], float], laps: int, quick: bool = F
         if key not in pid:
             pid[key] = rows("circle-pid", values, params, friction)
         ratio = ratio_of(pid[key] + rows("circle-smc-fuzzy", values, params, friction))
-        return {"ratio": (ratio, ratio >= 2.0)}
+        return {"ratio": (ratio, ratio is not None and ratio >= 2.0)}  # None: a tracker fell, it does not hold
 
     entry = search(TABLE_5_2_BOX, evaluate, ("ratio",), PLANAR_SAMPLES[quick], SEED, extremes=not quick)["ratio"]
     return {"table-5.2/smc-beats-pid": entry}
