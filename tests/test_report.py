@@ -172,6 +172,24 @@ def test_table_5_1_rows_state_the_thesis_like_robot():
         assert "thesis-like robot" in c["reason"], c["id"]
 
 
+def test_a_table_5_1_run_that_fell_is_not_reproduced():
+    """A nominal run that fell has no mean error to compare (its means stop at the fall): its
+    rows and the "fuzzy better than LQR" they feed differ and say so, as with the robot."""
+    from twip.report.claims import table_5_1_claims
+
+    def row(controller, outcome, pitch, speed):  # numbers the thesis's, so only the fall can turn a verdict
+        return {"surface": "flat", "controller": controller, "outcome": outcome, "pitch_error_deg": pitch,
+                "speed_error_deg_s": speed}
+
+    by_id = {c["id"]: c for c in table_5_1_claims([row("lqr", "fell", 3.225, 25.5), row("fuzzy", "completed", 3.024, 20.6)])}
+    for metric in ("pitch", "speed"):
+        c = by_id[f"table-5.1/lqr-flat/{metric}"]
+        assert c["status"] == "differs" and c["ours"] is None and "the run fell" in c["reason"], c
+    assert by_id["table-5.1/fuzzy-flat/pitch"]["status"] == "reproduced"
+    beats = by_id["table-5.1/fuzzy-beats-lqr-flat"]
+    assert beats["status"] == "differs" and "LQR fell" in beats["reason"], beats
+
+
 def test_claims_the_report_missed_are_rows():
     """4.1.1: "it takes about 2 seconds for the angular velocity [φ̇] to the desired value";
     4.2.1: φ̇ "stabilized within 7.5 seconds"; 4.1.1's and 4.2.1's experiments keep the pitch
