@@ -232,17 +232,54 @@ def test_constraints_and_sizes_are_checked_before_the_sweeps(monkeypatch):
 
 
 def test_a_fit_covariance_becomes_the_uncertainty(balanbot):
+    """Uncorrelated, each parameter keeps its fit's std, widened only so that the ±3 std clamp
+    leaves the variance the fit's."""
     fit = fake_fit(balanbot, np.diag([0.01**2, 0.002**2]))
     sc, perturb = uncertainty.scenario_for("slope-lqr", fit, None)
     assert sc.model.params.m_body == pytest.approx(balanbot.m_body * 1.01)
-    assert perturb["m_body"].std == pytest.approx(0.01) and perturb["com_height"].std == pytest.approx(0.002)
+    clamp = math.sqrt(uncertainty.clamped_variance(uncertainty.FIT_REACH))
+    assert 0.997 < clamp < 0.998  # the clamp trims 0.5 % of the variance
+    assert perturb["m_body"].std == pytest.approx(0.01 / clamp) and perturb["com_height"].std == pytest.approx(0.002 / clamp)
+    assert perturb["m_body"].high - fit.values["m_body"] == pytest.approx(3 * perturb["m_body"].std)
 
 
-def fake_fit(robot, cov, converged=True):
-    """A Fit of m_body and com_height with covariance `cov` (the estimator's answer is not needed)."""
+def _widened(perturb, names):
+    """The variances a Fit's independent draws have: each std's square, clamp included."""
+    return np.array([perturb[n].std**2 for n in names]) * uncertainty.clamped_variance(uncertainty.FIT_REACH)
+
+
+def test_a_fits_independent_draws_are_at_least_as_wide_as_its_covariance(balanbot):
+    """Dropping the correlations would narrow the set along a correlated combination (at 0.95,
+    1.95 → 1.01 along (1, 1)/√2); each variance is widened to its row of |Σ| so that the
+    independent draws' covariance minus the fit's is positive semidefinite."""
+    names = ("m_body", "com_height", "i_body", "mu_bearing")
+    scale = np.diag([0.002 * getattr(balanbot, n) for n in names])
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        a = rng.normal(size=(4, 4)) * rng.uniform(0.1, 3, size=4)  # correlated, of unequal sizes
+        cov = scale @ (a @ a.T + 1e-3 * np.eye(4)) @ scale
+        perturb = uncertainty.fit_perturbations(fake_fit(balanbot, cov, names=names))
+        excess = np.diag(_widened(perturb, names)) - cov
+        assert np.linalg.eigvalsh(excess).min() >= -1e-12 * np.abs(cov).max(), cov
+    # Drawn (the core's sampler, clamped): along the fit's principal axis at least its variance
+    # (4.84 s² here; 5.26 s² expected; the fit's own stds, independent, gave 3.46 s²).
+    s = 4e-4
+    cov = s**2 * np.array([[4.0, 1.8], [1.8, 1.0]])  # stds 2s and s, correlation 0.9
+    fit = fake_fit(balanbot, cov)
+    sc, perturb = uncertainty.scenario_for("slope-lqr", fit, None)
+    tuples = twip.perturbation.resolve(perturb, sc)
+    drawn = np.array([[d[0][n] for n in fit.names] for d in
+                      (twip._core.sweep_draw(sc.model, sc.x0, tuples, 7, i) for i in range(20000))])
+    axis = np.linalg.eigh(cov)[1][:, -1]
+    assert np.var(drawn @ axis) / s**2 > axis @ cov @ axis / s**2 == pytest.approx(4.843, abs=1e-3)
+    assert np.var(drawn, axis=0) == pytest.approx(_widened(perturb, fit.names), rel=0.03)
+
+
+def fake_fit(robot, cov, converged=True, names=("m_body", "com_height")):
+    """A Fit of `names` (m_body 1 % off) with covariance `cov` (the estimator's answer is not needed)."""
     fit = Fit.__new__(Fit)
-    fit.names = ("m_body", "com_height")
-    fit.values = {"m_body": robot.m_body * 1.01, "com_height": robot.com_height}
+    fit.names = tuple(names)
+    fit.values = {n: getattr(robot, n) * (1.01 if n == "m_body" else 1.0) for n in names}
     fit.robot = robot.replace(m_body=robot.m_body * 1.01)
     fit.covariance = np.asarray(cov, float)
     fit.converged, fit.message = converged, "converged"

@@ -44,11 +44,20 @@ def positive_int(name: str, value) -> int:
     return int(value)
 
 
+def clamped_variance(reach: float) -> float:
+    """The variance of a standard normal draw clamped to ±`reach`: 1 − 2cφ(c) + (c² − 1)·P(|Z| > c)."""
+    tail = math.erfc(reach / math.sqrt(2))
+    return 1 - 2 * reach * math.exp(-reach**2 / 2) / math.sqrt(2 * math.pi) + (reach**2 - 1) * tail
+
+
 def fit_perturbations(fit) -> dict:
-    """{field: Normal} from a Fit's standard deviations, clamped to ±FIT_REACH std. The
-    draws are independent: the fit's correlations are not kept, which spreads the robots
-    wider than the fit says (a conservative set). A singular covariance (a parameter or a
-    combination the log did not determine) is refused."""
+    """{field: Normal} from a Fit's covariance Σ, clamped to ±FIT_REACH std, drawn
+    independently. Independent draws with the fit's own variances would have covariance
+    diag(Σ), narrower than Σ along a correlated combination; so each variance is widened to
+    its row sum d_i = Σ_j |Σ_ij| (diag(d) − Σ is diagonally dominant, hence positive
+    semidefinite) and divided by the clamp's variance (clamped_variance): the set spreads the
+    robots at least as wide as the fit in every direction (a conservative set). A singular
+    covariance (a parameter or a combination the log did not determine) is refused."""
     cov = np.asarray(fit.covariance, float)
     names = list(fit.names)
     fields = set(_core.RobotParams.fields)
@@ -65,8 +74,9 @@ def fit_perturbations(fit) -> dict:
     if not (np.all(std > 0) and eig.min() > 1e-10 * eig.max()):
         raise _bad(f"robot: the Fit's covariance of {', '.join(names)} is singular (smallest normalised "
                    f"eigenvalue {eig.min():.3g}): a combination of them is undetermined")
+    widened = np.sqrt(np.abs(cov).sum(axis=1) / clamped_variance(FIT_REACH))
     out = {}
-    for name, s in zip(names, std):
+    for name, s in zip(names, widened):
         if name not in fields:
             raise _bad(f"robot: the Fit's free parameter '{name}' is not a RobotParams field; tune takes the "
                        "uncertainty of the robot's parameters only")
