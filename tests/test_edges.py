@@ -2,6 +2,8 @@
 aborts; checkpoints that cannot lie; streamed sweeps; errors that name what was given;
 numbers that do not mislead. Each input the issue lists has a test here."""
 import json
+from decimal import Decimal
+from fractions import Fraction
 import re
 import os
 import shutil
@@ -728,3 +730,152 @@ def test_ctrl_c_while_a_shard_is_written_keeps_that_shard(tmp_path, monkeypatch)
     monkeypatch.undo()
     again = twip.montecarlo(sc, 64, checkpoint=tmp_path / "ck", shard_size=16, progress=False)
     assert again.n == 64
+
+
+# --- float parameters: no bool, no complex ------------------------------------------------
+# pyo3 read a float through __float__: a numpy complex lost its imaginary part with only a
+# ComplexWarning (Circle(np.complex128(1+1j), 1) had radius 1) and a bool was 0 or 1
+# (Realism(control_period=True) ran at 1 s). Every float parameter of the bindings refuses
+# them; other real numbers (int, numpy's, Fraction) read as before.
+
+NOT_REAL = [np.complex128(1 + 1j), np.complex64(1 + 1j), True, np.True_]
+_P = twip.RobotParams.balanbot()
+_SLOPE, _PLANAR = twip.SlopeModel(_P), twip.PlanarModel(_P)
+_LQR = scenarios.get("flat-lqr-sim").controller
+_PID = twip.PidTracker.table_4_1()
+_STILL = twip.SpeedSchedule.constant(0.0)
+_LINE = twip.Line(0.1)
+
+
+def _shoot(max_step):
+    t = np.linspace(0.0, 0.1, 11)
+    return twip._core.sysid_shoot([_SLOPE], np.zeros((1, 1, 4)), t, np.zeros(11), np.array([0]), max_step=max_step)
+
+
+# (parameter, a valid whole number for it, the call with `v` there): one or more per binding file.
+FLOAT_PARAMETERS = {
+    "Friction": ("coulomb", 1, lambda v: twip.Friction(v)),
+    "Friction.torque": ("w", 1, lambda v: twip.Friction.gb37().torque(v)),
+    "SlopeModel": ("slope", 0, lambda v: twip.SlopeModel(_P, slope=v)),
+    "SlopeModel.equilibrium": ("theta_dot_ref", 1, lambda v: _SLOPE.equilibrium(v)),
+    "PlanarModel.mass_matrix": ("phi", 0, lambda v: _PLANAR.mass_matrix(v)),
+    "rk4_step": ("dt", 1, lambda v: twip.rk4_step(_SLOPE, np.zeros(4), 0.0, v)),
+    "Terrain.plane": ("slope", 0, lambda v: twip.Terrain.plane(v)),
+    "Terrain.ramp": ("blend", 1, lambda v: twip.Terrain.ramp(0.1, blend=v)),
+    "BalanceBatch": ("fall_limit", 1, lambda v: twip._core.BalanceBatch(_SLOPE, np.zeros(4), [], 1, 0.005, 1, v)),
+    "TrackBatch": ("dt", 1, lambda v: twip._core.TrackBatch(_PLANAR, _LINE, np.zeros(7), [], 1, v, 1, 1.0)),
+    "ffi_record": ("t_final", 1, lambda v: twip._core.ffi_record(_SLOPE, _LQR, [0.0] * 4, v, 0.001, _STILL)),
+    "c2d": ("period", 1, lambda v: twip.c2d(np.eye(2), np.ones((2, 1)), v)),
+    "simulate_raw": ("t_final", 1, lambda v: twip._core.simulate_raw(_SLOPE, _LQR, np.zeros(4), v, 0.001, _STILL)),
+    "simulate_planar_raw": ("settle", 1, lambda v: twip._core.simulate_planar_raw(
+        _PLANAR, _PID, np.zeros(7), 0.01, 0.005, _LINE, settle=v)),
+    "sweep_draw": ("perturbations", 0, lambda v: twip._core.sweep_draw(
+        _SLOPE, np.zeros(4), [("slope", 0, "uniform", v, 0.1, 0.0, 0.1)], 0, 0)),
+    "sweep_raw": ("control_period", 1, lambda v: twip._core.sweep_raw(
+        _SLOPE, _LQR, np.zeros(4), 2.0, 0.005, _STILL, [], 0, 0, 1, control_period=v)),
+    "sweep_planar_raw": ("t_final", 1, lambda v: twip._core.sweep_planar_raw(
+        _PLANAR, _PID, np.zeros(7), v, 0.005, _LINE, [], 0, 0, 1)),
+    "sysid_shoot": ("max_step", 1, _shoot),
+    "Gaussian": ("mean", 0, lambda v: twip.Gaussian(v, 1.0)),
+    "FuzzyController": ("ki", 0, lambda v: twip.FuzzyController.thesis_flat(_SLOPE, ki=v)),
+    "FuzzyBasis.grid": ("centres", 1, lambda v: twip.FuzzyBasis.grid("triangle", [[0, v], [0, 1]])),
+    "LqrController": ("period", 1, lambda v: twip.LqrController(_SLOPE, _LQR.gains, period=v)),
+    "LqrController.design": ("R", 1, lambda v: twip.LqrController.design(_SLOPE, 0.0, [1, 1, 1, 1], v)),
+    "SpeedSchedule": ("legs", 1, lambda v: twip.SpeedSchedule([(v, 1.0, 0.0)])),
+    "SpeedSchedule.go_and_return": ("hold", 1, lambda v: twip.SpeedSchedule.go_and_return(1.0, 1.0, 0.1, hold=v)),
+    "PidTracker": ("period", 1, lambda v: twip.PidTracker(_P, period=v)),
+    "SmcTracker": ("guards", 1, lambda v: twip.SmcTracker(_PLANAR, guards=(v, 0.2))),
+    "SmcTracker.surface_gain": ("phi", 0, lambda v: twip.SmcTracker(_PLANAR).surface_gain(v)),
+    "Circle": ("radius", 1, lambda v: twip.Circle(v, 1.0)),
+    "Waypoints": ("points", 1, lambda v: twip.Waypoints([(0.0, 0.0), (v, 0.0)], 0.5)),
+    "Line.sample": ("t", 1, lambda v: _LINE.sample(v)),
+    "DcMotor": ("supply", 12, lambda v: twip.DcMotor.gb37y3530(supply=v)),
+    "DcMotor.torque": ("voltage", 1, lambda v: twip.DcMotor.gb37y3530().torque(v, 0.0)),
+    "Imu": ("height", 0, lambda v: twip.Imu(height=v)),
+    "Dlpf": ("bandwidth_hz", 100, lambda v: twip.Dlpf(v, 0.001)),
+    "TiltEstimator.kalman": ("r_angle", 1, lambda v: twip.TiltEstimator.kalman(r_angle=v)),
+    "MotorDriver": ("current_limit", 2, lambda v: twip.MotorDriver(current_limit=v)),
+    "Push": ("t", 1, lambda v: twip.Push(v, 0.1)),
+    "Force": ("horizontal", 1, lambda v: twip.Force(horizontal=v)),
+    "Realism": ("control_period", 1, lambda v: twip.Realism(control_period=v)),
+    "Realism.slope_profile": ("slope_profile", 1, lambda v: twip.Realism(slope_profile=[(v, 0.1)])),
+}
+
+
+@pytest.mark.filterwarnings("error")  # refused, not cast with a ComplexWarning first
+@pytest.mark.parametrize("value", NOT_REAL, ids=repr)
+@pytest.mark.parametrize("call", FLOAT_PARAMETERS, ids=str)
+def test_a_float_parameter_refuses_a_complex_number_or_a_bool(call, value):
+    arg, _, make = FLOAT_PARAMETERS[call]
+    with pytest.raises(TypeError, match=r"^expected a real number, got the (complex value|bool) ") as e:
+        make(value)
+    assert str(value) in str(e.value)  # (1+1j), True: also inside np.complex64(1+1j), np.True_
+    assert f"while processing '{arg}'" in getattr(e.value, "__notes__", []), "the traceback names the argument"
+
+
+@pytest.mark.parametrize("kind", [int, np.float32, np.int64, Fraction, Decimal])
+@pytest.mark.parametrize("call", FLOAT_PARAMETERS, ids=str)
+def test_a_float_parameter_takes_any_other_real_number(call, kind):
+    _, whole, make = FLOAT_PARAMETERS[call]
+    make(kind(whole))
+
+
+@pytest.mark.parametrize("value", NOT_REAL, ids=repr)
+def test_settings_read_by_name_refuse_a_complex_number_or_a_bool_naming_it(value):
+    """Settings given by key (a dict, replace, from_dict) are named in the message itself."""
+    for name, call in [
+        ("Realism.replace: control_period", lambda: twip.Realism().replace(control_period=value)),
+        ("Circle.from_dict: radius", lambda: twip.Circle.from_dict({"radius": value, "speed": 1.0})),
+    ]:
+        with pytest.raises(TypeError, match=rf"^{re.escape(name)}: expected a real number, got the "):
+            call()
+    for name, call in [
+        ("RobotParams field 'm_body'", lambda: _P.replace(m_body=value)),
+        ("PID gain 'kp_pitch'", lambda: twip.PidTracker(_P, gains={"kp_pitch": value})),
+        ("controller.period", lambda: twip._core.simulate_raw(_SLOPE, _Update(value), np.zeros(4), 0.01, 0.005, _STILL)),
+    ]:
+        with pytest.raises(twip.InvalidParameterError, match=rf"^{re.escape(name)}.* {re.escape(str(value))}"):
+            call()
+
+
+class _Update:
+    def __init__(self, period):
+        self.period = period
+
+    def update(self, t, y, ref):
+        return 0.0
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("value", NOT_REAL, ids=repr)
+def test_a_number_or_array_argument_refuses_a_complex_number_or_a_bool(value):
+    """A scalar that may also be an array (an input, a membership's x, a Python controller's
+    u) is read as an array when it is no real number: its entry is named, as an array's."""
+    kind = "complex" if np.iscomplexobj(value) else "bool"
+    for name, call in [
+        ("u", lambda: _SLOPE.deriv(np.zeros(4), value)),
+        ("x", lambda: twip.Triangle(-1.0, 0.0, 1.0)(value)),
+        ("x0", lambda: twip.simulate(_SLOPE, _LQR, [0.0, 0.0, value, 0.0], 0.01)),
+    ]:
+        with pytest.raises(twip.InvalidParameterError, match=rf"^{name}\[\d\] = .*: not a real number \(got {kind}"):
+            call()
+    with pytest.raises(TypeError, match=rf"controller returned u = {re.escape(str(value))} .* at t = 0"):
+        twip._core.simulate_raw(_SLOPE, lambda t, y, ref: value, np.zeros(4), 0.01, 0.005, _STILL)
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("value", NOT_REAL, ids=repr)
+def test_python_wrappers_refuse_a_complex_or_bool_entry_before_float_reads_it(value, tmp_path):
+    from twip import interop
+    from twip.firmware.export import export
+
+    kind = "complex" if np.iscomplexobj(value) else "bool"
+    sc = scenarios.get("flat-lqr-sim", t_final=0.2)
+    x0 = [0.0, 0.0, value, 0.0]
+    for name, call in [
+        ("u0", lambda: interop.jacobians(_SLOPE, np.zeros(4), [value])),
+        ("x0", lambda: twip.montecarlo(sc.replace(x0=x0), 2, perturb={"theta0": twip.Normal(std=0.1)}, progress=False)),
+        ("x0", lambda: export(sc.replace(x0=x0), tmp_path / "out", replay_seconds=0.1)),
+    ]:
+        with pytest.raises(twip.InvalidParameterError, match=rf"^{name}\[\d\] = .*: not a real number \(got {kind}"):
+            call()

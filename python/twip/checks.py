@@ -42,23 +42,33 @@ def real(name: str, value, above: Optional[float] = None, at_least: Optional[flo
     return number
 
 
-def not_complex(name: str, value, error=_core.InvalidParameterError):
-    """`value` unless it is a numpy array or scalar of complex numbers: numpy's cast to float
-    would keep only its real parts, with nothing but a warning. The error names the first
-    entry off the real axis (the first entry when none is)."""
-    if getattr(getattr(value, "dtype", None), "kind", None) == "c":
-        entries = np.asarray(value).ravel()
+def real_entries(name: str, value, error=_core.InvalidParameterError):
+    """`value` unless it holds a complex number or a bool (a numpy array or scalar, or an
+    entry of a list): numpy's cast to float would keep only a complex's real part, with
+    nothing but a warning, and read a bool as 0 or 1. The error names the first such entry
+    (of complex numbers, the first off the real axis; the first entry when none is)."""
+    try:
+        entries = np.asarray(value)
+    except ValueError:  # ragged rows: the cast to float names them
+        return value
+    if entries.dtype.kind == "c":
+        entries = entries.ravel()
         off = np.flatnonzero(entries.imag != 0)
         i = int(off[0]) if len(off) else 0
         raise error(f"{name}[{i}] = {complex(entries[i])!r}: not a real number (got complex)")
+    # A bool among numbers (a list: [True, 0.5] reads as floats) or a bool array.
+    if entries.dtype.kind in "bO" or not hasattr(value, "dtype"):
+        for i, entry in enumerate(np.asarray(value, dtype=object).ravel()):
+            if isinstance(entry, (bool, np.bool_)):
+                raise error(f"{name}[{i}] = {entry!r}: not a real number (got bool)")
     return value
 
 
 def vector(name: str, value, n: int) -> np.ndarray:
     """`value` as n finite floats (any array-like of n real numbers, flattened): else a
-    TypeError (not numbers), an InvalidParameterError (complex), a ShapeError or a
+    TypeError (not numbers), an InvalidParameterError (complex or bool), a ShapeError or a
     NonFiniteError, each naming the parameter."""
-    not_complex(name, value)
+    real_entries(name, value)
     try:
         v = np.asarray(value, dtype=float).ravel()
     except (TypeError, ValueError):

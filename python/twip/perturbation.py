@@ -125,6 +125,7 @@ def resolve(perturb: Mapping, scenario) -> list:
     """Perturbations as tuples for the core, in key order (the draw order)."""
     out = []
     perturb = checks.of_type("perturb", perturb or {}, Mapping, "a dict {name: twip.Uniform or twip.Normal}")
+    checks.real_entries("x0", scenario.x0)  # before float() reads it (here, and a sweep's fingerprint)
     named = {}  # (kind, index) -> the first name given for it
     for name, dist in perturb.items():
         checks.of_type("perturb's keys", name, str, "parameter names (str)")

@@ -4,7 +4,10 @@ use numpy::{
     AllowTypeChange, Complex64, IntoPyArray, PyArray1, PyArray2, PyArrayDescrMethods, PyArrayLike1, PyArrayLike2, PyUntypedArray,
     PyUntypedArrayMethods,
 };
+use pyo3::exceptions::PyTypeError;
+use pyo3::intern;
 use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyComplex, PyFloat, PyInt};
 use twip_core::TwipError;
 
 use crate::errors::{CoreResult, InvalidParameterError, ShapeError};
@@ -18,11 +21,68 @@ fn finite(name: &'static str, values: impl IntoIterator<Item = f64>) -> CoreResu
     Ok(())
 }
 
-/// `obj` as a numpy array of real numbers (bool, int or float): anything else (a string,
-/// a complex number, None...) is refused naming the first such entry and its index.
+/// A real number from Python: the type of every float parameter of the bindings
+/// (`Option<Real>`, `Vec<Real>`, `(Real, Real)`... for the others). pyo3's own `f64`
+/// goes through `__float__`, which reads a bool as 0 or 1 and a numpy complex as its real
+/// part (with only a ComplexWarning); those are refused here, with a TypeError naming the
+/// value (pyo3 adds the argument's name as a note). Anything else reads as `f64` does: an
+/// int, a float, a numpy real, a Fraction or a Decimal.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Real(pub f64);
+
+impl<'py> FromPyObject<'_, 'py> for Real {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'_, 'py, PyAny>) -> PyResult<Self> {
+        // A float (np.float64 too) is the common case: nothing more to check.
+        if let Ok(f) = obj.cast::<PyFloat>() {
+            return Ok(Real(f.value()));
+        }
+        if let Some(what) = not_real(&obj) {
+            return Err(PyTypeError::new_err(format!("expected a real number, got the {what} {}", obj.repr()?)));
+        }
+        obj.extract::<f64>().map(Real)
+    }
+}
+
+/// What `obj` is when `float(obj)` would take it but it is no real number: a bool or a
+/// complex number, Python's or numpy's (a scalar or a 0-d array: np.bool_ and
+/// np.complex64 are no subclasses of Python's bool and complex, so their dtype tells).
+fn not_real(obj: &Bound<'_, PyAny>) -> Option<&'static str> {
+    if obj.is_instance_of::<PyBool>() {
+        Some("bool")
+    } else if obj.is_instance_of::<PyComplex>() {
+        Some("complex value")
+    } else if obj.is_instance_of::<PyInt>() {
+        None
+    } else {
+        // Only for what is neither a float nor an int, so numpy is never imported here.
+        let kind = obj.getattr(intern!(obj.py(), "dtype")).and_then(|d| d.getattr(intern!(obj.py(), "kind")));
+        match kind.and_then(|k| k.extract::<String>()).as_deref() {
+            Ok("b") => Some("bool"),
+            Ok("c") => Some("complex value"),
+            _ => None,
+        }
+    }
+}
+
+/// `obj` as a float parameter, for `#[pyo3(from_py_with = real)] x: f64`: the same
+/// as `Real`, for a parameter whose default is a float literal (pyo3 shows a default in
+/// the signature only when it is a literal, and `Real(1.0)` is none).
+pub(crate) fn real(obj: &Bound<'_, PyAny>) -> PyResult<f64> {
+    obj.extract::<Real>().map(|r| r.0)
+}
+
+/// The floats of a `Vec<Real>` parameter.
+pub(crate) fn reals(values: Vec<Real>) -> Vec<f64> {
+    values.into_iter().map(|r| r.0).collect()
+}
+
+/// `obj` as a numpy array of real numbers (int or float): anything else (a string, a
+/// complex number, a bool, None...) is refused naming the first such entry and its index.
 pub(crate) fn real_array<'py>(name: &'static str, obj: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
     if let Ok(a) = obj.cast::<PyUntypedArray>() {
-        if b"biuf".contains(&a.dtype().kind()) {
+        if b"iuf".contains(&a.dtype().kind()) {
             return Ok(obj.clone());
         }
     }
@@ -30,17 +90,16 @@ pub(crate) fn real_array<'py>(name: &'static str, obj: &Bound<'py, PyAny>) -> Py
     let arr = np.call_method1("asarray", (obj,)).map_err(|e| {
         ShapeError::new_err(format!("{name}: cannot be read as an array of numbers ({e})"))
     })?;
-    let kind = arr.cast::<PyUntypedArray>().map(|a| a.dtype().kind()).unwrap_or(b'O');
-    if b"biuf".contains(&kind) {
-        return Ok(arr);
-    }
-    // The entries as given (numpy would have turned [1, "a"] into strings throughout).
+    // Anything but such an array is checked entry by entry, as given: numpy would have read
+    // [1, "a"] as strings throughout, and [True, 0.5] as floats.
     let as_given = np.call_method1("asarray", (obj, "object")).unwrap_or(arr.clone());
-    let real = obj.py().import("numbers")?.getattr("Real")?;
+    let numbers_real = obj.py().import("numbers")?.getattr("Real")?;
     let flat = as_given.call_method0("ravel")?.call_method0("tolist")?;
     for (index, entry) in flat.try_iter()?.enumerate() {
         let entry = entry?;
-        if !entry.is_instance(&real)? {
+        // A bool is an int, so a numbers.Real, to Python: not a number here.
+        let real = entry.is_instance_of::<PyFloat>() || (entry.is_instance(&numbers_real)? && !entry.is_instance_of::<PyBool>());
+        if !real {
             return Err(InvalidParameterError::new_err(format!(
                 "{name}[{index}] = {}: not a real number (got {})",
                 entry.repr()?,
@@ -109,7 +168,8 @@ pub fn gain_row<const N: usize>(name: &'static str, obj: &Bound<'_, PyAny>) -> P
 /// Reads an input that may be a scalar or a length-`N` vector.
 pub fn input<const N: usize>(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<SVector<f64, N>> {
     if N == 1 {
-        if let Ok(x) = obj.extract::<f64>() {
+        // Anything but a real number (a bool too) is read as an array, which names it.
+        if let Ok(Real(x)) = obj.extract::<Real>() {
             finite(name, [x])?;
             return Ok(SVector::<f64, N>::from_element(x));
         }

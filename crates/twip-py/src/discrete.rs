@@ -3,7 +3,7 @@
 use numpy::{Complex64, PyArray1};
 use pyo3::prelude::*;
 
-use crate::convert::{to_py_complex_vector, to_py_dmatrix};
+use crate::convert::{to_py_complex_vector, to_py_dmatrix, Real};
 use crate::errors::PyTwipError;
 use crate::linalg::{matrix, problem, Arr2};
 
@@ -51,10 +51,10 @@ pub fn c2d_py<'py>(
     py: Python<'py>,
     A: &Bound<'py, PyAny>,
     B: &Bound<'py, PyAny>,
-    period: f64,
+    period: Real,
 ) -> PyResult<(Arr2<'py>, Arr2<'py>)> {
     let (a, b) = (matrix("A", A)?, matrix("B", B)?);
-    let (ad, bd) = twip_core::c2d(&a, &b, period).map_err(PyTwipError)?;
+    let (ad, bd) = twip_core::c2d(&a, &b, period.0).map_err(PyTwipError)?;
     Ok((to_py_dmatrix(py, &ad), to_py_dmatrix(py, &bd)))
 }
 

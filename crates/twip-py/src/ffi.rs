@@ -12,6 +12,7 @@ use twip_core::RobotParams;
 use twip_ffi::replay::{planar_f32, record, slope_f32, Record};
 use twip_ffi::{TwipFuzzyConfig, TwipLqrConfig, TwipPidConfig, TwipPwmConfig, TwipSmcConfig, TwipTiltConfig};
 
+use crate::convert::{reals, Real};
 use crate::errors::PyTwipError;
 use crate::control::fuzzy::PyFuzzyController;
 use crate::control::lqr::PyLqrController;
@@ -78,12 +79,13 @@ pub fn ffi_record<'py>(
     py: Python<'py>,
     model: &Bound<'py, PyAny>,
     controller: &Bound<'py, PyAny>,
-    x0: Vec<f64>,
-    t_final: f64,
-    dt: f64,
+    x0: Vec<Real>,
+    t_final: Real,
+    dt: Real,
     reference: &Bound<'py, PyAny>,
-    control_period: Option<f64>,
+    control_period: Option<Real>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let (x0, t_final, dt, control_period) = (reals(x0), t_final.0, dt.0, control_period.map(|p| p.0));
     let (dt32, t32) = (dt as f32, t_final as f32);
     // The period the loop runs at: the scenario's, else the controller's own.
     let at_period = |period: f64| control_period.unwrap_or(period);

@@ -9,6 +9,7 @@ use twip_core::sysid::geared::rig_plant;
 use twip_core::sysid::{Outputs, Shooting};
 use twip_core::{SlopeModel, TwipError};
 
+use crate::convert::{real, Real};
 use crate::errors::PyTwipError;
 use crate::model::models::PySlopeModel;
 use crate::hardware::realism::PyMotorDriver;
@@ -40,10 +41,11 @@ pub fn sysid_shoot<'py>(
     t: PyReadonlyArray1<'py, f64>,
     u: PyReadonlyArray1<'py, f64>,
     segments: PyReadonlyArray1<'py, i64>,
-    max_step: f64,
+    #[pyo3(from_py_with = real)] max_step: f64,
     drivers: Option<Vec<PyRef<'py, PyMotorDriver>>>,
-    backlash: Option<f64>,
+    backlash: Option<Real>,
 ) -> PyResult<Out<'py>> {
+    let backlash = backlash.map(|b| b.0);
     let (t, u) = (t.as_slice()?, u.as_slice()?);
     let segments: Vec<usize> = segments
         .as_array()

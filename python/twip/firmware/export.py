@@ -273,7 +273,8 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
     recorded updates and the paths written."""
     if units_ not in UNITS:
         raise _core.InvalidParameterError(f"units = {units_!r}: must be one of {', '.join(UNITS)}")
-    if not (isinstance(replay_seconds, (int, float)) and math.isfinite(replay_seconds) and replay_seconds > 0):
+    if isinstance(replay_seconds, bool) or not (isinstance(replay_seconds, (int, float)) and math.isfinite(replay_seconds)
+                                                and replay_seconds > 0):
         raise _core.InvalidParameterError(f"replay_seconds = {replay_seconds!r}: must be a finite number > 0")
     checks.of_type("scenario", scenario, (str, scenarios.Scenario), "a scenario name or a twip.scenarios.Scenario")
     checks.of_type("robot", robot, (Robot, type(None)), "a twip.Robot (from a robot file) or None (the Balanbot)")
@@ -292,7 +293,8 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
     _check_replay_size(sc, seconds, _loop_period(sc))
     # The loop period the simulation runs (Scenario.control_period, if set) is the one
     # recorded and written as TWIP_LOOP_PERIOD_S.
-    rec = _core.ffi_record(sc.model, sc.controller, [float(v) for v in sc.x0], seconds, sc.dt, sc.reference,
+    x0 = [float(v) for v in checks.real_entries("x0", sc.x0)]
+    rec = _core.ffi_record(sc.model, sc.controller, x0, seconds, sc.dt, sc.reference,
                            control_period=sc.control_period)
     fam = FAMILIES[rec["family"]]
     parts = _core.ffi_firmware(realism, sc.model.params)

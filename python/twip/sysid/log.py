@@ -185,7 +185,7 @@ def _factor(name: str, scale) -> float:
 
 
 def _column(name: str, value) -> np.ndarray:
-    checks.not_complex(name, value, LogError)
+    checks.real_entries(name, value, LogError)
     try:
         column = np.ascontiguousarray(value, dtype=float)
     except (TypeError, ValueError):

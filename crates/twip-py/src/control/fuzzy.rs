@@ -7,7 +7,7 @@ use twip_core::control::fuzzy::{fuzzy_internal_names, Adaptation, FuzzyControlle
 use twip_core::control::fuzzy_grid::{FuzzyGrid, SetKind};
 use twip_core::TwipError;
 
-use crate::convert::{scalar, series};
+use crate::convert::{real, real_array, reals, scalar, series, Real};
 use crate::errors::{CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::models::PySlopeModel;
 use crate::settings::Reduced;
@@ -29,14 +29,15 @@ fn no_nan<'a>(name: &'static str, values: impl IntoIterator<Item = &'a f64>) -> 
     }
 }
 
-/// μ(x) for a float (a float back) or any array (an array of the same shape).
+/// μ(x) for a float (a float back) or any array of real numbers (an array of the same shape).
 fn eval_any<'py>(m: &Membership<f64>, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
     let py = x.py();
-    if let Ok(v) = x.extract::<f64>() {
+    // Anything but a real number (a bool too) is read as an array, which names it.
+    if let Ok(Real(v)) = x.extract::<Real>() {
         no_nan("x", [&v])?;
         return Ok(m.eval(v).into_pyobject(py)?.into_any());
     }
-    let arr: PyArrayLikeDyn<'py, f64, AllowTypeChange> = x.extract()?;
+    let arr: PyArrayLikeDyn<'py, f64, AllowTypeChange> = real_array("x", x)?.extract()?;
     no_nan("x", arr.as_array().iter())?;
     Ok(arr.as_array().mapv(|v| m.eval(v)).into_pyarray(py).into_any())
 }
@@ -59,7 +60,8 @@ pub struct PyTrapezoid {
 #[pymethods]
 impl PyTrapezoid {
     #[new]
-    fn new(a: f64, b: f64, c: f64, d: f64) -> PyResult<Self> {
+    fn new(a: Real, b: Real, c: Real, d: Real) -> PyResult<Self> {
+        let (a, b, c, d) = (a.0, b.0, c.0, d.0);
         let inner = Membership::trapezoid(a, b, c, d)
             .map_err(|e| in_context(e, format_args!("Trapezoid(a={a:?}, b={b:?}, c={c:?}, d={d:?})")))?;
         Ok(Self { inner })
@@ -102,7 +104,8 @@ pub struct PyTriangle {
 #[pymethods]
 impl PyTriangle {
     #[new]
-    fn new(a: f64, b: f64, c: f64) -> PyResult<Self> {
+    fn new(a: Real, b: Real, c: Real) -> PyResult<Self> {
+        let (a, b, c) = (a.0, b.0, c.0);
         let inner = Membership::triangle(a, b, c)
             .map_err(|e| in_context(e, format_args!("Triangle(a={a:?}, b={b:?}, c={c:?})")))?;
         Ok(Self { inner })
@@ -146,7 +149,8 @@ pub struct PyGaussian {
 #[pymethods]
 impl PyGaussian {
     #[new]
-    fn new(mean: f64, sigma: f64) -> PyResult<Self> {
+    fn new(mean: Real, sigma: Real) -> PyResult<Self> {
+        let (mean, sigma) = (mean.0, sigma.0);
         let inner = Membership::gaussian(mean, sigma)
             .map_err(|e| in_context(e, format_args!("Gaussian(mean={mean:?}, sigma={sigma:?})")))?;
         Ok(Self { inner })
@@ -301,7 +305,8 @@ impl PyFuzzyBasis {
     /// `widths`: per input, one value > 0 for every set or n of them.
     #[staticmethod]
     #[pyo3(signature = (kind, centres, widths = None))]
-    fn grid(kind: &str, centres: [Vec<f64>; 2], widths: Option<[Bound<'_, PyAny>; 2]>) -> PyResult<Self> {
+    fn grid(kind: &str, centres: [Vec<Real>; 2], widths: Option<[Bound<'_, PyAny>; 2]>) -> PyResult<Self> {
+        let centres = centres.map(reals);
         let kind = match kind {
             "trapezoid" => SetKind::Trapezoid,
             "triangle" => SetKind::Triangle,
@@ -315,13 +320,19 @@ impl PyFuzzyBasis {
         let widths: [Vec<f64>; 2] = match widths {
             None => [vec![], vec![]],
             Some([w0, w1]) => {
-                let per_set = |w: Bound<'_, PyAny>, n: usize| -> PyResult<Vec<f64>> {
-                    match w.extract::<f64>() {
-                        Ok(v) => Ok(vec![v; n]),
-                        Err(_) => w.extract::<Vec<f64>>(),
+                let per_set = |i: usize, w: Bound<'_, PyAny>, n: usize| -> PyResult<Vec<f64>> {
+                    if let Ok(Real(v)) = w.extract::<Real>() {
+                        return Ok(vec![v; n]);
+                    }
+                    match w.extract::<Vec<Real>>() {
+                        Ok(v) => Ok(reals(v)),
+                        Err(_) => Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                            "widths[{i}] = {}: must be a real number or one per set",
+                            w.repr()?
+                        ))),
                     }
                 };
-                [per_set(w0, centres[0].len())?, per_set(w1, centres[1].len())?]
+                [per_set(0, w0, centres[0].len())?, per_set(1, w1, centres[1].len())?]
             }
         };
         let grid = FuzzyGrid::regular(kind, [&centres[0], &centres[1]], [&widths[0], &widths[1]]).map_err(PyTwipError)?;
@@ -350,7 +361,9 @@ impl PyFuzzyBasis {
 
     /// xi at one point x (shape (n_inputs,)) -> (n_rules,), or at many points
     /// (shape (N, n_inputs)) -> (N, n_rules).
-    fn eval<'py>(&self, py: Python<'py>, x: PyArrayLikeDyn<'py, f64, AllowTypeChange>) -> PyResult<Bound<'py, PyAny>> {
+    fn eval<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        // Through `real_array`: numpy's own cast would keep a complex entry's real part.
+        let x: PyArrayLikeDyn<'py, f64, AllowTypeChange> = real_array("x", x)?.extract()?;
         let view = x.as_array();
         no_nan("x", view.iter())?;
         let n_in = self.sets.len();
@@ -435,8 +448,8 @@ fn build(
 }
 
 /// Γ and σ when not given: the core's `Adaptation::default()`.
-const GAMMA: f64 = DEFAULT_GAMMA;
-const SIGMA: f64 = DEFAULT_SIGMA;
+const GAMMA: Real = Real(DEFAULT_GAMMA);
+const SIGMA: Real = Real(DEFAULT_SIGMA);
 
 #[pymethods]
 impl PyFuzzyController {
@@ -445,19 +458,20 @@ impl PyFuzzyController {
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &PySlopeModel,
-        k1: f64,
-        k2: f64,
-        kp: f64,
-        kd: f64,
-        gamma: f64,
-        sigma: f64,
-        ki: f64,
+        k1: Real,
+        k2: Real,
+        kp: Real,
+        kd: Real,
+        gamma: Real,
+        sigma: Real,
+        #[pyo3(from_py_with = real)] ki: f64,
         adapt: bool,
         sets: Option<&Bound<'_, PyAny>>,
-        period: f64,
+        #[pyo3(from_py_with = real)] period: f64,
         s0: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        build(model, FuzzyGains { k1, k2, kp, kd, ki }, gamma, sigma, adapt, sets, period, s0)
+        let gains = FuzzyGains { k1: k1.0, k2: k2.0, kp: kp.0, kd: kd.0, ki };
+        build(model, gains, gamma.0, sigma.0, adapt, sets, period, s0)
     }
 
     /// The thesis's slope gains k1 = 10, k2 = 13, kp = -0.01, kd = -0.09.
@@ -466,15 +480,15 @@ impl PyFuzzyController {
     #[allow(clippy::too_many_arguments)]
     fn thesis_slope(
         model: &PySlopeModel,
-        gamma: f64,
-        sigma: f64,
-        ki: f64,
+        gamma: Real,
+        sigma: Real,
+        #[pyo3(from_py_with = real)] ki: f64,
         adapt: bool,
         sets: Option<&Bound<'_, PyAny>>,
-        period: f64,
+        #[pyo3(from_py_with = real)] period: f64,
         s0: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        build(model, FuzzyGains { ki, ..FuzzyGains::thesis_slope() }, gamma, sigma, adapt, sets, period, s0)
+        build(model, FuzzyGains { ki, ..FuzzyGains::thesis_slope() }, gamma.0, sigma.0, adapt, sets, period, s0)
     }
 
     /// The thesis's flat gains k1 = 30, k2 = 33, kp = -0.1, kd = -0.9.
@@ -483,15 +497,15 @@ impl PyFuzzyController {
     #[allow(clippy::too_many_arguments)]
     fn thesis_flat(
         model: &PySlopeModel,
-        gamma: f64,
-        sigma: f64,
-        ki: f64,
+        gamma: Real,
+        sigma: Real,
+        #[pyo3(from_py_with = real)] ki: f64,
         adapt: bool,
         sets: Option<&Bound<'_, PyAny>>,
-        period: f64,
+        #[pyo3(from_py_with = real)] period: f64,
         s0: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        build(model, FuzzyGains { ki, ..FuzzyGains::thesis_flat() }, gamma, sigma, adapt, sets, period, s0)
+        build(model, FuzzyGains { ki, ..FuzzyGains::thesis_flat() }, gamma.0, sigma.0, adapt, sets, period, s0)
     }
 
     /// Names of the logged internals (SimResult.internals).
@@ -501,13 +515,13 @@ impl PyFuzzyController {
     }
 
     /// phi_s the controller aims for at a reference wheel speed (corrected 4.42, own model).
-    fn steady_pitch(&self, theta_dot_ref: f64) -> CoreResult<f64> {
-        Ok(self.inner.steady_pitch(theta_dot_ref)?)
+    fn steady_pitch(&self, theta_dot_ref: Real) -> CoreResult<f64> {
+        Ok(self.inner.steady_pitch(theta_dot_ref.0)?)
     }
 
     /// G1 at pitch phi: the pitch acceleration per ampere (controller's model).
-    fn g1(&self, phi: f64) -> CoreResult<f64> {
-        Ok(self.inner.g1(scalar("phi", phi)?))
+    fn g1(&self, phi: Real) -> CoreResult<f64> {
+        Ok(self.inner.g1(scalar("phi", phi.0)?))
     }
 
 }

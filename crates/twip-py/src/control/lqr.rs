@@ -8,7 +8,7 @@ use pyo3::types::PyDict;
 use twip_core::control::lqr::{design, DesignPoint, LqrController};
 use twip_core::control::lqr_discrete::design_discrete;
 
-use crate::convert::{dmatrix, gain_row, scalar, to_py_dmatrix, vector};
+use crate::convert::{dmatrix, gain_row, real, scalar, to_py_dmatrix, vector, Real};
 use crate::errors::{CoreResult, PyTwipError};
 use crate::model::models::PySlopeModel;
 
@@ -51,7 +51,7 @@ impl PyLqrController {
     /// `model` is the controller's own model (for the steady state).
     #[new]
     #[pyo3(signature = (model, gains, point = "operating", period = 0.005))]
-    fn new(model: &PySlopeModel, gains: &Bound<'_, PyAny>, point: &str, period: f64) -> PyResult<Self> {
+    fn new(model: &PySlopeModel, gains: &Bound<'_, PyAny>, point: &str, #[pyo3(from_py_with = real)] period: f64) -> PyResult<Self> {
         let g = gain_row::<4>("gains", gains)?;
         let inner = LqrController::new([g[0], g[1], g[2], g[3]], model.inner, design_point(point)?, period)
             .map_err(PyTwipError)?;
@@ -69,14 +69,15 @@ impl PyLqrController {
     fn design_py(
         py: Python<'_>,
         model: &PySlopeModel,
-        theta_dot_ref: f64,
+        theta_dot_ref: Real,
         Q: &Bound<'_, PyAny>,
-        R: f64,
+        R: Real,
         point: &str,
-        period: f64,
+        #[pyo3(from_py_with = real)] period: f64,
         discrete: bool,
         delay: bool,
     ) -> PyResult<Self> {
+        let (theta_dot_ref, R) = (theta_dot_ref.0, R.0);
         let q = match vector::<4>("Q", Q) {
             Ok(diag) => Matrix4::from_diagonal(&diag),
             // A diagonal with a bad entry is reported as such; only a shape sends us on to a matrix.
@@ -154,8 +155,8 @@ impl PyLqrController {
     }
 
     /// The steady state (phi_s, u_s) the controller aims for at a reference speed.
-    fn steady_state(&self, theta_dot_ref: f64) -> CoreResult<(f64, f64)> {
-        Ok(self.inner.steady_state(theta_dot_ref)?)
+    fn steady_state(&self, theta_dot_ref: Real) -> CoreResult<(f64, f64)> {
+        Ok(self.inner.steady_state(theta_dot_ref.0)?)
     }
 
     /// Pickled as LqrController(model, gains, point, period), then `design_info` as its state.

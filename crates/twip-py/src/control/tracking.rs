@@ -9,7 +9,7 @@ use twip_core::control::smc::{Adaptation, PitchSign, SmcGains, SmcOptions, SmcTr
 use twip_core::RobotParams;
 
 use crate::control::fuzzy::{grid_basis, PyFuzzyBasis};
-use crate::convert::scalar;
+use crate::convert::{real, scalar, Real};
 use crate::errors::{positive_param, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::models::PyPlanarModel;
 use crate::model::params::PyRobotParams;
@@ -31,9 +31,9 @@ fn fields<const N: usize>(what: &str, names: [&str; N], defaults: [f64; N], d: O
             let i = names.iter().position(|n| *n == key).ok_or_else(|| {
                 InvalidParameterError::new_err(format!("unknown {what} '{key}'; expected: {}", names.join(", ")))
             })?;
-            out[i] = v.extract::<f64>().map_err(|_| {
-                InvalidParameterError::new_err(format!("{what} '{key}' must be a number, got {v}"))
-            })?;
+            out[i] = v.extract::<Real>().map_err(|_| {
+                InvalidParameterError::new_err(format!("{what} '{key}' must be a real number, got {v}"))
+            })?.0;
         }
     }
     Ok(out)
@@ -65,7 +65,7 @@ impl PyPidTracker {
         gains: Option<&Bound<'_, PyDict>>,
         units: Option<&Bound<'_, PyAny>>,
         motor: Option<&PyDcMotor>,
-        period: f64,
+        #[pyo3(from_py_with = real)] period: f64,
     ) -> PyResult<Self> {
         let g = fields("PID gain", PID_GAINS, pid_gains_array(&PidGains::table_4_1()), gains)?;
         let gains = PidGains { kp_pitch: g[0], kd_pitch: g[1], kp_speed: g[2], ki_speed: g[3], kp_yaw: g[4], ki_yaw: g[5], kd_yaw: g[6] };
@@ -101,7 +101,7 @@ impl PyPidTracker {
     /// Table 4.1's gains as published, in twip's reading of the Arduino's units.
     #[staticmethod]
     #[pyo3(signature = (params = None, motor = None, period = 0.005))]
-    fn table_4_1(params: Option<&PyRobotParams>, motor: Option<&PyDcMotor>, period: f64) -> CoreResult<Self> {
+    fn table_4_1(params: Option<&PyRobotParams>, motor: Option<&PyDcMotor>, #[pyo3(from_py_with = real)] period: f64) -> CoreResult<Self> {
         let p = params.map(|p| p.inner).unwrap_or_else(RobotParams::balanbot);
         Ok(Self { inner: PidTracker::table_4_1(&p, motor_or_default(motor), period)?, params: p })
     }
@@ -178,16 +178,21 @@ fn torque_unit(obj: &Bound<'_, PyAny>, motor: &DcMotor<f64>) -> PyResult<f64> {
             ))),
         };
     }
-    let v: f64 = obj.extract().map_err(|_| InvalidParameterError::new_err("torque_unit must be 'pwm', 'si' or a number"))?;
+    let Real(v) = obj.extract().map_err(|_| {
+        InvalidParameterError::new_err(format!("torque_unit = {}: must be 'pwm', 'si' or a number", obj.repr().map(|r| r.to_string()).unwrap_or_default()))
+    })?;
     Ok(positive_param("torque_unit", v)?)
 }
 
 fn pair(name: &'static str, obj: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
-    if let Ok(v) = obj.extract::<f64>() {
+    if let Ok(Real(v)) = obj.extract::<Real>() {
         return Ok((v, v));
     }
-    obj.extract::<(f64, f64)>()
-        .map_err(|_| InvalidParameterError::new_err(format!("{name} must be a number or a pair of numbers")))
+    let (Real(a), Real(b)) = obj.extract().map_err(|_| {
+        let given = obj.repr().map(|r| r.to_string()).unwrap_or_default();
+        InvalidParameterError::new_err(format!("{name} = {given}: must be a number or a pair of numbers"))
+    })?;
+    Ok((a, b))
 }
 
 /// The sliding-mode backstepping tracker (4.71-4.98) or, with `fuzzy=True`, its fuzzy
@@ -212,7 +217,7 @@ impl PySmcTracker {
     #[new]
     #[pyo3(signature = (
         model, fuzzy = false, boundary_layer = None, gains = None, torque_unit = None, pitch = "backward",
-        guards = (0.05, 0.2), gamma = (0.05, 1000.0), leakage = 0.0, pitch_offset = true, motor = None,
+        guards = (Real(0.05), Real(0.2)), gamma = (Real(0.05), Real(1000.0)), leakage = 0.0, pitch_offset = true, motor = None,
         motor_limits = true, period = 0.005, yaw_sets = None, pitch_sets = None
     ))]
     #[allow(clippy::too_many_arguments)]
@@ -223,16 +228,18 @@ impl PySmcTracker {
         gains: Option<&Bound<'_, PyDict>>,
         torque_unit: Option<&Bound<'_, PyAny>>,
         pitch: &str,
-        guards: (f64, f64),
-        gamma: (f64, f64),
-        leakage: f64,
+        guards: (Real, Real),
+        gamma: (Real, Real),
+        #[pyo3(from_py_with = real)] leakage: f64,
         pitch_offset: bool,
         motor: Option<&PyDcMotor>,
         motor_limits: bool,
-        period: f64,
+        #[pyo3(from_py_with = real)] period: f64,
         yaw_sets: Option<&Bound<'_, PyAny>>,
         pitch_sets: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let (Real(guard_e3), Real(guard_d)) = guards;
+        let (Real(gamma1), Real(gamma2)) = gamma;
         let motor = motor_or_default(motor);
         let unit = match torque_unit {
             Some(u) => self::torque_unit(u, &motor)?,
@@ -253,9 +260,9 @@ impl PySmcTracker {
                 )))
             }
         };
-        let options = SmcOptions { pitch, width_eta, width_s1, guard_e3: guards.0, guard_d: guards.1, pitch_offset };
+        let options = SmcOptions { pitch, width_eta, width_s1, guard_e3, guard_d, pitch_offset };
         // Checked with or without fuzzy=True: a setting given is never dropped unseen.
-        let adaptation = Adaptation { gamma1: gamma.0, gamma2: gamma.1, leakage }.validate().map_err(PyTwipError)?;
+        let adaptation = Adaptation { gamma1, gamma2, leakage }.validate().map_err(PyTwipError)?;
         let adaptation = fuzzy.then_some(adaptation);
         let inner = SmcTracker::new(
             smc_gains_from(g),
@@ -293,18 +300,18 @@ impl PySmcTracker {
     }
 
     /// (g21, g22, g23) of (4.72) for the controller's model at pitch phi.
-    fn input_gains(&self, phi: f64) -> CoreResult<(f64, f64, f64)> {
-        Ok(self.inner.input_gains(scalar("phi", phi)?))
+    fn input_gains(&self, phi: Real) -> CoreResult<(f64, f64, f64)> {
+        Ok(self.inner.input_gains(scalar("phi", phi.0)?))
     }
 
     /// r1 g21 + r2 g22 at pitch phi, r1 on the controller's pitch: (4.113) needs it < 0.
-    fn surface_gain(&self, phi: f64) -> CoreResult<f64> {
-        Ok(self.inner.surface_gain(scalar("phi", phi)?))
+    fn surface_gain(&self, phi: Real) -> CoreResult<f64> {
+        Ok(self.inner.surface_gain(scalar("phi", phi.0)?))
     }
 
     /// The controller model's steady pitch driving at speed v [m/s] turning at omega [rad/s].
-    fn steady_pitch(&self, v: f64, omega: f64) -> CoreResult<f64> {
-        Ok(self.inner.steady_pitch(scalar("v", v)?, scalar("omega", omega)?))
+    fn steady_pitch(&self, v: Real, omega: Real) -> CoreResult<f64> {
+        Ok(self.inner.steady_pitch(scalar("v", v.0)?, scalar("omega", omega.0)?))
     }
 
 }

@@ -5,7 +5,7 @@ use twip_core::control::Reference;
 use twip_core::sim::log::LogRow;
 use twip_core::control::trajectory::{Circle, Direction, FigureEight, Line, Path, PlanarRef, Trajectory, Waypoints};
 
-use crate::convert::scalar;
+use crate::convert::{real, scalar, Real};
 use crate::errors::{finite_param, CoreResult, InvalidParameterError, PyTwipError};
 
 
@@ -38,9 +38,9 @@ fn direction(obj: &Bound<'_, PyAny>) -> PyResult<Direction> {
             ))),
         };
     }
-    match obj.extract::<f64>() {
-        Ok(1.0) => Ok(Direction::CounterClockwise),
-        Ok(-1.0) => Ok(Direction::Clockwise),
+    match obj.extract::<Real>() {
+        Ok(Real(1.0)) => Ok(Direction::CounterClockwise),
+        Ok(Real(-1.0)) => Ok(Direction::Clockwise),
         _ => Err(InvalidParameterError::new_err(format!(
             "direction = {obj}: must be +1 / 'ccw' (left turns) or -1 / 'cw'"
         ))),
@@ -52,32 +52,33 @@ impl PyCircle {
     #[new]
     #[pyo3(signature = (radius, speed, centre = None, direction = None, phase = None))]
     fn new(
-        radius: f64,
-        speed: f64,
-        centre: Option<(f64, f64)>,
+        radius: Real,
+        speed: Real,
+        centre: Option<(Real, Real)>,
         direction: Option<&Bound<'_, PyAny>>,
-        phase: Option<f64>,
+        phase: Option<Real>,
     ) -> PyResult<Self> {
+        let (radius, speed) = (radius.0, speed.0);
         let dir = match direction {
             Some(d) => self::direction(d)?,
             None => Direction::CounterClockwise,
         };
         // By default the circle starts at the origin heading along +x.
         let s = if dir == Direction::CounterClockwise { 1.0 } else { -1.0 };
-        let centre = centre.unwrap_or((0.0, s * radius));
-        let phase = phase.unwrap_or(-s * std::f64::consts::FRAC_PI_2);
+        let centre = centre.map_or((0.0, s * radius), |(Real(x), Real(y))| (x, y));
+        let phase = phase.map_or(-s * std::f64::consts::FRAC_PI_2, |p| p.0);
         let inner = Circle::new([centre.0, centre.1], radius, speed, dir, phase).map_err(PyTwipError)?;
         Ok(Self { inner })
     }
 
     /// The reference at time t: dict of x, y, psi, v, omega, v_dot, omega_dot (SI).
-    fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
-        sample_dict(py, &self.inner.sample(finite_param("t", t)?))
+    fn sample<'py>(&self, py: Python<'py>, t: Real) -> PyResult<Bound<'py, PyDict>> {
+        sample_dict(py, &self.inner.sample(finite_param("t", t.0)?))
     }
 
     /// Distance from (x, y) to the circle [m].
-    fn distance(&self, x: f64, y: f64) -> CoreResult<f64> {
-        Ok(self.inner.distance(scalar("x", x)?, scalar("y", y)?))
+    fn distance(&self, x: Real, y: Real) -> CoreResult<f64> {
+        Ok(self.inner.distance(scalar("x", x.0)?, scalar("y", y.0)?))
     }
 
 }
@@ -92,17 +93,18 @@ pub struct PyLine {
 #[pymethods]
 impl PyLine {
     #[new]
-    #[pyo3(signature = (speed, heading = 0.0, start = (0.0, 0.0)))]
-    fn new(speed: f64, heading: f64, start: (f64, f64)) -> CoreResult<Self> {
-        Ok(Self { inner: Line::new([start.0, start.1], heading, speed)? })
+    #[pyo3(signature = (speed, heading = 0.0, start = (Real(0.0), Real(0.0))))]
+    fn new(speed: Real, #[pyo3(from_py_with = real)] heading: f64, start: (Real, Real)) -> CoreResult<Self> {
+        let (Real(x), Real(y)) = start;
+        Ok(Self { inner: Line::new([x, y], heading, speed.0)? })
     }
 
-    fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
-        sample_dict(py, &self.inner.sample(finite_param("t", t)?))
+    fn sample<'py>(&self, py: Python<'py>, t: Real) -> PyResult<Bound<'py, PyDict>> {
+        sample_dict(py, &self.inner.sample(finite_param("t", t.0)?))
     }
 
-    fn distance(&self, x: f64, y: f64) -> CoreResult<f64> {
-        Ok(self.inner.distance(scalar("x", x)?, scalar("y", y)?))
+    fn distance(&self, x: Real, y: Real) -> CoreResult<f64> {
+        Ok(self.inner.distance(scalar("x", x.0)?, scalar("y", y.0)?))
     }
 
 }
@@ -118,17 +120,18 @@ pub struct PyFigureEight {
 #[pymethods]
 impl PyFigureEight {
     #[new]
-    #[pyo3(signature = (half_width, period, centre = (0.0, 0.0)))]
-    fn new(half_width: f64, period: f64, centre: (f64, f64)) -> CoreResult<Self> {
-        Ok(Self { inner: FigureEight::new([centre.0, centre.1], half_width, period)? })
+    #[pyo3(signature = (half_width, period, centre = (Real(0.0), Real(0.0))))]
+    fn new(half_width: Real, period: Real, centre: (Real, Real)) -> CoreResult<Self> {
+        let (Real(x), Real(y)) = centre;
+        Ok(Self { inner: FigureEight::new([x, y], half_width.0, period.0)? })
     }
 
-    fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
-        sample_dict(py, &self.inner.sample(finite_param("t", t)?))
+    fn sample<'py>(&self, py: Python<'py>, t: Real) -> PyResult<Bound<'py, PyDict>> {
+        sample_dict(py, &self.inner.sample(finite_param("t", t.0)?))
     }
 
-    fn distance(&self, x: f64, y: f64) -> CoreResult<f64> {
-        Ok(self.inner.distance(scalar("x", x)?, scalar("y", y)?))
+    fn distance(&self, x: Real, y: Real) -> CoreResult<f64> {
+        Ok(self.inner.distance(scalar("x", x.0)?, scalar("y", y.0)?))
     }
 
 }
@@ -146,17 +149,17 @@ pub struct PyWaypoints {
 impl PyWaypoints {
     #[new]
     #[pyo3(signature = (points, speed, corner_radius = 0.0))]
-    fn new(points: Vec<(f64, f64)>, speed: f64, corner_radius: f64) -> CoreResult<Self> {
-        let pts: Vec<[f64; 2]> = points.into_iter().map(|(x, y)| [x, y]).collect();
-        Ok(Self { inner: Waypoints::new(&pts, speed, corner_radius)? })
+    fn new(points: Vec<(Real, Real)>, speed: Real, #[pyo3(from_py_with = real)] corner_radius: f64) -> CoreResult<Self> {
+        let pts: Vec<[f64; 2]> = points.into_iter().map(|(Real(x), Real(y))| [x, y]).collect();
+        Ok(Self { inner: Waypoints::new(&pts, speed.0, corner_radius)? })
     }
 
-    fn sample<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyDict>> {
-        sample_dict(py, &self.inner.sample(finite_param("t", t)?))
+    fn sample<'py>(&self, py: Python<'py>, t: Real) -> PyResult<Bound<'py, PyDict>> {
+        sample_dict(py, &self.inner.sample(finite_param("t", t.0)?))
     }
 
-    fn distance(&self, x: f64, y: f64) -> CoreResult<f64> {
-        Ok(self.inner.distance(scalar("x", x)?, scalar("y", y)?))
+    fn distance(&self, x: Real, y: Real) -> CoreResult<f64> {
+        Ok(self.inner.distance(scalar("x", x.0)?, scalar("y", y.0)?))
     }
 
 }

@@ -19,6 +19,7 @@ use pyo3::types::{PyDict, PyFloat};
 use twip_core::control::Controller;
 use twip_core::sim::log::LogRow;
 
+use crate::convert::{reals, Real};
 use crate::errors::InvalidParameterError;
 
 /// A Python controller: an object with `update(t, y, ref)` and `period` (optionally
@@ -71,9 +72,9 @@ impl<R: LogRow<f64>, const NX: usize, const NU: usize> UserController<R, NX, NU>
                         "controller has update() but no `period` attribute [s]; give it one or pass control_period=",
                     )
                 })?;
-                p.extract::<f64>().map_err(|_| {
+                p.extract::<Real>().map_err(|_| {
                     InvalidParameterError::new_err(format!("controller.period = {p}: must be a number of seconds"))
-                })?
+                })?.0
             }
             None => dt,
         };
@@ -132,9 +133,9 @@ impl<R: LogRow<f64>, const NX: usize, const NU: usize> UserController<R, NX, NU>
             }
             for (i, name) in self.names.iter().enumerate() {
                 let v = dict.get_item(name)?.ok_or_else(|| changed_internals(t, self.names, &dict))?;
-                self.values[i] = v.extract::<f64>().map_err(|_| {
+                self.values[i] = v.extract::<Real>().map_err(|_| {
                     InvalidParameterError::new_err(format!("controller.internals()['{name}'] = {v} at t = {t} s: not a number"))
-                })?;
+                })?.0;
             }
         }
         Ok(u)
@@ -212,12 +213,12 @@ fn input<const NU: usize>(u: &Bound<'_, PyAny>, t: f64) -> PyResult<SVector<f64,
         for (o, v) in out.iter_mut().zip(a.as_array().iter()) {
             *o = *v;
         }
-    } else if let Ok(v) = u.extract::<f64>() {
+    } else if let Ok(Real(v)) = u.extract::<Real>() {
         if NU != 1 {
             return Err(bad_shape::<NU>(t, &format!("u = {v} (one number)")));
         }
         out[0] = v;
-    } else if let Ok(v) = u.extract::<Vec<f64>>() {
+    } else if let Ok(v) = u.extract::<Vec<Real>>().map(reals) {
         if v.len() != NU {
             return Err(bad_shape::<NU>(t, &format!("u = {v:?} ({} numbers)", v.len())));
         }

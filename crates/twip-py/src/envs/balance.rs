@@ -6,7 +6,7 @@ use twip_core::sweep::{Nominal, Perturbation};
 
 use super::{batch_class, realism_for, rows, rows_array, NextStep, KEPT_REFRESH};
 
-use crate::convert::vector;
+use crate::convert::{vector, Real};
 use crate::errors::PyTwipError;
 use crate::hardware::realism::PyRealism;
 use crate::model::models::PySlopeModel;
@@ -28,12 +28,13 @@ impl PyBalanceBatch {
         x0: &Bound<'_, PyAny>,
         perturbations: Vec<PerturbTuple>,
         num_envs: usize,
-        dt: f64,
+        dt: Real,
         substeps: usize,
-        fall_limit: f64,
+        fall_limit: Real,
         realism: Option<&PyRealism>,
         threads: usize,
     ) -> PyResult<Self> {
+        let (dt, fall_limit) = (dt.0, fall_limit.0);
         no_friction_in_sweeps(model.inner.friction().is_some())?;
         let nominal = Nominal { params: *model.inner.params(), slope: model.inner.slope(), x0: vector::<4>("x0", x0)? };
         let perturbations = parse_perturbations(&perturbations, Perturbation::validate)?;
@@ -53,11 +54,12 @@ impl PyBalanceBatch {
         py: Python<'py>,
         actions: PyReadonlyArray1<'py, f64>,
         reset: Vec<usize>,
-        weights: (f64, f64, f64, f64),
-        speed_ref: f64,
-        bound: f64,
+        weights: (Real, Real, Real, Real),
+        speed_ref: Real,
+        bound: Real,
     ) -> PyResult<NextStep<'py>> {
-        let (alive, upright, tracking, effort) = weights;
+        let (Real(alive), Real(upright), Real(tracking), Real(effort)) = weights;
+        let (speed_ref, bound) = (speed_ref.0, bound.0);
         let weights = BalanceReward { alive, upright, tracking, effort, speed_ref };
         let n = self.hold_actions(actions)?;
         let (mut rewards, mut states) = (vec![0.0; n], vec![0.0; 4 * n]);

@@ -7,6 +7,7 @@ use twip_core::sweep::planar::validate;
 
 use super::{batch_class, filled_rows, realism_for, rows, rows_array, NextStep, KEPT_REFRESH};
 use crate::control::trajectory::trajectory;
+use crate::convert::Real;
 use crate::errors::PyTwipError;
 use crate::hardware::realism::PyRealism;
 use crate::model::models::PyPlanarModel;
@@ -30,12 +31,13 @@ impl PyTrackBatch {
         x0: &Bound<'_, PyAny>,
         perturbations: Vec<PerturbTuple>,
         num_envs: usize,
-        dt: f64,
+        dt: Real,
         substeps: usize,
-        fall_limit: f64,
+        fall_limit: Real,
         realism: Option<&PyRealism>,
         threads: usize,
     ) -> PyResult<Self> {
+        let (dt, fall_limit) = (dt.0, fall_limit.0);
         let path: Trajectory<f64> = trajectory(path)?;
         let nominal = nominal(model, x0)?;
         let perturbations = parse_perturbations(&perturbations, validate)?;
@@ -55,10 +57,11 @@ impl PyTrackBatch {
         py: Python<'py>,
         actions: PyReadonlyArray1<'py, f64>,
         reset: Vec<usize>,
-        weights: (f64, f64, f64, f64, f64),
-        bound: f64,
+        weights: (Real, Real, Real, Real, Real),
+        bound: Real,
     ) -> PyResult<NextStep<'py>> {
-        let (alive, upright, tracking, heading, effort) = weights;
+        let (Real(alive), Real(upright), Real(tracking), Real(heading), Real(effort)) = weights;
+        let bound = bound.0;
         let weights = TrackReward { alive, upright, tracking, heading, effort };
         let n = self.hold_actions(actions)?;
         let (mut rewards, mut states, mut observations) = (vec![0.0; n], vec![0.0; 7 * n], vec![0.0; TRACK_OBS * n]);
@@ -112,14 +115,15 @@ impl PyTrackBatch {
         &mut self,
         py: Python<'py>,
         actions: PyReadonlyArray2<'py, f64>,
-        alive: f64,
-        upright: f64,
-        tracking: f64,
-        heading: f64,
-        effort: f64,
-        bound: f64,
+        alive: Real,
+        upright: Real,
+        tracking: Real,
+        heading: Real,
+        effort: Real,
+        bound: Real,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let weights = TrackReward { alive, upright, tracking, heading, effort };
+        let weights = TrackReward { alive: alive.0, upright: upright.0, tracking: tracking.0, heading: heading.0, effort: effort.0 };
+        let bound = bound.0;
         let o = self.true_rows(py)?;
         let mut out = vec![0.0; self.inner.len()];
         let shape = actions.shape().to_vec();

@@ -2,7 +2,7 @@
 use pyo3::prelude::*;
 use twip_core::hardware::motor::{DataSheet, DcMotor};
 
-use crate::convert::scalar;
+use crate::convert::{real, scalar, Real};
 use crate::errors::CoreResult;
 
 // --- motor -------------------------------------------------------------------------------------
@@ -19,14 +19,21 @@ pub struct PyDcMotor {
 impl PyDcMotor {
     #[new]
     #[pyo3(signature = (resistance, k_t, gear_ratio, friction = 0.0, supply = 11.1, pwm_max = 255.0))]
-    fn new(resistance: f64, k_t: f64, gear_ratio: f64, friction: f64, supply: f64, pwm_max: f64) -> CoreResult<Self> {
-        Ok(Self { inner: DcMotor::new(resistance, k_t, gear_ratio, friction, supply, pwm_max)? })
+    fn new(
+        resistance: Real,
+        k_t: Real,
+        gear_ratio: Real,
+        #[pyo3(from_py_with = real)] friction: f64,
+        #[pyo3(from_py_with = real)] supply: f64,
+        #[pyo3(from_py_with = real)] pwm_max: f64,
+    ) -> CoreResult<Self> {
+        Ok(Self { inner: DcMotor::new(resistance.0, k_t.0, gear_ratio.0, friction, supply, pwm_max)? })
     }
 
     /// The thesis's GB37Y3530-12V-251R (Table 2.3) on a `supply` V battery (3 x 3.7 V).
     #[staticmethod]
     #[pyo3(signature = (supply = 11.1))]
-    fn gb37y3530(supply: f64) -> CoreResult<Self> {
+    fn gb37y3530(#[pyo3(from_py_with = real)] supply: f64) -> CoreResult<Self> {
         Ok(Self { inner: DcMotor::gb37y3530().with_supply(supply)? })
     }
 
@@ -34,41 +41,47 @@ impl PyDcMotor {
     #[staticmethod]
     #[pyo3(signature = (rated_voltage, no_load_rpm, no_load_current, stall_current, gear_ratio, supply = 11.1))]
     fn from_data_sheet(
-        rated_voltage: f64,
-        no_load_rpm: f64,
-        no_load_current: f64,
-        stall_current: f64,
-        gear_ratio: f64,
-        supply: f64,
+        rated_voltage: Real,
+        no_load_rpm: Real,
+        no_load_current: Real,
+        stall_current: Real,
+        gear_ratio: Real,
+        #[pyo3(from_py_with = real)] supply: f64,
     ) -> CoreResult<Self> {
-        let sheet = DataSheet { rated_voltage, no_load_rpm, no_load_current, stall_current, gear_ratio };
+        let sheet = DataSheet {
+            rated_voltage: rated_voltage.0,
+            no_load_rpm: no_load_rpm.0,
+            no_load_current: no_load_current.0,
+            stall_current: stall_current.0,
+            gear_ratio: gear_ratio.0,
+        };
         Ok(Self { inner: DcMotor::from_data_sheet(&sheet, supply)? })
     }
 
-    fn current(&self, voltage: f64, relative_speed: f64) -> CoreResult<f64> {
-        Ok(self.inner.current(scalar("voltage", voltage)?, scalar("relative_speed", relative_speed)?))
+    fn current(&self, voltage: Real, relative_speed: Real) -> CoreResult<f64> {
+        Ok(self.inner.current(scalar("voltage", voltage.0)?, scalar("relative_speed", relative_speed.0)?))
     }
 
     /// Wheel torque [N m] at terminal `voltage` and relative wheel speed [rad/s].
-    fn torque(&self, voltage: f64, relative_speed: f64) -> CoreResult<f64> {
-        Ok(self.inner.torque(scalar("voltage", voltage)?, scalar("relative_speed", relative_speed)?))
+    fn torque(&self, voltage: Real, relative_speed: Real) -> CoreResult<f64> {
+        Ok(self.inner.torque(scalar("voltage", voltage.0)?, scalar("relative_speed", relative_speed.0)?))
     }
 
-    fn voltage_for_torque(&self, torque: f64, relative_speed: f64) -> CoreResult<f64> {
-        Ok(self.inner.voltage_for_torque(scalar("torque", torque)?, scalar("relative_speed", relative_speed)?))
+    fn voltage_for_torque(&self, torque: Real, relative_speed: Real) -> CoreResult<f64> {
+        Ok(self.inner.voltage_for_torque(scalar("torque", torque.0)?, scalar("relative_speed", relative_speed.0)?))
     }
 
-    fn pwm_voltage(&self, pwm: f64) -> CoreResult<f64> {
-        Ok(self.inner.pwm_voltage(scalar("pwm", pwm)?))
+    fn pwm_voltage(&self, pwm: Real) -> CoreResult<f64> {
+        Ok(self.inner.pwm_voltage(scalar("pwm", pwm.0)?))
     }
 
-    fn torque_from_pwm(&self, pwm: f64, relative_speed: f64) -> CoreResult<f64> {
-        Ok(self.inner.torque_from_pwm(scalar("pwm", pwm)?, scalar("relative_speed", relative_speed)?))
+    fn torque_from_pwm(&self, pwm: Real, relative_speed: Real) -> CoreResult<f64> {
+        Ok(self.inner.torque_from_pwm(scalar("pwm", pwm.0)?, scalar("relative_speed", relative_speed.0)?))
     }
 
     /// (full reverse, full forward) torque at `relative_speed`.
-    fn torque_limits(&self, relative_speed: f64) -> CoreResult<(f64, f64)> {
-        Ok(self.inner.torque_limits(scalar("relative_speed", relative_speed)?))
+    fn torque_limits(&self, relative_speed: Real) -> CoreResult<(f64, f64)> {
+        Ok(self.inner.torque_limits(scalar("relative_speed", relative_speed.0)?))
     }
 
     /// Stall torque of one PWM count [N m].

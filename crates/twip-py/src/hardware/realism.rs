@@ -14,7 +14,7 @@ use twip_core::hardware::realism::Realism;
 use twip_core::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use twip_core::{RobotParams, TwipError};
 
-use crate::convert::{scalar, series};
+use crate::convert::{real, scalar, series, Real};
 use crate::errors::{key, naming_argument, positive_param, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::params::PyRobotParams;
 use crate::settings::Reduced;
@@ -60,32 +60,33 @@ fn in_given_units(e: TwipError, sample_rate: f64, gyro_range_dps: f64, accel_ran
 #[pymethods]
 impl PyImu {
     #[new]
-    #[pyo3(signature = (*, dlpf_hz = 42.0, height = 0.12, gyro_noise = 0.005 * DEG, accel_noise = 400e-6 * STANDARD_GRAVITY,
-                        gyro_bias = 0.0, gyro_bias_walk = 0.0, accel_bias = (0.0, 0.0), gyro_range_dps = 250.0,
+    #[pyo3(signature = (*, dlpf_hz = 42.0, height = 0.12, gyro_noise = Real(0.005 * DEG), accel_noise = Real(400e-6 * STANDARD_GRAVITY),
+                        gyro_bias = 0.0, gyro_bias_walk = 0.0, accel_bias = (Real(0.0), Real(0.0)), gyro_range_dps = 250.0,
                         accel_range_g = 2.0, quantise = true, sample_rate = 1000.0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
-        dlpf_hz: f64,
-        height: f64,
-        gyro_noise: f64,
-        accel_noise: f64,
-        gyro_bias: f64,
-        gyro_bias_walk: f64,
-        accel_bias: (f64, f64),
-        gyro_range_dps: f64,
-        accel_range_g: f64,
+        #[pyo3(from_py_with = real)] dlpf_hz: f64,
+        #[pyo3(from_py_with = real)] height: f64,
+        gyro_noise: Real,
+        accel_noise: Real,
+        #[pyo3(from_py_with = real)] gyro_bias: f64,
+        #[pyo3(from_py_with = real)] gyro_bias_walk: f64,
+        accel_bias: (Real, Real),
+        #[pyo3(from_py_with = real)] gyro_range_dps: f64,
+        #[pyo3(from_py_with = real)] accel_range_g: f64,
         quantise: bool,
-        sample_rate: f64,
+        #[pyo3(from_py_with = real)] sample_rate: f64,
     ) -> CoreResult<Self> {
+        let (Real(accel_bias_x), Real(accel_bias_z)) = accel_bias;
         let inner = ImuSettings {
             dlpf: dlpf_config(dlpf_hz)?,
             sample_period: positive_rate("sample_rate", sample_rate)?,
             height,
-            gyro_noise,
-            accel_noise,
+            gyro_noise: gyro_noise.0,
+            accel_noise: accel_noise.0,
             gyro_bias,
             gyro_bias_walk,
-            accel_bias: [accel_bias.0, accel_bias.1],
+            accel_bias: [accel_bias_x, accel_bias_z],
             gyro_range: gyro_range_dps * DEG,
             accel_range: accel_range_g * STANDARD_GRAVITY,
             quantise,
@@ -154,7 +155,8 @@ impl PyDlpf {
     /// The filter with -3 dB `bandwidth_hz` and DC delay `delay` [s] at `sample_rate` [Hz].
     #[new]
     #[pyo3(signature = (bandwidth_hz, delay, sample_rate = 1000.0))]
-    fn new(bandwidth_hz: f64, delay: f64, sample_rate: f64) -> CoreResult<Self> {
+    fn new(bandwidth_hz: Real, delay: Real, #[pyo3(from_py_with = real)] sample_rate: f64) -> CoreResult<Self> {
+        let (bandwidth_hz, delay) = (bandwidth_hz.0, delay.0);
         let inner = Dlpf::new(bandwidth_hz, delay, positive_rate("sample_rate", sample_rate)?)?;
         Ok(Self { inner, bandwidth: bandwidth_hz, delay, sample_rate })
     }
@@ -163,7 +165,7 @@ impl PyDlpf {
     /// or "gyro" column.
     #[staticmethod]
     #[pyo3(signature = (dlpf_hz, sensor = "gyro", sample_rate = 1000.0))]
-    fn mpu6050(dlpf_hz: f64, sensor: &str, sample_rate: f64) -> PyResult<Self> {
+    fn mpu6050(#[pyo3(from_py_with = real)] dlpf_hz: f64, sensor: &str, #[pyo3(from_py_with = real)] sample_rate: f64) -> PyResult<Self> {
         let cfg = dlpf_config(dlpf_hz).map_err(PyTwipError)?;
         let row = DLPF_TABLE[cfg];
         let (channel, bandwidth, delay) = match sensor {
@@ -250,7 +252,7 @@ impl PyTiltEstimator {
     /// phi <- a (phi + T omega) + (1 - a) phi_acc, a = tau / (tau + T); tau [s].
     #[staticmethod]
     #[pyo3(signature = (time_constant = 1.0))]
-    fn complementary(time_constant: f64) -> CoreResult<Self> {
+    fn complementary(#[pyo3(from_py_with = real)] time_constant: f64) -> CoreResult<Self> {
         Ok(Self { inner: TiltEstimator::Complementary { time_constant }.validate()? })
     }
 
@@ -258,7 +260,11 @@ impl PyTiltEstimator {
     /// r_angle [rad^2] (the accelerometer tilt's variance while driving).
     #[staticmethod]
     #[pyo3(signature = (q_angle = 1e-3, q_bias = 1e-6, r_angle = 0.2))]
-    fn kalman(q_angle: f64, q_bias: f64, r_angle: f64) -> CoreResult<Self> {
+    fn kalman(
+        #[pyo3(from_py_with = real)] q_angle: f64,
+        #[pyo3(from_py_with = real)] q_bias: f64,
+        #[pyo3(from_py_with = real)] r_angle: f64,
+    ) -> CoreResult<Self> {
         Ok(Self { inner: TiltEstimator::Kalman { q_angle, q_bias, r_angle }.validate()? })
     }
 
@@ -302,8 +308,9 @@ impl PyTiltEstimator {
         accel_x: &Bound<'py, PyAny>,
         accel_z: &Bound<'py, PyAny>,
         gyro: &Bound<'py, PyAny>,
-        dt: f64,
+        dt: Real,
     ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+        let dt = dt.0;
         let (accel_x, accel_z, gyro) = (series("accel_x", accel_x)?, series("accel_z", accel_z)?, series("gyro", gyro)?);
         let (ax, az, g) = (accel_x.as_array(), accel_z.as_array(), gyro.as_array());
         if ax.len() != az.len() || ax.len() != g.len() {
@@ -364,25 +371,25 @@ fn params_or_default(params: Option<&PyRobotParams>) -> RobotParams<f64> {
 #[pymethods]
 impl PyMotorDriver {
     #[new]
-    #[pyo3(signature = (*, battery = 11.1, bridge_drop = 0.0, resistance = 12.0 / 7.0, inductance = 0.0, efficiency = 1.0,
+    #[pyo3(signature = (*, battery = 11.1, bridge_drop = 0.0, resistance = Real(12.0 / 7.0), inductance = 0.0, efficiency = 1.0,
                         current_limit = None, assumed_battery = None))]
     fn new(
-        battery: f64,
-        bridge_drop: f64,
-        resistance: f64,
-        inductance: f64,
-        efficiency: f64,
-        current_limit: Option<f64>,
-        assumed_battery: Option<f64>,
+        #[pyo3(from_py_with = real)] battery: f64,
+        #[pyo3(from_py_with = real)] bridge_drop: f64,
+        resistance: Real,
+        #[pyo3(from_py_with = real)] inductance: f64,
+        #[pyo3(from_py_with = real)] efficiency: f64,
+        current_limit: Option<Real>,
+        assumed_battery: Option<Real>,
     ) -> CoreResult<Self> {
         let inner = MotorDriver {
             battery,
             bridge_drop,
-            resistance,
+            resistance: resistance.0,
             inductance,
             efficiency,
-            current_limit: current_limit.unwrap_or(f64::INFINITY),
-            assumed_battery: assumed_battery.unwrap_or(battery),
+            current_limit: current_limit.map_or(f64::INFINITY, |c| c.0),
+            assumed_battery: assumed_battery.map_or(battery, |b| b.0),
         };
         Ok(Self { inner: inner.validate()? })
     }
@@ -403,23 +410,23 @@ impl PyMotorDriver {
     /// Steady winding current of one motor [A] at terminal `voltage` and relative wheel
     /// speed theta_dot - phi_dot [rad/s] (the robot's torque constant and gear ratio).
     #[pyo3(signature = (voltage, wheel_speed, params = None))]
-    fn current(&self, voltage: f64, wheel_speed: f64, params: Option<&PyRobotParams>) -> CoreResult<f64> {
-        let (voltage, wheel_speed) = (scalar("voltage", voltage)?, scalar("wheel_speed", wheel_speed)?);
+    fn current(&self, voltage: Real, wheel_speed: Real, params: Option<&PyRobotParams>) -> CoreResult<f64> {
+        let (voltage, wheel_speed) = (scalar("voltage", voltage.0)?, scalar("wheel_speed", wheel_speed.0)?);
         Ok(self.inner.current(&params_or_default(params), voltage, wheel_speed)?)
     }
 
     /// Torque of one motor on its wheel [N m] at `voltage` and relative wheel speed.
     #[pyo3(signature = (voltage, wheel_speed, params = None))]
-    fn wheel_torque(&self, voltage: f64, wheel_speed: f64, params: Option<&PyRobotParams>) -> CoreResult<f64> {
-        let (voltage, wheel_speed) = (scalar("voltage", voltage)?, scalar("wheel_speed", wheel_speed)?);
+    fn wheel_torque(&self, voltage: Real, wheel_speed: Real, params: Option<&PyRobotParams>) -> CoreResult<f64> {
+        let (voltage, wheel_speed) = (scalar("voltage", voltage.0)?, scalar("wheel_speed", wheel_speed.0)?);
         Ok(self.inner.wheel_torque(&params_or_default(params), voltage, wheel_speed)?)
     }
 
     /// The firmware's duty [counts] for a lumped (both motors) current at a measured
     /// relative wheel speed: R i + back-EMF, rounded and saturated at +-255.
     #[pyo3(signature = (lumped_current, wheel_speed, params = None))]
-    fn duty(&self, lumped_current: f64, wheel_speed: f64, params: Option<&PyRobotParams>) -> CoreResult<f64> {
-        let (lumped_current, wheel_speed) = (scalar("lumped_current", lumped_current)?, scalar("wheel_speed", wheel_speed)?);
+    fn duty(&self, lumped_current: Real, wheel_speed: Real, params: Option<&PyRobotParams>) -> CoreResult<f64> {
+        let (lumped_current, wheel_speed) = (scalar("lumped_current", lumped_current.0)?, scalar("wheel_speed", wheel_speed.0)?);
         Ok(PwmActuator::new(&self.inner, &params_or_default(params))?.duty(lumped_current, wheel_speed))
     }
 
@@ -453,7 +460,8 @@ pub struct PyPush {
 impl PyPush {
     #[new]
     #[pyo3(signature = (t, impulse, height = None))]
-    fn new(t: f64, impulse: f64, height: Option<f64>) -> CoreResult<Self> {
+    fn new(t: Real, impulse: Real, height: Option<Real>) -> CoreResult<Self> {
+        let (t, impulse, height) = (t.0, impulse.0, height.map(|h| h.0));
         Pushes::new(&[Push { t, impulse, height: height.unwrap_or(0.0) }])?;
         Ok(Self { t, impulse, height })
     }
@@ -482,7 +490,12 @@ pub struct PyForce {
 impl PyForce {
     #[new]
     #[pyo3(signature = (horizontal = 0.0, vertical = 0.0, height = None))]
-    fn new(horizontal: f64, vertical: f64, height: Option<f64>) -> CoreResult<Self> {
+    fn new(
+        #[pyo3(from_py_with = real)] horizontal: f64,
+        #[pyo3(from_py_with = real)] vertical: f64,
+        height: Option<Real>,
+    ) -> CoreResult<Self> {
+        let height = height.map(|h| h.0);
         Force { horizontal, vertical, height: height.unwrap_or(0.0) }.validate()?;
         Ok(Self { horizontal, vertical, height })
     }
@@ -501,10 +514,10 @@ fn push(obj: &Bound<'_, PyAny>) -> PyResult<PyPush> {
     if let Ok(p) = obj.cast::<PyPush>() {
         return Ok(*p.get());
     }
-    if let Ok((t, impulse)) = obj.extract::<(f64, f64)>() {
+    if let Ok((t, impulse)) = obj.extract::<(Real, Real)>() {
         return Ok(PyPush::new(t, impulse, None)?);
     }
-    if let Ok((t, impulse, height)) = obj.extract::<(f64, f64, f64)>() {
+    if let Ok((t, impulse, height)) = obj.extract::<(Real, Real, Real)>() {
         return Ok(PyPush::new(t, impulse, Some(height))?);
     }
     Err(InvalidParameterError::new_err(format!(
@@ -564,19 +577,21 @@ impl PyRealism {
     fn new(
         imu: Option<&PyImu>,
         estimator: Option<&Bound<'_, PyAny>>,
-        encoder_cpr: Option<f64>,
+        encoder_cpr: Option<Real>,
         motor: Option<&PyMotorDriver>,
         delay: bool,
-        control_period: Option<f64>,
+        control_period: Option<Real>,
         pushes: Option<&Bound<'_, PyAny>>,
         force: Option<&PyForce>,
-        slope_profile: Option<Vec<(f64, f64)>>,
+        slope_profile: Option<Vec<(Real, Real)>>,
         friction: Option<&PyFriction>,
-        backlash: Option<f64>,
+        backlash: Option<Real>,
         seed: Option<&Bound<'_, PyAny>>,
         stream: Option<&Bound<'_, PyAny>>,
-        settle: Option<f64>,
+        settle: Option<Real>,
     ) -> PyResult<Self> {
+        let value = |x: Option<Real>| x.map(|r| r.0);
+        let slope_profile: Option<Vec<(f64, f64)>> = slope_profile.map(|p| p.into_iter().map(|(Real(d), Real(s))| (d, s)).collect());
         let mut list = Vec::new();
         if let Some(ps) = pushes {
             for p in ps.try_iter()? {
@@ -586,16 +601,16 @@ impl PyRealism {
         let r = Self {
             imu: imu.cloned(),
             estimator: estimator.map(estimator_from).transpose()?.unwrap_or_else(TiltEstimator::complementary),
-            encoder_cpr,
+            encoder_cpr: value(encoder_cpr),
             motor: motor.map(|m| m.inner),
             delay,
-            control_period,
+            control_period: value(control_period),
             pushes: list,
             force: force.copied(),
             slope_profile: slope_profile.unwrap_or_default(),
             friction: friction.copied(),
-            backlash,
-            settle,
+            backlash: value(backlash),
+            settle: value(settle),
             seed: seed.map(|s| key("seed", s)).transpose()?.unwrap_or(0),
             stream: stream.map(|s| key("stream", s)).transpose()?.unwrap_or(0),
         };

@@ -3,7 +3,7 @@
 use pyo3::prelude::*;
 use twip_core::model::friction::Friction;
 
-use crate::convert::scalar;
+use crate::convert::{real, scalar, Real};
 use crate::errors::{invalid, CoreResult};
 
 /// One wheel's gearhead friction (N m, rad/s): Coulomb + viscous + Stribeck, the sign
@@ -21,14 +21,15 @@ impl PyFriction {
     #[new]
     #[pyo3(signature = (coulomb, breakaway = None, stribeck_speed = 1.0, viscous = 0.0, smoothing_speed = 0.1, stick_speed = 0.0))]
     fn new(
-        coulomb: f64,
-        breakaway: Option<f64>,
-        stribeck_speed: f64,
-        viscous: f64,
-        smoothing_speed: f64,
-        stick_speed: f64,
+        coulomb: Real,
+        breakaway: Option<Real>,
+        #[pyo3(from_py_with = real)] stribeck_speed: f64,
+        #[pyo3(from_py_with = real)] viscous: f64,
+        #[pyo3(from_py_with = real)] smoothing_speed: f64,
+        #[pyo3(from_py_with = real)] stick_speed: f64,
     ) -> CoreResult<Self> {
-        let breakaway = breakaway.unwrap_or(coulomb);
+        let coulomb = coulomb.0;
+        let breakaway = breakaway.map_or(coulomb, |b| b.0);
         let inner = Friction { coulomb, breakaway, stribeck_speed, viscous, smoothing_speed, stick_speed }.validate()?;
         Ok(Self { inner })
     }
@@ -44,7 +45,8 @@ impl PyFriction {
     /// part is what the viscous one leaves of the no-load torque at the no-load speed
     /// (0.0117 N m beside `RobotParams.balanbot()`'s mu_bearing / 2).
     #[staticmethod]
-    fn gb37_beside(viscous_per_wheel: f64) -> CoreResult<Self> {
+    fn gb37_beside(viscous_per_wheel: Real) -> CoreResult<Self> {
+        let viscous_per_wheel = viscous_per_wheel.0;
         if !(viscous_per_wheel.is_finite() && viscous_per_wheel >= 0.0) {
             return Err(invalid("viscous_per_wheel", viscous_per_wheel, "must be finite and >= 0"));
         }
@@ -53,14 +55,14 @@ impl PyFriction {
 
     /// This friction with a stick band of half-width `stick_speed` [rad/s]
     /// (0.1 rad/s suits 1 ms steps, see docs/parameters.md; 0: none).
-    fn with_stick(&self, stick_speed: f64) -> CoreResult<Self> {
-        Ok(Self { inner: self.inner.with_stick(stick_speed).validate()? })
+    fn with_stick(&self, stick_speed: Real) -> CoreResult<Self> {
+        Ok(Self { inner: self.inner.with_stick(stick_speed.0).validate()? })
     }
 
     /// The slip law's torque [N m] at the wheel's speed relative to the body `w` [rad/s]
     /// (with a stick band, a wheel inside it is held by whatever torque that needs).
-    fn torque(&self, w: f64) -> CoreResult<f64> {
-        Ok(self.inner.torque(scalar("w", w)?))
+    fn torque(&self, w: Real) -> CoreResult<f64> {
+        Ok(self.inner.torque(scalar("w", w.0)?))
     }
 }
 

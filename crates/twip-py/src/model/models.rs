@@ -4,7 +4,7 @@ use pyo3::prelude::*;
 use twip_core::model::slope::SlopeModel;
 use twip_core::{rk4_step as core_rk4, Dynamics, PlanarModel};
 
-use crate::convert::{input, scalar, to_py_matrix, to_py_vector, vector};
+use crate::convert::{input, real, scalar, to_py_matrix, to_py_vector, vector, Real};
 use crate::errors::CoreResult;
 use crate::model::friction::PyFriction;
 use crate::model::params::PyRobotParams;
@@ -27,7 +27,7 @@ type Arr2<'py> = Bound<'py, PyArray2<f64>>;
 impl PySlopeModel {
     #[new]
     #[pyo3(signature = (params, slope = 0.0, friction = None))]
-    fn new(params: &PyRobotParams, slope: f64, friction: Option<&PyFriction>) -> CoreResult<Self> {
+    fn new(params: &PyRobotParams, #[pyo3(from_py_with = real)] slope: f64, friction: Option<&PyFriction>) -> CoreResult<Self> {
         Ok(Self { inner: SlopeModel::new(params.inner, slope)?.with_friction(friction.map(|f| f.inner))? })
     }
 
@@ -69,7 +69,7 @@ impl PySlopeModel {
     /// stick band: those of the slip law that acts outside the band, inside it too (the held
     /// wheels there take no input).
     #[pyo3(signature = (x0, u0 = 0.0))]
-    fn linearize<'py>(&self, py: Python<'py>, x0: &Bound<'py, PyAny>, u0: f64) -> PyResult<(Arr2<'py>, Arr2<'py>)> {
+    fn linearize<'py>(&self, py: Python<'py>, x0: &Bound<'py, PyAny>, #[pyo3(from_py_with = real)] u0: f64) -> PyResult<(Arr2<'py>, Arr2<'py>)> {
         let (a, b) = self.inner.linearize(&vector::<4>("x0", x0)?, scalar("u0", u0)?);
         Ok((to_py_matrix(py, &a), to_py_matrix(py, &b)))
     }
@@ -83,7 +83,8 @@ impl PySlopeModel {
     /// Steady state at wheel speed theta_dot_ref: (x_s, u_s), x_s = [phi_s, 0, 0, theta_dot_ref].
     /// `linear=True` uses the thesis's linear model, (4.12)-(4.13).
     #[pyo3(signature = (theta_dot_ref, linear = false))]
-    fn equilibrium<'py>(&self, py: Python<'py>, theta_dot_ref: f64, linear: bool) -> CoreResult<(Arr1<'py>, f64)> {
+    fn equilibrium<'py>(&self, py: Python<'py>, theta_dot_ref: Real, linear: bool) -> CoreResult<(Arr1<'py>, f64)> {
+        let theta_dot_ref = theta_dot_ref.0;
         let (x, u) = if linear {
             self.inner.equilibrium_linear(theta_dot_ref)?
         } else {
@@ -92,8 +93,8 @@ impl PySlopeModel {
         Ok((to_py_vector(py, &x), u))
     }
 
-    fn mass_matrix<'py>(&self, py: Python<'py>, phi: f64) -> CoreResult<Arr2<'py>> {
-        Ok(to_py_matrix(py, &self.inner.mass_matrix(scalar("phi", phi)?)))
+    fn mass_matrix<'py>(&self, py: Python<'py>, phi: Real) -> CoreResult<Arr2<'py>> {
+        Ok(to_py_matrix(py, &self.inner.mass_matrix(scalar("phi", phi.0)?)))
     }
 
     fn __repr__(&self) -> String {
@@ -206,8 +207,8 @@ impl PyPlanarModel {
 
     /// The mass matrix M(phi) of M nu_dot + h = B u, with nu = (phi_dot, v, omega) (on
     /// terrain, in the ground plane's frame with phi the pitch from its normal).
-    fn mass_matrix<'py>(&self, py: Python<'py>, phi: f64) -> CoreResult<Arr2<'py>> {
-        Ok(to_py_matrix(py, &self.inner.mass_matrix(scalar("phi", phi)?)))
+    fn mass_matrix<'py>(&self, py: Python<'py>, phi: Real) -> CoreResult<Arr2<'py>> {
+        Ok(to_py_matrix(py, &self.inner.mass_matrix(scalar("phi", phi.0)?)))
     }
 
     fn __repr__(&self) -> String {
@@ -225,9 +226,9 @@ pub fn rk4_step<'py>(
     model: &Bound<'py, PyAny>,
     x: &Bound<'py, PyAny>,
     u: &Bound<'py, PyAny>,
-    dt: f64,
+    dt: Real,
 ) -> PyResult<Arr1<'py>> {
-    let dt = crate::errors::positive_param("dt", dt)?;
+    let dt = crate::errors::positive_param("dt", dt.0)?;
     if let Ok(m) = model.cast::<PySlopeModel>() {
         let x = vector::<4>("x", x)?;
         let next = core_rk4(&m.get().inner, &x, &input::<1>("u", u)?, dt);

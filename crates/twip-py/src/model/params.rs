@@ -4,6 +4,7 @@ use pyo3::types::PyDict;
 use twip_core::model::params::FIELD_NAMES;
 use twip_core::RobotParams;
 
+use crate::convert::Real;
 use crate::errors::{CoreResult, InvalidParameterError};
 use crate::settings::Reduced;
 
@@ -37,9 +38,9 @@ fn apply(values: &mut [f64; 16], kw: &Bound<'_, PyDict>) -> PyResult<()> {
     for (k, v) in kw.iter() {
         let name: String = k.extract()?;
         let i = field_index(&name)?;
-        values[i] = v.extract::<f64>().map_err(|_| {
-            InvalidParameterError::new_err(format!("RobotParams field '{name}' must be a number, got {v}"))
-        })?;
+        values[i] = v.extract::<Real>().map_err(|_| {
+            InvalidParameterError::new_err(format!("RobotParams field '{name}' must be a real number, got {v}"))
+        })?.0;
     }
     Ok(())
 }

@@ -7,7 +7,7 @@ use twip_core::model::terrain::{Grid, Terrain};
 use twip_core::sweep::terrain::SweepTerrain;
 use twip_core::TwipError;
 
-use crate::convert::real_array;
+use crate::convert::{real, real_array, Real};
 use crate::errors::{CoreResult, ShapeError};
 
 
@@ -56,7 +56,8 @@ impl PyTerrain {
     /// A plane rising at `slope` [rad, in [0, pi/2)] towards `uphill_heading` [rad from +x].
     #[staticmethod]
     #[pyo3(signature = (slope, uphill_heading = 0.0))]
-    fn plane(slope: f64, uphill_heading: f64) -> CoreResult<Self> {
+    fn plane(slope: Real, #[pyo3(from_py_with = real)] uphill_heading: f64) -> CoreResult<Self> {
+        let slope = slope.0;
         Ok(Self { inner: Terrain::plane(slope, uphill_heading)?, recipe: Recipe::Plane(slope, uphill_heading) })
     }
 
@@ -65,7 +66,13 @@ impl PyTerrain {
     /// the line (0: a kink).
     #[staticmethod]
     #[pyo3(signature = (slope, uphill_heading = 0.0, start = 0.0, blend = 0.1))]
-    fn ramp(slope: f64, uphill_heading: f64, start: f64, blend: f64) -> CoreResult<Self> {
+    fn ramp(
+        slope: Real,
+        #[pyo3(from_py_with = real)] uphill_heading: f64,
+        #[pyo3(from_py_with = real)] start: f64,
+        #[pyo3(from_py_with = real)] blend: f64,
+    ) -> CoreResult<Self> {
+        let slope = slope.0;
         Ok(Self { inner: Terrain::ramp(slope, uphill_heading, start, blend)?, recipe: Recipe::Ramp(slope, uphill_heading, start, blend) })
     }
 
@@ -73,7 +80,8 @@ impl PyTerrain {
     /// `height` [m] from hollow to crest, level at the origin.
     #[staticmethod]
     #[pyo3(signature = (height, wavelength))]
-    fn bumps(height: f64, wavelength: f64) -> CoreResult<Self> {
+    fn bumps(height: Real, wavelength: Real) -> CoreResult<Self> {
+        let (height, wavelength) = (height.0, wavelength.0);
         Ok(Self { inner: Terrain::bumps(height, wavelength)?, recipe: Recipe::Bumps(height, wavelength) })
     }
 
@@ -104,14 +112,15 @@ impl PyTerrain {
     }
 
     /// (height [m], dh/dx, dh/dy) at (x, y); OffTerrainError off a grid.
-    fn local(&self, x: f64, y: f64) -> PyResult<(f64, f64, f64)> {
+    fn local(&self, x: Real, y: Real) -> PyResult<(f64, f64, f64)> {
+        let (x, y) = (x.0, y.0);
         let l = self.inner.local(x, y).ok_or_else(|| off_terrain(x, y))?;
         Ok((l.height, l.gx, l.gy))
     }
 
     /// Whether (x, y) is on the terrain (always, except off a grid).
-    fn contains(&self, x: f64, y: f64) -> bool {
-        self.inner.contains(x, y)
+    fn contains(&self, x: Real, y: Real) -> bool {
+        self.inner.contains(x.0, y.0)
     }
 
     /// The plane's slope [rad] (a plane or a ramp; None for bumps and a grid): a sweep's

@@ -10,7 +10,7 @@ use twip_core::hardware::realism::RIG_SIGNALS;
 use twip_core::control::reference::{SpeedRef, SpeedSchedule};
 use twip_core::sim::runner::{simulate_until, Outcome, SimConfig};
 
-use crate::convert::vector;
+use crate::convert::{vector, Real};
 use crate::sim::run_result::{run_dict, LogLayout};
 use crate::errors::{CoreResult, PyTwipError};
 use crate::control::fuzzy::PyFuzzyController;
@@ -100,14 +100,16 @@ pub fn simulate_raw<'py>(
     model: &Bound<'py, PyAny>,
     controller: &Bound<'py, PyAny>,
     x0: &Bound<'py, PyAny>,
-    t_final: f64,
-    dt: f64,
+    t_final: Real,
+    dt: Real,
     reference: &PySpeedSchedule,
-    control_period: Option<f64>,
-    fall_limit: Option<f64>,
+    control_period: Option<Real>,
+    fall_limit: Option<Real>,
     record_every: usize,
     realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let (t_final, dt) = (t_final.0, dt.0);
+    let (control_period, fall_limit) = (control_period.map(|p| p.0), fall_limit.map(|f| f.0));
     let plant = model.cast::<PySlopeModel>().map_err(|_| {
         pyo3::exceptions::PyTypeError::new_err("this controller drives a twip.SlopeModel")
     })?;

@@ -10,7 +10,7 @@ use twip_core::control::smc::SmcTracker;
 use twip_core::sim::tracking_metrics::TrackingMetrics;
 use twip_core::control::trajectory::{PlanarRef, Trajectory};
 
-use crate::convert::vector;
+use crate::convert::{vector, Real};
 use crate::sim::run_result::{run_dict, LogLayout};
 use crate::errors::{invalid, PyTwipError};
 use crate::model::models::PyPlanarModel;
@@ -101,15 +101,17 @@ pub fn simulate_planar_raw<'py>(
     model: &Bound<'py, PyAny>,
     controller: &Bound<'py, PyAny>,
     x0: &Bound<'py, PyAny>,
-    t_final: f64,
-    dt: f64,
+    t_final: Real,
+    dt: Real,
     reference: &Bound<'py, PyAny>,
-    control_period: Option<f64>,
-    fall_limit: Option<f64>,
+    control_period: Option<Real>,
+    fall_limit: Option<Real>,
     record_every: usize,
-    settle: Option<f64>,
+    settle: Option<Real>,
     realism: Option<&crate::hardware::realism::PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let (t_final, dt) = (t_final.0, dt.0);
+    let (control_period, fall_limit, settle) = (control_period.map(|p| p.0), fall_limit.map(|f| f.0), settle.map(|s| s.0));
     let model = model
         .cast::<PyPlanarModel>()
         .map_err(|_| pyo3::exceptions::PyTypeError::new_err("this controller drives a twip.PlanarModel"))?

@@ -28,7 +28,7 @@ use twip_core::sweep::{
 };
 use twip_core::{RobotParams, TwipError};
 
-use crate::convert::vector;
+use crate::convert::{vector, Real};
 use crate::errors::{key, InvalidParameterError, PyTwipError};
 use crate::model::params::params_dict;
 use crate::model::models::PySlopeModel;
@@ -38,7 +38,7 @@ use crate::sim::simulate::SlopeController;
 
 /// (target, index, kind, a, b, low, high): target "param" | "slope" | "heading" | "x0";
 /// kind "uniform" (a = low, b = high) | "normal" (a = mean, b = std, clamped to [low, high]).
-pub(crate) type PerturbTuple = (String, usize, String, f64, f64, f64, f64);
+pub(crate) type PerturbTuple = (String, usize, String, Real, Real, Real, Real);
 
 /// The perturbations, each checked by `validate` (the sweep family's own rules).
 pub(crate) fn parse_perturbations(
@@ -56,7 +56,7 @@ pub(crate) fn parse_perturbations(
 }
 
 fn perturbation(t: &PerturbTuple) -> Result<Perturbation, PyErr> {
-    let (target, index, kind, a, b, low, high) = t;
+    let (target, index, kind, Real(a), Real(b), Real(low), Real(high)) = t;
     let target = match target.as_str() {
         "param" => Target::Param(*index),
         "slope" => Target::Slope,
@@ -273,18 +273,19 @@ pub fn sweep_raw<'py>(
     model: &PySlopeModel,
     controller: &Bound<'py, PyAny>,
     x0: &Bound<'py, PyAny>,
-    t_final: f64,
-    dt: f64,
+    t_final: Real,
+    dt: Real,
     reference: &PySpeedSchedule,
     perturbations: Vec<PerturbTuple>,
     seed: &Bound<'py, PyAny>,
     start: &Bound<'py, PyAny>,
     count: &Bound<'py, PyAny>,
-    control_period: Option<f64>,
+    control_period: Option<Real>,
     threads: usize,
     progress: Option<Py<PyAny>>,
     realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let (t_final, dt, control_period) = (t_final.0, dt.0, control_period.map(|p| p.0));
     no_friction_in_sweeps(model.inner.friction().is_some())?;
     let (seed, start, count) = (key("seed", seed)?, key("start", start)?, key("count", count)?);
     let nominal = Nominal { params: *model.inner.params(), slope: model.inner.slope(), x0: vector::<4>("x0", x0)? };

@@ -17,7 +17,7 @@ use twip_core::sweep::rig::for_sweep;
 
 use crate::hardware::realism::PyRealism;
 
-use crate::convert::vector;
+use crate::convert::{vector, Real};
 use crate::errors::{key, PyTwipError};
 use crate::model::params::params_dict;
 use crate::model::models::PyPlanarModel;
@@ -70,18 +70,19 @@ pub fn sweep_planar_raw<'py>(
     model: &PyPlanarModel,
     controller: &Bound<'py, PyAny>,
     x0: &Bound<'py, PyAny>,
-    t_final: f64,
-    dt: f64,
+    t_final: Real,
+    dt: Real,
     reference: &Bound<'py, PyAny>,
     perturbations: Vec<PerturbTuple>,
     seed: &Bound<'py, PyAny>,
     start: &Bound<'py, PyAny>,
     count: &Bound<'py, PyAny>,
-    control_period: Option<f64>,
+    control_period: Option<Real>,
     threads: usize,
     progress: Option<Py<PyAny>>,
     realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let (t_final, dt, control_period) = (t_final.0, dt.0, control_period.map(|p| p.0));
     let (seed, start, count) = (key("seed", seed)?, key("start", start)?, key("count", count)?);
     if model.terrain.is_some() || controller.cast::<crate::control::grade::PyGradeFeedForward>().is_ok() {
         let path = trajectory(reference)?;
