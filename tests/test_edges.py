@@ -4,6 +4,7 @@ numbers that do not mislead. Each input the issue lists has a test here."""
 import json
 from decimal import Decimal
 from fractions import Fraction
+import math
 import re
 import os
 import shutil
@@ -227,6 +228,51 @@ def test_streamed_quantiles_are_numpys_exactly():
             quantiles._EXACT = old
         with np.errstate(invalid="ignore"):  # numpy's inf - inf, as ours
             np.testing.assert_array_equal(got, np.quantile(data, q))
+
+
+def test_streamed_quantiles_are_numpys_bits_from_the_nearer_end():
+    """numpy interpolates from the upper value when the weight is 0.5 or more, and from the
+    next rank even at a whole index (1 + inf·0: NaN): the same bits, and the same shape as q."""
+    rng = np.random.default_rng(8)
+    for _ in range(200):
+        data = rng.normal(size=rng.integers(1, 200)) * 10 ** rng.uniform(-5, 5)
+        q = rng.uniform(size=4)
+        np.testing.assert_array_equal(quantiles.streamed_quantiles(lambda: iter(np.array_split(data, 3)), q),
+                                      np.quantile(data, q))
+    with np.errstate(invalid="ignore"):
+        assert math.isnan(quantiles.streamed_quantiles(lambda: iter([np.array([0.0, 1.0, np.inf])]), 0.5))
+        assert math.isnan(np.quantile([0.0, 1.0, np.inf], 0.5))
+    zero = quantiles.streamed_quantiles(lambda: iter([np.array([-0.0])]), 0.0)
+    assert zero == 0.0 and math.copysign(1, zero) == math.copysign(1, np.quantile([-0.0], 0.0))
+    one = quantiles.streamed_quantiles(lambda: iter([np.arange(5.0)]), 0.5)
+    assert one == 2.0 and np.ndim(one) == 0  # a scalar level: a float, as np.quantile's
+    np.testing.assert_array_equal(quantiles.streamed_quantiles(lambda: iter([np.arange(5.0)]), [[0.5, 1.0]]),
+                                  [[2.0, 4.0]])
+    assert math.isnan(quantiles.streamed_quantiles(lambda: iter([]), 0.5))
+
+
+def test_streamed_quantiles_of_values_wider_than_the_largest_double():
+    """-1e308..1e308: the range's width overflows to inf, which sent the bins down the
+    infinities' three-bin path, where every finite value shares a bin: it never narrowed."""
+    data = np.r_[np.random.default_rng(0).normal(size=300), [-1e308, 1e308, 1e308]]
+    q = (0.0, 0.05, 0.5, 0.99, 1.0)
+    old = quantiles._EXACT
+    quantiles._EXACT = 100  # force the narrowing passes
+    try:
+        got = quantiles.streamed_quantiles(lambda: iter(np.array_split(data, 4)), q)
+    finally:
+        quantiles._EXACT = old
+    np.testing.assert_array_equal(got, np.quantile(data, q))
+
+
+def test_streamed_quantiles_refuse_levels_outside_0_1():
+    """As the sweeps' quantiles: q = -0.1 extrapolated below the minimum."""
+    chunks = lambda: iter([np.arange(10.0)])  # noqa: E731
+    for bad in (-0.1, [0.5, 1.5], float("nan")):
+        with pytest.raises(twip.InvalidParameterError, match=r"q = .*: quantile levels must be in \[0, 1\]"):
+            quantiles.streamed_quantiles(chunks, bad)
+    with pytest.raises(TypeError, match="q must be quantile levels"):
+        quantiles.streamed_quantiles(chunks, "median")
 
 
 # ---------------------------------------------------------------- 3. checkpoints that cannot lie

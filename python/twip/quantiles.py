@@ -8,9 +8,28 @@ from typing import Callable, Dict
 
 import numpy as np
 
+from twip import _core
+
 #: A value range is narrowed until at most this many values remain, then sorted.
 _EXACT = 1 << 16
 _BINS = 1024
+
+
+def levels(q) -> np.ndarray:
+    """`q` as quantile levels: floats in [0, 1], of any shape; else a TypeError or a
+    twip.InvalidParameterError naming q."""
+    try:
+        out = np.asarray(q, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"q must be quantile levels (numbers in [0, 1]), got {q!r}") from None
+    if not np.all((out >= 0) & (out <= 1)):
+        raise _core.InvalidParameterError(f"q = {q!r}: quantile levels must be in [0, 1]")
+    return out
+
+
+def no_values(shape):
+    """The quantiles of no values at levels of `shape`: NaN (a float for a scalar level)."""
+    return np.full(shape, np.nan)[()]
 
 
 def streamed_quantiles(chunks: Callable, q) -> np.ndarray:
@@ -20,11 +39,13 @@ def streamed_quantiles(chunks: Callable, q) -> np.ndarray:
 
 
 def streamed_quantiles_of(chunks: Callable, names, q) -> Dict[str, np.ndarray]:
-    """{name: np.quantile(all values of column name, q)} (linear interpolation) over the
-    dicts of arrays that `chunks()` yields again on every call: exact, with memory bounded
-    by a chunk. Each order statistic is found by narrowing a value range with histograms,
-    all columns in the same passes, until few enough values remain to sort."""
-    q = np.atleast_1d(np.asarray(q, dtype=float))
+    """{name: np.quantile(all values of column name, q)} (linear interpolation, the same bits;
+    shaped as q, a float for a scalar q; NaN without values) over the dicts of arrays that
+    `chunks()` yields again on every call: exact, with memory bounded by a chunk. Each order
+    statistic is found by narrowing a value range with histograms, all columns in the same
+    passes, until few enough values remain to sort."""
+    q = levels(q)
+    shape, q = q.shape, q.ravel()
     count = dict.fromkeys(names, 0)
     lo, hi = dict.fromkeys(names, math.inf), dict.fromkeys(names, -math.inf)
     nan = set()
@@ -37,13 +58,13 @@ def streamed_quantiles_of(chunks: Callable, names, q) -> Dict[str, np.ndarray]:
                     continue
                 count[name] += len(v)
                 lo[name], hi[name] = min(lo[name], float(v.min())), max(hi[name], float(v.max()))
-    out = {name: np.full(len(q), np.nan) for name in names}
+    out = {name: no_values(shape) for name in names}
     # Per (column, rank): the range [lo, hi] that holds it, values below lo, values inside.
     state, value = {}, {}
     for name in names:
         if name not in nan and count[name]:
             for p in q * (count[name] - 1):
-                for r in (math.floor(p), math.ceil(p)):
+                for r in _ranks(p, count[name])[:2]:
                     state[name, r] = dict(lo=lo[name], hi=hi[name], below=0, inside=count[name])
     while len(value) < len(state):
         for key, s in state.items():
@@ -66,6 +87,8 @@ def streamed_quantiles_of(chunks: Callable, names, q) -> Dict[str, np.ndarray]:
                 counts, mins, maxs = hist[key]
                 if math.isfinite(b - a):
                     k = np.clip(((inside - a) / (b - a) * _BINS).astype(np.int64), 0, _BINS - 1)
+                elif math.isfinite(a) and math.isfinite(b):  # b - a overflows (-1e308..1e308): in halves
+                    k = np.clip(((inside / 2 - a / 2) / (b / 2 - a / 2) * _BINS).astype(np.int64), 0, _BINS - 1)
                 else:  # infinities at an end: -inf, the finite values, +inf (monotone too)
                     k = np.where(inside == -math.inf, 0, np.where(inside == math.inf, 2, 1))
                 counts += np.bincount(k, minlength=_BINS)
@@ -81,7 +104,21 @@ def streamed_quantiles_of(chunks: Callable, names, q) -> Dict[str, np.ndarray]:
                               inside=int(counts[k]))
     for name in names:
         if name not in nan and count[name]:
-            v = lambda r: value[name, r]  # noqa: E731
-            out[name] = np.array([v(math.floor(p)) + (p - math.floor(p)) * (v(math.ceil(p)) - v(math.floor(p)))
-                                  for p in q * (count[name] - 1)])
+            ranks = [_ranks(p, count[name]) for p in q * (count[name] - 1)]
+            out[name] = np.array([_lerp(value[name, a], value[name, b], t) for a, b, t in ranks]).reshape(shape)[()]
     return out
+
+
+def _ranks(p: float, count: int):
+    """(rank, next rank, weight) np.quantile interpolates with at virtual index `p`, as numpy's
+    _get_indexes and _get_gamma: floor(p) and the next; at or beyond the last both the last
+    (numpy's index -1, which its weight p + 1 keeps: it decides the sign of a zero)."""
+    if p >= count - 1:
+        return count - 1, count - 1, p + 1
+    return math.floor(p), math.floor(p) + 1, p - math.floor(p)
+
+
+def _lerp(a: float, b: float, t: float) -> float:
+    """numpy's _lerp, for its bits: from the nearer end (b − (b − a)(1 − t) from t = 0.5)."""
+    diff = b - a
+    return b - diff * (1 - t) if t >= 0.5 else a + diff * t

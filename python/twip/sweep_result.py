@@ -11,7 +11,7 @@ import numpy as np
 from twip import _core, budget, checks
 from twip.distributions import wilson_interval
 from twip.perturbation import STATE_UNITS, family_of, ground_controller, ground_model, ground_value, target
-from twip.quantiles import streamed_quantiles_of
+from twip.quantiles import levels, streamed_quantiles_of
 
 _bad = _core.InvalidParameterError
 
@@ -261,12 +261,7 @@ def check_quantiles(result, names, q) -> None:
     for name in names:
         if name not in result.metric_names[1:]:
             raise _bad(f"quantiles: unknown metric {name!r}; this sweep has {', '.join(result.metric_names[1:])}")
-    try:
-        levels = np.asarray(q, dtype=float)
-    except (TypeError, ValueError):
-        raise TypeError(f"q must be quantile levels (numbers in [0, 1]), got {q!r}") from None
-    if not np.all((levels >= 0) & (levels <= 1)):
-        raise _bad(f"q = {q!r}: quantile levels must be in [0, 1]")
+    levels(q)
 
 
 def invalid_reason(result, index: int) -> str:
