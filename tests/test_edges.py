@@ -214,6 +214,31 @@ def test_a_streamed_sweep_summarises_from_the_shards_as_the_in_memory_one(tmp_pa
     assert "300 samples" in repr(streamed)
 
 
+def test_quantiles_agree_in_memory_and_from_the_shards_in_shape_and_when_every_sample_fell(tmp_path):
+    """A scalar level gives a float either way (the shards gave a length-1 array); a sweep in
+    which every sample fell gives NaN shaped as q either way (in memory a TypeError)."""
+    tipped = {"phi0": twip.Uniform(low=1.5, high=1.6)}  # past the fall limit: every robot falls
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        results = [sweep(n=20), sweep(n=20, perturb=tipped)]
+        twip.set_memory_budget(20 * tsweep.BYTES_PER_SAMPLE - 1)  # the metrics no longer fit: streamed
+        try:
+            results += [sweep(n=20, checkpoint=tmp_path / "a", shard_size=8),
+                        sweep(n=20, perturb=tipped, checkpoint=tmp_path / "b", shard_size=8)]
+        finally:
+            twip.set_memory_budget(None)
+    whole, fell, streamed, streamed_fell = results
+    assert isinstance(streamed, tsweep.StreamedSweepResult) and fell.fall_rate == streamed_fell.fall_rate == 1.0
+    for s in (whole, streamed):
+        median = s.quantiles("peak_current", 0.5)
+        assert np.ndim(median) == 0 and median == whole.quantiles("peak_current", (0.5,))[0]
+    for s in (fell, streamed_fell):
+        assert math.isnan(s.quantiles("peak_current", 0.5))
+        for q in ((0.05, 0.5, 0.95), [[0.5]]):
+            got = s.quantiles("peak_current", q)
+            assert got.shape == np.shape(q) and np.isnan(got).all()
+
+
 def test_streamed_quantiles_are_numpys_exactly():
     rng = np.random.default_rng(5)
     for data in (rng.normal(size=20_000), rng.integers(0, 3, 9_000).astype(float), np.array([2.5]),

@@ -11,7 +11,7 @@ import numpy as np
 from twip import _core, budget, checks
 from twip.distributions import wilson_interval
 from twip.perturbation import STATE_UNITS, family_of, ground_controller, ground_model, ground_value, target
-from twip.quantiles import levels, streamed_quantiles_of
+from twip.quantiles import levels, no_values, streamed_quantiles_of
 
 _bad = _core.InvalidParameterError
 
@@ -85,11 +85,12 @@ class SweepResult:
         return wilson_interval(int(np.sum(self.metrics["fell"][v])), int(np.sum(v)), confidence)
 
     def quantiles(self, name: str, q=(0.05, 0.5, 0.95)) -> np.ndarray:
-        """Quantiles of a metric over valid samples that did not fall."""
+        """Quantiles of a metric over valid samples that did not fall (np.quantile's, shaped as
+        q: a float for a scalar q); NaN when every sample fell."""
         check_quantiles(self, [name], q)
         keep = self.valid & ~self.metrics["fell"]
         values = self.metrics[name][keep]
-        return np.quantile(values, q) if len(values) else np.full(len(q), np.nan)
+        return np.quantile(values, q) if len(values) else no_values(np.shape(q))
 
     def _invalid_indices(self, limit: int) -> np.ndarray:
         return self.metrics["index"][~self.valid][:limit]
