@@ -308,6 +308,20 @@ def test_a_constraint_counts_a_robot_over_it_as_failed():
         tiny_tune(constraints={"nope": 1.0})
 
 
+def test_a_constraint_bounds_the_metrics_magnitude():
+    """final_position_error is signed (negative: past the goal); a 0.05 m bound let through a
+    robot 22 cm past it. A NaN breaks a bound; a bound below 0 would break every robot."""
+    from twip.design.objective import check_constraints, failures
+
+    class Result:
+        metrics = {"valid": np.array([True, True, True, True, False]), "fell": np.zeros(5, bool),
+                   "final_position_error": np.array([0.01, -0.22, 0.3, np.nan, -1.0])}
+
+    np.testing.assert_array_equal(failures(Result(), {"final_position_error": 0.05}), [False, True, True, True])
+    with pytest.raises(twip.InvalidParameterError, match="the bound of final_position_error must be finite and >= 0"):
+        check_constraints({"final_position_error": -0.05}, ("final_position_error",))
+
+
 # --- worst case --------------------------------------------------------------------------
 
 def tiny_worst(threads=None, **kw):

@@ -18,23 +18,25 @@ SECONDARY = ("mean_abs_pitch_error", "final_position_error", "peak_current")
 
 
 def check_constraints(constraints: Optional[Mapping], names) -> dict:
-    """{metric: upper bound}, each a metric of the sweep and a finite real number."""
+    """{metric: upper bound on its magnitude}, each a metric of the sweep and a finite real
+    number >= 0 (below 0 every robot would break it)."""
     checks.of_type("constraints", constraints, (Mapping, type(None)), "a dict {metric: upper bound} or None")
     out = {}
     for name, bound in (constraints or {}).items():
         if name not in names:
             raise _bad(f"constraints: unknown metric '{name}'; the sweep's metrics: {', '.join(names)}")
-        out[name] = checks.real(f"constraints: the bound of {name}", bound)
+        out[name] = checks.real(f"constraints: the bound of {name}", bound, at_least=0.0)
     return out
 
 
 def failures(result, constraints: Mapping[str, float]) -> np.ndarray:
-    """Per valid sample: fell, or broke a constraint (metric above its bound)."""
+    """Per valid sample: fell, or broke a constraint (its metric's magnitude above the bound: a
+    signed metric such as final_position_error is off either way; NaN breaks it)."""
     m = result.metrics
     valid = m["valid"]
     bad = m["fell"].copy()
     for name, bound in constraints.items():
-        bad |= ~(m[name] <= bound)
+        bad |= ~(np.abs(m[name]) <= bound)
     return bad[valid]
 
 

@@ -76,8 +76,8 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
 
     objective: a callable (SweepResult on the tuning set) -> a finite number to minimise;
     default: the share of robots that fall or break a constraint, then the median pitch error,
-    stop error and RMS current relative to the scenario's own controller's. constraints: {metric: upper
-    bound}; a robot over a bound counts as failed. budget: candidates evaluated (each a sweep
+    stop error and peak current relative to the scenario's own controller's. constraints: {metric:
+    upper bound on its magnitude}; a robot whose |metric| is over a bound counts as failed. budget: candidates evaluated (each a sweep
     of n robots, seed `seed`); validate: held-out robots (another seed) for `.validation`
     and `.baseline`. Ctrl-C stops the search and validates the best so far; a second Ctrl-C
     raises KeyboardInterrupt with `.partial` (the Tuning without validation). Raises
