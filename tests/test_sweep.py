@@ -151,6 +151,18 @@ def test_wilson_interval_against_a_hand_computed_case():
     assert twip.wilson_interval(0, 50)[0] == 0.0
 
 
+def test_wilson_interval_up_to_the_largest_confidence_below_one():
+    """z from the tail: 0.5 + c/2 rounded to 1 at the largest c < 1 (StatisticsError, not
+    naming confidence) and lost digits of z close to it."""
+    from scipy.stats import norm
+
+    for c in (0.95, 1 - 1e-9, 0.9999999999999999):
+        z, p, n = norm.isf((1 - c) / 2), 0.3, 10
+        denom = 1 + z * z / n
+        centre, half = (p + z * z / (2 * n)) / denom, z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+        assert twip.wilson_interval(3, 10, c) == pytest.approx((centre - half, centre + half), rel=1e-13, abs=0), c
+
+
 def test_summary_and_pandas():
     r = sweep()
     s = r.summary()
