@@ -950,3 +950,101 @@ def test_python_wrappers_refuse_a_complex_or_bool_entry_before_float_reads_it(va
     ]:
         with pytest.raises(twip.InvalidParameterError, match=rf"^{name}\[\d\] = .*: not a real number \(got {kind}"):
             call()
+
+
+# --- integer parameters: no bool ----------------------------------------------------------
+# pyo3 read an integer through __index__, so a bool was 0 or 1: BalanceBatch(num_envs=True)
+# built one env, record_every=True kept every sample, Realism(seed=True) had seed 1. Every
+# integer parameter of the bindings refuses a bool; an int or a numpy integer reads as before.
+
+NOT_INT = [True, np.True_]
+_BALANCE = twip._core.BalanceBatch(_SLOPE, np.zeros(4), [], 1, 0.005, 1, 1.0)
+
+# (parameter, a valid value, the call with `v` there): one or more per binding file.
+INT_PARAMETERS = {
+    "BalanceBatch": ("num_envs", 1, lambda v: twip._core.BalanceBatch(_SLOPE, np.zeros(4), [], v, 0.005, 1, 1.0)),
+    "BalanceBatch.threads": ("threads", 1, lambda v: twip._core.BalanceBatch(
+        _SLOPE, np.zeros(4), [], 1, 0.005, 1, 1.0, threads=v)),
+    "BalanceBatch.step_next": ("reset", 0, lambda v: _BALANCE.step_next(np.zeros(1), [v], (1.0, 1.0, 1.0, 1.0), 0.0, 1.0)),
+    "TrackBatch": ("substeps", 1, lambda v: twip._core.TrackBatch(_PLANAR, _LINE, np.zeros(7), [], 1, 0.005, v, 1.0)),
+    "BalanceBatch.reset": ("lanes", 0, lambda v: _BALANCE.reset([v])),
+    "BalanceBatch.reset seeds": ("seeds", 3, lambda v: _BALANCE.reset([0], [v])),
+    "sweep_draw": ("perturbations", 0, lambda v: twip._core.sweep_draw(
+        _SLOPE, np.zeros(4), [("x0", v, "uniform", 0.0, 0.1, 0.0, 0.1)], 0, 0)),
+    "sweep_raw": ("threads", 1, lambda v: twip._core.sweep_raw(
+        _SLOPE, _LQR, np.zeros(4), 0.01, 0.001, _STILL, [], 0, 0, 1, threads=v)),
+    "sweep_planar_raw": ("threads", 1, lambda v: twip._core.sweep_planar_raw(
+        _PLANAR, _PID, np.zeros(7), 0.01, 0.005, _LINE, [], 0, 0, 1, threads=v)),
+    "simulate_raw": ("record_every", 1, lambda v: twip._core.simulate_raw(
+        _SLOPE, _LQR, np.zeros(4), 0.01, 0.001, _STILL, record_every=v)),
+    "simulate_planar_raw": ("record_every", 1, lambda v: twip._core.simulate_planar_raw(
+        _PLANAR, _PID, np.zeros(7), 0.01, 0.005, _LINE, record_every=v)),
+    "Dlpf.filter": ("segments", 0, lambda v: twip.Dlpf(100, 0.001).filter(np.zeros(5), [v])),
+}
+
+
+@pytest.mark.parametrize("value", NOT_INT, ids=repr)
+@pytest.mark.parametrize("call", INT_PARAMETERS, ids=str)
+def test_an_integer_parameter_refuses_a_bool(call, value):
+    arg, _, make = INT_PARAMETERS[call]
+    with pytest.raises(TypeError, match=r"^expected an integer, got the bool ") as e:
+        make(value)
+    assert str(value) in str(e.value)  # True: also inside np.True_
+    assert f"while processing '{arg}'" in getattr(e.value, "__notes__", []), "the traceback names the argument"
+
+
+@pytest.mark.parametrize("kind", [int, np.int64, np.uint32])
+@pytest.mark.parametrize("call", INT_PARAMETERS, ids=str)
+def test_an_integer_parameter_takes_an_int_or_a_numpy_integer(call, kind):
+    _, valid, make = INT_PARAMETERS[call]
+    make(kind(valid))
+
+
+@pytest.mark.parametrize("call", INT_PARAMETERS, ids=str)
+def test_an_integer_parameter_still_refuses_a_float(call):
+    _, valid, make = INT_PARAMETERS[call]
+    with pytest.raises(TypeError):
+        make(float(valid))
+
+
+@pytest.mark.parametrize("value", NOT_INT, ids=repr)
+def test_a_noise_or_sample_key_refuses_a_bool_naming_it(value):
+    """Seeds, streams and sample indices (read by name, in [0, 2**64)) refuse a bool in
+    their own words, as twip.montecarlo's seed does."""
+    for name, call in [
+        ("seed", lambda: twip.Realism(seed=value)),
+        ("stream", lambda: twip.Realism().replace(stream=value)),
+        ("seed", lambda: twip._core.sweep_noise_seed(value)),
+        ("index", lambda: twip._core.sweep_draw(_SLOPE, np.zeros(4), [], 0, value)),
+        ("count", lambda: twip._core.sweep_raw(_SLOPE, _LQR, np.zeros(4), 0.01, 0.001, _STILL, [], 0, 0, value)),
+        ("start", lambda: twip._core.sweep_planar_raw(_PLANAR, _PID, np.zeros(7), 0.01, 0.005, _LINE, [], 0, value, 1)),
+    ]:
+        with pytest.raises(twip.InvalidParameterError, match=rf"^invalid {name} = {re.escape(repr(value))}: must be an integer"):
+            call()
+    assert twip.Realism(seed=np.int64(3), stream=np.uint64(2**64 - 1)).seed == 3
+
+
+@pytest.mark.parametrize("value", NOT_INT, ids=repr)
+def test_python_entry_points_refuse_a_bool_count_or_seed(value):
+    sc = scenarios.get("flat-lqr-sim", t_final=0.2)
+    for name, call in [
+        ("n", lambda: twip.montecarlo(sc, value, progress=False)),
+        ("seed", lambda: twip.montecarlo(sc, 2, seed=value, progress=False)),
+        ("threads", lambda: twip.montecarlo(sc, 2, threads=value, progress=False)),
+        ("record_every", lambda: twip.simulate(_SLOPE, _LQR, np.zeros(4), 0.01, record_every=value)),
+    ]:
+        with pytest.raises(twip.InvalidParameterError, match=rf"^{name} = {re.escape(repr(value))}: "):
+            call()
+
+
+@pytest.mark.parametrize("vector", [False, True], ids=["BalanceEnv", "BalanceVectorEnv"])
+def test_an_env_refuses_a_bool_seed(vector):
+    """Gymnasium's own check takes True (an int) as a seed (it was seed 1); the envs refuse it."""
+    pytest.importorskip("gymnasium")
+    from twip.envs import BalanceEnv, BalanceVectorEnv
+
+    env = BalanceVectorEnv(2, max_episode_steps=5) if vector else BalanceEnv(max_episode_steps=5)
+    with pytest.raises(twip.InvalidParameterError, match=r"^seed = True: must be an integer in \[0, 2\*\*64\)"):
+        env.reset(seed=True)
+    env.reset(seed=7)
+    env.close()

@@ -80,6 +80,14 @@ def vector(name: str, value, n: int) -> np.ndarray:
     return v
 
 
+def seed(name: str, value) -> int:
+    """`value` as a seed (or a stream, a sample index): an integer in [0, 2**64) (a numpy
+    integer too; not a bool, which Python and the bindings would read as 0 or 1)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value < 2**64:
+        raise _core.InvalidParameterError(f"{name} = {value!r}: must be an integer in [0, 2**64)")
+    return int(value)
+
+
 def threads(value) -> Optional[int]:
     """`value` as a thread count: None (all cores) or an integer from 1 to MAX_THREADS
     (a numpy integer too; not a bool)."""

@@ -216,8 +216,7 @@ def montecarlo(
         raise _bad(f"on_error = {on_error!r}: must be one of {', '.join(map(repr, user_sweep.ON_ERROR))}")
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n <= 0:
         raise _bad(f"n = {n!r}: the number of samples must be a positive integer")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0 or seed >= 2**64:
-        raise _bad(f"seed = {seed!r}: must be an integer in [0, 2**64)")
+    checks.seed("seed", seed)
     threads = checks.threads(threads)
     if checkpoint is not None:  # before a shard size is read from it or the folder is made
         checkpoint = checkpoint_folder(checkpoint)

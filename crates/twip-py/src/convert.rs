@@ -45,9 +45,10 @@ impl<'py> FromPyObject<'_, 'py> for Real {
     }
 }
 
-/// What `obj` is when `float(obj)` would take it but it is no real number: a bool or a
-/// complex number, Python's or numpy's (a scalar or a 0-d array: np.bool_ and
-/// np.complex64 are no subclasses of Python's bool and complex, so their dtype tells).
+/// What `obj` is when `float(obj)` would take it but it is no real number (nor, for `Int`,
+/// an integer): a bool or a complex number, Python's or numpy's (a scalar or a 0-d array:
+/// np.bool_ and np.complex64 are no subclasses of Python's bool and complex, so their dtype
+/// tells).
 fn not_real(obj: &Bound<'_, PyAny>) -> Option<&'static str> {
     if obj.is_instance_of::<PyBool>() {
         Some("bool")
@@ -76,6 +77,39 @@ pub(crate) fn real(obj: &Bound<'_, PyAny>) -> PyResult<f64> {
 /// The floats of a `Vec<Real>` parameter.
 pub(crate) fn reals(values: Vec<Real>) -> Vec<f64> {
     values.into_iter().map(|r| r.0).collect()
+}
+
+/// An integer from Python: the type of every integer parameter of the bindings (`Int<usize>`,
+/// `Int<u64>`, `Option<Vec<Int<i64>>>`...). pyo3's own integers go through `__index__`, which
+/// reads a bool as 0 or 1; a bool (Python's or numpy's) is refused here with a TypeError
+/// naming the value, as `Real` refuses it (pyo3 adds the argument's name as a note). Anything
+/// else reads as `T` does: an int or a numpy integer (a float stays refused, by pyo3).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Int<T>(pub T);
+
+impl<'a, 'py, T: FromPyObject<'a, 'py>> FromPyObject<'a, 'py> for Int<T> {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        // An int (not a bool, a subclass) is the common case: nothing more to check.
+        if !obj.is_exact_instance_of::<PyInt>() {
+            if let Some(what) = not_real(&obj) {
+                return Err(PyTypeError::new_err(format!("expected an integer, got the {what} {}", obj.repr()?)));
+            }
+        }
+        obj.extract::<T>().map(Int).map_err(Into::into)
+    }
+}
+
+/// `obj` as an integer parameter, for `#[pyo3(from_py_with = int::<usize>)] n: usize`: the
+/// same as `Int`, for a parameter whose default is an integer literal (shown in the signature).
+pub(crate) fn int<'py, T: for<'a> FromPyObject<'a, 'py>>(obj: &Bound<'py, PyAny>) -> PyResult<T> {
+    obj.extract::<Int<T>>().map(|i| i.0)
+}
+
+/// The integers of a `Vec<Int<T>>` parameter.
+pub(crate) fn ints<T>(values: Vec<Int<T>>) -> Vec<T> {
+    values.into_iter().map(|i| i.0).collect()
 }
 
 /// `obj` as a numpy array of real numbers (int or float): anything else (a string, a

@@ -94,7 +94,7 @@ pub(crate) fn positive_param(name: &'static str, value: f64) -> CoreResult<f64> 
 /// An integer key (a seed, a stream, a sample index) in [0, 2**64), naming the argument
 /// and echoing what was given (pyo3's own error names neither).
 pub(crate) fn key(name: &'static str, v: &Bound<'_, PyAny>) -> PyResult<u64> {
-    v.extract::<u64>().map_err(|_| {
+    v.extract::<crate::convert::Int<u64>>().map(|k| k.0).map_err(|_| {
         let given = v.repr().map(|r| r.to_string()).unwrap_or_else(|_| "?".into());
         InvalidParameterError::new_err(format!("invalid {name} = {given}: must be an integer in [0, 2**64)"))
     })

@@ -92,7 +92,7 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
     validate = uncertainty.positive_int("validate", validate)
     for name, count in (("n", n), ("validate", validate)):  # before the search, not when that sweep comes
         check_samples_fit(f"tune: {name} = {count:,} robots", count, f"give a smaller {name}")
-    seed = uncertainty.seed_of("seed", seed)
+    seed = checks.seed("seed", seed)
     if realism is not None and not isinstance(realism, _core.Realism):
         raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
     if objective is not None and not callable(objective):

@@ -17,12 +17,6 @@ _bad = _core.InvalidParameterError
 FIT_REACH = 3.0
 
 
-def seed_of(name: str, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value < 2**64:
-        raise _bad(f"{name} = {value!r}: must be an integer in [0, 2**64)")
-    return int(value)
-
-
 def scipy_seed(seed: int) -> dict:
     """SciPy's seeding keyword (rng= since SciPy 1.15, seed= before it) with a fresh
     generator of `seed`: the same stream on either, for any seed below 2**64."""

@@ -68,7 +68,7 @@ class WorstCase:
         """The worst robot on `n` fresh noise seeds (sweep samples of another seed): a
         SweepResult whose fall rate says whether it falls on noise other than the search's."""
         n = uncertainty.positive_int("n", n)
-        seed = uncertainty.held_out_seed(self.seed) if seed is None else uncertainty.seed_of("seed", seed)
+        seed = uncertainty.held_out_seed(self.seed) if seed is None else checks.seed("seed", seed)
         return uncertainty.sweep(self.scenario, n, self._perturb(), seed, self.realism, None)
 
 
@@ -121,7 +121,7 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
     from scipy.optimize import differential_evolution
 
     budget = uncertainty.positive_int("budget", budget)
-    seed = uncertainty.seed_of("seed", seed)
+    seed = checks.seed("seed", seed)
     if realism is not None and not isinstance(realism, _core.Realism):
         raise _bad(f"realism = {realism!r}: must be a twip.Realism or None")
     checks.of_type("metric", metric, (str, type(None)), "a metric name or None")

@@ -203,12 +203,12 @@ def seeds_for(seed, n: int) -> list:
         base = int(np.random.SeedSequence().generate_state(1, np.uint64)[0]) >> 1
         return [base + i for i in range(n)]
     if isinstance(seed, (list, tuple, np.ndarray)):
-        seeds = [int(s) for s in seed]
+        seeds = [checks.seed(f"seed[{i}]", s) for i, s in enumerate(seed)]
         if len(seeds) != n:
             raise _bad(f"seed: a list of {len(seeds)} seeds for {n} envs")
     else:
-        seeds = [int(seed) + i for i in range(n)]
-    for s in seeds:
+        seeds = [checks.seed("seed", seed) + i for i in range(n)]
+    for s in seeds:  # the last lanes' seed + i may pass the last seed
         if not 0 <= s < 2 ** 64:
             raise _bad(f"seed = {s}: must be in 0..2**64")
     return seeds

@@ -6,7 +6,7 @@ use twip_core::sweep::{Nominal, Perturbation};
 
 use super::{batch_class, realism_for, rows, rows_array, NextStep, KEPT_REFRESH};
 
-use crate::convert::{vector, Real};
+use crate::convert::{int, ints, vector, Int, Real};
 use crate::errors::PyTwipError;
 use crate::hardware::realism::PyRealism;
 use crate::model::models::PySlopeModel;
@@ -27,14 +27,15 @@ impl PyBalanceBatch {
         model: &PySlopeModel,
         x0: &Bound<'_, PyAny>,
         perturbations: Vec<PerturbTuple>,
-        num_envs: usize,
+        num_envs: Int<usize>,
         dt: Real,
-        substeps: usize,
+        substeps: Int<usize>,
         fall_limit: Real,
         realism: Option<&PyRealism>,
-        threads: usize,
+        #[pyo3(from_py_with = int::<usize>)] threads: usize,
     ) -> PyResult<Self> {
         let (dt, fall_limit) = (dt.0, fall_limit.0);
+        let (num_envs, substeps) = (num_envs.0, substeps.0);
         no_friction_in_sweeps(model.inner.friction().is_some())?;
         let nominal = Nominal { params: *model.inner.params(), slope: model.inner.slope(), x0: vector::<4>("x0", x0)? };
         let perturbations = parse_perturbations(&perturbations, Perturbation::validate)?;
@@ -53,13 +54,13 @@ impl PyBalanceBatch {
         &mut self,
         py: Python<'py>,
         actions: PyReadonlyArray1<'py, f64>,
-        reset: Vec<usize>,
+        reset: Vec<Int<usize>>,
         weights: (Real, Real, Real, Real),
         speed_ref: Real,
         bound: Real,
     ) -> PyResult<NextStep<'py>> {
         let (Real(alive), Real(upright), Real(tracking), Real(effort)) = weights;
-        let (speed_ref, bound) = (speed_ref.0, bound.0);
+        let (speed_ref, bound, reset) = (speed_ref.0, bound.0, ints(reset));
         let weights = BalanceReward { alive, upright, tracking, effort, speed_ref };
         let n = self.hold_actions(actions)?;
         let (mut rewards, mut states) = (vec![0.0; n], vec![0.0; 4 * n]);

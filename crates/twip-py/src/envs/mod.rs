@@ -102,7 +102,13 @@ macro_rules! batch_class {
             /// Starts the next episode of each lane in `lanes`: with `seeds` (one per lane),
             /// episode 0 of that seed; else the lane's next episode.
             #[pyo3(signature = (lanes, seeds = None))]
-            fn reset(&mut self, py: Python<'_>, lanes: Vec<usize>, seeds: Option<Vec<u64>>) -> PyResult<()> {
+            fn reset(
+                &mut self,
+                py: Python<'_>,
+                lanes: Vec<$crate::convert::Int<usize>>,
+                seeds: Option<Vec<$crate::convert::Int<u64>>>,
+            ) -> PyResult<()> {
+                let (lanes, seeds) = ($crate::convert::ints(lanes), seeds.map($crate::convert::ints));
                 let inner = &mut self.inner;
                 let reset = $crate::envs::reset_lanes(py, &lanes, seeds, |lanes, seeds| inner.reset_many(lanes, seeds));
                 self.refresh_kept(&lanes, &reset);

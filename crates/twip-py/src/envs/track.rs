@@ -7,7 +7,7 @@ use twip_core::sweep::planar::validate;
 
 use super::{batch_class, filled_rows, realism_for, rows, rows_array, NextStep, KEPT_REFRESH};
 use crate::control::trajectory::trajectory;
-use crate::convert::Real;
+use crate::convert::{int, ints, Int, Real};
 use crate::errors::PyTwipError;
 use crate::hardware::realism::PyRealism;
 use crate::model::models::PyPlanarModel;
@@ -30,14 +30,15 @@ impl PyTrackBatch {
         path: &Bound<'_, PyAny>,
         x0: &Bound<'_, PyAny>,
         perturbations: Vec<PerturbTuple>,
-        num_envs: usize,
+        num_envs: Int<usize>,
         dt: Real,
-        substeps: usize,
+        substeps: Int<usize>,
         fall_limit: Real,
         realism: Option<&PyRealism>,
-        threads: usize,
+        #[pyo3(from_py_with = int::<usize>)] threads: usize,
     ) -> PyResult<Self> {
         let (dt, fall_limit) = (dt.0, fall_limit.0);
+        let (num_envs, substeps) = (num_envs.0, substeps.0);
         let path: Trajectory<f64> = trajectory(path)?;
         let nominal = nominal(model, x0)?;
         let perturbations = parse_perturbations(&perturbations, validate)?;
@@ -56,12 +57,12 @@ impl PyTrackBatch {
         &mut self,
         py: Python<'py>,
         actions: PyReadonlyArray1<'py, f64>,
-        reset: Vec<usize>,
+        reset: Vec<Int<usize>>,
         weights: (Real, Real, Real, Real, Real),
         bound: Real,
     ) -> PyResult<NextStep<'py>> {
         let (Real(alive), Real(upright), Real(tracking), Real(heading), Real(effort)) = weights;
-        let bound = bound.0;
+        let (bound, reset) = (bound.0, ints(reset));
         let weights = TrackReward { alive, upright, tracking, heading, effort };
         let n = self.hold_actions(actions)?;
         let (mut rewards, mut states, mut observations) = (vec![0.0; n], vec![0.0; 7 * n], vec![0.0; TRACK_OBS * n]);

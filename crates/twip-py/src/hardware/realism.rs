@@ -14,7 +14,7 @@ use twip_core::hardware::realism::Realism;
 use twip_core::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use twip_core::{RobotParams, TwipError};
 
-use crate::convert::{real, scalar, series, Real};
+use crate::convert::{ints, real, scalar, series, Int, Real};
 use crate::errors::{key, naming_argument, positive_param, CoreResult, InvalidParameterError, PyTwipError};
 use crate::model::params::PyRobotParams;
 use crate::settings::Reduced;
@@ -189,10 +189,10 @@ impl PyDlpf {
     /// `segments` (each segment's first sample: 0 first, increasing), each segment is
     /// filtered on its own, from the steady state of its own first sample.
     #[pyo3(signature = (x, segments = None))]
-    fn filter<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, segments: Option<Vec<i64>>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn filter<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, segments: Option<Vec<Int<i64>>>) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let x = series("x", x)?;
         let x = x.as_array();
-        let starts = segment_starts(segments.unwrap_or_else(|| vec![0]), x.len())?;
+        let starts = segment_starts(segments.map_or_else(|| vec![0], ints), x.len())?;
         let mut out = Vec::with_capacity(x.len());
         for (k, &start) in starts.iter().enumerate() {
             let end = starts.get(k + 1).copied().unwrap_or(x.len());

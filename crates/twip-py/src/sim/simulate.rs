@@ -10,7 +10,7 @@ use twip_core::hardware::realism::RIG_SIGNALS;
 use twip_core::control::reference::{SpeedRef, SpeedSchedule};
 use twip_core::sim::runner::{simulate_until, Outcome, SimConfig};
 
-use crate::convert::{vector, Real};
+use crate::convert::{int, vector, Real};
 use crate::sim::run_result::{run_dict, LogLayout};
 use crate::errors::{CoreResult, PyTwipError};
 use crate::control::fuzzy::PyFuzzyController;
@@ -105,7 +105,7 @@ pub fn simulate_raw<'py>(
     reference: &PySpeedSchedule,
     control_period: Option<Real>,
     fall_limit: Option<Real>,
-    record_every: usize,
+    #[pyo3(from_py_with = int::<usize>)] record_every: usize,
     realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (t_final, dt) = (t_final.0, dt.0);

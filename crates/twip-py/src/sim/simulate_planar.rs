@@ -10,7 +10,7 @@ use twip_core::control::smc::SmcTracker;
 use twip_core::sim::tracking_metrics::TrackingMetrics;
 use twip_core::control::trajectory::{PlanarRef, Trajectory};
 
-use crate::convert::{vector, Real};
+use crate::convert::{int, vector, Real};
 use crate::sim::run_result::{run_dict, LogLayout};
 use crate::errors::{invalid, PyTwipError};
 use crate::model::models::PyPlanarModel;
@@ -106,7 +106,7 @@ pub fn simulate_planar_raw<'py>(
     reference: &Bound<'py, PyAny>,
     control_period: Option<Real>,
     fall_limit: Option<Real>,
-    record_every: usize,
+    #[pyo3(from_py_with = int::<usize>)] record_every: usize,
     settle: Option<Real>,
     realism: Option<&crate::hardware::realism::PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {

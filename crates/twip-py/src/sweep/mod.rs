@@ -28,7 +28,7 @@ use twip_core::sweep::{
 };
 use twip_core::{RobotParams, TwipError};
 
-use crate::convert::{vector, Real};
+use crate::convert::{int, vector, Int, Real};
 use crate::errors::{key, InvalidParameterError, PyTwipError};
 use crate::model::params::params_dict;
 use crate::model::models::PySlopeModel;
@@ -38,7 +38,7 @@ use crate::sim::simulate::SlopeController;
 
 /// (target, index, kind, a, b, low, high): target "param" | "slope" | "heading" | "x0";
 /// kind "uniform" (a = low, b = high) | "normal" (a = mean, b = std, clamped to [low, high]).
-pub(crate) type PerturbTuple = (String, usize, String, Real, Real, Real, Real);
+pub(crate) type PerturbTuple = (String, Int<usize>, String, Real, Real, Real, Real);
 
 /// The perturbations, each checked by `validate` (the sweep family's own rules).
 pub(crate) fn parse_perturbations(
@@ -56,7 +56,7 @@ pub(crate) fn parse_perturbations(
 }
 
 fn perturbation(t: &PerturbTuple) -> Result<Perturbation, PyErr> {
-    let (target, index, kind, Real(a), Real(b), Real(low), Real(high)) = t;
+    let (target, Int(index), kind, Real(a), Real(b), Real(low), Real(high)) = t;
     let target = match target.as_str() {
         "param" => Target::Param(*index),
         "slope" => Target::Slope,
@@ -281,7 +281,7 @@ pub fn sweep_raw<'py>(
     start: &Bound<'py, PyAny>,
     count: &Bound<'py, PyAny>,
     control_period: Option<Real>,
-    threads: usize,
+    #[pyo3(from_py_with = int::<usize>)] threads: usize,
     progress: Option<Py<PyAny>>,
     realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {

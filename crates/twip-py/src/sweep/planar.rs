@@ -17,7 +17,7 @@ use twip_core::sweep::rig::for_sweep;
 
 use crate::hardware::realism::PyRealism;
 
-use crate::convert::{vector, Real};
+use crate::convert::{int, vector, Real};
 use crate::errors::{key, PyTwipError};
 use crate::model::params::params_dict;
 use crate::model::models::PyPlanarModel;
@@ -78,7 +78,7 @@ pub fn sweep_planar_raw<'py>(
     start: &Bound<'py, PyAny>,
     count: &Bound<'py, PyAny>,
     control_period: Option<Real>,
-    threads: usize,
+    #[pyo3(from_py_with = int::<usize>)] threads: usize,
     progress: Option<Py<PyAny>>,
     realism: Option<&PyRealism>,
 ) -> PyResult<Bound<'py, PyDict>> {
