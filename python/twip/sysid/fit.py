@@ -21,6 +21,12 @@ UNDETERMINED = 1e-8
 #: without information held at their start values: about none, for a parameter the
 #: prediction does not depend on.
 HELD_COST = 1.0
+#: A positive parameter fitted more than this factor away from its start (|d| > ln of it, the
+#: value being start*exp(d)) is no physical answer: starts are what one knows of the robot, off
+#: by tens of percent, not by orders of magnitude. Seen: 8 free parameters, mu_bearing and
+#: i_wheels sunk 1800x and 27000x towards zero in a local minimum, "converged" with deviations
+#: of 1e-8 of their values.
+MOVED = 100.0
 #: A 95 % interval wider than this fraction of its value either side is worth a line in the
 #: summary, with the run that would narrow it (issue 61's goal at 1 kHz is 1.5 %).
 WIDE = 0.015
@@ -91,6 +97,15 @@ class Fit:
         self.friction = model.friction
         self.converged = solution.converged
         self.message = solution.message
+        far = [f"{u.name} {'rose' if d > 0 else 'fell'} {math.exp(abs(d)):.3g}x (to {self.values[u.name]:.3g})"
+               for u, d in zip(problem.unknowns, delta) if u.positive and abs(d) > math.log(MOVED)]
+        if far:
+            # Not an answer to claim an interval for: a local minimum, or more free parameters
+            # than the log tells apart.
+            self.converged = False
+            self.message = (f"{', '.join(far)} from the start, beyond {MOVED:g}x: no physical value; a local "
+                            "minimum or more free parameters than the log tells apart. Free fewer parameters or "
+                            f"start them closer to the robot (the search: {self.message})")
         self.iterations = solution.iterations
         #: The sensor offsets estimated beside the parameters (gyro [rad/s], accel_x [m/s^2]).
         self.offsets: Dict[str, float] = dict(zip(problem.biased, map(float, solution.biases)))
