@@ -12,6 +12,7 @@ from scipy import stats
 from twip import checks
 from twip.sysid import misfit, spread
 from twip.sysid.estimator import Estimator, Problem, Solution
+from twip.sysid.problem import ENC_SPAN
 from twip.sysid.log import RunLog
 
 #: Smallest eigenvalue of the normalised information matrix below which a combination of
@@ -133,6 +134,15 @@ class Fit:
         if self.converged and solution.spread is not None:
             # ... and the parameters the residuals spread wider than the noise would.
             self.misfits += spread.check(self.names, solution.spread)
+        #: What the fit left out of the log, and why (the summary's NOTE lines).
+        self.notes: List[str] = []
+        if problem.still:
+            self.notes.append(
+                f"enc: left out in {problem.still} of {len(problem.ranges)} segments, where the wheels turned less "
+                f"than {ENC_SPAN} counts: there the encoder's rounding follows the motion rather than being noise, "
+                "and biased mu_bearing by up to +22 % on a robot balancing in place. The intervals are without "
+                "those rows; to use them, drive the robot (twip.sysid.speed_steps, twip.sysid.Dithered) or log "
+                "a finer encoder")
         #: Why the answer may be far off: the misfits, and a fit that did not converge. Empty
         #: when the fit converged and the model explains the log.
         self.warnings: List[str] = list(self.misfits)
@@ -162,6 +172,7 @@ class Fit:
         lines.append(("converged: " if self.converged else "NOT CONVERGED: ") + self.message)
         lines.extend(f"assumed {k}: {v}" for k, v in self.assumed.items())
         lines.extend(str(u) for u in self.undetermined)
+        lines.extend("NOTE: " + n for n in self.notes)
         lines.extend(self.wide())
         lines.extend("MISFIT: " + w for w in self.misfits)
         return "\n".join(lines)
