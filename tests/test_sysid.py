@@ -428,6 +428,9 @@ def test_bad_input_is_named(tmp_path):
     # A complex column is refused, not cast to its real parts with only a ComplexWarning.
     with pytest.raises(LogError, match=r"^theta\[9\] = \(1\+2j\): not a real number \(got complex\)$"):
         RunLog(t, u=z, theta=np.where(np.arange(len(t)) == 9, 1 + 2j, 0j))
+    # A t in ms was refused later as "4000 segments ... each needs 8 samples", naming no unit.
+    with pytest.raises(LogError, match=r"^t: the median interval is 1 s .*in milliseconds\? .*scale=\{'t': 'ms'\}"):
+        RunLog(t * 1000, u=z)
     log = RunLog(t, u=z, phi=z)
     with pytest.raises(LogError, match="'gyro' was asked for but the log has no 'gyro' column"):
         identify(log, twip.RobotParams.balanbot(), ["m_body"], signals=["gyro"])

@@ -18,6 +18,9 @@ G_LIKE = 3.0
 #: (within this factor) is a gyro in deg/s. Wide: the accelerometer's pitch carries the wheels'
 #: acceleration too (measured on rig logs of a 40 mm-wheeled robot: 0.45-2.6 for a gyro in rad/s).
 DEG_RATIO_BAND = 5.0
+#: A median interval of t at least this long [s] is t in milliseconds: a balancing robot is
+#: logged every few ms (a 12 s log in ms was refused as "12000 segments", naming no unit).
+MS_STEP = 0.5
 
 
 def problems(t: np.ndarray, columns: Dict[str, np.ndarray]) -> Optional[str]:
@@ -25,6 +28,10 @@ def problems(t: np.ndarray, columns: Dict[str, np.ndarray]) -> Optional[str]:
     steps = np.diff(t)
     if len(steps) > 2:
         typical = float(np.median(steps))
+        if typical >= MS_STEP:
+            return (f"t: the median interval is {typical:.4g} s (t = {float(t[0])!r}, {float(t[1])!r}, "
+                    f"{float(t[2])!r}, ...): in milliseconds? a balancing robot is logged every few ms; give "
+                    "scale={'t': 'ms'} (--scale t=ms)")
         gaps = np.flatnonzero(steps > DROPOUT_STEPS * typical)
         if len(gaps):
             i = int(gaps[0])
