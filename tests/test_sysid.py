@@ -261,6 +261,10 @@ def test_a_run_that_never_tilts_cannot_give_the_bodys_inertia():
     assert all(math.isinf(fit.std[n]) for n in flagged)
     assert fit.values["i_body"] == twip.RobotParams.balanbot().i_body  # left where it was
     assert "speed trip" in fit.summary()
+    # No interval takes in an error of what was held (a held i_wheels 1.3x off moved m_body and
+    # com_height 40 deviations): the summary says so, and what the flat split leans on.
+    assert "intervals assume exact: the held parameters and the declared rig" in fit.summary()
+    assert "held i_wheels and m_wheels" in fit.summary()
 
 
 def test_a_combination_the_log_cannot_split_is_named():
