@@ -128,7 +128,7 @@ def test_c2d_accepts_a_1d_b_and_names_bad_input():
 
 
 def test_not_stabilizable():
-    with pytest.raises(twip.NotStabilizableError):
+    with pytest.raises(twip.NotStabilizableError, match="mode at λ = 2 is unstable"):
         twip.dare(np.diag([2.0, 0.5]), [0.0, 1.0], np.eye(2), 1.0)
 
 

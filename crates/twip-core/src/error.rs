@@ -14,10 +14,12 @@ pub enum TwipError {
     NoEquilibrium { reason: &'static str, value: f64 },
     /// A mass matrix that should be positive definite is singular.
     SingularMassMatrix { det: f64 },
-    /// The (A, B) pair cannot be stabilised by state feedback.
-    NotStabilizable,
-    /// The (A, Q) pair (Q ⪰ 0) has an unobservable mode on the imaginary axis.
-    NotDetectable,
+    /// The (A, B) pair cannot be stabilised by state feedback: A's mode at `eigenvalue`
+    /// (real and imaginary parts) is unstable and no input reaches it.
+    NotStabilizable { eigenvalue: (f64, f64) },
+    /// The (A, Q) pair (Q ⪰ 0) has an unobservable mode on the stability boundary, at
+    /// `eigenvalue` (real and imaginary parts).
+    NotDetectable { eigenvalue: (f64, f64) },
     /// The CARE has no stabilising solution (its Hamiltonian has imaginary-axis eigenvalues).
     NoStabilizingSolution,
     /// An iterative method stopped at its cap without converging.
@@ -49,6 +51,20 @@ impl fmt::Display for Readable {
     }
 }
 
+/// An eigenvalue (re, im) as a message gives it: `λ = 1.5`, `λ = 0.2 ± 3i` (the pair).
+struct Eigenvalue((f64, f64));
+
+impl fmt::Display for Eigenvalue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (re, im) = self.0;
+        if im == 0.0 {
+            write!(f, "λ = {}", Readable(re))
+        } else {
+            write!(f, "λ = {} ± {}i", Readable(re), Readable(im.abs()))
+        }
+    }
+}
+
 impl fmt::Display for TwipError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -69,13 +85,17 @@ impl fmt::Display for TwipError {
             TwipError::SingularMassMatrix { det } => {
                 write!(f, "mass matrix is singular (determinant {})", Readable(*det))
             }
-            TwipError::NotStabilizable => {
-                write!(f, "the pair (A, B) is not stabilizable: no gain can stabilise it")
-            }
-            TwipError::NotDetectable => write!(
+            TwipError::NotStabilizable { eigenvalue } => write!(
                 f,
-                "the pair (A, Q) is not detectable: an undamped mode of A is invisible to the cost, \
-                 so no stabilising solution exists"
+                "the pair (A, B) is not stabilizable: A's mode at {} is unstable and no input reaches \
+                 it, so no gain can stabilise it",
+                Eigenvalue(*eigenvalue)
+            ),
+            TwipError::NotDetectable { eigenvalue } => write!(
+                f,
+                "the pair (A, Q) is not detectable: A's undamped mode at {} is invisible to the cost, \
+                 so no stabilising solution exists",
+                Eigenvalue(*eigenvalue)
             ),
             TwipError::NoStabilizingSolution => write!(
                 f,
