@@ -556,3 +556,25 @@ def test_compare_names_laps():
     for laps in ("2", True):
         with pytest.raises(TypeError, match="laps must be a real number"):
             tracking.compare(laps=laps, trackers=("circle-pid",))
+
+
+def test_the_joint_search_finds_an_additive_responses_extremes_with_an_alternative():
+    """The search's guarantee: for a number linear in each range (in `Span.unit`) plus any
+    effect per alternative, the fit is exact and its corners are the exact low and high, for
+    every seed. The fit once left the alternatives out and missed them in about half."""
+    import itertools
+
+    from twip.report.joint import Among, Span, search
+
+    box = {"a": Span(1.0, 4.0, 2.0, log=True), "b": Span(0.0, 1.0, 0.5), "p": Span(0.002, 0.01, 0.005, step=0.001),
+           "c": Among(("x", "y", "z"))}
+    effect = {"x": 0.0, "y": 6.0, "z": -4.0}
+
+    def number(v):
+        return 5.0 * box["a"].unit(v["a"]) - 1.0 * v["b"] + 2.0 * box["p"].unit(v["p"]) + effect[v["c"]]
+
+    corners = [dict(zip(box, c)) for c in itertools.product(*(s.ends() for s in box.values()))]
+    lo, hi = min(map(number, corners)), max(map(number, corners))
+    for seed in range(100):
+        entry = search(box, lambda v: {"n": (number(v), True)}, ("n",), 8, seed=seed)["n"]
+        assert (entry["low"], entry["high"]) == (pytest.approx(lo, abs=1e-3), pytest.approx(hi, abs=1e-3)), seed

@@ -52,9 +52,6 @@ class Among:
     def default(self) -> str:
         return self.labels[0]
 
-    def unit(self, x: str) -> float:
-        return 0.0
-
     def at(self, u: float) -> str:
         return self.labels[min(int(u * len(self.labels)), len(self.labels) - 1)]
 
@@ -91,9 +88,9 @@ def search(box: Box, evaluate: Callable[[dict], Outcome], claims: Sequence[str],
     """{claim: sensitivity entry} over the joint `box`: `evaluate(values)` runs one point and
     gives each claim's (number, holds) (number None: the run fell). The share that holds is
     over the default and the `n` sampled points. With `extremes`, each claim's worst and best
-    case is searched at the corner a linear fit of the sample points to (each range at the
-    end the fit's slope favours, each alternative the one with the lowest or highest mean):
-    the low and the high are over every run."""
+    case is searched at the corner a linear fit of the sample points to (`_corner`: each
+    range at the end the fit's slope favours, each alternative the one with the lowest or
+    highest fitted effect): the low and the high are over every run."""
     cache: Dict[tuple, Outcome] = {}
     runs: List[Tuple[dict, Outcome, str]] = []
 
@@ -126,22 +123,28 @@ def search(box: Box, evaluate: Callable[[dict], Outcome], claims: Sequence[str],
 
 def _corner(box: Box, points: List[Tuple[dict, float]], sign: float) -> Optional[dict]:
     """The corner of `box` where a linear fit (numpy.linalg.lstsq) of the sampled `points`
-    (values, number) is lowest (`sign` 1) or highest (-1); an alternative choice goes to the
-    one whose sampled runs have the lowest (highest) mean. None with too few points."""
+    (values, number) is lowest (`sign` 1) or highest (-1): each range at the end its slope
+    favours, each alternative the sampled one with the lowest (highest) fitted effect (one
+    0/1 term per alternative but the default, so the ranges' slopes are not confounded with
+    them). A number linear in each range's `unit` plus an effect per alternative is fitted
+    exactly when the points determine the fit (at least as many as its terms): the corners
+    are then its exact low and high. Fewer points: lstsq's minimum-norm fit, no guarantee.
+    None with too few points."""
     spans = [k for k, c in box.items() if isinstance(c, Span)]
     if len(points) < len(spans) + 2:
         return None
+    levels = [(k, label) for k, c in box.items() if isinstance(c, Among) for label in c.labels[1:]]
     y = np.array([float(number) for _, number in points])
-    a = np.array([[1.0] + [box[k].unit(values[k]) for k in spans] for values, _ in points])
-    slope = np.linalg.lstsq(a, y, rcond=None)[0][1:]
+    a = np.array([[1.0] + [box[k].unit(values[k]) for k in spans] + [float(values[k] == label) for k, label in levels]
+                  for values, _ in points])
+    coef = dict(zip(spans + levels, np.linalg.lstsq(a, y, rcond=None)[0][1:]))
     corner = {}
     for k, choice in box.items():
         if isinstance(choice, Span):
-            corner[k] = choice.low if sign * slope[spans.index(k)] > 0 else choice.high
+            corner[k] = choice.low if sign * coef[k] > 0 else choice.high
         else:
-            means = {label: np.mean([float(nm) for v, nm in points if v[k] == label]) for label in choice.labels
-                     if any(v[k] == label for v, _ in points)}
-            corner[k] = min(means, key=lambda label: sign * means[label])
+            seen = [label for label in choice.labels if any(v[k] == label for v, _ in points)]
+            corner[k] = min(seen, key=lambda label: sign * coef.get((k, label), 0.0))
     return corner
 
 

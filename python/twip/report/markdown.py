@@ -59,7 +59,7 @@ def render_markdown(report: dict) -> str:
                 "(twip/report/sensitivity.py says which ranges and why): twip's default run and a scrambled Sobol sample "
                 "of the box (*runs*), then a run at the corner of the box a linear fit of the sampled runs points to, "
                 "for the worst and for the best case (each range at the end the fit favours, each alternative the one "
-                "with the lowest or highest mean; *searched*). *low*/*high*: the "
+                "with the lowest or highest fitted effect; *searched*). *low*/*high*: the "
                 "range of ours over all of them; *holds*: the share of the sampled runs (the default counted) in which "
                 "the thesis's claim holds. Every run is in report.json (`detail`: its values, ours, holds). A settling "
                 "band is a run measured again. For the stops, *ours* is the largest distance of a stop from its goal "
