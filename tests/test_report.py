@@ -578,3 +578,22 @@ def test_the_joint_search_finds_an_additive_responses_extremes_with_an_alternati
     for seed in range(100):
         entry = search(box, lambda v: {"n": (number(v), True)}, ("n",), 8, seed=seed)["n"]
         assert (entry["low"], entry["high"]) == (pytest.approx(lo, abs=1e-3), pytest.approx(hi, abs=1e-3)), seed
+
+
+def test_a_joint_run_that_fell_is_counted_named_and_never_holds():
+    """A run that fell is a result: the entry counts it (`fell`, each marked in `detail`), the
+    report's row names its choices beside the low/high that leave it out, and it does not hold
+    even when `evaluate` says so (the low/high once dropped such runs silently)."""
+    from twip.report.joint import Span, search
+    from twip.report.markdown import _fell_cell
+
+    box = {"a": Span(0.0, 1.0, 0.5)}
+    entry = search(box, lambda v: {"n": (None if v["a"] > 0.7 else v["a"], True)}, ("n",), 8, seed=3)["n"]
+    fell = [d for d in entry["detail"] if d["ours"] is None]
+    assert fell and entry["fell"] == len(fell) and all(d["fell"] and not d["holds"] for d in fell)
+    sampled = [d for d in entry["detail"] if d["run"] != "search"]
+    assert entry["holds"] == pytest.approx(sum(d["ours"] is not None for d in sampled) / len(sampled), abs=1e-3)
+    assert entry["high"] <= 0.7
+    cell = _fell_cell(entry)
+    assert cell.startswith(f"{len(fell)} of {len(entry['detail'])}: a ") and ("sampled" in cell or "searched" in cell)
+    assert _fell_cell({"detail": [d for d in entry["detail"] if not d["fell"]]}) == "0"

@@ -86,18 +86,19 @@ def _key(values: dict) -> tuple:
 def search(box: Box, evaluate: Callable[[dict], Outcome], claims: Sequence[str], n: int, seed: int = 0,
            extremes: bool = True) -> Dict[str, dict]:
     """{claim: sensitivity entry} over the joint `box`: `evaluate(values)` runs one point and
-    gives each claim's (number, holds) (number None: the run fell). The share that holds is
-    over the default and the `n` sampled points. With `extremes`, each claim's worst and best
-    case is searched at the corner a linear fit of the sample points to (`_corner`: each
+    gives each claim's (number, holds) (number None: the run fell, and the claim does not
+    hold in it whatever `evaluate` says). The share that holds is over the default and the `n`
+    sampled points. With `extremes`, each claim's worst and best case is searched at the corner a linear fit of the sample points to (`_corner`: each
     range at the end the fit's slope favours, each alternative the one with the lowest or
-    highest fitted effect): the low and the high are over every run."""
+    highest fitted effect): the low and the high are over every run that has a number; `fell`
+    counts the runs that fell (each marked in `detail`), which the low and the high leave out."""
     cache: Dict[tuple, Outcome] = {}
     runs: List[Tuple[dict, Outcome, str]] = []
 
     def run(values: dict, kind: str) -> Outcome:
         key = _key(values)
         if key not in cache:
-            cache[key] = evaluate(values)
+            cache[key] = {k: (x, bool(ok) and x is not None) for k, (x, ok) in evaluate(values).items()}
             runs.append((values, cache[key], kind))
         return cache[key]
 
@@ -116,8 +117,10 @@ def search(box: Box, evaluate: Callable[[dict], Outcome], claims: Sequence[str],
         out[k] = {"choices": {name: choice.describe() for name, choice in box.items()},
                   "low": _ours(min(numbers)) if numbers else None, "high": _ours(max(numbers)) if numbers else None,
                   "holds": sig(share[k]), "runs": len(sampled), "searched": len(runs) - len(sampled),
+                  "fell": sum(o[k][0] is None for _, o, _ in runs),
                   "detail": [{"values": {n_: (sig(v) if isinstance(v, float) else v) for n_, v in values.items()},
-                              "ours": _ours(o[k][0]), "holds": bool(o[k][1]), "run": kind} for values, o, kind in runs]}
+                              "ours": _ours(o[k][0]), "holds": o[k][1], "run": kind, "fell": o[k][0] is None}
+                             for values, o, kind in runs]}
     return out
 
 

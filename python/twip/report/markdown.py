@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from typing import List
 
-from twip.report.claims import THESIS_TABLE_5_1, headline, summary, summary_line
+from twip.report.claims import THESIS_TABLE_5_1, _values_text, headline, summary, summary_line
 from twip.report.numbers import fix, fmt
 from twip.report.sensitivity import FUZZY_MARGIN
 from twip.report.sweeps import sweep_perturb_text
@@ -60,14 +60,15 @@ def render_markdown(report: dict) -> str:
                 "of the box (*runs*), then a run at the corner of the box a linear fit of the sampled runs points to, "
                 "for the worst and for the best case (each range at the end the fit favours, each alternative the one "
                 "with the lowest or highest fitted effect; *searched*). *low*/*high*: the "
-                "range of ours over all of them; *holds*: the share of the sampled runs (the default counted) in which "
-                "the thesis's claim holds. Every run is in report.json (`detail`: its values, ours, holds). A settling "
+                "range of ours over all of them that have a number; *fell*: the runs in which a robot fell, which have "
+                "none (low/high leave them out) and in which the claim does not hold; *holds*: the share of the sampled "
+                "runs (the default counted) in which the thesis's claim holds. Every run is in report.json (`detail`: its values, ours, holds). A settling "
                 "band is a run measured again. For the stops, *ours* is the largest distance of a stop from its goal "
                 f"[m]; for \"fuzzy better than LQR\", {FUZZY_MARGIN}.", ""]
-        out.append(md_table(["id", "choices (range)", "ours: low", "ours: high", "holds", "runs", "searched"],
+        out.append(md_table(["id", "choices (range)", "ours: low", "ours: high", "fell", "holds", "runs", "searched"],
                              [[c["id"], "; ".join(f"{k} {' – '.join(str(x) for x in v)}"
                                                   for k, v in c["sensitivity"]["choices"].items()),
-                               fmt(c["sensitivity"]["low"]), fmt(c["sensitivity"]["high"]),
+                               fmt(c["sensitivity"]["low"]), fmt(c["sensitivity"]["high"]), _fell_cell(c["sensitivity"]),
                                f"{100 * c['sensitivity']['holds']:.0f} %", str(c["sensitivity"]["runs"]),
                                str(c["sensitivity"].get("searched", 0))]
                               for c in sensitive]))
@@ -176,6 +177,17 @@ def render_markdown(report: dict) -> str:
     out.append(md_table(["scenario", "controller", "outcome", "metrics", "thesis"], rows))
     out += ["", "## Steps", "", md_table(["step", "seconds"], [[s["step"].strip(), f"{s['seconds']:.2f}"] for s in report["steps"]]), ""]
     return "\n".join(out)
+
+
+def _fell_cell(entry) -> str:
+    """A sensitivity row's runs that fell, which its low/high leave out: "1 of 12: loop period [s]
+    0.002, … (searched)", the first two named."""
+    fell = [d for d in entry["detail"] if d.get("fell")]
+    if not fell:
+        return "0"
+    kind = {"default": "twip's default", "sample": "sampled", "search": "searched"}
+    named = "; ".join(f"{_values_text(d['values'])} ({kind.get(d.get('run'), d.get('run'))})" for d in fell[:2])
+    return f"{len(fell)} of {len(entry['detail'])}: {named}" + (f" and {len(fell) - 2} more" if len(fell) > 2 else "")
 
 
 def _realism_claim_cell(claim) -> str:
