@@ -597,3 +597,27 @@ def test_a_joint_run_that_fell_is_counted_named_and_never_holds():
     cell = _fell_cell(entry)
     assert cell.startswith(f"{len(fell)} of {len(entry['detail'])}: a ") and ("sampled" in cell or "searched" in cell)
     assert _fell_cell({"detail": [d for d in entry["detail"] if not d["fell"]]}) == "0"
+
+
+def test_a_sensitivity_reason_tells_sampled_runs_from_searched_corners():
+    """"holds in 100 % of 9 runs …: it fails at …" was untrue when the failing run was a
+    searched corner outside the sample: the reason counts the sampled runs and names a
+    searched corner that turns the verdict as such."""
+    from twip.report.claims import with_sensitivity
+
+    def run(kind, holds, ours, a):
+        return {"values": {"a": a}, "ours": ours, "holds": holds, "run": kind, "fell": ours is None}
+
+    sampled = [run("default", True, 1.0, 0.5)] + [run("sample", True, 1.1, 0.1 * i) for i in range(8)]
+    entry = {"low": 1.0, "high": 1.2, "holds": 1.0, "runs": 9, "searched": 2,
+             "detail": sampled + [run("search", False, None, 1.0), run("search", True, 1.2, 0.0)]}
+    row = {"id": "x/y", "status": "reproduced", "unit": "deg", "reason": "inside the band"}
+    with_sensitivity([row], {"x/y": entry})
+    assert "holds in all 9 runs sampled jointly" in row["reason"], row["reason"]
+    assert row["reason"].endswith(", but it fails at the searched corner a 1 (fell)"), row["reason"]
+    # a sampled run that turns it is named as one, the searched corner after it
+    entry["detail"][3] = run("sample", False, 2.5, 0.3)
+    row = {"id": "x/y", "status": "reproduced", "unit": "deg", "reason": "inside the band"}
+    with_sensitivity([row], {"x/y": {**entry, "holds": 0.8889}})
+    assert "holds in 8 of the 9 runs" in row["reason"], row["reason"]
+    assert ": it fails at a 0.3 (2.5 deg); and at the searched corner a 1 (fell)" in row["reason"], row["reason"]

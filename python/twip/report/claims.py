@@ -576,8 +576,9 @@ def _values_text(values: dict) -> str:
 
 def _turning_runs(entry: dict, reproduced: bool, unit: str = "") -> str:
     """The runs of a sensitivity `entry` in which the verdict is not the row's: "; it fails at
-    k1 4, k_phi 1, … (2.72×)", the one furthest from the row's number first, or the range of
-    ours when no run turns it."""
+    k1 4, k_phi 1, … (2.72×)", the one furthest from the row's number first, the sampled runs
+    apart from the searched corners (which the share does not count), or the range of ours
+    when no run turns it."""
     detail = entry.get("detail", [])
     turning = [d for d in detail if d["holds"] != reproduced]
     if not turning:
@@ -586,12 +587,21 @@ def _turning_runs(entry: dict, reproduced: bool, unit: str = "") -> str:
     if default is not None:
         turning.sort(key=lambda d: math.inf if d["ours"] is None else -abs(float(d["ours"]) - float(default)))
     unit = f" {unit}" if unit and unit != "×" else unit
-    named = "; ".join(f"{_values_text(d['values'])} ({'fell' if d['ours'] is None else fmt(d['ours'])}"
-                      f"{'' if d['ours'] is None or isinstance(d['ours'], bool) else unit})" for d in turning[:_MAX_NAMED])
-    more = f" and {len(turning) - _MAX_NAMED} more run{'s' if len(turning) - _MAX_NAMED > 1 else ''}" if len(
-        turning) > _MAX_NAMED else ""
-    measure = f"; ours as {entry['measure']}" if "measure" in entry else ""
-    return f": it {'fails' if reproduced else 'holds'} at {named}{more}{measure}"
+
+    def named(runs):
+        text = "; ".join(f"{_values_text(d['values'])} ({'fell' if d['ours'] is None else fmt(d['ours'])}"
+                         f"{'' if d['ours'] is None or isinstance(d['ours'], bool) else unit})" for d in runs[:_MAX_NAMED])
+        more = len(runs) - _MAX_NAMED
+        return text + (f" and {more} more run{'s' if more > 1 else ''}" if more > 0 else "")
+
+    verb = "fails" if reproduced else "holds"
+    sampled = [d for d in turning if d.get("run") != "search"]
+    searched = [d for d in turning if d.get("run") == "search"]
+    text = f": it {verb} at {named(sampled)}" if sampled else ""
+    if searched:
+        corners = f"the searched corner{'s' if len(searched) > 1 else ''} {named(searched)}"
+        text += f"; and at {corners}" if sampled else f", but it {verb} at {corners}"
+    return text + (f"; ours as {entry['measure']}" if "measure" in entry else "")
 
 
 def with_sensitivity(claims: List[dict], table: dict) -> None:
@@ -607,8 +617,11 @@ def with_sensitivity(claims: List[dict], table: dict) -> None:
             continue
         reproduced = c["status"] == "reproduced"
         if any(d["holds"] != reproduced for d in entry.get("detail", [])):
-            c["reason"] += (f"; holds in {share:.0%} of {entry['runs']} runs sampled jointly over the choices the thesis "
-                            "does not give (the default counted)" + _turning_runs(entry, reproduced, c["unit"]))
+            n = entry["runs"]
+            held = round(share * n)
+            count = "all" if held == n else "none of the" if held == 0 else f"{held} of the"
+            c["reason"] += (f"; holds in {count} {n} runs sampled jointly over the choices the thesis does not give "
+                            "(the default counted)" + _turning_runs(entry, reproduced, c["unit"]))
 
 
 def table_5_2_claims(rows, thesis_rows) -> List[dict]:
