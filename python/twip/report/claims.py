@@ -570,7 +570,8 @@ def settles_about(thesis: float, ours: float) -> bool:
 _MAX_NAMED = 2
 
 
-def _values_text(values: dict) -> str:
+def values_text(values: dict) -> str:
+    """A run's choices as text: "k1 4, gearhead friction none" (reasons and report.md's fell column)."""
     return ", ".join(f"{k} {fmt(v)}" for k, v in values.items())
 
 
@@ -589,7 +590,7 @@ def _turning_runs(entry: dict, reproduced: bool, unit: str = "") -> str:
     unit = f" {unit}" if unit and unit != "×" else unit
 
     def named(runs):
-        text = "; ".join(f"{_values_text(d['values'])} ({'fell' if d['ours'] is None else fmt(d['ours'])}"
+        text = "; ".join(f"{values_text(d['values'])} ({'fell' if d['ours'] is None else fmt(d['ours'])}"
                          f"{'' if d['ours'] is None or isinstance(d['ours'], bool) else unit})" for d in runs[:_MAX_NAMED])
         more = len(runs) - _MAX_NAMED
         return text + (f" and {more} more run{'s' if more > 1 else ''}" if more > 0 else "")

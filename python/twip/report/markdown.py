@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from typing import List
 
-from twip.report.claims import THESIS_TABLE_5_1, _values_text, headline, summary, summary_line
+from twip.report.claims import THESIS_TABLE_5_1, values_text, headline, summary, summary_line
 from twip.report.numbers import fix, fmt
 from twip.report.sensitivity import FUZZY_MARGIN
 from twip.report.sweeps import sweep_perturb_text
@@ -186,7 +186,7 @@ def _fell_cell(entry) -> str:
     if not fell:
         return "0"
     kind = {"default": "twip's default", "sample": "sampled", "search": "searched"}
-    named = "; ".join(f"{_values_text(d['values'])} ({kind.get(d.get('run'), d.get('run'))})" for d in fell[:2])
+    named = "; ".join(f"{values_text(d['values'])} ({kind.get(d.get('run'), d.get('run'))})" for d in fell[:2])
     return f"{len(fell)} of {len(entry['detail'])}: {named}" + (f" and {len(fell) - 2} more" if len(fell) > 2 else "")
 
 
