@@ -878,7 +878,13 @@ FLOAT_PARAMETERS = {
 @pytest.mark.parametrize("call", FLOAT_PARAMETERS, ids=str)
 def test_a_float_parameter_refuses_a_complex_number_or_a_bool(call, value):
     arg, _, make = FLOAT_PARAMETERS[call]
-    with pytest.raises(TypeError, match=r"^expected a real number, got the (complex value|bool) ") as e:
+    refused_naming(make, value, arg, r"^expected a real number, got the (complex value|bool) ")
+
+
+def refused_naming(make, value, arg: str, message: str):
+    """`make(value)` raises a TypeError whose message matches `message` and shows the value, and
+    whose traceback names the argument `arg` (pyo3's note)."""
+    with pytest.raises(TypeError, match=message) as e:
         make(value)
     assert str(value) in str(e.value)  # (1+1j), True: also inside np.complex64(1+1j), np.True_
     assert f"while processing '{arg}'" in getattr(e.value, "__notes__", []), "the traceback names the argument"
@@ -987,10 +993,7 @@ INT_PARAMETERS = {
 @pytest.mark.parametrize("call", INT_PARAMETERS, ids=str)
 def test_an_integer_parameter_refuses_a_bool(call, value):
     arg, _, make = INT_PARAMETERS[call]
-    with pytest.raises(TypeError, match=r"^expected an integer, got the bool ") as e:
-        make(value)
-    assert str(value) in str(e.value)  # True: also inside np.True_
-    assert f"while processing '{arg}'" in getattr(e.value, "__notes__", []), "the traceback names the argument"
+    refused_naming(make, value, arg, r"^expected an integer, got the bool ")
 
 
 @pytest.mark.parametrize("kind", [int, np.int64, np.uint32])
