@@ -294,7 +294,8 @@ typedef struct {
 #define TWIP_ERR_NOT_INITIALISED -4
 
 // A controller update with finite inputs whose command or carried state (integrator,
-// adaptive weights) came out NaN or infinite, as a finite but absurd reading (a sensor
+// adaptive weights) came out NaN or infinite (likewise a tilt filter's estimate or state,
+// an encoder read's speed), as a finite but absurd reading (a sensor
 // glitch near f32's limit, 3e38) makes it: refused, with the state unchanged (as before the call) and
 // the outputs untouched, so the next ordinary update answers as if this one never happened.
 #define TWIP_ERR_OVERFLOW -5
@@ -413,8 +414,10 @@ TwipStatus twip_tilt_init(TwipTilt *state, const TwipTiltConfig *config);
 
 // One estimator step: the accelerometer tilt [rad] and gyroscope rate [rad/s], `dt` [s]
 // after the previous step; `angle` and `rate` receive the estimated pitch and pitch rate.
-// TWIP_ERR_NOT_FINITE for a NaN or infinite input, TWIP_ERR_INVALID for `dt` < 0; the
-// outputs are then untouched.
+// TWIP_ERR_NOT_FINITE for a NaN or infinite input, TWIP_ERR_INVALID for `dt` < 0,
+// TWIP_ERR_OVERFLOW when finite inputs (a gyro glitch of 3e38, a huge `dt`) make the
+// estimate or the filter's state NaN or infinite: the state is then as before the call.
+// On any error the outputs are untouched.
 //
 // # Safety
 // Pointers are NULL or valid.
@@ -440,7 +443,9 @@ TwipStatus twip_encoder_init(TwipEncoder *state, float counts_per_revolution);
 // last_hw = hw;` at every read (more often than every 2^15 counts): passed as it is, its
 // wrap from 65535 to 0 reads as a jump of 65535 counts. The angle is `count` × 2π/CPR
 // in f32, so it wraps with the counter and its step grows past 2^24 counts.
-// TWIP_ERR_NOT_FINITE for a NaN or infinite `dt`, TWIP_ERR_INVALID for `dt` < 0.
+// TWIP_ERR_NOT_FINITE for a NaN or infinite `dt`, TWIP_ERR_INVALID for `dt` < 0,
+// TWIP_ERR_OVERFLOW when the speed is infinite (a tiny `dt`, 1e-40): the previous count is
+// kept, so the next read's speed spans both periods. On any error the outputs are untouched.
 //
 // # Safety
 // Pointers are NULL or valid.

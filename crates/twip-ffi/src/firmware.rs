@@ -8,7 +8,7 @@ use twip_core::hardware::tilt::{accel_tilt, TiltEstimator, TiltFilter};
 use crate::config::{narrow, TwipMotor};
 use crate::controllers::init;
 use crate::slot::{self, fits};
-use crate::{TwipStatus, TWIP_ERR_INVALID, TWIP_ERR_NOT_FINITE, TWIP_ERR_NULL, TWIP_OK};
+use crate::{TwipStatus, TWIP_ERR_INVALID, TWIP_ERR_NOT_FINITE, TWIP_ERR_NULL, TWIP_ERR_OVERFLOW, TWIP_OK};
 
 pub const TWIP_TILT_WORDS: usize = 8;
 pub const TWIP_ENCODER_WORDS: usize = 4;
@@ -126,8 +126,10 @@ pub unsafe extern "C" fn twip_tilt_init(state: *mut TwipTilt, config: *const Twi
 
 /// One estimator step: the accelerometer tilt [rad] and gyroscope rate [rad/s], `dt` [s]
 /// after the previous step; `angle` and `rate` receive the estimated pitch and pitch rate.
-/// TWIP_ERR_NOT_FINITE for a NaN or infinite input, TWIP_ERR_INVALID for `dt` < 0; the
-/// outputs are then untouched.
+/// TWIP_ERR_NOT_FINITE for a NaN or infinite input, TWIP_ERR_INVALID for `dt` < 0,
+/// TWIP_ERR_OVERFLOW when finite inputs (a gyro glitch of 3e38, a huge `dt`) make the
+/// estimate or the filter's state NaN or infinite: the state is then as before the call.
+/// On any error the outputs are untouched.
 ///
 /// # Safety
 /// Pointers are NULL or valid.
@@ -153,7 +155,14 @@ pub unsafe extern "C" fn twip_tilt_update(
     if let Err(status) = check_dt(dt) {
         return status;
     }
+    // Finite inputs can still overflow (a gyro glitch of 3e38, a huge dt): kept, an
+    // infinite angle or NaN covariance would poison every later update.
+    let before = *filter;
     let (a, r) = filter.update(tilt, gyro_rate, dt);
+    if !(a.is_finite() && r.is_finite() && filter.state_is_finite()) {
+        *filter = before;
+        return TWIP_ERR_OVERFLOW;
+    }
     angle.write(a);
     rate.write(r);
     TWIP_OK
@@ -177,7 +186,9 @@ pub unsafe extern "C" fn twip_encoder_init(state: *mut TwipEncoder, counts_per_r
 /// last_hw = hw;` at every read (more often than every 2^15 counts): passed as it is, its
 /// wrap from 65535 to 0 reads as a jump of 65535 counts. The angle is `count` × 2π/CPR
 /// in f32, so it wraps with the counter and its step grows past 2^24 counts.
-/// TWIP_ERR_NOT_FINITE for a NaN or infinite `dt`, TWIP_ERR_INVALID for `dt` < 0.
+/// TWIP_ERR_NOT_FINITE for a NaN or infinite `dt`, TWIP_ERR_INVALID for `dt` < 0,
+/// TWIP_ERR_OVERFLOW when the speed is infinite (a tiny `dt`, 1e-40): the previous count is
+/// kept, so the next read's speed spans both periods. On any error the outputs are untouched.
 ///
 /// # Safety
 /// Pointers are NULL or valid.
@@ -203,6 +214,10 @@ pub unsafe extern "C" fn twip_encoder_read(
         Some(last) if dt > 0.0 => reader.encoder.speed_of(count.wrapping_sub(last) as f32, dt),
         _ => 0.0,
     };
+    // A tiny dt (1e-40) makes the speed infinite: refused before the last count is kept.
+    if !speed_now.is_finite() {
+        return TWIP_ERR_OVERFLOW;
+    }
     reader.last = Some(count);
     angle.write(count as f32 * reader.encoder.resolution());
     speed.write(speed_now);

@@ -8,7 +8,8 @@
 //!   (`twip export` writes them in firmware units, each converted next to its value).
 //! - No panic crosses the boundary: every function returns a [`TwipStatus`] code, checks its
 //!   pointers, and refuses a state that was not initialised or a non-finite input. A
-//!   controller update that overflows is refused too, and leaves the state as it was.
+//!   controller or tilt update, or an encoder read, that overflows is refused too, and leaves
+//!   the state as it was.
 //!
 //! The header `include/twip.h` is generated from these declarations by cbindgen and kept
 //! in the repository; `tests/header.rs` fails when the two differ.
@@ -42,7 +43,8 @@ pub const TWIP_ERR_NOT_FINITE: TwipStatus = -3;
 /// The state was not initialised by its `twip_X_init` (or its init failed).
 pub const TWIP_ERR_NOT_INITIALISED: TwipStatus = -4;
 /// A controller update with finite inputs whose command or carried state (integrator,
-/// adaptive weights) came out NaN or infinite, as a finite but absurd reading (a sensor
+/// adaptive weights) came out NaN or infinite (likewise a tilt filter's estimate or state,
+/// an encoder read's speed), as a finite but absurd reading (a sensor
 /// glitch near f32's limit, 3e38) makes it: refused, with the state unchanged (as before the call) and
 /// the outputs untouched, so the next ordinary update answers as if this one never happened.
 pub const TWIP_ERR_OVERFLOW: TwipStatus = -5;

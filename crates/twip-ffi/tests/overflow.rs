@@ -113,3 +113,67 @@ fn the_overflow_code_has_its_text() {
     let text = unsafe { core::ffi::CStr::from_ptr(twip_status_text(TWIP_ERR_OVERFLOW)) };
     assert!(text.to_str().unwrap().contains("unchanged"), "{text:?}");
 }
+
+/// 300 ordinary tilt updates, with each of `glitches` (tilt, gyro, dt) tried after the
+/// first: each must be refused with the state's words unchanged and no output written.
+fn tilt_run(config: &TwipTiltConfig, glitches: &[(f32, f32, f32)]) -> Vec<(f32, f32)> {
+    let mut state = TwipTilt { words: [0; TWIP_TILT_WORDS] };
+    assert_eq!(unsafe { twip_tilt_init(&mut state, config) }, TWIP_OK);
+    let mut out = Vec::new();
+    for k in 0..300 {
+        if k == 1 {
+            for &(tilt, gyro, dt) in glitches {
+                let before = state.words;
+                let (mut a, mut r) = (123.0f32, 123.0f32);
+                let status = unsafe { twip_tilt_update(&mut state, tilt, gyro, dt, &mut a, &mut r) };
+                assert_eq!(status, TWIP_ERR_OVERFLOW, "kind {}, glitch {tilt:e} {gyro:e} {dt:e}", config.kind);
+                assert_eq!(state.words, before, "the state is as before, bit for bit");
+                assert_eq!((a, r), (123.0, 123.0), "a refused update writes no output");
+            }
+        }
+        let (mut a, mut r) = (0.0f32, 0.0f32);
+        assert_eq!(unsafe { twip_tilt_update(&mut state, 0.05, 0.01, PERIOD, &mut a, &mut r) }, TWIP_OK);
+        out.push((a, r));
+    }
+    out
+}
+
+#[test]
+fn a_tilt_update_that_would_overflow_is_refused() {
+    let complementary = TwipTiltConfig { kind: 0, time_constant: 1.0, ..Default::default() };
+    let kalman = TwipTiltConfig { kind: 1, q_angle: 1e-3, q_bias: 3e-3, r_angle: 3e-2, ..Default::default() };
+    // A gyro glitch of 3e38 over dt = 2 s takes the angle to ±inf (one of 1 s gives a
+    // finite 1.5e38, taken as it is, and the next such glitch the infinity); a huge dt
+    // makes the Kalman covariance (dt² p11) overflow.
+    let glitches = [(0.05, 3e38, 2.0), (0.05, -3e38, 2.0), (0.05, 0.0, 1e20), (0.05, f32::MAX, 1e15)];
+    for config in [complementary, kalman] {
+        let expected = tilt_run(&config, &[]);
+        assert!(expected.iter().all(|(a, r)| a.is_finite() && r.is_finite()));
+        let glitches: &[_] = if config.kind == 0 { &glitches[..2] } else { &glitches };
+        assert_eq!(tilt_run(&config, glitches), expected, "kind {}: the later updates are as without the glitch", config.kind);
+    }
+}
+
+#[test]
+fn an_encoder_speed_that_would_overflow_is_refused() {
+    let read = |glitch: bool| {
+        let mut enc = TwipEncoder { words: [0; TWIP_ENCODER_WORDS] };
+        assert_eq!(unsafe { twip_encoder_init(&mut enc, 700.0) }, TWIP_OK);
+        let mut out = Vec::new();
+        for k in 0..10 {
+            if glitch && k == 2 {
+                // A subnormal dt: 1000 counts over 1e-40 s is an infinite speed.
+                let before = enc.words;
+                let (mut a, mut s) = (123.0f32, 123.0f32);
+                assert_eq!(unsafe { twip_encoder_read(&mut enc, 1000, 1e-40, &mut a, &mut s) }, TWIP_ERR_OVERFLOW);
+                assert_eq!(enc.words, before, "the last count is kept, bit for bit");
+                assert_eq!((a, s), (123.0, 123.0), "a refused read writes no output");
+            }
+            let (mut a, mut s) = (0.0f32, 0.0f32);
+            assert_eq!(unsafe { twip_encoder_read(&mut enc, 7 * k, PERIOD, &mut a, &mut s) }, TWIP_OK);
+            out.push((a, s));
+        }
+        out
+    };
+    assert_eq!(read(true), read(false));
+}

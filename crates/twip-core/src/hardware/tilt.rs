@@ -84,6 +84,13 @@ impl<T: Real> TiltFilter<T> {
         self.bias
     }
 
+    /// Whether the angle, bias and covariance it carries to its next update are finite (the
+    /// C ABI undoes an update that overflowed them).
+    pub fn state_is_finite(&self) -> bool {
+        let [[p00, p01], [p10, p11]] = self.p;
+        [self.angle, self.bias, p00, p01, p10, p11].iter().all(|v| v.is_finite())
+    }
+
     /// (φ̂, φ̂̇) after the accelerometer tilt `tilt` and the gyroscope rate `rate`, `dt`
     /// after the previous update.
     pub fn update(&mut self, tilt: T, rate: T, dt: T) -> (T, T) {
