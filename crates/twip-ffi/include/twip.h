@@ -328,6 +328,8 @@ TwipStatus twip_lqr_init(TwipLqr *state, const TwipLqrConfig *config);
 // TWIP_OK, TWIP_ERR_NULL, TWIP_ERR_NOT_INITIALISED, TWIP_ERR_NOT_FINITE (a NaN or infinite
 // input) or TWIP_ERR_OVERFLOW (finite inputs, but the command or the integrator came out
 // NaN or infinite: the state is unchanged). `u` is written only with TWIP_OK.
+// The time `t` [s] is checked (NaN or infinite: TWIP_ERR_NOT_FINITE) but not otherwise
+// used: the integrators step by the configuration's `period`, so call it at that period.
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above.
@@ -348,7 +350,8 @@ TwipStatus twip_lqr_reset(TwipLqr *state);
 TwipStatus twip_fuzzy_init(TwipFuzzy *state, const TwipFuzzyConfig *config);
 
 // One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]).
-// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
+// `t` and statuses as [`twip_lqr_update`]'s (`t` unused but checked; TWIP_ERR_OVERFLOW:
+// the state is unchanged).
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above.
@@ -369,7 +372,8 @@ TwipStatus twip_fuzzy_reset(TwipFuzzy *state);
 TwipStatus twip_pid_init(TwipPid *state, const TwipPidConfig *config);
 
 // One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
-// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
+// `t` and statuses as [`twip_lqr_update`]'s (`t` unused but checked; TWIP_ERR_OVERFLOW:
+// the state is unchanged).
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above.
@@ -390,7 +394,8 @@ TwipStatus twip_pid_reset(TwipPid *state);
 TwipStatus twip_smc_init(TwipSmc *state, const TwipSmcConfig *config);
 
 // One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
-// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
+// `t` and statuses as [`twip_lqr_update`]'s (`t` unused but checked; TWIP_ERR_OVERFLOW:
+// the state is unchanged).
 //
 // # Safety
 // Pointers are NULL or valid for the sizes above.

@@ -255,6 +255,8 @@ pub unsafe extern "C" fn twip_lqr_init(state: *mut TwipLqr, config: *const TwipL
 /// TWIP_OK, TWIP_ERR_NULL, TWIP_ERR_NOT_INITIALISED, TWIP_ERR_NOT_FINITE (a NaN or infinite
 /// input) or TWIP_ERR_OVERFLOW (finite inputs, but the command or the integrator came out
 /// NaN or infinite: the state is unchanged). `u` is written only with TWIP_OK.
+/// The time `t` [s] is checked (NaN or infinite: TWIP_ERR_NOT_FINITE) but not otherwise
+/// used: the integrators step by the configuration's `period`, so call it at that period.
 ///
 /// # Safety
 /// Pointers are NULL or valid for the sizes above.
@@ -286,7 +288,8 @@ pub unsafe extern "C" fn twip_fuzzy_init(state: *mut TwipFuzzy, config: *const T
 }
 
 /// One update: `y` holds 4 floats, `u` receives 1 (the lumped motor current [A]).
-/// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
+/// `t` and statuses as [`twip_lqr_update`]'s (`t` unused but checked; TWIP_ERR_OVERFLOW:
+/// the state is unchanged).
 ///
 /// # Safety
 /// Pointers are NULL or valid for the sizes above.
@@ -318,7 +321,8 @@ pub unsafe extern "C" fn twip_pid_init(state: *mut TwipPid, config: *const TwipP
 }
 
 /// One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
-/// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
+/// `t` and statuses as [`twip_lqr_update`]'s (`t` unused but checked; TWIP_ERR_OVERFLOW:
+/// the state is unchanged).
 ///
 /// # Safety
 /// Pointers are NULL or valid for the sizes above.
@@ -350,7 +354,8 @@ pub unsafe extern "C" fn twip_smc_init(state: *mut TwipSmc, config: *const TwipS
 }
 
 /// One update: `y` holds 7 floats, `u` receives 2 (right and left wheel torques [N m]).
-/// Statuses as [`twip_lqr_update`]'s (TWIP_ERR_OVERFLOW: the state is unchanged).
+/// `t` and statuses as [`twip_lqr_update`]'s (`t` unused but checked; TWIP_ERR_OVERFLOW:
+/// the state is unchanged).
 ///
 /// # Safety
 /// Pointers are NULL or valid for the sizes above.

@@ -40,6 +40,30 @@ fn update_answers_what_the_core_controller_answers() {
 }
 
 #[test]
+fn t_is_checked_but_unused_as_the_header_says() {
+    // The integrator steps by the configured period whatever `t` says: a firmware on
+    // another clock gets the same commands, so the header must say to call at the period.
+    let config = lqr_config();
+    let (mut a, mut b) = (new_lqr(), new_lqr());
+    unsafe { (twip_lqr_init(&mut a, &config), twip_lqr_init(&mut b, &config)) };
+    let r = TwipSpeedRef { theta: 0.0, theta_dot: 1.0 };
+    for k in 0..20 {
+        let y = [0.05f32, 0.0, 0.01 * k as f32, 0.0];
+        let (mut ua, mut ub) = ([0.0f32], [0.0f32]);
+        unsafe {
+            twip_lqr_update(&mut a, k as f32 * 0.005, y.as_ptr(), &r, ua.as_mut_ptr());
+            twip_lqr_update(&mut b, k as f32 * 0.01 + 123.0, y.as_ptr(), &r, ub.as_mut_ptr());
+        }
+        assert_eq!(ua, ub, "update {k}");
+    }
+    // The comment just above twip_lqr_update's declaration says so.
+    let header = include_str!("../include/twip.h");
+    let end = header.find("TwipStatus twip_lqr_update(").unwrap();
+    let comment = &header[header[..end].rfind("\n\n").unwrap()..end];
+    assert!(comment.contains("not otherwise") && comment.contains("`period`"), "{comment}");
+}
+
+#[test]
 fn reset_returns_to_the_first_answer() {
     let config = lqr_config();
     let mut state = new_lqr();
