@@ -75,6 +75,22 @@ def test_firmware_units_write_each_conversion_beside_its_value(tmp_path):
     assert shown * 180 / np.pi == pytest.approx(sc.controller.gains[0], rel=1e-6)
 
 
+def test_the_sliding_mode_gains_are_counted_on_the_trackers_own_motor(tmp_path):
+    # Thesis and errata T7: k_s3 = -2 PWM counts of the tracker's motor (11.1 V), not of the
+    # feed-forward driver's (9.1 V here), which would show -2.44.
+    export("circle-smc-fuzzy", tmp_path, replay_seconds=1.0)
+    c = (tmp_path / "twip_config.c").read_text()
+    h = (tmp_path / "twip_config.h").read_text()
+    # (The literal is the f32 SI value over the f64 factor: -1.99999988f.)
+    for name, counts in (("k_s3", -2), ("k_s4", -1), ("g_y4", 1)):
+        line = re.search(rf"\.{name} = (-?[0-9.]+)f \* TWIP_TRACKER_NM_PER_PWM,  /\* (.*) \*/", c)
+        assert line and float(line.group(1)) == pytest.approx(counts, rel=1e-6), name
+        assert line.group(2) == f"{counts} PWM counts of the tracker's motor", name
+    own = _core.DcMotor.gb37y3530().torque_per_count()
+    shown = float(re.search(r"#define TWIP_TRACKER_NM_PER_PWM ([0-9.e+-]+)f", h).group(1))
+    assert shown == pytest.approx(own, rel=1e-6) and "11.1 V" in h
+
+
 def test_si_units_write_plain_si(tmp_path):
     export("flat-lqr", tmp_path, units_="si", replay_seconds=1.0)
     c = (tmp_path / "twip_config.c").read_text()

@@ -261,6 +261,17 @@ def _sensors_of(robot, units_: str):
     return sensors
 
 
+def _tracker_factor(fam, config: dict, driver):
+    """(N m per PWM count, derivation) of the motor the sliding-mode gains are counted on:
+    the tracker's own (`has_motor`), else the feed-forward driver's; None for other families."""
+    if fam.name != "smc":
+        return None
+    own = bool(config["has_motor"])
+    m = _core.DcMotor.from_dict(config["motor"]) if own else driver
+    whose = "the tracker's own motor" if own else "the PWM driver's motor (the tracker has none)"
+    return m.torque_per_count(), f"TWIP_NM_PER_PWM of {whose}, at {m.supply:g} V"
+
+
 def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: float = REPLAY_SECONDS,
            source_dir: Optional[str] = None, force: bool = False) -> dict:
     """Writes the folder `out` for scenario `scenario` (a name or a Scenario) on `robot`
@@ -306,7 +317,8 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
     pwm = header.decode(layout, "TwipPwmConfig", parts[fam.pwm])
     period = config["period"]
     motor = _core.DcMotor.from_dict(pwm["motor"])
-    table = units.factors(parts["encoder_cpr"] or sensors.encoder_cpr, period, motor.torque_per_count())
+    table = units.factors(parts["encoder_cpr"] or sensors.encoder_cpr, period, motor.torque_per_count(),
+                          _tracker_factor(fam, config, motor))
     p = sc.model.params
     h, c = _config_files(fam, config, tilt, pwm, table, units_ == "firmware", layout, (p.wheel_radius, p.half_track),
                          period, sensors)

@@ -25,9 +25,12 @@ class Factor:
     how: str
 
 
-def factors(encoder_cpr: float, period: float, nm_per_pwm: Optional[float]) -> Dict[str, Factor]:
+def factors(encoder_cpr: float, period: float, nm_per_pwm: Optional[float],
+            tracker: Optional[Tuple[float, str]] = None) -> Dict[str, Factor]:
     """The conversion macros for an encoder of `encoder_cpr` counts per wheel turn, a loop
-    of `period` [s] and a motor whose stall torque is `nm_per_pwm` [N m] per PWM count."""
+    of `period` [s] and a motor whose stall torque is `nm_per_pwm` [N m] per PWM count;
+    `tracker` is (N m per PWM count, derivation) of the motor the sliding-mode gains are
+    counted on, which may not be the feed-forward driver's."""
     counts_per_rad = encoder_cpr / (2 * math.pi)
     out = [
         Factor("TWIP_RAD_PER_DEG", math.pi / 180, "pi / 180"),
@@ -40,6 +43,8 @@ def factors(encoder_cpr: float, period: float, nm_per_pwm: Optional[float]) -> D
     if nm_per_pwm is not None:
         out.append(Factor("TWIP_NM_PER_PWM", nm_per_pwm,
                           "stall torque of one PWM count at the wheel: gear_ratio k_t (supply / pwm_max) / R"))
+    if tracker is not None:
+        out.append(Factor("TWIP_TRACKER_NM_PER_PWM", *tracker))
     return {f.name: f for f in out}
 
 
@@ -57,7 +62,8 @@ RULES: Tuple[Tuple[str, Tuple[str, ...], str, str, str], ...] = (
     (r"(yaw|pitch)_sets\[0\]\[\d\]\.p\[\d\]", ("smc",), "rad", "deg of pitch", "TWIP_RAD_PER_DEG"),
     (r"pitch_sets\[1\]\[\d\]\.p\[\d\]", ("smc",), "rad/s", "deg/s of pitch rate", "TWIP_RAD_PER_DEG"),
     (r"yaw_sets\[1\]\[\d\]\.p\[\d\]", ("smc",), "rad/s", "deg/s of yaw rate", "TWIP_RAD_PER_DEG"),
-    (r"k_s3|k_s4|g_y4", ("smc",), "N m", "PWM counts", "TWIP_NM_PER_PWM"),
+    # Counted on the tracker's own motor (thesis: k_s3 = -2 counts at 11.1 V).
+    (r"k_s3|k_s4|g_y4", ("smc",), "N m", "PWM counts of the tracker's motor", "TWIP_TRACKER_NM_PER_PWM"),
 )
 
 #: SI units of the values left in SI, for the comment beside them.
