@@ -162,11 +162,15 @@ pub(crate) fn check_pbh<T: Real>(
     // does not change) so that no norm overflows or underflows.
     // (A, B) stabilizable: rank [A − λI, B] = n; no undamped mode invisible to Q:
     // rank [Aᵀ − λI, Q] = n on the boundary.
-    // Each test's error, for the mode λ it finds (an eigenvalue of A: Ã is similar to it).
-    let stabilizable = |l: (f64, f64)| TwipError::NotStabilizable { eigenvalue: l };
-    let detectable = |l: (f64, f64)| TwipError::NotDetectable { eigenvalue: l };
-    let tests: [(&DMatrix<T>, bool, &dyn Fn((f64, f64)) -> TwipError); 2] = [(&b, false, &stabilizable), (&q, true, &detectable)];
-    for (other, transpose, error) in tests {
+    // Each test's error names the mode λ it finds (an eigenvalue of A: Ã is similar to it).
+    let error = |transpose: bool, eigenvalue: (f64, f64)| {
+        if transpose {
+            TwipError::NotDetectable { eigenvalue }
+        } else {
+            TwipError::NotStabilizable { eigenvalue }
+        }
+    };
+    for (other, transpose) in [(&b, false), (&q, true)] {
         if transpose && !weight.q_psd {
             continue;
         }
@@ -186,7 +190,7 @@ pub(crate) fn check_pbh<T: Real>(
                 continue;
             }
             if rank_deficient(&a, &other, lambda.scale(f), tol) {
-                return Err(error((to_f64(lambda.re), to_f64(lambda.im))));
+                return Err(error(transpose, (to_f64(lambda.re), to_f64(lambda.im))));
             }
         }
     }
