@@ -152,7 +152,12 @@ test-python: build
 # test` alone 546 s (pytest 156 s). Forty-first: one of 263550f, 576 s (pytest 167 s); one of
 # 98809de (the input checks, 190 more Python tests), 602 s (pytest 1623 passed, 167 s); one of
 # e4174d0, 634 s (pytest 1625 passed, 187 s); after the review's mends, one of 5270522, 673 s
-# (pytest 184 s). What was tried for the wheel is in Cargo.toml; built at
+# (pytest 184 s). Forty-second (the numeric audits' fixes, 470 more Python tests): one of fef686e,
+# `make test` alone 823 s (the wheel ready after ~680 s beside the Rust tests, whose lib suite ran
+# 175 s; pytest 2101 passed, 237 s); another, `make demo` 454 s, then `make test` 483 s (pytest
+# 399 s beside the Rust tests). Not this session's code: `cargo build --release -p twip-py --lib`
+# from an empty target folder, nothing beside it, took 362 s at 12e7628 and 365 s at fef686e
+# (the thirty-ninth session's `make demo` of 304 s held the whole wheel). What was tried for the wheel is in Cargo.toml; built at
 # opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than the whole of
 # test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
