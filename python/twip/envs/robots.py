@@ -4,6 +4,7 @@ the checks on actions and seeds, and the error of a closed env. The robots move 
 here everything is arrays over the N robots."""
 from __future__ import annotations
 
+import itertools
 import types
 from typing import Mapping, Optional
 
@@ -125,22 +126,76 @@ class Settings:
     def check_draws(self):
         """Refuses a perturbation one of whose draws the model refuses, here rather than at
         some later reset (each batch's autoreset would raise it again): each end of its reach,
-        the other quantities nominal. An initial-state entry takes any (finite) value."""
+        the other quantities nominal; then every corner of the perturbations' joint reach, since
+        a draw combines them and the model checks fields against each other (the rotor's
+        reflected inertia against the rest of the robot's: each alone valid, together not).
+        Those checks are monotone in each field, so a combination they refuse is refused at a
+        corner. An initial-state entry takes any (finite) value."""
         fields = list(_core.RobotParams.fields)
+        ends, normal = {}, set()
         for kind, index, *spread in self.perturbations:
             if kind == "x0":
                 continue
             name = fields[index] if kind == "param" else kind
-            for end in reach(*spread):
-                try:
-                    if kind == "param":
-                        self.model_on(self.params.replace(**{name: end}))
-                    else:
-                        self.model_on(self.params, end)
-                except _core.TwipError as e:
-                    clamp = (f" (checked {CHECKED_REACH:g} std from a Normal's mean: clamp it with low=/high=)"
-                             if spread[0] == "normal" else "")
-                    raise _bad(f"perturb[{name!r}]: {e}: a draw can reach it{clamp}") from None
+            ends[name] = reach(*spread)
+            if spread[0] == "normal":
+                normal.add(name)
+            for end in ends[name]:
+                error = self.refusal({name: end})
+                if error is not None:
+                    raise _bad(f"perturb[{name!r}]: {error}: a draw can reach it{_clamp_hint([name], normal)}")
+        if len(ends) >= 2:
+            key = (type(self), tuple(self.params.to_dict().items()), getattr(self, "slope", None),
+                   tuple(self.perturbations))
+            if key not in _COMBINATIONS_TAKEN:
+                self.check_corners(ends, normal)
+                if len(_COMBINATIONS_TAKEN) >= 1024:
+                    _COMBINATIONS_TAKEN.clear()
+                _COMBINATIONS_TAKEN.add(key)
+
+    def check_corners(self, ends: Mapping[str, tuple], normal: set):
+        """Every corner of the joint reach `ends` ({name: (low end, high end)}), walked in Gray
+        code order (one quantity changes from corner to corner: 2**17 corners take ~0.3 s)."""
+        names = list(ends)
+        corner = [0] * len(names)
+        values = {n: ends[n][0] for n in names}
+        params, slope, flipped = self.params, values.get("slope"), {n: v for n, v in values.items() if n != "slope"}
+        for i in range(1, 2 ** len(names) + 1):
+            try:  # `replace` checks the fields too: the first refusal ends the walk
+                params = params.replace(**flipped)
+                self.model_on(params, slope)
+            except _core.TwipError:
+                self.refuse_corner(values, normal)
+            if i == 2 ** len(names):
+                return
+            j = (i & -i).bit_length() - 1  # the bit Gray code flips
+            corner[j] ^= 1
+            name = names[j]
+            values[name] = ends[name][corner[j]]
+            slope, flipped = (values[name], {}) if name == "slope" else (slope, {name: values[name]})
+
+    def refuse_corner(self, values: Mapping[str, float], normal: set):
+        """The named error for a corner the model refuses, naming the perturbations it
+        needs (each put back to nominal in turn, and left so when still refused)."""
+        values = dict(values)
+        for name in list(values):
+            fewer = {k: v for k, v in values.items() if k != name}
+            if self.refusal(fewer) is not None:
+                values = fewer
+        at = ", ".join(f"{k} = {v:g}" for k, v in values.items())
+        raise _bad(f"perturb: {', '.join(repr(k) for k in values)} together can reach a robot the model refuses "
+                   f"(at {at}, the rest nominal: {self.refusal(values)}), though each alone is valid: narrow their "
+                   f"ranges{_clamp_hint(list(values), normal)}")
+
+    def refusal(self, values: Mapping[str, float]) -> Optional[str]:
+        """The model's error for the nominal robot and slope but `values` ({field or 'slope':
+        value}), or None when it takes them."""
+        fields = {k: v for k, v in values.items() if k != "slope"}
+        try:
+            self.model_on(self.params.replace(**fields) if fields else self.params, values.get("slope"))
+        except _core.TwipError as e:
+            return str(e)
+        return None
 
     def model_input_bound(self, per_motor_current: float) -> float:
         raise NotImplementedError
@@ -155,6 +210,17 @@ class Settings:
 #: draw in 5e8: checking to 8.57 refused Normal(rel=0.15) on a mass, a common randomisation.
 #: A rarer draw the model refuses fails its own reset, by name.
 CHECKED_REACH = 6.0
+
+
+#: The settings' perturbations whose joint reach the model took (`Settings.check_corners`):
+#: the vector envs of Gymnasium's SyncVectorEnv make the same settings over and over.
+_COMBINATIONS_TAKEN: set = set()
+
+
+def _clamp_hint(names, normal) -> str:
+    clamped = [n for n in names if n in normal]
+    return (f" (checked {CHECKED_REACH:g} std from a Normal's mean: clamp {', '.join(clamped)} with low=/high=)"
+            if clamped else "")
 
 
 def reach(spread: str, a: float, b: float, low: float, high: float):
