@@ -60,6 +60,24 @@ def test_perturbations_valid_alone_but_not_together_are_refused_when_made():
         env.reset(seed=seed)
 
 
+@pytest.mark.parametrize("make", [envs.BalanceVectorEnv, envs.TrackVectorEnv])
+def test_num_envs_is_checked_against_the_memory_budget_before_the_batch_is_made(make):
+    # Unchecked, a million robots through the rig (~14 kB each) aborted the interpreter
+    # under a 3 GB limit ("memory allocation of 81792 bytes failed"); 2**24, which the core
+    # takes, is 230 GB.
+    twip.set_memory_budget(1 << 20)
+    try:
+        with pytest.raises(twip.MemoryBudgetError, match=r"num_envs = 100 robots \(through a rig, ~16 KiB each\)"):
+            make(num_envs=100, realism=twip.Realism.thesis_like())
+        make(num_envs=100)  # 200 KiB on the ideal plant
+        with pytest.raises(twip.MemoryBudgetError, match=r"num_envs = 1,000 robots \(ideal plant"):
+            make(num_envs=1000)
+    finally:
+        twip.set_memory_budget(None)
+    with pytest.raises(twip.InvalidParameterError, match=r"num_envs = 16777217: at most 16777216"):
+        make(num_envs=2 ** 24 + 1)
+
+
 def test_a_refused_step_moves_no_step_count():
     v = envs.BalanceVectorEnv(num_envs=2)
     v.reset(seed=0)

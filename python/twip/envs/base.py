@@ -22,7 +22,7 @@ class Episodes:
 
     def __init__(self, settings, num_envs: int):
         self.settings = settings
-        self.n = num_envs_checked(num_envs)
+        self.n = num_envs_checked(num_envs, rig=settings.realism is not None)
         self.batch = settings.batch(self.n)
         self.steps = np.zeros(self.n, dtype=np.int64)
         self.closed = False
