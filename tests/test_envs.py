@@ -114,6 +114,28 @@ def test_a_lane_is_twip_simulate_with_the_same_inputs(realism):
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-10)
 
 
+def test_reset_takes_a_seed_per_lane_as_gymnasiums_sync_vector_env_does():
+    # A list of seeds (None: that lane's stream goes on) raised gymnasium.error.Error.
+    kw = dict(max_episode_steps=30, perturb=PERTURB)
+    vec = envs.BalanceVectorEnv(num_envs=4, **kw)
+    sync = gymnasium.vector.SyncVectorEnv([lambda: envs.BalanceEnv(**kw) for _ in range(4)])
+    rng = np.random.default_rng(0)
+    for seed in (5, [7, None, 2, None], (1, 2, 3, 4), [None, None, 0, 2**64 - 1]):
+        obs, _ = vec.reset(seed=seed)
+        assert np.array_equal(obs, sync.reset(seed=list(seed) if isinstance(seed, tuple) else seed)[0])
+        for _ in range(40):
+            a = rng.uniform(-4.0, 4.0, (4, 1))
+            for got, want in zip(vec.step(a)[:4], sync.step(a)[:4]):
+                assert np.array_equal(got, want)
+    assert np.array_equal(vec.reset(seed=np.array([1, 2, 3, 4]))[0], vec.reset(seed=[1, 2, 3, 4])[0])
+    with pytest.raises(twip.InvalidParameterError, match=r"seed: a list of 3 seeds for 4 envs"):
+        vec.reset(seed=[1, 2, 3])
+    with pytest.raises(twip.InvalidParameterError, match=r"seed\[1\] = -1"):
+        vec.reset(seed=[1, -1, 3, 4])
+    with pytest.raises(twip.InvalidParameterError, match=r"the last lane's seed, seed \+ 3, passes 2\*\*64 - 1"):
+        vec.reset(seed=2**64 - 2)
+
+
 def test_seeds_give_the_same_bits_on_any_thread_count():
     def rollout(threads):
         env = envs.BalanceVectorEnv(num_envs=50, realism=RIG, perturb=PERTURB, threads=threads, max_episode_steps=30)

@@ -32,9 +32,15 @@ class Episodes:
             raise ClosedEnvError("the env is closed: make a new one to step or reset")
 
     def reset(self, lanes: np.ndarray, seeds=None):
+        """Starts lanes `lanes` (indices or a mask) anew: with `seeds` (one per lane; None for
+        a lane whose stream goes on) episode 0 of its seed, else each lane's next episode."""
         self.check_open()
-        lanes = np.flatnonzero(lanes) if lanes.dtype == np.bool_ else lanes
-        self.batch.reset([int(i) for i in lanes], seeds)
+        lanes = [int(i) for i in (np.flatnonzero(lanes) if lanes.dtype == np.bool_ else lanes)]
+        if seeds is None or None not in seeds:
+            self.batch.reset(lanes, seeds)
+        else:
+            self.batch.reset([i for i, s in zip(lanes, seeds) if s is not None], [s for s in seeds if s is not None])
+            self.batch.reset([i for i, s in zip(lanes, seeds) if s is None])
         self.steps[lanes] = 0
 
     def step(self, actions):
@@ -116,7 +122,8 @@ class BatchVectorEnv(VectorEnv):
         return self.single_class(**self.settings.kwargs)
 
     def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
+        # Gymnasium's VectorEnv seeds its own np_random from an int only; a list seeds lanes.
+        super().reset(seed=None if isinstance(seed, (list, tuple, np.ndarray)) else seed)
         self._episodes.check_open()
         checks.of_type("options", {} if options is None else options, Mapping, "a dict or None")
         mask = np.ones(self.num_envs, dtype=np.bool_)
@@ -128,7 +135,10 @@ class BatchVectorEnv(VectorEnv):
                            f"{type(mask).__name__} of shape {shape}")
         seeds = None
         if seed is not None or not self._seeded:
-            seeds = [s for s, m in zip(seeds_for(seed, self.num_envs), mask) if m]
+            lane_seeds = seeds_for(seed, self.num_envs)
+            if not self._seeded:  # a lane not started yet has no stream to go on: a fresh seed
+                lane_seeds = [f if s is None else s for s, f in zip(lane_seeds, seeds_for(None, self.num_envs))]
+            seeds = [s for s, m in zip(lane_seeds, mask) if m]
             self._seeded = True
         self._episodes.reset(mask, seeds)
         self._done[mask] = False

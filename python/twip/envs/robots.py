@@ -282,17 +282,16 @@ def check_actions(actions, n: int, width: int, bound: float) -> np.ndarray:
 
 
 def seeds_for(seed, n: int) -> list:
-    """Gymnasium's convention: an int seeds lane i with seed + i, a list one per lane."""
+    """Gymnasium's convention: None draws fresh seeds, an int seeds lane i with seed + i, a
+    list (tuple, array) one per lane, where None is a lane whose stream goes on."""
     if seed is None:
         base = int(np.random.SeedSequence().generate_state(1, np.uint64)[0]) >> 1
         return [base + i for i in range(n)]
     if isinstance(seed, (list, tuple, np.ndarray)):
-        seeds = [checks.seed(f"seed[{i}]", s) for i, s in enumerate(seed)]
-        if len(seeds) != n:
-            raise _bad(f"seed: a list of {len(seeds)} seeds for {n} envs")
-    else:
-        seeds = [checks.seed("seed", seed) + i for i in range(n)]
-    for s in seeds:  # the last lanes' seed + i may pass the last seed
-        if not 0 <= s < 2 ** 64:
-            raise _bad(f"seed = {s}: must be in 0..2**64")
-    return seeds
+        if len(seed) != n:
+            raise _bad(f"seed: a list of {len(seed)} seeds for {n} envs")
+        return [None if s is None else checks.seed(f"seed[{i}]", s) for i, s in enumerate(seed)]
+    first = checks.seed("seed", seed)
+    if first + n - 1 >= 2 ** 64:  # lane i's seed is seed + i
+        raise _bad(f"seed = {first}: the last lane's seed, seed + {n - 1}, passes 2**64 - 1")
+    return [first + i for i in range(n)]
