@@ -200,6 +200,18 @@ def test_registered_through_the_module_entry_point():
     assert isinstance(env.unwrapped, envs.BalanceEnv)
 
 
+def test_render_mode_none_is_taken_and_any_other_refused_by_name():
+    # render_mode=None, which RL tools pass to make(), was a TypeError from make_model().
+    for env in (gymnasium.make("twip/Balance-v0", render_mode=None), gymnasium.make("twip/Track-v0", render_mode=None),
+                gymnasium.make_vec("twip/Balance-v0", num_envs=2, vectorization_mode="vector_entry_point", render_mode=None),
+                gymnasium.make_vec("twip/Track-v0", num_envs=2, vectorization_mode="sync", render_mode=None)):
+        assert env.render_mode is None
+        env.reset(seed=0)
+    for make in (envs.BalanceEnv, envs.TrackEnv, envs.BalanceVectorEnv, envs.TrackVectorEnv):
+        with pytest.raises(twip.InvalidParameterError, match=r"render_mode = 'human': twip's envs render nothing"):
+            make(render_mode="human")
+
+
 def test_a_linear_policy_runs_through_twip_simulate_as_on_the_env():
     """LinearPolicy hands twip.simulate the current the firmware turns into the policy's
     duty: through the rig with its driver, the run is the env's lane to rounding."""

@@ -17,6 +17,15 @@ from twip._core import InvalidParameterError
 from twip.envs.robots import ClosedEnvError, check_actions, num_envs_checked, seeds_for
 
 
+def render_mode_checked(render_mode):
+    """None, the one render mode (Gymnasium's `make` and `make_vec` hand it to every env they
+    make), or a named error: the robots render nothing."""
+    if render_mode is not None:
+        raise InvalidParameterError(f"render_mode = {render_mode!r}: twip's envs render nothing "
+                                    "(metadata['render_modes'] is empty); use None")
+    return None
+
+
 class Episodes:
     """The batch, the step counts and the closed flag of N robots."""
 
@@ -64,7 +73,8 @@ class SingleEnv(gymnasium.Env):
     metadata = {"render_modes": []}
     settings_class = None
 
-    def __init__(self, **kwargs):
+    def __init__(self, render_mode=None, **kwargs):
+        self.render_mode = render_mode_checked(render_mode)
         self.settings = self.settings_class(**kwargs)
         self.observation_space = self.settings.single_observation_space
         self.action_space = self.settings.single_action_space
@@ -101,7 +111,8 @@ class BatchVectorEnv(VectorEnv):
     settings_class = None
     single_class = None
 
-    def __init__(self, num_envs: int = 1, autoreset_mode=AutoresetMode.NEXT_STEP, **kwargs):
+    def __init__(self, num_envs: int = 1, autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None, **kwargs):
+        self.render_mode = render_mode_checked(render_mode)
         self.settings = self.settings_class(**kwargs)
         try:
             mode = AutoresetMode(autoreset_mode)
