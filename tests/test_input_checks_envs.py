@@ -130,10 +130,25 @@ def test_a_ragged_action_is_a_shape_error():
 
 
 @pytest.mark.parametrize("options", ["reset_mask", ["x"]])
-def test_reset_options_must_be_a_dict(options):
-    e = envs.BalanceVectorEnv(num_envs=2)
+@pytest.mark.parametrize("make", [lambda: envs.BalanceVectorEnv(num_envs=2), envs.BalanceEnv, envs.TrackEnv])
+def test_reset_options_must_be_a_dict(options, make):
+    # The single envs ignored any options, a str or a list too.
+    e = make()
     with pytest.raises(TypeError, match="options must be a dict or None"):
         e.reset(options=options)
+
+
+def test_an_unknown_reset_option_is_refused_by_name():
+    # Ignored: a misspelt reset_mask reset every lane.
+    vec = envs.BalanceVectorEnv(num_envs=3)
+    vec.reset(seed=0)
+    with pytest.raises(twip.InvalidParameterError, match=r"options: unknown key 'reset_masks'; the keys it takes are \['reset_mask'\]"):
+        vec.reset(options={"reset_masks": np.array([True, False, False])})
+    for single in (envs.BalanceEnv(), envs.TrackEnv()):
+        with pytest.raises(twip.InvalidParameterError, match=r"options: unknown key 'reset_mask'; it takes none"):
+            single.reset(options={"reset_mask": np.array([True])})
+        single.reset(options={})
+        single.reset(options=None)
 
 
 @pytest.mark.parametrize("laps, error", [(-2, twip.InvalidParameterError), (0, twip.InvalidParameterError),

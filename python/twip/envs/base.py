@@ -26,6 +26,17 @@ def render_mode_checked(render_mode):
     return None
 
 
+def options_checked(options, known: tuple) -> Mapping:
+    """`reset`'s options: a dict of the keys `known`, or None; else a named error (a key
+    misspelt was ignored: `reset_masks` reset every lane)."""
+    options = checks.of_type("options", {} if options is None else options, Mapping, "a dict or None")
+    unknown = [k for k in options if k not in known]
+    if unknown:
+        takes = f"the keys it takes are {list(known)}" if known else "it takes none"
+        raise InvalidParameterError(f"options: unknown key {unknown[0]!r}; {takes}")
+    return options
+
+
 class Episodes:
     """The batch, the step counts and the closed flag of N robots."""
 
@@ -82,6 +93,7 @@ class SingleEnv(gymnasium.Env):
         self._seeded = False
 
     def reset(self, *, seed=None, options=None):
+        options_checked(options, ())
         super().reset(seed=seed)
         seeds = None
         if seed is not None or not self._seeded:
@@ -133,12 +145,12 @@ class BatchVectorEnv(VectorEnv):
         return self.single_class(**self.settings.kwargs)
 
     def reset(self, *, seed=None, options=None):
+        options = options_checked(options, ("reset_mask",))
         # Gymnasium's VectorEnv seeds its own np_random from an int only; a list seeds lanes.
         super().reset(seed=None if isinstance(seed, (list, tuple, np.ndarray)) else seed)
         self._episodes.check_open()
-        checks.of_type("options", {} if options is None else options, Mapping, "a dict or None")
         mask = np.ones(self.num_envs, dtype=np.bool_)
-        if options and "reset_mask" in options:
+        if "reset_mask" in options:
             mask = options["reset_mask"]
             if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (self.num_envs,)):
                 shape = getattr(mask, "shape", None)
