@@ -165,7 +165,7 @@ class BatchVectorEnv(VectorEnv):
             self._seeded = True
         self._episodes.reset(mask, seeds)
         self._done[mask] = False
-        return self._episodes.batch.observations(), self._info()
+        return self._episodes.batch.observations(), self._info(mask)
 
     def step(self, actions):
         mode = self.metadata["autoreset_mode"]
@@ -183,7 +183,9 @@ class BatchVectorEnv(VectorEnv):
             for i in np.flatnonzero(done):
                 final_obs[i] = obs[i].copy()
             infos["final_obs"], infos["_final_obs"] = final_obs, done.copy()
-            infos["final_info"], infos["_final_info"] = {"state": infos["state"].copy(), "_state": done.copy()}, done.copy()
+            # The envs not done have no final info: zeros under a False mask, as Gymnasium's.
+            final = {"state": np.where(done[:, None], infos["state"], 0.0), "_state": done.copy()}
+            infos["final_info"], infos["_final_info"] = final, done.copy()
             self._episodes.reset(done)
             obs = self._episodes.batch.observations()
             infos["state"] = self._episodes.batch.states()
@@ -211,8 +213,14 @@ class BatchVectorEnv(VectorEnv):
         self._done = terminated | truncated
         return obs, rewards, terminated, truncated, {"state": states, "_state": np.ones(self.num_envs, dtype=np.bool_)}
 
-    def _info(self):
-        return {"state": self._episodes.batch.states(), "_state": np.ones(self.num_envs, dtype=np.bool_)}
+    def _info(self, lanes=None):
+        """The infos of every env, or (a reset's) of the envs `lanes` (a mask): the others'
+        rows zeros under a False mask, as Gymnasium's vector envs give them."""
+        states = self._episodes.batch.states()
+        if lanes is None or lanes.all():
+            return {"state": states, "_state": np.ones(self.num_envs, dtype=np.bool_)}
+        states[~lanes] = 0.0
+        return {"state": states, "_state": lanes.copy()}
 
     def close_extras(self, **kwargs):
         self._episodes.closed = True
