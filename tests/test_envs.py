@@ -258,6 +258,32 @@ def test_render_mode_none_is_taken_and_any_other_refused_by_name():
             make(render_mode="human")
 
 
+@pytest.mark.parametrize("env_id", ["twip/Balance-v0", "twip/Track-v0"])
+def test_gymnasium_makes_step_limit_is_the_one_asked_for(env_id):
+    """gymnasium.make keeps max_episode_steps for its TimeLimit: the env's own default of
+    2000 under it cut a limit of 2500 to 2000, and -1 (no limit) still truncated at 2000."""
+    upright = {"phi0": twip.Uniform(low=0.0, high=0.0)}  # at rest upright: never falls
+
+    def truncated_at(**kw):
+        env = gymnasium.make(env_id, perturb=upright, **kw)
+        env.reset(seed=0)
+        zero = np.zeros(env.action_space.shape)
+        for k in range(1, 2601):
+            _, _, term, trunc, _ = env.step(zero)
+            assert not term
+            if trunc:
+                return k
+        return None
+
+    assert truncated_at(max_episode_steps=2500) == 2500
+    assert truncated_at(max_episode_steps=-1) is None
+    assert truncated_at() == envs.DEFAULT_MAX_EPISODE_STEPS == gymnasium.spec(env_id).max_episode_steps
+    assert truncated_at(max_episode_steps=30) == 30
+    # The vector env takes it as its own keyword, the registration's by default.
+    assert gymnasium.make_vec(env_id, num_envs=2).settings.max_episode_steps == 2000
+    assert gymnasium.make_vec(env_id, num_envs=2, max_episode_steps=None).settings.max_episode_steps is None
+
+
 def test_a_linear_policy_runs_through_twip_simulate_as_on_the_env():
     """LinearPolicy hands twip.simulate the current the firmware turns into the policy's
     duty: through the rig with its driver, the run is the env's lane to rounding."""

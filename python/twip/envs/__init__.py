@@ -30,16 +30,20 @@ __all__ = [
 
 #: id -> (entry point, vector entry point).
 ENVS = {
-    "twip/Balance-v0": ("twip.envs.balance:BalanceEnv", "twip.envs.balance:BalanceVectorEnv"),
-    "twip/Track-v0": ("twip.envs.track:TrackEnv", "twip.envs.track:TrackVectorEnv"),
+    "twip/Balance-v0": ("twip.envs.balance:gymnasium_balance_env", "twip.envs.balance:BalanceVectorEnv"),
+    "twip/Track-v0": ("twip.envs.track:gymnasium_track_env", "twip.envs.track:TrackVectorEnv"),
 }
 
 
 def register_envs() -> None:
-    """Registers twip's envs with Gymnasium (once; also Gymnasium's entry point)."""
+    """Registers twip's envs with Gymnasium (once; also Gymnasium's entry point), with their
+    step limit: `gymnasium.make` keeps `max_episode_steps` for its `TimeLimit` (the
+    registration's, or its own argument: -1 for none), and `make_vec` hands it to the
+    vector env."""
     for env_id, (entry, vector_entry) in ENVS.items():
         if env_id not in gymnasium.registry:
-            gymnasium.register(env_id, entry_point=entry, vector_entry_point=vector_entry)
+            gymnasium.register(env_id, entry_point=entry, vector_entry_point=vector_entry,
+                               max_episode_steps=DEFAULT_MAX_EPISODE_STEPS)
 
 
 register_envs()

@@ -10,7 +10,7 @@ from gymnasium import spaces
 
 from twip import _core, checks
 from twip.distributions import Uniform
-from twip.envs.base import BatchVectorEnv, SingleEnv
+from twip.envs.base import BatchVectorEnv, SingleEnv, made_by_gymnasium
 from twip.envs.robots import Settings
 
 #: The reward's default weights: per step alive, minus upright·φ² [rad²], minus
@@ -99,3 +99,8 @@ class BalanceVectorEnv(BatchVectorEnv):
 
     settings_class = BalanceSettings
     single_class = BalanceEnv
+
+
+def gymnasium_balance_env(**kwargs) -> BalanceEnv:
+    """`gymnasium.make`'s entry point (`base.made_by_gymnasium`)."""
+    return made_by_gymnasium(BalanceEnv, **kwargs)

@@ -116,6 +116,14 @@ class SingleEnv(gymnasium.Env):
         self._episodes.closed = True
 
 
+def made_by_gymnasium(cls, **kwargs):
+    """`cls` for `gymnasium.make`, without a step limit of its own: make keeps the argument
+    `max_episode_steps` for the `TimeLimit` it wraps the env in (the registration's
+    DEFAULT_MAX_EPISODE_STEPS unless told otherwise). With the env's own default under it, a
+    limit asked of make above 2000 steps was cut to 2000, and None (-1) never lifted it."""
+    return cls(**{"max_episode_steps": None, **kwargs})
+
+
 class BatchVectorEnv(VectorEnv):
     """`num_envs` robots stepped together in Rust; `autoreset_mode`: NEXT_STEP (default),
     SAME_STEP or DISABLED. Subclasses set `settings_class` and `single_class`."""

@@ -12,7 +12,7 @@ from gymnasium import spaces
 
 from twip import _core
 from twip.distributions import Uniform
-from twip.envs.base import BatchVectorEnv, SingleEnv
+from twip.envs.base import BatchVectorEnv, SingleEnv, made_by_gymnasium
 from twip.envs.robots import Settings
 
 #: The observation's entries: the reference's position ahead of the robot and to its
@@ -118,3 +118,8 @@ class TrackVectorEnv(BatchVectorEnv):
 
     settings_class = TrackSettings
     single_class = TrackEnv
+
+
+def gymnasium_track_env(**kwargs) -> TrackEnv:
+    """`gymnasium.make`'s entry point (`base.made_by_gymnasium`)."""
+    return made_by_gymnasium(TrackEnv, **kwargs)
