@@ -78,6 +78,20 @@ def test_num_envs_is_checked_against_the_memory_budget_before_the_batch_is_made(
         make(num_envs=2 ** 24 + 1)
 
 
+@pytest.mark.parametrize("steps", [0, -5, 1.5, "10", True, np.int64(0)])
+def test_max_episode_steps_must_be_an_int_of_at_least_one(steps):
+    with pytest.raises(twip.InvalidParameterError, match=r"max_episode_steps = .*: must be an int >= 1 or None"):
+        envs.BalanceEnv(max_episode_steps=steps)
+
+
+def test_max_episode_steps_may_be_a_numpy_integer_as_num_envs_may():
+    # np.int64(3) was refused as "max_episode_steps = np.int64(3): must be an int >= 1".
+    env = envs.BalanceVectorEnv(num_envs=np.int64(2), max_episode_steps=np.int64(3))
+    assert env.settings.max_episode_steps == 3 and type(env.settings.max_episode_steps) is int
+    env.reset(seed=0)
+    assert [env.step(np.zeros((2, 1)))[3].tolist() for _ in range(3)] == [[False, False], [False, False], [True, True]]
+
+
 def test_a_refused_step_moves_no_step_count():
     v = envs.BalanceVectorEnv(num_envs=2)
     v.reset(seed=0)

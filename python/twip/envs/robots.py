@@ -88,10 +88,11 @@ class Settings:
             raise _bad(f"control_period = {period}: must be a whole number (>= 1) of plant steps dt = {self.dt}")
         self.period, self.substeps = period, substeps
         self.fall_limit = checks.real("fall_limit", fall_limit, above=0.0)
-        if max_episode_steps is not None and (isinstance(max_episode_steps, bool) or not isinstance(max_episode_steps, int)
-                                              or max_episode_steps < 1):
+        steps = max_episode_steps
+        if steps is not None and (isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1):
             raise _bad(f"max_episode_steps = {max_episode_steps!r}: must be an int >= 1 or None")
-        self.max_episode_steps = max_episode_steps
+        # A numpy integer too (as num_envs), kept as a Python int.
+        self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
         self.reward = dict(self.default_reward)
         weights = checks.of_type("reward", {} if reward is None else reward, Mapping, "a dict {term: weight} or None")
         for name, w in weights.items():
