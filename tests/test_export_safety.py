@@ -6,6 +6,7 @@ import re
 import shutil
 import subprocess
 import warnings
+from pathlib import Path
 
 import pytest
 
@@ -109,3 +110,29 @@ def test_a_robot_file_without_sensors_says_what_the_export_assumes(tmp_path):
 def test_bad_sensors_are_named_with_their_line(tmp_path, sensors, message):
     with pytest.raises(robot_file.RobotFileError, match=message):
         _robot_with(tmp_path, f"[sensors]\n{sensors}\n")
+
+
+@pytest.mark.skipif(not shutil.which("cc"), reason="needs a C compiler")
+def test_the_examples_drive_stops_a_motor_on_a_nan_duty(tmp_path):
+    # drive() clamped |NaN| to TWIP_PWM_MAX and read NaN >= 0 as reverse: full reverse power.
+    example = (Path(export.__globals__["__file__"]).parent / "templates" / "example.c").read_text()
+    drive = re.search(r"static void drive\(int motor, float duty\) \{.*?\n\}", example, re.S).group(0)
+    (tmp_path / "drive.c").write_text(f"""#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#define TWIP_PWM_MAX 255
+static int pins[2][2];
+static void set_motor(int motor, int forward, uint16_t duty) {{ pins[motor][0] = forward; pins[motor][1] = duty; }}
+{drive}
+int main(void) {{
+    float duties[] = {{NAN, -NAN, INFINITY, -INFINITY, -300.0f, 100.7f, -3.0f, 0.0f}};
+    for (int i = 0; i < 8; ++i) {{
+        drive(1, duties[i]);
+        printf("%d %d\\n", pins[1][0], pins[1][1]);
+    }}
+    return 0;
+}}
+""")
+    subprocess.run(["cc", "-std=c11", "-Wall", "-Werror", "-o", "drive", "drive.c", "-lm"], cwd=tmp_path, check=True)
+    done = subprocess.run(["./drive"], cwd=tmp_path, capture_output=True, text=True, check=True)
+    assert done.stdout.split("\n")[:8] == ["1 0", "1 0", "1 255", "0 255", "0 255", "1 100", "0 3", "1 0"]

@@ -47,10 +47,15 @@ static void motors_off(void) {
     set_motor(1, 1, 0);
 }
 
-/* A signed duty [counts] onto a motor's direction and duty pins. */
+/* A signed duty [counts] onto a motor's direction and duty pins. A NaN duty is no command:
+   the motor stops (the clamp below would read it as full power, and its sign as reverse). */
 static void drive(int motor, float duty) {
+    if (isnan(duty)) {
+        set_motor(motor, 1, 0);
+        return;
+    }
     float magnitude = fabsf(duty);
-    if (!(magnitude <= (float)TWIP_PWM_MAX)) magnitude = (float)TWIP_PWM_MAX; /* NaN too */
+    if (magnitude > (float)TWIP_PWM_MAX) magnitude = (float)TWIP_PWM_MAX;
     set_motor(motor, duty >= 0.0f, (uint16_t)magnitude);
 }
 
