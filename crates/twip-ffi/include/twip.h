@@ -465,7 +465,10 @@ TwipStatus twip_encoder_read(TwipEncoder *state,
 TwipStatus twip_pwm_init(TwipPwm *state, const TwipPwmConfig *config);
 
 // The PWM duty [counts, a whole number within ±pwm_max] for `command` at the wheel's
-// speed relative to the body [rad/s].
+// speed relative to the body [rad/s]. TWIP_ERR_NOT_FINITE for a NaN or infinite input;
+// TWIP_ERR_OVERFLOW when finite inputs near f32's limit give no duty (the current's and
+// the back-EMF's volts both overflow, opposite: NaN, which a driver would read as full
+// power). `duty` is written only with TWIP_OK.
 //
 // # Safety
 // Pointers are NULL or valid.

@@ -232,7 +232,10 @@ pub unsafe extern "C" fn twip_pwm_init(state: *mut TwipPwm, config: *const TwipP
 }
 
 /// The PWM duty [counts, a whole number within ±pwm_max] for `command` at the wheel's
-/// speed relative to the body [rad/s].
+/// speed relative to the body [rad/s]. TWIP_ERR_NOT_FINITE for a NaN or infinite input;
+/// TWIP_ERR_OVERFLOW when finite inputs near f32's limit give no duty (the current's and
+/// the back-EMF's volts both overflow, opposite: NaN, which a driver would read as full
+/// power). `duty` is written only with TWIP_OK.
 ///
 /// # Safety
 /// Pointers are NULL or valid.
@@ -253,6 +256,10 @@ pub unsafe extern "C" fn twip_pwm_duty(
     if !(command.is_finite() && relative_speed.is_finite()) {
         return TWIP_ERR_NOT_FINITE;
     }
-    duty.write(pwm.duty(command, relative_speed));
+    let d = pwm.duty(command, relative_speed);
+    if d.is_nan() {
+        return TWIP_ERR_OVERFLOW;
+    }
+    duty.write(d);
     TWIP_OK
 }

@@ -209,6 +209,15 @@ fn firmware_pieces_answer_as_the_core() {
         assert_eq!(duty, 255.0, "saturates at pwm_max");
         assert_eq!(twip_pwm_duty(&mut pwm, 0.2, 3.0, &mut duty), TWIP_OK);
         assert_eq!(duty, duty.round(), "whole counts");
+        // Finite inputs whose volts overflow both ways (k_t gear_ratio > 1) made a NaN duty
+        // with TWIP_OK, which a driver reads as full power: refused, the duty untouched.
+        let geared = TwipMotor { gear_ratio: 437.0, ..motor };
+        assert_eq!(twip_pwm_init(&mut pwm, &TwipPwmConfig { motor: geared, command_per_amp: 0.5 }), TWIP_OK);
+        duty = 7.0;
+        assert_eq!(twip_pwm_duty(&mut pwm, f32::MAX, -f32::MAX, &mut duty), TWIP_ERR_OVERFLOW);
+        assert_eq!(duty, 7.0);
+        assert_eq!(twip_pwm_duty(&mut pwm, f32::MAX, 0.0, &mut duty), TWIP_OK);
+        assert_eq!(duty, 255.0, "one side overflowing saturates");
         assert!(twip_accel_tilt(0.0, 9.81).abs() < 1e-7);
     }
 }
