@@ -64,7 +64,8 @@ def test_firmware_units_write_each_conversion_beside_its_value(tmp_path):
     export("flat-lqr", tmp_path, replay_seconds=1.0)
     c = (tmp_path / "twip_config.c").read_text()
     h = (tmp_path / "twip_config.h").read_text()
-    assert ".period = 5.0f * TWIP_S_PER_MS,  /* 5 ms */" in c
+    # 5 * f32(1 ms) is an ulp off f32(5 ms): written in SI, to be the library's f32.
+    assert ".period = 0.005f,  /* SI: s (= 5 ms) */" in c
     assert "* TWIP_DEG_PER_RAD,  /*" in c and "A per deg of pitch" in c
     assert "A per encoder count per loop" in c
     cpr = float(re.search(r"#define TWIP_COUNTS_PER_RAD ([0-9.e+-]+)f", h).group(1)) * 2 * np.pi
@@ -81,14 +82,67 @@ def test_the_sliding_mode_gains_are_counted_on_the_trackers_own_motor(tmp_path):
     export("circle-smc-fuzzy", tmp_path, replay_seconds=1.0)
     c = (tmp_path / "twip_config.c").read_text()
     h = (tmp_path / "twip_config.h").read_text()
-    # (The literal is the f32 SI value over the f64 factor: -1.99999988f.)
     for name, counts in (("k_s3", -2), ("k_s4", -1), ("g_y4", 1)):
         line = re.search(rf"\.{name} = (-?[0-9.]+)f \* TWIP_TRACKER_NM_PER_PWM,  /\* (.*) \*/", c)
-        assert line and float(line.group(1)) == pytest.approx(counts, rel=1e-6), name
+        assert line and line.group(1) == f"{counts:.1f}", name  # was -1.99999988
         assert line.group(2) == f"{counts} PWM counts of the tracker's motor", name
     own = _core.DcMotor.gb37y3530().torque_per_count()
     shown = float(re.search(r"#define TWIP_TRACKER_NM_PER_PWM ([0-9.e+-]+)f", h).group(1))
     assert shown == pytest.approx(own, rel=1e-6) and "11.1 V" in h
+
+
+def _c_values(section: str, macros: dict) -> list:
+    """The values of a C initialiser as the compiler forms them: an int, a float literal, or
+    a literal times a float macro (an f32 product)."""
+    out = []
+    for lit, macro in re.findall(r"^\s*(?:\.\w+ = )?(-?INFINITY|-?[0-9][0-9.e+-]*f?)(?: \* (TWIP_\w+))?,", section, re.M):
+        if not lit.endswith("f") and "INFINITY" not in lit:
+            out.append(int(lit))
+            continue
+        x = np.float32(float(lit.rstrip("f").replace("INFINITY", "inf")))
+        out.append(x * macros[macro] if macro else x)
+    return out
+
+
+def _flat(value) -> list:
+    if isinstance(value, dict):
+        return [v for item in value.values() for v in _flat(item)]
+    if isinstance(value, list):
+        return [v for item in value for v in _flat(item)]
+    return [value]
+
+
+@pytest.mark.parametrize("name", sorted(ONE_PER_FAMILY.values()))
+def test_each_value_of_the_configuration_is_the_f32_the_rust_side_has(name, tmp_path):
+    # k_s3 was written -1.99999988f * TWIP_TRACKER_NM_PER_PWM: its factor came from the
+    # f32-rounded motor and f32(value) / factor was rounded to f32 again, an ulp off -2.
+    export(name, tmp_path, replay_seconds=0.1)
+    c = (tmp_path / "twip_config.c").read_text()
+    h = (tmp_path / "twip_config.h").read_text()
+    macros = {m: np.float32(float(v)) for m, v in re.findall(r"^#define (TWIP_\w+) (-?[0-9][0-9.e+-]*)f\b", h, re.M)}
+    section = c[c.index("twip_controller_config = {"):]
+    written = _c_values(section[:section.index("\n};")], macros)
+    sc = scenarios.get(name)
+    rec = _core.ffi_record(sc.model, sc.controller, [float(v) for v in sc.x0], 0.01, sc.dt, sc.reference)
+    fam = FAMILIES[rec["family"]]
+    wanted = _flat(header.decode(header.structs(), fam.config, rec["config"]))
+    assert len(written) == len(wanted)
+    for k, (w, v) in enumerate(zip(written, wanted)):
+        assert np.asarray(w).tobytes() == np.asarray(v, dtype=type(w)).tobytes(), (k, w, v)
+
+
+def test_float_literals_are_the_fewest_digits_that_read_back():
+    from twip.firmware.units import c_float, in_unit
+
+    assert [c_float(v) for v in (-2.0, 0.1, 5.0, 1e-5, 0.0, float("inf"))] == \
+        ["-2.0f", "0.1f", "5.0f", "1e-05f", "0.0f", "INFINITY"]
+    rng = np.random.default_rng(7)
+    for v in (rng.standard_normal(2000) * 10.0 ** rng.integers(-8, 8, 2000)).astype(np.float32):
+        assert np.float32(float(c_float(v)[:-1])) == v
+    # -2 counts of 0.0110129 N m: exactly -2.0 (in f32 too); 5 ms is no f32 multiple of
+    # f32(1 ms) in few digits (4.9999995 is), so it is left to SI.
+    torque = twip.DcMotor.gb37y3530().torque_per_count()
+    assert in_unit(-2 * torque, torque) == -2.0 and in_unit(0.005, 1e-3) is None
 
 
 def test_si_units_write_plain_si(tmp_path):
@@ -98,10 +152,11 @@ def test_si_units_write_plain_si(tmp_path):
 
 
 @needs_tools
-def test_in_si_units_the_c_abi_answers_the_recorded_commands_bit_for_bit(tmp_path):
-    # The C ABI runs the same f32 code as the recording; the firmware-unit exports differ
-    # only by the one f32 rounding of each `X * TWIP_FACTOR`.
-    export("circle-smc-fuzzy", tmp_path, units_="si", replay_seconds=5.0)
+@pytest.mark.parametrize("units_", ["si", "firmware"])
+def test_the_c_abi_answers_the_recorded_commands_bit_for_bit(units_, tmp_path):
+    # The C ABI runs the same f32 code as the recording on the same f32 configuration, in
+    # firmware units too: each `X * TWIP_FACTOR` is the recording's f32 (k_s3 was an ulp off).
+    export("circle-smc-fuzzy", tmp_path, units_=units_, replay_seconds=5.0)
     assert _relative(_check(tmp_path)) == 0.0
 
 
@@ -203,7 +258,7 @@ def test_the_export_runs_at_the_scenarios_control_period(tmp_path):
     summary = export(sc, tmp_path, replay_seconds=2.0)
     assert summary["updates"] == 200
     assert _loop_period_macro(tmp_path) == pytest.approx(0.01)
-    assert ".period = 10.0f * TWIP_S_PER_MS,  /* 10 ms */" in (tmp_path / "twip_config.c").read_text()
+    assert ".period = 0.01f,  /* SI: s (= 10 ms) */" in (tmp_path / "twip_config.c").read_text()
     assert _relative(_check(tmp_path)) <= REPLAY_TOLERANCE
     # The recording is the simulation's loop: an update every 10 ms, the same commands as
     # the f64 run within f32's rounding.
@@ -260,6 +315,20 @@ def test_a_robot_files_motor_is_the_trackers_and_the_pwm_feed_forwards(name, tmp
 
     simulated = get_scenario(name, params=robot.params, robot_file=str(tmp_path / "custom.toml"))
     assert _tracker_motor_dict(simulated.controller) == motor.to_dict()
+
+
+@pytest.mark.parametrize("name", ["circle-pid", "circle-smc-fuzzy"])
+def test_by_default_the_tracker_and_the_feed_forward_are_the_simulations_two_motors(name, tmp_path):
+    # As export's docstring and docs/firmware.md say (the docstring said "one motor
+    # throughout" for the default too): the thesis's GB37 at 11.1 V in the tracker, the
+    # thesis-like driver's 11.1 - 2.0 V in the feed-forward, as `twip simulate` runs them.
+    export(name, tmp_path, units_="si", replay_seconds=0.5)
+    tracker, pwm = _motors(tmp_path)
+    f32 = lambda v: float(np.float32(v))  # noqa: E731
+    gb37, driver = twip.DcMotor.gb37y3530(), twip.Realism.thesis_like().motor
+    assert tracker == (f32(gb37.resistance), f32(gb37.gear_ratio), f32(11.1))
+    assert pwm[2] == f32(driver.assumed_battery - driver.bridge_drop) == f32(9.1)
+    assert "two motors" in export.__doc__ and "one motor throughout" in export.__doc__
 
 
 def _tracker_motor_dict(controller) -> dict:

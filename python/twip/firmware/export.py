@@ -261,13 +261,15 @@ def _sensors_of(robot, units_: str):
     return sensors
 
 
-def _tracker_factor(fam, config: dict, driver):
+def _tracker_factor(fam, config: dict, driver, controller):
     """(N m per PWM count, derivation) of the motor the sliding-mode gains are counted on:
-    the tracker's own (`has_motor`), else the feed-forward driver's; None for other families."""
+    the tracker's own (`has_motor`), else the feed-forward driver's; None for other families.
+    The tracker's motor is its f64 one: the configuration's went through f32, and a factor
+    of f32-rounded parameters turned k_s3 = -2 counts into -1.99999988."""
     if fam.name != "smc":
         return None
     own = bool(config["has_motor"])
-    m = _core.DcMotor.from_dict(config["motor"]) if own else driver
+    m = (_tracker_motor(controller) or _core.DcMotor.from_dict(config["motor"])) if own else driver
     whose = "the tracker's own motor" if own else "the PWM driver's motor (the tracker has none)"
     return m.torque_per_count(), f"TWIP_NM_PER_PWM of {whose}, at {m.supply:g} V"
 
@@ -275,10 +277,15 @@ def _tracker_factor(fam, config: dict, driver):
 def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: float = REPLAY_SECONDS,
            source_dir: Optional[str] = None, force: bool = False) -> dict:
     """Writes the folder `out` for scenario `scenario` (a name or a Scenario) on `robot`
-    (a `twip.Robot` from a robot file; default the Balanbot). The robot file's parameters,
-    and its motor for a tracker (`Robot.controller_motor()`: torque limits, PWM conversion)
-    and for the PWM feed-forward with its driver: one motor throughout. A Scenario whose
-    tracker assumes another motor than the file's is refused. The file's [sensors] give the
+    (a `twip.Robot` from a robot file; default the Balanbot). The robot file's parameters
+    throughout; when it has a [motor] or [driver] table, its motor for a tracker
+    (`Robot.controller_motor()`: torque limits, PWM conversion) and for the PWM feed-forward
+    with its driver: one motor throughout. Without either (and by default) the export is
+    the simulation's two motors: a tracker keeps the thesis's (the GB37's data sheet at
+    11.1 V, on which its PWM gains are counted) and the feed-forward drives
+    `Realism.thesis_like()`'s driver (9.1 V after the bridge, efficiency 0.87), see
+    docs/firmware.md. A Scenario whose tracker assumes another motor than the file's is
+    refused. The file's [sensors] give the
     encoder's counts per turn (firmware units) and the IMU's axes (`example.c`). `out` must
     be a new or empty folder unless `force`. Returns a summary: the family, the number of
     recorded updates and the paths written."""
@@ -318,7 +325,7 @@ def export(scenario, out, robot=None, units_: str = "firmware", replay_seconds: 
     period = config["period"]
     motor = _core.DcMotor.from_dict(pwm["motor"])
     table = units.factors(parts["encoder_cpr"] or sensors.encoder_cpr, period, motor.torque_per_count(),
-                          _tracker_factor(fam, config, motor))
+                          _tracker_factor(fam, config, motor, sc.controller))
     p = sc.model.params
     h, c = _config_files(fam, config, tilt, pwm, table, units_ == "firmware", layout, (p.wheel_radius, p.half_track),
                          period, sensors)

@@ -85,17 +85,67 @@ def rule_for(family: str, path: str):
     return None
 
 
+def _digits(v: np.float32) -> str:
+    """The fewest decimal digits that read back as the f32 `v` (numpy's Dragon4), as the
+    compiler reads a literal: 2.0, 0.1, 1e-05."""
+    a = abs(float(v))
+    if a == 0 or 1e-4 <= a < 1e16:
+        return np.format_float_positional(v, unique=True, trim="0")
+    return np.format_float_scientific(v, unique=True, trim="-")
+
+
 def c_float(value: float) -> str:
-    """A C float literal that reads back as the same f32 (±INFINITY for infinities)."""
-    v = float(np.float32(value))
-    if math.isinf(v):
+    """A C float literal that reads back as the same f32 (±INFINITY for infinities), in the
+    fewest digits that do (a 2 is `2.0f`, not `2.00000000f`)."""
+    with np.errstate(over="ignore"):
+        v = np.float32(value)
+    if np.isinf(v):
         return "INFINITY" if v > 0 else "-INFINITY"
-    if math.isnan(v):
+    if np.isnan(v):
         raise ValueError("a configuration value is NaN")
-    text = f"{v:.9g}"
-    if not any(ch in text for ch in ".en"):
-        text += ".0"
-    return text + "f"
+    return _digits(v) + "f"
+
+
+def _significant(text: str) -> int:
+    """The significant digits of a literal of `_digits`: 3 of -0.00125, 1 of 5.0."""
+    mantissa = text.lstrip("-").split("e")[0].replace(".", "").lstrip("0").rstrip("0")
+    return max(len(mantissa), 1)
+
+
+#: A firmware value of at most this many significant digits reads as chosen (5 ms, -2
+#: counts, 0.3 deg): it is written as such, or in SI, never as the 4.9999995 next to it.
+ROUND_DIGITS = 6
+
+
+def in_unit(value: float, factor: float) -> Optional[np.float32]:
+    """The f32 `s` whose C expression `s * FACTOR` (both f32: the literal and the macro
+    `c_float(factor)`) is the f32 of `value` bit for bit, in the fewest digits that do:
+    -2 counts is `-2.0f`, not the -1.99999988 that f32(value) / factor rounds to. None when
+    no f32 near the quotient hits it, or when only one longer than a round firmware value
+    does (5 ms: 5 * f32(0.001) is an ulp off f32(0.005), and 4.9999995 would read as a
+    mistake); the value is then written in SI. The product of two f32 is exact in f64, so
+    its rounding to f32 is C's float multiply."""
+    v, f = np.float32(value), np.float32(factor)
+    if v == 0:
+        return v  # 0 (or -0) times any factor is itself
+    guess = np.float32(float(v) / float(f))
+    if not (np.isfinite(guess) and guess != 0):
+        return None
+    near, up, down = [guess], guess, guess
+    for _ in range(4):  # the quotient's rounding is within an ulp or two of an exact one
+        up, down = np.nextafter(up, np.float32(np.inf)), np.nextafter(down, np.float32(-np.inf))
+        near += [up, down]
+    product = {float(s): np.float32(float(s) * float(f)) for s in near}
+    ulp = float(np.spacing(abs(v)))
+    natural = min((_significant(_digits(s)) for s in near if abs(float(product[float(s)]) - float(v)) <= ulp),
+                  default=None)
+    exact = sorted((s for s in near if product[float(s)] == v), key=lambda s: _significant(_digits(s)))
+    if not exact:
+        return None
+    best = exact[0]
+    if natural is not None and natural <= ROUND_DIGITS and _significant(_digits(best)) > natural:
+        return None
+    return best
 
 
 def scalar(family: str, path: str, value: float, table: Dict[str, Factor], firmware: bool) -> Tuple[str, str]:
@@ -103,8 +153,12 @@ def scalar(family: str, path: str, value: float, table: Dict[str, Factor], firmw
     rule = rule_for(family, path)
     if firmware and rule is not None and rule[2] in table and math.isfinite(value):
         _, unit, name = rule
-        shown = value / table[name].value
-        return f"{c_float(shown)} * {name}", f"{shown:.6g} {unit}"
+        shown = in_unit(value, table[name].value)
+        if shown is not None:
+            return f"{_digits(shown)}f * {name}", f"{float(shown):.6g} {unit}"
+        # No natural f32 times the factor is this value: SI, so that the library gets the f32
+        # the Rust side has, the firmware value beside it.
+        return c_float(value), f"SI: {rule[0]} (= {value / table[name].value:.6g} {unit})"
     leaf = re.sub(r"\[\d+\]", "", path.rsplit(".", 1)[-1])
     unit = rule[0] if rule is not None else SI_UNITS.get(leaf, "")
     return c_float(value), (f"SI: {unit}" if unit else "")
