@@ -621,3 +621,58 @@ def test_a_sensitivity_reason_tells_sampled_runs_from_searched_corners():
     with_sensitivity([row], {"x/y": {**entry, "holds": 0.8889}})
     assert "holds in 8 of the 9 runs" in row["reason"], row["reason"]
     assert ": it fails at a 0.3 (2.5 deg); and at the searched corner a 1 (fell)" in row["reason"], row["reason"]
+
+
+def test_a_joint_run_whose_number_is_nan_is_counted_as_without_one():
+    """A diverged run's number is NaN, not None: `fell` counted only None, so such runs were
+    left out of the low/high without being counted or marked, and held when `evaluate` said so."""
+    from twip.report.joint import Span, search
+    from twip.report.markdown import _fell_cell
+
+    box = {"a": Span(0.0, 1.0, 0.5), "b": Span(0.0, 1.0, 0.5)}
+
+    def evaluate(v):
+        if v["a"] > 0.7:
+            return {"n": (float("nan"), True)}  # diverged
+        return {"n": (None if v["a"] < 0.2 else v["a"] + v["b"], True)}  # None: fell
+
+    entry = search(box, evaluate, ("n",), 8, seed=1)["n"]
+    without = [d for d in entry["detail"] if d["ours"] is None]
+    assert len(without) == entry["fell"] == 6 and all(d["fell"] and not d["holds"] for d in without)
+    sampled = [d for d in entry["detail"] if d["run"] != "search"]
+    assert entry["holds"] == pytest.approx(sum(d["ours"] is not None for d in sampled) / len(sampled), abs=1e-3)
+    assert _fell_cell(entry).startswith(f"6 of {len(entry['detail'])}: ")
+
+
+def test_the_corner_is_searched_only_when_the_runs_determine_the_fit():
+    """Fewer runs with a number than the fit's terms leave a family of fits: lstsq's
+    minimum-norm one pointed to an arbitrary corner (the old guard asked only for the ranges
+    plus 2). Such a row is not searched and says so; a determined one is searched as before."""
+    from twip.report.claims import with_sensitivity
+    from twip.report.joint import Among, Span, _corner, search
+
+    box = {k: Span(0.0, 1.0, 0.5) for k in "abcde"}
+    box["f"] = Among(("x", "y", "z"))  # 1 + 5 + 2 = 8 terms
+
+    def evaluate(v):  # 2 of the 9 runs fell: 7 numbers for 8 terms
+        return {"n": (None if v["a"] > 0.85 else sum(v[k] for k in "abcde") + (v["f"] == "z"), True)}
+
+    entry = search(box, evaluate, ("n",), 8, seed=0)["n"]
+    assert entry["fell"] == 2 and entry["searched"] == 0
+    assert entry["not_searched"] == "7 runs with a number for a linear fit of 8 terms"
+    from twip.report.markdown import _searched_cell
+
+    assert _searched_cell(entry) == "not searched: 7 runs with a number for a linear fit of 8 terms"
+    row = {"id": "x/y", "status": "reproduced", "unit": "deg", "reason": "inside the band"}
+    with_sensitivity([row], {"x/y": entry})
+    assert row["reason"].endswith("; the worst and best corners of the choices were not searched "
+                                  "(7 runs with a number for a linear fit of 8 terms)"), row["reason"]
+    # Enough points but of deficient rank: a range never varied in the sample.
+    points = [({**{k: 0.5 for k in "abcde"}, "a": 0.1 * i, "f": "x"}, float(i)) for i in range(9)]
+    corner, why = _corner({k: box[k] for k in "abcde"}, points, 1.0)
+    assert corner is None and why == "9 runs with a number for a linear fit of 6 terms that they do not determine"
+    # Determined: the corners as before, and no note.
+    entry = search(box, lambda v: {"n": (sum(v[k] for k in "abcde") + (v["f"] == "z"), True)}, ("n",), 16, seed=5)["n"]
+    assert "not_searched" not in entry and entry["searched"] == 2
+    assert (entry["low"], entry["high"]) == (pytest.approx(0.0, abs=1e-9), pytest.approx(6.0))
+    assert _searched_cell(entry) == "2"

@@ -607,7 +607,8 @@ def _turning_runs(entry: dict, reproduced: bool, unit: str = "") -> str:
 
 def with_sensitivity(claims: List[dict], table: dict) -> None:
     """Puts each claim's sensitivity (report.sensitivity) on its row; a conclusion that does
-    not hold over the whole joint box says so in its reason, naming the runs that turn it."""
+    not hold over the whole joint box says so in its reason, naming the runs that turn it, and
+    so does one whose corners were not searched (too few runs with a number to fit)."""
     for c in claims:
         entry = table.get(c["id"])
         if entry is None:
@@ -623,6 +624,8 @@ def with_sensitivity(claims: List[dict], table: dict) -> None:
             count = "all" if held == n else "none of the" if held == 0 else f"{held} of the"
             c["reason"] += (f"; holds in {count} {n} runs sampled jointly over the choices the thesis does not give "
                             "(the default counted)" + _turning_runs(entry, reproduced, c["unit"]))
+        if "not_searched" in entry:  # a corner could turn the verdict: say it was not looked at
+            c["reason"] += f"; the worst and best corners of the choices were not searched ({entry['not_searched']})"
 
 
 def table_5_2_claims(rows, thesis_rows) -> List[dict]:

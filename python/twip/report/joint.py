@@ -1,7 +1,8 @@
 """A search over the joint box of a claim's unpublished choices: a space-filling sample
 (scipy.stats.qmc) gives the share of runs in which the claim holds, with twip's default run
 counted; a run at the corner a linear fit of the sample points to, either way, searches the
-worst and the best case. Every run is kept as a `detail` entry: its `values`, `ours`, `holds`."""
+worst and the best case, when the sample determines the fit. Every run is kept as a `detail`
+entry: its `values`, `ours`, `holds`."""
 from __future__ import annotations
 
 import math
@@ -86,60 +87,72 @@ def _key(values: dict) -> tuple:
 def search(box: Box, evaluate: Callable[[dict], Outcome], claims: Sequence[str], n: int, seed: int = 0,
            extremes: bool = True) -> Dict[str, dict]:
     """{claim: sensitivity entry} over the joint `box`: `evaluate(values)` runs one point and
-    gives each claim's (number, holds) (number None: the run fell, and the claim does not
-    hold in it whatever `evaluate` says). The share that holds is over the default and the `n`
-    sampled points. With `extremes`, each claim's worst and best case is searched at the corner a linear fit of the sample points to (`_corner`: each
-    range at the end the fit's slope favours, each alternative the one with the lowest or
-    highest fitted effect): the low and the high are over every run that has a number; `fell`
-    counts the runs that fell (each marked in `detail`), which the low and the high leave out."""
+    gives each claim's (number, holds) (number None: the run fell; NaN: it diverged; either
+    way it has no number, and the claim does not hold in it whatever `evaluate` says). The
+    share that holds is over the default and the `n` sampled points. With `extremes`, each
+    claim's worst and best case is searched at the corner a linear fit of the sample points to
+    (`_corner`: each range at the end the fit's slope favours, each alternative the one with
+    the lowest or highest fitted effect), when the runs with a number determine the fit;
+    otherwise `not_searched` says why. The low and the high are over every run that has a
+    number; `fell` counts the runs without one (each marked in `detail`), which they leave out."""
     cache: Dict[tuple, Outcome] = {}
     runs: List[Tuple[dict, Outcome, str]] = []
 
     def run(values: dict, kind: str) -> Outcome:
         key = _key(values)
         if key not in cache:
-            cache[key] = {k: (x, bool(ok) and x is not None) for k, (x, ok) in evaluate(values).items()}
+            cache[key] = {k: (x, bool(ok) and _finite(x)) for k, (x, ok) in evaluate(values).items()}
             runs.append((values, cache[key], kind))
         return cache[key]
 
     points = sample(box, n, seed)
     sampled = [run(values, "default" if i == 0 else "sample") for i, values in enumerate(points)]
     share = {k: sum(out[k][1] for out in sampled) / len(sampled) for k in claims}
+    unsearched: Dict[str, str] = {}
     if extremes:
         for k in claims:
+            numbered = [(v, o[k][0]) for v, o in zip(points, sampled) if _finite(o[k][0])]
             for sign in (1.0, -1.0):
-                corner = _corner(box, [(v, o[k][0]) for v, o in zip(points, sampled) if _finite(o[k][0])], sign)
+                corner, why = _corner(box, numbered, sign)
                 if corner is not None:
                     run(corner, "search")
+                else:
+                    unsearched[k] = why
     out = {}
     for k in claims:
         numbers = [o[k][0] for _, o, _ in runs if _finite(o[k][0])]
         out[k] = {"choices": {name: choice.describe() for name, choice in box.items()},
                   "low": _ours(min(numbers)) if numbers else None, "high": _ours(max(numbers)) if numbers else None,
                   "holds": sig(share[k]), "runs": len(sampled), "searched": len(runs) - len(sampled),
-                  "fell": sum(o[k][0] is None for _, o, _ in runs),
+                  "fell": sum(not _finite(o[k][0]) for _, o, _ in runs),
                   "detail": [{"values": {n_: (sig(v) if isinstance(v, float) else v) for n_, v in values.items()},
-                              "ours": _ours(o[k][0]), "holds": o[k][1], "run": kind, "fell": o[k][0] is None}
+                              "ours": _ours(o[k][0]), "holds": o[k][1], "run": kind, "fell": not _finite(o[k][0])}
                              for values, o, kind in runs]}
+        if k in unsearched:
+            out[k]["not_searched"] = unsearched[k]
     return out
 
 
-def _corner(box: Box, points: List[Tuple[dict, float]], sign: float) -> Optional[dict]:
-    """The corner of `box` where a linear fit (numpy.linalg.lstsq) of the sampled `points`
-    (values, number) is lowest (`sign` 1) or highest (-1): each range at the end its slope
-    favours, each alternative the sampled one with the lowest (highest) fitted effect (one
-    0/1 term per alternative but the default, so the ranges' slopes are not confounded with
-    them). A number linear in each range's `unit` plus an effect per alternative is fitted
-    exactly when the points determine the fit (at least as many as its terms): the corners
-    are then its exact low and high. Fewer points: lstsq's minimum-norm fit, no guarantee.
-    None with too few points."""
+def _corner(box: Box, points: List[Tuple[dict, float]], sign: float) -> Tuple[Optional[dict], str]:
+    """(the corner of `box` where a linear fit (numpy.linalg.lstsq) of the sampled `points`
+    (values, number) is lowest (`sign` 1) or highest (-1), ""): each range at the end its
+    slope favours, each alternative the sampled one with the lowest (highest) fitted effect
+    (one 0/1 term per sampled alternative but the default, so the ranges' slopes are not
+    confounded with them). A number linear in each range's `unit` plus an effect per
+    alternative is fitted exactly, and the corners are its exact low and high, when the points
+    determine the fit: at least as many as its terms, of full rank. Otherwise (None, why):
+    fewer points leave a family of fits, and lstsq's minimum-norm one would point to an
+    arbitrary corner."""
     spans = [k for k, c in box.items() if isinstance(c, Span)]
-    if len(points) < len(spans) + 2:
-        return None
-    levels = [(k, label) for k, c in box.items() if isinstance(c, Among) for label in c.labels[1:]]
-    y = np.array([float(number) for _, number in points])
+    levels = [(k, label) for k, c in box.items() if isinstance(c, Among) for label in c.labels[1:]
+              if any(values[k] == label for values, _ in points)]  # an unseen one has no column to fit
     a = np.array([[1.0] + [box[k].unit(values[k]) for k in spans] + [float(values[k] == label) for k, label in levels]
-                  for values, _ in points])
+                  for values, _ in points]).reshape(len(points), 1 + len(spans) + len(levels))
+    terms = a.shape[1]
+    if len(points) < terms or np.linalg.matrix_rank(a) < terms:
+        return None, (f"{len(points)} run{'s' if len(points) != 1 else ''} with a number for a linear fit of {terms} "
+                      f"terms{'' if len(points) < terms else ' that they do not determine'}")
+    y = np.array([float(number) for _, number in points])
     coef = dict(zip(spans + levels, np.linalg.lstsq(a, y, rcond=None)[0][1:]))
     corner = {}
     for k, choice in box.items():
@@ -148,7 +161,7 @@ def _corner(box: Box, points: List[Tuple[dict, float]], sign: float) -> Optional
         else:
             seen = [label for label in choice.labels if any(v[k] == label for v, _ in points)]
             corner[k] = min(seen, key=lambda label: sign * coef.get((k, label), 0.0))
-    return corner
+    return corner, ""
 
 
 def _finite(x) -> bool:

@@ -59,9 +59,11 @@ def render_markdown(report: dict) -> str:
                 "(twip/report/sensitivity.py says which ranges and why): twip's default run and a scrambled Sobol sample "
                 "of the box (*runs*), then a run at the corner of the box a linear fit of the sampled runs points to, "
                 "for the worst and for the best case (each range at the end the fit favours, each alternative the one "
-                "with the lowest or highest fitted effect; *searched*). *low*/*high*: the "
-                "range of ours over all of them that have a number; *fell*: the runs in which a robot fell, which have "
-                "none (low/high leave them out) and in which the claim does not hold; *holds*: the share of the sampled "
+                "with the lowest or highest fitted effect; *searched*), when the sampled runs with a number determine "
+                "that fit (at least as many as its terms, of full rank); when they do not, the corners are not "
+                "searched and the row says so. *low*/*high*: the "
+                "range of ours over all of them that have a number; *fell*: the runs without one (a robot fell, or a "
+                "run diverged), which low/high leave out and in which the claim does not hold; *holds*: the share of the sampled "
                 "runs (the default counted) in which the thesis's claim holds. Every run is in report.json (`detail`: its values, ours, holds). A settling "
                 "band is a run measured again. For the stops, *ours* is the largest distance of a stop from its goal "
                 f"[m]; for \"fuzzy better than LQR\", {FUZZY_MARGIN}.", ""]
@@ -70,7 +72,7 @@ def render_markdown(report: dict) -> str:
                                                   for k, v in c["sensitivity"]["choices"].items()),
                                fmt(c["sensitivity"]["low"]), fmt(c["sensitivity"]["high"]), _fell_cell(c["sensitivity"]),
                                f"{100 * c['sensitivity']['holds']:.0f} %", str(c["sensitivity"]["runs"]),
-                               str(c["sensitivity"].get("searched", 0))]
+                               _searched_cell(c["sensitivity"])]
                               for c in sensitive]))
     rig = report.get("rig_check")
     if rig:
@@ -177,6 +179,14 @@ def render_markdown(report: dict) -> str:
     out.append(md_table(["scenario", "controller", "outcome", "metrics", "thesis"], rows))
     out += ["", "## Steps", "", md_table(["step", "seconds"], [[s["step"].strip(), f"{s['seconds']:.2f}"] for s in report["steps"]]), ""]
     return "\n".join(out)
+
+
+def _searched_cell(entry) -> str:
+    """A sensitivity row's searched corners: their count, or why none was searched ("not
+    searched: 7 runs with a number for a linear fit of 8 terms")."""
+    if "not_searched" in entry:
+        return f"not searched: {entry['not_searched']}"
+    return str(entry.get("searched", 0))
 
 
 def _fell_cell(entry) -> str:
