@@ -95,7 +95,8 @@ def _c_values(section: str, macros: dict) -> list:
     """The values of a C initialiser as the compiler forms them: an int, a float literal, or
     a literal times a float macro (an f32 product)."""
     out = []
-    for lit, macro in re.findall(r"^\s*(?:\.\w+ = )?(-?INFINITY|-?[0-9][0-9.e+-]*f?)(?: \* (TWIP_\w+))?,", section, re.M):
+    item = r"^\s*(?:\.\w+ = )?(-?INFINITY|-?[0-9][0-9.e+-]*f?)(?: \* (TWIP_\w+))?,"
+    for lit, macro in re.findall(item, section, re.M):
         if not lit.endswith("f") and "INFINITY" not in lit:
             out.append(int(lit))
             continue

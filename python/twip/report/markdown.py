@@ -62,8 +62,9 @@ def render_markdown(report: dict) -> str:
                 "with the lowest or highest fitted effect; *searched*), when the sampled runs with a number determine "
                 "that fit (at least as many as its terms, of full rank); when they do not, the corners are not "
                 "searched and the row says so. *low*/*high*: the "
-                "range of ours over all of them that have a number; *fell*: the runs without one (a robot fell, or a "
-                "run diverged), which low/high leave out and in which the claim does not hold; *holds*: the share of the sampled "
+                "range of ours over all of them that have a number; *fell*: the runs without one (a robot fell, or "
+                "a run diverged), which low/high leave out and in which the claim does not hold; *holds*: the share "
+                "of the sampled "
                 "runs (the default counted) in which the thesis's claim holds. Every run is in report.json (`detail`: its values, ours, holds). A settling "
                 "band is a run measured again. For the stops, *ours* is the largest distance of a stop from its goal "
                 f"[m]; for \"fuzzy better than LQR\", {FUZZY_MARGIN}.", ""]
