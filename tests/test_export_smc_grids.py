@@ -90,7 +90,7 @@ def test_the_exported_c_replays_the_trackers_commands(grids, tmp_path):
     assert ".abi_version = 2," in c and f".n_sets = {grids[0]}," in c
     if grids == "5x5 gaussians":
         # φ's means in degrees, ω's sigmas in deg/s of yaw rate (firmware units).
-        assert "8.59436703f * TWIP_RAD_PER_DEG,  /* 8.59437 deg of pitch */" in c  # 0.15 rad
+        assert "8.594367f * TWIP_RAD_PER_DEG,  /* 8.59437 deg of pitch */" in c  # 0.15 rad, the fewest digits
         assert "14.323945f * TWIP_RAD_PER_DEG,  /* 14.3239 deg/s of yaw rate */" in c  # σ = 0.25 rad/s
 
 
