@@ -5,6 +5,7 @@ with a numpy-friendly API. ``twip.reference`` is an independent pure-Python impl
 used to cross-check the Rust core.
 """
 from twip._core import (
+    ArgumentTypeError,
     BalanceBatch,
     Circle,
     ConvergenceError,
@@ -77,6 +78,7 @@ from twip.plausibility import ImplausibleRobotWarning
 from twip.design import Tuning, TuningError, WorstCase, tune, worst_case
 
 __all__ = [
+    "ArgumentTypeError",
     "BalanceBatch",
     "TrackBatch",
     "Fit",

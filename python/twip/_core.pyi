@@ -9,6 +9,7 @@ _ArrayLike = npt.ArrayLike
 _F64 = npt.NDArray[np.float64]
 
 __all__ = [
+    "ArgumentTypeError",
     "BalanceBatch",
     "Circle",
     "ConvergenceError",
@@ -80,6 +81,9 @@ __all__ = [
 
 __version__: str
 
+class ArgumentTypeError(TypeError):
+    """An argument of the wrong type; the message names the argument ("x: expected a real number...")."""
+    def add_note(self, note: str) -> None: ...
 class TwipError(ValueError):
     """Base of every twip error (a ValueError)."""
 class InvalidParameterError(TwipError):

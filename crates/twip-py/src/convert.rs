@@ -4,13 +4,12 @@ use numpy::{
     AllowTypeChange, Complex64, IntoPyArray, PyArray1, PyArray2, PyArrayDescrMethods, PyArrayLike1, PyArrayLike2, PyUntypedArray,
     PyUntypedArrayMethods,
 };
-use pyo3::exceptions::PyTypeError;
 use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyComplex, PyFloat, PyInt};
 use twip_core::TwipError;
 
-use crate::errors::{CoreResult, InvalidParameterError, ShapeError};
+use crate::errors::{argument_type_error, as_argument_error, CoreResult, InvalidParameterError, ShapeError};
 
 fn finite(name: &'static str, values: impl IntoIterator<Item = f64>) -> CoreResult<()> {
     for (index, value) in values.into_iter().enumerate() {
@@ -25,8 +24,9 @@ fn finite(name: &'static str, values: impl IntoIterator<Item = f64>) -> CoreResu
 /// (`Option<Real>`, `Vec<Real>`, `(Real, Real)`... for the others). pyo3's own `f64`
 /// goes through `__float__`, which reads a bool as 0 or 1 and a numpy complex as its real
 /// part (with only a ComplexWarning); those are refused here, with a TypeError naming the
-/// value (pyo3 adds the argument's name as a note). Anything else reads as `f64` does: an
-/// int, a float, a numpy real, a Fraction or a Decimal.
+/// value. Every TypeError of it is a `twip.ArgumentTypeError`, whose message pyo3 then
+/// starts with the argument's name (errors.rs). Anything else reads as `f64` does: an int,
+/// a float, a numpy real, a Fraction or a Decimal.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Real(pub f64);
 
@@ -39,9 +39,9 @@ impl<'py> FromPyObject<'_, 'py> for Real {
             return Ok(Real(f.value()));
         }
         if let Some(what) = not_real(&obj) {
-            return Err(PyTypeError::new_err(format!("expected a real number, got the {what} {}", obj.repr()?)));
+            return Err(argument_type_error(obj.py(), format!("expected a real number, got the {what} {}", obj.repr()?)));
         }
-        obj.extract::<f64>().map(Real)
+        obj.extract::<f64>().map(Real).map_err(|e| as_argument_error(obj.py(), e))
     }
 }
 
@@ -82,7 +82,7 @@ pub(crate) fn reals(values: Vec<Real>) -> Vec<f64> {
 /// An integer from Python: the type of every integer parameter of the bindings (`Int<usize>`,
 /// `Int<u64>`, `Option<Vec<Int<i64>>>`...). pyo3's own integers go through `__index__`, which
 /// reads a bool as 0 or 1; a bool (Python's or numpy's) is refused here with a TypeError
-/// naming the value, as `Real` refuses it (pyo3 adds the argument's name as a note). Anything
+/// naming the value, as `Real` refuses it (a `twip.ArgumentTypeError`, as `Real`'s). Anything
 /// else reads as `T` does: an int or a numpy integer (a float stays refused, by pyo3).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Int<T>(pub T);
@@ -94,10 +94,10 @@ impl<'a, 'py, T: FromPyObject<'a, 'py>> FromPyObject<'a, 'py> for Int<T> {
         // An int (not a bool, a subclass) is the common case: nothing more to check.
         if !obj.is_exact_instance_of::<PyInt>() {
             if let Some(what) = not_real(&obj) {
-                return Err(PyTypeError::new_err(format!("expected an integer, got the {what} {}", obj.repr()?)));
+                return Err(argument_type_error(obj.py(), format!("expected an integer, got the {what} {}", obj.repr()?)));
             }
         }
-        obj.extract::<T>().map(Int).map_err(Into::into)
+        obj.extract::<T>().map(Int).map_err(|e| as_argument_error(obj.py(), e.into()))
     }
 }
 

@@ -3,6 +3,8 @@
 use pyo3::create_exception;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::PyType;
 use twip_core::TwipError as CoreError;
 
 create_exception!(twip, TwipError, PyValueError, "Base of every twip error (a ValueError).");
@@ -65,6 +67,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("NoStabilizingSolutionError", py.get_type::<NoStabilizingSolutionError>())?;
     m.add("ConvergenceError", py.get_type::<ConvergenceError>())?;
     m.add("OffTerrainError", py.get_type::<OffTerrainError>())?;
+    m.add("ArgumentTypeError", argument_type_error_class(py)?)?;
     Ok(())
 }
 
@@ -100,19 +103,77 @@ pub(crate) fn key(name: &'static str, v: &Bound<'_, PyAny>) -> PyResult<u64> {
     })
 }
 
-/// pyo3 names an argument it could not convert only in a note ("while processing 'x'"),
-/// which `str(error)` leaves out: a TypeError comes back as "`context`: x: message"
-/// (just "`context`: message" when it carries no such note). Other errors pass unchanged.
+/// `twip.ArgumentTypeError`, a TypeError: what the bindings raise for an argument of the
+/// wrong type. pyo3 names the argument by calling `add_note("while processing 'x'")` on the
+/// error: a note that `str(error)` leaves out, and that Python 3.9 and 3.10 (no `add_note`)
+/// drop. This class's `add_note` also puts the name in front of the message, on every Python.
+/// Written in Python: a native exception class cannot carry a method.
+const ARGUMENT_TYPE_ERROR: &std::ffi::CStr = cr#"
+class ArgumentTypeError(TypeError):
+    """An argument of the wrong type; the message names the argument ("x: expected a real number...")."""
+
+    __module__ = "twip"
+
+    def add_note(self, note):
+        prefix = "while processing '"
+        if isinstance(note, str) and note.startswith(prefix) and note.endswith("'") and self.args:
+            name = note[len(prefix):-1]
+            if not str(self.args[0]).startswith(name + ": "):
+                self.args = (f"{name}: {self.args[0]}",) + self.args[1:]
+        if hasattr(TypeError, "add_note"):  # Python 3.11+: the note as well
+            super().add_note(note)
+"#;
+
+static ARGUMENT_TYPE_ERROR_CLASS: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+
+fn argument_type_error_class(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
+    ARGUMENT_TYPE_ERROR_CLASS
+        .get_or_try_init(py, || {
+            let module = PyModule::from_code(py, ARGUMENT_TYPE_ERROR, c"twip/_core/errors.rs", c"twip._argument_type_error")?;
+            Ok::<_, PyErr>(module.getattr("ArgumentTypeError")?.cast_into::<PyType>()?.unbind())
+        })
+        .map(|cls| cls.bind(py))
+}
+
+/// A `twip.ArgumentTypeError` with `message` (pyo3 then puts the argument's name in front).
+pub(crate) fn argument_type_error(py: Python<'_>, message: String) -> PyErr {
+    match argument_type_error_class(py) {
+        Ok(cls) => PyErr::from_type(cls.clone(), message),
+        Err(e) => e,
+    }
+}
+
+/// `err` as a `twip.ArgumentTypeError` with the same message and cause when it is a plain
+/// TypeError (pyo3's own conversions raise those), so that it gets the argument's name.
+pub(crate) fn as_argument_error(py: Python<'_>, err: PyErr) -> PyErr {
+    if !err.is_instance_of::<PyTypeError>(py) {
+        return err;
+    }
+    if let Ok(cls) = argument_type_error_class(py) {
+        if err.value(py).is_instance(cls).unwrap_or(false) {
+            return err;
+        }
+    }
+    let named = argument_type_error(py, err.value(py).to_string());
+    named.set_cause(py, err.cause(py));
+    named
+}
+
+/// A TypeError reading `context`'s settings comes back as "`context`: x: message": the
+/// argument's name is in the message of a `twip.ArgumentTypeError` (see there) and, for
+/// pyo3's own plain TypeErrors, only in a note ("while processing 'x'"), which `str(error)`
+/// leaves out. Just "`context`: message" when neither names it. Other errors pass unchanged.
 pub(crate) fn naming_argument(py: Python<'_>, context: &str, err: PyErr) -> PyErr {
     if !err.is_instance_of::<PyTypeError>(py) {
         return err;
     }
+    let text = err.value(py).to_string();
     let notes: Vec<String> =
         err.value(py).getattr("__notes__").and_then(|n| n.extract()).unwrap_or_default();
     let argument = notes.iter().find_map(|n| n.strip_prefix("while processing '")?.strip_suffix('\''));
     let message = match argument {
-        Some(name) => format!("{context}: {name}: {}", err.value(py)),
-        None => format!("{context}: {}", err.value(py)),
+        Some(name) if !text.starts_with(&format!("{name}: ")) => format!("{context}: {name}: {text}"),
+        _ => format!("{context}: {text}"),
     };
     let named = PyTypeError::new_err(message);
     named.set_cause(py, Some(err));
