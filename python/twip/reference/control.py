@@ -6,12 +6,14 @@ import math
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
+from twip.reference.real import real, reals
+
 
 class SpeedSchedule:
     """Legs of (goal [rad], speed [rad/s] > 0, hold [s]) from theta = 0 at t = 0."""
 
     def __init__(self, legs):
-        self.legs = [(float(g), float(s), float(h)) for g, s, h in legs]
+        self.legs = [tuple(reals(f"legs[{i}]", leg)) for i, leg in enumerate(legs)]
 
     @classmethod
     def constant(cls, speed: float) -> "SpeedSchedule":
@@ -69,7 +71,8 @@ class LqrController:
     internal_names = ("z", "phi_s", "u_s", "theta_dot_ref")
 
     def __init__(self, model, gains, point: str = "operating", period: float = 0.005):
-        self.model, self.gains, self.point, self.period = model, np.asarray(gains, float), point, period
+        self.model, self.point, self.period = model, point, real("period", period)
+        self.gains = np.asarray(reals("gains", np.ravel(np.asarray(gains, dtype=object))), float)
         self.reset()
 
     def reset(self):

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twip.reference.real import real
+
 # GB37Y3530-12V-251R data sheet (docs/parameters.md): no-load current, k_t, gear ratio.
 GB37_NO_LOAD_CURRENT = 0.35
 GB37_TORQUE_CONSTANT = 9.925e-3
@@ -44,7 +46,7 @@ class Friction:
         if f is None:
             return None
         names = ("coulomb", "breakaway", "stribeck_speed", "viscous", "smoothing_speed")
-        return cls(*(float(getattr(f, n)) for n in names), float(getattr(f, "stick_speed", 0.0)))
+        return cls(*(real(n, getattr(f, n)) for n in names), real("stick_speed", getattr(f, "stick_speed", 0.0)))
 
     def torque(self, w: float) -> float:
         """The slip law (the whole law without a stick band)."""

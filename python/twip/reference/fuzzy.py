@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from twip.reference.real import real, reals
+
 
 def _check_order(name: str, values: dict) -> None:
     keys = list(values)
@@ -29,7 +31,7 @@ class Trapezoid:
     """(4.31); a = b = -inf is a left shoulder, c = d = +inf a right one."""
 
     def __init__(self, a: float, b: float, c: float, d: float):
-        self.a, self.b, self.c, self.d = (float(v) for v in (a, b, c, d))
+        self.a, self.b, self.c, self.d = (real(n, v) for n, v in zip("abcd", (a, b, c, d)))
         _check_order("Trapezoid", {"a": self.a, "b": self.b, "c": self.c, "d": self.d})
         if math.isinf(self.a) and self.a != self.b:
             raise ValueError(f"invalid Trapezoid.a = {self.a}: an infinite a needs b = a (a shoulder)")
@@ -60,7 +62,7 @@ class Gaussian:
     """exp(-(x - mean)^2 / (2 sigma^2)), sigma > 0."""
 
     def __init__(self, mean: float, sigma: float):
-        self.mean, self.sigma = float(mean), float(sigma)
+        self.mean, self.sigma = real("mean", mean), real("sigma", sigma)
         if not math.isfinite(self.mean):
             raise ValueError(f"invalid Gaussian.mean = {self.mean}: must be finite")
         if not (math.isfinite(self.sigma) and self.sigma > 0):
@@ -150,14 +152,14 @@ def regular_grid(kind: str, centres, widths=None):
     inf = math.inf
     rows = []
     for i, c in enumerate(centres):
-        c = [float(v) for v in c]
+        c = reals(f"centres[{i}]", c)
         n = len(c)
         if not 2 <= n <= 7:
             raise ValueError(f"invalid n = {n}: must be from 2 to 7 sets per input")
         if any(not math.isfinite(v) for v in c) or any(b <= a for a, b in zip(c, c[1:])):
             raise ValueError(f"invalid centres[{i}] = {c}: must be finite and strictly increasing")
         w = [] if widths is None else widths[i]
-        w = [float(w)] * n if np.ndim(w) == 0 else [float(v) for v in w]
+        w = [real(f"widths[{i}]", w)] * n if np.ndim(w) == 0 else reals(f"widths[{i}]", w)
         lo = [-inf] + c[:-1]   # the left neighbour's centre (none: shoulder)
         hi = c[1:] + [inf]
         if kind == "gaussian":
@@ -188,8 +190,10 @@ class FuzzyController:
     def __init__(self, model, k1, k2, kp, kd, gamma=20.0, sigma=0.05, ki=0.0, adapt=True, sets=None,
                  period=0.005, s0=None):
         self.model = model
-        self.k1, self.k2, self.kp, self.kd, self.ki = (float(v) for v in (k1, k2, kp, kd, ki))
-        self.gamma, self.sigma, self.adapt, self.period = float(gamma), float(sigma), bool(adapt), float(period)
+        self.k1, self.k2, self.kp, self.kd, self.ki = (real(n, v) for n, v in zip(("k1", "k2", "kp", "kd", "ki"),
+                                                                              (k1, k2, kp, kd, ki)))
+        self.gamma, self.sigma = real("gamma", gamma), real("sigma", sigma)
+        self.adapt, self.period = bool(adapt), real("period", period)
         self.basis = GridBasis(sets if sets is not None else default_sets())
         k = self.basis.n_rules
         self.internal_names = tuple(f"xi{j}" for j in range(1, k + 1)) + tuple(f"S{j}" for j in range(1, k + 1)) + (

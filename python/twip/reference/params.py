@@ -4,6 +4,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields, replace
 
+from twip.reference.real import real
+
 # Fields that may be zero (a direct drive has no rotor; friction may be absent).
 _NON_NEGATIVE = {"i_motor", "mu_bearing", "mu_ground"}
 
@@ -29,7 +31,8 @@ class RobotParams:
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            value = getattr(self, f.name)
+            value = real(f.name, getattr(self, f.name))
+            object.__setattr__(self, f.name, value)
             if not math.isfinite(value):
                 raise ValueError(f"invalid {f.name} = {value}: must be finite")
             if f.name in _NON_NEGATIVE:
@@ -40,12 +43,12 @@ class RobotParams:
 
     @classmethod
     def from_dict(cls, d: dict) -> "RobotParams":
-        return cls(**{f.name: float(d[f.name]) for f in fields(cls)})
+        return cls(**{f.name: d[f.name] for f in fields(cls)})
 
     @classmethod
     def of(cls, p) -> "RobotParams":
         """Converts any object with the fields (e.g. a twip.RobotParams)."""
-        return cls(**{f.name: float(getattr(p, f.name)) for f in fields(cls)})
+        return cls(**{f.name: getattr(p, f.name) for f in fields(cls)})
 
     def to_dict(self) -> dict:
         return asdict(self)

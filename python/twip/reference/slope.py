@@ -13,6 +13,7 @@ import numpy as np
 
 from twip.reference.friction import Friction
 from twip.reference.params import RobotParams
+from twip.reference.real import real
 
 
 class SlopeModel:
@@ -22,9 +23,10 @@ class SlopeModel:
         self.params = RobotParams.of(params)
         # Gearhead friction per wheel (None: the thesis's model); both wheels turn at beta_dot.
         self.friction = Friction.of(friction)
+        slope = real("slope", slope)
         if not math.isfinite(slope) or abs(slope) >= math.pi / 2:
             raise ValueError(f"invalid slope = {slope}: must be within (-pi/2, pi/2) rad")
-        self.slope = float(slope)
+        self.slope = slope
 
     def mass_matrix(self, phi: float):
         """The 2x2 matrix of (3.20)/(3.21) (called a_ij in (4.34))."""

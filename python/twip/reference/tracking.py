@@ -19,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 
 from twip.reference.fuzzy import GridBasis, Trapezoid
+from twip.reference.real import real, reals
 
 TWO_PI = 2.0 * math.pi
 
@@ -36,7 +37,7 @@ class TrackSample(NamedTuple):
 
 
 def _check(name: str, value: float, positive: bool = False, non_negative: bool = False) -> float:
-    value = float(value)
+    value = real(name, value)
     if not math.isfinite(value):
         raise ValueError(f"invalid {name} = {value}: must be finite")
     if positive and not value > 0:
@@ -61,7 +62,7 @@ class Circle:
     def __init__(self, radius, speed, centre=None, direction=1, phase=None):
         self.radius = _check("radius", radius, positive=True)
         self.speed = _check("speed", speed, positive=True)
-        if direction not in (1, -1):
+        if isinstance(direction, (bool, np.bool_)) or direction not in (1, -1):
             raise ValueError(f"invalid direction = {direction}: must be +1 (counter-clockwise) or -1")
         self.direction = float(direction)
         if centre is None:
@@ -176,7 +177,7 @@ class Waypoints:
     jumps). After the last point the reference stops there."""
 
     def __init__(self, points, speed, corner_radius=0.0):
-        pts = [tuple(float(c) for c in p) for p in points]
+        pts = [tuple(reals(f"points[{i}]", p)) for i, p in enumerate(points)]
         if len(pts) < 2:
             raise ValueError(f"invalid waypoints = {len(pts)}: needs at least 2 points")
         if len(pts) > MAX_WAYPOINTS:
@@ -415,14 +416,14 @@ class SmcTracker:
         self.radius, self.half_track = float(p.wheel_radius), float(p.half_track)
         self.g = dict(gains)
         self.fuzzy = bool(fuzzy)
-        self.pitch_sign = float(pitch_sign)
-        self.width_eta, self.width_s1 = (float(w) for w in width)
-        self.eps_e3, self.eps_d = (float(v) for v in guards)
-        self.gamma1, self.gamma2 = (float(v) for v in gamma)
-        self.leakage = float(leakage)
+        self.pitch_sign = real("pitch_sign", pitch_sign)
+        self.width_eta, self.width_s1 = reals("boundary_layer", width)
+        self.eps_e3, self.eps_d = reals("guards", guards)
+        self.gamma1, self.gamma2 = reals("gamma", gamma)
+        self.leakage = real("leakage", leakage)
         self.pitch_offset = bool(pitch_offset)
         self.motor = motor
-        self.period = float(period)
+        self.period = real("period", period)
         self.basis1 = GridBasis(yaw_sets or [_basis_sets(0.1, 0.3), _basis_sets(0.25, 1.0)])  # (phi, omega)
         self.basis2 = GridBasis(pitch_sets or [_basis_sets(0.1, 0.3), _basis_sets(0.5, 2.0)])  # (phi, phi_dot)
         k = self.basis1.n_rules
