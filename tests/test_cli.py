@@ -374,3 +374,14 @@ def test_perturb_forms():
     assert cli_args.perturbation("slope=0:10deg")[1].low == 0.0
     assert cli_args.perturbation("phi0=~2deg")[1].std == pytest.approx(0.03490658503988659)
     assert cli_args.perturbation("i_body=~5%") == ("i_body", twip.Normal(rel=0.05))
+
+
+def test_demo_runs_reproduce_quick(tmp_path, capsys, monkeypatch):
+    # `twip demo` passed reproduce a Namespace without format and dpi: an AttributeError traceback.
+    from twip import report
+
+    calls = []
+    monkeypatch.setattr(report, "reproduce", lambda out, **kw: calls.append((out, kw)))
+    code, _, err = run(["demo", "--out", tmp_path / "d"], capsys)
+    assert code == 0 and "Traceback" not in err
+    assert calls == [(str(tmp_path / "d"), dict(quick=True, jobs=None, animations=True, fmt="png", dpi=None))]

@@ -101,8 +101,10 @@ def build_parser() -> argparse.ArgumentParser:
                        description="An alias of `twip reproduce --quick`.", formatter_class=formatter,
                        epilog="example:\n  twip demo --out /tmp/demo")
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR", help=f"output folder (default: {DEFAULT_OUT}/)")
+    # Every option `reproduce` reads: a Namespace without format and dpi crashed `twip demo`.
     p.set_defaults(func=lambda a: _command("reproduce")(argparse.Namespace(out=a.out, quick=True, jobs=None,
-                                                                            no_animations=False)))
+                                                                            no_animations=False, format="png",
+                                                                            dpi=None)))
 
     p = sub.add_parser("simulate", help="run one scenario, print its metrics, plot or animate it",
                        description="Run one named scenario and print its metrics (and the thesis's claims about it).",
