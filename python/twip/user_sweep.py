@@ -279,9 +279,12 @@ def time_one_run(sc, realism=None) -> float:
     from twip.sim import simulate
 
     options = {} if realism is None else {"realism": realism}
+    # A copy, as every sample runs: the user's own object, run here, kept the state this run
+    # left (a controller without reset()), and the samples pickled after it started from it.
+    controller = pickle.loads(controller_bytes(sc.controller))
     started = time.perf_counter()
     try:
-        simulate(sc.model, sc.controller, sc.x0, sc.t_final, sc.dt, reference=sc.reference,
+        simulate(sc.model, controller, sc.x0, sc.t_final, sc.dt, reference=sc.reference,
                  control_period=sc.control_period, record_every=max(1, int(round(sc.t_final / sc.dt))), **options)
     except Exception:  # noqa: BLE001 (the sweep itself reports a failing controller)
         pass
