@@ -149,3 +149,23 @@ def test_numpy_numbers_are_taken_and_bools_refused(log, csv_log):
     assert np.array_equal(RunLog.from_csv(csv_log, scale={"u": np.float32(2)}).u, 2 * log.u)
     with pytest.raises(TypeError, match=r"^scale\['u'\] must be a number or a unit name .*, got True \(bool\)"):
         RunLog.from_csv(csv_log, scale={"u": True})
+
+
+def test_cli_identify_reads_and_keeps_the_robot_files_sensors(tmp_path, log, capsys):
+    # The file's encoder_cpr was ignored for 700 (an enc column of a 1440-count encoder
+    # misfit by 216 counts RMS, exit 1), and --out dropped the [sensors] table.
+    from twip import robot_file
+
+    path = tmp_path / "enc.csv"
+    RunLog(log.t, u=log.u, phi=log.phi, enc=(log.theta - log.phi) * 1440 / (2 * math.pi)).to_csv(path)
+    start = tmp_path / "start.toml"
+    robot_file.init(start)
+    start.write_text(start.read_text().replace("encoder_cpr = 700.0", "encoder_cpr = 1440.0")
+                     .replace('imu_forward = "+x"', 'imu_forward = "-x"'))
+    fitted = tmp_path / "fitted.toml"
+    assert main(["identify", str(path), "--robot", str(start), "--free", "m_body", "--out", str(fitted)]) == 0
+    assert "MISFIT" not in capsys.readouterr().out
+    assert twip.Robot.from_file(fitted).sensors == twip.Robot.from_file(start).sensors
+    # A flag still overrides the file.
+    assert main(["identify", str(path), "--robot", str(start), "--free", "m_body", "--encoder-cpr", "700"]) == 1
+    assert "MISFIT: enc" in capsys.readouterr().out

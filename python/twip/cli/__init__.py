@@ -198,10 +198,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--signals", metavar="A,B,...", help="the logged outputs to compare (default: all present)")
     p.add_argument("--segment", type=positive_float, default=0.25, metavar="S",
                    help="multiple-shooting segment length [s] (default 0.25)")
-    p.add_argument("--encoder-cpr", type=positive_float, default=700.0, metavar="N",
-                   help="encoder counts per wheel turn, for an enc column (default 700)")
-    p.add_argument("--imu-height", type=float, default=0.12, metavar="M",
-                   help="the IMU's height above the axle [m], for accel columns (default 0.12)")
+    p.add_argument("--encoder-cpr", type=positive_float, metavar="N",
+                   help="encoder counts per wheel turn, for an enc column (default: the --robot file's [sensors], "
+                        "else 700)")
+    p.add_argument("--imu-height", type=float, metavar="M",
+                   help="the IMU's height above the axle [m], for accel columns (default: the --robot file's "
+                        "[sensors], else 0.12)")
     p.add_argument("--imu-dlpf", type=positive_float, metavar="HZ",
                    help="the MPU-6050 DLPF bandwidth the gyro and accel columns were read through (one of "
                         "Table 2.2's: 260, 184, 94, 44/42, 21/20, 10, 5): the predictions pass through the same "

@@ -307,12 +307,17 @@ def identify(args) -> int:
     if args.gyro_bias_walk is not None and args.imu_dlpf is None:
         raise UsageError(f"--gyro-bias-walk {args.gyro_bias_walk:g}: describes the IMU, so it needs --imu-dlpf too")
     walk = math.radians(args.gyro_bias_walk or 0.0)
+    # The robot file's [sensors] unless a flag says otherwise: its encoder_cpr was ignored
+    # for 700, and an enc column of another encoder misfit by the ratio.
+    declared = start.sensors if start and start.sensors else robot_file.Sensors()
+    cpr = args.encoder_cpr if args.encoder_cpr is not None else declared.encoder_cpr
+    height = args.imu_height if args.imu_height is not None else declared.imu_height
     try:  # Sensors checks the height, before an IMU is built with it
-        sensors = sysid.Sensors(encoder_cpr=args.encoder_cpr, imu_height=args.imu_height)
+        sensors = sysid.Sensors(encoder_cpr=cpr, imu_height=height)
     except twip.TwipError as e:
         raise UsageError(f"--imu-height: {e}") from None
     if args.imu_dlpf is not None:
-        sensors = dataclasses.replace(sensors, imu=twip.Imu(dlpf_hz=args.imu_dlpf, height=args.imu_height,
+        sensors = dataclasses.replace(sensors, imu=twip.Imu(dlpf_hz=args.imu_dlpf, height=height,
                                                              sample_rate=args.imu_rate, gyro_bias_walk=walk))
     fit = sysid.identify(log, robot, free, segment=args.segment, driver=start.driver if start else None,
                          friction=identify_friction(args), sensors=sensors, signals=signals,
@@ -329,7 +334,10 @@ def identify(args) -> int:
         driver = dict(tables.get("driver", {})) or (robot_file.balanbot_driver() if fit.driver is not None else {})
         if fit.driver is not None:
             driver.update({k: v for k, v in fit.driver.to_dict().items() if k in fit.names})
-        robot_file.save(fit.robot, args.out, tables.get("motor"), driver or None)
+        # The sensors the fit read the log with, beside the file's IMU axes (they were dropped).
+        given = "sensors" in tables or args.encoder_cpr is not None or args.imu_height is not None
+        sensors = {**tables.get("sensors", {}), "encoder_cpr": cpr, "imu_height": height} if given else None
+        robot_file.save(fit.robot, args.out, tables.get("motor"), driver or None, sensors)
         print(f"wrote {args.out}")
     if args.plot:
         fit.plot(args.plot)
