@@ -339,6 +339,9 @@ BAD = {
     "no command": [],
     "unknown command": ["frobnicate"],
     "negative jobs": ["reproduce", "--jobs", "0"],
+    # An empty --robot (an unset shell variable) ran the Balanbot, exit 0.
+    "empty robot file": ["simulate", "flat-lqr", "--robot", ""],
+    "blank robot file (sweep)": ["sweep", "flat-lqr", "-n", "4", "--robot", " "],
 }
 
 
