@@ -52,6 +52,13 @@ def _write(tmp_path, edit):
     (lambda t: t.replace("battery = 11.1", "battery = 0"), r"r.toml:28: \[driver\] battery: invalid supply = 0"),
     # "... below the battery voltage" was blamed on battery, the key named in it first.
     (lambda t: t.replace("bridge_drop = 2.0", "bridge_drop = 20.0"), r"r.toml:29: \[driver\] bridge_drop: invalid bridge_drop"),
+    # An integer beyond any float was a bare OverflowError (ValueError past 4300 digits).
+    (lambda t: t.replace("m_body = 0.8301", "m_body = " + "9" * 400), r"r.toml:4: \[robot\] m_body: an integer of 400 digits"),
+    (lambda t: t.replace("encoder_cpr = 700.0", "encoder_cpr = " + "9" * 400), r"r.toml:35: \[sensors\] encoder_cpr: an integer"),
+    (lambda t: t.replace("m_body = 0.8301", "m_body = " + "9" * 5000), r"r.toml: not a robot file: .*4300 digits"),
+    # A quoted or dotted key was placed at line 0.
+    (lambda t: t.replace("m_body = 0.8301", '"m_body" = -1.0'), r"r.toml:4: \[robot\] m_body: invalid m_body"),
+    (lambda t: t.replace("m_body = 0.8301", "m_body = 0.8301\nextra.x = 1"), r"r.toml:5: \[robot\] extra: unknown key"),
 ])
 def test_errors_name_the_file_the_key_and_the_line(tmp_path, edit, message):
     with pytest.raises(twip.InvalidParameterError, match=message):

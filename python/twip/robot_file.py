@@ -119,7 +119,8 @@ def _line_of(text: str, table: str, key: Optional[str]) -> int:
             if key is None and current == table:
                 return number
             continue
-        if current == table and key is not None and re.match(rf"\s*{re.escape(key)}\s*=", line):
+        # A bare, quoted ("m_body" = ...) or dotted (extra.x = ...) key.
+        if current == table and key is not None and re.match(rf"\s*([\"']?){re.escape(key)}\1\s*[=.]", line):
             return number
     return 0
 
@@ -144,6 +145,25 @@ def _core_error(path, text, table: str, keys, error: Exception) -> RobotFileErro
     return _fail(path, text, *(min(named)[1] if named else (table, None)), message)
 
 
+def _finite(value) -> Optional[float]:
+    """`value` as a finite float, or None: a bool, a string, an array, nan, inf, or an
+    integer beyond any float (10**400 raised a bare OverflowError)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
+def _shown(value) -> str:
+    """`value` for a message: a huge integer by its size, not its 400 digits."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > 10**20:
+        return f"an integer of {len(str(abs(value)))} digits"
+    return repr(value)
+
+
 def _numbers(path, text, data: dict, table: str, allowed: Dict[str, tuple]) -> Dict[str, float]:
     values = data.get(table, {})
     if not isinstance(values, dict):
@@ -152,9 +172,9 @@ def _numbers(path, text, data: dict, table: str, allowed: Dict[str, tuple]) -> D
     for key, value in values.items():
         if key not in allowed:
             raise _fail(path, text, table, key, f"unknown key; [{table}] takes {', '.join(allowed)}")
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise _fail(path, text, table, key, f"{value!r} is not a finite number")
-        out[key] = float(value)
+        if _finite(value) is None:
+            raise _fail(path, text, table, key, f"{_shown(value)} is not a finite number")
+        out[key] = _finite(value)
     return out
 
 
@@ -208,6 +228,8 @@ def load(path) -> Robot:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise RobotFileError(f"{path}: not valid TOML: {e}") from None
+    except ValueError as e:  # an integer of more than 4300 digits (Python's limit)
+        raise RobotFileError(f"{path}: not a robot file: {e}") from None
     for table in data:
         if table not in _TABLES:
             raise _fail(path, text, table, None, f"unknown table; a robot file has {', '.join(_TABLES)}")
@@ -269,8 +291,8 @@ def _sensors(path, text, data) -> Sensors:
         if SENSORS[key][0] == "axis":
             if value not in AXES:
                 raise _fail(path, text, "sensors", key, f"{value!r} is not an axis; write one of {', '.join(AXES)}")
-        elif isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise _fail(path, text, "sensors", key, f"{value!r} is not a finite number")
+        elif _finite(value) is None:
+            raise _fail(path, text, "sensors", key, f"{_shown(value)} is not a finite number")
         elif key == "encoder_cpr" and value <= 0:
             raise _fail(path, text, "sensors", key, f"{value!r}: counts per wheel turn must be > 0")
         elif key == "imu_height" and not 0 <= value <= checks.MAX_IMU_HEIGHT:  # 120 would be millimetres
