@@ -4,6 +4,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, Mapping, Optional, Union
@@ -114,49 +115,21 @@ class RunLog:
         try:
             # utf-8-sig: a spreadsheet's byte order mark is not part of the first header.
             with path.open(newline="", encoding="utf-8-sig") as f:
-                reader = csv.reader(f)
+                reader = csv.reader(_lines(f, path))
                 try:
-                    rows = list(reader)
+                    header = next(reader, None)
+                    if header is None:
+                        raise LogError(f"{path}: empty file")
+                    header = [h.strip() for h in header]
+                    names = _names(path, header, columns)
+                    data = _read(path, reader, header, names)
                 except csv.Error as e:  # e.g. a cell beyond the csv module's field size limit
                     raise LogError(f"{path}: line {reader.line_num}: {e}; a log is a CSV of numbers") from None
         except OSError as e:
             raise LogError(f"path = {str(path)!r}: {e.strerror}") from None
         except UnicodeDecodeError as e:
             raise LogError(f"path = {str(path)!r}: not a text file (byte {e.start} is not UTF-8; a log is CSV)") from None
-        if not rows:
-            raise LogError(f"{path}: empty file")
-        header = [h.strip() for h in rows[0]]
-        for h in columns:
-            if h not in header:
-                raise LogError(f"columns: {h!r} is not a column of {path} (columns: {', '.join(header)})")
-        names = [columns.get(h, h) for h in header]
-        for target in columns.values():
-            if target != "t" and target not in SIGNALS:
-                raise LogError(f"columns: {target!r} is not a signal (signals: t, {', '.join(SIGNALS)})")
-        given: Dict[str, str] = {}
-        for h, name in zip(header, names):
-            if name in given and (name == "t" or name in SIGNALS):
-                raise LogError(f"{path}: columns {given[name]!r} and {h!r} are both read as {name!r}; map one of "
-                               f"them to another name or leave it out (columns=, --column)")
-            given[name] = h
-        if "t" not in names:
-            raise LogError(f"{path}: no 't' column (columns: {', '.join(header)}); map one with columns={{...: 't'}}")
-        data = {}
-        for j, (h, name) in enumerate(zip(header, names)):
-            if name != "t" and name not in SIGNALS:
-                continue
-            values = np.empty(len(rows) - 1)
-            for i, row in enumerate(rows[1:]):
-                try:
-                    if "_" in row[j]:  # float() reads "1_0" as 10.0
-                        raise ValueError
-                    values[i] = float(row[j])
-                except (ValueError, IndexError):
-                    cell = row[j] if j < len(row) else "(missing)"
-                    raise LogError(f"{path}: column {h!r}, row {i + 2}: {cell!r} is not a number") from None
-                if not math.isfinite(values[i]):
-                    raise LogError(f"{path}: column {h!r}, row {i + 2}: {row[j]!r} is not a finite number")
-            data[name] = values * _factor(name, scale.get(name, 1.0))
+        data = {name: values * _factor(name, scale.get(name, 1.0)) for name, values in data.items()}
         for name in scale:
             if name not in data:
                 raise LogError(f"scale: {name!r} is not a column of the log")
@@ -168,6 +141,82 @@ class RunLog:
         names = ["t", *self.signals()]
         table = np.column_stack([self.t, *self.signals().values()])
         np.savetxt(path, table, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+
+
+#: The longest line a log may have [characters]: a row of numbers is a few hundred; a
+#: longer one (a file without line breaks) is refused before the csv module holds it whole.
+MAX_LINE = 1 << 20
+#: Rows read between checks of the columns' size against the memory budget.
+BUDGET_ROWS = 1 << 16
+
+
+def _lines(f, path):
+    """The file's lines, each at most MAX_LINE characters."""
+    number = 0
+    while True:
+        line = f.readline(MAX_LINE + 1)
+        if not line:
+            return
+        number += 1
+        if len(line) > MAX_LINE:
+            raise LogError(f"{path}: line {number} is longer than {MAX_LINE:,} characters: not a log of numbers "
+                           "(a row of a log is a few hundred)")
+        yield line
+
+
+def _names(path, header, columns) -> list:
+    """The signal name each header is read as, checked: each name once, t among them."""
+    for h in columns:
+        if h not in header:
+            raise LogError(f"columns: {h!r} is not a column of {path} (columns: {', '.join(header)})")
+    names = [columns.get(h, h) for h in header]
+    for target in columns.values():
+        if target != "t" and target not in SIGNALS:
+            raise LogError(f"columns: {target!r} is not a signal (signals: t, {', '.join(SIGNALS)})")
+    given: Dict[str, str] = {}
+    for h, name in zip(header, names):
+        if name in given and (name == "t" or name in SIGNALS):
+            raise LogError(f"{path}: columns {given[name]!r} and {h!r} are both read as {name!r}; map one of "
+                           f"them to another name or leave it out (columns=, --column)")
+        given[name] = h
+    if "t" not in names:
+        sep = next((c for c in ";\t|" if len(header) == 1 and c in header[0]), None)
+        if sep is not None:  # a spreadsheet's export in a locale that writes decimal commas
+            raise LogError(f"{path}: the header {header[0]!r} is one column: the file is separated by {sep!r}, not "
+                           "commas; save it as CSV with commas between the columns and points in the numbers")
+        raise LogError(f"{path}: no 't' column (columns: {', '.join(header)}); map one with columns={{...: 't'}}")
+    return names
+
+
+def _read(path, reader, header, names) -> Dict[str, np.ndarray]:
+    """The columns that are t or a signal, row by row: only their numbers are held (all the
+    rows as text took 5.6x the file), grown within the memory budget. Blank lines are
+    skipped (an editor's or a logger's trailing ones)."""
+    from twip import budget
+
+    wanted = [(j, h, name) for j, (h, name) in enumerate(zip(header, names)) if name == "t" or name in SIGNALS]
+    values = {name: array("d") for _, _, name in wanted}
+    rows = 0
+    for row in reader:
+        if not row or (len(row) == 1 and not row[0].strip()):
+            continue
+        if rows % BUDGET_ROWS == 0:
+            budget.check(f"RunLog.from_csv({str(path)!r})", 2 * 8 * len(wanted) * (rows + BUDGET_ROWS),
+                         "read a part of the log (fewer rows)")
+        for j, h, name in wanted:
+            cell = row[j] if j < len(row) else None
+            try:
+                if cell is None or "_" in cell:  # float() reads "1_0" as 10.0
+                    raise ValueError
+                value = float(cell)
+            except ValueError:
+                shown = "(missing)" if cell is None else cell
+                raise LogError(f"{path}: column {h!r}, row {reader.line_num}: {shown!r} is not a number") from None
+            if not math.isfinite(value):
+                raise LogError(f"{path}: column {h!r}, row {reader.line_num}: {cell!r} is not a finite number")
+            values[name].append(value)
+        rows += 1
+    return {name: np.frombuffer(column, dtype=float) if len(column) else np.empty(0) for name, column in values.items()}
 
 
 def _factor(name: str, scale) -> float:
