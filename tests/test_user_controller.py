@@ -243,6 +243,28 @@ def test_an_unpicklable_controller_is_refused_before_any_sample_runs():
     assert calls == []
 
 
+class LostOnLoad:
+    """Pickles, but its copy cannot be rebuilt (a handle to hardware, say)."""
+
+    def __init__(self):
+        self.period = 0.005
+
+    def update(self, t, y, ref):
+        return 0.0
+
+    def __setstate__(self, state):
+        raise RuntimeError("cannot reopen /dev/ttyUSB0")
+
+
+def test_a_controller_whose_pickle_cannot_be_loaded_is_refused_by_name():
+    # Its bare RuntimeError surfaced from the sweep's first run, naming neither the
+    # controller nor the pickling.
+    sc = scenarios.get("flat-lqr-sim")
+    with pytest.raises(twip.InvalidParameterError,
+                       match=r"is pickled but its copy cannot be loaded \(RuntimeError: cannot reopen /dev/ttyUSB0\)"):
+        twip.montecarlo(sc.replace(controller=LostOnLoad()), 4, progress=False)
+
+
 SCRIPT = """
 import sys, twip
 sys.path.insert(0, {tests!r})

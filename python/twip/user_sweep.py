@@ -41,14 +41,23 @@ def is_user_controller(controller) -> bool:
 
 
 def controller_bytes(controller) -> bytes:
-    """The controller pickled, or a clear error before any sample runs."""
+    """The controller pickled, and loaded back once, or a clear error before any sample runs."""
     try:
-        return pickle.dumps(controller)
+        data = pickle.dumps(controller)
     except Exception as e:  # pickle raises several kinds
         raise _core.InvalidParameterError(
             f"controller {controller!r} cannot be pickled ({type(e).__name__}: {e}); a sweep runs a fresh copy per "
             "sample in worker processes: define its class at module level and keep no open files, locks or lambdas in it"
         ) from None
+    try:  # a __setstate__ that raises surfaced as its bare exception, naming no sweep
+        pickle.loads(data)
+    except Exception as e:  # noqa: BLE001 (the controller's own code may raise anything)
+        raise _core.InvalidParameterError(
+            f"controller {controller!r} is pickled but its copy cannot be loaded ({type(e).__name__}: {e}); a sweep "
+            "runs a fresh copy per sample, unpickled in worker processes: its __setstate__ (or __reduce__) must "
+            "rebuild it"
+        ) from None
+    return data
 
 
 def fingerprint(controller) -> str:
