@@ -342,6 +342,7 @@ BAD = {
     # An empty --robot (an unset shell variable) ran the Balanbot, exit 0.
     "empty robot file": ["simulate", "flat-lqr", "--robot", ""],
     "blank robot file (sweep)": ["sweep", "flat-lqr", "-n", "4", "--robot", " "],
+    "empty controller file": ["simulate", "flat-lqr", "--controller", ""],
 }
 
 

@@ -7,7 +7,7 @@ from collections import Counter
 
 import twip
 from twip.design.tune import DEFAULT_BUDGET
-from twip.cli.args import (UsageError, formatter, get_scenario, perturbation, positive_int, realism, robot,
+from twip.cli.args import (UsageError, formatter, get_scenario, input_file, perturbation, positive_int, realism, robot,
                            scenario_name, seed, add_realism_option, add_robot_option)
 
 TUNE_EPILOG = """examples:
@@ -28,7 +28,8 @@ that falls first, or else tilts furthest; then checks it on --confirm fresh nois
 
 
 def add_controller_option(p) -> None:
-    p.add_argument("--controller", metavar="FILE", help="a tuned controller file (twip tune --out FILE): its knobs "
+    p.add_argument("--controller", type=input_file("the scenario's own controller"), metavar="FILE",
+                   help="a tuned controller file (twip tune --out FILE): its knobs "
                    "on the scenario's controller")
 
 
