@@ -200,3 +200,25 @@ def test_from_csv_skips_blank_lines_and_names_another_separator(tmp_path):
     path.write_text("t;u;phi\n0;0;0\n0,001;1;0\n")
     with pytest.raises(LogError, match=r"the header 't;u;phi' is one column: the file is separated by ';'"):
         RunLog.from_csv(path)
+
+
+def test_cli_identify_out_keeps_a_fitted_resistance(tmp_path):
+    # The robot file had no place for the driver's resistance: --out wrote the sheet's
+    # 1.714 ohm beside "wrote", exit 0, for a fitted 2.2 ohm.
+    from twip import robot_file
+
+    base = twip.Realism.thesis_like().replace(friction=None, backlash=None)
+    truth = base.motor.replace(inductance=0.0, current_limit=None, resistance=2.2)
+    sc = scenarios.get("flat-lqr")
+    run = twip.simulate(sc.model, sc.controller, [0.05, 0, 0, 0], 2.0, reference=sc.reference,
+                        realism=base.replace(motor=truth))
+    path, start, fitted = tmp_path / "pwm.csv", tmp_path / "start.toml", tmp_path / "fitted.toml"
+    run.to_log().to_csv(path)
+    robot_file.init(start)
+    start.write_text(start.read_text().replace("inductance = 0.001", "inductance = 0.0")
+                     .replace("current_limit = 2.0", "current_limit = 0.0"))
+    assert main(["identify", str(path), "--robot", str(start), "--free", "resistance", "--imu-dlpf", "42",
+                 "--out", str(fitted)]) == 0
+    assert twip.Robot.from_file(fitted).driver.resistance == pytest.approx(2.2, rel=1e-3)  # measured: 2.20009
+    # Without the key, the [motor] sheet's, as before.
+    assert twip.Robot.from_file(start).driver.resistance == pytest.approx(12 / 7, rel=1e-12)

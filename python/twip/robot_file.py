@@ -9,7 +9,7 @@
 all three, and `Robot.realism()` is `Realism.thesis_like()` with the file's motor and driver
 in place of the Balanbot's; `Robot.controller_motor()` is the motor a tracker built for the
 robot assumes (`twip.scenarios.robot_options`). The plant takes the torque constant from
-[robot]; [motor] sets the winding's resistance and the trackers' motor (a warning says when
+[robot]; [motor] sets the winding's resistance (unless [driver] names one) and the trackers' motor (a warning says when
 the sheet's torque constant differs by more than 2 %). Without a [driver] table the driver
 is `MotorDriver.thesis_like()`'s (the L298's drop, 1 mH, 2 A) with the sheet's resistance;
 a [driver] table starts from the same driver (as the rig and `twip.identify` do) and sets what
@@ -69,6 +69,8 @@ DRIVER: Dict[str, Tuple[str, str]] = {
     "bridge_drop": ("V", "H-bridge drop, source + sink"),
     "current_limit": ("A", "current limit per motor (0: none; absent: the thesis-like 2 A)"),
     "inductance": ("H", "winding inductance"),
+    "resistance": ("ohm", "winding resistance (absent: the [motor] sheet's rated_voltage / stall_current, else "
+                          "MotorDriver.thesis_like()'s)"),
     "efficiency": ("1", "gearbox efficiency: the share of the winding's torque that reaches the wheel "
                         "(absent: MotorDriver.thesis_like()'s, a 37 mm gearmotor's)"),
 }
@@ -262,8 +264,8 @@ def load(path) -> Robot:
         settings = _numbers(path, text, data, "driver", DRIVER)
         if settings.get("current_limit") == 0.0:
             settings["current_limit"] = None
-        if motor is not None:
-            settings["resistance"] = motor.resistance
+        if motor is not None:  # the sheet's, unless the table names one (a fitted value, `twip identify`)
+            settings.setdefault("resistance", motor.resistance)
         if "battery" in settings:  # the firmware's feed-forward assumes the file's battery
             settings["assumed_battery"] = settings["battery"]
         try:
