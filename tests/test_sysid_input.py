@@ -133,6 +133,12 @@ def test_cli_identify_checks_its_outputs_before_the_fit(csv_log, capsys, monkeyp
     assert main(["identify", str(csv_log), "--free", "m_body", "--out", "/nonexistent/dir/f.toml"]) == 2
     err = capsys.readouterr().err
     assert "--out: output '/nonexistent/dir/f.toml': the folder /nonexistent/dir does not exist" in err
+    # The log itself was overwritten by the fitted robot's TOML.
+    before = csv_log.read_bytes()
+    same = csv_log.parent / "." / csv_log.name
+    assert main(["identify", str(csv_log), "--free", "m_body", "--out", str(same)]) == 2
+    assert f"--out {same}: is the log being fitted" in capsys.readouterr().err
+    assert csv_log.read_bytes() == before
 
 
 def test_numpy_numbers_are_taken_and_bools_refused(log, csv_log):

@@ -291,6 +291,8 @@ def identify(args) -> int:
     check_outputs(args)  # --plot and --out before the fit, not after it
     if args.out:
         check_output_file("--out", args.out)
+        if Path(args.out).resolve() == Path(args.log).resolve():  # the measured run, replaced by a TOML file
+            raise UsageError(f"--out {args.out}: is the log being fitted; give another file for the fitted robot")
     columns = dict(key_value(text, "--column") for text in args.column or [])
     scale = {}
     for text in args.scale or []:
