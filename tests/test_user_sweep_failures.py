@@ -97,6 +97,25 @@ def test_by_default_a_failing_controller_stops_the_sweep_naming_the_sample():
         _sweep(Balancer, on_error="skip")
 
 
+class ExitsOnBigTilt(Balancer):
+    def update(self, t, y, ref):
+        if t == 0 and abs(y[0]) > LIMIT:
+            import os
+
+            os._exit(3)  # as a crash in an extension module ends the worker
+        return super().update(t, y, ref)
+
+
+def test_a_worker_that_dies_is_reported_with_its_sample_and_exit_code():
+    # It was "a sweep worker process ended without a reply (killed, or out of memory)",
+    # naming no sample.
+    with pytest.raises(RuntimeError, match=r"^sample (\d+): the sweep's worker process ended without a reply "
+                                           r"\(exit code 3\)") as info:
+        _sweep(ExitsOnBigTilt, threads=2)
+    index = int(info.value.args[0].split(":")[0].split()[1])
+    assert index in _bad_samples(_sweep(RaisesOnBigTilt, on_error="record", threads=1))
+
+
 class WithPeriod(Balancer):
     def __init__(self, gains, period):
         super().__init__(gains, 0.005)

@@ -227,26 +227,40 @@ class _Pool:
         from multiprocessing.connection import wait
 
         todo = list(reversed(chunks))
-        busy = {}
+        busy = {}  # each worker's pipe: the chunk it runs
         for conn in self.conns:
             if todo:
-                conn.send(todo.pop())
-                busy[conn] = True
+                busy[conn] = todo.pop()
+                conn.send(busy[conn])
         while busy:
             for conn in wait(list(busy)):
                 try:
                     kind, start, payload = conn.recv()
                 except EOFError:
-                    raise RuntimeError("a sweep worker process ended without a reply (killed, or out of memory)") from None
+                    raise RuntimeError(self._ended(conn, busy[conn])) from None
                 if kind == "failed":
                     raise ControllerFailedError(start, payload)
                 if kind == "error":
                     raise RuntimeError(f"a sweep worker failed on the chunk at sample {start}: {payload}")
                 keep(start, payload)
                 if todo:
-                    conn.send(todo.pop())
+                    busy[conn] = todo.pop()
+                    conn.send(busy[conn])
                 else:
                     del busy[conn]
+
+    def _ended(self, conn, bounds) -> str:
+        """Why a worker's pipe closed mid-chunk, naming the samples it ran (it named none)."""
+        proc = self.procs[self.conns.index(conn)]
+        proc.join(timeout=5)
+        code = proc.exitcode
+        how = (f"killed by signal {-code} ({signal.Signals(-code).name})" if code is not None and code < 0
+               and -code in signal.valid_signals() else f"exit code {code}")
+        start, stop = bounds
+        which = f"sample {start}" if stop - start == 1 else f"samples {start} to {stop - 1}"
+        return (f"{which}: the sweep's worker process ended without a reply ({how}): the controller's code ended it "
+                "(os._exit, a crash in an extension module) or it was killed (out of memory?); the samples finished "
+                "in shards before it are kept with checkpoint=")
 
 
 def run(sc, family, config, start, count, workers, progress, realism=None, on_error="stop") -> dict:
