@@ -427,6 +427,18 @@ def test_a_controller_file_that_is_not_text_is_named(tmp_path):
         controller_file.load(None)
 
 
+@pytest.mark.parametrize("digits, message", [(400, r"knob q_phi = an integer of 400 digits must be a finite"),
+                                              (5000, r"not a controller file \(Exceeds the limit")])
+def test_a_controller_file_with_a_number_beyond_any_float_is_named(tmp_path, capsys, digits, message):
+    # It was a bare OverflowError (ValueError past 4300 digits): a traceback on the command line.
+    path = tmp_path / "huge.toml"
+    path.write_text(f"[controller]\nfamily = \"lqr\"\n[knobs]\nq_phi = {'9' * digits}\n")
+    with pytest.raises(controller_file.ControllerFileError, match=message):
+        controller_file.load(path)
+    code, _, err = run(["simulate", "flat-lqr", "--controller", path], capsys)
+    assert code == 2 and "Traceback" not in err
+
+
 def test_tune_and_worst_case_commands(tmp_path, capsys):
     path = tmp_path / "tuned.toml"
     code, out, err = run(["tune", "flat-lqr", "--perturb", "m_body=±10%", "--budget", "5", "-n", "3",

@@ -27,6 +27,25 @@ def of_type(name: str, value, types, what: str):
     return value
 
 
+def finite_number(value) -> Optional[float]:
+    """A value read from a file as a finite float, or None: a bool, a string, an array, nan,
+    inf, or an integer beyond any float (10**400: float() raises OverflowError)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
+def shown(value) -> str:
+    """`value` for a message: a huge integer by its size, not its hundreds of digits."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > 10**20:
+        return f"an integer of {len(str(abs(value)))} digits"
+    return repr(value)
+
+
 def real(name: str, value, above: Optional[float] = None, at_least: Optional[float] = None) -> float:
     """`value` as a float when it is a finite real number (not a bool), > `above` and
     >= `at_least` where given."""

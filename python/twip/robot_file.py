@@ -21,7 +21,6 @@ Errors name the file, the key and its line.
 """
 from __future__ import annotations
 
-import math
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -147,25 +146,6 @@ def _core_error(path, text, table: str, keys, error: Exception) -> RobotFileErro
     return _fail(path, text, *(min(named)[1] if named else (table, None)), message)
 
 
-def _finite(value) -> Optional[float]:
-    """`value` as a finite float, or None: a bool, a string, an array, nan, inf, or an
-    integer beyond any float (10**400 raised a bare OverflowError)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return None
-    try:
-        number = float(value)
-    except OverflowError:
-        return None
-    return number if math.isfinite(number) else None
-
-
-def _shown(value) -> str:
-    """`value` for a message: a huge integer by its size, not its 400 digits."""
-    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > 10**20:
-        return f"an integer of {len(str(abs(value)))} digits"
-    return repr(value)
-
-
 def _numbers(path, text, data: dict, table: str, allowed: Dict[str, tuple]) -> Dict[str, float]:
     values = data.get(table, {})
     if not isinstance(values, dict):
@@ -174,9 +154,9 @@ def _numbers(path, text, data: dict, table: str, allowed: Dict[str, tuple]) -> D
     for key, value in values.items():
         if key not in allowed:
             raise _fail(path, text, table, key, f"unknown key; [{table}] takes {', '.join(allowed)}")
-        if _finite(value) is None:
-            raise _fail(path, text, table, key, f"{_shown(value)} is not a finite number")
-        out[key] = _finite(value)
+        if checks.finite_number(value) is None:
+            raise _fail(path, text, table, key, f"{checks.shown(value)} is not a finite number")
+        out[key] = checks.finite_number(value)
     return out
 
 
@@ -293,8 +273,8 @@ def _sensors(path, text, data) -> Sensors:
         if SENSORS[key][0] == "axis":
             if value not in AXES:
                 raise _fail(path, text, "sensors", key, f"{value!r} is not an axis; write one of {', '.join(AXES)}")
-        elif _finite(value) is None:
-            raise _fail(path, text, "sensors", key, f"{_shown(value)} is not a finite number")
+        elif checks.finite_number(value) is None:
+            raise _fail(path, text, "sensors", key, f"{checks.shown(value)} is not a finite number")
         elif key == "encoder_cpr" and value <= 0:
             raise _fail(path, text, "sensors", key, f"{value!r}: counts per wheel turn must be > 0")
         elif key == "imu_height" and not 0 <= value <= checks.MAX_IMU_HEIGHT:  # 120 would be millimetres

@@ -72,12 +72,14 @@ def load(path) -> dict:
         raise ControllerFileError(f"{path}: not UTF-8 text, as TOML is ({e.reason} at byte {e.start})") from None
     except tomllib.TOMLDecodeError as e:
         raise ControllerFileError(f"{path}: not valid TOML ({e})") from None
+    except ValueError as e:  # an integer of more than 4300 digits (Python's limit)
+        raise ControllerFileError(f"{path}: not a controller file ({e})") from None
     head, values = data.get("controller"), data.get("knobs")
     if not isinstance(head, dict) or "family" not in head or not isinstance(values, dict) or not values:
         raise ControllerFileError(f"{path}: a controller file needs [controller] with family = ... and [knobs]")
     for name, v in values.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise ControllerFileError(f"{path}: knob {name} = {v!r} must be a finite number")
+        if checks.finite_number(v) is None:  # 10**400 was a bare OverflowError
+            raise ControllerFileError(f"{path}: knob {name} = {checks.shown(v)} must be a finite number")
     knobs = {k: float(v) for k, v in values.items()}
     return {"scenario": head.get("scenario"), "family": head["family"], "knobs": knobs}
 
