@@ -343,6 +343,13 @@ BAD = {
     "empty robot file": ["simulate", "flat-lqr", "--robot", ""],
     "blank robot file (sweep)": ["sweep", "flat-lqr", "-n", "4", "--robot", " "],
     "empty controller file": ["simulate", "flat-lqr", "--controller", ""],
+    # An empty output path wrote nothing, exit 0 (or the report into the working directory).
+    "empty csv": ["sweep", "flat-lqr", "-n", "4", "--csv", ""],
+    "empty plot": ["simulate", "flat-lqr", "--plot", ""],
+    "empty animation": ["simulate", "flat-lqr", "--animate", ""],
+    "empty identify out": ["identify", "run.csv", "--free", "m_body", "--out", ""],
+    "empty tune out": ["tune", "flat-lqr", "--perturb", "m_body=±10%", "--out", ""],
+    "empty report folder": ["reproduce", "--out", ""],
 }
 
 

@@ -18,8 +18,8 @@ import warnings
 
 import twip
 from twip.cli import design
-from twip.cli.args import (Parser, UsageError, add_realism_option, add_robot_option, formatter, map_names, positive_float,
-                           positive_int, seed)
+from twip.cli.args import (Parser, UsageError, add_realism_option, add_robot_option, file_name, formatter, map_names,
+                           positive_float, positive_int, seed)
 from twip.report import DEFAULT_OUT
 
 __all__ = ["build_parser", "main", "UsageError"]
@@ -86,7 +86,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Run every thesis scenario, the Table 5.1/5.2 comparisons and robustness sweeps; "
                                    "write figures, report.md and report.json.",
                        epilog=REPRODUCE_EPILOG, formatter_class=formatter)
-    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR", help=f"output folder (default: {DEFAULT_OUT}/)")
+    p.add_argument("--out", default=DEFAULT_OUT, type=file_name(f"{DEFAULT_OUT}/"), metavar="DIR",
+                   help=f"output folder (default: {DEFAULT_OUT}/)")
     p.add_argument("--quick", action="store_true", help="shorter runs, fewer laps and samples (for tests)")
     p.add_argument("--jobs", type=int, default=None, metavar="K",
                    help="processes rendering the figures (default: up to 2)")
@@ -100,7 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("demo", help="the same as `reproduce --quick`",
                        description="An alias of `twip reproduce --quick`.", formatter_class=formatter,
                        epilog="example:\n  twip demo --out /tmp/demo")
-    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR", help=f"output folder (default: {DEFAULT_OUT}/)")
+    p.add_argument("--out", default=DEFAULT_OUT, type=file_name(f"{DEFAULT_OUT}/"), metavar="DIR",
+                   help=f"output folder (default: {DEFAULT_OUT}/)")
     # Every option `reproduce` reads: a Namespace without format and dpi crashed `twip demo`.
     p.set_defaults(func=lambda a: _command("reproduce")(argparse.Namespace(out=a.out, quick=True, jobs=None,
                                                                             no_animations=False, format="png",
@@ -117,8 +119,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--t-final", type=positive_float, metavar="SECONDS", help="override the run's duration")
     p.add_argument("--dt", type=positive_float, metavar="SECONDS", help="override the RK4 step (default 1 ms)")
     add_realism_option(p)
-    p.add_argument("--plot", metavar="OUT.png", help="write a figure of the run")
-    p.add_argument("--animate", metavar="OUT.gif", help="write an animated GIF of the run")
+    p.add_argument("--plot", type=file_name("no figure"), metavar="OUT.png", help="write a figure of the run")
+    p.add_argument("--animate", type=file_name("no animation"), metavar="OUT.gif",
+                   help="write an animated GIF of the run")
     p.add_argument("--fps", type=positive_float, default=20.0, help="GIF frames per second (default 20)")
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
     add_robot_option(p)
@@ -137,10 +140,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--threads", type=positive_int, metavar="K", help="worker threads (default: all cores)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="nominal robot change (repeatable)")
     p.add_argument("--option", action="append", metavar="NAME=VALUE", help="a scenario option (repeatable)")
-    p.add_argument("--plot", metavar="OUT.png", help="histograms (and a fall-rate map over the first two perturbations)")
+    p.add_argument("--plot", type=file_name("no figure"), metavar="OUT.png", help="histograms (and a fall-rate map over the first two perturbations)")
     p.add_argument("--map", type=map_names, metavar="X,Y", help="the two perturbed quantities of the fall-rate map")
     add_realism_option(p)
-    p.add_argument("--csv", metavar="OUT.csv", help="write the per-sample metrics")
+    p.add_argument("--csv", type=file_name("no table"), metavar="OUT.csv", help="write the per-sample metrics")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_robot_option(p)
@@ -224,10 +227,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--backlash", type=positive_float, metavar="DEG", help="each gear train's free play at the wheel "
                    "[deg], declared (not fitted): the predictions carry the motors through it, as the rig does "
                    "(the thesis-like rig's: 1; default: none)")
-    p.add_argument("--out", metavar="FILE", help="write the fitted robot as a robot file (TOML); not for a fit that "
+    p.add_argument("--out", type=file_name("no file"), metavar="FILE", help="write the fitted robot as a robot file (TOML); not for a fit that "
                    "did not converge or does not explain the log, unless --force")
     p.add_argument("--force", action="store_true", help="write --out even when the fit did not converge or misfits")
-    p.add_argument("--plot", metavar="FILE", help="draw measured against predicted signals and residuals")
+    p.add_argument("--plot", type=file_name("no figure"), metavar="FILE", help="draw measured against predicted signals and residuals")
     p.set_defaults(func=_command("identify"))
 
     p = sub.add_parser("list", help="list the scenarios", description="List the named scenarios.",

@@ -75,10 +75,10 @@ def key_value(text: str, what: str):
     return name, value.strip()
 
 
-def input_file(without: str):
-    """The type of an option naming an input file: a path, not an empty one (`--robot "$ROBOT"`
-    with the variable unset ran the Balanbot, the empty path taken for no option). `without`:
-    what leaving the option out gives."""
+def file_name(without: str):
+    """The type of an option naming a file or folder: a path, not an empty one (`--robot "$ROBOT"`
+    with the variable unset ran the Balanbot, and `--csv "$OUT"` wrote nothing, exit 0: the
+    empty path was taken for no option). `without`: what leaving the option out gives."""
     def path(text: str) -> str:
         if not text.strip():
             raise argparse.ArgumentTypeError(f"{text!r} is not a file name (leave the option out for {without})")
@@ -88,7 +88,7 @@ def input_file(without: str):
 
 
 def add_robot_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--robot", type=input_file("the Balanbot"), metavar="FILE",
+    p.add_argument("--robot", type=file_name("the Balanbot"), metavar="FILE",
                    help="the robot file (TOML; `twip robot init FILE` writes one) instead "
                    "of the Balanbot; its [motor] (else the Balanbot's at its [driver]'s battery) is the trackers' "
                    "motor, and with its [driver] goes into --realism thesis-like and twip export's PWM feed-forward")

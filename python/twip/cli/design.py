@@ -7,7 +7,7 @@ from collections import Counter
 
 import twip
 from twip.design.tune import DEFAULT_BUDGET
-from twip.cli.args import (UsageError, formatter, get_scenario, input_file, perturbation, positive_int, realism, robot,
+from twip.cli.args import (UsageError, formatter, get_scenario, file_name, perturbation, positive_int, realism, robot,
                            scenario_name, seed, add_realism_option, add_robot_option)
 
 TUNE_EPILOG = """examples:
@@ -28,7 +28,7 @@ that falls first, or else tilts furthest; then checks it on --confirm fresh nois
 
 
 def add_controller_option(p) -> None:
-    p.add_argument("--controller", type=input_file("the scenario's own controller"), metavar="FILE",
+    p.add_argument("--controller", type=file_name("the scenario's own controller"), metavar="FILE",
                    help="a tuned controller file (twip tune --out FILE): its knobs "
                    "on the scenario's controller")
 
@@ -66,7 +66,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--validate", type=positive_int, default=2000, metavar="N", help="held-out robots (default 2000)")
     p.add_argument("--seed", type=seed, default=0, help="random seed (default 0)")
     p.add_argument("--threads", type=positive_int, metavar="K", help="worker threads (default: all cores)")
-    p.add_argument("--out", metavar="FILE", help="write the tuned controller (TOML) here")
+    p.add_argument("--out", type=file_name("no file"), metavar="FILE", help="write the tuned controller (TOML) here")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_robot_option(p)
     p.set_defaults(func=tune)
