@@ -228,3 +228,18 @@ def test_cli_identify_out_keeps_a_fitted_resistance(tmp_path):
     assert twip.Robot.from_file(fitted).driver.resistance == pytest.approx(2.2, rel=1e-3)  # measured: 2.20009
     # Without the key, the [motor] sheet's, as before.
     assert twip.Robot.from_file(start).driver.resistance == pytest.approx(12 / 7, rel=1e-12)
+
+
+def test_from_csv_names_a_column_named_like_a_signal_that_it_leaves_out(tmp_path, capsys):
+    # "Gyro (rad/s)" was dropped without a word (RunLog.ignored, printed nowhere), and a
+    # "t [s]" header was told to map "..." to 't'.
+    path = tmp_path / "log.csv"
+    path.write_text("t,u,phi,Gyro (rad/s),PWM,note\n0,0,0,0,0,a\n0.001,1,0,0.5,0,b\n0.002,1,0,0.5,0,c\n")
+    with pytest.warns(UserWarning, match=r"column 'Gyro \(rad/s\)' is not read: .* give columns=\{'Gyro \(rad/s\)': "
+                                         r"'gyro'\} \(--column 'Gyro \(rad/s\)=gyro'\)") as seen:
+        log = RunLog.from_csv(path)
+    assert len(seen) == 1 and log.ignored == ("Gyro (rad/s)", "PWM", "note")  # PWM: u is the input
+    assert RunLog.from_csv(path, columns={"Gyro (rad/s)": "gyro"}).gyro.tolist() == [0.0, 0.5, 0.5]
+    path.write_text("t [s],u,phi\n0,0,0\n0.001,1,0\n")
+    with pytest.raises(LogError, match=r"map one with columns=\{'t \[s\]': 't'\} \(--column 't \[s\]=t'\)"):
+        RunLog.from_csv(path)

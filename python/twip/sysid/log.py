@@ -4,6 +4,8 @@ from __future__ import annotations
 import csv
 import math
 import os
+import re
+import warnings
 from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -134,6 +136,7 @@ class RunLog:
             if name not in data:
                 raise LogError(f"scale: {name!r} is not a column of the log")
         ignored = tuple(h for h, n in zip(header, names) if n != "t" and n not in SIGNALS)
+        _warn_near_misses(path, ignored, data)
         return cls(data.pop("t"), slope=slope, ignored=ignored, **data)
 
     def to_csv(self, path: Union[str, Path]) -> None:
@@ -184,8 +187,26 @@ def _names(path, header, columns) -> list:
         if sep is not None:  # a spreadsheet's export in a locale that writes decimal commas
             raise LogError(f"{path}: the header {header[0]!r} is one column: the file is separated by {sep!r}, not "
                            "commas; save it as CSV with commas between the columns and points in the numbers")
-        raise LogError(f"{path}: no 't' column (columns: {', '.join(header)}); map one with columns={{...: 't'}}")
+        near = [h for h in header if _bare(h) == "t"]
+        way = f"columns={{{near[0]!r}: 't'}} (--column '{near[0]}=t')" if near else "columns={...: 't'}"
+        raise LogError(f"{path}: no 't' column (columns: {', '.join(header)}); map one with {way}")
     return names
+
+
+def _bare(header: str) -> str:
+    """A header as the signal it likely names: lower case, without a unit ("Gyro (rad/s)": gyro)."""
+    return re.sub(r"\s*[\[(].*[\])]\s*$", "", header).strip().lower()
+
+
+def _warn_near_misses(path, ignored, read) -> None:
+    """Warns of a column left out that is named like a signal the log does not have ("Gyro",
+    "phi [rad]"): names are exact, and such a column was dropped without a word."""
+    inputs = {"u", "pwm"}
+    for h in ignored:
+        name = _bare(h)
+        if name in SIGNALS and name not in read and not (name in inputs and inputs & set(read)):
+            warnings.warn(f"{path}: column {h!r} is not read: signal names are exact ({', '.join(SIGNALS)}); to read "
+                          f"it as {name}, give columns={{{h!r}: {name!r}}} (--column '{h}={name}')", stacklevel=3)
 
 
 def _read(path, reader, header, names) -> Dict[str, np.ndarray]:
