@@ -342,3 +342,41 @@ def test_a_checkpointed_sweep_runs_the_controller_as_given_and_leaves_it_alone(t
     assert mine.controller.z == 0.0
     for name in memory.metric_names:
         np.testing.assert_array_equal(memory.metrics[name], stored.metrics[name], err_msg=name)
+
+
+class WithSet(Leaky):
+    """Holds a set of strings, which pickles in the process's hash order."""
+
+    def __init__(self, gains, period):
+        super().__init__(gains, period)
+        self.logged = {"phi", "phi_dot", "theta_dot", "speed", "pitch_error", "z"}
+
+
+RESUME = """
+import sys, twip
+sys.path.insert(0, {tests!r})
+from test_user_controller import WithSet
+sc = twip.scenarios.get("flat-lqr-sim", t_final=0.3)
+mine = sc.replace(controller=WithSet(sc.controller.gains, sc.controller.period))
+r = twip.montecarlo(mine, 8, perturb={{"phi0": twip.Normal(std=0.02)}}, seed=1, progress=False,
+                    checkpoint={folder!r}, shard_size=4)
+print(r.n, float(r.metrics["mean_abs_pitch_error"].sum()))
+"""
+
+
+def test_a_checkpoint_of_a_controller_holding_a_set_resumes_in_another_process(tmp_path):
+    # A set of strings pickles in the hash order each process draws anew: the fingerprint
+    # changed with PYTHONHASHSEED, and the resume was refused ("differs in: controller").
+    import os
+    import subprocess
+    import sys
+
+    tests = os.path.dirname(os.path.abspath(__file__))
+    script = RESUME.format(tests=tests, folder=str(tmp_path / "ck"))
+    outs = []
+    for seed in ("1", "2"):
+        env = {**os.environ, "PYTHONHASHSEED": seed}
+        proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300, env=env)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        outs.append(proc.stdout)
+    assert outs[0] == outs[1]

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import inspect
+import io
 import marshal
 import math
 import multiprocessing
@@ -65,9 +66,29 @@ def fingerprint(controller) -> str:
     its code (a pickle holds only the state: a checkpoint resumed after `update` was edited
     once returned the old law's shards)."""
     kind = f"{type(controller).__module__}.{type(controller).__qualname__}"
-    digest = hashlib.sha256(controller_bytes(controller))
+    controller_bytes(controller)  # the clear errors of one that does not pickle
+    digest = hashlib.sha256(_canonical(controller))
     digest.update(_code_of(type(controller)))
     return f"python:{kind}:{digest.hexdigest()}"
+
+
+class _Canonical(pickle.Pickler):
+    """A pickler whose sets come out sorted: a set of strings pickles in its hash order, which
+    each process draws anew (PYTHONHASHSEED), so a checkpoint was refused on resume ("differs
+    in: controller") for a controller that had not changed. Else the bytes of pickle.dumps.
+    (persistent_id sees every object; reducer_override skips sets.) For hashing only."""
+
+    def persistent_id(self, obj):
+        if type(obj) in (set, frozenset):
+            return type(obj).__name__, sorted(_canonical(x) for x in obj)
+        return None
+
+
+def _canonical(obj) -> bytes:
+    """`obj` pickled with its sets sorted (what a fingerprint hashes)."""
+    out = io.BytesIO()
+    _Canonical(out, protocol=pickle.DEFAULT_PROTOCOL).dump(obj)
+    return out.getvalue()
 
 
 def _code_of(cls) -> bytes:
