@@ -380,3 +380,32 @@ def test_a_checkpoint_of_a_controller_holding_a_set_resumes_in_another_process(t
         assert proc.returncode == 0, proc.stderr[-2000:]
         outs.append(proc.stdout)
     assert outs[0] == outs[1]
+
+
+CELL = """
+class Cell:
+    def __init__(self, k, period):
+        self.k, self.period = list(k), period
+
+    def update(self, t, y, ref):
+        return -(self.k[0] * y[0] + {scale} * self.k[1] * y[1])
+"""
+
+
+def test_a_notebooks_controller_keeps_its_fingerprint_in_a_new_session(monkeypatch):
+    # A notebook's classes have no source file: their bytecode was hashed with the cell's
+    # file name, which names the kernel's session (/tmp/ipykernel_<pid>/...), so a checkpoint
+    # was refused on resume after a restart. An edit of the law still changes it.
+    import sys
+    import types
+
+    from twip import user_sweep
+
+    def fingerprint(session, scale=1.0):
+        module = types.ModuleType("notebook_cells")  # as a notebook's __main__: no __file__
+        monkeypatch.setitem(sys.modules, "notebook_cells", module)
+        exec(compile(CELL.format(scale=scale), f"/tmp/ipykernel_{session}/2941.py", "exec"), module.__dict__)
+        return user_sweep.fingerprint(module.Cell([1.0, 2.0], 0.005))
+
+    assert fingerprint(1111) == fingerprint(2222)
+    assert fingerprint(1111) != fingerprint(1111, scale=0.5)

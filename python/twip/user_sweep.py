@@ -21,6 +21,7 @@ import pickle
 import signal
 import sys
 import traceback
+import types
 from pathlib import Path
 
 import numpy as np
@@ -105,8 +106,16 @@ def _code_of(cls) -> bytes:
             for name, member in sorted(vars(klass).items()):
                 code = getattr(getattr(member, "__func__", member), "__code__", None)
                 if code is not None:
-                    out.update(name.encode() + marshal.dumps(code))
+                    out.update(name.encode() + marshal.dumps(_placeless(code)))
     return out.digest()
+
+
+def _placeless(code: types.CodeType) -> types.CodeType:
+    """`code` without the file and line it was compiled at: a notebook compiles each cell
+    under a file name of its session (/tmp/ipykernel_<pid>/...), so the same class's code
+    differed in a new session and its checkpoint was refused on resume."""
+    consts = tuple(_placeless(c) if isinstance(c, types.CodeType) else c for c in code.co_consts)
+    return code.replace(co_filename="", co_firstlineno=1, co_consts=consts)
 
 
 #: How a sweep treats a sample whose controller raised or returned a bad `u`.
