@@ -409,3 +409,25 @@ def test_a_notebooks_controller_keeps_its_fingerprint_in_a_new_session(monkeypat
 
     assert fingerprint(1111) == fingerprint(2222)
     assert fingerprint(1111) != fingerprint(1111, scale=0.5)
+
+
+def test_a_function_controllers_fingerprint_follows_its_code(tmp_path, monkeypatch):
+    # A plain function pickles by name: its body was in no fingerprint, and a checkpoint
+    # resumed after an edit of the law mixed the old law's shards with the new one's.
+    import functools
+    import importlib
+    import sys
+
+    from twip import user_sweep
+
+    monkeypatch.syspath_prepend(str(tmp_path))
+    law = tmp_path / "edited_law.py"
+    law.write_text("def law(t, y, ref, gain=1.0):\n    return -gain * (-11.0 * y[0] - 1.7 * y[1])\n")
+    module = importlib.import_module("edited_law")
+    monkeypatch.setitem(sys.modules, "edited_law", module)
+    before = [user_sweep.fingerprint(module.law), user_sweep.fingerprint(functools.partial(module.law, gain=2.0))]
+    law.write_text("def law(t, y, ref, gain=1.0):\n    return -gain * (-5.5 * y[0] - 1.7 * y[1])\n")
+    module = importlib.reload(module)
+    after = [user_sweep.fingerprint(module.law), user_sweep.fingerprint(functools.partial(module.law, gain=2.0))]
+    assert before[0] != after[0] and before[1] != after[1]
+    assert before[0].startswith("python:edited_law.law:")

@@ -10,6 +10,7 @@ robot from its own stream (`_core.sweep_draw`), so a sample's metrics depend on
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import inspect
 import io
@@ -66,11 +67,28 @@ def fingerprint(controller) -> str:
     """What a checkpoint records of a Python controller: its class, its pickled state and
     its code (a pickle holds only the state: a checkpoint resumed after `update` was edited
     once returned the old law's shards)."""
-    kind = f"{type(controller).__module__}.{type(controller).__qualname__}"
+    named = controller if isinstance(controller, types.FunctionType) else type(controller)
+    kind = f"{named.__module__}.{named.__qualname__}"
     controller_bytes(controller)  # the clear errors of one that does not pickle
     digest = hashlib.sha256(_canonical(controller))
-    digest.update(_code_of(type(controller)))
+    digest.update(_code_behind(controller))
     return f"python:{kind}:{digest.hexdigest()}"
+
+
+def _code_behind(controller) -> bytes:
+    """The code a controller runs: a plain function's own (it pickles by name alone: its
+    body was in no fingerprint, and a checkpoint resumed after an edit mixed the two laws'
+    shards), a partial's or a bound method's function, else its class's."""
+    if isinstance(controller, functools.partial):
+        return _code_behind(controller.func)
+    if isinstance(controller, types.MethodType):
+        return _code_behind(controller.__func__) + _code_of(type(controller.__self__))
+    if isinstance(controller, types.FunctionType):
+        try:
+            return Path(inspect.getsourcefile(sys.modules[controller.__module__])).read_bytes()
+        except (KeyError, TypeError, OSError):
+            return marshal.dumps(_placeless(controller.__code__))
+    return _code_of(type(controller))
 
 
 class _Canonical(pickle.Pickler):
