@@ -22,6 +22,17 @@ def test_round_trip_keeps_every_field_to_the_bit(tmp_path):
         assert f"[{unit}]" in line and f"({symbol})" in line
 
 
+def test_a_driver_round_trips_to_the_bit_without_a_current_limit_too(tmp_path):
+    # A driver's current_limit None (no limit) was left out of the file, which read it back
+    # as the thesis-like 2 A; the resistance was left out as no key of [driver].
+    path = tmp_path / "r.toml"
+    for driver in (twip.MotorDriver.thesis_like().replace(current_limit=None, resistance=2.345678901234567),
+                   twip.MotorDriver.thesis_like().replace(current_limit=1.5, battery=12.6, assumed_battery=12.6,
+                                                           efficiency=0.9)):
+        robot_file.save(twip.RobotParams.balanbot(), path, driver=driver.to_dict())
+        assert twip.Robot.from_file(path).driver.to_dict() == driver.to_dict()
+
+
 def test_init_writes_the_balanbot_with_its_motor_and_driver(tmp_path):
     path = tmp_path / "robot.toml"
     assert main(["robot", "init", str(path)]) == 0

@@ -324,8 +324,11 @@ def dumps(params, sheet: Optional[dict] = None, driver: Optional[dict] = None,
         if content:
             lines += ["", f"[{name}]"]
             for key, (unit, what) in table.items():
-                if content.get(key) is not None:
-                    value = f'"{content[key]}"' if unit == "axis" else _format(content[key])
+                given = content.get(key)
+                if given is None and table is DRIVER and key == "current_limit" and key in content:
+                    given = 0.0  # no limit (MotorDriver's None); left out, it read back as the 2 A default
+                if given is not None:
+                    value = f'"{given}"' if unit == "axis" else _format(given)
                     lines.append(f"{key} = {value}".ljust(36) + f"# [{unit}] {what}")
     return "\n".join(lines) + "\n"
 
