@@ -439,6 +439,15 @@ def test_a_controller_file_with_a_number_beyond_any_float_is_named(tmp_path, cap
     assert code == 2 and "Traceback" not in err
 
 
+def test_a_file_too_large_for_a_controller_file_is_refused_before_it_is_held(tmp_path):
+    # /dev/zero was read until a MemoryError.
+    big = tmp_path / "big.toml"
+    big.write_text("# " + "x" * (1 << 20) + "\n")
+    for path in (big, "/dev/zero"):
+        with pytest.raises(controller_file.ControllerFileError, match=r"more than 1,048,576 characters"):
+            controller_file.load(path)
+
+
 def test_tune_and_worst_case_commands(tmp_path, capsys):
     path = tmp_path / "tuned.toml"
     code, out, err = run(["tune", "flat-lqr", "--perturb", "m_body=±10%", "--budget", "5", "-n", "3",

@@ -98,6 +98,21 @@ def test_a_file_that_is_not_text_is_named(tmp_path):
         twip.RunLog.from_csv(path)
 
 
+def test_a_file_too_large_for_a_robot_file_is_refused_before_it_is_held(tmp_path, capsys):
+    # /dev/zero was read until a MemoryError; a log passed by mistake was held whole.
+    big = tmp_path / "big.toml"
+    big.write_text("# " + "x" * (1 << 20) + "\n")
+    for path in (big, "/dev/zero"):
+        with pytest.raises(twip.InvalidParameterError, match=r"more than 1,048,576 characters; a robot file is"):
+            twip.Robot.from_file(path)
+    assert main(["simulate", "flat-lqr", "--robot", "/dev/zero"]) == 2
+    assert "more than 1,048,576 characters" in capsys.readouterr().err
+    # A long array is named by its start: its whole repr made a 1 MB message.
+    with pytest.raises(twip.InvalidParameterError, match=r"m_body: \[1.0, 1.0, .*\.\.\. \(a list of 200,000 items\) is not") as e:
+        twip.Robot.from_file(_write(tmp_path, lambda t: t.replace("m_body = 0.8301", "m_body = [" + "1.0," * 200_000 + "]")))
+    assert len(str(e.value)) < 300
+
+
 def test_the_cli_runs_your_robot_and_its_driver(tmp_path, capsys):
     path = tmp_path / "heavy.toml"
     twip.RobotParams.balanbot().replace(m_body=1.2).to_file(path)

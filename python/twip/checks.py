@@ -27,6 +27,19 @@ def of_type(name: str, value, types, what: str):
     return value
 
 
+#: The most characters a robot or controller file may have: a few kB of TOML. A larger one
+#: (a log passed by mistake, /dev/zero) is refused before it is held whole.
+MAX_TEXT_FILE = 1 << 20
+
+
+def read_text_file(path) -> Optional[str]:
+    """The text of a small UTF-8 file, or None when it has more than MAX_TEXT_FILE characters
+    (OSError and UnicodeDecodeError as open and read raise them)."""
+    with open(path, encoding="utf-8") as f:
+        text = f.read(MAX_TEXT_FILE + 1)
+    return text if len(text) <= MAX_TEXT_FILE else None
+
+
 def finite_number(value) -> Optional[float]:
     """A value read from a file as a finite float, or None: a bool, a string, an array, nan,
     inf, or an integer beyond any float (10**400: float() raises OverflowError)."""
@@ -40,10 +53,14 @@ def finite_number(value) -> Optional[float]:
 
 
 def shown(value) -> str:
-    """`value` for a message: a huge integer by its size, not its hundreds of digits."""
+    """`value` for a message: a huge integer by its size, not its hundreds of digits, and a
+    long array or table by its start (a 200,000-number array made a 1 MB message)."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) > 10**20:
         return f"an integer of {len(str(abs(value)))} digits"
-    return repr(value)
+    text = repr(value)
+    if len(text) > 80 and isinstance(value, (list, dict, str)):
+        return f"{text[:60]}... (a {type(value).__name__} of {len(value):,} items)"
+    return text
 
 
 def real(name: str, value, above: Optional[float] = None, at_least: Optional[float] = None) -> float:

@@ -201,11 +201,14 @@ def load(path) -> Robot:
     """Reads a robot file (see the module docs)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = checks.read_text_file(path)
     except OSError as e:
         raise RobotFileError(f"{path}: cannot read the robot file ({e.strerror})") from None
     except UnicodeDecodeError as e:
         raise RobotFileError(f"{path}: not a text file (byte {e.start} is not UTF-8; a robot file is TOML)") from None
+    if text is None:
+        raise RobotFileError(f"{path}: more than {checks.MAX_TEXT_FILE:,} characters; a robot file is a few kB of TOML "
+                             "(`twip robot init FILE` writes one)")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
@@ -272,7 +275,7 @@ def _sensors(path, text, data) -> Sensors:
             raise _fail(path, text, "sensors", key, f"unknown key; [sensors] takes {', '.join(SENSORS)}")
         if SENSORS[key][0] == "axis":
             if value not in AXES:
-                raise _fail(path, text, "sensors", key, f"{value!r} is not an axis; write one of {', '.join(AXES)}")
+                raise _fail(path, text, "sensors", key, f"{checks.shown(value)} is not an axis; write one of {', '.join(AXES)}")
         elif checks.finite_number(value) is None:
             raise _fail(path, text, "sensors", key, f"{checks.shown(value)} is not a finite number")
         elif key == "encoder_cpr" and value <= 0:

@@ -65,11 +65,16 @@ def load(path) -> dict:
     """{"scenario", "family", "knobs"} of a controller file."""
     path = Path(checks.of_type("path", path, (str, os.PathLike), "a file path"))
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))  # TOML is UTF-8, whatever the locale
+        text = checks.read_text_file(path)  # TOML is UTF-8, whatever the locale
     except OSError as e:
         raise ControllerFileError(f"{path}: cannot read the controller file ({e.strerror})") from None
     except UnicodeDecodeError as e:
         raise ControllerFileError(f"{path}: not UTF-8 text, as TOML is ({e.reason} at byte {e.start})") from None
+    if text is None:
+        raise ControllerFileError(f"{path}: more than {checks.MAX_TEXT_FILE:,} characters; a controller file is "
+                                  "a few lines of TOML (twip tune --out FILE writes one)")
+    try:
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ControllerFileError(f"{path}: not valid TOML ({e})") from None
     except ValueError as e:  # an integer of more than 4300 digits (Python's limit)
