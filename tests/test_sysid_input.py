@@ -243,3 +243,16 @@ def test_from_csv_names_a_column_named_like_a_signal_that_it_leaves_out(tmp_path
     path.write_text("t [s],u,phi\n0,0,0\n0.001,1,0\n")
     with pytest.raises(LogError, match=r"map one with columns=\{'t \[s\]': 't'\} \(--column 't \[s\]=t'\)"):
         RunLog.from_csv(path)
+
+
+def test_t_in_microseconds_is_named_and_read(tmp_path):
+    # An Arduino's micros() (1000 per 1 ms sample) was told "in milliseconds? scale t=ms",
+    # which left it 1000x off, refused again as an interval of 1 s.
+    t = np.arange(100) * 1e-3
+    z = np.zeros_like(t)
+    with pytest.raises(LogError, match=r"^t: the median interval is 1000 s .*in microseconds\? .*scale=\{'t': 'us'\} "
+                                       r"\(--scale t=us\)"):
+        RunLog(t * 1e6, u=z, phi=z)
+    path = tmp_path / "micros.csv"
+    path.write_text("t,u,phi\n" + "".join(f"{1000 * i},0,0\n" for i in range(100)))
+    assert np.array_equal(RunLog.from_csv(path, scale={"t": "us"}).t, np.arange(100) * 1000 * 1e-6)

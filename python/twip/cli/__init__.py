@@ -197,7 +197,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--column", action="append", metavar="HEADER=SIGNAL", help="read column HEADER as SIGNAL "
                    "(repeatable), e.g. --column angle=phi")
     p.add_argument("--scale", action="append", metavar="SIGNAL=FACTOR", help="multiply SIGNAL into SI by a number "
-                   "or a unit name (deg, deg/s, ms, mA, g), e.g. --scale phi=deg (repeatable)")
+                   "or a unit name (deg, deg/s, ms, us, mA, g), e.g. --scale phi=deg (repeatable)")
     p.add_argument("--signals", metavar="A,B,...", help="the logged outputs to compare (default: all present)")
     p.add_argument("--segment", type=positive_float, default=0.25, metavar="S",
                    help="multiple-shooting segment length [s] (default 0.25)")

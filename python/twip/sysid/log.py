@@ -30,7 +30,7 @@ SIGNALS: Dict[str, str] = {
     "enc": "counts (the wheels' mean angle relative to the body)",
 }
 #: Unit names `scale=` understands, as SI units per logged unit.
-UNIT_NAMES = {"deg": math.pi / 180, "degrees": math.pi / 180, "deg/s": math.pi / 180, "rad": 1.0, "ms": 1e-3,
+UNIT_NAMES = {"deg": math.pi / 180, "degrees": math.pi / 180, "deg/s": math.pi / 180, "rad": 1.0, "ms": 1e-3, "us": 1e-6,
               "mA": 1e-3, "g": 9.80665}
 
 

@@ -29,9 +29,11 @@ def problems(t: np.ndarray, columns: Dict[str, np.ndarray]) -> Optional[str]:
     if len(steps) > 2:
         typical = float(np.median(steps))
         if typical >= MS_STEP:
+            # A median of 500 or more is microseconds (Arduino's micros()): "ms" left it 1000x off.
+            unit, name = ("microseconds", "us") if typical >= 1000 * MS_STEP else ("milliseconds", "ms")
             return (f"t: the median interval is {typical:.4g} s (t = {float(t[0])!r}, {float(t[1])!r}, "
-                    f"{float(t[2])!r}, ...): in milliseconds? a balancing robot is logged every few ms; give "
-                    "scale={'t': 'ms'} (--scale t=ms)")
+                    f"{float(t[2])!r}, ...): in {unit}? a balancing robot is logged every few ms; give "
+                    f"scale={{'t': '{name}'}} (--scale t={name})")
         gaps = np.flatnonzero(steps > DROPOUT_STEPS * typical)
         if len(gaps):
             i = int(gaps[0])
