@@ -98,6 +98,24 @@ def test_a_file_that_is_not_text_is_named(tmp_path):
         twip.RunLog.from_csv(path)
 
 
+@pytest.mark.parametrize("forward, up, pitch, expected", [("+x", "+z", "-y", "+y"), ("-y", "+x", "+z", "-z"),
+                                                         ("+y", "+z", "+x", "-x")])
+def test_a_pitch_axis_against_up_and_forward_is_named(tmp_path, recwarn, forward, up, pitch, expected):
+    # A pitch axis of the wrong sign for its forward and up axes was taken as given: on a
+    # right-handed IMU, leaning forward is a positive rate about up x forward, and the
+    # export's tilt filter ran its gyro against its accelerometer.
+    def axes(f, u, p):
+        return lambda t: (t.replace('imu_forward = "+x"', f'imu_forward = "{f}"').replace('imu_up = "+z"', f'imu_up = "{u}"')
+                          .replace('imu_pitch = "+y"', f'imu_pitch = "{p}"'))
+
+    with pytest.warns(twip.ImplausibleRobotWarning, match=rf'r.toml:39: \[sensors\] imu_pitch = "\{pitch}", but .* '
+                                                          rf'about up x forward, "\{expected}"'):
+        twip.Robot.from_file(_write(tmp_path, axes(forward, up, pitch)))
+    recwarn.clear()
+    assert twip.Robot.from_file(_write(tmp_path, axes(forward, up, expected))).sensors.imu_pitch == expected
+    assert not [w for w in recwarn if "imu_pitch" in str(w.message)]
+
+
 def test_a_file_too_large_for_a_robot_file_is_refused_before_it_is_held(tmp_path, capsys):
     # /dev/zero was read until a MemoryError; a log passed by mistake was held whole.
     big = tmp_path / "big.toml"

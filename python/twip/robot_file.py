@@ -293,7 +293,27 @@ def _sensors(path, text, data) -> Sensors:
     if len(set(axes)) != 3:
         raise _fail(path, text, "sensors", None, f"imu_forward, imu_up and imu_pitch must be three different axes, "
                     f"got {sensors.imu_forward}, {sensors.imu_up}, {sensors.imu_pitch}")
+    _check_pitch_sign(path, text, sensors)
     return sensors
+
+
+def _check_pitch_sign(path, text, sensors) -> None:
+    """Warns when imu_pitch is not up x forward. An IMU's gyro and accelerometer share its
+    right-handed axes (the MPU-6050's), and leaning forward turns the up axis towards the
+    forward one, a positive rate about up x forward; a pitch axis of the other sign was taken
+    as given, and `twip export`'s tilt filter then ran its gyro against its accelerometer."""
+    (f, f_sign), (u, u_sign) = sensors.axis("imu_forward"), sensors.axis("imu_up")
+    sign = f_sign * u_sign * (1 if (f - u) % 3 == 1 else -1)  # e_u x e_f = +-e_(the third axis)
+    expected = ("+" if sign > 0 else "-") + "xyz"[3 - f - u]
+    if sensors.imu_pitch != expected:
+        from twip.plausibility import ImplausibleRobotWarning
+
+        warnings.warn(f"{path}:{_line_of(text, 'sensors', 'imu_pitch')}: [sensors] imu_pitch = "
+                      f"\"{sensors.imu_pitch}\", but with imu_forward = \"{sensors.imu_forward}\" and imu_up = "
+                      f"\"{sensors.imu_up}\" leaning forward is a positive rate about up x forward, \"{expected}\", on "
+                      "a right-handed IMU (the MPU-6050's gyro and accelerometer share its axes); with the other "
+                      "sign the firmware's tilt filter runs its gyro against its accelerometer",
+                      ImplausibleRobotWarning, stacklevel=4)
 
 
 #: How far [robot]'s torque_constant may be from the [motor] sheet's before a warning: the
