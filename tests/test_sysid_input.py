@@ -179,15 +179,17 @@ def test_cli_identify_reads_and_keeps_the_robot_files_sensors(tmp_path, log, cap
 
 def test_from_csv_holds_the_numbers_only_within_the_budget(tmp_path):
     # The rows were read whole as text first (a 318 MB log took 1.77 GB, 5.6x), unchecked.
-    path = tmp_path / "log.csv"
-    path.write_text("t,u,phi,note\n0,0,0,a\n0.001,1,0,b\n0.002,1,0,c\n")
+    path, small = tmp_path / "log.csv", tmp_path / "small.csv"
+    path.write_text("t,u,phi,note\n" + "".join(f"{i},1,0,a\n" for i in range(70_000)))
+    small.write_text("t,u,phi,note\n0,0,0,a\n0.001,1,0,b\n0.002,1,0,c\n")
     twip.set_memory_budget(1 << 20)
     try:
-        with pytest.raises(twip.MemoryBudgetError, match=r"RunLog.from_csv\(.*log.csv'\) would need"):
-            RunLog.from_csv(path)
+        with pytest.raises(twip.MemoryBudgetError, match=r"RunLog.from_csv\(.*log.csv'\) would need 6,291,456 bytes"):
+            RunLog.from_csv(path, scale={"t": "ms"})
+        assert RunLog.from_csv(small).phi.tolist() == [0.0, 0.0, 0.0]  # a small log is not held to it
     finally:
         twip.set_memory_budget(None)
-    assert RunLog.from_csv(path).phi.tolist() == [0.0, 0.0, 0.0]
+    assert len(RunLog.from_csv(path, scale={"t": "ms"})) == 70_000
     # A file without line breaks is refused at its first long line, not held whole.
     path.write_text("t,u\n" + "0," * 600_000 + "\n")
     with pytest.raises(LogError, match=r"log.csv: line 2 is longer than 1,048,576 characters"):

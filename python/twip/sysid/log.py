@@ -221,7 +221,7 @@ def _read(path, reader, header, names) -> Dict[str, np.ndarray]:
     for row in reader:
         if not row or (len(row) == 1 and not row[0].strip()):
             continue
-        if rows % BUDGET_ROWS == 0:
+        if rows and rows % BUDGET_ROWS == 0:  # before the next block of rows (the first is a few MB at most)
             budget.check(f"RunLog.from_csv({str(path)!r})", 2 * 8 * len(wanted) * (rows + BUDGET_ROWS),
                          "read a part of the log (fewer rows)")
         for j, h, name in wanted:
