@@ -7,6 +7,7 @@ from fractions import Fraction
 import math
 import re
 import os
+import pickle
 import shutil
 import signal
 import socket
@@ -212,6 +213,66 @@ def test_a_streamed_sweep_summarises_from_the_shards_as_the_in_memory_one(tmp_pa
             with pytest.raises(twip.InvalidParameterError, match=f"stall_current must be finite and > 0, got {bad}"):
                 s.over_stall_current(bad)
     assert "300 samples" in repr(streamed)
+
+
+@pytest.mark.parametrize("damage", ["missing", "flip", "truncate"])
+def test_a_streamed_result_whose_shard_went_missing_or_bad_says_so(tmp_path, damage):
+    """A streamed result reads its samples from the shards: one deleted or damaged after the
+    sweep was skipped, with no word (missing) or a warning that it was being "recomputed"
+    (it was not), and summary() counted 19 of 20 shards' samples as the whole sweep."""
+    from twip.checkpoint import CheckpointReadError
+
+    twip.set_memory_budget(80 * tsweep.BYTES_PER_SAMPLE - 1)  # the metrics no longer fit
+    try:
+        streamed = sweep(n=80, checkpoint=tmp_path, shard_size=16)
+    finally:
+        twip.set_memory_budget(None)
+    assert streamed.n == 80
+    path = tmp_path / "shard-000000000032.npz"
+    data = path.read_bytes()
+    if damage == "missing":
+        path.unlink()
+    else:
+        path.write_bytes(_flip_a_value(data) if damage == "flip" else data[: len(data) // 2])
+    why = {"missing": "is missing", "flip": "is corrupt", "truncate": "is unreadable"}[damage]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "recomputing it": nothing is recomputed here
+        for read in (lambda r: r.summary(), lambda r: r.quantiles("t_end"), lambda r: list(r.shards()),
+                     lambda r: r.over_stall_current(1.0)):
+            with pytest.raises(CheckpointReadError, match=rf"shard-000000000032.npz \(samples 32..47\) {why}"):
+                read(pickle.loads(pickle.dumps(streamed)))  # a copy, so that nothing read is cached
+
+
+def test_a_full_disk_mid_sweep_names_the_file_and_keeps_what_finished(tmp_path, monkeypatch):
+    """A shard write that ran out of space raised a bare "[Errno 28] No space left on device"
+    (no file named) and no partial result: the samples finished in memory were lost."""
+    import errno
+
+    from twip import checkpoint
+
+    fsync, writes = os.fsync, []
+
+    def full_from_the_third_shard(fd):
+        writes.append(fd)
+        if len(writes) >= 4:  # the manifest, then shards 0 and 16; 32 finds the disk full
+            raise OSError(errno.ENOSPC, "No space left on device")
+        fsync(fd)
+
+    monkeypatch.setattr(checkpoint.os, "fsync", full_from_the_third_shard)
+    with pytest.raises(checkpoint.CheckpointWriteError,
+                       match=r"cannot write .*shard-000000000032.npz \(No space left on device\); the shards written "
+                             r"before it are kept in .*run the same sweep again to resume") as stop:
+        sweep(n=64, checkpoint=tmp_path, shard_size=16)
+    assert isinstance(stop.value, OSError) and stop.value.errno == errno.ENOSPC
+    assert sorted(p.name for p in tmp_path.iterdir()) == [LOCK, "manifest.json", "shard-000000000000.npz",
+                                                         "shard-000000000016.npz"]  # no half-written file
+    partial = stop.value.partial
+    assert partial.n == 48  # the shard that could not be written is in it too
+    monkeypatch.undo()
+    resumed, whole = sweep(n=64, checkpoint=tmp_path, shard_size=16), sweep(n=64)
+    for k in whole.metrics:
+        np.testing.assert_array_equal(resumed.metrics[k], whole.metrics[k], err_msg=k)
+        np.testing.assert_array_equal(partial.metrics[k], whole.metrics[k][:48], err_msg=k)
 
 
 def test_quantiles_agree_in_memory_and_from_the_shards_in_shape_and_when_every_sample_fell(tmp_path):

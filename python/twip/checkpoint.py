@@ -43,6 +43,21 @@ def _bad(message: str) -> Exception:
     return _core.InvalidParameterError(message)
 
 
+class CheckpointWriteError(OSError):
+    """A checkpoint file that could not be written (a full disk, a file system gone
+    read-only): names the file and keeps the OS error's errno. What was written before it
+    stays, so the same sweep resumes from there."""
+
+    def __init__(self, message: str, errno_: Optional[int] = None):
+        super().__init__(message)
+        self.errno = errno_
+
+
+class CheckpointReadError(_core.TwipError):
+    """A finished shard that a sweep's result reads its samples from is missing or damaged:
+    its numbers cannot be given (rather than a summary of fewer samples)."""
+
+
 def checkpoint_folder(path) -> Path:
     """`path` (a str or os.PathLike) as the checkpoint folder; an empty one, which is the
     working directory, is refused (it would fill it with the sweep's lock, manifest and shards)."""
@@ -141,8 +156,13 @@ class Checkpoint:
                 raise self._in_use(previous)
             warnings.warn(f"checkpoint {self.dir}: took over the lock left by pid {pid} on host "
                           f"{previous.get('host', '?')}, which ended without releasing it", stacklevel=3)
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, json.dumps({"pid": os.getpid(), "host": host}).encode(), 0)
+        try:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, json.dumps({"pid": os.getpid(), "host": host}).encode(), 0)
+        except OSError as e:  # a full disk: said before any sample runs
+            os.close(fd)
+            raise CheckpointWriteError(f"checkpoint: cannot write the lock file {path} ({e.strerror or e}); "
+                                       "free space or use another folder", e.errno) from e
         self._fd = fd
 
     def _in_use(self, holder: dict) -> Exception:
@@ -224,8 +244,13 @@ class Checkpoint:
                 f.flush()
                 os.fsync(f.fileno())
             os.replace(tmp, path)
-        except BaseException:  # Ctrl-C or a full disk mid-write: no half-written file left
+        except BaseException as e:  # Ctrl-C or a full disk mid-write: no half-written file left
             tmp.unlink(missing_ok=True)
+            if isinstance(e, OSError):  # the bare "[Errno 28] No space left on device" named no file
+                raise CheckpointWriteError(
+                    f"checkpoint: cannot write {path} ({e.strerror or e}); the shards written before it are kept "
+                    f"in {path.parent}: free space (or fix the folder) and run the same sweep again to resume",
+                    e.errno) from e
             raise
 
     # ------------------------------------------------------------------ shards
@@ -243,36 +268,45 @@ class Checkpoint:
         """Shard `start` (of `count` samples) as arrays, or None when it is missing; a
         foreign, corrupt or truncated shard is named in a warning and None returned (so
         that it is recomputed)."""
+        arrays, why = self._load(start, count, verify)
+        if why:
+            warnings.warn(f"checkpoint shard {self.shard_path(start)} {why}; recomputing it", stacklevel=2)
+        return arrays
+
+    def _load(self, start: int, count: int, verify: bool):
+        """(arrays, "") for a good shard; (None, why) for a foreign, corrupt or truncated
+        one; (None, "") when it is missing."""
         path = self.shard_path(start)
         if not path.exists():
-            return None
+            return None, ""
         try:
-            with np.load(path) as data:
+            with open(path, "rb") as f, np.load(f) as data:  # np.load left a truncated file open
                 arrays = {k: data[k] for k in data.files}
         except Exception as e:  # zip, pickle or I/O errors of a damaged file
-            return self._reject(path, f"is unreadable (truncated or corrupt: {type(e).__name__}: {e})")
+            return None, f"is unreadable (truncated or corrupt: {type(e).__name__}: {e})"
         if str(arrays.get("fingerprint", "")) != self.fingerprint:
-            return self._reject(path, "belongs to another sweep (its configuration fingerprint differs)")
+            return None, "belongs to another sweep (its configuration fingerprint differs)"
         stamp = str(arrays.pop("checksum", ""))
         arrays.pop("fingerprint")
         if verify and checksum(arrays) != stamp:
-            return self._reject(path, "is corrupt (its checksum does not match its contents)")
+            return None, "is corrupt (its checksum does not match its contents)"
         index = arrays.get("index")
         if index is None or len(index) != count or (count and int(index[0]) != start):
-            return self._reject(path, f"does not hold samples {start}..{start + count - 1}")
-        return arrays
+            return None, f"does not hold samples {start}..{start + count - 1}"
+        return arrays, ""
 
-    @staticmethod
-    def _reject(path: Path, why: str) -> None:
-        warnings.warn(f"checkpoint shard {path} {why}; recomputing it", stacklevel=3)
-        return None
-
-    def shards(self, layout, verify: bool = False) -> Iterator[dict]:
-        """The stored shards of `layout` [(start, count)], one at a time (bounded memory)."""
+    def shards(self, layout, verify: bool = True) -> Iterator[dict]:
+        """The stored shards of `layout` [(start, count)], one at a time (bounded memory).
+        They are finished shards a result is read from: one that is missing or damaged
+        raises CheckpointReadError (a summary of the others would be silently wrong)."""
         for start, count in layout:
-            arrays = self.read(start, count, verify=verify)
-            if arrays is not None:
-                yield arrays
+            arrays, why = self._load(start, count, verify)
+            if arrays is None:
+                raise CheckpointReadError(
+                    f"checkpoint shard {self.shard_path(start)} (samples {start}..{start + count - 1}) "
+                    f"{why or 'is missing'}; this sweep's result reads its samples from it: run the same sweep "
+                    "again (with this checkpoint) to recompute it")
+            yield arrays
 
 
 def _flock(fd: int) -> bool:

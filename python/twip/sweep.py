@@ -28,7 +28,7 @@ from typing import Mapping, Optional, Sequence
 import numpy as np
 
 from twip import _core, budget, checks, user_sweep
-from twip.checkpoint import Checkpoint, checkpoint_folder, ctrl_c_held
+from twip.checkpoint import Checkpoint, CheckpointWriteError, checkpoint_folder, ctrl_c_held
 from twip.distributions import Normal, Uniform, finite_number, wilson_interval  # noqa: F401 (re-exported)
 from twip.perturbation import PLANAR_STATE_NAMES, STATE_NAMES, family_of, kernel_for, resolve  # noqa: F401
 from twip.sweep_result import StreamedSweepResult, SweepResult  # noqa: F401
@@ -202,7 +202,9 @@ def montecarlo(
     traces: a few sample indices whose trajectories to keep, logged every `trace_every`
     steps, in `SweepResult.traces` (each replayed alone with the full runner, see replay).
     Ctrl-C stops within a fraction of a second: finished shards stay in the checkpoint,
-    and the KeyboardInterrupt carries `.partial`, a SweepResult of what finished.
+    and the KeyboardInterrupt carries `.partial`, a SweepResult of what finished. A shard
+    that cannot be written (a full disk) raises `twip.checkpoint.CheckpointWriteError`
+    (an OSError naming the file), which carries `.partial` too.
     Memory: when n samples' metrics do not fit the memory budget (`twip.set_memory_budget`),
     a sweep needs `checkpoint=`; it then keeps them on disk and returns a
     StreamedSweepResult, whose summaries are read back shard by shard.
@@ -271,7 +273,7 @@ def montecarlo(
                         on_error)
         result.stall_current = stall_current
         return result
-    except KeyboardInterrupt as stop:
+    except (KeyboardInterrupt, CheckpointWriteError) as stop:
         if getattr(stop, "partial", None) is None:  # stopped before the first shard began
             stop.partial = _assemble({}, config, 0.0, kernel_for(sc, realism), sc, complete=False, realism=realism)
         stop.partial.stall_current = stall_current
@@ -326,11 +328,11 @@ def _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, re
 
     def keep(s, raw):
         with ctrl_c_held():  # a finished shard is kept whole, then a Ctrl-C acts
+            if in_memory or store is None:  # first: in the partial result even when its write fails
+                parts[s] = raw
             if store is not None:
                 store.save(s, raw)
             finished.add(s)
-            if in_memory or store is None:
-                parts[s] = raw
 
     try:
         if client is not None:
@@ -350,7 +352,7 @@ def _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, re
                     raise KeyboardInterrupt
                 keep(s, raw)
                 bar.base += c
-    except KeyboardInterrupt as stop:
+    except (KeyboardInterrupt, CheckpointWriteError) as stop:  # either way, what finished is given back
         elapsed = time.perf_counter() - started
         stop.partial = (_assemble(parts, config, elapsed, kernel, sc, complete=False, realism=realism)
                         if in_memory or store is None else

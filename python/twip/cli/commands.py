@@ -24,6 +24,7 @@ from twip.plot import metric_unit
 from twip.report.claims import claims_for
 from twip.report.reproduce import MAX_JOBS
 from twip.report.numbers import fmt, jsonable
+from twip.checkpoint import CheckpointWriteError
 from twip.sweep import StreamedSweepResult, fits_in_memory
 
 
@@ -189,10 +190,11 @@ def sweep(args) -> int:
         result = twip.montecarlo(sc, args.n, perturb=perturb, seed=args.seed, threads=args.threads,
                                  progress=not args.quiet, checkpoint=args.checkpoint, realism=realism(args.realism, args.robot),
                                  stall_current=stall_current(args.robot))
-    except KeyboardInterrupt as stop:
+    except (KeyboardInterrupt, CheckpointWriteError) as stop:  # a full disk stops it as Ctrl-C does
         partial = getattr(stop, "partial", None)
         if partial is not None and partial.n:
-            print(f"interrupted: the {partial.n:,} samples that finished:", file=sys.stderr)
+            print(f"{'interrupted' if isinstance(stop, KeyboardInterrupt) else 'stopped'}: the {partial.n:,} "
+                  "samples that finished:", file=sys.stderr)
             print(sweep_summary(partial, list(partial.metric_names[2:])), file=sys.stderr)
         if args.checkpoint:
             print(f"finished shards are in {args.checkpoint}; resume with:\n  {resume_command()}", file=sys.stderr)
