@@ -676,3 +676,39 @@ def test_the_corner_is_searched_only_when_the_runs_determine_the_fit():
     assert "not_searched" not in entry and entry["searched"] == 2
     assert (entry["low"], entry["high"]) == (pytest.approx(0.0, abs=1e-9), pytest.approx(6.0))
     assert _searched_cell(entry) == "2"
+
+
+class _CtrlCOnFirstFigure:
+    """Steps whose first finished figure meets a Ctrl-C (as one landing in the parent)."""
+
+    def done(self, label, seconds):
+        raise KeyboardInterrupt
+
+
+def _slow_figure(path):
+    Path(path).write_text("begun")  # a figure file that is still being drawn
+    import time
+
+    time.sleep(1.0)
+
+
+def test_ctrl_c_while_figures_render_stops_them_and_leaves_no_half_drawn_file(tmp_path):
+    """A Ctrl-C while the figures were drawn in worker processes waited for every queued
+    figure to be drawn (the pool's shutdown): `twip reproduce` took ~30 s to stop. And a
+    figure cut short was left under its own name."""
+    from twip.report.reproduce import render
+
+    jobs = [(f"fig{i}.png", _slow_figure, str(tmp_path)) for i in range(12)]
+    with pytest.raises(KeyboardInterrupt):
+        render(jobs, 2, _CtrlCOnFirstFigure())
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert len(left) < 6, left  # not the twelve: the queued ones were not drawn
+    assert all(p.startswith("fig") and p.endswith(".png") for p in left), left  # no part files
+    (tmp_path / "one").mkdir()
+    with pytest.raises(KeyboardInterrupt):  # in one process: the figure cut short is not left
+        render([("one.png", lambda p: (_slow_figure(p), _interrupt()), str(tmp_path / "one"))], 1, None)
+    assert not any((tmp_path / "one").iterdir())
+
+
+def _interrupt():
+    raise KeyboardInterrupt

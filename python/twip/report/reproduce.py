@@ -374,12 +374,32 @@ _FIGURE_JOBS: List[tuple] = []  # (filename, callable(path), folder); read by fo
 def _render_job(index: int):
     filename, make, out = _FIGURE_JOBS[index]
     t = time.perf_counter()
-    make(str(Path(out) / filename))
+    final = Path(out) / filename
+    part = _part_path(final, os.getpid())
+    try:  # drawn under another name, renamed when whole: a figure cut short is never left as it
+        make(str(part))
+        os.replace(part, final)
+    finally:
+        part.unlink(missing_ok=True)
     return filename, time.perf_counter() - t
 
 
+def _part_path(final: Path, pid) -> Path:
+    """Where figure `final` is drawn before it is whole (its extension kept: it sets the format)."""
+    return final.with_name(f".{final.stem}.part{pid}{final.suffix}")
+
+
+def _ignore_ctrl_c() -> None:
+    """A figure worker leaves Ctrl-C to its parent, which ends the pool (a terminal's
+    Ctrl-C reaches every process of its group)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def render(fig_jobs: List[tuple], jobs: int, steps: Steps, dpi: Optional[float] = None) -> None:
-    """Draws every figure job, in forked worker processes where fork is available."""
+    """Draws every figure job, in forked worker processes where fork is available. A Ctrl-C
+    stops at once: the figures under way are dropped, not every queued one drawn first."""
     global _FIGURE_JOBS
     import multiprocessing
 
@@ -391,15 +411,22 @@ def render(fig_jobs: List[tuple], jobs: int, steps: Steps, dpi: Optional[float] 
     use_fork = jobs > 1 and len(fig_jobs) > 1 and "fork" in multiprocessing.get_all_start_methods()
     try:
         if use_fork:  # load the fonts and the text engine once, before the workers inherit them
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-
             plot.warm_up()
-            ctx = multiprocessing.get_context("fork")
-            with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
-                futures = [pool.submit(_render_job, i) for i in range(len(fig_jobs))]
-                for future in as_completed(futures):
-                    filename, seconds = future.result()
+            pool = multiprocessing.get_context("fork").Pool(jobs, initializer=_ignore_ctrl_c)
+            try:
+                for filename, seconds in pool.imap_unordered(_render_job, range(len(fig_jobs))):
                     steps.done(f"  {filename}", seconds)
+            except BaseException:
+                # A pool's shutdown waited for every queued figure (~30 s after a Ctrl-C).
+                pool.terminate()
+                raise
+            else:
+                pool.close()
+            finally:
+                pool.join()
+                for filename, _, out in fig_jobs:  # those of workers ended mid-figure
+                    for part in Path(out).glob(_part_path(Path(filename), "*").name):
+                        part.unlink(missing_ok=True)
         else:
             for i in range(len(fig_jobs)):
                 filename, seconds = _render_job(i)
