@@ -860,3 +860,18 @@ def test_kernel_copy_is_the_widest_the_cpu_flags_allow():
                   if line.startswith("flags")), set())
     want = "avx512" if {"avx512f", "fma"} <= flags else "avx2" if {"avx2", "fma"} <= flags else "baseline"
     assert copy == want, (copy, sorted(f for f in flags if f.startswith(("avx", "fma"))))
+
+
+def test_a_dask_worker_refuses_a_sweep_it_does_not_rebuild_the_same():
+    """A worker of another twip version, or whose scenario came out otherwise, ran its own
+    numbers into the client's sweep without a word (the config was only read, never checked)."""
+    import twip.sweep as tsweep
+
+    r = rig_sweep(n=16)
+    config = json.loads(json.dumps(r.config))  # as it crosses to a worker
+    raw = tsweep.run_shard_by_name(config, 4, 8, 1)  # the same sweep: its bits
+    np.testing.assert_array_equal(raw["t_end"], r.metrics["t_end"][4:12])
+    for key, other in (("twip", "0.0.1"), ("controller", "another design"), ("t_final", 9.0)):
+        with pytest.raises(twip.InvalidParameterError, match=rf"sweep worker on .* rebuilt another sweep than the "
+                                                             rf"client's .*: they differ in {key}; run the same twip"):
+            tsweep.run_shard_by_name({**config, key: other}, 4, 8, 1)

@@ -134,12 +134,25 @@ def run_samples(sc, config, start, count, threads, progress, realism=None, on_er
 
 
 def run_shard_by_name(config, start, count, threads):
-    """A Dask task: rebuilds the scenario (and realism) on the worker and runs one shard."""
+    """A Dask task: rebuilds the scenario (and realism) on the worker and runs one shard,
+    once the worker's sweep is the client's (a worker of another twip, or whose scenario
+    comes out otherwise, would mix its own numbers into the result)."""
     from twip import scenarios
+    from twip.checkpoint import HOW_GIVEN
 
     params = _core.RobotParams.from_dict(config["params"])
     sc = scenarios.get(config["scenario"], params=params, **config["options"])
     realism = _realism_from_config(config["realism"]) if "realism" in config else None
+    mine = _config(sc, config["scenario"], config["n"], config["seed"], config["perturbations"], config["options"],
+                   config["perturb"], realism)
+    as_json = lambda v: json.dumps(v, sort_keys=True, default=repr)  # noqa: E731 (the client's config may be JSON's)
+    differ = [k for k in {**mine, **config} if k not in HOW_GIVEN and as_json(mine.get(k)) != as_json(config.get(k))]
+    if differ:
+        import socket
+
+        raise _bad(f"sweep worker on {socket.gethostname()} (twip {_core.__version__}) rebuilt another sweep than the "
+                   f"client's (twip {config.get('twip')}): they differ in {', '.join(differ)}; run the same twip "
+                   "on the client and the workers")
     raw = run_samples(sc, config, start, count, threads, None, realism)
     return {k: (np.asarray(v) if not isinstance(v, (str, bool)) else v) for k, v in raw.items()}
 
