@@ -448,6 +448,24 @@ def test_a_file_too_large_for_a_controller_file_is_refused_before_it_is_held(tmp
             controller_file.load(path)
 
 
+def test_a_second_ctrl_c_in_twip_tune_keeps_the_best_candidate(tmp_path, capsys, monkeypatch):
+    """A second Ctrl-C, in the held-out validation, ended `twip tune` with "interrupted" and
+    nothing else: the search's best knobs (the API's `.partial`) were neither printed nor
+    written to --out."""
+    def ctrl_c(seed):  # the validation's first step: as a Ctrl-C landing there would
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(uncertainty, "held_out_seed", ctrl_c)
+    path = tmp_path / "tuned.toml"
+    code, out, err = run(["tune", "flat-lqr", "--perturb", "m_body=±10%", "--budget", "5", "-n", "3",
+                          "--validate", "3", "--quiet", "--out", path], capsys)
+    assert code == 130 and "interrupted before the held-out validation" in err and "knobs: q_phi = " in err, err
+    assert f"wrote {path} (not validated)" in err
+    saved = controller_file.load(path)
+    assert saved["family"] == "lqr" and len(saved["knobs"]) == 5
+    assert "validation_fall_rate" not in path.read_text()  # the file says it was not validated
+
+
 def test_tune_and_worst_case_commands(tmp_path, capsys):
     path = tmp_path / "tuned.toml"
     code, out, err = run(["tune", "flat-lqr", "--perturb", "m_body=±10%", "--budget", "5", "-n", "3",

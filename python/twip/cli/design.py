@@ -101,9 +101,19 @@ def tune(args) -> int:
     perturb = _perturb(args)
     if not perturb:
         print("note: no --perturb given, every robot is the same", file=sys.stderr)
-    result = twip.tune(sc, perturb=perturb, realism=realism(args.realism, args.robot), n=args.n,
-                       budget=args.budget, seed=args.seed, validate=args.validate, progress=not args.quiet,
-                       threads=args.threads)
+    try:
+        result = twip.tune(sc, perturb=perturb, realism=realism(args.realism, args.robot), n=args.n,
+                           budget=args.budget, seed=args.seed, validate=args.validate, progress=not args.quiet,
+                           threads=args.threads)
+    except KeyboardInterrupt as stop:  # a second Ctrl-C, in the validation: the search's best is kept
+        partial = getattr(stop, "partial", None)
+        if partial is not None:
+            print(f"interrupted before the held-out validation; the best candidate so far, not validated:\n"
+                  f"{partial.summary()}", file=sys.stderr)
+            if args.out:
+                partial.save(args.out)
+                print(f"wrote {args.out} (not validated)", file=sys.stderr)
+        raise
     print(result.summary())
     if args.out:
         result.save(args.out)
