@@ -351,6 +351,35 @@ def test_a_worst_case_starts_space_filling_and_replays():
     assert w.robot.m_body == w.params["m_body"]
 
 
+def ctrl_c_in_robot(monkeypatch, k):
+    """Makes the k-th robot sweep from now on meet a Ctrl-C (the first is worst_case's probe)."""
+    calls, sweep = [], uncertainty.sweep
+
+    def counted(*args):
+        calls.append(1)
+        if len(calls) == k:
+            raise KeyboardInterrupt
+        return sweep(*args)
+
+    monkeypatch.setattr(uncertainty, "sweep", counted)
+
+
+def test_ctrl_c_in_a_worst_case_search_keeps_the_worst_robot_so_far(monkeypatch, capsys):
+    """A Ctrl-C in the search lost every robot tried (KeyboardInterrupt and nothing else;
+    `twip worst-case` printed "interrupted" alone): now `.partial` is the worst of them."""
+    whole = tiny_worst(budget=64, threads=2)
+    ctrl_c_in_robot(monkeypatch, 40)  # in the second generation: the first (16 corners, 16 inside) is kept
+    with pytest.raises(KeyboardInterrupt) as stop:
+        tiny_worst(budget=64, threads=2)
+    partial = stop.value.partial
+    assert partial.settings["interrupted"] and partial.evaluations == 32
+    pd.testing.assert_frame_equal(partial.history, whole.history.iloc[:32], check_exact=True)
+    assert partial.metric == whole.history["metric"].iloc[:32].max() and partial.replay().fell == partial.fell
+    ctrl_c_in_robot(monkeypatch, 150)
+    code, out, err = run(["worst-case", "flat-lqr", "--perturb", "m_body=±10%", "--budget", "200"], capsys)
+    assert code == 130 and "interrupted: the worst of the robots tried so far" in err and "m_body" in err, err
+
+
 def test_the_worst_case_of_the_8_percent_box_falls_on_fresh_noise():
     """Issue 59's target: in the ±8 % box, where random robots almost all stay up, the search
     finds a falling robot (a corner: benches/design_targets.py finds it at run 13 of 400),

@@ -130,14 +130,24 @@ def worst_case(args) -> int:
     name = scenario_name(args.scenario)
     sc = with_controller(get_scenario(name, params=robot(None, args.robot), robot_file=args.robot), args.controller)
     rig = realism(args.realism, args.robot)
-    found = twip.worst_case(sc, perturb=_perturb(args), realism=rig, metric=args.metric, budget=args.budget,
-                            seed=args.seed, threads=args.threads)
-    nominal = sc.model.params.to_dict()
-    print(f"{name}: worst of {found.evaluations} robots ({found.settings['metric']} = {found.metric:.4g}): "
-          + ("falls" if found.fell else "stays up"))
-    for k, v in found.params.items():
-        rel = f" ({v / nominal[k] - 1:+.1%})" if k in nominal and nominal[k] else ""
-        print(f"  {k:16s} {v:.6g}{rel}")
+    try:
+        found = twip.worst_case(sc, perturb=_perturb(args), realism=rig, metric=args.metric, budget=args.budget,
+                                seed=args.seed, threads=args.threads)
+    except KeyboardInterrupt as stop:  # the robots tried so far: their worst, before the command ends
+        if getattr(stop, "partial", None) is not None:
+            print("interrupted: the worst of the robots tried so far (not confirmed on fresh noise):", file=sys.stderr)
+            _print_worst(name, stop.partial, sc, file=sys.stderr)
+        raise
+    _print_worst(name, found, sc)
     check = found.confirm(args.confirm)
     print(f"on {check.n} fresh noise seeds: falls in {int(check.metrics['fell'].sum())}")
     return 0
+
+
+def _print_worst(name, found, sc, file=None) -> None:
+    nominal = sc.model.params.to_dict()
+    print(f"{name}: worst of {found.evaluations} robots ({found.settings['metric']} = {found.metric:.4g}): "
+          + ("falls" if found.fell else "stays up"), file=file)
+    for k, v in found.params.items():
+        rel = f" ({v / nominal[k] - 1:+.1%})" if k in nominal and nominal[k] else ""
+        print(f"  {k:16s} {v:.6g}{rel}", file=file)

@@ -116,7 +116,9 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
     are run, each with sweep sample 0's noise of `seed`; `threads` run robots side by side (the
     answer is the same on any number). Robots that cannot be simulated (e.g. a negative mass
     within a Normal's ± NORMAL_SUPPORT std) are never the answer: a warning counts them, and
-    when every robot tried was one, InvalidParameterError."""
+    when every robot tried was one, InvalidParameterError. Ctrl-C raises KeyboardInterrupt
+    with `.partial`, the worst of the robots tried so far (None before any), its
+    settings["interrupted"] True."""
     import pandas as pd  # the history is a DataFrame: needed before the search, not after it
     from scipy.optimize import differential_evolution
 
@@ -167,13 +169,27 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
         return out
 
     first = _design(len(names), budget, seed)
+    settings = dict(metric=metric, budget=budget, box=box)
     try:
         differential_evolution(lambda u: 0.0, [(0.0, 1.0)] * len(names), init=first, maxiter=budget,
                                tol=0.0, atol=0.0, polish=False, **uncertainty.scipy_seed(seed), updating="deferred",
                                workers=evaluate_all, popsize=len(first))
     except _Exhausted:
         pass
+    except KeyboardInterrupt as stop:  # the robots tried so far are kept: the worst of them
+        stop.partial = None
+        if any(row["valid"] for row in rows):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                stop.partial = _answer(pd.DataFrame(rows), invalid, names, sc, realism, seed,
+                                       {**settings, "interrupted": True})
+        raise
     history = pd.DataFrame(rows)
+    return _answer(history, invalid, names, sc, realism, seed, settings)
+
+
+def _answer(history, invalid, names, sc, realism, seed, settings) -> WorstCase:
+    """The worst robot of `history` (the robots tried, in order)."""
     if invalid:
         count = len(history) - int(history["valid"].sum())
         why = "; ".join(f"{reason} ({k})" for reason, k in invalid.items())
@@ -181,12 +197,12 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
             raise _bad(f"perturb: none of the {count} robots tried could be simulated ({why}); "
                        "keep the perturbations within what a robot can be")
         warnings.warn(f"worst_case: {count} of the {len(history)} robots tried could not be simulated ({why}); "
-                      "they are left out of the search", stacklevel=2)
+                      "they are left out of the search", stacklevel=3)
     worst = int(np.argmax(history["metric"].to_numpy()))  # the first of equals: deterministic
     params = {k: float(history[k].iloc[worst]) for k in names}
     robot = _robot_of(sc, params)
     return WorstCase(robot, params, float(history["metric"].iloc[worst]), bool(history["fell"].iloc[worst]),
-                     len(rows), history, sc, realism, seed, dict(metric=metric, budget=budget, box=box))
+                     len(history), history, sc, realism, seed, settings)
 
 
 class _Exhausted(Exception):
