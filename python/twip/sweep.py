@@ -377,7 +377,12 @@ def _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, re
     if not (in_memory or store is None):
         return StreamedSweepResult.of(store, layout, finished, config, elapsed, kernel, sc, realism)
     result = _assemble(parts, config, elapsed, kernel, sc, complete=True, realism=realism)
-    result.traces = {i: result.replay(i, record_every=trace_every) for i in traces}
+    try:
+        for i in traces:
+            result.traces[i] = result.replay(i, record_every=trace_every)
+    except KeyboardInterrupt as stop:  # every sample finished: they are the partial result, not nothing
+        stop.partial = result
+        raise
     return result
 
 
