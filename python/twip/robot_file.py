@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, Optional, Tuple
 
-from twip import _core, checks
+from twip import _core, checks, output
 
 try:  # Python >= 3.11
     import tomllib
@@ -358,7 +358,7 @@ def dumps(params, sheet: Optional[dict] = None, driver: Optional[dict] = None,
 
 def save(params, path, sheet: Optional[dict] = None, driver: Optional[dict] = None,
          sensors: Optional[dict] = None) -> None:
-    Path(path).write_text(dumps(params, sheet, driver, sensors))
+    output.write_text(path, dumps(params, sheet, driver, sensors))
 
 
 #: The Balanbot's motor (GB37Y3530-12V-251R, Table 2.3) and its L298 driver (thesis-like).

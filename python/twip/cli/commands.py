@@ -87,8 +87,10 @@ def check_output_file(option: str, path) -> None:
 def write_csv(result, path) -> None:
     """The per-sample table (drawn values and metrics, units in the column names) as CSV;
     a streamed sweep's shard by shard (bounded memory)."""
+    from twip import output
+
     parts = result.shards() if isinstance(result, StreamedSweepResult) else [result.metrics]
-    with open(path, "w") as f:
+    with output.writing(path) as f:  # a full disk or a Ctrl-C leaves no cut-short table
         header = False
         for part in parts:
             table = result.table(part)

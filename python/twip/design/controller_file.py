@@ -13,7 +13,7 @@ import math
 import os
 from pathlib import Path
 
-from twip import _core, checks
+from twip import _core, checks, output
 from twip.design import knobs as knob_space
 
 try:  # Python >= 3.11
@@ -58,7 +58,7 @@ def save(path, tuning) -> None:
         if key == "ranges":
             v = [x for pair in v for x in pair]  # flat: low, high per knob
         lines.append(f"{key} = {_value(v)}")
-    Path(path).write_text("\n".join(lines) + "\n")
+    output.write_text(path, "\n".join(lines) + "\n")
 
 
 def load(path) -> dict:

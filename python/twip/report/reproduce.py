@@ -13,7 +13,7 @@ from typing import Any, Callable, Dict, List, Optional
 import numpy as np
 
 import twip
-from twip import scenarios
+from twip import output, scenarios
 from twip.plot import metric_unit
 from twip.report import experiments, sensitivity
 from twip.report.claims import (RUN_KEYS, SETTLING, THESIS_TABLE_5_1, claims_for, headline, judge, measure, pid_over_smc,
@@ -314,8 +314,8 @@ def _write_reports(out: Path, report: dict, steps: Steps) -> dict:
     report["steps"] = list(steps.log)
     report["seconds"] = round(time.perf_counter() - steps.started, 2)
     report = jsonable(report)
-    (out / "report.json").write_text(json.dumps(report, indent=1, ensure_ascii=False, allow_nan=False) + "\n")
-    (out / "report.md").write_text(render_markdown(report))
+    output.write_text(out / "report.json", json.dumps(report, indent=1, ensure_ascii=False, allow_nan=False) + "\n")
+    output.write_text(out / "report.md", render_markdown(report))
     steps.done("report.md, report.json", time.perf_counter() - t0)
     return report
 

@@ -143,7 +143,10 @@ class RunLog:
         """Writes t and the signals present, in SI, with a header."""
         names = ["t", *self.signals()]
         table = np.column_stack([self.t, *self.signals().values()])
-        np.savetxt(path, table, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+        from twip import output
+
+        with output.writing(path) as f:
+            np.savetxt(f, table, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
 
 
 #: The longest line a log may have [characters]: a row of numbers is a few hundred; a
