@@ -865,6 +865,24 @@ def test_ctrl_c_while_the_traces_replay_keeps_every_finished_sample(monkeypatch)
         np.testing.assert_array_equal(partial.metrics[k], whole.metrics[k], err_msg=k)
 
 
+def test_a_shard_that_finished_as_the_ctrl_c_came_is_kept(tmp_path, monkeypatch):
+    """A Ctrl-C noticed as a shard's last samples finished marks the shard interrupted with
+    every sample done: it was held in the partial result but never written to the checkpoint."""
+    run, shards = tsweep.run_samples, []
+
+    def ctrl_c_at_the_end_of_the_second(*args, **kwargs):
+        raw = run(*args, **kwargs)
+        shards.append(1)
+        raw["interrupted"] = len(shards) == 2
+        return raw
+
+    monkeypatch.setattr(tsweep, "run_samples", ctrl_c_at_the_end_of_the_second)
+    with pytest.raises(KeyboardInterrupt) as stop:
+        sweep(n=64, checkpoint=tmp_path, shard_size=16)
+    assert stop.value.partial.n == 32
+    assert sorted(p.name for p in tmp_path.glob("shard-*")) == ["shard-000000000000.npz", "shard-000000000016.npz"]
+
+
 def test_ctrl_c_while_a_shard_is_written_keeps_that_shard(tmp_path, monkeypatch):
     """A Ctrl-C that lands while a finished shard is written (here sent from inside the write)
     acts once the shard is kept: the file is whole and the partial result has it. Before, a

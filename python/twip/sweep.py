@@ -361,7 +361,10 @@ def _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, re
             for s, c in todo:
                 raw = run_samples(sc, config, s, c, threads or 0, bar.update_to if progress else None, realism, on_error)
                 if raw["interrupted"]:
-                    parts[s] = raw
+                    if np.all(raw["done"]):  # the Ctrl-C came as the shard finished: kept as any other
+                        keep(s, raw)
+                    else:
+                        parts[s] = raw
                     raise KeyboardInterrupt
                 keep(s, raw)
                 bar.base += c
