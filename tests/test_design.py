@@ -179,6 +179,15 @@ def test_a_tuning_answers_with_a_validated_controller():
     assert "fall rate" in t.summary()
 
 
+def test_the_first_candidate_is_the_own_controller_exactly_in_any_range():
+    # r = 1000 sits low in (900, 1e6): SciPy's rescaling of the first generation, (u - 0.5) + 0.5,
+    # dropped its last bits, so the first candidate ran r = 999.9999999999998, not the own controller.
+    t = tiny_tune(knobs={"r": (900.0, 1e6)}, budget=5, validate=2)
+    assert t.history["r"].iloc[0] == 1000.0
+    own = uncertainty.sweep(short(), 6, box(0.3), 3, twip.Realism.thesis_like(), None)
+    assert t.history["fall_rate"].iloc[0] == own.fall_rate
+
+
 def test_ctrl_c_returns_the_best_candidate_so_far():
     calls = []
 

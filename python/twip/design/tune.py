@@ -110,8 +110,10 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
     bar = _bar(budget, progress)
 
     def cost(u) -> float:
-        # The own controller's point is its own values, not their log-scale round trip.
-        values = own_values if start is not None and list(u) == list(start) else space.values(u)
+        # The first candidate is the own controller (the first generation's first member): its
+        # own values, not their log-scale round trip, nor SciPy's rescaling of it (below 0.25,
+        # (u - 0.5) + 0.5 drops bits: r = 1000 in (900, 1e6) came back as 999.9999999999998).
+        values = own_values if start is not None and not rows else space.values(u)
         row = {"evaluation": len(rows), **values}
         try:
             candidate = knob_space.apply(sc, values)
