@@ -403,6 +403,22 @@ def test_the_worst_case_of_the_8_percent_box_falls_on_fresh_noise():
     assert fresh.seed != 0 and fresh.metrics["fell"].all()
 
 
+def test_a_normals_support_is_its_3_std_within_its_clamps():
+    from twip.design.worst_case import support
+
+    sc = short()
+    m = sc.model.params.m_body
+    std = 0.1 * m
+    assert support({"m_body": twip.Uniform(rel=0.1)}, sc)["m_body"] == (m * 0.9, m * 1.1)
+    assert support({"m_body": twip.Normal(rel=0.1)}, sc)["m_body"] == (m - 3 * std, m + 3 * std)
+    assert support({"m_body": twip.Normal(rel=0.1, low=0.9 * m)}, sc)["m_body"] == (0.9 * m, m + 3 * std)
+    # A clamp past mean + 3 std puts every draw on it: the box was (1.5 m, 1.3 m), inverted, and the
+    # search ran robots between them that the distribution never draws.
+    assert support({"m_body": twip.Normal(rel=0.1, low=1.5 * m, high=2 * m)}, sc)["m_body"] == (1.5 * m, 1.5 * m)
+    w = twip.worst_case(sc, perturb={"m_body": twip.Normal(rel=0.1, low=1.5 * m, high=2 * m)}, budget=2, threads=1)
+    assert (w.history["m_body"] == 1.5 * m).all()
+
+
 def test_worst_case_bad_input_is_named():
     with pytest.raises(twip.InvalidParameterError, match="budget = 0"):
         twip.worst_case(short(), perturb=box(0.1), budget=0)

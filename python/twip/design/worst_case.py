@@ -81,8 +81,9 @@ def support(perturb, sc) -> Dict[str, tuple]:
         kind, a, b, low, high = tup[2:]
         if kind == "uniform":
             out[name] = (low, high)
-        else:  # normal: mean a, std b, clamped to [low, high]
-            out[name] = (max(low, a - NORMAL_SUPPORT * b), min(high, a + NORMAL_SUPPORT * b))
+        else:  # normal: mean a, std b, its draws clamped into [low, high]
+            # Both ends clamped: a clamp beyond mean + 3 std puts every draw on it, not between.
+            out[name] = tuple(min(max(v, low), high) for v in (a - NORMAL_SUPPORT * b, a + NORMAL_SUPPORT * b))
     return out
 
 
@@ -109,7 +110,7 @@ def score(result, metric: str) -> np.ndarray:
 
 def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 400, seed: int = 0,
                threads: Optional[int] = None) -> WorstCase:
-    """Searches the support of `perturb` (Uniform: its interval; Normal: ± NORMAL_SUPPORT std)
+    """Searches the support of `perturb` (Uniform: its interval; Normal: ± NORMAL_SUPPORT std within its clamps)
     for the robot with the worst `metric`: "margin" (default: falls first, the earlier the
     worse, then the mean pitch error), "time_to_fall", or a metric of the scenario's sweeps
     such as "peak_current" (a larger magnitude is worse; a fall worst of all). `budget` robots
