@@ -164,7 +164,7 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
         for values, s, fell, valid, reasons in answers:
             rows.append({"evaluation": len(rows), **values, "metric": s, "fell": fell, "valid": valid})
             invalid.update(reasons)
-            out.append(-s)
+            out.append(math.inf if math.isnan(s) else -s)  # a NaN metric ranks nothing: never the worst
         if len(rows) >= budget:
             raise _Exhausted
         return out
@@ -182,8 +182,11 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
         if any(row["valid"] for row in rows):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                stop.partial = _answer(pd.DataFrame(rows), invalid, names, sc, realism, seed,
-                                       {**settings, "interrupted": True})
+                try:
+                    stop.partial = _answer(pd.DataFrame(rows), invalid, names, sc, realism, seed,
+                                           {**settings, "interrupted": True})
+                except _bad:  # every robot so far unmeasured: no worst one yet
+                    pass
         raise
     history = pd.DataFrame(rows)
     return _answer(history, invalid, names, sc, realism, seed, settings)
@@ -199,7 +202,17 @@ def _answer(history, invalid, names, sc, realism, seed, settings) -> WorstCase:
                        "keep the perturbations within what a robot can be")
         warnings.warn(f"worst_case: {count} of the {len(history)} robots tried could not be simulated ({why}); "
                       "they are left out of the search", stacklevel=3)
-    worst = int(np.argmax(history["metric"].to_numpy()))  # the first of equals: deterministic
+    metric = settings["metric"]
+    scores = history["metric"].to_numpy()
+    unmeasured = np.isnan(scores)  # e.g. a settled error on runs too short to settle
+    if unmeasured.any():
+        if unmeasured[history["valid"].to_numpy()].all():
+            raise _bad(f"metric = {metric!r}: NaN on every one of the {int(history['valid'].sum())} robots tried "
+                       "(these runs do not measure it); choose another metric or a longer run")
+        warnings.warn(f"worst_case: metric {metric!r} is NaN on {int(unmeasured.sum())} of the {len(history)} "
+                      "robots tried; they are left out of the search", stacklevel=3)
+        scores = np.where(unmeasured, -math.inf, scores)
+    worst = int(np.argmax(scores))  # the first of equals: deterministic
     params = {k: float(history[k].iloc[worst]) for k in names}
     robot = _robot_of(sc, params)
     return WorstCase(robot, params, float(history["metric"].iloc[worst]), bool(history["fell"].iloc[worst]),
