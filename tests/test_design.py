@@ -481,6 +481,55 @@ def test_a_controller_file_round_trips(tmp_path):
         controller_file.apply(short(), tmp_path / "bad.toml")
 
 
+def same_run(a, b):
+    return a.steps == b.steps and all(np.array_equal(getattr(a, k), getattr(b, k))
+                                      for k in ("t", "states", "inputs", "measurements"))
+
+
+def test_a_controller_file_names_its_scenario_and_robot(tmp_path):
+    # The file kept the knobs and the scenario's name, never checked: on another robot (or
+    # another LQR scenario) it designed, silently, another controller than the one tuned.
+    heavy = twip.RobotParams.balanbot().replace(m_body=1.0)
+    rig = twip.Realism.thesis_like()
+    t = twip.tune(scenarios.get("slope-lqr", params=heavy, **SHORT), perturb=box(0.3), realism=rig, n=4, budget=5,
+                  validate=2, seed=3, progress=False)
+    path = tmp_path / "tuned.toml"
+    t.save(path)
+    spec = controller_file.load(path)
+    assert spec["robot"] == heavy.to_dict() and spec["scenario"] == "slope-lqr"
+    assert 'realism = "thesis-like"' in path.read_text()
+    again = controller_file.apply(scenarios.get("slope-lqr", params=heavy, **SHORT), path)
+    assert same_run(again.run(realism=rig), t.scenario.run(realism=rig))
+    with pytest.raises(controller_file.ControllerFileError, match=r"another robot .*m_body = 0.8301 \(tuned: 1\)"):
+        controller_file.apply(short(), path)
+    with pytest.raises(controller_file.ControllerFileError, match="tuned on slope-lqr; this is flat-lqr"):
+        controller_file.apply(scenarios.get("flat-lqr", params=heavy), path)
+    old = tmp_path / "old.toml"  # an older file, without [robot]: applied, with a warning
+    old.write_text("[controller]\nscenario = \"slope-lqr\"\nfamily = \"lqr\"\n[knobs]\nr = 100.0\n")
+    with pytest.warns(UserWarning, match="names no \\[robot\\]"):
+        np.testing.assert_array_equal(controller_file.apply(short(), old).controller.gains,
+                                      knobs.apply(short(), {"r": 100.0}).controller.gains)
+
+
+def test_a_controller_file_on_the_command_line_runs_as_tuned(tmp_path, capsys):
+    import json
+
+    robot_file = tmp_path / "heavy.toml"
+    twip.robot_file.save(twip.RobotParams.balanbot().replace(m_body=1.0), robot_file)
+    path = tmp_path / "tuned.toml"
+    code, out, err = run(["tune", "flat-lqr", "--robot", robot_file, "--perturb", "m_body=±10%", "--budget", "5",
+                          "-n", "3", "--validate", "2", "--quiet", "--out", path], capsys)
+    assert code == 0, err
+    t = twip.tune("flat-lqr", robot=twip.Robot.from_file(robot_file).params, perturb={"m_body": twip.Uniform(rel=0.1)},
+                  n=3, budget=5, validate=2, progress=False)
+    assert controller_file.load(path)["knobs"] == t.knobs
+    code, out, err = run(["simulate", "flat-lqr", "--robot", robot_file, "--controller", path, "--json"], capsys)
+    assert code == 0, err
+    assert json.loads(out)["metrics"] == t.scenario.run().metrics
+    code, out, err = run(["simulate", "flat-lqr", "--controller", path], capsys)
+    assert code == 2 and "tuned for another robot" in err and "m_body = 0.8301 (tuned: 1)" in err
+
+
 def test_a_controller_file_that_is_not_text_is_named(tmp_path):
     path = tmp_path / "binary.toml"
     path.write_bytes(b"\xff\xfe[controller]\n")

@@ -2,15 +2,19 @@
 into a scenario by `twip simulate/sweep/export --controller tuned.toml`.
 
     [controller]   scenario (the one it was tuned on) and family (lqr, fuzzy, pid, smc)
+    [robot]        the robot the controller was built for (RobotParams fields)
     [knobs]        the knob values (twip.design.knobs), in their units
     [tuning]       how it was tuned and what it did on held-out robots (informational)
 
-The knobs, not the gains, are kept: an LQR is designed again for the robot it runs on.
+The knobs, not the gains, are kept: an LQR is designed again from them. So a file is refused
+on another scenario or another robot, where the same knobs would build another controller
+than the one tuned and validated.
 """
 from __future__ import annotations
 
 import math
 import os
+import warnings
 from pathlib import Path
 
 from twip import _core, checks, output
@@ -42,7 +46,9 @@ def save(path, tuning) -> None:
     units = {k.name: k.unit for k in fam.knobs}
     lines = ["# A controller tuned by twip (twip tune); use it with --controller FILE.",
              "[controller]", f"scenario = {_value(tuning.scenario.name)}", f"family = {_value(fam.name)}", "",
-             "[knobs]"]
+             "[robot]"]
+    lines += [f"{k} = {_value(float(v))}" for k, v in design_robot(tuning.controller).to_dict().items()]
+    lines += ["", "[knobs]"]
     for name, v in tuning.knobs.items():
         lines.append(f"{name} = {_value(float(v))}  # {units[name]}")
     lines += ["", "[tuning]"]
@@ -86,7 +92,25 @@ def load(path) -> dict:
         if checks.finite_number(v) is None:  # 10**400 was a bare OverflowError
             raise ControllerFileError(f"{path}: knob {name} = {checks.shown(v)} must be a finite number")
     knobs = {k: float(v) for k, v in values.items()}
-    return {"scenario": head.get("scenario"), "family": head["family"], "knobs": knobs}
+    robot = data.get("robot")
+    if robot is not None:
+        fields = _core.RobotParams.fields
+        if not isinstance(robot, dict) or not robot:
+            raise ControllerFileError(f"{path}: [robot] must be a table of RobotParams fields")
+        for name, v in robot.items():
+            if name not in fields:
+                raise ControllerFileError(f"{path}: [robot] {name}: not a RobotParams field ({', '.join(fields)})")
+            if checks.finite_number(v) is None:
+                raise ControllerFileError(f"{path}: [robot] {name} = {checks.shown(v)} must be a finite number")
+        robot = {k: float(v) for k, v in robot.items()}
+    return {"scenario": head.get("scenario"), "family": head["family"], "robot": robot, "knobs": knobs}
+
+
+def design_robot(controller):
+    """The RobotParams `controller` was built for: its model's (a PidTracker has none: the
+    robot of its pickle)."""
+    model = getattr(controller, "model", None)
+    return model.params if model is not None else controller.__reduce__()[1][0]
 
 
 def apply(scenario, path):
@@ -97,7 +121,21 @@ def apply(scenario, path):
     if fam.name != spec["family"]:
         raise ControllerFileError(f"{path}: a {spec['family']} controller; {scenario.name} runs a {fam.name} "
                                   "controller")
+    if spec["scenario"] is not None and spec["scenario"] != scenario.name:
+        raise ControllerFileError(f"{path}: tuned on {spec['scenario']}; this is {scenario.name}, whose run its "
+                                  "knobs were not tuned for (tune it on this scenario)")
+    if spec["robot"] is not None:
+        here = design_robot(scenario.controller).to_dict()
+        off = [f"{k} = {v:g} (tuned: {spec['robot'][k]:g})" for k, v in here.items()
+               if k in spec["robot"] and v != spec["robot"][k]]
+        if off:
+            raise ControllerFileError(f"{path}: tuned for another robot than this scenario's controller is built for: "
+                                      + ", ".join(off) + "; run it with the robot it was tuned for (--robot FILE)")
     try:
-        return knob_space.apply(scenario, spec["knobs"])
+        built = knob_space.apply(scenario, spec["knobs"])
     except _core.InvalidParameterError as e:
         raise ControllerFileError(f"{path}: {e}") from None
+    if spec["robot"] is None:
+        warnings.warn(f"{path}: names no [robot] (written by an older twip): its knobs are applied to this "
+                      "scenario's robot unchecked", stacklevel=2)
+    return built

@@ -160,7 +160,8 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
                           "tune: no candidate controller could be built (see the knob ranges)")
     history = pd.DataFrame(rows)
     settings = dict(n=n, budget=budget, seed=seed, validate=validate, evaluations=len(rows), knobs=list(space.names),
-                    ranges=[list(r) for r in space.ranges], perturb=sorted(perturb), family=space.family.name)
+                    ranges=[list(r) for r in space.ranges], perturb=sorted(perturb), family=space.family.name,
+                    realism=_rig(realism))
     if best["failed"] >= 1.0:
         raise TuningError(f"tune: every one of {len(rows)} candidates failed on every one of the {n} robots "
                           "(fell or broke a constraint): no controller holds under this uncertainty; narrow "
@@ -176,6 +177,17 @@ def tune(scenario, *, perturb=None, realism=None, robot=None, knobs=None, object
         stop.partial = answer
         raise
     return answer
+
+
+def _rig(realism) -> str:
+    """The rig the tuning ran on, for the record (the controller does not depend on it; its
+    held-out numbers do)."""
+    if realism is None:
+        return "none"
+    for name, known in (("ideal", _core.Realism()), ("thesis-like", _core.Realism.thesis_like())):
+        if repr(realism) == repr(known):
+            return name
+    return "custom"
 
 
 class _Exhausted(Exception):
