@@ -103,6 +103,18 @@ def test_bad_knobs_are_named():
         twip.tune(short(), perturb=box(0.1), knobs=["k_phi"], budget=3, n=2, progress=False)
 
 
+def test_a_negative_lqr_weight_is_refused_by_its_knob():
+    # The design took Q = diag(-1, 10, 1, 1), an indefinite cost, and returned gains.
+    sc = scenarios.get("slope-lqr")
+    weights = dict(q_phi=10.0, q_phi_dot=10.0, q_theta_dot=1.0, q_z=1.0, r=1000.0)
+    for name in weights:
+        with pytest.raises(twip.InvalidParameterError, match=f"knob '{name}' = -1: a weight of the lqr cost"):
+            knobs.apply(sc, {**weights, name: -1.0})
+        with pytest.raises(twip.InvalidParameterError, match=f"knob '{name}': range \\(-10, -1\\) is negative"):
+            knobs.space(sc, {name: (-10.0, -1.0)})
+    assert knobs.space(scenarios.get("circle-pid"), {"kp_speed": (-10.0, -1.0)}).ranges == ((-10.0, -1.0),)
+
+
 def test_knob_ranges_and_values_must_be_real_numbers():
     sc = short()
     for given in ((1, 10**400), (1, math.nan)):

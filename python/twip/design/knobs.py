@@ -31,6 +31,9 @@ class Knob:
     high: Optional[float] = None
     span: float = 1.0
     most: Optional[Callable[[object], float]] = None
+    #: A weight of a cost (an LQR's Q and R): never negative. The design takes a negative Q
+    #: weight (an indefinite Q) and returns gains; refused here by the knob's name.
+    weight: bool = False
 
     def range_for(self, value: float, controller) -> Tuple[float, float]:
         """(low, high) [knob units] of the default range for a controller whose value is `value`."""
@@ -106,11 +109,11 @@ def _lqr_read(controller, scenario) -> Dict[str, float]:
 
 
 LQR = Family("lqr", _core.LqrController, (
-    Knob("q_phi", "1/rad^2", "Q weight on the pitch error", 1e-2, 1e4),
-    Knob("q_phi_dot", "s^2/rad^2", "Q weight on the pitch rate", 1e-2, 1e4),
-    Knob("q_theta_dot", "s^2/rad^2", "Q weight on the wheel-speed error", 1e-2, 1e4),
-    Knob("q_z", "1/rad^2", "Q weight on the integral of the wheel-speed error (position)", 1e-2, 1e4),
-    Knob("r", "1/A^2", "R, the weight on the current command", 1e-1, 1e5),
+    Knob("q_phi", "1/rad^2", "Q weight on the pitch error", 1e-2, 1e4, weight=True),
+    Knob("q_phi_dot", "s^2/rad^2", "Q weight on the pitch rate", 1e-2, 1e4, weight=True),
+    Knob("q_theta_dot", "s^2/rad^2", "Q weight on the wheel-speed error", 1e-2, 1e4, weight=True),
+    Knob("q_z", "1/rad^2", "Q weight on the integral of the wheel-speed error (position)", 1e-2, 1e4, weight=True),
+    Knob("r", "1/A^2", "R, the weight on the current command", 1e-1, 1e5, weight=True),
 ), _lqr_read, _lqr_build)
 #: The knobs of Q's diagonal, in the state order [phi, phi_dot, theta_dot error, z].
 LQR_Q = tuple(k.name for k in LQR.knobs if k.name.startswith("q_"))
@@ -235,15 +238,16 @@ def space(scenario, knobs=None) -> Space:
     names, ranges = [], []
     for name, given in knobs.items():
         knob = fam.knob(name)
-        low, high = knob.range_for(own.get(name, 0.0), controller) if given is None else _range(name, given)
+        low, high = knob.range_for(own.get(name, 0.0), controller) if given is None else _range(knob, given)
         names.append(name)
         ranges.append((low, high))
     return Space(fam, tuple(names), tuple(ranges))
 
 
-def _range(name, given) -> Tuple[float, float]:
+def _range(knob, given) -> Tuple[float, float]:
     # A string is a sequence too ("19": 1 to 9): refused with the other non-pairs. Each end
     # is a real number, not cast (a complex's real part).
+    name = knob.name
     if isinstance(given, (str, bytes)) or not hasattr(given, "__len__") or len(given) != 2:
         raise TypeError(f"knob '{name}': range must be two numbers (low, high), got {given!r}")
     low, high = (checks.real(f"knob '{name}': range's {end}", v) for end, v in zip(("low", "high"), given))
@@ -252,6 +256,8 @@ def _range(name, given) -> Tuple[float, float]:
                    "the same sign and neither may be 0")
     if high < low:
         raise _bad(f"knob '{name}': range ({low:g}, {high:g}) is inverted (high < low)")
+    if knob.weight and low < 0:
+        raise _bad(f"knob '{name}': range ({low:g}, {high:g}) is negative; it is a weight of the cost, > 0")
     return low, high
 
 
@@ -264,6 +270,9 @@ def apply(scenario, values: Mapping[str, float]):
     for name in values:
         fam.knob(name)
     given = {k: checks.real(f"knob '{k}'", v) for k, v in values.items()}
+    for k, v in given.items():
+        if v < 0 and fam.knob(k).weight:
+            raise _bad(f"knob '{k}' = {v:g}: a weight of the {fam.name} cost must be >= 0")
     full = {**fam.read(controller, scenario), **given}
     missing = [k.name for k in fam.knobs if k.name not in full]
     if missing:
