@@ -435,7 +435,8 @@ def test_a_metric_the_runs_do_not_measure_is_never_the_worst():
     # circle-pid's settled errors are NaN on a run shorter than its settling: the answer was
     # the first robot, with metric NaN, and no word.
     sc = scenarios.get("circle-pid", laps=0.05)
-    with pytest.raises(twip.InvalidParameterError, match=r"metric = 'max_path_error_settled': NaN on every one of the 5"):
+    message = r"metric = 'max_path_error_settled': NaN on every one of the 5"
+    with pytest.raises(twip.InvalidParameterError, match=message):
         twip.worst_case(sc, perturb={"m_body": twip.Uniform(rel=0.3)}, metric="max_path_error_settled", budget=5,
                         threads=1)
 
