@@ -441,6 +441,16 @@ def test_a_metric_the_runs_do_not_measure_is_never_the_worst():
                         threads=1)
 
 
+def test_worst_case_budgets_and_a_box_of_one_robot():
+    for budget in (1, 2, 4, 5):
+        w = twip.worst_case(short(), perturb={"m_body": twip.Uniform(rel=0.3)}, budget=budget, seed=1, threads=1)
+        assert w.evaluations == len(w.history) == budget and w.metric == w.history["metric"].max()
+    # low == high: one robot, run once (it was run `budget` times, each the same)
+    m = short().model.params.m_body
+    w = twip.worst_case(short(), perturb={"m_body": twip.Uniform(low=m, high=m)}, budget=6, threads=1)
+    assert w.evaluations == 1 and w.params == {"m_body": m} and w.settings["budget"] == 6
+
+
 def test_worst_case_bad_input_is_named():
     with pytest.raises(twip.InvalidParameterError, match="budget = 0"):
         twip.worst_case(short(), perturb=box(0.1), budget=0)

@@ -141,6 +141,8 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
     ranked = [k for k in probe.metric_names if k not in NOT_RANKED]
     if metric not in METRICS and metric not in ranked:
         raise _bad(f"metric = {metric!r}: one of {', '.join(METRICS)} or a sweep metric ({', '.join(ranked)})")
+    # A box of one point (every low == high) holds one robot: run it once, not `budget` times.
+    runs = 1 if np.array_equal(lo, hi) else budget
     rows = []
     invalid = Counter()  # why robots could not be simulated: {reason: count}
 
@@ -154,7 +156,7 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
     def evaluate_all(func, population):
         # Robots side by side; the answers in the population's order, whatever finishes first.
         population = list(population)
-        room = budget - len(rows)
+        room = runs - len(rows)
         if room <= 0:
             raise _Exhausted
         population = population[:room]
@@ -165,14 +167,14 @@ def worst_case(scenario, *, perturb, realism=None, metric=None, budget: int = 40
             rows.append({"evaluation": len(rows), **values, "metric": s, "fell": fell, "valid": valid})
             invalid.update(reasons)
             out.append(math.inf if math.isnan(s) else -s)  # a NaN metric ranks nothing: never the worst
-        if len(rows) >= budget:
+        if len(rows) >= runs:
             raise _Exhausted
         return out
 
-    first = _design(len(names), budget, seed)
+    first = _design(len(names), runs, seed)
     settings = dict(metric=metric, budget=budget, box=box)
     try:
-        differential_evolution(lambda u: 0.0, [(0.0, 1.0)] * len(names), init=first, maxiter=budget,
+        differential_evolution(lambda u: 0.0, [(0.0, 1.0)] * len(names), init=first, maxiter=runs,
                                tol=0.0, atol=0.0, polish=False, **uncertainty.scipy_seed(seed), updating="deferred",
                                workers=evaluate_all, popsize=len(first))
     except _Exhausted:
