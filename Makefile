@@ -157,7 +157,13 @@ test-python: build
 # 175 s; pytest 2101 passed, 237 s); another, `make demo` 454 s, then `make test` 483 s (pytest
 # 399 s beside the Rust tests). Not this session's code: `cargo build --release -p twip-py --lib`
 # from an empty target folder, nothing beside it, took 362 s at 12e7628 and 365 s at fef686e
-# (the thirty-ninth session's `make demo` of 304 s held the whole wheel). What was tried for the wheel is in Cargo.toml; built at
+# (the thirty-ninth session's `make demo` of 304 s held the whole wheel). Forty-third (five
+# audits' fixes, 133 more Python tests), clean clones of c0aa3df: `make test` alone 907 s (Rust
+# lib suite 170 s; pytest 2234 passed, 267 s); another, `make demo` 676 s (the report 19 s, the
+# rest the wheel), then `make test` 523 s (pytest 448 s beside the Rust tests); the same hour's
+# benches on both cores ran 17-25 % below the last session's, one thread as fast, and 090acd8's
+# `cargo build --release -p twip-py --lib` from an empty target, alone, took 434 s (365 s
+# then). What was tried for the wheel is in Cargo.toml; built at
 # opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than the whole of
 # test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
