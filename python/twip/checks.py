@@ -4,6 +4,7 @@ each naming the parameter and the value it got."""
 from __future__ import annotations
 
 import math
+import sys
 from typing import Optional
 
 import numpy as np
@@ -56,7 +57,10 @@ def shown(value) -> str:
     """`value` for a message: a huge integer by its size, not its hundreds of digits, and a
     long array or table by its start (a 200,000-number array made a 1 MB message)."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) > 10**20:
-        return f"an integer of {len(str(abs(value)))} digits"
+        try:
+            return f"an integer of {len(str(abs(value)))} digits"
+        except ValueError:  # beyond Python's int-to-str limit, which str() enforces
+            return f"an integer of more than {sys.get_int_max_str_digits()} digits"
     text = repr(value)
     if len(text) > 80 and isinstance(value, (list, dict, str)):
         return f"{text[:60]}... (a {type(value).__name__} of {len(value):,} items)"
