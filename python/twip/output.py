@@ -9,27 +9,35 @@ import os
 from pathlib import Path
 
 
-def part_of(path) -> Path:
-    """Where `path` is written until it is whole (hidden, beside it, one per process)."""
+def part_of(path, pid=None) -> Path:
+    """Where `path` is written until it is whole: hidden, beside it, one per process (`pid`,
+    default this one's; "*" makes a glob of every process's), its extension kept (a figure's
+    format follows it)."""
     path = Path(path)
-    return path.with_name(f".{path.name}.part{os.getpid()}")
+    return path.with_name(f".{path.stem}.part{os.getpid() if pid is None else pid}{path.suffix}")
+
+
+@contextlib.contextmanager
+def replacing(path):
+    """The path to write `path` under: renamed to `path` when the block finishes, removed
+    when it does not; an OS error names `path` ("[Errno 28] No space left on device" alone
+    named no file)."""
+    path = Path(path)
+    part = part_of(path)
+    try:
+        yield part
+        os.replace(part, path)
+    except OSError as e:
+        raise OSError(e.errno, e.strerror or str(e), str(path)) from e
+    finally:
+        part.unlink(missing_ok=True)
 
 
 @contextlib.contextmanager
 def writing(path, mode: str = "w", **open_options):
     """A file object for `path`: it appears under that name only when the block finishes."""
-    path = Path(path)
-    part = part_of(path)
-    try:
-        with open(part, mode, **open_options) as f:
-            yield f
-        os.replace(part, path)
-    except OSError as e:  # "[Errno 28] No space left on device" alone named no file
-        part.unlink(missing_ok=True)
-        raise OSError(e.errno, e.strerror or str(e), str(path)) from e
-    except BaseException:
-        part.unlink(missing_ok=True)
-        raise
+    with replacing(path) as part, open(part, mode, **open_options) as f:
+        yield f
 
 
 def write_text(path, text: str, encoding: str = "utf-8") -> None:

@@ -374,19 +374,9 @@ _FIGURE_JOBS: List[tuple] = []  # (filename, callable(path), folder); read by fo
 def _render_job(index: int):
     filename, make, out = _FIGURE_JOBS[index]
     t = time.perf_counter()
-    final = Path(out) / filename
-    part = _part_path(final, os.getpid())
-    try:  # drawn under another name, renamed when whole: a figure cut short is never left as it
+    with output.replacing(Path(out) / filename) as part:  # a figure cut short is never left as it
         make(str(part))
-        os.replace(part, final)
-    finally:
-        part.unlink(missing_ok=True)
     return filename, time.perf_counter() - t
-
-
-def _part_path(final: Path, pid) -> Path:
-    """Where figure `final` is drawn before it is whole (its extension kept: it sets the format)."""
-    return final.with_name(f".{final.stem}.part{pid}{final.suffix}")
 
 
 def _ignore_ctrl_c() -> None:
@@ -425,7 +415,7 @@ def render(fig_jobs: List[tuple], jobs: int, steps: Steps, dpi: Optional[float] 
             finally:
                 pool.join()
                 for filename, _, out in fig_jobs:  # those of workers ended mid-figure
-                    for part in Path(out).glob(_part_path(Path(filename), "*").name):
+                    for part in Path(out).glob(output.part_of(filename, "*").name):
                         part.unlink(missing_ok=True)
         else:
             for i in range(len(fig_jobs)):
