@@ -310,12 +310,18 @@ def _measured(key, sc, r):
     if key == "pitch_about_deg":
         pitch = np.degrees(r.states[:, 3 if planar else 0])
         if planar:
-            return float(np.mean(pitch[after_lap]))
+            return _mean_after_lap(pitch, after_lap)
         ref = r.reference("theta_dot")
         return [float(np.mean(pitch[m])) for m in (ref > 0, ref == 0, ref < 0) if m.any()]
     if key == "speed_about":
-        return float(np.mean(r.states[after_lap, 5]))
+        return _mean_after_lap(r.states[:, 5], after_lap)
     raise KeyError(key)
+
+
+def _mean_after_lap(values, after_lap) -> float:
+    """The mean of `values` once the first lap has settled; NaN (as for a run that fell) when
+    the run ended before (np.mean of nothing warned "Mean of empty slice" on the terminal)."""
+    return float(np.mean(values[after_lap])) if after_lap.any() else float("nan")
 
 
 #: What a sensitivity entry reports for a claim whose number is a list.
