@@ -163,7 +163,10 @@ test-python: build
 # rest the wheel), then `make test` 523 s (pytest 448 s beside the Rust tests); the same hour's
 # benches on both cores ran 17-25 % below the last session's, one thread as fast, and 090acd8's
 # `cargo build --release -p twip-py --lib` from an empty target, alone, took 434 s (365 s
-# then). What was tried for the wheel is in Cargo.toml; built at
+# then). Forty-fourth (a report fix): a clean clone of b2efd15, `make demo` 511 s (the wheel ready at
+# 485 s), then `make test` 583 s (pytest 487 s beside the Rust tests); the wheel alone from an empty
+# target, 424 s (without LTO 367 s, but 3-5 % slower 2-DOF lanes: Cargo.toml, docs/performance.md).
+# What was tried for the wheel is in Cargo.toml; built at
 # opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than the whole of
 # test-rust at opt-level 0 (15 min 36 s, with its runs).
 test:
