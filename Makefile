@@ -165,7 +165,9 @@ test-python: build
 # `cargo build --release -p twip-py --lib` from an empty target, alone, took 434 s (365 s
 # then). Forty-fourth (a report fix): a clean clone of b2efd15, `make demo` 511 s (the wheel ready at
 # 485 s), then `make test` 583 s (pytest 487 s beside the Rust tests); the wheel alone from an empty
-# target, 424 s (without LTO 367 s, but 3-5 % slower 2-DOF lanes: Cargo.toml, docs/performance.md).
+# target, 424 s (without LTO 367 s, but 3-5 % slower 2-DOF lanes: Cargo.toml, docs/performance.md);
+# a clean clone of 0b57dc2, `make test` alone 1,437 s (Rust lib suite 178 s; pytest 2236 passed,
+# 295 s against 224 s in the last session: a slower hour, the wheel ready only after ~19 min).
 # What was tried for the wheel is in Cargo.toml; built at
 # opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than the whole of
 # test-rust at opt-level 0 (15 min 36 s, with its runs).

@@ -15,7 +15,7 @@ flat-fuzzy-sim (fuzzy adaptive backstepping + PD, the thesis's flat gains and N/
 1 ms, 180 deg/s), against a Numba-parallel peer written from the thesis's equations; the peer
 must reproduce twip's mean |pitch error| and mean |speed error| to rel 1e-9.
 
-Workload `circle-pid` (`--workload circle-pid`, default 256 samples): the same perturbations on
+Workload `circle-pid` (`--workload circle-pid`, default 1024 samples): the same perturbations on
 the 3-DOF model (state x, y, psi, phi, phi_dot, v, omega; no friction) under scenario
 circle-pid (Table 4.1's PID tracker in the Arduino's units, its PWM through the DC motor model,
 controller every 5 ms, RK4 at 1 ms; three laps of the r = 0.6 m circle, 108 s = 108000 steps),
@@ -577,7 +577,7 @@ def check(name, got, result, sel, metrics=("mean_abs_pitch_error", "mean_abs_spe
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--n", type=int, default=None,
-                    help="samples for twip and Numba (default 20000; circle-pid 256, a sample being 108000 steps)")
+                    help="samples for twip and Numba (default 20000; circle-pid 1024, a sample being 108000 steps)")
     ap.add_argument("--n-slow", type=int, default=1_000, help="samples for NumPy and JAX (0: skip them)")
     ap.add_argument("--repeats", type=int, default=3, help="runs of each; the median time counts")
     ap.add_argument("--workload", choices=["lqr", "fuzzy", "circle-pid", "all"], default="all")
@@ -604,7 +604,11 @@ def main():
     if args.workload in ("fuzzy", "all"):
         fuzzy_workload(args.n or 20_000, args.repeats)
     if args.workload in ("circle-pid", "all"):
-        circle_pid_workload(args.n or 256, args.repeats)
+        # 1024, so that twip's run takes about a second, as the other workloads' do: with 256
+        # (0.3 s), a fixed ~70 ms that any run pays after a pause of a second or more on the
+        # project's VM (here, Numba's run) was a quarter of twip's time; 5.6-6.3x against 7.3x
+        # (docs/performance.md, forty-fourth session).
+        circle_pid_workload(args.n or 1024, args.repeats)
     if args.workload not in ("lqr", "all"):
         return
     args.n = args.n or 20_000
