@@ -16,7 +16,7 @@ from typing import Any, Dict, List
 import numpy as np
 
 import twip
-from twip import report, scenarios
+from twip import output, report, scenarios
 from twip.cli.design import with_controller
 from twip.cli.args import (UsageError, key_value, stall_current, get_scenario, perturbation, realism, robot, scenario_name,
                            scenario_options)
@@ -87,8 +87,6 @@ def check_output_file(option: str, path) -> None:
 def write_csv(result, path) -> None:
     """The per-sample table (drawn values and metrics, units in the column names) as CSV;
     a streamed sweep's shard by shard (bounded memory)."""
-    from twip import output
-
     parts = result.shards() if isinstance(result, StreamedSweepResult) else [result.metrics]
     with output.writing(path) as f:  # a full disk or a Ctrl-C leaves no cut-short table
         header = False

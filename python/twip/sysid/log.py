@@ -13,7 +13,7 @@ from typing import Dict, Mapping, Optional, Union
 
 import numpy as np
 
-from twip import _core, checks
+from twip import _core, checks, output
 from twip.sysid import units
 
 #: The signals a log may hold, with their units (the constructor's keywords).
@@ -143,8 +143,6 @@ class RunLog:
         """Writes t and the signals present, in SI, with a header."""
         names = ["t", *self.signals()]
         table = np.column_stack([self.t, *self.signals().values()])
-        from twip import output
-
         with output.writing(path) as f:
             np.savetxt(f, table, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
 
