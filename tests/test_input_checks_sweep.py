@@ -3,6 +3,7 @@ name (TypeError for a wrong type, InvalidParameterError for a bad value) before 
 never a raw Python error, a MemoryError or a silently wrong result."""
 import json
 import re
+import sys
 import warnings
 
 import numpy as np
@@ -121,3 +122,11 @@ def test_sensors_are_checked_at_their_line_with_the_rigs_bounds(tmp_path, line, 
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert twip.Robot.from_file(_sensors(tmp_path, "encoder_cpr = 1\nimu_height = 0")).realism().encoder_cpr == 1
+
+
+def test_a_value_shown_in_a_message_never_raises_itself():
+    # str() of an int past Python's 4300-digit limit raises ValueError: the message must not.
+    from twip import checks
+
+    assert checks.shown(10**5000) == f"an integer of more than {sys.get_int_max_str_digits()} digits"
+    assert checks.shown(10**399 * 9) == "an integer of 400 digits"
