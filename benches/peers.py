@@ -605,8 +605,8 @@ def main():
         fuzzy_workload(args.n or 20_000, args.repeats)
     if args.workload in ("circle-pid", "all"):
         # 1024, so that twip's run takes about a second, as the other workloads' do: with 256
-        # (0.3 s), a fixed ~70 ms that any run pays after a pause of a second or more on the
-        # project's VM (here, Numba's run) was a quarter of twip's time; 5.6-6.3x against 7.3x
+        # (0.3 s), the ~70 ms more that a twip run took after a pause of a second or more on
+        # the project's VM (here, Numba's run) was a quarter of its time; 5.6-6.3x against 7.3x
         # (docs/performance.md, forty-fourth session).
         circle_pid_workload(args.n or 1024, args.repeats)
     if args.workload not in ("lqr", "all"):
