@@ -338,10 +338,11 @@ def _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, re
     bar.base = sum(c for s, c in layout if s in finished)
     started = time.perf_counter()
     kernel = kernel_for(sc, realism)
+    held = in_memory or store is None  # the metrics held in memory, not read back from the shards
 
     def keep(s, raw):
         with ctrl_c_held():  # a finished shard is kept whole, then a Ctrl-C acts
-            if in_memory or store is None:  # first: in the partial result even when its write fails
+            if held:  # first: in the partial result even when its write fails
                 parts[s] = raw
             if store is not None:
                 store.save(s, raw)
@@ -371,13 +372,13 @@ def _sweep(sc, config, n, shard, store, in_memory, client, threads, progress, re
     except (KeyboardInterrupt, CheckpointWriteError) as stop:  # either way, what finished is given back
         elapsed = time.perf_counter() - started
         stop.partial = (_assemble(parts, config, elapsed, kernel, sc, complete=False, realism=realism)
-                        if in_memory or store is None else
+                        if held else
                         StreamedSweepResult.of(store, layout, finished, config, elapsed, kernel, sc, realism))
         raise
     finally:
         bar.close()
     elapsed = time.perf_counter() - started
-    if not (in_memory or store is None):
+    if not held:
         return StreamedSweepResult.of(store, layout, finished, config, elapsed, kernel, sc, realism)
     result = _assemble(parts, config, elapsed, kernel, sc, complete=True, realism=realism)
     try:
