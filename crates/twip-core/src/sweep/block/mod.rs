@@ -532,12 +532,29 @@ pub enum KernelCopy {
     Avx512 = 1,
     /// x86-64 with AVX2 and FMA: 4 f64 per vector.
     Avx2 = 2,
-    /// Any other CPU: the compiler's baseline, `mul_add` through libm's `fma`.
+    /// Any other CPU: the compiler's baseline, `mul_add` through libm's `fma`. On x86-64
+    /// only with the `baseline-copy` feature (see [`KernelCopy::compiled`]).
     Baseline = 3,
 }
 
 /// The copy chosen with [`KernelCopy::choose`] (its `u8`), 0 for none: the widest.
 static CHOSEN: AtomicU8 = AtomicU8::new(0);
+
+// The tests run every copy's kernels against each other.
+#[cfg(all(test, target_arch = "x86_64", not(feature = "baseline-copy")))]
+compile_error!("twip-core's sweep tests run the baseline kernel copy: test with the `baseline-copy` feature (on by default)");
+
+/// Whether this build holds the baseline copy ([`KernelCopy::compiled`]).
+const BASELINE_COMPILED: bool = cfg!(any(not(target_arch = "x86_64"), feature = "baseline-copy"));
+
+/// Where a kernel would run the baseline copy that this build does not hold: only on an
+/// x86-64 CPU without AVX2 or FMA, which a program using such a build refuses first
+/// (`KernelCopy::detect().compiled()`; the Python module does at import).
+#[cfg(all(target_arch = "x86_64", not(feature = "baseline-copy")))]
+#[cold]
+pub(crate) fn no_baseline_copy() -> ! {
+    panic!("this build of twip-core holds no baseline kernel copy (built without its `baseline-copy` feature), which this CPU (no AVX2 or FMA) needs")
+}
 
 impl KernelCopy {
     /// Every copy, widest first.
@@ -565,6 +582,15 @@ impl KernelCopy {
         self as u8 >= Self::detect() as u8
     }
 
+    /// Whether this build holds the copy. Every build holds the vector copies (x86-64) and
+    /// the baseline one on other CPUs; on x86-64 the baseline copy (for CPUs without AVX2
+    /// and FMA) comes with the `baseline-copy` feature, on by default. `make` builds its wheel
+    /// without it on a CPU with AVX2 and FMA: that copy is about a third of the kernels'
+    /// optimiser time, and such a CPU never runs it.
+    pub const fn compiled(self) -> bool {
+        !matches!(self, Self::Baseline) || BASELINE_COMPILED
+    }
+
     /// The copy the sweeps run now: the chosen one, else the widest.
     pub fn active() -> Self {
         match CHOSEN.load(Ordering::Relaxed) {
@@ -578,10 +604,11 @@ impl KernelCopy {
     /// Makes every sweep of this process from now on run `copy` (None: the widest again),
     /// to measure what a CPU without the wider instructions gets. Every copy gives the
     /// same bits, so a sweep under way may change copy between blocks. A copy this CPU
-    /// lacks is refused: `Err` holds the widest it has.
+    /// lacks, or this build does not hold ([`Self::compiled`]), is refused: `Err` holds the
+    /// widest this CPU has.
     pub fn choose(copy: Option<Self>) -> Result<Self, Self> {
         match copy {
-            Some(c) if !c.runs_here() => Err(Self::detect()),
+            Some(c) if !c.runs_here() || !c.compiled() => Err(Self::detect()),
             _ => {
                 CHOSEN.store(copy.map_or(0, |c| c as u8), Ordering::Relaxed);
                 Ok(Self::active())
@@ -619,7 +646,14 @@ macro_rules! multiversioned {
                 $crate::sweep::block::KernelCopy::Avx2 => return unsafe { $avx2($($arg),*) },
                 $crate::sweep::block::KernelCopy::Baseline => {}
             }
-            $base($($arg),*)
+            #[cfg(any(not(target_arch = "x86_64"), feature = "baseline-copy"))]
+            {
+                $base($($arg),*)
+            }
+            #[cfg(all(target_arch = "x86_64", not(feature = "baseline-copy")))]
+            {
+                $crate::sweep::block::no_baseline_copy()
+            }
         }
 
         #[cfg(target_arch = "x86_64")]
@@ -634,6 +668,7 @@ macro_rules! multiversioned {
             multiversioned!(@call $inner [$($c),+] [$($copy)?] { $crate::sweep::block::KernelCopy::Avx2 as u8 } ($($arg),*))
         }
 
+        #[cfg(any(not(target_arch = "x86_64"), feature = "baseline-copy"))]
         #[inline(never)]
         fn $base<$($c: $bound),+>($($arg: $ty),*) -> $ret {
             multiversioned!(@call $inner [$($c),+] [$($copy)?] { $crate::sweep::block::KernelCopy::Baseline as u8 } ($($arg),*))
@@ -671,7 +706,14 @@ pub(super) fn out_of_line_in<const COPY: u8, R>(f: impl FnOnce() -> R) -> R {
             return unsafe { avx2(f) };
         }
     }
-    baseline(f)
+    #[cfg(any(not(target_arch = "x86_64"), feature = "baseline-copy"))]
+    {
+        baseline(f)
+    }
+    #[cfg(all(target_arch = "x86_64", not(feature = "baseline-copy")))]
+    {
+        no_baseline_copy()
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -688,6 +730,7 @@ unsafe fn avx2<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
+#[cfg(any(not(target_arch = "x86_64"), feature = "baseline-copy"))]
 #[inline(never)]
 fn baseline<R>(f: impl FnOnce() -> R) -> R {
     f()
@@ -930,7 +973,8 @@ mod tests {
     }
 
     /// A chosen copy runs until it is unchosen; a copy the CPU lacks is refused and leaves
-    /// the widest running. (Chosen only for a moment: other tests' sweeps run meanwhile.)
+    /// the widest running. (A copy a build does not hold: tests/test_kernel_copies.py, on
+    /// the wheel `make` builds.) (Chosen only for a moment: other tests' sweeps run meanwhile.)
     #[test]
     fn a_chosen_copy_runs_until_unchosen() {
         let widest = KernelCopy::detect();
