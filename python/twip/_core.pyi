@@ -64,6 +64,7 @@ __all__ = [
     "check_sweep_model",
     "sweep_kernel",
     "kernel_copy",
+    "available_kernel_copies",
     "use_kernel_copy",
     "DEFAULT_FALL_LIMIT",
     "MAX_THREADS",
@@ -1099,12 +1100,18 @@ def kernel_copy() -> str:
     chose a narrower one. Every copy gives the same numbers, at its own speed: name it
     beside any throughput you quote.
     """
+def available_kernel_copies() -> list[str]:
+    """The copies of the lane kernels this process can run, widest first: those this CPU has
+    instructions for and this build holds (a wheel `make` built on a CPU with AVX2 and FMA
+    holds no "baseline" copy; one for any x86-64 CPU does).
+    """
 def use_kernel_copy(name: str | None) -> str:
     """Makes this process's sweeps run the lane kernels' copy `name` ("avx512", "avx2" or
     "baseline"; None: the widest this CPU has), to measure what a CPU without the wider
     instructions gets. The numbers are the same on every copy. Returns the copy that now
-    runs. A copy this CPU has no instructions for is refused (`InvalidParameterError`).
-    `import twip` applies the environment variable `TWIP_KERNEL_COPY` this way.
+    runs. A copy this CPU has no instructions for, or this build does not hold
+    (`available_kernel_copies`), is refused (`InvalidParameterError`). `import twip` applies the
+    environment variable `TWIP_KERNEL_COPY` this way.
     """
 def sweep_kernel(controller: Any, realism: Realism | None = None) -> str:
     """The core's kernel for a sweep of `controller` (a built-in 2-DOF or 3-DOF controller),

@@ -26,6 +26,7 @@ use sweep::planar as sweep_planar;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    sweep::check_kernel_copy()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     errors::register(m)?;
     linalg::register(m)?;
@@ -52,6 +53,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::check_sweep_model, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_kernel, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::kernel_copy, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::available_kernel_copies, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::use_kernel_copy, m)?)?;
     m.add("DEFAULT_FALL_LIMIT", twip_core::sim::runner::DEFAULT_FALL_LIMIT)?;
     m.add("MAX_THREADS", twip_core::sweep::parallel::MAX_THREADS)?;

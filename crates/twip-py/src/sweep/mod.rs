@@ -339,11 +339,36 @@ pub fn kernel_copy() -> &'static str {
     KernelCopy::active().name()
 }
 
+/// The copies of the lane kernels this process can run, widest first: those this CPU has
+/// instructions for and this build holds (a wheel `make` built on a CPU with AVX2 and FMA
+/// holds no "baseline" copy; one for any x86-64 CPU does).
+#[pyfunction]
+pub fn available_kernel_copies() -> Vec<&'static str> {
+    KernelCopy::ALL.into_iter().filter(|c| c.runs_here() && c.compiled()).map(KernelCopy::name).collect()
+}
+
+/// Refuses a build without the copy this CPU runs (an x86-64 CPU without AVX2 or FMA, and a
+/// wheel built without the baseline copy): the module's import fails with this, before any
+/// sweep could reach the missing copy.
+pub fn check_kernel_copy() -> PyResult<()> {
+    let widest = KernelCopy::detect();
+    if widest.compiled() {
+        return Ok(());
+    }
+    Err(pyo3::exceptions::PyImportError::new_err(format!(
+        "this build of twip holds no {:?} kernel copy, which this CPU (no AVX2 or FMA) needs: it was built for \
+         CPUs with AVX2 and FMA (`make` on such a CPU). Build it with every copy: `make build KERNEL_COPIES=all`, \
+         or `pip install .`",
+        widest.name()
+    )))
+}
+
 /// Makes this process's sweeps run the lane kernels' copy `name` ("avx512", "avx2" or
 /// "baseline"; None: the widest this CPU has), to measure what a CPU without the wider
 /// instructions gets. The numbers are the same on every copy. Returns the copy that now
-/// runs. A copy this CPU has no instructions for is refused (`InvalidParameterError`).
-/// `import twip` applies the environment variable `TWIP_KERNEL_COPY` this way.
+/// runs. A copy this CPU has no instructions for, or this build does not hold
+/// (`available_kernel_copies`), is refused (`InvalidParameterError`). `import twip` applies the
+/// environment variable `TWIP_KERNEL_COPY` this way.
 #[pyfunction]
 #[pyo3(signature = (name))]
 pub fn use_kernel_copy(name: Option<&str>) -> PyResult<&'static str> {
@@ -356,10 +381,11 @@ pub fn use_kernel_copy(name: Option<&str>) -> PyResult<&'static str> {
     };
     KernelCopy::choose(copy).map(KernelCopy::name).map_err(|widest| {
         let name = name.unwrap_or_default();
-        InvalidParameterError::new_err(format!(
-            "invalid kernel copy {name:?}: this CPU has no instructions for it (its widest copy is {:?})",
-            widest.name()
-        ))
+        let why = match copy {
+            Some(c) if !c.compiled() => format!("this build of twip does not hold it (it holds {:?})", available_kernel_copies()),
+            _ => format!("this CPU has no instructions for it (its widest copy is {:?})", widest.name()),
+        };
+        InvalidParameterError::new_err(format!("invalid kernel copy {name:?}: {why}"))
     })
 }
 
