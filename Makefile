@@ -26,16 +26,29 @@ $(STAMP): $(TOOLS) pyproject.toml
 		"gymnasium>=1.0"
 	touch $(STAMP)
 
+# The lane kernels' copies the wheel holds. On an x86-64 CPU with AVX2 and FMA (/proc/cpuinfo
+# says), `host`: without the baseline copy (twip-core's `baseline-copy` feature), which only
+# x86-64 CPUs without them run and which is a third of the kernels' optimiser time (LLVM's time
+# trace at b44b0ea: 60 s of 187 s). The wheel's build from an empty target folder, side by side
+# on the 2-core Xeon: 366 s with it, 331 s without (twip-py's rustc 312 s against 269 s). `all`
+# (elsewhere, or `make build KERNEL_COPIES=all`) builds a wheel for any x86-64 CPU, as
+# `pip install .` and `maturin build` do. The Rust tests run every copy either way.
+KERNEL_COPIES ?= $(if $(shell grep -qw avx2 /proc/cpuinfo 2>/dev/null && grep -qw fma /proc/cpuinfo && echo yes),host,all)
+ifeq ($(filter $(KERNEL_COPIES),host all),)
+$(error KERNEL_COPIES=$(KERNEL_COPIES): must be host or all)
+endif
+MATURIN := $(VENV)/bin/maturin develop --release --quiet $(if $(filter host,$(KERNEL_COPIES)),--no-default-features)
+
 # Compiles the extension in place while pip installs the rest (`--skip-install`); `build` then
 # finds it fresh and only installs it. Its cargo finds the cores itself (no jobserver, as
 # test-rust below).
 compile: MAKEFLAGS :=
 compile: $(TOOLS)
-	$(VENV)/bin/maturin develop --release --quiet --skip-install
+	$(MATURIN) --skip-install
 
 # Builds the extension in release mode into the venv (maturin develop = the wheel, installed).
 build: setup compile
-	$(VENV)/bin/maturin develop --release --quiet
+	$(MATURIN)
 
 # Regenerates the thesis's simulations, figures and tables into twip-report/.
 demo:
