@@ -15,7 +15,8 @@ def use_kernel_copy(name: str | None) -> str:
     """Makes the sweeps of this process, and of the processes it starts from now on, run
     the lane kernels' copy `name` ("avx512", "avx2" or "baseline"; None: the widest this CPU
     has), to measure what a CPU without the wider instructions gets. Returns the copy that
-    now runs. An unknown name, or a copy this CPU has no instructions for, is refused with
+    now runs. An unknown name, a copy this CPU has no instructions for, or one this build
+    does not hold (`twip.available_kernel_copies()`), is refused with
     `twip.InvalidParameterError`, and nothing changes."""
     copy = _core.use_kernel_copy(name)
     if name is None:

@@ -973,8 +973,9 @@ mod tests {
     }
 
     /// A chosen copy runs until it is unchosen; a copy the CPU lacks is refused and leaves
-    /// the widest running. (A copy a build does not hold: tests/test_kernel_copies.py, on
-    /// the wheel `make` builds.) (Chosen only for a moment: other tests' sweeps run meanwhile.)
+    /// the widest running. (Chosen only for a moment: other tests' sweeps run meanwhile. A
+    /// copy the build does not hold is refused too: tests/test_kernel_copies.py, on the wheel
+    /// `make` builds without the baseline copy.)
     #[test]
     fn a_chosen_copy_runs_until_unchosen() {
         let widest = KernelCopy::detect();
