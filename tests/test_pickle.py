@@ -333,6 +333,17 @@ def test_sweep_result_pickles(sweep):
         assert bits(twin.sample(i)[2]) == bits(sweep.sample(i)[2])
 
 
+def test_a_sweep_result_another_twip_made_refuses_every_way_back_to_a_sample(sweep):
+    """A result pickled (or checkpointed) by another twip: its `rerun` said "bit for bit the
+    sweep's" and ran this twip's numbers, whose draws and kernels may have changed since."""
+    older = pickle.loads(pickle.dumps(sweep))
+    older.config = {**older.config, "twip": "0.0.1"}
+    for way_back in (older.rerun, older.replay, older.sample, lambda i: older.drawn(older.config["perturb"][0], [i])):
+        with pytest.raises(twip.InvalidParameterError, match=rf"this sweep was made by twip 0.0.1, and this is twip {twip.__version__}"):
+            way_back(0)
+    assert bits(older.metrics) == bits(sweep.metrics)  # what it holds is still read
+
+
 def test_sweep_result_comes_back_from_a_process_pool():
     local = SWEEPS["lqr"]()
     spawn = multiprocessing.get_context("spawn")  # a fresh interpreter: nothing shared with this one

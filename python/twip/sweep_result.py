@@ -21,7 +21,8 @@ class SweepResult:
     """Per-sample metrics (arrays of length n) and how they were made. `metric_names`:
     "fell", "t_end", then the family's metrics (those of `twip.simulate` on the model), as
     the core reports them. It pickles (a process pool may return it, joblib may cache it)
-    with its scenario and realism, so `replay` and `rerun` work on the copy."""
+    with its scenario and realism, so `replay` and `rerun` work on the copy (loaded by the
+    twip that made it: another refuses them, as its draws and runs may differ)."""
 
     metrics: Dict[str, np.ndarray]
     steps: int
@@ -191,7 +192,15 @@ class SweepResult:
         return _core.RobotParams.from_dict(params), slope, x0
 
     def _index(self, index) -> int:
-        """`index` as a sample of this sweep, else an error naming it and the range."""
+        """`index` as a sample of this sweep, else an error naming it and the range; and an
+        error for a sweep another twip made (a result pickled or checkpointed then), whose
+        draws and runs this twip need not give bit for bit: every way back to a sample
+        (`sample`, `drawn`, `rerun`, `replay`) passes here."""
+        made_by = self.config.get("twip")
+        if made_by is not None and made_by != _core.__version__:
+            raise _bad(f"this sweep was made by twip {made_by}, and this is twip {_core.__version__}, whose draws and "
+                       "runs may differ: its samples cannot be drawn or run again here; use twip "
+                       f"{made_by}, or run the sweep again")
         n = self.config["n"]
         if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not 0 <= int(index) < n:
             raise _bad(f"index = {index!r}: this sweep has samples 0..{n - 1}")
