@@ -29,7 +29,7 @@ $(STAMP): $(TOOLS) pyproject.toml
 # The lane kernels' copies the wheel holds. On an x86-64 CPU with AVX2 and FMA (/proc/cpuinfo
 # says), `host`: without the baseline copy (twip-core's `baseline-copy` feature), which only
 # x86-64 CPUs without them run and which is a third of the kernels' optimiser time (LLVM's time
-# trace at b44b0ea: 60 s of 187 s). The wheel's build from an empty target folder, side by side
+# trace at b44b0ea: 60 s of 187 s). The wheel's build from an empty target folder, one after the other
 # on the 2-core Xeon: 366 s with it, 331 s without (twip-py's rustc 312 s against 269 s). `all`
 # (elsewhere, or `make build KERNEL_COPIES=all`) builds a wheel for any x86-64 CPU, as
 # `pip install .` and `maturin build` do. The Rust tests run every copy either way.
