@@ -183,7 +183,9 @@ test-python: build
 # 295 s against 224 s in the last session: a slower hour, the wheel ready only after ~19 min).
 # Forty-fifth (the wheel without the baseline copy, `KERNEL_COPIES` above): a clean clone of
 # 9fba6c3, `make demo` 358 s (the report 18 s), then `make test` 513 s (pytest 441 s beside the
-# Rust tests); another, `make test` alone 663 s (Rust lib suite 165 s; pytest 2238 passed, 220 s).
+# Rust tests); another, `make test` alone 663 s (Rust lib suite 165 s; pytest 2238 passed, 220 s);
+# one of 239451c (a sweep result of another twip refused), `make test` alone 704 s (pytest 2242
+# passed, 259 s).
 # What was tried for the wheel is in Cargo.toml; built at
 # opt-level 1, the Rust tests took 23 min (1,816 s of CPU) to compile, more than the whole of
 # test-rust at opt-level 0 (15 min 36 s, with its runs).
