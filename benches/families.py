@@ -62,7 +62,8 @@ def main():
     ap.add_argument("--scale", type=float, default=1.0, help="multiplies every family's sample count")
     ap.add_argument("--repeats", type=int, default=3, help="rounds (each runs every family once); medians count")
     ap.add_argument("--kernel-copy", choices=["avx512", "avx2", "baseline"], default=None,
-                    help="run this copy of twip's lane kernels (default: the widest this CPU has)")
+                    help="run this copy of twip's lane kernels (default: the widest this CPU has; baseline needs a "
+                         "wheel with every copy, `make build KERNEL_COPIES=all`)")
     args = ap.parse_args()
     twip.use_kernel_copy(args.kernel_copy)
     cases = [(label, sc, realism, max(16, round(n * args.scale))) for label, sc, realism, n in families()]

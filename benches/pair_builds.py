@@ -143,7 +143,8 @@ def main():
     p.add_argument("old")
     p.add_argument("new")
     p.add_argument("--rounds", type=int, default=6)
-    p.add_argument("--kernel-copy", default="widest", help="avx512, avx2, baseline, or widest (the CPU's)")
+    p.add_argument("--kernel-copy", default="widest", help="avx512, avx2, baseline (builds with every copy: `make build KERNEL_COPIES=all`), "
+                   "or widest (the CPU's)")
     p.add_argument("--rows", nargs="+", default=list(ROWS), choices=list(ROWS))
     p.add_argument("--no-settle", action="store_true", help="the rigs without the settled start (settle=0.0)")
     p.add_argument("--instructions", action="store_true", help="count instructions under callgrind instead of timing")

@@ -582,7 +582,8 @@ def main():
     ap.add_argument("--repeats", type=int, default=3, help="runs of each; the median time counts")
     ap.add_argument("--workload", choices=["lqr", "fuzzy", "circle-pid", "all"], default="all")
     ap.add_argument("--kernel-copy", choices=["avx512", "avx2", "baseline"], default=None,
-                    help="run this copy of twip's lane kernels (default: the widest this CPU has)")
+                    help="run this copy of twip's lane kernels (default: the widest this CPU has; baseline needs a "
+                         "wheel with every copy, `make build KERNEL_COPIES=all`)")
     ap.add_argument("--as-avx2", action="store_true",
                     help="an AVX2 machine's race on an AVX-512 one: twip's avx2 copy against Numba "
                          "compiled for Haswell (AVX2 and FMA, no AVX-512)")
