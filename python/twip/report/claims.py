@@ -301,12 +301,11 @@ def _measured(key, sc, r):
     if key == "lap_s":
         return _first_lap_time(r)
     if key == "omega_r":
-        keep = r.t >= r.metrics.get("settle", 0.0)
-        return float(np.mean(r.states[keep, 6])) if keep.any() else float("nan")
+        return _mean_after_lap(r.states[:, 6], _after_lap(r))
     if key == "table_5_2":
         return [float(r.metrics["mean_abs_x_error"]), float(r.metrics["mean_abs_y_error"])]
     planar = r.states.shape[1] == 7
-    after_lap = r.t >= r.metrics.get("settle", 0.0) if planar else None
+    after_lap = _after_lap(r) if planar else None
     if key == "pitch_about_deg":
         pitch = np.degrees(r.states[:, 3 if planar else 0])
         if planar:
@@ -316,6 +315,11 @@ def _measured(key, sc, r):
     if key == "speed_about":
         return _mean_after_lap(r.states[:, 5], after_lap)
     raise KeyError(key)
+
+
+def _after_lap(r):
+    """Where a tracker's run `r` is past its first lap's settling (`settle`)."""
+    return r.t >= r.metrics.get("settle", 0.0)
 
 
 def _mean_after_lap(values, after_lap) -> float:
